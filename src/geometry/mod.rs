@@ -1,0 +1,12 @@
+//! Geometry: rays, surface interactions, triangle meshes and the analytic shapes, with their
+//! loaders (OBJ, PLY) and area sampling for emitters.
+
+pub mod interaction;
+pub mod mesh;
+pub mod obj;
+pub mod ply;
+pub mod ray;
+pub mod shapes;
+
+pub use interaction::SurfaceInteraction;
+pub use ray::Ray;

@@ -1,0 +1,45 @@
+//! Maths: glam re-exports, orthonormal frames, sampling warps, MIS weights and the random generator.
+
+pub mod frame;
+pub mod mis;
+pub mod rng;
+pub mod warp;
+
+pub use frame::Frame;
+pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+pub use rng::Pcg32;
+
+pub const PI: f32 = std::f32::consts::PI;
+pub const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
+pub const INV_2PI: f32 = 0.5 * std::f32::consts::FRAC_1_PI;
+pub const INV_4PI: f32 = 0.25 * std::f32::consts::FRAC_1_PI;
+
+/// Reflect `w` (pointing away from the surface) about the normal `n`.
+#[inline]
+pub fn reflect(w: Vec3, n: Vec3) -> Vec3 {
+    2.0 * w.dot(n) * n - w
+}
+
+/// sqrt clamped at zero (guards tiny negative arguments from rounding).
+#[inline]
+pub fn safe_sqrt(x: f32) -> f32 {
+    x.max(0.0).sqrt()
+}
+
+/// A point transform by an affine 4×4 matrix.
+#[inline]
+pub fn transform_point(m: &Mat4, p: Vec3) -> Vec3 {
+    m.transform_point3(p)
+}
+
+/// A direction transform by an affine 4×4 matrix (no translation, no normalisation).
+#[inline]
+pub fn transform_vector(m: &Mat4, v: Vec3) -> Vec3 {
+    m.transform_vector3(v)
+}
+
+/// A normal transform: by the inverse transpose, normalised.
+#[inline]
+pub fn transform_normal(inv: &Mat4, n: Vec3) -> Vec3 {
+    inv.transpose().transform_vector3(n).normalize()
+}
