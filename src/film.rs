@@ -1,1 +1,746 @@
-//! (work in progress)
+//! Image reconstruction: filters, per-thread blocks, the film they merge into, and developed images.
+//!
+//! Semantics follow Mitsuba 3's `hdrfilm` with its `ImageBlock` (scalar variants): a sample at a
+//! continuous film position splats its value, times separable filter weights, into every pixel whose
+//! centre lies within the filter radius; weights are *not* normalised per sample (Mitsuba's
+//! sampling integrator creates its blocks with `normalize = false`), and developing divides the
+//! weighted sum by the summed weights. Contributions to pixels outside the crop window are dropped,
+//! as Mitsuba's film storage has no border. A filter of radius ½ is the box filter: the sample goes
+//! to the one pixel that contains it, with weight 1.
+//!
+//! Everything is deterministic: a block's content depends only on the samples put into it and their
+//! order, and the film adds blocks in the order the caller merges them.
+
+use crate::math::Vec2;
+use crate::spectrum::Spectrum;
+
+/// Resolution of Mitsuba's tabulated filter (`MI_FILTER_RESOLUTION` in `rfilter.h`).
+const FILTER_RESOLUTION: usize = 31;
+
+/// Remez fit of exp(-t/2) on t ∈ [0, 16] (degree 9, constant term first), the kernel Mitsuba 3's
+/// `gaussian.cpp` evaluates on the CPU instead of `exp`; scaled by 1/stddev^(2i) per term and
+/// shifted so that it reaches exactly zero at the radius (4·stddev).
+const GAUSSIAN_REMEZ: [f64; 10] = [
+    9.992604880e-1,
+    -4.977025247e-1,
+    1.222248550e-1,
+    -1.932406282e-2,
+    2.136713061e-3,
+    -1.679873860e-4,
+    9.202145248e-6,
+    -3.329417433e-7,
+    7.128382794e-9,
+    -6.821193280e-11,
+];
+
+/// A reconstruction filter (Mitsuba 3 `rfilter`s `box`, `tent`, `gaussian`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Filter {
+    /// Radius ½: each sample counts for exactly one pixel.
+    Box,
+    /// 1 − |x|/radius (Mitsuba default radius 1).
+    Tent { radius: f32 },
+    /// Mitsuba's truncated Gaussian: default stddev 0.5, and the radius is always 4·stddev
+    /// (Mitsuba ignores a `radius` parameter for this filter; the constructor [`Filter::gaussian`]
+    /// derives it).
+    Gaussian { stddev: f32, radius: f32 },
+}
+
+impl Default for Filter {
+    /// Mitsuba's `hdrfilm` default: gaussian, stddev 0.5, radius 2.
+    fn default() -> Self {
+        Filter::gaussian(0.5)
+    }
+}
+
+impl Filter {
+    /// The Gaussian with Mitsuba's radius of 4·stddev.
+    pub fn gaussian(stddev: f32) -> Filter {
+        Filter::Gaussian {
+            stddev,
+            radius: 4.0 * stddev,
+        }
+    }
+
+    /// Support radius in pixels.
+    pub fn radius(&self) -> f32 {
+        match *self {
+            Filter::Box => 0.5,
+            Filter::Tent { radius } => radius,
+            Filter::Gaussian { radius, .. } => radius,
+        }
+    }
+
+    /// True when Mitsuba would treat this filter as the box filter (radius exactly ½).
+    fn is_box(&self) -> bool {
+        self.radius() == 0.5
+    }
+
+    /// The filter value at offset `x` (pixels) from its centre, as Mitsuba 3 evaluates it.
+    pub fn eval(&self, x: f32) -> f32 {
+        match *self {
+            // box.cpp: 1 on [-0.5, 0.5).
+            Filter::Box => {
+                if (-0.5..0.5).contains(&x) {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            // tent.cpp: max(0, 1 - |x| / radius).
+            Filter::Tent { radius } => (1.0 - (x / radius).abs()).max(0.0),
+            Filter::Gaussian { stddev, radius } => {
+                if !(x.abs() < radius) {
+                    return 0.0;
+                }
+                let c = gaussian_coeffs(stddev, radius);
+                (poly(&c, (x as f64) * (x as f64)) as f32).max(0.0)
+            }
+        }
+    }
+}
+
+/// The Remez coefficients scaled to `stddev` and shifted to vanish at `radius` (gaussian.cpp).
+fn gaussian_coeffs(stddev: f32, radius: f32) -> [f64; 10] {
+    let mut c = [0.0f64; 10];
+    let mut scale = 1.0f64;
+    let s2 = (stddev as f64) * (stddev as f64);
+    for (ci, &k) in c.iter_mut().zip(GAUSSIAN_REMEZ.iter()) {
+        // Mitsuba rounds the scaled coefficients to f32.
+        *ci = (k * scale) as f32 as f64;
+        scale /= s2;
+    }
+    let r = radius as f64;
+    c[0] -= poly(&c, r * r);
+    c
+}
+
+/// Horner evaluation of Σ c_i t^i.
+fn poly(c: &[f64], t: f64) -> f64 {
+    c.iter().rev().fold(0.0, |acc, &ci| acc * t + ci)
+}
+
+/// Mitsuba's tabulated filter (`ReconstructionFilter::eval_discretized`), which its scalar
+/// `ImageBlock::put` uses: 31 values at x = radius·i/31 (left ends of the bins), then 0.
+#[derive(Clone, Debug)]
+struct FilterTable {
+    values: [f32; FILTER_RESOLUTION + 1],
+    scale: f32,
+}
+
+impl FilterTable {
+    fn new(filter: &Filter) -> FilterTable {
+        let r = filter.radius();
+        let mut values = [0.0f32; FILTER_RESOLUTION + 1];
+        for (i, v) in values.iter_mut().take(FILTER_RESOLUTION).enumerate() {
+            *v = filter.eval(r * i as f32 / FILTER_RESOLUTION as f32);
+        }
+        FilterTable {
+            values,
+            scale: FILTER_RESOLUTION as f32 / r,
+        }
+    }
+
+    #[inline]
+    fn eval(&self, x: f32) -> f32 {
+        // `as usize` saturates (and maps NaN to 0); the min keeps the index in the table.
+        let i = ((x * self.scale).abs() as usize).min(FILTER_RESOLUTION);
+        self.values[i]
+    }
+}
+
+/// Film geometry and filter: the full film size and the crop window that is rendered.
+#[derive(Clone, Debug)]
+pub struct FilmDesc {
+    pub width: u32,
+    pub height: u32,
+    pub crop_offset: (u32, u32),
+    pub crop_size: (u32, u32),
+    pub filter: Filter,
+}
+
+impl FilmDesc {
+    /// The crop window clamped to the film (a window that sticks out is cut, never a panic).
+    fn crop(&self) -> (u32, u32, u32, u32) {
+        let x0 = self.crop_offset.0.min(self.width);
+        let y0 = self.crop_offset.1.min(self.height);
+        let w = self.crop_size.0.min(self.width - x0);
+        let h = self.crop_size.1.min(self.height - y0);
+        (x0, y0, w, h)
+    }
+}
+
+/// Per-pixel sums: Σw·v, Σw·v², Σw, Σw².
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Acc {
+    wv: [f32; 3],
+    wv2: [f32; 3],
+    w: f32,
+    w2: f32,
+}
+
+impl Acc {
+    #[inline]
+    fn add_sample(&mut self, v: [f32; 3], w: f32) {
+        for c in 0..3 {
+            let wv = v[c] * w;
+            self.wv[c] += wv;
+            self.wv2[c] += wv * v[c];
+        }
+        self.w += w;
+        self.w2 += w * w;
+    }
+
+    #[inline]
+    fn add(&mut self, o: &Acc) {
+        for c in 0..3 {
+            self.wv[c] += o.wv[c];
+            self.wv2[c] += o.wv2[c];
+        }
+        self.w += o.w;
+        self.w2 += o.w2;
+    }
+}
+
+/// A rectangle of the film plus a border wide enough for the filter's footprint, filled by one
+/// thread and then merged into the [`Film`].
+#[derive(Clone, Debug)]
+pub struct Block {
+    filter: Filter,
+    table: FilterTable,
+    border: u32,
+    /// Full-film pixel coordinates of the storage's top-left pixel (border included).
+    ox: i64,
+    oy: i64,
+    /// Storage size (border included).
+    sw: u32,
+    sh: u32,
+    data: Vec<Acc>,
+}
+
+impl Block {
+    /// A block for the pixels [x0, x0+w) × [y0, y0+h) of the full film (normally inside the crop),
+    /// plus a border of ceil(radius) pixels on each side.
+    pub fn new(desc: &FilmDesc, x0: u32, y0: u32, w: u32, h: u32) -> Block {
+        let filter = desc.filter;
+        let radius = filter.radius();
+        let border = if radius.is_finite() && radius > 0.0 {
+            radius.ceil().min(1024.0) as u32
+        } else {
+            0
+        };
+        let mut b = Block {
+            filter,
+            table: FilterTable::new(&filter),
+            border,
+            ox: 0,
+            oy: 0,
+            sw: 0,
+            sh: 0,
+            data: Vec::new(),
+        };
+        b.clear(x0, y0, w, h);
+        b
+    }
+
+    /// Zeroes the block and moves it to another rectangle, reusing its allocation when it fits.
+    pub fn clear(&mut self, x0: u32, y0: u32, w: u32, h: u32) {
+        self.ox = x0 as i64 - self.border as i64;
+        self.oy = y0 as i64 - self.border as i64;
+        self.sw = w.saturating_add(2 * self.border);
+        self.sh = h.saturating_add(2 * self.border);
+        self.data.clear();
+        self.data
+            .resize(self.sw as usize * self.sh as usize, Acc::default());
+    }
+
+    /// Splats `value` at the continuous full-film position `film_pos` (Mitsuba 3
+    /// `ImageBlock::put`): every pixel (i, j) whose centre (i+½, j+½) lies within the filter radius
+    /// on both axes receives weight wx·wy from the tabulated filter. Positions outside the block
+    /// storage only reach the pixels that exist; non-finite positions are ignored. Non-finite
+    /// values are accumulated as they are (the developed image then shows them).
+    pub fn put(&mut self, film_pos: Vec2, value: Spectrum) {
+        if !film_pos.is_finite() || self.sw == 0 || self.sh == 0 {
+            return;
+        }
+        let v = value.to_array();
+        if self.filter.is_box() {
+            let px = (film_pos.x.floor() as i64).saturating_sub(self.ox);
+            let py = (film_pos.y.floor() as i64).saturating_sub(self.oy);
+            if px >= 0 && py >= 0 && px < self.sw as i64 && py < self.sh as i64 {
+                let idx = py as usize * self.sw as usize + px as usize;
+                self.data[idx].add_sample(v, 1.0);
+            }
+            return;
+        }
+        let r = self.filter.radius();
+        // Position relative to the storage, in pixel-centre coordinates.
+        let pxf = film_pos.x - self.ox as f32 - 0.5;
+        let pyf = film_pos.y - self.oy as f32 - 0.5;
+        let x_lo = ((pxf - r).ceil() as i64).max(0);
+        let y_lo = ((pyf - r).ceil() as i64).max(0);
+        let x_hi = ((pxf + r).floor() as i64).min(self.sw as i64 - 1);
+        let y_hi = ((pyf + r).floor() as i64).min(self.sh as i64 - 1);
+        if x_lo > x_hi || y_lo > y_hi {
+            return;
+        }
+        let nx = (x_hi - x_lo + 1) as usize;
+        let ny = (y_hi - y_lo + 1) as usize;
+        // The footprint is at most 2·border+1 wide; keep the weights on the stack when small.
+        let mut wx_buf = [0.0f32; 16];
+        let mut wy_buf = [0.0f32; 16];
+        let mut wx_heap = Vec::new();
+        let mut wy_heap = Vec::new();
+        let (wx, wy): (&mut [f32], &mut [f32]) = if nx <= 16 && ny <= 16 {
+            (&mut wx_buf[..nx], &mut wy_buf[..ny])
+        } else {
+            wx_heap.resize(nx, 0.0);
+            wy_heap.resize(ny, 0.0);
+            (&mut wx_heap[..], &mut wy_heap[..])
+        };
+        let rel_x = x_lo as f32 - pxf;
+        let rel_y = y_lo as f32 - pyf;
+        for (i, w) in wx.iter_mut().enumerate() {
+            *w = self.table.eval(rel_x + i as f32);
+        }
+        for (j, w) in wy.iter_mut().enumerate() {
+            *w = self.table.eval(rel_y + j as f32);
+        }
+        let sw = self.sw as usize;
+        for (j, &wyj) in wy.iter().enumerate() {
+            let row = (y_lo as usize + j) * sw + x_lo as usize;
+            for (i, &wxi) in wx.iter().enumerate() {
+                self.data[row + i].add_sample(v, wxi * wyj);
+            }
+        }
+    }
+}
+
+/// The accumulated film: the crop window's pixels with their weighted sums.
+#[derive(Clone, Debug)]
+pub struct Film {
+    desc: FilmDesc,
+    /// Crop window in full-film pixels: (x0, y0, w, h).
+    crop: (u32, u32, u32, u32),
+    data: Vec<Acc>,
+}
+
+impl Film {
+    /// An empty film for `desc`'s crop window.
+    pub fn new(desc: FilmDesc) -> Film {
+        let crop = desc.crop();
+        Film {
+            data: vec![Acc::default(); crop.2 as usize * crop.3 as usize],
+            desc,
+            crop,
+        }
+    }
+
+    /// The description the film was made with.
+    pub fn desc(&self) -> &FilmDesc {
+        &self.desc
+    }
+
+    /// Adds a block, border included, into the film; contributions outside the crop window are
+    /// dropped. Merging the same blocks in the same order gives a bit-identical film.
+    pub fn merge(&mut self, block: &Block) {
+        let (cx, cy, cw, ch) = self.crop;
+        let (cx, cy) = (cx as i64, cy as i64);
+        for j in 0..block.sh as i64 {
+            let fy = block.oy + j - cy;
+            if fy < 0 || fy >= ch as i64 {
+                continue;
+            }
+            for i in 0..block.sw as i64 {
+                let fx = block.ox + i - cx;
+                if fx < 0 || fx >= cw as i64 {
+                    continue;
+                }
+                let src = &block.data[(j * block.sw as i64 + i) as usize];
+                self.data[(fy * cw as i64 + fx) as usize].add(src);
+            }
+        }
+    }
+
+    /// The pixel estimates Σw·v / Σw of the crop window (0 where no sample landed).
+    pub fn develop(&self) -> Image {
+        let data = self
+            .data
+            .iter()
+            .map(|a| {
+                if a.w == 0.0 {
+                    [0.0; 3]
+                } else {
+                    let inv = 1.0 / a.w as f64;
+                    [
+                        (a.wv[0] as f64 * inv) as f32,
+                        (a.wv[1] as f64 * inv) as f32,
+                        (a.wv[2] as f64 * inv) as f32,
+                    ]
+                }
+            })
+            .collect();
+        Image {
+            width: self.crop.2,
+            height: self.crop.3,
+            data,
+        }
+    }
+
+    /// Per-pixel variance of the pixel estimate (its squared standard error), per channel.
+    ///
+    /// Estimator: with W = Σw, W₂ = Σw², μ = Σw·v / W, the filter weights are treated as fixed
+    /// and the samples as independent with a common variance σ², so Var(μ) = σ²·W₂/W². σ² is
+    /// estimated without bias by the reliability-weighted sample variance
+    /// (Σw·v²/W − μ²)·W²/(W² − W₂), giving
+    ///
+    /// Var(μ) ≈ (Σw·v²/W − μ²) · W₂ / (W² − W₂).
+    ///
+    /// With the box filter (w = 1) this is exactly the sample variance divided by n. A pixel
+    /// without samples gets 0; a pixel with a single effective sample (W² ≤ W₂, e.g. one sample
+    /// with the box filter) has no variance estimate and gets +∞.
+    pub fn develop_variance(&self) -> Image {
+        let data = self
+            .data
+            .iter()
+            .map(|a| {
+                let w = a.w as f64;
+                if w == 0.0 {
+                    return [0.0; 3];
+                }
+                let w2 = a.w2 as f64;
+                let denom = w * w - w2;
+                let mut out = [0.0f32; 3];
+                for c in 0..3 {
+                    let mu = a.wv[c] as f64 / w;
+                    let m2 = a.wv2[c] as f64 / w;
+                    let s = (m2 - mu * mu).max(0.0);
+                    out[c] = if denom <= 1e-12 * w * w {
+                        f32::INFINITY
+                    } else {
+                        (s * w2 / denom) as f32
+                    };
+                }
+                out
+            })
+            .collect();
+        Image {
+            width: self.crop.2,
+            height: self.crop.3,
+            data,
+        }
+    }
+}
+
+/// A developed RGB float image, row-major, top row first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub data: Vec<[f32; 3]>,
+}
+
+impl Image {
+    /// A black image.
+    pub fn new(width: u32, height: u32) -> Image {
+        Image {
+            width,
+            height,
+            data: vec![[0.0; 3]; width as usize * height as usize],
+        }
+    }
+
+    /// Per-channel mean over all pixels, summed in f64 (0 for an empty image).
+    pub fn mean(&self) -> [f64; 3] {
+        let mut s = [0.0f64; 3];
+        for p in &self.data {
+            for c in 0..3 {
+                s[c] += p[c] as f64;
+            }
+        }
+        let n = self.data.len().max(1) as f64;
+        [s[0] / n, s[1] / n, s[2] / n]
+    }
+
+    /// True when any component is NaN or infinite.
+    pub fn has_non_finite(&self) -> bool {
+        self.data.iter().any(|p| p.iter().any(|v| !v.is_finite()))
+    }
+
+    /// The pixel at column `x`, row `y` (row 0 on top). Panics when out of range.
+    pub fn get(&self, x: u32, y: u32) -> [f32; 3] {
+        assert!(x < self.width && y < self.height, "pixel out of range");
+        self.data[y as usize * self.width as usize + x as usize]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Pcg32;
+
+    fn desc(w: u32, h: u32, filter: Filter) -> FilmDesc {
+        FilmDesc {
+            width: w,
+            height: h,
+            crop_offset: (0, 0),
+            crop_size: (w, h),
+            filter,
+        }
+    }
+
+    #[test]
+    fn gaussian_matches_mitsuba() {
+        // GaussianFilter.eval / eval_discretized from Mitsuba 3.9.1 scalar_rgb (stddev 0.5).
+        let g = Filter::default();
+        assert_eq!(g.radius(), 2.0);
+        for (x, m) in [
+            (0.0, 0.999247133731842),
+            (0.3, 0.8350478410720825),
+            (1.0, 0.13496048748493195),
+        ] {
+            assert!((g.eval(x) - m).abs() < 2e-6, "eval({x}) = {}", g.eval(x));
+        }
+        let t = FilterTable::new(&g);
+        for (x, m) in [
+            (0.0, 0.999247133731842),
+            (0.3, 0.8749833106994629),
+            (1.0, 0.15326131880283356),
+            (1.99, 0.00022078714391682297),
+        ] {
+            assert!((t.eval(x) - m).abs() < 1e-5, "table({x}) = {}", t.eval(x));
+        }
+        // Near the cut-off Mitsuba's f32 polynomial cancels to ~1e-5 absolute; we evaluate in f64.
+        assert!((g.eval(1.99) - 2.9737495424342342e-05).abs() < 1e-5);
+        assert!(g.eval(2.0).abs() < 1e-5);
+        assert_eq!(g.eval(2.5), 0.0);
+        assert_eq!(Filter::Tent { radius: 1.0 }.eval(0.25), 0.75);
+        assert_eq!(Filter::Box.eval(0.49), 1.0);
+        assert_eq!(Filter::Box.eval(0.5), 0.0);
+        assert_eq!(Filter::Box.eval(-0.5), 1.0);
+    }
+
+    #[test]
+    fn box_filter_is_plain_average() {
+        let d = desc(4, 3, Filter::Box);
+        let mut film = Film::new(d.clone());
+        let mut b = Block::new(&d, 0, 0, 4, 3);
+        let mut rng = Pcg32::new(7, 1);
+        let mut sums = vec![[0.0f64; 3]; 12];
+        let mut n = vec![0u32; 12];
+        for _ in 0..2000 {
+            let p = Vec2::new(rng.next_f32() * 4.0, rng.next_f32() * 3.0);
+            let v = Spectrum::new(rng.next_f32(), 2.0 * rng.next_f32(), 1.0);
+            b.put(p, v);
+            let k = p.y as usize * 4 + p.x as usize;
+            n[k] += 1;
+            for c in 0..3 {
+                sums[k][c] += v[c] as f64;
+            }
+        }
+        film.merge(&b);
+        let img = film.develop();
+        for k in 0..12 {
+            let got = img.data[k];
+            assert_eq!(film.data[k].w, n[k] as f32);
+            for c in 0..3 {
+                assert!((got[c] as f64 - sums[k][c] / n[k] as f64).abs() < 1e-5);
+            }
+        }
+    }
+
+    #[test]
+    fn weights_of_interior_pixels_count_the_samples() {
+        // A regular grid of samples: every interior pixel sees the same footprint pattern, and
+        // its summed weight is the samples per pixel times the (discrete) filter integral.
+        for filter in [Filter::Box, Filter::Tent { radius: 1.0 }, Filter::default()] {
+            let d = desc(12, 12, filter);
+            let mut b = Block::new(&d, 0, 0, 12, 12);
+            let k = 8;
+            for y in 0..12 * k {
+                for x in 0..12 * k {
+                    let p = Vec2::new((x as f32 + 0.5) / k as f32, (y as f32 + 0.5) / k as f32);
+                    b.put(p, Spectrum::ONE);
+                }
+            }
+            let mut film = Film::new(d);
+            film.merge(&b);
+            let t = FilterTable::new(&filter);
+            let mut integral1 = 0.0f32;
+            for s in 0..k * 8 {
+                integral1 += t.eval((s as f32 + 0.5) / k as f32 - 4.0);
+            }
+            let expect = if filter.is_box() {
+                (k * k) as f32
+            } else {
+                integral1 * integral1
+            };
+            for y in 3..9 {
+                for x in 3..9 {
+                    let w = film.data[y * 12 + x].w;
+                    assert!((w - expect).abs() < 1e-3 * expect, "{filter:?}: {w} vs {expect}");
+                }
+            }
+            let img = film.develop();
+            assert!(img.data.iter().all(|p| (p[0] - 1.0).abs() < 1e-6));
+        }
+    }
+
+    #[test]
+    fn gaussian_constant_develops_to_constant_everywhere() {
+        let d = FilmDesc {
+            width: 9,
+            height: 7,
+            crop_offset: (1, 2),
+            crop_size: (7, 4),
+            filter: Filter::default(),
+        };
+        let mut film = Film::new(d.clone());
+        let mut b = Block::new(&d, 1, 2, 7, 4);
+        let mut rng = Pcg32::new(3, 5);
+        for _ in 0..500 {
+            let p = Vec2::new(1.0 + 7.0 * rng.next_f32(), 2.0 + 4.0 * rng.next_f32());
+            b.put(p, Spectrum::new(0.25, 0.5, 3.0));
+        }
+        film.merge(&b);
+        let img = film.develop();
+        assert_eq!((img.width, img.height), (7, 4));
+        for p in &img.data {
+            assert!((p[0] - 0.25).abs() < 1e-6 && (p[1] - 0.5).abs() < 1e-6);
+            assert!((p[2] - 3.0).abs() < 1e-5);
+        }
+    }
+
+    fn render(d: &FilmDesc, tiles: &[(u32, u32, u32, u32)], spp: u32) -> (Film, Image) {
+        let mut film = Film::new(d.clone());
+        let mut block = Block::new(d, 0, 0, 1, 1);
+        for &(x0, y0, w, h) in tiles {
+            block.clear(x0, y0, w, h);
+            for y in y0..y0 + h {
+                for x in x0..x0 + w {
+                    let mut rng = Pcg32::new(((y * 1000 + x) as u64) << 8, 11);
+                    for _ in 0..spp {
+                        let p = Vec2::new(x as f32 + rng.next_f32(), y as f32 + rng.next_f32());
+                        let v = Spectrum::new(rng.next_f32(), (x as f32) * 0.1, (y as f32) * 0.2);
+                        block.put(p, v);
+                    }
+                }
+            }
+            film.merge(&block);
+        }
+        let img = film.develop();
+        (film, img)
+    }
+
+    #[test]
+    fn partition_does_not_change_the_result() {
+        let d = desc(10, 7, Filter::default());
+        let (_, one) = render(&d, &[(0, 0, 10, 7)], 4);
+        let tiles: Vec<_> = (0..7)
+            .flat_map(|y| [(0, y, 3, 1), (3, y, 7, 1)])
+            .collect();
+        let (_, many) = render(&d, &tiles, 4);
+        for (a, b) in one.data.iter().zip(&many.data) {
+            for c in 0..3 {
+                assert!((a[c] - b[c]).abs() <= 1e-6 * a[c].abs().max(1.0));
+            }
+        }
+        // Same partition and merge order: bit-identical.
+        let (_, again) = render(&d, &tiles, 4);
+        assert_eq!(many, again);
+        // Non-square crop with a block larger than the crop at the edge.
+        let mut dc = d.clone();
+        dc.crop_offset = (2, 1);
+        dc.crop_size = (5, 5);
+        let (_, a) = render(&dc, &[(2, 1, 5, 5)], 3);
+        let (_, b) = render(&dc, &[(2, 1, 4, 2), (6, 1, 1, 2), (2, 3, 5, 3)], 3);
+        for (p, q) in a.data.iter().zip(&b.data) {
+            for c in 0..3 {
+                assert!((p[c] - q[c]).abs() <= 1e-6 * p[c].abs().max(1.0));
+            }
+        }
+    }
+
+    #[test]
+    fn variance_matches_for_iid_samples() {
+        // Uniform values: σ² = 1/12. Box filter: exactly s²/n. Gaussian: within statistics.
+        for filter in [Filter::Box, Filter::default()] {
+            let d = desc(16, 16, filter);
+            let mut b = Block::new(&d, 0, 0, 16, 16);
+            let mut rng = Pcg32::new(1234, 9);
+            let n = 64;
+            let mut samples = vec![Vec::new(); 256];
+            for y in 0..16u32 {
+                for x in 0..16u32 {
+                    for _ in 0..n {
+                        let p = Vec2::new(x as f32 + rng.next_f32(), y as f32 + rng.next_f32());
+                        let v = rng.next_f32();
+                        b.put(p, Spectrum::splat(v));
+                        samples[(y * 16 + x) as usize].push(v as f64);
+                    }
+                }
+            }
+            let mut film = Film::new(d);
+            film.merge(&b);
+            let var = film.develop_variance();
+            if filter.is_box() {
+                for (k, s) in samples.iter().enumerate() {
+                    let m = s.iter().sum::<f64>() / n as f64;
+                    let s2 = s.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1) as f64;
+                    let got = var.data[k][0] as f64;
+                    assert!((got - s2 / n as f64).abs() < 1e-4 * s2 / n as f64);
+                }
+            }
+            // Average over interior pixels: E[Var(μ)·W²/W₂] = σ², so compare σ² estimates.
+            let mut sum = 0.0;
+            let mut cnt = 0.0;
+            for y in 2..14 {
+                for x in 2..14 {
+                    let a = film.data[y * 16 + x];
+                    let w = a.w as f64;
+                    let w2 = a.w2 as f64;
+                    sum += var.data[y * 16 + x][0] as f64 * w * w / w2;
+                    cnt += 1.0;
+                }
+            }
+            let est = sum / cnt;
+            let sigma2 = 1.0 / 12.0;
+            // Var of the sample variance of uniforms ≈ (μ4 − σ⁴)/n_eff; μ4 = 1/80. Neighbouring
+            // pixels share samples with the gaussian, so use the per-pixel n (conservative).
+            let sd = ((1.0 / 80.0 - sigma2 * sigma2) / (n as f64 * cnt)).sqrt();
+            let tol = if filter.is_box() { 4.0 * sd } else { 4.0 * sd * 4.0 };
+            assert!((est - sigma2).abs() < tol, "{filter:?}: {est} vs {sigma2} ± {tol}");
+        }
+    }
+
+    #[test]
+    fn variance_edge_cases_and_junk_input() {
+        let d = desc(3, 1, Filter::Box);
+        let mut film = Film::new(d.clone());
+        let mut b = Block::new(&d, 0, 0, 3, 1);
+        b.put(Vec2::new(0.5, 0.5), Spectrum::ONE);
+        b.put(Vec2::new(f32::NAN, 0.5), Spectrum::ONE);
+        b.put(Vec2::new(1e30, -1e30), Spectrum::ONE);
+        b.put(Vec2::new(1.5, 0.5), Spectrum::ONE);
+        b.put(Vec2::new(1.5, 0.5), Spectrum::ONE);
+        film.merge(&b);
+        let v = film.develop_variance();
+        assert_eq!(v.get(0, 0)[0], f32::INFINITY);
+        assert_eq!(v.get(1, 0)[0], 0.0);
+        assert_eq!(v.get(2, 0)[0], 0.0);
+        assert_eq!(film.develop().get(2, 0), [0.0; 3]);
+        // A crop window sticking out of the film is cut instead of panicking.
+        let bad = FilmDesc {
+            width: 4,
+            height: 4,
+            crop_offset: (3, 9),
+            crop_size: (10, 10),
+            filter: Filter::default(),
+        };
+        let f = Film::new(bad);
+        assert_eq!(f.develop().data.len(), 0);
+        let mut g = Block::new(&desc(4, 4, Filter::default()), 0, 0, 4, 4);
+        g.put(Vec2::new(-1e9, 3.0), Spectrum::ONE);
+        g.put(Vec2::new(f32::INFINITY, 3.0), Spectrum::ONE);
+    }
+}
