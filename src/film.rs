@@ -90,7 +90,7 @@ impl Filter {
             // tent.cpp: max(0, 1 - |x| / radius).
             Filter::Tent { radius } => (1.0 - (x / radius).abs()).max(0.0),
             Filter::Gaussian { stddev, radius } => {
-                if !(x.abs() < radius) {
+                if x.is_nan() || x.abs() >= radius {
                     return 0.0;
                 }
                 let c = gaussian_coeffs(stddev, radius);
@@ -182,10 +182,10 @@ struct Acc {
 impl Acc {
     #[inline]
     fn add_sample(&mut self, v: [f32; 3], w: f32) {
-        for c in 0..3 {
-            let wv = v[c] * w;
-            self.wv[c] += wv;
-            self.wv2[c] += wv * v[c];
+        for ((swv, swv2), &vc) in self.wv.iter_mut().zip(self.wv2.iter_mut()).zip(&v) {
+            let wv = vc * w;
+            *swv += wv;
+            *swv2 += wv * vc;
         }
         self.w += w;
         self.w2 += w * w;
@@ -411,11 +411,11 @@ impl Film {
                 let w2 = a.w2 as f64;
                 let denom = w * w - w2;
                 let mut out = [0.0f32; 3];
-                for c in 0..3 {
+                for (c, o) in out.iter_mut().enumerate() {
                     let mu = a.wv[c] as f64 / w;
                     let m2 = a.wv2[c] as f64 / w;
                     let s = (m2 - mu * mu).max(0.0);
-                    out[c] = if denom <= 1e-12 * w * w {
+                    *o = if denom <= 1e-12 * w * w {
                         f32::INFINITY
                     } else {
                         (s * w2 / denom) as f32
@@ -475,6 +475,8 @@ impl Image {
 }
 
 #[cfg(test)]
+// Mitsuba's values are quoted as Python printed them.
+#[allow(clippy::excessive_precision)]
 mod tests {
     use super::*;
     use crate::math::Pcg32;
@@ -526,8 +528,8 @@ mod tests {
         let mut film = Film::new(d.clone());
         let mut b = Block::new(&d, 0, 0, 4, 3);
         let mut rng = Pcg32::new(7, 1);
-        let mut sums = vec![[0.0f64; 3]; 12];
-        let mut n = vec![0u32; 12];
+        let mut sums = [[0.0f64; 3]; 12];
+        let mut n = [0u32; 12];
         for _ in 0..2000 {
             let p = Vec2::new(rng.next_f32() * 4.0, rng.next_f32() * 3.0);
             let v = Spectrum::new(rng.next_f32(), 2.0 * rng.next_f32(), 1.0);
@@ -578,7 +580,10 @@ mod tests {
             for y in 3..9 {
                 for x in 3..9 {
                     let w = film.data[y * 12 + x].w;
-                    assert!((w - expect).abs() < 1e-3 * expect, "{filter:?}: {w} vs {expect}");
+                    assert!(
+                        (w - expect).abs() < 1e-3 * expect,
+                        "{filter:?}: {w} vs {expect}"
+                    );
                 }
             }
             let img = film.develop();
@@ -636,9 +641,7 @@ mod tests {
     fn partition_does_not_change_the_result() {
         let d = desc(10, 7, Filter::default());
         let (_, one) = render(&d, &[(0, 0, 10, 7)], 4);
-        let tiles: Vec<_> = (0..7)
-            .flat_map(|y| [(0, y, 3, 1), (3, y, 7, 1)])
-            .collect();
+        let tiles: Vec<_> = (0..7).flat_map(|y| [(0, y, 3, 1), (3, y, 7, 1)]).collect();
         let (_, many) = render(&d, &tiles, 4);
         for (a, b) in one.data.iter().zip(&many.data) {
             for c in 0..3 {
@@ -708,8 +711,15 @@ mod tests {
             // Var of the sample variance of uniforms ≈ (μ4 − σ⁴)/n_eff; μ4 = 1/80. Neighbouring
             // pixels share samples with the gaussian, so use the per-pixel n (conservative).
             let sd = ((1.0 / 80.0 - sigma2 * sigma2) / (n as f64 * cnt)).sqrt();
-            let tol = if filter.is_box() { 4.0 * sd } else { 4.0 * sd * 4.0 };
-            assert!((est - sigma2).abs() < tol, "{filter:?}: {est} vs {sigma2} ± {tol}");
+            let tol = if filter.is_box() {
+                4.0 * sd
+            } else {
+                4.0 * sd * 4.0
+            };
+            assert!(
+                (est - sigma2).abs() < tol,
+                "{filter:?}: {est} vs {sigma2} ± {tol}"
+            );
         }
     }
 

@@ -1,1 +1,124 @@
-//! (work in progress)
+//! Writing rendered images: OpenEXR (float32 RGB plus string metadata) and PNG (8-bit sRGB).
+//!
+//! Every write is atomic: the image goes to a temporary file next to the target
+//! (`.NAME.tmp-<pid>`), is flushed to disk, and is then renamed over the target. On any failure
+//! the temporary file is removed and an existing target stays untouched.
+
+mod exr;
+mod png;
+
+use std::fs::{self, File};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::film::Image;
+
+/// Key/value pairs stored in the image header (EXR string attributes), e.g. `groove.spp`,
+/// `groove.seed`, `groove.render_time_s`, `groove.scene`, `groove.version`. Strings are
+/// stored as UTF-8 bytes. [`read_exr`] returns them sorted by key.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Metadata(pub Vec<(String, String)>);
+
+impl Metadata {
+    /// The value stored under `key`, if any.
+    pub fn get(&self, key: &str) -> Option<&str> {
+        self.0
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+    }
+}
+
+/// Writes `img` to `path`, choosing the format by extension (case-insensitive): `.exr` (float32
+/// RGB with `meta` as string attributes) or `.png` (8-bit sRGB, clamped; `meta` is not stored).
+/// Any other extension is an [`Error::Usage`] naming it.
+pub fn write_image(path: &Path, img: &Image, meta: &Metadata) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    if img.data.len() != img.width as usize * img.height as usize {
+        return Err(Error::file(
+            path,
+            format!(
+                "image data holds {} pixels, expected {}x{}",
+                img.data.len(),
+                img.width,
+                img.height
+            ),
+        ));
+    }
+    match ext.as_deref() {
+        Some("exr") => write_atomic(path, |w| exr::write(w, img, meta)),
+        Some("png") => write_atomic(path, |w| png::write(w, img)),
+        other => Err(Error::Usage(format!(
+            "{}: unsupported output format {} (use .exr or .png)",
+            path.display(),
+            match other {
+                Some(e) => format!("'.{e}'"),
+                None => "(no extension)".to_string(),
+            }
+        ))),
+    }
+}
+
+/// Reads an RGB EXR (f16, f32 or u32 channels named R, G, B, e.g. Mitsuba's output) and its
+/// string attributes.
+pub fn read_exr(path: &Path) -> Result<(Image, Metadata)> {
+    exr::read(path)
+}
+
+/// The temporary file used while writing `path`.
+fn temp_path(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+}
+
+/// Runs `encode` into a temporary file beside `path`, syncs it and renames it over `path`.
+/// The encoder's errors are plain messages; they are reported against `path`.
+fn write_atomic(
+    path: &Path,
+    encode: impl FnOnce(&mut BufWriter<File>) -> std::result::Result<(), String>,
+) -> Result<()> {
+    if path.file_name().is_none() {
+        return Err(Error::file(path, "output path has no file name"));
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        return Err(Error::file(
+            &dir,
+            "output directory does not exist (create it first)",
+        ));
+    }
+    if path.is_dir() {
+        return Err(Error::file(path, "output path is a directory"));
+    }
+    let tmp = temp_path(path);
+    let result = (|| -> Result<()> {
+        let file = File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
+        let mut w = BufWriter::new(file);
+        encode(&mut w).map_err(|m| Error::file(path, m))?;
+        w.flush().map_err(|e| Error::io(&tmp, e))?;
+        let file = w
+            .into_inner()
+            .map_err(|e| Error::io(&tmp, e.into_error()))?;
+        file.sync_all().map_err(|e| Error::io(&tmp, e))?;
+        drop(file);
+        fs::rename(&tmp, path).map_err(|e| Error::io(path, e))?;
+        Ok(())
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    } else if let Ok(d) = File::open(&dir) {
+        // Make the rename itself durable; best effort (not supported everywhere).
+        let _ = d.sync_all();
+    }
+    result
+}
