@@ -426,6 +426,17 @@ mod tests {
     }
 
     #[test]
+    fn crop_window_uses_full_film_coordinates() {
+        // Mitsuba, 8x8 film, fov 40, crop offset (2,4) size (4,2): the crop's top-left corner
+        // (normalised crop position (0,0)) gives the same ray as full-film position (2,4).
+        let cam =
+            Camera::perspective(Mat4::IDENTITY, 40.0, FovAxis::X, 0.01, 10000.0, (8, 8)).unwrap();
+        let d = cam.generate_ray(Vec2::new(2.0, 4.0)).d;
+        let e = Vec3::new(0.17904441058635712, 0.0, 0.9838410019874573);
+        assert!((d - e).abs().max_element() < 1e-5, "{d:?}");
+    }
+
+    #[test]
     fn clip_range_matches_mitsuba() {
         // Mitsuba: maxt = far/z - near/z (origin moved to the near plane), for fov 40 x, 64x48.
         let cam =
