@@ -53,7 +53,7 @@ const CIE_SAMPLES: usize = 95;
 const D65_NORMALIZATION: f64 = 1.0 / 98.99741751876255;
 /// Scale that makes a unit spectrum integrate to a luminance of 1 (Mitsuba's
 /// `MI_CIE_Y_NORMALIZATION`, applied by 3.9.1's `spectrum_list_to_srgb`).
-const Y_NORMALIZATION: f64 = 1.0 / 106.7502593994140625;
+const Y_NORMALIZATION: f64 = 1.0 / 106.750_259_399_414_06;
 
 /// Linear interpolation in one of the 5 nm tables; zero outside [360, 830] nm.
 fn table_lookup(table: &[f64; CIE_SAMPLES], w: f64) -> f64 {

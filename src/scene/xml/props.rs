@@ -231,7 +231,9 @@ impl<'a> Props<'a> {
     }
 
     /// A colour: `<rgb>` (one or three numbers), `<spectrum>` (a constant, or `λ:value` pairs
-    /// converted as Mitsuba 3 does for `use_`), or `<float>`/`<integer>` (grey).
+    /// converted as Mitsuba 3 does for `use_`), or `<float>`/`<integer>` (grey). As in Mitsuba 3,
+    /// an `<rgb>` reflectance outside [0, 1] is an error, while a tabulated reflectance spectrum
+    /// is clamped to [0, 1].
     pub fn color_with(&self, name: &str, default: Spectrum, use_: SpectrumUse) -> Result<Spectrum> {
         Ok(self.color_opt_with(name, use_)?.unwrap_or(default))
     }
@@ -249,14 +251,29 @@ impl<'a> Props<'a> {
             "float" | "integer" => Ok(Some(Spectrum::splat(parse_f32(text, loc)?))),
             "rgb" => {
                 let v = parse_list(text, loc)?;
-                match v.as_slice() {
-                    [g] => Ok(Some(Spectrum::splat(*g))),
-                    [r, g, b] => Ok(Some(Spectrum::new(*r, *g, *b))),
-                    _ => Err(Error::scene(
+                let c = match v.as_slice() {
+                    [g] => Spectrum::splat(*g),
+                    [r, g, b] => Spectrum::new(*r, *g, *b),
+                    _ => {
+                        return Err(Error::scene(
+                            loc,
+                            format!("<rgb> needs one or three values, got '{text}'"),
+                        ))
+                    }
+                };
+                // Mitsuba 3's reflectance texture (`SRGBReflectanceSpectrum`) refuses values
+                // outside [0, 1]; unbounded parameters and emitters take any value.
+                if use_ == SpectrumUse::Reflectance
+                    && (c.min_element() < 0.0 || c.max_element() > 1.0)
+                {
+                    return Err(Error::scene(
                         loc,
-                        format!("<rgb> needs one or three values, got '{text}'"),
-                    )),
+                        format!(
+                            "invalid RGB reflectance value '{text}' for '{name}': must be in the range [0, 1]"
+                        ),
+                    ));
                 }
+                Ok(Some(c))
             }
             _ => spectrum_of(text, loc, use_).map(Some),
         }
