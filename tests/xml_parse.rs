@@ -564,8 +564,14 @@ fn colours_and_spectra() {
         e.abs_diff_eq(Spectrum::new(20.7108, 10.8546, 2.77115), 2e-3),
         "{e}"
     );
-    // As a reflectance it is clamped to [0, 1], as Mitsuba does.
+    // As a reflectance it is clamped to [0, 1], as Mitsuba does, with a warning.
+    assert!(p.take_warnings().is_empty());
     assert_eq!(p.color("f", Spectrum::ZERO).unwrap(), Spectrum::ONE);
+    let w = p.take_warnings();
+    assert!(
+        w.len() == 1 && w[0].starts_with("mem.xml:7:") && w[0].contains("clamped"),
+        "{w:?}"
+    );
     p.finish().unwrap();
 }
 
@@ -688,4 +694,38 @@ fn cbox_spectral_loads_and_converts() {
         .unwrap();
     let want = Spectrum::new(20.7108, 10.8546, 2.77115);
     assert!(((r - want).abs() / want).max_element() < 1e-3, "{r}");
+}
+
+#[test]
+fn raw_access_named_objects_and_mark_used() {
+    let doc = load(
+        r#"<scene version="3.0.0"><bsdf type="diffuse">
+        <texture type="bitmap" name="reflectance"><string name="filename" value="a.png"/></texture>
+        <string name="note" value="x"/>
+        </bsdf></scene>"#,
+    )
+    .unwrap();
+    let p = Props::new(&doc.root.children[0]).unwrap();
+    assert!(p.has("reflectance") && p.has("note") && !p.has("other"));
+    // A colour query does not see a texture given by name; raw access does.
+    assert_eq!(p.color_opt("reflectance").unwrap(), None);
+    assert_eq!(p.property_node("reflectance").unwrap().tag, "texture");
+    assert_eq!(p.objects().count(), 1);
+    assert!(Props::new(&doc.root.children[0]).unwrap().finish().is_err());
+    p.mark_used("note");
+    p.finish().unwrap();
+}
+
+#[test]
+fn load_str_resolves_includes_and_paths_next_to_virtual_path() {
+    let doc = load_str(
+        "<scene version=\"3.0.0\"><default name=\"refl\" value=\"0.5\"/><path value=\"inc\"/><include filename=\"inc/part.xml\"/></scene>",
+        &data("virtual.xml"),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(doc.root.children.len(), 1);
+    assert_eq!(doc.search_paths, vec![data(""), data("inc")]);
+    let found = doc.resolve_file("part.xml", &doc.root.loc).unwrap();
+    assert_eq!(found, data("inc/part.xml"));
 }

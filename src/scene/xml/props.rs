@@ -1,7 +1,7 @@
 //! Typed access to a plugin element's properties, with Mitsuba 3's rule that every property
 //! given in the file must be used: [`Props::finish`] reports the first one nobody queried.
 
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 
 use glam::{Mat4, Vec3, Vec4};
 
@@ -16,6 +16,8 @@ pub struct Props<'a> {
     /// Property children (`<float>`, `<rgb>`, `<transform>`, ...), in document order.
     props: Vec<&'a Node>,
     used: Vec<Cell<bool>>,
+    /// Non-fatal remarks (`FILE:LINE:COL: message`), e.g. a clamped out-of-gamut spectrum.
+    warnings: RefCell<Vec<String>>,
 }
 
 /// Object children: nested plugins and references.
@@ -61,7 +63,12 @@ impl<'a> Props<'a> {
             }
         }
         let used = props.iter().map(|_| Cell::new(false)).collect();
-        Ok(Props { node, props, used })
+        Ok(Props {
+            node,
+            props,
+            used,
+            warnings: RefCell::new(Vec::new()),
+        })
     }
 
     /// The `type` attribute ("" for `<scene>`).
@@ -79,6 +86,11 @@ impl<'a> Props<'a> {
     }
     pub fn node(&self) -> &'a Node {
         self.node
+    }
+
+    /// Takes the warnings collected so far (Mitsuba logs these; groove reports them).
+    pub fn take_warnings(&self) -> Vec<String> {
+        std::mem::take(&mut *self.warnings.borrow_mut())
     }
 
     /// Finds a property by name and marks it used.
@@ -275,7 +287,15 @@ impl<'a> Props<'a> {
                 }
                 Ok(Some(c))
             }
-            _ => spectrum_of(text, loc, use_).map(Some),
+            _ => {
+                let (c, clamped_from) = spectrum_of(text, loc, use_)?;
+                if let Some(orig) = clamped_from {
+                    self.warnings.borrow_mut().push(format!(
+                        "{loc}: spectrum '{name}' clamped from out-of-gamut RGB {orig} to {c} (as Mitsuba 3 does)"
+                    ));
+                }
+                Ok(Some(c))
+            }
         }
     }
 
@@ -355,14 +375,19 @@ fn parse_f64(text: &str, loc: &SourceLoc) -> Result<f64> {
     }
 }
 
-/// `<spectrum value>`: one number is a constant (grey); otherwise `λ:value` pairs.
-fn spectrum_of(text: &str, loc: &SourceLoc, use_: SpectrumUse) -> Result<Spectrum> {
+/// `<spectrum value>`: one number is a constant (grey); otherwise `λ:value` pairs. Also returns
+/// the unclamped value when the conversion had to clamp.
+fn spectrum_of(
+    text: &str,
+    loc: &SourceLoc,
+    use_: SpectrumUse,
+) -> Result<(Spectrum, Option<Spectrum>)> {
     let tokens: Vec<&str> = text
         .split(|c: char| c == ',' || c.is_whitespace())
         .filter(|t| !t.is_empty())
         .collect();
     if tokens.len() == 1 && !tokens[0].contains(':') {
-        return Ok(Spectrum::splat(parse_f32(tokens[0], loc)?));
+        return Ok((Spectrum::splat(parse_f32(tokens[0], loc)?), None));
     }
     let mut wl = Vec::with_capacity(tokens.len());
     let mut vals = Vec::with_capacity(tokens.len());
@@ -377,7 +402,7 @@ fn spectrum_of(text: &str, loc: &SourceLoc, use_: SpectrumUse) -> Result<Spectru
         vals.push(parse_f64(v, loc)?);
     }
     spectrum_list_to_rgb(&wl, &vals, use_)
-        .map(|c| c.rgb)
+        .map(|c| (c.rgb, c.clamped.then_some(c.unclamped)))
         .map_err(|m| Error::scene(loc, format!("invalid spectrum: {m}")))
 }
 
