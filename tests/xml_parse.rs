@@ -315,7 +315,7 @@ fn define_overrides_default() {
     let doc = load_str(
         PARAM_SCENE,
         Path::new("mem.xml"),
-        &opts(&[("spp", "4"), ("integrator", "direct")]),
+        &opts(&[("spp", "8"), ("integrator", "direct"), ("spp", "4")]),
     )
     .unwrap();
     assert_eq!(

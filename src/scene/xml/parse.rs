@@ -163,19 +163,23 @@ pub fn load_str(text: &str, virtual_path: &Path, opts: &LoadOptions) -> Result<D
 
     let dir = parent_dir(virtual_path);
     let mut ctx = Ctx {
-        params: opts
-            .defines
-            .iter()
-            .map(|(k, v)| Param {
-                name: k.clone(),
-                value: v.clone(),
-                used: false,
-            })
-            .collect(),
+        params: Vec::new(),
         include_stack: vec![canonical(virtual_path)],
         search_paths: vec![dir],
         warnings,
     };
+    // A repeated -D key: the last one wins.
+    for (k, v) in &opts.defines {
+        if let Some(p) = ctx.params.iter_mut().find(|p| &p.name == k) {
+            p.value = v.clone();
+        } else {
+            ctx.params.push(Param {
+                name: k.clone(),
+                value: v.clone(),
+                used: false,
+            });
+        }
+    }
     // Mitsuba substitutes longest names first so that `$spp_max` is not read as `$spp` + "_max".
     ctx.sort_params();
     substitute_attrs(&mut raw, &mut ctx.params)?;
