@@ -1,0 +1,792 @@
+//! Loading a Mitsuba XML scene file into an IR of [`Node`]s that remember where they came from.
+//!
+//! The pipeline per file: quick-xml events → raw tree (with exact line/column of every element and
+//! attribute) → per-file version upgrade ([`super::upgrade`]) → tag/attribute validation →
+//! `$param` substitution, `<default>`, `<include>` and `<path>` processing in document order (as
+//! Mitsuba 3's parser does) → duplicate-id check → unused `-D` check.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use quick_xml::events::Event;
+use quick_xml::Reader;
+
+use super::upgrade;
+use crate::error::{Error, Result, SourceLoc};
+
+/// One XML element after substitution (and, for old files, after the version upgrade).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Node {
+    /// Element name: "scene", "bsdf", "shape", "float", "rgb", "transform", "ref", ...
+    pub tag: String,
+    /// Attributes after `$`-substitution, in document order.
+    pub attrs: Vec<Attr>,
+    pub children: Vec<Node>,
+    /// The file the element came from (an included file for spliced elements) and the 1-based
+    /// line and column of its `<`.
+    pub loc: SourceLoc,
+}
+
+/// One attribute; `loc` is the position of the attribute's name.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Attr {
+    pub name: String,
+    pub value: String,
+    pub loc: SourceLoc,
+}
+
+impl Node {
+    /// The value of attribute `name`, if present.
+    pub fn attr(&self, name: &str) -> Option<&str> {
+        self.attrs
+            .iter()
+            .find(|a| a.name == name)
+            .map(|a| a.value.as_str())
+    }
+
+    /// Where attribute `name` is written; the element's own location when it is absent.
+    pub fn attr_loc(&self, name: &str) -> &SourceLoc {
+        self.attrs
+            .iter()
+            .find(|a| a.name == name)
+            .map(|a| &a.loc)
+            .unwrap_or(&self.loc)
+    }
+
+    /// Sets (or adds) an attribute; a new attribute gets the element's location.
+    pub fn set_attr(&mut self, name: &str, value: impl Into<String>) {
+        let value = value.into();
+        if let Some(a) = self.attrs.iter_mut().find(|a| a.name == name) {
+            a.value = value;
+        } else {
+            self.attrs.push(Attr {
+                name: name.to_string(),
+                value,
+                loc: self.loc.clone(),
+            });
+        }
+    }
+
+    /// A short description for messages: `<bsdf type="dielectric">`, `<float name="x">`.
+    pub fn describe(&self) -> String {
+        match (self.attr("type"), self.attr("name")) {
+            (Some(t), _) => format!("<{} type=\"{}\">", self.tag, t),
+            (None, Some(n)) => format!("<{} name=\"{}\">", self.tag, n),
+            _ => format!("<{}>", self.tag),
+        }
+    }
+}
+
+/// Options of a load: `-D key=value` definitions from the command line.
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    pub defines: Vec<(String, String)>,
+}
+
+/// A loaded scene: the `<scene>` root with includes inlined, defaults/paths consumed.
+#[derive(Clone, Debug)]
+pub struct Document {
+    pub root: Node,
+    /// The main file's `version` attribute.
+    pub version: (u32, u32, u32),
+    /// Resource search folders: the main file's folder first, then `<path>` entries in order.
+    pub search_paths: Vec<PathBuf>,
+    /// Non-fatal remarks with their locations (`FILE:LINE:COL: message`).
+    pub warnings: Vec<String>,
+    /// The main file was older than 2.0 and has been upgraded to Mitsuba 3 names (later stages
+    /// use this for 0.6 semantics, e.g. of the classic `normalmap`).
+    pub upgraded_from_v0: bool,
+}
+
+impl Document {
+    /// Resolves a resource file name: an absolute path must exist; a relative one is looked up
+    /// in the search paths in order. A missing file is an error at `loc` naming the file.
+    pub fn resolve_file(&self, name: &str, loc: &SourceLoc) -> Result<PathBuf> {
+        let p = Path::new(name);
+        if p.is_absolute() {
+            if p.exists() {
+                return Ok(p.to_path_buf());
+            }
+            return Err(Error::scene(loc, format!("file '{name}' not found")));
+        }
+        for dir in &self.search_paths {
+            let cand = dir.join(p);
+            if cand.exists() {
+                return Ok(cand);
+            }
+        }
+        let searched: Vec<String> = self
+            .search_paths
+            .iter()
+            .map(|d| d.display().to_string())
+            .collect();
+        Err(Error::scene(
+            loc,
+            format!(
+                "file '{name}' not found (searched: {})",
+                searched.join(", ")
+            ),
+        ))
+    }
+}
+
+/// Loads a scene file.
+pub fn load_file(path: &Path, opts: &LoadOptions) -> Result<Document> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    load_str(&text, path, opts)
+}
+
+/// Loads a scene from a string as if it were the file `virtual_path`; includes and `<path>`
+/// entries resolve relative to `virtual_path`'s folder.
+pub fn load_str(text: &str, virtual_path: &Path, opts: &LoadOptions) -> Result<Document> {
+    let raw = parse_tree(text, virtual_path)?;
+    if raw.tag != "scene" {
+        return Err(Error::scene(
+            &raw.loc,
+            format!("root element must be <scene>, found <{}>", raw.tag),
+        ));
+    }
+    let version = match raw.attr("version") {
+        Some(v) => parse_version(v, raw.attr_loc("version"))?,
+        None => return Err(Error::scene(
+            &raw.loc,
+            "missing version attribute in root element <scene> (e.g. <scene version=\"3.0.0\">)",
+        )),
+    };
+    let mut warnings = Vec::new();
+    let mut raw = raw;
+    let old = version < (2, 0, 0);
+    if old {
+        upgrade::upgrade_tree(&mut raw, &mut warnings);
+    }
+    validate(&raw, None)?;
+
+    let dir = parent_dir(virtual_path);
+    let mut ctx = Ctx {
+        params: Vec::new(),
+        include_stack: vec![canonical(virtual_path)],
+        search_paths: vec![dir],
+        warnings,
+    };
+    // A repeated -D key: the last one wins.
+    for (k, v) in &opts.defines {
+        if let Some(p) = ctx.params.iter_mut().find(|p| &p.name == k) {
+            p.value = v.clone();
+        } else {
+            ctx.params.push(Param {
+                name: k.clone(),
+                value: v.clone(),
+                used: false,
+            });
+        }
+    }
+    // Mitsuba substitutes longest names first so that `$spp_max` is not read as `$spp` + "_max".
+    ctx.sort_params();
+    substitute_attrs(&mut raw, &mut ctx.params)?;
+    let children = std::mem::take(&mut raw.children);
+    raw.children = process_children(children, &mut ctx)?;
+
+    let mut ids: HashMap<String, SourceLoc> = HashMap::new();
+    check_ids(&raw, &mut ids)?;
+
+    if let Some(p) = ctx.params.iter().find(|p| !p.used) {
+        return Err(Error::scene(
+            &raw.loc,
+            format!("unused -D value '{}' (no <default> or $ use of it)", p.name),
+        ));
+    }
+
+    Ok(Document {
+        root: raw,
+        version,
+        search_paths: ctx.search_paths,
+        warnings: ctx.warnings,
+        upgraded_from_v0: old,
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Raw parsing
+
+/// Byte offset → 1-based line and column (columns count characters).
+struct LineIndex<'t> {
+    text: &'t str,
+    starts: Vec<usize>,
+}
+
+impl<'t> LineIndex<'t> {
+    fn new(text: &'t str) -> Self {
+        let mut starts = vec![0];
+        starts.extend(
+            text.bytes()
+                .enumerate()
+                .filter(|&(_, b)| b == b'\n')
+                .map(|(i, _)| i + 1),
+        );
+        LineIndex { text, starts }
+    }
+
+    fn loc(&self, file: &Path, off: usize) -> SourceLoc {
+        let off = off.min(self.text.len());
+        let line = self.starts.partition_point(|&s| s <= off).max(1) - 1;
+        let start = self.starts[line];
+        let col = self
+            .text
+            .get(start..off)
+            .map(|s| s.chars().count())
+            .unwrap_or(off - start);
+        SourceLoc::new(file, (line + 1) as u32, (col + 1) as u32)
+    }
+}
+
+/// Parses one file's text into a raw element tree (no substitution, no upgrade).
+pub(crate) fn parse_tree(text: &str, file: &Path) -> Result<Node> {
+    let idx = LineIndex::new(text);
+    let mut reader = Reader::from_str(text);
+    reader.config_mut().trim_text(false);
+    let mut stack: Vec<Node> = Vec::new();
+    let mut root: Option<Node> = None;
+    loop {
+        let pos = reader.buffer_position() as usize;
+        let ev = reader.read_event().map_err(|e| {
+            Error::scene(
+                &idx.loc(file, reader.error_position() as usize),
+                format!("malformed XML: {e}"),
+            )
+        })?;
+        match ev {
+            Event::Start(ref e) | Event::Empty(ref e) => {
+                let empty = matches!(ev, Event::Empty(_));
+                let loc = idx.loc(file, pos);
+                let tag = std::str::from_utf8(e.name().as_ref())
+                    .map_err(|_| Error::scene(&loc, "element name is not valid UTF-8"))?
+                    .to_string();
+                let content_start = pos + 1;
+                let content_end = content_start + e.len();
+                let attrs = scan_attrs(
+                    text,
+                    content_start + tag.len(),
+                    content_end.min(text.len()),
+                    &idx,
+                    file,
+                    &tag,
+                )?;
+                let node = Node {
+                    tag,
+                    attrs,
+                    children: Vec::new(),
+                    loc,
+                };
+                if empty {
+                    attach(node, &mut stack, &mut root)?;
+                } else {
+                    stack.push(node);
+                }
+            }
+            Event::End(_) => {
+                // quick-xml checks that the end name matches.
+                if let Some(node) = stack.pop() {
+                    attach(node, &mut stack, &mut root)?;
+                }
+            }
+            Event::Text(t) => {
+                if !t.iter().all(|b| b.is_ascii_whitespace()) {
+                    let lead = t.iter().take_while(|b| b.is_ascii_whitespace()).count();
+                    return Err(Error::scene(
+                        &idx.loc(file, pos + lead),
+                        "unexpected text content (values go into attributes)",
+                    ));
+                }
+            }
+            Event::CData(_) => {
+                return Err(Error::scene(
+                    &idx.loc(file, pos),
+                    "unexpected CDATA content",
+                ));
+            }
+            Event::Comment(_) | Event::Decl(_) | Event::PI(_) | Event::DocType(_) => {}
+            Event::Eof => break,
+        }
+    }
+    if let Some(open) = stack.last() {
+        return Err(Error::scene(
+            &open.loc,
+            format!("malformed XML: element <{}> is never closed", open.tag),
+        ));
+    }
+    root.ok_or_else(|| Error::scene(&SourceLoc::new(file, 1, 1), "no root element"))
+}
+
+fn attach(node: Node, stack: &mut [Node], root: &mut Option<Node>) -> Result<()> {
+    if let Some(parent) = stack.last_mut() {
+        parent.children.push(node);
+        Ok(())
+    } else if root.is_some() {
+        Err(Error::scene(
+            &node.loc,
+            format!("malformed XML: second root element <{}>", node.tag),
+        ))
+    } else {
+        *root = Some(node);
+        Ok(())
+    }
+}
+
+/// Scans `name="value"` pairs in `text[start..end]`, recording each name's position.
+fn scan_attrs(
+    text: &str,
+    mut i: usize,
+    end: usize,
+    idx: &LineIndex,
+    file: &Path,
+    tag: &str,
+) -> Result<Vec<Attr>> {
+    let b = text.as_bytes();
+    let mut out: Vec<Attr> = Vec::new();
+    let skip_ws = |i: &mut usize| {
+        while *i < end && b[*i].is_ascii_whitespace() {
+            *i += 1;
+        }
+    };
+    loop {
+        skip_ws(&mut i);
+        if i >= end {
+            break;
+        }
+        let ns = i;
+        while i < end && !b[i].is_ascii_whitespace() && b[i] != b'=' {
+            i += 1;
+        }
+        let name = &text[ns..i];
+        let loc = idx.loc(file, ns);
+        skip_ws(&mut i);
+        if i >= end || b[i] != b'=' {
+            return Err(Error::scene(
+                &loc,
+                format!("malformed XML: attribute '{name}' on <{tag}> has no value"),
+            ));
+        }
+        i += 1;
+        skip_ws(&mut i);
+        if i >= end || (b[i] != b'"' && b[i] != b'\'') {
+            return Err(Error::scene(
+                &idx.loc(file, i),
+                format!("malformed XML: value of attribute '{name}' must be quoted"),
+            ));
+        }
+        let q = b[i];
+        i += 1;
+        let vs = i;
+        while i < end && b[i] != q {
+            i += 1;
+        }
+        if i >= end {
+            return Err(Error::scene(
+                &loc,
+                format!("malformed XML: unterminated value of attribute '{name}'"),
+            ));
+        }
+        let raw = &text[vs..i];
+        i += 1;
+        let value = quick_xml::escape::unescape(raw)
+            .map_err(|e| Error::scene(&loc, format!("malformed XML in attribute '{name}': {e}")))?
+            .into_owned();
+        if let Some(prev) = out.iter().find(|a| a.name == name) {
+            return Err(Error::scene(
+                &loc,
+                format!(
+                    "malformed XML: duplicate attribute '{name}' on <{tag}> (first at {})",
+                    prev.loc
+                ),
+            ));
+        }
+        out.push(Attr {
+            name: name.to_string(),
+            value,
+            loc,
+        });
+    }
+    Ok(out)
+}
+
+fn parse_version(v: &str, loc: &SourceLoc) -> Result<(u32, u32, u32)> {
+    let parts: Vec<&str> = v.trim().split('.').collect();
+    let bad = || Error::scene(loc, format!("could not parse version number '{v}'"));
+    if parts.is_empty() || parts.len() > 3 {
+        return Err(bad());
+    }
+    let mut n = [0u32; 3];
+    for (k, p) in parts.iter().enumerate() {
+        n[k] = p.trim().parse().map_err(|_| bad())?;
+    }
+    Ok((n[0], n[1], n[2]))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation
+
+/// Plugin (object) element names.
+pub const PLUGIN_TAGS: &[&str] = &[
+    "bsdf",
+    "shape",
+    "emitter",
+    "texture",
+    "sensor",
+    "film",
+    "sampler",
+    "rfilter",
+    "integrator",
+    "medium",
+    "phase",
+    "volume",
+];
+
+/// Property element names (values of a plugin).
+pub const PROPERTY_TAGS: &[&str] = &[
+    "float",
+    "integer",
+    "boolean",
+    "string",
+    "rgb",
+    "spectrum",
+    "point",
+    "vector",
+    "transform",
+];
+
+const TRANSFORM_OPS: &[&str] = &["translate", "rotate", "scale", "matrix", "lookat"];
+
+fn allowed_attrs(tag: &str) -> Option<&'static [&'static str]> {
+    Some(match tag {
+        "scene" => &["version"],
+        "float" | "integer" | "boolean" | "string" | "rgb" | "spectrum" => &["name", "value"],
+        "point" | "vector" => &["name", "value", "x", "y", "z"],
+        "translate" | "scale" => &["x", "y", "z", "value"],
+        "rotate" => &["x", "y", "z", "angle", "value"],
+        "matrix" => &["value"],
+        "lookat" => &["origin", "target", "up"],
+        "transform" => &["name"],
+        "ref" => &["id", "name"],
+        "include" => &["filename"],
+        "default" => &["name", "value"],
+        "path" => &["value"],
+        t if PLUGIN_TAGS.contains(&t) => &["type", "id", "name"],
+        _ => return None,
+    })
+}
+
+fn required_attrs(tag: &str) -> &'static [&'static str] {
+    match tag {
+        "float" | "integer" | "boolean" | "string" | "rgb" | "spectrum" => &["name", "value"],
+        "point" | "vector" | "transform" => &["name"],
+        "matrix" | "path" => &["value"],
+        "lookat" => &["origin", "target"],
+        "ref" => &["id"],
+        "include" => &["filename"],
+        "default" => &["name", "value"],
+        t if PLUGIN_TAGS.contains(&t) => &["type"],
+        _ => &[],
+    }
+}
+
+/// Checks tags, attributes and nesting of one file's (upgraded) raw tree.
+fn validate(node: &Node, parent: Option<&str>) -> Result<()> {
+    let tag = node.tag.as_str();
+    let Some(allowed) = allowed_attrs(tag) else {
+        let hint = if tag == "lookAt" {
+            " (Mitsuba 3 spells it <lookat>; <lookAt> is only accepted in files with version < 2.0)"
+        } else {
+            ""
+        };
+        return Err(Error::scene(
+            &node.loc,
+            format!("unknown tag <{tag}>{hint}"),
+        ));
+    };
+    for a in &node.attrs {
+        if !allowed.contains(&a.name.as_str()) {
+            return Err(Error::scene(
+                &a.loc,
+                format!("unknown attribute '{}' on <{tag}>", a.name),
+            ));
+        }
+    }
+    for r in required_attrs(tag) {
+        if node.attr(r).is_none() {
+            return Err(Error::scene(
+                &node.loc,
+                format!("<{tag}> needs a '{r}' attribute"),
+            ));
+        }
+    }
+    let is_op = TRANSFORM_OPS.contains(&tag);
+    match parent {
+        None if tag != "scene" => {
+            return Err(Error::scene(&node.loc, "root element must be <scene>"))
+        }
+        Some(_) if tag == "scene" => {
+            return Err(Error::scene(
+                &node.loc,
+                "<scene> can only be the root element",
+            ))
+        }
+        Some("transform") if !is_op => {
+            return Err(Error::scene(
+                &node.loc,
+                format!("<transform> can only contain transform operations, not <{tag}>"),
+            ))
+        }
+        Some(p) if is_op && p != "transform" => {
+            return Err(Error::scene(
+                &node.loc,
+                format!("<{tag}> can only occur inside a <transform>"),
+            ))
+        }
+        Some(p) if p != "transform" && !PLUGIN_TAGS.contains(&p) && p != "scene" => {
+            return Err(Error::scene(
+                &node.loc,
+                format!("<{tag}> cannot occur inside <{p}>"),
+            ))
+        }
+        _ => {}
+    }
+    if matches!(tag, "path") && parent != Some("scene") {
+        return Err(Error::scene(
+            &node.loc,
+            "<path> can only be a child of the root <scene>",
+        ));
+    }
+    for c in &node.children {
+        validate(c, Some(tag))?;
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+// Parameters, includes, paths
+
+struct Param {
+    name: String,
+    value: String,
+    used: bool,
+}
+
+struct Ctx {
+    params: Vec<Param>,
+    include_stack: Vec<PathBuf>,
+    search_paths: Vec<PathBuf>,
+    warnings: Vec<String>,
+}
+
+impl Ctx {
+    fn sort_params(&mut self) {
+        self.params
+            .sort_by(|a, b| b.name.len().cmp(&a.name.len()).then(a.name.cmp(&b.name)));
+    }
+}
+
+/// Replaces `$name` in every attribute value of `node` (not its children), marking the
+/// parameters used. `params` is sorted longest name first. Any `$` left over is an undefined
+/// parameter (Mitsuba 3: "undefined parameter(s) in string").
+fn substitute_attrs(node: &mut Node, params: &mut [Param]) -> Result<()> {
+    for a in &mut node.attrs {
+        if !a.value.contains('$') {
+            continue;
+        }
+        let mut v = a.value.clone();
+        for p in params.iter_mut() {
+            let pat = format!("${}", p.name);
+            if v.contains(&pat) {
+                v = v.replace(&pat, &p.value);
+                p.used = true;
+            }
+        }
+        if let Some(pos) = v.find('$') {
+            let ident: String = v[pos + 1..]
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            return Err(Error::scene(
+                &a.loc,
+                format!(
+                    "undefined parameter '${ident}' in attribute '{}' (define it with <default name=\"{ident}\" value=\"...\"/> or -D {ident}=...)",
+                    a.name
+                ),
+            ));
+        }
+        a.value = v;
+    }
+    Ok(())
+}
+
+fn process_children(children: Vec<Node>, ctx: &mut Ctx) -> Result<Vec<Node>> {
+    let mut out = Vec::with_capacity(children.len());
+    for mut child in children {
+        substitute_attrs(&mut child, &mut ctx.params)?;
+        match child.tag.as_str() {
+            "default" => {
+                let name = child.attr("name").unwrap_or_default().to_string();
+                let value = child.attr("value").unwrap_or_default().to_string();
+                if name.is_empty() || name.contains(',') || name.contains('$') {
+                    return Err(Error::scene(
+                        child.attr_loc("name"),
+                        format!("invalid parameter name '{name}' in <default>"),
+                    ));
+                }
+                if let Some(p) = ctx.params.iter_mut().find(|p| p.name == name) {
+                    // A -D value overrides the default; it counts as used.
+                    p.used = true;
+                } else {
+                    ctx.params.push(Param {
+                        name,
+                        value,
+                        used: true,
+                    });
+                    ctx.sort_params();
+                }
+            }
+            "path" => {
+                let value = child.attr("value").unwrap_or_default();
+                let base = parent_dir(&child.loc.file);
+                let p = Path::new(value);
+                let dir = if p.is_absolute() {
+                    p.to_path_buf()
+                } else {
+                    base.join(p)
+                };
+                if !dir.is_dir() {
+                    return Err(Error::scene(
+                        child.attr_loc("value"),
+                        format!("<path>: folder '{}' not found", dir.display()),
+                    ));
+                }
+                ctx.search_paths.push(dir);
+            }
+            "include" => {
+                let spliced = include(&child, ctx)?;
+                out.extend(spliced);
+            }
+            _ => {
+                let grand = std::mem::take(&mut child.children);
+                child.children = process_children(grand, ctx)?;
+                out.push(child);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Loads an `<include filename>` and returns the nodes to splice in its place.
+fn include(node: &Node, ctx: &mut Ctx) -> Result<Vec<Node>> {
+    let name = node.attr("filename").unwrap_or_default();
+    let loc = node.attr_loc("filename");
+    let base = parent_dir(&node.loc.file);
+    let p = Path::new(name);
+    let mut candidates = vec![if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        base.join(p)
+    }];
+    if !p.is_absolute() {
+        candidates.extend(ctx.search_paths.iter().map(|d| d.join(p)));
+    }
+    let Some(path) = candidates.into_iter().find(|c| c.is_file()) else {
+        return Err(Error::scene(
+            loc,
+            format!("included file '{name}' not found"),
+        ));
+    };
+    let canon = canonical(&path);
+    if ctx.include_stack.contains(&canon) {
+        return Err(Error::scene(
+            loc,
+            format!(
+                "include cycle: '{}' is already being included",
+                path.display()
+            ),
+        ));
+    }
+    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    let mut raw = parse_tree(&text, &path)?;
+    let nodes = if raw.tag == "scene" {
+        if let Some(v) = raw.attr("version") {
+            // Each file is upgraded according to its own version.
+            let version = parse_version(v, raw.attr_loc("version"))?;
+            if version < (2, 0, 0) {
+                upgrade::upgrade_tree(&mut raw, &mut ctx.warnings);
+            }
+        }
+        validate(&raw, None)?;
+        raw.children
+    } else {
+        // A file holding a single object: validate it as a child of the scene.
+        validate(&raw, Some("scene"))?;
+        vec![raw]
+    };
+    ctx.include_stack.push(canon);
+    let res = process_children(nodes, ctx);
+    ctx.include_stack.pop();
+    res
+}
+
+/// Every plugin `id` must be unique across the scene (including included files).
+fn check_ids(node: &Node, ids: &mut HashMap<String, SourceLoc>) -> Result<()> {
+    if PLUGIN_TAGS.contains(&node.tag.as_str()) {
+        if let Some(id) = node.attr("id") {
+            let loc = node.attr_loc("id");
+            if let Some(first) = ids.get(id) {
+                return Err(Error::scene(
+                    loc,
+                    format!("duplicate id '{id}' (first defined at {first})"),
+                ));
+            }
+            ids.insert(id.to_string(), loc.clone());
+        }
+    }
+    for c in &node.children {
+        check_ids(c, ids)?;
+    }
+    Ok(())
+}
+
+fn parent_dir(p: &Path) -> PathBuf {
+    match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+fn canonical(p: &Path) -> PathBuf {
+    std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn load(text: &str) -> Result<Document> {
+        load_str(text, Path::new("/virtual/t.xml"), &LoadOptions::default())
+    }
+
+    #[test]
+    fn line_and_column_of_elements_and_attributes() {
+        let doc = load("<?xml version=\"1.0\"?>\n<scene version='3.0.0'>\n  <bsdf  type=\"diffuse\" id='a'/>\n</scene>\n").unwrap();
+        let b = &doc.root.children[0];
+        assert_eq!((b.loc.line, b.loc.col), (3, 3));
+        assert_eq!((b.attr_loc("id").line, b.attr_loc("id").col), (3, 25));
+        assert_eq!(b.attr("id"), Some("a"));
+        assert_eq!(doc.version, (3, 0, 0));
+    }
+
+    #[test]
+    fn entities_are_unescaped() {
+        let doc = load("<scene version=\"3.0.0\"><bsdf type=\"a&amp;b\"/></scene>").unwrap();
+        assert_eq!(doc.root.children[0].attr("type"), Some("a&b"));
+    }
+
+    #[test]
+    fn text_content_is_an_error() {
+        let e = load("<scene version=\"3.0.0\">\n hello</scene>").unwrap_err();
+        assert!(e.to_string().contains("t.xml:2:2:"), "{e}");
+    }
+}
