@@ -1,3 +1,70 @@
-//! Scene loading: the XML front end ([`xml`]); instantiation into a renderable scene follows.
+//! The renderable scene: geometry with its acceleration structure, materials, emitters, camera,
+//! film, sampler and integrator settings. Built from XML by `scene::xml` (parse, upgrade) and
+//! `scene::instantiate`; later stages never look back at the XML.
 
+pub mod instantiate;
 pub mod xml;
+
+use crate::accel::Accel;
+use crate::camera::Camera;
+use crate::emitter::{Emitter, LightSampler};
+use crate::film::FilmDesc;
+use crate::geometry::{Ray, Shape, SurfaceInteraction};
+use crate::integrator::IntegratorDesc;
+use crate::material::{MatId, Materials};
+use crate::sampler::SamplerDesc;
+use glam::Vec3;
+use std::path::PathBuf;
+
+pub struct Scene {
+    pub shapes: Vec<Shape>,
+    /// Material of each shape (every shape has one: Mitsuba's default is a 0.5 grey `diffuse`).
+    pub shape_material: Vec<MatId>,
+    /// Area emitter of each shape, as an index into `emitters`.
+    pub shape_emitter: Vec<Option<u32>>,
+    pub accel: Accel,
+    pub materials: Materials,
+    pub emitters: Vec<Emitter>,
+    /// Indices of the environment emitters (seen by escaping rays).
+    pub env_emitters: Vec<u32>,
+    pub light_sampler: LightSampler,
+    pub camera: Camera,
+    pub film: FilmDesc,
+    pub sampler: SamplerDesc,
+    pub integrator: IntegratorDesc,
+    /// Bounding sphere of the geometry (centre, radius).
+    pub bsphere: (Vec3, f32),
+    /// The scene file this came from.
+    pub source: PathBuf,
+}
+
+impl Scene {
+    /// Nearest surface hit along `ray`.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<SurfaceInteraction> {
+        let hit = self.accel.intersect(ray)?;
+        Some(self.shapes[hit.geom as usize].interaction(hit.geom, ray, &hit))
+    }
+
+    /// True when something blocks `ray` within (tmin, tmax).
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.accel.occluded(ray)
+    }
+
+    /// Bounding sphere of a set of shapes.
+    pub fn bounding_sphere(shapes: &[Shape]) -> (Vec3, f32) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for s in shapes {
+            let (a, b) = s.bounds();
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+        if !lo.is_finite() || !hi.is_finite() {
+            return (Vec3::ZERO, 1.0);
+        }
+        let c = 0.5 * (lo + hi);
+        (c, (0.5 * (hi - lo).length()).max(1e-3))
+    }
+}
