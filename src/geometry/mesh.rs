@@ -82,7 +82,7 @@ impl TriMesh {
             let v = tri.map(|i| self.positions[i as usize]);
             let n = (v[1] - v[0]).cross(v[2] - v[0]);
             let len2 = n.length_squared();
-            if !(len2 > 0.0) || !len2.is_finite() {
+            if !(len2.is_finite() && len2 > 0.0) {
                 continue;
             }
             let n = n / len2.sqrt();

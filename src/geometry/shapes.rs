@@ -84,7 +84,7 @@ impl Shape {
             })
             .collect();
         let area = acc as f32;
-        if !(area > 0.0) || !area.is_finite() {
+        if !(area.is_finite() && area > 0.0) {
             return Err(Error::file(
                 "mesh",
                 format!("mesh has zero or invalid surface area ({area})"),
@@ -208,7 +208,7 @@ impl Shape {
             && axes[0].dot(axes[1]).abs() <= tol * r
             && axes[0].dot(axes[2]).abs() <= tol * r
             && axes[1].dot(axes[2]).abs() <= tol * r;
-        if !(r > 0.0) || !r.is_finite() || !c.is_finite() {
+        if !(r.is_finite() && r > 0.0 && c.is_finite()) {
             return Err(Error::file(
                 "sphere",
                 format!("invalid radius {r} or center {c}"),
@@ -418,7 +418,7 @@ impl Shape {
                 let v = p - ref_p;
                 let dist = v.length();
                 let pdf = warp::uniform_cone_pdf(cos_a);
-                if !(dist > 0.0) || !pdf.is_finite() {
+                if !(dist > 0.0 && pdf.is_finite()) {
                     return None;
                 }
                 let sign = if self.flip_normals { -1.0 } else { 1.0 };
@@ -436,13 +436,13 @@ impl Shape {
         let v = ps.p - ref_p;
         let dist2 = v.length_squared();
         let dist = dist2.sqrt();
-        if !(dist > 0.0) {
+        if dist.is_nan() || dist <= 0.0 {
             return None;
         }
         let d = v / dist;
         let cos = d.dot(ps.n).abs();
         let pdf = ps.pdf * dist2 / cos;
-        if !(cos > 0.0) || !pdf.is_finite() {
+        if !(cos > 0.0 && pdf.is_finite()) {
             return None;
         }
         Some(DirectionSample {
