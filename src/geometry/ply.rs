@@ -1,1 +1,353 @@
-//! (work in progress)
+//! Stanford PLY loader: `ascii`, `binary_little_endian` and `binary_big_endian`.
+//!
+//! Reads the `vertex` element (`x y z`, optional `nx ny nz`, uv from `u v`, `texture_u texture_v`
+//! or `s t`, stored unflipped as Mitsuba does) and the `face` element (`vertex_indices` or
+//! `vertex_index`, any count and index types; polygons are fan-triangulated). Every other element
+//! and property is read and discarded, so files with colours, materials or edges load too.
+
+use super::mesh::TriMesh;
+use crate::error::{Error, Result};
+use glam::{Vec2, Vec3};
+use std::path::Path;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Ty {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Ty {
+    fn parse(s: &str) -> Option<Ty> {
+        Some(match s {
+            "char" | "int8" => Ty::I8,
+            "uchar" | "uint8" => Ty::U8,
+            "short" | "int16" => Ty::I16,
+            "ushort" | "uint16" => Ty::U16,
+            "int" | "int32" => Ty::I32,
+            "uint" | "uint32" => Ty::U32,
+            "float" | "float32" => Ty::F32,
+            "double" | "float64" => Ty::F64,
+            _ => return None,
+        })
+    }
+    fn size(self) -> usize {
+        match self {
+            Ty::I8 | Ty::U8 => 1,
+            Ty::I16 | Ty::U16 => 2,
+            Ty::I32 | Ty::U32 | Ty::F32 => 4,
+            Ty::F64 => 8,
+        }
+    }
+}
+
+#[derive(Debug)]
+struct Property {
+    name: String,
+    /// `Some(count type)` for a list property.
+    list: Option<Ty>,
+    ty: Ty,
+}
+
+#[derive(Debug)]
+struct Element {
+    name: String,
+    count: usize,
+    props: Vec<Property>,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Format {
+    Ascii,
+    Le,
+    Be,
+}
+
+/// A cursor over the body that yields numbers as f64 (exact for every PLY integer type).
+struct Body<'a> {
+    data: &'a [u8],
+    pos: usize,
+    format: Format,
+}
+
+impl Body<'_> {
+    fn read(&mut self, ty: Ty) -> std::result::Result<f64, String> {
+        if self.format == Format::Ascii {
+            while self.pos < self.data.len() && self.data[self.pos].is_ascii_whitespace() {
+                self.pos += 1;
+            }
+            let start = self.pos;
+            while self.pos < self.data.len() && !self.data[self.pos].is_ascii_whitespace() {
+                self.pos += 1;
+            }
+            if start == self.pos {
+                return Err("unexpected end of file".into());
+            }
+            let tok = std::str::from_utf8(&self.data[start..self.pos]).unwrap_or("?");
+            return tok
+                .parse::<f64>()
+                .map_err(|_| format!("`{tok}` is not a number"));
+        }
+        let n = ty.size();
+        let Some(bytes) = self.data.get(self.pos..self.pos + n) else {
+            return Err("unexpected end of file (truncated binary data)".into());
+        };
+        self.pos += n;
+        let mut b = [0u8; 8];
+        b[..n].copy_from_slice(bytes);
+        if self.format == Format::Be {
+            b[..n].reverse();
+        }
+        Ok(match ty {
+            Ty::I8 => b[0] as i8 as f64,
+            Ty::U8 => b[0] as f64,
+            Ty::I16 => i16::from_le_bytes([b[0], b[1]]) as f64,
+            Ty::U16 => u16::from_le_bytes([b[0], b[1]]) as f64,
+            Ty::I32 => i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+            Ty::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+            Ty::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+            Ty::F64 => f64::from_le_bytes(b),
+        })
+    }
+}
+
+/// Loads a PLY file into an untransformed [`TriMesh`].
+pub fn load_ply(path: &Path) -> Result<TriMesh> {
+    let data = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    parse_ply(&data).map_err(|m| Error::file(path, m))
+}
+
+/// Parses PLY bytes; errors are plain messages (the caller adds the file name).
+pub fn parse_ply(data: &[u8]) -> std::result::Result<TriMesh, String> {
+    // Header: ASCII lines up to and including `end_header`.
+    let mut pos = 0usize;
+    let mut next_line = || -> Option<String> {
+        if pos >= data.len() {
+            return None;
+        }
+        let end = data[pos..]
+            .iter()
+            .position(|&c| c == b'\n')
+            .map_or(data.len(), |e| pos + e);
+        let l = String::from_utf8_lossy(&data[pos..end]).trim().to_string();
+        pos = (end + 1).min(data.len());
+        Some(l)
+    };
+    if next_line().as_deref() != Some("ply") {
+        return Err("not a PLY file (missing `ply` magic)".into());
+    }
+    let mut format = None;
+    let mut elements: Vec<Element> = Vec::new();
+    let mut line_no = 1;
+    loop {
+        line_no += 1;
+        let line = next_line().ok_or("unexpected end of file in the header")?;
+        let herr = |m: &str| format!("header line {line_no}: {m}: `{line}`");
+        let t: Vec<&str> = line.split_ascii_whitespace().collect();
+        match t.first().copied() {
+            Some("end_header") => break,
+            Some("format") => {
+                format = Some(match t.get(1).copied() {
+                    Some("ascii") => Format::Ascii,
+                    Some("binary_little_endian") => Format::Le,
+                    Some("binary_big_endian") => Format::Be,
+                    _ => return Err(herr("unknown format")),
+                })
+            }
+            Some("element") => {
+                let (Some(name), Some(count)) = (t.get(1), t.get(2).and_then(|c| c.parse().ok()))
+                else {
+                    return Err(herr("bad element"));
+                };
+                elements.push(Element {
+                    name: name.to_string(),
+                    count,
+                    props: vec![],
+                });
+            }
+            Some("property") => {
+                let el = elements
+                    .last_mut()
+                    .ok_or_else(|| herr("property before element"))?;
+                let prop = if t.get(1) == Some(&"list") {
+                    match (
+                        t.get(2).and_then(|s| Ty::parse(s)),
+                        t.get(3).and_then(|s| Ty::parse(s)),
+                        t.get(4),
+                    ) {
+                        (Some(c), Some(ty), Some(n)) => Property {
+                            name: n.to_string(),
+                            list: Some(c),
+                            ty,
+                        },
+                        _ => return Err(herr("bad list property")),
+                    }
+                } else {
+                    match (t.get(1).and_then(|s| Ty::parse(s)), t.get(2)) {
+                        (Some(ty), Some(n)) => Property {
+                            name: n.to_string(),
+                            list: None,
+                            ty,
+                        },
+                        _ => return Err(herr("bad property")),
+                    }
+                };
+                el.props.push(prop);
+            }
+            Some("comment") | Some("obj_info") | None => {}
+            Some(_) => return Err(herr("unknown header keyword")),
+        }
+    }
+    let format = format.ok_or("header has no `format` line")?;
+    let mut body = Body { data, pos, format };
+
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut uvs = Vec::new();
+    let mut indices: Vec<[u32; 3]> = Vec::new();
+    let mut have_n = false;
+    let mut have_uv = false;
+    let mut have_faces = false;
+    let mut poly: Vec<u32> = Vec::new();
+    for el in &elements {
+        let find = |names: &[&str]| {
+            el.props
+                .iter()
+                .position(|p| p.list.is_none() && names.contains(&p.name.as_str()))
+        };
+        let ctx = |m: String, i: usize| format!("element `{}` {i}: {m}", el.name);
+        if el.name == "vertex" {
+            let (Some(ix), Some(iy), Some(iz)) = (find(&["x"]), find(&["y"]), find(&["z"])) else {
+                return Err("vertex element lacks x, y or z".into());
+            };
+            let nrm = (find(&["nx"]), find(&["ny"]), find(&["nz"]));
+            let uvp = [("u", "v"), ("texture_u", "texture_v"), ("s", "t")]
+                .iter()
+                .find_map(|(a, b)| Some((find(&[a])?, find(&[b])?)));
+            have_n = nrm.0.is_some() && nrm.1.is_some() && nrm.2.is_some();
+            have_uv = uvp.is_some();
+            let mut vals = vec![0.0f64; el.props.len()];
+            for i in 0..el.count {
+                for (k, p) in el.props.iter().enumerate() {
+                    if let Some(ct) = p.list {
+                        let n = body.read(ct).map_err(|m| ctx(m, i))?;
+                        for _ in 0..n as usize {
+                            body.read(p.ty).map_err(|m| ctx(m, i))?;
+                        }
+                    } else {
+                        vals[k] = body.read(p.ty).map_err(|m| ctx(m, i))?;
+                    }
+                }
+                positions.push(Vec3::new(vals[ix] as f32, vals[iy] as f32, vals[iz] as f32));
+                if let (true, (Some(a), Some(b), Some(c))) = (have_n, nrm) {
+                    normals.push(
+                        Vec3::new(vals[a] as f32, vals[b] as f32, vals[c] as f32)
+                            .normalize_or_zero(),
+                    );
+                }
+                if let Some((a, b)) = uvp {
+                    uvs.push(Vec2::new(vals[a] as f32, vals[b] as f32));
+                }
+            }
+        } else if el.name == "face" {
+            let li = el
+                .props
+                .iter()
+                .position(|p| {
+                    p.list.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index")
+                })
+                .ok_or("face element lacks a vertex_indices list")?;
+            have_faces = true;
+            for i in 0..el.count {
+                for (k, p) in el.props.iter().enumerate() {
+                    match p.list {
+                        Some(ct) => {
+                            let n = body.read(ct).map_err(|m| ctx(m, i))?;
+                            if k == li {
+                                poly.clear();
+                                for _ in 0..n as usize {
+                                    let v = body.read(p.ty).map_err(|m| ctx(m, i))?;
+                                    if !(v >= 0.0 && v < u32::MAX as f64) || v.fract() != 0.0 {
+                                        return Err(ctx(format!("bad vertex index {v}"), i));
+                                    }
+                                    poly.push(v as u32);
+                                }
+                                if poly.len() < 3 {
+                                    return Err(ctx(
+                                        format!("face with {} vertices", poly.len()),
+                                        i,
+                                    ));
+                                }
+                                for j in 1..poly.len() - 1 {
+                                    indices.push([poly[0], poly[j], poly[j + 1]]);
+                                }
+                            } else {
+                                for _ in 0..n as usize {
+                                    body.read(p.ty).map_err(|m| ctx(m, i))?;
+                                }
+                            }
+                        }
+                        None => {
+                            body.read(p.ty).map_err(|m| ctx(m, i))?;
+                        }
+                    }
+                }
+            }
+        } else {
+            for i in 0..el.count {
+                for p in &el.props {
+                    let n = match p.list {
+                        Some(ct) => body.read(ct).map_err(|m| ctx(m, i))? as usize,
+                        None => 1,
+                    };
+                    for _ in 0..n {
+                        body.read(p.ty).map_err(|m| ctx(m, i))?;
+                    }
+                }
+            }
+        }
+    }
+    if !have_faces {
+        return Err("no face element".into());
+    }
+    let mesh = TriMesh {
+        positions,
+        normals: have_n.then_some(normals),
+        uvs: have_uv.then_some(uvs),
+        indices,
+    };
+    mesh.validate()?;
+    Ok(mesh)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ascii_quad_with_extra_element_and_properties() {
+        let s = "ply\nformat ascii 1.0\ncomment hi\nelement vertex 4\nproperty float x\n\
+                 property float y\nproperty float z\nproperty uchar red\nproperty float s\nproperty float t\n\
+                 element face 1\nproperty list uchar int vertex_index\nproperty int flags\n\
+                 element edge 1\nproperty int a\nproperty int b\nend_header\n\
+                 0 0 0 255 0 0\n1 0 0 0 1 0\n1 1 0 0 1 1\n0 1 0 0 0 1\n4 0 1 2 3 7\n0 1\n";
+        let m = parse_ply(s.as_bytes()).unwrap();
+        assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(m.uvs.unwrap()[2], Vec2::new(1.0, 1.0));
+        assert!(m.normals.is_none());
+    }
+
+    #[test]
+    fn index_out_of_range_and_garbage() {
+        let s = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+                 property float z\nelement face 1\nproperty list uchar uint vertex_indices\nend_header\n\
+                 0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n";
+        assert!(parse_ply(s.as_bytes()).unwrap_err().contains("index 3"));
+        assert!(parse_ply(b"plx\n").is_err());
+    }
+}

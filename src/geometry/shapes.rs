@@ -1,1 +1,544 @@
-//! (work in progress)
+//! The scene's shapes: triangle meshes (OBJ, PLY and the tessellated `rectangle`, `cube`, `disk`)
+//! and exact spheres; their surface interactions and the area / solid-angle sampling used by
+//! area emitters. Conventions follow Mitsuba 3's shape plugins (`src/shapes/*.cpp`,
+//! `src/render/mesh.cpp` in mitsuba-renderer/mitsuba3).
+
+use super::interaction::SurfaceInteraction;
+use super::mesh::TriMesh;
+use super::Ray;
+use crate::accel::Hit;
+use crate::error::{Error, Result};
+use crate::math::{warp, Frame, INV_2PI, PI};
+use glam::{Mat3, Mat4, Vec2, Vec3};
+
+/// Segments of the tessellated disk (area error ≈ (2π/N)²/6 ≈ 6·10⁻⁶ relative).
+const DISK_SEGMENTS: u32 = 1024;
+
+/// What a shape is made of.
+#[derive(Clone, Debug)]
+pub enum ShapeKind {
+    /// A triangle mesh in world space.
+    Mesh(TriMesh),
+    /// An exact sphere; `frame` is the rotation part of `to_world`, which orients the uv map.
+    Sphere {
+        center: Vec3,
+        radius: f32,
+        frame: Mat4,
+    },
+}
+
+/// A shape ready for rendering: geometry plus the tables its sampling needs.
+#[derive(Clone, Debug)]
+pub struct Shape {
+    pub kind: ShapeKind,
+    /// Negates the geometric and shading normals (Mitsuba's `flip_normals`).
+    pub flip_normals: bool,
+    /// The mesh is shaded with its geometric normals (vertex normals were dropped).
+    pub face_normals: bool,
+    area: f32,
+    /// Normalised cumulative triangle areas (meshes; empty for spheres).
+    cdf: Vec<f32>,
+    /// `Some(to_world)` for the tessellated disk: uv and tangents are then computed
+    /// analytically from the hit point, as for Mitsuba's exact disk.
+    disk: Option<Mat4>,
+}
+
+/// A point sampled uniformly on a shape's surface.
+#[derive(Clone, Copy, Debug)]
+pub struct PositionSample {
+    pub p: Vec3,
+    /// Unit normal at `p` on the emitting side (after `flip_normals`); the interpolated vertex
+    /// normal when the mesh has one, as Mitsuba's `Mesh::sample_position`.
+    pub n: Vec3,
+    pub uv: Vec2,
+    /// Area density (1 / area).
+    pub pdf: f32,
+}
+
+/// A point on a shape sampled as seen from a reference point.
+#[derive(Clone, Copy, Debug)]
+pub struct DirectionSample {
+    pub p: Vec3,
+    pub n: Vec3,
+    pub uv: Vec2,
+    /// Unit direction from the reference point to `p`.
+    pub d: Vec3,
+    pub dist: f32,
+    /// Solid-angle density at the reference point.
+    pub pdf: f32,
+}
+
+impl Shape {
+    fn new_mesh(
+        mesh: TriMesh,
+        flip_normals: bool,
+        face_normals: bool,
+        disk: Option<Mat4>,
+    ) -> Result<Shape> {
+        mesh.validate().map_err(|m| Error::file("mesh", m))?;
+        let mut acc = 0.0f64;
+        let mut cdf: Vec<f32> = (0..mesh.indices.len())
+            .map(|i| {
+                acc += mesh.triangle_area(i) as f64;
+                acc as f32
+            })
+            .collect();
+        let area = acc as f32;
+        if !(area.is_finite() && area > 0.0) {
+            return Err(Error::file(
+                "mesh",
+                format!("mesh has zero or invalid surface area ({area})"),
+            ));
+        }
+        for c in &mut cdf {
+            *c /= area;
+        }
+        if let Some(last) = cdf.last_mut() {
+            *last = 1.0;
+        }
+        Ok(Shape {
+            kind: ShapeKind::Mesh(mesh),
+            flip_normals,
+            face_normals,
+            area,
+            cdf,
+            disk,
+        })
+    }
+
+    /// A shape from a loaded (and already transformed) mesh. `face_normals` drops the vertex
+    /// normals; a mesh without normals otherwise gets Mitsuba's smooth angle-weighted normals.
+    pub fn from_mesh(mut mesh: TriMesh, flip_normals: bool, face_normals: bool) -> Result<Shape> {
+        mesh.validate().map_err(|m| Error::file("mesh", m))?;
+        if face_normals {
+            mesh.normals = None;
+        } else if mesh.normals.is_none() {
+            mesh.compute_vertex_normals();
+        }
+        Shape::new_mesh(mesh, flip_normals, face_normals, None)
+    }
+
+    /// Mitsuba's `rectangle`: [−1,1]² in the XY plane, normal +Z, uv = ((x+1)/2, (y+1)/2), as
+    /// two triangles (flat shading).
+    pub fn rectangle(to_world: &Mat4, flip_normals: bool) -> Shape {
+        let positions = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+            .map(|(x, y)| Vec3::new(x, y, 0.0))
+            .to_vec();
+        let uvs = positions
+            .iter()
+            .map(|p| Vec2::new((p.x + 1.0) * 0.5, (p.y + 1.0) * 0.5))
+            .collect();
+        let mut mesh = TriMesh {
+            positions,
+            normals: None,
+            uvs: Some(uvs),
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+        };
+        mesh.transform(to_world);
+        keep_orientation(&mut mesh, to_world);
+        Shape::new_mesh(mesh, flip_normals, true, None).unwrap_or_else(|_| degenerate())
+    }
+
+    /// Mitsuba's `cube`: [−1,1]³ as 12 triangles with 24 vertices (4 per face, so each face has
+    /// its own flat normal and a full [0,1]² uv square), winding and uv layout as Mitsuba's
+    /// `cube.cpp`.
+    pub fn cube(to_world: &Mat4, flip_normals: bool) -> Shape {
+        // Per face: outward normal and its 4 corners in Mitsuba's order; corner k gets uv
+        // (0,1), (1,1), (1,0), (0,0) and the face is split into (0,1,2), (3,0,2).
+        #[rustfmt::skip]
+        let faces: [(Vec3, [[f32; 3]; 4]); 6] = [
+            (-Vec3::Y, [[1.0, -1.0, -1.0], [1.0, -1.0, 1.0], [-1.0, -1.0, 1.0], [-1.0, -1.0, -1.0]]),
+            (Vec3::Y, [[1.0, 1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, 1.0, 1.0], [1.0, 1.0, 1.0]]),
+            (Vec3::X, [[1.0, -1.0, -1.0], [1.0, 1.0, -1.0], [1.0, 1.0, 1.0], [1.0, -1.0, 1.0]]),
+            (Vec3::Z, [[1.0, -1.0, 1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0], [-1.0, -1.0, 1.0]]),
+            (-Vec3::X, [[-1.0, -1.0, 1.0], [-1.0, 1.0, 1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, -1.0]]),
+            (-Vec3::Z, [[1.0, 1.0, -1.0], [1.0, -1.0, -1.0], [-1.0, -1.0, -1.0], [-1.0, 1.0, -1.0]]),
+        ];
+        let corner_uv = [
+            Vec2::new(0.0, 1.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::ZERO,
+        ];
+        let mut mesh = TriMesh::default();
+        let (mut ns, mut uvs) = (Vec::new(), Vec::new());
+        for (f, (n, corners)) in faces.iter().enumerate() {
+            for (k, c) in corners.iter().enumerate() {
+                mesh.positions.push(Vec3::from_array(*c));
+                ns.push(*n);
+                uvs.push(corner_uv[k]);
+            }
+            let b = 4 * f as u32;
+            mesh.indices.push([b, b + 1, b + 2]);
+            mesh.indices.push([b + 3, b, b + 2]);
+        }
+        mesh.normals = Some(ns);
+        mesh.uvs = Some(uvs);
+        mesh.transform(to_world);
+        Shape::new_mesh(mesh, flip_normals, false, None).unwrap_or_else(|_| degenerate())
+    }
+
+    /// Mitsuba's `disk`: the unit disk in the XY plane, normal +Z, uv = (r, φ/2π).
+    /// Tessellated into a fan of 1024 triangles; uv, dp/du and dp/dv are computed analytically
+    /// from the hit point, so only the silhouette (and the area, by 6·10⁻⁶) is approximate.
+    pub fn disk(to_world: &Mat4, flip_normals: bool) -> Result<Shape> {
+        let mut mesh = TriMesh::default();
+        mesh.positions.push(Vec3::ZERO);
+        for k in 0..DISK_SEGMENTS {
+            let a = 2.0 * std::f64::consts::PI * k as f64 / DISK_SEGMENTS as f64;
+            mesh.positions
+                .push(Vec3::new(a.cos() as f32, a.sin() as f32, 0.0));
+            mesh.indices.push([0, 1 + k, 1 + (k + 1) % DISK_SEGMENTS]);
+        }
+        mesh.transform(to_world);
+        keep_orientation(&mut mesh, to_world);
+        Shape::new_mesh(mesh, flip_normals, true, Some(*to_world))
+    }
+
+    /// Mitsuba's `sphere`: `center`/`radius` in object space, then `to_world`, which may carry a
+    /// translation, a rotation (orients the uv map) and a *uniform* scale; anything else is an
+    /// error. Intersected exactly by Embree.
+    pub fn sphere(center: Vec3, radius: f32, to_world: &Mat4, flip_normals: bool) -> Result<Shape> {
+        let m = *to_world * Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius));
+        let c = m.transform_point3(Vec3::ZERO);
+        let axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| m.transform_vector3(a));
+        let r = axes[0].length();
+        let tol = 1e-4 * r;
+        let uniform = axes.iter().all(|a| (a.length() - r).abs() <= tol)
+            && axes[0].dot(axes[1]).abs() <= tol * r
+            && axes[0].dot(axes[2]).abs() <= tol * r
+            && axes[1].dot(axes[2]).abs() <= tol * r;
+        if !(r.is_finite() && r > 0.0 && c.is_finite()) {
+            return Err(Error::file(
+                "sphere",
+                format!("invalid radius {r} or center {c}"),
+            ));
+        }
+        if !uniform {
+            return Err(Error::file(
+                "sphere",
+                "to_world has a non-uniform scale or shear; Mitsuba's sphere allows only \
+                 translation, rotation and uniform scale",
+            ));
+        }
+        let frame = Mat4::from_mat3(Mat3::from_cols(axes[0] / r, axes[1] / r, axes[2] / r));
+        Ok(Shape {
+            kind: ShapeKind::Sphere {
+                center: c,
+                radius: r,
+                frame,
+            },
+            flip_normals,
+            face_normals: true,
+            area: 4.0 * PI * r * r,
+            cdf: Vec::new(),
+            disk: None,
+        })
+    }
+
+    /// Surface area (for the disk: of its tessellation, consistent with its sampling).
+    pub fn area(&self) -> f32 {
+        self.area
+    }
+
+    /// Axis-aligned bounds (min, max).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        match &self.kind {
+            ShapeKind::Mesh(m) => m.positions.iter().fold(
+                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+            ),
+            ShapeKind::Sphere { center, radius, .. } => (*center - *radius, *center + *radius),
+        }
+    }
+
+    /// The surface interaction of `hit` (which must be a hit on this shape by `ray`).
+    pub fn interaction(&self, shape_index: u32, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
+        let sign = if self.flip_normals { -1.0 } else { 1.0 };
+        match &self.kind {
+            ShapeKind::Mesh(m) => {
+                let tri = m.indices[hit.prim as usize];
+                let [p0, p1, p2] = tri.map(|i| m.positions[i as usize]);
+                let (b1, b2) = (hit.u, hit.v);
+                let b0 = 1.0 - b1 - b2;
+                let p = p0 * b0 + p1 * b1 + p2 * b2;
+                let (dp0, dp1) = (p1 - p0, p2 - p0);
+                let ng = dp0.cross(dp1).try_normalize().unwrap_or(Vec3::Z);
+                // Mitsuba's defaults without usable uvs: uv = (b1, b2) and an arbitrary
+                // tangent frame around the face normal.
+                let f = Frame::from_normal(ng);
+                let (mut uv, mut dpdu, mut dpdv) = (Vec2::new(b1, b2), f.s, f.t);
+                if let Some(uvs) = &m.uvs {
+                    let [t0, t1, t2] = tri.map(|i| uvs[i as usize]);
+                    uv = t0 * b0 + t1 * b1 + t2 * b2;
+                    let (d0, d1) = (t1 - t0, t2 - t0);
+                    let det = d0.x * d1.y - d0.y * d1.x;
+                    if det != 0.0 {
+                        let inv = 1.0 / det;
+                        dpdu = (dp0 * d1.y - dp1 * d0.y) * inv;
+                        dpdv = (dp1 * d0.x - dp0 * d1.x) * inv;
+                    }
+                }
+                let mut ns = ng;
+                if let Some(nrm) = &m.normals {
+                    let [n0, n1, n2] = tri.map(|i| nrm[i as usize]);
+                    if let Some(n) = (n0 * b0 + n1 * b1 + n2 * b2).try_normalize() {
+                        ns = n;
+                    }
+                }
+                if let Some(tw) = &self.disk {
+                    (uv, dpdu, dpdv) = disk_uv(tw, p);
+                }
+                SurfaceInteraction {
+                    p,
+                    t: hit.t,
+                    ng: ng * sign,
+                    sh: Frame::from_normal_tangent(ns * sign, dpdu),
+                    uv,
+                    dpdu,
+                    dpdv,
+                    shape: shape_index,
+                    prim: hit.prim,
+                    wi: -ray.d,
+                }
+            }
+            ShapeKind::Sphere {
+                center,
+                radius,
+                frame,
+            } => {
+                let n = (ray.at(hit.t) - *center).try_normalize().unwrap_or(Vec3::Z);
+                // Reproject onto the sphere (as Mitsuba) for an accurate surface point.
+                let p = *center + n * *radius;
+                let (uv, dpdu, dpdv) = sphere_uv(frame, *radius, n);
+                let ng = n * sign;
+                SurfaceInteraction {
+                    p,
+                    t: hit.t,
+                    ng,
+                    sh: Frame::from_normal_tangent(ng, dpdu),
+                    uv,
+                    dpdu,
+                    dpdv,
+                    shape: shape_index,
+                    prim: hit.prim,
+                    wi: -ray.d,
+                }
+            }
+        }
+    }
+
+    /// A point uniformly distributed by area (meshes: triangle chosen by `u.y` through the area
+    /// CDF and `u.y` reused, as Mitsuba's `Mesh::sample_position`).
+    pub fn sample_position(&self, u: Vec2) -> PositionSample {
+        let sign = if self.flip_normals { -1.0 } else { 1.0 };
+        let pdf = 1.0 / self.area;
+        match &self.kind {
+            ShapeKind::Mesh(m) => {
+                let i = self
+                    .cdf
+                    .partition_point(|&c| c <= u.y)
+                    .min(self.cdf.len() - 1);
+                let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+                let w = self.cdf[i] - lo;
+                let uy = if w > 0.0 {
+                    ((u.y - lo) / w).clamp(0.0, 1.0 - f32::EPSILON * 0.5)
+                } else {
+                    0.5
+                };
+                let b = warp::square_to_uniform_triangle(Vec2::new(u.x, uy));
+                let tri = m.indices[i];
+                let [p0, p1, p2] = tri.map(|k| m.positions[k as usize]);
+                let b0 = 1.0 - b.x - b.y;
+                let p = p0 + (p1 - p0) * b.x + (p2 - p0) * b.y;
+                let ng = (p1 - p0).cross(p2 - p0).try_normalize().unwrap_or(Vec3::Z);
+                let n = m
+                    .normals
+                    .as_ref()
+                    .and_then(|ns| {
+                        let [n0, n1, n2] = tri.map(|k| ns[k as usize]);
+                        (n0 * b0 + n1 * b.x + n2 * b.y).try_normalize()
+                    })
+                    .unwrap_or(ng);
+                let uv = match (&self.disk, &m.uvs) {
+                    (Some(tw), _) => disk_uv(tw, p).0,
+                    (None, Some(uvs)) => {
+                        let [t0, t1, t2] = tri.map(|k| uvs[k as usize]);
+                        t0 * b0 + t1 * b.x + t2 * b.y
+                    }
+                    (None, None) => b,
+                };
+                PositionSample {
+                    p,
+                    n: n * sign,
+                    uv,
+                    pdf,
+                }
+            }
+            ShapeKind::Sphere {
+                center,
+                radius,
+                frame,
+            } => {
+                let n = warp::square_to_uniform_sphere(u);
+                PositionSample {
+                    p: *center + n * *radius,
+                    n: n * sign,
+                    uv: sphere_uv(frame, *radius, n).0,
+                    pdf,
+                }
+            }
+        }
+    }
+
+    /// Samples a point on the shape as seen from `ref_p`, with its solid-angle density. Spheres
+    /// seen from outside sample the cone of directions toward the sphere uniformly (Mitsuba 3's
+    /// `Sphere::sample_direction`); everything else samples by area and converts.
+    pub fn sample_direction(&self, ref_p: Vec3, u: Vec2) -> Option<DirectionSample> {
+        if let ShapeKind::Sphere {
+            center,
+            radius,
+            frame,
+        } = &self.kind
+        {
+            let dc = *center - ref_p;
+            let dist_c = dc.length();
+            if dist_c > *radius {
+                let sin_a = *radius / dist_c;
+                let cos_a = (1.0 - sin_a * sin_a).max(0.0).sqrt();
+                let axis = dc / dist_c;
+                let d = Frame::from_normal(axis).to_world(warp::square_to_uniform_cone(u, cos_a));
+                // Nearest intersection of the ray with the sphere; a direction grazing the
+                // silhouette (rounding) is clamped to the tangent point.
+                let b = d.dot(dc);
+                let disc = (*radius * *radius - (dist_c * dist_c - b * b)).max(0.0);
+                let t = b - disc.sqrt();
+                let n0 = (ref_p + d * t - *center).try_normalize()?;
+                let p = *center + n0 * *radius;
+                let v = p - ref_p;
+                let dist = v.length();
+                let pdf = warp::uniform_cone_pdf(cos_a);
+                if !(dist > 0.0 && pdf.is_finite()) {
+                    return None;
+                }
+                let sign = if self.flip_normals { -1.0 } else { 1.0 };
+                return Some(DirectionSample {
+                    p,
+                    n: n0 * sign,
+                    uv: sphere_uv(frame, *radius, n0).0,
+                    d: v / dist,
+                    dist,
+                    pdf,
+                });
+            }
+        }
+        let ps = self.sample_position(u);
+        let v = ps.p - ref_p;
+        let dist2 = v.length_squared();
+        let dist = dist2.sqrt();
+        if dist.is_nan() || dist <= 0.0 {
+            return None;
+        }
+        let d = v / dist;
+        let cos = d.dot(ps.n).abs();
+        let pdf = ps.pdf * dist2 / cos;
+        if !(cos > 0.0 && pdf.is_finite()) {
+            return None;
+        }
+        Some(DirectionSample {
+            p: ps.p,
+            n: ps.n,
+            uv: ps.uv,
+            d,
+            dist,
+            pdf,
+        })
+    }
+
+    /// The solid-angle density with which [`Shape::sample_direction`] from `ref_p` produces the
+    /// point `si` of this shape (for MIS). Uses `si.sh.n`, the same normal sampling reports.
+    pub fn pdf_direction(&self, ref_p: Vec3, si: &SurfaceInteraction) -> f32 {
+        if let ShapeKind::Sphere { center, radius, .. } = &self.kind {
+            let dist_c = (*center - ref_p).length();
+            if dist_c > *radius {
+                let sin_a = *radius / dist_c;
+                let cos_a = (1.0 - sin_a * sin_a).max(0.0).sqrt();
+                return warp::uniform_cone_pdf(cos_a);
+            }
+        }
+        let v = si.p - ref_p;
+        let dist2 = v.length_squared();
+        let cos = (v / dist2.sqrt()).dot(si.sh.n).abs();
+        let pdf = dist2 / (cos * self.area);
+        if pdf.is_finite() {
+            pdf
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Rectangle and disk are analytic in Mitsuba with normal `to_world`'s normal transform of +Z;
+/// a mirroring `to_world` reverses the triangle winding, so reverse it back.
+fn keep_orientation(mesh: &mut TriMesh, to_world: &Mat4) {
+    if Mat3::from_mat4(*to_world).determinant() < 0.0 {
+        for t in &mut mesh.indices {
+            t.swap(1, 2);
+        }
+    }
+}
+
+/// An empty, never-hit shape for a degenerate (zero-area) rectangle or cube transform.
+fn degenerate() -> Shape {
+    Shape {
+        kind: ShapeKind::Mesh(TriMesh::default()),
+        flip_normals: false,
+        face_normals: true,
+        area: 0.0,
+        cdf: Vec::new(),
+        disk: None,
+    }
+}
+
+/// Mitsuba 3's disk parameterisation at world point `p`: uv = (r, φ/2π), dp/du radial,
+/// dp/dv tangential (scaled by 2πr, the true derivative).
+fn disk_uv(to_world: &Mat4, p: Vec3) -> (Vec2, Vec3, Vec3) {
+    let l = to_world.inverse().transform_point3(p);
+    let r = Vec2::new(l.x, l.y).length();
+    let mut phi = l.y.atan2(l.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let (cp, sp) = if r > 0.0 {
+        (l.x / r, l.y / r)
+    } else {
+        (1.0, 0.0)
+    };
+    let dpdu = to_world.transform_vector3(Vec3::new(cp, sp, 0.0));
+    let dpdv = to_world.transform_vector3(Vec3::new(-sp, cp, 0.0)) * (2.0 * PI * r);
+    (Vec2::new(r, phi * INV_2PI), dpdu, dpdv)
+}
+
+/// Mitsuba 3's sphere parameterisation for the outward unit normal `n` (world space):
+/// in the local frame, uv = (φ/2π, θ/π) with θ measured from +z and φ = atan2(y, x) ∈ [0, 2π);
+/// dp/du = 2π·r·(−y, x, 0), dp/dv = π·r·(z cos φ, z sin φ, −sin θ), mapped back to world.
+fn sphere_uv(frame: &Mat4, radius: f32, n: Vec3) -> (Vec2, Vec3, Vec3) {
+    let l = frame.transpose().transform_vector3(n);
+    let theta = l.z.clamp(-1.0, 1.0).acos();
+    let mut phi = l.y.atan2(l.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let rd = (l.x * l.x + l.y * l.y).sqrt();
+    let dpdu = Vec3::new(-l.y, l.x, 0.0) * (2.0 * PI * radius);
+    let dpdv = if rd > 0.0 {
+        Vec3::new(l.z * l.x / rd, l.z * l.y / rd, -rd)
+    } else {
+        Vec3::X
+    } * (PI * radius);
+    (
+        Vec2::new(phi * INV_2PI, theta * (1.0 / PI)),
+        frame.transform_vector3(dpdu),
+        frame.transform_vector3(dpdv),
+    )
+}

@@ -87,7 +87,10 @@ mod tests {
             s += (v.z * v.z / cosine_hemisphere_pdf(v)) as f64;
         }
         let est = s / n as f64;
-        assert!((est - 2.0 * std::f64::consts::PI / 3.0).abs() < 0.02, "{est}");
+        assert!(
+            (est - 2.0 * std::f64::consts::PI / 3.0).abs() < 0.02,
+            "{est}"
+        );
     }
 
     #[test]

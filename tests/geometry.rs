@@ -1,0 +1,650 @@
+//! Geometry and ray-tracing tests: loaders (OBJ, PLY), Embree hits against analytic answers,
+//! surface interactions, emitter sampling densities, and self-intersection robustness.
+
+use glam::{Mat4, Vec2, Vec3};
+use groove::accel::{Accel, Hit};
+use groove::geometry::mesh::TriMesh;
+use groove::geometry::obj::load_obj;
+use groove::geometry::ply::load_ply;
+use groove::geometry::shapes::Shape;
+use groove::geometry::{Ray, SurfaceInteraction};
+use groove::math::warp::{square_to_cosine_hemisphere, square_to_uniform_sphere};
+use groove::math::{Frame, Pcg32};
+use std::path::{Path, PathBuf};
+
+const CBOX: &str = "/work/shared/scenes/mitsuba_cbox/meshes";
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/geometry")
+        .join(name)
+}
+
+fn tmp_dir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("groove-geom-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn u2(r: &mut Pcg32) -> Vec2 {
+    Vec2::new(r.next_f32(), r.next_f32())
+}
+
+fn hit_si(accel: &Accel, shapes: &[Shape], ray: &Ray) -> Option<(Hit, SurfaceInteraction)> {
+    let h = accel.intersect(ray)?;
+    Some((h, shapes[h.geom as usize].interaction(h.geom, ray, &h)))
+}
+
+// ---------------------------------------------------------------- OBJ
+
+/// Planar polygon area from the OBJ's own `v`/`f` lines (Newell's vector area), independent of
+/// the loader's triangulation.
+fn obj_polygon_area(path: &Path) -> f64 {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut v: Vec<[f64; 3]> = vec![];
+    let mut area = 0.0;
+    for l in text.lines() {
+        let t: Vec<&str> = l.split_whitespace().collect();
+        match t.first() {
+            Some(&"v") => v.push([
+                t[1].parse().unwrap(),
+                t[2].parse().unwrap(),
+                t[3].parse().unwrap(),
+            ]),
+            Some(&"f") => {
+                let idx: Vec<usize> = t[1..]
+                    .iter()
+                    .map(|s| s.split('/').next().unwrap().parse::<usize>().unwrap() - 1)
+                    .collect();
+                let mut n = [0.0f64; 3];
+                for k in 0..idx.len() {
+                    let a = v[idx[k]];
+                    let b = v[idx[(k + 1) % idx.len()]];
+                    n[0] += a[1] * b[2] - a[2] * b[1];
+                    n[1] += a[2] * b[0] - a[0] * b[2];
+                    n[2] += a[0] * b[1] - a[1] * b[0];
+                }
+                area += 0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            }
+            _ => {}
+        }
+    }
+    area
+}
+
+#[test]
+fn cbox_meshes_load_with_quads_triangulated_and_areas_right() {
+    let mut n = 0;
+    for e in std::fs::read_dir(CBOX).unwrap() {
+        let p = e.unwrap().path();
+        let m = load_obj(&p).unwrap_or_else(|e| panic!("{e}"));
+        let expect = obj_polygon_area(&p);
+        let got = m.area() as f64;
+        assert!(
+            (got - expect).abs() <= 1e-5 * expect,
+            "{}: {got} vs {expect}",
+            p.display()
+        );
+        let s = Shape::from_mesh(m, false, false).unwrap();
+        assert!(s.area() > 0.0);
+        n += 1;
+    }
+    assert_eq!(n, 8);
+    let back = load_obj(&Path::new(CBOX).join("cbox_back.obj")).unwrap();
+    assert_eq!(back.indices.len(), 2, "one quad → two triangles");
+    let large = load_obj(&Path::new(CBOX).join("cbox_largebox.obj")).unwrap();
+    assert!(large.normals.is_some(), "`f a//n` corners carry normals");
+}
+
+#[test]
+fn obj_fixture_flips_v_and_ignores_groups() {
+    let m = load_obj(&data("quad.obj")).unwrap();
+    assert_eq!(m.indices.len(), 2);
+    let uvs = m.uvs.as_ref().unwrap();
+    for (p, uv) in m.positions.iter().zip(uvs) {
+        // file: vt = ((x+1)/2, (y+1)/2); loaded: v flipped
+        assert_eq!(*uv, Vec2::new((p.x + 1.0) / 2.0, 1.0 - (p.y + 1.0) / 2.0));
+    }
+    assert!(m.normals.as_ref().unwrap().iter().all(|n| *n == Vec3::Z));
+}
+
+#[test]
+fn obj_negative_indices_and_normal_only_corners() {
+    let d = tmp_dir("obj");
+    let p = d.join("neg.obj");
+    std::fs::write(
+        &p,
+        "v 0 0 0\nv 2 0 0\nv 0 2 0\nvn 0 0 -1\nf -3//-1 -2//-1 -1//-1\n",
+    )
+    .unwrap();
+    let m = load_obj(&p).unwrap();
+    assert_eq!(m.indices, vec![[0, 1, 2]]);
+    assert!(m.uvs.is_none());
+    assert_eq!(m.normals.as_ref().unwrap()[2], -Vec3::Z);
+    assert!((m.area() - 2.0).abs() < 1e-6);
+}
+
+#[test]
+fn obj_errors_name_file_and_line() {
+    let e = load_obj(&data("bad_index.obj")).unwrap_err().to_string();
+    assert!(e.contains("bad_index.obj:5:"), "{e}");
+    assert!(e.contains("out of range"), "{e}");
+    let e = load_obj(&data("bad_number.obj")).unwrap_err().to_string();
+    assert!(e.contains("bad_number.obj:3:"), "{e}");
+    assert!(e.contains("1.5e"), "{e}");
+    let e = load_obj(&data("missing.obj")).unwrap_err().to_string();
+    assert!(e.contains("missing.obj"), "{e}");
+}
+
+// ---------------------------------------------------------------- PLY
+
+#[derive(Clone, Copy)]
+enum Fmt {
+    Ascii,
+    Le,
+    Be,
+}
+
+/// A unit quad (z = 1) with normals and uvs, the face as one polygon with a uchar count
+/// and int indices, doubles for positions, plus an extra element to be skipped.
+fn ply_bytes(fmt: Fmt, uv_names: (&str, &str)) -> Vec<u8> {
+    let name = match fmt {
+        Fmt::Ascii => "ascii",
+        Fmt::Le => "binary_little_endian",
+        Fmt::Be => "binary_big_endian",
+    };
+    let mut out = format!(
+        "ply\nformat {name} 1.0\ncomment test\nelement vertex 4\nproperty double x\nproperty double y\n\
+         property double z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty float {}\n\
+         property float {}\nproperty uchar alpha\nelement face 1\nproperty list uchar int vertex_indices\n\
+         element material 1\nproperty short id\nend_header\n",
+        uv_names.0, uv_names.1
+    )
+    .into_bytes();
+    let verts = [(0.0f64, 0.0f64), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)];
+    let f64b = |x: f64| match fmt {
+        Fmt::Be => x.to_be_bytes().to_vec(),
+        _ => x.to_le_bytes().to_vec(),
+    };
+    let f32b = |x: f32| match fmt {
+        Fmt::Be => x.to_be_bytes().to_vec(),
+        _ => x.to_le_bytes().to_vec(),
+    };
+    let i32b = |x: i32| match fmt {
+        Fmt::Be => x.to_be_bytes().to_vec(),
+        _ => x.to_le_bytes().to_vec(),
+    };
+    for (x, y) in verts {
+        match fmt {
+            Fmt::Ascii => out.extend(format!("{x} {y} 1 0 0 1 {x} {} 255\n", y * 0.5).bytes()),
+            _ => {
+                for v in [x, y, 1.0] {
+                    out.extend(f64b(v));
+                }
+                for v in [0.0, 0.0, 1.0, x as f32, (y * 0.5) as f32] {
+                    out.extend(f32b(v));
+                }
+                out.push(255);
+            }
+        }
+    }
+    match fmt {
+        Fmt::Ascii => out.extend(b"4 0 1 2 3\n7\n"),
+        _ => {
+            out.push(4);
+            for i in 0..4 {
+                out.extend(i32b(i));
+            }
+            out.extend(match fmt {
+                Fmt::Be => 7i16.to_be_bytes(),
+                _ => 7i16.to_le_bytes(),
+            });
+        }
+    }
+    out
+}
+
+#[test]
+fn ply_ascii_and_binary_both_endians() {
+    let d = tmp_dir("ply");
+    for (k, fmt) in [Fmt::Ascii, Fmt::Le, Fmt::Be].into_iter().enumerate() {
+        for names in [("u", "v"), ("texture_u", "texture_v"), ("s", "t")] {
+            let p = d.join(format!("q{k}{}.ply", names.0));
+            std::fs::write(&p, ply_bytes(fmt, names)).unwrap();
+            let m = load_ply(&p).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
+            assert_eq!(m.positions[2], Vec3::new(1.0, 1.0, 1.0));
+            assert!(m.normals.as_ref().unwrap().iter().all(|n| *n == Vec3::Z));
+            // no flip for PLY
+            assert_eq!(m.uvs.as_ref().unwrap()[2], Vec2::new(1.0, 0.5));
+        }
+    }
+}
+
+#[test]
+fn ply_truncated_or_broken_is_an_error_naming_the_file() {
+    let d = tmp_dir("plybad");
+    for (k, fmt) in [Fmt::Ascii, Fmt::Le, Fmt::Be].into_iter().enumerate() {
+        let full = ply_bytes(fmt, ("u", "v"));
+        let header_end = full.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+        for cut in [header_end - 5, header_end + 7, full.len() - 4] {
+            let p = d.join(format!("trunc{k}_{cut}.ply"));
+            std::fs::write(&p, &full[..cut]).unwrap();
+            let e = load_ply(&p).unwrap_err().to_string();
+            assert!(e.contains(&format!("trunc{k}_{cut}.ply")), "{e}");
+        }
+    }
+    let e = load_ply(&d.join("nope.ply")).unwrap_err().to_string();
+    assert!(e.contains("nope.ply"));
+}
+
+// ---------------------------------------------------------------- Embree hits
+
+fn rel_close(a: f32, b: f32, tol: f32) -> bool {
+    (a - b).abs() <= tol * b.abs().max(1e-6)
+}
+
+#[test]
+fn rays_hit_rectangle_cube_sphere_at_analytic_t() {
+    // rectangle scaled to 2×3 half-extents at z = 5; cube of half-size 2 at x = −10;
+    // sphere radius 1.5 at (10, 0, 0) (given as center 0, radius 0.5, scaled ×3).
+    let rect = Shape::rectangle(
+        &(Mat4::from_translation(Vec3::new(0.0, 0.0, 5.0))
+            * Mat4::from_scale(Vec3::new(2.0, 3.0, 1.0))),
+        false,
+    );
+    let cube = Shape::cube(
+        &(Mat4::from_translation(Vec3::new(-10.0, 0.0, 0.0)) * Mat4::from_scale(Vec3::splat(2.0))),
+        false,
+    );
+    let sphere = Shape::sphere(
+        Vec3::ZERO,
+        0.5,
+        &(Mat4::from_translation(Vec3::new(10.0, 0.0, 0.0)) * Mat4::from_scale(Vec3::splat(3.0))),
+        false,
+    )
+    .unwrap();
+    let shapes = vec![rect, cube, sphere];
+    let accel = Accel::build(&shapes).unwrap();
+
+    let mut r = Pcg32::new(1, 1);
+    for _ in 0..200 {
+        // rectangle from z = 0 toward a random interior point
+        let target = Vec3::new(
+            3.99 * r.next_f32() - 1.995,
+            5.99 * r.next_f32() - 2.995,
+            5.0,
+        );
+        let ray = Ray::new(Vec3::ZERO, target.normalize());
+        let h = accel.intersect(&ray).expect("rectangle hit");
+        assert_eq!(h.geom, 0);
+        assert!(rel_close(h.t, target.length(), 1e-4));
+        assert!(accel.occluded(&ray));
+
+        // cube from +x side at (−5, y, z)
+        let o = Vec3::new(-5.0, 3.8 * r.next_f32() - 1.9, 3.8 * r.next_f32() - 1.9);
+        let ray = Ray::new(o, -Vec3::X);
+        let h = accel.intersect(&ray).expect("cube hit");
+        assert_eq!(h.geom, 1);
+        assert!(rel_close(h.t, 3.0, 1e-4), "{}", h.t);
+
+        // sphere: random offset b from the center line
+        let b = 1.45 * r.next_f32();
+        let ray = Ray::new(Vec3::new(10.0 - 5.0, b, 0.0), Vec3::X);
+        let h = accel.intersect(&ray).expect("sphere hit");
+        assert_eq!(h.geom, 2);
+        let t = 5.0 - (1.5f32 * 1.5 - b * b).sqrt();
+        assert!(rel_close(h.t, t, 1e-4), "{} vs {t}", h.t);
+    }
+    // misses, and occluded agrees with intersect on random rays
+    assert!(accel.intersect(&Ray::new(Vec3::ZERO, -Vec3::Z)).is_none());
+    assert!(accel
+        .intersect(&Ray::new(Vec3::new(10.0, 1.6, -5.0), Vec3::Z))
+        .is_none());
+    let mut short = Ray::new(Vec3::ZERO, Vec3::Z);
+    short.tmax = 4.9;
+    assert!(accel.intersect(&short).is_none() && !accel.occluded(&short));
+    for _ in 0..2000 {
+        let o = Vec3::new(
+            24.0 * r.next_f32() - 12.0,
+            8.0 * r.next_f32() - 4.0,
+            8.0 * r.next_f32() - 4.0,
+        );
+        let mut ray = Ray::new(o, square_to_uniform_sphere(u2(&mut r)));
+        ray.tmax = 20.0 * r.next_f32();
+        assert_eq!(accel.intersect(&ray).is_some(), accel.occluded(&ray));
+    }
+}
+
+#[test]
+fn sphere_interaction_normal_and_uv() {
+    // rotated sphere: local +z mapped to world +x (rotation about y by +90°)
+    let rot = Mat4::from_rotation_y(std::f32::consts::FRAC_PI_2);
+    let c = Vec3::new(1.0, 2.0, 3.0);
+    let shapes = vec![
+        Shape::sphere(Vec3::ZERO, 2.0, &(Mat4::from_translation(c) * rot), false).unwrap(),
+        Shape::sphere(Vec3::new(0.0, 0.0, 20.0), 1.0, &Mat4::IDENTITY, true).unwrap(),
+    ];
+    let accel = Accel::build(&shapes).unwrap();
+    // hit at the local pole (θ = 0): world point c + 2·x
+    let ray = Ray::new(c + Vec3::new(10.0, 0.0, 0.0), -Vec3::X);
+    let (h, si) = hit_si(&accel, &shapes, &ray).unwrap();
+    assert!((si.p - (c + Vec3::X * 2.0)).length() < 1e-4);
+    assert!((si.ng - Vec3::X).length() < 1e-5 && (si.sh.n - Vec3::X).length() < 1e-5);
+    assert!(si.uv.y.abs() < 1e-3, "{:?}", si.uv);
+    assert_eq!(si.wi, Vec3::X);
+    assert!(rel_close(h.t, 8.0, 1e-5));
+    // world +y is local +y (θ = π/2, φ = π/2) → uv = (0.25, 0.5); dp/du points along −local x
+    let ray = Ray::new(c + Vec3::new(0.0, 10.0, 0.0), -Vec3::Y);
+    let (_, si) = hit_si(&accel, &shapes, &ray).unwrap();
+    assert!(
+        (si.uv - Vec2::new(0.25, 0.5)).length() < 1e-5,
+        "{:?}",
+        si.uv
+    );
+    let local_minus_x = rot.transform_vector3(-Vec3::X);
+    assert!((si.dpdu.normalize() - local_minus_x).length() < 1e-4);
+    assert!(rel_close(
+        si.dpdu.length(),
+        2.0 * std::f32::consts::PI * 2.0,
+        1e-4
+    ));
+    assert!((si.sh.s - local_minus_x).length() < 1e-4);
+    // flip_normals: normals point inward
+    let ray = Ray::new(Vec3::new(0.0, 0.0, 10.0), Vec3::Z);
+    let (_, si) = hit_si(&accel, &shapes, &ray).unwrap();
+    assert!(
+        (si.ng - Vec3::Z).length() < 1e-5,
+        "inward at the near pole: {}",
+        si.ng
+    );
+}
+
+#[test]
+fn quad_hits_interpolate_p_n_uv_barycentrically() {
+    // A non-planar-normal quad: vertex normals tilted differently, uvs deliberately skewed.
+    let ns = [
+        Vec3::new(-0.3, -0.3, 1.0),
+        Vec3::new(0.3, -0.3, 1.0),
+        Vec3::new(0.3, 0.3, 1.0),
+        Vec3::new(-0.3, 0.3, 1.0),
+    ]
+    .map(|n| n.normalize());
+    let mesh = TriMesh {
+        positions: vec![
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(2.0, 0.0, 1.0),
+            Vec3::new(2.0, 1.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        ],
+        normals: Some(ns.to_vec()),
+        uvs: Some(vec![
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.0, 2.0),
+            Vec2::new(0.0, 2.0),
+        ]),
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+    };
+    let shapes = vec![Shape::from_mesh(mesh, false, false).unwrap()];
+    let accel = Accel::build(&shapes).unwrap();
+    let mut r = Pcg32::new(4, 2);
+    for _ in 0..500 {
+        let (x, y) = (2.0 * r.next_f32(), r.next_f32());
+        let ray = Ray::new(Vec3::new(x, y, 0.0), Vec3::Z);
+        let (h, si) = hit_si(&accel, &shapes, &ray).unwrap();
+        assert!((si.p - Vec3::new(x, y, 1.0)).length() < 1e-5);
+        assert!(
+            (si.uv - Vec2::new(x / 2.0, 2.0 * y)).length() < 1e-5,
+            "uv is affine in p"
+        );
+        assert!((si.ng - Vec3::Z).length() < 1e-6);
+        // bilinear blending of the normals is what barycentrics give on each triangle
+        let [i0, i1, i2] = [[0, 1, 2], [0, 2, 3]][h.prim as usize];
+        let b = [1.0 - h.u - h.v, h.u, h.v];
+        let n = (ns[i0] * b[0] + ns[i1] * b[1] + ns[i2] * b[2]).normalize();
+        assert!((si.sh.n - n).length() < 1e-5);
+        // dp/du = (2, 0, 0), dp/dv = (0, 0.5, 0)
+        assert!((si.dpdu - Vec3::new(2.0, 0.0, 0.0)).length() < 1e-4);
+        assert!((si.dpdv - Vec3::new(0.0, 0.5, 0.0)).length() < 1e-4);
+        assert!(si.sh.s.dot(si.sh.n).abs() < 1e-5 && si.sh.s.x > 0.9);
+    }
+    // flip_normals negates both normals
+    let shapes = vec![Shape::rectangle(&Mat4::IDENTITY, true)];
+    let accel = Accel::build(&shapes).unwrap();
+    let ray = Ray::new(Vec3::new(0.2, 0.4, 1.0), -Vec3::Z);
+    let (_, si) = hit_si(&accel, &shapes, &ray).unwrap();
+    assert_eq!(si.ng, -Vec3::Z);
+    assert_eq!(si.sh.n, -Vec3::Z);
+    assert!((si.uv - Vec2::new(0.6, 0.7)).length() < 1e-6);
+}
+
+#[test]
+fn disk_and_cube_conventions() {
+    let shapes = vec![
+        Shape::disk(&Mat4::from_scale(Vec3::splat(2.0)), false).unwrap(),
+        Shape::cube(&Mat4::from_translation(Vec3::new(0.0, 0.0, 10.0)), false),
+    ];
+    assert!(rel_close(
+        shapes[0].area(),
+        4.0 * std::f32::consts::PI,
+        1e-4
+    ));
+    assert!(rel_close(shapes[1].area(), 24.0, 1e-6));
+    let accel = Accel::build(&shapes).unwrap();
+    // disk uv = (r, φ/2π)
+    let ray = Ray::new(Vec3::new(0.0, 1.0, 1.0), -Vec3::Z);
+    let (_, si) = hit_si(&accel, &shapes, &ray).unwrap();
+    assert!(
+        (si.uv - Vec2::new(0.5, 0.25)).length() < 1e-5,
+        "{:?}",
+        si.uv
+    );
+    assert!((si.ng - Vec3::Z).length() < 1e-6);
+    assert!((si.sh.s - Vec3::Y).length() < 1e-5, "s radial");
+    // cube: outward flat normals on every face
+    for (o, d) in [
+        (Vec3::new(0.3, 0.2, 20.0), -Vec3::Z),
+        (Vec3::new(5.0, 0.1, 10.2), -Vec3::X),
+    ] {
+        let (_, si) = hit_si(&accel, &shapes, &Ray::new(o, d)).unwrap();
+        assert!((si.ng + d).length() < 1e-6 && (si.sh.n + d).length() < 1e-6);
+        assert!(si.uv.x >= 0.0 && si.uv.x <= 1.0 && si.uv.y >= 0.0 && si.uv.y <= 1.0);
+    }
+    // mirrored rectangle keeps its +Z-transformed normal (Mitsuba's rectangle is analytic)
+    let mirrored = Shape::rectangle(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)), false);
+    let shapes = vec![mirrored];
+    let accel = Accel::build(&shapes).unwrap();
+    let (_, si) = hit_si(
+        &accel,
+        &shapes,
+        &Ray::new(Vec3::new(0.1, 0.1, 1.0), -Vec3::Z),
+    )
+    .unwrap();
+    assert_eq!(si.ng, Vec3::Z);
+    assert!(Shape::sphere(
+        Vec3::ZERO,
+        1.0,
+        &Mat4::from_scale(Vec3::new(1.0, 2.0, 1.0)),
+        false
+    )
+    .is_err());
+}
+
+// ---------------------------------------------------------------- sampling
+
+/// For each sample: trace from `ref_p` along `d`, check the hit is the sampled point, and that
+/// `pdf_direction` at the traced interaction equals the sample's pdf.
+fn check_pdf_consistency(shapes: &[Shape], ref_p: Vec3, seed: u64) {
+    let accel = Accel::build(shapes).unwrap();
+    let mut r = Pcg32::new(seed, 7);
+    let mut checked = 0;
+    for _ in 0..2000 {
+        let Some(ds) = shapes[0].sample_direction(ref_p, u2(&mut r)) else {
+            continue;
+        };
+        assert!((ds.d.length() - 1.0).abs() < 1e-5 && (ds.n.length() - 1.0).abs() < 1e-5);
+        assert!((ref_p + ds.d * ds.dist - ds.p).length() < 1e-3 * (1.0 + ds.dist));
+        let mut ray = Ray::new(ref_p, ds.d);
+        ray.tmax = ds.dist * 1.001;
+        let Some((h, si)) = hit_si(&accel, shapes, &ray) else {
+            continue; // a grazing sample missed by rounding
+        };
+        if (si.p - ds.p).length() > 1e-4 * (1.0 + ds.dist) {
+            continue; // the sample was behind another part of the same shape (not visible)
+        }
+        let pdf = shapes[0].pdf_direction(ref_p, &si);
+        assert!(
+            rel_close(pdf, ds.pdf, 1e-3),
+            "seed {seed}: {pdf} vs {} at {} prim {}",
+            ds.pdf,
+            ds.p,
+            h.prim
+        );
+        checked += 1;
+    }
+    assert!(checked > 500, "only {checked} visible samples checked");
+}
+
+#[test]
+fn sample_direction_pdf_matches_pdf_direction() {
+    let sphere =
+        |flip| Shape::sphere(Vec3::new(0.5, 0.0, 0.0), 2.0, &Mat4::IDENTITY, flip).unwrap();
+    check_pdf_consistency(&[sphere(false)], Vec3::new(6.0, 1.0, -2.0), 1); // outside: cone
+    check_pdf_consistency(&[sphere(true)], Vec3::new(0.2, 0.3, 0.1), 2); // inside: area
+    let rect = Shape::rectangle(&Mat4::from_scale(Vec3::new(3.0, 1.0, 1.0)), false);
+    check_pdf_consistency(&[rect], Vec3::new(1.0, 2.0, 1.5), 3);
+    // a smooth-shaded mesh (a sphere-like OBJ would do; use the cbox large box, face normals off)
+    let mut m = load_obj(&Path::new(CBOX).join("cbox_largebox.obj")).unwrap();
+    m.normals = None;
+    let s = Shape::from_mesh(m, false, false).unwrap();
+    check_pdf_consistency(&[s], Vec3::new(100.0, 500.0, 100.0), 4);
+}
+
+#[test]
+fn solid_angle_estimates_match_analytic_values() {
+    let n = 200_000;
+    // Sphere from outside: E[1/pdf] equals 2π(1 − cos θmax); independently, the fraction of
+    // uniform directions that hit the sphere (traced by Embree) estimates the same value.
+    let (c, rad, ref_p) = (Vec3::new(0.0, 0.0, 5.0), 2.0f32, Vec3::ZERO);
+    let exact = 2.0 * std::f64::consts::PI * (1.0 - (1.0 - (rad as f64 / 5.0).powi(2)).sqrt());
+    let shapes = vec![Shape::sphere(c, rad, &Mat4::IDENTITY, false).unwrap()];
+    let accel = Accel::build(&shapes).unwrap();
+    let mut r = Pcg32::new(11, 0);
+    let (mut inv_pdf, mut hits) = (0.0f64, 0usize);
+    for _ in 0..n {
+        let ds = shapes[0].sample_direction(ref_p, u2(&mut r)).unwrap();
+        inv_pdf += 1.0 / ds.pdf as f64;
+        assert!(ds.n.dot(ds.d) <= 1e-3, "sampled point on the visible cap");
+        let d = square_to_uniform_sphere(u2(&mut r));
+        hits += accel.occluded(&Ray::new(ref_p, d)) as usize;
+    }
+    assert!((inv_pdf / n as f64 - exact).abs() < 1e-4 * exact);
+    let p = hits as f64 / n as f64;
+    let sigma = 4.0 * std::f64::consts::PI * (p * (1.0 - p) / n as f64).sqrt();
+    assert!(
+        (4.0 * std::f64::consts::PI * p - exact).abs() < 4.0 * sigma,
+        "{p} {exact}"
+    );
+
+    // Rectangle by area sampling: E[1/pdf] = ∫ cos/d² dA, compared with a fine midpoint rule.
+    let to_world = Mat4::from_translation(Vec3::new(0.5, -0.3, 2.0))
+        * Mat4::from_scale(Vec3::new(1.5, 0.7, 1.0));
+    let rect = Shape::rectangle(&to_world, false);
+    let q = Vec3::new(0.1, 0.2, 0.0);
+    let g = 1000;
+    let mut exact = 0.0f64;
+    for i in 0..g {
+        for j in 0..g {
+            let x = 0.5 + 1.5 * (-1.0 + 2.0 * (i as f64 + 0.5) / g as f64);
+            let y = -0.3 + 0.7 * (-1.0 + 2.0 * (j as f64 + 0.5) / g as f64);
+            let v = [x - 0.1, y - 0.2, 2.0];
+            let d2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+            exact += v[2] / d2.powf(1.5);
+        }
+    }
+    exact *= (3.0 * 1.4) / (g * g) as f64;
+    let (mut s1, mut s2) = (0.0f64, 0.0f64);
+    for _ in 0..n {
+        let w = 1.0 / rect.sample_direction(q, u2(&mut r)).unwrap().pdf as f64;
+        s1 += w;
+        s2 += w * w;
+    }
+    let mean = s1 / n as f64;
+    let sigma = ((s2 / n as f64 - mean * mean) / n as f64).sqrt();
+    assert!(
+        (mean - exact).abs() < 4.0 * sigma + 1e-6 * exact,
+        "{mean} vs {exact} ± {sigma}"
+    );
+}
+
+// ---------------------------------------------------------------- self-intersection
+
+/// Rays spawned from hit points must never re-hit the same primitive at t ≈ 0.
+fn assert_no_self_hits(shapes: &[Shape], targets: impl Fn(&mut Pcg32) -> (Vec3, Vec3), scale: f32) {
+    let accel = Accel::build(shapes).unwrap();
+    let mut r = Pcg32::new(99, 3);
+    let mut tested = 0;
+    while tested < 10_000 {
+        let (o, target) = targets(&mut r);
+        let ray = Ray::new(o, (target - o).normalize());
+        let Some((h, si)) = hit_si(&accel, shapes, &ray) else {
+            continue;
+        };
+        // leave on the reflected side and on the transmitted side, cosine-distributed
+        let side = if r.next_f32() < 0.5 { 1.0 } else { -1.0 };
+        let n = if si.ng.dot(si.wi) > 0.0 {
+            si.ng
+        } else {
+            -si.ng
+        } * side;
+        let d = Frame::from_normal(n).to_world(square_to_cosine_hemisphere(u2(&mut r)));
+        let spawned = si.spawn_ray(d);
+        if let Some(h2) = accel.intersect(&spawned) {
+            let same = h2.geom == h.geom && h2.prim == h.prim;
+            assert!(
+                !(same && h2.t < 1e-4 * scale),
+                "self-hit at t = {} from {}",
+                h2.t,
+                si.p
+            );
+        }
+        tested += 1;
+    }
+}
+
+#[test]
+fn spawned_rays_do_not_self_intersect() {
+    // sphere of radius 3 far from the origin
+    let c = Vec3::new(700.0, -300.0, 1200.0);
+    let shapes = vec![Shape::sphere(c, 3.0, &Mat4::IDENTITY, false).unwrap()];
+    assert_no_self_hits(
+        &shapes,
+        |r| {
+            (
+                c + square_to_uniform_sphere(u2(r)) * 20.0,
+                c + square_to_uniform_sphere(u2(r)) * 2.0,
+            )
+        },
+        3.0,
+    );
+    // the Cornell box's large box, scaled ×2 and moved to ~1e3
+    let mut m = load_obj(&Path::new(CBOX).join("cbox_largebox.obj")).unwrap();
+    m.transform(
+        &(Mat4::from_translation(Vec3::new(1000.0, 500.0, -800.0))
+            * Mat4::from_scale(Vec3::splat(2.0))),
+    );
+    let s = Shape::from_mesh(m, false, false).unwrap();
+    let (lo, hi) = s.bounds();
+    let mid = (lo + hi) * 0.5;
+    let shapes = vec![s];
+    let shape0 = shapes[0].clone();
+    assert_no_self_hits(
+        &shapes,
+        move |r| {
+            let target = shape0.sample_position(u2(r)).p;
+            (mid + square_to_uniform_sphere(u2(r)) * 2000.0, target)
+        },
+        1000.0,
+    );
+}
