@@ -10,3 +10,5 @@ pub mod shapes;
 
 pub use interaction::SurfaceInteraction;
 pub use ray::Ray;
+pub use mesh::TriMesh;
+pub use shapes::{DirectionSample, PositionSample, Shape, ShapeKind};

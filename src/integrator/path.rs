@@ -5,7 +5,7 @@
 //! geometric normal disagrees with its side in the shading frame carries no light (Veach's
 //! "strict normals"); this prevents light leaking through smooth-shaded meshes.
 
-use super::{PathSettings, Scratch, Strategy};
+use super::{PathSettings, RayCounters, Scratch, Strategy};
 use crate::bsdf::{lobe, BsdfContext};
 use crate::emitter::Emitter;
 use crate::geometry::{Ray, SurfaceInteraction};
@@ -105,7 +105,7 @@ pub fn li(
 
         // Next-event estimation.
         if cfg.strategy != Strategy::BsdfOnly && flags & lobe::SMOOTH != 0 {
-            result += throughput * sample_light(cfg, scene, &si, wi, &bsdf, &ctx, sampler, scratch);
+            result += throughput * sample_light(cfg, scene, &si, wi, &bsdf, &ctx, sampler, &mut scratch.counters);
         }
 
         // BSDF sampling.
@@ -173,7 +173,7 @@ pub(crate) fn sample_light(
     bsdf: &crate::bsdf::Bsdf,
     ctx: &BsdfContext,
     sampler: &mut Sampler,
-    scratch: &mut Scratch,
+    counters: &mut RayCounters,
 ) -> Spectrum {
     let u_sel = sampler.next_1d();
     let u = sampler.next_2d();
@@ -200,7 +200,7 @@ pub(crate) fn sample_light(
     } else {
         si.spawn_ray(ds.d)
     };
-    scratch.counters.shadow += 1;
+    counters.shadow += 1;
     if scene.occluded(&shadow) {
         return Spectrum::ZERO;
     }

@@ -16,7 +16,7 @@ use crate::geometry::{obj, ply, Shape};
 use crate::integrator::{DirectSettings, IntegratorDesc, PathSettings};
 use crate::material::{MatId, MaterialNode, Materials, TexId};
 use crate::sampler::{SamplerDesc, SamplerKind};
-use crate::spectrum::Spectrum;
+use crate::spectrum::{Spectrum, SpectrumUse};
 use crate::texture::Texture;
 use glam::{Mat3, Mat4, Vec3};
 use std::collections::HashMap;
@@ -676,7 +676,7 @@ impl<'d> Builder<'d> {
         if !p.has(name) {
             return Err(Error::scene(p.loc(), format!("the emitter needs a '{name}'")));
         }
-        let c = p.color_emission(name, Spectrum::ONE)?;
+        let c = p.color_with(name, Spectrum::ONE, SpectrumUse::Emission)?;
         check(p.loc(), c.min_element() >= 0.0, format!("'{name}' must not be negative"))?;
         Ok(Texture::Constant(c))
     }
@@ -695,7 +695,7 @@ impl<'d> Builder<'d> {
                 return Ok(());
             }
             "point" => {
-                let intensity = p.color_emission("intensity", Spectrum::ONE)?;
+                let intensity = p.color_with("intensity", Spectrum::ONE, SpectrumUse::Emission)?;
                 let m = p.transform("to_world")?;
                 let pos = if p.has("position") {
                     p.point("position", Vec3::ZERO)?
@@ -708,7 +708,7 @@ impl<'d> Builder<'d> {
                 })
             }
             "constant" => {
-                let r = p.color_emission("radiance", Spectrum::ONE)?;
+                let r = p.color_with("radiance", Spectrum::ONE, SpectrumUse::Emission)?;
                 Emitter::Constant(ConstantLight { radiance: r })
             }
             t @ ("spot" | "directional" | "envmap") => {
