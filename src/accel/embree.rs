@@ -122,7 +122,9 @@ pub(crate) struct EmbreeScene {
     scene: RTCScene,
     /// Messages reported by Embree's error callback (the callback's user pointer points here).
     _errors: Box<Mutex<Vec<String>>>,
-    /// User data of the disk geometries; boxed so the addresses Embree holds stay valid.
+    /// User data of the disk geometries; boxed so the addresses Embree holds stay valid while
+    /// the Vec grows (hence the allow: the Box is what pins each address).
+    #[allow(clippy::vec_box)]
     _disks: Vec<Box<DiskData>>,
 }
 
