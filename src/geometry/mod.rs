@@ -9,4 +9,6 @@ pub mod ray;
 pub mod shapes;
 
 pub use interaction::SurfaceInteraction;
+pub use mesh::TriMesh;
 pub use ray::Ray;
+pub use shapes::{DirectionSample, PositionSample, Shape, ShapeKind};
