@@ -442,6 +442,22 @@ fn disk_and_cube_conventions() {
     );
     assert!((si.ng - Vec3::Z).length() < 1e-6);
     assert!((si.sh.s - Vec3::Y).length() < 1e-5, "s radial");
+    assert!((si.p - Vec3::new(0.0, 1.0, 0.0)).length() < 1e-6);
+    // exact silhouette: the disk has radius 2 exactly (no tessellation)
+    for k in 0..64 {
+        let a = k as f32 * 0.098;
+        let dir = Vec3::new(a.cos(), a.sin(), 0.0);
+        let inside = Ray::new(dir * 1.9998 + Vec3::Z, -Vec3::Z);
+        let outside = Ray::new(dir * 2.0002 + Vec3::Z, -Vec3::Z);
+        let h = accel.intersect(&inside).expect("hit just inside the rim");
+        assert!(rel_close(h.t, 1.0, 1e-6) && accel.occluded(&inside));
+        assert!(accel.intersect(&outside).is_none() && !accel.occluded(&outside));
+    }
+    let (lo, hi) = shapes[0].bounds();
+    assert!(
+        (lo - Vec3::new(-2.0, -2.0, 0.0)).length() < 1e-6
+            && (hi - Vec3::new(2.0, 2.0, 0.0)).length() < 1e-6
+    );
     // cube: outward flat normals on every face
     for (o, d) in [
         (Vec3::new(0.3, 0.2, 20.0), -Vec3::Z),
@@ -514,6 +530,12 @@ fn sample_direction_pdf_matches_pdf_direction() {
     check_pdf_consistency(&[sphere(true)], Vec3::new(0.2, 0.3, 0.1), 2); // inside: area
     let rect = Shape::rectangle(&Mat4::from_scale(Vec3::new(3.0, 1.0, 1.0)), false);
     check_pdf_consistency(&[rect], Vec3::new(1.0, 2.0, 1.5), 3);
+    let tilted = Mat4::from_rotation_x(0.7) * Mat4::from_scale(Vec3::new(2.0, 0.5, 1.0));
+    check_pdf_consistency(
+        &[Shape::disk(&tilted, true).unwrap()],
+        Vec3::new(0.3, -1.0, 2.0),
+        5,
+    );
     // a smooth-shaded mesh (a sphere-like OBJ would do; use the cbox large box, face normals off)
     let mut m = load_obj(&Path::new(CBOX).join("cbox_largebox.obj")).unwrap();
     m.normals = None;
@@ -627,6 +649,24 @@ fn spawned_rays_do_not_self_intersect() {
             )
         },
         3.0,
+    );
+    // a tilted disk of radius 50 far from the origin
+    let tw = Mat4::from_translation(Vec3::new(-900.0, 400.0, 1500.0))
+        * Mat4::from_rotation_y(0.4)
+        * Mat4::from_rotation_x(1.1)
+        * Mat4::from_scale(Vec3::splat(50.0));
+    let shapes = vec![Shape::disk(&tw, false).unwrap()];
+    let shape0 = shapes[0].clone();
+    let c = tw.transform_point3(Vec3::ZERO);
+    assert_no_self_hits(
+        &shapes,
+        move |r| {
+            (
+                c + square_to_uniform_sphere(u2(r)) * 300.0,
+                shape0.sample_position(u2(r)).p,
+            )
+        },
+        50.0,
     );
     // the Cornell box's large box, scaled ×2 and moved to ~1e3
     let mut m = load_obj(&Path::new(CBOX).join("cbox_largebox.obj")).unwrap();

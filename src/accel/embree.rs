@@ -6,7 +6,7 @@
 //! what makes the wrapper `Send + Sync`.
 
 use embree3::sys::*;
-use glam::Vec3;
+use glam::{Mat4, Vec3};
 use std::ffi::{c_char, c_void, CStr};
 use std::ptr;
 use std::sync::Mutex;
@@ -19,6 +19,101 @@ pub(crate) enum GeomDesc<'a> {
     },
     /// Embree's exact ray–sphere primitive (`RTC_GEOMETRY_TYPE_SPHERE_POINT`).
     Sphere { center: Vec3, radius: f32 },
+    /// The unit disk (z = 0, r ≤ 1) of object space mapped by `to_world`: an Embree user
+    /// geometry intersected exactly by the callbacks below.
+    Disk { to_world: Mat4 },
+    /// Nothing to trace (a degenerate shape); its id stays unused.
+    Empty,
+}
+
+/// What the disk callbacks need, owned by the scene (Embree holds a raw pointer to it).
+struct DiskData {
+    to_object: Mat4,
+    /// World-space normal (unnormalised) reported as Embree's Ng.
+    normal: Vec3,
+    lower: Vec3,
+    upper: Vec3,
+}
+
+impl DiskData {
+    fn new(to_world: &Mat4) -> DiskData {
+        let c = to_world.transform_point3(Vec3::ZERO);
+        let ax = to_world.transform_vector3(Vec3::X);
+        let ay = to_world.transform_vector3(Vec3::Y);
+        // Exact bounds of the ellipse c + ax cos φ + ay sin φ, padded by a few ulps.
+        let ext = Vec3::new(ax.x.hypot(ay.x), ax.y.hypot(ay.y), ax.z.hypot(ay.z));
+        let pad = (c.abs() + ext) * 1e-6;
+        DiskData {
+            to_object: to_world.inverse(),
+            normal: to_world.inverse().transpose().transform_vector3(Vec3::Z),
+            lower: c - ext - pad,
+            upper: c + ext + pad,
+        }
+    }
+
+    /// Ray parameter of the hit with the disk within (tnear, tfar), if any.
+    fn hit(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<f32> {
+        let ol = self.to_object.transform_point3(o);
+        let dl = self.to_object.transform_vector3(d);
+        let t = -ol.z / dl.z;
+        let l = ol + dl * t;
+        (t > tnear && t < tfar && l.x * l.x + l.y * l.y <= 1.0).then_some(t)
+    }
+}
+
+unsafe extern "C" fn disk_bounds(args: *const RTCBoundsFunctionArguments) {
+    // SAFETY: Embree passes valid arguments; the user pointer is the scene's boxed DiskData.
+    unsafe {
+        let a = &*args;
+        let disk = &*(a.geometryUserPtr as *const DiskData);
+        let b = &mut *a.bounds_o;
+        (b.lower_x, b.lower_y, b.lower_z) = (disk.lower.x, disk.lower.y, disk.lower.z);
+        (b.upper_x, b.upper_y, b.upper_z) = (disk.upper.x, disk.upper.y, disk.upper.z);
+    }
+}
+
+unsafe extern "C" fn disk_intersect(args: *const RTCIntersectFunctionNArguments) {
+    // SAFETY: groove only calls rtcIntersect1, for which Embree invokes this with N = 1, and a
+    // ray-hit packet of size 1 has RTCRayHit's layout (Embree 3 API, "RTCRayHitN").
+    unsafe {
+        let a = &*args;
+        if a.N != 1 || *a.valid == 0 {
+            return;
+        }
+        let disk = &*(a.geometryUserPtr as *const DiskData);
+        let rh = &mut *(a.rayhit as *mut RTCRayHit);
+        let r = &rh.ray;
+        let o = Vec3::new(r.org_x, r.org_y, r.org_z);
+        let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
+        if let Some(t) = disk.hit(o, d, r.tnear, r.tfar) {
+            rh.ray.tfar = t;
+            rh.hit.Ng_x = disk.normal.x;
+            rh.hit.Ng_y = disk.normal.y;
+            rh.hit.Ng_z = disk.normal.z;
+            rh.hit.u = 0.0;
+            rh.hit.v = 0.0;
+            rh.hit.primID = a.primID;
+            rh.hit.geomID = a.geomID;
+            rh.hit.instID = (*a.context).instID;
+        }
+    }
+}
+
+unsafe extern "C" fn disk_occluded(args: *const RTCOccludedFunctionNArguments) {
+    // SAFETY: as in `disk_intersect`; a ray packet of size 1 has RTCRay's layout.
+    unsafe {
+        let a = &*args;
+        if a.N != 1 || *a.valid == 0 {
+            return;
+        }
+        let disk = &*(a.geometryUserPtr as *const DiskData);
+        let r = &mut *(a.ray as *mut RTCRay);
+        let o = Vec3::new(r.org_x, r.org_y, r.org_z);
+        let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
+        if disk.hit(o, d, r.tnear, r.tfar).is_some() {
+            r.tfar = f32::NEG_INFINITY;
+        }
+    }
 }
 
 /// A committed Embree scene with its device.
@@ -27,6 +122,10 @@ pub(crate) struct EmbreeScene {
     scene: RTCScene,
     /// Messages reported by Embree's error callback (the callback's user pointer points here).
     _errors: Box<Mutex<Vec<String>>>,
+    /// User data of the disk geometries; boxed so the addresses Embree holds stay valid while
+    /// the Vec grows (hence the allow: the Box is what pins each address).
+    #[allow(clippy::vec_box)]
+    _disks: Vec<Box<DiskData>>,
 }
 
 // SAFETY: the scene is committed and never mutated afterwards; Embree documents traversal
@@ -82,16 +181,18 @@ impl EmbreeScene {
                 &*errors as *const Mutex<Vec<String>> as *mut c_void,
             );
             let scene = rtcNewScene(device);
-            let this = EmbreeScene {
+            let mut this = EmbreeScene {
                 device,
                 scene,
                 _errors: errors,
+                _disks: Vec::new(),
             };
             if scene.is_null() {
                 return Err(this.error_text("rtcNewScene failed"));
             }
             for (id, g) in geoms.iter().enumerate() {
                 let geom = match g {
+                    GeomDesc::Empty => continue,
                     GeomDesc::Triangles { positions, indices } => {
                         let geom = rtcNewGeometry(device, RTCGeometryType::TRIANGLE);
                         if geom.is_null() {
@@ -147,6 +248,21 @@ impl EmbreeScene {
                         }
                         let vs = std::slice::from_raw_parts_mut(vb, 4);
                         vs.copy_from_slice(&[center.x, center.y, center.z, *radius]);
+                        geom
+                    }
+                    GeomDesc::Disk { to_world } => {
+                        let geom = rtcNewGeometry(device, RTCGeometryType::USER);
+                        if geom.is_null() {
+                            return Err(this.error_text("rtcNewGeometry failed"));
+                        }
+                        let data = Box::new(DiskData::new(to_world));
+                        let ptr = &*data as *const DiskData as *mut c_void;
+                        this._disks.push(data);
+                        rtcSetGeometryUserPrimitiveCount(geom, 1);
+                        rtcSetGeometryUserData(geom, ptr);
+                        rtcSetGeometryBoundsFunction(geom, Some(disk_bounds), ptr::null_mut());
+                        rtcSetGeometryIntersectFunction(geom, Some(disk_intersect));
+                        rtcSetGeometryOccludedFunction(geom, Some(disk_occluded));
                         geom
                     }
                 };
@@ -244,7 +360,8 @@ impl EmbreeScene {
 
 impl Drop for EmbreeScene {
     fn drop(&mut self) {
-        // SAFETY: handles created in `build`, released exactly once; the scene before its device.
+        // SAFETY: handles created in `build`, released exactly once; the scene before its device
+        // (and both before `_disks`, which the struct drops after this body).
         unsafe {
             if !self.scene.is_null() {
                 rtcReleaseScene(self.scene);

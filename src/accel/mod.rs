@@ -29,6 +29,7 @@ impl Accel {
         let descs: Vec<embree::GeomDesc> = shapes
             .iter()
             .map(|s| match &s.kind {
+                ShapeKind::Mesh(m) if m.indices.is_empty() => embree::GeomDesc::Empty,
                 ShapeKind::Mesh(m) => embree::GeomDesc::Triangles {
                     positions: &m.positions,
                     indices: &m.indices,
@@ -36,6 +37,9 @@ impl Accel {
                 ShapeKind::Sphere { center, radius, .. } => embree::GeomDesc::Sphere {
                     center: *center,
                     radius: *radius,
+                },
+                ShapeKind::Disk { to_world } => embree::GeomDesc::Disk {
+                    to_world: *to_world,
                 },
             })
             .collect();

@@ -9,6 +9,6 @@ pub mod ray;
 pub mod shapes;
 
 pub use interaction::SurfaceInteraction;
-pub use ray::Ray;
 pub use mesh::TriMesh;
+pub use ray::Ray;
 pub use shapes::{DirectionSample, PositionSample, Shape, ShapeKind};

@@ -11,9 +11,6 @@ use crate::error::{Error, Result};
 use crate::math::{warp, Frame, INV_2PI, PI};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 
-/// Segments of the tessellated disk (area error ≈ (2π/N)²/6 ≈ 6·10⁻⁶ relative).
-const DISK_SEGMENTS: u32 = 1024;
-
 /// What a shape is made of.
 #[derive(Clone, Debug)]
 pub enum ShapeKind {
@@ -25,6 +22,9 @@ pub enum ShapeKind {
         radius: f32,
         frame: Mat4,
     },
+    /// Mitsuba's exact `disk`: the unit disk of the XY plane mapped by `to_world` (intersected by
+    /// an Embree user geometry).
+    Disk { to_world: Mat4 },
 }
 
 /// A shape ready for rendering: geometry plus the tables its sampling needs.
@@ -38,9 +38,8 @@ pub struct Shape {
     area: f32,
     /// Normalised cumulative triangle areas (meshes; empty for spheres).
     cdf: Vec<f32>,
-    /// `Some(to_world)` for the tessellated disk: uv and tangents are then computed
-    /// analytically from the hit point, as for Mitsuba's exact disk.
-    disk: Option<Mat4>,
+    /// Inverse of the disk's `to_world` (identity for other shapes).
+    to_object: Mat4,
 }
 
 /// A point sampled uniformly on a shape's surface.
@@ -69,12 +68,7 @@ pub struct DirectionSample {
 }
 
 impl Shape {
-    fn new_mesh(
-        mesh: TriMesh,
-        flip_normals: bool,
-        face_normals: bool,
-        disk: Option<Mat4>,
-    ) -> Result<Shape> {
+    fn new_mesh(mesh: TriMesh, flip_normals: bool, face_normals: bool) -> Result<Shape> {
         mesh.validate().map_err(|m| Error::file("mesh", m))?;
         let mut acc = 0.0f64;
         let mut cdf: Vec<f32> = (0..mesh.indices.len())
@@ -102,7 +96,7 @@ impl Shape {
             face_normals,
             area,
             cdf,
-            disk,
+            to_object: Mat4::IDENTITY,
         })
     }
 
@@ -115,7 +109,7 @@ impl Shape {
         } else if mesh.normals.is_none() {
             mesh.compute_vertex_normals();
         }
-        Shape::new_mesh(mesh, flip_normals, face_normals, None)
+        Shape::new_mesh(mesh, flip_normals, face_normals)
     }
 
     /// Mitsuba's `rectangle`: [−1,1]² in the XY plane, normal +Z, uv = ((x+1)/2, (y+1)/2), as
@@ -136,7 +130,7 @@ impl Shape {
         };
         mesh.transform(to_world);
         keep_orientation(&mut mesh, to_world);
-        Shape::new_mesh(mesh, flip_normals, true, None).unwrap_or_else(|_| degenerate())
+        Shape::new_mesh(mesh, flip_normals, true).unwrap_or_else(|_| degenerate())
     }
 
     /// Mitsuba's `cube`: [−1,1]³ as 12 triangles with 24 vertices (4 per face, so each face has
@@ -175,24 +169,29 @@ impl Shape {
         mesh.normals = Some(ns);
         mesh.uvs = Some(uvs);
         mesh.transform(to_world);
-        Shape::new_mesh(mesh, flip_normals, false, None).unwrap_or_else(|_| degenerate())
+        Shape::new_mesh(mesh, flip_normals, false).unwrap_or_else(|_| degenerate())
     }
 
-    /// Mitsuba's `disk`: the unit disk in the XY plane, normal +Z, uv = (r, φ/2π).
-    /// Tessellated into a fan of 1024 triangles; uv, dp/du and dp/dv are computed analytically
-    /// from the hit point, so only the silhouette (and the area, by 6·10⁻⁶) is approximate.
+    /// Mitsuba's `disk`: the unit disk in the XY plane, normal +Z (by the normal transform, as
+    /// Mitsuba), uv = (r, φ/2π). Exact: an Embree user geometry with analytic intersection.
     pub fn disk(to_world: &Mat4, flip_normals: bool) -> Result<Shape> {
-        let mut mesh = TriMesh::default();
-        mesh.positions.push(Vec3::ZERO);
-        for k in 0..DISK_SEGMENTS {
-            let a = 2.0 * std::f64::consts::PI * k as f64 / DISK_SEGMENTS as f64;
-            mesh.positions
-                .push(Vec3::new(a.cos() as f32, a.sin() as f32, 0.0));
-            mesh.indices.push([0, 1 + k, 1 + (k + 1) % DISK_SEGMENTS]);
+        let ax = to_world.transform_vector3(Vec3::X);
+        let ay = to_world.transform_vector3(Vec3::Y);
+        let area = PI * ax.cross(ay).length();
+        let det = Mat3::from_mat4(*to_world).determinant();
+        if !(area.is_finite() && area > 0.0 && det.is_finite() && det != 0.0) {
+            return Err(Error::file("disk", "to_world is degenerate (zero area)"));
         }
-        mesh.transform(to_world);
-        keep_orientation(&mut mesh, to_world);
-        Shape::new_mesh(mesh, flip_normals, true, Some(*to_world))
+        Ok(Shape {
+            kind: ShapeKind::Disk {
+                to_world: *to_world,
+            },
+            flip_normals,
+            face_normals: true,
+            area,
+            cdf: Vec::new(),
+            to_object: to_world.inverse(),
+        })
     }
 
     /// Mitsuba's `sphere`: `center`/`radius` in object space, then `to_world`, which may carry a
@@ -232,11 +231,11 @@ impl Shape {
             face_normals: true,
             area: 4.0 * PI * r * r,
             cdf: Vec::new(),
-            disk: None,
+            to_object: Mat4::IDENTITY,
         })
     }
 
-    /// Surface area (for the disk: of its tessellation, consistent with its sampling).
+    /// Surface area.
     pub fn area(&self) -> f32 {
         self.area
     }
@@ -249,6 +248,13 @@ impl Shape {
                 |(lo, hi), p| (lo.min(*p), hi.max(*p)),
             ),
             ShapeKind::Sphere { center, radius, .. } => (*center - *radius, *center + *radius),
+            ShapeKind::Disk { to_world } => {
+                let c = to_world.transform_point3(Vec3::ZERO);
+                let ax = to_world.transform_vector3(Vec3::X);
+                let ay = to_world.transform_vector3(Vec3::Y);
+                let ext = Vec3::new(ax.x.hypot(ay.x), ax.y.hypot(ay.y), ax.z.hypot(ay.z));
+                (c - ext, c + ext)
+            }
         }
     }
 
@@ -286,14 +292,31 @@ impl Shape {
                         ns = n;
                     }
                 }
-                if let Some(tw) = &self.disk {
-                    (uv, dpdu, dpdv) = disk_uv(tw, p);
-                }
                 SurfaceInteraction {
                     p,
                     t: hit.t,
                     ng: ng * sign,
                     sh: Frame::from_normal_tangent(ns * sign, dpdu),
+                    uv,
+                    dpdu,
+                    dpdv,
+                    shape: shape_index,
+                    prim: hit.prim,
+                    wi: -ray.d,
+                }
+            }
+            ShapeKind::Disk { to_world } => {
+                // Project the hit onto the disk's plane in object space, then back.
+                let mut l = self.to_object.transform_point3(ray.at(hit.t));
+                l.z = 0.0;
+                let p = to_world.transform_point3(l);
+                let (uv, dpdu, dpdv) = disk_uv(to_world, l);
+                let ng = self.disk_normal() * sign;
+                SurfaceInteraction {
+                    p,
+                    t: hit.t,
+                    ng,
+                    sh: Frame::from_normal_tangent(ng, dpdu),
                     uv,
                     dpdu,
                     dpdv,
@@ -334,6 +357,12 @@ impl Shape {
         let sign = if self.flip_normals { -1.0 } else { 1.0 };
         let pdf = 1.0 / self.area;
         match &self.kind {
+            ShapeKind::Mesh(_) if self.cdf.is_empty() => PositionSample {
+                p: Vec3::ZERO,
+                n: Vec3::Z,
+                uv: Vec2::ZERO,
+                pdf: 0.0,
+            },
             ShapeKind::Mesh(m) => {
                 let i = self
                     .cdf
@@ -360,18 +389,28 @@ impl Shape {
                         (n0 * b0 + n1 * b.x + n2 * b.y).try_normalize()
                     })
                     .unwrap_or(ng);
-                let uv = match (&self.disk, &m.uvs) {
-                    (Some(tw), _) => disk_uv(tw, p).0,
-                    (None, Some(uvs)) => {
+                let uv = match &m.uvs {
+                    Some(uvs) => {
                         let [t0, t1, t2] = tri.map(|k| uvs[k as usize]);
                         t0 * b0 + t1 * b.x + t2 * b.y
                     }
-                    (None, None) => b,
+                    None => b,
                 };
                 PositionSample {
                     p,
                     n: n * sign,
                     uv,
+                    pdf,
+                }
+            }
+            ShapeKind::Disk { to_world } => {
+                // Concentric mapping, as Mitsuba's `Disk::sample_position`.
+                let d = warp::square_to_disk_concentric(u);
+                let l = Vec3::new(d.x, d.y, 0.0);
+                PositionSample {
+                    p: to_world.transform_point3(l),
+                    n: self.disk_normal() * sign,
+                    uv: disk_uv(to_world, l).0,
                     pdf,
                 }
             }
@@ -433,6 +472,9 @@ impl Shape {
             }
         }
         let ps = self.sample_position(u);
+        if ps.pdf == 0.0 {
+            return None;
+        }
         let v = ps.p - ref_p;
         let dist2 = v.length_squared();
         let dist = dist2.sqrt();
@@ -476,9 +518,18 @@ impl Shape {
             0.0
         }
     }
+
+    /// The disk's unit normal before `flip_normals`: +Z by the normal transform.
+    fn disk_normal(&self) -> Vec3 {
+        self.to_object
+            .transpose()
+            .transform_vector3(Vec3::Z)
+            .try_normalize()
+            .unwrap_or(Vec3::Z)
+    }
 }
 
-/// Rectangle and disk are analytic in Mitsuba with normal `to_world`'s normal transform of +Z;
+/// Mitsuba's rectangle is analytic, its normal the normal transform of +Z;
 /// a mirroring `to_world` reverses the triangle winding, so reverse it back.
 fn keep_orientation(mesh: &mut TriMesh, to_world: &Mat4) {
     if Mat3::from_mat4(*to_world).determinant() < 0.0 {
@@ -496,14 +547,13 @@ fn degenerate() -> Shape {
         face_normals: true,
         area: 0.0,
         cdf: Vec::new(),
-        disk: None,
+        to_object: Mat4::IDENTITY,
     }
 }
 
-/// Mitsuba 3's disk parameterisation at world point `p`: uv = (r, φ/2π), dp/du radial,
-/// dp/dv tangential (scaled by 2πr, the true derivative).
-fn disk_uv(to_world: &Mat4, p: Vec3) -> (Vec2, Vec3, Vec3) {
-    let l = to_world.inverse().transform_point3(p);
+/// Mitsuba 3's disk parameterisation at the object-space point `l`: uv = (r, φ/2π), dp/du
+/// radial, dp/dv tangential (scaled by 2πr, the true derivative), both mapped to world space.
+fn disk_uv(to_world: &Mat4, l: Vec3) -> (Vec2, Vec3, Vec3) {
     let r = Vec2::new(l.x, l.y).length();
     let mut phi = l.y.atan2(l.x);
     if phi < 0.0 {
