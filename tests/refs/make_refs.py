@@ -1,0 +1,130 @@
+#!/usr/bin/env python3
+"""Render the Mitsuba 3 reference images used by groove's statistical acceptance tests.
+
+Run from anywhere with the Mitsuba venv's python:
+
+    /work/.venv-mitsuba/bin/python tests/refs/make_refs.py [--threads 2] [--only NAME ...]
+        [--spp-scale F] [--out DIR]
+
+For every job below the scene is loaded once (Mitsuba 3.9.1, variant scalar_rgb) and rendered K
+times with mi.render(scene, spp=SPP, seed=s) for the listed seeds. Written per job, float32 RGB:
+
+    NAME.exr      per-pixel mean of the K renders
+    NAME.var.exr  per-pixel variance OF THE MEAN: unbiased sample variance across the K seeds / K
+
+All test scenes use the box reconstruction filter, so pixels are independent estimates (the
+statistics in tests/common/imgcmp.rs rely on that). A summary (timings, noise levels) is printed
+and written to refs.json next to the images.
+"""
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.normpath(os.path.join(HERE, "..", ".."))
+SCENES = os.path.join(REPO, "tests", "data", "scenes")
+CBOX = os.path.normpath(os.path.join(REPO, "..", "shared", "scenes", "mitsuba_cbox", "cbox-rgb.xml"))
+
+REF_SEEDS = [0, 1, 2, 3]
+
+# name, scene file, -D defines, spp per seed, seeds
+JOBS = [
+    ("furnace_sphere", os.path.join(SCENES, "furnace_sphere.xml"), {}, 8192, REF_SEEDS),
+    ("depth_sphere_d1", os.path.join(SCENES, "depth_sphere.xml"), {"max_depth": "1"}, 2048, REF_SEEDS),
+    ("depth_sphere_d2", os.path.join(SCENES, "depth_sphere.xml"), {"max_depth": "2"}, 8192, REF_SEEDS),
+    ("depth_sphere_d3", os.path.join(SCENES, "depth_sphere.xml"), {"max_depth": "3"}, 8192, REF_SEEDS),
+    ("mis_quad", os.path.join(SCENES, "mis_quad.xml"), {}, 2048, REF_SEEDS),
+    ("mis_quad_nopoint", os.path.join(SCENES, "mis_quad.xml"), {"point": "0"}, 2048, REF_SEEDS),
+    ("cbox_v3", os.path.join(SCENES, "cbox_v3.xml"), {}, 1024, REF_SEEDS),
+    ("area_point", os.path.join(SCENES, "area_point.xml"), {}, 1024, REF_SEEDS),
+    # The shared Cornell box (meshes, includes, referenced emitter), unchanged, at 64x64.
+    ("cbox", CBOX, {"res": "64"}, 2048, REF_SEEDS),
+    # An independent, cheaper render of the same scene (other seeds) for the harness self-check.
+    ("cbox.check", CBOX, {"res": "64"}, 256, [100, 101, 102, 103]),
+]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--only", nargs="*", default=None, help="job names to (re)render")
+    ap.add_argument("--spp-scale", type=float, default=1.0,
+                    help="multiply every job's spp (for quick trial runs; do not commit those)")
+    ap.add_argument("--out", default=HERE, help="output folder (default: tests/refs)")
+    args = ap.parse_args()
+
+    import drjit as dr
+    import mitsuba as mi
+    mi.set_variant("scalar_rgb")
+    dr.set_thread_count(args.threads)
+    mi.set_log_level(mi.LogLevel.Warn)
+
+    os.makedirs(args.out, exist_ok=True)
+    summary_path = os.path.join(args.out, "refs.json")
+    summary = {}
+    if os.path.isfile(summary_path):
+        with open(summary_path) as f:
+            summary = json.load(f)
+
+    for name, scene_path, defines, spp, seeds in JOBS:
+        if args.only and name not in args.only:
+            continue
+        spp = max(1, int(round(spp * args.spp_scale)))
+        t0 = time.perf_counter()
+        scene = mi.load_file(scene_path, **defines)
+        t_load = time.perf_counter() - t0
+        renders, times = [], []
+        for s in seeds:
+            t0 = time.perf_counter()
+            img = np.array(mi.render(scene, spp=spp, seed=s), dtype=np.float64)[:, :, :3]
+            times.append(time.perf_counter() - t0)
+            renders.append(img)
+        stack = np.stack(renders)  # K x H x W x 3
+        k = stack.shape[0]
+        mean = stack.mean(axis=0)
+        var_mean = stack.var(axis=0, ddof=1) / k
+
+        def write(arr, path):
+            bmp = mi.Bitmap(np.ascontiguousarray(arr, dtype=np.float32), mi.Bitmap.PixelFormat.RGB)
+            bmp.write(path)
+
+        write(mean, os.path.join(args.out, f"{name}.exr"))
+        write(var_mean, os.path.join(args.out, f"{name}.var.exr"))
+
+        # Noise summary over "lit" pixels: mean luminance above 10% of the median non-zero pixel
+        # (excludes black background; directly seen emitters, exact in Mitsuba, are included).
+        lum = mean.mean(axis=2)
+        pos = lum[lum > 0]
+        lit = lum > 0.1 * (np.median(pos) if pos.size else 0.0)
+        rel = np.sqrt(var_mean.mean(axis=2))[lit] / np.maximum(lum[lit], 1e-12)
+        h, w = mean.shape[:2]
+        rec = {
+            "scene": os.path.relpath(scene_path, REPO),
+            "defines": defines,
+            "width": w, "height": h,
+            "spp_per_seed": spp, "seeds": seeds, "total_spp": spp * k,
+            "load_s": round(t_load, 3),
+            "render_s_per_seed": [round(t, 2) for t in times],
+            "render_s_total": round(sum(times), 2),
+            "mean_rgb": [round(float(x), 6) for x in mean.reshape(-1, 3).mean(axis=0)],
+            "rel_se_lit_median": round(float(np.median(rel)), 5),
+            "rel_se_lit_p90": round(float(np.percentile(rel, 90)), 5),
+            "rel_se_lit_max": round(float(rel.max()), 5),
+            "whole_image_rel_se": round(float(np.sqrt(var_mean.sum()) / max(mean.sum(), 1e-12)), 6),
+            "mitsuba": mi.__version__, "variant": "scalar_rgb", "threads": args.threads,
+        }
+        summary[name] = rec
+        print(f"{name:18s} {w}x{h} spp {spp}x{k}  render {sum(times):7.1f} s  "
+              f"mean {rec['mean_rgb']}  relSE lit median {rec['rel_se_lit_median']:.4f} "
+              f"p90 {rec['rel_se_lit_p90']:.4f} max {rec['rel_se_lit_max']:.4f}", flush=True)
+        with open(summary_path, "w") as f:
+            json.dump(summary, f, indent=1, sort_keys=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
