@@ -60,7 +60,8 @@ struct Builder<'d> {
     bsdf_cache: HashMap<&'d str, MatId>,
     tex_cache: HashMap<&'d str, TexId>,
     materials: Materials,
-    default_material: Option<MatId>,
+    /// The default diffuse BSDFs: [for plain shapes (0.5 grey), for emitting shapes (black)].
+    default_materials: [Option<MatId>; 2],
     shapes: Vec<Shape>,
     shape_material: Vec<MatId>,
     shape_emitter: Vec<Option<u32>>,
@@ -76,7 +77,7 @@ pub fn instantiate(doc: &Document, path: &Path) -> Result<Loaded> {
         bsdf_cache: HashMap::new(),
         tex_cache: HashMap::new(),
         materials: Materials::default(),
-        default_material: None,
+        default_materials: [None, None],
         shapes: Vec::new(),
         shape_material: Vec::new(),
         shape_emitter: Vec::new(),
@@ -557,13 +558,15 @@ impl<'d> Builder<'d> {
         Ok(id)
     }
 
-    fn default_material(&mut self) -> MatId {
-        if let Some(m) = self.default_material {
+    fn default_material(&mut self, emitting: bool) -> MatId {
+        let slot = usize::from(emitting);
+        if let Some(m) = self.default_materials[slot] {
             return m;
         }
-        let t = self.materials.add_texture(Texture::Constant(Spectrum::splat(0.5)));
+        let grey = if emitting { 0.0 } else { 0.5 };
+        let t = self.materials.add_texture(Texture::Constant(Spectrum::splat(grey)));
         let m = self.materials.add_node(MaterialNode::Diffuse { reflectance: t });
-        self.default_material = Some(m);
+        self.default_materials[slot] = Some(m);
         m
     }
 
@@ -640,9 +643,11 @@ impl<'d> Builder<'d> {
             }
         }
         p.finish()?;
+        // Mitsuba 3: a shape without a BSDF gets a 0.5 grey diffuse one, but an emitting shape
+        // without a BSDF gets a black one (it does not reflect light).
         let material = match material {
             Some(m) => m,
-            None => self.default_material(),
+            None => self.default_material(emitter.is_some()),
         };
         self.shapes.push(shape);
         self.shape_material.push(material);

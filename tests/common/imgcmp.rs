@@ -247,6 +247,11 @@ pub fn compare(
                 }
                 let (mt, mr) = (st / n, sr / n);
                 let v = (vt + vr) / (n * n);
+                // Variances below float32 rounding of the tile mean are rounding noise of the
+                // accumulation (e.g. a sky pixel of 1 stored as 0.99999994), not sampling noise:
+                // such tiles are compared exactly, within EXACT_REL_TOL.
+                let rounding = (EXACT_REL_TOL * mt.abs().max(mr.abs())).powi(2);
+                let v = if v > rounding { v } else { 0.0 };
                 let z = if v > 0.0 {
                     chi2_rgb[c] += (mt - mr).powi(2) / v;
                     dof_rgb[c] += 1;

@@ -45,3 +45,50 @@ pub fn shared_cbox() -> PathBuf {
 pub fn exists(p: &Path) -> bool {
     p.is_file()
 }
+
+/// A rendered image with its per-pixel variance of the mean, as test images.
+pub struct Rendered {
+    pub mean: RgbImage,
+    pub var: RgbImage,
+    pub stats: groove::render::RenderStats,
+}
+
+fn to_rgb(img: &groove::film::Image) -> RgbImage {
+    let mut out = RgbImage::new(img.width as usize, img.height as usize);
+    for (o, p) in out.data.iter_mut().zip(&img.data) {
+        *o = [p[0] as f64, p[1] as f64, p[2] as f64];
+    }
+    out
+}
+
+/// Load `scene` with `-D` values and render it in-process.
+pub fn render_scene(
+    scene: &Path,
+    defines: &[(&str, &str)],
+    spp: u32,
+    seed: u64,
+    threads: usize,
+    tweak: impl FnOnce(&mut groove::scene::Scene),
+) -> Rendered {
+    let opts = groove::scene::instantiate::LoadOptions {
+        defines: defines
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect(),
+    };
+    let mut loaded = groove::scene::instantiate::load_scene(scene, &opts)
+        .unwrap_or_else(|e| panic!("loading {}: {e}", scene.display()));
+    tweak(&mut loaded.scene);
+    let ro = groove::render::RenderOptions {
+        threads,
+        spp: Some(spp),
+        seed: Some(seed),
+        ..Default::default()
+    };
+    let out = groove::render::render(&loaded.scene, &ro).expect("render");
+    Rendered {
+        mean: to_rgb(&out.film.develop()),
+        var: to_rgb(&out.film.develop_variance()),
+        stats: out.stats,
+    }
+}

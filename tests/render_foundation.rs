@@ -1,0 +1,185 @@
+//! Foundation acceptance: groove's renders against Mitsuba 3.9.1 references and analytic answers,
+//! MIS unbiasedness, depth semantics and determinism. Statistical comparisons use
+//! `common::imgcmp` (per-tile z-tests with both images' own noise; see tests/refs/README.md).
+//! Run in release mode (`cargo test --release`); sample counts are chosen so each render takes
+//! about a second on 2 cores while a 2% brightness bias stays detectable (tests/refs_selfcheck.rs).
+
+mod common;
+
+use common::{compare, load_reference, render_scene, shared_cbox, test_scene, RgbImage};
+use groove::integrator::{IntegratorDesc, Strategy};
+
+fn matches_reference(r: &common::Rendered, reference: &str, block: usize, what: &str) {
+    let (m, v) = load_reference(reference);
+    let c = compare(&r.mean, &r.var, &m, &v, block);
+    c.assert_consistent(what);
+}
+
+#[test]
+fn cbox_rgb_from_mitsuba_data_matches_mitsuba() {
+    let r = render_scene(&shared_cbox(), &[("res", "64")], 512, 1, 0, |_| {});
+    matches_reference(&r, "cbox", 8, "cbox-rgb.xml at 64x64, 512 spp");
+}
+
+#[test]
+fn point_light_sphere_light_twosided_room_matches_mitsuba() {
+    let r = render_scene(&test_scene("area_point.xml"), &[], 512, 2, 0, |_| {});
+    matches_reference(&r, "area_point", 4, "area_point.xml");
+}
+
+#[test]
+fn mis_quad_with_point_light_matches_mitsuba() {
+    let r = render_scene(&test_scene("mis_quad.xml"), &[], 256, 3, 0, |_| {});
+    matches_reference(&r, "mis_quad", 8, "mis_quad.xml");
+}
+
+fn set_strategy(s: Strategy) -> impl FnOnce(&mut groove::scene::Scene) {
+    move |scene| match &mut scene.integrator {
+        IntegratorDesc::Path(p) => p.strategy = s,
+        other => panic!("expected a path integrator, got {other:?}"),
+    }
+}
+
+#[test]
+fn light_only_bsdf_only_and_mis_agree() {
+    let scene = test_scene("mis_quad.xml");
+    let d = [("point", "0")];
+    let mis = render_scene(&scene, &d, 256, 4, 0, set_strategy(Strategy::Mis));
+    let light = render_scene(&scene, &d, 256, 5, 0, set_strategy(Strategy::LightOnly));
+    let bsdf = render_scene(&scene, &d, 1024, 6, 0, set_strategy(Strategy::BsdfOnly));
+    for (r, what) in [(&mis, "MIS"), (&light, "light sampling only"), (&bsdf, "BSDF sampling only")] {
+        matches_reference(r, "mis_quad_nopoint", 8, what);
+    }
+    // And against each other, with both noise estimates.
+    compare(&light.mean, &light.var, &bsdf.mean, &bsdf.var, 8).assert_consistent("light vs BSDF");
+    compare(&mis.mean, &mis.var, &light.mean, &light.var, 8).assert_consistent("MIS vs light");
+}
+
+#[test]
+fn two_strategy_scene_of_our_own_agrees_under_all_strategies() {
+    let scene = test_scene("mis_area.xml");
+    let mis = render_scene(&scene, &[], 128, 7, 0, set_strategy(Strategy::Mis));
+    let light = render_scene(&scene, &[], 256, 8, 0, set_strategy(Strategy::LightOnly));
+    let bsdf = render_scene(&scene, &[], 512, 9, 0, set_strategy(Strategy::BsdfOnly));
+    compare(&light.mean, &light.var, &mis.mean, &mis.var, 4).assert_consistent("light vs MIS");
+    compare(&bsdf.mean, &bsdf.var, &mis.mean, &mis.var, 4).assert_consistent("BSDF vs MIS");
+    // MIS must not be noisier than the worse single strategy at equal spp: compare total variance
+    // at 128 spp (light and BSDF renders scaled to 128 spp).
+    let total = |img: &RgbImage, scale: f64| -> f64 {
+        img.data.iter().map(|p| (p[0] + p[1] + p[2]) * scale).sum()
+    };
+    let v_mis = total(&mis.var, 1.0);
+    let v_light = total(&light.var, 2.0);
+    let v_bsdf = total(&bsdf.var, 4.0);
+    assert!(
+        v_mis < v_light.max(v_bsdf),
+        "MIS variance {v_mis} vs light {v_light}, BSDF {v_bsdf}"
+    );
+}
+
+/// Pixels of `img` whose centre lies within `r` pixels of (cx, cy).
+fn disk_pixels(img: &RgbImage, cx: f64, cy: f64, r: f64) -> Vec<(usize, usize)> {
+    let mut v = Vec::new();
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let (dx, dy) = (x as f64 + 0.5 - cx, y as f64 + 0.5 - cy);
+            if dx * dx + dy * dy <= r * r {
+                v.push((x, y));
+            }
+        }
+    }
+    v
+}
+
+/// Mean over `px` of channel-averaged values with its standard error.
+fn region_mean(r: &common::Rendered, px: &[(usize, usize)]) -> (f64, f64) {
+    let n = px.len() as f64;
+    let mut m = 0.0;
+    let mut v = 0.0;
+    for &(x, y) in px {
+        let a = r.mean.get(x, y);
+        let b = r.var.get(x, y);
+        m += (a[0] + a[1] + a[2]) / 3.0;
+        v += (b[0] + b[1] + b[2]) / 3.0; // channels are grey and fully correlated
+    }
+    (m / n, v.sqrt() / n)
+}
+
+#[test]
+fn white_furnace_sphere_reflects_its_albedo() {
+    // The issue asks for 1.0 with albedo 0.8; for a convex object in a uniform environment the
+    // exact answer is albedo × radiance (nothing is reflected twice). Mitsuba 3 agrees (0.80004).
+    // With albedo 1 the image is 1 everywhere; the multi-bounce furnace is the next test.
+    let scene = test_scene("furnace_sphere.xml");
+    let r = render_scene(&scene, &[], 1024, 10, 0, |_| {});
+    matches_reference(&r, "furnace_sphere", 8, "furnace sphere");
+    let px = disk_pixels(&r.mean, 16.0, 16.0, 9.0);
+    let (m, se) = region_mean(&r, &px);
+    assert!((m - 0.8).abs() < 4.0 * se + 1e-6, "sphere {m} ± {se}, expected 0.8");
+
+    let r1 = render_scene(&scene, &[("albedo", "1")], 256, 11, 0, |_| {});
+    let (m1, se1) = region_mean(&r1, &px);
+    assert!((m1 - 1.0).abs() < 4.0 * se1 + 1e-6, "albedo 1: {m1} ± {se1}");
+    let all: Vec<(usize, usize)> = (0..32).flat_map(|y| (0..32).map(move |x| (x, y))).collect();
+    let (ma, sea) = region_mean(&r1, &all);
+    assert!((ma - 1.0).abs() < 4.0 * sea + 1e-6, "whole image {ma} ± {sea}");
+}
+
+#[test]
+fn furnace_inside_an_emitting_sphere_converges_to_le_over_one_minus_albedo() {
+    // L = le · Σ_{k<max_depth} ρ^k: unlimited depth → 0.2 / (1 − 0.8) = 1.
+    let scene = test_scene("furnace_inside.xml");
+    let all: Vec<(usize, usize)> = (0..16).flat_map(|y| (0..16).map(move |x| (x, y))).collect();
+    for (depth, expected) in [("-1", 1.0), ("1", 0.2), ("2", 0.36), ("3", 0.488)] {
+        let r = render_scene(&scene, &[("max_depth", depth)], 256, 12, 0, |_| {});
+        let (m, se) = region_mean(&r, &all);
+        assert!(
+            (m - expected).abs() < 4.0 * se + 1e-5,
+            "max_depth {depth}: {m} ± {se}, expected {expected}"
+        );
+        if depth == "1" {
+            // Only the directly visible emitter: exact, no noise.
+            assert!(r.mean.data.iter().all(|p| (p[0] - 0.2).abs() < 1e-6));
+        }
+    }
+}
+
+#[test]
+fn max_depth_one_two_three_match_mitsuba() {
+    let scene = test_scene("depth_sphere.xml");
+    for (d, name, spp) in [("1", "depth_sphere_d1", 16), ("2", "depth_sphere_d2", 256), ("3", "depth_sphere_d3", 256)] {
+        let r = render_scene(&scene, &[("max_depth", d)], spp, 13, 0, |_| {});
+        matches_reference(&r, name, 4, &format!("depth_sphere max_depth={d}"));
+        if d == "1" {
+            // Only emitters seen directly: the sky is 1 and objects 0; pixels on a silhouette
+            // average the two.
+            assert!(r.mean.data.iter().all(|p| (0.0..=1.0 + 1e-6).contains(&p[0])));
+            assert_eq!(r.mean.get(16, 16)[0], 0.0, "the sphere's centre is black");
+            assert_eq!(r.mean.get(1, 1)[0], 1.0, "the sky is exactly 1");
+        }
+    }
+}
+
+#[test]
+fn old_dialect_scene_renders_like_its_version3_twin() {
+    let v06 = render_scene(&test_scene("cbox_v06.xml"), &[], 64, 14, 0, |_| {});
+    let v3 = render_scene(&test_scene("cbox_v3.xml"), &[], 64, 14, 0, |_| {});
+    assert_eq!(v06.mean.data, v3.mean.data, "same scene after upgrade: identical pixels");
+    matches_reference(&v3, "cbox_v3", 8, "cbox_v3.xml");
+}
+
+#[test]
+fn same_seed_gives_identical_pixels_with_one_or_two_threads() {
+    let scene = shared_cbox();
+    let d = [("res", "40")];
+    let a = render_scene(&scene, &d, 8, 99, 1, |_| {});
+    let b = render_scene(&scene, &d, 8, 99, 2, |_| {});
+    assert_eq!(a.stats.threads, 1);
+    assert_eq!(b.stats.threads, 2);
+    let bits = |img: &RgbImage| -> Vec<u64> {
+        img.data.iter().flat_map(|p| p.iter().map(|c| c.to_bits())).collect()
+    };
+    assert_eq!(bits(&a.mean), bits(&b.mean));
+    let c = render_scene(&scene, &d, 8, 100, 2, |_| {});
+    assert_ne!(bits(&a.mean), bits(&c.mean), "another seed gives another image");
+}
