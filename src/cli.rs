@@ -4,7 +4,11 @@ use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
-#[command(name = "groove", version, about = "Physically based renderer for Mitsuba XML scenes")]
+#[command(
+    name = "groove",
+    version,
+    about = "Physically based renderer for Mitsuba XML scenes"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,

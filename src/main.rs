@@ -24,7 +24,10 @@ fn run_render(args: &RenderArgs) -> ExitCode {
     if multi {
         if let Some(dir) = &args.output {
             if let Err(e) = std::fs::create_dir_all(dir) {
-                eprintln!("error: {}: cannot create output directory: {e}", dir.display());
+                eprintln!(
+                    "error: {}: cannot create output directory: {e}",
+                    dir.display()
+                );
                 return ExitCode::FAILURE;
             }
         }

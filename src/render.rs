@@ -118,7 +118,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
             .map_init(Scratch::default, |scratch, &(x0, y0, w, h)| {
                 scratch.counters = RayCounters::default();
                 let mut block = Block::new(desc, x0, y0, w, h);
-                let invalid = render_block(scene, &sampler_desc, &mut block, (x0, y0, w, h), scratch);
+                let invalid =
+                    render_block(scene, &sampler_desc, &mut block, (x0, y0, w, h), scratch);
                 if let Some(b) = &bar {
                     b.inc(1);
                 }

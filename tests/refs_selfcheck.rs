@@ -214,9 +214,9 @@ fn synthetic(
             let mut img = truth.clone();
             for p in img.data.iter_mut() {
                 let common = rng.normal();
-                for c in 0..3 {
+                for v in p.iter_mut() {
                     let e = 0.9 * common + (1.0f64 - 0.81).sqrt() * rng.normal();
-                    p[c] = scale * p[c] * (1.0 + rel_sd * e);
+                    *v = scale * *v * (1.0 + rel_sd * e);
                 }
             }
             img

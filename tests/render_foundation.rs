@@ -47,7 +47,11 @@ fn light_only_bsdf_only_and_mis_agree() {
     let mis = render_scene(&scene, &d, 256, 4, 0, set_strategy(Strategy::Mis));
     let light = render_scene(&scene, &d, 256, 5, 0, set_strategy(Strategy::LightOnly));
     let bsdf = render_scene(&scene, &d, 1024, 6, 0, set_strategy(Strategy::BsdfOnly));
-    for (r, what) in [(&mis, "MIS"), (&light, "light sampling only"), (&bsdf, "BSDF sampling only")] {
+    for (r, what) in [
+        (&mis, "MIS"),
+        (&light, "light sampling only"),
+        (&bsdf, "BSDF sampling only"),
+    ] {
         matches_reference(r, "mis_quad_nopoint", 8, what);
     }
     // And against each other, with both noise estimates.
@@ -115,14 +119,23 @@ fn white_furnace_sphere_reflects_its_albedo() {
     matches_reference(&r, "furnace_sphere", 8, "furnace sphere");
     let px = disk_pixels(&r.mean, 16.0, 16.0, 9.0);
     let (m, se) = region_mean(&r, &px);
-    assert!((m - 0.8).abs() < 4.0 * se + 1e-6, "sphere {m} ± {se}, expected 0.8");
+    assert!(
+        (m - 0.8).abs() < 4.0 * se + 1e-6,
+        "sphere {m} ± {se}, expected 0.8"
+    );
 
     let r1 = render_scene(&scene, &[("albedo", "1")], 256, 11, 0, |_| {});
     let (m1, se1) = region_mean(&r1, &px);
-    assert!((m1 - 1.0).abs() < 4.0 * se1 + 1e-6, "albedo 1: {m1} ± {se1}");
+    assert!(
+        (m1 - 1.0).abs() < 4.0 * se1 + 1e-6,
+        "albedo 1: {m1} ± {se1}"
+    );
     let all: Vec<(usize, usize)> = (0..32).flat_map(|y| (0..32).map(move |x| (x, y))).collect();
     let (ma, sea) = region_mean(&r1, &all);
-    assert!((ma - 1.0).abs() < 4.0 * sea + 1e-6, "whole image {ma} ± {sea}");
+    assert!(
+        (ma - 1.0).abs() < 4.0 * sea + 1e-6,
+        "whole image {ma} ± {sea}"
+    );
 }
 
 #[test]
@@ -147,13 +160,21 @@ fn furnace_inside_an_emitting_sphere_converges_to_le_over_one_minus_albedo() {
 #[test]
 fn max_depth_one_two_three_match_mitsuba() {
     let scene = test_scene("depth_sphere.xml");
-    for (d, name, spp) in [("1", "depth_sphere_d1", 16), ("2", "depth_sphere_d2", 256), ("3", "depth_sphere_d3", 256)] {
+    for (d, name, spp) in [
+        ("1", "depth_sphere_d1", 16),
+        ("2", "depth_sphere_d2", 256),
+        ("3", "depth_sphere_d3", 256),
+    ] {
         let r = render_scene(&scene, &[("max_depth", d)], spp, 13, 0, |_| {});
         matches_reference(&r, name, 4, &format!("depth_sphere max_depth={d}"));
         if d == "1" {
             // Only emitters seen directly: the sky is 1 and objects 0; pixels on a silhouette
             // average the two.
-            assert!(r.mean.data.iter().all(|p| (0.0..=1.0 + 1e-6).contains(&p[0])));
+            assert!(r
+                .mean
+                .data
+                .iter()
+                .all(|p| (0.0..=1.0 + 1e-6).contains(&p[0])));
             assert_eq!(r.mean.get(16, 16)[0], 0.0, "the sphere's centre is black");
             assert_eq!(r.mean.get(1, 1)[0], 1.0, "the sky is exactly 1");
         }
@@ -164,7 +185,10 @@ fn max_depth_one_two_three_match_mitsuba() {
 fn old_dialect_scene_renders_like_its_version3_twin() {
     let v06 = render_scene(&test_scene("cbox_v06.xml"), &[], 64, 14, 0, |_| {});
     let v3 = render_scene(&test_scene("cbox_v3.xml"), &[], 64, 14, 0, |_| {});
-    assert_eq!(v06.mean.data, v3.mean.data, "same scene after upgrade: identical pixels");
+    assert_eq!(
+        v06.mean.data, v3.mean.data,
+        "same scene after upgrade: identical pixels"
+    );
     matches_reference(&v3, "cbox_v3", 8, "cbox_v3.xml");
 }
 
@@ -177,9 +201,16 @@ fn same_seed_gives_identical_pixels_with_one_or_two_threads() {
     assert_eq!(a.stats.threads, 1);
     assert_eq!(b.stats.threads, 2);
     let bits = |img: &RgbImage| -> Vec<u64> {
-        img.data.iter().flat_map(|p| p.iter().map(|c| c.to_bits())).collect()
+        img.data
+            .iter()
+            .flat_map(|p| p.iter().map(|c| c.to_bits()))
+            .collect()
     };
     assert_eq!(bits(&a.mean), bits(&b.mean));
     let c = render_scene(&scene, &d, 8, 100, 2, |_| {});
-    assert_ne!(bits(&a.mean), bits(&c.mean), "another seed gives another image");
+    assert_ne!(
+        bits(&a.mean),
+        bits(&c.mean),
+        "another seed gives another image"
+    );
 }

@@ -61,10 +61,12 @@ pub mod lobe {
     /// Index-matched pass-through (`null`, `mask`): the ray continues unchanged.
     pub const NULL: u32 = 1 << 6;
     pub const REFLECTION: u32 = DIFFUSE_REFLECTION | GLOSSY_REFLECTION | DELTA_REFLECTION;
-    pub const TRANSMISSION: u32 = DIFFUSE_TRANSMISSION | GLOSSY_TRANSMISSION | DELTA_TRANSMISSION | NULL;
+    pub const TRANSMISSION: u32 =
+        DIFFUSE_TRANSMISSION | GLOSSY_TRANSMISSION | DELTA_TRANSMISSION | NULL;
     pub const DELTA: u32 = DELTA_REFLECTION | DELTA_TRANSMISSION | NULL;
     /// Lobes that next-event estimation can evaluate.
-    pub const SMOOTH: u32 = DIFFUSE_REFLECTION | GLOSSY_REFLECTION | DIFFUSE_TRANSMISSION | GLOSSY_TRANSMISSION;
+    pub const SMOOTH: u32 =
+        DIFFUSE_REFLECTION | GLOSSY_REFLECTION | DIFFUSE_TRANSMISSION | GLOSSY_TRANSMISSION;
 }
 
 /// A sampled direction with its weight.
@@ -86,7 +88,10 @@ pub struct BsdfSample {
 pub enum BsdfNode {
     Diffuse(Diffuse),
     /// Front side uses `front`, back side (`wi.z < 0`) uses `back` mirrored to the front.
-    TwoSided { front: u32, back: u32 },
+    TwoSided {
+        front: u32,
+        back: u32,
+    },
 }
 
 /// Per-thread storage of the BSDF nodes built at one hit.

@@ -18,7 +18,7 @@ impl AreaLight {
     pub fn sample_direct(&self, shapes: &[Shape], ref_p: Vec3, u: Vec2) -> Option<DirectSample> {
         let ds = shapes[self.shape as usize].sample_direction(ref_p, u)?;
         // Emits only from the front: the light point must face the reference point.
-        if ds.n.dot(-ds.d) <= 0.0 || !(ds.pdf > 0.0) || !ds.pdf.is_finite() {
+        if ds.n.dot(-ds.d) <= 0.0 || !(ds.pdf.is_finite() && ds.pdf > 0.0) {
             return None;
         }
         Some(DirectSample {

@@ -48,7 +48,12 @@ impl Emitter {
     }
 
     /// Density (solid angle at `ref_p`) with which `sample_direct` picks the surface point `si`.
-    pub fn pdf_direct_surface(&self, shapes: &[Shape], ref_p: Vec3, si: &SurfaceInteraction) -> f32 {
+    pub fn pdf_direct_surface(
+        &self,
+        shapes: &[Shape],
+        ref_p: Vec3,
+        si: &SurfaceInteraction,
+    ) -> f32 {
         match self {
             Emitter::Area(a) => a.pdf_direct(shapes, ref_p, si),
             _ => 0.0,

@@ -14,7 +14,7 @@ impl PointLight {
     pub fn sample_direct(&self, ref_p: Vec3) -> Option<DirectSample> {
         let v = self.position - ref_p;
         let dist2 = v.length_squared();
-        if !(dist2 > 0.0) {
+        if dist2.is_nan() || dist2 <= 0.0 {
             return None;
         }
         let dist = dist2.sqrt();

@@ -34,9 +34,11 @@ pub fn li(
         }
     }
     scratch.arena.clear();
-    let root = scene
-        .materials
-        .build(scene.shape_material[si.shape as usize], &si, &mut scratch.arena);
+    let root = scene.materials.build(
+        scene.shape_material[si.shape as usize],
+        &si,
+        &mut scratch.arena,
+    );
     let bsdf = scratch.arena.bsdf(root);
     let wi = si.sh.to_local(si.wi);
     if !super::path::consistent_side(&si, si.wi, wi) {

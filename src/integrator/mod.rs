@@ -4,10 +4,10 @@ pub mod direct;
 pub mod path;
 
 use crate::bsdf::BsdfArena;
+use crate::geometry::Ray;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
-use crate::geometry::Ray;
 
 /// Which strategies estimate direct light. `Mis` is the renderer's behaviour; the others exist
 /// to test that MIS is unbiased (all three must agree in expectation).
@@ -84,7 +84,13 @@ pub struct Scratch {
 impl IntegratorDesc {
     /// Radiance along the camera ray `ray`.
     #[inline]
-    pub fn li(&self, scene: &Scene, ray: Ray, sampler: &mut Sampler, scratch: &mut Scratch) -> Spectrum {
+    pub fn li(
+        &self,
+        scene: &Scene,
+        ray: Ray,
+        sampler: &mut Sampler,
+        scratch: &mut Scratch,
+    ) -> Spectrum {
         match self {
             IntegratorDesc::Path(s) => path::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Direct(s) => direct::li(s, scene, ray, sampler, scratch),

@@ -93,9 +93,11 @@ pub fn li(
 
         // ---- Scattering ----
         scratch.arena.clear();
-        let root = scene
-            .materials
-            .build(scene.shape_material[si.shape as usize], &si, &mut scratch.arena);
+        let root = scene.materials.build(
+            scene.shape_material[si.shape as usize],
+            &si,
+            &mut scratch.arena,
+        );
         let bsdf = scratch.arena.bsdf(root);
         let wi = si.sh.to_local(si.wi);
         if !consistent_side(&si, si.wi, wi) {
@@ -105,7 +107,17 @@ pub fn li(
 
         // Next-event estimation.
         if cfg.strategy != Strategy::BsdfOnly && flags & lobe::SMOOTH != 0 {
-            result += throughput * sample_light(cfg, scene, &si, wi, &bsdf, &ctx, sampler, &mut scratch.counters);
+            result += throughput
+                * sample_light(
+                    cfg,
+                    scene,
+                    &si,
+                    wi,
+                    &bsdf,
+                    &ctx,
+                    sampler,
+                    &mut scratch.counters,
+                );
         }
 
         // BSDF sampling.
@@ -129,7 +141,7 @@ pub fn li(
 
         // Russian roulette (Mitsuba 3: survival min(max(throughput)·η², 0.95) from rr_depth on).
         let tmax = max_component(throughput);
-        if !(tmax > 0.0) || !tmax.is_finite() {
+        if !(tmax.is_finite() && tmax > 0.0) {
             break;
         }
         if depth as i64 >= cfg.rr_depth as i64 {
@@ -145,7 +157,11 @@ pub fn li(
 
 /// MIS weight of emission found by a BSDF-sampled ray (1 for camera rays and delta bounces).
 #[inline]
-fn emission_weight(cfg: &PathSettings, prev: Option<PrevVertex>, light_pdf: impl FnOnce() -> f32) -> f32 {
+fn emission_weight(
+    cfg: &PathSettings,
+    prev: Option<PrevVertex>,
+    light_pdf: impl FnOnce() -> f32,
+) -> f32 {
     match prev {
         None => 1.0,
         Some(v) if v.delta => 1.0,

@@ -14,7 +14,7 @@ impl Distribution1D {
             return None;
         }
         let total: f64 = weights.iter().map(|&w| w as f64).sum();
-        if !(total > 0.0) {
+        if total.is_nan() || total <= 0.0 {
             return None;
         }
         let mut cdf = Vec::with_capacity(weights.len() + 1);
@@ -49,7 +49,11 @@ impl Distribution1D {
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
         // Largest i with cdf[i] <= u, restricted to bins with non-zero mass.
         let n = self.pmf.len();
-        let mut i = self.cdf.partition_point(|&c| c <= u).saturating_sub(1).min(n - 1);
+        let mut i = self
+            .cdf
+            .partition_point(|&c| c <= u)
+            .saturating_sub(1)
+            .min(n - 1);
         while self.pmf[i] == 0.0 && i + 1 < n {
             i += 1;
         }

@@ -92,13 +92,19 @@ pub fn instantiate(doc: &Document, path: &Path) -> Result<Loaded> {
         match child.tag.as_str() {
             "integrator" => {
                 if integrator.is_some() {
-                    return Err(Error::scene(&child.loc, "a scene takes only one <integrator>"));
+                    return Err(Error::scene(
+                        &child.loc,
+                        "a scene takes only one <integrator>",
+                    ));
                 }
                 integrator = Some(b.integrator(child)?);
             }
             "sensor" => {
                 if sensor.is_some() {
-                    return Err(Error::scene(&child.loc, "groove renders one <sensor> per scene; this is a second one"));
+                    return Err(Error::scene(
+                        &child.loc,
+                        "groove renders one <sensor> per scene; this is a second one",
+                    ));
                 }
                 sensor = Some(b.sensor(child)?);
             }
@@ -213,12 +219,18 @@ impl<'d> Builder<'d> {
             .attr("id")
             .ok_or_else(|| Error::scene(&n.loc, "<ref> needs an id"))?;
         let target = self.ids.get(id).ok_or_else(|| {
-            Error::scene(&n.attr_loc("id").clone(), format!("reference to unknown id '{id}'"))
+            Error::scene(
+                &n.attr_loc("id").clone(),
+                format!("reference to unknown id '{id}'"),
+            )
         })?;
         if target.tag != expect {
             return Err(Error::scene(
                 &n.loc,
-                format!("id '{id}' is a <{}>, but a <{expect}> is expected here", target.tag),
+                format!(
+                    "id '{id}' is a <{}>, but a <{expect}> is expected here",
+                    target.tag
+                ),
             ));
         }
         Ok(target)
@@ -226,7 +238,9 @@ impl<'d> Builder<'d> {
 
     fn ref_target_tag(&self, n: &Node) -> Option<&'d str> {
         if n.tag == "ref" {
-            n.attr("id").and_then(|id| self.ids.get(id)).map(|t| t.tag.as_str())
+            n.attr("id")
+                .and_then(|id| self.ids.get(id))
+                .map(|t| t.tag.as_str())
         } else {
             None
         }
@@ -238,7 +252,11 @@ impl<'d> Builder<'d> {
         let d = match p.plugin_type() {
             "path" => {
                 let max_depth = p.int("max_depth", -1)?;
-                check(p.loc(), max_depth >= -1, "max_depth must be -1 (unlimited) or >= 0")?;
+                check(
+                    p.loc(),
+                    max_depth >= -1,
+                    "max_depth must be -1 (unlimited) or >= 0",
+                )?;
                 let rr_depth = p.int("rr_depth", 5)?;
                 check(p.loc(), rr_depth >= 1, "rr_depth must be >= 1")?;
                 IntegratorDesc::Path(PathSettings {
@@ -252,7 +270,11 @@ impl<'d> Builder<'d> {
                 let shading = p.int("shading_samples", 1)?;
                 let em = p.int("emitter_samples", shading)?;
                 let bs = p.int("bsdf_samples", shading)?;
-                check(p.loc(), em >= 0 && bs >= 0 && em + bs > 0, "sample counts must be >= 0 and not both 0")?;
+                check(
+                    p.loc(),
+                    em >= 0 && bs >= 0 && em + bs > 0,
+                    "sample counts must be >= 0 and not both 0",
+                )?;
                 IntegratorDesc::Direct(DirectSettings {
                     emitter_samples: em as u32,
                     bsdf_samples: bs as u32,
@@ -262,7 +284,10 @@ impl<'d> Builder<'d> {
             "moment" | "aov" | "stokes" | "depth" => {
                 return Err(Error::scene(
                     p.loc(),
-                    format!("integrator '{}' is not supported: groove renders with 'path' or 'direct'", p.plugin_type()),
+                    format!(
+                        "integrator '{}' is not supported: groove renders with 'path' or 'direct'",
+                        p.plugin_type()
+                    ),
                 ))
             }
             t => return Err(unknown(p.loc(), "integrator", t, &["path", "direct"])),
@@ -275,7 +300,12 @@ impl<'d> Builder<'d> {
     fn sensor(&mut self, n: &'d Node) -> Result<(Camera, FilmDesc, SamplerDesc)> {
         let p = Props::new(n)?;
         if p.plugin_type() != "perspective" {
-            return Err(unknown(p.loc(), "sensor", p.plugin_type(), &["perspective"]));
+            return Err(unknown(
+                p.loc(),
+                "sensor",
+                p.plugin_type(),
+                &["perspective"],
+            ));
         }
         let mut film: Option<FilmDesc> = None;
         let mut sampler: Option<SamplerDesc> = None;
@@ -284,7 +314,10 @@ impl<'d> Builder<'d> {
                 "film" => film = Some(self.film(c)?),
                 "sampler" => sampler = Some(self.sampler(c)?),
                 t => {
-                    return Err(Error::scene(&c.loc, format!("<{t}> is not expected inside a <sensor>")))
+                    return Err(Error::scene(
+                        &c.loc,
+                        format!("<{t}> is not expected inside a <sensor>"),
+                    ))
                 }
             }
         }
@@ -300,14 +333,19 @@ impl<'d> Builder<'d> {
         let to_world = p.transform("to_world")?;
         let (fov, axis) = match (p.float_opt("fov")?, p.string_opt("focal_length")?) {
             (Some(_), Some(_)) => {
-                return Err(Error::scene(p.loc(), "give either fov or focal_length, not both"))
+                return Err(Error::scene(
+                    p.loc(),
+                    "give either fov or focal_length, not both",
+                ))
             }
             (Some(f), None) => {
                 let axis_s = p.string("fov_axis", "x")?;
                 let axis = FovAxis::parse(&axis_s).ok_or_else(|| {
                     Error::scene(
                         p.loc(),
-                        format!("fov_axis '{axis_s}' must be one of x, y, diagonal, smaller, larger"),
+                        format!(
+                            "fov_axis '{axis_s}' must be one of x, y, diagonal, smaller, larger"
+                        ),
                     )
                 })?;
                 (f, axis)
@@ -320,10 +358,19 @@ impl<'d> Builder<'d> {
                     .trim_end_matches("mm")
                     .trim()
                     .parse()
-                    .map_err(|_| Error::scene(p.loc(), format!("focal_length '{s}' must look like '50mm'")))?;
-                check(p.loc(), mm > 0.0 && mm.is_finite(), "focal_length must be positive")?;
+                    .map_err(|_| {
+                        Error::scene(p.loc(), format!("focal_length '{s}' must look like '50mm'"))
+                    })?;
+                check(
+                    p.loc(),
+                    mm > 0.0 && mm.is_finite(),
+                    "focal_length must be positive",
+                )?;
                 let diag = (36.0f32 * 36.0 + 24.0 * 24.0).sqrt();
-                (2.0 * (diag / (2.0 * mm)).atan().to_degrees(), FovAxis::Diagonal)
+                (
+                    2.0 * (diag / (2.0 * mm)).atan().to_degrees(),
+                    FovAxis::Diagonal,
+                )
             }
         };
         let near = p.float("near_clip", 0.01)?;
@@ -334,7 +381,11 @@ impl<'d> Builder<'d> {
         let _ = p.float("shutter_close", 0.0)?;
         for k in ["principal_point_offset_x", "principal_point_offset_y"] {
             let v = p.float(k, 0.0)?;
-            check(p.loc(), v == 0.0, format!("{k} other than 0 is not supported"))?;
+            check(
+                p.loc(),
+                v == 0.0,
+                format!("{k} other than 0 is not supported"),
+            )?;
         }
         let camera = Camera::perspective(to_world, fov, axis, near, far, (film.width, film.height))
             .map_err(|e| Error::scene(p.loc(), e.to_string()))?;
@@ -362,7 +413,11 @@ impl<'d> Builder<'d> {
         }
         let w = p.int("width", 768)?;
         let h = p.int("height", 576)?;
-        check(p.loc(), (1..=1 << 16).contains(&w) && (1..=1 << 16).contains(&h), "film width and height must be between 1 and 65536")?;
+        check(
+            p.loc(),
+            (1..=1 << 16).contains(&w) && (1..=1 << 16).contains(&h),
+            "film width and height must be between 1 and 65536",
+        )?;
         let (w, h) = (w as u32, h as u32);
         let cx = p.int("crop_offset_x", 0)?;
         let cy = p.int("crop_offset_y", 0)?;
@@ -375,10 +430,17 @@ impl<'d> Builder<'d> {
         )?;
         let pf = p.string("pixel_format", "rgb")?;
         if !matches!(pf.as_str(), "rgb" | "rgba") {
-            self.warnings.push(format!("{}: pixel_format '{pf}' is written as rgb", p.loc()));
+            self.warnings.push(format!(
+                "{}: pixel_format '{pf}' is written as rgb",
+                p.loc()
+            ));
         }
         let cf = p.string("component_format", "float16")?;
-        check(p.loc(), matches!(cf.as_str(), "float16" | "float32" | "uint32"), format!("component_format '{cf}' is not known"))?;
+        check(
+            p.loc(),
+            matches!(cf.as_str(), "float16" | "float32" | "uint32"),
+            format!("component_format '{cf}' is not known"),
+        )?;
         let _ = p.string("file_format", "openexr")?;
         let _ = p.bool("banner", true)?;
         let _ = p.bool("high_quality_edges", false)?;
@@ -389,7 +451,10 @@ impl<'d> Builder<'d> {
         };
         for c in p.objects() {
             if c.tag != "rfilter" {
-                return Err(Error::scene(&c.loc, format!("<{}> is not expected inside a <film>", c.tag)));
+                return Err(Error::scene(
+                    &c.loc,
+                    format!("<{}> is not expected inside a <film>", c.tag),
+                ));
             }
             filter = self.rfilter(c)?;
         }
@@ -409,12 +474,20 @@ impl<'d> Builder<'d> {
             "box" => Filter::Box,
             "tent" => {
                 let r = p.float("radius", 1.0)?;
-                check(p.loc(), r > 0.0 && r <= 16.0, "tent radius must be in (0, 16]")?;
+                check(
+                    p.loc(),
+                    r > 0.0 && r <= 16.0,
+                    "tent radius must be in (0, 16]",
+                )?;
                 Filter::Tent { radius: r }
             }
             "gaussian" => {
                 let s = p.float("stddev", 0.5)?;
-                check(p.loc(), s > 0.0 && s <= 4.0, "gaussian stddev must be in (0, 4]")?;
+                check(
+                    p.loc(),
+                    s > 0.0 && s <= 4.0,
+                    "gaussian stddev must be in (0, 4]",
+                )?;
                 Filter::Gaussian {
                     stddev: s,
                     radius: 4.0 * s,
@@ -429,14 +502,19 @@ impl<'d> Builder<'d> {
     fn sampler(&mut self, n: &'d Node) -> Result<SamplerDesc> {
         let p = Props::new(n)?;
         let count = p.int("sample_count", 4)?;
-        check(p.loc(), count >= 1 && count <= u32::MAX as i64, "sample_count must be >= 1")?;
+        check(
+            p.loc(),
+            count >= 1 && count <= u32::MAX as i64,
+            "sample_count must be >= 1",
+        )?;
         let seed = p.int("seed", 0)?;
         let kind = match p.plugin_type() {
             "independent" => SamplerKind::Independent,
             "stratified" => SamplerKind::Stratified {
                 jitter: p.bool("jitter", true)?,
             },
-            t @ ("sobol" | "halton" | "ldsampler" | "multijitter" | "orthogonal" | "hammersley") => {
+            t
+            @ ("sobol" | "halton" | "ldsampler" | "multijitter" | "orthogonal" | "hammersley") => {
                 self.warnings.push(format!(
                     "{}: sampler '{t}' is not implemented; using 'independent' (same image in expectation)",
                     p.loc()
@@ -446,7 +524,14 @@ impl<'d> Builder<'d> {
                 }
                 SamplerKind::Independent
             }
-            t => return Err(unknown(p.loc(), "sampler", t, &["independent", "stratified"])),
+            t => {
+                return Err(unknown(
+                    p.loc(),
+                    "sampler",
+                    t,
+                    &["independent", "stratified"],
+                ))
+            }
         };
         p.finish()?;
         Ok(SamplerDesc {
@@ -467,7 +552,13 @@ impl<'d> Builder<'d> {
                     let t = self.deref(c, "texture")?;
                     return self.texture(t);
                 }
-                return Err(Error::scene(&c.loc, format!("'{name}' expects a colour or a <texture>, not a <{}>", c.tag)));
+                return Err(Error::scene(
+                    &c.loc,
+                    format!(
+                        "'{name}' expects a colour or a <texture>, not a <{}>",
+                        c.tag
+                    ),
+                ));
             }
         }
         let c = p.color(name, default)?;
@@ -564,8 +655,12 @@ impl<'d> Builder<'d> {
             return m;
         }
         let grey = if emitting { 0.0 } else { 0.5 };
-        let t = self.materials.add_texture(Texture::Constant(Spectrum::splat(grey)));
-        let m = self.materials.add_node(MaterialNode::Diffuse { reflectance: t });
+        let t = self
+            .materials
+            .add_texture(Texture::Constant(Spectrum::splat(grey)));
+        let m = self
+            .materials
+            .add_node(MaterialNode::Diffuse { reflectance: t });
         self.default_materials[slot] = Some(m);
         m
     }
@@ -583,7 +678,11 @@ impl<'d> Builder<'d> {
                 let file = self.doc.resolve_file(&fname, p.loc())?;
                 let face_normals = p.bool("face_normals", false)?;
                 let flip_tex = p.bool("flip_tex_coords", t == "obj")?;
-                let mut mesh = if t == "obj" { obj::load_obj(&file)? } else { ply::load_ply(&file)? };
+                let mut mesh = if t == "obj" {
+                    obj::load_obj(&file)?
+                } else {
+                    ply::load_ply(&file)?
+                };
                 // The OBJ loader applies Mitsuba's v flip; undo it when asked not to flip.
                 if (t == "obj") != flip_tex {
                     if let Some(uv) = mesh.uvs.as_mut() {
@@ -596,12 +695,19 @@ impl<'d> Builder<'d> {
             }
             "rectangle" => Shape::rectangle(&to_world, flip),
             "cube" => Shape::cube(&to_world, flip),
-            "disk" => Shape::disk(&to_world, flip).map_err(|e| Error::scene(p.loc(), e.to_string()))?,
+            "disk" => {
+                Shape::disk(&to_world, flip).map_err(|e| Error::scene(p.loc(), e.to_string()))?
+            }
             "sphere" => {
                 let c = p.point("center", Vec3::ZERO)?;
                 let r = p.float("radius", 1.0)?;
-                check(p.loc(), r > 0.0 && r.is_finite(), "sphere radius must be positive")?;
-                Shape::sphere(c, r, &to_world, flip).map_err(|e| Error::scene(p.loc(), e.to_string()))?
+                check(
+                    p.loc(),
+                    r > 0.0 && r.is_finite(),
+                    "sphere radius must be positive",
+                )?;
+                Shape::sphere(c, r, &to_world, flip)
+                    .map_err(|e| Error::scene(p.loc(), e.to_string()))?
             }
             t => {
                 return Err(unknown(
@@ -637,9 +743,17 @@ impl<'d> Builder<'d> {
                 }
                 "ref" => {
                     let id = c.attr("id").unwrap_or("");
-                    return Err(Error::scene(&c.attr_loc("id").clone(), format!("reference to unknown id '{id}'")));
+                    return Err(Error::scene(
+                        &c.attr_loc("id").clone(),
+                        format!("reference to unknown id '{id}'"),
+                    ));
                 }
-                t => return Err(Error::scene(&c.loc, format!("<{t}> is not expected inside a <shape>"))),
+                t => {
+                    return Err(Error::scene(
+                        &c.loc,
+                        format!("<{t}> is not expected inside a <shape>"),
+                    ))
+                }
             }
         }
         p.finish()?;
@@ -661,12 +775,16 @@ impl<'d> Builder<'d> {
         if p.plugin_type() != "area" {
             return Err(Error::scene(
                 p.loc(),
-                format!("only 'area' emitters can be attached to a shape, not '{}'", p.plugin_type()),
+                format!(
+                    "only 'area' emitters can be attached to a shape, not '{}'",
+                    p.plugin_type()
+                ),
             ));
         }
         let radiance = self.emission_param(&p, "radiance")?;
         p.finish()?;
-        self.emitters.push(Emitter::Area(AreaLight { shape, radiance }));
+        self.emitters
+            .push(Emitter::Area(AreaLight { shape, radiance }));
         Ok((self.emitters.len() - 1) as u32)
     }
 
@@ -679,10 +797,17 @@ impl<'d> Builder<'d> {
             }
         }
         if !p.has(name) {
-            return Err(Error::scene(p.loc(), format!("the emitter needs a '{name}'")));
+            return Err(Error::scene(
+                p.loc(),
+                format!("the emitter needs a '{name}'"),
+            ));
         }
         let c = p.color_with(name, Spectrum::ONE, SpectrumUse::Emission)?;
-        check(p.loc(), c.min_element() >= 0.0, format!("'{name}' must not be negative"))?;
+        check(
+            p.loc(),
+            c.min_element() >= 0.0,
+            format!("'{name}' must not be negative"),
+        )?;
         Ok(Texture::Constant(c))
     }
 
@@ -694,9 +819,7 @@ impl<'d> Builder<'d> {
                 if n.attr("id").is_none() {
                     return Err(Error::scene(p.loc(), "an 'area' emitter must be attached to a shape (nest it in a <shape> or give it an id and <ref> it)"));
                 }
-                for k in ["radiance"] {
-                    p.mark_used(k);
-                }
+                p.mark_used("radiance");
                 return Ok(());
             }
             "point" => {
@@ -717,9 +840,19 @@ impl<'d> Builder<'d> {
                 Emitter::Constant(ConstantLight { radiance: r })
             }
             t @ ("spot" | "directional" | "envmap") => {
-                return Err(Error::scene(p.loc(), format!("emitter '{t}' is not supported yet (planned with the materials work)")))
+                return Err(Error::scene(
+                    p.loc(),
+                    format!("emitter '{t}' is not supported yet (planned with the materials work)"),
+                ))
             }
-            t => return Err(unknown(p.loc(), "emitter", t, &["area", "point", "constant"])),
+            t => {
+                return Err(unknown(
+                    p.loc(),
+                    "emitter",
+                    t,
+                    &["area", "point", "constant"],
+                ))
+            }
         };
         p.finish()?;
         self.emitters.push(e);

@@ -385,7 +385,7 @@ impl Comparison {
             } else {
                 EXACT_REL_TOL
             };
-            if !(dev <= tol) {
+            if dev.is_nan() || dev > tol {
                 f.push(format!(
                     "mean ratio {} = {:.5} ± {:.5} is {:.1}σ from 1",
                     ["R", "G", "B"][c],

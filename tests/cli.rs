@@ -1,0 +1,222 @@
+//! The `groove render` command as a user meets it: exit codes, error messages with
+//! FILE:LINE:COL, batch behaviour, output naming and atomic writes.
+
+use assert_cmd::Command;
+use std::fs;
+use std::path::{Path, PathBuf};
+
+fn groove() -> Command {
+    Command::cargo_bin("groove").expect("binary")
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("groove-cli-{}-{name}", std::process::id()));
+    let _ = fs::remove_dir_all(&d);
+    fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A tiny valid scene: a diffuse rectangle under a constant environment.
+const TINY: &str = r#"<scene version="3.0.0">
+    <default name="spp" value="4"/>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0,0,4" target="0,0,0" up="0,1,0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
+    </sensor>
+    <shape type="rectangle"><bsdf type="diffuse"/></shape>
+    <emitter type="constant"/>
+</scene>
+"#;
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    fs::write(&p, text).unwrap();
+    p
+}
+
+fn stderr_of(out: &std::process::Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Runs a failing render and returns stderr; asserts a clean failure (no panic).
+fn fails(args: &[&str], cwd: &Path) -> String {
+    let out = groove().current_dir(cwd).args(args).output().unwrap();
+    let err = stderr_of(&out);
+    assert!(
+        !out.status.success(),
+        "expected failure, got success; stderr: {err}"
+    );
+    assert!(!err.contains("panicked"), "must not panic: {err}");
+    err
+}
+
+#[test]
+fn renders_to_default_name_with_metadata_and_summary() {
+    let d = tmpdir("default");
+    write(&d, "tiny.xml", TINY);
+    let out = groove()
+        .current_dir(&d)
+        .args(["render", "tiny.xml", "--seed", "3", "-q"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr_of(&out));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("Msamples/s") && stdout.contains("Mrays/s"),
+        "{stdout}"
+    );
+    let (img, meta) = groove::output::read_exr(&d.join("tiny.exr")).unwrap();
+    assert_eq!((img.width, img.height), (8, 6));
+    assert_eq!(meta.get("groove.spp"), Some("4"));
+    assert_eq!(meta.get("groove.seed"), Some("3"));
+    assert!(meta.get("groove.render_time_s").is_some());
+    assert!(meta.get("groove.version").is_some());
+    assert!(meta.get("groove.scene").unwrap().ends_with("tiny.xml"));
+}
+
+#[test]
+fn png_output_and_spp_override() {
+    let d = tmpdir("png");
+    write(&d, "tiny.xml", TINY);
+    groove()
+        .current_dir(&d)
+        .args([
+            "render", "tiny.xml", "-o", "out.png", "--spp", "2", "-t", "1",
+        ])
+        .assert()
+        .success();
+    let img = image::open(d.join("out.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (8, 6));
+}
+
+#[test]
+fn malformed_xml_reports_file_line_column() {
+    let d = tmpdir("malformed");
+    write(
+        &d,
+        "bad.xml",
+        "<scene version=\"3.0.0\">\n  <shape type=\"sphere\">\n</scene>\n",
+    );
+    let err = fails(&["render", "bad.xml"], &d);
+    assert!(err.starts_with("error: "), "{err}");
+    assert!(
+        err.contains("bad.xml:3:"),
+        "line of the mismatched tag: {err}"
+    );
+}
+
+#[test]
+fn unknown_plugin_and_unreferenced_property_name_their_place() {
+    let d = tmpdir("unknown");
+    let s = TINY.replace(r#"<bsdf type="diffuse"/>"#, r#"<bsdf type="velvet"/>"#);
+    write(&d, "a.xml", &s);
+    let err = fails(&["render", "a.xml"], &d);
+    assert!(err.contains("a.xml:9:") && err.contains("velvet"), "{err}");
+
+    let s = TINY.replace(
+        r#"<bsdf type="diffuse"/>"#,
+        r#"<bsdf type="diffuse"><float name="extEta" value="1.5"/></bsdf>"#,
+    );
+    write(&d, "b.xml", &s);
+    let err = fails(&["render", "b.xml"], &d);
+    assert!(err.contains("b.xml:9:") && err.contains("extEta"), "{err}");
+    assert!(err.contains("version"), "hint at the 0.6 dialect: {err}");
+}
+
+#[test]
+fn missing_mesh_and_broken_mesh_are_clear_errors() {
+    let d = tmpdir("mesh");
+    let s = TINY.replace(
+        r#"<shape type="rectangle"><bsdf type="diffuse"/></shape>"#,
+        r#"<shape type="obj"><string name="filename" value="nothere.obj"/></shape>"#,
+    );
+    write(&d, "a.xml", &s);
+    let err = fails(&["render", "a.xml"], &d);
+    assert!(
+        err.contains("a.xml:9:") && err.contains("nothere.obj"),
+        "{err}"
+    );
+
+    write(&d, "nan.obj", "v 0 0 0\nv 1 0 0\nv 0 nan 0\nf 1 2 3\n");
+    let s = TINY.replace(
+        r#"<shape type="rectangle"><bsdf type="diffuse"/></shape>"#,
+        r#"<shape type="obj"><string name="filename" value="nan.obj"/></shape>"#,
+    );
+    write(&d, "b.xml", &s);
+    let err = fails(&["render", "b.xml"], &d);
+    assert!(err.contains("nan.obj"), "{err}");
+}
+
+#[test]
+fn unused_define_is_an_error() {
+    let d = tmpdir("define");
+    write(&d, "tiny.xml", TINY);
+    let err = fails(&["render", "tiny.xml", "-D", "sp=4"], &d);
+    assert!(err.contains("sp"), "{err}");
+    groove()
+        .current_dir(&d)
+        .args(["render", "tiny.xml", "-D", "spp=1", "-q"])
+        .assert()
+        .success();
+}
+
+#[test]
+fn batch_renders_the_good_scenes_and_fails_at_the_end() {
+    let d = tmpdir("batch");
+    write(&d, "one.xml", TINY);
+    write(&d, "two.xml", "<scene version=\"3.0.0\"><oops/></scene>");
+    write(&d, "three.xml", TINY);
+    let out = groove()
+        .current_dir(&d)
+        .args([
+            "render",
+            "one.xml",
+            "two.xml",
+            "three.xml",
+            "-o",
+            "outdir",
+            "-q",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = stderr_of(&out);
+    assert!(err.contains("two.xml:1:"), "{err}");
+    assert!(d.join("outdir/one.exr").is_file());
+    assert!(d.join("outdir/three.exr").is_file());
+    assert!(!d.join("outdir/two.exr").exists());
+}
+
+#[test]
+fn a_failed_render_leaves_an_existing_image_untouched_and_no_temp_files() {
+    let d = tmpdir("atomic");
+    write(&d, "tiny.xml", TINY);
+    groove()
+        .current_dir(&d)
+        .args(["render", "tiny.xml", "-o", "good.exr", "-q"])
+        .assert()
+        .success();
+    let before = fs::read(d.join("good.exr")).unwrap();
+    write(&d, "bad.xml", &TINY.replace("rectangle", "torus"));
+    fails(&["render", "bad.xml", "-o", "good.exr"], &d);
+    assert_eq!(fs::read(d.join("good.exr")).unwrap(), before);
+    // An output in a directory that does not exist: error, nothing left behind.
+    let err = fails(&["render", "tiny.xml", "-o", "nodir/x.exr"], &d);
+    assert!(err.contains("nodir"), "{err}");
+    let leftovers: Vec<_> = fs::read_dir(&d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().contains(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+#[test]
+fn unsupported_output_format_fails_before_rendering() {
+    let d = tmpdir("ext");
+    write(&d, "tiny.xml", TINY);
+    let err = fails(&["render", "tiny.xml", "-o", "x.jpg"], &d);
+    assert!(err.contains(".jpg") || err.contains("jpg"), "{err}");
+}
