@@ -20,6 +20,7 @@
 //! node of the arena.
 
 pub mod diffuse;
+pub mod mnm;
 pub mod twosided;
 
 pub use diffuse::Diffuse;
