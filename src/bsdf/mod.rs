@@ -93,6 +93,8 @@ pub enum BsdfNode {
         front: u32,
         back: u32,
     },
+    /// Microfacet-based normal mapping around a nested BSDF.
+    MicrofacetNormalMap(mnm::MicrofacetNormalMap),
 }
 
 /// Per-thread storage of the BSDF nodes built at one hit.
@@ -156,6 +158,7 @@ impl<'a> Bsdf<'a> {
             BsdfNode::TwoSided { front, back } => {
                 self.child(*front).flags() | self.child(*back).flags()
             }
+            BsdfNode::MicrofacetNormalMap(m) => self.child(m.nested).flags(),
         }
     }
 
@@ -166,6 +169,7 @@ impl<'a> Bsdf<'a> {
             BsdfNode::TwoSided { front, back } => {
                 twosided::eval(*self, *front, *back, ctx, wi, wo, sampler)
             }
+            BsdfNode::MicrofacetNormalMap(m) => mnm::eval(*self, m, ctx, wi, wo, sampler),
         }
     }
 
@@ -174,6 +178,7 @@ impl<'a> Bsdf<'a> {
         match self.node() {
             BsdfNode::Diffuse(d) => d.pdf(wi, wo),
             BsdfNode::TwoSided { front, back } => twosided::pdf(*self, *front, *back, ctx, wi, wo),
+            BsdfNode::MicrofacetNormalMap(m) => mnm::pdf(*self, m, ctx, wi, wo),
         }
     }
 
@@ -184,6 +189,7 @@ impl<'a> Bsdf<'a> {
             BsdfNode::TwoSided { front, back } => {
                 twosided::sample(*self, *front, *back, ctx, wi, sampler)
             }
+            BsdfNode::MicrofacetNormalMap(m) => mnm::sample(*self, m, ctx, wi, sampler),
         }?;
         // One place rejects degenerate samples for every model.
         if !(s.wo.is_finite() && s.pdf >= 0.0 && crate::spectrum::is_finite(s.weight)) {

@@ -1,7 +1,220 @@
-//! Microfacet-based normal mapping (Schüssler, Heitz, Hanika, Dachsbacher 2017) and its
-//! extensions (transmission, other microgeometries). See `../shared/spec/mnm.md`.
+//! Microfacet-based normal mapping (Schüssler, Heitz, Hanika, Dachsbacher 2017, "Microfacet-based
+//! Normal Mapping for Robust Monte Carlo Path Tracing") and its extensions. The spec with every
+//! formula and decision is `../shared/spec/mnm.md`; section numbers below refer to it.
 //!
-//! Built so far: the microgeometries (facet areas, projected areas, λ, G1) in [`facets`].
-//! The BSDF itself (explicit and random-walk evaluation) is the next step.
+//! At each shading point the normal map's perturbed normal ωp defines a microsurface of a few
+//! facets whose mean normal is the macro normal ωg (closure, [`facets`]). Light scatters on that
+//! microsurface: every facet carries the nested BSDF, except the sawtooth's vertical wall when
+//! `tangent = mirror` (the paper's model), which is a perfect mirror.
+//!
+//! - `evaluation = explicit`: paths of at most two vertices in closed form ([`explicit`]):
+//!   Variant M (mirror wall: p→o, p→t→o, t→p→o; exact pdf) or single scattering (same).
+//! - `evaluation = random_walk`: the Smith random walk on the microsurface ([`walk`]); sampling
+//!   follows the walk, eval is its next-event estimate (stochastic, unbiased), the pdf for MIS is
+//!   the approximate mixture of decision 3.
+//!
+//! Directions are in the macro shading frame (z = ωg). Reflection only for now: a nested BSDF
+//! with transmission is rejected when the scene loads.
 
+pub mod explicit;
 pub mod facets;
+pub mod walk;
+
+use super::{Bsdf, BsdfContext, BsdfSample};
+use crate::math::{Frame, INV_PI};
+use crate::sampler::Sampler;
+use crate::spectrum::Spectrum;
+use facets::{Microgeometry, Microsurface, MAX_FACETS};
+use glam::Vec3;
+
+/// Closed form or random walk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Evaluation {
+    Explicit,
+    RandomWalk,
+}
+
+/// What the sawtooth's vertical wall carries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tangent {
+    /// A perfect mirror (the paper's model).
+    Mirror,
+    /// The nested BSDF, like the perturbed facet.
+    Same,
+}
+
+/// A microfacet normal-mapped BSDF at one shading point (plain values, built per hit).
+#[derive(Clone, Copy, Debug)]
+pub struct MicrofacetNormalMap {
+    /// Arena index of the nested BSDF.
+    pub nested: u32,
+    /// Perturbed normal in the shading frame (already clamped to `max_theta`).
+    pub wp: Vec3,
+    surface: Microsurface,
+    frames: [Frame; MAX_FACETS],
+    /// Facet 1 is the sawtooth's mirror wall.
+    mirror_wall: bool,
+    pub evaluation: Evaluation,
+    pub max_order: u32,
+    /// ωp = ωg: the model reduces to the nested BSDF (delegated exactly, §2.5).
+    degenerate: bool,
+    /// Weight of the cosine lobe in the walk's MIS pdf (decision 3).
+    mis_c: f32,
+}
+
+impl MicrofacetNormalMap {
+    /// `wp` must be unit with `wp.z > 0` (see [`facets::clamp_perturbed_normal`]).
+    pub fn new(
+        nested: u32,
+        wp: Vec3,
+        geometry: Microgeometry,
+        tangent: Tangent,
+        evaluation: Evaluation,
+        max_order: u32,
+    ) -> Self {
+        // Reference guard (§2.5): no perturbation → the nested BSDF in the macro frame.
+        let degenerate = wp.x.abs() < 1e-6 && wp.y.abs() < 1e-6;
+        let surface = Microsurface::new(geometry, if degenerate { Vec3::Z } else { wp });
+        let mut frames = [Frame::from_normal(Vec3::Z); MAX_FACETS];
+        for (k, f) in frames.iter_mut().enumerate().take(surface.len()) {
+            // Tangent along the shading frame's s (= dp/du), as Mitsuba's normalmap does.
+            *f = Frame::from_normal_tangent(surface.normal(k), Vec3::X);
+        }
+        let theta_p = wp.z.clamp(-1.0, 1.0).acos();
+        MicrofacetNormalMap {
+            nested,
+            wp,
+            surface,
+            frames,
+            mirror_wall: geometry == Microgeometry::Sawtooth
+                && tangent == Tangent::Mirror
+                && surface.len() == 2,
+            evaluation,
+            max_order: max_order.max(1),
+            degenerate,
+            mis_c: 0.2 * (theta_p / 15f32.to_radians()).min(1.0),
+        }
+    }
+
+    #[inline]
+    fn is_mirror(&self, k: usize) -> bool {
+        self.mirror_wall && k == 1
+    }
+
+    /// Mirror image across the wall's plane: R(ω) = ω − 2(ω·ωt)ωt.
+    #[inline]
+    fn reflect_wall(&self, w: Vec3) -> Vec3 {
+        let wt = self.surface.normal(1);
+        w - 2.0 * w.dot(wt) * wt
+    }
+
+    /// Nested eval with both directions in facet k's frame: F_k(a, b) (includes |b·m_k|).
+    #[inline]
+    fn f(
+        &self,
+        nested: &Bsdf,
+        k: usize,
+        ctx: &BsdfContext,
+        a: Vec3,
+        b: Vec3,
+        s: &mut Sampler,
+    ) -> Spectrum {
+        let fr = &self.frames[k];
+        nested.eval(ctx, fr.to_local(a), fr.to_local(b), s)
+    }
+
+    /// Nested pdf in facet k's frame: P_k(a, b).
+    #[inline]
+    fn p(&self, nested: &Bsdf, k: usize, ctx: &BsdfContext, a: Vec3, b: Vec3) -> f32 {
+        let fr = &self.frames[k];
+        nested.pdf(ctx, fr.to_local(a), fr.to_local(b))
+    }
+
+    /// Nested sample in facet k's frame from `a`; the direction comes back in the macro frame.
+    #[inline]
+    fn sample_facet(
+        &self,
+        nested: &Bsdf,
+        k: usize,
+        ctx: &BsdfContext,
+        a: Vec3,
+        s: &mut Sampler,
+    ) -> Option<(Vec3, Spectrum)> {
+        let fr = &self.frames[k];
+        let bs = nested.sample(ctx, fr.to_local(a), s)?;
+        Some((fr.to_world(bs.wo), bs.weight))
+    }
+}
+
+pub(super) fn eval(
+    b: Bsdf,
+    m: &MicrofacetNormalMap,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> Spectrum {
+    let nested = b.child(m.nested);
+    if m.degenerate {
+        return nested.eval(ctx, wi, wo, s);
+    }
+    if wi.z <= 0.0 || wo.z <= 0.0 {
+        return Spectrum::ZERO;
+    }
+    match (m.evaluation, m.mirror_wall) {
+        (Evaluation::Explicit, true) => explicit::eval_mirror(m, &nested, ctx, wi, wo, s),
+        (Evaluation::Explicit, false) => explicit::eval_single(m, &nested, ctx, wi, wo, s),
+        (Evaluation::RandomWalk, _) => walk::eval(m, &nested, ctx, wi, wo, s),
+    }
+}
+
+pub(super) fn pdf(b: Bsdf, m: &MicrofacetNormalMap, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
+    let nested = b.child(m.nested);
+    if m.degenerate {
+        return nested.pdf(ctx, wi, wo);
+    }
+    if wi.z <= 0.0 || wo.z <= 0.0 {
+        return 0.0;
+    }
+    let p1 = if m.mirror_wall {
+        explicit::pdf_mirror(m, &nested, ctx, wi, wo)
+    } else {
+        explicit::pdf_single(m, &nested, ctx, wi, wo)
+    };
+    match m.evaluation {
+        Evaluation::Explicit => p1,
+        // Decision 3: (1 − c)·p1 + c·cosine lobe; MIS stays unbiased with any such pdf
+        // because the integrator uses the walk's own sample weight.
+        Evaluation::RandomWalk => (1.0 - m.mis_c) * p1 + m.mis_c * wo.z * INV_PI,
+    }
+}
+
+pub(super) fn sample(
+    b: Bsdf,
+    m: &MicrofacetNormalMap,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    s: &mut Sampler,
+) -> Option<BsdfSample> {
+    let nested = b.child(m.nested);
+    if m.degenerate {
+        return nested.sample(ctx, wi, s);
+    }
+    if wi.z <= 0.0 {
+        return None;
+    }
+    match (m.evaluation, m.mirror_wall) {
+        (Evaluation::Explicit, true) => explicit::sample_mirror(m, &nested, ctx, wi, s),
+        (Evaluation::Explicit, false) => explicit::sample_single(m, &nested, ctx, wi, s),
+        (Evaluation::RandomWalk, _) => {
+            let (wo, weight, lobe) = walk::sample(m, &nested, ctx, wi, s)?;
+            Some(BsdfSample {
+                wo,
+                pdf: pdf(b, m, ctx, wi, wo),
+                weight,
+                eta: 1.0,
+                lobe,
+            })
+        }
+    }
+}

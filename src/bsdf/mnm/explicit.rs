@@ -1,0 +1,197 @@
+//! Closed-form evaluation (§4 and §3 of the spec): Variant M for the sawtooth with a mirror wall
+//! (paths i→p→o, i→p→t→o, i→t→p→o, exact pdf, reciprocal) and single scattering when every
+//! facet carries the nested BSDF. Both sample with weight = eval / pdf (decision 2), so the
+//! weight equals eval/pdf pointwise.
+
+use super::MicrofacetNormalMap;
+use crate::bsdf::{lobe, Bsdf, BsdfContext, BsdfSample};
+use crate::sampler::Sampler;
+use crate::spectrum::Spectrum;
+use glam::Vec3;
+
+/// Variant M eval (§4.1): facet 0 is ωp, facet 1 the mirror wall ωt.
+pub(super) fn eval_mirror(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> Spectrum {
+    let surf = &m.surface;
+    let wt = surf.normal(1);
+    let g1o = surf.g1(wo);
+    if g1o <= 0.0 {
+        return Spectrum::ZERO;
+    }
+    let lp = surf.lambda(0, wi);
+    let mut v = Spectrum::ZERO;
+    if lp > 0.0 {
+        v += lp * m.f(nested, 0, ctx, wi, wo, s);
+        if wo.dot(wt) > 0.0 {
+            // i → p → t → o: left ωp toward R(ωo), blocked (hit the wall), mirrored to ωo.
+            let rwo = m.reflect_wall(wo);
+            v += (lp * (1.0 - surf.g1(rwo))) * m.f(nested, 0, ctx, wi, rwo, s);
+        }
+    }
+    if wi.dot(wt) > 0.0 {
+        // i → t → p → o: the view ray hits the mirror first; ωp sees R(ωi).
+        let lt = surf.lambda(1, wi);
+        v += lt * m.f(nested, 0, ctx, m.reflect_wall(wi), wo, s);
+    }
+    v * g1o
+}
+
+/// Exact density of [`sample_mirror`] (§4.2).
+pub(super) fn pdf_mirror(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+) -> f32 {
+    let surf = &m.surface;
+    let wt = surf.normal(1);
+    let lp = surf.lambda(0, wi);
+    let mut p = 0.0;
+    if lp > 0.0 {
+        p += lp * m.p(nested, 0, ctx, wi, wo) * surf.g1(wo);
+        if wo.dot(wt) > 0.0 {
+            let rwo = m.reflect_wall(wo);
+            p += lp * (1.0 - surf.g1(rwo)) * m.p(nested, 0, ctx, wi, rwo);
+        }
+    }
+    if wi.dot(wt) > 0.0 {
+        p += surf.lambda(1, wi) * m.p(nested, 0, ctx, m.reflect_wall(wi), wo);
+    }
+    p
+}
+
+/// Variant M sampling (§4.3) with independent random numbers for each decision.
+pub(super) fn sample_mirror(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    s: &mut Sampler,
+) -> Option<BsdfSample> {
+    let surf = &m.surface;
+    let wo = if s.next_1d() < surf.lambda(0, wi) {
+        let (w, _) = m.sample_facet(nested, 0, ctx, wi, s)?;
+        if s.next_1d() >= surf.g1(w) {
+            m.reflect_wall(w) // blocked: the ray hits the mirror wall
+        } else {
+            w
+        }
+    } else {
+        m.sample_facet(nested, 0, ctx, m.reflect_wall(wi), s)?.0
+    };
+    if wo.z <= 0.0 {
+        return None;
+    }
+    finish(m, nested, ctx, wi, wo, s, true)
+}
+
+/// Single scattering on every facet (§3): Σ_k λ_k(ωi) F_k(ωi, ωo) χ(ωo·m_k) G1(ωo).
+pub(super) fn eval_single(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> Spectrum {
+    let surf = &m.surface;
+    let g1o = surf.g1(wo);
+    if g1o <= 0.0 {
+        return Spectrum::ZERO;
+    }
+    let mut v = Spectrum::ZERO;
+    for k in 0..surf.len() {
+        let l = surf.lambda(k, wi);
+        if l > 0.0 && wo.dot(surf.normal(k)) > 0.0 {
+            v += l * m.f(nested, k, ctx, wi, wo, s);
+        }
+    }
+    v * g1o
+}
+
+/// Density of [`sample_single`]: Σ_k λ_k(ωi) P_k(ωi, ωo) for ωo above the macro surface (the
+/// escape probability G1 is a weight, not a decision, so no sample is thrown away).
+pub(super) fn pdf_single(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+) -> f32 {
+    let surf = &m.surface;
+    (0..surf.len())
+        .map(|k| {
+            let l = surf.lambda(k, wi);
+            if l > 0.0 {
+                l * m.p(nested, k, ctx, wi, wo)
+            } else {
+                0.0
+            }
+        })
+        .sum()
+}
+
+pub(super) fn sample_single(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    s: &mut Sampler,
+) -> Option<BsdfSample> {
+    let (k, _) = m.surface.pick(wi, s.next_1d())?;
+    let (wo, _) = m.sample_facet(nested, k, ctx, wi, s)?;
+    if wo.z <= 0.0 {
+        return None;
+    }
+    finish(m, nested, ctx, wi, wo, s, false)
+}
+
+/// weight = eval / pdf at the sampled direction (decision 2).
+fn finish(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+    mirror: bool,
+) -> Option<BsdfSample> {
+    let (f, pdf) = if mirror {
+        (
+            eval_mirror(m, nested, ctx, wi, wo, s),
+            pdf_mirror(m, nested, ctx, wi, wo),
+        )
+    } else {
+        (
+            eval_single(m, nested, ctx, wi, wo, s),
+            pdf_single(m, nested, ctx, wi, wo),
+        )
+    };
+    if !(pdf.is_finite() && pdf > 0.0) {
+        return None;
+    }
+    Some(BsdfSample {
+        wo,
+        pdf,
+        weight: f / pdf,
+        eta: 1.0,
+        lobe: lobe_of(nested),
+    })
+}
+
+/// The macro BSDF reports the nested BSDF's non-delta reflection lobes.
+pub(super) fn lobe_of(nested: &Bsdf) -> u32 {
+    let f = nested.flags() & (lobe::DIFFUSE_REFLECTION | lobe::GLOSSY_REFLECTION);
+    if f & lobe::GLOSSY_REFLECTION != 0 {
+        lobe::GLOSSY_REFLECTION
+    } else {
+        lobe::DIFFUSE_REFLECTION
+    }
+}
