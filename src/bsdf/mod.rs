@@ -85,6 +85,9 @@ pub struct BsdfSample {
 }
 
 /// One BSDF node with plain (already texture-evaluated) parameters.
+// Nodes live in a reused per-thread arena: boxing the large microfacet normal-map variant would
+// allocate at every hit, which is what the arena exists to avoid.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 pub enum BsdfNode {
     Diffuse(Diffuse),

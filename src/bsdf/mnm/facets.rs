@@ -304,8 +304,8 @@ mod tests {
             assert!((p - s.lambda(k, w)).abs() < 1e-6);
             counts[k] += 1;
         }
-        for k in 0..s.len() {
-            assert!((counts[k] as f32 / n as f32 - s.lambda(k, w)).abs() < 1e-3);
+        for (k, &c) in counts.iter().enumerate().take(s.len()) {
+            assert!((c as f32 / n as f32 - s.lambda(k, w)).abs() < 1e-3);
         }
     }
 
