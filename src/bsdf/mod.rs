@@ -1,1 +1,211 @@
-//! (work in progress)
+//! Bidirectional scattering distribution functions.
+//!
+//! # Conventions (tested in `tests/bsdf_*.rs`)
+//! - A BSDF works in its **local frame**: `z` is the shading normal, `wi` and `wo` are unit vectors
+//!   pointing away from the surface. `wi` points toward the previous path vertex (the camera side
+//!   when tracing radiance), `wo` toward the next one (the light side) — Mitsuba's naming.
+//! - `eval(wi, wo)` returns `f(wi, wo) · |cos θo|` (cosine against local `z`).
+//! - `pdf(wi, wo)` is the solid-angle density with which `sample` produces `wo`.
+//! - `sample(wi)` returns `BsdfSample { wo, pdf, weight = f·|cos θo| / pdf, eta, lobe }`. For
+//!   deterministic BSDFs `weight == eval / pdf` pointwise; stochastic BSDFs (random walks) only
+//!   in expectation, which is why the integrator always uses a sample's own weight and never
+//!   re-evaluates `eval / pdf` for a sampled direction.
+//! - Delta lobes: `eval = pdf = 0` for any given pair; `sample` returns the weight without the
+//!   cosine (`pdf` of a delta sample is reported as 0 and flagged by its lobe).
+//!
+//! # Storage without allocation per hit
+//! A material evaluates its textures at a hit and writes plain-valued [`BsdfNode`]s into a
+//! per-thread [`BsdfArena`] that is cleared (not freed) at every hit; nested BSDFs (twosided,
+//! normal maps, blends) refer to their children by index. [`Bsdf`] is a borrowed view of one
+//! node of the arena.
+
+pub mod diffuse;
+pub mod twosided;
+
+pub use diffuse::Diffuse;
+
+use crate::sampler::Sampler;
+use crate::spectrum::Spectrum;
+use glam::Vec3;
+
+/// Radiance: tracing from the camera (the integrator's case); importance: tracing from lights.
+/// Refraction scales radiance by 1/η² but not importance.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransportMode {
+    Radiance,
+    Importance,
+}
+
+/// Per-query context.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfContext {
+    pub mode: TransportMode,
+}
+
+impl Default for BsdfContext {
+    fn default() -> Self {
+        BsdfContext {
+            mode: TransportMode::Radiance,
+        }
+    }
+}
+
+/// Lobe flags (bit set), like Mitsuba's `BSDFFlags`.
+pub mod lobe {
+    pub const DIFFUSE_REFLECTION: u32 = 1 << 0;
+    pub const GLOSSY_REFLECTION: u32 = 1 << 1;
+    pub const DELTA_REFLECTION: u32 = 1 << 2;
+    pub const DIFFUSE_TRANSMISSION: u32 = 1 << 3;
+    pub const GLOSSY_TRANSMISSION: u32 = 1 << 4;
+    pub const DELTA_TRANSMISSION: u32 = 1 << 5;
+    /// Index-matched pass-through (`null`, `mask`): the ray continues unchanged.
+    pub const NULL: u32 = 1 << 6;
+    pub const REFLECTION: u32 = DIFFUSE_REFLECTION | GLOSSY_REFLECTION | DELTA_REFLECTION;
+    pub const TRANSMISSION: u32 = DIFFUSE_TRANSMISSION | GLOSSY_TRANSMISSION | DELTA_TRANSMISSION | NULL;
+    pub const DELTA: u32 = DELTA_REFLECTION | DELTA_TRANSMISSION | NULL;
+    /// Lobes that next-event estimation can evaluate.
+    pub const SMOOTH: u32 = DIFFUSE_REFLECTION | GLOSSY_REFLECTION | DIFFUSE_TRANSMISSION | GLOSSY_TRANSMISSION;
+}
+
+/// A sampled direction with its weight.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    pub wo: Vec3,
+    /// Solid-angle density of `wo` (0 for delta lobes).
+    pub pdf: f32,
+    /// `f · |cos θo| / pdf` (delta lobes: the lobe's value without cosine).
+    pub weight: Spectrum,
+    /// Relative index of refraction of the crossing (1 for reflection).
+    pub eta: f32,
+    /// The lobe that produced the sample (one of `lobe::*`).
+    pub lobe: u32,
+}
+
+/// One BSDF node with plain (already texture-evaluated) parameters.
+#[derive(Clone, Copy, Debug)]
+pub enum BsdfNode {
+    Diffuse(Diffuse),
+    /// Front side uses `front`, back side (`wi.z < 0`) uses `back` mirrored to the front.
+    TwoSided { front: u32, back: u32 },
+}
+
+/// Per-thread storage of the BSDF nodes built at one hit.
+#[derive(Default, Debug)]
+pub struct BsdfArena {
+    nodes: Vec<BsdfNode>,
+}
+
+impl BsdfArena {
+    pub fn new() -> Self {
+        BsdfArena {
+            nodes: Vec::with_capacity(16),
+        }
+    }
+    /// Forget the nodes of the previous hit (keeps the allocation).
+    #[inline]
+    pub fn clear(&mut self) {
+        self.nodes.clear();
+    }
+    /// Store a node and return its index.
+    #[inline]
+    pub fn push(&mut self, node: BsdfNode) -> u32 {
+        self.nodes.push(node);
+        (self.nodes.len() - 1) as u32
+    }
+    /// A view of node `root`.
+    #[inline]
+    pub fn bsdf(&self, root: u32) -> Bsdf<'_> {
+        Bsdf {
+            nodes: &self.nodes,
+            root,
+        }
+    }
+}
+
+/// A BSDF: a node of an arena, with its children.
+#[derive(Clone, Copy)]
+pub struct Bsdf<'a> {
+    nodes: &'a [BsdfNode],
+    root: u32,
+}
+
+impl<'a> Bsdf<'a> {
+    #[inline]
+    fn node(&self) -> &'a BsdfNode {
+        &self.nodes[self.root as usize]
+    }
+
+    #[inline]
+    fn child(&self, index: u32) -> Bsdf<'a> {
+        Bsdf {
+            nodes: self.nodes,
+            root: index,
+        }
+    }
+
+    /// The lobes this BSDF can produce (a union over both sides).
+    pub fn flags(&self) -> u32 {
+        match self.node() {
+            BsdfNode::Diffuse(_) => lobe::DIFFUSE_REFLECTION,
+            BsdfNode::TwoSided { front, back } => {
+                self.child(*front).flags() | self.child(*back).flags()
+            }
+        }
+    }
+
+    /// `f(wi, wo) · |cos θo|` in the local frame. `sampler` feeds stochastic BSDFs only.
+    pub fn eval(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3, sampler: &mut Sampler) -> Spectrum {
+        match self.node() {
+            BsdfNode::Diffuse(d) => d.eval(wi, wo),
+            BsdfNode::TwoSided { front, back } => {
+                twosided::eval(*self, *front, *back, ctx, wi, wo, sampler)
+            }
+        }
+    }
+
+    /// Solid-angle density of sampling `wo` from `wi`.
+    pub fn pdf(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
+        match self.node() {
+            BsdfNode::Diffuse(d) => d.pdf(wi, wo),
+            BsdfNode::TwoSided { front, back } => twosided::pdf(*self, *front, *back, ctx, wi, wo),
+        }
+    }
+
+    /// Importance-sample an outgoing direction.
+    pub fn sample(&self, ctx: &BsdfContext, wi: Vec3, sampler: &mut Sampler) -> Option<BsdfSample> {
+        let s = match self.node() {
+            BsdfNode::Diffuse(d) => d.sample(wi, sampler.next_2d()),
+            BsdfNode::TwoSided { front, back } => {
+                twosided::sample(*self, *front, *back, ctx, wi, sampler)
+            }
+        }?;
+        // One place rejects degenerate samples for every model.
+        if !(s.wo.is_finite() && s.pdf >= 0.0 && crate::spectrum::is_finite(s.weight)) {
+            return None;
+        }
+        Some(s)
+    }
+
+    /// Eval and pdf together (next-event estimation needs both).
+    pub fn eval_pdf(
+        &self,
+        ctx: &BsdfContext,
+        wi: Vec3,
+        wo: Vec3,
+        sampler: &mut Sampler,
+    ) -> (Spectrum, f32) {
+        (self.eval(ctx, wi, wo, sampler), self.pdf(ctx, wi, wo))
+    }
+}
+
+/// Cosine of a local direction.
+#[inline]
+pub fn cos_theta(w: Vec3) -> f32 {
+    w.z
+}
+
+/// True when `a` and `b` lie on the same side of the local surface.
+#[inline]
+pub fn same_hemisphere(a: Vec3, b: Vec3) -> bool {
+    a.z * b.z > 0.0
+}

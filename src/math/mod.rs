@@ -1,10 +1,12 @@
 //! Maths: glam re-exports, orthonormal frames, sampling warps, MIS weights and the random generator.
 
+pub mod distrib;
 pub mod frame;
 pub mod mis;
 pub mod rng;
 pub mod warp;
 
+pub use distrib::Distribution1D;
 pub use frame::Frame;
 pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 pub use rng::Pcg32;

@@ -1,0 +1,54 @@
+//! `twosided`: makes a one-sided BSDF reflect on both sides (Mitsuba's `twosided`). When the query
+//! comes from the back (`wi.z < 0`) both directions are mirrored through the surface, handed to the
+//! back BSDF (the front one if only one is given), and the result mirrored back.
+
+use super::{Bsdf, BsdfContext, BsdfSample};
+use crate::sampler::Sampler;
+use crate::spectrum::Spectrum;
+use glam::Vec3;
+
+#[inline]
+fn flip(w: Vec3) -> Vec3 {
+    Vec3::new(w.x, w.y, -w.z)
+}
+
+pub(super) fn eval(
+    b: Bsdf,
+    front: u32,
+    back: u32,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    sampler: &mut Sampler,
+) -> Spectrum {
+    if wi.z >= 0.0 {
+        b.child(front).eval(ctx, wi, wo, sampler)
+    } else {
+        b.child(back).eval(ctx, flip(wi), flip(wo), sampler)
+    }
+}
+
+pub(super) fn pdf(b: Bsdf, front: u32, back: u32, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
+    if wi.z >= 0.0 {
+        b.child(front).pdf(ctx, wi, wo)
+    } else {
+        b.child(back).pdf(ctx, flip(wi), flip(wo))
+    }
+}
+
+pub(super) fn sample(
+    b: Bsdf,
+    front: u32,
+    back: u32,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    sampler: &mut Sampler,
+) -> Option<BsdfSample> {
+    if wi.z >= 0.0 {
+        b.child(front).sample(ctx, wi, sampler)
+    } else {
+        let mut s = b.child(back).sample(ctx, flip(wi), sampler)?;
+        s.wo = flip(s.wo);
+        Some(s)
+    }
+}
