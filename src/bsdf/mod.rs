@@ -19,10 +19,29 @@
 //! normal maps, blends) refer to their children by index. [`Bsdf`] is a borrowed view of one
 //! node of the arena.
 
+pub mod conductor;
+pub mod dielectric;
 pub mod diffuse;
+pub mod fresnel;
+pub mod ior;
+pub mod microfacet;
+pub mod plastic;
+pub mod roughconductor;
+pub mod roughdielectric;
+pub mod roughplastic;
+pub mod thindielectric;
 pub mod twosided;
 
+pub use conductor::Conductor;
+pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use ior::{named_conductor, named_ior};
+pub use microfacet::{MicrofacetDistribution, MicrofacetType};
+pub use plastic::Plastic;
+pub use roughconductor::RoughConductor;
+pub use roughdielectric::RoughDielectric;
+pub use roughplastic::RoughPlastic;
+pub use thindielectric::ThinDielectric;
 
 use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
@@ -61,10 +80,12 @@ pub mod lobe {
     /// Index-matched pass-through (`null`, `mask`): the ray continues unchanged.
     pub const NULL: u32 = 1 << 6;
     pub const REFLECTION: u32 = DIFFUSE_REFLECTION | GLOSSY_REFLECTION | DELTA_REFLECTION;
-    pub const TRANSMISSION: u32 = DIFFUSE_TRANSMISSION | GLOSSY_TRANSMISSION | DELTA_TRANSMISSION | NULL;
+    pub const TRANSMISSION: u32 =
+        DIFFUSE_TRANSMISSION | GLOSSY_TRANSMISSION | DELTA_TRANSMISSION | NULL;
     pub const DELTA: u32 = DELTA_REFLECTION | DELTA_TRANSMISSION | NULL;
     /// Lobes that next-event estimation can evaluate.
-    pub const SMOOTH: u32 = DIFFUSE_REFLECTION | GLOSSY_REFLECTION | DIFFUSE_TRANSMISSION | GLOSSY_TRANSMISSION;
+    pub const SMOOTH: u32 =
+        DIFFUSE_REFLECTION | GLOSSY_REFLECTION | DIFFUSE_TRANSMISSION | GLOSSY_TRANSMISSION;
 }
 
 /// A sampled direction with its weight.
@@ -85,8 +106,25 @@ pub struct BsdfSample {
 #[derive(Clone, Copy, Debug)]
 pub enum BsdfNode {
     Diffuse(Diffuse),
+    /// Smooth metal (delta reflection).
+    Conductor(Conductor),
+    /// Microfacet metal.
+    RoughConductor(RoughConductor),
+    /// Smooth glass (delta reflection and refraction).
+    Dielectric(Dielectric),
+    /// Thin glass pane (delta reflection and straight transmission).
+    ThinDielectric(ThinDielectric),
+    /// Microfacet glass (Walter et al. 2007).
+    RoughDielectric(RoughDielectric),
+    /// Diffuse base under a smooth coating.
+    Plastic(Plastic),
+    /// Diffuse base under a rough coating.
+    RoughPlastic(RoughPlastic),
     /// Front side uses `front`, back side (`wi.z < 0`) uses `back` mirrored to the front.
-    TwoSided { front: u32, back: u32 },
+    TwoSided {
+        front: u32,
+        back: u32,
+    },
 }
 
 /// Per-thread storage of the BSDF nodes built at one hit.
@@ -147,6 +185,14 @@ impl<'a> Bsdf<'a> {
     pub fn flags(&self) -> u32 {
         match self.node() {
             BsdfNode::Diffuse(_) => lobe::DIFFUSE_REFLECTION,
+            BsdfNode::Conductor(_) => lobe::DELTA_REFLECTION,
+            BsdfNode::RoughConductor(_) => lobe::GLOSSY_REFLECTION,
+            BsdfNode::Dielectric(_) | BsdfNode::ThinDielectric(_) => {
+                lobe::DELTA_REFLECTION | lobe::DELTA_TRANSMISSION
+            }
+            BsdfNode::RoughDielectric(_) => lobe::GLOSSY_REFLECTION | lobe::GLOSSY_TRANSMISSION,
+            BsdfNode::Plastic(_) => lobe::DELTA_REFLECTION | lobe::DIFFUSE_REFLECTION,
+            BsdfNode::RoughPlastic(_) => lobe::GLOSSY_REFLECTION | lobe::DIFFUSE_REFLECTION,
             BsdfNode::TwoSided { front, back } => {
                 self.child(*front).flags() | self.child(*back).flags()
             }
@@ -157,6 +203,13 @@ impl<'a> Bsdf<'a> {
     pub fn eval(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3, sampler: &mut Sampler) -> Spectrum {
         match self.node() {
             BsdfNode::Diffuse(d) => d.eval(wi, wo),
+            BsdfNode::Conductor(b) => b.eval(wi, wo),
+            BsdfNode::RoughConductor(b) => b.eval(wi, wo),
+            BsdfNode::Dielectric(b) => b.eval(wi, wo),
+            BsdfNode::ThinDielectric(b) => b.eval(wi, wo),
+            BsdfNode::RoughDielectric(b) => b.eval(ctx.mode, wi, wo),
+            BsdfNode::Plastic(b) => b.eval(wi, wo),
+            BsdfNode::RoughPlastic(b) => b.eval(wi, wo),
             BsdfNode::TwoSided { front, back } => {
                 twosided::eval(*self, *front, *back, ctx, wi, wo, sampler)
             }
@@ -167,6 +220,13 @@ impl<'a> Bsdf<'a> {
     pub fn pdf(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
         match self.node() {
             BsdfNode::Diffuse(d) => d.pdf(wi, wo),
+            BsdfNode::Conductor(b) => b.pdf(wi, wo),
+            BsdfNode::RoughConductor(b) => b.pdf(wi, wo),
+            BsdfNode::Dielectric(b) => b.pdf(wi, wo),
+            BsdfNode::ThinDielectric(b) => b.pdf(wi, wo),
+            BsdfNode::RoughDielectric(b) => b.pdf(wi, wo),
+            BsdfNode::Plastic(b) => b.pdf(wi, wo),
+            BsdfNode::RoughPlastic(b) => b.pdf(wi, wo),
             BsdfNode::TwoSided { front, back } => twosided::pdf(*self, *front, *back, ctx, wi, wo),
         }
     }
@@ -175,6 +235,22 @@ impl<'a> Bsdf<'a> {
     pub fn sample(&self, ctx: &BsdfContext, wi: Vec3, sampler: &mut Sampler) -> Option<BsdfSample> {
         let s = match self.node() {
             BsdfNode::Diffuse(d) => d.sample(wi, sampler.next_2d()),
+            BsdfNode::Conductor(b) => b.sample(wi),
+            BsdfNode::RoughConductor(b) => b.sample(wi, sampler.next_2d()),
+            BsdfNode::Dielectric(b) => b.sample(ctx.mode, wi, sampler.next_1d()),
+            BsdfNode::ThinDielectric(b) => b.sample(wi, sampler.next_1d()),
+            BsdfNode::RoughDielectric(b) => {
+                let u1 = sampler.next_1d();
+                b.sample(ctx.mode, wi, u1, sampler.next_2d())
+            }
+            BsdfNode::Plastic(b) => {
+                let u1 = sampler.next_1d();
+                b.sample(wi, u1, sampler.next_2d())
+            }
+            BsdfNode::RoughPlastic(b) => {
+                let u1 = sampler.next_1d();
+                b.sample(wi, u1, sampler.next_2d())
+            }
             BsdfNode::TwoSided { front, back } => {
                 twosided::sample(*self, *front, *back, ctx, wi, sampler)
             }
