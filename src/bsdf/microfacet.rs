@@ -215,8 +215,8 @@ impl MicrofacetDistribution {
         let v = wi_s / len;
         match self.kind {
             MicrofacetType::Ggx => {
-                // Heitz 2018, listing: orthonormal basis around v, sample the projected
-                // hemisphere (a disk whose lower half is squashed by (1 + v.z) / 2).
+                // Heitz 2018: orthonormal basis around v, sample the projected hemisphere (a
+                // disk whose lower half is squashed by (1 + v.z) / 2).
                 let lensq = v.x * v.x + v.y * v.y;
                 let t1 = if lensq > 0.0 {
                     Vec3::new(-v.y, v.x, 0.0) / lensq.sqrt()
@@ -224,11 +224,12 @@ impl MicrofacetDistribution {
                     Vec3::X
                 };
                 let t2 = v.cross(t1);
-                let r = u.x.sqrt();
-                let phi = 2.0 * PI * u.y;
-                let (sp, cp) = phi.sin_cos();
-                let p1 = r * cp;
-                let mut p2 = r * sp;
+                // The disk is parameterised by the concentric map (Shirley & Chiu 1997), which is
+                // smoother than the polar one, as Mitsuba 3 does: quadratures over the sample
+                // square (`roughplastic`'s tables) then agree with Mitsuba's.
+                let d = crate::math::warp::square_to_disk_concentric(u);
+                let p1 = d.x;
+                let mut p2 = d.y;
                 let s = 0.5 * (1.0 + v.z);
                 p2 = (1.0 - s) * safe_sqrt(1.0 - p1 * p1) + s * p2;
                 let nh = p1 * t1 + p2 * t2 + safe_sqrt(1.0 - p1 * p1 - p2 * p2) * v;

@@ -25,6 +25,11 @@ pub mod diffuse;
 pub mod fresnel;
 pub mod ior;
 pub mod microfacet;
+#[cfg(test)]
+mod mitsuba_refs;
+#[cfg(test)]
+#[rustfmt::skip]
+mod mitsuba_refs_data;
 pub mod plastic;
 pub mod roughconductor;
 pub mod roughdielectric;
@@ -45,6 +50,8 @@ pub use thindielectric::ThinDielectric;
 
 use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
+#[cfg(test)]
+use glam::Vec2;
 use glam::Vec3;
 
 /// Radiance: tracing from the camera (the integrator's case); importance: tracing from lights.

@@ -3,18 +3,19 @@
 //! - the coating's microfacet reflection F D G / (4 cos θi) · `specular_reflectance` (isotropic
 //!   Beckmann or GGX);
 //! - the base seen through the coating: ρ / (π η² (1 − R_int)) · T(θi) T(θo) cos θo, where
-//!   T(θ) = 1 − R_spec(θ) is the rough coating's directional transmittance from outside (one minus
-//!   its specular albedo) and R_int the cosine-weighted albedo of the coating from inside
+//!   T(θ) is the rough coating's directional transmittance from outside (refracted energy that
+//!   is not masked, ∫ (1 − F) G1) and R_int the cosine-weighted albedo of the coating from inside
 //!   (`nonlinear`: 1 − ρ R_int in the denominator).
 //!
 //! Mitsuba precomputes these once per material and so do we, by the same method: the specular
 //! albedo R(μ) = ∫ F(wi·m) G1(wo, m) dP_vis(m) is integrated with a 2-D Gauss–Legendre rule over
-//! the visible-normal sample space (32² nodes for η > 1, 128² otherwise), for μ = cos θ on a 64-entry
+//! the visible-normal sample space (32² nodes for η > 1, 128² otherwise), likewise the
+//! transmittance T(μ) = ∫ (1 − F(wi·m)) G1(wt, m) dP_vis(m), for μ = cos θ on a 64-entry
 //! uniform grid (μ₀ clamped to 1e-6) read back with linear interpolation; R_int = 2 · mean(R(μ; 1/η) μ)
 //! over the same grid. The lobe choice uses 1 − T(θi) and T(θi) with the specular sampling weight
 //! as in `plastic`.
 
-use super::fresnel::fresnel_dielectric;
+use super::fresnel::{fresnel_dielectric, refract};
 use super::microfacet::{gauss_legendre, MicrofacetDistribution, MicrofacetType};
 use super::plastic::specular_sampling_weight;
 use super::{lobe, BsdfSample};
@@ -33,10 +34,15 @@ pub struct RoughPlasticTable {
     pub internal_reflectance: f32,
 }
 
-/// Specular albedo of a rough dielectric interface seen from `wi` (upper side, relative index
-/// `eta`): ∫ F(wi·m) G1(wo, m) over visible normals, by Gauss–Legendre quadrature of the
-/// visible-normal warp.
-pub fn rough_specular_albedo(distr: &MicrofacetDistribution, wi: Vec3, eta: f32) -> f32 {
+/// Reflected (`transmit = false`) or transmitted energy of a rough dielectric interface lit from
+/// `wi` (upper side, relative index `eta`): ∫ F G1(wo, m) resp. ∫ (1 − F) G1(wo, m) over the
+/// normals visible from `wi`, by Gauss–Legendre quadrature of the visible-normal warp (as Mitsuba 3).
+pub fn rough_interface_albedo(
+    distr: &MicrofacetDistribution,
+    wi: Vec3,
+    eta: f32,
+    transmit: bool,
+) -> f32 {
     let d = MicrofacetDistribution {
         sample_visible: true,
         ..*distr
@@ -48,12 +54,21 @@ pub fn rough_specular_albedo(distr: &MicrofacetDistribution, wi: Vec3, eta: f32)
         for (y, wy) in nodes.iter().zip(&weights) {
             let u = Vec2::new((0.5 * x + 0.5) as f32, (0.5 * y + 0.5) as f32);
             let (m, _) = d.sample(wi, u);
-            let wo = reflect(wi, m);
-            if wo.z <= 0.0 || wi.z <= 0.0 {
-                continue;
-            }
-            let f = fresnel_dielectric(wi.dot(m), eta).r;
-            sum += (f * d.smith_g1(wo, m)) as f64 * wx * wy * 0.25;
+            let fr = fresnel_dielectric(wi.dot(m), eta);
+            let v = if transmit {
+                let wo = refract(wi, m, fr.cos_theta_t, fr.eta_ti);
+                if wo.z * wi.z >= 0.0 {
+                    continue;
+                }
+                (1.0 - fr.r) * d.smith_g1(wo, m)
+            } else {
+                let wo = reflect(wi, m);
+                if wo.z <= 0.0 || wi.z <= 0.0 {
+                    continue;
+                }
+                fr.r * d.smith_g1(wo, m)
+            };
+            sum += v as f64 * wx * wy * 0.25;
         }
     }
     sum as f32
@@ -68,8 +83,8 @@ impl RoughPlasticTable {
         for (i, t) in ext.iter_mut().enumerate() {
             let mu = (i as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6);
             let wi = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-            *t = 1.0 - rough_specular_albedo(&d, wi, eta);
-            internal += (rough_specular_albedo(&d, wi, 1.0 / eta) * mu) as f64;
+            *t = rough_interface_albedo(&d, wi, eta, true);
+            internal += (rough_interface_albedo(&d, wi, 1.0 / eta, false) * mu) as f64;
         }
         RoughPlasticTable {
             external_transmittance: ext,
