@@ -209,7 +209,7 @@ impl MicrofacetDistribution {
         // Stretch to the α = 1 configuration.
         let wi_s = Vec3::new(self.alpha_u * wi.x, self.alpha_v * wi.y, wi.z.max(0.0));
         let len = wi_s.length();
-        if !(len > 0.0) {
+        if !super::is_positive(len) {
             return Vec3::Z;
         }
         let v = wi_s / len;

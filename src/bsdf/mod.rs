@@ -281,6 +281,12 @@ impl<'a> Bsdf<'a> {
     }
 }
 
+/// `x > 0`, false for NaN: the guard every sampling routine applies to pdfs and weights.
+#[inline]
+pub fn is_positive(x: f32) -> bool {
+    x > 0.0
+}
+
 /// Cosine of a local direction.
 #[inline]
 pub fn cos_theta(w: Vec3) -> f32 {

@@ -7,7 +7,7 @@
 
 use super::fresnel::fresnel_conductor;
 use super::microfacet::MicrofacetDistribution;
-use super::{lobe, BsdfSample};
+use super::{is_positive, lobe, BsdfSample};
 use crate::math::reflect;
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
@@ -67,7 +67,7 @@ impl RoughConductor {
             return None;
         }
         let (m, pm) = self.distribution.sample(wi, u);
-        if !(pm > 0.0) {
+        if !is_positive(pm) {
             return None;
         }
         let wo = reflect(wi, m);
@@ -80,7 +80,7 @@ impl RoughConductor {
         } else {
             self.distribution.g(wi, wo, m) * wi.dot(m) / (wi.z * m.z)
         };
-        if !(pdf > 0.0) || !(w > 0.0) {
+        if !is_positive(pdf) || !is_positive(w) {
             return None;
         }
         Some(BsdfSample {

@@ -17,7 +17,7 @@
 
 use super::fresnel::{fresnel_dielectric, refract};
 use super::microfacet::MicrofacetDistribution;
-use super::{lobe, BsdfSample, TransportMode};
+use super::{is_positive, lobe, BsdfSample, TransportMode};
 use crate::math::reflect;
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
@@ -146,14 +146,14 @@ impl RoughDielectric {
         }
         let sd = self.sampling_distribution(ci);
         let (m, pm) = sd.sample(flip_to_upper(wi), u2);
-        if !(pm > 0.0) {
+        if !is_positive(pm) {
             return None;
         }
         let fr = fresnel_dielectric(wi.dot(m), self.eta);
         let is_reflect = u1 <= fr.r;
         let (wo, eta, pdf, mut weight, lobe_kind) = if is_reflect {
             let wo = reflect(wi, m);
-            if !(ci * wo.z > 0.0) {
+            if !is_positive(ci * wo.z) {
                 return None;
             }
             let pdf = pm * fr.r / (4.0 * wo.dot(m)).abs();
@@ -166,7 +166,7 @@ impl RoughDielectric {
             )
         } else {
             let wo = refract(wi, m, fr.cos_theta_t, fr.eta_ti);
-            if !(ci * wo.z < 0.0) {
+            if !is_positive(-ci * wo.z) {
                 return None;
             }
             let (dih, doh) = (wi.dot(m), wo.dot(m));
@@ -192,7 +192,7 @@ impl RoughDielectric {
                 .abs()
         };
         weight *= w;
-        if !(pdf > 0.0 && pdf.is_finite()) || !(w > 0.0) {
+        if !(is_positive(pdf) && pdf.is_finite() && is_positive(w)) {
             return None;
         }
         Some(BsdfSample {

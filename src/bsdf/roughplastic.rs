@@ -227,7 +227,7 @@ impl RoughPlastic {
             )
         };
         let pdf = self.pdf(wi, wo);
-        if !(pdf > 0.0) {
+        if !super::is_positive(pdf) {
             return None;
         }
         Some(BsdfSample {
