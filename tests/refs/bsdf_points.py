@@ -159,15 +159,27 @@ def emit():
         dist, au, av, sv, mat, ii, ei, refl, nl = k
         return 'Key { dist: %d, alpha_u: %s, alpha_v: %s, sample_visible: %s, material: "%s", int_ior: %s, ext_ior: %s, reflectance: %s, nonlinear: %s }' % (
             dist, lit(au), lit(av), 'true' if sv else 'false', mat, lit(ii), lit(ei), vec(refl), 'true' if nl else 'false')
+    keys = []
+    index = {}
+    for r in rows + srows:
+        if r[1] not in index:
+            index[r[1]] = len(keys)
+            keys.append(r[1])
+    out.write('pub const KEYS: &[Key] = &[\n')
+    for k in keys:
+        out.write('    %s,\n' % key(k))
+    out.write('];\n\n')
+    out.write('/// (model, key index, mode, wi, wo, eval, pdf)\n')
     out.write('pub const ROWS: &[Row] = &[\n')
     for (model, k, mode, wi, wo, e, p) in rows:
-        out.write('    Row { model: "%s", key: %s, mode: %d, wi: %s, wo: %s, eval: %s, pdf: %s },\n' % (
-            model, key(k), mode, vec(wi), vec(wo), vec(e), lit(p)))
+        out.write('    ("%s", %d, %d, %s, %s, %s, %s),\n' % (
+            model, index[k], mode, vec(wi), vec(wo), vec(e), lit(p)))
     out.write('];\n\npub const SROWS: &[SRow] = &[\n')
     for (model, k, mode, wi, u1, u2, wo, w, p, eta, delta) in srows:
-        out.write('    SRow { model: "%s", key: %s, mode: %d, wi: %s, u1: %s, u2: %s, wo: %s, weight: %s, pdf: %s, eta: %s, delta: %s },\n' % (
-            model, key(k), mode, vec(wi), lit(u1), vec(u2), vec(wo), vec(w), lit(p), lit(eta), 'true' if delta else 'false'))
+        out.write('    SRow { model: "%s", key: %d, mode: %d, wi: %s, u1: %s, u2: %s, wo: %s, weight: %s, pdf: %s, eta: %s, delta: %s },\n' % (
+            model, index[k], mode, vec(wi), lit(u1), vec(u2), vec(wo), vec(w), lit(p), lit(eta), 'true' if delta else 'false'))
     out.write('];\n')
+
 
 def conductors():
     for m in ['Au', 'Ag', 'Cu', 'Al', 'Cr']:
