@@ -5,8 +5,10 @@
 //! fraction p of the samples adds ≈ N p ε² to the statistic, so errors with p ε² ≳ 2e-3 are caught
 //! (e.g. 15% on a lobe carrying 10% of the mass, 5% on the whole distribution; a wrong
 //! normalisation of the whole pdf shows in the "rest" outcome at ≈ 4/√N ≈ 1%). The per-cell
-//! weight test detects a bias of ≈ 4 σ_cell/√(N p_cell): ~3% in a cell with 1% of the samples.
-//! A full run takes ~20 s on 2 cores (release).
+//! weight test (Šidák over ~10³ cells, |z| ≳ 5.5) detects a bias of ≈ 5.5 cv/√(N p_cell) in one
+//! cell: ~4% in a cell holding 1% of the samples when the weights vary by 30% (cv); its Σz² and
+//! whole-sphere groups catch a bias spread over every cell down to ≈ 0.1% (guard test: 5%).
+//! A full run takes ~35 s on 2 shared cores (release, after the build).
 
 mod common;
 
@@ -270,23 +272,76 @@ fn run_case(c: &Case, seed: u64, level: f64) -> Vec<String> {
     fails
 }
 
-#[test]
-fn every_bsdf_passes_the_statistical_tests() {
-    let cases = cases();
-    let sidak = Sidak::new(0.01, cases.len());
-    let level = sidak.level();
-    let fails: Vec<String> = cases
-        .par_iter()
+/// Run the cases of one model (the first word of a case name). The Šidák level accounts for all
+/// cases of all models, so the whole suite keeps α = 0.01.
+fn run_model(models: &[&str]) {
+    let all = cases();
+    let level = Sidak::new(0.01, all.len()).level();
+    let mine: Vec<(usize, &Case)> = all
+        .iter()
         .enumerate()
-        .flat_map(|(i, c)| run_case(c, 1000 + i as u64, level))
+        .filter(|(_, c)| models.contains(&c.name.split(' ').next().unwrap()))
+        .collect();
+    assert!(!mine.is_empty());
+    let fails: Vec<String> = mine
+        .par_iter()
+        .flat_map(|(i, c)| run_case(c, 1000 + *i as u64, level))
         .collect();
     assert!(
         fails.is_empty(),
         "{} failures in {} cases:\n{}",
         fails.len(),
-        cases.len(),
+        mine.len(),
         fails.join("\n")
     );
+}
+
+#[test]
+fn statistics_diffuse_and_twosided() {
+    run_model(&["diffuse", "twosided(diffuse)"]);
+}
+
+#[test]
+fn statistics_roughconductor() {
+    run_model(&["roughconductor"]);
+}
+
+#[test]
+fn statistics_roughdielectric() {
+    run_model(&["roughdielectric"]);
+}
+
+#[test]
+fn statistics_plastic_and_roughplastic() {
+    run_model(&["plastic", "roughplastic"]);
+}
+
+#[test]
+fn statistics_delta_models() {
+    run_model(&["dielectric", "thindielectric", "conductor"]);
+}
+
+/// Every case belongs to one of the tests above.
+#[test]
+fn every_case_is_run() {
+    let known = [
+        "diffuse",
+        "twosided(diffuse)",
+        "roughconductor",
+        "roughdielectric",
+        "plastic",
+        "roughplastic",
+        "dielectric",
+        "thindielectric",
+        "conductor",
+    ];
+    for c in cases() {
+        assert!(
+            known.contains(&c.name.split(' ').next().unwrap()),
+            "{}",
+            c.name
+        );
+    }
 }
 
 /// The harness must be able to fail: cosine-weighted sampling reported with a uniform pdf.
