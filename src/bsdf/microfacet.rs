@@ -303,16 +303,17 @@ pub fn erfc(x: f64) -> f64 {
 
 const SQRT_PI: f64 = 1.772_453_850_905_516;
 
-/// Solve F(x) = target for an increasing F with derivative `dens` on [lo, hi]: Newton steps
-/// safeguarded by bisection (always converges; 1e-10 tolerance in x).
+/// Solve F(x) = target for an increasing F with derivative `dens` on [lo, hi], starting at `x0`:
+/// Newton steps safeguarded by bisection (always converges; stops at a 1e-9 step).
 fn invert_monotone(
     f: impl Fn(f64) -> f64,
     dens: impl Fn(f64) -> f64,
     target: f64,
     mut lo: f64,
     mut hi: f64,
+    x0: f64,
 ) -> f64 {
-    let mut x = 0.5 * (lo + hi);
+    let mut x = x0.clamp(lo, hi);
     for _ in 0..100 {
         let fx = f(x) - target;
         if fx > 0.0 {
@@ -325,7 +326,7 @@ fn invert_monotone(
         if !(nx > lo && nx < hi) {
             nx = 0.5 * (lo + hi);
         }
-        if (nx - x).abs() < 1e-10 || hi - lo < 1e-10 {
+        if (nx - x).abs() < 1e-9 * (1.0 + x.abs()) || hi - lo < 1e-10 {
             return nx;
         }
         x = nx;
@@ -333,7 +334,47 @@ fn invert_monotone(
     x
 }
 
-/// y with P(Y ≤ y) = u for the density e^{−y²}/√π.
+/// Approximate erf⁻¹ (Giles 2010, "Approximating the erfinv function", single-precision
+/// polynomials; relative error ~1e-7), used as the Newton starting point.
+fn erfinv_approx(x: f64) -> f64 {
+    let w = -((1.0 - x) * (1.0 + x)).ln();
+    if w < 5.0 {
+        let w = w - 2.5;
+        let mut p = 2.810_226_36e-8;
+        for c in [
+            3.432_739_39e-7,
+            -3.523_387_7e-6,
+            -4.391_506_54e-6,
+            2.185_808_7e-4,
+            -1.253_725_03e-3,
+            -4.177_681_64e-3,
+            2.466_407_27e-1,
+            1.501_409_41,
+        ] {
+            p = c + p * w;
+        }
+        p * x
+    } else {
+        let w = w.sqrt() - 3.0;
+        let mut p = -2.002_142_57e-4;
+        for c in [
+            1.009_505_58e-4,
+            1.349_343_22e-3,
+            -3.673_428_44e-3,
+            5.739_507_73e-3,
+            -7.622_461_3e-3,
+            9.438_870_47e-3,
+            1.001_674_06,
+            2.832_976_82,
+        ] {
+            p = c + p * w;
+        }
+        p * x
+    }
+}
+
+/// y with P(Y ≤ y) = u for the density e^{−y²}/√π, i.e. erf⁻¹(2u − 1), refined by Newton on
+/// the accurate erfc so the approximation's error does not matter.
 fn sample_gaussian_slope(u: f64) -> f64 {
     let u = u.clamp(1e-12, 1.0 - 1e-12);
     // CDF = erfc(−y) / 2.
@@ -343,6 +384,7 @@ fn sample_gaussian_slope(u: f64) -> f64 {
         u,
         -7.0,
         7.0,
+        erfinv_approx(2.0 * u - 1.0),
     )
 }
 
@@ -355,7 +397,10 @@ fn sample_visible_slope_x(c: f64, s: f64, u: f64) -> f64 {
     let lo = -7.0;
     let total = cdf(hi);
     let dens = |x: f64| ((c - x * s).max(0.0)) * (-x * x).exp();
-    invert_monotone(cdf, dens, u.clamp(1e-12, 1.0 - 1e-12) * total, lo, hi)
+    // Start from the normal-incidence answer (a Gaussian), kept below the cut at c/s.
+    let u = u.clamp(1e-12, 1.0 - 1e-12);
+    let x0 = erfinv_approx(2.0 * u - 1.0).min(hi - 0.5 * (1.0 - u));
+    invert_monotone(cdf, dens, u * total, lo, hi, x0)
 }
 
 /// Gauss–Legendre nodes and weights on [−1, 1] (Newton iteration on P_n from the Chebyshev
@@ -392,6 +437,19 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn erfinv_inverts_erf() {
+        for x in [-0.999_999, -0.9, -0.3, 0.0, 0.2, 0.7, 0.99, 0.999_999_9] {
+            let y = erfinv_approx(x);
+            assert!(
+                (1.0 - erfc(y) - x).abs() < 1e-6 * (1.0 + (1.0 - x.abs()).recip().ln()),
+                "{x} {y}"
+            );
+            let z = sample_gaussian_slope(0.5 * (x + 1.0));
+            assert!((1.0 - erfc(z) - x).abs() < 1e-9, "{x} {z}");
+        }
+    }
 
     #[test]
     fn erfc_values() {
