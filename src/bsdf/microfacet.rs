@@ -45,6 +45,13 @@ pub struct MicrofacetDistribution {
 /// Smallest roughness accepted: below it the peak of D overflows f32 (Mitsuba clamps to 1e-4 too).
 pub const MIN_ALPHA: f32 = 1e-4;
 
+impl Default for MicrofacetDistribution {
+    /// Mitsuba's defaults for the rough BSDFs: Beckmann, α = 0.1, visible-normal sampling.
+    fn default() -> Self {
+        MicrofacetDistribution::new(MicrofacetType::Beckmann, 0.1, true)
+    }
+}
+
 impl MicrofacetDistribution {
     /// An isotropic distribution (`alpha` as given in the XML, clamped to [`MIN_ALPHA`]).
     pub fn new(kind: MicrofacetType, alpha: f32, sample_visible: bool) -> Self {

@@ -251,3 +251,46 @@ fn delta_samples_match_mitsuba() {
         failures.join("\n")
     );
 }
+
+/// Every model with Mitsuba's default parameters (`tests/refs/bsdf_points.py defaults`): checks
+/// the `Default` impls (Beckmann, α 0.1, visible sampling, bk7/air, polypropylene, ρ 0.5, "none").
+#[test]
+fn defaults_match_mitsuba() {
+    #[rustfmt::skip]
+    const ROWS: &[(&str, [f32; 3], [f32; 3], f32, f32)] = &[
+        ("plastic", [0.3, 0.2, 0.9327379], [-0.25, -0.2, 0.94736475], 0.15326163, 0.2789153),
+        ("roughplastic", [0.3, 0.2, 0.9327379], [-0.25, -0.2, 0.94736475], 0.45741442, 0.8781233),
+        ("roughconductor", [0.3, 0.2, 0.9327379], [-0.25, -0.2, 0.94736475], 7.96029, 7.96029),
+        ("roughdielectric", [0.3, 0.2, 0.9327379], [-0.25, -0.2, 0.94736475], 0.32476208, 0.32476208),
+        ("diffuse", [0.3, 0.2, 0.9327379], [-0.25, -0.2, 0.94736475], 0.15077777, 0.30155554),
+        ("plastic", [0.3, 0.2, 0.9327379], [-0.2, -0.1, -0.9746794], 0.0, 0.0),
+        ("roughplastic", [0.3, 0.2, 0.9327379], [-0.2, -0.1, -0.9746794], 0.0, 0.0),
+        ("roughconductor", [0.3, 0.2, 0.9327379], [-0.2, -0.1, -0.9746794], 0.0, 0.0),
+        ("roughdielectric", [0.3, 0.2, 0.9327379], [-0.2, -0.1, -0.9746794], 42.801945, 96.84227),
+        ("diffuse", [0.3, 0.2, 0.9327379], [-0.2, -0.1, -0.9746794], 0.0, 0.0),
+    ];
+    let mut arena = BsdfArena::new();
+    let mut sampler = crate::sampler::Sampler::from_seed(1, 1);
+    for &(model, wi, wo, e, p) in ROWS {
+        let n = match model {
+            "plastic" => BsdfNode::Plastic(Plastic::default()),
+            "roughplastic" => BsdfNode::RoughPlastic(RoughPlastic::default()),
+            "roughconductor" => BsdfNode::RoughConductor(RoughConductor::default()),
+            "roughdielectric" => BsdfNode::RoughDielectric(RoughDielectric::default()),
+            "diffuse" => BsdfNode::Diffuse(Diffuse {
+                reflectance: Spectrum::splat(0.5),
+            }),
+            _ => unreachable!(),
+        };
+        arena.clear();
+        let root = arena.push(n);
+        let b = arena.bsdf(root);
+        let (wi, wo) = (Vec3::from_array(wi), Vec3::from_array(wo));
+        let c = BsdfContext::default();
+        let ours = (b.eval(&c, wi, wo, &mut sampler).x, b.pdf(&c, wi, wo));
+        assert!(
+            rel_err(ours.0, e, 1e-3) < 1e-4 && rel_err(ours.1, p, 1e-3) < 1e-4,
+            "{model}: {ours:?} vs mitsuba ({e}, {p})"
+        );
+    }
+}

@@ -92,3 +92,15 @@ impl RoughConductor {
         })
     }
 }
+
+impl Default for RoughConductor {
+    /// Mitsuba's defaults: Beckmann, α = 0.1, visible sampling, material "none" (η 0, k 1).
+    fn default() -> Self {
+        RoughConductor {
+            distribution: MicrofacetDistribution::default(),
+            eta: Spectrum::ZERO,
+            k: Spectrum::ONE,
+            specular_reflectance: Spectrum::ONE,
+        }
+    }
+}

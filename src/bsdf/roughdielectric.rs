@@ -204,3 +204,16 @@ impl RoughDielectric {
         })
     }
 }
+
+impl Default for RoughDielectric {
+    /// Mitsuba's defaults: Beckmann, α = 0.1, visible sampling, bk7 inside air.
+    fn default() -> Self {
+        RoughDielectric::new(
+            MicrofacetDistribution::default(),
+            super::dielectric::DEFAULT_INT_IOR,
+            super::dielectric::DEFAULT_EXT_IOR,
+            Spectrum::ONE,
+            Spectrum::ONE,
+        )
+    }
+}

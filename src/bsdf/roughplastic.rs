@@ -239,3 +239,19 @@ impl RoughPlastic {
         })
     }
 }
+
+impl Default for RoughPlastic {
+    /// Mitsuba's defaults: Beckmann, α = 0.1, visible sampling, ρ = 0.5, polypropylene in air.
+    fn default() -> Self {
+        RoughPlastic::new(
+            MicrofacetType::Beckmann,
+            0.1,
+            true,
+            Spectrum::splat(0.5),
+            Spectrum::ONE,
+            super::plastic::DEFAULT_PLASTIC_INT_IOR,
+            super::dielectric::DEFAULT_EXT_IOR,
+            false,
+        )
+    }
+}

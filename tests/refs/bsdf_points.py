@@ -6,7 +6,8 @@ Run:  /work/.venv-mitsuba/bin/python tests/refs/bsdf_points.py > src/bsdf/mitsub
 For every model and parameter set it evaluates Mitsuba's `eval` and `pdf` on fixed (wi, wo) pairs
 (directions rounded to f32 first, so both renderers see identical inputs), and for the delta models
 it calls `sample` with fixed random numbers. The local frame is the identity (s = x, t = y, n = z).
-`conductors()` prints the RGB (eta, k) Mitsuba uses for named conductors (src/bsdf/ior.rs).
+`bsdf_points.py conductors` prints the RGB (eta, k) Mitsuba uses for named conductors
+(src/bsdf/ior.rs); `bsdf_points.py defaults` the values of `defaults_match_mitsuba`.
 """
 import sys
 import numpy as np
@@ -181,6 +182,19 @@ def emit():
     out.write('];\n')
 
 
+def defaults():
+    """eval/pdf of each model with Mitsuba's default parameters (test `defaults_match_mitsuba`)."""
+    wi = [f32(0.3), f32(0.2), f32(np.sqrt(1 - 0.13))]
+    si = make_si(wi)
+    for wo in [[-0.25, -0.2, np.sqrt(1 - 0.1025)], [-0.2, -0.1, -np.sqrt(1 - 0.05)]]:
+        wo = [f32(c) for c in wo]
+        for t in ['plastic', 'roughplastic', 'roughconductor', 'roughdielectric', 'diffuse']:
+            b = mi.load_dict({'type': t})
+            e = b.eval(mi.BSDFContext(), si, mi.Vector3f(*wo))
+            p = b.pdf(mi.BSDFContext(), si, mi.Vector3f(*wo))
+            print('("%s", %s, %s, %s, %s),' % (t, vec(wi), vec(wo), lit(e[0]), lit(p)))
+
+
 def conductors():
     for m in ['Au', 'Ag', 'Cu', 'Al', 'Cr']:
         p = mi.traverse(mi.load_dict({'type': 'conductor', 'material': m}))
@@ -189,6 +203,8 @@ def conductors():
 if __name__ == '__main__':
     if len(sys.argv) > 1 and sys.argv[1] == 'conductors':
         conductors()
+    elif len(sys.argv) > 1 and sys.argv[1] == 'defaults':
+        defaults()
     else:
         build()
         emit()
