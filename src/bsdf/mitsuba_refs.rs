@@ -256,8 +256,10 @@ fn delta_samples_match_mitsuba() {
 /// the `Default` impls (Beckmann, α 0.1, visible sampling, bk7/air, polypropylene, ρ 0.5, "none").
 #[test]
 fn defaults_match_mitsuba() {
+    /// (model, wi, wo, eval (grey), pdf)
+    type DefaultRow = (&'static str, [f32; 3], [f32; 3], f32, f32);
     #[rustfmt::skip]
-    const ROWS: &[(&str, [f32; 3], [f32; 3], f32, f32)] = &[
+    const ROWS: &[DefaultRow] = &[
         ("plastic", [0.3, 0.2, 0.9327379], [-0.25, -0.2, 0.94736475], 0.15326163, 0.2789153),
         ("roughplastic", [0.3, 0.2, 0.9327379], [-0.25, -0.2, 0.94736475], 0.45741442, 0.8781233),
         ("roughconductor", [0.3, 0.2, 0.9327379], [-0.25, -0.2, 0.94736475], 7.96029, 7.96029),
