@@ -247,7 +247,7 @@ fn cases() -> Vec<Case> {
 /// Run the statistical tests of one case; `level` is its Šidák share (two p-value tests per case).
 fn run_case(c: &Case, seed: u64, level: f64) -> Vec<String> {
     let grid = Grid::default();
-    let (pdf_cells, eval_cells) = cell_integrals(&c.bsdf, c.wi, &grid, N, seed);
+    let cells = cell_integrals(&c.bsdf, c.wi, &grid, N, seed);
     let s = draw(&c.bsdf, c.wi, &grid, N, seed, c.bsdf.deterministic());
     let mut fails = Vec::new();
     let mut check = |what: &str, r: Outcome| {
@@ -257,11 +257,11 @@ fn run_case(c: &Case, seed: u64, level: f64) -> Vec<String> {
     };
     check(
         "chi2 sample vs pdf",
-        chi2_sample_vs_pdf_opts(&s, &pdf_cells, level / 2.0, c.renormalize),
+        chi2_sample_vs_pdf_opts(&s, &cells.pdf, level / 2.0, c.renormalize),
     );
     check(
         "cell weight vs eval",
-        cell_consistency_opts(&s, &pdf_cells, &eval_cells, level / 2.0, c.renormalize),
+        cell_consistency_opts(&s, &cells, level / 2.0, c.renormalize),
     );
     if c.bsdf.deterministic() {
         check("weight == eval/pdf", weight_matches_eval_over_pdf(&s));
@@ -392,29 +392,80 @@ fn guard_the_harness_rejects_a_wrong_pdf_and_a_biased_weight() {
     let level = Sidak::new(0.01, 1).level();
 
     let wrong = WrongPdf(d);
-    let (p, _) = cell_integrals(&wrong, wi, &grid, N, 1);
+    let cells = cell_integrals(&wrong, wi, &grid, N, 1);
     let s = draw(&wrong, wi, &grid, N, 1, false);
     assert!(
-        chi2_sample_vs_pdf(&s, &p, level).is_err(),
+        chi2_sample_vs_pdf(&s, &cells.pdf, level).is_err(),
         "uniform pdf for cosine samples accepted"
     );
 
     let biased = BiasedWeight(d);
-    let (p, e) = cell_integrals(&biased, wi, &grid, N, 4);
+    let cells = cell_integrals(&biased, wi, &grid, N, 4);
     let s = draw(&biased, wi, &grid, N, 4, false);
-    chi2_sample_vs_pdf(&s, &p, level).expect("the directions are right");
+    chi2_sample_vs_pdf(&s, &cells.pdf, level).expect("the directions are right");
     assert!(
-        cell_consistency(&s, &p, &e, level).is_err(),
+        cell_consistency(&s, &cells, level).is_err(),
         "5% weight bias accepted"
     );
 
     // And the correct diffuse passes both.
     let ok = ArenaBsdf::new(BsdfNode::Diffuse(d), TransportMode::Radiance);
-    let (p, e) = cell_integrals(&ok, wi, &grid, N, 3);
+    let cells = cell_integrals(&ok, wi, &grid, N, 3);
     let s = draw(&ok, wi, &grid, N, 3, true);
-    chi2_sample_vs_pdf(&s, &p, level).unwrap();
-    cell_consistency(&s, &p, &e, level).unwrap();
+    chi2_sample_vs_pdf(&s, &cells.pdf, level).unwrap();
+    cell_consistency(&s, &cells, level).unwrap();
     weight_matches_eval_over_pdf(&s).unwrap();
+}
+
+/// A stochastic BSDF done right: a rough conductor whose `eval` and sample weights are multiplied
+/// by independent noise of mean 1 (as a random walk's estimates are). It must pass, with the
+/// eval noise accounted for in the per-cell test; the same noise with a 3% bias must not.
+struct Noisy {
+    inner: ArenaBsdf,
+    bias: f32,
+}
+impl TestBsdf for Noisy {
+    fn eval(&self, wi: Vec3, wo: Vec3, s: &mut Sampler) -> Vec3 {
+        self.inner.eval(wi, wo, s) * (0.5 + s.next_1d())
+    }
+    fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        self.inner.pdf(wi, wo)
+    }
+    fn sample(&self, wi: Vec3, s: &mut Sampler) -> Option<BsdfSample> {
+        let mut b = self.inner.sample(wi, s)?;
+        b.weight *= self.bias * (0.5 + s.next_1d());
+        Some(b)
+    }
+    fn deterministic(&self) -> bool {
+        false
+    }
+}
+
+#[test]
+fn stochastic_bsdfs_are_tested_in_expectation() {
+    let grid = Grid::default();
+    let level = Sidak::new(0.01, 2).level();
+    let wi = direction(50.0, 10.0);
+    let (eta, k) = named_conductor("Au").unwrap();
+    for (bias, should_pass) in [(1.0, true), (1.03, false)] {
+        let b = Noisy {
+            inner: ArenaBsdf::new(
+                BsdfNode::RoughConductor(RoughConductor {
+                    distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.3, true),
+                    eta,
+                    k,
+                    specular_reflectance: Vec3::ONE,
+                }),
+                TransportMode::Radiance,
+            ),
+            bias,
+        };
+        let cells = cell_integrals(&b, wi, &grid, N, 21);
+        let s = draw(&b, wi, &grid, N, 21, false);
+        chi2_sample_vs_pdf(&s, &cells.pdf, level).unwrap();
+        let r = cell_consistency(&s, &cells, level);
+        assert_eq!(r.is_ok(), should_pass, "bias {bias}: {r:?}");
+    }
 }
 
 #[test]

@@ -9,7 +9,10 @@
 //! - [`weight_matches_eval_over_pdf`]: deterministic BSDFs, `weight == eval / pdf` pointwise.
 //! - [`cell_consistency`]: for every cell, mean(weight · 1{wo ∈ cell}) against ∫_cell eval dω
 //!   with a z-test using the samples' own variance (the test stochastic BSDFs must pass: their
-//!   weights are only correct in expectation).
+//!   weights are only correct in expectation). For a stochastic `eval` ([`TestBsdf::deterministic`]
+//!   false) each quadrature node is evaluated twice and the estimated noise of ∫_cell eval is
+//!   added to the variance. Besides the worst cell, Σz² over the cells (χ²) and the whole sphere
+//!   are tested, which catch small biases spread over many cells.
 //! - [`furnace`]: E[weight] with its standard error (white-furnace albedo).
 //! - [`reciprocity`]: f(wi, wo)/|cos θo| against f(wo, wi)/|cos θi| with a caller-given factor.
 //!
@@ -157,91 +160,130 @@ fn dir(z: f64, phi: f64) -> Vec3 {
     Vec3::new((s * phi.cos()) as f32, (s * phi.sin()) as f32, z as f32)
 }
 
-/// ∫ (pdf, eval summed over channels) over a rectangle of (z, φ) with a 4×4 Gauss rule.
-fn gl_rect(
-    f: &mut dyn FnMut(Vec3) -> (f64, f64),
-    z0: f64,
-    z1: f64,
-    p0: f64,
-    p1: f64,
-) -> (f64, f64) {
-    let (hz, hp) = (0.5 * (z1 - z0), 0.5 * (p1 - p0));
-    let (cz, cp) = (0.5 * (z1 + z0), 0.5 * (p1 + p0));
-    let (mut a, mut b) = (0.0, 0.0);
-    for (xi, wi) in GL4_X.iter().zip(GL4_W) {
-        for (xj, wj) in GL4_X.iter().zip(GL4_W) {
-            let (p, e) = f(dir(cz + hz * xi, cp + hp * xj));
-            a += wi * wj * p;
-            b += wi * wj * e;
+/// Integrals over one region: pdf, eval (channels summed), and the variance of the eval
+/// integral caused by a stochastic `eval` (0 for deterministic BSDFs).
+#[derive(Clone, Copy, Debug, Default)]
+struct Quad {
+    pdf: f64,
+    eval: f64,
+    eval_var: f64,
+}
+
+impl std::ops::Add for Quad {
+    type Output = Quad;
+    fn add(self, o: Quad) -> Quad {
+        Quad {
+            pdf: self.pdf + o.pdf,
+            eval: self.eval + o.eval,
+            eval_var: self.eval_var + o.eval_var,
         }
     }
-    (a * hz * hp, b * hz * hp)
+}
+
+/// One integrand value: (pdf, eval, variance of that eval value).
+type Integrand<'a> = dyn FnMut(Vec3) -> (f64, f64, f64) + 'a;
+
+/// ∫ over a rectangle of (z, φ) with a 4×4 Gauss rule.
+fn gl_rect(f: &mut Integrand, z0: f64, z1: f64, p0: f64, p1: f64) -> Quad {
+    let (hz, hp) = (0.5 * (z1 - z0), 0.5 * (p1 - p0));
+    let (cz, cp) = (0.5 * (z1 + z0), 0.5 * (p1 + p0));
+    let mut q = Quad::default();
+    for (xi, wi) in GL4_X.iter().zip(GL4_W) {
+        for (xj, wj) in GL4_X.iter().zip(GL4_W) {
+            let (p, e, v) = f(dir(cz + hz * xi, cp + hp * xj));
+            let w = wi * wj * hz * hp;
+            q.pdf += w * p;
+            q.eval += w * e;
+            q.eval_var += w * w * v;
+        }
+    }
+    q
 }
 
 /// Adaptive integration: split into quadrants while the 4×4 estimate and the sum over the
-/// quadrants disagree by more than 2% of the Poisson noise of N samples (for pdf and eval).
+/// quadrants disagree by more than 2% of the Poisson noise of N samples (pdf; and eval when it
+/// is deterministic — a noisy eval would refine forever).
 #[allow(clippy::too_many_arguments)]
 fn integrate(
-    f: &mut dyn FnMut(Vec3) -> (f64, f64),
+    f: &mut Integrand,
     z0: f64,
     z1: f64,
     p0: f64,
     p1: f64,
-    whole: (f64, f64),
+    whole: Quad,
     n: f64,
     depth: u32,
-) -> (f64, f64) {
+    refine_eval: bool,
+) -> Quad {
     let (zm, pm) = (0.5 * (z0 + z1), 0.5 * (p0 + p1));
-    let q = [
-        gl_rect(f, z0, zm, p0, pm),
-        gl_rect(f, zm, z1, p0, pm),
-        gl_rect(f, z0, zm, pm, p1),
-        gl_rect(f, zm, z1, pm, p1),
-    ];
-    let sum = q.iter().fold((0.0, 0.0), |s, v| (s.0 + v.0, s.1 + v.1));
-    let ok = |a: f64, b: f64| (a - b).abs() * n <= 0.02 * (n * b.abs() + 1.0).sqrt();
-    if depth == 0 || (ok(whole.0, sum.0) && ok(whole.1, sum.1)) {
-        return sum;
-    }
     let r = [
         (z0, zm, p0, pm),
         (zm, z1, p0, pm),
         (z0, zm, pm, p1),
         (zm, z1, pm, p1),
     ];
-    let mut total = (0.0, 0.0);
+    let q = r.map(|(a, b, c, d)| gl_rect(f, a, b, c, d));
+    let sum = q.iter().fold(Quad::default(), |s, v| s + *v);
+    let ok = |a: f64, b: f64| (a - b).abs() * n <= 0.02 * (n * b.abs() + 1.0).sqrt();
+    if depth == 0 || (ok(whole.pdf, sum.pdf) && (!refine_eval || ok(whole.eval, sum.eval))) {
+        return sum;
+    }
+    let mut total = Quad::default();
     for (k, (a, b, c, d)) in r.into_iter().enumerate() {
-        let v = integrate(f, a, b, c, d, q[k], n, depth - 1);
-        total.0 += v.0;
-        total.1 += v.1;
+        total = total + integrate(f, a, b, c, d, q[k], n, depth - 1, refine_eval);
     }
     total
 }
 
-/// Per-cell integrals of pdf and of eval (channels summed) for `wi`, accurate for `n` samples.
+/// Per-cell integrals for one incident direction.
+pub struct CellIntegrals {
+    /// ∫_cell pdf dω.
+    pub pdf: Vec<f64>,
+    /// ∫_cell eval dω, RGB channels summed.
+    pub eval: Vec<f64>,
+    /// Variance of `eval` due to a stochastic `eval` (each node is evaluated twice; the squared
+    /// difference estimates the noise). All 0 for deterministic BSDFs.
+    pub eval_var: Vec<f64>,
+}
+
+/// Per-cell integrals of pdf and eval for `wi`, accurate enough for `n` samples.
 pub fn cell_integrals(
     bsdf: &dyn TestBsdf,
     wi: Vec3,
     grid: &Grid,
     n: usize,
     seed: u64,
-) -> (Vec<f64>, Vec<f64>) {
+) -> CellIntegrals {
     let mut sampler = Sampler::from_seed(seed ^ 0x5eed, 7);
+    let stochastic = !bsdf.deterministic();
     let mut f = |wo: Vec3| {
         let p = bsdf.pdf(wi, wo) as f64;
         let e = bsdf.eval(wi, wo, &mut sampler);
-        (p, (e.x + e.y + e.z) as f64)
+        let a = (e.x + e.y + e.z) as f64;
+        if stochastic {
+            let e2 = bsdf.eval(wi, wo, &mut sampler);
+            let b = (e2.x + e2.y + e2.z) as f64;
+            // Mean of two evaluations and the unbiased variance of that mean.
+            (p, 0.5 * (a + b), 0.25 * (a - b) * (a - b))
+        } else {
+            (p, a, 0.0)
+        }
     };
-    let mut pdf = vec![0.0; grid.cells()];
-    let mut ev = vec![0.0; grid.cells()];
-    for c in 0..grid.cells() {
+    let cells = grid.cells();
+    let mut out = CellIntegrals {
+        pdf: vec![0.0; cells],
+        eval: vec![0.0; cells],
+        eval_var: vec![0.0; cells],
+    };
+    for c in 0..cells {
         let (z0, z1, p0, p1) = grid.bounds(c);
         let whole = gl_rect(&mut f, z0, z1, p0, p1);
-        let (a, b) = integrate(&mut f, z0, z1, p0, p1, whole, n as f64, 7);
-        pdf[c] = a;
-        ev[c] = b;
+        let q = integrate(&mut f, z0, z1, p0, p1, whole, n as f64, 7, !stochastic);
+        out.pdf[c] = q.pdf;
+        out.eval[c] = q.eval;
+        out.eval_var[c] = q.eval_var;
     }
-    (pdf, ev)
+    out
 }
 
 /// Everything the tests need from one batch of samples.
@@ -458,8 +500,8 @@ pub fn weight_matches_eval_over_pdf(s: &Samples) -> Outcome {
 /// expecting fewer than 50 samples (N ∫_cell pdf, not the observed count, which would bias the
 /// selection) are pooled into one group so the normal approximation holds; the minimum p-value
 /// is compared with the level split over the groups (Šidák).
-pub fn cell_consistency(s: &Samples, pdf_cells: &[f64], eval_cells: &[f64], level: f64) -> Outcome {
-    cell_consistency_opts(s, pdf_cells, eval_cells, level, 0.0)
+pub fn cell_consistency(s: &Samples, cells: &CellIntegrals, level: f64) -> Outcome {
+    cell_consistency_opts(s, cells, level, 0.0)
 }
 
 /// Relative accuracy assumed for the quadrature of ∫_cell eval (added to the sample variance, so
@@ -470,11 +512,11 @@ const QUADRATURE_REL: f64 = 2e-4;
 /// the sampled density is r · pdf, E[weight · 1{cell}] = r ∫_cell eval.
 pub fn cell_consistency_opts(
     s: &Samples,
-    pdf_cells: &[f64],
-    eval_cells: &[f64],
+    cells: &CellIntegrals,
     level: f64,
     renormalize: f64,
 ) -> Outcome {
+    let pdf_cells = &cells.pdf[..];
     let n = s.n as f64;
     let total_pdf: f64 = pdf_cells.iter().sum();
     let rest_obs = (s.delta + s.failed + s.invalid) as f64;
@@ -483,18 +525,21 @@ pub fn cell_consistency_opts(
     } else {
         1.0
     };
-    let scaled: Vec<f64> = eval_cells.iter().map(|e| e * r).collect();
+    let scaled: Vec<f64> = cells.eval.iter().map(|e| e * r).collect();
     let eval_cells = &scaled[..];
     let normal = Normal::new(0.0, 1.0).unwrap();
-    let mut groups: Vec<(f64, f64, f64, f64, String)> = Vec::new();
-    let (mut ps, mut ps2, mut pe, mut pp) = (0.0, 0.0, 0.0, 0.0);
+    // (Σw, Σw², ∫eval, ∫pdf, variance of ∫eval, name)
+    let mut groups: Vec<(f64, f64, f64, f64, f64, String)> = Vec::new();
+    let (mut ps, mut ps2, mut pe, mut pp, mut pv) = (0.0, 0.0, 0.0, 0.0, 0.0);
     for c in 0..eval_cells.len() {
+        let ev = cells.eval_var[c] * r * r;
         if n * pdf_cells[c] >= 50.0 {
             groups.push((
                 s.wsum[c],
                 s.w2sum[c],
                 eval_cells[c],
                 pdf_cells[c],
+                ev,
                 format!("cell {c}"),
             ));
         } else {
@@ -502,32 +547,40 @@ pub fn cell_consistency_opts(
             ps2 += s.w2sum[c];
             pe += eval_cells[c];
             pp += pdf_cells[c];
+            pv += ev;
         }
     }
-    groups.push((ps, ps2, pe, pp, "pooled sparse cells".into()));
+    groups.push((ps, ps2, pe, pp, pv, "pooled sparse cells".into()));
     // Σ z² over the disjoint groups is χ²(k) distributed: catches a bias spread thinly over
     // many cells; the whole sphere as one more group catches a global scale error.
     let mut z2 = 0.0;
     let mut k_z2 = 0usize;
-    for (sw, sw2, integral, _, _) in &groups {
+    for (sw, sw2, integral, _, evar, _) in &groups {
         let mean = sw / n;
-        let var = (sw2 / n - mean * mean).max(0.0) / n + (QUADRATURE_REL * integral).powi(2);
+        let var = (sw2 / n - mean * mean).max(0.0) / n + (QUADRATURE_REL * integral).powi(2) + evar;
         // Groups without samples are judged by the no-sample rule below.
         if *sw2 > 0.0 && var > 0.0 {
             z2 += (mean - integral).powi(2) / var;
             k_z2 += 1;
         }
     }
-    let total = groups.iter().fold((0.0, 0.0, 0.0, 0.0), |t, g| {
-        (t.0 + g.0, t.1 + g.1, t.2 + g.2, t.3 + g.3)
+    let total = groups.iter().fold((0.0, 0.0, 0.0, 0.0, 0.0), |t, g| {
+        (t.0 + g.0, t.1 + g.1, t.2 + g.2, t.3 + g.3, t.4 + g.4)
     });
-    groups.push((total.0, total.1, total.2, total.3, "whole sphere".into()));
+    groups.push((
+        total.0,
+        total.1,
+        total.2,
+        total.3,
+        total.4,
+        "whole sphere".into(),
+    ));
     let k = groups.len() + 1;
     let cell_level = 1.0 - (1.0 - level).powf(1.0 / k as f64);
     let mut worst = (1.0f64, String::new());
-    for (sw, sw2, integral, prob, name) in groups {
+    for (sw, sw2, integral, prob, evar, name) in groups {
         let mean = sw / n;
-        let var = (sw2 / n - mean * mean).max(0.0) / n + (QUADRATURE_REL * integral).powi(2);
+        let var = (sw2 / n - mean * mean).max(0.0) / n + (QUADRATURE_REL * integral).powi(2) + evar;
         let diff = mean - integral;
         if sw2 == 0.0 {
             // No samples: only suspicious if the pdf made samples likely, or eval has mass the
