@@ -13,20 +13,62 @@
 //! - Delta lobes: `eval = pdf = 0` for any given pair; `sample` returns the weight without the
 //!   cosine (`pdf` of a delta sample is reported as 0 and flagged by its lobe).
 //!
+//! # Models (one file each; plain constructors with Mitsuba 3's parameter names, `Default` = Mitsuba's defaults)
+//! - [`Diffuse`] `{ reflectance }`.
+//! - [`Conductor`] `{ eta, k, specular_reflectance }`; (η, k) from [`named_conductor`] (`material`).
+//! - [`RoughConductor`] `{ distribution, eta, k, specular_reflectance }` with a
+//!   [`MicrofacetDistribution`] `::anisotropic(kind, alpha_u, alpha_v, sample_visible)`.
+//! - [`Dielectric::new`], [`ThinDielectric::new`] `(int_ior, ext_ior, specular_reflectance,
+//!   specular_transmittance)`; [`RoughDielectric::new`] `(distribution, int_ior, ext_ior, ...)`;
+//!   named indices from [`named_ior`].
+//! - [`Plastic::new`] `(diffuse_reflectance, specular_reflectance, int_ior, ext_ior, nonlinear)`.
+//! - [`RoughPlastic::new`] `(distribution, alpha, sample_visible, diffuse_reflectance,
+//!   specular_reflectance, int_ior, ext_ior, nonlinear)` — isotropic only, like Mitsuba; it
+//!   precomputes (and caches process-wide) its coating table, so build it at load time.
+//!
+//! Verified pointwise against Mitsuba 3.9.1 (`mitsuba_refs.rs`) and statistically
+//! (`tests/bsdf_harness.rs`).
+//!
 //! # Storage without allocation per hit
 //! A material evaluates its textures at a hit and writes plain-valued [`BsdfNode`]s into a
 //! per-thread [`BsdfArena`] that is cleared (not freed) at every hit; nested BSDFs (twosided,
 //! normal maps, blends) refer to their children by index. [`Bsdf`] is a borrowed view of one
 //! node of the arena.
 
+pub mod conductor;
+pub mod dielectric;
 pub mod diffuse;
+pub mod fresnel;
+pub mod ior;
+pub mod microfacet;
+#[cfg(test)]
+mod mitsuba_refs;
 pub mod mnm;
+#[cfg(test)]
+#[rustfmt::skip]
+mod mitsuba_refs_data;
+pub mod plastic;
+pub mod roughconductor;
+pub mod roughdielectric;
+pub mod roughplastic;
+pub mod thindielectric;
 pub mod twosided;
 
+pub use conductor::Conductor;
+pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use ior::{named_conductor, named_ior};
+pub use microfacet::{MicrofacetDistribution, MicrofacetType};
+pub use plastic::Plastic;
+pub use roughconductor::RoughConductor;
+pub use roughdielectric::RoughDielectric;
+pub use roughplastic::RoughPlastic;
+pub use thindielectric::ThinDielectric;
 
 use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
+#[cfg(test)]
+use glam::Vec2;
 use glam::Vec3;
 
 /// Radiance: tracing from the camera (the integrator's case); importance: tracing from lights.
@@ -91,6 +133,20 @@ pub struct BsdfSample {
 #[derive(Clone, Copy, Debug)]
 pub enum BsdfNode {
     Diffuse(Diffuse),
+    /// Smooth metal (delta reflection).
+    Conductor(Conductor),
+    /// Microfacet metal.
+    RoughConductor(RoughConductor),
+    /// Smooth glass (delta reflection and refraction).
+    Dielectric(Dielectric),
+    /// Thin glass pane (delta reflection and straight transmission).
+    ThinDielectric(ThinDielectric),
+    /// Microfacet glass (Walter et al. 2007).
+    RoughDielectric(RoughDielectric),
+    /// Diffuse base under a smooth coating.
+    Plastic(Plastic),
+    /// Diffuse base under a rough coating.
+    RoughPlastic(RoughPlastic),
     /// Front side uses `front`, back side (`wi.z < 0`) uses `back` mirrored to the front.
     TwoSided {
         front: u32,
@@ -158,6 +214,14 @@ impl<'a> Bsdf<'a> {
     pub fn flags(&self) -> u32 {
         match self.node() {
             BsdfNode::Diffuse(_) => lobe::DIFFUSE_REFLECTION,
+            BsdfNode::Conductor(_) => lobe::DELTA_REFLECTION,
+            BsdfNode::RoughConductor(_) => lobe::GLOSSY_REFLECTION,
+            BsdfNode::Dielectric(_) | BsdfNode::ThinDielectric(_) => {
+                lobe::DELTA_REFLECTION | lobe::DELTA_TRANSMISSION
+            }
+            BsdfNode::RoughDielectric(_) => lobe::GLOSSY_REFLECTION | lobe::GLOSSY_TRANSMISSION,
+            BsdfNode::Plastic(_) => lobe::DELTA_REFLECTION | lobe::DIFFUSE_REFLECTION,
+            BsdfNode::RoughPlastic(_) => lobe::GLOSSY_REFLECTION | lobe::DIFFUSE_REFLECTION,
             BsdfNode::TwoSided { front, back } => {
                 self.child(*front).flags() | self.child(*back).flags()
             }
@@ -169,6 +233,13 @@ impl<'a> Bsdf<'a> {
     pub fn eval(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3, sampler: &mut Sampler) -> Spectrum {
         match self.node() {
             BsdfNode::Diffuse(d) => d.eval(wi, wo),
+            BsdfNode::Conductor(b) => b.eval(wi, wo),
+            BsdfNode::RoughConductor(b) => b.eval(wi, wo),
+            BsdfNode::Dielectric(b) => b.eval(wi, wo),
+            BsdfNode::ThinDielectric(b) => b.eval(wi, wo),
+            BsdfNode::RoughDielectric(b) => b.eval(ctx.mode, wi, wo),
+            BsdfNode::Plastic(b) => b.eval(wi, wo),
+            BsdfNode::RoughPlastic(b) => b.eval(wi, wo),
             BsdfNode::TwoSided { front, back } => {
                 twosided::eval(*self, *front, *back, ctx, wi, wo, sampler)
             }
@@ -180,6 +251,13 @@ impl<'a> Bsdf<'a> {
     pub fn pdf(&self, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
         match self.node() {
             BsdfNode::Diffuse(d) => d.pdf(wi, wo),
+            BsdfNode::Conductor(b) => b.pdf(wi, wo),
+            BsdfNode::RoughConductor(b) => b.pdf(wi, wo),
+            BsdfNode::Dielectric(b) => b.pdf(wi, wo),
+            BsdfNode::ThinDielectric(b) => b.pdf(wi, wo),
+            BsdfNode::RoughDielectric(b) => b.pdf(wi, wo),
+            BsdfNode::Plastic(b) => b.pdf(wi, wo),
+            BsdfNode::RoughPlastic(b) => b.pdf(wi, wo),
             BsdfNode::TwoSided { front, back } => twosided::pdf(*self, *front, *back, ctx, wi, wo),
             BsdfNode::MicrofacetNormalMap(m) => mnm::pdf(*self, m, ctx, wi, wo),
         }
@@ -189,6 +267,22 @@ impl<'a> Bsdf<'a> {
     pub fn sample(&self, ctx: &BsdfContext, wi: Vec3, sampler: &mut Sampler) -> Option<BsdfSample> {
         let s = match self.node() {
             BsdfNode::Diffuse(d) => d.sample(wi, sampler.next_2d()),
+            BsdfNode::Conductor(b) => b.sample(wi),
+            BsdfNode::RoughConductor(b) => b.sample(wi, sampler.next_2d()),
+            BsdfNode::Dielectric(b) => b.sample(ctx.mode, wi, sampler.next_1d()),
+            BsdfNode::ThinDielectric(b) => b.sample(wi, sampler.next_1d()),
+            BsdfNode::RoughDielectric(b) => {
+                let u1 = sampler.next_1d();
+                b.sample(ctx.mode, wi, u1, sampler.next_2d())
+            }
+            BsdfNode::Plastic(b) => {
+                let u1 = sampler.next_1d();
+                b.sample(wi, u1, sampler.next_2d())
+            }
+            BsdfNode::RoughPlastic(b) => {
+                let u1 = sampler.next_1d();
+                b.sample(wi, u1, sampler.next_2d())
+            }
             BsdfNode::TwoSided { front, back } => {
                 twosided::sample(*self, *front, *back, ctx, wi, sampler)
             }
@@ -211,6 +305,12 @@ impl<'a> Bsdf<'a> {
     ) -> (Spectrum, f32) {
         (self.eval(ctx, wi, wo, sampler), self.pdf(ctx, wi, wo))
     }
+}
+
+/// `x > 0`, false for NaN: the guard every sampling routine applies to pdfs and weights.
+#[inline]
+pub fn is_positive(x: f32) -> bool {
+    x > 0.0
 }
 
 /// Cosine of a local direction.

@@ -1,6 +1,7 @@
 //! Shared helpers for groove's integration tests (each test file does `mod common;`).
 #![allow(dead_code, unused_imports)]
 
+pub mod chi2;
 pub mod imgcmp;
 
 pub use imgcmp::{

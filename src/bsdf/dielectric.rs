@@ -1,0 +1,91 @@
+//! `dielectric`: a smooth interface between two dielectrics (glass, water): delta reflection and
+//! delta refraction, chosen in proportion to the Fresnel reflectance, so the sample weight is 1
+//! (times `specular_reflectance` / `specular_transmittance`). Works from both sides; a ray from
+//! inside sees the inverted relative index and can be totally internally reflected.
+//!
+//! Radiance crossing into a denser medium is compressed into a smaller solid angle: in
+//! [`TransportMode::Radiance`] the refracted weight is scaled by (η_i/η_t)² (Veach 1997, §5.2);
+//! importance is not scaled.
+
+use super::fresnel::{fresnel_dielectric, reflect_z};
+use super::{lobe, BsdfSample, TransportMode};
+use crate::spectrum::Spectrum;
+use glam::Vec3;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dielectric {
+    /// Relative index `int_ior / ext_ior` (default bk7 / air = 1.5046 / 1.000277).
+    pub eta: f32,
+    /// Multiplier of the reflected part (default 1; not physical, for artistic control).
+    pub specular_reflectance: Spectrum,
+    /// Multiplier of the transmitted part (default 1).
+    pub specular_transmittance: Spectrum,
+}
+
+/// Mitsuba's default interior (bk7) and exterior (air) indices.
+pub const DEFAULT_INT_IOR: f32 = 1.5046;
+pub const DEFAULT_EXT_IOR: f32 = 1.000277;
+
+impl Dielectric {
+    /// From Mitsuba's parameters `int_ior`, `ext_ior`, `specular_reflectance`, `specular_transmittance`.
+    pub fn new(
+        int_ior: f32,
+        ext_ior: f32,
+        specular_reflectance: Spectrum,
+        specular_transmittance: Spectrum,
+    ) -> Self {
+        Dielectric {
+            eta: int_ior / ext_ior,
+            specular_reflectance,
+            specular_transmittance,
+        }
+    }
+
+    #[inline]
+    pub fn eval(&self, _wi: Vec3, _wo: Vec3) -> Spectrum {
+        Spectrum::ZERO
+    }
+
+    #[inline]
+    pub fn pdf(&self, _wi: Vec3, _wo: Vec3) -> f32 {
+        0.0
+    }
+
+    pub fn sample(&self, mode: TransportMode, wi: Vec3, u: f32) -> Option<BsdfSample> {
+        let f = fresnel_dielectric(wi.z, self.eta);
+        if u <= f.r {
+            Some(BsdfSample {
+                wo: reflect_z(wi),
+                pdf: 0.0,
+                weight: self.specular_reflectance,
+                eta: 1.0,
+                lobe: lobe::DELTA_REFLECTION,
+            })
+        } else {
+            // Refraction about the normal: tangential part scales by η_i/η_t.
+            let wo = Vec3::new(-f.eta_ti * wi.x, -f.eta_ti * wi.y, f.cos_theta_t);
+            let scale = match mode {
+                TransportMode::Radiance => f.eta_ti * f.eta_ti,
+                TransportMode::Importance => 1.0,
+            };
+            Some(BsdfSample {
+                wo,
+                pdf: 0.0,
+                weight: self.specular_transmittance * scale,
+                eta: f.eta_it,
+                lobe: lobe::DELTA_TRANSMISSION,
+            })
+        }
+    }
+}
+
+impl Default for Dielectric {
+    fn default() -> Self {
+        Dielectric::new(
+            DEFAULT_INT_IOR,
+            DEFAULT_EXT_IOR,
+            Spectrum::ONE,
+            Spectrum::ONE,
+        )
+    }
+}

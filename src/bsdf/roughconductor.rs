@@ -1,0 +1,106 @@
+//! `roughconductor`: a rough metal, the Cook–Torrance microfacet BRDF
+//! f = F(wi·h) D(h) G(wi, wo, h) / (4 cos θi cos θo) (Walter et al. 2007, eq. 20) with the conductor
+//! Fresnel term per RGB channel, Beckmann or GGX, isotropic or anisotropic. One-sided.
+//!
+//! Sampling picks a microfacet normal (visible normals by default) and reflects `wi` about it;
+//! with visible-normal sampling the weight is simply F · G1(wo, h).
+
+use super::fresnel::fresnel_conductor;
+use super::microfacet::MicrofacetDistribution;
+use super::{is_positive, lobe, BsdfSample};
+use crate::math::reflect;
+use crate::spectrum::Spectrum;
+use glam::{Vec2, Vec3};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RoughConductor {
+    /// Distribution, `alpha_u`/`alpha_v` and `sample_visible` (defaults: Beckmann, 0.1, true).
+    pub distribution: MicrofacetDistribution,
+    /// Real part of the relative index (default: material "none", η = 0).
+    pub eta: Spectrum,
+    /// Imaginary part (default: material "none", k = 1).
+    pub k: Spectrum,
+    /// Multiplier of the reflectance (default 1).
+    pub specular_reflectance: Spectrum,
+}
+
+impl RoughConductor {
+    #[inline]
+    fn fresnel(&self, cos_theta: f32) -> Spectrum {
+        self.specular_reflectance * fresnel_conductor(cos_theta, self.eta, self.k)
+    }
+
+    pub fn eval(&self, wi: Vec3, wo: Vec3) -> Spectrum {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return Spectrum::ZERO;
+        }
+        let h = (wi + wo).normalize();
+        let d = self.distribution.eval(h);
+        if d == 0.0 {
+            return Spectrum::ZERO;
+        }
+        let g = self.distribution.g(wi, wo, h);
+        // f cos θo = F D G / (4 cos θi).
+        self.fresnel(wi.dot(h)) * (d * g / (4.0 * wi.z))
+    }
+
+    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return 0.0;
+        }
+        let h = (wi + wo).normalize();
+        // Jacobian of the reflection map: dωh / dωo = 1 / (4 wo·h).
+        let p = if self.distribution.sample_visible {
+            self.distribution.eval(h) * self.distribution.smith_g1(wi, h) / (4.0 * wi.z)
+        } else {
+            self.distribution.pdf(wi, h) / (4.0 * wo.dot(h))
+        };
+        if p.is_finite() {
+            p.max(0.0)
+        } else {
+            0.0
+        }
+    }
+
+    pub fn sample(&self, wi: Vec3, u: Vec2) -> Option<BsdfSample> {
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let (m, pm) = self.distribution.sample(wi, u);
+        if !is_positive(pm) {
+            return None;
+        }
+        let wo = reflect(wi, m);
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let pdf = pm / (4.0 * wo.dot(m));
+        let w = if self.distribution.sample_visible {
+            self.distribution.smith_g1(wo, m)
+        } else {
+            self.distribution.g(wi, wo, m) * wi.dot(m) / (wi.z * m.z)
+        };
+        if !is_positive(pdf) || !is_positive(w) {
+            return None;
+        }
+        Some(BsdfSample {
+            wo,
+            pdf,
+            weight: self.fresnel(wi.dot(m)) * w,
+            eta: 1.0,
+            lobe: lobe::GLOSSY_REFLECTION,
+        })
+    }
+}
+
+impl Default for RoughConductor {
+    /// Mitsuba's defaults: Beckmann, α = 0.1, visible sampling, material "none" (η 0, k 1).
+    fn default() -> Self {
+        RoughConductor {
+            distribution: MicrofacetDistribution::default(),
+            eta: Spectrum::ZERO,
+            k: Spectrum::ONE,
+            specular_reflectance: Spectrum::ONE,
+        }
+    }
+}

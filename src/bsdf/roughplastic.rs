@@ -1,0 +1,257 @@
+//! `roughplastic`: a diffuse base under a rough dielectric coating (Mitsuba 3's rough plastic,
+//! after Weidlich & Wilkie 2007). Two lobes:
+//! - the coating's microfacet reflection F D G / (4 cos θi) · `specular_reflectance` (isotropic
+//!   Beckmann or GGX);
+//! - the base seen through the coating: ρ / (π η² (1 − R_int)) · T(θi) T(θo) cos θo, where
+//!   T(θ) is the rough coating's directional transmittance from outside (refracted energy that
+//!   is not masked, ∫ (1 − F) G1) and R_int the cosine-weighted albedo of the coating from inside
+//!   (`nonlinear`: 1 − ρ R_int in the denominator).
+//!
+//! Mitsuba precomputes these once per material and so do we, by the same method: the specular
+//! albedo R(μ) = ∫ F(wi·m) G1(wo, m) dP_vis(m) is integrated with a 2-D Gauss–Legendre rule over
+//! the visible-normal sample space (32² nodes for η > 1, 128² otherwise), likewise the
+//! transmittance T(μ) = ∫ (1 − F(wi·m)) G1(wt, m) dP_vis(m), for μ = cos θ on a 64-entry
+//! uniform grid (μ₀ clamped to 1e-6) read back with linear interpolation; R_int = 2 · mean(R(μ; 1/η) μ)
+//! over the same grid. The lobe choice uses 1 − T(θi) and T(θi) with the specular sampling weight
+//! as in `plastic`.
+
+use super::fresnel::{fresnel_dielectric, refract};
+use super::microfacet::{gauss_legendre, MicrofacetDistribution, MicrofacetType};
+use super::plastic::specular_sampling_weight;
+use super::{lobe, BsdfSample};
+use crate::math::{reflect, warp};
+use crate::spectrum::Spectrum;
+use glam::{Vec2, Vec3};
+use std::sync::Mutex;
+
+/// Entries of the transmittance table (Mitsuba's resolution).
+pub const TRANSMITTANCE_RES: usize = 64;
+
+/// The precomputed coating terms of one (distribution, α, η).
+#[derive(Debug, PartialEq)]
+pub struct RoughPlasticTable {
+    pub external_transmittance: [f32; TRANSMITTANCE_RES],
+    pub internal_reflectance: f32,
+}
+
+/// Reflected (`transmit = false`) or transmitted energy of a rough dielectric interface lit from
+/// `wi` (upper side, relative index `eta`): ∫ F G1(wo, m) resp. ∫ (1 − F) G1(wo, m) over the
+/// normals visible from `wi`, by Gauss–Legendre quadrature of the visible-normal warp (as Mitsuba 3).
+pub fn rough_interface_albedo(
+    distr: &MicrofacetDistribution,
+    wi: Vec3,
+    eta: f32,
+    transmit: bool,
+) -> f32 {
+    let d = MicrofacetDistribution {
+        sample_visible: true,
+        ..*distr
+    };
+    let res = if eta > 1.0 { 32 } else { 128 };
+    let (nodes, weights) = gauss_legendre(res);
+    let mut sum = 0.0f64;
+    for (x, wx) in nodes.iter().zip(&weights) {
+        for (y, wy) in nodes.iter().zip(&weights) {
+            let u = Vec2::new((0.5 * x + 0.5) as f32, (0.5 * y + 0.5) as f32);
+            let (m, _) = d.sample(wi, u);
+            let fr = fresnel_dielectric(wi.dot(m), eta);
+            let v = if transmit {
+                let wo = refract(wi, m, fr.cos_theta_t, fr.eta_ti);
+                if wo.z * wi.z >= 0.0 {
+                    continue;
+                }
+                (1.0 - fr.r) * d.smith_g1(wo, m)
+            } else {
+                let wo = reflect(wi, m);
+                if wo.z <= 0.0 || wi.z <= 0.0 {
+                    continue;
+                }
+                fr.r * d.smith_g1(wo, m)
+            };
+            sum += v as f64 * wx * wy * 0.25;
+        }
+    }
+    sum as f32
+}
+
+impl RoughPlasticTable {
+    /// Compute the table (≈10⁶ microfacet samples: do it once per material, see [`Self::cached`]).
+    pub fn compute(kind: MicrofacetType, alpha: f32, eta: f32) -> Self {
+        let d = MicrofacetDistribution::new(kind, alpha, true);
+        let mut ext = [0.0; TRANSMITTANCE_RES];
+        let mut internal = 0.0f64;
+        for (i, t) in ext.iter_mut().enumerate() {
+            let mu = (i as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6);
+            let wi = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+            *t = rough_interface_albedo(&d, wi, eta, true);
+            internal += (rough_interface_albedo(&d, wi, 1.0 / eta, false) * mu) as f64;
+        }
+        RoughPlasticTable {
+            external_transmittance: ext,
+            internal_reflectance: (2.0 * internal / TRANSMITTANCE_RES as f64) as f32,
+        }
+    }
+
+    /// A shared table for (kind, α, η), computed on first use and kept for the life of the
+    /// process (one per distinct coating of the scene).
+    pub fn cached(kind: MicrofacetType, alpha: f32, eta: f32) -> &'static RoughPlasticTable {
+        type Key = (MicrofacetType, u32, u32);
+        static CACHE: Mutex<Vec<(Key, &'static RoughPlasticTable)>> = Mutex::new(Vec::new());
+        let key = (kind, alpha.to_bits(), eta.to_bits());
+        let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, t)) = cache.iter().find(|(k, _)| *k == key) {
+            return t;
+        }
+        let t: &'static RoughPlasticTable = Box::leak(Box::new(Self::compute(kind, alpha, eta)));
+        cache.push((key, t));
+        t
+    }
+
+    /// T(θ) by linear interpolation in cos θ.
+    #[inline]
+    pub fn transmittance(&self, cos_theta: f32) -> f32 {
+        let x = cos_theta.clamp(0.0, 1.0) * (TRANSMITTANCE_RES - 1) as f32;
+        let i = (x as usize).min(TRANSMITTANCE_RES - 2);
+        let w = x - i as f32;
+        let t = &self.external_transmittance;
+        (1.0 - w) * t[i] + w * t[i + 1]
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct RoughPlastic {
+    /// Isotropic distribution (defaults: Beckmann, α 0.1, `sample_visible` true).
+    pub distribution: MicrofacetDistribution,
+    /// Albedo of the base (default 0.5).
+    pub diffuse_reflectance: Spectrum,
+    /// Multiplier of the coating's reflection (default 1).
+    pub specular_reflectance: Spectrum,
+    /// Relative index `int_ior / ext_ior` (default polypropylene / air).
+    pub eta: f32,
+    pub nonlinear: bool,
+    /// See [`super::plastic::Plastic::specular_sampling_weight`].
+    pub specular_sampling_weight: f32,
+    pub table: &'static RoughPlasticTable,
+}
+
+impl RoughPlastic {
+    /// From Mitsuba's parameters (`distribution`, `alpha`, `sample_visible`, `diffuse_reflectance`,
+    /// `specular_reflectance`, `int_ior`, `ext_ior`, `nonlinear`). Looks the coating table up in a
+    /// process-wide cache (a lock): build one per material at load time and copy it per hit,
+    /// changing only the reflectances.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        distribution: MicrofacetType,
+        alpha: f32,
+        sample_visible: bool,
+        diffuse_reflectance: Spectrum,
+        specular_reflectance: Spectrum,
+        int_ior: f32,
+        ext_ior: f32,
+        nonlinear: bool,
+    ) -> Self {
+        let eta = int_ior / ext_ior;
+        let distribution = MicrofacetDistribution::new(distribution, alpha, sample_visible);
+        RoughPlastic {
+            distribution,
+            diffuse_reflectance,
+            specular_reflectance,
+            eta,
+            nonlinear,
+            specular_sampling_weight: specular_sampling_weight(
+                diffuse_reflectance,
+                specular_reflectance,
+            ),
+            table: RoughPlasticTable::cached(distribution.kind, distribution.alpha_u, eta),
+        }
+    }
+
+    #[inline]
+    fn prob_specular(&self, t_i: f32) -> f32 {
+        let ps = (1.0 - t_i) * self.specular_sampling_weight;
+        let pd = t_i * (1.0 - self.specular_sampling_weight);
+        ps / (ps + pd)
+    }
+
+    pub fn eval(&self, wi: Vec3, wo: Vec3) -> Spectrum {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return Spectrum::ZERO;
+        }
+        let h = (wi + wo).normalize();
+        let d = self.distribution.eval(h);
+        let f = fresnel_dielectric(wi.dot(h), self.eta).r;
+        let g = self.distribution.g(wi, wo, h);
+        let spec = self.specular_reflectance * (f * d * g / (4.0 * wi.z));
+        let rho = self.diffuse_reflectance;
+        let r_int = self.table.internal_reflectance;
+        let albedo = if self.nonlinear {
+            rho / (Spectrum::ONE - rho * r_int)
+        } else {
+            rho / (1.0 - r_int)
+        };
+        let t = self.table.transmittance(wi.z) * self.table.transmittance(wo.z);
+        spec + albedo * (crate::math::INV_PI * wo.z * t / (self.eta * self.eta))
+    }
+
+    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return 0.0;
+        }
+        let ps = self.prob_specular(self.table.transmittance(wi.z));
+        let h = (wi + wo).normalize();
+        let p_spec = if self.distribution.sample_visible {
+            self.distribution.eval(h) * self.distribution.smith_g1(wi, h) / (4.0 * wi.z)
+        } else {
+            self.distribution.pdf(wi, h) / (4.0 * wo.dot(h))
+        };
+        let p = ps * p_spec + (1.0 - ps) * warp::cosine_hemisphere_pdf(wo);
+        if p.is_finite() {
+            p
+        } else {
+            0.0
+        }
+    }
+
+    pub fn sample(&self, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let ps = self.prob_specular(self.table.transmittance(wi.z));
+        let (wo, kind) = if u1 < ps {
+            let (m, _) = self.distribution.sample(wi, u2);
+            (reflect(wi, m), lobe::GLOSSY_REFLECTION)
+        } else {
+            (
+                warp::square_to_cosine_hemisphere(u2),
+                lobe::DIFFUSE_REFLECTION,
+            )
+        };
+        let pdf = self.pdf(wi, wo);
+        if !super::is_positive(pdf) {
+            return None;
+        }
+        Some(BsdfSample {
+            wo,
+            pdf,
+            weight: self.eval(wi, wo) / pdf,
+            eta: 1.0,
+            lobe: kind,
+        })
+    }
+}
+
+impl Default for RoughPlastic {
+    /// Mitsuba's defaults: Beckmann, α = 0.1, visible sampling, ρ = 0.5, polypropylene in air.
+    fn default() -> Self {
+        RoughPlastic::new(
+            MicrofacetType::Beckmann,
+            0.1,
+            true,
+            Spectrum::splat(0.5),
+            Spectrum::ONE,
+            super::plastic::DEFAULT_PLASTIC_INT_IOR,
+            super::dielectric::DEFAULT_EXT_IOR,
+            false,
+        )
+    }
+}
