@@ -1,19 +1,60 @@
 //! Materials: the scene's `<bsdf>` trees with textured parameters. At a hit a material evaluates
 //! its textures and writes plain-valued [`BsdfNode`]s into the per-thread arena.
 
+use crate::bsdf::mnm::facets::{clamp_perturbed_normal, Microgeometry};
+use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
 use crate::bsdf::{BsdfArena, BsdfNode, Diffuse};
 use crate::geometry::SurfaceInteraction;
 use crate::texture::Texture;
+use glam::Vec3;
 
 /// Index of a texture in [`Materials::textures`].
 pub type TexId = u32;
 /// Index of a material node in [`Materials::nodes`].
 pub type MatId = u32;
 
+/// Which colour field of a leaf BSDF a texture drives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Slot {
+    Reflectance,
+    SpecularReflectance,
+    SpecularTransmittance,
+    DiffuseReflectance,
+}
+
+/// Settings of a `microfacet_normalmap` (see `bsdf::mnm`).
+#[derive(Clone, Copy, Debug)]
+pub struct MnmSettings {
+    pub geometry: Microgeometry,
+    pub tangent: Tangent,
+    pub evaluation: Evaluation,
+    pub max_order: u32,
+    /// Largest tilt of the perturbed normal, radians.
+    pub max_theta: f32,
+}
+
 #[derive(Clone, Debug)]
 pub enum MaterialNode {
-    Diffuse { reflectance: TexId },
-    TwoSided { front: MatId, back: MatId },
+    Diffuse {
+        reflectance: TexId,
+    },
+    /// A leaf BSDF whose parameters were fixed at load time except for textured colours:
+    /// `template` is copied per hit and its `slots` overwritten with the texture values.
+    Leaf {
+        template: BsdfNode,
+        slots: Vec<(Slot, TexId)>,
+    },
+    TwoSided {
+        front: MatId,
+        back: MatId,
+    },
+    /// Microfacet-based normal mapping of `nested` by the normal map `normalmap`
+    /// (decoded as n = 2·rgb − 1 in the shading frame).
+    MicrofacetNormalMap {
+        nested: MatId,
+        normalmap: TexId,
+        settings: MnmSettings,
+    },
 }
 
 /// All materials and textures of a scene.
@@ -21,6 +62,31 @@ pub enum MaterialNode {
 pub struct Materials {
     pub nodes: Vec<MaterialNode>,
     pub textures: Vec<Texture>,
+}
+
+/// Write a texture value into the field `slot` of a leaf node.
+fn patch(node: &mut BsdfNode, slot: Slot, v: Vec3) {
+    match (node, slot) {
+        (BsdfNode::Diffuse(d), Slot::Reflectance) => d.reflectance = v,
+        (BsdfNode::Conductor(b), Slot::SpecularReflectance) => b.specular_reflectance = v,
+        (BsdfNode::RoughConductor(b), Slot::SpecularReflectance) => b.specular_reflectance = v,
+        (BsdfNode::Dielectric(b), Slot::SpecularReflectance) => b.specular_reflectance = v,
+        (BsdfNode::Dielectric(b), Slot::SpecularTransmittance) => b.specular_transmittance = v,
+        (BsdfNode::ThinDielectric(b), Slot::SpecularReflectance) => b.specular_reflectance = v,
+        (BsdfNode::ThinDielectric(b), Slot::SpecularTransmittance) => {
+            b.specular_transmittance = v
+        }
+        (BsdfNode::RoughDielectric(b), Slot::SpecularReflectance) => b.specular_reflectance = v,
+        (BsdfNode::RoughDielectric(b), Slot::SpecularTransmittance) => {
+            b.specular_transmittance = v
+        }
+        (BsdfNode::Plastic(b), Slot::SpecularReflectance) => b.specular_reflectance = v,
+        (BsdfNode::Plastic(b), Slot::DiffuseReflectance) => b.diffuse_reflectance = v,
+        (BsdfNode::RoughPlastic(b), Slot::SpecularReflectance) => b.specular_reflectance = v,
+        (BsdfNode::RoughPlastic(b), Slot::DiffuseReflectance) => b.diffuse_reflectance = v,
+        // The instantiation only creates valid (node, slot) pairs.
+        _ => {}
+    }
 }
 
 impl Materials {
@@ -41,6 +107,13 @@ impl Materials {
                 let r = self.textures[*reflectance as usize].eval(si.uv);
                 arena.push(BsdfNode::Diffuse(Diffuse { reflectance: r }))
             }
+            MaterialNode::Leaf { template, slots } => {
+                let mut node = *template;
+                for &(slot, tex) in slots {
+                    patch(&mut node, slot, self.textures[tex as usize].eval(si.uv));
+                }
+                arena.push(node)
+            }
             MaterialNode::TwoSided { front, back } => {
                 let f = self.build(*front, si, arena);
                 let b = if front == back {
@@ -49,6 +122,23 @@ impl Materials {
                     self.build(*back, si, arena)
                 };
                 arena.push(BsdfNode::TwoSided { front: f, back: b })
+            }
+            MaterialNode::MicrofacetNormalMap {
+                nested,
+                normalmap,
+                settings,
+            } => {
+                let child = self.build(*nested, si, arena);
+                let rgb = self.textures[*normalmap as usize].eval(si.uv);
+                let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, settings.max_theta);
+                arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
+                    child,
+                    wp,
+                    settings.geometry,
+                    settings.tangent,
+                    settings.evaluation,
+                    settings.max_order,
+                )))
             }
         }
     }
