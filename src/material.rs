@@ -73,13 +73,9 @@ fn patch(node: &mut BsdfNode, slot: Slot, v: Vec3) {
         (BsdfNode::Dielectric(b), Slot::SpecularReflectance) => b.specular_reflectance = v,
         (BsdfNode::Dielectric(b), Slot::SpecularTransmittance) => b.specular_transmittance = v,
         (BsdfNode::ThinDielectric(b), Slot::SpecularReflectance) => b.specular_reflectance = v,
-        (BsdfNode::ThinDielectric(b), Slot::SpecularTransmittance) => {
-            b.specular_transmittance = v
-        }
+        (BsdfNode::ThinDielectric(b), Slot::SpecularTransmittance) => b.specular_transmittance = v,
         (BsdfNode::RoughDielectric(b), Slot::SpecularReflectance) => b.specular_reflectance = v,
-        (BsdfNode::RoughDielectric(b), Slot::SpecularTransmittance) => {
-            b.specular_transmittance = v
-        }
+        (BsdfNode::RoughDielectric(b), Slot::SpecularTransmittance) => b.specular_transmittance = v,
         (BsdfNode::Plastic(b), Slot::SpecularReflectance) => b.specular_reflectance = v,
         (BsdfNode::Plastic(b), Slot::DiffuseReflectance) => b.diffuse_reflectance = v,
         (BsdfNode::RoughPlastic(b), Slot::SpecularReflectance) => b.specular_reflectance = v,

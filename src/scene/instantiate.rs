@@ -5,15 +5,6 @@ use super::xml::parse::{load_file, Document, Node};
 use super::xml::props::Props;
 use super::Scene;
 use crate::accel::Accel;
-use crate::camera::{Camera, FovAxis};
-use crate::emitter::area::AreaLight;
-use crate::emitter::constant::ConstantLight;
-use crate::emitter::point::PointLight;
-use crate::emitter::{Emitter, LightSampler};
-use crate::error::{Error, Result, SourceLoc};
-use crate::film::{FilmDesc, Filter};
-use crate::geometry::{obj, ply, Shape};
-use crate::integrator::{DirectSettings, IntegratorDesc, PathSettings};
 use crate::bsdf::conductor::Conductor;
 use crate::bsdf::dielectric::{DEFAULT_EXT_IOR, DEFAULT_INT_IOR};
 use crate::bsdf::mnm::facets::Microgeometry;
@@ -23,6 +14,15 @@ use crate::bsdf::{
     lobe, named_conductor, named_ior, BsdfArena, BsdfNode, Dielectric, MicrofacetDistribution,
     MicrofacetType, Plastic, RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric,
 };
+use crate::camera::{Camera, FovAxis};
+use crate::emitter::area::AreaLight;
+use crate::emitter::constant::ConstantLight;
+use crate::emitter::point::PointLight;
+use crate::emitter::{Emitter, LightSampler};
+use crate::error::{Error, Result, SourceLoc};
+use crate::film::{FilmDesc, Filter};
+use crate::geometry::{obj, ply, Shape};
+use crate::integrator::{DirectSettings, IntegratorDesc, PathSettings};
 use crate::material::{MatId, MaterialNode, Materials, MnmSettings, Slot, TexId};
 use crate::sampler::{SamplerDesc, SamplerKind};
 use crate::spectrum::{Spectrum, SpectrumUse};
@@ -622,9 +622,14 @@ impl<'d> Builder<'d> {
             }
             t @ ("conductor" | "roughconductor") => {
                 let (eta, k) = self.conductor_ior(&p)?;
-                let (spec, slots) = self.leaf_color(&p, "specular_reflectance", Slot::SpecularReflectance, 1.0)?;
+                let (spec, slots) =
+                    self.leaf_color(&p, "specular_reflectance", Slot::SpecularReflectance, 1.0)?;
                 let template = if t == "conductor" {
-                    BsdfNode::Conductor(Conductor { eta, k, specular_reflectance: spec })
+                    BsdfNode::Conductor(Conductor {
+                        eta,
+                        k,
+                        specular_reflectance: spec,
+                    })
                 } else {
                     BsdfNode::RoughConductor(RoughConductor {
                         distribution: self.distribution(&p, true)?,
@@ -638,13 +643,27 @@ impl<'d> Builder<'d> {
             t @ ("dielectric" | "thindielectric" | "roughdielectric") => {
                 let int_ior = ior_param(&p, "int_ior", DEFAULT_INT_IOR)?;
                 let ext_ior = ior_param(&p, "ext_ior", DEFAULT_EXT_IOR)?;
-                let (r, mut slots) = self.leaf_color(&p, "specular_reflectance", Slot::SpecularReflectance, 1.0)?;
-                let (tr, s2) = self.leaf_color(&p, "specular_transmittance", Slot::SpecularTransmittance, 1.0)?;
+                let (r, mut slots) =
+                    self.leaf_color(&p, "specular_reflectance", Slot::SpecularReflectance, 1.0)?;
+                let (tr, s2) = self.leaf_color(
+                    &p,
+                    "specular_transmittance",
+                    Slot::SpecularTransmittance,
+                    1.0,
+                )?;
                 slots.extend(s2);
                 let template = match t {
                     "dielectric" => BsdfNode::Dielectric(Dielectric::new(int_ior, ext_ior, r, tr)),
-                    "thindielectric" => BsdfNode::ThinDielectric(ThinDielectric::new(int_ior, ext_ior, r, tr)),
-                    _ => BsdfNode::RoughDielectric(RoughDielectric::new(self.distribution(&p, true)?, int_ior, ext_ior, r, tr)),
+                    "thindielectric" => {
+                        BsdfNode::ThinDielectric(ThinDielectric::new(int_ior, ext_ior, r, tr))
+                    }
+                    _ => BsdfNode::RoughDielectric(RoughDielectric::new(
+                        self.distribution(&p, true)?,
+                        int_ior,
+                        ext_ior,
+                        r,
+                        tr,
+                    )),
                 };
                 MaterialNode::Leaf { template, slots }
             }
@@ -652,15 +671,26 @@ impl<'d> Builder<'d> {
                 let int_ior = ior_param(&p, "int_ior", DEFAULT_PLASTIC_INT_IOR)?;
                 let ext_ior = ior_param(&p, "ext_ior", DEFAULT_EXT_IOR)?;
                 // Sampling weights come from the textures' means, as Mitsuba does.
-                let (d, mut slots) = self.leaf_color(&p, "diffuse_reflectance", Slot::DiffuseReflectance, 0.5)?;
-                let (sr, s2) = self.leaf_color(&p, "specular_reflectance", Slot::SpecularReflectance, 1.0)?;
+                let (d, mut slots) =
+                    self.leaf_color(&p, "diffuse_reflectance", Slot::DiffuseReflectance, 0.5)?;
+                let (sr, s2) =
+                    self.leaf_color(&p, "specular_reflectance", Slot::SpecularReflectance, 1.0)?;
                 slots.extend(s2);
                 let nonlinear = p.bool("nonlinear", false)?;
                 let template = if t == "plastic" {
                     BsdfNode::Plastic(Plastic::new(d, sr, int_ior, ext_ior, nonlinear))
                 } else {
                     let dist = self.distribution(&p, false)?;
-                    BsdfNode::RoughPlastic(RoughPlastic::new(dist.kind, dist.alpha_u, dist.sample_visible, d, sr, int_ior, ext_ior, nonlinear))
+                    BsdfNode::RoughPlastic(RoughPlastic::new(
+                        dist.kind,
+                        dist.alpha_u,
+                        dist.sample_visible,
+                        d,
+                        sr,
+                        int_ior,
+                        ext_ior,
+                        nonlinear,
+                    ))
                 };
                 MaterialNode::Leaf { template, slots }
             }
@@ -670,17 +700,29 @@ impl<'d> Builder<'d> {
                 for c in &children {
                     let is_bsdf = c.tag == "bsdf" || self.ref_target_tag(c) == Some("bsdf");
                     if !is_bsdf {
-                        return Err(Error::scene(&c.loc, format!("twosided expects nested <bsdf>s, not <{}>", c.tag)));
+                        return Err(Error::scene(
+                            &c.loc,
+                            format!("twosided expects nested <bsdf>s, not <{}>", c.tag),
+                        ));
                     }
                     bsdfs.push(self.bsdf(c)?);
                 }
                 match bsdfs.as_slice() {
-                    [f] => MaterialNode::TwoSided { front: *f, back: *f },
-                    [f, b] => MaterialNode::TwoSided { front: *f, back: *b },
+                    [f] => MaterialNode::TwoSided {
+                        front: *f,
+                        back: *f,
+                    },
+                    [f, b] => MaterialNode::TwoSided {
+                        front: *f,
+                        back: *b,
+                    },
                     _ => {
                         return Err(Error::scene(
                             p.loc(),
-                            format!("twosided takes one or two nested BSDFs, found {}", bsdfs.len()),
+                            format!(
+                                "twosided takes one or two nested BSDFs, found {}",
+                                bsdfs.len()
+                            ),
                         ))
                     }
                 }
@@ -704,7 +746,13 @@ impl<'d> Builder<'d> {
 
     /// A colour of a leaf BSDF: constant (returned, no slot) or textured (returned as the
     /// texture's mean for load-time decisions, plus the slot to fill per hit).
-    fn leaf_color(&mut self, p: &Props<'d>, name: &str, slot: Slot, default: f32) -> Result<(Spectrum, Vec<(Slot, TexId)>)> {
+    fn leaf_color(
+        &mut self,
+        p: &Props<'d>,
+        name: &str,
+        slot: Slot,
+        default: f32,
+    ) -> Result<(Spectrum, Vec<(Slot, TexId)>)> {
         let tex = self.color_param(p, name, Spectrum::splat(default))?;
         let t = &self.materials.textures[tex as usize];
         match t {
@@ -717,7 +765,10 @@ impl<'d> Builder<'d> {
     fn conductor_ior(&mut self, p: &Props<'d>) -> Result<(Spectrum, Spectrum)> {
         if p.has("eta") || p.has("k") {
             if p.has("material") {
-                return Err(Error::scene(p.loc(), "give either 'material' or 'eta'/'k', not both"));
+                return Err(Error::scene(
+                    p.loc(),
+                    "give either 'material' or 'eta'/'k', not both",
+                ));
             }
             let eta = p.color_with("eta", Spectrum::ZERO, SpectrumUse::Unbounded)?;
             let k = p.color_with("k", Spectrum::ONE, SpectrumUse::Unbounded)?;
@@ -725,7 +776,10 @@ impl<'d> Builder<'d> {
         }
         let name = p.string("material", "none")?;
         named_conductor(&name).ok_or_else(|| {
-            Error::scene(p.loc(), format!("unknown conductor material '{name}' (e.g. none, Au, Ag, Cu, Al, Cr)"))
+            Error::scene(
+                p.loc(),
+                format!("unknown conductor material '{name}' (e.g. none, Au, Ag, Cu, Al, Cr)"),
+            )
         })
     }
 
@@ -734,18 +788,27 @@ impl<'d> Builder<'d> {
     fn distribution(&mut self, p: &Props<'d>, anisotropic: bool) -> Result<MicrofacetDistribution> {
         let name = p.string("distribution", "beckmann")?;
         let kind = MicrofacetType::from_name(&name).ok_or_else(|| {
-            Error::scene(p.loc(), format!("distribution '{name}' must be 'beckmann' or 'ggx'"))
+            Error::scene(
+                p.loc(),
+                format!("distribution '{name}' must be 'beckmann' or 'ggx'"),
+            )
         })?;
         let visible = p.bool("sample_visible", true)?;
         for k in ["alpha", "alpha_u", "alpha_v"] {
             if p.objects().any(|c| c.attr("name") == Some(k)) {
-                return Err(Error::scene(p.loc(), format!("a textured '{k}' is not supported yet; give a number")));
+                return Err(Error::scene(
+                    p.loc(),
+                    format!("a textured '{k}' is not supported yet; give a number"),
+                ));
             }
         }
         let check_alpha = |a: f32| check(p.loc(), a.is_finite() && a >= 0.0, "alpha must be >= 0");
         if anisotropic && (p.has("alpha_u") || p.has("alpha_v")) {
             if p.has("alpha") {
-                return Err(Error::scene(p.loc(), "give either 'alpha' or 'alpha_u'/'alpha_v', not both"));
+                return Err(Error::scene(
+                    p.loc(),
+                    "give either 'alpha' or 'alpha_u'/'alpha_v', not both",
+                ));
             }
             let au = p.float("alpha_u", 0.1)?;
             let av = p.float("alpha_v", 0.1)?;
@@ -764,7 +827,11 @@ impl<'d> Builder<'d> {
         let mut nested = None;
         let mut normalmap = None;
         for c in p.objects() {
-            let tag = if c.tag == "ref" { self.ref_target_tag(c).unwrap_or("ref") } else { c.tag.as_str() };
+            let tag = if c.tag == "ref" {
+                self.ref_target_tag(c).unwrap_or("ref")
+            } else {
+                c.tag.as_str()
+            };
             match tag {
                 "bsdf" => {
                     if nested.is_some() {
@@ -779,33 +846,61 @@ impl<'d> Builder<'d> {
                 t => return Err(Error::scene(&c.loc, format!("<{t}> is not expected inside a microfacet_normalmap (a nested <bsdf> and a <texture name=\"normalmap\">)"))),
             }
         }
-        let (nested, nested_node) = nested.ok_or_else(|| Error::scene(p.loc(), "microfacet_normalmap needs a nested <bsdf>"))?;
+        let (nested, nested_node) = nested
+            .ok_or_else(|| Error::scene(p.loc(), "microfacet_normalmap needs a nested <bsdf>"))?;
         let normalmap = match normalmap {
             Some(t) => t,
-            None if p.has("normalmap") => self.color_param(p, "normalmap", Spectrum::new(0.5, 0.5, 1.0))?,
-            None => return Err(Error::scene(p.loc(), "microfacet_normalmap needs a <texture name=\"normalmap\">")),
+            None if p.has("normalmap") => {
+                self.color_param(p, "normalmap", Spectrum::new(0.5, 0.5, 1.0))?
+            }
+            None => {
+                return Err(Error::scene(
+                    p.loc(),
+                    "microfacet_normalmap needs a <texture name=\"normalmap\">",
+                ))
+            }
         };
         let geometry = match p.string("microgeometry", "sawtooth")?.as_str() {
             "sawtooth" => Microgeometry::Sawtooth,
             "vgroove" => Microgeometry::VGroove,
             "ugroove" => {
                 let s = p.float("groove_fill", 0.5)?;
-                check(p.loc(), s > 0.0 && s <= 1.0, "groove_fill must be in (0, 1]")?;
+                check(
+                    p.loc(),
+                    s > 0.0 && s <= 1.0,
+                    "groove_fill must be in (0, 1]",
+                )?;
                 Microgeometry::UGroove { fill: s }
             }
-            other => return Err(Error::scene(p.loc(), format!("microgeometry '{other}' must be sawtooth, vgroove or ugroove"))),
+            other => {
+                return Err(Error::scene(
+                    p.loc(),
+                    format!("microgeometry '{other}' must be sawtooth, vgroove or ugroove"),
+                ))
+            }
         };
         if !matches!(geometry, Microgeometry::UGroove { .. }) && p.has("groove_fill") {
-            return Err(Error::scene(p.loc(), "groove_fill belongs to microgeometry 'ugroove'"));
+            return Err(Error::scene(
+                p.loc(),
+                "groove_fill belongs to microgeometry 'ugroove'",
+            ));
         }
         let tangent = if p.has("tangent") {
             if geometry != Microgeometry::Sawtooth {
-                return Err(Error::scene(p.loc(), "'tangent' belongs to the sawtooth microgeometry only"));
+                return Err(Error::scene(
+                    p.loc(),
+                    "'tangent' belongs to the sawtooth microgeometry only",
+                ));
             }
             match p.string("tangent", "mirror")?.as_str() {
                 "mirror" => Tangent::Mirror,
                 "same" => Tangent::Same,
-                other => return Err(Error::scene(p.loc(), format!("tangent '{other}' must be 'mirror' or 'same'"))),
+                other => {
+                    return Err(Error::scene(
+                        p.loc(),
+                        format!("tangent '{other}' must be 'mirror' or 'same'"),
+                    ))
+                }
             }
         } else if geometry == Microgeometry::Sawtooth {
             Tangent::Mirror
@@ -815,17 +910,37 @@ impl<'d> Builder<'d> {
         let evaluation = match p.string("evaluation", "random_walk")?.as_str() {
             "random_walk" => Evaluation::RandomWalk,
             "explicit" => Evaluation::Explicit,
-            other => return Err(Error::scene(p.loc(), format!("evaluation '{other}' must be 'random_walk' or 'explicit'"))),
+            other => {
+                return Err(Error::scene(
+                    p.loc(),
+                    format!("evaluation '{other}' must be 'random_walk' or 'explicit'"),
+                ))
+            }
         };
         if geometry != Microgeometry::Sawtooth && evaluation == Evaluation::Explicit {
-            return Err(Error::scene(p.loc(), "microgeometries other than 'sawtooth' need evaluation = random_walk"));
+            return Err(Error::scene(
+                p.loc(),
+                "microgeometries other than 'sawtooth' need evaluation = random_walk",
+            ));
         }
         let max_order = p.int("max_order", 256)?;
-        check(p.loc(), (1..=1 << 20).contains(&max_order), "max_order must be >= 1")?;
+        check(
+            p.loc(),
+            (1..=1 << 20).contains(&max_order),
+            "max_order must be >= 1",
+        )?;
         let max_theta = p.float("max_theta", 85.0)?;
-        check(p.loc(), max_theta > 0.0 && max_theta < 90.0, "max_theta must be in (0, 90) degrees")?;
+        check(
+            p.loc(),
+            max_theta > 0.0 && max_theta < 90.0,
+            "max_theta must be in (0, 90) degrees",
+        )?;
         let walk = p.string("transmission_walk", "two_sided")?;
-        check(p.loc(), matches!(walk.as_str(), "two_sided" | "exit_on_refraction"), "transmission_walk must be 'two_sided' or 'exit_on_refraction'")?;
+        check(
+            p.loc(),
+            matches!(walk.as_str(), "two_sided" | "exit_on_refraction"),
+            "transmission_walk must be 'two_sided' or 'exit_on_refraction'",
+        )?;
         let flags = self.material_flags(nested);
         if flags & lobe::TRANSMISSION != 0 {
             return Err(Error::scene(&nested_node.loc, "microfacet_normalmap over a transmitting BSDF (e.g. roughdielectric) is not implemented yet"));
@@ -836,7 +951,13 @@ impl<'d> Builder<'d> {
         Ok(MaterialNode::MicrofacetNormalMap {
             nested,
             normalmap,
-            settings: MnmSettings { geometry, tangent, evaluation, max_order: max_order as u32, max_theta: max_theta.to_radians() },
+            settings: MnmSettings {
+                geometry,
+                tangent,
+                evaluation,
+                max_order: max_order as u32,
+                max_theta: max_theta.to_radians(),
+            },
         })
     }
 
@@ -849,7 +970,9 @@ impl<'d> Builder<'d> {
                 let r = arena.push(*template);
                 arena.bsdf(r).flags()
             }
-            MaterialNode::TwoSided { front, back } => self.material_flags(*front) | self.material_flags(*back),
+            MaterialNode::TwoSided { front, back } => {
+                self.material_flags(*front) | self.material_flags(*back)
+            }
             MaterialNode::MicrofacetNormalMap { nested, .. } => self.material_flags(*nested),
         }
     }
@@ -1081,11 +1204,18 @@ fn ior_param(p: &Props, name: &str, default: f32) -> Result<f32> {
         Some(node) if node.tag == "string" => {
             let s = node.attr("value").unwrap_or("");
             named_ior(s).ok_or_else(|| {
-                Error::scene(&node.loc, format!("unknown index of refraction '{s}' (e.g. bk7, water, air, vacuum)"))
+                Error::scene(
+                    &node.loc,
+                    format!("unknown index of refraction '{s}' (e.g. bk7, water, air, vacuum)"),
+                )
             })?
         }
         Some(_) => p.float(name, default)?,
     };
-    check(p.loc(), v.is_finite() && v > 0.0, format!("{name} must be positive"))?;
+    check(
+        p.loc(),
+        v.is_finite() && v > 0.0,
+        format!("{name} must be positive"),
+    )?;
     Ok(v)
 }
