@@ -114,6 +114,11 @@ impl Microsurface {
         if w.z <= 0.0 {
             return 0.0;
         }
+        // Every facet faces ω: nothing can block it. Closure makes Σ = z exactly then; testing
+        // it directly keeps rounding (z/Σ = 0.9999999) from inventing blocked rays.
+        if (0..self.n).all(|k| w.dot(self.v[k]) >= 0.0) {
+            return 1.0;
+        }
         let s = self.sigma(w);
         if s <= 0.0 {
             return 1.0;
