@@ -549,3 +549,84 @@ fn decode_exr(bytes: &[u8]) -> Result<Decoded, String> {
         half_by_default,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wrap_modes_map_integer_coordinates() {
+        // n = 4: ... -5 -4 -3 -2 -1 | 0 1 2 3 | 4 5 6 7 8 ...
+        let n = 4;
+        let repeat: Vec<usize> = (-5..9).map(|i| WrapMode::Repeat.apply(i, n)).collect();
+        assert_eq!(repeat, [3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0]);
+        let mirror: Vec<usize> = (-5..9).map(|i| WrapMode::Mirror.apply(i, n)).collect();
+        assert_eq!(mirror, [3, 3, 2, 1, 0, 0, 1, 2, 3, 3, 2, 1, 0, 0]);
+        let clamp: Vec<usize> = (-5..9).map(|i| WrapMode::Clamp.apply(i, n)).collect();
+        assert_eq!(clamp, [0, 0, 0, 0, 0, 0, 1, 2, 3, 3, 3, 3, 3, 3]);
+        // Extreme coordinates (huge or NaN uvs) must not overflow or panic.
+        for w in [WrapMode::Repeat, WrapMode::Mirror, WrapMode::Clamp] {
+            assert!(w.apply(i64::MAX, n) < 4 && w.apply(i64::MIN, n) < 4);
+        }
+    }
+
+    #[test]
+    fn float16_rounding() {
+        assert_eq!(round_to_f16(1.0), 1.0);
+        assert_eq!(round_to_f16(0.1), 0.099975586);
+        assert_eq!(round_to_f16(1.0 + 1.0 / 4096.0), 1.0); // tie → even
+        assert_eq!(round_to_f16(1e-7), 1.1920929e-7); // subnormal half
+        assert_eq!(round_to_f16(1e6), f32::INFINITY);
+    }
+
+    #[test]
+    fn srgb_curve_is_nearly_continuous_at_the_threshold() {
+        // The standard's constants leave a jump of ~1e-8 at 0.04045.
+        let a = srgb_to_linear(0.04045);
+        let b = srgb_to_linear(0.04045 + 1e-12);
+        assert!((a - b).abs() < 1e-7, "{a} {b}");
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn lookups_survive_non_finite_and_huge_uvs() {
+        let t =
+            BitmapTexture::from_texels(2, 2, vec![Vec3::ONE; 4], false, &BitmapOptions::default());
+        for uv in [
+            Vec2::new(f32::NAN, 0.5),
+            Vec2::new(f32::INFINITY, f32::NEG_INFINITY),
+            Vec2::new(1e30, -1e30),
+        ] {
+            let _ = t.eval(uv);
+        }
+        let n = BitmapTexture::from_texels(
+            2,
+            2,
+            vec![Vec3::ONE; 4],
+            false,
+            &BitmapOptions {
+                filter: FilterType::Nearest,
+                ..Default::default()
+            },
+        );
+        assert_eq!(n.eval(Vec2::new(f32::NAN, 1e30)), Vec3::ONE);
+    }
+
+    #[test]
+    fn one_pixel_images_become_two_by_two() {
+        let t = BitmapTexture::from_texels(
+            1,
+            1,
+            vec![Vec3::new(0.25, 0.5, 0.75)],
+            false,
+            &BitmapOptions::default(),
+        );
+        assert_eq!(t.resolution(), (2, 2));
+        assert!(t
+            .eval(Vec2::new(0.3, 0.9))
+            .abs_diff_eq(Vec3::new(0.25, 0.5, 0.75), 1e-6));
+        assert_eq!(t.mean(), Vec3::new(0.25, 0.5, 0.75));
+        assert_eq!(t.warnings().len(), 1);
+    }
+}
