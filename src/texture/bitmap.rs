@@ -390,9 +390,10 @@ fn decode_ldr(bytes: &[u8], raw: bool) -> Result<Decoded, String> {
     let format = reader.format().ok_or_else(|| {
         "unrecognised image format (bitmap textures read PNG, JPEG and OpenEXR files)".to_string()
     })?;
-    let img = reader
-        .decode()
-        .map_err(|e| format!("cannot decode {format:?} image: {e}"))?;
+    let img = reader.decode().map_err(|e| {
+        let name = format!("{format:?}").to_uppercase();
+        format!("cannot decode {name} image: {e}")
+    })?;
     let (width, height) = (img.width(), img.height());
     if width == 0 || height == 0 {
         return Err("the image is empty".into());
