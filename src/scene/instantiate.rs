@@ -591,13 +591,8 @@ impl<'d> Builder<'d> {
                     to_uv: mat4_to_uv(&m),
                 }
             }
-            "bitmap" => {
-                return Err(Error::scene(
-                    p.loc(),
-                    "texture 'bitmap' is not supported yet (planned with the materials work)",
-                ))
-            }
-            t => return Err(unknown(p.loc(), "texture", t, &["checkerboard"])),
+            "bitmap" => self.bitmap_texture(&p)?,
+            t => return Err(unknown(p.loc(), "texture", t, &["bitmap", "checkerboard"])),
         };
         p.finish()?;
         let id = self.materials.add_texture(tex);
@@ -605,6 +600,47 @@ impl<'d> Builder<'d> {
             self.tex_cache.insert(i, id);
         }
         Ok(id)
+    }
+
+    /// Mitsuba 3's `bitmap`: `filename`, `raw`, `filter_type`, `wrap_mode`, `to_uv`, `format`
+    /// (`accel` is accepted and has no effect on the CPU). Any problem with the image is an
+    /// error at the `<texture>` naming the file.
+    fn bitmap_texture(&mut self, p: &Props<'d>) -> Result<Texture> {
+        use crate::texture::{BitmapOptions, BitmapTexture, FilterType, StorageFormat, WrapMode};
+        let fname = p
+            .string_opt("filename")?
+            .ok_or_else(|| Error::scene(p.loc(), "texture 'bitmap' needs a 'filename'"))?;
+        let file = self.doc.resolve_file(&fname, p.loc())?;
+        let choice = |name: &str, default: &str, allowed: &str| -> Result<String> {
+            let v = p.string(name, default)?;
+            if allowed.split(", ").any(|a| a == v) {
+                Ok(v)
+            } else {
+                Err(Error::scene(
+                    p.loc(),
+                    format!(
+                        "invalid {name} '{v}' for texture 'bitmap' (must be one of: {allowed})"
+                    ),
+                ))
+            }
+        };
+        let filter = choice("filter_type", "bilinear", "bilinear, nearest")?;
+        let wrap = choice("wrap_mode", "repeat", "repeat, mirror, clamp")?;
+        let format = choice("format", "auto", "auto, variant, fp16")?;
+        let opts = BitmapOptions {
+            raw: p.bool("raw", false)?,
+            filter: FilterType::parse(&filter).unwrap_or_default(),
+            wrap: WrapMode::parse(&wrap).unwrap_or_default(),
+            to_uv: mat4_to_uv(&p.transform("to_uv")?),
+            format: StorageFormat::parse(&format).unwrap_or_default(),
+        };
+        let _ = p.bool("accel", true)?;
+        let bmp = BitmapTexture::load(&file, &opts)
+            .map_err(|e| Error::scene(p.loc(), format!("cannot load bitmap texture: {e}")))?;
+        for w in bmp.warnings() {
+            self.warnings.push(format!("{}: {w}", p.loc()));
+        }
+        Ok(Texture::from(bmp))
     }
 
     fn bsdf(&mut self, n: &'d Node) -> Result<MatId> {

@@ -41,6 +41,8 @@ JOBS = [
     ("mis_quad_nopoint", os.path.join(SCENES, "mis_quad.xml"), {"point": "0"}, 2048, REF_SEEDS),
     ("cbox_v3", os.path.join(SCENES, "cbox_v3.xml"), {}, 1024, REF_SEEDS),
     ("area_point", os.path.join(SCENES, "area_point.xml"), {}, 1024, REF_SEEDS),
+    # Bitmap textures (bilinear + nearest/mirror/to_uv) under a constant environment.
+    ("textured_quad", os.path.join(SCENES, "textured_quad.xml"), {}, 4096, REF_SEEDS),
     # The shared Cornell box (meshes, includes, referenced emitter), unchanged, at 64x64.
     ("cbox", CBOX, {"res": "64"}, 2048, REF_SEEDS),
     # An independent, cheaper render of the same scene (other seeds) for the harness self-check.
