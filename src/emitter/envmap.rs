@@ -172,7 +172,7 @@ impl EnvMapLight {
 
     pub fn sample_direct(&self, ref_p: Vec3, u: Vec2) -> Option<DirectSample> {
         let (p, pdf_uv) = self.dist.sample(u);
-        if !(pdf_uv > 0.0) {
+        if pdf_uv.is_nan() || pdf_uv <= 0.0 {
             return None;
         }
         // Patch space → texture space: patches start at texel centres, half a texel into u.
@@ -181,12 +181,14 @@ impl EnvMapLight {
             uu -= 1.0;
         }
         let uv = Vec2::new(uu, p.y);
-        let sin_theta = (PI * uv.y).sin();
-        if !(sin_theta > 0.0) {
+        if (PI * uv.y).sin() <= 0.0 {
             return None;
         }
         let d = (self.to_world * Self::local_of_uv(uv)).normalize();
-        let pdf = pdf_uv / (2.0 * PI * PI * sin_theta);
+        // The density and radiance are recomputed from `d` exactly as `pdf_direct` and `eval`
+        // do for a BSDF-sampled ray, so MIS sees identical values for the same direction (a
+        // point within rounding of a patch edge might otherwise get its neighbour's density).
+        let pdf = self.pdf_direct(d);
         if !(pdf.is_finite() && pdf > 0.0) {
             return None;
         }
@@ -196,7 +198,7 @@ impl EnvMapLight {
             p: ref_p + d,
             n: None,
             pdf,
-            value: self.lookup(uv),
+            value: self.eval(d),
             delta: false,
         })
     }
@@ -209,7 +211,7 @@ impl EnvMapLight {
         }
         let uv = Self::uv_of_local(l);
         let sin_theta = (PI * uv.y).sin();
-        if !(sin_theta > 0.0) {
+        if sin_theta.is_nan() || sin_theta <= 0.0 {
             return 0.0;
         }
         let mut px = uv.x - 0.5 / self.width as f32;
