@@ -4,8 +4,11 @@
 
 pub mod area;
 pub mod constant;
+pub mod directional;
+pub mod envmap;
 pub mod light_sampler;
 pub mod point;
+pub mod spot;
 
 pub use light_sampler::LightSampler;
 
@@ -35,6 +38,9 @@ pub enum Emitter {
     Area(area::AreaLight),
     Point(point::PointLight),
     Constant(constant::ConstantLight),
+    Spot(spot::SpotLight),
+    Directional(directional::DirectionalLight),
+    EnvMap(envmap::EnvMapLight),
 }
 
 impl Emitter {
@@ -44,6 +50,9 @@ impl Emitter {
             Emitter::Area(a) => a.sample_direct(shapes, ref_p, u),
             Emitter::Point(p) => p.sample_direct(ref_p),
             Emitter::Constant(c) => c.sample_direct(u),
+            Emitter::Spot(s) => s.sample_direct(ref_p),
+            Emitter::Directional(d) => d.sample_direct(ref_p),
+            Emitter::EnvMap(m) => m.sample_direct(ref_p, u),
         }
     }
 
@@ -64,6 +73,7 @@ impl Emitter {
     pub fn pdf_direct_env(&self, d: Vec3) -> f32 {
         match self {
             Emitter::Constant(c) => c.pdf_direct(d),
+            Emitter::EnvMap(m) => m.pdf_direct(d),
             _ => 0.0,
         }
     }
@@ -80,13 +90,15 @@ impl Emitter {
     pub fn eval_env(&self, d: Vec3) -> Spectrum {
         match self {
             Emitter::Constant(c) => c.eval(d),
+            Emitter::EnvMap(m) => m.eval(d),
             _ => Spectrum::ZERO,
         }
     }
 
-    /// True for lights at infinity (seen by rays that escape the scene).
+    /// True for lights at infinity seen by rays that escape the scene (not the directional
+    /// light: a delta light, found only by next-event estimation).
     pub fn is_environment(&self) -> bool {
-        matches!(self, Emitter::Constant(_))
+        matches!(self, Emitter::Constant(_) | Emitter::EnvMap(_))
     }
 
     /// Total emitted power estimate (luminance), for light selection. `scene_radius` sizes
@@ -98,6 +110,12 @@ impl Emitter {
             Emitter::Area(a) => pi * shapes[a.shape as usize].area() * lum(a.radiance.mean()),
             Emitter::Point(p) => 4.0 * pi * lum(p.intensity),
             Emitter::Constant(c) => pi * scene_radius * scene_radius * 4.0 * pi * lum(c.radiance),
+            // Intensity × the solid angle of the cone (with its falloff).
+            Emitter::Spot(s) => lum(s.intensity) * s.solid_angle(),
+            // Irradiance × the cross-section of the scene's bounding sphere.
+            Emitter::Directional(d) => pi * scene_radius * scene_radius * lum(d.irradiance),
+            // Mean radiance × 4π × the cross-section of the bounding sphere.
+            Emitter::EnvMap(m) => pi * scene_radius * scene_radius * 4.0 * pi * m.mean_luminance(),
         }
         .max(0.0)
     }

@@ -1,4 +1,7 @@
-//! A discrete distribution sampled by inverting its CDF (light selection, triangle picking).
+//! Discrete distributions sampled by inverting their CDFs: `Distribution1D` (light selection,
+//! triangle picking) and the piecewise-constant 2-D density `Distribution2D` (environment maps).
+
+use glam::Vec2;
 
 #[derive(Clone, Debug, Default)]
 pub struct Distribution1D {
@@ -70,6 +73,87 @@ impl Distribution1D {
     }
 }
 
+/// A piecewise-constant density on the unit square over an `nx` × `ny` grid of cells, sampled by
+/// a marginal distribution over rows and a conditional distribution within the chosen row
+/// (pbrt 3rd ed., §13.6.7). Densities are with respect to area on [0,1]².
+#[derive(Clone, Debug)]
+pub struct Distribution2D {
+    nx: usize,
+    ny: usize,
+    /// Which row (y index) to sample, by row total.
+    marginal: Distribution1D,
+    /// Column distribution of each row (`None` for rows of zero weight, never picked).
+    rows: Vec<Option<Distribution1D>>,
+}
+
+impl Distribution2D {
+    /// From `nx * ny` non-negative cell weights, row-major (`w[y * nx + x]`). `None` when the
+    /// weights are all zero, negative or not finite, or the size does not match.
+    pub fn new(weights: &[f32], nx: usize, ny: usize) -> Option<Distribution2D> {
+        if nx == 0 || ny == 0 || weights.len() != nx.checked_mul(ny)? {
+            return None;
+        }
+        if weights.iter().any(|w| !(w.is_finite() && *w >= 0.0)) {
+            return None;
+        }
+        let rows: Vec<Option<Distribution1D>> =
+            weights.chunks_exact(nx).map(Distribution1D::new).collect();
+        let totals: Vec<f32> = weights
+            .chunks_exact(nx)
+            .map(|r| r.iter().map(|&w| w as f64).sum::<f64>() as f32)
+            .collect();
+        let marginal = Distribution1D::new(&totals)?;
+        Some(Distribution2D {
+            nx,
+            ny,
+            marginal,
+            rows,
+        })
+    }
+
+    /// Grid size (nx, ny).
+    pub fn size(&self) -> (usize, usize) {
+        (self.nx, self.ny)
+    }
+
+    /// Probability of the cell (x, y).
+    #[inline]
+    pub fn cell_pmf(&self, x: usize, y: usize) -> f32 {
+        match &self.rows[y] {
+            Some(r) => self.marginal.pmf(y) * r.pmf(x),
+            None => 0.0,
+        }
+    }
+
+    /// A point of [0,1)² and its density, from `u ∈ [0,1)²`.
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> (Vec2, f32) {
+        let (y, py, fy) = self.marginal.sample(u.y);
+        // The marginal only picks rows of non-zero total, which have a column distribution.
+        let Some(row) = self.rows[y].as_ref() else {
+            return (Vec2::ZERO, 0.0);
+        };
+        // The rescaled randoms place the point uniformly within the chosen cell.
+        let (x, px, fx) = row.sample(u.x);
+        let p = Vec2::new(
+            ((x as f32 + fx) / self.nx as f32).min(1.0 - f32::EPSILON / 2.0),
+            ((y as f32 + fy) / self.ny as f32).min(1.0 - f32::EPSILON / 2.0),
+        );
+        (p, py * px * (self.nx * self.ny) as f32)
+    }
+
+    /// Density of the point `p` ∈ [0,1]² (the value `sample` reports for points it returns).
+    #[inline]
+    pub fn pdf(&self, p: Vec2) -> f32 {
+        if !(p.x.is_finite() && p.y.is_finite()) {
+            return 0.0;
+        }
+        let x = ((p.x * self.nx as f32) as usize).min(self.nx - 1);
+        let y = ((p.y * self.ny as f32) as usize).min(self.ny - 1);
+        self.cell_pmf(x, y) * (self.nx * self.ny) as f32
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -89,5 +173,22 @@ mod tests {
         assert!((counts[0] as f32 / n as f32 - 0.25).abs() < 1e-3);
         assert!(Distribution1D::new(&[0.0, 0.0]).is_none());
         assert!(Distribution1D::new(&[f32::NAN]).is_none());
+    }
+
+    #[test]
+    fn distribution2d_pdf_integrates_to_one_and_matches_weights() {
+        let w = [1.0, 0.0, 2.0, 0.5, 0.0, 0.0, 3.0, 1.5];
+        let d = Distribution2D::new(&w, 4, 2).unwrap();
+        let total: f32 = w.iter().sum();
+        for y in 0..2 {
+            for x in 0..4 {
+                let c = Vec2::new((x as f32 + 0.5) / 4.0, (y as f32 + 0.5) / 2.0);
+                let expect = w[y * 4 + x] / total * 8.0;
+                assert!((d.pdf(c) - expect).abs() < 1e-5, "cell {x},{y}");
+            }
+        }
+        assert!(Distribution2D::new(&[0.0; 4], 2, 2).is_none());
+        assert!(Distribution2D::new(&[1.0; 3], 2, 2).is_none());
+        assert!(Distribution2D::new(&[1.0, f32::NAN], 2, 1).is_none());
     }
 }

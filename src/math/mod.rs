@@ -6,7 +6,7 @@ pub mod mis;
 pub mod rng;
 pub mod warp;
 
-pub use distrib::Distribution1D;
+pub use distrib::{Distribution1D, Distribution2D};
 pub use frame::Frame;
 pub use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 pub use rng::Pcg32;

@@ -47,6 +47,10 @@ JOBS = [
     ("cbox", CBOX, {"res": "64"}, 2048, REF_SEEDS),
     # An independent, cheaper render of the same scene (other seeds) for the harness self-check.
     ("cbox.check", CBOX, {"res": "64"}, 256, [100, 101, 102, 103]),
+    # Emitters: spot + directional; envmap only; dim envmap + small bright area light.
+    ("light_spot_dir", os.path.join(SCENES, "light_spot_dir.xml"), {}, 4096, REF_SEEDS),
+    ("light_envmap", os.path.join(SCENES, "light_envmap.xml"), {}, 4096, REF_SEEDS),
+    ("light_envmap_area", os.path.join(SCENES, "light_envmap_area.xml"), {}, 4096, REF_SEEDS),
 ]
 
 
