@@ -41,7 +41,7 @@ pub enum MaterialNode {
     /// A leaf BSDF whose parameters were fixed at load time except for textured colours:
     /// `template` is copied per hit and its `slots` overwritten with the texture values.
     Leaf {
-        template: BsdfNode,
+        template: Box<BsdfNode>,
         slots: Vec<(Slot, TexId)>,
     },
     TwoSided {
@@ -104,7 +104,7 @@ impl Materials {
                 arena.push(BsdfNode::Diffuse(Diffuse { reflectance: r }))
             }
             MaterialNode::Leaf { template, slots } => {
-                let mut node = *template;
+                let mut node = **template;
                 for &(slot, tex) in slots {
                     patch(&mut node, slot, self.textures[tex as usize].eval(si.uv));
                 }

@@ -677,7 +677,10 @@ impl<'d> Builder<'d> {
                         specular_reflectance: spec,
                     })
                 };
-                MaterialNode::Leaf { template, slots }
+                MaterialNode::Leaf {
+                    template: Box::new(template),
+                    slots,
+                }
             }
             t @ ("dielectric" | "thindielectric" | "roughdielectric") => {
                 let int_ior = ior_param(&p, "int_ior", DEFAULT_INT_IOR)?;
@@ -704,7 +707,10 @@ impl<'d> Builder<'d> {
                         tr,
                     )),
                 };
-                MaterialNode::Leaf { template, slots }
+                MaterialNode::Leaf {
+                    template: Box::new(template),
+                    slots,
+                }
             }
             t @ ("plastic" | "roughplastic") => {
                 let int_ior = ior_param(&p, "int_ior", DEFAULT_PLASTIC_INT_IOR)?;
@@ -731,7 +737,10 @@ impl<'d> Builder<'d> {
                         nonlinear,
                     ))
                 };
-                MaterialNode::Leaf { template, slots }
+                MaterialNode::Leaf {
+                    template: Box::new(template),
+                    slots,
+                }
             }
             "twosided" => {
                 let children: Vec<&'d Node> = p.objects().collect();
@@ -1006,7 +1015,7 @@ impl<'d> Builder<'d> {
             MaterialNode::Diffuse { .. } => lobe::DIFFUSE_REFLECTION,
             MaterialNode::Leaf { template, .. } => {
                 let mut arena = BsdfArena::new();
-                let r = arena.push(*template);
+                let r = arena.push(**template);
                 arena.bsdf(r).flags()
             }
             MaterialNode::TwoSided { front, back } => {
