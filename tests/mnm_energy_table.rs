@@ -17,7 +17,9 @@ fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
 
 fn albedo(g: Microgeometry, t: Tangent, e: Evaluation, tp: f32, wi: Vec3) -> (f64, f64) {
     let mut arena = BsdfArena::new();
-    let nested = arena.push(BsdfNode::Diffuse(Diffuse { reflectance: Vec3::ONE }));
+    let nested = arena.push(BsdfNode::Diffuse(Diffuse {
+        reflectance: Vec3::ONE,
+    }));
     let root = arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
         nested,
         dir(tp, 0.0),
@@ -32,7 +34,9 @@ fn albedo(g: Microgeometry, t: Tangent, e: Evaluation, tp: f32, wi: Vec3) -> (f6
     let n = 200_000;
     let (mut a, mut a2) = (0.0f64, 0.0f64);
     for _ in 0..n {
-        let w = b.sample(&ctx, wi, &mut s).map_or(0.0, |x| x.weight.x as f64);
+        let w = b
+            .sample(&ctx, wi, &mut s)
+            .map_or(0.0, |x| x.weight.x as f64);
         a += w;
         a2 += w * w;
     }
@@ -52,12 +56,42 @@ fn energy_table() {
         println!(
             "| {tp}° | {:.3} | {} | {} | {} | {} | {} | {} |",
             (1.0 + (tp as f64).to_radians().cos()) / 2.0,
-            f(albedo(saw, Tangent::Mirror, Evaluation::Explicit, tp, Vec3::Z)),
+            f(albedo(
+                saw,
+                Tangent::Mirror,
+                Evaluation::Explicit,
+                tp,
+                Vec3::Z
+            )),
             f(albedo(saw, Tangent::Mirror, Evaluation::Explicit, tp, far)),
-            f(albedo(saw, Tangent::Mirror, Evaluation::RandomWalk, tp, Vec3::Z)),
-            f(albedo(saw, Tangent::Same, Evaluation::RandomWalk, tp, Vec3::Z)),
-            f(albedo(Microgeometry::VGroove, Tangent::Same, Evaluation::RandomWalk, tp, Vec3::Z)),
-            f(albedo(Microgeometry::UGroove { fill: 0.5 }, Tangent::Same, Evaluation::RandomWalk, tp, Vec3::Z)),
+            f(albedo(
+                saw,
+                Tangent::Mirror,
+                Evaluation::RandomWalk,
+                tp,
+                Vec3::Z
+            )),
+            f(albedo(
+                saw,
+                Tangent::Same,
+                Evaluation::RandomWalk,
+                tp,
+                Vec3::Z
+            )),
+            f(albedo(
+                Microgeometry::VGroove,
+                Tangent::Same,
+                Evaluation::RandomWalk,
+                tp,
+                Vec3::Z
+            )),
+            f(albedo(
+                Microgeometry::UGroove { fill: 0.5 },
+                Tangent::Same,
+                Evaluation::RandomWalk,
+                tp,
+                Vec3::Z
+            )),
         );
     }
 }

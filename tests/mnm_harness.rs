@@ -252,11 +252,7 @@ fn random_walks_pass_the_bsdf_harness() {
     run(false);
 }
 
-/// Open (see the issue note): with glossy nested BSDFs, 3 of 24 explicit cases fail — two
-/// samples of Variant M land in cells whose quadrature pdf is 0, and one explicit single-
-/// scattering cell holds half its expected samples. Diffuse nested BSDFs pass every check.
 #[test]
-#[ignore = "open: 3 explicit cases with glossy nested BSDFs fail; see the issue note"]
 fn explicit_variants_pass_the_bsdf_harness() {
     run(true);
 }
