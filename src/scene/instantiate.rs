@@ -991,7 +991,12 @@ impl<'d> Builder<'d> {
         )?;
         let flags = self.material_flags(nested);
         if flags & lobe::TRANSMISSION != 0 {
-            return Err(Error::scene(&nested_node.loc, "microfacet_normalmap over a transmitting BSDF (e.g. roughdielectric) is not implemented yet"));
+            if evaluation == Evaluation::Explicit {
+                return Err(Error::scene(p.loc(), "microfacet_normalmap over a transmitting BSDF needs evaluation = random_walk (the closed forms are reflection only)"));
+            }
+            if walk != "two_sided" {
+                return Err(Error::scene(p.loc(), "transmission_walk = 'exit_on_refraction' is not implemented yet; use 'two_sided'"));
+            }
         }
         if flags & lobe::SMOOTH == 0 {
             return Err(Error::scene(&nested_node.loc, "microfacet_normalmap needs a nested BSDF with a non-delta lobe (e.g. diffuse, roughconductor, roughplastic): with only delta lobes its evaluation is zero almost everywhere"));

@@ -13,8 +13,9 @@
 //!   follows the walk, eval is its next-event estimate (stochastic, unbiased), the pdf for MIS is
 //!   the approximate mixture of decision 3.
 //!
-//! Directions are in the macro shading frame (z = ωg). Reflection only for now: a nested BSDF
-//! with transmission is rejected when the scene loads.
+//! Directions are in the macro shading frame (z = ωg). Over a transmitting nested BSDF (e.g.
+//! `roughdielectric`) only the random walk exists: the reciprocal two-sided walk of spec §9.3,
+//! which reports the walk's net η and leaves the 1/η² radiance scaling to the nested BSDF.
 
 pub mod explicit;
 pub mod facets;
@@ -146,6 +147,12 @@ impl MicrofacetNormalMap {
     }
 }
 
+/// True when the nested BSDF transmits (the two-sided walk applies).
+#[inline]
+fn transmits(nested: &Bsdf) -> bool {
+    nested.flags() & super::lobe::TRANSMISSION != 0
+}
+
 pub(super) fn eval(
     b: Bsdf,
     m: &MicrofacetNormalMap,
@@ -157,6 +164,12 @@ pub(super) fn eval(
     let nested = b.child(m.nested);
     if m.degenerate {
         return nested.eval(ctx, wi, wo, s);
+    }
+    if transmits(&nested) {
+        if wi.z == 0.0 || wo.z == 0.0 {
+            return Spectrum::ZERO;
+        }
+        return walk::eval_t(m, &nested, ctx, wi, wo, s);
     }
     if wi.z <= 0.0 || wo.z <= 0.0 {
         return Spectrum::ZERO;
@@ -172,6 +185,14 @@ pub(super) fn pdf(b: Bsdf, m: &MicrofacetNormalMap, ctx: &BsdfContext, wi: Vec3,
     let nested = b.child(m.nested);
     if m.degenerate {
         return nested.pdf(ctx, wi, wo);
+    }
+    if transmits(&nested) {
+        if wi.z == 0.0 || wo.z == 0.0 {
+            return 0.0;
+        }
+        // Decision 3 with the cosine lobe split over both hemispheres.
+        let p1 = walk::single_scatter_pdf_t(m, &nested, ctx, wi, wo);
+        return (1.0 - m.mis_c) * p1 + m.mis_c * 0.5 * wo.z.abs() * INV_PI;
     }
     if wi.z <= 0.0 || wo.z <= 0.0 {
         return 0.0;
@@ -199,6 +220,19 @@ pub(super) fn sample(
     let nested = b.child(m.nested);
     if m.degenerate {
         return nested.sample(ctx, wi, s);
+    }
+    if transmits(&nested) {
+        if wi.z == 0.0 {
+            return None;
+        }
+        let (wo, weight, eta, lobe) = walk::sample_t(m, &nested, ctx, wi, s)?;
+        return Some(BsdfSample {
+            wo,
+            pdf: pdf(b, m, ctx, wi, wo),
+            weight,
+            eta,
+            lobe,
+        });
     }
     if wi.z <= 0.0 {
         return None;

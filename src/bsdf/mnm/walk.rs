@@ -109,3 +109,166 @@ pub(super) fn eval(
     }
     sum
 }
+
+// ---------------------------------------------------------------------------------------------
+// Transmission (spec §9.2–9.3): the reciprocal two-sided walk. The walker is on the air side of
+// the microsurface or inside the material; seen from inside, the microsurface is the same facet
+// set with normals −m_k and "up" −ωg, so λ and G1 of a direction ω below are those of −ω. After
+// scattering at facet m into d: d·m > 0 means the air side (escape upward with G1(d), else hit
+// the facet ∝ a_j(−d)), d·m < 0 the material side (escape downward with G1(−d), else hit a
+// facet's underside ∝ a_j(d)). The sawtooth's mirror wall reflects on both sides.
+
+/// Exit factor toward ωo from a vertex on facet normal `n`: G1 on the side ωo leaves on.
+#[inline]
+fn exit_factor(m: &MicrofacetNormalMap, n: Vec3, wo: Vec3) -> f32 {
+    if wo.dot(n) > 0.0 {
+        m.surface.g1(wo)
+    } else {
+        m.surface.g1(-wo)
+    }
+}
+
+/// The facet first hit by a ray arriving from `wi` (which may lie below the macro surface).
+#[inline]
+fn entry(m: &MicrofacetNormalMap, wi: Vec3, u: f32) -> Option<usize> {
+    let w = if wi.z >= 0.0 { wi } else { -wi };
+    m.surface.pick(w, u).map(|(k, _)| k)
+}
+
+/// After leaving a facet of normal `n` in direction `d`: escaped (Some(true)), or the next facet.
+#[inline]
+fn step(m: &MicrofacetNormalMap, n: Vec3, d: Vec3, s: &mut Sampler) -> Result<usize, bool> {
+    let (g1, towards) = if d.dot(n) > 0.0 {
+        (m.surface.g1(d), -d)
+    } else {
+        (m.surface.g1(-d), d)
+    };
+    if s.next_1d() < g1 {
+        return Err(true);
+    }
+    m.surface
+        .pick(towards, s.next_1d())
+        .map(|(k, _)| k)
+        .ok_or(false)
+}
+
+/// Sample by the two-sided walk; returns (ωo, throughput, net η, lobe).
+pub(super) fn sample_t(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    s: &mut Sampler,
+) -> Option<(Vec3, Spectrum, f32, u32)> {
+    let surf = &m.surface;
+    let mut k = entry(m, wi, s.next_1d())?;
+    let mut d = -wi;
+    let mut thr = Spectrum::ONE;
+    let mut eta = 1.0f32;
+    for _ in 0..m.max_order {
+        let n = surf.normal(k);
+        if m.is_mirror(k) {
+            d = mirror(d, n);
+        } else {
+            let fr = &m.frames[k];
+            let bs = nested.sample(ctx, fr.to_local(-d), s)?;
+            thr *= bs.weight;
+            eta *= bs.eta;
+            d = fr.to_world(bs.wo);
+        }
+        match step(m, n, d, s) {
+            Err(true) => {
+                let lobe = if d.z * wi.z < 0.0 {
+                    crate::bsdf::lobe::GLOSSY_TRANSMISSION
+                } else {
+                    crate::bsdf::lobe::GLOSSY_REFLECTION
+                };
+                return Some((d, thr, eta, lobe));
+            }
+            Err(false) => return None,
+            Ok(j) => k = j,
+        }
+    }
+    None
+}
+
+/// Next-event estimate along one two-sided walk (stochastic, unbiased).
+pub(super) fn eval_t(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> Spectrum {
+    let surf = &m.surface;
+    let Some(mut k) = entry(m, wi, s.next_1d()) else {
+        return Spectrum::ZERO;
+    };
+    let mut d = -wi;
+    let mut thr = Spectrum::ONE;
+    let mut sum = Spectrum::ZERO;
+    for order in 1..=m.max_order {
+        let n = surf.normal(k);
+        if m.is_mirror(k) {
+            d = mirror(d, n);
+        } else {
+            let g = exit_factor(m, n, wo);
+            if g > 0.0 {
+                sum += thr * m.f(nested, k, ctx, -d, wo, s) * g;
+            }
+            if m.mirror_wall && order < m.max_order {
+                // Through the (two-sided) mirror wall: leave facet k toward R(ωo) on one side
+                // (air if R(ωo)·n > 0), be blocked there, reflect to ωo — the mirror keeps the
+                // side — and escape on that side.
+                let rwo = m.reflect_wall(wo);
+                let (blocked, escape) = if rwo.dot(n) > 0.0 {
+                    (1.0 - surf.g1(rwo), surf.g1(wo))
+                } else {
+                    (1.0 - surf.g1(-rwo), surf.g1(-wo))
+                };
+                if blocked > 0.0 && escape > 0.0 {
+                    sum += thr * m.f(nested, k, ctx, -d, rwo, s) * (blocked * escape);
+                }
+            }
+            if order == m.max_order {
+                break;
+            }
+            let fr = &m.frames[k];
+            let Some(bs) = nested.sample(ctx, fr.to_local(-d), s) else {
+                break;
+            };
+            thr *= bs.weight;
+            d = fr.to_world(bs.wo);
+        }
+        match step(m, n, d, s) {
+            Err(_) => break,
+            Ok(j) => k = j,
+        }
+    }
+    sum
+}
+
+/// Single-scattering density of successful one-vertex walks, the p1 of the MIS pdf (decision 3)
+/// for transmitting nested BSDFs.
+pub(super) fn single_scatter_pdf_t(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+) -> f32 {
+    let surf = &m.surface;
+    let w = if wi.z >= 0.0 { wi } else { -wi };
+    (0..surf.len())
+        .filter(|&k| !m.is_mirror(k))
+        .map(|k| {
+            let l = surf.lambda(k, w);
+            if l > 0.0 {
+                l * m.p(nested, k, ctx, wi, wo) * exit_factor(m, surf.normal(k), wo)
+            } else {
+                0.0
+            }
+        })
+        .sum()
+}
