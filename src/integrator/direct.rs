@@ -33,17 +33,9 @@ pub fn li(
             result += scene.emitters[e as usize].eval_surface(&si);
         }
     }
-    scratch.arena.clear();
-    let root = scene.materials.build(
-        scene.shape_material[si.shape as usize],
-        &si,
-        &mut scratch.arena,
-    );
-    let bsdf = scratch.arena.bsdf(root);
-    let wi = si.sh.to_local(si.wi);
-    if !super::path::consistent_side(&si, si.wi, wi) {
+    let Some((bsdf, wi)) = scene.bsdf_at(&si, &mut scratch.arena) else {
         return result;
-    }
+    };
     let ne = cfg.emitter_samples as f32;
     let nb = cfg.bsdf_samples as f32;
 

@@ -92,17 +92,9 @@ pub fn li(
         }
 
         // ---- Scattering ----
-        scratch.arena.clear();
-        let root = scene.materials.build(
-            scene.shape_material[si.shape as usize],
-            &si,
-            &mut scratch.arena,
-        );
-        let bsdf = scratch.arena.bsdf(root);
-        let wi = si.sh.to_local(si.wi);
-        if !consistent_side(&si, si.wi, wi) {
+        let Some((bsdf, wi)) = scene.bsdf_at(&si, &mut scratch.arena) else {
             break;
-        }
+        };
         let flags = bsdf.flags();
 
         // Next-event estimation.

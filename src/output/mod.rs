@@ -34,11 +34,7 @@ impl Metadata {
 /// RGB with `meta` as string attributes) or `.png` (8-bit sRGB, clamped; `meta` is not stored).
 /// Any other extension is an [`Error::Usage`] naming it.
 pub fn write_image(path: &Path, img: &Image, meta: &Metadata) -> Result<()> {
-    check_extension(path)?;
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase());
+    let format = check_extension(path)?;
     if img.data.len() != img.width as usize * img.height as usize {
         return Err(Error::file(
             path,
@@ -50,28 +46,29 @@ pub fn write_image(path: &Path, img: &Image, meta: &Metadata) -> Result<()> {
             ),
         ));
     }
-    match ext.as_deref() {
-        Some("exr") => write_atomic(path, |w| exr::write(w, img, meta)),
-        Some("png") => write_atomic(path, |w| png::write(w, img)),
-        other => Err(Error::Usage(format!(
-            "{}: unsupported output format {} (use .exr or .png)",
-            path.display(),
-            match other {
-                Some(e) => format!("'.{e}'"),
-                None => "(no extension)".to_string(),
-            }
-        ))),
+    match format {
+        Format::Exr => write_atomic(path, |w| exr::write(w, img, meta)),
+        Format::Png => write_atomic(path, |w| png::write(w, img)),
     }
 }
 
-/// Checks, before a render starts, that `path` names a format [`write_image`] can write.
-pub fn check_extension(path: &Path) -> Result<()> {
+/// The image formats groove writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Exr,
+    Png,
+}
+
+/// The format `path` names by its extension (case-insensitive), checked before a render starts;
+/// any other extension is an [`Error::Usage`] naming it.
+pub fn check_extension(path: &Path) -> Result<Format> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
     match ext.as_deref() {
-        Some("exr") | Some("png") => Ok(()),
+        Some("exr") => Ok(Format::Exr),
+        Some("png") => Ok(Format::Png),
         other => Err(Error::Usage(format!(
             "{}: unsupported output format {} (use .exr or .png)",
             path.display(),

@@ -247,6 +247,18 @@ impl<'d> Builder<'d> {
         Ok(target)
     }
 
+    /// The tag of an object child, looking through a `<ref>` to its target ("ref" if unknown).
+    fn object_tag<'n>(&self, c: &'n Node) -> &'n str
+    where
+        'd: 'n,
+    {
+        if c.tag == "ref" {
+            self.ref_target_tag(c).unwrap_or("ref")
+        } else {
+            c.tag.as_str()
+        }
+    }
+
     fn ref_target_tag(&self, n: &Node) -> Option<&'d str> {
         if n.tag == "ref" {
             n.attr("id")
@@ -875,11 +887,7 @@ impl<'d> Builder<'d> {
         let mut nested = None;
         let mut normalmap = None;
         for c in p.objects() {
-            let tag = if c.tag == "ref" {
-                self.ref_target_tag(c).unwrap_or("ref")
-            } else {
-                c.tag.as_str()
-            };
+            let tag = self.object_tag(c);
             match tag {
                 "bsdf" => {
                     if nested.is_some() {
@@ -1103,11 +1111,7 @@ impl<'d> Builder<'d> {
         let mut material = None;
         let mut emitter = None;
         for c in p.objects() {
-            let tag = if c.tag == "ref" {
-                self.ref_target_tag(c).unwrap_or("ref")
-            } else {
-                c.tag.as_str()
-            };
+            let tag = self.object_tag(c);
             match tag {
                 "bsdf" => {
                     if material.is_some() {
