@@ -64,6 +64,25 @@ impl Microsurface {
         s
     }
 
+    /// A microsurface from explicit area vectors (experiments and tests, e.g. a deliberately
+    /// broken closure). At most [`MAX_FACETS`] are used; zero vectors are skipped.
+    pub fn from_area_vectors(vs: &[Vec3]) -> Microsurface {
+        let mut s = Microsurface {
+            v: [Vec3::ZERO; MAX_FACETS],
+            m: [Vec3::ZERO; MAX_FACETS],
+            n: 0,
+        };
+        for &v in vs.iter().take(MAX_FACETS) {
+            s.push(v);
+        }
+        s
+    }
+
+    /// |Σ_k A_k m_k − ωg|: zero for a valid microsurface (the closure identity).
+    pub fn closure_error(&self) -> f32 {
+        ((0..self.n).map(|k| self.v[k]).sum::<Vec3>() - Vec3::Z).length()
+    }
+
     fn push(&mut self, v: Vec3) {
         let len = v.length();
         if len > 1e-7 {

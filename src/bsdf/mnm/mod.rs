@@ -97,6 +97,25 @@ impl MicrofacetNormalMap {
         }
     }
 
+    /// A random-walk BSDF on an explicit microsurface whose facets all carry the nested BSDF
+    /// (experiments: other facet sets, broken closures). `wp` only sets the MIS lobe weight.
+    pub fn with_surface(nested: u32, wp: Vec3, surface: Microsurface, max_order: u32) -> Self {
+        let mut m = Self::new(
+            nested,
+            wp,
+            Microgeometry::VGroove,
+            Tangent::Same,
+            Evaluation::RandomWalk,
+            max_order,
+        );
+        m.surface = surface;
+        m.degenerate = false;
+        for k in 0..surface.len() {
+            m.frames[k] = Frame::from_normal_tangent(surface.normal(k), Vec3::X);
+        }
+        m
+    }
+
     #[inline]
     fn is_mirror(&self, k: usize) -> bool {
         self.mirror_wall && k == 1
