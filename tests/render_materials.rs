@@ -114,21 +114,31 @@ fn tile_means(img: &RgbImage, t: usize) -> RgbImage {
 /// reconstruction filter, so neighbouring pixels are correlated and per-pixel variances summed
 /// over a tile would underestimate the tile's variance. Both sides are therefore compared as
 /// 8×8-tile averages whose variance comes from the scatter over independent renders: Mitsuba 16
-/// seeds (tests/refs/cbox_values.t8*.exr), groove 32 seeds here.
+/// seeds (tests/refs/cbox_values.t8*.exr), groove 32 seeds × 16 spp here.
 #[test]
 fn shared_cbox_wavelength_values_matches_mitsuba() {
     const T: usize = 8;
-    let renders: Vec<RgbImage> = (0..32)
+    // Loaded once, rendered 32 times (16 spp each, seeds 400..431).
+    let opts = groove::scene::instantiate::LoadOptions {
+        defines: [("res".to_string(), "64".to_string())].into_iter().collect(),
+    };
+    let loaded = groove::scene::instantiate::load_scene(&shared_cbox_file("cbox.xml"), &opts)
+        .expect("loading cbox.xml");
+    let renders: Vec<RgbImage> = (0..32u64)
         .map(|s| {
-            let r = render_scene(
-                &shared_cbox_file("cbox.xml"),
-                &[("res", "64")],
-                32,
-                400 + s,
-                0,
-                |_| {},
-            );
-            tile_means(&r.mean, T)
+            let ro = groove::render::RenderOptions {
+                threads: 0,
+                spp: Some(16),
+                seed: Some(400 + s),
+                ..Default::default()
+            };
+            let out = groove::render::render(&loaded.scene, &ro).expect("render");
+            let img = out.film.develop();
+            let mut rgb = RgbImage::new(img.width as usize, img.height as usize);
+            for (o, p) in rgb.data.iter_mut().zip(&img.data) {
+                *o = [p[0] as f64, p[1] as f64, p[2] as f64];
+            }
+            tile_means(&rgb, T)
         })
         .collect();
     let (m, v) = mean_and_var_of_mean(&renders);
