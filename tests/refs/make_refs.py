@@ -28,15 +28,17 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.normpath(os.path.join(HERE, "..", ".."))
 SCENES = os.path.join(REPO, "tests", "data", "scenes")
 CBOX = os.path.normpath(os.path.join(REPO, "..", "shared", "scenes", "mitsuba_cbox", "cbox-rgb.xml"))
+CBOX_VALUES = os.path.join(os.path.dirname(CBOX), "cbox.xml")  # wavelength:value spectra, gaussian filter
+CBOX_SPECTRAL = os.path.join(os.path.dirname(CBOX), "cbox-spectral.xml")  # includes, box filter
 
 REF_SEEDS = [0, 1, 2, 3]
 
 # name, scene file, -D defines, spp per seed, seeds
 JOBS = [
-    ("furnace_sphere", os.path.join(SCENES, "furnace_sphere.xml"), {}, 8192, REF_SEEDS),
+    ("furnace_sphere", os.path.join(SCENES, "furnace_sphere.xml"), {}, 4096, REF_SEEDS),
     ("depth_sphere_d1", os.path.join(SCENES, "depth_sphere.xml"), {"max_depth": "1"}, 2048, REF_SEEDS),
-    ("depth_sphere_d2", os.path.join(SCENES, "depth_sphere.xml"), {"max_depth": "2"}, 8192, REF_SEEDS),
-    ("depth_sphere_d3", os.path.join(SCENES, "depth_sphere.xml"), {"max_depth": "3"}, 8192, REF_SEEDS),
+    ("depth_sphere_d2", os.path.join(SCENES, "depth_sphere.xml"), {"max_depth": "2"}, 4096, REF_SEEDS),
+    ("depth_sphere_d3", os.path.join(SCENES, "depth_sphere.xml"), {"max_depth": "3"}, 4096, REF_SEEDS),
     ("mis_quad", os.path.join(SCENES, "mis_quad.xml"), {}, 2048, REF_SEEDS),
     ("mis_quad_nopoint", os.path.join(SCENES, "mis_quad.xml"), {"point": "0"}, 2048, REF_SEEDS),
     ("cbox_v3", os.path.join(SCENES, "cbox_v3.xml"), {}, 1024, REF_SEEDS),
@@ -51,7 +53,26 @@ JOBS = [
     ("light_spot_dir", os.path.join(SCENES, "light_spot_dir.xml"), {}, 4096, REF_SEEDS),
     ("light_envmap", os.path.join(SCENES, "light_envmap.xml"), {}, 4096, REF_SEEDS),
     ("light_envmap_area", os.path.join(SCENES, "light_envmap_area.xml"), {}, 4096, REF_SEEDS),
+    # Materials (BSDF families) under an area light + dim constant environment.
+    ("mat_roughconductor_ggx", os.path.join(SCENES, "mat_roughconductor.xml"),
+     {"distribution": "ggx"}, 4096, REF_SEEDS),
+    ("mat_roughconductor_beckmann", os.path.join(SCENES, "mat_roughconductor.xml"),
+     {"distribution": "beckmann"}, 4096, REF_SEEDS),
+    ("mat_metals", os.path.join(SCENES, "mat_metals.xml"), {}, 4096, REF_SEEDS),
+    ("mat_roughglass", os.path.join(SCENES, "mat_roughglass.xml"), {}, 4096, REF_SEEDS),
+    ("mat_glass", os.path.join(SCENES, "mat_glass.xml"), {}, 4096, REF_SEEDS),
+    ("mat_plastic", os.path.join(SCENES, "mat_plastic.xml"), {}, 4096, REF_SEEDS),
+    ("mat_plastic_nl", os.path.join(SCENES, "mat_plastic.xml"), {"nonlinear": "true"}, 4096, REF_SEEDS),
+    # The shared Cornell boxes, unchanged: wavelength:value spectra (gaussian filter, so also tile
+    # statistics from 16 seeds, see TILE_STATS) and the include-based spectral variant (box filter).
+    ("cbox_values", CBOX_VALUES, {"res": "64"}, 512, list(range(16))),
+    ("cbox_spectral", CBOX_SPECTRAL, {"res": "64"}, 2048, REF_SEEDS),
 ]
+
+# Jobs whose pixels are correlated (non-box filter): also write NAME.tT.exr / NAME.tT.var.exr, the
+# mean over seeds of the T x T tile averages and the variance of that mean estimated from the
+# per-seed tile averages (so covariances between pixels of a tile are included).
+TILE_STATS = {"cbox_values": 8}
 
 
 def main():
@@ -101,6 +122,12 @@ def main():
 
         write(mean, os.path.join(args.out, f"{name}.exr"))
         write(var_mean, os.path.join(args.out, f"{name}.var.exr"))
+        if name in TILE_STATS:
+            t = TILE_STATS[name]
+            hh, ww = stack.shape[1] // t, stack.shape[2] // t
+            tiles = stack[:, :hh * t, :ww * t].reshape(k, hh, t, ww, t, 3).mean(axis=(2, 4))
+            write(tiles.mean(axis=0), os.path.join(args.out, f"{name}.t{t}.exr"))
+            write(tiles.var(axis=0, ddof=1) / k, os.path.join(args.out, f"{name}.t{t}.var.exr"))
 
         # Noise summary over "lit" pixels: mean luminance above 10% of the median non-zero pixel
         # (excludes black background; directly seen emitters, exact in Mitsuba, are included).
