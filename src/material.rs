@@ -3,7 +3,7 @@
 
 use crate::bsdf::mnm::facets::{clamp_perturbed_normal, Microgeometry};
 use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
-use crate::bsdf::{BsdfArena, BsdfNode, Diffuse};
+use crate::bsdf::{BsdfArena, BsdfNode, Diffuse, NormalMap};
 use crate::geometry::SurfaceInteraction;
 use crate::texture::Texture;
 use glam::Vec3;
@@ -54,6 +54,13 @@ pub enum MaterialNode {
         nested: MatId,
         normalmap: TexId,
         settings: MnmSettings,
+    },
+    /// Classic normal mapping (Mitsuba 3's `normalmap`) of `nested` by `normalmap`.
+    NormalMap {
+        nested: MatId,
+        normalmap: TexId,
+        flip_invalid_normals: bool,
+        use_shadowing_function: bool,
     },
 }
 
@@ -135,6 +142,21 @@ impl Materials {
                     settings.evaluation,
                     settings.max_order,
                 )))
+            }
+            MaterialNode::NormalMap {
+                nested,
+                normalmap,
+                flip_invalid_normals,
+                use_shadowing_function,
+            } => {
+                let child = self.build(*nested, si, arena);
+                let rgb = self.textures[*normalmap as usize].eval(si.uv);
+                arena.push(BsdfNode::NormalMap(NormalMap {
+                    nested: child,
+                    normal: 2.0 * rgb - Vec3::ONE,
+                    flip_invalid_normals: *flip_invalid_normals,
+                    use_shadowing_function: *use_shadowing_function,
+                }))
             }
         }
     }

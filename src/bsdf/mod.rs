@@ -44,6 +44,7 @@ pub mod microfacet;
 #[cfg(test)]
 mod mitsuba_refs;
 pub mod mnm;
+pub mod normalmap;
 #[cfg(test)]
 #[rustfmt::skip]
 mod mitsuba_refs_data;
@@ -59,6 +60,7 @@ pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use ior::{named_conductor, named_ior};
 pub use microfacet::{MicrofacetDistribution, MicrofacetType};
+pub use normalmap::NormalMap;
 pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
@@ -154,6 +156,8 @@ pub enum BsdfNode {
     },
     /// Microfacet-based normal mapping around a nested BSDF.
     MicrofacetNormalMap(mnm::MicrofacetNormalMap),
+    /// Classic normal mapping (Mitsuba 3's `normalmap`) around a nested BSDF.
+    NormalMap(NormalMap),
 }
 
 /// Per-thread storage of the BSDF nodes built at one hit.
@@ -226,6 +230,7 @@ impl<'a> Bsdf<'a> {
                 self.child(*front).flags() | self.child(*back).flags()
             }
             BsdfNode::MicrofacetNormalMap(m) => self.child(m.nested).flags(),
+            BsdfNode::NormalMap(m) => self.child(m.nested).flags(),
         }
     }
 
@@ -244,6 +249,7 @@ impl<'a> Bsdf<'a> {
                 twosided::eval(*self, *front, *back, ctx, wi, wo, sampler)
             }
             BsdfNode::MicrofacetNormalMap(m) => mnm::eval(*self, m, ctx, wi, wo, sampler),
+            BsdfNode::NormalMap(m) => normalmap::eval(*self, m, ctx, wi, wo, sampler),
         }
     }
 
@@ -260,6 +266,7 @@ impl<'a> Bsdf<'a> {
             BsdfNode::RoughPlastic(b) => b.pdf(wi, wo),
             BsdfNode::TwoSided { front, back } => twosided::pdf(*self, *front, *back, ctx, wi, wo),
             BsdfNode::MicrofacetNormalMap(m) => mnm::pdf(*self, m, ctx, wi, wo),
+            BsdfNode::NormalMap(m) => normalmap::pdf(*self, m, ctx, wi, wo),
         }
     }
 
@@ -287,6 +294,7 @@ impl<'a> Bsdf<'a> {
                 twosided::sample(*self, *front, *back, ctx, wi, sampler)
             }
             BsdfNode::MicrofacetNormalMap(m) => mnm::sample(*self, m, ctx, wi, sampler),
+            BsdfNode::NormalMap(m) => normalmap::sample(*self, m, ctx, wi, sampler),
         }?;
         // One place rejects degenerate samples for every model.
         if !(s.wo.is_finite() && s.pdf >= 0.0 && crate::spectrum::is_finite(s.weight)) {
