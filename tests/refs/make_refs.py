@@ -51,6 +51,10 @@ JOBS = [
     ("light_spot_dir", os.path.join(SCENES, "light_spot_dir.xml"), {}, 4096, REF_SEEDS),
     ("light_envmap", os.path.join(SCENES, "light_envmap.xml"), {}, 4096, REF_SEEDS),
     ("light_envmap_area", os.path.join(SCENES, "light_envmap_area.xml"), {}, 4096, REF_SEEDS),
+    # Classic normalmap (3.9.1 defaults: flip + shadowing term) and the plain model (both off).
+    ("nmap_plane", os.path.join(SCENES, "nmap_plane.xml"), {}, 2048, REF_SEEDS),
+    ("nmap_plane_plain", os.path.join(SCENES, "nmap_plane.xml"),
+     {"flip": "false", "shadow": "false"}, 2048, REF_SEEDS),
 ]
 
 
