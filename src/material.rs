@@ -3,7 +3,7 @@
 
 use crate::bsdf::mnm::facets::{clamp_perturbed_normal, Microgeometry};
 use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
-use crate::bsdf::{BsdfArena, BsdfNode, Diffuse, NormalMap};
+use crate::bsdf::{Blend, BsdfArena, BsdfNode, Diffuse, NormalMap};
 use crate::geometry::SurfaceInteraction;
 use crate::texture::Texture;
 use glam::Vec3;
@@ -61,6 +61,12 @@ pub enum MaterialNode {
         normalmap: TexId,
         flip_invalid_normals: bool,
         use_shadowing_function: bool,
+    },
+    /// `blendbsdf`: `(1 − w)·bsdf0 + w·bsdf1`, w = `weight` (scalar texture, clamped to [0, 1]).
+    Blend {
+        weight: TexId,
+        bsdf0: MatId,
+        bsdf1: MatId,
     },
 }
 
@@ -156,6 +162,20 @@ impl Materials {
                     normal: 2.0 * rgb - Vec3::ONE,
                     flip_invalid_normals: *flip_invalid_normals,
                     use_shadowing_function: *use_shadowing_function,
+                }))
+            }
+            MaterialNode::Blend {
+                weight,
+                bsdf0,
+                bsdf1,
+            } => {
+                let a = self.build(*bsdf0, si, arena);
+                let b = self.build(*bsdf1, si, arena);
+                let w = self.textures[*weight as usize].eval_1(si.uv);
+                arena.push(BsdfNode::Blend(Blend {
+                    bsdf0: a,
+                    bsdf1: b,
+                    weight: if w.is_nan() { 0.0 } else { w.clamp(0.0, 1.0) },
                 }))
             }
         }

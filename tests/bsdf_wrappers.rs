@@ -9,7 +9,7 @@ mod common;
 use common::chi2::*;
 use glam::Vec3;
 use groove::bsdf::{
-    named_conductor, BsdfArena, BsdfContext, BsdfNode, Diffuse, MicrofacetDistribution,
+    named_conductor, Blend, BsdfArena, BsdfContext, BsdfNode, Diffuse, MicrofacetDistribution,
     MicrofacetType, NormalMap, RoughConductor, TransportMode,
 };
 use groove::sampler::Sampler;
@@ -181,6 +181,40 @@ fn cases() -> Vec<Case> {
                     });
                 }
             }
+        }
+    }
+    for (w, tilt) in [(0.3f32, false), (0.7, true)] {
+        for (ti, pi) in [(15.0f32, 0.0f32), (60.0, 180.0)] {
+            // Diffuse (1 − w) and rough gold (w), the gold optionally normal-mapped.
+            let mut arena = BsdfArena::new();
+            let d = arena.push(nested("diffuse"));
+            let mut g = arena.push(nested("gold"));
+            if tilt {
+                g = arena.push(BsdfNode::NormalMap(NormalMap {
+                    nested: g,
+                    normal: decoded(direction(30.0, 20.0)),
+                    flip_invalid_normals: true,
+                    use_shadowing_function: true,
+                }));
+            }
+            let root = arena.push(BsdfNode::Blend(Blend {
+                bsdf0: d,
+                bsdf1: g,
+                weight: w,
+            }));
+            v.push(Case {
+                name: format!("blendbsdf w={w} normal-mapped gold={tilt} θi={ti} φi={pi}"),
+                bsdf: ArenaBsdf {
+                    arena,
+                    root,
+                    ctx: BsdfContext {
+                        mode: TransportMode::Radiance,
+                    },
+                    deterministic: true,
+                },
+                wi: direction(ti, pi),
+                frame_of: None,
+            });
         }
     }
     v

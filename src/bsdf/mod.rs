@@ -35,6 +35,7 @@
 //! normal maps, blends) refer to their children by index. [`Bsdf`] is a borrowed view of one
 //! node of the arena.
 
+pub mod blend;
 pub mod conductor;
 pub mod dielectric;
 pub mod diffuse;
@@ -55,6 +56,7 @@ pub mod roughplastic;
 pub mod thindielectric;
 pub mod twosided;
 
+pub use blend::Blend;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
@@ -158,6 +160,8 @@ pub enum BsdfNode {
     MicrofacetNormalMap(mnm::MicrofacetNormalMap),
     /// Classic normal mapping (Mitsuba 3's `normalmap`) around a nested BSDF.
     NormalMap(NormalMap),
+    /// `blendbsdf`: `(1 − w)·f₀ + w·f₁`.
+    Blend(Blend),
 }
 
 /// Per-thread storage of the BSDF nodes built at one hit.
@@ -231,6 +235,7 @@ impl<'a> Bsdf<'a> {
             }
             BsdfNode::MicrofacetNormalMap(m) => self.child(m.nested).flags(),
             BsdfNode::NormalMap(m) => self.child(m.nested).flags(),
+            BsdfNode::Blend(m) => self.child(m.bsdf0).flags() | self.child(m.bsdf1).flags(),
         }
     }
 
@@ -250,6 +255,7 @@ impl<'a> Bsdf<'a> {
             }
             BsdfNode::MicrofacetNormalMap(m) => mnm::eval(*self, m, ctx, wi, wo, sampler),
             BsdfNode::NormalMap(m) => normalmap::eval(*self, m, ctx, wi, wo, sampler),
+            BsdfNode::Blend(m) => blend::eval(*self, m, ctx, wi, wo, sampler),
         }
     }
 
@@ -267,6 +273,7 @@ impl<'a> Bsdf<'a> {
             BsdfNode::TwoSided { front, back } => twosided::pdf(*self, *front, *back, ctx, wi, wo),
             BsdfNode::MicrofacetNormalMap(m) => mnm::pdf(*self, m, ctx, wi, wo),
             BsdfNode::NormalMap(m) => normalmap::pdf(*self, m, ctx, wi, wo),
+            BsdfNode::Blend(m) => blend::pdf(*self, m, ctx, wi, wo),
         }
     }
 
@@ -295,6 +302,7 @@ impl<'a> Bsdf<'a> {
             }
             BsdfNode::MicrofacetNormalMap(m) => mnm::sample(*self, m, ctx, wi, sampler),
             BsdfNode::NormalMap(m) => normalmap::sample(*self, m, ctx, wi, sampler),
+            BsdfNode::Blend(m) => blend::sample(*self, m, ctx, wi, sampler),
         }?;
         // One place rejects degenerate samples for every model.
         if !(s.wo.is_finite() && s.pdf >= 0.0 && crate::spectrum::is_finite(s.weight)) {

@@ -49,7 +49,7 @@ pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Loaded> {
 }
 
 /// BSDF types groove knows but has not implemented yet: a clear error, not a silent fallback.
-const PLANNED_BSDFS: &[&str] = &["blendbsdf", "mask", "null", "bumpmap"];
+const PLANNED_BSDFS: &[&str] = &["mask", "null", "bumpmap"];
 
 const SUPPORTED_BSDFS: &[&str] = &[
     "diffuse",
@@ -63,6 +63,7 @@ const SUPPORTED_BSDFS: &[&str] = &[
     "twosided",
     "microfacet_normalmap",
     "normalmap",
+    "blendbsdf",
 ];
 
 struct Builder<'d> {
@@ -804,6 +805,7 @@ impl<'d> Builder<'d> {
                 },
                 _ => self.microfacet_normalmap(&p)?,
             },
+            "blendbsdf" => self.blendbsdf(&p)?,
             "normalmap" => match self.normal_mapping {
                 NormalMapping::Microfacet => self.normalmap_as_microfacet(&p)?,
                 mode => self.classic_normalmap(&p, mode == NormalMapping::Classic)?,
@@ -943,6 +945,61 @@ impl<'d> Builder<'d> {
             }
         };
         Ok((nested, nested_node, normalmap))
+    }
+
+    /// Mitsuba 3's `blendbsdf`: `weight` (float or texture, required) and exactly two nested
+    /// BSDFs, the first weighted 1 − w, the second w.
+    fn blendbsdf(&mut self, p: &Props<'d>) -> Result<MaterialNode> {
+        let mut bsdfs = Vec::new();
+        let mut weight = None;
+        for c in p.objects() {
+            let tag = if c.tag == "ref" {
+                self.ref_target_tag(c).unwrap_or("ref")
+            } else {
+                c.tag.as_str()
+            };
+            match tag {
+                "bsdf" => bsdfs.push(self.bsdf(c)?),
+                "texture" if c.attr("name") == Some("weight") => {
+                    let t = self.deref(c, "texture")?;
+                    weight = Some(self.texture(t)?);
+                }
+                t => return Err(Error::scene(&c.loc, format!("<{t}> is not expected inside a blendbsdf (two nested <bsdf>s and a float or <texture name=\"weight\">)"))),
+            }
+        }
+        let [bsdf0, bsdf1] = bsdfs[..] else {
+            return Err(Error::scene(
+                p.loc(),
+                format!(
+                    "blendbsdf takes exactly two nested BSDFs, found {}",
+                    bsdfs.len()
+                ),
+            ));
+        };
+        let weight = match weight {
+            Some(t) => t,
+            None if !p.has("weight") => {
+                return Err(Error::scene(
+                    p.loc(),
+                    "blendbsdf needs a 'weight' (a float or a <texture name=\"weight\">)",
+                ))
+            }
+            None => {
+                let w = p.float("weight", 0.5)?;
+                check(
+                    p.loc(),
+                    (0.0..=1.0).contains(&w),
+                    "blendbsdf weight must be in [0, 1]",
+                )?;
+                self.materials
+                    .add_texture(Texture::Constant(Spectrum::splat(w)))
+            }
+        };
+        Ok(MaterialNode::Blend {
+            weight,
+            bsdf0,
+            bsdf1,
+        })
     }
 
     /// Mitsuba 3.9.1's `normalmap` (`bsdf::normalmap`): `flip_invalid_normals` and
@@ -1107,6 +1164,9 @@ impl<'d> Builder<'d> {
             }
             MaterialNode::MicrofacetNormalMap { nested, .. }
             | MaterialNode::NormalMap { nested, .. } => self.material_flags(*nested),
+            MaterialNode::Blend { bsdf0, bsdf1, .. } => {
+                self.material_flags(*bsdf0) | self.material_flags(*bsdf1)
+            }
         }
     }
 
