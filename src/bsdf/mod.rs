@@ -25,6 +25,9 @@
 //! - [`RoughPlastic::new`] `(distribution, alpha, sample_visible, diffuse_reflectance,
 //!   specular_reflectance, int_ior, ext_ior, nonlinear)` — isotropic only, like Mitsuba; it
 //!   precomputes (and caches process-wide) its coating table, so build it at load time.
+//! - Wrappers (children by arena index): `TwoSided { front, back }`, [`NormalMap`] (classic
+//!   normal mapping, Mitsuba 3.9.1 semantics), [`Blend`] (`blendbsdf`),
+//!   [`mnm::MicrofacetNormalMap`].
 //!
 //! Verified pointwise against Mitsuba 3.9.1 (`mitsuba_refs.rs`) and statistically
 //! (`tests/bsdf_harness.rs`).
