@@ -300,3 +300,56 @@ fn blendbsdf_matches_mitsuba_pointwise() {
         assert!(err < 1e-4, "wo={wo}: eval {e} vs {re}, pdf {p} vs {rp}");
     }
 }
+
+/// `blendbsdf` in a scene: a float or a texture weight; bad input is an error at the element.
+#[test]
+fn blendbsdf_loads_and_rejects_bad_input() {
+    use groove::scene::instantiate::{load_scene, LoadOptions};
+    let dir = std::env::temp_dir().join(format!("groove-blend-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = |inner: &str| {
+        format!(
+            r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/></film>
+    </sensor>
+    <shape type="sphere">
+        <bsdf type="blendbsdf">
+{inner}
+        </bsdf>
+    </shape>
+</scene>"#
+        )
+    };
+    let two = r#"<bsdf type="diffuse"/><bsdf type="roughconductor"/>"#;
+    let cases = [
+        (format!(r#"<float name="weight" value="0.3"/>{two}"#), None),
+        (
+            format!(r#"<texture type="checkerboard" name="weight"/>{two}"#),
+            None,
+        ),
+        (two.to_string(), Some("needs a 'weight'")),
+        (
+            r#"<float name="weight" value="0.3"/><bsdf type="diffuse"/>"#.to_string(),
+            Some("exactly two nested BSDFs, found 1"),
+        ),
+        (
+            format!(r#"<float name="weight" value="1.5"/>{two}"#),
+            Some("weight must be in [0, 1]"),
+        ),
+    ];
+    for (i, (inner, err)) in cases.iter().enumerate() {
+        let path = dir.join(format!("blend{i}.xml"));
+        std::fs::write(&path, scene(inner)).unwrap();
+        let r = load_scene(&path, &LoadOptions::default());
+        match (r, err) {
+            (Ok(_), None) => {}
+            (Err(e), Some(msg)) => {
+                let e = e.to_string();
+                assert!(e.contains(msg) && e.contains(":6:"), "case {i}: {e}");
+            }
+            (Ok(_), Some(msg)) => panic!("case {i}: accepted, expected '{msg}'"),
+            (Err(e), None) => panic!("case {i}: {e}"),
+        }
+    }
+}
