@@ -11,6 +11,7 @@ fn cbox(c: &mut Criterion) {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell/cbox-rgb.xml");
     let opts = LoadOptions {
         defines: vec![("res".into(), "64".into())],
+        ..Default::default()
     };
     let scene = load_scene(&path, &opts).expect("scene").scene;
     let ro = RenderOptions {

@@ -41,9 +41,23 @@ pub struct RenderArgs {
     /// Random seed (overrides the sampler's `seed`).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Normal-mapping model for every normal map of the scene: `classic` (plain `normalmap`, no
+    /// flip, no shadowing term) or `microfacet` (`microfacet_normalmap` with its defaults).
+    /// Default: as the scene is written.
+    #[arg(long = "normal-mapping", value_name = "classic|microfacet", value_parser = parse_normal_mapping)]
+    pub normal_mapping: Option<crate::scene::instantiate::NormalMapping>,
     /// No progress bar and no warnings (errors and the summary still print).
     #[arg(short = 'q', long = "quiet")]
     pub quiet: bool,
+}
+
+fn parse_normal_mapping(s: &str) -> Result<crate::scene::instantiate::NormalMapping, String> {
+    match s {
+        "classic" | "microfacet" => {
+            Ok(crate::scene::instantiate::NormalMapping::parse(s).unwrap_or_default())
+        }
+        _ => Err(format!("expected 'classic' or 'microfacet', got '{s}'")),
+    }
 }
 
 fn parse_define(s: &str) -> Result<(String, String), String> {

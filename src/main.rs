@@ -65,6 +65,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool) -> Result<()> {
     groove::output::check_extension(&out)?;
     let load = groove::scene::instantiate::LoadOptions {
         defines: args.defines.clone(),
+        normal_mapping: args.normal_mapping.unwrap_or_default(),
     };
     let t0 = std::time::Instant::now();
     let loaded = groove::scene::instantiate::load_scene(scene_path, &load)?;

@@ -3,7 +3,7 @@
 
 use crate::bsdf::mnm::facets::{clamp_perturbed_normal, Microgeometry};
 use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
-use crate::bsdf::{BsdfArena, BsdfNode, Diffuse};
+use crate::bsdf::{Blend, BsdfArena, BsdfNode, Diffuse, NormalMap};
 use crate::geometry::SurfaceInteraction;
 use crate::texture::Texture;
 use glam::Vec3;
@@ -54,6 +54,19 @@ pub enum MaterialNode {
         nested: MatId,
         normalmap: TexId,
         settings: MnmSettings,
+    },
+    /// Classic normal mapping (Mitsuba 3's `normalmap`) of `nested` by `normalmap`.
+    NormalMap {
+        nested: MatId,
+        normalmap: TexId,
+        flip_invalid_normals: bool,
+        use_shadowing_function: bool,
+    },
+    /// `blendbsdf`: `(1 − w)·bsdf0 + w·bsdf1`, w = `weight` (scalar texture, clamped to [0, 1]).
+    Blend {
+        weight: TexId,
+        bsdf0: MatId,
+        bsdf1: MatId,
     },
 }
 
@@ -135,6 +148,35 @@ impl Materials {
                     settings.evaluation,
                     settings.max_order,
                 )))
+            }
+            MaterialNode::NormalMap {
+                nested,
+                normalmap,
+                flip_invalid_normals,
+                use_shadowing_function,
+            } => {
+                let child = self.build(*nested, si, arena);
+                let rgb = self.textures[*normalmap as usize].eval(si.uv);
+                arena.push(BsdfNode::NormalMap(NormalMap {
+                    nested: child,
+                    normal: 2.0 * rgb - Vec3::ONE,
+                    flip_invalid_normals: *flip_invalid_normals,
+                    use_shadowing_function: *use_shadowing_function,
+                }))
+            }
+            MaterialNode::Blend {
+                weight,
+                bsdf0,
+                bsdf1,
+            } => {
+                let a = self.build(*bsdf0, si, arena);
+                let b = self.build(*bsdf1, si, arena);
+                let w = self.textures[*weight as usize].eval_1(si.uv);
+                arena.push(BsdfNode::Blend(Blend {
+                    bsdf0: a,
+                    bsdf1: b,
+                    weight: if w.is_nan() { 0.0 } else { w.clamp(0.0, 1.0) },
+                }))
             }
         }
     }

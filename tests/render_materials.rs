@@ -77,7 +77,12 @@ fn plastic_and_roughplastic_match_mitsuba() {
 
 #[test]
 fn plastic_and_roughplastic_nonlinear_match_mitsuba() {
-    scene_matches("mat_plastic.xml", &[("nonlinear", "true")], 307, "mat_plastic_nl");
+    scene_matches(
+        "mat_plastic.xml",
+        &[("nonlinear", "true")],
+        307,
+        "mat_plastic_nl",
+    );
 }
 
 /// `cbox-spectral.xml` (includes; wavelength:value spectra; box filter), loaded unchanged.
@@ -120,7 +125,10 @@ fn shared_cbox_wavelength_values_matches_mitsuba() {
     const T: usize = 8;
     // Loaded once, rendered 32 times (16 spp each, seeds 400..431).
     let opts = groove::scene::instantiate::LoadOptions {
-        defines: [("res".to_string(), "64".to_string())].into_iter().collect(),
+        defines: [("res".to_string(), "64".to_string())]
+            .into_iter()
+            .collect(),
+        ..Default::default()
     };
     let loaded = groove::scene::instantiate::load_scene(&shared_cbox_file("cbox.xml"), &opts)
         .expect("loading cbox.xml");

@@ -25,6 +25,9 @@
 //! - [`RoughPlastic::new`] `(distribution, alpha, sample_visible, diffuse_reflectance,
 //!   specular_reflectance, int_ior, ext_ior, nonlinear)` — isotropic only, like Mitsuba; it
 //!   precomputes (and caches process-wide) its coating table, so build it at load time.
+//! - Wrappers (children by arena index): `TwoSided { front, back }`, [`NormalMap`] (classic
+//!   normal mapping, Mitsuba 3.9.1 semantics), [`Blend`] (`blendbsdf`),
+//!   [`mnm::MicrofacetNormalMap`].
 //!
 //! Verified pointwise against Mitsuba 3.9.1 (`mitsuba_refs.rs`) and statistically
 //! (`tests/bsdf_harness.rs`).
@@ -35,6 +38,7 @@
 //! normal maps, blends) refer to their children by index. [`Bsdf`] is a borrowed view of one
 //! node of the arena.
 
+pub mod blend;
 pub mod conductor;
 pub mod dielectric;
 pub mod diffuse;
@@ -44,6 +48,7 @@ pub mod microfacet;
 #[cfg(test)]
 mod mitsuba_refs;
 pub mod mnm;
+pub mod normalmap;
 #[cfg(test)]
 #[rustfmt::skip]
 mod mitsuba_refs_data;
@@ -54,11 +59,13 @@ pub mod roughplastic;
 pub mod thindielectric;
 pub mod twosided;
 
+pub use blend::Blend;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use ior::{named_conductor, named_ior};
 pub use microfacet::{MicrofacetDistribution, MicrofacetType};
+pub use normalmap::NormalMap;
 pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
@@ -154,6 +161,10 @@ pub enum BsdfNode {
     },
     /// Microfacet-based normal mapping around a nested BSDF.
     MicrofacetNormalMap(mnm::MicrofacetNormalMap),
+    /// Classic normal mapping (Mitsuba 3's `normalmap`) around a nested BSDF.
+    NormalMap(NormalMap),
+    /// `blendbsdf`: `(1 − w)·f₀ + w·f₁`.
+    Blend(Blend),
 }
 
 /// Per-thread storage of the BSDF nodes built at one hit.
@@ -226,6 +237,8 @@ impl<'a> Bsdf<'a> {
                 self.child(*front).flags() | self.child(*back).flags()
             }
             BsdfNode::MicrofacetNormalMap(m) => self.child(m.nested).flags(),
+            BsdfNode::NormalMap(m) => self.child(m.nested).flags(),
+            BsdfNode::Blend(m) => self.child(m.bsdf0).flags() | self.child(m.bsdf1).flags(),
         }
     }
 
@@ -244,6 +257,8 @@ impl<'a> Bsdf<'a> {
                 twosided::eval(*self, *front, *back, ctx, wi, wo, sampler)
             }
             BsdfNode::MicrofacetNormalMap(m) => mnm::eval(*self, m, ctx, wi, wo, sampler),
+            BsdfNode::NormalMap(m) => normalmap::eval(*self, m, ctx, wi, wo, sampler),
+            BsdfNode::Blend(m) => blend::eval(*self, m, ctx, wi, wo, sampler),
         }
     }
 
@@ -260,6 +275,8 @@ impl<'a> Bsdf<'a> {
             BsdfNode::RoughPlastic(b) => b.pdf(wi, wo),
             BsdfNode::TwoSided { front, back } => twosided::pdf(*self, *front, *back, ctx, wi, wo),
             BsdfNode::MicrofacetNormalMap(m) => mnm::pdf(*self, m, ctx, wi, wo),
+            BsdfNode::NormalMap(m) => normalmap::pdf(*self, m, ctx, wi, wo),
+            BsdfNode::Blend(m) => blend::pdf(*self, m, ctx, wi, wo),
         }
     }
 
@@ -287,6 +304,8 @@ impl<'a> Bsdf<'a> {
                 twosided::sample(*self, *front, *back, ctx, wi, sampler)
             }
             BsdfNode::MicrofacetNormalMap(m) => mnm::sample(*self, m, ctx, wi, sampler),
+            BsdfNode::NormalMap(m) => normalmap::sample(*self, m, ctx, wi, sampler),
+            BsdfNode::Blend(m) => blend::sample(*self, m, ctx, wi, sampler),
         }?;
         // One place rejects degenerate samples for every model.
         if !(s.wo.is_finite() && s.pdf >= 0.0 && crate::spectrum::is_finite(s.weight)) {

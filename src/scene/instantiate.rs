@@ -34,7 +34,7 @@ use glam::{Mat3, Mat4, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
 
-pub use super::xml::parse::LoadOptions;
+pub use super::xml::parse::{LoadOptions, NormalMapping};
 
 /// A loaded scene and the warnings its loading produced (lenient fallbacks, old tags).
 pub struct Loaded {
@@ -45,11 +45,11 @@ pub struct Loaded {
 /// Parse, upgrade and instantiate a scene file.
 pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Loaded> {
     let doc = load_file(path, opts)?;
-    instantiate(&doc, path)
+    instantiate_with(&doc, path, opts.normal_mapping)
 }
 
 /// BSDF types groove knows but has not implemented yet: a clear error, not a silent fallback.
-const PLANNED_BSDFS: &[&str] = &["blendbsdf", "mask", "null", "bumpmap", "normalmap"];
+const PLANNED_BSDFS: &[&str] = &["mask", "null", "bumpmap"];
 
 const SUPPORTED_BSDFS: &[&str] = &[
     "diffuse",
@@ -62,10 +62,14 @@ const SUPPORTED_BSDFS: &[&str] = &[
     "roughplastic",
     "twosided",
     "microfacet_normalmap",
+    "normalmap",
+    "blendbsdf",
 ];
 
 struct Builder<'d> {
     doc: &'d Document,
+    /// `--normal-mapping`: which model the scene's normal maps become.
+    normal_mapping: NormalMapping,
     /// Every node with an `id`, for `<ref>`.
     ids: HashMap<&'d str, &'d Node>,
     bsdf_cache: HashMap<&'d str, MatId>,
@@ -82,8 +86,18 @@ struct Builder<'d> {
 
 /// Instantiate a parsed document. `path` names the scene in the result.
 pub fn instantiate(doc: &Document, path: &Path) -> Result<Loaded> {
+    instantiate_with(doc, path, NormalMapping::AsWritten)
+}
+
+/// [`instantiate`] with every normal map converted to the model `normal_mapping` (decision 6).
+pub fn instantiate_with(
+    doc: &Document,
+    path: &Path,
+    normal_mapping: NormalMapping,
+) -> Result<Loaded> {
     let mut b = Builder {
         doc,
+        normal_mapping,
         ids: HashMap::new(),
         bsdf_cache: HashMap::new(),
         tex_cache: HashMap::new(),
@@ -787,7 +801,27 @@ impl<'d> Builder<'d> {
                     }
                 }
             }
-            "microfacet_normalmap" => self.microfacet_normalmap(&p)?,
+            "microfacet_normalmap" => match self.normal_mapping {
+                // Classic side of `--normal-mapping`: the plain model over the same texture and
+                // nested BSDF (the microfacet parameters are still checked).
+                NormalMapping::Classic => match self.microfacet_normalmap(&p)? {
+                    MaterialNode::MicrofacetNormalMap {
+                        nested, normalmap, ..
+                    } => MaterialNode::NormalMap {
+                        nested,
+                        normalmap,
+                        flip_invalid_normals: false,
+                        use_shadowing_function: false,
+                    },
+                    other => other,
+                },
+                _ => self.microfacet_normalmap(&p)?,
+            },
+            "blendbsdf" => self.blendbsdf(&p)?,
+            "normalmap" => match self.normal_mapping {
+                NormalMapping::Microfacet => self.normalmap_as_microfacet(&p)?,
+                mode => self.classic_normalmap(&p, mode == NormalMapping::Classic)?,
+            },
             t if PLANNED_BSDFS.contains(&t) => {
                 return Err(Error::scene(
                     p.loc(),
@@ -881,9 +915,9 @@ impl<'d> Builder<'d> {
         Ok(MicrofacetDistribution::new(kind, a, visible))
     }
 
-    /// `microfacet_normalmap`: a nested BSDF and a `normalmap` texture, with the parameters of
-    /// the decisions page of `mnm.md`.
-    fn microfacet_normalmap(&mut self, p: &Props<'d>) -> Result<MaterialNode> {
+    /// The nested BSDF (with its node, for error locations) and the `normalmap` texture of a
+    /// `normalmap` or `microfacet_normalmap` (`kind`).
+    fn normalmap_parts(&mut self, p: &Props<'d>, kind: &str) -> Result<(MatId, &'d Node, TexId)> {
         let mut nested = None;
         let mut normalmap = None;
         for c in p.objects() {
@@ -891,7 +925,7 @@ impl<'d> Builder<'d> {
             match tag {
                 "bsdf" => {
                     if nested.is_some() {
-                        return Err(Error::scene(&c.loc, "microfacet_normalmap takes exactly one nested BSDF"));
+                        return Err(Error::scene(&c.loc, format!("{kind} takes exactly one nested BSDF")));
                     }
                     nested = Some((self.bsdf(c)?, c));
                 }
@@ -899,11 +933,11 @@ impl<'d> Builder<'d> {
                     let t = self.deref(c, "texture")?;
                     normalmap = Some(self.texture(t)?);
                 }
-                t => return Err(Error::scene(&c.loc, format!("<{t}> is not expected inside a microfacet_normalmap (a nested <bsdf> and a <texture name=\"normalmap\">)"))),
+                t => return Err(Error::scene(&c.loc, format!("<{t}> is not expected inside a {kind} (a nested <bsdf> and a <texture name=\"normalmap\">)"))),
             }
         }
-        let (nested, nested_node) = nested
-            .ok_or_else(|| Error::scene(p.loc(), "microfacet_normalmap needs a nested <bsdf>"))?;
+        let (nested, nested_node) =
+            nested.ok_or_else(|| Error::scene(p.loc(), format!("{kind} needs a nested <bsdf>")))?;
         let normalmap = match normalmap {
             Some(t) => t,
             None if p.has("normalmap") => {
@@ -912,10 +946,141 @@ impl<'d> Builder<'d> {
             None => {
                 return Err(Error::scene(
                     p.loc(),
-                    "microfacet_normalmap needs a <texture name=\"normalmap\">",
+                    format!("{kind} needs a <texture name=\"normalmap\">"),
                 ))
             }
         };
+        Ok((nested, nested_node, normalmap))
+    }
+
+    /// Mitsuba 3's `blendbsdf`: `weight` (float or texture, required) and exactly two nested
+    /// BSDFs, the first weighted 1 − w, the second w.
+    fn blendbsdf(&mut self, p: &Props<'d>) -> Result<MaterialNode> {
+        let mut bsdfs = Vec::new();
+        let mut weight = None;
+        for c in p.objects() {
+            let tag = if c.tag == "ref" {
+                self.ref_target_tag(c).unwrap_or("ref")
+            } else {
+                c.tag.as_str()
+            };
+            match tag {
+                "bsdf" => bsdfs.push(self.bsdf(c)?),
+                "texture" if c.attr("name") == Some("weight") => {
+                    let t = self.deref(c, "texture")?;
+                    weight = Some(self.texture(t)?);
+                }
+                t => return Err(Error::scene(&c.loc, format!("<{t}> is not expected inside a blendbsdf (two nested <bsdf>s and a float or <texture name=\"weight\">)"))),
+            }
+        }
+        let [bsdf0, bsdf1] = bsdfs[..] else {
+            return Err(Error::scene(
+                p.loc(),
+                format!(
+                    "blendbsdf takes exactly two nested BSDFs, found {}",
+                    bsdfs.len()
+                ),
+            ));
+        };
+        let weight = match weight {
+            Some(t) => t,
+            None if !p.has("weight") => {
+                return Err(Error::scene(
+                    p.loc(),
+                    "blendbsdf needs a 'weight' (a float or a <texture name=\"weight\">)",
+                ))
+            }
+            None => {
+                let w = p.float("weight", 0.5)?;
+                check(
+                    p.loc(),
+                    (0.0..=1.0).contains(&w),
+                    "blendbsdf weight must be in [0, 1]",
+                )?;
+                self.materials
+                    .add_texture(Texture::Constant(Spectrum::splat(w)))
+            }
+        };
+        Ok(MaterialNode::Blend {
+            weight,
+            bsdf0,
+            bsdf1,
+        })
+    }
+
+    /// Mitsuba 3.9.1's `normalmap` (`bsdf::normalmap`): `flip_invalid_normals` and
+    /// `use_shadowing_function` default to true, to false in documents upgraded from 0.6
+    /// (Mitsuba 0.6 had neither). `plain` (the classic side of `--normal-mapping`) forces both
+    /// false.
+    fn classic_normalmap(&mut self, p: &Props<'d>, plain: bool) -> Result<MaterialNode> {
+        let (nested, _, normalmap) = self.normalmap_parts(p, "normalmap")?;
+        let default = !self.doc.upgraded_from_v0;
+        let flip = p.bool("flip_invalid_normals", default)?;
+        let shadow = p.bool("use_shadowing_function", default)?;
+        Ok(MaterialNode::NormalMap {
+            nested,
+            normalmap,
+            flip_invalid_normals: flip && !plain,
+            use_shadowing_function: shadow && !plain,
+        })
+    }
+
+    /// A `normalmap` converted to a `microfacet_normalmap` with the decisions page's defaults
+    /// (`--normal-mapping microfacet`); its own flags are read (and checked) but have no effect.
+    fn normalmap_as_microfacet(&mut self, p: &Props<'d>) -> Result<MaterialNode> {
+        let (nested, nested_node, normalmap) = self.normalmap_parts(p, "normalmap")?;
+        let _ = p.bool("flip_invalid_normals", true)?;
+        let _ = p.bool("use_shadowing_function", true)?;
+        self.check_mnm_nested(
+            nested,
+            nested_node,
+            p.loc(),
+            Evaluation::RandomWalk,
+            "two_sided",
+        )?;
+        Ok(MaterialNode::MicrofacetNormalMap {
+            nested,
+            normalmap,
+            settings: MnmSettings {
+                geometry: Microgeometry::Sawtooth,
+                tangent: Tangent::Mirror,
+                evaluation: Evaluation::RandomWalk,
+                max_order: 256,
+                max_theta: 85f32.to_radians(),
+            },
+        })
+    }
+
+    /// What a `microfacet_normalmap` (written, or converted by `--normal-mapping microfacet`)
+    /// accepts as nested BSDF: a non-delta lobe; over a transmitting BSDF only the two-sided
+    /// random walk.
+    fn check_mnm_nested(
+        &self,
+        nested: MatId,
+        nested_node: &Node,
+        loc: &SourceLoc,
+        evaluation: Evaluation,
+        walk: &str,
+    ) -> Result<()> {
+        let flags = self.material_flags(nested);
+        if flags & lobe::TRANSMISSION != 0 {
+            if evaluation == Evaluation::Explicit {
+                return Err(Error::scene(loc, "microfacet_normalmap over a transmitting BSDF needs evaluation = random_walk (the closed forms are reflection only)"));
+            }
+            if walk != "two_sided" {
+                return Err(Error::scene(loc, "transmission_walk = 'exit_on_refraction' is not implemented yet; use 'two_sided'"));
+            }
+        }
+        if flags & lobe::SMOOTH == 0 {
+            return Err(Error::scene(&nested_node.loc, "microfacet_normalmap needs a nested BSDF with a non-delta lobe (e.g. diffuse, roughconductor, roughplastic): with only delta lobes its evaluation is zero almost everywhere"));
+        }
+        Ok(())
+    }
+
+    /// `microfacet_normalmap`: a nested BSDF and a `normalmap` texture, with the parameters of
+    /// the decisions page of `mnm.md`.
+    fn microfacet_normalmap(&mut self, p: &Props<'d>) -> Result<MaterialNode> {
+        let (nested, nested_node, normalmap) = self.normalmap_parts(p, "microfacet_normalmap")?;
         let geometry = match p.string("microgeometry", "sawtooth")?.as_str() {
             "sawtooth" => Microgeometry::Sawtooth,
             "vgroove" => Microgeometry::VGroove,
@@ -997,18 +1162,7 @@ impl<'d> Builder<'d> {
             matches!(walk.as_str(), "two_sided" | "exit_on_refraction"),
             "transmission_walk must be 'two_sided' or 'exit_on_refraction'",
         )?;
-        let flags = self.material_flags(nested);
-        if flags & lobe::TRANSMISSION != 0 {
-            if evaluation == Evaluation::Explicit {
-                return Err(Error::scene(p.loc(), "microfacet_normalmap over a transmitting BSDF needs evaluation = random_walk (the closed forms are reflection only)"));
-            }
-            if walk != "two_sided" {
-                return Err(Error::scene(p.loc(), "transmission_walk = 'exit_on_refraction' is not implemented yet; use 'two_sided'"));
-            }
-        }
-        if flags & lobe::SMOOTH == 0 {
-            return Err(Error::scene(&nested_node.loc, "microfacet_normalmap needs a nested BSDF with a non-delta lobe (e.g. diffuse, roughconductor, roughplastic): with only delta lobes its evaluation is zero almost everywhere"));
-        }
+        self.check_mnm_nested(nested, nested_node, p.loc(), evaluation, &walk)?;
         Ok(MaterialNode::MicrofacetNormalMap {
             nested,
             normalmap,
@@ -1034,7 +1188,11 @@ impl<'d> Builder<'d> {
             MaterialNode::TwoSided { front, back } => {
                 self.material_flags(*front) | self.material_flags(*back)
             }
-            MaterialNode::MicrofacetNormalMap { nested, .. } => self.material_flags(*nested),
+            MaterialNode::MicrofacetNormalMap { nested, .. }
+            | MaterialNode::NormalMap { nested, .. } => self.material_flags(*nested),
+            MaterialNode::Blend { bsdf0, bsdf1, .. } => {
+                self.material_flags(*bsdf0) | self.material_flags(*bsdf1)
+            }
         }
     }
 

@@ -76,6 +76,7 @@ pub fn render_scene(
             .iter()
             .map(|(k, v)| (k.to_string(), v.to_string()))
             .collect(),
+        ..Default::default()
     };
     let mut loaded = groove::scene::instantiate::load_scene(scene, &opts)
         .unwrap_or_else(|e| panic!("loading {}: {e}", scene.display()));

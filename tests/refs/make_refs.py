@@ -67,6 +67,10 @@ JOBS = [
     # statistics from 16 seeds, see TILE_STATS) and the include-based spectral variant (box filter).
     ("cbox_values", CBOX_VALUES, {"res": "64"}, 512, list(range(16))),
     ("cbox_spectral", CBOX_SPECTRAL, {"res": "64"}, 2048, REF_SEEDS),
+    # Classic normalmap (3.9.1 defaults: flip + shadowing term) and the plain model (both off).
+    ("nmap_plane", os.path.join(SCENES, "nmap_plane.xml"), {}, 2048, REF_SEEDS),
+    ("nmap_plane_plain", os.path.join(SCENES, "nmap_plane.xml"),
+     {"flip": "false", "shadow": "false"}, 2048, REF_SEEDS),
 ]
 
 # Jobs whose pixels are correlated (non-box filter): also write NAME.tT.exr / NAME.tT.var.exr, the

@@ -81,6 +81,32 @@ impl Node {
 #[derive(Clone, Debug, Default)]
 pub struct LoadOptions {
     pub defines: Vec<(String, String)>,
+    /// `--normal-mapping`: keep the normal maps as written or convert them all to one model.
+    pub normal_mapping: NormalMapping,
+}
+
+/// Which normal-mapping model the scene's normal maps use (decision 6 of `mnm.md`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum NormalMapping {
+    /// `normalmap` and `microfacet_normalmap` as the file says.
+    #[default]
+    AsWritten,
+    /// Every `microfacet_normalmap` becomes a plain `normalmap` (both flags false).
+    Classic,
+    /// Every `normalmap` becomes a `microfacet_normalmap` with the decisions page's defaults.
+    Microfacet,
+}
+
+impl NormalMapping {
+    /// `classic`, `microfacet` (or `as_written`).
+    pub fn parse(s: &str) -> Option<NormalMapping> {
+        match s {
+            "classic" => Some(NormalMapping::Classic),
+            "microfacet" => Some(NormalMapping::Microfacet),
+            "as_written" | "as-written" => Some(NormalMapping::AsWritten),
+            _ => None,
+        }
+    }
 }
 
 /// A loaded scene: the `<scene>` root with includes inlined, defaults/paths consumed.

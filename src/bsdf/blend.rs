@@ -1,0 +1,82 @@
+//! `blendbsdf`: a linear blend `(1 − w)·f₀ + w·f₁` of two nested BSDFs (Mitsuba 3's
+//! `blendbsdf`; `w` = `weight` at the hit, clamped to [0, 1]). `sample` picks BSDF 1 with
+//! probability w and BSDF 0 otherwise. A delta sample keeps the nested weight (the choice
+//! probability cancels the blend factor, as in Mitsuba); a smooth sample reports the blend's full
+//! pdf `(1 − w)·p₀ + w·p₁` and weight `eval / pdf`, so that `weight == eval / pdf` and the pdf the
+//! integrator uses for MIS are those of the sampled mixture (Mitsuba returns the chosen
+//! component's pdf; both are unbiased).
+
+use super::{lobe, Bsdf, BsdfContext, BsdfSample};
+use crate::sampler::Sampler;
+use crate::spectrum::Spectrum;
+use glam::Vec3;
+
+/// A blend at one shading point (plain values, built per hit).
+#[derive(Clone, Copy, Debug)]
+pub struct Blend {
+    /// Arena indices of the nested BSDFs (weight 1 − w and w).
+    pub bsdf0: u32,
+    pub bsdf1: u32,
+    /// Blend weight in [0, 1].
+    pub weight: f32,
+}
+
+pub(super) fn eval(
+    b: Bsdf,
+    m: &Blend,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> Spectrum {
+    let w = m.weight;
+    let mut v = Spectrum::ZERO;
+    if w < 1.0 {
+        v += (1.0 - w) * b.child(m.bsdf0).eval(ctx, wi, wo, s);
+    }
+    if w > 0.0 {
+        v += w * b.child(m.bsdf1).eval(ctx, wi, wo, s);
+    }
+    v
+}
+
+pub(super) fn pdf(b: Bsdf, m: &Blend, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
+    let w = m.weight;
+    let mut p = 0.0;
+    if w < 1.0 {
+        p += (1.0 - w) * b.child(m.bsdf0).pdf(ctx, wi, wo);
+    }
+    if w > 0.0 {
+        p += w * b.child(m.bsdf1).pdf(ctx, wi, wo);
+    }
+    p
+}
+
+pub(super) fn sample(
+    b: Bsdf,
+    m: &Blend,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    s: &mut Sampler,
+) -> Option<BsdfSample> {
+    let w = m.weight;
+    let pick1 = if w <= 0.0 {
+        false
+    } else if w >= 1.0 {
+        true
+    } else {
+        s.next_1d() < w
+    };
+    let chosen = if pick1 { m.bsdf1 } else { m.bsdf0 };
+    let mut bs = b.child(chosen).sample(ctx, wi, s)?;
+    if bs.lobe & lobe::DELTA != 0 || w <= 0.0 || w >= 1.0 {
+        return Some(bs);
+    }
+    let p = pdf(b, m, ctx, wi, bs.wo);
+    if !super::is_positive(p) {
+        return None;
+    }
+    bs.weight = eval(b, m, ctx, wi, bs.wo, s) / p;
+    bs.pdf = p;
+    Some(bs)
+}
