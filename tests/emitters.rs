@@ -753,7 +753,10 @@ fn light_selection_gives_the_dim_envmap_and_the_bright_area_light_fair_shares() 
     let (pe, pa) = (scene.light_sampler.pmf(env), scene.light_sampler.pmf(area));
     assert!((pe + pa - 1.0).abs() < 1e-6);
     // Both get a real share: half by power, half uniform, so each gets at least 1/(2N).
-    assert!(pe >= 0.25 - 1e-6 && pa >= 0.25 - 1e-6, "env {pe}, area {pa}");
+    assert!(
+        pe >= 0.25 - 1e-6 && pa >= 0.25 - 1e-6,
+        "env {pe}, area {pa}"
+    );
     let r = scene.bsphere.1;
     let p_env = scene.emitters[env].power(&scene.shapes, r);
     let p_area = scene.emitters[area].power(&scene.shapes, r);

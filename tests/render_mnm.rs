@@ -104,3 +104,33 @@ fn glass_sphere_under_microfacet_normal_mapping_is_finite_and_bounded() {
         );
     }
 }
+
+#[test]
+fn classic_normal_mapping_fails_the_furnace_that_the_walk_passes() {
+    // The same scene file switched with `--normal-mapping classic` (decision 6): the plain model
+    // loses energy — a white Lambertian's albedo under a 45° perturbation is (1 + cos 45°)/2 =
+    // 0.854 where the perturbed normal faces the viewer, and 0 where it faces away.
+    use groove::scene::instantiate::{load_scene, LoadOptions};
+    use groove::scene::xml::parse::NormalMapping;
+    let opts = LoadOptions {
+        normal_mapping: NormalMapping::Classic,
+        ..Default::default()
+    };
+    let loaded = load_scene(&test_scene("mnm_furnace.xml"), &opts).expect("load");
+    let ro = groove::render::RenderOptions {
+        spp: Some(256),
+        seed: Some(5),
+        ..Default::default()
+    };
+    let out = groove::render::render(&loaded.scene, &ro).expect("render");
+    let img = out.film.develop();
+    let var = out.film.develop_variance();
+    let n = img.data.len() as f64;
+    let m = img.data.iter().map(|p| p[0] as f64).sum::<f64>() / n;
+    let se = (var.data.iter().map(|p| p[0] as f64).sum::<f64>()).sqrt() / n;
+    // Measured deficit: the classic image mean is far below 1 (background pixels are 1).
+    assert!(
+        m < 1.0 - 0.05 - 4.0 * se,
+        "classic furnace mean {m} ± {se} should be visibly below 1"
+    );
+}
