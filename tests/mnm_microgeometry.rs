@@ -2,27 +2,15 @@
 //! the U-groove at several fills; the U-groove with s = 1 is the sawtooth; and a deliberately
 //! broken closure (a V-groove with the sawtooth's areas) is detected by every check.
 
+mod common;
+
+use common::{dir, mean_se};
+
 use glam::Vec3;
 use groove::bsdf::mnm::facets::{Microgeometry, Microsurface};
 use groove::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
 use groove::bsdf::{BsdfArena, BsdfContext, BsdfNode, Diffuse};
 use groove::sampler::Sampler;
-
-fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
-    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
-    Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
-}
-
-fn mean_se(n: usize, mut f: impl FnMut() -> f64) -> (f64, f64) {
-    let (mut a, mut a2) = (0.0, 0.0);
-    for _ in 0..n {
-        let x = f();
-        a += x;
-        a2 += x * x;
-    }
-    let m = a / n as f64;
-    (m, ((a2 / n as f64 - m * m).max(0.0) / n as f64).sqrt())
-}
 
 fn arena_with(node: impl FnOnce(u32) -> MicrofacetNormalMap) -> (BsdfArena, u32) {
     let mut arena = BsdfArena::new();

@@ -3,6 +3,10 @@
 //! Lambertian behaviour of the mirror walk over a white Lambertian, furnace albedos, and
 //! random-walk reciprocity. Statistical thresholds are 4 standard errors of the estimate.
 
+mod common;
+
+use common::{dir, mean_se};
+
 use glam::Vec3;
 use groove::bsdf::mnm::facets::{Microgeometry, Microsurface};
 use groove::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
@@ -11,11 +15,6 @@ use groove::math::warp;
 use groove::sampler::Sampler;
 
 const PI: f32 = std::f32::consts::PI;
-
-fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
-    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
-    Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
-}
 
 struct Setup {
     arena: BsdfArena,
@@ -176,19 +175,6 @@ fn explicit_mirror_lambert_closed_form_and_albedo() {
             "θp {tp}: albedo {alb} vs {expected}"
         );
     }
-}
-
-/// Mean and standard error of `n` draws of `f`.
-fn mean_se(n: usize, mut f: impl FnMut() -> f64) -> (f64, f64) {
-    let (mut s, mut s2) = (0.0, 0.0);
-    for _ in 0..n {
-        let x = f();
-        s += x;
-        s2 += x * x;
-    }
-    let m = s / n as f64;
-    let var = (s2 / n as f64 - m * m).max(0.0);
-    (m, (var / n as f64).sqrt())
 }
 
 /// Correction 2: the mirror walk over a white Lambertian is exactly Lambertian, f ≡ 1/π, for

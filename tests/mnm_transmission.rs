@@ -2,6 +2,8 @@
 
 mod common;
 
+use common::{dir, mean_se};
+
 use glam::Vec3;
 use groove::bsdf::mnm::facets::Microgeometry;
 use groove::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
@@ -11,11 +13,6 @@ use groove::bsdf::{
 };
 use groove::math::warp;
 use groove::sampler::Sampler;
-
-fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
-    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
-    Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
-}
 
 fn glass(alpha: f32) -> BsdfNode {
     BsdfNode::RoughDielectric(RoughDielectric::new(
@@ -47,17 +44,6 @@ const CASES: [(Microgeometry, Tangent); 4] = [
     (Microgeometry::VGroove, Tangent::Same),
     (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
 ];
-
-fn mean_se(n: usize, mut f: impl FnMut() -> f64) -> (f64, f64) {
-    let (mut a, mut a2) = (0.0, 0.0);
-    for _ in 0..n {
-        let x = f();
-        a += x;
-        a2 += x * x;
-    }
-    let m = a / n as f64;
-    (m, ((a2 / n as f64 - m * m).max(0.0) / n as f64).sqrt())
-}
 
 /// Smooth dielectric facets (oracle 14): in importance mode every walk that ends has weight 1,
 /// so reflected + transmitted albedo is 1 up to the max_order cap; a sample ends on the other

@@ -94,3 +94,21 @@ pub fn render_scene(
         stats: out.stats,
     }
 }
+
+/// A unit direction from polar angle θ and azimuth φ in degrees (z up).
+pub fn dir(theta_deg: f32, phi_deg: f32) -> glam::Vec3 {
+    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+    glam::Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
+}
+
+/// Mean of `n` draws of `f` and its standard error.
+pub fn mean_se(n: usize, mut f: impl FnMut() -> f64) -> (f64, f64) {
+    let (mut a, mut a2) = (0.0, 0.0);
+    for _ in 0..n {
+        let x = f();
+        a += x;
+        a2 += x * x;
+    }
+    let m = a / n as f64;
+    (m, ((a2 / n as f64 - m * m).max(0.0) / n as f64).sqrt())
+}
