@@ -312,18 +312,7 @@ impl Shape {
                 let p = to_world.transform_point3(l);
                 let (uv, dpdu, dpdv) = disk_uv(to_world, l);
                 let ng = self.disk_normal() * sign;
-                SurfaceInteraction {
-                    p,
-                    t: hit.t,
-                    ng,
-                    sh: Frame::from_normal_tangent(ng, dpdu),
-                    uv,
-                    dpdu,
-                    dpdv,
-                    shape: shape_index,
-                    prim: hit.prim,
-                    wi: -ray.d,
-                }
+                analytic_interaction(p, ng, (uv, dpdu, dpdv), shape_index, ray, hit)
             }
             ShapeKind::Sphere {
                 center,
@@ -335,18 +324,7 @@ impl Shape {
                 let p = *center + n * *radius;
                 let (uv, dpdu, dpdv) = sphere_uv(frame, *radius, n);
                 let ng = n * sign;
-                SurfaceInteraction {
-                    p,
-                    t: hit.t,
-                    ng,
-                    sh: Frame::from_normal_tangent(ng, dpdu),
-                    uv,
-                    dpdu,
-                    dpdv,
-                    shape: shape_index,
-                    prim: hit.prim,
-                    wi: -ray.d,
-                }
+                analytic_interaction(p, ng, (uv, dpdu, dpdv), shape_index, ray, hit)
             }
         }
     }
@@ -602,4 +580,28 @@ fn sphere_uv(frame: &Mat4, radius: f32, n: Vec3) -> (Vec2, Vec3, Vec3) {
 #[inline]
 fn sphere_sees_cone(dist_c: f32, radius: f32) -> bool {
     dist_c > radius * (1.0 + 1e-3)
+}
+
+/// The interaction of an analytic shape (sphere, disk), whose shading normal is its true normal.
+#[inline]
+fn analytic_interaction(
+    p: Vec3,
+    ng: Vec3,
+    (uv, dpdu, dpdv): (Vec2, Vec3, Vec3),
+    shape: u32,
+    ray: &Ray,
+    hit: &Hit,
+) -> SurfaceInteraction {
+    SurfaceInteraction {
+        p,
+        t: hit.t,
+        ng,
+        sh: Frame::from_normal_tangent(ng, dpdu),
+        uv,
+        dpdu,
+        dpdv,
+        shape,
+        prim: hit.prim,
+        wi: -ray.d,
+    }
 }
