@@ -42,21 +42,27 @@ pub struct RenderArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Normal-mapping model for every normal map of the scene: `classic` (plain `normalmap`, no
-    /// flip, no shadowing term) or `microfacet` (`microfacet_normalmap` with its defaults).
+    /// flip, no shadowing term), `microfacet` (`microfacet_normalmap`, its parameters as written
+    /// or defaults), or one microfacet model forced everywhere: `explicit` (sawtooth, mirror
+    /// wall, closed form), `walk-mirror` (the default model), `walk-same`, `vgroove`, `ugroove`.
     /// Default: as the scene is written.
-    #[arg(long = "normal-mapping", value_name = "classic|microfacet", value_parser = parse_normal_mapping)]
+    #[arg(long = "normal-mapping", value_name = "MODE", value_parser = parse_normal_mapping)]
     pub normal_mapping: Option<crate::scene::instantiate::NormalMapping>,
     /// No progress bar and no warnings (errors and the summary still print).
     #[arg(short = 'q', long = "quiet")]
     pub quiet: bool,
 }
 
-fn parse_normal_mapping(s: &str) -> Result<crate::scene::instantiate::NormalMapping, String> {
-    match s {
-        "classic" | "microfacet" => {
-            Ok(crate::scene::instantiate::NormalMapping::parse(s).unwrap_or_default())
-        }
-        _ => Err(format!("expected 'classic' or 'microfacet', got '{s}'")),
+pub(crate) fn parse_normal_mapping(
+    s: &str,
+) -> Result<crate::scene::instantiate::NormalMapping, String> {
+    use crate::scene::instantiate::NormalMapping;
+    match NormalMapping::parse(s) {
+        Some(m) if s != "as_written" && s != "as-written" => Ok(m),
+        _ => Err(format!(
+            "expected one of {}, got '{s}'",
+            NormalMapping::NAMES.join(", ")
+        )),
     }
 }
 

@@ -117,9 +117,13 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
             .par_iter()
             .map_init(Scratch::default, |scratch, &(x0, y0, w, h)| {
                 scratch.counters = RayCounters::default();
+                let _ = crate::bsdf::mnm::stats::take();
                 let mut block = Block::new(desc, x0, y0, w, h);
                 let invalid =
                     render_block(scene, &sampler_desc, &mut block, (x0, y0, w, h), scratch);
+                let walks = crate::bsdf::mnm::stats::take();
+                scratch.counters.walks = walks.walks;
+                scratch.counters.walk_vertices = walks.vertices;
                 if let Some(b) = &bar {
                     b.inc(1);
                 }

@@ -61,9 +61,13 @@ pub struct RayCounters {
     pub camera: u64,
     pub bounce: u64,
     pub shadow: u64,
+    /// Random walks sampled by microfacet normal maps, and their vertices (not rays).
+    pub walks: u64,
+    pub walk_vertices: u64,
 }
 
 impl RayCounters {
+    /// Rays traced (camera + bounce + shadow).
     pub fn total(&self) -> u64 {
         self.camera + self.bounce + self.shadow
     }
@@ -71,6 +75,16 @@ impl RayCounters {
         self.camera += o.camera;
         self.bounce += o.bounce;
         self.shadow += o.shadow;
+        self.walks += o.walks;
+        self.walk_vertices += o.walk_vertices;
+    }
+    /// Mean vertices per sampled microfacet walk (0 without walks).
+    pub fn mean_walk_length(&self) -> f64 {
+        if self.walks == 0 {
+            0.0
+        } else {
+            self.walk_vertices as f64 / self.walks as f64
+        }
     }
 }
 

@@ -34,7 +34,7 @@ use glam::{Mat3, Mat4, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
 
-pub use super::xml::parse::{LoadOptions, NormalMapping};
+pub use super::xml::parse::{LoadOptions, MnmMode, NormalMapping};
 
 /// A loaded scene and the warnings its loading produced (lenient fallbacks, old tags).
 pub struct Loaded {
@@ -819,7 +819,9 @@ impl<'d> Builder<'d> {
             },
             "blendbsdf" => self.blendbsdf(&p)?,
             "normalmap" => match self.normal_mapping {
-                NormalMapping::Microfacet => self.normalmap_as_microfacet(&p)?,
+                NormalMapping::Microfacet | NormalMapping::Forced(_) => {
+                    self.normalmap_as_microfacet(&p)?
+                }
                 mode => self.classic_normalmap(&p, mode == NormalMapping::Classic)?,
             },
             t if PLANNED_BSDFS.contains(&t) => {
@@ -1031,20 +1033,22 @@ impl<'d> Builder<'d> {
         let (nested, nested_node, normalmap) = self.normalmap_parts(p, "normalmap")?;
         let _ = p.bool("flip_invalid_normals", true)?;
         let _ = p.bool("use_shadowing_function", true)?;
-        self.check_mnm_nested(
-            nested,
-            nested_node,
-            p.loc(),
-            Evaluation::RandomWalk,
-            "two_sided",
-        )?;
+        let mode = match self.normal_mapping {
+            NormalMapping::Forced(f) => f,
+            _ => MnmMode {
+                geometry: Microgeometry::Sawtooth,
+                tangent: Tangent::Mirror,
+                evaluation: Evaluation::RandomWalk,
+            },
+        };
+        self.check_mnm_nested(nested, nested_node, p.loc(), mode.evaluation, "two_sided")?;
         Ok(MaterialNode::MicrofacetNormalMap {
             nested,
             normalmap,
             settings: MnmSettings {
-                geometry: Microgeometry::Sawtooth,
-                tangent: Tangent::Mirror,
-                evaluation: Evaluation::RandomWalk,
+                geometry: mode.geometry,
+                tangent: mode.tangent,
+                evaluation: mode.evaluation,
                 max_order: 256,
                 max_theta: 85f32.to_radians(),
             },
@@ -1137,6 +1141,11 @@ impl<'d> Builder<'d> {
                     format!("evaluation '{other}' must be 'random_walk' or 'explicit'"),
                 ))
             }
+        };
+        // `--normal-mapping explicit|walk-mirror|...` replaces the written choices.
+        let (geometry, tangent, evaluation) = match self.normal_mapping {
+            NormalMapping::Forced(f) => (f.geometry, f.tangent, f.evaluation),
+            _ => (geometry, tangent, evaluation),
         };
         if geometry != Microgeometry::Sawtooth && evaluation == Evaluation::Explicit {
             return Err(Error::scene(

@@ -19,6 +19,7 @@
 
 pub mod explicit;
 pub mod facets;
+pub mod stats;
 pub mod walk;
 
 use super::{Bsdf, BsdfContext, BsdfSample};

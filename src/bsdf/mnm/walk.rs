@@ -10,7 +10,7 @@
 //! θp = 60°).
 
 use super::explicit::lobe_of;
-use super::MicrofacetNormalMap;
+use super::{stats, MicrofacetNormalMap};
 use crate::bsdf::{Bsdf, BsdfContext};
 use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
@@ -33,19 +33,28 @@ pub(super) fn sample(
     let (mut k, _) = surf.pick(wi, s.next_1d())?;
     let mut d = -wi;
     let mut thr = Spectrum::ONE;
-    for _ in 0..m.max_order {
+    for order in 1..=m.max_order {
         if m.is_mirror(k) {
             d = mirror(d, surf.normal(k));
         } else {
-            let (w, weight) = m.sample_facet(nested, k, ctx, -d, s)?;
+            let Some((w, weight)) = m.sample_facet(nested, k, ctx, -d, s) else {
+                stats::record(order);
+                return None;
+            };
             thr *= weight;
             d = w;
         }
         if s.next_1d() < surf.g1(d) {
+            stats::record(order);
             return Some((d, thr, lobe_of(nested)));
         }
-        k = surf.pick(-d, s.next_1d())?.0;
+        let Some((j, _)) = surf.pick(-d, s.next_1d()) else {
+            stats::record(order);
+            return None;
+        };
+        k = j;
     }
+    stats::record(m.max_order);
     None
 }
 
@@ -165,18 +174,25 @@ pub(super) fn sample_t(
     let mut d = -wi;
     let mut thr = Spectrum::ONE;
     let mut eta = 1.0f32;
-    for _ in 0..m.max_order {
+    for order in 1..=m.max_order {
         let n = surf.normal(k);
         if m.is_mirror(k) {
             d = mirror(d, n);
         } else {
             let fr = &m.frames[k];
-            let bs = nested.sample(ctx, fr.to_local(-d), s)?;
+            let Some(bs) = nested.sample(ctx, fr.to_local(-d), s) else {
+                stats::record(order);
+                return None;
+            };
             thr *= bs.weight;
             eta *= bs.eta;
             d = fr.to_world(bs.wo);
         }
-        match step(m, n, d, s) {
+        let next = step(m, n, d, s);
+        if next.is_err() {
+            stats::record(order);
+        }
+        match next {
             Err(true) => {
                 let lobe = if d.z * wi.z < 0.0 {
                     crate::bsdf::lobe::GLOSSY_TRANSMISSION
@@ -189,6 +205,7 @@ pub(super) fn sample_t(
             Ok(j) => k = j,
         }
     }
+    stats::record(m.max_order);
     None
 }
 

@@ -5,6 +5,8 @@
 //! `$param` substitution, `<default>`, `<include>` and `<path>` processing in document order (as
 //! Mitsuba 3's parser does) → duplicate-id check → unused `-D` check.
 
+use crate::bsdf::mnm::facets::Microgeometry;
+use crate::bsdf::mnm::{Evaluation, Tangent};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -86,7 +88,7 @@ pub struct LoadOptions {
 }
 
 /// Which normal-mapping model the scene's normal maps use (decision 6 of `mnm.md`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum NormalMapping {
     /// `normalmap` and `microfacet_normalmap` as the file says.
     #[default]
@@ -95,15 +97,58 @@ pub enum NormalMapping {
     Classic,
     /// Every `normalmap` becomes a `microfacet_normalmap` with the decisions page's defaults.
     Microfacet,
+    /// Every normal map (`normalmap` or `microfacet_normalmap`) becomes a `microfacet_normalmap`
+    /// with this microgeometry, tangent and evaluation (other parameters as written, or
+    /// defaults): the modes `groove bench` compares.
+    Forced(MnmMode),
+}
+
+/// The microfacet normal-mapping choices a [`NormalMapping::Forced`] imposes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MnmMode {
+    pub geometry: Microgeometry,
+    pub tangent: Tangent,
+    pub evaluation: Evaluation,
 }
 
 impl NormalMapping {
-    /// `classic`, `microfacet` (or `as_written`).
+    /// Every value `--normal-mapping` accepts, in the order `groove bench` renders them.
+    pub const NAMES: [&'static str; 7] = [
+        "classic",
+        "explicit",
+        "walk-mirror",
+        "walk-same",
+        "vgroove",
+        "ugroove",
+        "microfacet",
+    ];
+
+    /// `classic`, `microfacet`, `as_written`, or a forced mode: `explicit` (sawtooth, mirror
+    /// wall, closed form), `walk-mirror` (sawtooth, mirror wall, random walk: the default model),
+    /// `walk-same` (sawtooth, same-material wall, random walk), `vgroove`, `ugroove` (fill 0.5;
+    /// random walk).
     pub fn parse(s: &str) -> Option<NormalMapping> {
+        let forced = |geometry, tangent, evaluation| {
+            Some(NormalMapping::Forced(MnmMode {
+                geometry,
+                tangent,
+                evaluation,
+            }))
+        };
+        use Evaluation::*;
         match s {
             "classic" => Some(NormalMapping::Classic),
             "microfacet" => Some(NormalMapping::Microfacet),
             "as_written" | "as-written" => Some(NormalMapping::AsWritten),
+            "explicit" => forced(Microgeometry::Sawtooth, Tangent::Mirror, Explicit),
+            "walk-mirror" => forced(Microgeometry::Sawtooth, Tangent::Mirror, RandomWalk),
+            "walk-same" => forced(Microgeometry::Sawtooth, Tangent::Same, RandomWalk),
+            "vgroove" => forced(Microgeometry::VGroove, Tangent::Same, RandomWalk),
+            "ugroove" => forced(
+                Microgeometry::UGroove { fill: 0.5 },
+                Tangent::Same,
+                RandomWalk,
+            ),
             _ => None,
         }
     }
