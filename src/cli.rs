@@ -18,6 +18,67 @@ pub struct Cli {
 pub enum Command {
     /// Render one or more scenes to EXR or PNG.
     Render(RenderArgs),
+    /// Time classic against microfacet normal mapping (every mode, equal spp and equal time),
+    /// against Embree's intersection ceiling and, when importable, Mitsuba 3.
+    Bench(BenchArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// Scene files (default: the benchmark set, scenes/bench/*.xml).
+    pub scenes: Vec<PathBuf>,
+    /// Samples per pixel of the timed renders.
+    #[arg(long, default_value_t = 16)]
+    pub spp: u32,
+    /// Worker threads (0 = all cores).
+    #[arg(short = 't', long = "threads", default_value_t = 0)]
+    pub threads: usize,
+    /// Timed renders per scene and mode (min and median are reported).
+    #[arg(long, default_value_t = 3)]
+    pub repeat: u32,
+    /// Modes to compare, comma-separated (default: all; `classic` is the ratios' reference).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "classic,explicit,walk-mirror,walk-same,vgroove,ugroove"
+    )]
+    pub modes: Vec<String>,
+    /// Only the Embree ceiling: trace a classic render's rays again without shading.
+    #[arg(long)]
+    pub rays: bool,
+    /// Skip the Embree ceiling.
+    #[arg(long)]
+    pub no_ceiling: bool,
+    /// Reference spp of the equal-time comparison (default 16 × --spp; 0 = no comparison).
+    #[arg(long)]
+    pub ref_spp: Option<u32>,
+    /// Cache for the references (default: the system temp directory's groove-bench-refs).
+    #[arg(long)]
+    pub ref_dir: Option<PathBuf>,
+    /// Also write each mode's reference as PNG and an image grid with differences from classic.
+    #[arg(long, value_name = "DIR")]
+    pub images: Option<PathBuf>,
+    /// JSON output (one record per scene × mode × repeat, plus summaries).
+    #[arg(long, value_name = "FILE", default_value = "groove-bench.json")]
+    pub json: PathBuf,
+    /// Markdown table (also printed on stdout).
+    #[arg(long, value_name = "FILE", default_value = "groove-bench.md")]
+    pub md: PathBuf,
+    /// PNG bar chart of the render times.
+    #[arg(long, value_name = "FILE", default_value = "groove-bench.png")]
+    pub plot: PathBuf,
+    /// Mitsuba 3 peer column: `auto` (when `import mitsuba` works) or `off`.
+    #[arg(long, default_value = "auto", value_parser = ["auto", "off"])]
+    pub peer: String,
+    /// Python interpreter for the peer (default: $GROOVE_MITSUBA_PYTHON, else python3).
+    #[arg(long, value_name = "PYTHON")]
+    pub mitsuba_python: Option<String>,
+    /// Scene parameter: sets `$key`, repeatable.
+    #[arg(short = 'D', value_name = "KEY=VALUE", value_parser = parse_define)]
+    pub defines: Vec<(String, String)>,
+    /// No progress lines.
+    #[arg(short = 'q', long = "quiet")]
+    pub quiet: bool,
 }
 
 #[derive(Args, Debug, Clone)]

@@ -13,6 +13,7 @@
 //!   (seed, pixel, sample index), so a render is bit-identical for any thread count.
 
 pub mod accel;
+pub mod bench;
 pub mod bsdf;
 pub mod camera;
 pub mod cli;

@@ -4,7 +4,7 @@
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use groove::cli::{Cli, Command, RenderArgs};
+use groove::cli::{BenchArgs, Cli, Command, RenderArgs};
 use groove::output::{write_image, Metadata};
 use groove::render::{render, RenderOptions};
 use std::io::IsTerminal;
@@ -15,7 +15,94 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Render(args) => run_render(&args),
+        Command::Bench(args) => match run_bench(&args) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                ExitCode::FAILURE
+            }
+        },
     }
+}
+
+fn run_bench(args: &BenchArgs) -> Result<()> {
+    use groove::bench;
+    for m in &args.modes {
+        if !bench::MODES.contains(&m.as_str()) {
+            anyhow::bail!(
+                "unknown mode '{m}' in --modes (expected {})",
+                bench::MODES.join(", ")
+            );
+        }
+    }
+    // Check every output before spending minutes on renders.
+    for (p, ext) in [(&args.json, "json"), (&args.md, "md"), (&args.plot, "png")] {
+        if !p.extension().is_some_and(|e| e.eq_ignore_ascii_case(ext)) {
+            anyhow::bail!("{}: expected a .{ext} file", p.display());
+        }
+        if let Some(d) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+            if !d.is_dir() {
+                anyhow::bail!("{}: output directory does not exist", d.display());
+            }
+        }
+    }
+    let scenes = if args.scenes.is_empty() {
+        bench::default_scenes()?
+    } else {
+        args.scenes.clone()
+    };
+    let peer_python = (args.peer == "auto").then(|| {
+        args.mitsuba_python
+            .clone()
+            .or_else(|| std::env::var("GROOVE_MITSUBA_PYTHON").ok())
+            .unwrap_or_else(|| "python3".into())
+    });
+    let opts = bench::BenchOptions {
+        scenes,
+        spp: args.spp.max(1),
+        threads: args.threads,
+        repeat: args.repeat.max(1),
+        modes: args.modes.clone(),
+        defines: args.defines.clone(),
+        ref_spp: args.ref_spp.unwrap_or(16 * args.spp.max(1)),
+        ref_dir: Some(
+            args.ref_dir
+                .clone()
+                .unwrap_or_else(|| std::env::temp_dir().join("groove-bench-refs")),
+        ),
+        images: args.images.clone(),
+        ceiling: !args.no_ceiling,
+        rays_only: args.rays,
+        peer_python,
+        verbose: !args.quiet,
+    };
+    let t0 = std::time::Instant::now();
+    let report = bench::run(&opts)?;
+    let command: Vec<String> = std::env::args()
+        .enumerate()
+        .map(|(i, a)| if i == 0 { "groove".into() } else { a })
+        .collect();
+    let md = bench::report::markdown(&report, &command.join(" "));
+    bench::report::write_json(&args.json, &report)?;
+    bench::report::write_text(&args.md, &md)?;
+    if !args.rays {
+        bench::chart::write_bar_chart(&args.plot, &report)?;
+    }
+    print!("{md}");
+    if !args.quiet {
+        eprintln!(
+            "bench: {:.1} s in all -> {}, {}{}",
+            t0.elapsed().as_secs_f64(),
+            args.json.display(),
+            args.md.display(),
+            if args.rays {
+                String::new()
+            } else {
+                format!(", {}", args.plot.display())
+            }
+        );
+    }
+    Ok(())
 }
 
 fn run_render(args: &RenderArgs) -> ExitCode {

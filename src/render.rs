@@ -121,6 +121,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
                 let mut block = Block::new(desc, x0, y0, w, h);
                 let invalid =
                     render_block(scene, &sampler_desc, &mut block, (x0, y0, w, h), scratch);
+                crate::bench::raylog::flush();
                 let walks = crate::bsdf::mnm::stats::take();
                 scratch.counters.walks = walks.walks;
                 scratch.counters.walk_vertices = walks.vertices;

@@ -5,7 +5,7 @@
 //! the temporary file is removed and an existing target stays untouched.
 
 mod exr;
-mod png;
+pub(crate) mod png;
 
 use std::fs::{self, File};
 use std::io::{BufWriter, Write};
@@ -50,6 +50,16 @@ pub fn write_image(path: &Path, img: &Image, meta: &Metadata) -> Result<()> {
         Format::Exr => write_atomic(path, |w| exr::write(w, img, meta)),
         Format::Png => write_atomic(path, |w| png::write(w, img)),
     }
+}
+
+/// Writes 8-bit RGB pixels (row-major, top row first) as a PNG, atomically.
+pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+    use image::{codecs::png::PngEncoder, ExtendedColorType, ImageEncoder};
+    write_atomic(path, |w| {
+        PngEncoder::new(w)
+            .write_image(rgb, width, height, ExtendedColorType::Rgb8)
+            .map_err(|e| format!("cannot encode PNG: {e}"))
+    })
 }
 
 /// The image formats groove writes.
@@ -97,7 +107,9 @@ fn temp_path(path: &Path) -> PathBuf {
 
 /// Runs `encode` into a temporary file beside `path`, syncs it and renames it over `path`.
 /// The encoder's errors are plain messages; they are reported against `path`.
-fn write_atomic(
+/// Write a file through a temporary sibling and a rename, so a failure never leaves a partial
+/// file or touches an existing good one.
+pub fn write_atomic(
     path: &Path,
     encode: impl FnOnce(&mut BufWriter<File>) -> std::result::Result<(), String>,
 ) -> Result<()> {

@@ -42,6 +42,7 @@ impl Scene {
     /// Nearest surface hit along `ray`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceInteraction> {
+        crate::bench::raylog::record(ray, false);
         let hit = self.accel.intersect(ray)?;
         Some(self.shapes[hit.geom as usize].interaction(hit.geom, ray, &hit))
     }
@@ -69,6 +70,7 @@ impl Scene {
     /// True when something blocks `ray` within (tmin, tmax).
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
+        crate::bench::raylog::record(ray, true);
         self.accel.occluded(ray)
     }
 

@@ -1,0 +1,432 @@
+//! `groove bench`: classic against microfacet normal mapping, timed honestly.
+//!
+//! For every scene the benchmark renders each normal-mapping mode (`classic`, `explicit`,
+//! `walk-mirror`, `walk-same`, `vgroove`, `ugroove`; see [`NormalMapping::parse`]) at equal spp,
+//! `repeat` times, interleaving modes so slow drifts of a shared machine hit all of them alike.
+//! It records time, samples/s, rays/s and mean walk length, then:
+//! - the Embree ceiling ([`ceiling`]): the rays of a classic render, recorded and traced again
+//!   with no shading, so each mode's rays/s reads as a fraction of the intersection limit;
+//! - an equal-time comparison ([`equal_time`]): each mode renders with the spp that fits the
+//!   classic render's time, and its RMSE against a high-spp reference of the same mode is
+//!   reported (references are cached on disk);
+//! - optionally Mitsuba 3's time for the modes it can render ([`peer`]).
+//!
+//! Results go to JSON (one record per scene × mode × repeat), Markdown and a PNG chart
+//! ([`report`], [`chart`]).
+
+pub mod ceiling;
+pub mod chart;
+pub mod equal_time;
+pub mod peer;
+pub mod raylog;
+pub mod report;
+
+use crate::error::Result;
+use crate::film::Image;
+use crate::render::{render, RenderOptions, RenderStats};
+use crate::scene::instantiate::{load_scene, LoadOptions, NormalMapping};
+use crate::scene::Scene;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// The modes a benchmark compares, in report order (`classic` first: ratios refer to it).
+pub const MODES: [&str; 6] = [
+    "classic",
+    "explicit",
+    "walk-mirror",
+    "walk-same",
+    "vgroove",
+    "ugroove",
+];
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    pub scenes: Vec<PathBuf>,
+    pub spp: u32,
+    /// Worker threads (0 = all cores).
+    pub threads: usize,
+    pub repeat: u32,
+    pub modes: Vec<String>,
+    pub defines: Vec<(String, String)>,
+    /// Reference spp for the equal-time comparison (0 = no comparison).
+    pub ref_spp: u32,
+    /// Where references are cached (`None` = not cached).
+    pub ref_dir: Option<PathBuf>,
+    /// Write per-mode reference PNGs, difference images and a grid here.
+    pub images: Option<PathBuf>,
+    /// Measure the Embree ceiling.
+    pub ceiling: bool,
+    /// Only the ceiling, no mode renders (`--rays`).
+    pub rays_only: bool,
+    /// Python interpreter for the Mitsuba 3 peer column (`None` = skip it).
+    pub peer_python: Option<String>,
+    /// Progress lines on stderr.
+    pub verbose: bool,
+}
+
+/// One timed render.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunRecord {
+    pub scene: String,
+    pub mode: String,
+    pub repeat: u32,
+    pub spp: u32,
+    pub threads: usize,
+    pub width: u32,
+    pub height: u32,
+    pub seconds: f64,
+    pub samples: u64,
+    pub samples_per_second: f64,
+    pub rays: u64,
+    pub camera_rays: u64,
+    pub bounce_rays: u64,
+    pub shadow_rays: u64,
+    pub rays_per_second: f64,
+    /// Vertices per sampled microfacet walk (`null` when the mode samples no walk).
+    pub mean_walk_length: Option<f64>,
+    pub invalid_samples: u64,
+}
+
+/// A mode on a scene, summarised over its repeats.
+#[derive(Clone, Debug, Serialize)]
+pub struct ModeSummary {
+    pub scene: String,
+    pub mode: String,
+    /// `ok`, or `skipped` with `reason`.
+    pub status: String,
+    pub reason: Option<String>,
+    pub min_seconds: f64,
+    pub median_seconds: f64,
+    pub samples_per_second: f64,
+    pub rays_per_second: f64,
+    pub mean_walk_length: Option<f64>,
+    /// Median time over the classic mode's median time.
+    pub ratio_to_classic: Option<f64>,
+    /// Rays/s over the scene's Embree ceiling.
+    pub fraction_of_ceiling: Option<f64>,
+    pub equal_time: Option<equal_time::EqualTime>,
+}
+
+/// Everything a benchmark measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub groove_version: String,
+    pub spp: u32,
+    pub repeat: u32,
+    pub threads: usize,
+    pub cpu: String,
+    pub records: Vec<RunRecord>,
+    pub summaries: Vec<ModeSummary>,
+    pub ceilings: Vec<ceiling::Ceiling>,
+    pub peers: Vec<peer::PeerResult>,
+    /// Why the peer column is missing, when it is.
+    pub peer_note: Option<String>,
+}
+
+/// The default benchmark set: `scenes/bench/*.xml` under the working directory, else under the
+/// source tree groove was built from.
+pub fn default_scenes() -> Result<Vec<PathBuf>> {
+    let local = PathBuf::from("scenes/bench");
+    let dir = if local.is_dir() {
+        local
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/bench")
+    };
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .map_err(|e| crate::error::Error::io(&dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "xml"))
+        .collect();
+    v.sort();
+    if v.is_empty() {
+        return Err(crate::error::Error::file(
+            &dir,
+            "no benchmark scenes (*.xml) here",
+        ));
+    }
+    Ok(v)
+}
+
+/// A scene's display name: its file stem.
+pub fn scene_name(p: &Path) -> String {
+    p.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| p.display().to_string())
+}
+
+fn load_mode(path: &Path, mode: &str, defines: &[(String, String)]) -> Result<Scene> {
+    let normal_mapping = NormalMapping::parse(mode).ok_or_else(|| {
+        crate::error::Error::Usage(format!(
+            "unknown normal-mapping mode '{mode}' (expected one of {})",
+            MODES.join(", ")
+        ))
+    })?;
+    let opts = LoadOptions {
+        defines: defines.to_vec(),
+        normal_mapping,
+    };
+    Ok(load_scene(path, &opts)?.scene)
+}
+
+fn render_at(scene: &Scene, spp: u32, seed: u64, threads: usize) -> Result<(Image, RenderStats)> {
+    let out = render(
+        scene,
+        &RenderOptions {
+            threads,
+            spp: Some(spp),
+            seed: Some(seed),
+            progress: false,
+            ..Default::default()
+        },
+    )?;
+    Ok((out.film.develop(), out.stats))
+}
+
+fn record(scene: &str, mode: &str, repeat: u32, st: &RenderStats, w: u32, h: u32) -> RunRecord {
+    RunRecord {
+        scene: scene.into(),
+        mode: mode.into(),
+        repeat,
+        spp: st.spp,
+        threads: st.threads,
+        width: w,
+        height: h,
+        seconds: st.seconds,
+        samples: st.samples,
+        samples_per_second: st.samples_per_second(),
+        rays: st.rays.total(),
+        camera_rays: st.rays.camera,
+        bounce_rays: st.rays.bounce,
+        shadow_rays: st.rays.shadow,
+        rays_per_second: st.rays_per_second(),
+        mean_walk_length: (st.rays.walks > 0).then(|| st.rays.mean_walk_length()),
+        invalid_samples: st.invalid_samples,
+    }
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n == 0 {
+        f64::NAN
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Run the benchmark.
+pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
+    let say = |m: String| {
+        if opts.verbose {
+            eprintln!("bench: {m}");
+        }
+    };
+    let threads = crate::render::thread_pool(opts.threads)?.current_num_threads();
+    let mut report = BenchReport {
+        groove_version: env!("CARGO_PKG_VERSION").into(),
+        spp: opts.spp,
+        repeat: opts.repeat,
+        threads,
+        cpu: cpu_model(),
+        records: Vec::new(),
+        summaries: Vec::new(),
+        ceilings: Vec::new(),
+        peers: Vec::new(),
+        peer_note: None,
+    };
+    for path in &opts.scenes {
+        let name = scene_name(path);
+        // Ceiling first: it also proves the scene loads.
+        let ceil = if opts.ceiling || opts.rays_only {
+            say(format!("{name}: Embree ceiling"));
+            let scene = load_mode(path, "classic", &opts.defines)?;
+            let c = ceiling::measure(&scene, &name, opts.spp, threads, opts.repeat.max(1))?;
+            say(format!(
+                "{name}: {} rays traced again at {:.2} Mrays/s",
+                c.rays,
+                c.rays_per_second / 1e6
+            ));
+            report.ceilings.push(c.clone());
+            Some(c)
+        } else {
+            None
+        };
+        if opts.rays_only {
+            continue;
+        }
+        // Load every mode; a mode that cannot apply (e.g. explicit over glass) is skipped.
+        let mut scenes: Vec<(String, std::result::Result<Scene, String>)> = Vec::new();
+        for mode in &opts.modes {
+            let s = load_mode(path, mode, &opts.defines).map_err(|e| e.to_string());
+            if let Err(e) = &s {
+                say(format!("{name}: {mode} skipped: {e}"));
+            }
+            scenes.push((mode.clone(), s));
+        }
+        // Warm-up (untimed, 1 spp), then `repeat` rounds over the modes.
+        for (_, s) in &scenes {
+            if let Ok(s) = s {
+                render_at(s, 1, 0, threads)?;
+            }
+        }
+        let mut runs: Vec<Vec<RenderStats>> = vec![Vec::new(); scenes.len()];
+        for r in 0..opts.repeat.max(1) {
+            for (i, (mode, s)) in scenes.iter().enumerate() {
+                let Ok(s) = s else { continue };
+                let (_, st) = render_at(s, opts.spp, r as u64, threads)?;
+                say(format!("{name}: {mode} #{r}: {:.3} s", st.seconds));
+                report.records.push(record(
+                    &name,
+                    mode,
+                    r,
+                    &st,
+                    s.film.crop_size.0,
+                    s.film.crop_size.1,
+                ));
+                runs[i].push(st);
+            }
+        }
+        let medians: Vec<Option<f64>> = runs
+            .iter()
+            .map(|v| {
+                (!v.is_empty())
+                    .then(|| median(&mut v.iter().map(|s| s.seconds).collect::<Vec<_>>()))
+            })
+            .collect();
+        let classic = scenes
+            .iter()
+            .position(|(m, _)| m == "classic")
+            .and_then(|i| medians[i]);
+        // Equal-time comparison.
+        let eq = if opts.ref_spp > 0 {
+            let budget = classic.or_else(|| medians.iter().flatten().next().copied());
+            let mut v = Vec::new();
+            for (i, (mode, s)) in scenes.iter().enumerate() {
+                let (Ok(s), Some(budget), Some(t)) = (s, budget, medians[i]) else {
+                    v.push(None);
+                    continue;
+                };
+                let spp = ((opts.spp as f64 * budget / t).round() as u32).max(1);
+                say(format!(
+                    "{name}: {mode} equal time: {spp} spp vs {} spp reference",
+                    opts.ref_spp
+                ));
+                v.push(Some(equal_time::measure(
+                    s,
+                    path,
+                    &name,
+                    mode,
+                    spp,
+                    opts.ref_spp,
+                    threads,
+                    opts.ref_dir.as_deref(),
+                    &opts.defines,
+                )?));
+            }
+            v
+        } else {
+            vec![None; scenes.len()]
+        };
+        if let Some(dir) = &opts.images {
+            let refs: Vec<(String, &Image)> = scenes
+                .iter()
+                .zip(&eq)
+                .filter_map(|((m, _), e)| e.as_ref().map(|e| (m.clone(), &e.1)))
+                .collect();
+            if !refs.is_empty() {
+                chart::write_image_grid(dir, &name, &refs)?;
+            }
+        }
+        for (i, (mode, s)) in scenes.iter().enumerate() {
+            let summary = match s {
+                Err(e) => ModeSummary {
+                    scene: name.clone(),
+                    mode: mode.clone(),
+                    status: "skipped".into(),
+                    reason: Some(e.clone()),
+                    min_seconds: f64::NAN,
+                    median_seconds: f64::NAN,
+                    samples_per_second: f64::NAN,
+                    rays_per_second: f64::NAN,
+                    mean_walk_length: None,
+                    ratio_to_classic: None,
+                    fraction_of_ceiling: None,
+                    equal_time: None,
+                },
+                Ok(_) => {
+                    let v = &runs[i];
+                    let med = medians[i].unwrap_or(f64::NAN);
+                    let min = v.iter().map(|s| s.seconds).fold(f64::INFINITY, f64::min);
+                    let samples = v[0].samples as f64;
+                    let rays =
+                        v.iter().map(|s| s.rays.total() as f64).sum::<f64>() / v.len() as f64;
+                    let mut walks = crate::integrator::RayCounters::default();
+                    for s in v {
+                        walks.add(&s.rays);
+                    }
+                    let rps = rays / med;
+                    ModeSummary {
+                        scene: name.clone(),
+                        mode: mode.clone(),
+                        status: "ok".into(),
+                        reason: None,
+                        min_seconds: min,
+                        median_seconds: med,
+                        samples_per_second: samples / med,
+                        rays_per_second: rps,
+                        mean_walk_length: (walks.walks > 0).then(|| walks.mean_walk_length()),
+                        ratio_to_classic: classic.map(|c| med / c),
+                        fraction_of_ceiling: ceil.as_ref().map(|c| rps / c.rays_per_second),
+                        equal_time: eq[i].as_ref().map(|e| e.0.clone()),
+                    }
+                }
+            };
+            report.summaries.push(summary);
+        }
+    }
+    match &opts.peer_python {
+        None => report.peer_note = Some("peer column not requested (--peer off)".into()),
+        Some(py) => match peer::available(py) {
+            Err(why) => {
+                say(format!("Mitsuba peer skipped: {why}"));
+                report.peer_note = Some(format!("Mitsuba 3 peer skipped: {why}"));
+            }
+            Ok(()) if opts.rays_only => {}
+            Ok(()) => {
+                for path in &opts.scenes {
+                    for r in peer::run_all(py, path, opts.spp, threads, opts.repeat, &opts.defines)
+                    {
+                        say(format!(
+                            "{}: Mitsuba {} {}",
+                            r.scene,
+                            r.variant,
+                            match (&r.median_seconds, &r.reason) {
+                                (Some(t), _) => format!("{t:.3} s"),
+                                (None, Some(e)) => format!("skipped: {e}"),
+                                _ => "skipped".into(),
+                            }
+                        ));
+                        report.peers.push(r);
+                    }
+                }
+            }
+        },
+    }
+    Ok(report)
+}
+
+/// The CPU model from /proc/cpuinfo (empty when unknown).
+fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .unwrap_or_default()
+}

@@ -1,0 +1,158 @@
+//! The benchmark's outputs: JSON (everything, machine-readable) and a Markdown summary.
+
+use super::{BenchReport, ModeSummary};
+use crate::error::{Error, Result};
+use crate::output::write_atomic;
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::Path;
+
+/// Write the whole report as pretty JSON.
+pub fn write_json(path: &Path, r: &BenchReport) -> Result<()> {
+    let text = serde_json::to_string_pretty(r)
+        .map_err(|e| Error::file(path, format!("cannot encode JSON: {e}")))?;
+    write_text(path, &text)
+}
+
+/// Write `text` to `path` atomically.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    write_atomic(path, |w| {
+        w.write_all(text.as_bytes()).map_err(|e| e.to_string())
+    })
+}
+
+fn f(x: f64, digits: usize) -> String {
+    if x.is_finite() {
+        format!("{x:.digits$}")
+    } else {
+        "–".into()
+    }
+}
+
+fn opt(x: Option<f64>, digits: usize) -> String {
+    x.map_or("–".into(), |v| f(v, digits))
+}
+
+/// The Markdown summary: one table per scene, the Embree ceiling, the Mitsuba peer, and the
+/// performance targets of the benchmark issue with their measured values.
+pub fn markdown(r: &BenchReport, command: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# groove bench\n");
+    let _ = writeln!(
+        s,
+        "groove {}, {} threads, CPU: {}, {} spp, {} repeats (min and median of the repeats).\n",
+        r.groove_version,
+        r.threads,
+        if r.cpu.is_empty() { "unknown" } else { &r.cpu },
+        r.spp,
+        r.repeat
+    );
+    if !command.is_empty() {
+        let _ = writeln!(s, "Command: `{command}`\n");
+    }
+    let mut scenes: Vec<&str> = r.summaries.iter().map(|m| m.scene.as_str()).collect();
+    for c in &r.ceilings {
+        scenes.push(&c.scene);
+    }
+    scenes.dedup();
+    let mut seen = std::collections::HashSet::new();
+    for scene in scenes.into_iter().filter(|x| seen.insert(*x)) {
+        let _ = writeln!(s, "## `{scene}`\n");
+        let modes: Vec<&ModeSummary> = r.summaries.iter().filter(|m| m.scene == scene).collect();
+        if let Some(rec) = r.records.iter().find(|x| x.scene == scene) {
+            let _ = writeln!(s, "{}×{} pixels, {} spp.\n", rec.width, rec.height, rec.spp);
+        }
+        if !modes.is_empty() {
+            let _ = writeln!(s, "| mode | min s | median s | × classic | Msamples/s | Mrays/s | of Embree ceiling | mean walk length | equal-time spp | RMSE | rel. RMSE | efficiency × classic |");
+            let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+            let classic_eff = modes
+                .iter()
+                .find(|m| m.mode == "classic")
+                .and_then(|m| m.equal_time.as_ref().map(|e| e.efficiency));
+            for m in &modes {
+                if m.status != "ok" {
+                    let _ = writeln!(
+                        s,
+                        "| {} | skipped: {} |||||||||||",
+                        m.mode,
+                        m.reason.as_deref().unwrap_or("").replace('|', "/")
+                    );
+                    continue;
+                }
+                let e = m.equal_time.as_ref();
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                    m.mode,
+                    f(m.min_seconds, 3),
+                    f(m.median_seconds, 3),
+                    opt(m.ratio_to_classic, 3),
+                    f(m.samples_per_second / 1e6, 3),
+                    f(m.rays_per_second / 1e6, 2),
+                    m.fraction_of_ceiling
+                        .map_or("–".into(), |x| format!("{:.0} %", 100.0 * x)),
+                    opt(m.mean_walk_length, 2),
+                    e.map_or("–".into(), |e| e.spp.to_string()),
+                    opt(e.map(|e| e.rmse), 4),
+                    e.map_or("–".into(), |e| format!("{:.2} %", 100.0 * e.rel_rmse)),
+                    opt(e.and_then(|e| classic_eff.map(|c| e.efficiency / c)), 2),
+                );
+            }
+            if let Some(e) = modes.iter().find_map(|m| m.equal_time.as_ref()) {
+                let _ = writeln!(
+                    s,
+                    "\nEqual time: each mode renders with the spp that fits the classic median time; RMSE against a {}-spp reference of the same mode; efficiency = 1/(MSE·time).",
+                    e.ref_spp
+                );
+            }
+        }
+        if let Some(c) = r.ceilings.iter().find(|c| c.scene == scene) {
+            let _ = writeln!(
+                s,
+                "\nEmbree ceiling: {} rays of a classic render ({:.0} % shadow rays, {} distinct) traced again without shading in {:.3} s: **{:.2} Mrays/s**.",
+                c.rays,
+                100.0 * c.shadow_fraction,
+                c.recorded,
+                c.seconds,
+                c.rays_per_second / 1e6
+            );
+        }
+        let peers: Vec<_> = r.peers.iter().filter(|p| p.scene == scene).collect();
+        if !peers.is_empty() {
+            let classic = modes
+                .iter()
+                .find(|m| m.mode == "classic" && m.status == "ok")
+                .map(|m| m.median_seconds);
+            let _ = writeln!(s, "\n| Mitsuba 3 variant | min s | median s | first render s | groove classic / Mitsuba |");
+            let _ = writeln!(s, "|---|---|---|---|---|");
+            for p in peers {
+                match p.median_seconds {
+                    Some(med) => {
+                        let _ = writeln!(
+                            s,
+                            "| {} | {} | {} | {} | {} |",
+                            p.variant,
+                            opt(p.min_seconds, 3),
+                            f(med, 3),
+                            opt(p.warmup_seconds, 3),
+                            opt(classic.map(|c| c / med), 2)
+                        );
+                    }
+                    None => {
+                        let _ = writeln!(
+                            s,
+                            "| {} | skipped: {} ||||",
+                            p.variant,
+                            p.reason.as_deref().unwrap_or("").replace('|', "/")
+                        );
+                    }
+                }
+            }
+        }
+        let _ = writeln!(s);
+    }
+    if let Some(n) = &r.peer_note {
+        let _ = writeln!(s, "{n}\n");
+    }
+    s
+}
