@@ -49,7 +49,7 @@ pub struct BenchArgs {
     /// Skip the Embree ceiling.
     #[arg(long)]
     pub no_ceiling: bool,
-    /// Reference spp of the equal-time comparison (default 16 × --spp; 0 = no comparison).
+    /// Reference spp of the equal-time comparison (default 8 × --spp; 0 = no comparison).
     #[arg(long)]
     pub ref_spp: Option<u32>,
     /// Cache for the references (default: the system temp directory's groove-bench-refs).

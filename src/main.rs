@@ -64,7 +64,7 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
         repeat: args.repeat.max(1),
         modes: args.modes.clone(),
         defines: args.defines.clone(),
-        ref_spp: args.ref_spp.unwrap_or(16 * args.spp.max(1)),
+        ref_spp: args.ref_spp.unwrap_or(8 * args.spp.max(1)),
         ref_dir: Some(
             args.ref_dir
                 .clone()

@@ -103,6 +103,11 @@ pub struct ModeSummary {
     pub mean_walk_length: Option<f64>,
     /// Median time over the classic mode's median time.
     pub ratio_to_classic: Option<f64>,
+    /// Rays traced per camera sample (paths that survive longer trace more).
+    pub rays_per_sample: f64,
+    /// Time per traced ray over classic's: the cost of shading a vertex, whatever the path
+    /// lengths.
+    pub ray_cost_to_classic: Option<f64>,
     /// Rays/s over the scene's Embree ceiling.
     pub fraction_of_ceiling: Option<f64>,
     pub equal_time: Option<equal_time::EqualTime>,
@@ -300,6 +305,15 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
             .iter()
             .position(|(m, _)| m == "classic")
             .and_then(|i| medians[i]);
+        let classic_rays = scenes
+            .iter()
+            .position(|(m, _)| m == "classic")
+            .filter(|&i| !runs[i].is_empty())
+            .and_then(|i| {
+                let r = &runs[i];
+                let rays = r.iter().map(|s| s.rays.total() as f64).sum::<f64>() / r.len() as f64;
+                medians[i].map(|m| (m, rays))
+            });
         // Equal-time comparison.
         let eq = if opts.ref_spp > 0 {
             let budget = classic.or_else(|| medians.iter().flatten().next().copied());
@@ -353,6 +367,8 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
                     rays_per_second: f64::NAN,
                     mean_walk_length: None,
                     ratio_to_classic: None,
+                    rays_per_sample: f64::NAN,
+                    ray_cost_to_classic: None,
                     fraction_of_ceiling: None,
                     equal_time: None,
                 },
@@ -379,6 +395,8 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
                         rays_per_second: rps,
                         mean_walk_length: (walks.walks > 0).then(|| walks.mean_walk_length()),
                         ratio_to_classic: classic.map(|c| med / c),
+                        rays_per_sample: rays / samples,
+                        ray_cost_to_classic: classic_rays.map(|(c, cr)| (med / rays) / (c / cr)),
                         fraction_of_ceiling: ceil.as_ref().map(|c| rps / c.rays_per_second),
                         equal_time: eq[i].as_ref().map(|e| e.0.clone()),
                     }

@@ -63,8 +63,8 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
             let _ = writeln!(s, "{}×{} pixels, {} spp.\n", rec.width, rec.height, rec.spp);
         }
         if !modes.is_empty() {
-            let _ = writeln!(s, "| mode | min s | median s | × classic | Msamples/s | Mrays/s | of Embree ceiling | mean walk length | equal-time spp | RMSE | rel. RMSE | efficiency × classic |");
-            let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+            let _ = writeln!(s, "| mode | min s | median s | × classic | Msamples/s | Mrays/s | of Embree ceiling | rays/sample | time/ray × classic | mean walk length | equal-time spp | RMSE | rel. RMSE | efficiency × classic |");
+            let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
             let classic_eff = modes
                 .iter()
                 .find(|m| m.mode == "classic")
@@ -73,7 +73,7 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
                 if m.status != "ok" {
                     let _ = writeln!(
                         s,
-                        "| {} | skipped: {} |||||||||||",
+                        "| {} | skipped: {} |||||||||||||",
                         m.mode,
                         m.reason.as_deref().unwrap_or("").replace('|', "/")
                     );
@@ -82,7 +82,7 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
                 let e = m.equal_time.as_ref();
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                     m.mode,
                     f(m.min_seconds, 3),
                     f(m.median_seconds, 3),
@@ -91,6 +91,8 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
                     f(m.rays_per_second / 1e6, 2),
                     m.fraction_of_ceiling
                         .map_or("–".into(), |x| format!("{:.0} %", 100.0 * x)),
+                    f(m.rays_per_sample, 2),
+                    opt(m.ray_cost_to_classic, 2),
                     opt(m.mean_walk_length, 2),
                     e.map_or("–".into(), |e| e.spp.to_string()),
                     opt(e.map(|e| e.rmse), 4),
@@ -151,8 +153,73 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         }
         let _ = writeln!(s);
     }
+    targets(&mut s, r);
     if let Some(n) = &r.peer_note {
         let _ = writeln!(s, "{n}\n");
     }
     s
+}
+
+/// The benchmark issue's performance targets, each with its measured value: the walk and
+/// explicit ratios and the ray-rate fraction on the metal/plastic scene(s) (names containing
+/// "metal"), the Mitsuba ratios on every scene Mitsuba rendered.
+fn targets(s: &mut String, r: &BenchReport) {
+    let mut rows: Vec<(String, String, f64, bool)> = Vec::new();
+    let find = |scene: &str, mode: &str| {
+        r.summaries
+            .iter()
+            .find(|m| m.scene == scene && m.mode == mode && m.status == "ok")
+    };
+    let mut scenes: Vec<&str> = r.summaries.iter().map(|m| m.scene.as_str()).collect();
+    scenes.dedup();
+    for scene in scenes {
+        if scene.contains("metal") {
+            for (mode, limit) in [("walk-mirror", 1.10), ("explicit", 1.05)] {
+                if let Some(q) = find(scene, mode).and_then(|m| m.ratio_to_classic) {
+                    rows.push((
+                        format!("{mode} time ≤ {limit:.2}× classic"),
+                        scene.into(),
+                        q,
+                        q <= limit,
+                    ));
+                }
+            }
+            if let Some(x) = find(scene, "classic").and_then(|m| m.fraction_of_ceiling) {
+                rows.push((
+                    "classic rays/s ≥ 0.50 × Embree ceiling".into(),
+                    scene.into(),
+                    x,
+                    x >= 0.5,
+                ));
+            }
+        }
+        if let Some(c) = find(scene, "classic") {
+            for (variant, limit) in [("scalar_rgb", 0.6), ("llvm_ad_rgb", 1.0)] {
+                if let Some(t) = r
+                    .peers
+                    .iter()
+                    .find(|p| p.scene == scene && p.variant == variant)
+                    .and_then(|p| p.median_seconds)
+                {
+                    let q = c.median_seconds / t;
+                    rows.push((
+                        format!("groove classic time ≤ {limit:.1}× Mitsuba {variant}"),
+                        scene.into(),
+                        q,
+                        q <= limit,
+                    ));
+                }
+            }
+        }
+    }
+    if rows.is_empty() {
+        return;
+    }
+    let _ = writeln!(s, "## Performance targets\n");
+    let _ = writeln!(s, "| target | scene | measured | met |");
+    let _ = writeln!(s, "|---|---|---|---|");
+    for (t, scene, v, ok) in rows {
+        let _ = writeln!(s, "| {t} | {scene} | {v:.2} | {} |", if ok { "yes" } else { "no" });
+    }
+    let _ = writeln!(s);
 }
