@@ -2,7 +2,7 @@
 //! its textures and writes plain-valued [`BsdfNode`]s into the per-thread arena.
 
 use crate::bsdf::mnm::facets::{clamp_perturbed_normal, Microgeometry};
-use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
+use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent, TransmissionWalk};
 use crate::bsdf::{Blend, BsdfArena, BsdfNode, Diffuse, NormalMap};
 use crate::geometry::SurfaceInteraction;
 use crate::texture::Texture;
@@ -31,6 +31,8 @@ pub struct MnmSettings {
     pub max_order: u32,
     /// Largest tilt of the perturbed normal, radians.
     pub max_theta: f32,
+    /// Over a transmitting nested BSDF: two-sided (§9.3) or early-exit (§9.4) walk.
+    pub transmission_walk: TransmissionWalk,
 }
 
 #[derive(Clone, Debug)]
@@ -140,14 +142,17 @@ impl Materials {
                 let child = self.build(*nested, si, arena);
                 let rgb = self.textures[*normalmap as usize].eval(si.uv);
                 let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, settings.max_theta);
-                arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
-                    child,
-                    wp,
-                    settings.geometry,
-                    settings.tangent,
-                    settings.evaluation,
-                    settings.max_order,
-                )))
+                arena.push(BsdfNode::MicrofacetNormalMap(
+                    MicrofacetNormalMap::new(
+                        child,
+                        wp,
+                        settings.geometry,
+                        settings.tangent,
+                        settings.evaluation,
+                        settings.max_order,
+                    )
+                    .with_transmission_walk(settings.transmission_walk),
+                ))
             }
             MaterialNode::NormalMap {
                 nested,

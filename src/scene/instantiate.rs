@@ -8,7 +8,7 @@ use crate::accel::Accel;
 use crate::bsdf::conductor::Conductor;
 use crate::bsdf::dielectric::{DEFAULT_EXT_IOR, DEFAULT_INT_IOR};
 use crate::bsdf::mnm::facets::Microgeometry;
-use crate::bsdf::mnm::{Evaluation, Tangent};
+use crate::bsdf::mnm::{Evaluation, Tangent, TransmissionWalk};
 use crate::bsdf::plastic::DEFAULT_PLASTIC_INT_IOR;
 use crate::bsdf::{
     lobe, named_conductor, named_ior, BsdfArena, BsdfNode, Dielectric, MicrofacetDistribution,
@@ -1041,7 +1041,7 @@ impl<'d> Builder<'d> {
                 evaluation: Evaluation::RandomWalk,
             },
         };
-        self.check_mnm_nested(nested, nested_node, p.loc(), mode.evaluation, "two_sided")?;
+        self.check_mnm_nested(nested, nested_node, p.loc(), mode.evaluation)?;
         Ok(MaterialNode::MicrofacetNormalMap {
             nested,
             normalmap,
@@ -1051,29 +1051,23 @@ impl<'d> Builder<'d> {
                 evaluation: mode.evaluation,
                 max_order: 256,
                 max_theta: 85f32.to_radians(),
+                transmission_walk: TransmissionWalk::TwoSided,
             },
         })
     }
 
     /// What a `microfacet_normalmap` (written, or converted by `--normal-mapping microfacet`)
-    /// accepts as nested BSDF: a non-delta lobe; over a transmitting BSDF only the two-sided
-    /// random walk.
+    /// accepts as nested BSDF: a non-delta lobe; over a transmitting BSDF only the random walk.
     fn check_mnm_nested(
         &self,
         nested: MatId,
         nested_node: &Node,
         loc: &SourceLoc,
         evaluation: Evaluation,
-        walk: &str,
     ) -> Result<()> {
         let flags = self.material_flags(nested);
-        if flags & lobe::TRANSMISSION != 0 {
-            if evaluation == Evaluation::Explicit {
-                return Err(Error::scene(loc, "microfacet_normalmap over a transmitting BSDF needs evaluation = random_walk (the closed forms are reflection only)"));
-            }
-            if walk != "two_sided" {
-                return Err(Error::scene(loc, "transmission_walk = 'exit_on_refraction' is not implemented yet; use 'two_sided'"));
-            }
+        if flags & lobe::TRANSMISSION != 0 && evaluation == Evaluation::Explicit {
+            return Err(Error::scene(loc, "microfacet_normalmap over a transmitting BSDF needs evaluation = random_walk (the closed forms are reflection only)"));
         }
         if flags & lobe::SMOOTH == 0 {
             return Err(Error::scene(&nested_node.loc, "microfacet_normalmap needs a nested BSDF with a non-delta lobe (e.g. diffuse, roughconductor, roughplastic): with only delta lobes its evaluation is zero almost everywhere"));
@@ -1166,12 +1160,17 @@ impl<'d> Builder<'d> {
             "max_theta must be in (0, 90) degrees",
         )?;
         let walk = p.string("transmission_walk", "two_sided")?;
-        check(
-            p.loc(),
-            matches!(walk.as_str(), "two_sided" | "exit_on_refraction"),
-            "transmission_walk must be 'two_sided' or 'exit_on_refraction'",
-        )?;
-        self.check_mnm_nested(nested, nested_node, p.loc(), evaluation, &walk)?;
+        let transmission_walk = match walk.as_str() {
+            "two_sided" => TransmissionWalk::TwoSided,
+            "exit_on_refraction" => TransmissionWalk::ExitOnRefraction,
+            _ => {
+                return Err(Error::scene(
+                    p.loc(),
+                    "transmission_walk must be 'two_sided' or 'exit_on_refraction'",
+                ))
+            }
+        };
+        self.check_mnm_nested(nested, nested_node, p.loc(), evaluation)?;
         Ok(MaterialNode::MicrofacetNormalMap {
             nested,
             normalmap,
@@ -1181,6 +1180,7 @@ impl<'d> Builder<'d> {
                 evaluation,
                 max_order: max_order as u32,
                 max_theta: max_theta.to_radians(),
+                transmission_walk,
             },
         })
     }

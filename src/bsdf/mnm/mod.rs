@@ -14,8 +14,10 @@
 //!   the approximate mixture of decision 3.
 //!
 //! Directions are in the macro shading frame (z = ωg). Over a transmitting nested BSDF (e.g.
-//! `roughdielectric`) only the random walk exists: the reciprocal two-sided walk of spec §9.3,
-//! which reports the walk's net η and leaves the 1/η² radiance scaling to the nested BSDF.
+//! `roughdielectric`) only the random walk exists: by default the reciprocal two-sided walk of
+//! spec §9.3, or, for comparison, the student project's walk that ends at the first refraction
+//! (§9.4, [`TransmissionWalk::ExitOnRefraction`]). Both report the walk's net η and leave the
+//! 1/η² radiance scaling to the nested BSDF.
 
 pub mod explicit;
 pub mod facets;
@@ -45,6 +47,23 @@ pub enum Tangent {
     Same,
 }
 
+/// How the walk treats a refraction by the nested BSDF (spec §9.3, §9.4; decisions page
+/// `transmission_walk`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransmissionWalk {
+    /// The walker continues on the material side (masked by G1(−d), hitting facet undersides):
+    /// reciprocal (§9.3).
+    TwoSided,
+    /// The student project's simplification (§9.4): the walk ends at the first refraction and
+    /// returns the refracted direction without exit masking. Not reciprocal. A refraction that
+    /// points back to the walk's starting side of the macro surface (failure mode (a), possible
+    /// once the facet is tilted enough) is absorbed, identically in sample and eval: it is
+    /// neither a transmission nor a masked reflection, and groove's strict side test compares
+    /// geometric and shading normals only, so it would not catch it (on flat or analytic
+    /// geometry the two agree) and the light would leak.
+    ExitOnRefraction,
+}
+
 /// A microfacet normal-mapped BSDF at one shading point (plain values, built per hit).
 #[derive(Clone, Copy, Debug)]
 pub struct MicrofacetNormalMap {
@@ -62,6 +81,8 @@ pub struct MicrofacetNormalMap {
     degenerate: bool,
     /// Weight of the cosine lobe in the walk's MIS pdf (decision 3).
     mis_c: f32,
+    /// Only used over transmitting nested BSDFs.
+    pub transmission_walk: TransmissionWalk,
 }
 
 impl MicrofacetNormalMap {
@@ -95,7 +116,14 @@ impl MicrofacetNormalMap {
             max_order: max_order.max(1),
             degenerate,
             mis_c: 0.2 * (theta_p / 15f32.to_radians()).min(1.0),
+            transmission_walk: TransmissionWalk::TwoSided,
         }
+    }
+
+    /// The same BSDF with another transmission walk (default: two-sided).
+    pub fn with_transmission_walk(mut self, walk: TransmissionWalk) -> Self {
+        self.transmission_walk = walk;
+        self
     }
 
     /// A random-walk BSDF on an explicit microsurface whose facets all carry the nested BSDF

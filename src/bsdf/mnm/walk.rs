@@ -126,6 +126,14 @@ pub(super) fn eval(
 // scattering at facet m into d: d·m > 0 means the air side (escape upward with G1(d), else hit
 // the facet ∝ a_j(−d)), d·m < 0 the material side (escape downward with G1(−d), else hit a
 // facet's underside ∝ a_j(d)). The sawtooth's mirror wall reflects on both sides.
+//
+// With `TransmissionWalk::ExitOnRefraction` (§9.4) the same functions end the walk at the first
+// refraction (the nested sample leaves facet m on the other side than it arrived): the refracted
+// direction is returned with no exit masking if it lies on the far side of the macro surface,
+// and the walk is absorbed otherwise (failure mode (a), see `TransmissionWalk`). The walker thus
+// never changes sides; eval's next-event estimate gives a refracting connection the factor 1 (or
+// 0 on the wrong macro side) instead of G1, and the mirror-wall connection only on the arrival
+// side, so that eval stays the density of what sample produces.
 
 /// Exit factor toward ωo from a vertex on facet normal `n`: G1 on the side ωo leaves on.
 #[inline]
@@ -134,6 +142,29 @@ fn exit_factor(m: &MicrofacetNormalMap, n: Vec3, wo: Vec3) -> f32 {
         m.surface.g1(wo)
     } else {
         m.surface.g1(-wo)
+    }
+}
+
+/// True when the walk ends at refractions (§9.4).
+#[inline]
+fn exits_on_refraction(m: &MicrofacetNormalMap) -> bool {
+    m.transmission_walk == super::TransmissionWalk::ExitOnRefraction
+}
+
+/// Factor of a connection from a vertex on facet normal `n`, reached by a ray arriving along
+/// `d` (from the walk that started at `wi`), toward `wo`: G1 on the side `wo` leaves on; for the
+/// early-exit walk a refraction is not masked (1) and counts only on the far macro side.
+#[inline]
+fn connection_factor(m: &MicrofacetNormalMap, n: Vec3, d: Vec3, wi: Vec3, wo: Vec3) -> f32 {
+    if exits_on_refraction(m) && d.dot(n) * wo.dot(n) > 0.0 {
+        // −d and wo on opposite sides of the facet: a refraction.
+        if wo.z * wi.z < 0.0 {
+            1.0
+        } else {
+            0.0
+        }
+    } else {
+        exit_factor(m, n, wo)
     }
 }
 
@@ -161,7 +192,7 @@ fn step(m: &MicrofacetNormalMap, n: Vec3, d: Vec3, s: &mut Sampler) -> Result<us
         .ok_or(false)
 }
 
-/// Sample by the two-sided walk; returns (ωo, throughput, net η, lobe).
+/// Sample by the two-sided (or early-exit) walk; returns (ωo, throughput, net η, lobe).
 pub(super) fn sample_t(
     m: &MicrofacetNormalMap,
     nested: &Bsdf,
@@ -186,7 +217,20 @@ pub(super) fn sample_t(
             };
             thr *= bs.weight;
             eta *= bs.eta;
-            d = fr.to_world(bs.wo);
+            let out = fr.to_world(bs.wo);
+            // Arrived along d (from the side of −d), left along `out`: other side = refraction.
+            let refracted = d.dot(n) * out.dot(n) > 0.0;
+            d = out;
+            if exits_on_refraction(m) && refracted {
+                // §9.4: returned at once, unmasked; on the wrong macro side: absorbed.
+                stats::record(order);
+                return (d.z * wi.z < 0.0).then_some((
+                    d,
+                    thr,
+                    eta,
+                    crate::bsdf::lobe::GLOSSY_TRANSMISSION,
+                ));
+            }
         }
         let next = step(m, n, d, s);
         if next.is_err() {
@@ -209,7 +253,7 @@ pub(super) fn sample_t(
     None
 }
 
-/// Next-event estimate along one two-sided walk (stochastic, unbiased).
+/// Next-event estimate along one two-sided (or early-exit) walk (stochastic, unbiased).
 pub(super) fn eval_t(
     m: &MicrofacetNormalMap,
     nested: &Bsdf,
@@ -230,11 +274,12 @@ pub(super) fn eval_t(
         if m.is_mirror(k) {
             d = mirror(d, n);
         } else {
-            let g = exit_factor(m, n, wo);
+            let g = connection_factor(m, n, d, wi, wo);
             if g > 0.0 {
                 sum += thr * m.f(nested, k, ctx, -d, wo, s) * g;
             }
-            if m.mirror_wall && order < m.max_order {
+            let rwo_refracts = d.dot(n) * m.reflect_wall(wo).dot(n) > 0.0;
+            if m.mirror_wall && order < m.max_order && !(exits_on_refraction(m) && rwo_refracts) {
                 // Through the (two-sided) mirror wall: leave facet k toward R(ωo) on one side
                 // (air if R(ωo)·n > 0), be blocked there, reflect to ωo — the mirror keeps the
                 // side — and escape on that side.
@@ -256,7 +301,11 @@ pub(super) fn eval_t(
                 break;
             };
             thr *= bs.weight;
-            d = fr.to_world(bs.wo);
+            let out = fr.to_world(bs.wo);
+            if exits_on_refraction(m) && d.dot(n) * out.dot(n) > 0.0 {
+                break; // the sampled walk ends at this refraction
+            }
+            d = out;
         }
         match step(m, n, d, s) {
             Err(_) => break,
@@ -267,7 +316,7 @@ pub(super) fn eval_t(
 }
 
 /// Single-scattering density of successful one-vertex walks, the p1 of the MIS pdf (decision 3)
-/// for transmitting nested BSDFs.
+/// for transmitting nested BSDFs (for the early-exit walk, refractions unmasked).
 pub(super) fn single_scatter_pdf_t(
     m: &MicrofacetNormalMap,
     nested: &Bsdf,
@@ -282,7 +331,7 @@ pub(super) fn single_scatter_pdf_t(
         .map(|k| {
             let l = surf.lambda(k, w);
             if l > 0.0 {
-                l * m.p(nested, k, ctx, wi, wo) * exit_factor(m, surf.normal(k), wo)
+                l * m.p(nested, k, ctx, wi, wo) * connection_factor(m, surf.normal(k), -wi, wi, wo)
             } else {
                 0.0
             }
