@@ -1,0 +1,220 @@
+//! Per-call cost of `eval`, `sample` and `pdf` for every normal-mapping mode over several nested
+//! BSDFs (issue 5), and of the nested BSDF alone as the baseline.
+//!
+//! Modes: classic `normalmap` (both Mitsuba 3 flags off: the plain model of the benchmarks'
+//! classic side), the explicit sawtooth with a mirror wall (Variant M), the random walk with a
+//! mirror wall and with a wall of the nested BSDF, the V-groove and the U-groove (s = 0.5).
+//! Nested: diffuse, rough conductor (GGX α 0.2, gold), rough plastic (GGX α 0.2), rough
+//! dielectric (GGX α 0.2, η 1.5; not with the explicit form, which has no transmission).
+//!
+//! Every benchmark cycles through the same 256 precomputed (ωp, ωi, ωo): θp uniform in cos over
+//! [0°, 60°], ωi cosine-distributed, ωo uniform over the hemisphere (over the sphere for the
+//! dielectric), so the branch mix is that of varied shading points rather than one lucky
+//! configuration. One iteration = one call, so criterion's time is the time per call. The BSDF
+//! nodes are built beforehand (one per ωp): building them per hit is the renderer's cost, not
+//! the BSDF's. Run: `cargo bench --bench bsdf`.
+
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use glam::Vec3;
+use groove::bsdf::mnm::facets::Microgeometry;
+use groove::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
+use groove::bsdf::{
+    named_conductor, BsdfArena, BsdfContext, BsdfNode, Diffuse, MicrofacetDistribution,
+    MicrofacetType, NormalMap, RoughConductor, RoughDielectric, RoughPlastic,
+};
+use groove::math::warp;
+use groove::sampler::Sampler;
+use std::time::Duration;
+
+/// Inputs cycled through by every benchmark.
+const INPUTS: usize = 256;
+
+#[derive(Clone, Copy, PartialEq)]
+enum Mode {
+    NestedAlone,
+    Classic,
+    Mnm(Microgeometry, Tangent, Evaluation),
+}
+
+const MODES: [(&str, Mode); 7] = [
+    ("nested_alone", Mode::NestedAlone),
+    ("classic", Mode::Classic),
+    (
+        "explicit_mirror",
+        Mode::Mnm(
+            Microgeometry::Sawtooth,
+            Tangent::Mirror,
+            Evaluation::Explicit,
+        ),
+    ),
+    (
+        "walk_mirror",
+        Mode::Mnm(
+            Microgeometry::Sawtooth,
+            Tangent::Mirror,
+            Evaluation::RandomWalk,
+        ),
+    ),
+    (
+        "walk_same",
+        Mode::Mnm(
+            Microgeometry::Sawtooth,
+            Tangent::Same,
+            Evaluation::RandomWalk,
+        ),
+    ),
+    (
+        "vgroove",
+        Mode::Mnm(
+            Microgeometry::VGroove,
+            Tangent::Same,
+            Evaluation::RandomWalk,
+        ),
+    ),
+    (
+        "ugroove_0.5",
+        Mode::Mnm(
+            Microgeometry::UGroove { fill: 0.5 },
+            Tangent::Same,
+            Evaluation::RandomWalk,
+        ),
+    ),
+];
+
+fn nested_nodes() -> [(&'static str, BsdfNode, bool); 4] {
+    let ggx = MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true);
+    let (eta, k) = named_conductor("Au").expect("gold is in the conductor table");
+    [
+        (
+            "diffuse",
+            BsdfNode::Diffuse(Diffuse {
+                reflectance: Vec3::new(0.8, 0.6, 0.4),
+            }),
+            false,
+        ),
+        (
+            "roughconductor",
+            BsdfNode::RoughConductor(RoughConductor {
+                distribution: ggx,
+                eta,
+                k,
+                specular_reflectance: Vec3::ONE,
+            }),
+            false,
+        ),
+        (
+            "roughplastic",
+            BsdfNode::RoughPlastic(RoughPlastic::new(
+                MicrofacetType::Ggx,
+                0.2,
+                true,
+                Vec3::new(0.2, 0.4, 0.7),
+                Vec3::ONE,
+                1.49,
+                1.000277,
+                false,
+            )),
+            false,
+        ),
+        (
+            "roughdielectric",
+            BsdfNode::RoughDielectric(RoughDielectric::new(ggx, 1.5, 1.0, Vec3::ONE, Vec3::ONE)),
+            true,
+        ),
+    ]
+}
+
+/// The fixed (ωp, ωi, ωo) inputs; ωo is mirrored into the upper hemisphere unless `transmits`.
+fn inputs(transmits: bool) -> Vec<(Vec3, Vec3, Vec3)> {
+    let mut s = Sampler::from_seed(17, 3);
+    let cos_max = 60f32.to_radians().cos();
+    (0..INPUTS)
+        .map(|_| {
+            let wp = warp::square_to_uniform_cone(s.next_2d(), cos_max);
+            let wi = warp::square_to_cosine_hemisphere(s.next_2d());
+            let wo = warp::square_to_uniform_sphere(s.next_2d());
+            let wo = if transmits {
+                wo
+            } else {
+                Vec3::new(wo.x, wo.y, wo.z.abs())
+            };
+            (wp, wi, wo)
+        })
+        .collect()
+}
+
+/// One arena holding the nested node and one root per input (the root for input i is roots[i]).
+fn build(mode: Mode, nested: BsdfNode, ins: &[(Vec3, Vec3, Vec3)]) -> (BsdfArena, Vec<u32>) {
+    let mut arena = BsdfArena::new();
+    let n = arena.push(nested);
+    let roots = ins
+        .iter()
+        .map(|&(wp, _, _)| match mode {
+            Mode::NestedAlone => n,
+            Mode::Classic => arena.push(BsdfNode::NormalMap(NormalMap {
+                nested: n,
+                normal: wp,
+                flip_invalid_normals: false,
+                use_shadowing_function: false,
+            })),
+            Mode::Mnm(g, t, e) => arena.push(BsdfNode::MicrofacetNormalMap(
+                MicrofacetNormalMap::new(n, wp, g, t, e, 256),
+            )),
+        })
+        .collect();
+    (arena, roots)
+}
+
+fn bsdf_calls(c: &mut Criterion) {
+    let ctx = BsdfContext::default();
+    for (nname, node, transmits) in nested_nodes() {
+        let ins = inputs(transmits);
+        let mut g = c.benchmark_group(nname);
+        for (mname, mode) in MODES {
+            if transmits && matches!(mode, Mode::Mnm(_, _, Evaluation::Explicit)) {
+                continue; // the explicit form has no transmission
+            }
+            let (arena, roots) = build(mode, node, &ins);
+            let mut s = Sampler::from_seed(1, 1);
+            let mut i = 0usize;
+            g.bench_function(format!("{mname}/eval"), |b| {
+                b.iter(|| {
+                    i = (i + 1) % INPUTS;
+                    let (_, wi, wo) = ins[i];
+                    black_box(arena.bsdf(roots[i]).eval(&ctx, wi, wo, &mut s))
+                })
+            });
+            g.bench_function(format!("{mname}/sample"), |b| {
+                b.iter(|| {
+                    i = (i + 1) % INPUTS;
+                    let (_, wi, _) = ins[i];
+                    black_box(arena.bsdf(roots[i]).sample(&ctx, wi, &mut s))
+                })
+            });
+            g.bench_function(format!("{mname}/pdf"), |b| {
+                b.iter(|| {
+                    i = (i + 1) % INPUTS;
+                    let (_, wi, wo) = ins[i];
+                    black_box(arena.bsdf(roots[i]).pdf(&ctx, wi, wo))
+                })
+            });
+        }
+        g.finish();
+    }
+}
+
+/// 81 benchmarks: short warm-up and measurement keep the whole run near three minutes on a
+/// loaded two-core machine; 50 samples still give criterion a confidence interval.
+fn config() -> Criterion {
+    Criterion::default()
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_millis(1500))
+        .sample_size(50)
+}
+
+criterion_group! {
+    name = benches;
+    config = config();
+    targets = bsdf_calls
+}
+criterion_main!(benches);
