@@ -82,6 +82,17 @@ impl Texture {
         }
     }
 
+    /// The gradient `(∂/∂u, ∂/∂v)` of [`Texture::eval_1`] at `uv` (what a `bumpmap` needs): a
+    /// bitmap's as Mitsuba's `eval_1_grad`; 0 for constant textures and almost everywhere for
+    /// the piecewise-constant checkerboard (Mitsuba 3.9.1 implements no gradient for
+    /// `checkerboard`, so the scene loader rejects it in a bumpmap).
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Bitmap(b) => b.eval_1_grad(uv),
+            Texture::Constant(_) | Texture::Checkerboard { .. } => Vec2::ZERO,
+        }
+    }
+
     /// Per-channel mean over the unit uv square (light power estimates). For a bitmap this is
     /// the mean texel, whose luminance is Mitsuba's `BitmapTexture::mean()`; for the checkerboard
     /// the average of its two colours.
