@@ -255,3 +255,31 @@ fn bumpmap_matches_mitsuba_pointwise() {
     assert!(n >= 250 && nonzero >= 60, "{n} points, {nonzero} non-zero");
     eprintln!("{n} bumpmap points ({nonzero} non-zero), worst relative difference {worst:.2e}");
 }
+
+/// Mitsuba 3.9.1's checkerboard swaps its colours in `eval_1` (the scalar used for opacity,
+/// blend weights and roughness) relative to `eval`; groove follows.
+#[test]
+fn checkerboard_eval_1_swaps_colours_like_mitsuba() {
+    let d = data();
+    let c = &d["checkerboard_eval_1"];
+    let tex = load_texture(c["xml"].as_str().unwrap());
+    let mut swapped = 0;
+    for p in c["points"].as_array().unwrap() {
+        let a: Vec<f32> = p
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap() as f32)
+            .collect();
+        let uv = Vec2::new(a[0], a[1]);
+        assert!(
+            (tex.eval_1(uv) - a[2]).abs() < 1e-6,
+            "eval_1 at {uv}: {} vs {}",
+            tex.eval_1(uv),
+            a[2]
+        );
+        assert!((tex.eval(uv).x - a[3]).abs() < 1e-6, "eval at {uv}");
+        swapped += usize::from(a[2] != a[3]);
+    }
+    assert_eq!(swapped, c["points"].as_array().unwrap().len());
+}

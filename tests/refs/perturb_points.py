@@ -4,6 +4,7 @@ the bitmap texture's gradient (`eval_1_grad`), read by tests/bsdf_mitsuba_wrappe
 
 Run:  /work/.venv-mitsuba/bin/python tests/refs/perturb_points.py > tests/data/perturb_points.json
 
+* checkerboard_eval_1: (u, v, eval_1, eval) -- Mitsuba swaps the colours in eval_1
 * grad: bitmap textures (tests/data/textures/*, filters, wraps, to_uv) -> (u, v, d/du, d/dv)
 * mask / null: eval, pdf in the identity local frame; sample with fixed (u1, u2)
 * bumpmap: a full SurfaceInteraction (geometric normal n, shading frame, dp_du, dp_dv, uv) in
@@ -185,10 +186,27 @@ def bump_cases():
     return cases
 
 
+def checker_eval_1():
+    """Mitsuba 3.9.1's checkerboard `eval_1` (it swaps color0 and color1 relative to `eval`)."""
+    xml = ('<texture type="checkerboard"><rgb name="color0" value="0.9"/><rgb name="color1" value="0.1"/>'
+           '<transform name="to_uv"><scale x="4" y="3"/></transform></texture>')
+    t = mi.load_dict({"type": "checkerboard", "color0": {"type": "rgb", "value": 0.9},
+                      "color1": {"type": "rgb", "value": 0.1},
+                      "to_uv": mi.ScalarTransform4f().scale([4, 3, 1])})
+    pts = []
+    for _ in range(16):
+        uv = [f32(rng.uniform(0, 1)), f32(rng.uniform(0, 1))]
+        si = mi.SurfaceInteraction3f()
+        si.uv = mi.Point2f(*uv)
+        pts.append(uv + [f32(t.eval_1(si)), f32(t.eval(si)[0])])
+    return {"xml": xml, "points": pts}
+
+
 def main():
     mask, null = mask_cases()
     out = {"mitsuba": mi.__version__, "variant": "scalar_rgb", "generator": "tests/refs/perturb_points.py",
-           "grad": grad_cases(), "mask": mask, "null": null, "bumpmap": bump_cases()}
+           "grad": grad_cases(), "mask": mask, "null": null, "bumpmap": bump_cases(),
+           "checkerboard_eval_1": checker_eval_1()}
     print(json.dumps(out, indent=None, separators=(",", ":")).replace('},{', '},\n{'))
 
 
