@@ -5,9 +5,8 @@
 //! Sampling follows Mitsuba 3.9.1 (`src/bsdfs/mask.cpp`): the nested BSDF is chosen with
 //! probability `opacity` and keeps its own sample weight (the choice probability cancels the
 //! opacity factor); otherwise the path passes straight through with weight 1. `pdf(wi, wo)` is
-//! `opacity · pdf_nested`, and a smooth nested sample reports that pdf too, so that the pdf used
-//! for MIS is the density of the whole mixture (Mitsuba reports the nested pdf for a sampled
-//! direction but `opacity · pdf_nested` from `pdf`; both are unbiased).
+//! `opacity · pdf_nested`, and a smooth nested sample reports that pdf too (as Mitsuba 3.9.1
+//! does, checked with `bsdf.sample` / `bsdf.pdf`), the density of the whole mixture used by MIS.
 
 use super::{null, Bsdf, BsdfContext, BsdfSample};
 use crate::sampler::Sampler;
