@@ -3,7 +3,7 @@
 
 use crate::bsdf::mnm::facets::{clamp_perturbed_normal, Microgeometry};
 use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent, TransmissionWalk};
-use crate::bsdf::{Blend, BsdfArena, BsdfNode, Diffuse, NormalMap};
+use crate::bsdf::{bumpmap, Blend, BsdfArena, BsdfNode, Diffuse, Mask, NormalMap};
 use crate::geometry::SurfaceInteraction;
 use crate::texture::Texture;
 use glam::Vec3;
@@ -13,13 +13,25 @@ pub type TexId = u32;
 /// Index of a material node in [`Materials::nodes`].
 pub type MatId = u32;
 
-/// Which colour field of a leaf BSDF a texture drives.
+/// Which field of a leaf BSDF a texture drives: a colour, or a scalar (roughness) read with
+/// [`Texture::eval_1`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Slot {
     Reflectance,
     SpecularReflectance,
     SpecularTransmittance,
     DiffuseReflectance,
+    /// Isotropic microfacet roughness (sets both `alpha_u` and `alpha_v`).
+    Alpha,
+    AlphaU,
+    AlphaV,
+}
+
+impl Slot {
+    /// A scalar field (evaluated with `eval_1`, Mitsuba's rule for float textures).
+    pub fn is_scalar(self) -> bool {
+        matches!(self, Slot::Alpha | Slot::AlphaU | Slot::AlphaV)
+    }
 }
 
 /// Settings of a `microfacet_normalmap` (see `bsdf::mnm`).
@@ -70,6 +82,23 @@ pub enum MaterialNode {
         bsdf0: MatId,
         bsdf1: MatId,
     },
+    /// `null`: straight pass-through.
+    Null,
+    /// `mask`: `nested` with probability `opacity` (scalar texture, clamped to [0, 1]), else
+    /// pass-through.
+    Mask {
+        opacity: TexId,
+        nested: MatId,
+    },
+    /// `bumpmap`: `nested` in the frame perturbed by the gradient of the height texture `height`
+    /// (times `scale`); the same perturbed-BSDF flags as `NormalMap`.
+    BumpMap {
+        nested: MatId,
+        height: TexId,
+        scale: f32,
+        flip_invalid_normals: bool,
+        use_shadowing_function: bool,
+    },
 }
 
 /// All materials and textures of a scene.
@@ -100,6 +129,25 @@ fn patch(node: &mut BsdfNode, slot: Slot, v: Vec3) {
     }
 }
 
+/// Write a scalar texture value (a roughness) into the field `slot` of a leaf node; the
+/// distribution clamps it to its minimum, as Mitsuba's does per hit.
+fn patch_scalar(node: &mut BsdfNode, slot: Slot, a: f32) {
+    let dist = match node {
+        BsdfNode::RoughConductor(b) => &mut b.distribution,
+        BsdfNode::RoughDielectric(b) => &mut b.distribution,
+        // The instantiation only creates valid (node, slot) pairs.
+        _ => return,
+    };
+    let (au, av) = match slot {
+        Slot::Alpha => (a, a),
+        Slot::AlphaU => (a, dist.alpha_v),
+        Slot::AlphaV => (dist.alpha_u, a),
+        _ => return,
+    };
+    *dist =
+        crate::bsdf::MicrofacetDistribution::anisotropic(dist.kind, au, av, dist.sample_visible);
+}
+
 impl Materials {
     pub fn add_texture(&mut self, t: Texture) -> TexId {
         self.textures.push(t);
@@ -121,7 +169,12 @@ impl Materials {
             MaterialNode::Leaf { template, slots } => {
                 let mut node = **template;
                 for &(slot, tex) in slots {
-                    patch(&mut node, slot, self.textures[tex as usize].eval(si.uv));
+                    let t = &self.textures[tex as usize];
+                    if slot.is_scalar() {
+                        patch_scalar(&mut node, slot, t.eval_1(si.uv));
+                    } else {
+                        patch(&mut node, slot, t.eval(si.uv));
+                    }
                 }
                 arena.push(node)
             }
@@ -181,6 +234,31 @@ impl Materials {
                     bsdf0: a,
                     bsdf1: b,
                     weight: if w.is_nan() { 0.0 } else { w.clamp(0.0, 1.0) },
+                }))
+            }
+            MaterialNode::Null => arena.push(BsdfNode::Null),
+            MaterialNode::Mask { opacity, nested } => {
+                let child = self.build(*nested, si, arena);
+                let o = self.textures[*opacity as usize].eval_1(si.uv);
+                arena.push(BsdfNode::Mask(Mask {
+                    nested: child,
+                    opacity: if o.is_nan() { 0.0 } else { o.clamp(0.0, 1.0) },
+                }))
+            }
+            MaterialNode::BumpMap {
+                nested,
+                height,
+                scale,
+                flip_invalid_normals,
+                use_shadowing_function,
+            } => {
+                let child = self.build(*nested, si, arena);
+                let grad = *scale * self.textures[*height as usize].eval_1_grad(si.uv);
+                arena.push(BsdfNode::NormalMap(NormalMap {
+                    nested: child,
+                    normal: bumpmap::perturbed_normal(si, grad),
+                    flip_invalid_normals: *flip_invalid_normals,
+                    use_shadowing_function: *use_shadowing_function,
                 }))
             }
         }

@@ -730,3 +730,103 @@ fn load_str_resolves_includes_and_paths_next_to_virtual_path() {
     let found = doc.resolve_file("part.xml", &doc.root.loc).unwrap();
     assert_eq!(found, data("inc/part.xml"));
 }
+
+// ----------------------------------------------------------------------------------------------
+// mask, null, bumpmap and textured roughness: bad parameters are errors at the element
+
+/// Instantiates a scene whose only shape (line 3) holds `bsdf` (starting on line 4).
+fn bsdf_err(bsdf: &str) -> String {
+    let text = format!(
+        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" value=\"2\"/><integer name=\"height\" value=\"2\"/></film></sensor>\n<shape type=\"sphere\">\n{bsdf}\n</shape>\n</scene>\n"
+    );
+    let doc = load(&text).expect("parses");
+    groove::scene::instantiate::instantiate(&doc, Path::new("mem.xml"))
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default()
+}
+
+#[test]
+fn mask_null_bumpmap_and_textured_alpha_load() {
+    for ok in [
+        r#"<bsdf type="null"/>"#,
+        r#"<bsdf type="mask"><bsdf type="diffuse"/></bsdf>"#,
+        r#"<bsdf type="mask"><float name="opacity" value="0.3"/><bsdf type="diffuse"/></bsdf>"#,
+        r#"<bsdf type="mask"><texture type="checkerboard" name="opacity"/><bsdf type="diffuse"/></bsdf>"#,
+        r#"<bsdf type="roughconductor"><texture type="checkerboard" name="alpha"/></bsdf>"#,
+        r#"<bsdf type="roughdielectric"><texture type="checkerboard" name="alpha_u"/><float name="alpha_v" value="0.2"/></bsdf>"#,
+    ] {
+        assert_eq!(bsdf_err(ok), "", "{ok}");
+    }
+}
+
+#[test]
+fn mask_bad_parameters() {
+    assert_err(
+        &bsdf_err(r#"<bsdf type="mask"><float name="opacity" value="0.3"/></bsdf>"#),
+        "mem.xml:4:1",
+        "mask needs a nested <bsdf>",
+    );
+    assert_err(
+        &bsdf_err(r#"<bsdf type="mask"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#),
+        "mem.xml:4:41",
+        "mask takes exactly one nested BSDF",
+    );
+    assert_err(
+        &bsdf_err(
+            r#"<bsdf type="mask"><float name="opacity" value="1.5"/><bsdf type="diffuse"/></bsdf>"#,
+        ),
+        "mem.xml:4:1",
+        "mask opacity must be in [0, 1]",
+    );
+    assert_err(
+        &bsdf_err(r#"<bsdf type="null"><float name="opacity" value="0.5"/></bsdf>"#),
+        "mem.xml:4:26",
+        "unreferenced property 'opacity' in <bsdf type=\"null\">",
+    );
+}
+
+#[test]
+fn bumpmap_bad_parameters() {
+    let tex = r#"<texture type="bitmap"><string name="filename" value="missing-on-purpose.png"/></texture>"#;
+    assert_err(
+        &bsdf_err(r#"<bsdf type="bumpmap"><bsdf type="diffuse"/></bsdf>"#),
+        "mem.xml:4:1",
+        "bumpmap needs a nested height <texture>",
+    );
+    assert_err(
+        &bsdf_err(r#"<bsdf type="bumpmap"><texture type="checkerboard"/></bsdf>"#),
+        "mem.xml:4:22",
+        "height texture must be a 'bitmap'",
+    );
+    // The texture is checked first (a missing file is its own error at the <texture>).
+    assert_err(
+        &bsdf_err(&format!(r#"<bsdf type="bumpmap">{tex}</bsdf>"#)),
+        "mem.xml:4:22",
+        "missing-on-purpose.png",
+    );
+    assert_err(
+        &bsdf_err(r#"<bsdf type="bumpmap"><bsdf type="diffuse"/><emitter type="area"/></bsdf>"#),
+        "mem.xml:4:44",
+        "not expected inside a bumpmap",
+    );
+}
+
+#[test]
+fn textured_alpha_follows_mitsuba_rules() {
+    // roughplastic's alpha is a plain float in Mitsuba 3.
+    assert_err(
+        &bsdf_err(
+            r#"<bsdf type="roughplastic"><texture type="checkerboard" name="alpha"/></bsdf>"#,
+        ),
+        "mem.xml:4:27",
+        "'alpha' of bsdf 'roughplastic' must be a number",
+    );
+    assert_err(
+        &bsdf_err(
+            r#"<bsdf type="roughconductor"><texture type="checkerboard" name="alpha"/><float name="alpha_u" value="0.1"/></bsdf>"#,
+        ),
+        "mem.xml:4:1",
+        "give either 'alpha' or 'alpha_u'/'alpha_v', not both",
+    );
+}

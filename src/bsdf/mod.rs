@@ -25,8 +25,10 @@
 //! - [`RoughPlastic::new`] `(distribution, alpha, sample_visible, diffuse_reflectance,
 //!   specular_reflectance, int_ior, ext_ior, nonlinear)` — isotropic only, like Mitsuba; it
 //!   precomputes (and caches process-wide) its coating table, so build it at load time.
+//! - `Null` (`null`: straight pass-through, a delta lobe flagged [`lobe::NULL`]).
 //! - Wrappers (children by arena index): `TwoSided { front, back }`, [`NormalMap`] (classic
-//!   normal mapping, Mitsuba 3.9.1 semantics), [`Blend`] (`blendbsdf`),
+//!   normal mapping, Mitsuba 3.9.1 semantics; also the node of `bumpmap`, whose perturbed normal
+//!   [`bumpmap`] derives from a height texture), [`Blend`] (`blendbsdf`), [`Mask`] (`mask`),
 //!   [`mnm::MicrofacetNormalMap`].
 //!
 //! Verified pointwise against Mitsuba 3.9.1 (`mitsuba_refs.rs`) and statistically
@@ -39,16 +41,19 @@
 //! node of the arena.
 
 pub mod blend;
+pub mod bumpmap;
 pub mod conductor;
 pub mod dielectric;
 pub mod diffuse;
 pub mod fresnel;
 pub mod ior;
+pub mod mask;
 pub mod microfacet;
 #[cfg(test)]
 mod mitsuba_refs;
 pub mod mnm;
 pub mod normalmap;
+pub mod null;
 #[cfg(test)]
 #[rustfmt::skip]
 mod mitsuba_refs_data;
@@ -64,6 +69,7 @@ pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use ior::{named_conductor, named_ior};
+pub use mask::Mask;
 pub use microfacet::{MicrofacetDistribution, MicrofacetType};
 pub use normalmap::NormalMap;
 pub use plastic::Plastic;
@@ -165,6 +171,10 @@ pub enum BsdfNode {
     NormalMap(NormalMap),
     /// `blendbsdf`: `(1 − w)·f₀ + w·f₁`.
     Blend(Blend),
+    /// `null`: the ray passes straight through (delta lobe `NULL`).
+    Null,
+    /// `mask`: `opacity · f_nested` plus a pass-through lobe of weight `1 − opacity`.
+    Mask(Mask),
 }
 
 /// Per-thread storage of the BSDF nodes built at one hit.
@@ -239,6 +249,8 @@ impl<'a> Bsdf<'a> {
             BsdfNode::MicrofacetNormalMap(m) => self.child(m.nested).flags(),
             BsdfNode::NormalMap(m) => self.child(m.nested).flags(),
             BsdfNode::Blend(m) => self.child(m.bsdf0).flags() | self.child(m.bsdf1).flags(),
+            BsdfNode::Null => lobe::NULL,
+            BsdfNode::Mask(m) => self.child(m.nested).flags() | lobe::NULL,
         }
     }
 
@@ -259,6 +271,8 @@ impl<'a> Bsdf<'a> {
             BsdfNode::MicrofacetNormalMap(m) => mnm::eval(*self, m, ctx, wi, wo, sampler),
             BsdfNode::NormalMap(m) => normalmap::eval(*self, m, ctx, wi, wo, sampler),
             BsdfNode::Blend(m) => blend::eval(*self, m, ctx, wi, wo, sampler),
+            BsdfNode::Null => Spectrum::ZERO,
+            BsdfNode::Mask(m) => mask::eval(*self, m, ctx, wi, wo, sampler),
         }
     }
 
@@ -277,6 +291,8 @@ impl<'a> Bsdf<'a> {
             BsdfNode::MicrofacetNormalMap(m) => mnm::pdf(*self, m, ctx, wi, wo),
             BsdfNode::NormalMap(m) => normalmap::pdf(*self, m, ctx, wi, wo),
             BsdfNode::Blend(m) => blend::pdf(*self, m, ctx, wi, wo),
+            BsdfNode::Null => 0.0,
+            BsdfNode::Mask(m) => mask::pdf(*self, m, ctx, wi, wo),
         }
     }
 
@@ -306,6 +322,8 @@ impl<'a> Bsdf<'a> {
             BsdfNode::MicrofacetNormalMap(m) => mnm::sample(*self, m, ctx, wi, sampler),
             BsdfNode::NormalMap(m) => normalmap::sample(*self, m, ctx, wi, sampler),
             BsdfNode::Blend(m) => blend::sample(*self, m, ctx, wi, sampler),
+            BsdfNode::Null => Some(null::pass_through(wi)),
+            BsdfNode::Mask(m) => mask::sample(*self, m, ctx, wi, sampler),
         }?;
         // One place rejects degenerate samples for every model.
         if !(s.wo.is_finite() && s.pdf >= 0.0 && crate::spectrum::is_finite(s.weight)) {

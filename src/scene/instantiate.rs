@@ -49,7 +49,7 @@ pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Loaded> {
 }
 
 /// BSDF types groove knows but has not implemented yet: a clear error, not a silent fallback.
-const PLANNED_BSDFS: &[&str] = &["mask", "null", "bumpmap"];
+const PLANNED_BSDFS: &[&str] = &[];
 
 const SUPPORTED_BSDFS: &[&str] = &[
     "diffuse",
@@ -64,6 +64,9 @@ const SUPPORTED_BSDFS: &[&str] = &[
     "microfacet_normalmap",
     "normalmap",
     "blendbsdf",
+    "null",
+    "mask",
+    "bumpmap",
 ];
 
 struct Builder<'d> {
@@ -689,6 +692,7 @@ impl<'d> Builder<'d> {
                 let (eta, k) = self.conductor_ior(&p)?;
                 let (spec, slots) =
                     self.leaf_color(&p, "specular_reflectance", Slot::SpecularReflectance, 1.0)?;
+                let mut slots = slots;
                 let template = if t == "conductor" {
                     BsdfNode::Conductor(Conductor {
                         eta,
@@ -696,8 +700,10 @@ impl<'d> Builder<'d> {
                         specular_reflectance: spec,
                     })
                 } else {
+                    let (distribution, alpha_slots) = self.distribution(&p, true, true)?;
+                    slots.extend(alpha_slots);
                     BsdfNode::RoughConductor(RoughConductor {
-                        distribution: self.distribution(&p, true)?,
+                        distribution,
                         eta,
                         k,
                         specular_reflectance: spec,
@@ -725,13 +731,17 @@ impl<'d> Builder<'d> {
                     "thindielectric" => {
                         BsdfNode::ThinDielectric(ThinDielectric::new(int_ior, ext_ior, r, tr))
                     }
-                    _ => BsdfNode::RoughDielectric(RoughDielectric::new(
-                        self.distribution(&p, true)?,
-                        int_ior,
-                        ext_ior,
-                        r,
-                        tr,
-                    )),
+                    _ => {
+                        let (distribution, alpha_slots) = self.distribution(&p, true, true)?;
+                        slots.extend(alpha_slots);
+                        BsdfNode::RoughDielectric(RoughDielectric::new(
+                            distribution,
+                            int_ior,
+                            ext_ior,
+                            r,
+                            tr,
+                        ))
+                    }
                 };
                 MaterialNode::Leaf {
                     template: Box::new(template),
@@ -751,7 +761,8 @@ impl<'d> Builder<'d> {
                 let template = if t == "plastic" {
                     BsdfNode::Plastic(Plastic::new(d, sr, int_ior, ext_ior, nonlinear))
                 } else {
-                    let dist = self.distribution(&p, false)?;
+                    // Mitsuba 3's roughplastic takes a plain float `alpha` (no texture).
+                    let (dist, _) = self.distribution(&p, false, false)?;
                     BsdfNode::RoughPlastic(RoughPlastic::new(
                         dist.kind,
                         dist.alpha_u,
@@ -818,6 +829,20 @@ impl<'d> Builder<'d> {
                 _ => self.microfacet_normalmap(&p)?,
             },
             "blendbsdf" => self.blendbsdf(&p)?,
+            "null" => {
+                if let Some(c) = p.objects().next() {
+                    return Err(Error::scene(
+                        &c.loc,
+                        format!(
+                            "<{}> is not expected inside a null BSDF (it takes no parameters)",
+                            c.tag
+                        ),
+                    ));
+                }
+                MaterialNode::Null
+            }
+            "mask" => self.mask(&p)?,
+            "bumpmap" => self.bumpmap(&p)?,
             "normalmap" => match self.normal_mapping {
                 NormalMapping::Microfacet | NormalMapping::Forced(_) => {
                     self.normalmap_as_microfacet(&p)?
@@ -880,8 +905,16 @@ impl<'d> Builder<'d> {
     }
 
     /// `distribution`, `alpha` or `alpha_u`/`alpha_v`, `sample_visible` (Mitsuba's defaults:
-    /// beckmann, 0.1, true). `anisotropic` = false for models that are isotropic only.
-    fn distribution(&mut self, p: &Props<'d>, anisotropic: bool) -> Result<MicrofacetDistribution> {
+    /// beckmann, 0.1, true). `anisotropic` = false for models that are isotropic only;
+    /// `textured` = the roughness may be a texture (Mitsuba 3: roughconductor and
+    /// roughdielectric, not roughplastic), returned as scalar slots to fill per hit (the
+    /// distribution then holds the texture's mean, for load-time decisions only).
+    fn distribution(
+        &mut self,
+        p: &Props<'d>,
+        anisotropic: bool,
+        textured: bool,
+    ) -> Result<(MicrofacetDistribution, Vec<(Slot, TexId)>)> {
         let name = p.string("distribution", "beckmann")?;
         let kind = MicrofacetType::from_name(&name).ok_or_else(|| {
             Error::scene(
@@ -890,31 +923,51 @@ impl<'d> Builder<'d> {
             )
         })?;
         let visible = p.bool("sample_visible", true)?;
-        for k in ["alpha", "alpha_u", "alpha_v"] {
-            if p.objects().any(|c| c.attr("name") == Some(k)) {
-                return Err(Error::scene(
-                    p.loc(),
-                    format!("a textured '{k}' is not supported yet; give a number"),
-                ));
+        let mut slots = Vec::new();
+        let mut textures = [None; 3];
+        for (i, k) in ["alpha", "alpha_u", "alpha_v"].into_iter().enumerate() {
+            if let Some(c) = p.objects().find(|c| c.attr("name") == Some(k)) {
+                let is_tex = c.tag == "texture" || self.ref_target_tag(c) == Some("texture");
+                if !textured || !is_tex {
+                    return Err(Error::scene(
+                        &c.loc,
+                        if textured {
+                            format!("'{k}' expects a number or a <texture>, not a <{}>", c.tag)
+                        } else {
+                            format!("'{k}' of bsdf '{}' must be a number (Mitsuba 3 takes no texture here)", p.plugin_type())
+                        },
+                    ));
+                }
+                let t = self.deref(c, "texture")?;
+                textures[i] = Some(self.texture(t)?);
             }
         }
-        let check_alpha = |a: f32| check(p.loc(), a.is_finite() && a >= 0.0, "alpha must be >= 0");
-        if anisotropic && (p.has("alpha_u") || p.has("alpha_v")) {
-            if p.has("alpha") {
+        let given = |i: usize, k: &str| textures[i].is_some() || p.has(k);
+        // A scalar parameter: a texture (its mean now, a slot per hit) or a checked number.
+        let mut alpha = |i: usize, k: &str, slot: Slot| -> Result<f32> {
+            if let Some(t) = textures[i] {
+                slots.push((slot, t));
+                let tex = &self.materials.textures[t as usize];
+                return Ok(crate::spectrum::luminance(tex.mean()));
+            }
+            let a = p.float(k, 0.1)?;
+            check(p.loc(), a.is_finite() && a >= 0.0, "alpha must be >= 0")?;
+            Ok(a)
+        };
+        if anisotropic && (given(1, "alpha_u") || given(2, "alpha_v")) {
+            if given(0, "alpha") {
                 return Err(Error::scene(
                     p.loc(),
                     "give either 'alpha' or 'alpha_u'/'alpha_v', not both",
                 ));
             }
-            let au = p.float("alpha_u", 0.1)?;
-            let av = p.float("alpha_v", 0.1)?;
-            check_alpha(au)?;
-            check_alpha(av)?;
-            return Ok(MicrofacetDistribution::anisotropic(kind, au, av, visible));
+            let au = alpha(1, "alpha_u", Slot::AlphaU)?;
+            let av = alpha(2, "alpha_v", Slot::AlphaV)?;
+            let d = MicrofacetDistribution::anisotropic(kind, au, av, visible);
+            return Ok((d, slots));
         }
-        let a = p.float("alpha", 0.1)?;
-        check_alpha(a)?;
-        Ok(MicrofacetDistribution::new(kind, a, visible))
+        let a = alpha(0, "alpha", Slot::Alpha)?;
+        Ok((MicrofacetDistribution::new(kind, a, visible), slots))
     }
 
     /// The nested BSDF (with its node, for error locations) and the `normalmap` texture of a
@@ -1007,6 +1060,79 @@ impl<'d> Builder<'d> {
             weight,
             bsdf0,
             bsdf1,
+        })
+    }
+
+    /// Mitsuba 3's `mask`: `opacity` (float, colour or texture, read as a scalar; default 0.5)
+    /// and exactly one nested BSDF.
+    fn mask(&mut self, p: &Props<'d>) -> Result<MaterialNode> {
+        let mut nested = None;
+        for c in p.objects() {
+            match self.object_tag(c) {
+                "bsdf" => {
+                    if nested.is_some() {
+                        return Err(Error::scene(&c.loc, "mask takes exactly one nested BSDF"));
+                    }
+                    nested = Some(self.bsdf(c)?);
+                }
+                "texture" if c.attr("name") == Some("opacity") => {}
+                t => return Err(Error::scene(&c.loc, format!("<{t}> is not expected inside a mask (a nested <bsdf> and a float or <texture name=\"opacity\">)"))),
+            }
+        }
+        let nested = nested.ok_or_else(|| Error::scene(p.loc(), "mask needs a nested <bsdf>"))?;
+        let opacity = self.color_param(p, "opacity", Spectrum::splat(0.5))?;
+        if let Texture::Constant(c) = &self.materials.textures[opacity as usize] {
+            let o = crate::spectrum::luminance(*c);
+            check(
+                p.loc(),
+                (0.0..=1.0).contains(&o),
+                "mask opacity must be in [0, 1]",
+            )?;
+        }
+        Ok(MaterialNode::Mask { opacity, nested })
+    }
+
+    /// Mitsuba 3.9.1's `bumpmap`: one nested height `<texture>` (any name; a `bitmap`, the only
+    /// texture with a gradient in Mitsuba), one nested BSDF, `scale` (default 1) and the
+    /// perturbed-BSDF flags of `normalmap` (same defaults).
+    fn bumpmap(&mut self, p: &Props<'d>) -> Result<MaterialNode> {
+        let mut nested = None;
+        let mut height = None;
+        for c in p.objects() {
+            match self.object_tag(c) {
+                "bsdf" => {
+                    if nested.is_some() {
+                        return Err(Error::scene(&c.loc, "bumpmap takes exactly one nested BSDF"));
+                    }
+                    nested = Some(self.bsdf(c)?);
+                }
+                "texture" => {
+                    if height.is_some() {
+                        return Err(Error::scene(&c.loc, "bumpmap takes exactly one nested height <texture>"));
+                    }
+                    let t = self.deref(c, "texture")?;
+                    let id = self.texture(t)?;
+                    if !matches!(self.materials.textures[id as usize], Texture::Bitmap(_)) {
+                        return Err(Error::scene(&c.loc, "a bumpmap's height texture must be a 'bitmap' (Mitsuba 3 has no gradient for other textures)"));
+                    }
+                    height = Some(id);
+                }
+                t => return Err(Error::scene(&c.loc, format!("<{t}> is not expected inside a bumpmap (a nested <bsdf> and a height <texture>)"))),
+            }
+        }
+        let nested =
+            nested.ok_or_else(|| Error::scene(p.loc(), "bumpmap needs a nested <bsdf>"))?;
+        let height = height
+            .ok_or_else(|| Error::scene(p.loc(), "bumpmap needs a nested height <texture>"))?;
+        let scale = p.float("scale", 1.0)?;
+        check(p.loc(), scale.is_finite(), "bumpmap scale must be finite")?;
+        let default = !self.doc.upgraded_from_v0;
+        Ok(MaterialNode::BumpMap {
+            nested,
+            height,
+            scale,
+            flip_invalid_normals: p.bool("flip_invalid_normals", default)?,
+            use_shadowing_function: p.bool("use_shadowing_function", default)?,
         })
     }
 
@@ -1202,6 +1328,9 @@ impl<'d> Builder<'d> {
             MaterialNode::Blend { bsdf0, bsdf1, .. } => {
                 self.material_flags(*bsdf0) | self.material_flags(*bsdf1)
             }
+            MaterialNode::Null => lobe::NULL,
+            MaterialNode::Mask { nested, .. } => self.material_flags(*nested) | lobe::NULL,
+            MaterialNode::BumpMap { nested, .. } => self.material_flags(*nested),
         }
     }
 

@@ -68,17 +68,46 @@ impl Texture {
 
     /// A scalar value at `uv` (roughness-like parameters), as Mitsuba's `eval_1`: a grey texture's
     /// value, otherwise the luminance of the colour.
+    ///
+    /// Mitsuba 3.9.1's `checkerboard` swaps its colours in `eval_1` (`color1` where `eval` gives
+    /// `color0` and vice versa; checked with `mi.load_dict(...).eval_1` in
+    /// tests/refs/perturb_points.py and the `mat_mask` reference), so a scalar checkerboard
+    /// (opacity, weight, roughness) is the complement pattern of the same texture as a colour;
+    /// groove follows Mitsuba.
     #[inline]
     pub fn eval_1(&self, uv: Vec2) -> f32 {
         let grey = match self {
             Texture::Bitmap(b) => b.is_grey(),
             _ => false,
         };
-        let c = self.eval(uv);
+        let c = match self {
+            Texture::Checkerboard {
+                color0,
+                color1,
+                to_uv,
+            } => Texture::Checkerboard {
+                color0: *color1,
+                color1: *color0,
+                to_uv: *to_uv,
+            }
+            .eval(uv),
+            _ => self.eval(uv),
+        };
         if grey || (c.x == c.y && c.y == c.z) {
             c.x
         } else {
             luminance(c)
+        }
+    }
+
+    /// The gradient `(∂/∂u, ∂/∂v)` of [`Texture::eval_1`] at `uv` (what a `bumpmap` needs): a
+    /// bitmap's as Mitsuba's `eval_1_grad`; 0 for constant textures and almost everywhere for
+    /// the piecewise-constant checkerboard (Mitsuba 3.9.1 implements no gradient for
+    /// `checkerboard`, so the scene loader rejects it in a bumpmap).
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Bitmap(b) => b.eval_1_grad(uv),
+            Texture::Constant(_) | Texture::Checkerboard { .. } => Vec2::ZERO,
         }
     }
 

@@ -71,6 +71,12 @@ JOBS = [
     ("nmap_plane", os.path.join(SCENES, "nmap_plane.xml"), {}, 2048, REF_SEEDS),
     ("nmap_plane_plain", os.path.join(SCENES, "nmap_plane.xml"),
      {"flip": "false", "shadow": "false"}, 2048, REF_SEEDS),
+    # mask (checkerboard and constant opacity) and null; bumpmap (bitmap height); textured
+    # roughness (roughconductor alpha, roughdielectric alpha_u); a bitmap-textured area light.
+    ("mat_mask", os.path.join(SCENES, "mat_mask.xml"), {}, 8192, REF_SEEDS),
+    ("mat_bumpmap", os.path.join(SCENES, "mat_bumpmap.xml"), {}, 4096, REF_SEEDS),
+    ("mat_rough_tex", os.path.join(SCENES, "mat_rough_tex.xml"), {}, 4096, REF_SEEDS),
+    ("light_area_tex", os.path.join(SCENES, "light_area_tex.xml"), {}, 4096, REF_SEEDS),
 ]
 
 # Jobs whose pixels are correlated (non-box filter): also write NAME.tT.exr / NAME.tT.var.exr, the
