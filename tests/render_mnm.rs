@@ -186,3 +186,41 @@ fn glass_furnace_means_for_the_docs() {
         );
     }
 }
+
+#[test]
+fn every_microgeometry_passes_the_furnace_with_a_strong_normal_map() {
+    // A 70° tilt, n = (sin 70°, 0, cos 70°), encoded as 0.5·n + 0.5; every random-walk model
+    // (forced by `--normal-mapping`) must render the white sphere as 1 within noise.
+    use groove::scene::instantiate::{load_scene, LoadOptions};
+    use groove::scene::xml::parse::NormalMapping;
+    let n = (70f64.to_radians().sin(), 70f64.to_radians().cos());
+    let defines = vec![
+        ("nx".to_string(), format!("{}", 0.5 * n.0 + 0.5)),
+        ("ny".to_string(), "0.5".to_string()),
+        ("nz".to_string(), format!("{}", 0.5 * n.1 + 0.5)),
+    ];
+    for mode in ["walk-mirror", "walk-same", "vgroove", "ugroove"] {
+        let opts = LoadOptions {
+            defines: defines.clone(),
+            normal_mapping: NormalMapping::parse(mode).expect("mode"),
+        };
+        let loaded = load_scene(&test_scene("mnm_furnace.xml"), &opts).expect("load");
+        let ro = groove::render::RenderOptions {
+            spp: Some(256),
+            seed: Some(11),
+            ..Default::default()
+        };
+        let out = groove::render::render(&loaded.scene, &ro).expect("render");
+        let img = out.film.develop();
+        let var = out.film.develop_variance();
+        let px = img.data.len() as f64;
+        let m = img.data.iter().map(|p| p[0] as f64).sum::<f64>() / px;
+        let se = (var.data.iter().map(|p| p[0] as f64).sum::<f64>()).sqrt() / px;
+        assert!(
+            img.data.iter().all(|p| p.iter().all(|c| c.is_finite())),
+            "{mode}: non-finite pixel"
+        );
+        assert!((m - 1.0).abs() < 4.0 * se + 1e-4, "{mode}: {m} ± {se}");
+        assert!(out.stats.rays.walks > 0, "{mode}: no walk was sampled");
+    }
+}

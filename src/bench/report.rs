@@ -64,7 +64,10 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         }
         if !modes.is_empty() {
             let _ = writeln!(s, "| mode | min s | median s | × classic | Msamples/s | Mrays/s | of Embree ceiling | rays/sample | time/ray × classic | mean walk length | equal-time spp | RMSE | rel. RMSE | efficiency × classic |");
-            let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+            let _ = writeln!(
+                s,
+                "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+            );
             let classic_eff = modes
                 .iter()
                 .find(|m| m.mode == "classic")
@@ -219,7 +222,11 @@ fn targets(s: &mut String, r: &BenchReport) {
     let _ = writeln!(s, "| target | scene | measured | met |");
     let _ = writeln!(s, "|---|---|---|---|");
     for (t, scene, v, ok) in rows {
-        let _ = writeln!(s, "| {t} | {scene} | {v:.2} | {} |", if ok { "yes" } else { "no" });
+        let _ = writeln!(
+            s,
+            "| {t} | {scene} | {v:.2} | {} |",
+            if ok { "yes" } else { "no" }
+        );
     }
     let _ = writeln!(s);
 }
