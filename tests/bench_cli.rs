@@ -24,14 +24,7 @@ fn scene(name: &str) -> PathBuf {
         .join(name)
 }
 
-const MODES: [&str; 6] = [
-    "classic",
-    "explicit",
-    "walk-mirror",
-    "walk-same",
-    "vgroove",
-    "ugroove",
-];
+use groove::bench::MODES;
 
 fn num(v: &Value, k: &str) -> f64 {
     v[k].as_f64()

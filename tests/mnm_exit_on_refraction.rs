@@ -5,16 +5,13 @@
 
 mod common;
 
-use common::chi2::{draw, ArenaBsdf, Grid, Sidak};
+use common::chi2::{compare_cells, draw, ArenaBsdf, EvalCells, Grid, Sidak};
 use common::{dir, mean_se};
 
 use glam::Vec3;
 use groove::bsdf::mnm::facets::Microgeometry;
 use groove::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent, TransmissionWalk};
-use groove::bsdf::{
-    BsdfArena, BsdfContext, BsdfNode, Dielectric, MicrofacetDistribution, MicrofacetType,
-    RoughDielectric, TransportMode,
-};
+use groove::bsdf::{BsdfArena, BsdfContext, BsdfNode, Dielectric, TransportMode};
 use groove::math::warp;
 use groove::sampler::Sampler;
 use rayon::prelude::*;
@@ -30,17 +27,6 @@ const GEOMETRIES: [(Microgeometry, Tangent); 4] = [
     (Microgeometry::VGroove, Tangent::Same),
     (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
 ];
-
-/// Rough glass (GGX α, η = 1.5 against 1).
-fn rough_glass(alpha: f32) -> BsdfNode {
-    BsdfNode::RoughDielectric(RoughDielectric::new(
-        MicrofacetDistribution::new(MicrofacetType::Ggx, alpha, true),
-        1.5,
-        1.0,
-        Vec3::ONE,
-        Vec3::ONE,
-    ))
-}
 
 /// Smooth, white, lossless glass (η = 1.5): in importance mode every scattering has weight 1.
 fn smooth_glass() -> BsdfNode {
@@ -88,61 +74,20 @@ fn sphere_consistency(
         n_phi: 32,
     };
     let s = draw(b, wi, &grid, n, seed, false);
-    let cells = grid.cells();
-    let (mut es, mut es2, mut en) = (
-        vec![0.0f64; cells],
-        vec![0.0f64; cells],
-        vec![0usize; cells],
-    );
+    let mut e = EvalCells::new(grid.cells(), m);
     let mut rng = Sampler::from_seed(seed ^ 0x5e7, 9);
     let bsdf: Bsdf = b.arena.bsdf(b.root);
     let inv_pdf = 1.0 / warp::uniform_sphere_pdf() as f64;
     for _ in 0..m {
         let wo = warp::square_to_uniform_sphere(rng.next_2d());
-        let e = bsdf.eval(&b.ctx, wi, wo, &mut rng);
-        let v = (e.x + e.y + e.z) as f64 * inv_pdf;
-        let k = grid.cell_of(wo);
-        es[k] += v;
-        es2[k] += v * v;
-        if v > 0.0 {
-            en[k] += 1;
-        }
+        let v = bsdf.eval(&b.ctx, wi, wo, &mut rng);
+        e.add(grid.cell_of(wo), (v.x + v.y + v.z) as f64 * inv_pdf);
     }
-    let (nf, mf) = (n as f64, m as f64);
-    let (mut z2, mut dof) = (0.0, 0usize);
-    let (mut tw, mut tw2, mut te, mut te2) = (0.0, 0.0, 0.0, 0.0);
-    for k in 0..cells {
-        tw += s.wsum[k];
-        tw2 += s.w2sum[k];
-        te += es[k];
-        te2 += es2[k];
-        if s.counts[k] < 30 || en[k] < 30 {
-            continue;
-        }
-        let mw = s.wsum[k] / nf;
-        let vw = (s.w2sum[k] / nf - mw * mw).max(0.0) / nf;
-        let me = es[k] / mf;
-        let ve = (es2[k] / mf - me * me).max(0.0) / mf;
-        if vw + ve > 0.0 {
-            z2 += (mw - me).powi(2) / (vw + ve);
-            dof += 1;
-        }
-    }
-    let p = if dof > 0 {
-        statrs::distribution::ContinuousCDF::sf(
-            &statrs::distribution::ChiSquared::new(dof as f64).unwrap(),
-            z2,
-        )
-    } else {
-        1.0
-    };
-    let (mw, me) = (tw / nf, te / mf);
-    let zt = (mw - me) / ((tw2 / nf - mw * mw) / nf + (te2 / mf - me * me) / mf).sqrt();
-    let normal = statrs::distribution::Normal::new(0.0, 1.0).unwrap();
-    let pt = 2.0 * (1.0 - statrs::distribution::ContinuousCDF::cdf(&normal, zt.abs()));
-    if s.invalid > 0 || p < level / 2.0 || pt < level / 2.0 || dof < 20 {
+    let cmp = compare_cells(&s, &e);
+    if s.invalid > 0 || cmp.p < level / 2.0 || cmp.p_total < level / 2.0 || cmp.dof < 20 {
         return Err(format!(
-            "Σz² = {z2:.1} over {dof} cells (p = {p:.2e}); total weight {mw:.5} vs ∫eval {me:.5} (z = {zt:.2}, p = {pt:.2e}); {} invalid; level {level:.1e}",
+            "{}; {} invalid; level {level:.1e}",
+            cmp.describe(),
             s.invalid
         ));
     }
@@ -170,7 +115,7 @@ fn early_exit_and_two_sided_walks_sample_what_they_evaluate_per_cell() {
         .par_iter()
         .enumerate()
         .filter_map(|(i, &(walk, g, t, tp, wi))| {
-            let (arena, root) = mnm(rough_glass(0.3), g, t, tp, walk);
+            let (arena, root) = mnm(common::rough_glass(0.3), g, t, tp, walk);
             let b = ArenaBsdf {
                 arena,
                 root,
@@ -314,7 +259,13 @@ fn early_exit_breaks_reciprocity_where_the_two_sided_walk_keeps_it() {
         for t in [Tangent::Mirror, Tangent::Same] {
             let mut z = [0.0f64; 2];
             for (i, walk) in WALKS.into_iter().enumerate() {
-                let (arena, root) = mnm(rough_glass(0.3), Microgeometry::Sawtooth, t, tp, walk);
+                let (arena, root) = mnm(
+                    common::rough_glass(0.3),
+                    Microgeometry::Sawtooth,
+                    t,
+                    tp,
+                    walk,
+                );
                 let b = arena.bsdf(root);
                 let nb = arena.bsdf(0);
                 let f = |a: Vec3, c: Vec3, s: &mut Sampler| {
@@ -391,7 +342,7 @@ fn nested_glass_albedo_by_angle_for_the_docs() {
         mode: TransportMode::Importance,
     };
     let mut arena = BsdfArena::new();
-    let root = arena.push(rough_glass(0.05));
+    let root = arena.push(common::rough_glass(0.05));
     let b = arena.bsdf(root);
     let mut s = Sampler::from_seed(47, 48);
     for theta in [0.0f32, 30.0, 45.0, 60.0, 70.0, 80.0, 85.0, 89.0] {

@@ -7,26 +7,13 @@ use common::{dir, mean_se};
 use glam::Vec3;
 use groove::bsdf::mnm::facets::Microgeometry;
 use groove::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
-use groove::bsdf::{
-    BsdfArena, BsdfContext, BsdfNode, MicrofacetDistribution, MicrofacetType, RoughDielectric,
-    TransportMode,
-};
+use groove::bsdf::{BsdfArena, BsdfContext, BsdfNode, TransportMode};
 use groove::math::warp;
 use groove::sampler::Sampler;
 
-fn glass(alpha: f32) -> BsdfNode {
-    BsdfNode::RoughDielectric(RoughDielectric::new(
-        MicrofacetDistribution::new(MicrofacetType::Ggx, alpha, true),
-        1.5,
-        1.0,
-        Vec3::ONE,
-        Vec3::ONE,
-    ))
-}
-
 fn setup(g: Microgeometry, t: Tangent, tp: f32) -> (BsdfArena, u32, u32) {
     let mut arena = BsdfArena::new();
-    let nested = arena.push(glass(0.3));
+    let nested = arena.push(common::rough_glass(0.3));
     let root = arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
         nested,
         dir(tp, 30.0),

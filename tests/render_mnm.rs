@@ -117,24 +117,7 @@ fn classic_normal_mapping_fails_the_furnace_that_the_walk_passes() {
     // The same scene file switched with `--normal-mapping classic` (decision 6): the plain model
     // loses energy — a white Lambertian's albedo under a 45° perturbation is (1 + cos 45°)/2 =
     // 0.854 where the perturbed normal faces the viewer, and 0 where it faces away.
-    use groove::scene::instantiate::{load_scene, LoadOptions};
-    use groove::scene::xml::parse::NormalMapping;
-    let opts = LoadOptions {
-        normal_mapping: NormalMapping::Classic,
-        ..Default::default()
-    };
-    let loaded = load_scene(&test_scene("mnm_furnace.xml"), &opts).expect("load");
-    let ro = groove::render::RenderOptions {
-        spp: Some(256),
-        seed: Some(5),
-        ..Default::default()
-    };
-    let out = groove::render::render(&loaded.scene, &ro).expect("render");
-    let img = out.film.develop();
-    let var = out.film.develop_variance();
-    let n = img.data.len() as f64;
-    let m = img.data.iter().map(|p| p[0] as f64).sum::<f64>() / n;
-    let se = (var.data.iter().map(|p| p[0] as f64).sum::<f64>()).sqrt() / n;
+    let (m, se, _) = furnace_under("classic", &[], 5);
     // Measured deficit: the classic image mean is far below 1 (background pixels are 1).
     assert!(
         m < 1.0 - 0.05 - 4.0 * se,
@@ -191,36 +174,47 @@ fn glass_furnace_means_for_the_docs() {
 fn every_microgeometry_passes_the_furnace_with_a_strong_normal_map() {
     // A 70° tilt, n = (sin 70°, 0, cos 70°), encoded as 0.5·n + 0.5; every random-walk model
     // (forced by `--normal-mapping`) must render the white sphere as 1 within noise.
-    use groove::scene::instantiate::{load_scene, LoadOptions};
-    use groove::scene::xml::parse::NormalMapping;
     let n = (70f64.to_radians().sin(), 70f64.to_radians().cos());
-    let defines = vec![
-        ("nx".to_string(), format!("{}", 0.5 * n.0 + 0.5)),
-        ("ny".to_string(), "0.5".to_string()),
-        ("nz".to_string(), format!("{}", 0.5 * n.1 + 0.5)),
+    let defines = [
+        ("nx", format!("{}", 0.5 * n.0 + 0.5)),
+        ("ny", "0.5".to_string()),
+        ("nz", format!("{}", 0.5 * n.1 + 0.5)),
     ];
     for mode in ["walk-mirror", "walk-same", "vgroove", "ugroove"] {
-        let opts = LoadOptions {
-            defines: defines.clone(),
-            normal_mapping: NormalMapping::parse(mode).expect("mode"),
-        };
-        let loaded = load_scene(&test_scene("mnm_furnace.xml"), &opts).expect("load");
-        let ro = groove::render::RenderOptions {
-            spp: Some(256),
-            seed: Some(11),
-            ..Default::default()
-        };
-        let out = groove::render::render(&loaded.scene, &ro).expect("render");
-        let img = out.film.develop();
-        let var = out.film.develop_variance();
-        let px = img.data.len() as f64;
-        let m = img.data.iter().map(|p| p[0] as f64).sum::<f64>() / px;
-        let se = (var.data.iter().map(|p| p[0] as f64).sum::<f64>()).sqrt() / px;
-        assert!(
-            img.data.iter().all(|p| p.iter().all(|c| c.is_finite())),
-            "{mode}: non-finite pixel"
-        );
+        let (m, se, walks) = furnace_under(mode, &defines, 11);
         assert!((m - 1.0).abs() < 4.0 * se + 1e-4, "{mode}: {m} ± {se}");
-        assert!(out.stats.rays.walks > 0, "{mode}: no walk was sampled");
+        assert!(walks > 0, "{mode}: no walk was sampled");
     }
+}
+
+/// `mnm_furnace.xml` loaded under `--normal-mapping mode` with `defines`, 256 spp: image mean,
+/// its standard error (from the film's per-pixel variance) and the number of sampled walks.
+/// Panics on a non-finite pixel.
+fn furnace_under(mode: &str, defines: &[(&str, String)], seed: u64) -> (f64, f64, u64) {
+    use groove::scene::instantiate::{load_scene, LoadOptions};
+    use groove::scene::xml::parse::NormalMapping;
+    let opts = LoadOptions {
+        defines: defines
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.clone()))
+            .collect(),
+        normal_mapping: NormalMapping::parse(mode).expect("mode"),
+    };
+    let loaded = load_scene(&test_scene("mnm_furnace.xml"), &opts).expect("load");
+    let ro = groove::render::RenderOptions {
+        spp: Some(256),
+        seed: Some(seed),
+        ..Default::default()
+    };
+    let out = groove::render::render(&loaded.scene, &ro).expect("render");
+    let img = out.film.develop();
+    let var = out.film.develop_variance();
+    assert!(
+        img.data.iter().all(|p| p.iter().all(|c| c.is_finite())),
+        "{mode}: non-finite pixel"
+    );
+    let px = img.data.len() as f64;
+    let m = img.data.iter().map(|p| p[0] as f64).sum::<f64>() / px;
+    let se = (var.data.iter().map(|p| p[0] as f64).sum::<f64>()).sqrt() / px;
+    (m, se, out.stats.rays.walks)
 }

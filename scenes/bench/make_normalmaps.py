@@ -12,8 +12,11 @@ grooves70.png strong: asymmetric sawtooth grooves whose steep flanks tilt 70°, 
 import argparse
 import math
 import os
-import struct
-import zlib
+import sys
+
+# The PNG writer of the showcase's normal-map script (pure Python, zlib + struct).
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "showcase"))
+from make_normalmap import png  # noqa: E402
 
 
 def ripples(u, v):
@@ -53,18 +56,6 @@ def normal(gx, gy, max_tilt_deg):
         s = math.hypot(nx, ny)
         nx, ny, nz = nx / s * math.sin(max_tilt), ny / s * math.sin(max_tilt), math.cos(max_tilt)
     return nx, ny, nz
-
-
-def png(path, w, h, rows):
-    def chunk(tag, data):
-        c = struct.pack(">I", len(data)) + tag + data
-        return c + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
-    raw = b"".join(b"\x00" + bytes(r) for r in rows)
-    with open(path, "wb") as f:
-        f.write(b"\x89PNG\r\n\x1a\n")
-        f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)))
-        f.write(chunk(b"IDAT", zlib.compress(raw, 9)))
-        f.write(chunk(b"IEND", b""))
 
 
 def write(path, n, gradient, max_tilt):

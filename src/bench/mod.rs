@@ -29,15 +29,9 @@ use crate::scene::Scene;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-/// The modes a benchmark compares, in report order (`classic` first: ratios refer to it).
-pub const MODES: [&str; 6] = [
-    "classic",
-    "explicit",
-    "walk-mirror",
-    "walk-same",
-    "vgroove",
-    "ugroove",
-];
+/// The modes a benchmark compares, in report order (`classic` first: ratios refer to it): every
+/// `--normal-mapping` value but `microfacet` (which is "as written").
+pub const MODES: &[&str] = NormalMapping::NAMES.split_at(6).0;
 
 /// What to run.
 #[derive(Clone, Debug)]

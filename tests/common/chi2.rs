@@ -691,3 +691,101 @@ pub fn direction(theta_deg: f32, phi_deg: f32) -> Vec3 {
     let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
     Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
 }
+
+/// Per-cell sums of an eval estimate: Σ eval/p, Σ (eval/p)² and the count of non-zero terms per
+/// cell, over `m` directions drawn from a density p (for stochastic BSDFs, whose eval cannot be
+/// integrated by quadrature without bias; see `tests/mnm_harness.rs`).
+pub struct EvalCells {
+    pub m: usize,
+    pub sum: Vec<f64>,
+    pub sum2: Vec<f64>,
+    pub nonzero: Vec<usize>,
+}
+
+impl EvalCells {
+    pub fn new(cells: usize, m: usize) -> Self {
+        EvalCells {
+            m,
+            sum: vec![0.0; cells],
+            sum2: vec![0.0; cells],
+            nonzero: vec![0; cells],
+        }
+    }
+
+    /// Add one term `v` = eval/p of a direction in `cell`.
+    pub fn add(&mut self, cell: usize, v: f64) {
+        self.sum[cell] += v;
+        self.sum2[cell] += v * v;
+        if v > 0.0 {
+            self.nonzero[cell] += 1;
+        }
+    }
+}
+
+/// Sample weights against an eval estimate, cell by cell and in total.
+pub struct CellComparison {
+    /// Σ z² over the cells with ≥ 30 terms on both sides, its degrees of freedom and p-value.
+    pub z2: f64,
+    pub dof: usize,
+    pub p: f64,
+    /// Whole-sphere mean weight and ∫eval, their z-score and two-sided p-value.
+    pub weight: f64,
+    pub eval: f64,
+    pub z_total: f64,
+    pub p_total: f64,
+}
+
+impl CellComparison {
+    pub fn describe(&self) -> String {
+        format!(
+            "Σz² = {:.1} over {} cells (p = {:.2e}); total weight {:.5} vs ∫eval {:.5} (z = {:.2}, p = {:.2e})",
+            self.z2, self.dof, self.p, self.weight, self.eval, self.z_total, self.p_total
+        )
+    }
+}
+
+/// Compare two independent Monte Carlo estimates of the same per-cell integral: the sample
+/// weights `s` (N samples) and the eval terms `e` (M directions), each with its own variance.
+pub fn compare_cells(s: &Samples, e: &EvalCells) -> CellComparison {
+    let (n, mf) = (s.n as f64, e.m as f64);
+    let (mut z2, mut dof) = (0.0, 0usize);
+    let (mut tw, mut tw2, mut te, mut te2) = (0.0, 0.0, 0.0, 0.0);
+    for k in 0..e.sum.len() {
+        tw += s.wsum[k];
+        tw2 += s.w2sum[k];
+        te += e.sum[k];
+        te2 += e.sum2[k];
+        if s.counts[k] < 30 || e.nonzero[k] < 30 {
+            continue;
+        }
+        let mw = s.wsum[k] / n;
+        let vw = (s.w2sum[k] / n - mw * mw).max(0.0) / n;
+        let me = e.sum[k] / mf;
+        let ve = (e.sum2[k] / mf - me * me).max(0.0) / mf;
+        if vw + ve > 0.0 {
+            z2 += (mw - me).powi(2) / (vw + ve);
+            dof += 1;
+        }
+    }
+    let p = if dof > 0 {
+        statrs::distribution::ContinuousCDF::sf(
+            &statrs::distribution::ChiSquared::new(dof as f64).unwrap(),
+            z2,
+        )
+    } else {
+        1.0
+    };
+    let (mw, me) = (tw / n, te / mf);
+    let z_total = (mw - me) / ((tw2 / n - mw * mw) / n + (te2 / mf - me * me) / mf).sqrt();
+    let normal = statrs::distribution::Normal::new(0.0, 1.0).unwrap();
+    let p_total = 2.0 * (1.0 - statrs::distribution::ContinuousCDF::cdf(&normal, z_total.abs()));
+    CellComparison {
+        z2,
+        dof,
+        p,
+        weight: mw,
+        eval: me,
+        z_total,
+        p_total,
+    }
+}

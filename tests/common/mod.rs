@@ -112,3 +112,15 @@ pub fn mean_se(n: usize, mut f: impl FnMut() -> f64) -> (f64, f64) {
     let m = a / n as f64;
     (m, ((a2 / n as f64 - m * m).max(0.0) / n as f64).sqrt())
 }
+
+/// Rough glass for transmission tests: GGX α, η = 1.5 against 1, white.
+pub fn rough_glass(alpha: f32) -> groove::bsdf::BsdfNode {
+    use groove::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
+    groove::bsdf::BsdfNode::RoughDielectric(groove::bsdf::roughdielectric::RoughDielectric::new(
+        MicrofacetDistribution::new(MicrofacetType::Ggx, alpha, true),
+        1.5,
+        1.0,
+        glam::Vec3::ONE,
+        glam::Vec3::ONE,
+    ))
+}
