@@ -66,6 +66,10 @@ impl WrapMode {
     /// Maps an integer texel coordinate into [0, n).
     #[inline]
     fn apply(self, i: i64, n: i64) -> usize {
+        // Inside the image every mode is the identity: skip the integer division.
+        if (0..n).contains(&i) {
+            return i as usize;
+        }
         let r = match self {
             WrapMode::Repeat => i.rem_euclid(n),
             WrapMode::Clamp => i.clamp(0, n - 1),
