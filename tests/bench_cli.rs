@@ -139,6 +139,9 @@ fn bench_writes_json_markdown_and_chart_with_the_documented_schema() {
     assert_eq!(ceilings.len(), 2);
     for c in ceilings {
         assert!(num(c, "rays_per_second") > 0.0 && num(c, "rays") > 0.0);
+        // Below the cap every traced ray is recorded: the render's counters count exactly the
+        // rays it traces (a path ended by Russian roulette traces no further ray).
+        assert_eq!(c["rays"], c["recorded"], "{c}");
     }
     assert!(v["peers"].as_array().unwrap().is_empty());
     assert!(v["peer_note"].as_str().unwrap().contains("not requested"));

@@ -42,12 +42,17 @@ pub fn li(
     let mut eta = 1.0f32;
     let mut depth: u32 = 0;
     let mut prev: Option<PrevVertex> = None;
-    scratch.counters.camera += 1;
     if max_depth == 0 {
         return result;
     }
 
     loop {
+        // Count rays where they are traced (a path ended by Russian roulette traces no more).
+        if depth == 0 {
+            scratch.counters.camera += 1;
+        } else {
+            scratch.counters.bounce += 1;
+        }
         let hit = scene.intersect(&ray);
 
         // ---- Emission seen by this ray (from an escaped ray or an area light hit) ----
@@ -128,7 +133,6 @@ pub fn li(
             delta: bs.lobe & lobe::DELTA != 0,
         });
         ray = si.spawn_ray(wo_world);
-        scratch.counters.bounce += 1;
         depth += 1;
 
         // Russian roulette (Mitsuba 3: survival min(max(throughput)·η², 0.95) from rr_depth on).
