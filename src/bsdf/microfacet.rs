@@ -187,12 +187,18 @@ impl MicrofacetDistribution {
 
     /// Sample a microfacet normal; returns `(m, pdf(wi, m))`.
     pub fn sample(&self, wi: Vec3, u: Vec2) -> (Vec3, f32) {
-        let m = if self.sample_visible {
+        let m = self.sample_normal(wi, u);
+        (m, self.pdf(wi, m))
+    }
+
+    /// Sample a microfacet normal without its density (for callers that compute their own).
+    #[inline]
+    pub fn sample_normal(&self, wi: Vec3, u: Vec2) -> Vec3 {
+        if self.sample_visible {
             self.sample_visible_normal(wi, u)
         } else {
             self.sample_all_normals(u)
-        };
-        (m, self.pdf(wi, m))
+        }
     }
 
     /// D(m) cos θm: sample the slope distribution of the α = 1 configuration and stretch it by

@@ -332,7 +332,9 @@ impl<'a> Bsdf<'a> {
         Some(s)
     }
 
-    /// Eval and pdf together (next-event estimation needs both).
+    /// Eval and pdf together (next-event estimation needs both). Models whose two queries share
+    /// work (the half vector, D and G1, a perturbed frame) compute it once; the result equals
+    /// `(eval, pdf)` called separately.
     pub fn eval_pdf(
         &self,
         ctx: &BsdfContext,
@@ -340,7 +342,17 @@ impl<'a> Bsdf<'a> {
         wo: Vec3,
         sampler: &mut Sampler,
     ) -> (Spectrum, f32) {
-        (self.eval(ctx, wi, wo, sampler), self.pdf(ctx, wi, wo))
+        match self.node() {
+            BsdfNode::Diffuse(d) => (d.eval(wi, wo), d.pdf(wi, wo)),
+            BsdfNode::RoughConductor(b) => b.eval_pdf(wi, wo),
+            BsdfNode::RoughPlastic(b) => b.eval_pdf(wi, wo),
+            BsdfNode::TwoSided { front, back } => {
+                twosided::eval_pdf(*self, *front, *back, ctx, wi, wo, sampler)
+            }
+            BsdfNode::MicrofacetNormalMap(m) => mnm::eval_pdf(*self, m, ctx, wi, wo, sampler),
+            BsdfNode::NormalMap(m) => normalmap::eval_pdf(*self, m, ctx, wi, wo, sampler),
+            _ => (self.eval(ctx, wi, wo, sampler), self.pdf(ctx, wi, wo)),
+        }
     }
 }
 

@@ -113,6 +113,23 @@ pub(super) fn pdf(b: Bsdf, m: &NormalMap, ctx: &BsdfContext, wi: Vec3, wo: Vec3)
     b.child(m.nested).pdf(ctx, f.to_local(wi), pwo)
 }
 
+pub(super) fn eval_pdf(
+    b: Bsdf,
+    m: &NormalMap,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> (Spectrum, f32) {
+    let f = m.frame(wi);
+    let pwo = f.to_local(wo);
+    if wo.z * pwo.z <= 0.0 {
+        return (Spectrum::ZERO, 0.0);
+    }
+    let (v, p) = b.child(m.nested).eval_pdf(ctx, f.to_local(wi), pwo, s);
+    (v * m.shadow(&f, wo), p)
+}
+
 pub(super) fn sample(
     b: Bsdf,
     m: &NormalMap,

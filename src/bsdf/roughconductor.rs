@@ -24,6 +24,31 @@ pub struct RoughConductor {
     pub specular_reflectance: Spectrum,
 }
 
+/// Density of a reflection sampled through the microfacet normal `h = normalize(wi + wo)`, given
+/// `d = D(h)` and `g1i = G1(wi, h)` (unused without visible sampling). The Jacobian of the
+/// reflection map is dωh / dωo = 1 / (4 wo·h) (Walter et al. 2007, eq. 14).
+#[inline]
+pub(crate) fn reflection_pdf(
+    distribution: &super::MicrofacetDistribution,
+    wi: Vec3,
+    wo: Vec3,
+    h: Vec3,
+    d: f32,
+    g1i: f32,
+) -> f32 {
+    let p = if distribution.sample_visible {
+        // D_wi(h) = G1(wi, h) |wi·h| D(h) / cos θi, and wi·h = wo·h.
+        d * g1i / (4.0 * wi.z)
+    } else {
+        d * h.z / (4.0 * wo.dot(h))
+    };
+    if p.is_finite() {
+        p.max(0.0)
+    } else {
+        0.0
+    }
+}
+
 impl RoughConductor {
     #[inline]
     fn fresnel(&self, cos_theta: f32) -> Spectrum {
@@ -31,17 +56,24 @@ impl RoughConductor {
     }
 
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Spectrum {
+        self.eval_pdf(wi, wo).0
+    }
+
+    /// `(eval, pdf)` sharing the half vector, D(h) and G1(wi, h).
+    pub fn eval_pdf(&self, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
         if wi.z <= 0.0 || wo.z <= 0.0 {
-            return Spectrum::ZERO;
+            return (Spectrum::ZERO, 0.0);
         }
         let h = (wi + wo).normalize();
         let d = self.distribution.eval(h);
         if d == 0.0 {
-            return Spectrum::ZERO;
+            return (Spectrum::ZERO, 0.0);
         }
-        let g = self.distribution.g(wi, wo, h);
+        let g1i = self.distribution.smith_g1(wi, h);
         // f cos θo = F D G / (4 cos θi).
-        self.fresnel(wi.dot(h)) * (d * g / (4.0 * wi.z))
+        let f =
+            self.fresnel(wi.dot(h)) * (d * g1i * self.distribution.smith_g1(wo, h) / (4.0 * wi.z));
+        (f, reflection_pdf(&self.distribution, wi, wo, h, d, g1i))
     }
 
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
@@ -49,17 +81,13 @@ impl RoughConductor {
             return 0.0;
         }
         let h = (wi + wo).normalize();
-        // Jacobian of the reflection map: dωh / dωo = 1 / (4 wo·h).
-        let p = if self.distribution.sample_visible {
-            self.distribution.eval(h) * self.distribution.smith_g1(wi, h) / (4.0 * wi.z)
+        let d = self.distribution.eval(h);
+        let g1i = if self.distribution.sample_visible {
+            self.distribution.smith_g1(wi, h)
         } else {
-            self.distribution.pdf(wi, h) / (4.0 * wo.dot(h))
+            1.0
         };
-        if p.is_finite() {
-            p.max(0.0)
-        } else {
-            0.0
-        }
+        reflection_pdf(&self.distribution, wi, wo, h, d, g1i)
     }
 
     pub fn sample(&self, wi: Vec3, u: Vec2) -> Option<BsdfSample> {

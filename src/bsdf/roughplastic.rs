@@ -18,11 +18,12 @@
 use super::fresnel::{fresnel_dielectric, refract};
 use super::microfacet::{gauss_legendre, MicrofacetDistribution, MicrofacetType};
 use super::plastic::specular_sampling_weight;
+use super::roughconductor::reflection_pdf;
 use super::{lobe, BsdfSample};
 use crate::math::{reflect, warp};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
-use std::sync::Mutex;
+use std::sync::{Mutex, OnceLock};
 
 /// Entries of the transmittance table (Mitsuba's resolution).
 pub const TRANSMITTANCE_RES: usize = 64;
@@ -47,13 +48,15 @@ pub fn rough_interface_albedo(
         sample_visible: true,
         ..*distr
     };
-    let res = if eta > 1.0 { 32 } else { 128 };
-    let (nodes, weights) = gauss_legendre(res);
+    // Gauss–Legendre rules of both resolutions, computed once per process.
+    static RULES: [OnceLock<(Vec<f64>, Vec<f64>)>; 2] = [OnceLock::new(), OnceLock::new()];
+    let (slot, res) = if eta > 1.0 { (0, 32) } else { (1, 128) };
+    let (nodes, weights) = RULES[slot].get_or_init(|| gauss_legendre(res));
     let mut sum = 0.0f64;
-    for (x, wx) in nodes.iter().zip(&weights) {
-        for (y, wy) in nodes.iter().zip(&weights) {
+    for (x, wx) in nodes.iter().zip(weights) {
+        for (y, wy) in nodes.iter().zip(weights) {
             let u = Vec2::new((0.5 * x + 0.5) as f32, (0.5 * y + 0.5) as f32);
-            let (m, _) = d.sample(wi, u);
+            let m = d.sample_normal(wi, u);
             let fr = fresnel_dielectric(wi.dot(m), eta);
             let v = if transmit {
                 let wo = refract(wi, m, fr.cos_theta_t, fr.eta_ti);
@@ -174,13 +177,19 @@ impl RoughPlastic {
     }
 
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Spectrum {
+        self.eval_pdf(wi, wo).0
+    }
+
+    /// `(eval, pdf)` sharing the half vector, D(h), G1(wi, h) and T(θi).
+    pub fn eval_pdf(&self, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
         if wi.z <= 0.0 || wo.z <= 0.0 {
-            return Spectrum::ZERO;
+            return (Spectrum::ZERO, 0.0);
         }
         let h = (wi + wo).normalize();
         let d = self.distribution.eval(h);
+        let g1i = self.distribution.smith_g1(wi, h);
         let f = fresnel_dielectric(wi.dot(h), self.eta).r;
-        let g = self.distribution.g(wi, wo, h);
+        let g = g1i * self.distribution.smith_g1(wo, h);
         let spec = self.specular_reflectance * (f * d * g / (4.0 * wi.z));
         let rho = self.diffuse_reflectance;
         let r_int = self.table.internal_reflectance;
@@ -189,21 +198,31 @@ impl RoughPlastic {
         } else {
             rho / (1.0 - r_int)
         };
-        let t = self.table.transmittance(wi.z) * self.table.transmittance(wo.z);
-        spec + albedo * (crate::math::INV_PI * wo.z * t / (self.eta * self.eta))
+        let t_i = self.table.transmittance(wi.z);
+        let t = t_i * self.table.transmittance(wo.z);
+        let value = spec + albedo * (crate::math::INV_PI * wo.z * t / (self.eta * self.eta));
+        (value, self.mixture_pdf(t_i, wi, wo, h, d, g1i))
     }
 
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return 0.0;
         }
-        let ps = self.prob_specular(self.table.transmittance(wi.z));
         let h = (wi + wo).normalize();
-        let p_spec = if self.distribution.sample_visible {
-            self.distribution.eval(h) * self.distribution.smith_g1(wi, h) / (4.0 * wi.z)
+        let d = self.distribution.eval(h);
+        let g1i = if self.distribution.sample_visible {
+            self.distribution.smith_g1(wi, h)
         } else {
-            self.distribution.pdf(wi, h) / (4.0 * wo.dot(h))
+            1.0
         };
+        self.mixture_pdf(self.table.transmittance(wi.z), wi, wo, h, d, g1i)
+    }
+
+    /// The sampling mixture's density: specular lobe with probability ps(T(θi)), else cosine.
+    #[inline]
+    fn mixture_pdf(&self, t_i: f32, wi: Vec3, wo: Vec3, h: Vec3, d: f32, g1i: f32) -> f32 {
+        let ps = self.prob_specular(t_i);
+        let p_spec = reflection_pdf(&self.distribution, wi, wo, h, d, g1i);
         let p = ps * p_spec + (1.0 - ps) * warp::cosine_hemisphere_pdf(wo);
         if p.is_finite() {
             p
@@ -218,7 +237,7 @@ impl RoughPlastic {
         }
         let ps = self.prob_specular(self.table.transmittance(wi.z));
         let (wo, kind) = if u1 < ps {
-            let (m, _) = self.distribution.sample(wi, u2);
+            let m = self.distribution.sample_normal(wi, u2);
             (reflect(wi, m), lobe::GLOSSY_REFLECTION)
         } else {
             (
@@ -226,14 +245,14 @@ impl RoughPlastic {
                 lobe::DIFFUSE_REFLECTION,
             )
         };
-        let pdf = self.pdf(wi, wo);
+        let (value, pdf) = self.eval_pdf(wi, wo);
         if !super::is_positive(pdf) {
             return None;
         }
         Some(BsdfSample {
             wo,
             pdf,
-            weight: self.eval(wi, wo) / pdf,
+            weight: value / pdf,
             eta: 1.0,
             lobe: kind,
         })

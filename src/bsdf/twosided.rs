@@ -36,6 +36,22 @@ pub(super) fn pdf(b: Bsdf, front: u32, back: u32, ctx: &BsdfContext, wi: Vec3, w
     }
 }
 
+pub(super) fn eval_pdf(
+    b: Bsdf,
+    front: u32,
+    back: u32,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    sampler: &mut Sampler,
+) -> (Spectrum, f32) {
+    if wi.z >= 0.0 {
+        b.child(front).eval_pdf(ctx, wi, wo, sampler)
+    } else {
+        b.child(back).eval_pdf(ctx, flip(wi), flip(wo), sampler)
+    }
+}
+
 pub(super) fn sample(
     b: Bsdf,
     front: u32,

@@ -258,6 +258,18 @@ pub(super) fn pdf(b: Bsdf, m: &MicrofacetNormalMap, ctx: &BsdfContext, wi: Vec3,
     }
 }
 
+/// Eval and pdf of one query (next-event estimation).
+pub(super) fn eval_pdf(
+    b: Bsdf,
+    m: &MicrofacetNormalMap,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> (Spectrum, f32) {
+    (eval(b, m, ctx, wi, wo, s), pdf(b, m, ctx, wi, wo))
+}
+
 pub(super) fn sample(
     b: Bsdf,
     m: &MicrofacetNormalMap,
