@@ -265,8 +265,8 @@ impl Block {
         }
         let v = value.to_array();
         if self.filter.is_box() {
-            let px = (film_pos.x.floor() as i64).saturating_sub(self.ox);
-            let py = (film_pos.y.floor() as i64).saturating_sub(self.oy);
+            let px = (crate::math::floor(film_pos.x) as i64).saturating_sub(self.ox);
+            let py = (crate::math::floor(film_pos.y) as i64).saturating_sub(self.oy);
             if px >= 0 && py >= 0 && px < self.sw as i64 && py < self.sh as i64 {
                 let idx = py as usize * self.sw as usize + px as usize;
                 self.data[idx].add_sample(v, 1.0);
@@ -279,8 +279,8 @@ impl Block {
         let pyf = film_pos.y - self.oy as f32 - 0.5;
         let x_lo = ((pxf - r).ceil() as i64).max(0);
         let y_lo = ((pyf - r).ceil() as i64).max(0);
-        let x_hi = ((pxf + r).floor() as i64).min(self.sw as i64 - 1);
-        let y_hi = ((pyf + r).floor() as i64).min(self.sh as i64 - 1);
+        let x_hi = (crate::math::floor(pxf + r) as i64).min(self.sw as i64 - 1);
+        let y_hi = (crate::math::floor(pyf + r) as i64).min(self.sh as i64 - 1);
         if x_lo > x_hi || y_lo > y_hi {
             return;
         }

@@ -167,16 +167,18 @@ impl Materials {
                 arena.push(BsdfNode::Diffuse(Diffuse { reflectance: r }))
             }
             MaterialNode::Leaf { template, slots } => {
-                let mut node = **template;
+                // Copied once, into the arena, and patched there.
+                let id = arena.push(**template);
+                let node = arena.node_mut(id);
                 for &(slot, tex) in slots {
                     let t = &self.textures[tex as usize];
                     if slot.is_scalar() {
-                        patch_scalar(&mut node, slot, t.eval_1(si.uv));
+                        patch_scalar(node, slot, t.eval_1(si.uv));
                     } else {
-                        patch(&mut node, slot, t.eval(si.uv));
+                        patch(node, slot, t.eval(si.uv));
                     }
                 }
-                arena.push(node)
+                id
             }
             MaterialNode::TwoSided { front, back } => {
                 let f = self.build(*front, si, arena);

@@ -322,6 +322,65 @@ fn statistics_delta_models() {
 }
 
 /// Every case belongs to one of the tests above.
+/// Next-event estimation asks `eval_pdf`; it must agree with `eval` and `pdf`, for every case
+/// and for the wrappers with a fused path (classic normal map, twosided).
+#[test]
+fn eval_pdf_equals_eval_and_pdf() {
+    let mut fails = Vec::new();
+    for (i, c) in cases().iter().enumerate() {
+        if let Err(e) = c.bsdf.check_eval_pdf(4000, 500 + i as u64) {
+            fails.push(format!("[{}] {e}", c.name));
+        }
+    }
+    let (au_eta, au_k) = named_conductor("Au").unwrap();
+    let leaves = [
+        BsdfNode::RoughConductor(RoughConductor {
+            distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.3, true),
+            eta: au_eta,
+            k: au_k,
+            specular_reflectance: Vec3::ONE,
+        }),
+        BsdfNode::RoughPlastic(RoughPlastic::new(
+            MicrofacetType::Beckmann,
+            0.2,
+            false,
+            Vec3::new(0.1, 0.3, 0.6),
+            Vec3::ONE,
+            1.5,
+            1.0,
+            true,
+        )),
+    ];
+    for (k, leaf) in leaves.into_iter().enumerate() {
+        for flags in [false, true] {
+            let mut arena = BsdfArena::new();
+            let nested = arena.push(leaf);
+            let nm = arena.push(BsdfNode::NormalMap(NormalMap {
+                nested,
+                normal: Vec3::new(0.4, -0.3, 0.8),
+                flip_invalid_normals: flags,
+                use_shadowing_function: flags,
+            }));
+            let root = arena.push(BsdfNode::TwoSided {
+                front: nm,
+                back: nested,
+            });
+            let b = ArenaBsdf {
+                arena,
+                root,
+                ctx: BsdfContext::default(),
+                deterministic: true,
+            };
+            if let Err(e) = b.check_eval_pdf(4000, 900 + k as u64) {
+                fails.push(format!(
+                    "[twosided(normalmap(leaf {k}), flags {flags})] {e}"
+                ));
+            }
+        }
+    }
+    assert!(fails.is_empty(), "{}", fails.join("\n"));
+}
+
 #[test]
 fn every_case_is_run() {
     let known = [

@@ -200,6 +200,11 @@ impl BsdfArena {
         self.nodes.push(node);
         (self.nodes.len() - 1) as u32
     }
+    /// Node `index`, for patching texture values in place.
+    #[inline]
+    pub fn node_mut(&mut self, index: u32) -> &mut BsdfNode {
+        &mut self.nodes[index as usize]
+    }
     /// A view of node `root`.
     #[inline]
     pub fn bsdf(&self, root: u32) -> Bsdf<'_> {

@@ -150,11 +150,11 @@ impl EnvMapLight {
         let (w, h) = (self.width, self.height);
         let x = uv.x * w as f32 - 0.5;
         let y = (uv.y * (h - 1) as f32).clamp(0.0, (h - 1) as f32);
-        let xf = x.floor();
+        let xf = crate::math::floor(x);
         let fx = x - xf;
         let i0 = (xf as i64).rem_euclid(w as i64) as usize;
         let i1 = (i0 + 1) % w;
-        let j0 = (y.floor() as usize).min(h - 2);
+        let j0 = (crate::math::floor(y) as usize).min(h - 2);
         let fy = y - j0 as f32;
         let top = self.texel(i0, j0) * (1.0 - fx) + self.texel(i1, j0) * fx;
         let bottom = self.texel(i0, j0 + 1) * (1.0 - fx) + self.texel(i1, j0 + 1) * fx;

@@ -357,8 +357,8 @@ impl BitmapTexture {
         let (w, h) = (self.width as i64, self.height as i64);
         match self.filter {
             FilterType::Nearest => {
-                let x = (p.x * self.width as f32).floor() as i64;
-                let y = (p.y * self.height as f32).floor() as i64;
+                let x = crate::math::floor(p.x * self.width as f32) as i64;
+                let y = crate::math::floor(p.y * self.height as f32) as i64;
                 let (x, y) = (self.wrap.apply(x, w), self.wrap.apply(y, h));
                 self.texels[y * self.width as usize + x]
             }
@@ -366,7 +366,7 @@ impl BitmapTexture {
                 // Texel centres sit at integer + 0.5 (Dr.Jit's `tex_eval`).
                 let x = p.x * self.width as f32 - 0.5;
                 let y = p.y * self.height as f32 - 0.5;
-                let (xf, yf) = (x.floor(), y.floor());
+                let (xf, yf) = (crate::math::floor(x), crate::math::floor(y));
                 let (wx1, wy1) = (x - xf, y - yf);
                 let (wx0, wy0) = (1.0 - wx1, 1.0 - wy1);
                 let (x0, y0) = (xf as i64, yf as i64);
@@ -401,7 +401,7 @@ impl BitmapTexture {
         let (w, h) = (self.width as i64, self.height as i64);
         let x = p.x * self.width as f32 - 0.5;
         let y = p.y * self.height as f32 - 0.5;
-        let (xf, yf) = (x.floor(), y.floor());
+        let (xf, yf) = (crate::math::floor(x), crate::math::floor(y));
         let (wx, wy) = (x - xf, y - yf);
         let (x0, y0) = (xf as i64, yf as i64);
         let xa = self.wrap.apply(x0, w);

@@ -47,8 +47,8 @@ impl Texture {
             } => {
                 let p = to_uv.transform_point2(uv);
                 // Mitsuba 3 checkerboard: the four quarters of the unit square, repeated.
-                let fx = p.x - p.x.floor();
-                let fy = p.y - p.y.floor();
+                let fx = p.x - crate::math::floor(p.x);
+                let fy = p.y - crate::math::floor(p.y);
                 if (fx > 0.5) == (fy > 0.5) {
                     *color0
                 } else {

@@ -789,3 +789,32 @@ pub fn compare_cells(s: &Samples, e: &EvalCells) -> CellComparison {
         p_total,
     }
 }
+
+impl ArenaBsdf {
+    /// `Bsdf::eval_pdf` (the fused query of next-event estimation) equals separate `eval` and
+    /// `pdf` calls to float rounding (relative 1e-5) for `n` random direction pairs over the whole
+    /// sphere. Deterministic BSDFs only (a random walk's eval differs from call to call).
+    pub fn check_eval_pdf(&self, n: usize, seed: u64) -> Result<(), String> {
+        assert!(
+            self.deterministic,
+            "eval_pdf check needs a deterministic BSDF"
+        );
+        let mut s = Sampler::from_seed(seed, 11);
+        let b = self.arena.bsdf(self.root);
+        let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(b.abs()) + 1e-30;
+        for _ in 0..n {
+            let wi = groove::math::warp::square_to_uniform_sphere(s.next_2d());
+            let wo = groove::math::warp::square_to_uniform_sphere(s.next_2d());
+            let (f, p) = b.eval_pdf(&self.ctx, wi, wo, &mut s);
+            let f2 = b.eval(&self.ctx, wi, wo, &mut s);
+            let p2 = b.pdf(&self.ctx, wi, wo);
+            let ok = close(p, p2) && (0..3).all(|c| close(f[c], f2[c]));
+            if !ok {
+                return Err(format!(
+                    "wi {wi} wo {wo}: eval_pdf ({f}, {p}) vs eval {f2}, pdf {p2}"
+                ));
+            }
+        }
+        Ok(())
+    }
+}
