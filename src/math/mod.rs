@@ -27,7 +27,7 @@ pub fn reflect(w: Vec3, n: Vec3) -> Vec3 {
 /// or more is already an integer; NaN stays NaN.
 #[inline]
 pub fn floor(x: f32) -> f32 {
-    if !(x.abs() < 8_388_608.0) {
+    if x.is_nan() || x.abs() >= 8_388_608.0 {
         return x;
     }
     let t = x as i32 as f32;
