@@ -48,6 +48,12 @@ pub struct Camera {
     far_clip: f32,
     film_w: f32,
     film_h: f32,
+    /// Ray generation's per-axis scales: x = (1 − 2u)·tan, y = (1 − 2v)·tan / aspect, with
+    /// u = film x / width (reciprocals precomputed; camera rays are a hot path).
+    scale_x: f32,
+    scale_y: f32,
+    /// tan of half the vertical field of view (tan_half_x / aspect).
+    tan_half_y: f32,
 }
 
 impl Camera {
@@ -146,6 +152,9 @@ impl Camera {
             far_clip,
             film_w: w as f32,
             film_h: h as f32,
+            scale_x: (2.0 * tan_half_x / w as f64) as f32,
+            scale_y: (2.0 * tan_half_x / aspect / h as f64) as f32,
+            tan_half_y: (tan_half_x / aspect) as f32,
         })
     }
 
@@ -162,13 +171,11 @@ impl Camera {
     /// The camera-local, not normalised direction through a film position, with z = 1.
     #[inline]
     fn local_dir(&self, film_pos: Vec2) -> Vec3 {
-        // Normalised film coordinates in [0,1]²; Mitsuba's perspective_projection maps them to
-        // the z = 1 plane as x = (1 - 2u)·tan, y = (1 - 2v)·tan / aspect.
-        let u = film_pos.x / self.film_w;
-        let v = film_pos.y / self.film_h;
+        // Normalised film coordinates u, v in [0,1]²; Mitsuba's perspective_projection maps them
+        // to the z = 1 plane as x = (1 - 2u)·tan, y = (1 - 2v)·tan / aspect.
         Vec3::new(
-            (1.0 - 2.0 * u) * self.tan_half_x,
-            (1.0 - 2.0 * v) * self.tan_half_x / self.aspect,
+            self.tan_half_x - film_pos.x * self.scale_x,
+            self.tan_half_y - film_pos.y * self.scale_y,
             1.0,
         )
     }
@@ -178,9 +185,10 @@ impl Camera {
     /// `tmax` span exactly the near..far clip planes as Mitsuba does (clip distances divided by the
     /// z of the unit local direction; Mitsuba moves the origin to the near plane instead).
     pub fn generate_ray(&self, film_pos: Vec2) -> Ray {
-        let d_local = self.local_dir(film_pos).normalize();
-        let inv_z = 1.0 / d_local.z;
-        let d = self.to_world.transform_vector3(d_local).normalize();
+        let l = self.local_dir(film_pos);
+        // z of the unit local direction is 1/|l|.
+        let inv_z = l.length();
+        let d = self.to_world.transform_vector3(l).normalize();
         Ray {
             o: self.position(),
             d,
