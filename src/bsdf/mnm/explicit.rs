@@ -24,7 +24,7 @@ pub(super) fn eval_mirror(
     if g1o <= 0.0 {
         return Spectrum::ZERO;
     }
-    let lp = surf.lambda(0, wi);
+    let [lp, lt, _] = surf.lambdas(wi);
     let mut v = Spectrum::ZERO;
     if lp > 0.0 {
         v += lp * m.f(nested, 0, ctx, wi, wo, s);
@@ -36,7 +36,6 @@ pub(super) fn eval_mirror(
     }
     if wi.dot(wt) > 0.0 {
         // i → t → p → o: the view ray hits the mirror first; ωp sees R(ωi).
-        let lt = surf.lambda(1, wi);
         v += lt * m.f(nested, 0, ctx, m.reflect_wall(wi), wo, s);
     }
     v * g1o
@@ -52,7 +51,7 @@ pub(super) fn pdf_mirror(
 ) -> f32 {
     let surf = &m.surface;
     let wt = surf.normal(1);
-    let lp = surf.lambda(0, wi);
+    let [lp, lt, _] = surf.lambdas(wi);
     let mut p = 0.0;
     if lp > 0.0 {
         p += lp * m.p(nested, 0, ctx, wi, wo) * surf.g1(wo);
@@ -62,9 +61,51 @@ pub(super) fn pdf_mirror(
         }
     }
     if wi.dot(wt) > 0.0 {
-        p += surf.lambda(1, wi) * m.p(nested, 0, ctx, m.reflect_wall(wi), wo);
+        p += lt * m.p(nested, 0, ctx, m.reflect_wall(wi), wo);
     }
     p
+}
+
+/// [`eval_mirror`] and [`pdf_mirror`] of the same (ωi, ωo) in one pass: the three paths share
+/// λ(ωi), G1(ωo), G1(R(ωo)), and each path's nested eval and pdf come from one fused
+/// `eval_pdf` of the same frame pair (§4.1, §4.2). Equal to the two calls up to rounding.
+pub(super) fn eval_pdf_mirror(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> (Spectrum, f32) {
+    let surf = &m.surface;
+    let wt = surf.normal(1);
+    let g1o = surf.g1(wo);
+    if g1o <= 0.0 {
+        return (Spectrum::ZERO, pdf_mirror(m, nested, ctx, wi, wo));
+    }
+    let [lp, lt, _] = surf.lambdas(wi);
+    let mut v = Spectrum::ZERO;
+    let mut p = 0.0;
+    if lp > 0.0 {
+        let (f, pd) = m.fp(nested, 0, ctx, wi, wo, s);
+        v += lp * f;
+        p += lp * pd * g1o;
+        if wo.dot(wt) > 0.0 {
+            // i → p → t → o.
+            let rwo = m.reflect_wall(wo);
+            let blocked = 1.0 - surf.g1(rwo);
+            let (f, pd) = m.fp(nested, 0, ctx, wi, rwo, s);
+            v += (lp * blocked) * f;
+            p += lp * blocked * pd;
+        }
+    }
+    if wi.dot(wt) > 0.0 {
+        // i → t → p → o.
+        let (f, pd) = m.fp(nested, 0, ctx, m.reflect_wall(wi), wo, s);
+        v += lt * f;
+        p += lt * pd;
+    }
+    (v * g1o, p)
 }
 
 /// Variant M sampling (§4.3) with independent random numbers for each decision.
@@ -106,11 +147,11 @@ pub(super) fn eval_single(
     if g1o <= 0.0 {
         return Spectrum::ZERO;
     }
+    let l = surf.lambdas(wi);
     let mut v = Spectrum::ZERO;
-    for k in 0..surf.len() {
-        let l = surf.lambda(k, wi);
-        if l > 0.0 && wo.dot(surf.normal(k)) > 0.0 {
-            v += l * m.f(nested, k, ctx, wi, wo, s);
+    for (k, &lk) in l.iter().enumerate().take(surf.len()) {
+        if lk > 0.0 && wo.dot(surf.normal(k)) > 0.0 {
+            v += lk * m.f(nested, k, ctx, wi, wo, s);
         }
     }
     v * g1o
@@ -126,16 +167,50 @@ pub(super) fn pdf_single(
     wo: Vec3,
 ) -> f32 {
     let surf = &m.surface;
+    let l = surf.lambdas(wi);
     (0..surf.len())
         .map(|k| {
-            let l = surf.lambda(k, wi);
-            if l > 0.0 {
-                l * m.p(nested, k, ctx, wi, wo)
+            if l[k] > 0.0 {
+                l[k] * m.p(nested, k, ctx, wi, wo)
             } else {
                 0.0
             }
         })
         .sum()
+}
+
+/// [`eval_single`] and [`pdf_single`] of the same (ωi, ωo) in one pass (§3): λ(ωi) once, and
+/// one fused nested `eval_pdf` per facet that contributes to both. Equal to the two calls up to
+/// rounding.
+pub(super) fn eval_pdf_single(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> (Spectrum, f32) {
+    let surf = &m.surface;
+    let g1o = surf.g1(wo);
+    if g1o <= 0.0 {
+        return (Spectrum::ZERO, pdf_single(m, nested, ctx, wi, wo));
+    }
+    let l = surf.lambdas(wi);
+    let mut v = Spectrum::ZERO;
+    let mut p = 0.0;
+    for (k, &lk) in l.iter().enumerate().take(surf.len()) {
+        if lk <= 0.0 {
+            continue;
+        }
+        if wo.dot(surf.normal(k)) > 0.0 {
+            let (f, pd) = m.fp(nested, k, ctx, wi, wo, s);
+            v += lk * f;
+            p += lk * pd;
+        } else {
+            p += lk * m.p(nested, k, ctx, wi, wo);
+        }
+    }
+    (v * g1o, p)
 }
 
 pub(super) fn sample_single(
@@ -164,15 +239,9 @@ fn finish(
     mirror: bool,
 ) -> Option<BsdfSample> {
     let (f, pdf) = if mirror {
-        (
-            eval_mirror(m, nested, ctx, wi, wo, s),
-            pdf_mirror(m, nested, ctx, wi, wo),
-        )
+        eval_pdf_mirror(m, nested, ctx, wi, wo, s)
     } else {
-        (
-            eval_single(m, nested, ctx, wi, wo, s),
-            pdf_single(m, nested, ctx, wi, wo),
-        )
+        eval_pdf_single(m, nested, ctx, wi, wo, s)
     };
     if !(pdf.is_finite() && pdf > 0.0) {
         return None;

@@ -145,6 +145,20 @@ impl Microsurface {
         (w.z / s).min(1.0)
     }
 
+    /// λ_k(ω) for every facet with Σ(ω) computed once (entries past [`len`](Self::len) are 0);
+    /// each entry equals [`lambda`](Self::lambda)`(k, ω)` bit for bit.
+    #[inline]
+    pub fn lambdas(&self, w: Vec3) -> [f32; MAX_FACETS] {
+        let mut l = [0.0; MAX_FACETS];
+        let s = self.sigma(w);
+        if s > 0.0 {
+            for (k, lk) in l.iter_mut().enumerate().take(self.n) {
+                *lk = self.proj_area(k, w) / s;
+            }
+        }
+        l
+    }
+
     /// Probability that a ray arriving from ω (pointing away, above the surface) first hits
     /// facet k: λ_k(ω) = a_k(ω) / Σ(ω).
     #[inline]

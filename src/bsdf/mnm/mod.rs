@@ -179,6 +179,22 @@ impl MicrofacetNormalMap {
         nested.pdf(ctx, fr.to_local(a), fr.to_local(b))
     }
 
+    /// Nested eval and pdf in facet k's frame in one fused call: (F_k(a, b), P_k(a, b)). The
+    /// nested `eval_pdf` shares the half vector, D and G1 between the two (rough models).
+    #[inline]
+    fn fp(
+        &self,
+        nested: &Bsdf,
+        k: usize,
+        ctx: &BsdfContext,
+        a: Vec3,
+        b: Vec3,
+        s: &mut Sampler,
+    ) -> (Spectrum, f32) {
+        let fr = &self.frames[k];
+        nested.eval_pdf(ctx, fr.to_local(a), fr.to_local(b), s)
+    }
+
     /// Nested sample in facet k's frame from `a`; the direction comes back in the macro frame.
     #[inline]
     fn sample_facet(
@@ -258,7 +274,9 @@ pub(super) fn pdf(b: Bsdf, m: &MicrofacetNormalMap, ctx: &BsdfContext, wi: Vec3,
     }
 }
 
-/// Eval and pdf of one query (next-event estimation).
+/// Eval and pdf of one query (next-event estimation); equal to [`eval`] and [`pdf`] called
+/// separately up to rounding. The closed forms evaluate each path's nested BSDF once for both
+/// ([`explicit::eval_pdf_mirror`], [`explicit::eval_pdf_single`]).
 pub(super) fn eval_pdf(
     b: Bsdf,
     m: &MicrofacetNormalMap,
@@ -267,7 +285,21 @@ pub(super) fn eval_pdf(
     wo: Vec3,
     s: &mut Sampler,
 ) -> (Spectrum, f32) {
-    (eval(b, m, ctx, wi, wo, s), pdf(b, m, ctx, wi, wo))
+    let nested = b.child(m.nested);
+    if m.degenerate {
+        return nested.eval_pdf(ctx, wi, wo, s);
+    }
+    if m.evaluation == Evaluation::RandomWalk || transmits(&nested) {
+        return (eval(b, m, ctx, wi, wo, s), pdf(b, m, ctx, wi, wo));
+    }
+    if wi.z <= 0.0 || wo.z <= 0.0 {
+        return (Spectrum::ZERO, 0.0);
+    }
+    if m.mirror_wall {
+        explicit::eval_pdf_mirror(m, &nested, ctx, wi, wo, s)
+    } else {
+        explicit::eval_pdf_single(m, &nested, ctx, wi, wo, s)
+    }
 }
 
 pub(super) fn sample(
