@@ -251,13 +251,14 @@ fn finish(
         pdf,
         weight: f / pdf,
         eta: 1.0,
-        lobe: lobe_of(nested),
+        lobe: lobe_of(m.nested_flags(nested)),
     })
 }
 
-/// The macro BSDF reports the nested BSDF's non-delta reflection lobes.
-pub(super) fn lobe_of(nested: &Bsdf) -> u32 {
-    let f = nested.flags() & (lobe::DIFFUSE_REFLECTION | lobe::GLOSSY_REFLECTION);
+/// The macro BSDF reports the nested BSDF's non-delta reflection lobes (`nested_flags`: the
+/// nested BSDF's `flags()`).
+pub(super) fn lobe_of(nested_flags: u32) -> u32 {
+    let f = nested_flags & (lobe::DIFFUSE_REFLECTION | lobe::GLOSSY_REFLECTION);
     if f & lobe::GLOSSY_REFLECTION != 0 {
         lobe::GLOSSY_REFLECTION
     } else {

@@ -46,7 +46,7 @@ pub(super) fn sample(
         }
         if s.next_1d() < surf.g1(d) {
             stats::record(order);
-            return Some((d, thr, lobe_of(nested)));
+            return Some((d, thr, lobe_of(m.nested_flags(nested))));
         }
         let Some((j, _)) = surf.pick(-d, s.next_1d()) else {
             stats::record(order);
