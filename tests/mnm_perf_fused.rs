@@ -148,3 +148,57 @@ fn cached_nested_flags_change_nothing() {
         }
     }
 }
+
+/// The random walk's fused next-event query: with the same random numbers, `eval_pdf` gives the
+/// walk's `eval` estimate and the MIS density `pdf` up to rounding (the first vertices' nested
+/// evaluations share their pdf with the density's terms). A sampled walk reports the density
+/// `pdf` gives its direction (a single-vertex walk reuses the nested sample's own density).
+#[test]
+fn walk_eval_pdf_and_sample_pdf_match_separate_queries() {
+    let ctx = BsdfContext::default();
+    let geometries = [
+        (Microgeometry::Sawtooth, Tangent::Mirror),
+        (Microgeometry::Sawtooth, Tangent::Same),
+        (Microgeometry::VGroove, Tangent::Same),
+        (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
+    ];
+    let mut sampled = 0;
+    for node in nested_nodes() {
+        for (g, t) in geometries {
+            for i in 0..400u64 {
+                let mut arena = BsdfArena::new();
+                let nested = arena.push(node);
+                let wp = dir(70.0 * ((i * 7 % 400) as f32 / 400.0), 13.0 * i as f32);
+                let root = arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
+                    nested,
+                    wp,
+                    g,
+                    t,
+                    Evaluation::RandomWalk,
+                    256,
+                )));
+                let b = arena.bsdf(root);
+                let wi = dir(88.0 * (i as f32 / 400.0), 37.0 * i as f32);
+                let wo = dir((3.0 + 0.7 * i as f32) % 89.0, 11.0 * i as f32 + 5.0);
+                let (mut sa, mut sb) = (Sampler::from_seed(i, 7), Sampler::from_seed(i, 7));
+                let (f, p) = b.eval_pdf(&ctx, wi, wo, &mut sa);
+                let f0 = b.eval(&ctx, wi, wo, &mut sb);
+                let p0 = b.pdf(&ctx, wi, wo);
+                assert!(close(p, p0), "{g:?} {t:?} pdf {p} vs {p0}");
+                for c in 0..3 {
+                    assert!(close(f[c], f0[c]), "{g:?} {t:?} eval {f} vs {f0}");
+                }
+                if let Some(bs) = b.sample(&ctx, wi, &mut sa) {
+                    let p1 = b.pdf(&ctx, wi, bs.wo);
+                    assert!(
+                        (bs.pdf - p1).abs() <= 1e-4 * p1.abs() + 1e-6,
+                        "{g:?} {t:?} sample pdf {} vs {p1}",
+                        bs.pdf
+                    );
+                    sampled += 1;
+                }
+            }
+        }
+    }
+    assert!(sampled > 1000, "{sampled}");
+}

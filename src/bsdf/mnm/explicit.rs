@@ -3,6 +3,7 @@
 //! facet carries the nested BSDF. Both sample with weight = eval / pdf (decision 2), so the
 //! weight equals eval/pdf pointwise.
 
+use super::facets::MAX_FACETS;
 use super::MicrofacetNormalMap;
 use crate::bsdf::{lobe, Bsdf, BsdfContext, BsdfSample};
 use crate::sampler::Sampler;
@@ -49,21 +50,126 @@ pub(super) fn pdf_mirror(
     wi: Vec3,
     wo: Vec3,
 ) -> f32 {
-    let surf = &m.surface;
-    let wt = surf.normal(1);
-    let [lp, lt, _] = surf.lambdas(wi);
-    let mut p = 0.0;
-    if lp > 0.0 {
-        p += lp * m.p(nested, 0, ctx, wi, wo) * surf.g1(wo);
-        if wo.dot(wt) > 0.0 {
-            let rwo = m.reflect_wall(wo);
-            p += lp * (1.0 - surf.g1(rwo)) * m.p(nested, 0, ctx, wi, rwo);
+    PdfTerms::mirror(m, wi, wo).total(m, nested, ctx)
+}
+
+/// A density written as a short sum Σ_j w_j · P_{k_j}(a_j, b_j) of nested pdfs in facet frames:
+/// Variant M's three paths (§4.2) or single scattering's one term per facet (§3). Listing the
+/// terms before evaluating them lets a caller that also evaluates the nested BSDF at some of the
+/// same (facet, a, b) — the random walk's next-event estimate at its first vertices — take both
+/// from one fused nested `eval_pdf` ([`PdfTerms::f`]). Fixed capacity: no allocation.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PdfTerms {
+    k: [usize; MAX_FACETS],
+    a: [Vec3; MAX_FACETS],
+    b: [Vec3; MAX_FACETS],
+    w: [f32; MAX_FACETS],
+    /// P_j once known.
+    p: [Option<f32>; MAX_FACETS],
+    n: usize,
+}
+
+impl PdfTerms {
+    /// No terms (density 0; [`Self::f`] is then a plain nested eval).
+    pub(super) fn empty() -> Self {
+        PdfTerms {
+            k: [0; MAX_FACETS],
+            a: [Vec3::ZERO; MAX_FACETS],
+            b: [Vec3::ZERO; MAX_FACETS],
+            w: [0.0; MAX_FACETS],
+            p: [None; MAX_FACETS],
+            n: 0,
         }
     }
-    if wi.dot(wt) > 0.0 {
-        p += lt * m.p(nested, 0, ctx, m.reflect_wall(wi), wo);
+
+    fn push(&mut self, k: usize, a: Vec3, b: Vec3, w: f32) {
+        self.k[self.n] = k;
+        self.a[self.n] = a;
+        self.b[self.n] = b;
+        self.w[self.n] = w;
+        self.n += 1;
     }
-    p
+
+    /// The terms of [`pdf_mirror`] (§4.2): i→p→o with weight λp(ωi)·G1(ωo), i→p→t→o with
+    /// λp(ωi)·(1 − G1(R(ωo))), i→t→p→o with λt(ωi).
+    pub(super) fn mirror(m: &MicrofacetNormalMap, wi: Vec3, wo: Vec3) -> Self {
+        let surf = &m.surface;
+        let wt = surf.normal(1);
+        let [lp, lt, _] = surf.lambdas(wi);
+        let mut t = Self::empty();
+        if lp > 0.0 {
+            t.push(0, wi, wo, lp * surf.g1(wo));
+            if wo.dot(wt) > 0.0 {
+                let rwo = m.reflect_wall(wo);
+                t.push(0, wi, rwo, lp * (1.0 - surf.g1(rwo)));
+            }
+        }
+        if wi.dot(wt) > 0.0 {
+            t.push(0, m.reflect_wall(wi), wo, lt);
+        }
+        t
+    }
+
+    /// The terms of [`pdf_single`] (§3): λ_k(ωi) · P_k(ωi, ωo) for every facet seen from ωi.
+    pub(super) fn single(m: &MicrofacetNormalMap, wi: Vec3, wo: Vec3) -> Self {
+        let surf = &m.surface;
+        let l = surf.lambdas(wi);
+        let mut t = Self::empty();
+        for (k, &lk) in l.iter().enumerate().take(surf.len()) {
+            if lk > 0.0 {
+                t.push(k, wi, wo, lk);
+            }
+        }
+        t
+    }
+
+    /// F_k(a, b) (nested eval in facet k's frame); when (k, a, b) is a term whose P is still
+    /// unknown, P comes from the same fused nested `eval_pdf` call.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn f(
+        &mut self,
+        m: &MicrofacetNormalMap,
+        nested: &Bsdf,
+        k: usize,
+        ctx: &BsdfContext,
+        a: Vec3,
+        b: Vec3,
+        s: &mut Sampler,
+    ) -> Spectrum {
+        for j in 0..self.n {
+            if self.p[j].is_none() && self.k[j] == k && self.a[j] == a && self.b[j] == b {
+                let (f, p) = m.fp(nested, k, ctx, a, b, s);
+                self.p[j] = Some(p);
+                return f;
+            }
+        }
+        m.f(nested, k, ctx, a, b, s)
+    }
+
+    /// Record P_k(a, b) = `pdf` when (k, a, b) is a term (e.g. the nested sample's own density of
+    /// the direction it sampled).
+    pub(super) fn know(&mut self, k: usize, a: Vec3, b: Vec3, pdf: f32) {
+        for j in 0..self.n {
+            if self.p[j].is_none() && self.k[j] == k && self.a[j] == a && self.b[j] == b {
+                self.p[j] = Some(pdf);
+                return;
+            }
+        }
+    }
+
+    /// Σ_j w_j P_j, evaluating the P_j not yet known.
+    pub(super) fn total(&self, m: &MicrofacetNormalMap, nested: &Bsdf, ctx: &BsdfContext) -> f32 {
+        let mut p = 0.0;
+        for j in 0..self.n {
+            let pj = match self.p[j] {
+                Some(pj) => pj,
+                None => m.p(nested, self.k[j], ctx, self.a[j], self.b[j]),
+            };
+            p += self.w[j] * pj;
+        }
+        p
+    }
 }
 
 /// [`eval_mirror`] and [`pdf_mirror`] of the same (ωi, ωo) in one pass: the three paths share
@@ -166,17 +272,7 @@ pub(super) fn pdf_single(
     wi: Vec3,
     wo: Vec3,
 ) -> f32 {
-    let surf = &m.surface;
-    let l = surf.lambdas(wi);
-    (0..surf.len())
-        .map(|k| {
-            if l[k] > 0.0 {
-                l[k] * m.p(nested, k, ctx, wi, wo)
-            } else {
-                0.0
-            }
-        })
-        .sum()
+    PdfTerms::single(m, wi, wo).total(m, nested, ctx)
 }
 
 /// [`eval_single`] and [`pdf_single`] of the same (ωi, ωo) in one pass (§3): λ(ωi) once, and

@@ -284,7 +284,9 @@ pub(super) fn eval(
     match (m.evaluation, m.mirror_wall) {
         (Evaluation::Explicit, true) => explicit::eval_mirror(m, &nested, ctx, wi, wo, s),
         (Evaluation::Explicit, false) => explicit::eval_single(m, &nested, ctx, wi, wo, s),
-        (Evaluation::RandomWalk, _) => walk::eval(m, &nested, ctx, wi, wo, s),
+        (Evaluation::RandomWalk, _) => {
+            walk::eval(m, &nested, ctx, wi, wo, s, &mut explicit::PdfTerms::empty())
+        }
     }
 }
 
@@ -319,7 +321,8 @@ pub(super) fn pdf(b: Bsdf, m: &MicrofacetNormalMap, ctx: &BsdfContext, wi: Vec3,
 
 /// Eval and pdf of one query (next-event estimation); equal to [`eval`] and [`pdf`] called
 /// separately up to rounding. The closed forms evaluate each path's nested BSDF once for both
-/// ([`explicit::eval_pdf_mirror`], [`explicit::eval_pdf_single`]).
+/// ([`explicit::eval_pdf_mirror`], [`explicit::eval_pdf_single`]); the random walk shares the
+/// nested evaluations of its first vertices with the MIS density ([`explicit::PdfTerms`]).
 pub(super) fn eval_pdf(
     b: Bsdf,
     m: &MicrofacetNormalMap,
@@ -332,11 +335,24 @@ pub(super) fn eval_pdf(
     if m.degenerate {
         return nested.eval_pdf(ctx, wi, wo, s);
     }
-    if m.evaluation == Evaluation::RandomWalk || m.transmits(&nested) {
+    if m.transmits(&nested) {
         return (eval(b, m, ctx, wi, wo, s), pdf(b, m, ctx, wi, wo));
     }
     if wi.z <= 0.0 || wo.z <= 0.0 {
         return (Spectrum::ZERO, 0.0);
+    }
+    if m.evaluation == Evaluation::RandomWalk {
+        // The walk's first vertices evaluate the nested BSDF at pairs that are terms of p1:
+        // those terms take their pdf from the same fused call.
+        let mut terms = if m.mirror_wall {
+            explicit::PdfTerms::mirror(m, wi, wo)
+        } else {
+            explicit::PdfTerms::single(m, wi, wo)
+        };
+        let f = walk::eval(m, &nested, ctx, wi, wo, s, &mut terms);
+        let p1 = terms.total(m, &nested, ctx);
+        let c = m.mis_c();
+        return (f, (1.0 - c) * p1 + c * wo.z * INV_PI);
     }
     if m.mirror_wall {
         explicit::eval_pdf_mirror(m, &nested, ctx, wi, wo, s)
@@ -376,10 +392,26 @@ pub(super) fn sample(
         (Evaluation::Explicit, true) => explicit::sample_mirror(m, &nested, ctx, wi, s),
         (Evaluation::Explicit, false) => explicit::sample_single(m, &nested, ctx, wi, s),
         (Evaluation::RandomWalk, _) => {
-            let (wo, weight, lobe) = walk::sample(m, &nested, ctx, wi, s)?;
+            let (wo, weight, lobe, first) = walk::sample(m, &nested, ctx, wi, s)?;
+            // The walk escapes upward only (G1 = 0 below), so `pdf`'s wo.z ≤ 0 case is moot.
+            let mut terms = if m.mirror_wall {
+                explicit::PdfTerms::mirror(m, wi, wo)
+            } else {
+                explicit::PdfTerms::single(m, wi, wo)
+            };
+            // A walk that escaped from its first vertex sampled ωo with the nested BSDF from ωi:
+            // its sample density is the term P_k(ωi, ωo) (not for delta lobes, whose sample
+            // density is no pdf value).
+            if let Some(v) = first {
+                if m.nested_flags(&nested) & super::lobe::DELTA == 0 {
+                    terms.know(v.k, wi, wo, v.pdf);
+                }
+            }
+            let p1 = terms.total(m, &nested, ctx);
+            let c = m.mis_c();
             Some(BsdfSample {
                 wo,
-                pdf: pdf(b, m, ctx, wi, wo),
+                pdf: (1.0 - c) * p1 + c * wo.z * INV_PI,
                 weight,
                 eta: 1.0,
                 lobe,
