@@ -67,6 +67,10 @@ pub(super) struct PdfTerms {
     /// P_j once known.
     p: [Option<f32>; MAX_FACETS],
     n: usize,
+    /// G1(ωo) and G1(R(ωo)) when [`Self::mirror`] computed them: the walk's next-event
+    /// estimate needs the same masking values ([`Self::g1_wo`], [`Self::g1_rwo`]).
+    g1o: Option<f32>,
+    g1r: Option<f32>,
 }
 
 impl PdfTerms {
@@ -79,7 +83,21 @@ impl PdfTerms {
             w: [0.0; MAX_FACETS],
             p: [None; MAX_FACETS],
             n: 0,
+            g1o: None,
+            g1r: None,
         }
+    }
+
+    /// G1(ωo) (the `wo` these terms were built for), computed once.
+    #[inline]
+    pub(super) fn g1_wo(&mut self, m: &MicrofacetNormalMap, wo: Vec3) -> f32 {
+        *self.g1o.get_or_insert_with(|| m.surface.g1(wo))
+    }
+
+    /// G1(R(ωo)) (`rwo` = R(ωo) of the `wo` these terms were built for), computed once.
+    #[inline]
+    pub(super) fn g1_rwo(&mut self, m: &MicrofacetNormalMap, rwo: Vec3) -> f32 {
+        *self.g1r.get_or_insert_with(|| m.surface.g1(rwo))
     }
 
     fn push(&mut self, k: usize, a: Vec3, b: Vec3, w: f32) {
@@ -98,10 +116,12 @@ impl PdfTerms {
         let [lp, lt, _] = surf.lambdas(wi);
         let mut t = Self::empty();
         if lp > 0.0 {
-            t.push(0, wi, wo, lp * surf.g1(wo));
+            let g1o = t.g1_wo(m, wo);
+            t.push(0, wi, wo, lp * g1o);
             if wo.dot(wt) > 0.0 {
                 let rwo = m.reflect_wall(wo);
-                t.push(0, wi, rwo, lp * (1.0 - surf.g1(rwo)));
+                let g1r = t.g1_rwo(m, rwo);
+                t.push(0, wi, rwo, lp * (1.0 - g1r));
             }
         }
         if wi.dot(wt) > 0.0 {

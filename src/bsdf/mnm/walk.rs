@@ -77,7 +77,8 @@ pub(super) fn sample(
 /// Next-event estimate of f·cos along one walk (stochastic, unbiased). Nested evals go through
 /// `terms` ([`PdfTerms::f`]): where the walk evaluates a pair that is also a term of the MIS
 /// density (its first vertex: (ωi, ωo), (ωi, R(ωo)), after the mirror (R(ωi), ωo)), the term's
-/// pdf comes from the same fused call. Pass [`PdfTerms::empty`] when no pdf is wanted.
+/// pdf comes from the same fused call, and G1(ωo), G1(R(ωo)) are shared with the terms. Pass
+/// [`PdfTerms::empty`] when no pdf is wanted.
 pub(super) fn eval(
     m: &MicrofacetNormalMap,
     nested: &Bsdf,
@@ -88,14 +89,14 @@ pub(super) fn eval(
     terms: &mut PdfTerms,
 ) -> Spectrum {
     let surf = &m.surface;
-    let g1o = surf.g1(wo);
+    let g1o = terms.g1_wo(m, wo);
     if g1o <= 0.0 {
         return Spectrum::ZERO;
     }
     // Connection through the mirror wall toward ωo (only when ωo faces the wall).
     let through_mirror = if m.mirror_wall && wo.dot(surf.normal(1)) > 0.0 {
         let rwo = m.reflect_wall(wo);
-        Some((rwo, (1.0 - surf.g1(rwo)) * g1o))
+        Some((rwo, (1.0 - terms.g1_rwo(m, rwo)) * g1o))
     } else {
         None
     };
