@@ -197,6 +197,8 @@ impl Materials {
                 let child = self.build(*nested, si, arena);
                 let rgb = self.textures[*normalmap as usize].eval(si.uv);
                 let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, settings.max_theta);
+                // Cached once per hit instead of a recursive query per eval/pdf/sample.
+                let nested_flags = arena.bsdf(child).flags();
                 arena.push(BsdfNode::MicrofacetNormalMap(
                     MicrofacetNormalMap::new(
                         child,
@@ -206,7 +208,8 @@ impl Materials {
                         settings.evaluation,
                         settings.max_order,
                     )
-                    .with_transmission_walk(settings.transmission_walk),
+                    .with_transmission_walk(settings.transmission_walk)
+                    .with_nested_flags(nested_flags),
                 ))
             }
             MaterialNode::NormalMap {

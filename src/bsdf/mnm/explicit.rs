@@ -3,6 +3,7 @@
 //! facet carries the nested BSDF. Both sample with weight = eval / pdf (decision 2), so the
 //! weight equals eval/pdf pointwise.
 
+use super::facets::MAX_FACETS;
 use super::MicrofacetNormalMap;
 use crate::bsdf::{lobe, Bsdf, BsdfContext, BsdfSample};
 use crate::sampler::Sampler;
@@ -24,7 +25,7 @@ pub(super) fn eval_mirror(
     if g1o <= 0.0 {
         return Spectrum::ZERO;
     }
-    let lp = surf.lambda(0, wi);
+    let [lp, lt, _] = surf.lambdas(wi);
     let mut v = Spectrum::ZERO;
     if lp > 0.0 {
         v += lp * m.f(nested, 0, ctx, wi, wo, s);
@@ -36,7 +37,6 @@ pub(super) fn eval_mirror(
     }
     if wi.dot(wt) > 0.0 {
         // i → t → p → o: the view ray hits the mirror first; ωp sees R(ωi).
-        let lt = surf.lambda(1, wi);
         v += lt * m.f(nested, 0, ctx, m.reflect_wall(wi), wo, s);
     }
     v * g1o
@@ -50,21 +50,188 @@ pub(super) fn pdf_mirror(
     wi: Vec3,
     wo: Vec3,
 ) -> f32 {
+    PdfTerms::mirror(m, wi, wo).total(m, nested, ctx)
+}
+
+/// A density written as a short sum Σ_j w_j · P_{k_j}(a_j, b_j) of nested pdfs in facet frames:
+/// Variant M's three paths (§4.2) or single scattering's one term per facet (§3). Listing the
+/// terms before evaluating them lets a caller that also evaluates the nested BSDF at some of the
+/// same (facet, a, b) — the random walk's next-event estimate at its first vertices — take both
+/// from one fused nested `eval_pdf` ([`PdfTerms::f`]). Fixed capacity: no allocation.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PdfTerms {
+    k: [usize; MAX_FACETS],
+    a: [Vec3; MAX_FACETS],
+    b: [Vec3; MAX_FACETS],
+    w: [f32; MAX_FACETS],
+    /// P_j once known.
+    p: [Option<f32>; MAX_FACETS],
+    n: usize,
+    /// G1(ωo) and G1(R(ωo)) when [`Self::mirror`] computed them: the walk's next-event
+    /// estimate needs the same masking values ([`Self::g1_wo`], [`Self::g1_rwo`]).
+    g1o: Option<f32>,
+    g1r: Option<f32>,
+}
+
+impl PdfTerms {
+    /// No terms (density 0; [`Self::f`] is then a plain nested eval).
+    pub(super) fn empty() -> Self {
+        PdfTerms {
+            k: [0; MAX_FACETS],
+            a: [Vec3::ZERO; MAX_FACETS],
+            b: [Vec3::ZERO; MAX_FACETS],
+            w: [0.0; MAX_FACETS],
+            p: [None; MAX_FACETS],
+            n: 0,
+            g1o: None,
+            g1r: None,
+        }
+    }
+
+    /// G1(ωo) (the `wo` these terms were built for), computed once.
+    #[inline]
+    pub(super) fn g1_wo(&mut self, m: &MicrofacetNormalMap, wo: Vec3) -> f32 {
+        *self.g1o.get_or_insert_with(|| m.surface.g1(wo))
+    }
+
+    /// G1(R(ωo)) (`rwo` = R(ωo) of the `wo` these terms were built for), computed once.
+    #[inline]
+    pub(super) fn g1_rwo(&mut self, m: &MicrofacetNormalMap, rwo: Vec3) -> f32 {
+        *self.g1r.get_or_insert_with(|| m.surface.g1(rwo))
+    }
+
+    fn push(&mut self, k: usize, a: Vec3, b: Vec3, w: f32) {
+        self.k[self.n] = k;
+        self.a[self.n] = a;
+        self.b[self.n] = b;
+        self.w[self.n] = w;
+        self.n += 1;
+    }
+
+    /// The terms of [`pdf_mirror`] (§4.2): i→p→o with weight λp(ωi)·G1(ωo), i→p→t→o with
+    /// λp(ωi)·(1 − G1(R(ωo))), i→t→p→o with λt(ωi).
+    pub(super) fn mirror(m: &MicrofacetNormalMap, wi: Vec3, wo: Vec3) -> Self {
+        let surf = &m.surface;
+        let wt = surf.normal(1);
+        let [lp, lt, _] = surf.lambdas(wi);
+        let mut t = Self::empty();
+        if lp > 0.0 {
+            let g1o = t.g1_wo(m, wo);
+            t.push(0, wi, wo, lp * g1o);
+            if wo.dot(wt) > 0.0 {
+                let rwo = m.reflect_wall(wo);
+                let g1r = t.g1_rwo(m, rwo);
+                t.push(0, wi, rwo, lp * (1.0 - g1r));
+            }
+        }
+        if wi.dot(wt) > 0.0 {
+            t.push(0, m.reflect_wall(wi), wo, lt);
+        }
+        t
+    }
+
+    /// The terms of [`pdf_single`] (§3): λ_k(ωi) · P_k(ωi, ωo) for every facet seen from ωi.
+    pub(super) fn single(m: &MicrofacetNormalMap, wi: Vec3, wo: Vec3) -> Self {
+        let surf = &m.surface;
+        let l = surf.lambdas(wi);
+        let mut t = Self::empty();
+        for (k, &lk) in l.iter().enumerate().take(surf.len()) {
+            if lk > 0.0 {
+                t.push(k, wi, wo, lk);
+            }
+        }
+        t
+    }
+
+    /// F_k(a, b) (nested eval in facet k's frame); when (k, a, b) is a term whose P is still
+    /// unknown, P comes from the same fused nested `eval_pdf` call.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn f(
+        &mut self,
+        m: &MicrofacetNormalMap,
+        nested: &Bsdf,
+        k: usize,
+        ctx: &BsdfContext,
+        a: Vec3,
+        b: Vec3,
+        s: &mut Sampler,
+    ) -> Spectrum {
+        for j in 0..self.n {
+            if self.p[j].is_none() && self.k[j] == k && self.a[j] == a && self.b[j] == b {
+                let (f, p) = m.fp(nested, k, ctx, a, b, s);
+                self.p[j] = Some(p);
+                return f;
+            }
+        }
+        m.f(nested, k, ctx, a, b, s)
+    }
+
+    /// Record P_k(a, b) = `pdf` when (k, a, b) is a term (e.g. the nested sample's own density of
+    /// the direction it sampled).
+    pub(super) fn know(&mut self, k: usize, a: Vec3, b: Vec3, pdf: f32) {
+        for j in 0..self.n {
+            if self.p[j].is_none() && self.k[j] == k && self.a[j] == a && self.b[j] == b {
+                self.p[j] = Some(pdf);
+                return;
+            }
+        }
+    }
+
+    /// Σ_j w_j P_j, evaluating the P_j not yet known.
+    pub(super) fn total(&self, m: &MicrofacetNormalMap, nested: &Bsdf, ctx: &BsdfContext) -> f32 {
+        let mut p = 0.0;
+        for j in 0..self.n {
+            let pj = match self.p[j] {
+                Some(pj) => pj,
+                None => m.p(nested, self.k[j], ctx, self.a[j], self.b[j]),
+            };
+            p += self.w[j] * pj;
+        }
+        p
+    }
+}
+
+/// [`eval_mirror`] and [`pdf_mirror`] of the same (ωi, ωo) in one pass: the three paths share
+/// λ(ωi), G1(ωo), G1(R(ωo)), and each path's nested eval and pdf come from one fused
+/// `eval_pdf` of the same frame pair (§4.1, §4.2). Equal to the two calls up to rounding.
+pub(super) fn eval_pdf_mirror(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> (Spectrum, f32) {
     let surf = &m.surface;
     let wt = surf.normal(1);
-    let lp = surf.lambda(0, wi);
+    let g1o = surf.g1(wo);
+    if g1o <= 0.0 {
+        return (Spectrum::ZERO, pdf_mirror(m, nested, ctx, wi, wo));
+    }
+    let [lp, lt, _] = surf.lambdas(wi);
+    let mut v = Spectrum::ZERO;
     let mut p = 0.0;
     if lp > 0.0 {
-        p += lp * m.p(nested, 0, ctx, wi, wo) * surf.g1(wo);
+        let (f, pd) = m.fp(nested, 0, ctx, wi, wo, s);
+        v += lp * f;
+        p += lp * pd * g1o;
         if wo.dot(wt) > 0.0 {
+            // i → p → t → o.
             let rwo = m.reflect_wall(wo);
-            p += lp * (1.0 - surf.g1(rwo)) * m.p(nested, 0, ctx, wi, rwo);
+            let blocked = 1.0 - surf.g1(rwo);
+            let (f, pd) = m.fp(nested, 0, ctx, wi, rwo, s);
+            v += (lp * blocked) * f;
+            p += lp * blocked * pd;
         }
     }
     if wi.dot(wt) > 0.0 {
-        p += surf.lambda(1, wi) * m.p(nested, 0, ctx, m.reflect_wall(wi), wo);
+        // i → t → p → o.
+        let (f, pd) = m.fp(nested, 0, ctx, m.reflect_wall(wi), wo, s);
+        v += lt * f;
+        p += lt * pd;
     }
-    p
+    (v * g1o, p)
 }
 
 /// Variant M sampling (§4.3) with independent random numbers for each decision.
@@ -106,11 +273,11 @@ pub(super) fn eval_single(
     if g1o <= 0.0 {
         return Spectrum::ZERO;
     }
+    let l = surf.lambdas(wi);
     let mut v = Spectrum::ZERO;
-    for k in 0..surf.len() {
-        let l = surf.lambda(k, wi);
-        if l > 0.0 && wo.dot(surf.normal(k)) > 0.0 {
-            v += l * m.f(nested, k, ctx, wi, wo, s);
+    for (k, &lk) in l.iter().enumerate().take(surf.len()) {
+        if lk > 0.0 && wo.dot(surf.normal(k)) > 0.0 {
+            v += lk * m.f(nested, k, ctx, wi, wo, s);
         }
     }
     v * g1o
@@ -125,17 +292,41 @@ pub(super) fn pdf_single(
     wi: Vec3,
     wo: Vec3,
 ) -> f32 {
+    PdfTerms::single(m, wi, wo).total(m, nested, ctx)
+}
+
+/// [`eval_single`] and [`pdf_single`] of the same (ωi, ωo) in one pass (§3): λ(ωi) once, and
+/// one fused nested `eval_pdf` per facet that contributes to both. Equal to the two calls up to
+/// rounding.
+pub(super) fn eval_pdf_single(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> (Spectrum, f32) {
     let surf = &m.surface;
-    (0..surf.len())
-        .map(|k| {
-            let l = surf.lambda(k, wi);
-            if l > 0.0 {
-                l * m.p(nested, k, ctx, wi, wo)
-            } else {
-                0.0
-            }
-        })
-        .sum()
+    let g1o = surf.g1(wo);
+    if g1o <= 0.0 {
+        return (Spectrum::ZERO, pdf_single(m, nested, ctx, wi, wo));
+    }
+    let l = surf.lambdas(wi);
+    let mut v = Spectrum::ZERO;
+    let mut p = 0.0;
+    for (k, &lk) in l.iter().enumerate().take(surf.len()) {
+        if lk <= 0.0 {
+            continue;
+        }
+        if wo.dot(surf.normal(k)) > 0.0 {
+            let (f, pd) = m.fp(nested, k, ctx, wi, wo, s);
+            v += lk * f;
+            p += lk * pd;
+        } else {
+            p += lk * m.p(nested, k, ctx, wi, wo);
+        }
+    }
+    (v * g1o, p)
 }
 
 pub(super) fn sample_single(
@@ -164,15 +355,9 @@ fn finish(
     mirror: bool,
 ) -> Option<BsdfSample> {
     let (f, pdf) = if mirror {
-        (
-            eval_mirror(m, nested, ctx, wi, wo, s),
-            pdf_mirror(m, nested, ctx, wi, wo),
-        )
+        eval_pdf_mirror(m, nested, ctx, wi, wo, s)
     } else {
-        (
-            eval_single(m, nested, ctx, wi, wo, s),
-            pdf_single(m, nested, ctx, wi, wo),
-        )
+        eval_pdf_single(m, nested, ctx, wi, wo, s)
     };
     if !(pdf.is_finite() && pdf > 0.0) {
         return None;
@@ -182,13 +367,14 @@ fn finish(
         pdf,
         weight: f / pdf,
         eta: 1.0,
-        lobe: lobe_of(nested),
+        lobe: lobe_of(m.nested_flags(nested)),
     })
 }
 
-/// The macro BSDF reports the nested BSDF's non-delta reflection lobes.
-pub(super) fn lobe_of(nested: &Bsdf) -> u32 {
-    let f = nested.flags() & (lobe::DIFFUSE_REFLECTION | lobe::GLOSSY_REFLECTION);
+/// The macro BSDF reports the nested BSDF's non-delta reflection lobes (`nested_flags`: the
+/// nested BSDF's `flags()`).
+pub(super) fn lobe_of(nested_flags: u32) -> u32 {
+    let f = nested_flags & (lobe::DIFFUSE_REFLECTION | lobe::GLOSSY_REFLECTION);
     if f & lobe::GLOSSY_REFLECTION != 0 {
         lobe::GLOSSY_REFLECTION
     } else {

@@ -133,16 +133,41 @@ impl Microsurface {
         if w.z <= 0.0 {
             return 0.0;
         }
+        // One pass over the facets gives both the test below and Σ(ω) (each ⟨ω, v_k⟩ once; the
+        // sum is [`sigma`](Self::sigma)'s, bit for bit: negative terms add nothing).
+        let mut s = 0.0;
+        let mut all_face = true;
+        for k in 0..self.n {
+            let a = w.dot(self.v[k]);
+            if a >= 0.0 {
+                s += a;
+            } else {
+                all_face = false;
+            }
+        }
         // Every facet faces ω: nothing can block it. Closure makes Σ = z exactly then; testing
         // it directly keeps rounding (z/Σ = 0.9999999) from inventing blocked rays.
-        if (0..self.n).all(|k| w.dot(self.v[k]) >= 0.0) {
+        if all_face {
             return 1.0;
         }
-        let s = self.sigma(w);
         if s <= 0.0 {
             return 1.0;
         }
         (w.z / s).min(1.0)
+    }
+
+    /// λ_k(ω) for every facet with Σ(ω) computed once (entries past [`len`](Self::len) are 0);
+    /// each entry equals [`lambda`](Self::lambda)`(k, ω)` bit for bit.
+    #[inline]
+    pub fn lambdas(&self, w: Vec3) -> [f32; MAX_FACETS] {
+        let mut l = [0.0; MAX_FACETS];
+        let s = self.sigma(w);
+        if s > 0.0 {
+            for (k, lk) in l.iter_mut().enumerate().take(self.n) {
+                *lk = self.proj_area(k, w) / s;
+            }
+        }
+        l
     }
 
     /// Probability that a ray arriving from ω (pointing away, above the surface) first hits

@@ -79,10 +79,16 @@ pub struct MicrofacetNormalMap {
     pub max_order: u32,
     /// ωp = ωg: the model reduces to the nested BSDF (delegated exactly, §2.5).
     degenerate: bool,
-    /// Weight of the cosine lobe in the walk's MIS pdf (decision 3).
-    mis_c: f32,
+    /// Weight of the cosine lobe in the walk's MIS pdf (decision 3); computed in [`Self::new`]
+    /// only for the random walk (the explicit closed forms need it only over transmitting
+    /// nested BSDFs, where [`Self::mis_c`] computes it on demand).
+    mis_c: Option<f32>,
     /// Only used over transmitting nested BSDFs.
     pub transmission_walk: TransmissionWalk,
+    /// The nested BSDF's lobe flags when known at build time ([`Self::with_nested_flags`]):
+    /// `flags()` recurses through the nested tree, and eval, pdf and sample each need it
+    /// (transmission test, reported lobe). `None`: ask the nested BSDF.
+    nested_flags: Option<u32>,
 }
 
 impl MicrofacetNormalMap {
@@ -103,7 +109,7 @@ impl MicrofacetNormalMap {
             // Tangent along the shading frame's s (= dp/du), as Mitsuba's normalmap does.
             *f = Frame::from_normal_tangent(surface.normal(k), Vec3::X);
         }
-        let theta_p = wp.z.clamp(-1.0, 1.0).acos();
+        let mis_c = (evaluation == Evaluation::RandomWalk).then(|| mis_weight(wp));
         MicrofacetNormalMap {
             nested,
             wp,
@@ -115,8 +121,40 @@ impl MicrofacetNormalMap {
             evaluation,
             max_order: max_order.max(1),
             degenerate,
-            mis_c: 0.2 * (theta_p / 15f32.to_radians()).min(1.0),
+            mis_c,
             transmission_walk: TransmissionWalk::TwoSided,
+            nested_flags: None,
+        }
+    }
+
+    /// The same BSDF with the nested BSDF's `flags()` cached (callers that hold the nested
+    /// BSDF when building, e.g. `Materials::build`): saves the recursive query per call.
+    pub fn with_nested_flags(mut self, flags: u32) -> Self {
+        self.nested_flags = Some(flags);
+        self
+    }
+
+    /// The nested BSDF's lobe flags (cached or asked).
+    #[inline]
+    fn nested_flags(&self, nested: &Bsdf) -> u32 {
+        match self.nested_flags {
+            Some(f) => f,
+            None => nested.flags(),
+        }
+    }
+
+    /// True when the nested BSDF transmits (the two-sided walk applies).
+    #[inline]
+    fn transmits(&self, nested: &Bsdf) -> bool {
+        self.nested_flags(nested) & super::lobe::TRANSMISSION != 0
+    }
+
+    /// Weight c of the cosine lobe in the MIS pdf (decision 3).
+    #[inline]
+    fn mis_c(&self) -> f32 {
+        match self.mis_c {
+            Some(c) => c,
+            None => mis_weight(self.wp),
         }
     }
 
@@ -179,6 +217,22 @@ impl MicrofacetNormalMap {
         nested.pdf(ctx, fr.to_local(a), fr.to_local(b))
     }
 
+    /// Nested eval and pdf in facet k's frame in one fused call: (F_k(a, b), P_k(a, b)). The
+    /// nested `eval_pdf` shares the half vector, D and G1 between the two (rough models).
+    #[inline]
+    fn fp(
+        &self,
+        nested: &Bsdf,
+        k: usize,
+        ctx: &BsdfContext,
+        a: Vec3,
+        b: Vec3,
+        s: &mut Sampler,
+    ) -> (Spectrum, f32) {
+        let fr = &self.frames[k];
+        nested.eval_pdf(ctx, fr.to_local(a), fr.to_local(b), s)
+    }
+
     /// Nested sample in facet k's frame from `a`; the direction comes back in the macro frame.
     #[inline]
     fn sample_facet(
@@ -195,10 +249,15 @@ impl MicrofacetNormalMap {
     }
 }
 
-/// True when the nested BSDF transmits (the two-sided walk applies).
-#[inline]
-fn transmits(nested: &Bsdf) -> bool {
-    nested.flags() & super::lobe::TRANSMISSION != 0
+/// Decision 3's cosine-lobe weight c = 0.2 · min(1, θp / 15°). At θp ≥ 15° (cos θp ≤ cos 15°)
+/// it is 0.2 without the `acos`.
+fn mis_weight(wp: Vec3) -> f32 {
+    const COS_15: f32 = 0.965_925_8;
+    if wp.z <= COS_15 {
+        return 0.2;
+    }
+    let theta_p = wp.z.clamp(-1.0, 1.0).acos();
+    0.2 * (theta_p / 15f32.to_radians()).min(1.0)
 }
 
 pub(super) fn eval(
@@ -213,7 +272,7 @@ pub(super) fn eval(
     if m.degenerate {
         return nested.eval(ctx, wi, wo, s);
     }
-    if transmits(&nested) {
+    if m.transmits(&nested) {
         if wi.z == 0.0 || wo.z == 0.0 {
             return Spectrum::ZERO;
         }
@@ -225,7 +284,9 @@ pub(super) fn eval(
     match (m.evaluation, m.mirror_wall) {
         (Evaluation::Explicit, true) => explicit::eval_mirror(m, &nested, ctx, wi, wo, s),
         (Evaluation::Explicit, false) => explicit::eval_single(m, &nested, ctx, wi, wo, s),
-        (Evaluation::RandomWalk, _) => walk::eval(m, &nested, ctx, wi, wo, s),
+        (Evaluation::RandomWalk, _) => {
+            walk::eval(m, &nested, ctx, wi, wo, s, &mut explicit::PdfTerms::empty())
+        }
     }
 }
 
@@ -234,13 +295,13 @@ pub(super) fn pdf(b: Bsdf, m: &MicrofacetNormalMap, ctx: &BsdfContext, wi: Vec3,
     if m.degenerate {
         return nested.pdf(ctx, wi, wo);
     }
-    if transmits(&nested) {
+    if m.transmits(&nested) {
         if wi.z == 0.0 || wo.z == 0.0 {
             return 0.0;
         }
         // Decision 3 with the cosine lobe split over both hemispheres.
         let p1 = walk::single_scatter_pdf_t(m, &nested, ctx, wi, wo);
-        return (1.0 - m.mis_c) * p1 + m.mis_c * 0.5 * wo.z.abs() * INV_PI;
+        return (1.0 - m.mis_c()) * p1 + m.mis_c() * 0.5 * wo.z.abs() * INV_PI;
     }
     if wi.z <= 0.0 || wo.z <= 0.0 {
         return 0.0;
@@ -254,11 +315,14 @@ pub(super) fn pdf(b: Bsdf, m: &MicrofacetNormalMap, ctx: &BsdfContext, wi: Vec3,
         Evaluation::Explicit => p1,
         // Decision 3: (1 − c)·p1 + c·cosine lobe; MIS stays unbiased with any such pdf
         // because the integrator uses the walk's own sample weight.
-        Evaluation::RandomWalk => (1.0 - m.mis_c) * p1 + m.mis_c * wo.z * INV_PI,
+        Evaluation::RandomWalk => (1.0 - m.mis_c()) * p1 + m.mis_c() * wo.z * INV_PI,
     }
 }
 
-/// Eval and pdf of one query (next-event estimation).
+/// Eval and pdf of one query (next-event estimation); equal to [`eval`] and [`pdf`] called
+/// separately up to rounding. The closed forms evaluate each path's nested BSDF once for both
+/// ([`explicit::eval_pdf_mirror`], [`explicit::eval_pdf_single`]); the random walk shares the
+/// nested evaluations of its first vertices with the MIS density ([`explicit::PdfTerms`]).
 pub(super) fn eval_pdf(
     b: Bsdf,
     m: &MicrofacetNormalMap,
@@ -267,7 +331,34 @@ pub(super) fn eval_pdf(
     wo: Vec3,
     s: &mut Sampler,
 ) -> (Spectrum, f32) {
-    (eval(b, m, ctx, wi, wo, s), pdf(b, m, ctx, wi, wo))
+    let nested = b.child(m.nested);
+    if m.degenerate {
+        return nested.eval_pdf(ctx, wi, wo, s);
+    }
+    if m.transmits(&nested) {
+        return (eval(b, m, ctx, wi, wo, s), pdf(b, m, ctx, wi, wo));
+    }
+    if wi.z <= 0.0 || wo.z <= 0.0 {
+        return (Spectrum::ZERO, 0.0);
+    }
+    if m.evaluation == Evaluation::RandomWalk {
+        // The walk's first vertices evaluate the nested BSDF at pairs that are terms of p1:
+        // those terms take their pdf from the same fused call.
+        let mut terms = if m.mirror_wall {
+            explicit::PdfTerms::mirror(m, wi, wo)
+        } else {
+            explicit::PdfTerms::single(m, wi, wo)
+        };
+        let f = walk::eval(m, &nested, ctx, wi, wo, s, &mut terms);
+        let p1 = terms.total(m, &nested, ctx);
+        let c = m.mis_c();
+        return (f, (1.0 - c) * p1 + c * wo.z * INV_PI);
+    }
+    if m.mirror_wall {
+        explicit::eval_pdf_mirror(m, &nested, ctx, wi, wo, s)
+    } else {
+        explicit::eval_pdf_single(m, &nested, ctx, wi, wo, s)
+    }
 }
 
 pub(super) fn sample(
@@ -281,7 +372,7 @@ pub(super) fn sample(
     if m.degenerate {
         return nested.sample(ctx, wi, s);
     }
-    if transmits(&nested) {
+    if m.transmits(&nested) {
         if wi.z == 0.0 {
             return None;
         }
@@ -301,10 +392,26 @@ pub(super) fn sample(
         (Evaluation::Explicit, true) => explicit::sample_mirror(m, &nested, ctx, wi, s),
         (Evaluation::Explicit, false) => explicit::sample_single(m, &nested, ctx, wi, s),
         (Evaluation::RandomWalk, _) => {
-            let (wo, weight, lobe) = walk::sample(m, &nested, ctx, wi, s)?;
+            let (wo, weight, lobe, first) = walk::sample(m, &nested, ctx, wi, s)?;
+            // The walk escapes upward only (G1 = 0 below), so `pdf`'s wo.z ≤ 0 case is moot.
+            let mut terms = if m.mirror_wall {
+                explicit::PdfTerms::mirror(m, wi, wo)
+            } else {
+                explicit::PdfTerms::single(m, wi, wo)
+            };
+            // A walk that escaped from its first vertex sampled ωo with the nested BSDF from ωi:
+            // its sample density is the term P_k(ωi, ωo) (not for delta lobes, whose sample
+            // density is no pdf value).
+            if let Some(v) = first {
+                if m.nested_flags(&nested) & super::lobe::DELTA == 0 {
+                    terms.know(v.k, wi, wo, v.pdf);
+                }
+            }
+            let p1 = terms.total(m, &nested, ctx);
+            let c = m.mis_c();
             Some(BsdfSample {
                 wo,
-                pdf: pdf(b, m, ctx, wi, wo),
+                pdf: (1.0 - c) * p1 + c * wo.z * INV_PI,
                 weight,
                 eta: 1.0,
                 lobe,

@@ -9,7 +9,7 @@
 //! through the mirror (correction 1 of the decisions page; without it a furnace reads 0.76 at
 //! θp = 60°).
 
-use super::explicit::lobe_of;
+use super::explicit::{lobe_of, PdfTerms};
 use super::{stats, MicrofacetNormalMap};
 use crate::bsdf::{Bsdf, BsdfContext};
 use crate::sampler::Sampler;
@@ -21,32 +21,48 @@ fn mirror(d: Vec3, n: Vec3) -> Vec3 {
     d - 2.0 * d.dot(n) * n
 }
 
-/// Sample an outgoing direction by walking; returns (ωo, throughput, lobe).
+/// A walk that escaped right after its first vertex, on facet `k` (not the mirror): ωo was
+/// sampled by the nested BSDF from ωi in facet k's frame with density `pdf`, which is the term
+/// P_k(ωi, ωo) of the MIS density ([`PdfTerms::know`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct FirstVertex {
+    pub k: usize,
+    pub pdf: f32,
+}
+
+/// Sample an outgoing direction by walking; returns (ωo, throughput, lobe, the first vertex when
+/// the walk escaped from it).
 pub(super) fn sample(
     m: &MicrofacetNormalMap,
     nested: &Bsdf,
     ctx: &BsdfContext,
     wi: Vec3,
     s: &mut Sampler,
-) -> Option<(Vec3, Spectrum, u32)> {
+) -> Option<(Vec3, Spectrum, u32, Option<FirstVertex>)> {
     let surf = &m.surface;
     let (mut k, _) = surf.pick(wi, s.next_1d())?;
     let mut d = -wi;
     let mut thr = Spectrum::ONE;
+    let mut first = None;
     for order in 1..=m.max_order {
         if m.is_mirror(k) {
             d = mirror(d, surf.normal(k));
         } else {
-            let Some((w, weight)) = m.sample_facet(nested, k, ctx, -d, s) else {
+            let fr = &m.frames[k];
+            let Some(bs) = nested.sample(ctx, fr.to_local(-d), s) else {
                 stats::record(order);
                 return None;
             };
-            thr *= weight;
-            d = w;
+            thr *= bs.weight;
+            d = fr.to_world(bs.wo);
+            if order == 1 {
+                first = Some(FirstVertex { k, pdf: bs.pdf });
+            }
         }
         if s.next_1d() < surf.g1(d) {
             stats::record(order);
-            return Some((d, thr, lobe_of(nested)));
+            let first = if order == 1 { first } else { None };
+            return Some((d, thr, lobe_of(m.nested_flags(nested)), first));
         }
         let Some((j, _)) = surf.pick(-d, s.next_1d()) else {
             stats::record(order);
@@ -58,7 +74,11 @@ pub(super) fn sample(
     None
 }
 
-/// Next-event estimate of f·cos along one walk (stochastic, unbiased).
+/// Next-event estimate of f·cos along one walk (stochastic, unbiased). Nested evals go through
+/// `terms` ([`PdfTerms::f`]): where the walk evaluates a pair that is also a term of the MIS
+/// density (its first vertex: (ωi, ωo), (ωi, R(ωo)), after the mirror (R(ωi), ωo)), the term's
+/// pdf comes from the same fused call, and G1(ωo), G1(R(ωo)) are shared with the terms. Pass
+/// [`PdfTerms::empty`] when no pdf is wanted.
 pub(super) fn eval(
     m: &MicrofacetNormalMap,
     nested: &Bsdf,
@@ -66,16 +86,17 @@ pub(super) fn eval(
     wi: Vec3,
     wo: Vec3,
     s: &mut Sampler,
+    terms: &mut PdfTerms,
 ) -> Spectrum {
     let surf = &m.surface;
-    let g1o = surf.g1(wo);
+    let g1o = terms.g1_wo(m, wo);
     if g1o <= 0.0 {
         return Spectrum::ZERO;
     }
     // Connection through the mirror wall toward ωo (only when ωo faces the wall).
     let through_mirror = if m.mirror_wall && wo.dot(surf.normal(1)) > 0.0 {
         let rwo = m.reflect_wall(wo);
-        Some((rwo, (1.0 - surf.g1(rwo)) * g1o))
+        Some((rwo, (1.0 - terms.g1_rwo(m, rwo)) * g1o))
     } else {
         None
     };
@@ -91,12 +112,12 @@ pub(super) fn eval(
         } else {
             let n = surf.normal(k);
             if wo.dot(n) > 0.0 {
-                sum += thr * m.f(nested, k, ctx, -d, wo, s) * g1o;
+                sum += thr * terms.f(m, nested, k, ctx, -d, wo, s) * g1o;
             }
             if let Some((rwo, w)) = through_mirror {
                 // p → t → ωo needs one more vertex: keep truncation identical to sampling.
                 if order < m.max_order && w > 0.0 && rwo.dot(n) > 0.0 {
-                    sum += thr * m.f(nested, k, ctx, -d, rwo, s) * w;
+                    sum += thr * terms.f(m, nested, k, ctx, -d, rwo, s) * w;
                 }
             }
             if order == m.max_order {

@@ -1,0 +1,204 @@
+//! The fused next-event query of microfacet normal mapping (`Bsdf::eval_pdf`) and the fused
+//! eval/pdf inside explicit sampling agree with separate `eval` and `pdf` calls (deterministic
+//! closed forms, spec §3 and §4): the optimisation must not change any value beyond rounding.
+
+mod common;
+
+use common::dir;
+use glam::Vec3;
+use groove::bsdf::mnm::facets::Microgeometry;
+use groove::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
+use groove::bsdf::*;
+use groove::sampler::Sampler;
+
+fn nested_nodes() -> Vec<BsdfNode> {
+    let (eta, k) = groove::bsdf::ior::named_conductor("Au").unwrap();
+    vec![
+        BsdfNode::RoughConductor(RoughConductor {
+            distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.3, true),
+            eta,
+            k,
+            specular_reflectance: Vec3::ONE,
+        }),
+        BsdfNode::RoughPlastic(RoughPlastic::new(
+            MicrofacetType::Ggx,
+            0.2,
+            true,
+            Vec3::new(0.2, 0.5, 0.8),
+            Vec3::ONE,
+            1.49,
+            1.000277,
+            true,
+        )),
+        BsdfNode::Diffuse(Diffuse {
+            reflectance: Vec3::splat(0.7),
+        }),
+    ]
+}
+
+fn close(a: f32, b: f32) -> bool {
+    (a - b).abs() <= 1e-5 * a.abs().max(b.abs()) + 1e-7
+}
+
+#[test]
+fn explicit_eval_pdf_and_sample_match_separate_queries() {
+    let ctx = BsdfContext::default();
+    let geometries = [
+        (Microgeometry::Sawtooth, Tangent::Mirror),
+        (Microgeometry::Sawtooth, Tangent::Same),
+        (Microgeometry::VGroove, Tangent::Same),
+        (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
+    ];
+    let mut checked = 0;
+    for node in nested_nodes() {
+        for (g, t) in geometries {
+            for i in 0..400u64 {
+                let mut arena = BsdfArena::new();
+                let nested = arena.push(node);
+                let wp = dir(70.0 * ((i * 7 % 400) as f32 / 400.0), 13.0 * i as f32);
+                let root = arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
+                    nested,
+                    wp,
+                    g,
+                    t,
+                    Evaluation::Explicit,
+                    256,
+                )));
+                let b = arena.bsdf(root);
+                let wi = dir(88.0 * (i as f32 / 400.0), 37.0 * i as f32);
+                let wo = dir((3.0 + 0.7 * i as f32) % 89.0, 11.0 * i as f32 + 5.0);
+                let mut s = Sampler::from_seed(i, 3);
+                let (f, p) = b.eval_pdf(&ctx, wi, wo, &mut s);
+                let f0 = b.eval(&ctx, wi, wo, &mut s);
+                let p0 = b.pdf(&ctx, wi, wo);
+                assert!(close(p, p0), "{g:?} {t:?} pdf {p} vs {p0}");
+                for c in 0..3 {
+                    assert!(close(f[c], f0[c]), "{g:?} {t:?} eval {f} vs {f0}");
+                }
+                if let Some(bs) = b.sample(&ctx, wi, &mut s) {
+                    let f1 = b.eval(&ctx, wi, bs.wo, &mut s);
+                    let p1 = b.pdf(&ctx, wi, bs.wo);
+                    assert!(
+                        close(bs.pdf, p1),
+                        "{g:?} {t:?} sample pdf {} vs {p1}",
+                        bs.pdf
+                    );
+                    for c in 0..3 {
+                        assert!(close(bs.weight[c] * bs.pdf, f1[c]), "{g:?} {t:?} weight");
+                    }
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(checked > 1000, "{checked}");
+}
+
+/// Caching the nested BSDF's flags at build time (`with_nested_flags`, as `Materials::build`
+/// does) changes nothing: eval, pdf, eval_pdf and sample are bit-identical with the same random
+/// numbers, for reflecting and transmitting nested BSDFs, both evaluations.
+#[test]
+fn cached_nested_flags_change_nothing() {
+    let ctx = BsdfContext::default();
+    let mut nodes = nested_nodes();
+    nodes.push(common::rough_glass(0.3));
+    for node in nodes {
+        for e in [Evaluation::Explicit, Evaluation::RandomWalk] {
+            for i in 0..100u64 {
+                let wp = dir(5.0 + 0.6 * i as f32, 29.0 * i as f32);
+                let mut arena = BsdfArena::new();
+                let nested = arena.push(node);
+                let flags = arena.bsdf(nested).flags();
+                let m = MicrofacetNormalMap::new(
+                    nested,
+                    wp,
+                    Microgeometry::Sawtooth,
+                    Tangent::Mirror,
+                    e,
+                    256,
+                );
+                let plain = arena.push(BsdfNode::MicrofacetNormalMap(m));
+                let cached = arena.push(BsdfNode::MicrofacetNormalMap(m.with_nested_flags(flags)));
+                let (a, b) = (arena.bsdf(plain), arena.bsdf(cached));
+                let wi = dir(85.0 * (i as f32 / 100.0), 37.0 * i as f32);
+                let wo = dir((3.0 + 1.7 * i as f32) % 89.0, 11.0 * i as f32 + 5.0);
+                let wo = if i % 3 == 0 { -wo } else { wo };
+                let (mut sa, mut sb) = (Sampler::from_seed(i, 5), Sampler::from_seed(i, 5));
+                assert_eq!(
+                    a.eval(&ctx, wi, wo, &mut sa).to_array(),
+                    b.eval(&ctx, wi, wo, &mut sb).to_array()
+                );
+                assert_eq!(a.pdf(&ctx, wi, wo).to_bits(), b.pdf(&ctx, wi, wo).to_bits());
+                let (fa, pa) = a.eval_pdf(&ctx, wi, wo, &mut sa);
+                let (fb, pb) = b.eval_pdf(&ctx, wi, wo, &mut sb);
+                assert_eq!((fa.to_array(), pa.to_bits()), (fb.to_array(), pb.to_bits()));
+                let key = |x: BsdfSample| {
+                    (
+                        x.wo.to_array(),
+                        x.weight.to_array(),
+                        x.pdf.to_bits(),
+                        x.lobe,
+                    )
+                };
+                assert_eq!(
+                    a.sample(&ctx, wi, &mut sa).map(key),
+                    b.sample(&ctx, wi, &mut sb).map(key)
+                );
+            }
+        }
+    }
+}
+
+/// The random walk's fused next-event query: with the same random numbers, `eval_pdf` gives the
+/// walk's `eval` estimate and the MIS density `pdf` up to rounding (the first vertices' nested
+/// evaluations share their pdf with the density's terms). A sampled walk reports the density
+/// `pdf` gives its direction (a single-vertex walk reuses the nested sample's own density).
+#[test]
+fn walk_eval_pdf_and_sample_pdf_match_separate_queries() {
+    let ctx = BsdfContext::default();
+    let geometries = [
+        (Microgeometry::Sawtooth, Tangent::Mirror),
+        (Microgeometry::Sawtooth, Tangent::Same),
+        (Microgeometry::VGroove, Tangent::Same),
+        (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
+    ];
+    let mut sampled = 0;
+    for node in nested_nodes() {
+        for (g, t) in geometries {
+            for i in 0..400u64 {
+                let mut arena = BsdfArena::new();
+                let nested = arena.push(node);
+                let wp = dir(70.0 * ((i * 7 % 400) as f32 / 400.0), 13.0 * i as f32);
+                let root = arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
+                    nested,
+                    wp,
+                    g,
+                    t,
+                    Evaluation::RandomWalk,
+                    256,
+                )));
+                let b = arena.bsdf(root);
+                let wi = dir(88.0 * (i as f32 / 400.0), 37.0 * i as f32);
+                let wo = dir((3.0 + 0.7 * i as f32) % 89.0, 11.0 * i as f32 + 5.0);
+                let (mut sa, mut sb) = (Sampler::from_seed(i, 7), Sampler::from_seed(i, 7));
+                let (f, p) = b.eval_pdf(&ctx, wi, wo, &mut sa);
+                let f0 = b.eval(&ctx, wi, wo, &mut sb);
+                let p0 = b.pdf(&ctx, wi, wo);
+                assert!(close(p, p0), "{g:?} {t:?} pdf {p} vs {p0}");
+                for c in 0..3 {
+                    assert!(close(f[c], f0[c]), "{g:?} {t:?} eval {f} vs {f0}");
+                }
+                if let Some(bs) = b.sample(&ctx, wi, &mut sa) {
+                    let p1 = b.pdf(&ctx, wi, bs.wo);
+                    assert!(
+                        (bs.pdf - p1).abs() <= 1e-4 * p1.abs() + 1e-6,
+                        "{g:?} {t:?} sample pdf {} vs {p1}",
+                        bs.pdf
+                    );
+                    sampled += 1;
+                }
+            }
+        }
+    }
+    assert!(sampled > 1000, "{sampled}");
+}
