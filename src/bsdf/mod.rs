@@ -351,6 +351,7 @@ impl<'a> Bsdf<'a> {
             BsdfNode::Diffuse(d) => (d.eval(wi, wo), d.pdf(wi, wo)),
             BsdfNode::RoughConductor(b) => b.eval_pdf(wi, wo),
             BsdfNode::RoughPlastic(b) => b.eval_pdf(wi, wo),
+            BsdfNode::RoughDielectric(b) => b.eval_pdf(ctx.mode, wi, wo),
             BsdfNode::TwoSided { front, back } => {
                 twosided::eval_pdf(*self, *front, *back, ctx, wi, wo, sampler)
             }

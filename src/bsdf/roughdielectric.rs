@@ -97,7 +97,51 @@ impl RoughDielectric {
             return Spectrum::ZERO;
         }
         let f = fresnel_dielectric(wi.dot(h), self.eta).r;
-        let g = self.distribution.g(wi, wo, h);
+        let g1i = self.distribution.smith_g1(wi, h);
+        self.value(mode, wi, wo, (h, is_reflect, eta), f, d, g1i)
+    }
+
+    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        let Some(hv) = self.half_vector(wi, wo) else {
+            return 0.0;
+        };
+        let f = fresnel_dielectric(wi.dot(hv.0), self.eta).r;
+        self.density(wi, wo, hv, f, None)
+    }
+
+    /// `(eval, pdf)` sharing the half vector, the Fresnel term, D(h) and G1(wi, h).
+    pub fn eval_pdf(&self, mode: TransportMode, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
+        let Some(hv) = self.half_vector(wi, wo) else {
+            return (Spectrum::ZERO, 0.0);
+        };
+        let h = hv.0;
+        let d = self.distribution.eval(h);
+        let f = fresnel_dielectric(wi.dot(h), self.eta).r;
+        // G1 is even in its direction argument, so G1(wi, h) also serves the flipped wi of the pdf.
+        let g1i = self.distribution.smith_g1(wi, h);
+        let value = if d == 0.0 {
+            Spectrum::ZERO
+        } else {
+            self.value(mode, wi, wo, hv, f, d, g1i)
+        };
+        (value, self.density(wi, wo, hv, f, Some((d, g1i))))
+    }
+
+    /// f·|cos θo| for the half vector `(h, is_reflect, eta)`, Fresnel reflectance `f`, D(h) = `d`
+    /// and G1(wi, h) = `g1i` (Walter et al. 2007, eqs. 20–21).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn value(
+        &self,
+        mode: TransportMode,
+        wi: Vec3,
+        wo: Vec3,
+        (h, is_reflect, eta): (Vec3, bool, f32),
+        f: f32,
+        d: f32,
+        g1i: f32,
+    ) -> Spectrum {
+        let g = g1i * self.distribution.smith_g1(wo, h);
         if is_reflect {
             self.specular_reflectance * (f * d * g / (4.0 * wi.z.abs()))
         } else {
@@ -117,10 +161,18 @@ impl RoughDielectric {
         }
     }
 
-    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let Some((h, is_reflect, eta)) = self.half_vector(wi, wo) else {
-            return 0.0;
-        };
+    /// The density of `sample` producing `wo`, for the half vector `(h, is_reflect, eta)` and
+    /// Fresnel reflectance `f`; `shared` = (D(h), G1(wi, h)) of the unscaled distribution when the
+    /// caller has them (used when that distribution is the sampling one).
+    #[inline]
+    fn density(
+        &self,
+        wi: Vec3,
+        wo: Vec3,
+        (h, is_reflect, eta): (Vec3, bool, f32),
+        f: f32,
+        shared: Option<(f32, f32)>,
+    ) -> f32 {
         let doh = wo.dot(h);
         // Jacobians dωh/dωo of reflection (1/(4 wo·h)) and refraction (η² wo·h / (wi·h + η wo·h)²).
         let dh_dwo = if is_reflect {
@@ -129,9 +181,19 @@ impl RoughDielectric {
             let denom = wi.dot(h) + eta * doh;
             eta * eta * doh / (denom * denom)
         };
-        let sd = self.sampling_distribution(wi.z);
-        let f = fresnel_dielectric(wi.dot(h), self.eta).r;
-        let p = sd.pdf(flip_to_upper(wi), h) * if is_reflect { f } else { 1.0 - f } * dh_dwo.abs();
+        let wi_up = flip_to_upper(wi);
+        let pm = match shared {
+            // Visible normals: D_wi(h) = D(h) G1(wi, h) |wi·h| / cos θi (the form of `pdf`).
+            Some((d, g1i)) if self.distribution.sample_visible => {
+                if wi_up.z <= 0.0 {
+                    0.0
+                } else {
+                    d * g1i * wi_up.dot(h).abs() / wi_up.z
+                }
+            }
+            _ => self.sampling_distribution(wi.z).pdf(wi_up, h),
+        };
+        let p = pm * if is_reflect { f } else { 1.0 - f } * dh_dwo.abs();
         if p.is_finite() {
             p
         } else {
