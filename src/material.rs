@@ -220,12 +220,12 @@ impl Materials {
             } => {
                 let child = self.build(*nested, si, arena);
                 let rgb = self.textures[*normalmap as usize].eval(si.uv);
-                arena.push(BsdfNode::NormalMap(NormalMap {
-                    nested: child,
-                    normal: 2.0 * rgb - Vec3::ONE,
-                    flip_invalid_normals: *flip_invalid_normals,
-                    use_shadowing_function: *use_shadowing_function,
-                }))
+                arena.push(BsdfNode::NormalMap(NormalMap::new(
+                    child,
+                    2.0 * rgb - Vec3::ONE,
+                    *flip_invalid_normals,
+                    *use_shadowing_function,
+                )))
             }
             MaterialNode::Blend {
                 weight,
@@ -259,12 +259,12 @@ impl Materials {
             } => {
                 let child = self.build(*nested, si, arena);
                 let grad = *scale * self.textures[*height as usize].eval_1_grad(si.uv);
-                arena.push(BsdfNode::NormalMap(NormalMap {
-                    nested: child,
-                    normal: bumpmap::perturbed_normal(si, grad),
-                    flip_invalid_normals: *flip_invalid_normals,
-                    use_shadowing_function: *use_shadowing_function,
-                }))
+                arena.push(BsdfNode::NormalMap(NormalMap::new(
+                    child,
+                    bumpmap::perturbed_normal(si, grad),
+                    *flip_invalid_normals,
+                    *use_shadowing_function,
+                )))
             }
         }
     }

@@ -355,12 +355,12 @@ fn eval_pdf_equals_eval_and_pdf() {
         for flags in [false, true] {
             let mut arena = BsdfArena::new();
             let nested = arena.push(leaf);
-            let nm = arena.push(BsdfNode::NormalMap(NormalMap {
+            let nm = arena.push(BsdfNode::NormalMap(NormalMap::new(
                 nested,
-                normal: Vec3::new(0.4, -0.3, 0.8),
-                flip_invalid_normals: flags,
-                use_shadowing_function: flags,
-            }));
+                Vec3::new(0.4, -0.3, 0.8),
+                flags,
+                flags,
+            )));
             let root = arena.push(BsdfNode::TwoSided {
                 front: nm,
                 back: nested,

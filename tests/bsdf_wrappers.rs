@@ -47,12 +47,12 @@ fn decoded(n: Vec3) -> Vec3 {
 fn normalmap(nest: &str, n: Vec3, flip: bool, shadow: bool) -> ArenaBsdf {
     let mut arena = BsdfArena::new();
     let child = arena.push(nested(nest));
-    let root = arena.push(BsdfNode::NormalMap(NormalMap {
-        nested: child,
-        normal: decoded(n),
-        flip_invalid_normals: flip,
-        use_shadowing_function: shadow,
-    }));
+    let root = arena.push(BsdfNode::NormalMap(NormalMap::new(
+        child,
+        decoded(n),
+        flip,
+        shadow,
+    )));
     ArenaBsdf {
         arena,
         root,
@@ -96,12 +96,12 @@ fn classic_normalmap_matches_mitsuba_pointwise() {
         let child = arena.push(BsdfNode::Diffuse(Diffuse {
             reflectance: Vec3::splat(0.5),
         }));
-        let root = arena.push(BsdfNode::NormalMap(NormalMap {
-            nested: child,
-            normal: decoded(Vec3::new(0.4, -0.2, 0.89)),
-            flip_invalid_normals: flip,
-            use_shadowing_function: shadow,
-        }));
+        let root = arena.push(BsdfNode::NormalMap(NormalMap::new(
+            child,
+            decoded(Vec3::new(0.4, -0.2, 0.89)),
+            flip,
+            shadow,
+        )));
         let b = arena.bsdf(root);
         let ctx = BsdfContext::default();
         for (i, &(ti, pi)) in wis.iter().enumerate() {
@@ -177,12 +177,12 @@ fn cases() -> Vec<Case> {
             for tp in [30.0f32, 65.0] {
                 for (ti, pi) in [(15.0f32, 0.0f32), (60.0, 180.0), (80.0, 0.0)] {
                     let bsdf = normalmap(nest, direction(tp, 20.0), flip, shadow);
-                    let frame_of = Some(NormalMap {
-                        nested: 0,
-                        normal: decoded(direction(tp, 20.0)),
-                        flip_invalid_normals: flip,
-                        use_shadowing_function: shadow,
-                    });
+                    let frame_of = Some(NormalMap::new(
+                        0,
+                        decoded(direction(tp, 20.0)),
+                        flip,
+                        shadow,
+                    ));
                     v.push(Case {
                         name: format!(
                             "normalmap/{nest} flip={flip} shadow={shadow} θn={tp} θi={ti} φi={pi}"
@@ -202,12 +202,12 @@ fn cases() -> Vec<Case> {
             let d = arena.push(nested("diffuse"));
             let mut g = arena.push(nested("gold"));
             if tilt {
-                g = arena.push(BsdfNode::NormalMap(NormalMap {
-                    nested: g,
-                    normal: decoded(direction(30.0, 20.0)),
-                    flip_invalid_normals: true,
-                    use_shadowing_function: true,
-                }));
+                g = arena.push(BsdfNode::NormalMap(NormalMap::new(
+                    g,
+                    decoded(direction(30.0, 20.0)),
+                    true,
+                    true,
+                )));
             }
             let root = arena.push(BsdfNode::Blend(Blend {
                 bsdf0: d,
@@ -294,12 +294,7 @@ fn cases() -> Vec<Case> {
         for (ti, pi) in [(15.0f32, 0.0f32), (70.0, 200.0)] {
             let mut arena = BsdfArena::new();
             let child = arena.push(nested(nest));
-            let m = NormalMap {
-                nested: child,
-                normal,
-                flip_invalid_normals: true,
-                use_shadowing_function: true,
-            };
+            let m = NormalMap::new(child, normal, true, true);
             let root = arena.push(BsdfNode::NormalMap(m));
             v.push(arena_case(
                 format!("bumpmap/{nest} ∇h={grad:?} θi={ti} φi={pi}"),

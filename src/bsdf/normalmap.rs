@@ -19,15 +19,19 @@ use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
 use glam::Vec3;
 
-/// A classic normal-mapped BSDF at one shading point (plain values, built per hit).
+/// A classic normal-mapped BSDF at one shading point (plain values, built per hit with
+/// [`NormalMap::new`]).
 #[derive(Clone, Copy, Debug)]
 pub struct NormalMap {
     /// Arena index of the nested BSDF.
     pub nested: u32,
     /// The decoded (not normalized) perturbed normal 2·rgb − 1 in the shading frame.
-    pub normal: Vec3,
+    normal: Vec3,
     pub flip_invalid_normals: bool,
     pub use_shadowing_function: bool,
+    /// The perturbed frame of `normal` as given, built once per hit: eval, pdf and sample all
+    /// need it (only a flipped normal builds another).
+    frame: Frame,
 }
 
 #[inline]
@@ -51,30 +55,59 @@ pub fn shadow_terminator(n: Vec3, wo: Vec3) -> f32 {
     }
 }
 
+/// The frame of the perturbed normal `n` (shading-frame coordinates): n normalised (+z when
+/// degenerate), tangent = the shading frame's s made orthogonal to n (t when degenerate).
+fn perturbed_frame(n: Vec3) -> Frame {
+    let len2 = n.length_squared();
+    let n = if len2 > 0.0 && len2.is_finite() {
+        n / len2.sqrt()
+    } else {
+        Vec3::Z
+    };
+    let s = Vec3::X - n * n.x;
+    let ls2 = s.length_squared();
+    let s = if ls2 > 0.0 && ls2.is_finite() {
+        s / ls2.sqrt()
+    } else {
+        Vec3::Y
+    };
+    Frame {
+        s,
+        t: n.cross(s),
+        n,
+    }
+}
+
 impl NormalMap {
-    /// The perturbed frame in shading-frame coordinates for the incident direction `wi`.
-    pub fn frame(&self, wi: Vec3) -> Frame {
-        let mut n = self.normal;
-        if self.flip_invalid_normals && wi.z * wi.dot(n) <= 0.0 {
-            n = Vec3::new(-n.x, -n.y, n.z);
+    /// `normal`: the decoded perturbed normal 2·rgb − 1 (not normalised) in the shading frame.
+    pub fn new(
+        nested: u32,
+        normal: Vec3,
+        flip_invalid_normals: bool,
+        use_shadowing_function: bool,
+    ) -> Self {
+        NormalMap {
+            nested,
+            normal,
+            flip_invalid_normals,
+            use_shadowing_function,
+            frame: perturbed_frame(normal),
         }
-        let len2 = n.length_squared();
-        let n = if len2 > 0.0 && len2.is_finite() {
-            n / len2.sqrt()
+    }
+
+    /// The decoded perturbed normal as given.
+    pub fn normal(&self) -> Vec3 {
+        self.normal
+    }
+
+    /// The perturbed frame in shading-frame coordinates for the incident direction `wi`.
+    #[inline]
+    pub fn frame(&self, wi: Vec3) -> Frame {
+        let n = self.normal;
+        if self.flip_invalid_normals && wi.z * wi.dot(n) <= 0.0 {
+            perturbed_frame(Vec3::new(-n.x, -n.y, n.z))
         } else {
-            Vec3::Z
-        };
-        let s = Vec3::X - n * n.x;
-        let ls2 = s.length_squared();
-        let s = if ls2 > 0.0 && ls2.is_finite() {
-            s / ls2.sqrt()
-        } else {
-            Vec3::Y
-        };
-        Frame {
-            s,
-            t: n.cross(s),
-            n,
+            self.frame
         }
     }
 

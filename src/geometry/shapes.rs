@@ -271,9 +271,9 @@ impl Shape {
                 let (dp0, dp1) = (p1 - p0, p2 - p0);
                 let ng = dp0.cross(dp1).try_normalize().unwrap_or(Vec3::Z);
                 // Mitsuba's defaults without usable uvs: uv = (b1, b2) and an arbitrary
-                // tangent frame around the face normal.
-                let f = Frame::from_normal(ng);
-                let (mut uv, mut dpdu, mut dpdv) = (Vec2::new(b1, b2), f.s, f.t);
+                // tangent frame around the face normal (built only when needed).
+                let mut uv = Vec2::new(b1, b2);
+                let mut derivs = None;
                 if let Some(uvs) = &m.uvs {
                     let [t0, t1, t2] = tri.map(|i| uvs[i as usize]);
                     uv = t0 * b0 + t1 * b1 + t2 * b2;
@@ -281,10 +281,16 @@ impl Shape {
                     let det = d0.x * d1.y - d0.y * d1.x;
                     if det != 0.0 {
                         let inv = 1.0 / det;
-                        dpdu = (dp0 * d1.y - dp1 * d0.y) * inv;
-                        dpdv = (dp1 * d0.x - dp0 * d1.x) * inv;
+                        derivs = Some((
+                            (dp0 * d1.y - dp1 * d0.y) * inv,
+                            (dp1 * d0.x - dp0 * d1.x) * inv,
+                        ));
                     }
                 }
+                let (dpdu, dpdv) = derivs.unwrap_or_else(|| {
+                    let f = Frame::from_normal(ng);
+                    (f.s, f.t)
+                });
                 let mut ns = ng;
                 if let Some(nrm) = &m.normals {
                     let [n0, n1, n2] = tri.map(|i| nrm[i as usize]);
