@@ -151,12 +151,7 @@ fn build(mode: Mode, nested: BsdfNode, ins: &[(Vec3, Vec3, Vec3)]) -> (BsdfArena
         .iter()
         .map(|&(wp, _, _)| match mode {
             Mode::NestedAlone => n,
-            Mode::Classic => arena.push(BsdfNode::NormalMap(NormalMap {
-                nested: n,
-                normal: wp,
-                flip_invalid_normals: false,
-                use_shadowing_function: false,
-            })),
+            Mode::Classic => arena.push(BsdfNode::NormalMap(NormalMap::new(n, wp, false, false))),
             Mode::Mnm(g, t, e) => arena.push(BsdfNode::MicrofacetNormalMap(
                 MicrofacetNormalMap::new(n, wp, g, t, e, 256),
             )),
