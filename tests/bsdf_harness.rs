@@ -332,24 +332,9 @@ fn eval_pdf_equals_eval_and_pdf() {
             fails.push(format!("[{}] {e}", c.name));
         }
     }
-    let (au_eta, au_k) = named_conductor("Au").unwrap();
     let leaves = [
-        BsdfNode::RoughConductor(RoughConductor {
-            distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.3, true),
-            eta: au_eta,
-            k: au_k,
-            specular_reflectance: Vec3::ONE,
-        }),
-        BsdfNode::RoughPlastic(RoughPlastic::new(
-            MicrofacetType::Beckmann,
-            0.2,
-            false,
-            Vec3::new(0.1, 0.3, 0.6),
-            Vec3::ONE,
-            1.5,
-            1.0,
-            true,
-        )),
+        common::rough_gold(0.3),
+        common::rough_plastic(MicrofacetType::Beckmann, 0.2, false),
     ];
     for (k, leaf) in leaves.into_iter().enumerate() {
         for flags in [false, true] {

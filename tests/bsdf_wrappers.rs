@@ -12,8 +12,7 @@ mod common;
 use common::chi2::*;
 use glam::Vec3;
 use groove::bsdf::{
-    bumpmap, named_conductor, Blend, BsdfArena, BsdfContext, BsdfNode, Diffuse, Mask,
-    MicrofacetDistribution, MicrofacetType, NormalMap, RoughConductor, TransportMode,
+    bumpmap, Blend, BsdfArena, BsdfContext, BsdfNode, Diffuse, Mask, NormalMap, TransportMode,
 };
 use groove::geometry::SurfaceInteraction;
 use groove::math::Frame;
@@ -27,15 +26,7 @@ fn nested(which: &str) -> BsdfNode {
         "diffuse" => BsdfNode::Diffuse(Diffuse {
             reflectance: Vec3::new(0.9, 0.7, 0.5),
         }),
-        _ => {
-            let (eta, k) = named_conductor("Au").unwrap();
-            BsdfNode::RoughConductor(RoughConductor {
-                distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),
-                eta,
-                k,
-                specular_reflectance: Vec3::ONE,
-            })
-        }
+        _ => common::rough_gold(0.2),
     }
 }
 

@@ -12,8 +12,7 @@ use glam::Vec3;
 use groove::bsdf::mnm::facets::Microgeometry;
 use groove::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
 use groove::bsdf::{
-    named_conductor, BsdfArena, BsdfContext, BsdfNode, Diffuse, MicrofacetDistribution,
-    MicrofacetType, RoughConductor, RoughPlastic, TransportMode,
+    BsdfArena, BsdfContext, BsdfNode, Diffuse, MicrofacetType, RoughPlastic, TransportMode,
 };
 use rayon::prelude::*;
 
@@ -30,15 +29,7 @@ fn nested(which: &str) -> BsdfNode {
         "diffuse" => BsdfNode::Diffuse(Diffuse {
             reflectance: Vec3::new(0.9, 0.7, 0.5),
         }),
-        "gold" => {
-            let (eta, k) = named_conductor("Au").unwrap();
-            BsdfNode::RoughConductor(RoughConductor {
-                distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),
-                eta,
-                k,
-                specular_reflectance: Vec3::ONE,
-            })
-        }
+        "gold" => common::rough_gold(0.2),
         _ => BsdfNode::RoughPlastic(RoughPlastic::new(
             MicrofacetType::Ggx,
             0.3,

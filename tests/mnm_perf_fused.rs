@@ -12,24 +12,9 @@ use groove::bsdf::*;
 use groove::sampler::Sampler;
 
 fn nested_nodes() -> Vec<BsdfNode> {
-    let (eta, k) = groove::bsdf::ior::named_conductor("Au").unwrap();
     vec![
-        BsdfNode::RoughConductor(RoughConductor {
-            distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.3, true),
-            eta,
-            k,
-            specular_reflectance: Vec3::ONE,
-        }),
-        BsdfNode::RoughPlastic(RoughPlastic::new(
-            MicrofacetType::Ggx,
-            0.2,
-            true,
-            Vec3::new(0.2, 0.5, 0.8),
-            Vec3::ONE,
-            1.49,
-            1.000277,
-            true,
-        )),
+        common::rough_gold(0.3),
+        common::rough_plastic(MicrofacetType::Ggx, 0.2, true),
         BsdfNode::Diffuse(Diffuse {
             reflectance: Vec3::splat(0.7),
         }),
@@ -40,16 +25,18 @@ fn close(a: f32, b: f32) -> bool {
     (a - b).abs() <= 1e-5 * a.abs().max(b.abs()) + 1e-7
 }
 
-#[test]
-fn explicit_eval_pdf_and_sample_match_separate_queries() {
-    let ctx = BsdfContext::default();
+/// Every (nested BSDF, microgeometry, query index) with `evaluation`: calls `f` with the
+/// microgeometry, tangent, index, the microfacet normal-mapped BSDF and a (wi, wo) pair.
+fn for_each_query(
+    evaluation: Evaluation,
+    mut f: impl FnMut(Microgeometry, Tangent, u64, &Bsdf, Vec3, Vec3),
+) {
     let geometries = [
         (Microgeometry::Sawtooth, Tangent::Mirror),
         (Microgeometry::Sawtooth, Tangent::Same),
         (Microgeometry::VGroove, Tangent::Same),
         (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
     ];
-    let mut checked = 0;
     for node in nested_nodes() {
         for (g, t) in geometries {
             for i in 0..400u64 {
@@ -57,40 +44,43 @@ fn explicit_eval_pdf_and_sample_match_separate_queries() {
                 let nested = arena.push(node);
                 let wp = dir(70.0 * ((i * 7 % 400) as f32 / 400.0), 13.0 * i as f32);
                 let root = arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
-                    nested,
-                    wp,
-                    g,
-                    t,
-                    Evaluation::Explicit,
-                    256,
+                    nested, wp, g, t, evaluation, 256,
                 )));
-                let b = arena.bsdf(root);
                 let wi = dir(88.0 * (i as f32 / 400.0), 37.0 * i as f32);
                 let wo = dir((3.0 + 0.7 * i as f32) % 89.0, 11.0 * i as f32 + 5.0);
-                let mut s = Sampler::from_seed(i, 3);
-                let (f, p) = b.eval_pdf(&ctx, wi, wo, &mut s);
-                let f0 = b.eval(&ctx, wi, wo, &mut s);
-                let p0 = b.pdf(&ctx, wi, wo);
-                assert!(close(p, p0), "{g:?} {t:?} pdf {p} vs {p0}");
-                for c in 0..3 {
-                    assert!(close(f[c], f0[c]), "{g:?} {t:?} eval {f} vs {f0}");
-                }
-                if let Some(bs) = b.sample(&ctx, wi, &mut s) {
-                    let f1 = b.eval(&ctx, wi, bs.wo, &mut s);
-                    let p1 = b.pdf(&ctx, wi, bs.wo);
-                    assert!(
-                        close(bs.pdf, p1),
-                        "{g:?} {t:?} sample pdf {} vs {p1}",
-                        bs.pdf
-                    );
-                    for c in 0..3 {
-                        assert!(close(bs.weight[c] * bs.pdf, f1[c]), "{g:?} {t:?} weight");
-                    }
-                    checked += 1;
-                }
+                f(g, t, i, &arena.bsdf(root), wi, wo);
             }
         }
     }
+}
+
+#[test]
+fn explicit_eval_pdf_and_sample_match_separate_queries() {
+    let ctx = BsdfContext::default();
+    let mut checked = 0;
+    for_each_query(Evaluation::Explicit, |g, t, i, b, wi, wo| {
+        let mut s = Sampler::from_seed(i, 3);
+        let (f, p) = b.eval_pdf(&ctx, wi, wo, &mut s);
+        let f0 = b.eval(&ctx, wi, wo, &mut s);
+        let p0 = b.pdf(&ctx, wi, wo);
+        assert!(close(p, p0), "{g:?} {t:?} pdf {p} vs {p0}");
+        for c in 0..3 {
+            assert!(close(f[c], f0[c]), "{g:?} {t:?} eval {f} vs {f0}");
+        }
+        if let Some(bs) = b.sample(&ctx, wi, &mut s) {
+            let f1 = b.eval(&ctx, wi, bs.wo, &mut s);
+            let p1 = b.pdf(&ctx, wi, bs.wo);
+            assert!(
+                close(bs.pdf, p1),
+                "{g:?} {t:?} sample pdf {} vs {p1}",
+                bs.pdf
+            );
+            for c in 0..3 {
+                assert!(close(bs.weight[c] * bs.pdf, f1[c]), "{g:?} {t:?} weight");
+            }
+            checked += 1;
+        }
+    });
     assert!(checked > 1000, "{checked}");
 }
 
@@ -156,49 +146,25 @@ fn cached_nested_flags_change_nothing() {
 #[test]
 fn walk_eval_pdf_and_sample_pdf_match_separate_queries() {
     let ctx = BsdfContext::default();
-    let geometries = [
-        (Microgeometry::Sawtooth, Tangent::Mirror),
-        (Microgeometry::Sawtooth, Tangent::Same),
-        (Microgeometry::VGroove, Tangent::Same),
-        (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
-    ];
     let mut sampled = 0;
-    for node in nested_nodes() {
-        for (g, t) in geometries {
-            for i in 0..400u64 {
-                let mut arena = BsdfArena::new();
-                let nested = arena.push(node);
-                let wp = dir(70.0 * ((i * 7 % 400) as f32 / 400.0), 13.0 * i as f32);
-                let root = arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
-                    nested,
-                    wp,
-                    g,
-                    t,
-                    Evaluation::RandomWalk,
-                    256,
-                )));
-                let b = arena.bsdf(root);
-                let wi = dir(88.0 * (i as f32 / 400.0), 37.0 * i as f32);
-                let wo = dir((3.0 + 0.7 * i as f32) % 89.0, 11.0 * i as f32 + 5.0);
-                let (mut sa, mut sb) = (Sampler::from_seed(i, 7), Sampler::from_seed(i, 7));
-                let (f, p) = b.eval_pdf(&ctx, wi, wo, &mut sa);
-                let f0 = b.eval(&ctx, wi, wo, &mut sb);
-                let p0 = b.pdf(&ctx, wi, wo);
-                assert!(close(p, p0), "{g:?} {t:?} pdf {p} vs {p0}");
-                for c in 0..3 {
-                    assert!(close(f[c], f0[c]), "{g:?} {t:?} eval {f} vs {f0}");
-                }
-                if let Some(bs) = b.sample(&ctx, wi, &mut sa) {
-                    let p1 = b.pdf(&ctx, wi, bs.wo);
-                    assert!(
-                        (bs.pdf - p1).abs() <= 1e-4 * p1.abs() + 1e-6,
-                        "{g:?} {t:?} sample pdf {} vs {p1}",
-                        bs.pdf
-                    );
-                    sampled += 1;
-                }
-            }
+    for_each_query(Evaluation::RandomWalk, |g, t, i, b, wi, wo| {
+        let (mut sa, mut sb) = (Sampler::from_seed(i, 7), Sampler::from_seed(i, 7));
+        let (f, p) = b.eval_pdf(&ctx, wi, wo, &mut sa);
+        let f0 = b.eval(&ctx, wi, wo, &mut sb);
+        let p0 = b.pdf(&ctx, wi, wo);
+        assert!(close(p, p0), "{g:?} {t:?} pdf {p} vs {p0}");
+        for c in 0..3 {
+            assert!(close(f[c], f0[c]), "{g:?} {t:?} eval {f} vs {f0}");
         }
-    }
+        if let Some(bs) = b.sample(&ctx, wi, &mut sa) {
+            let p1 = b.pdf(&ctx, wi, bs.wo);
+            assert!(
+                (bs.pdf - p1).abs() <= 1e-4 * p1.abs() + 1e-6,
+                "{g:?} {t:?} sample pdf {} vs {p1}",
+                bs.pdf
+            );
+            sampled += 1;
+        }
+    });
     assert!(sampled > 1000, "{sampled}");
 }

@@ -121,6 +121,18 @@ impl NormalMap {
     }
 }
 
+/// The perturbed frame for `wi` with `wi` and `wo` in it, or `None` when `wo` changes sides
+/// between the perturbed and the unperturbed frame (no light, as in Mitsuba).
+#[inline]
+fn perturbed_query(m: &NormalMap, wi: Vec3, wo: Vec3) -> Option<(Frame, Vec3, Vec3)> {
+    let f = m.frame(wi);
+    let pwo = f.to_local(wo);
+    if wo.z * pwo.z <= 0.0 {
+        return None;
+    }
+    Some((f, f.to_local(wi), pwo))
+}
+
 pub(super) fn eval(
     b: Bsdf,
     m: &NormalMap,
@@ -129,21 +141,17 @@ pub(super) fn eval(
     wo: Vec3,
     s: &mut Sampler,
 ) -> Spectrum {
-    let f = m.frame(wi);
-    let pwo = f.to_local(wo);
-    if wo.z * pwo.z <= 0.0 {
+    let Some((f, pwi, pwo)) = perturbed_query(m, wi, wo) else {
         return Spectrum::ZERO;
-    }
-    b.child(m.nested).eval(ctx, f.to_local(wi), pwo, s) * m.shadow(&f, wo)
+    };
+    b.child(m.nested).eval(ctx, pwi, pwo, s) * m.shadow(&f, wo)
 }
 
 pub(super) fn pdf(b: Bsdf, m: &NormalMap, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
-    let f = m.frame(wi);
-    let pwo = f.to_local(wo);
-    if wo.z * pwo.z <= 0.0 {
+    let Some((_, pwi, pwo)) = perturbed_query(m, wi, wo) else {
         return 0.0;
-    }
-    b.child(m.nested).pdf(ctx, f.to_local(wi), pwo)
+    };
+    b.child(m.nested).pdf(ctx, pwi, pwo)
 }
 
 pub(super) fn eval_pdf(
@@ -154,12 +162,10 @@ pub(super) fn eval_pdf(
     wo: Vec3,
     s: &mut Sampler,
 ) -> (Spectrum, f32) {
-    let f = m.frame(wi);
-    let pwo = f.to_local(wo);
-    if wo.z * pwo.z <= 0.0 {
+    let Some((f, pwi, pwo)) = perturbed_query(m, wi, wo) else {
         return (Spectrum::ZERO, 0.0);
-    }
-    let (v, p) = b.child(m.nested).eval_pdf(ctx, f.to_local(wi), pwo, s);
+    };
+    let (v, p) = b.child(m.nested).eval_pdf(ctx, pwi, pwo, s);
     (v * m.shadow(&f, wo), p)
 }
 

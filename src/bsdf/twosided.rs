@@ -12,6 +12,17 @@ fn flip(w: Vec3) -> Vec3 {
     Vec3::new(w.x, w.y, -w.z)
 }
 
+/// The BSDF that answers a query from `wi`'s side, with the directions it sees: the front one as
+/// given, or the back one with both directions mirrored through the surface.
+#[inline]
+fn side<'a>(b: Bsdf<'a>, front: u32, back: u32, wi: Vec3, wo: Vec3) -> (Bsdf<'a>, Vec3, Vec3) {
+    if wi.z >= 0.0 {
+        (b.child(front), wi, wo)
+    } else {
+        (b.child(back), flip(wi), flip(wo))
+    }
+}
+
 pub(super) fn eval(
     b: Bsdf,
     front: u32,
@@ -21,19 +32,13 @@ pub(super) fn eval(
     wo: Vec3,
     sampler: &mut Sampler,
 ) -> Spectrum {
-    if wi.z >= 0.0 {
-        b.child(front).eval(ctx, wi, wo, sampler)
-    } else {
-        b.child(back).eval(ctx, flip(wi), flip(wo), sampler)
-    }
+    let (bsdf, wi, wo) = side(b, front, back, wi, wo);
+    bsdf.eval(ctx, wi, wo, sampler)
 }
 
 pub(super) fn pdf(b: Bsdf, front: u32, back: u32, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
-    if wi.z >= 0.0 {
-        b.child(front).pdf(ctx, wi, wo)
-    } else {
-        b.child(back).pdf(ctx, flip(wi), flip(wo))
-    }
+    let (bsdf, wi, wo) = side(b, front, back, wi, wo);
+    bsdf.pdf(ctx, wi, wo)
 }
 
 pub(super) fn eval_pdf(
@@ -45,11 +50,8 @@ pub(super) fn eval_pdf(
     wo: Vec3,
     sampler: &mut Sampler,
 ) -> (Spectrum, f32) {
-    if wi.z >= 0.0 {
-        b.child(front).eval_pdf(ctx, wi, wo, sampler)
-    } else {
-        b.child(back).eval_pdf(ctx, flip(wi), flip(wo), sampler)
-    }
+    let (bsdf, wi, wo) = side(b, front, back, wi, wo);
+    bsdf.eval_pdf(ctx, wi, wo, sampler)
 }
 
 pub(super) fn sample(

@@ -124,3 +124,34 @@ pub fn rough_glass(alpha: f32) -> groove::bsdf::BsdfNode {
         glam::Vec3::ONE,
     ))
 }
+
+/// Rough gold (Mitsuba's "Au"): GGX α with visible-normal sampling, white specular reflectance.
+pub fn rough_gold(alpha: f32) -> groove::bsdf::BsdfNode {
+    use groove::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
+    let (eta, k) = groove::bsdf::named_conductor("Au").unwrap();
+    groove::bsdf::BsdfNode::RoughConductor(groove::bsdf::RoughConductor {
+        distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, alpha, true),
+        eta,
+        k,
+        specular_reflectance: glam::Vec3::ONE,
+    })
+}
+
+/// Rough plastic: blue diffuse base (0.2, 0.5, 0.8) under a coating of η = 1.49 in air,
+/// nonlinear, with the given distribution, α and sampling strategy.
+pub fn rough_plastic(
+    kind: groove::bsdf::MicrofacetType,
+    alpha: f32,
+    sample_visible: bool,
+) -> groove::bsdf::BsdfNode {
+    groove::bsdf::BsdfNode::RoughPlastic(groove::bsdf::RoughPlastic::new(
+        kind,
+        alpha,
+        sample_visible,
+        glam::Vec3::new(0.2, 0.5, 0.8),
+        glam::Vec3::ONE,
+        1.49,
+        1.000277,
+        true,
+    ))
+}
