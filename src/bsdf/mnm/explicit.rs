@@ -10,38 +10,6 @@ use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
 use glam::Vec3;
 
-/// Variant M eval (§4.1): facet 0 is ωp, facet 1 the mirror wall ωt.
-pub(super) fn eval_mirror(
-    m: &MicrofacetNormalMap,
-    nested: &Bsdf,
-    ctx: &BsdfContext,
-    wi: Vec3,
-    wo: Vec3,
-    s: &mut Sampler,
-) -> Spectrum {
-    let surf = &m.surface;
-    let wt = surf.normal(1);
-    let g1o = surf.g1(wo);
-    if g1o <= 0.0 {
-        return Spectrum::ZERO;
-    }
-    let [lp, lt, _] = surf.lambdas(wi);
-    let mut v = Spectrum::ZERO;
-    if lp > 0.0 {
-        v += lp * m.f(nested, 0, ctx, wi, wo, s);
-        if wo.dot(wt) > 0.0 {
-            // i → p → t → o: left ωp toward R(ωo), blocked (hit the wall), mirrored to ωo.
-            let rwo = m.reflect_wall(wo);
-            v += (lp * (1.0 - surf.g1(rwo))) * m.f(nested, 0, ctx, wi, rwo, s);
-        }
-    }
-    if wi.dot(wt) > 0.0 {
-        // i → t → p → o: the view ray hits the mirror first; ωp sees R(ωi).
-        v += lt * m.f(nested, 0, ctx, m.reflect_wall(wi), wo, s);
-    }
-    v * g1o
-}
-
 /// Exact density of [`sample_mirror`] (§4.2).
 pub(super) fn pdf_mirror(
     m: &MicrofacetNormalMap,
@@ -192,9 +160,10 @@ impl PdfTerms {
     }
 }
 
-/// [`eval_mirror`] and [`pdf_mirror`] of the same (ωi, ωo) in one pass: the three paths share
-/// λ(ωi), G1(ωo), G1(R(ωo)), and each path's nested eval and pdf come from one fused
-/// `eval_pdf` of the same frame pair (§4.1, §4.2). Equal to the two calls up to rounding.
+/// Variant M eval (§4.1; facet 0 is ωp, facet 1 the mirror wall ωt) together with its density
+/// [`pdf_mirror`] (§4.2): the three paths i→p→o, i→p→t→o, i→t→p→o share λ(ωi), G1(ωo),
+/// G1(R(ωo)), and each path's nested eval and pdf come from one fused `eval_pdf` of the same
+/// frame pair. The pdf equals [`pdf_mirror`] up to rounding; eval alone is this function's `.0`.
 pub(super) fn eval_pdf_mirror(
     m: &MicrofacetNormalMap,
     nested: &Bsdf,
@@ -244,43 +213,19 @@ pub(super) fn sample_mirror(
 ) -> Option<BsdfSample> {
     let surf = &m.surface;
     let wo = if s.next_1d() < surf.lambda(0, wi) {
-        let (w, _) = m.sample_facet(nested, 0, ctx, wi, s)?;
+        let w = m.sample_facet(nested, 0, ctx, wi, s)?.wo;
         if s.next_1d() >= surf.g1(w) {
             m.reflect_wall(w) // blocked: the ray hits the mirror wall
         } else {
             w
         }
     } else {
-        m.sample_facet(nested, 0, ctx, m.reflect_wall(wi), s)?.0
+        m.sample_facet(nested, 0, ctx, m.reflect_wall(wi), s)?.wo
     };
     if wo.z <= 0.0 {
         return None;
     }
     finish(m, nested, ctx, wi, wo, s, true)
-}
-
-/// Single scattering on every facet (§3): Σ_k λ_k(ωi) F_k(ωi, ωo) χ(ωo·m_k) G1(ωo).
-pub(super) fn eval_single(
-    m: &MicrofacetNormalMap,
-    nested: &Bsdf,
-    ctx: &BsdfContext,
-    wi: Vec3,
-    wo: Vec3,
-    s: &mut Sampler,
-) -> Spectrum {
-    let surf = &m.surface;
-    let g1o = surf.g1(wo);
-    if g1o <= 0.0 {
-        return Spectrum::ZERO;
-    }
-    let l = surf.lambdas(wi);
-    let mut v = Spectrum::ZERO;
-    for (k, &lk) in l.iter().enumerate().take(surf.len()) {
-        if lk > 0.0 && wo.dot(surf.normal(k)) > 0.0 {
-            v += lk * m.f(nested, k, ctx, wi, wo, s);
-        }
-    }
-    v * g1o
 }
 
 /// Density of [`sample_single`]: Σ_k λ_k(ωi) P_k(ωi, ωo) for ωo above the macro surface (the
@@ -295,9 +240,9 @@ pub(super) fn pdf_single(
     PdfTerms::single(m, wi, wo).total(m, nested, ctx)
 }
 
-/// [`eval_single`] and [`pdf_single`] of the same (ωi, ωo) in one pass (§3): λ(ωi) once, and
-/// one fused nested `eval_pdf` per facet that contributes to both. Equal to the two calls up to
-/// rounding.
+/// Single scattering on every facet (§3), Σ_k λ_k(ωi) F_k(ωi, ωo) χ(ωo·m_k) G1(ωo), together
+/// with its density [`pdf_single`]: λ(ωi) once, and one fused nested `eval_pdf` per facet that
+/// contributes to both. The pdf equals [`pdf_single`] up to rounding; eval alone is `.0`.
 pub(super) fn eval_pdf_single(
     m: &MicrofacetNormalMap,
     nested: &Bsdf,
@@ -337,7 +282,7 @@ pub(super) fn sample_single(
     s: &mut Sampler,
 ) -> Option<BsdfSample> {
     let (k, _) = m.surface.pick(wi, s.next_1d())?;
-    let (wo, _) = m.sample_facet(nested, k, ctx, wi, s)?;
+    let wo = m.sample_facet(nested, k, ctx, wi, s)?.wo;
     if wo.z <= 0.0 {
         return None;
     }

@@ -233,7 +233,8 @@ impl MicrofacetNormalMap {
         nested.eval_pdf(ctx, fr.to_local(a), fr.to_local(b), s)
     }
 
-    /// Nested sample in facet k's frame from `a`; the direction comes back in the macro frame.
+    /// Nested sample in facet k's frame from `a`; the sample's direction comes back in the macro
+    /// frame (weight, pdf, η and lobe as the nested BSDF reports them).
     #[inline]
     fn sample_facet(
         &self,
@@ -242,10 +243,11 @@ impl MicrofacetNormalMap {
         ctx: &BsdfContext,
         a: Vec3,
         s: &mut Sampler,
-    ) -> Option<(Vec3, Spectrum)> {
+    ) -> Option<BsdfSample> {
         let fr = &self.frames[k];
-        let bs = nested.sample(ctx, fr.to_local(a), s)?;
-        Some((fr.to_world(bs.wo), bs.weight))
+        let mut bs = nested.sample(ctx, fr.to_local(a), s)?;
+        bs.wo = fr.to_world(bs.wo);
+        Some(bs)
     }
 }
 
@@ -282,8 +284,8 @@ pub(super) fn eval(
         return Spectrum::ZERO;
     }
     match (m.evaluation, m.mirror_wall) {
-        (Evaluation::Explicit, true) => explicit::eval_mirror(m, &nested, ctx, wi, wo, s),
-        (Evaluation::Explicit, false) => explicit::eval_single(m, &nested, ctx, wi, wo, s),
+        (Evaluation::Explicit, true) => explicit::eval_pdf_mirror(m, &nested, ctx, wi, wo, s).0,
+        (Evaluation::Explicit, false) => explicit::eval_pdf_single(m, &nested, ctx, wi, wo, s).0,
         (Evaluation::RandomWalk, _) => {
             walk::eval(m, &nested, ctx, wi, wo, s, &mut explicit::PdfTerms::empty())
         }

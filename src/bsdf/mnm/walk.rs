@@ -48,13 +48,12 @@ pub(super) fn sample(
         if m.is_mirror(k) {
             d = mirror(d, surf.normal(k));
         } else {
-            let fr = &m.frames[k];
-            let Some(bs) = nested.sample(ctx, fr.to_local(-d), s) else {
+            let Some(bs) = m.sample_facet(nested, k, ctx, -d, s) else {
                 stats::record(order);
                 return None;
             };
             thr *= bs.weight;
-            d = fr.to_world(bs.wo);
+            d = bs.wo;
             if order == 1 {
                 first = Some(FirstVertex { k, pdf: bs.pdf });
             }
@@ -123,11 +122,11 @@ pub(super) fn eval(
             if order == m.max_order {
                 break;
             }
-            let Some((w, weight)) = m.sample_facet(nested, k, ctx, -d, s) else {
+            let Some(bs) = m.sample_facet(nested, k, ctx, -d, s) else {
                 break;
             };
-            thr *= weight;
-            d = w;
+            thr *= bs.weight;
+            d = bs.wo;
         }
         if s.next_1d() < surf.g1(d) {
             break;
@@ -231,14 +230,13 @@ pub(super) fn sample_t(
         if m.is_mirror(k) {
             d = mirror(d, n);
         } else {
-            let fr = &m.frames[k];
-            let Some(bs) = nested.sample(ctx, fr.to_local(-d), s) else {
+            let Some(bs) = m.sample_facet(nested, k, ctx, -d, s) else {
                 stats::record(order);
                 return None;
             };
             thr *= bs.weight;
             eta *= bs.eta;
-            let out = fr.to_world(bs.wo);
+            let out = bs.wo;
             // Arrived along d (from the side of −d), left along `out`: other side = refraction.
             let refracted = d.dot(n) * out.dot(n) > 0.0;
             d = out;
@@ -317,12 +315,11 @@ pub(super) fn eval_t(
             if order == m.max_order {
                 break;
             }
-            let fr = &m.frames[k];
-            let Some(bs) = nested.sample(ctx, fr.to_local(-d), s) else {
+            let Some(bs) = m.sample_facet(nested, k, ctx, -d, s) else {
                 break;
             };
             thr *= bs.weight;
-            let out = fr.to_world(bs.wo);
+            let out = bs.wo;
             if exits_on_refraction(m) && d.dot(n) * out.dot(n) > 0.0 {
                 break; // the sampled walk ends at this refraction
             }
