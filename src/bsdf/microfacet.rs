@@ -185,6 +185,24 @@ impl MicrofacetDistribution {
         }
     }
 
+    /// Density of a reflection sampled through the microfacet normal `h = normalize(wi + wo)`,
+    /// given `d = D(h)` and `g1i = G1(wi, h)` (unused without visible sampling). The Jacobian of
+    /// the reflection map is dωh / dωo = 1 / (4 wo·h) (Walter et al. 2007, eq. 14).
+    #[inline]
+    pub fn reflection_pdf(&self, wi: Vec3, wo: Vec3, h: Vec3, d: f32, g1i: f32) -> f32 {
+        let p = if self.sample_visible {
+            // D_wi(h) = G1(wi, h) |wi·h| D(h) / cos θi, and wi·h = wo·h.
+            d * g1i / (4.0 * wi.z)
+        } else {
+            d * h.z / (4.0 * wo.dot(h))
+        };
+        if p.is_finite() {
+            p.max(0.0)
+        } else {
+            0.0
+        }
+    }
+
     /// Sample a microfacet normal; returns `(m, pdf(wi, m))`.
     pub fn sample(&self, wi: Vec3, u: Vec2) -> (Vec3, f32) {
         let m = self.sample_normal(wi, u);

@@ -24,31 +24,6 @@ pub struct RoughConductor {
     pub specular_reflectance: Spectrum,
 }
 
-/// Density of a reflection sampled through the microfacet normal `h = normalize(wi + wo)`, given
-/// `d = D(h)` and `g1i = G1(wi, h)` (unused without visible sampling). The Jacobian of the
-/// reflection map is dωh / dωo = 1 / (4 wo·h) (Walter et al. 2007, eq. 14).
-#[inline]
-pub(crate) fn reflection_pdf(
-    distribution: &super::MicrofacetDistribution,
-    wi: Vec3,
-    wo: Vec3,
-    h: Vec3,
-    d: f32,
-    g1i: f32,
-) -> f32 {
-    let p = if distribution.sample_visible {
-        // D_wi(h) = G1(wi, h) |wi·h| D(h) / cos θi, and wi·h = wo·h.
-        d * g1i / (4.0 * wi.z)
-    } else {
-        d * h.z / (4.0 * wo.dot(h))
-    };
-    if p.is_finite() {
-        p.max(0.0)
-    } else {
-        0.0
-    }
-}
-
 impl RoughConductor {
     #[inline]
     fn fresnel(&self, cos_theta: f32) -> Spectrum {
@@ -73,7 +48,7 @@ impl RoughConductor {
         // f cos θo = F D G / (4 cos θi).
         let f =
             self.fresnel(wi.dot(h)) * (d * g1i * self.distribution.smith_g1(wo, h) / (4.0 * wi.z));
-        (f, reflection_pdf(&self.distribution, wi, wo, h, d, g1i))
+        (f, self.distribution.reflection_pdf(wi, wo, h, d, g1i))
     }
 
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
@@ -87,7 +62,7 @@ impl RoughConductor {
         } else {
             1.0
         };
-        reflection_pdf(&self.distribution, wi, wo, h, d, g1i)
+        self.distribution.reflection_pdf(wi, wo, h, d, g1i)
     }
 
     pub fn sample(&self, wi: Vec3, u: Vec2) -> Option<BsdfSample> {

@@ -18,7 +18,6 @@
 use super::fresnel::{fresnel_dielectric, refract};
 use super::microfacet::{gauss_legendre, MicrofacetDistribution, MicrofacetType};
 use super::plastic::specular_sampling_weight;
-use super::roughconductor::reflection_pdf;
 use super::{lobe, BsdfSample};
 use crate::math::{reflect, warp};
 use crate::spectrum::Spectrum;
@@ -222,7 +221,7 @@ impl RoughPlastic {
     #[inline]
     fn mixture_pdf(&self, t_i: f32, wi: Vec3, wo: Vec3, h: Vec3, d: f32, g1i: f32) -> f32 {
         let ps = self.prob_specular(t_i);
-        let p_spec = reflection_pdf(&self.distribution, wi, wo, h, d, g1i);
+        let p_spec = self.distribution.reflection_pdf(wi, wo, h, d, g1i);
         let p = ps * p_spec + (1.0 - ps) * warp::cosine_hemisphere_pdf(wo);
         if p.is_finite() {
             p
