@@ -152,9 +152,9 @@ fn build(mode: Mode, nested: BsdfNode, ins: &[(Vec3, Vec3, Vec3)]) -> (BsdfArena
         .map(|&(wp, _, _)| match mode {
             Mode::NestedAlone => n,
             Mode::Classic => arena.push(BsdfNode::NormalMap(NormalMap::new(n, wp, false, false))),
-            Mode::Mnm(g, t, e) => arena.push(BsdfNode::MicrofacetNormalMap(
-                MicrofacetNormalMap::new(n, wp, g, t, e, 256),
-            )),
+            Mode::Mnm(g, t, e) => {
+                arena.push_microfacet_normal_map(MicrofacetNormalMap::new(n, wp, g, t, e, 256))
+            }
         })
         .collect();
     (arena, roots)

@@ -199,7 +199,7 @@ impl Materials {
                 let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, settings.max_theta);
                 // Cached once per hit instead of a recursive query per eval/pdf/sample.
                 let nested_flags = arena.bsdf(child).flags();
-                arena.push(BsdfNode::MicrofacetNormalMap(
+                arena.push_microfacet_normal_map(
                     MicrofacetNormalMap::new(
                         child,
                         wp,
@@ -210,7 +210,7 @@ impl Materials {
                     )
                     .with_transmission_walk(settings.transmission_walk)
                     .with_nested_flags(nested_flags),
-                ))
+                )
             }
             MaterialNode::NormalMap {
                 nested,

@@ -142,7 +142,7 @@ fn build(n: Nested, g: Geo, wp: Vec3) -> (BsdfArena, u32) {
         }
         Geo::Broken => MicrofacetNormalMap::with_surface(nested, wp, broken_surface(wp), 256),
     };
-    let root = arena.push(BsdfNode::MicrofacetNormalMap(node));
+    let root = arena.push_microfacet_normal_map(node);
     (arena, root)
 }
 

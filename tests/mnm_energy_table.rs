@@ -20,14 +20,14 @@ fn albedo(g: Microgeometry, t: Tangent, e: Evaluation, tp: f32, wi: Vec3) -> (f6
     let nested = arena.push(BsdfNode::Diffuse(Diffuse {
         reflectance: Vec3::ONE,
     }));
-    let root = arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
+    let root = arena.push_microfacet_normal_map(MicrofacetNormalMap::new(
         nested,
         dir(tp, 0.0),
         g,
         t,
         e,
         256,
-    )));
+    ));
     let b = arena.bsdf(root);
     let ctx = BsdfContext::default();
     let mut s = Sampler::from_seed(tp.to_bits() as u64, 1);

@@ -90,9 +90,9 @@ fn cases() -> Vec<Case> {
                     let mut arena = BsdfArena::new();
                     let child = arena.push(nested(nest));
                     let wp = direction(tp, 0.0);
-                    let root = arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
+                    let root = arena.push_microfacet_normal_map(MicrofacetNormalMap::new(
                         child, wp, g, t, e, 256,
-                    )));
+                    ));
                     v.push(Case {
                         name: format!("{nest} {gname} {t:?} {e:?} θp={tp} θi={ti} φi={pi}"),
                         bsdf: ArenaBsdf {

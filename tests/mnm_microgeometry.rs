@@ -17,7 +17,7 @@ fn arena_with(node: impl FnOnce(u32) -> MicrofacetNormalMap) -> (BsdfArena, u32)
     let nested = arena.push(BsdfNode::Diffuse(Diffuse {
         reflectance: Vec3::ONE,
     }));
-    let root = arena.push(BsdfNode::MicrofacetNormalMap(node(nested)));
+    let root = arena.push_microfacet_normal_map(node(nested));
     (arena, root)
 }
 

@@ -27,9 +27,8 @@ fn mnm(rho: f32, wp: Vec3, g: Microgeometry, t: Tangent, e: Evaluation, max_orde
     let nested = arena.push(BsdfNode::Diffuse(Diffuse {
         reflectance: Vec3::splat(rho),
     }));
-    let root = arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
-        nested, wp, g, t, e, max_order,
-    )));
+    let root =
+        arena.push_microfacet_normal_map(MicrofacetNormalMap::new(nested, wp, g, t, e, max_order));
     Setup {
         arena,
         root,

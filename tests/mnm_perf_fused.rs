@@ -43,9 +43,9 @@ fn for_each_query(
                 let mut arena = BsdfArena::new();
                 let nested = arena.push(node);
                 let wp = dir(70.0 * ((i * 7 % 400) as f32 / 400.0), 13.0 * i as f32);
-                let root = arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
+                let root = arena.push_microfacet_normal_map(MicrofacetNormalMap::new(
                     nested, wp, g, t, evaluation, 256,
-                )));
+                ));
                 let wi = dir(88.0 * (i as f32 / 400.0), 37.0 * i as f32);
                 let wo = dir((3.0 + 0.7 * i as f32) % 89.0, 11.0 * i as f32 + 5.0);
                 f(g, t, i, &arena.bsdf(root), wi, wo);
@@ -107,8 +107,8 @@ fn cached_nested_flags_change_nothing() {
                     e,
                     256,
                 );
-                let plain = arena.push(BsdfNode::MicrofacetNormalMap(m));
-                let cached = arena.push(BsdfNode::MicrofacetNormalMap(m.with_nested_flags(flags)));
+                let plain = arena.push_microfacet_normal_map(m);
+                let cached = arena.push_microfacet_normal_map(m.with_nested_flags(flags));
                 let (a, b) = (arena.bsdf(plain), arena.bsdf(cached));
                 let wi = dir(85.0 * (i as f32 / 100.0), 37.0 * i as f32);
                 let wo = dir((3.0 + 1.7 * i as f32) % 89.0, 11.0 * i as f32 + 5.0);

@@ -14,14 +14,14 @@ use groove::sampler::Sampler;
 fn setup(g: Microgeometry, t: Tangent, tp: f32) -> (BsdfArena, u32, u32) {
     let mut arena = BsdfArena::new();
     let nested = arena.push(common::rough_glass(0.3));
-    let root = arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
+    let root = arena.push_microfacet_normal_map(MicrofacetNormalMap::new(
         nested,
         dir(tp, 30.0),
         g,
         t,
         Evaluation::RandomWalk,
         256,
-    )));
+    ));
     (arena, root, nested)
 }
 
@@ -164,13 +164,13 @@ fn smooth_glass_mnm(eta: f32, g: Microgeometry, t: Tangent, tp: f32) -> (BsdfAre
         Vec3::ONE,
         Vec3::ONE,
     )));
-    let root = arena.push(BsdfNode::MicrofacetNormalMap(MicrofacetNormalMap::new(
+    let root = arena.push_microfacet_normal_map(MicrofacetNormalMap::new(
         nested,
         dir(tp, 30.0),
         g,
         t,
         Evaluation::RandomWalk,
         256,
-    )));
+    ));
     (arena, root)
 }

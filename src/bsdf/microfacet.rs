@@ -213,7 +213,19 @@ impl MicrofacetDistribution {
     #[inline]
     pub fn sample_normal(&self, wi: Vec3, u: Vec2) -> Vec3 {
         if self.sample_visible {
-            self.sample_visible_normal(wi, u)
+            self.sample_visible_normal(wi, u, false)
+        } else {
+            self.sample_all_normals(u)
+        }
+    }
+
+    /// [`Self::sample_normal`]'s distribution with `u` mapped to normals as Mitsuba 3 maps it
+    /// (GGX: Heitz 2018 over the concentric disk). Same density, different map: a quadrature
+    /// over the sample square (`roughplastic`'s tables) then reproduces Mitsuba's numbers,
+    /// while rendering uses the cheaper spherical-cap map.
+    pub fn sample_normal_mitsuba_map(&self, wi: Vec3, u: Vec2) -> Vec3 {
+        if self.sample_visible {
+            self.sample_visible_normal(wi, u, true)
         } else {
             self.sample_all_normals(u)
         }
@@ -236,7 +248,7 @@ impl MicrofacetDistribution {
         slope_to_normal(r * c * self.alpha_u, r * s * self.alpha_v)
     }
 
-    fn sample_visible_normal(&self, wi: Vec3, u: Vec2) -> Vec3 {
+    fn sample_visible_normal(&self, wi: Vec3, u: Vec2, mitsuba_map: bool) -> Vec3 {
         // Stretch to the α = 1 configuration.
         let wi_s = Vec3::new(self.alpha_u * wi.x, self.alpha_v * wi.y, wi.z.max(0.0));
         let len = wi_s.length();
@@ -245,6 +257,22 @@ impl MicrofacetDistribution {
         }
         let v = wi_s / len;
         match self.kind {
+            MicrofacetType::Ggx if !mitsuba_map => {
+                // Dupuy & Benyoub 2023, "Sampling Visible GGX Normals with Spherical Caps": the
+                // visible normals of the α = 1 hemisphere are v + c, c uniform on the spherical
+                // cap z ≥ −v.z of the unit sphere (same density as Heitz 2018, fewer roots).
+                let z = (1.0 - u.y) * (1.0 + v.z) - v.z;
+                let sin_t = safe_sqrt(1.0 - z * z);
+                let (s, c) = (2.0 * PI * u.x).sin_cos();
+                let h = Vec3::new(sin_t * c + v.x, sin_t * s + v.y, z + v.z);
+                let m = Vec3::new(self.alpha_u * h.x, self.alpha_v * h.y, h.z.max(0.0));
+                let l = m.length();
+                if l > 0.0 {
+                    m / l
+                } else {
+                    Vec3::Z
+                }
+            }
             MicrofacetType::Ggx => {
                 // Heitz 2018: orthonormal basis around v, sample the projected hemisphere (a
                 // disk whose lower half is squashed by (1 + v.z) / 2).

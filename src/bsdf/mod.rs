@@ -140,9 +140,8 @@ pub struct BsdfSample {
 }
 
 /// One BSDF node with plain (already texture-evaluated) parameters.
-// Nodes live in a reused per-thread arena: boxing the large microfacet normal-map variant would
-// allocate at every hit, which is what the arena exists to avoid.
-#[allow(clippy::large_enum_variant)]
+// Nodes live in a reused per-thread arena; the large microfacet normal map lives beside them
+// (`BsdfArena::mnm`) so that a node stays small (56 bytes) without allocating per hit.
 #[derive(Clone, Copy, Debug)]
 pub enum BsdfNode {
     Diffuse(Diffuse),
@@ -165,8 +164,10 @@ pub enum BsdfNode {
         front: u32,
         back: u32,
     },
-    /// Microfacet-based normal mapping around a nested BSDF.
-    MicrofacetNormalMap(mnm::MicrofacetNormalMap),
+    /// Microfacet-based normal mapping around a nested BSDF: an index into the arena's
+    /// microfacet normal maps (the model is 232 bytes; stored inline it would make every node,
+    /// and every copy of one, that large). Built by [`BsdfArena::push_microfacet_normal_map`].
+    MicrofacetNormalMap(u32),
     /// Classic normal mapping (Mitsuba 3's `normalmap`) around a nested BSDF.
     NormalMap(NormalMap),
     /// `blendbsdf`: `(1 − w)·f₀ + w·f₁`.
@@ -181,24 +182,34 @@ pub enum BsdfNode {
 #[derive(Default, Debug)]
 pub struct BsdfArena {
     nodes: Vec<BsdfNode>,
+    /// Payloads of the `BsdfNode::MicrofacetNormalMap` nodes.
+    mnm: Vec<mnm::MicrofacetNormalMap>,
 }
 
 impl BsdfArena {
     pub fn new() -> Self {
         BsdfArena {
             nodes: Vec::with_capacity(16),
+            mnm: Vec::with_capacity(4),
         }
     }
     /// Forget the nodes of the previous hit (keeps the allocation).
     #[inline]
     pub fn clear(&mut self) {
         self.nodes.clear();
+        self.mnm.clear();
     }
     /// Store a node and return its index.
     #[inline]
     pub fn push(&mut self, node: BsdfNode) -> u32 {
         self.nodes.push(node);
         (self.nodes.len() - 1) as u32
+    }
+    /// Store a microfacet normal map and return its node's index.
+    #[inline]
+    pub fn push_microfacet_normal_map(&mut self, m: mnm::MicrofacetNormalMap) -> u32 {
+        self.mnm.push(m);
+        self.push(BsdfNode::MicrofacetNormalMap((self.mnm.len() - 1) as u32))
     }
     /// Node `index`, for patching texture values in place.
     #[inline]
@@ -210,6 +221,7 @@ impl BsdfArena {
     pub fn bsdf(&self, root: u32) -> Bsdf<'_> {
         Bsdf {
             nodes: &self.nodes,
+            mnm: &self.mnm,
             root,
         }
     }
@@ -219,6 +231,7 @@ impl BsdfArena {
 #[derive(Clone, Copy)]
 pub struct Bsdf<'a> {
     nodes: &'a [BsdfNode],
+    mnm: &'a [mnm::MicrofacetNormalMap],
     root: u32,
 }
 
@@ -232,6 +245,7 @@ impl<'a> Bsdf<'a> {
     fn child(&self, index: u32) -> Bsdf<'a> {
         Bsdf {
             nodes: self.nodes,
+            mnm: self.mnm,
             root: index,
         }
     }
@@ -251,7 +265,7 @@ impl<'a> Bsdf<'a> {
             BsdfNode::TwoSided { front, back } => {
                 self.child(*front).flags() | self.child(*back).flags()
             }
-            BsdfNode::MicrofacetNormalMap(m) => self.child(m.nested).flags(),
+            BsdfNode::MicrofacetNormalMap(i) => self.child(self.mnm[*i as usize].nested).flags(),
             BsdfNode::NormalMap(m) => self.child(m.nested).flags(),
             BsdfNode::Blend(m) => self.child(m.bsdf0).flags() | self.child(m.bsdf1).flags(),
             BsdfNode::Null => lobe::NULL,
@@ -273,7 +287,9 @@ impl<'a> Bsdf<'a> {
             BsdfNode::TwoSided { front, back } => {
                 twosided::eval(*self, *front, *back, ctx, wi, wo, sampler)
             }
-            BsdfNode::MicrofacetNormalMap(m) => mnm::eval(*self, m, ctx, wi, wo, sampler),
+            BsdfNode::MicrofacetNormalMap(i) => {
+                mnm::eval(*self, &self.mnm[*i as usize], ctx, wi, wo, sampler)
+            }
             BsdfNode::NormalMap(m) => normalmap::eval(*self, m, ctx, wi, wo, sampler),
             BsdfNode::Blend(m) => blend::eval(*self, m, ctx, wi, wo, sampler),
             BsdfNode::Null => Spectrum::ZERO,
@@ -293,7 +309,9 @@ impl<'a> Bsdf<'a> {
             BsdfNode::Plastic(b) => b.pdf(wi, wo),
             BsdfNode::RoughPlastic(b) => b.pdf(wi, wo),
             BsdfNode::TwoSided { front, back } => twosided::pdf(*self, *front, *back, ctx, wi, wo),
-            BsdfNode::MicrofacetNormalMap(m) => mnm::pdf(*self, m, ctx, wi, wo),
+            BsdfNode::MicrofacetNormalMap(i) => {
+                mnm::pdf(*self, &self.mnm[*i as usize], ctx, wi, wo)
+            }
             BsdfNode::NormalMap(m) => normalmap::pdf(*self, m, ctx, wi, wo),
             BsdfNode::Blend(m) => blend::pdf(*self, m, ctx, wi, wo),
             BsdfNode::Null => 0.0,
@@ -324,7 +342,9 @@ impl<'a> Bsdf<'a> {
             BsdfNode::TwoSided { front, back } => {
                 twosided::sample(*self, *front, *back, ctx, wi, sampler)
             }
-            BsdfNode::MicrofacetNormalMap(m) => mnm::sample(*self, m, ctx, wi, sampler),
+            BsdfNode::MicrofacetNormalMap(i) => {
+                mnm::sample(*self, &self.mnm[*i as usize], ctx, wi, sampler)
+            }
             BsdfNode::NormalMap(m) => normalmap::sample(*self, m, ctx, wi, sampler),
             BsdfNode::Blend(m) => blend::sample(*self, m, ctx, wi, sampler),
             BsdfNode::Null => Some(null::pass_through(wi)),
@@ -355,7 +375,9 @@ impl<'a> Bsdf<'a> {
             BsdfNode::TwoSided { front, back } => {
                 twosided::eval_pdf(*self, *front, *back, ctx, wi, wo, sampler)
             }
-            BsdfNode::MicrofacetNormalMap(m) => mnm::eval_pdf(*self, m, ctx, wi, wo, sampler),
+            BsdfNode::MicrofacetNormalMap(i) => {
+                mnm::eval_pdf(*self, &self.mnm[*i as usize], ctx, wi, wo, sampler)
+            }
             BsdfNode::NormalMap(m) => normalmap::eval_pdf(*self, m, ctx, wi, wo, sampler),
             _ => (self.eval(ctx, wi, wo, sampler), self.pdf(ctx, wi, wo)),
         }

@@ -55,7 +55,7 @@ pub fn rough_interface_albedo(
     for (x, wx) in nodes.iter().zip(weights) {
         for (y, wy) in nodes.iter().zip(weights) {
             let u = Vec2::new((0.5 * x + 0.5) as f32, (0.5 * y + 0.5) as f32);
-            let m = d.sample_normal(wi, u);
+            let m = d.sample_normal_mitsuba_map(wi, u);
             let fr = fresnel_dielectric(wi.dot(m), eta);
             let v = if transmit {
                 let wo = refract(wi, m, fr.cos_theta_t, fr.eta_ti);
