@@ -244,8 +244,8 @@ struct Decoded {
     height: u32,
     grey: bool,
     texels: Vec<Vec3>,
-    /// 8-bit images: the codes and their decoding table (`texels` holds the decoded values).
-    codes: Option<(Vec<[u8; 4]>, Box<[f32; 256]>)>,
+    /// 8-bit images: their codes as a [`Texels::U8`] (`texels` holds the decoded values).
+    codes: Option<Texels>,
     /// Stored as float16 by Mitsuba's `auto` format (16-bit integers, half EXRs).
     half_by_default: bool,
 }
@@ -284,7 +284,7 @@ impl BitmapTexture {
             ));
         }
         let store = match dec.codes {
-            Some((codes, lut)) if !quantize => Texels::U8 { codes, lut },
+            Some(codes) if !quantize => codes,
             _ => Texels::F32(texels),
         };
         let mut t = BitmapTexture::from_storage(dec.width, dec.height, store, dec.grey, opts);
@@ -596,7 +596,7 @@ fn decode_ldr(bytes: &[u8], raw: bool) -> Result<Decoded, String> {
         height,
         grey,
         texels,
-        codes: codes.map(|c| (c, lut)),
+        codes: codes.map(|codes| Texels::U8 { codes, lut }),
         half_by_default: half,
     })
 }
