@@ -190,7 +190,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool) -> Result<()> {
         );
     }
     println!(
-        "{}: {}x{} {} spp, load {:.2} s, render {:.2} s, {:.3} Msamples/s, {:.3} Mrays/s ({} threads) -> {}",
+        "{}: {}x{} {} spp, load {:.2} s, render {:.3} s, {:.3} Msamples/s, {:.3} Mrays/s ({} threads) -> {}",
         scene_path.display(),
         img.width,
         img.height,
