@@ -24,6 +24,9 @@ pub(crate) enum GeomDesc<'a> {
     /// The unit disk (z = 0, r ≤ 1) of object space mapped by `to_world`: an Embree user
     /// geometry intersected exactly by the callbacks below.
     Disk { to_world: Mat4 },
+    /// The square [−1,1]² (z = 0) of object space mapped by `to_world`: a user geometry like
+    /// the disk.
+    Rectangle { to_world: Mat4 },
     /// Nothing to trace (a degenerate shape); its id stays unused.
     Empty,
 }
@@ -81,8 +84,11 @@ impl UserShape for SphereData {
     }
 }
 
-/// What the disk callbacks need, owned by the scene (Embree holds a raw pointer to it).
-struct DiskData {
+/// What the callbacks of a disk or rectangle need, owned by the scene (Embree holds a raw
+/// pointer to it).
+struct PlanarData {
+    /// The unit square [−1,1]² instead of the unit disk.
+    square: bool,
     to_object: Mat4,
     /// World-space normal (unnormalised) reported as Embree's Ng.
     normal: Vec3,
@@ -90,15 +96,21 @@ struct DiskData {
     upper: Vec3,
 }
 
-impl DiskData {
-    fn new(to_world: &Mat4) -> DiskData {
+impl PlanarData {
+    fn new(to_world: &Mat4, square: bool) -> PlanarData {
         let c = to_world.transform_point3(Vec3::ZERO);
         let ax = to_world.transform_vector3(Vec3::X);
         let ay = to_world.transform_vector3(Vec3::Y);
-        // Exact bounds of the ellipse c + ax cos φ + ay sin φ, padded by a few ulps.
-        let ext = Vec3::new(ax.x.hypot(ay.x), ax.y.hypot(ay.y), ax.z.hypot(ay.z));
+        // Exact bounds of the ellipse c + ax cos φ + ay sin φ, or of the parallelogram
+        // c ± ax ± ay, padded by a few ulps.
+        let ext = if square {
+            ax.abs() + ay.abs()
+        } else {
+            Vec3::new(ax.x.hypot(ay.x), ax.y.hypot(ay.y), ax.z.hypot(ay.z))
+        };
         let pad = (c.abs() + ext) * 1e-6;
-        DiskData {
+        PlanarData {
+            square,
             to_object: to_world.inverse(),
             normal: to_world.inverse().transpose().transform_vector3(Vec3::Z),
             lower: c - ext - pad,
@@ -107,7 +119,7 @@ impl DiskData {
     }
 }
 
-impl UserShape for DiskData {
+impl UserShape for PlanarData {
     fn bounds(&self) -> (Vec3, Vec3) {
         (self.lower, self.upper)
     }
@@ -117,7 +129,12 @@ impl UserShape for DiskData {
         let dl = self.to_object.transform_vector3(d);
         let t = -ol.z / dl.z;
         let l = ol + dl * t;
-        (t > tnear && t < tfar && l.x * l.x + l.y * l.y <= 1.0).then_some((t, self.normal))
+        let inside = if self.square {
+            l.x.abs() <= 1.0 && l.y.abs() <= 1.0
+        } else {
+            l.x * l.x + l.y * l.y <= 1.0
+        };
+        (t > tnear && t < tfar && inside).then_some((t, self.normal))
     }
 }
 
@@ -207,7 +224,7 @@ pub(crate) struct EmbreeScene {
     /// User data of the user geometries; boxed so the addresses Embree holds stay valid while
     /// the Vecs grow (hence the allow: the Box is what pins each address).
     #[allow(clippy::vec_box)]
-    _disks: Vec<Box<DiskData>>,
+    _planes: Vec<Box<PlanarData>>,
     #[allow(clippy::vec_box)]
     _spheres: Vec<Box<SphereData>>,
 }
@@ -269,7 +286,7 @@ impl EmbreeScene {
                 device,
                 scene,
                 _errors: errors,
-                _disks: Vec::new(),
+                _planes: Vec::new(),
                 _spheres: Vec::new(),
             };
             if scene.is_null() {
@@ -324,11 +341,12 @@ impl EmbreeScene {
                         this._spheres.push(data);
                         geom
                     }
-                    GeomDesc::Disk { to_world } => {
-                        let data = Box::new(DiskData::new(to_world));
+                    GeomDesc::Disk { to_world } | GeomDesc::Rectangle { to_world } => {
+                        let square = matches!(g, GeomDesc::Rectangle { .. });
+                        let data = Box::new(PlanarData::new(to_world, square));
                         let geom = user_geometry(device, &*data)
                             .ok_or_else(|| this.error_text("rtcNewGeometry failed"))?;
-                        this._disks.push(data);
+                        this._planes.push(data);
                         geom
                     }
                 };
@@ -427,7 +445,7 @@ impl EmbreeScene {
 impl Drop for EmbreeScene {
     fn drop(&mut self) {
         // SAFETY: handles created in `build`, released exactly once; the scene before its device
-        // (and both before `_disks`, which the struct drops after this body).
+        // (and both before `_planes` and `_spheres`, which the struct drops after this body).
         unsafe {
             if !self.scene.is_null() {
                 rtcReleaseScene(self.scene);

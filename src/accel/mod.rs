@@ -41,6 +41,9 @@ impl Accel {
                 ShapeKind::Disk { to_world } => embree::GeomDesc::Disk {
                     to_world: *to_world,
                 },
+                ShapeKind::Rectangle { to_world } => embree::GeomDesc::Rectangle {
+                    to_world: *to_world,
+                },
             })
             .collect();
         let scene = embree::EmbreeScene::build(&descs).map_err(Error::Native)?;

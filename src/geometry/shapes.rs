@@ -1,5 +1,5 @@
-//! The scene's shapes: triangle meshes (OBJ, PLY and the tessellated `rectangle`, `cube`, `disk`)
-//! and exact spheres; their surface interactions and the area / solid-angle sampling used by
+//! The scene's shapes: triangle meshes (OBJ, PLY and the tessellated `cube`) and the exact
+//! `rectangle`, `disk` and sphere; their surface interactions and the area / solid-angle sampling used by
 //! area emitters. Conventions follow Mitsuba 3's shape plugins (`src/shapes/*.cpp`,
 //! `src/render/mesh.cpp` in mitsuba-renderer/mitsuba3).
 
@@ -25,6 +25,11 @@ pub enum ShapeKind {
     /// Mitsuba's exact `disk`: the unit disk of the XY plane mapped by `to_world` (intersected by
     /// an Embree user geometry).
     Disk { to_world: Mat4 },
+    /// Mitsuba's exact `rectangle`: [−1,1]² of the XY plane mapped by `to_world` (an Embree user
+    /// geometry like the disk: a scene of rectangles and spheres then needs a single Embree
+    /// acceleration structure instead of one for triangles and one for user geometry, which
+    /// halved Embree's instructions per ray on the benchmark scenes).
+    Rectangle { to_world: Mat4 },
 }
 
 /// A shape ready for rendering: geometry plus the tables its sampling needs.
@@ -38,7 +43,7 @@ pub struct Shape {
     area: f32,
     /// Normalised cumulative triangle areas (meshes; empty for spheres).
     cdf: Vec<f32>,
-    /// Inverse of the disk's `to_world` (identity for other shapes).
+    /// Inverse of the disk's or rectangle's `to_world` (identity for other shapes).
     to_object: Mat4,
 }
 
@@ -112,25 +117,27 @@ impl Shape {
         Shape::new_mesh(mesh, flip_normals, face_normals)
     }
 
-    /// Mitsuba's `rectangle`: [−1,1]² in the XY plane, normal +Z, uv = ((x+1)/2, (y+1)/2), as
-    /// two triangles (flat shading).
+    /// Mitsuba's `rectangle`: [−1,1]² in the XY plane, normal +Z (by the normal transform, as
+    /// Mitsuba), uv = ((x+1)/2, (y+1)/2), dp/du = to_world·(2,0,0), dp/dv = to_world·(0,2,0).
+    /// Exact: an Embree user geometry. A degenerate (zero-area) transform gives a never-hit shape.
     pub fn rectangle(to_world: &Mat4, flip_normals: bool) -> Shape {
-        let positions = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
-            .map(|(x, y)| Vec3::new(x, y, 0.0))
-            .to_vec();
-        let uvs = positions
-            .iter()
-            .map(|p| Vec2::new((p.x + 1.0) * 0.5, (p.y + 1.0) * 0.5))
-            .collect();
-        let mut mesh = TriMesh {
-            positions,
-            normals: None,
-            uvs: Some(uvs),
-            indices: vec![[0, 1, 2], [0, 2, 3]],
-        };
-        mesh.transform(to_world);
-        keep_orientation(&mut mesh, to_world);
-        Shape::new_mesh(mesh, flip_normals, true).unwrap_or_else(|_| degenerate())
+        let ax = to_world.transform_vector3(Vec3::X);
+        let ay = to_world.transform_vector3(Vec3::Y);
+        let area = 4.0 * ax.cross(ay).length();
+        let det = Mat3::from_mat4(*to_world).determinant();
+        if !(area.is_finite() && area > 0.0 && det.is_finite() && det != 0.0) {
+            return degenerate();
+        }
+        Shape {
+            kind: ShapeKind::Rectangle {
+                to_world: *to_world,
+            },
+            flip_normals,
+            face_normals: true,
+            area,
+            cdf: Vec::new(),
+            to_object: to_world.inverse(),
+        }
     }
 
     /// Mitsuba's `cube`: [−1,1]³ as 12 triangles with 24 vertices (4 per face, so each face has
@@ -255,6 +262,12 @@ impl Shape {
                 let ext = Vec3::new(ax.x.hypot(ay.x), ax.y.hypot(ay.y), ax.z.hypot(ay.z));
                 (c - ext, c + ext)
             }
+            ShapeKind::Rectangle { to_world } => {
+                let c = to_world.transform_point3(Vec3::ZERO);
+                let ext = to_world.transform_vector3(Vec3::X).abs()
+                    + to_world.transform_vector3(Vec3::Y).abs();
+                (c - ext, c + ext)
+            }
         }
     }
 
@@ -317,8 +330,15 @@ impl Shape {
                 l.z = 0.0;
                 let p = to_world.transform_point3(l);
                 let (uv, dpdu, dpdv) = disk_uv(to_world, l);
-                let ng = self.disk_normal() * sign;
+                let ng = self.plane_normal() * sign;
                 analytic_interaction(p, ng, (uv, dpdu, dpdv), shape_index, ray, hit)
+            }
+            ShapeKind::Rectangle { to_world } => {
+                let mut l = self.to_object.transform_point3(ray.at(hit.t));
+                l.z = 0.0;
+                let p = to_world.transform_point3(l);
+                let ng = self.plane_normal() * sign;
+                analytic_interaction(p, ng, rectangle_uv(to_world, l), shape_index, ray, hit)
             }
             ShapeKind::Sphere {
                 center,
@@ -393,8 +413,18 @@ impl Shape {
                 let l = Vec3::new(d.x, d.y, 0.0);
                 PositionSample {
                     p: to_world.transform_point3(l),
-                    n: self.disk_normal() * sign,
+                    n: self.plane_normal() * sign,
                     uv: disk_uv(to_world, l).0,
+                    pdf,
+                }
+            }
+            ShapeKind::Rectangle { to_world } => {
+                // As Mitsuba's `Rectangle::sample_position`: uv = u.
+                let l = Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0);
+                PositionSample {
+                    p: to_world.transform_point3(l),
+                    n: self.plane_normal() * sign,
+                    uv: u,
                     pdf,
                 }
             }
@@ -504,22 +534,13 @@ impl Shape {
     }
 
     /// The disk's unit normal before `flip_normals`: +Z by the normal transform.
-    fn disk_normal(&self) -> Vec3 {
+    /// The unit normal of a disk or rectangle: the normal transform of +Z, as Mitsuba.
+    fn plane_normal(&self) -> Vec3 {
         self.to_object
             .transpose()
             .transform_vector3(Vec3::Z)
             .try_normalize()
             .unwrap_or(Vec3::Z)
-    }
-}
-
-/// Mitsuba's rectangle is analytic, its normal the normal transform of +Z;
-/// a mirroring `to_world` reverses the triangle winding, so reverse it back.
-fn keep_orientation(mesh: &mut TriMesh, to_world: &Mat4) {
-    if Mat3::from_mat4(*to_world).determinant() < 0.0 {
-        for t in &mut mesh.indices {
-            t.swap(1, 2);
-        }
     }
 }
 
@@ -537,6 +558,15 @@ fn degenerate() -> Shape {
 
 /// Mitsuba 3's disk parameterisation at the object-space point `l`: uv = (r, φ/2π), dp/du
 /// radial, dp/dv tangential (scaled by 2πr, the true derivative), both mapped to world space.
+/// Mitsuba's rectangle parameterisation at the object-space point `l`.
+fn rectangle_uv(to_world: &Mat4, l: Vec3) -> (Vec2, Vec3, Vec3) {
+    (
+        Vec2::new(0.5 * l.x + 0.5, 0.5 * l.y + 0.5),
+        to_world.transform_vector3(Vec3::new(2.0, 0.0, 0.0)),
+        to_world.transform_vector3(Vec3::new(0.0, 2.0, 0.0)),
+    )
+}
+
 fn disk_uv(to_world: &Mat4, l: Vec3) -> (Vec2, Vec3, Vec3) {
     let r = Vec2::new(l.x, l.y).length();
     let mut phi = l.y.atan2(l.x);
