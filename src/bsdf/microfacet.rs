@@ -264,14 +264,7 @@ impl MicrofacetDistribution {
                 let z = (1.0 - u.y) * (1.0 + v.z) - v.z;
                 let sin_t = safe_sqrt(1.0 - z * z);
                 let (s, c) = (2.0 * PI * u.x).sin_cos();
-                let h = Vec3::new(sin_t * c + v.x, sin_t * s + v.y, z + v.z);
-                let m = Vec3::new(self.alpha_u * h.x, self.alpha_v * h.y, h.z.max(0.0));
-                let l = m.length();
-                if l > 0.0 {
-                    m / l
-                } else {
-                    Vec3::Z
-                }
+                self.unstretch(Vec3::new(sin_t * c + v.x, sin_t * s + v.y, z + v.z))
             }
             MicrofacetType::Ggx => {
                 // Heitz 2018: orthonormal basis around v, sample the projected hemisphere (a
@@ -291,14 +284,7 @@ impl MicrofacetDistribution {
                 let mut p2 = d.y;
                 let s = 0.5 * (1.0 + v.z);
                 p2 = (1.0 - s) * safe_sqrt(1.0 - p1 * p1) + s * p2;
-                let nh = p1 * t1 + p2 * t2 + safe_sqrt(1.0 - p1 * p1 - p2 * p2) * v;
-                let m = Vec3::new(self.alpha_u * nh.x, self.alpha_v * nh.y, nh.z.max(0.0));
-                let l = m.length();
-                if l > 0.0 {
-                    m / l
-                } else {
-                    Vec3::Z
-                }
+                self.unstretch(p1 * t1 + p2 * t2 + safe_sqrt(1.0 - p1 * p1 - p2 * p2) * v)
             }
             MicrofacetType::Beckmann => {
                 // Visible slopes of the α = 1 Beckmann surface seen from θ (Heitz & d'Eon 2014):
@@ -321,6 +307,21 @@ impl MicrofacetDistribution {
                 let sy = sp * x + cp * y;
                 slope_to_normal(sx * self.alpha_u, sy * self.alpha_v)
             }
+        }
+    }
+}
+
+impl MicrofacetDistribution {
+    /// A normal `h` of the α = 1 configuration mapped back to this roughness (normals transform
+    /// by the inverse transpose of the stretch), normalised; +Z if it degenerates.
+    #[inline]
+    fn unstretch(&self, h: Vec3) -> Vec3 {
+        let m = Vec3::new(self.alpha_u * h.x, self.alpha_v * h.y, h.z.max(0.0));
+        let l = m.length();
+        if l > 0.0 {
+            m / l
+        } else {
+            Vec3::Z
         }
     }
 }

@@ -121,23 +121,35 @@ impl Shape {
     /// Mitsuba), uv = ((x+1)/2, (y+1)/2), dp/du = to_world·(2,0,0), dp/dv = to_world·(0,2,0).
     /// Exact: an Embree user geometry. A degenerate (zero-area) transform gives a never-hit shape.
     pub fn rectangle(to_world: &Mat4, flip_normals: bool) -> Shape {
+        let kind = ShapeKind::Rectangle {
+            to_world: *to_world,
+        };
+        Shape::planar(kind, to_world, 4.0, flip_normals).unwrap_or_else(degenerate)
+    }
+
+    /// A disk or rectangle: `unit_area` is its area in object space (π or 4), scaled by the area
+    /// factor of `to_world` on the XY plane; `None` if `to_world` is degenerate (zero area).
+    fn planar(
+        kind: ShapeKind,
+        to_world: &Mat4,
+        unit_area: f32,
+        flip_normals: bool,
+    ) -> Option<Shape> {
         let ax = to_world.transform_vector3(Vec3::X);
         let ay = to_world.transform_vector3(Vec3::Y);
-        let area = 4.0 * ax.cross(ay).length();
+        let area = unit_area * ax.cross(ay).length();
         let det = Mat3::from_mat4(*to_world).determinant();
         if !(area.is_finite() && area > 0.0 && det.is_finite() && det != 0.0) {
-            return degenerate();
+            return None;
         }
-        Shape {
-            kind: ShapeKind::Rectangle {
-                to_world: *to_world,
-            },
+        Some(Shape {
+            kind,
             flip_normals,
             face_normals: true,
             area,
             cdf: Vec::new(),
             to_object: to_world.inverse(),
-        }
+        })
     }
 
     /// Mitsuba's `cube`: [−1,1]³ as 12 triangles with 24 vertices (4 per face, so each face has
@@ -182,23 +194,11 @@ impl Shape {
     /// Mitsuba's `disk`: the unit disk in the XY plane, normal +Z (by the normal transform, as
     /// Mitsuba), uv = (r, φ/2π). Exact: an Embree user geometry with analytic intersection.
     pub fn disk(to_world: &Mat4, flip_normals: bool) -> Result<Shape> {
-        let ax = to_world.transform_vector3(Vec3::X);
-        let ay = to_world.transform_vector3(Vec3::Y);
-        let area = PI * ax.cross(ay).length();
-        let det = Mat3::from_mat4(*to_world).determinant();
-        if !(area.is_finite() && area > 0.0 && det.is_finite() && det != 0.0) {
-            return Err(Error::file("disk", "to_world is degenerate (zero area)"));
-        }
-        Ok(Shape {
-            kind: ShapeKind::Disk {
-                to_world: *to_world,
-            },
-            flip_normals,
-            face_normals: true,
-            area,
-            cdf: Vec::new(),
-            to_object: to_world.inverse(),
-        })
+        let kind = ShapeKind::Disk {
+            to_world: *to_world,
+        };
+        Shape::planar(kind, to_world, PI, flip_normals)
+            .ok_or_else(|| Error::file("disk", "to_world is degenerate (zero area)"))
     }
 
     /// Mitsuba's `sphere`: `center`/`radius` in object space, then `to_world`, which may carry a
