@@ -25,6 +25,29 @@ fn close(a: f32, b: f32) -> bool {
     (a - b).abs() <= 1e-5 * a.abs().max(b.abs()) + 1e-7
 }
 
+/// `eval_pdf` at (wi, wo) equals separate `eval` and `pdf`. `eval_pdf` draws from `s`; `eval`
+/// from `s_eval` when given (a walk's eval is stochastic: pass a sampler in `s`'s starting
+/// state), else from `s` after it.
+#[allow(clippy::too_many_arguments)]
+fn assert_fused_matches(
+    g: Microgeometry,
+    t: Tangent,
+    b: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+    s_eval: Option<&mut Sampler>,
+) {
+    let (f, p) = b.eval_pdf(ctx, wi, wo, s);
+    let f0 = b.eval(ctx, wi, wo, s_eval.unwrap_or(s));
+    let p0 = b.pdf(ctx, wi, wo);
+    assert!(close(p, p0), "{g:?} {t:?} pdf {p} vs {p0}");
+    for c in 0..3 {
+        assert!(close(f[c], f0[c]), "{g:?} {t:?} eval {f} vs {f0}");
+    }
+}
+
 /// Every (nested BSDF, microgeometry, query index) with `evaluation`: calls `f` with the
 /// microgeometry, tangent, index, the microfacet normal-mapped BSDF and a (wi, wo) pair.
 fn for_each_query(
@@ -60,13 +83,7 @@ fn explicit_eval_pdf_and_sample_match_separate_queries() {
     let mut checked = 0;
     for_each_query(Evaluation::Explicit, |g, t, i, b, wi, wo| {
         let mut s = Sampler::from_seed(i, 3);
-        let (f, p) = b.eval_pdf(&ctx, wi, wo, &mut s);
-        let f0 = b.eval(&ctx, wi, wo, &mut s);
-        let p0 = b.pdf(&ctx, wi, wo);
-        assert!(close(p, p0), "{g:?} {t:?} pdf {p} vs {p0}");
-        for c in 0..3 {
-            assert!(close(f[c], f0[c]), "{g:?} {t:?} eval {f} vs {f0}");
-        }
+        assert_fused_matches(g, t, b, &ctx, wi, wo, &mut s, None);
         if let Some(bs) = b.sample(&ctx, wi, &mut s) {
             let f1 = b.eval(&ctx, wi, bs.wo, &mut s);
             let p1 = b.pdf(&ctx, wi, bs.wo);
@@ -149,13 +166,7 @@ fn walk_eval_pdf_and_sample_pdf_match_separate_queries() {
     let mut sampled = 0;
     for_each_query(Evaluation::RandomWalk, |g, t, i, b, wi, wo| {
         let (mut sa, mut sb) = (Sampler::from_seed(i, 7), Sampler::from_seed(i, 7));
-        let (f, p) = b.eval_pdf(&ctx, wi, wo, &mut sa);
-        let f0 = b.eval(&ctx, wi, wo, &mut sb);
-        let p0 = b.pdf(&ctx, wi, wo);
-        assert!(close(p, p0), "{g:?} {t:?} pdf {p} vs {p0}");
-        for c in 0..3 {
-            assert!(close(f[c], f0[c]), "{g:?} {t:?} eval {f} vs {f0}");
-        }
+        assert_fused_matches(g, t, b, &ctx, wi, wo, &mut sa, Some(&mut sb));
         if let Some(bs) = b.sample(&ctx, wi, &mut sa) {
             let p1 = b.pdf(&ctx, wi, bs.wo);
             assert!(
