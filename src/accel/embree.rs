@@ -27,17 +27,45 @@ pub(crate) enum GeomDesc<'a> {
     /// The square [−1,1]² (z = 0) of object space mapped by `to_world`: a user geometry like
     /// the disk.
     Rectangle { to_world: Mat4 },
+    /// The box [−1,1]³ of object space mapped by an invertible `to_world`, given as the 6 faces
+    /// of a triangle mesh (corners in order around each face, triangles (0,1,2) and (3,0,2) of
+    /// face `f` numbered 2f and 2f+1): a user geometry that reports the triangle and the
+    /// barycentrics Embree's triangle intersector would, so the mesh's shading code applies.
+    Box {
+        to_world: Mat4,
+        faces: &'a [[[f32; 3]; 4]; 6],
+    },
     /// Nothing to trace (a degenerate shape); its id stays unused.
     Empty,
+}
+
+/// A user-geometry hit: ray parameter, and the triangle and barycentrics reported as Embree's
+/// `primID`, `u`, `v` (zero for shapes that have no triangles).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct UserHit {
+    t: f32,
+    prim: u32,
+    u: f32,
+    v: f32,
+}
+
+impl UserHit {
+    fn at(t: f32) -> UserHit {
+        UserHit {
+            t,
+            prim: 0,
+            u: 0.0,
+            v: 0.0,
+        }
+    }
 }
 
 /// A shape Embree intersects through user-geometry callbacks (one primitive each).
 trait UserShape {
     /// World-space bounding box (lower, upper).
     fn bounds(&self) -> (Vec3, Vec3);
-    /// Ray parameter of the nearest hit within (tnear, tfar) and the (unnormalised) geometric
-    /// normal there, if any.
-    fn hit(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<(f32, Vec3)>;
+    /// The nearest hit with its ray parameter in the open interval (tnear, tfar), if any.
+    fn hit(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<UserHit>;
 }
 
 /// What the sphere callbacks need, owned by the scene.
@@ -57,7 +85,7 @@ impl UserShape for SphereData {
     /// line to the centre and the small root from the product of the roots, which keeps
     /// precision for distant spheres and grazing rays ("Precision Improvements for Ray/Sphere
     /// Intersection", Haines et al., Ray Tracing Gems, 2019, ch. 7).
-    fn hit(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<(f32, Vec3)> {
+    fn hit(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<UserHit> {
         let f = o - self.center;
         let a = d.dot(d);
         let b = f.dot(d);
@@ -80,7 +108,7 @@ impl UserShape for SphereData {
         } else {
             return None;
         };
-        Some((t, f + d * t))
+        Some(UserHit::at(t))
     }
 }
 
@@ -90,8 +118,6 @@ struct PlanarData {
     /// The unit square [−1,1]² instead of the unit disk.
     square: bool,
     to_object: Mat4,
-    /// World-space normal (unnormalised) reported as Embree's Ng.
-    normal: Vec3,
     lower: Vec3,
     upper: Vec3,
 }
@@ -112,7 +138,6 @@ impl PlanarData {
         PlanarData {
             square,
             to_object: to_world.inverse(),
-            normal: to_world.inverse().transpose().transform_vector3(Vec3::Z),
             lower: c - ext - pad,
             upper: c + ext + pad,
         }
@@ -124,7 +149,7 @@ impl UserShape for PlanarData {
         (self.lower, self.upper)
     }
 
-    fn hit(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<(f32, Vec3)> {
+    fn hit(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<UserHit> {
         let ol = self.to_object.transform_point3(o);
         let dl = self.to_object.transform_vector3(d);
         let t = -ol.z / dl.z;
@@ -134,7 +159,127 @@ impl UserShape for PlanarData {
         } else {
             l.x * l.x + l.y * l.y <= 1.0
         };
-        (t > tnear && t < tfar && inside).then_some((t, self.normal))
+        (t > tnear && t < tfar && inside).then_some(UserHit::at(t))
+    }
+}
+
+/// One face of a [`BoxData`]: a corner and the two edges from it, each divided by its squared
+/// length (so a dot product gives the fraction along the edge), and the face's mesh index.
+#[derive(Clone, Copy)]
+struct BoxFace {
+    corner: Vec3,
+    edge1: Vec3,
+    edge3: Vec3,
+    index: u32,
+}
+
+/// What the callbacks of a box need: the box [−1,1]³ of object space under `to_world`, with its
+/// faces indexed by `2·axis + (side > 0)`.
+struct BoxData {
+    to_object: Mat4,
+    faces: [BoxFace; 6],
+    lower: Vec3,
+    upper: Vec3,
+}
+
+impl BoxData {
+    fn new(to_world: &Mat4, faces: &[[[f32; 3]; 4]; 6]) -> BoxData {
+        let mut slots = [BoxFace {
+            corner: Vec3::ZERO,
+            edge1: Vec3::ZERO,
+            edge3: Vec3::ZERO,
+            index: 0,
+        }; 6];
+        for (f, c) in faces.iter().enumerate() {
+            let [c0, c1, c2, c3] = c.map(Vec3::from_array);
+            // The face's plane: the coordinate all four corners share.
+            let centre = (c0 + c1 + c2 + c3) * 0.25;
+            let axis = (0..3).max_by(|&a, &b| centre[a].abs().total_cmp(&centre[b].abs()));
+            let axis = axis.unwrap_or(0);
+            let (e1, e3) = (c1 - c0, c3 - c0);
+            slots[2 * axis + usize::from(centre[axis] > 0.0)] = BoxFace {
+                corner: c0,
+                edge1: e1 / e1.length_squared(),
+                edge3: e3 / e3.length_squared(),
+                index: f as u32,
+            };
+        }
+        let (mut lower, mut upper) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for k in 0..8 {
+            let l = Vec3::new(
+                if k & 1 == 0 { -1.0 } else { 1.0 },
+                if k & 2 == 0 { -1.0 } else { 1.0 },
+                if k & 4 == 0 { -1.0 } else { 1.0 },
+            );
+            let p = to_world.transform_point3(l);
+            lower = lower.min(p);
+            upper = upper.max(p);
+        }
+        let pad = (lower.abs().max(upper.abs()) + (upper - lower)) * 1e-6;
+        BoxData {
+            to_object: to_world.inverse(),
+            faces: slots,
+            lower: lower - pad,
+            upper: upper + pad,
+        }
+    }
+}
+
+impl UserShape for BoxData {
+    fn bounds(&self) -> (Vec3, Vec3) {
+        (self.lower, self.upper)
+    }
+
+    /// The slab test in object space (the affine map keeps the ray parameter), then the hit
+    /// point's fractions (a, b) along the face's two edges pick the triangle and its
+    /// barycentrics: (0,1,2) holds a ≥ b with (u, v) = (a − b, b); (3,0,2) holds a < b with
+    /// (u, v) = (1 − b, a).
+    fn hit(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<UserHit> {
+        let ol = self.to_object.transform_point3(o);
+        let dl = self.to_object.transform_vector3(d);
+        let inv = dl.recip();
+        let t_lo = (Vec3::NEG_ONE - ol) * inv;
+        let t_hi = (Vec3::ONE - ol) * inv;
+        let near = t_lo.min(t_hi);
+        let far = t_lo.max(t_hi);
+        let enter = near.max_element();
+        let exit = far.min_element();
+        // (A NaN bound fails both interval tests below.)
+        if enter > exit {
+            return None;
+        }
+        // The entry face is on the side the ray comes from, the exit face on the side it goes to.
+        let (t, axis, positive) = if enter > tnear && enter < tfar {
+            let axis = if near.x == enter {
+                0
+            } else if near.y == enter {
+                1
+            } else {
+                2
+            };
+            (enter, axis, dl[axis] < 0.0)
+        } else if exit > tnear && exit < tfar {
+            let axis = if far.x == exit {
+                0
+            } else if far.y == exit {
+                1
+            } else {
+                2
+            };
+            (exit, axis, dl[axis] > 0.0)
+        } else {
+            return None;
+        };
+        let face = &self.faces[2 * axis + usize::from(positive)];
+        let r = ol + dl * t - face.corner;
+        let a = r.dot(face.edge1).clamp(0.0, 1.0);
+        let b = r.dot(face.edge3).clamp(0.0, 1.0);
+        let (prim, u, v) = if a >= b {
+            (2 * face.index, a - b, b)
+        } else {
+            (2 * face.index + 1, 1.0 - b, a)
+        };
+        Some(UserHit { t, prim, u, v })
     }
 }
 
@@ -163,14 +308,12 @@ unsafe extern "C" fn user_intersect<T: UserShape>(args: *const RTCIntersectFunct
         let r = &rh.ray;
         let o = Vec3::new(r.org_x, r.org_y, r.org_z);
         let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
-        if let Some((t, ng)) = shape.hit(o, d, r.tnear, r.tfar) {
-            rh.ray.tfar = t;
-            rh.hit.Ng_x = ng.x;
-            rh.hit.Ng_y = ng.y;
-            rh.hit.Ng_z = ng.z;
-            rh.hit.u = 0.0;
-            rh.hit.v = 0.0;
-            rh.hit.primID = a.primID;
+        // groove reads no Ng, so the callbacks leave it unset.
+        if let Some(h) = shape.hit(o, d, r.tnear, r.tfar) {
+            rh.ray.tfar = h.t;
+            rh.hit.u = h.u;
+            rh.hit.v = h.v;
+            rh.hit.primID = h.prim;
             rh.hit.geomID = a.geomID;
             rh.hit.instID = (*a.context).instID;
         }
@@ -227,6 +370,8 @@ pub(crate) struct EmbreeScene {
     _planes: Vec<Box<PlanarData>>,
     #[allow(clippy::vec_box)]
     _spheres: Vec<Box<SphereData>>,
+    #[allow(clippy::vec_box)]
+    _boxes: Vec<Box<BoxData>>,
 }
 
 // SAFETY: the scene is committed and never mutated afterwards; Embree documents traversal
@@ -288,6 +433,7 @@ impl EmbreeScene {
                 _errors: errors,
                 _planes: Vec::new(),
                 _spheres: Vec::new(),
+                _boxes: Vec::new(),
             };
             if scene.is_null() {
                 return Err(this.error_text("rtcNewScene failed"));
@@ -347,6 +493,13 @@ impl EmbreeScene {
                         let geom = user_geometry(device, &*data)
                             .ok_or_else(|| this.error_text("rtcNewGeometry failed"))?;
                         this._planes.push(data);
+                        geom
+                    }
+                    GeomDesc::Box { to_world, faces } => {
+                        let data = Box::new(BoxData::new(to_world, faces));
+                        let geom = user_geometry(device, &*data)
+                            .ok_or_else(|| this.error_text("rtcNewGeometry failed"))?;
+                        this._boxes.push(data);
                         geom
                     }
                 };
@@ -445,7 +598,7 @@ impl EmbreeScene {
 impl Drop for EmbreeScene {
     fn drop(&mut self) {
         // SAFETY: handles created in `build`, released exactly once; the scene before its device
-        // (and both before `_planes` and `_spheres`, which the struct drops after this body).
+        // (and both before the user geometries' data, which the struct drops after this body).
         unsafe {
             if !self.scene.is_null() {
                 rtcReleaseScene(self.scene);
@@ -478,13 +631,13 @@ mod tests {
             radius: 1.0,
         };
         // From 10⁴ radii away, unnormalised direction: the near root is 9999 / 2.
-        let (t, n) = s
+        let t = s
             .hit(Vec3::ZERO, Vec3::new(0.0, 0.0, 2.0), 0.0, f32::MAX)
-            .unwrap();
+            .unwrap()
+            .t;
         assert!((t - 4999.5).abs() <= 4999.5 * 2.0 * f32::EPSILON, "t = {t}");
-        assert!(n.z < 0.0 && (n.length() - 1.0).abs() < 1e-3);
         // From the centre: the far root only, whatever tnear.
-        let (t, _) = s.hit(s.center, Vec3::X, 1e-4, f32::MAX).unwrap();
+        let t = s.hit(s.center, Vec3::X, 1e-4, f32::MAX).unwrap().t;
         assert!((t - 1.0).abs() < 1e-6);
         // Just inside and just outside the silhouette, seen from far away.
         let graze = |x: f32| s.hit(Vec3::new(x, 0.0, 0.0), Vec3::Z, 0.0, f32::MAX);

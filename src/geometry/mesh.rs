@@ -1,5 +1,4 @@
-//! Indexed triangle meshes: the common currency of the OBJ/PLY loaders and of the analytic shapes
-//! that groove tessellates (rectangle, cube, disk).
+//! Indexed triangle meshes: the common currency of the OBJ/PLY loaders and of Mitsuba's `cube`.
 
 use glam::{Mat4, Vec2, Vec3};
 

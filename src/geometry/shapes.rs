@@ -1,5 +1,5 @@
-//! The scene's shapes: triangle meshes (OBJ, PLY and the tessellated `cube`) and the exact
-//! `rectangle`, `disk` and sphere; their surface interactions and the area / solid-angle sampling used by
+//! The scene's shapes: triangle meshes (OBJ, PLY and Mitsuba's `cube` mesh, which Embree
+//! intersects as an exact box) and the exact `rectangle`, `disk` and sphere; their surface interactions and the area / solid-angle sampling used by
 //! area emitters. Conventions follow Mitsuba 3's shape plugins (`src/shapes/*.cpp`,
 //! `src/render/mesh.cpp` in mitsuba-renderer/mitsuba3).
 
@@ -32,6 +32,18 @@ pub enum ShapeKind {
     Rectangle { to_world: Mat4 },
 }
 
+/// Mitsuba's `cube` (`cube.cpp`): the 4 corners of each face of [−1,1]³, in order around the
+/// face (corner 0 → 1 and corner 0 → 3 are its two edges); their mean is the outward normal.
+#[rustfmt::skip]
+pub(crate) const CUBE_FACES: [[[f32; 3]; 4]; 6] = [
+    [[1.0, -1.0, -1.0], [1.0, -1.0, 1.0], [-1.0, -1.0, 1.0], [-1.0, -1.0, -1.0]],
+    [[1.0, 1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, 1.0, 1.0], [1.0, 1.0, 1.0]],
+    [[1.0, -1.0, -1.0], [1.0, 1.0, -1.0], [1.0, 1.0, 1.0], [1.0, -1.0, 1.0]],
+    [[1.0, -1.0, 1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0], [-1.0, -1.0, 1.0]],
+    [[-1.0, -1.0, 1.0], [-1.0, 1.0, 1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, -1.0]],
+    [[1.0, 1.0, -1.0], [1.0, -1.0, -1.0], [-1.0, -1.0, -1.0], [-1.0, 1.0, -1.0]],
+];
+
 /// A shape ready for rendering: geometry plus the tables its sampling needs.
 #[derive(Clone, Debug)]
 pub struct Shape {
@@ -45,6 +57,10 @@ pub struct Shape {
     cdf: Vec<f32>,
     /// Inverse of the disk's or rectangle's `to_world` (identity for other shapes).
     to_object: Mat4,
+    /// Mitsuba's `cube` under this invertible `to_world`: Embree intersects the exact box (one
+    /// user-geometry primitive reporting the triangle and barycentrics the mesh would), so a
+    /// scene of cubes, rectangles and spheres keeps a single acceleration structure.
+    pub box_to_world: Option<Mat4>,
 }
 
 /// A point sampled uniformly on a shape's surface.
@@ -102,6 +118,7 @@ impl Shape {
             area,
             cdf,
             to_object: Mat4::IDENTITY,
+            box_to_world: None,
         })
     }
 
@@ -149,24 +166,17 @@ impl Shape {
             area,
             cdf: Vec::new(),
             to_object: to_world.inverse(),
+            box_to_world: None,
         })
     }
 
     /// Mitsuba's `cube`: [−1,1]³ as 12 triangles with 24 vertices (4 per face, so each face has
     /// its own flat normal and a full [0,1]² uv square), winding and uv layout as Mitsuba's
-    /// `cube.cpp`.
+    /// `cube.cpp` ([`CUBE_FACES`]). The mesh serves shading and sampling; when `to_world` is
+    /// invertible, Embree intersects the exact box instead (see [`Shape::box_to_world`]).
     pub fn cube(to_world: &Mat4, flip_normals: bool) -> Shape {
-        // Per face: outward normal and its 4 corners in Mitsuba's order; corner k gets uv
-        // (0,1), (1,1), (1,0), (0,0) and the face is split into (0,1,2), (3,0,2).
-        #[rustfmt::skip]
-        let faces: [(Vec3, [[f32; 3]; 4]); 6] = [
-            (-Vec3::Y, [[1.0, -1.0, -1.0], [1.0, -1.0, 1.0], [-1.0, -1.0, 1.0], [-1.0, -1.0, -1.0]]),
-            (Vec3::Y, [[1.0, 1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, 1.0, 1.0], [1.0, 1.0, 1.0]]),
-            (Vec3::X, [[1.0, -1.0, -1.0], [1.0, 1.0, -1.0], [1.0, 1.0, 1.0], [1.0, -1.0, 1.0]]),
-            (Vec3::Z, [[1.0, -1.0, 1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0], [-1.0, -1.0, 1.0]]),
-            (-Vec3::X, [[-1.0, -1.0, 1.0], [-1.0, 1.0, 1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, -1.0]]),
-            (-Vec3::Z, [[1.0, 1.0, -1.0], [1.0, -1.0, -1.0], [-1.0, -1.0, -1.0], [-1.0, 1.0, -1.0]]),
-        ];
+        // Corner k of a face gets uv (0,1), (1,1), (1,0), (0,0); the face is split into the
+        // triangles (0,1,2) and (3,0,2).
         let corner_uv = [
             Vec2::new(0.0, 1.0),
             Vec2::new(1.0, 1.0),
@@ -175,10 +185,12 @@ impl Shape {
         ];
         let mut mesh = TriMesh::default();
         let (mut ns, mut uvs) = (Vec::new(), Vec::new());
-        for (f, (n, corners)) in faces.iter().enumerate() {
+        for (f, corners) in CUBE_FACES.iter().enumerate() {
+            let corners = corners.map(Vec3::from_array);
+            let n = corners.iter().sum::<Vec3>() * 0.25;
             for (k, c) in corners.iter().enumerate() {
-                mesh.positions.push(Vec3::from_array(*c));
-                ns.push(*n);
+                mesh.positions.push(*c);
+                ns.push(n);
                 uvs.push(corner_uv[k]);
             }
             let b = 4 * f as u32;
@@ -188,7 +200,14 @@ impl Shape {
         mesh.normals = Some(ns);
         mesh.uvs = Some(uvs);
         mesh.transform(to_world);
-        Shape::new_mesh(mesh, flip_normals, false).unwrap_or_else(|_| degenerate())
+        let Ok(mut shape) = Shape::new_mesh(mesh, flip_normals, false) else {
+            return degenerate();
+        };
+        let det = Mat3::from_mat4(*to_world).determinant();
+        if det.is_finite() && det != 0.0 {
+            shape.box_to_world = Some(*to_world);
+        }
+        shape
     }
 
     /// Mitsuba's `disk`: the unit disk in the XY plane, normal +Z (by the normal transform, as
@@ -239,6 +258,7 @@ impl Shape {
             area: 4.0 * PI * r * r,
             cdf: Vec::new(),
             to_object: Mat4::IDENTITY,
+            box_to_world: None,
         })
     }
 
@@ -553,6 +573,7 @@ fn degenerate() -> Shape {
         area: 0.0,
         cdf: Vec::new(),
         to_object: Mat4::IDENTITY,
+        box_to_world: None,
     }
 }
 
