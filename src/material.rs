@@ -3,7 +3,7 @@
 
 use crate::bsdf::mnm::facets::{clamp_perturbed_normal, Microgeometry};
 use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent, TransmissionWalk};
-use crate::bsdf::{bumpmap, Blend, BsdfArena, BsdfNode, Diffuse, Mask, NormalMap};
+use crate::bsdf::{bumpmap, lobe, Blend, BsdfArena, BsdfNode, Diffuse, Mask, NormalMap};
 use crate::geometry::SurfaceInteraction;
 use crate::texture::Texture;
 use glam::Vec3;
@@ -104,8 +104,11 @@ pub enum MaterialNode {
 /// All materials and textures of a scene.
 #[derive(Clone, Debug, Default)]
 pub struct Materials {
-    pub nodes: Vec<MaterialNode>,
+    nodes: Vec<MaterialNode>,
     pub textures: Vec<Texture>,
+    /// The lobes each node can produce (`lobe` bits), fixed by the tree's structure and
+    /// templates, so computed once when the node is added instead of per hit.
+    flags: Vec<u32>,
 }
 
 /// Write a texture value into the field `slot` of a leaf node.
@@ -154,9 +157,44 @@ impl Materials {
         (self.textures.len() - 1) as TexId
     }
 
+    /// Adds a node whose children (if any) were added before it.
     pub fn add_node(&mut self, n: MaterialNode) -> MatId {
+        let f = |id: &MatId| self.flags[*id as usize];
+        let flags = match &n {
+            MaterialNode::Diffuse { .. } => lobe::DIFFUSE_REFLECTION,
+            MaterialNode::Leaf { template, .. } => {
+                let mut arena = BsdfArena::new();
+                let r = arena.push(**template);
+                arena.bsdf(r).flags()
+            }
+            MaterialNode::TwoSided { front, back } => f(front) | f(back),
+            MaterialNode::MicrofacetNormalMap { nested, .. }
+            | MaterialNode::NormalMap { nested, .. }
+            | MaterialNode::BumpMap { nested, .. } => f(nested),
+            MaterialNode::Blend { bsdf0, bsdf1, .. } => f(bsdf0) | f(bsdf1),
+            MaterialNode::Null => lobe::NULL,
+            MaterialNode::Mask { nested, .. } => f(nested) | lobe::NULL,
+        };
+        self.flags.push(flags);
         self.nodes.push(n);
         (self.nodes.len() - 1) as MatId
+    }
+
+    /// The nodes (a material's children come before it).
+    pub fn nodes(&self) -> &[MaterialNode] {
+        &self.nodes
+    }
+
+    /// The nodes, for edits of their parameters (tests); an edit must keep each node's lobes,
+    /// which [`Materials::flags`] caches.
+    pub fn nodes_mut(&mut self) -> &mut [MaterialNode] {
+        &mut self.nodes
+    }
+
+    /// The lobes material `id` can produce: `Bsdf::flags` of any BSDF it builds.
+    #[inline]
+    pub fn flags(&self, id: MatId) -> u32 {
+        self.flags[id as usize]
     }
 
     /// Build the BSDF of material `id` at `si` into `arena`; returns the root node index.
@@ -197,8 +235,8 @@ impl Materials {
                 let child = self.build(*nested, si, arena);
                 let rgb = self.textures[*normalmap as usize].eval(si.uv);
                 let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, settings.max_theta);
-                // Cached once per hit instead of a recursive query per eval/pdf/sample.
-                let nested_flags = arena.bsdf(child).flags();
+                // Given to the node instead of a recursive query per eval/pdf/sample.
+                let nested_flags = self.flags[*nested as usize];
                 arena.push_microfacet_normal_map(
                     MicrofacetNormalMap::new(
                         child,

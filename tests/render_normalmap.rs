@@ -45,7 +45,8 @@ fn load(path: &Path, mode: NormalMapping, defines: &[(&str, &str)]) -> Vec<Mater
         .expect("scene")
         .scene
         .materials
-        .nodes
+        .nodes()
+        .to_vec()
 }
 
 fn classic_flags(nodes: &[MaterialNode]) -> Vec<(bool, bool)> {

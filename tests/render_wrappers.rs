@@ -40,7 +40,7 @@ fn textured_area_light_matches_mitsuba() {
 #[test]
 fn the_comparisons_see_bumps_and_roughness_textures() {
     let r = render_scene(&test_scene("mat_bumpmap.xml"), &[], 256, 45, 0, |scene| {
-        for n in &mut scene.materials.nodes {
+        for n in scene.materials.nodes_mut() {
             if let MaterialNode::BumpMap { scale, .. } = n {
                 *scale = 0.0;
             }
@@ -52,7 +52,7 @@ fn the_comparisons_see_bumps_and_roughness_textures() {
     assert!(!c.is_consistent(), "flat shading was accepted");
 
     let r = render_scene(&test_scene("mat_rough_tex.xml"), &[], 256, 46, 0, |scene| {
-        for n in &mut scene.materials.nodes {
+        for n in scene.materials.nodes_mut() {
             if let MaterialNode::Leaf { slots, .. } = n {
                 slots.retain(|(s, _)| !s.is_scalar());
             }

@@ -33,13 +33,13 @@ pub fn li(
             result += scene.emitters[e as usize].eval_surface(&si);
         }
     }
-    let Some((bsdf, wi)) = scene.bsdf_at(&si, &mut scratch.arena) else {
+    let Some((bsdf, wi, flags)) = scene.bsdf_at(&si, &mut scratch.arena) else {
         return result;
     };
     let ne = cfg.emitter_samples as f32;
     let nb = cfg.bsdf_samples as f32;
 
-    if bsdf.flags() & lobe::SMOOTH != 0 {
+    if flags & lobe::SMOOTH != 0 {
         for _ in 0..cfg.emitter_samples {
             let u_sel = sampler.next_1d();
             let u = sampler.next_2d();

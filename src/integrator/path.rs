@@ -97,10 +97,9 @@ pub fn li(
         }
 
         // ---- Scattering ----
-        let Some((bsdf, wi)) = scene.bsdf_at(&si, &mut scratch.arena) else {
+        let Some((bsdf, wi, flags)) = scene.bsdf_at(&si, &mut scratch.arena) else {
             break;
         };
-        let flags = bsdf.flags();
 
         // Next-event estimation.
         if cfg.strategy != Strategy::BsdfOnly && flags & lobe::SMOOTH != 0 {

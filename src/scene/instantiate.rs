@@ -11,8 +11,8 @@ use crate::bsdf::mnm::facets::Microgeometry;
 use crate::bsdf::mnm::{Evaluation, Tangent, TransmissionWalk};
 use crate::bsdf::plastic::DEFAULT_PLASTIC_INT_IOR;
 use crate::bsdf::{
-    lobe, named_conductor, named_ior, BsdfArena, BsdfNode, Dielectric, MicrofacetDistribution,
-    MicrofacetType, Plastic, RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric,
+    lobe, named_conductor, named_ior, BsdfNode, Dielectric, MicrofacetDistribution, MicrofacetType,
+    Plastic, RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric,
 };
 use crate::camera::{Camera, FovAxis};
 use crate::emitter::area::AreaLight;
@@ -1191,7 +1191,7 @@ impl<'d> Builder<'d> {
         loc: &SourceLoc,
         evaluation: Evaluation,
     ) -> Result<()> {
-        let flags = self.material_flags(nested);
+        let flags = self.materials.flags(nested);
         if flags & lobe::TRANSMISSION != 0 && evaluation == Evaluation::Explicit {
             return Err(Error::scene(loc, "microfacet_normalmap over a transmitting BSDF needs evaluation = random_walk (the closed forms are reflection only)"));
         }
@@ -1309,29 +1309,6 @@ impl<'d> Builder<'d> {
                 transmission_walk,
             },
         })
-    }
-
-    /// The lobes a material can produce (from its nodes' templates).
-    fn material_flags(&self, id: MatId) -> u32 {
-        match &self.materials.nodes[id as usize] {
-            MaterialNode::Diffuse { .. } => lobe::DIFFUSE_REFLECTION,
-            MaterialNode::Leaf { template, .. } => {
-                let mut arena = BsdfArena::new();
-                let r = arena.push(**template);
-                arena.bsdf(r).flags()
-            }
-            MaterialNode::TwoSided { front, back } => {
-                self.material_flags(*front) | self.material_flags(*back)
-            }
-            MaterialNode::MicrofacetNormalMap { nested, .. }
-            | MaterialNode::NormalMap { nested, .. } => self.material_flags(*nested),
-            MaterialNode::Blend { bsdf0, bsdf1, .. } => {
-                self.material_flags(*bsdf0) | self.material_flags(*bsdf1)
-            }
-            MaterialNode::Null => lobe::NULL,
-            MaterialNode::Mask { nested, .. } => self.material_flags(*nested) | lobe::NULL,
-            MaterialNode::BumpMap { nested, .. } => self.material_flags(*nested),
-        }
     }
 
     fn default_material(&mut self, emitting: bool) -> MatId {

@@ -48,23 +48,22 @@ impl Scene {
     }
 
     /// Build the BSDF of the surface hit by `si` into `arena`; returns it with `wi` in its local
-    /// frame, or `None` when `wi`'s sides in the shading and true-normal frames disagree (such a
+    /// frame and its lobe flags (`Bsdf::flags`, from the material's table), or `None` when `wi`'s sides in the shading and true-normal frames disagree (such a
     /// direction carries no light: Veach's strict normals).
     #[inline]
     pub fn bsdf_at<'a>(
         &self,
         si: &SurfaceInteraction,
         arena: &'a mut crate::bsdf::BsdfArena,
-    ) -> Option<(crate::bsdf::Bsdf<'a>, Vec3)> {
+    ) -> Option<(crate::bsdf::Bsdf<'a>, Vec3, u32)> {
         arena.clear();
-        let root = self
-            .materials
-            .build(self.shape_material[si.shape as usize], si, arena);
+        let material = self.shape_material[si.shape as usize];
+        let root = self.materials.build(material, si, arena);
         let wi = si.sh.to_local(si.wi);
         if si.wi.dot(si.ng) * wi.z <= 0.0 {
             return None;
         }
-        Some((arena.bsdf(root), wi))
+        Some((arena.bsdf(root), wi, self.materials.flags(material)))
     }
 
     /// True when something blocks `ray` within (tmin, tmax).
