@@ -112,46 +112,69 @@ impl UserShape for SphereData {
     }
 }
 
-/// What the callbacks of a disk or rectangle need, owned by the scene (Embree holds a raw
-/// pointer to it).
-struct PlanarData {
-    /// The unit square [−1,1]² instead of the unit disk.
-    square: bool,
+/// An affinely mapped object-space shape: the inverse map (rays are intersected in object
+/// space, where the ray parameter is the same as in world space) and the world-space bounds.
+struct ObjectSpace {
     to_object: Mat4,
     lower: Vec3,
     upper: Vec3,
 }
 
+impl ObjectSpace {
+    /// `ext`: the half extent, per world axis, of the shape around `to_world`'s origin image;
+    /// the bounds are padded by a few ulps.
+    fn new(to_world: &Mat4, ext: Vec3) -> ObjectSpace {
+        let c = to_world.transform_point3(Vec3::ZERO);
+        let pad = (c.abs() + ext) * 1e-6;
+        ObjectSpace {
+            to_object: to_world.inverse(),
+            lower: c - ext - pad,
+            upper: c + ext + pad,
+        }
+    }
+
+    /// The ray in object space.
+    #[inline]
+    fn ray(&self, o: Vec3, d: Vec3) -> (Vec3, Vec3) {
+        (
+            self.to_object.transform_point3(o),
+            self.to_object.transform_vector3(d),
+        )
+    }
+}
+
+/// What the callbacks of a disk or rectangle need, owned by the scene (Embree holds a raw
+/// pointer to it).
+struct PlanarData {
+    /// The unit square [−1,1]² instead of the unit disk.
+    square: bool,
+    space: ObjectSpace,
+}
+
 impl PlanarData {
     fn new(to_world: &Mat4, square: bool) -> PlanarData {
-        let c = to_world.transform_point3(Vec3::ZERO);
         let ax = to_world.transform_vector3(Vec3::X);
         let ay = to_world.transform_vector3(Vec3::Y);
-        // Exact bounds of the ellipse c + ax cos φ + ay sin φ, or of the parallelogram
-        // c ± ax ± ay, padded by a few ulps.
+        // Exact bounds of the parallelogram c ± ax ± ay, or of the ellipse c + ax cos φ + ay sin φ.
         let ext = if square {
             ax.abs() + ay.abs()
         } else {
             Vec3::new(ax.x.hypot(ay.x), ax.y.hypot(ay.y), ax.z.hypot(ay.z))
         };
-        let pad = (c.abs() + ext) * 1e-6;
         PlanarData {
             square,
-            to_object: to_world.inverse(),
-            lower: c - ext - pad,
-            upper: c + ext + pad,
+            space: ObjectSpace::new(to_world, ext),
         }
     }
 }
 
 impl UserShape for PlanarData {
     fn bounds(&self) -> (Vec3, Vec3) {
-        (self.lower, self.upper)
+        (self.space.lower, self.space.upper)
     }
 
     fn hit(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<UserHit> {
-        let ol = self.to_object.transform_point3(o);
-        let dl = self.to_object.transform_vector3(d);
+        let (ol, dl) = self.space.ray(o, d);
         let t = -ol.z / dl.z;
         let l = ol + dl * t;
         let inside = if self.square {
@@ -176,10 +199,8 @@ struct BoxFace {
 /// What the callbacks of a box need: the box [−1,1]³ of object space under `to_world`, with its
 /// faces indexed by `2·axis + (side > 0)`.
 struct BoxData {
-    to_object: Mat4,
     faces: [BoxFace; 6],
-    lower: Vec3,
-    upper: Vec3,
+    space: ObjectSpace,
 }
 
 impl BoxData {
@@ -204,30 +225,21 @@ impl BoxData {
                 index: f as u32,
             };
         }
-        let (mut lower, mut upper) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for k in 0..8 {
-            let l = Vec3::new(
-                if k & 1 == 0 { -1.0 } else { 1.0 },
-                if k & 2 == 0 { -1.0 } else { 1.0 },
-                if k & 4 == 0 { -1.0 } else { 1.0 },
-            );
-            let p = to_world.transform_point3(l);
-            lower = lower.min(p);
-            upper = upper.max(p);
-        }
-        let pad = (lower.abs().max(upper.abs()) + (upper - lower)) * 1e-6;
+        // Exact bounds of the parallelepiped c ± ax ± ay ± az.
+        let ext = [Vec3::X, Vec3::Y, Vec3::Z]
+            .map(|a| to_world.transform_vector3(a).abs())
+            .into_iter()
+            .sum();
         BoxData {
-            to_object: to_world.inverse(),
             faces: slots,
-            lower: lower - pad,
-            upper: upper + pad,
+            space: ObjectSpace::new(to_world, ext),
         }
     }
 }
 
 impl UserShape for BoxData {
     fn bounds(&self) -> (Vec3, Vec3) {
-        (self.lower, self.upper)
+        (self.space.lower, self.space.upper)
     }
 
     /// The slab test in object space (the affine map keeps the ray parameter), then the hit
@@ -235,8 +247,7 @@ impl UserShape for BoxData {
     /// barycentrics: (0,1,2) holds a ≥ b with (u, v) = (a − b, b); (3,0,2) holds a < b with
     /// (u, v) = (1 − b, a).
     fn hit(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<UserHit> {
-        let ol = self.to_object.transform_point3(o);
-        let dl = self.to_object.transform_vector3(d);
+        let (ol, dl) = self.space.ray(o, d);
         let inv = dl.recip();
         let t_lo = (Vec3::NEG_ONE - ol) * inv;
         let t_hi = (Vec3::ONE - ol) * inv;
