@@ -28,24 +28,24 @@ impl Accel {
     pub fn build(shapes: &[Shape]) -> Result<Accel> {
         let descs: Vec<embree::GeomDesc> = shapes
             .iter()
-            .map(|s| match &s.kind {
-                ShapeKind::Mesh(m) if m.indices.is_empty() => embree::GeomDesc::Empty,
-                ShapeKind::Mesh(_) if s.box_to_world.is_some() => embree::GeomDesc::Box {
-                    to_world: s.box_to_world.unwrap_or_default(),
+            .map(|s| match (&s.kind, s.box_to_world) {
+                (ShapeKind::Mesh(m), _) if m.indices.is_empty() => embree::GeomDesc::Empty,
+                (ShapeKind::Mesh(_), Some(to_world)) => embree::GeomDesc::Box {
+                    to_world,
                     faces: &CUBE_FACES,
                 },
-                ShapeKind::Mesh(m) => embree::GeomDesc::Triangles {
+                (ShapeKind::Mesh(m), None) => embree::GeomDesc::Triangles {
                     positions: &m.positions,
                     indices: &m.indices,
                 },
-                ShapeKind::Sphere { center, radius, .. } => embree::GeomDesc::Sphere {
+                (ShapeKind::Sphere { center, radius, .. }, _) => embree::GeomDesc::Sphere {
                     center: *center,
                     radius: *radius,
                 },
-                ShapeKind::Disk { to_world } => embree::GeomDesc::Disk {
+                (ShapeKind::Disk { to_world }, _) => embree::GeomDesc::Disk {
                     to_world: *to_world,
                 },
-                ShapeKind::Rectangle { to_world } => embree::GeomDesc::Rectangle {
+                (ShapeKind::Rectangle { to_world }, _) => embree::GeomDesc::Rectangle {
                     to_world: *to_world,
                 },
             })

@@ -1,7 +1,8 @@
 //! The scene's shapes: triangle meshes (OBJ, PLY and Mitsuba's `cube` mesh, which Embree
-//! intersects as an exact box) and the exact `rectangle`, `disk` and sphere; their surface interactions and the area / solid-angle sampling used by
-//! area emitters. Conventions follow Mitsuba 3's shape plugins (`src/shapes/*.cpp`,
-//! `src/render/mesh.cpp` in mitsuba-renderer/mitsuba3).
+//! intersects as an exact box) and the exact `rectangle`, `disk` and sphere; their surface
+//! interactions and the area / solid-angle sampling used by area emitters. Conventions follow
+//! Mitsuba 3's shape plugins (`src/shapes/*.cpp`, `src/render/mesh.cpp` in
+//! mitsuba-renderer/mitsuba3).
 
 use super::interaction::SurfaceInteraction;
 use super::mesh::TriMesh;

@@ -48,8 +48,9 @@ impl Scene {
     }
 
     /// Build the BSDF of the surface hit by `si` into `arena`; returns it with `wi` in its local
-    /// frame and its lobe flags (`Bsdf::flags`, from the material's table), or `None` when `wi`'s sides in the shading and true-normal frames disagree (such a
-    /// direction carries no light: Veach's strict normals).
+    /// frame and its lobe flags (`Bsdf::flags`, from the material's table), or `None` when
+    /// `wi`'s sides in the shading and true-normal frames disagree (such a direction carries no
+    /// light: Veach's strict normals).
     #[inline]
     pub fn bsdf_at<'a>(
         &self,
