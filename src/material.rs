@@ -3,7 +3,7 @@
 
 use crate::bsdf::mnm::facets::{clamp_perturbed_normal, Microgeometry};
 use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent, TransmissionWalk};
-use crate::bsdf::{bumpmap, lobe, Blend, BsdfArena, BsdfNode, Diffuse, Mask, NormalMap};
+use crate::bsdf::{bumpmap, Blend, BsdfArena, BsdfNode, Diffuse, Lobes, Mask, NormalMap};
 use crate::geometry::SurfaceInteraction;
 use crate::texture::Texture;
 use glam::Vec3;
@@ -106,9 +106,9 @@ pub enum MaterialNode {
 pub struct Materials {
     nodes: Vec<MaterialNode>,
     pub textures: Vec<Texture>,
-    /// The lobes each node can produce (`lobe` bits), fixed by the tree's structure and
-    /// templates, so computed once when the node is added instead of per hit.
-    flags: Vec<u32>,
+    /// The lobes each node can produce, fixed by the tree's structure and templates (the
+    /// loader's checks ask for them; at a hit the arena has its own, by the same rule).
+    lobes: Vec<Lobes>,
 }
 
 /// Write a texture value into the field `slot` of a leaf node.
@@ -151,6 +151,38 @@ fn patch_scalar(node: &mut BsdfNode, slot: Slot, a: f32) {
         crate::bsdf::MicrofacetDistribution::anisotropic(dist.kind, au, av, dist.sample_visible);
 }
 
+/// A node of the kind `n` builds, with `n`'s children as its children: what
+/// [`BsdfNode::lobes`] needs to know (parameters do not change lobes).
+fn skeleton(n: &MaterialNode) -> BsdfNode {
+    match n {
+        MaterialNode::Diffuse { .. } => BsdfNode::Diffuse(Diffuse {
+            reflectance: Vec3::ZERO,
+        }),
+        MaterialNode::Leaf { template, .. } => **template,
+        MaterialNode::TwoSided { front, back } => BsdfNode::TwoSided {
+            front: *front,
+            back: *back,
+        },
+        MaterialNode::MicrofacetNormalMap { nested, .. } => BsdfNode::MicrofacetNormalMap {
+            map: 0,
+            nested: *nested,
+        },
+        MaterialNode::NormalMap { nested, .. } | MaterialNode::BumpMap { nested, .. } => {
+            BsdfNode::NormalMap(NormalMap::new(*nested, Vec3::Z, false, false))
+        }
+        MaterialNode::Blend { bsdf0, bsdf1, .. } => BsdfNode::Blend(Blend {
+            bsdf0: *bsdf0,
+            bsdf1: *bsdf1,
+            weight: 0.0,
+        }),
+        MaterialNode::Null => BsdfNode::Null,
+        MaterialNode::Mask { nested, .. } => BsdfNode::Mask(Mask {
+            nested: *nested,
+            opacity: 1.0,
+        }),
+    }
+}
+
 impl Materials {
     pub fn add_texture(&mut self, t: Texture) -> TexId {
         self.textures.push(t);
@@ -159,23 +191,8 @@ impl Materials {
 
     /// Adds a node whose children (if any) were added before it.
     pub fn add_node(&mut self, n: MaterialNode) -> MatId {
-        let f = |id: &MatId| self.flags[*id as usize];
-        let flags = match &n {
-            MaterialNode::Diffuse { .. } => lobe::DIFFUSE_REFLECTION,
-            MaterialNode::Leaf { template, .. } => {
-                let mut arena = BsdfArena::new();
-                let r = arena.push(**template);
-                arena.bsdf(r).flags()
-            }
-            MaterialNode::TwoSided { front, back } => f(front) | f(back),
-            MaterialNode::MicrofacetNormalMap { nested, .. }
-            | MaterialNode::NormalMap { nested, .. }
-            | MaterialNode::BumpMap { nested, .. } => f(nested),
-            MaterialNode::Blend { bsdf0, bsdf1, .. } => f(bsdf0) | f(bsdf1),
-            MaterialNode::Null => lobe::NULL,
-            MaterialNode::Mask { nested, .. } => f(nested) | lobe::NULL,
-        };
-        self.flags.push(flags);
+        let lobes = skeleton(&n).lobes(|c| self.lobes[c as usize]);
+        self.lobes.push(lobes);
         self.nodes.push(n);
         (self.nodes.len() - 1) as MatId
     }
@@ -185,28 +202,29 @@ impl Materials {
         &self.nodes
     }
 
-    /// The nodes, for edits of their parameters (tests); an edit must keep each node's lobes,
-    /// which [`Materials::flags`] caches.
+    /// The nodes, for edits of their parameters (tests); an edit must keep each node's kind,
+    /// whose lobes [`Materials::lobes`] caches.
     pub fn nodes_mut(&mut self) -> &mut [MaterialNode] {
         &mut self.nodes
     }
 
-    /// The lobes material `id` can produce: `Bsdf::flags` of any BSDF it builds.
+    /// The lobes material `id` can produce: [`crate::bsdf::Bsdf::lobes`] of any BSDF it builds.
     #[inline]
-    pub fn flags(&self, id: MatId) -> u32 {
-        self.flags[id as usize]
+    pub fn lobes(&self, id: MatId) -> Lobes {
+        self.lobes[id as usize]
     }
 
     /// Build the BSDF of material `id` at `si` into `arena`; returns the root node index.
     pub fn build(&self, id: MatId, si: &SurfaceInteraction, arena: &mut BsdfArena) -> u32 {
+        let lobes = self.lobes[id as usize];
         match &self.nodes[id as usize] {
             MaterialNode::Diffuse { reflectance } => {
                 let r = self.textures[*reflectance as usize].eval(si.uv);
-                arena.push(BsdfNode::Diffuse(Diffuse { reflectance: r }))
+                arena.push_with_lobes(lobes, BsdfNode::Diffuse(Diffuse { reflectance: r }))
             }
             MaterialNode::Leaf { template, slots } => {
                 // Copied once, into the arena, and patched there.
-                let id = arena.push(**template);
+                let id = arena.push_with_lobes(lobes, **template);
                 let node = arena.node_mut(id);
                 for &(slot, tex) in slots {
                     let t = &self.textures[tex as usize];
@@ -225,7 +243,7 @@ impl Materials {
                 } else {
                     self.build(*back, si, arena)
                 };
-                arena.push(BsdfNode::TwoSided { front: f, back: b })
+                arena.push_with_lobes(lobes, BsdfNode::TwoSided { front: f, back: b })
             }
             MaterialNode::MicrofacetNormalMap {
                 nested,
@@ -235,8 +253,6 @@ impl Materials {
                 let child = self.build(*nested, si, arena);
                 let rgb = self.textures[*normalmap as usize].eval(si.uv);
                 let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, settings.max_theta);
-                // Given to the node instead of a recursive query per eval/pdf/sample.
-                let nested_flags = self.flags[*nested as usize];
                 arena.push_microfacet_normal_map(
                     MicrofacetNormalMap::new(
                         child,
@@ -246,8 +262,7 @@ impl Materials {
                         settings.evaluation,
                         settings.max_order,
                     )
-                    .with_transmission_walk(settings.transmission_walk)
-                    .with_nested_flags(nested_flags),
+                    .with_transmission_walk(settings.transmission_walk),
                 )
             }
             MaterialNode::NormalMap {
@@ -258,12 +273,15 @@ impl Materials {
             } => {
                 let child = self.build(*nested, si, arena);
                 let rgb = self.textures[*normalmap as usize].eval(si.uv);
-                arena.push(BsdfNode::NormalMap(NormalMap::new(
-                    child,
-                    2.0 * rgb - Vec3::ONE,
-                    *flip_invalid_normals,
-                    *use_shadowing_function,
-                )))
+                arena.push_with_lobes(
+                    lobes,
+                    BsdfNode::NormalMap(NormalMap::new(
+                        child,
+                        2.0 * rgb - Vec3::ONE,
+                        *flip_invalid_normals,
+                        *use_shadowing_function,
+                    )),
+                )
             }
             MaterialNode::Blend {
                 weight,
@@ -273,20 +291,26 @@ impl Materials {
                 let a = self.build(*bsdf0, si, arena);
                 let b = self.build(*bsdf1, si, arena);
                 let w = self.textures[*weight as usize].eval_1(si.uv);
-                arena.push(BsdfNode::Blend(Blend {
-                    bsdf0: a,
-                    bsdf1: b,
-                    weight: if w.is_nan() { 0.0 } else { w.clamp(0.0, 1.0) },
-                }))
+                arena.push_with_lobes(
+                    lobes,
+                    BsdfNode::Blend(Blend {
+                        bsdf0: a,
+                        bsdf1: b,
+                        weight: if w.is_nan() { 0.0 } else { w.clamp(0.0, 1.0) },
+                    }),
+                )
             }
-            MaterialNode::Null => arena.push(BsdfNode::Null),
+            MaterialNode::Null => arena.push_with_lobes(lobes, BsdfNode::Null),
             MaterialNode::Mask { opacity, nested } => {
                 let child = self.build(*nested, si, arena);
                 let o = self.textures[*opacity as usize].eval_1(si.uv);
-                arena.push(BsdfNode::Mask(Mask {
-                    nested: child,
-                    opacity: if o.is_nan() { 0.0 } else { o.clamp(0.0, 1.0) },
-                }))
+                arena.push_with_lobes(
+                    lobes,
+                    BsdfNode::Mask(Mask {
+                        nested: child,
+                        opacity: if o.is_nan() { 0.0 } else { o.clamp(0.0, 1.0) },
+                    }),
+                )
             }
             MaterialNode::BumpMap {
                 nested,
@@ -297,12 +321,15 @@ impl Materials {
             } => {
                 let child = self.build(*nested, si, arena);
                 let grad = *scale * self.textures[*height as usize].eval_1_grad(si.uv);
-                arena.push(BsdfNode::NormalMap(NormalMap::new(
-                    child,
-                    bumpmap::perturbed_normal(si, grad),
-                    *flip_invalid_normals,
-                    *use_shadowing_function,
-                )))
+                arena.push_with_lobes(
+                    lobes,
+                    BsdfNode::NormalMap(NormalMap::new(
+                        child,
+                        bumpmap::perturbed_normal(si, grad),
+                        *flip_invalid_normals,
+                        *use_shadowing_function,
+                    )),
+                )
             }
         }
     }

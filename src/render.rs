@@ -4,12 +4,14 @@
 
 use crate::error::{Error, Result};
 use crate::film::{Block, Film};
-use crate::integrator::{RayCounters, Scratch};
+use crate::integrator::{LoggedRay, RayCounters, Scratch};
 use crate::sampler::{Sampler, SamplerDesc};
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
 use glam::Vec2;
 use rayon::prelude::*;
+use std::sync::atomic::AtomicUsize;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// How to render (command-line overrides of the scene's own settings).
@@ -25,6 +27,9 @@ pub struct RenderOptions {
     pub progress: bool,
     /// Block edge in pixels.
     pub block_size: u32,
+    /// Record up to this many of the traced rays into [`RenderOutput::ray_log`] (0: none);
+    /// `groove bench` traces them again for its Embree ceiling.
+    pub record_rays: usize,
 }
 
 impl Default for RenderOptions {
@@ -35,6 +40,7 @@ impl Default for RenderOptions {
             seed: None,
             progress: false,
             block_size: 32,
+            record_rays: 0,
         }
     }
 }
@@ -64,6 +70,8 @@ impl RenderStats {
 pub struct RenderOutput {
     pub film: Film,
     pub stats: RenderStats,
+    /// The recorded rays ([`RenderOptions::record_rays`]), block by block in image order.
+    pub ray_log: Vec<LoggedRay>,
 }
 
 /// Build the worker pool: `threads` workers (0 = all cores), each with flush-to-zero set.
@@ -112,24 +120,34 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     };
 
     let start = Instant::now();
-    let results: Vec<(Block, RayCounters, u64)> = pool.install(|| {
+    let log_budget = Arc::new(AtomicUsize::new(opts.record_rays));
+    let results: Vec<(Block, RayCounters, u64, Vec<LoggedRay>)> = pool.install(|| {
         rects
             .par_iter()
-            .map_init(Scratch::default, |scratch, &(x0, y0, w, h)| {
-                scratch.counters = RayCounters::default();
-                let _ = crate::bsdf::mnm::stats::take();
-                let mut block = Block::new(desc, x0, y0, w, h);
-                let invalid =
-                    render_block(scene, &sampler_desc, &mut block, (x0, y0, w, h), scratch);
-                crate::bench::raylog::flush();
-                let walks = crate::bsdf::mnm::stats::take();
-                scratch.counters.walks = walks.walks;
-                scratch.counters.walk_vertices = walks.vertices;
-                if let Some(b) = &bar {
-                    b.inc(1);
-                }
-                (block, scratch.counters, invalid)
-            })
+            .map_init(
+                || {
+                    let mut s = Scratch::default();
+                    if opts.record_rays > 0 {
+                        s.rays.record(log_budget.clone());
+                    }
+                    s
+                },
+                |scratch, &(x0, y0, w, h)| {
+                    scratch.rays.counters = RayCounters::default();
+                    let _ = scratch.arena.take_walk_counts();
+                    let mut block = Block::new(desc, x0, y0, w, h);
+                    let invalid =
+                        render_block(scene, &sampler_desc, &mut block, (x0, y0, w, h), scratch);
+                    let walks = scratch.arena.take_walk_counts();
+                    let mut counters = scratch.rays.counters;
+                    counters.walks = walks.walks;
+                    counters.walk_vertices = walks.vertices;
+                    if let Some(b) = &bar {
+                        b.inc(1);
+                    }
+                    (block, counters, invalid, scratch.rays.take_log())
+                },
+            )
             .collect()
     });
     let seconds = start.elapsed().as_secs_f64();
@@ -140,10 +158,12 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let mut film = Film::new(desc.clone());
     let mut rays = RayCounters::default();
     let mut invalid = 0;
-    for (block, c, inv) in &results {
-        film.merge(block);
-        rays.add(c);
+    let mut ray_log = Vec::new();
+    for (block, c, inv, log) in results {
+        film.merge(&block);
+        rays.add(&c);
         invalid += inv;
+        ray_log.extend(log);
     }
     let stats = RenderStats {
         seconds,
@@ -154,7 +174,11 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
         rays,
         invalid_samples: invalid,
     };
-    Ok(RenderOutput { film, stats })
+    Ok(RenderOutput {
+        film,
+        stats,
+        ray_log,
+    })
 }
 
 /// Render every sample of the pixels of one block; returns the number of invalid samples.

@@ -637,7 +637,7 @@ fn delta_lobes_directions_and_weights() {
             assert!((r.wo - Vec3::new(-wi.x, -wi.y, wi.z)).length() < 1e-6);
             let f = fresnel_conductor(wi.z, eta, k) * Vec3::new(1.0, 0.5, 0.25);
             assert!((r.weight - f).abs().max_element() < 1e-6, "{name} {t}");
-            assert_eq!(r.lobe, lobe::DELTA_REFLECTION);
+            assert_eq!(r.lobe, Lobes::DELTA_REFLECTION);
             assert_eq!(b.eval(&ctx_r, wi, r.wo, &mut s), Vec3::ZERO);
             assert_eq!(b.pdf(&ctx_r, wi, r.wo), 0.0);
         }
@@ -676,13 +676,13 @@ fn delta_lobes_directions_and_weights() {
                 let r = b
                     .sample(ctx, wi, &mut s)
                     .expect("dielectrics always sample");
-                if r.lobe == lobe::DELTA_REFLECTION {
+                if r.lobe == Lobes::DELTA_REFLECTION {
                     refl += 1;
                     assert!((r.wo - Vec3::new(-wi.x, -wi.y, wi.z)).length() < 1e-6);
                     assert_eq!(r.weight, Vec3::ONE);
                     assert_eq!(r.eta, 1.0);
                 } else {
-                    assert_eq!(r.lobe, lobe::DELTA_TRANSMISSION);
+                    assert_eq!(r.lobe, Lobes::DELTA_TRANSMISSION);
                     if thin {
                         assert!((r.wo + wi).length() < 1e-6);
                         assert_eq!(r.weight, Vec3::ONE);

@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 use groove::bsdf::{
-    lobe, named_conductor, BsdfArena, BsdfContext, BsdfNode, Diffuse, Mask, MicrofacetDistribution,
-    MicrofacetType, RoughConductor,
+    named_conductor, BsdfArena, BsdfContext, BsdfNode, Diffuse, Lobes, Mask,
+    MicrofacetDistribution, MicrofacetType, RoughConductor,
 };
 use groove::geometry::SurfaceInteraction;
 use groove::material::{MaterialNode, Materials};
@@ -118,7 +118,7 @@ fn mask_and_null_match_mitsuba() {
             opacity,
         }));
         let b = arena.bsdf(root);
-        assert_eq!(b.flags() & lobe::NULL, lobe::NULL);
+        assert_eq!(b.lobes() & Lobes::NULL, Lobes::NULL);
         for p in case["points"].as_array().unwrap() {
             let (wi, wo) = (v3(&p["wi"]), v3(&p["wo"]));
             let (e, pdf) = (b.eval(&ctx, wi, wo, &mut s), b.pdf(&ctx, wi, wo));
@@ -156,7 +156,7 @@ fn mask_and_null_match_mitsuba() {
             let Some(bs) = b.sample(&ctx, wi, &mut s) else {
                 continue;
             };
-            if bs.lobe == lobe::NULL {
+            if bs.lobe == Lobes::NULL {
                 assert_eq!((bs.wo, bs.weight, bs.eta), (-wi, Vec3::ONE, 1.0));
                 nulls += 1;
             }
@@ -175,12 +175,12 @@ fn mask_and_null_match_mitsuba() {
     let root = arena.push(BsdfNode::Null);
     let b = arena.bsdf(root);
     let wi = v3(&nl["wi"]);
-    assert_eq!(b.flags(), lobe::NULL);
+    assert_eq!(b.lobes(), Lobes::NULL);
     assert_eq!(b.eval(&ctx, wi, Vec3::Z, &mut s), v3(&nl["eval"]));
     let bs = b.sample(&ctx, wi, &mut s).unwrap();
     assert_eq!(bs.wo, v3(&nl["wo"]));
     assert_eq!(bs.weight, v3(&nl["weight"]));
-    assert_eq!(bs.lobe, lobe::NULL);
+    assert_eq!(bs.lobe, Lobes::NULL);
     eprintln!("{n} mask points, worst relative difference {worst:.2e}");
 }
 

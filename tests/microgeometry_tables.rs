@@ -18,7 +18,7 @@
 //! - reciprocity: z-scores of f(ωi,ωo) against f(ωo,ωi) from independent eval estimates over a
 //!   fixed random set of (ωp, ωi, ωo); for the dielectric also pairs across the interface, with
 //!   generalized reciprocity (in the order light travels, f(i→o)/ηo² = f(o→i)/ηi²; radiance mode);
-//! - mean walk length (vertices per sampled walk, `stats::take()`), ωi = ωg.
+//! - mean walk length (vertices per sampled walk, `BsdfArena::take_walk_counts`), ωi = ωg.
 
 mod common;
 
@@ -26,7 +26,7 @@ use common::{dir, mean_se};
 
 use glam::Vec3;
 use groove::bsdf::mnm::facets::{Microgeometry, Microsurface};
-use groove::bsdf::mnm::{stats, Evaluation, MicrofacetNormalMap, Tangent};
+use groove::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
 use groove::bsdf::{
     Bsdf, BsdfArena, BsdfContext, BsdfNode, Diffuse, MicrofacetDistribution, MicrofacetType,
     RoughConductor, RoughDielectric, TransportMode,
@@ -383,9 +383,9 @@ fn microgeometry_tables() {
             for tp in theta_p {
                 let (arena, root) = build(n, g, dir(tp, 0.0));
                 let b = arena.bsdf(root);
-                let _ = stats::take();
+                let _ = arena.take_walk_counts();
                 let (m, se, cnt) = albedo(&b, &ctx, Vec3::Z, &mut s);
-                let w = stats::take();
+                let w = arena.take_walk_counts();
                 max_n = max_n.max(cnt);
                 row += &format!(" {} |", cell(m, se));
                 if w.walks > 0 {

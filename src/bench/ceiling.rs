@@ -1,14 +1,14 @@
 //! The Embree ceiling: how fast this machine intersects the rays a render traces.
 //!
-//! One classic render (untimed) records every ray it traces ([`super::raylog`]): camera and
+//! One classic render (untimed) records every ray it traces ([`RenderOptions::record_rays`]): camera and
 //! bounce rays ask for the nearest hit, shadow rays for occlusion. The recorded rays are then
 //! traced again through the same acceleration structure, in parallel on the same number of
 //! threads, with no shading, surface reconstruction or sampling: the render's own ray
 //! distribution at the intersection limit. Rays beyond the recording cap are made up by tracing
 //! the recorded ones again, so the count equals the render's.
 
-use super::raylog::{LoggedRay, Recorder};
 use crate::error::Result;
+use crate::integrator::LoggedRay;
 use crate::render::{render, thread_pool, RenderOptions};
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -39,22 +39,19 @@ pub fn measure(
     threads: usize,
     repeat: u32,
 ) -> Result<Ceiling> {
-    let rec = Recorder::start(RECORD_CAP);
     let out = render(
         scene,
         &RenderOptions {
             threads,
             spp: Some(spp),
             seed: Some(0),
+            record_rays: RECORD_CAP,
             ..Default::default()
         },
-    );
-    let (chunks, traced) = rec.finish();
-    let out = out?;
+    )?;
     let total = out.stats.rays.total() as usize;
-    debug_assert!(traced >= total.min(RECORD_CAP));
-    // Re-cut into similar chunks for an even parallel split.
-    let rays: Vec<LoggedRay> = chunks.into_iter().flatten().collect();
+    let rays = out.ray_log;
+    debug_assert_eq!(rays.len(), total.min(RECORD_CAP));
     let recorded = rays.len();
     let shadow = rays.iter().filter(|r| r.shadow).count();
     let pool = thread_pool(threads)?;
@@ -89,11 +86,10 @@ fn trace(scene: &Scene, rays: &[LoggedRay], total: usize) -> usize {
             let mut hits = 0;
             for i in c * CHUNK..((c + 1) * CHUNK).min(total) {
                 let r = &rays[i % rays.len()];
-                let ray = r.ray();
                 let hit = if r.shadow {
-                    scene.accel.occluded(&ray)
+                    scene.accel.occluded(&r.ray)
                 } else {
-                    scene.accel.intersect(&ray).is_some()
+                    scene.accel.intersect(&r.ray).is_some()
                 };
                 hits += hit as usize;
             }

@@ -18,7 +18,6 @@ pub mod ceiling;
 pub mod chart;
 pub mod equal_time;
 pub mod peer;
-pub mod raylog;
 pub mod report;
 
 use crate::error::Result;

@@ -6,7 +6,7 @@
 //! integrator uses for MIS are those of the sampled mixture (Mitsuba returns the chosen
 //! component's pdf; both are unbiased).
 
-use super::{lobe, Bsdf, BsdfContext, BsdfSample};
+use super::{Bsdf, BsdfContext, BsdfSample, Lobes};
 use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
 use glam::Vec3;
@@ -69,7 +69,7 @@ pub(super) fn sample(
     };
     let chosen = if pick1 { m.bsdf1 } else { m.bsdf0 };
     let mut bs = b.child(chosen).sample(ctx, wi, s)?;
-    if bs.lobe & lobe::DELTA != 0 || w <= 0.0 || w >= 1.0 {
+    if bs.lobe.intersects(Lobes::DELTA) || w <= 0.0 || w >= 1.0 {
         return Some(bs);
     }
     let p = pdf(b, m, ctx, wi, bs.wo);

@@ -3,7 +3,7 @@
 //! Mitsuba 3: light arriving from below the shading frame is not reflected.
 
 use super::fresnel::{fresnel_conductor, reflect_z};
-use super::{lobe, BsdfSample};
+use super::{BsdfSample, Lobes};
 use crate::spectrum::Spectrum;
 use glam::Vec3;
 
@@ -50,7 +50,7 @@ impl Conductor {
             pdf: 0.0,
             weight: self.specular_reflectance * fresnel_conductor(wi.z, self.eta, self.k),
             eta: 1.0,
-            lobe: lobe::DELTA_REFLECTION,
+            lobe: Lobes::DELTA_REFLECTION,
         })
     }
 }

@@ -8,7 +8,7 @@
 //! importance is not scaled.
 
 use super::fresnel::{fresnel_dielectric, reflect_z};
-use super::{lobe, BsdfSample, TransportMode};
+use super::{BsdfSample, Lobes, TransportMode};
 use crate::spectrum::Spectrum;
 use glam::Vec3;
 
@@ -59,7 +59,7 @@ impl Dielectric {
                 pdf: 0.0,
                 weight: self.specular_reflectance,
                 eta: 1.0,
-                lobe: lobe::DELTA_REFLECTION,
+                lobe: Lobes::DELTA_REFLECTION,
             })
         } else {
             // Refraction about the normal: tangential part scales by η_i/η_t.
@@ -73,7 +73,7 @@ impl Dielectric {
                 pdf: 0.0,
                 weight: self.specular_transmittance * scale,
                 eta: f.eta_it,
-                lobe: lobe::DELTA_TRANSMISSION,
+                lobe: Lobes::DELTA_TRANSMISSION,
             })
         }
     }

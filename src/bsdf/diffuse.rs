@@ -1,7 +1,7 @@
 //! `diffuse`: the Lambertian reflector, f = ρ/π (Mitsuba's `diffuse`, one-sided: light arriving
 //! from below the shading frame is not reflected).
 
-use super::{lobe, BsdfSample};
+use super::{BsdfSample, Lobes};
 use crate::math::warp;
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
@@ -43,7 +43,7 @@ impl Diffuse {
             pdf,
             weight: self.reflectance,
             eta: 1.0,
-            lobe: lobe::DIFFUSE_REFLECTION,
+            lobe: Lobes::DIFFUSE_REFLECTION,
         })
     }
 }

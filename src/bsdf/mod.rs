@@ -25,7 +25,7 @@
 //! - [`RoughPlastic::new`] `(distribution, alpha, sample_visible, diffuse_reflectance,
 //!   specular_reflectance, int_ior, ext_ior, nonlinear)` — isotropic only, like Mitsuba; it
 //!   precomputes (and caches process-wide) its coating table, so build it at load time.
-//! - `Null` (`null`: straight pass-through, a delta lobe flagged [`lobe::NULL`]).
+//! - `Null` (`null`: straight pass-through, a delta lobe flagged [`Lobes::NULL`]).
 //! - Wrappers (children by arena index): `TwoSided { front, back }`, [`NormalMap`] (classic
 //!   normal mapping, Mitsuba 3.9.1 semantics; also the node of `bumpmap`, whose perturbed normal
 //!   [`bumpmap`] derives from a height texture), [`Blend`] (`blendbsdf`), [`Mask`] (`mask`),
@@ -47,6 +47,7 @@ pub mod dielectric;
 pub mod diffuse;
 pub mod fresnel;
 pub mod ior;
+pub mod lobes;
 pub mod mask;
 pub mod microfacet;
 #[cfg(test)]
@@ -61,6 +62,7 @@ pub mod plastic;
 pub mod roughconductor;
 pub mod roughdielectric;
 pub mod roughplastic;
+pub mod surface;
 pub mod thindielectric;
 pub mod twosided;
 
@@ -69,6 +71,7 @@ pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use ior::{named_conductor, named_ior};
+pub use lobes::Lobes;
 pub use mask::Mask;
 pub use microfacet::{MicrofacetDistribution, MicrofacetType};
 pub use normalmap::NormalMap;
@@ -76,6 +79,7 @@ pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
 pub use roughplastic::RoughPlastic;
+pub use surface::{SurfaceBsdf, SurfaceSample};
 pub use thindielectric::ThinDielectric;
 
 use crate::sampler::Sampler;
@@ -83,6 +87,7 @@ use crate::spectrum::Spectrum;
 #[cfg(test)]
 use glam::Vec2;
 use glam::Vec3;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Radiance: tracing from the camera (the integrator's case); importance: tracing from lights.
 /// Refraction scales radiance by 1/η² but not importance.
@@ -106,25 +111,6 @@ impl Default for BsdfContext {
     }
 }
 
-/// Lobe flags (bit set), like Mitsuba's `BSDFFlags`.
-pub mod lobe {
-    pub const DIFFUSE_REFLECTION: u32 = 1 << 0;
-    pub const GLOSSY_REFLECTION: u32 = 1 << 1;
-    pub const DELTA_REFLECTION: u32 = 1 << 2;
-    pub const DIFFUSE_TRANSMISSION: u32 = 1 << 3;
-    pub const GLOSSY_TRANSMISSION: u32 = 1 << 4;
-    pub const DELTA_TRANSMISSION: u32 = 1 << 5;
-    /// Index-matched pass-through (`null`, `mask`): the ray continues unchanged.
-    pub const NULL: u32 = 1 << 6;
-    pub const REFLECTION: u32 = DIFFUSE_REFLECTION | GLOSSY_REFLECTION | DELTA_REFLECTION;
-    pub const TRANSMISSION: u32 =
-        DIFFUSE_TRANSMISSION | GLOSSY_TRANSMISSION | DELTA_TRANSMISSION | NULL;
-    pub const DELTA: u32 = DELTA_REFLECTION | DELTA_TRANSMISSION | NULL;
-    /// Lobes that next-event estimation can evaluate.
-    pub const SMOOTH: u32 =
-        DIFFUSE_REFLECTION | GLOSSY_REFLECTION | DIFFUSE_TRANSMISSION | GLOSSY_TRANSMISSION;
-}
-
 /// A sampled direction with its weight.
 #[derive(Clone, Copy, Debug)]
 pub struct BsdfSample {
@@ -135,8 +121,8 @@ pub struct BsdfSample {
     pub weight: Spectrum,
     /// Relative index of refraction of the crossing (1 for reflection).
     pub eta: f32,
-    /// The lobe that produced the sample (one of `lobe::*`).
-    pub lobe: u32,
+    /// The lobe that produced the sample (one of the single-lobe [`Lobes`] constants).
+    pub lobe: Lobes,
 }
 
 /// One BSDF node with plain (already texture-evaluated) parameters.
@@ -167,51 +153,117 @@ pub enum BsdfNode {
     /// Microfacet-based normal mapping around a nested BSDF: an index into the arena's
     /// microfacet normal maps (the model is 232 bytes; stored inline it would make every node,
     /// and every copy of one, that large). Built by [`BsdfArena::push_microfacet_normal_map`].
-    MicrofacetNormalMap(u32),
+    MicrofacetNormalMap {
+        /// Index into the arena's microfacet normal maps.
+        map: u32,
+        /// Arena index of the nested BSDF (also in the map; here for [`BsdfNode::lobes`]).
+        nested: u32,
+    },
     /// Classic normal mapping (Mitsuba 3's `normalmap`) around a nested BSDF.
     NormalMap(NormalMap),
     /// `blendbsdf`: `(1 − w)·f₀ + w·f₁`.
     Blend(Blend),
-    /// `null`: the ray passes straight through (delta lobe `NULL`).
+    /// `null`: the ray passes straight through (delta lobe [`Lobes::NULL`]).
     Null,
     /// `mask`: `opacity · f_nested` plus a pass-through lobe of weight `1 − opacity`.
     Mask(Mask),
+}
+
+impl BsdfNode {
+    /// The lobes this node can produce, given its children's (`child(arena index)`): the one
+    /// rule for both the per-hit arena and the material table (`Materials`, at load time).
+    pub fn lobes(&self, child: impl Fn(u32) -> Lobes) -> Lobes {
+        match self {
+            BsdfNode::Diffuse(_) => Lobes::DIFFUSE_REFLECTION,
+            BsdfNode::Conductor(_) => Lobes::DELTA_REFLECTION,
+            BsdfNode::RoughConductor(_) => Lobes::GLOSSY_REFLECTION,
+            BsdfNode::Dielectric(_) | BsdfNode::ThinDielectric(_) => {
+                Lobes::DELTA_REFLECTION | Lobes::DELTA_TRANSMISSION
+            }
+            BsdfNode::RoughDielectric(_) => Lobes::GLOSSY_REFLECTION | Lobes::GLOSSY_TRANSMISSION,
+            BsdfNode::Plastic(_) => Lobes::DELTA_REFLECTION | Lobes::DIFFUSE_REFLECTION,
+            BsdfNode::RoughPlastic(_) => Lobes::GLOSSY_REFLECTION | Lobes::DIFFUSE_REFLECTION,
+            BsdfNode::TwoSided { front, back } => child(*front) | child(*back),
+            BsdfNode::MicrofacetNormalMap { nested, .. } => child(*nested),
+            BsdfNode::NormalMap(m) => child(m.nested),
+            BsdfNode::Blend(m) => child(m.bsdf0) | child(m.bsdf1),
+            BsdfNode::Null => Lobes::NULL,
+            BsdfNode::Mask(m) => child(m.nested) | Lobes::NULL,
+        }
+    }
 }
 
 /// Per-thread storage of the BSDF nodes built at one hit.
 #[derive(Default, Debug)]
 pub struct BsdfArena {
     nodes: Vec<BsdfNode>,
+    /// The lobes of each node ([`BsdfNode::lobes`]), computed when it is pushed (its children
+    /// come before it), so that [`Bsdf::lobes`] is a load, not a walk of the tree.
+    lobes: Vec<Lobes>,
     /// Payloads of the `BsdfNode::MicrofacetNormalMap` nodes.
     mnm: Vec<mnm::MicrofacetNormalMap>,
+    /// Random walks sampled since the last [`BsdfArena::take_walk_counts`], and their
+    /// vertices. The arena is per-thread scratch: relaxed loads and stores (plain moves, no
+    /// locked read-modify-write) keep it `Sync` for tests that share one read-only arena
+    /// across threads, where the counts may then miss increments.
+    walks: [AtomicU64; 2],
+}
+
+/// Random walks sampled by microfacet normal maps and their vertices (facet scatterings and
+/// mirror-wall reflections), for the mean walk length `groove bench` reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WalkCounts {
+    pub walks: u64,
+    pub vertices: u64,
 }
 
 impl BsdfArena {
     pub fn new() -> Self {
         BsdfArena {
             nodes: Vec::with_capacity(16),
+            lobes: Vec::with_capacity(16),
             mnm: Vec::with_capacity(4),
+            walks: [AtomicU64::new(0), AtomicU64::new(0)],
         }
     }
     /// Forget the nodes of the previous hit (keeps the allocation).
     #[inline]
     pub fn clear(&mut self) {
         self.nodes.clear();
+        self.lobes.clear();
         self.mnm.clear();
     }
     /// Store a node and return its index.
     #[inline]
     pub fn push(&mut self, node: BsdfNode) -> u32 {
+        let lobes = node.lobes(|c| self.lobes[c as usize]);
+        self.push_with_lobes(lobes, node)
+    }
+
+    /// Store a node whose lobes the caller knows already (the material table has them, by the
+    /// same rule [`BsdfNode::lobes`]).
+    #[inline(always)]
+    pub fn push_with_lobes(&mut self, lobes: Lobes, node: BsdfNode) -> u32 {
+        self.lobes.push(lobes);
         self.nodes.push(node);
         (self.nodes.len() - 1) as u32
     }
     /// Store a microfacet normal map and return its node's index.
     #[inline]
     pub fn push_microfacet_normal_map(&mut self, m: mnm::MicrofacetNormalMap) -> u32 {
+        let nested = m.nested;
         self.mnm.push(m);
-        self.push(BsdfNode::MicrofacetNormalMap((self.mnm.len() - 1) as u32))
+        let lobes = self.lobes[nested as usize];
+        self.push_with_lobes(
+            lobes,
+            BsdfNode::MicrofacetNormalMap {
+                map: (self.mnm.len() - 1) as u32,
+                nested,
+            },
+        )
     }
-    /// Node `index`, for patching texture values in place.
+    /// Node `index`, for patching texture values in place (a patch must keep the node's kind:
+    /// its lobes were computed when it was pushed).
     #[inline]
     pub fn node_mut(&mut self, index: u32) -> &mut BsdfNode {
         &mut self.nodes[index as usize]
@@ -219,10 +271,14 @@ impl BsdfArena {
     /// A view of node `root`.
     #[inline]
     pub fn bsdf(&self, root: u32) -> Bsdf<'_> {
-        Bsdf {
-            nodes: &self.nodes,
-            mnm: &self.mnm,
-            root,
+        Bsdf { arena: self, root }
+    }
+
+    /// The walks sampled since the last call, and reset them.
+    pub fn take_walk_counts(&self) -> WalkCounts {
+        WalkCounts {
+            walks: self.walks[0].swap(0, Ordering::Relaxed),
+            vertices: self.walks[1].swap(0, Ordering::Relaxed),
         }
     }
 }
@@ -230,47 +286,39 @@ impl BsdfArena {
 /// A BSDF: a node of an arena, with its children.
 #[derive(Clone, Copy)]
 pub struct Bsdf<'a> {
-    nodes: &'a [BsdfNode],
-    mnm: &'a [mnm::MicrofacetNormalMap],
+    arena: &'a BsdfArena,
     root: u32,
 }
 
 impl<'a> Bsdf<'a> {
     #[inline]
     fn node(&self) -> &'a BsdfNode {
-        &self.nodes[self.root as usize]
+        &self.arena.nodes[self.root as usize]
     }
 
     #[inline]
     fn child(&self, index: u32) -> Bsdf<'a> {
         Bsdf {
-            nodes: self.nodes,
-            mnm: self.mnm,
+            arena: self.arena,
             root: index,
         }
     }
 
     /// The lobes this BSDF can produce (a union over both sides).
-    pub fn flags(&self) -> u32 {
-        match self.node() {
-            BsdfNode::Diffuse(_) => lobe::DIFFUSE_REFLECTION,
-            BsdfNode::Conductor(_) => lobe::DELTA_REFLECTION,
-            BsdfNode::RoughConductor(_) => lobe::GLOSSY_REFLECTION,
-            BsdfNode::Dielectric(_) | BsdfNode::ThinDielectric(_) => {
-                lobe::DELTA_REFLECTION | lobe::DELTA_TRANSMISSION
-            }
-            BsdfNode::RoughDielectric(_) => lobe::GLOSSY_REFLECTION | lobe::GLOSSY_TRANSMISSION,
-            BsdfNode::Plastic(_) => lobe::DELTA_REFLECTION | lobe::DIFFUSE_REFLECTION,
-            BsdfNode::RoughPlastic(_) => lobe::GLOSSY_REFLECTION | lobe::DIFFUSE_REFLECTION,
-            BsdfNode::TwoSided { front, back } => {
-                self.child(*front).flags() | self.child(*back).flags()
-            }
-            BsdfNode::MicrofacetNormalMap(i) => self.child(self.mnm[*i as usize].nested).flags(),
-            BsdfNode::NormalMap(m) => self.child(m.nested).flags(),
-            BsdfNode::Blend(m) => self.child(m.bsdf0).flags() | self.child(m.bsdf1).flags(),
-            BsdfNode::Null => lobe::NULL,
-            BsdfNode::Mask(m) => self.child(m.nested).flags() | lobe::NULL,
-        }
+    #[inline]
+    pub fn lobes(&self) -> Lobes {
+        self.arena.lobes[self.root as usize]
+    }
+
+    /// Count one sampled random walk of `vertices` vertices (microfacet normal maps).
+    #[inline]
+    pub(crate) fn record_walk(&self, vertices: u32) {
+        let [w, v] = &self.arena.walks;
+        w.store(w.load(Ordering::Relaxed) + 1, Ordering::Relaxed);
+        v.store(
+            v.load(Ordering::Relaxed) + vertices as u64,
+            Ordering::Relaxed,
+        );
     }
 
     /// `f(wi, wo) · |cos θo|` in the local frame. `sampler` feeds stochastic BSDFs only.
@@ -287,8 +335,8 @@ impl<'a> Bsdf<'a> {
             BsdfNode::TwoSided { front, back } => {
                 twosided::eval(*self, *front, *back, ctx, wi, wo, sampler)
             }
-            BsdfNode::MicrofacetNormalMap(i) => {
-                mnm::eval(*self, &self.mnm[*i as usize], ctx, wi, wo, sampler)
+            BsdfNode::MicrofacetNormalMap { map: i, .. } => {
+                mnm::eval(*self, &self.arena.mnm[*i as usize], ctx, wi, wo, sampler)
             }
             BsdfNode::NormalMap(m) => normalmap::eval(*self, m, ctx, wi, wo, sampler),
             BsdfNode::Blend(m) => blend::eval(*self, m, ctx, wi, wo, sampler),
@@ -309,8 +357,8 @@ impl<'a> Bsdf<'a> {
             BsdfNode::Plastic(b) => b.pdf(wi, wo),
             BsdfNode::RoughPlastic(b) => b.pdf(wi, wo),
             BsdfNode::TwoSided { front, back } => twosided::pdf(*self, *front, *back, ctx, wi, wo),
-            BsdfNode::MicrofacetNormalMap(i) => {
-                mnm::pdf(*self, &self.mnm[*i as usize], ctx, wi, wo)
+            BsdfNode::MicrofacetNormalMap { map: i, .. } => {
+                mnm::pdf(*self, &self.arena.mnm[*i as usize], ctx, wi, wo)
             }
             BsdfNode::NormalMap(m) => normalmap::pdf(*self, m, ctx, wi, wo),
             BsdfNode::Blend(m) => blend::pdf(*self, m, ctx, wi, wo),
@@ -342,8 +390,8 @@ impl<'a> Bsdf<'a> {
             BsdfNode::TwoSided { front, back } => {
                 twosided::sample(*self, *front, *back, ctx, wi, sampler)
             }
-            BsdfNode::MicrofacetNormalMap(i) => {
-                mnm::sample(*self, &self.mnm[*i as usize], ctx, wi, sampler)
+            BsdfNode::MicrofacetNormalMap { map: i, .. } => {
+                mnm::sample(*self, &self.arena.mnm[*i as usize], ctx, wi, sampler)
             }
             BsdfNode::NormalMap(m) => normalmap::sample(*self, m, ctx, wi, sampler),
             BsdfNode::Blend(m) => blend::sample(*self, m, ctx, wi, sampler),
@@ -375,8 +423,8 @@ impl<'a> Bsdf<'a> {
             BsdfNode::TwoSided { front, back } => {
                 twosided::eval_pdf(*self, *front, *back, ctx, wi, wo, sampler)
             }
-            BsdfNode::MicrofacetNormalMap(i) => {
-                mnm::eval_pdf(*self, &self.mnm[*i as usize], ctx, wi, wo, sampler)
+            BsdfNode::MicrofacetNormalMap { map: i, .. } => {
+                mnm::eval_pdf(*self, &self.arena.mnm[*i as usize], ctx, wi, wo, sampler)
             }
             BsdfNode::NormalMap(m) => normalmap::eval_pdf(*self, m, ctx, wi, wo, sampler),
             _ => (self.eval(ctx, wi, wo, sampler), self.pdf(ctx, wi, wo)),

@@ -13,7 +13,7 @@
 //! `specular_sampling_weight` w_s = mean(specular) / (mean(diffuse) + mean(specular)) as in Mitsuba.
 
 use super::fresnel::{fresnel_dielectric, fresnel_diffuse_reflectance, reflect_z};
-use super::{lobe, BsdfSample};
+use super::{BsdfSample, Lobes};
 use crate::math::warp;
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
@@ -128,7 +128,7 @@ impl Plastic {
                 pdf: 0.0,
                 weight: self.specular_reflectance * (f_i / ps),
                 eta: 1.0,
-                lobe: lobe::DELTA_REFLECTION,
+                lobe: Lobes::DELTA_REFLECTION,
             });
         }
         let pd = 1.0 - ps;
@@ -143,7 +143,7 @@ impl Plastic {
             weight: self.diffuse_albedo()
                 * ((1.0 - f_i) * (1.0 - f_o) / (self.eta * self.eta * pd)),
             eta: 1.0,
-            lobe: lobe::DIFFUSE_REFLECTION,
+            lobe: Lobes::DIFFUSE_REFLECTION,
         })
     }
 }

@@ -7,7 +7,7 @@
 
 use super::fresnel::fresnel_conductor;
 use super::microfacet::MicrofacetDistribution;
-use super::{is_positive, lobe, BsdfSample};
+use super::{is_positive, BsdfSample, Lobes};
 use crate::math::reflect;
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
@@ -91,7 +91,7 @@ impl RoughConductor {
             pdf,
             weight: self.fresnel(wi.dot(m)) * w,
             eta: 1.0,
-            lobe: lobe::GLOSSY_REFLECTION,
+            lobe: Lobes::GLOSSY_REFLECTION,
         })
     }
 }

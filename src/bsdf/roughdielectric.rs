@@ -17,7 +17,7 @@
 
 use super::fresnel::{fresnel_dielectric, refract};
 use super::microfacet::MicrofacetDistribution;
-use super::{is_positive, lobe, BsdfSample, TransportMode};
+use super::{is_positive, BsdfSample, Lobes, TransportMode};
 use crate::math::reflect;
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
@@ -224,7 +224,7 @@ impl RoughDielectric {
                 1.0,
                 pdf,
                 self.specular_reflectance,
-                lobe::GLOSSY_REFLECTION,
+                Lobes::GLOSSY_REFLECTION,
             )
         } else {
             let wo = refract(wi, m, fr.cos_theta_t, fr.eta_ti);
@@ -243,7 +243,7 @@ impl RoughDielectric {
                 fr.eta_it,
                 pdf,
                 self.specular_transmittance * scale,
-                lobe::GLOSSY_TRANSMISSION,
+                Lobes::GLOSSY_TRANSMISSION,
             )
         };
         // With F / (1 − F) as the lobe choice the Fresnel factor cancels.

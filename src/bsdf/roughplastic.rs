@@ -18,7 +18,7 @@
 use super::fresnel::{fresnel_dielectric, refract};
 use super::microfacet::{gauss_legendre, MicrofacetDistribution, MicrofacetType};
 use super::plastic::specular_sampling_weight;
-use super::{lobe, BsdfSample};
+use super::{BsdfSample, Lobes};
 use crate::math::{reflect, warp};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
@@ -237,11 +237,11 @@ impl RoughPlastic {
         let ps = self.prob_specular(self.table.transmittance(wi.z));
         let (wo, kind) = if u1 < ps {
             let m = self.distribution.sample_normal(wi, u2);
-            (reflect(wi, m), lobe::GLOSSY_REFLECTION)
+            (reflect(wi, m), Lobes::GLOSSY_REFLECTION)
         } else {
             (
                 warp::square_to_cosine_hemisphere(u2),
-                lobe::DIFFUSE_REFLECTION,
+                Lobes::DIFFUSE_REFLECTION,
             )
         };
         let (value, pdf) = self.eval_pdf(wi, wo);

@@ -4,7 +4,7 @@
 //! R_total = R + T²R/(1 − R²) = 2R/(1 + R) and T_total = 1 − R_total. Both sides behave the same.
 
 use super::fresnel::{fresnel_dielectric, reflect_z};
-use super::{lobe, BsdfSample};
+use super::{BsdfSample, Lobes};
 use crate::spectrum::Spectrum;
 use glam::Vec3;
 
@@ -60,7 +60,7 @@ impl ThinDielectric {
                 pdf: 0.0,
                 weight: self.specular_reflectance,
                 eta: 1.0,
-                lobe: lobe::DELTA_REFLECTION,
+                lobe: Lobes::DELTA_REFLECTION,
             })
         } else {
             Some(BsdfSample {
@@ -68,7 +68,7 @@ impl ThinDielectric {
                 pdf: 0.0,
                 weight: self.specular_transmittance,
                 eta: 1.0,
-                lobe: lobe::DELTA_TRANSMISSION,
+                lobe: Lobes::DELTA_TRANSMISSION,
             })
         }
     }

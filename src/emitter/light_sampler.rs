@@ -46,6 +46,12 @@ impl LightSampler {
         self.dist.as_ref().map(|d| d.sample(u))
     }
 
+    /// True when the scene has no emitter to sample.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.dist.is_none()
+    }
+
     /// Probability of picking emitter `i`.
     #[inline]
     pub fn pmf(&self, i: usize) -> f32 {

@@ -2,8 +2,9 @@
 //! `bsdf_samples` BSDF samples per hit, combined with the power heuristic (Veach 1997, §9.2.2:
 //! the multi-sample model with sample counts in the weights).
 
-use super::{DirectSettings, Scratch};
-use crate::bsdf::{lobe, BsdfContext};
+use super::nee::sample_light;
+use super::{DirectSettings, RayKind, Scratch};
+use crate::bsdf::{BsdfContext, Lobes};
 use crate::geometry::Ray;
 use crate::math::mis::power_heuristic;
 use crate::sampler::Sampler;
@@ -18,9 +19,8 @@ pub fn li(
     scratch: &mut Scratch,
 ) -> Spectrum {
     let ctx = BsdfContext::default();
-    scratch.counters.camera += 1;
     let mut result = Spectrum::ZERO;
-    let Some(si) = scene.intersect(&ray) else {
+    let Some(si) = scratch.rays.intersect(scene, &ray, RayKind::Camera) else {
         if !cfg.hide_emitters {
             for &e in &scene.env_emitters {
                 result += scene.emitters[e as usize].eval_env(ray.d);
@@ -33,61 +33,34 @@ pub fn li(
             result += scene.emitters[e as usize].eval_surface(&si);
         }
     }
-    let Some((bsdf, wi, flags)) = scene.bsdf_at(&si, &mut scratch.arena) else {
+    let Some(bsdf) = scene.bsdf_at(&si, &mut scratch.arena) else {
         return result;
     };
     let ne = cfg.emitter_samples as f32;
     let nb = cfg.bsdf_samples as f32;
 
-    if flags & lobe::SMOOTH != 0 {
+    if bsdf.lobes().is_smooth() && !scene.light_sampler.is_empty() {
         for _ in 0..cfg.emitter_samples {
-            let u_sel = sampler.next_1d();
-            let u = sampler.next_2d();
-            let Some((e, sel, _)) = scene.light_sampler.sample(u_sel) else {
-                break;
-            };
-            let Some(ds) = scene.emitters[e].sample_direct(&scene.shapes, si.p, u) else {
+            let Some(ls) = sample_light(scene, &si, &bsdf, &ctx, sampler, &mut scratch.rays) else {
                 continue;
             };
-            let wo = si.sh.to_local(ds.d);
-            if !super::path::consistent_side(&si, ds.d, wo) {
-                continue;
-            }
-            let (f, bpdf) = bsdf.eval_pdf(&ctx, wi, wo, sampler);
-            if f == Spectrum::ZERO || ds.value == Spectrum::ZERO {
-                continue;
-            }
-            let shadow = if ds.dist.is_finite() {
-                si.spawn_ray_to(ds.p, ds.n)
-            } else {
-                si.spawn_ray(ds.d)
-            };
-            scratch.counters.shadow += 1;
-            if scene.occluded(&shadow) {
-                continue;
-            }
-            let lpdf = ds.pdf * sel;
-            let w = if ds.delta {
+            let w = if ls.delta {
                 1.0
             } else {
-                power_heuristic(ne * lpdf, nb * bpdf)
+                power_heuristic(ne * ls.light_pdf, nb * ls.bsdf_pdf)
             };
-            result += f * ds.value * (w / (lpdf * ne));
+            result += ls.f_value * (w / (ls.light_pdf * ne));
         }
     }
 
     for _ in 0..cfg.bsdf_samples {
-        let Some(bs) = bsdf.sample(&ctx, wi, sampler) else {
+        let Some(bs) = bsdf.sample(&ctx, sampler) else {
             continue;
         };
-        let d = si.sh.to_world(bs.wo);
-        if !super::path::consistent_side(&si, d, bs.wo) {
-            continue;
-        }
+        let d = bs.wo;
         let r = si.spawn_ray(d);
-        scratch.counters.bounce += 1;
-        let delta = bs.lobe & lobe::DELTA != 0;
-        match scene.intersect(&r) {
+        let delta = bs.lobe.intersects(Lobes::DELTA);
+        match scratch.rays.intersect(scene, &r, RayKind::Bounce) {
             Some(hit) => {
                 if let Some(e) = scene.shape_emitter[hit.shape as usize] {
                     let em = &scene.emitters[e as usize];

@@ -1,7 +1,11 @@
 //! Integrators: estimate the radiance arriving along a camera ray.
 
 pub mod direct;
+pub mod nee;
 pub mod path;
+pub mod rays;
+
+pub use rays::{LoggedRay, RayCounters, RayKind, Rays};
 
 use crate::bsdf::BsdfArena;
 use crate::geometry::Ray;
@@ -55,44 +59,12 @@ pub enum IntegratorDesc {
     Direct(DirectSettings),
 }
 
-/// Ray counts of one thread, summed by the renderer.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct RayCounters {
-    pub camera: u64,
-    pub bounce: u64,
-    pub shadow: u64,
-    /// Random walks sampled by microfacet normal maps, and their vertices (not rays).
-    pub walks: u64,
-    pub walk_vertices: u64,
-}
-
-impl RayCounters {
-    /// Rays traced (camera + bounce + shadow).
-    pub fn total(&self) -> u64 {
-        self.camera + self.bounce + self.shadow
-    }
-    pub fn add(&mut self, o: &RayCounters) {
-        self.camera += o.camera;
-        self.bounce += o.bounce;
-        self.shadow += o.shadow;
-        self.walks += o.walks;
-        self.walk_vertices += o.walk_vertices;
-    }
-    /// Mean vertices per sampled microfacet walk (0 without walks).
-    pub fn mean_walk_length(&self) -> f64 {
-        if self.walks == 0 {
-            0.0
-        } else {
-            self.walk_vertices as f64 / self.walks as f64
-        }
-    }
-}
-
 /// Per-thread scratch state of an integrator (no allocation per ray).
 #[derive(Default)]
 pub struct Scratch {
     pub arena: BsdfArena,
-    pub counters: RayCounters,
+    /// Every ray goes through here: counted, and recorded when the render asks.
+    pub rays: Rays,
 }
 
 impl IntegratorDesc {

@@ -1,14 +1,11 @@
 //! `path`: unidirectional path tracing with next-event estimation and BSDF sampling combined by
 //! the power heuristic (Veach 1997, ch. 9), Russian roulette, and Mitsuba 3's depth semantics.
-//!
-//! Two side tests keep shading normals honest: a direction whose side with respect to the true
-//! geometric normal disagrees with its side in the shading frame carries no light (Veach's
-//! "strict normals"); this prevents light leaking through smooth-shaded meshes.
+//! The side tests that keep shading normals honest live in [`crate::bsdf::SurfaceBsdf`].
 
-use super::{PathSettings, RayCounters, Scratch, Strategy};
-use crate::bsdf::{lobe, BsdfContext};
-use crate::emitter::Emitter;
-use crate::geometry::{Ray, SurfaceInteraction};
+use super::nee::sample_light;
+use super::{PathSettings, RayKind, Scratch, Strategy};
+use crate::bsdf::{BsdfContext, Lobes};
+use crate::geometry::Ray;
 use crate::math::mis::power_heuristic;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
@@ -47,13 +44,12 @@ pub fn li(
     }
 
     loop {
-        // Count rays where they are traced (a path ended by Russian roulette traces no more).
-        if depth == 0 {
-            scratch.counters.camera += 1;
+        let kind = if depth == 0 {
+            RayKind::Camera
         } else {
-            scratch.counters.bounce += 1;
-        }
-        let hit = scene.intersect(&ray);
+            RayKind::Bounce
+        };
+        let hit = scratch.rays.intersect(scene, &ray, kind);
 
         // ---- Emission seen by this ray (from an escaped ray or an area light hit) ----
         let show = depth > 0 || !cfg.hide_emitters;
@@ -97,41 +93,34 @@ pub fn li(
         }
 
         // ---- Scattering ----
-        let Some((bsdf, wi, flags)) = scene.bsdf_at(&si, &mut scratch.arena) else {
+        let Some(bsdf) = scene.bsdf_at(&si, &mut scratch.arena) else {
             break;
         };
 
         // Next-event estimation.
-        if cfg.strategy != Strategy::BsdfOnly && flags & lobe::SMOOTH != 0 {
-            result += throughput
-                * sample_light(
-                    cfg,
-                    scene,
-                    &si,
-                    wi,
-                    &bsdf,
-                    &ctx,
-                    sampler,
-                    &mut scratch.counters,
-                );
+        if cfg.strategy != Strategy::BsdfOnly && bsdf.lobes().is_smooth() {
+            if let Some(ls) = sample_light(scene, &si, &bsdf, &ctx, sampler, &mut scratch.rays) {
+                let w = if ls.delta || cfg.strategy == Strategy::LightOnly {
+                    1.0
+                } else {
+                    power_heuristic(ls.light_pdf, ls.bsdf_pdf)
+                };
+                result += throughput * (ls.f_value * (w / ls.light_pdf));
+            }
         }
 
         // BSDF sampling.
-        let Some(bs) = bsdf.sample(&ctx, wi, sampler) else {
+        let Some(bs) = bsdf.sample(&ctx, sampler) else {
             break;
         };
-        let wo_world = si.sh.to_world(bs.wo);
-        if !consistent_side(&si, wo_world, bs.wo) {
-            break;
-        }
         throughput *= bs.weight;
         eta *= bs.eta;
         prev = Some(PrevVertex {
             p: si.p,
             bsdf_pdf: bs.pdf,
-            delta: bs.lobe & lobe::DELTA != 0,
+            delta: bs.lobe.intersects(Lobes::DELTA),
         });
-        ray = si.spawn_ray(wo_world);
+        ray = si.spawn_ray(bs.wo);
         depth += 1;
 
         // Russian roulette (Mitsuba 3: survival min(max(throughput)·η², 0.95) from rr_depth on).
@@ -166,60 +155,4 @@ fn emission_weight(
             Strategy::LightOnly => 0.0,
         },
     }
-}
-
-/// A direction agrees in its side of the surface in world (true normal) and shading frames.
-#[inline]
-pub(crate) fn consistent_side(si: &SurfaceInteraction, w_world: Vec3, w_local: Vec3) -> bool {
-    w_world.dot(si.ng) * w_local.z > 0.0
-}
-
-/// One light sample at `si`, MIS-weighted against BSDF sampling (unweighted for delta lights).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn sample_light(
-    cfg: &PathSettings,
-    scene: &Scene,
-    si: &SurfaceInteraction,
-    wi: Vec3,
-    bsdf: &crate::bsdf::Bsdf,
-    ctx: &BsdfContext,
-    sampler: &mut Sampler,
-    counters: &mut RayCounters,
-) -> Spectrum {
-    let u_sel = sampler.next_1d();
-    let u = sampler.next_2d();
-    let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) else {
-        return Spectrum::ZERO;
-    };
-    let em: &Emitter = &scene.emitters[e];
-    let Some(ds) = em.sample_direct(&scene.shapes, si.p, u) else {
-        return Spectrum::ZERO;
-    };
-    if ds.value == Spectrum::ZERO {
-        return Spectrum::ZERO;
-    }
-    let wo = si.sh.to_local(ds.d);
-    if !consistent_side(si, ds.d, wo) {
-        return Spectrum::ZERO;
-    }
-    let (f, bsdf_pdf) = bsdf.eval_pdf(ctx, wi, wo, sampler);
-    if f == Spectrum::ZERO {
-        return Spectrum::ZERO;
-    }
-    let shadow = if ds.dist.is_finite() {
-        si.spawn_ray_to(ds.p, ds.n)
-    } else {
-        si.spawn_ray(ds.d)
-    };
-    counters.shadow += 1;
-    if scene.occluded(&shadow) {
-        return Spectrum::ZERO;
-    }
-    let light_pdf = ds.pdf * sel_pdf;
-    let w = if ds.delta || cfg.strategy == Strategy::LightOnly {
-        1.0
-    } else {
-        power_heuristic(light_pdf, bsdf_pdf)
-    };
-    f * ds.value * (w / light_pdf)
 }

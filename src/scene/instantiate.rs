@@ -11,8 +11,8 @@ use crate::bsdf::mnm::facets::Microgeometry;
 use crate::bsdf::mnm::{Evaluation, Tangent, TransmissionWalk};
 use crate::bsdf::plastic::DEFAULT_PLASTIC_INT_IOR;
 use crate::bsdf::{
-    lobe, named_conductor, named_ior, BsdfNode, Dielectric, MicrofacetDistribution, MicrofacetType,
-    Plastic, RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric,
+    named_conductor, named_ior, BsdfNode, Dielectric, Lobes, MicrofacetDistribution,
+    MicrofacetType, Plastic, RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric,
 };
 use crate::camera::{Camera, FovAxis};
 use crate::emitter::area::AreaLight;
@@ -1191,11 +1191,11 @@ impl<'d> Builder<'d> {
         loc: &SourceLoc,
         evaluation: Evaluation,
     ) -> Result<()> {
-        let flags = self.materials.flags(nested);
-        if flags & lobe::TRANSMISSION != 0 && evaluation == Evaluation::Explicit {
+        let flags = self.materials.lobes(nested);
+        if flags.intersects(Lobes::TRANSMISSION) && evaluation == Evaluation::Explicit {
             return Err(Error::scene(loc, "microfacet_normalmap over a transmitting BSDF needs evaluation = random_walk (the closed forms are reflection only)"));
         }
-        if flags & lobe::SMOOTH == 0 {
+        if !flags.is_smooth() {
             return Err(Error::scene(&nested_node.loc, "microfacet_normalmap needs a nested BSDF with a non-delta lobe (e.g. diffuse, roughconductor, roughplastic): with only delta lobes its evaluation is zero almost everywhere"));
         }
         Ok(())

@@ -6,6 +6,7 @@ pub mod instantiate;
 pub mod xml;
 
 use crate::accel::Accel;
+use crate::bsdf::{BsdfArena, SurfaceBsdf};
 use crate::camera::Camera;
 use crate::emitter::{Emitter, LightSampler};
 use crate::film::FilmDesc;
@@ -42,35 +43,28 @@ impl Scene {
     /// Nearest surface hit along `ray`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceInteraction> {
-        crate::bench::raylog::record(ray, false);
         let hit = self.accel.intersect(ray)?;
         Some(self.shapes[hit.geom as usize].interaction(hit.geom, ray, &hit))
     }
 
-    /// Build the BSDF of the surface hit by `si` into `arena`; returns it with `wi` in its local
-    /// frame and its lobe flags (`Bsdf::flags`, from the material's table), or `None` when
-    /// `wi`'s sides in the shading and true-normal frames disagree (such a direction carries no
-    /// light: Veach's strict normals).
+    /// Build the BSDF of the surface hit by `si` into `arena`, as seen from `si.wi`; `None`
+    /// when `wi`'s sides in the shading and true-normal frames disagree (such a direction
+    /// carries no light: Veach's strict normals, [`SurfaceBsdf`]).
     #[inline]
     pub fn bsdf_at<'a>(
         &self,
         si: &SurfaceInteraction,
-        arena: &'a mut crate::bsdf::BsdfArena,
-    ) -> Option<(crate::bsdf::Bsdf<'a>, Vec3, u32)> {
+        arena: &'a mut BsdfArena,
+    ) -> Option<SurfaceBsdf<'a>> {
         arena.clear();
         let material = self.shape_material[si.shape as usize];
         let root = self.materials.build(material, si, arena);
-        let wi = si.sh.to_local(si.wi);
-        if si.wi.dot(si.ng) * wi.z <= 0.0 {
-            return None;
-        }
-        Some((arena.bsdf(root), wi, self.materials.flags(material)))
+        SurfaceBsdf::new(arena.bsdf(root), si.sh, si.ng, si.wi)
     }
 
     /// True when something blocks `ray` within (tmin, tmax).
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        crate::bench::raylog::record(ray, true);
         self.accel.occluded(ray)
     }
 

@@ -22,7 +22,7 @@
 #![allow(dead_code)]
 
 use glam::Vec3;
-use groove::bsdf::{lobe, BsdfArena, BsdfContext, BsdfNode, BsdfSample, TransportMode};
+use groove::bsdf::{BsdfArena, BsdfContext, BsdfNode, BsdfSample, Lobes, TransportMode};
 use groove::sampler::Sampler;
 use statrs::distribution::{ChiSquared, ContinuousCDF, DiscreteCDF, Normal, Poisson};
 use std::f64::consts::PI;
@@ -348,7 +348,7 @@ pub fn draw(
             s.albedo_sum[k] += w[k] as f64;
             s.albedo_sq[k] += (w[k] as f64).powi(2);
         }
-        if bs.lobe & lobe::DELTA != 0 {
+        if bs.lobe.intersects(Lobes::DELTA) {
             s.delta += 1;
             continue;
         }

@@ -5,7 +5,7 @@
 
 use super::facets::MAX_FACETS;
 use super::MicrofacetNormalMap;
-use crate::bsdf::{lobe, Bsdf, BsdfContext, BsdfSample};
+use crate::bsdf::{Bsdf, BsdfContext, BsdfSample, Lobes};
 use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
 use glam::Vec3;
@@ -312,17 +312,17 @@ fn finish(
         pdf,
         weight: f / pdf,
         eta: 1.0,
-        lobe: lobe_of(m.nested_flags(nested)),
+        lobe: lobe_of(nested.lobes()),
     })
 }
 
-/// The macro BSDF reports the nested BSDF's non-delta reflection lobes (`nested_flags`: the
-/// nested BSDF's `flags()`).
-pub(super) fn lobe_of(nested_flags: u32) -> u32 {
-    let f = nested_flags & (lobe::DIFFUSE_REFLECTION | lobe::GLOSSY_REFLECTION);
-    if f & lobe::GLOSSY_REFLECTION != 0 {
-        lobe::GLOSSY_REFLECTION
+/// The macro BSDF reports the nested BSDF's non-delta reflection lobes (`nested`: the nested
+/// BSDF's [`Bsdf::lobes`]).
+pub(super) fn lobe_of(nested: Lobes) -> Lobes {
+    let f = nested & (Lobes::DIFFUSE_REFLECTION | Lobes::GLOSSY_REFLECTION);
+    if f.intersects(Lobes::GLOSSY_REFLECTION) {
+        Lobes::GLOSSY_REFLECTION
     } else {
-        lobe::DIFFUSE_REFLECTION
+        Lobes::DIFFUSE_REFLECTION
     }
 }

@@ -20,8 +20,8 @@
 //! 1/η² radiance scaling to the nested BSDF.
 
 pub mod explicit;
+pub mod facet_bsdf;
 pub mod facets;
-pub mod stats;
 pub mod walk;
 
 use super::{Bsdf, BsdfContext, BsdfSample};
@@ -85,10 +85,6 @@ pub struct MicrofacetNormalMap {
     mis_c: Option<f32>,
     /// Only used over transmitting nested BSDFs.
     pub transmission_walk: TransmissionWalk,
-    /// The nested BSDF's lobe flags when known at build time ([`Self::with_nested_flags`]):
-    /// `flags()` recurses through the nested tree, and eval, pdf and sample each need it
-    /// (transmission test, reported lobe). `None`: ask the nested BSDF.
-    nested_flags: Option<u32>,
 }
 
 impl MicrofacetNormalMap {
@@ -123,30 +119,13 @@ impl MicrofacetNormalMap {
             degenerate,
             mis_c,
             transmission_walk: TransmissionWalk::TwoSided,
-            nested_flags: None,
-        }
-    }
-
-    /// The same BSDF with the nested BSDF's `flags()` cached (callers that hold the nested
-    /// BSDF when building, e.g. `Materials::build`): saves the recursive query per call.
-    pub fn with_nested_flags(mut self, flags: u32) -> Self {
-        self.nested_flags = Some(flags);
-        self
-    }
-
-    /// The nested BSDF's lobe flags (cached or asked).
-    #[inline]
-    fn nested_flags(&self, nested: &Bsdf) -> u32 {
-        match self.nested_flags {
-            Some(f) => f,
-            None => nested.flags(),
         }
     }
 
     /// True when the nested BSDF transmits (the two-sided walk applies).
     #[inline]
     fn transmits(&self, nested: &Bsdf) -> bool {
-        self.nested_flags(nested) & super::lobe::TRANSMISSION != 0
+        nested.lobes().has_transmission()
     }
 
     /// Weight c of the cosine lobe in the MIS pdf (decision 3).
@@ -181,73 +160,6 @@ impl MicrofacetNormalMap {
             m.frames[k] = Frame::from_normal_tangent(surface.normal(k), Vec3::X);
         }
         m
-    }
-
-    #[inline]
-    fn is_mirror(&self, k: usize) -> bool {
-        self.mirror_wall && k == 1
-    }
-
-    /// Mirror image across the wall's plane: R(ω) = ω − 2(ω·ωt)ωt.
-    #[inline]
-    fn reflect_wall(&self, w: Vec3) -> Vec3 {
-        let wt = self.surface.normal(1);
-        w - 2.0 * w.dot(wt) * wt
-    }
-
-    /// Nested eval with both directions in facet k's frame: F_k(a, b) (includes |b·m_k|).
-    #[inline]
-    fn f(
-        &self,
-        nested: &Bsdf,
-        k: usize,
-        ctx: &BsdfContext,
-        a: Vec3,
-        b: Vec3,
-        s: &mut Sampler,
-    ) -> Spectrum {
-        let fr = &self.frames[k];
-        nested.eval(ctx, fr.to_local(a), fr.to_local(b), s)
-    }
-
-    /// Nested pdf in facet k's frame: P_k(a, b).
-    #[inline]
-    fn p(&self, nested: &Bsdf, k: usize, ctx: &BsdfContext, a: Vec3, b: Vec3) -> f32 {
-        let fr = &self.frames[k];
-        nested.pdf(ctx, fr.to_local(a), fr.to_local(b))
-    }
-
-    /// Nested eval and pdf in facet k's frame in one fused call: (F_k(a, b), P_k(a, b)). The
-    /// nested `eval_pdf` shares the half vector, D and G1 between the two (rough models).
-    #[inline]
-    fn fp(
-        &self,
-        nested: &Bsdf,
-        k: usize,
-        ctx: &BsdfContext,
-        a: Vec3,
-        b: Vec3,
-        s: &mut Sampler,
-    ) -> (Spectrum, f32) {
-        let fr = &self.frames[k];
-        nested.eval_pdf(ctx, fr.to_local(a), fr.to_local(b), s)
-    }
-
-    /// Nested sample in facet k's frame from `a`; the sample's direction comes back in the macro
-    /// frame (weight, pdf, η and lobe as the nested BSDF reports them).
-    #[inline]
-    fn sample_facet(
-        &self,
-        nested: &Bsdf,
-        k: usize,
-        ctx: &BsdfContext,
-        a: Vec3,
-        s: &mut Sampler,
-    ) -> Option<BsdfSample> {
-        let fr = &self.frames[k];
-        let mut bs = nested.sample(ctx, fr.to_local(a), s)?;
-        bs.wo = fr.to_world(bs.wo);
-        Some(bs)
     }
 }
 
@@ -405,7 +317,7 @@ pub(super) fn sample(
             // its sample density is the term P_k(ωi, ωo) (not for delta lobes, whose sample
             // density is no pdf value).
             if let Some(v) = first {
-                if m.nested_flags(&nested) & super::lobe::DELTA == 0 {
+                if !nested.lobes().has_delta() {
                     terms.know(v.k, wi, wo, v.pdf);
                 }
             }

@@ -10,8 +10,8 @@
 //! θp = 60°).
 
 use super::explicit::{lobe_of, PdfTerms};
-use super::{stats, MicrofacetNormalMap};
-use crate::bsdf::{Bsdf, BsdfContext};
+use super::MicrofacetNormalMap;
+use crate::bsdf::{Bsdf, BsdfContext, Lobes};
 use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
 use glam::Vec3;
@@ -38,7 +38,7 @@ pub(super) fn sample(
     ctx: &BsdfContext,
     wi: Vec3,
     s: &mut Sampler,
-) -> Option<(Vec3, Spectrum, u32, Option<FirstVertex>)> {
+) -> Option<(Vec3, Spectrum, Lobes, Option<FirstVertex>)> {
     let surf = &m.surface;
     let (mut k, _) = surf.pick(wi, s.next_1d())?;
     let mut d = -wi;
@@ -49,7 +49,7 @@ pub(super) fn sample(
             d = mirror(d, surf.normal(k));
         } else {
             let Some(bs) = m.sample_facet(nested, k, ctx, -d, s) else {
-                stats::record(order);
+                nested.record_walk(order);
                 return None;
             };
             thr *= bs.weight;
@@ -59,17 +59,17 @@ pub(super) fn sample(
             }
         }
         if s.next_1d() < surf.g1(d) {
-            stats::record(order);
+            nested.record_walk(order);
             let first = if order == 1 { first } else { None };
-            return Some((d, thr, lobe_of(m.nested_flags(nested)), first));
+            return Some((d, thr, lobe_of(nested.lobes()), first));
         }
         let Some((j, _)) = surf.pick(-d, s.next_1d()) else {
-            stats::record(order);
+            nested.record_walk(order);
             return None;
         };
         k = j;
     }
-    stats::record(m.max_order);
+    nested.record_walk(m.max_order);
     None
 }
 
@@ -219,7 +219,7 @@ pub(super) fn sample_t(
     ctx: &BsdfContext,
     wi: Vec3,
     s: &mut Sampler,
-) -> Option<(Vec3, Spectrum, f32, u32)> {
+) -> Option<(Vec3, Spectrum, f32, Lobes)> {
     let surf = &m.surface;
     let mut k = entry(m, wi, s.next_1d())?;
     let mut d = -wi;
@@ -231,7 +231,7 @@ pub(super) fn sample_t(
             d = mirror(d, n);
         } else {
             let Some(bs) = m.sample_facet(nested, k, ctx, -d, s) else {
-                stats::record(order);
+                nested.record_walk(order);
                 return None;
             };
             thr *= bs.weight;
@@ -242,25 +242,20 @@ pub(super) fn sample_t(
             d = out;
             if exits_on_refraction(m) && refracted {
                 // §9.4: returned at once, unmasked; on the wrong macro side: absorbed.
-                stats::record(order);
-                return (d.z * wi.z < 0.0).then_some((
-                    d,
-                    thr,
-                    eta,
-                    crate::bsdf::lobe::GLOSSY_TRANSMISSION,
-                ));
+                nested.record_walk(order);
+                return (d.z * wi.z < 0.0).then_some((d, thr, eta, Lobes::GLOSSY_TRANSMISSION));
             }
         }
         let next = step(m, n, d, s);
         if next.is_err() {
-            stats::record(order);
+            nested.record_walk(order);
         }
         match next {
             Err(true) => {
                 let lobe = if d.z * wi.z < 0.0 {
-                    crate::bsdf::lobe::GLOSSY_TRANSMISSION
+                    Lobes::GLOSSY_TRANSMISSION
                 } else {
-                    crate::bsdf::lobe::GLOSSY_REFLECTION
+                    crate::bsdf::Lobes::GLOSSY_REFLECTION
                 };
                 return Some((d, thr, eta, lobe));
             }
@@ -268,7 +263,7 @@ pub(super) fn sample_t(
             Ok(j) => k = j,
         }
     }
-    stats::record(m.max_order);
+    nested.record_walk(m.max_order);
     None
 }
 

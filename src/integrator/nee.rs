@@ -1,0 +1,63 @@
+//! Next-event estimation: one light sample at a surface point, shared by `path` and `direct`.
+//! The estimators differ only in how they weight it (their MIS sample counts and strategies), so
+//! this routine returns the unweighted contribution and both densities.
+
+use super::Rays;
+use crate::bsdf::{BsdfContext, SurfaceBsdf};
+use crate::geometry::SurfaceInteraction;
+use crate::sampler::Sampler;
+use crate::scene::Scene;
+use crate::spectrum::Spectrum;
+
+/// An unoccluded light sample that the BSDF scatters toward the viewer.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// `f · |cos θo| · Le / (emitter pdf)` as the emitter reports it: the BSDF value times the
+    /// emitter sample's value (not yet divided by the selection pmf nor MIS-weighted).
+    pub f_value: Spectrum,
+    /// Solid-angle density of the light sample, selection pmf included (delta lights: the
+    /// emitter's discrete pmf).
+    pub light_pdf: f32,
+    /// The BSDF's sampling density of the same direction.
+    pub bsdf_pdf: f32,
+    /// A delta light (point, spot, directional): no MIS.
+    pub delta: bool,
+}
+
+/// Pick an emitter, sample a point on it, evaluate the BSDF toward it and trace the shadow ray.
+/// Draws three numbers from `sampler` first (then any the BSDF's evaluation needs).
+#[inline(always)]
+pub fn sample_light(
+    scene: &Scene,
+    si: &SurfaceInteraction,
+    bsdf: &SurfaceBsdf,
+    ctx: &BsdfContext,
+    sampler: &mut Sampler,
+    rays: &mut Rays,
+) -> Option<LightSample> {
+    let u_sel = sampler.next_1d();
+    let u = sampler.next_2d();
+    let (e, sel_pdf, _) = scene.light_sampler.sample(u_sel)?;
+    let ds = scene.emitters[e].sample_direct(&scene.shapes, si.p, u)?;
+    if ds.value == Spectrum::ZERO {
+        return None;
+    }
+    let (f, bsdf_pdf) = bsdf.eval_pdf(ctx, ds.d, sampler)?;
+    if f == Spectrum::ZERO {
+        return None;
+    }
+    let shadow = if ds.dist.is_finite() {
+        si.spawn_ray_to(ds.p, ds.n)
+    } else {
+        si.spawn_ray(ds.d)
+    };
+    if rays.occluded(scene, &shadow) {
+        return None;
+    }
+    Some(LightSample {
+        f_value: f * ds.value,
+        light_pdf: ds.pdf * sel_pdf,
+        bsdf_pdf,
+        delta: ds.delta,
+    })
+}

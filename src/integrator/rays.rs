@@ -1,0 +1,132 @@
+//! Ray statistics of one worker thread: every ray an integrator traces goes through [`Rays`],
+//! which counts it by kind and, when the render asks for it (`groove bench`'s Embree ceiling),
+//! records it. The renderer sums the counters and concatenates the logs per image block, in
+//! block order.
+
+use crate::geometry::{Ray, SurfaceInteraction};
+use crate::scene::Scene;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+
+/// Ray counts of one thread, summed by the renderer.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RayCounters {
+    pub camera: u64,
+    pub bounce: u64,
+    pub shadow: u64,
+    /// Random walks sampled by microfacet normal maps, and their vertices (not rays).
+    pub walks: u64,
+    pub walk_vertices: u64,
+}
+
+impl RayCounters {
+    /// Rays traced (camera + bounce + shadow).
+    pub fn total(&self) -> u64 {
+        self.camera + self.bounce + self.shadow
+    }
+    pub fn add(&mut self, o: &RayCounters) {
+        self.camera += o.camera;
+        self.bounce += o.bounce;
+        self.shadow += o.shadow;
+        self.walks += o.walks;
+        self.walk_vertices += o.walk_vertices;
+    }
+    /// Mean vertices per sampled microfacet walk (0 without walks).
+    pub fn mean_walk_length(&self) -> f64 {
+        if self.walks == 0 {
+            0.0
+        } else {
+            self.walk_vertices as f64 / self.walks as f64
+        }
+    }
+}
+
+/// One recorded ray: `shadow` rays only ask for occlusion.
+#[derive(Clone, Copy, Debug)]
+pub struct LoggedRay {
+    pub ray: Ray,
+    pub shadow: bool,
+}
+
+/// Which counter a nearest-hit query goes to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayKind {
+    Camera,
+    Bounce,
+}
+
+/// Recorded rays, drawing on a budget shared by every worker of one render.
+struct RayLog {
+    rays: Vec<LoggedRay>,
+    budget: Arc<AtomicUsize>,
+}
+
+impl RayLog {
+    /// Keep `ray` while the shared budget lasts (recording is the rare case: off the hot path).
+    #[cold]
+    fn push(&mut self, ray: &Ray, shadow: bool) {
+        let left = self
+            .budget
+            .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |n| n.checked_sub(1));
+        if left.is_ok() {
+            self.rays.push(LoggedRay { ray: *ray, shadow });
+        }
+    }
+}
+
+/// The per-thread ray counters and the optional ray log.
+#[derive(Default)]
+pub struct Rays {
+    pub counters: RayCounters,
+    /// `Some` while recording.
+    log: Option<RayLog>,
+}
+
+impl Rays {
+    /// Record rays from now on while `budget` (shared by the render's workers) lasts.
+    pub fn record(&mut self, budget: Arc<AtomicUsize>) {
+        self.log = Some(RayLog {
+            rays: Vec::new(),
+            budget,
+        });
+    }
+
+    /// The rays recorded since the last call (empty when not recording).
+    pub fn take_log(&mut self) -> Vec<LoggedRay> {
+        match &mut self.log {
+            Some(l) => std::mem::take(&mut l.rays),
+            None => Vec::new(),
+        }
+    }
+
+    #[inline]
+    fn log(&mut self, ray: &Ray, shadow: bool) {
+        if let Some(l) = &mut self.log {
+            l.push(ray, shadow);
+        }
+    }
+
+    /// Nearest surface hit along `ray`, counted as `kind`.
+    #[inline]
+    pub fn intersect(
+        &mut self,
+        scene: &Scene,
+        ray: &Ray,
+        kind: RayKind,
+    ) -> Option<SurfaceInteraction> {
+        match kind {
+            RayKind::Camera => self.counters.camera += 1,
+            RayKind::Bounce => self.counters.bounce += 1,
+        }
+        self.log(ray, false);
+        scene.intersect(ray)
+    }
+
+    /// True when something blocks the shadow ray `ray`.
+    #[inline]
+    pub fn occluded(&mut self, scene: &Scene, ray: &Ray) -> bool {
+        self.counters.shadow += 1;
+        self.log(ray, true);
+        scene.occluded(ray)
+    }
+}
