@@ -16,6 +16,7 @@ pub mod accel;
 pub mod bench;
 pub mod bsdf;
 pub mod camera;
+pub mod cancel;
 pub mod cli;
 pub mod emitter;
 pub mod error;

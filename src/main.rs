@@ -1,9 +1,11 @@
 //! The `groove` binary: parse the command line, load each scene, render it, write the image.
 //! A failing scene is reported (`error: FILE:LINE:COL: message`) and skipped; the exit status is
-//! non-zero if any scene failed.
+//! non-zero if any scene failed. SIGINT / SIGTERM stop the render within a few thousand samples,
+//! write nothing for the interrupted scene, skip the rest of the batch and exit with 130 / 143.
 
 use anyhow::{Context, Result};
 use clap::Parser;
+use groove::cancel::Cancel;
 use groove::cli::{BenchArgs, Cli, Command, RenderArgs};
 use groove::output::{write_image, Metadata};
 use groove::render::{render, RenderOptions};
@@ -106,6 +108,13 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
 }
 
 fn run_render(args: &RenderArgs) -> ExitCode {
+    let cancel = match Cancel::on_signals() {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("warning: cannot catch SIGINT/SIGTERM ({e}); Ctrl-C will kill the render");
+            Cancel::new()
+        }
+    };
     let mut failed = 0usize;
     let multi = args.scenes.len() > 1;
     if multi {
@@ -119,8 +128,28 @@ fn run_render(args: &RenderArgs) -> ExitCode {
             }
         }
     }
-    for scene_path in &args.scenes {
-        if let Err(e) = render_one(args, scene_path, multi) {
+    for (i, scene_path) in args.scenes.iter().enumerate() {
+        let result = render_one(args, scene_path, multi, &cancel);
+        if let Some(sig) = cancel.requested() {
+            let skipped = args.scenes.len() - i - 1;
+            eprintln!(
+                "interrupted ({}): {} {}{}",
+                signal_name(sig),
+                scene_path.display(),
+                if result.is_ok() {
+                    "was written"
+                } else {
+                    "not written"
+                },
+                if skipped > 0 {
+                    format!(", {skipped} more scenes skipped")
+                } else {
+                    String::new()
+                }
+            );
+            return ExitCode::from((128 + sig.min(127)) as u8);
+        }
+        if let Err(e) = result {
             failed += 1;
             eprintln!("error: {e:#}");
         }
@@ -132,6 +161,14 @@ fn run_render(args: &RenderArgs) -> ExitCode {
         ExitCode::FAILURE
     } else {
         ExitCode::SUCCESS
+    }
+}
+
+fn signal_name(sig: usize) -> String {
+    match sig as i32 {
+        signal_hook::consts::SIGINT => "SIGINT".into(),
+        signal_hook::consts::SIGTERM => "SIGTERM".into(),
+        s => format!("signal {s}"),
     }
 }
 
@@ -147,7 +184,7 @@ fn output_path(args: &RenderArgs, scene: &Path, multi: bool) -> PathBuf {
     }
 }
 
-fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool) -> Result<()> {
+fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool, cancel: &Cancel) -> Result<()> {
     let out = output_path(args, scene_path, multi);
     groove::output::check_extension(&out)?;
     let load = groove::scene::instantiate::LoadOptions {
@@ -168,6 +205,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool) -> Result<()> {
         spp: args.spp,
         seed: args.seed,
         progress: !args.quiet && std::io::stderr().is_terminal(),
+        cancel: Some(cancel.clone()),
         ..Default::default()
     };
     let result = render(&scene, &opts)?;

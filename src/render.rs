@@ -2,6 +2,7 @@
 //! own deterministic stream, blocks merged into the film in a fixed order so the image is
 //! bit-identical for a given seed whatever the thread count. Counts rays and times the render.
 
+use crate::cancel::Cancel;
 use crate::error::{Error, Result};
 use crate::film::{Block, Film};
 use crate::integrator::{LoggedRay, RayCounters, Scratch};
@@ -30,6 +31,9 @@ pub struct RenderOptions {
     /// Record up to this many of the traced rays into [`RenderOutput::ray_log`] (0: none);
     /// `groove bench` traces them again for its Embree ceiling.
     pub record_rays: usize,
+    /// Stop early when this is raised: the render checks it every 4096 samples and returns
+    /// [`Error::Cancelled`] (no image).
+    pub cancel: Option<Cancel>,
 }
 
 impl Default for RenderOptions {
@@ -41,6 +45,7 @@ impl Default for RenderOptions {
             progress: false,
             block_size: 32,
             record_rays: 0,
+            cancel: None,
         }
     }
 }
@@ -121,6 +126,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
 
     let start = Instant::now();
     let log_budget = Arc::new(AtomicUsize::new(opts.record_rays));
+    let cancel = opts.cancel.as_ref();
     let results: Vec<(Block, RayCounters, u64, Vec<LoggedRay>)> = pool.install(|| {
         rects
             .par_iter()
@@ -136,8 +142,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
                     scratch.rays.counters = RayCounters::default();
                     let _ = scratch.arena.take_walk_counts();
                     let mut block = Block::new(desc, x0, y0, w, h);
+                    let rect = (x0, y0, w, h);
                     let invalid =
-                        render_block(scene, &sampler_desc, &mut block, (x0, y0, w, h), scratch);
+                        render_block(scene, &sampler_desc, &mut block, rect, scratch, cancel);
                     let walks = scratch.arena.take_walk_counts();
                     let mut counters = scratch.rays.counters;
                     counters.walks = walks.walks;
@@ -153,6 +160,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let seconds = start.elapsed().as_secs_f64();
     if let Some(b) = &bar {
         b.finish_and_clear();
+    }
+    if cancel.is_some_and(|c| c.requested().is_some()) {
+        return Err(Error::Cancelled);
     }
 
     let mut film = Film::new(desc.clone());
@@ -182,19 +192,26 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
 }
 
 /// Render every sample of the pixels of one block; returns the number of invalid samples.
+/// Stops within 4096 samples once `cancel` is raised (the render is then discarded).
 fn render_block(
     scene: &Scene,
     sampler_desc: &SamplerDesc,
     block: &mut Block,
     (x0, y0, w, h): (u32, u32, u32, u32),
     scratch: &mut Scratch,
+    cancel: Option<&Cancel>,
 ) -> u64 {
     let width = scene.film.width as u64;
     let mut invalid = 0;
+    let stop = || cancel.is_some_and(|c| c.requested().is_some());
     for y in y0..y0 + h {
         for x in x0..x0 + w {
             let pixel_index = y as u64 * width + x as u64;
             for s in 0..sampler_desc.sample_count {
+                // Every 4096 samples (at least once per pixel): an uncontended load.
+                if s % 4096 == 0 && stop() {
+                    return invalid;
+                }
                 let mut sampler = Sampler::for_sample(sampler_desc, pixel_index, s);
                 let pos = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                 let ray = scene.camera.generate_ray(pos);

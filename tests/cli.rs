@@ -220,3 +220,90 @@ fn unsupported_output_format_fails_before_rendering() {
     let err = fails(&["render", "tiny.xml", "-o", "x.jpg"], &d);
     assert!(err.contains(".jpg") || err.contains("jpg"), "{err}");
 }
+
+/// Start `groove render` on a scene that takes minutes, send `signal` once it runs, and return
+/// (exit status, stderr, seconds from the signal to the exit). The process is killed by its
+/// PID if it does not stop within 30 s.
+fn interrupt_render(
+    dir: &Path,
+    out: &Path,
+    signal: &str,
+) -> (std::process::ExitStatus, String, f64) {
+    use std::process::Stdio;
+    let scene = write(
+        dir,
+        "slow.xml",
+        &TINY.replace("width\" value=\"8", "width\" value=\"256"),
+    );
+    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("groove"))
+        .args(["render", "-q", "-t", "2", "--spp", "4000000"])
+        .arg(&scene)
+        .arg("-o")
+        .arg(out)
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("spawn groove");
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "the render ended before the signal"
+    );
+    let sent = std::time::Instant::now();
+    let kill = std::process::Command::new("kill")
+        .args([signal, &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if sent.elapsed().as_secs() > 30 {
+            let _ = child.kill();
+            panic!("groove did not stop within 30 s of {signal}");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let mut err = String::new();
+    use std::io::Read;
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    (status, err, sent.elapsed().as_secs_f64())
+}
+
+/// Ctrl-C (SIGINT) and SIGTERM stop a render within seconds with 130 / 143, write nothing,
+/// leave an existing output untouched and no temporary file behind.
+#[test]
+fn sigint_and_sigterm_stop_the_render_and_write_nothing() {
+    for (signal, code) in [("-INT", 130), ("-TERM", 143)] {
+        let dir = tmpdir(&format!("signal{code}"));
+        let out = dir.join("out.exr");
+        fs::write(&out, b"a good image").unwrap();
+        let (status, err, secs) = interrupt_render(&dir, &out, signal);
+        assert_eq!(
+            status.code(),
+            Some(code),
+            "{signal}: {status:?}, stderr: {err}"
+        );
+        assert!(
+            err.contains("interrupted") && err.contains("not written"),
+            "{err}"
+        );
+        assert!(secs < 10.0, "{signal}: took {secs:.1} s to stop");
+        assert_eq!(fs::read(&out).unwrap(), b"a good image");
+        let names: Vec<_> = fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        let mut expected = vec!["out.exr".to_string(), "slow.xml".to_string()];
+        let mut names_sorted = names.clone();
+        names_sorted.sort();
+        expected.sort();
+        assert_eq!(names_sorted, expected, "{signal}: files left: {names:?}");
+    }
+}
