@@ -1,4 +1,4 @@
-//! Geometry and ray-tracing tests: loaders (OBJ, PLY), Embree hits against analytic answers,
+//! Geometry and ray-tracing tests: loaders (OBJ, PLY, serialized), Embree hits against analytic answers,
 //! surface interactions, emitter sampling densities, and self-intersection robustness.
 
 use glam::{Mat4, Vec2, Vec3};

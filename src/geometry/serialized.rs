@@ -504,7 +504,7 @@ mod tests {
             b.extend((m.positions.len() as u64).to_le_bytes());
             b.extend((m.indices.len() as u64).to_le_bytes());
             let dbl = self.double;
-            let mut put = |b: &mut Vec<u8>, x: f32| {
+            let put = |b: &mut Vec<u8>, x: f32| {
                 if dbl {
                     b.extend((x as f64).to_le_bytes())
                 } else {
