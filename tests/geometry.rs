@@ -1,4 +1,4 @@
-//! Geometry and ray-tracing tests: loaders (OBJ, PLY), Embree hits against analytic answers,
+//! Geometry and ray-tracing tests: loaders (OBJ, PLY, serialized), Embree hits against analytic answers,
 //! surface interactions, emitter sampling densities, and self-intersection robustness.
 
 use glam::{Mat4, Vec2, Vec3};
@@ -6,6 +6,7 @@ use groove::accel::{Accel, Hit};
 use groove::geometry::mesh::TriMesh;
 use groove::geometry::obj::load_obj;
 use groove::geometry::ply::load_ply;
+use groove::geometry::serialized::load_serialized;
 use groove::geometry::shapes::Shape;
 use groove::geometry::{Ray, SurfaceInteraction};
 use groove::math::warp::{square_to_cosine_hemisphere, square_to_uniform_sphere};
@@ -239,6 +240,97 @@ fn ply_truncated_or_broken_is_an_error_naming_the_file() {
 }
 
 // ---------------------------------------------------------------- Embree hits
+
+// ---------------------------------------------------------------- serialized
+
+#[test]
+fn serialized_fixtures_load_as_mitsuba_loads_them() {
+    // Counts and flags as Mitsuba 3.9.1 reports them for the files of make_serialized.py
+    // (`vertex_count()`, `face_count()`, `has_vertex_normals()`, `has_vertex_texcoords()`).
+    let f = data("two_meshes_v4.serialized");
+    let s = load_serialized(&f, 0, true).unwrap();
+    assert_eq!((s.name.as_str(), s.version), ("uv_sphere", 4));
+    assert_eq!((s.mesh.positions.len(), s.mesh.indices.len()), (231, 360));
+    assert!(s.mesh.normals.is_some() && s.mesh.uvs.is_some());
+    assert_eq!(s.mesh.positions[0], Vec3::Y); // the north pole comes first
+    let b = load_serialized(&f, 1, true).unwrap();
+    assert_eq!(
+        (
+            b.name.as_str(),
+            b.mesh.positions.len(),
+            b.mesh.indices.len()
+        ),
+        ("blob", 18, 32)
+    );
+    assert!((b.mesh.positions[0].x - 1.021168).abs() < 1e-6);
+    assert!(b.mesh.normals.is_some() && b.mesh.uvs.is_none());
+    assert!(load_serialized(&f, 1, false)
+        .unwrap()
+        .mesh
+        .normals
+        .is_none());
+    let t = load_serialized(&data("torus_v3.serialized"), 0, true).unwrap();
+    assert_eq!((t.name.as_str(), t.version), ("torus_v3.serialized@0", 3));
+    assert_eq!((t.mesh.positions.len(), t.mesh.indices.len()), (128, 256));
+    assert!(t.mesh.normals.is_none() && t.mesh.uvs.is_none());
+    // Mitsuba 3.9.1 accepts shape_index == count (its bound check is off by one) and then fails
+    // in inflate; groove says what is wrong.
+    let e = load_serialized(&data("torus_v3.serialized"), 1, true)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("torus_v3.serialized")
+            && e.contains("shape_index 1 out of range (file holds 1 mesh"),
+        "{e}"
+    );
+}
+
+#[test]
+fn serialized_errors_through_the_scene_loader_name_the_xml_position() {
+    let d = tmp_dir("serialized");
+    std::fs::copy(data("two_meshes_v4.serialized"), d.join("m.serialized")).unwrap();
+    std::fs::write(d.join("bad.serialized"), b"\x1c\x04\x04\x00garbage").unwrap();
+    let scene = |shape: &str| {
+        format!("<scene version=\"3.0.0\">\n<emitter type=\"constant\"/>\n{shape}\n<sensor type=\"perspective\"/>\n</scene>\n")
+    };
+    let cases = [
+        (
+            r#"<shape type="serialized"><string name="filename" value="m.serialized"/><integer name="shape_index" value="5"/></shape>"#,
+            "shape_index 5 out of range (file holds 2 meshes",
+        ),
+        (
+            r#"<shape type="serialized"><string name="filename" value="m.serialized"/><integer name="shape_index" value="-1"/></shape>"#,
+            "shape_index must be nonnegative",
+        ),
+        (
+            r#"<shape type="serialized"><string name="filename" value="bad.serialized"/></shape>"#,
+            "corrupt serialized mesh at offset",
+        ),
+        (r#"<shape type="serialized"/>"#, "needs a 'filename'"),
+    ];
+    for (shape, expect) in cases {
+        let p = d.join("s.xml");
+        std::fs::write(&p, scene(shape)).unwrap();
+        let opts = groove::scene::instantiate::LoadOptions::default();
+        let err = match groove::scene::instantiate::load_scene(&p, &opts) {
+            Ok(_) => panic!("loaded {shape}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(err.contains("s.xml:3:1: ") && err.contains(expect), "{err}");
+    }
+    // And a good one loads (one mesh of 360 triangles, with face normals).
+    let p = d.join("s.xml");
+    std::fs::write(
+        &p,
+        scene(r#"<shape type="serialized"><string name="filename" value="m.serialized"/><boolean name="face_normals" value="true"/></shape>"#),
+    )
+    .unwrap();
+    let opts = groove::scene::instantiate::LoadOptions::default();
+    let loaded = groove::scene::instantiate::load_scene(&p, &opts)
+        .unwrap_or_else(|e| panic!("the good scene: {e}"));
+    assert_eq!(loaded.scene.shapes.len(), 1);
+    std::fs::remove_dir_all(&d).ok();
+}
 
 fn rel_close(a: f32, b: f32, tol: f32) -> bool {
     (a - b).abs() <= tol * b.abs().max(1e-6)

@@ -1,11 +1,12 @@
 //! Geometry: rays, surface interactions, triangle meshes and the analytic shapes, with their
-//! loaders (OBJ, PLY) and area sampling for emitters.
+//! loaders (OBJ, PLY, Mitsuba serialized) and area sampling for emitters.
 
 pub mod interaction;
 pub mod mesh;
 pub mod obj;
 pub mod ply;
 pub mod ray;
+pub mod serialized;
 pub mod shapes;
 
 pub use interaction::SurfaceInteraction;

@@ -24,7 +24,7 @@ use crate::emitter::spot::SpotLight;
 use crate::emitter::{Emitter, LightSampler};
 use crate::error::{Error, Result, SourceLoc};
 use crate::film::{FilmDesc, Filter};
-use crate::geometry::{obj, ply, Shape};
+use crate::geometry::{obj, ply, serialized, Shape};
 use crate::integrator::{DirectSettings, IntegratorDesc, PathSettings};
 use crate::material::{MatId, MaterialNode, Materials, MnmSettings, Slot, TexId};
 use crate::sampler::{SamplerDesc, SamplerKind};
@@ -1355,6 +1355,24 @@ impl<'d> Builder<'d> {
                 Shape::from_mesh(mesh, flip, face_normals)
                     .map_err(|e| Error::scene(p.loc(), format!("{}: {e}", file.display())))?
             }
+            "serialized" => {
+                // Mitsuba's zlib-compressed binary meshes; see `geometry::serialized`.
+                let fname = p.string_opt("filename")?.ok_or_else(|| {
+                    Error::scene(p.loc(), "shape 'serialized' needs a 'filename'")
+                })?;
+                let file = self.doc.resolve_file(&fname, p.loc())?;
+                let face_normals = p.bool("face_normals", false)?;
+                let index = p.int("shape_index", 0)?;
+                check(p.loc(), index >= 0, "shape_index must be nonnegative")?;
+                let index = u32::try_from(index)
+                    .map_err(|_| Error::scene(p.loc(), "shape_index is too large"))?;
+                let mut mesh = serialized::load_serialized(&file, index, !face_normals)
+                    .map_err(|e| Error::scene(p.loc(), e.to_string()))?
+                    .mesh;
+                mesh.transform(&to_world);
+                Shape::from_mesh(mesh, flip, face_normals)
+                    .map_err(|e| Error::scene(p.loc(), format!("{}: {e}", file.display())))?
+            }
             "rectangle" => Shape::rectangle(&to_world, flip),
             "cube" => Shape::cube(&to_world, flip),
             "disk" => {
@@ -1376,7 +1394,15 @@ impl<'d> Builder<'d> {
                     p.loc(),
                     "shape",
                     t,
-                    &["obj", "ply", "rectangle", "cube", "disk", "sphere"],
+                    &[
+                        "obj",
+                        "ply",
+                        "serialized",
+                        "rectangle",
+                        "cube",
+                        "disk",
+                        "sphere",
+                    ],
                 ))
             }
         };

@@ -77,6 +77,9 @@ JOBS = [
     ("mat_bumpmap", os.path.join(SCENES, "mat_bumpmap.xml"), {}, 4096, REF_SEEDS),
     ("mat_rough_tex", os.path.join(SCENES, "mat_rough_tex.xml"), {}, 4096, REF_SEEDS),
     ("light_area_tex", os.path.join(SCENES, "light_area_tex.xml"), {}, 4096, REF_SEEDS),
+    # Mitsuba `serialized` meshes (tests/data/geometry/make_serialized.py): v4 two-mesh file with
+    # shape_index 0 (normals, uvs) and 1 (double precision, face_normals), and a v3 file.
+    ("serialized", os.path.join(SCENES, "serialized.xml"), {}, 8192, REF_SEEDS),
 ]
 
 # Jobs whose pixels are correlated (non-box filter): also write NAME.tT.exr / NAME.tT.var.exr, the
