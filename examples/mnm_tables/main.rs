@@ -47,7 +47,9 @@ fn main() {
     match TABLES.iter().find(|t| Some(t.0) == arg.as_deref()) {
         Some((_, _, run)) => run(),
         None => {
-            eprintln!("usage: cargo run --release --example mnm_tables -- TABLE\n\nTABLE is one of:");
+            eprintln!(
+                "usage: cargo run --release --example mnm_tables -- TABLE\n\nTABLE is one of:"
+            );
             for (name, what, _) in TABLES {
                 eprintln!("  {name:<14} {what}");
             }

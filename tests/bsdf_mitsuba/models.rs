@@ -71,18 +71,15 @@ struct Points {
 }
 
 fn num(v: &Value) -> f32 {
-    v.as_f64()
-        .unwrap_or_else(|| panic!("not a number: {v}")) as f32
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}")) as f32
 }
 
 fn int(v: &Value) -> usize {
-    v.as_u64()
-        .unwrap_or_else(|| panic!("not an integer: {v}")) as usize
+    v.as_u64().unwrap_or_else(|| panic!("not an integer: {v}")) as usize
 }
 
 fn boolean(v: &Value) -> bool {
-    v.as_bool()
-        .unwrap_or_else(|| panic!("not a boolean: {v}"))
+    v.as_bool().unwrap_or_else(|| panic!("not a boolean: {v}"))
 }
 
 fn text(v: &Value) -> String {
@@ -92,9 +89,7 @@ fn text(v: &Value) -> String {
 }
 
 fn arr<const N: usize>(v: &Value) -> [f32; N] {
-    let a = v
-        .as_array()
-        .unwrap_or_else(|| panic!("not an array: {v}"));
+    let a = v.as_array().unwrap_or_else(|| panic!("not an array: {v}"));
     assert_eq!(a.len(), N, "expected {N} numbers: {v}");
     std::array::from_fn(|i| num(&a[i]))
 }
@@ -168,7 +163,11 @@ fn points() -> Points {
             delta: boolean(&r[10]),
         })
         .collect();
-    for k in rows.iter().map(|r| r.key).chain(srows.iter().map(|r| r.key)) {
+    for k in rows
+        .iter()
+        .map(|r| r.key)
+        .chain(srows.iter().map(|r| r.key))
+    {
         assert!(k < keys.len(), "key index {k} out of range");
     }
     assert_eq!(rows.len(), EVAL_POINTS, "eval points in the data file");
