@@ -12,7 +12,11 @@ use groove::math::warp::{square_to_cosine_hemisphere, square_to_uniform_sphere};
 use groove::math::{Frame, Pcg32};
 use std::path::{Path, PathBuf};
 
-const CBOX: &str = "/work/shared/scenes/mitsuba_cbox/meshes";
+/// The shared Cornell box's meshes, beside the checkout (like `tests/common`'s `shared_cbox`).
+const CBOX: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../shared/scenes/mitsuba_cbox/meshes"
+);
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
