@@ -199,7 +199,7 @@ fn parse_header(data: &[u8]) -> std::result::Result<Header, String> {
                 let el = elements
                     .last_mut()
                     .ok_or_else(|| herr("property before element"))?;
-                el.props.push(parse_property(&t).map_err(|m| herr(m))?);
+                el.props.push(parse_property(&t).map_err(herr)?);
             }
             Some("comment") | Some("obj_info") | None => {}
             Some(_) => return Err(herr("unknown header keyword")),
