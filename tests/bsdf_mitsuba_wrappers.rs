@@ -1,6 +1,10 @@
 //! `mask`, `null`, `bumpmap` and the bitmap gradient against Mitsuba 3.9.1 point evaluations
 //! (tests/data/perturb_points.json, written by tests/refs/perturb_points.py from Mitsuba's own
-//! `eval`, `pdf`, `sample` and `eval_1_grad` in `scalar_rgb`).
+//! `eval`, `pdf`, `sample` and `eval_1_grad` in `scalar_rgb`); module `models`: the base models
+//! against tests/data/mitsuba_bsdf_points.json (tests/refs/bsdf_points.py).
+
+#[path = "bsdf_mitsuba/models.rs"]
+mod models;
 
 use std::path::{Path, PathBuf};
 

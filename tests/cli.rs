@@ -1,5 +1,9 @@
 //! The `groove render` command as a user meets it: exit codes, error messages with
-//! FILE:LINE:COL, batch behaviour, output naming and atomic writes.
+//! FILE:LINE:COL, batch behaviour, output naming and atomic writes; module `doc_links`: the
+//! links of README.md and docs/ resolve inside the repository.
+
+#[path = "cli/doc_links.rs"]
+mod doc_links;
 
 use assert_cmd::Command;
 use std::fs;

@@ -5,7 +5,7 @@ use glam::{Mat4, Vec2, Vec3};
 use groove::accel::{Accel, Hit};
 use groove::geometry::mesh::TriMesh;
 use groove::geometry::obj::load_obj;
-use groove::geometry::ply::load_ply;
+use groove::geometry::ply::{load_ply, parse_ply};
 use groove::geometry::serialized::load_serialized;
 use groove::geometry::shapes::Shape;
 use groove::geometry::{Ray, SurfaceInteraction};
@@ -13,7 +13,11 @@ use groove::math::warp::{square_to_cosine_hemisphere, square_to_uniform_sphere};
 use groove::math::{Frame, Pcg32};
 use std::path::{Path, PathBuf};
 
-const CBOX: &str = "/work/shared/scenes/mitsuba_cbox/meshes";
+/// The shared Cornell box's meshes, beside the checkout (like `tests/common`'s `shared_cbox`).
+const CBOX: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../shared/scenes/mitsuba_cbox/meshes"
+);
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -237,6 +241,123 @@ fn ply_truncated_or_broken_is_an_error_naming_the_file() {
     }
     let e = load_ply(&d.join("nope.ply")).unwrap_err().to_string();
     assert!(e.contains("nope.ply"));
+}
+
+/// One value of a hand-written PLY body: (PLY type, value).
+type PlyValue = (&'static str, f64);
+
+/// `values` as a PLY body in `fmt` (ASCII: one token each; binary: each at its type's width).
+fn ply_body(fmt: Fmt, values: &[PlyValue]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for &(ty, v) in values {
+        let mut le: Vec<u8> = match ty {
+            "uchar" => vec![v as u8],
+            "short" => (v as i16).to_le_bytes().to_vec(),
+            "int" => (v as i32).to_le_bytes().to_vec(),
+            "uint" => (v as u32).to_le_bytes().to_vec(),
+            "float" => (v as f32).to_le_bytes().to_vec(),
+            "double" => v.to_le_bytes().to_vec(),
+            _ => unreachable!("{ty}"),
+        };
+        match fmt {
+            Fmt::Ascii => out.extend(format!("{v} ").bytes()),
+            Fmt::Le => out.extend(le),
+            Fmt::Be => {
+                le.reverse();
+                out.extend(le)
+            }
+        }
+    }
+    out
+}
+
+/// List properties everywhere the loader must skip them (in the vertex element, before and after
+/// the face's index list, in an unknown element), a pentagon (fan-triangulated) and a triangle.
+#[test]
+fn ply_skips_list_properties_and_fans_polygons() {
+    let header = |name: &str| {
+        format!(
+            "ply\nformat {name} 1.0\nelement vertex 5\nproperty float x\nproperty list uchar float junk\n\
+             property float y\nproperty float z\nelement face 2\nproperty list uchar float texcoord\n\
+             property list uchar uint vertex_indices\nproperty int flags\nproperty list uchar short tags\n\
+             element edge 1\nproperty list uchar int ends\nproperty uchar crease\nend_header\n"
+        )
+    };
+    let mut values: Vec<PlyValue> = Vec::new();
+    for k in 0..5 {
+        let junk = k % 3; // 0, 1 or 2 floats to skip
+        values.push(("float", k as f64));
+        values.push(("uchar", junk as f64));
+        values.extend((0..junk).map(|j| ("float", 100.0 + j as f64)));
+        values.extend([("float", (k * k) as f64), ("float", -1.0)]);
+    }
+    // face 0: 2 texcoords, the pentagon 0 1 2 3 4, flags, no tags
+    values.extend([("uchar", 2.0), ("float", 0.5), ("float", 0.25)]);
+    values.extend([("uchar", 5.0), ("uint", 0.0), ("uint", 1.0), ("uint", 2.0)]);
+    values.extend([("uint", 3.0), ("uint", 4.0), ("int", 9.0), ("uchar", 0.0)]);
+    // face 1: no texcoords, the triangle 4 2 0, flags, one tag
+    values.extend([("uchar", 0.0), ("uchar", 3.0), ("uint", 4.0), ("uint", 2.0)]);
+    values.extend([
+        ("uint", 0.0),
+        ("int", -3.0),
+        ("uchar", 1.0),
+        ("short", -7.0),
+    ]);
+    // edge 0
+    values.extend([("uchar", 2.0), ("int", 1.0), ("int", 3.0), ("uchar", 1.0)]);
+    for (fmt, name) in [
+        (Fmt::Ascii, "ascii"),
+        (Fmt::Le, "binary_little_endian"),
+        (Fmt::Be, "binary_big_endian"),
+    ] {
+        let mut bytes = header(name).into_bytes();
+        bytes.extend(ply_body(fmt, &values));
+        let m = parse_ply(&bytes).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(
+            m.indices,
+            vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [4, 2, 0]],
+            "{name}"
+        );
+        let want: Vec<Vec3> = (0..5)
+            .map(|k| Vec3::new(k as f32, (k * k) as f32, -1.0))
+            .collect();
+        assert_eq!(m.positions, want, "{name}");
+        assert!(m.normals.is_none() && m.uvs.is_none(), "{name}");
+    }
+}
+
+/// Every header and body error the parser reports, each with its message.
+#[test]
+fn ply_header_and_body_errors_say_what_is_wrong() {
+    let ok_vertex = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n";
+    let face = "element face 1\nproperty list uchar int vertex_indices\n";
+    let verts = "0 0 0 1 0 0 0 1 0";
+    let cases: Vec<(String, &str)> = vec![
+        ("ply\nformat foo 1.0\nend_header\n".into(), "unknown format"),
+        ("ply\nformat ascii 1.0\nelement vertex\nend_header\n".into(), "bad element"),
+        ("ply\nformat ascii 1.0\nproperty float x\n".into(), "property before element"),
+        (format!("ply\nformat ascii 1.0\n{ok_vertex}property list uchar\n"), "bad list property"),
+        (format!("ply\nformat ascii 1.0\n{ok_vertex}property floaty w\n"), "bad property"),
+        ("ply\nformat ascii 1.0\nbogus\n".into(), "unknown header keyword"),
+        ("ply\nformat ascii 1.0\ncomment no end\n".into(), "unexpected end of file in the header"),
+        (format!("ply\n{ok_vertex}{face}end_header\n"), "no `format` line"),
+        (format!("ply\nformat ascii 1.0\n{ok_vertex}end_header\n{verts}\n"), "no face element"),
+        (
+            format!("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n{face}end_header\n0 0\n3 0 0 0\n"),
+            "lacks x, y or z",
+        ),
+        (
+            format!("ply\nformat ascii 1.0\n{ok_vertex}element face 1\nproperty int a\nend_header\n{verts}\n1\n"),
+            "lacks a vertex_indices list",
+        ),
+        (format!("ply\nformat ascii 1.0\n{ok_vertex}{face}end_header\n{verts}\n2 0 1\n"), "face with 2 vertices"),
+        (format!("ply\nformat ascii 1.0\n{ok_vertex}{face}end_header\n{verts}\n3 0 1.5 2\n"), "bad vertex index 1.5"),
+        (format!("ply\nformat ascii 1.0\n{ok_vertex}{face}end_header\n0 0 abc\n"), "`abc` is not a number"),
+    ];
+    for (text, want) in cases {
+        let e = parse_ply(text.as_bytes()).unwrap_err();
+        assert!(e.contains(want), "{text:?}: {e}");
+    }
 }
 
 // ---------------------------------------------------------------- Embree hits

@@ -335,31 +335,3 @@ fn early_exit_transmits_at_least_as_much_as_the_two_sided_walk() {
         }
     }
 }
-
-/// Measurement for docs/mnm.md (not a check): albedo (importance mode, mean sample weight) of the
-/// glass furnace's nested BSDF alone (GGX α = 0.05, η = 1.5) by incidence angle, from the air
-/// and from inside, to compare with the furnace's loss under the normal map, where the walk
-/// queries the facets at steeper local angles.
-/// `cargo test --release --test mnm_exit_on_refraction -- --ignored --nocapture nested_glass`
-#[test]
-#[ignore]
-fn nested_glass_albedo_by_angle_for_the_docs() {
-    let ctx = BsdfContext {
-        mode: TransportMode::Importance,
-    };
-    let mut arena = BsdfArena::new();
-    let root = arena.push(common::rough_glass(0.05));
-    let b = arena.bsdf(root);
-    let mut s = Sampler::from_seed(47, 48);
-    for theta in [0.0f32, 30.0, 45.0, 60.0, 70.0, 80.0, 85.0, 89.0] {
-        let mut row = format!("θ {theta:>4}:");
-        for wi in [dir(theta, 0.0), -dir(theta, 0.0)] {
-            let (m, se) = mean_se(400_000, || {
-                b.sample(&ctx, wi, &mut s)
-                    .map_or(0.0, |x| x.weight.x as f64)
-            });
-            row += &format!(" {m:.4} ± {se:.4}");
-        }
-        println!("{row} (from air, from inside)");
-    }
-}

@@ -2,15 +2,7 @@
 
 mod common;
 
-use common::{render_scene, test_scene};
-
-/// Mean over the whole image with its standard error (grey images).
-fn image_mean(r: &common::Rendered) -> (f64, f64) {
-    let n = r.mean.data.len() as f64;
-    let m = r.mean.data.iter().map(|p| p[0]).sum::<f64>() / n;
-    let v = r.var.data.iter().map(|p| p[0]).sum::<f64>() / (n * n);
-    (m, v.sqrt())
-}
+use common::{image_mean, render_scene, test_scene};
 
 #[test]
 fn random_walk_furnace_renders_one() {
@@ -123,51 +115,6 @@ fn classic_normal_mapping_fails_the_furnace_that_the_walk_passes() {
         m < 1.0 - 0.05 - 4.0 * se,
         "classic furnace mean {m} ± {se} should be visibly below 1"
     );
-}
-
-/// Mean of the central 8×8 pixels of a 24×24 render (all on the furnace's glass sphere).
-fn centre_mean(r: &common::Rendered) -> f64 {
-    let w = r.mean.width;
-    let (c0, c1) = (w / 2 - 4, w / 2 + 4);
-    let mut sum = 0.0;
-    for y in c0..c1 {
-        for x in c0..c1 {
-            sum += r.mean.get(x, y)[0];
-        }
-    }
-    sum / 64.0
-}
-
-/// Measurement for docs/mnm.md (not a check): the glass furnace's image mean and centre for
-/// both transmission walks and tangent modes, and for the nested rough dielectric alone
-/// (`nx = 0.5`: ωp = ωg, which delegates to the nested BSDF exactly).
-/// `cargo test --release --test render_mnm -- --ignored --nocapture glass_furnace_means`
-#[test]
-#[ignore]
-fn glass_furnace_means_for_the_docs() {
-    let mut runs: Vec<(&str, &str, &str)> = Vec::new();
-    for tangent in ["same", "mirror"] {
-        for walk in ["two_sided", "exit_on_refraction"] {
-            runs.push((tangent, walk, "0.85"));
-        }
-    }
-    runs.push(("same", "two_sided", "0.5"));
-    for (tangent, walk, nx) in runs {
-        let r = render_scene(
-            &test_scene("mnm_glass_furnace.xml"),
-            &[("tangent", tangent), ("walk", walk), ("nx", nx)],
-            16384,
-            7,
-            0,
-            |_| {},
-        );
-        let (m, se) = image_mean(&r);
-        println!(
-            "nx {nx} tangent {tangent} walk {walk}: image mean {m:.4} ± {se:.4}, centre {:.4}, invalid {}",
-            centre_mean(&r),
-            r.stats.invalid_samples
-        );
-    }
 }
 
 #[test]

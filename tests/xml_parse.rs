@@ -606,7 +606,8 @@ fn bad_spectrum_is_an_error() {
 // ----------------------------------------------------------------------------------------------
 // The real Cornell box scenes
 
-const CBOX: &str = "/work/shared/scenes/mitsuba_cbox";
+/// The shared Cornell boxes, beside the checkout (like `tests/common`'s `shared_cbox`).
+const CBOX: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/scenes/mitsuba_cbox");
 
 fn cbox(name: &str) -> Option<PathBuf> {
     let p = Path::new(CBOX).join(name);

@@ -4,7 +4,7 @@
 #
 #   docs/bench/interleaved_ab.sh MITSUBA_PYTHON [ROUNDS=7] [SCENE ...]
 #
-# Run from the repository root after `cargo build --release`, with ../shared/tools beside it.
+# Run from the repository root after `cargo build --release` (Mitsuba's helper: docs/tools).
 # Each round: one groove process that renders twice (`groove bench --modes classic --repeat 1`:
 # a warm-up, then the timed render) and one Mitsuba process that renders twice (the second
 # render's time is kept). Both sides are timed warm, in-process, at 16 spp on 2 threads.
@@ -14,7 +14,7 @@ ROUNDS=${2:-7}
 shift $(( $# >= 2 ? 2 : 1 ))
 SCENES=("$@")
 [ ${#SCENES[@]} -eq 0 ] && SCENES=(metal_plastic glass strong)
-TOOLS=../shared/tools
+TOOLS=docs/tools
 for sc in "${SCENES[@]}"; do
     g=()
     m=()

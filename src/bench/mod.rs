@@ -215,13 +215,9 @@ fn median(v: &mut [f64]) -> f64 {
     }
 }
 
-/// Run the benchmark.
+/// Run the benchmark: per scene the Embree ceiling, the timed modes, the equal-time comparison
+/// and the summaries; then the Mitsuba 3 peer column.
 pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
-    let say = |m: String| {
-        if opts.verbose {
-            eprintln!("bench: {m}");
-        }
-    };
     let threads = crate::render::thread_pool(opts.threads)?.current_num_threads();
     let mut report = BenchReport {
         groove_version: env!("CARGO_PKG_VERSION").into(),
@@ -236,173 +232,271 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
         peer_note: None,
     };
     for path in &opts.scenes {
-        let name = scene_name(path);
-        // Ceiling first: it also proves the scene loads.
-        let ceil = if opts.ceiling || opts.rays_only {
-            say(format!("{name}: Embree ceiling"));
-            let scene = load_mode(path, "classic", &opts.defines)?;
-            let c = ceiling::measure(&scene, &name, opts.spp, threads, opts.repeat.max(1))?;
-            say(format!(
+        bench_scene(opts, path, threads, &mut report)?;
+    }
+    run_peers(opts, threads, &mut report);
+    Ok(report)
+}
+
+/// A progress line on stderr when `--verbose`.
+fn say(opts: &BenchOptions, m: String) {
+    if opts.verbose {
+        eprintln!("bench: {m}");
+    }
+}
+
+/// Every mode of one scene, loaded: a mode that cannot apply (e.g. explicit over glass) holds
+/// the reason it was skipped.
+type ModeScenes = Vec<(String, std::result::Result<Scene, String>)>;
+
+/// The median render times of one scene's modes, and the classic mode's reference values.
+struct Timing {
+    /// Median seconds per mode (`None` for a skipped mode).
+    medians: Vec<Option<f64>>,
+    /// Classic's median seconds.
+    classic: Option<f64>,
+    /// Classic's (median seconds, mean rays per render).
+    classic_rays: Option<(f64, f64)>,
+}
+
+/// One scene: ceiling, modes, equal-time comparison, images and summaries, into `report`.
+fn bench_scene(
+    opts: &BenchOptions,
+    path: &Path,
+    threads: usize,
+    report: &mut BenchReport,
+) -> Result<()> {
+    let name = scene_name(path);
+    // Ceiling first: it also proves the scene loads.
+    let ceil = if opts.ceiling || opts.rays_only {
+        say(opts, format!("{name}: Embree ceiling"));
+        let scene = load_mode(path, "classic", &opts.defines)?;
+        let c = ceiling::measure(&scene, &name, opts.spp, threads, opts.repeat.max(1))?;
+        say(
+            opts,
+            format!(
                 "{name}: {} rays traced again at {:.2} Mrays/s",
                 c.rays,
                 c.rays_per_second / 1e6
-            ));
-            report.ceilings.push(c.clone());
-            Some(c)
-        } else {
-            None
-        };
-        if opts.rays_only {
-            continue;
-        }
-        // Load every mode; a mode that cannot apply (e.g. explicit over glass) is skipped.
-        let mut scenes: Vec<(String, std::result::Result<Scene, String>)> = Vec::new();
-        for mode in &opts.modes {
-            let s = load_mode(path, mode, &opts.defines).map_err(|e| e.to_string());
-            if let Err(e) = &s {
-                say(format!("{name}: {mode} skipped: {e}"));
-            }
-            scenes.push((mode.clone(), s));
-        }
-        // Warm-up (untimed, 1 spp), then `repeat` rounds over the modes.
-        for (_, s) in &scenes {
-            if let Ok(s) = s {
-                render_at(s, 1, 0, threads)?;
-            }
-        }
-        let mut runs: Vec<Vec<RenderStats>> = vec![Vec::new(); scenes.len()];
-        for r in 0..opts.repeat.max(1) {
-            for (i, (mode, s)) in scenes.iter().enumerate() {
-                let Ok(s) = s else { continue };
-                let (_, st) = render_at(s, opts.spp, r as u64, threads)?;
-                say(format!("{name}: {mode} #{r}: {:.3} s", st.seconds));
-                report.records.push(record(
-                    &name,
-                    mode,
-                    r,
-                    &st,
-                    s.film.crop_size.0,
-                    s.film.crop_size.1,
-                ));
-                runs[i].push(st);
-            }
-        }
-        let medians: Vec<Option<f64>> = runs
+            ),
+        );
+        report.ceilings.push(c.clone());
+        Some(c)
+    } else {
+        None
+    };
+    if opts.rays_only {
+        return Ok(());
+    }
+    let scenes = load_modes(opts, path, &name);
+    let runs = time_modes(opts, &name, &scenes, threads, report)?;
+    let timing = timing(&scenes, &runs);
+    let eq = equal_time_modes(opts, path, &name, &scenes, &timing, threads)?;
+    if let Some(dir) = &opts.images {
+        let refs: Vec<(String, &Image)> = scenes
             .iter()
-            .map(|v| {
-                (!v.is_empty())
-                    .then(|| median(&mut v.iter().map(|s| s.seconds).collect::<Vec<_>>()))
-            })
+            .zip(&eq)
+            .filter_map(|((m, _), e)| e.as_ref().map(|e| (m.clone(), &e.1)))
             .collect();
-        let classic = scenes
-            .iter()
-            .position(|(m, _)| m == "classic")
-            .and_then(|i| medians[i]);
-        let classic_rays = scenes
-            .iter()
-            .position(|(m, _)| m == "classic")
-            .filter(|&i| !runs[i].is_empty())
-            .and_then(|i| {
-                let r = &runs[i];
-                let rays = r.iter().map(|s| s.rays.total() as f64).sum::<f64>() / r.len() as f64;
-                medians[i].map(|m| (m, rays))
-            });
-        // Equal-time comparison.
-        let eq = if opts.ref_spp > 0 {
-            let budget = classic.or_else(|| medians.iter().flatten().next().copied());
-            let mut v = Vec::new();
-            for (i, (mode, s)) in scenes.iter().enumerate() {
-                let (Ok(s), Some(budget), Some(t)) = (s, budget, medians[i]) else {
-                    v.push(None);
-                    continue;
-                };
-                let spp = ((opts.spp as f64 * budget / t).round() as u32).max(1);
-                say(format!(
-                    "{name}: {mode} equal time: {spp} spp vs {} spp reference",
-                    opts.ref_spp
-                ));
-                v.push(Some(equal_time::measure(
-                    s,
-                    path,
-                    &name,
-                    mode,
-                    spp,
-                    opts.ref_spp,
-                    threads,
-                    opts.ref_dir.as_deref(),
-                    &opts.defines,
-                )?));
-            }
-            v
-        } else {
-            vec![None; scenes.len()]
-        };
-        if let Some(dir) = &opts.images {
-            let refs: Vec<(String, &Image)> = scenes
-                .iter()
-                .zip(&eq)
-                .filter_map(|((m, _), e)| e.as_ref().map(|e| (m.clone(), &e.1)))
-                .collect();
-            if !refs.is_empty() {
-                chart::write_image_grid(dir, &name, &refs)?;
-            }
-        }
-        for (i, (mode, s)) in scenes.iter().enumerate() {
-            let summary = match s {
-                Err(e) => ModeSummary {
-                    scene: name.clone(),
-                    mode: mode.clone(),
-                    status: "skipped".into(),
-                    reason: Some(e.clone()),
-                    min_seconds: f64::NAN,
-                    median_seconds: f64::NAN,
-                    samples_per_second: f64::NAN,
-                    rays_per_second: f64::NAN,
-                    mean_walk_length: None,
-                    ratio_to_classic: None,
-                    rays_per_sample: f64::NAN,
-                    ray_cost_to_classic: None,
-                    fraction_of_ceiling: None,
-                    equal_time: None,
-                },
-                Ok(_) => {
-                    let v = &runs[i];
-                    let med = medians[i].unwrap_or(f64::NAN);
-                    let min = v.iter().map(|s| s.seconds).fold(f64::INFINITY, f64::min);
-                    let samples = v[0].samples as f64;
-                    let rays =
-                        v.iter().map(|s| s.rays.total() as f64).sum::<f64>() / v.len() as f64;
-                    let mut walks = crate::integrator::RayCounters::default();
-                    for s in v {
-                        walks.add(&s.rays);
-                    }
-                    let rps = rays / med;
-                    ModeSummary {
-                        scene: name.clone(),
-                        mode: mode.clone(),
-                        status: "ok".into(),
-                        reason: None,
-                        min_seconds: min,
-                        median_seconds: med,
-                        samples_per_second: samples / med,
-                        rays_per_second: rps,
-                        mean_walk_length: (walks.walks > 0).then(|| walks.mean_walk_length()),
-                        ratio_to_classic: classic.map(|c| med / c),
-                        rays_per_sample: rays / samples,
-                        ray_cost_to_classic: classic_rays.map(|(c, cr)| (med / rays) / (c / cr)),
-                        fraction_of_ceiling: ceil.as_ref().map(|c| rps / c.rays_per_second),
-                        equal_time: eq[i].as_ref().map(|e| e.0.clone()),
-                    }
-                }
-            };
-            report.summaries.push(summary);
+        if !refs.is_empty() {
+            chart::write_image_grid(dir, &name, &refs)?;
         }
     }
+    for (i, (mode, s)) in scenes.iter().enumerate() {
+        let summary = match s {
+            Err(e) => skipped_summary(&name, mode, e),
+            Ok(_) => mode_summary(&name, mode, &runs[i], &timing, i, ceil.as_ref(), &eq[i]),
+        };
+        report.summaries.push(summary);
+    }
+    Ok(())
+}
+
+/// Loads the scene once per requested mode.
+fn load_modes(opts: &BenchOptions, path: &Path, name: &str) -> ModeScenes {
+    let mut scenes: ModeScenes = Vec::new();
+    for mode in &opts.modes {
+        let s = load_mode(path, mode, &opts.defines).map_err(|e| e.to_string());
+        if let Err(e) = &s {
+            say(opts, format!("{name}: {mode} skipped: {e}"));
+        }
+        scenes.push((mode.clone(), s));
+    }
+    scenes
+}
+
+/// Warm-up (untimed, 1 spp), then `repeat` rounds over the modes; each timed render is recorded
+/// in `report` and returned per mode.
+fn time_modes(
+    opts: &BenchOptions,
+    name: &str,
+    scenes: &ModeScenes,
+    threads: usize,
+    report: &mut BenchReport,
+) -> Result<Vec<Vec<RenderStats>>> {
+    for (_, s) in scenes {
+        if let Ok(s) = s {
+            render_at(s, 1, 0, threads)?;
+        }
+    }
+    let mut runs: Vec<Vec<RenderStats>> = vec![Vec::new(); scenes.len()];
+    for r in 0..opts.repeat.max(1) {
+        for (i, (mode, s)) in scenes.iter().enumerate() {
+            let Ok(s) = s else { continue };
+            let (_, st) = render_at(s, opts.spp, r as u64, threads)?;
+            say(opts, format!("{name}: {mode} #{r}: {:.3} s", st.seconds));
+            report.records.push(record(
+                name,
+                mode,
+                r,
+                &st,
+                s.film.crop_size.0,
+                s.film.crop_size.1,
+            ));
+            runs[i].push(st);
+        }
+    }
+    Ok(runs)
+}
+
+/// Median times per mode and classic's reference values.
+fn timing(scenes: &ModeScenes, runs: &[Vec<RenderStats>]) -> Timing {
+    let medians: Vec<Option<f64>> = runs
+        .iter()
+        .map(|v| {
+            (!v.is_empty()).then(|| median(&mut v.iter().map(|s| s.seconds).collect::<Vec<_>>()))
+        })
+        .collect();
+    let classic = scenes
+        .iter()
+        .position(|(m, _)| m == "classic")
+        .and_then(|i| medians[i]);
+    let classic_rays = scenes
+        .iter()
+        .position(|(m, _)| m == "classic")
+        .filter(|&i| !runs[i].is_empty())
+        .and_then(|i| {
+            let r = &runs[i];
+            let rays = r.iter().map(|s| s.rays.total() as f64).sum::<f64>() / r.len() as f64;
+            medians[i].map(|m| (m, rays))
+        });
+    Timing {
+        medians,
+        classic,
+        classic_rays,
+    }
+}
+
+/// The equal-time comparison (when `--ref-spp` > 0): each mode at the spp that fits classic's
+/// median time (or the first timed mode's), against a high-spp reference.
+fn equal_time_modes(
+    opts: &BenchOptions,
+    path: &Path,
+    name: &str,
+    scenes: &ModeScenes,
+    timing: &Timing,
+    threads: usize,
+) -> Result<Vec<Option<(equal_time::EqualTime, Image)>>> {
+    if opts.ref_spp == 0 {
+        return Ok(vec![None; scenes.len()]);
+    }
+    let medians = &timing.medians;
+    let budget = timing
+        .classic
+        .or_else(|| medians.iter().flatten().next().copied());
+    let mut v = Vec::new();
+    for (i, (mode, s)) in scenes.iter().enumerate() {
+        let (Ok(s), Some(budget), Some(t)) = (s, budget, medians[i]) else {
+            v.push(None);
+            continue;
+        };
+        let spp = ((opts.spp as f64 * budget / t).round() as u32).max(1);
+        say(
+            opts,
+            format!(
+                "{name}: {mode} equal time: {spp} spp vs {} spp reference",
+                opts.ref_spp
+            ),
+        );
+        v.push(Some(equal_time::measure(
+            s,
+            path,
+            name,
+            mode,
+            spp,
+            opts.ref_spp,
+            threads,
+            opts.ref_dir.as_deref(),
+            &opts.defines,
+        )?));
+    }
+    Ok(v)
+}
+
+/// The summary of a mode that could not be loaded.
+fn skipped_summary(name: &str, mode: &str, reason: &str) -> ModeSummary {
+    ModeSummary {
+        scene: name.to_string(),
+        mode: mode.to_string(),
+        status: "skipped".into(),
+        reason: Some(reason.to_string()),
+        min_seconds: f64::NAN,
+        median_seconds: f64::NAN,
+        samples_per_second: f64::NAN,
+        rays_per_second: f64::NAN,
+        mean_walk_length: None,
+        ratio_to_classic: None,
+        rays_per_sample: f64::NAN,
+        ray_cost_to_classic: None,
+        fraction_of_ceiling: None,
+        equal_time: None,
+    }
+}
+
+/// The summary of mode `i` over its timed renders `v`.
+fn mode_summary(
+    name: &str,
+    mode: &str,
+    v: &[RenderStats],
+    timing: &Timing,
+    i: usize,
+    ceil: Option<&ceiling::Ceiling>,
+    eq: &Option<(equal_time::EqualTime, Image)>,
+) -> ModeSummary {
+    let med = timing.medians[i].unwrap_or(f64::NAN);
+    let min = v.iter().map(|s| s.seconds).fold(f64::INFINITY, f64::min);
+    let samples = v[0].samples as f64;
+    let rays = v.iter().map(|s| s.rays.total() as f64).sum::<f64>() / v.len() as f64;
+    let mut walks = crate::integrator::RayCounters::default();
+    for s in v {
+        walks.add(&s.rays);
+    }
+    let rps = rays / med;
+    ModeSummary {
+        scene: name.to_string(),
+        mode: mode.to_string(),
+        status: "ok".into(),
+        reason: None,
+        min_seconds: min,
+        median_seconds: med,
+        samples_per_second: samples / med,
+        rays_per_second: rps,
+        mean_walk_length: (walks.walks > 0).then(|| walks.mean_walk_length()),
+        ratio_to_classic: timing.classic.map(|c| med / c),
+        rays_per_sample: rays / samples,
+        ray_cost_to_classic: timing.classic_rays.map(|(c, cr)| (med / rays) / (c / cr)),
+        fraction_of_ceiling: ceil.map(|c| rps / c.rays_per_second),
+        equal_time: eq.as_ref().map(|e| e.0.clone()),
+    }
+}
+
+/// The Mitsuba 3 peer column (`--peer`), or the note saying why it is missing.
+fn run_peers(opts: &BenchOptions, threads: usize, report: &mut BenchReport) {
     match &opts.peer_python {
         None => report.peer_note = Some("peer column not requested (--peer off)".into()),
         Some(py) => match peer::available(py) {
             Err(why) => {
-                say(format!("Mitsuba peer skipped: {why}"));
+                say(opts, format!("Mitsuba peer skipped: {why}"));
                 report.peer_note = Some(format!("Mitsuba 3 peer skipped: {why}"));
             }
             Ok(()) if opts.rays_only => {}
@@ -410,23 +504,25 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
                 for path in &opts.scenes {
                     for r in peer::run_all(py, path, opts.spp, threads, opts.repeat, &opts.defines)
                     {
-                        say(format!(
-                            "{}: Mitsuba {} {}",
-                            r.scene,
-                            r.variant,
-                            match (&r.median_seconds, &r.reason) {
-                                (Some(t), _) => format!("{t:.3} s"),
-                                (None, Some(e)) => format!("skipped: {e}"),
-                                _ => "skipped".into(),
-                            }
-                        ));
+                        say(
+                            opts,
+                            format!(
+                                "{}: Mitsuba {} {}",
+                                r.scene,
+                                r.variant,
+                                match (&r.median_seconds, &r.reason) {
+                                    (Some(t), _) => format!("{t:.3} s"),
+                                    (None, Some(e)) => format!("skipped: {e}"),
+                                    _ => "skipped".into(),
+                                }
+                            ),
+                        );
                         report.peers.push(r);
                     }
                 }
             }
         },
     }
-    Ok(report)
 }
 
 /// The CPU model from /proc/cpuinfo (empty when unknown).

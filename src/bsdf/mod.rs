@@ -31,8 +31,8 @@
 //!   [`bumpmap`] derives from a height texture), [`Blend`] (`blendbsdf`), [`Mask`] (`mask`),
 //!   [`mnm::MicrofacetNormalMap`].
 //!
-//! Verified pointwise against Mitsuba 3.9.1 (`mitsuba_refs.rs`) and statistically
-//! (`tests/bsdf_harness.rs`).
+//! Verified pointwise against Mitsuba 3.9.1 (`tests/bsdf_mitsuba/models.rs`, data in
+//! `tests/data/mitsuba_bsdf_points.json`) and statistically (`tests/bsdf_harness.rs`).
 //!
 //! # Storage without allocation per hit
 //! A material evaluates its textures at a hit and writes plain-valued [`BsdfNode`]s into a
@@ -50,14 +50,9 @@ pub mod ior;
 pub mod lobes;
 pub mod mask;
 pub mod microfacet;
-#[cfg(test)]
-mod mitsuba_refs;
 pub mod mnm;
 pub mod normalmap;
 pub mod null;
-#[cfg(test)]
-#[rustfmt::skip]
-mod mitsuba_refs_data;
 pub mod plastic;
 pub mod roughconductor;
 pub mod roughdielectric;
@@ -84,8 +79,6 @@ pub use thindielectric::ThinDielectric;
 
 use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
-#[cfg(test)]
-use glam::Vec2;
 use glam::Vec3;
 use std::sync::atomic::{AtomicU64, Ordering};
 

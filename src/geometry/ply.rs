@@ -76,23 +76,34 @@ struct Body<'a> {
 }
 
 impl Body<'_> {
+    /// The next value of type `ty` (the type only sets the width of binary data: ASCII tokens
+    /// are read as numbers whatever the declared type).
     fn read(&mut self, ty: Ty) -> std::result::Result<f64, String> {
-        if self.format == Format::Ascii {
-            while self.pos < self.data.len() && self.data[self.pos].is_ascii_whitespace() {
-                self.pos += 1;
-            }
-            let start = self.pos;
-            while self.pos < self.data.len() && !self.data[self.pos].is_ascii_whitespace() {
-                self.pos += 1;
-            }
-            if start == self.pos {
-                return Err("unexpected end of file".into());
-            }
-            let tok = std::str::from_utf8(&self.data[start..self.pos]).unwrap_or("?");
-            return tok
-                .parse::<f64>()
-                .map_err(|_| format!("`{tok}` is not a number"));
+        match self.format {
+            Format::Ascii => self.read_ascii(),
+            Format::Le | Format::Be => self.read_binary(ty),
         }
+    }
+
+    /// One whitespace-separated token.
+    fn read_ascii(&mut self) -> std::result::Result<f64, String> {
+        while self.pos < self.data.len() && self.data[self.pos].is_ascii_whitespace() {
+            self.pos += 1;
+        }
+        let start = self.pos;
+        while self.pos < self.data.len() && !self.data[self.pos].is_ascii_whitespace() {
+            self.pos += 1;
+        }
+        if start == self.pos {
+            return Err("unexpected end of file".into());
+        }
+        let tok = std::str::from_utf8(&self.data[start..self.pos]).unwrap_or("?");
+        tok.parse::<f64>()
+            .map_err(|_| format!("`{tok}` is not a number"))
+    }
+
+    /// `ty.size()` bytes in the file's byte order.
+    fn read_binary(&mut self, ty: Ty) -> std::result::Result<f64, String> {
         let n = ty.size();
         let Some(bytes) = self.data.get(self.pos..self.pos + n) else {
             return Err("unexpected end of file (truncated binary data)".into());
@@ -114,31 +125,45 @@ impl Body<'_> {
             Ty::F64 => f64::from_le_bytes(b),
         })
     }
-}
 
-/// Loads a PLY file into an untransformed [`TriMesh`].
-pub fn load_ply(path: &Path) -> Result<TriMesh> {
-    let data = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    parse_ply(&data).map_err(|m| Error::file(path, m))
-}
-
-/// Parses PLY bytes; errors are plain messages (the caller adds the file name).
-pub fn parse_ply(data: &[u8]) -> std::result::Result<TriMesh, String> {
-    // Header: ASCII lines up to and including `end_header`.
-    let mut pos = 0usize;
-    let mut next_line = || -> Option<String> {
-        if pos >= data.len() {
-            return None;
+    /// Reads and discards one property's value(s).
+    fn skip(&mut self, p: &Property) -> std::result::Result<(), String> {
+        let n = match p.list {
+            Some(ct) => self.read(ct)? as usize,
+            None => 1,
+        };
+        for _ in 0..n {
+            self.read(p.ty)?;
         }
-        let end = data[pos..]
-            .iter()
-            .position(|&c| c == b'\n')
-            .map_or(data.len(), |e| pos + e);
-        let l = String::from_utf8_lossy(&data[pos..end]).trim().to_string();
-        pos = (end + 1).min(data.len());
-        Some(l)
-    };
-    if next_line().as_deref() != Some("ply") {
+        Ok(())
+    }
+}
+
+/// The parsed header: the body's format, its elements in file order, and where the body starts.
+struct Header {
+    format: Format,
+    elements: Vec<Element>,
+    body_start: usize,
+}
+
+/// The header line that starts at `*pos` (trimmed), advancing `*pos` past its `\n`.
+fn header_line(data: &[u8], pos: &mut usize) -> Option<String> {
+    if *pos >= data.len() {
+        return None;
+    }
+    let end = data[*pos..]
+        .iter()
+        .position(|&c| c == b'\n')
+        .map_or(data.len(), |e| *pos + e);
+    let l = String::from_utf8_lossy(&data[*pos..end]).trim().to_string();
+    *pos = (end + 1).min(data.len());
+    Some(l)
+}
+
+/// Parses the header: ASCII lines from the `ply` magic up to and including `end_header`.
+fn parse_header(data: &[u8]) -> std::result::Result<Header, String> {
+    let mut pos = 0usize;
+    if header_line(data, &mut pos).as_deref() != Some("ply") {
         return Err("not a PLY file (missing `ply` magic)".into());
     }
     let mut format = None;
@@ -146,7 +171,7 @@ pub fn parse_ply(data: &[u8]) -> std::result::Result<TriMesh, String> {
     let mut line_no = 1;
     loop {
         line_no += 1;
-        let line = next_line().ok_or("unexpected end of file in the header")?;
+        let line = header_line(data, &mut pos).ok_or("unexpected end of file in the header")?;
         let herr = |m: &str| format!("header line {line_no}: {m}: `{line}`");
         let t: Vec<&str> = line.split_ascii_whitespace().collect();
         match t.first().copied() {
@@ -174,152 +199,190 @@ pub fn parse_ply(data: &[u8]) -> std::result::Result<TriMesh, String> {
                 let el = elements
                     .last_mut()
                     .ok_or_else(|| herr("property before element"))?;
-                let prop = if t.get(1) == Some(&"list") {
-                    match (
-                        t.get(2).and_then(|s| Ty::parse(s)),
-                        t.get(3).and_then(|s| Ty::parse(s)),
-                        t.get(4),
-                    ) {
-                        (Some(c), Some(ty), Some(n)) => Property {
-                            name: n.to_string(),
-                            list: Some(c),
-                            ty,
-                        },
-                        _ => return Err(herr("bad list property")),
-                    }
-                } else {
-                    match (t.get(1).and_then(|s| Ty::parse(s)), t.get(2)) {
-                        (Some(ty), Some(n)) => Property {
-                            name: n.to_string(),
-                            list: None,
-                            ty,
-                        },
-                        _ => return Err(herr("bad property")),
-                    }
-                };
-                el.props.push(prop);
+                el.props.push(parse_property(&t).map_err(herr)?);
             }
             Some("comment") | Some("obj_info") | None => {}
             Some(_) => return Err(herr("unknown header keyword")),
         }
     }
-    let format = format.ok_or("header has no `format` line")?;
-    let mut body = Body { data, pos, format };
+    Ok(Header {
+        format: format.ok_or("header has no `format` line")?,
+        elements,
+        body_start: pos,
+    })
+}
 
-    let mut positions = Vec::new();
-    let mut normals = Vec::new();
-    let mut uvs = Vec::new();
-    let mut indices: Vec<[u32; 3]> = Vec::new();
-    let mut have_n = false;
-    let mut have_uv = false;
-    let mut have_faces = false;
-    let mut poly: Vec<u32> = Vec::new();
-    for el in &elements {
-        let find = |names: &[&str]| {
-            el.props
-                .iter()
-                .position(|p| p.list.is_none() && names.contains(&p.name.as_str()))
+/// A `property TYPE NAME` or `property list COUNT_TYPE TYPE NAME` line, split into words.
+fn parse_property(t: &[&str]) -> std::result::Result<Property, &'static str> {
+    if t.get(1) == Some(&"list") {
+        match (
+            t.get(2).and_then(|s| Ty::parse(s)),
+            t.get(3).and_then(|s| Ty::parse(s)),
+            t.get(4),
+        ) {
+            (Some(c), Some(ty), Some(n)) => Ok(Property {
+                name: n.to_string(),
+                list: Some(c),
+                ty,
+            }),
+            _ => Err("bad list property"),
+        }
+    } else {
+        match (t.get(1).and_then(|s| Ty::parse(s)), t.get(2)) {
+            (Some(ty), Some(n)) => Ok(Property {
+                name: n.to_string(),
+                list: None,
+                ty,
+            }),
+            _ => Err("bad property"),
+        }
+    }
+}
+
+/// The mesh being read, element by element.
+#[derive(Default)]
+struct MeshData {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    uvs: Vec<Vec2>,
+    indices: Vec<[u32; 3]>,
+    /// Whether the (last) vertex element has `nx ny nz`, resp. a uv pair.
+    have_n: bool,
+    have_uv: bool,
+    have_faces: bool,
+}
+
+/// `element NAME i: message`, the position of a body error.
+fn at(el: &Element, i: usize, m: String) -> String {
+    format!("element `{}` {i}: {m}", el.name)
+}
+
+/// Reads the `vertex` element: positions, and normals and uvs when it has them.
+fn read_vertices(
+    body: &mut Body,
+    el: &Element,
+    mesh: &mut MeshData,
+) -> std::result::Result<(), String> {
+    let find = |name: &str| {
+        el.props
+            .iter()
+            .position(|p| p.list.is_none() && p.name == name)
+    };
+    let (Some(ix), Some(iy), Some(iz)) = (find("x"), find("y"), find("z")) else {
+        return Err("vertex element lacks x, y or z".into());
+    };
+    let nrm = match (find("nx"), find("ny"), find("nz")) {
+        (Some(a), Some(b), Some(c)) => Some((a, b, c)),
+        _ => None,
+    };
+    let uvp = [("u", "v"), ("texture_u", "texture_v"), ("s", "t")]
+        .iter()
+        .find_map(|(a, b)| Some((find(a)?, find(b)?)));
+    mesh.have_n = nrm.is_some();
+    mesh.have_uv = uvp.is_some();
+    let mut vals = vec![0.0f64; el.props.len()];
+    for i in 0..el.count {
+        for (k, p) in el.props.iter().enumerate() {
+            if p.list.is_some() {
+                body.skip(p).map_err(|m| at(el, i, m))?;
+            } else {
+                vals[k] = body.read(p.ty).map_err(|m| at(el, i, m))?;
+            }
+        }
+        let v3 = |a: usize, b: usize, c: usize| {
+            Vec3::new(vals[a] as f32, vals[b] as f32, vals[c] as f32)
         };
-        let ctx = |m: String, i: usize| format!("element `{}` {i}: {m}", el.name);
-        if el.name == "vertex" {
-            let (Some(ix), Some(iy), Some(iz)) = (find(&["x"]), find(&["y"]), find(&["z"])) else {
-                return Err("vertex element lacks x, y or z".into());
-            };
-            let nrm = (find(&["nx"]), find(&["ny"]), find(&["nz"]));
-            let uvp = [("u", "v"), ("texture_u", "texture_v"), ("s", "t")]
-                .iter()
-                .find_map(|(a, b)| Some((find(&[a])?, find(&[b])?)));
-            have_n = nrm.0.is_some() && nrm.1.is_some() && nrm.2.is_some();
-            have_uv = uvp.is_some();
-            let mut vals = vec![0.0f64; el.props.len()];
-            for i in 0..el.count {
-                for (k, p) in el.props.iter().enumerate() {
-                    if let Some(ct) = p.list {
-                        let n = body.read(ct).map_err(|m| ctx(m, i))?;
-                        for _ in 0..n as usize {
-                            body.read(p.ty).map_err(|m| ctx(m, i))?;
+        mesh.positions.push(v3(ix, iy, iz));
+        if let Some((a, b, c)) = nrm {
+            mesh.normals.push(v3(a, b, c).normalize_or_zero());
+        }
+        if let Some((a, b)) = uvp {
+            mesh.uvs.push(Vec2::new(vals[a] as f32, vals[b] as f32));
+        }
+    }
+    Ok(())
+}
+
+/// Reads the `face` element: each `vertex_indices` polygon, fan-triangulated.
+fn read_faces(
+    body: &mut Body,
+    el: &Element,
+    mesh: &mut MeshData,
+) -> std::result::Result<(), String> {
+    let li = el
+        .props
+        .iter()
+        .position(|p| p.list.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index"))
+        .ok_or("face element lacks a vertex_indices list")?;
+    mesh.have_faces = true;
+    let mut poly: Vec<u32> = Vec::new();
+    for i in 0..el.count {
+        for (k, p) in el.props.iter().enumerate() {
+            match p.list {
+                Some(ct) if k == li => {
+                    let n = body.read(ct).map_err(|m| at(el, i, m))?;
+                    poly.clear();
+                    for _ in 0..n as usize {
+                        let v = body.read(p.ty).map_err(|m| at(el, i, m))?;
+                        if !(v >= 0.0 && v < u32::MAX as f64) || v.fract() != 0.0 {
+                            return Err(at(el, i, format!("bad vertex index {v}")));
                         }
-                    } else {
-                        vals[k] = body.read(p.ty).map_err(|m| ctx(m, i))?;
+                        poly.push(v as u32);
+                    }
+                    if poly.len() < 3 {
+                        return Err(at(el, i, format!("face with {} vertices", poly.len())));
+                    }
+                    for j in 1..poly.len() - 1 {
+                        mesh.indices.push([poly[0], poly[j], poly[j + 1]]);
                     }
                 }
-                positions.push(Vec3::new(vals[ix] as f32, vals[iy] as f32, vals[iz] as f32));
-                if let (true, (Some(a), Some(b), Some(c))) = (have_n, nrm) {
-                    normals.push(
-                        Vec3::new(vals[a] as f32, vals[b] as f32, vals[c] as f32)
-                            .normalize_or_zero(),
-                    );
-                }
-                if let Some((a, b)) = uvp {
-                    uvs.push(Vec2::new(vals[a] as f32, vals[b] as f32));
-                }
-            }
-        } else if el.name == "face" {
-            let li = el
-                .props
-                .iter()
-                .position(|p| {
-                    p.list.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index")
-                })
-                .ok_or("face element lacks a vertex_indices list")?;
-            have_faces = true;
-            for i in 0..el.count {
-                for (k, p) in el.props.iter().enumerate() {
-                    match p.list {
-                        Some(ct) => {
-                            let n = body.read(ct).map_err(|m| ctx(m, i))?;
-                            if k == li {
-                                poly.clear();
-                                for _ in 0..n as usize {
-                                    let v = body.read(p.ty).map_err(|m| ctx(m, i))?;
-                                    if !(v >= 0.0 && v < u32::MAX as f64) || v.fract() != 0.0 {
-                                        return Err(ctx(format!("bad vertex index {v}"), i));
-                                    }
-                                    poly.push(v as u32);
-                                }
-                                if poly.len() < 3 {
-                                    return Err(ctx(
-                                        format!("face with {} vertices", poly.len()),
-                                        i,
-                                    ));
-                                }
-                                for j in 1..poly.len() - 1 {
-                                    indices.push([poly[0], poly[j], poly[j + 1]]);
-                                }
-                            } else {
-                                for _ in 0..n as usize {
-                                    body.read(p.ty).map_err(|m| ctx(m, i))?;
-                                }
-                            }
-                        }
-                        None => {
-                            body.read(p.ty).map_err(|m| ctx(m, i))?;
-                        }
-                    }
-                }
-            }
-        } else {
-            for i in 0..el.count {
-                for p in &el.props {
-                    let n = match p.list {
-                        Some(ct) => body.read(ct).map_err(|m| ctx(m, i))? as usize,
-                        None => 1,
-                    };
-                    for _ in 0..n {
-                        body.read(p.ty).map_err(|m| ctx(m, i))?;
-                    }
-                }
+                _ => body.skip(p).map_err(|m| at(el, i, m))?,
             }
         }
     }
-    if !have_faces {
+    Ok(())
+}
+
+/// Reads and discards an element groove does not use (colours, materials, edges...).
+fn skip_element(body: &mut Body, el: &Element) -> std::result::Result<(), String> {
+    for i in 0..el.count {
+        for p in &el.props {
+            body.skip(p).map_err(|m| at(el, i, m))?;
+        }
+    }
+    Ok(())
+}
+
+/// Loads a PLY file into an untransformed [`TriMesh`].
+pub fn load_ply(path: &Path) -> Result<TriMesh> {
+    let data = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    parse_ply(&data).map_err(|m| Error::file(path, m))
+}
+
+/// Parses PLY bytes; errors are plain messages (the caller adds the file name).
+pub fn parse_ply(data: &[u8]) -> std::result::Result<TriMesh, String> {
+    let header = parse_header(data)?;
+    let mut body = Body {
+        data,
+        pos: header.body_start,
+        format: header.format,
+    };
+    let mut mesh = MeshData::default();
+    for el in &header.elements {
+        match el.name.as_str() {
+            "vertex" => read_vertices(&mut body, el, &mut mesh)?,
+            "face" => read_faces(&mut body, el, &mut mesh)?,
+            _ => skip_element(&mut body, el)?,
+        }
+    }
+    if !mesh.have_faces {
         return Err("no face element".into());
     }
     let mesh = TriMesh {
-        positions,
-        normals: have_n.then_some(normals),
-        uvs: have_uv.then_some(uvs),
-        indices,
+        positions: mesh.positions,
+        normals: mesh.have_n.then_some(mesh.normals),
+        uvs: mesh.have_uv.then_some(mesh.uvs),
+        indices: mesh.indices,
     };
     mesh.validate()?;
     Ok(mesh)

@@ -95,6 +95,14 @@ pub fn render_scene(
     }
 }
 
+/// Mean over the whole image with its standard error (grey images: channel 0).
+pub fn image_mean(r: &Rendered) -> (f64, f64) {
+    let n = r.mean.data.len() as f64;
+    let m = r.mean.data.iter().map(|p| p[0]).sum::<f64>() / n;
+    let v = r.var.data.iter().map(|p| p[0]).sum::<f64>() / (n * n);
+    (m, v.sqrt())
+}
+
 /// A unit direction from polar angle θ and azimuth φ in degrees (z up).
 pub fn dir(theta_deg: f32, phi_deg: f32) -> glam::Vec3 {
     let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());

@@ -1,6 +1,6 @@
 //! Microfacet-based normal mapping (Schüssler, Heitz, Hanika, Dachsbacher 2017, "Microfacet-based
 //! Normal Mapping for Robust Monte Carlo Path Tracing") and its extensions. The spec with every
-//! formula and decision is `../shared/spec/mnm.md`; section numbers below refer to it.
+//! formula and decision is `docs/spec/mnm.md`; section numbers below refer to it.
 //!
 //! At each shading point the normal map's perturbed normal ωp defines a microsurface of a few
 //! facets whose mean normal is the macro normal ωg (closure, [`facets`]). Light scatters on that

@@ -1,19 +1,14 @@
-//! Experiment (not part of the default run): the white-furnace energy table of spec §4.5 as
-//! measured by groove. Run with
-//! `cargo test --release --test mnm_energy_table -- --ignored --nocapture`.
+//! `energy`: the white-furnace energy table of spec §4.5 (docs/mnm.md, "Energy table") as
+//! measured by groove.
 //! Albedo = mean sample weight over 200k samples (failed samples count 0), white Lambertian
 //! nested BSDF; "far side" is ωi at 80° on the side ωp leans away from.
 
+use crate::common::dir;
 use glam::Vec3;
 use groove::bsdf::mnm::facets::Microgeometry;
 use groove::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
 use groove::bsdf::{BsdfArena, BsdfContext, BsdfNode, Diffuse};
 use groove::sampler::Sampler;
-
-fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
-    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
-    Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
-}
 
 fn albedo(g: Microgeometry, t: Tangent, e: Evaluation, tp: f32, wi: Vec3) -> (f64, f64) {
     let mut arena = BsdfArena::new();
@@ -44,9 +39,8 @@ fn albedo(g: Microgeometry, t: Tangent, e: Evaluation, tp: f32, wi: Vec3) -> (f6
     (m, ((a2 / n as f64 - m * m) / n as f64).sqrt())
 }
 
-#[test]
-#[ignore = "experiment: prints the energy table"]
-fn energy_table() {
+/// Prints the table (Markdown) on stdout.
+pub fn run() {
     println!("| θp | classic (1+cosθp)/2 | explicit mirror, ωi = ωg | explicit mirror, ωi 80° far side | mirror walk, ωi = ωg | same-material walk, ωi = ωg | V-groove walk | U-groove walk (s=0.5) |");
     println!("|---|---|---|---|---|---|---|---|");
     for tp in [10.0f32, 30.0, 45.0, 60.0, 75.0, 85.0] {
