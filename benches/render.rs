@@ -3,8 +3,9 @@
 //! `groove render` prints samples/s and rays/s for any scene as well.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use groove::load::load_scene;
+use groove::load::options::LoadOptions;
 use groove::render::{render, RenderOptions};
-use groove::scene::instantiate::{load_scene, LoadOptions};
 use std::path::PathBuf;
 
 fn cbox(c: &mut Criterion) {

@@ -150,12 +150,12 @@ fn output_path(args: &RenderArgs, scene: &Path, multi: bool) -> PathBuf {
 fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool) -> Result<()> {
     let out = output_path(args, scene_path, multi);
     groove::output::check_extension(&out)?;
-    let load = groove::scene::instantiate::LoadOptions {
+    let load = groove::load::options::LoadOptions {
         defines: args.defines.clone(),
         normal_mapping: args.normal_mapping.unwrap_or_default(),
     };
     let t0 = std::time::Instant::now();
-    let loaded = groove::scene::instantiate::load_scene(scene_path, &load)?;
+    let loaded = groove::load::load_scene(scene_path, &load)?;
     if !args.quiet {
         for w in &loaded.warnings {
             eprintln!("warning: {w}");

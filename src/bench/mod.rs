@@ -23,8 +23,9 @@ pub mod report;
 
 use crate::error::Result;
 use crate::film::Image;
+use crate::load::load_scene;
+use crate::load::options::{LoadOptions, NormalMapping};
 use crate::render::{render, RenderOptions, RenderStats};
-use crate::scene::instantiate::{load_scene, LoadOptions, NormalMapping};
 use crate::scene::Scene;
 use serde::Serialize;
 use std::path::{Path, PathBuf};

@@ -1,8 +1,7 @@
 //! The renderable scene: geometry with its acceleration structure, materials, emitters, camera,
 //! film, sampler and integrator settings. Built from XML by `scene::xml` (parse, upgrade) and
-//! `scene::instantiate`; later stages never look back at the XML.
+//! `load`; later stages never look back at the XML.
 
-pub mod instantiate;
 pub mod xml;
 
 use crate::accel::Accel;

@@ -71,14 +71,14 @@ pub fn render_scene(
     threads: usize,
     tweak: impl FnOnce(&mut groove::scene::Scene),
 ) -> Rendered {
-    let opts = groove::scene::instantiate::LoadOptions {
+    let opts = groove::load::options::LoadOptions {
         defines: defines
             .iter()
             .map(|(k, v)| (k.to_string(), v.to_string()))
             .collect(),
         ..Default::default()
     };
-    let mut loaded = groove::scene::instantiate::load_scene(scene, &opts)
+    let mut loaded = groove::load::load_scene(scene, &opts)
         .unwrap_or_else(|e| panic!("loading {}: {e}", scene.display()));
     tweak(&mut loaded.scene);
     let ro = groove::render::RenderOptions {

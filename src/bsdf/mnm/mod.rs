@@ -18,9 +18,12 @@
 //! spec §9.3, or, for comparison, the student project's walk that ends at the first refraction
 //! (§9.4, [`TransmissionWalk::ExitOnRefraction`]). Both report the walk's net η and leave the
 //! 1/η² radiance scaling to the nested BSDF.
+//!
+//! The XML parameters and their defaults: [`load`].
 
 pub mod explicit;
 pub mod facets;
+pub(crate) mod load;
 pub mod stats;
 pub mod walk;
 
