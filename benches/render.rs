@@ -14,7 +14,7 @@ fn cbox(c: &mut Criterion) {
         defines: vec![("res".into(), "64".into())],
         ..Default::default()
     };
-    let scene = load_scene(&path, &opts).expect("scene").scene;
+    let loaded = load_scene(&path, &opts).expect("scene");
     let ro = RenderOptions {
         spp: Some(16),
         seed: Some(0),
@@ -25,7 +25,7 @@ fn cbox(c: &mut Criterion) {
     g.throughput(Throughput::Elements(64 * 64 * 16));
     g.sample_size(10);
     g.bench_function("render_64x64_16spp", |b| {
-        b.iter(|| render(&scene, &ro).expect("render"))
+        b.iter(|| render(&loaded.scene, &loaded.settings, &ro).expect("render"))
     });
     g.finish();
 }

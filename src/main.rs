@@ -161,7 +161,6 @@ fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool) -> Result<()> {
             eprintln!("warning: {w}");
         }
     }
-    let scene = loaded.scene;
     let load_s = t0.elapsed().as_secs_f64();
     let opts = RenderOptions {
         threads: args.threads,
@@ -170,7 +169,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool) -> Result<()> {
         progress: !args.quiet && std::io::stderr().is_terminal(),
         ..Default::default()
     };
-    let result = render(&scene, &opts)?;
+    let result = render(&loaded.scene, &loaded.settings, &opts)?;
     let st = &result.stats;
     let img = result.film.develop();
     let meta = Metadata(vec![

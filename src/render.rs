@@ -3,14 +3,24 @@
 //! bit-identical for a given seed whatever the thread count. Counts rays and times the render.
 
 use crate::error::{Error, Result};
-use crate::film::{Block, Film};
-use crate::integrator::{RayCounters, Scratch};
+use crate::film::{Block, Film, FilmDesc};
+use crate::integrator::{IntegratorDesc, RayCounters, Scratch};
 use crate::sampler::{Sampler, SamplerDesc};
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
 use glam::Vec2;
 use rayon::prelude::*;
 use std::time::Instant;
+
+/// How the scene file asks for it to be rendered: the integrator, the film (size, crop window,
+/// reconstruction filter) and the sampler. Kept apart from the [`Scene`] it renders, which
+/// knows nothing of integrators.
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub integrator: IntegratorDesc,
+    pub film: FilmDesc,
+    pub sampler: SamplerDesc,
+}
 
 /// How to render (command-line overrides of the scene's own settings).
 #[derive(Clone, Debug)]
@@ -75,15 +85,20 @@ pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
         .map_err(|e| Error::Native(format!("cannot start worker threads: {e}")))
 }
 
-/// Render `scene` and return the film with its statistics.
-pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
+/// Render `scene` as `settings` say, with the overrides of `opts`; returns the film with its
+/// statistics.
+pub fn render(
+    scene: &Scene,
+    settings: &RenderSettings,
+    opts: &RenderOptions,
+) -> Result<RenderOutput> {
     let pool = thread_pool(opts.threads)?;
     let sampler_desc = SamplerDesc {
-        kind: scene.sampler.kind,
-        sample_count: opts.spp.unwrap_or(scene.sampler.sample_count).max(1),
-        seed: opts.seed.unwrap_or(scene.sampler.seed),
+        kind: settings.sampler.kind,
+        sample_count: opts.spp.unwrap_or(settings.sampler.sample_count).max(1),
+        seed: opts.seed.unwrap_or(settings.sampler.seed),
     };
-    let desc = &scene.film;
+    let desc = &settings.film;
     let bs = opts.block_size.max(1);
     let (cx, cy) = desc.crop_offset;
     let (cw, ch) = desc.crop_size;
@@ -119,8 +134,14 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
                 scratch.counters = RayCounters::default();
                 let _ = crate::bsdf::mnm::stats::take();
                 let mut block = Block::new(desc, x0, y0, w, h);
-                let invalid =
-                    render_block(scene, &sampler_desc, &mut block, (x0, y0, w, h), scratch);
+                let invalid = render_block(
+                    scene,
+                    settings,
+                    &sampler_desc,
+                    &mut block,
+                    (x0, y0, w, h),
+                    scratch,
+                );
                 crate::bench::raylog::flush();
                 let walks = crate::bsdf::mnm::stats::take();
                 scratch.counters.walks = walks.walks;
@@ -160,12 +181,13 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
 /// Render every sample of the pixels of one block; returns the number of invalid samples.
 fn render_block(
     scene: &Scene,
+    settings: &RenderSettings,
     sampler_desc: &SamplerDesc,
     block: &mut Block,
     (x0, y0, w, h): (u32, u32, u32, u32),
     scratch: &mut Scratch,
 ) -> u64 {
-    let width = scene.film.width as u64;
+    let width = settings.film.width as u64;
     let mut invalid = 0;
     for y in y0..y0 + h {
         for x in x0..x0 + w {
@@ -174,7 +196,7 @@ fn render_block(
                 let mut sampler = Sampler::for_sample(sampler_desc, pixel_index, s);
                 let pos = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                 let ray = scene.camera.generate_ray(pos);
-                let mut l = scene.integrator.li(scene, ray, &mut sampler, scratch);
+                let mut l = settings.integrator.li(scene, ray, &mut sampler, scratch);
                 if !crate::spectrum::is_finite(l) {
                     invalid += 1;
                     l = Spectrum::ZERO;

@@ -2,11 +2,12 @@
 //! surface interactions, emitter sampling densities, and self-intersection robustness.
 
 use glam::{Mat4, Vec2, Vec3};
-use groove::accel::{Accel, Hit};
+use groove::accel::Accel;
 use groove::geometry::mesh::TriMesh;
 use groove::geometry::obj::load_obj;
 use groove::geometry::ply::load_ply;
 use groove::geometry::shapes::Shape;
+use groove::geometry::Hit;
 use groove::geometry::{Ray, SurfaceInteraction};
 use groove::math::warp::{square_to_cosine_hemisphere, square_to_uniform_sphere};
 use groove::math::{Frame, Pcg32};

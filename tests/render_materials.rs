@@ -140,7 +140,7 @@ fn shared_cbox_wavelength_values_matches_mitsuba() {
                 seed: Some(400 + s),
                 ..Default::default()
             };
-            let out = groove::render::render(&loaded.scene, &ro).expect("render");
+            let out = groove::render::render(&loaded.scene, &loaded.settings, &ro).expect("render");
             let img = out.film.develop();
             let mut rgb = RgbImage::new(img.width as usize, img.height as usize);
             for (o, p) in rgb.data.iter_mut().zip(&img.data) {

@@ -207,7 +207,7 @@ fn furnace_under(mode: &str, defines: &[(&str, String)], seed: u64) -> (f64, f64
         seed: Some(seed),
         ..Default::default()
     };
-    let out = groove::render::render(&loaded.scene, &ro).expect("render");
+    let out = groove::render::render(&loaded.scene, &loaded.settings, &ro).expect("render");
     let img = out.film.develop();
     let var = out.film.develop_variance();
     assert!(

@@ -23,10 +23,9 @@ pub mod report;
 
 use crate::error::Result;
 use crate::film::Image;
-use crate::load::load_scene;
 use crate::load::options::{LoadOptions, NormalMapping};
+use crate::load::{load_scene, Loaded};
 use crate::render::{render, RenderOptions, RenderStats};
-use crate::scene::Scene;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -155,7 +154,7 @@ pub fn scene_name(p: &Path) -> String {
         .unwrap_or_else(|| p.display().to_string())
 }
 
-fn load_mode(path: &Path, mode: &str, defines: &[(String, String)]) -> Result<Scene> {
+fn load_mode(path: &Path, mode: &str, defines: &[(String, String)]) -> Result<Loaded> {
     let normal_mapping = NormalMapping::parse(mode).ok_or_else(|| {
         crate::error::Error::Usage(format!(
             "unknown normal-mapping mode '{mode}' (expected one of {})",
@@ -166,12 +165,13 @@ fn load_mode(path: &Path, mode: &str, defines: &[(String, String)]) -> Result<Sc
         defines: defines.to_vec(),
         normal_mapping,
     };
-    Ok(load_scene(path, &opts)?.scene)
+    load_scene(path, &opts)
 }
 
-fn render_at(scene: &Scene, spp: u32, seed: u64, threads: usize) -> Result<(Image, RenderStats)> {
+fn render_at(loaded: &Loaded, spp: u32, seed: u64, threads: usize) -> Result<(Image, RenderStats)> {
     let out = render(
-        scene,
+        &loaded.scene,
+        &loaded.settings,
         &RenderOptions {
             threads,
             spp: Some(spp),
@@ -258,7 +258,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
             continue;
         }
         // Load every mode; a mode that cannot apply (e.g. explicit over glass) is skipped.
-        let mut scenes: Vec<(String, std::result::Result<Scene, String>)> = Vec::new();
+        let mut scenes: Vec<(String, std::result::Result<Loaded, String>)> = Vec::new();
         for mode in &opts.modes {
             let s = load_mode(path, mode, &opts.defines).map_err(|e| e.to_string());
             if let Err(e) = &s {
@@ -283,8 +283,8 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
                     mode,
                     r,
                     &st,
-                    s.film.crop_size.0,
-                    s.film.crop_size.1,
+                    s.settings.film.crop_size.0,
+                    s.settings.film.crop_size.1,
                 ));
                 runs[i].push(st);
             }

@@ -1,6 +1,7 @@
 //! Geometry: rays, surface interactions, triangle meshes and the analytic shapes, with their
 //! loaders (OBJ, PLY) and area sampling for emitters.
 
+pub mod hit;
 pub mod interaction;
 pub mod mesh;
 pub mod obj;
@@ -8,6 +9,7 @@ pub mod ply;
 pub mod ray;
 pub mod shapes;
 
+pub use hit::Hit;
 pub use interaction::SurfaceInteraction;
 pub use mesh::TriMesh;
 pub use ray::Ray;

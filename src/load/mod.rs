@@ -27,6 +27,7 @@ use crate::film::FilmDesc;
 use crate::geometry::Shape;
 use crate::integrator::{IntegratorDesc, PathSettings};
 use crate::material::{MatId, Materials, TexId};
+use crate::render::RenderSettings;
 use crate::sampler::SamplerDesc;
 use crate::scene::xml::ir::{Document, Ids, Node};
 use crate::scene::xml::parse::load_file;
@@ -36,9 +37,11 @@ use options::{LoadOptions, NormalMapping};
 use std::collections::HashMap;
 use std::path::Path;
 
-/// A loaded scene and the warnings its loading produced (lenient fallbacks, old tags).
+/// A loaded scene, how its file asks for it to be rendered, and the warnings its loading
+/// produced (lenient fallbacks, old tags).
 pub struct Loaded {
     pub scene: Scene,
+    pub settings: RenderSettings,
     pub warnings: Vec<String>,
 }
 
@@ -129,11 +132,13 @@ pub fn instantiate_with(
             env_emitters,
             light_sampler,
             camera,
-            film,
-            sampler,
-            integrator,
             bsphere,
             source: path.to_path_buf(),
+        },
+        settings: RenderSettings {
+            integrator,
+            film,
+            sampler,
         },
         warnings: b.warnings,
     })
