@@ -2,14 +2,14 @@
 //! per plugin kind, every property checked (an unreferenced property is an error, as in
 //! Mitsuba 3) and `<ref>`s resolved by id.
 //!
-//! - this file: the entry points ([`load_scene`], [`instantiate`]), the [`Builder`] that
+//! - this file: the entry points ([`load_scene`], [`instantiate`]), the `Builder` that
 //!   collects what the builders make, and the top level of a scene;
-//! - [`settings`]: `<integrator>`, `<sensor>`, `<film>`, `<rfilter>`, `<sampler>`;
-//! - [`textures`]: `<texture>` and colour-or-texture parameters;
-//! - [`bsdfs`]: `<bsdf>`, dispatched to the constructor that lives in each BSDF's own file
+//! - `settings`: `<integrator>`, `<sensor>`, `<film>`, `<rfilter>`, `<sampler>`;
+//! - `textures`: `<texture>` and colour-or-texture parameters;
+//! - `bsdfs`: `<bsdf>`, dispatched to the constructor that lives in each BSDF's own file
 //!   beside its table of parameters (and the `--normal-mapping` conversions);
-//! - [`shapes`]: `<shape>`, its area emitter and the default materials;
-//! - [`emitters`]: the top-level `<emitter>`s;
+//! - `shapes`: `<shape>`, its area emitter and the default materials;
+//! - `emitters`: the top-level `<emitter>`s;
 //! - [`options`]: what a load is asked for besides the file (`-D`, `--normal-mapping`).
 
 pub(crate) mod bsdfs;

@@ -4,7 +4,8 @@
 use crate::bsdf::mnm::facets::Microgeometry;
 use crate::bsdf::mnm::{Evaluation, Tangent};
 
-/// Options of a load: `-D key=value` definitions from the command line and the normal-mapping model.
+/// Options of a load: `-D key=value` definitions from the command line and the model the
+/// normal maps become.
 #[derive(Clone, Debug, Default)]
 pub struct LoadOptions {
     pub defines: Vec<(String, String)>,

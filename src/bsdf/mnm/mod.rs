@@ -19,7 +19,7 @@
 //! (§9.4, [`TransmissionWalk::ExitOnRefraction`]). Both report the walk's net η and leave the
 //! 1/η² radiance scaling to the nested BSDF.
 //!
-//! The XML parameters and their defaults: [`load`].
+//! The XML parameters and their defaults: `load.rs`.
 
 pub mod explicit;
 pub mod facets;
