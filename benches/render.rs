@@ -3,8 +3,9 @@
 //! `groove render` prints samples/s and rays/s for any scene as well.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use groove::load::load_scene;
+use groove::load::options::LoadOptions;
 use groove::render::{render, RenderOptions};
-use groove::scene::instantiate::{load_scene, LoadOptions};
 use std::path::PathBuf;
 
 fn cbox(c: &mut Criterion) {
@@ -13,7 +14,7 @@ fn cbox(c: &mut Criterion) {
         defines: vec![("res".into(), "64".into())],
         ..Default::default()
     };
-    let scene = load_scene(&path, &opts).expect("scene").scene;
+    let loaded = load_scene(&path, &opts).expect("scene");
     let ro = RenderOptions {
         spp: Some(16),
         seed: Some(0),
@@ -24,7 +25,7 @@ fn cbox(c: &mut Criterion) {
     g.throughput(Throughput::Elements(64 * 64 * 16));
     g.sample_size(10);
     g.bench_function("render_64x64_16spp", |b| {
-        b.iter(|| render(&scene, &ro).expect("render"))
+        b.iter(|| render(&loaded.scene, &loaded.settings, &ro).expect("render"))
     });
     g.finish();
 }

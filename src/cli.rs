@@ -108,16 +108,14 @@ pub struct RenderArgs {
     /// wall, closed form), `walk-mirror` (the default model), `walk-same`, `vgroove`, `ugroove`.
     /// Default: as the scene is written.
     #[arg(long = "normal-mapping", value_name = "MODE", value_parser = parse_normal_mapping)]
-    pub normal_mapping: Option<crate::scene::instantiate::NormalMapping>,
+    pub normal_mapping: Option<crate::load::options::NormalMapping>,
     /// No progress bar and no warnings (errors and the summary still print).
     #[arg(short = 'q', long = "quiet")]
     pub quiet: bool,
 }
 
-pub(crate) fn parse_normal_mapping(
-    s: &str,
-) -> Result<crate::scene::instantiate::NormalMapping, String> {
-    use crate::scene::instantiate::NormalMapping;
+pub(crate) fn parse_normal_mapping(s: &str) -> Result<crate::load::options::NormalMapping, String> {
+    use crate::load::options::NormalMapping;
     match NormalMapping::parse(s) {
         Some(m) if s != "as_written" && s != "as-written" => Ok(m),
         _ => Err(format!(

@@ -23,6 +23,7 @@ pub mod error;
 pub mod film;
 pub mod geometry;
 pub mod integrator;
+pub mod load;
 pub mod material;
 pub mod math;
 pub mod output;

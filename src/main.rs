@@ -187,18 +187,17 @@ fn output_path(args: &RenderArgs, scene: &Path, multi: bool) -> PathBuf {
 fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool, cancel: &Cancel) -> Result<()> {
     let out = output_path(args, scene_path, multi);
     groove::output::check_extension(&out)?;
-    let load = groove::scene::instantiate::LoadOptions {
+    let load = groove::load::options::LoadOptions {
         defines: args.defines.clone(),
         normal_mapping: args.normal_mapping.unwrap_or_default(),
     };
     let t0 = std::time::Instant::now();
-    let loaded = groove::scene::instantiate::load_scene(scene_path, &load)?;
+    let loaded = groove::load::load_scene(scene_path, &load)?;
     if !args.quiet {
         for w in &loaded.warnings {
             eprintln!("warning: {w}");
         }
     }
-    let scene = loaded.scene;
     let load_s = t0.elapsed().as_secs_f64();
     let opts = RenderOptions {
         threads: args.threads,
@@ -208,7 +207,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool, cancel: &Cancel
         cancel: Some(cancel.clone()),
         ..Default::default()
     };
-    let result = render(&scene, &opts)?;
+    let result = render(&loaded.scene, &loaded.settings, &opts)?;
     let st = &result.stats;
     let img = result.film.develop();
     let meta = Metadata(vec![

@@ -4,8 +4,8 @@
 
 use crate::cancel::Cancel;
 use crate::error::{Error, Result};
-use crate::film::{Block, Film};
-use crate::integrator::{LoggedRay, RayCounters, Scratch};
+use crate::film::{Block, Film, FilmDesc};
+use crate::integrator::{IntegratorDesc, LoggedRay, RayCounters, Scratch};
 use crate::sampler::{Sampler, SamplerDesc};
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
@@ -14,6 +14,16 @@ use rayon::prelude::*;
 use std::sync::atomic::AtomicUsize;
 use std::sync::Arc;
 use std::time::Instant;
+
+/// How the scene file asks for it to be rendered: the integrator, the film (size, crop window,
+/// reconstruction filter) and the sampler. Kept apart from the [`Scene`] it renders, which
+/// knows nothing of integrators.
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub integrator: IntegratorDesc,
+    pub film: FilmDesc,
+    pub sampler: SamplerDesc,
+}
 
 /// How to render (command-line overrides of the scene's own settings).
 #[derive(Clone, Debug)]
@@ -88,15 +98,20 @@ pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
         .map_err(|e| Error::Native(format!("cannot start worker threads: {e}")))
 }
 
-/// Render `scene` and return the film with its statistics.
-pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
+/// Render `scene` as `settings` say, with the overrides of `opts`; returns the film with its
+/// statistics.
+pub fn render(
+    scene: &Scene,
+    settings: &RenderSettings,
+    opts: &RenderOptions,
+) -> Result<RenderOutput> {
     let pool = thread_pool(opts.threads)?;
     let sampler_desc = SamplerDesc {
-        kind: scene.sampler.kind,
-        sample_count: opts.spp.unwrap_or(scene.sampler.sample_count).max(1),
-        seed: opts.seed.unwrap_or(scene.sampler.seed),
+        kind: settings.sampler.kind,
+        sample_count: opts.spp.unwrap_or(settings.sampler.sample_count).max(1),
+        seed: opts.seed.unwrap_or(settings.sampler.seed),
     };
-    let desc = &scene.film;
+    let desc = &settings.film;
     let bs = opts.block_size.max(1);
     let (cx, cy) = desc.crop_offset;
     let (cw, ch) = desc.crop_size;
@@ -143,8 +158,15 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
                     let _ = scratch.arena.take_walk_counts();
                     let mut block = Block::new(desc, x0, y0, w, h);
                     let rect = (x0, y0, w, h);
-                    let invalid =
-                        render_block(scene, &sampler_desc, &mut block, rect, scratch, cancel);
+                    let invalid = render_block(
+                        scene,
+                        settings,
+                        &sampler_desc,
+                        &mut block,
+                        rect,
+                        scratch,
+                        cancel,
+                    );
                     let walks = scratch.arena.take_walk_counts();
                     let mut counters = scratch.rays.counters;
                     counters.walks = walks.walks;
@@ -195,13 +217,14 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
 /// Stops within 4096 samples once `cancel` is raised (the render is then discarded).
 fn render_block(
     scene: &Scene,
+    settings: &RenderSettings,
     sampler_desc: &SamplerDesc,
     block: &mut Block,
     (x0, y0, w, h): (u32, u32, u32, u32),
     scratch: &mut Scratch,
     cancel: Option<&Cancel>,
 ) -> u64 {
-    let width = scene.film.width as u64;
+    let width = settings.film.width as u64;
     let mut invalid = 0;
     let stop = || cancel.is_some_and(|c| c.requested().is_some());
     for y in y0..y0 + h {
@@ -215,7 +238,7 @@ fn render_block(
                 let mut sampler = Sampler::for_sample(sampler_desc, pixel_index, s);
                 let pos = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                 let ray = scene.camera.generate_ray(pos);
-                let mut l = scene.integrator.li(scene, ray, &mut sampler, scratch);
+                let mut l = settings.integrator.li(scene, ray, &mut sampler, scratch);
                 if !crate::spectrum::is_finite(l) {
                     invalid += 1;
                     l = Spectrum::ZERO;

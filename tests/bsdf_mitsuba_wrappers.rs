@@ -14,11 +14,11 @@ use groove::bsdf::{
     MicrofacetDistribution, MicrofacetType, RoughConductor,
 };
 use groove::geometry::SurfaceInteraction;
+use groove::load::instantiate;
 use groove::material::{MaterialNode, Materials};
 use groove::math::Frame;
 use groove::sampler::Sampler;
-use groove::scene::instantiate::instantiate;
-use groove::scene::xml::{load_str, LoadOptions};
+use groove::scene::xml::parse::load_str;
 use groove::texture::Texture;
 use serde_json::Value;
 
@@ -53,7 +53,7 @@ fn load_texture(xml: &str) -> Texture {
     let scene = format!(
         "<scene version=\"3.0.0\"><sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" value=\"2\"/><integer name=\"height\" value=\"2\"/></film></sensor>{xml}</scene>"
     );
-    let doc = load_str(&scene, &path, &LoadOptions::default()).unwrap();
+    let doc = load_str(&scene, &path, &[]).unwrap();
     instantiate(&doc, &path).unwrap().scene.materials.textures[0].clone()
 }
 

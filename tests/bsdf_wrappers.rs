@@ -378,7 +378,8 @@ fn blendbsdf_matches_mitsuba_pointwise() {
 /// `blendbsdf` in a scene: a float or a texture weight; bad input is an error at the element.
 #[test]
 fn blendbsdf_loads_and_rejects_bad_input() {
-    use groove::scene::instantiate::{load_scene, LoadOptions};
+    use groove::load::load_scene;
+    use groove::load::options::LoadOptions;
     let dir = std::env::temp_dir().join(format!("groove-blend-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let scene = |inner: &str| {

@@ -9,8 +9,9 @@ use glam::{Mat3, Vec2, Vec3};
 use groove::emitter::envmap::EnvMapLight;
 use groove::emitter::spot::SpotLight;
 use groove::emitter::Emitter;
+use groove::load::load_scene;
+use groove::load::options::LoadOptions;
 use groove::math::{Distribution2D, Pcg32};
-use groove::scene::instantiate::{load_scene, LoadOptions};
 use groove::scene::Scene;
 use groove::Spectrum;
 

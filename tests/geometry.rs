@@ -2,12 +2,13 @@
 //! surface interactions, emitter sampling densities, and self-intersection robustness.
 
 use glam::{Mat4, Vec2, Vec3};
-use groove::accel::{Accel, Hit};
+use groove::accel::Accel;
 use groove::geometry::mesh::TriMesh;
 use groove::geometry::obj::load_obj;
 use groove::geometry::ply::{load_ply, parse_ply};
 use groove::geometry::serialized::load_serialized;
 use groove::geometry::shapes::Shape;
+use groove::geometry::Hit;
 use groove::geometry::{Ray, SurfaceInteraction};
 use groove::math::warp::{square_to_cosine_hemisphere, square_to_uniform_sphere};
 use groove::math::{Frame, Pcg32};
@@ -432,8 +433,8 @@ fn serialized_errors_through_the_scene_loader_name_the_xml_position() {
     for (shape, expect) in cases {
         let p = d.join("s.xml");
         std::fs::write(&p, scene(shape)).unwrap();
-        let opts = groove::scene::instantiate::LoadOptions::default();
-        let err = match groove::scene::instantiate::load_scene(&p, &opts) {
+        let opts = groove::load::options::LoadOptions::default();
+        let err = match groove::load::load_scene(&p, &opts) {
             Ok(_) => panic!("loaded {shape}"),
             Err(e) => e.to_string(),
         };
@@ -446,9 +447,9 @@ fn serialized_errors_through_the_scene_loader_name_the_xml_position() {
         scene(r#"<shape type="serialized"><string name="filename" value="m.serialized"/><boolean name="face_normals" value="true"/></shape>"#),
     )
     .unwrap();
-    let opts = groove::scene::instantiate::LoadOptions::default();
-    let loaded = groove::scene::instantiate::load_scene(&p, &opts)
-        .unwrap_or_else(|e| panic!("the good scene: {e}"));
+    let opts = groove::load::options::LoadOptions::default();
+    let loaded =
+        groove::load::load_scene(&p, &opts).unwrap_or_else(|e| panic!("the good scene: {e}"));
     assert_eq!(loaded.scene.shapes.len(), 1);
     std::fs::remove_dir_all(&d).ok();
 }

@@ -33,8 +33,8 @@ fn mis_quad_with_point_light_matches_mitsuba() {
     matches_reference(&r, "mis_quad", 8, "mis_quad.xml");
 }
 
-fn set_strategy(s: Strategy) -> impl FnOnce(&mut groove::scene::Scene) {
-    move |scene| match &mut scene.integrator {
+fn set_strategy(s: Strategy) -> impl FnOnce(&mut groove::load::Loaded) {
+    move |loaded| match &mut loaded.settings.integrator {
         IntegratorDesc::Path(p) => p.strategy = s,
         other => panic!("expected a path integrator, got {other:?}"),
     }
@@ -245,8 +245,8 @@ fn same_seed_gives_identical_pixels_with_one_or_two_threads() {
 fn direct_integrator_matches_path_tracing_at_depth_two() {
     // mis_quad.xml uses path with max_depth 2 (direct light only): the `direct` integrator must
     // give the same image (reference: Mitsuba's path render).
-    let r = render_scene(&test_scene("mis_quad.xml"), &[], 128, 15, 0, |scene| {
-        scene.integrator = IntegratorDesc::Direct(groove::integrator::DirectSettings {
+    let r = render_scene(&test_scene("mis_quad.xml"), &[], 128, 15, 0, |loaded| {
+        loaded.settings.integrator = IntegratorDesc::Direct(groove::integrator::DirectSettings {
             emitter_samples: 2,
             bsdf_samples: 1,
             hide_emitters: false,
@@ -258,7 +258,7 @@ fn direct_integrator_matches_path_tracing_at_depth_two() {
 #[test]
 fn hide_emitters_hides_only_directly_visible_emitters() {
     let scene = test_scene("furnace_sphere.xml");
-    let hide = |s: &mut groove::scene::Scene| match &mut s.integrator {
+    let hide = |l: &mut groove::load::Loaded| match &mut l.settings.integrator {
         IntegratorDesc::Path(p) => p.hide_emitters = true,
         other => panic!("{other:?}"),
     };

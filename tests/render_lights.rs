@@ -15,8 +15,8 @@ fn matches_reference(r: &common::Rendered, reference: &str, block: usize, what: 
     c.assert_consistent(what);
 }
 
-fn set_strategy(s: Strategy) -> impl FnOnce(&mut groove::scene::Scene) {
-    move |scene| match &mut scene.integrator {
+fn set_strategy(s: Strategy) -> impl FnOnce(&mut groove::load::Loaded) {
+    move |loaded| match &mut loaded.settings.integrator {
         IntegratorDesc::Path(p) => p.strategy = s,
         other => panic!("expected a path integrator, got {other:?}"),
     }

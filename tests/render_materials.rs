@@ -124,14 +124,14 @@ fn tile_means(img: &RgbImage, t: usize) -> RgbImage {
 fn shared_cbox_wavelength_values_matches_mitsuba() {
     const T: usize = 8;
     // Loaded once, rendered 32 times (16 spp each, seeds 400..431).
-    let opts = groove::scene::instantiate::LoadOptions {
+    let opts = groove::load::options::LoadOptions {
         defines: [("res".to_string(), "64".to_string())]
             .into_iter()
             .collect(),
         ..Default::default()
     };
-    let loaded = groove::scene::instantiate::load_scene(&shared_cbox_file("cbox.xml"), &opts)
-        .expect("loading cbox.xml");
+    let loaded =
+        groove::load::load_scene(&shared_cbox_file("cbox.xml"), &opts).expect("loading cbox.xml");
     let renders: Vec<RgbImage> = (0..32u64)
         .map(|s| {
             let ro = groove::render::RenderOptions {
@@ -140,7 +140,7 @@ fn shared_cbox_wavelength_values_matches_mitsuba() {
                 seed: Some(400 + s),
                 ..Default::default()
             };
-            let out = groove::render::render(&loaded.scene, &ro).expect("render");
+            let out = groove::render::render(&loaded.scene, &loaded.settings, &ro).expect("render");
             let img = out.film.develop();
             let mut rgb = RgbImage::new(img.width as usize, img.height as usize);
             for (o, p) in rgb.data.iter_mut().zip(&img.data) {

@@ -138,8 +138,9 @@ fn every_microgeometry_passes_the_furnace_with_a_strong_normal_map() {
 /// its standard error (from the film's per-pixel variance) and the number of sampled walks.
 /// Panics on a non-finite pixel.
 fn furnace_under(mode: &str, defines: &[(&str, String)], seed: u64) -> (f64, f64, u64) {
-    use groove::scene::instantiate::{load_scene, LoadOptions};
-    use groove::scene::xml::parse::NormalMapping;
+    use groove::load::load_scene;
+    use groove::load::options::LoadOptions;
+    use groove::load::options::NormalMapping;
     let opts = LoadOptions {
         defines: defines
             .iter()
@@ -153,7 +154,7 @@ fn furnace_under(mode: &str, defines: &[(&str, String)], seed: u64) -> (f64, f64
         seed: Some(seed),
         ..Default::default()
     };
-    let out = groove::render::render(&loaded.scene, &ro).expect("render");
+    let out = groove::render::render(&loaded.scene, &loaded.settings, &ro).expect("render");
     let img = out.film.develop();
     let var = out.film.develop_variance();
     assert!(

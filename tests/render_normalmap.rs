@@ -4,8 +4,9 @@
 mod common;
 
 use common::{compare, load_reference, read_exr_rgb, render_scene, repo_root, test_scene};
+use groove::load::load_scene;
+use groove::load::options::{LoadOptions, NormalMapping};
 use groove::material::MaterialNode;
-use groove::scene::instantiate::{load_scene, LoadOptions, NormalMapping};
 use std::path::Path;
 
 const PLAIN: [(&str, &str); 2] = [("flip", "false"), ("shadow", "false")];

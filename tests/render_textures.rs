@@ -19,8 +19,8 @@ fn textured_quad_and_sphere_match_mitsuba() {
 fn the_comparison_sees_a_vertically_flipped_texture() {
     // Sensitivity check: the same scene with the picture's v flipped must be rejected, so the
     // test above really pins the texture's orientation (uv (0, 0) = first stored row).
-    let r = render_scene(&test_scene("textured_quad.xml"), &[], 64, 22, 0, |scene| {
-        let t = &mut scene.materials.textures;
+    let r = render_scene(&test_scene("textured_quad.xml"), &[], 64, 22, 0, |loaded| {
+        let t = &mut loaded.scene.materials.textures;
         let i = t
             .iter()
             .position(|t| {

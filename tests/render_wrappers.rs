@@ -39,8 +39,8 @@ fn textured_area_light_matches_mitsuba() {
 /// mean, the images differ from the references by more than the tests' noise.
 #[test]
 fn the_comparisons_see_bumps_and_roughness_textures() {
-    let r = render_scene(&test_scene("mat_bumpmap.xml"), &[], 256, 45, 0, |scene| {
-        for n in scene.materials.nodes_mut() {
+    let r = render_scene(&test_scene("mat_bumpmap.xml"), &[], 256, 45, 0, |loaded| {
+        for n in loaded.scene.materials.nodes_mut() {
             if let MaterialNode::BumpMap { scale, .. } = n {
                 *scale = 0.0;
             }
@@ -51,13 +51,20 @@ fn the_comparisons_see_bumps_and_roughness_textures() {
     eprintln!("mat_bumpmap without bumps: {}", c.report());
     assert!(!c.is_consistent(), "flat shading was accepted");
 
-    let r = render_scene(&test_scene("mat_rough_tex.xml"), &[], 256, 46, 0, |scene| {
-        for n in scene.materials.nodes_mut() {
-            if let MaterialNode::Leaf { slots, .. } = n {
-                slots.retain(|(s, _)| !s.is_scalar());
+    let r = render_scene(
+        &test_scene("mat_rough_tex.xml"),
+        &[],
+        256,
+        46,
+        0,
+        |loaded| {
+            for n in loaded.scene.materials.nodes_mut() {
+                if let MaterialNode::Leaf { slots, .. } = n {
+                    slots.retain(|(s, _)| !s.is_scalar());
+                }
             }
-        }
-    });
+        },
+    );
     let (m, v) = load_reference("mat_rough_tex");
     let c = compare(&r.mean, &r.var, &m, &v, 4);
     eprintln!("mat_rough_tex with mean roughness: {}", c.report());

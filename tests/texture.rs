@@ -6,8 +6,8 @@
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
-use groove::scene::instantiate::instantiate;
-use groove::scene::xml::{load_str, LoadOptions};
+use groove::load::instantiate;
+use groove::scene::xml::parse::load_str;
 use groove::spectrum::luminance;
 use groove::texture::bitmap::{round_to_f16, srgb_to_linear};
 use groove::texture::{BitmapOptions, BitmapTexture, FilterType, Texture, WrapMode};
@@ -29,7 +29,7 @@ fn scene_with(texture_xml: &str) -> String {
 /// Loads `texture_xml` as if it were in `dir/scene.xml`; returns the texture and the warnings.
 fn load_texture_in(dir: &Path, texture_xml: &str) -> groove::Result<(Texture, Vec<String>)> {
     let path = dir.join("scene.xml");
-    let doc = load_str(&scene_with(texture_xml), &path, &LoadOptions::default())?;
+    let doc = load_str(&scene_with(texture_xml), &path, &[])?;
     let loaded = instantiate(&doc, &path)?;
     Ok((loaded.scene.materials.textures[0].clone(), loaded.warnings))
 }

@@ -6,7 +6,10 @@ use std::f32::consts::FRAC_1_SQRT_2;
 use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Vec3};
-use groove::scene::xml::{load_file, load_str, Document, LoadOptions, Node, Props, SpectrumUse};
+use groove::scene::xml::ir::{Document, Node};
+use groove::scene::xml::parse::{load_file, load_str};
+use groove::scene::xml::props::Props;
+use groove::spectrum::SpectrumUse;
 use groove::Spectrum;
 
 fn data(name: &str) -> PathBuf {
@@ -15,18 +18,15 @@ fn data(name: &str) -> PathBuf {
         .join(name)
 }
 
-fn opts(defines: &[(&str, &str)]) -> LoadOptions {
-    LoadOptions {
-        defines: defines
-            .iter()
-            .map(|(k, v)| (k.to_string(), v.to_string()))
-            .collect(),
-        ..Default::default()
-    }
+fn opts(defines: &[(&str, &str)]) -> Vec<(String, String)> {
+    defines
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect()
 }
 
 fn load(text: &str) -> groove::Result<Document> {
-    load_str(text, Path::new("mem.xml"), &LoadOptions::default())
+    load_str(text, Path::new("mem.xml"), &[])
 }
 
 fn load_err(text: &str) -> String {
@@ -140,9 +140,7 @@ fn refs_do_not_count_as_duplicate_ids() {
 #[test]
 fn missing_include_file() {
     let path = data("missing_include.xml");
-    let e = load_file(&path, &LoadOptions::default())
-        .unwrap_err()
-        .to_string();
+    let e = load_file(&path, &[]).unwrap_err().to_string();
     assert_err(
         &e,
         &format!("{}:2:16", path.display()),
@@ -153,9 +151,7 @@ fn missing_include_file() {
 #[test]
 fn include_cycle() {
     let path = data("cycle_a.xml");
-    let e = load_file(&path, &LoadOptions::default())
-        .unwrap_err()
-        .to_string();
+    let e = load_file(&path, &[]).unwrap_err().to_string();
     assert_err(
         &e,
         &format!("{}:2:14", data("cycle_b.xml").display()),
@@ -343,7 +339,7 @@ fn define_without_default_is_used_by_dollar() {
 #[test]
 fn include_splices_with_file_locations() {
     let path = data("main_include.xml");
-    let doc = load_file(&path, &LoadOptions::default()).unwrap();
+    let doc = load_file(&path, &[]).unwrap();
     let tags: Vec<(&str, Option<&str>)> = doc
         .root
         .children
@@ -383,7 +379,7 @@ fn include_splices_with_file_locations() {
 
 #[test]
 fn old_scene_is_upgraded() {
-    let doc = load_file(&data("old_scene.xml"), &LoadOptions::default()).unwrap();
+    let doc = load_file(&data("old_scene.xml"), &[]).unwrap();
     assert!(doc.upgraded_from_v0);
     assert_eq!(doc.version, (0, 5, 0));
     assert!(
@@ -630,7 +626,7 @@ fn cbox_rgb_loads_with_includes_and_define() {
     let Some(path) = cbox("cbox-rgb.xml") else {
         return;
     };
-    let doc = load_file(&path, &LoadOptions::default()).unwrap();
+    let doc = load_file(&path, &[]).unwrap();
     assert_eq!(sampler_count(&doc), 256);
     let doc = load_file(&path, &opts(&[("spp", "4")])).unwrap();
     assert_eq!(sampler_count(&doc), 4);
@@ -723,7 +719,7 @@ fn load_str_resolves_includes_and_paths_next_to_virtual_path() {
     let doc = load_str(
         "<scene version=\"3.0.0\"><default name=\"refl\" value=\"0.5\"/><path value=\"inc\"/><include filename=\"inc/part.xml\"/></scene>",
         &data("virtual.xml"),
-        &LoadOptions::default(),
+        &[],
     )
     .unwrap();
     assert_eq!(doc.root.children.len(), 1);
@@ -741,7 +737,7 @@ fn bsdf_err(bsdf: &str) -> String {
         "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" value=\"2\"/><integer name=\"height\" value=\"2\"/></film></sensor>\n<shape type=\"sphere\">\n{bsdf}\n</shape>\n</scene>\n"
     );
     let doc = load(&text).expect("parses");
-    groove::scene::instantiate::instantiate(&doc, Path::new("mem.xml"))
+    groove::load::instantiate(&doc, Path::new("mem.xml"))
         .err()
         .map(|e| e.to_string())
         .unwrap_or_default()

@@ -5,6 +5,7 @@
 //! `rtcIntersect1` / `rtcOccluded1` are thread-safe (Embree 3 API docs, "rtcIntersect1"), which is
 //! what makes the wrapper `Send + Sync`.
 
+use crate::geometry::Hit;
 use embree3::sys::*;
 use glam::{Mat4, Vec3};
 use std::ffi::{c_char, c_void, CStr};
@@ -391,15 +392,6 @@ pub(crate) struct EmbreeScene {
 unsafe impl Send for EmbreeScene {}
 unsafe impl Sync for EmbreeScene {}
 
-/// A hit as Embree reports it.
-pub(crate) struct RawHit {
-    pub geom: u32,
-    pub prim: u32,
-    pub t: f32,
-    pub u: f32,
-    pub v: f32,
-}
-
 unsafe extern "C" fn on_error(user: *mut c_void, code: RTCError, msg: *const c_char) {
     if user.is_null() {
         return;
@@ -569,7 +561,7 @@ impl EmbreeScene {
     }
 
     /// Nearest hit with t in [tmin, tmax].
-    pub(crate) fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<RawHit> {
+    pub(crate) fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let mut ctx = Self::context();
         let mut rh = RTCRayHit {
             ray: Self::ray(o, d, tmin, tmax),
@@ -586,7 +578,7 @@ impl EmbreeScene {
         };
         // SAFETY: the scene is committed; ctx and rh are valid, properly aligned locals.
         unsafe { rtcIntersect1(self.scene, &mut ctx, &mut rh) };
-        (rh.hit.geomID != u32::MAX).then_some(RawHit {
+        (rh.hit.geomID != u32::MAX).then_some(Hit {
             geom: rh.hit.geomID,
             prim: rh.hit.primID,
             t: rh.ray.tfar,

@@ -4,19 +4,7 @@ mod embree;
 
 use crate::error::{Error, Result};
 use crate::geometry::shapes::{Shape, ShapeKind, CUBE_FACES};
-use crate::geometry::Ray;
-
-/// A ray–shape hit: which shape (`geom` is the index into the scene's shape list), which
-/// triangle, the distance, and Embree's barycentrics (`p = (1−u−v)·p0 + u·p1 + v·p2`; unused for
-/// spheres).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
-    pub geom: u32,
-    pub prim: u32,
-    pub t: f32,
-    pub u: f32,
-    pub v: f32,
-}
+use crate::geometry::{Hit, Ray};
 
 /// The acceleration structure over a scene's shapes. `Send + Sync`: queries run from any thread.
 pub struct Accel {
@@ -57,15 +45,7 @@ impl Accel {
     /// The nearest hit with `t` in `[ray.tmin, ray.tmax]`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        self.scene
-            .intersect(ray.o, ray.d, ray.tmin, ray.tmax)
-            .map(|h| Hit {
-                geom: h.geom,
-                prim: h.prim,
-                t: h.t,
-                u: h.u,
-                v: h.v,
-            })
+        self.scene.intersect(ray.o, ray.d, ray.tmin, ray.tmax)
     }
 
     /// Whether any surface lies on the ray within `[ray.tmin, ray.tmax]`.
@@ -118,7 +98,7 @@ mod tests {
             faces: &CUBE_FACES,
         }])
         .unwrap();
-        let point = |h: &embree::RawHit| {
+        let point = |h: &Hit| {
             let [p0, p1, p2] = mesh.indices[h.prim as usize].map(|i| mesh.positions[i as usize]);
             p0 * (1.0 - h.u - h.v) + p1 * h.u + p2 * h.v
         };

@@ -9,6 +9,7 @@
 
 use crate::error::Result;
 use crate::integrator::LoggedRay;
+use crate::load::Loaded;
 use crate::render::{render, thread_pool, RenderOptions};
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -31,16 +32,17 @@ pub struct Ceiling {
     pub rays_per_second: f64,
 }
 
-/// Record a classic render of `scene` at `spp` and trace its rays again `repeat` times.
+/// Record a classic render of the loaded scene at `spp` and trace its rays again `repeat` times.
 pub fn measure(
-    scene: &Scene,
+    loaded: &Loaded,
     name: &str,
     spp: u32,
     threads: usize,
     repeat: u32,
 ) -> Result<Ceiling> {
     let out = render(
-        scene,
+        &loaded.scene,
+        &loaded.settings,
         &RenderOptions {
             threads,
             spp: Some(spp),
@@ -58,7 +60,7 @@ pub fn measure(
     let mut best = f64::INFINITY;
     for _ in 0..repeat.max(1) {
         let t0 = Instant::now();
-        let hits: usize = pool.install(|| trace(scene, &rays, total));
+        let hits: usize = pool.install(|| trace(&loaded.scene, &rays, total));
         best = best.min(t0.elapsed().as_secs_f64());
         std::hint::black_box(hits);
     }

@@ -9,8 +9,8 @@
 use super::render_at;
 use crate::error::Result;
 use crate::film::Image;
+use crate::load::Loaded;
 use crate::output::{read_exr, write_image, Metadata};
-use crate::scene::Scene;
 use serde::Serialize;
 use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
@@ -36,7 +36,7 @@ pub struct EqualTime {
 /// reference image.
 #[allow(clippy::too_many_arguments)]
 pub fn measure(
-    scene: &Scene,
+    scene: &Loaded,
     path: &Path,
     name: &str,
     mode: &str,
@@ -79,7 +79,7 @@ pub fn mse(img: &Image, reference: &Image) -> (f64, f64) {
 
 #[allow(clippy::too_many_arguments)]
 fn reference(
-    scene: &Scene,
+    scene: &Loaded,
     path: &Path,
     name: &str,
     mode: &str,
@@ -96,7 +96,7 @@ fn reference(
     });
     if let Some(p) = &cached {
         if let Ok((img, _)) = read_exr(p) {
-            if (img.width, img.height) == scene.film.crop_size {
+            if (img.width, img.height) == scene.settings.film.crop_size {
                 return Ok(img);
             }
         }

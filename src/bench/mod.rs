@@ -22,9 +22,9 @@ pub mod report;
 
 use crate::error::Result;
 use crate::film::Image;
+use crate::load::options::{LoadOptions, NormalMapping};
+use crate::load::{load_scene, Loaded};
 use crate::render::{render, RenderOptions, RenderStats};
-use crate::scene::instantiate::{load_scene, LoadOptions, NormalMapping};
-use crate::scene::Scene;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -153,7 +153,7 @@ pub fn scene_name(p: &Path) -> String {
         .unwrap_or_else(|| p.display().to_string())
 }
 
-fn load_mode(path: &Path, mode: &str, defines: &[(String, String)]) -> Result<Scene> {
+fn load_mode(path: &Path, mode: &str, defines: &[(String, String)]) -> Result<Loaded> {
     let normal_mapping = NormalMapping::parse(mode).ok_or_else(|| {
         crate::error::Error::Usage(format!(
             "unknown normal-mapping mode '{mode}' (expected one of {})",
@@ -164,12 +164,13 @@ fn load_mode(path: &Path, mode: &str, defines: &[(String, String)]) -> Result<Sc
         defines: defines.to_vec(),
         normal_mapping,
     };
-    Ok(load_scene(path, &opts)?.scene)
+    load_scene(path, &opts)
 }
 
-fn render_at(scene: &Scene, spp: u32, seed: u64, threads: usize) -> Result<(Image, RenderStats)> {
+fn render_at(loaded: &Loaded, spp: u32, seed: u64, threads: usize) -> Result<(Image, RenderStats)> {
     let out = render(
-        scene,
+        &loaded.scene,
+        &loaded.settings,
         &RenderOptions {
             threads,
             spp: Some(spp),
@@ -247,7 +248,7 @@ fn say(opts: &BenchOptions, m: String) {
 
 /// Every mode of one scene, loaded: a mode that cannot apply (e.g. explicit over glass) holds
 /// the reason it was skipped.
-type ModeScenes = Vec<(String, std::result::Result<Scene, String>)>;
+type ModeScenes = Vec<(String, std::result::Result<Loaded, String>)>;
 
 /// The median render times of one scene's modes, and the classic mode's reference values.
 struct Timing {
@@ -350,8 +351,8 @@ fn time_modes(
                 mode,
                 r,
                 &st,
-                s.film.crop_size.0,
-                s.film.crop_size.1,
+                s.settings.film.crop_size.0,
+                s.settings.film.crop_size.1,
             ));
             runs[i].push(st);
         }

@@ -5,6 +5,13 @@
 //! pdf `(1 − w)·p₀ + w·p₁` and weight `eval / pdf`, so that `weight == eval / pdf` and the pdf the
 //! integrator uses for MIS are those of the sampled mixture (Mitsuba returns the chosen
 //! component's pdf; both are unbiased).
+//!
+//! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
+//!
+//! | Parameter | Type | Default | Meaning |
+//! | --- | --- | --- | --- |
+//! | `weight` | float or texture | required | w, the weight of the second BSDF (read as a scalar, in [0, 1]) |
+//! | (nested) | two `<bsdf>` | required | the first is weighted 1 − w, the second w |
 
 use super::{Bsdf, BsdfContext, BsdfSample, Lobes};
 use crate::sampler::Sampler;
@@ -79,4 +86,60 @@ pub(super) fn sample(
     bs.weight = eval(b, m, ctx, wi, bs.wo, s) / p;
     bs.pdf = p;
     Some(bs)
+}
+
+/// The XML constructor (see the parameter table above); the only part of this file that
+/// sees the scene file.
+pub(crate) mod load {
+    use crate::error::{Error, Result};
+    use crate::load::bsdfs::BsdfCtx;
+    use crate::load::check;
+    use crate::material::MaterialNode;
+    use crate::spectrum::Spectrum;
+
+    /// `blendbsdf`.
+    pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>) -> Result<MaterialNode> {
+        let mut bsdfs = Vec::new();
+        let mut weight = None;
+        for c in cx.props().objects() {
+            match cx.props().kind(c) {
+                "bsdf" => bsdfs.push(cx.bsdf(c)?),
+                "texture" if c.attr("name") == Some("weight") => weight = Some(cx.texture(c)?),
+                t => return Err(Error::scene(&c.loc, format!("<{t}> is not expected inside a blendbsdf (two nested <bsdf>s and a float or <texture name=\"weight\">)"))),
+            }
+        }
+        let p = cx.props();
+        let [bsdf0, bsdf1] = bsdfs[..] else {
+            return Err(Error::scene(
+                p.loc(),
+                format!(
+                    "blendbsdf takes exactly two nested BSDFs, found {}",
+                    bsdfs.len()
+                ),
+            ));
+        };
+        let weight = match weight {
+            Some(t) => t,
+            None if !p.has("weight") => {
+                return Err(Error::scene(
+                    p.loc(),
+                    "blendbsdf needs a 'weight' (a float or a <texture name=\"weight\">)",
+                ))
+            }
+            None => {
+                let w = p.float("weight", 0.5)?;
+                check(
+                    p.loc(),
+                    (0.0..=1.0).contains(&w),
+                    "blendbsdf weight must be in [0, 1]",
+                )?;
+                cx.constant(Spectrum::splat(w))
+            }
+        };
+        Ok(MaterialNode::Blend {
+            weight,
+            bsdf0,
+            bsdf1,
+        })
+    }
 }

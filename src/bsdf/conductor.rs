@@ -1,6 +1,14 @@
 //! `conductor`: a smooth metal, i.e. a perfect mirror weighted by the conductor Fresnel reflectance
 //! of the complex index η + ik (per RGB channel) and by `specular_reflectance`. One-sided like
 //! Mitsuba 3: light arriving from below the shading frame is not reflected.
+//!
+//! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
+//!
+//! | Parameter | Type | Default | Meaning |
+//! | --- | --- | --- | --- |
+//! | `material` | string | `none` | a named conductor's (η, k) ([`super::named_conductor`]: none, Au, Ag, Cu, Al, Cr, ...) |
+//! | `eta`, `k` | spectrum | 0, 1 | the complex index η + ik, instead of `material` |
+//! | `specular_reflectance` | spectrum or texture | 1 | multiplier of the reflectance |
 
 use super::fresnel::{fresnel_conductor, reflect_z};
 use super::{BsdfSample, Lobes};
@@ -51,6 +59,33 @@ impl Conductor {
             weight: self.specular_reflectance * fresnel_conductor(wi.z, self.eta, self.k),
             eta: 1.0,
             lobe: Lobes::DELTA_REFLECTION,
+        })
+    }
+}
+
+/// The XML constructor (see the parameter table above); the only part of this file that
+/// sees the scene file.
+pub(crate) mod load {
+    use super::Conductor;
+    use crate::bsdf::ior::load::conductor_ior;
+    use crate::bsdf::BsdfNode;
+    use crate::error::Result;
+    use crate::load::bsdfs::BsdfCtx;
+    use crate::material::{MaterialNode, Slot};
+
+    /// `conductor`.
+    pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>) -> Result<MaterialNode> {
+        let (eta, k) = conductor_ior(cx.props())?;
+        let (spec, slots) =
+            cx.leaf_color("specular_reflectance", Slot::SpecularReflectance, 1.0)?;
+        let template = BsdfNode::Conductor(Conductor {
+            eta,
+            k,
+            specular_reflectance: spec,
+        });
+        Ok(MaterialNode::Leaf {
+            template: Box::new(template),
+            slots,
         })
     }
 }

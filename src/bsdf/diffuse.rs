@@ -1,5 +1,11 @@
 //! `diffuse`: the Lambertian reflector, f = ρ/π (Mitsuba's `diffuse`, one-sided: light arriving
 //! from below the shading frame is not reflected).
+//!
+//! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
+//!
+//! | Parameter | Type | Default | Meaning |
+//! | --- | --- | --- | --- |
+//! | `reflectance` | spectrum or texture | 0.5 | albedo ρ |
 
 use super::{BsdfSample, Lobes};
 use crate::math::warp;
@@ -45,5 +51,20 @@ impl Diffuse {
             eta: 1.0,
             lobe: Lobes::DIFFUSE_REFLECTION,
         })
+    }
+}
+
+/// The XML constructor (see the parameter table above); the only part of this file that
+/// sees the scene file.
+pub(crate) mod load {
+    use crate::error::Result;
+    use crate::load::bsdfs::BsdfCtx;
+    use crate::material::MaterialNode;
+    use crate::spectrum::Spectrum;
+
+    /// `diffuse`.
+    pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>) -> Result<MaterialNode> {
+        let r = cx.color("reflectance", Spectrum::splat(0.5))?;
+        Ok(MaterialNode::Diffuse { reflectance: r })
     }
 }

@@ -103,3 +103,58 @@ pub fn named_conductor(name: &str) -> Option<(Spectrum, Spectrum)> {
 pub fn conductor_names() -> impl Iterator<Item = &'static str> {
     std::iter::once("none").chain(CONDUCTOR_TABLE.iter().map(|(n, _, _)| *n))
 }
+
+/// Reading indices from the scene file: `int_ior`/`ext_ior` as a number or a name, a
+/// conductor's `material` or `eta`/`k`.
+pub(crate) mod load {
+    use super::{named_conductor, named_ior};
+    use crate::error::{Error, Result};
+    use crate::load::check;
+    use crate::scene::xml::props::Props;
+    use crate::spectrum::{Spectrum, SpectrumUse};
+
+    /// An index of refraction given as a number or by name (`bk7`, `water`, `air`, ...).
+    pub(crate) fn ior_param(p: &Props, name: &str, default: f32) -> Result<f32> {
+        let v = match p.property_node(name) {
+            None => default,
+            Some(node) if node.tag == "string" => {
+                let s = node.attr("value").unwrap_or("");
+                named_ior(s).ok_or_else(|| {
+                    Error::scene(
+                        &node.loc,
+                        format!("unknown index of refraction '{s}' (e.g. bk7, water, air, vacuum)"),
+                    )
+                })?
+            }
+            Some(_) => p.float(name, default)?,
+        };
+        check(
+            p.loc(),
+            v.is_finite() && v > 0.0,
+            format!("{name} must be positive"),
+        )?;
+        Ok(v)
+    }
+
+    /// `material` (a named conductor) or explicit `eta` and `k`.
+    pub(crate) fn conductor_ior(p: &Props) -> Result<(Spectrum, Spectrum)> {
+        if p.has("eta") || p.has("k") {
+            if p.has("material") {
+                return Err(Error::scene(
+                    p.loc(),
+                    "give either 'material' or 'eta'/'k', not both",
+                ));
+            }
+            let eta = p.color_with("eta", Spectrum::ZERO, SpectrumUse::Unbounded)?;
+            let k = p.color_with("k", Spectrum::ONE, SpectrumUse::Unbounded)?;
+            return Ok((eta, k));
+        }
+        let name = p.string("material", "none")?;
+        named_conductor(&name).ok_or_else(|| {
+            Error::scene(
+                p.loc(),
+                format!("unknown conductor material '{name}' (e.g. none, Au, Ag, Cu, Al, Cr)"),
+            )
+        })
+    }
+}

@@ -7,6 +7,13 @@
 //! opacity factor); otherwise the path passes straight through with weight 1. `pdf(wi, wo)` is
 //! `opacity · pdf_nested`, and a smooth nested sample reports that pdf too (as Mitsuba 3.9.1
 //! does, checked with `bsdf.sample` / `bsdf.pdf`), the density of the whole mixture used by MIS.
+//!
+//! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
+//!
+//! | Parameter | Type | Default | Meaning |
+//! | --- | --- | --- | --- |
+//! | `opacity` | float, spectrum or texture | 0.5 | probability of the nested BSDF (read as a scalar, in [0, 1]) |
+//! | (nested) | one `<bsdf>` | required | the masked BSDF |
 
 use super::{null, Bsdf, BsdfContext, BsdfSample};
 use crate::sampler::Sampler;
@@ -65,4 +72,39 @@ pub(super) fn sample(
     // Delta samples report pdf 0; a smooth one the mixture's density (weight unchanged).
     bs.pdf *= o;
     Some(bs)
+}
+
+/// The XML constructor (see the parameter table above); the only part of this file that
+/// sees the scene file.
+pub(crate) mod load {
+    use crate::error::{Error, Result};
+    use crate::load::bsdfs::BsdfCtx;
+    use crate::load::check;
+    use crate::material::MaterialNode;
+    use crate::spectrum::{luminance, Spectrum};
+    use crate::texture::Texture;
+
+    /// `mask`.
+    pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>) -> Result<MaterialNode> {
+        for c in cx.props().objects() {
+            match cx.props().kind(c) {
+                "bsdf" => {}
+                "texture" if c.attr("name") == Some("opacity") => {}
+                t => return Err(Error::scene(&c.loc, format!("<{t}> is not expected inside a mask (a nested <bsdf> and a float or <texture name=\"opacity\">)"))),
+            }
+        }
+        let nested = match cx.props().one_child("bsdf")? {
+            Some(c) => cx.bsdf(c)?,
+            None => return Err(Error::scene(cx.props().loc(), "mask needs a nested <bsdf>")),
+        };
+        let opacity = cx.color("opacity", Spectrum::splat(0.5))?;
+        if let Texture::Constant(c) = cx.texture_at(opacity) {
+            check(
+                cx.props().loc(),
+                (0.0..=1.0).contains(&luminance(*c)),
+                "mask opacity must be in [0, 1]",
+            )?;
+        }
+        Ok(MaterialNode::Mask { opacity, nested })
+    }
 }

@@ -494,6 +494,83 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
     (nodes, weights)
 }
 
+/// Reading a distribution from the scene file (for `roughconductor`, `roughdielectric`,
+/// `roughplastic`; their parameter tables list it).
+pub(crate) mod load {
+    use super::{MicrofacetDistribution, MicrofacetType};
+    use crate::error::{Error, Result};
+    use crate::load::bsdfs::BsdfCtx;
+    use crate::load::check;
+    use crate::material::{Slot, TexId};
+    use crate::spectrum::luminance;
+
+    /// `distribution`, `alpha` or `alpha_u`/`alpha_v`, `sample_visible` (Mitsuba's defaults:
+    /// beckmann, 0.1, true). `anisotropic` = false for models that are isotropic only;
+    /// `textured` = the roughness may be a texture (Mitsuba 3: roughconductor and
+    /// roughdielectric, not roughplastic), returned as scalar slots to fill per hit (the
+    /// distribution then holds the texture's mean, for load-time decisions only).
+    pub(crate) fn distribution(
+        cx: &mut BsdfCtx<'_, '_>,
+        anisotropic: bool,
+        textured: bool,
+    ) -> Result<(MicrofacetDistribution, Vec<(Slot, TexId)>)> {
+        let p = cx.props();
+        let name = p.string("distribution", "beckmann")?;
+        let kind = MicrofacetType::from_name(&name).ok_or_else(|| {
+            Error::scene(
+                p.loc(),
+                format!("distribution '{name}' must be 'beckmann' or 'ggx'"),
+            )
+        })?;
+        let visible = p.bool("sample_visible", true)?;
+        let mut textures = [None; 3];
+        for (i, k) in ["alpha", "alpha_u", "alpha_v"].into_iter().enumerate() {
+            let found = cx.props().objects().find(|c| c.attr("name") == Some(k));
+            if let Some(c) = found {
+                let p = cx.props();
+                if !textured || p.kind(c) != "texture" {
+                    return Err(Error::scene(
+                        &c.loc,
+                        if textured {
+                            format!("'{k}' expects a number or a <texture>, not a <{}>", c.tag)
+                        } else {
+                            format!("'{k}' of bsdf '{}' must be a number (Mitsuba 3 takes no texture here)", p.plugin_type())
+                        },
+                    ));
+                }
+                textures[i] = Some(cx.texture(c)?);
+            }
+        }
+        let p = cx.props();
+        let given = |i: usize, k: &str| textures[i].is_some() || p.has(k);
+        let mut slots = Vec::new();
+        // A scalar parameter: a texture (its mean now, a slot per hit) or a checked number.
+        let mut alpha = |i: usize, k: &str, slot: Slot| -> Result<f32> {
+            if let Some(t) = textures[i] {
+                slots.push((slot, t));
+                return Ok(luminance(cx.texture_at(t).mean()));
+            }
+            let a = p.float(k, 0.1)?;
+            check(p.loc(), a.is_finite() && a >= 0.0, "alpha must be >= 0")?;
+            Ok(a)
+        };
+        if anisotropic && (given(1, "alpha_u") || given(2, "alpha_v")) {
+            if given(0, "alpha") {
+                return Err(Error::scene(
+                    p.loc(),
+                    "give either 'alpha' or 'alpha_u'/'alpha_v', not both",
+                ));
+            }
+            let au = alpha(1, "alpha_u", Slot::AlphaU)?;
+            let av = alpha(2, "alpha_v", Slot::AlphaV)?;
+            let d = MicrofacetDistribution::anisotropic(kind, au, av, visible);
+            return Ok((d, slots));
+        }
+        let a = alpha(0, "alpha", Slot::Alpha)?;
+        Ok((MicrofacetDistribution::new(kind, a, visible), slots))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

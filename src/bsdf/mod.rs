@@ -31,6 +31,9 @@
 //!   [`bumpmap`] derives from a height texture), [`Blend`] (`blendbsdf`), [`Mask`] (`mask`),
 //!   [`mnm::MicrofacetNormalMap`].
 //!
+//! Each model's file also holds, apart from the evaluation code and below its table of XML
+//! parameters, its XML constructor (`mod load`, called by [`crate::load`]'s `bsdfs`).
+//!
 //! Verified pointwise against Mitsuba 3.9.1 (`tests/bsdf_mitsuba/models.rs`, data in
 //! `tests/data/mitsuba_bsdf_points.json`) and statistically (`tests/bsdf_harness.rs`).
 //!

@@ -12,6 +12,15 @@
 //! The perturbed frame's tangent is the shading frame's `s` (= dp/du) made orthogonal to n by
 //! Gram–Schmidt (falling back to `t` when degenerate), as Mitsuba builds it.
 //! Both flags false is the plain model of Mitsuba 0.6 and of the benchmarks' classic baseline.
+//!
+//! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
+//!
+//! | Parameter | Type | Default | Meaning |
+//! | --- | --- | --- | --- |
+//! | `normalmap` | texture | required | the normal map, n = 2·rgb − 1 in the shading frame |
+//! | (nested) | one `<bsdf>` | required | the normal-mapped BSDF |
+//! | `flip_invalid_normals` | boolean | true (false in files upgraded from 0.6) | mirror a normal that faces away from the incident direction |
+//! | `use_shadowing_function` | boolean | true (false in files upgraded from 0.6) | the Estevez et al. 2019 shadowing term |
 
 use super::{Bsdf, BsdfContext, BsdfSample};
 use crate::math::Frame;
@@ -185,4 +194,66 @@ pub(super) fn sample(
     bs.wo = wo;
     bs.weight *= m.shadow(&f, wo);
     Some(bs)
+}
+
+/// The XML constructor (see the parameter table above); the only part of this file that
+/// sees the scene file.
+pub(crate) mod load {
+    use crate::error::{Error, Result, SourceLoc};
+    use crate::load::bsdfs::BsdfCtx;
+    use crate::material::{MatId, MaterialNode, TexId};
+    use crate::spectrum::Spectrum;
+
+    /// `normalmap`; `plain` (the classic side of `--normal-mapping`) forces both flags false.
+    pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>, plain: bool) -> Result<MaterialNode> {
+        let (nested, _, normalmap) = parts(cx, "normalmap")?;
+        let default = !cx.upgraded_from_v0();
+        let flip = cx.props().bool("flip_invalid_normals", default)?;
+        let shadow = cx.props().bool("use_shadowing_function", default)?;
+        Ok(MaterialNode::NormalMap {
+            nested,
+            normalmap,
+            flip_invalid_normals: flip && !plain,
+            use_shadowing_function: shadow && !plain,
+        })
+    }
+
+    /// The nested BSDF (with where it is written, for errors about it) and the `normalmap`
+    /// texture of a `normalmap` or a `microfacet_normalmap` (`kind`).
+    pub(crate) fn parts<'d>(
+        cx: &mut BsdfCtx<'_, 'd>,
+        kind: &str,
+    ) -> Result<(MatId, &'d SourceLoc, TexId)> {
+        for c in cx.props().objects() {
+            match cx.props().kind(c) {
+                "bsdf" => {}
+                "texture" if c.attr("name") == Some("normalmap") => {}
+                t => return Err(Error::scene(&c.loc, format!("<{t}> is not expected inside a {kind} (a nested <bsdf> and a <texture name=\"normalmap\">)"))),
+            }
+        }
+        let Some(nested_node) = cx.props().one_child("bsdf")? else {
+            return Err(Error::scene(
+                cx.props().loc(),
+                format!("{kind} needs a nested <bsdf>"),
+            ));
+        };
+        let nested = cx.bsdf(nested_node)?;
+        let texture = cx
+            .props()
+            .objects()
+            .find(|c| cx.props().kind(c) == "texture" && c.attr("name") == Some("normalmap"));
+        let normalmap = match texture {
+            Some(t) => cx.texture(t)?,
+            None if cx.props().has("normalmap") => {
+                cx.color("normalmap", Spectrum::new(0.5, 0.5, 1.0))?
+            }
+            None => {
+                return Err(Error::scene(
+                    cx.props().loc(),
+                    format!("{kind} needs a <texture name=\"normalmap\">"),
+                ))
+            }
+        };
+        Ok((nested, &nested_node.loc, normalmap))
+    }
 }

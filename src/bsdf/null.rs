@@ -4,6 +4,12 @@
 //!
 //! Mitsuba 3's `path` integrator treats this as an ordinary delta bounce (the depth increments and
 //! shadow rays are blocked by the surface), and so does groove's.
+//!
+//! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
+//!
+//! | Parameter | Type | Default | Meaning |
+//! | --- | --- | --- | --- |
+//! | (none) | | | `null` takes no parameters and no nested objects |
 
 use super::{BsdfSample, Lobes};
 use crate::spectrum::Spectrum;
@@ -18,5 +24,27 @@ pub fn pass_through(wi: Vec3) -> BsdfSample {
         weight: Spectrum::ONE,
         eta: 1.0,
         lobe: Lobes::NULL,
+    }
+}
+
+/// The XML constructor (see the parameter table above); the only part of this file that
+/// sees the scene file.
+pub(crate) mod load {
+    use crate::error::{Error, Result};
+    use crate::load::bsdfs::BsdfCtx;
+    use crate::material::MaterialNode;
+
+    /// `null`.
+    pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>) -> Result<MaterialNode> {
+        if let Some(c) = cx.props().objects().next() {
+            return Err(Error::scene(
+                &c.loc,
+                format!(
+                    "<{}> is not expected inside a null BSDF (it takes no parameters)",
+                    c.tag
+                ),
+            ));
+        }
+        Ok(MaterialNode::Null)
     }
 }

@@ -11,6 +11,16 @@
 //!
 //! The lobe is chosen with probabilities ∝ F(θi) w_s and (1 − F(θi)) (1 − w_s), where the
 //! `specular_sampling_weight` w_s = mean(specular) / (mean(diffuse) + mean(specular)) as in Mitsuba.
+//!
+//! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
+//!
+//! | Parameter | Type | Default | Meaning |
+//! | --- | --- | --- | --- |
+//! | `int_ior` | float or string | 1.49 (`polypropylene`) | index of refraction of the coating, a number or a name ([`super::named_ior`]) |
+//! | `ext_ior` | float or string | 1.000277 (`air`) | exterior index of refraction |
+//! | `diffuse_reflectance` | spectrum or texture | 0.5 | albedo of the base |
+//! | `specular_reflectance` | spectrum or texture | 1 | multiplier of the coating's reflection |
+//! | `nonlinear` | boolean | false | account for the colour shift of the internal bounces |
 
 use super::fresnel::{fresnel_dielectric, fresnel_diffuse_reflectance, reflect_z};
 use super::{BsdfSample, Lobes};
@@ -157,5 +167,34 @@ impl Default for Plastic {
             super::dielectric::DEFAULT_EXT_IOR,
             false,
         )
+    }
+}
+
+/// The XML constructor (see the parameter table above); the only part of this file that
+/// sees the scene file.
+pub(crate) mod load {
+    use super::Plastic;
+    use crate::bsdf::dielectric::DEFAULT_EXT_IOR;
+    use crate::bsdf::ior::load::ior_param;
+    use crate::bsdf::plastic::DEFAULT_PLASTIC_INT_IOR;
+    use crate::bsdf::BsdfNode;
+    use crate::error::Result;
+    use crate::load::bsdfs::BsdfCtx;
+    use crate::material::{MaterialNode, Slot};
+
+    /// `plastic`.
+    pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>) -> Result<MaterialNode> {
+        let int_ior = ior_param(cx.props(), "int_ior", DEFAULT_PLASTIC_INT_IOR)?;
+        let ext_ior = ior_param(cx.props(), "ext_ior", DEFAULT_EXT_IOR)?;
+        // Sampling weights come from the textures' means, as Mitsuba does.
+        let (d, mut slots) = cx.leaf_color("diffuse_reflectance", Slot::DiffuseReflectance, 0.5)?;
+        let (sr, s2) = cx.leaf_color("specular_reflectance", Slot::SpecularReflectance, 1.0)?;
+        slots.extend(s2);
+        let nonlinear = cx.props().bool("nonlinear", false)?;
+        let template = BsdfNode::Plastic(Plastic::new(d, sr, int_ior, ext_ior, nonlinear));
+        Ok(MaterialNode::Leaf {
+            template: Box::new(template),
+            slots,
+        })
     }
 }

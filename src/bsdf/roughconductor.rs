@@ -4,6 +4,18 @@
 //!
 //! Sampling picks a microfacet normal (visible normals by default) and reflects `wi` about it;
 //! with visible-normal sampling the weight is simply F · G1(wo, h).
+//!
+//! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
+//!
+//! | Parameter | Type | Default | Meaning |
+//! | --- | --- | --- | --- |
+//! | `material` | string | `none` | a named conductor's (η, k) ([`super::named_conductor`]) |
+//! | `eta`, `k` | spectrum | 0, 1 | the complex index η + ik, instead of `material` |
+//! | `specular_reflectance` | spectrum or texture | 1 | multiplier of the reflectance |
+//! | `distribution` | string | `beckmann` | `beckmann` or `ggx` |
+//! | `alpha` | float or texture | 0.1 | roughness (isotropic) |
+//! | `alpha_u`, `alpha_v` | float or texture | 0.1 | roughness along the tangent and bitangent, instead of `alpha` |
+//! | `sample_visible` | boolean | true | sample the visible normals |
 
 use super::fresnel::fresnel_conductor;
 use super::microfacet::MicrofacetDistribution;
@@ -105,5 +117,36 @@ impl Default for RoughConductor {
             k: Spectrum::ONE,
             specular_reflectance: Spectrum::ONE,
         }
+    }
+}
+
+/// The XML constructor (see the parameter table above); the only part of this file that
+/// sees the scene file.
+pub(crate) mod load {
+    use super::RoughConductor;
+    use crate::bsdf::ior::load::conductor_ior;
+    use crate::bsdf::microfacet::load::distribution;
+    use crate::bsdf::BsdfNode;
+    use crate::error::Result;
+    use crate::load::bsdfs::BsdfCtx;
+    use crate::material::{MaterialNode, Slot};
+
+    /// `roughconductor`.
+    pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>) -> Result<MaterialNode> {
+        let (eta, k) = conductor_ior(cx.props())?;
+        let (spec, mut slots) =
+            cx.leaf_color("specular_reflectance", Slot::SpecularReflectance, 1.0)?;
+        let (distribution, alpha_slots) = distribution(cx, true, true)?;
+        slots.extend(alpha_slots);
+        let template = BsdfNode::RoughConductor(RoughConductor {
+            distribution,
+            eta,
+            k,
+            specular_reflectance: spec,
+        });
+        Ok(MaterialNode::Leaf {
+            template: Box::new(template),
+            slots,
+        })
     }
 }

@@ -14,6 +14,19 @@
 //! uniform grid (μ₀ clamped to 1e-6) read back with linear interpolation; R_int = 2 · mean(R(μ; 1/η) μ)
 //! over the same grid. The lobe choice uses 1 − T(θi) and T(θi) with the specular sampling weight
 //! as in `plastic`.
+//!
+//! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
+//!
+//! | Parameter | Type | Default | Meaning |
+//! | --- | --- | --- | --- |
+//! | `int_ior` | float or string | 1.49 (`polypropylene`) | index of refraction of the coating, a number or a name ([`super::named_ior`]) |
+//! | `ext_ior` | float or string | 1.000277 (`air`) | exterior index of refraction |
+//! | `diffuse_reflectance` | spectrum or texture | 0.5 | albedo of the base |
+//! | `specular_reflectance` | spectrum or texture | 1 | multiplier of the coating's reflection |
+//! | `nonlinear` | boolean | false | account for the colour shift of the internal bounces |
+//! | `distribution` | string | `beckmann` | `beckmann` or `ggx` |
+//! | `alpha` | float | 0.1 | roughness (isotropic; no texture, as in Mitsuba 3) |
+//! | `sample_visible` | boolean | true | sample the visible normals |
 
 use super::fresnel::{fresnel_dielectric, refract};
 use super::microfacet::{gauss_legendre, MicrofacetDistribution, MicrofacetType};
@@ -271,5 +284,46 @@ impl Default for RoughPlastic {
             super::dielectric::DEFAULT_EXT_IOR,
             false,
         )
+    }
+}
+
+/// The XML constructor (see the parameter table above); the only part of this file that
+/// sees the scene file.
+pub(crate) mod load {
+    use super::RoughPlastic;
+    use crate::bsdf::dielectric::DEFAULT_EXT_IOR;
+    use crate::bsdf::ior::load::ior_param;
+    use crate::bsdf::microfacet::load::distribution;
+    use crate::bsdf::plastic::DEFAULT_PLASTIC_INT_IOR;
+    use crate::bsdf::BsdfNode;
+    use crate::error::Result;
+    use crate::load::bsdfs::BsdfCtx;
+    use crate::material::{MaterialNode, Slot};
+
+    /// `roughplastic`.
+    pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>) -> Result<MaterialNode> {
+        let int_ior = ior_param(cx.props(), "int_ior", DEFAULT_PLASTIC_INT_IOR)?;
+        let ext_ior = ior_param(cx.props(), "ext_ior", DEFAULT_EXT_IOR)?;
+        // Sampling weights come from the textures' means, as Mitsuba does.
+        let (d, mut slots) = cx.leaf_color("diffuse_reflectance", Slot::DiffuseReflectance, 0.5)?;
+        let (sr, s2) = cx.leaf_color("specular_reflectance", Slot::SpecularReflectance, 1.0)?;
+        slots.extend(s2);
+        let nonlinear = cx.props().bool("nonlinear", false)?;
+        // Mitsuba 3's roughplastic takes a plain float `alpha` (no texture).
+        let (dist, _) = distribution(cx, false, false)?;
+        let template = BsdfNode::RoughPlastic(RoughPlastic::new(
+            dist.kind,
+            dist.alpha_u,
+            dist.sample_visible,
+            d,
+            sr,
+            int_ior,
+            ext_ior,
+            nonlinear,
+        ));
+        Ok(MaterialNode::Leaf {
+            template: Box::new(template),
+            slots,
+        })
     }
 }

@@ -2,6 +2,15 @@
 //! either reflected or passes straight through (no offset, no bending); the interreflections
 //! inside the slab are summed in closed form: with R the single-interface Fresnel reflectance,
 //! R_total = R + T²R/(1 − R²) = 2R/(1 + R) and T_total = 1 − R_total. Both sides behave the same.
+//!
+//! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
+//!
+//! | Parameter | Type | Default | Meaning |
+//! | --- | --- | --- | --- |
+//! | `int_ior` | float or string | 1.5046 (`bk7`) | interior index of refraction, a number or a name ([`super::named_ior`]) |
+//! | `ext_ior` | float or string | 1.000277 (`air`) | exterior index of refraction |
+//! | `specular_reflectance` | spectrum or texture | 1 | multiplier of the reflection |
+//! | `specular_transmittance` | spectrum or texture | 1 | multiplier of the transmission |
 
 use super::fresnel::{fresnel_dielectric, reflect_z};
 use super::{BsdfSample, Lobes};
@@ -82,5 +91,32 @@ impl Default for ThinDielectric {
             Spectrum::ONE,
             Spectrum::ONE,
         )
+    }
+}
+
+/// The XML constructor (see the parameter table above); the only part of this file that
+/// sees the scene file.
+pub(crate) mod load {
+    use super::ThinDielectric;
+    use crate::bsdf::dielectric::{DEFAULT_EXT_IOR, DEFAULT_INT_IOR};
+    use crate::bsdf::ior::load::ior_param;
+    use crate::bsdf::BsdfNode;
+    use crate::error::Result;
+    use crate::load::bsdfs::BsdfCtx;
+    use crate::material::{MaterialNode, Slot};
+
+    /// `thindielectric`.
+    pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>) -> Result<MaterialNode> {
+        let int_ior = ior_param(cx.props(), "int_ior", DEFAULT_INT_IOR)?;
+        let ext_ior = ior_param(cx.props(), "ext_ior", DEFAULT_EXT_IOR)?;
+        let (r, mut slots) =
+            cx.leaf_color("specular_reflectance", Slot::SpecularReflectance, 1.0)?;
+        let (tr, s2) = cx.leaf_color("specular_transmittance", Slot::SpecularTransmittance, 1.0)?;
+        slots.extend(s2);
+        let template = BsdfNode::ThinDielectric(ThinDielectric::new(int_ior, ext_ior, r, tr));
+        Ok(MaterialNode::Leaf {
+            template: Box::new(template),
+            slots,
+        })
     }
 }

@@ -1,6 +1,12 @@
 //! `twosided`: makes a one-sided BSDF reflect on both sides (Mitsuba's `twosided`). When the query
 //! comes from the back (`wi.z < 0`) both directions are mirrored through the surface, handed to the
 //! back BSDF (the front one if only one is given), and the result mirrored back.
+//!
+//! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
+//!
+//! | Parameter | Type | Default | Meaning |
+//! | --- | --- | --- | --- |
+//! | (nested) | one or two `<bsdf>` | | the front BSDF, and the back one (the front one again when only one is given) |
 
 use super::{Bsdf, BsdfContext, BsdfSample};
 use crate::sampler::Sampler;
@@ -68,5 +74,38 @@ pub(super) fn sample(
         let mut s = b.child(back).sample(ctx, flip(wi), sampler)?;
         s.wo = flip(s.wo);
         Some(s)
+    }
+}
+
+/// The XML constructor (see the parameter table above); the only part of this file that
+/// sees the scene file.
+pub(crate) mod load {
+    use crate::error::{Error, Result};
+    use crate::load::bsdfs::BsdfCtx;
+    use crate::material::MaterialNode;
+
+    /// `twosided`.
+    pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>) -> Result<MaterialNode> {
+        let mut bsdfs = Vec::new();
+        for c in cx.props().objects() {
+            if cx.props().kind(c) != "bsdf" {
+                return Err(Error::scene(
+                    &c.loc,
+                    format!("twosided expects nested <bsdf>s, not <{}>", c.tag),
+                ));
+            }
+            bsdfs.push(cx.bsdf(c)?);
+        }
+        match bsdfs[..] {
+            [f] => Ok(MaterialNode::TwoSided { front: f, back: f }),
+            [f, b] => Ok(MaterialNode::TwoSided { front: f, back: b }),
+            _ => Err(Error::scene(
+                cx.props().loc(),
+                format!(
+                    "twosided takes one or two nested BSDFs, found {}",
+                    bsdfs.len()
+                ),
+            )),
+        }
     }
 }

@@ -6,8 +6,8 @@
 
 use super::interaction::SurfaceInteraction;
 use super::mesh::TriMesh;
+use super::Hit;
 use super::Ray;
-use crate::accel::Hit;
 use crate::error::{Error, Result};
 use crate::math::{warp, Frame, INV_2PI, PI};
 use glam::{Mat3, Mat4, Vec2, Vec3};

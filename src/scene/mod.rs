@@ -1,19 +1,16 @@
-//! The renderable scene: geometry with its acceleration structure, materials, emitters, camera,
-//! film, sampler and integrator settings. Built from XML by `scene::xml` (parse, upgrade) and
-//! `scene::instantiate`; later stages never look back at the XML.
+//! The renderable scene: geometry with its acceleration structure, materials, emitters and the
+//! camera (how it is rendered, the integrator, film and sampler, is
+//! [`crate::render::RenderSettings`]). Built from XML by `scene::xml` (parse, upgrade) and
+//! `load`; later stages never look back at the XML.
 
-pub mod instantiate;
 pub mod xml;
 
 use crate::accel::Accel;
 use crate::bsdf::{BsdfArena, SurfaceBsdf};
 use crate::camera::Camera;
 use crate::emitter::{Emitter, LightSampler};
-use crate::film::FilmDesc;
 use crate::geometry::{Ray, Shape, SurfaceInteraction};
-use crate::integrator::IntegratorDesc;
 use crate::material::{MatId, Materials};
-use crate::sampler::SamplerDesc;
 use glam::Vec3;
 use std::path::PathBuf;
 
@@ -30,9 +27,6 @@ pub struct Scene {
     pub env_emitters: Vec<u32>,
     pub light_sampler: LightSampler,
     pub camera: Camera,
-    pub film: FilmDesc,
-    pub sampler: SamplerDesc,
-    pub integrator: IntegratorDesc,
     /// Bounding sphere of the geometry (centre, radius).
     pub bsphere: (Vec3, f32),
     /// The scene file this came from.

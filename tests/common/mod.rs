@@ -69,25 +69,25 @@ pub fn render_scene(
     spp: u32,
     seed: u64,
     threads: usize,
-    tweak: impl FnOnce(&mut groove::scene::Scene),
+    tweak: impl FnOnce(&mut groove::load::Loaded),
 ) -> Rendered {
-    let opts = groove::scene::instantiate::LoadOptions {
+    let opts = groove::load::options::LoadOptions {
         defines: defines
             .iter()
             .map(|(k, v)| (k.to_string(), v.to_string()))
             .collect(),
         ..Default::default()
     };
-    let mut loaded = groove::scene::instantiate::load_scene(scene, &opts)
+    let mut loaded = groove::load::load_scene(scene, &opts)
         .unwrap_or_else(|e| panic!("loading {}: {e}", scene.display()));
-    tweak(&mut loaded.scene);
+    tweak(&mut loaded);
     let ro = groove::render::RenderOptions {
         threads,
         spp: Some(spp),
         seed: Some(seed),
         ..Default::default()
     };
-    let out = groove::render::render(&loaded.scene, &ro).expect("render");
+    let out = groove::render::render(&loaded.scene, &loaded.settings, &ro).expect("render");
     Rendered {
         mean: to_rgb(&out.film.develop()),
         var: to_rgb(&out.film.develop_variance()),

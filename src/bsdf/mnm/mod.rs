@@ -18,10 +18,13 @@
 //! spec §9.3, or, for comparison, the student project's walk that ends at the first refraction
 //! (§9.4, [`TransmissionWalk::ExitOnRefraction`]). Both report the walk's net η and leave the
 //! 1/η² radiance scaling to the nested BSDF.
+//!
+//! The XML parameters and their defaults: `load.rs`.
 
 pub mod explicit;
 pub mod facet_bsdf;
 pub mod facets;
+pub(crate) mod load;
 pub mod walk;
 
 use super::{Bsdf, BsdfContext, BsdfSample};

@@ -5,211 +5,26 @@
 //! `$param` substitution, `<default>`, `<include>` and `<path>` processing in document order (as
 //! Mitsuba 3's parser does) → duplicate-id check → unused `-D` check.
 
-use crate::bsdf::mnm::facets::Microgeometry;
-use crate::bsdf::mnm::{Evaluation, Tangent};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use quick_xml::events::Event;
 use quick_xml::Reader;
 
+use super::ir::{Attr, Document, Node, PLUGIN_TAGS};
 use super::upgrade;
 use crate::error::{Error, Result, SourceLoc};
 
-/// One XML element after substitution (and, for old files, after the version upgrade).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Node {
-    /// Element name: "scene", "bsdf", "shape", "float", "rgb", "transform", "ref", ...
-    pub tag: String,
-    /// Attributes after `$`-substitution, in document order.
-    pub attrs: Vec<Attr>,
-    pub children: Vec<Node>,
-    /// The file the element came from (an included file for spliced elements) and the 1-based
-    /// line and column of its `<`.
-    pub loc: SourceLoc,
-}
-
-/// One attribute; `loc` is the position of the attribute's name.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Attr {
-    pub name: String,
-    pub value: String,
-    pub loc: SourceLoc,
-}
-
-impl Node {
-    /// The value of attribute `name`, if present.
-    pub fn attr(&self, name: &str) -> Option<&str> {
-        self.attrs
-            .iter()
-            .find(|a| a.name == name)
-            .map(|a| a.value.as_str())
-    }
-
-    /// Where attribute `name` is written; the element's own location when it is absent.
-    pub fn attr_loc(&self, name: &str) -> &SourceLoc {
-        self.attrs
-            .iter()
-            .find(|a| a.name == name)
-            .map(|a| &a.loc)
-            .unwrap_or(&self.loc)
-    }
-
-    /// Sets (or adds) an attribute; a new attribute gets the element's location.
-    pub fn set_attr(&mut self, name: &str, value: impl Into<String>) {
-        let value = value.into();
-        if let Some(a) = self.attrs.iter_mut().find(|a| a.name == name) {
-            a.value = value;
-        } else {
-            self.attrs.push(Attr {
-                name: name.to_string(),
-                value,
-                loc: self.loc.clone(),
-            });
-        }
-    }
-
-    /// A short description for messages: `<bsdf type="dielectric">`, `<float name="x">`.
-    pub fn describe(&self) -> String {
-        match (self.attr("type"), self.attr("name")) {
-            (Some(t), _) => format!("<{} type=\"{}\">", self.tag, t),
-            (None, Some(n)) => format!("<{} name=\"{}\">", self.tag, n),
-            _ => format!("<{}>", self.tag),
-        }
-    }
-}
-
-/// Options of a load: `-D key=value` definitions from the command line.
-#[derive(Clone, Debug, Default)]
-pub struct LoadOptions {
-    pub defines: Vec<(String, String)>,
-    /// `--normal-mapping`: keep the normal maps as written or convert them all to one model.
-    pub normal_mapping: NormalMapping,
-}
-
-/// Which normal-mapping model the scene's normal maps use (decision 6 of `mnm.md`).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub enum NormalMapping {
-    /// `normalmap` and `microfacet_normalmap` as the file says.
-    #[default]
-    AsWritten,
-    /// Every `microfacet_normalmap` becomes a plain `normalmap` (both flags false).
-    Classic,
-    /// Every `normalmap` becomes a `microfacet_normalmap` with the decisions page's defaults.
-    Microfacet,
-    /// Every normal map (`normalmap` or `microfacet_normalmap`) becomes a `microfacet_normalmap`
-    /// with this microgeometry, tangent and evaluation (other parameters as written, or
-    /// defaults): the modes `groove bench` compares.
-    Forced(MnmMode),
-}
-
-/// The microfacet normal-mapping choices a [`NormalMapping::Forced`] imposes.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MnmMode {
-    pub geometry: Microgeometry,
-    pub tangent: Tangent,
-    pub evaluation: Evaluation,
-}
-
-impl NormalMapping {
-    /// Every value `--normal-mapping` accepts, in the order `groove bench` renders them.
-    pub const NAMES: [&'static str; 7] = [
-        "classic",
-        "explicit",
-        "walk-mirror",
-        "walk-same",
-        "vgroove",
-        "ugroove",
-        "microfacet",
-    ];
-
-    /// `classic`, `microfacet`, `as_written`, or a forced mode: `explicit` (sawtooth, mirror
-    /// wall, closed form), `walk-mirror` (sawtooth, mirror wall, random walk: the default model),
-    /// `walk-same` (sawtooth, same-material wall, random walk), `vgroove`, `ugroove` (fill 0.5;
-    /// random walk).
-    pub fn parse(s: &str) -> Option<NormalMapping> {
-        let forced = |geometry, tangent, evaluation| {
-            Some(NormalMapping::Forced(MnmMode {
-                geometry,
-                tangent,
-                evaluation,
-            }))
-        };
-        use Evaluation::*;
-        match s {
-            "classic" => Some(NormalMapping::Classic),
-            "microfacet" => Some(NormalMapping::Microfacet),
-            "as_written" | "as-written" => Some(NormalMapping::AsWritten),
-            "explicit" => forced(Microgeometry::Sawtooth, Tangent::Mirror, Explicit),
-            "walk-mirror" => forced(Microgeometry::Sawtooth, Tangent::Mirror, RandomWalk),
-            "walk-same" => forced(Microgeometry::Sawtooth, Tangent::Same, RandomWalk),
-            "vgroove" => forced(Microgeometry::VGroove, Tangent::Same, RandomWalk),
-            "ugroove" => forced(
-                Microgeometry::UGroove { fill: 0.5 },
-                Tangent::Same,
-                RandomWalk,
-            ),
-            _ => None,
-        }
-    }
-}
-
-/// A loaded scene: the `<scene>` root with includes inlined, defaults/paths consumed.
-#[derive(Clone, Debug)]
-pub struct Document {
-    pub root: Node,
-    /// The main file's `version` attribute.
-    pub version: (u32, u32, u32),
-    /// Resource search folders: the main file's folder first, then `<path>` entries in order.
-    pub search_paths: Vec<PathBuf>,
-    /// Non-fatal remarks with their locations (`FILE:LINE:COL: message`).
-    pub warnings: Vec<String>,
-    /// The main file was older than 2.0 and has been upgraded to Mitsuba 3 names (later stages
-    /// use this for 0.6 semantics, e.g. of the classic `normalmap`).
-    pub upgraded_from_v0: bool,
-}
-
-impl Document {
-    /// Resolves a resource file name: an absolute path must exist; a relative one is looked up
-    /// in the search paths in order. A missing file is an error at `loc` naming the file.
-    pub fn resolve_file(&self, name: &str, loc: &SourceLoc) -> Result<PathBuf> {
-        let p = Path::new(name);
-        if p.is_absolute() {
-            if p.exists() {
-                return Ok(p.to_path_buf());
-            }
-            return Err(Error::scene(loc, format!("file '{name}' not found")));
-        }
-        for dir in &self.search_paths {
-            let cand = dir.join(p);
-            if cand.exists() {
-                return Ok(cand);
-            }
-        }
-        let searched: Vec<String> = self
-            .search_paths
-            .iter()
-            .map(|d| d.display().to_string())
-            .collect();
-        Err(Error::scene(
-            loc,
-            format!(
-                "file '{name}' not found (searched: {})",
-                searched.join(", ")
-            ),
-        ))
-    }
-}
-
-/// Loads a scene file.
-pub fn load_file(path: &Path, opts: &LoadOptions) -> Result<Document> {
+/// Loads a scene file with the `-D key=value` definitions `defines` (a repeated key: the last
+/// one wins).
+pub fn load_file(path: &Path, defines: &[(String, String)]) -> Result<Document> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    load_str(&text, path, opts)
+    load_str(&text, path, defines)
 }
 
 /// Loads a scene from a string as if it were the file `virtual_path`; includes and `<path>`
 /// entries resolve relative to `virtual_path`'s folder.
-pub fn load_str(text: &str, virtual_path: &Path, opts: &LoadOptions) -> Result<Document> {
+pub fn load_str(text: &str, virtual_path: &Path, defines: &[(String, String)]) -> Result<Document> {
     let raw = parse_tree(text, virtual_path)?;
     if raw.tag != "scene" {
         return Err(Error::scene(
@@ -240,7 +55,7 @@ pub fn load_str(text: &str, virtual_path: &Path, opts: &LoadOptions) -> Result<D
         warnings,
     };
     // A repeated -D key: the last one wins.
-    for (k, v) in &opts.defines {
+    for (k, v) in defines {
         if let Some(p) = ctx.params.iter_mut().find(|p| &p.name == k) {
             p.value = v.clone();
         } else {
@@ -495,35 +310,6 @@ fn parse_version(v: &str, loc: &SourceLoc) -> Result<(u32, u32, u32)> {
 
 // ---------------------------------------------------------------------------------------------
 // Validation
-
-/// Plugin (object) element names.
-pub const PLUGIN_TAGS: &[&str] = &[
-    "bsdf",
-    "shape",
-    "emitter",
-    "texture",
-    "sensor",
-    "film",
-    "sampler",
-    "rfilter",
-    "integrator",
-    "medium",
-    "phase",
-    "volume",
-];
-
-/// Property element names (values of a plugin).
-pub const PROPERTY_TAGS: &[&str] = &[
-    "float",
-    "integer",
-    "boolean",
-    "string",
-    "rgb",
-    "spectrum",
-    "point",
-    "vector",
-    "transform",
-];
 
 const TRANSFORM_OPS: &[&str] = &["translate", "rotate", "scale", "matrix", "lookat"];
 
@@ -836,7 +622,7 @@ mod tests {
     use super::*;
 
     fn load(text: &str) -> Result<Document> {
-        load_str(text, Path::new("/virtual/t.xml"), &LoadOptions::default())
+        load_str(text, Path::new("/virtual/t.xml"), &[])
     }
 
     #[test]

@@ -5,7 +5,7 @@ use std::cell::{Cell, RefCell};
 
 use glam::{Mat4, Vec3, Vec4};
 
-use super::parse::{Node, PLUGIN_TAGS, PROPERTY_TAGS};
+use super::ir::{Ids, Node, PLUGIN_TAGS, PROPERTY_TAGS};
 use super::upgrade::camel_case_hint;
 use crate::error::{Error, Result, SourceLoc};
 use crate::spectrum::{spectrum_list_to_rgb, Spectrum, SpectrumUse};
@@ -16,6 +16,9 @@ pub struct Props<'a> {
     /// Property children (`<float>`, `<rgb>`, `<transform>`, ...), in document order.
     props: Vec<&'a Node>,
     used: Vec<Cell<bool>>,
+    /// The document's ids, to see through `<ref>`s ([`Props::kind`]); `None`: a `<ref>` is
+    /// of kind "ref".
+    ids: Option<&'a Ids<'a>>,
     /// Non-fatal remarks (`FILE:LINE:COL: message`), e.g. a clamped out-of-gamut spectrum.
     warnings: RefCell<Vec<String>>,
 }
@@ -29,6 +32,15 @@ impl<'a> Props<'a> {
     /// Collects the property children of `node`. Two properties (or a property and a named
     /// object) with the same name are an error at the second one.
     pub fn new(node: &'a Node) -> Result<Props<'a>> {
+        Self::build(node, None)
+    }
+
+    /// [`Props::new`] that sees through `<ref>`s to their targets with `ids`.
+    pub fn with_ids(node: &'a Node, ids: &'a Ids<'a>) -> Result<Props<'a>> {
+        Self::build(node, Some(ids))
+    }
+
+    fn build(node: &'a Node, ids: Option<&'a Ids<'a>>) -> Result<Props<'a>> {
         let mut props: Vec<&'a Node> = Vec::new();
         let mut names: Vec<(&'a str, &'a SourceLoc)> = Vec::new();
         for c in &node.children {
@@ -67,6 +79,7 @@ impl<'a> Props<'a> {
             node,
             props,
             used,
+            ids,
             warnings: RefCell::new(Vec::new()),
         })
     }
@@ -303,6 +316,42 @@ impl<'a> Props<'a> {
     /// properties: using them is the caller's business.
     pub fn objects(&self) -> impl Iterator<Item = &'a Node> {
         self.node.children.iter().filter(|c| is_object_tag(&c.tag))
+    }
+
+    /// The tag of object child `c`, looking through a `<ref>` to its target ("ref" when the id
+    /// is unknown, or when these props were made without ids).
+    pub fn kind<'n>(&self, c: &'n Node) -> &'n str
+    where
+        'a: 'n,
+    {
+        match self.ids {
+            Some(ids) => ids.kind(c),
+            None => c.tag.as_str(),
+        }
+    }
+
+    /// The object child of kind `tag` (a nested `<tag>` or a `<ref>` to one, see
+    /// [`Props::kind`]), or `None` when there is none. A second one is an error at it: "mask
+    /// takes exactly one nested BSDF" inside a `<bsdf>` (whose nested objects of one kind are
+    /// each required), "a shape takes only one emitter" elsewhere. Checking that the child
+    /// exists, and that no child of another kind is there, is the caller's business.
+    pub fn one_child(&self, tag: &str) -> Result<Option<&'a Node>> {
+        let mut found = self.objects().filter(|c| self.kind(c) == tag);
+        let first = found.next();
+        if let Some(second) = found.next() {
+            let noun = match tag {
+                "bsdf" => "BSDF".to_string(),
+                "texture" => "<texture>".to_string(),
+                t => t.to_string(),
+            };
+            let msg = if self.tag() == "bsdf" {
+                format!("{} takes exactly one nested {noun}", self.plugin_type())
+            } else {
+                format!("a {} takes only one {noun}", self.tag())
+            };
+            return Err(Error::scene(&second.loc, msg));
+        }
+        Ok(first)
     }
 
     /// Raw access to the property or named object `name` (marks a property used).

@@ -2,7 +2,7 @@
 //! Mitsuba 3's `upgrade_tree` (src/core/parser.cpp) does, plus two leniencies of groove's:
 //! `<lookAt>` is renamed with a warning, and a lone `uoffset`/`uscale` is not dropped.
 
-use super::parse::{Attr, Node};
+use super::ir::{Attr, Node};
 
 /// Mitsuba 3's camelCase → snake_case rule for property names: wherever a lowercase letter is
 /// followed by an uppercase one, insert `_` and lowercase the following run of uppercase letters

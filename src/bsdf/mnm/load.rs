@@ -1,0 +1,188 @@
+//! The XML constructor of `microfacet_normalmap` (and of the `normalmap` that
+//! `--normal-mapping microfacet|explicit|walk-...` turns into one); the decisions page of
+//! `mnm.md` gives the reasons for each default.
+//!
+//! # XML parameters
+//!
+//! | Parameter | Type | Default | Meaning |
+//! | --- | --- | --- | --- |
+//! | `normalmap` | texture | required | the normal map, ωp = 2·rgb − 1 in the shading frame |
+//! | (nested) | one `<bsdf>` | required | the BSDF on every facet (a non-delta lobe; a transmitting one needs the random walk) |
+//! | `microgeometry` | string | `sawtooth` | `sawtooth`, `vgroove` or `ugroove` ([`Microgeometry`]) |
+//! | `groove_fill` | float | 0.5 | the flat share of a `ugroove`, in (0, 1] (`ugroove` only) |
+//! | `tangent` | string | `mirror` (sawtooth), `same` (grooves) | the sawtooth's wall: a perfect mirror or the nested BSDF (`sawtooth` only) |
+//! | `evaluation` | string | `random_walk` | `random_walk` or `explicit` (closed forms, sawtooth only) |
+//! | `max_order` | integer | 256 | longest random walk, in scattering events |
+//! | `max_theta` | float | 85 | largest tilt of the perturbed normal, degrees, in (0, 90) |
+//! | `transmission_walk` | string | `two_sided` | over a transmitting BSDF: `two_sided` (§9.3) or `exit_on_refraction` (§9.4) |
+
+use super::facets::Microgeometry;
+use super::{Evaluation, Tangent, TransmissionWalk};
+
+use crate::bsdf::normalmap::load::parts;
+use crate::error::{Error, Result, SourceLoc};
+use crate::load::bsdfs::BsdfCtx;
+use crate::load::check;
+use crate::load::options::MnmMode;
+use crate::material::{MatId, MaterialNode, MnmSettings};
+use crate::scene::xml::props::Props;
+
+/// `microfacet_normalmap`; `forced` (from `--normal-mapping`) replaces the written
+/// microgeometry, tangent and evaluation.
+pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>, forced: Option<MnmMode>) -> Result<MaterialNode> {
+    let (nested, nested_loc, normalmap) = parts(cx, "microfacet_normalmap")?;
+    let p = cx.props();
+    let geometry = microgeometry(p)?;
+    let tangent = tangent(p, geometry)?;
+    let evaluation = match p.string("evaluation", "random_walk")?.as_str() {
+        "random_walk" => Evaluation::RandomWalk,
+        "explicit" => Evaluation::Explicit,
+        other => {
+            return Err(Error::scene(
+                p.loc(),
+                format!("evaluation '{other}' must be 'random_walk' or 'explicit'"),
+            ))
+        }
+    };
+    let (geometry, tangent, evaluation) = match forced {
+        Some(f) => (f.geometry, f.tangent, f.evaluation),
+        None => (geometry, tangent, evaluation),
+    };
+    if geometry != Microgeometry::Sawtooth && evaluation == Evaluation::Explicit {
+        return Err(Error::scene(
+            p.loc(),
+            "microgeometries other than 'sawtooth' need evaluation = random_walk",
+        ));
+    }
+    let max_order = p.int("max_order", 256)?;
+    check(
+        p.loc(),
+        (1..=1 << 20).contains(&max_order),
+        "max_order must be >= 1",
+    )?;
+    let max_theta = p.float("max_theta", 85.0)?;
+    check(
+        p.loc(),
+        max_theta > 0.0 && max_theta < 90.0,
+        "max_theta must be in (0, 90) degrees",
+    )?;
+    let walk = p.string("transmission_walk", "two_sided")?;
+    let transmission_walk = match walk.as_str() {
+        "two_sided" => TransmissionWalk::TwoSided,
+        "exit_on_refraction" => TransmissionWalk::ExitOnRefraction,
+        _ => {
+            return Err(Error::scene(
+                p.loc(),
+                "transmission_walk must be 'two_sided' or 'exit_on_refraction'",
+            ))
+        }
+    };
+    check_nested(cx, nested, nested_loc, evaluation)?;
+    Ok(MaterialNode::MicrofacetNormalMap {
+        nested,
+        normalmap,
+        settings: MnmSettings {
+            geometry,
+            tangent,
+            evaluation,
+            max_order: max_order as u32,
+            max_theta: max_theta.to_radians(),
+            transmission_walk,
+        },
+    })
+}
+
+/// A `normalmap` converted to a `microfacet_normalmap` of model `mode` with the other
+/// parameters at their defaults; its own flags are read (and checked) but have no effect.
+pub(crate) fn from_normalmap(cx: &mut BsdfCtx<'_, '_>, mode: MnmMode) -> Result<MaterialNode> {
+    let (nested, nested_loc, normalmap) = parts(cx, "normalmap")?;
+    let _ = cx.props().bool("flip_invalid_normals", true)?;
+    let _ = cx.props().bool("use_shadowing_function", true)?;
+    check_nested(cx, nested, nested_loc, mode.evaluation)?;
+    Ok(MaterialNode::MicrofacetNormalMap {
+        nested,
+        normalmap,
+        settings: MnmSettings {
+            geometry: mode.geometry,
+            tangent: mode.tangent,
+            evaluation: mode.evaluation,
+            max_order: 256,
+            max_theta: 85f32.to_radians(),
+            transmission_walk: TransmissionWalk::TwoSided,
+        },
+    })
+}
+
+/// `microgeometry` (with `groove_fill` for `ugroove`).
+fn microgeometry(p: &Props) -> Result<Microgeometry> {
+    let geometry = match p.string("microgeometry", "sawtooth")?.as_str() {
+        "sawtooth" => Microgeometry::Sawtooth,
+        "vgroove" => Microgeometry::VGroove,
+        "ugroove" => {
+            let s = p.float("groove_fill", 0.5)?;
+            check(
+                p.loc(),
+                s > 0.0 && s <= 1.0,
+                "groove_fill must be in (0, 1]",
+            )?;
+            Microgeometry::UGroove { fill: s }
+        }
+        other => {
+            return Err(Error::scene(
+                p.loc(),
+                format!("microgeometry '{other}' must be sawtooth, vgroove or ugroove"),
+            ))
+        }
+    };
+    if !matches!(geometry, Microgeometry::UGroove { .. }) && p.has("groove_fill") {
+        return Err(Error::scene(
+            p.loc(),
+            "groove_fill belongs to microgeometry 'ugroove'",
+        ));
+    }
+    Ok(geometry)
+}
+
+/// `tangent`, which only the sawtooth takes (mirror by default; the grooves' walls are the
+/// same material).
+fn tangent(p: &Props, geometry: Microgeometry) -> Result<Tangent> {
+    if !p.has("tangent") {
+        return Ok(if geometry == Microgeometry::Sawtooth {
+            Tangent::Mirror
+        } else {
+            Tangent::Same
+        });
+    }
+    if geometry != Microgeometry::Sawtooth {
+        return Err(Error::scene(
+            p.loc(),
+            "'tangent' belongs to the sawtooth microgeometry only",
+        ));
+    }
+    match p.string("tangent", "mirror")?.as_str() {
+        "mirror" => Ok(Tangent::Mirror),
+        "same" => Ok(Tangent::Same),
+        other => Err(Error::scene(
+            p.loc(),
+            format!("tangent '{other}' must be 'mirror' or 'same'"),
+        )),
+    }
+}
+
+/// What a `microfacet_normalmap` (written, or converted by `--normal-mapping`) accepts as
+/// nested BSDF: a non-delta lobe; over a transmitting BSDF only the random walk.
+fn check_nested(
+    cx: &BsdfCtx<'_, '_>,
+    nested: MatId,
+    nested_loc: &SourceLoc,
+    evaluation: Evaluation,
+) -> Result<()> {
+    let lobes = cx.lobes(nested);
+    if lobes.has_transmission() && evaluation == Evaluation::Explicit {
+        return Err(Error::scene(cx.props().loc(), "microfacet_normalmap over a transmitting BSDF needs evaluation = random_walk (the closed forms are reflection only)"));
+    }
+    if !lobes.is_smooth() {
+        return Err(Error::scene(nested_loc, "microfacet_normalmap needs a nested BSDF with a non-delta lobe (e.g. diffuse, roughconductor, roughplastic): with only delta lobes its evaluation is zero almost everywhere"));
+    }
+    Ok(())
+}

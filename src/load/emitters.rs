@@ -1,0 +1,190 @@
+//! The top-level `<emitter>`s: `point`, `constant`, `spot`, `directional`, `envmap` (and
+//! `area` emitters declared with an id for shapes to `<ref>`).
+
+use super::{check, unknown, Builder};
+use crate::emitter::constant::ConstantLight;
+use crate::emitter::directional::DirectionalLight;
+use crate::emitter::envmap::EnvMapLight;
+use crate::emitter::point::PointLight;
+use crate::emitter::spot::SpotLight;
+use crate::emitter::Emitter;
+use crate::error::{Error, Result};
+use crate::scene::xml::ir::{Document, Node};
+use crate::scene::xml::props::Props;
+use crate::spectrum::{Spectrum, SpectrumUse};
+use glam::{Mat3, Vec3};
+
+impl<'d> Builder<'d> {
+    pub(super) fn top_level_emitter(&mut self, n: &'d Node) -> Result<()> {
+        let p = self.props(n)?;
+        let e = match p.plugin_type() {
+            "area" => {
+                // Declared for reference by shapes; validated when referenced.
+                if n.attr("id").is_none() {
+                    return Err(Error::scene(p.loc(), "an 'area' emitter must be attached to a shape (nest it in a <shape> or give it an id and <ref> it)"));
+                }
+                p.mark_used("radiance");
+                return Ok(());
+            }
+            "point" => {
+                let intensity = p.color_with("intensity", Spectrum::ONE, SpectrumUse::Emission)?;
+                let m = p.transform("to_world")?;
+                let pos = if p.has("position") {
+                    p.point("position", Vec3::ZERO)?
+                } else {
+                    m.transform_point3(Vec3::ZERO)
+                };
+                Emitter::Point(PointLight {
+                    position: pos,
+                    intensity,
+                })
+            }
+            "constant" => {
+                let r = p.color_with("radiance", Spectrum::ONE, SpectrumUse::Emission)?;
+                Emitter::Constant(ConstantLight { radiance: r })
+            }
+            "spot" => spot_emitter(&p)?,
+            "directional" => directional_emitter(&p)?,
+            "envmap" => envmap_emitter(self.doc, &p)?,
+            t => {
+                return Err(unknown(
+                    p.loc(),
+                    "emitter",
+                    t,
+                    &["area", "point", "constant", "spot", "directional", "envmap"],
+                ))
+            }
+        };
+        p.finish()?;
+        self.emitters.push(e);
+        Ok(())
+    }
+}
+
+/// Rejects nested objects (textures) in an emitter that only takes plain values.
+fn no_nested_objects(p: &Props<'_>, what: &str) -> Result<()> {
+    if let Some(c) = p.objects().next() {
+        return Err(Error::scene(
+            &c.loc,
+            format!(
+                "emitter '{what}' takes no nested <{}> (name '{}'): textured {what} lights are not supported; give plain values",
+                c.tag,
+                c.attr("name").unwrap_or_default()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// A non-negative emitted colour.
+fn emission_color(p: &Props<'_>, name: &str) -> Result<Spectrum> {
+    let c = p.color_with(name, Spectrum::ONE, SpectrumUse::Emission)?;
+    check(
+        p.loc(),
+        crate::spectrum::is_finite(c) && c.min_element() >= 0.0,
+        format!("'{name}' must be finite and not negative"),
+    )?;
+    Ok(c)
+}
+
+/// Mitsuba 3 `spot`: `intensity`, `cutoff_angle` (20°), `beam_width` (¾ cutoff), `to_world`.
+fn spot_emitter(p: &Props<'_>) -> Result<Emitter> {
+    no_nested_objects(p, "spot")?;
+    let intensity = emission_color(p, "intensity")?;
+    let cutoff = p.float("cutoff_angle", 20.0)?;
+    let beam = p.float("beam_width", cutoff * 0.75)?;
+    check(
+        p.loc(),
+        cutoff.is_finite() && cutoff > 0.0 && cutoff <= 180.0,
+        format!("'cutoff_angle' must be in (0, 180] degrees (it is {cutoff})"),
+    )?;
+    check(
+        p.loc(),
+        beam.is_finite() && (0.0..=cutoff).contains(&beam),
+        format!("'beam_width' must be in [0, cutoff_angle = {cutoff}] degrees (it is {beam})"),
+    )?;
+    let m = p.transform("to_world")?;
+    let axis = m.transform_vector3(Vec3::Z);
+    check(
+        p.loc(),
+        axis.is_finite() && axis.length() > 1e-12,
+        "the spot light's 'to_world' is degenerate (maps +z to zero)",
+    )?;
+    Ok(Emitter::Spot(SpotLight::new(
+        m.transform_point3(Vec3::ZERO),
+        Mat3::from_mat4(m),
+        intensity,
+        cutoff.to_radians(),
+        beam.to_radians(),
+    )))
+}
+
+/// Mitsuba 3 `directional`: `irradiance`, and `direction` or `to_world` (light travels along +z).
+fn directional_emitter(p: &Props<'_>) -> Result<Emitter> {
+    no_nested_objects(p, "directional")?;
+    let irradiance = emission_color(p, "irradiance")?;
+    let dir = p.point_opt("direction")?;
+    let m = p.transform_opt("to_world")?;
+    let d = match (dir, m) {
+        (Some(_), Some(_)) => {
+            return Err(Error::scene(
+                p.loc(),
+                "give the directional light either 'direction' or 'to_world', not both",
+            ))
+        }
+        (Some(d), None) => d,
+        (None, Some(m)) => m.transform_vector3(Vec3::Z),
+        (None, None) => Vec3::Z,
+    };
+    check(
+        p.loc(),
+        d.is_finite() && d.length() > 1e-12,
+        format!("the directional light's direction must be a non-zero vector (it is {d})"),
+    )?;
+    Ok(Emitter::Directional(DirectionalLight {
+        direction: d.normalize(),
+        irradiance,
+    }))
+}
+
+/// Mitsuba 3 `envmap`: `filename` (a lat-long OpenEXR), `scale`, `to_world` (a rotation).
+fn envmap_emitter(doc: &Document, p: &Props<'_>) -> Result<Emitter> {
+    no_nested_objects(p, "envmap")?;
+    let name = p
+        .string_opt("filename")?
+        .ok_or_else(|| Error::scene(p.loc(), "emitter 'envmap' needs a 'filename'"))?;
+    let scale = p.float("scale", 1.0)?;
+    let m = p.transform("to_world")?;
+    let file = doc.resolve_file(&name, p.loc())?;
+    let is_exr = file
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    check(
+        p.loc(),
+        is_exr,
+        format!("envmap '{name}': only OpenEXR (.exr) environment maps are supported"),
+    )?;
+    let (img, _) = crate::output::read_exr(&file)
+        .map_err(|e| Error::scene(p.loc(), format!("cannot read envmap '{name}': {e}")))?;
+    // The rotation part, which may carry a uniform scale (removed); anything else is rejected.
+    let r = Mat3::from_mat4(m);
+    let s = r.determinant().abs().cbrt();
+    let rot = r * (1.0 / s);
+    let ortho =
+        s.is_finite() && s > 0.0 && (rot.transpose() * rot).abs_diff_eq(Mat3::IDENTITY, 1e-4);
+    check(
+        p.loc(),
+        ortho,
+        "envmap 'to_world' must be a rotation (no shear or non-uniform scale)",
+    )?;
+    let light = EnvMapLight::new(
+        img.width as usize,
+        img.height as usize,
+        &img.data,
+        scale,
+        rot,
+    )
+    .map_err(|e| Error::scene(p.loc(), format!("envmap '{name}': {e}")))?;
+    Ok(Emitter::EnvMap(light))
+}

@@ -1,0 +1,228 @@
+//! The loader: turns a parsed scene file ([`crate::scene::xml`]) into a [`Scene`], one builder
+//! per plugin kind, every property checked (an unreferenced property is an error, as in
+//! Mitsuba 3) and `<ref>`s resolved by id.
+//!
+//! - this file: the entry points ([`load_scene`], [`instantiate`]), the `Builder` that
+//!   collects what the builders make, and the top level of a scene;
+//! - `settings`: `<integrator>`, `<sensor>`, `<film>`, `<rfilter>`, `<sampler>`;
+//! - `textures`: `<texture>` and colour-or-texture parameters;
+//! - `bsdfs`: `<bsdf>`, dispatched to the constructor that lives in each BSDF's own file
+//!   beside its table of parameters (and the `--normal-mapping` conversions);
+//! - `shapes`: `<shape>`, its area emitter and the default materials;
+//! - `emitters`: the top-level `<emitter>`s;
+//! - [`options`]: what a load is asked for besides the file (`-D`, `--normal-mapping`).
+
+pub(crate) mod bsdfs;
+mod emitters;
+pub mod options;
+mod settings;
+mod shapes;
+mod textures;
+
+use crate::accel::Accel;
+use crate::camera::Camera;
+use crate::emitter::{Emitter, LightSampler};
+use crate::error::{Error, Result, SourceLoc};
+use crate::film::FilmDesc;
+use crate::geometry::Shape;
+use crate::integrator::{IntegratorDesc, PathSettings};
+use crate::material::{MatId, Materials, TexId};
+use crate::render::RenderSettings;
+use crate::sampler::SamplerDesc;
+use crate::scene::xml::ir::{Document, Ids, Node};
+use crate::scene::xml::parse::load_file;
+use crate::scene::xml::props::Props;
+use crate::scene::Scene;
+use options::{LoadOptions, NormalMapping};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// A loaded scene, how its file asks for it to be rendered, and the warnings its loading
+/// produced (lenient fallbacks, old tags).
+pub struct Loaded {
+    pub scene: Scene,
+    pub settings: RenderSettings,
+    pub warnings: Vec<String>,
+}
+
+/// Parse, upgrade and instantiate a scene file.
+pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Loaded> {
+    let doc = load_file(path, &opts.defines)?;
+    instantiate_with(&doc, path, opts.normal_mapping)
+}
+
+/// Instantiate a parsed document. `path` names the scene in the result.
+pub fn instantiate(doc: &Document, path: &Path) -> Result<Loaded> {
+    instantiate_with(doc, path, NormalMapping::AsWritten)
+}
+
+/// What the builders of one document collect.
+struct Builder<'d> {
+    doc: &'d Document,
+    /// `--normal-mapping`: which model the scene's normal maps become.
+    normal_mapping: NormalMapping,
+    /// Every element with an `id`, for `<ref>`.
+    ids: &'d Ids<'d>,
+    bsdf_cache: HashMap<&'d str, MatId>,
+    tex_cache: HashMap<&'d str, TexId>,
+    materials: Materials,
+    /// The default diffuse BSDFs: [for plain shapes (0.5 grey), for emitting shapes (black)].
+    default_materials: [Option<MatId>; 2],
+    shapes: Vec<Shape>,
+    shape_material: Vec<MatId>,
+    shape_emitter: Vec<Option<u32>>,
+    emitters: Vec<Emitter>,
+    warnings: Vec<String>,
+}
+
+/// [`instantiate`] with every normal map converted to the model `normal_mapping` (decision 6).
+pub fn instantiate_with(
+    doc: &Document,
+    path: &Path,
+    normal_mapping: NormalMapping,
+) -> Result<Loaded> {
+    let ids = Ids::new(&doc.root);
+    let mut b = Builder {
+        doc,
+        normal_mapping,
+        ids: &ids,
+        bsdf_cache: HashMap::new(),
+        tex_cache: HashMap::new(),
+        materials: Materials::default(),
+        default_materials: [None, None],
+        shapes: Vec::new(),
+        shape_material: Vec::new(),
+        shape_emitter: Vec::new(),
+        emitters: Vec::new(),
+        warnings: doc.warnings.clone(),
+    };
+    let (integrator, sensor) = b.top_level()?;
+    let integrator = integrator.unwrap_or(IntegratorDesc::Path(PathSettings::default()));
+    let Some((camera, film, sampler)) = sensor else {
+        return Err(Error::scene(
+            &doc.root.loc,
+            "the scene has no <sensor>: add a perspective sensor to render it",
+        ));
+    };
+    if b.shapes.is_empty() && b.emitters.is_empty() {
+        b.warnings.push(format!(
+            "{}: the scene is empty (no shapes, no emitters)",
+            doc.root.loc
+        ));
+    }
+
+    let accel = Accel::build(&b.shapes)?;
+    let bsphere = Scene::bounding_sphere(&b.shapes);
+    let env_emitters = b
+        .emitters
+        .iter()
+        .enumerate()
+        .filter(|(_, e)| e.is_environment())
+        .map(|(i, _)| i as u32)
+        .collect();
+    let light_sampler = LightSampler::new(&b.emitters, &b.shapes, bsphere.1);
+    Ok(Loaded {
+        scene: Scene {
+            shapes: b.shapes,
+            shape_material: b.shape_material,
+            shape_emitter: b.shape_emitter,
+            accel,
+            materials: b.materials,
+            emitters: b.emitters,
+            env_emitters,
+            light_sampler,
+            camera,
+            bsphere,
+            source: path.to_path_buf(),
+        },
+        settings: RenderSettings {
+            integrator,
+            film,
+            sampler,
+        },
+        warnings: b.warnings,
+    })
+}
+
+/// The integrator and the sensor (camera, film, sampler) of a scene, if given.
+type TopLevel = (
+    Option<IntegratorDesc>,
+    Option<(Camera, FilmDesc, SamplerDesc)>,
+);
+
+impl<'d> Builder<'d> {
+    /// The properties of element `n`, seeing through `<ref>`s.
+    fn props(&self, n: &'d Node) -> Result<Props<'d>> {
+        Props::with_ids(n, self.ids)
+    }
+
+    /// Builds every child of `<scene>`: the objects go into the builder, the integrator and
+    /// sensor are returned.
+    fn top_level(&mut self) -> Result<TopLevel> {
+        let mut integrator = None;
+        let mut sensor = None;
+        for child in &self.doc.root.children {
+            match child.tag.as_str() {
+                "integrator" => {
+                    if integrator.is_some() {
+                        return Err(Error::scene(
+                            &child.loc,
+                            "a scene takes only one <integrator>",
+                        ));
+                    }
+                    integrator = Some(self.integrator(child)?);
+                }
+                "sensor" => {
+                    if sensor.is_some() {
+                        return Err(Error::scene(
+                            &child.loc,
+                            "groove renders one <sensor> per scene; this is a second one",
+                        ));
+                    }
+                    sensor = Some(self.sensor(child)?);
+                }
+                "shape" => self.shape(child)?,
+                "bsdf" => {
+                    self.bsdf(child)?;
+                }
+                "texture" => {
+                    self.texture(child)?;
+                }
+                "emitter" => self.top_level_emitter(child)?,
+                "rfilter" | "film" | "sampler" => {
+                    return Err(Error::scene(
+                        &child.loc,
+                        format!("<{}> belongs inside <sensor> (or <film>)", child.tag),
+                    ))
+                }
+                other => {
+                    return Err(Error::scene(
+                        &child.loc,
+                        format!("<{other}> is not supported at the top level of a scene"),
+                    ))
+                }
+            }
+        }
+        Ok((integrator, sensor))
+    }
+}
+
+/// An unknown plugin type: the error names the ones groove supports.
+pub(crate) fn unknown(loc: &SourceLoc, kind: &str, ty: &str, known: &[&str]) -> Error {
+    Error::scene(
+        loc,
+        format!(
+            "unknown {kind} plugin '{ty}' (groove supports: {})",
+            known.join(", ")
+        ),
+    )
+}
+
+/// Checks that a value read from the scene is finite and in range: `msg` at `loc` when not.
+pub(crate) fn check(loc: &SourceLoc, ok: bool, msg: impl Into<String>) -> Result<()> {
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::scene(loc, msg))
+    }
+}

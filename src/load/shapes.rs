@@ -1,0 +1,198 @@
+//! `<shape>`s (`obj`, `ply`, `serialized`, `rectangle`, `cube`, `disk`, `sphere`), the `area` emitter a
+//! shape carries, and the default materials of shapes without a BSDF.
+
+use super::{check, unknown, Builder};
+use crate::emitter::area::AreaLight;
+use crate::emitter::Emitter;
+use crate::error::{Error, Result};
+use crate::geometry::{obj, ply, serialized, Shape};
+use crate::material::{MatId, MaterialNode};
+use crate::scene::xml::ir::Node;
+use crate::scene::xml::props::Props;
+use crate::spectrum::{Spectrum, SpectrumUse};
+use crate::texture::Texture;
+use glam::Vec3;
+
+impl<'d> Builder<'d> {
+    /// The default BSDF of a shape that has none (shared by all such shapes).
+    fn default_material(&mut self, emitting: bool) -> MatId {
+        let slot = usize::from(emitting);
+        if let Some(m) = self.default_materials[slot] {
+            return m;
+        }
+        let grey = if emitting { 0.0 } else { 0.5 };
+        let t = self
+            .materials
+            .add_texture(Texture::Constant(Spectrum::splat(grey)));
+        let m = self
+            .materials
+            .add_node(MaterialNode::Diffuse { reflectance: t });
+        self.default_materials[slot] = Some(m);
+        m
+    }
+
+    /// The geometry of a `<shape>`, in world space.
+    fn geometry(&self, p: &Props<'d>) -> Result<Shape> {
+        let to_world = p.transform("to_world")?;
+        let flip = p.bool("flip_normals", false)?;
+        Ok(match p.plugin_type() {
+            t @ ("obj" | "ply") => {
+                let fname = p.string_opt("filename")?.ok_or_else(|| {
+                    Error::scene(p.loc(), format!("shape '{t}' needs a 'filename'"))
+                })?;
+                let file = self.doc.resolve_file(&fname, p.loc())?;
+                let face_normals = p.bool("face_normals", false)?;
+                let flip_tex = p.bool("flip_tex_coords", t == "obj")?;
+                let mut mesh = if t == "obj" {
+                    obj::load_obj(&file)?
+                } else {
+                    ply::load_ply(&file)?
+                };
+                // The OBJ loader applies Mitsuba's v flip; undo it when asked not to flip.
+                if (t == "obj") != flip_tex {
+                    if let Some(uv) = mesh.uvs.as_mut() {
+                        uv.iter_mut().for_each(|t| t.y = 1.0 - t.y);
+                    }
+                }
+                mesh.transform(&to_world);
+                Shape::from_mesh(mesh, flip, face_normals)
+                    .map_err(|e| Error::scene(p.loc(), format!("{}: {e}", file.display())))?
+            }
+            "serialized" => {
+                // Mitsuba's zlib-compressed binary meshes; see `geometry::serialized`.
+                let fname = p.string_opt("filename")?.ok_or_else(|| {
+                    Error::scene(p.loc(), "shape 'serialized' needs a 'filename'")
+                })?;
+                let file = self.doc.resolve_file(&fname, p.loc())?;
+                let face_normals = p.bool("face_normals", false)?;
+                let index = p.int("shape_index", 0)?;
+                check(p.loc(), index >= 0, "shape_index must be nonnegative")?;
+                let index = u32::try_from(index)
+                    .map_err(|_| Error::scene(p.loc(), "shape_index is too large"))?;
+                let mut mesh = serialized::load_serialized(&file, index, !face_normals)
+                    .map_err(|e| Error::scene(p.loc(), e.to_string()))?
+                    .mesh;
+                mesh.transform(&to_world);
+                Shape::from_mesh(mesh, flip, face_normals)
+                    .map_err(|e| Error::scene(p.loc(), format!("{}: {e}", file.display())))?
+            }
+            "rectangle" => Shape::rectangle(&to_world, flip),
+            "cube" => Shape::cube(&to_world, flip),
+            "disk" => {
+                Shape::disk(&to_world, flip).map_err(|e| Error::scene(p.loc(), e.to_string()))?
+            }
+            "sphere" => {
+                let c = p.point("center", Vec3::ZERO)?;
+                let r = p.float("radius", 1.0)?;
+                check(
+                    p.loc(),
+                    r > 0.0 && r.is_finite(),
+                    "sphere radius must be positive",
+                )?;
+                Shape::sphere(c, r, &to_world, flip)
+                    .map_err(|e| Error::scene(p.loc(), e.to_string()))?
+            }
+            t => {
+                return Err(unknown(
+                    p.loc(),
+                    "shape",
+                    t,
+                    &[
+                        "obj",
+                        "ply",
+                        "serialized",
+                        "rectangle",
+                        "cube",
+                        "disk",
+                        "sphere",
+                    ],
+                ))
+            }
+        })
+    }
+
+    /// A `<shape>` with its BSDF (or a default one) and its area emitter, if any.
+    pub(super) fn shape(&mut self, n: &'d Node) -> Result<()> {
+        let p = self.props(n)?;
+        let shape = self.geometry(&p)?;
+        let index = self.shapes.len() as u32;
+        for c in p.objects() {
+            match p.kind(c) {
+                "bsdf" | "emitter" => {}
+                "ref" => {
+                    let id = c.attr("id").unwrap_or("");
+                    return Err(Error::scene(
+                        c.attr_loc("id"),
+                        format!("reference to unknown id '{id}'"),
+                    ));
+                }
+                t => {
+                    return Err(Error::scene(
+                        &c.loc,
+                        format!("<{t}> is not expected inside a <shape>"),
+                    ))
+                }
+            }
+        }
+        let material = match p.one_child("bsdf")? {
+            Some(c) => Some(self.bsdf(c)?),
+            None => None,
+        };
+        let emitter = match p.one_child("emitter")? {
+            Some(c) => Some(self.area_emitter(self.ids.resolve(c, "emitter")?, index)?),
+            None => None,
+        };
+        p.finish()?;
+        // Mitsuba 3: a shape without a BSDF gets a 0.5 grey diffuse one, but an emitting shape
+        // without a BSDF gets a black one (it does not reflect light).
+        let material = match material {
+            Some(m) => m,
+            None => self.default_material(emitter.is_some()),
+        };
+        self.shapes.push(shape);
+        self.shape_material.push(material);
+        self.shape_emitter.push(emitter);
+        Ok(())
+    }
+
+    /// An `area` emitter on shape `shape`; returns its index.
+    fn area_emitter(&mut self, n: &'d Node, shape: u32) -> Result<u32> {
+        let p = self.props(n)?;
+        if p.plugin_type() != "area" {
+            return Err(Error::scene(
+                p.loc(),
+                format!(
+                    "only 'area' emitters can be attached to a shape, not '{}'",
+                    p.plugin_type()
+                ),
+            ));
+        }
+        let radiance = self.emission_param(&p, "radiance")?;
+        p.finish()?;
+        self.emitters
+            .push(Emitter::Area(AreaLight { shape, radiance }));
+        Ok((self.emitters.len() - 1) as u32)
+    }
+
+    fn emission_param(&mut self, p: &Props<'d>, name: &str) -> Result<Texture> {
+        for c in p.objects() {
+            if c.attr("name") == Some(name) {
+                let id = self.texture(c)?;
+                return Ok(self.materials.textures[id as usize].clone());
+            }
+        }
+        if !p.has(name) {
+            return Err(Error::scene(
+                p.loc(),
+                format!("the emitter needs a '{name}'"),
+            ));
+        }
+        let c = p.color_with(name, Spectrum::ONE, SpectrumUse::Emission)?;
+        check(
+            p.loc(),
+            c.min_element() >= 0.0,
+            format!("'{name}' must not be negative"),
+        )?;
+        Ok(Texture::Constant(c))
+    }
+}

@@ -1,0 +1,121 @@
+//! `<texture>`s (`bitmap`, `checkerboard`) and the colour parameters that may be a constant or
+//! a texture.
+
+use super::{unknown, Builder};
+use crate::error::{Error, Result};
+use crate::material::TexId;
+use crate::scene::xml::ir::Node;
+use crate::scene::xml::props::Props;
+use crate::spectrum::Spectrum;
+use crate::texture::Texture;
+use glam::{Mat3, Mat4, Vec3};
+
+impl<'d> Builder<'d> {
+    /// A colour parameter that may be a constant or a texture (child `<texture name>` or
+    /// `<ref name id>` to a texture).
+    pub(super) fn color_param(
+        &mut self,
+        p: &Props<'d>,
+        name: &str,
+        default: Spectrum,
+    ) -> Result<TexId> {
+        for c in p.objects() {
+            if c.attr("name") == Some(name) {
+                if p.kind(c) == "texture" {
+                    return self.texture(c);
+                }
+                return Err(Error::scene(
+                    &c.loc,
+                    format!(
+                        "'{name}' expects a colour or a <texture>, not a <{}>",
+                        c.tag
+                    ),
+                ));
+            }
+        }
+        let c = p.color(name, default)?;
+        Ok(self.materials.add_texture(Texture::Constant(c)))
+    }
+
+    /// Builds `<texture>` `n` (or the one a `<ref>` names) once; a texture with an id is shared
+    /// by every reference to it.
+    pub(super) fn texture(&mut self, n: &'d Node) -> Result<TexId> {
+        let n = self.ids.resolve(n, "texture")?;
+        if let Some(id) = n.attr("id") {
+            if let Some(&t) = self.tex_cache.get(id) {
+                return Ok(t);
+            }
+        }
+        let p = self.props(n)?;
+        let tex = match p.plugin_type() {
+            "checkerboard" => {
+                let c0 = p.color("color0", Spectrum::splat(0.4))?;
+                let c1 = p.color("color1", Spectrum::splat(0.2))?;
+                let m = p.transform("to_uv")?;
+                Texture::Checkerboard {
+                    color0: c0,
+                    color1: c1,
+                    to_uv: mat4_to_uv(&m),
+                }
+            }
+            "bitmap" => self.bitmap_texture(&p)?,
+            t => return Err(unknown(p.loc(), "texture", t, &["bitmap", "checkerboard"])),
+        };
+        p.finish()?;
+        let id = self.materials.add_texture(tex);
+        if let Some(i) = n.attr("id") {
+            self.tex_cache.insert(i, id);
+        }
+        Ok(id)
+    }
+
+    /// Mitsuba 3's `bitmap`: `filename`, `raw`, `filter_type`, `wrap_mode`, `to_uv`, `format`
+    /// (`accel` is accepted and has no effect on the CPU). Any problem with the image is an
+    /// error at the `<texture>` naming the file.
+    fn bitmap_texture(&mut self, p: &Props<'d>) -> Result<Texture> {
+        use crate::texture::{BitmapOptions, BitmapTexture, FilterType, StorageFormat, WrapMode};
+        let fname = p
+            .string_opt("filename")?
+            .ok_or_else(|| Error::scene(p.loc(), "texture 'bitmap' needs a 'filename'"))?;
+        let file = self.doc.resolve_file(&fname, p.loc())?;
+        let choice = |name: &str, default: &str, allowed: &str| -> Result<String> {
+            let v = p.string(name, default)?;
+            if allowed.split(", ").any(|a| a == v) {
+                Ok(v)
+            } else {
+                Err(Error::scene(
+                    p.loc(),
+                    format!(
+                        "invalid {name} '{v}' for texture 'bitmap' (must be one of: {allowed})"
+                    ),
+                ))
+            }
+        };
+        let filter = choice("filter_type", "bilinear", "bilinear, nearest")?;
+        let wrap = choice("wrap_mode", "repeat", "repeat, mirror, clamp")?;
+        let format = choice("format", "auto", "auto, variant, fp16")?;
+        let opts = BitmapOptions {
+            raw: p.bool("raw", false)?,
+            filter: FilterType::parse(&filter).unwrap_or_default(),
+            wrap: WrapMode::parse(&wrap).unwrap_or_default(),
+            to_uv: mat4_to_uv(&p.transform("to_uv")?),
+            format: StorageFormat::parse(&format).unwrap_or_default(),
+        };
+        let _ = p.bool("accel", true)?;
+        let bmp = BitmapTexture::load(&file, &opts)
+            .map_err(|e| Error::scene(p.loc(), format!("cannot load bitmap texture: {e}")))?;
+        for w in bmp.warnings() {
+            self.warnings.push(format!("{}: {w}", p.loc()));
+        }
+        Ok(Texture::from(bmp))
+    }
+}
+
+/// The 2-D affine part of a `to_uv` transform.
+fn mat4_to_uv(m: &Mat4) -> Mat3 {
+    Mat3::from_cols(
+        Vec3::new(m.x_axis.x, m.x_axis.y, 0.0),
+        Vec3::new(m.y_axis.x, m.y_axis.y, 0.0),
+        Vec3::new(m.w_axis.x, m.w_axis.y, 1.0),
+    )
+}
