@@ -1,7 +1,10 @@
 //! The `groove render` command as a user meets it: exit codes, error messages with
 //! FILE:LINE:COL, batch behaviour, output naming and atomic writes; module `doc_links`: the
-//! links of README.md and docs/ resolve inside the repository.
+//! links of README.md and docs/ resolve inside the repository; module `bench`: `groove bench` on
+//! two tiny scenes and its JSON schema.
 
+#[path = "cli/bench.rs"]
+mod bench;
 #[path = "cli/doc_links.rs"]
 mod doc_links;
 

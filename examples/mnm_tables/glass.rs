@@ -1,6 +1,6 @@
 //! `nested-glass` and `glass-furnace`: the two measurements behind docs/mnm.md's discussion of
 //! the glass furnace's loss under microfacet normal mapping (not checks: the bounds that are
-//! asserted live in tests/render_mnm.rs and tests/mnm_exit_on_refraction.rs).
+//! asserted live in tests/render/mnm.rs and tests/bsdf/mnm_exit_on_refraction.rs).
 
 use crate::common::{self, dir, image_mean, mean_se, render_scene, test_scene};
 use groove::bsdf::{BsdfArena, BsdfContext, TransportMode};

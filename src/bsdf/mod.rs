@@ -35,7 +35,7 @@
 //! parameters, its XML constructor (`mod load`, called by [`crate::load`]'s `bsdfs`).
 //!
 //! Verified pointwise against Mitsuba 3.9.1 (`tests/bsdf_mitsuba/models.rs`, data in
-//! `tests/data/mitsuba_bsdf_points.json`) and statistically (`tests/bsdf_harness.rs`).
+//! `tests/data/mitsuba_bsdf_points.json`) and statistically (`tests/bsdf/harness.rs`).
 //!
 //! # Storage without allocation per hit
 //! A material evaluates its textures at a hit and writes plain-valued [`BsdfNode`]s into a

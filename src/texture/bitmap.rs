@@ -2,7 +2,7 @@
 //! repeat / mirror / clamp wrapping.
 //!
 //! Semantics (Mitsuba 3.9.1 `scalar_rgb`, `src/textures/bitmap.cpp` and Dr.Jit's `Texture`,
-//! checked point by point against Mitsuba in `tests/texture.rs` with `tests/data/textures/points.json`):
+//! checked point by point against Mitsuba in `tests/scene/texture.rs` with `tests/data/textures/points.json`):
 //! - uv (0, 0) is the first stored row's first pixel (top-left); no v flip here.
 //! - `to_uv` maps uv before the lookup (its 2-D affine part).
 //! - bilinear: texel centres at ((i + 0.5)/w, (j + 0.5)/h); the four neighbours are wrapped
@@ -449,7 +449,7 @@ impl BitmapTexture {
 
 impl BitmapTexture {
     /// The scalar value's gradient `(∂/∂u, ∂/∂v)` at `uv`, as Mitsuba 3.9.1's `eval_1_grad`
-    /// (checked numerically in tests/texture.rs): the exact derivative of the bilinear
+    /// (checked numerically in tests/scene/texture.rs): the exact derivative of the bilinear
     /// interpolation inside the texel cell (per texel: the grey value, or the luminance of an RGB
     /// texel), chained through `to_uv` (∇_uv = Aᵀ ∇_p for p = A·uv + b). Nearest filtering gives 0.
     pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {

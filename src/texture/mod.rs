@@ -18,7 +18,7 @@ pub enum Texture {
     Constant(Spectrum),
     /// Mitsuba's `checkerboard`: with p = `to_uv`(uv) and f = p − ⌊p⌋ per component, `color0`
     /// where (f.x > 0.5) == (f.y > 0.5), else `color1` (so the quarter at uv (0, 0) is `color0`;
-    /// checked against Mitsuba 3.9.1 in tests/texture.rs).
+    /// checked against Mitsuba 3.9.1 in tests/scene/texture.rs).
     Checkerboard {
         color0: Spectrum,
         color1: Spectrum,

@@ -694,7 +694,7 @@ pub fn direction(theta_deg: f32, phi_deg: f32) -> Vec3 {
 
 /// Per-cell sums of an eval estimate: Σ eval/p, Σ (eval/p)² and the count of non-zero terms per
 /// cell, over `m` directions drawn from a density p (for stochastic BSDFs, whose eval cannot be
-/// integrated by quadrature without bias; see `tests/mnm_harness.rs`).
+/// integrated by quadrature without bias; see `tests/bsdf/mnm_harness.rs`).
 pub struct EvalCells {
     pub m: usize,
     pub sum: Vec<f64>,

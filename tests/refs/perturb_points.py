@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Mitsuba 3.9.1 (scalar_rgb) reference points for groove's `mask`, `null` and `bumpmap` and for
-the bitmap texture's gradient (`eval_1_grad`), read by tests/bsdf_mitsuba_wrappers.rs.
+the bitmap texture's gradient (`eval_1_grad`), read by tests/bsdf/mitsuba_wrappers.rs.
 
 Run:  /work/.venv-mitsuba/bin/python tests/refs/perturb_points.py > tests/data/perturb_points.json
 

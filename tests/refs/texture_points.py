@@ -9,7 +9,7 @@
 2. Evaluates Mitsuba 3.9.1 (scalar_rgb) textures at a fixed set of uvs for each case below and
    writes tests/data/textures/points.json: for every case the <texture> XML (loaded as is by
    Mitsuba with mi.load_string and by groove inside a scene), the uvs, Mitsuba's tex.eval(si)
-   RGB and tex.mean(). tests/texture.rs compares groove against it.
+   RGB and tex.mean(). tests/scene/texture.rs compares groove against it.
 """
 import json
 import os

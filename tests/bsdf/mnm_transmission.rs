@@ -1,6 +1,6 @@
 //! Microfacet normal mapping over a rough dielectric: the two-sided walk (spec §9.3, oracle 14).
 
-mod common;
+use crate::common;
 
 use common::{dir, mean_se};
 

@@ -1,9 +1,9 @@
 //! Spot, directional and environment-map lighting rendered by groove against Mitsuba 3.9.1
 //! references (tests/refs/light_*.exr, made by tests/refs/make_refs.py), and the envmap's
 //! densities checked inside the integrator: light sampling only, BSDF sampling only and MIS must
-//! agree. Run in release mode: `cargo test --release --test render_lights`.
+//! agree. Run in release mode: `cargo test --release --test render lights`.
 
-mod common;
+use crate::common;
 
 use common::{compare, load_reference, render_scene, test_scene};
 use groove::integrator::{IntegratorDesc, Strategy};

@@ -5,7 +5,7 @@
 //! the chi-square test). Nested BSDFs: white-ish diffuse, rough gold (GGX α 0.2), rough plastic.
 //! Šidák-corrected at α = 0.01 over all cases.
 
-mod common;
+use crate::common;
 
 use common::chi2::*;
 use glam::Vec3;

@@ -8,9 +8,9 @@
 //! * the harness's false-alarm rate and power on synthetic Gaussian images;
 //! * sanity of every committed reference and a few analytic facts they must show.
 //!
-//! Run with `cargo test --test refs_selfcheck -- --nocapture` to see the numbers.
+//! Run with `cargo test --test render refs_selfcheck -- --nocapture` to see the numbers.
 
-mod common;
+use crate::common;
 
 use common::imgcmp::*;
 use common::load_reference;

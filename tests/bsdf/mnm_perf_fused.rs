@@ -2,7 +2,7 @@
 //! eval/pdf inside explicit sampling agree with separate `eval` and `pdf` calls (deterministic
 //! closed forms, spec §3 and §4): the optimisation must not change any value beyond rounding.
 
-mod common;
+use crate::common;
 
 use common::dir;
 use glam::Vec3;

@@ -7,7 +7,7 @@
 // Mitsuba's printed values are kept verbatim.
 #![allow(clippy::excessive_precision)]
 
-mod common;
+use crate::common;
 
 use common::chi2::*;
 use glam::Vec3;

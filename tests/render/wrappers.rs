@@ -2,7 +2,7 @@
 //! Mitsuba 3.9.1 references (tests/refs/{mat_mask,mat_bumpmap,mat_rough_tex,light_area_tex}.exr,
 //! see tests/refs/README.md), with sensitivity checks that the comparison sees the feature.
 
-mod common;
+use crate::common;
 
 use common::{compare, load_reference, render_scene, test_scene};
 use groove::material::MaterialNode;

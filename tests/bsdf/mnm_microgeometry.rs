@@ -2,7 +2,7 @@
 //! the U-groove at several fills; the U-groove with s = 1 is the sawtooth; and a deliberately
 //! broken closure (a V-groove with the sawtooth's areas) is detected by every check.
 
-mod common;
+use crate::common;
 
 use common::{dir, mean_se};
 

@@ -1,7 +1,7 @@
 //! Classic `normalmap` at render level against Mitsuba 3.9.1 references (both flag settings), and
 //! the `--normal-mapping classic|microfacet` switch (decision 6) through `load_scene` and the CLI.
 
-mod common;
+use crate::common;
 
 use common::{compare, load_reference, read_exr_rgb, render_scene, repo_root, test_scene};
 use groove::load::load_scene;

@@ -1,6 +1,6 @@
 //! Render-level checks of microfacet normal mapping (issue: microfacet normal mapping).
 
-mod common;
+use crate::common;
 
 use common::{image_mean, render_scene, test_scene};
 

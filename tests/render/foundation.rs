@@ -2,9 +2,9 @@
 //! MIS unbiasedness, depth semantics and determinism. Statistical comparisons use
 //! `common::imgcmp` (per-tile z-tests with both images' own noise; see tests/refs/README.md).
 //! Run in release mode (`cargo test --release`); sample counts are chosen so each render takes
-//! about a second on 2 cores while a 2% brightness bias stays detectable (tests/refs_selfcheck.rs).
+//! about a second on 2 cores while a 2% brightness bias stays detectable (tests/render/refs_selfcheck.rs).
 
-mod common;
+use crate::common;
 
 use common::{compare, load_reference, render_scene, shared_cbox, test_scene, RgbImage};
 use groove::integrator::{IntegratorDesc, Strategy};

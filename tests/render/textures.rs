@@ -2,7 +2,7 @@
 //! nearest + mirror + `to_uv` on a sphere) under a constant environment. Statistical comparison
 //! with `common::imgcmp` (see tests/refs/README.md). Run in release mode.
 
-mod common;
+use crate::common;
 
 use common::{compare, load_reference, render_scene, test_scene};
 

@@ -1,7 +1,7 @@
 //! Emitters `spot`, `directional` and `envmap`: Mitsuba 3 conventions (numbers read off Mitsuba
 //! 3.9.1 `scalar_rgb`), the 2-D importance sampling distribution, the envmap estimator's
 //! unbiasedness and the consistency of its densities, power estimates for light selection, and
-//! errors for bad input. Run with `cargo test --release --test emitters`.
+//! errors for bad input. Run with `cargo test --release --test scene emitters`.
 
 use std::path::{Path, PathBuf};
 

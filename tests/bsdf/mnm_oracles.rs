@@ -3,7 +3,7 @@
 //! Lambertian behaviour of the mirror walk over a white Lambertian, furnace albedos, and
 //! random-walk reciprocity. Statistical thresholds are 4 standard errors of the estimate.
 
-mod common;
+use crate::common;
 
 use common::{dir, mean_se};
 

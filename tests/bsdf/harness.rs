@@ -10,7 +10,7 @@
 //! whole-sphere groups catch a bias spread over every cell down to ≈ 0.1% (guard test: 5%).
 //! A full run takes ~35 s on 2 shared cores (release, after the build).
 
-mod common;
+use crate::common;
 
 use common::chi2::*;
 use glam::Vec3;

@@ -3,7 +3,7 @@
 //! `eval`, `pdf`, `sample` and `eval_1_grad` in `scalar_rgb`); module `models`: the base models
 //! against tests/data/mitsuba_bsdf_points.json (tests/refs/bsdf_points.py).
 
-#[path = "bsdf_mitsuba/models.rs"]
+#[path = "mitsuba_models.rs"]
 mod models;
 
 use std::path::{Path, PathBuf};

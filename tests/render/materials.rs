@@ -3,9 +3,9 @@
 //! rendered by groove against Mitsuba 3.9.1 `scalar_rgb` references (tests/refs/mat_*.exr and
 //! cbox_values / cbox_spectral, made by tests/refs/make_refs.py; numbers in tests/refs/README.md).
 //! Every material scene is lit by an area light and a dim constant environment.
-//! Run in release mode: `cargo test --release --test render_materials -- --nocapture`.
+//! Run in release mode: `cargo test --release --test render materials -- --nocapture`.
 
-mod common;
+use crate::common;
 
 use common::{compare, load_reference, mean_and_var_of_mean, read_exr_rgb, render_scene, RgbImage};
 use std::path::PathBuf;

@@ -3,7 +3,7 @@
 //! the whole sphere for both, energy, reciprocity and the reflected/transmitted split.
 //! Fixed seeds; every threshold is a z-score (4σ) or a Šidák-corrected level.
 
-mod common;
+use crate::common;
 
 use common::chi2::{compare_cells, draw, ArenaBsdf, EvalCells, Grid, Sidak};
 use common::{dir, mean_se};

@@ -1,0 +1,16 @@
+//! BSDF tests: the statistical harness (chi-square of sample vs pdf, weight == eval/pdf, furnace,
+//! reciprocity), pointwise agreement with Mitsuba 3.9.1, the wrappers, and the microfacet normal
+//! map's oracles. One test crate (one link) for the theme; each module is one former test file.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod harness;
+mod mitsuba_wrappers;
+mod mnm_exit_on_refraction;
+mod mnm_harness;
+mod mnm_microgeometry;
+mod mnm_oracles;
+mod mnm_perf_fused;
+mod mnm_transmission;
+mod wrappers;

@@ -1,0 +1,14 @@
+//! Render tests: groove's images against Mitsuba 3.9.1 references (`tests/refs/`) by per-tile
+//! z-tests, and the comparison's own self-check. One test crate for the theme.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod foundation;
+mod lights;
+mod materials;
+mod mnm;
+mod normalmap;
+mod refs_selfcheck;
+mod textures;
+mod wrappers;

@@ -1,0 +1,11 @@
+//! Scene loading and its parts: the XML parser and loader, geometry (meshes, shapes, Embree hits),
+//! textures, emitters and image output. One test crate for the theme.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod emitters;
+mod geometry;
+mod output;
+mod texture;
+mod xml_parse;
