@@ -202,12 +202,6 @@ impl Materials {
         &self.nodes
     }
 
-    /// The nodes, for edits of their parameters (tests); an edit must keep each node's kind,
-    /// whose lobes [`Materials::lobes`] caches.
-    pub fn nodes_mut(&mut self) -> &mut [MaterialNode] {
-        &mut self.nodes
-    }
-
     /// The lobes material `id` can produce: [`crate::bsdf::Bsdf::lobes`] of any BSDF it builds.
     #[inline]
     pub fn lobes(&self, id: MatId) -> Lobes {

@@ -15,22 +15,60 @@ use glam::Vec3;
 use std::path::PathBuf;
 
 pub struct Scene {
-    pub shapes: Vec<Shape>,
+    pub(crate) shapes: Vec<Shape>,
     /// Material of each shape (every shape has one: Mitsuba's default is a 0.5 grey `diffuse`).
-    pub shape_material: Vec<MatId>,
+    pub(crate) shape_material: Vec<MatId>,
     /// Area emitter of each shape, as an index into `emitters`.
-    pub shape_emitter: Vec<Option<u32>>,
-    pub accel: Accel,
-    pub materials: Materials,
-    pub emitters: Vec<Emitter>,
+    pub(crate) shape_emitter: Vec<Option<u32>>,
+    pub(crate) accel: Accel,
+    pub(crate) materials: Materials,
+    pub(crate) emitters: Vec<Emitter>,
     /// Indices of the environment emitters (seen by escaping rays).
-    pub env_emitters: Vec<u32>,
-    pub light_sampler: LightSampler,
-    pub camera: Camera,
+    pub(crate) env_emitters: Vec<u32>,
+    pub(crate) light_sampler: LightSampler,
+    pub(crate) camera: Camera,
     /// Bounding sphere of the geometry (centre, radius).
-    pub bsphere: (Vec3, f32),
+    pub(crate) bsphere: (Vec3, f32),
     /// The scene file this came from.
-    pub source: PathBuf,
+    pub(crate) source: PathBuf,
+}
+
+/// Read-only views for tools and tests (the fields are the loader's to set).
+impl Scene {
+    pub fn shapes(&self) -> &[Shape] {
+        &self.shapes
+    }
+    /// Material of each shape.
+    pub fn shape_materials(&self) -> &[MatId] {
+        &self.shape_material
+    }
+    pub fn materials(&self) -> &Materials {
+        &self.materials
+    }
+    pub fn emitters(&self) -> &[Emitter] {
+        &self.emitters
+    }
+    /// Indices of the environment emitters.
+    pub fn env_emitters(&self) -> &[u32] {
+        &self.env_emitters
+    }
+    pub fn light_sampler(&self) -> &LightSampler {
+        &self.light_sampler
+    }
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+    pub fn accel(&self) -> &Accel {
+        &self.accel
+    }
+    /// Bounding sphere of the geometry (centre, radius).
+    pub fn bsphere(&self) -> (Vec3, f32) {
+        self.bsphere
+    }
+    /// The scene file this came from.
+    pub fn source(&self) -> &std::path::Path {
+        &self.source
+    }
 }
 
 impl Scene {

@@ -54,7 +54,7 @@ fn load_texture(xml: &str) -> Texture {
         "<scene version=\"3.0.0\"><sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" value=\"2\"/><integer name=\"height\" value=\"2\"/></film></sensor>{xml}</scene>"
     );
     let doc = load_str(&scene, &path, &[]).unwrap();
-    instantiate(&doc, &path).unwrap().scene.materials.textures[0].clone()
+    instantiate(&doc, &path).unwrap().scene.materials().textures[0].clone()
 }
 
 /// The nested BSDFs of the generator: diffuse (0.2, 0.5, 0.8) and rough gold (GGX 0.2).

@@ -95,6 +95,36 @@ pub fn render_scene(
     }
 }
 
+/// Like [`render_scene`], for a variant of the scene file `scene`: its text passed through `edit`
+/// and loaded as if it were that file (relative asset paths resolve as for the original). The
+/// sensitivity tests make their variants this way, through the loader, not by editing a loaded
+/// scene.
+pub fn render_scene_edited(
+    scene: &Path,
+    edit: impl FnOnce(String) -> String,
+    spp: u32,
+    seed: u64,
+) -> Rendered {
+    let text = std::fs::read_to_string(scene).expect("scene text");
+    let edited = edit(text.clone());
+    assert_ne!(edited, text, "the edit changed nothing");
+    let doc = groove::scene::xml::parse::load_str(&edited, scene, &[])
+        .unwrap_or_else(|e| panic!("parsing the edited {}: {e}", scene.display()));
+    let loaded = groove::load::instantiate(&doc, scene)
+        .unwrap_or_else(|e| panic!("loading the edited {}: {e}", scene.display()));
+    let ro = groove::render::RenderOptions {
+        spp: Some(spp),
+        seed: Some(seed),
+        ..Default::default()
+    };
+    let out = groove::render::render(&loaded.scene, &loaded.settings, &ro).expect("render");
+    Rendered {
+        mean: to_rgb(&out.film.develop()),
+        var: to_rgb(&out.film.develop_variance()),
+        stats: out.stats,
+    }
+}
+
 /// Mean over the whole image with its standard error (grey images: channel 0).
 pub fn image_mean(r: &Rendered) -> (f64, f64) {
     let n = r.mean.data.len() as f64;

@@ -45,7 +45,7 @@ fn load(path: &Path, mode: NormalMapping, defines: &[(&str, &str)]) -> Vec<Mater
     load_scene(path, &opts)
         .expect("scene")
         .scene
-        .materials
+        .materials()
         .nodes()
         .to_vec()
 }

@@ -4,7 +4,7 @@
 
 use crate::common;
 
-use common::{compare, load_reference, render_scene, test_scene};
+use common::{compare, load_reference, render_scene, render_scene_edited, test_scene};
 
 #[test]
 fn textured_quad_and_sphere_match_mitsuba() {
@@ -19,24 +19,19 @@ fn textured_quad_and_sphere_match_mitsuba() {
 fn the_comparison_sees_a_vertically_flipped_texture() {
     // Sensitivity check: the same scene with the picture's v flipped must be rejected, so the
     // test above really pins the texture's orientation (uv (0, 0) = first stored row).
-    let r = render_scene(&test_scene("textured_quad.xml"), &[], 64, 22, 0, |loaded| {
-        let t = &mut loaded.scene.materials.textures;
-        let i = t
-            .iter()
-            .position(|t| {
-                t.as_bitmap()
-                    .is_some_and(|b| b.source().ends_with("render8x6.png"))
-            })
-            .expect("the picture texture");
-        let b = t[i].as_bitmap().unwrap();
-        let (w, h) = b.resolution();
-        let flipped: Vec<_> = (0..h)
-            .flat_map(|y| (0..w).map(move |x| (x, h - 1 - y)))
-            .map(|(x, y)| b.texel(x, y))
-            .collect();
-        let opts = groove::texture::BitmapOptions::default();
-        t[i] = groove::texture::BitmapTexture::from_texels(w, h, flipped, false, &opts).into();
-    });
+    // uv -> (u, 1 - v) through the bitmap's `to_uv`: the picture's rows flipped.
+    let r = render_scene_edited(
+        &test_scene("textured_quad.xml"),
+        |t| {
+            t.replace(
+                r#"<string name="filename" value="../textures/render8x6.png"/>"#,
+                r#"<string name="filename" value="../textures/render8x6.png"/>
+        <transform name="to_uv"><scale y="-1"/><translate y="1"/></transform>"#,
+            )
+        },
+        64,
+        22,
+    );
     let (m, v) = load_reference("textured_quad");
     let c = compare(&r.mean, &r.var, &m, &v, 4);
     eprintln!("flipped: {}", c.report());

@@ -4,8 +4,7 @@
 
 use crate::common;
 
-use common::{compare, load_reference, render_scene, test_scene};
-use groove::material::MaterialNode;
+use common::{compare, load_reference, render_scene, render_scene_edited, test_scene};
 
 fn check(scene: &str, reference: &str, spp: u32, seed: u64) {
     let r = render_scene(&test_scene(scene), &[], spp, seed, 0, |_| {});
@@ -39,31 +38,48 @@ fn textured_area_light_matches_mitsuba() {
 /// mean, the images differ from the references by more than the tests' noise.
 #[test]
 fn the_comparisons_see_bumps_and_roughness_textures() {
-    let r = render_scene(&test_scene("mat_bumpmap.xml"), &[], 256, 45, 0, |loaded| {
-        for n in loaded.scene.materials.nodes_mut() {
-            if let MaterialNode::BumpMap { scale, .. } = n {
-                *scale = 0.0;
-            }
-        }
-    });
+    let r = render_scene_edited(
+        &test_scene("mat_bumpmap.xml"),
+        |t| {
+            t.replace(r#"name="scale" value="0.08""#, r#"name="scale" value="0""#)
+                .replace(r#"name="scale" value="0.3""#, r#"name="scale" value="0""#)
+        },
+        256,
+        45,
+    );
     let (m, v) = load_reference("mat_bumpmap");
     let c = compare(&r.mean, &r.var, &m, &v, 4);
     eprintln!("mat_bumpmap without bumps: {}", c.report());
     assert!(!c.is_consistent(), "flat shading was accepted");
 
-    let r = render_scene(
-        &test_scene("mat_rough_tex.xml"),
-        &[],
+    // The roughness texture's mean, as the loader takes it for a textured alpha's template.
+    let scene = test_scene("mat_rough_tex.xml");
+    let loaded = groove::load::load_scene(&scene, &Default::default()).unwrap();
+    let mean = loaded
+        .scene
+        .materials()
+        .textures
+        .iter()
+        .find(|t| {
+            t.as_bitmap()
+                .is_some_and(|b| b.source().ends_with("alpha_stripes.png"))
+        })
+        .map(|t| groove::spectrum::luminance(t.mean()))
+        .expect("the roughness texture");
+    let r = render_scene_edited(
+        &scene,
+        |t| {
+            t.replace(
+                r#"<ref name="alpha" id="alpha"/>"#,
+                &format!(r#"<float name="alpha" value="{mean}"/>"#),
+            )
+            .replace(
+                r#"<ref name="alpha_u" id="alpha"/>"#,
+                &format!(r#"<float name="alpha_u" value="{mean}"/>"#),
+            )
+        },
         256,
         46,
-        0,
-        |loaded| {
-            for n in loaded.scene.materials.nodes_mut() {
-                if let MaterialNode::Leaf { slots, .. } = n {
-                    slots.retain(|(s, _)| !s.is_scalar());
-                }
-            }
-        },
     );
     let (m, v) = load_reference("mat_rough_tex");
     let c = compare(&r.mean, &r.var, &m, &v, 4);

@@ -196,8 +196,8 @@ fn envmap_eval_matches_mitsuba_orientation_and_bilinear_lookup() {
             fixture().display()
         ),
     );
-    assert_eq!(scene.env_emitters, vec![0]);
-    let em = &scene.emitters[0];
+    assert_eq!(scene.env_emitters(), vec![0]);
+    let em = &scene.emitters()[0];
     assert!(em.is_environment());
     let cases: [((f32, f32), [f32; 3]); 5] = [
         ((40.5 / 64.0, 9.5 / 32.0), [57.895084, 49.292084, 35.008656]),
@@ -230,7 +230,7 @@ fn envmap_eval_matches_mitsuba_orientation_and_bilinear_lookup() {
             fixture().display()
         ),
     );
-    let got = scene.emitters[0].eval_env(dir_of(0.3, 0.4));
+    let got = scene.emitters()[0].eval_env(dir_of(0.3, 0.4));
     let want = [0.5346105, 0.54904735, 0.7485445];
     assert!(close(got, want, 1e-4), "{got} vs Mitsuba {want:?}");
 }
@@ -547,7 +547,7 @@ fn spot_falloff_matches_mitsuba() {
         "spot_default",
         r#"<emitter type="spot"><float name="cutoff_angle" value="20"/></emitter>"#,
     );
-    let em = &scene.emitters[0];
+    let em = &scene.emitters()[0];
     let mitsuba = [
         (0.0, 1.0),
         (5.0, 1.0),
@@ -565,7 +565,7 @@ fn spot_falloff_matches_mitsuba() {
         let t = (deg as f32).to_radians();
         let p = Vec3::new(t.sin(), 0.0, t.cos());
         let got = em
-            .sample_direct(&scene.shapes, p, Vec2::splat(0.5))
+            .sample_direct(scene.shapes(), p, Vec2::splat(0.5))
             .map_or(0.0, |ds| {
                 assert!(ds.delta && ds.pdf == 1.0);
                 assert!((ds.dist - 1.0).abs() < 1e-5);
@@ -583,9 +583,9 @@ fn spot_falloff_matches_mitsuba() {
         r#"<emitter type="spot"><rgb name="intensity" value="4, 8, 12"/>
         <transform name="to_world"><lookat origin="0, 2, 0" target="0, 0, 0" up="0, 0, 1"/></transform></emitter>"#,
     );
-    let em = &scene.emitters[0];
+    let em = &scene.emitters()[0];
     let ds = em
-        .sample_direct(&scene.shapes, Vec3::ZERO, Vec2::ZERO)
+        .sample_direct(scene.shapes(), Vec3::ZERO, Vec2::ZERO)
         .unwrap();
     assert!(
         (ds.value - Vec3::new(1.0, 2.0, 3.0)).length() < 1e-5,
@@ -595,7 +595,7 @@ fn spot_falloff_matches_mitsuba() {
     assert!((ds.d - Vec3::Y).length() < 1e-6);
     let t = 17.5f32.to_radians();
     let p = Vec3::new(2.0 * t.tan(), 0.0, 0.0); // 17.5° off the axis
-    let ds = em.sample_direct(&scene.shapes, p, Vec2::ZERO).unwrap();
+    let ds = em.sample_direct(scene.shapes(), p, Vec2::ZERO).unwrap();
     let d2 = 4.0 + p.x * p.x;
     assert!((ds.value.x - 4.0 * 0.5 / d2).abs() < 1e-4, "{}", ds.value);
     assert!(!em.is_environment());
@@ -670,7 +670,7 @@ fn directional_is_a_delta_light_at_infinity() {
         r#"<emitter type="directional"><vector name="direction" value="1, -1, 0"/>
         <rgb name="irradiance" value="2, 3, 4"/></emitter>"#,
     );
-    let em = &scene.emitters[0];
+    let em = &scene.emitters()[0];
     // Mitsuba 3.9.1: ds.d = (−0.707107, 0.707107, 0), pdf 1, delta, weight = irradiance.
     for p in [
         Vec3::ZERO,
@@ -678,7 +678,7 @@ fn directional_is_a_delta_light_at_infinity() {
         Vec3::new(-5.0, 2.0, 7.0),
     ] {
         let ds = em
-            .sample_direct(&scene.shapes, p, Vec2::new(0.3, 0.9))
+            .sample_direct(scene.shapes(), p, Vec2::new(0.3, 0.9))
             .unwrap();
         let s = std::f32::consts::FRAC_1_SQRT_2;
         assert!((ds.d - Vec3::new(-s, s, 0.0)).length() < 1e-6, "{}", ds.d);
@@ -687,7 +687,7 @@ fn directional_is_a_delta_light_at_infinity() {
     }
     // Not seen by escaping rays; no density for MIS.
     assert!(!em.is_environment());
-    assert!(scene.env_emitters.is_empty());
+    assert!(scene.env_emitters().is_empty());
     assert_eq!(
         em.eval_env(Vec3::new(-1.0, 1.0, 0.0).normalize()),
         Spectrum::ZERO
@@ -697,23 +697,23 @@ fn directional_is_a_delta_light_at_infinity() {
         0.0
     );
     // Power: irradiance × π r² of the scene's bounding sphere.
-    let r = scene.bsphere.1;
+    let r = scene.bsphere().1;
     let y = 0.212671 * 2.0 + 0.715160 * 3.0 + 0.072169 * 4.0;
-    let pw = em.power(&scene.shapes, r);
+    let pw = em.power(scene.shapes(), r);
     assert!((pw - std::f32::consts::PI * r * r * y).abs() < 1e-4 * pw);
 
     // Default (Mitsuba: travels along +z) and `to_world`.
     let scene = load("dir_default", r#"<emitter type="directional"/>"#);
-    let ds = scene.emitters[0]
-        .sample_direct(&scene.shapes, Vec3::ZERO, Vec2::ZERO)
+    let ds = scene.emitters()[0]
+        .sample_direct(scene.shapes(), Vec3::ZERO, Vec2::ZERO)
         .unwrap();
     assert!((ds.d + Vec3::Z).length() < 1e-6 && ds.value == Vec3::ONE);
     let scene = load(
         "dir_tw",
         r#"<emitter type="directional"><transform name="to_world"><rotate x="1" angle="90"/></transform></emitter>"#,
     );
-    let ds = scene.emitters[0]
-        .sample_direct(&scene.shapes, Vec3::ZERO, Vec2::ZERO)
+    let ds = scene.emitters()[0]
+        .sample_direct(scene.shapes(), Vec3::ZERO, Vec2::ZERO)
         .unwrap();
     // rotate(x, 90°) maps +z to −y: light travels down, the shadow ray goes up.
     assert!((ds.d - Vec3::Y).length() < 1e-6, "{}", ds.d);
@@ -748,19 +748,22 @@ fn directional_bad_input_is_a_scene_error() {
 fn light_selection_gives_the_dim_envmap_and_the_bright_area_light_fair_shares() {
     let path = repo().join("tests/data/scenes/light_envmap_area.xml");
     let scene = load_scene(&path, &LoadOptions::default()).unwrap().scene;
-    assert_eq!(scene.emitters.len(), 2);
-    let env = scene.env_emitters[0] as usize;
+    assert_eq!(scene.emitters().len(), 2);
+    let env = scene.env_emitters()[0] as usize;
     let area = 1 - env;
-    let (pe, pa) = (scene.light_sampler.pmf(env), scene.light_sampler.pmf(area));
+    let (pe, pa) = (
+        scene.light_sampler().pmf(env),
+        scene.light_sampler().pmf(area),
+    );
     assert!((pe + pa - 1.0).abs() < 1e-6);
     // Both get a real share: half by power, half uniform, so each gets at least 1/(2N).
     assert!(
         pe >= 0.25 - 1e-6 && pa >= 0.25 - 1e-6,
         "env {pe}, area {pa}"
     );
-    let r = scene.bsphere.1;
-    let p_env = scene.emitters[env].power(&scene.shapes, r);
-    let p_area = scene.emitters[area].power(&scene.shapes, r);
+    let r = scene.bsphere().1;
+    let p_env = scene.emitters()[env].power(scene.shapes(), r);
+    let p_area = scene.emitters()[area].power(scene.shapes(), r);
     let want_env = 0.5 * p_env / (p_env + p_area) + 0.25;
     assert!((pe - want_env).abs() < 1e-5, "env {pe} vs {want_env}");
 }

@@ -450,7 +450,7 @@ fn serialized_errors_through_the_scene_loader_name_the_xml_position() {
     let opts = groove::load::options::LoadOptions::default();
     let loaded =
         groove::load::load_scene(&p, &opts).unwrap_or_else(|e| panic!("the good scene: {e}"));
-    assert_eq!(loaded.scene.shapes.len(), 1);
+    assert_eq!(loaded.scene.shapes().len(), 1);
     std::fs::remove_dir_all(&d).ok();
 }
 

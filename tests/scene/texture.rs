@@ -31,7 +31,10 @@ fn load_texture_in(dir: &Path, texture_xml: &str) -> groove::Result<(Texture, Ve
     let path = dir.join("scene.xml");
     let doc = load_str(&scene_with(texture_xml), &path, &[])?;
     let loaded = instantiate(&doc, &path)?;
-    Ok((loaded.scene.materials.textures[0].clone(), loaded.warnings))
+    Ok((
+        loaded.scene.materials().textures[0].clone(),
+        loaded.warnings,
+    ))
 }
 
 fn load_texture(texture_xml: &str) -> Texture {
