@@ -108,16 +108,44 @@ pub(crate) mod load {
     use crate::bsdf::BsdfNode;
     use crate::error::Result;
     use crate::load::bsdfs::BsdfCtx;
-    use crate::material::{MaterialNode, Slot};
+    use crate::material::{MaterialNode, Slot, TexId};
+    use crate::spectrum::Spectrum;
 
-    /// `dielectric`.
-    pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>) -> Result<MaterialNode> {
+    /// What every dielectric interface (`dielectric`, `thindielectric`, `roughdielectric`) reads:
+    /// the two indices and the two (possibly textured) colours with their texture slots.
+    pub(crate) struct Interface {
+        pub int_ior: f32,
+        pub ext_ior: f32,
+        pub r: Spectrum,
+        pub tr: Spectrum,
+        pub slots: Vec<(Slot, TexId)>,
+    }
+
+    pub(crate) fn interface(cx: &mut BsdfCtx<'_, '_>) -> Result<Interface> {
         let int_ior = ior_param(cx.props(), "int_ior", DEFAULT_INT_IOR)?;
         let ext_ior = ior_param(cx.props(), "ext_ior", DEFAULT_EXT_IOR)?;
         let (r, mut slots) =
             cx.leaf_color("specular_reflectance", Slot::SpecularReflectance, 1.0)?;
         let (tr, s2) = cx.leaf_color("specular_transmittance", Slot::SpecularTransmittance, 1.0)?;
         slots.extend(s2);
+        Ok(Interface {
+            int_ior,
+            ext_ior,
+            r,
+            tr,
+            slots,
+        })
+    }
+
+    /// `dielectric`.
+    pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>) -> Result<MaterialNode> {
+        let Interface {
+            int_ior,
+            ext_ior,
+            r,
+            tr,
+            slots,
+        } = interface(cx)?;
         let template = BsdfNode::Dielectric(Dielectric::new(int_ior, ext_ior, r, tr));
         Ok(MaterialNode::Leaf {
             template: Box::new(template),

@@ -98,21 +98,21 @@ impl Default for ThinDielectric {
 /// sees the scene file.
 pub(crate) mod load {
     use super::ThinDielectric;
-    use crate::bsdf::dielectric::{DEFAULT_EXT_IOR, DEFAULT_INT_IOR};
-    use crate::bsdf::ior::load::ior_param;
+    use crate::bsdf::dielectric::load::{interface, Interface};
     use crate::bsdf::BsdfNode;
     use crate::error::Result;
     use crate::load::bsdfs::BsdfCtx;
-    use crate::material::{MaterialNode, Slot};
+    use crate::material::MaterialNode;
 
     /// `thindielectric`.
     pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>) -> Result<MaterialNode> {
-        let int_ior = ior_param(cx.props(), "int_ior", DEFAULT_INT_IOR)?;
-        let ext_ior = ior_param(cx.props(), "ext_ior", DEFAULT_EXT_IOR)?;
-        let (r, mut slots) =
-            cx.leaf_color("specular_reflectance", Slot::SpecularReflectance, 1.0)?;
-        let (tr, s2) = cx.leaf_color("specular_transmittance", Slot::SpecularTransmittance, 1.0)?;
-        slots.extend(s2);
+        let Interface {
+            int_ior,
+            ext_ior,
+            r,
+            tr,
+            slots,
+        } = interface(cx)?;
         let template = BsdfNode::ThinDielectric(ThinDielectric::new(int_ior, ext_ior, r, tr));
         Ok(MaterialNode::Leaf {
             template: Box::new(template),
