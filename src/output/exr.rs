@@ -103,7 +103,7 @@ pub(super) fn write_channels<W: Write + Seek>(
 
 /// Every channel of the first layer of the EXR at `path`, as f32, by name (sorted), with the
 /// layer's size.
-pub(super) fn read_channels(path: &Path) -> Result<(u32, u32, Vec<(String, Vec<f32>)>)> {
+pub(super) fn read_channels(path: &Path) -> Result<(u32, u32, super::Channels)> {
     let image = exr_read()
         .no_deep_data()
         .largest_resolution_level()

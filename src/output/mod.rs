@@ -121,9 +121,12 @@ pub fn read_exr(path: &Path) -> Result<(Image, Metadata)> {
     exr::read(path)
 }
 
+/// Named image channels, one f32 per pixel each, row-major.
+pub type Channels = Vec<(String, Vec<f32>)>;
+
 /// Every channel of an EXR's first layer by name (sorted), as f32, with its width and height:
 /// how tests and tools read the AOV channels that [`write_image_channels`] writes.
-pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Vec<(String, Vec<f32>)>)> {
+pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Channels)> {
     exr::read_channels(path)
 }
 
