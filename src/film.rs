@@ -216,12 +216,20 @@ pub struct Block {
     sw: u32,
     sh: u32,
     data: Vec<Acc>,
+    /// Extra channels per storage pixel (the integrator's AOVs): Σw·a and Σw·a², `nch` each.
+    nch: usize,
+    extra: Vec<[f32; 2]>,
 }
 
 impl Block {
     /// A block for the pixels [x0, x0+w) × [y0, y0+h) of the full film (normally inside the crop),
     /// plus a border of ceil(radius) pixels on each side.
     pub fn new(desc: &FilmDesc, x0: u32, y0: u32, w: u32, h: u32) -> Block {
+        Block::with_channels(desc, x0, y0, w, h, 0)
+    }
+
+    /// Like [`Block::new`], with `nch` extra channels per pixel (filtered like the image).
+    pub fn with_channels(desc: &FilmDesc, x0: u32, y0: u32, w: u32, h: u32, nch: usize) -> Block {
         let filter = desc.filter;
         let radius = filter.radius();
         let border = if radius.is_finite() && radius > 0.0 {
@@ -238,6 +246,8 @@ impl Block {
             sw: 0,
             sh: 0,
             data: Vec::new(),
+            nch,
+            extra: Vec::new(),
         };
         b.clear(x0, y0, w, h);
         b
@@ -252,6 +262,20 @@ impl Block {
         self.data.clear();
         self.data
             .resize(self.sw as usize * self.sh as usize, Acc::default());
+        self.extra.clear();
+        self.extra
+            .resize(self.sw as usize * self.sh as usize * self.nch, [0.0; 2]);
+    }
+
+    /// Adds the extra channels `a` with weight `w` to storage pixel `idx`.
+    #[inline]
+    fn add_extra(&mut self, idx: usize, a: &[f32], w: f32) {
+        let n = self.nch;
+        for (e, &v) in self.extra[idx * n..idx * n + n].iter_mut().zip(a) {
+            let wv = v * w;
+            e[0] += wv;
+            e[1] += wv * v;
+        }
     }
 
     /// Splats `value` at the continuous full-film position `film_pos` (Mitsuba 3
@@ -260,6 +284,17 @@ impl Block {
     /// storage only reach the pixels that exist; non-finite positions are ignored. Non-finite
     /// values are accumulated as they are (the developed image then shows them).
     pub fn put(&mut self, film_pos: Vec2, value: Spectrum) {
+        self.put_channels(film_pos, value, &[]);
+    }
+
+    /// [`Block::put`] with the values of the block's extra channels (`aovs`, one per channel;
+    /// ignored when the block has none), splatted with the same filter weights.
+    pub fn put_channels(&mut self, film_pos: Vec2, value: Spectrum, aovs: &[f32]) {
+        let aovs = if self.nch > 0 && aovs.len() >= self.nch {
+            &aovs[..self.nch]
+        } else {
+            &[]
+        };
         if !film_pos.is_finite() || self.sw == 0 || self.sh == 0 {
             return;
         }
@@ -270,6 +305,9 @@ impl Block {
             if px >= 0 && py >= 0 && px < self.sw as i64 && py < self.sh as i64 {
                 let idx = py as usize * self.sw as usize + px as usize;
                 self.data[idx].add_sample(v, 1.0);
+                if !aovs.is_empty() {
+                    self.add_extra(idx, aovs, 1.0);
+                }
             }
             return;
         }
@@ -311,6 +349,9 @@ impl Block {
             let row = (y_lo as usize + j) * sw + x_lo as usize;
             for (i, &wxi) in wx.iter().enumerate() {
                 self.data[row + i].add_sample(v, wxi * wyj);
+                if !aovs.is_empty() {
+                    self.add_extra(row + i, aovs, wxi * wyj);
+                }
             }
         }
     }
@@ -323,17 +364,33 @@ pub struct Film {
     /// Crop window in full-film pixels: (x0, y0, w, h).
     crop: (u32, u32, u32, u32),
     data: Vec<Acc>,
+    /// Extra channels (see [`Block`]): Σw·a and Σw·a², `nch` per pixel.
+    nch: usize,
+    extra: Vec<[f32; 2]>,
 }
 
 impl Film {
     /// An empty film for `desc`'s crop window.
     pub fn new(desc: FilmDesc) -> Film {
+        Film::with_channels(desc, 0)
+    }
+
+    /// An empty film with `nch` extra channels per pixel.
+    pub fn with_channels(desc: FilmDesc, nch: usize) -> Film {
         let crop = desc.crop();
+        let n = crop.2 as usize * crop.3 as usize;
         Film {
-            data: vec![Acc::default(); crop.2 as usize * crop.3 as usize],
+            data: vec![Acc::default(); n],
+            nch,
+            extra: vec![[0.0; 2]; n * nch],
             desc,
             crop,
         }
+    }
+
+    /// Number of extra channels.
+    pub fn channel_count(&self) -> usize {
+        self.nch
     }
 
     /// The description the film was made with.
@@ -356,8 +413,16 @@ impl Film {
                 if fx < 0 || fx >= cw as i64 {
                     continue;
                 }
-                let src = &block.data[(j * block.sw as i64 + i) as usize];
-                self.data[(fy * cw as i64 + fx) as usize].add(src);
+                let si = (j * block.sw as i64 + i) as usize;
+                let di = (fy * cw as i64 + fx) as usize;
+                self.data[di].add(&block.data[si]);
+                let n = self.nch.min(block.nch);
+                for c in 0..n {
+                    let e = block.extra[si * block.nch + c];
+                    let d = &mut self.extra[di * self.nch + c];
+                    d[0] += e[0];
+                    d[1] += e[1];
+                }
             }
         }
     }
@@ -387,6 +452,41 @@ impl Film {
         }
     }
 
+    /// Extra channel `c` developed like the image (Σw·a / Σw, 0 where no sample landed): one
+    /// value per crop pixel, row-major. Empty when `c` is out of range.
+    pub fn develop_channel(&self, c: usize) -> Vec<f32> {
+        if c >= self.nch {
+            return Vec::new();
+        }
+        self.data
+            .iter()
+            .enumerate()
+            .map(|(i, a)| {
+                if a.w == 0.0 {
+                    0.0
+                } else {
+                    (self.extra[i * self.nch + c][0] as f64 / a.w as f64) as f32
+                }
+            })
+            .collect()
+    }
+
+    /// The variance of extra channel `c`'s pixel estimates, by the estimator of
+    /// [`Film::develop_variance`]. Empty when `c` is out of range.
+    pub fn develop_channel_variance(&self, c: usize) -> Vec<f32> {
+        if c >= self.nch {
+            return Vec::new();
+        }
+        self.data
+            .iter()
+            .enumerate()
+            .map(|(i, a)| {
+                let e = self.extra[i * self.nch + c];
+                variance_of_mean(a.w as f64, a.w2 as f64, e[0] as f64, e[1] as f64)
+            })
+            .collect()
+    }
+
     /// Per-pixel variance of the pixel estimate (its squared standard error), per channel.
     ///
     /// Estimator: with W = Σw, W₂ = Σw², μ = Σw·v / W, the filter weights are treated as fixed
@@ -404,24 +504,8 @@ impl Film {
             .data
             .iter()
             .map(|a| {
-                let w = a.w as f64;
-                if w == 0.0 {
-                    return [0.0; 3];
-                }
-                let w2 = a.w2 as f64;
-                let denom = w * w - w2;
-                let mut out = [0.0f32; 3];
-                for (c, o) in out.iter_mut().enumerate() {
-                    let mu = a.wv[c] as f64 / w;
-                    let m2 = a.wv2[c] as f64 / w;
-                    let s = (m2 - mu * mu).max(0.0);
-                    *o = if denom <= 1e-12 * w * w {
-                        f32::INFINITY
-                    } else {
-                        (s * w2 / denom) as f32
-                    };
-                }
-                out
+                let (w, w2) = (a.w as f64, a.w2 as f64);
+                [0, 1, 2].map(|c| variance_of_mean(w, w2, a.wv[c] as f64, a.wv2[c] as f64))
             })
             .collect();
         Image {
@@ -429,6 +513,22 @@ impl Film {
             height: self.crop.3,
             data,
         }
+    }
+}
+
+/// The variance of a weighted mean from its sums W = Σw, W₂ = Σw², Σw·v and Σw·v² (see
+/// [`Film::develop_variance`]): 0 without samples, +∞ with a single effective sample.
+fn variance_of_mean(w: f64, w2: f64, wv: f64, wv2: f64) -> f32 {
+    if w == 0.0 {
+        return 0.0;
+    }
+    let denom = w * w - w2;
+    let mu = wv / w;
+    let s = (wv2 / w - mu * mu).max(0.0);
+    if denom <= 1e-12 * w * w {
+        f32::INFINITY
+    } else {
+        (s * w2 / denom) as f32
     }
 }
 

@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use clap::Parser;
 use groove::cancel::Cancel;
 use groove::cli::{BenchArgs, Cli, Command, RenderArgs};
-use groove::output::{write_image, Metadata};
+use groove::output::{write_image_channels, Metadata};
 use groove::render::{render, RenderOptions};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -218,7 +218,24 @@ fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool, cancel: &Cancel
         ("groove.threads".into(), st.threads.to_string()),
         ("groove.render_time_s".into(), format!("{:.6}", st.seconds)),
     ]);
-    write_image(&out, &img, &meta).with_context(|| format!("writing {}", out.display()))?;
+    let extra: Vec<(String, Vec<f32>)> = loaded
+        .settings
+        .integrator
+        .aov_names()
+        .into_iter()
+        .enumerate()
+        .map(|(c, name)| (name, result.film.develop_channel(c)))
+        .collect();
+    let all = write_image_channels(&out, &img, &extra, &meta)
+        .with_context(|| format!("writing {}", out.display()))?;
+    if !all && !args.quiet {
+        eprintln!(
+            "warning: {}: a PNG holds the RGB image only; the integrator's {} extra channels \
+             (AOVs) are not written (use .exr)",
+            out.display(),
+            extra.len()
+        );
+    }
     if st.invalid_samples > 0 && !args.quiet {
         eprintln!(
             "warning: {}: {} samples were NaN or infinite and were dropped",

@@ -142,6 +142,7 @@ pub fn render(
     let start = Instant::now();
     let log_budget = Arc::new(AtomicUsize::new(opts.record_rays));
     let cancel = opts.cancel.as_ref();
+    let nch = settings.integrator.aov_count();
     let results: Vec<(Block, RayCounters, u64, Vec<LoggedRay>)> = pool.install(|| {
         rects
             .par_iter()
@@ -156,7 +157,7 @@ pub fn render(
                 |scratch, &(x0, y0, w, h)| {
                     scratch.rays.counters = RayCounters::default();
                     let _ = scratch.arena.take_walk_counts();
-                    let mut block = Block::new(desc, x0, y0, w, h);
+                    let mut block = Block::with_channels(desc, x0, y0, w, h, nch);
                     let rect = (x0, y0, w, h);
                     let invalid = render_block(
                         scene,
@@ -187,7 +188,7 @@ pub fn render(
         return Err(Error::Cancelled);
     }
 
-    let mut film = Film::new(desc.clone());
+    let mut film = Film::with_channels(desc.clone(), nch);
     let mut rays = RayCounters::default();
     let mut invalid = 0;
     let mut ray_log = Vec::new();
@@ -226,6 +227,8 @@ fn render_block(
 ) -> u64 {
     let width = settings.film.width as u64;
     let mut invalid = 0;
+    // The integrator's extra channels (AOVs) of one sample: allocated per block, not per ray.
+    let mut aovs = vec![0.0f32; settings.integrator.aov_count()];
     let stop = || cancel.is_some_and(|c| c.requested().is_some());
     for y in y0..y0 + h {
         for x in x0..x0 + w {
@@ -238,12 +241,15 @@ fn render_block(
                 let mut sampler = Sampler::for_sample(sampler_desc, pixel_index, s);
                 let pos = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                 let ray = scene.camera.generate_ray(pos);
-                let mut l = settings.integrator.li(scene, ray, &mut sampler, scratch);
+                let mut l =
+                    settings
+                        .integrator
+                        .sample(scene, ray, &mut sampler, scratch, &mut aovs);
                 if !crate::spectrum::is_finite(l) {
                     invalid += 1;
                     l = Spectrum::ZERO;
                 }
-                block.put(pos, l);
+                block.put_channels(pos, l, &aovs);
             }
         }
     }

@@ -1,14 +1,18 @@
 //! Integrators: estimate the radiance arriving along a camera ray.
 
+pub mod aov;
 pub mod direct;
+pub mod moment;
 pub mod nee;
 pub mod path;
 pub mod rays;
 
 pub use rays::{LoggedRay, RayCounters, RayKind, Rays};
 
+use std::sync::Arc;
+
 use crate::bsdf::BsdfArena;
-use crate::geometry::Ray;
+use crate::geometry::{Ray, SurfaceInteraction};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
@@ -53,10 +57,14 @@ pub struct DirectSettings {
     pub hide_emitters: bool,
 }
 
-#[derive(Clone, Copy, Debug)]
+/// An integrator of the scene file. `Moment` and `Aov` wrap others (Mitsuba's nesting) and add
+/// output channels ([`IntegratorDesc::aov_names`]) beside the RGB image.
+#[derive(Clone, Debug)]
 pub enum IntegratorDesc {
     Path(PathSettings),
     Direct(DirectSettings),
+    Moment(Arc<moment::MomentSettings>),
+    Aov(Arc<aov::AovSettings>),
 }
 
 /// Per-thread scratch state of an integrator (no allocation per ray).
@@ -68,7 +76,8 @@ pub struct Scratch {
 }
 
 impl IntegratorDesc {
-    /// Radiance along the camera ray `ray`.
+    /// Radiance along the camera ray `ray` (the extra channels of a wrapper are discarded:
+    /// use [`IntegratorDesc::sample`] to get them).
     #[inline]
     pub fn li(
         &self,
@@ -80,6 +89,73 @@ impl IntegratorDesc {
         match self {
             IntegratorDesc::Path(s) => path::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Direct(s) => direct::li(s, scene, ray, sampler, scratch),
+            IntegratorDesc::Moment(_) | IntegratorDesc::Aov(_) => {
+                self.sample(scene, ray, sampler, scratch, &mut [])
+            }
+        }
+    }
+
+    /// Names of the extra output channels, in Mitsuba 3.9.1's order and spelling
+    /// (`SamplingIntegrator::aov_names`): none for `path` and `direct`.
+    pub fn aov_names(&self) -> Vec<String> {
+        match self {
+            IntegratorDesc::Path(_) | IntegratorDesc::Direct(_) => Vec::new(),
+            IntegratorDesc::Moment(m) => m.aov_names(),
+            IntegratorDesc::Aov(a) => a.aov_names(),
+        }
+    }
+
+    /// Number of extra output channels (the length of [`IntegratorDesc::aov_names`]).
+    pub fn aov_count(&self) -> usize {
+        match self {
+            IntegratorDesc::Path(_) | IntegratorDesc::Direct(_) => 0,
+            IntegratorDesc::Moment(m) => m.aov_count(),
+            IntegratorDesc::Aov(a) => a.aov_count(),
+        }
+    }
+
+    /// Mitsuba's `SamplingIntegrator::sample`: the radiance along `ray`, with the extra channels
+    /// written to `aovs`. When `aovs` is shorter than [`IntegratorDesc::aov_count`] (e.g.
+    /// empty) the channels are not written, only the radiance is estimated.
+    #[inline]
+    pub fn sample(
+        &self,
+        scene: &Scene,
+        ray: Ray,
+        sampler: &mut Sampler,
+        scratch: &mut Scratch,
+        aovs: &mut [f32],
+    ) -> Spectrum {
+        match self {
+            IntegratorDesc::Path(s) => path::li(s, scene, ray, sampler, scratch),
+            IntegratorDesc::Direct(s) => direct::li(s, scene, ray, sampler, scratch),
+            IntegratorDesc::Moment(m) => m.sample(scene, ray, sampler, scratch, aovs),
+            IntegratorDesc::Aov(a) => a.sample(scene, ray, sampler, scratch, aovs),
+        }
+    }
+
+    /// Mitsuba's `valid` mask of this integrator's sample for a camera ray whose first hit is
+    /// `hit`: the alpha of the `aov` integrator's inner images. `path`: a visible environment,
+    /// or a surface from which the path continues (with `max_depth` 1: a seen emitter); Mitsuba
+    /// also leaves it false when every vertex is a `null` pass-through into the void, groove
+    /// counts that hit. `direct`: a surface hit. Wrappers: their first inner integrator's.
+    pub fn valid(&self, scene: &Scene, hit: Option<&SurfaceInteraction>) -> bool {
+        match self {
+            IntegratorDesc::Path(s) => {
+                let env = !s.hide_emitters && !scene.env_emitters.is_empty();
+                match s.max_depth {
+                    0 => false,
+                    1 => {
+                        env || (!s.hide_emitters
+                            && hit
+                                .is_some_and(|si| scene.shape_emitter[si.shape as usize].is_some()))
+                    }
+                    _ => env || hit.is_some(),
+                }
+            }
+            IntegratorDesc::Direct(_) => hit.is_some(),
+            IntegratorDesc::Moment(m) => m.inner.first().is_some_and(|(_, i)| i.valid(scene, hit)),
+            IntegratorDesc::Aov(a) => a.inner.first().is_some_and(|(_, i)| i.valid(scene, hit)),
         }
     }
 }

@@ -14,6 +14,7 @@
 
 pub(crate) mod bsdfs;
 mod emitters;
+mod mitsuba_plugins;
 pub mod options;
 mod settings;
 mod shapes;
@@ -189,6 +190,9 @@ impl<'d> Builder<'d> {
                     self.texture(child)?;
                 }
                 "emitter" => self.top_level_emitter(child)?,
+                // Mitsuba builds a top-level object with an id when a `<ref>` uses it: the
+                // sensor does, for its sampler and film.
+                "film" | "sampler" if child.attr("id").is_some() => {}
                 "rfilter" | "film" | "sampler" => {
                     return Err(Error::scene(
                         &child.loc,
@@ -207,15 +211,24 @@ impl<'d> Builder<'d> {
     }
 }
 
-/// An unknown plugin type: the error names the ones groove supports.
+/// A plugin type groove does not build, with the ones it supports for `kind`: a polarisation
+/// plugin says it needs Mitsuba's polarised variant, another Mitsuba 3.9.1 plugin says that
+/// groove lacks it (naming its Mitsuba kind), any other name is an unknown plugin.
 pub(crate) fn unknown(loc: &SourceLoc, kind: &str, ty: &str, known: &[&str]) -> Error {
-    Error::scene(
-        loc,
+    let supported = known.join(", ");
+    let msg = if mitsuba_plugins::is_polarised(ty) {
         format!(
-            "unknown {kind} plugin '{ty}' (groove supports: {})",
-            known.join(", ")
-        ),
-    )
+            "{kind} plugin '{ty}' needs a polarised variant (Mitsuba's *_polarized); \
+             groove renders RGB"
+        )
+    } else if let Some(mkind) = mitsuba_plugins::mitsuba_kind(ty) {
+        format!(
+            "Mitsuba plugin '{ty}' ({mkind}) is not supported by groove (groove's {kind} plugins: {supported})"
+        )
+    } else {
+        format!("unknown {kind} plugin '{ty}' (groove supports: {supported})")
+    };
+    Error::scene(loc, msg)
 }
 
 /// Checks that a value read from the scene is finite and in range: `msg` at `loc` when not.

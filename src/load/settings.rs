@@ -6,9 +6,13 @@ use super::{check, unknown, Builder};
 use crate::camera::{Camera, FovAxis};
 use crate::error::{Error, Result, SourceLoc};
 use crate::film::{FilmDesc, Filter};
+use crate::integrator::aov::{AovKind, AovSettings};
+use crate::integrator::moment::MomentSettings;
 use crate::integrator::{DirectSettings, IntegratorDesc, PathSettings};
 use crate::sampler::{SamplerDesc, SamplerKind};
 use crate::scene::xml::ir::Node;
+use crate::scene::xml::props::Props;
+use std::sync::Arc;
 
 impl<'d> Builder<'d> {
     pub(super) fn integrator(&mut self, n: &'d Node) -> Result<IntegratorDesc> {
@@ -45,19 +49,102 @@ impl<'d> Builder<'d> {
                     hide_emitters: p.bool("hide_emitters", false)?,
                 })
             }
-            "moment" | "aov" | "stokes" | "depth" => {
-                return Err(Error::scene(
+            "moment" => IntegratorDesc::Moment(Arc::new(MomentSettings {
+                inner: self.nested_integrators(&p)?,
+            })),
+            "aov" => {
+                let inner = self.nested_integrators(&p)?;
+                let spec_loc = p.property_node("aovs").map(|n| n.loc.clone());
+                let spec = p.string_opt("aovs")?.ok_or_else(|| {
+                    Error::scene(p.loc(), "aov needs a string 'aovs' (\"name:type,...\")")
+                })?;
+                let loc = spec_loc.as_ref().unwrap_or(p.loc());
+                let entries = self.aov_entries(&spec, loc)?;
+                if inner.is_empty() && entries.is_empty() {
+                    self.warnings
+                        .push(format!("{}: aov: no AOVs were specified", p.loc()));
+                }
+                IntegratorDesc::Aov(Arc::new(AovSettings { inner, entries }))
+            }
+            t => {
+                return Err(unknown(
                     p.loc(),
-                    format!(
-                        "integrator '{}' is not supported: groove renders with 'path' or 'direct'",
-                        p.plugin_type()
-                    ),
+                    "integrator",
+                    t,
+                    &["path", "direct", "moment", "aov"],
                 ))
             }
-            t => return Err(unknown(p.loc(), "integrator", t, &["path", "direct"])),
         };
         p.finish()?;
         Ok(d)
+    }
+
+    /// The nested integrators of a `moment` or `aov`, named as Mitsuba names them: the `name`
+    /// attribute, else `_arg_<i>` counting the unnamed nested objects from 0.
+    fn nested_integrators(&mut self, p: &Props<'d>) -> Result<Vec<(String, IntegratorDesc)>> {
+        let mut inner = Vec::new();
+        let mut unnamed = 0;
+        for c in p.objects() {
+            if p.kind(c) != "integrator" {
+                return Err(Error::scene(
+                    &c.loc,
+                    format!(
+                        "{}: child objects must be integrators, not <{}>",
+                        p.plugin_type(),
+                        p.kind(c)
+                    ),
+                ));
+            }
+            let name = match c.attr("name") {
+                Some(n) => n.to_string(),
+                None => {
+                    unnamed += 1;
+                    format!("_arg_{}", unnamed - 1)
+                }
+            };
+            let target = match c.tag.as_str() {
+                "ref" => self.ids.resolve(c, "integrator")?,
+                _ => c,
+            };
+            inner.push((name, self.integrator(target)?));
+        }
+        Ok(inner)
+    }
+
+    /// The entries of an `aov` integrator's `aovs` string: comma-separated `name:type` pairs
+    /// (Mitsuba tokenises on commas and colons; an empty list is allowed).
+    fn aov_entries(&mut self, spec: &str, loc: &SourceLoc) -> Result<Vec<(String, AovKind)>> {
+        let mut out = Vec::new();
+        for token in spec.split(',').map(str::trim).filter(|t| !t.is_empty()) {
+            let item: Vec<&str> = token.split(':').map(str::trim).collect();
+            if item.len() != 2 || item[0].is_empty() || item[1].is_empty() {
+                return Err(Error::scene(
+                    loc,
+                    format!("aov: invalid AOV specification '{token}': expected <name>:<type>"),
+                ));
+            }
+            let kind = match AovKind::parse(item[1]) {
+                Some(k) => k,
+                None => {
+                    let msg = if ["albedo", "duv_dx", "duv_dy"].contains(&item[1]) {
+                        format!(
+                            "aov: Mitsuba's AOV type '{}' is not supported by groove (groove has: {})",
+                            item[1],
+                            AovKind::NAMES.join(", ")
+                        )
+                    } else {
+                        format!(
+                            "aov: invalid AOV type '{}' (types: {})",
+                            item[1],
+                            AovKind::NAMES.join(", ")
+                        )
+                    };
+                    return Err(Error::scene(loc, msg));
+                }
+            };
+            out.push((item[0].to_string(), kind));
+        }
+        Ok(out)
     }
 
     pub(super) fn sensor(&mut self, n: &'d Node) -> Result<(Camera, FilmDesc, SamplerDesc)> {
@@ -73,9 +160,10 @@ impl<'d> Builder<'d> {
         let mut film: Option<FilmDesc> = None;
         let mut sampler: Option<SamplerDesc> = None;
         for c in p.objects() {
-            match c.tag.as_str() {
-                "film" => film = Some(self.film(c)?),
-                "sampler" => sampler = Some(self.sampler(c)?),
+            // A `<ref>` to a top-level `<sampler id>` or `<film id>` (Mitsuba allows both).
+            match p.kind(c) {
+                "film" => film = Some(self.film(self.ids.resolve(c, "film")?)?),
+                "sampler" => sampler = Some(self.sampler(self.ids.resolve(c, "sampler")?)?),
                 t => {
                     return Err(Error::scene(
                         &c.loc,
@@ -206,7 +294,15 @@ impl<'d> Builder<'d> {
         )?;
         let _ = p.string("file_format", "openexr")?;
         let _ = p.bool("banner", true)?;
-        let _ = p.bool("high_quality_edges", false)?;
+        // Mitsuba 0.x's `highQualityEdges`: Mitsuba 3.9.1 rejects it as an unreferenced
+        // property, even in upgraded 0.x files; groove accepts it there only, with a warning.
+        if self.doc.upgraded_from_v0 && p.has("high_quality_edges") {
+            let _ = p.bool("high_quality_edges", false)?;
+            self.warnings.push(format!(
+                "{}: high_quality_edges (Mitsuba 0.x) is ignored; Mitsuba 3 rejects it",
+                p.loc()
+            ));
+        }
         let _ = p.bool("sample_border", false)?;
         let mut filter = Filter::Gaussian {
             stddev: 0.5,

@@ -5,19 +5,17 @@ use std::path::Path;
 
 use exr::meta::attribute::{AttributeValue, Text};
 use exr::prelude::{
-    read as exr_read, Encoding, Image as ExrImage, Layer, LayerAttributes, ReadChannels,
-    ReadLayers, SpecificChannels, Vec2 as ExrVec2, WritableImage,
+    read as exr_read, AnyChannel, AnyChannels, Encoding, FlatSamples, Image as ExrImage, Layer,
+    LayerAttributes, ReadChannels, ReadLayers, SmallVec, SpecificChannels, Vec2 as ExrVec2,
+    WritableImage,
 };
 
 use super::Metadata;
 use crate::error::{Error, Result};
 use crate::film::Image;
 
-/// Encodes `img` as a scan-line, ZIP-compressed float32 RGB EXR with `meta` as string attributes.
-pub(super) fn write<W: Write + Seek>(w: W, img: &Image, meta: &Metadata) -> Result<(), String> {
-    if img.width == 0 || img.height == 0 {
-        return Err("cannot write an empty image as EXR".into());
-    }
+/// The string attributes of `meta` for an EXR header.
+fn attributes(meta: &Metadata) -> Result<LayerAttributes, String> {
     let mut attrs = LayerAttributes::default();
     for (k, v) in &meta.0 {
         // Names are NUL-terminated in the header; values are length-prefixed. Both are stored
@@ -30,6 +28,15 @@ pub(super) fn write<W: Write + Seek>(w: W, img: &Image, meta: &Metadata) -> Resu
             AttributeValue::Text(Text::from_slice_unchecked(v.as_bytes())),
         );
     }
+    Ok(attrs)
+}
+
+/// Encodes `img` as a scan-line, ZIP-compressed float32 RGB EXR with `meta` as string attributes.
+pub(super) fn write<W: Write + Seek>(w: W, img: &Image, meta: &Metadata) -> Result<(), String> {
+    if img.width == 0 || img.height == 0 {
+        return Err("cannot write an empty image as EXR".into());
+    }
+    let attrs = attributes(meta)?;
     let width = img.width as usize;
     let channels = SpecificChannels::rgb(|p: ExrVec2<usize>| {
         let px = img.data[p.y() * width + p.x()];
@@ -45,6 +52,81 @@ pub(super) fn write<W: Write + Seek>(w: W, img: &Image, meta: &Metadata) -> Resu
         .write()
         .to_buffered(w)
         .map_err(|e| format!("cannot encode EXR: {e}"))
+}
+
+/// Encodes `img` as R, G, B plus the named `extra` channels (one f32 per pixel each, e.g.
+/// `depth.T`), float32, in one layer as Mitsuba's `hdrfilm` writes AOVs (the file stores the
+/// channels sorted by name, as OpenEXR requires).
+pub(super) fn write_channels<W: Write + Seek>(
+    w: W,
+    img: &Image,
+    extra: &[(String, Vec<f32>)],
+    meta: &Metadata,
+) -> Result<(), String> {
+    if img.width == 0 || img.height == 0 {
+        return Err("cannot write an empty image as EXR".into());
+    }
+    let n = img.width as usize * img.height as usize;
+    let mut list: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+    for (c, name) in ["R", "G", "B"].iter().enumerate() {
+        let v: Vec<f32> = img.data.iter().map(|p| p[c]).collect();
+        list.push(AnyChannel::new(*name, FlatSamples::F32(v)));
+    }
+    for (name, v) in extra {
+        if v.len() != n {
+            return Err(format!(
+                "channel {name:?} holds {} values, expected {n}",
+                v.len()
+            ));
+        }
+        if name.is_empty() || name.contains('\0') || ["R", "G", "B"].contains(&name.as_str()) {
+            return Err(format!("channel name {name:?} cannot be stored in EXR"));
+        }
+        list.push(AnyChannel::new(name.as_str(), FlatSamples::F32(v.clone())));
+    }
+    let mut names: Vec<&Text> = list.iter().map(|c| &c.name).collect();
+    names.sort();
+    if names.windows(2).any(|p| p[0] == p[1]) {
+        return Err("two channels have the same name".into());
+    }
+    let layer = Layer::new(
+        (img.width as usize, img.height as usize),
+        attributes(meta)?,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(list),
+    );
+    ExrImage::from_layer(layer)
+        .write()
+        .to_buffered(w)
+        .map_err(|e| format!("cannot encode EXR: {e}"))
+}
+
+/// Every channel of the first layer of the EXR at `path`, as f32, by name (sorted), with the
+/// layer's size.
+pub(super) fn read_channels(path: &Path) -> Result<(u32, u32, super::Channels)> {
+    let image = exr_read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| match e {
+            exr::error::Error::Io(io) => Error::io(path, io),
+            other => Error::file(path, format!("cannot read EXR: {other}")),
+        })?;
+    let size = image.layer_data.size;
+    let chans = image
+        .layer_data
+        .channel_data
+        .list
+        .iter()
+        .map(|c| {
+            let v: Vec<f32> = c.sample_data.values_as_f32().collect();
+            (String::from_utf8_lossy(c.name.as_slice()).into_owned(), v)
+        })
+        .collect();
+    Ok((size.width() as u32, size.height() as u32, chans))
 }
 
 /// Reads the first layer with R, G and B channels, converting samples to f32, plus all text

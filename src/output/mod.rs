@@ -52,6 +52,31 @@ pub fn write_image(path: &Path, img: &Image, meta: &Metadata) -> Result<()> {
     }
 }
 
+/// Like [`write_image`], with extra named channels (the integrator's AOVs, one value per pixel
+/// each). An EXR stores them beside R, G, B in one layer, named as given (Mitsuba's names, e.g.
+/// `dd.T`, `m2_nested.X`); a PNG holds the RGB image only, so for `.png` the channels are
+/// dropped and `Ok(false)` says so. With no extra channels this is [`write_image`].
+pub fn write_image_channels(
+    path: &Path,
+    img: &Image,
+    extra: &[(String, Vec<f32>)],
+    meta: &Metadata,
+) -> Result<bool> {
+    if extra.is_empty() {
+        return write_image(path, img, meta).map(|_| true);
+    }
+    match check_extension(path)? {
+        Format::Png => write_image(path, img, meta).map(|_| false),
+        Format::Exr => {
+            if img.data.len() != img.width as usize * img.height as usize {
+                return Err(Error::file(path, "image data does not match its size"));
+            }
+            write_atomic(path, |w| exr::write_channels(w, img, extra, meta))?;
+            Ok(true)
+        }
+    }
+}
+
 /// Writes 8-bit RGB pixels (row-major, top row first) as a PNG, atomically.
 pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
     use image::{codecs::png::PngEncoder, ExtendedColorType, ImageEncoder};
@@ -94,6 +119,15 @@ pub fn check_extension(path: &Path) -> Result<Format> {
 /// string attributes.
 pub fn read_exr(path: &Path) -> Result<(Image, Metadata)> {
     exr::read(path)
+}
+
+/// Named image channels, one f32 per pixel each, row-major.
+pub type Channels = Vec<(String, Vec<f32>)>;
+
+/// Every channel of an EXR's first layer by name (sorted), as f32, with its width and height:
+/// how tests and tools read the AOV channels that [`write_image_channels`] writes.
+pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Channels)> {
+    exr::read_channels(path)
 }
 
 /// The temporary file used while writing `path`.

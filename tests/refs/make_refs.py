@@ -80,7 +80,16 @@ JOBS = [
     # Mitsuba `serialized` meshes (tests/data/geometry/make_serialized.py): v4 two-mesh file with
     # shape_index 0 (normals, uvs) and 1 (double precision, face_normals), and a v3 file.
     ("serialized", os.path.join(SCENES, "serialized.xml"), {}, 8192, REF_SEEDS),
+    # The `moment` and `aov` integrators (tests/render/aov.rs): every film channel, see CHANNELS.
+    ("moment", os.path.join(SCENES, "moment.xml"), {}, 4096, REF_SEEDS),
+    ("aov", os.path.join(SCENES, "aov.xml"), {}, 4096, REF_SEEDS),
 ]
+
+# Jobs whose film has extra channels (AOVs): the statistics are those of the film's developed
+# bitmap (what Mitsuba writes to disk: all channels, named as in the EXR Mitsuba writes), and
+# NAME.channels.exr / NAME.channels.var.exr hold every channel (mean over the seeds, variance of
+# that mean); NAME.exr / NAME.var.exr are the film's R, G, B as for the other jobs.
+CHANNELS = {"moment", "aov"}
 
 # Jobs whose pixels are correlated (non-box filter): also write NAME.tT.exr / NAME.tT.var.exr, the
 # mean over seeds of the T x T tile averages and the variance of that mean estimated from the
@@ -118,11 +127,17 @@ def main():
         t0 = time.perf_counter()
         scene = mi.load_file(scene_path, **defines)
         t_load = time.perf_counter() - t0
-        renders, times = [], []
+        renders, times, channel_renders, channel_names = [], [], [], None
         for s in seeds:
             t0 = time.perf_counter()
             img = np.array(mi.render(scene, spp=spp, seed=s), dtype=np.float64)[:, :, :3]
             times.append(time.perf_counter() - t0)
+            if name in CHANNELS:
+                bmp = scene.sensors()[0].film().bitmap()
+                channel_names = [f.name for f in bmp.struct_()]
+                all_ch = np.array(bmp, dtype=np.float64)
+                channel_renders.append(all_ch)
+                img = all_ch[:, :, [channel_names.index(c) for c in "RGB"]]
             renders.append(img)
         stack = np.stack(renders)  # K x H x W x 3
         k = stack.shape[0]
@@ -135,6 +150,13 @@ def main():
 
         write(mean, os.path.join(args.out, f"{name}.exr"))
         write(var_mean, os.path.join(args.out, f"{name}.var.exr"))
+        if name in CHANNELS:
+            cs = np.stack(channel_renders)
+            for arr, suffix in [(cs.mean(axis=0), "channels"),
+                                (cs.var(axis=0, ddof=1) / cs.shape[0], "channels.var")]:
+                bmp = mi.Bitmap(np.ascontiguousarray(arr, dtype=np.float32),
+                                mi.Bitmap.PixelFormat.MultiChannel, channel_names=channel_names)
+                bmp.write(os.path.join(args.out, f"{name}.{suffix}.exr"))
         if name in TILE_STATS:
             t = TILE_STATS[name]
             hh, ww = stack.shape[1] // t, stack.shape[2] // t

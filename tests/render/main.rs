@@ -4,6 +4,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod aov;
 mod foundation;
 mod lights;
 mod materials;

@@ -7,5 +7,6 @@ mod common;
 mod emitters;
 mod geometry;
 mod output;
+mod plugins;
 mod texture;
 mod xml_parse;

@@ -127,6 +127,9 @@ impl<'t> LineIndex<'t> {
 
 /// Parses one file's text into a raw element tree (no substitution, no upgrade).
 pub(crate) fn parse_tree(text: &str, file: &Path) -> Result<Node> {
+    // A UTF-8 byte-order mark (written by some Windows exporters) is not part of the document
+    // (Mitsuba's pugixml skips it too). Columns on the first line count from after it.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let idx = LineIndex::new(text);
     let mut reader = Reader::from_str(text);
     reader.config_mut().trim_text(false);
