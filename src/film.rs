@@ -284,13 +284,20 @@ impl Block {
     /// storage only reach the pixels that exist; non-finite positions are ignored. Non-finite
     /// values are accumulated as they are (the developed image then shows them).
     pub fn put(&mut self, film_pos: Vec2, value: Spectrum) {
-        self.put_channels(film_pos, value, &[]);
+        self.splat::<false>(film_pos, value, &[]);
     }
 
     /// [`Block::put`] with the values of the block's extra channels (`aovs`, one per channel;
     /// ignored when the block has none), splatted with the same filter weights.
     pub fn put_channels(&mut self, film_pos: Vec2, value: Spectrum, aovs: &[f32]) {
-        let aovs = if self.nch > 0 && aovs.len() >= self.nch {
+        self.splat::<true>(film_pos, value, aovs);
+    }
+
+    /// The splat of [`Block::put`] (`EXTRA` false: the extra channels compiled out of the hot
+    /// path) and [`Block::put_channels`].
+    #[inline(always)]
+    fn splat<const EXTRA: bool>(&mut self, film_pos: Vec2, value: Spectrum, aovs: &[f32]) {
+        let aovs = if EXTRA && self.nch > 0 && aovs.len() >= self.nch {
             &aovs[..self.nch]
         } else {
             &[]

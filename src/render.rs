@@ -249,7 +249,11 @@ fn render_block(
                     invalid += 1;
                     l = Spectrum::ZERO;
                 }
-                block.put_channels(pos, l, &aovs);
+                if aovs.is_empty() {
+                    block.put(pos, l);
+                } else {
+                    block.put_channels(pos, l, &aovs);
+                }
             }
         }
     }
