@@ -14,7 +14,7 @@ use crate::bsdf::{
     named_conductor, named_ior, BsdfNode, Dielectric, Lobes, MicrofacetDistribution,
     MicrofacetType, Plastic, RoughConductor, RoughDielectric, RoughPlastic, ThinDielectric,
 };
-use crate::camera::{Camera, FovAxis};
+use crate::camera::{Camera, FovAxis, Orthographic, ThinLens};
 use crate::emitter::area::AreaLight;
 use crate::emitter::constant::ConstantLight;
 use crate::emitter::directional::DirectionalLight;
@@ -339,13 +339,9 @@ impl<'d> Builder<'d> {
     // ------------------------------------------------------------------ sensor, film, sampler
     fn sensor(&mut self, n: &'d Node) -> Result<(Camera, FilmDesc, SamplerDesc)> {
         let p = Props::new(n)?;
-        if p.plugin_type() != "perspective" {
-            return Err(unknown(
-                p.loc(),
-                "sensor",
-                p.plugin_type(),
-                &["perspective"],
-            ));
+        const SENSORS: [&str; 3] = ["perspective", "orthographic", "thinlens"];
+        if !SENSORS.contains(&p.plugin_type()) {
+            return Err(unknown(p.loc(), "sensor", p.plugin_type(), &SENSORS));
         }
         let mut film: Option<FilmDesc> = None;
         let mut sampler: Option<SamplerDesc> = None;
@@ -370,6 +366,17 @@ impl<'d> Builder<'d> {
             sample_count: 4,
             seed: 0,
         });
+        // Each of these sensors reads its own parameters (in its file under src/camera/).
+        let size = (film.width, film.height);
+        let camera = match p.plugin_type() {
+            "orthographic" => Some(Camera::Orthographic(Orthographic::from_props(&p, size)?)),
+            "thinlens" => Some(Camera::ThinLens(ThinLens::from_props(&p, size)?)),
+            _ => None,
+        };
+        if let Some(camera) = camera {
+            p.finish()?;
+            return Ok((camera, film, sampler));
+        }
         let to_world = p.transform("to_world")?;
         let (fov, axis) = match (p.float_opt("fov")?, p.string_opt("focal_length")?) {
             (Some(_), Some(_)) => {
