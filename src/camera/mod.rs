@@ -106,7 +106,7 @@ pub(crate) fn clip_from_props(p: &Props<'_>) -> Result<(f32, f32)> {
 pub(crate) fn shutter_from_props(p: &Props<'_>) -> Result<()> {
     let open = p.float("shutter_open", 0.0)?;
     let close = p.float("shutter_close", 0.0)?;
-    if !(close - open >= 0.0) {
+    if open.is_nan() || close.is_nan() || close < open {
         return Err(Error::scene(
             p.loc(),
             format!("shutter_close ({close}) must not be less than shutter_open ({open})"),

@@ -69,7 +69,9 @@ impl Orthographic {
             .transform_vector3(Vec3::Z)
             .try_normalize()
             .ok_or_else(|| {
-                Error::Usage("orthographic: to_world maps the viewing direction (+z) to zero".into())
+                Error::Usage(
+                    "orthographic: to_world maps the viewing direction (+z) to zero".into(),
+                )
             })?;
         let aspect = w as f64 / h as f64;
         // x = 1 − 2·px/w and y = (1 − 2·py/h)/aspect = 1/aspect − 2·py/w.
@@ -132,18 +134,35 @@ mod tests {
         for ((u, v), o) in cases {
             let r = cam.generate_ray(Vec2::new(u * 30.0, v * 20.0));
             let o = Vec3::from_array(o);
-            assert!((r.o - o).abs().max_element() < 2e-5, "{u},{v}: {:?} vs {o:?}", r.o);
+            assert!(
+                (r.o - o).abs().max_element() < 2e-5,
+                "{u},{v}: {:?} vs {o:?}",
+                r.o
+            );
             assert!((r.d - d).abs().max_element() < 1e-6);
             assert!((r.tmax - 39.5).abs() < 1e-5 && r.tmin == 0.0);
         }
     }
 
-    const MITSUBA_ORTHO_DIR: [f32; 3] = [-0.768221378326416, -0.384110689163208, -0.5121475458145142];
+    const MITSUBA_ORTHO_DIR: [f32; 3] =
+        [-0.768221378326416, -0.384110689163208, -0.5121475458145142];
     const MITSUBA_ORTHO: [((f32, f32), [f32; 3]); 4] = [
-        ((0.5, 0.5), [0.6158891320228577, 1.807944893836975, 2.743926525115967]),
-        ((0.0, 0.0), [-1.1327095031738281, 3.6545186042785645, 3.9818947315216064]),
-        ((1.0, 0.25), [1.4056899547576904, 2.731231927871704, 0.8667598962783813]),
-        ((0.1, 0.9), [0.23972797393798828, 0.3306862413883209, 4.416111946105957]),
+        (
+            (0.5, 0.5),
+            [0.6158891320228577, 1.807944893836975, 2.743926525115967],
+        ),
+        (
+            (0.0, 0.0),
+            [-1.1327095031738281, 3.6545186042785645, 3.9818947315216064],
+        ),
+        (
+            (1.0, 0.25),
+            [1.4056899547576904, 2.731231927871704, 0.8667598962783813],
+        ),
+        (
+            (0.1, 0.9),
+            [0.23972797393798828, 0.3306862413883209, 4.416111946105957],
+        ),
     ];
 
     /// All rays are parallel, and the film's corners land on the scaled [−1,1] × [−1/a, 1/a]
@@ -181,7 +200,10 @@ mod tests {
         assert!(Orthographic::new(id, 1.0, 1.0, (8, 8)).is_err());
         assert!(Orthographic::new(id, 0.1, f32::INFINITY, (8, 8)).is_err());
         assert!(Orthographic::new(id, 0.1, 1.0, (8, 0)).is_err());
-        assert!(Orthographic::new(Mat4::from_scale(Vec3::new(1.0, 1.0, 0.0)), 0.1, 1.0, (8, 8)).is_err());
+        assert!(
+            Orthographic::new(Mat4::from_scale(Vec3::new(1.0, 1.0, 0.0)), 0.1, 1.0, (8, 8))
+                .is_err()
+        );
         let mut nan = id;
         nan.w_axis.y = f32::NAN;
         assert!(Orthographic::new(nan, 0.1, 1.0, (8, 8)).is_err());

@@ -64,12 +64,17 @@ pub(crate) fn fov_from_props(p: &Props<'_>) -> Result<(f32, FovAxis)> {
                 .trim_end_matches("mm")
                 .trim()
                 .parse()
-                .map_err(|_| Error::scene(p.loc(), format!("focal_length '{s}' must look like '50mm'")))?;
+                .map_err(|_| {
+                    Error::scene(p.loc(), format!("focal_length '{s}' must look like '50mm'"))
+                })?;
             if !(mm > 0.0 && mm.is_finite()) {
                 return Err(Error::scene(p.loc(), "focal_length must be positive"));
             }
             let diag = (36.0f32 * 36.0 + 24.0 * 24.0).sqrt();
-            Ok((2.0 * (diag / (2.0 * mm)).atan().to_degrees(), FovAxis::Diagonal))
+            Ok((
+                2.0 * (diag / (2.0 * mm)).atan().to_degrees(),
+                FovAxis::Diagonal,
+            ))
         }
     }
 }
@@ -175,9 +180,7 @@ impl Perspective {
         }
         let det = to_world.determinant();
         if !det.is_finite() || det.abs() < 1e-6 {
-            return Err(Error::Usage(format!(
-                "{name}: to_world is not invertible"
-            )));
+            return Err(Error::Usage(format!("{name}: to_world is not invertible")));
         }
         let to_local = to_world.inverse();
 

@@ -1,6 +1,7 @@
 //! Geometry: rays, surface interactions, triangle meshes and the analytic shapes, with their
 //! loaders (OBJ, PLY, Mitsuba serialized) and area sampling for emitters.
 
+pub mod cylinder;
 pub mod interaction;
 pub mod mesh;
 pub mod obj;
@@ -9,6 +10,7 @@ pub mod ray;
 pub mod serialized;
 pub mod shapes;
 
+pub use cylinder::Cylinder;
 pub use interaction::SurfaceInteraction;
 pub use mesh::TriMesh;
 pub use ray::Ray;

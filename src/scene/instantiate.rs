@@ -24,7 +24,7 @@ use crate::emitter::spot::SpotLight;
 use crate::emitter::{Emitter, LightSampler};
 use crate::error::{Error, Result, SourceLoc};
 use crate::film::{FilmDesc, Filter};
-use crate::geometry::{obj, ply, serialized, Shape};
+use crate::geometry::{obj, ply, serialized, Cylinder, Shape};
 use crate::integrator::{DirectSettings, IntegratorDesc, PathSettings};
 use crate::material::{MatId, MaterialNode, Materials, MnmSettings, Slot, TexId};
 use crate::sampler::{SamplerDesc, SamplerKind};
@@ -1396,6 +1396,8 @@ impl<'d> Builder<'d> {
                 Shape::sphere(c, r, &to_world, flip)
                     .map_err(|e| Error::scene(p.loc(), e.to_string()))?
             }
+            // Mitsuba's open cylinder; its parameters are read in its own file.
+            "cylinder" => Cylinder::from_props(&p, &to_world, flip)?,
             t => {
                 return Err(unknown(
                     p.loc(),
@@ -1409,6 +1411,7 @@ impl<'d> Builder<'d> {
                         "cube",
                         "disk",
                         "sphere",
+                        "cylinder",
                     ],
                 ))
             }

@@ -80,6 +80,12 @@ JOBS = [
     # Mitsuba `serialized` meshes (tests/data/geometry/make_serialized.py): v4 two-mesh file with
     # shape_index 0 (normals, uvs) and 1 (double precision, face_normals), and a v3 file.
     ("serialized", os.path.join(SCENES, "serialized.xml"), {}, 8192, REF_SEEDS),
+    # Sensors `orthographic` (scaled film, near_clip cutting the scene) and `thinlens` (visible
+    # defocus), and the open `cylinder` shape (p0/p1/radius, to_world + uv checkerboard, emitting
+    # and flip_normals emitting cylinders) under a rectangle area light.
+    ("cam_ortho", os.path.join(SCENES, "cam_ortho.xml"), {}, 8192, REF_SEEDS),
+    ("cam_thinlens", os.path.join(SCENES, "cam_thinlens.xml"), {}, 16384, REF_SEEDS),
+    ("shape_cylinder", os.path.join(SCENES, "shape_cylinder.xml"), {}, 16384, REF_SEEDS),
 ]
 
 # Jobs whose pixels are correlated (non-box filter): also write NAME.tT.exr / NAME.tT.var.exr, the
