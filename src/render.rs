@@ -240,7 +240,7 @@ fn render_block(
                 }
                 let mut sampler = Sampler::for_sample(sampler_desc, pixel_index, s);
                 let pos = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-                let ray = scene.camera.generate_ray(pos);
+                let ray = scene.camera.sample_ray(pos, &mut sampler);
                 let mut l =
                     settings
                         .integrator

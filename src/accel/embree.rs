@@ -5,6 +5,7 @@
 //! `rtcIntersect1` / `rtcOccluded1` are thread-safe (Embree 3 API docs, "rtcIntersect1"), which is
 //! what makes the wrapper `Send + Sync`.
 
+use crate::geometry::Cylinder;
 use crate::geometry::Hit;
 use embree3::sys::*;
 use glam::{Mat4, Vec3};
@@ -36,6 +37,8 @@ pub(crate) enum GeomDesc<'a> {
         to_world: Mat4,
         faces: &'a [[[f32; 3]; 4]; 6],
     },
+    /// Mitsuba's open cylinder: a user geometry intersected by [`Cylinder::hit`].
+    Cylinder(&'a Cylinder),
     /// Nothing to trace (a degenerate shape); its id stays unused.
     Empty,
 }
@@ -295,6 +298,19 @@ impl UserShape for BoxData {
     }
 }
 
+/// The cylinder's callbacks use its own exact intersection (f64 in object space).
+impl UserShape for Cylinder {
+    fn bounds(&self) -> (Vec3, Vec3) {
+        let (lo, hi) = Cylinder::bounds(self);
+        let pad = (lo.abs().max(hi.abs()) + (hi - lo)) * 1e-6;
+        (lo - pad, hi + pad)
+    }
+
+    fn hit(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<UserHit> {
+        Cylinder::hit(self, o, d, tnear, tfar).map(UserHit::at)
+    }
+}
+
 unsafe extern "C" fn user_bounds<T: UserShape>(args: *const RTCBoundsFunctionArguments) {
     // SAFETY: Embree passes valid arguments; the user pointer is the scene's boxed `T`.
     unsafe {
@@ -384,6 +400,8 @@ pub(crate) struct EmbreeScene {
     _spheres: Vec<Box<SphereData>>,
     #[allow(clippy::vec_box)]
     _boxes: Vec<Box<BoxData>>,
+    #[allow(clippy::vec_box)]
+    _cylinders: Vec<Box<Cylinder>>,
 }
 
 // SAFETY: the scene is committed and never mutated afterwards; Embree documents traversal
@@ -437,6 +455,7 @@ impl EmbreeScene {
                 _planes: Vec::new(),
                 _spheres: Vec::new(),
                 _boxes: Vec::new(),
+                _cylinders: Vec::new(),
             };
             if scene.is_null() {
                 return Err(this.error_text("rtcNewScene failed"));
@@ -503,6 +522,13 @@ impl EmbreeScene {
                         let geom = user_geometry(device, &*data)
                             .ok_or_else(|| this.error_text("rtcNewGeometry failed"))?;
                         this._boxes.push(data);
+                        geom
+                    }
+                    GeomDesc::Cylinder(c) => {
+                        let data = Box::new((*c).clone());
+                        let geom = user_geometry(device, &*data)
+                            .ok_or_else(|| this.error_text("rtcNewGeometry failed"))?;
+                        this._cylinders.push(data);
                         geom
                     }
                 };

@@ -36,6 +36,7 @@ impl Accel {
                 (ShapeKind::Rectangle { to_world }, _) => embree::GeomDesc::Rectangle {
                     to_world: *to_world,
                 },
+                (ShapeKind::Cylinder(c), _) => embree::GeomDesc::Cylinder(c),
             })
             .collect();
         let scene = embree::EmbreeScene::build(&descs).map_err(Error::Native)?;

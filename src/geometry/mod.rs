@@ -1,6 +1,7 @@
 //! Geometry: rays, surface interactions, triangle meshes and the analytic shapes, with their
 //! loaders (OBJ, PLY, Mitsuba serialized) and area sampling for emitters.
 
+pub mod cylinder;
 pub mod hit;
 pub mod interaction;
 pub mod mesh;
@@ -10,6 +11,7 @@ pub mod ray;
 pub mod serialized;
 pub mod shapes;
 
+pub use cylinder::Cylinder;
 pub use hit::Hit;
 pub use interaction::SurfaceInteraction;
 pub use mesh::TriMesh;

@@ -1,9 +1,11 @@
 //! The scene's shapes: triangle meshes (OBJ, PLY and Mitsuba's `cube` mesh, which Embree
 //! intersects as an exact box) and the exact `rectangle`, `disk` and sphere; their surface
-//! interactions and the area / solid-angle sampling used by area emitters. Conventions follow
+//! interactions and the area / solid-angle sampling used by area emitters. The `cylinder` has its
+//! own file (`cylinder.rs`). Conventions follow
 //! Mitsuba 3's shape plugins (`src/shapes/*.cpp`, `src/render/mesh.cpp` in
 //! mitsuba-renderer/mitsuba3).
 
+use super::cylinder::Cylinder;
 use super::interaction::SurfaceInteraction;
 use super::mesh::TriMesh;
 use super::Hit;
@@ -31,6 +33,8 @@ pub enum ShapeKind {
     /// acceleration structure instead of one for triangles and one for user geometry, which
     /// halved Embree's instructions per ray on the benchmark scenes).
     Rectangle { to_world: Mat4 },
+    /// Mitsuba's exact open `cylinder` (its own file: [`Cylinder`]), an Embree user geometry.
+    Cylinder(Cylinder),
 }
 
 /// Mitsuba's `cube` (`cube.cpp`): the 4 corners of each face of [−1,1]³, in order around the
@@ -263,6 +267,19 @@ impl Shape {
         })
     }
 
+    /// Mitsuba's `cylinder` (see [`Cylinder`]): exact, area-sampled by (φ, z).
+    pub fn cylinder(cylinder: Cylinder, flip_normals: bool) -> Shape {
+        Shape {
+            area: cylinder.area(),
+            kind: ShapeKind::Cylinder(cylinder),
+            flip_normals,
+            face_normals: true,
+            cdf: Vec::new(),
+            to_object: Mat4::IDENTITY,
+            box_to_world: None,
+        }
+    }
+
     /// Surface area.
     pub fn area(&self) -> f32 {
         self.area
@@ -289,6 +306,7 @@ impl Shape {
                     + to_world.transform_vector3(Vec3::Y).abs();
                 (c - ext, c + ext)
             }
+            ShapeKind::Cylinder(c) => c.bounds(),
         }
     }
 
@@ -372,6 +390,10 @@ impl Shape {
                 let (uv, dpdu, dpdv) = sphere_uv(frame, *radius, n);
                 let ng = n * sign;
                 analytic_interaction(p, ng, (uv, dpdu, dpdv), shape_index, ray, hit)
+            }
+            ShapeKind::Cylinder(c) => {
+                let (p, n, uv, dpdu, dpdv) = c.surface(ray.at(hit.t));
+                analytic_interaction(p, n * sign, (uv, dpdu, dpdv), shape_index, ray, hit)
             }
         }
     }
@@ -459,6 +481,15 @@ impl Shape {
                     p: *center + n * *radius,
                     n: n * sign,
                     uv: sphere_uv(frame, *radius, n).0,
+                    pdf,
+                }
+            }
+            ShapeKind::Cylinder(c) => {
+                let (p, n, uv) = c.sample_position(u);
+                PositionSample {
+                    p,
+                    n: n * sign,
+                    uv,
                     pdf,
                 }
             }

@@ -3,7 +3,7 @@
 //! `<sampler>` (`independent`, `stratified`), with Mitsuba 3's parameter names and defaults.
 
 use super::{check, unknown, Builder};
-use crate::camera::{Camera, FovAxis};
+use crate::camera::{Camera, Orthographic, ThinLens};
 use crate::error::{Error, Result, SourceLoc};
 use crate::film::{FilmDesc, Filter};
 use crate::integrator::aov::{AovKind, AovSettings};
@@ -149,13 +149,9 @@ impl<'d> Builder<'d> {
 
     pub(super) fn sensor(&mut self, n: &'d Node) -> Result<(Camera, FilmDesc, SamplerDesc)> {
         let p = self.props(n)?;
-        if p.plugin_type() != "perspective" {
-            return Err(unknown(
-                p.loc(),
-                "sensor",
-                p.plugin_type(),
-                &["perspective"],
-            ));
+        const SENSORS: [&str; 3] = ["perspective", "orthographic", "thinlens"];
+        if !SENSORS.contains(&p.plugin_type()) {
+            return Err(unknown(p.loc(), "sensor", p.plugin_type(), &SENSORS));
         }
         let mut film: Option<FilmDesc> = None;
         let mut sampler: Option<SamplerDesc> = None;
@@ -181,49 +177,19 @@ impl<'d> Builder<'d> {
             sample_count: 4,
             seed: 0,
         });
-        let to_world = p.transform("to_world")?;
-        let (fov, axis) = match (p.float_opt("fov")?, p.string_opt("focal_length")?) {
-            (Some(_), Some(_)) => {
-                return Err(Error::scene(
-                    p.loc(),
-                    "give either fov or focal_length, not both",
-                ))
-            }
-            (Some(f), None) => {
-                let axis_s = p.string("fov_axis", "x")?;
-                let axis = FovAxis::parse(&axis_s).ok_or_else(|| {
-                    Error::scene(
-                        p.loc(),
-                        format!(
-                            "fov_axis '{axis_s}' must be one of x, y, diagonal, smaller, larger"
-                        ),
-                    )
-                })?;
-                (f, axis)
-            }
-            (None, fl) => {
-                // Mitsuba: a 35 mm-equivalent focal length (default 50mm) sets the diagonal fov.
-                let s = fl.unwrap_or_else(|| "50mm".to_string());
-                let mm: f32 = s
-                    .trim()
-                    .trim_end_matches("mm")
-                    .trim()
-                    .parse()
-                    .map_err(|_| {
-                        Error::scene(p.loc(), format!("focal_length '{s}' must look like '50mm'"))
-                    })?;
-                check(
-                    p.loc(),
-                    mm > 0.0 && mm.is_finite(),
-                    "focal_length must be positive",
-                )?;
-                let diag = (36.0f32 * 36.0 + 24.0 * 24.0).sqrt();
-                (
-                    2.0 * (diag / (2.0 * mm)).atan().to_degrees(),
-                    FovAxis::Diagonal,
-                )
-            }
+        // Each of these sensors reads its own parameters (in its file under src/camera/).
+        let size = (film.width, film.height);
+        let camera = match p.plugin_type() {
+            "orthographic" => Some(Camera::Orthographic(Orthographic::from_props(&p, size)?)),
+            "thinlens" => Some(Camera::ThinLens(ThinLens::from_props(&p, size)?)),
+            _ => None,
         };
+        if let Some(camera) = camera {
+            p.finish()?;
+            return Ok((camera, film, sampler));
+        }
+        let to_world = p.transform("to_world")?;
+        let (fov, axis) = crate::camera::perspective::fov_from_props(&p)?;
         let near = p.float("near_clip", 0.01)?;
         let far = p.float("far_clip", 10000.0)?;
         // Depth of field parameters of the base camera that `perspective` ignores.

@@ -1,11 +1,11 @@
-//! `<shape>`s (`obj`, `ply`, `serialized`, `rectangle`, `cube`, `disk`, `sphere`), the `area` emitter a
+//! `<shape>`s (`obj`, `ply`, `serialized`, `rectangle`, `cube`, `disk`, `sphere`, `cylinder`), the `area` emitter a
 //! shape carries, and the default materials of shapes without a BSDF.
 
 use super::{check, unknown, Builder};
 use crate::emitter::area::AreaLight;
 use crate::emitter::Emitter;
 use crate::error::{Error, Result};
-use crate::geometry::{obj, ply, serialized, Shape};
+use crate::geometry::{obj, ply, serialized, Cylinder, Shape};
 use crate::material::{MatId, MaterialNode};
 use crate::scene::xml::ir::Node;
 use crate::scene::xml::props::Props;
@@ -92,6 +92,8 @@ impl<'d> Builder<'d> {
                 Shape::sphere(c, r, &to_world, flip)
                     .map_err(|e| Error::scene(p.loc(), e.to_string()))?
             }
+            // Mitsuba's open cylinder; its parameters are read in its own file.
+            "cylinder" => Cylinder::from_props(p, &to_world, flip)?,
             t => {
                 return Err(unknown(
                     p.loc(),
@@ -105,6 +107,7 @@ impl<'d> Builder<'d> {
                         "cube",
                         "disk",
                         "sphere",
+                        "cylinder",
                     ],
                 ))
             }

@@ -83,6 +83,12 @@ JOBS = [
     # The `moment` and `aov` integrators (tests/render/aov.rs): every film channel, see CHANNELS.
     ("moment", os.path.join(SCENES, "moment.xml"), {}, 4096, REF_SEEDS),
     ("aov", os.path.join(SCENES, "aov.xml"), {}, 4096, REF_SEEDS),
+    # Sensors `orthographic` (scaled film, near_clip cutting the scene) and `thinlens` (visible
+    # defocus), and the open `cylinder` shape (p0/p1/radius, to_world + uv checkerboard, emitting
+    # and flip_normals emitting cylinders) under a rectangle area light.
+    ("cam_ortho", os.path.join(SCENES, "cam_ortho.xml"), {}, 8192, REF_SEEDS),
+    ("cam_thinlens", os.path.join(SCENES, "cam_thinlens.xml"), {}, 16384, REF_SEEDS),
+    ("shape_cylinder", os.path.join(SCENES, "shape_cylinder.xml"), {}, 16384, REF_SEEDS),
 ]
 
 # Jobs whose film has extra channels (AOVs): the statistics are those of the film's developed

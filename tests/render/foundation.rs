@@ -292,3 +292,94 @@ fn the_serialized_comparison_sees_smooth_shading_of_the_flat_blob() {
     eprintln!("smooth blob: {}", c.report());
     assert!(!c.is_consistent(), "a smooth-shaded blob was accepted");
 }
+
+// ---------------------------------------------------------------- sensors and the cylinder
+
+#[test]
+fn orthographic_sensor_matches_mitsuba() {
+    // A scaled film under a look-at, near_clip cutting through the cube and the floor.
+    let r = render_scene(&test_scene("cam_ortho.xml"), &[], 512, 41, 0, |_| {});
+    let (m, v) = load_reference("cam_ortho");
+    let c = compare(&r.mean, &r.var, &m, &v, 4);
+    eprintln!("cam_ortho: {}", c.report());
+    c.assert_consistent("cam_ortho.xml, 512 spp");
+}
+
+#[test]
+fn the_orthographic_comparison_sees_a_wrong_film_size() {
+    // Sensitivity: a film 5% wider than the reference's is rejected.
+    let r = render_scene(
+        &test_scene("cam_ortho.xml"),
+        &[("scale", "2.52")],
+        512,
+        42,
+        0,
+        |_| {},
+    );
+    let (m, v) = load_reference("cam_ortho");
+    let c = compare(&r.mean, &r.var, &m, &v, 4);
+    eprintln!("cam_ortho, scale 2.52: {}", c.report());
+    assert!(
+        !c.is_consistent(),
+        "a 5% larger orthographic film was accepted"
+    );
+}
+
+#[test]
+fn thinlens_sensor_matches_mitsuba() {
+    // Visible defocus in front of and behind the plane of focus.
+    let r = render_scene(&test_scene("cam_thinlens.xml"), &[], 1024, 43, 0, |_| {});
+    let (m, v) = load_reference("cam_thinlens");
+    let c = compare(&r.mean, &r.var, &m, &v, 4);
+    eprintln!("cam_thinlens: {}", c.report());
+    c.assert_consistent("cam_thinlens.xml, 1024 spp");
+}
+
+#[test]
+fn the_thinlens_comparison_sees_a_wrong_focus_or_aperture() {
+    // Sensitivity: focus at 4.5 instead of 5.5, and a pinhole-like lens, are both rejected.
+    let (m, v) = load_reference("cam_thinlens");
+    for (defines, what) in [
+        ([("focus", "4.5")], "focus_distance 4.5"),
+        ([("aperture", "0.05")], "aperture_radius 0.05"),
+    ] {
+        let r = render_scene(
+            &test_scene("cam_thinlens.xml"),
+            &defines,
+            1024,
+            44,
+            0,
+            |_| {},
+        );
+        let c = compare(&r.mean, &r.var, &m, &v, 4);
+        eprintln!("cam_thinlens, {what}: {}", c.report());
+        assert!(!c.is_consistent(), "{what} was accepted");
+    }
+}
+
+#[test]
+fn cylinders_match_mitsuba() {
+    // p0/p1/radius, to_world with a uv checkerboard, an emitting and a flipped emitting cylinder.
+    let r = render_scene(&test_scene("shape_cylinder.xml"), &[], 1024, 45, 0, |_| {});
+    let (m, v) = load_reference("shape_cylinder");
+    let c = compare(&r.mean, &r.var, &m, &v, 4);
+    eprintln!("shape_cylinder: {}", c.report());
+    c.assert_consistent("shape_cylinder.xml, 1024 spp");
+}
+
+#[test]
+fn the_cylinder_comparison_sees_a_wrong_radius() {
+    // Sensitivity: the left cylinder 6% thicker (0.37 instead of 0.35) is rejected.
+    let r = render_scene(
+        &test_scene("shape_cylinder.xml"),
+        &[("radius", "0.37")],
+        1024,
+        46,
+        0,
+        |_| {},
+    );
+    let (m, v) = load_reference("shape_cylinder");
+    let c = compare(&r.mean, &r.var, &m, &v, 4);
+    eprintln!("shape_cylinder, radius 0.37: {}", c.report());
+    assert!(!c.is_consistent(), "a 6% thicker cylinder was accepted");
+}

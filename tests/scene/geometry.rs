@@ -706,6 +706,12 @@ fn disk_and_cube_conventions() {
 /// For each sample: trace from `ref_p` along `d`, check the hit is the sampled point, and that
 /// `pdf_direction` at the traced interaction equals the sample's pdf.
 fn check_pdf_consistency(shapes: &[Shape], ref_p: Vec3, seed: u64) {
+    check_pdf_consistency_min_cos(shapes, ref_p, seed, 0.0);
+}
+
+/// [`check_pdf_consistency`], skipping samples seen at |cos| < `min_cos` (on a curved surface the
+/// traced point's normal differs from the sampled one by rounding, which grazing angles amplify).
+fn check_pdf_consistency_min_cos(shapes: &[Shape], ref_p: Vec3, seed: u64, min_cos: f32) {
     let accel = Accel::build(shapes).unwrap();
     let mut r = Pcg32::new(seed, 7);
     let mut checked = 0;
@@ -714,6 +720,9 @@ fn check_pdf_consistency(shapes: &[Shape], ref_p: Vec3, seed: u64) {
             continue;
         };
         assert!((ds.d.length() - 1.0).abs() < 1e-5 && (ds.n.length() - 1.0).abs() < 1e-5);
+        if ds.d.dot(ds.n).abs() < min_cos {
+            continue;
+        }
         assert!((ref_p + ds.d * ds.dist - ds.p).length() < 1e-3 * (1.0 + ds.dist));
         let mut ray = Ray::new(ref_p, ds.d);
         ray.tmax = ds.dist * 1.001;
@@ -900,5 +909,449 @@ fn spawned_rays_do_not_self_intersect() {
             (mid + square_to_uniform_sphere(u2(r)) * 2000.0, target)
         },
         1000.0,
+    );
+}
+
+// ---------------------------------------------------------------- cylinder
+
+fn v3(a: [f32; 3]) -> Vec3 {
+    Vec3::from_array(a)
+}
+
+fn close3(a: Vec3, b: [f32; 3], tol: f32) -> bool {
+    (a - v3(b)).abs().max_element() <= tol
+}
+
+/// The `cylinder` through the loader's constructor: `p0`, `p1`, `radius`, then `to_world`.
+fn cylinder(p0: Vec3, p1: Vec3, r: f32, to_world: Mat4, flip: bool) -> Shape {
+    Shape::cylinder(
+        groove::geometry::Cylinder::new(p0, p1, r, &to_world).unwrap(),
+        flip,
+    )
+}
+
+/// Mitsuba 3.9.1 (`scalar_rgb`, `shape.ray_intersect`, `sample_position`, `surface_area`, `bbox`)
+/// for four cylinders: t, p, n, uv, dp/du, dp/dv at hits (from outside and from inside), and the
+/// sampled p, n, uv, pdf. The uv values pin where Mitsuba puts φ = 0 (its coordinate_system of the
+/// axis for p0/p1, the transform's x axis otherwise).
+#[test]
+// Mitsuba's values are quoted as Python printed them.
+#[allow(clippy::excessive_precision)]
+fn cylinder_matches_mitsuba() {
+    type PosRow = ([f32; 2], [f32; 3], [f32; 3], [f32; 2]);
+    type HitRow = (
+        [f32; 3],
+        [f32; 3],
+        f32,
+        [f32; 3],
+        [f32; 3],
+        [f32; 2],
+        [f32; 3],
+        [f32; 3],
+    );
+    let check = |shape: Shape, area: f32, bbox: [[f32; 3]; 2], hits: &[HitRow], pos: &[PosRow]| {
+        assert!(
+            (shape.area() - area).abs() < 1e-5 * area,
+            "area {} vs {area}",
+            shape.area()
+        );
+        let (lo, hi) = shape.bounds();
+        assert!(
+            close3(lo, bbox[0], 1e-5) && close3(hi, bbox[1], 1e-5),
+            "{lo} {hi}"
+        );
+        let shapes = vec![shape];
+        let accel = Accel::build(&shapes).unwrap();
+        for (o, d, t, p, n, uv, dpdu, dpdv) in hits {
+            let ray = Ray::new(v3(*o), v3(*d).normalize());
+            let (h, si) = hit_si(&accel, &shapes, &ray).expect("Mitsuba hits");
+            assert!((h.t - t).abs() < 1e-5 * t.max(1.0), "t {} vs {t}", h.t);
+            assert!(close3(si.p, *p, 2e-6 * (1.0 + t)), "p {} vs {p:?}", si.p);
+            assert!(
+                close3(si.ng, *n, 1e-5) && close3(si.sh.n, *n, 1e-5),
+                "n {} vs {n:?}",
+                si.ng
+            );
+            assert!(
+                (si.uv - Vec2::from_array(*uv)).abs().max_element() < 1e-5,
+                "uv {}",
+                si.uv
+            );
+            assert!(close3(si.dpdu, *dpdu, 1e-4) && close3(si.dpdv, *dpdv, 1e-5));
+        }
+        for (u, p, n, uv) in pos {
+            let ps = shapes[0].sample_position(Vec2::from_array(*u));
+            assert!(
+                close3(ps.p, *p, 1e-5) && close3(ps.n, *n, 1e-5),
+                "{} {}",
+                ps.p,
+                ps.n
+            );
+            assert!((ps.uv - Vec2::from_array(*uv)).abs().max_element() < 1e-6);
+            assert!((ps.pdf - 1.0 / area).abs() < 1e-5 / area);
+        }
+    };
+    // p0 (0.2,−0.3,0.1), p1 (1,0.5,−0.4), radius 0.3: from outside, and from inside the tube.
+    check(
+        cylinder(
+            Vec3::new(0.2, -0.3, 0.1),
+            Vec3::new(1.0, 0.5, -0.4),
+            0.3,
+            Mat4::IDENTITY,
+            false,
+        ),
+        2.33156156539917,
+        [
+            [
+                -0.028807654976844788,
+                -0.5288076400756836,
+                -0.6743977665901184,
+            ],
+            [1.2288076877593994, 0.7288076877593994, 0.37439775466918945],
+        ],
+        &[
+            (
+                [3.0, 0.2, 2.0],
+                [-3.0, -0.1, -2.2],
+                3.066019296646118,
+                [0.5284394025802612, 0.11761459708213806, 0.18752208352088928],
+                [0.13082033395767212, 0.42807120084762573, 0.8942264914512634],
+                [0.8412961959838867, 0.3614915609359741],
+                [1.416335105895996, -1.189845323562622, 0.3623836934566498],
+                [0.8, 0.8, -0.5],
+            ),
+            (
+                [0.6, 0.1, -0.15],
+                [0.3, 1.0, 0.2],
+                0.42904290556907654,
+                [0.721082866191864, 0.5036096572875977, -0.06927800178527832],
+                [-0.2576417922973633, 0.6841139197349548, 0.6823553442955017],
+                [0.759019136428833, 0.7479692697525024],
+                [1.3531303405761719, -0.6355612874031067, 1.1481103897094727],
+                [0.8, 0.8, -0.5],
+            ),
+        ],
+        &[
+            (
+                [0.25, 0.6],
+                [
+                    0.17706553637981415,
+                    0.09610620886087418,
+                    -0.06792518496513367,
+                ],
+                [
+                    -0.7431148886680603,
+                    0.6536874771118164,
+                    -0.14308395981788635,
+                ],
+                [0.6, 0.25],
+            ),
+            (
+                [0.9, 0.1],
+                [
+                    1.1429344415664673,
+                    0.22389379143714905,
+                    -0.30707472562789917,
+                ],
+                [0.7431150078773499, -0.6536873579025269, 0.14308422803878784],
+                [0.1, 0.9],
+            ),
+        ],
+    );
+    // The unit cylinder under translate · rotate(unit axis ∥ (0.3,1,0.2), 40°) · scale(0.7),
+    // flipped: from outside toward a sampled point (the hit has the sample's uv), and from inside.
+    let tw = Mat4::from_translation(Vec3::new(0.1, 0.2, 0.3))
+        * Mat4::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 40f32.to_radians())
+        * Mat4::from_scale(Vec3::splat(0.7));
+    check(
+        cylinder(Vec3::ZERO, Vec3::Z, 1.0, tw, true),
+        3.0787603855133057,
+        [
+            [
+                -0.45081594586372375,
+                -0.59110426902771,
+                -0.14295074343681335,
+            ],
+            [1.0827902555465698, 0.8931063413619995, 1.284978985786438],
+        ],
+        &[
+            (
+                [-1.312658542394638, -1.7686472237110138, 1.3756011724472046],
+                [1.1004830837249755, 1.4401094913482666, -0.696366012096405],
+                1.9416239261627197,
+                [
+                    -0.21217553317546844,
+                    -0.32853782176971436,
+                    0.6792352199554443,
+                ],
+                [0.6002415418624878, 0.7200546264648438, -0.3481830656528473],
+                [0.5999999642372131, 0.24999995529651642],
+                [2.2378740310668945, -2.989250421524048, -2.323945999145508],
+                [
+                    0.43197429180145264,
+                    -0.09799792617559433,
+                    0.5420281887054443,
+                ],
+            ),
+            (
+                [0.2, 0.4, 0.5],
+                [0.7, 0.25, 0.05],
+                0.7218573689460754,
+                [0.8782705068588257, 0.6422394514083862, 0.5484479069709778],
+                [-0.5733960270881653, -0.7539165616035461, 0.3206661641597748],
+                [0.10815436393022537, 0.872489869594574],
+                [-2.3701400756835938, 2.8231382369995117, 2.3993237018585205],
+                [
+                    0.43197429180145264,
+                    -0.09799792617559433,
+                    0.5420281887054443,
+                ],
+            ),
+        ],
+        &[
+            (
+                [0.25, 0.6],
+                [
+                    -0.21217545866966248,
+                    -0.3285377323627472,
+                    0.6792351603507996,
+                ],
+                [0.6002415418624878, 0.7200547456741333, -0.3481830060482025],
+                [0.6, 0.25],
+            ),
+            (
+                [0.9, 0.1],
+                [0.9089459776878357, 0.615839958190918, 0.5440971851348877],
+                [
+                    -0.6002416014671326,
+                    -0.7200545072555542,
+                    0.34818315505981445,
+                ],
+                [0.1, 0.9],
+            ),
+        ],
+    );
+    // A negative radius: the same tube with u turned by one half.
+    check(
+        cylinder(Vec3::ZERO, Vec3::Z, -0.5, Mat4::IDENTITY, false),
+        3.1415927410125732,
+        [[-0.5, -0.5, 0.0], [0.5, 0.5, 1.0]],
+        &[(
+            [3.0, 0.2, 0.5],
+            [-1.0, 0.0, 0.0],
+            2.5417423248291016,
+            [0.4582575559616089, 0.19999995827674866, 0.5],
+            [0.9165151715278625, 0.3999999165534973, 0.0],
+            [0.5654948353767395, 0.4999999701976776],
+            [-1.2566369771957397, 2.8793177604675293, 0.0],
+            [0.0, 0.0, 1.0],
+        )],
+        &[(
+            [0.25, 0.6],
+            [0.40450841188430786, 0.2938927412033081, 0.25],
+            [0.8090168833732605, 0.5877854824066162, 0.0],
+            [0.6, 0.25],
+        )],
+    );
+    // A mirror (scale x −1): Mitsuba's hit normal points outward (as here); its sampled normal
+    // points inward (−0.809, 0.588, 0) at (0.809, −0.588, 0.25), which groove does not copy: the
+    // sampled normal stays outward, like the hit normal at the same point.
+    check(
+        cylinder(
+            Vec3::ZERO,
+            Vec3::Z,
+            1.0,
+            Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)),
+            false,
+        ),
+        6.2831854820251465,
+        [[-1.0, -1.0, 0.0], [1.0, 1.0, 1.0]],
+        &[(
+            [3.0, 0.2, 0.5],
+            [-1.0, 0.0, 0.0],
+            2.0202038288116455,
+            [0.979796290397644, 0.20000003278255463, 0.5],
+            [0.9797959923744202, 0.19999995827674866, 0.0],
+            [0.4679528474807739, 0.4999999403953552],
+            [1.2566369771957397, -6.156240463256836, 0.0],
+            [0.0, 0.0, 1.0],
+        )],
+        &[(
+            [0.25, 0.6],
+            [0.8090168237686157, -0.5877854824066162, 0.25],
+            [0.8090168237686157, -0.5877854824066162, 0.0],
+            [0.6, 0.25],
+        )],
+    );
+}
+
+/// The exact cylinder against a fine triangle mesh of the same tube, both traced by Embree, for random rays from outside and
+/// from inside: the same hits (except near the silhouette and the rims, where the polygon and
+/// the circle may differ) at the same distance.
+#[test]
+fn cylinder_hits_agree_with_a_fine_triangle_mesh() {
+    let m = Mat4::from_translation(Vec3::new(1.0, -2.0, 0.5))
+        * Mat4::from_axis_angle(Vec3::new(1.0, 0.4, -0.3).normalize(), 1.1);
+    let (p0, p1, rad) = (Vec3::new(-0.2, 0.1, 0.3), Vec3::new(0.5, 1.4, -0.4), 0.6f32);
+    let exact = vec![cylinder(p0, p1, rad, m, false)];
+    // The tessellation in world space: the same frame as the loader's (Duff et al. 2017).
+    let axis = p1 - p0;
+    let f = Frame::from_normal(axis.normalize());
+    // 1024 segments around and 16 rings along: triangles of aspect ≈ 30 (Embree's intersection
+    // loses precision on long slivers), chordal error 0.6·(1 − cos(π/1024)) ≈ 2.8e-6.
+    let (segs, rings) = (1024u32, 16u32);
+    let mut mesh = TriMesh::default();
+    for j in 0..=rings {
+        for i in 0..segs {
+            let phi = 2.0 * std::f64::consts::PI * i as f64 / segs as f64;
+            let (s, c) = (phi.sin() as f32, phi.cos() as f32);
+            let z = j as f32 / rings as f32;
+            mesh.positions
+                .push(m.transform_point3(p0 + axis * z + (f.s * c + f.t * s) * rad));
+        }
+    }
+    for j in 0..rings {
+        for i in 0..segs {
+            let (a, b) = (j * segs + i, j * segs + (i + 1) % segs);
+            mesh.indices.push([a, b, a + segs]);
+            mesh.indices.push([b, b + segs, a + segs]);
+        }
+    }
+    let tess = vec![Shape::from_mesh(mesh, false, true).unwrap()];
+    let (ea, ta) = (Accel::build(&exact).unwrap(), Accel::build(&tess).unwrap());
+    let to_obj = m.inverse();
+    let centre = m.transform_point3(p0 + axis * 0.5);
+    let mut r = Pcg32::new(5, 1);
+    let (mut both, mut differ) = (0, 0);
+    for k in 0..20_000 {
+        let o = if k % 2 == 0 {
+            centre + square_to_uniform_sphere(u2(&mut r)) * 3.0
+        } else {
+            // inside the tube
+            let u = u2(&mut r);
+            let (s, c) = (2.0 * std::f32::consts::PI * u.y).sin_cos();
+            m.transform_point3(p0 + axis * u.x + (f.s * c + f.t * s) * rad * 0.9 * r.next_f32())
+        };
+        let target = centre + square_to_uniform_sphere(u2(&mut r)) * 1.2;
+        let ray = Ray::new(o, (target - o).normalize());
+        match (ea.intersect(&ray), ta.intersect(&ray)) {
+            (Some(a), Some(b)) => {
+                // The polygon lies up to 2.8e-6 inside the circle; along the ray, that over |cos|.
+                let cos = ray.d.dot(exact[0].interaction(0, &ray, &a).ng).abs();
+                let dt = (a.t - b.t).abs() * cos;
+                let rad_of = |t: f32| {
+                    let l = to_obj.transform_point3(ray.at(t)) - p0;
+                    (l - axis * (l.dot(axis) / axis.length_squared())).length()
+                };
+                assert!(
+                    dt < 3e-6 + 1e-6 * a.t,
+                    "t {} vs {} (cos {cos}) radii {} {} k {k}",
+                    a.t,
+                    b.t,
+                    rad_of(a.t),
+                    rad_of(b.t)
+                );
+                both += 1;
+            }
+            (None, None) => {}
+            (a, b) => {
+                // Only at grazing incidence or at a rim: the hit lies within 1e-4 of an edge.
+                let t = a.or(b).unwrap().t;
+                let l = to_obj.transform_point3(ray.at(t)) - p0;
+                let z = l.dot(axis) / axis.length_squared();
+                let d = ray
+                    .d
+                    .dot(exact[0].interaction(0, &ray, &a.or(b).unwrap()).ng)
+                    .abs();
+                assert!(
+                    z.abs() < 1e-4 || (z - 1.0).abs() < 1e-4 || d < 1e-2,
+                    "z {z} cos {d}"
+                );
+                differ += 1;
+            }
+        }
+    }
+    assert!(
+        both > 8000 && differ < 20,
+        "{both} common hits, {differ} differ"
+    );
+}
+
+/// Area sampling of the cylinder: `pdf_direction` at the traced point equals the sample's pdf, and
+/// E[1/pdf] over area samples (∫ |cos|/d² dA over the whole tube, front and back) equals 4π times
+/// the mean number of times a uniformly random direction crosses the tube.
+#[test]
+fn cylinder_area_sampling_pdf() {
+    let m = Mat4::from_translation(Vec3::new(0.3, 0.2, -0.1)) * Mat4::from_rotation_x(0.6);
+    let shape = cylinder(
+        Vec3::new(0.0, -0.5, 0.0),
+        Vec3::new(0.2, 0.8, 0.3),
+        0.4,
+        m,
+        false,
+    );
+    check_pdf_consistency_min_cos(
+        std::slice::from_ref(&shape),
+        Vec3::new(2.0, 1.0, 1.5),
+        21,
+        0.02,
+    );
+    let inside = cylinder(Vec3::ZERO, Vec3::Z, 1.0, Mat4::IDENTITY, true);
+    check_pdf_consistency_min_cos(&[inside], Vec3::new(0.2, -0.3, 0.4), 22, 0.02);
+    let shapes = vec![shape];
+    let accel = Accel::build(&shapes).unwrap();
+    let q = Vec3::new(1.2, 0.4, 0.9);
+    let n = 400_000;
+    let mut r = Pcg32::new(23, 0);
+    let (mut s1, mut s2, mut crossings) = (0.0f64, 0.0f64, 0usize);
+    for _ in 0..n {
+        if let Some(ds) = shapes[0].sample_direction(q, u2(&mut r)) {
+            let w = 1.0 / ds.pdf as f64;
+            s1 += w;
+            s2 += w * w;
+        }
+        let d = square_to_uniform_sphere(u2(&mut r));
+        let mut ray = Ray::new(q, d);
+        while let Some(h) = accel.intersect(&ray) {
+            crossings += 1;
+            ray.tmin = h.t * (1.0 + 1e-5) + 1e-6;
+        }
+    }
+    let mean = s1 / n as f64;
+    let sigma_is = ((s2 / n as f64 - mean * mean) / n as f64).sqrt();
+    let c = crossings as f64 / n as f64;
+    let four_pi = 4.0 * std::f64::consts::PI;
+    // Crossings per direction are 0, 1 or 2: variance ≤ E[c²] ≤ 2 E[c].
+    let sigma_mc = four_pi * (2.0 * c / n as f64).sqrt();
+    let sigma = (sigma_is * sigma_is + sigma_mc * sigma_mc).sqrt();
+    assert!(
+        (mean - four_pi * c).abs() < 4.0 * sigma,
+        "E[1/pdf] {mean} vs 4π·crossings {} ± {sigma}",
+        four_pi * c
+    );
+    assert!(c > 0.1, "the tube fills a good part of the view ({c})");
+}
+
+#[test]
+fn cylinder_spawned_rays_do_not_self_intersect() {
+    let tw = Mat4::from_translation(Vec3::new(-600.0, 300.0, 900.0)) * Mat4::from_rotation_z(0.7);
+    let shapes = vec![cylinder(
+        Vec3::ZERO,
+        Vec3::new(0.0, 0.0, 80.0),
+        20.0,
+        tw,
+        false,
+    )];
+    let shape0 = shapes[0].clone();
+    let c = tw.transform_point3(Vec3::new(0.0, 0.0, 40.0));
+    assert_no_self_hits(
+        &shapes,
+        move |r| {
+            (
+                c + square_to_uniform_sphere(u2(r)) * 200.0,
+                shape0.sample_position(u2(r)).p,
+            )
+        },
+        20.0,
     );
 }

@@ -827,3 +827,79 @@ fn textured_alpha_follows_mitsuba_rules() {
         "give either 'alpha' or 'alpha_u'/'alpha_v', not both",
     );
 }
+
+// ----------------------------------------------------------------------------------------------
+// orthographic and thinlens sensors, cylinder shape: loading and errors at the element
+
+/// Instantiates `sensor` (line 2) with one `shape` (line 3).
+fn sensor_shape_err(sensor: &str, shape: &str) -> String {
+    let text = format!("<scene version=\"3.0.0\">\n{sensor}\n{shape}\n</scene>\n");
+    let doc = load(&text).expect("parses");
+    groove::load::instantiate(&doc, Path::new("mem.xml"))
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default()
+}
+
+const FILM: &str = r#"<film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="2"/></film>"#;
+
+#[test]
+fn orthographic_thinlens_and_cylinder_load() {
+    let sphere = r#"<shape type="sphere"/>"#;
+    for sensor in [
+        format!(
+            r#"<sensor type="orthographic"><float name="near_clip" value="0.5"/><float name="focus_distance" value="3"/>{FILM}</sensor>"#
+        ),
+        format!(
+            r#"<sensor type="thinlens"><float name="aperture_radius" value="0.1"/><float name="focus_distance" value="3"/><float name="fov" value="30"/><string name="fov_axis" value="y"/>{FILM}</sensor>"#
+        ),
+        format!(
+            r#"<sensor type="thinlens"><float name="aperture_radius" value="0"/><string name="focal_length" value="35mm"/>{FILM}</sensor>"#
+        ),
+    ] {
+        assert_eq!(sensor_shape_err(&sensor, sphere), "", "{sensor}");
+    }
+    let sensor = format!(r#"<sensor type="perspective">{FILM}</sensor>"#);
+    for shape in [
+        r#"<shape type="cylinder"/>"#,
+        r#"<shape type="cylinder"><point name="p0" x="1" y="0" z="0"/><point name="p1" x="1" y="2" z="0"/><float name="radius" value="0.3"/><boolean name="flip_normals" value="true"/><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"#,
+        r#"<shape type="cylinder"><transform name="to_world"><scale value="2"/><rotate x="1" angle="30"/></transform></shape>"#,
+    ] {
+        assert_eq!(sensor_shape_err(&sensor, shape), "", "{shape}");
+    }
+}
+
+#[test]
+fn orthographic_thinlens_and_cylinder_bad_parameters() {
+    let sphere = r#"<shape type="sphere"/>"#;
+    let s = |body: &str, ty: &str| format!(r#"<sensor type="{ty}">{body}{FILM}</sensor>"#);
+    for (sensor, msg) in [
+        (s(r#"<float name="fov" value="40"/>"#, "orthographic"), "unreferenced property 'fov'"),
+        (s(r#"<float name="near_clip" value="2"/><float name="far_clip" value="1"/>"#, "orthographic"), "far_clip (1) must be finite and greater than near_clip (2)"),
+        (s(r#"<transform name="to_world"><scale z="0"/></transform>"#, "orthographic"), "maps the viewing direction (+z) to zero"),
+        (s("", "thinlens"), "thinlens needs an 'aperture_radius'"),
+        (s(r#"<float name="aperture_radius" value="0.1"/><float name="focus_distance" value="-1"/>"#, "thinlens"), "focus_distance must be positive"),
+        (s(r#"<float name="aperture_radius" value="0.1"/><float name="fov" value="30"/><string name="focal_length" value="50mm"/>"#, "thinlens"), "either fov or focal_length"),
+        (s(r#"<float name="aperture_radius" value="0.1"/><transform name="to_world"><scale value="2"/></transform>"#, "thinlens"), "thinlens: scale factors"),
+        (s(r#"<float name="aperture_radius" value="0.1"/><float name="principal_point_offset_x" value="0.1"/>"#, "thinlens"), "unreferenced property 'principal_point_offset_x'"),
+        (s(r#"<float name="shutter_open" value="1"/><float name="shutter_close" value="0.5"/>"#, "orthographic"), "shutter_close (0.5) must not be less than shutter_open (1)"),
+        (s("", "fisheye"), "unknown sensor plugin 'fisheye' (groove supports: perspective, orthographic, thinlens)"),
+    ] {
+        // At the element, or at the unused property inside it.
+        let err = sensor_shape_err(&sensor, sphere);
+        assert!(err.starts_with("mem.xml:2:"), "{sensor}: {err}");
+        assert!(err.contains(msg), "expected '{msg}' in: {err}");
+    }
+    let sensor = format!(r#"<sensor type="perspective">{FILM}</sensor>"#);
+    for (shape, msg) in [
+        (r#"<shape type="cylinder"><float name="height" value="2"/></shape>"#, "unreferenced property 'height'"),
+        (r#"<shape type="cylinder"><float name="radius" value="0"/></shape>"#, "radius must be finite and non-zero"),
+        (r#"<shape type="cylinder"><point name="p0" x="0" y="0" z="1"/></shape>"#, "must be finite and distinct"),
+        (r#"<shape type="cylinder"><transform name="to_world"><scale x="2"/></transform></shape>"#, "non-uniform scale across the cylinder's axis"),
+        (r#"<shape type="capsule"/>"#, "unknown shape plugin 'capsule' (groove supports: obj, ply, serialized, rectangle, cube, disk, sphere, cylinder)"),
+    ] {
+        let err = sensor_shape_err(&sensor, shape);
+        assert!(err.starts_with("mem.xml:3:"), "{shape}: {err}");
+        assert!(err.contains(msg), "expected '{msg}' in: {err}");
+    }
+}

@@ -1,5 +1,6 @@
 //! The perspective camera (Mitsuba 3 `perspective` sensor): field of view and its axis, `to_world`,
-//! near/far clip planes.
+//! near/far clip planes. Its projection (film position → direction on the z = 1 plane) is shared
+//! with the thin lens camera ([`super::thinlens`]).
 //!
 //! Conventions (checked numerically against Mitsuba 3.9.1, see the tests): in camera-local space
 //! the camera looks along +z, +y is up and +x points to the LEFT of the image, because Mitsuba's
@@ -10,6 +11,7 @@
 use crate::error::{Error, Result};
 use crate::geometry::Ray;
 use crate::math::{Mat4, Vec2, Vec3};
+use crate::scene::xml::props::Props;
 
 /// Which film axis the `fov` parameter refers to (Mitsuba's `fov_axis`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -35,9 +37,51 @@ impl FovAxis {
     }
 }
 
+/// The field of view of a Mitsuba perspective-type sensor (`perspective`, `thinlens`;
+/// `sensor.cpp`'s `parse_fov`): either `fov` in degrees along `fov_axis` (default `x`), or a
+/// 35 mm-equivalent `focal_length` such as `"50mm"` (the default), which sets the diagonal field
+/// of view of a 36 × 24 mm frame. Giving both is an error, as in Mitsuba.
+pub(crate) fn fov_from_props(p: &Props<'_>) -> Result<(f32, FovAxis)> {
+    match (p.float_opt("fov")?, p.string_opt("focal_length")?) {
+        (Some(_), Some(_)) => Err(Error::scene(
+            p.loc(),
+            "give either fov or focal_length, not both",
+        )),
+        (Some(f), None) => {
+            let axis_s = p.string("fov_axis", "x")?;
+            let axis = FovAxis::parse(&axis_s).ok_or_else(|| {
+                Error::scene(
+                    p.loc(),
+                    format!("fov_axis '{axis_s}' must be one of x, y, diagonal, smaller, larger"),
+                )
+            })?;
+            Ok((f, axis))
+        }
+        (None, fl) => {
+            let s = fl.unwrap_or_else(|| "50mm".to_string());
+            let mm: f32 = s
+                .trim()
+                .trim_end_matches("mm")
+                .trim()
+                .parse()
+                .map_err(|_| {
+                    Error::scene(p.loc(), format!("focal_length '{s}' must look like '50mm'"))
+                })?;
+            if !(mm > 0.0 && mm.is_finite()) {
+                return Err(Error::scene(p.loc(), "focal_length must be positive"));
+            }
+            let diag = (36.0f32 * 36.0 + 24.0 * 24.0).sqrt();
+            Ok((
+                2.0 * (diag / (2.0 * mm)).atan().to_degrees(),
+                FovAxis::Diagonal,
+            ))
+        }
+    }
+}
+
 /// A pinhole perspective camera.
 #[derive(Clone, Debug)]
-pub struct Camera {
+pub struct Perspective {
     to_world: Mat4,
     to_local: Mat4,
     /// tan of half the horizontal field of view.
@@ -56,7 +100,7 @@ pub struct Camera {
     tan_half_y: f32,
 }
 
-impl Camera {
+impl Perspective {
     /// Mitsuba 3 `perspective`: the camera looks along +z of `to_world`'s local space, +y up, local
     /// +x is LEFT in the image (Mitsuba's look-at builds columns (left, up, dir)). `film_size` is the
     /// full film (width, height), not the crop.
@@ -65,39 +109,59 @@ impl Camera {
     /// `far_clip <= near_clip` and a `to_world` with scale factors (a mirror such as
     /// `<scale x="-1"/>` is no scale and is accepted). Errors are [`Error::Usage`] without a
     /// location; the caller adds the XML position.
-    pub fn perspective(
+    pub fn new(
         to_world: Mat4,
         fov_deg: f32,
         fov_axis: FovAxis,
         near_clip: f32,
         far_clip: f32,
         film_size: (u32, u32),
-    ) -> Result<Camera> {
+    ) -> Result<Perspective> {
+        Perspective::projective(
+            "perspective",
+            to_world,
+            fov_deg,
+            fov_axis,
+            (near_clip, far_clip),
+            film_size,
+        )
+    }
+
+    /// The checks and projection of [`Perspective::new`] for the sensor `name` (`perspective`,
+    /// `thinlens`: both are Mitsuba `ProjectiveCamera`s with the same field-of-view rules).
+    pub(super) fn projective(
+        name: &str,
+        to_world: Mat4,
+        fov_deg: f32,
+        fov_axis: FovAxis,
+        (near_clip, far_clip): (f32, f32),
+        film_size: (u32, u32),
+    ) -> Result<Perspective> {
         let (w, h) = film_size;
         if w == 0 || h == 0 {
             return Err(Error::Usage(format!(
-                "perspective: film size must be positive, got {w}x{h}"
+                "{name}: film size must be positive, got {w}x{h}"
             )));
         }
         if !(fov_deg.is_finite() && fov_deg > 0.0 && fov_deg < 180.0) {
             return Err(Error::Usage(format!(
-                "perspective: fov must be in (0, 180) degrees, got {fov_deg}"
+                "{name}: fov must be in (0, 180) degrees, got {fov_deg}"
             )));
         }
         if !(near_clip.is_finite() && near_clip > 0.0) {
             return Err(Error::Usage(format!(
-                "perspective: near_clip must be greater than zero, got {near_clip}"
+                "{name}: near_clip must be greater than zero, got {near_clip}"
             )));
         }
         if !(far_clip.is_finite() && far_clip > near_clip) {
             return Err(Error::Usage(format!(
-                "perspective: far_clip ({far_clip}) must be greater than near_clip ({near_clip})"
+                "{name}: far_clip ({far_clip}) must be greater than near_clip ({near_clip})"
             )));
         }
         if !to_world.is_finite() {
-            return Err(Error::Usage(
-                "perspective: to_world contains non-finite values".into(),
-            ));
+            return Err(Error::Usage(format!(
+                "{name}: to_world contains non-finite values"
+            )));
         }
         // Mitsuba (perspective.cpp) refuses scale factors in the camera transform; the columns
         // of the linear part must be unit length. Rotations and mirrors pass.
@@ -108,7 +172,7 @@ impl Camera {
             let n2 = c.truncate().length_squared();
             if (n2 - 1.0).abs() > 1e-3 {
                 return Err(Error::Usage(format!(
-                    "perspective: scale factors in the camera to_world are not allowed \
+                    "{name}: scale factors in the camera to_world are not allowed \
                      (column {i} has length {})",
                     n2.sqrt()
                 )));
@@ -116,9 +180,7 @@ impl Camera {
         }
         let det = to_world.determinant();
         if !det.is_finite() || det.abs() < 1e-6 {
-            return Err(Error::Usage(
-                "perspective: to_world is not invertible".into(),
-            ));
+            return Err(Error::Usage(format!("{name}: to_world is not invertible")));
         }
         let to_local = to_world.inverse();
 
@@ -140,10 +202,10 @@ impl Camera {
         let x_fov = 2.0 * tan_half_x.atan().to_degrees();
         if !(x_fov > 0.0 && x_fov < 180.0) {
             return Err(Error::Usage(format!(
-                "perspective: the horizontal field of view must be in (0, 180) degrees, got {x_fov}"
+                "{name}: the horizontal field of view must be in (0, 180) degrees, got {x_fov}"
             )));
         }
-        Ok(Camera {
+        Ok(Perspective {
             to_world,
             to_local,
             tan_half_x: tan_half_x as f32,
@@ -163,6 +225,16 @@ impl Camera {
         2.0 * self.tan_half_x.atan().to_degrees()
     }
 
+    /// The camera-to-world transform.
+    pub fn to_world(&self) -> &Mat4 {
+        &self.to_world
+    }
+
+    /// The near and far clip distances.
+    pub fn clip(&self) -> (f32, f32) {
+        (self.near_clip, self.far_clip)
+    }
+
     /// Camera position in world space.
     pub fn position(&self) -> Vec3 {
         self.to_world.w_axis.truncate()
@@ -170,7 +242,7 @@ impl Camera {
 
     /// The camera-local, not normalised direction through a film position, with z = 1.
     #[inline]
-    fn local_dir(&self, film_pos: Vec2) -> Vec3 {
+    pub(super) fn local_dir(&self, film_pos: Vec2) -> Vec3 {
         // Normalised film coordinates u, v in [0,1]²; Mitsuba's perspective_projection maps them
         // to the z = 1 plane as x = (1 - 2u)·tan, y = (1 - 2v)·tan / aspect.
         Vec3::new(
@@ -220,10 +292,11 @@ impl Camera {
 #[cfg(test)]
 // Mitsuba's values are quoted as Python printed them.
 #[allow(clippy::excessive_precision)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
+    /// Mitsuba's look-at transform (shared by the other cameras' tests).
+    pub(crate) fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
         // Mitsuba's look_at: columns (left, new_up, dir, origin).
         let dir = (target - origin).normalize();
         let left = up.normalize().cross(dir).normalize();
@@ -236,7 +309,7 @@ mod tests {
         )
     }
 
-    fn check(cam: &Camera, w: u32, h: u32, uv: (f32, f32), expect: [f32; 3]) {
+    fn check(cam: &Perspective, w: u32, h: u32, uv: (f32, f32), expect: [f32; 3]) {
         let ray = cam.generate_ray(Vec2::new(uv.0 * w as f32, uv.1 * h as f32));
         let e = Vec3::from_array(expect);
         assert!(
@@ -256,7 +329,7 @@ mod tests {
     const UVS: [(f32, f32); 4] = [(0.5, 0.5), (0.0, 0.0), (1.0, 0.25), (0.1, 0.9)];
 
     fn check_case(axis: FovAxis, fov: f32, w: u32, h: u32, to_world: Mat4, dirs: [[f32; 3]; 4]) {
-        let cam = Camera::perspective(to_world, fov, axis, 0.01, 10000.0, (w, h)).unwrap();
+        let cam = Perspective::new(to_world, fov, axis, 0.01, 10000.0, (w, h)).unwrap();
         for (uv, d) in UVS.iter().zip(dirs) {
             check(&cam, w, h, *uv, d);
         }
@@ -438,7 +511,7 @@ mod tests {
         // Mitsuba, 8x8 film, fov 40, crop offset (2,4) size (4,2): the crop's top-left corner
         // (normalised crop position (0,0)) gives the same ray as full-film position (2,4).
         let cam =
-            Camera::perspective(Mat4::IDENTITY, 40.0, FovAxis::X, 0.01, 10000.0, (8, 8)).unwrap();
+            Perspective::new(Mat4::IDENTITY, 40.0, FovAxis::X, 0.01, 10000.0, (8, 8)).unwrap();
         let d = cam.generate_ray(Vec2::new(2.0, 4.0)).d;
         let e = Vec3::new(0.17904441058635712, 0.0, 0.9838410019874573);
         assert!((d - e).abs().max_element() < 1e-5, "{d:?}");
@@ -448,7 +521,7 @@ mod tests {
     fn clip_range_matches_mitsuba() {
         // Mitsuba: maxt = far/z - near/z (origin moved to the near plane), for fov 40 x, 64x48.
         let cam =
-            Camera::perspective(Mat4::IDENTITY, 40.0, FovAxis::X, 0.01, 10000.0, (64, 48)).unwrap();
+            Perspective::new(Mat4::IDENTITY, 40.0, FovAxis::X, 0.01, 10000.0, (64, 48)).unwrap();
         let r = cam.generate_ray(Vec2::new(0.0, 0.0));
         assert!((r.tmin - 0.01 / 0.9102233648300171).abs() < 1e-7);
         assert!(((r.tmax - r.tmin) - 10986.302734375).abs() < 2e-3);
@@ -459,7 +532,7 @@ mod tests {
     fn rejects_bad_parameters() {
         let id = Mat4::IDENTITY;
         let p = |m: Mat4, fov: f32, n: f32, f: f32| {
-            Camera::perspective(m, fov, FovAxis::X, n, f, (8, 8)).is_err()
+            Perspective::new(m, fov, FovAxis::X, n, f, (8, 8)).is_err()
         };
         assert!(p(id, 0.0, 0.01, 10.0));
         assert!(p(id, 180.0, 0.01, 10.0));
@@ -471,7 +544,7 @@ mod tests {
         let mut nan = id;
         nan.w_axis.x = f32::NAN;
         assert!(p(nan, 40.0, 0.01, 10.0));
-        assert!(Camera::perspective(id, 40.0, FovAxis::X, 0.01, 10.0, (0, 8)).is_err());
+        assert!(Perspective::new(id, 40.0, FovAxis::X, 0.01, 10.0, (0, 8)).is_err());
         assert!(!p(
             Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)),
             40.0,
@@ -479,7 +552,7 @@ mod tests {
             10.0
         ));
         // fov_axis y can push the horizontal fov past 180 degrees on a wide film.
-        assert!(Camera::perspective(id, 170.0, FovAxis::Y, 0.01, 10.0, (100, 10)).is_ok());
+        assert!(Perspective::new(id, 170.0, FovAxis::Y, 0.01, 10.0, (100, 10)).is_ok());
         assert_eq!(FovAxis::parse("Diagonal"), Some(FovAxis::Diagonal));
         assert_eq!(FovAxis::parse("z"), None);
     }
@@ -487,7 +560,7 @@ mod tests {
     #[test]
     fn film_position_rejects_outside_and_behind() {
         let cam =
-            Camera::perspective(Mat4::IDENTITY, 40.0, FovAxis::X, 0.01, 100.0, (64, 48)).unwrap();
+            Perspective::new(Mat4::IDENTITY, 40.0, FovAxis::X, 0.01, 100.0, (64, 48)).unwrap();
         assert!(cam.film_position(Vec3::new(0.0, 0.0, -1.0)).is_none());
         assert!(cam.film_position(Vec3::new(5.0, 0.0, 1.0)).is_none());
         let c = cam.film_position(Vec3::Z).unwrap();
