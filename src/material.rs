@@ -3,7 +3,10 @@
 
 use crate::bsdf::mnm::facets::{clamp_perturbed_normal, Microgeometry};
 use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent, TransmissionWalk};
-use crate::bsdf::{bumpmap, Blend, BsdfArena, BsdfNode, Diffuse, Lobes, Mask, NormalMap};
+use crate::bsdf::{
+    bumpmap, Blend, BsdfArena, BsdfNode, Diffuse, Lobes, Mask, NormalMap, Principled,
+    PrincipledThin,
+};
 use crate::geometry::SurfaceInteraction;
 use crate::texture::Texture;
 use glam::Vec3;
@@ -25,12 +28,33 @@ pub enum Slot {
     Alpha,
     AlphaU,
     AlphaV,
+    /// `principled` / `principledthin` parameters (all scalar except `BaseColor`).
+    BaseColor,
+    Roughness,
+    Anisotropic,
+    Metallic,
+    SpecTrans,
+    SpecTint,
+    Sheen,
+    SheenTint,
+    Flatness,
+    Clearcoat,
+    ClearcoatGloss,
+    DiffTrans,
+    Eta,
 }
 
 impl Slot {
     /// A scalar field (evaluated with `eval_1`, Mitsuba's rule for float textures).
     pub fn is_scalar(self) -> bool {
-        matches!(self, Slot::Alpha | Slot::AlphaU | Slot::AlphaV)
+        !matches!(
+            self,
+            Slot::Reflectance
+                | Slot::SpecularReflectance
+                | Slot::SpecularTransmittance
+                | Slot::DiffuseReflectance
+                | Slot::BaseColor
+        )
     }
 }
 
@@ -98,6 +122,18 @@ pub enum MaterialNode {
         scale: f32,
         flip_invalid_normals: bool,
         use_shadowing_function: bool,
+    },
+    /// `principled`: `template` copied per hit (into the arena's side storage) with its `slots`
+    /// overwritten by the texture values.
+    Principled {
+        template: Box<Principled>,
+        slots: Vec<(Slot, TexId)>,
+    },
+    /// `principledthin`, likewise; `transmits`: it has the glossy transmission lobe.
+    PrincipledThin {
+        template: Box<PrincipledThin>,
+        transmits: bool,
+        slots: Vec<(Slot, TexId)>,
     },
 }
 
@@ -176,6 +212,14 @@ fn skeleton(n: &MaterialNode) -> BsdfNode {
             weight: 0.0,
         }),
         MaterialNode::Null => BsdfNode::Null,
+        MaterialNode::Principled { template, .. } => BsdfNode::Principled {
+            index: 0,
+            transmits: template.has_spec_trans,
+        },
+        MaterialNode::PrincipledThin { transmits, .. } => BsdfNode::PrincipledThin {
+            index: 0,
+            transmits: *transmits,
+        },
         MaterialNode::Mask { nested, .. } => BsdfNode::Mask(Mask {
             nested: *nested,
             opacity: 1.0,
@@ -301,6 +345,34 @@ impl Materials {
                 )
             }
             MaterialNode::Null => arena.push_with_lobes(lobes, BsdfNode::Null),
+            MaterialNode::Principled { template, slots } => {
+                let mut b = **template;
+                for &(slot, tex) in slots {
+                    let t = &self.textures[tex as usize];
+                    if slot.is_scalar() {
+                        b.patch(slot, Vec3::ZERO, t.eval_1(si.uv));
+                    } else {
+                        b.patch(slot, t.eval(si.uv), 0.0);
+                    }
+                }
+                arena.push_principled(b)
+            }
+            MaterialNode::PrincipledThin {
+                template,
+                transmits,
+                slots,
+            } => {
+                let mut b = **template;
+                for &(slot, tex) in slots {
+                    let t = &self.textures[tex as usize];
+                    if slot.is_scalar() {
+                        b.patch(slot, Vec3::ZERO, t.eval_1(si.uv));
+                    } else {
+                        b.patch(slot, t.eval(si.uv), 0.0);
+                    }
+                }
+                arena.push_principled_thin(b, *transmits)
+            }
             MaterialNode::Mask { opacity, nested } => {
                 let child = self.build(*nested, si, arena);
                 let o = self.textures[*opacity as usize].eval_1(si.uv);

@@ -25,6 +25,9 @@
 //! - [`RoughPlastic::new`] `(distribution, alpha, sample_visible, diffuse_reflectance,
 //!   specular_reflectance, int_ior, ext_ior, nonlinear)` — isotropic only, like Mitsuba; it
 //!   precomputes (and caches process-wide) its coating table, so build it at load time.
+//! - [`Principled`] (`principled`) and [`PrincipledThin`] (`principledthin`): Burley's Disney
+//!   BSDF as Mitsuba 3.9.1 has it; parameters stored beside the nodes (`BsdfArena::principled`),
+//!   built by [`BsdfArena::push_principled`] / [`BsdfArena::push_principled_thin`].
 //! - `Null` (`null`: straight pass-through, a delta lobe flagged [`Lobes::NULL`]).
 //! - Wrappers (children by arena index): `TwoSided { front, back }`, [`NormalMap`] (classic
 //!   normal mapping, Mitsuba 3.9.1 semantics; also the node of `bumpmap`, whose perturbed normal
@@ -45,6 +48,7 @@ pub mod bumpmap;
 pub mod conductor;
 pub mod dielectric;
 pub mod diffuse;
+pub mod disney;
 pub mod fresnel;
 pub mod ior;
 pub mod lobes;
@@ -59,6 +63,8 @@ pub mod null;
 #[rustfmt::skip]
 mod mitsuba_refs_data;
 pub mod plastic;
+pub mod principled;
+pub mod principledthin;
 pub mod roughconductor;
 pub mod roughdielectric;
 pub mod roughplastic;
@@ -76,6 +82,8 @@ pub use mask::Mask;
 pub use microfacet::{MicrofacetDistribution, MicrofacetType};
 pub use normalmap::NormalMap;
 pub use plastic::Plastic;
+pub use principled::Principled;
+pub use principledthin::PrincipledThin;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
 pub use roughplastic::RoughPlastic;
@@ -167,6 +175,20 @@ pub enum BsdfNode {
     Null,
     /// `mask`: `opacity · f_nested` plus a pass-through lobe of weight `1 − opacity`.
     Mask(Mask),
+    /// `principled`: an index into the arena's principled parameters (76 bytes, stored beside
+    /// the nodes like the microfacet normal maps). Built by [`BsdfArena::push_principled`].
+    Principled {
+        index: u32,
+        /// Has the transmission lobe (for [`BsdfNode::lobes`]).
+        transmits: bool,
+    },
+    /// `principledthin`: an index into the arena's thin principled parameters. Built by
+    /// [`BsdfArena::push_principled_thin`].
+    PrincipledThin {
+        index: u32,
+        /// Has the glossy transmission lobe (for [`BsdfNode::lobes`]).
+        transmits: bool,
+    },
 }
 
 impl BsdfNode {
@@ -189,6 +211,8 @@ impl BsdfNode {
             BsdfNode::Blend(m) => child(m.bsdf0) | child(m.bsdf1),
             BsdfNode::Null => Lobes::NULL,
             BsdfNode::Mask(m) => child(m.nested) | Lobes::NULL,
+            BsdfNode::Principled { transmits, .. } => Principled::lobes(*transmits),
+            BsdfNode::PrincipledThin { transmits, .. } => PrincipledThin::lobes(*transmits),
         }
     }
 }
@@ -202,6 +226,9 @@ pub struct BsdfArena {
     lobes: Vec<Lobes>,
     /// Payloads of the `BsdfNode::MicrofacetNormalMap` nodes.
     mnm: Vec<mnm::MicrofacetNormalMap>,
+    /// Payloads of the `BsdfNode::Principled` and `BsdfNode::PrincipledThin` nodes.
+    principled: Vec<Principled>,
+    principled_thin: Vec<PrincipledThin>,
     /// Random walks sampled since the last [`BsdfArena::take_walk_counts`], and their
     /// vertices. The arena is per-thread scratch: relaxed loads and stores (plain moves, no
     /// locked read-modify-write) keep it `Sync` for tests that share one read-only arena
@@ -223,6 +250,8 @@ impl BsdfArena {
             nodes: Vec::with_capacity(16),
             lobes: Vec::with_capacity(16),
             mnm: Vec::with_capacity(4),
+            principled: Vec::new(),
+            principled_thin: Vec::new(),
             walks: [AtomicU64::new(0), AtomicU64::new(0)],
         }
     }
@@ -232,6 +261,8 @@ impl BsdfArena {
         self.nodes.clear();
         self.lobes.clear();
         self.mnm.clear();
+        self.principled.clear();
+        self.principled_thin.clear();
     }
     /// Store a node and return its index.
     #[inline]
@@ -261,6 +292,23 @@ impl BsdfArena {
                 nested,
             },
         )
+    }
+    /// Store a `principled` BSDF (`transmits`: it has the transmission lobe, Mitsuba's
+    /// `m_has_spec_trans`, which the parameters carry) and return its node's index.
+    #[inline]
+    pub fn push_principled(&mut self, p: Principled) -> u32 {
+        let transmits = p.has_spec_trans;
+        self.principled.push(p);
+        let index = (self.principled.len() - 1) as u32;
+        self.push(BsdfNode::Principled { index, transmits })
+    }
+    /// Store a `principledthin` BSDF (`transmits`: it has the glossy transmission lobe, i.e.
+    /// `spec_trans` was given and is not the constant 0) and return its node's index.
+    #[inline]
+    pub fn push_principled_thin(&mut self, p: PrincipledThin, transmits: bool) -> u32 {
+        self.principled_thin.push(p);
+        let index = (self.principled_thin.len() - 1) as u32;
+        self.push(BsdfNode::PrincipledThin { index, transmits })
     }
     /// Node `index`, for patching texture values in place (a patch must keep the node's kind:
     /// its lobes were computed when it was pushed).
@@ -342,6 +390,12 @@ impl<'a> Bsdf<'a> {
             BsdfNode::Blend(m) => blend::eval(*self, m, ctx, wi, wo, sampler),
             BsdfNode::Null => Spectrum::ZERO,
             BsdfNode::Mask(m) => mask::eval(*self, m, ctx, wi, wo, sampler),
+            BsdfNode::Principled { index, .. } => {
+                self.arena.principled[*index as usize].eval(ctx.mode, wi, wo)
+            }
+            BsdfNode::PrincipledThin { index, .. } => {
+                self.arena.principled_thin[*index as usize].eval(wi, wo)
+            }
         }
     }
 
@@ -364,6 +418,10 @@ impl<'a> Bsdf<'a> {
             BsdfNode::Blend(m) => blend::pdf(*self, m, ctx, wi, wo),
             BsdfNode::Null => 0.0,
             BsdfNode::Mask(m) => mask::pdf(*self, m, ctx, wi, wo),
+            BsdfNode::Principled { index, .. } => self.arena.principled[*index as usize].pdf(wi, wo),
+            BsdfNode::PrincipledThin { index, .. } => {
+                self.arena.principled_thin[*index as usize].pdf(wi, wo)
+            }
         }
     }
 
@@ -397,6 +455,14 @@ impl<'a> Bsdf<'a> {
             BsdfNode::Blend(m) => blend::sample(*self, m, ctx, wi, sampler),
             BsdfNode::Null => Some(null::pass_through(wi)),
             BsdfNode::Mask(m) => mask::sample(*self, m, ctx, wi, sampler),
+            BsdfNode::Principled { index, .. } => {
+                let u1 = sampler.next_1d();
+                self.arena.principled[*index as usize].sample(ctx.mode, wi, u1, sampler.next_2d())
+            }
+            BsdfNode::PrincipledThin { index, .. } => {
+                let u1 = sampler.next_1d();
+                self.arena.principled_thin[*index as usize].sample(wi, u1, sampler.next_2d())
+            }
         }?;
         // One place rejects degenerate samples for every model.
         if !(s.wo.is_finite() && s.pdf >= 0.0 && crate::spectrum::is_finite(s.weight)) {
@@ -427,6 +493,12 @@ impl<'a> Bsdf<'a> {
                 mnm::eval_pdf(*self, &self.arena.mnm[*i as usize], ctx, wi, wo, sampler)
             }
             BsdfNode::NormalMap(m) => normalmap::eval_pdf(*self, m, ctx, wi, wo, sampler),
+            BsdfNode::Principled { index, .. } => {
+                self.arena.principled[*index as usize].eval_pdf(ctx.mode, wi, wo)
+            }
+            BsdfNode::PrincipledThin { index, .. } => {
+                self.arena.principled_thin[*index as usize].eval_pdf(wi, wo)
+            }
             _ => (self.eval(ctx, wi, wo, sampler), self.pdf(ctx, wi, wo)),
         }
     }

@@ -67,6 +67,8 @@ const SUPPORTED_BSDFS: &[&str] = &[
     "null",
     "mask",
     "bumpmap",
+    "principled",
+    "principledthin",
 ];
 
 struct Builder<'d> {
@@ -843,6 +845,27 @@ impl<'d> Builder<'d> {
             }
             "mask" => self.mask(&p)?,
             "bumpmap" => self.bumpmap(&p)?,
+            t @ ("principled" | "principledthin") => {
+                // A parameter's nested (or referenced) texture, if any.
+                let mut texture = |name: &str| -> Result<Option<TexId>> {
+                    let Some(c) = p.objects().find(|c| c.attr("name") == Some(name)) else {
+                        return Ok(None);
+                    };
+                    if c.tag != "texture" && self.ref_target_tag(c) != Some("texture") {
+                        return Err(Error::scene(
+                            &c.loc,
+                            format!("'{name}' expects a value or a <texture>, not a <{}>", c.tag),
+                        ));
+                    }
+                    let tex = self.deref(c, "texture")?;
+                    self.texture(tex).map(Some)
+                };
+                if t == "principled" {
+                    crate::bsdf::principled::material(&p, &mut texture)?
+                } else {
+                    crate::bsdf::principledthin::material(&p, &mut texture)?
+                }
+            }
             "normalmap" => match self.normal_mapping {
                 NormalMapping::Microfacet | NormalMapping::Forced(_) => {
                     self.normalmap_as_microfacet(&p)?
