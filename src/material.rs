@@ -214,11 +214,11 @@ fn skeleton(n: &MaterialNode) -> BsdfNode {
         MaterialNode::Null => BsdfNode::Null,
         MaterialNode::Principled { template, .. } => BsdfNode::Principled {
             index: 0,
-            transmits: template.has_spec_trans,
+            lobes: Principled::lobes(template.has_spec_trans),
         },
         MaterialNode::PrincipledThin { transmits, .. } => BsdfNode::PrincipledThin {
             index: 0,
-            transmits: *transmits,
+            lobes: PrincipledThin::lobes(*transmits),
         },
         MaterialNode::Mask { nested, .. } => BsdfNode::Mask(Mask {
             nested: *nested,
@@ -256,6 +256,56 @@ impl Materials {
     #[inline]
     pub fn lobes(&self, id: MatId) -> Lobes {
         self.lobes[id as usize]
+    }
+
+    /// Evaluate the textures of `slots` at `si` and hand each value to `patch` (colour slots as
+    /// the colour, scalar slots as `eval_1`).
+    fn patch_slots(
+        &self,
+        slots: &[(Slot, TexId)],
+        si: &SurfaceInteraction,
+        mut patch: impl FnMut(Slot, Vec3, f32),
+    ) {
+        for &(slot, tex) in slots {
+            let t = &self.textures[tex as usize];
+            if slot.is_scalar() {
+                patch(slot, Vec3::ZERO, t.eval_1(si.uv));
+            } else {
+                patch(slot, t.eval(si.uv), 0.0);
+            }
+        }
+    }
+
+    /// [`Self::build`] of a `principled` node: its parameters go to the arena's side storage.
+    /// Out of line (like [`Self::build_principled_thin`]) so that `build` stays as small as it
+    /// was for the other models.
+    #[cold]
+    #[inline(never)]
+    fn build_principled(
+        &self,
+        template: &Principled,
+        slots: &[(Slot, TexId)],
+        si: &SurfaceInteraction,
+        arena: &mut BsdfArena,
+    ) -> u32 {
+        let mut b = *template;
+        self.patch_slots(slots, si, |slot, v, s| b.patch(slot, v, s));
+        arena.push_principled(b)
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn build_principled_thin(
+        &self,
+        template: &PrincipledThin,
+        transmits: bool,
+        slots: &[(Slot, TexId)],
+        si: &SurfaceInteraction,
+        arena: &mut BsdfArena,
+    ) -> u32 {
+        let mut b = *template;
+        self.patch_slots(slots, si, |slot, v, s| b.patch(slot, v, s));
+        arena.push_principled_thin(b, transmits)
     }
 
     /// Build the BSDF of material `id` at `si` into `arena`; returns the root node index.
@@ -346,33 +396,13 @@ impl Materials {
             }
             MaterialNode::Null => arena.push_with_lobes(lobes, BsdfNode::Null),
             MaterialNode::Principled { template, slots } => {
-                let mut b = **template;
-                for &(slot, tex) in slots {
-                    let t = &self.textures[tex as usize];
-                    if slot.is_scalar() {
-                        b.patch(slot, Vec3::ZERO, t.eval_1(si.uv));
-                    } else {
-                        b.patch(slot, t.eval(si.uv), 0.0);
-                    }
-                }
-                arena.push_principled(b)
+                self.build_principled(template, slots, si, arena)
             }
             MaterialNode::PrincipledThin {
                 template,
                 transmits,
                 slots,
-            } => {
-                let mut b = **template;
-                for &(slot, tex) in slots {
-                    let t = &self.textures[tex as usize];
-                    if slot.is_scalar() {
-                        b.patch(slot, Vec3::ZERO, t.eval_1(si.uv));
-                    } else {
-                        b.patch(slot, t.eval(si.uv), 0.0);
-                    }
-                }
-                arena.push_principled_thin(b, *transmits)
-            }
+            } => self.build_principled_thin(template, *transmits, slots, si, arena),
             MaterialNode::Mask { opacity, nested } => {
                 let child = self.build(*nested, si, arena);
                 let o = self.textures[*opacity as usize].eval_1(si.uv);
