@@ -123,15 +123,21 @@ pub enum MaterialNode {
         flip_invalid_normals: bool,
         use_shadowing_function: bool,
     },
-    /// `principled`: `template` copied per hit (into the arena's side storage) with its `slots`
-    /// overwritten by the texture values.
-    Principled {
-        template: Box<Principled>,
+    /// `principled` or `principledthin` (one variant, boxed: `build` stays as small as it was).
+    Principled(Box<PrincipledMaterial>),
+}
+
+/// A `principled` or `principledthin` material: `template` is copied per hit (into the arena's
+/// side storage) with its `slots` overwritten by the texture values.
+#[derive(Clone, Debug)]
+pub enum PrincipledMaterial {
+    Full {
+        template: Principled,
         slots: Vec<(Slot, TexId)>,
     },
-    /// `principledthin`, likewise; `transmits`: it has the glossy transmission lobe.
-    PrincipledThin {
-        template: Box<PrincipledThin>,
+    Thin {
+        template: PrincipledThin,
+        /// It has the glossy transmission lobe (`spec_trans` given and not the constant 0).
         transmits: bool,
         slots: Vec<(Slot, TexId)>,
     },
@@ -212,13 +218,15 @@ fn skeleton(n: &MaterialNode) -> BsdfNode {
             weight: 0.0,
         }),
         MaterialNode::Null => BsdfNode::Null,
-        MaterialNode::Principled { template, .. } => BsdfNode::Principled {
-            index: 0,
-            lobes: Principled::lobes(template.has_spec_trans),
-        },
-        MaterialNode::PrincipledThin { transmits, .. } => BsdfNode::PrincipledThin {
-            index: 0,
-            lobes: PrincipledThin::lobes(*transmits),
+        MaterialNode::Principled(m) => match &**m {
+            PrincipledMaterial::Full { template, .. } => BsdfNode::Principled {
+                index: 0,
+                lobes: Principled::lobes(template.has_spec_trans),
+            },
+            PrincipledMaterial::Thin { transmits, .. } => BsdfNode::PrincipledThin {
+                index: 0,
+                lobes: PrincipledThin::lobes(*transmits),
+            },
         },
         MaterialNode::Mask { nested, .. } => BsdfNode::Mask(Mask {
             nested: *nested,
@@ -276,36 +284,31 @@ impl Materials {
         }
     }
 
-    /// [`Self::build`] of a `principled` node: its parameters go to the arena's side storage.
-    /// Out of line (like [`Self::build_principled_thin`]) so that `build` stays as small as it
-    /// was for the other models.
-    #[cold]
+    /// [`Self::build`] of a principled material: its parameters go to the arena's side
+    /// storage. Out of line so that `build` stays as small as it was for the other models.
     #[inline(never)]
     fn build_principled(
         &self,
-        template: &Principled,
-        slots: &[(Slot, TexId)],
+        m: &PrincipledMaterial,
         si: &SurfaceInteraction,
         arena: &mut BsdfArena,
     ) -> u32 {
-        let mut b = *template;
-        self.patch_slots(slots, si, |slot, v, s| b.patch(slot, v, s));
-        arena.push_principled(b)
-    }
-
-    #[cold]
-    #[inline(never)]
-    fn build_principled_thin(
-        &self,
-        template: &PrincipledThin,
-        transmits: bool,
-        slots: &[(Slot, TexId)],
-        si: &SurfaceInteraction,
-        arena: &mut BsdfArena,
-    ) -> u32 {
-        let mut b = *template;
-        self.patch_slots(slots, si, |slot, v, s| b.patch(slot, v, s));
-        arena.push_principled_thin(b, transmits)
+        match m {
+            PrincipledMaterial::Full { template, slots } => {
+                let mut b = *template;
+                self.patch_slots(slots, si, |slot, v, s| b.patch(slot, v, s));
+                arena.push_principled(b)
+            }
+            PrincipledMaterial::Thin {
+                template,
+                transmits,
+                slots,
+            } => {
+                let mut b = *template;
+                self.patch_slots(slots, si, |slot, v, s| b.patch(slot, v, s));
+                arena.push_principled_thin(b, *transmits)
+            }
+        }
     }
 
     /// Build the BSDF of material `id` at `si` into `arena`; returns the root node index.
@@ -395,14 +398,7 @@ impl Materials {
                 )
             }
             MaterialNode::Null => arena.push_with_lobes(lobes, BsdfNode::Null),
-            MaterialNode::Principled { template, slots } => {
-                self.build_principled(template, slots, si, arena)
-            }
-            MaterialNode::PrincipledThin {
-                template,
-                transmits,
-                slots,
-            } => self.build_principled_thin(template, *transmits, slots, si, arena),
+            MaterialNode::Principled(m) => self.build_principled(m, si, arena),
             MaterialNode::Mask { opacity, nested } => {
                 let child = self.build(*nested, si, arena);
                 let o = self.textures[*opacity as usize].eval_1(si.uv);

@@ -74,7 +74,10 @@ fn check_model(model: &str, min_points: usize) {
         let (materials, mat) = load(xml);
         for p in case["points"].as_array().unwrap() {
             let uv = p["uv"].as_array().unwrap();
-            let uv = Vec2::new(uv[0].as_f64().unwrap() as f32, uv[1].as_f64().unwrap() as f32);
+            let uv = Vec2::new(
+                uv[0].as_f64().unwrap() as f32,
+                uv[1].as_f64().unwrap() as f32,
+            );
             let mode = if p["mode"].as_u64().unwrap() == 0 {
                 TransportMode::Radiance
             } else {
@@ -97,7 +100,7 @@ fn check_model(model: &str, min_points: usize) {
             worst = worst.max(err);
             n += 1;
             nonzero += usize::from(re.max_element() > 0.0);
-            if !(err < 2e-4) {
+            if err.is_nan() || err >= 2e-4 {
                 fails.push(format!(
                     "{xml}\n  uv {uv} mode {mode:?} wi {wi} wo {wo}: eval {e} vs {re}, pdf {pdf} vs {rp}"
                 ));
@@ -110,7 +113,10 @@ fn check_model(model: &str, min_points: usize) {
         fails.len(),
         fails[..fails.len().min(20)].join("\n")
     );
-    assert!(n >= min_points && nonzero * 4 >= n, "{n} points, {nonzero} non-zero");
+    assert!(
+        n >= min_points && nonzero * 4 >= n,
+        "{n} points, {nonzero} non-zero"
+    );
     eprintln!("{model}: {n} points ({nonzero} non-zero), worst relative difference {worst:.2e}");
 }
 

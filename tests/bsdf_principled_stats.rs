@@ -352,16 +352,29 @@ fn albedos_of_simple_configurations() {
     );
     let (m, se) = furnace(&s);
     for k in 0..3 {
-        assert!(m[k] > 0.95 && m[k] < 1.0 + 4.0 * se[k], "glass albedo {m:?}");
+        assert!(
+            m[k] > 0.95 && m[k] < 1.0 + 4.0 * se[k],
+            "glass albedo {m:?}"
+        );
     }
     let sheet = PrincipledThin {
         base_color: Vec3::new(0.3, 0.6, 0.9),
         diff_trans: 2.0,
         ..PrincipledThin::default()
     };
-    let s = draw(&thin_bsdf(sheet, false), direction(50.0, 10.0), &grid, N, 4, true);
+    let s = draw(
+        &thin_bsdf(sheet, false),
+        direction(50.0, 10.0),
+        &grid,
+        N,
+        4,
+        true,
+    );
     let (m, se) = furnace(&s);
     for (k, want) in [0.3, 0.6, 0.9].into_iter().enumerate() {
-        assert!((m[k] - want).abs() < 4.0 * se[k] + 1e-4, "sheet albedo {m:?}");
+        assert!(
+            (m[k] - want).abs() < 4.0 * se[k] + 1e-4,
+            "sheet albedo {m:?}"
+        );
     }
 }

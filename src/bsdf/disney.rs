@@ -82,7 +82,11 @@ pub fn alphas(anisotropic: f32, roughness: f32) -> (f32, f32) {
 /// on the same side for a reflection, on the other for a transmission.
 #[inline]
 pub fn facet_compatible(m: Vec3, wi: Vec3, wo: Vec3, cos_theta_i: f32, reflection: bool) -> bool {
-    let m = if cos_theta_i.is_sign_negative() { -m } else { m };
+    let m = if cos_theta_i.is_sign_negative() {
+        -m
+    } else {
+        m
+    };
     let o = if reflection { wo.dot(m) } else { -wo.dot(m) };
     wi.dot(m) > 0.0 && o > 0.0
 }

@@ -41,7 +41,7 @@ use super::fresnel::{fresnel_dielectric, refract};
 use super::microfacet::{MicrofacetDistribution, MicrofacetType};
 use super::{BsdfSample, Lobes, TransportMode};
 use crate::error::{Error, Result};
-use crate::material::{MaterialNode, Slot, TexId};
+use crate::material::{MaterialNode, PrincipledMaterial, Slot, TexId};
 use crate::math::{reflect, warp};
 use crate::scene::xml::props::Props;
 use crate::spectrum::Spectrum;
@@ -212,7 +212,8 @@ impl Principled {
         let (brdf, bsdf) = self.weights();
         let mut value = Spectrum::ZERO;
         let spec_reflect = g.reflect && g.reflect_ok && g.f > 0.0;
-        let spec_trans = self.has_spec_trans && bsdf > 0.0 && g.refract && g.refract_ok && g.f < 1.0;
+        let spec_trans =
+            self.has_spec_trans && bsdf > 0.0 && g.refract && g.refract_ok && g.f < 1.0;
         if spec_reflect || spec_trans {
             let d = distr.eval(g.wh);
             let gg = distr.g(wi, wo, g.wh);
@@ -274,7 +275,8 @@ impl Principled {
 
     fn pdf_with(&self, wi: Vec3, wo: Vec3, g: &Geometry, distr: &MicrofacetDistribution) -> f32 {
         let (brdf, bsdf) = self.weights();
-        let (p_diffuse, p_clearcoat, p_reflect, p_trans) = self.probabilities(g.front, brdf, bsdf, g.f);
+        let (p_diffuse, p_clearcoat, p_reflect, p_trans) =
+            self.probabilities(g.front, brdf, bsdf, g.f);
         let doh = wo.dot(g.wh);
         let dwh_dwo = if g.refract && self.has_spec_trans {
             let denom = wi.dot(g.wh) + g.eta_path * doh;
@@ -464,7 +466,10 @@ pub(crate) fn rate_param(p: &Props<'_>, name: &str) -> Result<f32> {
     } else {
         Err(Error::scene(
             p.loc(),
-            format!("'{name}' of bsdf '{}' must be a number >= 0", p.plugin_type()),
+            format!(
+                "'{name}' of bsdf '{}' must be a number >= 0",
+                p.plugin_type()
+            ),
         ))
     }
 }
@@ -560,7 +565,9 @@ pub fn material(
             ),
         ));
     }
-    if b.main_specular_sampling_rate + b.clearcoat_sampling_rate + b.diffuse_reflectance_sampling_rate
+    if b.main_specular_sampling_rate
+        + b.clearcoat_sampling_rate
+        + b.diffuse_reflectance_sampling_rate
         <= 0.0
     {
         return Err(Error::scene(
@@ -568,10 +575,9 @@ pub fn material(
             "bsdf 'principled' needs a sampling rate > 0",
         ));
     }
-    Ok(MaterialNode::Principled {
-        template: Box::new(b),
-        slots,
-    })
+    Ok(MaterialNode::Principled(Box::new(
+        PrincipledMaterial::Full { template: b, slots },
+    )))
 }
 
 #[cfg(test)]
@@ -588,7 +594,9 @@ mod tests {
     fn back_side_without_transmission_does_not_scatter() {
         let b = Principled::default();
         let wi = Vec3::new(0.3, 0.0, -0.954).normalize();
-        assert!(b.sample(TransportMode::Radiance, wi, 0.5, Vec2::new(0.3, 0.7)).is_none());
+        assert!(b
+            .sample(TransportMode::Radiance, wi, 0.5, Vec2::new(0.3, 0.7))
+            .is_none());
         let wo = Vec3::new(-0.3, 0.1, -0.9).normalize();
         assert_eq!(b.eval(TransportMode::Radiance, wi, wo), Spectrum::ZERO);
     }

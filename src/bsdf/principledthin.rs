@@ -37,7 +37,7 @@ use super::microfacet::{MicrofacetDistribution, MicrofacetType};
 use super::principled::{base_color_param, check_objects, rate_param, scalar_param};
 use super::{BsdfSample, Lobes};
 use crate::error::Result;
-use crate::material::{MaterialNode, Slot, TexId};
+use crate::material::{MaterialNode, PrincipledMaterial, Slot, TexId};
 use crate::math::{reflect, warp};
 use crate::scene::xml::props::Props;
 use crate::spectrum::Spectrum;
@@ -348,14 +348,14 @@ pub fn material(
     b.flatness = scalar("flatness", Slot::Flatness, 0.0)?.0;
     b.diff_trans = scalar("diff_trans", Slot::DiffTrans, 0.0)?.0;
     b.specular_reflectance_sampling_rate = rate_param(p, "specular_reflectance_sampling_rate")?;
-    b.specular_transmittance_sampling_rate =
-        rate_param(p, "specular_transmittance_sampling_rate")?;
+    b.specular_transmittance_sampling_rate = rate_param(p, "specular_transmittance_sampling_rate")?;
     b.diffuse_reflectance_sampling_rate = rate_param(p, "diffuse_reflectance_sampling_rate")?;
-    b.diffuse_transmittance_sampling_rate =
-        rate_param(p, "diffuse_transmittance_sampling_rate")?;
-    Ok(MaterialNode::PrincipledThin {
-        template: Box::new(b),
-        transmits,
-        slots,
-    })
+    b.diffuse_transmittance_sampling_rate = rate_param(p, "diffuse_transmittance_sampling_rate")?;
+    Ok(MaterialNode::Principled(Box::new(
+        PrincipledMaterial::Thin {
+            template: b,
+            transmits,
+            slots,
+        },
+    )))
 }
