@@ -129,3 +129,61 @@ fn principled_matches_mitsuba_pointwise() {
 fn principledthin_matches_mitsuba_pointwise() {
     check_model("principledthin", 1000);
 }
+
+/// The loader's error for a one-sphere scene with BSDF `bsdf_xml` (None if it loads).
+fn load_error(bsdf_xml: &str) -> Option<String> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/scene.xml");
+    let scene = format!(
+        "<scene version=\"3.0.0\"><sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" value=\"2\"/><integer name=\"height\" value=\"2\"/></film></sensor><shape type=\"sphere\">{bsdf_xml}</shape></scene>"
+    );
+    let doc = load_str(&scene, &path, &LoadOptions::default()).ok()?;
+    instantiate(&doc, &path).err().map(|e| e.to_string())
+}
+
+#[test]
+fn bad_parameters_are_errors_with_their_location() {
+    let cases = [
+        (
+            r#"<bsdf type="principled"><float name="metalic" value="1"/></bsdf>"#,
+            "unreferenced property 'metalic'",
+        ),
+        (
+            r#"<bsdf type="principled"><float name="eta" value="1.5"/><float name="specular" value="0.5"/></bsdf>"#,
+            "either 'eta' or 'specular'",
+        ),
+        (
+            r#"<bsdf type="principled"><texture type="checkerboard" name="eta"/></bsdf>"#,
+            "is not expected inside bsdf 'principled'",
+        ),
+        (
+            r#"<bsdf type="principled"><rgb name="base_color" value="1.5, 0.2, 0.2"/></bsdf>"#,
+            "must be in the range [0, 1]",
+        ),
+        (
+            r#"<bsdf type="principled"><rgb name="roughness" value="0.5"/></bsdf>"#,
+            "expected <float>",
+        ),
+        (
+            r#"<bsdf type="principled"><float name="clearcoat_sampling_rate" value="-1"/></bsdf>"#,
+            "must be a number >= 0",
+        ),
+        (
+            r#"<bsdf type="principledthin"><float name="metallic" value="0.5"/></bsdf>"#,
+            "unreferenced property 'metallic'",
+        ),
+        (
+            r#"<bsdf type="principledthin"><bsdf type="diffuse" name="base_color"/></bsdf>"#,
+            "expects a value or a <texture>",
+        ),
+    ];
+    for (xml, want) in cases {
+        let e = load_error(xml).unwrap_or_else(|| panic!("{xml} loaded"));
+        assert!(e.contains(want), "{xml}: {e}");
+        // FILE:LINE:COL
+        assert!(e.contains("scene.xml:1:"), "{xml}: {e}");
+    }
+    assert_eq!(
+        load_error(r#"<bsdf type="principledthin"><texture type="checkerboard" name="eta"><float name="color0" value="1.3"/><float name="color1" value="1.6"/></texture></bsdf>"#),
+        None
+    );
+}

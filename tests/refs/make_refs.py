@@ -80,6 +80,9 @@ JOBS = [
     # Mitsuba `serialized` meshes (tests/data/geometry/make_serialized.py): v4 two-mesh file with
     # shape_index 0 (normals, uvs) and 1 (double precision, face_normals), and a v3 file.
     ("serialized", os.path.join(SCENES, "serialized.xml"), {}, 8192, REF_SEEDS),
+    # principled (metal with textured roughness, glass, clearcoat, sheen, the documented mix)
+    # and a principledthin sheet.
+    ("mat_principled", os.path.join(SCENES, "mat_principled.xml"), {}, 4096, REF_SEEDS),
 ]
 
 # Jobs whose pixels are correlated (non-box filter): also write NAME.tT.exr / NAME.tT.var.exr, the
