@@ -183,7 +183,9 @@ fn bad_parameters_are_errors_with_their_location() {
         assert!(e.contains("scene.xml:1:"), "{xml}: {e}");
     }
     assert_eq!(
-        load_error(r#"<bsdf type="principledthin"><texture type="checkerboard" name="eta"><float name="color0" value="1.3"/><float name="color1" value="1.6"/></texture></bsdf>"#),
+        load_error(
+            r#"<bsdf type="principledthin"><texture type="checkerboard" name="eta"><float name="color0" value="1.3"/><float name="color1" value="1.6"/></texture></bsdf>"#
+        ),
         None
     );
 }

@@ -4,7 +4,6 @@
 //! roughness-to-α map, the GTR1 clearcoat distribution with its separable GGX masking, the
 //! diffuse/retro-reflection/fake-subsurface base and the sheen lobe.
 
-use crate::math::INV_PI;
 use crate::spectrum::{luminance, Spectrum};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -177,12 +176,6 @@ pub fn diffuse_base(cos_i: f32, cos_o: f32, cos_d: f32, roughness: f32, flatness
     let f_ss = 1.25 * (fss * (1.0 / (cos_o + cos_i) - 0.5) + 0.5);
     let base = f_diff + f_retro;
     base + (f_ss - base) * flatness
-}
-
-/// `diffuse_base` with albedo and 1/π: the diffuse reflectance term before the cosine.
-#[inline]
-pub fn diffuse_term(base_color: Spectrum, base: f32) -> Spectrum {
-    base_color * (INV_PI * base)
 }
 
 /// Burley's sheen (2012, §5.3) without its weight and cosine: Schlick weight of the half angle,
