@@ -351,6 +351,17 @@ pub fn material(
     b.specular_transmittance_sampling_rate = rate_param(p, "specular_transmittance_sampling_rate")?;
     b.diffuse_reflectance_sampling_rate = rate_param(p, "diffuse_reflectance_sampling_rate")?;
     b.diffuse_transmittance_sampling_rate = rate_param(p, "diffuse_transmittance_sampling_rate")?;
+    if b.specular_reflectance_sampling_rate
+        + b.specular_transmittance_sampling_rate
+        + b.diffuse_reflectance_sampling_rate
+        + b.diffuse_transmittance_sampling_rate
+        <= 0.0
+    {
+        return Err(crate::error::Error::scene(
+            p.loc(),
+            "bsdf 'principledthin' needs a sampling rate > 0",
+        ));
+    }
     Ok(MaterialNode::Principled(Box::new(
         PrincipledMaterial::Thin {
             template: b,
