@@ -3,7 +3,10 @@
 
 use crate::bsdf::mnm::facets::{clamp_perturbed_normal, Microgeometry};
 use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent, TransmissionWalk};
-use crate::bsdf::{bumpmap, Blend, BsdfArena, BsdfNode, Diffuse, Lobes, Mask, NormalMap};
+use crate::bsdf::{
+    bumpmap, Blend, BsdfArena, BsdfNode, Diffuse, Lobes, Mask, NormalMap, Principled,
+    PrincipledThin,
+};
 use crate::geometry::SurfaceInteraction;
 use crate::texture::Texture;
 use glam::Vec3;
@@ -25,12 +28,33 @@ pub enum Slot {
     Alpha,
     AlphaU,
     AlphaV,
+    /// `principled` / `principledthin` parameters (all scalar except `BaseColor`).
+    BaseColor,
+    Roughness,
+    Anisotropic,
+    Metallic,
+    SpecTrans,
+    SpecTint,
+    Sheen,
+    SheenTint,
+    Flatness,
+    Clearcoat,
+    ClearcoatGloss,
+    DiffTrans,
+    Eta,
 }
 
 impl Slot {
     /// A scalar field (evaluated with `eval_1`, Mitsuba's rule for float textures).
     pub fn is_scalar(self) -> bool {
-        matches!(self, Slot::Alpha | Slot::AlphaU | Slot::AlphaV)
+        !matches!(
+            self,
+            Slot::Reflectance
+                | Slot::SpecularReflectance
+                | Slot::SpecularTransmittance
+                | Slot::DiffuseReflectance
+                | Slot::BaseColor
+        )
     }
 }
 
@@ -98,6 +122,24 @@ pub enum MaterialNode {
         scale: f32,
         flip_invalid_normals: bool,
         use_shadowing_function: bool,
+    },
+    /// `principled` or `principledthin` (one variant, boxed: `build` stays as small as it was).
+    Principled(Box<PrincipledMaterial>),
+}
+
+/// A `principled` or `principledthin` material: `template` is copied per hit (into the arena's
+/// side storage) with its `slots` overwritten by the texture values.
+#[derive(Clone, Debug)]
+pub enum PrincipledMaterial {
+    Full {
+        template: Principled,
+        slots: Vec<(Slot, TexId)>,
+    },
+    Thin {
+        template: PrincipledThin,
+        /// It has the glossy transmission lobe (`spec_trans` given and not the constant 0).
+        transmits: bool,
+        slots: Vec<(Slot, TexId)>,
     },
 }
 
@@ -176,6 +218,16 @@ fn skeleton(n: &MaterialNode) -> BsdfNode {
             weight: 0.0,
         }),
         MaterialNode::Null => BsdfNode::Null,
+        MaterialNode::Principled(m) => match &**m {
+            PrincipledMaterial::Full { template, .. } => BsdfNode::Principled {
+                index: 0,
+                lobes: Principled::lobes(template.has_spec_trans),
+            },
+            PrincipledMaterial::Thin { transmits, .. } => BsdfNode::PrincipledThin {
+                index: 0,
+                lobes: PrincipledThin::lobes(*transmits),
+            },
+        },
         MaterialNode::Mask { nested, .. } => BsdfNode::Mask(Mask {
             nested: *nested,
             opacity: 1.0,
@@ -206,6 +258,51 @@ impl Materials {
     #[inline]
     pub fn lobes(&self, id: MatId) -> Lobes {
         self.lobes[id as usize]
+    }
+
+    /// Evaluate the textures of `slots` at `si` and hand each value to `patch` (colour slots as
+    /// the colour, scalar slots as `eval_1`).
+    fn patch_slots(
+        &self,
+        slots: &[(Slot, TexId)],
+        si: &SurfaceInteraction,
+        mut patch: impl FnMut(Slot, Vec3, f32),
+    ) {
+        for &(slot, tex) in slots {
+            let t = &self.textures[tex as usize];
+            if slot.is_scalar() {
+                patch(slot, Vec3::ZERO, t.eval_1(si.uv));
+            } else {
+                patch(slot, t.eval(si.uv), 0.0);
+            }
+        }
+    }
+
+    /// [`Self::build`] of a principled material: its parameters go to the arena's side
+    /// storage. Out of line so that `build` stays as small as it was for the other models.
+    #[inline(never)]
+    fn build_principled(
+        &self,
+        m: &PrincipledMaterial,
+        si: &SurfaceInteraction,
+        arena: &mut BsdfArena,
+    ) -> u32 {
+        match m {
+            PrincipledMaterial::Full { template, slots } => {
+                let mut b = *template;
+                self.patch_slots(slots, si, |slot, v, s| b.patch(slot, v, s));
+                arena.push_principled(b)
+            }
+            PrincipledMaterial::Thin {
+                template,
+                transmits,
+                slots,
+            } => {
+                let mut b = *template;
+                self.patch_slots(slots, si, |slot, v, s| b.patch(slot, v, s));
+                arena.push_principled_thin(b, *transmits)
+            }
+        }
     }
 
     /// Build the BSDF of material `id` at `si` into `arena`; returns the root node index.
@@ -295,6 +392,7 @@ impl Materials {
                 )
             }
             MaterialNode::Null => arena.push_with_lobes(lobes, BsdfNode::Null),
+            MaterialNode::Principled(m) => self.build_principled(m, si, arena),
             MaterialNode::Mask { opacity, nested } => {
                 let child = self.build(*nested, si, arena);
                 let o = self.textures[*opacity as usize].eval_1(si.uv);

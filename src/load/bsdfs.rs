@@ -9,7 +9,8 @@ use crate::bsdf::mnm::facets::Microgeometry;
 use crate::bsdf::mnm::{Evaluation, Tangent};
 use crate::bsdf::{
     blend, bumpmap, conductor, dielectric, diffuse, mask, mnm, normalmap, null, plastic,
-    roughconductor, roughdielectric, roughplastic, thindielectric, twosided, Lobes,
+    principled, principledthin, roughconductor, roughdielectric, roughplastic, thindielectric,
+    twosided, Lobes,
 };
 use crate::error::{Error, Result};
 use crate::material::{MatId, MaterialNode, Slot, TexId};
@@ -37,6 +38,8 @@ const SUPPORTED_BSDFS: &[&str] = &[
     "null",
     "mask",
     "bumpmap",
+    "principled",
+    "principledthin",
 ];
 
 /// The model `--normal-mapping microfacet` gives a `normalmap`: the decisions page's defaults.
@@ -114,6 +117,27 @@ impl<'d> BsdfCtx<'_, 'd> {
             "null" => null::load::build(self),
             "mask" => mask::load::build(self),
             "bumpmap" => bumpmap::load::build(self),
+            t @ ("principled" | "principledthin") => {
+                let BsdfCtx { p, b } = self;
+                // A parameter's nested (or referenced) texture, if any.
+                let mut texture = |name: &str| -> Result<Option<TexId>> {
+                    let Some(c) = p.objects().find(|c| c.attr("name") == Some(name)) else {
+                        return Ok(None);
+                    };
+                    if p.kind(c) != "texture" {
+                        return Err(Error::scene(
+                            &c.loc,
+                            format!("'{name}' expects a value or a <texture>, not a <{}>", c.tag),
+                        ));
+                    }
+                    b.texture(c).map(Some)
+                };
+                if t == "principled" {
+                    principled::material(p, &mut texture)
+                } else {
+                    principledthin::material(p, &mut texture)
+                }
+            }
             "normalmap" => match nm {
                 NormalMapping::Microfacet => mnm::load::from_normalmap(self, MICROFACET_DEFAULT),
                 NormalMapping::Forced(f) => mnm::load::from_normalmap(self, f),

@@ -13,4 +13,6 @@ mod mnm_microgeometry;
 mod mnm_oracles;
 mod mnm_perf_fused;
 mod mnm_transmission;
+mod principled_points;
+mod principled_stats;
 mod wrappers;

@@ -157,3 +157,28 @@ fn shared_cbox_wavelength_values_matches_mitsuba() {
     println!("cbox.xml at 64x64, 8x8 tiles:\n{}", c.report());
     c.assert_consistent("cbox.xml (wavelength:value spectra) at 64x64, 8x8 tile averages");
 }
+
+/// `principled` (anisotropic metal with a checkerboard roughness, rough glass via `spec_trans`,
+/// clearcoat, sheen, the documented all-parameter mix) and a `principledthin` sheet.
+#[test]
+fn principled_and_principledthin_match_mitsuba() {
+    scene_matches("mat_principled.xml", &[], 309, "mat_principled");
+}
+
+/// Sensitivity check: the thin sheet with `diff_trans` 0.7 instead of 1 (a little less light
+/// through it, a little more reflected) must be rejected.
+#[test]
+fn the_principled_comparison_sees_the_thin_sheets_diffuse_transmission() {
+    let r = render_scene(
+        &common::test_scene("mat_principled.xml"),
+        &[("diff_trans", "0.7")],
+        SPP,
+        310,
+        0,
+        |_| {},
+    );
+    let (m, v) = load_reference("mat_principled");
+    let c = compare(&r.mean, &r.var, &m, &v, 8);
+    println!("mat_principled.xml with diff_trans 0.7:\n{}", c.report());
+    assert!(!c.is_consistent(), "diff_trans 0.7 was accepted");
+}
