@@ -254,8 +254,13 @@ fn render_one(
             st.invalid_samples
         );
     }
+    let dropped = if st.invalid_samples > 0 {
+        format!(", {} NaN/inf samples dropped", st.invalid_samples)
+    } else {
+        String::new()
+    };
     println!(
-        "{}: {}x{} {} spp, load {:.2} s, render {:.3} s, {:.3} Msamples/s, {:.3} Mrays/s ({} threads) -> {}",
+        "{}: {}x{} {} spp, load {:.2} s, render {:.3} s, {:.3} Msamples/s, {:.3} Mrays/s ({} threads){dropped} -> {}",
         scene_path.display(),
         img.width,
         img.height,

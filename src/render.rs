@@ -104,7 +104,11 @@ pub fn film_bytes(desc: &FilmDesc, block: u32) -> u64 {
     let (w, h) = desc.crop_size;
     let px = w.min(desc.width) as u64 * h.min(desc.height) as u64;
     let r = desc.filter.radius();
-    let border = if r.is_finite() && r > 0.0 { r.ceil().min(64.0) as u64 } else { 0 };
+    let border = if r.is_finite() && r > 0.0 {
+        r.ceil().min(64.0) as u64
+    } else {
+        0
+    };
     let b = block.max(1) as u64;
     let blocks = (w as u64).div_ceil(b) * (h as u64).div_ceil(b);
     let block_px = blocks.saturating_mul((b + 2 * border).pow(2));

@@ -120,7 +120,13 @@ pub fn read_serialized<R: BufRead + Seek>(
     keep_normals: bool,
     fallback_name: &str,
 ) -> std::result::Result<SerializedMesh, String> {
-    read_serialized_within(r, shape_index, keep_normals, fallback_name, &Budget::default())
+    read_serialized_within(
+        r,
+        shape_index,
+        keep_normals,
+        fallback_name,
+        &Budget::default(),
+    )
 }
 
 /// [`read_serialized`] whose mesh must fit `budget` (checked from the stored counts).
@@ -419,7 +425,8 @@ fn read_mesh<R: BufRead>(
         }
     }
     // What the arrays take once read as f32 (positions, normals, uvs) and u32 triangles.
-    let keep = nv.saturating_mul(12 + 12 * u64::from(has_n) + 8 * u64::from(has_uv))
+    let keep = nv
+        .saturating_mul(12 + 12 * u64::from(has_n) + 8 * u64::from(has_uv))
         .saturating_add(nf.saturating_mul(12));
     budget.check(keep, &format!("mesh `{name}` ({nv} vertices, {nf} faces)"))?;
     let (nv, nf) = (nv as usize, nf as usize);

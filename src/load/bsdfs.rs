@@ -73,9 +73,10 @@ impl<'d> Builder<'d> {
             return Err(Error::scene(
                 r.attr_loc("id"),
                 format!(
-                    "circular reference: bsdf {} refers to itself (through {})",
+                    "circular reference: bsdf {} refers to itself ({} -> {})",
                     chain[0],
-                    chain.join(" -> ")
+                    chain.join(" -> "),
+                    chain[0]
                 ),
             ));
         }

@@ -2,13 +2,13 @@
 //! `area` emitters declared with an id for shapes to `<ref>`).
 
 use super::{check, unknown, Builder};
+use crate::budget::Budget;
 use crate::emitter::constant::ConstantLight;
 use crate::emitter::directional::DirectionalLight;
 use crate::emitter::envmap::EnvMapLight;
 use crate::emitter::point::PointLight;
 use crate::emitter::spot::SpotLight;
 use crate::emitter::Emitter;
-use crate::budget::Budget;
 use crate::error::{Error, Result};
 use crate::scene::xml::ir::{Document, Node};
 use crate::scene::xml::props::Props;

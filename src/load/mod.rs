@@ -20,6 +20,7 @@ mod shapes;
 mod textures;
 
 use crate::accel::Accel;
+use crate::budget::Budget;
 use crate::camera::Camera;
 use crate::emitter::{Emitter, LightSampler};
 use crate::error::{Error, Result, SourceLoc};
@@ -33,7 +34,6 @@ use crate::scene::xml::ir::{Document, Ids, Node};
 use crate::scene::xml::parse::load_file_within;
 use crate::scene::xml::props::Props;
 use crate::scene::Scene;
-use crate::budget::Budget;
 use options::{LoadOptions, NormalMapping};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

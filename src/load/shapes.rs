@@ -38,8 +38,14 @@ impl<'d> Builder<'d> {
     }
 
     /// Reserves what a loaded mesh keeps (its arrays, and the acceleration structure's copy).
-    fn reserve_mesh(&self, p: &Props<'d>, name: &str, m: &crate::geometry::mesh::TriMesh) -> Result<()> {
-        let per_vertex = 12 + m.normals.as_ref().map_or(0, |_| 12) + m.uvs.as_ref().map_or(0, |_| 8);
+    fn reserve_mesh(
+        &self,
+        p: &Props<'d>,
+        name: &str,
+        m: &crate::geometry::mesh::TriMesh,
+    ) -> Result<()> {
+        let per_vertex =
+            12 + m.normals.as_ref().map_or(0, |_| 12) + m.uvs.as_ref().map_or(0, |_| 8);
         let bytes = 2 * (m.positions.len() as u64 * per_vertex + m.indices.len() as u64 * 12);
         self.budget
             .reserve(

@@ -273,7 +273,11 @@ impl BitmapTexture {
 
     /// [`BitmapTexture::load`] of a regular file whose decoding (estimated from the image
     /// header's dimensions, before decoding) fits `budget`; the texels stay reserved.
-    pub fn load_within(path: &Path, opts: &BitmapOptions, budget: &Budget) -> Result<BitmapTexture> {
+    pub fn load_within(
+        path: &Path,
+        opts: &BitmapOptions,
+        budget: &Budget,
+    ) -> Result<BitmapTexture> {
         let bytes = crate::inputs::read_regular(path, budget)?;
         let dec = if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
             decode_exr(&bytes, budget)

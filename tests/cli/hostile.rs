@@ -122,7 +122,10 @@ fn ref_cycles_are_circular_references_at_the_ref() {
     refused(
         &d,
         &["render", "-q", "pair.xml", "-o", "o.exr"],
-        &[&format!("pair.xml:{at}: circular reference: bsdf 'a'"), "'a' -> 'b'"],
+        &[
+            &format!("pair.xml:{at}: circular reference: bsdf 'a'"),
+            "'a' -> 'b'",
+        ],
     );
 }
 
@@ -130,7 +133,11 @@ fn ref_cycles_are_circular_references_at_the_ref() {
 fn deep_nesting_is_an_error_not_a_stack_overflow() {
     let d = tmpdir("hostile-nest");
     for (tag, open, leaf) in [
-        ("twosided", r#"<bsdf type="twosided">"#, r#"<bsdf type="diffuse"/>"#),
+        (
+            "twosided",
+            r#"<bsdf type="twosided">"#,
+            r#"<bsdf type="diffuse"/>"#,
+        ),
         (
             "blendbsdf",
             r#"<bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="diffuse"/>"#,
@@ -138,11 +145,7 @@ fn deep_nesting_is_an_error_not_a_stack_overflow() {
         ),
     ] {
         let n = 5000;
-        let text = tiny_with(&format!(
-            "{}{leaf}{}",
-            open.repeat(n),
-            "</bsdf>".repeat(n)
-        ));
+        let text = tiny_with(&format!("{}{leaf}{}", open.repeat(n), "</bsdf>".repeat(n)));
         write(&d, &format!("{tag}.xml"), &text);
         refused(
             &d,
@@ -153,7 +156,10 @@ fn deep_nesting_is_an_error_not_a_stack_overflow() {
     // Flat in the file, deep through <ref>s: the loader's own limit.
     let mut chain = String::new();
     for i in 0..300 {
-        chain += &format!("<bsdf type=\"twosided\" id=\"b{i}\"><ref id=\"b{}\"/></bsdf>\n", i + 1);
+        chain += &format!(
+            "<bsdf type=\"twosided\" id=\"b{i}\"><ref id=\"b{}\"/></bsdf>\n",
+            i + 1
+        );
     }
     chain += "<bsdf type=\"diffuse\" id=\"b300\"/>";
     write(&d, "chain.xml", &tiny_with(&chain));
@@ -263,7 +269,15 @@ fn huge_image_headers_are_refused_before_allocating() {
     write(&d, "mid.xml", &text.replace("huge.exr", "mid.exr"));
     refused(
         &d,
-        &["render", "-q", "mid.xml", "-o", "o.exr", "--max-memory", "0.1"],
+        &[
+            "render",
+            "-q",
+            "mid.xml",
+            "-o",
+            "o.exr",
+            "--max-memory",
+            "0.1",
+        ],
         &["EXR image 4096×4096", "over the 102.4 MB memory limit"],
     );
 }
@@ -293,7 +307,15 @@ fn huge_films_and_thread_counts_are_refused() {
     );
     refused(
         &d,
-        &["render", "-q", "tiny.xml", "-o", "o.exr", "--max-memory", "0"],
+        &[
+            "render",
+            "-q",
+            "tiny.xml",
+            "-o",
+            "o.exr",
+            "--max-memory",
+            "0",
+        ],
         &["--max-memory", "positive number of GB"],
     );
 }
@@ -315,8 +337,16 @@ fn includes_are_parsed_once_and_expansion_is_budgeted() {
             ),
         );
     }
-    write(&d, "lvl14.xml", "<scene version=\"3.0.0\"><bsdf type=\"diffuse\"/></scene>");
-    let scene = write(&d, "wide.xml", &tiny_with(r#"<include filename="lvl0.xml"/>"#));
+    write(
+        &d,
+        "lvl14.xml",
+        "<scene version=\"3.0.0\"><bsdf type=\"diffuse\"/></scene>",
+    );
+    let scene = write(
+        &d,
+        "wide.xml",
+        &tiny_with(r#"<include filename="lvl0.xml"/>"#),
+    );
     let t0 = Instant::now();
     let doc = groove::scene::xml::parse::load_file(&scene, &[]).unwrap();
     let secs = t0.elapsed().as_secs_f64();
@@ -339,16 +369,43 @@ fn includes_are_parsed_once_and_expansion_is_budgeted() {
             ),
         );
     }
-    write(&d, "exp30.xml", "<scene version=\"3.0.0\"><bsdf type=\"diffuse\"/></scene>");
-    write(&d, "exp.xml", &tiny_with(r#"<include filename="exp0.xml"/>"#));
+    write(
+        &d,
+        "exp30.xml",
+        "<scene version=\"3.0.0\"><bsdf type=\"diffuse\"/></scene>",
+    );
+    write(
+        &d,
+        "exp.xml",
+        &tiny_with(r#"<include filename="exp0.xml"/>"#),
+    );
     refused(
         &d,
-        &["render", "-q", "exp.xml", "-o", "o.exr", "--max-memory", "0.25"],
-        &["the scene's XML (", "elements with includes spliced in) needs ~"],
+        &[
+            "render",
+            "-q",
+            "exp.xml",
+            "-o",
+            "o.exr",
+            "--max-memory",
+            "0.25",
+        ],
+        &[
+            "the scene's XML (",
+            "elements with includes spliced in) needs ~",
+        ],
     );
     // A cycle.
-    write(&d, "c1.xml", "<scene version=\"3.0.0\">\n<include filename=\"c2.xml\"/></scene>");
-    write(&d, "c2.xml", "<scene version=\"3.0.0\">\n<include filename=\"c1.xml\"/></scene>");
+    write(
+        &d,
+        "c1.xml",
+        "<scene version=\"3.0.0\">\n<include filename=\"c2.xml\"/></scene>",
+    );
+    write(
+        &d,
+        "c2.xml",
+        "<scene version=\"3.0.0\">\n<include filename=\"c1.xml\"/></scene>",
+    );
     write(&d, "cyc.xml", &tiny_with(r#"<include filename="c1.xml"/>"#));
     refused(
         &d,
@@ -362,7 +419,11 @@ fn includes_are_parsed_once_and_expansion_is_budgeted() {
 fn only_regular_files_are_read() {
     let d = tmpdir("hostile-special");
     let fifo = d.join("pipe.xml");
-    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    assert!(Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
     fs::create_dir(d.join("dir.obj")).unwrap();
     refused(
         &d,
@@ -386,10 +447,19 @@ fn only_regular_files_are_read() {
         };
         let text = tiny_with(&elem);
         write(&d, "s.xml", &text);
-        let tag = if what == "include" { "<include" } else if what == "texture" { "<texture" } else { "<shape" };
+        let tag = if what == "include" {
+            "<include"
+        } else if what == "texture" {
+            "<texture"
+        } else {
+            "<shape"
+        };
         let at = line_col(&text, tag);
         let err = refused(&d, &["render", "-q", "s.xml", "-o", "o.exr"], &[expect]);
-        assert!(err.contains(&format!("s.xml:{}", at.split(':').next().unwrap())), "{what} {name}: {err}");
+        assert!(
+            err.contains(&format!("s.xml:{}", at.split(':').next().unwrap())),
+            "{what} {name}: {err}"
+        );
     }
 }
 
@@ -434,10 +504,21 @@ fn outputs_never_overwrite_inputs_or_each_other() {
     refused(
         &d,
         &["render", "-q", "env.xml", "-o", "./sky.exr"],
-        &["output ./sky.exr would overwrite", "sky.exr, an input of the render"],
+        &[
+            "output ./sky.exr would overwrite",
+            "sky.exr, an input of the render",
+        ],
     );
-    write(&d, "part.png", "<scene version=\"3.0.0\"><shape type=\"sphere\"/></scene>");
-    write(&d, "inc.xml", &tiny_with(r#"<include filename="part.png"/>"#));
+    write(
+        &d,
+        "part.png",
+        "<scene version=\"3.0.0\"><shape type=\"sphere\"/></scene>",
+    );
+    write(
+        &d,
+        "inc.xml",
+        &tiny_with(r#"<include filename="part.png"/>"#),
+    );
     refused(
         &d,
         &["render", "-q", "inc.xml", "-o", "part.png"],
@@ -465,12 +546,17 @@ fn outputs_never_overwrite_inputs_or_each_other() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(
-        err.contains("output out3/second.exr would overwrite ./out3/second.exr, an input of the render"),
+        err.contains(
+            "output out3/second.exr would overwrite ./out3/second.exr, an input of the render"
+        ),
         "{err}"
     );
     assert_eq!(fs::read(d.join("out3/second.exr")).unwrap(), before);
     assert!(d.join("out3/first.exr").is_file());
-    let names: Vec<_> = fs::read_dir(d.join("out3")).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let names: Vec<_> = fs::read_dir(d.join("out3"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
     assert_eq!(names.len(), 2, "{names:?}");
 }
 
@@ -494,10 +580,17 @@ fn loader_errors_are_located_twice() {
     refused(
         &d,
         &["render", "-q", "nobom.xml", "-o", "o.exr"],
-        &["nobom.xml:1:2: NUL character", "UTF-16 without a byte-order mark"],
+        &[
+            "nobom.xml:1:2: NUL character",
+            "UTF-16 without a byte-order mark",
+        ],
     );
     let mut bad16 = vec![0xFF, 0xFE];
-    bad16.extend("<scene version=\"3.0.0\">\n <".encode_utf16().flat_map(|u| u.to_le_bytes()));
+    bad16.extend(
+        "<scene version=\"3.0.0\">\n <"
+            .encode_utf16()
+            .flat_map(|u| u.to_le_bytes()),
+    );
     bad16.extend_from_slice(&0xD800u16.to_le_bytes());
     fs::write(d.join("bad16.xml"), &bad16).unwrap();
     refused(
@@ -517,7 +610,11 @@ fn loader_errors_are_located_twice() {
     fs::write(d.join("short.ply"), &bin).unwrap();
     for (t, file, inner) in [
         ("obj", "bad.obj", "bad.obj:4:"),
-        ("ply", "bad.ply", "line 12 (element `vertex` 2: `nope` is not a number)"),
+        (
+            "ply",
+            "bad.ply",
+            "line 12 (element `vertex` 2: `nope` is not a number)",
+        ),
         ("ply", "short.ply", "byte offset"),
     ] {
         let text = tiny_with(&format!(

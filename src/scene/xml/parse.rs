@@ -636,7 +636,13 @@ fn process_children(children: Vec<Node>, ctx: &mut Ctx, depth: usize) -> Result<
         ctx.elements += 1;
         if ctx.elements % 4096 == 0 {
             ctx.budget
-                .check(ctx.elements * ELEMENT_BYTES, &format!("the scene's XML ({} elements with includes spliced in)", ctx.elements))
+                .check(
+                    ctx.elements * ELEMENT_BYTES,
+                    &format!(
+                        "the scene's XML ({} elements with includes spliced in)",
+                        ctx.elements
+                    ),
+                )
                 .map_err(|m| Error::scene(&child.loc, m))?;
         }
         substitute_attrs(&mut child, &mut ctx.params)?;
