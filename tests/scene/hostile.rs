@@ -75,3 +75,40 @@ fn cycles_are_found_at_the_closing_ref() {
         + 1;
     assert!(e.starts_with(&format!("/virtual/deep.xml:{line}:")), "{e}");
 }
+
+/// A PLY element with a huge count and no properties takes no bytes: skipped at once, not
+/// looped over 10^15 times (found while reading the parser for issue 15).
+#[test]
+fn ply_elements_without_properties_are_skipped_at_once() {
+    let ply = "ply\nformat ascii 1.0\nelement junk 1000000000000000\nelement vertex 3\n\
+               property float x\nproperty float y\nproperty float z\nelement face 1\n\
+               property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    let t0 = std::time::Instant::now();
+    let m = groove::geometry::ply::parse_ply(ply.as_bytes()).expect("valid");
+    assert_eq!(m.indices, vec![[0, 1, 2]]);
+    assert!(t0.elapsed().as_secs_f64() < 1.0);
+}
+
+/// A binary PLY error names the byte offset, an ASCII one the line.
+#[test]
+fn ply_errors_name_the_position_in_the_file() {
+    let head = "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\n\
+                property float y\nproperty float z\nend_header\n";
+    let mut bin = head.as_bytes().to_vec();
+    bin.extend_from_slice(&[0u8; 16]);
+    let e = groove::geometry::ply::parse_ply(&bin).unwrap_err();
+    assert!(
+        e.starts_with(&format!(
+            "byte offset {} (element `vertex` 1:",
+            head.len() + 16
+        )),
+        "{e}"
+    );
+    let ascii = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+                 property float z\nend_header\n0 0\n";
+    let e = groove::geometry::ply::parse_ply(ascii.as_bytes()).unwrap_err();
+    assert!(
+        e.starts_with("line 9 (element `vertex` 0: unexpected end of file"),
+        "{e}"
+    );
+}
