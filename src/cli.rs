@@ -28,7 +28,7 @@ pub struct BenchArgs {
     /// Scene files (default: the benchmark set, scenes/bench/*.xml).
     pub scenes: Vec<PathBuf>,
     /// Samples per pixel of the timed renders.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..))]
     pub spp: u32,
     /// Worker threads (0 = all cores).
     #[arg(short = 't', long = "threads", default_value_t = 0)]
@@ -93,12 +93,17 @@ pub struct RenderArgs {
     /// Scene parameter: sets `$key` (overrides the scene's `<default>`), repeatable.
     #[arg(short = 'D', value_name = "KEY=VALUE", value_parser = parse_define)]
     pub defines: Vec<(String, String)>,
-    /// Samples per pixel (overrides the sampler's `sample_count`).
-    #[arg(long)]
+    /// Samples per pixel (overrides the sampler's `sample_count`; at least 1).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub spp: Option<u32>,
     /// Worker threads (0 = all cores).
     #[arg(short = 't', long = "threads", default_value_t = 0)]
     pub threads: usize,
+    /// Memory limit in GB (2^30 bytes) for what the scene and its render allocate (images,
+    /// meshes, the expanded XML, the film), checked before allocating. Default: half of the
+    /// machine's physical memory.
+    #[arg(long = "max-memory", value_name = "GB", value_parser = parse_gb)]
+    pub max_memory: Option<f64>,
     /// Random seed (overrides the sampler's `seed`).
     #[arg(long)]
     pub seed: Option<u64>,
@@ -125,7 +130,15 @@ pub(crate) fn parse_normal_mapping(s: &str) -> Result<crate::load::options::Norm
     }
 }
 
-fn parse_define(s: &str) -> Result<(String, String), String> {
+fn parse_gb(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("expected a positive number of GB, got '{s}'")),
+    }
+}
+
+/// Parses one `-D KEY=VALUE` (public for the fuzz target).
+pub fn parse_define(s: &str) -> Result<(String, String), String> {
     match s.split_once('=') {
         Some((k, v)) if !k.trim().is_empty() => Ok((k.trim().to_string(), v.to_string())),
         _ => Err(format!("expected KEY=VALUE, got '{s}'")),

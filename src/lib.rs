@@ -15,6 +15,7 @@
 pub mod accel;
 pub mod bench;
 pub mod bsdf;
+pub mod budget;
 pub mod camera;
 pub mod cancel;
 pub mod cli;
@@ -22,6 +23,7 @@ pub mod emitter;
 pub mod error;
 pub mod film;
 pub mod geometry;
+pub mod inputs;
 pub mod integrator;
 pub mod load;
 pub mod material;

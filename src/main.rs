@@ -5,6 +5,7 @@
 
 use anyhow::{Context, Result};
 use clap::Parser;
+use groove::budget::Budget;
 use groove::cancel::Cancel;
 use groove::cli::{BenchArgs, Cli, Command, RenderArgs};
 use groove::output::{write_image_channels, Metadata};
@@ -128,8 +129,20 @@ fn run_render(args: &RenderArgs) -> ExitCode {
             }
         }
     }
+    // Outputs that would overwrite a scene file or each other: refused before any render.
+    let jobs: Vec<(PathBuf, PathBuf)> = args
+        .scenes
+        .iter()
+        .map(|s| (s.clone(), output_path(args, s, multi)))
+        .collect();
+    if let Err(e) = groove::output::clash::check_batch(&jobs) {
+        eprintln!("error: {e}");
+        return ExitCode::FAILURE;
+    }
+    // Every file read by the scenes rendered so far: a later output must not replace one.
+    let mut inputs: Vec<PathBuf> = args.scenes.clone();
     for (i, scene_path) in args.scenes.iter().enumerate() {
-        let result = render_one(args, scene_path, multi, &cancel);
+        let result = render_one(args, scene_path, multi, &cancel, &mut inputs);
         if let Some(sig) = cancel.requested() {
             let skipped = args.scenes.len() - i - 1;
             eprintln!(
@@ -184,15 +197,29 @@ fn output_path(args: &RenderArgs, scene: &Path, multi: bool) -> PathBuf {
     }
 }
 
-fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool, cancel: &Cancel) -> Result<()> {
+/// Loads, renders and writes one scene; `inputs` collects the files the batch has read.
+fn render_one(
+    args: &RenderArgs,
+    scene_path: &Path,
+    multi: bool,
+    cancel: &Cancel,
+    inputs: &mut Vec<PathBuf>,
+) -> Result<()> {
     let out = output_path(args, scene_path, multi);
     groove::output::check_extension(&out)?;
+    let budget = match args.max_memory {
+        Some(gb) => Budget::from_gb(gb).context("--max-memory must be a positive number of GB")?,
+        None => Budget::default(),
+    };
     let load = groove::load::options::LoadOptions {
         defines: args.defines.clone(),
         normal_mapping: args.normal_mapping.unwrap_or_default(),
+        budget: budget.clone(),
     };
     let t0 = std::time::Instant::now();
     let loaded = groove::load::load_scene(scene_path, &load)?;
+    inputs.extend(loaded.inputs.iter().cloned());
+    groove::output::clash::check_not_input(&out, inputs).map_err(anyhow::Error::msg)?;
     if !args.quiet {
         for w in &loaded.warnings {
             eprintln!("warning: {w}");
@@ -205,6 +232,7 @@ fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool, cancel: &Cancel
         seed: args.seed,
         progress: !args.quiet && std::io::stderr().is_terminal(),
         cancel: Some(cancel.clone()),
+        budget,
         ..Default::default()
     };
     let result = render(&loaded.scene, &loaded.settings, &opts)?;
@@ -243,8 +271,13 @@ fn render_one(args: &RenderArgs, scene_path: &Path, multi: bool, cancel: &Cancel
             st.invalid_samples
         );
     }
+    let dropped = if st.invalid_samples > 0 {
+        format!(", {} NaN/inf samples dropped", st.invalid_samples)
+    } else {
+        String::new()
+    };
     println!(
-        "{}: {}x{} {} spp, load {:.2} s, render {:.3} s, {:.3} Msamples/s, {:.3} Mrays/s ({} threads) -> {}",
+        "{}: {}x{} {} spp, load {:.2} s, render {:.3} s, {:.3} Msamples/s, {:.3} Mrays/s ({} threads){dropped} -> {}",
         scene_path.display(),
         img.width,
         img.height,

@@ -2,6 +2,7 @@
 //! own deterministic stream, blocks merged into the film in a fixed order so the image is
 //! bit-identical for a given seed whatever the thread count. Counts rays and times the render.
 
+use crate::budget::Budget;
 use crate::cancel::Cancel;
 use crate::error::{Error, Result};
 use crate::film::{Block, Film, FilmDesc};
@@ -44,6 +45,9 @@ pub struct RenderOptions {
     /// Stop early when this is raised: the render checks it every 4096 samples and returns
     /// [`Error::Cancelled`] (no image).
     pub cancel: Option<Cancel>,
+    /// The memory budget the film and its blocks must fit in (with what the scene's load
+    /// reserved, when it is the load's budget), checked before anything is allocated.
+    pub budget: Budget,
 }
 
 impl Default for RenderOptions {
@@ -53,9 +57,10 @@ impl Default for RenderOptions {
             spp: None,
             seed: None,
             progress: false,
-            block_size: 32,
+            block_size: DEFAULT_BLOCK,
             record_rays: 0,
             cancel: None,
+            budget: Budget::default(),
         }
     }
 }
@@ -89,8 +94,47 @@ pub struct RenderOutput {
     pub ray_log: Vec<LoggedRay>,
 }
 
+/// Block edge in pixels of [`RenderOptions::default`].
+pub const DEFAULT_BLOCK: u32 = 32;
+
+/// Bytes a render of `desc` in blocks of `block` pixels allocates: the film's accumulators
+/// (32 bytes a pixel), every block until it is merged (the same, with the filter's border
+/// around each block), the developed image (12 bytes a pixel) and the encoder's copy (12).
+pub fn film_bytes(desc: &FilmDesc, block: u32) -> u64 {
+    let (w, h) = desc.crop_size;
+    let px = w.min(desc.width) as u64 * h.min(desc.height) as u64;
+    let r = desc.filter.radius();
+    let border = if r.is_finite() && r > 0.0 {
+        r.ceil().min(64.0) as u64
+    } else {
+        0
+    };
+    let b = block.max(1) as u64;
+    let blocks = (w as u64).div_ceil(b) * (h as u64).div_ceil(b);
+    let block_px = blocks.saturating_mul((b + 2 * border).pow(2));
+    px.saturating_mul(32 + 12 + 12)
+        .saturating_add(block_px.saturating_mul(32))
+}
+
+/// Most worker threads per core `-t` may ask for: more cannot render faster, and thousands
+/// of threads only cost memory and start-up time.
+pub const MAX_THREADS_PER_CORE: usize = 8;
+
+/// The largest thread count accepted: [`MAX_THREADS_PER_CORE`] per core, at least 64.
+pub fn max_threads() -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    (cores * MAX_THREADS_PER_CORE).max(64)
+}
+
 /// Build the worker pool: `threads` workers (0 = all cores), each with flush-to-zero set.
+/// More than [`max_threads`] is an error, not a pool of thousands of threads.
 pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
+    let max = max_threads();
+    if threads > max {
+        return Err(Error::Usage(format!(
+            "{threads} worker threads asked for; at most {max} are accepted ({MAX_THREADS_PER_CORE} per core of this machine, at least 64)"
+        )));
+    }
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .start_handler(|_| crate::accel::set_flush_denormals())
@@ -105,16 +149,19 @@ pub fn render(
     settings: &RenderSettings,
     opts: &RenderOptions,
 ) -> Result<RenderOutput> {
+    let desc = &settings.film;
+    let bs = opts.block_size.max(1);
+    let (cw, ch) = desc.crop_size;
+    opts.budget
+        .check(film_bytes(desc, bs), &format!("film {cw}×{ch}"))
+        .map_err(Error::Usage)?;
     let pool = thread_pool(opts.threads)?;
     let sampler_desc = SamplerDesc {
         kind: settings.sampler.kind,
         sample_count: opts.spp.unwrap_or(settings.sampler.sample_count).max(1),
         seed: opts.seed.unwrap_or(settings.sampler.seed),
     };
-    let desc = &settings.film;
-    let bs = opts.block_size.max(1);
     let (cx, cy) = desc.crop_offset;
-    let (cw, ch) = desc.crop_size;
     let mut rects = Vec::new();
     let mut y = 0;
     while y < ch {

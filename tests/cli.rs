@@ -7,6 +7,8 @@
 mod bench;
 #[path = "cli/doc_links.rs"]
 mod doc_links;
+#[path = "cli/hostile.rs"]
+mod hostile;
 
 use assert_cmd::Command;
 use std::fs;

@@ -163,6 +163,7 @@ fn load_mode(path: &Path, mode: &str, defines: &[(String, String)]) -> Result<Lo
     let opts = LoadOptions {
         defines: defines.to_vec(),
         normal_mapping,
+        ..Default::default()
     };
     load_scene(path, &opts)
 }

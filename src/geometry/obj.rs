@@ -5,6 +5,7 @@
 //! groups, objects, materials and smoothing groups are ignored. Errors name `file:line:col`.
 
 use super::mesh::TriMesh;
+use crate::budget::Budget;
 use crate::error::{Error, Result, SourceLoc};
 use glam::{Vec2, Vec3};
 use std::collections::HashMap;
@@ -16,7 +17,12 @@ type Key = (u32, Option<u32>, Option<u32>);
 /// Loads an OBJ file into an untransformed [`TriMesh`]. Normals are present only when every
 /// face corner names one (otherwise the caller computes smooth normals, as Mitsuba does).
 pub fn load_obj(path: &Path) -> Result<TriMesh> {
-    let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    load_obj_within(path, &Budget::default())
+}
+
+/// [`load_obj`] of a regular file whose size fits `budget`.
+pub fn load_obj_within(path: &Path, budget: &Budget) -> Result<TriMesh> {
+    let text = crate::inputs::read_regular(path, budget)?;
     let text = String::from_utf8_lossy(&text);
     parse_obj(&text, path)
 }

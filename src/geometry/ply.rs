@@ -6,6 +6,7 @@
 //! and property is read and discarded, so files with colours, materials or edges load too.
 
 use super::mesh::TriMesh;
+use crate::budget::Budget;
 use crate::error::{Error, Result};
 use glam::{Vec2, Vec3};
 use std::path::Path;
@@ -76,6 +77,18 @@ struct Body<'a> {
 }
 
 impl Body<'_> {
+    /// Where the cursor is, for errors: the line in an ASCII body, the byte offset in a binary one.
+    fn position(&self) -> String {
+        let pos = self.pos.min(self.data.len());
+        match self.format {
+            Format::Ascii => {
+                let line = self.data[..pos].iter().filter(|&&b| b == b'\n').count() + 1;
+                format!("line {line}")
+            }
+            Format::Le | Format::Be => format!("byte offset {pos}"),
+        }
+    }
+
     /// The next value of type `ty` (the type only sets the width of binary data: ASCII tokens
     /// are read as numbers whatever the declared type).
     fn read(&mut self, ty: Ty) -> std::result::Result<f64, String> {
@@ -345,6 +358,10 @@ fn read_faces(
 
 /// Reads and discards an element groove does not use (colours, materials, edges...).
 fn skip_element(body: &mut Body, el: &Element) -> std::result::Result<(), String> {
+    if el.props.is_empty() {
+        // Records without properties take no bytes (and a count of 10^18 must not loop).
+        return Ok(());
+    }
     for i in 0..el.count {
         for p in &el.props {
             body.skip(p).map_err(|m| at(el, i, m))?;
@@ -355,7 +372,12 @@ fn skip_element(body: &mut Body, el: &Element) -> std::result::Result<(), String
 
 /// Loads a PLY file into an untransformed [`TriMesh`].
 pub fn load_ply(path: &Path) -> Result<TriMesh> {
-    let data = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    load_ply_within(path, &Budget::default())
+}
+
+/// [`load_ply`] of a regular file whose size fits `budget`.
+pub fn load_ply_within(path: &Path, budget: &Budget) -> Result<TriMesh> {
+    let data = crate::inputs::read_regular(path, budget)?;
     parse_ply(&data).map_err(|m| Error::file(path, m))
 }
 
@@ -369,11 +391,12 @@ pub fn parse_ply(data: &[u8]) -> std::result::Result<TriMesh, String> {
     };
     let mut mesh = MeshData::default();
     for el in &header.elements {
-        match el.name.as_str() {
-            "vertex" => read_vertices(&mut body, el, &mut mesh)?,
-            "face" => read_faces(&mut body, el, &mut mesh)?,
-            _ => skip_element(&mut body, el)?,
-        }
+        let read = match el.name.as_str() {
+            "vertex" => read_vertices(&mut body, el, &mut mesh),
+            "face" => read_faces(&mut body, el, &mut mesh),
+            _ => skip_element(&mut body, el),
+        };
+        read.map_err(|m| format!("{} ({m})", body.position()))?;
     }
     if !mesh.have_faces {
         return Err("no face element".into());

@@ -39,10 +39,10 @@
 //! [`Error`] naming the file and a byte offset; nothing panics.
 
 use super::mesh::TriMesh;
+use crate::budget::Budget;
 use crate::error::{Error, Result};
 use flate2::bufread::ZlibDecoder;
 use glam::{Vec2, Vec3};
-use std::fs::File;
 use std::io::{BufRead, BufReader, ErrorKind, Read, Seek, SeekFrom};
 use std::path::Path;
 
@@ -86,16 +86,28 @@ pub fn load_serialized(
     shape_index: u32,
     keep_normals: bool,
 ) -> Result<SerializedMesh> {
-    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    load_serialized_within(path, shape_index, keep_normals, &Budget::default())
+}
+
+/// [`load_serialized`] of a regular file, whose mesh (from its stored counts, before
+/// anything is allocated) must fit `budget`.
+pub fn load_serialized_within(
+    path: &Path,
+    shape_index: u32,
+    keep_normals: bool,
+    budget: &Budget,
+) -> Result<SerializedMesh> {
+    let (file, _) = crate::inputs::open_regular(path)?;
     let fallback_name = format!(
         "{}@{shape_index}",
         path.file_name().map_or("?".into(), |n| n.to_string_lossy())
     );
-    read_serialized(
+    read_serialized_within(
         BufReader::new(file),
         shape_index,
         keep_normals,
         &fallback_name,
+        budget,
     )
     .map_err(|m| Error::file(path, m))
 }
@@ -103,10 +115,27 @@ pub fn load_serialized(
 /// Reads mesh `shape_index` from a seekable byte source; errors are plain messages with byte
 /// offsets (the caller adds the file name). `fallback_name` names a version 3 mesh.
 pub fn read_serialized<R: BufRead + Seek>(
+    r: R,
+    shape_index: u32,
+    keep_normals: bool,
+    fallback_name: &str,
+) -> std::result::Result<SerializedMesh, String> {
+    read_serialized_within(
+        r,
+        shape_index,
+        keep_normals,
+        fallback_name,
+        &Budget::default(),
+    )
+}
+
+/// [`read_serialized`] whose mesh must fit `budget` (checked from the stored counts).
+pub fn read_serialized_within<R: BufRead + Seek>(
     mut r: R,
     shape_index: u32,
     keep_normals: bool,
     fallback_name: &str,
+    budget: &Budget,
 ) -> std::result::Result<SerializedMesh, String> {
     let file_len = r
         .seek(SeekFrom::End(0))
@@ -150,6 +179,7 @@ pub fn read_serialized<R: BufRead + Seek>(
         keep_normals,
         file_len - data_start,
         fallback_name,
+        budget,
     )
 }
 
@@ -349,6 +379,7 @@ fn read_mesh<R: BufRead>(
     keep_normals: bool,
     compressed_left: u64,
     fallback_name: &str,
+    budget: &Budget,
 ) -> std::result::Result<SerializedMesh, String> {
     let flags = z.u32("the flag word")?;
     let name = if version == 4 {
@@ -393,6 +424,11 @@ fn read_mesh<R: BufRead>(
             )))
         }
     }
+    // What the arrays take once read as f32 (positions, normals, uvs) and u32 triangles.
+    let keep = nv
+        .saturating_mul(12 + 12 * u64::from(has_n) + 8 * u64::from(has_uv))
+        .saturating_add(nf.saturating_mul(12));
+    budget.check(keep, &format!("mesh `{name}` ({nv} vertices, {nf} faces)"))?;
     let (nv, nf) = (nv as usize, nf as usize);
 
     let mut positions = Vec::new();

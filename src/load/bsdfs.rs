@@ -4,7 +4,7 @@
 //! works through.
 
 use super::options::{MnmMode, NormalMapping};
-use super::{unknown, Builder};
+use super::{unknown, Builder, MAX_NESTING};
 use crate::bsdf::mnm::facets::Microgeometry;
 use crate::bsdf::mnm::{Evaluation, Tangent};
 use crate::bsdf::{
@@ -52,24 +52,63 @@ const MICROFACET_DEFAULT: MnmMode = MnmMode {
 impl<'d> Builder<'d> {
     /// Builds `<bsdf>` `n` (or the one a `<ref>` names) once; a BSDF with an id is shared by
     /// every reference to it.
-    pub(super) fn bsdf(&mut self, n: &'d Node) -> Result<MatId> {
-        let n = self.ids.resolve(n, "bsdf")?;
+    ///
+    /// A BSDF that refers (directly or through others) to itself is an error at the `<ref>`
+    /// that closes the cycle ("circular reference", as Mitsuba 3 says), and so is nesting
+    /// deeper than [`MAX_NESTING`]: both are found before the stack can overflow.
+    pub(super) fn bsdf(&mut self, r: &'d Node) -> Result<MatId> {
+        let n = self.ids.resolve(r, "bsdf")?;
         if let Some(id) = n.attr("id") {
             if let Some(&m) = self.bsdf_cache.get(id) {
                 return Ok(m);
             }
         }
+        if self.building.iter().any(|b| std::ptr::eq(*b, n)) {
+            let chain: Vec<String> = self
+                .building
+                .iter()
+                .skip_while(|b| !std::ptr::eq(**b, n))
+                .map(|b| match b.attr("id") {
+                    Some(id) => format!("'{id}'"),
+                    None => b.describe(),
+                })
+                .collect();
+            return Err(Error::scene(
+                r.attr_loc("id"),
+                format!(
+                    "circular reference: bsdf {} refers to itself ({} -> {})",
+                    chain[0],
+                    chain.join(" -> "),
+                    chain[0]
+                ),
+            ));
+        }
+        if self.building.len() >= MAX_NESTING {
+            return Err(Error::scene(
+                &r.loc,
+                format!("BSDFs nest more than {MAX_NESTING} deep (through children and <ref>s)"),
+            ));
+        }
+        self.building.push(n);
+        let built = self.construct_bsdf(n);
+        self.building.pop();
+        let node = built?;
+        let id = self.materials.add_node(node);
+        if let Some(i) = n.attr("id") {
+            self.bsdf_cache.insert(i, id);
+        }
+        Ok(id)
+    }
+
+    /// Runs the constructor of `<bsdf>` `n` and checks that it used every property.
+    fn construct_bsdf(&mut self, n: &'d Node) -> Result<MaterialNode> {
         let mut cx = BsdfCtx {
             p: self.props(n)?,
             b: self,
         };
         let node = cx.construct()?;
         cx.p.finish()?;
-        let id = self.materials.add_node(node);
-        if let Some(i) = n.attr("id") {
-            self.bsdf_cache.insert(i, id);
-        }
-        Ok(id)
+        Ok(node)
     }
 }
 

@@ -2,6 +2,7 @@
 //! `area` emitters declared with an id for shapes to `<ref>`).
 
 use super::{check, unknown, Builder};
+use crate::budget::Budget;
 use crate::emitter::constant::ConstantLight;
 use crate::emitter::directional::DirectionalLight;
 use crate::emitter::envmap::EnvMapLight;
@@ -45,7 +46,7 @@ impl<'d> Builder<'d> {
             }
             "spot" => spot_emitter(&p)?,
             "directional" => directional_emitter(&p)?,
-            "envmap" => envmap_emitter(self.doc, &p)?,
+            "envmap" => envmap_emitter(self.doc, &p, &self.budget)?,
             t => {
                 return Err(unknown(
                     p.loc(),
@@ -148,7 +149,7 @@ fn directional_emitter(p: &Props<'_>) -> Result<Emitter> {
 }
 
 /// Mitsuba 3 `envmap`: `filename` (a lat-long OpenEXR), `scale`, `to_world` (a rotation).
-fn envmap_emitter(doc: &Document, p: &Props<'_>) -> Result<Emitter> {
+fn envmap_emitter(doc: &Document, p: &Props<'_>, budget: &Budget) -> Result<Emitter> {
     no_nested_objects(p, "envmap")?;
     let name = p
         .string_opt("filename")?
@@ -165,7 +166,8 @@ fn envmap_emitter(doc: &Document, p: &Props<'_>) -> Result<Emitter> {
         is_exr,
         format!("envmap '{name}': only OpenEXR (.exr) environment maps are supported"),
     )?;
-    let (img, _) = crate::output::read_exr(&file)
+    // The light keeps a copy of the pixels and its sampling distribution (~20 bytes a pixel).
+    let (img, _) = crate::output::read_exr_within(&file, budget, 20)
         .map_err(|e| Error::scene(p.loc(), format!("cannot read envmap '{name}': {e}")))?;
     // The rotation part, which may carry a uniform scale (removed); anything else is rejected.
     let r = Mat3::from_mat4(m);

@@ -21,6 +21,7 @@ mod shapes;
 mod textures;
 
 use crate::accel::Accel;
+use crate::budget::Budget;
 use crate::camera::Camera;
 use crate::emitter::{Emitter, LightSampler};
 use crate::error::{Error, Result, SourceLoc};
@@ -31,12 +32,12 @@ use crate::material::{MatId, Materials, TexId};
 use crate::render::RenderSettings;
 use crate::sampler::SamplerDesc;
 use crate::scene::xml::ir::{Document, Ids, Node};
-use crate::scene::xml::parse::load_file;
+use crate::scene::xml::parse::load_file_within;
 use crate::scene::xml::props::Props;
 use crate::scene::Scene;
 use options::{LoadOptions, NormalMapping};
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A loaded scene, how its file asks for it to be rendered, and the warnings its loading
 /// produced (lenient fallbacks, old tags).
@@ -44,12 +45,20 @@ pub struct Loaded {
     pub scene: Scene,
     pub settings: RenderSettings,
     pub warnings: Vec<String>,
+    /// Every file the load read: the scene, its includes, meshes and images (an output must
+    /// not overwrite any of them).
+    pub inputs: Vec<PathBuf>,
 }
+
+/// How deep BSDFs may nest (through children or `<ref>`s). Each level costs the loader a few
+/// kilobytes of stack (measured: see `tests/scene/hostile.rs`), so 64 levels stay far below
+/// the 2 MB of a worker thread's stack, and no real material nests more than a handful deep.
+pub const MAX_NESTING: usize = 64;
 
 /// Parse, upgrade and instantiate a scene file.
 pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Loaded> {
-    let doc = load_file(path, &opts.defines)?;
-    instantiate_with(&doc, path, opts.normal_mapping)
+    let doc = load_file_within(path, &opts.defines, &opts.budget)?;
+    instantiate_within(&doc, path, opts.normal_mapping, &opts.budget)
 }
 
 /// Instantiate a parsed document. `path` names the scene in the result.
@@ -74,6 +83,11 @@ struct Builder<'d> {
     shape_emitter: Vec<Option<u32>>,
     emitters: Vec<Emitter>,
     warnings: Vec<String>,
+    /// The memory budget images and meshes are checked against.
+    budget: Budget,
+    /// The BSDFs being built, outermost first: a `<ref>` to one of them is a cycle, and the
+    /// length is the nesting depth ([`MAX_NESTING`]).
+    building: Vec<&'d Node>,
 }
 
 /// [`instantiate`] with every normal map converted to the model `normal_mapping` (decision 6).
@@ -81,6 +95,16 @@ pub fn instantiate_with(
     doc: &Document,
     path: &Path,
     normal_mapping: NormalMapping,
+) -> Result<Loaded> {
+    instantiate_within(doc, path, normal_mapping, &Budget::default())
+}
+
+/// [`instantiate_with`] whose images and meshes are checked against `budget`.
+pub fn instantiate_within(
+    doc: &Document,
+    path: &Path,
+    normal_mapping: NormalMapping,
+    budget: &Budget,
 ) -> Result<Loaded> {
     let ids = Ids::new(&doc.root);
     let mut b = Builder {
@@ -96,6 +120,8 @@ pub fn instantiate_with(
         shape_emitter: Vec::new(),
         emitters: Vec::new(),
         warnings: doc.warnings.clone(),
+        budget: budget.clone(),
+        building: Vec::new(),
     };
     let (integrator, sensor) = b.top_level()?;
     let integrator = integrator.unwrap_or(IntegratorDesc::Path(PathSettings::default()));
@@ -142,6 +168,12 @@ pub fn instantiate_with(
             sampler,
         },
         warnings: b.warnings,
+        inputs: doc
+            .files
+            .iter()
+            .chain(doc.read.borrow().iter())
+            .cloned()
+            .collect(),
     })
 }
 

@@ -3,6 +3,7 @@
 
 use crate::bsdf::mnm::facets::Microgeometry;
 use crate::bsdf::mnm::{Evaluation, Tangent};
+use crate::budget::Budget;
 
 /// Options of a load: `-D key=value` definitions from the command line and the model the
 /// normal maps become.
@@ -11,6 +12,9 @@ pub struct LoadOptions {
     pub defines: Vec<(String, String)>,
     /// `--normal-mapping`: keep the normal maps as written or convert them all to one model.
     pub normal_mapping: NormalMapping,
+    /// The memory budget (`--max-memory`) images, meshes and the expanded XML are checked
+    /// against before they are allocated; the render goes on with the same budget.
+    pub budget: Budget,
 }
 
 /// Which normal-mapping model the scene's normal maps use (decision 6 of `mnm.md`).

@@ -283,14 +283,21 @@ impl<'d> Builder<'d> {
             }
             filter = self.rfilter(c)?;
         }
+        let loc = p.loc().clone();
         p.finish()?;
-        Ok(FilmDesc {
+        let desc = FilmDesc {
             width: w,
             height: h,
             crop_offset: (cx as u32, cy as u32),
             crop_size: (cw as u32, ch as u32),
             filter,
-        })
+        };
+        // Refused here, at the <film>, rather than after the rest of the scene has loaded.
+        let need = crate::render::film_bytes(&desc, crate::render::DEFAULT_BLOCK);
+        self.budget
+            .check(need, &format!("film {cw}×{ch}"))
+            .map_err(|m| Error::scene(&loc, m))?;
+        Ok(desc)
     }
 
     fn rfilter(&mut self, n: &'d Node) -> Result<Filter> {

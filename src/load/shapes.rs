@@ -31,6 +31,34 @@ impl<'d> Builder<'d> {
         m
     }
 
+    /// An error of a file element `p` asked for (`kind` "mesh", "image"...), located at the
+    /// element; the file's own position (line, byte offset), if any, stays in the message.
+    pub(super) fn file_error(&self, p: &Props<'d>, kind: &str, name: &str, e: Error) -> Error {
+        Error::scene(p.loc(), format!("cannot load {kind} '{name}': {e}"))
+    }
+
+    /// Reserves what a loaded mesh keeps (its arrays, and the acceleration structure's copy).
+    fn reserve_mesh(
+        &self,
+        p: &Props<'d>,
+        name: &str,
+        m: &crate::geometry::mesh::TriMesh,
+    ) -> Result<()> {
+        let per_vertex =
+            12 + m.normals.as_ref().map_or(0, |_| 12) + m.uvs.as_ref().map_or(0, |_| 8);
+        let bytes = 2 * (m.positions.len() as u64 * per_vertex + m.indices.len() as u64 * 12);
+        self.budget
+            .reserve(
+                bytes,
+                &format!(
+                    "mesh '{name}' ({} vertices, {} triangles)",
+                    m.positions.len(),
+                    m.indices.len()
+                ),
+            )
+            .map_err(|m| Error::scene(p.loc(), m))
+    }
+
     /// The geometry of a `<shape>`, in world space.
     fn geometry(&self, p: &Props<'d>) -> Result<Shape> {
         let to_world = p.transform("to_world")?;
@@ -43,11 +71,13 @@ impl<'d> Builder<'d> {
                 let file = self.doc.resolve_file(&fname, p.loc())?;
                 let face_normals = p.bool("face_normals", false)?;
                 let flip_tex = p.bool("flip_tex_coords", t == "obj")?;
-                let mut mesh = if t == "obj" {
-                    obj::load_obj(&file)?
+                let mesh = if t == "obj" {
+                    obj::load_obj_within(&file, &self.budget)
                 } else {
-                    ply::load_ply(&file)?
+                    ply::load_ply_within(&file, &self.budget)
                 };
+                let mut mesh = mesh.map_err(|e| self.file_error(p, "mesh", &fname, e))?;
+                self.reserve_mesh(p, &fname, &mesh)?;
                 // The OBJ loader applies Mitsuba's v flip; undo it when asked not to flip.
                 if (t == "obj") != flip_tex {
                     if let Some(uv) = mesh.uvs.as_mut() {
@@ -69,9 +99,11 @@ impl<'d> Builder<'d> {
                 check(p.loc(), index >= 0, "shape_index must be nonnegative")?;
                 let index = u32::try_from(index)
                     .map_err(|_| Error::scene(p.loc(), "shape_index is too large"))?;
-                let mut mesh = serialized::load_serialized(&file, index, !face_normals)
-                    .map_err(|e| Error::scene(p.loc(), e.to_string()))?
-                    .mesh;
+                let mut mesh =
+                    serialized::load_serialized_within(&file, index, !face_normals, &self.budget)
+                        .map_err(|e| self.file_error(p, "mesh", &fname, e))?
+                        .mesh;
+                self.reserve_mesh(p, &fname, &mesh)?;
                 mesh.transform(&to_world);
                 Shape::from_mesh(mesh, flip, face_normals)
                     .map_err(|e| Error::scene(p.loc(), format!("{}: {e}", file.display())))?

@@ -102,8 +102,8 @@ impl<'d> Builder<'d> {
             format: StorageFormat::parse(&format).unwrap_or_default(),
         };
         let _ = p.bool("accel", true)?;
-        let bmp = BitmapTexture::load(&file, &opts)
-            .map_err(|e| Error::scene(p.loc(), format!("cannot load bitmap texture: {e}")))?;
+        let bmp = BitmapTexture::load_within(&file, &opts, &self.budget)
+            .map_err(|e| self.file_error(p, "bitmap texture", &fname, e))?;
         for w in bmp.warnings() {
             self.warnings.push(format!("{}: {w}", p.loc()));
         }

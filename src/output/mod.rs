@@ -4,6 +4,7 @@
 //! (`.NAME.tmp-<pid>`), is flushed to disk, and is then renamed over the target. On any failure
 //! the temporary file is removed and an existing target stays untouched.
 
+pub mod clash;
 mod exr;
 pub(crate) mod png;
 
@@ -11,6 +12,7 @@ use std::fs::{self, File};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+use crate::budget::{bytes_of, Budget};
 use crate::error::{Error, Result};
 use crate::film::Image;
 
@@ -128,6 +130,38 @@ pub type Channels = Vec<(String, Vec<f32>)>;
 /// how tests and tools read the AOV channels that [`write_image_channels`] writes.
 pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, Channels)> {
     exr::read_channels(path)
+}
+
+/// [`read_exr`] of a regular file whose image (from its header, before any pixel is read),
+/// with `extra` more bytes per pixel kept by the caller, fits `budget`; the pixels and the
+/// extra stay reserved.
+pub fn read_exr_within(path: &Path, budget: &Budget, extra: u64) -> Result<(Image, Metadata)> {
+    let (f, _) = crate::inputs::open_regular(path)?;
+    let (w, h, nch) = exr_size(std::io::BufReader::new(f)).map_err(|m| Error::file(path, m))?;
+    let what = format!("EXR image {w}×{h} ({})", path.display());
+    budget
+        .check(bytes_of(&[w, h, 12 + 4 * nch + extra]), &what)
+        .and_then(|_| budget.reserve(bytes_of(&[w, h, 12 + extra]), &what))
+        .map_err(|m| Error::file(path, m))?;
+    exr::read(path)
+}
+
+/// The width, height and channel count of an OpenEXR file's largest layer, read from its
+/// headers only (no pixel data is touched, nothing large is allocated).
+pub fn exr_size(r: impl std::io::Read) -> std::result::Result<(u64, u64, u64), String> {
+    let meta = ::exr::meta::MetaData::read_from_buffered(r, false)
+        .map_err(|e| format!("cannot read the EXR header: {e}"))?;
+    meta.headers
+        .iter()
+        .map(|h| {
+            (
+                h.layer_size.width() as u64,
+                h.layer_size.height() as u64,
+                h.channels.list.len() as u64,
+            )
+        })
+        .max_by_key(|&(w, h, c)| bytes_of(&[w, h, c]))
+        .ok_or_else(|| "the EXR file has no header".to_string())
 }
 
 /// The temporary file used while writing `path`.

@@ -23,6 +23,7 @@ use std::path::{Path, PathBuf};
 use exr::prelude::f16;
 use glam::{Mat3, Vec2, Vec3};
 
+use crate::budget::{bytes_of, Budget};
 use crate::error::{Error, Result};
 use crate::spectrum::{luminance, Spectrum};
 
@@ -238,6 +239,20 @@ pub fn round_to_f16(x: f32) -> f32 {
     f16::from_f32(x).to_f32()
 }
 
+/// Bytes per pixel an 8- or 16-bit image's decoder may hold (RGBA, 16 bits) besides the texels.
+const LDR_DECODE_BYTES: u64 = 8;
+/// Bytes per texel a bitmap texture keeps (RGB f32, the widest storage) and the decoded copy
+/// it is made from.
+const TEXEL_BYTES: u64 = 12;
+
+/// Checks a `w`×`h` image's decoding (`decode` bytes per pixel for the decoder, two texel
+/// arrays) against `budget`, then reserves the texels the texture keeps.
+fn reserve_texels(budget: &Budget, w: u64, h: u64, decode: u64) -> Result<(), String> {
+    let what = format!("image {w}×{h}");
+    budget.check(bytes_of(&[w, h, decode + 2 * TEXEL_BYTES]), &what)?;
+    budget.reserve(bytes_of(&[w, h, TEXEL_BYTES]), &what)
+}
+
 /// Decoded image data before texture options are applied.
 struct Decoded {
     width: u32,
@@ -253,11 +268,21 @@ struct Decoded {
 impl BitmapTexture {
     /// Loads an image file (PNG, JPEG or OpenEXR, recognised by content). Errors name the file.
     pub fn load(path: &Path, opts: &BitmapOptions) -> Result<BitmapTexture> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        Self::load_within(path, opts, &Budget::default())
+    }
+
+    /// [`BitmapTexture::load`] of a regular file whose decoding (estimated from the image
+    /// header's dimensions, before decoding) fits `budget`; the texels stay reserved.
+    pub fn load_within(
+        path: &Path,
+        opts: &BitmapOptions,
+        budget: &Budget,
+    ) -> Result<BitmapTexture> {
+        let bytes = crate::inputs::read_regular(path, budget)?;
         let dec = if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
-            decode_exr(&bytes)
+            decode_exr(&bytes, budget)
         } else {
-            decode_ldr(&bytes, opts.raw)
+            decode_ldr(&bytes, opts.raw, budget)
         }
         .map_err(|msg| Error::file(path, msg))?;
         let quantize = match opts.format {
@@ -498,14 +523,25 @@ impl BitmapTexture {
 
 /// Decodes a PNG or JPEG. 8-bit codes c become c/255, 16-bit codes c/65535; then the sRGB EOTF
 /// unless `raw`.
-fn decode_ldr(bytes: &[u8], raw: bool) -> Result<Decoded, String> {
+fn decode_ldr(bytes: &[u8], raw: bool, budget: &Budget) -> Result<Decoded, String> {
     use image::DynamicImage as D;
-    let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
-        .with_guessed_format()
-        .map_err(|e| format!("cannot read image: {e}"))?;
+    let open = || {
+        image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| format!("cannot read image: {e}"))
+    };
+    let mut reader = open()?;
     let format = reader.format().ok_or_else(|| {
         "unrecognised image format (bitmap textures read PNG, JPEG and OpenEXR files)".to_string()
     })?;
+    // The header's dimensions, before anything is decoded.
+    let (w, h) = open()?
+        .into_dimensions()
+        .map_err(|e| format!("cannot read the image header: {e}"))?;
+    reserve_texels(budget, w as u64, h as u64, LDR_DECODE_BYTES)?;
+    let mut limits = image::Limits::no_limits();
+    limits.max_alloc = Some(budget.limit().saturating_sub(budget.used()).max(1));
+    reader.limits(limits);
     let img = reader.decode().map_err(|e| {
         let name = format!("{format:?}").to_uppercase();
         format!("cannot decode {name} image: {e}")
@@ -607,8 +643,10 @@ fn rgb8(lut: &[f32], c: [u8; 3]) -> Vec3 {
 }
 
 /// Decodes the first layer of an OpenEXR file: channels R, G, B (alpha ignored) or Y (grey).
-fn decode_exr(bytes: &[u8]) -> Result<Decoded, String> {
+fn decode_exr(bytes: &[u8], budget: &Budget) -> Result<Decoded, String> {
     use exr::prelude::{read, FlatSamples, ReadChannels, ReadLayers};
+    let (w, h, nch) = crate::output::exr_size(std::io::Cursor::new(bytes))?;
+    reserve_texels(budget, w, h, 4 * nch)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()

@@ -11,5 +11,6 @@ mod materials;
 mod mnm;
 mod normalmap;
 mod refs_selfcheck;
+mod robustness;
 mod textures;
 mod wrappers;

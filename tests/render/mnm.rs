@@ -147,6 +147,7 @@ fn furnace_under(mode: &str, defines: &[(&str, String)], seed: u64) -> (f64, f64
             .map(|(k, v)| (k.to_string(), v.clone()))
             .collect(),
         normal_mapping: NormalMapping::parse(mode).expect("mode"),
+        ..Default::default()
     };
     let loaded = load_scene(&test_scene("mnm_furnace.xml"), &opts).expect("load");
     let ro = groove::render::RenderOptions {

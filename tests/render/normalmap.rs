@@ -41,6 +41,7 @@ fn load(path: &Path, mode: NormalMapping, defines: &[(&str, &str)]) -> Vec<Mater
             .map(|(k, v)| (k.to_string(), v.to_string()))
             .collect(),
         normal_mapping: mode,
+        ..Default::default()
     };
     load_scene(path, &opts)
         .expect("scene")

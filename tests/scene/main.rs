@@ -6,6 +6,7 @@ mod common;
 
 mod emitters;
 mod geometry;
+mod hostile;
 mod output;
 mod plugins;
 mod texture;

@@ -3,6 +3,7 @@
 //! ([`PLUGIN_TAGS`], [`PROPERTY_TAGS`]) and the index of ids that `<ref>` resolves against
 //! ([`Ids`]). Produced by [`super::parse`]; read by [`super::props`] and the loader.
 
+use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -84,23 +85,35 @@ pub struct Document {
     /// The main file was older than 2.0 and has been upgraded to Mitsuba 3 names (later stages
     /// use this for 0.6 semantics, e.g. of the classic `normalmap`).
     pub upgraded_from_v0: bool,
+    /// The scene file and every file it includes.
+    pub files: Vec<PathBuf>,
+    /// Every resource file [`Document::resolve_file`] has found (meshes, images), in order:
+    /// with [`Document::files`], what a render of the document reads.
+    pub read: RefCell<Vec<PathBuf>>,
 }
 
 impl Document {
     /// Resolves a resource file name: an absolute path must exist; a relative one is looked up
-    /// in the search paths in order. A missing file is an error at `loc` naming the file.
+    /// in the search paths in order. A missing file, or one that is not a regular file (a
+    /// directory, a FIFO, a device), is an error at `loc` naming the file. The file is
+    /// recorded in [`Document::read`].
     pub fn resolve_file(&self, name: &str, loc: &SourceLoc) -> Result<PathBuf> {
+        let found = |p: PathBuf| -> Result<PathBuf> {
+            crate::inputs::check_regular(&p).map_err(|e| Error::scene(loc, e.to_string()))?;
+            self.read.borrow_mut().push(p.clone());
+            Ok(p)
+        };
         let p = Path::new(name);
         if p.is_absolute() {
             if p.exists() {
-                return Ok(p.to_path_buf());
+                return found(p.to_path_buf());
             }
             return Err(Error::scene(loc, format!("file '{name}' not found")));
         }
         for dir in &self.search_paths {
             let cand = dir.join(p);
             if cand.exists() {
-                return Ok(cand);
+                return found(cand);
             }
         }
         let searched: Vec<String> = self

@@ -6,6 +6,7 @@
 //! Mitsuba 3's parser does) → duplicate-id check → unused `-D` check.
 
 use std::collections::HashMap;
+use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 
 use quick_xml::events::Event;
@@ -13,18 +14,137 @@ use quick_xml::Reader;
 
 use super::ir::{Attr, Document, Node, PLUGIN_TAGS};
 use super::upgrade;
+use crate::budget::Budget;
 use crate::error::{Error, Result, SourceLoc};
 
+/// Deepest element nesting accepted, in one file and after includes are spliced in. Real
+/// scenes nest about ten deep; the limit keeps every recursive walk of the tree (validation,
+/// substitution, the loader, `Drop`) far from the stack's end.
+pub const MAX_DEPTH: usize = 128;
+/// Longest chain of files including each other.
+pub const MAX_INCLUDE_DEPTH: usize = 32;
+/// What one element of the expanded tree costs in memory (the node, its attributes, their
+/// strings and the file names of their locations), for the budget: ~150 bytes measured on
+/// small elements (peak RSS over element count), with a margin for longer values.
+const ELEMENT_BYTES: u64 = 256;
+
 /// Loads a scene file with the `-D key=value` definitions `defines` (a repeated key: the last
-/// one wins).
+/// one wins), with the default memory budget.
 pub fn load_file(path: &Path, defines: &[(String, String)]) -> Result<Document> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    load_str(&text, path, defines)
+    load_file_within(path, defines, &Budget::default())
+}
+
+/// [`load_file`] whose file reads and expanded tree are checked against `budget`.
+pub fn load_file_within(
+    path: &Path,
+    defines: &[(String, String)],
+    budget: &Budget,
+) -> Result<Document> {
+    let bytes = crate::inputs::read_regular(path, budget)?;
+    let text = decode_text(&bytes, path)?;
+    load_str_within(&text, path, defines, budget)
+}
+
+/// The text of a scene file: UTF-8 (a byte-order mark is skipped) or UTF-16 with a byte-order
+/// mark (as XML 1.0 §4.3.3 allows). Invalid UTF-8 or UTF-16 is an error at its line and column.
+pub fn decode_text(bytes: &[u8], path: &Path) -> Result<String> {
+    let utf16 = |be: bool| -> Result<String> {
+        let body = &bytes[2..];
+        let pairs = body.chunks_exact(2);
+        let odd = !pairs.remainder().is_empty();
+        let units = pairs.map(|c| {
+            if be {
+                u16::from_be_bytes([c[0], c[1]])
+            } else {
+                u16::from_le_bytes([c[0], c[1]])
+            }
+        });
+        let mut out = String::with_capacity(body.len() / 2);
+        for (k, r) in char::decode_utf16(units).enumerate() {
+            match r {
+                Ok(c) => out.push(c),
+                Err(e) => {
+                    return Err(bad_encoding(
+                        &out,
+                        path,
+                        &format!(
+                            "invalid UTF-16 (unpaired surrogate 0x{:04X} near byte offset {})",
+                            e.unpaired_surrogate(),
+                            2 + 2 * k
+                        ),
+                    ))
+                }
+            }
+        }
+        if odd {
+            return Err(bad_encoding(
+                &out,
+                path,
+                "UTF-16 text ends in the middle of a character (odd byte count)",
+            ));
+        }
+        Ok(out)
+    };
+    match bytes {
+        [0xFF, 0xFE, ..] => utf16(false),
+        [0xFE, 0xFF, ..] => utf16(true),
+        _ => {
+            let b = bytes.strip_prefix(&[0xEF, 0xBB, 0xBF]).unwrap_or(bytes);
+            match std::str::from_utf8(b) {
+                Ok(s) => {
+                    if let Some(i) = s.find('\0') {
+                        let hint = if b.len() > 1 && (b[0] == 0 || b[1] == 0) {
+                            " (UTF-16 without a byte-order mark? save it as UTF-8)"
+                        } else {
+                            ""
+                        };
+                        return Err(bad_encoding(
+                            &s[..i],
+                            path,
+                            &format!("NUL character at byte offset {i}{hint}"),
+                        ));
+                    }
+                    Ok(s.to_string())
+                }
+                Err(e) => {
+                    let ok = e.valid_up_to();
+                    let good = std::str::from_utf8(&b[..ok]).unwrap_or_default();
+                    Err(bad_encoding(
+                        good,
+                        path,
+                        &format!(
+                            "invalid UTF-8 (byte 0x{:02X} at byte offset {}); scene files must be UTF-8 or UTF-16 with a byte-order mark",
+                            b[ok],
+                            ok + (bytes.len() - b.len())
+                        ),
+                    ))
+                }
+            }
+        }
+    }
+}
+
+/// An encoding error just after the valid text `good`: located at the line and column where
+/// `good` ends.
+fn bad_encoding(good: &str, path: &Path, msg: &str) -> Error {
+    let line = good.matches('\n').count() + 1;
+    let col = good.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    Error::scene(&SourceLoc::new(path, line as u32, col as u32), msg)
 }
 
 /// Loads a scene from a string as if it were the file `virtual_path`; includes and `<path>`
 /// entries resolve relative to `virtual_path`'s folder.
 pub fn load_str(text: &str, virtual_path: &Path, defines: &[(String, String)]) -> Result<Document> {
+    load_str_within(text, virtual_path, defines, &Budget::default())
+}
+
+/// [`load_str`] whose includes and expanded tree are checked against `budget`.
+pub fn load_str_within(
+    text: &str,
+    virtual_path: &Path,
+    defines: &[(String, String)],
+    budget: &Budget,
+) -> Result<Document> {
     let raw = parse_tree(text, virtual_path)?;
     if raw.tag != "scene" {
         return Err(Error::scene(
@@ -53,6 +173,11 @@ pub fn load_str(text: &str, virtual_path: &Path, defines: &[(String, String)]) -
         include_stack: vec![canonical(virtual_path)],
         search_paths: vec![dir],
         warnings,
+        parsed: HashMap::new(),
+        resolved: HashMap::new(),
+        files: vec![virtual_path.to_path_buf()],
+        elements: 1,
+        budget: budget.clone(),
     };
     // A repeated -D key: the last one wins.
     for (k, v) in defines {
@@ -70,7 +195,10 @@ pub fn load_str(text: &str, virtual_path: &Path, defines: &[(String, String)]) -
     ctx.sort_params();
     substitute_attrs(&mut raw, &mut ctx.params)?;
     let children = std::mem::take(&mut raw.children);
-    raw.children = process_children(children, &mut ctx)?;
+    raw.children = process_children(children, &mut ctx, 1)?;
+    budget
+        .reserve(ctx.elements * ELEMENT_BYTES, "the scene's XML elements")
+        .map_err(|m| Error::scene(&raw.loc, m))?;
 
     let mut ids: HashMap<String, SourceLoc> = HashMap::new();
     check_ids(&raw, &mut ids)?;
@@ -88,6 +216,8 @@ pub fn load_str(text: &str, virtual_path: &Path, defines: &[(String, String)]) -
         search_paths: ctx.search_paths,
         warnings: ctx.warnings,
         upgraded_from_v0: old,
+        files: ctx.files,
+        read: Default::default(),
     })
 }
 
@@ -166,6 +296,12 @@ pub(crate) fn parse_tree(text: &str, file: &Path) -> Result<Node> {
                     children: Vec::new(),
                     loc,
                 };
+                if stack.len() >= MAX_DEPTH {
+                    return Err(Error::scene(
+                        &node.loc,
+                        format!("elements nest more than {MAX_DEPTH} deep"),
+                    ));
+                }
                 if empty {
                     attach(node, &mut stack, &mut root)?;
                 } else {
@@ -436,6 +572,17 @@ struct Ctx {
     include_stack: Vec<PathBuf>,
     search_paths: Vec<PathBuf>,
     warnings: Vec<String>,
+    /// Every included file, parsed, upgraded and validated once (by canonical path): a file
+    /// included many times is spliced again without being read again.
+    parsed: HashMap<OsString, Vec<Node>>,
+    /// Include lookups done: (including folder, file name, search paths known) → (path found,
+    /// canonical path).
+    resolved: HashMap<(OsString, String, usize), (PathBuf, PathBuf)>,
+    /// The scene file and every file it includes, in order of first use.
+    files: Vec<PathBuf>,
+    /// Elements of the expanded tree so far (checked against the budget as they grow).
+    elements: u64,
+    budget: Budget,
 }
 
 impl Ctx {
@@ -479,9 +626,28 @@ fn substitute_attrs(node: &mut Node, params: &mut [Param]) -> Result<()> {
     Ok(())
 }
 
-fn process_children(children: Vec<Node>, ctx: &mut Ctx) -> Result<Vec<Node>> {
+/// Processes the children of an element at nesting `depth` (the root's children are at 1).
+fn process_children(children: Vec<Node>, ctx: &mut Ctx, depth: usize) -> Result<Vec<Node>> {
     let mut out = Vec::with_capacity(children.len());
     for mut child in children {
+        if depth >= MAX_DEPTH {
+            return Err(Error::scene(
+                &child.loc,
+                format!("elements nest more than {MAX_DEPTH} deep (with includes spliced in)"),
+            ));
+        }
+        ctx.elements += 1;
+        if ctx.elements % 4096 == 0 {
+            ctx.budget
+                .check(
+                    ctx.elements * ELEMENT_BYTES,
+                    &format!(
+                        "the scene's XML ({} elements with includes spliced in)",
+                        ctx.elements
+                    ),
+                )
+                .map_err(|m| Error::scene(&child.loc, m))?;
+        }
         substitute_attrs(&mut child, &mut ctx.params)?;
         match child.tag.as_str() {
             "default" => {
@@ -523,12 +689,12 @@ fn process_children(children: Vec<Node>, ctx: &mut Ctx) -> Result<Vec<Node>> {
                 ctx.search_paths.push(dir);
             }
             "include" => {
-                let spliced = include(&child, ctx)?;
+                let spliced = include(&child, ctx, depth)?;
                 out.extend(spliced);
             }
             _ => {
                 let grand = std::mem::take(&mut child.children);
-                child.children = process_children(grand, ctx)?;
+                child.children = process_children(grand, ctx, depth + 1)?;
                 out.push(child);
             }
         }
@@ -536,28 +702,47 @@ fn process_children(children: Vec<Node>, ctx: &mut Ctx) -> Result<Vec<Node>> {
     Ok(out)
 }
 
-/// Loads an `<include filename>` and returns the nodes to splice in its place.
-fn include(node: &Node, ctx: &mut Ctx) -> Result<Vec<Node>> {
+/// Loads an `<include filename>` at nesting `depth` and returns the nodes to splice in its
+/// place. Each file is read and parsed once per load ([`Ctx::parsed`]).
+fn include(node: &Node, ctx: &mut Ctx, depth: usize) -> Result<Vec<Node>> {
     let name = node.attr("filename").unwrap_or_default();
     let loc = node.attr_loc("filename");
     let base = parent_dir(&node.loc.file);
-    let p = Path::new(name);
-    let mut candidates = vec![if p.is_absolute() {
-        p.to_path_buf()
-    } else {
-        base.join(p)
-    }];
-    if !p.is_absolute() {
-        candidates.extend(ctx.search_paths.iter().map(|d| d.join(p)));
-    }
-    let Some(path) = candidates.into_iter().find(|c| c.is_file()) else {
-        return Err(Error::scene(
-            loc,
-            format!("included file '{name}' not found"),
-        ));
+    // The same include resolves the same way while no <path> is added: looked up once.
+    let key = (
+        base.as_os_str().to_os_string(),
+        name.to_string(),
+        ctx.search_paths.len(),
+    );
+    let (path, canon) = match ctx.resolved.get(&key) {
+        Some(r) => r.clone(),
+        None => {
+            let p = Path::new(name);
+            let mut candidates = vec![if p.is_absolute() {
+                p.to_path_buf()
+            } else {
+                base.join(p)
+            }];
+            if !p.is_absolute() {
+                candidates.extend(ctx.search_paths.iter().map(|d| d.join(p)));
+            }
+            let Some(path) = candidates.into_iter().find(|c| c.exists()) else {
+                return Err(Error::scene(
+                    loc,
+                    format!("included file '{name}' not found"),
+                ));
+            };
+            let canon = canonical(&path);
+            ctx.resolved.insert(key, (path.clone(), canon.clone()));
+            (path, canon)
+        }
     };
-    let canon = canonical(&path);
-    if ctx.include_stack.contains(&canon) {
+    // Compared as strings: `PathBuf`'s `==` and `Hash` walk components and are slow.
+    if ctx
+        .include_stack
+        .iter()
+        .any(|p| p.as_os_str() == canon.as_os_str())
+    {
         return Err(Error::scene(
             loc,
             format!(
@@ -566,9 +751,38 @@ fn include(node: &Node, ctx: &mut Ctx) -> Result<Vec<Node>> {
             ),
         ));
     }
-    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
-    let mut raw = parse_tree(&text, &path)?;
-    let nodes = if raw.tag == "scene" {
+    if ctx.include_stack.len() >= MAX_INCLUDE_DEPTH {
+        return Err(Error::scene(
+            loc,
+            format!("includes nest more than {MAX_INCLUDE_DEPTH} files deep"),
+        ));
+    }
+    let nodes = match ctx.parsed.get(canon.as_os_str()) {
+        Some(nodes) => nodes.clone(),
+        None => {
+            let nodes = parse_include(&path, ctx).map_err(|e| match e {
+                // Name the include that asked for the file.
+                Error::Scene { .. } => e,
+                other => Error::scene(loc, format!("cannot include '{name}': {other}")),
+            })?;
+            ctx.files.push(path.clone());
+            ctx.parsed
+                .insert(canon.as_os_str().to_os_string(), nodes.clone());
+            nodes
+        }
+    };
+    ctx.include_stack.push(canon);
+    let res = process_children(nodes, ctx, depth);
+    ctx.include_stack.pop();
+    res
+}
+
+/// Reads, parses, upgrades and validates an included file; returns the nodes it adds.
+fn parse_include(path: &Path, ctx: &mut Ctx) -> Result<Vec<Node>> {
+    let bytes = crate::inputs::read_regular(path, &ctx.budget)?;
+    let text = decode_text(&bytes, path)?;
+    let mut raw = parse_tree(&text, path)?;
+    Ok(if raw.tag == "scene" {
         if let Some(v) = raw.attr("version") {
             // Each file is upgraded according to its own version.
             let version = parse_version(v, raw.attr_loc("version"))?;
@@ -582,11 +796,7 @@ fn include(node: &Node, ctx: &mut Ctx) -> Result<Vec<Node>> {
         // A file holding a single object: validate it as a child of the scene.
         validate(&raw, Some("scene"))?;
         vec![raw]
-    };
-    ctx.include_stack.push(canon);
-    let res = process_children(nodes, ctx);
-    ctx.include_stack.pop();
-    res
+    })
 }
 
 /// Every plugin `id` must be unique across the scene (including included files).

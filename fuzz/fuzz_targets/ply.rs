@@ -1,0 +1,9 @@
+//! The PLY parser (ASCII and binary), then the shape built from its mesh.
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    if let Ok(mesh) = groove::geometry::ply::parse_ply(data) {
+        let _ = groove::geometry::Shape::from_mesh(mesh, false, false);
+    }
+});
