@@ -614,7 +614,7 @@ fn loader_errors_are_located_twice() {
     refused(
         &d,
         &["render", "-q", "bad16.xml", "-o", "o.exr"],
-        &["bad16.xml:2:3: invalid UTF-16 (unpaired surrogate 0xD800"],
+        &["bad16.xml:2:3: invalid UTF-16 (unpaired surrogate 0xD800 at byte offset 54)"],
     );
     // Mesh errors: the <shape> that asked for the file, then the file's own line or offset.
     write(&d, "bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n");

@@ -60,17 +60,22 @@ pub fn decode_text(bytes: &[u8], path: &Path) -> Result<String> {
             }
         });
         let mut out = String::with_capacity(body.len() / 2);
-        for (k, r) in char::decode_utf16(units).enumerate() {
+        // Code units decoded so far (a surrogate pair is two).
+        let mut at = 0;
+        for r in char::decode_utf16(units) {
             match r {
-                Ok(c) => out.push(c),
+                Ok(c) => {
+                    out.push(c);
+                    at += c.len_utf16();
+                }
                 Err(e) => {
                     return Err(bad_encoding(
                         &out,
                         path,
                         &format!(
-                            "invalid UTF-16 (unpaired surrogate 0x{:04X} near byte offset {})",
+                            "invalid UTF-16 (unpaired surrogate 0x{:04X} at byte offset {})",
                             e.unpaired_surrogate(),
-                            2 + 2 * k
+                            2 + 2 * at
                         ),
                     ))
                 }
