@@ -375,7 +375,7 @@ fn includes_are_parsed_once_and_expansion_is_budgeted() {
     // Re-parsing would cost ~0.5 ms per include, 8 s in all; parsing once takes ~50 ms.
     assert!(secs < 3.0, "2^14 includes took {secs:.1} s");
 
-    // Twice per level, 40 levels deep: 2^40 elements. The budget stops it.
+    // Twice per level, 30 levels deep: 2^30 elements. The budget stops it.
     for k in 0..30 {
         write(
             &d,
@@ -413,6 +413,15 @@ fn includes_are_parsed_once_and_expansion_is_budgeted() {
             "elements with includes spliced in) needs ~",
         ],
     );
+    // Under the default memory limit the element cap stops it, within seconds.
+    let t0 = std::time::Instant::now();
+    refused(
+        &d,
+        &["render", "-q", "exp.xml", "-o", "o.exr"],
+        &["the scene expands to more than 8000000 XML elements"],
+    );
+    let secs = t0.elapsed().as_secs_f64();
+    assert!(secs < 20.0, "the element cap took {secs:.1} s");
     // A cycle.
     write(
         &d,

@@ -27,6 +27,10 @@ pub const MAX_INCLUDE_DEPTH: usize = 32;
 /// strings and the file names of their locations), for the budget: ~150 bytes measured on
 /// small elements (peak RSS over element count), with a margin for longer values.
 const ELEMENT_BYTES: u64 = 256;
+/// Most elements a scene may expand to with its includes spliced in, whatever the memory limit:
+/// a hand-written or exported scene has well under a million; an include graph that repeats a
+/// file at every level grows exponentially and is stopped here within seconds.
+pub const MAX_ELEMENTS: u64 = 8_000_000;
 
 /// Loads a scene file with the `-D key=value` definitions `defines` (a repeated key: the last
 /// one wins), with the default memory budget.
@@ -642,6 +646,15 @@ fn process_children(children: Vec<Node>, ctx: &mut Ctx, depth: usize) -> Result<
             ));
         }
         ctx.elements += 1;
+        if ctx.elements > MAX_ELEMENTS {
+            return Err(Error::scene(
+                &child.loc,
+                format!(
+                    "the scene expands to more than {MAX_ELEMENTS} XML elements with its includes \
+                     spliced in (does an include graph repeat a file at every level?)"
+                ),
+            ));
+        }
         if ctx.elements % 4096 == 0 {
             ctx.budget
                 .check(
