@@ -81,6 +81,16 @@ pub fn render_scene(
     let mut loaded = groove::load::load_scene(scene, &opts)
         .unwrap_or_else(|e| panic!("loading {}: {e}", scene.display()));
     tweak(&mut loaded);
+    render_loaded(&loaded, spp, seed, threads)
+}
+
+/// Render a loaded scene at `spp` with `seed` on `threads` workers (0: all cores).
+pub fn render_loaded(
+    loaded: &groove::load::Loaded,
+    spp: u32,
+    seed: u64,
+    threads: usize,
+) -> Rendered {
     let ro = groove::render::RenderOptions {
         threads,
         spp: Some(spp),
@@ -112,17 +122,7 @@ pub fn render_scene_edited(
         .unwrap_or_else(|e| panic!("parsing the edited {}: {e}", scene.display()));
     let loaded = groove::load::instantiate(&doc, scene)
         .unwrap_or_else(|e| panic!("loading the edited {}: {e}", scene.display()));
-    let ro = groove::render::RenderOptions {
-        spp: Some(spp),
-        seed: Some(seed),
-        ..Default::default()
-    };
-    let out = groove::render::render(&loaded.scene, &loaded.settings, &ro).expect("render");
-    Rendered {
-        mean: to_rgb(&out.film.develop()),
-        var: to_rgb(&out.film.develop_variance()),
-        stats: out.stats,
-    }
+    render_loaded(&loaded, spp, seed, 0)
 }
 
 /// Mean over the whole image with its standard error (grey images: channel 0).
