@@ -1,7 +1,8 @@
-//! Mitsuba XML scene files: the intermediate representation ([`ir`]), parsing to it with source
+//! Mitsuba XML scene files: decoding their text ([`decode`]), the intermediate representation ([`ir`]), parsing to it with source
 //! locations ([`parse`]), upgrading the old dialect ([`upgrade`]) and typed property access with
 //! unreferenced-property detection ([`props`]).
 
+pub mod decode;
 pub mod ir;
 pub mod parse;
 pub mod props;
