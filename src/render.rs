@@ -116,6 +116,10 @@ pub fn film_bytes(desc: &FilmDesc, block: u32) -> u64 {
         .saturating_add(block_px.saturating_mul(32))
 }
 
+/// Bytes one worker thread takes beside the film: its stack (rayon's default, 2 MiB of address
+/// space, reserved here in full) and its scratch (the BSDF arena, ray counters, sampler state).
+pub const THREAD_BYTES: u64 = 4 << 20;
+
 /// Most worker threads per core `-t` may ask for: more cannot render faster, and thousands
 /// of threads only cost memory and start-up time.
 pub const MAX_THREADS_PER_CORE: usize = 8;
@@ -152,10 +156,14 @@ pub fn render(
     let desc = &settings.film;
     let bs = opts.block_size.max(1);
     let (cw, ch) = desc.crop_size;
-    opts.budget
-        .check(film_bytes(desc, bs), &format!("film {cw}×{ch}"))
-        .map_err(Error::Usage)?;
     let pool = thread_pool(opts.threads)?;
+    let n = pool.current_num_threads() as u64;
+    opts.budget
+        .check(
+            film_bytes(desc, bs).saturating_add(n * THREAD_BYTES),
+            &format!("film {cw}×{ch} with {n} worker threads"),
+        )
+        .map_err(Error::Usage)?;
     let sampler_desc = SamplerDesc {
         kind: settings.sampler.kind,
         sample_count: opts.spp.unwrap_or(settings.sampler.sample_count).max(1),

@@ -2,8 +2,10 @@
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 
+mod common;
+
 fuzz_target!(|data: &[u8]| {
-    if let Ok(mesh) = groove::geometry::ply::parse_ply(data) {
+    if let Ok(mesh) = groove::geometry::ply::parse_ply_within(data, &common::budget()) {
         let _ = groove::geometry::Shape::from_mesh(mesh, false, false);
     }
 });

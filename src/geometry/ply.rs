@@ -6,7 +6,7 @@
 //! and property is read and discarded, so files with colours, materials or edges load too.
 
 use super::mesh::TriMesh;
-use crate::budget::Budget;
+use crate::budget::{bytes_of, Budget};
 use crate::error::{Error, Result};
 use glam::{Vec2, Vec3};
 use std::path::Path;
@@ -252,6 +252,65 @@ fn parse_property(t: &[&str]) -> std::result::Result<Property, &'static str> {
     }
 }
 
+/// The fewest bytes one record of `el` can take in the body: binary values (a list at least its
+/// count), or ASCII tokens of one character and a separator each.
+fn min_record_bytes(el: &Element, format: Format) -> u64 {
+    el.props
+        .iter()
+        .map(|p| match (format, p.list) {
+            (Format::Ascii, _) => 2,
+            (_, Some(ct)) => ct.size() as u64,
+            (_, None) => p.ty.size() as u64,
+        })
+        .sum()
+}
+
+/// Refuses header counts the file cannot hold (a 100-byte file declaring 10^12 vertices) and
+/// meshes over the memory budget, before reading the body: the arrays then never grow past
+/// what was checked. Faces count as one triangle each here (a polygon adds more as it is read,
+/// bounded by the bytes of its list, and the loaded mesh is reserved in full by the loader).
+fn check_counts(header: &Header, data: &[u8], budget: &Budget) -> std::result::Result<(), String> {
+    let len = data.len();
+    let mut left = (len - header.body_start.min(len)) as u64;
+    // The last ASCII token needs no separator after it.
+    if header.format == Format::Ascii {
+        left += 1;
+    }
+    let (mut verts, mut faces, mut vert_bytes) = (0u64, 0u64, 12u64);
+    for el in &header.elements {
+        let need = bytes_of(&[el.count as u64, min_record_bytes(el, header.format)]);
+        if need > left {
+            let start = Body {
+                data,
+                pos: header.body_start,
+                format: header.format,
+            };
+            return Err(format!(
+                "{} (element `{}`: the header declares {} records of at least {} bytes, but at \
+                 most {left} bytes of the body are left for them)",
+                start.position(),
+                el.name,
+                el.count,
+                min_record_bytes(el, header.format)
+            ));
+        }
+        left -= need;
+        let has = |n: &str| el.props.iter().any(|p| p.list.is_none() && p.name == n);
+        match el.name.as_str() {
+            "vertex" => {
+                verts = el.count as u64;
+                vert_bytes = 12
+                    + 12 * u64::from(has("nx"))
+                    + 8 * u64::from(has("u") || has("s") || has("texture_u"));
+            }
+            "face" => faces = el.count as u64,
+            _ => {}
+        }
+    }
+    let keep = bytes_of(&[verts, vert_bytes]).saturating_add(bytes_of(&[faces, 12]));
+    budget.check(keep, &format!("mesh of {verts} vertices and {faces} faces"))
+}
+
 /// The mesh being read, element by element.
 #[derive(Default)]
 struct MeshData {
@@ -378,12 +437,20 @@ pub fn load_ply(path: &Path) -> Result<TriMesh> {
 /// [`load_ply`] of a regular file whose size fits `budget`.
 pub fn load_ply_within(path: &Path, budget: &Budget) -> Result<TriMesh> {
     let data = crate::inputs::read_regular(path, budget)?;
-    parse_ply(&data).map_err(|m| Error::file(path, m))
+    parse_ply_within(&data, budget).map_err(|m| Error::file(path, m))
 }
 
-/// Parses PLY bytes; errors are plain messages (the caller adds the file name).
+/// Parses PLY bytes under the default [`Budget`]; errors are plain messages (the caller adds
+/// the file name).
 pub fn parse_ply(data: &[u8]) -> std::result::Result<TriMesh, String> {
+    parse_ply_within(data, &Budget::default())
+}
+
+/// [`parse_ply`] whose header counts are checked before any array grows: each element's records
+/// must fit in the bytes after the header, and the mesh they declare must fit `budget`.
+pub fn parse_ply_within(data: &[u8], budget: &Budget) -> std::result::Result<TriMesh, String> {
     let header = parse_header(data)?;
+    check_counts(&header, data, budget)?;
     let mut body = Body {
         data,
         pos: header.body_start,

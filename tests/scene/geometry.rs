@@ -353,7 +353,7 @@ fn ply_header_and_body_errors_say_what_is_wrong() {
         ),
         (format!("ply\nformat ascii 1.0\n{ok_vertex}{face}end_header\n{verts}\n2 0 1\n"), "face with 2 vertices"),
         (format!("ply\nformat ascii 1.0\n{ok_vertex}{face}end_header\n{verts}\n3 0 1.5 2\n"), "bad vertex index 1.5"),
-        (format!("ply\nformat ascii 1.0\n{ok_vertex}{face}end_header\n0 0 abc\n"), "`abc` is not a number"),
+        (format!("ply\nformat ascii 1.0\n{ok_vertex}{face}end_header\n0 0 abc\n1 0 0\n0 1 0\n3 0 1 2\n"), "`abc` is not a number"),
     ];
     for (text, want) in cases {
         let e = parse_ply(text.as_bytes()).unwrap_err();

@@ -92,23 +92,81 @@ fn ply_elements_without_properties_are_skipped_at_once() {
 /// A binary PLY error names the byte offset, an ASCII one the line.
 #[test]
 fn ply_errors_name_the_position_in_the_file() {
-    let head = "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\n\
-                property float y\nproperty float z\nend_header\n";
+    // One face whose list says 3 indices but has 2: the record's minimum (its count byte) fits,
+    // the read fails where the data ends.
+    let head = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n\
+                property float y\nproperty float z\nelement face 1\n\
+                property list uchar uchar vertex_indices\nend_header\n";
     let mut bin = head.as_bytes().to_vec();
-    bin.extend_from_slice(&[0u8; 16]);
+    bin.extend_from_slice(&[0u8; 36]);
+    bin.extend_from_slice(&[3, 0, 1]);
     let e = groove::geometry::ply::parse_ply(&bin).unwrap_err();
     assert!(
         e.starts_with(&format!(
-            "byte offset {} (element `vertex` 1:",
-            head.len() + 16
+            "byte offset {} (element `face` 0:",
+            head.len() + 39
         )),
         "{e}"
     );
     let ascii = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
-                 property float z\nend_header\n0 0\n";
+                 property float z\nend_header\n0 0    \n";
     let e = groove::geometry::ply::parse_ply(ascii.as_bytes()).unwrap_err();
     assert!(
         e.starts_with("line 9 (element `vertex` 0: unexpected end of file"),
         "{e}"
     );
+}
+
+/// Header counts the file cannot hold, or a declared mesh over the memory budget, are refused
+/// from the header alone (no array grows first), naming the element and the sizes.
+#[test]
+fn ply_header_counts_are_checked_before_reading() {
+    let head = |n: &str, fmt: &str| {
+        format!(
+            "ply\nformat {fmt} 1.0\nelement vertex {n}\nproperty float x\nproperty float y\n\
+             property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+        )
+    };
+    let t0 = std::time::Instant::now();
+    for fmt in ["binary_little_endian", "binary_big_endian", "ascii"] {
+        let mut f = head("1000000000000", fmt).into_bytes();
+        f.extend_from_slice(&[b'0'; 64]);
+        let e = groove::geometry::ply::parse_ply(&f).unwrap_err();
+        assert!(
+            e.contains("element `vertex`: the header declares 1000000000000 records"),
+            "{fmt}: {e}"
+        );
+    }
+    // 10^7 vertices that the file does hold, under a 64 MB budget: 120 MB of positions.
+    let mut f = head("10000000", "binary_little_endian").into_bytes();
+    f.resize(f.len() + 120_000_000 + 13, 0);
+    let e = groove::geometry::ply::parse_ply_within(&f, &groove::budget::Budget::new(64 << 20))
+        .unwrap_err();
+    assert!(
+        e.starts_with("mesh of 10000000 vertices and 1 faces needs ~114.4 MB"),
+        "{e}"
+    );
+    assert!(t0.elapsed().as_secs_f64() < 5.0);
+}
+
+/// The worker threads count against the render's memory budget (issue 15: "thread count"):
+/// 64 threads at `THREAD_BYTES` each do not fit 128 MB beside a tiny film, and the error says so.
+#[test]
+fn worker_threads_count_against_the_budget() {
+    use groove::render::{render, RenderOptions, THREAD_BYTES};
+    let path = crate::common::test_scene("area_point.xml");
+    let loaded = groove::load::load_scene(&path, &Default::default()).expect("load");
+    let opts = |threads, mb: u64| RenderOptions {
+        threads,
+        spp: Some(1),
+        budget: groove::budget::Budget::new(mb << 20),
+        ..Default::default()
+    };
+    const _: () = assert!(64 * THREAD_BYTES > 128 << 20);
+    let e = render(&loaded.scene, &loaded.settings, &opts(64, 128))
+        .err()
+        .expect("64 threads over 128 MB")
+        .to_string();
+    assert!(e.contains("with 64 worker threads needs ~"), "{e}");
+    render(&loaded.scene, &loaded.settings, &opts(1, 128)).expect("1 thread fits");
 }
