@@ -216,12 +216,7 @@ impl<'d> Builder<'d> {
                 return Ok(self.materials.textures[id as usize].clone());
             }
         }
-        if !p.has(name) {
-            return Err(Error::scene(
-                p.loc(),
-                format!("the emitter needs a '{name}'"),
-            ));
-        }
+        // Mitsuba 3.9.1 defaults an area light's radiance to 1 (`get_emissive_texture(.., 1.f)`).
         let c = p.color_with(name, Spectrum::ONE, SpectrumUse::Emission)?;
         check(
             p.loc(),

@@ -767,3 +767,25 @@ fn light_selection_gives_the_dim_envmap_and_the_bright_area_light_fair_shares() 
     let want_env = 0.5 * p_env / (p_env + p_area) + 0.25;
     assert!((pe - want_env).abs() < 1e-5, "env {pe} vs {want_env}");
 }
+
+/// An `area` emitter without `radiance` emits 1, as Mitsuba 3.9.1's default
+/// (`get_emissive_texture("radiance", 1.f)`); found loading mitsuba-data's scenes.
+#[test]
+fn area_radiance_defaults_to_one() {
+    let d = scratch("area_default");
+    let f = d.join("a.xml");
+    std::fs::write(
+        &f,
+        r#"<scene version="3.0.0"><sensor type="perspective"/>
+           <shape type="sphere"><emitter type="area"/></shape></scene>"#,
+    )
+    .unwrap();
+    let loaded = load_scene(&f, &LoadOptions::default()).expect("loads");
+    let Emitter::Area(a) = &loaded.scene.emitters()[0] else {
+        panic!("an area light")
+    };
+    match &a.radiance {
+        groove::texture::Texture::Constant(c) => assert_eq!(*c, Spectrum::ONE),
+        t => panic!("constant radiance expected, got {t:?}"),
+    }
+}
