@@ -5,6 +5,9 @@
 //! above 1) reaches the BSDF, as in Mitsuba 3.
 
 pub mod bitmap;
+pub mod float_image;
+mod pfm;
+mod rgbe;
 
 use std::sync::Arc;
 
