@@ -8,6 +8,8 @@
     tests/data/envmaps/sky_rle.hdr       32x16 RGBE lat-long sky with a bright sun, run-length encoded
     tests/data/geometry/attr_grid.ply    3x3-vertex grid (8 triangles), binary little-endian, float
                                          vertex colours `red green blue` and a face property `shade_x`
+    tests/data/geometry/attr_types.ply   one triangle whose extra properties have every PLY type
+                                         (how Mitsuba converts each: tests/scene/mesh_attribute.rs)
 
 Run: python3 tests/data/textures/make_hdr_pfm.py (from anywhere).
 """
@@ -121,3 +123,23 @@ with open(os.path.join(DATA, "geometry", "attr_grid.ply"), "wb") as f:
         f.write(struct.pack("<6f", *v))
     for a, b, c, s in faces:
         f.write(struct.pack("<B3if", 3, a, b, c, s))
+
+# One triangle, extra properties of every type (values at the types' extremes).
+vprops = [("uchar", "red", "B"), ("uchar", "green", "B"), ("uchar", "blue", "B"),
+          ("ushort", "k_0", "H"), ("char", "c_x", "b"), ("char", "c_y", "b"), ("char", "c_z", "b"),
+          ("int", "big_0", "i"), ("uint", "ub_0", "I"), ("short", "s_1", "h"),
+          ("float", "f_r", "f"), ("float", "f_g", "f"), ("float", "f_b", "f"), ("double", "d_x", "d")]
+vrows = [(255, 128, 0, 65535, 127, -128, 7, 2147483647, 4000000000, -32767, 0.25, 2.0, -1.0, 0.125),
+         (0, 255, 64, 1000, 0, 5, -5, -2147483647, 7, 100, 1.0, 0.0, 0.5, -3.5),
+         (10, 20, 30, 3, 60, -60, 1, 4, 0, 32767, 0.0, 0.0, 0.0, 1e-3)]
+with open(os.path.join(DATA, "geometry", "attr_types.ply"), "wb") as f:
+    f.write(b"ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
+            b"property float x\nproperty float y\nproperty float z\n")
+    for t, n, _ in vprops:
+        f.write(("property %s %s\n" % (t, n)).encode())
+    f.write(b"element face 1\nproperty list uchar int vertex_indices\n"
+            b"property uchar r\nproperty uchar g\nproperty uchar b\nproperty ushort w_0\nend_header\n")
+    fmt = "<3f" + "".join(c for _, _, c in vprops)
+    for p, r in zip([(0, 0, 0), (1, 0, 0), (0, 1, 0)], vrows):
+        f.write(struct.pack(fmt, *p, *r))
+    f.write(struct.pack("<B3iBBBH", 3, 0, 1, 2, 200, 100, 50, 40000))
