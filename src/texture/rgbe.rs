@@ -19,7 +19,7 @@ use super::float_image::{Channels, Header, Kind};
 
 /// Mitsuba's XYZ → linear sRGB matrix (`include/mitsuba/core/spectrum.h`, `xyz_to_srgb`), rows.
 const XYZ_TO_SRGB: [[f32; 3]; 3] = [
-    [3.240479, -1.537150, -0.498535],
+    [3.240479, -1.53715, -0.498535],
     [-0.969256, 1.875991, 0.041556],
     [0.055648, -0.204043, 1.057311],
 ];
@@ -290,12 +290,11 @@ mod tests {
 
     #[test]
     fn xyz_data_becomes_rgb() {
-        let f = format!("#?RGBE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n").into_bytes();
-        let mut f = f;
+        let mut f = b"#?RGBE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n".to_vec();
         f.extend([128, 128, 128, 129]); // XYZ = (1, 1, 1)
         let d = read(&f).unwrap();
         let want = [
-            3.240479f32 - 1.537150 - 0.498535,
+            3.240479f32 - 1.53715 - 0.498535,
             -0.969256 + 1.875991 + 0.041556,
             0.055648 - 0.204043 + 1.057311,
         ];
