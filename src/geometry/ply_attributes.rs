@@ -108,118 +108,61 @@ pub fn group(
         .chain(["r", "g", "b", "a"])
         .collect();
 
-    // Postfix sequences by level (rows) and category (columns): x y z w, r g b a, 0 1 2 3, 1 2 3 4.
-    const POSTFIXES: [&[u8; 4]; 4] = [b"xr01", b"yg12", b"zb23", b"wa34"];
-    let n = names.len();
-    let mut encountered: Vec<String> = Vec::new();
-    let mut prefix = String::new();
-    let mut category = 0usize;
-    let mut level = 0usize;
-    let mut reading = false;
-    let mut current_float = true;
-    let mut current: Vec<usize> = Vec::new();
-
-    // Mitsuba's `flush_attribute`.
-    let flush = |prefix: &mut String,
-                 level: &mut usize,
-                 reading: &mut bool,
-                 current: &mut Vec<usize>,
-                 category: usize,
-                 current_float: bool,
-                 encountered: &mut Vec<String>,
-                 groups: &mut Vec<Group>,
-                 warnings: &mut Vec<String>| {
-        if *level != 1 && *level != 3 {
-            warnings.push(format!(
-                "attribute must have either 1 or 3 fields (had {level}): attribute \"{kind}{prefix}\" ignored"
-            ));
-        } else {
-            if !current_float && *level == 3 {
-                warnings.push(format!(
-                    "attribute \"{kind}{prefix}\" has integer fields: color attributes are expected to be in the [0, 1] range"
-                ));
-            }
-            let suffix = if category == 1 { "_color" } else { "" };
-            groups.push(Group {
-                name: format!("{kind}{prefix}{suffix}"),
-                fields: std::mem::take(current),
-            });
-            encountered.push(prefix.clone());
-        }
-        prefix.clear();
-        *level = 0;
-        *reading = false;
-        current.clear();
+    let mut scan = Scan {
+        kind,
+        groups,
+        warnings,
+        encountered: Vec::new(),
+        prefix: String::new(),
+        category: 0,
+        level: 0,
+        reading: false,
+        current_float: true,
+        current: Vec::new(),
     };
-
+    let n = names.len();
     let mut i = 0usize;
+    // Mitsuba's loop over the fields; `i += 1; continue` is its `continue`.
     while i < n {
-        let name = names[i].clone();
-        if reserved.contains(&name.as_str()) {
+        let name = names[i].as_str();
+        if reserved.contains(&name) {
             i += 1;
             continue;
         }
-        current_float = is_float[i];
+        // Set before the flushes below, as in Mitsuba (whose warning about integer fields then
+        // looks at the field that ends an attribute).
+        scan.current_float = is_float[i];
         let Some(us) = name.rfind('_') else {
-            warnings.push(format!(
+            scan.warn(format!(
                 "attributes without postfix are not handled for now: attribute \"{name}\" ignored"
             ));
-            if reading {
-                flush(
-                    &mut prefix,
-                    &mut level,
-                    &mut reading,
-                    &mut current,
-                    category,
-                    current_float,
-                    &mut encountered,
-                    &mut groups,
-                    &mut warnings,
-                );
+            if scan.reading {
+                scan.flush();
             }
             i += 1;
             continue;
         };
         let postfix = &name[us + 1..];
         if postfix.len() != 1 {
-            warnings.push(format!(
+            scan.warn(format!(
                 "attribute postfix can only be one letter long: attribute \"{name}\" ignored"
             ));
-            if reading {
-                flush(
-                    &mut prefix,
-                    &mut level,
-                    &mut reading,
-                    &mut current,
-                    category,
-                    current_float,
-                    &mut encountered,
-                    &mut groups,
-                    &mut warnings,
-                );
+            if scan.reading {
+                scan.flush();
             }
             i += 1;
             continue;
         }
-        let this_prefix = name[..us].to_string();
-        if reading && this_prefix != prefix {
-            flush(
-                &mut prefix,
-                &mut level,
-                &mut reading,
-                &mut current,
-                category,
-                current_float,
-                &mut encountered,
-                &mut groups,
-                &mut warnings,
-            );
+        let prefix = &name[..us];
+        if scan.reading && prefix != scan.prefix {
+            scan.flush();
         }
-        if !reading && encountered.contains(&this_prefix) {
-            warnings.push(format!(
+        if !scan.reading && scan.encountered.iter().any(|e| e == prefix) {
+            scan.warn(format!(
                 "attribute prefix has already been encountered: attribute \"{name}\" ignored"
             ));
-            while i < n && names[i].starts_with(&this_prefix) {
+            let prefix = prefix.to_string();
+            while i < n && names[i].starts_with(&prefix) {
                 i += 1;
             }
             if i == n {
@@ -229,53 +172,104 @@ pub fn group(
             continue;
         }
         let ch = postfix.as_bytes()[0];
-        if !reading {
+        if !scan.reading {
             let Some(c) = POSTFIXES[0].iter().position(|&p| p == ch) else {
-                warnings.push(format!(
+                scan.warn(format!(
                     "attribute can't start with postfix '{}': attribute \"{name}\" ignored",
                     ch as char
                 ));
                 i += 1;
                 continue;
             };
-            reading = true;
-            category = c;
-            prefix = this_prefix.clone();
-            current.push(i);
-        } else if POSTFIXES.get(level).map(|row| row[category]) != Some(ch) {
-            warnings.push(format!(
-                "attribute postfix sequence is invalid: attribute \"{kind}{prefix}\" ignored"
-            ));
-            prefix.clear();
-            level = 0;
-            reading = false;
-            current.clear();
-            while i < n && names[i].starts_with(&this_prefix) {
+            scan.reading = true;
+            scan.category = c;
+            scan.prefix = prefix.to_string();
+            scan.current.push(i);
+        } else if POSTFIXES.get(scan.level).map(|row| row[scan.category]) != Some(ch) {
+            let w = format!(
+                "attribute postfix sequence is invalid: attribute \"{}{}\" ignored",
+                scan.kind, scan.prefix
+            );
+            scan.warn(w);
+            scan.reset();
+            let prefix = prefix.to_string();
+            while i < n && names[i].starts_with(&prefix) {
                 i += 1;
             }
             if i == n {
                 break;
             }
+            // Mitsuba falls through here: the level counts on and the next field is skipped.
         } else {
-            current.push(i);
+            scan.current.push(i);
         }
-        level += 1;
+        scan.level += 1;
         i += 1;
     }
-    if reading {
-        flush(
-            &mut prefix,
-            &mut level,
-            &mut reading,
-            &mut current,
-            category,
-            current_float,
-            &mut encountered,
-            &mut groups,
-            &mut warnings,
-        );
+    if scan.reading {
+        scan.flush();
     }
-    (groups, warnings)
+    (scan.groups, scan.warnings)
+}
+
+/// Postfix sequences by level (rows) and category (columns): x y z w, r g b a, 0 1 2 3, 1 2 3 4.
+const POSTFIXES: [&[u8; 4]; 4] = [b"xr01", b"yg12", b"zb23", b"wa34"];
+
+/// The state of Mitsuba's scan over an element's fields.
+struct Scan<'k> {
+    /// `vertex_` or `face_`.
+    kind: &'k str,
+    groups: Vec<Group>,
+    warnings: Vec<String>,
+    /// Prefixes that made an attribute.
+    encountered: Vec<String>,
+    /// The attribute being read: its prefix, postfix category, fields so far (`level`) and their
+    /// indices; `current_float` is the type of the field last looked at.
+    prefix: String,
+    category: usize,
+    level: usize,
+    reading: bool,
+    current_float: bool,
+    current: Vec<usize>,
+}
+
+impl Scan<'_> {
+    fn warn(&mut self, w: String) {
+        self.warnings.push(w);
+    }
+
+    /// Mitsuba's `ignore_attribute`: forget the attribute being read.
+    fn reset(&mut self) {
+        self.prefix.clear();
+        self.category = 0;
+        self.level = 0;
+        self.reading = false;
+        self.current.clear();
+    }
+
+    /// Mitsuba's `flush_attribute`: keep the attribute being read if it has 1 or 3 fields.
+    fn flush(&mut self) {
+        let (kind, prefix, level) = (self.kind, self.prefix.clone(), self.level);
+        if level != 1 && level != 3 {
+            self.warn(format!(
+                "attribute must have either 1 or 3 fields (had {level}): attribute \"{kind}{prefix}\" ignored"
+            ));
+        } else {
+            if !self.current_float && level == 3 {
+                self.warn(format!(
+                    "attribute \"{kind}{prefix}\" has integer fields: color attributes are expected to be in the [0, 1] range"
+                ));
+            }
+            let suffix = if self.category == 1 { "_color" } else { "" };
+            let fields = std::mem::take(&mut self.current);
+            self.groups.push(Group {
+                name: format!("{kind}{prefix}{suffix}"),
+                fields,
+            });
+            self.encountered.push(prefix);
+        }
+        self.reset();
+    }
 }
 
 #[cfg(test)]
