@@ -256,51 +256,58 @@ impl Materials {
 
     /// Calls `f(texture, scalar)` for every texture material `id` evaluates at a hit (its own
     /// and its children's), `scalar` when it is read as a scalar (`eval_1`: roughness, weights,
-    /// opacity, heights) rather than as a colour. A texture may come more than once.
+    /// opacity, heights) rather than as a colour. Each material node is visited once (a node
+    /// shared by several parents is one use), so the walk is linear in the nodes.
     pub fn texture_uses(&self, id: MatId, f: &mut impl FnMut(TexId, bool)) {
-        let slots = |slots: &[(Slot, TexId)], f: &mut dyn FnMut(TexId, bool)| {
-            for &(slot, t) in slots {
-                f(t, slot.is_scalar());
+        let mut seen = vec![false; self.nodes.len()];
+        let mut stack = vec![id];
+        while let Some(id) = stack.pop() {
+            let Some(s) = seen.get_mut(id as usize) else {
+                continue;
+            };
+            if std::mem::replace(s, true) {
+                continue;
             }
-        };
-        match &self.nodes[id as usize] {
-            MaterialNode::Diffuse { reflectance } => f(*reflectance, false),
-            MaterialNode::Leaf { slots: s, .. } => slots(s, f),
-            MaterialNode::TwoSided { front, back } => {
-                self.texture_uses(*front, f);
-                self.texture_uses(*back, f);
+            let slot_uses = |slots: &[(Slot, TexId)], f: &mut dyn FnMut(TexId, bool)| {
+                for &(slot, t) in slots {
+                    f(t, slot.is_scalar());
+                }
+            };
+            match &self.nodes[id as usize] {
+                MaterialNode::Diffuse { reflectance } => f(*reflectance, false),
+                MaterialNode::Leaf { slots, .. } => slot_uses(slots, f),
+                MaterialNode::TwoSided { front, back } => stack.extend([*front, *back]),
+                MaterialNode::MicrofacetNormalMap {
+                    nested, normalmap, ..
+                }
+                | MaterialNode::NormalMap {
+                    nested, normalmap, ..
+                } => {
+                    f(*normalmap, false);
+                    stack.push(*nested);
+                }
+                MaterialNode::Blend {
+                    weight,
+                    bsdf0,
+                    bsdf1,
+                } => {
+                    f(*weight, true);
+                    stack.extend([*bsdf0, *bsdf1]);
+                }
+                MaterialNode::Null => {}
+                MaterialNode::Mask { opacity, nested } => {
+                    f(*opacity, true);
+                    stack.push(*nested);
+                }
+                MaterialNode::BumpMap { nested, height, .. } => {
+                    f(*height, true);
+                    stack.push(*nested);
+                }
+                MaterialNode::Principled(m) => match &**m {
+                    PrincipledMaterial::Full { slots, .. }
+                    | PrincipledMaterial::Thin { slots, .. } => slot_uses(slots, f),
+                },
             }
-            MaterialNode::MicrofacetNormalMap {
-                nested, normalmap, ..
-            }
-            | MaterialNode::NormalMap {
-                nested, normalmap, ..
-            } => {
-                f(*normalmap, false);
-                self.texture_uses(*nested, f);
-            }
-            MaterialNode::Blend {
-                weight,
-                bsdf0,
-                bsdf1,
-            } => {
-                f(*weight, true);
-                self.texture_uses(*bsdf0, f);
-                self.texture_uses(*bsdf1, f);
-            }
-            MaterialNode::Null => {}
-            MaterialNode::Mask { opacity, nested } => {
-                f(*opacity, true);
-                self.texture_uses(*nested, f);
-            }
-            MaterialNode::BumpMap { nested, height, .. } => {
-                f(*height, true);
-                self.texture_uses(*nested, f);
-            }
-            MaterialNode::Principled(m) => match &**m {
-                PrincipledMaterial::Full { slots: s, .. }
-                | PrincipledMaterial::Thin { slots: s, .. } => slots(s, f),
-            },
         }
     }
 

@@ -297,3 +297,26 @@ fn rawconstant_values_and_errors() {
     // A 1-D value as a roughness is fine.
     assert!(load("<shape type=\"sphere\"><bsdf type=\"roughconductor\">\n<texture type=\"rawconstant\" name=\"alpha\"><float name=\"value\" value=\"0.2\"/></texture></bsdf></shape>").is_ok());
 }
+
+#[test]
+fn the_attribute_check_visits_shared_bsdfs_once() {
+    // 40 levels of blendbsdf, each blending two references to the level below: 2^40 paths to the
+    // innermost diffuse, whose mesh_attribute is checked once (the load would not end otherwise).
+    let mut xml = String::from("<bsdf type=\"diffuse\" id=\"b0\">\n");
+    xml += &mesh_attribute("reflectance", "vertex_color");
+    xml += "</bsdf>\n";
+    for k in 1..=40 {
+        xml += &format!(
+            "<bsdf type=\"blendbsdf\" id=\"b{k}\"><float name=\"weight\" value=\"0.5\"/><ref id=\"b{}\"/><ref id=\"b{}\"/></bsdf>\n",
+            k - 1,
+            k - 1
+        );
+    }
+    xml += &grid("<ref id=\"b40\"/>");
+    let t = std::time::Instant::now();
+    load(&xml).unwrap();
+    assert!(t.elapsed().as_secs() < 10);
+    // The same with a missing attribute fails at the innermost texture.
+    let bad = xml.replace("value=\"vertex_color\"", "value=\"vertex_nope\"");
+    assert_error(&bad, 4, &["Invalid attribute requested vertex_nope."]);
+}
