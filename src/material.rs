@@ -8,7 +8,7 @@ use crate::bsdf::{
     PrincipledThin,
 };
 use crate::geometry::SurfaceInteraction;
-use crate::texture::Texture;
+use crate::texture::{TexPoint, Texture};
 use glam::Vec3;
 
 /// Index of a texture in [`Materials::textures`].
@@ -254,6 +254,63 @@ impl Materials {
         &self.nodes
     }
 
+    /// Calls `f(texture, scalar)` for every texture material `id` evaluates at a hit (its own
+    /// and its children's), `scalar` when it is read as a scalar (`eval_1`: roughness, weights,
+    /// opacity, heights) rather than as a colour. Each material node is visited once (a node
+    /// shared by several parents is one use), so the walk is linear in the nodes.
+    pub fn texture_uses(&self, id: MatId, f: &mut impl FnMut(TexId, bool)) {
+        let mut seen = vec![false; self.nodes.len()];
+        let mut stack = vec![id];
+        while let Some(id) = stack.pop() {
+            let Some(s) = seen.get_mut(id as usize) else {
+                continue;
+            };
+            if std::mem::replace(s, true) {
+                continue;
+            }
+            let slot_uses = |slots: &[(Slot, TexId)], f: &mut dyn FnMut(TexId, bool)| {
+                for &(slot, t) in slots {
+                    f(t, slot.is_scalar());
+                }
+            };
+            match &self.nodes[id as usize] {
+                MaterialNode::Diffuse { reflectance } => f(*reflectance, false),
+                MaterialNode::Leaf { slots, .. } => slot_uses(slots, f),
+                MaterialNode::TwoSided { front, back } => stack.extend([*front, *back]),
+                MaterialNode::MicrofacetNormalMap {
+                    nested, normalmap, ..
+                }
+                | MaterialNode::NormalMap {
+                    nested, normalmap, ..
+                } => {
+                    f(*normalmap, false);
+                    stack.push(*nested);
+                }
+                MaterialNode::Blend {
+                    weight,
+                    bsdf0,
+                    bsdf1,
+                } => {
+                    f(*weight, true);
+                    stack.extend([*bsdf0, *bsdf1]);
+                }
+                MaterialNode::Null => {}
+                MaterialNode::Mask { opacity, nested } => {
+                    f(*opacity, true);
+                    stack.push(*nested);
+                }
+                MaterialNode::BumpMap { nested, height, .. } => {
+                    f(*height, true);
+                    stack.push(*nested);
+                }
+                MaterialNode::Principled(m) => match &**m {
+                    PrincipledMaterial::Full { slots, .. }
+                    | PrincipledMaterial::Thin { slots, .. } => slot_uses(slots, f),
+                },
+            }
+        }
+    }
+
     /// The lobes material `id` can produce: [`crate::bsdf::Bsdf::lobes`] of any BSDF it builds.
     #[inline]
     pub fn lobes(&self, id: MatId) -> Lobes {
@@ -265,15 +322,15 @@ impl Materials {
     fn patch_slots(
         &self,
         slots: &[(Slot, TexId)],
-        si: &SurfaceInteraction,
+        at: &TexPoint<'_>,
         mut patch: impl FnMut(Slot, Vec3, f32),
     ) {
         for &(slot, tex) in slots {
             let t = &self.textures[tex as usize];
             if slot.is_scalar() {
-                patch(slot, Vec3::ZERO, t.eval_1(si.uv));
+                patch(slot, Vec3::ZERO, t.eval_1(*at));
             } else {
-                patch(slot, t.eval(si.uv), 0.0);
+                patch(slot, t.eval(*at), 0.0);
             }
         }
     }
@@ -284,13 +341,13 @@ impl Materials {
     fn build_principled(
         &self,
         m: &PrincipledMaterial,
-        si: &SurfaceInteraction,
+        at: &TexPoint<'_>,
         arena: &mut BsdfArena,
     ) -> u32 {
         match m {
             PrincipledMaterial::Full { template, slots } => {
                 let mut b = *template;
-                self.patch_slots(slots, si, |slot, v, s| b.patch(slot, v, s));
+                self.patch_slots(slots, at, |slot, v, s| b.patch(slot, v, s));
                 arena.push_principled(b)
             }
             PrincipledMaterial::Thin {
@@ -299,18 +356,31 @@ impl Materials {
                 slots,
             } => {
                 let mut b = *template;
-                self.patch_slots(slots, si, |slot, v, s| b.patch(slot, v, s));
+                self.patch_slots(slots, at, |slot, v, s| b.patch(slot, v, s));
                 arena.push_principled_thin(b, *transmits)
             }
         }
     }
 
-    /// Build the BSDF of material `id` at `si` into `arena`; returns the root node index.
+    /// Build the BSDF of material `id` at `si` into `arena`, its textures looked up by `si.uv`
+    /// (no mesh attributes); returns the root node index.
     pub fn build(&self, id: MatId, si: &SurfaceInteraction, arena: &mut BsdfArena) -> u32 {
+        self.build_at(id, si, &TexPoint::from(si.uv), arena)
+    }
+
+    /// [`Self::build`] with the textures looked up at `at` (the uv of `si`, and the hit mesh's
+    /// data for `mesh_attribute`).
+    pub fn build_at(
+        &self,
+        id: MatId,
+        si: &SurfaceInteraction,
+        at: &TexPoint<'_>,
+        arena: &mut BsdfArena,
+    ) -> u32 {
         let lobes = self.lobes[id as usize];
         match &self.nodes[id as usize] {
             MaterialNode::Diffuse { reflectance } => {
-                let r = self.textures[*reflectance as usize].eval(si.uv);
+                let r = self.textures[*reflectance as usize].eval(*at);
                 arena.push_with_lobes(lobes, BsdfNode::Diffuse(Diffuse { reflectance: r }))
             }
             MaterialNode::Leaf { template, slots } => {
@@ -320,19 +390,19 @@ impl Materials {
                 for &(slot, tex) in slots {
                     let t = &self.textures[tex as usize];
                     if slot.is_scalar() {
-                        patch_scalar(node, slot, t.eval_1(si.uv));
+                        patch_scalar(node, slot, t.eval_1(*at));
                     } else {
-                        patch(node, slot, t.eval(si.uv));
+                        patch(node, slot, t.eval(*at));
                     }
                 }
                 id
             }
             MaterialNode::TwoSided { front, back } => {
-                let f = self.build(*front, si, arena);
+                let f = self.build_at(*front, si, at, arena);
                 let b = if front == back {
                     f
                 } else {
-                    self.build(*back, si, arena)
+                    self.build_at(*back, si, at, arena)
                 };
                 arena.push_with_lobes(lobes, BsdfNode::TwoSided { front: f, back: b })
             }
@@ -341,8 +411,8 @@ impl Materials {
                 normalmap,
                 settings,
             } => {
-                let child = self.build(*nested, si, arena);
-                let rgb = self.textures[*normalmap as usize].eval(si.uv);
+                let child = self.build_at(*nested, si, at, arena);
+                let rgb = self.textures[*normalmap as usize].eval(*at);
                 let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, settings.max_theta);
                 arena.push_microfacet_normal_map(
                     MicrofacetNormalMap::new(
@@ -362,8 +432,8 @@ impl Materials {
                 flip_invalid_normals,
                 use_shadowing_function,
             } => {
-                let child = self.build(*nested, si, arena);
-                let rgb = self.textures[*normalmap as usize].eval(si.uv);
+                let child = self.build_at(*nested, si, at, arena);
+                let rgb = self.textures[*normalmap as usize].eval(*at);
                 arena.push_with_lobes(
                     lobes,
                     BsdfNode::NormalMap(NormalMap::new(
@@ -379,9 +449,9 @@ impl Materials {
                 bsdf0,
                 bsdf1,
             } => {
-                let a = self.build(*bsdf0, si, arena);
-                let b = self.build(*bsdf1, si, arena);
-                let w = self.textures[*weight as usize].eval_1(si.uv);
+                let a = self.build_at(*bsdf0, si, at, arena);
+                let b = self.build_at(*bsdf1, si, at, arena);
+                let w = self.textures[*weight as usize].eval_1(*at);
                 arena.push_with_lobes(
                     lobes,
                     BsdfNode::Blend(Blend {
@@ -392,10 +462,10 @@ impl Materials {
                 )
             }
             MaterialNode::Null => arena.push_with_lobes(lobes, BsdfNode::Null),
-            MaterialNode::Principled(m) => self.build_principled(m, si, arena),
+            MaterialNode::Principled(m) => self.build_principled(m, at, arena),
             MaterialNode::Mask { opacity, nested } => {
-                let child = self.build(*nested, si, arena);
-                let o = self.textures[*opacity as usize].eval_1(si.uv);
+                let child = self.build_at(*nested, si, at, arena);
+                let o = self.textures[*opacity as usize].eval_1(*at);
                 arena.push_with_lobes(
                     lobes,
                     BsdfNode::Mask(Mask {
@@ -411,7 +481,7 @@ impl Materials {
                 flip_invalid_normals,
                 use_shadowing_function,
             } => {
-                let child = self.build(*nested, si, arena);
+                let child = self.build_at(*nested, si, at, arena);
                 let grad = *scale * self.textures[*height as usize].eval_1_grad(si.uv);
                 arena.push_with_lobes(
                     lobes,

@@ -1,12 +1,14 @@
 //! Geometry: rays, surface interactions, triangle meshes and the analytic shapes, with their
 //! loaders (OBJ, PLY, Mitsuba serialized) and area sampling for emitters.
 
+pub mod attributes;
 pub mod cylinder;
 pub mod hit;
 pub mod interaction;
 pub mod mesh;
 pub mod obj;
 pub mod ply;
+pub mod ply_attributes;
 pub mod ray;
 pub mod serialized;
 pub mod shapes;

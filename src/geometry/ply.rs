@@ -2,10 +2,14 @@
 //!
 //! Reads the `vertex` element (`x y z`, optional `nx ny nz`, uv from `u v`, `texture_u texture_v`
 //! or `s t`, stored unflipped as Mitsuba does) and the `face` element (`vertex_indices` or
-//! `vertex_index`, any count and index types; polygons are fan-triangulated). Every other element
-//! and property is read and discarded, so files with colours, materials or edges load too.
+//! `vertex_index`, any count and index types; polygons are fan-triangulated). Other properties
+//! of the vertex and face elements become mesh attributes by Mitsuba's rules (see
+//! [`super::ply_attributes`]; [`parse_ply_attributed`]); other elements are read and discarded,
+//! so files with materials or edges load too.
 
+use super::attributes::{Attribute, Per};
 use super::mesh::TriMesh;
+use super::ply_attributes::{self, ValueKind};
 use crate::budget::{bytes_of, Budget};
 use crate::error::{Error, Result};
 use glam::{Vec2, Vec3};
@@ -37,6 +41,29 @@ impl Ty {
             _ => return None,
         })
     }
+    /// How Mitsuba converts a value of this type into a mesh attribute.
+    fn value_kind(self) -> ValueKind {
+        match self {
+            Ty::F32 | Ty::F64 => ValueKind::Float,
+            Ty::U8 => ValueKind::U8,
+            Ty::I8 => ValueKind::Int {
+                max: i8::MAX as f64,
+            },
+            Ty::I16 => ValueKind::Int {
+                max: i16::MAX as f64,
+            },
+            Ty::U16 => ValueKind::Int {
+                max: u16::MAX as f64,
+            },
+            Ty::I32 => ValueKind::Int {
+                max: i32::MAX as f64,
+            },
+            Ty::U32 => ValueKind::Int {
+                max: u32::MAX as f64,
+            },
+        }
+    }
+
     fn size(self) -> usize {
         match self {
             Ty::I8 | Ty::U8 => 1,
@@ -276,7 +303,7 @@ fn check_counts(header: &Header, data: &[u8], budget: &Budget) -> std::result::R
     if header.format == Format::Ascii {
         left += 1;
     }
-    let (mut verts, mut faces, mut vert_bytes) = (0u64, 0u64, 12u64);
+    let (mut verts, mut faces, mut vert_bytes, mut face_bytes) = (0u64, 0u64, 12u64, 12u64);
     for el in &header.elements {
         let need = bytes_of(&[el.count as u64, min_record_bytes(el, header.format)]);
         if need > left {
@@ -295,19 +322,22 @@ fn check_counts(header: &Header, data: &[u8], budget: &Budget) -> std::result::R
             ));
         }
         left -= need;
-        let has = |n: &str| el.props.iter().any(|p| p.list.is_none() && p.name == n);
+        // Every scalar property is kept as one f32: positions, normals and uvs, and the others
+        // as mesh attributes (`ply_attributes`).
+        let scalars = el.props.iter().filter(|p| p.list.is_none()).count() as u64;
         match el.name.as_str() {
             "vertex" => {
                 verts = el.count as u64;
-                vert_bytes = 12
-                    + 12 * u64::from(has("nx"))
-                    + 8 * u64::from(has("u") || has("s") || has("texture_u"));
+                vert_bytes = (4 * scalars).max(12);
             }
-            "face" => faces = el.count as u64,
+            "face" => {
+                faces = el.count as u64;
+                face_bytes = 12 + 4 * scalars;
+            }
             _ => {}
         }
     }
-    let keep = bytes_of(&[verts, vert_bytes]).saturating_add(bytes_of(&[faces, 12]));
+    let keep = bytes_of(&[verts, vert_bytes]).saturating_add(bytes_of(&[faces, face_bytes]));
     budget.check(keep, &format!("mesh of {verts} vertices and {faces} faces"))
 }
 
@@ -322,6 +352,57 @@ struct MeshData {
     have_n: bool,
     have_uv: bool,
     have_faces: bool,
+    /// Extra vertex and face properties as Mitsuba's mesh attributes, and the warnings Mitsuba
+    /// gives about the properties it skips.
+    attributes: Vec<Attribute>,
+    warnings: Vec<String>,
+}
+
+/// The attributes `groups` of an element (see [`ply_attributes::group`]), empty, with the value
+/// conversion of each of their properties.
+fn new_attributes(
+    el: &Element,
+    per: Per,
+    groups: Vec<ply_attributes::Group>,
+    props: &[usize],
+) -> Vec<(Attribute, Vec<(usize, ValueKind)>)> {
+    groups
+        .into_iter()
+        .map(|g| {
+            let fields = g
+                .fields
+                .iter()
+                .map(|&f| (props[f], el.props[props[f]].ty.value_kind()))
+                .collect();
+            let a = Attribute {
+                name: g.name,
+                per,
+                dim: g.fields.len(),
+                data: Vec::new(),
+            };
+            (a, fields)
+        })
+        .collect()
+}
+
+/// The extra properties of element `el` (its non-list properties `props`, named `names`) that
+/// become attributes `kind`… (`vertex_` / `face_`), with Mitsuba's warnings added to `mesh`.
+fn element_attributes(
+    mesh: &mut MeshData,
+    el: &Element,
+    kind: &str,
+    per: Per,
+    names: &[&str],
+    props: &[usize],
+    reserved: &[&str],
+) -> Vec<(Attribute, Vec<(usize, ValueKind)>)> {
+    let is_float: Vec<bool> = props
+        .iter()
+        .map(|&k| el.props[k].ty.value_kind() == ValueKind::Float)
+        .collect();
+    let (groups, warnings) = ply_attributes::group(kind, names, &is_float, reserved);
+    mesh.warnings.extend(warnings);
+    new_attributes(el, per, groups, props)
 }
 
 /// `element NAME i: message`, the position of a body error.
@@ -352,6 +433,20 @@ fn read_vertices(
         .find_map(|(a, b)| Some((find(a)?, find(b)?)));
     mesh.have_n = nrm.is_some();
     mesh.have_uv = uvp.is_some();
+    // Mitsuba's attribute names see the uv pair renamed to `u v`.
+    let props: Vec<usize> = (0..el.props.len())
+        .filter(|&k| el.props[k].list.is_none())
+        .collect();
+    let names: Vec<&str> = props
+        .iter()
+        .map(|&k| match uvp {
+            Some((a, _)) if a == k => "u",
+            Some((_, b)) if b == k => "v",
+            _ => el.props[k].name.as_str(),
+        })
+        .collect();
+    let reserved = ["x", "y", "z", "nx", "ny", "nz", "u", "v"];
+    let mut attrs = element_attributes(mesh, el, "vertex_", Per::Vertex, &names, &props, &reserved);
     let mut vals = vec![0.0f64; el.props.len()];
     for i in 0..el.count {
         for (k, p) in el.props.iter().enumerate() {
@@ -371,7 +466,12 @@ fn read_vertices(
         if let Some((a, b)) = uvp {
             mesh.uvs.push(Vec2::new(vals[a] as f32, vals[b] as f32));
         }
+        for (a, fields) in &mut attrs {
+            a.data
+                .extend(fields.iter().map(|&(k, conv)| conv.convert(vals[k])));
+        }
     }
+    mesh.attributes.extend(attrs.into_iter().map(|(a, _)| a));
     Ok(())
 }
 
@@ -387,8 +487,15 @@ fn read_faces(
         .position(|p| p.list.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index"))
         .ok_or("face element lacks a vertex_indices list")?;
     mesh.have_faces = true;
+    let props: Vec<usize> = (0..el.props.len())
+        .filter(|&k| el.props[k].list.is_none())
+        .collect();
+    let names: Vec<&str> = props.iter().map(|&k| el.props[k].name.as_str()).collect();
+    let mut attrs = element_attributes(mesh, el, "face_", Per::Face, &names, &props, &[]);
+    let mut vals = vec![0.0f64; el.props.len()];
     let mut poly: Vec<u32> = Vec::new();
     for i in 0..el.count {
+        let first = mesh.indices.len();
         for (k, p) in el.props.iter().enumerate() {
             match p.list {
                 Some(ct) if k == li => {
@@ -408,10 +515,19 @@ fn read_faces(
                         mesh.indices.push([poly[0], poly[j], poly[j + 1]]);
                     }
                 }
+                None => vals[k] = body.read(p.ty).map_err(|m| at(el, i, m))?,
                 _ => body.skip(p).map_err(|m| at(el, i, m))?,
             }
         }
+        // A polygon's face attributes hold for each triangle it was split into.
+        for _ in first..mesh.indices.len() {
+            for (a, fields) in &mut attrs {
+                a.data
+                    .extend(fields.iter().map(|&(k, conv)| conv.convert(vals[k])));
+            }
+        }
     }
+    mesh.attributes.extend(attrs.into_iter().map(|(a, _)| a));
     Ok(())
 }
 
@@ -449,6 +565,35 @@ pub fn parse_ply(data: &[u8]) -> std::result::Result<TriMesh, String> {
 /// [`parse_ply`] whose header counts are checked before any array grows: each element's records
 /// must fit in the bytes after the header, and the mesh they declare must fit `budget`.
 pub fn parse_ply_within(data: &[u8], budget: &Budget) -> std::result::Result<TriMesh, String> {
+    parse_ply_attributed_within(data, budget).map(|p| p.mesh)
+}
+
+/// A PLY mesh with its extra properties as Mitsuba's mesh attributes.
+#[derive(Clone, Debug)]
+pub struct PlyMesh {
+    pub mesh: TriMesh,
+    /// `vertex_…` attributes (a value set per vertex) and `face_…` ones (per triangle).
+    pub attributes: Vec<Attribute>,
+    /// What Mitsuba warns about: skipped properties, integer colours.
+    pub warnings: Vec<String>,
+}
+
+/// [`load_ply_within`] keeping the extra properties as mesh attributes.
+pub fn load_ply_attributed_within(path: &Path, budget: &Budget) -> Result<PlyMesh> {
+    let data = crate::inputs::read_regular(path, budget)?;
+    parse_ply_attributed_within(&data, budget).map_err(|m| Error::file(path, m))
+}
+
+/// [`parse_ply`] keeping the extra properties as mesh attributes.
+pub fn parse_ply_attributed(data: &[u8]) -> std::result::Result<PlyMesh, String> {
+    parse_ply_attributed_within(data, &Budget::default())
+}
+
+/// [`parse_ply_within`] keeping the extra properties as mesh attributes.
+pub fn parse_ply_attributed_within(
+    data: &[u8],
+    budget: &Budget,
+) -> std::result::Result<PlyMesh, String> {
     let header = parse_header(data)?;
     check_counts(&header, data, budget)?;
     let mut body = Body {
@@ -468,14 +613,37 @@ pub fn parse_ply_within(data: &[u8], budget: &Budget) -> std::result::Result<Tri
     if !mesh.have_faces {
         return Err("no face element".into());
     }
-    let mesh = TriMesh {
+    let (nv, nf) = (mesh.positions.len(), mesh.indices.len());
+    for (i, a) in mesh.attributes.iter().enumerate() {
+        if mesh.attributes[..i].iter().any(|b| b.name == a.name) {
+            // Mitsuba's `add_attribute` refuses a second attribute of one name.
+            return Err(format!("attribute {} already exists", a.name));
+        }
+        let count = match a.per {
+            Per::Vertex => nv,
+            Per::Face => nf,
+        };
+        if a.data.len() != count * a.dim {
+            return Err(format!(
+                "attribute {} has {} values for {count} elements of {}",
+                a.name,
+                a.data.len(),
+                a.dim
+            ));
+        }
+    }
+    let tri = TriMesh {
         positions: mesh.positions,
         normals: mesh.have_n.then_some(mesh.normals),
         uvs: mesh.have_uv.then_some(mesh.uvs),
         indices: mesh.indices,
     };
-    mesh.validate()?;
-    Ok(mesh)
+    tri.validate()?;
+    Ok(PlyMesh {
+        mesh: tri,
+        attributes: mesh.attributes,
+        warnings: mesh.warnings,
+    })
 }
 
 #[cfg(test)]

@@ -5,6 +5,7 @@
 //! Mitsuba 3's shape plugins (`src/shapes/*.cpp`, `src/render/mesh.cpp` in
 //! mitsuba-renderer/mitsuba3).
 
+use super::attributes::Attribute;
 use super::cylinder::Cylinder;
 use super::interaction::SurfaceInteraction;
 use super::mesh::TriMesh;
@@ -66,6 +67,8 @@ pub struct Shape {
     /// user-geometry primitive reporting the triangle and barycentrics the mesh would), so a
     /// scene of cubes, rectangles and spheres keeps a single acceleration structure.
     pub box_to_world: Option<Mat4>,
+    /// A mesh's `vertex_…` / `face_…` attributes (from a PLY file), for `mesh_attribute`.
+    attributes: Vec<Attribute>,
 }
 
 /// A point sampled uniformly on a shape's surface.
@@ -124,7 +127,37 @@ impl Shape {
             cdf,
             to_object: Mat4::IDENTITY,
             box_to_world: None,
+            attributes: Vec::new(),
         })
+    }
+
+    /// The shape with mesh attributes `attributes` (each one's length checked against the
+    /// mesh's vertex or triangle count). Only meshes carry attributes.
+    pub fn with_attributes(mut self, attributes: Vec<Attribute>) -> Result<Shape> {
+        use super::attributes::Per;
+        let ShapeKind::Mesh(m) = &self.kind else {
+            return Err(Error::file("mesh", "only meshes carry attributes"));
+        };
+        for a in &attributes {
+            let n = match a.per {
+                Per::Vertex => m.positions.len(),
+                Per::Face => m.indices.len(),
+            };
+            if a.dim == 0 || a.data.len() != n * a.dim {
+                return Err(Error::file(
+                    "mesh",
+                    format!("attribute {} does not fit the mesh", a.name),
+                ));
+            }
+        }
+        self.attributes = attributes;
+        Ok(self)
+    }
+
+    /// The mesh's attributes (none for other shapes).
+    #[inline]
+    pub fn attributes(&self) -> &[Attribute] {
+        &self.attributes
     }
 
     /// A shape from a loaded (and already transformed) mesh. `face_normals` drops the vertex
@@ -172,6 +205,7 @@ impl Shape {
             cdf: Vec::new(),
             to_object: to_world.inverse(),
             box_to_world: None,
+            attributes: Vec::new(),
         })
     }
 
@@ -264,6 +298,7 @@ impl Shape {
             cdf: Vec::new(),
             to_object: Mat4::IDENTITY,
             box_to_world: None,
+            attributes: Vec::new(),
         })
     }
 
@@ -277,6 +312,7 @@ impl Shape {
             cdf: Vec::new(),
             to_object: Mat4::IDENTITY,
             box_to_world: None,
+            attributes: Vec::new(),
         }
     }
 
@@ -606,6 +642,7 @@ fn degenerate() -> Shape {
         cdf: Vec::new(),
         to_object: Mat4::IDENTITY,
         box_to_world: None,
+        attributes: Vec::new(),
     }
 }
 

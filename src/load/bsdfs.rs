@@ -241,6 +241,19 @@ impl<'d> BsdfCtx<'_, 'd> {
         let tex = self.color(name, Spectrum::splat(default))?;
         match self.texture_at(tex) {
             Texture::Constant(c) => Ok((*c, Vec::new())),
+            // Mitsuba's plastics weigh their sampling by the textures' means, which a
+            // `mesh_attribute` does not have (its `mean()` throws "not implemented").
+            Texture::MeshAttribute(_)
+                if matches!(self.p.plugin_type(), "plastic" | "roughplastic") =>
+            {
+                Err(Error::scene(
+                    self.p.loc(),
+                    format!(
+                        "'{name}' of bsdf '{}' cannot be a 'mesh_attribute' texture: the BSDF needs the texture's mean, which a mesh attribute does not have (Mitsuba 3 fails the same way)",
+                        self.p.plugin_type()
+                    ),
+                ))
+            }
             other => Ok((other.mean(), vec![(slot, tex)])),
         }
     }

@@ -2,7 +2,7 @@
 //! `area` emitters declared with an id for shapes to `<ref>`).
 
 use super::{check, unknown, Builder};
-use crate::budget::Budget;
+use crate::budget::{bytes_of, Budget};
 use crate::emitter::constant::ConstantLight;
 use crate::emitter::directional::DirectionalLight;
 use crate::emitter::envmap::EnvMapLight;
@@ -13,7 +13,9 @@ use crate::error::{Error, Result};
 use crate::scene::xml::ir::{Document, Node};
 use crate::scene::xml::props::Props;
 use crate::spectrum::{Spectrum, SpectrumUse};
+use crate::texture::float_image;
 use glam::{Mat3, Vec3};
+use std::path::Path;
 
 impl<'d> Builder<'d> {
     pub(super) fn top_level_emitter(&mut self, n: &'d Node) -> Result<()> {
@@ -148,7 +150,8 @@ fn directional_emitter(p: &Props<'_>) -> Result<Emitter> {
     }))
 }
 
-/// Mitsuba 3 `envmap`: `filename` (a lat-long OpenEXR), `scale`, `to_world` (a rotation).
+/// Mitsuba 3 `envmap`: `filename` (a lat-long OpenEXR, Radiance RGBE or PFM image, recognised by
+/// content as Mitsuba does), `scale`, `to_world` (a rotation).
 fn envmap_emitter(doc: &Document, p: &Props<'_>, budget: &Budget) -> Result<Emitter> {
     no_nested_objects(p, "envmap")?;
     let name = p
@@ -157,17 +160,7 @@ fn envmap_emitter(doc: &Document, p: &Props<'_>, budget: &Budget) -> Result<Emit
     let scale = p.float("scale", 1.0)?;
     let m = p.transform("to_world")?;
     let file = doc.resolve_file(&name, p.loc())?;
-    let is_exr = file
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    check(
-        p.loc(),
-        is_exr,
-        format!("envmap '{name}': only OpenEXR (.exr) environment maps are supported"),
-    )?;
-    // The light keeps a copy of the pixels and its sampling distribution (~20 bytes a pixel).
-    let (img, _) = crate::output::read_exr_within(&file, budget, 20)
+    let img = envmap_image(&file, budget)
         .map_err(|e| Error::scene(p.loc(), format!("cannot read envmap '{name}': {e}")))?;
     // The rotation part, which may carry a uniform scale (removed); anything else is rejected.
     let r = Mat3::from_mat4(m);
@@ -189,4 +182,43 @@ fn envmap_emitter(doc: &Document, p: &Props<'_>, budget: &Budget) -> Result<Emit
     )
     .map_err(|e| Error::scene(p.loc(), format!("envmap '{name}': {e}")))?;
     Ok(Emitter::EnvMap(light))
+}
+
+/// The pixels of an environment map file (RGB, top row first; grey images in all three
+/// channels). The light keeps a copy of the pixels and its sampling distribution (~20 bytes a
+/// pixel besides the decoded image), checked against `budget` from the header before decoding.
+fn envmap_image(file: &Path, budget: &Budget) -> Result<crate::film::Image> {
+    const KEEP: u64 = 20;
+    let mut magic = Vec::with_capacity(4);
+    {
+        use std::io::Read;
+        let (f, _) = crate::inputs::open_regular(file)?;
+        f.take(4)
+            .read_to_end(&mut magic)
+            .map_err(|e| Error::io(file, e))?;
+    }
+    if magic == [0x76, 0x2f, 0x31, 0x01] {
+        return crate::output::read_exr_within(file, budget, KEEP).map(|(img, _)| img);
+    }
+    let bytes = crate::inputs::read_regular(file, budget)?;
+    let Some(header) = float_image::header(&bytes) else {
+        return Err(Error::file(
+            file,
+            "unsupported image format (environment maps are read from OpenEXR, Radiance RGBE (.hdr) and PFM files)",
+        ));
+    };
+    let h = header.map_err(|m| Error::file(file, m))?;
+    let (w, ht) = (h.width as u64, h.height as u64);
+    let what = format!("envmap image {w}×{ht} ({})", file.display());
+    let decoded = h.decoded_bytes();
+    budget
+        .check(decoded.saturating_add(bytes_of(&[w, ht, 12 + KEEP])), &what)
+        .and_then(|_| budget.reserve(bytes_of(&[w, ht, 12 + KEEP]), &what))
+        .map_err(|m| Error::file(file, m))?;
+    let img = float_image::decode(&bytes, &h).map_err(|m| Error::file(file, m))?;
+    Ok(crate::film::Image {
+        width: img.width,
+        height: img.height,
+        data: (0..img.pixel_count()).map(|i| img.rgb(i)).collect(),
+    })
 }

@@ -75,6 +75,9 @@ struct Builder<'d> {
     ids: &'d Ids<'d>,
     bsdf_cache: HashMap<&'d str, MatId>,
     tex_cache: HashMap<&'d str, TexId>,
+    /// Textures checked against each shape they are evaluated on
+    /// ([`Builder::check_hit_textures`]): `mesh_attribute`s, and 3-D `rawconstant`s (`true`).
+    hit_checked: HashMap<TexId, (&'d Node, bool)>,
     materials: Materials,
     /// The default diffuse BSDFs: [for plain shapes (0.5 grey), for emitting shapes (black)].
     default_materials: [Option<MatId>; 2],
@@ -113,6 +116,7 @@ pub fn instantiate_within(
         ids: &ids,
         bsdf_cache: HashMap::new(),
         tex_cache: HashMap::new(),
+        hit_checked: HashMap::new(),
         materials: Materials::default(),
         default_materials: [None, None],
         shapes: Vec::new(),

@@ -59,8 +59,8 @@ impl<'d> Builder<'d> {
             .map_err(|m| Error::scene(p.loc(), m))
     }
 
-    /// The geometry of a `<shape>`, in world space.
-    fn geometry(&self, p: &Props<'d>) -> Result<Shape> {
+    /// The geometry of a `<shape>`, in world space (with a PLY file's mesh attributes).
+    fn geometry(&mut self, p: &Props<'d>) -> Result<Shape> {
         let to_world = p.transform("to_world")?;
         let flip = p.bool("flip_normals", false)?;
         Ok(match p.plugin_type() {
@@ -72,12 +72,29 @@ impl<'d> Builder<'d> {
                 let face_normals = p.bool("face_normals", false)?;
                 let flip_tex = p.bool("flip_tex_coords", t == "obj")?;
                 let mesh = if t == "obj" {
-                    obj::load_obj_within(&file, &self.budget)
+                    obj::load_obj_within(&file, &self.budget).map(|mesh| ply::PlyMesh {
+                        mesh,
+                        attributes: Vec::new(),
+                        warnings: Vec::new(),
+                    })
                 } else {
-                    ply::load_ply_within(&file, &self.budget)
+                    ply::load_ply_attributed_within(&file, &self.budget)
                 };
-                let mut mesh = mesh.map_err(|e| self.file_error(p, "mesh", &fname, e))?;
+                let ply::PlyMesh {
+                    mut mesh,
+                    attributes,
+                    warnings,
+                } = mesh.map_err(|e| self.file_error(p, "mesh", &fname, e))?;
+                for w in warnings {
+                    self.warnings.push(format!("{}: '{fname}': {w}", p.loc()));
+                }
                 self.reserve_mesh(p, &fname, &mesh)?;
+                let attr_bytes: u64 = attributes.iter().map(|a| a.bytes()).sum();
+                if attr_bytes > 0 {
+                    self.budget
+                        .reserve(attr_bytes, &format!("mesh attributes of '{fname}'"))
+                        .map_err(|m| Error::scene(p.loc(), m))?;
+                }
                 // The OBJ loader applies Mitsuba's v flip; undo it when asked not to flip.
                 if (t == "obj") != flip_tex {
                     if let Some(uv) = mesh.uvs.as_mut() {
@@ -86,6 +103,7 @@ impl<'d> Builder<'d> {
                 }
                 mesh.transform(&to_world);
                 Shape::from_mesh(mesh, flip, face_normals)
+                    .and_then(|s| s.with_attributes(attributes))
                     .map_err(|e| Error::scene(p.loc(), format!("{}: {e}", file.display())))?
             }
             "serialized" => {
@@ -184,6 +202,7 @@ impl<'d> Builder<'d> {
             Some(m) => m,
             None => self.default_material(emitter.is_some()),
         };
+        self.check_hit_textures(material, &shape, &n.loc)?;
         self.shapes.push(shape);
         self.shape_material.push(material);
         self.shape_emitter.push(emitter);
@@ -213,7 +232,14 @@ impl<'d> Builder<'d> {
         for c in p.objects() {
             if c.attr("name") == Some(name) {
                 let id = self.texture(c)?;
-                return Ok(self.materials.textures[id as usize].clone());
+                let t = &self.materials.textures[id as usize];
+                if matches!(t, Texture::MeshAttribute(_)) {
+                    return Err(Error::scene(
+                        &c.loc,
+                        format!("a 'mesh_attribute' texture as an emitter's '{name}' is not supported by groove"),
+                    ));
+                }
+                return Ok(t.clone());
             }
         }
         // Mitsuba 3.9.1 defaults an area light's radiance to 1 (`get_emissive_texture(.., 1.f)`).

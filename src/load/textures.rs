@@ -1,9 +1,10 @@
-//! `<texture>`s (`bitmap`, `checkerboard`) and the colour parameters that may be a constant or
-//! a texture.
+//! `<texture>`s (`bitmap`, `checkerboard`, `rawconstant`, `mesh_attribute`) and the colour
+//! parameters that may be a constant or a texture; the checks of the textures whose use depends
+//! on the shape they are evaluated on.
 
 use super::{unknown, Builder};
-use crate::error::{Error, Result};
-use crate::material::TexId;
+use crate::error::{Error, Result, SourceLoc};
+use crate::material::{MatId, TexId};
 use crate::scene::xml::ir::Node;
 use crate::scene::xml::props::Props;
 use crate::spectrum::Spectrum;
@@ -47,6 +48,7 @@ impl<'d> Builder<'d> {
             }
         }
         let p = self.props(n)?;
+        let mut vector_only = false;
         let tex = match p.plugin_type() {
             "checkerboard" => {
                 let c0 = p.color("color0", Spectrum::splat(0.4))?;
@@ -59,10 +61,35 @@ impl<'d> Builder<'d> {
                 }
             }
             "bitmap" => self.bitmap_texture(&p)?,
-            t => return Err(unknown(p.loc(), "texture", t, &["bitmap", "checkerboard"])),
+            "rawconstant" => {
+                let r = crate::texture::rawconstant::load::build(&p)?;
+                if r.vector {
+                    vector_only = true;
+                }
+                Texture::Constant(r.value)
+            }
+            "mesh_attribute" => {
+                Texture::MeshAttribute(crate::texture::mesh_attribute::load::build(&p)?)
+            }
+            t => {
+                return Err(unknown(
+                    p.loc(),
+                    "texture",
+                    t,
+                    &["bitmap", "checkerboard", "mesh_attribute", "rawconstant"],
+                ))
+            }
         };
         p.finish()?;
         let id = self.materials.add_texture(tex);
+        if vector_only
+            || matches!(
+                self.materials.textures[id as usize],
+                Texture::MeshAttribute(_)
+            )
+        {
+            self.hit_checked.insert(id, (n, vector_only));
+        }
         if let Some(i) = n.attr("id") {
             self.tex_cache.insert(i, id);
         }
@@ -118,4 +145,77 @@ fn mat4_to_uv(m: &Mat4) -> Mat3 {
         Vec3::new(m.y_axis.x, m.y_axis.y, 0.0),
         Vec3::new(m.w_axis.x, m.w_axis.y, 1.0),
     )
+}
+
+impl<'d> Builder<'d> {
+    /// Checks what Mitsuba 3.9.1 only finds when it renders shape `shape` with material
+    /// `material`: every `mesh_attribute` texture the material evaluates names an attribute of
+    /// the shape with a usable size (1 or 3 values as a colour, 1 as a scalar), and no 3-D
+    /// `rawconstant` is read as a scalar. Errors are at the texture, naming the shape; the
+    /// messages are Mitsuba's.
+    pub(super) fn check_hit_textures(
+        &self,
+        material: MatId,
+        shape: &crate::geometry::Shape,
+        shape_loc: &SourceLoc,
+    ) -> Result<()> {
+        if self.hit_checked.is_empty() {
+            return Ok(());
+        }
+        let mut uses: Vec<(TexId, bool)> = Vec::new();
+        self.materials
+            .texture_uses(material, &mut |t, scalar| uses.push((t, scalar)));
+        for (t, scalar) in uses {
+            let Some(&(node, vector_only)) = self.hit_checked.get(&t) else {
+                continue;
+            };
+            if vector_only {
+                if scalar {
+                    return Err(Error::scene(
+                        &node.loc,
+                        crate::texture::rawconstant::NO_SCALAR,
+                    ));
+                }
+                continue;
+            }
+            let Texture::MeshAttribute(m) = &self.materials.textures[t as usize] else {
+                continue;
+            };
+            let at_shape = |msg: String| {
+                Error::scene(&node.loc, format!("{msg} (on the shape at {shape_loc})"))
+            };
+            let Some(a) = crate::geometry::attributes::find(shape.attributes(), &m.name) else {
+                let have: Vec<&str> = shape.attributes().iter().map(|a| a.name.as_str()).collect();
+                let have = if have.is_empty() {
+                    "which has no attributes".to_string()
+                } else {
+                    format!("which has {}", have.join(", "))
+                };
+                return Err(Error::scene(
+                    &node.loc,
+                    format!(
+                        "Invalid attribute requested {}. (on the shape at {shape_loc}, {have})",
+                        m.name
+                    ),
+                ));
+            };
+            let ok = if scalar {
+                a.dim == 1
+            } else {
+                a.dim == 1 || a.dim == 3
+            };
+            if !ok {
+                let f = if scalar {
+                    "eval_attribute_1"
+                } else {
+                    "eval_attribute"
+                };
+                return Err(at_shape(format!(
+                    "{f}(): Attribute \"{}\" requested but had size {}.",
+                    m.name, a.dim
+                )));
+            }
+        }
+        Ok(())
+    }
 }

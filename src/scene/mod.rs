@@ -90,7 +90,8 @@ impl Scene {
     ) -> Option<SurfaceBsdf<'a>> {
         arena.clear();
         let material = self.shape_material[si.shape as usize];
-        let root = self.materials.build(material, si, arena);
+        let at = crate::texture::TexPoint::on_shape(si, &self.shapes[si.shape as usize]);
+        let root = self.materials.build_at(material, si, &at, arena);
         SurfaceBsdf::new(arena.bsdf(root), si.sh, si.ng, si.wi)
     }
 

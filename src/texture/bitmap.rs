@@ -13,6 +13,8 @@
 //! - Storage precision (`format`): with `auto`, 8-bit codes decode exactly to f32, while 16-bit
 //!   data and half-float EXRs are stored as float16 (Mitsuba stores bitmaps of ≤ 16 bits per
 //!   channel in half precision); `variant` keeps f32; `fp16` rounds every texel to float16.
+//! - Radiance RGBE (`.hdr`) and PFM files are read by [`super::float_image`] (linear f32 data,
+//!   so `raw` changes nothing; stored as f32 under `auto`, as Mitsuba stores 32-bit data).
 //! - Grey (Y, YA) images stay one-channel (they evaluate to grey); alpha is ignored for colour.
 //! - Images narrower or shorter than 2 pixels are up-sampled to 2 (Mitsuba does so with a tent
 //!   filter, which for a single row/column is a copy).
@@ -23,6 +25,7 @@ use std::path::{Path, PathBuf};
 use exr::prelude::f16;
 use glam::{Mat3, Vec2, Vec3};
 
+use super::float_image;
 use crate::budget::{bytes_of, Budget};
 use crate::error::{Error, Result};
 use crate::spectrum::{luminance, Spectrum};
@@ -281,6 +284,8 @@ impl BitmapTexture {
         let bytes = crate::inputs::read_regular(path, budget)?;
         let dec = if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
             decode_exr(&bytes, budget)
+        } else if let Some(header) = float_image::header(&bytes) {
+            decode_float(&bytes, header, budget)
         } else {
             decode_ldr(&bytes, opts.raw, budget)
         }
@@ -532,7 +537,7 @@ fn decode_ldr(bytes: &[u8], raw: bool, budget: &Budget) -> Result<Decoded, Strin
     };
     let mut reader = open()?;
     let format = reader.format().ok_or_else(|| {
-        "unrecognised image format (bitmap textures read PNG, JPEG and OpenEXR files)".to_string()
+        "unrecognised image format (bitmap textures read PNG, JPEG, OpenEXR, Radiance RGBE and PFM files)".to_string()
     })?;
     // The header's dimensions, before anything is decoded.
     let (w, h) = open()?
@@ -640,6 +645,33 @@ fn decode_ldr(bytes: &[u8], raw: bool, budget: &Budget) -> Result<Decoded, Strin
 #[inline]
 fn rgb8(lut: &[f32], c: [u8; 3]) -> Vec3 {
     Vec3::new(lut[c[0] as usize], lut[c[1] as usize], lut[c[2] as usize])
+}
+
+/// Decodes a Radiance RGBE or PFM file (linear f32 data, stored as f32 by Mitsuba's `auto`).
+fn decode_float(
+    bytes: &[u8],
+    header: Result<float_image::Header, String>,
+    budget: &Budget,
+) -> Result<Decoded, String> {
+    let h = header?;
+    reserve_texels(
+        budget,
+        h.width as u64,
+        h.height as u64,
+        4 * h.channels.count() as u64,
+    )?;
+    let img = float_image::decode(bytes, &h)?;
+    let texels = (0..img.pixel_count())
+        .map(|i| Vec3::from_array(img.rgb(i)))
+        .collect();
+    Ok(Decoded {
+        width: img.width,
+        height: img.height,
+        grey: img.channels == float_image::Channels::Grey,
+        texels,
+        codes: None,
+        half_by_default: false,
+    })
 }
 
 /// Decodes the first layer of an OpenEXR file: channels R, G, B (alpha ignored) or Y (grey).

@@ -1,10 +1,16 @@
-//! Textures: spatially varying colours looked up by uv. A material evaluates its textures at a hit
-//! and hands plain values to the BSDFs (which never see uvs).
+//! Textures: spatially varying colours looked up by uv (or, for `mesh_attribute`, by the hit's
+//! mesh data: [`TexPoint`]). A material evaluates its textures at a hit and hands plain values
+//! to the BSDFs (which never see uvs).
 //!
 //! Values are linear RGB and are not clamped: whatever the texture holds (e.g. an EXR reflectance
 //! above 1) reaches the BSDF, as in Mitsuba 3.
 
 pub mod bitmap;
+pub mod float_image;
+pub mod mesh_attribute;
+mod pfm;
+pub mod rawconstant;
+mod rgbe;
 
 use std::sync::Arc;
 
@@ -12,6 +18,45 @@ use crate::spectrum::{luminance, Spectrum};
 use glam::{Mat3, Vec2, Vec3};
 
 pub use bitmap::{BitmapOptions, BitmapTexture, FilterType, StorageFormat, WrapMode};
+pub use mesh_attribute::{MeshAttributeTexture, MeshPoint};
+
+/// Where a texture is looked up: the uv, and for `mesh_attribute` the hit mesh's data. A bare
+/// `Vec2` converts into a lookup by uv alone.
+#[derive(Clone, Copy, Debug)]
+pub struct TexPoint<'a> {
+    pub uv: Vec2,
+    pub mesh: Option<MeshPoint<'a>>,
+}
+
+impl From<Vec2> for TexPoint<'_> {
+    #[inline]
+    fn from(uv: Vec2) -> Self {
+        TexPoint { uv, mesh: None }
+    }
+}
+
+impl<'a> TexPoint<'a> {
+    /// The lookup at hit `si` on `shape` (the shape `si.shape` names): with the mesh data when
+    /// the shape has attributes.
+    #[inline]
+    pub fn on_shape(
+        si: &crate::geometry::SurfaceInteraction,
+        shape: &'a crate::geometry::Shape,
+    ) -> TexPoint<'a> {
+        let mesh = match &shape.kind {
+            crate::geometry::ShapeKind::Mesh(m) if !shape.attributes().is_empty() => {
+                Some(MeshPoint {
+                    attributes: shape.attributes(),
+                    mesh: m,
+                    prim: si.prim,
+                    p: si.p,
+                })
+            }
+            _ => None,
+        };
+        TexPoint { uv: si.uv, mesh }
+    }
+}
 
 #[derive(Clone, Debug)]
 pub enum Texture {
@@ -26,6 +71,8 @@ pub enum Texture {
     },
     /// Mitsuba's `bitmap` (shared: cloning a texture does not copy its texels).
     Bitmap(Arc<BitmapTexture>),
+    /// Mitsuba's `mesh_attribute`: a value the hit mesh carries.
+    MeshAttribute(MeshAttributeTexture),
 }
 
 impl From<BitmapTexture> for Texture {
@@ -35,9 +82,11 @@ impl From<BitmapTexture> for Texture {
 }
 
 impl Texture {
-    /// The colour at `uv` (linear RGB).
+    /// The colour at `at` (a uv, or a [`TexPoint`]; linear RGB).
     #[inline]
-    pub fn eval(&self, uv: Vec2) -> Spectrum {
+    pub fn eval<'a>(&self, at: impl Into<TexPoint<'a>>) -> Spectrum {
+        let at = at.into();
+        let uv = at.uv;
         match self {
             Texture::Constant(c) => *c,
             Texture::Checkerboard {
@@ -56,14 +105,15 @@ impl Texture {
                 }
             }
             Texture::Bitmap(b) => b.eval(uv),
+            Texture::MeshAttribute(m) => m.eval(at.mesh.as_ref()),
         }
     }
 
     /// The stored RGB value at `uv` as a vector, for data textures (a normal map reads a
     /// `raw=true` bitmap and decodes `2·rgb − 1` itself). A grey bitmap gives (g, g, g).
     #[inline]
-    pub fn eval_vec3(&self, uv: Vec2) -> Vec3 {
-        self.eval(uv)
+    pub fn eval_vec3<'a>(&self, at: impl Into<TexPoint<'a>>) -> Vec3 {
+        self.eval(at)
     }
 
     /// A scalar value at `uv` (roughness-like parameters), as Mitsuba's `eval_1`: a grey texture's
@@ -75,7 +125,9 @@ impl Texture {
     /// (opacity, weight, roughness) is the complement pattern of the same texture as a colour;
     /// groove follows Mitsuba.
     #[inline]
-    pub fn eval_1(&self, uv: Vec2) -> f32 {
+    pub fn eval_1<'a>(&self, at: impl Into<TexPoint<'a>>) -> f32 {
+        let at = at.into();
+        let uv = at.uv;
         let grey = match self {
             Texture::Bitmap(b) => b.is_grey(),
             _ => false,
@@ -91,7 +143,7 @@ impl Texture {
                 to_uv: *to_uv,
             }
             .eval(uv),
-            _ => self.eval(uv),
+            _ => self.eval(at),
         };
         if grey || (c.x == c.y && c.y == c.z) {
             c.x
@@ -107,18 +159,22 @@ impl Texture {
     pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
         match self {
             Texture::Bitmap(b) => b.eval_1_grad(uv),
-            Texture::Constant(_) | Texture::Checkerboard { .. } => Vec2::ZERO,
+            Texture::Constant(_) | Texture::Checkerboard { .. } | Texture::MeshAttribute(_) => {
+                Vec2::ZERO
+            }
         }
     }
 
     /// Per-channel mean over the unit uv square (light power estimates). For a bitmap this is
     /// the mean texel, whose luminance is Mitsuba's `BitmapTexture::mean()`; for the checkerboard
-    /// the average of its two colours.
+    /// the average of its two colours. A `mesh_attribute` has none (0): its values belong to
+    /// the meshes it is evaluated on, and the loader rejects the uses that need a mean.
     pub fn mean(&self) -> Spectrum {
         match self {
             Texture::Constant(c) => *c,
             Texture::Checkerboard { color0, color1, .. } => 0.5 * (*color0 + *color1),
             Texture::Bitmap(b) => b.mean(),
+            Texture::MeshAttribute(_) => Spectrum::ZERO,
         }
     }
 

@@ -92,6 +92,13 @@ JOBS = [
     # principled (metal with textured roughness, glass, clearcoat, sheen, the documented mix)
     # and a principledthin sheet.
     ("mat_principled", os.path.join(SCENES, "mat_principled.xml"), {}, 4096, REF_SEEDS),
+    # Linear float images (tests/data/textures/make_hdr_pfm.py): bitmaps from a run-length RGBE
+    # file and from colour (big-endian) and grey (little-endian, scaled) PFM files; an envmap from
+    # an RGBE file; mesh_attribute (PLY vertex colours, a face attribute as a blend weight) and
+    # rawconstant (3-D reflectances, a 1-D roughness).
+    ("tex_hdr_pfm", os.path.join(SCENES, "tex_hdr_pfm.xml"), {}, 1024, REF_SEEDS),
+    ("light_envmap_hdr", os.path.join(SCENES, "light_envmap_hdr.xml"), {}, 1024, REF_SEEDS),
+    ("tex_mesh_attr", os.path.join(SCENES, "tex_mesh_attr.xml"), {}, 1024, REF_SEEDS),
 ]
 
 # Jobs whose film has extra channels (AOVs): the statistics are those of the film's developed

@@ -57,3 +57,9 @@ fn envmap_light_only_and_bsdf_only_agree_with_mitsuba() {
     matches_reference(&light, "light_envmap", 8, "envmap, light sampling only");
     matches_reference(&bsdf, "light_envmap", 8, "envmap, BSDF sampling only");
 }
+
+#[test]
+fn envmap_from_an_rgbe_file_matches_mitsuba() {
+    let r = render_scene(&test_scene("light_envmap_hdr.xml"), &[], 256, 34, 0, |_| {});
+    matches_reference(&r, "light_envmap_hdr", 4, "light_envmap_hdr.xml");
+}

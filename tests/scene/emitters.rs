@@ -475,7 +475,7 @@ fn envmap_bad_input_is_a_scene_error_at_the_emitter() {
             png.display()
         ),
         4,
-        "only OpenEXR",
+        "unsupported image format",
     );
     // NaN texel, zero power, negative texel.
     let write = |name: &str, px: Vec<[f32; 3]>| -> PathBuf {

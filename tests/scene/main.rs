@@ -5,8 +5,10 @@
 mod common;
 
 mod emitters;
+mod float_images;
 mod geometry;
 mod hostile;
+mod mesh_attribute;
 mod output;
 mod plugins;
 mod texture;
