@@ -7,6 +7,7 @@ mod common;
 mod emitters;
 mod geometry;
 mod hostile;
+mod instances;
 mod output;
 mod plugins;
 mod texture;
