@@ -44,9 +44,8 @@ impl Instance {
         let det = linear.determinant();
         let to_object = to_world.inverse();
         let affine = to_world.row(3) == glam::Vec4::W;
-        if !(to_world.is_finite() && affine && det.is_finite() && det != 0.0)
-            || !to_object.is_finite()
-        {
+        let invertible = det.is_finite() && det != 0.0 && to_object.is_finite();
+        if !(to_world.is_finite() && affine && invertible) {
             return Err(format!(
                 "the instance's to_world is not an invertible affine map (determinant {det})"
             ));

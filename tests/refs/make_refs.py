@@ -92,6 +92,9 @@ JOBS = [
     # principled (metal with textured roughness, glass, clearcoat, sheen, the documented mix)
     # and a principledthin sheet.
     ("mat_principled", os.path.join(SCENES, "mat_principled.xml"), {}, 4096, REF_SEEDS),
+    # shapegroup + instance: a mesh, a sphere and a cube placed four times (translated, rotated and
+    # scaled, non-uniformly scaled, mirrored).
+    ("shape_instance", os.path.join(SCENES, "shape_instance.xml"), {}, 8192, REF_SEEDS),
 ]
 
 # Jobs whose film has extra channels (AOVs): the statistics are those of the film's developed

@@ -287,11 +287,11 @@ fn a_group_is_stored_once_and_not_traced_by_itself() {
     assert!(c.x > 1.0 && r > 4.5, "{c} {r}");
 
     // A group nested in its instance, and an empty group.
-    let l = loads(&format!(
+    let l = loads(
         "<shape type=\"instance\"><shape type=\"shapegroup\"><shape type=\"sphere\"/></shape>\
          <transform name=\"to_world\"><translate y=\"-3\"/></transform></shape>\
-         <shape type=\"shapegroup\" id=\"e\"/><shape type=\"instance\"><ref id=\"e\"/></shape>"
-    ));
+         <shape type=\"shapegroup\" id=\"e\"/><shape type=\"instance\"><ref id=\"e\"/></shape>",
+    );
     let si = l.scene.intersect(&down(0.0)).unwrap();
     assert!((si.p.y + 2.0).abs() < 1e-5, "{}", si.p);
 }
