@@ -19,6 +19,12 @@ use crate::error::{Error, Result};
 use crate::geometry::Instance;
 use crate::scene::xml::ir::Node;
 
+/// What one instance costs in memory besides its XML elements, for the budget: groove's
+/// [`Instance`], Embree's instance geometry and its share of the top-level BVH. Measured: peak RSS
+/// 701 MB for 200 000 instances of a one-sphere group, ~2.5 kB an instance beyond the elements'
+/// own reservation; 4 kB leaves a margin.
+const INSTANCE_BYTES: u64 = 4096;
+
 impl<'d> Builder<'d> {
     /// The group `n` (a `<shape type="shapegroup">`), built on first use; returns its index.
     pub(super) fn shape_group(&mut self, n: &'d Node) -> Result<u32> {
@@ -115,6 +121,9 @@ impl<'d> Builder<'d> {
         })?;
         let loc = p.loc();
         p.finish()?;
+        self.budget
+            .reserve(INSTANCE_BYTES, "an instance")
+            .map_err(|m| Error::scene(loc, m))?;
         let g = self.shape_group(g)?;
         let inst = Instance::new(g, &to_world).map_err(|m| Error::scene(loc, m))?;
         self.instances.push(inst);

@@ -391,3 +391,23 @@ fn what_mitsuba_refuses_in_groups_and_instances_is_refused_at_its_element() {
         assert_err(&e, loc, msg);
     }
 }
+
+#[test]
+fn instances_are_counted_against_the_memory_budget() {
+    let group = "<shape type=\"shapegroup\" id=\"g\"><shape type=\"sphere\"/></shape>\n";
+    let body =
+        group.to_string() + &"<shape type=\"instance\"><ref id=\"g\"/></shape>\n".repeat(300);
+    let doc = groove::scene::xml::parse::load_str(&text(&body), Path::new("mem.xml"), &[]).unwrap();
+    let within = |limit: u64| {
+        groove::load::instantiate_within(
+            &doc,
+            Path::new("mem.xml"),
+            groove::load::options::NormalMapping::AsWritten,
+            &groove::budget::Budget::new(limit),
+        )
+    };
+    assert!(within(8 << 20).is_ok());
+    let e = within(1 << 20).err().expect("over the budget").to_string();
+    assert!(e.starts_with("mem.xml:"), "{e}");
+    assert!(e.contains("an instance needs"), "{e}");
+}
