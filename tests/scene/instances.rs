@@ -411,3 +411,59 @@ fn instances_are_counted_against_the_memory_budget() {
     assert!(e.starts_with("mem.xml:"), "{e}");
     assert!(e.contains("an instance needs"), "{e}");
 }
+
+#[test]
+fn rays_leaving_an_instanced_surface_do_not_hit_it_again() {
+    // Convex members (a sphere that the instance stretches into an ellipsoid, and a cube) far
+    // from the origin: a ray spawned outward from a hit point must escape; one spawned inward
+    // must reach the far side (checked on the ellipsoid only: far from the origin the offset
+    // origin, 125 ulps ≈ 0.015 here, can cross a nearby edge of the box).
+    for (smooth, member) in [true, false].into_iter().zip([
+        "<shape type=\"sphere\"><float name=\"radius\" value=\"0.5\"/></shape>",
+        "<shape type=\"cube\"><transform name=\"to_world\"><rotate x=\"1\" y=\"2\" angle=\"33\"/></transform></shape>",
+    ]) {
+        let l = loads(&format!(
+            "<shape type=\"shapegroup\" id=\"g\">{member}</shape><shape type=\"instance\"><ref id=\"g\"/>\
+             <transform name=\"to_world\"><scale x=\"3\" y=\"0.4\" z=\"1.5\"/><rotate z=\"1\" angle=\"30\"/>\
+             <translate x=\"2000\" y=\"-700\" z=\"350\"/></transform></shape>"
+        ));
+        let centre = Vec3::new(2000.0, -700.0, 350.0);
+        let mut rng = Pcg32::new(5, 9);
+        let mut unit = || 2.0 * rng.next_f32() - 1.0;
+        let (mut hits, mut escaped, mut crossed) = (0, 0, 0);
+        for _ in 0..4000 {
+            let o = centre + Vec3::new(unit(), unit(), unit()).normalize_or_zero() * 20.0;
+            let target = centre + Vec3::new(unit(), unit(), unit()) * 0.3;
+            let Some(si) = l.scene.intersect(&Ray::new(o, (target - o).normalize())) else {
+                continue;
+            };
+            hits += 1;
+            let d = Vec3::new(unit(), unit(), unit()).normalize_or_zero();
+            if d.dot(si.ng).abs() < 1e-2 {
+                continue;
+            }
+            let out = if d.dot(si.ng) > 0.0 { d } else { -d };
+            assert!(
+                l.scene.intersect(&si.spawn_ray(out)).is_none(),
+                "{member}: an outward ray from {} hit the surface again",
+                si.p
+            );
+            escaped += 1;
+            if !smooth {
+                continue;
+            }
+            let back = l.scene.intersect(&si.spawn_ray(-out));
+            let Some(far) = back else {
+                let r = si.spawn_ray(-out);
+                panic!(
+                    "{member}: an inward ray from {} (ng {}, ns {}) along {} (origin {}) missed; cos {}",
+                    si.p, si.ng, si.sh.n, -out, r.o, out.dot(si.ng)
+                );
+            };
+            assert!(far.t > 1e-3, "{member}: inward ray stopped at t {}", far.t);
+            crossed += 1;
+        }
+        assert!(hits > 3000 && escaped > 2900, "{hits} {escaped}");
+        assert!(!smooth || crossed == escaped, "{crossed} of {escaped}");
+    }
+}
