@@ -1,7 +1,8 @@
 //! The only FFI module: a thin, safe wrapper over Embree 3's C API (through `embree3::sys`).
 //!
 //! One device and one scene per [`EmbreeScene`]; geometry `i` is attached with id `i`, so Embree's
-//! `geomID` is the caller's shape index. Embree scenes are immutable after `rtcCommitScene` and
+//! `geomID` is the caller's shape index. Shape groups are scenes of their own, instanced into the
+//! top-level scene (`build_instanced`). Embree scenes are immutable after `rtcCommitScene` and
 //! `rtcIntersect1` / `rtcOccluded1` are thread-safe (Embree 3 API docs, "rtcIntersect1"), which is
 //! what makes the wrapper `Send + Sync`.
 
@@ -41,6 +42,13 @@ pub(crate) enum GeomDesc<'a> {
     Cylinder(&'a Cylinder),
     /// Nothing to trace (a degenerate shape); its id stays unused.
     Empty,
+}
+
+/// An instance of a shape group: the group's index in the `groups` given to
+/// [`EmbreeScene::build_instanced`] and its object-to-world map (affine, invertible).
+pub(crate) struct InstanceDesc {
+    pub(crate) group: u32,
+    pub(crate) to_world: Mat4,
 }
 
 /// A user-geometry hit: ray parameter, and the triangle and barycentrics reported as Embree's
@@ -390,6 +398,9 @@ unsafe fn user_geometry<T: UserShape>(device: RTCDevice, shape: &T) -> Option<RT
 pub(crate) struct EmbreeScene {
     device: RTCDevice,
     scene: RTCScene,
+    /// The committed scenes of the shape groups, each instanced by one or more
+    /// `RTC_GEOMETRY_TYPE_INSTANCE` geometries of `scene` (released in Drop, after `scene`).
+    groups: Vec<RTCScene>,
     /// Messages reported by Embree's error callback (the callback's user pointer points here).
     _errors: Box<Mutex<Vec<String>>>,
     /// User data of the user geometries; boxed so the addresses Embree holds stay valid while
@@ -432,7 +443,22 @@ unsafe extern "C" fn on_error(user: *mut c_void, code: RTCError, msg: *const c_c
 
 impl EmbreeScene {
     /// Builds and commits a scene; geometry `i` gets Embree id `i`.
+    #[cfg(test)]
     pub(crate) fn build(geoms: &[GeomDesc]) -> Result<EmbreeScene, String> {
+        Self::build_instanced(geoms, &[], &[])
+    }
+
+    /// Builds and commits a scene with instancing: geometry `i` of `geoms` gets Embree id `i`;
+    /// each of `groups` becomes its own committed scene (geometry `j` of a group has id `j`
+    /// there), stored once however often it is instanced; instance `k` of `instances` gets id
+    /// `geoms.len() + k` in the top-level scene. A hit through instance `k` reports that id as
+    /// [`Hit::inst`], and the group's geometry and primitive as `geom` and `prim` (Embree 3 API,
+    /// `RTC_GEOMETRY_TYPE_INSTANCE`); without an instance `inst` is `u32::MAX`.
+    pub(crate) fn build_instanced(
+        geoms: &[GeomDesc],
+        groups: &[Vec<GeomDesc>],
+        instances: &[InstanceDesc],
+    ) -> Result<EmbreeScene, String> {
         let errors = Box::new(Mutex::new(Vec::new()));
         // SAFETY: plain C calls; every handle is checked for null before use, and ownership of
         // the device/scene passes to the returned value (released in Drop, also on error paths
@@ -451,6 +477,7 @@ impl EmbreeScene {
             let mut this = EmbreeScene {
                 device,
                 scene,
+                groups: Vec::new(),
                 _errors: errors,
                 _planes: Vec::new(),
                 _spheres: Vec::new(),
@@ -460,6 +487,45 @@ impl EmbreeScene {
             if scene.is_null() {
                 return Err(this.error_text("rtcNewScene failed"));
             }
+            // Embree wants each instanced scene committed before the instances that use it.
+            for g in groups {
+                let group = rtcNewScene(device);
+                if group.is_null() {
+                    return Err(this.error_text("rtcNewScene failed"));
+                }
+                this.groups.push(group);
+                Self::attach(&mut this, group, g)?;
+                rtcCommitScene(group);
+            }
+            Self::attach(&mut this, scene, geoms)?;
+            Self::attach_instances(&mut this, geoms.len(), instances)?;
+            rtcCommitScene(scene);
+            let code = rtcGetDeviceError(device);
+            if code != RTCError::NONE {
+                return Err(this.error_text(&format!("scene build failed ({code:?})")));
+            }
+            if let Ok(e) = this._errors.lock() {
+                if !e.is_empty() {
+                    return Err(format!("Embree: {}", e.join("; ")));
+                }
+            }
+            Ok(this)
+        }
+    }
+
+    /// Attaches `geoms` to `scene` (a scene of `this`'s device), geometry `i` with id `i`.
+    ///
+    /// # Safety
+    /// `scene` is a valid, uncommitted scene of `this.device`.
+    unsafe fn attach(
+        this: &mut EmbreeScene,
+        scene: RTCScene,
+        geoms: &[GeomDesc],
+    ) -> Result<(), String> {
+        // SAFETY: plain C calls on valid handles (the caller's contract); Embree copies the
+        // triangle buffers, and the user geometries' data is kept boxed in `this`.
+        unsafe {
+            let device = this.device;
             for (id, g) in geoms.iter().enumerate() {
                 let geom = match g {
                     GeomDesc::Empty => continue,
@@ -537,18 +603,54 @@ impl EmbreeScene {
                 // The scene holds its own reference.
                 rtcReleaseGeometry(geom);
             }
-            rtcCommitScene(scene);
-            let code = rtcGetDeviceError(device);
-            if code != RTCError::NONE {
-                return Err(this.error_text(&format!("scene build failed ({code:?})")));
-            }
-            if let Ok(e) = this._errors.lock() {
-                if !e.is_empty() {
-                    return Err(format!("Embree: {}", e.join("; ")));
-                }
-            }
-            Ok(this)
+            Ok(())
         }
+    }
+
+    /// Attaches instance `k` of `instances` to the top-level scene with id `base + k`: an
+    /// `RTC_GEOMETRY_TYPE_INSTANCE` of the group's committed scene under its `to_world`, given
+    /// as a column-major 3×4 matrix (Embree copies it).
+    ///
+    /// # Safety
+    /// `this.scene` is uncommitted and every group scene of `this` is committed.
+    unsafe fn attach_instances(
+        this: &mut EmbreeScene,
+        base: usize,
+        instances: &[InstanceDesc],
+    ) -> Result<(), String> {
+        for (k, inst) in instances.iter().enumerate() {
+            let Some(&group) = this.groups.get(inst.group as usize) else {
+                return Err(format!("Embree: instance {k} names a missing group"));
+            };
+            let id = u32::try_from(base + k)
+                .ok()
+                .filter(|&id| id != u32::MAX)
+                .ok_or_else(|| "Embree: too many geometries".to_string())?;
+            let m = inst.to_world;
+            let xfm: [f32; 12] = [
+                m.x_axis.x, m.x_axis.y, m.x_axis.z, m.y_axis.x, m.y_axis.y, m.y_axis.z, m.z_axis.x,
+                m.z_axis.y, m.z_axis.z, m.w_axis.x, m.w_axis.y, m.w_axis.z,
+            ];
+            // SAFETY: valid device and committed group scene (the caller's contract); `xfm`
+            // lives through the call, which copies it.
+            unsafe {
+                let geom = rtcNewGeometry(this.device, RTCGeometryType::INSTANCE);
+                if geom.is_null() {
+                    return Err(this.error_text("rtcNewGeometry (instance) failed"));
+                }
+                rtcSetGeometryInstancedScene(geom, group);
+                rtcSetGeometryTransform(
+                    geom,
+                    0,
+                    RTCFormat::FLOAT3X4_COLUMN_MAJOR,
+                    xfm.as_ptr() as *const c_void,
+                );
+                rtcCommitGeometry(geom);
+                rtcAttachGeometryByID(this.scene, geom, id);
+                rtcReleaseGeometry(geom);
+            }
+        }
+        Ok(())
     }
 
     fn error_text(&self, what: &str) -> String {
@@ -610,6 +712,7 @@ impl EmbreeScene {
             t: rh.ray.tfar,
             u: rh.hit.u,
             v: rh.hit.v,
+            inst: rh.hit.instID[0],
         })
     }
 
@@ -631,6 +734,9 @@ impl Drop for EmbreeScene {
         unsafe {
             if !self.scene.is_null() {
                 rtcReleaseScene(self.scene);
+            }
+            for &g in &self.groups {
+                rtcReleaseScene(g);
             }
             rtcReleaseDevice(self.device);
         }

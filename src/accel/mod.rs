@@ -3,17 +3,36 @@
 mod embree;
 
 use crate::error::{Error, Result};
+use crate::geometry::hit::NO_INSTANCE;
 use crate::geometry::shapes::{Shape, ShapeKind, CUBE_FACES};
-use crate::geometry::{Hit, Ray};
+use crate::geometry::{Hit, Instance, Ray};
+use std::ops::Range;
 
 /// The acceleration structure over a scene's shapes. `Send + Sync`: queries run from any thread.
 pub struct Accel {
     scene: embree::EmbreeScene,
+    /// Embree id of instance 0 in the top-level scene (the number of shapes).
+    inst_base: u32,
+    /// Per instance: the shape index of its group's first member.
+    first_member: Vec<u32>,
 }
 
 impl Accel {
     /// Builds the BVH; shape `i` is reported as `Hit::geom == i`.
     pub fn build(shapes: &[Shape]) -> Result<Accel> {
+        Accel::build_instanced(shapes, &[], &[])
+    }
+
+    /// Builds the BVH of a scene with shape groups and instances. `groups[g]` is the range of
+    /// shape indices that are the members of group `g` (in group space, not traced by
+    /// themselves); every other shape is traced as it is. A hit on member `j` of the group of
+    /// instance `k` is reported as `Hit::geom == j`, `Hit::inst == k`; other hits have
+    /// `Hit::inst == NO_INSTANCE`. Each group's geometry is built once.
+    pub fn build_instanced(
+        shapes: &[Shape],
+        groups: &[Range<u32>],
+        instances: &[Instance],
+    ) -> Result<Accel> {
         let descs: Vec<embree::GeomDesc> = shapes
             .iter()
             .map(|s| match (&s.kind, s.box_to_world) {
@@ -39,14 +58,52 @@ impl Accel {
                 (ShapeKind::Cylinder(c), _) => embree::GeomDesc::Cylinder(c),
             })
             .collect();
-        let scene = embree::EmbreeScene::build(&descs).map_err(Error::Native)?;
-        Ok(Accel { scene })
+        let mut descs = descs;
+        let in_range = |r: &Range<u32>| r.start <= r.end && r.end as usize <= descs.len();
+        if !groups.iter().all(in_range)
+            || instances.iter().any(|i| i.group() as usize >= groups.len())
+        {
+            return Err(Error::Native("shape group out of range".into()));
+        }
+        // The members leave the top level for their group's own scene.
+        let group_descs: Vec<Vec<embree::GeomDesc>> = groups
+            .iter()
+            .map(|r| {
+                (r.start as usize..r.end as usize)
+                    .map(|i| std::mem::replace(&mut descs[i], embree::GeomDesc::Empty))
+                    .collect()
+            })
+            .collect();
+        let inst_descs: Vec<embree::InstanceDesc> = instances
+            .iter()
+            .map(|i| embree::InstanceDesc {
+                group: i.group(),
+                to_world: *i.to_world(),
+            })
+            .collect();
+        let scene = embree::EmbreeScene::build_instanced(&descs, &group_descs, &inst_descs)
+            .map_err(Error::Native)?;
+        Ok(Accel {
+            scene,
+            inst_base: shapes.len() as u32,
+            first_member: instances
+                .iter()
+                .map(|i| groups[i.group() as usize].start)
+                .collect(),
+        })
     }
 
     /// The nearest hit with `t` in `[ray.tmin, ray.tmax]`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        self.scene.intersect(ray.o, ray.d, ray.tmin, ray.tmax)
+        let mut hit = self.scene.intersect(ray.o, ray.d, ray.tmin, ray.tmax)?;
+        if hit.inst != NO_INSTANCE {
+            // Embree's instance id and the group's geometry id, as scene indices.
+            let k = hit.inst.wrapping_sub(self.inst_base);
+            hit.geom += *self.first_member.get(k as usize)?;
+            hit.inst = k;
+        }
+        Some(hit)
     }
 
     /// Whether any surface lies on the ray within `[ray.tmin, ray.tmax]`.

@@ -1,9 +1,11 @@
 //! Geometry: rays, surface interactions, triangle meshes and the analytic shapes, with their
-//! loaders (OBJ, PLY, Mitsuba serialized) and area sampling for emitters.
+//! loaders (OBJ, PLY, Mitsuba serialized) and area sampling for emitters; instances of shape
+//! groups.
 
 pub mod attributes;
 pub mod cylinder;
 pub mod hit;
+pub mod instance;
 pub mod interaction;
 pub mod mesh;
 pub mod obj;
@@ -15,6 +17,7 @@ pub mod shapes;
 
 pub use cylinder::Cylinder;
 pub use hit::Hit;
+pub use instance::Instance;
 pub use interaction::SurfaceInteraction;
 pub use mesh::TriMesh;
 pub use ray::Ray;

@@ -9,6 +9,7 @@
 //! - `bsdfs`: `<bsdf>`, dispatched to the constructor that lives in each BSDF's own file
 //!   beside its table of parameters (and the `--normal-mapping` conversions);
 //! - `shapes`: `<shape>`, its area emitter and the default materials;
+//! - `shapegroup`: `shapegroup` and `instance`;
 //! - `emitters`: the top-level `<emitter>`s;
 //! - [`options`]: what a load is asked for besides the file (`-D`, `--normal-mapping`).
 
@@ -17,6 +18,7 @@ mod emitters;
 mod mitsuba_plugins;
 pub mod options;
 mod settings;
+mod shapegroup;
 mod shapes;
 mod textures;
 
@@ -26,7 +28,7 @@ use crate::camera::Camera;
 use crate::emitter::{Emitter, LightSampler};
 use crate::error::{Error, Result, SourceLoc};
 use crate::film::FilmDesc;
-use crate::geometry::Shape;
+use crate::geometry::{Instance, Shape};
 use crate::integrator::{IntegratorDesc, PathSettings};
 use crate::material::{MatId, Materials, TexId};
 use crate::render::RenderSettings;
@@ -84,6 +86,11 @@ struct Builder<'d> {
     shapes: Vec<Shape>,
     shape_material: Vec<MatId>,
     shape_emitter: Vec<Option<u32>>,
+    /// The shape groups: the range of `shapes` each one's members occupy.
+    groups: Vec<std::ops::Range<u32>>,
+    /// Index in `groups` of each group element built so far.
+    group_index: HashMap<*const Node, u32>,
+    instances: Vec<Instance>,
     emitters: Vec<Emitter>,
     warnings: Vec<String>,
     /// The memory budget images and meshes are checked against.
@@ -122,6 +129,9 @@ pub fn instantiate_within(
         shapes: Vec::new(),
         shape_material: Vec::new(),
         shape_emitter: Vec::new(),
+        groups: Vec::new(),
+        group_index: HashMap::new(),
+        instances: Vec::new(),
         emitters: Vec::new(),
         warnings: doc.warnings.clone(),
         budget: budget.clone(),
@@ -142,8 +152,8 @@ pub fn instantiate_within(
         ));
     }
 
-    let accel = Accel::build(&b.shapes)?;
-    let bsphere = Scene::bounding_sphere(&b.shapes);
+    let accel = Accel::build_instanced(&b.shapes, &b.groups, &b.instances)?;
+    let bsphere = Scene::bounding_sphere_instanced(&b.shapes, &b.groups, &b.instances);
     let env_emitters = b
         .emitters
         .iter()
@@ -155,6 +165,7 @@ pub fn instantiate_within(
     Ok(Loaded {
         scene: Scene {
             shapes: b.shapes,
+            instances: b.instances,
             shape_material: b.shape_material,
             shape_emitter: b.shape_emitter,
             accel,

@@ -1,5 +1,6 @@
-//! `<shape>`s (`obj`, `ply`, `serialized`, `rectangle`, `cube`, `disk`, `sphere`, `cylinder`), the `area` emitter a
-//! shape carries, and the default materials of shapes without a BSDF.
+//! `<shape>`s (`obj`, `ply`, `serialized`, `rectangle`, `cube`, `disk`, `sphere`, `cylinder`;
+//! `shapegroup` and `instance` are in `shapegroup.rs`), the `area` emitter a shape carries, and
+//! the default materials of shapes without a BSDF.
 
 use super::{check, unknown, Builder};
 use crate::emitter::area::AreaLight;
@@ -158,6 +159,8 @@ impl<'d> Builder<'d> {
                         "disk",
                         "sphere",
                         "cylinder",
+                        "shapegroup",
+                        "instance",
                     ],
                 ))
             }
@@ -166,6 +169,11 @@ impl<'d> Builder<'d> {
 
     /// A `<shape>` with its BSDF (or a default one) and its area emitter, if any.
     pub(super) fn shape(&mut self, n: &'d Node) -> Result<()> {
+        match n.attr("type") {
+            Some("shapegroup") => return self.shape_group(n).map(|_| ()),
+            Some("instance") => return self.instance(n),
+            _ => {}
+        }
         let p = self.props(n)?;
         let shape = self.geometry(&p)?;
         let index = self.shapes.len() as u32;

@@ -9,13 +9,19 @@ use crate::accel::Accel;
 use crate::bsdf::{BsdfArena, SurfaceBsdf};
 use crate::camera::Camera;
 use crate::emitter::{Emitter, LightSampler};
-use crate::geometry::{Ray, Shape, SurfaceInteraction};
+use crate::geometry::hit::NO_INSTANCE;
+use crate::geometry::{Instance, Ray, Shape, SurfaceInteraction};
 use crate::material::{MatId, Materials};
 use glam::Vec3;
 use std::path::PathBuf;
 
 pub struct Scene {
+    /// Every surface: the shapes traced as they are, and the members of the shape groups (in
+    /// group space, traced only through `instances`; each is a shape of its own for its
+    /// material, so `SurfaceInteraction::shape` names the member that was hit).
     pub(crate) shapes: Vec<Shape>,
+    /// The placements of shape groups (`instance`), indexed by `Hit::inst`.
+    pub(crate) instances: Vec<Instance>,
     /// Material of each shape (every shape has one: Mitsuba's default is a 0.5 grey `diffuse`).
     pub(crate) shape_material: Vec<MatId>,
     /// Area emitter of each shape, as an index into `emitters`.
@@ -37,6 +43,10 @@ pub struct Scene {
 impl Scene {
     pub fn shapes(&self) -> &[Shape] {
         &self.shapes
+    }
+    /// The instances of shape groups.
+    pub fn instances(&self) -> &[Instance] {
+        &self.instances
     }
     /// Material of each shape.
     pub fn shape_materials(&self) -> &[MatId] {
@@ -76,7 +86,14 @@ impl Scene {
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceInteraction> {
         let hit = self.accel.intersect(ray)?;
-        Some(self.shapes[hit.geom as usize].interaction(hit.geom, ray, &hit))
+        let shape = &self.shapes[hit.geom as usize];
+        if hit.inst == NO_INSTANCE {
+            return Some(shape.interaction(hit.geom, ray, &hit));
+        }
+        // A group member seen through an instance: its surface in group space, mapped back.
+        let inst = &self.instances[hit.inst as usize];
+        let local = shape.interaction(hit.geom, &inst.object_ray(ray), &hit);
+        Some(inst.interaction(local, ray))
     }
 
     /// Build the BSDF of the surface hit by `si` into `arena`, as seen from `si.wi`; `None`
@@ -103,13 +120,48 @@ impl Scene {
 
     /// Bounding sphere of a set of shapes.
     pub fn bounding_sphere(shapes: &[Shape]) -> (Vec3, f32) {
-        let mut lo = Vec3::splat(f32::INFINITY);
-        let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        for s in shapes {
-            let (a, b) = s.bounds();
-            lo = lo.min(a);
-            hi = hi.max(b);
+        Scene::bounding_sphere_instanced(shapes, &[], &[])
+    }
+
+    /// Bounding sphere of what is traced: the shapes outside the `groups` (ranges of shape
+    /// indices, as for `Accel::build_instanced`) and every instance's group under its
+    /// transform.
+    pub fn bounding_sphere_instanced(
+        shapes: &[Shape],
+        groups: &[std::ops::Range<u32>],
+        instances: &[Instance],
+    ) -> (Vec3, f32) {
+        let empty = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        let union = |(a, b): (Vec3, Vec3), (c, d): (Vec3, Vec3)| (a.min(c), b.max(d));
+        let of = |r: std::ops::Range<u32>| {
+            shapes
+                .get(r.start as usize..r.end as usize)
+                .unwrap_or(&[])
+                .iter()
+                .map(Shape::bounds)
+                .fold(empty, union)
+        };
+        let mut member = vec![false; shapes.len()];
+        for r in groups {
+            for m in member
+                .get_mut(r.start as usize..r.end as usize)
+                .unwrap_or(&mut [])
+            {
+                *m = true;
+            }
         }
+        let mut bounds = shapes
+            .iter()
+            .zip(&member)
+            .filter(|(_, &m)| !m)
+            .map(|(s, _)| s.bounds())
+            .fold(empty, union);
+        for inst in instances {
+            if let Some(r) = groups.get(inst.group() as usize) {
+                bounds = union(bounds, inst.bounds(of(r.clone())));
+            }
+        }
+        let (lo, hi) = bounds;
         if !lo.is_finite() || !hi.is_finite() {
             return (Vec3::ZERO, 1.0);
         }

@@ -99,6 +99,9 @@ JOBS = [
     ("tex_hdr_pfm", os.path.join(SCENES, "tex_hdr_pfm.xml"), {}, 1024, REF_SEEDS),
     ("light_envmap_hdr", os.path.join(SCENES, "light_envmap_hdr.xml"), {}, 1024, REF_SEEDS),
     ("tex_mesh_attr", os.path.join(SCENES, "tex_mesh_attr.xml"), {}, 1024, REF_SEEDS),
+    # shapegroup + instance: a mesh, a sphere and a cube placed four times (translated, rotated and
+    # scaled, non-uniformly scaled, mirrored).
+    ("shape_instance", os.path.join(SCENES, "shape_instance.xml"), {}, 8192, REF_SEEDS),
 ]
 
 # Jobs whose film has extra channels (AOVs): the statistics are those of the film's developed

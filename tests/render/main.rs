@@ -6,6 +6,7 @@ mod common;
 
 mod aov;
 mod foundation;
+mod instances;
 mod lights;
 mod materials;
 mod mnm;

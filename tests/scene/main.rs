@@ -9,6 +9,7 @@ mod float_images;
 mod geometry;
 mod hostile;
 mod mesh_attribute;
+mod instances;
 mod output;
 mod plugins;
 mod texture;
