@@ -95,6 +95,15 @@ impl Emitter {
         }
     }
 
+    /// True for lights that are points or a single direction (found only by next-event
+    /// estimation, never by a ray).
+    pub fn is_delta(&self) -> bool {
+        matches!(
+            self,
+            Emitter::Point(_) | Emitter::Spot(_) | Emitter::Directional(_)
+        )
+    }
+
     /// True for lights at infinity seen by rays that escape the scene (not the directional
     /// light: a delta light, found only by next-event estimation).
     pub fn is_environment(&self) -> bool {
