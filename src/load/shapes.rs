@@ -61,7 +61,10 @@ impl<'d> Builder<'d> {
 
     /// The geometry of a `<shape>`, in world space.
     fn geometry(&self, p: &Props<'d>) -> Result<Shape> {
-        let to_world = p.transform("to_world")?;
+        let xf = p.transform_full("to_world")?;
+        let to_world = xf.matrix;
+        // Mitsuba's normal matrix when it differs from the true one (a non-unit `<rotate>`).
+        let normal_matrix = xf.quirk_inverse_transpose.map(|_| xf.normal_matrix());
         let flip = p.bool("flip_normals", false)?;
         Ok(match p.plugin_type() {
             t @ ("obj" | "ply") => {
@@ -84,7 +87,7 @@ impl<'d> Builder<'d> {
                         uv.iter_mut().for_each(|t| t.y = 1.0 - t.y);
                     }
                 }
-                mesh.transform(&to_world);
+                mesh.transform_with_normals(&to_world, normal_matrix.as_ref());
                 Shape::from_mesh(mesh, flip, face_normals)
                     .map_err(|e| Error::scene(p.loc(), format!("{}: {e}", file.display())))?
             }
@@ -104,7 +107,7 @@ impl<'d> Builder<'d> {
                         .map_err(|e| self.file_error(p, "mesh", &fname, e))?
                         .mesh;
                 self.reserve_mesh(p, &fname, &mesh)?;
-                mesh.transform(&to_world);
+                mesh.transform_with_normals(&to_world, normal_matrix.as_ref());
                 Shape::from_mesh(mesh, flip, face_normals)
                     .map_err(|e| Error::scene(p.loc(), format!("{}: {e}", file.display())))?
             }
