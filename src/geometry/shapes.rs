@@ -104,17 +104,27 @@ impl Shape {
             })
             .collect();
         let area = acc as f32;
-        if !(area.is_finite() && area > 0.0) {
+        if !area.is_finite() {
             return Err(Error::file(
                 "mesh",
-                format!("mesh has zero or invalid surface area ({area})"),
+                format!("mesh has an invalid surface area ({area})"),
             ));
         }
-        for c in &mut cdf {
-            *c /= area;
-        }
-        if let Some(last) = cdf.last_mut() {
-            *last = 1.0;
+        if area > 0.0 {
+            for c in &mut cdf {
+                *c /= area;
+            }
+            // From the last triangle with area on, the CDF is 1: trailing zero-area triangles
+            // (which cannot be sampled, as in Mitsuba's area pmf) are never chosen.
+            let last = (0..mesh.indices.len())
+                .rev()
+                .find(|&i| mesh.triangle_area(i) > 0.0)
+                .unwrap_or(0);
+            cdf[last..].iter_mut().for_each(|c| *c = 1.0);
+        } else {
+            // Zero total area: never hit, never sampled (the loader warns, and refuses it as an
+            // area light as Mitsuba does).
+            cdf.clear();
         }
         Ok(Shape {
             kind: ShapeKind::Mesh(mesh),
@@ -277,6 +287,17 @@ impl Shape {
             cdf: Vec::new(),
             to_object: Mat4::IDENTITY,
             box_to_world: None,
+        }
+    }
+
+    /// The number of zero-area triangles of a mesh (0 for other shapes): they are never hit
+    /// and never sampled.
+    pub fn zero_area_triangles(&self) -> usize {
+        match &self.kind {
+            ShapeKind::Mesh(m) => (0..m.indices.len())
+                .filter(|&i| !(m.triangle_area(i) > 0.0))
+                .count(),
+            _ => 0,
         }
     }
 

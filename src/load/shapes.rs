@@ -180,6 +180,7 @@ impl<'d> Builder<'d> {
             Some(c) => Some(self.area_emitter(self.ids.resolve(c, "emitter")?, index)?),
             None => None,
         };
+        self.check_zero_area(&p, &shape, emitter.is_some())?;
         p.finish()?;
         // Mitsuba 3: a shape without a BSDF gets a 0.5 grey diffuse one, but an emitting shape
         // without a BSDF gets a black one (it does not reflect light).
@@ -190,6 +191,42 @@ impl<'d> Builder<'d> {
         self.shapes.push(shape);
         self.shape_material.push(material);
         self.shape_emitter.push(emitter);
+        Ok(())
+    }
+
+    /// Zero-area triangles of a mesh are warned about (once per mesh, with their count): they
+    /// are never hit and get no sampling probability, as in Mitsuba 3.9.1, which accepts them
+    /// silently. A mesh of zero total area is warned about too (never hit), unless it is an area
+    /// light: Mitsuba 3.9.1 (`scalar_rgb`) refuses to build its sampling table ("no
+    /// probability mass found"), and so does groove, with the element's location.
+    fn check_zero_area(&mut self, p: &Props<'d>, shape: &Shape, emitting: bool) -> Result<()> {
+        let zero = shape.zero_area_triangles();
+        if zero == 0 {
+            return Ok(());
+        }
+        let n = match &shape.kind {
+            crate::geometry::ShapeKind::Mesh(m) => m.indices.len(),
+            _ => return Ok(()),
+        };
+        if shape.area() > 0.0 {
+            self.warnings.push(format!(
+                "{}: mesh has {zero} zero-area triangle(s) of {n}: they are never hit nor sampled",
+                p.loc()
+            ));
+            return Ok(());
+        }
+        check(
+            p.loc(),
+            !emitting,
+            format!(
+                "this area light's mesh has zero surface area (all {n} triangles are degenerate): \
+                 it cannot be sampled (Mitsuba 3.9.1 refuses it too)"
+            ),
+        )?;
+        self.warnings.push(format!(
+            "{}: mesh has zero surface area (all {n} triangles are degenerate): it is never hit",
+            p.loc()
+        ));
         Ok(())
     }
 
