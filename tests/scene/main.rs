@@ -9,5 +9,7 @@ mod geometry;
 mod hostile;
 mod output;
 mod plugins;
+mod projector;
+mod rotate_axis;
 mod texture;
 mod xml_parse;
