@@ -57,3 +57,32 @@ fn envmap_light_only_and_bsdf_only_agree_with_mitsuba() {
     matches_reference(&light, "light_envmap", 8, "envmap, light sampling only");
     matches_reference(&bsdf, "light_envmap", 8, "envmap, BSDF sampling only");
 }
+
+#[test]
+fn projector_matches_mitsuba() {
+    // A non-square bitmap projected obliquely (uv convention, aspect, 1/(z² cos θ), scale).
+    let r = render_scene(&test_scene("light_projector.xml"), &[], 512, 141, 0, |_| {});
+    matches_reference(&r, "light_projector", 8, "light_projector.xml");
+}
+
+#[test]
+fn textured_spot_matches_mitsuba() {
+    let r = render_scene(&test_scene("light_spot_tex.xml"), &[], 512, 142, 0, |_| {});
+    matches_reference(&r, "light_spot_tex", 8, "light_spot_tex.xml");
+}
+
+#[test]
+fn area_light_with_zero_area_triangles_matches_mitsuba() {
+    // The reference is Mitsuba's render of the mesh with five zero-area triangles; groove must
+    // match it with and without them.
+    let scene = test_scene("degenerate_mesh.xml");
+    let with = render_scene(&scene, &[], 512, 143, 0, |_| {});
+    matches_reference(&with, "degenerate_mesh", 4, "degenerate_mesh.xml");
+    let without = render_scene(&scene, &[("mesh", "quad_emit.obj")], 512, 143, 0, |_| {});
+    matches_reference(
+        &without,
+        "degenerate_mesh",
+        4,
+        "degenerate_mesh.xml, clean quad",
+    );
+}

@@ -4,6 +4,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod degenerate;
 mod emitters;
 mod geometry;
 mod hostile;
