@@ -73,7 +73,7 @@ impl ProjectorLight {
     /// Image coordinates of the projector-space point `l`, if the projector lights it.
     #[inline]
     fn image_uv(&self, l: Vec3) -> Option<Vec2> {
-        if !(l.z > 0.0) {
+        if l.z.is_nan() || l.z <= 0.0 {
             return None;
         }
         let k = self.cot_half_x / l.z;

@@ -295,7 +295,10 @@ impl Shape {
     pub fn zero_area_triangles(&self) -> usize {
         match &self.kind {
             ShapeKind::Mesh(m) => (0..m.indices.len())
-                .filter(|&i| !(m.triangle_area(i) > 0.0))
+                .filter(|&i| {
+                    let a = m.triangle_area(i);
+                    a.is_nan() || a <= 0.0
+                })
                 .count(),
             _ => 0,
         }

@@ -213,21 +213,25 @@ impl<'d> Builder<'d> {
 
     /// The projector's `irradiance`: a texture, or a colour (default 1), not negative.
     fn projector_irradiance(&mut self, p: &Props<'d>) -> Result<Texture> {
+        let mut texture = None;
         for c in p.objects() {
             let name = c.attr("name").unwrap_or_default();
-            if name == "irradiance" && p.kind(c) == "texture" {
-                let id = self.texture(c)?;
-                return Ok(self.materials.textures[id as usize].clone());
+            if name != "irradiance" || p.kind(c) != "texture" || texture.is_some() {
+                return Err(Error::scene(
+                    &c.loc,
+                    format!(
+                        "emitter 'projector' takes no nested <{}> named '{name}' here",
+                        c.tag
+                    ),
+                ));
             }
-            return Err(Error::scene(
-                &c.loc,
-                format!(
-                    "emitter 'projector' takes no nested <{}> named '{name}'",
-                    c.tag
-                ),
-            ));
+            let id = self.texture(c)?;
+            texture = Some(self.materials.textures[id as usize].clone());
         }
-        Ok(Texture::Constant(emission_color(p, "irradiance")?))
+        match texture {
+            Some(t) => Ok(t),
+            None => Ok(Texture::Constant(emission_color(p, "irradiance")?)),
+        }
     }
 }
 
