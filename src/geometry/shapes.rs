@@ -190,6 +190,17 @@ impl Shape {
     /// `cube.cpp` ([`CUBE_FACES`]). The mesh serves shading and sampling; when `to_world` is
     /// invertible, Embree intersects the exact box instead (see [`Shape::box_to_world`]).
     pub fn cube(to_world: &Mat4, flip_normals: bool) -> Shape {
+        Shape::cube_with_normals(to_world, None, flip_normals)
+    }
+
+    /// [`Shape::cube`] whose face normals follow `normal_matrix` rather than the inverse
+    /// transpose of `to_world` (Mitsuba's, after a `<rotate>` with a non-unit axis; see
+    /// [`TriMesh::transform_with_normals`]).
+    pub fn cube_with_normals(
+        to_world: &Mat4,
+        normal_matrix: Option<&Mat3>,
+        flip_normals: bool,
+    ) -> Shape {
         // Corner k of a face gets uv (0,1), (1,1), (1,0), (0,0); the face is split into the
         // triangles (0,1,2) and (3,0,2).
         let corner_uv = [
@@ -214,7 +225,7 @@ impl Shape {
         }
         mesh.normals = Some(ns);
         mesh.uvs = Some(uvs);
-        mesh.transform(to_world);
+        mesh.transform_with_normals(to_world, normal_matrix);
         let Ok(mut shape) = Shape::new_mesh(mesh, flip_normals, false) else {
             return degenerate();
         };

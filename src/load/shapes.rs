@@ -112,7 +112,7 @@ impl<'d> Builder<'d> {
                     .map_err(|e| Error::scene(p.loc(), format!("{}: {e}", file.display())))?
             }
             "rectangle" => Shape::rectangle(&to_world, flip),
-            "cube" => Shape::cube(&to_world, flip),
+            "cube" => Shape::cube_with_normals(&to_world, normal_matrix.as_ref(), flip),
             "disk" => {
                 Shape::disk(&to_world, flip).map_err(|e| Error::scene(p.loc(), e.to_string()))?
             }

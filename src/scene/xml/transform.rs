@@ -11,10 +11,15 @@
 //!   rotation. Mesh vertex normals follow the stored inverse transpose (`PackedMesh`), and
 //!   `Transform::inverse()` is its transpose (the spot and projector lights use it).
 //!
-//! groove matches both (so such a scene renders as in Mitsuba) and warns at every `<rotate>`
-//! whose axis is not unit length ([`non_unit_rotations`]). A transform whose rotations all
-//! have unit axes carries no separate inverse transpose: the true one is used, bit for bit as
-//! before.
+//! groove matches the matrix everywhere, and the stored inverse transpose where meshes (`obj`,
+//! `ply`, `serialized`, `cube`) transform their vertex normals and where `spot` and `projector`
+//! take directions to their frame; it warns at every `<rotate>` whose axis is not unit length
+//! ([`non_unit_rotations`]). Not matched (checked with Mitsuba 3.9.1 `ray_intersect`): the
+//! `rectangle`'s shading normal (Mitsuba's follows the quirky matrix, its geometric normal the
+//! true one; groove uses the true one for both), the `disk` (Mitsuba intersects it in the
+//! quirky local space, which moves the disk itself), and `sphere` / `cylinder` (groove refuses
+//! the resulting non-uniform scale). A transform whose rotations all have unit axes carries no
+//! separate inverse transpose: the true one is used, bit for bit as before.
 
 use super::ir::Node;
 use super::props::{parse_f32, parse_list, vec3_attr, xyz_of};
@@ -134,8 +139,9 @@ pub fn non_unit_rotations(root: &Node, out: &mut Vec<String>) {
                 out.push(format!(
                     "{}: <rotate> axis ({}, {}, {}) has length {len}, not 1: as in Mitsuba 3.9.1 \
                      it is used unnormalised, so the transform also scales along the axis and \
-                     normals follow that matrix instead of its inverse transpose (groove \
-                     matches Mitsuba); normalise the axis for a pure rotation",
+                     mesh normals follow that matrix instead of its inverse transpose (groove \
+                     matches Mitsuba for meshes and lights, not for rectangle/disk shading); \
+                     normalise the axis for a pure rotation",
                     root.loc, a.x, a.y, a.z
                 ));
             }
