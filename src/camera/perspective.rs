@@ -79,6 +79,25 @@ pub(crate) fn fov_from_props(p: &Props<'_>) -> Result<(f32, FovAxis)> {
     }
 }
 
+/// tan of half the horizontal field of view for `fov_deg` along `axis` on an image of
+/// width / height `aspect` (Mitsuba's sensor.cpp `parse_fov`, in f64). Shared by the
+/// perspective-type sensors and the `projector` light.
+pub(crate) fn tan_half_x_fov(fov_deg: f32, axis: FovAxis, aspect: f64) -> f64 {
+    let t = (0.5 * (fov_deg as f64).to_radians()).tan();
+    let axis = match axis {
+        FovAxis::Smaller if aspect > 1.0 => FovAxis::Y,
+        FovAxis::Smaller => FovAxis::X,
+        FovAxis::Larger if aspect > 1.0 => FovAxis::X,
+        FovAxis::Larger => FovAxis::Y,
+        a => a,
+    };
+    match axis {
+        FovAxis::Y => t * aspect,
+        FovAxis::Diagonal => t * aspect / (1.0 + aspect * aspect).sqrt(),
+        _ => t,
+    }
+}
+
 /// A pinhole perspective camera.
 #[derive(Clone, Debug)]
 pub struct Perspective {
@@ -184,21 +203,8 @@ impl Perspective {
         }
         let to_local = to_world.inverse();
 
-        // Horizontal field of view from the given axis (Mitsuba's sensor.cpp `parse_fov`), in f64.
         let aspect = w as f64 / h as f64;
-        let t = (0.5 * (fov_deg as f64).to_radians()).tan();
-        let axis = match fov_axis {
-            FovAxis::Smaller if aspect > 1.0 => FovAxis::Y,
-            FovAxis::Smaller => FovAxis::X,
-            FovAxis::Larger if aspect > 1.0 => FovAxis::X,
-            FovAxis::Larger => FovAxis::Y,
-            a => a,
-        };
-        let tan_half_x = match axis {
-            FovAxis::Y => t * aspect,
-            FovAxis::Diagonal => t * aspect / (1.0 + aspect * aspect).sqrt(),
-            _ => t,
-        };
+        let tan_half_x = tan_half_x_fov(fov_deg, fov_axis, aspect);
         let x_fov = 2.0 * tan_half_x.atan().to_degrees();
         if !(x_fov > 0.0 && x_fov < 180.0) {
             return Err(Error::Usage(format!(

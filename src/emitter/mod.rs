@@ -8,6 +8,7 @@ pub mod directional;
 pub mod envmap;
 pub mod light_sampler;
 pub mod point;
+pub mod projector;
 pub mod spot;
 
 pub use light_sampler::LightSampler;
@@ -41,6 +42,7 @@ pub enum Emitter {
     Spot(spot::SpotLight),
     Directional(directional::DirectionalLight),
     EnvMap(envmap::EnvMapLight),
+    Projector(projector::ProjectorLight),
 }
 
 impl Emitter {
@@ -53,6 +55,7 @@ impl Emitter {
             Emitter::Spot(s) => s.sample_direct(ref_p),
             Emitter::Directional(d) => d.sample_direct(ref_p),
             Emitter::EnvMap(m) => m.sample_direct(ref_p, u),
+            Emitter::Projector(p) => p.sample_direct(ref_p),
         }
     }
 
@@ -95,6 +98,15 @@ impl Emitter {
         }
     }
 
+    /// True for lights that are points or a single direction (found only by next-event
+    /// estimation, never by a ray).
+    pub fn is_delta(&self) -> bool {
+        matches!(
+            self,
+            Emitter::Point(_) | Emitter::Spot(_) | Emitter::Directional(_) | Emitter::Projector(_)
+        )
+    }
+
     /// True for lights at infinity seen by rays that escape the scene (not the directional
     /// light: a delta light, found only by next-event estimation).
     pub fn is_environment(&self) -> bool {
@@ -110,8 +122,9 @@ impl Emitter {
             Emitter::Area(a) => pi * shapes[a.shape as usize].area() * lum(a.radiance.mean()),
             Emitter::Point(p) => 4.0 * pi * lum(p.intensity),
             Emitter::Constant(c) => pi * scene_radius * scene_radius * 4.0 * pi * lum(c.radiance),
-            // Intensity × the solid angle of the cone (with its falloff).
-            Emitter::Spot(s) => lum(s.intensity) * s.solid_angle(),
+            // Intensity × the solid angle of the cone (with its falloff and texture).
+            Emitter::Spot(s) => s.power(),
+            Emitter::Projector(p) => p.power(),
             // Irradiance × the cross-section of the scene's bounding sphere.
             Emitter::Directional(d) => pi * scene_radius * scene_radius * lum(d.irradiance),
             // Mean radiance × 4π × the cross-section of the bounding sphere.

@@ -1,45 +1,67 @@
 //! `spot`: a point light that shines into a cone around the local +z axis of `to_world`
-//! (Mitsuba 3's `spot`). Full `intensity` within `beam_width` of the axis, then a falloff that is
-//! linear in the angle down to zero at `cutoff_angle`. (Checked against Mitsuba 3.9.1 with
-//! `sample_direction`: cutoff 20°, beam 15° gives 1 at 15°, 0.8 at 16°, 0.5 at 17.5°, 0.2 at 19°,
-//! 0 at 20°: not a smooth step.)
+//! (Mitsuba 3's `spot`, `src/emitters/spot.cpp`). Full `intensity` within `beam_width` of the
+//! axis, then a falloff that is linear in the angle down to zero at `cutoff_angle`. (Checked
+//! against Mitsuba 3.9.1 with `sample_direction`: cutoff 20°, beam 15° gives 1 at 15°, 0.8 at 16°,
+//! 0.5 at 17.5°, 0.2 at 19°, 0 at 20°: not a smooth step.)
+//!
+//! | parameter | type | default | meaning |
+//! |---|---|---|---|
+//! | `intensity` | colour | 1 | radiant intensity on the axis (a plain colour: Mitsuba refuses a spatially varying one) |
+//! | `texture` | texture | none | a spatially varying texture (e.g. a bitmap) projected over the cone, multiplying `intensity` |
+//! | `cutoff_angle` | float | 20 | half-angle of the cone in degrees, in (0, 180] |
+//! | `beam_width` | float | ¾ `cutoff_angle` | half-angle of the full-intensity core, in [0, `cutoff_angle`] |
+//! | `to_world` | transform | identity | light to world: the light sits at its origin and shines along local +z |
+//!
+//! Every direction is judged in the light's frame, as Mitsuba does: the direction d from the
+//! light toward a point is taken to local space by Mitsuba's `to_world.inverse()` (see
+//! `scene::xml::transform`), the falloff reads the cosine of its normalised local z, and the
+//! texture is looked up at `uv = 0.5 + 0.5·(l.x, l.y) / (l.z·tan cutoff)` (Mitsuba's
+//! `direction_to_uv`: the disc of the cone's cross-section inscribed in the unit uv square,
+//! local +x toward u = 1, +y toward v = 1).
 
 use super::DirectSample;
-use crate::spectrum::Spectrum;
-use glam::{Mat3, Vec3};
+use crate::spectrum::{luminance, Spectrum};
+use crate::texture::Texture;
+use glam::{Mat3, Vec2, Vec3};
 
 #[derive(Clone, Debug)]
 pub struct SpotLight {
     pub position: Vec3,
-    /// Unit beam axis (the local +z of `to_world`).
-    pub axis: Vec3,
+    /// World to light directions (the linear part of Mitsuba's `to_world.inverse()`).
+    to_local: Mat3,
     pub intensity: Spectrum,
+    /// The projected texture, if any.
+    texture: Option<Texture>,
     /// Angles in radians, 0 ≤ beam_width ≤ cutoff ≤ π.
     pub cutoff: f32,
     pub beam_width: f32,
     cos_cutoff: f32,
     cos_beam: f32,
+    /// tan(cutoff): the texture's uv scale.
+    uv_factor: f32,
 }
 
 impl SpotLight {
-    /// `to_world` is the light's frame (rotation part, may carry a uniform scale; its columns are
-    /// normalised); angles in radians, validated by the caller.
+    /// `to_local` is the linear part of the inverse of `to_world` (as Mitsuba computes it);
+    /// angles in radians, validated by the caller.
     pub fn new(
         position: Vec3,
-        to_world: Mat3,
+        to_local: Mat3,
         intensity: Spectrum,
+        texture: Option<Texture>,
         cutoff: f32,
         beam_width: f32,
     ) -> SpotLight {
-        // Only the beam axis matters for an untextured spot.
         SpotLight {
             position,
-            axis: to_world.z_axis.normalize(),
+            to_local,
             intensity,
+            texture,
             cutoff,
             beam_width,
             cos_cutoff: cutoff.cos(),
             cos_beam: beam_width.cos(),
+            uv_factor: cutoff.tan(),
         }
     }
 
@@ -63,9 +85,15 @@ impl SpotLight {
         }
         let dist = dist2.sqrt();
         let d = v / dist;
-        let fall = self.falloff(self.axis.dot(-d));
+        let local = self.to_local * -d;
+        let fall = self.falloff(local.normalize_or_zero().z);
         if fall <= 0.0 {
             return None;
+        }
+        let mut value = self.intensity * (fall / dist2);
+        if let Some(t) = &self.texture {
+            let k = 0.5 / (local.z * self.uv_factor);
+            value *= t.eval(Vec2::new(0.5 + local.x * k, 0.5 + local.y * k));
         }
         Some(DirectSample {
             d,
@@ -73,9 +101,16 @@ impl SpotLight {
             p: self.position,
             n: None,
             pdf: 1.0,
-            value: self.intensity * (fall / dist2),
+            value,
             delta: true,
         })
+    }
+
+    /// Radiant power estimate (luminance) for light selection: intensity × the texture's mean
+    /// × the falloff integrated over the sphere.
+    pub fn power(&self) -> f32 {
+        let tex = self.texture.as_ref().map_or(1.0, |t| luminance(t.mean()));
+        luminance(self.intensity) * tex * self.solid_angle()
     }
 
     /// Radiant power (luminance weights applied by the caller): intensity × the falloff

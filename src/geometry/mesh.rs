@@ -1,6 +1,6 @@
 //! Indexed triangle meshes: the common currency of the OBJ/PLY loaders and of Mitsuba's `cube`.
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 
 /// An indexed triangle mesh in world space (after [`TriMesh::transform`]).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -18,13 +18,29 @@ impl TriMesh {
     /// Applies an affine transform: positions by `to_world`, normals by its inverse transpose
     /// (renormalised), so normals stay perpendicular under non-uniform scale.
     pub fn transform(&mut self, to_world: &Mat4) {
+        self.transform_with_normals(to_world, None);
+    }
+
+    /// [`TriMesh::transform`] whose vertex normals follow `normal_matrix` instead of the
+    /// inverse transpose of `to_world` (Mitsuba's stored inverse transpose after a `<rotate>`
+    /// with a non-unit axis, see `scene::xml::transform`).
+    pub fn transform_with_normals(&mut self, to_world: &Mat4, normal_matrix: Option<&Mat3>) {
         for p in &mut self.positions {
             *p = to_world.transform_point3(*p);
         }
         if let Some(ns) = &mut self.normals {
-            let inv_t = to_world.inverse().transpose();
-            for n in ns {
-                *n = inv_t.transform_vector3(*n).normalize_or_zero();
+            match normal_matrix {
+                Some(nm) => {
+                    for n in ns {
+                        *n = (*nm * *n).normalize_or_zero();
+                    }
+                }
+                None => {
+                    let inv_t = to_world.inverse().transpose();
+                    for n in ns {
+                        *n = inv_t.transform_vector3(*n).normalize_or_zero();
+                    }
+                }
             }
         }
     }

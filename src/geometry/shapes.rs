@@ -107,17 +107,27 @@ impl Shape {
             })
             .collect();
         let area = acc as f32;
-        if !(area.is_finite() && area > 0.0) {
+        if !area.is_finite() {
             return Err(Error::file(
                 "mesh",
-                format!("mesh has zero or invalid surface area ({area})"),
+                format!("mesh has an invalid surface area ({area})"),
             ));
         }
-        for c in &mut cdf {
-            *c /= area;
-        }
-        if let Some(last) = cdf.last_mut() {
-            *last = 1.0;
+        if area > 0.0 {
+            for c in &mut cdf {
+                *c /= area;
+            }
+            // From the last triangle with area on, the CDF is 1: trailing zero-area triangles
+            // (which cannot be sampled, as in Mitsuba's area pmf) are never chosen.
+            let last = (0..mesh.indices.len())
+                .rev()
+                .find(|&i| mesh.triangle_area(i) > 0.0)
+                .unwrap_or(0);
+            cdf[last..].iter_mut().for_each(|c| *c = 1.0);
+        } else {
+            // Zero total area: never hit, never sampled (the loader warns, and refuses it as an
+            // area light as Mitsuba does).
+            cdf.clear();
         }
         Ok(Shape {
             kind: ShapeKind::Mesh(mesh),
@@ -214,6 +224,17 @@ impl Shape {
     /// `cube.cpp` ([`CUBE_FACES`]). The mesh serves shading and sampling; when `to_world` is
     /// invertible, Embree intersects the exact box instead (see [`Shape::box_to_world`]).
     pub fn cube(to_world: &Mat4, flip_normals: bool) -> Shape {
+        Shape::cube_with_normals(to_world, None, flip_normals)
+    }
+
+    /// [`Shape::cube`] whose face normals follow `normal_matrix` rather than the inverse
+    /// transpose of `to_world` (Mitsuba's, after a `<rotate>` with a non-unit axis; see
+    /// [`TriMesh::transform_with_normals`]).
+    pub fn cube_with_normals(
+        to_world: &Mat4,
+        normal_matrix: Option<&Mat3>,
+        flip_normals: bool,
+    ) -> Shape {
         // Corner k of a face gets uv (0,1), (1,1), (1,0), (0,0); the face is split into the
         // triangles (0,1,2) and (3,0,2).
         let corner_uv = [
@@ -238,7 +259,7 @@ impl Shape {
         }
         mesh.normals = Some(ns);
         mesh.uvs = Some(uvs);
-        mesh.transform(to_world);
+        mesh.transform_with_normals(to_world, normal_matrix);
         let Ok(mut shape) = Shape::new_mesh(mesh, flip_normals, false) else {
             return degenerate();
         };
@@ -313,6 +334,20 @@ impl Shape {
             to_object: Mat4::IDENTITY,
             box_to_world: None,
             attributes: Vec::new(),
+        }
+    }
+
+    /// The number of zero-area triangles of a mesh (0 for other shapes): they are never hit
+    /// and never sampled.
+    pub fn zero_area_triangles(&self) -> usize {
+        match &self.kind {
+            ShapeKind::Mesh(m) => (0..m.indices.len())
+                .filter(|&i| {
+                    let a = m.triangle_area(i);
+                    a.is_nan() || a <= 0.0
+                })
+                .count(),
+            _ => 0,
         }
     }
 

@@ -1,6 +1,11 @@
 //! `direct`: Mitsuba's direct-illumination integrator. `emitter_samples` light samples and
 //! `bsdf_samples` BSDF samples per hit, combined with the power heuristic (Veach 1997, §9.2.2:
 //! the multi-sample model with sample counts in the weights).
+//!
+//! Mitsuba 3.9.1 quirk, matched for parity: an emitter sample that lands on a delta light
+//! (point, spot, projector, directional) gets the weight 1 instead of 1/`emitter_samples`
+//! (`direct.cpp`: `select(ds.delta, 1, mis_weight(..) * m_weight_lum)`), so with N emitter
+//! samples a delta light counts N times. The loader warns when a scene meets this case.
 
 use super::nee::sample_light;
 use super::{DirectSettings, RayKind, Scratch};
@@ -44,12 +49,13 @@ pub fn li(
             let Some(ls) = sample_light(scene, &si, &bsdf, &ctx, sampler, &mut scratch.rays) else {
                 continue;
             };
-            let w = if ls.delta {
-                1.0
+            // Delta lights: weight 1, not 1/ne (Mitsuba's quirk, see the module comment).
+            let (w, n) = if ls.delta {
+                (1.0, 1.0)
             } else {
-                power_heuristic(ne * ls.light_pdf, nb * ls.bsdf_pdf)
+                (power_heuristic(ne * ls.light_pdf, nb * ls.bsdf_pdf), ne)
             };
-            result += ls.f_value * (w / (ls.light_pdf * ne));
+            result += ls.f_value * (w / (ls.light_pdf * n));
         }
     }
 

@@ -1,5 +1,6 @@
-//! The top-level `<emitter>`s: `point`, `constant`, `spot`, `directional`, `envmap` (and
-//! `area` emitters declared with an id for shapes to `<ref>`).
+//! The top-level `<emitter>`s: `point`, `constant`, `spot`, `projector`, `directional`,
+//! `envmap` (and `area` emitters declared with an id for shapes to `<ref>`). The parameter
+//! tables are in each light's own file under `src/emitter/`.
 
 use super::{check, unknown, Builder};
 use crate::budget::{bytes_of, Budget};
@@ -7,6 +8,7 @@ use crate::emitter::constant::ConstantLight;
 use crate::emitter::directional::DirectionalLight;
 use crate::emitter::envmap::EnvMapLight;
 use crate::emitter::point::PointLight;
+use crate::emitter::projector::ProjectorLight;
 use crate::emitter::spot::SpotLight;
 use crate::emitter::Emitter;
 use crate::error::{Error, Result};
@@ -14,6 +16,7 @@ use crate::scene::xml::ir::{Document, Node};
 use crate::scene::xml::props::Props;
 use crate::spectrum::{Spectrum, SpectrumUse};
 use crate::texture::float_image;
+use crate::texture::Texture;
 use glam::{Mat3, Vec3};
 use std::path::Path;
 
@@ -46,7 +49,8 @@ impl<'d> Builder<'d> {
                 let r = p.color_with("radiance", Spectrum::ONE, SpectrumUse::Emission)?;
                 Emitter::Constant(ConstantLight { radiance: r })
             }
-            "spot" => spot_emitter(&p)?,
+            "spot" => self.spot_emitter(&p)?,
+            "projector" => self.projector_emitter(&p)?,
             "directional" => directional_emitter(&p)?,
             "envmap" => envmap_emitter(self.doc, &p, &self.budget)?,
             t => {
@@ -54,7 +58,15 @@ impl<'d> Builder<'d> {
                     p.loc(),
                     "emitter",
                     t,
-                    &["area", "point", "constant", "spot", "directional", "envmap"],
+                    &[
+                        "area",
+                        "point",
+                        "constant",
+                        "spot",
+                        "projector",
+                        "directional",
+                        "envmap",
+                    ],
                 ))
             }
         };
@@ -90,36 +102,139 @@ fn emission_color(p: &Props<'_>, name: &str) -> Result<Spectrum> {
     Ok(c)
 }
 
-/// Mitsuba 3 `spot`: `intensity`, `cutoff_angle` (20°), `beam_width` (¾ cutoff), `to_world`.
-fn spot_emitter(p: &Props<'_>) -> Result<Emitter> {
-    no_nested_objects(p, "spot")?;
-    let intensity = emission_color(p, "intensity")?;
-    let cutoff = p.float("cutoff_angle", 20.0)?;
-    let beam = p.float("beam_width", cutoff * 0.75)?;
-    check(
-        p.loc(),
-        cutoff.is_finite() && cutoff > 0.0 && cutoff <= 180.0,
-        format!("'cutoff_angle' must be in (0, 180] degrees (it is {cutoff})"),
-    )?;
-    check(
-        p.loc(),
-        beam.is_finite() && (0.0..=cutoff).contains(&beam),
-        format!("'beam_width' must be in [0, cutoff_angle = {cutoff}] degrees (it is {beam})"),
-    )?;
-    let m = p.transform("to_world")?;
-    let axis = m.transform_vector3(Vec3::Z);
-    check(
-        p.loc(),
-        axis.is_finite() && axis.length() > 1e-12,
-        "the spot light's 'to_world' is degenerate (maps +z to zero)",
-    )?;
-    Ok(Emitter::Spot(SpotLight::new(
-        m.transform_point3(Vec3::ZERO),
-        Mat3::from_mat4(m),
-        intensity,
-        cutoff.to_radians(),
-        beam.to_radians(),
-    )))
+impl<'d> Builder<'d> {
+    /// Mitsuba 3 `spot`: `intensity`, `texture`, `cutoff_angle` (20°), `beam_width` (¾ cutoff),
+    /// `to_world` (see `emitter::spot`).
+    fn spot_emitter(&mut self, p: &Props<'d>) -> Result<Emitter> {
+        let texture = self.spot_texture(p)?;
+        let intensity = emission_color(p, "intensity")?;
+        let cutoff = p.float("cutoff_angle", 20.0)?;
+        let beam = p.float("beam_width", cutoff * 0.75)?;
+        check(
+            p.loc(),
+            cutoff.is_finite() && cutoff > 0.0 && cutoff <= 180.0,
+            format!("'cutoff_angle' must be in (0, 180] degrees (it is {cutoff})"),
+        )?;
+        check(
+            p.loc(),
+            beam.is_finite() && (0.0..=cutoff).contains(&beam),
+            format!("'beam_width' must be in [0, cutoff_angle = {cutoff}] degrees (it is {beam})"),
+        )?;
+        let xf = p.transform_full("to_world")?;
+        let m = xf.matrix;
+        let to_local = Mat3::from_mat4(xf.inverse());
+        check(
+            p.loc(),
+            m.transform_vector3(Vec3::Z).length() > 1e-12 && to_local.is_finite(),
+            "the spot light's 'to_world' is degenerate (not invertible)",
+        )?;
+        Ok(Emitter::Spot(SpotLight::new(
+            m.transform_point3(Vec3::ZERO),
+            to_local,
+            intensity,
+            texture,
+            cutoff.to_radians(),
+            beam.to_radians(),
+        )))
+    }
+
+    /// The spot's `texture`, which Mitsuba requires to be spatially varying; any other nested
+    /// object (a textured `intensity`) is an error, as in Mitsuba.
+    fn spot_texture(&mut self, p: &Props<'d>) -> Result<Option<Texture>> {
+        let mut texture = None;
+        for c in p.objects() {
+            let name = c.attr("name").unwrap_or_default();
+            if name == "texture" && p.kind(c) == "texture" {
+                let id = self.texture(c)?;
+                texture = Some(self.materials.textures[id as usize].clone());
+                continue;
+            }
+            let what = if name == "intensity" {
+                "'intensity' cannot be spatially varying (Mitsuba refuses it too); give a colour, \
+                 and a texture as 'texture'"
+                    .to_string()
+            } else {
+                format!("takes no nested <{}> named '{name}'", c.tag)
+            };
+            return Err(Error::scene(&c.loc, format!("emitter 'spot': {what}")));
+        }
+        if texture.is_none() && p.has("texture") {
+            // A plain value: Mitsuba's "The parameter 'texture' must be spatially varying".
+            p.mark_used("texture");
+            return Err(Error::scene(
+                p.loc(),
+                "emitter 'spot': 'texture' must be spatially varying (e.g. a bitmap); for a \
+                 uniform colour use 'intensity'",
+            ));
+        }
+        Ok(texture)
+    }
+
+    /// Mitsuba 3 `projector`: `irradiance`, `scale`, `fov`/`fov_axis` or `focal_length`,
+    /// `to_world` (see `emitter::projector`).
+    fn projector_emitter(&mut self, p: &Props<'d>) -> Result<Emitter> {
+        let irradiance = self.projector_irradiance(p)?;
+        let scale = p.float("scale", 1.0)?;
+        check(
+            p.loc(),
+            scale.is_finite() && scale >= 0.0,
+            format!("'scale' must be finite and not negative (it is {scale})"),
+        )?;
+        // Mitsuba: the image's aspect ratio is the texture's (1 x 1 unless a bitmap).
+        let (w, h) = irradiance.resolution().unwrap_or((1, 1));
+        let aspect = w as f64 / h as f64;
+        let (fov, axis) = crate::camera::perspective::fov_from_props(p)?;
+        check(
+            p.loc(),
+            fov.is_finite() && fov > 0.0 && fov < 180.0,
+            format!("'fov' must be in (0, 180) degrees (it is {fov})"),
+        )?;
+        let tan_half_x = crate::camera::perspective::tan_half_x_fov(fov, axis, aspect);
+        let x_fov = 2.0 * tan_half_x.atan().to_degrees();
+        check(
+            p.loc(),
+            x_fov > 0.0 && x_fov < 180.0,
+            format!("the horizontal field of view must be in (0, 180) degrees (it is {x_fov})"),
+        )?;
+        let xf = p.transform_full("to_world")?;
+        let to_local = xf.inverse();
+        check(
+            p.loc(),
+            to_local.is_finite() && xf.matrix.determinant() != 0.0,
+            "the projector's 'to_world' is not invertible",
+        )?;
+        Ok(Emitter::Projector(ProjectorLight::new(
+            xf.matrix,
+            to_local,
+            irradiance,
+            scale,
+            tan_half_x as f32,
+            aspect as f32,
+        )))
+    }
+
+    /// The projector's `irradiance`: a texture, or a colour (default 1), not negative.
+    fn projector_irradiance(&mut self, p: &Props<'d>) -> Result<Texture> {
+        let mut texture = None;
+        for c in p.objects() {
+            let name = c.attr("name").unwrap_or_default();
+            if name != "irradiance" || p.kind(c) != "texture" || texture.is_some() {
+                return Err(Error::scene(
+                    &c.loc,
+                    format!(
+                        "emitter 'projector' takes no nested <{}> named '{name}' here",
+                        c.tag
+                    ),
+                ));
+            }
+            let id = self.texture(c)?;
+            texture = Some(self.materials.textures[id as usize].clone());
+        }
+        match texture {
+            Some(t) => Ok(t),
+            None => Ok(Texture::Constant(emission_color(p, "irradiance")?)),
+        }
+    }
 }
 
 /// Mitsuba 3 `directional`: `irradiance`, and `direction` or `to_world` (light travels along +z).

@@ -98,6 +98,9 @@ struct Builder<'d> {
     /// The BSDFs being built, outermost first: a `<ref>` to one of them is a cycle, and the
     /// length is the nesting depth ([`MAX_NESTING`]).
     building: Vec<&'d Node>,
+    /// Every `direct` integrator with `emitter_samples` > 1 (its element, the count): Mitsuba
+    /// weights its delta-light samples by 1, not 1/count (warned when the scene has one).
+    direct_emitter_samples: Vec<(SourceLoc, u32)>,
 }
 
 /// [`instantiate`] with every normal map converted to the model `normal_mapping` (decision 6).
@@ -136,6 +139,7 @@ pub fn instantiate_within(
         warnings: doc.warnings.clone(),
         budget: budget.clone(),
         building: Vec::new(),
+        direct_emitter_samples: Vec::new(),
     };
     let (integrator, sensor) = b.top_level()?;
     let integrator = integrator.unwrap_or(IntegratorDesc::Path(PathSettings::default()));
@@ -152,6 +156,15 @@ pub fn instantiate_within(
         ));
     }
 
+    if b.emitters.iter().any(Emitter::is_delta) {
+        for (loc, n) in &b.direct_emitter_samples {
+            b.warnings.push(format!(
+                "{loc}: direct: with emitter_samples = {n}, each sample that picks a delta light \
+                 (point, spot, projector, directional) counts fully, as in Mitsuba 3.9.1, so \
+                 those lights contribute {n} times their light; groove matches Mitsuba"
+            ));
+        }
+    }
     let accel = Accel::build_instanced(&b.shapes, &b.groups, &b.instances)?;
     let bsphere = Scene::bounding_sphere_instanced(&b.shapes, &b.groups, &b.instances);
     let env_emitters = b

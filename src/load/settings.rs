@@ -35,6 +35,13 @@ impl<'d> Builder<'d> {
                 })
             }
             "direct" => {
+                // Mitsuba 3: 'shading_samples' sets both counts and excludes the other two.
+                check(
+                    p.loc(),
+                    !(p.has("shading_samples")
+                        && (p.has("emitter_samples") || p.has("bsdf_samples"))),
+                    "give either 'shading_samples' or 'emitter_samples'/'bsdf_samples', not both",
+                )?;
                 let shading = p.int("shading_samples", 1)?;
                 let em = p.int("emitter_samples", shading)?;
                 let bs = p.int("bsdf_samples", shading)?;
@@ -43,6 +50,16 @@ impl<'d> Builder<'d> {
                     em >= 0 && bs >= 0 && em + bs > 0,
                     "sample counts must be >= 0 and not both 0",
                 )?;
+                check(
+                    p.loc(),
+                    em <= u32::MAX as i64 && bs <= u32::MAX as i64,
+                    "sample counts must be below 2^32",
+                )?;
+                if em > 1 {
+                    // Warned about once the emitters are known (see `instantiate_within`).
+                    self.direct_emitter_samples
+                        .push((p.loc().clone(), em as u32));
+                }
                 IntegratorDesc::Direct(DirectSettings {
                     emitter_samples: em as u32,
                     bsdf_samples: bs as u32,

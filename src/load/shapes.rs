@@ -62,7 +62,10 @@ impl<'d> Builder<'d> {
 
     /// The geometry of a `<shape>`, in world space (with a PLY file's mesh attributes).
     fn geometry(&mut self, p: &Props<'d>) -> Result<Shape> {
-        let to_world = p.transform("to_world")?;
+        let xf = p.transform_full("to_world")?;
+        let to_world = xf.matrix;
+        // Mitsuba's normal matrix when it differs from the true one (a non-unit `<rotate>`).
+        let normal_matrix = xf.quirk_inverse_transpose.map(|_| xf.normal_matrix());
         let flip = p.bool("flip_normals", false)?;
         Ok(match p.plugin_type() {
             t @ ("obj" | "ply") => {
@@ -102,7 +105,7 @@ impl<'d> Builder<'d> {
                         uv.iter_mut().for_each(|t| t.y = 1.0 - t.y);
                     }
                 }
-                mesh.transform(&to_world);
+                mesh.transform_with_normals(&to_world, normal_matrix.as_ref());
                 Shape::from_mesh(mesh, flip, face_normals)
                     .and_then(|s| s.with_attributes(attributes))
                     .map_err(|e| Error::scene(p.loc(), format!("{}: {e}", file.display())))?
@@ -123,12 +126,12 @@ impl<'d> Builder<'d> {
                         .map_err(|e| self.file_error(p, "mesh", &fname, e))?
                         .mesh;
                 self.reserve_mesh(p, &fname, &mesh)?;
-                mesh.transform(&to_world);
+                mesh.transform_with_normals(&to_world, normal_matrix.as_ref());
                 Shape::from_mesh(mesh, flip, face_normals)
                     .map_err(|e| Error::scene(p.loc(), format!("{}: {e}", file.display())))?
             }
             "rectangle" => Shape::rectangle(&to_world, flip),
-            "cube" => Shape::cube(&to_world, flip),
+            "cube" => Shape::cube_with_normals(&to_world, normal_matrix.as_ref(), flip),
             "disk" => {
                 Shape::disk(&to_world, flip).map_err(|e| Error::scene(p.loc(), e.to_string()))?
             }
@@ -203,6 +206,7 @@ impl<'d> Builder<'d> {
             Some(c) => Some(self.area_emitter(self.ids.resolve(c, "emitter")?, index)?),
             None => None,
         };
+        self.check_zero_area(&p, &shape, emitter.is_some())?;
         p.finish()?;
         // Mitsuba 3: a shape without a BSDF gets a 0.5 grey diffuse one, but an emitting shape
         // without a BSDF gets a black one (it does not reflect light).
@@ -214,6 +218,42 @@ impl<'d> Builder<'d> {
         self.shapes.push(shape);
         self.shape_material.push(material);
         self.shape_emitter.push(emitter);
+        Ok(())
+    }
+
+    /// Zero-area triangles of a mesh are warned about (once per mesh, with their count): they
+    /// are never hit and get no sampling probability, as in Mitsuba 3.9.1, which accepts them
+    /// silently. A mesh of zero total area is warned about too (never hit), unless it is an area
+    /// light: Mitsuba 3.9.1 (`scalar_rgb`) refuses to build its sampling table ("no
+    /// probability mass found"), and so does groove, with the element's location.
+    fn check_zero_area(&mut self, p: &Props<'d>, shape: &Shape, emitting: bool) -> Result<()> {
+        let zero = shape.zero_area_triangles();
+        if zero == 0 {
+            return Ok(());
+        }
+        let n = match &shape.kind {
+            crate::geometry::ShapeKind::Mesh(m) => m.indices.len(),
+            _ => return Ok(()),
+        };
+        if shape.area() > 0.0 {
+            self.warnings.push(format!(
+                "{}: mesh has {zero} zero-area triangle(s) of {n}: they are never hit nor sampled",
+                p.loc()
+            ));
+            return Ok(());
+        }
+        check(
+            p.loc(),
+            !emitting,
+            format!(
+                "this area light's mesh has zero surface area (all {n} triangles are degenerate): \
+                 it cannot be sampled (Mitsuba 3.9.1 refuses it too)"
+            ),
+        )?;
+        self.warnings.push(format!(
+            "{}: mesh has zero surface area (all {n} triangles are degenerate): it is never hit",
+            p.loc()
+        ));
         Ok(())
     }
 

@@ -102,6 +102,14 @@ JOBS = [
     # shapegroup + instance: a mesh, a sphere and a cube placed four times (translated, rotated and
     # scaled, non-uniformly scaled, mirrored).
     ("shape_instance", os.path.join(SCENES, "shape_instance.xml"), {}, 8192, REF_SEEDS),
+    # Issue 14: the projector (bitmap, non-square, oblique) and the textured spot; `direct` with
+    # emitter_samples = 4 beside a point light (Mitsuba's delta-light weight); non-unit
+    # <rotate> axes on smooth-normal meshes; an OBJ area light with zero-area triangles.
+    ("light_projector", os.path.join(SCENES, "light_projector.xml"), {}, 2048, REF_SEEDS),
+    ("light_spot_tex", os.path.join(SCENES, "light_spot_tex.xml"), {}, 2048, REF_SEEDS),
+    ("direct_delta", os.path.join(SCENES, "direct_delta.xml"), {}, 1024, REF_SEEDS),
+    ("rotate_axis", os.path.join(SCENES, "rotate_axis.xml"), {}, 2048, REF_SEEDS),
+    ("degenerate_mesh", os.path.join(SCENES, "degenerate_mesh.xml"), {}, 2048, REF_SEEDS),
 ]
 
 # Jobs whose film has extra channels (AOVs): the statistics are those of the film's developed

@@ -63,3 +63,32 @@ fn envmap_from_an_rgbe_file_matches_mitsuba() {
     let r = render_scene(&test_scene("light_envmap_hdr.xml"), &[], 256, 34, 0, |_| {});
     matches_reference(&r, "light_envmap_hdr", 4, "light_envmap_hdr.xml");
 }
+
+#[test]
+fn projector_matches_mitsuba() {
+    // A non-square bitmap projected obliquely (uv convention, aspect, 1/(z² cos θ), scale).
+    let r = render_scene(&test_scene("light_projector.xml"), &[], 512, 141, 0, |_| {});
+    matches_reference(&r, "light_projector", 8, "light_projector.xml");
+}
+
+#[test]
+fn textured_spot_matches_mitsuba() {
+    let r = render_scene(&test_scene("light_spot_tex.xml"), &[], 512, 142, 0, |_| {});
+    matches_reference(&r, "light_spot_tex", 8, "light_spot_tex.xml");
+}
+
+#[test]
+fn area_light_with_zero_area_triangles_matches_mitsuba() {
+    // The reference is Mitsuba's render of the mesh with five zero-area triangles; groove must
+    // match it with and without them.
+    let scene = test_scene("degenerate_mesh.xml");
+    let with = render_scene(&scene, &[], 512, 143, 0, |_| {});
+    matches_reference(&with, "degenerate_mesh", 4, "degenerate_mesh.xml");
+    let without = render_scene(&scene, &[("mesh", "quad_emit.obj")], 512, 143, 0, |_| {});
+    matches_reference(
+        &without,
+        "degenerate_mesh",
+        4,
+        "degenerate_mesh.xml, clean quad",
+    );
+}

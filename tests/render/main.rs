@@ -11,6 +11,7 @@ mod lights;
 mod materials;
 mod mnm;
 mod normalmap;
+mod parity;
 mod refs_selfcheck;
 mod robustness;
 mod textures;

@@ -606,10 +606,10 @@ fn spot_falloff_matches_mitsuba() {
 fn spot_power_is_intensity_times_cone_solid_angle() {
     let pi = std::f32::consts::PI;
     // beam = cutoff: a hard-edged cone.
-    let s = SpotLight::new(Vec3::ZERO, Mat3::IDENTITY, Vec3::ONE, 0.5, 0.5);
+    let s = SpotLight::new(Vec3::ZERO, Mat3::IDENTITY, Vec3::ONE, None, 0.5, 0.5);
     assert!((s.solid_angle() - 2.0 * pi * (1.0 - 0.5f32.cos())).abs() < 1e-5);
     // With a ramp: between the two hard cones.
-    let s = SpotLight::new(Vec3::ZERO, Mat3::IDENTITY, Vec3::ONE, 0.5, 0.2);
+    let s = SpotLight::new(Vec3::ZERO, Mat3::IDENTITY, Vec3::ONE, None, 0.5, 0.2);
     let (lo, hi) = (
         2.0 * pi * (1.0 - 0.2f32.cos()),
         2.0 * pi * (1.0 - 0.5f32.cos()),
@@ -649,9 +649,9 @@ fn spot_bad_angles_and_textures_are_scene_errors() {
     load_err(
         "spot_tex",
         r#"    <emitter type="spot">
-        <texture type="checkerboard" name="texture"/></emitter>"#,
+        <texture type="checkerboard" name="intensity"/></emitter>"#,
         5,
-        "textured spot",
+        "'intensity' cannot be spatially varying",
     );
     load_err(
         "spot_unused",

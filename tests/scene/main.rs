@@ -4,13 +4,16 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod degenerate;
 mod emitters;
 mod float_images;
 mod geometry;
 mod hostile;
-mod mesh_attribute;
 mod instances;
+mod mesh_attribute;
 mod output;
 mod plugins;
+mod projector;
+mod rotate_axis;
 mod texture;
 mod xml_parse;

@@ -125,6 +125,7 @@ fn mesh_attribute_evaluates_the_hit_meshs_values() {
         t: 1.0,
         u,
         v,
+        inst: groove::geometry::hit::NO_INSTANCE,
     };
     let si = shape.interaction(0, &ray, &hit);
     let got = tex.eval(TexPoint::on_shape(&si, shape));

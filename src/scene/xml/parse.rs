@@ -120,6 +120,7 @@ pub fn load_str_within(
 
     let mut ids: HashMap<String, SourceLoc> = HashMap::new();
     check_ids(&raw, &mut ids)?;
+    super::transform::non_unit_rotations(&raw, &mut ctx.warnings);
 
     if let Some(p) = ctx.params.iter().find(|p| !p.used) {
         return Err(Error::scene(

@@ -3,7 +3,10 @@
 
 use std::cell::{Cell, RefCell};
 
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat4, Vec3};
+
+pub use super::transform::transform_of;
+use super::transform::{transform_full, Transform};
 
 use super::ir::{Ids, Node, PLUGIN_TAGS, PROPERTY_TAGS};
 use super::upgrade::camel_case_hint;
@@ -237,13 +240,25 @@ impl<'a> Props<'a> {
     }
 
     pub fn transform_opt(&self, name: &str) -> Result<Option<Mat4>> {
+        Ok(self.transform_full_opt(name)?.map(|t| t.matrix))
+    }
+
+    /// A `<transform>` with Mitsuba's inverse transpose (which differs from the true one after a
+    /// `<rotate>` with a non-unit axis, see [`super::transform`]); identity when absent.
+    pub fn transform_full(&self, name: &str) -> Result<Transform> {
+        Ok(self
+            .transform_full_opt(name)?
+            .unwrap_or(Transform::IDENTITY))
+    }
+
+    pub fn transform_full_opt(&self, name: &str) -> Result<Option<Transform>> {
         let Some(p) = self.get(name) else {
             return Ok(None);
         };
         if p.tag != "transform" {
             return Err(self.wrong_type(p, "<transform>"));
         }
-        transform_of(p).map(Some)
+        transform_full(p).map(Some)
     }
 
     /// A colour for a reflectance-like parameter (see [`Props::color_with`]).
@@ -457,7 +472,7 @@ fn spectrum_of(
 
 /// `value="x, y, z"` (or a single number for all three) or `x`, `y`, `z` attributes with
 /// missing ones = `missing`.
-fn xyz_of(p: &Node, missing: f32) -> Result<Vec3> {
+pub(super) fn xyz_of(p: &Node, missing: f32) -> Result<Vec3> {
     if let Some(v) = p.attr("value") {
         if ["x", "y", "z"].iter().any(|a| p.attr(a).is_some()) {
             return Err(Error::scene(
@@ -485,7 +500,7 @@ fn xyz_of(p: &Node, missing: f32) -> Result<Vec3> {
     Ok(Vec3::from(out))
 }
 
-fn vec3_attr(p: &Node, name: &str) -> Result<Vec3> {
+pub(super) fn vec3_attr(p: &Node, name: &str) -> Result<Vec3> {
     let loc = p.attr_loc(name);
     let text = p.attr(name).unwrap_or_default();
     let n = parse_list(text, loc)?;
@@ -496,106 +511,4 @@ fn vec3_attr(p: &Node, name: &str) -> Result<Vec3> {
             format!("'{name}' needs exactly three values, got '{text}'"),
         )),
     }
-}
-
-/// The matrix of a `<transform>`: its operations applied in order, each left-multiplied
-/// (Mitsuba 3: `ctx.transform = op * ctx.transform`).
-pub fn transform_of(t: &Node) -> Result<Mat4> {
-    let mut m = Mat4::IDENTITY;
-    for op in &t.children {
-        let step = match op.tag.as_str() {
-            "translate" => Mat4::from_translation(xyz_of(op, 0.0)?),
-            "scale" => Mat4::from_scale(xyz_of(op, 1.0)?),
-            "rotate" => {
-                let axis = xyz_of(op, 0.0)?;
-                let Some(angle) = op.attr("angle") else {
-                    return Err(Error::scene(&op.loc, "<rotate> needs an 'angle' (degrees)"));
-                };
-                let angle = parse_f32(angle, op.attr_loc("angle"))?;
-                if axis.length_squared() == 0.0 {
-                    return Err(Error::scene(&op.loc, "<rotate> needs a non-zero axis"));
-                }
-                Mat4::from_axis_angle(axis.normalize(), angle.to_radians())
-            }
-            "matrix" => {
-                let loc = op.attr_loc("value");
-                let text = op.attr("value").unwrap_or_default();
-                let n = parse_list(text, loc)?;
-                match n.len() {
-                    // Row-major in the file; glam is column-major.
-                    16 => Mat4::from_cols_slice(&n).transpose(),
-                    9 => {
-                        let r = |i: usize| Vec4::new(n[3 * i], n[3 * i + 1], n[3 * i + 2], 0.0);
-                        Mat4::from_cols(r(0), r(1), r(2), Vec4::W).transpose()
-                    }
-                    k => {
-                        return Err(Error::scene(
-                            loc,
-                            format!("<matrix> needs 16 (or 9) values, got {k}"),
-                        ))
-                    }
-                }
-            }
-            "lookat" => look_at(op)?,
-            other => {
-                return Err(Error::scene(
-                    &op.loc,
-                    format!("<{other}> is not a transform operation"),
-                ))
-            }
-        };
-        m = step * m;
-    }
-    if !m.is_finite() {
-        return Err(Error::scene(&t.loc, "transform is not finite"));
-    }
-    Ok(m)
-}
-
-/// Mitsuba 3's look-at (camera to world): columns `left = normalize(up × dir)`,
-/// `new_up = dir × left`, `dir = normalize(target − origin)`, `origin`. A missing or zero `up`
-/// is replaced by a vector perpendicular to `dir` (Mitsuba's `coordinate_system`); a degenerate
-/// result (e.g. `up` parallel to the view direction) is an error.
-fn look_at(op: &Node) -> Result<Mat4> {
-    let origin = vec3_attr(op, "origin")?;
-    let target = vec3_attr(op, "target")?;
-    let mut up = if op.attr("up").is_some() {
-        vec3_attr(op, "up")?
-    } else {
-        Vec3::ZERO
-    };
-    let dir = (target - origin).normalize();
-    if !dir.is_finite() {
-        return Err(Error::scene(
-            &op.loc,
-            "invalid lookat transformation: origin and target coincide",
-        ));
-    }
-    if up.length_squared() == 0.0 {
-        up = coordinate_system_s(dir);
-    }
-    let left = up.cross(dir).normalize();
-    let new_up = dir.cross(left);
-    let m = Mat4::from_cols(
-        left.extend(0.0),
-        new_up.extend(0.0),
-        dir.extend(0.0),
-        origin.extend(1.0),
-    );
-    if !m.is_finite() {
-        return Err(Error::scene(
-            &op.loc,
-            "invalid lookat transformation: 'up' is parallel to the viewing direction",
-        ));
-    }
-    Ok(m)
-}
-
-/// First tangent of the orthonormal basis around `n` (Duff et al. 2017), as Mitsuba's
-/// `coordinate_system`.
-fn coordinate_system_s(n: Vec3) -> Vec3 {
-    let sign = 1.0f32.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x)
 }
