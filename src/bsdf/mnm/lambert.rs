@@ -75,30 +75,37 @@ impl FacetChain {
     /// The chain of `surface` (built by `geometry` from `wp`, not flat, all facets Lambertian).
     pub fn new(geometry: Microgeometry, wp: Vec3, surface: &Microsurface) -> FacetChain {
         let n = surface.len();
-        let c = wp.z;
+        // In f64, and as q = 1 − e directly: at small tilts q is small and 1 − e would lose it
+        // (reciprocity A_j Q_jk = A_k Q_kj then breaks by ~1e-7/sinθp).
+        let c = wp.z as f64;
         let s = (1.0 - c * c).max(0.0).sqrt();
-        let mut e = [0.0; MAX_FACETS];
+        let mut r = [0.0f64; MAX_FACETS];
         match geometry {
             Microgeometry::Sawtooth if n == 2 => {
-                e[0] = 0.5 * (1.0 - s + c);
-                // cotθp (1 − cosθp) = cosθp sinθp / (1 + cosθp): no 0/0 at small tilts.
-                e[1] = 0.5 * (1.0 - s + c * s / (1.0 + c));
+                // 1 − cosθp = sin²θp / (1 + cosθp); cotθp (1 − cosθp) = cosθp sinθp / (1 + cosθp).
+                r[0] = 0.5 * (s + s * s / (1.0 + c));
+                r[1] = 0.5 * (1.0 + s - c * s / (1.0 + c));
             }
-            Microgeometry::VGroove if n == 2 => e = [c, c, 0.0],
+            Microgeometry::VGroove if n == 2 => {
+                r[0] = s * s / (1.0 + c);
+                r[1] = r[0];
+            }
             _ => {
                 let e2 = escape_2d(surface, wp);
                 for k in 0..n {
-                    e[k] = e2[k] as f32;
+                    r[k] = (1.0 - e2[k]).max(0.0);
                 }
             }
         }
+        let e: [f32; MAX_FACETS] =
+            std::array::from_fn(|k| if k < n { (1.0 - r[k]) as f32 } else { 0.0 });
         let mut q = [[0.0; MAX_FACETS]; MAX_FACETS];
-        let a: [f32; MAX_FACETS] = std::array::from_fn(|k| surface.area_vector(k).length());
-        let r: [f32; MAX_FACETS] = std::array::from_fn(|k| (1.0 - e[k]).max(0.0));
+        let a: [f64; MAX_FACETS] =
+            std::array::from_fn(|k| surface.area_vector(k).as_dvec3().length());
         match n {
             2 => {
-                q[0][1] = r[0];
-                q[1][0] = r[1];
+                q[0][1] = r[0] as f32;
+                q[1][0] = r[1] as f32;
             }
             3 => {
                 for j in 0..3 {
@@ -106,7 +113,7 @@ impl FacetChain {
                         if j != k {
                             let l = 3 - j - k;
                             let aq = 0.5 * (a[j] * r[j] + a[k] * r[k] - a[l] * r[l]);
-                            q[j][k] = (aq / a[j]).max(0.0);
+                            q[j][k] = (aq / a[j]).max(0.0) as f32;
                         }
                     }
                 }
@@ -147,7 +154,9 @@ impl LambertForm {
             });
         }
         let chain = FacetChain::new(geometry, m.wp, &m.surface);
-        let qmax = (0..chain.n).map(|k| 1.0 - chain.e[k]).fold(0.0, f32::max);
+        let qmax = (0..chain.n)
+            .map(|k| chain.q[k].iter().sum::<f32>())
+            .fold(0.0, f32::max);
         if chain.n < 2 || !tail_is_small(rmax, qmax, order) {
             return None;
         }
