@@ -11,9 +11,7 @@ use common::chi2::*;
 use glam::Vec3;
 use groove::bsdf::mnm::facets::{Microgeometry, Microsurface};
 use groove::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
-use groove::bsdf::{
-    BsdfArena, BsdfContext, BsdfNode, BsdfSample, Diffuse, Lobes, TransportMode,
-};
+use groove::bsdf::{BsdfArena, BsdfContext, BsdfNode, BsdfSample, Diffuse, Lobes, TransportMode};
 use groove::math::{reflect, Frame};
 use groove::sampler::Sampler;
 use rayon::prelude::*;
@@ -56,7 +54,7 @@ fn explicit4(nested: BsdfNode, wp: Vec3) -> ArenaBsdf {
 fn complete_first_order_is_reciprocal() {
     // Rough plastic alone (its coating table, in f32) already reaches 8.7e-6 on these pairs.
     const TOL: [f32; 3] = [1e-5, 1e-5, 2e-5];
-    for which in 0..3 {
+    for (which, &tol) in TOL.iter().enumerate() {
         // The nested BSDF alone, in the macro frame, on the same kind of pairs.
         let alone = ArenaBsdf::new(nested(which), TransportMode::Radiance);
         let mut r = Sampler::from_seed(78 + which as u64, 1);
@@ -94,7 +92,10 @@ fn complete_first_order_is_reciprocal() {
             if m > 0.0 {
                 let rel = (fab - fba).abs().max_element() / m;
                 worst = worst.max(rel);
-                assert!(rel <= TOL[which], "nested {which} ωp {wp} ωi {wi} ωo {wo}: {fab} vs {fba}");
+                assert!(
+                    rel <= tol,
+                    "nested {which} ωp {wp} ωi {wi} ωo {wo}: {fab} vs {fba}"
+                );
             }
         }
         eprintln!("nested {which}: worst relative reciprocity error {worst:.2e}");
@@ -244,6 +245,10 @@ fn complete_first_order_is_the_walks_one_p_vertex_energy() {
                 .map(|e| format!("nested {which} θp {tp} ωi ({ti},{pi}): {e}"))
         })
         .collect();
-    assert!(fails.is_empty(), "{} failures:\n{}", fails.len(), fails.join("\n"));
+    assert!(
+        fails.is_empty(),
+        "{} failures:\n{}",
+        fails.len(),
+        fails.join("\n")
+    );
 }
-

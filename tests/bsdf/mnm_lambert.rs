@@ -19,7 +19,11 @@ const GEOMETRIES: [(&str, Microgeometry, Tangent); 4] = [
     ("mirror sawtooth", Microgeometry::Sawtooth, Tangent::Mirror),
     ("same-wall sawtooth", Microgeometry::Sawtooth, Tangent::Same),
     ("vgroove", Microgeometry::VGroove, Tangent::Same),
-    ("ugroove 0.5", Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
+    (
+        "ugroove 0.5",
+        Microgeometry::UGroove { fill: 0.5 },
+        Tangent::Same,
+    ),
 ];
 
 /// The walk BSDF over `nested` (closed form on or off), and whether the closed form is in use.
@@ -109,13 +113,20 @@ fn closed_form_albedo_equals_the_walk() {
                 let r = rho as f64;
                 let exact = r * c / (1.0 - r * (1.0 - c));
                 if (a - exact).abs() > 2e-4 {
-                    err = Some(format!("{name} θp {tp} ρ {rho}: quadrature {a} vs ρ_eff {exact}"));
+                    err = Some(format!(
+                        "{name} θp {tp} ρ {rho}: quadrature {a} vs ρ_eff {exact}"
+                    ));
                 }
             }
             err
         })
         .collect();
-    assert!(fails.is_empty(), "{} failures:\n{}", fails.len(), fails.join("\n"));
+    assert!(
+        fails.is_empty(),
+        "{} failures:\n{}",
+        fails.len(),
+        fails.join("\n")
+    );
 }
 
 /// The walk's samples against the closed form's distribution, on 16 × 32 cells: white facets
@@ -167,7 +178,12 @@ fn walk_samples_follow_the_closed_form_per_cell() {
                 .map(|e| format!("{name} θp {tp} ωi ({ti},{pi}) white {white}: {e}"))
         })
         .collect();
-    assert!(fails.is_empty(), "{} failures:\n{}", fails.len(), fails.join("\n"));
+    assert!(
+        fails.is_empty(),
+        "{} failures:\n{}",
+        fails.len(),
+        fails.join("\n")
+    );
 }
 
 /// The closed forms are reciprocal (f(i,o) = f(o,i) to 1e-5 relative) and deterministic (two
@@ -205,7 +221,11 @@ fn closed_forms_are_reciprocal_and_deterministic() {
             let mut s1 = Sampler::from_seed(1, 1);
             let mut s2 = Sampler::from_seed(2, 9);
             let fab = b.eval(wi, wo, &mut s1);
-            assert_eq!(fab, b.eval(wi, wo, &mut s2), "{name}: eval not deterministic");
+            assert_eq!(
+                fab,
+                b.eval(wi, wo, &mut s2),
+                "{name}: eval not deterministic"
+            );
             let fab = fab / wo.z;
             let fba = b.eval(wo, wi, &mut s1) / wi.z;
             let tol = 1e-5 * fab.max_element().max(fba.max_element()) + 1e-9;
@@ -224,7 +244,11 @@ fn white_furnace() {
     for (name, g, t) in GEOMETRIES {
         for tp in [5.0f32, 45.0, 85.0] {
             let b = mnm(diffuse(Vec3::ONE), direction(tp, 70.0), g, t, true);
-            for wi in [direction(0.0, 0.0), direction(50.0, 250.0), direction(80.0, 70.0)] {
+            for wi in [
+                direction(0.0, 0.0),
+                direction(50.0, 250.0),
+                direction(80.0, 70.0),
+            ] {
                 let a = albedo_quadrature(&b, wi);
                 assert!(
                     (a - Vec3::ONE).abs().max_element() < 3e-4,

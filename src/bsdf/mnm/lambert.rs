@@ -38,6 +38,9 @@
 //! false` (XML, [`super::MicrofacetNormalMap::with_lambert_closed_form`]) keeps the walk, for the
 //! tests that compare the two.
 
+// Small matrices over facets: the index loops mirror the formulas (N_jk, Q_jk).
+#![allow(clippy::needless_range_loop)]
+
 use super::facets::{Microgeometry, Microsurface, MAX_FACETS};
 use super::MicrofacetNormalMap;
 use crate::math::{warp, INV_PI};
@@ -131,8 +134,7 @@ impl LambertForm {
     /// [`TRUNCATION_TOL`].
     pub fn new(m: &MicrofacetNormalMap, rho: Spectrum) -> Option<LambertForm> {
         let geometry = m.geometry?;
-        if m.evaluation != super::Evaluation::RandomWalk || m.degenerate || !m.lambert_closed_form
-        {
+        if m.evaluation != super::Evaluation::RandomWalk || m.degenerate || !m.lambert_closed_form {
             return None;
         }
         if !(rho.min_element() >= 0.0 && rho.is_finite()) {
@@ -276,7 +278,7 @@ impl LambertForm {
                     return None;
                 }
                 let pdf = chain_pdf(*n, &pk, &m.surface, wo);
-                if !(pdf > 0.0) {
+                if pdf.is_nan() || pdf <= 0.0 {
                     return None;
                 }
                 Some((wo, chain_f(*n, &wk, &m.surface, wo) / pdf, pdf))
@@ -317,7 +319,7 @@ fn chain_pdf(n: usize, pk: &[f32; MAX_FACETS], surf: &Microsurface, wo: Vec3) ->
 /// `complete` Lambertian vertices, which the truncated walk may drop.
 fn tail_is_small(rho: f32, q: f32, complete: i32) -> bool {
     let rq = rho * q;
-    if !(rq < 1.0) || complete < 1 {
+    if rq.is_nan() || rq >= 1.0 || complete < 1 {
         return false;
     }
     rho.powi(complete + 1) * q.powi(complete) / (1.0 - rq) <= TRUNCATION_TOL
@@ -462,11 +464,7 @@ mod tests {
                 let (st, ct) = (u.sqrt(), (1.0 - u).sqrt());
                 for ip in 0..np {
                     let ph = (ip as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
-                    let l = Vec3::new(
-                        (st * ph.cos()) as f32,
-                        (st * ph.sin()) as f32,
-                        ct as f32,
-                    );
+                    let l = Vec3::new((st * ph.cos()) as f32, (st * ph.sin()) as f32, ct as f32);
                     let d = fr.to_world(l);
                     let w = 1.0 / (nt * np) as f64;
                     let g = surf.g1(d) as f64;
