@@ -134,8 +134,15 @@ fn every_microgeometry_passes_the_furnace_with_a_strong_normal_map() {
             let mut d = defines.to_vec();
             d.push(("lambert_closed_form", closed.to_string()));
             let (m, se, walks) = furnace_under(mode, &d, 11);
-            assert!((m - 1.0).abs() < 4.0 * se + 1e-4, "{mode} closed {closed}: {m} ± {se}");
-            assert_eq!(walks > 0, !closed, "{mode} closed {closed}: {walks} walks sampled");
+            assert!(
+                (m - 1.0).abs() < 4.0 * se + 1e-4,
+                "{mode} closed {closed}: {m} ± {se}"
+            );
+            assert_eq!(
+                walks > 0,
+                !closed,
+                "{mode} closed {closed}: {walks} walks sampled"
+            );
         }
     }
 }
