@@ -2,8 +2,11 @@
 //! BSDFs (issue 5), and of the nested BSDF alone as the baseline.
 //!
 //! Modes: classic `normalmap` (both Mitsuba 3 flags off: the plain model of the benchmarks'
-//! classic side), the explicit sawtooth with a mirror wall (Variant M), the random walk with a
-//! mirror wall and with a wall of the nested BSDF, the V-groove and the U-groove (s = 0.5).
+//! classic side), the explicit sawtooth with a mirror wall (Variant M, and the complete first
+//! order `explicit4`), the random walk with a mirror wall and with a wall of the nested BSDF, the
+//! V-groove and the U-groove (s = 0.5). Over diffuse the walks run as their exact closed forms
+//! (issue 17); the `*_walk_only` modes switch those off, and `*/build` times the per-hit
+//! construction that prepares them.
 //! Nested: diffuse, rough conductor (GGX α 0.2, gold), rough plastic (GGX α 0.2), rough
 //! dielectric (GGX α 0.2, η 1.5; not with the explicit form, which has no transmission).
 //!
@@ -33,10 +36,12 @@ const INPUTS: usize = 256;
 enum Mode {
     NestedAlone,
     Classic,
-    Mnm(Microgeometry, Tangent, Evaluation),
+    /// Microfacet normal mapping; the last field is `lambert_closed_form` (over diffuse, false
+    /// runs the walk itself instead of its exact closed form).
+    Mnm(Microgeometry, Tangent, Evaluation, bool),
 }
 
-const MODES: [(&str, Mode); 7] = [
+const MODES: [(&str, Mode); 12] = [
     ("nested_alone", Mode::NestedAlone),
     ("classic", Mode::Classic),
     (
@@ -45,6 +50,16 @@ const MODES: [(&str, Mode); 7] = [
             Microgeometry::Sawtooth,
             Tangent::Mirror,
             Evaluation::Explicit,
+            true,
+        ),
+    ),
+    (
+        "explicit4_mirror",
+        Mode::Mnm(
+            Microgeometry::Sawtooth,
+            Tangent::Mirror,
+            Evaluation::ExplicitComplete,
+            true,
         ),
     ),
     (
@@ -53,6 +68,16 @@ const MODES: [(&str, Mode); 7] = [
             Microgeometry::Sawtooth,
             Tangent::Mirror,
             Evaluation::RandomWalk,
+            true,
+        ),
+    ),
+    (
+        "walk_mirror_walk_only",
+        Mode::Mnm(
+            Microgeometry::Sawtooth,
+            Tangent::Mirror,
+            Evaluation::RandomWalk,
+            false,
         ),
     ),
     (
@@ -61,6 +86,16 @@ const MODES: [(&str, Mode); 7] = [
             Microgeometry::Sawtooth,
             Tangent::Same,
             Evaluation::RandomWalk,
+            true,
+        ),
+    ),
+    (
+        "walk_same_walk_only",
+        Mode::Mnm(
+            Microgeometry::Sawtooth,
+            Tangent::Same,
+            Evaluation::RandomWalk,
+            false,
         ),
     ),
     (
@@ -69,6 +104,16 @@ const MODES: [(&str, Mode); 7] = [
             Microgeometry::VGroove,
             Tangent::Same,
             Evaluation::RandomWalk,
+            true,
+        ),
+    ),
+    (
+        "vgroove_walk_only",
+        Mode::Mnm(
+            Microgeometry::VGroove,
+            Tangent::Same,
+            Evaluation::RandomWalk,
+            false,
         ),
     ),
     (
@@ -77,6 +122,16 @@ const MODES: [(&str, Mode); 7] = [
             Microgeometry::UGroove { fill: 0.5 },
             Tangent::Same,
             Evaluation::RandomWalk,
+            true,
+        ),
+    ),
+    (
+        "ugroove_0.5_walk_only",
+        Mode::Mnm(
+            Microgeometry::UGroove { fill: 0.5 },
+            Tangent::Same,
+            Evaluation::RandomWalk,
+            false,
         ),
     ),
 ];
@@ -152,9 +207,9 @@ fn build(mode: Mode, nested: BsdfNode, ins: &[(Vec3, Vec3, Vec3)]) -> (BsdfArena
         .map(|&(wp, _, _)| match mode {
             Mode::NestedAlone => n,
             Mode::Classic => arena.push(BsdfNode::NormalMap(NormalMap::new(n, wp, false, false))),
-            Mode::Mnm(g, t, e) => {
-                arena.push_microfacet_normal_map(MicrofacetNormalMap::new(n, wp, g, t, e, 256))
-            }
+            Mode::Mnm(g, t, e, closed) => arena.push_microfacet_normal_map(
+                MicrofacetNormalMap::new(n, wp, g, t, e, 256).with_lambert_closed_form(closed),
+            ),
         })
         .collect();
     (arena, roots)
@@ -166,8 +221,28 @@ fn bsdf_calls(c: &mut Criterion) {
         let ins = inputs(transmits);
         let mut g = c.benchmark_group(nname);
         for (mname, mode) in MODES {
-            if transmits && matches!(mode, Mode::Mnm(_, _, Evaluation::Explicit)) {
-                continue; // the explicit form has no transmission
+            if transmits && matches!(mode, Mode::Mnm(_, _, e, _) if e.is_explicit()) {
+                continue; // the explicit forms have no transmission
+            }
+            if nname != "diffuse" && matches!(mode, Mode::Mnm(_, _, _, false)) {
+                continue; // the switch only matters over diffuse
+            }
+            if nname == "diffuse" {
+                if let Mode::Mnm(geo, t, e, closed) = mode {
+                    // The per-hit construction, which prepares the closed form over diffuse.
+                    let mut arena = BsdfArena::new();
+                    let mut i = 0usize;
+                    g.bench_function(format!("{mname}/build"), |b| {
+                        b.iter(|| {
+                            i = (i + 1) % INPUTS;
+                            arena.clear();
+                            let n = arena.push(node);
+                            let m = MicrofacetNormalMap::new(n, ins[i].0, geo, t, e, 256)
+                                .with_lambert_closed_form(closed);
+                            black_box(arena.push_microfacet_normal_map(m))
+                        })
+                    });
+                }
             }
             let (arena, roots) = build(mode, node, &ins);
             let mut s = Sampler::from_seed(1, 1);

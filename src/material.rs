@@ -69,6 +69,8 @@ pub struct MnmSettings {
     pub max_theta: f32,
     /// Over a transmitting nested BSDF: two-sided (§9.3) or early-exit (§9.4) walk.
     pub transmission_walk: TransmissionWalk,
+    /// Over a diffuse nested BSDF, the random walk's exact closed forms (`bsdf::mnm::lambert`).
+    pub lambert_closed_form: bool,
 }
 
 #[derive(Clone, Debug)]
@@ -423,7 +425,8 @@ impl Materials {
                         settings.evaluation,
                         settings.max_order,
                     )
-                    .with_transmission_walk(settings.transmission_walk),
+                    .with_transmission_walk(settings.transmission_walk)
+                    .with_lambert_closed_form(settings.lambert_closed_form),
                 )
             }
             MaterialNode::NormalMap {

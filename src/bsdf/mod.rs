@@ -276,8 +276,13 @@ impl BsdfArena {
     }
     /// Store a microfacet normal map and return its node's index.
     #[inline]
-    pub fn push_microfacet_normal_map(&mut self, m: mnm::MicrofacetNormalMap) -> u32 {
+    /// Over a `diffuse` nested BSDF (or a `twosided` whose front is one) the walk's closed
+    /// form is prepared here ([`mnm::lambert`]).
+    pub fn push_microfacet_normal_map(&mut self, mut m: mnm::MicrofacetNormalMap) -> u32 {
         let nested = m.nested;
+        if let Some(rho) = self.lambertian_reflectance(nested) {
+            m.prepare_lambert(rho);
+        }
         self.mnm.push(m);
         let lobes = self.lobes[nested as usize];
         self.push_with_lobes(
@@ -287,6 +292,18 @@ impl BsdfArena {
                 nested,
             },
         )
+    }
+    /// The albedo of node `i` when it is Lambertian as the microfacet normal map's facets see it
+    /// (queried from the front only): `diffuse`, or `twosided` with a `diffuse` front.
+    fn lambertian_reflectance(&self, i: u32) -> Option<Spectrum> {
+        match self.nodes.get(i as usize)? {
+            BsdfNode::Diffuse(d) => Some(d.reflectance),
+            BsdfNode::TwoSided { front, .. } => match self.nodes.get(*front as usize)? {
+                BsdfNode::Diffuse(d) => Some(d.reflectance),
+                _ => None,
+            },
+            _ => None,
+        }
     }
     /// Store a `principled` BSDF (`transmits`: it has the transmission lobe, Mitsuba's
     /// `m_has_spec_trans`, which the parameters carry) and return its node's index.

@@ -43,9 +43,10 @@ pub struct MnmMode {
 
 impl NormalMapping {
     /// Every value `--normal-mapping` accepts, in the order `groove bench` renders them.
-    pub const NAMES: [&'static str; 7] = [
+    pub const NAMES: [&'static str; 8] = [
         "classic",
         "explicit",
+        "explicit4",
         "walk-mirror",
         "walk-same",
         "vgroove",
@@ -54,7 +55,8 @@ impl NormalMapping {
     ];
 
     /// `classic`, `microfacet`, `as_written`, or a forced mode: `explicit` (sawtooth, mirror
-    /// wall, closed form), `walk-mirror` (sawtooth, mirror wall, random walk: the default model),
+    /// wall, the paper's closed form), `explicit4` (the same with the complete first order, four
+    /// paths), `walk-mirror` (sawtooth, mirror wall, random walk: the default model),
     /// `walk-same` (sawtooth, same-material wall, random walk), `vgroove`, `ugroove` (fill 0.5;
     /// random walk).
     pub fn parse(s: &str) -> Option<NormalMapping> {
@@ -71,6 +73,7 @@ impl NormalMapping {
             "microfacet" => Some(NormalMapping::Microfacet),
             "as_written" | "as-written" => Some(NormalMapping::AsWritten),
             "explicit" => forced(Microgeometry::Sawtooth, Tangent::Mirror, Explicit),
+            "explicit4" => forced(Microgeometry::Sawtooth, Tangent::Mirror, ExplicitComplete),
             "walk-mirror" => forced(Microgeometry::Sawtooth, Tangent::Mirror, RandomWalk),
             "walk-same" => forced(Microgeometry::Sawtooth, Tangent::Same, RandomWalk),
             "vgroove" => forced(Microgeometry::VGroove, Tangent::Same, RandomWalk),

@@ -27,8 +27,11 @@ fn mnm(rho: f32, wp: Vec3, g: Microgeometry, t: Tangent, e: Evaluation, max_orde
     let nested = arena.push(BsdfNode::Diffuse(Diffuse {
         reflectance: Vec3::splat(rho),
     }));
-    let root =
-        arena.push_microfacet_normal_map(MicrofacetNormalMap::new(nested, wp, g, t, e, max_order));
+    // These oracles are about the walk itself: its Lambert closed forms (on by default over
+    // diffuse) are tested against it in `mnm_lambert.rs`.
+    let root = arena.push_microfacet_normal_map(
+        MicrofacetNormalMap::new(nested, wp, g, t, e, max_order).with_lambert_closed_form(false),
+    );
     Setup {
         arena,
         root,

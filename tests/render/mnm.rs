@@ -127,10 +127,23 @@ fn every_microgeometry_passes_the_furnace_with_a_strong_normal_map() {
         ("ny", "0.5".to_string()),
         ("nz", format!("{}", 0.5 * n.1 + 0.5)),
     ];
+    // Both as the walk itself and as its exact Lambert closed form (the default over diffuse,
+    // which samples no walk).
     for mode in ["walk-mirror", "walk-same", "vgroove", "ugroove"] {
-        let (m, se, walks) = furnace_under(mode, &defines, 11);
-        assert!((m - 1.0).abs() < 4.0 * se + 1e-4, "{mode}: {m} ± {se}");
-        assert!(walks > 0, "{mode}: no walk was sampled");
+        for closed in [false, true] {
+            let mut d = defines.to_vec();
+            d.push(("lambert_closed_form", closed.to_string()));
+            let (m, se, walks) = furnace_under(mode, &d, 11);
+            assert!(
+                (m - 1.0).abs() < 4.0 * se + 1e-4,
+                "{mode} closed {closed}: {m} ± {se}"
+            );
+            assert_eq!(
+                walks > 0,
+                !closed,
+                "{mode} closed {closed}: {walks} walks sampled"
+            );
+        }
     }
 }
 

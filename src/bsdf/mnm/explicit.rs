@@ -1,7 +1,19 @@
 //! Closed-form evaluation (§4 and §3 of the spec): Variant M for the sawtooth with a mirror wall
-//! (paths i→p→o, i→p→t→o, i→t→p→o, exact pdf, reciprocal) and single scattering when every
-//! facet carries the nested BSDF. Both sample with weight = eval / pdf (decision 2), so the
-//! weight equals eval/pdf pointwise.
+//! (the paper's model: paths i→p→o, i→p→t→o, i→t→p→o, exact pdf, reciprocal), the complete first
+//! order over the mirror wall (`explicit4`: Variant M plus i→t→p→t→o, every path with exactly one
+//! non-delta vertex; `shared/spec/mnm_fast.md` §2.1), and single scattering when every facet
+//! carries the nested BSDF. All sample with weight = eval / pdf (decision 2), so the weight
+//! equals eval/pdf pointwise.
+//!
+//! The complete first order, with entries e ∈ {direct: a = ωi, weight λp(ωi); via the wall:
+//! a = R(ωi), weight λt(ωi)} and exits x ∈ {direct: c = ωo, factor 1; via the wall: c = R(ωo),
+//! factor [ωo·ωt > 0](1 − G1(R(ωo)))}: f·z(ωo) = G1(ωo) Σ_e Σ_x w_e b_x F_p(a_e, c_x). It is
+//! reciprocal term by term ((i,o) and (t,t) each symmetric, (i,t) ↔ (t,o)), and over a
+//! Lambertian of albedo ρ it is exactly ρ cosθp z(ωo)/π for every ωi (the exit identity of
+//! `lambert.rs`), where Variant M loses energy depending on ωi. Its sampler picks the entry by
+//! w_e, samples the nested BSDF from a_e and sends the direction u out directly with probability
+//! G1(u), else through the wall (R(u)); density Σ_e w_e [G1(ωo) P_p(a_e, ωo) + b_t(ωo)
+//! P_p(a_e, R(ωo))] (R has unit Jacobian).
 
 use super::facets::MAX_FACETS;
 use super::MicrofacetNormalMap;
@@ -203,6 +215,110 @@ pub(super) fn eval_pdf_mirror(
     (v * g1o, p)
 }
 
+/// Exact density of [`sample_complete`] (module doc).
+pub(super) fn pdf_complete(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+) -> f32 {
+    let surf = &m.surface;
+    let wt = surf.normal(1);
+    let [lp, lt, _] = surf.lambdas(wi);
+    let g1o = surf.g1(wo);
+    let exit_t = (wo.dot(wt) > 0.0).then(|| {
+        let rwo = m.reflect_wall(wo);
+        (rwo, 1.0 - surf.g1(rwo))
+    });
+    let mut p = 0.0;
+    let mut entry = |a: Vec3, w: f32| {
+        p += w * g1o * m.p(nested, 0, ctx, a, wo);
+        if let Some((rwo, bt)) = exit_t {
+            if bt > 0.0 {
+                p += w * bt * m.p(nested, 0, ctx, a, rwo);
+            }
+        }
+    };
+    if lp > 0.0 {
+        entry(wi, lp);
+    }
+    if lt > 0.0 && wi.dot(wt) > 0.0 {
+        entry(m.reflect_wall(wi), lt);
+    }
+    p
+}
+
+/// The complete first order's eval (module doc) with its density [`pdf_complete`]: each of
+/// the (up to) four paths takes its nested eval and pdf from one fused `eval_pdf`.
+pub(super) fn eval_pdf_complete(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> (Spectrum, f32) {
+    let surf = &m.surface;
+    let wt = surf.normal(1);
+    let g1o = surf.g1(wo);
+    if g1o <= 0.0 {
+        return (Spectrum::ZERO, pdf_complete(m, nested, ctx, wi, wo));
+    }
+    let [lp, lt, _] = surf.lambdas(wi);
+    let exit_t = (wo.dot(wt) > 0.0).then(|| {
+        let rwo = m.reflect_wall(wo);
+        (rwo, 1.0 - surf.g1(rwo))
+    });
+    let mut v = Spectrum::ZERO;
+    let mut p = 0.0;
+    let mut entry = |a: Vec3, w: f32, s: &mut Sampler| {
+        let (f, pd) = m.fp(nested, 0, ctx, a, wo, s);
+        v += w * f;
+        p += w * g1o * pd;
+        if let Some((rwo, bt)) = exit_t {
+            if bt > 0.0 {
+                let (f, pd) = m.fp(nested, 0, ctx, a, rwo, s);
+                v += (w * bt) * f;
+                p += w * bt * pd;
+            }
+        }
+    };
+    if lp > 0.0 {
+        entry(wi, lp, s);
+    }
+    if lt > 0.0 && wi.dot(wt) > 0.0 {
+        entry(m.reflect_wall(wi), lt, s);
+    }
+    (v * g1o, p)
+}
+
+/// The complete first order's sampler (module doc), independent random numbers per decision.
+pub(super) fn sample_complete(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    s: &mut Sampler,
+) -> Option<BsdfSample> {
+    let surf = &m.surface;
+    let a = if s.next_1d() < surf.lambda(0, wi) {
+        wi
+    } else {
+        m.reflect_wall(wi)
+    };
+    let u = m.sample_facet(nested, 0, ctx, a, s)?.wo;
+    let wo = if s.next_1d() < surf.g1(u) {
+        u
+    } else {
+        m.reflect_wall(u) // blocked: the ray hits the mirror wall
+    };
+    if wo.z <= 0.0 {
+        return None;
+    }
+    finish(m, nested, ctx, wi, wo, s, Form::Complete)
+}
+
 /// Variant M sampling (§4.3) with independent random numbers for each decision.
 pub(super) fn sample_mirror(
     m: &MicrofacetNormalMap,
@@ -225,7 +341,7 @@ pub(super) fn sample_mirror(
     if wo.z <= 0.0 {
         return None;
     }
-    finish(m, nested, ctx, wi, wo, s, true)
+    finish(m, nested, ctx, wi, wo, s, Form::Mirror)
 }
 
 /// Density of [`sample_single`]: Σ_k λ_k(ωi) P_k(ωi, ωo) for ωo above the macro surface (the
@@ -286,7 +402,15 @@ pub(super) fn sample_single(
     if wo.z <= 0.0 {
         return None;
     }
-    finish(m, nested, ctx, wi, wo, s, false)
+    finish(m, nested, ctx, wi, wo, s, Form::Single)
+}
+
+/// Which closed form a sample finishes with.
+#[derive(Clone, Copy)]
+enum Form {
+    Single,
+    Mirror,
+    Complete,
 }
 
 /// weight = eval / pdf at the sampled direction (decision 2).
@@ -297,12 +421,12 @@ fn finish(
     wi: Vec3,
     wo: Vec3,
     s: &mut Sampler,
-    mirror: bool,
+    form: Form,
 ) -> Option<BsdfSample> {
-    let (f, pdf) = if mirror {
-        eval_pdf_mirror(m, nested, ctx, wi, wo, s)
-    } else {
-        eval_pdf_single(m, nested, ctx, wi, wo, s)
+    let (f, pdf) = match form {
+        Form::Mirror => eval_pdf_mirror(m, nested, ctx, wi, wo, s),
+        Form::Complete => eval_pdf_complete(m, nested, ctx, wi, wo, s),
+        Form::Single => eval_pdf_single(m, nested, ctx, wi, wo, s),
     };
     if !(pdf.is_finite() && pdf > 0.0) {
         return None;

@@ -11,7 +11,8 @@
 //! | `microgeometry` | string | `sawtooth` | `sawtooth`, `vgroove` or `ugroove` ([`Microgeometry`]) |
 //! | `groove_fill` | float | 0.5 | the flat share of a `ugroove`, in (0, 1] (`ugroove` only) |
 //! | `tangent` | string | `mirror` (sawtooth), `same` (grooves) | the sawtooth's wall: a perfect mirror or the nested BSDF (`sawtooth` only) |
-//! | `evaluation` | string | `random_walk` | `random_walk` or `explicit` (closed forms, sawtooth only) |
+//! | `evaluation` | string | `random_walk` | `random_walk`, `explicit` (the paper's closed form, Variant M) or `explicit4` (the complete first order: Variant M plus t→p→t→o); the explicit forms are sawtooth only |
+//! | `lambert_closed_form` | boolean | true | over a `diffuse` (or twosided diffuse) nested BSDF, `random_walk` uses the walk's exact closed forms (`lambert.rs`); false runs the walk itself |
 //! | `max_order` | integer | 256 | longest random walk, in scattering events |
 //! | `max_theta` | float | 85 | largest tilt of the perturbed normal, degrees, in (0, 90) |
 //! | `transmission_walk` | string | `two_sided` | over a transmitting BSDF: `two_sided` (§9.3) or `exit_on_refraction` (§9.4) |
@@ -37,10 +38,11 @@ pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>, forced: Option<MnmMode>) -> Result
     let evaluation = match p.string("evaluation", "random_walk")?.as_str() {
         "random_walk" => Evaluation::RandomWalk,
         "explicit" => Evaluation::Explicit,
+        "explicit4" => Evaluation::ExplicitComplete,
         other => {
             return Err(Error::scene(
                 p.loc(),
-                format!("evaluation '{other}' must be 'random_walk' or 'explicit'"),
+                format!("evaluation '{other}' must be 'random_walk', 'explicit' or 'explicit4'"),
             ))
         }
     };
@@ -48,7 +50,7 @@ pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>, forced: Option<MnmMode>) -> Result
         Some(f) => (f.geometry, f.tangent, f.evaluation),
         None => (geometry, tangent, evaluation),
     };
-    if geometry != Microgeometry::Sawtooth && evaluation == Evaluation::Explicit {
+    if geometry != Microgeometry::Sawtooth && evaluation.is_explicit() {
         return Err(Error::scene(
             p.loc(),
             "microgeometries other than 'sawtooth' need evaluation = random_walk",
@@ -77,6 +79,7 @@ pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>, forced: Option<MnmMode>) -> Result
             ))
         }
     };
+    let lambert_closed_form = p.bool("lambert_closed_form", true)?;
     check_nested(cx, nested, nested_loc, evaluation)?;
     Ok(MaterialNode::MicrofacetNormalMap {
         nested,
@@ -88,6 +91,7 @@ pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>, forced: Option<MnmMode>) -> Result
             max_order: max_order as u32,
             max_theta: max_theta.to_radians(),
             transmission_walk,
+            lambert_closed_form,
         },
     })
 }
@@ -109,6 +113,7 @@ pub(crate) fn from_normalmap(cx: &mut BsdfCtx<'_, '_>, mode: MnmMode) -> Result<
             max_order: 256,
             max_theta: 85f32.to_radians(),
             transmission_walk: TransmissionWalk::TwoSided,
+            lambert_closed_form: true,
         },
     })
 }
@@ -178,7 +183,7 @@ fn check_nested(
     evaluation: Evaluation,
 ) -> Result<()> {
     let lobes = cx.lobes(nested);
-    if lobes.has_transmission() && evaluation == Evaluation::Explicit {
+    if lobes.has_transmission() && evaluation.is_explicit() {
         return Err(Error::scene(cx.props().loc(), "microfacet_normalmap over a transmitting BSDF needs evaluation = random_walk (the closed forms are reflection only)"));
     }
     if !lobes.is_smooth() {

@@ -9,9 +9,12 @@
 //!
 //! - `evaluation = explicit`: paths of at most two vertices in closed form ([`explicit`]):
 //!   Variant M (mirror wall: p→o, p→t→o, t→p→o; exact pdf) or single scattering (same).
+//! - `evaluation = explicit4`: the complete first order, all four paths with one non-delta
+//!   vertex (the paper's three plus t→p→t→o; exact pdf; issue 17 item 3).
 //! - `evaluation = random_walk`: the Smith random walk on the microsurface ([`walk`]); sampling
 //!   follows the walk, eval is its next-event estimate (stochastic, unbiased), the pdf for MIS is
-//!   the approximate mixture of decision 3.
+//!   the approximate mixture of decision 3. Over a Lambertian nested BSDF the walk has exact
+//!   closed forms, used instead of it ([`lambert`]: same BSDF, deterministic eval, exact pdf).
 //!
 //! Directions are in the macro shading frame (z = ωg). Over a transmitting nested BSDF (e.g.
 //! `roughdielectric`) only the random walk exists: by default the reciprocal two-sided walk of
@@ -24,6 +27,7 @@
 pub mod explicit;
 pub mod facet_bsdf;
 pub mod facets;
+pub mod lambert;
 pub(crate) mod load;
 pub mod walk;
 
@@ -37,8 +41,20 @@ use glam::Vec3;
 /// Closed form or random walk.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Evaluation {
+    /// The paper's explicit model (Variant M over a mirror wall: three paths; single scattering
+    /// otherwise).
     Explicit,
+    /// The complete first order over a mirror wall: the paper's three paths plus t→p→t→o
+    /// (`explicit4`; single scattering otherwise, which is already complete).
+    ExplicitComplete,
     RandomWalk,
+}
+
+impl Evaluation {
+    /// A deterministic closed form (`explicit`, `explicit4`).
+    pub fn is_explicit(self) -> bool {
+        matches!(self, Evaluation::Explicit | Evaluation::ExplicitComplete)
+    }
 }
 
 /// What the sawtooth's vertical wall carries.
@@ -88,6 +104,13 @@ pub struct MicrofacetNormalMap {
     mis_c: Option<f32>,
     /// Only used over transmitting nested BSDFs.
     pub transmission_walk: TransmissionWalk,
+    /// The microgeometry `surface` was built from (`None` for [`Self::with_surface`]).
+    geometry: Option<Microgeometry>,
+    /// Use the Lambert closed forms when the nested BSDF is diffuse (default true).
+    lambert_closed_form: bool,
+    /// The walk's closed form over the nested Lambertian, set by
+    /// [`crate::bsdf::BsdfArena::push_microfacet_normal_map`] ([`lambert`]).
+    lambert: Option<lambert::LambertForm>,
 }
 
 impl MicrofacetNormalMap {
@@ -122,7 +145,30 @@ impl MicrofacetNormalMap {
             degenerate,
             mis_c,
             transmission_walk: TransmissionWalk::TwoSided,
+            geometry: Some(geometry),
+            lambert_closed_form: true,
+            lambert: None,
         }
+    }
+
+    /// The same BSDF with the Lambert closed forms on (default) or off: off, a diffuse nested
+    /// BSDF runs the random walk (tests that compare the two).
+    pub fn with_lambert_closed_form(mut self, on: bool) -> Self {
+        self.lambert_closed_form = on;
+        self
+    }
+
+    /// Prepare the closed form over a nested Lambertian of albedo `rho` (when it applies:
+    /// [`lambert::LambertForm::new`]). Called by the arena when it stores this BSDF over a
+    /// `diffuse` (or a `twosided` whose front is one: the walk queries facets from their front
+    /// only).
+    pub(crate) fn prepare_lambert(&mut self, rho: Spectrum) {
+        self.lambert = lambert::LambertForm::new(self, rho);
+    }
+
+    /// True when a closed form over a Lambertian stands in for the random walk.
+    pub fn uses_lambert_closed_form(&self) -> bool {
+        self.lambert.is_some()
     }
 
     /// True when the nested BSDF transmits (the two-sided walk applies).
@@ -159,6 +205,7 @@ impl MicrofacetNormalMap {
         );
         m.surface = surface;
         m.degenerate = false;
+        m.geometry = None;
         for k in 0..surface.len() {
             m.frames[k] = Frame::from_normal_tangent(surface.normal(k), Vec3::X);
         }
@@ -198,9 +245,17 @@ pub(super) fn eval(
     if wi.z <= 0.0 || wo.z <= 0.0 {
         return Spectrum::ZERO;
     }
+    if let Some(l) = &m.lambert {
+        return l.eval(m, wi, wo);
+    }
     match (m.evaluation, m.mirror_wall) {
         (Evaluation::Explicit, true) => explicit::eval_pdf_mirror(m, &nested, ctx, wi, wo, s).0,
-        (Evaluation::Explicit, false) => explicit::eval_pdf_single(m, &nested, ctx, wi, wo, s).0,
+        (Evaluation::ExplicitComplete, true) => {
+            explicit::eval_pdf_complete(m, &nested, ctx, wi, wo, s).0
+        }
+        (Evaluation::Explicit | Evaluation::ExplicitComplete, false) => {
+            explicit::eval_pdf_single(m, &nested, ctx, wi, wo, s).0
+        }
         (Evaluation::RandomWalk, _) => {
             walk::eval(m, &nested, ctx, wi, wo, s, &mut explicit::PdfTerms::empty())
         }
@@ -223,13 +278,16 @@ pub(super) fn pdf(b: Bsdf, m: &MicrofacetNormalMap, ctx: &BsdfContext, wi: Vec3,
     if wi.z <= 0.0 || wo.z <= 0.0 {
         return 0.0;
     }
-    let p1 = if m.mirror_wall {
-        explicit::pdf_mirror(m, &nested, ctx, wi, wo)
-    } else {
-        explicit::pdf_single(m, &nested, ctx, wi, wo)
+    if let Some(l) = &m.lambert {
+        return l.pdf(m, wi, wo);
+    }
+    let p1 = match (m.mirror_wall, m.evaluation) {
+        (true, Evaluation::ExplicitComplete) => explicit::pdf_complete(m, &nested, ctx, wi, wo),
+        (true, _) => explicit::pdf_mirror(m, &nested, ctx, wi, wo),
+        (false, _) => explicit::pdf_single(m, &nested, ctx, wi, wo),
     };
     match m.evaluation {
-        Evaluation::Explicit => p1,
+        Evaluation::Explicit | Evaluation::ExplicitComplete => p1,
         // Decision 3: (1 − c)·p1 + c·cosine lobe; MIS stays unbiased with any such pdf
         // because the integrator uses the walk's own sample weight.
         Evaluation::RandomWalk => (1.0 - m.mis_c()) * p1 + m.mis_c() * wo.z * INV_PI,
@@ -258,6 +316,9 @@ pub(super) fn eval_pdf(
     if wi.z <= 0.0 || wo.z <= 0.0 {
         return (Spectrum::ZERO, 0.0);
     }
+    if let Some(l) = &m.lambert {
+        return l.eval_pdf(m, wi, wo);
+    }
     if m.evaluation == Evaluation::RandomWalk {
         // The walk's first vertices evaluate the nested BSDF at pairs that are terms of p1:
         // those terms take their pdf from the same fused call.
@@ -271,10 +332,12 @@ pub(super) fn eval_pdf(
         let c = m.mis_c();
         return (f, (1.0 - c) * p1 + c * wo.z * INV_PI);
     }
-    if m.mirror_wall {
-        explicit::eval_pdf_mirror(m, &nested, ctx, wi, wo, s)
-    } else {
-        explicit::eval_pdf_single(m, &nested, ctx, wi, wo, s)
+    match (m.mirror_wall, m.evaluation) {
+        (true, Evaluation::ExplicitComplete) => {
+            explicit::eval_pdf_complete(m, &nested, ctx, wi, wo, s)
+        }
+        (true, _) => explicit::eval_pdf_mirror(m, &nested, ctx, wi, wo, s),
+        (false, _) => explicit::eval_pdf_single(m, &nested, ctx, wi, wo, s),
     }
 }
 
@@ -305,9 +368,22 @@ pub(super) fn sample(
     if wi.z <= 0.0 {
         return None;
     }
+    if let Some(l) = &m.lambert {
+        let (wo, weight, pdf) = l.sample(m, wi, s)?;
+        return Some(BsdfSample {
+            wo,
+            pdf,
+            weight,
+            eta: 1.0,
+            lobe: explicit::lobe_of(nested.lobes()),
+        });
+    }
     match (m.evaluation, m.mirror_wall) {
         (Evaluation::Explicit, true) => explicit::sample_mirror(m, &nested, ctx, wi, s),
-        (Evaluation::Explicit, false) => explicit::sample_single(m, &nested, ctx, wi, s),
+        (Evaluation::ExplicitComplete, true) => explicit::sample_complete(m, &nested, ctx, wi, s),
+        (Evaluation::Explicit | Evaluation::ExplicitComplete, false) => {
+            explicit::sample_single(m, &nested, ctx, wi, s)
+        }
         (Evaluation::RandomWalk, _) => {
             let (wo, weight, lobe, first) = walk::sample(m, &nested, ctx, wi, s)?;
             // The walk escapes upward only (G1 = 0 below), so `pdf`'s wo.z ≤ 0 case is moot.
