@@ -1,6 +1,8 @@
 //! Geometry: rays, surface interactions, triangle meshes and the analytic shapes, with their
 //! loaders (OBJ, PLY, Mitsuba serialized) and area sampling for emitters.
 
+pub mod curve_surface;
+pub mod curves;
 pub mod cylinder;
 pub mod hit;
 pub mod interaction;
