@@ -50,6 +50,14 @@ impl CurveBasis {
         }
     }
 
+    /// What the error messages call these curves.
+    fn noun(self) -> &'static str {
+        match self {
+            CurveBasis::Linear => "linear curves",
+            CurveBasis::BSpline => "B-spline curves",
+        }
+    }
+
     /// The plugin name.
     pub fn plugin(self) -> &'static str {
         match self {
@@ -160,8 +168,8 @@ pub fn parse_curves(
             return Err(Error::scene(
                 &at(start, 0),
                 format!(
-                    "a {} curve needs at least {need} control points; the one starting here has {n}",
-                    basis.plugin()
+                    "{} need at least {need} control points; the one starting here has {n}",
+                    basis.noun()
                 ),
             ));
         }
