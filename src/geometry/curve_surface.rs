@@ -12,6 +12,11 @@
 //!   tangent is `coordinate_system(n)`); B-spline, the tube's partials from the curve's
 //!   Frenet–Serret frame (curvature κ, torsion τ), u scaled to [0, 2π) and v to the shape's
 //!   global parameter, and the shading tangent dp/du made orthogonal to n.
+//!
+//! The partials use the hit's own segment and parameter. Mitsuba 3.9.1 recomputes the segment
+//! from the global v, which for v = 1 on a shape's last segment indexes one past the end (it
+//! crashed on `tests/data/scenes/mat_hair.xml` until that segment was hidden; clamped upstream
+//! after 3.9.1).
 
 use super::curves::{CurveBasis, Curves};
 use crate::math::{Frame, INV_2PI, PI};

@@ -7,6 +7,7 @@ mod common;
 mod curves;
 mod emitters;
 mod geometry;
+mod hair;
 mod hostile;
 mod output;
 mod plugins;
