@@ -42,6 +42,8 @@ pub enum Slot {
     ClearcoatGloss,
     DiffTrans,
     Eta,
+    /// `hair`'s absorption coefficient (a colour, not clamped).
+    SigmaA,
 }
 
 impl Slot {
@@ -54,6 +56,7 @@ impl Slot {
                 | Slot::SpecularTransmittance
                 | Slot::DiffuseReflectance
                 | Slot::BaseColor
+                | Slot::SigmaA
         )
     }
 }
@@ -171,6 +174,7 @@ fn patch(node: &mut BsdfNode, slot: Slot, v: Vec3) {
         (BsdfNode::Plastic(b), Slot::DiffuseReflectance) => b.diffuse_reflectance = v,
         (BsdfNode::RoughPlastic(b), Slot::SpecularReflectance) => b.specular_reflectance = v,
         (BsdfNode::RoughPlastic(b), Slot::DiffuseReflectance) => b.diffuse_reflectance = v,
+        (BsdfNode::Hair(b), Slot::SigmaA) => b.sigma_a = v,
         // The instantiation only creates valid (node, slot) pairs.
         _ => {}
     }

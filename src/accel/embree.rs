@@ -40,6 +40,9 @@ pub(crate) enum GeomDesc<'a> {
     },
     /// Mitsuba's open cylinder: a user geometry intersected by [`Cylinder::hit`].
     Cylinder(&'a Cylinder),
+    /// Mitsuba's `linearcurve` / `bsplinecurve`: Embree's round linear or round B-spline curves
+    /// (see [`curve_geometry`]).
+    Curves(CurveDesc<'a>),
     /// Nothing to trace (a degenerate shape); its id stays unused.
     Empty,
 }
@@ -394,6 +397,96 @@ unsafe fn user_geometry<T: UserShape>(device: RTCDevice, shape: &T) -> Option<RT
     }
 }
 
+/// The curves of a `linearcurve` or `bsplinecurve` shape, borrowed from the shape.
+#[derive(Clone, Copy)]
+pub(crate) struct CurveDesc<'a> {
+    /// Cubic uniform B-spline segments (4 control points each) instead of linear ones (2).
+    pub bspline: bool,
+    /// World-space control points (x, y, z, radius).
+    pub points: &'a [[f32; 4]],
+    /// The first control point of each segment (Embree's index buffer).
+    pub segments: &'a [u32],
+}
+
+/// Embree's curve type for Mitsuba's curve shapes: Mitsuba 3.9.1 (`src/render/scene_embree.inl`)
+/// hands both to Embree as `RTC_GEOMETRY_TYPE_ROUND_BSPLINE_CURVE` or
+/// `RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE` (true tubes; the linear ones are cones joined and
+/// capped by spheres, Embree finding a segment's neighbours from consecutive indices), with a
+/// float4 (x, y, z, r) vertex buffer and one uint index per segment.
+///
+/// Mitsuba builds its Embree with `EMBREE_BACKFACE_CULLING_CURVES`, so a curve is never hit
+/// from inside; Debian's Embree is built without it, so unless the device reports it a filter
+/// rejects the hits whose geometric normal faces along the ray, in both queries.
+///
+/// # Safety
+/// `device` is a valid Embree device.
+unsafe fn curve_geometry(device: RTCDevice, c: &CurveDesc) -> Result<RTCGeometry, &'static str> {
+    let kind = if c.bspline {
+        RTCGeometryType::ROUND_BSPLINE_CURVE
+    } else {
+        RTCGeometryType::ROUND_LINEAR_CURVE
+    };
+    // SAFETY: plain C calls on a valid device; the buffers are Embree's, filled within their
+    // allocated length.
+    unsafe {
+        let culled =
+            rtcGetDeviceProperty(device, RTCDeviceProperty::BACKFACE_CULLING_CURVES_ENABLED);
+        let filters = rtcGetDeviceProperty(device, RTCDeviceProperty::FILTER_FUNCTION_SUPPORTED);
+        if culled == 0 && filters == 0 {
+            return Err("this Embree has neither curve backface culling nor filter functions");
+        }
+        let geom = rtcNewGeometry(device, kind);
+        if geom.is_null() {
+            return Err("rtcNewGeometry (curves) failed");
+        }
+        let vb = rtcSetNewGeometryBuffer(
+            geom,
+            RTCBufferType::VERTEX,
+            0,
+            RTCFormat::FLOAT4,
+            16,
+            c.points.len(),
+        ) as *mut [f32; 4];
+        let ib = rtcSetNewGeometryBuffer(
+            geom,
+            RTCBufferType::INDEX,
+            0,
+            RTCFormat::UINT,
+            4,
+            c.segments.len(),
+        ) as *mut u32;
+        if vb.is_null() || ib.is_null() {
+            rtcReleaseGeometry(geom);
+            return Err("curve buffer allocation failed");
+        }
+        std::slice::from_raw_parts_mut(vb, c.points.len()).copy_from_slice(c.points);
+        std::slice::from_raw_parts_mut(ib, c.segments.len()).copy_from_slice(c.segments);
+        if culled == 0 {
+            rtcSetGeometryIntersectFilterFunction(geom, Some(cull_curve_backface));
+            rtcSetGeometryOccludedFilterFunction(geom, Some(cull_curve_backface));
+        }
+        Ok(geom)
+    }
+}
+
+/// Rejects a curve hit seen from inside (ray direction · geometric normal > 0), as Mitsuba's
+/// own triangle backface filter does (`embree_backface_cull`).
+unsafe extern "C" fn cull_curve_backface(args: *const RTCFilterFunctionNArguments) {
+    // SAFETY: groove only traces single rays, for which Embree passes N = 1 and a ray and hit
+    // with RTCRay's and RTCHit's layouts (Embree 3 API, "RTCFilterFunctionN").
+    unsafe {
+        let a = &*args;
+        if a.N != 1 || *a.valid == 0 {
+            return;
+        }
+        let r = &*(a.ray as *const RTCRay);
+        let h = &*(a.hit as *const RTCHit);
+        if r.dir_x * h.Ng_x + r.dir_y * h.Ng_y + r.dir_z * h.Ng_z > 0.0 {
+            *a.valid = 0;
+        }
+    }
+}
+
 /// A committed Embree scene with its device.
 pub(crate) struct EmbreeScene {
     device: RTCDevice,
@@ -596,6 +689,9 @@ impl EmbreeScene {
                             .ok_or_else(|| this.error_text("rtcNewGeometry failed"))?;
                         this._cylinders.push(data);
                         geom
+                    }
+                    GeomDesc::Curves(c) => {
+                        curve_geometry(device, c).map_err(|e| this.error_text(e))?
                     }
                 };
                 rtcCommitGeometry(geom);

@@ -1,8 +1,11 @@
 //! Ray queries against the scene's shapes, backed by Embree 3 (`embree.rs` holds all FFI).
 
+#[cfg(test)]
+mod curve_tests;
 mod embree;
 
 use crate::error::{Error, Result};
+use crate::geometry::curves::CurveBasis;
 use crate::geometry::hit::NO_INSTANCE;
 use crate::geometry::shapes::{Shape, ShapeKind, CUBE_FACES};
 use crate::geometry::{Hit, Instance, Ray};
@@ -56,6 +59,11 @@ impl Accel {
                     to_world: *to_world,
                 },
                 (ShapeKind::Cylinder(c), _) => embree::GeomDesc::Cylinder(c),
+                (ShapeKind::Curves(c), _) => embree::GeomDesc::Curves(embree::CurveDesc {
+                    bspline: c.basis == CurveBasis::BSpline,
+                    points: &c.points,
+                    segments: &c.segments,
+                }),
             })
             .collect();
         let mut descs = descs;

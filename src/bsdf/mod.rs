@@ -53,6 +53,7 @@ pub mod dielectric;
 pub mod diffuse;
 pub mod disney;
 pub mod fresnel;
+pub mod hair;
 pub mod ior;
 pub mod lobes;
 pub mod mask;
@@ -74,6 +75,7 @@ pub use blend::Blend;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use hair::Hair;
 pub use ior::{named_conductor, named_ior};
 pub use lobes::Lobes;
 pub use mask::Mask;
@@ -178,6 +180,8 @@ pub enum BsdfNode {
         /// Its lobes ([`Principled::lobes`]).
         lobes: Lobes,
     },
+    /// `hair`: Chiang et al.'s fiber model (glossy reflection and transmission).
+    Hair(Hair),
     /// `principledthin`: an index into the arena's thin principled parameters. Built by
     /// [`BsdfArena::push_principled_thin`].
     PrincipledThin {
@@ -201,6 +205,7 @@ impl BsdfNode {
             BsdfNode::RoughDielectric(_) => Lobes::GLOSSY_REFLECTION | Lobes::GLOSSY_TRANSMISSION,
             BsdfNode::Plastic(_) => Lobes::DELTA_REFLECTION | Lobes::DIFFUSE_REFLECTION,
             BsdfNode::RoughPlastic(_) => Lobes::GLOSSY_REFLECTION | Lobes::DIFFUSE_REFLECTION,
+            BsdfNode::Hair(_) => Lobes::GLOSSY_REFLECTION | Lobes::GLOSSY_TRANSMISSION,
             BsdfNode::TwoSided { front, back } => child(*front) | child(*back),
             BsdfNode::MicrofacetNormalMap { nested, .. } => child(*nested),
             BsdfNode::NormalMap(m) => child(m.nested),
@@ -393,6 +398,7 @@ impl<'a> Bsdf<'a> {
             BsdfNode::RoughDielectric(b) => b.eval(ctx.mode, wi, wo),
             BsdfNode::Plastic(b) => b.eval(wi, wo),
             BsdfNode::RoughPlastic(b) => b.eval(wi, wo),
+            BsdfNode::Hair(b) => b.eval(wi, wo),
             BsdfNode::TwoSided { front, back } => {
                 twosided::eval(*self, *front, *back, ctx, wi, wo, sampler)
             }
@@ -420,6 +426,7 @@ impl<'a> Bsdf<'a> {
             BsdfNode::RoughDielectric(b) => b.pdf(wi, wo),
             BsdfNode::Plastic(b) => b.pdf(wi, wo),
             BsdfNode::RoughPlastic(b) => b.pdf(wi, wo),
+            BsdfNode::Hair(b) => b.pdf(wi, wo),
             BsdfNode::TwoSided { front, back } => twosided::pdf(*self, *front, *back, ctx, wi, wo),
             BsdfNode::MicrofacetNormalMap { map: i, .. } => {
                 mnm::pdf(*self, &self.arena.mnm[*i as usize], ctx, wi, wo)
@@ -451,6 +458,10 @@ impl<'a> Bsdf<'a> {
                 b.sample(wi, u1, sampler.next_2d())
             }
             BsdfNode::RoughPlastic(b) => {
+                let u1 = sampler.next_1d();
+                b.sample(wi, u1, sampler.next_2d())
+            }
+            BsdfNode::Hair(b) => {
                 let u1 = sampler.next_1d();
                 b.sample(wi, u1, sampler.next_2d())
             }
@@ -489,6 +500,7 @@ impl<'a> Bsdf<'a> {
             BsdfNode::Diffuse(d) => (d.eval(wi, wo), d.pdf(wi, wo)),
             BsdfNode::RoughConductor(b) => b.eval_pdf(wi, wo),
             BsdfNode::RoughPlastic(b) => b.eval_pdf(wi, wo),
+            BsdfNode::Hair(b) => b.eval_pdf(wi, wo),
             BsdfNode::RoughDielectric(b) => b.eval_pdf(ctx.mode, wi, wo),
             BsdfNode::TwoSided { front, back } => {
                 twosided::eval_pdf(*self, *front, *back, ctx, wi, wo, sampler)

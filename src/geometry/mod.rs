@@ -3,6 +3,8 @@
 //! groups.
 
 pub mod attributes;
+pub mod curve_surface;
+pub mod curves;
 pub mod cylinder;
 pub mod hit;
 pub mod instance;

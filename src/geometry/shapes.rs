@@ -6,6 +6,7 @@
 //! mitsuba-renderer/mitsuba3).
 
 use super::attributes::Attribute;
+use super::curves::Curves;
 use super::cylinder::Cylinder;
 use super::interaction::SurfaceInteraction;
 use super::mesh::TriMesh;
@@ -36,6 +37,9 @@ pub enum ShapeKind {
     Rectangle { to_world: Mat4 },
     /// Mitsuba's exact open `cylinder` (its own file: [`Cylinder`]), an Embree user geometry.
     Cylinder(Cylinder),
+    /// Mitsuba's `linearcurve` / `bsplinecurve` (their own files: [`Curves`]), Embree's round
+    /// curves. Never an emitter: it has no area and is never sampled.
+    Curves(Curves),
 }
 
 /// Mitsuba's `cube` (`cube.cpp`): the 4 corners of each face of [−1,1]³, in order around the
@@ -351,6 +355,21 @@ impl Shape {
         }
     }
 
+    /// Mitsuba's `linearcurve` / `bsplinecurve` (see [`Curves`]): traced only, no area (the
+    /// loader refuses an emitter on it, as Mitsuba has no sampling for curves).
+    pub fn curves(curves: Curves) -> Shape {
+        Shape {
+            kind: ShapeKind::Curves(curves),
+            flip_normals: false,
+            face_normals: true,
+            area: 0.0,
+            cdf: Vec::new(),
+            to_object: Mat4::IDENTITY,
+            box_to_world: None,
+            attributes: Vec::new(),
+        }
+    }
+
     /// Surface area.
     pub fn area(&self) -> f32 {
         self.area
@@ -378,6 +397,7 @@ impl Shape {
                 (c - ext, c + ext)
             }
             ShapeKind::Cylinder(c) => c.bounds(),
+            ShapeKind::Curves(c) => c.bounds(),
         }
     }
 
@@ -466,6 +486,12 @@ impl Shape {
                 let (p, n, uv, dpdu, dpdv) = c.surface(ray.at(hit.t));
                 analytic_interaction(p, n * sign, (uv, dpdu, dpdv), shape_index, ray, hit)
             }
+            ShapeKind::Curves(c) => {
+                // The ray point itself, as Mitsuba (no reprojection onto the tube).
+                let p = ray.at(hit.t);
+                let s = c.surface(hit.prim, hit.u, p);
+                analytic_interaction(p, s.n, (s.uv, s.dpdu, s.dpdv), shape_index, ray, hit)
+            }
         }
     }
 
@@ -475,6 +501,13 @@ impl Shape {
         let sign = if self.flip_normals { -1.0 } else { 1.0 };
         let pdf = 1.0 / self.area;
         match &self.kind {
+            // An empty mesh, and curves (never emitters): nothing to sample.
+            ShapeKind::Curves(_) => PositionSample {
+                p: Vec3::ZERO,
+                n: Vec3::Z,
+                uv: Vec2::ZERO,
+                pdf: 0.0,
+            },
             ShapeKind::Mesh(_) if self.cdf.is_empty() => PositionSample {
                 p: Vec3::ZERO,
                 n: Vec3::Z,

@@ -8,7 +8,7 @@ use super::{unknown, Builder, MAX_NESTING};
 use crate::bsdf::mnm::facets::Microgeometry;
 use crate::bsdf::mnm::{Evaluation, Tangent};
 use crate::bsdf::{
-    blend, bumpmap, conductor, dielectric, diffuse, mask, mnm, normalmap, null, plastic,
+    blend, bumpmap, conductor, dielectric, diffuse, hair, mask, mnm, normalmap, null, plastic,
     principled, principledthin, roughconductor, roughdielectric, roughplastic, thindielectric,
     twosided, Lobes,
 };
@@ -40,6 +40,7 @@ const SUPPORTED_BSDFS: &[&str] = &[
     "bumpmap",
     "principled",
     "principledthin",
+    "hair",
 ];
 
 /// The model `--normal-mapping microfacet` gives a `normalmap`: the decisions page's defaults.
@@ -128,6 +129,7 @@ impl<'d> BsdfCtx<'_, 'd> {
             "diffuse" => diffuse::load::build(self),
             "conductor" => conductor::load::build(self),
             "roughconductor" => roughconductor::load::build(self),
+            "hair" => hair::load::build(self),
             "dielectric" => dielectric::load::build(self),
             "thindielectric" => thindielectric::load::build(self),
             "roughdielectric" => roughdielectric::load::build(self),

@@ -1,12 +1,13 @@
-//! `<shape>`s (`obj`, `ply`, `serialized`, `rectangle`, `cube`, `disk`, `sphere`, `cylinder`;
-//! `shapegroup` and `instance` are in `shapegroup.rs`), the `area` emitter a shape carries, and
-//! the default materials of shapes without a BSDF.
+//! `<shape>`s (`obj`, `ply`, `serialized`, `rectangle`, `cube`, `disk`, `sphere`, `cylinder`,
+//! `linearcurve`, `bsplinecurve`; `shapegroup` and `instance` are in `shapegroup.rs`), the `area`
+//! emitter a shape carries, and the default materials of shapes without a BSDF.
 
 use super::{check, unknown, Builder};
 use crate::emitter::area::AreaLight;
 use crate::emitter::Emitter;
 use crate::error::{Error, Result};
-use crate::geometry::{obj, ply, serialized, Cylinder, Shape};
+use crate::geometry::curves::{self, CurveBasis};
+use crate::geometry::{obj, ply, serialized, Cylinder, Shape, ShapeKind};
 use crate::material::{MatId, MaterialNode};
 use crate::scene::xml::ir::Node;
 use crate::scene::xml::props::Props;
@@ -66,6 +67,22 @@ impl<'d> Builder<'d> {
         let to_world = xf.matrix;
         // Mitsuba's normal matrix when it differs from the true one (a non-unit `<rotate>`).
         let normal_matrix = xf.quirk_inverse_transpose.map(|_| xf.normal_matrix());
+        let curve = match p.plugin_type() {
+            "linearcurve" => Some(CurveBasis::Linear),
+            "bsplinecurve" => Some(CurveBasis::BSpline),
+            _ => None,
+        };
+        if let Some(basis) = curve {
+            // No `flip_normals` here: left unread, `finish` reports it as unknown, as
+            // Mitsuba 3.9.1 does.
+            return curves::from_props(
+                p,
+                basis,
+                &to_world,
+                |name| self.doc.resolve_file(name, p.loc()),
+                &self.budget,
+            );
+        }
         let flip = p.bool("flip_normals", false)?;
         Ok(match p.plugin_type() {
             t @ ("obj" | "ply") => {
@@ -164,6 +181,8 @@ impl<'d> Builder<'d> {
                         "cylinder",
                         "shapegroup",
                         "instance",
+                        "linearcurve",
+                        "bsplinecurve",
                     ],
                 ))
             }
@@ -203,6 +222,16 @@ impl<'d> Builder<'d> {
             None => None,
         };
         let emitter = match p.one_child("emitter")? {
+            Some(c) if matches!(shape.kind, ShapeKind::Curves(_)) => {
+                return Err(Error::scene(
+                    &c.loc,
+                    format!(
+                        "a '{}' cannot carry an area emitter: Mitsuba 3.9.1 has no position \
+                         sampling on curves",
+                        p.plugin_type()
+                    ),
+                ));
+            }
             Some(c) => Some(self.area_emitter(self.ids.resolve(c, "emitter")?, index)?),
             None => None,
         };

@@ -5,6 +5,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod hair;
 mod harness;
 mod mitsuba_wrappers;
 mod mnm_exit_on_refraction;

@@ -89,6 +89,11 @@ JOBS = [
     ("cam_ortho", os.path.join(SCENES, "cam_ortho.xml"), {}, 8192, REF_SEEDS),
     ("cam_thinlens", os.path.join(SCENES, "cam_thinlens.xml"), {}, 16384, REF_SEEDS),
     ("shape_cylinder", os.path.join(SCENES, "shape_cylinder.xml"), {}, 16384, REF_SEEDS),
+    # The curve shapes: `linearcurve` (diffuse, uv checkerboard, to_world) and `bsplinecurve`
+    # (rough gold; diffuse with a uv checkerboard) under a rectangle area light.
+    ("shape_curves", os.path.join(SCENES, "shape_curves.xml"), {}, 8192, REF_SEEDS),
+    # The `hair` BSDF on B-spline fibers (default brown, blonde, a thick helix with sigma_a).
+    ("mat_hair", os.path.join(SCENES, "mat_hair.xml"), {}, 4096, REF_SEEDS),
     # principled (metal with textured roughness, glass, clearcoat, sheen, the documented mix)
     # and a principledthin sheet.
     ("mat_principled", os.path.join(SCENES, "mat_principled.xml"), {}, 4096, REF_SEEDS),

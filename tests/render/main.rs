@@ -5,6 +5,7 @@
 mod common;
 
 mod aov;
+mod curves;
 mod foundation;
 mod instances;
 mod lights;

@@ -4,10 +4,12 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod curves;
 mod degenerate;
 mod emitters;
 mod float_images;
 mod geometry;
+mod hair;
 mod hostile;
 mod instances;
 mod mesh_attribute;

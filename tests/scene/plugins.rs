@@ -69,8 +69,8 @@ fn polarisation_plugins_name_the_variant_they_need() {
 #[test]
 fn other_mitsuba_plugins_are_named_as_unsupported() {
     for (body, name, kind) in [
-        ("<shape type=\"sphere\"><bsdf type=\"hair\"/></shape>", "hair", "bsdf"),
-        ("<shape type=\"linearcurve\"/>", "linearcurve", "shape"),
+        ("<shape type=\"sphere\"><bsdf type=\"measured\"/></shape>", "measured", "bsdf"),
+        ("<shape type=\"ellipsoids\"/>", "ellipsoids", "shape"),
         ("<emitter type=\"sunsky\"/>", "sunsky", "emitter"),
         ("<integrator type=\"volpath\"/>", "volpath", "integrator"),
         ("<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"volume\" name=\"reflectance\"/></bsdf></shape>", "volume", "texture"),
