@@ -7,6 +7,7 @@ use libfuzzer_sys::fuzz_target;
 mod common;
 
 fuzz_target!(|data: &[u8]| {
+    common::let_groove_catch_decoder_panics();
     let path = common::scratch().join("image.bin");
     std::fs::write(&path, data).unwrap();
     let opts = groove::texture::BitmapOptions::default();

@@ -14,6 +14,21 @@ use super::Metadata;
 use crate::error::{Error, Result};
 use crate::film::Image;
 
+/// Runs an `exr` crate decode so that a panic inside it (the crate has integer-overflow bugs on
+/// corrupt compressed blocks: fuzzing found one in its B44 decompressor, `tests/scene/hostile.rs`)
+/// becomes an error instead of taking the process down. Callers decode with `non_parallel()`: a
+/// panic in one of the crate's own decoder threads would abort the process before this sees it.
+pub(crate) fn guarded<T>(decode: impl FnOnce() -> T) -> std::result::Result<T, String> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(decode)).map_err(|p| {
+        let why = p
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| p.downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        format!("cannot read EXR: corrupt data (the decoder failed: {why})")
+    })
+}
+
 /// The string attributes of `meta` for an EXR header.
 fn attributes(meta: &Metadata) -> Result<LayerAttributes, String> {
     let mut attrs = LayerAttributes::default();
@@ -104,14 +119,18 @@ pub(super) fn write_channels<W: Write + Seek>(
 /// Every channel of the first layer of the EXR at `path`, as f32, by name (sorted), with the
 /// layer's size.
 pub(super) fn read_channels(path: &Path) -> Result<(u32, u32, super::Channels)> {
-    let image = exr_read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_file(path)
-        .map_err(|e| match e {
+    let image = guarded(|| {
+        exr_read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .non_parallel()
+            .from_file(path)
+    })
+    .map_err(|m| Error::file(path, m))?
+    .map_err(|e| match e {
             exr::error::Error::Io(io) => Error::io(path, io),
             other => Error::file(path, format!("cannot read EXR: {other}")),
         })?;
@@ -133,20 +152,24 @@ pub(super) fn read_channels(path: &Path) -> Result<(u32, u32, super::Channels)> 
 /// attributes of the image and the layer (decoded as UTF-8, sorted by key: the header's order is
 /// not kept by the exr crate).
 pub(super) fn read(path: &Path) -> Result<(Image, Metadata)> {
-    let image = exr_read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .rgb_channels(
-            |res, _| Image::new(res.width() as u32, res.height() as u32),
-            |img: &mut Image, p, (r, g, b): (f32, f32, f32)| {
-                let w = img.width as usize;
-                img.data[p.y() * w + p.x()] = [r, g, b];
-            },
-        )
-        .first_valid_layer()
-        .all_attributes()
-        .from_file(path)
-        .map_err(|e| match e {
+    let image = guarded(|| {
+        exr_read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .rgb_channels(
+                |res, _| Image::new(res.width() as u32, res.height() as u32),
+                |img: &mut Image, p, (r, g, b): (f32, f32, f32)| {
+                    let w = img.width as usize;
+                    img.data[p.y() * w + p.x()] = [r, g, b];
+                },
+            )
+            .first_valid_layer()
+            .all_attributes()
+            .non_parallel()
+            .from_file(path)
+    })
+    .map_err(|m| Error::file(path, m))?
+    .map_err(|e| match e {
             exr::error::Error::Io(io) => Error::io(path, io),
             other => Error::file(path, format!("cannot read EXR: {other}")),
         })?;
@@ -166,4 +189,16 @@ pub(super) fn read(path: &Path) -> Result<(Image, Metadata)> {
     }
     meta.sort();
     Ok((image.layer_data.channel_data.pixels, Metadata(meta)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::guarded;
+
+    #[test]
+    fn a_decoder_panic_becomes_an_error() {
+        assert_eq!(guarded(|| 3), Ok(3));
+        let e = guarded(|| -> u32 { panic!("attempt to subtract with overflow") }).unwrap_err();
+        assert!(e.contains("corrupt data") && e.contains("subtract with overflow"), "{e}");
+    }
 }

@@ -6,6 +6,7 @@
 
 pub mod clash;
 mod exr;
+pub(crate) use exr::guarded as exr_guarded;
 pub(crate) mod png;
 
 use std::fs::{self, File};

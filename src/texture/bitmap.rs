@@ -679,14 +679,17 @@ fn decode_exr(bytes: &[u8], budget: &Budget) -> Result<Decoded, String> {
     use exr::prelude::{read, FlatSamples, ReadChannels, ReadLayers};
     let (w, h, nch) = crate::output::exr_size(std::io::Cursor::new(bytes))?;
     reserve_texels(budget, w, h, 4 * nch)?;
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(|e| format!("cannot read EXR: {e}"))?;
+    let image = crate::output::exr_guarded(|| {
+        read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .non_parallel()
+            .from_buffered(std::io::Cursor::new(bytes))
+    })?
+    .map_err(|e| format!("cannot read EXR: {e}"))?;
     let layer = &image.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());
     if w == 0 || h == 0 {

@@ -170,3 +170,19 @@ fn worker_threads_count_against_the_budget() {
     assert!(e.contains("with 64 worker threads needs ~"), "{e}");
     render(&loaded.scene, &loaded.settings, &opts(1, 128)).expect("1 thread fits");
 }
+
+/// Fuzzing finding (bitmap target, 2026-12-01): a corrupt B44-compressed EXR makes the `exr`
+/// crate's decompressor subtract with overflow (a panic with overflow checks, garbage without).
+/// As a texture and as an envmap image it must be a clear error naming the file, never a panic.
+#[test]
+fn corrupt_b44_exr_is_an_error() {
+    let f = crate::common::repo_root().join("tests/data/hostile/exr_b44_overflow.exr");
+    let budget = groove::budget::Budget::new(256 << 20);
+    let opts = groove::texture::BitmapOptions::default();
+    let e = groove::texture::BitmapTexture::load_within(&f, &opts, &budget)
+        .err()
+        .expect("an error")
+        .to_string();
+    assert!(e.contains("exr_b44_overflow.exr"), "{e}");
+    let _ = groove::output::read_exr_within(&f, &budget, 20);
+}
