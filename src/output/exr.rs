@@ -131,9 +131,9 @@ pub(super) fn read_channels(path: &Path) -> Result<(u32, u32, super::Channels)> 
     })
     .map_err(|m| Error::file(path, m))?
     .map_err(|e| match e {
-            exr::error::Error::Io(io) => Error::io(path, io),
-            other => Error::file(path, format!("cannot read EXR: {other}")),
-        })?;
+        exr::error::Error::Io(io) => Error::io(path, io),
+        other => Error::file(path, format!("cannot read EXR: {other}")),
+    })?;
     let size = image.layer_data.size;
     let chans = image
         .layer_data
@@ -170,9 +170,9 @@ pub(super) fn read(path: &Path) -> Result<(Image, Metadata)> {
     })
     .map_err(|m| Error::file(path, m))?
     .map_err(|e| match e {
-            exr::error::Error::Io(io) => Error::io(path, io),
-            other => Error::file(path, format!("cannot read EXR: {other}")),
-        })?;
+        exr::error::Error::Io(io) => Error::io(path, io),
+        other => Error::file(path, format!("cannot read EXR: {other}")),
+    })?;
     let mut meta = Vec::new();
     let others = image
         .attributes
@@ -199,6 +199,9 @@ mod tests {
     fn a_decoder_panic_becomes_an_error() {
         assert_eq!(guarded(|| 3), Ok(3));
         let e = guarded(|| -> u32 { panic!("attempt to subtract with overflow") }).unwrap_err();
-        assert!(e.contains("corrupt data") && e.contains("subtract with overflow"), "{e}");
+        assert!(
+            e.contains("corrupt data") && e.contains("subtract with overflow"),
+            "{e}"
+        );
     }
 }

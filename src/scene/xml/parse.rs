@@ -603,10 +603,23 @@ fn process_children(children: Vec<Node>, ctx: &mut Ctx, depth: usize) -> Result<
                 let value = child.attr("value").unwrap_or_default();
                 let base = parent_dir(&child.loc.file);
                 let p = Path::new(value);
+                // As Mitsuba 3.9.1 (`parser.cpp`, `<path>`): relative to the folder of the file
+                // that holds the `<path>` first, else through the search folders known so far
+                // (the main scene's folder, earlier `<path>`s): an included file's
+                // `<path value="../../common"/>` may be meant from the main scene's folder.
                 let dir = if p.is_absolute() {
                     p.to_path_buf()
                 } else {
-                    base.join(p)
+                    let own = base.join(p);
+                    if own.is_dir() {
+                        own
+                    } else {
+                        ctx.search_paths
+                            .iter()
+                            .map(|d| d.join(p))
+                            .find(|d| d.is_dir())
+                            .unwrap_or(own)
+                    }
                 };
                 if !dir.is_dir() {
                     return Err(Error::scene(
