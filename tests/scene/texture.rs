@@ -508,3 +508,31 @@ fn bad_bitmap_files_are_errors_at_the_texture() {
 fn smallvec_of<T, const N: usize>(items: [T; N]) -> exr::prelude::SmallVec<[T; 4]> {
     items.into_iter().collect()
 }
+
+/// BMP and binary PPM images (Mitsuba 3.9.1's `Bitmap` reads both; mitsuba-data's projector
+/// scene uses `flower.bmp`) load to the same texels as the PNG of the same 8-bit pixels.
+#[test]
+fn bmp_and_ppm_load_like_png() {
+    let dir = temp_dir("bmp_ppm");
+    let img = image::RgbImage::from_fn(5, 3, |x, y| {
+        image::Rgb([(x * 50) as u8, (y * 100) as u8, (255 - x * 40) as u8])
+    });
+    for ext in ["png", "bmp", "ppm"] {
+        img.save(dir.join(format!("i.{ext}"))).unwrap();
+    }
+    let opts = BitmapOptions {
+        filter: FilterType::Nearest,
+        ..Default::default()
+    };
+    let png = BitmapTexture::load(&dir.join("i.png"), &opts).unwrap();
+    for ext in ["bmp", "ppm"] {
+        let t = BitmapTexture::load(&dir.join(format!("i.{ext}")), &opts).unwrap();
+        assert_eq!(t.resolution(), (5, 3), "{ext}");
+        for y in 0..3 {
+            for x in 0..5 {
+                assert_eq!(t.texel(x, y), png.texel(x, y), "{ext} texel ({x}, {y})");
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
