@@ -29,6 +29,15 @@ pub(crate) fn guarded<T>(decode: impl FnOnce() -> T) -> std::result::Result<T, S
     })
 }
 
+/// A failed read of the EXR at `path` as groove's error: I/O errors as such, the rest named as
+/// unreadable EXR data.
+fn read_error(path: &Path, e: exr::error::Error) -> Error {
+    match e {
+        exr::error::Error::Io(io) => Error::io(path, io),
+        other => Error::file(path, format!("cannot read EXR: {other}")),
+    }
+}
+
 /// The string attributes of `meta` for an EXR header.
 fn attributes(meta: &Metadata) -> Result<LayerAttributes, String> {
     let mut attrs = LayerAttributes::default();
@@ -130,10 +139,7 @@ pub(super) fn read_channels(path: &Path) -> Result<(u32, u32, super::Channels)> 
             .from_file(path)
     })
     .map_err(|m| Error::file(path, m))?
-    .map_err(|e| match e {
-        exr::error::Error::Io(io) => Error::io(path, io),
-        other => Error::file(path, format!("cannot read EXR: {other}")),
-    })?;
+    .map_err(|e| read_error(path, e))?;
     let size = image.layer_data.size;
     let chans = image
         .layer_data
@@ -169,10 +175,7 @@ pub(super) fn read(path: &Path) -> Result<(Image, Metadata)> {
             .from_file(path)
     })
     .map_err(|m| Error::file(path, m))?
-    .map_err(|e| match e {
-        exr::error::Error::Io(io) => Error::io(path, io),
-        other => Error::file(path, format!("cannot read EXR: {other}")),
-    })?;
+    .map_err(|e| read_error(path, e))?;
     let mut meta = Vec::new();
     let others = image
         .attributes
