@@ -8,7 +8,7 @@ use crate::bsdf::{
     PrincipledThin,
 };
 use crate::geometry::SurfaceInteraction;
-use crate::texture::{TexPoint, Texture};
+use crate::texture::{Lookup, Texture};
 use glam::Vec3;
 
 /// Index of a texture in [`Materials::textures`].
@@ -242,6 +242,11 @@ fn skeleton(n: &MaterialNode) -> BsdfNode {
 }
 
 impl Materials {
+    /// Number of material nodes (every [`MatId`] is below it).
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
     pub fn add_texture(&mut self, t: Texture) -> TexId {
         self.textures.push(t);
         (self.textures.len() - 1) as TexId
@@ -328,15 +333,15 @@ impl Materials {
     fn patch_slots(
         &self,
         slots: &[(Slot, TexId)],
-        at: &TexPoint<'_>,
+        at: impl Lookup,
         mut patch: impl FnMut(Slot, Vec3, f32),
     ) {
         for &(slot, tex) in slots {
             let t = &self.textures[tex as usize];
             if slot.is_scalar() {
-                patch(slot, Vec3::ZERO, t.eval_1(*at));
+                patch(slot, Vec3::ZERO, t.eval_1(at));
             } else {
-                patch(slot, t.eval(*at), 0.0);
+                patch(slot, t.eval(at), 0.0);
             }
         }
     }
@@ -347,7 +352,7 @@ impl Materials {
     fn build_principled(
         &self,
         m: &PrincipledMaterial,
-        at: &TexPoint<'_>,
+        at: impl Lookup,
         arena: &mut BsdfArena,
     ) -> u32 {
         match m {
@@ -371,7 +376,7 @@ impl Materials {
     /// Build the BSDF of material `id` at `si` into `arena`, its textures looked up by `si.uv`
     /// (no mesh attributes); returns the root node index.
     pub fn build(&self, id: MatId, si: &SurfaceInteraction, arena: &mut BsdfArena) -> u32 {
-        self.build_at(id, si, &TexPoint::from(si.uv), arena)
+        self.build_at(id, si, si.uv, arena)
     }
 
     /// [`Self::build`] with the textures looked up at `at` (the uv of `si`, and the hit mesh's
@@ -380,13 +385,13 @@ impl Materials {
         &self,
         id: MatId,
         si: &SurfaceInteraction,
-        at: &TexPoint<'_>,
+        at: impl Lookup,
         arena: &mut BsdfArena,
     ) -> u32 {
         let lobes = self.lobes[id as usize];
         match &self.nodes[id as usize] {
             MaterialNode::Diffuse { reflectance } => {
-                let r = self.textures[*reflectance as usize].eval(*at);
+                let r = self.textures[*reflectance as usize].eval(at);
                 arena.push_with_lobes(lobes, BsdfNode::Diffuse(Diffuse { reflectance: r }))
             }
             MaterialNode::Leaf { template, slots } => {
@@ -396,9 +401,9 @@ impl Materials {
                 for &(slot, tex) in slots {
                     let t = &self.textures[tex as usize];
                     if slot.is_scalar() {
-                        patch_scalar(node, slot, t.eval_1(*at));
+                        patch_scalar(node, slot, t.eval_1(at));
                     } else {
-                        patch(node, slot, t.eval(*at));
+                        patch(node, slot, t.eval(at));
                     }
                 }
                 id
@@ -418,7 +423,7 @@ impl Materials {
                 settings,
             } => {
                 let child = self.build_at(*nested, si, at, arena);
-                let rgb = self.textures[*normalmap as usize].eval(*at);
+                let rgb = self.textures[*normalmap as usize].eval(at);
                 let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, settings.max_theta);
                 arena.push_microfacet_normal_map(
                     MicrofacetNormalMap::new(
@@ -440,7 +445,7 @@ impl Materials {
                 use_shadowing_function,
             } => {
                 let child = self.build_at(*nested, si, at, arena);
-                let rgb = self.textures[*normalmap as usize].eval(*at);
+                let rgb = self.textures[*normalmap as usize].eval(at);
                 arena.push_with_lobes(
                     lobes,
                     BsdfNode::NormalMap(NormalMap::new(
@@ -458,7 +463,7 @@ impl Materials {
             } => {
                 let a = self.build_at(*bsdf0, si, at, arena);
                 let b = self.build_at(*bsdf1, si, at, arena);
-                let w = self.textures[*weight as usize].eval_1(*at);
+                let w = self.textures[*weight as usize].eval_1(at);
                 arena.push_with_lobes(
                     lobes,
                     BsdfNode::Blend(Blend {
@@ -472,7 +477,7 @@ impl Materials {
             MaterialNode::Principled(m) => self.build_principled(m, at, arena),
             MaterialNode::Mask { opacity, nested } => {
                 let child = self.build_at(*nested, si, at, arena);
-                let o = self.textures[*opacity as usize].eval_1(*at);
+                let o = self.textures[*opacity as usize].eval_1(at);
                 arena.push_with_lobes(
                     lobes,
                     BsdfNode::Mask(Mask {

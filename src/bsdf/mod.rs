@@ -226,6 +226,8 @@ pub struct BsdfArena {
     lobes: Vec<Lobes>,
     /// Payloads of the `BsdfNode::MicrofacetNormalMap` nodes.
     mnm: Vec<mnm::MicrofacetNormalMap>,
+    /// Closed forms of the microfacet normal maps over Lambertian nested BSDFs.
+    lambert: Vec<mnm::lambert::LambertForm>,
     /// Payloads of the `BsdfNode::Principled` and `BsdfNode::PrincipledThin` nodes.
     principled: Vec<Principled>,
     principled_thin: Vec<PrincipledThin>,
@@ -250,6 +252,7 @@ impl BsdfArena {
             nodes: Vec::with_capacity(16),
             lobes: Vec::with_capacity(16),
             mnm: Vec::with_capacity(4),
+            lambert: Vec::with_capacity(4),
             principled: Vec::new(),
             principled_thin: Vec::new(),
             walks: [AtomicU64::new(0), AtomicU64::new(0)],
@@ -261,6 +264,7 @@ impl BsdfArena {
         self.nodes.clear();
         self.lobes.clear();
         self.mnm.clear();
+        self.lambert.clear();
         self.principled.clear();
         self.principled_thin.clear();
     }
@@ -285,8 +289,12 @@ impl BsdfArena {
     /// form is prepared here ([`mnm::lambert`]).
     pub fn push_microfacet_normal_map(&mut self, mut m: mnm::MicrofacetNormalMap) -> u32 {
         let nested = m.nested;
-        if let Some(rho) = self.lambertian_reflectance(nested) {
-            m.prepare_lambert(rho);
+        if let Some(form) = self
+            .lambertian_reflectance(nested)
+            .and_then(|rho| mnm::lambert::LambertForm::new(&m, rho))
+        {
+            self.lambert.push(form);
+            m.set_lambert((self.lambert.len() - 1) as u32);
         }
         self.mnm.push(m);
         let lobes = self.lobes[nested as usize];

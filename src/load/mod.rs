@@ -175,11 +175,30 @@ pub fn instantiate_within(
         .map(|(i, _)| i as u32)
         .collect();
     let light_sampler = LightSampler::new(&b.emitters, &b.shapes, bsphere.1);
+    // Per material once (a scene may have many shapes on few materials).
+    let mut reads_mesh: Vec<Option<bool>> = vec![None; b.materials.node_count()];
+    let shape_reads_mesh = b
+        .shape_material
+        .iter()
+        .map(|&m| {
+            *reads_mesh[m as usize].get_or_insert_with(|| {
+                let mut reads = false;
+                b.materials.texture_uses(m, &mut |t, _| {
+                    reads |= matches!(
+                        b.materials.textures[t as usize],
+                        crate::texture::Texture::MeshAttribute(_)
+                    );
+                });
+                reads
+            })
+        })
+        .collect();
     Ok(Loaded {
         scene: Scene {
             shapes: b.shapes,
             instances: b.instances,
             shape_material: b.shape_material,
+            shape_reads_mesh,
             shape_emitter: b.shape_emitter,
             accel,
             materials: b.materials,

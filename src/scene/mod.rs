@@ -24,6 +24,11 @@ pub struct Scene {
     pub(crate) instances: Vec<Instance>,
     /// Material of each shape (every shape has one: Mitsuba's default is a 0.5 grey `diffuse`).
     pub(crate) shape_material: Vec<MatId>,
+    /// Whether each shape's material reads a `mesh_attribute` texture of the shape: only those
+    /// hits carry the mesh data to the texture lookups ([`crate::texture::TexPoint::on_shape`]);
+    /// every other lookup is by uv alone, which keeps the common hit as cheap as before mesh
+    /// attributes existed.
+    pub(crate) shape_reads_mesh: Vec<bool>,
     /// Area emitter of each shape, as an index into `emitters`.
     pub(crate) shape_emitter: Vec<Option<u32>>,
     pub(crate) accel: Accel,
@@ -106,9 +111,14 @@ impl Scene {
         arena: &'a mut BsdfArena,
     ) -> Option<SurfaceBsdf<'a>> {
         arena.clear();
-        let material = self.shape_material[si.shape as usize];
-        let at = crate::texture::TexPoint::on_shape(si, &self.shapes[si.shape as usize]);
-        let root = self.materials.build_at(material, si, &at, arena);
+        let shape = si.shape as usize;
+        let material = self.shape_material[shape];
+        let root = if self.shape_reads_mesh[shape] {
+            let at = crate::texture::TexPoint::on_shape(si, &self.shapes[shape]);
+            self.materials.build_at(material, si, at, arena)
+        } else {
+            self.materials.build(material, si, arena)
+        };
         SurfaceBsdf::new(arena.bsdf(root), si.sh, si.ng, si.wi)
     }
 

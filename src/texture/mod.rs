@@ -35,6 +35,36 @@ impl From<Vec2> for TexPoint<'_> {
     }
 }
 
+/// What a texture lookup needs: a uv, and for `mesh_attribute` the hit mesh's data. Generic
+/// lookups keep the common case (a bare `Vec2`, no mesh) exactly as cheap as a uv lookup: the
+/// compiler sees that it has no mesh data and drops the mesh-attribute arm.
+pub trait Lookup: Copy {
+    fn uv(&self) -> Vec2;
+    fn mesh(&self) -> Option<&MeshPoint<'_>>;
+}
+
+impl Lookup for Vec2 {
+    #[inline(always)]
+    fn uv(&self) -> Vec2 {
+        *self
+    }
+    #[inline(always)]
+    fn mesh(&self) -> Option<&MeshPoint<'_>> {
+        None
+    }
+}
+
+impl Lookup for TexPoint<'_> {
+    #[inline(always)]
+    fn uv(&self) -> Vec2 {
+        self.uv
+    }
+    #[inline(always)]
+    fn mesh(&self) -> Option<&MeshPoint<'_>> {
+        self.mesh.as_ref()
+    }
+}
+
 impl<'a> TexPoint<'a> {
     /// The lookup at hit `si` on `shape` (the shape `si.shape` names): with the mesh data when
     /// the shape has attributes.
@@ -84,9 +114,8 @@ impl From<BitmapTexture> for Texture {
 impl Texture {
     /// The colour at `at` (a uv, or a [`TexPoint`]; linear RGB).
     #[inline]
-    pub fn eval<'a>(&self, at: impl Into<TexPoint<'a>>) -> Spectrum {
-        let at = at.into();
-        let uv = at.uv;
+    pub fn eval(&self, at: impl Lookup) -> Spectrum {
+        let uv = at.uv();
         match self {
             Texture::Constant(c) => *c,
             Texture::Checkerboard {
@@ -105,14 +134,14 @@ impl Texture {
                 }
             }
             Texture::Bitmap(b) => b.eval(uv),
-            Texture::MeshAttribute(m) => m.eval(at.mesh.as_ref()),
+            Texture::MeshAttribute(m) => m.eval(at.mesh()),
         }
     }
 
     /// The stored RGB value at `uv` as a vector, for data textures (a normal map reads a
     /// `raw=true` bitmap and decodes `2·rgb − 1` itself). A grey bitmap gives (g, g, g).
     #[inline]
-    pub fn eval_vec3<'a>(&self, at: impl Into<TexPoint<'a>>) -> Vec3 {
+    pub fn eval_vec3(&self, at: impl Lookup) -> Vec3 {
         self.eval(at)
     }
 
@@ -125,9 +154,8 @@ impl Texture {
     /// (opacity, weight, roughness) is the complement pattern of the same texture as a colour;
     /// groove follows Mitsuba.
     #[inline]
-    pub fn eval_1<'a>(&self, at: impl Into<TexPoint<'a>>) -> f32 {
-        let at = at.into();
-        let uv = at.uv;
+    pub fn eval_1(&self, at: impl Lookup) -> f32 {
+        let uv = at.uv();
         let grey = match self {
             Texture::Bitmap(b) => b.is_grey(),
             _ => false,

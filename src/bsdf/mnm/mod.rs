@@ -108,9 +108,10 @@ pub struct MicrofacetNormalMap {
     geometry: Option<Microgeometry>,
     /// Use the Lambert closed forms when the nested BSDF is diffuse (default true).
     lambert_closed_form: bool,
-    /// The walk's closed form over the nested Lambertian, set by
-    /// [`crate::bsdf::BsdfArena::push_microfacet_normal_map`] ([`lambert`]).
-    lambert: Option<lambert::LambertForm>,
+    /// The walk's closed form over the nested Lambertian ([`lambert`]), as an index into the
+    /// arena's side table, set by [`crate::bsdf::BsdfArena::push_microfacet_normal_map`]. (An
+    /// index, not the form itself: the form is ~140 bytes that every hit would copy twice.)
+    lambert: Option<u32>,
 }
 
 impl MicrofacetNormalMap {
@@ -158,12 +159,12 @@ impl MicrofacetNormalMap {
         self
     }
 
-    /// Prepare the closed form over a nested Lambertian of albedo `rho` (when it applies:
-    /// [`lambert::LambertForm::new`]). Called by the arena when it stores this BSDF over a
-    /// `diffuse` (or a `twosided` whose front is one: the walk queries facets from their front
-    /// only).
-    pub(crate) fn prepare_lambert(&mut self, rho: Spectrum) {
-        self.lambert = lambert::LambertForm::new(self, rho);
+    /// Point at the closed form over the nested Lambertian, entry `i` of the arena's table
+    /// ([`lambert::LambertForm::new`] decides whether one applies). Called by the arena when it
+    /// stores this BSDF over a `diffuse` (or a `twosided` whose front is one: the walk queries
+    /// facets from their front only).
+    pub(crate) fn set_lambert(&mut self, i: u32) {
+        self.lambert = Some(i);
     }
 
     /// True when a closed form over a Lambertian stands in for the random walk.
@@ -245,7 +246,7 @@ pub(super) fn eval(
     if wi.z <= 0.0 || wo.z <= 0.0 {
         return Spectrum::ZERO;
     }
-    if let Some(l) = &m.lambert {
+    if let Some(l) = m.lambert.map(|i| &b.arena.lambert[i as usize]) {
         return l.eval(m, wi, wo);
     }
     match (m.evaluation, m.mirror_wall) {
@@ -278,7 +279,7 @@ pub(super) fn pdf(b: Bsdf, m: &MicrofacetNormalMap, ctx: &BsdfContext, wi: Vec3,
     if wi.z <= 0.0 || wo.z <= 0.0 {
         return 0.0;
     }
-    if let Some(l) = &m.lambert {
+    if let Some(l) = m.lambert.map(|i| &b.arena.lambert[i as usize]) {
         return l.pdf(m, wi, wo);
     }
     let p1 = match (m.mirror_wall, m.evaluation) {
@@ -316,7 +317,7 @@ pub(super) fn eval_pdf(
     if wi.z <= 0.0 || wo.z <= 0.0 {
         return (Spectrum::ZERO, 0.0);
     }
-    if let Some(l) = &m.lambert {
+    if let Some(l) = m.lambert.map(|i| &b.arena.lambert[i as usize]) {
         return l.eval_pdf(m, wi, wo);
     }
     if m.evaluation == Evaluation::RandomWalk {
@@ -368,7 +369,7 @@ pub(super) fn sample(
     if wi.z <= 0.0 {
         return None;
     }
-    if let Some(l) = &m.lambert {
+    if let Some(l) = m.lambert.map(|i| &b.arena.lambert[i as usize]) {
         let (wo, weight, pdf) = l.sample(m, wi, s)?;
         return Some(BsdfSample {
             wo,
