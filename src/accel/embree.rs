@@ -8,6 +8,7 @@
 
 use crate::geometry::Cylinder;
 use crate::geometry::Hit;
+use crate::geometry::Ray;
 use embree3::sys::*;
 use glam::{Mat4, Vec3};
 use std::ffi::{c_char, c_void, CStr};
@@ -334,44 +335,165 @@ unsafe extern "C" fn user_bounds<T: UserShape>(args: *const RTCBoundsFunctionArg
     }
 }
 
+/// Lane `i` of an Embree ray or ray-hit packet of width `n`: structure of arrays, field `f` of
+/// lane `i` at 32-bit word `f·n + i`, the hit's fields after the ray's 12 (Embree 3 API,
+/// "RTCRayN", "RTCHitN", "RTCRayHitN"). Width 1 is `RTCRay`/`RTCRayHit`'s own layout, so one
+/// accessor serves `rtcIntersect1` and the 8-wide queries alike.
+#[derive(Clone, Copy)]
+struct Lane {
+    base: *mut u32,
+    n: usize,
+    i: usize,
+}
+
+/// Word indices of the ray's fields ...
+const ORG_X: usize = 0;
+const TNEAR: usize = 3;
+const DIR_X: usize = 4;
+const TFAR: usize = 8;
+/// ... and of the hit's, counted from the hit's start.
+const NG_X: usize = 0;
+const HIT_U: usize = 3;
+const HIT_V: usize = 4;
+const PRIM_ID: usize = 5;
+const GEOM_ID: usize = 6;
+const INST_ID: usize = 7;
+/// Words of a ray: the hit of a ray-hit packet starts at word `RAY_WORDS·n`.
+const RAY_WORDS: usize = 12;
+
+impl Lane {
+    /// # Safety
+    /// `base` points to a packet of width `n` (ray or ray-hit, as used) and `i < n`.
+    unsafe fn get(self, field: usize) -> f32 {
+        // SAFETY: in bounds by the constructor's contract.
+        unsafe { f32::from_bits(*self.base.add(field * self.n + self.i)) }
+    }
+    unsafe fn set(self, field: usize, bits: u32) {
+        // SAFETY: as in `get`.
+        unsafe { *self.base.add(field * self.n + self.i) = bits }
+    }
+    unsafe fn vec(self, field: usize) -> Vec3 {
+        // SAFETY: as in `get`.
+        unsafe { Vec3::new(self.get(field), self.get(field + 1), self.get(field + 2)) }
+    }
+    /// The same lane of the hit that follows this ray in a ray-hit packet.
+    fn hit(self) -> Lane {
+        Lane {
+            // SAFETY-free arithmetic: only dereferenced under the callers' contracts.
+            base: self.base.wrapping_add(RAY_WORDS * self.n),
+            ..self
+        }
+    }
+}
+
 unsafe extern "C" fn user_intersect<T: UserShape>(args: *const RTCIntersectFunctionNArguments) {
-    // SAFETY: groove only calls rtcIntersect1, for which Embree invokes this with N = 1, and a
-    // ray-hit packet of size 1 has RTCRayHit's layout (Embree 3 API, "RTCRayHitN").
+    // SAFETY: Embree passes a ray-hit packet of width N with N valid flags (Embree 3 API,
+    // "rtcSetGeometryIntersectFunction"); the user pointer is the scene's boxed `T`.
     unsafe {
         let a = &*args;
-        if a.N != 1 || *a.valid == 0 {
+        let shape = &*(a.geometryUserPtr as *const T);
+        if a.N == 1 {
+            // The renderer's single rays, with RTCRayHit's typed layout (measurably cheaper
+            // than the lane arithmetic below).
+            if *a.valid == 0 {
+                return;
+            }
+            let rh = &mut *(a.rayhit as *mut RTCRayHit);
+            let r = &rh.ray;
+            let o = Vec3::new(r.org_x, r.org_y, r.org_z);
+            let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
+            if let Some(h) = shape.hit(o, d, r.tnear, r.tfar) {
+                rh.ray.tfar = h.t;
+                rh.hit.u = h.u;
+                rh.hit.v = h.v;
+                rh.hit.primID = h.prim;
+                rh.hit.geomID = a.geomID;
+                rh.hit.instID = (*a.context).instID;
+            }
             return;
         }
-        let shape = &*(a.geometryUserPtr as *const T);
-        let rh = &mut *(a.rayhit as *mut RTCRayHit);
-        let r = &rh.ray;
-        let o = Vec3::new(r.org_x, r.org_y, r.org_z);
-        let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
-        // groove reads no Ng, so the callbacks leave it unset.
-        if let Some(h) = shape.hit(o, d, r.tnear, r.tfar) {
-            rh.ray.tfar = h.t;
-            rh.hit.u = h.u;
-            rh.hit.v = h.v;
-            rh.hit.primID = h.prim;
-            rh.hit.geomID = a.geomID;
-            rh.hit.instID = (*a.context).instID;
+        user_intersect_n(a, shape);
+    }
+}
+
+/// [`user_intersect`] of a packet (out of line: the single-ray path stays small).
+///
+/// # Safety
+/// As for `user_intersect`.
+#[inline(never)]
+unsafe fn user_intersect_n<T: UserShape>(a: &RTCIntersectFunctionNArguments, shape: &T) {
+    // SAFETY: the caller's contract.
+    unsafe {
+        let n = a.N as usize;
+        for i in 0..n {
+            if *a.valid.add(i) == 0 {
+                continue;
+            }
+            let r = Lane {
+                base: a.rayhit as *mut u32,
+                n,
+                i,
+            };
+            // groove reads no Ng, so the callbacks leave it unset.
+            if let Some(h) = shape.hit(r.vec(ORG_X), r.vec(DIR_X), r.get(TNEAR), r.get(TFAR)) {
+                r.set(TFAR, h.t.to_bits());
+                let hit = r.hit();
+                hit.set(HIT_U, h.u.to_bits());
+                hit.set(HIT_V, h.v.to_bits());
+                hit.set(PRIM_ID, h.prim);
+                hit.set(GEOM_ID, a.geomID);
+                hit.set(INST_ID, (*a.context).instID[0]);
+            }
         }
     }
 }
 
 unsafe extern "C" fn user_occluded<T: UserShape>(args: *const RTCOccludedFunctionNArguments) {
-    // SAFETY: as in `user_intersect`; a ray packet of size 1 has RTCRay's layout.
+    // SAFETY: as in `user_intersect`, with a ray packet of width N.
     unsafe {
         let a = &*args;
-        if a.N != 1 || *a.valid == 0 {
+        let shape = &*(a.geometryUserPtr as *const T);
+        if a.N == 1 {
+            // As in `user_intersect`: RTCRay's typed layout for single rays.
+            if *a.valid == 0 {
+                return;
+            }
+            let r = &mut *(a.ray as *mut RTCRay);
+            let o = Vec3::new(r.org_x, r.org_y, r.org_z);
+            let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
+            if shape.hit(o, d, r.tnear, r.tfar).is_some() {
+                r.tfar = f32::NEG_INFINITY;
+            }
             return;
         }
-        let shape = &*(a.geometryUserPtr as *const T);
-        let r = &mut *(a.ray as *mut RTCRay);
-        let o = Vec3::new(r.org_x, r.org_y, r.org_z);
-        let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
-        if shape.hit(o, d, r.tnear, r.tfar).is_some() {
-            r.tfar = f32::NEG_INFINITY;
+        user_occluded_n(a, shape);
+    }
+}
+
+/// [`user_occluded`] of a packet (out of line, as [`user_intersect_n`]).
+///
+/// # Safety
+/// As for `user_occluded`.
+#[inline(never)]
+unsafe fn user_occluded_n<T: UserShape>(a: &RTCOccludedFunctionNArguments, shape: &T) {
+    // SAFETY: the caller's contract.
+    unsafe {
+        let n = a.N as usize;
+        for i in 0..n {
+            if *a.valid.add(i) == 0 {
+                continue;
+            }
+            let r = Lane {
+                base: a.ray as *mut u32,
+                n,
+                i,
+            };
+            if shape
+                .hit(r.vec(ORG_X), r.vec(DIR_X), r.get(TNEAR), r.get(TFAR))
+                .is_some()
+            {
+                r.set(TFAR, f32::NEG_INFINITY.to_bits());
+            }
         }
     }
 }
@@ -472,17 +594,28 @@ unsafe fn curve_geometry(device: RTCDevice, c: &CurveDesc) -> Result<RTCGeometry
 /// Rejects a curve hit seen from inside (ray direction · geometric normal > 0), as Mitsuba's
 /// own triangle backface filter does (`embree_backface_cull`).
 unsafe extern "C" fn cull_curve_backface(args: *const RTCFilterFunctionNArguments) {
-    // SAFETY: groove only traces single rays, for which Embree passes N = 1 and a ray and hit
-    // with RTCRay's and RTCHit's layouts (Embree 3 API, "RTCFilterFunctionN").
+    // SAFETY: Embree passes a ray and a hit packet of width N with N valid flags (Embree 3 API,
+    // "RTCFilterFunctionN").
     unsafe {
         let a = &*args;
-        if a.N != 1 || *a.valid == 0 {
-            return;
-        }
-        let r = &*(a.ray as *const RTCRay);
-        let h = &*(a.hit as *const RTCHit);
-        if r.dir_x * h.Ng_x + r.dir_y * h.Ng_y + r.dir_z * h.Ng_z > 0.0 {
-            *a.valid = 0;
+        let n = a.N as usize;
+        for i in 0..n {
+            if *a.valid.add(i) == 0 {
+                continue;
+            }
+            let r = Lane {
+                base: a.ray as *mut u32,
+                n,
+                i,
+            };
+            let h = Lane {
+                base: a.hit as *mut u32,
+                n,
+                i,
+            };
+            if r.vec(DIR_X).dot(h.vec(NG_X)) > 0.0 {
+                *a.valid.add(i) = 0;
+            }
         }
     }
 }
@@ -820,6 +953,91 @@ impl EmbreeScene {
         unsafe { rtcOccluded1(self.scene, &mut ctx, &mut r) };
         // Embree sets tfar to −∞ when the ray is occluded.
         r.tfar == f32::NEG_INFINITY
+    }
+}
+
+/// A valid mask for the 8-wide queries, 32-byte aligned: Embree reads it with aligned AVX
+/// loads, and the `embree3` crate's `ValidMaskN` is only 16-byte aligned (`align(16)`).
+#[repr(C, align(32))]
+struct Valid8([i32; 8]);
+
+impl Valid8 {
+    /// Lanes `0..n` valid (−1), the others not (0).
+    fn first(n: usize) -> Valid8 {
+        Valid8(std::array::from_fn(|i| if i < n { -1 } else { 0 }))
+    }
+}
+
+impl EmbreeScene {
+    /// Eight rays (or fewer: lanes past `rays.len()` are off) in Embree's packet layout.
+    fn ray8(rays: &[Ray]) -> RTCRay8 {
+        let lane = |f: fn(&Ray) -> f32| std::array::from_fn(|i| rays.get(i).map_or(0.0, f));
+        RTCRay8 {
+            org_x: lane(|r| r.o.x),
+            org_y: lane(|r| r.o.y),
+            org_z: lane(|r| r.o.z),
+            tnear: lane(|r| r.tmin),
+            dir_x: lane(|r| r.d.x),
+            dir_y: lane(|r| r.d.y),
+            dir_z: lane(|r| r.d.z),
+            time: [0.0; 8],
+            tfar: lane(|r| r.tmax),
+            mask: [u32::MAX; 8],
+            id: [0; 8],
+            flags: [0; 8],
+        }
+    }
+
+    /// Nearest hits of up to 8 rays traced as one `rtcIntersect8` packet: `out[i]` is the hit
+    /// of `rays[i]` (`coherent`: the rays start near each other and point alike, e.g. camera
+    /// rays of one pixel, which Embree may use to traverse them together).
+    pub(crate) fn intersect8(&self, rays: &[Ray], coherent: bool, out: &mut [Option<Hit>; 8]) {
+        let n = rays.len().min(8);
+        let valid = Valid8::first(n);
+        let mut ctx = Self::context();
+        if coherent {
+            ctx.flags = RTCIntersectContextFlags::COHERENT;
+        }
+        let mut rh = RTCRayHit8 {
+            ray: Self::ray8(rays),
+            hit: RTCHit8 {
+                Ng_x: [0.0; 8],
+                Ng_y: [0.0; 8],
+                Ng_z: [0.0; 8],
+                u: [0.0; 8],
+                v: [0.0; 8],
+                primID: [u32::MAX; 8],
+                geomID: [u32::MAX; 8],
+                instID: [[u32::MAX; 8]],
+            },
+        };
+        // SAFETY: the scene is committed; the mask, context and packet are valid locals with
+        // the alignments Embree requires (32 bytes for the mask and the packet).
+        unsafe { rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, &mut rh) };
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = (i < n && rh.hit.geomID[i] != u32::MAX).then(|| Hit {
+                geom: rh.hit.geomID[i],
+                prim: rh.hit.primID[i],
+                t: rh.ray.tfar[i],
+                u: rh.hit.u[i],
+                v: rh.hit.v[i],
+                inst: rh.hit.instID[0][i],
+            });
+        }
+    }
+
+    /// Occlusion of up to 8 rays traced as one `rtcOccluded8` packet: bit `i` set when
+    /// `rays[i]` is blocked.
+    pub(crate) fn occluded8(&self, rays: &[Ray]) -> u8 {
+        let n = rays.len().min(8);
+        let valid = Valid8::first(n);
+        let mut ctx = Self::context();
+        let mut r = Self::ray8(rays);
+        // SAFETY: as in `intersect8`.
+        unsafe { rtcOccluded8(valid.0.as_ptr(), self.scene, &mut ctx, &mut r) };
+        (0..n).fold(0, |m, i| {
+            m | (((r.tfar[i] == f32::NEG_INFINITY) as u8) << i)
+        })
     }
 }
 

@@ -114,6 +114,31 @@ impl Accel {
         Some(hit)
     }
 
+    /// [`Self::intersect`] of up to 8 rays traced as one Embree packet (`out[i]` for
+    /// `rays[i]`; `coherent` when the rays start together and point alike, as camera rays of
+    /// one pixel do). `groove bench`'s packet ceiling; the stream renderer's trace.
+    pub fn intersect8(&self, rays: &[Ray], coherent: bool, out: &mut [Option<Hit>; 8]) {
+        self.scene.intersect8(rays, coherent, out);
+        for hit in out.iter_mut() {
+            let Some(h) = hit else { continue };
+            if h.inst != NO_INSTANCE {
+                let k = h.inst.wrapping_sub(self.inst_base);
+                match self.first_member.get(k as usize) {
+                    Some(first) => {
+                        h.geom += *first;
+                        h.inst = k;
+                    }
+                    None => *hit = None,
+                }
+            }
+        }
+    }
+
+    /// [`Self::occluded`] of up to 8 rays traced as one Embree packet: bit `i` for `rays[i]`.
+    pub fn occluded8(&self, rays: &[Ray]) -> u8 {
+        self.scene.occluded8(rays)
+    }
+
     /// Whether any surface lies on the ray within `[ray.tmin, ray.tmax]`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {

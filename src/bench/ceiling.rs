@@ -6,8 +6,18 @@
 //! threads, with no shading, surface reconstruction or sampling: the render's own ray
 //! distribution at the intersection limit. Rays beyond the recording cap are made up by tracing
 //! the recorded ones again, so the count equals the render's.
+//!
+//! Three replays of the same rays (issue 16's measurements for the stream renderer):
+//! - **single**: one `rtcIntersect1`/`rtcOccluded1` per ray, as the renderer traces today;
+//! - **packets**: every ray in 8-wide packets (`rtcIntersect8`/`rtcOccluded8`), consecutive
+//!   rays of one kind together, in log order: incoherent packets, what a stream renderer that
+//!   does not sort its rays would trace;
+//! - **camera packets**: the camera rays alone, 8 consecutive ones per coherent packet (the log
+//!   keeps a pixel's samples together, so a packet is 8 samples of one pixel, as Dr.Jit's
+//!   `llvm_ad_rgb` traces them), against the same camera rays traced one by one.
 
 use crate::error::Result;
+use crate::geometry::Ray;
 use crate::integrator::LoggedRay;
 use crate::load::Loaded;
 use crate::render::{render, thread_pool, RenderOptions};
@@ -30,6 +40,13 @@ pub struct Ceiling {
     /// Best of the repeats.
     pub seconds: f64,
     pub rays_per_second: f64,
+    /// All rays in 8-wide packets: best time and rays/s.
+    pub packet_seconds: f64,
+    pub packet_rays_per_second: f64,
+    /// Camera rays among the recorded ones, traced one by one and as coherent 8-wide packets.
+    pub camera_rays: u64,
+    pub camera_single_rays_per_second: f64,
+    pub camera_packet_rays_per_second: f64,
 }
 
 /// Record a classic render of the loaded scene at `spp` and trace its rays again `repeat` times.
@@ -57,20 +74,34 @@ pub fn measure(
     let recorded = rays.len();
     let shadow = rays.iter().filter(|r| r.shadow).count();
     let pool = thread_pool(threads)?;
-    let mut best = f64::INFINITY;
-    for _ in 0..repeat.max(1) {
-        let t0 = Instant::now();
-        let hits: usize = pool.install(|| trace(&loaded.scene, &rays, total));
-        best = best.min(t0.elapsed().as_secs_f64());
-        std::hint::black_box(hits);
-    }
+    let best_of = |f: &(dyn Fn() -> usize + Sync)| {
+        let mut best = f64::INFINITY;
+        for _ in 0..repeat.max(1) {
+            let t0 = Instant::now();
+            std::hint::black_box(pool.install(f));
+            best = best.min(t0.elapsed().as_secs_f64());
+        }
+        best
+    };
+    let scene = &loaded.scene;
+    let single = best_of(&|| trace(scene, &rays, total));
+    let packets = best_of(&|| trace8(scene, &rays, total));
+    let camera: Vec<LoggedRay> = rays.iter().filter(|r| r.camera).copied().collect();
+    let camera_single = best_of(&|| trace(scene, &camera, camera.len()));
+    let camera_packets = best_of(&|| trace_camera8(scene, &camera));
+    let per_s = |n: usize, t: f64| n as f64 / t;
     Ok(Ceiling {
         scene: name.into(),
         rays: total as u64,
         recorded: recorded as u64,
         shadow_fraction: shadow as f64 / recorded.max(1) as f64,
-        seconds: best,
-        rays_per_second: total as f64 / best,
+        seconds: single,
+        rays_per_second: per_s(total, single),
+        packet_seconds: packets,
+        packet_rays_per_second: per_s(total, packets),
+        camera_rays: camera.len() as u64,
+        camera_single_rays_per_second: per_s(camera.len(), camera_single),
+        camera_packet_rays_per_second: per_s(camera.len(), camera_packets),
     })
 }
 
@@ -94,6 +125,69 @@ fn trace(scene: &Scene, rays: &[LoggedRay], total: usize) -> usize {
                     scene.accel.intersect(&r.ray).is_some()
                 };
                 hits += hit as usize;
+            }
+            hits
+        })
+        .sum()
+}
+
+/// [`trace`] in 8-wide packets: each chunk's rays in order, cut into runs of one kind (nearest
+/// hit or occlusion) of at most 8, each run one packet.
+fn trace8(scene: &Scene, rays: &[LoggedRay], total: usize) -> usize {
+    if rays.is_empty() {
+        return 0;
+    }
+    const CHUNK: usize = 4096;
+    let chunks = total.div_ceil(CHUNK);
+    (0..chunks)
+        .into_par_iter()
+        .map(|c| {
+            let mut hits = 0;
+            let mut lanes: Vec<Ray> = Vec::with_capacity(8);
+            let mut shadow = false;
+            let mut out = [None; 8];
+            let mut flush = |lanes: &mut Vec<Ray>, shadow: bool| {
+                if shadow {
+                    hits += scene.accel.occluded8(lanes).count_ones() as usize;
+                } else {
+                    scene.accel.intersect8(lanes, false, &mut out);
+                    hits += out.iter().filter(|h| h.is_some()).count();
+                }
+                lanes.clear();
+            };
+            for i in c * CHUNK..((c + 1) * CHUNK).min(total) {
+                let r = &rays[i % rays.len()];
+                if !lanes.is_empty() && (r.shadow != shadow || lanes.len() == 8) {
+                    flush(&mut lanes, shadow);
+                }
+                shadow = r.shadow;
+                lanes.push(r.ray);
+            }
+            if !lanes.is_empty() {
+                flush(&mut lanes, shadow);
+            }
+            hits
+        })
+        .sum()
+}
+
+/// The camera rays as coherent packets of 8 consecutive ones.
+fn trace_camera8(scene: &Scene, camera: &[LoggedRay]) -> usize {
+    const CHUNK: usize = 4096;
+    camera
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            let mut hits = 0;
+            let mut lanes = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
+            let mut out = [None; 8];
+            for packet in chunk.chunks(8) {
+                for (l, r) in lanes.iter_mut().zip(packet) {
+                    *l = r.ray;
+                }
+                scene
+                    .accel
+                    .intersect8(&lanes[..packet.len()], true, &mut out);
+                hits += out.iter().filter(|h| h.is_some()).count();
             }
             hits
         })

@@ -121,6 +121,16 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
                 c.seconds,
                 c.rays_per_second / 1e6
             );
+            let _ = writeln!(
+                s,
+                "The same rays in 8-wide packets (rtcIntersect8/rtcOccluded8, consecutive rays of one kind): **{:.2} Mrays/s** ({:.2}× single). Camera rays alone ({}): {:.2} Mrays/s one by one, **{:.2} Mrays/s** as coherent packets of 8 samples of a pixel ({:.2}×).",
+                c.packet_rays_per_second / 1e6,
+                c.packet_rays_per_second / c.rays_per_second,
+                c.camera_rays,
+                c.camera_single_rays_per_second / 1e6,
+                c.camera_packet_rays_per_second / 1e6,
+                c.camera_packet_rays_per_second / c.camera_single_rays_per_second
+            );
         }
         let peers: Vec<_> = r.peers.iter().filter(|p| p.scene == scene).collect();
         if !peers.is_empty() {

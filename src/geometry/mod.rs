@@ -18,7 +18,7 @@ pub mod serialized;
 pub mod shapes;
 
 pub use cylinder::Cylinder;
-pub use hit::Hit;
+pub use hit::{Hit, NO_INSTANCE};
 pub use instance::Instance;
 pub use interaction::SurfaceInteraction;
 pub use mesh::TriMesh;

@@ -41,11 +41,13 @@ impl RayCounters {
     }
 }
 
-/// One recorded ray: `shadow` rays only ask for occlusion.
+/// One recorded ray: `shadow` rays only ask for occlusion; `camera` rays leave the sensor (the
+/// camera rays of one pixel's samples are consecutive among the camera rays of a log).
 #[derive(Clone, Copy, Debug)]
 pub struct LoggedRay {
     pub ray: Ray,
     pub shadow: bool,
+    pub camera: bool,
 }
 
 /// Which counter a nearest-hit query goes to.
@@ -64,12 +66,16 @@ struct RayLog {
 impl RayLog {
     /// Keep `ray` while the shared budget lasts (recording is the rare case: off the hot path).
     #[cold]
-    fn push(&mut self, ray: &Ray, shadow: bool) {
+    fn push(&mut self, ray: &Ray, shadow: bool, camera: bool) {
         let left = self
             .budget
             .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |n| n.checked_sub(1));
         if left.is_ok() {
-            self.rays.push(LoggedRay { ray: *ray, shadow });
+            self.rays.push(LoggedRay {
+                ray: *ray,
+                shadow,
+                camera,
+            });
         }
     }
 }
@@ -100,9 +106,9 @@ impl Rays {
     }
 
     #[inline]
-    fn log(&mut self, ray: &Ray, shadow: bool) {
+    fn log(&mut self, ray: &Ray, shadow: bool, camera: bool) {
         if let Some(l) = &mut self.log {
-            l.push(ray, shadow);
+            l.push(ray, shadow, camera);
         }
     }
 
@@ -118,7 +124,7 @@ impl Rays {
             RayKind::Camera => self.counters.camera += 1,
             RayKind::Bounce => self.counters.bounce += 1,
         }
-        self.log(ray, false);
+        self.log(ray, false, kind == RayKind::Camera);
         scene.intersect(ray)
     }
 
@@ -126,7 +132,7 @@ impl Rays {
     #[inline]
     pub fn occluded(&mut self, scene: &Scene, ray: &Ray) -> bool {
         self.counters.shadow += 1;
-        self.log(ray, true);
+        self.log(ray, true, false);
         scene.occluded(ray)
     }
 }

@@ -14,6 +14,7 @@ mod hostile;
 mod instances;
 mod mesh_attribute;
 mod output;
+mod packets;
 mod plugins;
 mod projector;
 mod rotate_axis;

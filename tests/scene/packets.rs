@@ -1,0 +1,121 @@
+//! Embree's 8-wide packets (`Accel::intersect8`, `Accel::occluded8`) give every lane the hit a
+//! single ray gives, for every kind of surface groove hands to Embree: triangles, the user
+//! geometries (sphere, disk, rectangle, exact box, cylinder), round curves (with their backface
+//! filter) and instances of a shape group; for full and partial packets, coherent or not.
+
+use glam::Vec3;
+use groove::geometry::{Hit, Ray};
+use groove::load::Loaded;
+use groove::math::Pcg32;
+use std::path::Path;
+
+const GEOMETRY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/geometry");
+
+fn scene() -> Loaded {
+    let body = format!(
+        r#"<shape type="obj"><string name="filename" value="{GEOMETRY}/octahedron.obj"/>
+             <transform name="to_world"><scale value="0.7"/><translate x="-1.5"/></transform></shape>
+           <shape type="sphere"><point name="center" x="0.2" y="0.1" z="1.1"/><float name="radius" value="0.35"/></shape>
+           <shape type="disk"><transform name="to_world"><scale value="0.4"/><rotate x="1" angle="-60"/><translate y="1.3" z="0.4"/></transform></shape>
+           <shape type="rectangle"><transform name="to_world"><scale x="0.5" y="0.3"/><translate y="-1.2"/></transform></shape>
+           <shape type="cube"><transform name="to_world"><scale value="0.3"/><rotate x="1" angle="30"/><translate x="1.1" y="0.4"/></transform></shape>
+           <shape type="cylinder"><float name="radius" value="0.2"/><transform name="to_world"><rotate x="1" angle="70"/><translate x="1.0" y="-1.0" z="-0.8"/></transform></shape>
+           <shape type="linearcurve"><string name="filename" value="{GEOMETRY}/curves_linear.txt"/>
+             <transform name="to_world"><translate z="-1.5"/></transform></shape>
+           <shape type="shapegroup" id="g">
+             <shape type="sphere"><float name="radius" value="0.3"/></shape>
+             <shape type="obj"><string name="filename" value="{GEOMETRY}/quad.obj"/>
+               <transform name="to_world"><scale value="0.4"/><translate x="0.5"/></transform></shape>
+           </shape>
+           <shape type="instance"><ref id="g"/><transform name="to_world"><translate x="-0.5" y="1.5" z="-0.5"/></transform></shape>
+           <shape type="instance"><ref id="g"/><transform name="to_world"><rotate z="1" angle="45"/><translate x="0.3" y="-1.8" z="0.9"/></transform></shape>"#
+    );
+    let text =
+        format!("<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n{body}\n</scene>\n");
+    let doc = groove::scene::xml::parse::load_str(&text, Path::new("mem.xml"), &[]).unwrap();
+    groove::load::instantiate(&doc, Path::new("mem.xml")).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Rays from a sphere of radius 4 toward points in the scene's box, and (every third) from
+/// inside it; a few with a finite `tmax` so that some lanes stop short.
+fn rays(rng: &mut Pcg32, n: usize) -> Vec<Ray> {
+    let mut unit = || 2.0 * rng.next_f32() - 1.0;
+    (0..n)
+        .map(|k| {
+            let o = if k % 3 == 0 {
+                Vec3::new(unit(), unit(), unit()) * 1.5
+            } else {
+                Vec3::new(unit(), unit(), unit()).normalize_or(Vec3::Z) * 4.0
+            };
+            let target = Vec3::new(unit() * 1.8, unit() * 2.0, unit() * 1.6);
+            let mut r = Ray::new(o, (target - o).normalize());
+            if k % 5 == 0 {
+                r.tmax = 3.0;
+            }
+            r
+        })
+        .collect()
+}
+
+fn same_hit(a: &Option<Hit>, b: &Option<Hit>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(a), Some(b)) => {
+            // Embree's packet triangle test may round differently from the single-ray one.
+            let close = |x: f32, y: f32, tol: f32| (x - y).abs() <= tol * x.abs().max(1.0);
+            a.geom == b.geom
+                && a.prim == b.prim
+                && a.inst == b.inst
+                && close(a.t, b.t, 1e-5)
+                && close(a.u, b.u, 1e-4)
+                && close(a.v, b.v, 1e-4)
+        }
+        _ => false,
+    }
+}
+
+#[test]
+fn every_lane_of_a_packet_gets_the_single_ray_hit() {
+    let loaded = scene();
+    let accel = loaded.scene.accel();
+    let mut rng = Pcg32::new(7, 3);
+    let all = rays(&mut rng, 8 * 4000);
+    let (mut hits, mut instanced, mut mismatches) = (0, 0, Vec::new());
+    for (c, chunk) in all.chunks(8).enumerate() {
+        // Partial packets too: 8 lanes mostly, 1..7 every few chunks.
+        let n = if c % 4 == 3 { 1 + c % 7 } else { 8 };
+        let lanes = &chunk[..n];
+        let mut got = [None; 8];
+        accel.intersect8(lanes, c % 2 == 0, &mut got);
+        let blocked = accel.occluded8(lanes);
+        for (i, r) in lanes.iter().enumerate() {
+            let want = accel.intersect(r);
+            if !same_hit(&got[i], &want) {
+                mismatches.push((c, i, got[i], want));
+            }
+            assert_eq!(
+                blocked >> i & 1 == 1,
+                accel.occluded(r),
+                "packet {c} lane {i}: occlusion differs"
+            );
+            hits += want.is_some() as usize;
+            instanced += want.is_some_and(|h| h.inst != groove::geometry::NO_INSTANCE) as usize;
+        }
+        assert!(
+            got[n..].iter().all(Option::is_none),
+            "lanes past n stay empty"
+        );
+        assert_eq!(u32::from(blocked) >> n, 0, "lanes past n are not blocked");
+    }
+    // A ray grazing a triangle edge may go either way between the two traversals.
+    assert!(
+        mismatches.len() <= 2,
+        "{} of {} lanes differ, e.g. {:?}",
+        mismatches.len(),
+        all.len(),
+        &mismatches[..mismatches.len().min(3)]
+    );
+    // The scene is hit, instances included, so the comparison has content.
+    assert!(hits > all.len() / 8, "{hits} hits");
+    assert!(instanced > 100, "{instanced} instanced hits");
+}
