@@ -3,13 +3,14 @@
 normal map (scenes/bench/ripples.png) on chart.xml's plane, lit from the right (+x) by a
 directional light, seen straight down.
 
-    /work/.venv-mitsuba/bin/python scenes/diffuse_normalmap/make_figure.py \
+    python3 scenes/diffuse_normalmap/make_figure.py \
         [--groove target/release/groove] [-o docs/mnm-diffuse-normalmaps.png]
 
 Rows: classic, explicit (the paper's Variant M), walk-mirror, walk-same, vgroove, ugroove.
 Columns: diffuse (ρ = 0.8) with the light at elevation 10°, 30° and 60°, then rough plastic and
 rough conductor at 30°. Each column has one exposure, 0.4 / (the mean of its classic image),
-then sRGB; tiles are 96 × 96 px with a 2 px white gap. One thread per render.
+then sRGB; tiles are 96 × 96 px with a 2 px white gap. One thread per render. Needs numpy
+and mitsuba (for reading EXR and writing the PNG).
 """
 import argparse
 import os

@@ -2,7 +2,7 @@
 """Measures the light-direction shading of each normal-mapping model on chart.xml (the table of
 docs/mnm.md, "Normal maps on diffuse materials").
 
-    /work/.venv-mitsuba/bin/python scenes/diffuse_normalmap/measure.py \
+    python3 scenes/diffuse_normalmap/measure.py \
         [--groove target/release/groove] [--nested diffuse] [--spp 16] [--elevations 10,30,60]
 
 For each model (`--normal-mapping` mode) and light elevation e it renders the chart with one
