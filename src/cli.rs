@@ -110,7 +110,7 @@ pub struct RenderArgs {
     /// Normal-mapping model for every normal map of the scene: `classic` (plain `normalmap`, no
     /// flip, no shadowing term), `microfacet` (`microfacet_normalmap`, its parameters as written
     /// or defaults), or one microfacet model forced everywhere: `explicit` (sawtooth, mirror
-    /// wall, closed form), `walk-mirror` (the default model), `walk-same`, `vgroove`, `ugroove`.
+    /// wall, closed form), `walk-mirror`, `walk-same` (the default model), `vgroove`, `ugroove`.
     /// Default: as the scene is written.
     #[arg(long = "normal-mapping", value_name = "MODE", value_parser = parse_normal_mapping)]
     pub normal_mapping: Option<crate::load::options::NormalMapping>,

@@ -6,7 +6,7 @@
 use super::options::{MnmMode, NormalMapping};
 use super::{unknown, Builder, MAX_NESTING};
 use crate::bsdf::mnm::facets::Microgeometry;
-use crate::bsdf::mnm::{Evaluation, Tangent};
+use crate::bsdf::mnm::Evaluation;
 use crate::bsdf::{
     blend, bumpmap, conductor, dielectric, diffuse, hair, mask, mnm, normalmap, null, plastic,
     principled, principledthin, roughconductor, roughdielectric, roughplastic, thindielectric,
@@ -43,10 +43,11 @@ const SUPPORTED_BSDFS: &[&str] = &[
     "hair",
 ];
 
-/// The model `--normal-mapping microfacet` gives a `normalmap`: the decisions page's defaults.
+/// The model `--normal-mapping microfacet` gives a `normalmap`: the defaults of
+/// `microfacet_normalmap` (its wall: `mnm::load::DEFAULT_WALK_TANGENT`).
 const MICROFACET_DEFAULT: MnmMode = MnmMode {
     geometry: Microgeometry::Sawtooth,
-    tangent: Tangent::Mirror,
+    tangent: mnm::load::DEFAULT_WALK_TANGENT,
     evaluation: Evaluation::RandomWalk,
 };
 

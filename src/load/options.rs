@@ -56,9 +56,9 @@ impl NormalMapping {
 
     /// `classic`, `microfacet`, `as_written`, or a forced mode: `explicit` (sawtooth, mirror
     /// wall, the paper's closed form), `explicit4` (the same with the complete first order, four
-    /// paths), `walk-mirror` (sawtooth, mirror wall, random walk: the default model),
-    /// `walk-same` (sawtooth, same-material wall, random walk), `vgroove`, `ugroove` (fill 0.5;
-    /// random walk).
+    /// paths), `walk-mirror` (sawtooth, mirror wall, random walk: the paper's model),
+    /// `walk-same` (sawtooth, same-material wall, random walk: the default model), `vgroove`,
+    /// `ugroove` (fill 0.5; random walk).
     pub fn parse(s: &str) -> Option<NormalMapping> {
         let forced = |geometry, tangent, evaluation| {
             Some(NormalMapping::Forced(MnmMode {

@@ -11,6 +11,7 @@ mod instances;
 mod lights;
 mod materials;
 mod mnm;
+mod mnm_default_tangent;
 mod normalmap;
 mod parity;
 mod refs_selfcheck;

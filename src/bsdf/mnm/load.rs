@@ -10,7 +10,7 @@
 //! | (nested) | one `<bsdf>` | required | the BSDF on every facet (a non-delta lobe; a transmitting one needs the random walk) |
 //! | `microgeometry` | string | `sawtooth` | `sawtooth`, `vgroove` or `ugroove` ([`Microgeometry`]) |
 //! | `groove_fill` | float | 0.5 | the flat share of a `ugroove`, in (0, 1] (`ugroove` only) |
-//! | `tangent` | string | `mirror` (sawtooth), `same` (grooves) | the sawtooth's wall: a perfect mirror or the nested BSDF (`sawtooth` only) |
+//! | `tangent` | string | `same` (random walk), `mirror` (explicit forms) | the sawtooth's wall: a perfect mirror or the nested BSDF (`sawtooth` only); the default is [`DEFAULT_WALK_TANGENT`] for every nested kind |
 //! | `evaluation` | string | `random_walk` | `random_walk`, `explicit` (the paper's closed form, Variant M) or `explicit4` (the complete first order: Variant M plus t→p→t→o); the explicit forms are sawtooth only |
 //! | `lambert_closed_form` | boolean | true | over a `diffuse` (or twosided diffuse) nested BSDF, `random_walk` uses the walk's exact closed forms (`lambert.rs`); false runs the walk itself |
 //! | `max_order` | integer | 256 | longest random walk, in scattering events |
@@ -34,7 +34,6 @@ pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>, forced: Option<MnmMode>) -> Result
     let (nested, nested_loc, normalmap) = parts(cx, "microfacet_normalmap")?;
     let p = cx.props();
     let geometry = microgeometry(p)?;
-    let tangent = tangent(p, geometry)?;
     let evaluation = match p.string("evaluation", "random_walk")?.as_str() {
         "random_walk" => Evaluation::RandomWalk,
         "explicit" => Evaluation::Explicit,
@@ -46,6 +45,7 @@ pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>, forced: Option<MnmMode>) -> Result
             ))
         }
     };
+    let tangent = tangent(p, geometry, evaluation)?;
     let (geometry, tangent, evaluation) = match forced {
         Some(f) => (f.geometry, f.tangent, f.evaluation),
         None => (geometry, tangent, evaluation),
@@ -148,14 +148,23 @@ fn microgeometry(p: &Props) -> Result<Microgeometry> {
     Ok(geometry)
 }
 
-/// `tangent`, which only the sawtooth takes (mirror by default; the grooves' walls are the
-/// same material).
-fn tangent(p: &Props, geometry: Microgeometry) -> Result<Tangent> {
+/// The sawtooth's wall when `tangent` is absent and the random walk evaluates: the nested BSDF,
+/// for every nested kind. Measured in `docs/mnm.md`, "Normal maps on diffuse materials": a
+/// mirror wall makes texels tilted toward and away from a light look alike (exactly so over
+/// `diffuse`, where the mirror walk is Lambertian; over rough conductor, plastic and dielectric
+/// wherever the light reaches the wall, like the symmetric V-groove), so the normal map loses
+/// its relief; a same-material wall keeps it. `--normal-mapping microfacet` uses it too.
+pub(crate) const DEFAULT_WALK_TANGENT: Tangent = Tangent::Same;
+
+/// `tangent`, which only the sawtooth takes. Absent: [`DEFAULT_WALK_TANGENT`] under the
+/// random walk; `mirror` under the explicit forms, whose paths are the mirror wall's (the
+/// paper's Variant M and its complete first order). The grooves' walls are the same material.
+fn tangent(p: &Props, geometry: Microgeometry, evaluation: Evaluation) -> Result<Tangent> {
     if !p.has("tangent") {
-        return Ok(if geometry == Microgeometry::Sawtooth {
-            Tangent::Mirror
-        } else {
-            Tangent::Same
+        return Ok(match geometry {
+            Microgeometry::Sawtooth if evaluation.is_explicit() => Tangent::Mirror,
+            Microgeometry::Sawtooth => DEFAULT_WALK_TANGENT,
+            _ => Tangent::Same,
         });
     }
     if geometry != Microgeometry::Sawtooth {
