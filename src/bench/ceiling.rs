@@ -47,6 +47,25 @@ pub struct Ceiling {
     pub camera_rays: u64,
     pub camera_single_rays_per_second: f64,
     pub camera_packet_rays_per_second: f64,
+    /// Lane occupancy of 8-sample packets, per path depth ([`lanes`]).
+    pub lanes: Vec<LaneStats>,
+}
+
+/// How 8 samples of one pixel, run as one 8-lane packet that lives until its longest path ends
+/// (Dr.Jit's `llvm_ad_rgb` without compaction), would fill the lanes at one path depth: the
+/// stream renderer's two counters, measured on the scalar renderer's recorded paths (so they
+/// cost nothing when not benchmarking).
+#[derive(Clone, Debug, Serialize)]
+pub struct LaneStats {
+    /// Path depth: 0 = the camera ray, k = the k-th bounce ray.
+    pub depth: u32,
+    /// Packets with at least one path still alive at this depth.
+    pub packets: u64,
+    /// Mean fraction of the 8 lanes alive in those packets.
+    pub active_fraction: f64,
+    /// Mean number of distinct materials the alive lanes hit (a miss counts as one more kind):
+    /// how many material kernels the packet runs at this depth.
+    pub distinct_materials: f64,
 }
 
 /// Record a classic render of the loaded scene at `spp` and trace its rays again `repeat` times.
@@ -89,6 +108,7 @@ pub fn measure(
     let camera: Vec<LoggedRay> = rays.iter().filter(|r| r.camera).copied().collect();
     let camera_single = best_of(&|| trace(scene, &camera, camera.len()));
     let camera_packets = best_of(&|| trace_camera8(scene, &camera));
+    let lanes = lanes(scene, &rays);
     let per_s = |n: usize, t: f64| n as f64 / t;
     Ok(Ceiling {
         scene: name.into(),
@@ -102,6 +122,7 @@ pub fn measure(
         camera_rays: camera.len() as u64,
         camera_single_rays_per_second: per_s(camera.len(), camera_single),
         camera_packet_rays_per_second: per_s(camera.len(), camera_packets),
+        lanes,
     })
 }
 
@@ -192,4 +213,46 @@ fn trace_camera8(scene: &Scene, camera: &[LoggedRay]) -> usize {
             hits
         })
         .sum()
+}
+
+/// [`LaneStats`] of the recorded rays, up to depth 15: the log is cut into paths at camera rays
+/// (a path's nearest-hit rays are its camera ray and bounce rays, in order) and into packets of
+/// 8 consecutive paths (8 samples of one pixel when the spp is a multiple of 8).
+pub fn lanes(scene: &Scene, rays: &[LoggedRay]) -> Vec<LaneStats> {
+    const DEPTHS: usize = 16;
+    // Per path: the material (or u32::MAX for a miss) hit at each depth.
+    let mut paths: Vec<Vec<u32>> = Vec::new();
+    for r in rays.iter().filter(|r| !r.shadow) {
+        if r.camera || paths.is_empty() {
+            paths.push(Vec::new());
+        }
+        let path = paths.last_mut().expect("a path was pushed");
+        if path.len() < DEPTHS {
+            let hit = scene.accel.intersect(&r.ray);
+            path.push(hit.map_or(u32::MAX, |h| scene.shape_material[h.geom as usize]));
+        }
+    }
+    let mut sums = [(0u64, 0u64, 0u64); DEPTHS];
+    for packet in paths.chunks_exact(8) {
+        for (d, sum) in sums.iter_mut().enumerate() {
+            let mut kinds: Vec<u32> = packet.iter().filter_map(|p| p.get(d).copied()).collect();
+            if kinds.is_empty() {
+                break;
+            }
+            let alive = kinds.len() as u64;
+            kinds.sort_unstable();
+            kinds.dedup();
+            *sum = (sum.0 + 1, sum.1 + alive, sum.2 + kinds.len() as u64);
+        }
+    }
+    sums.iter()
+        .enumerate()
+        .take_while(|(_, s)| s.0 > 0)
+        .map(|(d, &(packets, alive, kinds))| LaneStats {
+            depth: d as u32,
+            packets,
+            active_fraction: alive as f64 / (8 * packets) as f64,
+            distinct_materials: kinds as f64 / packets as f64,
+        })
+        .collect()
 }

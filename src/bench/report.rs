@@ -131,6 +131,22 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
                 c.camera_packet_rays_per_second / 1e6,
                 c.camera_packet_rays_per_second / c.camera_single_rays_per_second
             );
+            if !c.lanes.is_empty() {
+                let _ = writeln!(
+                    s,
+                    "\nPackets of 8 samples of a pixel, kept until their longest path ends (no compaction):\n\n| depth | packets | lanes alive | distinct materials |\n|---|---|---|---|"
+                );
+                for l in &c.lanes {
+                    let _ = writeln!(
+                        s,
+                        "| {} | {} | {:.1} % | {:.2} |",
+                        l.depth,
+                        l.packets,
+                        100.0 * l.active_fraction,
+                        l.distinct_materials
+                    );
+                }
+            }
         }
         let peers: Vec<_> = r.peers.iter().filter(|p| p.scene == scene).collect();
         if !peers.is_empty() {

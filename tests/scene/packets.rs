@@ -119,3 +119,43 @@ fn every_lane_of_a_packet_gets_the_single_ray_hit() {
     assert!(hits > all.len() / 8, "{hits} hits");
     assert!(instanced > 100, "{instanced} instanced hits");
 }
+
+/// The lane counters of `groove bench --rays` on a made-up log: 8 paths of lengths 1..=8, the
+/// even ones' first bounce hitting the sphere (a second material kind beside the misses).
+#[test]
+fn lane_stats_count_alive_lanes_and_material_kinds_per_depth() {
+    use groove::integrator::LoggedRay;
+    let loaded = scene();
+    let miss = Ray::new(Vec3::new(0.0, 0.0, 10.0), Vec3::Z);
+    let sphere = Ray::new(Vec3::new(0.2, 0.1, 3.0), -Vec3::Z);
+    assert!(loaded.scene.accel().intersect(&miss).is_none());
+    assert!(loaded.scene.accel().intersect(&sphere).is_some());
+    let mut log = Vec::new();
+    for len in 1..=8usize {
+        for d in 0..len {
+            let ray = if d == 1 && len % 2 == 0 { sphere } else { miss };
+            log.push(LoggedRay {
+                ray,
+                shadow: false,
+                camera: d == 0,
+            });
+            // Shadow rays in between do not count as path vertices.
+            log.push(LoggedRay {
+                ray: sphere,
+                shadow: true,
+                camera: false,
+            });
+        }
+    }
+    let stats = groove::bench::ceiling::lanes(&loaded.scene, &log);
+    assert_eq!(stats.len(), 8);
+    for (d, s) in stats.iter().enumerate() {
+        assert_eq!(s.depth as usize, d);
+        assert_eq!(s.packets, 1);
+        // Paths of length > d are alive at depth d: 8 − d of them.
+        assert_eq!(s.active_fraction, (8 - d) as f64 / 8.0);
+        // At depth 1 the even-length paths hit the sphere, the odd ones miss.
+        let kinds = if d == 1 { 2.0 } else { 1.0 };
+        assert_eq!(s.distinct_materials, kinds, "depth {d}");
+    }
+}
