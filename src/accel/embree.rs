@@ -386,6 +386,19 @@ impl Lane {
     }
 }
 
+/// Calls `f` with each lane of the width-`n` packet at `base` whose `valid` flag is set.
+///
+/// # Safety
+/// `valid` points to `n` flags and `base` to a packet of width `n` (see [`Lane`]).
+unsafe fn each_valid_lane(valid: *const i32, base: *mut u32, n: usize, mut f: impl FnMut(Lane)) {
+    for i in 0..n {
+        // SAFETY: i < n, the caller's contract.
+        if unsafe { *valid.add(i) } != 0 {
+            f(Lane { base, n, i });
+        }
+    }
+}
+
 unsafe extern "C" fn user_intersect<T: UserShape>(args: *const RTCIntersectFunctionNArguments) {
     // SAFETY: Embree passes a ray-hit packet of width N with N valid flags (Embree 3 API,
     // "rtcSetGeometryIntersectFunction"); the user pointer is the scene's boxed `T`.
@@ -424,16 +437,7 @@ unsafe extern "C" fn user_intersect<T: UserShape>(args: *const RTCIntersectFunct
 unsafe fn user_intersect_n<T: UserShape>(a: &RTCIntersectFunctionNArguments, shape: &T) {
     // SAFETY: the caller's contract.
     unsafe {
-        let n = a.N as usize;
-        for i in 0..n {
-            if *a.valid.add(i) == 0 {
-                continue;
-            }
-            let r = Lane {
-                base: a.rayhit as *mut u32,
-                n,
-                i,
-            };
+        each_valid_lane(a.valid, a.rayhit as *mut u32, a.N as usize, |r| {
             // groove reads no Ng, so the callbacks leave it unset.
             if let Some(h) = shape.hit(r.vec(ORG_X), r.vec(DIR_X), r.get(TNEAR), r.get(TFAR)) {
                 r.set(TFAR, h.t.to_bits());
@@ -444,7 +448,7 @@ unsafe fn user_intersect_n<T: UserShape>(a: &RTCIntersectFunctionNArguments, sha
                 hit.set(GEOM_ID, a.geomID);
                 hit.set(INST_ID, (*a.context).instID[0]);
             }
-        }
+        });
     }
 }
 
@@ -478,23 +482,14 @@ unsafe extern "C" fn user_occluded<T: UserShape>(args: *const RTCOccludedFunctio
 unsafe fn user_occluded_n<T: UserShape>(a: &RTCOccludedFunctionNArguments, shape: &T) {
     // SAFETY: the caller's contract.
     unsafe {
-        let n = a.N as usize;
-        for i in 0..n {
-            if *a.valid.add(i) == 0 {
-                continue;
-            }
-            let r = Lane {
-                base: a.ray as *mut u32,
-                n,
-                i,
-            };
+        each_valid_lane(a.valid, a.ray as *mut u32, a.N as usize, |r| {
             if shape
                 .hit(r.vec(ORG_X), r.vec(DIR_X), r.get(TNEAR), r.get(TFAR))
                 .is_some()
             {
                 r.set(TFAR, f32::NEG_INFINITY.to_bits());
             }
-        }
+        });
     }
 }
 
@@ -598,25 +593,15 @@ unsafe extern "C" fn cull_curve_backface(args: *const RTCFilterFunctionNArgument
     // "RTCFilterFunctionN").
     unsafe {
         let a = &*args;
-        let n = a.N as usize;
-        for i in 0..n {
-            if *a.valid.add(i) == 0 {
-                continue;
-            }
-            let r = Lane {
-                base: a.ray as *mut u32,
-                n,
-                i,
-            };
+        each_valid_lane(a.valid, a.ray as *mut u32, a.N as usize, |r| {
             let h = Lane {
                 base: a.hit as *mut u32,
-                n,
-                i,
+                ..r
             };
             if r.vec(DIR_X).dot(h.vec(NG_X)) > 0.0 {
-                *a.valid.add(i) = 0;
+                *a.valid.add(r.i) = 0;
             }
-        }
+        });
     }
 }
 

@@ -132,23 +132,27 @@ fn trace(scene: &Scene, rays: &[LoggedRay], total: usize) -> usize {
     if rays.is_empty() {
         return 0;
     }
+    sum_over_chunks(total, |range| {
+        let mut hits = 0;
+        for i in range {
+            let r = &rays[i % rays.len()];
+            let hit = if r.shadow {
+                scene.accel.occluded(&r.ray)
+            } else {
+                scene.accel.intersect(&r.ray).is_some()
+            };
+            hits += hit as usize;
+        }
+        hits
+    })
+}
+
+/// Σ `f(range)` over `0..total` cut into chunks of 4096 ray indices, the chunks in parallel.
+fn sum_over_chunks(total: usize, f: impl Fn(std::ops::Range<usize>) -> usize + Sync) -> usize {
     const CHUNK: usize = 4096;
-    let chunks = total.div_ceil(CHUNK);
-    (0..chunks)
+    (0..total.div_ceil(CHUNK))
         .into_par_iter()
-        .map(|c| {
-            let mut hits = 0;
-            for i in c * CHUNK..((c + 1) * CHUNK).min(total) {
-                let r = &rays[i % rays.len()];
-                let hit = if r.shadow {
-                    scene.accel.occluded(&r.ray)
-                } else {
-                    scene.accel.intersect(&r.ray).is_some()
-                };
-                hits += hit as usize;
-            }
-            hits
-        })
+        .map(|c| f(c * CHUNK..((c + 1) * CHUNK).min(total)))
         .sum()
 }
 
@@ -158,38 +162,33 @@ fn trace8(scene: &Scene, rays: &[LoggedRay], total: usize) -> usize {
     if rays.is_empty() {
         return 0;
     }
-    const CHUNK: usize = 4096;
-    let chunks = total.div_ceil(CHUNK);
-    (0..chunks)
-        .into_par_iter()
-        .map(|c| {
-            let mut hits = 0;
-            let mut lanes: Vec<Ray> = Vec::with_capacity(8);
-            let mut shadow = false;
-            let mut out = [None; 8];
-            let mut flush = |lanes: &mut Vec<Ray>, shadow: bool| {
-                if shadow {
-                    hits += scene.accel.occluded8(lanes).count_ones() as usize;
-                } else {
-                    scene.accel.intersect8(lanes, false, &mut out);
-                    hits += out.iter().filter(|h| h.is_some()).count();
-                }
-                lanes.clear();
-            };
-            for i in c * CHUNK..((c + 1) * CHUNK).min(total) {
-                let r = &rays[i % rays.len()];
-                if !lanes.is_empty() && (r.shadow != shadow || lanes.len() == 8) {
-                    flush(&mut lanes, shadow);
-                }
-                shadow = r.shadow;
-                lanes.push(r.ray);
+    sum_over_chunks(total, |range| {
+        let mut hits = 0;
+        let mut lanes: Vec<Ray> = Vec::with_capacity(8);
+        let mut shadow = false;
+        let mut out = [None; 8];
+        let mut flush = |lanes: &mut Vec<Ray>, shadow: bool| {
+            if shadow {
+                hits += scene.accel.occluded8(lanes).count_ones() as usize;
+            } else {
+                scene.accel.intersect8(lanes, false, &mut out);
+                hits += out.iter().filter(|h| h.is_some()).count();
             }
-            if !lanes.is_empty() {
+            lanes.clear();
+        };
+        for i in range {
+            let r = &rays[i % rays.len()];
+            if !lanes.is_empty() && (r.shadow != shadow || lanes.len() == 8) {
                 flush(&mut lanes, shadow);
             }
-            hits
-        })
-        .sum()
+            shadow = r.shadow;
+            lanes.push(r.ray);
+        }
+        if !lanes.is_empty() {
+            flush(&mut lanes, shadow);
+        }
+        hits
+    })
 }
 
 /// The camera rays as coherent packets of 8 consecutive ones.
