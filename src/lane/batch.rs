@@ -34,16 +34,19 @@ pub fn map1_avx2(
     f8: impl Fn(F32x8) -> F32x8,
     f1: impl Fn(f32) -> f32,
 ) {
-    avx.run(|| {
-        let n = a.len().min(out.len());
-        let mut ca = a[..n].chunks_exact(8);
-        let mut co = out[..n].chunks_exact_mut(8);
-        for (x, o) in (&mut ca).zip(&mut co) {
-            let x = avx.load(x.try_into().expect("chunk of 8"));
-            f8(x).store(o.try_into().expect("chunk of 8"));
-        }
-        map1_scalar(ca.remainder(), co.into_remainder(), f1);
-    })
+    avx.run(
+        #[inline(always)]
+        || {
+            let n = a.len().min(out.len());
+            let mut ca = a[..n].chunks_exact(8);
+            let mut co = out[..n].chunks_exact_mut(8);
+            for (x, o) in (&mut ca).zip(&mut co) {
+                let x = avx.load(x.try_into().expect("chunk of 8"));
+                f8(x).store(o.try_into().expect("chunk of 8"));
+            }
+            map1_scalar(ca.remainder(), co.into_remainder(), f1);
+        },
+    )
 }
 
 /// `out[i] = f(a[i], b[i])` over chunks of 8, with the tail at width 1.
@@ -57,18 +60,21 @@ pub fn map2_avx2(
     f8: impl Fn(F32x8, F32x8) -> F32x8,
     f1: impl Fn(f32, f32) -> f32,
 ) {
-    avx.run(|| {
-        let n = a.len().min(b.len()).min(out.len());
-        let mut ca = a[..n].chunks_exact(8);
-        let mut cb = b[..n].chunks_exact(8);
-        let mut co = out[..n].chunks_exact_mut(8);
-        for ((x, y), o) in (&mut ca).zip(&mut cb).zip(&mut co) {
-            let x = avx.load(x.try_into().expect("chunk of 8"));
-            let y = avx.load(y.try_into().expect("chunk of 8"));
-            f8(x, y).store(o.try_into().expect("chunk of 8"));
-        }
-        map2_scalar(ca.remainder(), cb.remainder(), co.into_remainder(), f1);
-    })
+    avx.run(
+        #[inline(always)]
+        || {
+            let n = a.len().min(b.len()).min(out.len());
+            let mut ca = a[..n].chunks_exact(8);
+            let mut cb = b[..n].chunks_exact(8);
+            let mut co = out[..n].chunks_exact_mut(8);
+            for ((x, y), o) in (&mut ca).zip(&mut cb).zip(&mut co) {
+                let x = avx.load(x.try_into().expect("chunk of 8"));
+                let y = avx.load(y.try_into().expect("chunk of 8"));
+                f8(x, y).store(o.try_into().expect("chunk of 8"));
+            }
+            map2_scalar(ca.remainder(), cb.remainder(), co.into_remainder(), f1);
+        },
+    )
 }
 
 /// Lane `i` of each of `vals` (helper for comparing lanes in tests).

@@ -32,7 +32,7 @@ impl<L: Lane> Frame<L> {
         let s = dpdu - n.scale(n.dot(dpdu));
         let len2 = s.length_squared();
         let bad = len2.le(len2.splat(1e-20)) | !len2.is_finite();
-        let s = s.div(len2.sqrt());
+        let s = s.div_by(len2.sqrt());
         let f = Frame::from_normal(n);
         Frame {
             s: V3::select(bad, f.s, s),

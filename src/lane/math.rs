@@ -16,6 +16,10 @@
 //! - `pow` = exp(y·log|x|) with C99's special cases: the error grows with |y·ln x| (an ulp of
 //!   log becomes |y·ln x| ulps of the result).
 
+// The coefficients are written as published (and the split constants to full f64 digits):
+// each literal rounds to the f32 the tests measured.
+#![allow(clippy::excessive_precision)]
+
 use super::{Lane, LaneI32, LaneMask};
 
 /// π/2 in four parts of 12, 12, 12 and 24 bits: j·part is exact for j < 2¹².

@@ -53,9 +53,7 @@ impl<L: Lane> Microfacet<L> {
         let ay = m.y / self.alpha_v;
         let auv = self.alpha_u * self.alpha_v;
         let d = match self.kind {
-            MicrofacetType::Beckmann => {
-                exp(-(ax * ax + ay * ay) / ct2) / (k(PI) * auv * ct2 * ct2)
-            }
+            MicrofacetType::Beckmann => exp(-(ax * ax + ay * ay) / ct2) / (k(PI) * auv * ct2 * ct2),
             MicrofacetType::Ggx => {
                 let t = ax * ax + ay * ay + ct2;
                 k(1.0) / (k(PI) * auv * t * t)
@@ -171,7 +169,7 @@ impl<L: Lane> Microfacet<L> {
             rust_max(wi.z, k(0.0)),
         );
         let len = wi_s.length();
-        let v = wi_s.div(len);
+        let v = wi_s.div_by(len);
         let z = (k(1.0) - u.y) * (k(1.0) + v.z) - v.z;
         let sin_t = safe_sqrt(k(1.0) - z * z);
         let (s, c) = sincos(k(2.0 * PI) * u.x);
@@ -184,9 +182,13 @@ impl<L: Lane> Microfacet<L> {
     #[inline(always)]
     fn unstretch(&self, h: V3<L>) -> V3<L> {
         let k = |c: f32| h.z.splat(c);
-        let m = V3::new(self.alpha_u * h.x, self.alpha_v * h.y, rust_max(h.z, k(0.0)));
+        let m = V3::new(
+            self.alpha_u * h.x,
+            self.alpha_v * h.y,
+            rust_max(h.z, k(0.0)),
+        );
         let l = m.length();
-        V3::select(l.gt(k(0.0)), m.div(l), V3::splat(k(0.0), 0.0, 0.0, 1.0))
+        V3::select(l.gt(k(0.0)), m.div_by(l), V3::splat(k(0.0), 0.0, 0.0, 1.0))
     }
 }
 
@@ -206,7 +208,7 @@ fn slope_to_normal<L: Lane>(sx: L, sy: L) -> V3<L> {
         L::select(ok2, -sy * rcp, k(0.0)),
         k(0.0),
     );
-    V3::select(l.is_finite() & l.gt(k(0.0)), m.div(l), g)
+    V3::select(l.is_finite() & l.gt(k(0.0)), m.div_by(l), g)
 }
 
 /// `a.max(b)` with Rust's `f32::max` semantics for a NaN `a` (gives `b`), which the x86 max

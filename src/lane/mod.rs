@@ -37,11 +37,16 @@ pub mod vec;
 pub mod warp;
 
 #[cfg(target_arch = "x86_64")]
-pub use avx2::{Avx2, F32x8, I32x8, M8, U64x8};
+pub use avx2::{Avx2, F32x8, I32x8, U64x8, M8};
 
 /// A lane mask: per lane true or false (`bool` at width 1, all-ones/all-zeros lanes at width 8).
 pub trait LaneMask:
-    Copy + Debug + BitAnd<Output = Self> + BitOr<Output = Self> + BitXor<Output = Self> + Not<Output = Self>
+    Copy
+    + Debug
+    + BitAnd<Output = Self>
+    + BitOr<Output = Self>
+    + BitXor<Output = Self>
+    + Not<Output = Self>
 {
     /// Whether any lane is set. Horizontal: use it only for fast paths whose result equals the
     /// slow path's bit for bit.

@@ -94,9 +94,7 @@ impl Lane for f32 {
         #[cfg(target_arch = "x86_64")]
         {
             // SAFETY: SSE is part of the x86-64 baseline.
-            unsafe {
-                core::arch::x86_64::_mm_cvtss_si32(core::arch::x86_64::_mm_set_ss(self))
-            }
+            unsafe { core::arch::x86_64::_mm_cvtss_si32(core::arch::x86_64::_mm_set_ss(self)) }
         }
         #[cfg(not(target_arch = "x86_64"))]
         {

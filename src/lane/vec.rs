@@ -63,7 +63,7 @@ impl<L: Lane> V3<L> {
     }
     /// Each component divided by `s`.
     #[inline(always)]
-    pub fn div(self, s: L) -> Self {
+    pub fn div_by(self, s: L) -> Self {
         V3::new(self.x / s, self.y / s, self.z / s)
     }
     /// Per lane `if m { a } else { b }`.

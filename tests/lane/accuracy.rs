@@ -14,7 +14,11 @@ fn ulp(y: f32) -> f64 {
 /// |got − want| in ulps of `want` rounded to f32 (0 when both are the same infinity or NaN).
 fn ulps(got: f32, want: f64) -> f64 {
     if got.is_nan() || want.is_nan() {
-        return if got.is_nan() && want.is_nan() { 0.0 } else { f64::INFINITY };
+        return if got.is_nan() && want.is_nan() {
+            0.0
+        } else {
+            f64::INFINITY
+        };
     }
     let w = want as f32;
     if w.is_infinite() || got.is_infinite() {
@@ -44,12 +48,18 @@ fn worst(
 }
 
 fn n() -> usize {
-    (count() / 10).max(10_000)
+    crate::harness::count_composite().max(10_000)
 }
 
 fn assert_within(name: &str, bound: f64, w: (f64, f32, f32)) {
     eprintln!("{name}: max {:.3} ulp at ({:e}, {:e})", w.0, w.1, w.2);
-    assert!(w.0 <= bound, "{name}: {:.3} ulp > {bound} at ({:e}, {:e})", w.0, w.1, w.2);
+    assert!(
+        w.0 <= bound,
+        "{name}: {:.3} ulp > {bound} at ({:e}, {:e})",
+        w.0,
+        w.1,
+        w.2
+    );
 }
 
 #[test]
@@ -62,32 +72,64 @@ fn sin_cos_accuracy() {
         };
         (x, 0.0)
     };
-    assert_within("sin", 2.0, worst(n(), 1, gen, |x, _| math::sin(x), |x, _| x.sin()));
-    assert_within("cos", 2.0, worst(n(), 2, gen, |x, _| math::cos(x), |x, _| x.cos()));
+    assert_within(
+        "sin",
+        2.0,
+        worst(n(), 1, gen, |x, _| math::sin(x), |x, _| x.sin()),
+    );
+    assert_within(
+        "cos",
+        2.0,
+        worst(n(), 2, gen, |x, _| math::cos(x), |x, _| x.cos()),
+    );
 }
 
 #[test]
 fn exp_accuracy() {
     let gen = |r: &mut Pcg32| (uniform(r, -103.0, 88.7), 0.0);
-    assert_within("exp", 1.0, worst(n(), 3, gen, |x, _| math::exp(x), |x, _| x.exp()));
+    assert_within(
+        "exp",
+        1.0,
+        worst(n(), 3, gen, |x, _| math::exp(x), |x, _| x.exp()),
+    );
     let small = |r: &mut Pcg32| (log_uniform(r, -40, 0, true), 0.0);
-    assert_within("exp small", 1.0, worst(n(), 4, small, |x, _| math::exp(x), |x, _| x.exp()));
+    assert_within(
+        "exp small",
+        1.0,
+        worst(n(), 4, small, |x, _| math::exp(x), |x, _| x.exp()),
+    );
 }
 
 #[test]
 fn log_accuracy() {
     let gen = |r: &mut Pcg32| (log_uniform(r, -149, 128, false), 0.0);
-    assert_within("log", 2.0, worst(n(), 5, gen, |x, _| math::log(x), |x, _| x.ln()));
+    assert_within(
+        "log",
+        2.0,
+        worst(n(), 5, gen, |x, _| math::log(x), |x, _| x.ln()),
+    );
     let near1 = |r: &mut Pcg32| (uniform(r, 0.5, 2.0), 0.0);
-    assert_within("log near 1", 2.0, worst(n(), 6, near1, |x, _| math::log(x), |x, _| x.ln()));
+    assert_within(
+        "log near 1",
+        2.0,
+        worst(n(), 6, near1, |x, _| math::log(x), |x, _| x.ln()),
+    );
 }
 
 #[test]
 fn acos_accuracy() {
     let gen = |r: &mut Pcg32| (uniform(r, -1.0, 1.0), 0.0);
-    assert_within("acos", 2.0, worst(n(), 7, gen, |x, _| math::acos(x), |x, _| x.acos()));
+    assert_within(
+        "acos",
+        2.0,
+        worst(n(), 7, gen, |x, _| math::acos(x), |x, _| x.acos()),
+    );
     let edge = |r: &mut Pcg32| (1.0 - log_uniform(r, -24, -1, false), 0.0);
-    assert_within("acos near 1", 2.0, worst(n(), 8, edge, |x, _| math::acos(x), |x, _| x.acos()));
+    assert_within(
+        "acos near 1",
+        2.0,
+        worst(n(), 8, edge, |x, _| math::acos(x), |x, _| x.acos()),
+    );
 }
 
 #[test]
@@ -117,7 +159,10 @@ fn pow_accuracy() {
     let mut r = Pcg32::new(12, 3);
     let mut worst_excess = (f64::NEG_INFINITY, 0.0f32, 0.0f32, 0.0f64);
     for _ in 0..n() {
-        let (x, y) = (log_uniform(&mut r, -30, 30, false), uniform(&mut r, -10.0, 10.0));
+        let (x, y) = (
+            log_uniform(&mut r, -30, 30, false),
+            uniform(&mut r, -10.0, 10.0),
+        );
         let p = (y as f64 * (x as f64).ln()).abs();
         if p > 80.0 {
             continue;
@@ -203,11 +248,18 @@ fn special_values() {
         } else {
             ulps(got, want as f64) <= 1.0
         };
-        assert!(ok, "{name}: got {got:e} ({:#010x}), want {want:e}", got.to_bits());
+        assert!(
+            ok,
+            "{name}: got {got:e} ({:#010x}), want {want:e}",
+            got.to_bits()
+        );
     }
     // sin and cos stay finite (and bounded) on huge finite arguments.
     for x in [1e10f32, -3e38, f32::MAX, 16_777_216.0, 1e7] {
         let (s, c) = math::sincos(x);
-        assert!(s.abs() <= 1.5 && c.abs() <= 1.5, "sincos({x:e}) = ({s}, {c})");
+        assert!(
+            s.abs() <= 1.5 && c.abs() <= 1.5,
+            "sincos({x:e}) = ({s}, {c})"
+        );
     }
 }

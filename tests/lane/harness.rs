@@ -23,12 +23,23 @@ macro_rules! kernel {
     };
 }
 
-/// Inputs per function (`GROOVE_LANE_N`, default 10⁷).
+/// Inputs per polynomial function and for PCG32 (`GROOVE_LANE_N`, default 10⁷).
 pub fn count() -> usize {
     std::env::var("GROOVE_LANE_N")
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(10_000_000)
+}
+
+/// Inputs per composite kernel (vectors, frames, warps, Fresnel, microfacets), which are built
+/// from the operations and polynomials tested at [`count`]: 2·10⁵ by default (to keep the
+/// default run to a few seconds), all of `GROOVE_LANE_N` when it is set.
+pub fn count_composite() -> usize {
+    if std::env::var("GROOVE_LANE_N").is_ok() {
+        count()
+    } else {
+        count() / 50
+    }
 }
 
 /// Same bits, or both NaN (Rust does not specify NaN payloads).
@@ -95,7 +106,11 @@ pub fn uniform(r: &mut Pcg32, lo: f32, hi: f32) -> f32 {
 pub fn log_uniform(r: &mut Pcg32, lo: i32, hi: i32, signed: bool) -> f32 {
     let e = lo + (r.next_u32() % (hi - lo) as u32) as i32;
     let m = 1.0 + r.next_f32();
-    let v = m * 2f32.powi(e);
+    let v = if (-126..128).contains(&e) {
+        m * f32::from_bits(((e + 127) as u32) << 23)
+    } else {
+        m * 2f32.powi(e)
+    };
     if signed && r.next_u32() & 1 == 1 {
         -v
     } else {
@@ -122,9 +137,9 @@ pub fn check_bits<K: Kernel<I, O>, const I: usize, const O: usize>(
             (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
         });
         let mut rng = Pcg32::new(seed, 11);
-        let mut xs = vec![[0.0f32; I]; BATCH];
-        let mut o1 = vec![[0.0f32; O]; BATCH];
-        let mut o8 = vec![[0.0f32; O]; BATCH];
+        let mut xs: Vec<[f32; I]> = (0..BATCH).map(|_| [0.0; I]).collect();
+        let mut o1: Vec<[f32; O]> = (0..BATCH).map(|_| [0.0; O]).collect();
+        let mut o8: Vec<[f32; O]> = (0..BATCH).map(|_| [0.0; O]).collect();
         let mut done = 0;
         let mut first = true;
         while done < n {
@@ -139,24 +154,29 @@ pub fn check_bits<K: Kernel<I, O>, const I: usize, const O: usize>(
             for (x, o) in xs.iter().zip(o1.iter_mut()) {
                 *o = K::run::<f32>(*x);
             }
-            avx.run(|| {
-                for (xc, oc) in xs.chunks_exact(8).zip(o8.chunks_exact_mut(8)) {
-                    let v: [groove::lane::F32x8; I] =
-                        std::array::from_fn(|i| avx.load(&std::array::from_fn(|l| xc[l][i])));
-                    let r = K::run(v);
-                    for (i, ri) in r.iter().enumerate() {
-                        let a = ri.to_array();
-                        for l in 0..8 {
-                            oc[l][i] = a[l];
+            avx.run(
+                #[inline(always)]
+                || {
+                    for (xc, oc) in xs.chunks_exact(8).zip(o8.chunks_exact_mut(8)) {
+                        let v: [groove::lane::F32x8; I] =
+                            std::array::from_fn(|i| avx.load(&std::array::from_fn(|l| xc[l][i])));
+                        let r = K::run(v);
+                        for (i, ri) in r.iter().enumerate() {
+                            let a = ri.to_array();
+                            for l in 0..8 {
+                                oc[l][i] = a[l];
+                            }
                         }
                     }
-                }
-            });
+                },
+            );
             for j in 0..BATCH {
                 for i in 0..O {
                     if !same(o1[j][i], o8[j][i]) {
-                        let bits: Vec<String> =
-                            xs[j].iter().map(|x| format!("{x:e} ({:#010x})", x.to_bits())).collect();
+                        let bits: Vec<String> = xs[j]
+                            .iter()
+                            .map(|x| format!("{x:e} ({:#010x})", x.to_bits()))
+                            .collect();
                         panic!(
                             "{name}: output {i} differs in lane {}: width 1 {:e} ({:#010x}), width 8 {:e} ({:#010x}); inputs {}",
                             j % 8,

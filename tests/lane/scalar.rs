@@ -14,14 +14,18 @@ use groove::lane::{fresnel, warp};
 use groove::math::{warp as mwarp, Frame as MFrame, Pcg32};
 
 fn n() -> usize {
-    (count() / 10).max(10_000)
+    crate::harness::count_composite().max(10_000)
 }
 fn any(r: &mut Pcg32) -> f32 {
     mixed(r, &|r| uniform(r, -2.0, 2.0))
 }
 fn unit_vec(r: &mut Pcg32) -> Vec3 {
-    Vec3::new(uniform(r, -1.0, 1.0), uniform(r, -1.0, 1.0), uniform(r, -1.0, 1.0))
-        .normalize_or(Vec3::Z)
+    Vec3::new(
+        uniform(r, -1.0, 1.0),
+        uniform(r, -1.0, 1.0),
+        uniform(r, -1.0, 1.0),
+    )
+    .normalize_or(Vec3::Z)
 }
 fn eq3(name: &str, a: V3<f32>, b: Vec3, input: impl std::fmt::Debug) {
     assert!(
@@ -70,8 +74,14 @@ fn fresnel_equals_bsdf_fresnel() {
             && same(a.eta_it, b.eta_it)
             && same(a.eta_ti, b.eta_ti);
         assert!(ok, "dielectric({c:e}, {eta:e}): {a:?} vs {b:?}");
-        let (a, b) = (fresnel::conductor_1(c, eta, k), fresnel_conductor_1(c, eta, k));
-        assert!(same(a, b), "conductor({c:e}, {eta:e}, {k:e}): {a:e} vs {b:e}");
+        let (a, b) = (
+            fresnel::conductor_1(c, eta, k),
+            fresnel_conductor_1(c, eta, k),
+        );
+        assert!(
+            same(a, b),
+            "conductor({c:e}, {eta:e}, {k:e}): {a:e} vs {b:e}"
+        );
     }
 }
 
@@ -94,7 +104,10 @@ fn microfacet_equals_bsdf_microfacet() {
             let (le, de) = (l.eval(lm), d.eval(m));
             let u = Vec2::new(r.next_f32(), r.next_f32());
             let (ls, ds) = (l.sample_all_normals(V2::from(u)), {
-                let nv = MicrofacetDistribution { sample_visible: false, ..d };
+                let nv = MicrofacetDistribution {
+                    sample_visible: false,
+                    ..d
+                };
                 nv.sample_normal(wi, u)
             });
             if kind == MicrofacetType::Ggx {
@@ -102,13 +115,19 @@ fn microfacet_equals_bsdf_microfacet() {
                 assert!(same(l.pdf(lwi, lm), d.pdf(wi, m)), "pdf {ctx:?}");
             } else {
                 // exp: the polynomial against libm, a few ulps.
-                assert!((le - de).abs() <= 8e-7 * de.abs() + 1e-30, "beckmann eval {ctx:?}: {le} {de}");
+                assert!(
+                    (le - de).abs() <= 8e-7 * de.abs() + 1e-30,
+                    "beckmann eval {ctx:?}: {le} {de}"
+                );
             }
             // log/sincos: a few ulps in the sampled normal.
             let close = (Vec3::from(ls) - ds).length() <= 1e-5;
             assert!(close, "sample_all_normals {ctx:?} {u:?}: {ls:?} vs {ds:?}");
             if kind == MicrofacetType::Ggx && vis {
-                let (lv, dv) = (l.sample_visible_ggx(lwi, V2::from(u)), d.sample_normal(wi, u));
+                let (lv, dv) = (
+                    l.sample_visible_ggx(lwi, V2::from(u)),
+                    d.sample_normal(wi, u),
+                );
                 let close = (Vec3::from(lv) - dv).length() <= 1e-5;
                 assert!(close, "sample_visible {ctx:?} {u:?}: {lv:?} vs {dv:?}");
             }
@@ -126,11 +145,23 @@ fn warps_match_math_warp() {
         let mt = mwarp::square_to_uniform_triangle(u);
         assert!(same(t.x, mt.x) && same(t.y, mt.y), "triangle {u:?}");
         let cm = uniform(&mut r, -1.0, 1.0);
-        assert!(same(warp::uniform_cone_pdf(cm), mwarp::uniform_cone_pdf(cm)));
+        assert!(same(
+            warp::uniform_cone_pdf(cm),
+            mwarp::uniform_cone_pdf(cm)
+        ));
         let pairs = [
-            (warp::square_to_cosine_hemisphere(lu), mwarp::square_to_cosine_hemisphere(u)),
-            (warp::square_to_uniform_sphere(lu), mwarp::square_to_uniform_sphere(u)),
-            (warp::square_to_uniform_cone(lu, cm), mwarp::square_to_uniform_cone(u, cm)),
+            (
+                warp::square_to_cosine_hemisphere(lu),
+                mwarp::square_to_cosine_hemisphere(u),
+            ),
+            (
+                warp::square_to_uniform_sphere(lu),
+                mwarp::square_to_uniform_sphere(u),
+            ),
+            (
+                warp::square_to_uniform_cone(lu, cm),
+                mwarp::square_to_uniform_cone(u, cm),
+            ),
         ];
         for (i, (a, b)) in pairs.into_iter().enumerate() {
             // z = √(1 − x² − y²) amplifies an ulp of x, y near the rim: compare z².
