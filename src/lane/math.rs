@@ -226,3 +226,66 @@ impl<M: LaneMask> NotExt for M {
         !self
     }
 }
+
+/// `erfc(x)` with fractional error < 1.2e-7 in exact arithmetic (Chebyshev fit, Press et al.,
+/// "Numerical Recipes", §6.2, `erfcc`; the f64 `bsdf::microfacet::erfc` is the same fit); in
+/// f32 the exp and the rounding add a few ulps.
+#[inline(always)]
+pub fn erfc<L: Lane>(x: L) -> L {
+    let k = |c: f32| x.splat(c);
+    let z = x.abs();
+    let t = k(1.0) / (k(1.0) + k(0.5) * z);
+    let mut p = k(0.170_872_77);
+    for c in [
+        -0.822_152_23,
+        1.488_515_87,
+        -1.135_203_98,
+        0.278_868_07,
+        -0.186_288_06,
+        0.096_784_18,
+        0.374_091_96,
+        1.000_023_68,
+    ] {
+        p = p * t + k(c);
+    }
+    let r = t * exp((-z * z - k(1.265_512_23)) + t * p);
+    L::select(x.ge(k(0.0)), r, k(2.0) - r)
+}
+
+/// `erf⁻¹(x)` on (−1, 1) by Giles' single-precision polynomials (M. Giles 2010, "Approximating
+/// the erfinv function"; relative error ≈ 1e-7 before f32 rounding); ±inf at ±1, NaN outside.
+#[inline(always)]
+pub fn erfinv<L: Lane>(x: L) -> L {
+    let k = |c: f32| x.splat(c);
+    let w = -log((k(1.0) - x) * (k(1.0) + x));
+    let central = w.lt(k(5.0));
+    let wc = w - k(2.5);
+    let mut p = k(2.810_226_36e-8);
+    for c in [
+        3.432_739_39e-7,
+        -3.523_387_7e-6,
+        -4.391_506_54e-6,
+        2.185_808_7e-4,
+        -1.253_725_03e-3,
+        -4.177_681_64e-3,
+        2.466_407_27e-1,
+        1.501_409_41,
+    ] {
+        p = p * wc + k(c);
+    }
+    let wt = w.sqrt() - k(3.0);
+    let mut q = k(-2.002_142_57e-4);
+    for c in [
+        1.009_505_58e-4,
+        1.349_343_22e-3,
+        -3.673_428_44e-3,
+        5.739_507_73e-3,
+        -7.622_461_3e-3,
+        9.438_870_47e-3,
+        1.001_674_06,
+        2.832_976_82,
+    ] {
+        q = q * wt + k(c);
+    }
+    L::select(central, p, q) * x
+}

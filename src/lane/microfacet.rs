@@ -8,12 +8,14 @@
 //! (sincos, log) use the polynomials of [`super::math`] instead of libm.
 //! - D(m): Walter et al. 2007; Beckmann's G1 by its rational approximation (eq. 27);
 //! - visible GGX normals: Dupuy & Benyoub 2023, "Sampling Visible GGX Normals with Spherical Caps";
+//! - visible Beckmann normals: the visible slopes of the stretched α = 1 surface (Heitz & d'Eon
+//!   2014, §4) as groove's scalar sampler draws them, but in f32 with a fixed number of
+//!   safeguarded Newton steps (so every lane does the same work and the widths agree);
 //! - all normals (D(m) cos θm): slope-space inversion (Walter et al. 2007, eqs. 28–29).
 //!
-//! Not here yet: Beckmann visible-normal sampling (groove's scalar one inverts a CDF by Newton
-//! iterations in f64) and the Heitz 2018 concentric-disk map used for `roughplastic`'s tables.
+//! Not here yet: the Heitz 2018 concentric-disk map used for `roughplastic`'s tables.
 
-use super::math::{exp, log, sincos};
+use super::math::{erfc, erfinv, exp, log, sincos};
 use super::vec::{V2, V3};
 use super::warp::safe_sqrt;
 use super::Lane;
@@ -131,17 +133,48 @@ impl<L: Lane> Microfacet<L> {
         }
     }
 
-    /// A sampled microfacet normal. Visible normals: GGX only (Beckmann's visible sampler is
-    /// not ported yet: it returns `None` so the caller cannot mistake it).
+    /// A sampled microfacet normal: visible normals from `wi` or all normals, as configured.
     #[inline(always)]
-    pub fn sample_normal(&self, wi: V3<L>, u: V2<L>) -> Option<V3<L>> {
+    pub fn sample_normal(&self, wi: V3<L>, u: V2<L>) -> V3<L> {
         if !self.sample_visible {
-            return Some(self.sample_all_normals(u));
+            return self.sample_all_normals(u);
         }
         match self.kind {
-            MicrofacetType::Ggx => Some(self.sample_visible_ggx(wi, u)),
-            MicrofacetType::Beckmann => None,
+            MicrofacetType::Ggx => self.sample_visible_ggx(wi, u),
+            MicrofacetType::Beckmann => self.sample_visible_beckmann(wi, u),
         }
+    }
+
+    /// Visible Beckmann normals (Heitz & d'Eon 2014): in the α = 1 configuration seen from θ,
+    /// the slope along the view azimuth has density ∝ max(0, cos θ − x sin θ) e^{−x²} and the
+    /// slope across it is an independent Gaussian ∝ e^{−y²}; rotate to the azimuth of `wi`,
+    /// stretch by (α_u, α_v). +Z where `wi` degenerates.
+    #[inline(always)]
+    pub fn sample_visible_beckmann(&self, wi: V3<L>, u: V2<L>) -> V3<L> {
+        let k = |c: f32| u.x.splat(c);
+        let wi_s = V3::new(
+            self.alpha_u * wi.x,
+            self.alpha_v * wi.y,
+            rust_max(wi.z, k(0.0)),
+        );
+        let len = wi_s.length();
+        let v = wi_s.div_by(len);
+        let cos_t = v.z;
+        let sin_t = safe_sqrt(k(1.0) - cos_t * cos_t);
+        // Keep the inverse CDFs off ±1 (their infinite ends).
+        let lo_u = k(1.0 / 16_777_216.0);
+        let hi_u = k(1.0 - 1.0 / 16_777_216.0);
+        let (ux, uy) = (u.x.max(lo_u).min(hi_u), u.y.max(lo_u).min(hi_u));
+        let y = erfinv(k(2.0) * uy - k(1.0));
+        let x = sample_visible_slope_x(cos_t, sin_t, ux);
+        let rs = (v.x * v.x + v.y * v.y).sqrt();
+        let az = sin_t.gt(k(0.0));
+        let cp = L::select(az, v.x / rs, k(1.0));
+        let sp = L::select(az, v.y / rs, k(0.0));
+        let sx = cp * x - sp * y;
+        let sy = sp * x + cp * y;
+        let m = slope_to_normal(sx * self.alpha_u, sy * self.alpha_v);
+        V3::select(len.gt(k(0.0)), m, V3::splat(k(0.0), 0.0, 0.0, 1.0))
     }
 
     /// D(m) cos θm by slope-space inversion of the α = 1 configuration, stretched by (α_u, α_v).
@@ -190,6 +223,41 @@ impl<L: Lane> Microfacet<L> {
         let l = m.length();
         V3::select(l.gt(k(0.0)), m.div_by(l), V3::splat(k(0.0), 0.0, 0.0, 1.0))
     }
+}
+
+/// Newton steps of [`sample_visible_slope_x`]. Measured against an f64 bisection over 2·10⁵
+/// random (θ, u): 12 steps leave a relative error ≤ 4e-5 in x, 16 steps ≤ 1.6e-5 (at u within
+/// 1e-4 of 1, where f32 resolves the CDF no better); 8 steps leave some lanes unconverged.
+const SLOPE_STEPS: usize = 16;
+
+/// x with P(X ≤ x) = u for the density ∝ max(0, c − x s) e^{−x²} on [−7, min(c/s, 7)], whose
+/// unnormalised CDF is C(x) = (c √π erfc(−x) + s e^{−x²}) / 2 (valid at every θ). Newton's
+/// method safeguarded by bisection (Press et al., "Numerical Recipes", `rtsafe`), a fixed number
+/// of steps, starting from the normal-incidence answer (a Gaussian) kept below the cut.
+#[inline(always)]
+fn sample_visible_slope_x<L: Lane>(c: L, s: L, u: L) -> L {
+    let k = |v: f32| u.splat(v);
+    let sqrt_pi = k(1.772_453_9);
+    let cdf = |x: L| k(0.5) * (c * sqrt_pi * erfc(-x) + s * exp(-x * x));
+    let mut hi = L::select(s.gt(k(0.0)), (c / s).min(k(7.0)), k(7.0));
+    let mut lo = k(-7.0);
+    let target = u * cdf(hi);
+    let mut x = erfinv(k(2.0) * u - k(1.0))
+        .min(hi - k(0.5) * (k(1.0) - u))
+        .max(lo)
+        .min(hi);
+    for _ in 0..SLOPE_STEPS {
+        let f = cdf(x) - target;
+        let above = f.gt(k(0.0));
+        hi = L::select(above, x, hi);
+        lo = L::select(above, lo, x);
+        let dens = (c - x * s).max(k(0.0)) * exp(-x * x);
+        let nx = x - f / dens;
+        // Inclusive: a converged step (nx == x on the bracket's end) must stay, not bisect.
+        let inside = nx.ge(lo) & nx.le(hi);
+        x = L::select(inside, nx, k(0.5) * (lo + hi));
+    }
+    x
 }
 
 /// The normal of the facet with slopes (sx, sy), m ∝ (−sx, −sy, 1); a grazing normal in the

@@ -1,7 +1,7 @@
 //! Accuracy of the polynomial functions against f64 `std`, in ulps of the f32 result, and
 //! their special values. The bounds asserted here are the ones `docs/design/lanes.md` states.
 
-use crate::harness::{count, log_uniform, uniform};
+use crate::harness::{log_uniform, uniform};
 use groove::lane::math;
 use groove::math::Pcg32;
 

@@ -234,7 +234,7 @@ macro_rules! microfacet_kernel {
             let d = Microfacet::new($kind, x[8], x[9], $visible);
             let (wi, m, u) = (v3(&x[..3]), v3(&x[3..6]), V2::new(x[6], x[7]));
             let s = d.sample_all_normals(u);
-            let v = d.sample_normal(wi, u).unwrap_or(s);
+            let v = d.sample_normal(wi, u);
             [
                 d.eval(m),
                 d.lambda(wi),
@@ -254,12 +254,14 @@ macro_rules! microfacet_kernel {
 microfacet_kernel!(GgxVisible, MicrofacetType::Ggx, true);
 microfacet_kernel!(GgxAll, MicrofacetType::Ggx, false);
 microfacet_kernel!(BeckmannAll, MicrofacetType::Beckmann, false);
+microfacet_kernel!(BeckmannVisible, MicrofacetType::Beckmann, true);
 
 #[test]
 fn microfacet() {
     check_bits::<GgxVisible, 10, 11>("ggx_visible", count_composite(), microfacet_inputs);
     check_bits::<GgxAll, 10, 11>("ggx_all", count_composite(), microfacet_inputs);
     check_bits::<BeckmannAll, 10, 11>("beckmann_all", count_composite(), microfacet_inputs);
+    check_bits::<BeckmannVisible, 10, 11>("beckmann_visible", count_composite(), microfacet_inputs);
 }
 
 /// PCG32 per lane: the 8-wide generator equals eight scalar ones (seeds and streams random),

@@ -89,6 +89,7 @@ fn fresnel_equals_bsdf_fresnel() {
 fn microfacet_equals_bsdf_microfacet() {
     let mut r = Pcg32::new(23, 1);
     for kind in [MicrofacetType::Ggx, MicrofacetType::Beckmann] {
+        let mut worst_visible = 0.0f32;
         for _ in 0..n() {
             let (au, av) = (uniform(&mut r, 0.0, 1.0), uniform(&mut r, 0.0, 1.0));
             let vis = r.next_u32() & 1 == 0;
@@ -123,15 +124,22 @@ fn microfacet_equals_bsdf_microfacet() {
             // log/sincos: a few ulps in the sampled normal.
             let close = (Vec3::from(ls) - ds).length() <= 1e-5;
             assert!(close, "sample_all_normals {ctx:?} {u:?}: {ls:?} vs {ds:?}");
-            if kind == MicrofacetType::Ggx && vis {
-                let (lv, dv) = (
-                    l.sample_visible_ggx(lwi, V2::from(u)),
-                    d.sample_normal(wi, u),
-                );
-                let close = (Vec3::from(lv) - dv).length() <= 1e-5;
-                assert!(close, "sample_visible {ctx:?} {u:?}: {lv:?} vs {dv:?}");
+            if vis {
+                // Beckmann: f32 erfinv and Newton steps against groove's f64 inversion; in the
+                // outer 1e-4 of u.x, f32 resolves the remaining CDF mass only to about 1 %.
+                let tail = !(1e-4..=1.0 - 1e-4).contains(&u.x);
+                let tol = match (kind, tail) {
+                    (MicrofacetType::Ggx, _) => 1e-5,
+                    (_, false) => 1e-4,
+                    (_, true) => 3e-3,
+                };
+                let (lv, dv) = (l.sample_normal(lwi, V2::from(u)), d.sample_normal(wi, u));
+                let err = (Vec3::from(lv) - dv).length();
+                worst_visible = worst_visible.max(err);
+                assert!(err <= tol, "sample_visible {ctx:?} {u:?}: {lv:?} vs {dv:?}");
             }
         }
+        eprintln!("{kind:?}: visible normals within {worst_visible:e} of groove's");
     }
 }
 
