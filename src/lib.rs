@@ -25,6 +25,7 @@ pub mod film;
 pub mod geometry;
 pub mod inputs;
 pub mod integrator;
+pub mod lane;
 pub mod load;
 pub mod material;
 pub mod math;

@@ -1,0 +1,434 @@
+//! Width 8: thin wrappers over `core::arch::x86_64` AVX2 (`__m256`, `__m256i`).
+//!
+//! Soundness: executing an AVX2 instruction on a CPU without AVX2 is undefined behaviour, so a
+//! value of these types can only be built from an [`Avx2`] token (which [`Avx2::detect`] returns
+//! only when the CPU has AVX2 and FMA) or computed from another such value; their fields are
+//! private. Every operation is `#[inline(always)]`: inside [`Avx2::run`] (a
+//! `#[target_feature(enable = "avx2,fma")]` entry point) it compiles to one instruction or a
+//! short sequence; elsewhere it is still correct, only slower (an out-of-line intrinsic call).
+//!
+//! The semantics match `scalar.rs` lane by lane: ordered comparisons (`!=` unordered), minps/
+//! maxps (second operand on NaN or equal), `cvtps2dq`/`cvttps2dq` (`i32::MIN` when out of range).
+
+use super::{Lane, LaneI32, LaneMask, LaneU64};
+use core::arch::x86_64::*;
+use core::fmt;
+use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
+
+/// Proof that the CPU has AVX2 and FMA: the only way to make 8-wide values.
+#[derive(Clone, Copy, Debug)]
+pub struct Avx2(());
+
+/// Eight `f32` lanes.
+#[derive(Clone, Copy)]
+#[repr(transparent)]
+pub struct F32x8(__m256);
+
+/// Eight lane masks (each lane all ones or all zeros).
+#[derive(Clone, Copy)]
+#[repr(transparent)]
+pub struct M8(__m256);
+
+/// Eight `i32` lanes.
+#[derive(Clone, Copy)]
+#[repr(transparent)]
+pub struct I32x8(__m256i);
+
+/// Eight `u64` lanes: lanes 0–3 in the first register, 4–7 in the second.
+#[derive(Clone, Copy)]
+pub struct U64x8([__m256i; 2]);
+
+impl Avx2 {
+    /// The token, when this CPU has AVX2 and FMA.
+    pub fn detect() -> Option<Avx2> {
+        if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+            Some(Avx2(()))
+        } else {
+            None
+        }
+    }
+
+    /// Run `f` inside a function compiled for AVX2 and FMA, so that the 8-wide operations
+    /// inlined into it become single instructions. Put whole loops inside.
+    #[inline(always)]
+    pub fn run<R>(self, f: impl FnOnce() -> R) -> R {
+        // SAFETY: the token exists only when the CPU has AVX2 and FMA.
+        unsafe { run_avx2(f) }
+    }
+
+    #[inline(always)]
+    pub fn splat(self, c: f32) -> F32x8 {
+        // SAFETY: the token proves AVX (here and below).
+        F32x8(unsafe { _mm256_set1_ps(c) })
+    }
+    #[inline(always)]
+    pub fn load(self, a: &[f32; 8]) -> F32x8 {
+        F32x8(unsafe { _mm256_loadu_ps(a.as_ptr()) })
+    }
+    #[inline(always)]
+    pub fn load_i32(self, a: &[i32; 8]) -> I32x8 {
+        I32x8(unsafe { _mm256_loadu_si256(a.as_ptr().cast()) })
+    }
+    #[inline(always)]
+    pub fn load_u64(self, a: &[u64; 8]) -> U64x8 {
+        unsafe {
+            U64x8([
+                _mm256_loadu_si256(a.as_ptr().cast()),
+                _mm256_loadu_si256(a[4..].as_ptr().cast()),
+            ])
+        }
+    }
+    /// A mask from eight booleans.
+    #[inline(always)]
+    pub fn mask(self, a: &[bool; 8]) -> M8 {
+        let b = a.map(|x| -(x as i32));
+        M8(unsafe { _mm256_castsi256_ps(_mm256_loadu_si256(b.as_ptr().cast())) })
+    }
+}
+
+#[target_feature(enable = "avx2,fma")]
+fn run_avx2<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
+
+impl F32x8 {
+    #[inline(always)]
+    pub fn to_array(self) -> [f32; 8] {
+        let mut a = [0.0f32; 8];
+        // SAFETY: an F32x8 exists only with AVX (module doc); `a` holds 8 floats.
+        unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
+        a
+    }
+    #[inline(always)]
+    pub fn store(self, out: &mut [f32; 8]) {
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), self.0) };
+    }
+}
+
+impl I32x8 {
+    #[inline(always)]
+    pub fn to_array(self) -> [i32; 8] {
+        let mut a = [0i32; 8];
+        unsafe { _mm256_storeu_si256(a.as_mut_ptr().cast(), self.0) };
+        a
+    }
+}
+
+impl U64x8 {
+    #[inline(always)]
+    pub fn to_array(self) -> [u64; 8] {
+        let mut a = [0u64; 8];
+        unsafe {
+            _mm256_storeu_si256(a.as_mut_ptr().cast(), self.0[0]);
+            _mm256_storeu_si256(a[4..].as_mut_ptr().cast(), self.0[1]);
+        }
+        a
+    }
+}
+
+impl M8 {
+    #[inline(always)]
+    pub fn to_array(self) -> [bool; 8] {
+        let m = unsafe { _mm256_movemask_ps(self.0) };
+        core::array::from_fn(|i| m >> i & 1 == 1)
+    }
+}
+
+impl fmt::Debug for F32x8 {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "F32x8{:?}", self.to_array())
+    }
+}
+impl fmt::Debug for I32x8 {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "I32x8{:?}", self.to_array())
+    }
+}
+impl fmt::Debug for U64x8 {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "U64x8{:?}", self.to_array())
+    }
+}
+impl fmt::Debug for M8 {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "M8{:?}", self.to_array())
+    }
+}
+
+macro_rules! binop {
+    ($t:ty, $tr:ident, $f:ident, $intr:ident) => {
+        impl $tr for $t {
+            type Output = $t;
+            #[inline(always)]
+            fn $f(self, o: $t) -> $t {
+                // SAFETY: a value of this type exists only with AVX (module doc).
+                Self(unsafe { $intr(self.0, o.0) })
+            }
+        }
+    };
+}
+binop!(F32x8, Add, add, _mm256_add_ps);
+binop!(F32x8, Sub, sub, _mm256_sub_ps);
+binop!(F32x8, Mul, mul, _mm256_mul_ps);
+binop!(F32x8, Div, div, _mm256_div_ps);
+binop!(M8, BitAnd, bitand, _mm256_and_ps);
+binop!(M8, BitOr, bitor, _mm256_or_ps);
+binop!(M8, BitXor, bitxor, _mm256_xor_ps);
+
+impl Neg for F32x8 {
+    type Output = F32x8;
+    #[inline(always)]
+    fn neg(self) -> F32x8 {
+        F32x8(unsafe { _mm256_xor_ps(self.0, _mm256_set1_ps(-0.0)) })
+    }
+}
+
+impl Not for M8 {
+    type Output = M8;
+    #[inline(always)]
+    fn not(self) -> M8 {
+        M8(unsafe { _mm256_xor_ps(self.0, _mm256_castsi256_ps(_mm256_set1_epi32(-1))) })
+    }
+}
+
+impl LaneMask for M8 {
+    #[inline(always)]
+    fn any(self) -> bool {
+        unsafe { _mm256_movemask_ps(self.0) != 0 }
+    }
+    #[inline(always)]
+    fn all(self) -> bool {
+        unsafe { _mm256_movemask_ps(self.0) == 0xff }
+    }
+}
+
+macro_rules! cmp {
+    ($f:ident, $imm:ident) => {
+        #[inline(always)]
+        fn $f(self, o: F32x8) -> M8 {
+            M8(unsafe { _mm256_cmp_ps::<$imm>(self.0, o.0) })
+        }
+    };
+}
+
+impl Lane for F32x8 {
+    type Mask = M8;
+    type I32 = I32x8;
+    type U64 = U64x8;
+    const WIDTH: usize = 8;
+
+    #[inline(always)]
+    fn splat(self, c: f32) -> F32x8 {
+        F32x8(unsafe { _mm256_set1_ps(c) })
+    }
+    #[inline(always)]
+    fn sqrt(self) -> F32x8 {
+        F32x8(unsafe { _mm256_sqrt_ps(self.0) })
+    }
+    #[inline(always)]
+    fn mul_add(self, a: F32x8, b: F32x8) -> F32x8 {
+        // SAFETY: the token also proves FMA.
+        F32x8(unsafe { _mm256_fmadd_ps(self.0, a.0, b.0) })
+    }
+    #[inline(always)]
+    fn min(self, o: F32x8) -> F32x8 {
+        F32x8(unsafe { _mm256_min_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn max(self, o: F32x8) -> F32x8 {
+        F32x8(unsafe { _mm256_max_ps(self.0, o.0) })
+    }
+    cmp!(eq, _CMP_EQ_OQ);
+    cmp!(ne, _CMP_NEQ_UQ);
+    cmp!(lt, _CMP_LT_OQ);
+    cmp!(le, _CMP_LE_OQ);
+    cmp!(gt, _CMP_GT_OQ);
+    cmp!(ge, _CMP_GE_OQ);
+    #[inline(always)]
+    fn select(m: M8, a: F32x8, b: F32x8) -> F32x8 {
+        F32x8(unsafe { _mm256_blendv_ps(b.0, a.0, m.0) })
+    }
+    #[inline(always)]
+    fn to_bits(self) -> I32x8 {
+        I32x8(unsafe { _mm256_castps_si256(self.0) })
+    }
+    #[inline(always)]
+    fn from_bits(b: I32x8) -> F32x8 {
+        F32x8(unsafe { _mm256_castsi256_ps(b.0) })
+    }
+    #[inline(always)]
+    fn round_i32(self) -> I32x8 {
+        I32x8(unsafe { _mm256_cvtps_epi32(self.0) })
+    }
+    #[inline(always)]
+    fn trunc_i32(self) -> I32x8 {
+        I32x8(unsafe { _mm256_cvttps_epi32(self.0) })
+    }
+    #[inline(always)]
+    fn lane(self, i: usize) -> f32 {
+        self.to_array()[i]
+    }
+}
+
+impl LaneI32 for I32x8 {
+    type F = F32x8;
+    type Mask = M8;
+    #[inline(always)]
+    fn splat(self, c: i32) -> I32x8 {
+        I32x8(unsafe { _mm256_set1_epi32(c) })
+    }
+    #[inline(always)]
+    fn add(self, o: I32x8) -> I32x8 {
+        I32x8(unsafe { _mm256_add_epi32(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn sub(self, o: I32x8) -> I32x8 {
+        I32x8(unsafe { _mm256_sub_epi32(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn and(self, o: I32x8) -> I32x8 {
+        I32x8(unsafe { _mm256_and_si256(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn andnot(self, o: I32x8) -> I32x8 {
+        // vpandn computes !first & second.
+        I32x8(unsafe { _mm256_andnot_si256(o.0, self.0) })
+    }
+    #[inline(always)]
+    fn or(self, o: I32x8) -> I32x8 {
+        I32x8(unsafe { _mm256_or_si256(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn xor(self, o: I32x8) -> I32x8 {
+        I32x8(unsafe { _mm256_xor_si256(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn shl<const N: i32>(self) -> I32x8 {
+        I32x8(unsafe { _mm256_slli_epi32::<N>(self.0) })
+    }
+    #[inline(always)]
+    fn shr<const N: i32>(self) -> I32x8 {
+        I32x8(unsafe { _mm256_srli_epi32::<N>(self.0) })
+    }
+    #[inline(always)]
+    fn sar<const N: i32>(self) -> I32x8 {
+        I32x8(unsafe { _mm256_srai_epi32::<N>(self.0) })
+    }
+    #[inline(always)]
+    fn rotate_right(self, r: I32x8) -> I32x8 {
+        unsafe {
+            let r = _mm256_and_si256(r.0, _mm256_set1_epi32(31));
+            let l = _mm256_sub_epi32(_mm256_set1_epi32(32), r);
+            // vpsllvd gives 0 for a count of 32 (r = 0), as the rotation needs.
+            I32x8(_mm256_or_si256(
+                _mm256_srlv_epi32(self.0, r),
+                _mm256_sllv_epi32(self.0, l),
+            ))
+        }
+    }
+    #[inline(always)]
+    fn eq(self, o: I32x8) -> M8 {
+        M8(unsafe { _mm256_castsi256_ps(_mm256_cmpeq_epi32(self.0, o.0)) })
+    }
+    #[inline(always)]
+    fn gt(self, o: I32x8) -> M8 {
+        M8(unsafe { _mm256_castsi256_ps(_mm256_cmpgt_epi32(self.0, o.0)) })
+    }
+    #[inline(always)]
+    fn select(m: M8, a: I32x8, b: I32x8) -> I32x8 {
+        I32x8(unsafe { _mm256_blendv_epi8(b.0, a.0, _mm256_castps_si256(m.0)) })
+    }
+    #[inline(always)]
+    fn to_f32(self) -> F32x8 {
+        F32x8(unsafe { _mm256_cvtepi32_ps(self.0) })
+    }
+    #[inline(always)]
+    fn lane(self, i: usize) -> i32 {
+        self.to_array()[i]
+    }
+}
+
+impl LaneU64 for U64x8 {
+    type I32 = I32x8;
+    #[inline(always)]
+    fn splat(self, c: u64) -> U64x8 {
+        let v = unsafe { _mm256_set1_epi64x(c as i64) };
+        U64x8([v, v])
+    }
+    #[inline(always)]
+    fn add(self, o: U64x8) -> U64x8 {
+        unsafe {
+            U64x8([
+                _mm256_add_epi64(self.0[0], o.0[0]),
+                _mm256_add_epi64(self.0[1], o.0[1]),
+            ])
+        }
+    }
+    #[inline(always)]
+    fn mul(self, o: U64x8) -> U64x8 {
+        U64x8([mul64(self.0[0], o.0[0]), mul64(self.0[1], o.0[1])])
+    }
+    #[inline(always)]
+    fn xor(self, o: U64x8) -> U64x8 {
+        unsafe {
+            U64x8([
+                _mm256_xor_si256(self.0[0], o.0[0]),
+                _mm256_xor_si256(self.0[1], o.0[1]),
+            ])
+        }
+    }
+    #[inline(always)]
+    fn or(self, o: U64x8) -> U64x8 {
+        unsafe {
+            U64x8([
+                _mm256_or_si256(self.0[0], o.0[0]),
+                _mm256_or_si256(self.0[1], o.0[1]),
+            ])
+        }
+    }
+    #[inline(always)]
+    fn shl<const N: i32>(self) -> U64x8 {
+        unsafe {
+            U64x8([
+                _mm256_slli_epi64::<N>(self.0[0]),
+                _mm256_slli_epi64::<N>(self.0[1]),
+            ])
+        }
+    }
+    #[inline(always)]
+    fn shr<const N: i32>(self) -> U64x8 {
+        unsafe {
+            U64x8([
+                _mm256_srli_epi64::<N>(self.0[0]),
+                _mm256_srli_epi64::<N>(self.0[1]),
+            ])
+        }
+    }
+    #[inline(always)]
+    fn low_u32(self) -> I32x8 {
+        unsafe {
+            // Gather the even 32-bit words of each register into its low half, then join.
+            let idx = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
+            let a = _mm256_permutevar8x32_epi32(self.0[0], idx);
+            let b = _mm256_permutevar8x32_epi32(self.0[1], idx);
+            I32x8(_mm256_permute2x128_si256::<0x20>(a, b))
+        }
+    }
+    #[inline(always)]
+    fn lane(self, i: usize) -> u64 {
+        self.to_array()[i]
+    }
+}
+
+/// Low 64 bits of a 64×64 product per lane from 32×32→64 multiplies (AVX2 has no 64-bit
+/// `mullo`): a·b mod 2⁶⁴ = lo·lo + ((hi_a·lo_b + lo_a·hi_b) << 32).
+#[inline(always)]
+fn mul64(a: __m256i, b: __m256i) -> __m256i {
+    // SAFETY: called only on values of U64x8, which exist only with AVX2.
+    unsafe {
+        let ll = _mm256_mul_epu32(a, b);
+        let hl = _mm256_mul_epu32(_mm256_srli_epi64::<32>(a), b);
+        let lh = _mm256_mul_epu32(a, _mm256_srli_epi64::<32>(b));
+        _mm256_add_epi64(ll, _mm256_slli_epi64::<32>(_mm256_add_epi64(hl, lh)))
+    }
+}

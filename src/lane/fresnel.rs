@@ -1,0 +1,77 @@
+//! The Fresnel equations of `bsdf::fresnel` per lane, with selects instead of branches and the
+//! same operation order, so width 1 equals `bsdf::fresnel` bit for bit: the smooth dielectric
+//! (Hecht, "Optics", ch. 4) and the conductor with complex index η + ik (PBR 3rd ed. §8.2.1).
+
+use super::vec::V3;
+use super::Lane;
+
+/// Result of [`dielectric`]: as `bsdf::fresnel::DielectricFresnel`.
+#[derive(Clone, Copy, Debug)]
+pub struct Dielectric<L> {
+    /// Unpolarised reflectance (1 under total internal reflection).
+    pub r: L,
+    /// Cosine of the refracted direction, with the sign of the side it leaves on; 0 under TIR.
+    pub cos_theta_t: L,
+    /// η_t / η_i.
+    pub eta_it: L,
+    /// η_i / η_t.
+    pub eta_ti: L,
+}
+
+/// Fresnel reflectance of a smooth dielectric interface; `eta` is inside over outside, a
+/// negative `cos_theta_i` arrives from inside.
+#[inline(always)]
+pub fn dielectric<L: Lane>(cos_theta_i: L, eta: L) -> Dielectric<L> {
+    let k = |c: f32| eta.splat(c);
+    let outside = cos_theta_i.ge(k(0.0));
+    let inv = k(1.0) / eta;
+    let eta_it = L::select(outside, eta, inv);
+    let eta_ti = L::select(outside, inv, eta);
+    let ci = cos_theta_i.abs();
+    let ct2 = k(1.0) - eta_ti * eta_ti * (k(1.0) - ci * ci).max(k(0.0));
+    let tir = ct2.lt(k(0.0));
+    let ct = ct2.sqrt();
+    let rs = (ci - eta_it * ct) / (ci + eta_it * ct);
+    let rp = (ct - eta_it * ci) / (ct + eta_it * ci);
+    let r = k(0.5) * (rs * rs + rp * rp);
+    let r = L::select(ci.eq(k(0.0)), k(1.0), r);
+    let r = L::select(eta.eq(k(1.0)), k(0.0), r);
+    let cos_t = L::select(outside, -ct, ct);
+    Dielectric {
+        r: L::select(tir, k(1.0), r),
+        cos_theta_t: L::select(tir, k(0.0), cos_t),
+        eta_it,
+        eta_ti,
+    }
+}
+
+/// Conductor reflectance for one channel with complex relative index `eta + i k`.
+#[inline(always)]
+pub fn conductor_1<L: Lane>(cos_theta_i: L, eta: L, k_: L) -> L {
+    let k = |c: f32| eta.splat(c);
+    let safe_sqrt = |x: L| x.max(k(0.0)).sqrt();
+    let c2 = (cos_theta_i * cos_theta_i).min(k(1.0));
+    let s2 = k(1.0) - c2;
+    let s4 = s2 * s2;
+    let t0 = eta * eta - k_ * k_ - s2;
+    let a2pb2 = safe_sqrt(t0 * t0 + k(4.0) * eta * eta * k_ * k_);
+    let a = safe_sqrt(k(0.5) * (a2pb2 + t0));
+    let t1 = a2pb2 + c2;
+    let t2 = k(2.0) * cos_theta_i * a;
+    let rs = (t1 - t2) / (t1 + t2);
+    let t3 = a2pb2 * c2 + s4;
+    let t4 = t2 * s2;
+    let rp = rs * (t3 - t4) / (t3 + t4);
+    let r = k(0.5) * (rs + rp);
+    L::select(r.is_finite(), r, k(1.0))
+}
+
+/// [`conductor_1`] per RGB channel.
+#[inline(always)]
+pub fn conductor<L: Lane>(cos_theta_i: L, eta: V3<L>, k: V3<L>) -> V3<L> {
+    V3::new(
+        conductor_1(cos_theta_i, eta.x, k.x),
+        conductor_1(cos_theta_i, eta.y, k.y),
+        conductor_1(cos_theta_i, eta.z, k.z),
+    )
+}

@@ -1,0 +1,196 @@
+//! One kernel source for 1 and 8 lanes (issue 16, item 2).
+//!
+//! The hot-path maths is written once, generic over [`Lane`], and instantiated at two widths:
+//! - `f32` (width 1, masks are `bool`): the scalar renderer's width, runs on any x86-64;
+//! - [`F32x8`] (width 8, AVX2 `__m256`): reachable only through an [`Avx2`] token, which exists
+//!   only when the CPU has AVX2 and FMA (runtime detection), so the binary still runs at width 1
+//!   on a CPU without them.
+//!
+//! Bit-identity rule: every 8-wide function equals the 1-wide one bit for bit in every lane (NaN
+//! compared as NaN: Rust does not specify NaN payloads). This holds because both widths use only
+//! correctly rounded IEEE operations in the same order (`+ − × ÷ √`, no approximate reciprocal or
+//! square root, FMA only through the explicit [`Lane::mul_add`], which both widths fuse), min/max
+//! with x86 semantics (`if a < b { a } else { b }`), selects instead of branches, and no
+//! horizontal operation feeding a lane's value. See `docs/design/lanes.md`.
+//!
+//! This module and `src/accel/embree.rs` are the only places with `unsafe` (here: `core::arch`
+//! intrinsics, sound because an AVX2 value can only be built from an [`Avx2`] token or from
+//! another AVX2 value).
+//!
+//! Contents: the traits (this file), `scalar` (width 1), `avx2` (width 8), [`math`] (polynomial
+//! `sin cos acos atan2 exp log pow`), [`vec`] (3- and 2-vectors), [`frame`], [`warp`],
+//! [`microfacet`], [`fresnel`], [`pcg`] (PCG32 per lane), [`batch`] (slice entry points).
+
+use core::fmt::Debug;
+use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
+
+#[cfg(target_arch = "x86_64")]
+mod avx2;
+pub mod batch;
+pub mod frame;
+pub mod fresnel;
+pub mod math;
+pub mod microfacet;
+pub mod pcg;
+mod scalar;
+pub mod vec;
+pub mod warp;
+
+#[cfg(target_arch = "x86_64")]
+pub use avx2::{Avx2, F32x8, I32x8, U64x8, M8};
+
+/// A lane mask: per lane true or false (`bool` at width 1, all-ones/all-zeros lanes at width 8).
+pub trait LaneMask:
+    Copy
+    + Debug
+    + BitAnd<Output = Self>
+    + BitOr<Output = Self>
+    + BitXor<Output = Self>
+    + Not<Output = Self>
+{
+    /// Whether any lane is set. Horizontal: use it only for fast paths whose result equals the
+    /// slow path's bit for bit.
+    fn any(self) -> bool;
+    /// Whether every lane is set (same caveat as [`LaneMask::any`]).
+    fn all(self) -> bool;
+}
+
+/// A float lane type: `f32` or [`F32x8`]. Every method is per lane and correctly rounded.
+pub trait Lane:
+    Copy
+    + Debug
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    /// The mask type of comparisons.
+    type Mask: LaneMask;
+    /// 32-bit integer lanes of the same width (bit views, exponents, PCG outputs).
+    type I32: LaneI32<F = Self, Mask = Self::Mask>;
+    /// 64-bit unsigned integer lanes of the same width (PCG state).
+    type U64: LaneU64<I32 = Self::I32>;
+    /// Number of lanes.
+    const WIDTH: usize;
+
+    /// `c` in every lane, with the width of `self` (a constant is made from a value so that a
+    /// width-8 value can only come from a width-8 value or an [`Avx2`] token).
+    fn splat(self, c: f32) -> Self;
+    /// Correctly rounded square root (`sqrtss`/`vsqrtps`; NaN below zero).
+    fn sqrt(self) -> Self;
+    /// Fused multiply-add `self · a + b`, rounded once. Only where written explicitly.
+    fn mul_add(self, a: Self, b: Self) -> Self;
+    /// x86 minimum: `if self < o { self } else { o }` (so NaN in `self` gives `o`).
+    fn min(self, o: Self) -> Self;
+    /// x86 maximum: `if self > o { self } else { o }` (so NaN in `self` gives `o`).
+    fn max(self, o: Self) -> Self;
+    fn eq(self, o: Self) -> Self::Mask;
+    /// Unordered not-equal (true when either is NaN), as Rust's `!=`.
+    fn ne(self, o: Self) -> Self::Mask;
+    fn lt(self, o: Self) -> Self::Mask;
+    fn le(self, o: Self) -> Self::Mask;
+    fn gt(self, o: Self) -> Self::Mask;
+    fn ge(self, o: Self) -> Self::Mask;
+    /// Per lane `if m { a } else { b }`.
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// The IEEE bit pattern.
+    fn to_bits(self) -> Self::I32;
+    /// The float of an IEEE bit pattern.
+    fn from_bits(b: Self::I32) -> Self;
+    /// Round to the nearest integer, ties to even (the MXCSR default); `i32::MIN` when out of
+    /// range or NaN (x86 `cvtps2dq` semantics).
+    fn round_i32(self) -> Self::I32;
+    /// Truncate toward zero; `i32::MIN` when out of range or NaN (x86 `cvttps2dq`).
+    fn trunc_i32(self) -> Self::I32;
+    /// Lane `i` as a scalar (tests, tails).
+    fn lane(self, i: usize) -> f32;
+
+    /// |self| (clears the sign bit; NaN stays NaN).
+    #[inline(always)]
+    fn abs(self) -> Self {
+        let b = self.to_bits();
+        Self::from_bits(b.and(b.splat(0x7fff_ffff)))
+    }
+    /// The magnitude of `self` with the sign bit of `s`.
+    #[inline(always)]
+    fn copysign(self, s: Self) -> Self {
+        let b = self.to_bits();
+        let m = b.splat(i32::MIN);
+        Self::from_bits(b.andnot(m).or(s.to_bits().and(m)))
+    }
+    /// `self` with its sign flipped where `s` has its sign bit set.
+    #[inline(always)]
+    fn mulsign(self, s: Self) -> Self {
+        let sb = s.to_bits();
+        Self::from_bits(self.to_bits().xor(sb.and(sb.splat(i32::MIN))))
+    }
+    /// The sign bit is set (also for −0 and negative NaN).
+    #[inline(always)]
+    fn sign_bit(self) -> Self::Mask {
+        let b = self.to_bits();
+        b.lt(b.splat(0))
+    }
+    #[inline(always)]
+    fn is_nan(self) -> Self::Mask {
+        self.ne(self)
+    }
+    /// Neither infinite nor NaN.
+    #[inline(always)]
+    fn is_finite(self) -> Self::Mask {
+        self.abs().lt(self.splat(f32::INFINITY))
+    }
+}
+
+/// 32-bit integer lanes (two's complement, wrapping). Shifts take their count as a constant.
+pub trait LaneI32: Copy + Debug {
+    type F: Lane<I32 = Self, Mask = Self::Mask>;
+    type Mask: LaneMask;
+    /// `c` in every lane, with the width of `self`.
+    fn splat(self, c: i32) -> Self;
+    fn add(self, o: Self) -> Self;
+    fn sub(self, o: Self) -> Self;
+    fn and(self, o: Self) -> Self;
+    /// `self & !o`.
+    fn andnot(self, o: Self) -> Self;
+    fn or(self, o: Self) -> Self;
+    fn xor(self, o: Self) -> Self;
+    fn shl<const N: i32>(self) -> Self;
+    /// Logical (unsigned) right shift.
+    fn shr<const N: i32>(self) -> Self;
+    /// Arithmetic (signed) right shift.
+    fn sar<const N: i32>(self) -> Self;
+    /// As unsigned, rotate right by `r & 31` lane by lane.
+    fn rotate_right(self, r: Self) -> Self;
+    fn eq(self, o: Self) -> Self::Mask;
+    /// Signed greater-than.
+    fn gt(self, o: Self) -> Self::Mask;
+    /// Signed less-than.
+    #[inline(always)]
+    fn lt(self, o: Self) -> Self::Mask {
+        o.gt(self)
+    }
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// Signed integer to float, correctly rounded (exact below 2²⁴ in magnitude).
+    fn to_f32(self) -> Self::F;
+    /// Lane `i` (tests).
+    fn lane(self, i: usize) -> i32;
+}
+
+/// 64-bit unsigned integer lanes (wrapping), as much as PCG32 needs.
+pub trait LaneU64: Copy + Debug {
+    type I32: LaneI32;
+    /// `c` in every lane, with the width of `self`.
+    fn splat(self, c: u64) -> Self;
+    fn add(self, o: Self) -> Self;
+    /// Low 64 bits of the product.
+    fn mul(self, o: Self) -> Self;
+    fn xor(self, o: Self) -> Self;
+    fn or(self, o: Self) -> Self;
+    fn shl<const N: i32>(self) -> Self;
+    fn shr<const N: i32>(self) -> Self;
+    /// The low 32 bits of each lane.
+    fn low_u32(self) -> Self::I32;
+    /// Lane `i` (tests).
+    fn lane(self, i: usize) -> u64;
+}

@@ -1,0 +1,47 @@
+//! PCG32 per lane (O'Neill 2014, XSH-RR output of a 64-bit LCG): each lane is its own stream,
+//! bit-identical to `math::rng::Pcg32` with the same seed and stream, as `sampler::Sampler`
+//! keys it by (seed, pixel, sample).
+
+use super::{Lane, LaneI32, LaneU64};
+
+const MULT: u64 = 6_364_136_223_846_793_005;
+
+/// One PCG32 generator per lane.
+#[derive(Clone, Copy, Debug)]
+pub struct Pcg<L: Lane> {
+    state: L::U64,
+    inc: L::U64,
+}
+
+impl<L: Lane> Pcg<L> {
+    /// Per lane, the generator `Pcg32::new(seed, stream)`.
+    #[inline(always)]
+    pub fn new(seed: L::U64, stream: L::U64) -> Self {
+        let inc = stream.shl::<1>().or(stream.splat(1));
+        let mut r = Pcg {
+            state: stream.splat(0),
+            inc,
+        };
+        r.next_u32();
+        r.state = LaneU64::add(r.state, seed);
+        r.next_u32();
+        r
+    }
+
+    /// The next 32 random bits of each lane (as `i32` lanes holding the `u32` bits).
+    #[inline(always)]
+    pub fn next_u32(&mut self) -> L::I32 {
+        let old = self.state;
+        self.state = old.mul(old.splat(MULT)).add(self.inc);
+        let xorshifted = old.shr::<18>().xor(old).shr::<27>().low_u32();
+        let rot = old.shr::<59>().low_u32();
+        xorshifted.rotate_right(rot)
+    }
+
+    /// A float uniform in [0, 1) per lane: 24 random bits, exactly representable, never 1.
+    #[inline(always)]
+    pub fn next_f32(&mut self) -> L {
+        let f = self.next_u32().shr::<8>().to_f32();
+        f * f.splat(1.0 / 16_777_216.0)
+    }
+}

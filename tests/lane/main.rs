@@ -1,0 +1,19 @@
+//! The lane abstraction (`groove::lane`, issue 16 item 2):
+//! - `bits`: every 8-wide function equals the 1-wide one bit for bit in every lane, over 10⁷
+//!   random inputs per polynomial function and for PCG32, 2·10⁵ per composite kernel (random bit
+//!   patterns, the function's domain, edge cases in every lane position);
+//! - `accuracy`: the polynomial functions against f64 `std`, in ulps (2·10⁵ inputs per range),
+//!   and their special values;
+//! - `scalar`: width 1 against groove's scalar code where they must agree (frames, Fresnel,
+//!   GGX, PCG32) or nearly agree (warps, Beckmann).
+//!
+//! Run in release mode: `cargo test --release --test lane`. The input count per function is
+//! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
+//! over random bit patterns only is `#[ignore]`d:
+//! `GROOVE_LANE_N=100000000 cargo test --release --test lane -- --include-ignored`.
+//! On a CPU without AVX2/FMA the 8-wide half is skipped and says so.
+
+mod accuracy;
+mod bits;
+mod harness;
+mod scalar;
