@@ -335,7 +335,9 @@ impl Perspective {
     /// pixels x0, y0, w, h): Mitsuba's `m_normalization` for the sensor's image rectangle.
     #[inline]
     pub(super) fn importance_normalization(&self, crop: (u32, u32, u32, u32)) -> f32 {
-        let a = (2.0 * self.tan_half_x) * (2.0 * self.tan_half_y) * (crop.2 as f32 / self.film_w)
+        let a = (2.0 * self.tan_half_x)
+            * (2.0 * self.tan_half_y)
+            * (crop.2 as f32 / self.film_w)
             * (crop.3 as f32 / self.film_h);
         1.0 / a
     }

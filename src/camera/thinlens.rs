@@ -155,7 +155,7 @@ impl ThinLens {
         let dist = v.length();
         let local_d = v / dist;
         let ct = local_d.z;
-        if !(ct > 0.0) {
+        if !crate::bsdf::is_positive(ct) {
             return None;
         }
         let focus_p = lens_p + local_d * (self.focus_distance / ct);

@@ -37,7 +37,7 @@
 
 use super::splat::{crop_of, SplatImage, MAX_TAPS};
 use super::{RayCounters, RayKind, Scratch};
-use crate::bsdf::{BsdfContext, SurfaceBsdf, TransportMode};
+use crate::bsdf::{is_positive, BsdfContext, SurfaceBsdf, TransportMode};
 use crate::emitter::emission::VisiblePoint;
 use crate::error::{Error, Result, SourceLoc};
 use crate::film::{Block, Film, FilmDesc, Filter};
@@ -126,7 +126,10 @@ pub fn render(
                 .saturating_mul(SplatImage::bytes(desc))
                 .saturating_add(px.saturating_mul(32 + 32 + 24))
                 .saturating_add(threads as u64 * crate::render::THREAD_BYTES),
-            &format!("light tracing film {}×{} with {threads} worker threads", crop.2, crop.3),
+            &format!(
+                "light tracing film {}×{} with {threads} worker threads",
+                crop.2, crop.3
+            ),
         )
         .map_err(Error::Usage)?;
 
@@ -274,7 +277,7 @@ impl Context<'_> {
         let Some((e, pmf, _)) = scene.light_sampler.sample(u_sel) else {
             return 0;
         };
-        if !(pmf > 0.0) {
+        if !is_positive(pmf) {
             return 0;
         }
         let Some(cam_p) = scene.camera.light_tracing_origin() else {
@@ -290,7 +293,7 @@ impl Context<'_> {
                 };
                 // One-sided emission: no light leaves the back (Mitsuba clamps the cosine).
                 let cos = n.dot(ss.d);
-                if !(cos > 0.0) {
+                if !is_positive(cos) {
                     return 0;
                 }
                 let o = offset_origin(p, n, ss.d);
@@ -327,7 +330,12 @@ impl Context<'_> {
 
     /// Mitsuba's `prepare_ray` and `trace_light_ray`: a path from an emitter, connected to the
     /// sensor at every surface vertex.
-    fn light_path(&self, img: &mut SplatImage, sampler: &mut Sampler, scratch: &mut Scratch) -> u64 {
+    fn light_path(
+        &self,
+        img: &mut SplatImage,
+        sampler: &mut Sampler,
+        scratch: &mut Scratch,
+    ) -> u64 {
         let scene = self.scene;
         let cfg = self.cfg;
         let u_sel = sampler.next_1d();
@@ -336,7 +344,7 @@ impl Context<'_> {
         let Some((e, pmf, _)) = scene.light_sampler.sample(u_sel) else {
             return 0;
         };
-        if !(pmf > 0.0) {
+        if !is_positive(pmf) {
             return 0;
         }
         let Some(er) = scene.emitters[e].sample_ray(&scene.shapes, scene.bsphere, u_pos, u_dir)
@@ -353,10 +361,7 @@ impl Context<'_> {
             return 0;
         }
         let mut invalid = 0;
-        loop {
-            let Some(si) = scratch.rays.intersect(scene, &ray, RayKind::Bounce) else {
-                break;
-            };
+        while let Some(si) = scratch.rays.intersect(scene, &ray, RayKind::Bounce) {
             let aperture = sampler.next_2d();
             let Some(bsdf) = scene.bsdf_at(&si, &mut scratch.arena) else {
                 // The arriving direction's shading and geometric sides disagree: no light

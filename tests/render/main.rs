@@ -13,6 +13,7 @@ mod materials;
 mod mnm;
 mod normalmap;
 mod parity;
+mod ptracer;
 mod refs_selfcheck;
 mod robustness;
 mod textures;
