@@ -145,3 +145,65 @@ fn path_and_ptracer_agree_under_microfacet_normal_maps_and_not_under_classic_one
         assert!(a[ch] < 0.8 * b[ch], "classic: ptracer {a:?} vs path {b:?}");
     }
 }
+
+/// The scene's `path` integrator replaced by a `ptracer` of the same depth.
+fn as_ptracer(max_depth: i32) -> impl FnOnce(&mut groove::load::Loaded) {
+    move |l| {
+        let loc = groove::error::SourceLoc::new("test", 0, 0);
+        l.settings.integrator = groove::integrator::IntegratorDesc::Ptracer(std::sync::Arc::new(
+            groove::integrator::ptracer::PtracerSettings {
+                max_depth,
+                rr_depth: 5,
+                hide_emitters: false,
+                samples_per_pass: None,
+                loc,
+            },
+        ));
+    }
+}
+
+/// The thin lens's importance (lens sample, plane of focus, cos³): light tracing of the
+/// diffuse defocus scene matches Mitsuba's *path-traced* reference (no specular paths, so both
+/// estimate the same image).
+#[test]
+fn ptracer_through_a_thin_lens_matches_the_path_traced_reference() {
+    let r = render_scene(
+        &test_scene("cam_thinlens.xml"),
+        &[],
+        2048,
+        195,
+        0,
+        as_ptracer(3),
+    );
+    matches_reference(&r, "cam_thinlens", 4, "cam_thinlens.xml by ptracer");
+}
+
+/// Mitsuba 3.9.1's orthographic sensor has no `sample_direction`: a clear error naming the
+/// integrator, not a black image.
+#[test]
+fn ptracer_refuses_the_orthographic_sensor() {
+    let p = test_scene("ptracer_cbox.xml");
+    let text = std::fs::read_to_string(&p).unwrap().replace(
+        "<sensor type=\"perspective\">\n        <string name=\"fov_axis\" value=\"x\"/>\n        <float name=\"fov\" value=\"34\"/>",
+        "<sensor type=\"orthographic\">",
+    );
+    assert!(text.contains("orthographic"));
+    let doc = groove::scene::xml::parse::load_str(&text, &p, &[]).expect("parse");
+    let loaded = groove::load::instantiate(&doc, &p).expect("load");
+    let e = groove::render::render(
+        &loaded.scene,
+        &loaded.settings,
+        &groove::render::RenderOptions {
+            spp: Some(1),
+            ..Default::default()
+        },
+    )
+    .err()
+    .expect("an error");
+    let msg = e.to_string();
+    assert!(msg.contains("ptracer_cbox.xml:11:5"), "{msg}");
+    assert!(
+        msg.contains("ptracer needs a perspective or thinlens sensor"),
+        "{msg}"
+    );
+}
