@@ -3,7 +3,7 @@
 rendered by groove with `path` and with `ptracer`, classic and microfacet (walk-mirror) normal
 mapping, and the difference ptracer − path (red: light tracing brighter, blue: darker; scale ±0.1).
 
-    /work/.venv-mitsuba/bin/python docs/consistency/make_figure.py target/release/groove
+    python3 docs/consistency/make_figure.py target/release/groove  (a python with mitsuba 3.9.1, numpy)
 
 Writes docs/consistency/nmap_path_vs_ptracer.png (rows: classic, walk-mirror; columns: path,
 ptracer, difference) and prints the per-row image means.

@@ -16,6 +16,7 @@ mod mesh_attribute;
 mod output;
 mod plugins;
 mod projector;
+mod ptracer;
 mod rotate_axis;
 mod texture;
 mod xml_parse;
