@@ -153,6 +153,9 @@ pub fn render(
     settings: &RenderSettings,
     opts: &RenderOptions,
 ) -> Result<RenderOutput> {
+    if let IntegratorDesc::Ptracer(cfg) = &settings.integrator {
+        return crate::integrator::ptracer::render(scene, settings, cfg, opts);
+    }
     let desc = &settings.film;
     let bs = opts.block_size.max(1);
     let (cw, ch) = desc.crop_size;

@@ -18,7 +18,7 @@ pub mod perspective;
 pub mod thinlens;
 
 pub use orthographic::Orthographic;
-pub use perspective::{FovAxis, Perspective};
+pub use perspective::{FovAxis, Perspective, SensorSample};
 pub use thinlens::ThinLens;
 
 use crate::error::{Error, Result};
@@ -77,6 +77,41 @@ impl Camera {
             Vec2::splat(0.5)
         };
         self.generate_ray(film_pos, aperture)
+    }
+}
+
+impl Camera {
+    /// The pinhole or lens centre of a camera light tracing connects to (`None`: orthographic).
+    pub fn light_tracing_origin(&self) -> Option<crate::math::Vec3> {
+        match self {
+            Camera::Perspective(c) => Some(c.position()),
+            Camera::ThinLens(c) => Some(c.position()),
+            Camera::Orthographic(_) => None,
+        }
+    }
+
+    /// True when light tracing can connect to this sensor (Mitsuba 3.9.1 implements
+    /// `sample_direction` for `perspective` and `thinlens`, not `orthographic`).
+    pub fn supports_light_tracing(&self) -> bool {
+        !matches!(self, Camera::Orthographic(_))
+    }
+
+    /// The connection of the world point `p` to the sensor for light tracing (see
+    /// [`SensorSample`]), with `aperture` ∈ [0,1)² the lens sample (used by the thin lens only)
+    /// and `crop` the crop window in full-film pixels (x0, y0, w, h). `None` when the point is
+    /// not seen (behind, clipped, outside the crop) and for the orthographic camera.
+    #[inline]
+    pub fn sample_direction(
+        &self,
+        p: crate::math::Vec3,
+        aperture: Vec2,
+        crop: (u32, u32, u32, u32),
+    ) -> Option<SensorSample> {
+        match self {
+            Camera::Perspective(c) => c.sample_direction(p, crop),
+            Camera::ThinLens(c) => c.sample_direction(p, aperture, crop),
+            Camera::Orthographic(_) => None,
+        }
     }
 }
 

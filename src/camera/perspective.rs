@@ -236,6 +236,11 @@ impl Perspective {
         &self.to_world
     }
 
+    /// The world-to-camera transform (the inverse of [`Perspective::to_world`]).
+    pub(super) fn to_local(&self) -> &Mat4 {
+        &self.to_local
+    }
+
     /// The near and far clip distances.
     pub fn clip(&self) -> (f32, f32) {
         (self.near_clip, self.far_clip)
@@ -292,6 +297,87 @@ impl Perspective {
         } else {
             None
         }
+    }
+}
+
+/// The sensor's side of a connection from a scene point (light tracing): where on the film the
+/// point appears and the importance it receives (Mitsuba 3's `Sensor::sample_direction`).
+#[derive(Clone, Copy, Debug)]
+pub struct SensorSample {
+    /// Full-film continuous pixel position the point projects to (inside the crop window).
+    pub film_pos: Vec2,
+    /// The lens point (the camera position for a pinhole), world space.
+    pub p: Vec3,
+    /// Unit direction from the scene point toward `p`, and the distance.
+    pub d: Vec3,
+    pub dist: f32,
+    /// Importance times the geometry term of the lens side, already divided by the lens
+    /// sample's density: `W / dist²` with W = 1 / (A · cos³θ) (Mitsuba's `importance`), A the
+    /// crop window's area on the plane at unit distance. The scene point's cosine is the
+    /// caller's (in its BSDF value).
+    pub weight: f32,
+}
+
+impl Perspective {
+    /// The film position of the camera-local point `l` projected through the pinhole (its
+    /// plane z = 1 coordinates x/z, y/z), as the inverse of [`Perspective::local_dir`].
+    #[inline]
+    pub(super) fn film_of_local(&self, l: Vec3) -> Vec2 {
+        let x = l.x / l.z;
+        let y = l.y / l.z;
+        Vec2::new(
+            (0.5 - 0.5 * x / self.tan_half_x) * self.film_w,
+            (0.5 - 0.5 * y / self.tan_half_y) * self.film_h,
+        )
+    }
+
+    /// 1 / A: the reciprocal area, on the plane z = 1, of the crop window `crop` (full-film
+    /// pixels x0, y0, w, h): Mitsuba's `m_normalization` for the sensor's image rectangle.
+    #[inline]
+    pub(super) fn importance_normalization(&self, crop: (u32, u32, u32, u32)) -> f32 {
+        let a = (2.0 * self.tan_half_x)
+            * (2.0 * self.tan_half_y)
+            * (crop.2 as f32 / self.film_w)
+            * (crop.3 as f32 / self.film_h);
+        1.0 / a
+    }
+
+    /// True when the full-film position lies in the crop window (edges included, as Mitsuba's
+    /// test `0 ≤ uv ≤ 1` of the crop's screen coordinates).
+    #[inline]
+    pub(super) fn in_crop(pos: Vec2, crop: (u32, u32, u32, u32)) -> bool {
+        let (x0, y0, w, h) = (crop.0 as f32, crop.1 as f32, crop.2 as f32, crop.3 as f32);
+        pos.x >= x0 && pos.x <= x0 + w && pos.y >= y0 && pos.y <= y0 + h
+    }
+
+    /// The world point `p_world`'s connection to the pinhole (Mitsuba 3 `perspective`'s
+    /// `sample_direction` and `importance`): `None` outside the near..far range (measured along
+    /// the local z axis, as Mitsuba does) or outside the crop window.
+    pub fn sample_direction(
+        &self,
+        p_world: Vec3,
+        crop: (u32, u32, u32, u32),
+    ) -> Option<SensorSample> {
+        let l = self.to_local.transform_point3(p_world);
+        if !(l.z >= self.near_clip && l.z <= self.far_clip) {
+            return None;
+        }
+        let film_pos = self.film_of_local(l);
+        if !Self::in_crop(film_pos, crop) {
+            return None;
+        }
+        let dist = l.length();
+        let ct = l.z / dist;
+        let weight = self.importance_normalization(crop) / (ct * ct * ct * dist * dist);
+        let p = self.position();
+        let d = (p - p_world) / dist;
+        (weight.is_finite() && weight > 0.0).then_some(SensorSample {
+            film_pos,
+            p,
+            d,
+            dist,
+            weight,
+        })
     }
 }
 

@@ -125,6 +125,57 @@ impl ThinLens {
     }
 }
 
+impl ThinLens {
+    /// The lens centre in world space.
+    pub fn position(&self) -> Vec3 {
+        self.pinhole.position()
+    }
+
+    /// The world point `p_world`'s connection to the lens point that `aperture` ∈ [0,1)² maps
+    /// to (Mitsuba 3 `thinlens`'s `sample_direction`): the direction from the lens point to the
+    /// scene point meets the plane of focus at a point whose pinhole projection is the film
+    /// position; the weight is 1 / (A · cos³θ · dist²) with A the crop window's area on the
+    /// plane z = 1 (the lens density cancels against the lens area of the importance).
+    /// `None` outside the near..far range (local z) or outside the crop window.
+    pub fn sample_direction(
+        &self,
+        p_world: Vec3,
+        aperture: Vec2,
+        crop: (u32, u32, u32, u32),
+    ) -> Option<super::perspective::SensorSample> {
+        let m = self.pinhole.to_world();
+        let l = self.pinhole.to_local().transform_point3(p_world);
+        let (near, far) = self.pinhole.clip();
+        if !(l.z >= near && l.z <= far) {
+            return None;
+        }
+        let a = warp::square_to_disk_concentric(aperture) * self.aperture_radius;
+        let lens_p = Vec3::new(a.x, a.y, 0.0);
+        let v = l - lens_p;
+        let dist = v.length();
+        let local_d = v / dist;
+        let ct = local_d.z;
+        if !crate::bsdf::is_positive(ct) {
+            return None;
+        }
+        let focus_p = lens_p + local_d * (self.focus_distance / ct);
+        let film_pos = self.pinhole.film_of_local(focus_p);
+        if !Perspective::in_crop(film_pos, crop) {
+            return None;
+        }
+        let weight = self.pinhole.importance_normalization(crop) / (ct * ct * ct * dist * dist);
+        let p = m.transform_point3(lens_p);
+        let d = (p - p_world) / dist;
+        (weight.is_finite() && weight > 0.0).then_some(super::perspective::SensorSample {
+            film_pos,
+            p,
+            d,
+            dist,
+            weight,
+        })
+    }
+}
+
 #[cfg(test)]
 // Mitsuba's values are quoted as Python printed them.
 #[allow(clippy::excessive_precision)]

@@ -5,6 +5,7 @@
 pub mod area;
 pub mod constant;
 pub mod directional;
+pub mod emission;
 pub mod envmap;
 pub mod light_sampler;
 pub mod point;

@@ -82,6 +82,11 @@ impl ProjectorLight {
         inside.then_some(uv)
     }
 
+    /// The pinhole's world position.
+    pub fn position(&self) -> Vec3 {
+        self.position
+    }
+
     pub fn sample_direct(&self, ref_p: Vec3) -> Option<DirectSample> {
         let l = self.to_local.transform_point3(ref_p);
         let uv = self.image_uv(l)?;

@@ -106,6 +106,27 @@ impl SpotLight {
         })
     }
 
+    /// A direction for a light path leaving the spot and its solid-angle density (light
+    /// tracing): uniform in the cone when the light's transform is rigid (the local cone is then
+    /// the world cone), else uniform on the sphere (directions outside the cone carry nothing).
+    pub fn sample_emission_direction(&self, u: Vec2) -> (Vec3, f32) {
+        let rigid = (self.to_local * self.to_local.transpose() - Mat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .all(|v| v.abs() < 1e-4);
+        if rigid && self.cos_cutoff > -1.0 {
+            let local = crate::math::warp::square_to_uniform_cone(u, self.cos_cutoff);
+            // The inverse of a rotation is its transpose.
+            let d = (self.to_local.transpose() * local).normalize();
+            (d, crate::math::warp::uniform_cone_pdf(self.cos_cutoff))
+        } else {
+            (
+                crate::math::warp::square_to_uniform_sphere(u),
+                crate::math::warp::uniform_sphere_pdf(),
+            )
+        }
+    }
+
     /// Radiant power estimate (luminance) for light selection: intensity × the texture's mean
     /// × the falloff integrated over the sphere.
     pub fn power(&self) -> f32 {

@@ -5,7 +5,9 @@ pub mod direct;
 pub mod moment;
 pub mod nee;
 pub mod path;
+pub mod ptracer;
 pub mod rays;
+pub mod splat;
 
 pub use rays::{LoggedRay, RayCounters, RayKind, Rays};
 
@@ -65,6 +67,10 @@ pub enum IntegratorDesc {
     Direct(DirectSettings),
     Moment(Arc<moment::MomentSettings>),
     Aov(Arc<aov::AovSettings>),
+    /// Light tracing: rendered by its own loop ([`ptracer::render`], which
+    /// [`crate::render::render`] calls), not per camera ray; the loader refuses it inside
+    /// `moment` and `aov` (as Mitsuba, whose adjoint integrators are not sampling integrators).
+    Ptracer(Arc<ptracer::PtracerSettings>),
 }
 
 /// Per-thread scratch state of an integrator (no allocation per ray).
@@ -89,7 +95,7 @@ impl IntegratorDesc {
         match self {
             IntegratorDesc::Path(s) => path::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Direct(s) => direct::li(s, scene, ray, sampler, scratch),
-            IntegratorDesc::Moment(_) | IntegratorDesc::Aov(_) => {
+            IntegratorDesc::Moment(_) | IntegratorDesc::Aov(_) | IntegratorDesc::Ptracer(_) => {
                 self.sample(scene, ray, sampler, scratch, &mut [])
             }
         }
@@ -99,7 +105,9 @@ impl IntegratorDesc {
     /// (`SamplingIntegrator::aov_names`): none for `path` and `direct`.
     pub fn aov_names(&self) -> Vec<String> {
         match self {
-            IntegratorDesc::Path(_) | IntegratorDesc::Direct(_) => Vec::new(),
+            IntegratorDesc::Path(_) | IntegratorDesc::Direct(_) | IntegratorDesc::Ptracer(_) => {
+                Vec::new()
+            }
             IntegratorDesc::Moment(m) => m.aov_names(),
             IntegratorDesc::Aov(a) => a.aov_names(),
         }
@@ -108,7 +116,7 @@ impl IntegratorDesc {
     /// Number of extra output channels (the length of [`IntegratorDesc::aov_names`]).
     pub fn aov_count(&self) -> usize {
         match self {
-            IntegratorDesc::Path(_) | IntegratorDesc::Direct(_) => 0,
+            IntegratorDesc::Path(_) | IntegratorDesc::Direct(_) | IntegratorDesc::Ptracer(_) => 0,
             IntegratorDesc::Moment(m) => m.aov_count(),
             IntegratorDesc::Aov(a) => a.aov_count(),
         }
@@ -131,6 +139,8 @@ impl IntegratorDesc {
             IntegratorDesc::Direct(s) => direct::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Moment(m) => m.sample(scene, ray, sampler, scratch, aovs),
             IntegratorDesc::Aov(a) => a.sample(scene, ray, sampler, scratch, aovs),
+            // No estimate along a camera ray: light tracing splats (see the variant's comment).
+            IntegratorDesc::Ptracer(_) => Spectrum::ZERO,
         }
     }
 
@@ -154,6 +164,7 @@ impl IntegratorDesc {
                 }
             }
             IntegratorDesc::Direct(_) => hit.is_some(),
+            IntegratorDesc::Ptracer(_) => false,
             IntegratorDesc::Moment(m) => m.inner.first().is_some_and(|(_, i)| i.valid(scene, hit)),
             IntegratorDesc::Aov(a) => a.inner.first().is_some_and(|(_, i)| i.valid(scene, hit)),
         }

@@ -1,4 +1,4 @@
-//! The render settings of a scene: `<integrator>` (`path`, `direct`), `<sensor>`
+//! The render settings of a scene: `<integrator>` (`path`, `direct`, `ptracer`, `moment`, `aov`), `<sensor>`
 //! (`perspective`), `<film>` (`hdrfilm`), `<rfilter>` (`box`, `tent`, `gaussian`) and
 //! `<sampler>` (`independent`, `stratified`), with Mitsuba 3's parameter names and defaults.
 
@@ -8,6 +8,7 @@ use crate::error::{Error, Result, SourceLoc};
 use crate::film::{FilmDesc, Filter};
 use crate::integrator::aov::{AovKind, AovSettings};
 use crate::integrator::moment::MomentSettings;
+use crate::integrator::ptracer::PtracerSettings;
 use crate::integrator::{DirectSettings, IntegratorDesc, PathSettings};
 use crate::sampler::{SamplerDesc, SamplerKind};
 use crate::scene::xml::ir::Node;
@@ -66,6 +67,40 @@ impl<'d> Builder<'d> {
                     hide_emitters: p.bool("hide_emitters", false)?,
                 })
             }
+            "ptracer" => {
+                // Mitsuba 3.9.1's AdjointIntegrator: rr_depth > 0, max_depth -1 or >= 0,
+                // samples_per_pass an unsigned count (default: all samples in one pass).
+                let max_depth = p.int("max_depth", -1)?;
+                check(
+                    p.loc(),
+                    max_depth >= -1,
+                    "max_depth must be set to -1 (infinite) or a value >= 0",
+                )?;
+                let rr_depth = p.int("rr_depth", 5)?;
+                check(
+                    p.loc(),
+                    rr_depth > 0,
+                    "rr_depth must be set to a value greater than zero",
+                )?;
+                let samples_per_pass = match p.int_opt("samples_per_pass")? {
+                    None => None,
+                    Some(v) => {
+                        check(
+                            p.loc(),
+                            v >= 1 && v <= u32::MAX as i64,
+                            "samples_per_pass must be a positive sample count",
+                        )?;
+                        Some(v as u32)
+                    }
+                };
+                IntegratorDesc::Ptracer(Arc::new(PtracerSettings {
+                    max_depth: max_depth.min(i32::MAX as i64) as i32,
+                    rr_depth: rr_depth.min(i32::MAX as i64) as i32,
+                    hide_emitters: p.bool("hide_emitters", false)?,
+                    samples_per_pass,
+                    loc: p.loc().clone(),
+                }))
+            }
             "moment" => IntegratorDesc::Moment(Arc::new(MomentSettings {
                 inner: self.nested_integrators(&p)?,
             })),
@@ -88,7 +123,7 @@ impl<'d> Builder<'d> {
                     p.loc(),
                     "integrator",
                     t,
-                    &["path", "direct", "moment", "aov"],
+                    &["path", "direct", "ptracer", "moment", "aov"],
                 ))
             }
         };
@@ -123,7 +158,18 @@ impl<'d> Builder<'d> {
                 "ref" => self.ids.resolve(c, "integrator")?,
                 _ => c,
             };
-            inner.push((name, self.integrator(target)?));
+            let desc = self.integrator(target)?;
+            if matches!(desc, IntegratorDesc::Ptracer(_)) {
+                return Err(Error::scene(
+                    &target.loc,
+                    format!(
+                        "{}: a ptracer cannot be nested (it splats light paths, it does not \
+                         estimate a camera ray; Mitsuba refuses it too)",
+                        p.plugin_type()
+                    ),
+                ));
+            }
+            inner.push((name, desc));
         }
         Ok(inner)
     }

@@ -5,6 +5,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod adjoint;
 mod hair;
 mod harness;
 mod mitsuba_wrappers;

@@ -115,6 +115,14 @@ JOBS = [
     ("direct_delta", os.path.join(SCENES, "direct_delta.xml"), {}, 1024, REF_SEEDS),
     ("rotate_axis", os.path.join(SCENES, "rotate_axis.xml"), {}, 2048, REF_SEEDS),
     ("degenerate_mesh", os.path.join(SCENES, "degenerate_mesh.xml"), {}, 2048, REF_SEEDS),
+    # Issue 19: light tracing (`ptracer`, the scenes' default $integrator) on a Cornell box, delta
+    # lights (point, spot, directional), glass caustics (smooth and rough) and classic normal
+    # mapping. 8 seeds: light paths splat into many pixels, so the per-pixel variance is taken
+    # across more independent renders than for the path tracer's references.
+    ("ptracer_cbox", os.path.join(SCENES, "ptracer_cbox.xml"), {}, 2048, list(range(8))),
+    ("ptracer_point_spot", os.path.join(SCENES, "ptracer_point_spot.xml"), {}, 2048, list(range(8))),
+    ("ptracer_glass", os.path.join(SCENES, "ptracer_glass.xml"), {}, 2048, list(range(8))),
+    ("ptracer_nmap", os.path.join(SCENES, "ptracer_nmap.xml"), {}, 2048, list(range(8))),
 ]
 
 # Jobs whose film has extra channels (AOVs): the statistics are those of the film's developed

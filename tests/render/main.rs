@@ -14,6 +14,7 @@ mod mnm;
 mod mnm_default_tangent;
 mod normalmap;
 mod parity;
+mod ptracer;
 mod refs_selfcheck;
 mod robustness;
 mod textures;

@@ -17,6 +17,7 @@ mod output;
 mod packets;
 mod plugins;
 mod projector;
+mod ptracer;
 mod rotate_axis;
 mod texture;
 mod xml_parse;

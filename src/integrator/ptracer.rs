@@ -1,0 +1,434 @@
+//! `ptracer`: light tracing (Mitsuba 3's particle tracer, `src/integrators/ptracer.cpp`). Paths
+//! start on the emitters and every vertex connects to the sensor; the contributions are splatted
+//! at the film positions they reach (Veach 1997, §10.2; the adjoint BSDF with shading normals,
+//! §5.3, p. 155).
+//!
+//! | parameter | type | default | meaning |
+//! |---|---|---|---|
+//! | `max_depth` | integer | −1 | longest path in vertices counting the sensor's (−1: unlimited); 1 = only emitters seen directly, 2 = direct illumination |
+//! | `rr_depth` | integer | 5 | Russian roulette once a light path has more than this many vertices; ≥ 1 |
+//! | `hide_emitters` | boolean | false | skip the direct connection of emitters to the sensor |
+//! | `samples_per_pass` | integer | all | Mitsuba's work split into passes of this many samples per pixel; the sample count must be a multiple of it. It changes nothing in groove's image (passes only schedule work) |
+//!
+//! One sample, as Mitsuba 3.9.1's `ParticleTracerIntegrator::sample`:
+//! 1. Emitters seen directly (unless `hide_emitters` or `max_depth` 0): an emitter picked by the
+//!    light sampler, a point on it (area lights, by area) or a direction toward it
+//!    (environments, from the sensor), connected to the sensor; delta lights are never seen.
+//! 2. A light path: an emitter picked by the light sampler, a ray leaving it
+//!    ([`crate::emitter::emission`]), then at every surface vertex (while the path has fewer
+//!    than `max_depth` vertices with the sensor's) a connection to the sensor through the BSDF
+//!    in importance mode, and a BSDF sample in importance mode to continue. Both carry the
+//!    shading-normal correction |cos_s(wi)·cos_g(wo)| / |cos_s(wo)·cos_g(wi)| and the side
+//!    tests of [`crate::bsdf::SurfaceBsdf`] (a direction whose shading and geometric sides
+//!    disagree carries nothing). Russian roulette after `rr_depth` vertices with survival
+//!    min(max(throughput)·η², 0.95).
+//!
+//! The render draws spp × (film width × height) samples (Mitsuba's count: the full film, not the
+//! crop) and scales each splat by (crop pixels) / (that count).
+//!
+//! Determinism: sample i draws from its own stream (`Sampler::for_sample` keyed by i / spp and
+//! i mod spp). The samples are cut into [`SLICES`] fixed, contiguous slices; each slice is
+//! traced by one task, in order, into its own [`SplatImage`], and the slices are added into the
+//! film in slice order. Which thread traces a slice changes nothing, so the same seed gives a
+//! bit-identical image at any thread count. The slices are also independent estimates of the
+//! image: the film receives each slice's image, scaled to a whole estimate, as one sample per
+//! pixel, so its variance is the variance between slices (light paths splat into many pixels,
+//! so per-splat statistics would not be a pixel's variance).
+
+use super::splat::{crop_of, SplatImage, MAX_TAPS};
+use super::{RayCounters, RayKind, Scratch};
+use crate::bsdf::{is_positive, BsdfContext, SurfaceBsdf, TransportMode};
+use crate::emitter::emission::VisiblePoint;
+use crate::error::{Error, Result, SourceLoc};
+use crate::film::{Block, Film, FilmDesc, Filter};
+use crate::geometry::ray::offset_origin;
+use crate::geometry::{Ray, SurfaceInteraction};
+use crate::render::{thread_pool, RenderOptions, RenderOutput, RenderSettings, RenderStats};
+use crate::sampler::{Sampler, SamplerDesc};
+use crate::scene::Scene;
+use crate::spectrum::{is_finite, max_component, Spectrum};
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Number of independent slices a render is cut into (fixed, so that the image does not depend
+/// on the thread count; also the sample count of the variance estimate).
+pub const SLICES: u64 = 32;
+
+/// Mitsuba's `ptracer` settings.
+#[derive(Clone, Debug)]
+pub struct PtracerSettings {
+    /// Longest path in vertices counting the sensor's (−1: unlimited).
+    pub max_depth: i32,
+    /// Russian roulette once a light path has more than this many vertices.
+    pub rr_depth: i32,
+    pub hide_emitters: bool,
+    /// Samples per pixel of one pass (`None`: all in one pass).
+    pub samples_per_pass: Option<u32>,
+    /// The `<integrator>` element (for errors found when the sensor is known).
+    pub loc: SourceLoc,
+}
+
+/// What one slice of the render produced.
+struct SliceStats {
+    rays: RayCounters,
+    invalid: u64,
+}
+
+/// Render `scene` by light tracing (called by [`crate::render::render`] for a `ptracer`).
+pub fn render(
+    scene: &Scene,
+    settings: &RenderSettings,
+    cfg: &PtracerSettings,
+    opts: &RenderOptions,
+) -> Result<RenderOutput> {
+    let desc = &settings.film;
+    if !scene.camera.supports_light_tracing() {
+        return Err(Error::scene(
+            &cfg.loc,
+            "ptracer needs a perspective or thinlens sensor (Mitsuba 3.9.1's orthographic \
+             sensor cannot be connected to: it has no sample_direction)",
+        ));
+    }
+    let r = desc.filter.radius();
+    if !(r.is_finite() && 2.0 * r < MAX_TAPS as f32) {
+        return Err(Error::Usage(format!(
+            "ptracer: the reconstruction filter's radius {r} is too large to splat with"
+        )));
+    }
+    let spp = opts.spp.unwrap_or(settings.sampler.sample_count).max(1);
+    if let Some(per_pass) = cfg.samples_per_pass {
+        let per_pass = per_pass.min(spp);
+        if spp % per_pass != 0 {
+            return Err(Error::scene(
+                &cfg.loc,
+                format!("sample_count ({spp}) must be a multiple of samples_per_pass ({per_pass})"),
+            ));
+        }
+    }
+    let sampler_desc = SamplerDesc {
+        kind: settings.sampler.kind,
+        sample_count: spp,
+        seed: opts.seed.unwrap_or(settings.sampler.seed),
+    };
+    let pool = thread_pool(opts.threads)?;
+    let threads = pool.current_num_threads();
+    let crop = crop_of(desc);
+    let total = spp as u64 * desc.width as u64 * desc.height as u64;
+    let slices = SLICES.min(total.max(1));
+    let wave = (threads as u64).clamp(1, slices) as usize;
+    // The slice images of one wave, the film and its block (32 bytes a pixel each), the
+    // developed image and the encoder's copy (12 each).
+    let px = crop.2 as u64 * crop.3 as u64;
+    opts.budget
+        .check(
+            (wave as u64)
+                .saturating_mul(SplatImage::bytes(desc))
+                .saturating_add(px.saturating_mul(32 + 32 + 24))
+                .saturating_add(threads as u64 * crate::render::THREAD_BYTES),
+            &format!(
+                "light tracing film {}×{} with {threads} worker threads",
+                crop.2, crop.3
+            ),
+        )
+        .map_err(Error::Usage)?;
+
+    let start = Instant::now();
+    let box_desc = FilmDesc {
+        filter: Filter::Box,
+        ..desc.clone()
+    };
+    let mut film = Film::new(desc.clone());
+    let mut rays = RayCounters::default();
+    let mut invalid = 0;
+    if !scene.light_sampler.is_empty() && crop.2 > 0 && crop.3 > 0 {
+        let ctx = Context {
+            scene,
+            cfg,
+            sampler: &sampler_desc,
+            crop,
+            scale: (px as f64 / total as f64) as f32,
+            cancel: opts.cancel.as_ref(),
+        };
+        let mut images: Vec<SplatImage> = (0..wave).map(|_| SplatImage::new(desc)).collect();
+        let mut block = Block::new(&box_desc, crop.0, crop.1, crop.2, crop.3);
+        let mut first = 0u64;
+        while first < slices {
+            let n = (slices - first).min(wave as u64) as usize;
+            let stats: Vec<SliceStats> = pool.install(|| {
+                images[..n]
+                    .par_iter_mut()
+                    .enumerate()
+                    .map(|(i, img)| {
+                        let k = first + i as u64;
+                        img.clear();
+                        ctx.trace_slice(img, total * k / slices, total * (k + 1) / slices)
+                    })
+                    .collect()
+            });
+            // Slice order: the film's sums do not depend on which thread traced what.
+            for (img, s) in images[..n].iter().zip(stats) {
+                rays.add(&s.rays);
+                invalid += s.invalid;
+                let whole = slices as f32;
+                for (j, p) in img.pixels().iter().enumerate() {
+                    let x = crop.0 + (j as u32 % crop.2);
+                    let y = crop.1 + (j as u32 / crop.2);
+                    let v = Spectrum::from_array(*p) * whole;
+                    block.put(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), v);
+                }
+            }
+            first += n as u64;
+            if ctx.cancelled() {
+                return Err(Error::Cancelled);
+            }
+        }
+        film.merge(&block);
+    }
+    let stats = RenderStats {
+        seconds: start.elapsed().as_secs_f64(),
+        spp,
+        seed: sampler_desc.seed,
+        threads,
+        samples: total,
+        rays,
+        invalid_samples: invalid,
+    };
+    Ok(RenderOutput {
+        film,
+        stats,
+        ray_log: Vec::new(),
+    })
+}
+
+/// What every sample of one render shares.
+struct Context<'a> {
+    scene: &'a Scene,
+    cfg: &'a PtracerSettings,
+    sampler: &'a SamplerDesc,
+    crop: (u32, u32, u32, u32),
+    /// Crop pixels / samples: each splat's factor.
+    scale: f32,
+    cancel: Option<&'a crate::cancel::Cancel>,
+}
+
+/// The BSDF queries of light tracing.
+const IMPORTANCE: BsdfContext = BsdfContext {
+    mode: TransportMode::Importance,
+};
+
+impl Context<'_> {
+    fn cancelled(&self) -> bool {
+        self.cancel.is_some_and(|c| c.requested().is_some())
+    }
+
+    /// Trace samples `begin..end` in order into `img`.
+    fn trace_slice(&self, img: &mut SplatImage, begin: u64, end: u64) -> SliceStats {
+        let mut scratch = Scratch::default();
+        let mut invalid = 0;
+        let spp = self.sampler.sample_count as u64;
+        for i in begin..end {
+            if (i - begin) % 4096 == 0 && self.cancelled() {
+                break;
+            }
+            let mut sampler = Sampler::for_sample(self.sampler, i / spp, (i % spp) as u32);
+            invalid += self.sample(img, &mut sampler, &mut scratch);
+        }
+        SliceStats {
+            rays: scratch.rays.counters,
+            invalid,
+        }
+    }
+
+    /// One sample: the emitters seen directly, then one light path. Returns the number of
+    /// non-finite contributions dropped.
+    fn sample(&self, img: &mut SplatImage, sampler: &mut Sampler, scratch: &mut Scratch) -> u64 {
+        let mut invalid = 0;
+        if self.cfg.max_depth != 0 && !self.cfg.hide_emitters {
+            invalid += self.visible_emitters(img, sampler, scratch);
+        }
+        invalid + self.light_path(img, sampler, scratch)
+    }
+
+    /// Adds `value` at `pos` unless it is not finite (then counts it).
+    #[inline]
+    fn splat(&self, img: &mut SplatImage, pos: Vec2, value: Spectrum) -> u64 {
+        if !is_finite(value) {
+            return 1;
+        }
+        if value != Spectrum::ZERO {
+            img.put(pos, value * self.scale);
+        }
+        0
+    }
+
+    /// Mitsuba's `sample_visible_emitters`: a point or direction of one emitter connected to
+    /// the sensor.
+    fn visible_emitters(
+        &self,
+        img: &mut SplatImage,
+        sampler: &mut Sampler,
+        scratch: &mut Scratch,
+    ) -> u64 {
+        let scene = self.scene;
+        let u_sel = sampler.next_1d();
+        let u = sampler.next_2d();
+        let aperture = sampler.next_2d();
+        let Some((e, pmf, _)) = scene.light_sampler.sample(u_sel) else {
+            return 0;
+        };
+        if !is_positive(pmf) {
+            return 0;
+        }
+        let Some(cam_p) = scene.camera.light_tracing_origin() else {
+            return 0;
+        };
+        let Some(vp) = scene.emitters[e].sample_visible(&scene.shapes, cam_p, u) else {
+            return 0;
+        };
+        match vp {
+            VisiblePoint::Surface { p, n, weight } => {
+                let Some(ss) = scene.camera.sample_direction(p, aperture, self.crop) else {
+                    return 0;
+                };
+                // One-sided emission: no light leaves the back (Mitsuba clamps the cosine).
+                let cos = n.dot(ss.d);
+                if !is_positive(cos) {
+                    return 0;
+                }
+                let o = offset_origin(p, n, ss.d);
+                let v = ss.p - o;
+                let dist = v.length();
+                let mut shadow = Ray::new(o, v / dist);
+                shadow.tmax = dist * (1.0 - 1e-4);
+                if scratch.rays.occluded(scene, &shadow) {
+                    return 0;
+                }
+                self.splat(img, ss.film_pos, weight * (cos * ss.weight / pmf))
+            }
+            VisiblePoint::Environment { d, weight } => {
+                // As Mitsuba: the environment's point at twice the radius of the bounding
+                // sphere grown to hold the sensor, in area measure (× dist²).
+                let (c, r) = scene.bsphere;
+                let t = 2.0 * r.max((cam_p - c).length());
+                if !(t.is_finite() && t > 0.0) {
+                    return 0;
+                }
+                let far = cam_p + d * t;
+                let Some(ss) = scene.camera.sample_direction(far, aperture, self.crop) else {
+                    return 0;
+                };
+                let mut shadow = Ray::new(ss.p, -ss.d);
+                shadow.tmax = ss.dist;
+                if scratch.rays.occluded(scene, &shadow) {
+                    return 0;
+                }
+                self.splat(img, ss.film_pos, weight * (ss.weight * t * t / pmf))
+            }
+        }
+    }
+
+    /// Mitsuba's `prepare_ray` and `trace_light_ray`: a path from an emitter, connected to the
+    /// sensor at every surface vertex.
+    fn light_path(
+        &self,
+        img: &mut SplatImage,
+        sampler: &mut Sampler,
+        scratch: &mut Scratch,
+    ) -> u64 {
+        let scene = self.scene;
+        let cfg = self.cfg;
+        let u_sel = sampler.next_1d();
+        let u_pos = sampler.next_2d();
+        let u_dir = sampler.next_2d();
+        let Some((e, pmf, _)) = scene.light_sampler.sample(u_sel) else {
+            return 0;
+        };
+        if !is_positive(pmf) {
+            return 0;
+        }
+        let Some(er) = scene.emitters[e].sample_ray(&scene.shapes, scene.bsphere, u_pos, u_dir)
+        else {
+            return 0;
+        };
+        let mut throughput = er.weight / pmf;
+        let mut ray = er.ray;
+        let mut eta = 1.0f32;
+        // Vertices of the path so far, counting the sensor's (Mitsuba's `depth` starts at 1).
+        let mut depth: i64 = 1;
+        let max_depth = cfg.max_depth as i64;
+        if max_depth >= 0 && depth >= max_depth {
+            return 0;
+        }
+        let mut invalid = 0;
+        while let Some(si) = scratch.rays.intersect(scene, &ray, RayKind::Bounce) {
+            let aperture = sampler.next_2d();
+            let Some(bsdf) = scene.bsdf_at(&si, &mut scratch.arena) else {
+                // The arriving direction's shading and geometric sides disagree: no light
+                // scatters from here (Mitsuba's leak test kills the path too).
+                break;
+            };
+            // ---- Connection to the sensor ----
+            if let Some(ss) = scene.camera.sample_direction(si.p, aperture, self.crop) {
+                if let Some(value) = connect(&si, &bsdf, ss.d, sampler) {
+                    let value = throughput * value * ss.weight;
+                    if value != Spectrum::ZERO {
+                        let shadow = si.spawn_ray_to(ss.p, None);
+                        if !scratch.rays.occluded(scene, &shadow) {
+                            invalid += self.splat(img, ss.film_pos, value);
+                        }
+                    }
+                }
+            }
+            // ---- BSDF sampling (importance transport) ----
+            let Some(bs) = bsdf.sample(&IMPORTANCE, sampler) else {
+                break;
+            };
+            let corr = shading_correction(&si, bs.wo);
+            if !(corr.is_finite() && corr > 0.0) {
+                break;
+            }
+            throughput *= bs.weight * corr;
+            eta *= bs.eta;
+            let tmax = max_component(throughput);
+            if !(tmax.is_finite() && tmax > 0.0) {
+                break;
+            }
+            depth += 1;
+            if max_depth >= 0 && depth >= max_depth {
+                break;
+            }
+            if depth > cfg.rr_depth as i64 {
+                let q = (tmax * eta * eta).min(0.95);
+                if sampler.next_1d() >= q {
+                    break;
+                }
+                throughput /= q;
+            }
+            ray = si.spawn_ray(bs.wo);
+        }
+        invalid
+    }
+}
+
+/// The adjoint BSDF's shading-normal factor for light arriving along `si.wi` and leaving along
+/// `wo` (world): |cos_s(wi)·cos_g(wo)| / |cos_s(wo)·cos_g(wi)| (Veach 1997, eq. 5.19).
+#[inline]
+fn shading_correction(si: &SurfaceInteraction, wo: Vec3) -> f32 {
+    let n = si.sh.n;
+    ((n.dot(si.wi) * si.ng.dot(wo)) / (n.dot(wo) * si.ng.dot(si.wi))).abs()
+}
+
+/// `f* · |cos_s(wo)|` times the shading-normal factor toward the sensor direction `wo`, in
+/// importance mode; `None` when the side tests refuse `wo`.
+#[inline]
+fn connect(
+    si: &SurfaceInteraction,
+    bsdf: &SurfaceBsdf,
+    wo: Vec3,
+    sampler: &mut Sampler,
+) -> Option<Spectrum> {
+    let (f, _) = bsdf.eval_pdf(&IMPORTANCE, wo, sampler)?;
+    let corr = shading_correction(si, wo);
+    (corr.is_finite() && f != Spectrum::ZERO).then(|| f * corr)
+}
