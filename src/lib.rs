@@ -28,6 +28,7 @@ pub mod integrator;
 pub mod load;
 pub mod material;
 pub mod math;
+pub mod merge;
 pub mod output;
 pub mod render;
 pub mod sampler;
