@@ -64,9 +64,12 @@ pub struct RenderOptions {
     pub on_pass: Option<PassHook>,
 }
 
+/// What a [`PassHook`] runs: the film so far and the sample range [a, b) it holds.
+pub type PassFn = dyn Fn(&Film, (u32, u32)) + Send + Sync;
+
 /// A callback run between passes of a render with the film so far and its sample range.
 #[derive(Clone)]
-pub struct PassHook(pub Arc<dyn Fn(&Film, (u32, u32)) + Send + Sync>);
+pub struct PassHook(pub Arc<PassFn>);
 
 impl std::fmt::Debug for PassHook {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {

@@ -374,13 +374,10 @@ pub fn read_part(path: &Path, budget: &Budget) -> Result<Part> {
     let na = aovs.len();
     let mut extra = vec![[0i128; 2]; n * na];
     for c in 0..na {
-        for k in 0..2 {
-            for (i, v) in read_sums(&format!("aov{c}.{}", k + 1))?
-                .into_iter()
-                .enumerate()
-            {
-                extra[i * na + c][k] = v;
-            }
+        let first = read_sums(&format!("aov{c}.1"))?;
+        let second = read_sums(&format!("aov{c}.2"))?;
+        for (i, (a, b)) in first.into_iter().zip(second).enumerate() {
+            extra[i * na + c] = [a, b];
         }
     }
     Ok(Part {

@@ -489,3 +489,58 @@ fn sigusr1_writes_the_current_image_and_sigint_stops_cleanly() {
     assert_eq!(status.code(), Some(130));
     assert!(temp_files(&d).is_empty(), "{:?}", temp_files(&d));
 }
+
+#[test]
+fn parts_carry_the_extra_channels_exactly() {
+    let d = tmpdir("split-aov");
+    let aov = SCENE.replace(
+        "    <sensor",
+        r#"    <integrator type="aov">
+        <string name="aovs" value="dd.y:depth,nn:sh_normal"/>
+        <integrator type="path" name="img"/>
+    </integrator>
+    <sensor"#,
+    );
+    write(&d, "s.xml", &aov);
+    ok(&d, &["render", "s.xml", "-q", "-o", "full.exr"]);
+    ok(
+        &d,
+        &[
+            "render",
+            "s.xml",
+            "-q",
+            "--tile",
+            "0/2",
+            "--samples",
+            "0..4",
+            "-o",
+            "a.exr",
+        ],
+    );
+    ok(
+        &d,
+        &[
+            "render",
+            "s.xml",
+            "-q",
+            "--tile",
+            "0/2",
+            "--samples",
+            "4..6",
+            "-o",
+            "b.exr",
+        ],
+    );
+    ok(
+        &d,
+        &["render", "s.xml", "-q", "--tile", "1/2", "-o", "c.exr"],
+    );
+    ok(&d, &["merge", "-q", "m.exr", "a.exr", "b.exr", "c.exr"]);
+    let (_, _, chans) = groove::output::read_exr_channels(&d.join("m.exr")).unwrap();
+    assert!(
+        chans.iter().any(|c| c.0 == "dd.y.T"),
+        "{:?}",
+        chans.iter().map(|c| &c.0).collect::<Vec<_>>()
+    );
+    assert_same_bits(&d.join("m.exr"), &d.join("full.exr"));
+}
