@@ -196,7 +196,7 @@ struct Acc {
 }
 
 impl Acc {
-    #[inline]
+    #[inline(always)]
     fn add_sample(&mut self, v: [f32; 3], w: f32) {
         for (c, &vc) in v.iter().enumerate() {
             let wv = vc * w;

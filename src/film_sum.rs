@@ -22,7 +22,7 @@ const MAX_ADDEND: i128 = 1 << (62 + FRAC_BITS);
 
 /// The fixed-point value of `x`: clamped to ±2⁶² (so ±∞ give the clamp), 0 for NaN. The film
 /// records non-finite colour values apart (as flags).
-#[inline]
+#[inline(always)]
 pub(crate) fn fixed(x: f32) -> i128 {
     let bits = x.to_bits();
     let e = ((bits >> 23) & 0xff) as i32;
