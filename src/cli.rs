@@ -18,6 +18,8 @@ pub struct Cli {
 pub enum Command {
     /// Render one or more scenes to EXR or PNG.
     Render(RenderArgs),
+    /// Add the parts of a split render (`render --crop/--tile/--samples`) into one image.
+    Merge(MergeArgs),
     /// Time classic against microfacet normal mapping (every mode, equal spp and equal time),
     /// against Embree's intersection ceiling and, when importable, Mitsuba 3.
     Bench(BenchArgs),
@@ -117,6 +119,81 @@ pub struct RenderArgs {
     /// No progress bar and no warnings (errors and the summary still print).
     #[arg(short = 'q', long = "quiet")]
     pub quiet: bool,
+    /// Render only the pixels X..X+W, Y..Y+H of the film (a filter-radius border around them is
+    /// sampled too); writes a part (see --part).
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
+    pub crop: Option<(u32, u32, u32, u32)>,
+    /// Render tile I of N (0 ≤ I < N): the rows of the crop window (the scene's, or --crop) cut
+    /// into N strips of nearly equal height; writes a part.
+    #[arg(long, value_name = "I/N", value_parser = parse_tile)]
+    pub tile: Option<(u32, u32)>,
+    /// Render the sample indices A..B (A included, B not) of each pixel's streams of --spp (or
+    /// the scene's) samples; writes a part.
+    #[arg(long, value_name = "A..B", value_parser = parse_samples)]
+    pub samples: Option<(u32, u32)>,
+    /// Write a part (an EXR with the exact sums, for `groove merge`) even without --crop,
+    /// --tile or --samples.
+    #[arg(long)]
+    pub part: bool,
+    /// Stop at the first pass boundary after this many seconds and write what was rendered
+    /// (the metadata `groove.samples` says how many samples).
+    #[arg(long = "time-limit", value_name = "SECONDS", value_parser = parse_seconds)]
+    pub time_limit: Option<f64>,
+    /// Write a JSON record of every render of the batch (timings, rays, samples, warnings,
+    /// outputs) and a summary to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct MergeArgs {
+    /// Output image (.exr or .png).
+    pub output: PathBuf,
+    /// The parts (EXR files written by `groove render --crop/--tile/--samples/--part`).
+    #[arg(required = true)]
+    pub parts: Vec<PathBuf>,
+    /// Merge even when samples or pixels are missing (each gap is reported; nothing is filled).
+    #[arg(long = "allow-missing")]
+    pub allow_missing: bool,
+    /// Memory limit in GB (default: half of the physical memory).
+    #[arg(long = "max-memory", value_name = "GB", value_parser = parse_gb)]
+    pub max_memory: Option<f64>,
+    /// No summary line.
+    #[arg(short = 'q', long = "quiet")]
+    pub quiet: bool,
+}
+
+fn parse_crop(s: &str) -> Result<(u32, u32, u32, u32), String> {
+    match crate::output::part::parse_rect(s) {
+        Some(r) if r.2 > 0 && r.3 > 0 => Ok(r),
+        _ => Err(format!(
+            "expected X,Y,W,H (pixels, W and H at least 1), got '{s}'"
+        )),
+    }
+}
+
+fn parse_tile(s: &str) -> Result<(u32, u32), String> {
+    let t = s
+        .split_once('/')
+        .and_then(|(i, n)| Some((i.trim().parse::<u32>().ok()?, n.trim().parse::<u32>().ok()?)));
+    match t {
+        Some((i, n)) if i < n => Ok((i, n)),
+        _ => Err(format!("expected I/N with 0 <= I < N, got '{s}'")),
+    }
+}
+
+fn parse_samples(s: &str) -> Result<(u32, u32), String> {
+    match crate::output::part::parse_range(s) {
+        Some((a, b)) if a < b => Ok((a, b)),
+        _ => Err(format!("expected A..B with A < B, got '{s}'")),
+    }
+}
+
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("expected a number of seconds, got '{s}'")),
+    }
 }
 
 pub(crate) fn parse_normal_mapping(s: &str) -> Result<crate::load::options::NormalMapping, String> {

@@ -8,11 +8,17 @@
 //! as Mitsuba's film storage has no border. A filter of radius ½ is the box filter: the sample goes
 //! to the one pixel that contains it, with weight 1.
 //!
-//! Everything is deterministic: a block's content depends only on the samples put into it and their
-//! order, and the film adds blocks in the order the caller merges them.
+//! Everything is exact and order-independent: each contribution (w·v, w·v², w, w²) is rounded
+//! once to a fixed-point integer ([`sum`]) and the sums are integer sums, so a pixel's value is
+//! the same bits whatever the block layout, the thread count, the merge order, or the split of a
+//! render into crops and sample ranges (`groove merge`). Positions are taken in full-film
+//! coordinates for the same reason. Developing rounds each exact sum once.
 
 use crate::math::Vec2;
 use crate::spectrum::Spectrum;
+
+#[path = "film_sum.rs"]
+pub(crate) mod sum;
 
 /// Resolution of Mitsuba's tabulated filter (`MI_FILTER_RESOLUTION` in `rfilter.h`).
 const FILTER_RESOLUTION: usize = 31;
@@ -160,7 +166,13 @@ pub struct FilmDesc {
 }
 
 impl FilmDesc {
-    /// The crop window clamped to the film (a window that sticks out is cut, never a panic).
+    /// The crop window clamped to the film (a window that sticks out is cut, never a panic):
+    /// (x0, y0, width, height).
+    pub fn crop_rect(&self) -> (u32, u32, u32, u32) {
+        self.crop()
+    }
+
+    /// [`FilmDesc::crop_rect`].
     fn crop(&self) -> (u32, u32, u32, u32) {
         let x0 = self.crop_offset.0.min(self.width);
         let y0 = self.crop_offset.1.min(self.height);
@@ -170,35 +182,104 @@ impl FilmDesc {
     }
 }
 
-/// Per-pixel sums: Σw·v, Σw·v², Σw, Σw².
+/// Per-pixel sums Σw·v, Σw·v², Σw, Σw², exact in fixed point (see [`sum`]), so that they do not
+/// depend on the order or grouping in which contributions arrive.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Acc {
-    wv: [f32; 3],
-    wv2: [f32; 3],
-    w: f32,
-    w2: f32,
+    wv: [i128; 3],
+    wv2: [i128; 3],
+    w: i128,
+    w2: i128,
+    /// Non-finite colour values seen (they cannot be summed in fixed point): bit c NaN, bit 3+c
+    /// +∞, bit 6+c −∞ for channel c. A set of flags does not depend on the order either.
+    bad: u16,
 }
 
 impl Acc {
-    #[inline]
+    #[inline(always)]
     fn add_sample(&mut self, v: [f32; 3], w: f32) {
-        for ((swv, swv2), &vc) in self.wv.iter_mut().zip(self.wv2.iter_mut()).zip(&v) {
+        for (c, &vc) in v.iter().enumerate() {
             let wv = vc * w;
-            *swv += wv;
-            *swv2 += wv * vc;
+            if !wv.is_finite() || !vc.is_finite() {
+                self.flag(c, if vc.is_finite() { wv } else { vc });
+                continue;
+            }
+            sum::add_signed(&mut self.wv[c], sum::fixed(wv));
+            sum::add_unsigned(&mut self.wv2[c], sum::fixed(wv * vc));
         }
-        self.w += w;
-        self.w2 += w * w;
+        sum::add_unsigned(&mut self.w, sum::fixed(w));
+        sum::add_unsigned(&mut self.w2, sum::fixed(w * w));
+    }
+
+    /// Records the non-finite value `x` of channel `c`.
+    #[cold]
+    fn flag(&mut self, c: usize, x: f32) {
+        self.bad |= if x.is_nan() {
+            1 << c
+        } else if x > 0.0 {
+            1 << (3 + c)
+        } else {
+            1 << (6 + c)
+        };
     }
 
     #[inline]
     fn add(&mut self, o: &Acc) {
         for c in 0..3 {
-            self.wv[c] += o.wv[c];
-            self.wv2[c] += o.wv2[c];
+            sum::add_signed(&mut self.wv[c], o.wv[c]);
+            sum::add_unsigned(&mut self.wv2[c], o.wv2[c]);
         }
-        self.w += o.w;
-        self.w2 += o.w2;
+        sum::add_unsigned(&mut self.w, o.w);
+        sum::add_unsigned(&mut self.w2, o.w2);
+        self.bad |= o.bad;
+    }
+
+    /// Σw·v / Σw of channel c (0 without weight; NaN or ±∞ when such values were put).
+    fn mean(&self, c: usize) -> f32 {
+        let bad = (self.bad >> c) & 0b1001001;
+        match (bad & 1 != 0, bad & 8 != 0, bad & 64 != 0) {
+            (true, _, _) | (_, true, true) => f32::NAN,
+            (_, true, false) => f32::INFINITY,
+            (_, false, true) => f32::NEG_INFINITY,
+            _ if self.w == 0 => 0.0,
+            // The 2⁻⁶⁴ scale cancels.
+            _ => (self.wv[c] as f64 / self.w as f64) as f32,
+        }
+    }
+}
+
+/// Bytes of one pixel's accumulators in a [`Film`] or [`Block`] (without extra channels).
+pub const PIXEL_BYTES: u64 = std::mem::size_of::<Acc>() as u64;
+
+/// One pixel's exact sums as stored in a partial output (`output::part`): Σw·v (R, G, B),
+/// Σw·v² (R, G, B), Σw, Σw², integers times 2⁻⁶⁴, and the non-finite flags.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RawPixel {
+    pub sums: [i128; 8],
+    pub bad: u16,
+}
+
+impl From<&Acc> for RawPixel {
+    fn from(a: &Acc) -> RawPixel {
+        RawPixel {
+            sums: [
+                a.wv[0], a.wv[1], a.wv[2], a.wv2[0], a.wv2[1], a.wv2[2], a.w, a.w2,
+            ],
+            bad: a.bad,
+        }
+    }
+}
+
+impl From<&RawPixel> for Acc {
+    fn from(r: &RawPixel) -> Acc {
+        let s = r.sums;
+        Acc {
+            wv: [s[0], s[1], s[2]],
+            wv2: [s[3], s[4], s[5]],
+            w: s[6],
+            w2: s[7],
+            bad: r.bad,
+        }
     }
 }
 
@@ -216,9 +297,10 @@ pub struct Block {
     sw: u32,
     sh: u32,
     data: Vec<Acc>,
-    /// Extra channels per storage pixel (the integrator's AOVs): Σw·a and Σw·a², `nch` each.
+    /// Extra channels per storage pixel (the integrator's AOVs): Σw·a and Σw·a², `nch` each,
+    /// exact like the colour sums; a non-finite channel value counts as 0.
     nch: usize,
-    extra: Vec<[f32; 2]>,
+    extra: Vec<[i128; 2]>,
 }
 
 impl Block {
@@ -264,7 +346,7 @@ impl Block {
             .resize(self.sw as usize * self.sh as usize, Acc::default());
         self.extra.clear();
         self.extra
-            .resize(self.sw as usize * self.sh as usize * self.nch, [0.0; 2]);
+            .resize(self.sw as usize * self.sh as usize * self.nch, [0; 2]);
     }
 
     /// Adds the extra channels `a` with weight `w` to storage pixel `idx`.
@@ -273,8 +355,10 @@ impl Block {
         let n = self.nch;
         for (e, &v) in self.extra[idx * n..idx * n + n].iter_mut().zip(a) {
             let wv = v * w;
-            e[0] += wv;
-            e[1] += wv * v;
+            if wv.is_finite() {
+                sum::add_signed(&mut e[0], sum::fixed(wv));
+                sum::add_unsigned(&mut e[1], sum::fixed(wv * v));
+            }
         }
     }
 
@@ -282,7 +366,8 @@ impl Block {
     /// `ImageBlock::put`): every pixel (i, j) whose centre (i+½, j+½) lies within the filter radius
     /// on both axes receives weight wx·wy from the tabulated filter. Positions outside the block
     /// storage only reach the pixels that exist; non-finite positions are ignored. Non-finite
-    /// values are accumulated as they are (the developed image then shows them).
+    /// values are recorded per pixel and channel, and the developed pixel shows them (NaN, or
+    /// ±∞ when only one sign of infinity arrived).
     pub fn put(&mut self, film_pos: Vec2, value: Spectrum) {
         self.splat::<false>(film_pos, value, &[]);
     }
@@ -319,16 +404,20 @@ impl Block {
             return;
         }
         let r = self.filter.radius();
-        // Position relative to the storage, in pixel-centre coordinates.
-        let pxf = film_pos.x - self.ox as f32 - 0.5;
-        let pyf = film_pos.y - self.oy as f32 - 0.5;
-        let x_lo = ((pxf - r).ceil() as i64).max(0);
-        let y_lo = ((pyf - r).ceil() as i64).max(0);
-        let x_hi = (crate::math::floor(pxf + r) as i64).min(self.sw as i64 - 1);
-        let y_hi = (crate::math::floor(pyf + r) as i64).min(self.sh as i64 - 1);
-        if x_lo > x_hi || y_lo > y_hi {
+        // Position in full-film pixel-centre coordinates: the footprint and its weights must
+        // not depend on where the block lies (a split render puts blocks elsewhere).
+        let pxf = film_pos.x - 0.5;
+        let pyf = film_pos.y - 0.5;
+        // Footprint in full-film pixels, then cut to the storage.
+        let fx_lo = ((pxf - r).ceil() as i64).max(self.ox);
+        let fy_lo = ((pyf - r).ceil() as i64).max(self.oy);
+        let fx_hi = (crate::math::floor(pxf + r) as i64).min(self.ox + self.sw as i64 - 1);
+        let fy_hi = (crate::math::floor(pyf + r) as i64).min(self.oy + self.sh as i64 - 1);
+        if fx_lo > fx_hi || fy_lo > fy_hi {
             return;
         }
+        let (x_lo, x_hi) = (fx_lo - self.ox, fx_hi - self.ox);
+        let (y_lo, y_hi) = (fy_lo - self.oy, fy_hi - self.oy);
         let nx = (x_hi - x_lo + 1) as usize;
         let ny = (y_hi - y_lo + 1) as usize;
         // The footprint is at most 2·border+1 wide; keep the weights on the stack when small.
@@ -343,8 +432,8 @@ impl Block {
             wy_heap.resize(ny, 0.0);
             (&mut wx_heap[..], &mut wy_heap[..])
         };
-        let rel_x = x_lo as f32 - pxf;
-        let rel_y = y_lo as f32 - pyf;
+        let rel_x = fx_lo as f32 - pxf;
+        let rel_y = fy_lo as f32 - pyf;
         for (i, w) in wx.iter_mut().enumerate() {
             *w = self.table.eval(rel_x + i as f32);
         }
@@ -373,7 +462,7 @@ pub struct Film {
     data: Vec<Acc>,
     /// Extra channels (see [`Block`]): Σw·a and Σw·a², `nch` per pixel.
     nch: usize,
-    extra: Vec<[f32; 2]>,
+    extra: Vec<[i128; 2]>,
 }
 
 impl Film {
@@ -389,7 +478,7 @@ impl Film {
         Film {
             data: vec![Acc::default(); n],
             nch,
-            extra: vec![[0.0; 2]; n * nch],
+            extra: vec![[0; 2]; n * nch],
             desc,
             crop,
         }
@@ -427,10 +516,39 @@ impl Film {
                 for c in 0..n {
                     let e = block.extra[si * block.nch + c];
                     let d = &mut self.extra[di * self.nch + c];
-                    d[0] += e[0];
-                    d[1] += e[1];
+                    sum::add_signed(&mut d[0], e[0]);
+                    sum::add_unsigned(&mut d[1], e[1]);
                 }
             }
+        }
+    }
+
+    /// The crop window in full-film pixels: (x0, y0, width, height).
+    pub fn crop_rect(&self) -> (u32, u32, u32, u32) {
+        self.crop
+    }
+
+    /// The exact sums of crop pixel `i` (row-major in the crop window). Panics when out of range.
+    pub fn raw_pixel(&self, i: usize) -> RawPixel {
+        RawPixel::from(&self.data[i])
+    }
+
+    /// The exact sums Σw·a, Σw·a² of extra channel `c` of crop pixel `i`. Panics when out of
+    /// range.
+    pub fn raw_extra(&self, i: usize, c: usize) -> [i128; 2] {
+        self.extra[i * self.nch + c]
+    }
+
+    /// Adds exact sums to crop pixel `i` (`extra`: one pair per extra channel, the surplus
+    /// ignored): how a merge of partial outputs adds them. Panics when `i` is out of range.
+    pub fn add_raw(&mut self, i: usize, px: &RawPixel, extra: &[[i128; 2]]) {
+        self.data[i].add(&Acc::from(px));
+        for (d, e) in self.extra[i * self.nch..(i + 1) * self.nch]
+            .iter_mut()
+            .zip(extra)
+        {
+            sum::add_signed(&mut d[0], e[0]);
+            sum::add_unsigned(&mut d[1], e[1]);
         }
     }
 
@@ -439,18 +557,7 @@ impl Film {
         let data = self
             .data
             .iter()
-            .map(|a| {
-                if a.w == 0.0 {
-                    [0.0; 3]
-                } else {
-                    let inv = 1.0 / a.w as f64;
-                    [
-                        (a.wv[0] as f64 * inv) as f32,
-                        (a.wv[1] as f64 * inv) as f32,
-                        (a.wv[2] as f64 * inv) as f32,
-                    ]
-                }
-            })
+            .map(|a| [a.mean(0), a.mean(1), a.mean(2)])
             .collect();
         Image {
             width: self.crop.2,
@@ -469,7 +576,7 @@ impl Film {
             .iter()
             .enumerate()
             .map(|(i, a)| {
-                if a.w == 0.0 {
+                if a.w == 0 {
                     0.0
                 } else {
                     (self.extra[i * self.nch + c][0] as f64 / a.w as f64) as f32
@@ -489,7 +596,12 @@ impl Film {
             .enumerate()
             .map(|(i, a)| {
                 let e = self.extra[i * self.nch + c];
-                variance_of_mean(a.w as f64, a.w2 as f64, e[0] as f64, e[1] as f64)
+                variance_of_mean(
+                    sum::to_f64(a.w),
+                    sum::to_f64(a.w2),
+                    sum::to_f64(e[0]),
+                    sum::to_f64(e[1]),
+                )
             })
             .collect()
     }
@@ -511,8 +623,9 @@ impl Film {
             .data
             .iter()
             .map(|a| {
-                let (w, w2) = (a.w as f64, a.w2 as f64);
-                [0, 1, 2].map(|c| variance_of_mean(w, w2, a.wv[c] as f64, a.wv2[c] as f64))
+                let (w, w2) = (sum::to_f64(a.w), sum::to_f64(a.w2));
+                [0, 1, 2]
+                    .map(|c| variance_of_mean(w, w2, sum::to_f64(a.wv[c]), sum::to_f64(a.wv2[c])))
             })
             .collect();
         Image {

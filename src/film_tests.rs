@@ -72,7 +72,7 @@ fn block_matches_mitsuba_imageblock() {
             expected[y * b.sw as usize + x] = [v[0], v[1], v[2], v[3]];
         }
         for (k, (a, e)) in b.data.iter().zip(&expected).enumerate() {
-            let got = [a.wv[0], a.wv[1], a.wv[2], a.w];
+            let got = [a.wv[0], a.wv[1], a.wv[2], a.w].map(|x| sum::to_f64(x) as f32);
             for c in 0..4 {
                 // Mitsuba's f32 polynomial differs from ours by up to ~1e-5 near the cut-off.
                 assert!(
@@ -108,7 +108,7 @@ fn box_filter_is_plain_average() {
     let img = film.develop();
     for k in 0..12 {
         let got = img.data[k];
-        assert_eq!(film.data[k].w, n[k] as f32);
+        assert_eq!(sum::to_f64(film.data[k].w), n[k] as f64);
         for c in 0..3 {
             assert!((got[c] as f64 - sums[k][c] / n[k] as f64).abs() < 1e-5);
         }
@@ -143,7 +143,7 @@ fn weights_of_interior_pixels_count_the_samples() {
         };
         for y in 3..9 {
             for x in 3..9 {
-                let w = film.data[y * 12 + x].w;
+                let w = sum::to_f64(film.data[y * 12 + x].w) as f32;
                 assert!(
                     (w - expect).abs() < 1e-3 * expect,
                     "{filter:?}: {w} vs {expect}"
@@ -203,29 +203,90 @@ fn render(d: &FilmDesc, tiles: &[(u32, u32, u32, u32)], spp: u32) -> (Film, Imag
 
 #[test]
 fn partition_does_not_change_the_result() {
-    let d = desc(10, 7, Filter::default());
-    let (_, one) = render(&d, &[(0, 0, 10, 7)], 4);
-    let tiles: Vec<_> = (0..7).flat_map(|y| [(0, y, 3, 1), (3, y, 7, 1)]).collect();
-    let (_, many) = render(&d, &tiles, 4);
-    for (a, b) in one.data.iter().zip(&many.data) {
-        for c in 0..3 {
-            assert!((a[c] - b[c]).abs() <= 1e-6 * a[c].abs().max(1.0));
+    // Exact sums: any partition into blocks, and any merge order, gives the same bits.
+    for filter in [Filter::Box, Filter::Tent { radius: 1.0 }, Filter::default()] {
+        let d = desc(10, 7, filter);
+        let (f1, one) = render(&d, &[(0, 0, 10, 7)], 4);
+        let tiles: Vec<_> = (0..7).flat_map(|y| [(0, y, 3, 1), (3, y, 7, 1)]).collect();
+        let (fm, many) = render(&d, &tiles, 4);
+        assert_eq!(one, many, "{filter:?}");
+        assert_eq!(f1.data, fm.data, "{filter:?}");
+        let rev: Vec<_> = tiles.iter().rev().copied().collect();
+        let (_, back) = render(&d, &rev, 4);
+        assert_eq!(one, back, "{filter:?}");
+        // Non-square crop with a block larger than the crop at the edge.
+        let mut dc = d.clone();
+        dc.crop_offset = (2, 1);
+        dc.crop_size = (5, 5);
+        let (_, a) = render(&dc, &[(2, 1, 5, 5)], 3);
+        let (_, b) = render(&dc, &[(2, 1, 4, 2), (6, 1, 1, 2), (2, 3, 5, 3)], 3);
+        assert_eq!(a, b, "{filter:?}");
+    }
+}
+
+#[test]
+fn a_crop_with_its_border_equals_the_full_film() {
+    // Sampling the crop plus a border of ceil(radius) pixels gives the crop's pixels of the
+    // full film bit for bit.
+    for filter in [Filter::Box, Filter::Tent { radius: 1.0 }, Filter::default()] {
+        let d = desc(11, 9, filter);
+        let (_, full) = render(&d, &[(0, 0, 11, 9)], 3);
+        let b = filter.radius().ceil() as u32;
+        let (x, y, w, h) = (3u32, 2u32, 5u32, 4u32);
+        let mut dc = d.clone();
+        dc.crop_offset = (x, y);
+        dc.crop_size = (w, h);
+        let (_, crop) = render(&dc, &[(x - b, y - b, w + 2 * b, h + 2 * b)], 3);
+        for j in 0..h {
+            for i in 0..w {
+                assert_eq!(crop.get(i, j), full.get(x + i, y + j), "{filter:?} {i},{j}");
+            }
         }
     }
-    // Same partition and merge order: bit-identical.
-    let (_, again) = render(&d, &tiles, 4);
-    assert_eq!(many, again);
-    // Non-square crop with a block larger than the crop at the edge.
-    let mut dc = d.clone();
-    dc.crop_offset = (2, 1);
-    dc.crop_size = (5, 5);
-    let (_, a) = render(&dc, &[(2, 1, 5, 5)], 3);
-    let (_, b) = render(&dc, &[(2, 1, 4, 2), (6, 1, 1, 2), (2, 3, 5, 3)], 3);
-    for (p, q) in a.data.iter().zip(&b.data) {
-        for c in 0..3 {
-            assert!((p[c] - q[c]).abs() <= 1e-6 * p[c].abs().max(1.0));
+}
+
+#[test]
+fn raw_sums_add_like_blocks() {
+    let d = desc(6, 5, Filter::default());
+    let (a, _) = render(&d, &[(0, 0, 6, 2)], 2);
+    let (b, _) = render(&d, &[(0, 2, 6, 3)], 2);
+    let (full, img) = render(&d, &[(0, 0, 6, 5)], 2);
+    let mut m = Film::new(d.clone());
+    for f in [&b, &a] {
+        for i in 0..30 {
+            m.add_raw(i, &f.raw_pixel(i), &[]);
         }
     }
+    assert_eq!(m.data, full.data);
+    assert_eq!(m.develop(), img);
+}
+
+#[test]
+fn non_finite_values_show_in_the_developed_pixel() {
+    let d = desc(4, 1, Filter::Box);
+    let mut b = Block::new(&d, 0, 0, 4, 1);
+    b.put(
+        Vec2::new(0.5, 0.5),
+        Spectrum::new(f32::INFINITY, f32::NAN, 1.0),
+    );
+    b.put(Vec2::new(1.5, 0.5), Spectrum::new(f32::INFINITY, 1.0, 1.0));
+    b.put(
+        Vec2::new(1.5, 0.5),
+        Spectrum::new(f32::NEG_INFINITY, 1.0, 1.0),
+    );
+    b.put(
+        Vec2::new(2.5, 0.5),
+        Spectrum::new(f32::NEG_INFINITY, 2.0, 1.0),
+    );
+    let mut film = Film::new(d);
+    film.merge(&b);
+    let img = film.develop();
+    assert_eq!(img.get(0, 0)[0], f32::INFINITY);
+    assert!(img.get(0, 0)[1].is_nan());
+    assert_eq!(img.get(0, 0)[2], 1.0);
+    assert!(img.get(1, 0)[0].is_nan());
+    assert_eq!(img.get(2, 0), [f32::NEG_INFINITY, 2.0, 1.0]);
+    assert_eq!(img.get(3, 0), [0.0; 3]);
 }
 
 #[test]
@@ -264,8 +325,8 @@ fn variance_matches_for_iid_samples() {
         for y in 2..14 {
             for x in 2..14 {
                 let a = film.data[y * 16 + x];
-                let w = a.w as f64;
-                let w2 = a.w2 as f64;
+                let w = sum::to_f64(a.w);
+                let w2 = sum::to_f64(a.w2);
                 sum += var.data[y * 16 + x][0] as f64 * w * w / w2;
                 cnt += 1.0;
             }

@@ -48,6 +48,33 @@ pub struct RenderOptions {
     /// The memory budget the film and its blocks must fit in (with what the scene's load
     /// reserved, when it is the load's budget), checked before anything is allocated.
     pub budget: Budget,
+    /// Render this window (x, y, width, height, in full-film pixels) instead of the scene's
+    /// crop window. Either way the pixels of a border as wide as the filter radius around the
+    /// window are sampled too, so that the window's pixels equal the full render's bit for bit.
+    pub crop: Option<(u32, u32, u32, u32)>,
+    /// Render only the sample indices [a, b) of each pixel's streams of `spp` samples (the
+    /// streams stay those of the full render); `None`: all of them.
+    pub samples: Option<(u32, u32)>,
+    /// Stop at the first pass boundary after this many seconds and return what was rendered
+    /// ([`RenderStats::sample_range`] says how many samples).
+    pub time_limit: Option<f64>,
+    /// Called after every pass with the film so far and the sample range it holds (e.g. to
+    /// write the current image on SIGUSR1). With a hook or a time limit the samples are
+    /// rendered in passes of 1, 1, 2, 4, … (at most 64) samples per pixel; the image is the same.
+    pub on_pass: Option<PassHook>,
+}
+
+/// What a [`PassHook`] runs: the film so far and the sample range [a, b) it holds.
+pub type PassFn = dyn Fn(&Film, (u32, u32)) + Send + Sync;
+
+/// A callback run between passes of a render with the film so far and its sample range.
+#[derive(Clone)]
+pub struct PassHook(pub Arc<PassFn>);
+
+impl std::fmt::Debug for PassHook {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("PassHook")
+    }
 }
 
 impl Default for RenderOptions {
@@ -61,6 +88,10 @@ impl Default for RenderOptions {
             record_rays: 0,
             cancel: None,
             budget: Budget::default(),
+            crop: None,
+            samples: None,
+            time_limit: None,
+            on_pass: None,
         }
     }
 }
@@ -69,7 +100,18 @@ impl Default for RenderOptions {
 #[derive(Clone, Debug, Default)]
 pub struct RenderStats {
     pub seconds: f64,
+    /// Samples rendered per pixel (the length of [`RenderStats::sample_range`]).
     pub spp: u32,
+    /// Samples per pixel of the full render whose streams were drawn from.
+    pub sample_count: u32,
+    /// The sample indices [a, b) rendered (shorter than asked when the time limit stopped it).
+    pub sample_range: (u32, u32),
+    /// The window rendered (full-film pixels: x, y, width, height).
+    pub crop: (u32, u32, u32, u32),
+    /// Pixels sampled: the window and its filter border.
+    pub sampled_pixels: u64,
+    /// True when the time limit stopped the render before the end of its sample range.
+    pub stopped_early: bool,
     pub seed: u64,
     pub threads: usize,
     pub samples: u64,
@@ -97,9 +139,10 @@ pub struct RenderOutput {
 /// Block edge in pixels of [`RenderOptions::default`].
 pub const DEFAULT_BLOCK: u32 = 32;
 
-/// Bytes a render of `desc` in blocks of `block` pixels allocates: the film's accumulators
-/// (32 bytes a pixel), every block until it is merged (the same, with the filter's border
-/// around each block), the developed image (12 bytes a pixel) and the encoder's copy (12).
+/// Bytes a render of `desc` in blocks of `block` pixels allocates: the film's exact
+/// accumulators ([`crate::film::PIXEL_BYTES`] a pixel), every block until it is merged (the
+/// same, with the filter's border around each block), the developed image (12 bytes a pixel)
+/// and the encoder's copy (12).
 pub fn film_bytes(desc: &FilmDesc, block: u32) -> u64 {
     let (w, h) = desc.crop_size;
     let px = w.min(desc.width) as u64 * h.min(desc.height) as u64;
@@ -112,8 +155,9 @@ pub fn film_bytes(desc: &FilmDesc, block: u32) -> u64 {
     let b = block.max(1) as u64;
     let blocks = (w as u64).div_ceil(b) * (h as u64).div_ceil(b);
     let block_px = blocks.saturating_mul((b + 2 * border).pow(2));
-    px.saturating_mul(32 + 12 + 12)
-        .saturating_add(block_px.saturating_mul(32))
+    let acc = crate::film::PIXEL_BYTES;
+    px.saturating_mul(acc + 12 + 12)
+        .saturating_add(block_px.saturating_mul(acc))
 }
 
 /// Bytes one worker thread takes beside the film: its stack (rayon's default, 2 MiB of address
@@ -146,6 +190,37 @@ pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
         .map_err(|e| Error::Native(format!("cannot start worker threads: {e}")))
 }
 
+/// Pixels around a window whose samples reach it through the filter: none for the box filter
+/// (a sample counts for its own pixel), else ceil(radius).
+pub fn sample_border(desc: &FilmDesc) -> u32 {
+    let r = desc.filter.radius();
+    if desc.filter == crate::film::Filter::Box || !(r.is_finite() && r > 0.5) {
+        0
+    } else {
+        r.ceil().min(1024.0) as u32
+    }
+}
+
+/// The film description with `opts.crop` applied (checked to lie inside the film).
+pub fn film_for(settings: &RenderSettings, opts: &RenderOptions) -> Result<FilmDesc> {
+    let mut desc = settings.film.clone();
+    if let Some((x, y, w, h)) = opts.crop {
+        let fits = w > 0
+            && h > 0
+            && x.checked_add(w).is_some_and(|e| e <= desc.width)
+            && y.checked_add(h).is_some_and(|e| e <= desc.height);
+        if !fits {
+            return Err(Error::Usage(format!(
+                "crop {x},{y},{w},{h} does not lie inside the {}×{} film",
+                desc.width, desc.height
+            )));
+        }
+        desc.crop_offset = (x, y);
+        desc.crop_size = (w, h);
+    }
+    Ok(desc)
+}
+
 /// Render `scene` as `settings` say, with the overrides of `opts`; returns the film with its
 /// statistics.
 pub fn render(
@@ -154,11 +229,19 @@ pub fn render(
     opts: &RenderOptions,
 ) -> Result<RenderOutput> {
     if let IntegratorDesc::Ptracer(cfg) = &settings.integrator {
+        // The light tracer splats anywhere on the film: it renders whole images only.
+        if opts.crop.is_some() || opts.samples.is_some() || opts.time_limit.is_some() {
+            return Err(Error::Usage(
+                "the ptracer integrator renders whole images only: --crop, --tile, --samples and --time-limit are not supported with it".into(),
+            ));
+        }
         return crate::integrator::ptracer::render(scene, settings, cfg, opts);
     }
-    let desc = &settings.film;
+    let desc = film_for(settings, opts)?;
+    let desc = &desc;
     let bs = opts.block_size.max(1);
-    let (cw, ch) = desc.crop_size;
+    let crop = desc.crop_rect();
+    let (cw, ch) = (crop.2, crop.3);
     let pool = thread_pool(opts.threads)?;
     let n = pool.current_num_threads() as u64;
     opts.budget
@@ -172,20 +255,54 @@ pub fn render(
         sample_count: opts.spp.unwrap_or(settings.sampler.sample_count).max(1),
         seed: opts.seed.unwrap_or(settings.sampler.seed),
     };
-    let (cx, cy) = desc.crop_offset;
+    let spp = sampler_desc.sample_count;
+    let (s_lo, s_hi) = opts.samples.unwrap_or((0, spp));
+    if s_lo >= s_hi || s_hi > spp {
+        return Err(Error::Usage(format!(
+            "sample range {s_lo}..{s_hi} is empty or beyond the {spp} samples per pixel"
+        )));
+    }
+    // The window plus the filter's border, cut to the film: the pixels whose samples reach it.
+    let b = sample_border(desc);
+    let x0 = crop.0.saturating_sub(b);
+    let y0 = crop.1.saturating_sub(b);
+    let x1 = (crop.0 + cw).saturating_add(b).min(desc.width);
+    let y1 = (crop.1 + ch).saturating_add(b).min(desc.height);
     let mut rects = Vec::new();
-    let mut y = 0;
-    while y < ch {
-        let mut x = 0;
-        while x < cw {
-            rects.push((cx + x, cy + y, bs.min(cw - x), bs.min(ch - y)));
-            x += bs;
+    if cw > 0 && ch > 0 {
+        let mut y = y0;
+        while y < y1 {
+            let mut x = x0;
+            while x < x1 {
+                rects.push((x, y, bs.min(x1 - x), bs.min(y1 - y)));
+                x = x.saturating_add(bs);
+            }
+            y = y.saturating_add(bs);
         }
-        y += bs;
+    }
+    let sampled_pixels = if rects.is_empty() {
+        0
+    } else {
+        (x1 - x0) as u64 * (y1 - y0) as u64
+    };
+    // Passes: one, unless something must happen between passes.
+    let mut passes = Vec::new();
+    if opts.time_limit.is_some() || opts.on_pass.is_some() {
+        let (mut s, mut len) = (s_lo, 1u32);
+        while s < s_hi {
+            let e = s.saturating_add(len).min(s_hi);
+            passes.push((s, e));
+            s = e;
+            if passes.len() > 1 {
+                len = (len * 2).min(64);
+            }
+        }
+    } else {
+        passes.push((s_lo, s_hi));
     }
 
     let bar = if opts.progress {
-        let b = indicatif::ProgressBar::new(rects.len() as u64);
+        let b = indicatif::ProgressBar::new((rects.len() * passes.len()) as u64);
         b.set_style(
             indicatif::ProgressStyle::with_template(
                 "{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% ETA {eta}",
@@ -201,67 +318,90 @@ pub fn render(
     let log_budget = Arc::new(AtomicUsize::new(opts.record_rays));
     let cancel = opts.cancel.as_ref();
     let nch = settings.integrator.aov_count();
-    let results: Vec<(Block, RayCounters, u64, Vec<LoggedRay>)> = pool.install(|| {
-        rects
-            .par_iter()
-            .map_init(
-                || {
-                    let mut s = Scratch::default();
-                    if opts.record_rays > 0 {
-                        s.rays.record(log_budget.clone());
-                    }
-                    s
-                },
-                |scratch, &(x0, y0, w, h)| {
-                    scratch.rays.counters = RayCounters::default();
-                    let _ = scratch.arena.take_walk_counts();
-                    let mut block = Block::with_channels(desc, x0, y0, w, h, nch);
-                    let rect = (x0, y0, w, h);
-                    let invalid = render_block(
-                        scene,
-                        settings,
-                        &sampler_desc,
-                        &mut block,
-                        rect,
-                        scratch,
-                        cancel,
-                    );
-                    let walks = scratch.arena.take_walk_counts();
-                    let mut counters = scratch.rays.counters;
-                    counters.walks = walks.walks;
-                    counters.walk_vertices = walks.vertices;
-                    if let Some(b) = &bar {
-                        b.inc(1);
-                    }
-                    (block, counters, invalid, scratch.rays.take_log())
-                },
-            )
-            .collect()
-    });
-    let seconds = start.elapsed().as_secs_f64();
-    if let Some(b) = &bar {
-        b.finish_and_clear();
-    }
-    if cancel.is_some_and(|c| c.requested().is_some()) {
-        return Err(Error::Cancelled);
-    }
-
     let mut film = Film::with_channels(desc.clone(), nch);
     let mut rays = RayCounters::default();
     let mut invalid = 0;
     let mut ray_log = Vec::new();
-    for (block, c, inv, log) in results {
-        film.merge(&block);
-        rays.add(&c);
-        invalid += inv;
-        ray_log.extend(log);
+    let mut done = s_lo;
+    for &(p_lo, p_hi) in &passes {
+        let results: Vec<(Block, RayCounters, u64, Vec<LoggedRay>)> = pool.install(|| {
+            rects
+                .par_iter()
+                .map_init(
+                    || {
+                        let mut s = Scratch::default();
+                        if opts.record_rays > 0 {
+                            s.rays.record(log_budget.clone());
+                        }
+                        s
+                    },
+                    |scratch, &(x0, y0, w, h)| {
+                        scratch.rays.counters = RayCounters::default();
+                        let _ = scratch.arena.take_walk_counts();
+                        let mut block = Block::with_channels(desc, x0, y0, w, h, nch);
+                        let job = BlockJob {
+                            rect: (x0, y0, w, h),
+                            samples: (p_lo, p_hi),
+                        };
+                        let invalid = render_block(
+                            scene,
+                            settings,
+                            &sampler_desc,
+                            &mut block,
+                            job,
+                            scratch,
+                            cancel,
+                        );
+                        let walks = scratch.arena.take_walk_counts();
+                        let mut counters = scratch.rays.counters;
+                        counters.walks = walks.walks;
+                        counters.walk_vertices = walks.vertices;
+                        if let Some(b) = &bar {
+                            b.inc(1);
+                        }
+                        (block, counters, invalid, scratch.rays.take_log())
+                    },
+                )
+                .collect()
+        });
+        if cancel.is_some_and(|c| c.requested().is_some()) {
+            if let Some(b) = &bar {
+                b.finish_and_clear();
+            }
+            return Err(Error::Cancelled);
+        }
+        for (block, c, inv, log) in results {
+            film.merge(&block);
+            rays.add(&c);
+            invalid += inv;
+            ray_log.extend(log);
+        }
+        done = p_hi;
+        if let Some(h) = &opts.on_pass {
+            (h.0)(&film, (s_lo, done));
+        }
+        if opts
+            .time_limit
+            .is_some_and(|t| start.elapsed().as_secs_f64() >= t)
+        {
+            break;
+        }
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    if let Some(b) = &bar {
+        b.finish_and_clear();
     }
     let stats = RenderStats {
         seconds,
-        spp: sampler_desc.sample_count,
+        spp: done - s_lo,
+        sample_count: spp,
+        sample_range: (s_lo, done),
+        crop,
+        sampled_pixels,
+        stopped_early: done < s_hi,
         seed: sampler_desc.seed,
         threads: pool.current_num_threads(),
-        samples: cw as u64 * ch as u64 * sampler_desc.sample_count as u64,
+        samples: sampled_pixels * (done - s_lo) as u64,
         rays,
         invalid_samples: invalid,
     };
@@ -272,17 +412,28 @@ pub fn render(
     })
 }
 
-/// Render every sample of the pixels of one block; returns the number of invalid samples.
-/// Stops within 4096 samples once `cancel` is raised (the render is then discarded).
+/// The pixels and sample indices one block renders.
+#[derive(Clone, Copy, Debug)]
+struct BlockJob {
+    /// Full-film pixels: x0, y0, width, height.
+    rect: (u32, u32, u32, u32),
+    /// Sample indices [a, b) of every pixel.
+    samples: (u32, u32),
+}
+
+/// Render the samples of `job` of the pixels of one block; returns the number of invalid
+/// samples. Stops within 4096 samples once `cancel` is raised (the render is then discarded).
 fn render_block(
     scene: &Scene,
     settings: &RenderSettings,
     sampler_desc: &SamplerDesc,
     block: &mut Block,
-    (x0, y0, w, h): (u32, u32, u32, u32),
+    job: BlockJob,
     scratch: &mut Scratch,
     cancel: Option<&Cancel>,
 ) -> u64 {
+    let (x0, y0, w, h) = job.rect;
+    let (s_lo, s_hi) = job.samples;
     let width = settings.film.width as u64;
     let mut invalid = 0;
     // The integrator's extra channels (AOVs) of one sample: allocated per block, not per ray.
@@ -291,9 +442,9 @@ fn render_block(
     for y in y0..y0 + h {
         for x in x0..x0 + w {
             let pixel_index = y as u64 * width + x as u64;
-            for s in 0..sampler_desc.sample_count {
+            for s in s_lo..s_hi {
                 // Every 4096 samples (at least once per pixel): an uncontended load.
-                if s % 4096 == 0 && stop() {
+                if (s - s_lo) % 4096 == 0 && stop() {
                     return invalid;
                 }
                 let mut sampler = Sampler::for_sample(sampler_desc, pixel_index, s);

@@ -1,7 +1,9 @@
 //! The `groove render` command as a user meets it: exit codes, error messages with
 //! FILE:LINE:COL, batch behaviour, output naming and atomic writes; module `doc_links`: the
 //! links of README.md and docs/ resolve inside the repository; module `bench`: `groove bench` on
-//! two tiny scenes and its JSON schema.
+//! two tiny scenes and its JSON schema; module `split`: split renders
+//! (`--crop`, `--tile`, `--samples`, `--time-limit`) merged by `groove merge`, bit for bit; module `slurm` (ignored: root, a
+//! private Slurm): the Slurm recipe end to end.
 
 #[path = "cli/bench.rs"]
 mod bench;
@@ -9,6 +11,10 @@ mod bench;
 mod doc_links;
 #[path = "cli/hostile.rs"]
 mod hostile;
+#[path = "cli/slurm.rs"]
+mod slurm;
+#[path = "cli/split.rs"]
+mod split;
 
 use assert_cmd::Command;
 use std::fs;

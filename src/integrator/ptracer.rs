@@ -188,6 +188,11 @@ pub fn render(
     let stats = RenderStats {
         seconds: start.elapsed().as_secs_f64(),
         spp,
+        sample_count: spp,
+        sample_range: (0, spp),
+        crop,
+        sampled_pixels: crop.2 as u64 * crop.3 as u64,
+        stopped_early: false,
         seed: sampler_desc.seed,
         threads,
         samples: total,

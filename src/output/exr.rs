@@ -3,11 +3,11 @@
 use std::io::{Seek, Write};
 use std::path::Path;
 
-use exr::meta::attribute::{AttributeValue, Text};
+use exr::meta::attribute::{AttributeValue, IntegerBounds, Text};
 use exr::prelude::{
-    read as exr_read, AnyChannel, AnyChannels, Encoding, FlatSamples, Image as ExrImage, Layer,
-    LayerAttributes, ReadChannels, ReadLayers, SmallVec, SpecificChannels, Vec2 as ExrVec2,
-    WritableImage,
+    read as exr_read, AnyChannel, AnyChannels, Encoding, FlatSamples, Image as ExrImage,
+    ImageAttributes, Layer, LayerAttributes, ReadChannels, ReadLayers, SmallVec, SpecificChannels,
+    Vec2 as ExrVec2, WritableImage,
 };
 
 use super::Metadata;
@@ -39,7 +39,7 @@ fn read_error(path: &Path, e: exr::error::Error) -> Error {
 }
 
 /// The string attributes of `meta` for an EXR header.
-fn attributes(meta: &Metadata) -> Result<LayerAttributes, String> {
+pub(super) fn attributes(meta: &Metadata) -> Result<LayerAttributes, String> {
     let mut attrs = LayerAttributes::default();
     for (k, v) in &meta.0 {
         // Names are NUL-terminated in the header; values are length-prefixed. Both are stored
@@ -86,6 +86,7 @@ pub(super) fn write_channels<W: Write + Seek>(
     img: &Image,
     extra: &[(String, Vec<f32>)],
     meta: &Metadata,
+    window: Option<super::Window>,
 ) -> Result<(), String> {
     if img.width == 0 || img.height == 0 {
         return Err("cannot write an empty image as EXR".into());
@@ -113,13 +114,26 @@ pub(super) fn write_channels<W: Write + Seek>(
     if names.windows(2).any(|p| p[0] == p[1]) {
         return Err("two channels have the same name".into());
     }
+    let mut attrs = attributes(meta)?;
+    let display = match window {
+        Some(win) => {
+            let fits = win.offset.0 as u64 + img.width as u64 <= win.full.0 as u64
+                && win.offset.1 as u64 + img.height as u64 <= win.full.1 as u64;
+            if !fits {
+                return Err("the image does not fit its display window".into());
+            }
+            attrs.layer_position = ExrVec2(win.offset.0 as i32, win.offset.1 as i32);
+            IntegerBounds::new((0, 0), (win.full.0 as usize, win.full.1 as usize))
+        }
+        None => IntegerBounds::new((0, 0), (img.width as usize, img.height as usize)),
+    };
     let layer = Layer::new(
         (img.width as usize, img.height as usize),
-        attributes(meta)?,
+        attrs,
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(list),
     );
-    ExrImage::from_layer(layer)
+    ExrImage::new(ImageAttributes::new(display), layer)
         .write()
         .to_buffered(w)
         .map_err(|e| format!("cannot encode EXR: {e}"))

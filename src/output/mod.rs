@@ -6,6 +6,7 @@
 
 pub mod clash;
 mod exr;
+pub mod part;
 pub(crate) use exr::guarded as exr_guarded;
 pub(crate) mod png;
 
@@ -74,7 +75,42 @@ pub fn write_image_channels(
             if img.data.len() != img.width as usize * img.height as usize {
                 return Err(Error::file(path, "image data does not match its size"));
             }
-            write_atomic(path, |w| exr::write_channels(w, img, extra, meta))?;
+            write_atomic(path, |w| exr::write_channels(w, img, extra, meta, None))?;
+            Ok(true)
+        }
+    }
+}
+
+/// Where an image lies in a larger frame (a crop of a film): the frame's size and the image's
+/// top-left pixel in it. An EXR stores them as its display and data windows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Window {
+    pub full: (u32, u32),
+    pub offset: (u32, u32),
+}
+
+/// [`write_image_channels`] of an image that is the `window` of a larger frame: an EXR gets
+/// the frame as display window and the image as data window (viewers place it); a PNG holds
+/// the image alone. With `None` this is [`write_image_channels`].
+pub fn write_image_window(
+    path: &Path,
+    img: &Image,
+    extra: &[(String, Vec<f32>)],
+    meta: &Metadata,
+    window: Option<Window>,
+) -> Result<bool> {
+    let Some(win) = window else {
+        return write_image_channels(path, img, extra, meta);
+    };
+    match check_extension(path)? {
+        Format::Png => write_image(path, img, meta).map(|_| extra.is_empty()),
+        Format::Exr => {
+            if img.data.len() != img.width as usize * img.height as usize {
+                return Err(Error::file(path, "image data does not match its size"));
+            }
+            write_atomic(path, |w| {
+                exr::write_channels(w, img, extra, meta, Some(win))
+            })?;
             Ok(true)
         }
     }

@@ -22,7 +22,10 @@
 //! * the whole-image mean ratio test/reference per channel, |ratio − 1| ≤ 4σ.
 //!
 //! Tiles where both variances are 0 (constant background, directly seen emitters with a black BSDF,
-//! pure black) are compared exactly: |diff| ≤ 1e-5·max(|mean_t|, |mean_r|).
+//! pure black) are compared exactly: |diff| ≤ 1e-4·max(|mean_t|, |mean_r|). The tolerance is
+//! the reference's own rounding: Mitsuba sums a pixel's samples in float32, which drifts by up to
+//! about N·2⁻²⁴ relative over N samples (2e-5 measured at 512 spp: 0.050001 for a constant 0.05),
+//! while groove's film sums exactly (`src/film_sum.rs`).
 #![allow(dead_code)]
 
 use std::path::Path;
@@ -35,8 +38,10 @@ pub const P_VALUE_MIN: f64 = 1e-3;
 pub const Z_MAX_FAMILY_ALPHA: f64 = 1e-4;
 /// Number of standard deviations allowed for the whole-image mean ratio.
 pub const MEAN_RATIO_SIGMAS: f64 = 4.0;
-/// Relative tolerance for tiles without variance on either side.
-pub const EXACT_REL_TOL: f64 = 1e-5;
+/// Relative tolerance for tiles without variance on either side (see the module's comment).
+pub const EXACT_REL_TOL: f64 = 1e-4;
+/// Tile variances below (this × the tile mean)² are float32 rounding, not sampling noise.
+pub const ROUNDING_REL: f64 = 1e-5;
 
 /// A linear RGB image, row-major, `data[y * width + x]`.
 #[derive(Clone, Debug, PartialEq)]
@@ -250,7 +255,7 @@ pub fn compare(
                 // Variances below float32 rounding of the tile mean are rounding noise of the
                 // accumulation (e.g. a sky pixel of 1 stored as 0.99999994), not sampling noise:
                 // such tiles are compared exactly, within EXACT_REL_TOL.
-                let rounding = (EXACT_REL_TOL * mt.abs().max(mr.abs())).powi(2);
+                let rounding = (ROUNDING_REL * mt.abs().max(mr.abs())).powi(2);
                 let v = if v > rounding { v } else { 0.0 };
                 let z = if v > 0.0 {
                     chi2_rgb[c] += (mt - mr).powi(2) / v;
