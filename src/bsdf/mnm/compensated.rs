@@ -31,14 +31,22 @@ use glam::Vec3;
 pub struct MsRef {
     pub table: &'static MsTable,
     pub cell: ThetaCell,
+    /// With the colour baked in ([`Colour::Baked`]): 1 / (π Ē_ms) of this point, per channel.
+    baked_norm: Option<Spectrum>,
 }
 
 impl MsRef {
     /// `wp`: the (clamped, not flat) perturbed normal.
     pub fn new(table: &'static MsTable, wp: Vec3) -> MsRef {
+        let cell = table.cell(wp);
+        let baked_norm = (table.spec.colour == Colour::Baked).then(|| {
+            let m = table.mean_baked(&cell);
+            Vec3::new(inv(m.x), inv(m.y), inv(m.z)) * INV_PI
+        });
         MsRef {
             table,
-            cell: table.cell(wp),
+            cell,
+            baked_norm,
         }
     }
 }
@@ -73,20 +81,26 @@ impl AtWi {
     #[inline]
     fn new(r: &MsRef, nested: &Bsdf, wi: Vec3) -> AtWi {
         let t = r.table;
+        if let Some(norm) = r.baked_norm {
+            let [w1, ei] = t.lookup_baked(&r.cell, wi, true);
+            return AtWi {
+                k: [[Spectrum::ONE; 3]; 2],
+                norm,
+                ei,
+                select: selection(ei, w1),
+            };
+        }
         let c = colour(r, nested);
         let k = t.coefficients(&r.cell, c);
         let ebar = t.mean_remainder(&r.cell, &k);
         let norm = Vec3::new(inv(ebar.x), inv(ebar.y), inv(ebar.z)) * INV_PI;
         let l = t.lookup(&r.cell, wi);
         let ei = MsTable::remainder(&l, &k);
-        let a = luminance(ei).max(0.0);
-        let b = luminance(c * MsTable::first(&l, &r.cell)).max(0.0);
-        let select = if a > 0.0 { a / (a + b) } else { 0.0 };
         AtWi {
             k,
             norm,
             ei,
-            select,
+            select: selection(ei, c * MsTable::first(&l, &r.cell)),
         }
     }
 
@@ -96,8 +110,24 @@ impl AtWi {
         if self.ei == Spectrum::ZERO {
             return Spectrum::ZERO;
         }
-        let eo = MsTable::remainder(&r.table.lookup(&r.cell, wo), &self.k);
+        let eo = if r.baked_norm.is_some() {
+            r.table.lookup_baked(&r.cell, wo, false)[1]
+        } else {
+            MsTable::remainder(&r.table.lookup(&r.cell, wo), &self.k)
+        };
         self.ei * eo * self.norm * wo.z
+    }
+}
+
+/// s(ωi) = Y(E_ms) / (Y(c·W1) + Y(E_ms)), 0 without a remainder.
+#[inline]
+fn selection(ei: Spectrum, first: Spectrum) -> f32 {
+    let a = luminance(ei).max(0.0);
+    let b = luminance(first).max(0.0);
+    if a > 0.0 {
+        a / (a + b)
+    } else {
+        0.0
     }
 }
 

@@ -93,10 +93,21 @@ pub struct MsTable {
     cos_theta: [f32; N_THETA],
     /// Node values, index [`node`].
     w: Vec<[Spectrum; ORDERS]>,
+    /// Per node W2 + W3 + W≥4 (the remainder with the colour baked in, c = 1) and W1, apart:
+    /// a [`Colour::Baked`] lookup of the remainder reads 12 bytes per node from a 17 KB array.
+    e: Vec<Spectrum>,
+    e1: Vec<Spectrum>,
     /// Per θp node: hemisphere means (1/π ∫ W z dω) of the interpolant.
     mean: [[Spectrum; ORDERS]; N_THETA],
     /// Per θp node: tail ratio r̄ per channel.
     tail: [Spectrum; N_THETA],
+    /// Per θp node: the hemisphere mean of W2 + W3 + W≥4.
+    mean_e: [Spectrum; N_THETA],
+    /// u = z² of the z nodes, and 1 / (u_{k+1} − u_k).
+    u: [f32; N_Z],
+    inv_du: [f32; N_Z - 1],
+    /// 1 / (cos φ_l − cos φ_{l+1}).
+    inv_dx: [f32; N_PHI - 1],
     /// Seconds the build took (0 for a table read from disk).
     pub build_seconds: f32,
 }
@@ -106,6 +117,9 @@ impl std::fmt::Debug for MsTable {
         write!(f, "MsTable({})", self.key)
     }
 }
+
+/// Nodes per θp node.
+const PLANE: usize = N_Z * N_PHI;
 
 #[inline]
 fn node(j: usize, k: usize, l: usize) -> usize {
@@ -203,42 +217,78 @@ impl MsTable {
         ThetaCell { j, t, axis }
     }
 
-    /// Bilinear interpolation (in u = z² and cos φ) of the node values at direction `w` (z > 0),
-    /// at the two θp nodes of `cell`.
+    /// The four nodes around direction `w` (z > 0) at θp node `cell.j` (those at `cell.j + 1`
+    /// follow at the offset [`PLANE`]) and their bilinear weights (in u = z² and cos φ).
     #[inline]
-    pub fn lookup(&self, cell: &ThetaCell, w: Vec3) -> Lookup {
+    fn corners(&self, cell: &ThetaCell, w: Vec3) -> ([usize; 4], [f32; 4]) {
         let z = w.z.clamp(0.0, 1.0);
         let kz = ((z * (N_Z - 1) as f32) as usize).min(N_Z - 2);
-        let (za, zb) = (z_node(kz), z_node(kz + 1));
-        let tu = ((z * z - za * za) / (zb * zb - za * za)).clamp(0.0, 1.0);
+        let tu = ((z * z - self.u[kz]) * self.inv_du[kz]).clamp(0.0, 1.0);
         let r2 = w.x * w.x + w.y * w.y;
         let x = if r2 > 1e-12 {
             ((w.x * cell.axis.x + w.y * cell.axis.y) / r2.sqrt()).clamp(-1.0, 1.0)
         } else {
             1.0
         };
-        let mut l = 0;
-        while l + 2 < N_PHI && x < COS_PHI[l + 1] {
-            l += 1;
-        }
-        let tx = ((COS_PHI[l] - x) / (COS_PHI[l] - COS_PHI[l + 1])).clamp(0.0, 1.0);
+        // The φ cell without branches: the number of inner nodes with cos φ above x.
+        let l = COS_PHI[1..N_PHI - 1]
+            .iter()
+            .map(|&c| (x < c) as usize)
+            .sum::<usize>();
+        let tx = ((COS_PHI[l] - x) * self.inv_dx[l]).clamp(0.0, 1.0);
+        let i = node(cell.j, kz, l);
+        (
+            [i, i + 1, i + N_PHI, i + N_PHI + 1],
+            [
+                (1.0 - tu) * (1.0 - tx),
+                (1.0 - tu) * tx,
+                tu * (1.0 - tx),
+                tu * tx,
+            ],
+        )
+    }
+
+    /// Bilinear interpolation (in u = z² and cos φ) of the node values at direction `w` (z > 0),
+    /// at the two θp nodes of `cell`.
+    #[inline]
+    pub fn lookup(&self, cell: &ThetaCell, w: Vec3) -> Lookup {
+        let (idx, wgt) = self.corners(cell, w);
         let mut out = [[Spectrum::ZERO; ORDERS]; 2];
         for (h, o) in out.iter_mut().enumerate() {
-            let j = cell.j + h;
-            let corners = [
-                (node(j, kz, l), (1.0 - tu) * (1.0 - tx)),
-                (node(j, kz, l + 1), (1.0 - tu) * tx),
-                (node(j, kz + 1, l), tu * (1.0 - tx)),
-                (node(j, kz + 1, l + 1), tu * tx),
-            ];
-            for (i, wgt) in corners {
-                let v = &self.w[i];
+            for c in 0..4 {
+                let v = &self.w[idx[c] + h * PLANE];
                 for n in 0..ORDERS {
-                    o[n] += wgt * v[n];
+                    o[n] += wgt[c] * v[n];
                 }
             }
         }
         Lookup { w: out }
+    }
+
+    /// [W1, E_ms] at direction `w` with the colour baked in (c = 1: [`Colour::Baked`]),
+    /// interpolated in θp too. `with_first`: also W1 (else it is 0).
+    #[inline]
+    pub fn lookup_baked(&self, cell: &ThetaCell, w: Vec3, with_first: bool) -> [Spectrum; 2] {
+        let (idx, wgt) = self.corners(cell, w);
+        let mut out = [Spectrum::ZERO; 2];
+        for h in 0..2 {
+            let wt = if h == 0 { 1.0 - cell.t } else { cell.t };
+            for c in 0..4 {
+                let i = idx[c] + h * PLANE;
+                let k = wt * wgt[c];
+                out[1] += k * self.e[i];
+                if with_first {
+                    out[0] += k * self.e1[i];
+                }
+            }
+        }
+        out
+    }
+
+    /// Ē_ms with the colour baked in (c = 1), interpolated in θp.
+    #[inline]
+    pub fn mean_baked(&self, cell: &ThetaCell) -> Spectrum {
+        (1.0 - cell.t) * self.mean_e[cell.j] + cell.t * self.mean_e[cell.j + 1]
     }
 
     /// Per-order coefficients (c², c³, c⁴(1 − r̄)/(1 − c r̄)) at the two θp nodes of `cell`,
@@ -337,14 +387,36 @@ impl MsTable {
             let r = b5 / m[3];
             tail[j] = Vec3::new(ratio(r.x, m[3].x), ratio(r.y, m[3].y), ratio(r.z, m[3].z));
         }
+        Self::assemble(key, spec, w, mean, tail, build_seconds)
+    }
+
+    /// The table from its stored parts (the derived combined values computed here).
+    fn assemble(
+        key: String,
+        spec: TableSpec,
+        w: Vec<[Spectrum; ORDERS]>,
+        mean: [[Spectrum; ORDERS]; N_THETA],
+        tail: [Spectrum; N_THETA],
+        build_seconds: f32,
+    ) -> MsTable {
         let cos_theta = std::array::from_fn(|j| theta_node(j, spec.max_theta).cos());
+        let e = w.iter().map(|v| v[1] + v[2] + v[3]).collect();
+        let e1 = w.iter().map(|v| v[0]).collect();
+        let mean_e = mean.map(|m| m[1] + m[2] + m[3]);
+        let u: [f32; N_Z] = std::array::from_fn(|k| z_node(k) * z_node(k));
         MsTable {
+            u,
+            inv_du: std::array::from_fn(|k| 1.0 / (u[k + 1] - u[k])),
+            inv_dx: std::array::from_fn(|l| 1.0 / (COS_PHI[l] - COS_PHI[l + 1])),
             key,
             spec,
             cos_theta,
             w,
-            mean,
+            e,
+            e1,
             tail,
+            mean,
+            mean_e,
             build_seconds,
         }
     }
@@ -535,16 +607,7 @@ impl MsTable {
         for t in tail.iter_mut() {
             *t = spectrum()?;
         }
-        let cos_theta = std::array::from_fn(|j| theta_node(j, spec.max_theta).cos());
-        Some(MsTable {
-            key: key.to_string(),
-            spec,
-            cos_theta,
-            w,
-            mean,
-            tail,
-            build_seconds: 0.0,
-        })
+        Some(Self::assemble(key.to_string(), spec, w, mean, tail, 0.0))
     }
 }
 
