@@ -3,7 +3,8 @@
 //!
 //! Modes: classic `normalmap` (both Mitsuba 3 flags off: the plain model of the benchmarks'
 //! classic side), the explicit sawtooth with a mirror wall (Variant M, and the complete first
-//! order `explicit4`), the random walk with a mirror wall and with a wall of the nested BSDF, the
+//! order `explicit4`), the compensated model (`compensated`: the complete first order plus the
+//! tabulated rank-1 remainder; its table is built once, before timing), the random walk with a mirror wall and with a wall of the nested BSDF, the
 //! V-groove and the U-groove (s = 0.5). Over diffuse the walks run as their exact closed forms
 //! (issue 17); the `*_walk_only` modes switch those off, and `*/build` times the per-hit
 //! construction that prepares them.
@@ -20,6 +21,8 @@
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use glam::Vec3;
 use groove::bsdf::mnm::facets::Microgeometry;
+use groove::bsdf::mnm::ms_cache;
+use groove::bsdf::mnm::ms_table::{Colour, MsTable, TableSpec, WALKS_PER_NODE};
 use groove::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
 use groove::bsdf::{
     named_conductor, BsdfArena, BsdfContext, BsdfNode, Diffuse, MicrofacetDistribution,
@@ -41,7 +44,7 @@ enum Mode {
     Mnm(Microgeometry, Tangent, Evaluation, bool),
 }
 
-const MODES: [(&str, Mode); 12] = [
+const MODES: [(&str, Mode); 14] = [
     ("nested_alone", Mode::NestedAlone),
     ("classic", Mode::Classic),
     (
@@ -60,6 +63,24 @@ const MODES: [(&str, Mode); 12] = [
             Tangent::Mirror,
             Evaluation::ExplicitComplete,
             true,
+        ),
+    ),
+    (
+        "compensated_mirror",
+        Mode::Mnm(
+            Microgeometry::Sawtooth,
+            Tangent::Mirror,
+            Evaluation::Compensated,
+            true,
+        ),
+    ),
+    (
+        "compensated_mirror_walk_only",
+        Mode::Mnm(
+            Microgeometry::Sawtooth,
+            Tangent::Mirror,
+            Evaluation::Compensated,
+            false,
         ),
     ),
     (
@@ -207,12 +228,46 @@ fn build(mode: Mode, nested: BsdfNode, ins: &[(Vec3, Vec3, Vec3)]) -> (BsdfArena
         .map(|&(wp, _, _)| match mode {
             Mode::NestedAlone => n,
             Mode::Classic => arena.push(BsdfNode::NormalMap(NormalMap::new(n, wp, false, false))),
-            Mode::Mnm(g, t, e, closed) => arena.push_microfacet_normal_map(
-                MicrofacetNormalMap::new(n, wp, g, t, e, 256).with_lambert_closed_form(closed),
-            ),
+            Mode::Mnm(g, t, e, closed) => {
+                let table = (e == Evaluation::Compensated).then(|| ms_table(nested, g, t));
+                arena.push_microfacet_normal_map(
+                    MicrofacetNormalMap::new(n, wp, g, t, e, 256)
+                        .with_lambert_closed_form(closed)
+                        .with_ms_table(table),
+                )
+            }
         })
         .collect();
     (arena, roots)
+}
+
+/// The compensated model's remainder table for `nested` (built once per process: the walk's,
+/// or the exact Lambert table over diffuse), as the loader builds it.
+fn ms_table(nested: BsdfNode, g: Microgeometry, t: Tangent) -> &'static MsTable {
+    let lambert = matches!(nested, BsdfNode::Diffuse(_));
+    let spec = TableSpec {
+        geometry: g,
+        tangent: t,
+        max_order: 256,
+        max_theta: 85f32.to_radians(),
+        colour: if lambert {
+            Colour::PerBounce
+        } else {
+            Colour::Baked
+        },
+        walks: WALKS_PER_NODE,
+    };
+    let key = format!("bench {nested:?} {g:?} {t:?}");
+    ms_cache::get_or_build(&key, spec, || {
+        if lambert {
+            MsTable::lambert(spec, key.clone())
+        } else {
+            let mut arena = BsdfArena::new();
+            let root = arena.push(nested);
+            MsTable::from_walk(&arena.bsdf(root), root, spec, key.clone())
+        }
+    })
+    .0
 }
 
 fn bsdf_calls(c: &mut Criterion) {
@@ -221,8 +276,10 @@ fn bsdf_calls(c: &mut Criterion) {
         let ins = inputs(transmits);
         let mut g = c.benchmark_group(nname);
         for (mname, mode) in MODES {
-            if transmits && matches!(mode, Mode::Mnm(_, _, e, _) if e.is_explicit()) {
-                continue; // the explicit forms have no transmission
+            if transmits
+                && matches!(mode, Mode::Mnm(_, _, e, _) if e.is_explicit() || e == Evaluation::Compensated)
+            {
+                continue; // the explicit and compensated forms have no transmission
             }
             if nname != "diffuse" && matches!(mode, Mode::Mnm(_, _, _, false)) {
                 continue; // the switch only matters over diffuse
@@ -232,13 +289,15 @@ fn bsdf_calls(c: &mut Criterion) {
                     // The per-hit construction, which prepares the closed form over diffuse.
                     let mut arena = BsdfArena::new();
                     let mut i = 0usize;
+                    let table = (e == Evaluation::Compensated).then(|| ms_table(node, geo, t));
                     g.bench_function(format!("{mname}/build"), |b| {
                         b.iter(|| {
                             i = (i + 1) % INPUTS;
                             arena.clear();
                             let n = arena.push(node);
                             let m = MicrofacetNormalMap::new(n, ins[i].0, geo, t, e, 256)
-                                .with_lambert_closed_form(closed);
+                                .with_lambert_closed_form(closed)
+                                .with_ms_table(table);
                             black_box(arena.push_microfacet_normal_map(m))
                         })
                     });
@@ -273,7 +332,7 @@ fn bsdf_calls(c: &mut Criterion) {
     }
 }
 
-/// 81 benchmarks: short warm-up and measurement keep the whole run near three minutes on a
+/// 90 benchmarks: short warm-up and measurement keep the whole run near three minutes on a
 /// loaded two-core machine; 50 samples still give criterion a confidence interval.
 fn config() -> Criterion {
     Criterion::default()

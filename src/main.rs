@@ -21,6 +21,9 @@ use std::sync::Arc;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // Compensated normal mapping's remainder tables persist between runs (memory only if
+    // neither $XDG_CACHE_HOME nor $HOME is set; a folder that cannot be written is a warning).
+    groove::bsdf::mnm::ms_cache::enable_disk_cache(groove::bsdf::mnm::ms_cache::default_dir());
     match cli.command {
         Command::Render(args) => run_render(&args),
         Command::Merge(args) => match run_merge(&args) {

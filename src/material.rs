@@ -74,6 +74,8 @@ pub struct MnmSettings {
     pub transmission_walk: TransmissionWalk,
     /// Over a diffuse nested BSDF, the random walk's exact closed forms (`bsdf::mnm::lambert`).
     pub lambert_closed_form: bool,
+    /// `evaluation = compensated`: the nested BSDF's remainder table (`bsdf::mnm::ms_table`).
+    pub ms_table: Option<&'static crate::bsdf::mnm::ms_table::MsTable>,
 }
 
 #[derive(Clone, Debug)]
@@ -435,7 +437,8 @@ impl Materials {
                         settings.max_order,
                     )
                     .with_transmission_walk(settings.transmission_walk)
-                    .with_lambert_closed_form(settings.lambert_closed_form),
+                    .with_lambert_closed_form(settings.lambert_closed_form)
+                    .with_ms_table(settings.ms_table),
                 )
             }
             MaterialNode::NormalMap {

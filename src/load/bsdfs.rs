@@ -228,6 +228,17 @@ impl<'d> BsdfCtx<'_, 'd> {
         self.b.materials.lobes(id)
     }
 
+    /// The materials and textures built so far (a constructor that precomputes from its nested
+    /// BSDF: `microfacet_normalmap`'s compensated tables).
+    pub(crate) fn materials(&self) -> &crate::material::Materials {
+        &self.b.materials
+    }
+
+    /// A warning for the load's report.
+    pub(crate) fn warn(&mut self, w: String) {
+        self.b.warnings.push(w);
+    }
+
     /// A colour parameter that may be a constant (`default` when absent) or a texture.
     pub(crate) fn color(&mut self, name: &str, default: Spectrum) -> Result<TexId> {
         self.b.color_param(&self.p, name, default)

@@ -43,10 +43,11 @@ pub struct MnmMode {
 
 impl NormalMapping {
     /// Every value `--normal-mapping` accepts, in the order `groove bench` renders them.
-    pub const NAMES: [&'static str; 8] = [
+    pub const NAMES: [&'static str; 9] = [
         "classic",
         "explicit",
         "explicit4",
+        "compensated",
         "walk-mirror",
         "walk-same",
         "vgroove",
@@ -56,9 +57,10 @@ impl NormalMapping {
 
     /// `classic`, `microfacet`, `as_written`, or a forced mode: `explicit` (sawtooth, mirror
     /// wall, the paper's closed form), `explicit4` (the same with the complete first order, four
-    /// paths), `walk-mirror` (sawtooth, mirror wall, random walk: the paper's model),
-    /// `walk-same` (sawtooth, same-material wall, random walk: the default model), `vgroove`,
-    /// `ugroove` (fill 0.5; random walk).
+    /// paths), `compensated` (sawtooth, mirror wall, the complete first order plus the tabulated
+    /// rank-1 remainder of the walk), `walk-mirror` (sawtooth, mirror wall, random walk: the
+    /// paper's model), `walk-same` (sawtooth, same-material wall, random walk: the default
+    /// model), `vgroove`, `ugroove` (fill 0.5; random walk).
     pub fn parse(s: &str) -> Option<NormalMapping> {
         let forced = |geometry, tangent, evaluation| {
             Some(NormalMapping::Forced(MnmMode {
@@ -74,6 +76,7 @@ impl NormalMapping {
             "as_written" | "as-written" => Some(NormalMapping::AsWritten),
             "explicit" => forced(Microgeometry::Sawtooth, Tangent::Mirror, Explicit),
             "explicit4" => forced(Microgeometry::Sawtooth, Tangent::Mirror, ExplicitComplete),
+            "compensated" => forced(Microgeometry::Sawtooth, Tangent::Mirror, Compensated),
             "walk-mirror" => forced(Microgeometry::Sawtooth, Tangent::Mirror, RandomWalk),
             "walk-same" => forced(Microgeometry::Sawtooth, Tangent::Same, RandomWalk),
             "vgroove" => forced(Microgeometry::VGroove, Tangent::Same, RandomWalk),

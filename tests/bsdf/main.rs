@@ -9,6 +9,8 @@ mod adjoint;
 mod hair;
 mod harness;
 mod mitsuba_wrappers;
+mod mnm_compensated;
+mod mnm_compensated_load;
 mod mnm_exit_on_refraction;
 mod mnm_first_order;
 mod mnm_harness;

@@ -301,6 +301,19 @@ pub(super) fn sample_complete(
     wi: Vec3,
     s: &mut Sampler,
 ) -> Option<BsdfSample> {
+    let wo = draw_complete(m, nested, ctx, wi, s)?;
+    finish(m, nested, ctx, wi, wo, s, Form::Complete)
+}
+
+/// The direction [`sample_complete`] draws (density [`pdf_complete`]); `None` for a failed
+/// sample (nested sample failed, or below the macro surface).
+pub(super) fn draw_complete(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    s: &mut Sampler,
+) -> Option<Vec3> {
     let surf = &m.surface;
     let a = if s.next_1d() < surf.lambda(0, wi) {
         wi
@@ -313,10 +326,7 @@ pub(super) fn sample_complete(
     } else {
         m.reflect_wall(u) // blocked: the ray hits the mirror wall
     };
-    if wo.z <= 0.0 {
-        return None;
-    }
-    finish(m, nested, ctx, wi, wo, s, Form::Complete)
+    (wo.z > 0.0).then_some(wo)
 }
 
 /// Variant M sampling (§4.3) with independent random numbers for each decision.
@@ -397,12 +407,21 @@ pub(super) fn sample_single(
     wi: Vec3,
     s: &mut Sampler,
 ) -> Option<BsdfSample> {
+    let wo = draw_single(m, nested, ctx, wi, s)?;
+    finish(m, nested, ctx, wi, wo, s, Form::Single)
+}
+
+/// The direction [`sample_single`] draws (density [`pdf_single`]); `None` for a failed sample.
+pub(super) fn draw_single(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    s: &mut Sampler,
+) -> Option<Vec3> {
     let (k, _) = m.surface.pick(wi, s.next_1d())?;
     let wo = m.sample_facet(nested, k, ctx, wi, s)?.wo;
-    if wo.z <= 0.0 {
-        return None;
-    }
-    finish(m, nested, ctx, wi, wo, s, Form::Single)
+    (wo.z > 0.0).then_some(wo)
 }
 
 /// Which closed form a sample finishes with.

@@ -129,12 +129,16 @@ impl FacetChain {
 
 impl LambertForm {
     /// The closed form of `m` over a Lambertian of albedo `rho`, or `None` when the walk must
-    /// run: not the random walk, no named microgeometry, closed form switched off, ρ not finite
+    /// run: not the random walk (or `compensated`, which approximates it), no named microgeometry, closed form switched off, ρ not finite
     /// and non-negative, or the walk's truncation at `max_order` dropping more than
     /// [`TRUNCATION_TOL`].
     pub fn new(m: &MicrofacetNormalMap, rho: Spectrum) -> Option<LambertForm> {
         let geometry = m.geometry?;
-        if m.evaluation != super::Evaluation::RandomWalk || m.degenerate || !m.lambert_closed_form {
+        let full_walk = matches!(
+            m.evaluation,
+            super::Evaluation::RandomWalk | super::Evaluation::Compensated
+        );
+        if !full_walk || m.degenerate || !m.lambert_closed_form {
             return None;
         }
         if !(rho.min_element() >= 0.0 && rho.is_finite()) {

@@ -10,15 +10,15 @@
 //! | (nested) | one `<bsdf>` | required | the BSDF on every facet (a non-delta lobe; a transmitting one needs the random walk) |
 //! | `microgeometry` | string | `sawtooth` | `sawtooth`, `vgroove` or `ugroove` ([`Microgeometry`]) |
 //! | `groove_fill` | float | 0.5 | the flat share of a `ugroove`, in (0, 1] (`ugroove` only) |
-//! | `tangent` | string | `same` (random walk), `mirror` (explicit forms) | the sawtooth's wall: a perfect mirror or the nested BSDF (`sawtooth` only); the default is [`DEFAULT_WALK_TANGENT`] for every nested kind |
-//! | `evaluation` | string | `random_walk` | `random_walk`, `explicit` (the paper's closed form, Variant M) or `explicit4` (the complete first order: Variant M plus t→p→t→o); the explicit forms are sawtooth only |
+//! | `tangent` | string | `same` (random walk), `mirror` (explicit forms, compensated) | the sawtooth's wall: a perfect mirror or the nested BSDF (`sawtooth` only); the default is [`DEFAULT_WALK_TANGENT`] for every nested kind |
+//! | `evaluation` | string | `random_walk` | `random_walk`, `explicit` (the paper's closed form, Variant M), `explicit4` (the complete first order: Variant M plus t→p→t→o; the explicit forms are sawtooth only) or `compensated` (the complete first order plus a rank-1 remainder tabulated from the walk at load, any microgeometry; needs a nested BSDF `ms_nested.rs` can tabulate) |
 //! | `lambert_closed_form` | boolean | true | over a `diffuse` (or twosided diffuse) nested BSDF, `random_walk` uses the walk's exact closed forms (`lambert.rs`); false runs the walk itself |
 //! | `max_order` | integer | 256 | longest random walk, in scattering events |
 //! | `max_theta` | float | 85 | largest tilt of the perturbed normal, degrees, in (0, 90) |
 //! | `transmission_walk` | string | `two_sided` | over a transmitting BSDF: `two_sided` (§9.3) or `exit_on_refraction` (§9.4) |
 
 use super::facets::Microgeometry;
-use super::{Evaluation, Tangent, TransmissionWalk};
+use super::{ms_nested, Evaluation, Tangent, TransmissionWalk};
 
 use crate::bsdf::normalmap::load::parts;
 use crate::error::{Error, Result, SourceLoc};
@@ -38,10 +38,11 @@ pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>, forced: Option<MnmMode>) -> Result
         "random_walk" => Evaluation::RandomWalk,
         "explicit" => Evaluation::Explicit,
         "explicit4" => Evaluation::ExplicitComplete,
+        "compensated" => Evaluation::Compensated,
         other => {
             return Err(Error::scene(
                 p.loc(),
-                format!("evaluation '{other}' must be 'random_walk', 'explicit' or 'explicit4'"),
+                format!("evaluation '{other}' must be 'random_walk', 'explicit', 'explicit4' or 'compensated'"),
             ))
         }
     };
@@ -80,20 +81,70 @@ pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>, forced: Option<MnmMode>) -> Result
         }
     };
     let lambert_closed_form = p.bool("lambert_closed_form", true)?;
-    check_nested(cx, nested, nested_loc, evaluation)?;
+    let mut settings = MnmSettings {
+        geometry,
+        tangent,
+        evaluation,
+        max_order: max_order as u32,
+        max_theta: max_theta.to_radians(),
+        transmission_walk,
+        lambert_closed_form,
+        ms_table: None,
+    };
+    compensate(cx, nested, &mut settings, forced.is_some())?;
+    check_nested(cx, nested, nested_loc, settings.evaluation)?;
     Ok(MaterialNode::MicrofacetNormalMap {
         nested,
         normalmap,
-        settings: MnmSettings {
-            geometry,
-            tangent,
-            evaluation,
-            max_order: max_order as u32,
-            max_theta: max_theta.to_radians(),
-            transmission_walk,
-            lambert_closed_form,
-        },
+        settings,
     })
+}
+
+/// `evaluation = compensated`: obtain the nested BSDF's remainder table ([`ms_nested`]). A
+/// nested BSDF without one is an error when the file asks for `compensated`, and falls back to
+/// the random walk (with a warning) when `--normal-mapping compensated` does.
+fn compensate(
+    cx: &mut BsdfCtx<'_, '_>,
+    nested: MatId,
+    settings: &mut MnmSettings,
+    forced: bool,
+) -> Result<()> {
+    if settings.evaluation != Evaluation::Compensated {
+        return Ok(());
+    }
+    let why = if cx.lobes(nested).has_transmission() {
+        Err("it transmits (the compensated model is reflection only)".to_string())
+    } else {
+        ms_nested::table_for(
+            cx.materials(),
+            nested,
+            settings.geometry,
+            settings.tangent,
+            settings.max_order,
+            settings.max_theta,
+        )
+    };
+    match why {
+        Ok(got) => {
+            if let Some(w) = got.warning {
+                cx.warn(w);
+            }
+            settings.ms_table = Some(got.table);
+            Ok(())
+        }
+        Err(why) if forced => {
+            cx.warn(format!(
+                "{}: evaluation = compensated needs a table of the nested BSDF, and {why}: this normal map uses the random walk",
+                cx.props().loc()
+            ));
+            settings.evaluation = Evaluation::RandomWalk;
+            Ok(())
+        }
+        Err(why) => Err(Error::scene(
+            cx.props().loc(),
+            format!("evaluation = compensated needs a table of the nested BSDF, and {why}; use evaluation = random_walk"),
+        )),
+    }
 }
 
 /// A `normalmap` converted to a `microfacet_normalmap` of model `mode` with the other
@@ -102,19 +153,22 @@ pub(crate) fn from_normalmap(cx: &mut BsdfCtx<'_, '_>, mode: MnmMode) -> Result<
     let (nested, nested_loc, normalmap) = parts(cx, "normalmap")?;
     let _ = cx.props().bool("flip_invalid_normals", true)?;
     let _ = cx.props().bool("use_shadowing_function", true)?;
-    check_nested(cx, nested, nested_loc, mode.evaluation)?;
+    let mut settings = MnmSettings {
+        geometry: mode.geometry,
+        tangent: mode.tangent,
+        evaluation: mode.evaluation,
+        max_order: 256,
+        max_theta: 85f32.to_radians(),
+        transmission_walk: TransmissionWalk::TwoSided,
+        lambert_closed_form: true,
+        ms_table: None,
+    };
+    compensate(cx, nested, &mut settings, true)?;
+    check_nested(cx, nested, nested_loc, settings.evaluation)?;
     Ok(MaterialNode::MicrofacetNormalMap {
         nested,
         normalmap,
-        settings: MnmSettings {
-            geometry: mode.geometry,
-            tangent: mode.tangent,
-            evaluation: mode.evaluation,
-            max_order: 256,
-            max_theta: 85f32.to_radians(),
-            transmission_walk: TransmissionWalk::TwoSided,
-            lambert_closed_form: true,
-        },
+        settings,
     })
 }
 
@@ -162,7 +216,12 @@ pub(crate) const DEFAULT_WALK_TANGENT: Tangent = Tangent::Same;
 fn tangent(p: &Props, geometry: Microgeometry, evaluation: Evaluation) -> Result<Tangent> {
     if !p.has("tangent") {
         return Ok(match geometry {
-            Microgeometry::Sawtooth if evaluation.is_explicit() => Tangent::Mirror,
+            // `compensated` builds on explicit4's mirror-wall first order, as its forced mode does.
+            Microgeometry::Sawtooth
+                if evaluation.is_explicit() || evaluation == Evaluation::Compensated =>
+            {
+                Tangent::Mirror
+            }
             Microgeometry::Sawtooth => DEFAULT_WALK_TANGENT,
             _ => Tangent::Same,
         });
@@ -192,7 +251,7 @@ fn check_nested(
     evaluation: Evaluation,
 ) -> Result<()> {
     let lobes = cx.lobes(nested);
-    if lobes.has_transmission() && evaluation.is_explicit() {
+    if lobes.has_transmission() && evaluation != Evaluation::RandomWalk {
         return Err(Error::scene(cx.props().loc(), "microfacet_normalmap over a transmitting BSDF needs evaluation = random_walk (the closed forms are reflection only)"));
     }
     if !lobes.is_smooth() {

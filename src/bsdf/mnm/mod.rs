@@ -15,6 +15,10 @@
 //!   follows the walk, eval is its next-event estimate (stochastic, unbiased), the pdf for MIS is
 //!   the approximate mixture of decision 3. Over a Lambertian nested BSDF the walk has exact
 //!   closed forms, used instead of it ([`lambert`]: same BSDF, deterministic eval, exact pdf).
+//! - `evaluation = compensated`: the complete first order plus a reciprocal rank-1 remainder
+//!   whose per-order energies are tabulated from the walk ([`compensated`], [`ms_table`],
+//!   [`ms_cache`]); deterministic, exact pdf. Over a Lambertian nested BSDF the walk's closed
+//!   forms are used, as for the walk.
 //!
 //! Directions are in the macro shading frame (z = ωg). Over a transmitting nested BSDF (e.g.
 //! `roughdielectric`) only the random walk exists: by default the reciprocal two-sided walk of
@@ -24,11 +28,15 @@
 //!
 //! The XML parameters and their defaults: `load.rs`.
 
+pub mod compensated;
 pub mod explicit;
 pub mod facet_bsdf;
 pub mod facets;
 pub mod lambert;
 pub(crate) mod load;
+pub mod ms_cache;
+pub mod ms_nested;
+pub mod ms_table;
 pub mod walk;
 
 use super::{Bsdf, BsdfContext, BsdfSample};
@@ -48,6 +56,10 @@ pub enum Evaluation {
     /// (`explicit4`; single scattering otherwise, which is already complete).
     ExplicitComplete,
     RandomWalk,
+    /// The complete first order plus a reciprocal rank-1 remainder from per-order energy
+    /// tables of the walk (issue 17 item 4, [`compensated`]); needs a table
+    /// ([`MicrofacetNormalMap::with_ms_table`]), without one it is the random walk.
+    Compensated,
 }
 
 impl Evaluation {
@@ -112,6 +124,9 @@ pub struct MicrofacetNormalMap {
     /// arena's side table, set by [`crate::bsdf::BsdfArena::push_microfacet_normal_map`]. (An
     /// index, not the form itself: the form is ~140 bytes that every hit would copy twice.)
     lambert: Option<u32>,
+    /// `evaluation = compensated`: the remainder table and this point's place in it
+    /// ([`Self::with_ms_table`]).
+    ms: Option<compensated::MsRef>,
 }
 
 impl MicrofacetNormalMap {
@@ -149,7 +164,23 @@ impl MicrofacetNormalMap {
             geometry: Some(geometry),
             lambert_closed_form: true,
             lambert: None,
+            ms: None,
         }
+    }
+
+    /// Attach the remainder table of `evaluation = compensated` ([`ms_table`]; built for this
+    /// nested BSDF, microgeometry, wall and `max_order`). Without a table (or for another
+    /// evaluation) nothing changes: a compensated BSDF without one is the random walk.
+    pub fn with_ms_table(mut self, table: Option<&'static ms_table::MsTable>) -> Self {
+        if self.evaluation == Evaluation::Compensated && !self.degenerate {
+            self.ms = table.map(|t| compensated::MsRef::new(t, self.wp));
+        }
+        self
+    }
+
+    /// True when the compensated model (with its table) evaluates this BSDF.
+    pub fn uses_ms_table(&self) -> bool {
+        self.ms.is_some()
     }
 
     /// The same BSDF with the Lambert closed forms on (default) or off: off, a diffuse nested
@@ -249,6 +280,9 @@ pub(super) fn eval(
     if let Some(l) = m.lambert.map(|i| &b.arena.lambert[i as usize]) {
         return l.eval(m, wi, wo);
     }
+    if let Some(r) = &m.ms {
+        return compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s).0;
+    }
     match (m.evaluation, m.mirror_wall) {
         (Evaluation::Explicit, true) => explicit::eval_pdf_mirror(m, &nested, ctx, wi, wo, s).0,
         (Evaluation::ExplicitComplete, true) => {
@@ -257,7 +291,7 @@ pub(super) fn eval(
         (Evaluation::Explicit | Evaluation::ExplicitComplete, false) => {
             explicit::eval_pdf_single(m, &nested, ctx, wi, wo, s).0
         }
-        (Evaluation::RandomWalk, _) => {
+        (Evaluation::RandomWalk | Evaluation::Compensated, _) => {
             walk::eval(m, &nested, ctx, wi, wo, s, &mut explicit::PdfTerms::empty())
         }
     }
@@ -282,6 +316,9 @@ pub(super) fn pdf(b: Bsdf, m: &MicrofacetNormalMap, ctx: &BsdfContext, wi: Vec3,
     if let Some(l) = m.lambert.map(|i| &b.arena.lambert[i as usize]) {
         return l.pdf(m, wi, wo);
     }
+    if let Some(r) = &m.ms {
+        return compensated::pdf(m, r, &nested, ctx, wi, wo);
+    }
     let p1 = match (m.mirror_wall, m.evaluation) {
         (true, Evaluation::ExplicitComplete) => explicit::pdf_complete(m, &nested, ctx, wi, wo),
         (true, _) => explicit::pdf_mirror(m, &nested, ctx, wi, wo),
@@ -291,7 +328,9 @@ pub(super) fn pdf(b: Bsdf, m: &MicrofacetNormalMap, ctx: &BsdfContext, wi: Vec3,
         Evaluation::Explicit | Evaluation::ExplicitComplete => p1,
         // Decision 3: (1 − c)·p1 + c·cosine lobe; MIS stays unbiased with any such pdf
         // because the integrator uses the walk's own sample weight.
-        Evaluation::RandomWalk => (1.0 - m.mis_c()) * p1 + m.mis_c() * wo.z * INV_PI,
+        Evaluation::RandomWalk | Evaluation::Compensated => {
+            (1.0 - m.mis_c()) * p1 + m.mis_c() * wo.z * INV_PI
+        }
     }
 }
 
@@ -320,7 +359,13 @@ pub(super) fn eval_pdf(
     if let Some(l) = m.lambert.map(|i| &b.arena.lambert[i as usize]) {
         return l.eval_pdf(m, wi, wo);
     }
-    if m.evaluation == Evaluation::RandomWalk {
+    if let Some(r) = &m.ms {
+        return compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s);
+    }
+    if matches!(
+        m.evaluation,
+        Evaluation::RandomWalk | Evaluation::Compensated
+    ) {
         // The walk's first vertices evaluate the nested BSDF at pairs that are terms of p1:
         // those terms take their pdf from the same fused call.
         let mut terms = if m.mirror_wall {
@@ -379,13 +424,16 @@ pub(super) fn sample(
             lobe: explicit::lobe_of(nested.lobes()),
         });
     }
+    if let Some(r) = &m.ms {
+        return compensated::sample(m, r, &nested, ctx, wi, s);
+    }
     match (m.evaluation, m.mirror_wall) {
         (Evaluation::Explicit, true) => explicit::sample_mirror(m, &nested, ctx, wi, s),
         (Evaluation::ExplicitComplete, true) => explicit::sample_complete(m, &nested, ctx, wi, s),
         (Evaluation::Explicit | Evaluation::ExplicitComplete, false) => {
             explicit::sample_single(m, &nested, ctx, wi, s)
         }
-        (Evaluation::RandomWalk, _) => {
+        (Evaluation::RandomWalk | Evaluation::Compensated, _) => {
             let (wo, weight, lobe, first) = walk::sample(m, &nested, ctx, wi, s)?;
             // The walk escapes upward only (G1 = 0 below), so `pdf`'s wo.z ≤ 0 case is moot.
             let mut terms = if m.mirror_wall {

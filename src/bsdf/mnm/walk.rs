@@ -39,11 +39,38 @@ pub(super) fn sample(
     wi: Vec3,
     s: &mut Sampler,
 ) -> Option<(Vec3, Spectrum, Lobes, Option<FirstVertex>)> {
+    let w = sample_counted(m, nested, ctx, wi, s)?;
+    Some((w.wo, w.weight, lobe_of(nested.lobes()), w.first))
+}
+
+/// One escaped walk of [`sample_counted`].
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Walked {
+    pub wo: Vec3,
+    pub weight: Spectrum,
+    /// The first vertex when the walk escaped from it.
+    pub first: Option<FirstVertex>,
+    /// Scattering events on facets that carry the nested BSDF (the mirror wall's reflections
+    /// are not counted): the walk's order in the sense of the per-order energy tables
+    /// ([`super::ms_table`]).
+    pub nested_vertices: u32,
+}
+
+/// [`sample`] that also counts the nested BSDF's vertices (the same walk, the same random
+/// numbers).
+pub(super) fn sample_counted(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    s: &mut Sampler,
+) -> Option<Walked> {
     let surf = &m.surface;
     let (mut k, _) = surf.pick(wi, s.next_1d())?;
     let mut d = -wi;
     let mut thr = Spectrum::ONE;
     let mut first = None;
+    let mut nested_vertices = 0;
     for order in 1..=m.max_order {
         if m.is_mirror(k) {
             d = mirror(d, surf.normal(k));
@@ -54,6 +81,7 @@ pub(super) fn sample(
             };
             thr *= bs.weight;
             d = bs.wo;
+            nested_vertices += 1;
             if order == 1 {
                 first = Some(FirstVertex { k, pdf: bs.pdf });
             }
@@ -61,7 +89,12 @@ pub(super) fn sample(
         if s.next_1d() < surf.g1(d) {
             nested.record_walk(order);
             let first = if order == 1 { first } else { None };
-            return Some((d, thr, lobe_of(nested.lobes()), first));
+            return Some(Walked {
+                wo: d,
+                weight: thr,
+                first,
+                nested_vertices,
+            });
         }
         let Some((j, _)) = surf.pick(-d, s.next_1d()) else {
             nested.record_walk(order);

@@ -1,0 +1,626 @@
+//! Per-order energy tables of the microsurface random walk, for `evaluation = compensated`
+//! ([`super::compensated`]; issue 17 item 4, design `shared/spec/mnm_fast.md` §4.3).
+//!
+//! For one nested BSDF, microgeometry and wall, `W_n(θp; ω)` is the energy (albedo share) of the
+//! walks from ω that scatter exactly n times on facets carrying the nested BSDF (mirror-wall
+//! reflections are not counted), with colour multiplier 1 where the colour is applied at run time
+//! ([`Colour::PerBounce`]). Stored per node: W1 (used only to pick the sampling lobe), W2, W3 and
+//! W≥4 per colour channel; per θp node the hemisphere means W̄n and a tail ratio r̄ = W̄≥5/W̄≥4.
+//!
+//! Axes (ωp leans toward +x; directions ω = (θ, φ) in the macro frame):
+//! - θp: [`N_THETA`] nodes uniform on [0, `max_theta`]; **interpolated linearly in cos θp**, so
+//!   the white-Lambert remainder 1 − cos θp is reproduced exactly between nodes. Node 0 (flat)
+//!   has no remainder.
+//! - z = cos θ: [`N_Z`] nodes uniform on [0, 1] (dense toward grazing in u); **interpolated
+//!   linearly in u = z²**, because (1/π) z dω = du dφ/(2π).
+//! - φ relative to ωp's azimuth, folded to [0, π] (the microsurface is mirror-symmetric about the
+//!   plane of ωg and ωp; the nested BSDF must be isotropic): [`N_PHI`] nodes every 22.5°, so 90°
+//!   (where ωi·ωt changes sign and the wall entry switches on) is a node; **interpolated linearly
+//!   in cos φ** (no `acos` at run time).
+//!
+//! The interpolant is linear in the node values, so its hemisphere mean is an exact weighted sum
+//! of them ([`axis_weights`]): with those means the rank-1 remainder integrates exactly to the
+//! interpolated E_ms(ωi) (the albedo identity), whatever the interpolation error against the walk.
+//!
+//! Colour per order (Hill 2019's per-order factors; spec §2.5, re-derived): with a per-bounce
+//! multiplier c the remainder is Σ_{n≥2} cⁿ W_n ≈ c² W2 + c³ W3 + c⁴ W≥4 (1 − r̄)/(1 − c r̄),
+//! exact for n ≤ 3 and for a geometric tail (the mirror sawtooth over Lambert), and exact for
+//! every c when the colour is baked into the table ([`Colour::Baked`], c = 1).
+//!
+//! Builds: from groove's own walk ([`super::walk::sample_counted`], [`WALKS_PER_NODE`] walks per
+//! node, fixed seeds, the scene's `max_order`), or in closed form over a Lambertian nested BSDF
+//! ([`MsTable::lambert`]: W_n = Σ_j λ_j(ω) [Q^{n−1} e]_j of the facet chain of `lambert.rs`; for the
+//! mirror sawtooth cos θp (1 − cos θp)^{n−1}), where the walk would only add noise.
+
+// Node and order indices: the loops mirror the formulas.
+#![allow(clippy::needless_range_loop)]
+
+use super::facets::Microgeometry;
+use super::lambert::FacetChain;
+use super::{walk, Evaluation, MicrofacetNormalMap, Tangent};
+use crate::bsdf::{Bsdf, BsdfContext, TransportMode};
+use crate::sampler::Sampler;
+use crate::spectrum::Spectrum;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+/// θp nodes (node 0 is θp = 0).
+pub const N_THETA: usize = 13;
+/// z = cos θ nodes.
+pub const N_Z: usize = 12;
+/// Relative azimuth nodes on [0, π].
+pub const N_PHI: usize = 9;
+/// Per node: W1, W2, W3, W≥4.
+pub const ORDERS: usize = 4;
+/// Walks per node of a walk-built table: standard error ≈ 0.01 of the albedo per node
+/// (measured in `docs/mnm.md`).
+pub const WALKS_PER_NODE: u32 = 2048;
+/// Smallest cos θ a node direction is simulated at (the z = 0 node).
+const Z_MIN: f32 = 0.01;
+/// Version of the table layout and build (part of the cache key).
+pub const VERSION: u32 = 1;
+
+/// Where the per-bounce colour comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Colour {
+    /// The nested BSDF's colours are in the table (c = 1 at run time).
+    Baked,
+    /// Built with the nested BSDF's colour set to 1; c is the colour at the hit: `reflectance`
+    /// of a `diffuse` (or a twosided's diffuse front), `specular_reflectance` of a
+    /// `roughconductor` (both scale every bounce linearly).
+    PerBounce,
+}
+
+/// What a table is built for (the cache key names all of it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TableSpec {
+    pub geometry: Microgeometry,
+    pub tangent: Tangent,
+    pub max_order: u32,
+    /// Largest θp (radians): the normal maps are clamped to it.
+    pub max_theta: f32,
+    pub colour: Colour,
+    /// Walks per node (walk-built tables).
+    pub walks: u32,
+}
+
+/// A built table (see the module doc).
+pub struct MsTable {
+    /// What it was built from (verified when read from the disk cache).
+    pub key: String,
+    pub spec: TableSpec,
+    /// cos θp of the θp nodes (decreasing).
+    cos_theta: [f32; N_THETA],
+    /// Node values, index [`node`].
+    w: Vec<[Spectrum; ORDERS]>,
+    /// Per node W2 + W3 + W≥4 (the remainder with the colour baked in, c = 1) and W1, apart:
+    /// a [`Colour::Baked`] lookup of the remainder reads 12 bytes per node from a 17 KB array.
+    e: Vec<Spectrum>,
+    e1: Vec<Spectrum>,
+    /// Per θp node: hemisphere means (1/π ∫ W z dω) of the interpolant.
+    mean: [[Spectrum; ORDERS]; N_THETA],
+    /// Per θp node: tail ratio r̄ per channel.
+    tail: [Spectrum; N_THETA],
+    /// Per θp node: the hemisphere mean of W2 + W3 + W≥4.
+    mean_e: [Spectrum; N_THETA],
+    /// u = z² of the z nodes, and 1 / (u_{k+1} − u_k).
+    u: [f32; N_Z],
+    inv_du: [f32; N_Z - 1],
+    /// 1 / (cos φ_l − cos φ_{l+1}).
+    inv_dx: [f32; N_PHI - 1],
+    /// Seconds the build took (0 for a table read from disk).
+    pub build_seconds: f32,
+}
+
+impl std::fmt::Debug for MsTable {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "MsTable({})", self.key)
+    }
+}
+
+/// Nodes per θp node.
+const PLANE: usize = N_Z * N_PHI;
+
+#[inline]
+fn node(j: usize, k: usize, l: usize) -> usize {
+    (j * N_Z + k) * N_PHI + l
+}
+
+/// θp of node j.
+fn theta_node(j: usize, max_theta: f32) -> f32 {
+    max_theta * j as f32 / (N_THETA - 1) as f32
+}
+
+fn z_node(k: usize) -> f32 {
+    k as f32 / (N_Z - 1) as f32
+}
+
+fn phi_node(l: usize) -> f32 {
+    std::f32::consts::PI * l as f32 / (N_PHI - 1) as f32
+}
+
+/// cos φ of the φ nodes (decreasing), for the run-time search.
+const fn cos_phi_nodes() -> [f32; N_PHI] {
+    // cos(lπ/8), l = 0..8.
+    [
+        1.0,
+        0.923_879_5,
+        0.707_106_77,
+        0.382_683_43,
+        0.0,
+        -0.382_683_43,
+        -0.707_106_77,
+        -0.923_879_5,
+        -1.0,
+    ]
+}
+const COS_PHI: [f32; N_PHI] = cos_phi_nodes();
+
+/// The node direction (θ from z node k, φ node l) for ωp leaning toward +x.
+fn node_direction(k: usize, l: usize) -> Vec3 {
+    let z = z_node(k).max(Z_MIN);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = phi_node(l);
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Weights w_u (over z nodes) and w_φ (over φ nodes) with which the hemisphere mean of the
+/// interpolant is Σ_k Σ_l w_u[k] w_φ[l] V[k][l]: trapezoid in u = z² (the interpolant is linear
+/// in u), and the exact integral over φ of a function linear in cos φ on each cell, over π.
+pub fn axis_weights() -> ([f64; N_Z], [f64; N_PHI]) {
+    let mut wu = [0.0f64; N_Z];
+    for k in 0..N_Z - 1 {
+        let (a, b) = (z_node(k) as f64, z_node(k + 1) as f64);
+        let h = b * b - a * a;
+        wu[k] += h / 2.0;
+        wu[k + 1] += h / 2.0;
+    }
+    let mut wp = [0.0f64; N_PHI];
+    for l in 0..N_PHI - 1 {
+        let (p0, p1) = (phi_node(l) as f64, phi_node(l + 1) as f64);
+        let (x0, x1) = (p0.cos(), p1.cos());
+        let h = p1 - p0;
+        let s = p1.sin() - p0.sin();
+        wp[l] += (s - x1 * h) / (x0 - x1) / std::f64::consts::PI;
+        wp[l + 1] += (x0 * h - s) / (x0 - x1) / std::f64::consts::PI;
+    }
+    (wu, wp)
+}
+
+/// Where a shading point's ωp falls in a table: the θp cell and its weight (linear in cos θp),
+/// and ωp's azimuth. Computed once per hit.
+#[derive(Clone, Copy, Debug)]
+pub struct ThetaCell {
+    pub j: usize,
+    pub t: f32,
+    /// Unit vector of ωp's azimuth in the macro frame.
+    pub axis: Vec2,
+}
+
+/// Interpolated node values at one direction, for the two θp nodes of a cell.
+#[derive(Clone, Copy, Debug)]
+pub struct Lookup {
+    pub w: [[Spectrum; ORDERS]; 2],
+}
+
+impl MsTable {
+    /// The θp cell of ωp = `wp` (not flat: `wp.xy` ≠ 0).
+    pub fn cell(&self, wp: Vec3) -> ThetaCell {
+        let c = wp.z;
+        let mut j = 0;
+        while j + 2 < N_THETA && c < self.cos_theta[j + 1] {
+            j += 1;
+        }
+        let (c0, c1) = (self.cos_theta[j], self.cos_theta[j + 1]);
+        let t = ((c0 - c) / (c0 - c1)).clamp(0.0, 1.0);
+        let axis = Vec2::new(wp.x, wp.y).normalize_or(Vec2::X);
+        ThetaCell { j, t, axis }
+    }
+
+    /// The four nodes around direction `w` (z > 0) at θp node `cell.j` (those at `cell.j + 1`
+    /// follow at the offset [`PLANE`]) and their bilinear weights (in u = z² and cos φ).
+    #[inline]
+    fn corners(&self, cell: &ThetaCell, w: Vec3) -> ([usize; 4], [f32; 4]) {
+        let z = w.z.clamp(0.0, 1.0);
+        let kz = ((z * (N_Z - 1) as f32) as usize).min(N_Z - 2);
+        let tu = ((z * z - self.u[kz]) * self.inv_du[kz]).clamp(0.0, 1.0);
+        let r2 = w.x * w.x + w.y * w.y;
+        let x = if r2 > 1e-12 {
+            ((w.x * cell.axis.x + w.y * cell.axis.y) / r2.sqrt()).clamp(-1.0, 1.0)
+        } else {
+            1.0
+        };
+        // The φ cell without branches: the number of inner nodes with cos φ above x.
+        let l = COS_PHI[1..N_PHI - 1]
+            .iter()
+            .map(|&c| (x < c) as usize)
+            .sum::<usize>();
+        let tx = ((COS_PHI[l] - x) * self.inv_dx[l]).clamp(0.0, 1.0);
+        let i = node(cell.j, kz, l);
+        (
+            [i, i + 1, i + N_PHI, i + N_PHI + 1],
+            [
+                (1.0 - tu) * (1.0 - tx),
+                (1.0 - tu) * tx,
+                tu * (1.0 - tx),
+                tu * tx,
+            ],
+        )
+    }
+
+    /// Bilinear interpolation (in u = z² and cos φ) of the node values at direction `w` (z > 0),
+    /// at the two θp nodes of `cell`.
+    #[inline]
+    pub fn lookup(&self, cell: &ThetaCell, w: Vec3) -> Lookup {
+        let (idx, wgt) = self.corners(cell, w);
+        let mut out = [[Spectrum::ZERO; ORDERS]; 2];
+        for (h, o) in out.iter_mut().enumerate() {
+            for c in 0..4 {
+                let v = &self.w[idx[c] + h * PLANE];
+                for n in 0..ORDERS {
+                    o[n] += wgt[c] * v[n];
+                }
+            }
+        }
+        Lookup { w: out }
+    }
+
+    /// [W1, E_ms] at direction `w` with the colour baked in (c = 1: [`Colour::Baked`]),
+    /// interpolated in θp too. `with_first`: also W1 (else it is 0).
+    #[inline]
+    pub fn lookup_baked(&self, cell: &ThetaCell, w: Vec3, with_first: bool) -> [Spectrum; 2] {
+        let (idx, wgt) = self.corners(cell, w);
+        let mut out = [Spectrum::ZERO; 2];
+        for h in 0..2 {
+            let wt = if h == 0 { 1.0 - cell.t } else { cell.t };
+            for c in 0..4 {
+                let i = idx[c] + h * PLANE;
+                let k = wt * wgt[c];
+                out[1] += k * self.e[i];
+                if with_first {
+                    out[0] += k * self.e1[i];
+                }
+            }
+        }
+        out
+    }
+
+    /// Ē_ms with the colour baked in (c = 1), interpolated in θp.
+    #[inline]
+    pub fn mean_baked(&self, cell: &ThetaCell) -> Spectrum {
+        (1.0 - cell.t) * self.mean_e[cell.j] + cell.t * self.mean_e[cell.j + 1]
+    }
+
+    /// Per-order coefficients (c², c³, c⁴(1 − r̄)/(1 − c r̄)) at the two θp nodes of `cell`,
+    /// each times its θp weight, for the colour `c`.
+    #[inline]
+    pub fn coefficients(&self, cell: &ThetaCell, c: Spectrum) -> [[Spectrum; 3]; 2] {
+        let c2 = c * c;
+        let c3 = c2 * c;
+        let mut out = [[Spectrum::ZERO; 3]; 2];
+        for (h, o) in out.iter_mut().enumerate() {
+            let r = self.tail[cell.j + h];
+            let wt = if h == 0 { 1.0 - cell.t } else { cell.t };
+            let k = (Spectrum::ONE - r) / (Spectrum::ONE - c * r);
+            *o = [wt * c2, wt * c3, wt * c3 * c * k];
+        }
+        out
+    }
+
+    /// The remainder energy E_ms from a lookup and [`Self::coefficients`].
+    #[inline]
+    pub fn remainder(l: &Lookup, k: &[[Spectrum; 3]; 2]) -> Spectrum {
+        let mut e = Spectrum::ZERO;
+        for h in 0..2 {
+            e += k[h][0] * l.w[h][1] + k[h][1] * l.w[h][2] + k[h][2] * l.w[h][3];
+        }
+        e
+    }
+
+    /// The interpolated W1 (for the lobe choice; white).
+    #[inline]
+    pub fn first(l: &Lookup, cell: &ThetaCell) -> Spectrum {
+        (1.0 - cell.t) * l.w[0][0] + cell.t * l.w[1][0]
+    }
+
+    /// Ē_ms: the hemisphere mean (1/π ∫ E_ms z dω) of the interpolated remainder, exact.
+    #[inline]
+    pub fn mean_remainder(&self, cell: &ThetaCell, k: &[[Spectrum; 3]; 2]) -> Spectrum {
+        let mut e = Spectrum::ZERO;
+        for h in 0..2 {
+            let m = &self.mean[cell.j + h];
+            e += k[h][0] * m[1] + k[h][1] * m[2] + k[h][2] * m[3];
+        }
+        e
+    }
+
+    /// A node value (tests, docs): W_n at θp node j, z node k, φ node l.
+    pub fn node_value(&self, j: usize, k: usize, l: usize, order: usize) -> Spectrum {
+        self.w[node(j, k, l)][order]
+    }
+
+    /// θp of node j (radians).
+    pub fn theta_p(&self, j: usize) -> f32 {
+        theta_node(j, self.spec.max_theta)
+    }
+
+    /// The node direction of z node k, φ node l (ωp leaning toward +x).
+    pub fn direction(k: usize, l: usize) -> Vec3 {
+        node_direction(k, l)
+    }
+
+    fn finish(
+        key: String,
+        spec: TableSpec,
+        mut w: Vec<[Spectrum; ORDERS]>,
+        beyond4: &[Spectrum],
+        build_seconds: f32,
+    ) -> MsTable {
+        // No gain: table noise must not make the walk's total exceed 1.
+        for v in w.iter_mut() {
+            let total: Spectrum = v.iter().copied().sum();
+            for ch in 0..3 {
+                if total[ch] > 1.0 {
+                    for n in v.iter_mut() {
+                        n[ch] /= total[ch];
+                    }
+                }
+            }
+        }
+        let (wu, wphi) = axis_weights();
+        let mut mean = [[Spectrum::ZERO; ORDERS]; N_THETA];
+        let mut tail = [Spectrum::ZERO; N_THETA];
+        for j in 0..N_THETA {
+            let mut m = [glam::DVec3::ZERO; ORDERS];
+            let mut b5 = glam::DVec3::ZERO;
+            for k in 0..N_Z {
+                for l in 0..N_PHI {
+                    let wgt = wu[k] * wphi[l];
+                    let i = node(j, k, l);
+                    for n in 0..ORDERS {
+                        m[n] += wgt * w[i][n].as_dvec3();
+                    }
+                    b5 += wgt * beyond4[i].as_dvec3();
+                }
+            }
+            mean[j] = m.map(|v| v.as_vec3());
+            let r = b5 / m[3];
+            tail[j] = Vec3::new(ratio(r.x, m[3].x), ratio(r.y, m[3].y), ratio(r.z, m[3].z));
+        }
+        Self::assemble(key, spec, w, mean, tail, build_seconds)
+    }
+
+    /// The table from its stored parts (the derived combined values computed here).
+    fn assemble(
+        key: String,
+        spec: TableSpec,
+        w: Vec<[Spectrum; ORDERS]>,
+        mean: [[Spectrum; ORDERS]; N_THETA],
+        tail: [Spectrum; N_THETA],
+        build_seconds: f32,
+    ) -> MsTable {
+        let cos_theta = std::array::from_fn(|j| theta_node(j, spec.max_theta).cos());
+        let e = w.iter().map(|v| v[1] + v[2] + v[3]).collect();
+        let e1 = w.iter().map(|v| v[0]).collect();
+        let mean_e = mean.map(|m| m[1] + m[2] + m[3]);
+        let u: [f32; N_Z] = std::array::from_fn(|k| z_node(k) * z_node(k));
+        MsTable {
+            u,
+            inv_du: std::array::from_fn(|k| 1.0 / (u[k + 1] - u[k])),
+            inv_dx: std::array::from_fn(|l| 1.0 / (COS_PHI[l] - COS_PHI[l + 1])),
+            key,
+            spec,
+            cos_theta,
+            w,
+            e,
+            e1,
+            tail,
+            mean,
+            mean_e,
+            build_seconds,
+        }
+    }
+
+    /// The table of the walk over `nested` (in `nested`'s arena; reflection only, isotropic, no
+    /// delta lobes — the caller checks), [`TableSpec::walks`] walks per node with fixed seeds.
+    pub fn from_walk(nested: &Bsdf, nested_index: u32, spec: TableSpec, key: String) -> MsTable {
+        let t0 = std::time::Instant::now();
+        let ctx = BsdfContext {
+            mode: TransportMode::Radiance,
+        };
+        let n = N_THETA * N_Z * N_PHI;
+        let mut w = vec![[Spectrum::ZERO; ORDERS]; n];
+        let mut beyond4 = vec![Spectrum::ZERO; n];
+        // One task per (θp node ≥ 1, z node): 9 directions each.
+        let rows: Vec<Row> = (1..N_THETA)
+            .flat_map(|j| (0..N_Z).map(move |k| (j, k)))
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|(j, k)| {
+                let tp = theta_node(j, spec.max_theta);
+                let wp = Vec3::new(tp.sin(), 0.0, tp.cos());
+                let m = MicrofacetNormalMap::new(
+                    nested_index,
+                    wp,
+                    spec.geometry,
+                    spec.tangent,
+                    Evaluation::RandomWalk,
+                    spec.max_order,
+                )
+                .with_lambert_closed_form(false);
+                let mut s = Sampler::from_seed(0x6d73_7462 ^ VERSION as u64, node(j, k, 0) as u64);
+                // At z = 1 every azimuth is the same direction: walk once.
+                let dirs = if k == N_Z - 1 { 1 } else { N_PHI };
+                let mut row = Vec::with_capacity(N_PHI);
+                for l in 0..dirs {
+                    let wi = node_direction(k, l);
+                    let mut acc = [glam::DVec3::ZERO; ORDERS + 1];
+                    for _ in 0..spec.walks {
+                        if let Some(r) = walk::sample_counted(&m, nested, &ctx, wi, &mut s) {
+                            let b = (r.nested_vertices.max(1) as usize).min(ORDERS + 1) - 1;
+                            acc[b] += r.weight.as_dvec3();
+                        }
+                    }
+                    let inv = 1.0 / spec.walks as f64;
+                    let v = [
+                        (acc[0] * inv).as_vec3(),
+                        (acc[1] * inv).as_vec3(),
+                        (acc[2] * inv).as_vec3(),
+                        ((acc[3] + acc[4]) * inv).as_vec3(),
+                    ];
+                    row.push((v, (acc[4] * inv).as_vec3()));
+                }
+                while row.len() < N_PHI {
+                    row.push(row[0]);
+                }
+                (j, k, row)
+            })
+            .collect();
+        for (j, k, row) in rows {
+            for (l, (v, b)) in row.into_iter().enumerate() {
+                w[node(j, k, l)] = v;
+                beyond4[node(j, k, l)] = b;
+            }
+        }
+        // θp = 0 (flat): no remainder; W1 (only the lobe choice) as at node 1.
+        for k in 0..N_Z {
+            for l in 0..N_PHI {
+                w[node(0, k, l)] = [w[node(1, k, l)][0], Vec3::ZERO, Vec3::ZERO, Vec3::ZERO];
+            }
+        }
+        Self::finish(key, spec, w, &beyond4, t0.elapsed().as_secs_f32())
+    }
+
+    /// The exact table over a white Lambertian nested BSDF (colour per bounce at run time):
+    /// W_n(ω) = Σ_j λ_j(ω) [Q^{n−1} e]_j for the facet chain (`lambert.rs`), which for the
+    /// mirror sawtooth (every path through p, return probability q = 1 − cos θp) is
+    /// cos θp q^{n−1} for every ω. All orders (no `max_order` truncation).
+    pub fn lambert(spec: TableSpec, key: String) -> MsTable {
+        let t0 = std::time::Instant::now();
+        let n = N_THETA * N_Z * N_PHI;
+        let mut w = vec![[Spectrum::ZERO; ORDERS]; n];
+        let mut beyond4 = vec![Spectrum::ZERO; n];
+        for j in 0..N_THETA {
+            let tp = theta_node(j, spec.max_theta);
+            let wp = Vec3::new(tp.sin(), 0.0, tp.cos());
+            let mirror =
+                spec.geometry == Microgeometry::Sawtooth && spec.tangent == Tangent::Mirror;
+            if j == 0 || mirror {
+                let c = wp.z as f64;
+                let q = if j == 0 { 0.0 } else { 1.0 - c };
+                let v = [c, c * q, c * q * q, q * q * q].map(|x| Spectrum::splat(x as f32));
+                for i in node(j, 0, 0)..node(j + 1, 0, 0) {
+                    w[i] = v;
+                    beyond4[i] = Spectrum::splat((q * q * q * q) as f32);
+                }
+                continue;
+            }
+            let surface = super::facets::Microsurface::new(spec.geometry, wp);
+            let chain = FacetChain::new(spec.geometry, wp, &surface);
+            let nf = chain.n;
+            // v_n = Q^{n−1} e (n = 1..3), Q³·1 and Q⁴·1 (white: (I − Q)⁻¹ e = 1).
+            let apply = |x: &[f64; 3]| -> [f64; 3] {
+                let mut y = [0.0; 3];
+                for (a, ya) in y.iter_mut().enumerate().take(nf) {
+                    for (b, xb) in x.iter().enumerate().take(nf) {
+                        *ya += chain.q[a][b] as f64 * xb;
+                    }
+                }
+                y
+            };
+            let e: [f64; 3] = std::array::from_fn(|a| if a < nf { chain.e[a] as f64 } else { 0.0 });
+            let v2 = apply(&e);
+            let v3 = apply(&v2);
+            let one: [f64; 3] = std::array::from_fn(|a| if a < nf { 1.0 } else { 0.0 });
+            let q3 = apply(&apply(&apply(&one)));
+            let q4 = apply(&q3);
+            for k in 0..N_Z {
+                for l in 0..N_PHI {
+                    let lam = surface.lambdas(node_direction(k, l));
+                    let dot = |v: &[f64; 3]| -> f32 {
+                        (0..nf).map(|a| lam[a] as f64 * v[a]).sum::<f64>() as f32
+                    };
+                    let i = node(j, k, l);
+                    w[i] = [dot(&e), dot(&v2), dot(&v3), dot(&q3)].map(Spectrum::splat);
+                    beyond4[i] = Spectrum::splat(dot(&q4));
+                }
+            }
+        }
+        Self::finish(key, spec, w, &beyond4, t0.elapsed().as_secs_f32())
+    }
+
+    /// The table as bytes for the disk cache (little-endian f32, after a header with the key).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(64 + self.key.len() + self.w.len() * ORDERS * 12);
+        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(&(self.key.len() as u32).to_le_bytes());
+        out.extend_from_slice(self.key.as_bytes());
+        let mut put = |v: Spectrum| {
+            for x in v.to_array() {
+                out.extend_from_slice(&x.to_le_bytes());
+            }
+        };
+        for v in &self.w {
+            for &s in v {
+                put(s);
+            }
+        }
+        for v in &self.mean {
+            for &s in v {
+                put(s);
+            }
+        }
+        for &s in &self.tail {
+            put(s);
+        }
+        out
+    }
+
+    /// A table read back from [`Self::to_bytes`], if `bytes` hold exactly the table of `key`
+    /// (anything else — another key, a short or long file, non-finite values — is `None`).
+    pub fn from_bytes(bytes: &[u8], key: &str, spec: TableSpec) -> Option<MsTable> {
+        let floats = (N_THETA * N_Z * N_PHI * ORDERS + N_THETA * ORDERS + N_THETA) * 3;
+        let head = MAGIC.len() + 4 + key.len();
+        if bytes.len() != head + floats * 4 || !bytes.starts_with(MAGIC) {
+            return None;
+        }
+        let len = u32::from_le_bytes(bytes[MAGIC.len()..MAGIC.len() + 4].try_into().ok()?);
+        if len as usize != key.len() || &bytes[MAGIC.len() + 4..head] != key.as_bytes() {
+            return None;
+        }
+        let mut f = bytes[head..]
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+        let mut spectrum = || -> Option<Spectrum> {
+            let v = Vec3::new(f.next()?, f.next()?, f.next()?);
+            v.is_finite().then_some(v)
+        };
+        let mut w = Vec::with_capacity(N_THETA * N_Z * N_PHI);
+        for _ in 0..N_THETA * N_Z * N_PHI {
+            w.push([spectrum()?, spectrum()?, spectrum()?, spectrum()?]);
+        }
+        let mut mean = [[Spectrum::ZERO; ORDERS]; N_THETA];
+        for m in mean.iter_mut() {
+            *m = [spectrum()?, spectrum()?, spectrum()?, spectrum()?];
+        }
+        let mut tail = [Spectrum::ZERO; N_THETA];
+        for t in tail.iter_mut() {
+            *t = spectrum()?;
+        }
+        Some(Self::assemble(key.to_string(), spec, w, mean, tail, 0.0))
+    }
+}
+
+const MAGIC: &[u8] = b"groove-ms-table\n";
+
+/// One (θp node, z node) of a walk build: per φ node the values W1, W2, W3, W≥4 and W≥5.
+type Row = (usize, usize, Vec<([Spectrum; ORDERS], Spectrum)>);
+
+/// r̄ = W̄≥5/W̄≥4 in [0, 0.999] (0 where there is no energy beyond the third order).
+fn ratio(r: f64, denom: f64) -> f32 {
+    if denom > 0.0 && r.is_finite() {
+        r.clamp(0.0, 0.999) as f32
+    } else {
+        0.0
+    }
+}
