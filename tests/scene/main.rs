@@ -18,4 +18,5 @@ mod plugins;
 mod projector;
 mod rotate_axis;
 mod texture;
+mod transform_quirks;
 mod xml_parse;
