@@ -115,13 +115,18 @@ JOBS = [
     ("direct_delta", os.path.join(SCENES, "direct_delta.xml"), {}, 1024, REF_SEEDS),
     ("rotate_axis", os.path.join(SCENES, "rotate_axis.xml"), {}, 2048, REF_SEEDS),
     ("degenerate_mesh", os.path.join(SCENES, "degenerate_mesh.xml"), {}, 2048, REF_SEEDS),
+    # Mitsuba's transform quirks on a rectangle, a disk (non-unit <rotate> axes), spheres under a
+    # non-uniform scale and a shear, and an instance under a non-unit axis; and the aov
+    # integrator's shape_index and normals under instancing.
+    ("rotate_shapes", os.path.join(SCENES, "rotate_shapes.xml"), {}, 2048, REF_SEEDS),
+    ("aov_instance", os.path.join(SCENES, "aov_instance.xml"), {}, 2048, REF_SEEDS),
 ]
 
 # Jobs whose film has extra channels (AOVs): the statistics are those of the film's developed
 # bitmap (what Mitsuba writes to disk: all channels, named as in the EXR Mitsuba writes), and
 # NAME.channels.exr / NAME.channels.var.exr hold every channel (mean over the seeds, variance of
 # that mean); NAME.exr / NAME.var.exr are the film's R, G, B as for the other jobs.
-CHANNELS = {"moment", "aov"}
+CHANNELS = {"moment", "aov", "aov_instance"}
 
 # Jobs whose pixels are correlated (non-box filter): also write NAME.tT.exr / NAME.tT.var.exr, the
 # mean over seeds of the T x T tile averages and the variance of that mean estimated from the

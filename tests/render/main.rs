@@ -16,4 +16,5 @@ mod parity;
 mod refs_selfcheck;
 mod robustness;
 mod textures;
+mod transform_quirks;
 mod wrappers;
