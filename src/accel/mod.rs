@@ -52,8 +52,9 @@ impl Accel {
                     center: *center,
                     radius: *radius,
                 },
-                (ShapeKind::Disk { to_world }, _) => embree::GeomDesc::Disk {
-                    to_world: *to_world,
+                // The disk rays meet (see `ShapeKind::Disk`).
+                (ShapeKind::Disk { hit_to_world, .. }, _) => embree::GeomDesc::Disk {
+                    to_world: *hit_to_world,
                 },
                 (ShapeKind::Rectangle { to_world }, _) => embree::GeomDesc::Rectangle {
                     to_world: *to_world,

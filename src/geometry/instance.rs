@@ -19,6 +19,16 @@
 //! only in the tangent's direction, which only anisotropic BSDFs see.) A mirroring `to_world`
 //! keeps each normal on the side the member's own normal was: the inverse transpose preserves it,
 //! as in Mitsuba (a mesh mirrored by its own `to_world` instead follows its winding).
+//!
+//! After a `<rotate>` with a non-unit axis in the instance's `to_world`, Mitsuba's stored inverse
+//! transpose is not the true one (`scene/xml/transform.rs`), and its instance uses it twice:
+//! normals are mapped by it, and the member's interaction is computed for the ray mapped by its
+//! transpose (`Transform::inverse()`), while Embree traces the true transform. groove does the
+//! same ([`Instance::with_mitsuba_inverse`]): for mesh members only the normals change (their
+//! points come from the barycentrics); analytic members are evaluated at the point of that ray.
+//!
+//! `scene_index` is the instance's number in Mitsuba's `scene.shapes()` (the `aov` integrator's
+//! `shape_index` of every hit through it), set by the loader.
 
 use super::interaction::SurfaceInteraction;
 use super::Ray;
@@ -34,12 +44,25 @@ pub struct Instance {
     to_object: Mat4,
     /// The inverse transpose of `to_world`'s linear part, which maps normals.
     normal: Mat3,
+    /// Mitsuba 3.9.1's number of the instance in `scene.shapes()`, from 1 (0 until set).
+    pub scene_index: u32,
 }
 
 impl Instance {
     /// Group `group` under `to_world`; an error (the reason) when `to_world` is not finite or
     /// not invertible.
     pub fn new(group: u32, to_world: &Mat4) -> Result<Instance, String> {
+        Instance::with_mitsuba_inverse(group, to_world, None)
+    }
+
+    /// [`Instance::new`] with Mitsuba's stored inverse transpose `inverse_transpose` when it
+    /// differs from the true one (after a `<rotate>` with a non-unit axis): normals follow it,
+    /// and rays are taken to group space by its transpose (see the module docs).
+    pub fn with_mitsuba_inverse(
+        group: u32,
+        to_world: &Mat4,
+        inverse_transpose: Option<&Mat4>,
+    ) -> Result<Instance, String> {
         let linear = Mat3::from_mat4(*to_world);
         let det = linear.determinant();
         let to_object = to_world.inverse();
@@ -50,11 +73,16 @@ impl Instance {
                 "the instance's to_world is not an invertible affine map (determinant {det})"
             ));
         }
+        let (to_object, normal) = match inverse_transpose {
+            Some(it) if it.is_finite() => (it.transpose(), Mat3::from_mat4(*it)),
+            _ => (to_object, linear.inverse().transpose()),
+        };
         Ok(Instance {
             group,
             to_world: *to_world,
             to_object,
-            normal: linear.inverse().transpose(),
+            normal,
+            scene_index: 0,
         })
     }
 

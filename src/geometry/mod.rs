@@ -16,6 +16,7 @@ pub mod ply_attributes;
 pub mod ray;
 pub mod serialized;
 pub mod shapes;
+pub mod sphere_map;
 
 pub use cylinder::Cylinder;
 pub use hit::{Hit, NO_INSTANCE};

@@ -10,6 +10,7 @@ use super::curves::Curves;
 use super::cylinder::Cylinder;
 use super::interaction::SurfaceInteraction;
 use super::mesh::TriMesh;
+use super::sphere_map::SphereMap;
 use super::Hit;
 use super::Ray;
 use crate::error::{Error, Result};
@@ -22,14 +23,20 @@ pub enum ShapeKind {
     /// A triangle mesh in world space.
     Mesh(TriMesh),
     /// An exact sphere; `frame` is the rotation part of `to_world`, which orients the uv map.
+    /// `map` is set when `to_world` is not a similarity (Mitsuba's sphere is then still this
+    /// sphere, but its uv map goes through the transform: [`SphereMap`]; `frame` is unused).
     Sphere {
         center: Vec3,
         radius: f32,
         frame: Mat4,
+        map: Option<SphereMap>,
     },
     /// Mitsuba's exact `disk`: the unit disk of the XY plane mapped by `to_world` (intersected by
-    /// an Embree user geometry).
-    Disk { to_world: Mat4 },
+    /// an Embree user geometry). Rays meet the image of that disk under `hit_to_world`, which is
+    /// `to_world` itself except after a `<rotate>` with a non-unit axis: Mitsuba intersects the
+    /// disk in the object space of its quirky inverse, so the disk it traces is another one than
+    /// the disk it samples (see `scene/xml/transform.rs`).
+    Disk { to_world: Mat4, hit_to_world: Mat4 },
     /// Mitsuba's exact `rectangle`: [−1,1]² of the XY plane mapped by `to_world` (an Embree user
     /// geometry like the disk: a scene of rectangles and spheres then needs a single Embree
     /// acceleration structure instead of one for triangles and one for user geometry, which
@@ -65,8 +72,17 @@ pub struct Shape {
     area: f32,
     /// Normalised cumulative triangle areas (meshes; empty for spheres).
     cdf: Vec<f32>,
-    /// Inverse of the disk's or rectangle's `to_world` (identity for other shapes).
+    /// Inverse of the disk's or rectangle's `to_world` (identity for other shapes); for a disk,
+    /// the inverse of `hit_to_world` (Mitsuba's quirky one after a non-unit `<rotate>`).
     to_object: Mat4,
+    /// A rectangle's unit shading normal (before `flip_normals`) when Mitsuba's differs from the
+    /// geometric one: after a non-unit `<rotate>`, Mitsuba 3.9.1's rectangle (a two-triangle
+    /// mesh) takes its vertex normals through the quirky normal matrix.
+    shading_normal: Option<Vec3>,
+    /// Mitsuba 3.9.1's number of this shape in `scene.shapes()`, from 1: what the `aov`
+    /// integrator's `shape_index` reports (0 for members of shape groups, whose hits report
+    /// their instance's number; set by the loader).
+    pub scene_index: u32,
     /// Mitsuba's `cube` under this invertible `to_world`: Embree intersects the exact box (one
     /// user-geometry primitive reporting the triangle and barycentrics the mesh would), so a
     /// scene of cubes, rectangles and spheres keeps a single acceleration structure.
@@ -142,6 +158,8 @@ impl Shape {
             to_object: Mat4::IDENTITY,
             box_to_world: None,
             attributes: Vec::new(),
+            shading_normal: None,
+            scene_index: 0,
         })
     }
 
@@ -190,10 +208,26 @@ impl Shape {
     /// Mitsuba), uv = ((x+1)/2, (y+1)/2), dp/du = to_world·(2,0,0), dp/dv = to_world·(0,2,0).
     /// Exact: an Embree user geometry. A degenerate (zero-area) transform gives a never-hit shape.
     pub fn rectangle(to_world: &Mat4, flip_normals: bool) -> Shape {
+        Shape::rectangle_with_normals(to_world, None, flip_normals)
+    }
+
+    /// [`Shape::rectangle`] whose shading normal follows `normal_matrix` (Mitsuba's, after a
+    /// `<rotate>` with a non-unit axis) rather than the inverse transpose of `to_world`; the
+    /// geometric normal stays the true one (Mitsuba 3.9.1's rectangle is a mesh: its face
+    /// normal comes from the mapped vertices, its vertex normals from the normal matrix).
+    pub fn rectangle_with_normals(
+        to_world: &Mat4,
+        normal_matrix: Option<&Mat3>,
+        flip_normals: bool,
+    ) -> Shape {
         let kind = ShapeKind::Rectangle {
             to_world: *to_world,
         };
-        Shape::planar(kind, to_world, 4.0, flip_normals).unwrap_or_else(degenerate)
+        let Some(mut shape) = Shape::planar(kind, to_world, 4.0, flip_normals) else {
+            return degenerate();
+        };
+        shape.shading_normal = normal_matrix.and_then(|nm| (*nm * Vec3::Z).try_normalize());
+        shape
     }
 
     /// A disk or rectangle: `unit_area` is its area in object space (π or 4), scaled by the area
@@ -220,6 +254,8 @@ impl Shape {
             to_object: to_world.inverse(),
             box_to_world: None,
             attributes: Vec::new(),
+            shading_normal: None,
+            scene_index: 0,
         })
     }
 
@@ -277,17 +313,61 @@ impl Shape {
     /// Mitsuba's `disk`: the unit disk in the XY plane, normal +Z (by the normal transform, as
     /// Mitsuba), uv = (r, φ/2π). Exact: an Embree user geometry with analytic intersection.
     pub fn disk(to_world: &Mat4, flip_normals: bool) -> Result<Shape> {
-        let kind = ShapeKind::Disk {
-            to_world: *to_world,
-        };
-        Shape::planar(kind, to_world, PI, flip_normals)
-            .ok_or_else(|| Error::file("disk", "to_world is degenerate (zero area)"))
+        Shape::disk_with_inverse(to_world, None, flip_normals)
     }
 
-    /// Mitsuba's `sphere`: `center`/`radius` in object space, then `to_world`, which may carry a
-    /// translation, a rotation (orients the uv map) and a *uniform* scale; anything else is an
-    /// error. Intersected exactly by Embree.
+    /// [`Shape::disk`] intersected in the object space of `inverse` (Mitsuba's
+    /// `Transform::inverse()` after a `<rotate>` with a non-unit axis, which is not the inverse
+    /// of `to_world`): rays then meet the image of the unit disk under `inverse⁻¹`, whose plane
+    /// has the normal Mitsuba reports (the normal transform of +Z), while positions are still
+    /// sampled on `to_world`'s disk with the area of that one, as in Mitsuba 3.9.1.
+    pub fn disk_with_inverse(
+        to_world: &Mat4,
+        inverse: Option<&Mat4>,
+        flip_normals: bool,
+    ) -> Result<Shape> {
+        let degenerate = || Error::file("disk", "to_world is degenerate (zero area)");
+        let hit_to_world = match inverse {
+            Some(inv) => {
+                let h = inv.inverse();
+                if !(h.is_finite() && Mat3::from_mat4(h).determinant() != 0.0) {
+                    return Err(degenerate());
+                }
+                h
+            }
+            None => *to_world,
+        };
+        let kind = ShapeKind::Disk {
+            to_world: *to_world,
+            hit_to_world,
+        };
+        let mut shape = Shape::planar(kind, to_world, PI, flip_normals).ok_or_else(degenerate)?;
+        if let Some(inv) = inverse {
+            shape.to_object = *inv;
+        }
+        Ok(shape)
+    }
+
+    /// Mitsuba's `sphere`: `center`/`radius` in object space, then `to_world`; a translation, a
+    /// rotation (orients the uv map) and a uniform scale keep it a sphere. Any other `to_world`
+    /// (non-uniform scale, shear) gives what Mitsuba 3.9.1 renders, with its warnings
+    /// ([`super::sphere_map::sphere_warnings`], for the loader to report): the sphere of centre
+    /// `M·0` and radius `|M·x|` with the uv map through `M` ([`SphereMap`]). A mirroring
+    /// `to_world` flips the normals, as in Mitsuba. Intersected exactly by Embree.
     pub fn sphere(center: Vec3, radius: f32, to_world: &Mat4, flip_normals: bool) -> Result<Shape> {
+        Shape::sphere_with_inverse(center, radius, to_world, None, flip_normals)
+    }
+
+    /// [`Shape::sphere`] whose uv map, when `to_world` is not a similarity, uses `inverse` for
+    /// the object space (Mitsuba's `Transform::inverse()` after a `<rotate>` with a non-unit
+    /// axis) instead of the inverse of `to_world`.
+    pub fn sphere_with_inverse(
+        center: Vec3,
+        radius: f32,
+        to_world: &Mat4,
+        inverse: Option<&Mat4>,
+        flip_normals: bool,
+    ) -> Result<Shape> {
         let m = *to_world * Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius));
         let c = m.transform_point3(Vec3::ZERO);
         let axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| m.transform_vector3(a));
@@ -303,27 +383,46 @@ impl Shape {
                 format!("invalid radius {r} or center {c}"),
             ));
         }
-        if !uniform {
-            return Err(Error::file(
-                "sphere",
-                "to_world has a non-uniform scale or shear; Mitsuba's sphere allows only \
-                 translation, rotation and uniform scale",
-            ));
+        let det = Mat3::from_mat4(m).determinant();
+        if !(det.is_finite() && det != 0.0) {
+            return Err(Error::file("sphere", "to_world is degenerate (singular)"));
         }
-        let frame = Mat4::from_mat3(Mat3::from_cols(axes[0] / r, axes[1] / r, axes[2] / r));
+        let (frame, map) = if uniform {
+            let f = Mat3::from_cols(axes[0] / r, axes[1] / r, axes[2] / r);
+            (Mat4::from_mat3(f), None)
+        } else {
+            // Mitsuba's inverse of `m`: the centre and radius steps, then `to_world`'s.
+            let inv_tw = inverse.copied().unwrap_or_else(|| to_world.inverse());
+            let to_object = Mat4::from_scale(Vec3::splat(1.0 / radius))
+                * Mat4::from_translation(-center)
+                * inv_tw;
+            if !to_object.is_finite() {
+                return Err(Error::file("sphere", "to_world is not invertible"));
+            }
+            let map = SphereMap {
+                to_world: m,
+                to_object,
+            };
+            (Mat4::IDENTITY, Some(map))
+        };
         Ok(Shape {
             kind: ShapeKind::Sphere {
                 center: c,
                 radius: r,
                 frame,
+                map,
             },
-            flip_normals,
+            // Mitsuba flips a mirrored sphere's normals (the first entry of the symmetric polar
+            // factor is negative exactly when the determinant is).
+            flip_normals: flip_normals != (det < 0.0),
             face_normals: true,
             area: 4.0 * PI * r * r,
             cdf: Vec::new(),
             to_object: Mat4::IDENTITY,
             box_to_world: None,
             attributes: Vec::new(),
+            shading_normal: None,
+            scene_index: 0,
         })
     }
 
@@ -338,6 +437,8 @@ impl Shape {
             to_object: Mat4::IDENTITY,
             box_to_world: None,
             attributes: Vec::new(),
+            shading_normal: None,
+            scene_index: 0,
         }
     }
 
@@ -367,6 +468,8 @@ impl Shape {
             to_object: Mat4::IDENTITY,
             box_to_world: None,
             attributes: Vec::new(),
+            shading_normal: None,
+            scene_index: 0,
         }
     }
 
@@ -383,7 +486,8 @@ impl Shape {
                 |(lo, hi), p| (lo.min(*p), hi.max(*p)),
             ),
             ShapeKind::Sphere { center, radius, .. } => (*center - *radius, *center + *radius),
-            ShapeKind::Disk { to_world } => {
+            // `to_world`'s disk, as Mitsuba's bounding box (the scene's bounding sphere).
+            ShapeKind::Disk { to_world, .. } => {
                 let c = to_world.transform_point3(Vec3::ZERO);
                 let ax = to_world.transform_vector3(Vec3::X);
                 let ay = to_world.transform_vector3(Vec3::Y);
@@ -454,11 +558,14 @@ impl Shape {
                     wi: -ray.d,
                 }
             }
-            ShapeKind::Disk { to_world } => {
-                // Project the hit onto the disk's plane in object space, then back.
+            ShapeKind::Disk {
+                to_world,
+                hit_to_world,
+            } => {
+                // Project the hit onto the traced disk's plane in object space, then back.
                 let mut l = self.to_object.transform_point3(ray.at(hit.t));
                 l.z = 0.0;
-                let p = to_world.transform_point3(l);
+                let p = hit_to_world.transform_point3(l);
                 let (uv, dpdu, dpdv) = disk_uv(to_world, l);
                 let ng = self.plane_normal() * sign;
                 analytic_interaction(p, ng, (uv, dpdu, dpdv), shape_index, ray, hit)
@@ -468,17 +575,23 @@ impl Shape {
                 l.z = 0.0;
                 let p = to_world.transform_point3(l);
                 let ng = self.plane_normal() * sign;
-                analytic_interaction(p, ng, rectangle_uv(to_world, l), shape_index, ray, hit)
+                let (uv, dpdu, dpdv) = rectangle_uv(to_world, l);
+                let mut si = analytic_interaction(p, ng, (uv, dpdu, dpdv), shape_index, ray, hit);
+                if let Some(n) = self.shading_normal {
+                    si.sh = Frame::from_normal_tangent(n * sign, dpdu);
+                }
+                si
             }
             ShapeKind::Sphere {
                 center,
                 radius,
                 frame,
+                map,
             } => {
                 let n = (ray.at(hit.t) - *center).try_normalize().unwrap_or(Vec3::Z);
                 // Reproject onto the sphere (as Mitsuba) for an accurate surface point.
                 let p = *center + n * *radius;
-                let (uv, dpdu, dpdv) = sphere_uv(frame, *radius, n);
+                let (uv, dpdu, dpdv) = sphere_param(frame, map.as_ref(), *center, *radius, n);
                 let ng = n * sign;
                 analytic_interaction(p, ng, (uv, dpdu, dpdv), shape_index, ray, hit)
             }
@@ -554,8 +667,9 @@ impl Shape {
                     pdf,
                 }
             }
-            ShapeKind::Disk { to_world } => {
-                // Concentric mapping, as Mitsuba's `Disk::sample_position`.
+            ShapeKind::Disk { to_world, .. } => {
+                // Concentric mapping, as Mitsuba's `Disk::sample_position` (on `to_world`'s
+                // disk, with the normal of the traced one).
                 let d = warp::square_to_disk_concentric(u);
                 let l = Vec3::new(d.x, d.y, 0.0);
                 PositionSample {
@@ -570,21 +684,25 @@ impl Shape {
                 let l = Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0);
                 PositionSample {
                     p: to_world.transform_point3(l),
-                    n: self.plane_normal() * sign,
+                    n: self.shading_normal.unwrap_or_else(|| self.plane_normal()) * sign,
                     uv: u,
                     pdf,
                 }
             }
+            // On the sphere also when `to_world` is not a similarity: Mitsuba's sampling by solid
+            // angle (the only use here) samples its sphere, not the ellipsoid its
+            // `sample_position` would map the unit sphere to.
             ShapeKind::Sphere {
                 center,
                 radius,
                 frame,
+                map,
             } => {
                 let n = warp::square_to_uniform_sphere(u);
                 PositionSample {
                     p: *center + n * *radius,
                     n: n * sign,
-                    uv: sphere_uv(frame, *radius, n).0,
+                    uv: sphere_param(frame, map.as_ref(), *center, *radius, n).0,
                     pdf,
                 }
             }
@@ -608,6 +726,7 @@ impl Shape {
             center,
             radius,
             frame,
+            map,
         } = &self.kind
         {
             let dc = *center - ref_p;
@@ -634,7 +753,7 @@ impl Shape {
                 return Some(DirectionSample {
                     p,
                     n: n0 * sign,
-                    uv: sphere_uv(frame, *radius, n0).0,
+                    uv: sphere_param(frame, map.as_ref(), *center, *radius, n0).0,
                     d: v / dist,
                     dist,
                     pdf,
@@ -711,6 +830,8 @@ fn degenerate() -> Shape {
         to_object: Mat4::IDENTITY,
         box_to_world: None,
         attributes: Vec::new(),
+        shading_normal: None,
+        scene_index: 0,
     }
 }
 
@@ -739,6 +860,22 @@ fn disk_uv(to_world: &Mat4, l: Vec3) -> (Vec2, Vec3, Vec3) {
     let dpdu = to_world.transform_vector3(Vec3::new(cp, sp, 0.0));
     let dpdv = to_world.transform_vector3(Vec3::new(-sp, cp, 0.0)) * (2.0 * PI * r);
     (Vec2::new(r, phi * INV_2PI), dpdu, dpdv)
+}
+
+/// The sphere's uv and partials at the outward unit normal `n`: through `map` when `to_world`
+/// is not a similarity, else by the rotation `frame` ([`sphere_uv`]).
+#[inline]
+fn sphere_param(
+    frame: &Mat4,
+    map: Option<&SphereMap>,
+    center: Vec3,
+    radius: f32,
+    n: Vec3,
+) -> (Vec2, Vec3, Vec3) {
+    match map {
+        Some(m) => m.param(center + n * radius),
+        None => sphere_uv(frame, radius, n),
+    }
 }
 
 /// Mitsuba 3's sphere parameterisation for the outward unit normal `n` (world space):

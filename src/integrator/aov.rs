@@ -14,7 +14,7 @@
 //! | `sh_normal` | `name.X/Y/Z` | shading normal |
 //! | `dp_du`, `dp_dv` | `name.X/Y/Z` | position partials with respect to uv |
 //! | `prim_index` | `name.I` | triangle index inside a mesh; 0 on spheres, disks, rectangles |
-//! | `shape_index` | `name.I` | shapes numbered from 1 in the reverse of the file's order, as Mitsuba 3.9.1 lists them (0: background) |
+//! | `shape_index` | `name.I` | Mitsuba 3.9.1's number of the shape in `scene.shapes()`, from 1 (0: background): the shapes that are not meshes and the instances in file order, then the meshes (see `Builder::number_shapes` in `load/shapegroup.rs`); a hit through an instance reports the instance's number, as Mitsuba (`si.instance` before `si.shape`) |
 //!
 //! On analytic shapes Mitsuba 3.9.1's `prim_index` is 0 on some pixels and 1 on others (a
 //! rectangle floor in `tests/data/scenes/aov.xml`); groove reports 0 there.
@@ -24,6 +24,7 @@
 //! `mi.render`; what its film writes to disk (and what groove writes) is this single pass.
 
 use super::{IntegratorDesc, RayKind, Scratch};
+use crate::geometry::hit::NO_INSTANCE;
 use crate::geometry::{Ray, ShapeKind, SurfaceInteraction};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
@@ -192,10 +193,16 @@ impl AovSettings {
                 AovKind::DpDu => out.copy_from_slice(&uv_partials(scene, si).0.to_array()),
                 AovKind::DpDv => out.copy_from_slice(&uv_partials(scene, si).1.to_array()),
                 AovKind::PrimIndex => out[0] = si.prim as f32,
-                // Mitsuba 3.9.1 numbers `scene->shapes()` from 1, and that list holds the
-                // shapes in the reverse of the file's order (seen on tests/data/scenes/aov.xml:
-                // floor, blob, mesh, torus are 4, 3, 2, 1); groove's list is in file order.
-                AovKind::ShapeIndex => out[0] = (scene.shapes.len() as u32 - si.shape) as f32,
+                // Mitsuba 3.9.1 numbers `scene->shapes()` from 1 (the loader computed each
+                // shape's and instance's number); a hit through an instance reports the
+                // instance, whose index only the ray query's hit carries.
+                AovKind::ShapeIndex => {
+                    let inst = scene.accel.intersect(&ray).map_or(NO_INSTANCE, |h| h.inst);
+                    out[0] = match scene.instances.get(inst as usize) {
+                        Some(i) => i.scene_index,
+                        None => scene.shapes[si.shape as usize].scene_index,
+                    } as f32;
+                }
             }
         }
         result

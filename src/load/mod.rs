@@ -91,6 +91,9 @@ struct Builder<'d> {
     /// Index in `groups` of each group element built so far.
     group_index: HashMap<*const Node, u32>,
     instances: Vec<Instance>,
+    /// Every shape and instance in the order they were built (group members included; the
+    /// numbering of `aov`'s `shape_index` leaves them out): [`Builder::number_shapes`].
+    placed: Vec<shapegroup::Placed>,
     emitters: Vec<Emitter>,
     warnings: Vec<String>,
     /// The memory budget images and meshes are checked against.
@@ -135,6 +138,7 @@ pub fn instantiate_within(
         groups: Vec::new(),
         group_index: HashMap::new(),
         instances: Vec::new(),
+        placed: Vec::new(),
         emitters: Vec::new(),
         warnings: doc.warnings.clone(),
         budget: budget.clone(),
@@ -165,6 +169,7 @@ pub fn instantiate_within(
             ));
         }
     }
+    b.number_shapes();
     let accel = Accel::build_instanced(&b.shapes, &b.groups, &b.instances)?;
     let bsphere = Scene::bounding_sphere_instanced(&b.shapes, &b.groups, &b.instances);
     let env_emitters = b

@@ -16,7 +16,7 @@
 
 use super::Builder;
 use crate::error::{Error, Result};
-use crate::geometry::Instance;
+use crate::geometry::{Instance, Shape, ShapeKind};
 use crate::scene::xml::ir::Node;
 
 /// What one instance costs in memory besides its XML elements, for the budget: groove's
@@ -91,7 +91,7 @@ impl<'d> Builder<'d> {
     /// An `<shape type="instance">`: its group (built if needed) under its `to_world`.
     pub(super) fn instance(&mut self, n: &'d Node) -> Result<()> {
         let p = self.props(n)?;
-        let to_world = p.transform("to_world")?;
+        let xf = p.transform_full("to_world")?;
         let mut group = None;
         for c in p.objects() {
             let g = self.ids.resolve(c, "shape")?;
@@ -125,8 +125,59 @@ impl<'d> Builder<'d> {
             .reserve(INSTANCE_BYTES, "an instance")
             .map_err(|m| Error::scene(loc, m))?;
         let g = self.shape_group(g)?;
-        let inst = Instance::new(g, &to_world).map_err(|m| Error::scene(loc, m))?;
+        let inst =
+            Instance::with_mitsuba_inverse(g, &xf.matrix, xf.quirk_inverse_transpose.as_ref())
+                .map_err(|m| Error::scene(loc, m))?;
+        self.placed
+            .push(Placed::Instance(self.instances.len() as u32));
         self.instances.push(inst);
         Ok(())
     }
+
+    /// Numbers the shapes and instances as Mitsuba 3.9.1's `scene.shapes()` lists them (the
+    /// `aov` integrator's `shape_index`, from 1). Its parser hands the scene's children to the
+    /// `merge` shape (`src/shapes/merge.cpp`), which keeps every object that is not a mesh (or is
+    /// a mesh with attributes) in file order and appends the meshes after them, merged by
+    /// material, from a hash table keyed by object addresses: the meshes' order changes from run
+    /// to run there (seen with ten rectangles). groove numbers the non-meshes (spheres, disks,
+    /// cylinders, curves, instances; meshes with attributes) in file order, then each mesh
+    /// (`obj`, `ply`, `serialized`, `rectangle`, `cube`) in the reverse of the file's order, one
+    /// of the orders Mitsuba produces, without merging. Members of shape groups are not in the
+    /// list (a hit through an instance reports the instance's number).
+    pub(super) fn number_shapes(&mut self) {
+        let mut member = vec![false; self.shapes.len()];
+        for r in &self.groups {
+            for i in r.clone() {
+                member[i as usize] = true;
+            }
+        }
+        let in_group = |i: u32| member[i as usize];
+        let is_mesh = |s: &Shape| {
+            matches!(s.kind, ShapeKind::Mesh(_) | ShapeKind::Rectangle { .. })
+                && s.attributes().is_empty()
+        };
+        let mut first = Vec::new();
+        let mut meshes = Vec::new();
+        for &p in &self.placed {
+            match p {
+                Placed::Shape(i) if in_group(i) => {}
+                Placed::Shape(i) if is_mesh(&self.shapes[i as usize]) => meshes.push(p),
+                _ => first.push(p),
+            }
+        }
+        for (k, p) in first.iter().chain(meshes.iter().rev()).enumerate() {
+            let n = k as u32 + 1;
+            match *p {
+                Placed::Shape(i) => self.shapes[i as usize].scene_index = n,
+                Placed::Instance(i) => self.instances[i as usize].scene_index = n,
+            }
+        }
+    }
+}
+
+/// A shape or an instance (its index in the builder's list), in the order they were built.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Placed {
+    Shape(u32),
+    Instance(u32),
 }

@@ -2,18 +2,20 @@
 //! `linearcurve`, `bsplinecurve`; `shapegroup` and `instance` are in `shapegroup.rs`), the `area`
 //! emitter a shape carries, and the default materials of shapes without a BSDF.
 
+use super::shapegroup::Placed;
 use super::{check, unknown, Builder};
 use crate::emitter::area::AreaLight;
 use crate::emitter::Emitter;
 use crate::error::{Error, Result};
 use crate::geometry::curves::{self, CurveBasis};
+use crate::geometry::sphere_map::sphere_warnings;
 use crate::geometry::{obj, ply, serialized, Cylinder, Shape, ShapeKind};
 use crate::material::{MatId, MaterialNode};
 use crate::scene::xml::ir::Node;
 use crate::scene::xml::props::Props;
 use crate::spectrum::{Spectrum, SpectrumUse};
 use crate::texture::Texture;
-use glam::Vec3;
+use glam::{Mat4, Vec3};
 
 impl<'d> Builder<'d> {
     /// The default BSDF of a shape that has none (shared by all such shapes).
@@ -65,8 +67,10 @@ impl<'d> Builder<'d> {
     fn geometry(&mut self, p: &Props<'d>) -> Result<Shape> {
         let xf = p.transform_full("to_world")?;
         let to_world = xf.matrix;
-        // Mitsuba's normal matrix when it differs from the true one (a non-unit `<rotate>`).
+        // Mitsuba's normal matrix and inverse when they differ from the true ones (a non-unit
+        // `<rotate>`).
         let normal_matrix = xf.quirk_inverse_transpose.map(|_| xf.normal_matrix());
+        let quirk_inverse = xf.quirk_inverse_transpose.map(|_| xf.inverse());
         let curve = match p.plugin_type() {
             "linearcurve" => Some(CurveBasis::Linear),
             "bsplinecurve" => Some(CurveBasis::BSpline),
@@ -147,11 +151,10 @@ impl<'d> Builder<'d> {
                 Shape::from_mesh(mesh, flip, face_normals)
                     .map_err(|e| Error::scene(p.loc(), format!("{}: {e}", file.display())))?
             }
-            "rectangle" => Shape::rectangle(&to_world, flip),
+            "rectangle" => Shape::rectangle_with_normals(&to_world, normal_matrix.as_ref(), flip),
             "cube" => Shape::cube_with_normals(&to_world, normal_matrix.as_ref(), flip),
-            "disk" => {
-                Shape::disk(&to_world, flip).map_err(|e| Error::scene(p.loc(), e.to_string()))?
-            }
+            "disk" => Shape::disk_with_inverse(&to_world, quirk_inverse.as_ref(), flip)
+                .map_err(|e| Error::scene(p.loc(), e.to_string()))?,
             "sphere" => {
                 let c = p.point("center", Vec3::ZERO)?;
                 let r = p.float("radius", 1.0)?;
@@ -160,7 +163,15 @@ impl<'d> Builder<'d> {
                     r > 0.0 && r.is_finite(),
                     "sphere radius must be positive",
                 )?;
-                Shape::sphere(c, r, &to_world, flip)
+                let full = to_world * Mat4::from_translation(c) * Mat4::from_scale(Vec3::splat(r));
+                for w in sphere_warnings(&full) {
+                    self.warnings.push(format!(
+                        "{}: sphere: {w} (as Mitsuba 3.9.1, it stays a sphere, of radius \
+                         |to_world·(1,0,0)|, with the uv map through the transform)",
+                        p.loc()
+                    ));
+                }
+                Shape::sphere_with_inverse(c, r, &to_world, quirk_inverse.as_ref(), flip)
                     .map_err(|e| Error::scene(p.loc(), e.to_string()))?
             }
             // Mitsuba's open cylinder; its parameters are read in its own file.
@@ -244,6 +255,7 @@ impl<'d> Builder<'d> {
             None => self.default_material(emitter.is_some()),
         };
         self.check_hit_textures(material, &shape, &n.loc)?;
+        self.placed.push(Placed::Shape(index));
         self.shapes.push(shape);
         self.shape_material.push(material);
         self.shape_emitter.push(emitter);

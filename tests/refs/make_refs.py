@@ -123,13 +123,18 @@ JOBS = [
     ("ptracer_point_spot", os.path.join(SCENES, "ptracer_point_spot.xml"), {}, 2048, list(range(8))),
     ("ptracer_glass", os.path.join(SCENES, "ptracer_glass.xml"), {}, 2048, list(range(8))),
     ("ptracer_nmap", os.path.join(SCENES, "ptracer_nmap.xml"), {}, 2048, list(range(8))),
+    # Mitsuba's transform quirks on a rectangle, a disk (non-unit <rotate> axes), spheres under a
+    # non-uniform scale and a shear, and an instance under a non-unit axis; and the aov
+    # integrator's shape_index and normals under instancing.
+    ("rotate_shapes", os.path.join(SCENES, "rotate_shapes.xml"), {}, 2048, REF_SEEDS),
+    ("aov_instance", os.path.join(SCENES, "aov_instance.xml"), {}, 2048, REF_SEEDS),
 ]
 
 # Jobs whose film has extra channels (AOVs): the statistics are those of the film's developed
 # bitmap (what Mitsuba writes to disk: all channels, named as in the EXR Mitsuba writes), and
 # NAME.channels.exr / NAME.channels.var.exr hold every channel (mean over the seeds, variance of
 # that mean); NAME.exr / NAME.var.exr are the film's R, G, B as for the other jobs.
-CHANNELS = {"moment", "aov"}
+CHANNELS = {"moment", "aov", "aov_instance"}
 
 # Jobs whose pixels are correlated (non-box filter): also write NAME.tT.exr / NAME.tT.var.exr, the
 # mean over seeds of the T x T tile averages and the variance of that mean estimated from the

@@ -254,3 +254,12 @@ fn aov_channels_are_written_to_exr_by_name_and_dropped_from_png() {
     assert!(png.is_file());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn aov_shape_index_and_normals_under_instancing_match_mitsuba() {
+    // Mitsuba numbers the sphere 1, the instances 2 and 3 (every hit through one reports it),
+    // the disk 4 and the floor, the only mesh, 5; the second instance's normals follow its
+    // non-unit <rotate> axis's raw matrix (tests/data/scenes/aov_instance.xml).
+    let (names, film) = render("aov_instance.xml", 512, 14);
+    check_channels(&names, &film, "aov_instance", 4, &|_, _| false);
+}

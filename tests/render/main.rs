@@ -18,4 +18,5 @@ mod ptracer;
 mod refs_selfcheck;
 mod robustness;
 mod textures;
+mod transform_quirks;
 mod wrappers;

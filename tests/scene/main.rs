@@ -20,4 +20,5 @@ mod projector;
 mod ptracer;
 mod rotate_axis;
 mod texture;
+mod transform_quirks;
 mod xml_parse;

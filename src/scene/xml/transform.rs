@@ -11,14 +11,16 @@
 //!   rotation. Mesh vertex normals follow the stored inverse transpose (`PackedMesh`), and
 //!   `Transform::inverse()` is its transpose (the spot and projector lights use it).
 //!
-//! groove matches the matrix everywhere, and the stored inverse transpose where meshes (`obj`,
-//! `ply`, `serialized`, `cube`) transform their vertex normals and where `spot` and `projector`
-//! take directions to their frame; it warns at every `<rotate>` whose axis is not unit length
-//! ([`non_unit_rotations`]). Not matched (checked with Mitsuba 3.9.1 `ray_intersect`): the
-//! `rectangle`'s shading normal (Mitsuba's follows the quirky matrix, its geometric normal the
-//! true one; groove uses the true one for both), the `disk` (Mitsuba intersects it in the
-//! quirky local space, which moves the disk itself), and `sphere` / `cylinder` (groove refuses
-//! the resulting non-uniform scale). A transform whose rotations all have unit axes carries no
+//! groove matches the matrix everywhere, and the stored inverse transpose (or its transpose,
+//! Mitsuba's inverse) wherever Mitsuba 3.9.1 uses it: meshes (`obj`, `ply`, `serialized`,
+//! `cube`) and the `rectangle` (a mesh in 3.9.1) transform their vertex normals by it (the
+//! rectangle's geometric normal stays the true one); the `disk` is intersected in the object
+//! space of that inverse (which moves the disk that rays meet off the one that is sampled) and
+//! takes its normal from it; a non-similar `sphere` evaluates its uv map through it; an
+//! `instance` maps normals by it and takes rays to group space by its transpose; `spot` and
+//! `projector` take directions to their frame by it. It warns at every `<rotate>` whose axis is
+//! not unit length ([`non_unit_rotations`]). Not matched: the `cylinder` (groove refuses the
+//! resulting non-uniform scale). A transform whose rotations all have unit axes carries no
 //! separate inverse transpose: the true one is used, bit for bit as before.
 
 use super::ir::Node;
@@ -138,10 +140,10 @@ pub fn non_unit_rotations(root: &Node, out: &mut Vec<String>) {
             if len > 0.0 && (len - 1.0).abs() > 1e-4 {
                 out.push(format!(
                     "{}: <rotate> axis ({}, {}, {}) has length {len}, not 1: as in Mitsuba 3.9.1 \
-                     it is used unnormalised, so the transform also scales along the axis and \
-                     mesh normals follow that matrix instead of its inverse transpose (groove \
-                     matches Mitsuba for meshes and lights, not for rectangle/disk shading); \
-                     normalise the axis for a pure rotation",
+                     it is used unnormalised, so the transform also scales along the axis, and \
+                     normals (and a disk's or an instance's object space) follow that matrix \
+                     instead of its inverse transpose (groove matches Mitsuba, except for a \
+                     cylinder); normalise the axis for a pure rotation",
                     root.loc, a.x, a.y, a.z
                 ));
             }
