@@ -279,12 +279,9 @@ impl Context<'_> {
         let u_sel = sampler.next_1d();
         let u = sampler.next_2d();
         let aperture = sampler.next_2d();
-        let Some((e, pmf, _)) = scene.light_sampler.sample(u_sel) else {
+        let Some((e, pmf)) = pick_emitter(scene, u_sel) else {
             return 0;
         };
-        if !is_positive(pmf) {
-            return 0;
-        }
         let Some(cam_p) = scene.camera.light_tracing_origin() else {
             return 0;
         };
@@ -346,12 +343,9 @@ impl Context<'_> {
         let u_sel = sampler.next_1d();
         let u_pos = sampler.next_2d();
         let u_dir = sampler.next_2d();
-        let Some((e, pmf, _)) = scene.light_sampler.sample(u_sel) else {
+        let Some((e, pmf)) = pick_emitter(scene, u_sel) else {
             return 0;
         };
-        if !is_positive(pmf) {
-            return 0;
-        }
         let Some(er) = scene.emitters[e].sample_ray(&scene.shapes, scene.bsphere, u_pos, u_dir)
         else {
             return 0;
@@ -436,4 +430,10 @@ fn connect(
     let (f, _) = bsdf.eval_pdf(&IMPORTANCE, wo, sampler)?;
     let corr = shading_correction(si, wo);
     (corr.is_finite() && f != Spectrum::ZERO).then(|| f * corr)
+}
+
+/// The emitter the light sampler picks with `u` and its probability, when that is positive.
+fn pick_emitter(scene: &Scene, u: f32) -> Option<(usize, f32)> {
+    let (e, pmf, _) = scene.light_sampler.sample(u)?;
+    is_positive(pmf).then_some((e, pmf))
 }

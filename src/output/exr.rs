@@ -139,10 +139,13 @@ pub(super) fn write_channels<W: Write + Seek>(
         .map_err(|e| format!("cannot encode EXR: {e}"))
 }
 
-/// Every channel of the first layer of the EXR at `path`, as f32, by name (sorted), with the
-/// layer's size.
-pub(super) fn read_channels(path: &Path) -> Result<(u32, u32, super::Channels)> {
-    let image = guarded(|| {
+/// The first layer of the EXR at `path` with every channel and attribute, decoded on this
+/// thread under [`guarded`].
+pub(crate) type FirstLayer = ExrImage<Layer<AnyChannels<FlatSamples>>>;
+
+/// Reads [`FirstLayer`] of the EXR at `path` (a corrupt file is an error, never a panic).
+pub(crate) fn read_first_layer(path: &Path) -> Result<FirstLayer> {
+    guarded(|| {
         exr_read()
             .no_deep_data()
             .largest_resolution_level()
@@ -153,7 +156,13 @@ pub(super) fn read_channels(path: &Path) -> Result<(u32, u32, super::Channels)> 
             .from_file(path)
     })
     .map_err(|m| Error::file(path, m))?
-    .map_err(|e| read_error(path, e))?;
+    .map_err(|e| read_error(path, e))
+}
+
+/// Every channel of the first layer of the EXR at `path`, as f32, by name (sorted), with the
+/// layer's size.
+pub(super) fn read_channels(path: &Path) -> Result<(u32, u32, super::Channels)> {
+    let image = read_first_layer(path)?;
     let size = image.layer_data.size;
     let chans = image
         .layer_data

@@ -23,11 +23,11 @@ use std::path::{Path, PathBuf};
 
 use exr::meta::attribute::{AttributeValue, IntegerBounds, Text};
 use exr::prelude::{
-    read as exr_read, AnyChannel, AnyChannels, Encoding, FlatSamples, Image as ExrImage,
-    ImageAttributes, Layer, ReadChannels, ReadLayers, SmallVec, Vec2 as ExrVec2, WritableImage,
+    AnyChannel, AnyChannels, Encoding, FlatSamples, Image as ExrImage, ImageAttributes, Layer,
+    SmallVec, Vec2 as ExrVec2, WritableImage,
 };
 
-use super::{exr_guarded, write_atomic, Metadata};
+use super::{write_atomic, Metadata};
 use crate::budget::{bytes_of, Budget};
 use crate::error::{Error, Result};
 use crate::film::{Film, RawPixel};
@@ -265,18 +265,7 @@ pub fn read_part(path: &Path, budget: &Budget) -> Result<Part> {
             &format!("part {w}×{h} ({})", path.display()),
         )
         .map_err(|m| Error::file(path, m))?;
-    let image = exr_guarded(|| {
-        exr_read()
-            .no_deep_data()
-            .largest_resolution_level()
-            .all_channels()
-            .first_valid_layer()
-            .all_attributes()
-            .non_parallel()
-            .from_file(path)
-    })
-    .map_err(|m| Error::file(path, m))?
-    .map_err(|e| Error::file(path, format!("cannot read EXR: {e}")))?;
+    let image = super::exr::read_first_layer(path)?;
     let mut meta = Vec::new();
     for (k, v) in image
         .attributes
