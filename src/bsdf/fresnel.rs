@@ -6,7 +6,6 @@
 //! below the local surface over the index above it); a negative `cos_theta_i` means the incident
 //! direction arrives from inside, in which case the relative index is inverted.
 
-use crate::math::safe_sqrt;
 use crate::spectrum::Spectrum;
 use glam::Vec3;
 
@@ -28,65 +27,22 @@ pub struct DielectricFresnel {
 /// Hecht, "Optics", ch. 4). `eta` is the relative index inside/outside.
 #[inline]
 pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> DielectricFresnel {
-    let outside = cos_theta_i >= 0.0;
-    let (eta_it, eta_ti) = if outside {
-        (eta, 1.0 / eta)
-    } else {
-        (1.0 / eta, eta)
-    };
-    let ci = cos_theta_i.abs();
-    // Snell: sin²θt = (η_i/η_t)² sin²θi.
-    let ct2 = 1.0 - eta_ti * eta_ti * (1.0 - ci * ci).max(0.0);
-    if ct2 < 0.0 {
-        return DielectricFresnel {
-            r: 1.0,
-            cos_theta_t: 0.0,
-            eta_it,
-            eta_ti,
-        };
-    }
-    let ct = ct2.sqrt();
-    let r = if eta == 1.0 {
-        0.0
-    } else if ci == 0.0 {
-        1.0
-    } else {
-        let rs = (ci - eta_it * ct) / (ci + eta_it * ct);
-        let rp = (ct - eta_it * ci) / (ct + eta_it * ci);
-        0.5 * (rs * rs + rp * rp)
-    };
+    let f = crate::lane::fresnel::dielectric(cos_theta_i, eta);
     DielectricFresnel {
-        r,
-        cos_theta_t: if outside { -ct } else { ct },
-        eta_it,
-        eta_ti,
+        r: f.r,
+        cos_theta_t: f.cos_theta_t,
+        eta_it: f.eta_it,
+        eta_ti: f.eta_ti,
     }
 }
 
 /// Fresnel reflectance of a conductor with complex relative index `eta + i k` for one channel
 /// (exact unpolarised formula, e.g. K. D. Möller, "Optics", 1988; PBR 3rd ed. §8.2.1).
-/// `eta = 0, k = 1` gives a perfect mirror (reflectance 1 at every angle).
+/// `eta = 0, k = 1` gives a perfect mirror (reflectance 1 at every angle). Both are
+/// `lane::fresnel` at width 1.
 #[inline]
 pub fn fresnel_conductor_1(cos_theta_i: f32, eta: f32, k: f32) -> f32 {
-    let c2 = (cos_theta_i * cos_theta_i).min(1.0);
-    let s2 = 1.0 - c2;
-    let s4 = s2 * s2;
-    // a² + b² = |η̃² − sin²θ| and a = Re sqrt(η̃² − sin²θ).
-    let t0 = eta * eta - k * k - s2;
-    let a2pb2 = safe_sqrt(t0 * t0 + 4.0 * eta * eta * k * k);
-    let a = safe_sqrt(0.5 * (a2pb2 + t0));
-    let t1 = a2pb2 + c2;
-    let t2 = 2.0 * cos_theta_i * a;
-    let rs = (t1 - t2) / (t1 + t2);
-    let t3 = a2pb2 * c2 + s4;
-    let t4 = t2 * s2;
-    let rp = rs * (t3 - t4) / (t3 + t4);
-    let r = 0.5 * (rs + rp);
-    if r.is_finite() {
-        r
-    } else {
-        1.0
-    }
+    crate::lane::fresnel::conductor_1(cos_theta_i, eta, k)
 }
 
 /// [`fresnel_conductor_1`] per RGB channel.

@@ -12,7 +12,8 @@
 //! Semantics and numerical guards follow Mitsuba 3 so renders match it: D is cut to 0 where
 //! D·cos θm < 1e-20, Beckmann's G1 uses Walter et al.'s rational approximation (2007, eq. 27).
 
-use crate::math::{safe_sqrt, PI};
+use crate::lane::microfacet::Microfacet;
+use crate::math::safe_sqrt;
 use glam::{Vec2, Vec3};
 
 /// Which normal distribution.
@@ -85,84 +86,32 @@ impl MicrofacetDistribution {
     /// D(m): microfacet normal density per solid angle (projected-area normalised:
     /// ∫ D(m) cos θm dm = 1).
     pub fn eval(&self, m: Vec3) -> f32 {
-        let ct = m.z;
-        if ct <= 0.0 {
-            return 0.0;
-        }
-        let ct2 = ct * ct;
-        let ax = m.x / self.alpha_u;
-        let ay = m.y / self.alpha_v;
-        let auv = self.alpha_u * self.alpha_v;
-        let d = match self.kind {
-            MicrofacetType::Beckmann => (-(ax * ax + ay * ay) / ct2).exp() / (PI * auv * ct2 * ct2),
-            MicrofacetType::Ggx => {
-                let t = ax * ax + ay * ay + ct2;
-                1.0 / (PI * auv * t * t)
-            }
-        };
-        if d * ct > 1e-20 && d.is_finite() {
-            d
-        } else {
-            0.0
-        }
+        self.lanes().eval(m.into())
     }
 
-    /// tan²θ of `v` scaled by the roughness in the direction of `v` (α² tan²θ), and whether `v`
-    /// is exactly normal.
-    #[inline]
-    fn alpha_tan2(&self, v: Vec3) -> (f32, bool) {
-        let xy = (self.alpha_u * v.x).powi(2) + (self.alpha_v * v.y).powi(2);
-        (xy / (v.z * v.z), xy == 0.0)
+    /// This distribution as the width-1 lane kernel (`lane::microfacet`): the scalar renderer
+    /// evaluates D, Λ, G1 and the densities there, so both widths share one source.
+    #[inline(always)]
+    fn lanes(&self) -> Microfacet<f32> {
+        Microfacet {
+            kind: self.kind,
+            alpha_u: self.alpha_u,
+            alpha_v: self.alpha_v,
+            sample_visible: self.sample_visible,
+        }
     }
 
     /// Smith's Λ(v) (so that G1 = 1 / (1 + Λ) for the facets visible from `v`). Beckmann uses the
     /// inverse of Walter et al.'s rational approximation of G1 to stay consistent with [`Self::smith_g1`].
     pub fn lambda(&self, v: Vec3) -> f32 {
-        let (t2, normal) = self.alpha_tan2(v);
-        if normal {
-            return 0.0;
-        }
-        match self.kind {
-            MicrofacetType::Ggx => 0.5 * (-1.0 + (1.0 + t2).sqrt()),
-            MicrofacetType::Beckmann => {
-                let a = 1.0 / t2.sqrt();
-                if a >= 1.6 {
-                    0.0
-                } else {
-                    let g = (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a);
-                    1.0 / g - 1.0
-                }
-            }
-        }
+        self.lanes().lambda(v.into())
     }
 
-    /// Smith's monodirectional masking G1(v, m); 0 when `m` is back-facing as seen from `v`'s side.
+    /// Smith's monodirectional masking G1(v, m); 0 when `m` is back-facing as seen from `v`'s
+    /// side. GGX: Walter et al. 2007, eq. 34; Beckmann: their rational approximation (eq. 27,
+    /// exact to ~0.35%).
     pub fn smith_g1(&self, v: Vec3, m: Vec3) -> f32 {
-        if v.dot(m) * v.z <= 0.0 {
-            return 0.0;
-        }
-        let (t2, normal) = self.alpha_tan2(v);
-        if normal {
-            return 1.0;
-        }
-        let g = match self.kind {
-            // Walter et al. 2007, eq. 34.
-            MicrofacetType::Ggx => 2.0 / (1.0 + (1.0 + t2).sqrt()),
-            // Walter et al. 2007, eq. 27 (rational approximation, exact to ~0.35%).
-            MicrofacetType::Beckmann => {
-                let a = 1.0 / t2.sqrt();
-                if a >= 1.6 {
-                    1.0
-                } else {
-                    (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a)
-                }
-            }
-        };
-        if g.is_finite() {
-            g
-        } else {
-            0.0
-        }
+        self.lanes().smith_g1(v.into(), m.into())
     }
 
     /// Separable masking-shadowing G(wi, wo, m) = G1(wi, m) G1(wo, m).
@@ -174,15 +123,7 @@ impl MicrofacetDistribution {
     /// Density (per solid angle of `m`) with which [`Self::sample`] produces `m` from `wi`
     /// (`wi.z > 0` expected; callers flip a back-side `wi`).
     pub fn pdf(&self, wi: Vec3, m: Vec3) -> f32 {
-        let d = self.eval(m);
-        if self.sample_visible {
-            if wi.z <= 0.0 {
-                return 0.0;
-            }
-            d * self.smith_g1(wi, m) * wi.dot(m).abs() / wi.z
-        } else {
-            d * m.z
-        }
+        self.lanes().pdf(wi.into(), m.into())
     }
 
     /// Density of a reflection sampled through the microfacet normal `h = normalize(wi + wo)`,
@@ -235,20 +176,17 @@ impl MicrofacetDistribution {
     /// (α_u, α_v) (slopes transform linearly; Heitz 2014, "Understanding the Masking-Shadowing
     /// Function in Microfacet-Based BRDFs", §5.3).
     fn sample_all_normals(&self, u: Vec2) -> Vec3 {
-        let one_minus = (1.0 - u.x).max(f32::MIN_POSITIVE);
-        let r2 = match self.kind {
-            // P22 ∝ exp(−r²): r² = −ln(1 − u).
-            MicrofacetType::Beckmann => -one_minus.ln(),
-            // P22 ∝ (1 + r²)⁻²: r² = u / (1 − u).
-            MicrofacetType::Ggx => u.x / one_minus,
-        };
-        let r = r2.max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        let (s, c) = phi.sin_cos();
-        slope_to_normal(r * c * self.alpha_u, r * s * self.alpha_v)
+        self.lanes().sample_all_normals(u.into()).into()
     }
 
     fn sample_visible_normal(&self, wi: Vec3, u: Vec2, mitsuba_map: bool) -> Vec3 {
+        if self.kind == MicrofacetType::Ggx && !mitsuba_map {
+            // Dupuy & Benyoub 2023, "Sampling Visible GGX Normals with Spherical Caps": the
+            // visible normals of the α = 1 hemisphere are v + c, c uniform on the spherical cap
+            // z ≥ −v.z of the unit sphere (same density as Heitz 2018, fewer roots); the lane
+            // kernel at width 1.
+            return self.lanes().sample_visible_ggx(wi.into(), u.into()).into();
+        }
         // Stretch to the α = 1 configuration.
         let wi_s = Vec3::new(self.alpha_u * wi.x, self.alpha_v * wi.y, wi.z.max(0.0));
         let len = wi_s.length();
@@ -257,15 +195,6 @@ impl MicrofacetDistribution {
         }
         let v = wi_s / len;
         match self.kind {
-            MicrofacetType::Ggx if !mitsuba_map => {
-                // Dupuy & Benyoub 2023, "Sampling Visible GGX Normals with Spherical Caps": the
-                // visible normals of the α = 1 hemisphere are v + c, c uniform on the spherical
-                // cap z ≥ −v.z of the unit sphere (same density as Heitz 2018, fewer roots).
-                let z = (1.0 - u.y) * (1.0 + v.z) - v.z;
-                let sin_t = safe_sqrt(1.0 - z * z);
-                let (s, c) = (2.0 * PI * u.x).sin_cos();
-                self.unstretch(Vec3::new(sin_t * c + v.x, sin_t * s + v.y, z + v.z))
-            }
             MicrofacetType::Ggx => {
                 // Heitz 2018: orthonormal basis around v, sample the projected hemisphere (a
                 // disk whose lower half is squashed by (1 + v.z) / 2).
@@ -574,6 +503,7 @@ pub(crate) mod load {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::PI;
 
     #[test]
     fn erfinv_inverts_erf() {

@@ -16,6 +16,7 @@
 //! unbiased for the bilinear radiance; the density in solid angle is p(u, v) / (2π² sin θ).
 
 use super::DirectSample;
+use crate::lane::math as lm;
 use crate::math::{Distribution2D, PI};
 use crate::spectrum::{luminance, Spectrum};
 use glam::{Mat3, Vec2, Vec3};
@@ -122,21 +123,21 @@ impl EnvMapLight {
     /// (u, v) of a unit direction given in the map's frame.
     #[inline]
     pub fn uv_of_local(d: Vec3) -> Vec2 {
-        let mut u = d.x.atan2(-d.z) * (0.5 / PI);
+        let mut u = lm::atan2(d.x, -d.z) * (0.5 / PI);
         if u < 0.0 {
             u += 1.0;
         }
         if u >= 1.0 {
             u = 0.0;
         }
-        Vec2::new(u, d.y.clamp(-1.0, 1.0).acos() / PI)
+        Vec2::new(u, lm::acos(d.y.clamp(-1.0, 1.0)) / PI)
     }
 
     /// Unit direction in the map's frame of (u, v).
     #[inline]
     pub fn local_of_uv(uv: Vec2) -> Vec3 {
-        let (sp, cp) = (2.0 * PI * uv.x).sin_cos();
-        let (st, ct) = (PI * uv.y).sin_cos();
+        let (sp, cp) = lm::sincos(2.0 * PI * uv.x);
+        let (st, ct) = lm::sincos(PI * uv.y);
         Vec3::new(st * sp, ct, -st * cp)
     }
 
@@ -181,7 +182,7 @@ impl EnvMapLight {
             uu -= 1.0;
         }
         let uv = Vec2::new(uu, p.y);
-        if (PI * uv.y).sin() <= 0.0 {
+        if lm::sin(PI * uv.y) <= 0.0 {
             return None;
         }
         let d = (self.to_world * Self::local_of_uv(uv)).normalize();
@@ -210,7 +211,7 @@ impl EnvMapLight {
             return 0.0;
         }
         let uv = Self::uv_of_local(l);
-        let sin_theta = (PI * uv.y).sin();
+        let sin_theta = lm::sin(PI * uv.y);
         if sin_theta.is_nan() || sin_theta <= 0.0 {
             return 0.0;
         }

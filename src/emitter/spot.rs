@@ -20,6 +20,7 @@
 //! local +x toward u = 1, +y toward v = 1).
 
 use super::DirectSample;
+use crate::lane::math as lm;
 use crate::spectrum::{luminance, Spectrum};
 use crate::texture::Texture;
 use glam::{Mat3, Vec2, Vec3};
@@ -73,7 +74,7 @@ impl SpotLight {
         if c >= self.cos_beam {
             return 1.0;
         }
-        let theta = c.clamp(-1.0, 1.0).acos();
+        let theta = lm::acos(c.clamp(-1.0, 1.0));
         ((self.cutoff - theta) / (self.cutoff - self.beam_width)).clamp(0.0, 1.0)
     }
 

@@ -14,6 +14,7 @@ use super::sphere_map::SphereMap;
 use super::Hit;
 use super::Ray;
 use crate::error::{Error, Result};
+use crate::lane::math as lm;
 use crate::math::{warp, Frame, INV_2PI, PI};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 
@@ -848,7 +849,7 @@ fn rectangle_uv(to_world: &Mat4, l: Vec3) -> (Vec2, Vec3, Vec3) {
 
 fn disk_uv(to_world: &Mat4, l: Vec3) -> (Vec2, Vec3, Vec3) {
     let r = Vec2::new(l.x, l.y).length();
-    let mut phi = l.y.atan2(l.x);
+    let mut phi = lm::atan2(l.y, l.x);
     if phi < 0.0 {
         phi += 2.0 * PI;
     }
@@ -883,8 +884,8 @@ fn sphere_param(
 /// dp/du = 2π·r·(−y, x, 0), dp/dv = π·r·(z cos φ, z sin φ, −sin θ), mapped back to world.
 fn sphere_uv(frame: &Mat4, radius: f32, n: Vec3) -> (Vec2, Vec3, Vec3) {
     let l = frame.transpose().transform_vector3(n);
-    let theta = l.z.clamp(-1.0, 1.0).acos();
-    let mut phi = l.y.atan2(l.x);
+    let theta = lm::acos(l.z.clamp(-1.0, 1.0));
+    let mut phi = lm::atan2(l.y, l.x);
     if phi < 0.0 {
         phi += 2.0 * PI;
     }

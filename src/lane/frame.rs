@@ -3,7 +3,7 @@
 //! equals `math::Frame` bit for bit.
 
 use super::vec::V3;
-use super::Lane;
+use super::{Lane, LaneMask};
 
 #[derive(Clone, Copy, Debug)]
 pub struct Frame<L> {
@@ -33,6 +33,14 @@ impl<L: Lane> Frame<L> {
         let len2 = s.length_squared();
         let bad = len2.le(len2.splat(1e-20)) | !len2.is_finite();
         let s = s.div_by(len2.sqrt());
+        if !bad.any() {
+            // Fast path (same bits as the selects below): no lane falls back.
+            return Frame {
+                s,
+                t: n.cross(s),
+                n,
+            };
+        }
         let f = Frame::from_normal(n);
         Frame {
             s: V3::select(bad, f.s, s),

@@ -18,7 +18,7 @@
 use super::math::{erfc, erfinv, exp, log, sincos};
 use super::vec::{V2, V3};
 use super::warp::safe_sqrt;
-use super::Lane;
+use super::{Lane, LaneMask};
 use crate::bsdf::microfacet::{MicrofacetType, MIN_ALPHA};
 use crate::math::PI;
 
@@ -50,6 +50,11 @@ impl<L: Lane> Microfacet<L> {
     pub fn eval(&self, m: V3<L>) -> L {
         let k = |c: f32| m.z.splat(c);
         let ct = m.z;
+        let up = ct.gt(k(0.0));
+        if !up.any() {
+            // Fast path (same bits as the select below): every lane is below the horizon.
+            return k(0.0);
+        }
         let ct2 = ct * ct;
         let ax = m.x / self.alpha_u;
         let ay = m.y / self.alpha_v;
@@ -61,7 +66,7 @@ impl<L: Lane> Microfacet<L> {
                 k(1.0) / (k(PI) * auv * t * t)
             }
         };
-        let ok = ct.gt(k(0.0)) & (d * ct).gt(k(1e-20)) & d.is_finite();
+        let ok = up & (d * ct).gt(k(1e-20)) & d.is_finite();
         L::select(ok, d, k(0.0))
     }
 

@@ -134,6 +134,12 @@ impl From<V3<f32>> for glam::Vec3 {
         glam::Vec3::new(v.x, v.y, v.z)
     }
 }
+impl From<V2<f32>> for glam::Vec2 {
+    #[inline(always)]
+    fn from(v: V2<f32>) -> Self {
+        glam::Vec2::new(v.x, v.y)
+    }
+}
 impl From<glam::Vec2> for V2<f32> {
     #[inline(always)]
     fn from(v: glam::Vec2) -> Self {

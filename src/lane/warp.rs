@@ -22,11 +22,9 @@ pub fn square_to_disk_concentric<L: Lane>(u: V2<L>) -> V2<L> {
     let b = k(2.0) * u.y - k(1.0);
     let first = (a * a).gt(b * b);
     let r = L::select(first, a, b);
-    let phi = L::select(
-        first,
-        k(PI / 4.0) * (b / a),
-        k(PI / 2.0) - k(PI / 4.0) * (a / b),
-    );
+    // One division: q = b/a or a/b (the same quotient each branch would take).
+    let q = L::select(first, b, a) / r;
+    let phi = L::select(first, k(PI / 4.0) * q, k(PI / 2.0) - k(PI / 4.0) * q);
     let (s, c) = sincos(phi);
     let zero = a.eq(k(0.0)) & b.eq(k(0.0));
     V2::new(

@@ -1,5 +1,8 @@
 //! Orthonormal frames `(s, t, n)`: BSDFs are evaluated in the local frame where `n = z`.
+//! The arithmetic is `lane::frame` at width 1 (one source for the 1- and 8-lane renderers).
 
+use crate::lane::frame::Frame as LaneFrame;
+use crate::lane::vec::V3;
 use glam::Vec3;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -14,39 +17,45 @@ impl Frame {
     /// (Duff et al. 2017, "Building an Orthonormal Basis, Revisited").
     #[inline]
     pub fn from_normal(n: Vec3) -> Frame {
-        let sign = 1.0f32.copysign(n.z);
-        let a = -1.0 / (sign + n.z);
-        let b = n.x * n.y * a;
-        let s = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-        let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
-        Frame { s, t, n }
+        LaneFrame::from_normal(V3::from(n)).into()
     }
 
     /// A frame around `n` whose first tangent follows `dpdu` (Gram-Schmidt), as Mitsuba builds
     /// its shading frame. Falls back to [`Frame::from_normal`] when `dpdu` is degenerate.
     #[inline]
     pub fn from_normal_tangent(n: Vec3, dpdu: Vec3) -> Frame {
-        let s = dpdu - n * n.dot(dpdu);
-        let len2 = s.length_squared();
-        if len2 <= 1e-20 || !len2.is_finite() {
-            return Frame::from_normal(n);
-        }
-        let s = s / len2.sqrt();
-        Frame {
-            s,
-            t: n.cross(s),
-            n,
-        }
+        LaneFrame::from_normal_tangent(V3::from(n), V3::from(dpdu)).into()
     }
 
     #[inline]
     pub fn to_local(&self, v: Vec3) -> Vec3 {
-        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+        self.lanes().to_local(V3::from(v)).into()
     }
 
     #[inline]
     pub fn to_world(&self, v: Vec3) -> Vec3 {
-        self.s * v.x + self.t * v.y + self.n * v.z
+        self.lanes().to_world(V3::from(v)).into()
+    }
+
+    /// The same frame as a width-1 lane frame.
+    #[inline(always)]
+    fn lanes(&self) -> LaneFrame<f32> {
+        LaneFrame {
+            s: self.s.into(),
+            t: self.t.into(),
+            n: self.n.into(),
+        }
+    }
+}
+
+impl From<LaneFrame<f32>> for Frame {
+    #[inline(always)]
+    fn from(f: LaneFrame<f32>) -> Frame {
+        Frame {
+            s: f.s.into(),
+            t: f.t.into(),
+            n: f.n.into(),
+        }
     }
 }
 

@@ -1,42 +1,29 @@
 //! PCG32 (O'Neill 2014, "PCG: A Family of Simple Fast Space-Efficient Statistically Good Algorithms
 //! for Random Number Generation"), and a 64-bit mixer to derive independent stream seeds.
 
-/// The PCG32 generator (XSH-RR output, 64-bit LCG state).
-#[derive(Clone, Debug)]
-pub struct Pcg32 {
-    state: u64,
-    inc: u64,
-}
+use crate::lane::pcg::Pcg;
 
-const MULT: u64 = 6364136223846793005;
+/// The PCG32 generator (XSH-RR output, 64-bit LCG state): `lane::pcg::Pcg` at width 1, so a
+/// pixel's stream is the same in the 1-lane and the 8-lane renderers.
+#[derive(Clone, Debug)]
+pub struct Pcg32(Pcg<f32>);
 
 impl Pcg32 {
     /// A generator on stream `stream` starting from `seed`.
     pub fn new(seed: u64, stream: u64) -> Pcg32 {
-        let mut r = Pcg32 {
-            state: 0,
-            inc: (stream << 1) | 1,
-        };
-        r.next_u32();
-        r.state = r.state.wrapping_add(seed);
-        r.next_u32();
-        r
+        Pcg32(Pcg::new(seed, stream))
     }
 
     #[inline]
     pub fn next_u32(&mut self) -> u32 {
-        let old = self.state;
-        self.state = old.wrapping_mul(MULT).wrapping_add(self.inc);
-        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
-        let rot = (old >> 59) as u32;
-        xorshifted.rotate_right(rot)
+        self.0.next_u32() as u32
     }
 
-    /// A float uniformly distributed in [0, 1).
+    /// A float uniformly distributed in [0, 1): 24 random mantissa bits, exactly
+    /// representable, never 1.0.
     #[inline]
     pub fn next_f32(&mut self) -> f32 {
-        // 24 random mantissa bits: exactly representable, never 1.0.
-        (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+        self.0.next_f32()
     }
 
     /// A double uniformly distributed in [0, 1).

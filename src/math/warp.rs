@@ -1,72 +1,59 @@
 //! Sampling warps from the unit square to common domains, each with its density.
 //! (Shirley & Chiu 1997 concentric disk; Malley's method for the cosine hemisphere.)
+//!
+//! The scalar renderer's width of the lane kernels (issue 16, item 4): each function is
+//! `lane::warp` at width 1, so the 1-lane and 8-lane renderers share one source.
 
-use super::{safe_sqrt, INV_4PI, INV_PI, PI};
+use crate::lane::vec::{V2, V3};
+use crate::lane::warp as lw;
 use glam::{Vec2, Vec3};
 
 /// Concentric map of the unit square to the unit disk (Shirley & Chiu 1997).
 #[inline]
 pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
-    let a = 2.0 * u.x - 1.0;
-    let b = 2.0 * u.y - 1.0;
-    if a == 0.0 && b == 0.0 {
-        return Vec2::ZERO;
-    }
-    let (r, phi) = if a * a > b * b {
-        (a, (PI / 4.0) * (b / a))
-    } else {
-        (b, PI / 2.0 - (PI / 4.0) * (a / b))
-    };
-    let (s, c) = phi.sin_cos();
-    Vec2::new(r * c, r * s)
+    lw::square_to_disk_concentric(V2::from(u)).into()
 }
 
 /// Cosine-weighted hemisphere around +z (Malley's method).
 #[inline]
 pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
-    let d = square_to_disk_concentric(u);
-    let z = safe_sqrt(1.0 - d.length_squared());
-    Vec3::new(d.x, d.y, z)
+    lw::square_to_cosine_hemisphere(V2::from(u)).into()
 }
 
+/// Density of [`square_to_cosine_hemisphere`].
 #[inline]
 pub fn cosine_hemisphere_pdf(v: Vec3) -> f32 {
-    INV_PI * v.z.max(0.0)
+    lw::cosine_hemisphere_pdf(V3::from(v))
 }
 
 /// Uniform direction on the unit sphere.
 #[inline]
 pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
-    let z = 1.0 - 2.0 * u.y;
-    let r = safe_sqrt(1.0 - z * z);
-    let (s, c) = (2.0 * PI * u.x).sin_cos();
-    Vec3::new(r * c, r * s, z)
+    lw::square_to_uniform_sphere(V2::from(u)).into()
 }
 
+/// Density of [`square_to_uniform_sphere`].
 #[inline]
 pub fn uniform_sphere_pdf() -> f32 {
-    INV_4PI
+    lw::uniform_sphere_pdf(0.0f32)
 }
 
 /// Uniform direction in the cone around +z with `cos θ ≥ cos_max`.
 #[inline]
 pub fn square_to_uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
-    let cos_t = (1.0 - u.y) + u.y * cos_max;
-    let sin_t = safe_sqrt(1.0 - cos_t * cos_t);
-    let (s, c) = (2.0 * PI * u.x).sin_cos();
-    Vec3::new(c * sin_t, s * sin_t, cos_t)
+    lw::square_to_uniform_cone(V2::from(u), cos_max).into()
 }
 
+/// Density of [`square_to_uniform_cone`].
 #[inline]
 pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
-    1.0 / (2.0 * PI * (1.0 - cos_max))
+    lw::uniform_cone_pdf(cos_max)
 }
 
-/// Uniform barycentrics on a triangle: returns (b1, b2); b0 = 1 − b1 − b2.
+/// Uniform barycentrics on a triangle: (b1, b2); b0 = 1 − b1 − b2.
 #[inline]
 pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
-    let t = safe_sqrt(1.0 - u.x);
-    Vec2::new(1.0 - t, u.y * t)
+    lw::square_to_uniform_triangle(V2::from(u)).into()
 }
 
 #[cfg(test)]
