@@ -98,7 +98,7 @@ impl Agreement {
             f.push(format!("χ² p-value {:.2e} < {P_CHI2_MIN:e}", self.p_chi2));
         }
         for c in 0..3 {
-            if !(self.ratio_z[c].abs() <= RATIO_SIGMAS) {
+            if self.ratio_z[c].is_nan() || self.ratio_z[c].abs() > RATIO_SIGMAS {
                 f.push(format!(
                     "mean ratio {} = {:.4} ± {:.4} (z {:.1})",
                     ["R", "G", "B"][c],
