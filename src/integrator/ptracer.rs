@@ -8,7 +8,7 @@
 //! | `max_depth` | integer | −1 | longest path in vertices counting the sensor's (−1: unlimited); 1 = only emitters seen directly, 2 = direct illumination |
 //! | `rr_depth` | integer | 5 | Russian roulette once a light path has more than this many vertices; ≥ 1 |
 //! | `hide_emitters` | boolean | false | skip the direct connection of emitters to the sensor |
-//! | `samples_per_pass` | integer | all | Mitsuba's work split into passes of this many samples per pixel; the sample count must be a multiple of it. It changes nothing in groove's image (passes only schedule work) |
+//! | `samples_per_pass` | integer | all | Mitsuba's work split into passes of this many samples per pixel; the sample count must be a multiple of it. In Mitsuba 3.9.1's scalar variants it only sets the grain of the parallel loop over all samples (and so its samplers' seeds: the noise, not the expectation); groove's samples have their own streams whatever the split, so it is checked and changes nothing |
 //!
 //! One sample, as Mitsuba 3.9.1's `ParticleTracerIntegrator::sample`:
 //! 1. Emitters seen directly (unless `hide_emitters` or `max_depth` 0): an emitter picked by the
@@ -27,13 +27,16 @@
 //! crop) and scales each splat by (crop pixels) / (that count).
 //!
 //! Determinism: sample i draws from its own stream (`Sampler::for_sample` keyed by i / spp and
-//! i mod spp). The samples are cut into [`SLICES`] fixed, contiguous slices; each slice is
-//! traced by one task, in order, into its own [`SplatImage`], and the slices are added into the
-//! film in slice order. Which thread traces a slice changes nothing, so the same seed gives a
-//! bit-identical image at any thread count. The slices are also independent estimates of the
-//! image: the film receives each slice's image, scaled to a whole estimate, as one sample per
-//! pixel, so its variance is the variance between slices (light paths splat into many pixels,
-//! so per-splat statistics would not be a pixel's variance).
+//! i mod spp). The samples are cut into [`CHUNKS`] fixed, contiguous chunks, grouped in order
+//! into [`SLICES`] slices. Each chunk is traced by one task, in order, into its own
+//! [`SplatImage`]; waves of as many chunks as there are threads run in parallel, and after each
+//! wave the chunk images are added, in chunk order, into their slice's image, and a finished
+//! slice into the film. Which thread traces a chunk changes nothing, so the same seed gives a
+//! bit-identical image at any thread count, and up to [`CHUNKS`] threads have work. The slices
+//! are independent estimates of the image: the film receives each slice's image, scaled to a
+//! whole estimate, as one sample per pixel, so its variance is the variance between slices
+//! (light paths splat into many pixels, so per-splat statistics would not be a pixel's
+//! variance; pixels of one slice stay correlated, see tests/render/ptracer_agree.rs).
 
 use super::splat::{crop_of, SplatImage, MAX_TAPS};
 use super::{RayCounters, RayKind, Scratch};
@@ -55,6 +58,10 @@ use std::time::Instant;
 /// on the thread count; also the sample count of the variance estimate).
 pub const SLICES: u64 = 32;
 
+/// Number of chunks, the units of parallel work (fixed for the same reason); a multiple of
+/// [`SLICES`], so that every slice is [`CHUNKS`] / [`SLICES`] whole chunks.
+pub const CHUNKS: u64 = SLICES * 8;
+
 /// Mitsuba's `ptracer` settings.
 #[derive(Clone, Debug)]
 pub struct PtracerSettings {
@@ -69,8 +76,8 @@ pub struct PtracerSettings {
     pub loc: SourceLoc,
 }
 
-/// What one slice of the render produced.
-struct SliceStats {
+/// What one chunk of the render produced.
+struct ChunkStats {
     rays: RayCounters,
     invalid: u64,
 }
@@ -116,13 +123,14 @@ pub fn render(
     let crop = crop_of(desc);
     let total = spp as u64 * desc.width as u64 * desc.height as u64;
     let slices = SLICES.min(total.max(1));
-    let wave = (threads as u64).clamp(1, slices) as usize;
-    // The slice images of one wave, the film and its block (32 bytes a pixel each), the
-    // developed image and the encoder's copy (12 each).
+    let chunks = CHUNKS.min(total.max(1));
+    let wave = (threads as u64).clamp(1, chunks) as usize;
+    // The chunk images of one wave and the open slice's, the film and its block (32 bytes a
+    // pixel each), the developed image and the encoder's copy (12 each).
     let px = crop.2 as u64 * crop.3 as u64;
     opts.budget
         .check(
-            (wave as u64)
+            (wave as u64 + 1)
                 .saturating_mul(SplatImage::bytes(desc))
                 .saturating_add(px.saturating_mul(32 + 32 + 24))
                 .saturating_add(threads as u64 * crate::render::THREAD_BYTES),
@@ -151,38 +159,52 @@ pub fn render(
             cancel: opts.cancel.as_ref(),
         };
         let mut images: Vec<SplatImage> = (0..wave).map(|_| SplatImage::new(desc)).collect();
+        // The slice being summed (chunks are merged in order, so one is open at a time).
+        let mut open = SplatImage::new(desc);
+        let mut open_slice = 0u64;
         let mut block = Block::new(&box_desc, crop.0, crop.1, crop.2, crop.3);
+        // A finished slice's image, scaled to a whole estimate, is one film sample per pixel.
+        let put_slice = |img: &SplatImage, block: &mut Block| {
+            let whole = slices as f32;
+            for (j, p) in img.pixels().iter().enumerate() {
+                let x = crop.0 + (j as u32 % crop.2);
+                let y = crop.1 + (j as u32 / crop.2);
+                let v = Spectrum::from_array(*p) * whole;
+                block.put(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), v);
+            }
+        };
         let mut first = 0u64;
-        while first < slices {
-            let n = (slices - first).min(wave as u64) as usize;
-            let stats: Vec<SliceStats> = pool.install(|| {
+        while first < chunks {
+            let n = (chunks - first).min(wave as u64) as usize;
+            let stats: Vec<ChunkStats> = pool.install(|| {
                 images[..n]
                     .par_iter_mut()
                     .enumerate()
                     .map(|(i, img)| {
                         let k = first + i as u64;
                         img.clear();
-                        ctx.trace_slice(img, total * k / slices, total * (k + 1) / slices)
+                        ctx.trace_chunk(img, total * k / chunks, total * (k + 1) / chunks)
                     })
                     .collect()
             });
-            // Slice order: the film's sums do not depend on which thread traced what.
-            for (img, s) in images[..n].iter().zip(stats) {
+            // Chunk order: the sums do not depend on which thread traced what.
+            for (i, (img, s)) in images[..n].iter().zip(stats).enumerate() {
                 rays.add(&s.rays);
                 invalid += s.invalid;
-                let whole = slices as f32;
-                for (j, p) in img.pixels().iter().enumerate() {
-                    let x = crop.0 + (j as u32 % crop.2);
-                    let y = crop.1 + (j as u32 / crop.2);
-                    let v = Spectrum::from_array(*p) * whole;
-                    block.put(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), v);
+                let slice = (first + i as u64) * slices / chunks;
+                if slice != open_slice {
+                    put_slice(&open, &mut block);
+                    open.clear();
+                    open_slice = slice;
                 }
+                open.add(img);
             }
             first += n as u64;
             if ctx.cancelled() {
                 return Err(Error::Cancelled);
             }
         }
+        put_slice(&open, &mut block);
         film.merge(&block);
     }
     let stats = RenderStats {
@@ -227,8 +249,8 @@ impl Context<'_> {
         self.cancel.is_some_and(|c| c.requested().is_some())
     }
 
-    /// Trace samples `begin..end` in order into `img`.
-    fn trace_slice(&self, img: &mut SplatImage, begin: u64, end: u64) -> SliceStats {
+    /// Trace samples `begin..end` (one chunk) in order into `img`.
+    fn trace_chunk(&self, img: &mut SplatImage, begin: u64, end: u64) -> ChunkStats {
         let mut scratch = Scratch::default();
         let mut invalid = 0;
         let spp = self.sampler.sample_count as u64;
@@ -239,7 +261,7 @@ impl Context<'_> {
             let mut sampler = Sampler::for_sample(self.sampler, i / spp, (i % spp) as u32);
             invalid += self.sample(img, &mut sampler, &mut scratch);
         }
-        SliceStats {
+        ChunkStats {
             rays: scratch.rays.counters,
             invalid,
         }

@@ -8,7 +8,8 @@
 //!   (so every splat carries its value exactly once, wherever it lands), and drops the weight of
 //!   pixels outside the crop window.
 //!
-//! The buffer is allocated once per slice of the render; a splat allocates nothing.
+//! The buffers are allocated once per render (one per worker and one for the slice being
+//! summed); a splat allocates nothing.
 
 use crate::film::{FilmDesc, Filter};
 use crate::math::Vec2;
@@ -81,6 +82,16 @@ impl SplatImage {
     /// Zero every pixel (keeps the allocation).
     pub fn clear(&mut self) {
         self.data.iter_mut().for_each(|p| *p = [0.0; 3]);
+    }
+
+    /// Adds `other`'s pixel sums (an image of the same film) to this one's.
+    pub fn add(&mut self, other: &SplatImage) {
+        debug_assert_eq!(self.crop, other.crop);
+        for (p, q) in self.data.iter_mut().zip(&other.data) {
+            for c in 0..3 {
+                p[c] += q[c];
+            }
+        }
     }
 
     /// The pixel sums of the crop window, row-major.

@@ -15,6 +15,8 @@ mod mnm_default_tangent;
 mod normalmap;
 mod parity;
 mod ptracer;
+mod ptracer_agree;
+mod ptracer_sweep;
 mod refs_selfcheck;
 mod robustness;
 mod textures;
