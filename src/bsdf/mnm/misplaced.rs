@@ -35,7 +35,8 @@
 //!
 //! **Blend.** β(M) = clamp((`HI` − M)/(`HI` − `LO`), 0, 1) with [`LO`] = 2 %, [`HI`] = 4 %: the
 //! compensated model where M ≤ 2 %, the walk where M ≥ 4 %, the mixture β f_comp + (1 − β) f_walk
-//! in between, so a texel's BSDF changes continuously with θp. The mixture's own misplaced energy
+//! in between (eval: one model picked with probability β, an unbiased estimate of the mixture;
+//! pdf: the mixture's), so a texel's BSDF changes continuously with θp. The mixture's own misplaced energy
 //! is β M ≤ 2 % everywhere (β M = (HI − M) M/(HI − LO) is largest at M = LO).
 
 use super::ms_table::{MsTable, N_THETA};

@@ -336,12 +336,12 @@ pub(super) fn eval(
         return l.eval(m, wi, wo);
     }
     if let Some(r) = &m.ms {
-        let fc = compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s).0;
-        if m.blend >= 1.0 {
-            return fc;
+        // `auto` in its blend band: one model by its share β, so that E[eval] = β f_comp +
+        // (1 − β) f_walk at the cost of one model (the walk's eval is stochastic anyway).
+        if m.blend >= 1.0 || s.next_1d() < m.blend {
+            return compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s).0;
         }
-        let fw = walk::eval(m, &nested, ctx, wi, wo, s, &mut explicit::PdfTerms::empty());
-        return m.blend * fc + (1.0 - m.blend) * fw;
+        return walk::eval(m, &nested, ctx, wi, wo, s, &mut explicit::PdfTerms::empty());
     }
     match (m.evaluation, m.mirror_wall) {
         (Evaluation::Explicit, true) => explicit::eval_pdf_mirror(m, &nested, ctx, wi, wo, s).0,
@@ -445,13 +445,19 @@ pub(super) fn eval_pdf(
         return l.eval_pdf(m, wi, wo);
     }
     if let Some(r) = &m.ms {
-        let (fc, pc) = compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s);
         if m.blend >= 1.0 {
-            return (fc, pc);
+            return compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s);
         }
-        let (fw, pw) = walk_eval_pdf(m, &nested, ctx, wi, wo, s);
+        // The blend band: the eval of one model picked by β (as [`eval`]), the mixture's pdf.
         let b = m.blend;
-        return (b * fc + (1.0 - b) * fw, b * pc + (1.0 - b) * pw);
+        return if s.next_1d() < b {
+            let (fc, pc) = compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s);
+            (fc, b * pc + (1.0 - b) * walk_pdf(m, &nested, ctx, wi, wo))
+        } else {
+            let (fw, pw) = walk_eval_pdf(m, &nested, ctx, wi, wo, s);
+            let pc = compensated::pdf(m, r, &nested, ctx, wi, wo);
+            (fw, b * pc + (1.0 - b) * pw)
+        };
     }
     if matches!(
         m.evaluation,
