@@ -9,7 +9,7 @@ use groove::bsdf::mnm::Evaluation;
 use groove::load::load_scene;
 use groove::load::options::{LoadOptions, NormalMapping};
 use groove::material::MaterialNode;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// A one-sphere scene whose BSDF is `bsdf`, written to a fresh temporary folder.
 fn scene(name: &str, bsdf: &str) -> PathBuf {
@@ -32,7 +32,7 @@ fn scene(name: &str, bsdf: &str) -> PathBuf {
 }
 
 /// The evaluation of the scene's microfacet normal map, and whether its table carries M.
-fn loaded_mnm(path: &PathBuf, opts: &LoadOptions) -> (Evaluation, bool, Vec<String>) {
+fn loaded_mnm(path: &Path, opts: &LoadOptions) -> (Evaluation, bool, Vec<String>) {
     let l = load_scene(path, opts).unwrap_or_else(|e| panic!("{e}"));
     let found = l
         .scene
