@@ -112,7 +112,10 @@ pub struct RenderArgs {
     /// Normal-mapping model for every normal map of the scene: `classic` (plain `normalmap`, no
     /// flip, no shadowing term), `microfacet` (`microfacet_normalmap`, its parameters as written
     /// or defaults), or one microfacet model forced everywhere: `explicit` (sawtooth, mirror
-    /// wall, closed form), `walk-mirror`, `walk-same` (the default model), `vgroove`, `ugroove`.
+    /// wall, closed form), `explicit4` (its complete first order), `compensated` (the complete
+    /// first order plus the walk's tabulated remainder), `auto` (per shading point `compensated`
+    /// where its misplaced energy against the walk is small, else `walk-mirror`, blended
+    /// between), `walk-mirror`, `walk-same` (the default model), `vgroove`, `ugroove`.
     /// Default: as the scene is written.
     #[arg(long = "normal-mapping", value_name = "MODE", value_parser = parse_normal_mapping)]
     pub normal_mapping: Option<crate::load::options::NormalMapping>,

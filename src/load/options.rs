@@ -43,11 +43,12 @@ pub struct MnmMode {
 
 impl NormalMapping {
     /// Every value `--normal-mapping` accepts, in the order `groove bench` renders them.
-    pub const NAMES: [&'static str; 9] = [
+    pub const NAMES: [&'static str; 10] = [
         "classic",
         "explicit",
         "explicit4",
         "compensated",
+        "auto",
         "walk-mirror",
         "walk-same",
         "vgroove",
@@ -58,7 +59,9 @@ impl NormalMapping {
     /// `classic`, `microfacet`, `as_written`, or a forced mode: `explicit` (sawtooth, mirror
     /// wall, the paper's closed form), `explicit4` (the same with the complete first order, four
     /// paths), `compensated` (sawtooth, mirror wall, the complete first order plus the tabulated
-    /// rank-1 remainder of the walk), `walk-mirror` (sawtooth, mirror wall, random walk: the
+    /// rank-1 remainder of the walk), `auto` (the same microsurface, per shading point
+    /// `compensated` where its misplaced energy against the walk is small, else `walk-mirror`,
+    /// blended between), `walk-mirror` (sawtooth, mirror wall, random walk: the
     /// paper's model), `walk-same` (sawtooth, same-material wall, random walk: the default
     /// model), `vgroove`, `ugroove` (fill 0.5; random walk).
     pub fn parse(s: &str) -> Option<NormalMapping> {
@@ -77,6 +80,7 @@ impl NormalMapping {
             "explicit" => forced(Microgeometry::Sawtooth, Tangent::Mirror, Explicit),
             "explicit4" => forced(Microgeometry::Sawtooth, Tangent::Mirror, ExplicitComplete),
             "compensated" => forced(Microgeometry::Sawtooth, Tangent::Mirror, Compensated),
+            "auto" => forced(Microgeometry::Sawtooth, Tangent::Mirror, Auto),
             "walk-mirror" => forced(Microgeometry::Sawtooth, Tangent::Mirror, RandomWalk),
             "walk-same" => forced(Microgeometry::Sawtooth, Tangent::Same, RandomWalk),
             "vgroove" => forced(Microgeometry::VGroove, Tangent::Same, RandomWalk),

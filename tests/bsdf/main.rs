@@ -9,6 +9,8 @@ mod adjoint;
 mod hair;
 mod harness;
 mod mitsuba_wrappers;
+mod mnm_auto;
+mod mnm_auto_load;
 mod mnm_compensated;
 mod mnm_compensated_load;
 mod mnm_exit_on_refraction;

@@ -136,7 +136,9 @@ impl LambertForm {
         let geometry = m.geometry?;
         let full_walk = matches!(
             m.evaluation,
-            super::Evaluation::RandomWalk | super::Evaluation::Compensated
+            super::Evaluation::RandomWalk
+                | super::Evaluation::Compensated
+                | super::Evaluation::Auto
         );
         if !full_walk || m.degenerate || !m.lambert_closed_form {
             return None;

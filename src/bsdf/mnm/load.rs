@@ -10,8 +10,8 @@
 //! | (nested) | one `<bsdf>` | required | the BSDF on every facet (a non-delta lobe; a transmitting one needs the random walk) |
 //! | `microgeometry` | string | `sawtooth` | `sawtooth`, `vgroove` or `ugroove` ([`Microgeometry`]) |
 //! | `groove_fill` | float | 0.5 | the flat share of a `ugroove`, in (0, 1] (`ugroove` only) |
-//! | `tangent` | string | `same` (random walk), `mirror` (explicit forms, compensated) | the sawtooth's wall: a perfect mirror or the nested BSDF (`sawtooth` only); the default is [`DEFAULT_WALK_TANGENT`] for every nested kind |
-//! | `evaluation` | string | `random_walk` | `random_walk`, `explicit` (the paper's closed form, Variant M), `explicit4` (the complete first order: Variant M plus t→p→t→o; the explicit forms are sawtooth only) or `compensated` (the complete first order plus a rank-1 remainder tabulated from the walk at load, any microgeometry; needs a nested BSDF `ms_nested.rs` can tabulate) |
+//! | `tangent` | string | `same` (random walk), `mirror` (explicit forms, compensated, auto) | the sawtooth's wall: a perfect mirror or the nested BSDF (`sawtooth` only); the default is [`DEFAULT_WALK_TANGENT`] for every nested kind |
+//! | `evaluation` | string | `random_walk` | `random_walk`, `explicit` (the paper's closed form, Variant M), `explicit4` (the complete first order: Variant M plus t→p→t→o; the explicit forms are sawtooth only) `compensated` (the complete first order plus a rank-1 remainder tabulated from the walk at load, any microgeometry; needs a nested BSDF `ms_nested.rs` can tabulate) or `auto` (per shading point compensated where its misplaced energy against the walk, measured at load, is small, the walk where it is large, blended between: `misplaced.rs`; the random walk over a nested BSDF without a table) |
 //! | `lambert_closed_form` | boolean | true | over a `diffuse` (or twosided diffuse) nested BSDF, `random_walk` uses the walk's exact closed forms (`lambert.rs`); false runs the walk itself |
 //! | `max_order` | integer | 256 | longest random walk, in scattering events |
 //! | `max_theta` | float | 85 | largest tilt of the perturbed normal, degrees, in (0, 90) |
@@ -39,10 +39,11 @@ pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>, forced: Option<MnmMode>) -> Result
         "explicit" => Evaluation::Explicit,
         "explicit4" => Evaluation::ExplicitComplete,
         "compensated" => Evaluation::Compensated,
+        "auto" => Evaluation::Auto,
         other => {
             return Err(Error::scene(
                 p.loc(),
-                format!("evaluation '{other}' must be 'random_walk', 'explicit', 'explicit4' or 'compensated'"),
+                format!("evaluation '{other}' must be 'random_walk', 'explicit', 'explicit4', 'compensated' or 'auto'"),
             ))
         }
     };
@@ -100,20 +101,33 @@ pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>, forced: Option<MnmMode>) -> Result
     })
 }
 
-/// `evaluation = compensated`: obtain the nested BSDF's remainder table ([`ms_nested`]). A
-/// nested BSDF without one is an error when the file asks for `compensated`, and falls back to
-/// the random walk (with a warning) when `--normal-mapping compensated` does.
+/// `evaluation = compensated` or `auto`: obtain the nested BSDF's remainder table
+/// ([`ms_nested`]; for `auto` with its misplaced-energy table). A nested BSDF without one is an
+/// error when the file asks for `compensated`, falls back to the random walk (with a warning)
+/// when `--normal-mapping compensated` does, and is the random walk under `auto` (which picks
+/// the walk wherever the compensated model is not known to be close; no warning).
 fn compensate(
     cx: &mut BsdfCtx<'_, '_>,
     nested: MatId,
     settings: &mut MnmSettings,
     forced: bool,
 ) -> Result<()> {
-    if settings.evaluation != Evaluation::Compensated {
+    let auto = settings.evaluation == Evaluation::Auto;
+    if settings.evaluation != Evaluation::Compensated && !auto {
         return Ok(());
     }
     let why = if cx.lobes(nested).has_transmission() {
         Err("it transmits (the compensated model is reflection only)".to_string())
+    } else if auto {
+        ms_nested::auto_table_for(
+            cx.materials(),
+            nested,
+            settings.geometry,
+            settings.tangent,
+            settings.max_order,
+            settings.max_theta,
+            settings.lambert_closed_form,
+        )
     } else {
         ms_nested::table_for(
             cx.materials(),
@@ -124,6 +138,10 @@ fn compensate(
             settings.max_theta,
         )
     };
+    if auto && why.is_err() {
+        settings.evaluation = Evaluation::RandomWalk;
+        return Ok(());
+    }
     match why {
         Ok(got) => {
             if let Some(w) = got.warning {
@@ -216,9 +234,11 @@ pub(crate) const DEFAULT_WALK_TANGENT: Tangent = Tangent::Same;
 fn tangent(p: &Props, geometry: Microgeometry, evaluation: Evaluation) -> Result<Tangent> {
     if !p.has("tangent") {
         return Ok(match geometry {
-            // `compensated` builds on explicit4's mirror-wall first order, as its forced mode does.
+            // `compensated` (and `auto`, which blends it with the walk on the same microsurface)
+            // builds on explicit4's mirror-wall first order, as its forced mode does.
             Microgeometry::Sawtooth
-                if evaluation.is_explicit() || evaluation == Evaluation::Compensated =>
+                if evaluation.is_explicit()
+                    || matches!(evaluation, Evaluation::Compensated | Evaluation::Auto) =>
             {
                 Tangent::Mirror
             }

@@ -19,6 +19,9 @@
 //!   whose per-order energies are tabulated from the walk ([`compensated`], [`ms_table`],
 //!   [`ms_cache`]); deterministic, exact pdf. Over a Lambertian nested BSDF the walk's closed
 //!   forms are used, as for the walk.
+//! - `evaluation = auto`: per shading point, from the misplaced-energy table M(θp) of the
+//!   compensated model against the walk ([`misplaced`]): compensated where M ≤ 2 %, the walk
+//!   where M ≥ 4 %, the mixture β f_comp + (1 − β) f_walk in between (issue 17 item 5).
 //!
 //! Directions are in the macro shading frame (z = ωg). Over a transmitting nested BSDF (e.g.
 //! `roughdielectric`) only the random walk exists: by default the reciprocal two-sided walk of
@@ -34,6 +37,7 @@ pub mod facet_bsdf;
 pub mod facets;
 pub mod lambert;
 pub(crate) mod load;
+pub mod misplaced;
 pub mod ms_cache;
 pub mod ms_nested;
 pub mod ms_table;
@@ -60,6 +64,11 @@ pub enum Evaluation {
     /// tables of the walk (issue 17 item 4, [`compensated`]); needs a table
     /// ([`MicrofacetNormalMap::with_ms_table`]), without one it is the random walk.
     Compensated,
+    /// Per shading point the compensated model where its misplaced energy against the walk is
+    /// small, the walk where it is large, a mixture across the band between ([`misplaced`];
+    /// issue 17 item 5); needs a table with its M(θp) ([`MicrofacetNormalMap::with_ms_table`]),
+    /// without one it is the random walk.
+    Auto,
 }
 
 impl Evaluation {
@@ -127,6 +136,9 @@ pub struct MicrofacetNormalMap {
     /// `evaluation = compensated`: the remainder table and this point's place in it
     /// ([`Self::with_ms_table`]).
     ms: Option<compensated::MsRef>,
+    /// `evaluation = auto`: the compensated model's share β of the mixture (1 otherwise; with
+    /// `ms` = None the walk evaluates).
+    blend: f32,
 }
 
 impl MicrofacetNormalMap {
@@ -147,7 +159,8 @@ impl MicrofacetNormalMap {
             // Tangent along the shading frame's s (= dp/du), as Mitsuba's normalmap does.
             *f = Frame::from_normal_tangent(surface.normal(k), Vec3::X);
         }
-        let mis_c = (evaluation == Evaluation::RandomWalk).then(|| mis_weight(wp));
+        let mis_c =
+            matches!(evaluation, Evaluation::RandomWalk | Evaluation::Auto).then(|| mis_weight(wp));
         MicrofacetNormalMap {
             nested,
             wp,
@@ -165,22 +178,64 @@ impl MicrofacetNormalMap {
             lambert_closed_form: true,
             lambert: None,
             ms: None,
+            blend: 1.0,
         }
     }
 
     /// Attach the remainder table of `evaluation = compensated` ([`ms_table`]; built for this
     /// nested BSDF, microgeometry, wall and `max_order`). Without a table (or for another
     /// evaluation) nothing changes: a compensated BSDF without one is the random walk.
+    ///
+    /// Under `evaluation = auto` the table's misplaced energy at this θp sets the blend β
+    /// ([`misplaced::blend`]); β = 0, or a table without M, leaves the walk.
     pub fn with_ms_table(mut self, table: Option<&'static ms_table::MsTable>) -> Self {
-        if self.evaluation == Evaluation::Compensated && !self.degenerate {
-            self.ms = table.map(|t| compensated::MsRef::new(t, self.wp));
+        if self.degenerate {
+            return self;
+        }
+        match self.evaluation {
+            Evaluation::Compensated => {
+                self.ms = table.map(|t| compensated::MsRef::new(t, self.wp));
+            }
+            Evaluation::Auto => {
+                let Some(t) = table else { return self };
+                let beta = t
+                    .misplaced
+                    .get()
+                    .map_or(0.0, |mm| misplaced::blend(mm.at(self.wp.z)));
+                self.set_blend(t, beta);
+            }
+            _ => {}
         }
         self
     }
 
-    /// True when the compensated model (with its table) evaluates this BSDF.
+    /// `evaluation = auto` with the blend β forced (tests of the mixture; β ∈ [0, 1]).
+    pub fn with_blend(mut self, table: &'static ms_table::MsTable, beta: f32) -> Self {
+        if self.evaluation == Evaluation::Auto && !self.degenerate {
+            self.set_blend(table, beta.clamp(0.0, 1.0));
+        }
+        self
+    }
+
+    fn set_blend(&mut self, t: &'static ms_table::MsTable, beta: f32) {
+        self.blend = beta;
+        self.ms = (beta > 0.0).then(|| compensated::MsRef::new(t, self.wp));
+    }
+
+    /// True when the compensated model (with its table) evaluates this BSDF, alone or (under
+    /// `auto`) in a mixture with the walk.
     pub fn uses_ms_table(&self) -> bool {
         self.ms.is_some()
+    }
+
+    /// The compensated model's share of the BSDF: 1 for `compensated` with a table, β under
+    /// `auto`, 0 when the walk (or a closed form) evaluates alone.
+    pub fn compensated_share(&self) -> f32 {
+        if self.ms.is_some() {
+            self.blend
+        } else {
+            0.0
+        }
     }
 
     /// The same BSDF with the Lambert closed forms on (default) or off: off, a diffuse nested
@@ -281,7 +336,12 @@ pub(super) fn eval(
         return l.eval(m, wi, wo);
     }
     if let Some(r) = &m.ms {
-        return compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s).0;
+        // `auto` in its blend band: one model by its share β, so that E[eval] = β f_comp +
+        // (1 − β) f_walk at the cost of one model (the walk's eval is stochastic anyway).
+        if m.blend >= 1.0 || s.next_1d() < m.blend {
+            return compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s).0;
+        }
+        return walk::eval(m, &nested, ctx, wi, wo, s, &mut explicit::PdfTerms::empty());
     }
     match (m.evaluation, m.mirror_wall) {
         (Evaluation::Explicit, true) => explicit::eval_pdf_mirror(m, &nested, ctx, wi, wo, s).0,
@@ -291,7 +351,7 @@ pub(super) fn eval(
         (Evaluation::Explicit | Evaluation::ExplicitComplete, false) => {
             explicit::eval_pdf_single(m, &nested, ctx, wi, wo, s).0
         }
-        (Evaluation::RandomWalk | Evaluation::Compensated, _) => {
+        (Evaluation::RandomWalk | Evaluation::Compensated | Evaluation::Auto, _) => {
             walk::eval(m, &nested, ctx, wi, wo, s, &mut explicit::PdfTerms::empty())
         }
     }
@@ -317,18 +377,43 @@ pub(super) fn pdf(b: Bsdf, m: &MicrofacetNormalMap, ctx: &BsdfContext, wi: Vec3,
         return l.pdf(m, wi, wo);
     }
     if let Some(r) = &m.ms {
-        return compensated::pdf(m, r, &nested, ctx, wi, wo);
+        let pc = compensated::pdf(m, r, &nested, ctx, wi, wo);
+        if m.blend >= 1.0 {
+            return pc;
+        }
+        return m.blend * pc + (1.0 - m.blend) * walk_pdf(m, &nested, ctx, wi, wo);
     }
+    walk_or_explicit_pdf(m, &nested, ctx, wi, wo)
+}
+
+/// The walk's MIS density of decision 3 (the random walk, and `auto`'s walk share).
+fn walk_pdf(m: &MicrofacetNormalMap, nested: &Bsdf, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f32 {
+    let p1 = if m.mirror_wall {
+        explicit::pdf_mirror(m, nested, ctx, wi, wo)
+    } else {
+        explicit::pdf_single(m, nested, ctx, wi, wo)
+    };
+    (1.0 - m.mis_c()) * p1 + m.mis_c() * wo.z * INV_PI
+}
+
+/// [`pdf`] of the explicit forms and the walk (reflection, no table).
+fn walk_or_explicit_pdf(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+) -> f32 {
     let p1 = match (m.mirror_wall, m.evaluation) {
-        (true, Evaluation::ExplicitComplete) => explicit::pdf_complete(m, &nested, ctx, wi, wo),
-        (true, _) => explicit::pdf_mirror(m, &nested, ctx, wi, wo),
-        (false, _) => explicit::pdf_single(m, &nested, ctx, wi, wo),
+        (true, Evaluation::ExplicitComplete) => explicit::pdf_complete(m, nested, ctx, wi, wo),
+        (true, _) => explicit::pdf_mirror(m, nested, ctx, wi, wo),
+        (false, _) => explicit::pdf_single(m, nested, ctx, wi, wo),
     };
     match m.evaluation {
         Evaluation::Explicit | Evaluation::ExplicitComplete => p1,
         // Decision 3: (1 − c)·p1 + c·cosine lobe; MIS stays unbiased with any such pdf
         // because the integrator uses the walk's own sample weight.
-        Evaluation::RandomWalk | Evaluation::Compensated => {
+        Evaluation::RandomWalk | Evaluation::Compensated | Evaluation::Auto => {
             (1.0 - m.mis_c()) * p1 + m.mis_c() * wo.z * INV_PI
         }
     }
@@ -360,23 +445,25 @@ pub(super) fn eval_pdf(
         return l.eval_pdf(m, wi, wo);
     }
     if let Some(r) = &m.ms {
-        return compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s);
+        if m.blend >= 1.0 {
+            return compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s);
+        }
+        // The blend band: the eval of one model picked by β (as [`eval`]), the mixture's pdf.
+        let b = m.blend;
+        return if s.next_1d() < b {
+            let (fc, pc) = compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s);
+            (fc, b * pc + (1.0 - b) * walk_pdf(m, &nested, ctx, wi, wo))
+        } else {
+            let (fw, pw) = walk_eval_pdf(m, &nested, ctx, wi, wo, s);
+            let pc = compensated::pdf(m, r, &nested, ctx, wi, wo);
+            (fw, b * pc + (1.0 - b) * pw)
+        };
     }
     if matches!(
         m.evaluation,
-        Evaluation::RandomWalk | Evaluation::Compensated
+        Evaluation::RandomWalk | Evaluation::Compensated | Evaluation::Auto
     ) {
-        // The walk's first vertices evaluate the nested BSDF at pairs that are terms of p1:
-        // those terms take their pdf from the same fused call.
-        let mut terms = if m.mirror_wall {
-            explicit::PdfTerms::mirror(m, wi, wo)
-        } else {
-            explicit::PdfTerms::single(m, wi, wo)
-        };
-        let f = walk::eval(m, &nested, ctx, wi, wo, s, &mut terms);
-        let p1 = terms.total(m, &nested, ctx);
-        let c = m.mis_c();
-        return (f, (1.0 - c) * p1 + c * wo.z * INV_PI);
+        return walk_eval_pdf(m, &nested, ctx, wi, wo, s);
     }
     match (m.mirror_wall, m.evaluation) {
         (true, Evaluation::ExplicitComplete) => {
@@ -385,6 +472,28 @@ pub(super) fn eval_pdf(
         (true, _) => explicit::eval_pdf_mirror(m, &nested, ctx, wi, wo, s),
         (false, _) => explicit::eval_pdf_single(m, &nested, ctx, wi, wo, s),
     }
+}
+
+/// The walk's eval and MIS density of one query (reflection).
+fn walk_eval_pdf(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> (Spectrum, f32) {
+    // The walk's first vertices evaluate the nested BSDF at pairs that are terms of p1:
+    // those terms take their pdf from the same fused call.
+    let mut terms = if m.mirror_wall {
+        explicit::PdfTerms::mirror(m, wi, wo)
+    } else {
+        explicit::PdfTerms::single(m, wi, wo)
+    };
+    let f = walk::eval(m, nested, ctx, wi, wo, s, &mut terms);
+    let p1 = terms.total(m, nested, ctx);
+    let c = m.mis_c();
+    (f, (1.0 - c) * p1 + c * wo.z * INV_PI)
 }
 
 pub(super) fn sample(
@@ -425,7 +534,23 @@ pub(super) fn sample(
         });
     }
     if let Some(r) = &m.ms {
-        return compensated::sample(m, r, &nested, ctx, wi, s);
+        if m.blend >= 1.0 {
+            return compensated::sample(m, r, &nested, ctx, wi, s);
+        }
+        // `auto` in its blend band: one model by its share, each with its own weight (the
+        // compensated model's eval/pdf, the walk's throughput), so E[weight · 1{ωo ∈ A}] =
+        // β ∫_A f_comp z + (1 − β) ∫_A f_walk z; the reported density is the mixture's, as
+        // [`pdf`] gives it (MIS stays unbiased: the weights of both strategies are functions of
+        // ωo through the same densities).
+        let beta = m.blend;
+        let mut bs = if s.next_1d() < beta {
+            compensated::sample(m, r, &nested, ctx, wi, s)?
+        } else {
+            walk_sample(m, &nested, ctx, wi, s)?
+        };
+        let pc = compensated::pdf(m, r, &nested, ctx, wi, bs.wo);
+        bs.pdf = beta * pc + (1.0 - beta) * walk_pdf(m, &nested, ctx, wi, bs.wo);
+        return Some(bs);
     }
     match (m.evaluation, m.mirror_wall) {
         (Evaluation::Explicit, true) => explicit::sample_mirror(m, &nested, ctx, wi, s),
@@ -433,31 +558,42 @@ pub(super) fn sample(
         (Evaluation::Explicit | Evaluation::ExplicitComplete, false) => {
             explicit::sample_single(m, &nested, ctx, wi, s)
         }
-        (Evaluation::RandomWalk | Evaluation::Compensated, _) => {
-            let (wo, weight, lobe, first) = walk::sample(m, &nested, ctx, wi, s)?;
-            // The walk escapes upward only (G1 = 0 below), so `pdf`'s wo.z ≤ 0 case is moot.
-            let mut terms = if m.mirror_wall {
-                explicit::PdfTerms::mirror(m, wi, wo)
-            } else {
-                explicit::PdfTerms::single(m, wi, wo)
-            };
-            // A walk that escaped from its first vertex sampled ωo with the nested BSDF from ωi:
-            // its sample density is the term P_k(ωi, ωo) (not for delta lobes, whose sample
-            // density is no pdf value).
-            if let Some(v) = first {
-                if !nested.lobes().has_delta() {
-                    terms.know(v.k, wi, wo, v.pdf);
-                }
-            }
-            let p1 = terms.total(m, &nested, ctx);
-            let c = m.mis_c();
-            Some(BsdfSample {
-                wo,
-                pdf: (1.0 - c) * p1 + c * wo.z * INV_PI,
-                weight,
-                eta: 1.0,
-                lobe,
-            })
+        (Evaluation::RandomWalk | Evaluation::Compensated | Evaluation::Auto, _) => {
+            walk_sample(m, &nested, ctx, wi, s)
         }
     }
+}
+
+/// A sample of the random walk (reflection), with the MIS density of decision 3.
+fn walk_sample(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    s: &mut Sampler,
+) -> Option<BsdfSample> {
+    let (wo, weight, lobe, first) = walk::sample(m, nested, ctx, wi, s)?;
+    // The walk escapes upward only (G1 = 0 below), so `pdf`'s wo.z ≤ 0 case is moot.
+    let mut terms = if m.mirror_wall {
+        explicit::PdfTerms::mirror(m, wi, wo)
+    } else {
+        explicit::PdfTerms::single(m, wi, wo)
+    };
+    // A walk that escaped from its first vertex sampled ωo with the nested BSDF from ωi:
+    // its sample density is the term P_k(ωi, ωo) (not for delta lobes, whose sample
+    // density is no pdf value).
+    if let Some(v) = first {
+        if !nested.lobes().has_delta() {
+            terms.know(v.k, wi, wo, v.pdf);
+        }
+    }
+    let p1 = terms.total(m, nested, ctx);
+    let c = m.mis_c();
+    Some(BsdfSample {
+        wo,
+        pdf: (1.0 - c) * p1 + c * wo.z * INV_PI,
+        weight,
+        eta: 1.0,
+        lobe,
+    })
 }

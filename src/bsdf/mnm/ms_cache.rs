@@ -9,8 +9,15 @@
 //! full key, which is compared on reading, so a hash collision or a stale layout is a miss. If
 //! the folder cannot be written, the table is used from memory and the load reports a warning
 //! (once per process).
+//!
+//! The misplaced-energy table of `evaluation = auto` ([`super::misplaced`]) is kept with its
+//! remainder table (in memory: the table's own `misplaced` cell) and on disk as
+//! `mm-<FNV-1a 64 of its key>.bin`, its key being the remainder table's plus the measurement's
+//! parameters ([`misplaced`]).
 
+use super::misplaced::{self as mm, Misplaced};
 use super::ms_table::{MsTable, TableSpec};
+use crate::bsdf::Bsdf;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -105,6 +112,11 @@ pub fn get_or_build(
 
 /// Write `t` under `dir` atomically (a temporary file renamed into place).
 fn store(dir: &Path, key: &str, t: &MsTable) -> Result<(), String> {
+    write_atomic(dir, &file_of(dir, key), &t.to_bytes())
+}
+
+/// Write `bytes` to `path` under `dir` atomically (a temporary file renamed into place).
+fn write_atomic(dir: &Path, path: &Path, bytes: &[u8]) -> Result<(), String> {
     let fail = |e: std::io::Error| {
         format!(
             "cannot write the compensated normal-mapping table cache in '{}' ({e}); tables are rebuilt at every run",
@@ -112,11 +124,53 @@ fn store(dir: &Path, key: &str, t: &MsTable) -> Result<(), String> {
         )
     };
     std::fs::create_dir_all(dir).map_err(fail)?;
-    let path = file_of(dir, key);
     let tmp = path.with_extension(format!("tmp{}", std::process::id()));
-    std::fs::write(&tmp, t.to_bytes()).map_err(fail)?;
-    std::fs::rename(&tmp, &path).map_err(|e| {
+    std::fs::write(&tmp, bytes).map_err(fail)?;
+    std::fs::rename(&tmp, path).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
         fail(e)
+    })
+}
+
+/// Set `table`'s misplaced-energy table (`evaluation = auto`) if it is not yet: from the disk
+/// cache, else measured against the walk over `nested` (node `nested_index` of its arena) and
+/// stored. A write failure is the same once-per-process warning as for the tables, returned.
+pub fn misplaced(table: &'static MsTable, nested: &Bsdf, nested_index: u32) -> Option<String> {
+    if table.misplaced.get().is_some() {
+        return None;
+    }
+    let key = format!(
+        "{} misplaced v{} cells={}x{} wi={} walks={} band={}..{}",
+        table.key,
+        mm::VERSION,
+        mm::CELLS_U,
+        mm::CELLS_PHI,
+        mm::WI,
+        mm::WALKS,
+        mm::LO,
+        mm::HI
+    );
+    let dir = DISK.lock().unwrap_or_else(|e| e.into_inner()).clone();
+    let file = |d: &Path| d.join(format!("mm-{:016x}.bin", fnv1a(&key)));
+    let from_disk = dir.as_ref().and_then(|d| {
+        let bytes = std::fs::read(file(d)).ok()?;
+        Misplaced::from_bytes(&bytes, &key)
+    });
+    let mut warning = None;
+    let m = match from_disk {
+        Some(m) => m,
+        None => {
+            let m = Misplaced::measure(nested, nested_index, table, mm::WALKS);
+            if let Some(d) = &dir {
+                warning = write_atomic(d, &file(d), &m.to_bytes(&key)).err();
+            }
+            m
+        }
+    };
+    // Another thread may have set it meanwhile: the first stays (the same measurement).
+    let _ = table.misplaced.set(m);
+    warning.filter(|_| {
+        let mut w = WARNED.lock().unwrap_or_else(|e| e.into_inner());
+        !std::mem::replace(&mut *w, true)
     })
 }

@@ -13,8 +13,15 @@
 //!
 //! Anything else (textured roughness or plastic colours, anisotropy, delta lobes, transmission,
 //! other plugins) has no table: the caller reports why.
+//!
+//! `evaluation = auto` also needs the table's misplaced energy M(θp) against the walk
+//! ([`super::misplaced`], [`auto_table_for`]): measured once per table (cached with it, in memory
+//! and on disk), except where it is known to be 0 (a Lambertian nested BSDF under the mirror
+//! sawtooth, whose table is exact) or unused (a Lambertian with the closed forms on: they stand
+//! in for both models).
 
 use super::facets::Microgeometry;
+use super::misplaced::Misplaced;
 use super::ms_cache::{self, Source};
 use super::ms_table::{self, Colour, MsTable, TableSpec};
 use super::Tangent;
@@ -41,6 +48,43 @@ pub fn table_for(
     tangent: Tangent,
     max_order: u32,
     max_theta: f32,
+) -> Result<Obtained, String> {
+    obtain(
+        materials, nested, geometry, tangent, max_order, max_theta, None,
+    )
+}
+
+/// [`table_for`] with the table's misplaced-energy table M(θp) set (`evaluation = auto`).
+/// `lambert_closed_form`: the material's switch (on, a Lambertian nested BSDF needs no M).
+pub fn auto_table_for(
+    materials: &Materials,
+    nested: MatId,
+    geometry: Microgeometry,
+    tangent: Tangent,
+    max_order: u32,
+    max_theta: f32,
+    lambert_closed_form: bool,
+) -> Result<Obtained, String> {
+    obtain(
+        materials,
+        nested,
+        geometry,
+        tangent,
+        max_order,
+        max_theta,
+        Some(lambert_closed_form),
+    )
+}
+
+/// Both of the above: `auto` = Some(the Lambert closed-form switch) measures M.
+fn obtain(
+    materials: &Materials,
+    nested: MatId,
+    geometry: Microgeometry,
+    tangent: Tangent,
+    max_order: u32,
+    max_theta: f32,
+    auto: Option<bool>,
 ) -> Result<Obtained, String> {
     let nodes = materials.nodes();
     let mut spec = TableSpec {
@@ -70,8 +114,23 @@ pub fn table_for(
     };
     if lambertian {
         let key = format!("{head} lambert");
-        let (table, source, warning) =
+        let (table, source, mut warning) =
             ms_cache::get_or_build(&key, spec, || MsTable::lambert(spec, key.clone()));
+        let exact = geometry == Microgeometry::Sawtooth && tangent == Tangent::Mirror;
+        match auto {
+            Some(true) => {}
+            Some(false) if exact => {
+                let _ = table.misplaced.set(Misplaced::exact(max_theta));
+            }
+            Some(false) => {
+                let mut arena = BsdfArena::new();
+                let root = arena.push(BsdfNode::Diffuse(crate::bsdf::diffuse::Diffuse {
+                    reflectance: Vec3::ONE,
+                }));
+                warning = warning.or(ms_cache::misplaced(table, &arena.bsdf(root), root));
+            }
+            None => {}
+        }
         return Ok(Obtained {
             table,
             source,
@@ -121,9 +180,12 @@ pub fn table_for(
         spec.walks, spec.colour, arena
     );
     let nested_bsdf = arena.bsdf(root);
-    let (table, source, warning) = ms_cache::get_or_build(&key, spec, || {
+    let (table, source, mut warning) = ms_cache::get_or_build(&key, spec, || {
         MsTable::from_walk(&nested_bsdf, root, spec, key.clone())
     });
+    if auto.is_some() {
+        warning = warning.or(ms_cache::misplaced(table, &nested_bsdf, root));
+    }
     Ok(Obtained {
         table,
         source,

@@ -110,6 +110,9 @@ pub struct MsTable {
     inv_dx: [f32; N_PHI - 1],
     /// Seconds the build took (0 for a table read from disk).
     pub build_seconds: f32,
+    /// `evaluation = auto`: the misplaced-energy table M(θp) of this table against the walk
+    /// ([`super::misplaced`]), set once at the first load that asks for it.
+    pub misplaced: std::sync::OnceLock<super::misplaced::Misplaced>,
 }
 
 impl std::fmt::Debug for MsTable {
@@ -418,6 +421,7 @@ impl MsTable {
             mean,
             mean_e,
             build_seconds,
+            misplaced: std::sync::OnceLock::new(),
         }
     }
 
