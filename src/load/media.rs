@@ -81,7 +81,9 @@ impl<'d> Builder<'d> {
         }
         let sigma_t = match sigma_t {
             Some(v) => v,
-            None => p.color_with("sigma_t", Spectrum::ONE, SpectrumUse::Unbounded)?,
+            // Mitsuba 3.9.1 reads an `<rgb>` sigma_t as a reflectance: components in [0, 1] (larger
+            // extinctions go through 'scale').
+            None => p.color_with("sigma_t", Spectrum::ONE, SpectrumUse::Reflectance)?,
         };
         let albedo = match albedo {
             Some(v) => v,
@@ -137,12 +139,7 @@ impl<'d> Builder<'d> {
                 "groove's 'constvolume' takes a float or rgb 'value', not a nested object",
             ));
         }
-        let use_ = if name == "albedo" {
-            SpectrumUse::Reflectance
-        } else {
-            SpectrumUse::Unbounded
-        };
-        let v = p.color_with("value", Spectrum::ONE, use_)?;
+        let v = p.color_with("value", Spectrum::ONE, SpectrumUse::Reflectance)?;
         let _ = p.transform_opt("to_world")?;
         p.finish()?;
         Ok(v)

@@ -8,12 +8,13 @@
 //!
 //! | Parameter | Type | Default | Meaning |
 //! | --- | --- | --- | --- |
-//! | `sigma_t` | float, rgb or spectrum | 1 | extinction coefficient, per unit length (before `scale`) |
+//! | `sigma_t` | float, rgb or spectrum | 1 | extinction coefficient, per unit length (before `scale`); an rgb must lie in [0, 1], as Mitsuba 3.9.1 reads it as a reflectance |
 //! | `albedo` | float, rgb or spectrum | 0.75 | single-scattering albedo σs/σt, in [0, 1] |
 //! | `scale` | float | 1 | multiplies `sigma_t` (units of the scene) |
 //! | `sample_emitters` | boolean | true | next-event estimation at scattering events |
 //! | `has_spectral_extinction` | boolean | true | false: Mitsuba's grey-extinction shortcut (weights ignore the other channels' transmittance) |
 //! | (nested `<phase>`) | phase | `isotropic` | the phase function |
+//! | (nested `<volume name="sigma_t"/"albedo">`) | `constvolume` | | its constant `value` instead of the property |
 
 use super::Phase;
 use crate::spectrum::Spectrum;
