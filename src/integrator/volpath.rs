@@ -135,7 +135,7 @@ pub fn li(
                     let Some(ps) = phase.sample(wi, sampler.next_1d(), sampler.next_2d()) else {
                         break;
                     };
-                    if !(ps.pdf > 0.0) {
+                    if ps.pdf.is_nan() || ps.pdf <= 0.0 {
                         break;
                     }
                     throughput *= ps.weight;
@@ -273,7 +273,7 @@ fn sample_emitter(
         Origin::Medium(p) => p,
     };
     let ds = scene.emitters[e].sample_direct(&scene.shapes, p, u)?;
-    if ds.value == Spectrum::ZERO || !(ds.pdf > 0.0) {
+    if ds.value == Spectrum::ZERO || ds.pdf.is_nan() || ds.pdf <= 0.0 {
         return None;
     }
     let target = ds.dist.is_finite().then_some((ds.p, ds.n));

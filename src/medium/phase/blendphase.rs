@@ -36,7 +36,7 @@ impl Blend {
             self.phases[0].sample(wi, (u1 - w) / (1.0 - w), u2)?
         };
         let (value, pdf) = self.eval_pdf(wi, s.wo);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         Some(PhaseSample {
