@@ -29,6 +29,7 @@ pub mod lane;
 pub mod load;
 pub mod material;
 pub mod math;
+pub mod medium;
 pub mod merge;
 pub mod output;
 pub mod render;

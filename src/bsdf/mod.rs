@@ -365,6 +365,56 @@ pub struct Bsdf<'a> {
 }
 
 impl<'a> Bsdf<'a> {
+    /// Mitsuba 3's `eval_null_transmission` at local incident direction `wi`: the fraction of
+    /// light that crosses the surface unscattered, along a straight line (1 for `null`, 1 −
+    /// opacity·(1 − nested) for `mask`, the slab's (1 − R)·transmittance for `thindielectric`,
+    /// 0 for every BSDF without such a component). Volumetric shadow rays pass surfaces by it.
+    pub fn null_transmission(&self, wi: Vec3) -> Spectrum {
+        match self.node() {
+            BsdfNode::Null => Spectrum::ONE,
+            BsdfNode::Mask(m) => {
+                Spectrum::ONE
+                    - m.opacity * (Spectrum::ONE - self.child(m.nested).null_transmission(wi))
+            }
+            BsdfNode::ThinDielectric(t) => (1.0 - t.reflectance(wi.z)) * t.specular_transmittance,
+            BsdfNode::TwoSided { front, back } => {
+                if wi.z >= 0.0 {
+                    self.child(*front).null_transmission(wi)
+                } else {
+                    self.child(*back)
+                        .null_transmission(Vec3::new(wi.x, wi.y, -wi.z))
+                }
+            }
+            _ => Spectrum::ZERO,
+        }
+    }
+
+    /// Whether a sample of `lobe` drawn at local `wi` is Mitsuba's `Null` component (the ray
+    /// continues unbent): the pass-through of `null` and `mask`, and `thindielectric`'s
+    /// transmission, which Mitsuba 3 flags `Null` (volumetric path tracing counts no bounce
+    /// there).
+    pub fn is_null_sample(&self, wi: Vec3, lobe: Lobes) -> bool {
+        if lobe.intersects(Lobes::NULL) {
+            return true;
+        }
+        if lobe != Lobes::DELTA_TRANSMISSION {
+            return false;
+        }
+        match self.node() {
+            BsdfNode::ThinDielectric(_) => true,
+            BsdfNode::Mask(m) => self.child(m.nested).is_null_sample(wi, lobe),
+            BsdfNode::TwoSided { front, back } => {
+                if wi.z >= 0.0 {
+                    self.child(*front).is_null_sample(wi, lobe)
+                } else {
+                    self.child(*back)
+                        .is_null_sample(Vec3::new(wi.x, wi.y, -wi.z), lobe)
+                }
+            }
+            _ => false,
+        }
+    }
+
     #[inline]
     fn node(&self) -> &'a BsdfNode {
         &self.arena.nodes[self.root as usize]

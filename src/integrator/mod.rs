@@ -8,6 +8,7 @@ pub mod path;
 pub mod ptracer;
 pub mod rays;
 pub mod splat;
+pub mod volpath;
 
 pub use rays::{LoggedRay, RayCounters, RayKind, Rays};
 
@@ -65,6 +66,8 @@ pub struct DirectSettings {
 pub enum IntegratorDesc {
     Path(PathSettings),
     Direct(DirectSettings),
+    /// Volumetric path tracing ([`volpath`]).
+    Volpath(volpath::VolpathSettings),
     Moment(Arc<moment::MomentSettings>),
     Aov(Arc<aov::AovSettings>),
     /// Light tracing: rendered by its own loop ([`ptracer::render`], which
@@ -77,6 +80,9 @@ pub enum IntegratorDesc {
 #[derive(Default)]
 pub struct Scratch {
     pub arena: BsdfArena,
+    /// The BSDFs of the surfaces a volumetric shadow ray passes (`volpath`), apart from
+    /// `arena`, which holds the shading point's BSDF meanwhile.
+    pub shadow_arena: BsdfArena,
     /// Every ray goes through here: counted, and recorded when the render asks.
     pub rays: Rays,
 }
@@ -95,6 +101,7 @@ impl IntegratorDesc {
         match self {
             IntegratorDesc::Path(s) => path::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Direct(s) => direct::li(s, scene, ray, sampler, scratch),
+            IntegratorDesc::Volpath(s) => volpath::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Moment(_) | IntegratorDesc::Aov(_) | IntegratorDesc::Ptracer(_) => {
                 self.sample(scene, ray, sampler, scratch, &mut [])
             }
@@ -105,9 +112,10 @@ impl IntegratorDesc {
     /// (`SamplingIntegrator::aov_names`): none for `path` and `direct`.
     pub fn aov_names(&self) -> Vec<String> {
         match self {
-            IntegratorDesc::Path(_) | IntegratorDesc::Direct(_) | IntegratorDesc::Ptracer(_) => {
-                Vec::new()
-            }
+            IntegratorDesc::Path(_)
+            | IntegratorDesc::Direct(_)
+            | IntegratorDesc::Volpath(_)
+            | IntegratorDesc::Ptracer(_) => Vec::new(),
             IntegratorDesc::Moment(m) => m.aov_names(),
             IntegratorDesc::Aov(a) => a.aov_names(),
         }
@@ -116,7 +124,10 @@ impl IntegratorDesc {
     /// Number of extra output channels (the length of [`IntegratorDesc::aov_names`]).
     pub fn aov_count(&self) -> usize {
         match self {
-            IntegratorDesc::Path(_) | IntegratorDesc::Direct(_) | IntegratorDesc::Ptracer(_) => 0,
+            IntegratorDesc::Path(_)
+            | IntegratorDesc::Direct(_)
+            | IntegratorDesc::Volpath(_)
+            | IntegratorDesc::Ptracer(_) => 0,
             IntegratorDesc::Moment(m) => m.aov_count(),
             IntegratorDesc::Aov(a) => a.aov_count(),
         }
@@ -137,6 +148,7 @@ impl IntegratorDesc {
         match self {
             IntegratorDesc::Path(s) => path::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Direct(s) => direct::li(s, scene, ray, sampler, scratch),
+            IntegratorDesc::Volpath(s) => volpath::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Moment(m) => m.sample(scene, ray, sampler, scratch, aovs),
             IntegratorDesc::Aov(a) => a.sample(scene, ray, sampler, scratch, aovs),
             // No estimate along a camera ray: light tracing splats (see the variant's comment).
@@ -164,6 +176,13 @@ impl IntegratorDesc {
                 }
             }
             IntegratorDesc::Direct(_) => hit.is_some(),
+            // Mitsuba's volpath: a visible environment, or any real scattering event (at a
+            // surface, or in the sensor's medium: counted here from the first hit).
+            IntegratorDesc::Volpath(s) => {
+                (!s.hide_emitters && !scene.env_emitters.is_empty())
+                    || hit.is_some()
+                    || scene.camera_medium.is_some()
+            }
             IntegratorDesc::Ptracer(_) => false,
             IntegratorDesc::Moment(m) => m.inner.first().is_some_and(|(_, i)| i.valid(scene, hit)),
             IntegratorDesc::Aov(a) => a.inner.first().is_some_and(|(_, i)| i.valid(scene, hit)),

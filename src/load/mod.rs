@@ -11,10 +11,12 @@
 //! - `shapes`: `<shape>`, its area emitter and the default materials;
 //! - `shapegroup`: `shapegroup` and `instance`;
 //! - `emitters`: the top-level `<emitter>`s;
+//! - `media`: `<medium>` and `<phase>` (the media of shapes and of the sensor);
 //! - [`options`]: what a load is asked for besides the file (`-D`, `--normal-mapping`).
 
 pub(crate) mod bsdfs;
 mod emitters;
+mod media;
 mod mitsuba_plugins;
 pub mod options;
 mod settings;
@@ -86,6 +88,13 @@ struct Builder<'d> {
     shapes: Vec<Shape>,
     shape_material: Vec<MatId>,
     shape_emitter: Vec<Option<u32>>,
+    /// The media on both sides of each shape.
+    shape_media: Vec<crate::medium::MediumInterface>,
+    /// The media built so far, and the element each came from (a medium is built once).
+    media: Vec<crate::medium::Medium>,
+    medium_cache: HashMap<*const Node, crate::medium::MediumId>,
+    /// The sensor's medium.
+    camera_medium: Option<crate::medium::MediumId>,
     /// The shape groups: the range of `shapes` each one's members occupy.
     groups: Vec<std::ops::Range<u32>>,
     /// Index in `groups` of each group element built so far.
@@ -135,6 +144,10 @@ pub fn instantiate_within(
         shapes: Vec::new(),
         shape_material: Vec::new(),
         shape_emitter: Vec::new(),
+        shape_media: Vec::new(),
+        media: Vec::new(),
+        medium_cache: HashMap::new(),
+        camera_medium: None,
         groups: Vec::new(),
         group_index: HashMap::new(),
         instances: Vec::new(),
@@ -205,6 +218,9 @@ pub fn instantiate_within(
             shape_material: b.shape_material,
             shape_reads_mesh,
             shape_emitter: b.shape_emitter,
+            shape_media: b.shape_media,
+            media: b.media,
+            camera_medium: b.camera_medium,
             accel,
             materials: b.materials,
             emitters: b.emitters,
@@ -274,6 +290,11 @@ impl<'d> Builder<'d> {
                     self.texture(child)?;
                 }
                 "emitter" => self.top_level_emitter(child)?,
+                "medium" => {
+                    self.medium(child)?;
+                }
+                // Built where a `<ref>` names them.
+                "phase" | "volume" if child.attr("id").is_some() => {}
                 // Mitsuba builds a top-level object with an id when a `<ref>` uses it: the
                 // sensor does, for its sampler and film.
                 "film" | "sampler" if child.attr("id").is_some() => {}

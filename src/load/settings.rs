@@ -1,4 +1,4 @@
-//! The render settings of a scene: `<integrator>` (`path`, `direct`, `ptracer`, `moment`, `aov`), `<sensor>`
+//! The render settings of a scene: `<integrator>` (`path`, `volpath`, `direct`, `ptracer`, `moment`, `aov`), `<sensor>`
 //! (`perspective`), `<film>` (`hdrfilm`), `<rfilter>` (`box`, `tent`, `gaussian`) and
 //! `<sampler>` (`independent`, `stratified`), with Mitsuba 3's parameter names and defaults.
 
@@ -9,6 +9,7 @@ use crate::film::{FilmDesc, Filter};
 use crate::integrator::aov::{AovKind, AovSettings};
 use crate::integrator::moment::MomentSettings;
 use crate::integrator::ptracer::PtracerSettings;
+use crate::integrator::volpath::VolpathSettings;
 use crate::integrator::{DirectSettings, IntegratorDesc, PathSettings};
 use crate::sampler::{SamplerDesc, SamplerKind};
 use crate::scene::xml::ir::Node;
@@ -33,6 +34,22 @@ impl<'d> Builder<'d> {
                     rr_depth: rr_depth.min(i32::MAX as i64) as i32,
                     hide_emitters: p.bool("hide_emitters", false)?,
                     ..Default::default()
+                })
+            }
+            "volpath" => {
+                // Mitsuba 3.9.1's MonteCarloIntegrator: max_depth -1 or >= 0, rr_depth > 0.
+                let max_depth = p.int("max_depth", -1)?;
+                check(
+                    p.loc(),
+                    max_depth >= -1,
+                    "max_depth must be -1 (unlimited) or >= 0",
+                )?;
+                let rr_depth = p.int("rr_depth", 5)?;
+                check(p.loc(), rr_depth >= 1, "rr_depth must be >= 1")?;
+                IntegratorDesc::Volpath(VolpathSettings {
+                    max_depth: max_depth.clamp(-1, i32::MAX as i64) as i32,
+                    rr_depth: rr_depth.min(i32::MAX as i64) as i32,
+                    hide_emitters: p.bool("hide_emitters", false)?,
                 })
             }
             "direct" => {
@@ -123,7 +140,7 @@ impl<'d> Builder<'d> {
                     p.loc(),
                     "integrator",
                     t,
-                    &["path", "direct", "ptracer", "moment", "aov"],
+                    &["path", "volpath", "direct", "ptracer", "moment", "aov"],
                 ))
             }
         };
@@ -223,6 +240,13 @@ impl<'d> Builder<'d> {
             match p.kind(c) {
                 "film" => film = Some(self.film(self.ids.resolve(c, "film")?)?),
                 "sampler" => sampler = Some(self.sampler(self.ids.resolve(c, "sampler")?)?),
+                // Mitsuba 3: a medium nested in (or referenced by) the sensor, whatever its name.
+                "medium" => {
+                    if self.camera_medium.is_some() {
+                        return Err(Error::scene(&c.loc, "a sensor takes only one medium"));
+                    }
+                    self.camera_medium = Some(self.medium(c)?);
+                }
                 t => {
                     return Err(Error::scene(
                         &c.loc,

@@ -210,9 +210,11 @@ impl<'d> Builder<'d> {
         let p = self.props(n)?;
         let shape = self.geometry(&p)?;
         let index = self.shapes.len() as u32;
+        let mut media = crate::medium::MediumInterface::default();
         for c in p.objects() {
             match p.kind(c) {
                 "bsdf" | "emitter" => {}
+                "medium" => self.shape_medium(c, &mut media)?,
                 "ref" => {
                     let id = c.attr("id").unwrap_or("");
                     return Err(Error::scene(
@@ -259,6 +261,7 @@ impl<'d> Builder<'d> {
         self.shapes.push(shape);
         self.shape_material.push(material);
         self.shape_emitter.push(emitter);
+        self.shape_media.push(media);
         Ok(())
     }
 

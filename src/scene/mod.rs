@@ -12,6 +12,7 @@ use crate::emitter::{Emitter, LightSampler};
 use crate::geometry::hit::NO_INSTANCE;
 use crate::geometry::{Instance, Ray, Shape, SurfaceInteraction};
 use crate::material::{MatId, Materials};
+use crate::medium::{Medium, MediumId, MediumInterface};
 use glam::Vec3;
 use std::path::PathBuf;
 
@@ -29,6 +30,12 @@ pub struct Scene {
     /// every other lookup is by uv alone, which keeps the common hit as cheap as before mesh
     /// attributes existed.
     pub(crate) shape_reads_mesh: Vec<bool>,
+    /// The media on both sides of each shape (none: the surface does not change the medium).
+    pub(crate) shape_media: Vec<MediumInterface>,
+    /// Every participating medium, indexed by [`crate::medium::MediumId`].
+    pub(crate) media: Vec<Medium>,
+    /// The medium the sensor sits in (Mitsuba's sensor `medium`).
+    pub(crate) camera_medium: Option<MediumId>,
     /// Area emitter of each shape, as an index into `emitters`.
     pub(crate) shape_emitter: Vec<Option<u32>>,
     pub(crate) accel: Accel,
@@ -79,6 +86,18 @@ impl Scene {
     /// Bounding sphere of the geometry (centre, radius).
     pub fn bsphere(&self) -> (Vec3, f32) {
         self.bsphere
+    }
+    /// The media on both sides of each shape.
+    pub fn shape_media(&self) -> &[MediumInterface] {
+        &self.shape_media
+    }
+    /// The participating media.
+    pub fn media(&self) -> &[Medium] {
+        &self.media
+    }
+    /// The medium the sensor sits in.
+    pub fn camera_medium(&self) -> Option<MediumId> {
+        self.camera_medium
     }
     /// The scene file this came from.
     pub fn source(&self) -> &std::path::Path {

@@ -128,6 +128,12 @@ JOBS = [
     # integrator's shape_index and normals under instancing.
     ("rotate_shapes", os.path.join(SCENES, "rotate_shapes.xml"), {}, 2048, REF_SEEDS),
     ("aov_instance", os.path.join(SCENES, "aov_instance.xml"), {}, 2048, REF_SEEDS),
+    # Participating media (volpath): a homogeneous hg sphere behind a null boundary under an area
+    # light; the sensor, objects and an area light inside a fog (blendphase); a dielectric sphere
+    # with an absorbing interior.
+    ("media_sphere", os.path.join(SCENES, "media_sphere.xml"), {}, 2048, REF_SEEDS),
+    ("media_fog", os.path.join(SCENES, "media_fog.xml"), {}, 2048, REF_SEEDS),
+    ("media_glass", os.path.join(SCENES, "media_glass.xml"), {}, 2048, REF_SEEDS),
 ]
 
 # Jobs whose film has extra channels (AOVs): the statistics are those of the film's developed

@@ -10,6 +10,7 @@ mod foundation;
 mod instances;
 mod lights;
 mod materials;
+mod media;
 mod mnm;
 mod mnm_default_tangent;
 mod normalmap;

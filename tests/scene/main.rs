@@ -12,6 +12,7 @@ mod geometry;
 mod hair;
 mod hostile;
 mod instances;
+mod media;
 mod mesh_attribute;
 mod output;
 mod packets;
