@@ -574,7 +574,10 @@ impl Film {
         for j in j_lo..j_hi {
             let si = j as usize * sw + i_lo as usize;
             let di = (block.oy + j - cy) as usize * cw + x0;
-            for (d, s) in self.data[di..di + n].iter_mut().zip(&block.data[si..si + n]) {
+            for (d, s) in self.data[di..di + n]
+                .iter_mut()
+                .zip(&block.data[si..si + n])
+            {
                 d.add(s);
             }
             let k = self.nch.min(block.nch);

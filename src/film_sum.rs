@@ -167,7 +167,11 @@ mod tests {
             for frac in [0u32, 1, 0x40_0000, 0x7f_ffff, 0x12_3457] {
                 for sign in [0u32, 1] {
                     let x = f32::from_bits(sign << 31 | e << 23 | frac);
-                    let want = if x.to_bits() << 1 == 0 { 0 } else { fixed_rare(x) };
+                    let want = if x.to_bits() << 1 == 0 {
+                        0
+                    } else {
+                        fixed_rare(x)
+                    };
                     assert_eq!(fixed(x), want, "{x:e} ({:#x})", x.to_bits());
                 }
             }

@@ -395,8 +395,16 @@ fn storage_index_matches_floor_and_bounds() {
         for x in xs {
             let p = (crate::math::floor(x) as i64).saturating_sub(origin);
             let want = (p >= 0 && p < size as i64).then_some(p as usize);
-            assert_eq!(storage_index(x, origin, size, exact), want, "{x} {origin} {size}");
-            assert_eq!(storage_index(x, origin, size, None), want, "{x} {origin} {size}");
+            assert_eq!(
+                storage_index(x, origin, size, exact),
+                want,
+                "{x} {origin} {size}"
+            );
+            assert_eq!(
+                storage_index(x, origin, size, None),
+                want,
+                "{x} {origin} {size}"
+            );
         }
     }
     assert!(exact_bounds(1 << 25, 4).is_none());
