@@ -198,17 +198,49 @@ struct Acc {
 impl Acc {
     #[inline(always)]
     fn add_sample(&mut self, v: [f32; 3], w: f32) {
+        let mut first = [0i128; 3];
+        let mut second = [0i128; 3];
         for (c, &vc) in v.iter().enumerate() {
             let wv = vc * w;
             if !wv.is_finite() || !vc.is_finite() {
                 self.flag(c, if vc.is_finite() { wv } else { vc });
                 continue;
             }
-            sum::add_signed(&mut self.wv[c], sum::fixed(wv));
-            sum::add_unsigned(&mut self.wv2[c], sum::fixed(wv * vc));
+            first[c] = sum::fixed(wv);
+            second[c] = sum::fixed(wv * vc);
         }
-        sum::add_unsigned(&mut self.w, sum::fixed(w));
-        sum::add_unsigned(&mut self.w2, sum::fixed(w * w));
+        self.add_fixed(first, second, sum::fixed(w), sum::fixed(w * w));
+    }
+
+    /// [`Acc::add_sample`] with weight 1 (the box filter): w·v = v and w·v² = v·v exactly, and
+    /// the weight sums take the constant [`sum::ONE`].
+    #[inline(always)]
+    fn add_unit_sample(&mut self, v: [f32; 3]) {
+        let mut first = [0i128; 3];
+        let mut second = [0i128; 3];
+        for (c, &vc) in v.iter().enumerate() {
+            if !vc.is_finite() {
+                self.flag(c, vc);
+                continue;
+            }
+            first[c] = sum::fixed(vc);
+            second[c] = sum::fixed(vc * vc);
+        }
+        self.add_fixed(first, second, sum::ONE, sum::ONE);
+    }
+
+    /// Adds one contribution's fixed-point addends: Σw·v, Σw·v², w, w² (a skipped, non-finite
+    /// channel adds 0).
+    #[inline(always)]
+    fn add_fixed(&mut self, first: [i128; 3], second: [i128; 3], w: i128, w2: i128) {
+        for (s, x) in self.wv.iter_mut().zip(first) {
+            sum::add_signed(s, x);
+        }
+        let [r, g, b] = &mut self.wv2;
+        sum::add_unsigned_all(
+            [r, g, b, &mut self.w, &mut self.w2],
+            [second[0], second[1], second[2], w, w2],
+        );
     }
 
     /// Records the non-finite value `x` of channel `c`.
@@ -225,12 +257,7 @@ impl Acc {
 
     #[inline]
     fn add(&mut self, o: &Acc) {
-        for c in 0..3 {
-            sum::add_signed(&mut self.wv[c], o.wv[c]);
-            sum::add_unsigned(&mut self.wv2[c], o.wv2[c]);
-        }
-        sum::add_unsigned(&mut self.w, o.w);
-        sum::add_unsigned(&mut self.w2, o.w2);
+        self.add_fixed(o.wv, o.wv2, o.w, o.w2);
         self.bad |= o.bad;
     }
 
@@ -296,6 +323,8 @@ pub struct Block {
     /// Storage size (border included).
     sw: u32,
     sh: u32,
+    /// The storage's x and y extents as exact f32 bounds, when they are ([`exact_bounds`]).
+    exact: [Option<[f32; 2]>; 2],
     data: Vec<Acc>,
     /// Extra channels per storage pixel (the integrator's AOVs): Σw·a and Σw·a², `nch` each,
     /// exact like the colour sums; a non-finite channel value counts as 0.
@@ -327,6 +356,7 @@ impl Block {
             oy: 0,
             sw: 0,
             sh: 0,
+            exact: [None; 2],
             data: Vec::new(),
             nch,
             extra: Vec::new(),
@@ -341,6 +371,10 @@ impl Block {
         self.oy = y0 as i64 - self.border as i64;
         self.sw = w.saturating_add(2 * self.border);
         self.sh = h.saturating_add(2 * self.border);
+        self.exact = [
+            exact_bounds(self.ox, self.sw),
+            exact_bounds(self.oy, self.sh),
+        ];
         self.data.clear();
         self.data
             .resize(self.sw as usize * self.sh as usize, Acc::default());
@@ -392,11 +426,11 @@ impl Block {
         }
         let v = value.to_array();
         if self.filter.is_box() {
-            let px = (crate::math::floor(film_pos.x) as i64).saturating_sub(self.ox);
-            let py = (crate::math::floor(film_pos.y) as i64).saturating_sub(self.oy);
-            if px >= 0 && py >= 0 && px < self.sw as i64 && py < self.sh as i64 {
-                let idx = py as usize * self.sw as usize + px as usize;
-                self.data[idx].add_sample(v, 1.0);
+            let px = storage_index(film_pos.x, self.ox, self.sw, self.exact[0]);
+            let py = storage_index(film_pos.y, self.oy, self.sh, self.exact[1]);
+            if let (Some(px), Some(py)) = (px, py) {
+                let idx = py * self.sw as usize + px;
+                self.data[idx].add_unit_sample(v);
                 if !aovs.is_empty() {
                     self.add_extra(idx, aovs, 1.0);
                 }
@@ -453,6 +487,33 @@ impl Block {
     }
 }
 
+/// The storage column (or row) of the pixel that holds the coordinate `x`, floor(x) − `origin`,
+/// when it lies in [0, `size`). `exact` holds origin and origin + size as f32 when both are
+/// exact (below 2²⁴ in magnitude, every real film): floor(x) ∈ [o, n) ⟺ x ∈ [o, n) for
+/// integers o, n, so the test is two float comparisons and the floor is taken only of an x
+/// known to fit an i32.
+#[inline(always)]
+fn storage_index(x: f32, origin: i64, size: u32, exact: Option<[f32; 2]>) -> Option<usize> {
+    if let Some([lo, hi]) = exact {
+        if !(x >= lo && x < hi) {
+            return None;
+        }
+        let t = x as i32;
+        let floor = t - (t as f32 > x) as i32;
+        Some((floor as i64 - origin) as usize)
+    } else {
+        let p = (crate::math::floor(x) as i64).saturating_sub(origin);
+        (p >= 0 && p < size as i64).then_some(p as usize)
+    }
+}
+
+/// [`storage_index`]'s `exact` bounds of a storage axis from `origin` to `origin + size`.
+fn exact_bounds(origin: i64, size: u32) -> Option<[f32; 2]> {
+    const EXACT: i64 = 1 << 24;
+    let end = origin + size as i64;
+    (origin.abs() <= EXACT && end.abs() <= EXACT).then_some([origin as f32, end as f32])
+}
+
 /// The accumulated film: the crop window's pixels with their weighted sums.
 #[derive(Clone, Debug)]
 pub struct Film {
@@ -498,24 +559,35 @@ impl Film {
     /// dropped. Merging the same blocks in the same order gives a bit-identical film.
     pub fn merge(&mut self, block: &Block) {
         let (cx, cy, cw, ch) = self.crop;
-        let (cx, cy) = (cx as i64, cy as i64);
-        for j in 0..block.sh as i64 {
-            let fy = block.oy + j - cy;
-            if fy < 0 || fy >= ch as i64 {
+        let (cx, cy, cw, ch) = (cx as i64, cy as i64, cw as i64, ch as i64);
+        // The block's storage clipped to the crop, in storage (i, j) and crop (x, y) pixels.
+        let i_lo = (cx - block.ox).max(0);
+        let i_hi = (cx + cw - block.ox).min(block.sw as i64);
+        let j_lo = (cy - block.oy).max(0);
+        let j_hi = (cy + ch - block.oy).min(block.sh as i64);
+        if i_lo >= i_hi || j_lo >= j_hi {
+            return;
+        }
+        let n = (i_hi - i_lo) as usize;
+        let (sw, cw) = (block.sw as usize, cw as usize);
+        let x0 = (block.ox + i_lo - cx) as usize;
+        for j in j_lo..j_hi {
+            let si = j as usize * sw + i_lo as usize;
+            let di = (block.oy + j - cy) as usize * cw + x0;
+            for (d, s) in self.data[di..di + n]
+                .iter_mut()
+                .zip(&block.data[si..si + n])
+            {
+                d.add(s);
+            }
+            let k = self.nch.min(block.nch);
+            if k == 0 {
                 continue;
             }
-            for i in 0..block.sw as i64 {
-                let fx = block.ox + i - cx;
-                if fx < 0 || fx >= cw as i64 {
-                    continue;
-                }
-                let si = (j * block.sw as i64 + i) as usize;
-                let di = (fy * cw as i64 + fx) as usize;
-                self.data[di].add(&block.data[si]);
-                let n = self.nch.min(block.nch);
-                for c in 0..n {
-                    let e = block.extra[si * block.nch + c];
-                    let d = &mut self.extra[di * self.nch + c];
+            for p in 0..n {
+                let src = &block.extra[(si + p) * block.nch..][..k];
+                let dst = &mut self.extra[(di + p) * self.nch..][..k];
+                for (d, e) in dst.iter_mut().zip(src) {
                     sum::add_signed(&mut d[0], e[0]);
                     sum::add_unsigned(&mut d[1], e[1]);
                 }

@@ -22,13 +22,39 @@ const MAX_ADDEND: i128 = 1 << (62 + FRAC_BITS);
 
 /// The fixed-point value of `x`: clamped to ±2⁶² (so ±∞ give the clamp), 0 for NaN. The film
 /// records non-finite colour values apart (as flags).
+///
+/// The common case, 2⁻⁴¹ ≤ |x| < 2⁶² (biased exponent 86..=188), is a shift of the 24-bit
+/// significand and a masked two's-complement negation; zero is one test more; everything else
+/// (tiny and subnormal values that need rounding, the clamp, NaN) is out of line.
 #[inline(always)]
 pub(crate) fn fixed(x: f32) -> i128 {
     let bits = x.to_bits();
-    let e = ((bits >> 23) & 0xff) as i32;
-    if x.is_nan() {
+    let e = (bits >> 23) & 0xff;
+    // x = m · 2^(e − 150), so x · 2⁶⁴ = m · 2^(e − 86), with 0 ≤ e − 86 ≤ 102 and m < 2²⁴:
+    // below 2¹²⁶, exact.
+    if e.wrapping_sub(86) <= 188 - 86 {
+        let m = ((bits & 0x7f_ffff) | 0x80_0000) as u64;
+        let mag = ((m as u128) << (e - 86)) as i128;
+        // 0 for +, −1 for −: (mag ^ s) − s is mag or −mag.
+        let s = ((bits as i32) >> 31) as i128;
+        (mag ^ s) - s
+    } else if bits << 1 == 0 {
+        0
+    } else {
+        fixed_rare(x)
+    }
+}
+
+/// [`fixed`] outside its common range and not zero: magnitudes below 2⁻⁴¹ (rounded to the
+/// grid, half away from zero), the clamp at ±2⁶² and NaN.
+#[cold]
+#[inline(never)]
+fn fixed_rare(x: f32) -> i128 {
+    let bits = x.to_bits();
+    if bits << 1 == 0 || x.is_nan() {
         return 0;
     }
+    let e = ((bits >> 23) & 0xff) as i32;
     let frac = (bits & 0x7f_ffff) as i128;
     // x = m · 2^lsb with m < 2²⁴.
     let (m, lsb) = if e == 0 {
@@ -67,11 +93,37 @@ pub(crate) fn add_signed(acc: &mut i128, x: i128) {
     *acc = acc.wrapping_add(x);
 }
 
-/// Adds a non-negative addend (weights, second moments): saturating.
-#[inline]
+/// Adds a non-negative addend to a non-negative sum (weights, second moments): saturating at
+/// `i128::MAX`, which is associative for non-negative addends. Both being non-negative, the
+/// wrapped sum is negative exactly when the true sum exceeds `i128::MAX`: one sign test
+/// instead of a two-sided saturation. (Part files are checked for negative such sums when
+/// read, so the premise holds for every sum.)
+#[inline(always)]
 pub(crate) fn add_unsigned(acc: &mut i128, x: i128) {
-    *acc = acc.saturating_add(x);
+    let s = acc.wrapping_add(x);
+    *acc = if s < 0 { i128::MAX } else { s };
 }
+
+/// Adds non-negative addends to non-negative sums, like [`add_unsigned`] on each pair, with one
+/// test for all: only when some wrapped sum is negative are they saturated one by one.
+#[inline(always)]
+pub(crate) fn add_unsigned_all<const N: usize>(acc: [&mut i128; N], x: [i128; N]) {
+    let mut any = 0i128;
+    let mut s = [0i128; N];
+    for ((d, a), &v) in s.iter_mut().zip(&acc).zip(&x) {
+        *d = a.wrapping_add(v);
+        any |= *d;
+    }
+    if any < 0 {
+        s = s.map(|v| if v < 0 { i128::MAX } else { v });
+    }
+    for (a, v) in acc.into_iter().zip(s) {
+        *a = v;
+    }
+}
+
+/// The fixed-point value of 1, the weight of a box-filter sample: [`fixed`]`(1.0)`.
+pub(crate) const ONE: i128 = 1 << FRAC_BITS;
 
 #[cfg(test)]
 mod tests {
@@ -104,6 +156,46 @@ mod tests {
         assert_eq!(fixed(1e30), MAX_ADDEND);
         assert_eq!(fixed(-1e30), -MAX_ADDEND);
         assert_eq!(fixed(f32::from_bits(1)), 0);
+        assert_eq!(fixed(1.0), ONE);
+    }
+
+    #[test]
+    fn fast_path_agrees_with_the_general_rounding() {
+        // Every exponent, both signs, several significands: `fixed` (fast path where it
+        // applies) against `fixed_rare`'s general algorithm, which handles every input.
+        for e in 0u32..=255 {
+            for frac in [0u32, 1, 0x40_0000, 0x7f_ffff, 0x12_3457] {
+                for sign in [0u32, 1] {
+                    let x = f32::from_bits(sign << 31 | e << 23 | frac);
+                    let want = if x.to_bits() << 1 == 0 {
+                        0
+                    } else {
+                        fixed_rare(x)
+                    };
+                    assert_eq!(fixed(x), want, "{x:e} ({:#x})", x.to_bits());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn grouped_saturation_equals_pairwise() {
+        let near = i128::MAX - 3;
+        for (acc, x) in [
+            ([1i128, 2, 3], [4i128, 5, 6]),
+            ([near, 0, 7], [10, 0, 1]),
+            ([near, near, 0], [3, 4, 0]),
+            ([i128::MAX, 1, 2], [i128::MAX, 0, 0]),
+        ] {
+            let mut a = acc;
+            let mut b = acc;
+            let [a0, a1, a2] = &mut a;
+            add_unsigned_all([a0, a1, a2], x);
+            for (s, v) in b.iter_mut().zip(x) {
+                *s = s.saturating_add(v);
+            }
+            assert_eq!(a, b);
+        }
     }
 
     #[test]

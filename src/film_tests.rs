@@ -378,3 +378,34 @@ fn variance_edge_cases_and_junk_input() {
     g.put(Vec2::new(-1e9, 3.0), Spectrum::ONE);
     g.put(Vec2::new(f32::INFINITY, 3.0), Spectrum::ONE);
 }
+
+#[test]
+fn storage_index_matches_floor_and_bounds() {
+    // The box splat's fast pixel lookup against floor(x) − origin ∈ [0, size).
+    let mut rng = Pcg32::new(7, 3);
+    for (origin, size) in [(-1i64, 18u32), (0, 1), (37, 34), (-3, 5), (8_000_000, 40)] {
+        let exact = exact_bounds(origin, size);
+        assert!(exact.is_some());
+        let mut xs = vec![f32::MIN, -1e30, -0.0, 0.0, 1e30, f32::MAX];
+        for k in origin - 2..origin + size as i64 + 2 {
+            let k = k as f32;
+            xs.extend([k, k.next_down(), k.next_up(), k + 0.5, k - 0.5]);
+            xs.push(k + rng.next_f32());
+        }
+        for x in xs {
+            let p = (crate::math::floor(x) as i64).saturating_sub(origin);
+            let want = (p >= 0 && p < size as i64).then_some(p as usize);
+            assert_eq!(
+                storage_index(x, origin, size, exact),
+                want,
+                "{x} {origin} {size}"
+            );
+            assert_eq!(
+                storage_index(x, origin, size, None),
+                want,
+                "{x} {origin} {size}"
+            );
+        }
+    }
+    assert!(exact_bounds(1 << 25, 4).is_none());
+}

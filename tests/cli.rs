@@ -3,7 +3,8 @@
 //! links of README.md and docs/ resolve inside the repository; module `bench`: `groove bench` on
 //! two tiny scenes and its JSON schema; module `split`: split renders
 //! (`--crop`, `--tile`, `--samples`, `--time-limit`) merged by `groove merge`, bit for bit; module `slurm` (ignored: root, a
-//! private Slurm): the Slurm recipe end to end.
+//! private Slurm): the Slurm recipe end to end; module `node_loss` (ignored, slow): a node lost
+//! under a `--requeue` task.
 
 #[path = "cli/bench.rs"]
 mod bench;
@@ -11,6 +12,8 @@ mod bench;
 mod doc_links;
 #[path = "cli/hostile.rs"]
 mod hostile;
+#[path = "cli/node_loss.rs"]
+mod node_loss;
 #[path = "cli/slurm.rs"]
 mod slurm;
 #[path = "cli/split.rs"]

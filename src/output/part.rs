@@ -352,8 +352,14 @@ pub fn read_part(path: &Path, budget: &Budget) -> Result<Part> {
             .collect())
     };
     let mut pixels = vec![RawPixel::default(); n];
+    // Second moments and weights are sums of non-negative addends; the film's saturating
+    // addition (`film::sum::add_unsigned`) relies on that.
+    let negative = |name: &str| not_part(format!("channel sum.{name} holds a negative sum"));
     for (q, name) in SUM_NAMES.iter().enumerate() {
         for (p, v) in pixels.iter_mut().zip(read_sums(name)?) {
+            if q >= 3 && v < 0 {
+                return Err(negative(name));
+            }
             p.sums[q] = v;
         }
     }
@@ -366,6 +372,9 @@ pub fn read_part(path: &Path, budget: &Budget) -> Result<Part> {
         let first = read_sums(&format!("aov{c}.1"))?;
         let second = read_sums(&format!("aov{c}.2"))?;
         for (i, (a, b)) in first.into_iter().zip(second).enumerate() {
+            if b < 0 {
+                return Err(negative(&format!("aov{c}.2")));
+            }
             extra[i * na + c] = [a, b];
         }
     }

@@ -2,7 +2,7 @@
 //! `cargo test --release --test cli -- --ignored slurm`. Runs `scripts/slurm/e2e-test.sh` (a
 //! private single-node Slurm on 127.0.0.1: an array of tiles with one failing task, the merge
 //! job naming it, the resubmission of that index alone, the merge) and compares the merged image
-//! with a single render bit for bit.
+//! with a single render bit for bit. The slow node-loss tier is module `node_loss`.
 
 use super::tmpdir;
 use std::path::PathBuf;
@@ -10,8 +10,17 @@ use std::path::PathBuf;
 #[test]
 #[ignore = "needs root and Slurm (installed by the script); run with --ignored slurm"]
 fn slurm_array_with_a_failed_task_resubmitted_merges_to_the_single_render() {
-    let d = tmpdir("slurm-e2e");
-    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scripts/slurm/e2e-test.sh");
+    run_and_compare("e2e-test.sh", "slurm-e2e");
+}
+
+/// Runs `scripts/slurm/SCRIPT GROOVE DIR`, which must succeed and leave `result.exr` (the
+/// merge of the Slurm job's parts) and `single.exr` (one plain render) in DIR, and checks that
+/// the two are the same bits.
+pub(super) fn run_and_compare(script: &str, name: &str) {
+    let d = tmpdir(name);
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("scripts/slurm")
+        .join(script);
     let out = std::process::Command::new("bash")
         .arg(&script)
         .arg(assert_cmd::cargo::cargo_bin("groove"))
