@@ -175,7 +175,17 @@ impl<'d> Builder<'d> {
                     .map_err(|e| Error::scene(p.loc(), e.to_string()))?
             }
             // Mitsuba's open cylinder; its parameters are read in its own file.
-            "cylinder" => Cylinder::from_props(p, &to_world, flip)?,
+            "cylinder" => {
+                let c = Cylinder::from_props(p, &to_world, quirk_inverse.as_ref())?;
+                for w in c.warnings() {
+                    self.warnings.push(format!(
+                        "{}: cylinder: {w} (as Mitsuba 3.9.1, it is traced exactly but sampled \
+                         as a round tube of radius |to_world·(1,0,0)|)",
+                        p.loc()
+                    ));
+                }
+                Shape::cylinder(c, flip)
+            }
             t => {
                 return Err(unknown(
                     p.loc(),

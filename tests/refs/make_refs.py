@@ -128,6 +128,9 @@ JOBS = [
     # integrator's shape_index and normals under instancing.
     ("rotate_shapes", os.path.join(SCENES, "rotate_shapes.xml"), {}, 2048, REF_SEEDS),
     ("aov_instance", os.path.join(SCENES, "aov_instance.xml"), {}, 2048, REF_SEEDS),
+    # The cylinder under a non-uniform scale, a shear and a non-unit <rotate>, lit by an elliptic
+    # cylinder light (sampled as Mitsuba samples it: as a round tube).
+    ("cylinder_quirks", os.path.join(SCENES, "cylinder_quirks.xml"), {}, 2048, REF_SEEDS),
 ]
 
 # Jobs whose film has extra channels (AOVs): the statistics are those of the film's developed

@@ -6,6 +6,7 @@ mod common;
 
 mod aov;
 mod curves;
+mod cylinder_quirks;
 mod foundation;
 mod instances;
 mod lights;

@@ -5,6 +5,7 @@
 mod common;
 
 mod curves;
+mod cylinder_quirks;
 mod degenerate;
 mod emitters;
 mod float_images;
