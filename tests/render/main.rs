@@ -18,6 +18,7 @@ mod parity;
 mod ptracer;
 mod refs_selfcheck;
 mod robustness;
+mod sdfgrid;
 mod textures;
 mod transform_quirks;
 mod wrappers;

@@ -20,6 +20,7 @@ mod plugins;
 mod projector;
 mod ptracer;
 mod rotate_axis;
+mod sdfgrid;
 mod texture;
 mod transform_quirks;
 mod xml_parse;
