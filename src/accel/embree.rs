@@ -6,6 +6,7 @@
 //! `rtcIntersect1` / `rtcOccluded1` are thread-safe (Embree 3 API docs, "rtcIntersect1"), which is
 //! what makes the wrapper `Send + Sync`.
 
+use crate::geometry::sdfgrid::SdfGrid;
 use crate::geometry::Cylinder;
 use crate::geometry::Hit;
 use crate::geometry::Ray;
@@ -44,6 +45,9 @@ pub(crate) enum GeomDesc<'a> {
     /// Mitsuba's `linearcurve` / `bsplinecurve`: Embree's round linear or round B-spline curves
     /// (see [`curve_geometry`]).
     Curves(CurveDesc<'a>),
+    /// Mitsuba's `sdfgrid`: a user geometry of one primitive per occupied voxel, intersected by
+    /// [`SdfGrid::hit`].
+    SdfGrid(std::sync::Arc<SdfGrid>),
     /// Nothing to trace (a degenerate shape); its id stays unused.
     Empty,
 }
@@ -82,6 +86,50 @@ trait UserShape {
     fn bounds(&self) -> (Vec3, Vec3);
     /// The nearest hit with its ray parameter in the open interval (tnear, tfar), if any.
     fn hit(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<UserHit>;
+}
+
+/// A user geometry of several primitives, each with its own bounds and intersection (Embree
+/// passes the primitive's index as `primID`). Every [`UserShape`] is one of a single primitive.
+trait UserPrims {
+    /// The number of primitives.
+    fn count(&self) -> u32;
+    /// Primitive `k`'s world-space bounding box (lower, upper).
+    fn prim_bounds(&self, k: u32) -> (Vec3, Vec3);
+    /// The nearest hit on primitive `k` with its ray parameter in (tnear, tfar), if any.
+    fn prim_hit(&self, k: u32, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<UserHit>;
+}
+
+impl<T: UserShape> UserPrims for T {
+    #[inline]
+    fn count(&self) -> u32 {
+        1
+    }
+    #[inline]
+    fn prim_bounds(&self, _: u32) -> (Vec3, Vec3) {
+        self.bounds()
+    }
+    #[inline(always)]
+    fn prim_hit(&self, _: u32, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<UserHit> {
+        self.hit(o, d, tnear, tfar)
+    }
+}
+
+/// The SDF grid's voxels, each a primitive reported with its index.
+impl UserPrims for SdfGrid {
+    fn count(&self) -> u32 {
+        self.primitive_count()
+    }
+    fn prim_bounds(&self, k: u32) -> (Vec3, Vec3) {
+        self.primitive_bounds(k)
+    }
+    fn prim_hit(&self, k: u32, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<UserHit> {
+        self.hit(k, o, d, tnear, tfar).map(|t| UserHit {
+            t,
+            prim: k,
+            u: 0.0,
+            v: 0.0,
+        })
+    }
 }
 
 /// What the sphere callbacks need, owned by the scene.
@@ -323,12 +371,12 @@ impl UserShape for Cylinder {
     }
 }
 
-unsafe extern "C" fn user_bounds<T: UserShape>(args: *const RTCBoundsFunctionArguments) {
+unsafe extern "C" fn user_bounds<T: UserPrims>(args: *const RTCBoundsFunctionArguments) {
     // SAFETY: Embree passes valid arguments; the user pointer is the scene's boxed `T`.
     unsafe {
         let a = &*args;
         let shape = &*(a.geometryUserPtr as *const T);
-        let (lower, upper) = shape.bounds();
+        let (lower, upper) = shape.prim_bounds(a.primID);
         let b = &mut *a.bounds_o;
         (b.lower_x, b.lower_y, b.lower_z) = (lower.x, lower.y, lower.z);
         (b.upper_x, b.upper_y, b.upper_z) = (upper.x, upper.y, upper.z);
@@ -399,7 +447,7 @@ unsafe fn each_valid_lane(valid: *const i32, base: *mut u32, n: usize, mut f: im
     }
 }
 
-unsafe extern "C" fn user_intersect<T: UserShape>(args: *const RTCIntersectFunctionNArguments) {
+unsafe extern "C" fn user_intersect<T: UserPrims>(args: *const RTCIntersectFunctionNArguments) {
     // SAFETY: Embree passes a ray-hit packet of width N with N valid flags (Embree 3 API,
     // "rtcSetGeometryIntersectFunction"); the user pointer is the scene's boxed `T`.
     unsafe {
@@ -415,7 +463,7 @@ unsafe extern "C" fn user_intersect<T: UserShape>(args: *const RTCIntersectFunct
             let r = &rh.ray;
             let o = Vec3::new(r.org_x, r.org_y, r.org_z);
             let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
-            if let Some(h) = shape.hit(o, d, r.tnear, r.tfar) {
+            if let Some(h) = shape.prim_hit(a.primID, o, d, r.tnear, r.tfar) {
                 rh.ray.tfar = h.t;
                 rh.hit.u = h.u;
                 rh.hit.v = h.v;
@@ -434,12 +482,13 @@ unsafe extern "C" fn user_intersect<T: UserShape>(args: *const RTCIntersectFunct
 /// # Safety
 /// As for `user_intersect`.
 #[inline(never)]
-unsafe fn user_intersect_n<T: UserShape>(a: &RTCIntersectFunctionNArguments, shape: &T) {
+unsafe fn user_intersect_n<T: UserPrims>(a: &RTCIntersectFunctionNArguments, shape: &T) {
     // SAFETY: the caller's contract.
     unsafe {
         each_valid_lane(a.valid, a.rayhit as *mut u32, a.N as usize, |r| {
             // groove reads no Ng, so the callbacks leave it unset.
-            if let Some(h) = shape.hit(r.vec(ORG_X), r.vec(DIR_X), r.get(TNEAR), r.get(TFAR)) {
+            let (o, d) = (r.vec(ORG_X), r.vec(DIR_X));
+            if let Some(h) = shape.prim_hit(a.primID, o, d, r.get(TNEAR), r.get(TFAR)) {
                 r.set(TFAR, h.t.to_bits());
                 let hit = r.hit();
                 hit.set(HIT_U, h.u.to_bits());
@@ -452,7 +501,7 @@ unsafe fn user_intersect_n<T: UserShape>(a: &RTCIntersectFunctionNArguments, sha
     }
 }
 
-unsafe extern "C" fn user_occluded<T: UserShape>(args: *const RTCOccludedFunctionNArguments) {
+unsafe extern "C" fn user_occluded<T: UserPrims>(args: *const RTCOccludedFunctionNArguments) {
     // SAFETY: as in `user_intersect`, with a ray packet of width N.
     unsafe {
         let a = &*args;
@@ -465,7 +514,7 @@ unsafe extern "C" fn user_occluded<T: UserShape>(args: *const RTCOccludedFunctio
             let r = &mut *(a.ray as *mut RTCRay);
             let o = Vec3::new(r.org_x, r.org_y, r.org_z);
             let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
-            if shape.hit(o, d, r.tnear, r.tfar).is_some() {
+            if shape.prim_hit(a.primID, o, d, r.tnear, r.tfar).is_some() {
                 r.tfar = f32::NEG_INFINITY;
             }
             return;
@@ -479,12 +528,18 @@ unsafe extern "C" fn user_occluded<T: UserShape>(args: *const RTCOccludedFunctio
 /// # Safety
 /// As for `user_occluded`.
 #[inline(never)]
-unsafe fn user_occluded_n<T: UserShape>(a: &RTCOccludedFunctionNArguments, shape: &T) {
+unsafe fn user_occluded_n<T: UserPrims>(a: &RTCOccludedFunctionNArguments, shape: &T) {
     // SAFETY: the caller's contract.
     unsafe {
         each_valid_lane(a.valid, a.ray as *mut u32, a.N as usize, |r| {
             if shape
-                .hit(r.vec(ORG_X), r.vec(DIR_X), r.get(TNEAR), r.get(TFAR))
+                .prim_hit(
+                    a.primID,
+                    r.vec(ORG_X),
+                    r.vec(DIR_X),
+                    r.get(TNEAR),
+                    r.get(TFAR),
+                )
                 .is_some()
             {
                 r.set(TFAR, f32::NEG_INFINITY.to_bits());
@@ -493,19 +548,19 @@ unsafe fn user_occluded_n<T: UserShape>(a: &RTCOccludedFunctionNArguments, shape
     }
 }
 
-/// A new user geometry of one primitive intersected by `T`'s callbacks; `shape` must stay at its
-/// address for the life of the scene (the caller keeps it boxed).
+/// A new user geometry of `shape.count()` primitives intersected by `T`'s callbacks; `shape` must
+/// stay at its address for the life of the scene (the caller keeps it boxed).
 ///
 /// # Safety
 /// `device` is a valid Embree device.
-unsafe fn user_geometry<T: UserShape>(device: RTCDevice, shape: &T) -> Option<RTCGeometry> {
+unsafe fn user_geometry<T: UserPrims>(device: RTCDevice, shape: &T) -> Option<RTCGeometry> {
     // SAFETY: plain C calls on a valid device; the user pointer outlives the geometry (above).
     unsafe {
         let geom = rtcNewGeometry(device, RTCGeometryType::USER);
         if geom.is_null() {
             return None;
         }
-        rtcSetGeometryUserPrimitiveCount(geom, 1);
+        rtcSetGeometryUserPrimitiveCount(geom, shape.count());
         rtcSetGeometryUserData(geom, shape as *const T as *mut c_void);
         rtcSetGeometryBoundsFunction(geom, Some(user_bounds::<T>), ptr::null_mut());
         rtcSetGeometryIntersectFunction(geom, Some(user_intersect::<T>));
@@ -624,6 +679,8 @@ pub(crate) struct EmbreeScene {
     _boxes: Vec<Box<BoxData>>,
     #[allow(clippy::vec_box)]
     _cylinders: Vec<Box<Cylinder>>,
+    /// The SDF grids (shared with their shapes; the `Arc` pins each address).
+    _sdfgrids: Vec<std::sync::Arc<SdfGrid>>,
 }
 
 // SAFETY: the scene is committed and never mutated afterwards; Embree documents traversal
@@ -694,6 +751,7 @@ impl EmbreeScene {
                 _spheres: Vec::new(),
                 _boxes: Vec::new(),
                 _cylinders: Vec::new(),
+                _sdfgrids: Vec::new(),
             };
             if scene.is_null() {
                 return Err(this.error_text("rtcNewScene failed"));
@@ -810,6 +868,12 @@ impl EmbreeScene {
                     }
                     GeomDesc::Curves(c) => {
                         curve_geometry(device, c).map_err(|e| this.error_text(e))?
+                    }
+                    GeomDesc::SdfGrid(g) => {
+                        let geom = user_geometry(device, &**g)
+                            .ok_or_else(|| this.error_text("rtcNewGeometry failed"))?;
+                        this._sdfgrids.push(g.clone());
+                        geom
                     }
                 };
                 rtcCommitGeometry(geom);

@@ -60,6 +60,7 @@ impl Accel {
                     to_world: *to_world,
                 },
                 (ShapeKind::Cylinder(c), _) => embree::GeomDesc::Cylinder(c),
+                (ShapeKind::SdfGrid(g), _) => embree::GeomDesc::SdfGrid(g.clone()),
                 (ShapeKind::Curves(c), _) => embree::GeomDesc::Curves(embree::CurveDesc {
                     bspline: c.basis == CurveBasis::BSpline,
                     points: &c.points,

@@ -14,9 +14,11 @@ pub mod obj;
 pub mod ply;
 pub mod ply_attributes;
 pub mod ray;
+pub mod sdfgrid;
 pub mod serialized;
 pub mod shapes;
 pub mod sphere_map;
+pub mod volfile;
 
 pub use cylinder::Cylinder;
 pub use hit::{Hit, NO_INSTANCE};

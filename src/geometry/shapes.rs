@@ -1,7 +1,7 @@
 //! The scene's shapes: triangle meshes (OBJ, PLY and Mitsuba's `cube` mesh, which Embree
 //! intersects as an exact box) and the exact `rectangle`, `disk` and sphere; their surface
-//! interactions and the area / solid-angle sampling used by area emitters. The `cylinder` has its
-//! own file (`cylinder.rs`). Conventions follow
+//! interactions and the area / solid-angle sampling used by area emitters. The `cylinder` and the
+//! `sdfgrid` have their own files (`cylinder.rs`, `sdfgrid.rs`). Conventions follow
 //! Mitsuba 3's shape plugins (`src/shapes/*.cpp`, `src/render/mesh.cpp` in
 //! mitsuba-renderer/mitsuba3).
 
@@ -10,6 +10,7 @@ use super::curves::Curves;
 use super::cylinder::Cylinder;
 use super::interaction::SurfaceInteraction;
 use super::mesh::TriMesh;
+use super::sdfgrid::SdfGrid;
 use super::sphere_map::SphereMap;
 use super::Hit;
 use super::Ray;
@@ -48,6 +49,9 @@ pub enum ShapeKind {
     /// Mitsuba's `linearcurve` / `bsplinecurve` (their own files: [`Curves`]), Embree's round
     /// curves. Never an emitter: it has no area and is never sampled.
     Curves(Curves),
+    /// Mitsuba's `sdfgrid` (its own file: [`SdfGrid`]), an Embree user geometry of one primitive
+    /// per occupied voxel (shared with the accelerator, hence the `Arc`). Never an emitter.
+    SdfGrid(std::sync::Arc<SdfGrid>),
 }
 
 /// Mitsuba's `cube` (`cube.cpp`): the 4 corners of each face of [−1,1]³, in order around the
@@ -474,6 +478,23 @@ impl Shape {
         }
     }
 
+    /// Mitsuba's `sdfgrid` (see [`SdfGrid`]): traced only, no area (the loader refuses an
+    /// emitter on it).
+    pub fn sdfgrid(grid: SdfGrid) -> Shape {
+        Shape {
+            kind: ShapeKind::SdfGrid(std::sync::Arc::new(grid)),
+            flip_normals: false,
+            face_normals: true,
+            area: 0.0,
+            cdf: Vec::new(),
+            to_object: Mat4::IDENTITY,
+            box_to_world: None,
+            attributes: Vec::new(),
+            shading_normal: None,
+            scene_index: 0,
+        }
+    }
+
     /// Surface area.
     pub fn area(&self) -> f32 {
         self.area
@@ -503,6 +524,7 @@ impl Shape {
             }
             ShapeKind::Cylinder(c) => c.bounds(),
             ShapeKind::Curves(c) => c.bounds(),
+            ShapeKind::SdfGrid(g) => g.bounds(),
         }
     }
 
@@ -606,6 +628,21 @@ impl Shape {
                 let s = c.surface(hit.prim, hit.u, p);
                 analytic_interaction(p, s.n, (s.uv, s.dpdu, s.dpdv), shape_index, ray, hit)
             }
+            ShapeKind::SdfGrid(g) => {
+                // The ray point itself, no uv and no partials, as Mitsuba.
+                let p = ray.at(hit.t);
+                let (ng, ns) = g.normals(p);
+                let mut si = analytic_interaction(
+                    p,
+                    ng,
+                    (Vec2::ZERO, Vec3::ZERO, Vec3::ZERO),
+                    shape_index,
+                    ray,
+                    hit,
+                );
+                si.sh = Frame::from_normal(ns);
+                si
+            }
         }
     }
 
@@ -615,8 +652,8 @@ impl Shape {
         let sign = if self.flip_normals { -1.0 } else { 1.0 };
         let pdf = 1.0 / self.area;
         match &self.kind {
-            // An empty mesh, and curves (never emitters): nothing to sample.
-            ShapeKind::Curves(_) => PositionSample {
+            // An empty mesh, curves and SDF grids (never emitters): nothing to sample.
+            ShapeKind::Curves(_) | ShapeKind::SdfGrid(_) => PositionSample {
                 p: Vec3::ZERO,
                 n: Vec3::Z,
                 uv: Vec2::ZERO,

@@ -64,7 +64,7 @@ fn unit_angle_z(v: Vec3) -> f32 {
 /// The symmetric factor `S` of the polar decomposition `A = Q·S` of `m`'s linear part (`Q` a
 /// rotation: when `A` mirrors, `Q` and `S` are both negated, as drjit's `transform_decompose`).
 /// Newton's iteration `Q ← (γQ + Q⁻ᵀ/γ)/2`, γ = (‖Q⁻ᵀ‖/‖Q‖)^½ (Higham 1986), 25 steps as Mitsuba.
-fn polar_symmetric(m: &Mat4) -> DMat3 {
+pub(crate) fn polar_symmetric(m: &Mat4) -> DMat3 {
     let a = Mat3::from_mat4(*m).as_dmat3();
     let mut q = a;
     for _ in 0..25 {

@@ -1,4 +1,4 @@
-//! `<shape>`s (`obj`, `ply`, `serialized`, `rectangle`, `cube`, `disk`, `sphere`, `cylinder`,
+//! `<shape>`s (`obj`, `ply`, `serialized`, `rectangle`, `cube`, `disk`, `sphere`, `cylinder`, `sdfgrid`,
 //! `linearcurve`, `bsplinecurve`; `shapegroup` and `instance` are in `shapegroup.rs`), the `area`
 //! emitter a shape carries, and the default materials of shapes without a BSDF.
 
@@ -8,6 +8,7 @@ use crate::emitter::area::AreaLight;
 use crate::emitter::Emitter;
 use crate::error::{Error, Result};
 use crate::geometry::curves::{self, CurveBasis};
+use crate::geometry::sdfgrid::SdfGrid;
 use crate::geometry::sphere_map::sphere_warnings;
 use crate::geometry::{obj, ply, serialized, Cylinder, Shape, ShapeKind};
 use crate::material::{MatId, MaterialNode};
@@ -86,6 +87,20 @@ impl<'d> Builder<'d> {
                 |name| self.doc.resolve_file(name, p.loc()),
                 &self.budget,
             );
+        }
+        if p.plugin_type() == "sdfgrid" {
+            // No `flip_normals` either (Mitsuba 3.9.1 reports it unreferenced).
+            let (grid, warnings) = SdfGrid::from_props(
+                p,
+                &to_world,
+                quirk_inverse.as_ref(),
+                |name| self.doc.resolve_file(name, p.loc()),
+                &self.budget,
+            )?;
+            for w in warnings {
+                self.warnings.push(format!("{}: sdfgrid: {w}", p.loc()));
+            }
+            return Ok(Shape::sdfgrid(grid));
         }
         let flip = p.bool("flip_normals", false)?;
         Ok(match p.plugin_type() {
@@ -175,7 +190,17 @@ impl<'d> Builder<'d> {
                     .map_err(|e| Error::scene(p.loc(), e.to_string()))?
             }
             // Mitsuba's open cylinder; its parameters are read in its own file.
-            "cylinder" => Cylinder::from_props(p, &to_world, flip)?,
+            "cylinder" => {
+                let c = Cylinder::from_props(p, &to_world, quirk_inverse.as_ref())?;
+                for w in c.warnings() {
+                    self.warnings.push(format!(
+                        "{}: cylinder: {w} (as Mitsuba 3.9.1, it is traced exactly but sampled \
+                         as a round tube of radius |to_world·(1,0,0)|)",
+                        p.loc()
+                    ));
+                }
+                Shape::cylinder(c, flip)
+            }
             t => {
                 return Err(unknown(
                     p.loc(),
@@ -194,6 +219,7 @@ impl<'d> Builder<'d> {
                         "instance",
                         "linearcurve",
                         "bsplinecurve",
+                        "sdfgrid",
                     ],
                 ))
             }
@@ -235,6 +261,13 @@ impl<'d> Builder<'d> {
             None => None,
         };
         let emitter = match p.one_child("emitter")? {
+            Some(c) if matches!(shape.kind, ShapeKind::SdfGrid(_)) => {
+                return Err(Error::scene(
+                    &c.loc,
+                    "an 'sdfgrid' cannot carry an area emitter: Mitsuba 3.9.1 has no position \
+                     sampling on it (its documentation: \"It cannot be used as an area emitter\")",
+                ));
+            }
             Some(c) if matches!(shape.kind, ShapeKind::Curves(_)) => {
                 return Err(Error::scene(
                     &c.loc,

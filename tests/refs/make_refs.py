@@ -134,6 +134,12 @@ JOBS = [
     ("media_sphere", os.path.join(SCENES, "media_sphere.xml"), {}, 2048, REF_SEEDS),
     ("media_fog", os.path.join(SCENES, "media_fog.xml"), {}, 2048, REF_SEEDS),
     ("media_glass", os.path.join(SCENES, "media_glass.xml"), {}, 2048, REF_SEEDS),
+    # The cylinder under a non-uniform scale, a shear and a non-unit <rotate>, lit by an elliptic
+    # cylinder light (sampled as Mitsuba samples it: as a round tube).
+    ("cylinder_quirks", os.path.join(SCENES, "cylinder_quirks.xml"), {}, 2048, REF_SEEDS),
+    # sdfgrid on the generated grids of tests/data/sdfgrid (make_sdfgrids.py): an instanced
+    # torus with smooth normals and an ellipsoid with analytic ones.
+    ("sdfgrid", os.path.join(SCENES, "sdfgrid.xml"), {}, 2048, REF_SEEDS),
 ]
 
 # Jobs whose film has extra channels (AOVs): the statistics are those of the film's developed

@@ -6,6 +6,7 @@ mod common;
 
 mod aov;
 mod curves;
+mod cylinder_quirks;
 mod foundation;
 mod instances;
 mod lights;
@@ -20,6 +21,7 @@ mod ptracer_agree;
 mod ptracer_sweep;
 mod refs_selfcheck;
 mod robustness;
+mod sdfgrid;
 mod textures;
 mod transform_quirks;
 mod wrappers;

@@ -14,7 +14,7 @@ use glam::Vec3;
 use groove::scene::xml::transform::rotate_raw;
 
 /// `<matrix>` of Mitsuba's `<rotate>` matrix for `axis` and `angle` (degrees), row-major.
-fn rotate_as_matrix(axis: Vec3, angle: f32) -> String {
+pub(crate) fn rotate_as_matrix(axis: Vec3, angle: f32) -> String {
     let m = rotate_raw(axis, angle);
     let mut v = Vec::new();
     for row in 0..3 {

@@ -5,6 +5,7 @@
 mod common;
 
 mod curves;
+mod cylinder_quirks;
 mod degenerate;
 mod emitters;
 mod float_images;
@@ -20,6 +21,7 @@ mod plugins;
 mod projector;
 mod ptracer;
 mod rotate_axis;
+mod sdfgrid;
 mod texture;
 mod transform_quirks;
 mod xml_parse;

@@ -895,8 +895,8 @@ fn orthographic_thinlens_and_cylinder_bad_parameters() {
         (r#"<shape type="cylinder"><float name="height" value="2"/></shape>"#, "unreferenced property 'height'"),
         (r#"<shape type="cylinder"><float name="radius" value="0"/></shape>"#, "radius must be finite and non-zero"),
         (r#"<shape type="cylinder"><point name="p0" x="0" y="0" z="1"/></shape>"#, "must be finite and distinct"),
-        (r#"<shape type="cylinder"><transform name="to_world"><scale x="2"/></transform></shape>"#, "non-uniform scale across the cylinder's axis"),
-        (r#"<shape type="capsule"/>"#, "unknown shape plugin 'capsule' (groove supports: obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance, linearcurve, bsplinecurve)"),
+        (r#"<shape type="cylinder"><transform name="to_world"><scale x="0"/></transform></shape>"#, "to_world is degenerate"),
+        (r#"<shape type="capsule"/>"#, "unknown shape plugin 'capsule' (groove supports: obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance, linearcurve, bsplinecurve, sdfgrid)"),
     ] {
         let err = sensor_shape_err(&sensor, shape);
         assert!(err.starts_with("mem.xml:3:"), "{shape}: {err}");

@@ -18,10 +18,11 @@
 //! space of that inverse (which moves the disk that rays meet off the one that is sampled) and
 //! takes its normal from it; a non-similar `sphere` evaluates its uv map through it; an
 //! `instance` maps normals by it and takes rays to group space by its transpose; `spot` and
-//! `projector` take directions to their frame by it. It warns at every `<rotate>` whose axis is
-//! not unit length ([`non_unit_rotations`]). Not matched: the `cylinder` (groove refuses the
-//! resulting non-uniform scale). A transform whose rotations all have unit axes carries no
-//! separate inverse transpose: the true one is used, bit for bit as before.
+//! `projector` take directions to their frame by it; a `cylinder` is traced in the object space
+//! of that inverse and samples normals by the stored inverse transpose. It warns at every
+//! `<rotate>` whose axis is not unit length ([`non_unit_rotations`]). A transform whose
+//! rotations all have unit axes carries no separate inverse transpose: the true one is used, bit
+//! for bit as before.
 
 use super::ir::Node;
 use super::props::{parse_f32, parse_list, vec3_attr, xyz_of};
@@ -141,9 +142,9 @@ pub fn non_unit_rotations(root: &Node, out: &mut Vec<String>) {
                 out.push(format!(
                     "{}: <rotate> axis ({}, {}, {}) has length {len}, not 1: as in Mitsuba 3.9.1 \
                      it is used unnormalised, so the transform also scales along the axis, and \
-                     normals (and a disk's or an instance's object space) follow that matrix \
-                     instead of its inverse transpose (groove matches Mitsuba, except for a \
-                     cylinder); normalise the axis for a pure rotation",
+                     normals (and a disk's, a cylinder's or an instance's object space) follow \
+                     that matrix instead of its inverse transpose (groove matches Mitsuba); \
+                     normalise the axis for a pure rotation",
                     root.loc, a.x, a.y, a.z
                 ));
             }
