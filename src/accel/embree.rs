@@ -415,7 +415,8 @@ unsafe extern "C" fn user_intersect<T: UserShape>(args: *const RTCIntersectFunct
             let r = &rh.ray;
             let o = Vec3::new(r.org_x, r.org_y, r.org_z);
             let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
-            if let Some(h) = shape.hit(o, d, r.tnear, r.tfar) {
+            let tfar = tie_tfar(r.tfar, a.geomID, rh.hit.geomID, rh.hit.instID[0], a);
+            if let Some(h) = shape.hit(o, d, r.tnear, tfar) {
                 rh.ray.tfar = h.t;
                 rh.hit.u = h.u;
                 rh.hit.v = h.v;
@@ -429,6 +430,31 @@ unsafe extern "C" fn user_intersect<T: UserShape>(args: *const RTCIntersectFunct
     }
 }
 
+/// The far end of the open interval a user geometry's callback accepts: the ray's `tfar`, or
+/// just past it when the current hit (shape `hit_geom`, seen through no instance) has a higher
+/// index than this shape (`geom`, also not instanced), so that of two shapes hit at the same t
+/// the lower index wins whatever order Embree tests them in, as in tier A (`brute.rs`).
+///
+/// # Safety
+/// `a.context` is the valid context Embree passes.
+#[inline(always)]
+unsafe fn tie_tfar(
+    tfar: f32,
+    geom: u32,
+    hit_geom: u32,
+    hit_inst: u32,
+    a: &RTCIntersectFunctionNArguments,
+) -> f32 {
+    // SAFETY: the caller's contract.
+    let inst = unsafe { (*a.context).instID[0] };
+    let flat = inst == u32::MAX && hit_inst == u32::MAX;
+    if flat && hit_geom != u32::MAX && geom < hit_geom {
+        tfar.next_up()
+    } else {
+        tfar
+    }
+}
+
 /// [`user_intersect`] of a packet (out of line: the single-ray path stays small).
 ///
 /// # Safety
@@ -439,9 +465,11 @@ unsafe fn user_intersect_n<T: UserShape>(a: &RTCIntersectFunctionNArguments, sha
     unsafe {
         each_valid_lane(a.valid, a.rayhit as *mut u32, a.N as usize, |r| {
             // groove reads no Ng, so the callbacks leave it unset.
-            if let Some(h) = shape.hit(r.vec(ORG_X), r.vec(DIR_X), r.get(TNEAR), r.get(TFAR)) {
+            let hit = r.hit();
+            let (geom, inst) = (hit.get(GEOM_ID).to_bits(), hit.get(INST_ID).to_bits());
+            let tfar = tie_tfar(r.get(TFAR), a.geomID, geom, inst, a);
+            if let Some(h) = shape.hit(r.vec(ORG_X), r.vec(DIR_X), r.get(TNEAR), tfar) {
                 r.set(TFAR, h.t.to_bits());
-                let hit = r.hit();
                 hit.set(HIT_U, h.u.to_bits());
                 hit.set(HIT_V, h.v.to_bits());
                 hit.set(PRIM_ID, h.prim);

@@ -20,5 +20,6 @@ mod projector;
 mod ptracer;
 mod rotate_axis;
 mod texture;
+mod tier_a;
 mod transform_quirks;
 mod xml_parse;
