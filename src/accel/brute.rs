@@ -265,7 +265,7 @@ impl Brute {
         };
         if let Slot::Box(row) = slot {
             let b = &self.boxes[row as usize / W];
-            let to_object = mapped_lanes(b, row as usize % W, &|a: &[f32; W], l| a[l]);
+            let to_object = mapped_lanes(b, row as usize % W, 0.0f32);
             let bh = cube(&ray_lanes(ray), &to_object);
             (hit.prim, hit.u, hit.v) = self.box_triangle(&bh);
         }
@@ -303,32 +303,24 @@ impl Brute {
     /// per lane the smallest t and, on equal t, the lowest shape index (`NONE`: no hit).
     #[inline(always)]
     fn nearest_of_each<L: Lane>(&self, ray: &RayL<L>, like: L, none: i32) -> (L, L::I32) {
-        let splat = |a: &[f32; W], l: usize| like.splat(a[l]);
-        let mut best = (like.splat(f32::INFINITY), like.to_bits().splat(none));
-        let keep = |t: L, m: L::Mask, g: i32, best: &mut (L, L::I32)| {
-            let g = best.1.splat(g);
-            let better = m & (t.lt(best.0) | (t.eq(best.0) & g.lt(best.1)));
-            *best = (
-                L::select(better, t, best.0),
-                L::I32::select(better, g, best.1),
-            );
-        };
+        let gi = like.to_bits();
+        let mut best = (like.splat(f32::INFINITY), gi.splat(none));
         for row in 0..self.rows[0] {
             let s = &self.spheres[row / W];
-            let (c, r) = sphere_lanes(s, row % W, &splat);
+            let (c, r) = sphere_lanes(s, row % W, like);
             let (t, m) = sphere(ray, c, r);
-            keep(t, m, s.geom[row % W], &mut best);
+            keep(&mut best, t, m, gi.splat(s.geom[row % W]));
         }
         for row in 0..self.rows[1] {
             let p = &self.planes[row / W];
             let sq = like.splat(p.square[row % W]).gt(like.splat(0.0));
-            let (t, m) = planar(ray, &mapped_lanes(p, row % W, &splat), sq);
-            keep(t, m, p.geom[row % W], &mut best);
+            let (t, m) = planar(ray, &mapped_lanes(p, row % W, like), sq);
+            keep(&mut best, t, m, gi.splat(p.geom[row % W]));
         }
         for row in 0..self.rows[2] {
             let b = &self.boxes[row / W];
-            let h = cube(ray, &mapped_lanes(b, row % W, &splat));
-            keep(h.t, h.hit, b.geom[row % W], &mut best);
+            let h = cube(ray, &mapped_lanes(b, row % W, like));
+            keep(&mut best, h.t, h.hit, gi.splat(b.geom[row % W]));
         }
         best
     }
@@ -337,11 +329,10 @@ impl Brute {
     #[inline(always)]
     fn any_of_each<L: Lane>(&self, ray: &RayL<L>) -> L::Mask {
         let like = ray.tnear;
-        let splat = |a: &[f32; W], l: usize| like.splat(a[l]);
         // All lanes false (`x < x` fails even for NaN).
         let mut any = like.lt(like);
         for row in 0..self.rows[0] {
-            let (c, r) = sphere_lanes(&self.spheres[row / W], row % W, &splat);
+            let (c, r) = sphere_lanes(&self.spheres[row / W], row % W, like);
             any = any | sphere(ray, c, r).1;
             if any.all() {
                 return any;
@@ -350,14 +341,14 @@ impl Brute {
         for row in 0..self.rows[1] {
             let p = &self.planes[row / W];
             let sq = like.splat(p.square[row % W]).gt(like.splat(0.0));
-            any = any | planar(ray, &mapped_lanes(p, row % W, &splat), sq).1;
+            any = any | planar(ray, &mapped_lanes(p, row % W, like), sq).1;
             if any.all() {
                 return any;
             }
         }
         for row in 0..self.rows[2] {
             let b = &self.boxes[row / W];
-            any = any | cube(ray, &mapped_lanes(b, row % W, &splat)).hit;
+            any = any | cube(ray, &mapped_lanes(b, row % W, like)).hit;
             if any.all() {
                 return any;
             }
@@ -374,30 +365,23 @@ impl Brute {
     #[inline(always)]
     fn nearest_across(&self, avx: Avx2, ray: &Ray) -> (f32, i32) {
         let r = splat_ray(avx, ray);
-        let load = |a: &[f32; W]| avx.load(a);
-        let mut bt = avx.splat(f32::INFINITY);
-        let mut bg = avx.load_i32(&[NONE; W]);
-        let mut keep = |t: F32x8, m: <F32x8 as Lane>::Mask, g: &[i32; W]| {
-            let g = avx.load_i32(g);
-            let better = m & (t.lt(bt) | (t.eq(bt) & g.lt(bg)));
-            bt = F32x8::select(better, t, bt);
-            bg = LaneI32::select(better, g, bg);
-        };
+        let load = Load(avx);
+        let mut best = (avx.splat(f32::INFINITY), avx.load_i32(&[NONE; W]));
         for s in &self.spheres {
-            let c = V3::new(load(&s.c[0]), load(&s.c[1]), load(&s.c[2]));
-            let (t, m) = sphere(&r, c, load(&s.r));
-            keep(t, m, &s.geom);
+            let c = V3::new(load.f(&s.c[0]), load.f(&s.c[1]), load.f(&s.c[2]));
+            let (t, m) = sphere(&r, c, load.f(&s.r));
+            keep(&mut best, t, m, avx.load_i32(&s.geom));
         }
         for p in &self.planes {
-            let sq = load(&p.square).gt(avx.splat(0.0));
+            let sq = load.f(&p.square).gt(avx.splat(0.0));
             let (t, m) = planar(&r, &mapped_chunk(avx, p), sq);
-            keep(t, m, &p.geom);
+            keep(&mut best, t, m, avx.load_i32(&p.geom));
         }
         for b in &self.boxes {
             let h = cube(&r, &mapped_chunk(avx, b));
-            keep(h.t, h.hit, &b.geom);
+            keep(&mut best, h.t, h.hit, avx.load_i32(&b.geom));
         }
-        let (ts, gs) = (bt.to_array(), bg.to_array());
+        let (ts, gs) = (best.0.to_array(), best.1.to_array());
         (0..W).fold((f32::INFINITY, NONE), |(t, g), i| {
             if ts[i] < t || (ts[i] == t && gs[i] < g) {
                 (ts[i], gs[i])
@@ -411,15 +395,15 @@ impl Brute {
     #[inline(always)]
     fn any_across(&self, avx: Avx2, ray: &Ray) -> bool {
         let r = splat_ray(avx, ray);
-        let load = |a: &[f32; W]| avx.load(a);
+        let load = Load(avx);
         for s in &self.spheres {
-            let c = V3::new(load(&s.c[0]), load(&s.c[1]), load(&s.c[2]));
-            if sphere(&r, c, load(&s.r)).1.any() {
+            let c = V3::new(load.f(&s.c[0]), load.f(&s.c[1]), load.f(&s.c[2]));
+            if sphere(&r, c, load.f(&s.r)).1.any() {
                 return true;
             }
         }
         for p in &self.planes {
-            let sq = load(&p.square).gt(avx.splat(0.0));
+            let sq = load.f(&p.square).gt(avx.splat(0.0));
             if planar(&r, &mapped_chunk(avx, p), sq).1.any() {
                 return true;
             }
@@ -445,10 +429,9 @@ fn ray_lanes(ray: &Ray) -> RayL<f32> {
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn splat_ray(avx: Avx2, ray: &Ray) -> RayL<F32x8> {
-    let v = |v: Vec3| V3::new(avx.splat(v.x), avx.splat(v.y), avx.splat(v.z));
     RayL {
-        o: v(ray.o),
-        d: v(ray.d),
+        o: V3::new(avx.splat(ray.o.x), avx.splat(ray.o.y), avx.splat(ray.o.z)),
+        d: V3::new(avx.splat(ray.d.x), avx.splat(ray.d.y), avx.splat(ray.d.z)),
         tnear: avx.splat(ray.tmin),
         tfar: avx.splat(ray.tmax),
     }
@@ -458,53 +441,88 @@ fn splat_ray(avx: Avx2, ray: &Ray) -> RayL<F32x8> {
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn packet(avx: Avx2, rays: &[Ray]) -> RayL<F32x8> {
-    let lane = |f: &dyn Fn(&Ray) -> f32, pad: f32| {
-        avx.load(&std::array::from_fn(|i| rays.get(i).map_or(pad, f)))
-    };
+    let mut a = [[0.0f32; W]; 8];
+    a[5] = [1.0; W];
+    a[6] = [f32::NAN; W];
+    a[7] = [f32::NAN; W];
+    for (i, r) in rays.iter().take(W).enumerate() {
+        for (k, x) in [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.tmin, r.tmax]
+            .into_iter()
+            .enumerate()
+        {
+            a[k][i] = x;
+        }
+    }
     RayL {
-        o: V3::new(
-            lane(&|r| r.o.x, 0.0),
-            lane(&|r| r.o.y, 0.0),
-            lane(&|r| r.o.z, 0.0),
-        ),
-        d: V3::new(
-            lane(&|r| r.d.x, 0.0),
-            lane(&|r| r.d.y, 0.0),
-            lane(&|r| r.d.z, 1.0),
-        ),
-        tnear: lane(&|r| r.tmin, f32::NAN),
-        tfar: lane(&|r| r.tmax, f32::NAN),
+        o: V3::new(avx.load(&a[0]), avx.load(&a[1]), avx.load(&a[2])),
+        d: V3::new(avx.load(&a[3]), avx.load(&a[4]), avx.load(&a[5])),
+        tnear: avx.load(&a[6]),
+        tfar: avx.load(&a[7]),
     }
 }
 
-/// Row `l` of a sphere chunk, made lanes by `get`.
+/// Row `l` of a sphere chunk, splat to the width of `like`.
 #[inline(always)]
-fn sphere_lanes<L: Lane>(
-    s: &Spheres,
-    l: usize,
-    get: &impl Fn(&[f32; W], usize) -> L,
-) -> (V3<L>, L) {
+fn sphere_lanes<L: Lane>(s: &Spheres, l: usize, like: L) -> (V3<L>, L) {
     (
-        V3::new(get(&s.c[0], l), get(&s.c[1], l), get(&s.c[2], l)),
-        get(&s.r, l),
+        V3::new(
+            like.splat(s.c[0][l]),
+            like.splat(s.c[1][l]),
+            like.splat(s.c[2][l]),
+        ),
+        like.splat(s.r[l]),
     )
 }
 
-/// Row `l` of a mapped chunk's world-to-object map, made lanes by `get`.
+/// Row `l` of a mapped chunk's world-to-object map, splat to the width of `like`.
 #[inline(always)]
-fn mapped_lanes<L: Lane>(p: &Mapped, l: usize, get: &impl Fn(&[f32; W], usize) -> L) -> Affine<L> {
-    let col = |k: usize| {
-        V3::new(
-            get(&p.m[3 * k], l),
-            get(&p.m[3 * k + 1], l),
-            get(&p.m[3 * k + 2], l),
-        )
-    };
+fn mapped_lanes<L: Lane>(p: &Mapped, l: usize, like: L) -> Affine<L> {
+    let m = &p.m;
     Affine {
-        x: col(0),
-        y: col(1),
-        z: col(2),
-        w: col(3),
+        x: V3::new(
+            like.splat(m[0][l]),
+            like.splat(m[1][l]),
+            like.splat(m[2][l]),
+        ),
+        y: V3::new(
+            like.splat(m[3][l]),
+            like.splat(m[4][l]),
+            like.splat(m[5][l]),
+        ),
+        z: V3::new(
+            like.splat(m[6][l]),
+            like.splat(m[7][l]),
+            like.splat(m[8][l]),
+        ),
+        w: V3::new(
+            like.splat(m[9][l]),
+            like.splat(m[10][l]),
+            like.splat(m[11][l]),
+        ),
+    }
+}
+
+/// Keeps, per lane, the hit (t, shape index `g`) of mask `m` when it comes before `best`: a
+/// smaller t, or the same t and a lower index.
+#[inline(always)]
+fn keep<L: Lane>(best: &mut (L, L::I32), t: L, m: L::Mask, g: L::I32) {
+    let better = m & (t.lt(best.0) | (t.eq(best.0) & g.lt(best.1)));
+    *best = (
+        L::select(better, t, best.0),
+        L::I32::select(better, g, best.1),
+    );
+}
+
+/// 8-wide loads (a named helper: closures in `Avx2::run` bodies are not always inlined).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct Load(Avx2);
+
+#[cfg(target_arch = "x86_64")]
+impl Load {
+    #[inline(always)]
+    fn f(self, a: &[f32; W]) -> F32x8 {
+        self.0.load(a)
     }
 }
 
@@ -512,18 +530,12 @@ fn mapped_lanes<L: Lane>(p: &Mapped, l: usize, get: &impl Fn(&[f32; W], usize) -
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn mapped_chunk(avx: Avx2, p: &Mapped) -> Affine<F32x8> {
-    let col = |k: usize| {
-        V3::new(
-            avx.load(&p.m[3 * k]),
-            avx.load(&p.m[3 * k + 1]),
-            avx.load(&p.m[3 * k + 2]),
-        )
-    };
+    let m = &p.m;
     Affine {
-        x: col(0),
-        y: col(1),
-        z: col(2),
-        w: col(3),
+        x: V3::new(avx.load(&m[0]), avx.load(&m[1]), avx.load(&m[2])),
+        y: V3::new(avx.load(&m[3]), avx.load(&m[4]), avx.load(&m[5])),
+        z: V3::new(avx.load(&m[6]), avx.load(&m[7]), avx.load(&m[8])),
+        w: V3::new(avx.load(&m[9]), avx.load(&m[10]), avx.load(&m[11])),
     }
 }
 

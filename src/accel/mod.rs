@@ -23,6 +23,12 @@ use std::ops::Range;
 /// crossover of the replay throughputs measured in `docs/bench/README.md` ("Tier A").
 pub const BRUTE_MAX_SHAPES: usize = 16;
 
+/// The number of analytic primitives tier A would trace in `shapes`, or `None` when a shape
+/// needs Embree (a triangle mesh, cylinder or curves).
+pub fn analytic_primitives(shapes: &[Shape]) -> Option<usize> {
+    brute::analytic_count(shapes)
+}
+
 /// Which intersection tier a scene uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Tier {
