@@ -448,8 +448,9 @@ unsafe fn tie_tfar(
     // SAFETY: the caller's contract.
     let inst = unsafe { (*a.context).instID[0] };
     let flat = inst == u32::MAX && hit_inst == u32::MAX;
-    if flat && hit_geom != u32::MAX && geom < hit_geom {
-        tfar.next_up()
+    if flat && hit_geom != u32::MAX && geom < hit_geom && (0.0..f32::INFINITY).contains(&tfar) {
+        // The next float up (a hit's t is finite and not negative).
+        f32::from_bits(tfar.to_bits() + 1)
     } else {
         tfar
     }

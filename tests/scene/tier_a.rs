@@ -193,10 +193,10 @@ fn rays(loaded: &Loaded, embree: &Accel, seed: u64) -> Vec<Ray> {
                 let mut r = base;
                 match rng.next_u32() % 6 {
                     0 => r.tmax = h.t,
-                    1 => r.tmax = h.t.next_down(),
-                    2 => r.tmax = h.t.next_up(),
+                    1 => r.tmax = f32::from_bits(h.t.to_bits() - 1),
+                    2 => r.tmax = f32::from_bits(h.t.to_bits() + 1),
                     3 => r.tmin = h.t,
-                    4 => r.tmin = h.t.next_down(),
+                    4 => r.tmin = f32::from_bits(h.t.to_bits() - 1),
                     _ => r.tmax = h.t * 0.5,
                 }
                 r
@@ -304,7 +304,7 @@ fn classify(r: &Ray, want: &Option<Hit>, got: &Option<Hit>) -> Diff {
         _ if bits(want) == bits(got) => Diff::Same,
         (Some(w), Some(g)) if w.t.to_bits() == g.t.to_bits() && w.geom != g.geom => Diff::Tie,
         (w, Some(g))
-            if w.is_none_or(|w| w.t > g.t)
+            if !w.is_some_and(|w| w.t <= g.t)
                 && (ulps(g.t, r.tmin) <= 4 || ulps(g.t, r.tmax) <= 4) =>
         {
             Diff::Cut
