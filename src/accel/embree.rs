@@ -463,7 +463,8 @@ unsafe extern "C" fn user_intersect<T: UserPrims>(args: *const RTCIntersectFunct
             let r = &rh.ray;
             let o = Vec3::new(r.org_x, r.org_y, r.org_z);
             let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
-            if let Some(h) = shape.prim_hit(a.primID, o, d, r.tnear, r.tfar) {
+            let tfar = tie_tfar(r.tfar, a.geomID, rh.hit.geomID, rh.hit.instID[0], a);
+            if let Some(h) = shape.prim_hit(a.primID, o, d, r.tnear, tfar) {
                 rh.ray.tfar = h.t;
                 rh.hit.u = h.u;
                 rh.hit.v = h.v;
@@ -477,6 +478,32 @@ unsafe extern "C" fn user_intersect<T: UserPrims>(args: *const RTCIntersectFunct
     }
 }
 
+/// The far end of the open interval a user geometry's callback accepts: the ray's `tfar`, or
+/// just past it when the current hit (shape `hit_geom`, seen through no instance) has a higher
+/// index than this shape (`geom`, also not instanced), so that of two shapes hit at the same t
+/// the lower index wins whatever order Embree tests them in, as in tier A (`brute.rs`).
+///
+/// # Safety
+/// `a.context` is the valid context Embree passes.
+#[inline(always)]
+unsafe fn tie_tfar(
+    tfar: f32,
+    geom: u32,
+    hit_geom: u32,
+    hit_inst: u32,
+    a: &RTCIntersectFunctionNArguments,
+) -> f32 {
+    // SAFETY: the caller's contract.
+    let inst = unsafe { (*a.context).instID[0] };
+    let flat = inst == u32::MAX && hit_inst == u32::MAX;
+    if flat && hit_geom != u32::MAX && geom < hit_geom && (0.0..f32::INFINITY).contains(&tfar) {
+        // The next float up (a hit's t is finite and not negative).
+        f32::from_bits(tfar.to_bits() + 1)
+    } else {
+        tfar
+    }
+}
+
 /// [`user_intersect`] of a packet (out of line: the single-ray path stays small).
 ///
 /// # Safety
@@ -487,10 +514,12 @@ unsafe fn user_intersect_n<T: UserPrims>(a: &RTCIntersectFunctionNArguments, sha
     unsafe {
         each_valid_lane(a.valid, a.rayhit as *mut u32, a.N as usize, |r| {
             // groove reads no Ng, so the callbacks leave it unset.
+            let hit = r.hit();
+            let (geom, inst) = (hit.get(GEOM_ID).to_bits(), hit.get(INST_ID).to_bits());
+            let tfar = tie_tfar(r.get(TFAR), a.geomID, geom, inst, a);
             let (o, d) = (r.vec(ORG_X), r.vec(DIR_X));
-            if let Some(h) = shape.prim_hit(a.primID, o, d, r.get(TNEAR), r.get(TFAR)) {
+            if let Some(h) = shape.prim_hit(a.primID, o, d, r.get(TNEAR), tfar) {
                 r.set(TFAR, h.t.to_bits());
-                let hit = r.hit();
                 hit.set(HIT_U, h.u.to_bits());
                 hit.set(HIT_V, h.v.to_bits());
                 hit.set(PRIM_ID, h.prim);

@@ -1,5 +1,13 @@
-//! Ray queries against the scene's shapes, backed by Embree 3 (`embree.rs` holds all FFI).
+//! Ray queries against the scene's shapes, in one of two tiers (issue 16 item 3), chosen per
+//! scene by [`Accel::build_instanced`]:
+//! - **Embree** (`embree.rs` holds all FFI): a BVH over triangles, curves, instances and the
+//!   analytic shapes as user geometries;
+//! - **tier A** (`brute.rs`, kernels in `analytic.rs`): scenes of at most [`BRUTE_MAX_SHAPES`]
+//!   spheres, disks, rectangles and boxes and nothing else, intersected by brute force 8 lanes
+//!   at a time. Both tiers report the same [`Hit`] bit for bit (`tests/scene/tier_a.rs`).
 
+mod analytic;
+mod brute;
 #[cfg(test)]
 mod curve_tests;
 mod embree;
@@ -11,9 +19,54 @@ use crate::geometry::shapes::{Shape, ShapeKind, CUBE_FACES};
 use crate::geometry::{Hit, Instance, Ray};
 use std::ops::Range;
 
+/// Scenes of at most this many analytic primitives (and nothing else) take tier A: the
+/// crossover of the replay throughputs measured in `docs/bench/README.md` ("Tier A").
+pub const BRUTE_MAX_SHAPES: usize = 16;
+
+/// The number of analytic primitives tier A would trace in `shapes`, or `None` when a shape
+/// needs Embree (a triangle mesh, cylinder or curves).
+pub fn analytic_primitives(shapes: &[Shape]) -> Option<usize> {
+    brute::analytic_count(shapes)
+}
+
+/// Which intersection tier a scene uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tier {
+    /// Tier A when the scene qualifies (only spheres, disks, rectangles and boxes, at most
+    /// [`BRUTE_MAX_SHAPES`], no instances), else Embree.
+    Auto,
+    /// Embree for every scene.
+    Embree,
+    /// Tier A, whatever the count; an error for a scene it cannot trace.
+    Brute,
+}
+
+impl Tier {
+    /// The environment variable that forces a tier for tests and benches: `auto`, `embree` or
+    /// `brute` (unset: `auto`).
+    pub const ENV: &'static str = "GROOVE_TIER";
+
+    /// The tier [`Self::ENV`] asks for.
+    pub fn from_env() -> Result<Tier> {
+        match std::env::var(Self::ENV) {
+            Err(std::env::VarError::NotPresent) => Ok(Tier::Auto),
+            Ok(v) if v == "auto" => Ok(Tier::Auto),
+            Ok(v) if v == "embree" => Ok(Tier::Embree),
+            Ok(v) if v == "brute" => Ok(Tier::Brute),
+            Ok(v) => Err(Error::Native(format!(
+                "{}={v}: expected auto, embree or brute",
+                Self::ENV
+            ))),
+            Err(e) => Err(Error::Native(format!("{}: {e}", Self::ENV))),
+        }
+    }
+}
+
 /// The acceleration structure over a scene's shapes. `Send + Sync`: queries run from any thread.
 pub struct Accel {
-    scene: embree::EmbreeScene,
+    /// Tier A's tables, when the scene takes tier A (then `scene` is `None`).
+    brute: Option<brute::Brute>,
+    scene: Option<embree::EmbreeScene>,
     /// Embree id of instance 0 in the top-level scene (the number of shapes).
     inst_base: u32,
     /// Per instance: the shape index of its group's first member.
@@ -26,12 +79,63 @@ impl Accel {
         Accel::build_instanced(shapes, &[], &[])
     }
 
+    /// [`Self::build_tiered`] with the tier of [`Tier::from_env`].
+    pub fn build_instanced(
+        shapes: &[Shape],
+        groups: &[Range<u32>],
+        instances: &[Instance],
+    ) -> Result<Accel> {
+        Accel::build_tiered(shapes, groups, instances, Tier::from_env()?)
+    }
+
+    /// The tier this structure traces with ([`Tier::Embree`] or [`Tier::Brute`]).
+    pub fn tier(&self) -> Tier {
+        if self.brute.is_some() {
+            Tier::Brute
+        } else {
+            Tier::Embree
+        }
+    }
+
+    /// Builds the structure of `tier` (see [`Self::build_embree`] for the arguments).
+    pub fn build_tiered(
+        shapes: &[Shape],
+        groups: &[Range<u32>],
+        instances: &[Instance],
+        tier: Tier,
+    ) -> Result<Accel> {
+        let flat = groups.is_empty() && instances.is_empty();
+        let count = brute::analytic_count(shapes).filter(|_| flat);
+        let brute = match (tier, count) {
+            (Tier::Embree, _) => None,
+            (Tier::Auto, Some(n)) if n <= BRUTE_MAX_SHAPES => brute::Brute::new(shapes),
+            (Tier::Auto, _) => None,
+            (Tier::Brute, Some(_)) => brute::Brute::new(shapes),
+            (Tier::Brute, None) => {
+                return Err(Error::Native(
+                    "tier A (brute force) traces only spheres, disks, rectangles and cubes, \
+                     without instances: this scene needs Embree"
+                        .into(),
+                ))
+            }
+        };
+        match brute {
+            Some(b) => Ok(Accel {
+                brute: Some(b),
+                scene: None,
+                inst_base: 0,
+                first_member: Vec::new(),
+            }),
+            None => Accel::build_embree(shapes, groups, instances),
+        }
+    }
+
     /// Builds the BVH of a scene with shape groups and instances. `groups[g]` is the range of
     /// shape indices that are the members of group `g` (in group space, not traced by
     /// themselves); every other shape is traced as it is. A hit on member `j` of the group of
     /// instance `k` is reported as `Hit::geom == j`, `Hit::inst == k`; other hits have
     /// `Hit::inst == NO_INSTANCE`. Each group's geometry is built once.
-    pub fn build_instanced(
+    pub fn build_embree(
         shapes: &[Shape],
         groups: &[Range<u32>],
         instances: &[Instance],
@@ -94,7 +198,8 @@ impl Accel {
         let scene = embree::EmbreeScene::build_instanced(&descs, &group_descs, &inst_descs)
             .map_err(Error::Native)?;
         Ok(Accel {
-            scene,
+            brute: None,
+            scene: Some(scene),
             inst_base: shapes.len() as u32,
             first_member: instances
                 .iter()
@@ -106,7 +211,13 @@ impl Accel {
     /// The nearest hit with `t` in `[ray.tmin, ray.tmax]`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let mut hit = self.scene.intersect(ray.o, ray.d, ray.tmin, ray.tmax)?;
+        if let Some(b) = &self.brute {
+            return b.intersect(ray);
+        }
+        let mut hit = self
+            .scene
+            .as_ref()?
+            .intersect(ray.o, ray.d, ray.tmin, ray.tmax)?;
         if hit.inst != NO_INSTANCE {
             // Embree's instance id and the group's geometry id, as scene indices.
             let k = hit.inst.wrapping_sub(self.inst_base);
@@ -120,7 +231,14 @@ impl Accel {
     /// `rays[i]`; `coherent` when the rays start together and point alike, as camera rays of
     /// one pixel do). `groove bench`'s packet ceiling; the stream renderer's trace.
     pub fn intersect8(&self, rays: &[Ray], coherent: bool, out: &mut [Option<Hit>; 8]) {
-        self.scene.intersect8(rays, coherent, out);
+        if let Some(b) = &self.brute {
+            return b.intersect8(rays, out);
+        }
+        let Some(scene) = &self.scene else {
+            *out = [None; 8];
+            return;
+        };
+        scene.intersect8(rays, coherent, out);
         for hit in out.iter_mut() {
             let Some(h) = hit else { continue };
             if h.inst != NO_INSTANCE {
@@ -138,13 +256,21 @@ impl Accel {
 
     /// [`Self::occluded`] of up to 8 rays traced as one Embree packet: bit `i` for `rays[i]`.
     pub fn occluded8(&self, rays: &[Ray]) -> u8 {
-        self.scene.occluded8(rays)
+        if let Some(b) = &self.brute {
+            return b.occluded8(rays);
+        }
+        self.scene.as_ref().map_or(0, |s| s.occluded8(rays))
     }
 
     /// Whether any surface lies on the ray within `[ray.tmin, ray.tmax]`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.scene.occluded(ray.o, ray.d, ray.tmin, ray.tmax)
+        if let Some(b) = &self.brute {
+            return b.occluded(ray);
+        }
+        self.scene
+            .as_ref()
+            .is_some_and(|s| s.occluded(ray.o, ray.d, ray.tmin, ray.tmax))
     }
 }
 

@@ -15,7 +15,13 @@
 //! - **camera packets**: the camera rays alone, 8 consecutive ones per coherent packet (the log
 //!   keeps a pixel's samples together, so a packet is 8 samples of one pixel, as Dr.Jit's
 //!   `llvm_ad_rgb` traces them), against the same camera rays traced one by one.
+//!
+//! These three go through the Embree tier, whatever tier the scene would take. When the scene
+//! qualifies for tier A (only spheres, disks, rectangles and boxes, no instances; issue 16
+//! item 3), the same rays are replayed through tier A too: single rays (one ray × 8
+//! primitives), all rays as packets and camera packets (8 rays × every primitive).
 
+use crate::accel::{Accel, Tier};
 use crate::error::Result;
 use crate::geometry::Ray;
 use crate::integrator::LoggedRay;
@@ -49,6 +55,21 @@ pub struct Ceiling {
     pub camera_packet_rays_per_second: f64,
     /// Lane occupancy of 8-sample packets, per path depth ([`lanes`]).
     pub lanes: Vec<LaneStats>,
+    /// The same replays through tier A, when the scene qualifies.
+    pub tier_a: Option<TierA>,
+}
+
+/// Replay throughputs of tier A (rays/s): the analytic primitives by brute force.
+#[derive(Clone, Debug, Serialize)]
+pub struct TierA {
+    /// Analytic primitives in the scene.
+    pub primitives: usize,
+    /// Every ray one by one (one ray × 8 primitives per test).
+    pub single_rays_per_second: f64,
+    /// Every ray in 8-wide packets (8 rays × each primitive).
+    pub packet_rays_per_second: f64,
+    /// Camera rays in packets of 8 samples of a pixel.
+    pub camera_packet_rays_per_second: f64,
 }
 
 /// How 8 samples of one pixel, run as one 8-lane packet that lives until its longest path ends
@@ -103,12 +124,36 @@ pub fn measure(
         best
     };
     let scene = &loaded.scene;
-    let single = best_of(&|| trace(scene, &rays, total));
-    let packets = best_of(&|| trace8(scene, &rays, total));
+    let shapes = scene.shapes();
+    let rebuilt;
+    let embree = if scene.accel().tier() == Tier::Embree {
+        scene.accel()
+    } else {
+        // Tier A scenes are flat: no groups, no instances.
+        rebuilt = Accel::build_tiered(shapes, &[], &[], Tier::Embree)?;
+        &rebuilt
+    };
+    let single = best_of(&|| trace(embree, &rays, total));
+    let packets = best_of(&|| trace8(embree, &rays, total));
     let camera: Vec<LoggedRay> = rays.iter().filter(|r| r.camera).copied().collect();
-    let camera_single = best_of(&|| trace(scene, &camera, camera.len()));
-    let camera_packets = best_of(&|| trace_camera8(scene, &camera));
+    let camera_single = best_of(&|| trace(embree, &camera, camera.len()));
+    let camera_packets = best_of(&|| trace_camera8(embree, &camera));
     let lanes = lanes(scene, &rays);
+    let per_s = |n: usize, t: f64| n as f64 / t;
+    let brute = match scene.accel().tier() {
+        Tier::Brute => None,
+        _ if !scene.instances().is_empty() => None,
+        _ => Accel::build_tiered(shapes, &[], &[], Tier::Brute).ok(),
+    };
+    let brute = brute
+        .as_ref()
+        .or((scene.accel().tier() == Tier::Brute).then(|| scene.accel()));
+    let tier_a = brute.map(|b| TierA {
+        primitives: crate::accel::analytic_primitives(shapes).unwrap_or(0),
+        single_rays_per_second: per_s(total, best_of(&|| trace(b, &rays, total))),
+        packet_rays_per_second: per_s(total, best_of(&|| trace8(b, &rays, total))),
+        camera_packet_rays_per_second: per_s(camera.len(), best_of(&|| trace_camera8(b, &camera))),
+    });
     let per_s = |n: usize, t: f64| n as f64 / t;
     Ok(Ceiling {
         scene: name.into(),
@@ -123,12 +168,13 @@ pub fn measure(
         camera_single_rays_per_second: per_s(camera.len(), camera_single),
         camera_packet_rays_per_second: per_s(camera.len(), camera_packets),
         lanes,
+        tier_a,
     })
 }
 
 /// Trace `total` rays cycling through `rays`; returns the number of hits (kept so the work is
 /// not optimised away).
-fn trace(scene: &Scene, rays: &[LoggedRay], total: usize) -> usize {
+fn trace(accel: &Accel, rays: &[LoggedRay], total: usize) -> usize {
     if rays.is_empty() {
         return 0;
     }
@@ -137,9 +183,9 @@ fn trace(scene: &Scene, rays: &[LoggedRay], total: usize) -> usize {
         for i in range {
             let r = &rays[i % rays.len()];
             let hit = if r.shadow {
-                scene.accel.occluded(&r.ray)
+                accel.occluded(&r.ray)
             } else {
-                scene.accel.intersect(&r.ray).is_some()
+                accel.intersect(&r.ray).is_some()
             };
             hits += hit as usize;
         }
@@ -158,7 +204,7 @@ fn sum_over_chunks(total: usize, f: impl Fn(std::ops::Range<usize>) -> usize + S
 
 /// [`trace`] in 8-wide packets: each chunk's rays in order, cut into runs of one kind (nearest
 /// hit or occlusion) of at most 8, each run one packet.
-fn trace8(scene: &Scene, rays: &[LoggedRay], total: usize) -> usize {
+fn trace8(accel: &Accel, rays: &[LoggedRay], total: usize) -> usize {
     if rays.is_empty() {
         return 0;
     }
@@ -169,9 +215,9 @@ fn trace8(scene: &Scene, rays: &[LoggedRay], total: usize) -> usize {
         let mut out = [None; 8];
         let mut flush = |lanes: &mut Vec<Ray>, shadow: bool| {
             if shadow {
-                hits += scene.accel.occluded8(lanes).count_ones() as usize;
+                hits += accel.occluded8(lanes).count_ones() as usize;
             } else {
-                scene.accel.intersect8(lanes, false, &mut out);
+                accel.intersect8(lanes, false, &mut out);
                 hits += out.iter().filter(|h| h.is_some()).count();
             }
             lanes.clear();
@@ -192,7 +238,7 @@ fn trace8(scene: &Scene, rays: &[LoggedRay], total: usize) -> usize {
 }
 
 /// The camera rays as coherent packets of 8 consecutive ones.
-fn trace_camera8(scene: &Scene, camera: &[LoggedRay]) -> usize {
+fn trace_camera8(accel: &Accel, camera: &[LoggedRay]) -> usize {
     const CHUNK: usize = 4096;
     camera
         .par_chunks(CHUNK)
@@ -204,9 +250,7 @@ fn trace_camera8(scene: &Scene, camera: &[LoggedRay]) -> usize {
                 for (l, r) in lanes.iter_mut().zip(packet) {
                     *l = r.ray;
                 }
-                scene
-                    .accel
-                    .intersect8(&lanes[..packet.len()], true, &mut out);
+                accel.intersect8(&lanes[..packet.len()], true, &mut out);
                 hits += out.iter().filter(|h| h.is_some()).count();
             }
             hits

@@ -284,6 +284,20 @@ fn bench_scene(
                 c.rays_per_second / 1e6
             ),
         );
+        if let Some(a) = &c.tier_a {
+            say(
+                opts,
+                format!(
+                    "{name}: tier A ({} primitives): {:.2} Mrays/s single, {:.2} Mrays/s packets \
+                     (Embree {:.2} single, {:.2} packets)",
+                    a.primitives,
+                    a.single_rays_per_second / 1e6,
+                    a.packet_rays_per_second / 1e6,
+                    c.rays_per_second / 1e6,
+                    c.packet_rays_per_second / 1e6
+                ),
+            );
+        }
         report.ceilings.push(c.clone());
         Some(c)
     } else {

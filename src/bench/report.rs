@@ -131,6 +131,18 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
                 c.camera_packet_rays_per_second / 1e6,
                 c.camera_packet_rays_per_second / c.camera_single_rays_per_second
             );
+            if let Some(a) = &c.tier_a {
+                let _ = writeln!(
+                    s,
+                    "Tier A ({} analytic primitives by brute force): single rays **{:.2} Mrays/s** ({:.2}× Embree single), packets {:.2} Mrays/s ({:.2}× Embree packets), camera packets {:.2} Mrays/s.",
+                    a.primitives,
+                    a.single_rays_per_second / 1e6,
+                    a.single_rays_per_second / c.rays_per_second,
+                    a.packet_rays_per_second / 1e6,
+                    a.packet_rays_per_second / c.packet_rays_per_second,
+                    a.camera_packet_rays_per_second / 1e6
+                );
+            }
             if !c.lanes.is_empty() {
                 let _ = writeln!(
                     s,

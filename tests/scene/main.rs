@@ -23,5 +23,6 @@ mod ptracer;
 mod rotate_axis;
 mod sdfgrid;
 mod texture;
+mod tier_a;
 mod transform_quirks;
 mod xml_parse;

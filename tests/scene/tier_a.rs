@@ -1,0 +1,360 @@
+//! Tier A (brute-force analytic intersection, issue 16 item 3) reports the `Hit` the Embree tier
+//! reports, bit for bit: same shape, triangle, t, u and v, for the nearest-hit and occlusion
+//! queries, one ray at a time (one ray × 8 primitives) and in packets (8 rays × every
+//! primitive, full and partial). Over the bench scenes and random primitive sets, ≥ 30,000 rays
+//! each: from outside and inside, from points on the surfaces, aimed at sphere silhouettes,
+//! rectangle, disk and box edges, grazing along planes, and with tmax/tmin cut at a hit's t.
+//!
+//! One difference is allowed: two shapes hit at exactly the same t. Tier A takes the lower
+//! shape index; Embree takes the one its traversal tests first (its callbacks accept only
+//! t < tfar). Such ties are counted and must stay rare.
+
+use glam::{Mat4, Vec3};
+use groove::accel::{Accel, Tier};
+use groove::geometry::{Hit, Ray, Shape, ShapeKind};
+use groove::load::Loaded;
+use groove::math::Pcg32;
+use std::path::Path;
+
+const RAYS: usize = 36_000;
+
+fn load_file(name: &str) -> Loaded {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(name);
+    groove::load::load_scene(&path, &Default::default()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn load_text(body: &str) -> Loaded {
+    let text =
+        format!("<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n{body}\n</scene>\n");
+    let doc = groove::scene::xml::parse::load_str(&text, Path::new("mem.xml"), &[]).unwrap();
+    groove::load::instantiate(&doc, Path::new("mem.xml")).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A random transform: non-uniform scale, a rotation about a possibly non-unit axis (Mitsuba's
+/// quirk), a translation within ±`spread`.
+fn transform(rng: &mut Pcg32, spread: f32) -> String {
+    let mut u = || 2.0 * rng.next_f32() - 1.0;
+    let s = [
+        0.2 + 0.6 * u().abs(),
+        0.2 + 0.6 * u().abs(),
+        0.2 + 0.6 * u().abs(),
+    ];
+    let axis = [u(), u(), u() + 0.01];
+    let angle = 180.0 * u();
+    let t = [spread * u(), spread * u(), spread * u()];
+    format!(
+        r#"<transform name="to_world"><scale x="{}" y="{}" z="{}"/><rotate x="{}" y="{}" z="{}" angle="{angle}"/><translate x="{}" y="{}" z="{}"/></transform>"#,
+        s[0], s[1], s[2], axis[0], axis[1], axis[2], t[0], t[1], t[2]
+    )
+}
+
+/// `n` random spheres, disks, rectangles and cubes (overlapping), plus two rectangles sharing
+/// an edge and a disk lying on a cube's face (equal-t contacts).
+fn random_set(seed: u64, n: usize) -> Loaded {
+    let mut rng = Pcg32::new(seed, 1);
+    let mut body = String::new();
+    for k in 0..n {
+        let tf = transform(&mut rng, 1.5);
+        body += &match k % 4 {
+            0 => {
+                let mut u = || 2.0 * rng.next_f32() - 1.0;
+                format!(
+                    r#"<shape type="sphere"><point name="center" x="{}" y="{}" z="{}"/><float name="radius" value="{}"/></shape>"#,
+                    1.5 * u(),
+                    1.5 * u(),
+                    1.5 * u(),
+                    0.1 + 0.5 * u().abs()
+                )
+            }
+            1 => format!(r#"<shape type="disk">{tf}</shape>"#),
+            2 => format!(r#"<shape type="rectangle">{tf}</shape>"#),
+            _ => format!(r#"<shape type="cube">{tf}</shape>"#),
+        };
+    }
+    body += r#"<shape type="rectangle"><transform name="to_world"><translate x="-1"/></transform></shape>
+               <shape type="rectangle"><transform name="to_world"><translate x="1"/></transform></shape>
+               <shape type="cube"><transform name="to_world"><scale value="0.5"/><translate y="2"/></transform></shape>
+               <shape type="disk"><transform name="to_world"><scale value="0.3"/><translate y="2" z="0.5"/></transform></shape>"#;
+    load_text(&body)
+}
+
+/// Bit pattern of a hit, for exact comparison.
+fn bits(h: &Option<Hit>) -> Option<(u32, u32, u32, u32, u32, u32)> {
+    h.map(|h| {
+        (
+            h.geom,
+            h.prim,
+            h.t.to_bits(),
+            h.u.to_bits(),
+            h.v.to_bits(),
+            h.inst,
+        )
+    })
+}
+
+/// A point on the edge, silhouette or rim of shape `s`, seen from `o`.
+fn edge_point(rng: &mut Pcg32, s: &Shape, o: Vec3) -> Option<Vec3> {
+    let mut u = || 2.0 * rng.next_f32() - 1.0;
+    let (side, along) = (if u() < 0.0 { -1.0 } else { 1.0 }, u());
+    let flip = u() < 0.0;
+    let square = |m: &Mat4| {
+        let p = if flip {
+            Vec3::new(side, along, 0.0)
+        } else {
+            Vec3::new(along, side, 0.0)
+        };
+        m.transform_point3(p)
+    };
+    Some(match (&s.kind, s.box_to_world) {
+        (ShapeKind::Sphere { center, radius, .. }, _) => {
+            let axis = (*center - o).normalize_or(Vec3::Z);
+            let t = axis.any_orthonormal_vector();
+            let b = axis.cross(t);
+            let phi = std::f32::consts::PI * u();
+            // On the silhouette circle seen from o (approximately: for a distant o).
+            *center + (t * phi.cos() + b * phi.sin()) * *radius
+        }
+        (ShapeKind::Rectangle { to_world }, _) => square(to_world),
+        (ShapeKind::Disk { hit_to_world, .. }, _) => {
+            let phi = std::f32::consts::PI * u();
+            hit_to_world.transform_point3(Vec3::new(phi.cos(), phi.sin(), 0.0))
+        }
+        (ShapeKind::Mesh(_), Some(m)) => {
+            let mut p = [side, if u() < 0.0 { -1.0 } else { 1.0 }, along];
+            p.rotate_left((rng.next_u32() % 3) as usize);
+            m.transform_point3(Vec3::from_array(p))
+        }
+        _ => return None,
+    })
+}
+
+/// A direction in the plane of a disk or rectangle, or tangent to a sphere, from a point of it.
+fn grazing(rng: &mut Pcg32, s: &Shape) -> Option<Ray> {
+    let mut u = || 2.0 * rng.next_f32() - 1.0;
+    let (m, ..) = match &s.kind {
+        ShapeKind::Rectangle { to_world } => (to_world, ()),
+        ShapeKind::Disk { hit_to_world, .. } => (hit_to_world, ()),
+        ShapeKind::Sphere { center, radius, .. } => {
+            let n = Vec3::new(u(), u(), u()).normalize_or(Vec3::Z);
+            let p = *center + n * *radius;
+            let d = n
+                .cross(Vec3::new(u(), u(), u()))
+                .normalize_or(n.any_orthonormal_vector());
+            return Some(Ray::new(p - d * 3.0, d));
+        }
+        _ => return None,
+    };
+    let p = m.transform_point3(Vec3::new(2.0 * u(), 2.0 * u(), 0.0));
+    let d = m
+        .transform_vector3(Vec3::new(u(), u(), 0.0))
+        .normalize_or(Vec3::X);
+    Some(Ray::new(p - d * 3.0, d))
+}
+
+/// The test rays of one scene (`embree` gives the hits that place rays on surfaces and cut
+/// tmax and tmin).
+fn rays(loaded: &Loaded, embree: &Accel, seed: u64) -> Vec<Ray> {
+    let (c, r) = loaded.scene.bsphere();
+    let shapes = loaded.scene.shapes();
+    let mut rng = Pcg32::new(seed, 9);
+    let mut out = Vec::with_capacity(RAYS);
+    while out.len() < RAYS {
+        let shape = &shapes[(rng.next_u32() as usize) % shapes.len().max(1)];
+        let mut u = || 2.0 * rng.next_f32() - 1.0;
+        let outside = c + Vec3::new(u(), u(), u()).normalize_or(Vec3::Z) * 2.0 * r;
+        let inside = c + Vec3::new(u(), u(), u()) * 0.6 * r;
+        let toward = |p: Vec3, o: Vec3| Ray::new(o, (p - o).normalize_or(Vec3::Z));
+        let base = toward(inside, outside);
+        let kind = out.len() % 8;
+        let ray = match kind {
+            0 => base,
+            1 => toward(c + Vec3::new(u(), u(), u()) * r, inside),
+            2 | 3 => {
+                // From the surface point the base ray hits, in any direction.
+                let Some(h) = embree.intersect(&base) else {
+                    continue;
+                };
+                let d = Vec3::new(u(), u(), u()).normalize_or(Vec3::Y);
+                Ray::new(base.at(h.t), d)
+            }
+            4 => match edge_point(&mut rng, shape, outside) {
+                Some(p) => toward(p, outside),
+                None => continue,
+            },
+            5 => match grazing(&mut rng, shape) {
+                Some(r) => r,
+                None => continue,
+            },
+            _ => {
+                // tmax or tmin exactly at, just before or just after the nearest hit.
+                let Some(h) = embree.intersect(&base) else {
+                    continue;
+                };
+                let mut r = base;
+                match rng.next_u32() % 6 {
+                    0 => r.tmax = h.t,
+                    1 => r.tmax = f32::from_bits(h.t.to_bits() - 1),
+                    2 => r.tmax = f32::from_bits(h.t.to_bits() + 1),
+                    3 => r.tmin = h.t,
+                    4 => r.tmin = f32::from_bits(h.t.to_bits() - 1),
+                    _ => r.tmax = h.t * 0.5,
+                }
+                r
+            }
+        };
+        out.push(ray);
+    }
+    out
+}
+
+/// Every query of tier A against Embree's on `loaded`; returns (hits, ties).
+fn compare(name: &str, loaded: &Loaded, seed: u64) -> (usize, usize) {
+    let shapes = loaded.scene.shapes();
+    let embree = Accel::build_tiered(shapes, &[], &[], Tier::Embree).unwrap();
+    let brute = Accel::build_tiered(shapes, &[], &[], Tier::Brute).unwrap();
+    assert_eq!((embree.tier(), brute.tier()), (Tier::Embree, Tier::Brute));
+    let all = rays(loaded, &embree, seed);
+    let (mut hits, mut start, mut k) = (0, 0, 0);
+    let mut counts = [0usize; 4];
+    while start < all.len() {
+        // Packets of 8 mostly, 1..7 every few.
+        let n = if k % 4 == 3 { 1 + k % 7 } else { 8 };
+        let lanes = &all[start..(start + n).min(all.len())];
+        let mut packet = [None; 8];
+        brute.intersect8(lanes, k % 2 == 0, &mut packet);
+        let blocked = brute.occluded8(lanes);
+        assert_eq!(u32::from(blocked) >> lanes.len(), 0, "{name}: lanes past n");
+        assert!(packet[lanes.len()..].iter().all(Option::is_none));
+        for (i, r) in lanes.iter().enumerate() {
+            let (want, got) = (embree.intersect(r), brute.intersect(r));
+            assert_eq!(
+                bits(&got),
+                bits(&packet[i]),
+                "{name}: ray {r:?}: one ray {got:?}, packet {:?}",
+                packet[i]
+            );
+            let occluded = brute.occluded(r);
+            assert_eq!(
+                occluded,
+                got.is_some(),
+                "{name}: tier A's two queries, {r:?}"
+            );
+            assert_eq!(
+                blocked >> i & 1 == 1,
+                occluded,
+                "{name}: packet occlusion {r:?}"
+            );
+            let diff = classify(r, &want, &got);
+            assert!(
+                diff != Diff::Other,
+                "{name}: ray {r:?}: Embree {want:?}, tier A {got:?}"
+            );
+            let embree_occluded = embree.occluded(r);
+            assert_eq!(
+                embree_occluded,
+                want.is_some(),
+                "{name}: Embree's two queries {r:?}"
+            );
+            assert!(
+                embree_occluded == occluded || diff == Diff::Cut,
+                "{name}: occlusion of {r:?}"
+            );
+            counts[diff as usize] += 1;
+            hits += usize::from(want.is_some());
+        }
+        start += lanes.len();
+        k += 1;
+    }
+    println!(
+        "{name}: {} rays, {hits} hits; differ: {} ties, {} cut-offs",
+        all.len(),
+        counts[Diff::Tie as usize],
+        counts[Diff::Cut as usize]
+    );
+    assert!(hits > all.len() / 3, "{name}: only {hits} hits");
+    // Ties need a ray aimed at an edge two shapes share; cut-offs a tmin or tmax placed within
+    // ulps of a hit, which only the test's own cut rays do (renders cut shadow rays 1e-4 short).
+    let (ties, cuts) = (counts[Diff::Tie as usize], counts[Diff::Cut as usize]);
+    assert!(ties * 1000 <= all.len(), "{name}: {ties} ties");
+    assert!(cuts * 50 <= all.len(), "{name}: {cuts} cut-offs");
+    let differ = ties + cuts;
+    (hits, differ)
+}
+
+/// How tier A's answer to a ray differs from Embree's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Diff {
+    /// Not at all (bit for bit).
+    Same,
+    /// Two shapes at exactly the same t: tier A takes the lower index; Embree does too when it
+    /// calls both callbacks (`tie_tfar` in `embree.rs`), but its box test (own rounding) may
+    /// cull the second box, whose entry is that same t.
+    Tie,
+    /// Tier A hits at a t within 4 ulps of tmin or tmax where Embree reports nothing (or a
+    /// farther hit): Embree's ray–box test, rounded its own way, culled the shape's box. The
+    /// callbacks' own test (which tier A repeats) accepts the hit.
+    Cut,
+    Other,
+}
+
+fn classify(r: &Ray, want: &Option<Hit>, got: &Option<Hit>) -> Diff {
+    let ulps =
+        |a: f32, b: f32| (i64::from(a.to_bits() as i32) - i64::from(b.to_bits() as i32)).abs();
+    match (want, got) {
+        _ if bits(want) == bits(got) => Diff::Same,
+        (Some(w), Some(g)) if w.t.to_bits() == g.t.to_bits() && w.geom != g.geom => Diff::Tie,
+        (w, Some(g))
+            if !w.is_some_and(|w| w.t <= g.t)
+                && (ulps(g.t, r.tmin) <= 4 || ulps(g.t, r.tmax) <= 4) =>
+        {
+            Diff::Cut
+        }
+        _ => Diff::Other,
+    }
+}
+
+#[test]
+fn tier_a_hits_equal_embree_on_the_bench_scenes() {
+    for name in ["metal_plastic", "glass", "strong"] {
+        let loaded = load_file(&format!("scenes/bench/{name}.xml"));
+        compare(name, &loaded, 3);
+    }
+}
+
+#[test]
+fn tier_a_hits_equal_embree_on_random_primitive_sets() {
+    for (seed, n) in [(1, 1), (2, 5), (3, 12), (4, 40)] {
+        compare(
+            &format!("random set {seed} ({n} shapes)"),
+            &random_set(seed, n),
+            seed,
+        );
+    }
+}
+
+/// The automatic choice: a few analytic shapes take tier A, many or any mesh take Embree, and
+/// forcing tier A on a scene with a mesh is an error that says why.
+#[test]
+fn the_tier_is_chosen_by_kind_and_count() {
+    let few = random_set(5, 4);
+    let shapes = few.scene.shapes();
+    let auto = Accel::build_tiered(shapes, &[], &[], Tier::Auto).unwrap();
+    assert_eq!(auto.tier(), Tier::Brute);
+    let many = random_set(6, groove::accel::BRUTE_MAX_SHAPES);
+    let auto = Accel::build_tiered(many.scene.shapes(), &[], &[], Tier::Auto).unwrap();
+    assert_eq!(
+        auto.tier(),
+        Tier::Embree,
+        "{} shapes",
+        many.scene.shapes().len()
+    );
+    let mesh = load_text(&format!(
+        r#"<shape type="sphere"/><shape type="obj"><string name="filename" value="{}/tests/data/geometry/quad.obj"/></shape>"#,
+        env!("CARGO_MANIFEST_DIR")
+    ));
+    let auto = Accel::build_tiered(mesh.scene.shapes(), &[], &[], Tier::Auto).unwrap();
+    assert_eq!(auto.tier(), Tier::Embree);
+    let forced = Accel::build_tiered(mesh.scene.shapes(), &[], &[], Tier::Brute);
+    let err = forced.err().expect("a mesh cannot take tier A").to_string();
+    assert!(err.contains("needs Embree"), "{err}");
+}
