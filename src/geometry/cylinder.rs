@@ -141,21 +141,11 @@ impl Cylinder {
     /// Mitsuba 3.9.1's warnings for this cylinder's map M (see the module docs): shear, and an
     /// uneven scale across the axis.
     pub fn warnings(&self) -> Vec<&'static str> {
-        let s = super::sphere_map::polar_symmetric(&self.to_world);
-        let c = s.to_cols_array_2d();
-        let scale = (0..3).map(|i| c[i][i].abs()).fold(0.0, f64::max);
-        let tol = 1e-4 * scale;
-        let mut out = Vec::new();
-        let off = [(0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)];
-        if off.iter().any(|&(i, j)| c[i][j].abs() > tol) {
-            out.push("'to_world' transform shouldn't contain any shearing!");
-        }
-        if (c[0][0] - c[1][1]).abs() > tol {
-            out.push(
-                "'to_world' transform shouldn't contain non-uniform scaling along the X and Y axes!",
-            );
-        }
-        out
+        super::sphere_map::similarity_warnings(
+            &self.to_world,
+            false,
+            "'to_world' transform shouldn't contain non-uniform scaling along the X and Y axes!",
+        )
     }
 
     /// The `cylinder` shape element's own parameters (`p0`, `p1`, `radius`); the loader reads

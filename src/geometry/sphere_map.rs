@@ -88,6 +88,22 @@ pub(crate) fn polar_symmetric(m: &Mat4) -> DMat3 {
 /// is not a similarity: shear when `S` has off-diagonal entries, non-uniform scaling when its
 /// diagonal entries differ (relative tolerance 1e-4 of the largest).
 pub fn sphere_warnings(m: &Mat4) -> Vec<&'static str> {
+    similarity_warnings(
+        m,
+        true,
+        "'to_world' transform shouldn't contain non-uniform scaling!",
+    )
+}
+
+/// Mitsuba 3.9.1's shear and uneven-scale warnings for a map `m` that should be a similarity,
+/// from its symmetric polar factor `S`: shear when `S` has off-diagonal entries, `uneven` when
+/// its x and y (and with `with_z`, z) diagonal entries differ (relative tolerance 1e-4 of the
+/// largest). Spheres check all three axes, cylinders only the two across their axis.
+pub(crate) fn similarity_warnings(
+    m: &Mat4,
+    with_z: bool,
+    uneven: &'static str,
+) -> Vec<&'static str> {
     let s = polar_symmetric(m);
     let c = s.to_cols_array_2d();
     let scale = (0..3).map(|i| c[i][i].abs()).fold(0.0, f64::max);
@@ -97,8 +113,8 @@ pub fn sphere_warnings(m: &Mat4) -> Vec<&'static str> {
     if off.iter().any(|&(i, j)| c[i][j].abs() > tol) {
         out.push("'to_world' transform shouldn't contain any shearing!");
     }
-    if (c[0][0] - c[1][1]).abs() > tol || (c[0][0] - c[2][2]).abs() > tol {
-        out.push("'to_world' transform shouldn't contain non-uniform scaling!");
+    if (c[0][0] - c[1][1]).abs() > tol || (with_z && (c[0][0] - c[2][2]).abs() > tol) {
+        out.push(uneven);
     }
     out
 }

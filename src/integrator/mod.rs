@@ -189,3 +189,9 @@ impl IntegratorDesc {
         }
     }
 }
+
+/// Mitsuba's `max_depth` as a bounce limit: −1 (any negative value) means no limit.
+#[inline]
+pub(crate) fn depth_limit(max_depth: i32) -> u32 {
+    u32::try_from(max_depth).unwrap_or(u32::MAX)
+}

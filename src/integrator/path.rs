@@ -29,11 +29,7 @@ pub fn li(
     scratch: &mut Scratch,
 ) -> Spectrum {
     let ctx = BsdfContext::default();
-    let max_depth: u32 = if cfg.max_depth < 0 {
-        u32::MAX
-    } else {
-        cfg.max_depth as u32
-    };
+    let max_depth = super::depth_limit(cfg.max_depth);
     let mut result = Spectrum::ZERO;
     let mut throughput = Spectrum::ONE;
     let mut eta = 1.0f32;

@@ -40,7 +40,7 @@
 //! is β M ≤ 2 % everywhere (β M = (HI − M) M/(HI − LO) is largest at M = LO).
 
 use super::ms_table::{MsTable, N_THETA};
-use super::{walk, Evaluation, MicrofacetNormalMap};
+use super::walk;
 use crate::bsdf::{Bsdf, BsdfContext, TransportMode};
 use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
@@ -306,15 +306,7 @@ fn per_wi(
         *v = scale * acc / (9.0 * CELLS as f64);
     }
     // The walk's remainder per cell, in two halves.
-    let m = MicrofacetNormalMap::new(
-        nested_index,
-        wp,
-        spec.geometry,
-        spec.tangent,
-        Evaluation::RandomWalk,
-        spec.max_order,
-    )
-    .with_lambert_closed_form(false);
+    let m = spec.walk(nested_index, wp);
     let mut half = [[DVec3::ZERO; CELLS]; 2];
     let mut albedo = DVec3::ZERO;
     for n in 0..walks {

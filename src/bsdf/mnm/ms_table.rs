@@ -84,6 +84,22 @@ pub struct TableSpec {
     pub walks: u32,
 }
 
+impl TableSpec {
+    /// The walk the table is measured from, at the normal `wp`, over arena node `nested_index`
+    /// (never the Lambert closed forms: the table must see the walk itself).
+    pub fn walk(&self, nested_index: u32, wp: Vec3) -> MicrofacetNormalMap {
+        MicrofacetNormalMap::new(
+            nested_index,
+            wp,
+            self.geometry,
+            self.tangent,
+            Evaluation::RandomWalk,
+            self.max_order,
+        )
+        .with_lambert_closed_form(false)
+    }
+}
+
 /// A built table (see the module doc).
 pub struct MsTable {
     /// What it was built from (verified when read from the disk cache).
@@ -443,15 +459,7 @@ impl MsTable {
             .map(|(j, k)| {
                 let tp = theta_node(j, spec.max_theta);
                 let wp = Vec3::new(tp.sin(), 0.0, tp.cos());
-                let m = MicrofacetNormalMap::new(
-                    nested_index,
-                    wp,
-                    spec.geometry,
-                    spec.tangent,
-                    Evaluation::RandomWalk,
-                    spec.max_order,
-                )
-                .with_lambert_closed_form(false);
+                let m = spec.walk(nested_index, wp);
                 let mut s = Sampler::from_seed(0x6d73_7462 ^ VERSION as u64, node(j, k, 0) as u64);
                 // At z = 1 every azimuth is the same direction: walk once.
                 let dirs = if k == N_Z - 1 { 1 } else { N_PHI };
