@@ -2,7 +2,7 @@
 //! FILE:LINE:COL, batch behaviour, output naming and atomic writes; module `doc_links`: the
 //! links of README.md and docs/ resolve inside the repository; module `bench`: `groove bench` on
 //! two tiny scenes and its JSON schema; module `split`: split renders
-//! (`--crop`, `--tile`, `--samples`, `--time-limit`) merged by `groove merge`, bit for bit; module `slurm` (ignored: root, a
+//! (`--crop`, `--tile`, `--samples`, `--time-limit`) merged by `groove merge`, bit for bit; module `slurm` (as root only: a
 //! private Slurm): the Slurm recipe end to end; module `node_loss` (ignored, slow): a node lost
 //! under a `--requeue` task.
 

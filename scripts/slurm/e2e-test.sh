@@ -7,7 +7,7 @@
 # exit. Then: an array of 4 tiles of a small scene in which task 2 fails on its first
 # run; the merge job (afterany) must fail and name part 2; index 2 alone is resubmitted with a
 # new merge job, which must succeed. WORKDIR receives result.exr (the merge) and single.exr (one
-# plain render of the same scene), which `cargo test --release --test cli -- --ignored slurm`
+# plain render of the same scene), which `cargo test --release` (as root)
 # compares bit for bit. Every wait is bounded; the script exits non-zero on any failure.
 set -euo pipefail
 [ $# -eq 2 ] || { echo "usage: $0 GROOVE_BINARY WORKDIR" >&2; exit 2; }

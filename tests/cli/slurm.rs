@@ -1,5 +1,8 @@
-//! The Slurm tier (ignored by default; needs root, installs Debian's Slurm when missing):
-//! `cargo test --release --test cli -- --ignored slurm`. Runs `scripts/slurm/e2e-test.sh` (a
+//! The Slurm tier: part of `cargo test --release` when run as root (as CI runs), which installs
+//! Debian's Slurm when missing (about 40 s once, then about 15 s a run: issue 20 asks for it in
+//! CI when it adds at most 2 minutes); as any other user it says it is skipped and passes, since
+//! it cannot start daemons or install packages. Alone: `cargo test --release --test cli slurm`.
+//! Runs `scripts/slurm/e2e-test.sh` (a
 //! private single-node Slurm on 127.0.0.1: an array of tiles with one failing task, the merge
 //! job naming it, the resubmission of that index alone, the merge) and compares the merged image
 //! with a single render bit for bit. The slow node-loss tier is module `node_loss`.
@@ -8,9 +11,21 @@ use super::tmpdir;
 use std::path::PathBuf;
 
 #[test]
-#[ignore = "needs root and Slurm (installed by the script); run with --ignored slurm"]
 fn slurm_array_with_a_failed_task_resubmitted_merges_to_the_single_render() {
+    if !is_root() {
+        eprintln!("skipped: the Slurm tier needs root (it installs Slurm and starts its daemons)");
+        return;
+    }
     run_and_compare("e2e-test.sh", "slurm-e2e");
+}
+
+/// Whether this process runs as root (`id -u` is 0).
+fn is_root() -> bool {
+    std::process::Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+        .unwrap_or(false)
 }
 
 /// Runs `scripts/slurm/SCRIPT GROOVE DIR`, which must succeed and leave `result.exr` (the
