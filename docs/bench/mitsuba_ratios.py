@@ -1,0 +1,35 @@
+#!/usr/bin/env python3
+"""Interleaved rounds: groove classic vs Mitsuba llvm_ad_rgb and scalar_rgb, render time only,
+same scene, spp and threads. Per round the ratio groove/peer; reports median and the 2nd-lowest /
+2nd-highest of the rounds (an approximate 95 % interval for the median at 10 rounds is the
+2nd..9th order statistics)."""
+import json, re, subprocess, sys, statistics
+G = sys.argv.pop(1) if len(sys.argv) > 1 and sys.argv[1].endswith("groove") else "target/release/groove"
+PY = sys.executable
+MR = "docs/tools/mitsuba_render.py"
+scenes = sys.argv[2:]
+rounds = int(sys.argv[1])
+def groove(scene, spp):
+    p = subprocess.run([G, "render", scene, "--spp", str(spp), "-t", "2", "-o", "/tmp/r.exr"],
+                       capture_output=True, text=True)
+    out = p.stdout + p.stderr
+    m = re.search(r"render ([0-9.]+) s", out)
+    if not m:
+        raise SystemExit(out)
+    return float(m.group(1))
+def mitsuba(scene, spp, variant):
+    out = subprocess.run([PY, MR, scene, "--variant", variant, "--spp", str(spp), "--threads", "2",
+                          "--repeat", "3", "--no-write", "--json", "--quiet"], capture_output=True, text=True).stdout
+    line = [l for l in out.splitlines() if l.startswith("RESULT")][-1]
+    d = json.loads(line[7:])
+    return min(d["render_all_s"][1:])  # after the first (JIT for llvm)
+for sc in scenes:
+    spp = 16
+    rl, rs, tg, tl, ts = [], [], [], [], []
+    for r in range(rounds):
+        a = groove(sc, spp); b = mitsuba(sc, spp, "llvm_ad_rgb"); c = mitsuba(sc, spp, "scalar_rgb")
+        tg.append(a); tl.append(b); ts.append(c); rl.append(a / b); rs.append(a / c)
+    def summ(x):
+        s = sorted(x); return f"{statistics.median(s):.2f} [{s[1]:.2f}, {s[-2]:.2f}]"
+    print(f"{sc.split('/')[-1]}: groove {statistics.median(tg):.3f} s, llvm {statistics.median(tl):.3f} s, "
+          f"scalar {statistics.median(ts):.3f} s; groove/llvm {summ(rl)}; groove/scalar {summ(rs)}", flush=True)
