@@ -9,7 +9,12 @@
 [ "$(id -u)" = 0 ] || { echo "the Slurm test runs as root (slurmd must start jobs)" >&2; exit 2; }
 if ! command -v slurmctld >/dev/null || ! command -v slurmd >/dev/null \
    || ! command -v munged >/dev/null || ! command -v sbatch >/dev/null; then
-  DEBIAN_FRONTEND=noninteractive apt-get install -y -q slurmctld slurmd munge slurm-client >/dev/null
+  pkgs=(slurmctld slurmd munge slurm-client)
+  # A machine whose package lists are stale or empty needs one update first.
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -q "${pkgs[@]}" >/dev/null 2>&1 || {
+    apt-get update -qq >/dev/null
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -q "${pkgs[@]}" >/dev/null
+  }
 fi
 
 T=$(mktemp -d /tmp/groove-slurm.XXXXXX)
