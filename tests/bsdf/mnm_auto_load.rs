@@ -13,22 +13,7 @@ use std::path::{Path, PathBuf};
 
 /// A one-sphere scene whose BSDF is `bsdf`, written to a fresh temporary folder.
 fn scene(name: &str, bsdf: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("groove-auto-load-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("scene.xml");
-    let xml = format!(
-        r#"<scene version="3.0.0">
-    <sensor type="perspective">
-        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
-    </sensor>
-    <shape type="sphere">
-{bsdf}
-    </shape>
-</scene>"#
-    );
-    std::fs::write(&path, xml).unwrap();
-    path
+    crate::common::one_sphere_scene("auto-load", name, bsdf)
 }
 
 /// The evaluation of the scene's microfacet normal map, and whether its table carries M.

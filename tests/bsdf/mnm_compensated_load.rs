@@ -10,22 +10,7 @@ use std::path::PathBuf;
 
 /// A one-sphere scene whose BSDF is `bsdf`, written to a fresh temporary folder.
 fn scene(name: &str, bsdf: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("groove-comp-load-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("scene.xml");
-    let xml = format!(
-        r#"<scene version="3.0.0">
-    <sensor type="perspective">
-        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
-    </sensor>
-    <shape type="sphere">
-{bsdf}
-    </shape>
-</scene>"#
-    );
-    std::fs::write(&path, xml).unwrap();
-    path
+    crate::common::one_sphere_scene("comp-load", name, bsdf)
 }
 
 const GOLD: &str = r#"<bsdf type="roughconductor"><string name="material" value="Au"/><float name="alpha" value="0.25"/></bsdf>"#;

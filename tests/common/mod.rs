@@ -193,3 +193,24 @@ pub fn rough_plastic(
         true,
     ))
 }
+
+/// A one-sphere scene (8×8 perspective film) whose BSDF is the XML `bsdf`, written to a fresh
+/// temporary folder named by `tag` and `name`.
+pub fn one_sphere_scene(tag: &str, name: &str, bsdf: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("groove-{tag}-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("scene.xml");
+    let xml = format!(
+        r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+    </sensor>
+    <shape type="sphere">
+{bsdf}
+    </shape>
+</scene>"#
+    );
+    std::fs::write(&path, xml).unwrap();
+    path
+}
