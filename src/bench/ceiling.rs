@@ -43,6 +43,9 @@ pub struct Ceiling {
     /// Distinct rays recorded (fewer than `rays` when the cap was reached).
     pub recorded: u64,
     pub shadow_fraction: f64,
+    /// The replay loop without intersections ([`trace_floor`]): best time. The single-ray
+    /// replays below include it.
+    pub floor_seconds: f64,
     /// Best of the repeats.
     pub seconds: f64,
     pub rays_per_second: f64,
@@ -64,7 +67,8 @@ pub struct Ceiling {
 pub struct TierA {
     /// Analytic primitives in the scene.
     pub primitives: usize,
-    /// Every ray one by one (one ray × 8 primitives per test).
+    /// Every ray one by one (one ray × 8 primitives per test): best time and rays/s.
+    pub single_seconds: f64,
     pub single_rays_per_second: f64,
     /// Every ray in 8-wide packets (8 rays × each primitive).
     pub packet_rays_per_second: f64,
@@ -133,6 +137,7 @@ pub fn measure(
         rebuilt = Accel::build_tiered(shapes, &[], &[], Tier::Embree)?;
         &rebuilt
     };
+    let floor = best_of(&|| trace_floor(&rays, total));
     let single = best_of(&|| trace(embree, &rays, total));
     let packets = best_of(&|| trace8(embree, &rays, total));
     let camera: Vec<LoggedRay> = rays.iter().filter(|r| r.camera).copied().collect();
@@ -148,11 +153,18 @@ pub fn measure(
     let brute = brute
         .as_ref()
         .or((scene.accel().tier() == Tier::Brute).then(|| scene.accel()));
-    let tier_a = brute.map(|b| TierA {
-        primitives: crate::accel::analytic_primitives(shapes).unwrap_or(0),
-        single_rays_per_second: per_s(total, best_of(&|| trace(b, &rays, total))),
-        packet_rays_per_second: per_s(total, best_of(&|| trace8(b, &rays, total))),
-        camera_packet_rays_per_second: per_s(camera.len(), best_of(&|| trace_camera8(b, &camera))),
+    let tier_a = brute.map(|b| {
+        let single_seconds = best_of(&|| trace(b, &rays, total));
+        TierA {
+            primitives: crate::accel::analytic_primitives(shapes).unwrap_or(0),
+            single_seconds,
+            single_rays_per_second: per_s(total, single_seconds),
+            packet_rays_per_second: per_s(total, best_of(&|| trace8(b, &rays, total))),
+            camera_packet_rays_per_second: per_s(
+                camera.len(),
+                best_of(&|| trace_camera8(b, &camera)),
+            ),
+        }
     });
     let per_s = |n: usize, t: f64| n as f64 / t;
     Ok(Ceiling {
@@ -160,6 +172,7 @@ pub fn measure(
         rays: total as u64,
         recorded: recorded as u64,
         shadow_fraction: shadow as f64 / recorded.max(1) as f64,
+        floor_seconds: floor,
         seconds: single,
         rays_per_second: per_s(total, single),
         packet_seconds: packets,
@@ -175,19 +188,39 @@ pub fn measure(
 /// Trace `total` rays cycling through `rays`; returns the number of hits (kept so the work is
 /// not optimised away).
 fn trace(accel: &Accel, rays: &[LoggedRay], total: usize) -> usize {
+    replay(rays, total, |r| {
+        if r.shadow {
+            accel.occluded(&r.ray)
+        } else {
+            accel.intersect(&r.ray).is_some()
+        }
+    })
+}
+
+/// The replay loop alone: every ray read and a trivial test of it instead of an intersection.
+/// Its time is the floor under every single-ray replay (loads, loop, parallel split), so the
+/// tiers can be compared net of it.
+fn trace_floor(rays: &[LoggedRay], total: usize) -> usize {
+    replay(rays, total, |r| {
+        std::hint::black_box(r.ray.d.x + r.ray.tmax) > 0.0
+    })
+}
+
+/// `total` calls of `test` cycling through `rays` (a wrapping index, no division per ray), the
+/// chunks in parallel; returns how many returned true.
+fn replay(rays: &[LoggedRay], total: usize, test: impl Fn(&LoggedRay) -> bool + Sync) -> usize {
     if rays.is_empty() {
         return 0;
     }
     sum_over_chunks(total, |range| {
         let mut hits = 0;
-        for i in range {
-            let r = &rays[i % rays.len()];
-            let hit = if r.shadow {
-                accel.occluded(&r.ray)
-            } else {
-                accel.intersect(&r.ray).is_some()
-            };
-            hits += hit as usize;
+        let mut i = range.start % rays.len();
+        for _ in range {
+            hits += test(&rays[i]) as usize;
+            i += 1;
+            if i == rays.len() {
+                i = 0;
+            }
         }
         hits
     })

@@ -142,6 +142,14 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
                     a.packet_rays_per_second / c.packet_rays_per_second,
                     a.camera_packet_rays_per_second / 1e6
                 );
+                // Net of the replay loop: the time the intersections themselves take.
+                let net = |t: f64| (t - c.floor_seconds).max(f64::MIN_POSITIVE);
+                let _ = writeln!(
+                    s,
+                    "Net of the replay loop alone ({:.3} s for the same rays with a trivial test): tier A single rays {:.2}× Embree single.",
+                    c.floor_seconds,
+                    net(c.seconds) / net(a.single_seconds)
+                );
             }
             if !c.lanes.is_empty() {
                 let _ = writeln!(
