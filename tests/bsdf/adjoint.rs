@@ -392,22 +392,41 @@ fn classic_normal_map_is_mode_independent_and_not_adjoint() {
 }
 
 /// `hair` (Chiang et al. 2016) is evaluated identically in both modes, as Mitsuba 3.9.1's
-/// `hair.cpp` (which never reads the transport mode). Its value is not symmetric in (wi, wo) in
-/// groove's local frame (the fiber offset h and the azimuthal terms are not exchanged with the
-/// directions), so light tracing and path tracing of hair agree only as far as Mitsuba's do.
+/// `hair.cpp` (which never reads the transport mode). Its value is not symmetric in (wi, wo)
+/// (the fiber offset h = sin γ and the scale tilts are taken from the incident direction only),
+/// so it is not its own adjoint, and light tracing and path tracing of hair converge to
+/// different images, in groove as in Mitsuba (`mat_hair.xml` in tests/render/ptracer_sweep.rs).
+/// The test pins that the failure is large, not rounding, for the default fiber and for
+/// `mat_hair.xml`'s blonde one (tilt 4°, longitudinal roughness 0.15, azimuthal 0.6).
 #[test]
-fn hair_is_mode_independent() {
-    let m = model("hair", 1.0, |a| a.push(BsdfNode::Hair(Hair::default())));
-    let p = Pair::new(&m);
-    let mut s = Sampler::from_seed(5, 5);
-    let mut nonzero = 0;
-    for (wi, wo) in pairs(2000, 31) {
-        let fi = p.f(TransportMode::Importance, wi, wo, &mut s);
-        let fr = p.f(TransportMode::Radiance, wi, wo, &mut s);
-        assert_eq!(fi, fr, "{wi:?} {wo:?}");
-        if fi.max_element() > 0.0 {
-            nonzero += 1;
+fn hair_is_mode_independent_and_not_adjoint() {
+    let blonde = Hair::new(0.15, 0.6, 4.0, 1.55, Hair::pigment_sigma_a(0.2, 0.4), 1.0);
+    for (name, hair) in [("default", Hair::default()), ("blonde", blonde)] {
+        let m = model("hair", 1.0, move |a| a.push(BsdfNode::Hair(hair)));
+        let p = Pair::new(&m);
+        let mut s = Sampler::from_seed(5, 5);
+        let mut nonzero = 0;
+        // The largest luminance ratio f(wi, wo) / f(wo, wi), and how many pairs differ by
+        // more than 10 %.
+        let (mut worst, mut apart) = (1.0f32, 0);
+        for (wi, wo) in pairs(2000, 31) {
+            let fi = p.f(TransportMode::Importance, wi, wo, &mut s);
+            let fr = p.f(TransportMode::Radiance, wi, wo, &mut s);
+            assert_eq!(fi, fr, "{name}: {wi:?} {wo:?}");
+            let ft = p.f(TransportMode::Radiance, wo, wi, &mut s);
+            let (a, b) = (fi.dot(Vec3::ONE), ft.dot(Vec3::ONE));
+            if a > 1e-4 && b > 1e-4 {
+                nonzero += 1;
+                let r = (a / b).max(b / a);
+                worst = worst.max(r);
+                apart += usize::from(r > 1.1);
+            }
         }
+        println!("hair {name}: largest f(wi, wo) / f(wo, wi) {worst:.2}, {apart} of {nonzero} pairs > 1.1 apart");
+        assert!(nonzero > 200, "{name}: {nonzero}");
+        assert!(
+            worst > 2.0 && apart > nonzero / 10,
+            "{name}: {worst} {apart}/{nonzero}"
+        );
     }
-    assert!(nonzero > 200, "{nonzero}");
 }

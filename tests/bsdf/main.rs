@@ -6,6 +6,7 @@
 mod common;
 
 mod adjoint;
+mod grazing;
 mod hair;
 mod harness;
 mod mitsuba_wrappers;
