@@ -1,19 +1,22 @@
 //! `volpathmis`: volumetric path tracing with spectral MIS, Mitsuba 3.9.1's
 //! `VolumetricMisPathIntegrator` (Miller, Georgiev, Jarosz, "A null-scattering path integral
-//! formulation of light transport", SIGGRAPH 2019, §5–6: a path's contribution divided by the
-//! sum of the densities of every technique that could have sampled it).
+//! formulation of light transport", SIGGRAPH 2019: a path's contribution divided by the sum of
+//! the densities of every technique that could have sampled it, including the other colour
+//! channels' distance sampling).
 //!
 //! - One colour channel per path (the hero, drawn first, uniformly) samples free-flight
 //!   distances, as in `volpath`; but each channel's estimate is divided by the *mean* of the
-//!   three channels' path densities (one-sample MIS over the hero choice, the balance heuristic;
-//!   Miller et al. eq. 13 in RGB). In a chromatic medium a path sampled with one channel's
-//!   extinction then carries no large Tr/pdf ratio in the others: less colour noise, same mean.
+//!   three channels' path densities (one-sample MIS over the hero choice with the balance
+//!   heuristic, as Miller et al. do over wavelengths). In a chromatic medium a path sampled
+//!   with one channel's extinction then carries no large Tr/pdf ratio in the others: less
+//!   colour noise, same mean.
 //! - Emitters found by BSDF / phase sampling and by next-event estimation are combined with
 //!   the balance heuristic over both techniques and the three hero channels (Mitsuba uses the
 //!   balance heuristic here, not the power heuristic of `path` and `volpath`).
-//! - Depth, Russian roulette (on the MIS throughput), `null` boundaries, medium changes, the
-//!   `sample_emitters` switch of a medium and `hide_emitters` follow `volpath`
-//!   ([`super::volpath`]); `hide_emitters` skips area emitters only along a camera ray that
+//! - Depth, Russian roulette (on the MIS throughput; its survival probability stays out of the
+//!   MIS densities, unlike Mitsuba's, which is biased there: `Weights::roulette`), `null`
+//!   boundaries, medium changes, the `sample_emitters` switch of a medium and `hide_emitters`
+//!   follow `volpath` ([`super::volpath`]); `hide_emitters` skips area emitters only along a camera ray that
 //!   starts outside media, as Mitsuba 3.9.1 does.
 //! - `use_spectral_mis` = false: each channel is divided by the hero channel's density alone
 //!   (Mitsuba's `Volpath_no_spectral_mis`), which is `volpath`'s estimator with the balance
