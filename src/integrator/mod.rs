@@ -2,6 +2,7 @@
 
 pub mod aov;
 pub mod direct;
+mod media_nee;
 pub mod moment;
 pub mod nee;
 pub mod path;
@@ -9,6 +10,7 @@ pub mod ptracer;
 pub mod rays;
 pub mod splat;
 pub mod volpath;
+pub mod volpathmis;
 
 pub use rays::{LoggedRay, RayCounters, RayKind, Rays};
 
@@ -68,6 +70,8 @@ pub enum IntegratorDesc {
     Direct(DirectSettings),
     /// Volumetric path tracing ([`volpath`]).
     Volpath(volpath::VolpathSettings),
+    /// Volumetric path tracing with spectral MIS ([`volpathmis`]).
+    VolpathMis(Arc<volpathmis::VolpathMisSettings>),
     Moment(Arc<moment::MomentSettings>),
     Aov(Arc<aov::AovSettings>),
     /// Light tracing: rendered by its own loop ([`ptracer::render`], which
@@ -102,6 +106,7 @@ impl IntegratorDesc {
             IntegratorDesc::Path(s) => path::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Direct(s) => direct::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Volpath(s) => volpath::li(s, scene, ray, sampler, scratch),
+            IntegratorDesc::VolpathMis(s) => volpathmis::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Moment(_) | IntegratorDesc::Aov(_) | IntegratorDesc::Ptracer(_) => {
                 self.sample(scene, ray, sampler, scratch, &mut [])
             }
@@ -115,6 +120,7 @@ impl IntegratorDesc {
             IntegratorDesc::Path(_)
             | IntegratorDesc::Direct(_)
             | IntegratorDesc::Volpath(_)
+            | IntegratorDesc::VolpathMis(_)
             | IntegratorDesc::Ptracer(_) => Vec::new(),
             IntegratorDesc::Moment(m) => m.aov_names(),
             IntegratorDesc::Aov(a) => a.aov_names(),
@@ -127,6 +133,7 @@ impl IntegratorDesc {
             IntegratorDesc::Path(_)
             | IntegratorDesc::Direct(_)
             | IntegratorDesc::Volpath(_)
+            | IntegratorDesc::VolpathMis(_)
             | IntegratorDesc::Ptracer(_) => 0,
             IntegratorDesc::Moment(m) => m.aov_count(),
             IntegratorDesc::Aov(a) => a.aov_count(),
@@ -149,6 +156,7 @@ impl IntegratorDesc {
             IntegratorDesc::Path(s) => path::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Direct(s) => direct::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Volpath(s) => volpath::li(s, scene, ray, sampler, scratch),
+            IntegratorDesc::VolpathMis(s) => volpathmis::li(s, scene, ray, sampler, scratch),
             IntegratorDesc::Moment(m) => m.sample(scene, ray, sampler, scratch, aovs),
             IntegratorDesc::Aov(a) => a.sample(scene, ray, sampler, scratch, aovs),
             // No estimate along a camera ray: light tracing splats (see the variant's comment).
@@ -179,6 +187,12 @@ impl IntegratorDesc {
             // Mitsuba's volpath: a visible environment, or any real scattering event (at a
             // surface, or in the sensor's medium: counted here from the first hit).
             IntegratorDesc::Volpath(s) => {
+                (!s.hide_emitters && !scene.env_emitters.is_empty())
+                    || hit.is_some()
+                    || scene.camera_medium.is_some()
+            }
+            // Mitsuba's volpathmis: the same rule.
+            IntegratorDesc::VolpathMis(s) => {
                 (!s.hide_emitters && !scene.env_emitters.is_empty())
                     || hit.is_some()
                     || scene.camera_medium.is_some()

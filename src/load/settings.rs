@@ -1,4 +1,4 @@
-//! The render settings of a scene: `<integrator>` (`path`, `volpath`, `direct`, `ptracer`, `moment`, `aov`), `<sensor>`
+//! The render settings of a scene: `<integrator>` (`path`, `volpath`, `volpathmis`, `direct`, `ptracer`, `moment`, `aov`), `<sensor>`
 //! (`perspective`), `<film>` (`hdrfilm`), `<rfilter>` (`box`, `tent`, `gaussian`) and
 //! `<sampler>` (`independent`, `stratified`), with Mitsuba 3's parameter names and defaults.
 
@@ -10,6 +10,7 @@ use crate::integrator::aov::{AovKind, AovSettings};
 use crate::integrator::moment::MomentSettings;
 use crate::integrator::ptracer::PtracerSettings;
 use crate::integrator::volpath::VolpathSettings;
+use crate::integrator::volpathmis::VolpathMisSettings;
 use crate::integrator::{DirectSettings, IntegratorDesc, PathSettings};
 use crate::sampler::{SamplerDesc, SamplerKind};
 use crate::scene::xml::ir::Node;
@@ -51,6 +52,25 @@ impl<'d> Builder<'d> {
                     rr_depth: rr_depth.min(i32::MAX as i64) as i32,
                     hide_emitters: p.bool("hide_emitters", false)?,
                 })
+            }
+            "volpathmis" => {
+                // Mitsuba 3.9.1's MonteCarloIntegrator (as volpath) and volpathmis's own
+                // 'use_spectral_mis'.
+                let max_depth = p.int("max_depth", -1)?;
+                check(
+                    p.loc(),
+                    max_depth >= -1,
+                    "max_depth must be -1 (unlimited) or >= 0",
+                )?;
+                let rr_depth = p.int("rr_depth", 5)?;
+                check(p.loc(), rr_depth >= 1, "rr_depth must be >= 1")?;
+                IntegratorDesc::VolpathMis(Arc::new(VolpathMisSettings {
+                    max_depth: max_depth.clamp(-1, i32::MAX as i64) as i32,
+                    rr_depth: rr_depth.min(i32::MAX as i64) as i32,
+                    hide_emitters: p.bool("hide_emitters", false)?,
+                    spectral_mis: p.bool("use_spectral_mis", true)?,
+                    loc: p.loc().clone(),
+                }))
             }
             "direct" => {
                 // Mitsuba 3: 'shading_samples' sets both counts and excludes the other two.
@@ -140,7 +160,15 @@ impl<'d> Builder<'d> {
                     p.loc(),
                     "integrator",
                     t,
-                    &["path", "volpath", "direct", "ptracer", "moment", "aov"],
+                    &[
+                        "path",
+                        "volpath",
+                        "volpathmis",
+                        "direct",
+                        "ptracer",
+                        "moment",
+                        "aov",
+                    ],
                 ))
             }
         };

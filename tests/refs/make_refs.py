@@ -134,6 +134,11 @@ JOBS = [
     ("media_sphere", os.path.join(SCENES, "media_sphere.xml"), {}, 2048, REF_SEEDS),
     ("media_fog", os.path.join(SCENES, "media_fog.xml"), {}, 2048, REF_SEEDS),
     ("media_glass", os.path.join(SCENES, "media_glass.xml"), {}, 2048, REF_SEEDS),
+    # The same under volpathmis (spectral MIS), and a strongly chromatic medium sphere where
+    # spectral MIS matters (volpath's estimate there is heavy-tailed).
+    ("media_chroma_mis", os.path.join(SCENES, "media_chroma.xml"), {}, 2048, REF_SEEDS),
+    ("media_fog_mis", os.path.join(SCENES, "media_fog.xml"), {"integrator": "volpathmis"}, 2048, REF_SEEDS),
+    ("media_glass_mis", os.path.join(SCENES, "media_glass.xml"), {"integrator": "volpathmis"}, 2048, REF_SEEDS),
     # The cylinder under a non-uniform scale, a shear and a non-unit <rotate>, lit by an elliptic
     # cylinder light (sampled as Mitsuba samples it: as a round tube).
     ("cylinder_quirks", os.path.join(SCENES, "cylinder_quirks.xml"), {}, 2048, REF_SEEDS),

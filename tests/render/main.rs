@@ -24,4 +24,5 @@ mod robustness;
 mod sdfgrid;
 mod textures;
 mod transform_quirks;
+mod volpathmis;
 mod wrappers;

@@ -72,7 +72,7 @@ fn the_comparisons_see_the_phase_function_the_sensor_medium_and_the_interior() {
 }
 
 /// Per channel: the largest |pixel − 1| in standard errors, and the image mean's deviation.
-fn furnace_deviation(r: &Rendered) -> (f64, [f64; 3]) {
+pub(crate) fn furnace_deviation(r: &Rendered) -> (f64, [f64; 3]) {
     let mut worst: f64 = 0.0;
     let mut mean_z = [0.0; 3];
     let n = r.mean.data.len() as f64;

@@ -25,4 +25,5 @@ mod sdfgrid;
 mod texture;
 mod tier_a;
 mod transform_quirks;
+mod volpathmis;
 mod xml_parse;

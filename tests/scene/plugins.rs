@@ -72,7 +72,7 @@ fn other_mitsuba_plugins_are_named_as_unsupported() {
         ("<shape type=\"sphere\"><bsdf type=\"measured\"/></shape>", "measured", "bsdf"),
         ("<shape type=\"ellipsoids\"/>", "ellipsoids", "shape"),
         ("<emitter type=\"sunsky\"/>", "sunsky", "emitter"),
-        ("<integrator type=\"volpathmis\"/>", "volpathmis", "integrator"),
+        ("<integrator type=\"depth\"/>", "depth", "integrator"),
         ("<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"volume\" name=\"reflectance\"/></bsdf></shape>", "volume", "texture"),
     ] {
         let e = load_err(body);
