@@ -2,13 +2,17 @@
 //!
 //! - One colour channel per path samples free-flight distances (Mitsuba's RGB mode: the
 //!   channel is drawn first, and the throughput carries Tr/pdf of that channel; no spectral MIS).
+//!   Heterogeneous media are delta-tracked against their majorant (null collisions count no
+//!   depth and meet no Russian roulette; Mitsuba rolls its roulette at each one, which changes
+//!   the noise, not the expectation); see [`crate::medium::heterogeneous`].
 //! - Depth counts real scattering events, at surfaces and in media; `null` surfaces are passed
 //!   without a bounce. Russian roulette from depth > `rr_depth`, survival min(max(β)·η², 0.95).
 //! - Next-event estimation at smooth surfaces and at medium scattering events (unless the
 //!   medium's `sample_emitters` is off), with the power heuristic against BSDF / phase sampling;
 //!   shadow rays pass `null` surfaces, change medium there and are attenuated by the media they
 //!   cross ([`transmittance`]). Emitters hit after a delta chain (or a medium without emitter
-//!   sampling) count fully.
+//!   sampling) count fully. Shadow-ray transmittance is closed-form in homogeneous media and a
+//!   ratio-tracking estimate in heterogeneous ones (as Mitsuba's).
 //! - The current medium changes at every surface that has a medium interface, to the side
 //!   dot(ray direction, geometric normal) points to ([`crate::medium::MediumInterface::target`]).
 //! - `hide_emitters`: a camera ray passes area emitters (Mitsuba's `skip_area_emitters`) and does
@@ -26,8 +30,7 @@ use super::{RayKind, Rays, Scratch};
 use crate::bsdf::{BsdfArena, BsdfContext, Lobes};
 use crate::geometry::{Ray, SurfaceInteraction};
 use crate::math::mis::power_heuristic;
-use crate::medium::homogeneous::FreeFlight;
-use crate::medium::{Medium, MediumId};
+use crate::medium::{FreeFlight, MediumId};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::{max_component, Spectrum};
@@ -98,9 +101,9 @@ pub fn li(
 
         // ---- Free flight through the current medium ----
         if let Some(m) = medium {
-            let Medium::Homogeneous(h) = &scene.media[m as usize];
+            let med = &scene.media[m as usize];
             let t_max = hit.as_ref().map_or(f32::INFINITY, |si| si.t);
-            match h.sample_free_flight(t_max, channel, sampler.next_1d()) {
+            match med.sample_free_flight(ray.o, ray.d, t_max, channel, sampler) {
                 FreeFlight::Pass { weight } => throughput *= weight,
                 FreeFlight::Scatter { t, weight } => {
                     throughput *= weight;
@@ -110,8 +113,8 @@ pub fn li(
                     }
                     let p = ray.o + ray.d * t;
                     let wi = -ray.d;
-                    let phase = &h.phase;
-                    let sample_emitters = h.sample_emitters;
+                    let phase = med.phase();
+                    let sample_emitters = med.sample_emitters();
                     specular_chain = !sample_emitters;
                     from_camera = false;
                     if sample_emitters {
@@ -296,7 +299,7 @@ fn sample_emitter(
             r
         }
     };
-    let tr = transmittance(scene, ray, target, medium, rays, arena);
+    let tr = transmittance(scene, ray, target, medium, sampler, rays, arena);
     if tr == Spectrum::ZERO {
         return None;
     }
@@ -310,12 +313,14 @@ fn sample_emitter(
 
 /// Transmittance along a shadow ray toward `target` (a point and its surface normal; `None`:
 /// infinitely far), starting in `medium`: zero at the first surface that is not `null`, else the
-/// product of the media's transmittances over the segments between `null` boundaries.
+/// product of the media's transmittances over the segments between `null` boundaries (closed form
+/// in homogeneous media, ratio tracking with `sampler` in heterogeneous ones).
 fn transmittance(
     scene: &Scene,
     mut ray: Ray,
     target: Option<(Vec3, Option<Vec3>)>,
     mut medium: Option<MediumId>,
+    sampler: &mut Sampler,
     rays: &mut Rays,
     arena: &mut BsdfArena,
 ) -> Spectrum {
@@ -324,8 +329,7 @@ fn transmittance(
         let hit = rays.intersect(scene, &ray, RayKind::Bounce);
         let seg = hit.as_ref().map_or(ray.tmax, |si| si.t);
         if let Some(m) = medium {
-            let Medium::Homogeneous(h) = &scene.media[m as usize];
-            tr *= h.transmittance(seg);
+            tr *= scene.media[m as usize].transmittance(ray.o, ray.d, seg, sampler);
             if tr == Spectrum::ZERO {
                 return tr;
             }
