@@ -33,7 +33,7 @@ impl<'d> Builder<'d> {
         let p = self.props(n)?;
         let m = match p.plugin_type() {
             "homogeneous" => Medium::Homogeneous(self.homogeneous(&p)?),
-            "heterogeneous" => Medium::Heterogeneous(self.heterogeneous(&p)?),
+            "heterogeneous" => Medium::Heterogeneous(Box::new(self.heterogeneous(&p)?)),
             t => {
                 return Err(unknown(
                     p.loc(),

@@ -77,7 +77,7 @@ pub struct Coefficients {
 #[derive(Clone, Debug)]
 pub enum Medium {
     Homogeneous(Homogeneous),
-    Heterogeneous(Heterogeneous),
+    Heterogeneous(Box<Heterogeneous>),
 }
 
 impl Medium {

@@ -146,20 +146,21 @@ impl Grid {
         self.max = m;
     }
 
+    /// The value of voxel (x, y, z), indices already wrapped.
     #[inline]
-    fn fetch(&self, x: i32, y: i32, z: i32) -> Spectrum {
-        let [nx, ny, nz] = self.n;
-        let (x, y, z) = (
-            self.wrap.apply(x, nx) as usize,
-            self.wrap.apply(y, ny) as usize,
-            self.wrap.apply(z, nz) as usize,
-        );
-        let i = ((z * ny as usize + y) * nx as usize + x) * self.channels;
+    fn voxel(&self, x: usize, y: usize, z: usize) -> Spectrum {
+        let i = ((z * self.n[1] as usize + y) * self.n[0] as usize + x) * self.channels;
         if self.channels == 1 {
             Spectrum::splat(self.data[i])
         } else {
             Vec3::new(self.data[i], self.data[i + 1], self.data[i + 2])
         }
+    }
+
+    /// Axis `k`'s index `i`, wrapped.
+    #[inline]
+    fn wrapped(&self, i: i32, k: usize) -> usize {
+        self.wrap.apply(i, self.n[k]) as usize
     }
 
     /// The value at `p` in the grid's unit cube.
@@ -169,22 +170,31 @@ impl Grid {
         match self.filter {
             Filter::Nearest => {
                 let f = (p * res).floor();
-                self.fetch(f.x as i32, f.y as i32, f.z as i32)
+                self.voxel(
+                    self.wrapped(f.x as i32, 0),
+                    self.wrapped(f.y as i32, 1),
+                    self.wrapped(f.z as i32, 2),
+                )
             }
             Filter::Trilinear => {
                 let f = p * res - Vec3::splat(0.5);
                 let i = f.floor();
                 let w1 = f - i;
                 let w0 = Vec3::ONE - w1;
+                // The two wrapped indices per axis, computed once (not per corner).
                 let (x, y, z) = (i.x as i32, i.y as i32, i.z as i32);
+                let xs = [self.wrapped(x, 0), self.wrapped(x + 1, 0)];
+                let ys = [self.wrapped(y, 1), self.wrapped(y + 1, 1)];
+                let zs = [self.wrapped(z, 2), self.wrapped(z + 1, 2)];
+                let wx = [w0.x, w1.x];
+                let wy = [w0.y, w1.y];
+                let wz = [w0.z, w1.z];
                 let mut v = Spectrum::ZERO;
-                for dz in 0..2 {
-                    let wz = if dz == 0 { w0.z } else { w1.z };
-                    for dy in 0..2 {
-                        let wy = if dy == 0 { w0.y } else { w1.y };
-                        for dx in 0..2 {
-                            let wx = if dx == 0 { w0.x } else { w1.x };
-                            v += self.fetch(x + dx, y + dy, z + dz) * (wx * wy * wz);
+                for (&zi, &wzi) in zs.iter().zip(&wz) {
+                    for (&yi, &wyi) in ys.iter().zip(&wy) {
+                        let wyz = wyi * wzi;
+                        for (&xi, &wxi) in xs.iter().zip(&wx) {
+                            v += self.voxel(xi, yi, zi) * (wxi * wyz);
                         }
                     }
                 }

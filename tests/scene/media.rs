@@ -1,7 +1,7 @@
 //! Loading participating media: `<medium>` (`homogeneous`), `<phase>`, the media of shapes and of
 //! the sensor, `volpath`; errors at the element's file:line:col; and Mitsuba 3's own regression
-//! scenes with homogeneous media (`../survey/mitsuba-data/tests/scenes/participating_media`, when
-//! present).
+//! scenes with media (`../survey/mitsuba-data/tests/scenes/participating_media`, when present).
+//! Heterogeneous media: `media_hetero.rs`.
 
 use groove::medium::{Medium, Phase};
 use std::path::Path;
@@ -113,8 +113,8 @@ fn media_errors_name_the_element() {
     assert_err(&e, "mem.xml:3:1", "'albedo' must lie in [0, 1]");
 }
 
-/// Mitsuba 3's regression scenes with homogeneous media load (their integrators wrapped in
-/// `moment`); `volpathmis` says groove lacks it.
+/// Mitsuba 3's regression scenes with homogeneous and heterogeneous media load (their integrators
+/// wrapped in `moment`); `volpathmis` says groove lacks it.
 #[test]
 fn mitsuba_regression_media_scenes_load() {
     // Beside the repository, as the shared Cornell box is (`../survey/mitsuba-data`).
@@ -138,6 +138,9 @@ fn mitsuba_regression_media_scenes_load() {
         "test_homo_obj_inside_medium_volpath",
         "test_homo_roughdielectric_spot_volpath",
         "test_surf_area_light_volpath",
+        "test_hetero_sigmat_albedo_volpath",
+        "test_hetero_sigmat_volpath",
+        "test_hetero_spectral_sigmat_no_scattering_volpath",
     ] {
         let l = groove::load::load_scene(&dir.join(format!("{name}.xml")), &opts)
             .unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -147,7 +150,7 @@ fn mitsuba_regression_media_scenes_load() {
         );
         loaded += 1;
     }
-    assert_eq!(loaded, 7);
+    assert_eq!(loaded, 10);
     let e = groove::load::load_scene(&dir.join("test_homo_spectral_sigmat_volpathmis.xml"), &opts)
         .err()
         .expect("volpathmis is not built");
