@@ -8,8 +8,12 @@
 //! | 4 | data type (i32), 1 = float32 (the only one Mitsuba 3.9.1 reads) |
 //! | 12 | size x, y, z (i32 each) |
 //! | 4 | channels (i32) |
-//! | 24 | bounding box min x, y, z, max x, y, z (f32; not used by `sdfgrid`) |
+//! | 24 | bounding box min x, y, z, max x, y, z (f32; `gridvolume`'s `use_grid_bbox`, not used by `sdfgrid`) |
 //! | 4·x·y·z·channels | values (f32), channel fastest, then x, then y, then z |
+//!
+//! One reader for both users: the `sdfgrid` shape (`crate::geometry::sdfgrid`) and the
+//! `gridvolume` of heterogeneous media (`crate::medium::volume`), each checking what it needs of
+//! the channel count and the values.
 //!
 //! The sizes are checked against the file's length and the memory budget before the values
 //! are read; every error names the offset it was found at.
@@ -27,6 +31,8 @@ pub struct VolGrid {
     /// Size along x, y, z.
     pub size: [u32; 3],
     pub channels: u32,
+    /// The bounding box stored in the header: min x, y, z, then max x, y, z.
+    pub bbox: [f32; 6],
     /// Values, channel fastest, then x, y, z.
     pub data: Vec<f32>,
 }
@@ -88,6 +94,11 @@ pub fn read_vol(path: &Path, budget: &Budget) -> Result<VolGrid, String> {
             len.saturating_sub(HEADER)
         ));
     }
+    let mut bbox = [0f32; 6];
+    for (k, b) in bbox.iter_mut().enumerate() {
+        let at = 24 + 4 * k;
+        *b = f32::from_le_bytes([head[at], head[at + 1], head[at + 2], head[at + 3]]);
+    }
     budget.reserve(
         bytes,
         &format!("volume grid {}x{}x{}x{channels}", size[0], size[1], size[2]),
@@ -112,6 +123,7 @@ pub fn read_vol(path: &Path, budget: &Budget) -> Result<VolGrid, String> {
     Ok(VolGrid {
         size,
         channels,
+        bbox,
         data,
     })
 }

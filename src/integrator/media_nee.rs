@@ -6,7 +6,7 @@
 use super::{RayKind, Rays, Scratch};
 use crate::bsdf::{BsdfArena, Lobes};
 use crate::geometry::{Ray, SurfaceInteraction};
-use crate::medium::{Medium, MediumId};
+use crate::medium::MediumId;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
@@ -79,7 +79,7 @@ pub(super) fn sample_emitter(
             r
         }
     };
-    let tr = transmittance(scene, ray, target, medium, rays, arena);
+    let tr = transmittance(scene, ray, target, medium, sampler, rays, arena);
     if tr == Spectrum::ZERO {
         return None;
     }
@@ -95,12 +95,14 @@ pub(super) fn sample_emitter(
 
 /// Transmittance along a shadow ray toward `target` (a point and its surface normal; `None`:
 /// infinitely far), starting in `medium`: zero at the first surface that is not `null`, else the
-/// product of the media's transmittances over the segments between `null` boundaries.
+/// product of the media's transmittances over the segments between `null` boundaries (closed form
+/// in homogeneous media, ratio tracking with `sampler` in heterogeneous ones).
 pub(super) fn transmittance(
     scene: &Scene,
     mut ray: Ray,
     target: Option<(Vec3, Option<Vec3>)>,
     mut medium: Option<MediumId>,
+    sampler: &mut Sampler,
     rays: &mut Rays,
     arena: &mut BsdfArena,
 ) -> Spectrum {
@@ -109,8 +111,7 @@ pub(super) fn transmittance(
         let hit = rays.intersect(scene, &ray, RayKind::Bounce);
         let seg = hit.as_ref().map_or(ray.tmax, |si| si.t);
         if let Some(m) = medium {
-            let Medium::Homogeneous(h) = &scene.media[m as usize];
-            tr *= h.transmittance(seg);
+            tr *= scene.media[m as usize].transmittance(ray.o, ray.d, seg, sampler);
             if tr == Spectrum::ZERO {
                 return tr;
             }

@@ -2,13 +2,17 @@
 //!
 //! - One colour channel per path samples free-flight distances (Mitsuba's RGB mode: the
 //!   channel is drawn first, and the throughput carries Tr/pdf of that channel; no spectral MIS).
+//!   Heterogeneous media are delta-tracked against their majorant (null collisions count no
+//!   depth and meet no Russian roulette; Mitsuba rolls its roulette at each one, which changes
+//!   the noise, not the expectation); see [`crate::medium::heterogeneous`].
 //! - Depth counts real scattering events, at surfaces and in media; `null` surfaces are passed
 //!   without a bounce. Russian roulette from depth > `rr_depth`, survival min(max(β)·η², 0.95).
 //! - Next-event estimation at smooth surfaces and at medium scattering events (unless the
 //!   medium's `sample_emitters` is off), with the power heuristic against BSDF / phase sampling;
 //!   shadow rays pass `null` surfaces, change medium there and are attenuated by the media they
 //!   cross ([`super::media_nee::transmittance`]). Emitters hit after a delta chain (or a medium without emitter
-//!   sampling) count fully.
+//!   sampling) count fully. Shadow-ray transmittance is closed-form in homogeneous media and a
+//!   ratio-tracking estimate in heterogeneous ones (as Mitsuba's).
 //! - The current medium changes at every surface that has a medium interface, to the side
 //!   dot(ray direction, geometric normal) points to ([`crate::medium::MediumInterface::target`]).
 //! - `hide_emitters`: a camera ray passes area emitters (Mitsuba's `skip_area_emitters`) and does
@@ -27,8 +31,7 @@ use super::{RayKind, Scratch};
 use crate::bsdf::{BsdfContext, Lobes};
 use crate::geometry::Ray;
 use crate::math::mis::power_heuristic;
-use crate::medium::homogeneous::FreeFlight;
-use crate::medium::Medium;
+use crate::medium::FreeFlight;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::{max_component, Spectrum};
@@ -94,9 +97,9 @@ pub fn li(
 
         // ---- Free flight through the current medium ----
         if let Some(m) = medium {
-            let Medium::Homogeneous(h) = &scene.media[m as usize];
+            let med = &scene.media[m as usize];
             let t_max = hit.as_ref().map_or(f32::INFINITY, |si| si.t);
-            match h.sample_free_flight(t_max, channel, sampler.next_1d()) {
+            match med.sample_free_flight(ray.o, ray.d, t_max, channel, sampler) {
                 FreeFlight::Pass { weight } => throughput *= weight,
                 FreeFlight::Scatter { t, weight } => {
                     throughput *= weight;
@@ -106,8 +109,8 @@ pub fn li(
                     }
                     let p = ray.o + ray.d * t;
                     let wi = -ray.d;
-                    let phase = &h.phase;
-                    let sample_emitters = h.sample_emitters;
+                    let phase = med.phase();
+                    let sample_emitters = med.sample_emitters();
                     specular_chain = !sample_emitters;
                     from_camera = false;
                     if sample_emitters {

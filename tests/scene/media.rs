@@ -1,7 +1,7 @@
 //! Loading participating media: `<medium>` (`homogeneous`), `<phase>`, the media of shapes and of
 //! the sensor, `volpath`; errors at the element's file:line:col; and Mitsuba 3's own regression
-//! scenes with homogeneous media (`../survey/mitsuba-data/tests/scenes/participating_media`, when
-//! present).
+//! scenes with media (`../survey/mitsuba-data/tests/scenes/participating_media`, when present).
+//! Heterogeneous media: `media_hetero.rs`.
 
 use groove::medium::{Medium, Phase};
 use std::path::Path;
@@ -51,7 +51,9 @@ fn shape_media_by_reference_and_nested_and_the_sensor_medium() {
     assert_eq!(s.camera_medium(), Some(0));
     assert_eq!(s.shape_media()[0].interior, Some(0));
     assert_eq!(s.shape_media()[0].exterior, Some(1));
-    let Medium::Homogeneous(m) = &s.media()[0];
+    let Medium::Homogeneous(m) = &s.media()[0] else {
+        panic!("not homogeneous")
+    };
     assert_eq!(m.sigma_t, glam::Vec3::splat(6.0));
     assert!(
         (m.sigma_s - glam::Vec3::new(3.0, 3.6, 4.2))
@@ -61,7 +63,9 @@ fn shape_media_by_reference_and_nested_and_the_sensor_medium() {
     );
     assert!(matches!(m.phase, Phase::Hg(h) if h.g == 0.3));
     // Mitsuba's defaults: sigma_t 1, albedo 0.75, isotropic, sample_emitters.
-    let Medium::Homogeneous(d) = &s.media()[1];
+    let Medium::Homogeneous(d) = &s.media()[1] else {
+        panic!("not homogeneous")
+    };
     assert_eq!(d.sigma_t, glam::Vec3::ONE);
     assert_eq!(d.sigma_s, glam::Vec3::splat(0.75));
     assert!(matches!(d.phase, Phase::Isotropic) && d.sample_emitters);
@@ -77,12 +81,8 @@ fn media_errors_name_the_element() {
     let e =
         load_err("<medium type=\"homogeneous\"><rgb name=\"sigma_t\" value=\"2, 1, 1\"/></medium>");
     assert_err(&e, "mem.xml:3:48", "must be in the range [0, 1]");
-    let e = load_err("<medium type=\"heterogeneous\"/>");
-    assert_err(
-        &e,
-        "mem.xml:3:1",
-        "Mitsuba plugin 'heterogeneous' (medium) is not supported by groove",
-    );
+    let e = load_err("<medium type=\"inhomogeneous\"/>");
+    assert_err(&e, "mem.xml:3:1", "inhomogeneous");
     let e = load_err("<medium type=\"homogeneous\"><rgb name=\"radiance\" value=\"1\"/></medium>");
     assert_err(&e, "mem.xml:3:1", "emissive media are not supported");
     let e = load_err("<medium type=\"homogeneous\"><phase type=\"hg\"><float name=\"g\" value=\"1\"/></phase></medium>");
@@ -113,8 +113,8 @@ fn media_errors_name_the_element() {
     assert_err(&e, "mem.xml:3:1", "'albedo' must lie in [0, 1]");
 }
 
-/// Mitsuba 3's regression scenes with homogeneous media load (their integrators wrapped in
-/// `moment`), the `volpathmis` one included.
+/// Mitsuba 3's regression scenes with homogeneous and heterogeneous media load (their integrators
+/// wrapped in `moment`), the homogeneous `volpathmis` one included.
 #[test]
 fn mitsuba_regression_media_scenes_load() {
     // Beside the repository, as the shared Cornell box is (`../survey/mitsuba-data`).
@@ -138,6 +138,9 @@ fn mitsuba_regression_media_scenes_load() {
         "test_homo_obj_inside_medium_volpath",
         "test_homo_roughdielectric_spot_volpath",
         "test_surf_area_light_volpath",
+        "test_hetero_sigmat_albedo_volpath",
+        "test_hetero_sigmat_volpath",
+        "test_hetero_spectral_sigmat_no_scattering_volpath",
     ] {
         let l = groove::load::load_scene(&dir.join(format!("{name}.xml")), &opts)
             .unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -147,7 +150,7 @@ fn mitsuba_regression_media_scenes_load() {
         );
         loaded += 1;
     }
-    assert_eq!(loaded, 7);
+    assert_eq!(loaded, 10);
     let l = groove::load::load_scene(&dir.join("test_homo_spectral_sigmat_volpathmis.xml"), &opts)
         .unwrap_or_else(|e| panic!("test_homo_spectral_sigmat_volpathmis: {e}"));
     assert!(!l.scene.media().is_empty());
