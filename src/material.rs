@@ -438,7 +438,8 @@ impl Materials {
                     )
                     .with_transmission_walk(settings.transmission_walk)
                     .with_lambert_closed_form(settings.lambert_closed_form)
-                    .with_ms_table(settings.ms_table),
+                    .with_ms_table(settings.ms_table)
+                    .with_incident(si.sh.to_local(si.wi)),
                 )
             }
             MaterialNode::NormalMap {

@@ -16,8 +16,15 @@
 //! deterministic (eval consumes no random numbers). Sampling: with probability
 //! s(ωi) = Y(E_ms(ωi)) / (Y(c·W1(ωi)) + Y(E_ms(ωi))) a cosine lobe about ωg, else the first
 //! order's own sampler; pdf = (1 − s) p1 + s z/π exactly, weight = eval / pdf.
+//!
+//! Cost (issue 17 item 1): everything that depends on ωi alone — the first order's entries
+//! (λ(ωi), R(ωi), both in the facet frames) and, for tables with the colour baked in, E_ms(ωi)
+//! and s(ωi) — is computed once per shading point ([`AtIncident`], built with the BSDF at the
+//! hit) and shared by next-event estimation and sampling. A sample takes the term of the path it
+//! drew from the nested sample record (F = weight · pdf, P = pdf) instead of evaluating the
+//! nested BSDF again; eval and pdf come from one pass ([`eval_pdf`]).
 
-use super::explicit;
+use super::facets::MAX_FACETS;
 use super::ms_table::{Colour, MsTable, ThetaCell};
 use super::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfContext, BsdfNode, BsdfSample};
@@ -33,10 +40,14 @@ pub struct MsRef {
     pub cell: ThetaCell,
     /// With the colour baked in ([`Colour::Baked`]): 1 / (π Ē_ms) of this point, per channel.
     baked_norm: Option<Spectrum>,
+    /// The incident direction's share, when the hit's ωi is known at build time
+    /// ([`MicrofacetNormalMap::with_incident`]); used for queries with that exact ωi.
+    at: Option<AtIncident>,
 }
 
 impl MsRef {
     /// `wp`: the (clamped, not flat) perturbed normal.
+    #[inline]
     pub fn new(table: &'static MsTable, wp: Vec3) -> MsRef {
         let cell = table.cell(wp);
         let baked_norm = (table.spec.colour == Colour::Baked).then(|| {
@@ -47,7 +58,114 @@ impl MsRef {
             table,
             cell,
             baked_norm,
+            at: None,
         }
+    }
+
+    /// The cached incident share for the query direction `wi`, if it was built for exactly it
+    /// (bit for bit: a query from another ωi, e.g. a light path's, computes its own).
+    #[inline]
+    fn at(&self, wi: Vec3) -> Option<&AtIncident> {
+        self.at
+            .as_ref()
+            .filter(|a| a.wi.to_array().map(f32::to_bits) == wi.to_array().map(f32::to_bits))
+    }
+}
+
+/// The first order's entries at ωi (module doc of `explicit.rs`): over the mirror sawtooth
+/// (direct: facet 0 from ωi with weight λp(ωi); via the wall: facet 0 from R(ωi) with λt(ωi),
+/// where ωi·ωt > 0), else one per facet seen from ωi (single scattering, weight λ_k(ωi)); each
+/// with its incident direction already in the facet's frame.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Entries {
+    k: [u8; MAX_FACETS],
+    n: u8,
+    w: [f32; MAX_FACETS],
+    a: [Vec3; MAX_FACETS],
+}
+
+impl Entries {
+    /// The entries at `wi` (z > 0), with the same conditions and values as
+    /// `explicit::eval_pdf_complete` / `eval_pdf_single` use.
+    fn new(m: &MicrofacetNormalMap, wi: Vec3) -> Entries {
+        let surf = &m.surface;
+        let mut e = Entries {
+            k: [0; MAX_FACETS],
+            w: [0.0; MAX_FACETS],
+            a: [Vec3::ZERO; MAX_FACETS],
+            n: 0,
+        };
+        let l = surf.lambdas(wi);
+        if m.mirror_wall {
+            let fr = &m.frames[0];
+            if l[0] > 0.0 {
+                e.push(0, l[0], fr.to_local(wi));
+            }
+            if l[1] > 0.0 && wi.dot(surf.normal(1)) > 0.0 {
+                e.push(0, l[1], fr.to_local(m.reflect_wall(wi)));
+            }
+        } else {
+            for (k, &lk) in l.iter().enumerate().take(surf.len()) {
+                if lk > 0.0 {
+                    e.push(k, lk, m.frames[k].to_local(wi));
+                }
+            }
+        }
+        e
+    }
+
+    fn push(&mut self, k: usize, w: f32, a: Vec3) {
+        let n = self.n as usize;
+        self.k[n] = k as u8;
+        self.w[n] = w;
+        self.a[n] = a;
+        self.n += 1;
+    }
+
+    #[inline]
+    fn len(&self) -> usize {
+        self.n as usize
+    }
+}
+
+/// What a shading point computes once for its incident direction (module doc).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct AtIncident {
+    wi: Vec3,
+    entries: Entries,
+    /// Baked tables: E_ms(ωi) and the lobe choice s(ωi).
+    baked: Option<(Spectrum, f32)>,
+}
+
+impl AtIncident {
+    fn new(m: &MicrofacetNormalMap, r: &MsRef, wi: Vec3) -> AtIncident {
+        let baked = r.baked_norm.map(|_| {
+            let [w1, ei] = r.table.lookup_baked(&r.cell, wi, true);
+            (ei, selection(ei, w1))
+        });
+        AtIncident {
+            wi,
+            entries: Entries::new(m, wi),
+            baked,
+        }
+    }
+}
+
+impl MicrofacetNormalMap {
+    /// The compensated model's per-point cache for the hit's incident direction `wi` (shading
+    /// frame): computed here once, used by every query with exactly this ωi. Without a table,
+    /// or with ωi below the surface, nothing changes. Results are the same with or without it.
+    #[inline]
+    pub fn with_incident(mut self, wi: Vec3) -> Self {
+        if let Some(r) = &self.ms {
+            if wi.z > 0.0 && !self.degenerate {
+                let at = AtIncident::new(&self, r, wi);
+                if let Some(r) = &mut self.ms {
+                    r.at = Some(at);
+                }
+            }
+        }
+        self
     }
 }
 
@@ -79,15 +197,21 @@ fn colour(r: &MsRef, nested: &Bsdf) -> Spectrum {
 
 impl AtWi {
     #[inline]
-    fn new(r: &MsRef, nested: &Bsdf, wi: Vec3) -> AtWi {
+    fn new(r: &MsRef, nested: &Bsdf, wi: Vec3, at: Option<&AtIncident>) -> AtWi {
         let t = r.table;
         if let Some(norm) = r.baked_norm {
-            let [w1, ei] = t.lookup_baked(&r.cell, wi, true);
+            let (ei, select) = match at.and_then(|a| a.baked) {
+                Some(b) => b,
+                None => {
+                    let [w1, ei] = t.lookup_baked(&r.cell, wi, true);
+                    (ei, selection(ei, w1))
+                }
+            };
             return AtWi {
                 k: [[Spectrum::ONE; 3]; 2],
                 norm,
                 ei,
-                select: selection(ei, w1),
+                select,
             };
         }
         let c = colour(r, nested);
@@ -140,20 +264,89 @@ fn inv(x: f32) -> f32 {
     }
 }
 
-/// The first order's eval and pdf (fused nested calls).
+/// One term of the first order already known from the nested sample that drew ωo: entry `j`,
+/// exit through the wall or not, and the nested F and P of that pair.
+#[derive(Clone, Copy)]
+struct Known {
+    j: usize,
+    wall: bool,
+    f: Spectrum,
+    p: f32,
+}
+
+/// The first order's eval and pdf at ωo (z > 0) from the entries at ωi: the sum of
+/// `explicit::eval_pdf_complete` (mirror sawtooth) or `explicit::eval_pdf_single`, in the same
+/// order and with the same operations (so bit for bit equal to them), with ωo (and R(ωo)) put
+/// into the facet frame once for all entries, and the `known` term not evaluated again.
 #[inline]
 fn first_order(
     m: &MicrofacetNormalMap,
+    e: &Entries,
     nested: &Bsdf,
     ctx: &BsdfContext,
-    wi: Vec3,
     wo: Vec3,
     s: &mut Sampler,
+    known: Option<Known>,
 ) -> (Spectrum, f32) {
+    let surf = &m.surface;
+    let g1o = surf.g1(wo);
+    let pdf_only = g1o <= 0.0;
+    let mut v = Spectrum::ZERO;
+    let mut p = 0.0;
+    let fp = |j: usize, wall: bool, b: Vec3, s: &mut Sampler| -> (Spectrum, f32) {
+        match known {
+            Some(kn) if kn.j == j && kn.wall == wall => (kn.f, kn.p),
+            _ if pdf_only => (Spectrum::ZERO, nested.pdf(ctx, e.a[j], b)),
+            _ => nested.eval_pdf(ctx, e.a[j], b, s),
+        }
+    };
     if m.mirror_wall {
-        explicit::eval_pdf_complete(m, nested, ctx, wi, wo, s)
+        let fr = &m.frames[0];
+        let bo = fr.to_local(wo);
+        let exit_t = (wo.dot(surf.normal(1)) > 0.0)
+            .then(|| {
+                let rwo = m.reflect_wall(wo);
+                (rwo, 1.0 - surf.g1(rwo))
+            })
+            .filter(|&(_, bt)| bt > 0.0)
+            .map(|(rwo, bt)| (fr.to_local(rwo), bt));
+        for j in 0..e.len() {
+            let w = e.w[j];
+            let (f, pd) = fp(j, false, bo, s);
+            v += w * f;
+            p += w * g1o * pd;
+            if let Some((rb, bt)) = exit_t {
+                let (f, pd) = fp(j, true, rb, s);
+                v += (w * bt) * f;
+                p += w * bt * pd;
+            }
+        }
     } else {
-        explicit::eval_pdf_single(m, nested, ctx, wi, wo, s)
+        for j in 0..e.len() {
+            let (k, lk) = (e.k[j] as usize, e.w[j]);
+            let b = m.frames[k].to_local(wo);
+            if !pdf_only && wo.dot(surf.normal(k)) > 0.0 {
+                let (f, pd) = fp(j, false, b, s);
+                v += lk * f;
+                p += lk * pd;
+            } else {
+                let pd = match known {
+                    Some(kn) if kn.j == j => kn.p,
+                    _ => nested.pdf(ctx, e.a[j], b),
+                };
+                p += lk * pd;
+            }
+        }
+    }
+    (v * g1o, p)
+}
+
+/// The entries at `wi`: the point's cache, else computed.
+#[inline]
+fn entries(m: &MicrofacetNormalMap, at: Option<&AtIncident>, wi: Vec3) -> Entries {
+    match at {
+        Some(a) => a.entries,
+        None => Entries::new(m, wi),
     }
 }
 
@@ -167,8 +360,10 @@ pub(super) fn eval_pdf(
     wo: Vec3,
     s: &mut Sampler,
 ) -> (Spectrum, f32) {
-    let a = AtWi::new(r, nested, wi);
-    let (f1, p1) = first_order(m, nested, ctx, wi, wo, s);
+    let at = r.at(wi);
+    let a = AtWi::new(r, nested, wi, at);
+    let e = entries(m, at, wi);
+    let (f1, p1) = first_order(m, &e, nested, ctx, wo, s, None);
     (
         f1 + a.remainder(r, wo),
         (1.0 - a.select) * p1 + a.select * wo.z * INV_PI,
@@ -184,16 +379,69 @@ pub(super) fn pdf(
     wi: Vec3,
     wo: Vec3,
 ) -> f32 {
-    let a = AtWi::new(r, nested, wi);
-    let p1 = if m.mirror_wall {
-        explicit::pdf_complete(m, nested, ctx, wi, wo)
-    } else {
-        explicit::pdf_single(m, nested, ctx, wi, wo)
+    let at = r.at(wi);
+    let select = match (r.baked_norm, at.and_then(|a| a.baked)) {
+        (Some(_), Some((_, sel))) => sel,
+        _ => AtWi::new(r, nested, wi, at).select,
     };
-    (1.0 - a.select) * p1 + a.select * wo.z * INV_PI
+    let e = entries(m, at, wi);
+    let p1 = first_pdf(m, &e, nested, ctx, wo);
+    (1.0 - select) * p1 + select * wo.z * INV_PI
+}
+
+/// The first order's density alone (`explicit::pdf_complete` / `pdf_single` from the entries).
+fn first_pdf(
+    m: &MicrofacetNormalMap,
+    e: &Entries,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wo: Vec3,
+) -> f32 {
+    let surf = &m.surface;
+    let mut p = 0.0;
+    if m.mirror_wall {
+        let fr = &m.frames[0];
+        let g1o = surf.g1(wo);
+        let bo = fr.to_local(wo);
+        let exit_t = (wo.dot(surf.normal(1)) > 0.0)
+            .then(|| {
+                let rwo = m.reflect_wall(wo);
+                (rwo, 1.0 - surf.g1(rwo))
+            })
+            .filter(|&(_, bt)| bt > 0.0)
+            .map(|(rwo, bt)| (fr.to_local(rwo), bt));
+        for j in 0..e.len() {
+            let w = e.w[j];
+            p += w * g1o * nested.pdf(ctx, e.a[j], bo);
+            if let Some((rb, bt)) = exit_t {
+                p += w * bt * nested.pdf(ctx, e.a[j], rb);
+            }
+        }
+    } else {
+        for j in 0..e.len() {
+            let k = e.k[j] as usize;
+            p += e.w[j] * nested.pdf(ctx, e.a[j], m.frames[k].to_local(wo));
+        }
+    }
+    p
+}
+
+/// True when the nested BSDF's samples carry weight = eval / pdf, so that a drawn path's term
+/// can be taken from its sample record (F = weight · pdf): the microfacet reflectors whose
+/// `sample` computes its weight from the same f and pdf as `eval_pdf` (a `blendbsdf`, for one,
+/// reports the chosen component's weight against the mixture's pdf, so it is not listed).
+#[inline]
+fn sample_record_is_exact(nested: &Bsdf) -> bool {
+    matches!(
+        nested.node(),
+        BsdfNode::RoughConductor(_) | BsdfNode::RoughPlastic(_) | BsdfNode::Diffuse(_)
+    )
 }
 
 /// The mixture of the first order's sampler and a cosine lobe (module doc); weight = eval/pdf.
+/// The first order's sampler draws with independent random numbers per decision, as
+/// `explicit::draw_complete` / `draw_single` do; the drawn path's nested F and P come from the
+/// nested sample record (when [`sample_record_is_exact`]), the other terms are evaluated.
 pub(super) fn sample(
     m: &MicrofacetNormalMap,
     r: &MsRef,
@@ -202,18 +450,19 @@ pub(super) fn sample(
     wi: Vec3,
     s: &mut Sampler,
 ) -> Option<BsdfSample> {
-    let a = AtWi::new(r, nested, wi);
-    let wo = if s.next_1d() < a.select {
-        warp::square_to_cosine_hemisphere(s.next_2d())
-    } else if m.mirror_wall {
-        explicit::draw_complete(m, nested, ctx, wi, s)?
+    let at = r.at(wi);
+    let a = AtWi::new(r, nested, wi, at);
+    let e = entries(m, at, wi);
+    let (wo, known) = if s.next_1d() < a.select {
+        (warp::square_to_cosine_hemisphere(s.next_2d()), None)
     } else {
-        explicit::draw_single(m, nested, ctx, wi, s)?
+        draw(m, &e, nested, ctx, s)?
     };
     if wo.z <= 0.0 {
         return None;
     }
-    let (f1, p1) = first_order(m, nested, ctx, wi, wo, s);
+    let known = known.filter(|_| sample_record_is_exact(nested));
+    let (f1, p1) = first_order(m, &e, nested, ctx, wo, s, known);
     let pdf = (1.0 - a.select) * p1 + a.select * wo.z * INV_PI;
     if !(pdf.is_finite() && pdf > 0.0) {
         return None;
@@ -223,8 +472,54 @@ pub(super) fn sample(
         pdf,
         weight: (f1 + a.remainder(r, wo)) / pdf,
         eta: 1.0,
-        lobe: explicit::lobe_of(nested.lobes()),
+        lobe: super::explicit::lobe_of(nested.lobes()),
     })
+}
+
+/// The first order's sampler from the entries: pick an entry by its weight, sample the nested
+/// BSDF in its facet's frame; over the mirror sawtooth the direction u leaves directly with
+/// probability G1(u), else through the wall (R(u)). Returns ωo and the drawn term.
+fn draw(
+    m: &MicrofacetNormalMap,
+    e: &Entries,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    s: &mut Sampler,
+) -> Option<(Vec3, Option<Known>)> {
+    // Entry by weight (the weights sum to 1 up to rounding; the last entry takes the rest).
+    let x = s.next_1d();
+    let mut j = 0;
+    let mut acc = 0.0;
+    let n = e.len();
+    while j + 1 < n {
+        acc += e.w[j];
+        if x < acc {
+            break;
+        }
+        j += 1;
+    }
+    if n == 0 {
+        return None;
+    }
+    let fr = &m.frames[e.k[j] as usize];
+    let bs = nested.sample(ctx, e.a[j], s)?;
+    let u = fr.to_world(bs.wo);
+    let known = |wall| {
+        (bs.pdf.is_finite() && bs.pdf > 0.0).then_some(Known {
+            j,
+            wall,
+            f: bs.weight * bs.pdf,
+            p: bs.pdf,
+        })
+    };
+    if !m.mirror_wall {
+        return Some((u, known(false)));
+    }
+    if s.next_1d() < m.surface.g1(u) {
+        Some((u, known(false)))
+    } else {
+        Some((m.reflect_wall(u), known(true))) // blocked: the ray hits the mirror wall
+    }
 }
 
 impl MicrofacetNormalMap {

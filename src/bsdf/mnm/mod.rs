@@ -143,6 +143,7 @@ pub struct MicrofacetNormalMap {
 
 impl MicrofacetNormalMap {
     /// `wp` must be unit with `wp.z > 0` (see [`facets::clamp_perturbed_normal`]).
+    #[inline]
     pub fn new(
         nested: u32,
         wp: Vec3,
@@ -188,6 +189,7 @@ impl MicrofacetNormalMap {
     ///
     /// Under `evaluation = auto` the table's misplaced energy at this θp sets the blend β
     /// ([`misplaced::blend`]); β = 0, or a table without M, leaves the walk.
+    #[inline]
     pub fn with_ms_table(mut self, table: Option<&'static ms_table::MsTable>) -> Self {
         if self.degenerate {
             return self;
@@ -217,6 +219,7 @@ impl MicrofacetNormalMap {
         self
     }
 
+    #[inline]
     fn set_blend(&mut self, t: &'static ms_table::MsTable, beta: f32) {
         self.blend = beta;
         self.ms = (beta > 0.0).then(|| compensated::MsRef::new(t, self.wp));
@@ -240,6 +243,7 @@ impl MicrofacetNormalMap {
 
     /// The same BSDF with the Lambert closed forms on (default) or off: off, a diffuse nested
     /// BSDF runs the random walk (tests that compare the two).
+    #[inline]
     pub fn with_lambert_closed_form(mut self, on: bool) -> Self {
         self.lambert_closed_form = on;
         self
@@ -274,6 +278,7 @@ impl MicrofacetNormalMap {
     }
 
     /// The same BSDF with another transmission walk (default: two-sided).
+    #[inline]
     pub fn with_transmission_walk(mut self, walk: TransmissionWalk) -> Self {
         self.transmission_walk = walk;
         self
@@ -542,15 +547,19 @@ pub(super) fn sample(
         // β ∫_A f_comp z + (1 − β) ∫_A f_walk z; the reported density is the mixture's, as
         // [`pdf`] gives it (MIS stays unbiased: the weights of both strategies are functions of
         // ωo through the same densities).
+        // Each branch already has its own model's density at ωo (the compensated sample's
+        // exact pdf, the walk's MIS pdf): only the other model's is computed.
         let beta = m.blend;
-        let mut bs = if s.next_1d() < beta {
-            compensated::sample(m, r, &nested, ctx, wi, s)?
+        return if s.next_1d() < beta {
+            let mut bs = compensated::sample(m, r, &nested, ctx, wi, s)?;
+            bs.pdf = beta * bs.pdf + (1.0 - beta) * walk_pdf(m, &nested, ctx, wi, bs.wo);
+            Some(bs)
         } else {
-            walk_sample(m, &nested, ctx, wi, s)?
+            let mut bs = walk_sample(m, &nested, ctx, wi, s)?;
+            let pc = compensated::pdf(m, r, &nested, ctx, wi, bs.wo);
+            bs.pdf = beta * pc + (1.0 - beta) * bs.pdf;
+            Some(bs)
         };
-        let pc = compensated::pdf(m, r, &nested, ctx, wi, bs.wo);
-        bs.pdf = beta * pc + (1.0 - beta) * walk_pdf(m, &nested, ctx, wi, bs.wo);
-        return Some(bs);
     }
     match (m.evaluation, m.mirror_wall) {
         (Evaluation::Explicit, true) => explicit::sample_mirror(m, &nested, ctx, wi, s),

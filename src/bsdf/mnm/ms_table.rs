@@ -39,9 +39,11 @@ use super::facets::Microgeometry;
 use super::lambert::FacetChain;
 use super::{walk, Evaluation, MicrofacetNormalMap, Tangent};
 use crate::bsdf::{Bsdf, BsdfContext, TransportMode};
+use crate::lane::vec::{V2, V3};
+use crate::lane::{Lane, LaneI32};
 use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec3A};
 use rayon::prelude::*;
 
 /// θp nodes (node 0 is θp = 0).
@@ -109,21 +111,17 @@ pub struct MsTable {
     cos_theta: [f32; N_THETA],
     /// Node values, index [`node`].
     w: Vec<[Spectrum; ORDERS]>,
-    /// Per node W2 + W3 + W≥4 (the remainder with the colour baked in, c = 1) and W1, apart:
-    /// a [`Colour::Baked`] lookup of the remainder reads 12 bytes per node from a 17 KB array.
-    e: Vec<Spectrum>,
-    e1: Vec<Spectrum>,
+    /// Per node W2 + W3 + W≥4 (the remainder with the colour baked in, c = 1) and W1, apart
+    /// (16-byte SIMD vectors: one multiply-add pair per node), each followed by [`PLANE`]
+    /// zero nodes so that the window of a lookup at the last θp node stays inside.
+    e: Vec<Vec3A>,
+    e1: Vec<Vec3A>,
     /// Per θp node: hemisphere means (1/π ∫ W z dω) of the interpolant.
     mean: [[Spectrum; ORDERS]; N_THETA],
     /// Per θp node: tail ratio r̄ per channel.
     tail: [Spectrum; N_THETA],
     /// Per θp node: the hemisphere mean of W2 + W3 + W≥4.
     mean_e: [Spectrum; N_THETA],
-    /// u = z² of the z nodes, and 1 / (u_{k+1} − u_k).
-    u: [f32; N_Z],
-    inv_du: [f32; N_Z - 1],
-    /// 1 / (cos φ_l − cos φ_{l+1}).
-    inv_dx: [f32; N_PHI - 1],
     /// Seconds the build took (0 for a table read from disk).
     pub build_seconds: f32,
     /// `evaluation = auto`: the misplaced-energy table M(θp) of this table against the walk
@@ -222,6 +220,71 @@ pub struct Lookup {
     pub w: [[Spectrum; ORDERS]; 2],
 }
 
+/// Where a direction falls in the (u = z², cos φ) grid of one θp plane: the lower z node `kz`,
+/// the φ cell `l` (nodes `l`, `l + 1`) and the weights of the upper nodes in u and cos φ.
+#[derive(Clone, Copy, Debug)]
+pub struct Coords<L: Lane> {
+    pub kz: L::I32,
+    pub l: L::I32,
+    pub tu: L,
+    pub tx: L,
+}
+
+impl Coords<f32> {
+    /// The bilinear weights of the nodes (kz, l), (kz, l + 1), (kz + 1, l), (kz + 1, l + 1).
+    #[inline(always)]
+    pub fn weights(&self) -> [f32; 4] {
+        let (tu, tx) = (self.tu, self.tx);
+        [
+            (1.0 - tu) * (1.0 - tx),
+            (1.0 - tu) * tx,
+            tu * (1.0 - tx),
+            tu * tx,
+        ]
+    }
+}
+
+/// Lane kernel (one source for 1 and 8 lanes, `crate::lane`) of a table lookup's arithmetic:
+/// the z node and φ cell of direction `w` (z > 0) relative to ωp's azimuth `axis` (unit), and
+/// the interpolation weights. Branch-free: the φ cell is the count of inner nodes whose cos φ
+/// lies above x = cos φ (their cosines are chosen by selects, no table gather), the node
+/// spacings are recomputed with the same operations the table's were built with, so width 1
+/// gives the numbers of a scalar search bit for bit. Only the node gather is left per lane.
+#[inline(always)]
+pub fn coords<L: Lane>(axis: V2<L>, w: V3<L>) -> Coords<L> {
+    let k = |c: f32| w.z.splat(c);
+    let z = w.z.max(k(0.0)).min(k(1.0));
+    let nz = k((N_Z - 1) as f32);
+    let kz = (z * nz).trunc_i32();
+    let kz = L::I32::select(
+        kz.gt(kz.splat((N_Z - 2) as i32)),
+        kz.splat((N_Z - 2) as i32),
+        kz,
+    );
+    // u of nodes kz and kz + 1, as `z_node(k) * z_node(k)`.
+    let z0 = kz.to_f32() / nz;
+    let z1 = kz.add(kz.splat(1)).to_f32() / nz;
+    let (u0, u1) = (z0 * z0, z1 * z1);
+    let tu = ((z * z - u0) * (k(1.0) / (u1 - u0)))
+        .max(k(0.0))
+        .min(k(1.0));
+    let r2 = w.x * w.x + w.y * w.y;
+    let x = ((w.x * axis.x + w.y * axis.y) / r2.sqrt())
+        .max(k(-1.0))
+        .min(k(1.0));
+    let x = L::select(r2.gt(k(1e-12)), x, k(1.0));
+    let mut l = kz.splat(0);
+    let (mut c0, mut c1) = (k(COS_PHI[0]), k(COS_PHI[1]));
+    for i in 1..N_PHI - 1 {
+        let above = x.lt(k(COS_PHI[i]));
+        l = L::I32::select(above, l.add(l.splat(1)), l);
+        c0 = L::select(above, k(COS_PHI[i]), c0);
+        c1 = L::select(above, k(COS_PHI[i + 1]), c1);
+    }
+    let tx = ((c0 - x) * (k(1.0) / (c0 - c1))).max(k(0.0)).min(k(1.0));
+    Coords { kz, l, tu, tx }
+}
+
 impl MsTable {
     /// The θp cell of ωp = `wp` (not flat: `wp.xy` ≠ 0).
     pub fn cell(&self, wp: Vec3) -> ThetaCell {
@@ -237,34 +300,13 @@ impl MsTable {
     }
 
     /// The four nodes around direction `w` (z > 0) at θp node `cell.j` (those at `cell.j + 1`
-    /// follow at the offset [`PLANE`]) and their bilinear weights (in u = z² and cos φ).
+    /// follow at the offset [`PLANE`]) and their bilinear weights (in u = z² and cos φ): the
+    /// lane kernel [`coords`] at width 1.
     #[inline]
     fn corners(&self, cell: &ThetaCell, w: Vec3) -> ([usize; 4], [f32; 4]) {
-        let z = w.z.clamp(0.0, 1.0);
-        let kz = ((z * (N_Z - 1) as f32) as usize).min(N_Z - 2);
-        let tu = ((z * z - self.u[kz]) * self.inv_du[kz]).clamp(0.0, 1.0);
-        let r2 = w.x * w.x + w.y * w.y;
-        let x = if r2 > 1e-12 {
-            ((w.x * cell.axis.x + w.y * cell.axis.y) / r2.sqrt()).clamp(-1.0, 1.0)
-        } else {
-            1.0
-        };
-        // The φ cell without branches: the number of inner nodes with cos φ above x.
-        let l = COS_PHI[1..N_PHI - 1]
-            .iter()
-            .map(|&c| (x < c) as usize)
-            .sum::<usize>();
-        let tx = ((COS_PHI[l] - x) * self.inv_dx[l]).clamp(0.0, 1.0);
-        let i = node(cell.j, kz, l);
-        (
-            [i, i + 1, i + N_PHI, i + N_PHI + 1],
-            [
-                (1.0 - tu) * (1.0 - tx),
-                (1.0 - tu) * tx,
-                tu * (1.0 - tx),
-                tu * tx,
-            ],
-        )
+        let c = coords::<f32>(V2::from(cell.axis), V3::from(w));
+        let i = node(cell.j, c.kz as usize, c.l as usize);
+        ([i, i + 1, i + N_PHI, i + N_PHI + 1], c.weights())
     }
 
     /// Bilinear interpolation (in u = z² and cos φ) of the node values at direction `w` (z > 0),
@@ -289,19 +331,30 @@ impl MsTable {
     #[inline]
     pub fn lookup_baked(&self, cell: &ThetaCell, w: Vec3, with_first: bool) -> [Spectrum; 2] {
         let (idx, wgt) = self.corners(cell, w);
-        let mut out = [Spectrum::ZERO; 2];
+        // The two θp planes' corner nodes: one bounds check for all eight (the corner offsets
+        // are constants inside the window).
+        let win: &[Vec3A; 2 * PLANE] = self.e[idx[0]..idx[0] + 2 * PLANE]
+            .try_into()
+            .expect("window inside the table");
+        let win1: &[Vec3A; 2 * PLANE] = self.e1[idx[0]..idx[0] + 2 * PLANE]
+            .try_into()
+            .expect("window inside the table");
+        const OFF: [usize; 4] = [0, 1, N_PHI, N_PHI + 1];
+        let mut out = [Vec3A::ZERO; 2];
+        // Same products and sums in the same order as a per-component loop (Vec3A lanes are
+        // the IEEE operations of Vec3's components): bit for bit the scalar interpolation.
         for h in 0..2 {
             let wt = if h == 0 { 1.0 - cell.t } else { cell.t };
             for c in 0..4 {
-                let i = idx[c] + h * PLANE;
+                let i = OFF[c] + h * PLANE;
                 let k = wt * wgt[c];
-                out[1] += k * self.e[i];
+                out[1] += k * win[i];
                 if with_first {
-                    out[0] += k * self.e1[i];
+                    out[0] += k * win1[i];
                 }
             }
         }
-        out
+        [Vec3::from(out[0]), Vec3::from(out[1])]
     }
 
     /// Ē_ms with the colour baked in (c = 1), interpolated in θp.
@@ -419,14 +472,15 @@ impl MsTable {
         build_seconds: f32,
     ) -> MsTable {
         let cos_theta = std::array::from_fn(|j| theta_node(j, spec.max_theta).cos());
-        let e = w.iter().map(|v| v[1] + v[2] + v[3]).collect();
-        let e1 = w.iter().map(|v| v[0]).collect();
+        let pad = std::iter::repeat(Vec3A::ZERO).take(PLANE);
+        let e = w
+            .iter()
+            .map(|v| Vec3A::from(v[1] + v[2] + v[3]))
+            .chain(pad.clone())
+            .collect();
+        let e1 = w.iter().map(|v| Vec3A::from(v[0])).chain(pad).collect();
         let mean_e = mean.map(|m| m[1] + m[2] + m[3]);
-        let u: [f32; N_Z] = std::array::from_fn(|k| z_node(k) * z_node(k));
         MsTable {
-            u,
-            inv_du: std::array::from_fn(|k| 1.0 / (u[k + 1] - u[k])),
-            inv_dx: std::array::from_fn(|l| 1.0 / (COS_PHI[l] - COS_PHI[l + 1])),
             key,
             spec,
             cos_theta,
