@@ -96,6 +96,9 @@ pub struct RenderOptions {
     pub on_pass: Option<PassHook>,
     /// The render loop (`--renderer`).
     pub renderer: Renderer,
+    /// Which rays the stream renderer traces as packets; `None`: as
+    /// [`crate::stream::Packets::from_env`] says.
+    pub packets: Option<crate::stream::Packets>,
 }
 
 /// What a [`PassHook`] runs: the film so far and the sample range [a, b) it holds.
@@ -127,6 +130,7 @@ impl Default for RenderOptions {
             time_limit: None,
             on_pass: None,
             renderer: Renderer::Scalar,
+            packets: None,
         }
     }
 }
@@ -282,6 +286,10 @@ pub fn render(
         }
         return crate::integrator::ptracer::render(scene, settings, cfg, opts);
     }
+    let packets = match opts.packets {
+        Some(p) => p,
+        None => crate::stream::Packets::from_env()?,
+    };
     let desc = film_for(settings, opts)?;
     let desc = &desc;
     let bs = opts.block_size.max(1);
@@ -378,7 +386,7 @@ pub fn render(
                         if opts.record_rays > 0 {
                             s.rays.record(log_budget.clone());
                         }
-                        let stream = stream_cfg.map(|_| StreamScratch::new(scene));
+                        let stream = stream_cfg.map(|_| StreamScratch::new(scene, packets));
                         (s, stream)
                     },
                     |(scratch, stream), &(x0, y0, w, h)| {

@@ -167,6 +167,18 @@ impl Rays {
         scene.accel.intersect(ray)
     }
 
+    /// [`Self::occluded`] of up to 8 shadow rays traced as one packet: bit `i` for `rays[i]`.
+    #[inline]
+    pub fn occluded8(&mut self, scene: &Scene, rays: &[Ray]) -> u8 {
+        self.counters.shadow += rays.len().min(8) as u64;
+        if self.log.is_some() {
+            for r in rays {
+                self.log(r, true, false);
+            }
+        }
+        scene.accel.occluded8(rays)
+    }
+
     /// True when something blocks the shadow ray `ray`.
     #[inline]
     pub fn occluded(&mut self, scene: &Scene, ray: &Ray) -> bool {

@@ -34,6 +34,8 @@ pub(crate) struct Batch {
     pub scatter: Vec<u32>,
     /// `scatter` stably sorted by material.
     pub sorted: Vec<u32>,
+    /// Ids of the paths with a pending shadow ray, ascending.
+    pub shadow: Vec<u32>,
     /// Counting-sort bins: one per material id, plus one.
     bins: Vec<u32>,
 }
@@ -54,6 +56,7 @@ impl Batch {
             active: Vec::with_capacity(capacity),
             scatter: Vec::with_capacity(capacity),
             sorted: Vec::with_capacity(capacity),
+            shadow: Vec::with_capacity(capacity),
             bins: vec![0; materials + 1],
         }
     }
@@ -72,6 +75,7 @@ impl Batch {
         self.active.clear();
         self.scatter.clear();
         self.sorted.clear();
+        self.shadow.clear();
     }
 
     /// Adds a path whose camera ray is `ray`.

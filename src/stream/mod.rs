@@ -1,19 +1,19 @@
 //! The stream renderer (`--renderer stream`): the `path` integrator run breadth first over
-//! batches of paths instead of one path at a time (`docs/design/PERFORMANCE.md` §4,
-//! `docs/stream.md`).
+//! batches of paths instead of one path at a time (`docs/design/PERFORMANCE.md` §4, and
+//! `docs/design/ARCHITECTURE.md`, "Where the render core is going").
 //!
 //! Each image block (the same fixed blocks as the scalar renderer) is cut into batches of
 //! [`BATCH`] paths in the block's canonical (y, x, sample) order; the batch size is a constant,
 //! never derived from the thread count. A batch keeps its paths in structure-of-arrays form
 //! ([`batch::Batch`], allocated once per worker) and runs, per bounce:
-//! 1. **trace** the active paths' rays (camera rays as coherent 8-wide packets);
+//! 1. **trace** the active paths' rays (camera rays as coherent 8-wide packets, [`Packets`]);
 //! 2. **emission**: what each ray sees, MIS-weighted ([`crate::integrator::path::PathState::add_emission`]);
 //! 3. **sort** the paths that scatter by material (stable counting sort);
 //! 4. **shade** each material's run of paths: light sample up to its shadow ray, BSDF sample,
 //!    Russian roulette
 //!    ([`crate::integrator::path::PathState::scatter`]). No material has an 8-wide kernel yet: every
 //!    run goes through the 1-lane code lane by lane;
-//! 5. **shadow rays**, in path order, adding the unoccluded light samples;
+//! 5. **shadow rays** of the pending light samples, in path order, adding the unoccluded ones;
 //! 6. **compact** the surviving paths (stable).
 //!
 //! Then every path's radiance goes to the block in the canonical order. Each path draws from its
@@ -84,14 +84,65 @@ fn slots(n: usize) -> u64 {
     (n as u64).div_ceil(8) * 8
 }
 
+/// Which rays the stream renderer traces as 8-wide packets (of consecutive active paths, in
+/// path order) rather than one at a time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Packets {
+    /// Camera rays: 8 samples of one pixel, traced as a coherent packet.
+    pub camera: bool,
+    /// Bounce rays (incoherent).
+    pub bounce: bool,
+    /// Shadow rays (incoherent).
+    pub shadow: bool,
+}
+
+impl Packets {
+    /// The default: camera rays only (see `docs/bench/README.md`, "Stream renderer").
+    pub const DEFAULT: Packets = Packets {
+        camera: true,
+        bounce: false,
+        shadow: false,
+    };
+
+    /// The environment variable that overrides [`Self::DEFAULT`] for measurements: a
+    /// comma-separated subset of `camera,bounce,shadow`, or `none`.
+    pub const ENV: &'static str = "GROOVE_STREAM_PACKETS";
+
+    /// The packets [`Self::ENV`] asks for ([`Self::DEFAULT`] when unset).
+    pub fn from_env() -> crate::error::Result<Packets> {
+        let Ok(v) = std::env::var(Self::ENV) else {
+            return Ok(Self::DEFAULT);
+        };
+        let mut p = Packets {
+            camera: false,
+            bounce: false,
+            shadow: false,
+        };
+        for w in v.split(',').map(str::trim).filter(|w| !w.is_empty()) {
+            match w {
+                "camera" => p.camera = true,
+                "bounce" => p.bounce = true,
+                "shadow" => p.shadow = true,
+                "none" => {}
+                _ => return Err(crate::error::Error::Usage(format!(
+                    "{}={v}: expected a comma-separated subset of camera, bounce, shadow, or none",
+                    Self::ENV
+                ))),
+            }
+        }
+        Ok(p)
+    }
+}
+
 /// Per-worker state of the stream renderer: the batch buffers, reused for every batch.
 pub struct StreamScratch {
     batch: Batch,
+    packets: Packets,
 }
 
 impl StreamScratch {
     /// Buffers for the scene's materials.
-    pub fn new(scene: &Scene) -> StreamScratch {
+    pub fn new(scene: &Scene, packets: Packets) -> StreamScratch {
         let materials = scene
             .shape_material
             .iter()
@@ -100,6 +151,7 @@ impl StreamScratch {
             .unwrap_or(0);
         StreamScratch {
             batch: Batch::new(BATCH, materials),
+            packets,
         }
     }
 }
@@ -125,6 +177,7 @@ pub(crate) fn render_block(
     let spp = s_hi.saturating_sub(s_lo) as u64;
     let total = w as u64 * h as u64 * spp;
     let batch = &mut stream.batch;
+    let packets = stream.packets;
     let mut invalid = 0;
     let mut k = 0u64;
     while k < total {
@@ -144,7 +197,7 @@ pub(crate) fn render_block(
             let ray = scene.camera.sample_ray(pos, &mut sampler);
             batch.push(pos, sampler, ray);
         }
-        run_batch(scene, cfg, batch, scratch);
+        run_batch(scene, cfg, batch, scratch, packets);
         for (pos, st) in batch.pos.iter().zip(&batch.state) {
             let mut l = st.result;
             if !crate::spectrum::is_finite(l) {
@@ -159,7 +212,13 @@ pub(crate) fn render_block(
 }
 
 /// Runs every path of `batch` to its end, bounce by bounce.
-fn run_batch(scene: &Scene, cfg: &PathSettings, batch: &mut Batch, scratch: &mut Scratch) {
+fn run_batch(
+    scene: &Scene,
+    cfg: &PathSettings,
+    batch: &mut Batch,
+    scratch: &mut Scratch,
+    packets: Packets,
+) {
     scratch.rays.counters.lanes.batches += 1;
     if cfg.max_depth == 0 {
         return;
@@ -168,7 +227,11 @@ fn run_batch(scene: &Scene, cfg: &PathSettings, batch: &mut Batch, scratch: &mut
     batch.active.extend(0..batch.len() as u32);
     let mut kind = RayKind::Camera;
     while !batch.active.is_empty() {
-        trace(scene, batch, kind, &mut scratch.rays);
+        let packet = match kind {
+            RayKind::Camera => packets.camera,
+            RayKind::Bounce => packets.bounce,
+        };
+        trace(scene, batch, kind, packet, &mut scratch.rays);
         kind = RayKind::Bounce;
 
         // Emission; the paths that scatter go on to the shading stage.
@@ -221,32 +284,59 @@ fn run_batch(scene: &Scene, cfg: &PathSettings, batch: &mut Batch, scratch: &mut
             }
         }
 
-        // Shadow rays, in path order.
-        let mut pending = 0;
-        for &i in &batch.scatter {
-            let i = i as usize;
-            if let Some(l) = &batch.light[i] {
-                pending += 1;
-                if !scratch.rays.occluded(scene, &l.shadow) {
-                    batch.state[i].add_light(l);
-                }
-            }
-        }
-        let lanes = &mut scratch.rays.counters.lanes;
-        lanes.shadow_used += pending;
-        lanes.shadow_slots += slots(pending as usize);
+        shadows(scene, batch, packets.shadow, &mut scratch.rays);
 
         batch.compact();
     }
 }
 
-/// Traces the rays of the active paths into `batch.hit`: camera rays as coherent 8-wide
-/// packets of consecutive paths (samples of one pixel), bounce rays one at a time.
-fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, rays: &mut Rays) {
+/// Traces the shadow rays of the paths that scattered, in path order, and adds the light
+/// samples that nothing blocks; as 8-wide packets of consecutive pending rays when `packet`.
+fn shadows(scene: &Scene, batch: &mut Batch, packet: bool, rays: &mut Rays) {
+    batch.shadow.clear();
+    for &i in &batch.scatter {
+        if batch.light[i as usize].is_some() {
+            batch.shadow.push(i);
+        }
+    }
+    let n = batch.shadow.len();
+    rays.counters.lanes.shadow_used += n as u64;
+    rays.counters.lanes.shadow_slots += slots(n);
+    if packet {
+        let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
+        for chunk in batch.shadow.chunks(8) {
+            for (p, &i) in packet.iter_mut().zip(chunk) {
+                if let Some(l) = &batch.light[i as usize] {
+                    *p = l.shadow;
+                }
+            }
+            let blocked = rays.occluded8(scene, &packet[..chunk.len()]);
+            for (k, &i) in chunk.iter().enumerate() {
+                let i = i as usize;
+                if let (Some(l), false) = (&batch.light[i], blocked >> k & 1 == 1) {
+                    batch.state[i].add_light(l);
+                }
+            }
+        }
+    } else {
+        for &i in &batch.shadow {
+            let i = i as usize;
+            if let Some(l) = &batch.light[i] {
+                if !rays.occluded(scene, &l.shadow) {
+                    batch.state[i].add_light(l);
+                }
+            }
+        }
+    }
+}
+
+/// Traces the rays of the active paths into `batch.hit`, one at a time or (`packet`) as 8-wide
+/// packets of consecutive active paths (coherent for camera rays: samples of one pixel).
+fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: bool, rays: &mut Rays) {
     rays.counters.lanes.bounces += 1;
     rays.counters.lanes.trace_used += batch.active.len() as u64;
     rays.counters.lanes.trace_slots += slots(batch.active.len());
-    if kind == RayKind::Camera && PACKET_CAMERA {
+    if packet {
         let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
         let mut out: [Option<Hit>; 8] = [None; 8];
         for chunk in batch.active.chunks(8) {
@@ -265,6 +355,3 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, rays: &mut Rays) {
         }
     }
 }
-
-/// Camera rays are traced as 8-wide packets (false: one at a time).
-const PACKET_CAMERA: bool = false;

@@ -11,6 +11,7 @@ use groove::integrator::IntegratorDesc;
 use groove::load::options::{LoadOptions, NormalMapping};
 use groove::load::Loaded;
 use groove::render::{RenderOptions, Renderer};
+use groove::stream::Packets;
 use std::path::{Path, PathBuf};
 
 /// What a render produced, exactly.
@@ -37,10 +38,17 @@ fn window(l: &Loaded) -> (u32, u32, u32, u32) {
 }
 
 fn render(l: &Loaded, renderer: Renderer, threads: usize, spp: u32) -> Exact {
-    render_seeded(l, renderer, threads, spp, 7)
+    render_seeded(l, renderer, threads, spp, 7, Packets::DEFAULT)
 }
 
-fn render_seeded(l: &Loaded, renderer: Renderer, threads: usize, spp: u32, seed: u64) -> Exact {
+fn render_seeded(
+    l: &Loaded,
+    renderer: Renderer,
+    threads: usize,
+    spp: u32,
+    seed: u64,
+    packets: Packets,
+) -> Exact {
     let out = groove::render::render(
         &l.scene,
         &l.settings,
@@ -50,6 +58,7 @@ fn render_seeded(l: &Loaded, renderer: Renderer, threads: usize, spp: u32, seed:
             seed: Some(seed),
             crop: Some(window(l)),
             renderer,
+            packets: Some(packets),
             ..Default::default()
         },
     )
@@ -120,12 +129,37 @@ fn stream_equals_scalar_on_a_representative_subset() {
     }
 }
 
+/// Every ray kind traced as 8-wide packets (bounce and shadow packets are off by default, as
+/// they measured slower; see `docs/bench/README.md`) still gives the scalar image.
+#[test]
+fn stream_with_every_packet_equals_scalar() {
+    let all = Packets {
+        camera: true,
+        bounce: true,
+        shadow: true,
+    };
+    for (path, mode) in [
+        (scene("scenes/bench/metal_plastic.xml"), "classic"),
+        (scene("scenes/cornell/cbox-rgb.xml"), "as_written"),
+        (test_scene("shape_instance.xml"), "as_written"),
+        (test_scene("light_envmap.xml"), "as_written"),
+    ] {
+        let l = load(&path, mode);
+        let name = path.file_name().unwrap().to_string_lossy();
+        let scalar = render(&l, Renderer::Scalar, 1, 3);
+        for t in [1, 3] {
+            let stream = render_seeded(&l, Renderer::Stream, t, 3, 7, all);
+            assert!(stream == scalar, "{name} ({mode}): differs at {t} threads");
+        }
+    }
+}
+
 /// The comparison sees a change of one path's stream: another seed is another image.
 #[test]
 fn the_comparison_rejects_another_seed() {
     let l = load(&scene("scenes/bench/metal_plastic.xml"), "classic");
-    let a = render_seeded(&l, Renderer::Scalar, 1, 1, 7);
-    let b = render_seeded(&l, Renderer::Stream, 1, 1, 8);
+    let a = render_seeded(&l, Renderer::Scalar, 1, 1, 7, Packets::DEFAULT);
+    let b = render_seeded(&l, Renderer::Stream, 1, 1, 8, Packets::DEFAULT);
     assert_ne!(a.pixels, b.pixels);
 }
 
