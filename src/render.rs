@@ -288,7 +288,7 @@ pub fn render(
     }
     let packets = match opts.packets {
         Some(p) => p,
-        None => crate::stream::Packets::from_env()?,
+        None => crate::stream::Packets::from_env(scene)?,
     };
     let desc = film_for(settings, opts)?;
     let desc = &desc;

@@ -6,7 +6,8 @@
 //! [`BATCH`] paths in the block's canonical (y, x, sample) order; the batch size is a constant,
 //! never derived from the thread count. A batch keeps its paths in structure-of-arrays form
 //! ([`batch::Batch`], allocated once per worker) and runs, per bounce:
-//! 1. **trace** the active paths' rays (camera rays as coherent 8-wide packets, [`Packets`]);
+//! 1. **trace** the active paths' rays (camera rays as coherent 8-wide packets; bounce rays too
+//!    under tier A, [`Packets`]);
 //! 2. **emission**: what each ray sees, MIS-weighted ([`crate::integrator::path::PathState::add_emission`]);
 //! 3. **sort** the paths that scatter by material (stable counting sort);
 //! 4. **shade** each material's run of paths: light sample up to its shadow ray, BSDF sample,
@@ -97,21 +98,41 @@ pub struct Packets {
 }
 
 impl Packets {
-    /// The default: camera rays only (see `docs/bench/README.md`, "Stream renderer").
+    /// Camera rays only: the default under Embree, whose packet traversal pays off for coherent
+    /// rays only (`docs/bench/README.md`, "Packet ceilings").
     pub const DEFAULT: Packets = Packets {
         camera: true,
         bounce: false,
         shadow: false,
     };
 
+    /// Every ray kind: the default under tier A, where a packet is 8 rays against every shape
+    /// (fewer instructions and, in a noisy wall-clock test, faster than single rays;
+    /// `docs/bench/README.md`, "Stream renderer").
+    pub const ALL: Packets = Packets {
+        camera: true,
+        bounce: true,
+        shadow: true,
+    };
+
+    /// The default for `scene`: [`Self::ALL`] when it is traced by tier A, else
+    /// [`Self::DEFAULT`].
+    pub fn default_for(scene: &Scene) -> Packets {
+        if scene.accel.tier() == crate::accel::Tier::Brute {
+            Self::ALL
+        } else {
+            Self::DEFAULT
+        }
+    }
+
     /// The environment variable that overrides [`Self::DEFAULT`] for measurements: a
     /// comma-separated subset of `camera,bounce,shadow`, or `none`.
     pub const ENV: &'static str = "GROOVE_STREAM_PACKETS";
 
-    /// The packets [`Self::ENV`] asks for ([`Self::DEFAULT`] when unset).
-    pub fn from_env() -> crate::error::Result<Packets> {
+    /// The packets [`Self::ENV`] asks for ([`Self::default_for`] the scene when unset).
+    pub fn from_env(scene: &Scene) -> crate::error::Result<Packets> {
         let Ok(v) = std::env::var(Self::ENV) else {
-            return Ok(Self::DEFAULT);
+            return Ok(Self::default_for(scene));
         };
         let mut p = Packets {
             camera: false,
@@ -124,10 +145,12 @@ impl Packets {
                 "bounce" => p.bounce = true,
                 "shadow" => p.shadow = true,
                 "none" => {}
-                _ => return Err(crate::error::Error::Usage(format!(
+                _ => {
+                    return Err(crate::error::Error::Usage(format!(
                     "{}={v}: expected a comma-separated subset of camera, bounce, shadow, or none",
                     Self::ENV
-                ))),
+                )))
+                }
             }
         }
         Ok(p)

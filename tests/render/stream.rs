@@ -37,8 +37,9 @@ fn window(l: &Loaded) -> (u32, u32, u32, u32) {
     ((w - cw) / 2, (h - ch) / 2, cw, ch)
 }
 
+/// With the scene's default packets.
 fn render(l: &Loaded, renderer: Renderer, threads: usize, spp: u32) -> Exact {
-    render_seeded(l, renderer, threads, spp, 7, Packets::DEFAULT)
+    render_seeded(l, renderer, threads, spp, 7, Packets::default_for(&l.scene))
 }
 
 fn render_seeded(
@@ -129,8 +130,8 @@ fn stream_equals_scalar_on_a_representative_subset() {
     }
 }
 
-/// Every ray kind traced as 8-wide packets (bounce and shadow packets are off by default, as
-/// they measured slower; see `docs/bench/README.md`) still gives the scalar image.
+/// Every ray kind traced as 8-wide packets (the default under tier A only) and camera packets
+/// alone (the default under Embree) still give the scalar image.
 #[test]
 fn stream_with_every_packet_equals_scalar() {
     let all = Packets {
@@ -147,9 +148,12 @@ fn stream_with_every_packet_equals_scalar() {
         let l = load(&path, mode);
         let name = path.file_name().unwrap().to_string_lossy();
         let scalar = render(&l, Renderer::Scalar, 1, 3);
-        for t in [1, 3] {
-            let stream = render_seeded(&l, Renderer::Stream, t, 3, 7, all);
-            assert!(stream == scalar, "{name} ({mode}): differs at {t} threads");
+        for (t, p) in [(1, all), (3, all), (2, Packets::DEFAULT)] {
+            let stream = render_seeded(&l, Renderer::Stream, t, 3, 7, p);
+            assert!(
+                stream == scalar,
+                "{name} ({mode}): differs at {t} threads, {p:?}"
+            );
         }
     }
 }
@@ -158,8 +162,8 @@ fn stream_with_every_packet_equals_scalar() {
 #[test]
 fn the_comparison_rejects_another_seed() {
     let l = load(&scene("scenes/bench/metal_plastic.xml"), "classic");
-    let a = render_seeded(&l, Renderer::Scalar, 1, 1, 7, Packets::DEFAULT);
-    let b = render_seeded(&l, Renderer::Stream, 1, 1, 8, Packets::DEFAULT);
+    let a = render_seeded(&l, Renderer::Scalar, 1, 1, 7, Packets::ALL);
+    let b = render_seeded(&l, Renderer::Stream, 1, 1, 8, Packets::ALL);
     assert_ne!(a.pixels, b.pixels);
 }
 
