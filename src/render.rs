@@ -286,9 +286,10 @@ pub fn render(
         }
         return crate::integrator::ptracer::render(scene, settings, cfg, opts);
     }
-    let packets = match opts.packets {
-        Some(p) => p,
-        None => crate::stream::Packets::from_env(scene)?,
+    let packets = match (opts.packets, stream_cfg) {
+        (Some(p), _) => p,
+        (None, Some(_)) => crate::stream::Packets::from_env(scene)?,
+        (None, None) => crate::stream::Packets::DEFAULT,
     };
     let desc = film_for(settings, opts)?;
     let desc = &desc;
