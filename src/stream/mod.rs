@@ -298,10 +298,10 @@ fn run_batch(
         for (k, &i) in batch.sorted.iter().enumerate() {
             let i = i as usize;
             run += 1;
-            let next_differs = batch
-                .sorted
-                .get(k + 1)
-                .is_none_or(|&j| batch.material[j as usize] != batch.material[i]);
+            let next_differs = !matches!(
+                batch.sorted.get(k + 1),
+                Some(&j) if batch.material[j as usize] == batch.material[i]
+            );
             if next_differs {
                 lanes.shade_used += run as u64;
                 lanes.shade_slots += slots(run);
