@@ -78,6 +78,9 @@ pub struct BenchArgs {
     /// Scene parameter: sets `$key`, repeatable.
     #[arg(short = 'D', value_name = "KEY=VALUE", value_parser = parse_define)]
     pub defines: Vec<(String, String)>,
+    /// Render loop of the timed renders: `scalar` or `stream` (see `groove render --renderer`).
+    #[arg(long, value_name = "KIND", default_value = "scalar", value_parser = parse_renderer)]
+    pub renderer: crate::render::Renderer,
     /// No progress lines.
     #[arg(short = 'q', long = "quiet")]
     pub quiet: bool,
@@ -142,6 +145,10 @@ pub struct RenderArgs {
     /// (the metadata `groove.samples` says how many samples).
     #[arg(long = "time-limit", value_name = "SECONDS", value_parser = parse_seconds)]
     pub time_limit: Option<f64>,
+    /// Render loop: `scalar` (one path at a time; every integrator) or `stream` (batches of
+    /// paths stage by stage; the `path` integrator only, same image bit for bit).
+    #[arg(long, value_name = "KIND", default_value = "scalar", value_parser = parse_renderer)]
+    pub renderer: crate::render::Renderer,
     /// Write a JSON record of every render of the batch (timings, rays, samples, warnings,
     /// outputs) and a summary to FILE.
     #[arg(long, value_name = "FILE")]
@@ -208,6 +215,15 @@ pub(crate) fn parse_normal_mapping(s: &str) -> Result<crate::load::options::Norm
             NormalMapping::NAMES.join(", ")
         )),
     }
+}
+
+fn parse_renderer(s: &str) -> Result<crate::render::Renderer, String> {
+    crate::render::Renderer::parse(s).ok_or_else(|| {
+        format!(
+            "expected one of {}, got '{s}'",
+            crate::render::Renderer::NAMES.join(", ")
+        )
+    })
 }
 
 fn parse_gb(s: &str) -> Result<f64, String> {

@@ -36,6 +36,7 @@ pub mod render;
 pub mod sampler;
 pub mod scene;
 pub mod spectrum;
+pub mod stream;
 pub mod texture;
 
 pub use error::{Error, Result, SourceLoc};

@@ -93,6 +93,7 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
         rays_only: args.rays,
         peer_python,
         verbose: !args.quiet,
+        renderer: args.renderer,
     };
     let t0 = std::time::Instant::now();
     let report = bench::run(&opts)?;
@@ -400,6 +401,7 @@ fn render_one(
         crop: args.crop,
         samples: args.samples,
         time_limit: args.time_limit,
+        renderer: args.renderer,
         ..Default::default()
     };
     let desc = groove::render::film_for(&loaded.settings, &opts)?;

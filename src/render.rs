@@ -10,6 +10,7 @@ use crate::integrator::{IntegratorDesc, LoggedRay, RayCounters, Scratch};
 use crate::sampler::{Sampler, SamplerDesc};
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
+use crate::stream::StreamScratch;
 use glam::Vec2;
 use rayon::prelude::*;
 use std::sync::atomic::AtomicUsize;
@@ -24,6 +25,37 @@ pub struct RenderSettings {
     pub integrator: IntegratorDesc,
     pub film: FilmDesc,
     pub sampler: SamplerDesc,
+}
+
+/// Which render loop runs the integrator.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Renderer {
+    /// One path at a time, depth first (every integrator).
+    #[default]
+    Scalar,
+    /// Batches of paths, stage by stage ([`crate::stream`]); the `path` integrator only, with
+    /// an image equal to the scalar renderer's bit for bit.
+    Stream,
+}
+
+impl Renderer {
+    /// The `--renderer` values.
+    pub const NAMES: &'static [&'static str] = &["scalar", "stream"];
+
+    pub fn parse(s: &str) -> Option<Renderer> {
+        match s {
+            "scalar" => Some(Renderer::Scalar),
+            "stream" => Some(Renderer::Stream),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Renderer::Scalar => "scalar",
+            Renderer::Stream => "stream",
+        }
+    }
 }
 
 /// How to render (command-line overrides of the scene's own settings).
@@ -62,6 +94,11 @@ pub struct RenderOptions {
     /// write the current image on SIGUSR1). With a hook or a time limit the samples are
     /// rendered in passes of 1, 1, 2, 4, … (at most 64) samples per pixel; the image is the same.
     pub on_pass: Option<PassHook>,
+    /// The render loop (`--renderer`).
+    pub renderer: Renderer,
+    /// Which rays the stream renderer traces as packets; `None`: as
+    /// [`crate::stream::Packets::from_env`] says.
+    pub packets: Option<crate::stream::Packets>,
 }
 
 /// What a [`PassHook`] runs: the film so far and the sample range [a, b) it holds.
@@ -92,6 +129,8 @@ impl Default for RenderOptions {
             samples: None,
             time_limit: None,
             on_pass: None,
+            renderer: Renderer::Scalar,
+            packets: None,
         }
     }
 }
@@ -228,6 +267,16 @@ pub fn render(
     settings: &RenderSettings,
     opts: &RenderOptions,
 ) -> Result<RenderOutput> {
+    let stream_cfg = match (opts.renderer, &settings.integrator) {
+        (Renderer::Scalar, _) => None,
+        (Renderer::Stream, IntegratorDesc::Path(cfg)) => Some(*cfg),
+        (Renderer::Stream, other) => {
+            return Err(Error::Usage(format!(
+                "the stream renderer (--renderer stream) runs the path integrator only, not {}; use --renderer scalar",
+                integrator_name(other)
+            )))
+        }
+    };
     if let IntegratorDesc::Ptracer(cfg) = &settings.integrator {
         // The light tracer splats anywhere on the film: it renders whole images only.
         if opts.crop.is_some() || opts.samples.is_some() || opts.time_limit.is_some() {
@@ -237,6 +286,11 @@ pub fn render(
         }
         return crate::integrator::ptracer::render(scene, settings, cfg, opts);
     }
+    let packets = match (opts.packets, stream_cfg) {
+        (Some(p), _) => p,
+        (None, Some(_)) => crate::stream::Packets::from_env(scene)?,
+        (None, None) => crate::stream::Packets::DEFAULT,
+    };
     let desc = film_for(settings, opts)?;
     let desc = &desc;
     let bs = opts.block_size.max(1);
@@ -333,9 +387,10 @@ pub fn render(
                         if opts.record_rays > 0 {
                             s.rays.record(log_budget.clone());
                         }
-                        s
+                        let stream = stream_cfg.map(|_| StreamScratch::new(scene, packets));
+                        (s, stream)
                     },
-                    |scratch, &(x0, y0, w, h)| {
+                    |(scratch, stream), &(x0, y0, w, h)| {
                         scratch.rays.counters = RayCounters::default();
                         let _ = scratch.arena.take_walk_counts();
                         let mut block = Block::with_channels(desc, x0, y0, w, h, nch);
@@ -343,15 +398,29 @@ pub fn render(
                             rect: (x0, y0, w, h),
                             samples: (p_lo, p_hi),
                         };
-                        let invalid = render_block(
-                            scene,
-                            settings,
-                            &sampler_desc,
-                            &mut block,
-                            job,
-                            scratch,
-                            cancel,
-                        );
+                        let invalid = match (&stream_cfg, stream) {
+                            (Some(cfg), Some(stream)) => crate::stream::render_block(
+                                scene,
+                                cfg,
+                                &sampler_desc,
+                                settings.film.width,
+                                &mut block,
+                                job.rect,
+                                job.samples,
+                                scratch,
+                                stream,
+                                cancel,
+                            ),
+                            _ => render_block(
+                                scene,
+                                settings,
+                                &sampler_desc,
+                                &mut block,
+                                job,
+                                scratch,
+                                cancel,
+                            ),
+                        };
                         let walks = scratch.arena.take_walk_counts();
                         let mut counters = scratch.rays.counters;
                         counters.walks = walks.walks;
@@ -410,6 +479,18 @@ pub fn render(
         stats,
         ray_log,
     })
+}
+
+/// The scene-file name of an integrator (for messages).
+fn integrator_name(i: &IntegratorDesc) -> &'static str {
+    match i {
+        IntegratorDesc::Path(_) => "path",
+        IntegratorDesc::Direct(_) => "direct",
+        IntegratorDesc::Volpath(_) => "volpath",
+        IntegratorDesc::Moment(_) => "moment",
+        IntegratorDesc::Aov(_) => "aov",
+        IntegratorDesc::Ptracer(_) => "ptracer",
+    }
 }
 
 /// The pixels and sample indices one block renders.

@@ -24,7 +24,7 @@ use crate::error::Result;
 use crate::film::Image;
 use crate::load::options::{LoadOptions, NormalMapping};
 use crate::load::{load_scene, Loaded};
-use crate::render::{render, RenderOptions, RenderStats};
+use crate::render::{render, RenderOptions, RenderStats, Renderer};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -58,6 +58,9 @@ pub struct BenchOptions {
     pub peer_python: Option<String>,
     /// Progress lines on stderr.
     pub verbose: bool,
+    /// The render loop of the timed renders (the equal-time comparison and the ceiling's
+    /// recording render use the scalar one: same image, bit for bit).
+    pub renderer: Renderer,
 }
 
 /// One timed render.
@@ -81,6 +84,9 @@ pub struct RunRecord {
     /// Vertices per sampled microfacet walk (`null` when the mode samples no walk).
     pub mean_walk_length: Option<f64>,
     pub invalid_samples: u64,
+    /// The stream renderer's active-lane fractions of its 8-wide stages (trace, shade per
+    /// material run, shadow rays); `null` under the scalar renderer.
+    pub active_lanes: Option<[f64; 3]>,
 }
 
 /// A mode on a scene, summarised over its repeats.
@@ -115,6 +121,8 @@ pub struct BenchReport {
     pub spp: u32,
     pub repeat: u32,
     pub threads: usize,
+    /// The render loop of the timed renders (`scalar` or `stream`).
+    pub renderer: String,
     pub cpu: String,
     pub records: Vec<RunRecord>,
     pub summaries: Vec<ModeSummary>,
@@ -171,6 +179,17 @@ fn load_mode(path: &Path, mode: &str, defines: &[(String, String)]) -> Result<Lo
 }
 
 fn render_at(loaded: &Loaded, spp: u32, seed: u64, threads: usize) -> Result<(Image, RenderStats)> {
+    render_with(loaded, spp, seed, threads, Renderer::Scalar)
+}
+
+/// [`render_at`] with the render loop `renderer`.
+fn render_with(
+    loaded: &Loaded,
+    spp: u32,
+    seed: u64,
+    threads: usize,
+    renderer: Renderer,
+) -> Result<(Image, RenderStats)> {
     let out = render(
         &loaded.scene,
         &loaded.settings,
@@ -179,6 +198,7 @@ fn render_at(loaded: &Loaded, spp: u32, seed: u64, threads: usize) -> Result<(Im
             spp: Some(spp),
             seed: Some(seed),
             progress: false,
+            renderer,
             ..Default::default()
         },
     )?;
@@ -204,6 +224,10 @@ fn record(scene: &str, mode: &str, repeat: u32, st: &RenderStats, w: u32, h: u32
         rays_per_second: st.rays_per_second(),
         mean_walk_length: (st.rays.walks > 0).then(|| st.rays.mean_walk_length()),
         invalid_samples: st.invalid_samples,
+        active_lanes: (st.rays.lanes.batches > 0).then(|| {
+            let (a, b, c) = st.rays.lanes.fractions();
+            [a, b, c]
+        }),
     }
 }
 
@@ -228,6 +252,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
         spp: opts.spp,
         repeat: opts.repeat,
         threads,
+        renderer: opts.renderer.name().into(),
         cpu: cpu_model(),
         records: Vec::new(),
         summaries: Vec::new(),
@@ -354,14 +379,14 @@ fn time_modes(
 ) -> Result<Vec<Vec<RenderStats>>> {
     for (_, s) in scenes {
         if let Ok(s) = s {
-            render_at(s, 1, 0, threads)?;
+            render_with(s, 1, 0, threads, opts.renderer)?;
         }
     }
     let mut runs: Vec<Vec<RenderStats>> = vec![Vec::new(); scenes.len()];
     for r in 0..opts.repeat.max(1) {
         for (i, (mode, s)) in scenes.iter().enumerate() {
             let Ok(s) = s else { continue };
-            let (_, st) = render_at(s, opts.spp, r as u64, threads)?;
+            let (_, st) = render_with(s, opts.spp, r as u64, threads, opts.renderer)?;
             say(opts, format!("{name}: {mode} #{r}: {:.3} s", st.seconds));
             report.records.push(record(
                 name,

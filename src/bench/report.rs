@@ -40,8 +40,9 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
     let _ = writeln!(s, "# groove bench\n");
     let _ = writeln!(
         s,
-        "groove {}, {} threads, CPU: {}, {} spp, {} repeats (min and median of the repeats).\n",
+        "groove {}, {} renderer, {} threads, CPU: {}, {} spp, {} repeats (min and median of the repeats).\n",
         r.groove_version,
+        r.renderer,
         r.threads,
         if r.cpu.is_empty() { "unknown" } else { &r.cpu },
         r.spp,

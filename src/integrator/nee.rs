@@ -4,7 +4,7 @@
 
 use super::Rays;
 use crate::bsdf::{BsdfContext, SurfaceBsdf};
-use crate::geometry::SurfaceInteraction;
+use crate::geometry::{Ray, SurfaceInteraction};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
@@ -35,6 +35,23 @@ pub fn sample_light(
     sampler: &mut Sampler,
     rays: &mut Rays,
 ) -> Option<LightSample> {
+    let (ls, shadow) = prepare_light(scene, si, bsdf, ctx, sampler)?;
+    if rays.occluded(scene, &shadow) {
+        return None;
+    }
+    Some(ls)
+}
+
+/// [`sample_light`] up to its shadow ray, which is returned untraced (the stream renderer traces
+/// the shadow rays of a whole batch together). Draws the same numbers as [`sample_light`].
+#[inline(always)]
+pub fn prepare_light(
+    scene: &Scene,
+    si: &SurfaceInteraction,
+    bsdf: &SurfaceBsdf,
+    ctx: &BsdfContext,
+    sampler: &mut Sampler,
+) -> Option<(LightSample, Ray)> {
     let u_sel = sampler.next_1d();
     let u = sampler.next_2d();
     let (e, sel_pdf, _) = scene.light_sampler.sample(u_sel)?;
@@ -51,13 +68,13 @@ pub fn sample_light(
     } else {
         si.spawn_ray(ds.d)
     };
-    if rays.occluded(scene, &shadow) {
-        return None;
-    }
-    Some(LightSample {
-        f_value: f * ds.value,
-        light_pdf: ds.pdf * sel_pdf,
-        bsdf_pdf,
-        delta: ds.delta,
-    })
+    Some((
+        LightSample {
+            f_value: f * ds.value,
+            light_pdf: ds.pdf * sel_pdf,
+            bsdf_pdf,
+            delta: ds.delta,
+        },
+        shadow,
+    ))
 }

@@ -1,11 +1,18 @@
 //! `path`: unidirectional path tracing with next-event estimation and BSDF sampling combined by
 //! the power heuristic (Veach 1997, ch. 9), Russian roulette, and Mitsuba 3's depth semantics.
 //! The side tests that keep shading normals honest live in [`crate::bsdf::SurfaceBsdf`].
+//!
+//! The per-vertex work is split into steps that both renderers call, so a path's arithmetic is
+//! one source: [`li`] (the scalar renderer) runs them depth first for one path, the stream
+//! renderer ([`crate::stream`]) runs each step over a batch of paths before the next. The steps
+//! are [`PathState::add_emission`] (what the ray sees), [`PathState::scatter`] (next-event
+//! estimation up to its shadow ray, BSDF sampling, Russian roulette) and
+//! [`PathState::add_light`] (the light sample, once its shadow ray found nothing in the way).
 
-use super::nee::sample_light;
+use super::nee::prepare_light;
 use super::{PathSettings, RayKind, Scratch, Strategy};
-use crate::bsdf::{BsdfContext, Lobes};
-use crate::geometry::Ray;
+use crate::bsdf::{BsdfArena, BsdfContext, Lobes};
+use crate::geometry::{Ray, SurfaceInteraction};
 use crate::math::mis::power_heuristic;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
@@ -13,14 +20,179 @@ use crate::spectrum::{max_component, Spectrum};
 use glam::Vec3;
 
 /// What the previous vertex knew about the direction it sampled (for MIS on emitter hits).
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct PrevVertex {
     p: Vec3,
     bsdf_pdf: f32,
     delta: bool,
 }
 
-/// Radiance along `ray`.
+/// One path between two vertices: everything the estimator carries from one bounce to the next.
+#[derive(Clone, Copy, Debug)]
+pub struct PathState {
+    /// Radiance gathered so far.
+    pub result: Spectrum,
+    pub throughput: Spectrum,
+    /// Product of the relative indices of refraction crossed (for Russian roulette).
+    pub eta: f32,
+    /// Vertices scattered from so far (0 while the camera ray is traced).
+    pub depth: u32,
+    prev: Option<PrevVertex>,
+}
+
+/// A light sample whose shadow ray is still to be traced: `contribution` joins the path's
+/// radiance when nothing blocks `shadow` ([`PathState::add_light`]).
+#[derive(Clone, Copy, Debug)]
+pub struct PendingLight {
+    pub shadow: Ray,
+    /// Throughput × MIS-weighted light sample, computed at the vertex that sampled it.
+    pub contribution: Spectrum,
+}
+
+impl Default for PathState {
+    fn default() -> Self {
+        PathState::new()
+    }
+}
+
+impl PathState {
+    /// A path leaving the camera.
+    pub fn new() -> PathState {
+        PathState {
+            result: Spectrum::ZERO,
+            throughput: Spectrum::ONE,
+            eta: 1.0,
+            depth: 0,
+            prev: None,
+        }
+    }
+
+    /// The counter the ray of the current depth goes to.
+    #[inline]
+    pub fn ray_kind(&self) -> RayKind {
+        if self.depth == 0 {
+            RayKind::Camera
+        } else {
+            RayKind::Bounce
+        }
+    }
+
+    /// Emission seen along `ray` (which hit `hit`, or escaped): environment light for an
+    /// escaped ray, area light for a hit on an emitter, MIS-weighted against the BSDF sample
+    /// that chose the ray. Returns whether the path scatters at `hit` (a hit, and
+    /// depth + 1 < max_depth as in Mitsuba).
+    #[inline]
+    pub fn add_emission(
+        &mut self,
+        cfg: &PathSettings,
+        scene: &Scene,
+        ray: &Ray,
+        hit: Option<&SurfaceInteraction>,
+    ) -> bool {
+        let show = self.depth > 0 || !cfg.hide_emitters;
+        let prev = self.prev;
+        let Some(si) = hit else {
+            if show {
+                for &e in &scene.env_emitters {
+                    let em = &scene.emitters[e as usize];
+                    let le = em.eval_env(ray.d);
+                    if le == Spectrum::ZERO {
+                        continue;
+                    }
+                    let w = emission_weight(cfg, prev, || {
+                        em.pdf_direct_env(ray.d) * scene.light_sampler.pmf(e as usize)
+                    });
+                    self.result += self.throughput * le * w;
+                }
+            }
+            return false;
+        };
+        if show {
+            if let Some(e) = scene.shape_emitter[si.shape as usize] {
+                let em = &scene.emitters[e as usize];
+                let le = em.eval_surface(si);
+                if le != Spectrum::ZERO {
+                    let w = emission_weight(cfg, prev, || {
+                        let p = prev.map_or(si.p, |v| v.p);
+                        em.pdf_direct_surface(&scene.shapes, p, si)
+                            * scene.light_sampler.pmf(e as usize)
+                    });
+                    self.result += self.throughput * le * w;
+                }
+            }
+        }
+        // Mitsuba: continue only while depth + 1 < max_depth.
+        self.depth.saturating_add(1) < super::depth_limit(cfg.max_depth)
+    }
+
+    /// Scattering at `si`: builds the BSDF in `arena`, samples a light (the shadow ray is
+    /// returned in `light`, not traced), samples the BSDF and plays Russian roulette. Returns
+    /// the next ray, or `None` when the path ends here. `light` is set to `None` when no light
+    /// sample is pending.
+    #[inline]
+    pub fn scatter(
+        &mut self,
+        cfg: &PathSettings,
+        scene: &Scene,
+        si: &SurfaceInteraction,
+        sampler: &mut Sampler,
+        arena: &mut BsdfArena,
+        light: &mut Option<PendingLight>,
+    ) -> Option<Ray> {
+        *light = None;
+        let ctx = BsdfContext::default();
+        let bsdf = scene.bsdf_at(si, arena)?;
+
+        // Next-event estimation.
+        if cfg.strategy != Strategy::BsdfOnly && bsdf.lobes().is_smooth() {
+            if let Some((ls, shadow)) = prepare_light(scene, si, &bsdf, &ctx, sampler) {
+                let w = if ls.delta || cfg.strategy == Strategy::LightOnly {
+                    1.0
+                } else {
+                    power_heuristic(ls.light_pdf, ls.bsdf_pdf)
+                };
+                *light = Some(PendingLight {
+                    shadow,
+                    contribution: self.throughput * (ls.f_value * (w / ls.light_pdf)),
+                });
+            }
+        }
+
+        // BSDF sampling.
+        let bs = bsdf.sample(&ctx, sampler)?;
+        self.throughput *= bs.weight;
+        self.eta *= bs.eta;
+        self.prev = Some(PrevVertex {
+            p: si.p,
+            bsdf_pdf: bs.pdf,
+            delta: bs.lobe.intersects(Lobes::DELTA),
+        });
+        let ray = si.spawn_ray(bs.wo);
+        self.depth += 1;
+
+        // Russian roulette (Mitsuba 3: survival min(max(throughput)·η², 0.95) from rr_depth on).
+        let tmax = max_component(self.throughput);
+        if !(tmax.is_finite() && tmax > 0.0) {
+            return None;
+        }
+        if self.depth as i64 >= cfg.rr_depth as i64 {
+            let q = (tmax * self.eta * self.eta).min(0.95);
+            if sampler.next_1d() >= q {
+                return None;
+            }
+            self.throughput /= q;
+        }
+        Some(ray)
+    }
+
+    /// Adds a light sample whose shadow ray reached the light.
+    #[inline]
+    pub fn add_light(&mut self, light: &PendingLight) {
+        self.result += light.contribution;
+    }
+}
+
+/// Radiance along `ray`, one path depth first (the scalar renderer).
 pub fn li(
     cfg: &PathSettings,
     scene: &Scene,
@@ -28,111 +200,29 @@ pub fn li(
     sampler: &mut Sampler,
     scratch: &mut Scratch,
 ) -> Spectrum {
-    let ctx = BsdfContext::default();
-    let max_depth = super::depth_limit(cfg.max_depth);
-    let mut result = Spectrum::ZERO;
-    let mut throughput = Spectrum::ONE;
-    let mut eta = 1.0f32;
-    let mut depth: u32 = 0;
-    let mut prev: Option<PrevVertex> = None;
-    if max_depth == 0 {
-        return result;
+    let mut st = PathState::new();
+    if cfg.max_depth == 0 {
+        return st.result;
     }
-
+    let mut light = None;
     loop {
-        let kind = if depth == 0 {
-            RayKind::Camera
-        } else {
-            RayKind::Bounce
-        };
-        let hit = scratch.rays.intersect(scene, &ray, kind);
-
-        // ---- Emission seen by this ray (from an escaped ray or an area light hit) ----
-        let show = depth > 0 || !cfg.hide_emitters;
-        let si = match hit {
-            None => {
-                if show {
-                    for &e in &scene.env_emitters {
-                        let em = &scene.emitters[e as usize];
-                        let le = em.eval_env(ray.d);
-                        if le == Spectrum::ZERO {
-                            continue;
-                        }
-                        let w = emission_weight(cfg, prev, || {
-                            em.pdf_direct_env(ray.d) * scene.light_sampler.pmf(e as usize)
-                        });
-                        result += throughput * le * w;
-                    }
-                }
-                break;
-            }
-            Some(si) => si,
-        };
-        if show {
-            if let Some(e) = scene.shape_emitter[si.shape as usize] {
-                let em = &scene.emitters[e as usize];
-                let le = em.eval_surface(&si);
-                if le != Spectrum::ZERO {
-                    let w = emission_weight(cfg, prev, || {
-                        let p = prev.map_or(si.p, |v| v.p);
-                        em.pdf_direct_surface(&scene.shapes, p, &si)
-                            * scene.light_sampler.pmf(e as usize)
-                    });
-                    result += throughput * le * w;
-                }
-            }
-        }
-
-        // Mitsuba: continue only while depth + 1 < max_depth.
-        if depth.saturating_add(1) >= max_depth {
+        let hit = scratch.rays.intersect(scene, &ray, st.ray_kind());
+        if !st.add_emission(cfg, scene, &ray, hit.as_ref()) {
             break;
         }
-
-        // ---- Scattering ----
-        let Some(bsdf) = scene.bsdf_at(&si, &mut scratch.arena) else {
-            break;
-        };
-
-        // Next-event estimation.
-        if cfg.strategy != Strategy::BsdfOnly && bsdf.lobes().is_smooth() {
-            if let Some(ls) = sample_light(scene, &si, &bsdf, &ctx, sampler, &mut scratch.rays) {
-                let w = if ls.delta || cfg.strategy == Strategy::LightOnly {
-                    1.0
-                } else {
-                    power_heuristic(ls.light_pdf, ls.bsdf_pdf)
-                };
-                result += throughput * (ls.f_value * (w / ls.light_pdf));
+        let Some(si) = hit else { break };
+        let next = st.scatter(cfg, scene, &si, sampler, &mut scratch.arena, &mut light);
+        if let Some(l) = &light {
+            if !scratch.rays.occluded(scene, &l.shadow) {
+                st.add_light(l);
             }
         }
-
-        // BSDF sampling.
-        let Some(bs) = bsdf.sample(&ctx, sampler) else {
-            break;
-        };
-        throughput *= bs.weight;
-        eta *= bs.eta;
-        prev = Some(PrevVertex {
-            p: si.p,
-            bsdf_pdf: bs.pdf,
-            delta: bs.lobe.intersects(Lobes::DELTA),
-        });
-        ray = si.spawn_ray(bs.wo);
-        depth += 1;
-
-        // Russian roulette (Mitsuba 3: survival min(max(throughput)·η², 0.95) from rr_depth on).
-        let tmax = max_component(throughput);
-        if !(tmax.is_finite() && tmax > 0.0) {
-            break;
-        }
-        if depth as i64 >= cfg.rr_depth as i64 {
-            let q = (tmax * eta * eta).min(0.95);
-            if sampler.next_1d() >= q {
-                break;
-            }
-            throughput /= q;
+        match next {
+            Some(r) => ray = r,
+            None => break,
         }
     }
-    result
+    st.result
 }
 
 /// MIS weight of emission found by a BSDF-sampled ray (1 for camera rays and delta bounces).

@@ -3,7 +3,7 @@
 //! records it. The renderer sums the counters and concatenates the logs per image block, in
 //! block order.
 
-use crate::geometry::{Ray, SurfaceInteraction};
+use crate::geometry::{Hit, Ray, SurfaceInteraction};
 use crate::scene::Scene;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -17,6 +17,8 @@ pub struct RayCounters {
     /// Random walks sampled by microfacet normal maps, and their vertices (not rays).
     pub walks: u64,
     pub walk_vertices: u64,
+    /// Lane use of the stream renderer's stages (zero under the scalar renderer).
+    pub lanes: crate::stream::LaneCounters,
 }
 
 impl RayCounters {
@@ -30,6 +32,7 @@ impl RayCounters {
         self.shadow += o.shadow;
         self.walks += o.walks;
         self.walk_vertices += o.walk_vertices;
+        self.lanes.add(&o.lanes);
     }
     /// Mean vertices per sampled microfacet walk (0 without walks).
     pub fn mean_walk_length(&self) -> f64 {
@@ -126,6 +129,54 @@ impl Rays {
         }
         self.log(ray, false, kind == RayKind::Camera);
         scene.intersect(ray)
+    }
+
+    /// The nearest hits of up to 8 rays traced as one packet (`out[i]` for `rays[i]`), counted
+    /// as `kind`; camera packets are traced as coherent. Each lane gets the hit a single ray
+    /// gets (`tests/scene/packets.rs`).
+    #[inline]
+    pub fn intersect8(
+        &mut self,
+        scene: &Scene,
+        rays: &[Ray],
+        kind: RayKind,
+        out: &mut [Option<Hit>; 8],
+    ) {
+        let n = rays.len().min(8) as u64;
+        match kind {
+            RayKind::Camera => self.counters.camera += n,
+            RayKind::Bounce => self.counters.bounce += n,
+        }
+        if self.log.is_some() {
+            for r in rays {
+                self.log(r, false, kind == RayKind::Camera);
+            }
+        }
+        scene.accel.intersect8(rays, kind == RayKind::Camera, out);
+    }
+
+    /// The nearest hit of one ray as the accelerator reports it (no surface interaction yet),
+    /// counted as `kind`.
+    #[inline]
+    pub fn intersect_hit(&mut self, scene: &Scene, ray: &Ray, kind: RayKind) -> Option<Hit> {
+        match kind {
+            RayKind::Camera => self.counters.camera += 1,
+            RayKind::Bounce => self.counters.bounce += 1,
+        }
+        self.log(ray, false, kind == RayKind::Camera);
+        scene.accel.intersect(ray)
+    }
+
+    /// [`Self::occluded`] of up to 8 shadow rays traced as one packet: bit `i` for `rays[i]`.
+    #[inline]
+    pub fn occluded8(&mut self, scene: &Scene, rays: &[Ray]) -> u8 {
+        self.counters.shadow += rays.len().min(8) as u64;
+        if self.log.is_some() {
+            for r in rays {
+                self.log(r, true, false);
+            }
+        }
+        scene.accel.occluded8(rays)
     }
 
     /// True when something blocks the shadow ray `ray`.

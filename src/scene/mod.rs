@@ -10,7 +10,7 @@ use crate::bsdf::{BsdfArena, SurfaceBsdf};
 use crate::camera::Camera;
 use crate::emitter::{Emitter, LightSampler};
 use crate::geometry::hit::NO_INSTANCE;
-use crate::geometry::{Instance, Ray, Shape, SurfaceInteraction};
+use crate::geometry::{Hit, Instance, Ray, Shape, SurfaceInteraction};
 use crate::material::{MatId, Materials};
 use crate::medium::{Medium, MediumId, MediumInterface};
 use glam::Vec3;
@@ -110,14 +110,22 @@ impl Scene {
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceInteraction> {
         let hit = self.accel.intersect(ray)?;
+        Some(self.interaction(ray, &hit))
+    }
+
+    /// The surface interaction of `hit`, found by the accelerator along `ray` (the second half
+    /// of [`Self::intersect`], for renderers that trace rays in packets first).
+    #[inline]
+    pub fn interaction(&self, ray: &Ray, hit: &Hit) -> SurfaceInteraction {
+        let hit = *hit;
         let shape = &self.shapes[hit.geom as usize];
         if hit.inst == NO_INSTANCE {
-            return Some(shape.interaction(hit.geom, ray, &hit));
+            return shape.interaction(hit.geom, ray, &hit);
         }
         // A group member seen through an instance: its surface in group space, mapped back.
         let inst = &self.instances[hit.inst as usize];
         let local = shape.interaction(hit.geom, &inst.object_ray(ray), &hit);
-        Some(inst.interaction(local, ray))
+        inst.interaction(local, ray)
     }
 
     /// Build the BSDF of the surface hit by `si` into `arena`, as seen from `si.wi`; `None`

@@ -22,6 +22,7 @@ mod ptracer_sweep;
 mod refs_selfcheck;
 mod robustness;
 mod sdfgrid;
+mod stream;
 mod textures;
 mod transform_quirks;
 mod volpathmis;

@@ -1,0 +1,398 @@
+//! The stream renderer (`--renderer stream`): the `path` integrator run breadth first over
+//! batches of paths instead of one path at a time (`docs/design/PERFORMANCE.md` §4, and
+//! `docs/design/ARCHITECTURE.md`, "Where the render core is going").
+//!
+//! Each image block (the same fixed blocks as the scalar renderer) is cut into batches of
+//! [`BATCH`] paths in the block's canonical (y, x, sample) order; the batch size is a constant,
+//! never derived from the thread count. A batch keeps its paths in structure-of-arrays form
+//! ([`batch::Batch`], allocated once per worker) and runs, per bounce:
+//! 1. **trace** the active paths' rays (camera rays as coherent 8-wide packets; bounce rays too
+//!    under tier A, [`Packets`]);
+//! 2. **emission**: what each ray sees, MIS-weighted ([`crate::integrator::path::PathState::add_emission`]);
+//! 3. **sort** the paths that scatter by material (stable counting sort);
+//! 4. **shade** each material's run of paths: light sample up to its shadow ray, BSDF sample,
+//!    Russian roulette
+//!    ([`crate::integrator::path::PathState::scatter`]). No material has an 8-wide kernel yet: every
+//!    run goes through the 1-lane code lane by lane;
+//! 5. **shadow rays** of the pending light samples, in path order, adding the unoccluded ones;
+//! 6. **compact** the surviving paths (stable).
+//!
+//! Then every path's radiance goes to the block in the canonical order. Each path draws from its
+//! own stream keyed by (seed, pixel, sample) and runs exactly the scalar renderer's per-vertex
+//! functions in the same order, so the image equals the scalar renderer's bit for bit at any
+//! thread count (`tests/render/stream.rs`).
+
+pub(crate) mod batch;
+
+use crate::cancel::Cancel;
+use crate::film::Block;
+use crate::geometry::{Hit, Ray};
+use crate::integrator::{PathSettings, RayKind, Rays, Scratch};
+use crate::sampler::{Sampler, SamplerDesc};
+use crate::scene::Scene;
+use crate::spectrum::Spectrum;
+use batch::Batch;
+use glam::Vec2;
+
+/// Paths per batch: 1024 (PERFORMANCE.md §4.1 suggests 512–4096; ~150 KB of path state, which
+/// stays in a 512 KB L2). A constant, so the decomposition is the same at any thread count.
+pub const BATCH: usize = 1024;
+
+/// Lane use of the 8-wide stages of the stream renderer, summed over a render: for each stage,
+/// the lanes that did work and the lanes of the 8-wide chunks they were issued in (a run of n
+/// paths takes ⌈n/8⌉ chunks). `used / slots` is the active-lane fraction.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LaneCounters {
+    pub trace_used: u64,
+    pub trace_slots: u64,
+    /// Shading, counted per run of one material in the sorted order (what an 8-wide material
+    /// kernel would see).
+    pub shade_used: u64,
+    pub shade_slots: u64,
+    pub shadow_used: u64,
+    pub shadow_slots: u64,
+    /// Batches and bounces (trace stages) run.
+    pub batches: u64,
+    pub bounces: u64,
+}
+
+impl LaneCounters {
+    pub fn add(&mut self, o: &LaneCounters) {
+        self.trace_used += o.trace_used;
+        self.trace_slots += o.trace_slots;
+        self.shade_used += o.shade_used;
+        self.shade_slots += o.shade_slots;
+        self.shadow_used += o.shadow_used;
+        self.shadow_slots += o.shadow_slots;
+        self.batches += o.batches;
+        self.bounces += o.bounces;
+    }
+
+    /// Active-lane fractions (trace, shade, shadow); NaN for a stage that never ran.
+    pub fn fractions(&self) -> (f64, f64, f64) {
+        let f = |u: u64, s: u64| u as f64 / s as f64;
+        (
+            f(self.trace_used, self.trace_slots),
+            f(self.shade_used, self.shade_slots),
+            f(self.shadow_used, self.shadow_slots),
+        )
+    }
+}
+
+/// Slots of 8-wide chunks that `n` lanes take.
+#[inline]
+fn slots(n: usize) -> u64 {
+    (n as u64).div_ceil(8) * 8
+}
+
+/// Which rays the stream renderer traces as 8-wide packets (of consecutive active paths, in
+/// path order) rather than one at a time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Packets {
+    /// Camera rays: 8 samples of one pixel, traced as a coherent packet.
+    pub camera: bool,
+    /// Bounce rays (incoherent).
+    pub bounce: bool,
+    /// Shadow rays (incoherent).
+    pub shadow: bool,
+}
+
+impl Packets {
+    /// Camera rays only: the default under Embree, whose packet traversal pays off for coherent
+    /// rays only (`docs/bench/README.md`, "Packet ceilings").
+    pub const DEFAULT: Packets = Packets {
+        camera: true,
+        bounce: false,
+        shadow: false,
+    };
+
+    /// Every ray kind: the default under tier A, where a packet is 8 rays against every shape
+    /// (fewer instructions and, in a noisy wall-clock test, faster than single rays;
+    /// `docs/bench/README.md`, "Stream renderer").
+    pub const ALL: Packets = Packets {
+        camera: true,
+        bounce: true,
+        shadow: true,
+    };
+
+    /// No packets: every ray traced alone.
+    pub const NONE: Packets = Packets {
+        camera: false,
+        bounce: false,
+        shadow: false,
+    };
+
+    /// The default for `scene`: [`Self::ALL`] when it is traced by tier A; [`Self::DEFAULT`]
+    /// under Embree, unless the scene has curves or SDF grids, whose packet hits can differ
+    /// from single-ray hits in the last bits (measured on curves: `tests/data/scenes/mat_hair.xml`
+    /// came out different), which would break the bit-identity with the scalar renderer:
+    /// then [`Self::NONE`].
+    pub fn default_for(scene: &Scene) -> Packets {
+        use crate::geometry::shapes::ShapeKind;
+        if scene.accel.tier() == crate::accel::Tier::Brute {
+            Self::ALL
+        } else if scene
+            .shapes
+            .iter()
+            .any(|s| matches!(s.kind, ShapeKind::Curves(_) | ShapeKind::SdfGrid(_)))
+        {
+            Self::NONE
+        } else {
+            Self::DEFAULT
+        }
+    }
+
+    /// The environment variable that overrides [`Self::default_for`] for measurements: a
+    /// comma-separated subset of `camera,bounce,shadow`, or `none` (packets forced on a scene
+    /// with curves may change the image's last bits).
+    pub const ENV: &'static str = "GROOVE_STREAM_PACKETS";
+
+    /// The packets [`Self::ENV`] asks for ([`Self::default_for`] the scene when unset).
+    pub fn from_env(scene: &Scene) -> crate::error::Result<Packets> {
+        let Ok(v) = std::env::var(Self::ENV) else {
+            return Ok(Self::default_for(scene));
+        };
+        let mut p = Packets {
+            camera: false,
+            bounce: false,
+            shadow: false,
+        };
+        for w in v.split(',').map(str::trim).filter(|w| !w.is_empty()) {
+            match w {
+                "camera" => p.camera = true,
+                "bounce" => p.bounce = true,
+                "shadow" => p.shadow = true,
+                "none" => {}
+                _ => {
+                    return Err(crate::error::Error::Usage(format!(
+                    "{}={v}: expected a comma-separated subset of camera, bounce, shadow, or none",
+                    Self::ENV
+                )))
+                }
+            }
+        }
+        Ok(p)
+    }
+}
+
+/// Per-worker state of the stream renderer: the batch buffers, reused for every batch.
+pub struct StreamScratch {
+    batch: Batch,
+    packets: Packets,
+}
+
+impl StreamScratch {
+    /// Buffers for the scene's materials.
+    pub fn new(scene: &Scene, packets: Packets) -> StreamScratch {
+        let materials = scene
+            .shape_material
+            .iter()
+            .map(|&m| m as usize + 1)
+            .max()
+            .unwrap_or(0);
+        StreamScratch {
+            batch: Batch::new(BATCH, materials),
+            packets,
+        }
+    }
+}
+
+/// Renders samples `samples` of the pixels `rect` (x0, y0, width, height; full-film pixels)
+/// of one block with the `path` integrator `cfg`; returns the number of invalid (NaN or
+/// infinite) samples, which are dropped. Stops at the next batch once `cancel` is raised.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn render_block(
+    scene: &Scene,
+    cfg: &PathSettings,
+    sampler_desc: &SamplerDesc,
+    film_width: u32,
+    block: &mut Block,
+    rect: (u32, u32, u32, u32),
+    samples: (u32, u32),
+    scratch: &mut Scratch,
+    stream: &mut StreamScratch,
+    cancel: Option<&Cancel>,
+) -> u64 {
+    let (x0, y0, w, h) = rect;
+    let (s_lo, s_hi) = samples;
+    let spp = s_hi.saturating_sub(s_lo) as u64;
+    let total = w as u64 * h as u64 * spp;
+    let batch = &mut stream.batch;
+    let packets = stream.packets;
+    let mut invalid = 0;
+    let mut k = 0u64;
+    while k < total {
+        if cancel.is_some_and(|c| c.requested().is_some()) {
+            return invalid;
+        }
+        let end = (k + BATCH as u64).min(total);
+        batch.clear();
+        for j in k..end {
+            let s = s_lo + (j % spp) as u32;
+            let p = j / spp;
+            let x = x0 + (p % w as u64) as u32;
+            let y = y0 + (p / w as u64) as u32;
+            let pixel_index = y as u64 * film_width as u64 + x as u64;
+            let mut sampler = Sampler::for_sample(sampler_desc, pixel_index, s);
+            let pos = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+            let ray = scene.camera.sample_ray(pos, &mut sampler);
+            batch.push(pos, sampler, ray);
+        }
+        run_batch(scene, cfg, batch, scratch, packets);
+        for (pos, st) in batch.pos.iter().zip(&batch.state) {
+            let mut l = st.result;
+            if !crate::spectrum::is_finite(l) {
+                invalid += 1;
+                l = Spectrum::ZERO;
+            }
+            block.put(*pos, l);
+        }
+        k = end;
+    }
+    invalid
+}
+
+/// Runs every path of `batch` to its end, bounce by bounce.
+fn run_batch(
+    scene: &Scene,
+    cfg: &PathSettings,
+    batch: &mut Batch,
+    scratch: &mut Scratch,
+    packets: Packets,
+) {
+    scratch.rays.counters.lanes.batches += 1;
+    if cfg.max_depth == 0 {
+        return;
+    }
+    batch.active.clear();
+    batch.active.extend(0..batch.len() as u32);
+    let mut kind = RayKind::Camera;
+    while !batch.active.is_empty() {
+        let packet = match kind {
+            RayKind::Camera => packets.camera,
+            RayKind::Bounce => packets.bounce,
+        };
+        trace(scene, batch, kind, packet, &mut scratch.rays);
+        kind = RayKind::Bounce;
+
+        // Emission; the paths that scatter go on to the shading stage.
+        batch.scatter.clear();
+        for &i in &batch.active {
+            let i = i as usize;
+            let ray = &batch.ray[i];
+            let si = batch.hit[i].map(|h| scene.interaction(ray, &h));
+            batch.alive[i] = false;
+            if batch.state[i].add_emission(cfg, scene, ray, si.as_ref()) {
+                if let Some(si) = si {
+                    batch.material[i] = scene.shape_material[si.shape as usize];
+                    batch.si[i] = Some(si);
+                    batch.scatter.push(i as u32);
+                }
+            }
+        }
+
+        // Shading, material by material in the stable order.
+        batch.sort_by_material();
+        let lanes = &mut scratch.rays.counters.lanes;
+        let mut run = 0;
+        for (k, &i) in batch.sorted.iter().enumerate() {
+            let i = i as usize;
+            run += 1;
+            let next_differs = !matches!(
+                batch.sorted.get(k + 1),
+                Some(&j) if batch.material[j as usize] == batch.material[i]
+            );
+            if next_differs {
+                lanes.shade_used += run as u64;
+                lanes.shade_slots += slots(run);
+                run = 0;
+            }
+        }
+        for &i in &batch.sorted {
+            let i = i as usize;
+            let Some(si) = &batch.si[i] else { continue };
+            let next = batch.state[i].scatter(
+                cfg,
+                scene,
+                si,
+                &mut batch.sampler[i],
+                &mut scratch.arena,
+                &mut batch.light[i],
+            );
+            if let Some(r) = next {
+                batch.ray[i] = r;
+                batch.alive[i] = true;
+            }
+        }
+
+        shadows(scene, batch, packets.shadow, &mut scratch.rays);
+
+        batch.compact();
+    }
+}
+
+/// Traces the shadow rays of the paths that scattered, in path order, and adds the light
+/// samples that nothing blocks; as 8-wide packets of consecutive pending rays when `packet`.
+fn shadows(scene: &Scene, batch: &mut Batch, packet: bool, rays: &mut Rays) {
+    batch.shadow.clear();
+    for &i in &batch.scatter {
+        if batch.light[i as usize].is_some() {
+            batch.shadow.push(i);
+        }
+    }
+    let n = batch.shadow.len();
+    rays.counters.lanes.shadow_used += n as u64;
+    rays.counters.lanes.shadow_slots += slots(n);
+    if packet {
+        let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
+        for chunk in batch.shadow.chunks(8) {
+            for (p, &i) in packet.iter_mut().zip(chunk) {
+                if let Some(l) = &batch.light[i as usize] {
+                    *p = l.shadow;
+                }
+            }
+            let blocked = rays.occluded8(scene, &packet[..chunk.len()]);
+            for (k, &i) in chunk.iter().enumerate() {
+                let i = i as usize;
+                if let (Some(l), false) = (&batch.light[i], blocked >> k & 1 == 1) {
+                    batch.state[i].add_light(l);
+                }
+            }
+        }
+    } else {
+        for &i in &batch.shadow {
+            let i = i as usize;
+            if let Some(l) = &batch.light[i] {
+                if !rays.occluded(scene, &l.shadow) {
+                    batch.state[i].add_light(l);
+                }
+            }
+        }
+    }
+}
+
+/// Traces the rays of the active paths into `batch.hit`, one at a time or (`packet`) as 8-wide
+/// packets of consecutive active paths (coherent for camera rays: samples of one pixel).
+fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: bool, rays: &mut Rays) {
+    rays.counters.lanes.bounces += 1;
+    rays.counters.lanes.trace_used += batch.active.len() as u64;
+    rays.counters.lanes.trace_slots += slots(batch.active.len());
+    if packet {
+        let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
+        let mut out: [Option<Hit>; 8] = [None; 8];
+        for chunk in batch.active.chunks(8) {
+            for (p, &i) in packet.iter_mut().zip(chunk) {
+                *p = batch.ray[i as usize];
+            }
+            rays.intersect8(scene, &packet[..chunk.len()], kind, &mut out);
+            for (h, &i) in out.iter().zip(chunk) {
+                batch.hit[i as usize] = *h;
+            }
+        }
+    } else {
+        for &i in &batch.active {
+            let i = i as usize;
+            batch.hit[i] = rays.intersect_hit(scene, &batch.ray[i], kind);
+        }
+    }
+}
