@@ -36,8 +36,8 @@ enum Why {
     /// never finds); Mitsuba's `ptracer` shares this (checked: the plugin is in the scene, and
     /// the full sweep finds the disagreement).
     Specular(&'static str),
-    /// Participating media (`volpath`): groove's `ptracer` traces surfaces only (checked: the
-    /// scene's integrator is `volpath`).
+    /// Participating media (`volpath`, `volpathmis`): groove's `ptracer` traces surfaces only
+    /// (checked: the scene's integrator is one of those).
     Media,
 }
 
@@ -109,6 +109,7 @@ const SCENES: &[(&str, Entry)] = &[
     ("mat_rough_tex.xml", Compare(NONE, Nm::AsWritten, 4)),
     ("mat_roughconductor.xml", Compare(NONE, Nm::AsWritten, 4)),
     ("mat_roughglass.xml", Compare(NONE, Nm::AsWritten, 4)),
+    ("media_chroma.xml", Exclude(Media)),
     ("media_fog.xml", Exclude(Media)),
     ("media_furnace.xml", Exclude(Media)),
     ("media_glass.xml", Exclude(Media)),
@@ -221,8 +222,11 @@ fn check_reason(scene: &str, why: Why) {
         Media => {
             let loaded = load(&path, NONE, NormalMapping::AsWritten);
             assert!(
-                matches!(loaded.settings.integrator, IntegratorDesc::Volpath(_)),
-                "{scene}: the integrator is not volpath"
+                matches!(
+                    loaded.settings.integrator,
+                    IntegratorDesc::Volpath(_) | IntegratorDesc::VolpathMis(_)
+                ),
+                "{scene}: the integrator is not volpath or volpathmis"
             );
         }
         Classic(plugin) | Specular(plugin) => {
