@@ -36,8 +36,8 @@ enum Why {
     /// never finds); Mitsuba's `ptracer` shares this (checked: the plugin is in the scene, and
     /// the full sweep finds the disagreement).
     Specular(&'static str),
-    /// Participating media (`volpath`): groove's `ptracer` traces surfaces only (checked: the
-    /// scene's integrator is `volpath`).
+    /// Participating media (`volpath`, `volpathmis`): groove's `ptracer` traces surfaces only
+    /// (checked: the scene's integrator is one of those).
     Media,
     /// A BSDF that is not its own adjoint and, as in Mitsuba 3.9.1, is evaluated the same in
     /// both transport modes — the named plugin (`hair`: its fiber offset h and scale tilts come
@@ -238,8 +238,11 @@ fn check_reason(scene: &str, why: Why) {
         Media => {
             let loaded = load(&path, NONE, NormalMapping::AsWritten);
             assert!(
-                matches!(loaded.settings.integrator, IntegratorDesc::Volpath(_)),
-                "{scene}: the integrator is not volpath"
+                matches!(
+                    loaded.settings.integrator,
+                    IntegratorDesc::Volpath(_) | IntegratorDesc::VolpathMis(_)
+                ),
+                "{scene}: the integrator is not volpath or volpathmis"
             );
         }
         Classic(plugin) | Specular(plugin) | NotAdjoint(plugin) => {
