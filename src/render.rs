@@ -487,6 +487,7 @@ fn integrator_name(i: &IntegratorDesc) -> &'static str {
         IntegratorDesc::Path(_) => "path",
         IntegratorDesc::Direct(_) => "direct",
         IntegratorDesc::Volpath(_) => "volpath",
+        IntegratorDesc::VolpathMis(_) => "volpathmis",
         IntegratorDesc::Moment(_) => "moment",
         IntegratorDesc::Aov(_) => "aov",
         IntegratorDesc::Ptracer(_) => "ptracer",
