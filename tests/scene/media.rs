@@ -10,20 +10,23 @@ fn scene(body: &str) -> String {
     format!("<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n{body}\n</scene>\n")
 }
 
-fn load(body: &str) -> groove::error::Result<groove::load::Loaded> {
+/// Shared with the other media loader tests.
+pub(crate) fn load(body: &str) -> groove::error::Result<groove::load::Loaded> {
     let doc = groove::scene::xml::parse::load_str(&scene(body), Path::new("mem.xml"), &[])
         .expect("the XML parses");
     groove::load::instantiate(&doc, Path::new("mem.xml"))
 }
 
-fn load_err(body: &str) -> String {
+/// Shared with the other media loader tests.
+pub(crate) fn load_err(body: &str) -> String {
     match load(body) {
         Ok(_) => panic!("expected an error for {body}"),
         Err(e) => e.to_string(),
     }
 }
 
-fn assert_err(err: &str, loc: &str, msg: &str) {
+/// Shared with the other media loader tests.
+pub(crate) fn assert_err(err: &str, loc: &str, msg: &str) {
     assert!(
         err.starts_with(&format!("{loc}: ")),
         "expected location {loc}, got: {err}"

@@ -3,35 +3,13 @@
 //! order, `use_grid_bbox`, `to_world`, `scale`, the majorant, Mitsuba's unit-cube extent of a
 //! constant; and clear errors at file:line:col for what is not supported or not valid.
 
+use super::media::{assert_err, load, load_err};
 use glam::Vec3;
 use groove::medium::Medium;
 use std::path::{Path, PathBuf};
 
 fn volumes() -> PathBuf {
     crate::common::repo_root().join("tests/data/volumes")
-}
-
-fn load(body: &str) -> groove::error::Result<groove::load::Loaded> {
-    let text =
-        format!("<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n{body}\n</scene>\n");
-    let doc = groove::scene::xml::parse::load_str(&text, Path::new("mem.xml"), &[])
-        .expect("the XML parses");
-    groove::load::instantiate(&doc, Path::new("mem.xml"))
-}
-
-fn load_err(body: &str) -> String {
-    match load(body) {
-        Ok(_) => panic!("expected an error for {body}"),
-        Err(e) => e.to_string(),
-    }
-}
-
-fn assert_err(err: &str, loc: &str, msg: &str) {
-    assert!(
-        err.starts_with(&format!("{loc}: ")),
-        "expected location {loc}, got: {err}"
-    );
-    assert!(err.contains(msg), "expected '{msg}' in: {err}");
 }
 
 fn grid_medium(file: &Path, extra: &str) -> String {

@@ -2,33 +2,8 @@
 //! (`max_depth`, `rr_depth`, `hide_emitters`, `use_spectral_mis`), nested in `moment`, and its
 //! errors at the element's file:line:col.
 
+use super::media::{assert_err, load, load_err};
 use groove::integrator::IntegratorDesc;
-use std::path::Path;
-
-fn text(body: &str) -> String {
-    format!("<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n{body}\n</scene>\n")
-}
-
-fn load(body: &str) -> groove::error::Result<groove::load::Loaded> {
-    let doc = groove::scene::xml::parse::load_str(&text(body), Path::new("mem.xml"), &[])
-        .expect("the XML parses");
-    groove::load::instantiate(&doc, Path::new("mem.xml"))
-}
-
-fn load_err(body: &str) -> String {
-    match load(body) {
-        Ok(_) => panic!("expected an error for {body}"),
-        Err(e) => e.to_string(),
-    }
-}
-
-fn assert_err(err: &str, loc: &str, msg: &str) {
-    assert!(
-        err.starts_with(&format!("{loc}: ")),
-        "expected location {loc}, got: {err}"
-    );
-    assert!(err.contains(msg), "expected '{msg}' in: {err}");
-}
 
 fn settings(body: &str) -> groove::integrator::volpathmis::VolpathMisSettings {
     let l = load(body).unwrap_or_else(|e| panic!("{e}"));

@@ -303,13 +303,7 @@ fn first_order(
     if m.mirror_wall {
         let fr = &m.frames[0];
         let bo = fr.to_local(wo);
-        let exit_t = (wo.dot(surf.normal(1)) > 0.0)
-            .then(|| {
-                let rwo = m.reflect_wall(wo);
-                (rwo, 1.0 - surf.g1(rwo))
-            })
-            .filter(|&(_, bt)| bt > 0.0)
-            .map(|(rwo, bt)| (fr.to_local(rwo), bt));
+        let exit_t = wall_exit(m, wo);
         for j in 0..e.len() {
             let w = e.w[j];
             let (f, pd) = fp(j, false, bo, s);
@@ -343,6 +337,21 @@ fn first_order(
 
 /// The entries at `wi`: the point's cache, else computed.
 #[inline]
+/// The mirror wall's exit of ωo (path [·, t]): ωo mirrored across the wall, in the first facet's
+/// frame, with the wall's 1 − G1 of that mirror image; `None` when ωo does not face the wall or
+/// nothing leaves that way.
+#[inline]
+fn wall_exit(m: &MicrofacetNormalMap, wo: Vec3) -> Option<(Vec3, f32)> {
+    let surf = &m.surface;
+    (wo.dot(surf.normal(1)) > 0.0)
+        .then(|| {
+            let rwo = m.reflect_wall(wo);
+            (rwo, 1.0 - surf.g1(rwo))
+        })
+        .filter(|&(_, bt)| bt > 0.0)
+        .map(|(rwo, bt)| (m.frames[0].to_local(rwo), bt))
+}
+
 fn entries(m: &MicrofacetNormalMap, at: Option<&AtIncident>, wi: Vec3) -> Entries {
     match at {
         Some(a) => a.entries,
@@ -403,13 +412,7 @@ fn first_pdf(
         let fr = &m.frames[0];
         let g1o = surf.g1(wo);
         let bo = fr.to_local(wo);
-        let exit_t = (wo.dot(surf.normal(1)) > 0.0)
-            .then(|| {
-                let rwo = m.reflect_wall(wo);
-                (rwo, 1.0 - surf.g1(rwo))
-            })
-            .filter(|&(_, bt)| bt > 0.0)
-            .map(|(rwo, bt)| (fr.to_local(rwo), bt));
+        let exit_t = wall_exit(m, wo);
         for j in 0..e.len() {
             let w = e.w[j];
             p += w * g1o * nested.pdf(ctx, e.a[j], bo);
