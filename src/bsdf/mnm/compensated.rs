@@ -335,8 +335,6 @@ fn first_order(
     (v * g1o, p)
 }
 
-/// The entries at `wi`: the point's cache, else computed.
-#[inline]
 /// The mirror wall's exit of ωo (path [·, t]): ωo mirrored across the wall, in the first facet's
 /// frame, with the wall's 1 − G1 of that mirror image; `None` when ωo does not face the wall or
 /// nothing leaves that way.
@@ -352,6 +350,8 @@ fn wall_exit(m: &MicrofacetNormalMap, wo: Vec3) -> Option<(Vec3, f32)> {
         .map(|(rwo, bt)| (m.frames[0].to_local(rwo), bt))
 }
 
+/// The entries at `wi`: the point's cache, else computed.
+#[inline]
 fn entries(m: &MicrofacetNormalMap, at: Option<&AtIncident>, wi: Vec3) -> Entries {
     match at {
         Some(a) => a.entries,
