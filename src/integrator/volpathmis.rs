@@ -211,21 +211,6 @@ fn nan_to_zero(v: Spectrum) -> Spectrum {
     Vec3::select(v.is_nan_mask(), Vec3::ZERO, v)
 }
 
-/// exp(−t·(σ − σ_c)) per channel (Tr / Tr_c as one exponential, so that it does not underflow
-/// to 0/0 over long distances); 1 where σ = σ_c (also for t = ∞).
-#[inline]
-fn tr_ratio(t: f32, sigma: Spectrum, s_c: f32) -> Spectrum {
-    let f = |x: f32| {
-        let d = x - s_c;
-        if d == 0.0 {
-            1.0
-        } else {
-            (-t * d).exp()
-        }
-    };
-    Vec3::new(f(sigma.x), f(sigma.y), f(sigma.z))
-}
-
 /// Radiance along the camera ray `ray`.
 pub fn li(
     cfg: &VolpathMisSettings,
@@ -290,13 +275,13 @@ pub fn li(
             if t >= t_max {
                 // Passed to the surface: p = f = Tr in every channel.
                 if h.spectral_extinction {
-                    w.scale_all(tr_ratio(t_max, h.sigma_t, s_c));
+                    w.scale_all(crate::medium::homogeneous::tr_ratio(t_max, h.sigma_t, s_c));
                 }
             } else {
                 // Scattered: p_j = Tr_j·σt_j, f_i = Tr_i·σs_i (grey-extinction shortcut:
                 // p_j = σt_j, f_i = σs_i, as Mitsuba 3.9.1).
                 let k = if h.spectral_extinction {
-                    tr_ratio(t, h.sigma_t, s_c)
+                    crate::medium::homogeneous::tr_ratio(t, h.sigma_t, s_c)
                 } else {
                     Spectrum::ONE
                 };

@@ -22,51 +22,30 @@ impl<'d> Builder<'d> {
         let p = self.props(n)?;
         let d = match p.plugin_type() {
             "path" => {
-                let max_depth = p.int("max_depth", -1)?;
-                check(
-                    p.loc(),
-                    max_depth >= -1,
-                    "max_depth must be -1 (unlimited) or >= 0",
-                )?;
-                let rr_depth = p.int("rr_depth", 5)?;
-                check(p.loc(), rr_depth >= 1, "rr_depth must be >= 1")?;
+                let (max_depth, rr_depth) = depths(&p)?;
                 IntegratorDesc::Path(PathSettings {
-                    max_depth: max_depth.clamp(-1, i32::MAX as i64) as i32,
-                    rr_depth: rr_depth.min(i32::MAX as i64) as i32,
+                    max_depth,
+                    rr_depth,
                     hide_emitters: p.bool("hide_emitters", false)?,
                     ..Default::default()
                 })
             }
             "volpath" => {
                 // Mitsuba 3.9.1's MonteCarloIntegrator: max_depth -1 or >= 0, rr_depth > 0.
-                let max_depth = p.int("max_depth", -1)?;
-                check(
-                    p.loc(),
-                    max_depth >= -1,
-                    "max_depth must be -1 (unlimited) or >= 0",
-                )?;
-                let rr_depth = p.int("rr_depth", 5)?;
-                check(p.loc(), rr_depth >= 1, "rr_depth must be >= 1")?;
+                let (max_depth, rr_depth) = depths(&p)?;
                 IntegratorDesc::Volpath(VolpathSettings {
-                    max_depth: max_depth.clamp(-1, i32::MAX as i64) as i32,
-                    rr_depth: rr_depth.min(i32::MAX as i64) as i32,
+                    max_depth,
+                    rr_depth,
                     hide_emitters: p.bool("hide_emitters", false)?,
                 })
             }
             "volpathmis" => {
                 // Mitsuba 3.9.1's MonteCarloIntegrator (as volpath) and volpathmis's own
                 // 'use_spectral_mis'.
-                let max_depth = p.int("max_depth", -1)?;
-                check(
-                    p.loc(),
-                    max_depth >= -1,
-                    "max_depth must be -1 (unlimited) or >= 0",
-                )?;
-                let rr_depth = p.int("rr_depth", 5)?;
-                check(p.loc(), rr_depth >= 1, "rr_depth must be >= 1")?;
+                let (max_depth, rr_depth) = depths(&p)?;
                 IntegratorDesc::VolpathMis(Arc::new(VolpathMisSettings {
-                    max_depth: max_depth.clamp(-1, i32::MAX as i64) as i32,
-                    rr_depth: rr_depth.min(i32::MAX as i64) as i32,
+                    max_depth,
+                    rr_depth,
                     hide_emitters: p.bool("hide_emitters", false)?,
                     spectral_mis: p.bool("use_spectral_mis", true)?,
                     loc: p.loc().clone(),
@@ -487,4 +466,21 @@ impl<'d> Builder<'d> {
             seed: seed as u64,
         })
     }
+}
+
+/// Mitsuba 3.9.1's MonteCarloIntegrator depths: `max_depth` (−1 = unlimited, else ≥ 0) and
+/// `rr_depth` (≥ 1), clamped into i32.
+fn depths(p: &Props<'_>) -> Result<(i32, i32)> {
+    let max_depth = p.int("max_depth", -1)?;
+    check(
+        p.loc(),
+        max_depth >= -1,
+        "max_depth must be -1 (unlimited) or >= 0",
+    )?;
+    let rr_depth = p.int("rr_depth", 5)?;
+    check(p.loc(), rr_depth >= 1, "rr_depth must be >= 1")?;
+    Ok((
+        max_depth.clamp(-1, i32::MAX as i64) as i32,
+        rr_depth.min(i32::MAX as i64) as i32,
+    ))
 }

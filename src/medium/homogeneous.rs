@@ -54,14 +54,14 @@ impl Homogeneous {
         };
         if t < t_max {
             let w = if self.spectral_extinction {
-                ratio(t, self.sigma_t, s) * self.sigma_s / s
+                tr_ratio(t, self.sigma_t, s) * self.sigma_s / s
             } else {
                 self.sigma_s / self.sigma_t
             };
             FreeFlight::Scatter { t, weight: w }
         } else {
             let w = if self.spectral_extinction {
-                ratio(t_max, self.sigma_t, s)
+                tr_ratio(t_max, self.sigma_t, s)
             } else {
                 Spectrum::ONE
             };
@@ -91,9 +91,10 @@ fn exp_neg(sigma: f32, d: f32) -> f32 {
 }
 
 /// Tr(t)/Tr_c(t) per channel = exp(−t·(σ − σc)), computed as one exponential so that it does
-/// not underflow to 0/0 over long distances.
+/// not underflow to 0/0 over long distances; 1 where σ = σc (also for t = ∞). Shared with
+/// `volpathmis`.
 #[inline]
-fn ratio(t: f32, sigma: Spectrum, s_c: f32) -> Spectrum {
+pub(crate) fn tr_ratio(t: f32, sigma: Spectrum, s_c: f32) -> Spectrum {
     let f = |x: f32| {
         let d = x - s_c;
         if d == 0.0 {
