@@ -47,7 +47,7 @@ pub struct MsRef {
 
 impl MsRef {
     /// `wp`: the (clamped, not flat) perturbed normal.
-    #[inline]
+    #[inline(always)]
     pub fn new(table: &'static MsTable, wp: Vec3) -> MsRef {
         let cell = table.cell(wp);
         let baked_norm = (table.spec.colour == Colour::Baked).then(|| {
@@ -155,7 +155,7 @@ impl MicrofacetNormalMap {
     /// The compensated model's per-point cache for the hit's incident direction `wi` (shading
     /// frame): computed here once, used by every query with exactly this ωi. Without a table,
     /// or with ωi below the surface, nothing changes. Results are the same with or without it.
-    #[inline]
+    #[inline(always)]
     pub fn with_incident(mut self, wi: Vec3) -> Self {
         if let Some(r) = &self.ms {
             if wi.z > 0.0 && !self.degenerate {
