@@ -406,6 +406,12 @@ fn walk_pdf(m: &MicrofacetNormalMap, nested: &Bsdf, ctx: &BsdfContext, wi: Vec3,
     } else {
         explicit::pdf_single(m, nested, ctx, wi, wo)
     };
+    walk_mis_pdf(m, p1, wo)
+}
+
+/// Decision 3's mixture from the walk's first-order density `p1` at ωo.
+#[inline]
+fn walk_mis_pdf(m: &MicrofacetNormalMap, p1: f32, wo: Vec3) -> f32 {
     (1.0 - m.mis_c()) * p1 + m.mis_c() * wo.z * INV_PI
 }
 
@@ -464,8 +470,9 @@ pub(super) fn eval_pdf(
         // The blend band: the eval of one model picked by β (as [`eval`]), the mixture's pdf.
         let b = m.blend;
         return if s.next_1d() < b {
-            let (fc, pc) = compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s);
-            (fc, b * pc + (1.0 - b) * walk_pdf(m, &nested, ctx, wi, wo))
+            // The walk's density from the same nested densities as the compensated one.
+            let (fc, pc, p1) = compensated::eval_pdf_walk(m, r, &nested, ctx, wi, wo, s);
+            (fc, b * pc + (1.0 - b) * walk_mis_pdf(m, p1, wo))
         } else {
             let (fw, pw) = walk_eval_pdf(m, &nested, ctx, wi, wo, s);
             let pc = compensated::pdf(m, r, &nested, ctx, wi, wo);
@@ -559,8 +566,8 @@ pub(super) fn sample(
         // exact pdf, the walk's MIS pdf): only the other model's is computed.
         let beta = m.blend;
         return if s.next_1d() < beta {
-            let mut bs = compensated::sample(m, r, &nested, ctx, wi, s)?;
-            bs.pdf = beta * bs.pdf + (1.0 - beta) * walk_pdf(m, &nested, ctx, wi, bs.wo);
+            let (mut bs, p1) = compensated::sample_walk(m, r, &nested, ctx, wi, s)?;
+            bs.pdf = beta * bs.pdf + (1.0 - beta) * walk_mis_pdf(m, p1, bs.wo);
             Some(bs)
         } else {
             let mut bs = walk_sample(m, &nested, ctx, wi, s)?;
