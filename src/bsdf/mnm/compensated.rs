@@ -674,3 +674,85 @@ impl MicrofacetNormalMap {
         Some((e, r.table.mean_remainder(&r.cell, &k)))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::explicit;
+    use super::super::facets::Microgeometry;
+    use super::super::ms_table::{TableSpec, WALKS_PER_NODE};
+    use super::super::{Evaluation, Tangent};
+    use super::*;
+    use crate::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
+    use crate::bsdf::BsdfArena;
+
+    /// `auto`'s blend band reports the walk's first-order density from the compensated first
+    /// order's nested densities ([`FirstOrder::p_walk`]): bit for bit `explicit::pdf_mirror`
+    /// (mirror sawtooth) and `pdf_single` (V-groove), which the band evaluated before, over a
+    /// rough conductor (whose `eval_pdf` density is its `pdf`). The table's values do not enter
+    /// (an exact Lambert table: instant).
+    #[test]
+    fn first_order_reports_the_walks_density_bit_for_bit() {
+        let mut arena = BsdfArena::new();
+        let n = arena.push(BsdfNode::RoughConductor(RoughConductor {
+            distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),
+            eta: Vec3::new(0.2, 0.4, 1.4),
+            k: Vec3::new(3.6, 2.4, 1.8),
+            specular_reflectance: Vec3::ONE,
+        }));
+        let ctx = BsdfContext::default();
+        let mut s = Sampler::from_seed(5, 1);
+        for (geometry, tangent) in [
+            (Microgeometry::Sawtooth, Tangent::Mirror),
+            (Microgeometry::VGroove, Tangent::Same),
+        ] {
+            let spec = TableSpec {
+                geometry,
+                tangent,
+                max_order: 256,
+                max_theta: 85f32.to_radians(),
+                colour: super::super::ms_table::Colour::PerBounce,
+                walks: WALKS_PER_NODE,
+            };
+            let table: &'static MsTable =
+                Box::leak(Box::new(MsTable::lambert(spec, "unit".into())));
+            let (mut walls, mut checked) = (0, 0);
+            for _ in 0..2000 {
+                let wp = warp::square_to_uniform_cone(s.next_2d(), 70f32.to_radians().cos());
+                let m = MicrofacetNormalMap::new(
+                    n,
+                    wp,
+                    geometry,
+                    tangent,
+                    Evaluation::Compensated,
+                    256,
+                )
+                .with_ms_table(Some(table));
+                let Some(r) = m.ms.as_ref() else { continue };
+                let nested = arena.bsdf(n);
+                let wi = warp::square_to_cosine_hemisphere(s.next_2d());
+                let wo = warp::square_to_cosine_hemisphere(s.next_2d());
+                if wi.z <= 0.0 || wo.z <= 0.0 {
+                    continue;
+                }
+                let (_, _, p_walk) = eval_pdf_walk(&m, r, &nested, &ctx, wi, wo, &mut s);
+                let expected = if m.mirror_wall {
+                    explicit::pdf_mirror(&m, &nested, &ctx, wi, wo)
+                } else {
+                    explicit::pdf_single(&m, &nested, &ctx, wi, wo)
+                };
+                assert_eq!(
+                    p_walk.to_bits(),
+                    expected.to_bits(),
+                    "{geometry:?} {wp} {wi} {wo}"
+                );
+                checked += 1;
+                walls += usize::from(m.mirror_wall && wo.dot(m.surface.normal(1)) > 0.0);
+            }
+            assert!(checked > 1900, "{checked}");
+            assert!(
+                geometry != Microgeometry::Sawtooth || walls > 300,
+                "{walls} wall exits"
+            );
+        }
+    }
+}
