@@ -296,8 +296,8 @@ pub(super) struct FirstOrder {
     /// and no [t, p, t] path (Variant M's sampler), otherwise equal to `p`. Summed in
     /// `PdfTerms`' order with its weights, so equal to `explicit::pdf_mirror` / `pdf_single`
     /// bit for bit where the nested densities are (the nested `eval_pdf`'s density is its
-    /// `pdf` for the microfacet models); a drawn path's density from the sample record
-    /// differs from `pdf` in the last bits.
+    /// `pdf` for `roughconductor` and `roughplastic` with visible-normal sampling); a drawn
+    /// path's density from the sample record differs from `pdf` in the last bits.
     pub p_walk: f32,
 }
 
