@@ -27,6 +27,8 @@
 use super::facets::MAX_FACETS;
 use super::ms_table::{Colour, MsTable, ThetaCell};
 use super::MicrofacetNormalMap;
+use crate::bsdf::roughconductor::RoughConductor;
+use crate::bsdf::roughplastic::RoughPlastic;
 use crate::bsdf::{Bsdf, BsdfContext, BsdfNode, BsdfSample};
 use crate::math::{warp, INV_PI};
 use crate::sampler::Sampler;
@@ -47,7 +49,7 @@ pub struct MsRef {
 
 impl MsRef {
     /// `wp`: the (clamped, not flat) perturbed normal.
-    #[inline]
+    #[inline(always)]
     pub fn new(table: &'static MsTable, wp: Vec3) -> MsRef {
         let cell = table.cell(wp);
         let baked_norm = (table.spec.colour == Colour::Baked).then(|| {
@@ -80,6 +82,8 @@ impl MsRef {
 pub(super) struct Entries {
     k: [u8; MAX_FACETS],
     n: u8,
+    /// Bit j: entry j reaches facet 0 through the mirror wall (R(ωi), weight λt(ωi)).
+    via_wall: u8,
     w: [f32; MAX_FACETS],
     a: [Vec3; MAX_FACETS],
 }
@@ -94,6 +98,7 @@ impl Entries {
             w: [0.0; MAX_FACETS],
             a: [Vec3::ZERO; MAX_FACETS],
             n: 0,
+            via_wall: 0,
         };
         let l = surf.lambdas(wi);
         if m.mirror_wall {
@@ -102,6 +107,7 @@ impl Entries {
                 e.push(0, l[0], fr.to_local(wi));
             }
             if l[1] > 0.0 && wi.dot(surf.normal(1)) > 0.0 {
+                e.via_wall |= 1 << e.n;
                 e.push(0, l[1], fr.to_local(m.reflect_wall(wi)));
             }
         } else {
@@ -125,6 +131,11 @@ impl Entries {
     #[inline]
     fn len(&self) -> usize {
         self.n as usize
+    }
+
+    #[inline]
+    fn via_wall(&self, j: usize) -> bool {
+        self.via_wall & (1 << j) != 0
     }
 }
 
@@ -155,7 +166,7 @@ impl MicrofacetNormalMap {
     /// The compensated model's per-point cache for the hit's incident direction `wi` (shading
     /// frame): computed here once, used by every query with exactly this ωi. Without a table,
     /// or with ωi below the surface, nothing changes. Results are the same with or without it.
-    #[inline]
+    #[inline(always)]
     pub fn with_incident(mut self, wi: Vec3) -> Self {
         if let Some(r) = &self.ms {
             if wi.z > 0.0 && !self.degenerate {
@@ -274,12 +285,29 @@ struct Known {
     p: f32,
 }
 
+/// The first order at ωo: f1·z(ωo), its density p1, and the random walk's first-order density
+/// (decision 3's p1: `explicit::PdfTerms::mirror` / `single`) from the same nested densities.
+#[derive(Clone, Copy)]
+pub(super) struct FirstOrder {
+    pub f: Spectrum,
+    pub p: f32,
+    /// The walk's p1 (`auto`'s blend band reports the mixture's density, which needs it):
+    /// over the mirror sawtooth the same nested densities with the wall entry [t, p] unmasked
+    /// and no [t, p, t] path (Variant M's sampler), otherwise equal to `p`. Summed in
+    /// `PdfTerms`' order with its weights, so equal to `explicit::pdf_mirror` / `pdf_single`
+    /// bit for bit where the nested densities are (the nested `eval_pdf`'s density is its
+    /// `pdf` for `roughconductor` and `roughplastic` with visible-normal sampling); a drawn
+    /// path's density from the sample record differs from `pdf` in the last bits.
+    pub p_walk: f32,
+}
+
 /// The first order's eval and pdf at ωo (z > 0) from the entries at ωi: the sum of
 /// `explicit::eval_pdf_complete` (mirror sawtooth) or `explicit::eval_pdf_single`, in the same
 /// order and with the same operations (so bit for bit equal to them), with ωo (and R(ωo)) put
-/// into the facet frame once for all entries, and the `known` term not evaluated again.
+/// into the facet frame once for all entries, and the `known` term not evaluated again. The
+/// walk's density comes along when `WALK` ([`FirstOrder::p_walk`], else 0).
 #[inline]
-fn first_order(
+fn first_order<const WALK: bool>(
     m: &MicrofacetNormalMap,
     e: &Entries,
     nested: &Bsdf,
@@ -287,12 +315,14 @@ fn first_order(
     wo: Vec3,
     s: &mut Sampler,
     known: Option<Known>,
-) -> (Spectrum, f32) {
+) -> FirstOrder {
+    let nested = Nested::of(nested);
     let surf = &m.surface;
     let g1o = surf.g1(wo);
     let pdf_only = g1o <= 0.0;
     let mut v = Spectrum::ZERO;
     let mut p = 0.0;
+    let mut pw = 0.0;
     let fp = |j: usize, wall: bool, b: Vec3, s: &mut Sampler| -> (Spectrum, f32) {
         match known {
             Some(kn) if kn.j == j && kn.wall == wall => (kn.f, kn.p),
@@ -306,13 +336,20 @@ fn first_order(
         let exit_t = wall_exit(m, wo);
         for j in 0..e.len() {
             let w = e.w[j];
+            let via_wall = e.via_wall(j);
             let (f, pd) = fp(j, false, bo, s);
             v += w * f;
             p += w * g1o * pd;
+            if WALK {
+                pw += if via_wall { w * pd } else { w * g1o * pd };
+            }
             if let Some((rb, bt)) = exit_t {
                 let (f, pd) = fp(j, true, rb, s);
                 v += (w * bt) * f;
                 p += w * bt * pd;
+                if WALK && !via_wall {
+                    pw += w * bt * pd;
+                }
             }
         }
     } else {
@@ -331,8 +368,54 @@ fn first_order(
                 p += lk * pd;
             }
         }
+        if WALK {
+            pw = p;
+        }
     }
-    (v * g1o, p)
+    FirstOrder {
+        f: v * g1o,
+        p,
+        p_walk: pw,
+    }
+}
+
+/// The nested BSDF with its kind matched once per query instead of once per nested call (the
+/// first order makes about two): the functions [`Bsdf::eval_pdf`] and [`Bsdf::pdf`] reach for
+/// these kinds, called directly, so the values are the same bit for bit.
+#[derive(Clone, Copy)]
+enum Nested<'a, 'b> {
+    Conductor(&'a RoughConductor),
+    Plastic(&'a RoughPlastic),
+    Other(&'b Bsdf<'a>),
+}
+
+impl<'a, 'b> Nested<'a, 'b> {
+    #[inline(always)]
+    fn of(b: &'b Bsdf<'a>) -> Self {
+        match b.node() {
+            BsdfNode::RoughConductor(c) => Nested::Conductor(c),
+            BsdfNode::RoughPlastic(p) => Nested::Plastic(p),
+            _ => Nested::Other(b),
+        }
+    }
+
+    #[inline(always)]
+    fn eval_pdf(self, ctx: &BsdfContext, a: Vec3, b: Vec3, s: &mut Sampler) -> (Spectrum, f32) {
+        match self {
+            Nested::Conductor(c) => c.eval_pdf(a, b),
+            Nested::Plastic(p) => p.eval_pdf(a, b),
+            Nested::Other(n) => n.eval_pdf(ctx, a, b, s),
+        }
+    }
+
+    #[inline(always)]
+    fn pdf(self, ctx: &BsdfContext, a: Vec3, b: Vec3) -> f32 {
+        match self {
+            Nested::Conductor(c) => c.pdf(a, b),
+            Nested::Plastic(p) => p.pdf(a, b),
+            Nested::Other(n) => n.pdf(ctx, a, b),
+        }
+    }
 }
 
 /// The mirror wall's exit of ωo (path [·, t]): ωo mirrored across the wall, in the first facet's
@@ -369,13 +452,41 @@ pub(super) fn eval_pdf(
     wo: Vec3,
     s: &mut Sampler,
 ) -> (Spectrum, f32) {
+    let (f, p, _) = eval_pdf_with::<false>(m, r, nested, ctx, wi, wo, s);
+    (f, p)
+}
+
+/// [`eval_pdf`] and the walk's first-order density p1 at the same ωo ([`FirstOrder::p_walk`]).
+pub(super) fn eval_pdf_walk(
+    m: &MicrofacetNormalMap,
+    r: &MsRef,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> (Spectrum, f32, f32) {
+    eval_pdf_with::<true>(m, r, nested, ctx, wi, wo, s)
+}
+
+#[inline(always)]
+fn eval_pdf_with<const WALK: bool>(
+    m: &MicrofacetNormalMap,
+    r: &MsRef,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> (Spectrum, f32, f32) {
     let at = r.at(wi);
     let a = AtWi::new(r, nested, wi, at);
     let e = entries(m, at, wi);
-    let (f1, p1) = first_order(m, &e, nested, ctx, wo, s, None);
+    let fo = first_order::<WALK>(m, &e, nested, ctx, wo, s, None);
     (
-        f1 + a.remainder(r, wo),
-        (1.0 - a.select) * p1 + a.select * wo.z * INV_PI,
+        fo.f + a.remainder(r, wo),
+        (1.0 - a.select) * fo.p + a.select * wo.z * INV_PI,
+        fo.p_walk,
     )
 }
 
@@ -406,6 +517,7 @@ fn first_pdf(
     ctx: &BsdfContext,
     wo: Vec3,
 ) -> f32 {
+    let nested = Nested::of(nested);
     let surf = &m.surface;
     let mut p = 0.0;
     if m.mirror_wall {
@@ -453,6 +565,31 @@ pub(super) fn sample(
     wi: Vec3,
     s: &mut Sampler,
 ) -> Option<BsdfSample> {
+    sample_with::<false>(m, r, nested, ctx, wi, s).map(|(bs, _)| bs)
+}
+
+/// [`sample`] and the walk's first-order density p1 at the sampled ωo
+/// ([`FirstOrder::p_walk`]; the drawn path's nested density is the sample record's).
+pub(super) fn sample_walk(
+    m: &MicrofacetNormalMap,
+    r: &MsRef,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    s: &mut Sampler,
+) -> Option<(BsdfSample, f32)> {
+    sample_with::<true>(m, r, nested, ctx, wi, s)
+}
+
+#[inline(always)]
+fn sample_with<const WALK: bool>(
+    m: &MicrofacetNormalMap,
+    r: &MsRef,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    s: &mut Sampler,
+) -> Option<(BsdfSample, f32)> {
     let at = r.at(wi);
     let a = AtWi::new(r, nested, wi, at);
     let e = entries(m, at, wi);
@@ -465,18 +602,19 @@ pub(super) fn sample(
         return None;
     }
     let known = known.filter(|_| sample_record_is_exact(nested));
-    let (f1, p1) = first_order(m, &e, nested, ctx, wo, s, known);
-    let pdf = (1.0 - a.select) * p1 + a.select * wo.z * INV_PI;
+    let fo = first_order::<WALK>(m, &e, nested, ctx, wo, s, known);
+    let pdf = (1.0 - a.select) * fo.p + a.select * wo.z * INV_PI;
     if !(pdf.is_finite() && pdf > 0.0) {
         return None;
     }
-    Some(BsdfSample {
+    let bs = BsdfSample {
         wo,
         pdf,
-        weight: (f1 + a.remainder(r, wo)) / pdf,
+        weight: (fo.f + a.remainder(r, wo)) / pdf,
         eta: 1.0,
         lobe: super::explicit::lobe_of(nested.lobes()),
-    })
+    };
+    Some((bs, fo.p_walk))
 }
 
 /// The first order's sampler from the entries: pick an entry by its weight, sample the nested
@@ -534,5 +672,87 @@ impl MicrofacetNormalMap {
         let k = r.table.coefficients(&r.cell, colour);
         let e = MsTable::remainder(&r.table.lookup(&r.cell, wi), &k);
         Some((e, r.table.mean_remainder(&r.cell, &k)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::explicit;
+    use super::super::facets::Microgeometry;
+    use super::super::ms_table::{TableSpec, WALKS_PER_NODE};
+    use super::super::{Evaluation, Tangent};
+    use super::*;
+    use crate::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
+    use crate::bsdf::BsdfArena;
+
+    /// `auto`'s blend band reports the walk's first-order density from the compensated first
+    /// order's nested densities ([`FirstOrder::p_walk`]): bit for bit `explicit::pdf_mirror`
+    /// (mirror sawtooth) and `pdf_single` (V-groove), which the band evaluated before, over a
+    /// rough conductor (whose `eval_pdf` density is its `pdf`). The table's values do not enter
+    /// (an exact Lambert table: instant).
+    #[test]
+    fn first_order_reports_the_walks_density_bit_for_bit() {
+        let mut arena = BsdfArena::new();
+        let n = arena.push(BsdfNode::RoughConductor(RoughConductor {
+            distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),
+            eta: Vec3::new(0.2, 0.4, 1.4),
+            k: Vec3::new(3.6, 2.4, 1.8),
+            specular_reflectance: Vec3::ONE,
+        }));
+        let ctx = BsdfContext::default();
+        let mut s = Sampler::from_seed(5, 1);
+        for (geometry, tangent) in [
+            (Microgeometry::Sawtooth, Tangent::Mirror),
+            (Microgeometry::VGroove, Tangent::Same),
+        ] {
+            let spec = TableSpec {
+                geometry,
+                tangent,
+                max_order: 256,
+                max_theta: 85f32.to_radians(),
+                colour: super::super::ms_table::Colour::PerBounce,
+                walks: WALKS_PER_NODE,
+            };
+            let table: &'static MsTable =
+                Box::leak(Box::new(MsTable::lambert(spec, "unit".into())));
+            let (mut walls, mut checked) = (0, 0);
+            for _ in 0..2000 {
+                let wp = warp::square_to_uniform_cone(s.next_2d(), 70f32.to_radians().cos());
+                let m = MicrofacetNormalMap::new(
+                    n,
+                    wp,
+                    geometry,
+                    tangent,
+                    Evaluation::Compensated,
+                    256,
+                )
+                .with_ms_table(Some(table));
+                let Some(r) = m.ms.as_ref() else { continue };
+                let nested = arena.bsdf(n);
+                let wi = warp::square_to_cosine_hemisphere(s.next_2d());
+                let wo = warp::square_to_cosine_hemisphere(s.next_2d());
+                if wi.z <= 0.0 || wo.z <= 0.0 {
+                    continue;
+                }
+                let (_, _, p_walk) = eval_pdf_walk(&m, r, &nested, &ctx, wi, wo, &mut s);
+                let expected = if m.mirror_wall {
+                    explicit::pdf_mirror(&m, &nested, &ctx, wi, wo)
+                } else {
+                    explicit::pdf_single(&m, &nested, &ctx, wi, wo)
+                };
+                assert_eq!(
+                    p_walk.to_bits(),
+                    expected.to_bits(),
+                    "{geometry:?} {wp} {wi} {wo}"
+                );
+                checked += 1;
+                walls += usize::from(m.mirror_wall && wo.dot(m.surface.normal(1)) > 0.0);
+            }
+            assert!(checked > 1900, "{checked}");
+            assert!(
+                geometry != Microgeometry::Sawtooth || walls > 300,
+                "{walls} wall exits"
+            );
+        }
     }
 }

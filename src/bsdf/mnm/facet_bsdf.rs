@@ -33,6 +33,7 @@ impl MicrofacetNormalMap {
         b: Vec3,
         s: &mut Sampler,
     ) -> Spectrum {
+        debug_assert!(!self.is_mirror(k), "the mirror wall has no frame");
         let fr = &self.frames[k];
         nested.eval(ctx, fr.to_local(a), fr.to_local(b), s)
     }
@@ -40,6 +41,7 @@ impl MicrofacetNormalMap {
     /// Nested pdf in facet k's frame: P_k(a, b).
     #[inline]
     pub(super) fn p(&self, nested: &Bsdf, k: usize, ctx: &BsdfContext, a: Vec3, b: Vec3) -> f32 {
+        debug_assert!(!self.is_mirror(k), "the mirror wall has no frame");
         let fr = &self.frames[k];
         nested.pdf(ctx, fr.to_local(a), fr.to_local(b))
     }
@@ -56,6 +58,7 @@ impl MicrofacetNormalMap {
         b: Vec3,
         s: &mut Sampler,
     ) -> (Spectrum, f32) {
+        debug_assert!(!self.is_mirror(k), "the mirror wall has no frame");
         let fr = &self.frames[k];
         nested.eval_pdf(ctx, fr.to_local(a), fr.to_local(b), s)
     }
@@ -71,6 +74,7 @@ impl MicrofacetNormalMap {
         a: Vec3,
         s: &mut Sampler,
     ) -> Option<BsdfSample> {
+        debug_assert!(!self.is_mirror(k), "the mirror wall has no frame");
         let fr = &self.frames[k];
         let mut bs = nested.sample(ctx, fr.to_local(a), s)?;
         bs.wo = fr.to_world(bs.wo);

@@ -143,7 +143,11 @@ pub struct MicrofacetNormalMap {
 
 impl MicrofacetNormalMap {
     /// `wp` must be unit with `wp.z > 0` (see [`facets::clamp_perturbed_normal`]).
-    #[inline]
+    ///
+    /// This and the `with_*` steps after it are built once per hit as one chain of moves of a
+    /// ~400-byte value: always inlined, so that the chain is built in place (out of line, each
+    /// step was a call and a copy of the whole model).
+    #[inline(always)]
     pub fn new(
         nested: u32,
         wp: Vec3,
@@ -155,8 +159,14 @@ impl MicrofacetNormalMap {
         // Reference guard (§2.5): no perturbation → the nested BSDF in the macro frame.
         let degenerate = wp.x.abs() < 1e-6 && wp.y.abs() < 1e-6;
         let surface = Microsurface::new(geometry, if degenerate { Vec3::Z } else { wp });
+        let mirror_wall =
+            geometry == Microgeometry::Sawtooth && tangent == Tangent::Mirror && surface.len() == 2;
         let mut frames = [Frame::from_normal(Vec3::Z); MAX_FACETS];
-        for (k, f) in frames.iter_mut().enumerate().take(surface.len()) {
+        // Only facets that carry the nested BSDF get a frame: the mirror wall is never queried
+        // in one (every nested query goes through `facet_bsdf.rs`, which never sees it), and
+        // its frame was a normalisation and a Gram–Schmidt step per hit for nothing.
+        let carrying = if mirror_wall { 1 } else { surface.len() };
+        for (k, f) in frames.iter_mut().enumerate().take(carrying) {
             // Tangent along the shading frame's s (= dp/du), as Mitsuba's normalmap does.
             *f = Frame::from_normal_tangent(surface.normal(k), Vec3::X);
         }
@@ -167,9 +177,7 @@ impl MicrofacetNormalMap {
             wp,
             surface,
             frames,
-            mirror_wall: geometry == Microgeometry::Sawtooth
-                && tangent == Tangent::Mirror
-                && surface.len() == 2,
+            mirror_wall,
             evaluation,
             max_order: max_order.max(1),
             degenerate,
@@ -189,7 +197,7 @@ impl MicrofacetNormalMap {
     ///
     /// Under `evaluation = auto` the table's misplaced energy at this θp sets the blend β
     /// ([`misplaced::blend`]); β = 0, or a table without M, leaves the walk.
-    #[inline]
+    #[inline(always)]
     pub fn with_ms_table(mut self, table: Option<&'static ms_table::MsTable>) -> Self {
         if self.degenerate {
             return self;
@@ -219,7 +227,7 @@ impl MicrofacetNormalMap {
         self
     }
 
-    #[inline]
+    #[inline(always)]
     fn set_blend(&mut self, t: &'static ms_table::MsTable, beta: f32) {
         self.blend = beta;
         self.ms = (beta > 0.0).then(|| compensated::MsRef::new(t, self.wp));
@@ -398,6 +406,12 @@ fn walk_pdf(m: &MicrofacetNormalMap, nested: &Bsdf, ctx: &BsdfContext, wi: Vec3,
     } else {
         explicit::pdf_single(m, nested, ctx, wi, wo)
     };
+    walk_mis_pdf(m, p1, wo)
+}
+
+/// Decision 3's mixture from the walk's first-order density `p1` at ωo.
+#[inline]
+fn walk_mis_pdf(m: &MicrofacetNormalMap, p1: f32, wo: Vec3) -> f32 {
     (1.0 - m.mis_c()) * p1 + m.mis_c() * wo.z * INV_PI
 }
 
@@ -456,8 +470,9 @@ pub(super) fn eval_pdf(
         // The blend band: the eval of one model picked by β (as [`eval`]), the mixture's pdf.
         let b = m.blend;
         return if s.next_1d() < b {
-            let (fc, pc) = compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s);
-            (fc, b * pc + (1.0 - b) * walk_pdf(m, &nested, ctx, wi, wo))
+            // The walk's density from the same nested densities as the compensated one.
+            let (fc, pc, p1) = compensated::eval_pdf_walk(m, r, &nested, ctx, wi, wo, s);
+            (fc, b * pc + (1.0 - b) * walk_mis_pdf(m, p1, wo))
         } else {
             let (fw, pw) = walk_eval_pdf(m, &nested, ctx, wi, wo, s);
             let pc = compensated::pdf(m, r, &nested, ctx, wi, wo);
@@ -551,8 +566,8 @@ pub(super) fn sample(
         // exact pdf, the walk's MIS pdf): only the other model's is computed.
         let beta = m.blend;
         return if s.next_1d() < beta {
-            let mut bs = compensated::sample(m, r, &nested, ctx, wi, s)?;
-            bs.pdf = beta * bs.pdf + (1.0 - beta) * walk_pdf(m, &nested, ctx, wi, bs.wo);
+            let (mut bs, p1) = compensated::sample_walk(m, r, &nested, ctx, wi, s)?;
+            bs.pdf = beta * bs.pdf + (1.0 - beta) * walk_mis_pdf(m, p1, bs.wo);
             Some(bs)
         } else {
             let mut bs = walk_sample(m, &nested, ctx, wi, s)?;

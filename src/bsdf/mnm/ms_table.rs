@@ -336,9 +336,14 @@ impl MsTable {
         let win: &[Vec3A; 2 * PLANE] = self.e[idx[0]..idx[0] + 2 * PLANE]
             .try_into()
             .expect("window inside the table");
-        let win1: &[Vec3A; 2 * PLANE] = self.e1[idx[0]..idx[0] + 2 * PLANE]
-            .try_into()
-            .expect("window inside the table");
+        // W1's window only when it is read (its bounds check is a branch the ωo lookups skip).
+        let win1: &[Vec3A; 2 * PLANE] = if with_first {
+            self.e1[idx[0]..idx[0] + 2 * PLANE]
+                .try_into()
+                .expect("window inside the table")
+        } else {
+            win
+        };
         const OFF: [usize; 4] = [0, 1, N_PHI, N_PHI + 1];
         let mut out = [Vec3A::ZERO; 2];
         // Same products and sums in the same order as a per-component loop (Vec3A lanes are
