@@ -181,12 +181,15 @@ pub(crate) fn reflectance(scene: &Scene, tex: &Texture, si: &SurfaceInteraction)
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
+    use crate::emitter::area::AreaLight;
+    use crate::emitter::Emitter;
     use crate::geometry::Ray;
-    use crate::integrator::nee::sample_emitter;
+    use crate::geometry::{Shape, ShapeKind, TriMesh};
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::{Avx2, F32x8, M8};
     use crate::stream::batch::Batch;
+    use crate::stream::kernels::light::{sample_triangle, Triangle};
     use glam::Vec3;
 
     /// Three columns of 8 floats (a 3-vector per lane).
@@ -219,6 +222,24 @@ pub(crate) mod x8 {
     #[inline(always)]
     fn store3(v: V3<F32x8>) -> [[f32; 8]; 3] {
         [v.x.to_array(), v.y.to_array(), v.z.to_array()]
+    }
+
+    /// An area light that [`sample_triangle`] samples: on a triangle mesh with a positive area,
+    /// of a constant non-zero radiance (its shape, mesh and radiance).
+    #[inline(always)]
+    fn triangle_light<'a>(
+        scene: &'a Scene,
+        a: &'a AreaLight,
+    ) -> Option<(&'a Shape, &'a TriMesh, Spectrum)> {
+        let shape = &scene.shapes[a.shape as usize];
+        match (&shape.kind, &a.radiance) {
+            (ShapeKind::Mesh(m), Texture::Constant(le))
+                if shape.samples_triangles() && *le != Spectrum::ZERO =>
+            {
+                Some((shape, m, *le))
+            }
+            _ => None,
+        }
     }
 
     /// What a material needs for the kernel: its reflectance texture and whether it takes a
@@ -279,6 +300,10 @@ pub(crate) mod x8 {
             ([false; 8], [false; 8], [false; 8], [false; 8]);
         let (mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8]);
         let light_only = cfg.strategy == Strategy::LightOnly;
+        let (mut tpos, mut tnorm) = <([Cols3; 3], [Cols3; 3])>::default();
+        let (mut tri, mut tnorm_some) = ([false; 8], [false; 8]);
+        let (mut inv_area, mut sign, mut sel) = ([0.0f32; 8], [1.0f32; 8], [1.0f32; 8]);
+        let (mut tux, mut tuy) = ([0.0f32; 8], [0.0f32; 8]);
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
@@ -292,18 +317,49 @@ pub(crate) mod x8 {
             if nee {
                 let u_sel = sampler.next_1d();
                 let u = sampler.next_2d();
-                if let Some((ds, sel_pdf)) = sample_emitter(scene, si.p, u_sel, u) {
-                    some[k] = true;
-                    ld.set(k, ds.d);
-                    lpp.set(k, ds.p);
-                    if let Some(n) = ds.n {
-                        has_n[k] = true;
-                        ln.set(k, n);
+                // `nee::sample_emitter`, with area lights on triangle meshes (of a constant,
+                // non-zero radiance) left to the 8-wide `light::sample_triangle`.
+                if let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) {
+                    match &scene.emitters[e] {
+                        Emitter::Area(a) if triangle_light(scene, a).is_some() => {
+                            let (shape, mesh, le) = triangle_light(scene, a).expect("checked");
+                            let (t, u) = shape.pick_triangle(u);
+                            let idx = mesh.indices[t].map(|j| j as usize);
+                            tri[k] = true;
+                            for c in 0..3 {
+                                tpos[c].set(k, mesh.positions[idx[c]]);
+                            }
+                            if let Some(ns) = &mesh.normals {
+                                tnorm_some[k] = true;
+                                for c in 0..3 {
+                                    tnorm[c].set(k, ns[idx[c]]);
+                                }
+                            }
+                            inv_area[k] = 1.0 / shape.area();
+                            sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
+                            (tux[k], tuy[k]) = (u.x, u.y);
+                            sel[k] = sel_pdf;
+                            lv.set(k, le);
+                            one[k] = light_only;
+                        }
+                        em => {
+                            if let Some(ds) = em.sample_direct(&scene.shapes, si.p, u) {
+                                if ds.value != Spectrum::ZERO {
+                                    some[k] = true;
+                                    ld.set(k, ds.d);
+                                    lpp.set(k, ds.p);
+                                    if let Some(n) = ds.n {
+                                        has_n[k] = true;
+                                        ln.set(k, n);
+                                    }
+                                    finite[k] = ds.dist.is_finite();
+                                    lpdf[k] = ds.pdf * sel_pdf;
+                                    lv.set(k, ds.value);
+                                    one[k] = ds.delta || light_only;
+                                }
+                            }
+                        }
                     }
-                    finite[k] = ds.dist.is_finite();
-                    lpdf[k] = ds.pdf * sel_pdf;
-                    lv.set(k, ds.value);
-                    one[k] = ds.delta || light_only;
                 }
             }
             let u2 = sampler.next_2d();
@@ -314,23 +370,39 @@ pub(crate) mod x8 {
         // 4. The kernel.
         let refl8 = refl.load(avx);
         let m = |a: &[bool; 8]| -> M8 { avx.mask(a) };
-        let lo = light(
-            &surf,
-            wi,
-            refl8,
-            tp.load(avx),
-            &LightPoint {
-                some: m(&some),
-                d: ld.load(avx),
-                p: lpp.load(avx),
-                n: ln.load(avx),
-                has_n: m(&has_n),
-                finite: m(&finite),
-                pdf: avx.load(&lpdf),
-                value: lv.load(avx),
-                weight_one: m(&one),
-            },
-        );
+        let mut lp = LightPoint {
+            some: m(&some),
+            d: ld.load(avx),
+            p: lpp.load(avx),
+            n: ln.load(avx),
+            has_n: m(&has_n),
+            finite: m(&finite),
+            pdf: avx.load(&lpdf),
+            value: lv.load(avx),
+            weight_one: m(&one),
+        };
+        if tri.contains(&true) {
+            let t = m(&tri);
+            let q = sample_triangle(
+                &Triangle {
+                    p: tpos.map(|c| c.load(avx)),
+                    n: tnorm.map(|c| c.load(avx)),
+                    has_normals: m(&tnorm_some),
+                    inv_area: avx.load(&inv_area),
+                    sign: avx.load(&sign),
+                    u: V2::new(avx.load(&tux), avx.load(&tuy)),
+                },
+                surf.p,
+            );
+            lp.some = lp.some | (t & q.ok);
+            lp.d = V3::select(t, q.d, lp.d);
+            lp.p = V3::select(t, q.p, lp.p);
+            lp.n = V3::select(t, q.n, lp.n);
+            lp.has_n = lp.has_n | t;
+            lp.finite = (t & q.dist.is_finite()) | (!t & lp.finite);
+            lp.pdf = F32x8::select(t, q.pdf * avx.load(&sel), lp.pdf);
+        }
+        let lo = light(&surf, wi, refl8, tp.load(avx), &lp);
         let so = sample(&surf, wi, refl8, V2::new(avx.load(&ux), avx.load(&uy)));
 
         // 5. Scatter back.

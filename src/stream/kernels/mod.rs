@@ -14,9 +14,11 @@
 //! through the very functions the scalar renderer calls.
 //!
 //! - [`diffuse`]: `diffuse` with next-event estimation.
+//! - [`light`]: area lights on triangle meshes sampled in lanes.
 //! - [`ray`]: robust ray origins in lanes.
 //! - [`mis`]: the power heuristic in lanes.
 
 pub(crate) mod diffuse;
+pub(crate) mod light;
 pub(crate) mod mis;
 pub(crate) mod ray;
