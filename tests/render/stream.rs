@@ -228,7 +228,7 @@ fn the_lane_counters_count_the_diffuse_kernel() {
     let l = load(&scene("scenes/cornell/cbox-rgb.xml"), "as_written");
     let c = render(&l, Renderer::Stream, 1, 3).lanes;
     let share = c.kernel_lanes as f64 / c.shade_used as f64;
-    assert!(share >= 0.9 && share <= 1.0, "{c:?}: {share}");
+    assert!((0.9..=1.0).contains(&share), "{c:?}: {share}");
     let l = load(&scene("scenes/bench/metal_plastic.xml"), "classic");
     let c = render(&l, Renderer::Stream, 1, 3).lanes;
     assert!(c.shade_used > 0 && c.kernel_lanes == 0, "{c:?}");
