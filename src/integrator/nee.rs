@@ -78,8 +78,9 @@ pub fn prepare_light(
 
 /// The light point of [`prepare_light`] from its three random numbers: the emitter chosen by
 /// `u_sel`, a point on it sampled from `p` with `u`, and the selection probability; `None` when
-/// the scene has no light or the sample carries nothing. Shared with the stream renderer's
-/// 8-wide kernels, which draw the numbers and call it lane by lane.
+/// the scene has no light or the sample carries nothing. The stream renderer's `diffuse` kernel
+/// (`stream::kernels::diffuse`) does the same lane by lane, except that it leaves area lights on
+/// triangle meshes to its 8-wide `stream::kernels::light`.
 #[inline(always)]
 pub(crate) fn sample_emitter(
     scene: &Scene,

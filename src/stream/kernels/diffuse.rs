@@ -7,8 +7,10 @@
 //! 2. [`incident`], 8-wide: the incident direction in the shading frame and the strict-normal
 //!    side test of `SurfaceBsdf::new` (a path that fails it ends here, drawing nothing);
 //! 3. lane by lane: the reflectance texture, then each path's random numbers in the scalar
-//!    renderer's order (light selection `u_sel`, light point `u`, BSDF sample `u2`) and the light
-//!    point through `nee::sample_emitter` (every emitter kind, the scalar code itself);
+//!    renderer's order (light selection `u_sel`, light point `u`, BSDF sample `u2`), the light
+//!    selection, and the light point of every emitter through its own scalar `sample_direct`,
+//!    except area lights on triangle meshes of a constant radiance: their triangle is picked
+//!    here (`Shape::pick_triangle`) and the point sampled 8-wide ([`super::light`]);
 //! 4. [`light`] and [`sample`], 8-wide: BSDF value and density toward the light point, power
 //!    heuristic, contribution, shadow ray; cosine-hemisphere sample, its side test, next ray;
 //! 5. scatter back lane by lane: the pending light sample, then the throughput update and
