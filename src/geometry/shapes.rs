@@ -666,18 +666,8 @@ impl Shape {
                 pdf: 0.0,
             },
             ShapeKind::Mesh(m) => {
-                let i = self
-                    .cdf
-                    .partition_point(|&c| c <= u.y)
-                    .min(self.cdf.len() - 1);
-                let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-                let w = self.cdf[i] - lo;
-                let uy = if w > 0.0 {
-                    ((u.y - lo) / w).clamp(0.0, 1.0 - f32::EPSILON * 0.5)
-                } else {
-                    0.5
-                };
-                let b = warp::square_to_uniform_triangle(Vec2::new(u.x, uy));
+                let (i, u) = self.pick_triangle(u);
+                let b = warp::square_to_uniform_triangle(u);
                 let tri = m.indices[i];
                 let [p0, p1, p2] = tri.map(|k| m.positions[k as usize]);
                 let b0 = 1.0 - b.x - b.y;
@@ -754,6 +744,32 @@ impl Shape {
                 }
             }
         }
+    }
+
+    /// The triangle of a non-empty mesh that `sample_position` samples from `u` (by area, with
+    /// `u.y`), and `u` with `u.y` rescaled to that triangle's share of [0, 1) (so it samples the
+    /// triangle uniformly). Shared with the stream renderer's 8-wide light sampling.
+    #[inline]
+    pub(crate) fn pick_triangle(&self, u: Vec2) -> (usize, Vec2) {
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= u.y)
+            .min(self.cdf.len() - 1);
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        let w = self.cdf[i] - lo;
+        let uy = if w > 0.0 {
+            ((u.y - lo) / w).clamp(0.0, 1.0 - f32::EPSILON * 0.5)
+        } else {
+            0.5
+        };
+        (i, Vec2::new(u.x, uy))
+    }
+
+    /// Whether [`Self::sample_position`] samples this shape as a triangle mesh (a mesh with
+    /// a positive area).
+    #[inline]
+    pub(crate) fn samples_triangles(&self) -> bool {
+        matches!(self.kind, ShapeKind::Mesh(_)) && !self.cdf.is_empty()
     }
 
     /// Samples a point on the shape as seen from `ref_p`, with its solid-angle density. Spheres

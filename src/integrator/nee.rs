@@ -4,6 +4,7 @@
 
 use super::Rays;
 use crate::bsdf::{BsdfContext, SurfaceBsdf};
+use crate::emitter::DirectSample;
 use crate::geometry::{Ray, SurfaceInteraction};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
@@ -54,11 +55,7 @@ pub fn prepare_light(
 ) -> Option<(LightSample, Ray)> {
     let u_sel = sampler.next_1d();
     let u = sampler.next_2d();
-    let (e, sel_pdf, _) = scene.light_sampler.sample(u_sel)?;
-    let ds = scene.emitters[e].sample_direct(&scene.shapes, si.p, u)?;
-    if ds.value == Spectrum::ZERO {
-        return None;
-    }
+    let (ds, sel_pdf) = sample_emitter(scene, si.p, u_sel, u)?;
     let (f, bsdf_pdf) = bsdf.eval_pdf(ctx, ds.d, sampler)?;
     if f == Spectrum::ZERO {
         return None;
@@ -77,4 +74,24 @@ pub fn prepare_light(
         },
         shadow,
     ))
+}
+
+/// The light point of [`prepare_light`] from its three random numbers: the emitter chosen by
+/// `u_sel`, a point on it sampled from `p` with `u`, and the selection probability; `None` when
+/// the scene has no light or the sample carries nothing. The stream renderer's `diffuse` kernel
+/// (`stream::kernels::diffuse`) does the same lane by lane, except that it leaves area lights on
+/// triangle meshes to its 8-wide `stream::kernels::light`.
+#[inline(always)]
+pub(crate) fn sample_emitter(
+    scene: &Scene,
+    p: glam::Vec3,
+    u_sel: f32,
+    u: glam::Vec2,
+) -> Option<(DirectSample, f32)> {
+    let (e, sel_pdf, _) = scene.light_sampler.sample(u_sel)?;
+    let ds = scene.emitters[e].sample_direct(&scene.shapes, p, u)?;
+    if ds.value == Spectrum::ZERO {
+        return None;
+    }
+    Some((ds, sel_pdf))
 }

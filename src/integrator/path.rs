@@ -160,17 +160,47 @@ impl PathState {
 
         // BSDF sampling.
         let bs = bsdf.sample(&ctx, sampler)?;
-        self.throughput *= bs.weight;
-        self.eta *= bs.eta;
-        self.prev = Some(PrevVertex {
-            p: si.p,
-            bsdf_pdf: bs.pdf,
-            delta: bs.lobe.intersects(Lobes::DELTA),
-        });
         let ray = si.spawn_ray(bs.wo);
+        self.advance(
+            cfg,
+            si.p,
+            bs.weight,
+            bs.eta,
+            bs.pdf,
+            bs.lobe.intersects(Lobes::DELTA),
+            ray,
+            sampler,
+        )
+    }
+
+    /// The end of [`Self::scatter`], once the BSDF sampled `ray` (leaving the vertex `p` with
+    /// sample weight `weight`, relative index of refraction `eta`, density `pdf`, through a
+    /// delta lobe when `delta`): the throughput update, then Russian roulette (Mitsuba 3:
+    /// survival min(max(throughput)·η², 0.95) from rr_depth on), which may draw one number.
+    /// Returns the ray, or `None` when the path ends. Shared with the stream renderer's 8-wide
+    /// kernels (`crate::stream::kernels`), which call it lane by lane after their BSDF sample.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub(crate) fn advance(
+        &mut self,
+        cfg: &PathSettings,
+        p: Vec3,
+        weight: Spectrum,
+        eta: f32,
+        pdf: f32,
+        delta: bool,
+        ray: Ray,
+        sampler: &mut Sampler,
+    ) -> Option<Ray> {
+        self.throughput *= weight;
+        self.eta *= eta;
+        self.prev = Some(PrevVertex {
+            p,
+            bsdf_pdf: pdf,
+            delta,
+        });
         self.depth += 1;
 
-        // Russian roulette (Mitsuba 3: survival min(max(throughput)·η², 0.95) from rr_depth on).
         let tmax = max_component(self.throughput);
         if !(tmax.is_finite() && tmax > 0.0) {
             return None;

@@ -11,9 +11,10 @@
 //! 2. **emission**: what each ray sees, MIS-weighted ([`crate::integrator::path::PathState::add_emission`]);
 //! 3. **sort** the paths that scatter by material (stable counting sort);
 //! 4. **shade** each material's run of paths: light sample up to its shadow ray, BSDF sample,
-//!    Russian roulette
-//!    ([`crate::integrator::path::PathState::scatter`]). No material has an 8-wide kernel yet: every
-//!    run goes through the 1-lane code lane by lane;
+//!    Russian roulette. A `diffuse` run of ≥ 8 paths goes 8 at a time through the 8-wide kernel
+//!    ([`kernels::diffuse`], AVX2 machines); every other material, a run's last < 8 paths and a
+//!    machine without AVX2 go through the 1-lane code lane by lane
+//!    ([`crate::integrator::path::PathState::scatter`]);
 //! 5. **shadow rays** of the pending light samples, in path order, adding the unoccluded ones;
 //! 6. **compact** the surviving paths (stable).
 //!
@@ -23,6 +24,7 @@
 //! thread count (`tests/render/stream.rs`).
 
 pub(crate) mod batch;
+pub(crate) mod kernels;
 
 use crate::cancel::Cancel;
 use crate::film::Block;
@@ -51,6 +53,9 @@ pub struct LaneCounters {
     pub shade_slots: u64,
     pub shadow_used: u64,
     pub shadow_slots: u64,
+    /// Paths shaded by an 8-wide material kernel (the rest of `shade_used` went through the
+    /// 1-lane code lane by lane).
+    pub kernel_lanes: u64,
     /// Batches and bounces (trace stages) run.
     pub batches: u64,
     pub bounces: u64,
@@ -64,6 +69,7 @@ impl LaneCounters {
         self.shade_slots += o.shade_slots;
         self.shadow_used += o.shadow_used;
         self.shadow_slots += o.shadow_slots;
+        self.kernel_lanes += o.kernel_lanes;
         self.batches += o.batches;
         self.bounces += o.bounces;
     }
@@ -175,10 +181,48 @@ impl Packets {
     }
 }
 
-/// Per-worker state of the stream renderer: the batch buffers, reused for every batch.
+/// Per-worker state of the stream renderer: the batch buffers, reused for every batch, and
+/// which materials have an 8-wide kernel.
 pub struct StreamScratch {
     batch: Batch,
     packets: Packets,
+    kernels: Kernels,
+}
+
+/// The 8-wide kernels a scene's materials can use: the AVX2 token (none without AVX2: then
+/// every path is shaded lane by lane) and, per material id, its `diffuse` reflectance texture
+/// and whether it takes light samples.
+struct Kernels {
+    #[cfg(target_arch = "x86_64")]
+    avx: Option<crate::lane::Avx2>,
+    diffuse: Vec<Option<(crate::material::TexId, bool)>>,
+}
+
+impl Kernels {
+    fn new(scene: &Scene) -> Kernels {
+        use crate::material::MaterialNode;
+        let diffuse = (0..scene.materials.node_count())
+            .map(|m| match scene.materials.nodes()[m] {
+                MaterialNode::Diffuse { reflectance } => {
+                    Some((reflectance, scene.materials.lobes(m as u32).is_smooth()))
+                }
+                _ => None,
+            })
+            .collect();
+        Kernels {
+            #[cfg(target_arch = "x86_64")]
+            avx: if std::env::var_os(Self::ENV).is_some_and(|v| v == "0") {
+                None
+            } else {
+                crate::lane::Avx2::detect()
+            },
+            diffuse,
+        }
+    }
+
+    /// Set to `0`, the environment variable turns the 8-wide kernels off (every path shaded
+    /// lane by lane, as before them), for measurements.
+    const ENV: &'static str = "GROOVE_STREAM_KERNELS";
 }
 
 impl StreamScratch {
@@ -193,6 +237,7 @@ impl StreamScratch {
         StreamScratch {
             batch: Batch::new(BATCH, materials),
             packets,
+            kernels: Kernels::new(scene),
         }
     }
 }
@@ -219,6 +264,7 @@ pub(crate) fn render_block(
     let total = w as u64 * h as u64 * spp;
     let batch = &mut stream.batch;
     let packets = stream.packets;
+    let kernels = &stream.kernels;
     let mut invalid = 0;
     let mut k = 0u64;
     while k < total {
@@ -238,7 +284,7 @@ pub(crate) fn render_block(
             let ray = scene.camera.sample_ray(pos, &mut sampler);
             batch.push(pos, sampler, ray);
         }
-        run_batch(scene, cfg, batch, scratch, packets);
+        run_batch(scene, cfg, batch, scratch, packets, kernels);
         for (pos, st) in batch.pos.iter().zip(&batch.state) {
             let mut l = st.result;
             if !crate::spectrum::is_finite(l) {
@@ -259,6 +305,7 @@ fn run_batch(
     batch: &mut Batch,
     scratch: &mut Scratch,
     packets: Packets,
+    kernels: &Kernels,
 ) {
     scratch.rays.counters.lanes.batches += 1;
     if cfg.max_depth == 0 {
@@ -308,8 +355,34 @@ fn run_batch(
                 run = 0;
             }
         }
-        for &i in &batch.sorted {
-            let i = i as usize;
+        shade(scene, cfg, batch, scratch, kernels);
+
+        shadows(scene, batch, packets.shadow, &mut scratch.rays);
+
+        batch.compact();
+    }
+}
+
+/// The shading stage: each run of one material in `batch.sorted` through its 8-wide kernel 8
+/// paths at a time where it has one, the rest (and every other material) lane by lane.
+fn shade(
+    scene: &Scene,
+    cfg: &PathSettings,
+    batch: &mut Batch,
+    scratch: &mut Scratch,
+    kernels: &Kernels,
+) {
+    let mut start = 0;
+    while start < batch.sorted.len() {
+        let m = batch.material[batch.sorted[start] as usize];
+        let mut end = start + 1;
+        while end < batch.sorted.len() && batch.material[batch.sorted[end] as usize] == m {
+            end += 1;
+        }
+        let done = shade_kernel(scene, cfg, batch, start..end, kernels, m);
+        scratch.rays.counters.lanes.kernel_lanes += done as u64;
+        for k in start + done..end {
+            let i = batch.sorted[k] as usize;
             let Some(si) = &batch.si[i] else { continue };
             let next = batch.state[i].scatter(
                 cfg,
@@ -324,11 +397,56 @@ fn run_batch(
                 batch.alive[i] = true;
             }
         }
-
-        shadows(scene, batch, packets.shadow, &mut scratch.rays);
-
-        batch.compact();
+        start = end;
     }
+}
+
+/// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (material `m`) with
+/// `m`'s 8-wide kernel; returns how many it shaded (0 without a kernel or AVX2).
+#[cfg(target_arch = "x86_64")]
+fn shade_kernel(
+    scene: &Scene,
+    cfg: &PathSettings,
+    batch: &mut Batch,
+    run: std::ops::Range<usize>,
+    kernels: &Kernels,
+    m: crate::material::MatId,
+) -> usize {
+    use kernels::diffuse::x8;
+    let (Some(avx), Some(&Some((tex, smooth)))) = (kernels.avx, kernels.diffuse.get(m as usize))
+    else {
+        return 0;
+    };
+    let n = run.len() / 8 * 8;
+    if n == 0 {
+        return 0;
+    }
+    let mat = x8::Material {
+        reflectance: &scene.materials.textures[tex as usize],
+        smooth,
+    };
+    avx.run(
+        #[inline(always)]
+        || {
+            for c in (run.start..run.start + n).step_by(8) {
+                let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
+                x8::shade(avx, scene, cfg, batch, &ids, mat);
+            }
+        },
+    );
+    n
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+fn shade_kernel(
+    _: &Scene,
+    _: &PathSettings,
+    _: &mut Batch,
+    _: std::ops::Range<usize>,
+    _: &Kernels,
+    _: crate::material::MatId,
+) -> usize {
+    0
 }
 
 /// Traces the shadow rays of the paths that scattered, in path order, and adds the light

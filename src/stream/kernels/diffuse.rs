@@ -1,0 +1,461 @@
+//! The 8-wide `diffuse` kernel with next-event estimation: what
+//! [`PathState::scatter`](crate::integrator::path::PathState::scatter) does at a `diffuse` vertex
+//! (Lambertian f = ρ/π, one-sided; `bsdf::diffuse`), for 8 paths at a time.
+//!
+//! Per chunk of 8 paths of one `diffuse` material:
+//! 1. gather the surface interactions into SoA columns (lane by lane);
+//! 2. [`incident`], 8-wide: the incident direction in the shading frame and the strict-normal
+//!    side test of `SurfaceBsdf::new` (a path that fails it ends here, drawing nothing);
+//! 3. lane by lane: the reflectance texture, then each path's random numbers in the scalar
+//!    renderer's order (light selection `u_sel`, light point `u`, BSDF sample `u2`), the light
+//!    selection, and the light point of every emitter through its own scalar `sample_direct`,
+//!    except area lights on triangle meshes of a constant radiance: their triangle is picked
+//!    here (`Shape::pick_triangle`) and the point sampled 8-wide ([`super::light`]);
+//! 4. [`light`] and [`sample`], 8-wide: BSDF value and density toward the light point, power
+//!    heuristic, contribution, shadow ray; cosine-hemisphere sample, its side test, next ray;
+//! 5. scatter back lane by lane: the pending light sample, then the throughput update and
+//!    Russian roulette through `PathState::advance` (the scalar code, which may draw one more
+//!    number).
+//!
+//! Each 8-wide step is the scalar code's operations in its order (see `kernels` for the rule).
+
+use crate::geometry::SurfaceInteraction;
+use crate::lane::frame::Frame;
+use crate::lane::vec::{V2, V3};
+use crate::lane::{warp, Lane};
+use crate::math::INV_PI;
+use crate::scene::Scene;
+use crate::spectrum::Spectrum;
+use crate::texture::Texture;
+
+use super::mis::power_heuristic;
+use super::ray::offset_origin;
+
+/// A surface point per lane.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Surface<L: Lane> {
+    pub p: V3<L>,
+    /// True (geometric) normal.
+    pub ng: V3<L>,
+    /// Shading frame.
+    pub frame: Frame<L>,
+    /// Direction toward the previous vertex, world space.
+    pub wi_world: V3<L>,
+}
+
+/// The incident direction in the shading frame, and where `SurfaceBsdf::new`'s side test passes
+/// (`wi_world · ng` and the local `wi.z` agree in sign).
+#[inline(always)]
+pub(crate) fn incident<L: Lane>(s: &Surface<L>) -> (V3<L>, L::Mask) {
+    let wi = s.frame.to_local(s.wi_world);
+    let bad = (s.wi_world.dot(s.ng) * wi.z).le(wi.z.splat(0.0));
+    (wi, !bad)
+}
+
+/// A light point per lane, as `nee::sample_emitter` returned it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LightPoint<L: Lane> {
+    /// A light point was sampled.
+    pub some: L::Mask,
+    /// Unit direction toward it.
+    pub d: V3<L>,
+    pub p: V3<L>,
+    /// Its surface normal, where `has_n`.
+    pub n: V3<L>,
+    pub has_n: L::Mask,
+    /// At a finite distance (else an environment: the shadow ray is unbounded).
+    pub finite: L::Mask,
+    /// Emitter density × selection probability.
+    pub pdf: L,
+    /// Radiance arriving along `-d`.
+    pub value: V3<L>,
+    /// MIS weight 1 (a delta light, or the light-only strategy).
+    pub weight_one: L::Mask,
+}
+
+/// The light sample of [`light`]: where it is pending, its shadow ray and contribution.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LightOut<L: Lane> {
+    pub ok: L::Mask,
+    pub o: V3<L>,
+    pub d: V3<L>,
+    pub tmax: L,
+    pub contribution: V3<L>,
+}
+
+/// `Diffuse::eval` and `Diffuse::pdf` (`f·cos θo`, cosine-hemisphere density).
+#[inline(always)]
+fn eval_pdf<L: Lane>(refl: V3<L>, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
+    let zero = wi.z.splat(0.0);
+    let back = wi.z.le(zero) | wo.z.le(zero);
+    let f = refl.scale(wi.z.splat(INV_PI) * wo.z);
+    let pdf = warp::cosine_hemisphere_pdf(wo);
+    (
+        V3::select(back, V3::new(zero, zero, zero), f),
+        L::select(back, zero, pdf),
+    )
+}
+
+/// Next-event estimation from the sampled light points: `nee::prepare_light` after its call to
+/// `sample_emitter`, and the MIS-weighted contribution of `PathState::scatter`.
+#[inline(always)]
+pub(crate) fn light<L: Lane>(
+    s: &Surface<L>,
+    wi: V3<L>,
+    refl: V3<L>,
+    throughput: V3<L>,
+    lp: &LightPoint<L>,
+) -> LightOut<L> {
+    let k = |c: f32| wi.z.splat(c);
+    // SurfaceBsdf::eval_pdf: the light direction in the shading frame and its side test.
+    let wo = s.frame.to_local(lp.d);
+    let consistent = (lp.d.dot(s.ng) * wo.z).gt(k(0.0));
+    let (f, bsdf_pdf) = eval_pdf(refl, wi, wo);
+    let nonzero = !(f.x.eq(k(0.0)) & f.y.eq(k(0.0)) & f.z.eq(k(0.0)));
+    let ok = lp.some & consistent & nonzero;
+    let f_value = f * lp.value;
+    let w = L::select(lp.weight_one, k(1.0), power_heuristic(lp.pdf, bsdf_pdf));
+    let contribution = throughput * f_value.scale(w / lp.pdf);
+    // SurfaceInteraction::spawn_ray_to (a light point at a finite distance) or spawn_ray.
+    let d0 = lp.p - s.p;
+    let o_to = offset_origin(s.p, s.ng, d0);
+    let t_end = V3::select(lp.has_n, offset_origin(lp.p, lp.n, -d0), lp.p);
+    let d = t_end - o_to;
+    let dist = d.length();
+    let o_inf = offset_origin(s.p, s.ng, lp.d);
+    LightOut {
+        ok,
+        o: V3::select(lp.finite, o_to, o_inf),
+        d: V3::select(lp.finite, d.div_by(dist), lp.d),
+        tmax: L::select(lp.finite, dist * k(1.0 - 1e-4), k(f32::INFINITY)),
+        contribution,
+    }
+}
+
+/// The BSDF sample of [`sample`]: where it succeeded, the world direction, its density and the
+/// next ray's origin (its weight is the reflectance, its η 1, its lobe diffuse).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SampleOut<L: Lane> {
+    pub ok: L::Mask,
+    pub wo: V3<L>,
+    pub pdf: L,
+    pub o: V3<L>,
+}
+
+/// `Diffuse::sample` from `u`, the finiteness checks of `Bsdf::sample`, the side test of
+/// `SurfaceBsdf::sample` and `SurfaceInteraction::spawn_ray`.
+#[inline(always)]
+pub(crate) fn sample<L: Lane>(s: &Surface<L>, wi: V3<L>, refl: V3<L>, u: V2<L>) -> SampleOut<L> {
+    let k = |c: f32| wi.z.splat(c);
+    let wo = warp::square_to_cosine_hemisphere(u);
+    let pdf = warp::cosine_hemisphere_pdf(wo);
+    let finite = wo.x.is_finite()
+        & wo.y.is_finite()
+        & wo.z.is_finite()
+        & pdf.ge(k(0.0))
+        & refl.x.is_finite()
+        & refl.y.is_finite()
+        & refl.z.is_finite();
+    let ok = !wi.z.le(k(0.0)) & !pdf.le(k(0.0)) & finite;
+    let wo_world = s.frame.to_world(wo);
+    let consistent = (wo_world.dot(s.ng) * wo.z).gt(k(0.0));
+    SampleOut {
+        ok: ok & consistent,
+        wo: wo_world,
+        pdf,
+        o: offset_origin(s.p, s.ng, wo_world),
+    }
+}
+
+/// The reflectance of a `diffuse` whose `reflectance` is `tex`, at `si`: as
+/// `Materials::build_at` evaluates it (`Scene::bsdf_at` picks the lookup).
+#[inline(always)]
+pub(crate) fn reflectance(scene: &Scene, tex: &Texture, si: &SurfaceInteraction) -> Spectrum {
+    let shape = si.shape as usize;
+    if scene.shape_reads_mesh[shape] {
+        tex.eval(crate::texture::TexPoint::on_shape(si, &scene.shapes[shape]))
+    } else {
+        tex.eval(si.uv)
+    }
+}
+
+/// The 8-wide driver: gathers, the kernel at width 8 and the scatter back.
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod x8 {
+    use super::*;
+    use crate::emitter::area::AreaLight;
+    use crate::emitter::Emitter;
+    use crate::geometry::Ray;
+    use crate::geometry::{Shape, ShapeKind, TriMesh};
+    use crate::integrator::path::PendingLight;
+    use crate::integrator::{PathSettings, Strategy};
+    use crate::lane::{Avx2, F32x8, M8};
+    use crate::stream::batch::Batch;
+    use crate::stream::kernels::light::{sample_triangle, Triangle};
+    use glam::Vec3;
+
+    /// Three columns of 8 floats (a 3-vector per lane).
+    #[derive(Clone, Copy, Default)]
+    struct Cols3([[f32; 8]; 3]);
+
+    impl Cols3 {
+        #[inline(always)]
+        fn set(&mut self, k: usize, v: Vec3) {
+            self.0[0][k] = v.x;
+            self.0[1][k] = v.y;
+            self.0[2][k] = v.z;
+        }
+        #[inline(always)]
+        fn load(&self, avx: Avx2) -> V3<F32x8> {
+            V3::new(
+                avx.load(&self.0[0]),
+                avx.load(&self.0[1]),
+                avx.load(&self.0[2]),
+            )
+        }
+    }
+
+    /// Lane `k` of a vector of lanes.
+    #[inline(always)]
+    fn get(v: &[[f32; 8]; 3], k: usize) -> Vec3 {
+        Vec3::new(v[0][k], v[1][k], v[2][k])
+    }
+
+    #[inline(always)]
+    fn store3(v: V3<F32x8>) -> [[f32; 8]; 3] {
+        [v.x.to_array(), v.y.to_array(), v.z.to_array()]
+    }
+
+    /// An area light that [`sample_triangle`] samples: on a triangle mesh with a positive area,
+    /// of a constant non-zero radiance (its shape, mesh and radiance).
+    #[inline(always)]
+    fn triangle_light<'a>(
+        scene: &'a Scene,
+        a: &'a AreaLight,
+    ) -> Option<(&'a Shape, &'a TriMesh, Spectrum)> {
+        let shape = &scene.shapes[a.shape as usize];
+        match (&shape.kind, &a.radiance) {
+            (ShapeKind::Mesh(m), Texture::Constant(le))
+                if shape.samples_triangles() && *le != Spectrum::ZERO =>
+            {
+                Some((shape, m, *le))
+            }
+            _ => None,
+        }
+    }
+
+    /// What a material needs for the kernel: its reflectance texture and whether it takes a
+    /// light sample (`Lobes::is_smooth`, as `PathState::scatter` asks).
+    #[derive(Clone, Copy)]
+    pub(crate) struct Material<'a> {
+        pub reflectance: &'a Texture,
+        pub smooth: bool,
+    }
+
+    /// Shades the 8 paths `ids` (all at a surface of material `mat`, each with its interaction in
+    /// `b.si`) as `PathState::scatter` would, one after the other; sets their pending light
+    /// samples, and their next rays and `alive` flags where they go on. Call inside
+    /// [`Avx2::run`].
+    #[inline(always)]
+    pub(crate) fn shade(
+        avx: Avx2,
+        scene: &Scene,
+        cfg: &PathSettings,
+        b: &mut Batch,
+        ids: &[u32; 8],
+        mat: Material<'_>,
+    ) {
+        // 1. Gather the surface interactions.
+        let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) = Default::default();
+        let si_of = |b: &Batch, i: u32| -> SurfaceInteraction {
+            b.si[i as usize].expect("a path that scatters has its interaction")
+        };
+        for (k, &i) in ids.iter().enumerate() {
+            let si = si_of(b, i);
+            Cols3::set(&mut p, k, si.p);
+            Cols3::set(&mut ng, k, si.ng);
+            Cols3::set(&mut fs, k, si.sh.s);
+            Cols3::set(&mut ft, k, si.sh.t);
+            Cols3::set(&mut fnn, k, si.sh.n);
+            Cols3::set(&mut wiw, k, si.wi);
+        }
+        let surf = Surface {
+            p: p.load(avx),
+            ng: ng.load(avx),
+            frame: Frame {
+                s: fs.load(avx),
+                t: ft.load(avx),
+                n: fnn.load(avx),
+            },
+            wi_world: wiw.load(avx),
+        };
+        // 2. The side test.
+        let (wi, front) = incident(&surf);
+        let front = front.to_array();
+
+        // 3. Textures, random numbers and light points, lane by lane in each path's order.
+        let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
+        let (mut refl, mut tp, mut ld, mut lpp, mut ln, mut lv) =
+            <(Cols3, Cols3, Cols3, Cols3, Cols3, Cols3)>::default();
+        let mut lpdf = [1.0f32; 8];
+        let (mut some, mut has_n, mut finite, mut one) =
+            ([false; 8], [false; 8], [false; 8], [false; 8]);
+        let (mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8]);
+        let light_only = cfg.strategy == Strategy::LightOnly;
+        let (mut tpos, mut tnorm) = <([Cols3; 3], [Cols3; 3])>::default();
+        let (mut tri, mut tnorm_some) = ([false; 8], [false; 8]);
+        let (mut inv_area, mut sign, mut sel) = ([0.0f32; 8], [1.0f32; 8], [1.0f32; 8]);
+        let (mut tux, mut tuy) = ([0.0f32; 8], [0.0f32; 8]);
+        for (k, &i) in ids.iter().enumerate() {
+            let i = i as usize;
+            b.light[i] = None;
+            if !front[k] {
+                continue;
+            }
+            let si = si_of(b, i as u32);
+            refl.set(k, reflectance(scene, mat.reflectance, &si));
+            tp.set(k, b.state[i].throughput);
+            let sampler = &mut b.sampler[i];
+            if nee {
+                let u_sel = sampler.next_1d();
+                let u = sampler.next_2d();
+                // `nee::sample_emitter`, with area lights on triangle meshes (of a constant,
+                // non-zero radiance) left to the 8-wide `light::sample_triangle`.
+                if let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) {
+                    match &scene.emitters[e] {
+                        Emitter::Area(a) if triangle_light(scene, a).is_some() => {
+                            let (shape, mesh, le) = triangle_light(scene, a).expect("checked");
+                            let (t, u) = shape.pick_triangle(u);
+                            let idx = mesh.indices[t].map(|j| j as usize);
+                            tri[k] = true;
+                            for c in 0..3 {
+                                tpos[c].set(k, mesh.positions[idx[c]]);
+                            }
+                            if let Some(ns) = &mesh.normals {
+                                tnorm_some[k] = true;
+                                for c in 0..3 {
+                                    tnorm[c].set(k, ns[idx[c]]);
+                                }
+                            }
+                            inv_area[k] = 1.0 / shape.area();
+                            sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
+                            (tux[k], tuy[k]) = (u.x, u.y);
+                            sel[k] = sel_pdf;
+                            lv.set(k, le);
+                            one[k] = light_only;
+                        }
+                        em => {
+                            if let Some(ds) = em.sample_direct(&scene.shapes, si.p, u) {
+                                if ds.value != Spectrum::ZERO {
+                                    some[k] = true;
+                                    ld.set(k, ds.d);
+                                    lpp.set(k, ds.p);
+                                    if let Some(n) = ds.n {
+                                        has_n[k] = true;
+                                        ln.set(k, n);
+                                    }
+                                    finite[k] = ds.dist.is_finite();
+                                    lpdf[k] = ds.pdf * sel_pdf;
+                                    lv.set(k, ds.value);
+                                    one[k] = ds.delta || light_only;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            let u2 = sampler.next_2d();
+            ux[k] = u2.x;
+            uy[k] = u2.y;
+        }
+
+        // 4. The kernel.
+        let refl8 = refl.load(avx);
+        let m = |a: &[bool; 8]| -> M8 { avx.mask(a) };
+        let mut lp = LightPoint {
+            some: m(&some),
+            d: ld.load(avx),
+            p: lpp.load(avx),
+            n: ln.load(avx),
+            has_n: m(&has_n),
+            finite: m(&finite),
+            pdf: avx.load(&lpdf),
+            value: lv.load(avx),
+            weight_one: m(&one),
+        };
+        if tri.contains(&true) {
+            let t = m(&tri);
+            let q = sample_triangle(
+                &Triangle {
+                    p: tpos.map(|c| c.load(avx)),
+                    n: tnorm.map(|c| c.load(avx)),
+                    has_normals: m(&tnorm_some),
+                    inv_area: avx.load(&inv_area),
+                    sign: avx.load(&sign),
+                    u: V2::new(avx.load(&tux), avx.load(&tuy)),
+                },
+                surf.p,
+            );
+            lp.some = lp.some | (t & q.ok);
+            lp.d = V3::select(t, q.d, lp.d);
+            lp.p = V3::select(t, q.p, lp.p);
+            lp.n = V3::select(t, q.n, lp.n);
+            lp.has_n = lp.has_n | t;
+            lp.finite = (t & q.dist.is_finite()) | (!t & lp.finite);
+            lp.pdf = F32x8::select(t, q.pdf * avx.load(&sel), lp.pdf);
+        }
+        let lo = light(&surf, wi, refl8, tp.load(avx), &lp);
+        let so = sample(&surf, wi, refl8, V2::new(avx.load(&ux), avx.load(&uy)));
+
+        // 5. Scatter back.
+        let (l_ok, l_o, l_d, l_tmax, l_c) = (
+            lo.ok.to_array(),
+            store3(lo.o),
+            store3(lo.d),
+            lo.tmax.to_array(),
+            store3(lo.contribution),
+        );
+        let (s_ok, s_wo, s_pdf, s_o) = (
+            so.ok.to_array(),
+            store3(so.wo),
+            so.pdf.to_array(),
+            store3(so.o),
+        );
+        for (k, &i) in ids.iter().enumerate() {
+            let i = i as usize;
+            if !front[k] {
+                continue;
+            }
+            if l_ok[k] {
+                b.light[i] = Some(PendingLight {
+                    shadow: Ray {
+                        o: get(&l_o, k),
+                        d: get(&l_d, k),
+                        tmin: 0.0,
+                        tmax: l_tmax[k],
+                    },
+                    contribution: get(&l_c, k),
+                });
+            }
+            if s_ok[k] {
+                let ray = Ray::new(get(&s_o, k), get(&s_wo, k));
+                let p = get(&p.0, k);
+                let weight = get(&refl.0, k);
+                let next = b.state[i].advance(
+                    cfg,
+                    p,
+                    weight,
+                    1.0,
+                    s_pdf[k],
+                    false,
+                    ray,
+                    &mut b.sampler[i],
+                );
+                if let Some(r) = next {
+                    b.ray[i] = r;
+                    b.alive[i] = true;
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,24 @@
+//! The stream renderer's 8-wide material kernels (issue 18): a run of at least 8 paths of one
+//! material, after the stable sort, is shaded 8 at a time by code written once over
+//! [`crate::lane::Lane`]. A material without a kernel, a run's tail (< 8 paths) and a machine
+//! without AVX2 go through the 1-lane code lane by lane ([`crate::integrator::path::PathState::scatter`]),
+//! never through something else.
+//!
+//! Bit-identity with the scalar renderer: a kernel computes exactly the operations of the
+//! scalar code in the same order (the scalar BSDF, frame, warp and vector code is the `f32`
+//! instantiation of the same `lane` functions; what the scalar renderer does with plain glam
+//! arithmetic is mirrored here operation for operation and checked lane by lane in the unit
+//! tests below and by `tests/render/stream.rs`). Random numbers are drawn per path, in the
+//! scalar renderer's order, from each path's own `Sampler`; the parts of a vertex that branch
+//! on data (light selection, the emitter's own sampling, Russian roulette) run lane by lane
+//! through the very functions the scalar renderer calls.
+//!
+//! - [`diffuse`]: `diffuse` with next-event estimation.
+//! - [`light`]: area lights on triangle meshes sampled in lanes.
+//! - [`ray`]: robust ray origins in lanes.
+//! - [`mis`]: the power heuristic in lanes.
+
+pub(crate) mod diffuse;
+pub(crate) mod light;
+pub(crate) mod mis;
+pub(crate) mod ray;
