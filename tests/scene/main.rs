@@ -14,6 +14,7 @@ mod hair;
 mod hostile;
 mod instances;
 mod media;
+mod media_albedo;
 mod media_hetero;
 mod mesh_attribute;
 mod output;
