@@ -16,6 +16,7 @@ mod instances;
 mod media;
 mod media_albedo;
 mod media_hetero;
+mod media_issue21;
 mod mesh_attribute;
 mod output;
 mod packets;

@@ -156,3 +156,28 @@ fn grid_albedo_errors_name_the_element() {
     ));
     assert_err(&e, "mem.xml:3:28", "no_such.vol");
 }
+
+/// Mitsuba's documentation scene with a grid albedo (`docs/scenes/medium_homogeneous_sss_textured.xml`
+/// of `mitsuba-data`) loads with its albedo as a volume, when a checkout with `docs/scenes` is
+/// beside the repository (`../survey/mitsuba-data`); its render against Mitsuba is in
+/// `docs/media.md`.
+#[test]
+fn mitsubas_textured_sss_scene_loads_when_present() {
+    let file = crate::common::repo_root()
+        .join("..")
+        .join("survey/mitsuba-data/docs/scenes/medium_homogeneous_sss_textured.xml");
+    if !file.is_file() {
+        eprintln!("skipped: {} is not here", file.display());
+        return;
+    }
+    let opts = groove::load::options::LoadOptions {
+        defines: vec![("spp".into(), "1".into())],
+        ..Default::default()
+    };
+    let l = groove::load::load_scene(&file, &opts).unwrap_or_else(|e| panic!("{e}"));
+    let Medium::Homogeneous(h) = &l.scene.media()[0] else {
+        panic!("not homogeneous")
+    };
+    assert!(h.albedo_volume.is_some());
+    assert!(!h.spectral_extinction && !h.sample_emitters);
+}
