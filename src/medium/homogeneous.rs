@@ -267,7 +267,7 @@ mod tests {
         assert_eq!(c.sigma_s, sigma * voxel(1));
         assert_eq!(c.sigma_n, Vec3::ZERO);
         // Along +x from x = 0 with u = 1 − e^{−σ·t}: the collision at t = 2.5 reads voxel 2.
-        let u = 1.0 - (-1.0f32 * 2.5).exp();
+        let u = 1.0 - (-2.5f32).exp(); // σ_G = 1
         let (t, c) = med
             .sample_interaction(Vec3::new(0.0, 0.5, 0.5), Vec3::X, 0.0, 10.0, 1, u)
             .unwrap();
