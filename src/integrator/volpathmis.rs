@@ -285,7 +285,8 @@ pub fn li(
                 } else {
                     Spectrum::ONE
                 };
-                w.beta *= k * h.sigma_s / s_c;
+                // σs at the scattering point (a grid albedo varies; σt does not).
+                w.beta *= k * h.sigma_s_at(ray.o + ray.d * t) / s_c;
                 w.r = nan_to_zero(w.r * k * h.sigma_t / s_c);
                 depth += 1;
                 if depth >= max_depth {

@@ -117,9 +117,17 @@ impl<'d> Builder<'d> {
             Some(n) => Some(self.const_volume(n, "sigma_t")?),
             None => None,
         };
-        let albedo = match parts.albedo {
-            Some(n) => Some(self.const_volume(n, "albedo")?),
-            None => None,
+        // A nested albedo volume: a `constvolume` is a constant as before; a `gridvolume` is
+        // looked up per point (Mitsuba 3.9.1's homogeneous medium takes `albedo` as a volume).
+        let (albedo, albedo_volume) = match parts.albedo {
+            Some(n) => {
+                let v = self.volume(n, "albedo")?;
+                match v.data {
+                    VolumeData::Const(c) => (Some(c), None),
+                    VolumeData::Grid(_) => (None, Some(v)),
+                }
+            }
+            None => (None, None),
         };
         let sigma_t = match sigma_t {
             Some(v) => v,
@@ -129,6 +137,9 @@ impl<'d> Builder<'d> {
         };
         let albedo = match albedo {
             Some(v) => v,
+            // Not read: the grid replaces it (an `albedo` property beside the volume is a
+            // duplicate, refused by the parser).
+            None if albedo_volume.is_some() => Spectrum::ZERO,
             None => p.color_with("albedo", Spectrum::splat(0.75), SpectrumUse::Reflectance)?,
         };
         let scale = p.float("scale", 1.0)?;
@@ -142,6 +153,8 @@ impl<'d> Builder<'d> {
             sigma_t.min_element() >= 0.0 && sigma_t.is_finite(),
             "'sigma_t' must be finite and >= 0",
         )?;
+        // A constant albedo lies in [0, 1]; a grid's values are not limited (as in Mitsuba, and
+        // as for `heterogeneous`).
         check(
             p.loc(),
             albedo.min_element() >= 0.0 && albedo.max_element() <= 1.0,
@@ -153,12 +166,16 @@ impl<'d> Builder<'d> {
             sigma_t.is_finite(),
             "'sigma_t' times 'scale' overflows",
         )?;
-        Ok(Homogeneous {
+        let m = Homogeneous::new(
             sigma_t,
-            sigma_s: sigma_t * albedo,
-            phase: phase.unwrap_or(Phase::Isotropic),
-            sample_emitters: p.bool("sample_emitters", true)?,
-            spectral_extinction: p.bool("has_spectral_extinction", true)?,
+            albedo,
+            phase.unwrap_or(Phase::Isotropic),
+            p.bool("sample_emitters", true)?,
+            p.bool("has_spectral_extinction", true)?,
+        );
+        Ok(match albedo_volume {
+            Some(v) => m.with_albedo_volume(v),
+            None => m,
         })
     }
 
@@ -217,7 +234,8 @@ impl<'d> Builder<'d> {
         ))
     }
 
-    /// A `<volume>` (`constvolume` or `gridvolume`) for a heterogeneous medium's `name`.
+    /// A `<volume>` (`constvolume` or `gridvolume`) for a heterogeneous medium's `name`, or a
+    /// homogeneous medium's `albedo`.
     fn volume(&mut self, n: &'d Node, name: &str) -> Result<Volume> {
         let p = self.props(n)?;
         let xf = p.transform_full_opt("to_world")?;
@@ -327,7 +345,9 @@ impl<'d> Builder<'d> {
         Ok(Volume::new(data, &to_world, to_local))
     }
 
-    /// A `constvolume` given for a homogeneous medium's `name` parameter: its constant value.
+    /// A `constvolume` given for a homogeneous medium's `name` parameter (`sigma_t`): its
+    /// constant value. A grid is refused: the closed-form free flight needs a constant σt
+    /// (Mitsuba 3.9.1 would sample distances with the grid's value at the world origin).
     fn const_volume(&mut self, n: &'d Node, name: &str) -> Result<Spectrum> {
         let p = self.props(n)?;
         if p.plugin_type() != "constvolume" {
@@ -335,7 +355,8 @@ impl<'d> Builder<'d> {
                 p.loc(),
                 format!(
                     "a homogeneous medium's '{name}' must be a constant (float, rgb or \
-                     'constvolume'), not a '{}' volume",
+                     'constvolume'), not a '{}' volume (a varying extinction needs \
+                     <medium type=\"heterogeneous\">)",
                     p.plugin_type()
                 ),
             ));

@@ -1,6 +1,7 @@
 //! Participating media (Mitsuba 3's `<medium>` plugins) and their phase functions.
 //!
-//! - [`homogeneous`]: constant extinction and albedo, sampled analytically;
+//! - [`homogeneous`]: constant extinction, sampled analytically; a constant albedo or one from a
+//!   [`volume`] looked up at the scattering point;
 //! - [`heterogeneous`]: extinction and albedo from [`volume`]s (`constvolume`, `gridvolume`),
 //!   delta tracking and ratio tracking against one majorant;
 //! - [`phase`]: `isotropic`, `hg`, `blendphase`;
@@ -124,13 +125,14 @@ impl Medium {
         }
     }
 
-    /// σt, σs, σn at world point `p` (σn = 0 when homogeneous).
+    /// σt, σs, σn at world point `p` (σn = 0 when homogeneous; σs reads a homogeneous
+    /// medium's albedo volume at `p` when it has one).
     #[inline]
     pub fn coefficients(&self, p: Vec3) -> Coefficients {
         match self {
             Medium::Homogeneous(m) => Coefficients {
                 sigma_t: m.sigma_t,
-                sigma_s: m.sigma_s,
+                sigma_s: m.sigma_s_at(p),
                 sigma_n: Spectrum::ZERO,
             },
             Medium::Heterogeneous(m) => m.coefficients(p),
@@ -184,7 +186,7 @@ impl Medium {
         sampler: &mut Sampler,
     ) -> FreeFlight {
         match self {
-            Medium::Homogeneous(m) => m.sample_free_flight(t_max, channel, sampler.next_1d()),
+            Medium::Homogeneous(m) => m.sample_free_flight(o, d, t_max, channel, sampler.next_1d()),
             Medium::Heterogeneous(m) => m.sample_free_flight(o, d, t_max, sampler),
         }
     }

@@ -142,6 +142,14 @@ JOBS = [
     # Heterogeneous media (gridvolume, delta / ratio tracking): a smooth 1-channel density
     # (trilinear) and a 3-channel checkerboard (nearest) behind null cubes, area light.
     ("media_hetero", os.path.join(SCENES, "media_hetero.xml"), {}, 2048, REF_SEEDS),
+    # A homogeneous medium with a gridvolume albedo (evaluated per scattering point; sigma_t
+    # constant), under volpath and volpathmis.
+    ("media_albedo_grid", os.path.join(SCENES, "media_albedo_grid.xml"), {}, 2048, REF_SEEDS),
+    ("media_albedo_grid_mis", os.path.join(SCENES, "media_albedo_grid.xml"),
+     {"integrator": "volpathmis"}, 2048, REF_SEEDS),
+    # ... with the medium's emitter sampling off (as Mitsuba's medium_homogeneous_sss_textured.xml).
+    ("media_albedo_grid_nonee", os.path.join(SCENES, "media_albedo_grid.xml"),
+     {"sample_emitters": "false"}, 2048, REF_SEEDS),
     # The cylinder under a non-uniform scale, a shear and a non-unit <rotate>, lit by an elliptic
     # cylinder light (sampled as Mitsuba samples it: as a round tube).
     ("cylinder_quirks", os.path.join(SCENES, "cylinder_quirks.xml"), {}, 2048, REF_SEEDS),

@@ -8,6 +8,10 @@
                          sensitivity variant of the render test
     checker.vol          8 x 8 x 8, 3 channels: a 3-D checkerboard of two chromatic extinctions
                          (sharp variation, for the nearest filter)
+    albedo_grid.vol      16 x 12 x 8, 3 channels: a smooth chromatic albedo for a homogeneous medium
+                         (red grows with x², green oscillates in y, blue falls with x·z; values
+                         0.1 .. 0.95); prints its mean (the constant-albedo sensitivity variant)
+    albedo_grid_flipped.vol  the same mirrored in x (the other sensitivity variant)
     ramp_box.vol         6 x 4 x 2, 1 channel, bounding box (-1, 0, 2) .. (2, 1, 3): value x + 10 y
                          + 100 z at voxel (x, y, z), for the loader's use_grid_bbox and index-order
                          checks
@@ -61,6 +65,20 @@ def main():
         return (2.5, 1.0, 0.2) if (x + y + z) % 2 else (0.1, 0.5, 1.5)
 
     write(os.path.join(OUT, "checker.vol"), (8, 8, 8), 3, checker)
+    na = (16, 12, 8)
+
+    def albedo(x, y, z):
+        u, v, w = (x + 0.5) / na[0], (y + 0.5) / na[1], (z + 0.5) / na[2]
+        return (0.1 + 0.85 * u * u,
+                0.2 + 0.35 * (1 + math.cos(2 * math.pi * v)),
+                0.9 - 0.7 * u * w)
+
+    write(os.path.join(OUT, "albedo_grid.vol"), na, 3, albedo)
+    write(os.path.join(OUT, "albedo_grid_flipped.vol"), na, 3,
+          lambda x, y, z: albedo(na[0] - 1 - x, y, z))
+    vals = [albedo(x, y, z) for z in range(na[2]) for y in range(na[1]) for x in range(na[0])]
+    print("albedo_grid.vol mean: %s" % ", ".join(
+        "%.6f" % (sum(v[c] for v in vals) / len(vals)) for c in range(3)))
     write(os.path.join(OUT, "ramp_box.vol"), (6, 4, 2), 1,
           lambda x, y, z: x + 10.0 * y + 100.0 * z, bbox=(-1, 0, 2, 2, 1, 3))
 

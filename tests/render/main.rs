@@ -12,6 +12,7 @@ mod instances;
 mod lights;
 mod materials;
 mod media;
+mod media_albedo;
 mod mnm;
 mod mnm_default_tangent;
 mod normalmap;

@@ -122,6 +122,7 @@ const SCENES: &[(&str, Entry)] = &[
     ("mat_rough_tex.xml", Compare(NONE, Nm::AsWritten, 4)),
     ("mat_roughconductor.xml", Compare(NONE, Nm::AsWritten, 4)),
     ("mat_roughglass.xml", Compare(NONE, Nm::AsWritten, 4)),
+    ("media_albedo_grid.xml", Exclude(Media)),
     ("media_chroma.xml", Exclude(Media)),
     ("media_fog.xml", Exclude(Media)),
     ("media_furnace.xml", Exclude(Media)),

@@ -188,7 +188,7 @@ fn heterogeneous_errors_name_the_element() {
         "takes volumes named 'sigma_t' or 'albedo', not 'density'",
     );
     let e = load_err(&format!(
-        "<medium type=\"homogeneous\"><volume type=\"gridvolume\" name=\"albedo\">\
+        "<medium type=\"homogeneous\"><volume type=\"gridvolume\" name=\"sigma_t\">\
          <string name=\"filename\" value=\"{}\"/></volume></medium>",
         volumes().join("blob.vol").display()
     ));

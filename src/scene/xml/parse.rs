@@ -420,9 +420,17 @@ fn validate(node: &Node, parent: Option<&str>) -> Result<()> {
     };
     for a in &node.attrs {
         if !allowed.contains(&a.name.as_str()) {
+            // Mitsuba's spectrum plugins (`<spectrum type="blackbody">`, `regular`, ...) and
+            // `.spd` files: say what groove takes instead.
+            let hint = if tag == "spectrum" && (a.name == "type" || a.name == "filename") {
+                " (spectrum plugins and spectrum files are not supported by groove: give \
+                 wavelength:value pairs, one value, or an <rgb>)"
+            } else {
+                ""
+            };
             return Err(Error::scene(
                 &a.loc,
-                format!("unknown attribute '{}' on <{tag}>", a.name),
+                format!("unknown attribute '{}' on <{tag}>{hint}", a.name),
             ));
         }
     }
