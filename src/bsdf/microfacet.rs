@@ -131,17 +131,8 @@ impl MicrofacetDistribution {
     /// the reflection map is dωh / dωo = 1 / (4 wo·h) (Walter et al. 2007, eq. 14).
     #[inline]
     pub fn reflection_pdf(&self, wi: Vec3, wo: Vec3, h: Vec3, d: f32, g1i: f32) -> f32 {
-        let p = if self.sample_visible {
-            // D_wi(h) = G1(wi, h) |wi·h| D(h) / cos θi, and wi·h = wo·h.
-            d * g1i / (4.0 * wi.z)
-        } else {
-            d * h.z / (4.0 * wo.dot(h))
-        };
-        if p.is_finite() {
-            p.max(0.0)
-        } else {
-            0.0
-        }
+        self.lanes()
+            .reflection_pdf(wi.into(), wo.into(), h.into(), d, g1i)
     }
 
     /// Sample a microfacet normal; returns `(m, pdf(wi, m))`.

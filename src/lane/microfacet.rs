@@ -136,6 +136,22 @@ impl<L: Lane> Microfacet<L> {
         }
     }
 
+    /// Density of a reflection sampled through the microfacet normal `h = normalize(wi + wo)`,
+    /// given `d = D(h)` and `g1i = G1(wi, h)` (unused without visible sampling): the normal's
+    /// density times the reflection map's Jacobian dωh/dωo = 1/(4 wo·h) (Walter et al. 2007,
+    /// eq. 14); visible normals have D_wi(h) = G1(wi, h) |wi·h| D(h) / cos θi and wi·h = wo·h.
+    /// 0 where it is not finite, never negative.
+    #[inline(always)]
+    pub fn reflection_pdf(&self, wi: V3<L>, wo: V3<L>, h: V3<L>, d: L, g1i: L) -> L {
+        let k = |c: f32| d.splat(c);
+        let p = if self.sample_visible {
+            d * g1i / (k(4.0) * wi.z)
+        } else {
+            d * h.z / (k(4.0) * wo.dot(h))
+        };
+        L::select(p.is_finite(), rust_max(p, k(0.0)), k(0.0))
+    }
+
     /// A sampled microfacet normal: visible normals from `wi` or all normals, as configured.
     #[inline(always)]
     pub fn sample_normal(&self, wi: V3<L>, u: V2<L>) -> V3<L> {
