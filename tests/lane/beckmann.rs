@@ -1,5 +1,5 @@
-//! The f32 visible-Beckmann sampler (`lane::microfacet`, which the scalar renderer runs at width
-//! 1) against the f64 reference it replaced (`beckmann_ref.rs`), over a grid: the sampled
+//! The f32 visible-Beckmann sampler of `lane::microfacet` (the scalar renderer runs it at width
+//! one) against the f64 reference it replaced (`beckmann_ref.rs`), over a grid: the sampled
 //! normal's error, inside the sample square and in its outer rim where f32 resolves the CDF's
 //! remaining mass coarsely.
 
