@@ -13,7 +13,8 @@
 //! transmittance T(μ) = ∫ (1 − F(wi·m)) G1(wt, m) dP_vis(m), for μ = cos θ on a 64-entry
 //! uniform grid (μ₀ clamped to 1e-6) read back with linear interpolation; R_int = 2 · mean(R(μ; 1/η) μ)
 //! over the same grid. The lobe choice uses 1 − T(θi) and T(θi) with the specular sampling weight
-//! as in `plastic`.
+//! as in `plastic`. The quadrature's integrand is a lane kernel, run 8 nodes wide under AVX2 with
+//! the bits of width 1.
 //!
 //! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
 //!
