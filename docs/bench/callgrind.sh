@@ -6,13 +6,14 @@
 # Usage: docs/bench/callgrind.sh SCENE.xml [MODE] [SPP]   (MODE: a --normal-mapping mode,
 # default classic; SPP default 2; one thread). Needs valgrind; runs ~100× slower than a render.
 # RENDERER=stream counts the stream renderer (default scalar); GROOVE_STREAM_PACKETS picks its packets.
+# GROOVE_ARGS adds render arguments (e.g. GROOVE_ARGS="-D distribution=beckmann").
 set -euo pipefail
 scene=$1; mode=${2:-classic}; spp=${3:-2}
 bin=${GROOVE:-target/release/groove}
 renderer=${RENDERER:-scalar}
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 valgrind --tool=callgrind --callgrind-out-file="$tmp/cg.out" "$bin" render "$scene" \
-    -D spp="$spp" --spp "$spp" -t 1 -q --normal-mapping "$mode" --renderer "$renderer" -o "$tmp/img.png" >/dev/null 2>&1
+    -D spp="$spp" --spp "$spp" -t 1 -q --normal-mapping "$mode" --renderer "$renderer" ${GROOVE_ARGS:-} -o "$tmp/img.png" >/dev/null 2>&1
 loop=$(callgrind_annotate --inclusive=yes "$tmp/cg.out" 2>/dev/null \
     | grep -E "StackJob<L,F,R> as rayon_core::job::Job>::execute \[" | head -1 | awk '{print $1}' | tr -d ,)
 read -r w h < <(file "$tmp/img.png" | sed -E 's/.*PNG image data, ([0-9]+) x ([0-9]+).*/\1 \2/')

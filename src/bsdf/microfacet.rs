@@ -4,7 +4,8 @@
 //! - `sample_visible = true`: the distribution of normals visible from `wi`,
 //!   D_wi(m) = G1(wi, m) max(0, wi·m) D(m) / cos θi (Heitz & d'Eon 2014, "Importance Sampling
 //!   Microfacet-Based BSDFs using the Distribution of Visible Normals"); GGX uses Heitz 2018,
-//!   "Sampling the GGX Distribution of Visible Normals" (hemisphere of the stretched configuration),
+//!   "Sampling the GGX Distribution of Visible Normals" (hemisphere of the stretched configuration)
+//!   for `roughplastic`'s tables and Dupuy & Benyoub 2023's spherical caps for rendering,
 //!   Beckmann samples the visible slope distribution of the stretched (α = 1) configuration by
 //!   inverting its marginal CDF (Heitz & d'Eon 2014, §4);
 //! - `sample_visible = false`: D(m) cos θm (Walter et al. 2007, eqs. 28–29, written in slope space).
@@ -13,7 +14,6 @@
 //! D·cos θm < 1e-20, Beckmann's G1 uses Walter et al.'s rational approximation (2007, eq. 27).
 
 use crate::lane::microfacet::Microfacet;
-use crate::math::safe_sqrt;
 use glam::{Vec2, Vec3};
 
 /// Which normal distribution.
@@ -131,17 +131,8 @@ impl MicrofacetDistribution {
     /// the reflection map is dωh / dωo = 1 / (4 wo·h) (Walter et al. 2007, eq. 14).
     #[inline]
     pub fn reflection_pdf(&self, wi: Vec3, wo: Vec3, h: Vec3, d: f32, g1i: f32) -> f32 {
-        let p = if self.sample_visible {
-            // D_wi(h) = G1(wi, h) |wi·h| D(h) / cos θi, and wi·h = wo·h.
-            d * g1i / (4.0 * wi.z)
-        } else {
-            d * h.z / (4.0 * wo.dot(h))
-        };
-        if p.is_finite() {
-            p.max(0.0)
-        } else {
-            0.0
-        }
+        self.lanes()
+            .reflection_pdf(wi.into(), wo.into(), h.into(), d, g1i)
     }
 
     /// Sample a microfacet normal; returns `(m, pdf(wi, m))`.
@@ -154,7 +145,7 @@ impl MicrofacetDistribution {
     #[inline]
     pub fn sample_normal(&self, wi: Vec3, u: Vec2) -> Vec3 {
         if self.sample_visible {
-            self.sample_visible_normal(wi, u, false)
+            self.sample_visible_normal(wi, u)
         } else {
             self.sample_all_normals(u)
         }
@@ -165,11 +156,9 @@ impl MicrofacetDistribution {
     /// over the sample square (`roughplastic`'s tables) then reproduces Mitsuba's numbers,
     /// while rendering uses the cheaper spherical-cap map.
     pub fn sample_normal_mitsuba_map(&self, wi: Vec3, u: Vec2) -> Vec3 {
-        if self.sample_visible {
-            self.sample_visible_normal(wi, u, true)
-        } else {
-            self.sample_all_normals(u)
-        }
+        self.lanes()
+            .sample_normal_mitsuba_map(wi.into(), u.into())
+            .into()
     }
 
     /// D(m) cos θm: sample the slope distribution of the α = 1 configuration and stretch it by
@@ -179,217 +168,16 @@ impl MicrofacetDistribution {
         self.lanes().sample_all_normals(u.into()).into()
     }
 
-    fn sample_visible_normal(&self, wi: Vec3, u: Vec2, mitsuba_map: bool) -> Vec3 {
-        if self.kind == MicrofacetType::Ggx && !mitsuba_map {
-            // Dupuy & Benyoub 2023, "Sampling Visible GGX Normals with Spherical Caps": the
-            // visible normals of the α = 1 hemisphere are v + c, c uniform on the spherical cap
-            // z ≥ −v.z of the unit sphere (same density as Heitz 2018, fewer roots); the lane
-            // kernel at width 1.
-            return self.lanes().sample_visible_ggx(wi.into(), u.into()).into();
-        }
-        // Stretch to the α = 1 configuration.
-        let wi_s = Vec3::new(self.alpha_u * wi.x, self.alpha_v * wi.y, wi.z.max(0.0));
-        let len = wi_s.length();
-        if !super::is_positive(len) {
-            return Vec3::Z;
-        }
-        let v = wi_s / len;
+    /// Visible normals: GGX by spherical caps (Dupuy & Benyoub 2023), Beckmann by inverting
+    /// the visible slopes' marginal CDF in f32 (Heitz & d'Eon 2014, §4); both the lane kernel
+    /// at width 1 (`lane::microfacet`).
+    fn sample_visible_normal(&self, wi: Vec3, u: Vec2) -> Vec3 {
+        let l = self.lanes();
         match self.kind {
-            MicrofacetType::Ggx => {
-                // Heitz 2018: orthonormal basis around v, sample the projected hemisphere (a
-                // disk whose lower half is squashed by (1 + v.z) / 2).
-                let lensq = v.x * v.x + v.y * v.y;
-                let t1 = if lensq > 0.0 {
-                    Vec3::new(-v.y, v.x, 0.0) / lensq.sqrt()
-                } else {
-                    Vec3::X
-                };
-                let t2 = v.cross(t1);
-                // The disk is parameterised by the concentric map (Shirley & Chiu 1997), which is
-                // smoother than the polar one, as Mitsuba 3 does: quadratures over the sample
-                // square (`roughplastic`'s tables) then agree with Mitsuba's.
-                let d = crate::math::warp::square_to_disk_concentric(u);
-                let p1 = d.x;
-                let mut p2 = d.y;
-                let s = 0.5 * (1.0 + v.z);
-                p2 = (1.0 - s) * safe_sqrt(1.0 - p1 * p1) + s * p2;
-                self.unstretch(p1 * t1 + p2 * t2 + safe_sqrt(1.0 - p1 * p1 - p2 * p2) * v)
-            }
-            MicrofacetType::Beckmann => {
-                // Visible slopes of the α = 1 Beckmann surface seen from θ (Heitz & d'Eon 2014):
-                // along the azimuth of v, p(x) ∝ max(0, cos θ − x sin θ) e^{−x²}; across it an
-                // independent Gaussian ∝ e^{−y²}.
-                let cos_t = v.z;
-                let sin_t = safe_sqrt(1.0 - cos_t * cos_t);
-                let (x, y) = (
-                    sample_visible_slope_x(cos_t as f64, sin_t as f64, u.x as f64),
-                    sample_gaussian_slope(u.y as f64),
-                );
-                let (cp, sp) = if sin_t > 0.0 {
-                    let s = (v.x * v.x + v.y * v.y).sqrt();
-                    (v.x / s, v.y / s)
-                } else {
-                    (1.0, 0.0)
-                };
-                let (x, y) = (x as f32, y as f32);
-                let sx = cp * x - sp * y;
-                let sy = sp * x + cp * y;
-                slope_to_normal(sx * self.alpha_u, sy * self.alpha_v)
-            }
+            MicrofacetType::Ggx => l.sample_visible_ggx(wi.into(), u.into()).into(),
+            MicrofacetType::Beckmann => l.sample_visible_beckmann(wi.into(), u.into()).into(),
         }
     }
-}
-
-impl MicrofacetDistribution {
-    /// A normal `h` of the α = 1 configuration mapped back to this roughness (normals transform
-    /// by the inverse transpose of the stretch), normalised; +Z if it degenerates.
-    #[inline]
-    fn unstretch(&self, h: Vec3) -> Vec3 {
-        let m = Vec3::new(self.alpha_u * h.x, self.alpha_v * h.y, h.z.max(0.0));
-        let l = m.length();
-        if l > 0.0 {
-            m / l
-        } else {
-            Vec3::Z
-        }
-    }
-}
-
-/// The normal of the facet with slopes (sx, sy): m ∝ (−sx, −sy, 1).
-#[inline]
-fn slope_to_normal(sx: f32, sy: f32) -> Vec3 {
-    let m = Vec3::new(-sx, -sy, 1.0);
-    let l = m.length();
-    if l.is_finite() && l > 0.0 {
-        m / l
-    } else {
-        // Infinite slope (u → 1): a grazing normal in the sampled azimuth.
-        let d = Vec2::new(-sx, -sy).normalize_or_zero();
-        Vec3::new(d.x, d.y, 0.0)
-    }
-}
-
-/// erfc with fractional error < 1.2e-7 everywhere (Chebyshev fit, Press et al., "Numerical
-/// Recipes", §6.2, `erfcc`).
-pub fn erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let p = -z * z - 1.265_512_23
-        + t * (1.000_023_68
-            + t * (0.374_091_96
-                + t * (0.096_784_18
-                    + t * (-0.186_288_06
-                        + t * (0.278_868_07
-                            + t * (-1.135_203_98
-                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
-    let r = t * p.exp();
-    if x >= 0.0 {
-        r
-    } else {
-        2.0 - r
-    }
-}
-
-const SQRT_PI: f64 = 1.772_453_850_905_516;
-
-/// Solve F(x) = target for an increasing F with derivative `dens` on [lo, hi], starting at `x0`:
-/// Newton steps safeguarded by bisection (always converges; stops at a 1e-9 step).
-fn invert_monotone(
-    f: impl Fn(f64) -> f64,
-    dens: impl Fn(f64) -> f64,
-    target: f64,
-    mut lo: f64,
-    mut hi: f64,
-    x0: f64,
-) -> f64 {
-    let mut x = x0.clamp(lo, hi);
-    for _ in 0..100 {
-        let fx = f(x) - target;
-        if fx > 0.0 {
-            hi = x;
-        } else {
-            lo = x;
-        }
-        let d = dens(x);
-        let mut nx = x - fx / d;
-        if !(nx > lo && nx < hi) {
-            nx = 0.5 * (lo + hi);
-        }
-        if (nx - x).abs() < 1e-9 * (1.0 + x.abs()) || hi - lo < 1e-10 {
-            return nx;
-        }
-        x = nx;
-    }
-    x
-}
-
-/// Approximate erf⁻¹ (Giles 2010, "Approximating the erfinv function", single-precision
-/// polynomials; relative error ~1e-7), used as the Newton starting point.
-fn erfinv_approx(x: f64) -> f64 {
-    let w = -((1.0 - x) * (1.0 + x)).ln();
-    if w < 5.0 {
-        let w = w - 2.5;
-        let mut p = 2.810_226_36e-8;
-        for c in [
-            3.432_739_39e-7,
-            -3.523_387_7e-6,
-            -4.391_506_54e-6,
-            2.185_808_7e-4,
-            -1.253_725_03e-3,
-            -4.177_681_64e-3,
-            2.466_407_27e-1,
-            1.501_409_41,
-        ] {
-            p = c + p * w;
-        }
-        p * x
-    } else {
-        let w = w.sqrt() - 3.0;
-        let mut p = -2.002_142_57e-4;
-        for c in [
-            1.009_505_58e-4,
-            1.349_343_22e-3,
-            -3.673_428_44e-3,
-            5.739_507_73e-3,
-            -7.622_461_3e-3,
-            9.438_870_47e-3,
-            1.001_674_06,
-            2.832_976_82,
-        ] {
-            p = c + p * w;
-        }
-        p * x
-    }
-}
-
-/// y with P(Y ≤ y) = u for the density e^{−y²}/√π, i.e. erf⁻¹(2u − 1), refined by Newton on
-/// the accurate erfc so the approximation's error does not matter.
-fn sample_gaussian_slope(u: f64) -> f64 {
-    let u = u.clamp(1e-12, 1.0 - 1e-12);
-    // CDF = erfc(−y) / 2.
-    invert_monotone(
-        |y| 0.5 * erfc(-y),
-        |y| (-y * y).exp() / SQRT_PI,
-        u,
-        -7.0,
-        7.0,
-        erfinv_approx(2.0 * u - 1.0),
-    )
-}
-
-/// x with P(X ≤ x) = u for the density ∝ max(0, c − x s) e^{−x²} (c = cos θ, s = sin θ): the slope
-/// along the view azimuth of a visible facet of the α = 1 Beckmann surface. Unnormalised CDF:
-/// C(x) = c (√π/2) erfc(−x) + s e^{−x²}/2, valid for every θ including normal incidence.
-fn sample_visible_slope_x(c: f64, s: f64, u: f64) -> f64 {
-    let cdf = |x: f64| 0.5 * (c * SQRT_PI * erfc(-x) + s * (-x * x).exp());
-    let hi = if s > 0.0 { (c / s).min(7.0) } else { 7.0 };
-    let lo = -7.0;
-    let total = cdf(hi);
-    let dens = |x: f64| ((c - x * s).max(0.0)) * (-x * x).exp();
-    // Start from the normal-incidence answer (a Gaussian), kept below the cut at c/s.
-    let u = u.clamp(1e-12, 1.0 - 1e-12);
-    let x0 = erfinv_approx(2.0 * u - 1.0).min(hi - 0.5 * (1.0 - u));
-    invert_monotone(cdf, dens, u * total, lo, hi, x0)
 }
 
 /// Gauss–Legendre nodes and weights on [−1, 1] (Newton iteration on P_n from the Chebyshev
@@ -504,27 +292,6 @@ pub(crate) mod load {
 mod tests {
     use super::*;
     use crate::math::PI;
-
-    #[test]
-    fn erfinv_inverts_erf() {
-        for x in [-0.999_999, -0.9, -0.3, 0.0, 0.2, 0.7, 0.99, 0.999_999_9] {
-            let y = erfinv_approx(x);
-            assert!(
-                (1.0 - erfc(y) - x).abs() < 1e-6 * (1.0 + (1.0 - x.abs()).recip().ln()),
-                "{x} {y}"
-            );
-            let z = sample_gaussian_slope(0.5 * (x + 1.0));
-            assert!((1.0 - erfc(z) - x).abs() < 1e-9, "{x} {z}");
-        }
-    }
-
-    #[test]
-    fn erfc_values() {
-        // erf(0.5) = 0.5204998778, erf(2) = 0.995322265.
-        assert!((1.0 - erfc(0.5) - 0.520_499_877_8).abs() < 2e-7);
-        assert!((1.0 - erfc(2.0) - 0.995_322_265).abs() < 2e-7);
-        assert!((erfc(-1.0) - 1.842_700_79).abs() < 2e-7);
-    }
 
     #[test]
     fn gauss_legendre_integrates_polynomials() {

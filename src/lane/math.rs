@@ -228,7 +228,7 @@ impl<M: LaneMask> NotExt for M {
 }
 
 /// `erfc(x)` with fractional error < 1.2e-7 in exact arithmetic (Chebyshev fit, Press et al.,
-/// "Numerical Recipes", §6.2, `erfcc`; the f64 `bsdf::microfacet::erfc` is the same fit); in
+/// "Numerical Recipes", §6.2, `erfcc`; `tests/lane/beckmann_ref.rs` has it in f64); in
 /// f32 the exp and the rounding add a few ulps.
 #[inline(always)]
 pub fn erfc<L: Lane>(x: L) -> L {

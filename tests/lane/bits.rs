@@ -256,12 +256,42 @@ microfacet_kernel!(GgxAll, MicrofacetType::Ggx, false);
 microfacet_kernel!(BeckmannAll, MicrofacetType::Beckmann, false);
 microfacet_kernel!(BeckmannVisible, MicrofacetType::Beckmann, true);
 
+// Mitsuba's map of `roughplastic`'s tables (GGX: Heitz 2018 over the concentric disk).
+kernel!(GgxConcentric, 10, 3, |x| {
+    let d = Microfacet::new(MicrofacetType::Ggx, x[8], x[9], true);
+    let v = d.sample_normal_mitsuba_map(v3(&x[..3]), V2::new(x[6], x[7]));
+    [v.x, v.y, v.z]
+});
+
+// The reflection density from (D, G1) of the half vector, both sampling strategies (wo = m's
+// inputs, h = wi + wo normalised, d and g1 from the kernel itself).
+kernel!(ReflectionPdf, 10, 2, |x| {
+    let (wi, wo) = (v3(&x[..3]), v3(&x[3..6]));
+    let h = (wi + wo).normalize();
+    let v = Microfacet::new(MicrofacetType::Beckmann, x[8], x[9], true);
+    let a = Microfacet::new(MicrofacetType::Ggx, x[8], x[9], false);
+    [
+        v.reflection_pdf(wi, wo, h, v.eval(h), v.smith_g1(wi, h)),
+        a.reflection_pdf(wi, wo, h, a.eval(h), x[6]),
+    ]
+});
+
+// Visible Beckmann normals alone (per-lane Newton stops: lanes of one 8-wide call converge
+// after different step counts).
+kernel!(BeckmannVisibleOnly, 10, 3, |x| {
+    let d = Microfacet::new(MicrofacetType::Beckmann, x[8], x[9], true);
+    let v = d.sample_visible_beckmann(v3(&x[..3]), V2::new(x[6], x[7]));
+    [v.x, v.y, v.z]
+});
+
 #[test]
 fn microfacet() {
     check_bits::<GgxVisible, 10, 11>("ggx_visible", count_composite(), microfacet_inputs);
     check_bits::<GgxAll, 10, 11>("ggx_all", count_composite(), microfacet_inputs);
     check_bits::<BeckmannAll, 10, 11>("beckmann_all", count_composite(), microfacet_inputs);
     check_bits::<BeckmannVisible, 10, 11>("beckmann_visible", count_composite(), microfacet_inputs);
+    check_bits::<GgxConcentric, 10, 3>("ggx_concentric", count_composite(), microfacet_inputs);
+    check_bits::<ReflectionPdf, 10, 2>("reflection_pdf", count_composite(), microfacet_inputs);
 }
 
 /// PCG32 per lane: the 8-wide generator equals eight scalar ones (seeds and streams random),
@@ -335,4 +365,7 @@ fn long_sweep() {
     check_bits::<Pow, 2, 1>("pow_long", n, |r| {
         [f32::from_bits(r.next_u32()), f32::from_bits(r.next_u32())]
     });
+    // The samplers with data-dependent work (Beckmann's Newton steps) and Mitsuba's GGX map.
+    check_bits::<BeckmannVisibleOnly, 10, 3>("beckmann_visible_long", n, microfacet_inputs);
+    check_bits::<GgxConcentric, 10, 3>("ggx_concentric_long", n, microfacet_inputs);
 }

@@ -5,7 +5,8 @@
 //! - `accuracy`: the polynomial functions against f64 `std`, in ulps (2·10⁵ inputs per range),
 //!   and their special values;
 //! - `scalar`: width 1 against groove's scalar code where they must agree (frames, Fresnel,
-//!   GGX, PCG32) or nearly agree (warps, Beckmann).
+//!   microfacets, PCG32) or nearly agree (warps);
+//! - `beckmann`: the f32 visible-Beckmann sampler against its f64 reference (`beckmann_ref`).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
@@ -14,6 +15,8 @@
 //! On a CPU without AVX2/FMA the 8-wide half is skipped and says so.
 
 mod accuracy;
+mod beckmann;
+mod beckmann_ref;
 mod bits;
 mod harness;
 mod scalar;
