@@ -142,6 +142,9 @@ JOBS = [
     # Heterogeneous media (gridvolume, delta / ratio tracking): a smooth 1-channel density
     # (trilinear) and a 3-channel checkerboard (nearest) behind null cubes, area light.
     ("media_hetero", os.path.join(SCENES, "media_hetero.xml"), {}, 2048, REF_SEEDS),
+    # The same under volpathmis: null collisions in the spectral-MIS weights, on camera, bounce
+    # and shadow rays (the checkerboard is chromatic).
+    ("media_hetero_mis", os.path.join(SCENES, "media_hetero.xml"), {"integrator": "volpathmis"}, 2048, REF_SEEDS),
     # The cylinder under a non-uniform scale, a shear and a non-unit <rotate>, lit by an elliptic
     # cylinder light (sampled as Mitsuba samples it: as a round tube).
     ("cylinder_quirks", os.path.join(SCENES, "cylinder_quirks.xml"), {}, 2048, REF_SEEDS),
