@@ -1,7 +1,9 @@
 //! Next-event estimation through participating media and `null` boundaries, shared by the
 //! volumetric integrators (`volpath`, `volpathmis`): an emitter sample seen through the scene
 //! ([`sample_emitter`], Mitsuba's `VolumetricPathIntegrator::sample_emitter`), the transmittance
-//! of a shadow ray ([`transmittance`]) and Mitsuba's `skip_area_emitters` for `hide_emitters`.
+//! of a shadow ray ([`transmittance`], with the null-collision probabilities of its ratio tracking
+//! that `volpathmis` weighs by: [`EmitterSample::null_ratio`]) and Mitsuba's `skip_area_emitters`
+//! for `hide_emitters`.
 
 use super::{RayKind, Rays, Scratch};
 use crate::bsdf::{BsdfArena, Lobes};
