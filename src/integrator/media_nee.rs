@@ -1,12 +1,14 @@
 //! Next-event estimation through participating media and `null` boundaries, shared by the
 //! volumetric integrators (`volpath`, `volpathmis`): an emitter sample seen through the scene
 //! ([`sample_emitter`], Mitsuba's `VolumetricPathIntegrator::sample_emitter`), the transmittance
-//! of a shadow ray ([`transmittance`]) and Mitsuba's `skip_area_emitters` for `hide_emitters`.
+//! of a shadow ray ([`transmittance`], with the null-collision probabilities of its ratio tracking
+//! that `volpathmis` weighs by: [`EmitterSample::null_ratio`]) and Mitsuba's `skip_area_emitters`
+//! for `hide_emitters`.
 
 use super::{RayKind, Rays, Scratch};
 use crate::bsdf::{BsdfArena, Lobes};
 use crate::geometry::{Ray, SurfaceInteraction};
-use crate::medium::MediumId;
+use crate::medium::{Medium, MediumId};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
@@ -25,12 +27,17 @@ pub(super) enum Origin<'a> {
 
 /// An emitter sample seen through the scene: `radiance` is Le·Tr (Tr: the shadow ray's
 /// transmittance), `value` is Le·Tr / pdf, `pdf` the solid-angle density with the selection pmf.
+/// `null_ratio` is the product of the null-collision probabilities over the shadow ray's
+/// tentative collisions in heterogeneous media (1 without any): the density with which path
+/// tracing (delta tracking) would have passed them, relative to ratio tracking's 1. `volpath`
+/// ignores it; `volpathmis` weighs its techniques with it.
 pub(super) struct EmitterSample {
     pub d: Vec3,
     pub radiance: Spectrum,
     pub value: Spectrum,
     pub pdf: f32,
     pub delta: bool,
+    pub null_ratio: f32,
 }
 
 /// Picks an emitter, samples it from `origin` and attenuates it by what lies between
@@ -79,7 +86,7 @@ pub(super) fn sample_emitter(
             r
         }
     };
-    let tr = transmittance(scene, ray, target, medium, sampler, rays, arena);
+    let (tr, null_ratio) = transmittance(scene, ray, target, medium, sampler, rays, arena);
     if tr == Spectrum::ZERO {
         return None;
     }
@@ -90,13 +97,15 @@ pub(super) fn sample_emitter(
         value: radiance / (ds.pdf * sel_pdf),
         pdf: ds.pdf * sel_pdf,
         delta: ds.delta,
+        null_ratio,
     })
 }
 
 /// Transmittance along a shadow ray toward `target` (a point and its surface normal; `None`:
 /// infinitely far), starting in `medium`: zero at the first surface that is not `null`, else the
 /// product of the media's transmittances over the segments between `null` boundaries (closed form
-/// in homogeneous media, ratio tracking with `sampler` in heterogeneous ones).
+/// in homogeneous media, ratio tracking with `sampler` in heterogeneous ones). Also the product
+/// of the null-collision probabilities of the ratio-tracking steps ([`EmitterSample::null_ratio`]).
 pub(super) fn transmittance(
     scene: &Scene,
     mut ray: Ray,
@@ -105,31 +114,40 @@ pub(super) fn transmittance(
     sampler: &mut Sampler,
     rays: &mut Rays,
     arena: &mut BsdfArena,
-) -> Spectrum {
+) -> (Spectrum, f32) {
+    const BLOCKED: (Spectrum, f32) = (Spectrum::ZERO, 0.0);
     let mut tr = Spectrum::ONE;
+    let mut null_ratio = 1.0f32;
     for _ in 0..MAX_CROSSINGS {
         let hit = rays.intersect(scene, &ray, RayKind::Bounce);
         let seg = hit.as_ref().map_or(ray.tmax, |si| si.t);
         if let Some(m) = medium {
-            tr *= scene.media[m as usize].transmittance(ray.o, ray.d, seg, sampler);
+            match &scene.media[m as usize] {
+                Medium::Heterogeneous(h) => {
+                    let (t, p) = h.ratio_track(ray.o, ray.d, seg, sampler);
+                    tr *= t;
+                    null_ratio *= p;
+                }
+                med => tr *= med.transmittance(ray.o, ray.d, seg, sampler),
+            }
             if tr == Spectrum::ZERO {
-                return tr;
+                return BLOCKED;
             }
         }
         let Some(si) = hit else {
-            return tr;
+            return (tr, null_ratio);
         };
         // Mitsuba: the surface's null transmission (0 for an opaque one).
         let material = scene.shape_material[si.shape as usize];
         let lobes = scene.materials.lobes(material);
         if !lobes.intersects(Lobes::NULL | Lobes::DELTA_TRANSMISSION) {
-            return Spectrum::ZERO;
+            return BLOCKED;
         }
         arena.clear();
         let root = scene.materials.build(material, &si, arena);
         tr *= arena.bsdf(root).null_transmission(si.sh.to_local(si.wi));
         if tr == Spectrum::ZERO {
-            return tr;
+            return BLOCKED;
         }
         let mi = &scene.shape_media[si.shape as usize];
         if mi.is_transition() {
@@ -140,7 +158,7 @@ pub(super) fn transmittance(
             None => si.spawn_ray(ray.d),
         };
     }
-    Spectrum::ZERO
+    BLOCKED
 }
 
 /// Mitsuba's `skip_area_emitters` for a camera ray with `hide_emitters`: the first surface along

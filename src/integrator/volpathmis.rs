@@ -39,8 +39,20 @@
 //! techniques for a direction are p_e / (p_e + p_d) and p_d / (p_e + p_d) of their directional
 //! densities, a partition of one, so the mean is unchanged (derivation in `docs/media.md`).
 //!
-//! Media: `homogeneous` only; the loader refuses a scene with another medium kind under
-//! `volpathmis` at the integrator's element ([`check_media`]).
+//! Heterogeneous media (Mitsuba's null-collision form of the same weights): delta tracking
+//! against the medium's grey majorant ([`crate::medium::Heterogeneous::delta_track`]); each
+//! step's density and each null/real choice's probability are the same for every hero channel,
+//! so only the throughput ratios σn/mean(σn) and σs/mean(σt) enter, as in `volpath`. What differs
+//! from `volpath` is the weighing of path tracing against next-event estimation: a shadow ray
+//! ratio-tracks, i.e. passes every tentative collision as null with probability 1, where path
+//! tracing chose null with probability P_n = mean(σn)/σ̄ at each. So a path that reaches an
+//! emitter through null collisions has next-event density (relative to its own) times
+//! Π 1/P_n (`Weights::null_collisions`), and a shadow ray's path has path-tracing density times
+//! Π P_n over its ratio-tracking steps ([`super::media_nee::EmitterSample::null_ratio`]): the
+//! balance heuristic over the null-scattering path space of Miller et al., as Mitsuba's
+//! `p_over_f` / `p_over_f_nee` / `p_over_f_uni` updates compute it. Mitsuba rolls no Russian
+//! roulette right after a null collision; groove tracks to the next real collision in one call
+//! and rolls it only there, the same.
 //!
 //! # XML parameters (Mitsuba 3.9.1 names and defaults)
 //!
@@ -52,11 +64,11 @@
 //! | `use_spectral_mis` | boolean | true | divide by the mean of the channels' densities (false: the hero's alone) |
 
 use super::media_nee::{sample_emitter, skip_area_emitters, EmitterSample, Origin};
-use super::{IntegratorDesc, RayKind, Scratch};
+use super::{RayKind, Scratch};
 use crate::bsdf::{BsdfContext, Lobes};
-use crate::error::{Error, Result, SourceLoc};
+use crate::error::SourceLoc;
 use crate::geometry::Ray;
-use crate::medium::{Homogeneous, Medium};
+use crate::medium::{FreeFlight, Medium};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::{max_component, Spectrum};
@@ -74,37 +86,6 @@ pub struct VolpathMisSettings {
     pub spectral_mis: bool,
     /// The `<integrator>` element, for errors found once the scene is built.
     pub loc: SourceLoc,
-}
-
-/// The medium as `volpathmis` samples it; `None` for a kind it does not handle (refused at
-/// load by [`check_media`]).
-#[inline]
-#[allow(unreachable_patterns)] // other medium kinds are coming (issue 21)
-fn homogeneous(m: &Medium) -> Option<&Homogeneous> {
-    match m {
-        Medium::Homogeneous(h) => Some(h),
-        _ => None,
-    }
-}
-
-/// Refuses a scene whose media `volpathmis` cannot sample (any integrator of `desc`, nested
-/// ones included), naming the integrator's element.
-pub fn check_media(desc: &IntegratorDesc, media: &[Medium]) -> Result<()> {
-    match desc {
-        IntegratorDesc::VolpathMis(s) => {
-            if media.iter().any(|m| homogeneous(m).is_none()) {
-                return Err(Error::scene(
-                    &s.loc,
-                    "volpathmis renders homogeneous media only; the scene has another medium \
-                     kind (use volpath)",
-                ));
-            }
-            Ok(())
-        }
-        IntegratorDesc::Moment(m) => m.inner.iter().try_for_each(|(_, i)| check_media(i, media)),
-        IntegratorDesc::Aov(a) => a.inner.iter().try_for_each(|(_, i)| check_media(i, media)),
-        _ => Ok(()),
-    }
 }
 
 /// The path's throughput and densities (see the module's "Bookkeeping").
@@ -176,6 +157,20 @@ impl Weights {
         self.r_nee = if pdf > 0.0 { self.r / pdf } else { self.r };
     }
 
+    /// Null collisions chosen by delta tracking in a heterogeneous medium, `p_nulls` the product
+    /// of their probabilities (Mitsuba's `update_weights(p_over_f_nee, 1, σn)` against
+    /// `update_weights(p_over_f, P_null, σn)`). Their throughput ratios σn / mean(σn) and the
+    /// majorant's free-flight densities are grey, common to every hero channel and to both
+    /// techniques, so `beta` takes the first (in the free-flight weight) and `r` nothing; but
+    /// next-event estimation (ratio tracking) passes these collisions with probability 1, so
+    /// its density relative to path tracing's grows by 1 / `p_nulls`.
+    #[inline]
+    fn null_collisions(&mut self, p_nulls: f32) {
+        if p_nulls != 1.0 {
+            self.r_nee /= p_nulls;
+        }
+    }
+
     /// A `null` pass (`null`, `mask`, `thindielectric`'s transmission): its throughput only.
     /// Both techniques leave the pass's selection probability out of the densities they are
     /// weighted by (a shadow ray passes deterministically, attenuated), as Mitsuba does, so
@@ -192,16 +187,23 @@ impl Weights {
     /// p_over_f_nee)`).
     #[inline]
     fn hit(&self, le: Spectrum, pdf_e: f32) -> Spectrum {
-        let d = self.density(self.r) + pdf_e * self.density(self.r_nee);
-        self.beta * le / d
+        // (`r_nee` is infinite only after null probabilities that underflowed: weight 0.)
+        let nee = if pdf_e > 0.0 {
+            pdf_e * self.density(self.r_nee)
+        } else {
+            0.0
+        };
+        self.beta * le / (self.density(self.r) + nee)
     }
 
     /// Next-event estimation from the current vertex: `f` the BSDF (with cosine) or phase
     /// value toward the emitter, `pdf_dir` the density with which the vertex samples that
-    /// direction (0 for a delta emitter).
+    /// direction (0 for a delta emitter). Path tracing would also have had to choose the shadow
+    /// ray's null collisions as null, with probability `ls.null_ratio` (Mitsuba's
+    /// `p_over_f_uni` in its shadow-ray loop).
     #[inline]
     fn nee(&self, ls: &EmitterSample, f: Spectrum, pdf_dir: f32) -> Spectrum {
-        let d = self.density(self.r) * (ls.pdf + pdf_dir);
+        let d = self.density(self.r) * (ls.pdf + pdf_dir * ls.null_ratio);
         self.beta * f * ls.radiance / d
     }
 }
@@ -261,41 +263,66 @@ pub fn li(
 
         // ---- Free flight through the current medium (hero channel) ----
         if let Some(m) = medium {
-            let Some(h) = homogeneous(&scene.media[m as usize]) else {
-                break;
-            };
+            let med = &scene.media[m as usize];
             let t_max = hit.as_ref().map_or(f32::INFINITY, |si| si.t);
-            let s_c = h.sigma_t[channel];
-            let u = sampler.next_1d();
-            let t = if s_c > 0.0 {
-                -(1.0 - u).ln() / s_c
-            } else {
-                f32::INFINITY
-            };
-            if t >= t_max {
-                // Passed to the surface: p = f = Tr in every channel.
-                if h.spectral_extinction {
-                    w.scale_all(crate::medium::homogeneous::tr_ratio(t_max, h.sigma_t, s_c));
+            let scattered = match med {
+                Medium::Homogeneous(h) => {
+                    let s_c = h.sigma_t[channel];
+                    let u = sampler.next_1d();
+                    let t = if s_c > 0.0 {
+                        -(1.0 - u).ln() / s_c
+                    } else {
+                        f32::INFINITY
+                    };
+                    if t >= t_max {
+                        // Passed to the surface: p = f = Tr in every channel.
+                        if h.spectral_extinction {
+                            w.scale_all(crate::medium::homogeneous::tr_ratio(
+                                t_max, h.sigma_t, s_c,
+                            ));
+                        }
+                        None
+                    } else {
+                        // Scattered: p_j = Tr_j·σt_j, f_i = Tr_i·σs_i (grey-extinction
+                        // shortcut: p_j = σt_j, f_i = σs_i, as Mitsuba 3.9.1).
+                        let k = if h.spectral_extinction {
+                            crate::medium::homogeneous::tr_ratio(t, h.sigma_t, s_c)
+                        } else {
+                            Spectrum::ONE
+                        };
+                        // σs at the scattering point (a grid albedo varies; σt does not).
+                        w.beta *= k * h.sigma_s_at(ray.o + ray.d * t) / s_c;
+                        w.r = nan_to_zero(w.r * k * h.sigma_t / s_c);
+                        Some(t)
+                    }
                 }
-            } else {
-                // Scattered: p_j = Tr_j·σt_j, f_i = Tr_i·σs_i (grey-extinction shortcut:
-                // p_j = σt_j, f_i = σs_i, as Mitsuba 3.9.1).
-                let k = if h.spectral_extinction {
-                    crate::medium::homogeneous::tr_ratio(t, h.sigma_t, s_c)
-                } else {
-                    Spectrum::ONE
-                };
-                // σs at the scattering point (a grid albedo varies; σt does not).
-                w.beta *= k * h.sigma_s_at(ray.o + ray.d * t) / s_c;
-                w.r = nan_to_zero(w.r * k * h.sigma_t / s_c);
+                // Delta tracking against the grey majorant: every density of a step is the same
+                // for all hero channels, so `r` stays; the weights σn/mean(σn) and
+                // σs/mean(σt) are Mitsuba's F/P ratios (1 and σs/σt without spectral
+                // extinction, Mitsuba's shortcut for a grey σt).
+                Medium::Heterogeneous(h) => match h.delta_track(ray.o, ray.d, t_max, sampler) {
+                    (FreeFlight::Pass { weight }, p_nulls) => {
+                        w.beta *= weight;
+                        w.null_collisions(p_nulls);
+                        None
+                    }
+                    // (The next-event density restarts at the scattering vertex: its null
+                    // collisions on the way do not matter.)
+                    (FreeFlight::Scatter { t, weight }, _) => {
+                        w.beta *= weight;
+                        Some(t)
+                    }
+                },
+            };
+            if let Some(t) = scattered {
                 depth += 1;
                 if depth >= max_depth {
                     break;
                 }
                 let p = ray.o + ray.d * t;
                 let wi = -ray.d;
-                let phase = &h.phase;
-                let sample_emitters = h.sample_emitters;
+                let phase = med.phase();
+                let sample_emitters = med.sample_emitters();
                 specular_chain = !sample_emitters;
                 from_camera = false;
                 if sample_emitters {

@@ -160,7 +160,6 @@ pub fn instantiate_within(
     };
     let (integrator, sensor) = b.top_level()?;
     let integrator = integrator.unwrap_or(IntegratorDesc::Path(PathSettings::default()));
-    crate::integrator::volpathmis::check_media(&integrator, &b.media)?;
     let Some((camera, film, sampler)) = sensor else {
         return Err(Error::scene(
             &doc.root.loc,

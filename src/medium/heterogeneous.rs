@@ -102,6 +102,7 @@ impl Heterogeneous {
     }
 
     /// Delta tracking along o + t·d up to `t_max` (a surface, or ∞). `d` has unit length.
+    #[inline]
     pub fn sample_free_flight(
         &self,
         o: Vec3,
@@ -109,58 +110,100 @@ impl Heterogeneous {
         t_max: f32,
         sampler: &mut Sampler,
     ) -> FreeFlight {
+        self.delta_track(o, d, t_max, sampler).0
+    }
+
+    /// Delta tracking as [`Self::sample_free_flight`], also returning the product of the
+    /// probabilities of the null collisions it chose, Π mean(σn)/σ̄ (1 without any). Next-event
+    /// estimation by ratio tracking passes the same null collisions with probability 1, so this
+    /// is the ratio of the two techniques' densities along the segment (Miller, Georgiev and
+    /// Jarosz 2019: ratio tracking is null scattering whose null probability is 1), which
+    /// `volpathmis` needs to weigh a path that reaches an emitter against next-event estimation.
+    pub fn delta_track(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+        sampler: &mut Sampler,
+    ) -> (FreeFlight, f32) {
         let mut weight = Spectrum::ONE;
+        let mut p_nulls = 1.0f32;
         let Some((mut t, t1)) = self.clip(o, d, t_max) else {
-            return FreeFlight::Pass { weight };
+            return (FreeFlight::Pass { weight }, p_nulls);
         };
         let inv_majorant = 1.0 / self.majorant;
         loop {
             match self.step(t, t1, sampler.next_1d()) {
-                None => return FreeFlight::Pass { weight },
+                None => return (FreeFlight::Pass { weight }, p_nulls),
                 Some(tn) => t = tn,
             }
             let c = self.coefficients(o + d * t);
             let u = sampler.next_1d();
+            // Mitsuba: null with probability mean(σn)/σ̄, the same for every hero channel since
+            // the majorant is grey.
+            let p_null = mean(c.sigma_n) * inv_majorant;
             if self.spectral_extinction {
-                // Mitsuba: null with probability mean(σn/σ̄); the weights divide by the chosen
-                // event's probability density mean(σ)·(1/σ̄)… times the 1/σ̄ of the step's pdf.
-                let p_null = mean(c.sigma_n) * inv_majorant;
+                // The weights divide by the chosen event's probability density mean(σ)·(1/σ̄)…
+                // times the 1/σ̄ of the step's pdf.
                 if u < p_null {
                     weight *= c.sigma_n / mean(c.sigma_n);
+                    p_nulls *= p_null;
                 } else {
                     let m = mean(c.sigma_t);
                     if m <= 0.0 {
+                        p_nulls *= p_null;
                         continue;
                     }
                     weight *= c.sigma_s / m;
-                    return FreeFlight::Scatter { t, weight };
+                    return (FreeFlight::Scatter { t, weight }, p_nulls);
                 }
-            } else if u >= mean(c.sigma_n) * inv_majorant {
+            } else if u >= p_null {
                 weight *= Vec3::select(
                     c.sigma_t.cmpgt(Vec3::ZERO),
                     c.sigma_s / c.sigma_t,
                     Vec3::ZERO,
                 );
-                return FreeFlight::Scatter { t, weight };
+                return (FreeFlight::Scatter { t, weight }, p_nulls);
+            } else {
+                p_nulls *= p_null;
             }
         }
     }
 
     /// Ratio-tracking estimate of the transmittance along o + t·d, t ∈ [0, t_max].
+    #[inline]
     pub fn transmittance(&self, o: Vec3, d: Vec3, t_max: f32, sampler: &mut Sampler) -> Spectrum {
+        self.ratio_track(o, d, t_max, sampler).0
+    }
+
+    /// Ratio tracking as [`Self::transmittance`], also returning Π mean(σn)/σ̄ over its
+    /// tentative collisions: the probability that delta tracking would have made the same
+    /// collisions all null, i.e. the ratio of the path-tracing density of this segment to the
+    /// ratio-tracking one (see [`Self::delta_track`]). Stops early (product 0) once the
+    /// transmittance is 0.
+    pub fn ratio_track(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+        sampler: &mut Sampler,
+    ) -> (Spectrum, f32) {
         let mut tr = Spectrum::ONE;
+        let mut p_nulls = 1.0f32;
         let Some((mut t, t1)) = self.clip(o, d, t_max) else {
-            return tr;
+            return (tr, p_nulls);
         };
         let inv_majorant = 1.0 / self.majorant;
         while let Some(tn) = self.step(t, t1, sampler.next_1d()) {
             t = tn;
-            tr *= self.coefficients(o + d * t).sigma_n * inv_majorant;
+            let sigma_n = self.coefficients(o + d * t).sigma_n;
+            tr *= sigma_n * inv_majorant;
+            p_nulls *= mean(sigma_n) * inv_majorant;
             if tr == Spectrum::ZERO {
                 break;
             }
         }
-        tr
+        (tr, p_nulls)
     }
 
     /// One tentative collision from `t_from` (Mitsuba's `Medium::sample_interaction` on a ray
@@ -312,6 +355,40 @@ mod tests {
             FreeFlight::Scatter { .. } => Spectrum::ZERO,
         });
         assert_close(pass, exact(&cells, d), "grey delta tracking, pass");
+    }
+
+    /// The density ratios of delta and ratio tracking make a balance-heuristic pair: a pass of
+    /// delta tracking weighted by P_dt / (P_dt + P_rt) = p / (p + 1) (p = its product of null
+    /// probabilities) plus a ratio-tracking estimate weighted by 1 / (1 + ρ) estimate the
+    /// transmittance, per channel (what `volpathmis` relies on for emitters behind heterogeneous
+    /// media). Leaving ρ out on the ratio-tracking side (weight ½, i.e. weights that no longer
+    /// sum to one per path) is detected.
+    #[test]
+    fn delta_and_ratio_tracking_densities_combine_by_mis() {
+        let (data, cells) = rgb_cells();
+        let m = medium(data, 3, Spectrum::splat(0.6), true);
+        let o = Vec3::new(0.0, 0.5, 0.5);
+        let d = 3.5;
+        let want = exact(&cells, d);
+        let mis = |s: &mut Sampler, use_rho: bool| {
+            let uni = match m.delta_track(o, Vec3::X, d, s) {
+                (FreeFlight::Pass { weight }, p) => weight * (p / (p + 1.0)),
+                (FreeFlight::Scatter { .. }, _) => Spectrum::ZERO,
+            };
+            let (tr, rho) = m.ratio_track(o, Vec3::X, d, s);
+            uni + tr / (1.0 + if use_rho { rho } else { 1.0 })
+        };
+        assert_close(
+            estimate(|s| mis(s, true)),
+            want,
+            "MIS of delta and ratio tracking",
+        );
+        let (est, se) = estimate(|s| mis(s, false));
+        let z = ((est - want).abs() / (se + Spectrum::splat(1e-6))).max_element();
+        assert!(
+            z > 10.0,
+            "a one-sided weight was not told apart: {z:.1} standard errors"
+        );
     }
 
     /// Sensitivity of the two tests above: a medium of twice the density is told apart.

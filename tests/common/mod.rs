@@ -43,6 +43,22 @@ pub fn shared_cbox() -> PathBuf {
         .join("cbox-rgb.xml")
 }
 
+/// Mitsuba's regression scenes with media (`mitsuba-data/tests/scenes/participating_media`):
+/// under `$MITSUBA_DATA` when set, else `../survey/mitsuba-data` beside the repository; `None`
+/// (the tests that use them skip) when absent.
+pub fn mitsuba_media_scenes() -> Option<PathBuf> {
+    let root = std::env::var_os("MITSUBA_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repo_root().join("..").join("survey/mitsuba-data"));
+    let dir = root.join("tests/scenes/participating_media");
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!("skipped: {} is not here (set MITSUBA_DATA)", dir.display());
+        None
+    }
+}
+
 pub fn exists(p: &Path) -> bool {
     p.is_file()
 }

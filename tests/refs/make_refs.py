@@ -150,6 +150,9 @@ JOBS = [
     # ... with the medium's emitter sampling off (as Mitsuba's medium_homogeneous_sss_textured.xml).
     ("media_albedo_grid_nonee", os.path.join(SCENES, "media_albedo_grid.xml"),
      {"sample_emitters": "false"}, 2048, REF_SEEDS),
+    # The same under volpathmis: null collisions in the spectral-MIS weights, on camera, bounce
+    # and shadow rays (the checkerboard is chromatic).
+    ("media_hetero_mis", os.path.join(SCENES, "media_hetero.xml"), {"integrator": "volpathmis"}, 2048, REF_SEEDS),
     # The cylinder under a non-uniform scale, a shear and a non-unit <rotate>, lit by an elliptic
     # cylinder light (sampled as Mitsuba samples it: as a round tube).
     ("cylinder_quirks", os.path.join(SCENES, "cylinder_quirks.xml"), {}, 2048, REF_SEEDS),

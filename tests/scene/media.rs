@@ -117,17 +117,14 @@ fn media_errors_name_the_element() {
 }
 
 /// Mitsuba 3's regression scenes with homogeneous and heterogeneous media load (their integrators
-/// wrapped in `moment`), the homogeneous `volpathmis` one included.
+/// wrapped in `moment`), the two `volpathmis` ones included.
 #[test]
 fn mitsuba_regression_media_scenes_load() {
-    // Beside the repository, as the shared Cornell box is (`../survey/mitsuba-data`).
-    let dir = crate::common::repo_root()
-        .join("..")
-        .join("survey/mitsuba-data/tests/scenes/participating_media");
-    if !dir.is_dir() {
-        eprintln!("skipped: {} is not here", dir.display());
+    // Beside the repository, as the shared Cornell box is (`../survey/mitsuba-data`), or under
+    // `$MITSUBA_DATA`.
+    let Some(dir) = crate::common::mitsuba_media_scenes() else {
         return;
-    }
+    };
     let opts = groove::load::options::LoadOptions {
         defines: vec![("spp".into(), "4".into()), ("res".into(), "8".into())],
         ..Default::default()
@@ -154,7 +151,12 @@ fn mitsuba_regression_media_scenes_load() {
         loaded += 1;
     }
     assert_eq!(loaded, 10);
-    let l = groove::load::load_scene(&dir.join("test_homo_spectral_sigmat_volpathmis.xml"), &opts)
-        .unwrap_or_else(|e| panic!("test_homo_spectral_sigmat_volpathmis: {e}"));
-    assert!(!l.scene.media().is_empty());
+    for name in [
+        "test_homo_spectral_sigmat_volpathmis",
+        "test_hetero_spectral_sigmat_volpathmis",
+    ] {
+        let l = groove::load::load_scene(&dir.join(format!("{name}.xml")), &opts)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(!l.scene.media().is_empty(), "{name}");
+    }
 }
