@@ -47,6 +47,7 @@ pub(super) fn sample_emitter(
     scene: &Scene,
     origin: Origin<'_>,
     mut medium: Option<MediumId>,
+    channel: usize,
     sampler: &mut Sampler,
     rays: &mut Rays,
     arena: &mut BsdfArena,
@@ -86,7 +87,7 @@ pub(super) fn sample_emitter(
             r
         }
     };
-    let (tr, null_ratio) = transmittance(scene, ray, target, medium, sampler, rays, arena);
+    let (tr, null_ratio) = transmittance(scene, ray, target, medium, channel, sampler, rays, arena);
     if tr == Spectrum::ZERO {
         return None;
     }
@@ -106,11 +107,15 @@ pub(super) fn sample_emitter(
 /// product of the media's transmittances over the segments between `null` boundaries (closed form
 /// in homogeneous media, ratio tracking with `sampler` in heterogeneous ones). Also the product
 /// of the null-collision probabilities of the ratio-tracking steps ([`EmitterSample::null_ratio`]).
+/// `channel` is the path's distance-sampling (hero) channel, which a homogeneous medium without
+/// spectral extinction attenuates every channel by (Mitsuba's grey shortcut).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn transmittance(
     scene: &Scene,
     mut ray: Ray,
     target: Option<(Vec3, Option<Vec3>)>,
     mut medium: Option<MediumId>,
+    channel: usize,
     sampler: &mut Sampler,
     rays: &mut Rays,
     arena: &mut BsdfArena,
@@ -128,7 +133,7 @@ pub(super) fn transmittance(
                     tr *= t;
                     null_ratio *= p;
                 }
-                med => tr *= med.transmittance(ray.o, ray.d, seg, sampler),
+                med => tr *= med.transmittance(ray.o, ray.d, seg, channel, sampler),
             }
             if tr == Spectrum::ZERO {
                 return BLOCKED;

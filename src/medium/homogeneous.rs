@@ -122,6 +122,21 @@ impl Homogeneous {
         }
     }
 
+    /// What a shadow ray in this medium is attenuated by over distance `d`, for a path whose
+    /// distances are sampled in colour channel `channel`: exp(−σt·d) per channel, or, with
+    /// `has_spectral_extinction` off, exp(−σt_c·d) in every channel. The latter is the
+    /// expectation of Mitsuba 3.9.1's estimator there (`volpath.cpp`/`volpathmis.cpp`
+    /// `sample_emitter`: a collision sampled with channel c kills the shadow ray, a pass keeps
+    /// it with weight 1), a grey shortcut that equals the per-channel form only for a grey σt.
+    #[inline]
+    pub fn shadow_transmittance(&self, d: f32, channel: usize) -> Spectrum {
+        if self.spectral_extinction {
+            self.transmittance(d)
+        } else {
+            Spectrum::splat(exp_neg(self.sigma_t[channel], d))
+        }
+    }
+
     /// Transmittance over distance `d`.
     #[inline]
     pub fn transmittance(&self, d: f32) -> Spectrum {

@@ -191,12 +191,20 @@ impl Medium {
         }
     }
 
-    /// Transmittance along the ray over [0, `t_max`]: exp(−σt·t_max) when homogeneous (draws
-    /// nothing), a ratio-tracking estimate when heterogeneous.
+    /// Transmittance of a shadow ray over [0, `t_max`] for a path sampling distances in
+    /// `channel`: exp(−σt·t_max) when homogeneous (draws nothing; grey in `channel` without
+    /// spectral extinction, as Mitsuba), a ratio-tracking estimate when heterogeneous.
     #[inline]
-    pub fn transmittance(&self, o: Vec3, d: Vec3, t_max: f32, sampler: &mut Sampler) -> Spectrum {
+    pub fn transmittance(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+        channel: usize,
+        sampler: &mut Sampler,
+    ) -> Spectrum {
         match self {
-            Medium::Homogeneous(m) => m.transmittance(t_max),
+            Medium::Homogeneous(m) => m.shadow_transmittance(t_max, channel),
             Medium::Heterogeneous(m) => m.transmittance(o, d, t_max, sampler),
         }
     }

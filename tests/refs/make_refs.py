@@ -150,6 +150,12 @@ JOBS = [
     # ... with the medium's emitter sampling off (as Mitsuba's medium_homogeneous_sss_textured.xml).
     ("media_albedo_grid_nonee", os.path.join(SCENES, "media_albedo_grid.xml"),
      {"sample_emitters": "false"}, 2048, REF_SEEDS),
+    # ... and with has_spectral_extinction off: Mitsuba's grey shortcut, whose shadow rays see
+    # exp(-sigma_t[c] d) in every channel for the path's channel c.
+    ("media_albedo_grid_grey", os.path.join(SCENES, "media_albedo_grid.xml"),
+     {"sample_emitters": "false", "spectral": "false"}, 2048, REF_SEEDS),
+    ("media_albedo_grid_grey_mis", os.path.join(SCENES, "media_albedo_grid.xml"),
+     {"sample_emitters": "false", "spectral": "false", "integrator": "volpathmis"}, 2048, REF_SEEDS),
     # The same under volpathmis: null collisions in the spectral-MIS weights, on camera, bounce
     # and shadow rays (the checkerboard is chromatic).
     ("media_hetero_mis", os.path.join(SCENES, "media_hetero.xml"), {"integrator": "volpathmis"}, 2048, REF_SEEDS),

@@ -1,7 +1,8 @@
 //! A `homogeneous` medium with a `gridvolume` albedo (looked up at each scattering point, σt
 //! constant) against Mitsuba 3.9.1 `scalar_rgb` references (`tests/refs/media_albedo_grid.exr`
 //! under `volpath`, `media_albedo_grid_mis.exr` under `volpathmis`, `media_albedo_grid_nonee.exr`
-//! with `sample_emitters` off), with sensitivity
+//! with `sample_emitters` off, `media_albedo_grid_grey*.exr` with `has_spectral_extinction` off),
+//! with sensitivity
 //! variants that must be rejected: the grid mirrored in x, and a constant albedo at the grid's
 //! mean; and the same bits at one and two threads for media scenes. Run in release mode:
 //! `cargo test --release --test render media_albedo`.
@@ -55,6 +56,27 @@ fn grid_albedo_without_emitter_sampling_matches_mitsuba() {
     );
     comparison(&r, "media_albedo_grid_nonee")
         .assert_consistent("media_albedo_grid.xml, no emitter sampling, 512 spp");
+}
+
+/// `has_spectral_extinction` off with a chromatic σt (Mitsuba's grey shortcut): shadow rays see
+/// exp(−σt_c·d) in every channel for the path's channel c, under `volpath` and `volpathmis`
+/// (`media_albedo_grid_grey*.exr`). The spectral render must not pass as the grey one.
+#[test]
+fn grey_extinction_shortcut_matches_mitsuba() {
+    let scene = test_scene("media_albedo_grid.xml");
+    let grey = [("sample_emitters", "false"), ("spectral", "false")];
+    let r = render_scene(&scene, &grey, 512, 87, 0, |_| {});
+    comparison(&r, "media_albedo_grid_grey")
+        .assert_consistent("media_albedo_grid.xml, grey extinction, 512 spp");
+    let mis = [grey[0], grey[1], ("integrator", "volpathmis")];
+    let r = render_scene(&scene, &mis, 512, 88, 0, |_| {});
+    comparison(&r, "media_albedo_grid_grey_mis")
+        .assert_consistent("media_albedo_grid.xml, grey extinction, volpathmis, 512 spp");
+    let spectral = render_scene(&scene, &grey[..1], 512, 89, 0, |_| {});
+    assert!(
+        !comparison(&spectral, "media_albedo_grid_grey").is_consistent(),
+        "the spectral render passed as the grey-extinction reference"
+    );
 }
 
 /// Sensitivity: the grid mirrored in x, and a constant albedo at the grid's mean, each differ
