@@ -174,6 +174,20 @@ impl<L: Lane> Microfacet<L> {
         self.sample_normal(wi, u)
     }
 
+    /// `wi` in the α = 1 configuration (stretched by (α_u, α_v), lower hemisphere clamped to the
+    /// horizon), normalised, and its length before normalising (0 where `wi` degenerates): the
+    /// common first step of the visible-normal samplers.
+    #[inline(always)]
+    fn stretched_view(&self, wi: V3<L>) -> (V3<L>, L) {
+        let wi_s = V3::new(
+            self.alpha_u * wi.x,
+            self.alpha_v * wi.y,
+            rust_max(wi.z, wi.z.splat(0.0)),
+        );
+        let len = wi_s.length();
+        (wi_s.div_by(len), len)
+    }
+
     /// Visible Beckmann normals (Heitz & d'Eon 2014): in the α = 1 configuration seen from θ,
     /// the slope along the view azimuth has density ∝ max(0, cos θ − x sin θ) e^{−x²} and the
     /// slope across it is an independent Gaussian ∝ e^{−y²}; rotate to the azimuth of `wi`,
@@ -181,13 +195,7 @@ impl<L: Lane> Microfacet<L> {
     #[inline(always)]
     pub fn sample_visible_beckmann(&self, wi: V3<L>, u: V2<L>) -> V3<L> {
         let k = |c: f32| u.x.splat(c);
-        let wi_s = V3::new(
-            self.alpha_u * wi.x,
-            self.alpha_v * wi.y,
-            rust_max(wi.z, k(0.0)),
-        );
-        let len = wi_s.length();
-        let v = wi_s.div_by(len);
+        let (v, len) = self.stretched_view(wi);
         let cos_t = v.z;
         let sin_t = safe_sqrt(k(1.0) - cos_t * cos_t);
         // Keep the inverse CDFs off ±1 (their infinite ends).
@@ -225,13 +233,7 @@ impl<L: Lane> Microfacet<L> {
     #[inline(always)]
     pub fn sample_visible_ggx(&self, wi: V3<L>, u: V2<L>) -> V3<L> {
         let k = |c: f32| u.x.splat(c);
-        let wi_s = V3::new(
-            self.alpha_u * wi.x,
-            self.alpha_v * wi.y,
-            rust_max(wi.z, k(0.0)),
-        );
-        let len = wi_s.length();
-        let v = wi_s.div_by(len);
+        let (v, len) = self.stretched_view(wi);
         let z = (k(1.0) - u.y) * (k(1.0) + v.z) - v.z;
         let sin_t = safe_sqrt(k(1.0) - z * z);
         let (s, c) = sincos(k(2.0 * PI) * u.x);
@@ -248,13 +250,7 @@ impl<L: Lane> Microfacet<L> {
     #[inline(always)]
     pub fn sample_visible_ggx_concentric(&self, wi: V3<L>, u: V2<L>) -> V3<L> {
         let k = |c: f32| u.x.splat(c);
-        let wi_s = V3::new(
-            self.alpha_u * wi.x,
-            self.alpha_v * wi.y,
-            rust_max(wi.z, k(0.0)),
-        );
-        let len = wi_s.length();
-        let v = wi_s.div_by(len);
+        let (v, len) = self.stretched_view(wi);
         let lensq = v.x * v.x + v.y * v.y;
         let t1 = V3::select(
             lensq.gt(k(0.0)),

@@ -70,7 +70,8 @@ pub struct Coefficients {
 /// - [`Medium::majorant`], [`Medium::coefficients`], [`Medium::clip`]: the pieces of Mitsuba's
 ///   `get_majorant`, `get_scattering_coefficients`, `intersect_aabb`;
 /// - [`Medium::sample_interaction`]: one tentative collision (Mitsuba's `sample_interaction`),
-///   for integrators that run their own tracking loop (spectral MIS, `volpathmis`);
+///   for an integrator that runs its own tracking loop (none does today: both `volpath` and
+///   `volpathmis` call the heterogeneous medium's `delta_track` / `ratio_track`);
 /// - [`Medium::sample_free_flight`]: a whole free flight as `volpath` samples it (closed form
 ///   when homogeneous, delta tracking when not);
 /// - [`Medium::transmittance`]: a shadow segment's transmittance (closed form, or ratio
