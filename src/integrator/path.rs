@@ -93,14 +93,9 @@ impl PathState {
         let prev = self.prev;
         let Some(si) = hit else {
             if show {
-                for &e in &scene.env_emitters {
-                    let em = &scene.emitters[e as usize];
-                    let le = em.eval_env(ray.d);
-                    if le == Spectrum::ZERO {
-                        continue;
-                    }
+                for (e, em, le) in scene.env_emission(ray.d) {
                     let w = emission_weight(cfg, prev, || {
-                        em.pdf_direct_env(ray.d) * scene.light_sampler.pmf(e as usize)
+                        em.pdf_direct_env(ray.d) * scene.light_sampler.pmf(e)
                     });
                     self.result += self.throughput * le * w;
                 }

@@ -151,16 +151,11 @@ pub fn li(
         let show = !(from_camera && cfg.hide_emitters);
         let Some(si) = hit else {
             if show {
-                for &e in &scene.env_emitters {
-                    let em = &scene.emitters[e as usize];
-                    let le = em.eval_env(ray.d);
-                    if le == Spectrum::ZERO {
-                        continue;
-                    }
+                for (e, em, le) in scene.env_emission(ray.d) {
                     let w = if count_direct {
                         1.0
                     } else {
-                        let pdf = em.pdf_direct_env(ray.d) * scene.light_sampler.pmf(e as usize);
+                        let pdf = em.pdf_direct_env(ray.d) * scene.light_sampler.pmf(e);
                         power_heuristic(last_pdf, pdf)
                     };
                     result += throughput * le * w;

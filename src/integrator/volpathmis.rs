@@ -363,16 +363,11 @@ pub fn li(
         let show = !(from_camera && cfg.hide_emitters);
         let Some(si) = hit else {
             if show {
-                for &e in &scene.env_emitters {
-                    let em = &scene.emitters[e as usize];
-                    let le = em.eval_env(ray.d);
-                    if le == Spectrum::ZERO {
-                        continue;
-                    }
+                for (e, em, le) in scene.env_emission(ray.d) {
                     result += if count_direct {
                         w.throughput() * le
                     } else {
-                        let pdf = em.pdf_direct_env(ray.d) * scene.light_sampler.pmf(e as usize);
+                        let pdf = em.pdf_direct_env(ray.d) * scene.light_sampler.pmf(e);
                         w.hit(le, pdf)
                     };
                 }

@@ -142,24 +142,11 @@ impl<'d> Builder<'d> {
             None if albedo_volume.is_some() => Spectrum::ZERO,
             None => p.color_with("albedo", Spectrum::splat(0.75), SpectrumUse::Reflectance)?,
         };
-        let scale = p.float("scale", 1.0)?;
-        check(
-            p.loc(),
-            scale >= 0.0 && scale.is_finite(),
-            "'scale' must be finite and >= 0",
-        )?;
-        check(
-            p.loc(),
-            sigma_t.min_element() >= 0.0 && sigma_t.is_finite(),
-            "'sigma_t' must be finite and >= 0",
-        )?;
+        let scale = read_scale(p)?;
+        check_sigma_t(p, sigma_t)?;
         // A constant albedo lies in [0, 1]; a grid's values are not limited (as in Mitsuba, and
         // as for `heterogeneous`).
-        check(
-            p.loc(),
-            albedo.min_element() >= 0.0 && albedo.max_element() <= 1.0,
-            "'albedo' must lie in [0, 1]",
-        )?;
+        check_albedo(p, albedo)?;
         let sigma_t = sigma_t * scale;
         check(
             p.loc(),
@@ -200,25 +187,12 @@ impl<'d> Builder<'d> {
             )?),
         };
         if let VolumeData::Const(v) = sigma_t.data {
-            check(
-                p.loc(),
-                v.min_element() >= 0.0 && v.is_finite(),
-                "'sigma_t' must be finite and >= 0",
-            )?;
+            check_sigma_t(p, v)?;
         }
         if let VolumeData::Const(v) = albedo.data {
-            check(
-                p.loc(),
-                v.min_element() >= 0.0 && v.max_element() <= 1.0,
-                "'albedo' must lie in [0, 1]",
-            )?;
+            check_albedo(p, v)?;
         }
-        let scale = p.float("scale", 1.0)?;
-        check(
-            p.loc(),
-            scale >= 0.0 && scale.is_finite(),
-            "'scale' must be finite and >= 0",
-        )?;
+        let scale = read_scale(p)?;
         check(
             p.loc(),
             (scale * sigma_t.max()).is_finite(),
@@ -482,4 +456,33 @@ impl<'d> Builder<'d> {
         *slot = Some(self.medium(c)?);
         Ok(())
     }
+}
+
+/// A medium's `scale`: finite and >= 0 (both medium kinds).
+fn read_scale(p: &Props<'_>) -> Result<f32> {
+    let scale = p.float("scale", 1.0)?;
+    check(
+        p.loc(),
+        scale >= 0.0 && scale.is_finite(),
+        "'scale' must be finite and >= 0",
+    )?;
+    Ok(scale)
+}
+
+/// A constant `sigma_t` (before `scale`): finite and >= 0.
+fn check_sigma_t(p: &Props<'_>, v: Spectrum) -> Result<()> {
+    check(
+        p.loc(),
+        v.min_element() >= 0.0 && v.is_finite(),
+        "'sigma_t' must be finite and >= 0",
+    )
+}
+
+/// A constant `albedo`: in [0, 1] (a grid's values are not limited, as in Mitsuba).
+fn check_albedo(p: &Props<'_>, v: Spectrum) -> Result<()> {
+    check(
+        p.loc(),
+        v.min_element() >= 0.0 && v.max_element() <= 1.0,
+        "'albedo' must lie in [0, 1]",
+    )
 }

@@ -106,6 +106,21 @@ impl Scene {
 }
 
 impl Scene {
+    /// The environment emitters a ray leaving the scene in direction `d` sees, with their
+    /// non-zero radiance: (emitter index, emitter, radiance). Each integrator weighs them its own
+    /// way; the next-event density of one is `emitter.pdf_direct_env(d) · light_sampler.pmf(index)`.
+    #[inline]
+    pub fn env_emission(
+        &self,
+        d: Vec3,
+    ) -> impl Iterator<Item = (usize, &Emitter, crate::spectrum::Spectrum)> + '_ {
+        self.env_emitters.iter().filter_map(move |&e| {
+            let em = &self.emitters[e as usize];
+            let le = em.eval_env(d);
+            (le != crate::spectrum::Spectrum::ZERO).then_some((e as usize, em, le))
+        })
+    }
+
     /// Nearest surface hit along `ray`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceInteraction> {
