@@ -55,6 +55,7 @@ pub mod disney;
 pub mod fresnel;
 pub mod hair;
 pub mod ior;
+pub(crate) mod lanes;
 pub mod lobes;
 pub mod mask;
 pub mod microfacet;
