@@ -50,6 +50,25 @@ pub(super) fn pdf(b: Bsdf, m: &Mask, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> f
     m.opacity * b.child(m.nested).pdf(ctx, wi, wo)
 }
 
+/// Eval and pdf of one query from the nested BSDF's own `eval_pdf`, so that next-event
+/// estimation sees the density that the nested `sample` reports (a nested BSDF with a
+/// stochastic branch choice, `auto`'s blend band, reports the picked branch's density from both:
+/// `bsdf::mnm`'s `mixture_pdf`).
+pub(super) fn eval_pdf(
+    b: Bsdf,
+    m: &Mask,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    s: &mut Sampler,
+) -> (Spectrum, f32) {
+    if m.opacity <= 0.0 {
+        return (Spectrum::ZERO, 0.0);
+    }
+    let (f, p) = b.child(m.nested).eval_pdf(ctx, wi, wo, s);
+    (m.opacity * f, m.opacity * p)
+}
+
 pub(super) fn sample(
     b: Bsdf,
     m: &Mask,

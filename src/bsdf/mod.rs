@@ -568,6 +568,7 @@ impl<'a> Bsdf<'a> {
                 mnm::eval_pdf(*self, &self.arena.mnm[*i as usize], ctx, wi, wo, sampler)
             }
             BsdfNode::NormalMap(m) => normalmap::eval_pdf(*self, m, ctx, wi, wo, sampler),
+            BsdfNode::Mask(m) => mask::eval_pdf(*self, m, ctx, wi, wo, sampler),
             BsdfNode::Principled { .. } | BsdfNode::PrincipledThin { .. } => {
                 self.principled_eval_pdf(ctx, wi, wo)
             }

@@ -106,3 +106,54 @@ fn auto_is_a_normal_mapping_mode() {
     assert!(NormalMapping::NAMES.contains(&"auto"));
     assert!(groove::bench::MODES.contains(&"auto"));
 }
+
+/// `scenes/bench/glass.xml` (rough glass: a transmitting nested BSDF, no table) under
+/// `--normal-mapping auto` is `walk-mirror` exactly: the same loaded settings (no table, no
+/// blend) and, at 2 spp and 48 × 32 pixels, the same image bit for bit and the same walks.
+/// (Per sample the two cost the same instructions: `docs/mnm.md`, `docs/bench/callgrind.sh`.)
+#[test]
+fn auto_on_glass_is_walk_mirror_bit_for_bit() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/bench/glass.xml");
+    let run = |mode: &str| {
+        let opts = LoadOptions {
+            defines: [("res", "48"), ("height", "32")]
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect(),
+            normal_mapping: NormalMapping::parse(mode).expect("mode"),
+            ..LoadOptions::default()
+        };
+        let l = load_scene(&path, &opts).unwrap_or_else(|e| panic!("{e}"));
+        let settings: Vec<String> = l
+            .scene
+            .materials()
+            .nodes()
+            .iter()
+            .filter_map(|n| match n {
+                MaterialNode::MicrofacetNormalMap { settings, .. } => Some(format!("{settings:?}")),
+                _ => None,
+            })
+            .collect();
+        let ro = groove::render::RenderOptions {
+            spp: Some(2),
+            seed: Some(5),
+            ..Default::default()
+        };
+        let out = groove::render::render(&l.scene, &l.settings, &ro).expect("render");
+        let bits: Vec<u32> = out
+            .film
+            .develop()
+            .data
+            .iter()
+            .flat_map(|p| p.map(f32::to_bits))
+            .collect();
+        (settings, bits, out.stats.rays.walks)
+    };
+    let (auto, walk) = (run("auto"), run("walk-mirror"));
+    assert_eq!(auto.0.len(), 1, "one normal-mapped material: {:?}", auto.0);
+    assert!(auto.0[0].contains("RandomWalk") && auto.0[0].contains("ms_table: None"));
+    assert_eq!(auto.0, walk.0);
+    assert!(auto.2 > 0, "no walks sampled");
+    assert_eq!(auto.2, walk.2, "walks");
+    assert!(auto.1 == walk.1, "the images differ");
+}

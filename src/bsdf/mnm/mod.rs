@@ -394,9 +394,31 @@ pub(super) fn pdf(b: Bsdf, m: &MicrofacetNormalMap, ctx: &BsdfContext, wi: Vec3,
         if m.blend >= 1.0 {
             return pc;
         }
-        return m.blend * pc + (1.0 - m.blend) * walk_pdf(m, &nested, ctx, wi, wo);
+        return mixture_pdf(m.blend, pc, walk_pdf(m, &nested, ctx, wi, wo));
     }
     walk_or_explicit_pdf(m, &nested, ctx, wi, wo)
+}
+
+/// The mixture's density β p_comp + (1 − β) p_walk of `auto`'s blend band (0 < β < 1): what
+/// [`pdf`] returns, and the MIS density that [`sample`] and [`eval_pdf`] report when they pick
+/// the compensated model (probability β; the walk's p_walk then comes from the compensated
+/// pass's own nested densities, almost free). When they pick the walk they report the walk's
+/// own MIS density p_walk (decision 3): the compensated model's would cost a second model's
+/// pass per query (≈ 600–700 instructions, `docs/mnm.md`).
+///
+/// Why MIS stays unbiased: let q_b(ωo) be branch b's reported density (a fixed function of ωo
+/// per branch) and p_L the light's. BSDF sampling contributes, per ωo, Σ_b β_b f_b q_b / (q_b +
+/// p_L) (branch b's sample has E[weight · 1_A] = ∫_A f_b z, and its MIS weight depends on ωo
+/// only), next-event estimation Σ_b β_b f_b p_L / (p_L + q_b) (its eval picks b with the same
+/// probabilities); the sum is Σ_b β_b f_b = f for any q_b, because both strategies use the same
+/// q_b within a branch (the weights of a direction sum to 1 per branch; Veach 1997 §9.2 with the
+/// branch as part of the sample). [`pdf`] (no random number, so no branch) is the mixture's true
+/// density; a composite must pair a child's `sample` with its `eval_pdf` (as `mask`, `twosided`
+/// and `normalmap` do) or override the sample's density with the child's `pdf` (`blendbsdf`).
+/// Tested: `tests/bsdf/mnm_auto.rs`, `blend_band_mis_is_unbiased`.
+#[inline]
+fn mixture_pdf(beta: f32, p_comp: f32, p_walk: f32) -> f32 {
+    beta * p_comp + (1.0 - beta) * p_walk
 }
 
 /// The walk's MIS density of decision 3 (the random walk, and `auto`'s walk share).
@@ -467,16 +489,16 @@ pub(super) fn eval_pdf(
         if m.blend >= 1.0 {
             return compensated::eval_pdf(m, r, &nested, ctx, wi, wo, s);
         }
-        // The blend band: the eval of one model picked by β (as [`eval`]), the mixture's pdf.
+        // The blend band: the eval of one model picked by β (as [`eval`]) with that branch's
+        // MIS density ([`mixture_pdf`]), the same function of ωo that [`sample`]'s branch
+        // reports.
         let b = m.blend;
         return if s.next_1d() < b {
             // The walk's density from the same nested densities as the compensated one.
             let (fc, pc, p1) = compensated::eval_pdf_walk(m, r, &nested, ctx, wi, wo, s);
-            (fc, b * pc + (1.0 - b) * walk_mis_pdf(m, p1, wo))
+            (fc, mixture_pdf(b, pc, walk_mis_pdf(m, p1, wo)))
         } else {
-            let (fw, pw) = walk_eval_pdf(m, &nested, ctx, wi, wo, s);
-            let pc = compensated::pdf(m, r, &nested, ctx, wi, wo);
-            (fw, b * pc + (1.0 - b) * pw)
+            walk_eval_pdf(m, &nested, ctx, wi, wo, s)
         };
     }
     if matches!(
@@ -559,21 +581,15 @@ pub(super) fn sample(
         }
         // `auto` in its blend band: one model by its share, each with its own weight (the
         // compensated model's eval/pdf, the walk's throughput), so E[weight · 1{ωo ∈ A}] =
-        // β ∫_A f_comp z + (1 − β) ∫_A f_walk z; the reported density is the mixture's, as
-        // [`pdf`] gives it (MIS stays unbiased: the weights of both strategies are functions of
-        // ωo through the same densities).
-        // Each branch already has its own model's density at ωo (the compensated sample's
-        // exact pdf, the walk's MIS pdf): only the other model's is computed.
+        // β ∫_A f_comp z + (1 − β) ∫_A f_walk z; the reported density is the branch's MIS
+        // density ([`mixture_pdf`]), as [`eval_pdf`]'s branch reports it.
         let beta = m.blend;
         return if s.next_1d() < beta {
             let (mut bs, p1) = compensated::sample_walk(m, r, &nested, ctx, wi, s)?;
-            bs.pdf = beta * bs.pdf + (1.0 - beta) * walk_mis_pdf(m, p1, bs.wo);
+            bs.pdf = mixture_pdf(beta, bs.pdf, walk_mis_pdf(m, p1, bs.wo));
             Some(bs)
         } else {
-            let mut bs = walk_sample(m, &nested, ctx, wi, s)?;
-            let pc = compensated::pdf(m, r, &nested, ctx, wi, bs.wo);
-            bs.pdf = beta * pc + (1.0 - beta) * bs.pdf;
-            Some(bs)
+            walk_sample(m, &nested, ctx, wi, s)
         };
     }
     match (m.evaluation, m.mirror_wall) {
