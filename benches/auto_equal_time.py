@@ -7,8 +7,12 @@ sphere.
 
 Per-sample cost: interleaved timings (classic, walk-mirror, auto, repeated `--repeats` times at
 `--time-spp`, the render seconds groove prints, median per mode), so that the machine's load
-drifts alike for all modes. The equal-time spp of a mode is round(S · t_classic / t_mode) with
-S = `--budget-spp` (classic's spp). The reference is walk-mirror at `--ref-spp` with another
+drifts alike for all modes. Where `auto` is the walk (a scene whose every normal-mapped material
+has no remainder table, e.g. glass.xml's transmitting one), its timing renders equal walk-mirror's
+bit for bit at the same seed: the same computation (the same instruction count per sample,
+`docs/mnm.md`), so the two modes' timings are pooled into one median and they get the same spp;
+otherwise a timing difference there is the machine's noise (run 3 on glass). The equal-time spp
+of a mode is round(S · t_classic / t_mode) with S = `--budget-spp` (classic's spp). The reference is walk-mirror at `--ref-spp` with another
 seed. Sphere masks: the showcase's spheres projected with its camera (discs of 0.85 × the
 projected radius).
 
@@ -106,17 +110,24 @@ def main():
         for k in range(a.repeats + 1):
             for m in MODES:
                 t = render(a.groove, scene, defines, m, a.time_spp, 100 + k,
-                           f"{a.out}/{name}.time.exr", a.threads)
+                           f"{a.out}/{name}.time.{m}.exr", a.threads)
                 if k > 0:  # the first round builds the tables (disk cache) and warms up
                     times[m].append(t / a.time_spp)
         per_spp = {m: statistics.median(v) for m, v in times.items()}
+        # The last round rendered every mode with the same seed: auto identical to the walk
+        # bit for bit is the walk, at the walk's cost (pooled timings, one spp for both).
+        same = np.array_equal(load(f"{a.out}/{name}.time.auto.exr"),
+                              load(f"{a.out}/{name}.time.walk-mirror.exr"))
+        if same:
+            pooled = statistics.median(times["auto"] + times["walk-mirror"])
+            per_spp["auto"] = per_spp["walk-mirror"] = pooled
         ref = f"{a.out}/{name}.ref.walk-mirror.{a.ref_spp}.exr"
         if not os.path.exists(ref):
             render(a.groove, scene, defines, "walk-mirror", a.ref_spp, 1, ref, a.threads)
         refimg = load(ref)
         masks = sphere_masks(*refimg.shape[:2]) if name == "showcase" else {}
         budget = a.budget_spp * per_spp["classic"]
-        row = {"per_spp_seconds": per_spp, "budget_seconds": budget}
+        row = {"per_spp_seconds": per_spp, "budget_seconds": budget, "auto_is_walk": same}
         for m in ["walk-mirror", "auto"]:
             spp = max(1, round(budget / per_spp[m]))
             img_path = f"{a.out}/{name}.{m}.{spp}.exr"
@@ -133,7 +144,8 @@ def main():
     for name, r in results.items():
         w, au = r["walk-mirror"], r["auto"]
         p = r["per_spp_seconds"]
-        print(f"| {name} (image) | {p['classic']:.3f} | {p['walk-mirror']:.3f} | {p['auto']:.3f} "
+        label = f"{name} (image{', auto = walk' if r['auto_is_walk'] else ''})"
+        print(f"| {label} | {p['classic']:.3f} | {p['walk-mirror']:.3f} | {p['auto']:.3f} "
               f"| {w['spp']} / {au['spp']} | {w['rmse']:.5f} | {au['rmse']:.5f} "
               f"| {au['rmse'] / w['rmse']:.3f} |")
         for s in w["spheres"]:
