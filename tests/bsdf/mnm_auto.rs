@@ -612,8 +612,8 @@ fn blend_band_reports_the_branch_density_for_mis() {
 /// density p_L), I = ∫_cone f z dωo. MIS: per trial one BSDF sample (weight · p/(p + p_L) if it
 /// lands in the cone, p its reported density) plus one light sample (eval/(p_L + p), p from
 /// `eval_pdf`). Reference: plain BSDF sampling (weight · 1_cone, unbiased by the harness),
-/// independent random numbers. |MIS − reference| ≤ 4.5 σ of the difference (Šidák α ≈ 1e-4
-/// over the 6 cases: rough gold, plastic, white α 0.1 at two tilts, β = 0.5). The control must
+/// independent random numbers. |MIS − reference| ≤ 4.5 σ of the difference (two-sided 7e-6 per
+/// case, 4e-5 over the 6 cases: rough gold, plastic, white α 0.1 at two tilts, β = 0.5). The control must
 /// be rejected: the same MIS with the light strategy's density taken from `pdf` (the mixture)
 /// while the BSDF samples report their branch's — weights that do not sum to 1 per branch —
 /// is off by > 4.5 σ in at least one case.
