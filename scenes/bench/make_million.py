@@ -12,6 +12,9 @@ the same bytes on every run):
 Total 1,142,210 triangles at the default N. The meshes are binary little-endian PLY (~29 MB) and
 are not committed (.gitignore); the XML is committed and written here again, identically.
 
+The files go to scenes/bench/million/ (a folder of their own: `groove bench` and the scene sweeps
+take every scenes/bench/*.xml, and this scene needs its generated meshes).
+
 Usage (from the repository root):  python3 scenes/bench/make_million.py [--n N] [--out DIR]
 """
 import argparse
@@ -182,8 +185,10 @@ XML = """<?xml version="1.0"?>
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--n", type=int, default=720, help="terrain vertices per side (default 720)")
-    ap.add_argument("--out", default=os.path.dirname(os.path.abspath(__file__)))
+    ap.add_argument("--out", default=os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                                  "million"))
     a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
     tv, tf = terrain(a.n)
     write_ply(os.path.join(a.out, "million_terrain.ply"), tv, tf)
     sv, sf = spheres()
