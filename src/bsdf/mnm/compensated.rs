@@ -444,13 +444,25 @@ impl<'a, 'b> Nested<'a, 'b> {
         }
     }
 
+    /// Every pair of `pairs` in one call of the nested BSDF's lane form, for the kinds that
+    /// have one (`None` for the others).
+    #[inline(always)]
+    fn lanes(self, pairs: &Pairs) -> Option<Evaluated> {
+        match self {
+            Nested::Diffuse(d) => Some(nested_batch::eval_pdf_lanes(d, pairs)),
+            Nested::Conductor(c) => Some(nested_batch::eval_pdf_lanes(c, pairs)),
+            Nested::Plastic(p) => Some(nested_batch::eval_pdf_lanes(p, pairs)),
+            Nested::Other(_) => None,
+        }
+    }
+
     /// Every pair of `pairs`: in one lane call for kinds with a lane form, else pair by pair
     /// (`pdf` for a pair that needs only the density, `eval_pdf` otherwise, in order: a nested
     /// BSDF that draws random numbers draws them as before).
     #[inline(always)]
     fn eval_pairs(self, ctx: &BsdfContext, pairs: &Pairs, s: &mut Sampler) -> Evaluated {
-        if let Nested::Diffuse(d) = self {
-            return nested_batch::eval_pdf_lanes(d, pairs);
+        if let Some(ev) = self.lanes(pairs) {
+            return ev;
         }
         let mut out = Evaluated::zero();
         for i in 0..pairs.len() {
@@ -469,8 +481,8 @@ impl<'a, 'b> Nested<'a, 'b> {
     /// not read): in one lane call for kinds with a lane form, else pair by pair.
     #[inline(always)]
     fn pdf_pairs(self, ctx: &BsdfContext, pairs: &Pairs) -> Evaluated {
-        if let Nested::Diffuse(d) = self {
-            return nested_batch::eval_pdf_lanes(d, pairs);
+        if let Some(ev) = self.lanes(pairs) {
+            return ev;
         }
         let mut out = Evaluated::zero();
         for i in 0..pairs.len() {
@@ -962,8 +974,9 @@ mod tests {
 
     /// The batched first order ([`super::nested_batch`]) equals the pair-by-pair one it
     /// replaced (kept above as `old_first_order` / `old_first_pdf`) bit for bit: eval, pdf and
-    /// the walk's density, with and without a known (drawn) term, over diffuse (lane form),
-    /// a rough conductor and a rough plastic, for the mirror sawtooth and the V-groove; random
+    /// the walk's density, with and without a known (drawn) term, over diffuse, rough conductors
+    /// (visible-normal sampling or not) and a rough plastic (lane forms), and a `twosided`
+    /// (pair by pair), for the mirror sawtooth and the V-groove; random
     /// ωp, ωi, ωo. The table's values do not enter (an exact Lambert table: instant).
     #[test]
     fn batched_first_order_is_bit_for_bit_the_pair_by_pair_one() {
@@ -971,7 +984,7 @@ mod tests {
             v.to_array().map(f32::to_bits)
         }
         let mut arena = BsdfArena::new();
-        let nodes = [
+        let mut nodes = vec![
             arena.push(BsdfNode::Diffuse(Diffuse {
                 reflectance: Vec3::new(0.7, 0.4, 0.2),
             })),
@@ -980,6 +993,12 @@ mod tests {
                 eta: Vec3::new(0.2, 0.4, 1.4),
                 k: Vec3::new(3.6, 2.4, 1.8),
                 specular_reflectance: Vec3::ONE,
+            })),
+            arena.push(BsdfNode::RoughConductor(RoughConductor {
+                distribution: MicrofacetDistribution::new(MicrofacetType::Beckmann, 0.3, false),
+                eta: Vec3::new(0.2, 0.4, 1.4),
+                k: Vec3::new(3.6, 2.4, 1.8),
+                specular_reflectance: Vec3::new(1.0, 0.8, 0.6),
             })),
             arena.push(BsdfNode::RoughPlastic(RoughPlastic::new(
                 MicrofacetType::Ggx,
@@ -992,6 +1011,8 @@ mod tests {
                 false,
             ))),
         ];
+        let c = nodes[1];
+        nodes.push(arena.push(BsdfNode::TwoSided { front: c, back: c }));
         let ctx = BsdfContext::default();
         let mut s = Sampler::from_seed(9, 2);
         for n in nodes {
