@@ -6,8 +6,14 @@
 //! | Parameter | Type | Default | Meaning |
 //! | --- | --- | --- | --- |
 //! | `reflectance` | spectrum or texture | 0.5 | albedo ρ |
+//!
+//! Lane form (`src/bsdf/lanes.rs`): [`Diffuse::eval_pdf_lanes`], [`Diffuse::sample_lanes`], equal
+//! to [`Diffuse::eval`] / [`Diffuse::pdf`] / [`Diffuse::sample`] bit for bit at every width.
 
+use super::lanes::LaneBsdfSample;
 use super::{BsdfSample, Lobes};
+use crate::lane::vec::{V2, V3};
+use crate::lane::{warp as lw, Lane};
 use crate::math::warp;
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
@@ -51,6 +57,76 @@ impl Diffuse {
             eta: 1.0,
             lobe: Lobes::DIFFUSE_REFLECTION,
         })
+    }
+
+    /// `(eval, pdf)` per lane: the operations of [`Diffuse::eval`] and [`Diffuse::pdf`] in the
+    /// same order (a pair with either z ≤ 0 gives 0 and 0; a NaN z is evaluated, as there).
+    #[inline(always)]
+    pub fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
+        let zero = wi.z.splat(0.0);
+        let ok = !(wi.z.le(zero) | wo.z.le(zero));
+        let c = wo.z.splat(crate::math::INV_PI) * wo.z;
+        let r = self.reflectance;
+        let f = V3::new(
+            zero.splat(r.x) * c,
+            zero.splat(r.y) * c,
+            zero.splat(r.z) * c,
+        );
+        (
+            V3::select(ok, f, V3::new(zero, zero, zero)),
+            L::select(ok, lw::cosine_hemisphere_pdf(wo), zero),
+        )
+    }
+
+    /// [`Diffuse::sample`] per lane (`u1` unused: one lobe).
+    #[allow(dead_code)] // the lane convention's sampler; no batch samples a nested diffuse yet
+    #[inline(always)]
+    pub(crate) fn sample_lanes<L: Lane>(&self, wi: V3<L>, _u1: L, u: V2<L>) -> LaneBsdfSample<L> {
+        let zero = wi.z.splat(0.0);
+        let wo = lw::square_to_cosine_hemisphere(u);
+        let pdf = lw::cosine_hemisphere_pdf(wo);
+        let r = self.reflectance;
+        LaneBsdfSample {
+            ok: !(wi.z.le(zero) | pdf.le(zero)),
+            wo,
+            pdf,
+            weight: V3::new(zero.splat(r.x), zero.splat(r.y), zero.splat(r.z)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampler::Sampler;
+
+    /// The lane form at width 1 is the scalar BSDF bit for bit (the width-8 form equals width 1
+    /// by the lane rule; the batch test in `mnm::nested_batch` runs it at width 8).
+    #[test]
+    fn lane_form_is_the_scalar_bsdf_bit_for_bit() {
+        let d = Diffuse {
+            reflectance: Vec3::new(0.9, 0.5, 0.125),
+        };
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        let mut s = Sampler::from_seed(3, 7);
+        for _ in 0..2000 {
+            let wi = warp::square_to_uniform_sphere(s.next_2d());
+            let wo = warp::square_to_uniform_sphere(s.next_2d());
+            let (f, p) = d.eval_pdf_lanes::<f32>(wi.into(), wo.into());
+            assert_eq!(bits(f.into()), bits(d.eval(wi, wo)));
+            assert_eq!(p.to_bits(), d.pdf(wi, wo).to_bits());
+            let u = s.next_2d();
+            let ls = d.sample_lanes::<f32>(wi.into(), 0.0, u.into());
+            match d.sample(wi, u) {
+                Some(bs) => {
+                    assert!(ls.ok);
+                    assert_eq!(bits(ls.wo.into()), bits(bs.wo));
+                    assert_eq!(ls.pdf.to_bits(), bs.pdf.to_bits());
+                    assert_eq!(bits(ls.weight.into()), bits(bs.weight));
+                }
+                None => assert!(!ls.ok),
+            }
+        }
     }
 }
 

@@ -29,17 +29,17 @@
 //! | `alpha` | float | 0.1 | roughness (isotropic; no texture, as in Mitsuba 3) |
 //! | `sample_visible` | boolean | true | sample the visible normals |
 
-use super::fresnel::fresnel_dielectric;
+use super::lanes::LaneBsdfSample;
 use super::microfacet::{gauss_legendre, MicrofacetDistribution, MicrofacetType};
 use super::plastic::specular_sampling_weight;
 use super::{BsdfSample, Lobes};
 use crate::lane::fresnel as lane_fresnel;
 use crate::lane::microfacet::Microfacet;
 use crate::lane::vec::{V2, V3};
+use crate::lane::warp;
 #[cfg(target_arch = "x86_64")]
 use crate::lane::Avx2;
-use crate::lane::Lane;
-use crate::math::{reflect, warp};
+use crate::lane::{Lane, LaneI32, LaneMask};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 use std::sync::{Mutex, OnceLock};
@@ -203,14 +203,28 @@ impl RoughPlasticTable {
         t
     }
 
-    /// T(θ) by linear interpolation in cos θ.
+    /// T(θ) by linear interpolation in cos θ (the `f32` instantiation of [`Self::transmittance_lanes`]).
     #[inline]
     pub fn transmittance(&self, cos_theta: f32) -> f32 {
-        let x = cos_theta.clamp(0.0, 1.0) * (TRANSMITTANCE_RES - 1) as f32;
-        let i = (x as usize).min(TRANSMITTANCE_RES - 2);
-        let w = x - i as f32;
+        self.transmittance_lanes(cos_theta)
+    }
+
+    /// T(θ) per lane: cos θ clamped to [0, 1] (NaN stays NaN, as `f32::clamp`), the grid cell
+    /// i = min(⌊63 cos θ⌋, 62) (0 for NaN) read by a table gather, linear interpolation.
+    #[inline(always)]
+    pub fn transmittance_lanes<L: Lane>(&self, cos_theta: L) -> L {
+        let k = |c: f32| cos_theta.splat(c);
+        let c = L::select(cos_theta.lt(k(0.0)), k(0.0), cos_theta);
+        let c = L::select(c.gt(k(1.0)), k(1.0), c);
+        let x = c * k((TRANSMITTANCE_RES - 1) as f32);
+        // `x as usize` saturates NaN to 0; trunc_i32 gives i32::MIN there: clamp to [0, 62].
+        let i = x.trunc_i32();
+        let last = i.splat(TRANSMITTANCE_RES as i32 - 2);
+        let i = LaneI32::select(i.gt(last), last, i);
+        let i = LaneI32::select(i.lt(i.splat(0)), i.splat(0), i);
+        let w = x - i.to_f32();
         let t = &self.external_transmittance;
-        (1.0 - w) * t[i] + w * t[i + 1]
+        (k(1.0) - w) * L::gather(t, i) + w * L::gather(t, i.add(i.splat(1)))
     }
 }
 
@@ -262,94 +276,170 @@ impl RoughPlastic {
         }
     }
 
-    #[inline]
-    fn prob_specular(&self, t_i: f32) -> f32 {
-        let ps = (1.0 - t_i) * self.specular_sampling_weight;
-        let pd = t_i * (1.0 - self.specular_sampling_weight);
+    /// The lane form's distribution (the parameters splatted; already clamped by `new`).
+    #[inline(always)]
+    fn distribution_lanes<L: Lane>(&self, like: L) -> Microfacet<L> {
+        let d = &self.distribution;
+        Microfacet {
+            kind: d.kind,
+            alpha_u: like.splat(d.alpha_u),
+            alpha_v: like.splat(d.alpha_v),
+            sample_visible: d.sample_visible,
+        }
+    }
+
+    /// Probability of the specular lobe given T(θi): ps / (ps + pd) with ps = (1 − T) w_s and
+    /// pd = T (1 − w_s).
+    #[inline(always)]
+    fn prob_specular<L: Lane>(&self, t_i: L) -> L {
+        let k = |c: f32| t_i.splat(c);
+        let ps = (k(1.0) - t_i) * k(self.specular_sampling_weight);
+        let pd = t_i * k(1.0 - self.specular_sampling_weight);
         ps / (ps + pd)
+    }
+
+    /// `f · cos θo` (RGB) and the sampling density (`bsdf::lanes` convention).
+    #[inline(always)]
+    pub(crate) fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
+        let rho = splat3(wi.z, self.diffuse_reflectance);
+        let spec = splat3(wi.z, self.specular_reflectance);
+        self.eval_pdf_with(rho, spec, wi, wo)
+    }
+
+    /// `sample_lanes` of the convention (`u1` picks the lobe). The stream kernel calls
+    /// [`Self::sample_with`] (per-lane reflectances, and the lobe); the compensated normal map
+    /// (issue 17) calls this.
+    #[allow(dead_code)] // until issue 17's caller lands
+    #[inline(always)]
+    pub(crate) fn sample_lanes<L: Lane>(&self, wi: V3<L>, u1: L, u2: V2<L>) -> LaneBsdfSample<L> {
+        let rho = splat3(wi.z, self.diffuse_reflectance);
+        let spec = splat3(wi.z, self.specular_reflectance);
+        self.sample_with(rho, spec, wi, u1, u2).0
+    }
+
+    /// [`Self::eval_pdf_lanes`] with the reflectances per lane (`rho` = `diffuse_reflectance`,
+    /// `spec` = `specular_reflectance`: textured materials gathered by the stream kernel); the
+    /// sampling weight stays the material's (from the textures' means, as in Mitsuba). 0 in
+    /// lanes where wi or wo is below the surface.
+    #[inline(always)]
+    pub(crate) fn eval_pdf_with<L: Lane>(
+        &self,
+        rho: V3<L>,
+        spec: V3<L>,
+        wi: V3<L>,
+        wo: V3<L>,
+    ) -> (V3<L>, L) {
+        let k = |c: f32| wi.z.splat(c);
+        let below = wi.z.le(k(0.0)) | wo.z.le(k(0.0));
+        let dist = self.distribution_lanes(wi.z);
+        // The coating: F D G / (4 cos θi) · specular_reflectance.
+        let h = (wi + wo).normalize();
+        let d = dist.eval(h);
+        let g1i = dist.smith_g1(wi, h);
+        let f = lane_fresnel::dielectric(wi.dot(h), k(self.eta)).r;
+        let g = g1i * dist.smith_g1(wo, h);
+        let specular = spec.scale(f * d * g / (k(4.0) * wi.z));
+        // The base: ρ / (π η² (1 − R_int)) T(θi) T(θo) cos θo (or 1 − ρ R_int).
+        let r_int = k(self.table.internal_reflectance);
+        let albedo = if self.nonlinear {
+            let one = k(1.0);
+            V3::new(
+                rho.x / (one - rho.x * r_int),
+                rho.y / (one - rho.y * r_int),
+                rho.z / (one - rho.z * r_int),
+            )
+        } else {
+            rho.div_by(k(1.0) - r_int)
+        };
+        let t_i = self.table.transmittance_lanes(wi.z);
+        let t = t_i * self.table.transmittance_lanes(wo.z);
+        let value = specular
+            + albedo.scale(k(crate::math::INV_PI) * wo.z * t / (k(self.eta) * k(self.eta)));
+        // The sampling mixture: specular lobe with probability ps(T(θi)), else cosine.
+        let ps = self.prob_specular(t_i);
+        let p_spec = dist.reflection_pdf(wi, wo, h, d, g1i);
+        let p = ps * p_spec + (k(1.0) - ps) * warp::cosine_hemisphere_pdf(wo);
+        let p = L::select(p.is_finite(), p, k(0.0));
+        let zero = k(0.0);
+        (
+            V3::select(below, V3::new(zero, zero, zero), value),
+            L::select(below, zero, p),
+        )
+    }
+
+    /// [`Self::sample_lanes`] with the reflectances per lane (see [`Self::eval_pdf_with`]);
+    /// also returns the lanes that chose the glossy lobe (the others chose the diffuse one).
+    /// Each lobe's sampling is skipped when no lane chose it (the select would drop it anyway).
+    #[inline(always)]
+    pub(crate) fn sample_with<L: Lane>(
+        &self,
+        rho: V3<L>,
+        spec: V3<L>,
+        wi: V3<L>,
+        u1: L,
+        u2: V2<L>,
+    ) -> (LaneBsdfSample<L>, L::Mask) {
+        let k = |c: f32| wi.z.splat(c);
+        let up = !wi.z.le(k(0.0));
+        let ps = self.prob_specular(self.table.transmittance_lanes(wi.z));
+        let glossy = u1.lt(ps);
+        let mut wo = V3::new(k(0.0), k(0.0), k(1.0));
+        if glossy.any() {
+            // math::reflect about a sampled microfacet normal.
+            let m = self.distribution_lanes(wi.z).sample_normal(wi, u2);
+            wo = m.scale(k(2.0) * wi.dot(m)) - wi;
+        }
+        if (!glossy).any() {
+            wo = V3::select(glossy, wo, warp::square_to_cosine_hemisphere(u2));
+        }
+        let (value, pdf) = self.eval_pdf_with(rho, spec, wi, wo);
+        let ok = up & pdf.gt(k(0.0));
+        let s = LaneBsdfSample {
+            ok,
+            wo,
+            pdf,
+            weight: value.div_by(pdf),
+        };
+        (s, glossy)
     }
 
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Spectrum {
         self.eval_pdf(wi, wo).0
     }
 
-    /// `(eval, pdf)` sharing the half vector, D(h), G1(wi, h) and T(θi).
+    /// `(eval, pdf)`: the `f32` instantiation of [`Self::eval_pdf_lanes`].
     pub fn eval_pdf(&self, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return (Spectrum::ZERO, 0.0);
-        }
-        let h = (wi + wo).normalize();
-        let d = self.distribution.eval(h);
-        let g1i = self.distribution.smith_g1(wi, h);
-        let f = fresnel_dielectric(wi.dot(h), self.eta).r;
-        let g = g1i * self.distribution.smith_g1(wo, h);
-        let spec = self.specular_reflectance * (f * d * g / (4.0 * wi.z));
-        let rho = self.diffuse_reflectance;
-        let r_int = self.table.internal_reflectance;
-        let albedo = if self.nonlinear {
-            rho / (Spectrum::ONE - rho * r_int)
-        } else {
-            rho / (1.0 - r_int)
-        };
-        let t_i = self.table.transmittance(wi.z);
-        let t = t_i * self.table.transmittance(wo.z);
-        let value = spec + albedo * (crate::math::INV_PI * wo.z * t / (self.eta * self.eta));
-        (value, self.mixture_pdf(t_i, wi, wo, h, d, g1i))
+        let (v, p) = self.eval_pdf_lanes::<f32>(wi.into(), wo.into());
+        (v.into(), p)
     }
 
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return 0.0;
-        }
-        let h = (wi + wo).normalize();
-        let d = self.distribution.eval(h);
-        let g1i = if self.distribution.sample_visible {
-            self.distribution.smith_g1(wi, h)
-        } else {
-            1.0
-        };
-        self.mixture_pdf(self.table.transmittance(wi.z), wi, wo, h, d, g1i)
+        self.eval_pdf(wi, wo).1
     }
 
-    /// The sampling mixture's density: specular lobe with probability ps(T(θi)), else cosine.
-    #[inline]
-    fn mixture_pdf(&self, t_i: f32, wi: Vec3, wo: Vec3, h: Vec3, d: f32, g1i: f32) -> f32 {
-        let ps = self.prob_specular(t_i);
-        let p_spec = self.distribution.reflection_pdf(wi, wo, h, d, g1i);
-        let p = ps * p_spec + (1.0 - ps) * warp::cosine_hemisphere_pdf(wo);
-        if p.is_finite() {
-            p
-        } else {
-            0.0
-        }
-    }
-
+    /// The `f32` instantiation of [`Self::sample_lanes`], with the chosen lobe.
     pub fn sample(&self, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
-        if wi.z <= 0.0 {
-            return None;
-        }
-        let ps = self.prob_specular(self.table.transmittance(wi.z));
-        let (wo, kind) = if u1 < ps {
-            let m = self.distribution.sample_normal(wi, u2);
-            (reflect(wi, m), Lobes::GLOSSY_REFLECTION)
-        } else {
-            (
-                warp::square_to_cosine_hemisphere(u2),
-                Lobes::DIFFUSE_REFLECTION,
-            )
-        };
-        let (value, pdf) = self.eval_pdf(wi, wo);
-        if !super::is_positive(pdf) {
-            return None;
-        }
-        Some(BsdfSample {
-            wo,
-            pdf,
-            weight: value / pdf,
+        let rho = self.diffuse_reflectance.into();
+        let spec = self.specular_reflectance.into();
+        let (s, glossy) = self.sample_with::<f32>(rho, spec, wi.into(), u1, u2.into());
+        s.ok.then(|| BsdfSample {
+            wo: s.wo.into(),
+            pdf: s.pdf,
+            weight: s.weight.into(),
             eta: 1.0,
-            lobe: kind,
+            lobe: if glossy {
+                Lobes::GLOSSY_REFLECTION
+            } else {
+                Lobes::DIFFUSE_REFLECTION
+            },
         })
     }
+}
+
+/// `c` in every lane, with the width of `like`.
+#[inline(always)]
+pub(crate) fn splat3<L: Lane>(like: L, c: Spectrum) -> V3<L> {
+    V3::splat(like, c.x, c.y, c.z)
 }
 
 impl Default for RoughPlastic {
@@ -412,6 +502,288 @@ pub(crate) mod load {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The scalar code before the lane form (commit 6b74181), kept as the reference of
+    /// [`lane_form_f32_equals_the_former_scalar_code`].
+    mod former {
+        use super::super::RoughPlastic;
+        use crate::bsdf::fresnel::fresnel_dielectric;
+        use crate::bsdf::{is_positive, BsdfSample, Lobes};
+        use crate::math::{reflect, warp};
+        use crate::spectrum::Spectrum;
+        use glam::{Vec2, Vec3};
+
+        fn transmittance(b: &RoughPlastic, cos_theta: f32) -> f32 {
+            let x = cos_theta.clamp(0.0, 1.0) * (super::TRANSMITTANCE_RES - 1) as f32;
+            let i = (x as usize).min(super::TRANSMITTANCE_RES - 2);
+            let w = x - i as f32;
+            let t = &b.table.external_transmittance;
+            (1.0 - w) * t[i] + w * t[i + 1]
+        }
+        fn prob_specular(b: &RoughPlastic, t_i: f32) -> f32 {
+            let ps = (1.0 - t_i) * b.specular_sampling_weight;
+            let pd = t_i * (1.0 - b.specular_sampling_weight);
+            ps / (ps + pd)
+        }
+        pub fn eval_pdf(b: &RoughPlastic, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
+            if wi.z <= 0.0 || wo.z <= 0.0 {
+                return (Spectrum::ZERO, 0.0);
+            }
+            let h = (wi + wo).normalize();
+            let d = b.distribution.eval(h);
+            let g1i = b.distribution.smith_g1(wi, h);
+            let f = fresnel_dielectric(wi.dot(h), b.eta).r;
+            let g = g1i * b.distribution.smith_g1(wo, h);
+            let spec = b.specular_reflectance * (f * d * g / (4.0 * wi.z));
+            let rho = b.diffuse_reflectance;
+            let r_int = b.table.internal_reflectance;
+            let albedo = if b.nonlinear {
+                rho / (Spectrum::ONE - rho * r_int)
+            } else {
+                rho / (1.0 - r_int)
+            };
+            let t_i = transmittance(b, wi.z);
+            let t = t_i * transmittance(b, wo.z);
+            let value = spec + albedo * (crate::math::INV_PI * wo.z * t / (b.eta * b.eta));
+            (value, mixture_pdf(b, t_i, wi, wo, h, d, g1i))
+        }
+        pub fn pdf(b: &RoughPlastic, wi: Vec3, wo: Vec3) -> f32 {
+            if wi.z <= 0.0 || wo.z <= 0.0 {
+                return 0.0;
+            }
+            let h = (wi + wo).normalize();
+            let d = b.distribution.eval(h);
+            let g1i = if b.distribution.sample_visible {
+                b.distribution.smith_g1(wi, h)
+            } else {
+                1.0
+            };
+            mixture_pdf(b, transmittance(b, wi.z), wi, wo, h, d, g1i)
+        }
+        fn mixture_pdf(
+            b: &RoughPlastic,
+            t_i: f32,
+            wi: Vec3,
+            wo: Vec3,
+            h: Vec3,
+            d: f32,
+            g1i: f32,
+        ) -> f32 {
+            let ps = prob_specular(b, t_i);
+            let p_spec = b.distribution.reflection_pdf(wi, wo, h, d, g1i);
+            let p = ps * p_spec + (1.0 - ps) * warp::cosine_hemisphere_pdf(wo);
+            if p.is_finite() {
+                p
+            } else {
+                0.0
+            }
+        }
+        pub fn sample(b: &RoughPlastic, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
+            if wi.z <= 0.0 {
+                return None;
+            }
+            let ps = prob_specular(b, transmittance(b, wi.z));
+            let (wo, kind) = if u1 < ps {
+                let m = b.distribution.sample_normal(wi, u2);
+                (reflect(wi, m), Lobes::GLOSSY_REFLECTION)
+            } else {
+                (
+                    warp::square_to_cosine_hemisphere(u2),
+                    Lobes::DIFFUSE_REFLECTION,
+                )
+            };
+            let (value, pdf) = eval_pdf(b, wi, wo);
+            if !is_positive(pdf) {
+                return None;
+            }
+            Some(BsdfSample {
+                wo,
+                pdf,
+                weight: value / pdf,
+                eta: 1.0,
+                lobe: kind,
+            })
+        }
+    }
+
+    /// Materials covering both distributions, visible and all-normal sampling, linear and
+    /// non-linear, η above and below 1, coloured reflectances.
+    fn materials() -> Vec<RoughPlastic> {
+        let mut v = Vec::new();
+        for kind in [MicrofacetType::Beckmann, MicrofacetType::Ggx] {
+            for (alpha, sv, nl, int_ior) in [
+                (0.1, true, false, 1.49),
+                (0.35, false, true, 1.5),
+                (0.8, true, true, 1.33),
+                (0.02, true, false, 0.8),
+            ] {
+                v.push(RoughPlastic::new(
+                    kind,
+                    alpha,
+                    sv,
+                    Spectrum::new(0.7, 0.3, 0.05),
+                    Spectrum::new(1.0, 0.8, 0.6),
+                    int_ior,
+                    1.000277,
+                    nl,
+                ));
+            }
+        }
+        v
+    }
+
+    /// Random directions over the whole sphere (both sides), a few special ones, and u's.
+    fn inputs(n: usize) -> Vec<(Vec3, Vec3, f32, Vec2)> {
+        let mut r = crate::math::rng::Pcg32::new(18, 7);
+        let dir = |r: &mut crate::math::rng::Pcg32| {
+            crate::math::warp::square_to_uniform_sphere(Vec2::new(r.next_f32(), r.next_f32()))
+        };
+        let mut v: Vec<_> = (0..n)
+            .map(|_| {
+                let wi = dir(&mut r);
+                let wo = dir(&mut r);
+                (wi, wo, r.next_f32(), Vec2::new(r.next_f32(), r.next_f32()))
+            })
+            .collect();
+        let special = [
+            Vec3::Z,
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.6, 0.0, 0.8),
+            -Vec3::Z,
+        ];
+        for a in special {
+            for b in special {
+                v.push((a, b, 0.5, Vec2::new(0.5, 0.5)));
+                v.push((a, -a, 0.0, Vec2::new(0.0, 0.999_999_94)));
+            }
+        }
+        v
+    }
+
+    /// Equal bits, NaN as NaN.
+    fn same(a: f32, b: f32) -> bool {
+        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+    }
+    fn same3(a: Vec3, b: Vec3) -> bool {
+        same(a.x, b.x) && same(a.y, b.y) && same(a.z, b.z)
+    }
+
+    /// The lane form at width 1 gives the former scalar code's bits: eval, pdf, eval_pdf and
+    /// sample (direction, density, weight, lobe, and where it fails) on 200 000 random pairs
+    /// per material.
+    #[test]
+    fn lane_form_f32_equals_the_former_scalar_code() {
+        let inp = inputs(25_000);
+        for b in materials() {
+            for &(wi, wo, u1, u2) in &inp {
+                let (v, p) = b.eval_pdf(wi, wo);
+                let (v0, p0) = former::eval_pdf(&b, wi, wo);
+                assert!(
+                    same3(v, v0) && same(p, p0),
+                    "{b:?} {wi} {wo}: {v} {p} vs {v0} {p0}"
+                );
+                assert!(same3(b.eval(wi, wo), v0));
+                let pf = former::pdf(&b, wi, wo);
+                assert!(
+                    same(b.pdf(wi, wo), pf),
+                    "{wi} {wo}: {} vs {pf}",
+                    b.pdf(wi, wo)
+                );
+                let s = b.sample(wi, u1, u2);
+                let s0 = former::sample(&b, wi, u1, u2);
+                match (s, s0) {
+                    (None, None) => {}
+                    (Some(s), Some(s0)) => assert!(
+                        same3(s.wo, s0.wo)
+                            && same(s.pdf, s0.pdf)
+                            && same3(s.weight, s0.weight)
+                            && s.lobe == s0.lobe,
+                        "{wi} {u1} {u2}: {s:?} vs {s0:?}"
+                    ),
+                    _ => panic!("{b:?} {wi} {u1} {u2}: {s:?} vs {s0:?}"),
+                }
+            }
+        }
+    }
+
+    /// 8 lanes give each lane the bits of width 1 (eval_pdf and sample, NaN as NaN).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn eight_lanes_equal_width_1() {
+        let Some(avx) = Avx2::detect() else { return };
+        let inp = inputs(8_000);
+        let col = |f: &dyn Fn(usize) -> f32| -> [f32; 8] { core::array::from_fn(f) };
+        for b in materials() {
+            for c in inp.chunks_exact(8) {
+                let wi = [0, 1, 2].map(|j| col(&|k| c[k].0[j]));
+                let wo = [0, 1, 2].map(|j| col(&|k| c[k].1[j]));
+                let u1 = col(&|k| c[k].2);
+                let u2 = [0, 1].map(|j| col(&|k| c[k].3[j]));
+                let (e, s) = avx.run(|| {
+                    let v3 = |a: &[[f32; 8]; 3]| {
+                        V3::new(avx.load(&a[0]), avx.load(&a[1]), avx.load(&a[2]))
+                    };
+                    let (wi8, wo8) = (v3(&wi), v3(&wo));
+                    let u2 = V2::new(avx.load(&u2[0]), avx.load(&u2[1]));
+                    (
+                        b.eval_pdf_lanes(wi8, wo8),
+                        b.sample_lanes(wi8, avx.load(&u1), u2),
+                    )
+                });
+                for (k, &(wi, wo, u1, u2)) in c.iter().enumerate() {
+                    let (v1, p1) = b.eval_pdf_lanes::<f32>(wi.into(), wo.into());
+                    let v8 = Vec3::new(e.0.x.lane(k), e.0.y.lane(k), e.0.z.lane(k));
+                    assert!(same3(v8, v1.into()) && same(e.1.lane(k), p1), "{wi} {wo}");
+                    let s1 = b.sample_lanes::<f32>(wi.into(), u1, u2.into());
+                    let ok8 = s.ok.to_array()[k];
+                    assert_eq!(ok8, s1.ok, "{wi} {u1} {u2}");
+                    let wo8 = Vec3::new(s.wo.x.lane(k), s.wo.y.lane(k), s.wo.z.lane(k));
+                    let w8 = Vec3::new(s.weight.x.lane(k), s.weight.y.lane(k), s.weight.z.lane(k));
+                    assert!(
+                        same3(wo8, s1.wo.into())
+                            && same(s.pdf.lane(k), s1.pdf)
+                            && same3(w8, s1.weight.into()),
+                        "{wi} {u1} {u2}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// The table lookup at 8 lanes equals width 1, at the grid nodes, between them, outside
+    /// [0, 1] and at NaN.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn transmittance_8_wide_equals_width_1() {
+        let Some(avx) = Avx2::detect() else { return };
+        let t = RoughPlasticTable::cached(MicrofacetType::Ggx, 0.3, 1.5);
+        let mut xs: Vec<f32> = (0..=640).map(|i| i as f32 / 640.0).collect();
+        xs.extend([
+            -1.0,
+            -0.0,
+            1.5,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            62.5 / 63.0,
+            1e-30,
+        ]);
+        while xs.len() % 8 != 0 {
+            xs.push(0.25);
+        }
+        for c in xs.chunks_exact(8) {
+            let a: [f32; 8] = c.try_into().expect("8");
+            let r = avx.run(|| t.transmittance_lanes(avx.load(&a))).to_array();
+            for k in 0..8 {
+                assert!(same(r[k], t.transmittance(a[k])), "{}", a[k]);
+            }
+        }
+        assert!(t.transmittance(f32::NAN).is_nan());
+        assert_eq!(
+            t.transmittance(2.0),
+            t.external_transmittance[TRANSMITTANCE_RES - 1]
+        );
+    }
 
     /// The 8-wide quadrature gives the width-1 one's bits (so a table does not depend on the
     /// CPU), for both distributions, both resolutions (η > 1 and < 1), reflection and

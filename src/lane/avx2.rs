@@ -268,6 +268,16 @@ impl Lane for F32x8 {
     fn lane(self, i: usize) -> f32 {
         self.to_array()[i]
     }
+    #[inline(always)]
+    fn gather<const N: usize>(table: &[f32; N], idx: I32x8) -> F32x8 {
+        const { assert!(N >= 1 && N <= i32::MAX as usize) };
+        // SAFETY: an I32x8 exists only with AVX2; after the unsigned clamp every index is
+        // below N, so each of the 8 loads reads inside `table`.
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(N as i32 - 1));
+            F32x8(_mm256_i32gather_ps::<4>(table.as_ptr(), i))
+        }
+    }
 }
 
 impl LaneI32 for I32x8 {

@@ -105,6 +105,10 @@ pub trait Lane:
     fn trunc_i32(self) -> Self::I32;
     /// Lane `i` as a scalar (tests, tails).
     fn lane(self, i: usize) -> f32;
+    /// `table[idx]` per lane (a table lookup: `vgatherdps` at width 8), each index first
+    /// clamped to `N − 1` as an unsigned number (so a negative index reads the last entry):
+    /// always in bounds, the same entry at both widths. `N` must be in 1..=i32::MAX.
+    fn gather<const N: usize>(table: &[f32; N], idx: Self::I32) -> Self;
 
     /// |self| (clears the sign bit; NaN stays NaN).
     #[inline(always)]

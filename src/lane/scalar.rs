@@ -117,6 +117,11 @@ impl Lane for f32 {
     fn lane(self, _i: usize) -> f32 {
         self
     }
+    #[inline(always)]
+    fn gather<const N: usize>(table: &[f32; N], idx: i32) -> f32 {
+        const { assert!(N >= 1 && N <= i32::MAX as usize) };
+        table[(idx as u32).min(N as u32 - 1) as usize]
+    }
 }
 
 impl LaneI32 for i32 {

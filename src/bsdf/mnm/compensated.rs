@@ -26,7 +26,9 @@
 
 use super::facets::MAX_FACETS;
 use super::ms_table::{Colour, MsTable, ThetaCell};
+use super::nested_batch::{self, Evaluated, Pairs};
 use super::MicrofacetNormalMap;
+use crate::bsdf::diffuse::Diffuse;
 use crate::bsdf::roughconductor::RoughConductor;
 use crate::bsdf::roughplastic::RoughPlastic;
 use crate::bsdf::{Bsdf, BsdfContext, BsdfNode, BsdfSample};
@@ -277,7 +279,7 @@ fn inv(x: f32) -> f32 {
 
 /// One term of the first order already known from the nested sample that drew ωo: entry `j`,
 /// exit through the wall or not, and the nested F and P of that pair.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Known {
     j: usize,
     wall: bool,
@@ -305,7 +307,9 @@ pub(super) struct FirstOrder {
 /// `explicit::eval_pdf_complete` (mirror sawtooth) or `explicit::eval_pdf_single`, in the same
 /// order and with the same operations (so bit for bit equal to them), with ωo (and R(ωo)) put
 /// into the facet frame once for all entries, and the `known` term not evaluated again. The
-/// walk's density comes along when `WALK` ([`FirstOrder::p_walk`], else 0).
+/// nested evaluations of all terms are made in one batch ([`super::nested_batch`]: one 8-wide
+/// call for nested BSDFs with a lane form). The walk's density comes along when `WALK`
+/// ([`FirstOrder::p_walk`], else 0).
 #[inline]
 fn first_order<const WALK: bool>(
     m: &MicrofacetNormalMap,
@@ -323,28 +327,47 @@ fn first_order<const WALK: bool>(
     let mut v = Spectrum::ZERO;
     let mut p = 0.0;
     let mut pw = 0.0;
-    let fp = |j: usize, wall: bool, b: Vec3, s: &mut Sampler| -> (Spectrum, f32) {
-        match known {
-            Some(kn) if kn.j == j && kn.wall == wall => (kn.f, kn.p),
-            _ if pdf_only => (Spectrum::ZERO, nested.pdf(ctx, e.a[j], b)),
-            _ => nested.eval_pdf(ctx, e.a[j], b, s),
-        }
-    };
+    let is_known = |j: usize, wall: bool| matches!(known, Some(kn) if kn.j == j && kn.wall == wall);
+    // Pass 1: the pairs to evaluate, in the order the terms are summed (slot NONE: the known
+    // term, or no such path).
+    let mut pairs = Pairs::new();
+    let mut slot = [[NONE; 2]; MAX_FACETS];
     if m.mirror_wall {
         let fr = &m.frames[0];
         let bo = fr.to_local(wo);
         let exit_t = wall_exit(m, wo);
+        for (j, (sl, &a)) in slot.iter_mut().zip(&e.a).enumerate().take(e.len()) {
+            if !is_known(j, false) {
+                sl[0] = pairs.push(a, bo, pdf_only) as u8;
+            }
+            if let Some((rb, _)) = exit_t {
+                if !is_known(j, true) {
+                    sl[1] = pairs.push(a, rb, pdf_only) as u8;
+                }
+            }
+        }
+        let ev = nested.eval_pairs(ctx, &pairs, s);
+        // Pass 2: the sums, as before term by term.
+        let term = |j: usize, wall: bool| -> (Spectrum, f32) {
+            match known {
+                Some(kn) if kn.j == j && kn.wall == wall => (kn.f, kn.p),
+                _ => {
+                    let i = slot[j][usize::from(wall)] as usize;
+                    (if pdf_only { Spectrum::ZERO } else { ev.f(i) }, ev.p(i))
+                }
+            }
+        };
         for j in 0..e.len() {
             let w = e.w[j];
             let via_wall = e.via_wall(j);
-            let (f, pd) = fp(j, false, bo, s);
+            let (f, pd) = term(j, false);
             v += w * f;
             p += w * g1o * pd;
             if WALK {
                 pw += if via_wall { w * pd } else { w * g1o * pd };
             }
-            if let Some((rb, bt)) = exit_t {
-                let (f, pd) = fp(j, true, rb, s);
+            if let Some((_, bt)) = exit_t {
+                let (f, pd) = term(j, true);
                 v += (w * bt) * f;
                 p += w * bt * pd;
                 if WALK && !via_wall {
@@ -353,18 +376,35 @@ fn first_order<const WALK: bool>(
             }
         }
     } else {
+        let mut facing = [false; MAX_FACETS];
         for j in 0..e.len() {
-            let (k, lk) = (e.k[j] as usize, e.w[j]);
+            let k = e.k[j] as usize;
             let b = m.frames[k].to_local(wo);
-            if !pdf_only && wo.dot(surf.normal(k)) > 0.0 {
-                let (f, pd) = fp(j, false, b, s);
+            facing[j] = !pdf_only && wo.dot(surf.normal(k)) > 0.0;
+            let kn = match known {
+                Some(kn) if facing[j] => kn.j == j && !kn.wall,
+                Some(kn) => kn.j == j,
+                None => false,
+            };
+            if !kn {
+                slot[j][0] = pairs.push(e.a[j], b, !facing[j]) as u8;
+            }
+        }
+        let ev = nested.eval_pairs(ctx, &pairs, s);
+        for j in 0..e.len() {
+            let lk = e.w[j];
+            let i = slot[j][0];
+            let known_p = known.map_or(0.0, |kn| kn.p);
+            if facing[j] {
+                let (f, pd) = if i == NONE {
+                    (known.map_or(Spectrum::ZERO, |kn| kn.f), known_p)
+                } else {
+                    (ev.f(i as usize), ev.p(i as usize))
+                };
                 v += lk * f;
                 p += lk * pd;
             } else {
-                let pd = match known {
-                    Some(kn) if kn.j == j => kn.p,
-                    _ => nested.pdf(ctx, e.a[j], b),
-                };
+                let pd = if i == NONE { known_p } else { ev.p(i as usize) };
                 p += lk * pd;
             }
         }
@@ -379,11 +419,15 @@ fn first_order<const WALK: bool>(
     }
 }
 
+/// No pair (the known term, or a path that does not exist).
+const NONE: u8 = u8::MAX;
+
 /// The nested BSDF with its kind matched once per query instead of once per nested call (the
 /// first order makes about two): the functions [`Bsdf::eval_pdf`] and [`Bsdf::pdf`] reach for
 /// these kinds, called directly, so the values are the same bit for bit.
 #[derive(Clone, Copy)]
 enum Nested<'a, 'b> {
+    Diffuse(&'a Diffuse),
     Conductor(&'a RoughConductor),
     Plastic(&'a RoughPlastic),
     Other(&'b Bsdf<'a>),
@@ -393,15 +437,64 @@ impl<'a, 'b> Nested<'a, 'b> {
     #[inline(always)]
     fn of(b: &'b Bsdf<'a>) -> Self {
         match b.node() {
+            BsdfNode::Diffuse(d) => Nested::Diffuse(d),
             BsdfNode::RoughConductor(c) => Nested::Conductor(c),
             BsdfNode::RoughPlastic(p) => Nested::Plastic(p),
             _ => Nested::Other(b),
         }
     }
 
+    /// Every pair of `pairs` in one call of the nested BSDF's lane form, for the kinds that
+    /// have one (`None` for the others).
+    #[inline(always)]
+    fn lanes(self, pairs: &Pairs) -> Option<Evaluated> {
+        match self {
+            Nested::Diffuse(d) => Some(nested_batch::eval_pdf_lanes(d, pairs)),
+            Nested::Conductor(c) => Some(nested_batch::eval_pdf_lanes(c, pairs)),
+            Nested::Plastic(p) => Some(nested_batch::eval_pdf_lanes(p, pairs)),
+            Nested::Other(_) => None,
+        }
+    }
+
+    /// Every pair of `pairs`: in one lane call for kinds with a lane form, else pair by pair
+    /// (`pdf` for a pair that needs only the density, `eval_pdf` otherwise, in order: a nested
+    /// BSDF that draws random numbers draws them as before).
+    #[inline(always)]
+    fn eval_pairs(self, ctx: &BsdfContext, pairs: &Pairs, s: &mut Sampler) -> Evaluated {
+        if let Some(ev) = self.lanes(pairs) {
+            return ev;
+        }
+        let mut out = Evaluated::zero();
+        for i in 0..pairs.len() {
+            let (a, b) = (pairs.a(i), pairs.b(i));
+            if pairs.pdf_only(i) {
+                out.set(i, Spectrum::ZERO, self.pdf(ctx, a, b));
+            } else {
+                let (f, p) = self.eval_pdf(ctx, a, b, s);
+                out.set(i, f, p);
+            }
+        }
+        out
+    }
+
+    /// The densities of every pair of `pairs` (`f` left 0 except in a lane call, where it is
+    /// not read): in one lane call for kinds with a lane form, else pair by pair.
+    #[inline(always)]
+    fn pdf_pairs(self, ctx: &BsdfContext, pairs: &Pairs) -> Evaluated {
+        if let Some(ev) = self.lanes(pairs) {
+            return ev;
+        }
+        let mut out = Evaluated::zero();
+        for i in 0..pairs.len() {
+            out.set(i, Spectrum::ZERO, self.pdf(ctx, pairs.a(i), pairs.b(i)));
+        }
+        out
+    }
+
     #[inline(always)]
     fn eval_pdf(self, ctx: &BsdfContext, a: Vec3, b: Vec3, s: &mut Sampler) -> (Spectrum, f32) {
         match self {
+            Nested::Diffuse(d) => (d.eval(a, b), d.pdf(a, b)),
             Nested::Conductor(c) => c.eval_pdf(a, b),
             Nested::Plastic(p) => p.eval_pdf(a, b),
             Nested::Other(n) => n.eval_pdf(ctx, a, b, s),
@@ -411,6 +504,7 @@ impl<'a, 'b> Nested<'a, 'b> {
     #[inline(always)]
     fn pdf(self, ctx: &BsdfContext, a: Vec3, b: Vec3) -> f32 {
         match self {
+            Nested::Diffuse(d) => d.pdf(a, b),
             Nested::Conductor(c) => c.pdf(a, b),
             Nested::Plastic(p) => p.pdf(a, b),
             Nested::Other(n) => n.pdf(ctx, a, b),
@@ -509,7 +603,8 @@ pub(super) fn pdf(
     (1.0 - select) * p1 + select * wo.z * INV_PI
 }
 
-/// The first order's density alone (`explicit::pdf_complete` / `pdf_single` from the entries).
+/// The first order's density alone (`explicit::pdf_complete` / `pdf_single` from the entries),
+/// its nested densities in one batch as in [`first_order`].
 fn first_pdf(
     m: &MicrofacetNormalMap,
     e: &Entries,
@@ -519,6 +614,7 @@ fn first_pdf(
 ) -> f32 {
     let nested = Nested::of(nested);
     let surf = &m.surface;
+    let mut pairs = Pairs::new();
     let mut p = 0.0;
     if m.mirror_wall {
         let fr = &m.frames[0];
@@ -526,16 +622,30 @@ fn first_pdf(
         let bo = fr.to_local(wo);
         let exit_t = wall_exit(m, wo);
         for j in 0..e.len() {
+            pairs.push(e.a[j], bo, true);
+            if let Some((rb, _)) = exit_t {
+                pairs.push(e.a[j], rb, true);
+            }
+        }
+        let ev = nested.pdf_pairs(ctx, &pairs);
+        let mut i = 0;
+        for j in 0..e.len() {
             let w = e.w[j];
-            p += w * g1o * nested.pdf(ctx, e.a[j], bo);
-            if let Some((rb, bt)) = exit_t {
-                p += w * bt * nested.pdf(ctx, e.a[j], rb);
+            p += w * g1o * ev.p(i);
+            i += 1;
+            if let Some((_, bt)) = exit_t {
+                p += w * bt * ev.p(i);
+                i += 1;
             }
         }
     } else {
         for j in 0..e.len() {
             let k = e.k[j] as usize;
-            p += e.w[j] * nested.pdf(ctx, e.a[j], m.frames[k].to_local(wo));
+            pairs.push(e.a[j], m.frames[k].to_local(wo), true);
+        }
+        let ev = nested.pdf_pairs(ctx, &pairs);
+        for j in 0..e.len() {
+            p += e.w[j] * ev.p(j);
         }
     }
     p
@@ -753,6 +863,213 @@ mod tests {
                 geometry != Microgeometry::Sawtooth || walls > 300,
                 "{walls} wall exits"
             );
+        }
+    }
+
+    // The first order as it was before the batch (commit 6b74181), the reference of
+    // `batched_first_order_is_bit_for_bit_the_pair_by_pair_one`.
+    fn old_first_order<const WALK: bool>(
+        m: &MicrofacetNormalMap,
+        e: &Entries,
+        nested: &Bsdf,
+        ctx: &BsdfContext,
+        wo: Vec3,
+        s: &mut Sampler,
+        known: Option<Known>,
+    ) -> FirstOrder {
+        let nested = Nested::of(nested);
+        let surf = &m.surface;
+        let g1o = surf.g1(wo);
+        let pdf_only = g1o <= 0.0;
+        let mut v = Spectrum::ZERO;
+        let mut p = 0.0;
+        let mut pw = 0.0;
+        let fp = |j: usize, wall: bool, b: Vec3, s: &mut Sampler| -> (Spectrum, f32) {
+            match known {
+                Some(kn) if kn.j == j && kn.wall == wall => (kn.f, kn.p),
+                _ if pdf_only => (Spectrum::ZERO, nested.pdf(ctx, e.a[j], b)),
+                _ => nested.eval_pdf(ctx, e.a[j], b, s),
+            }
+        };
+        if m.mirror_wall {
+            let fr = &m.frames[0];
+            let bo = fr.to_local(wo);
+            let exit_t = wall_exit(m, wo);
+            for j in 0..e.len() {
+                let w = e.w[j];
+                let via_wall = e.via_wall(j);
+                let (f, pd) = fp(j, false, bo, s);
+                v += w * f;
+                p += w * g1o * pd;
+                if WALK {
+                    pw += if via_wall { w * pd } else { w * g1o * pd };
+                }
+                if let Some((rb, bt)) = exit_t {
+                    let (f, pd) = fp(j, true, rb, s);
+                    v += (w * bt) * f;
+                    p += w * bt * pd;
+                    if WALK && !via_wall {
+                        pw += w * bt * pd;
+                    }
+                }
+            }
+        } else {
+            for j in 0..e.len() {
+                let (k, lk) = (e.k[j] as usize, e.w[j]);
+                let b = m.frames[k].to_local(wo);
+                if !pdf_only && wo.dot(surf.normal(k)) > 0.0 {
+                    let (f, pd) = fp(j, false, b, s);
+                    v += lk * f;
+                    p += lk * pd;
+                } else {
+                    let pd = match known {
+                        Some(kn) if kn.j == j => kn.p,
+                        _ => nested.pdf(ctx, e.a[j], b),
+                    };
+                    p += lk * pd;
+                }
+            }
+            if WALK {
+                pw = p;
+            }
+        }
+        FirstOrder {
+            f: v * g1o,
+            p,
+            p_walk: pw,
+        }
+    }
+
+    /// The first order's density alone (`explicit::pdf_complete` / `pdf_single` from the entries).
+    fn old_first_pdf(
+        m: &MicrofacetNormalMap,
+        e: &Entries,
+        nested: &Bsdf,
+        ctx: &BsdfContext,
+        wo: Vec3,
+    ) -> f32 {
+        let nested = Nested::of(nested);
+        let surf = &m.surface;
+        let mut p = 0.0;
+        if m.mirror_wall {
+            let fr = &m.frames[0];
+            let g1o = surf.g1(wo);
+            let bo = fr.to_local(wo);
+            let exit_t = wall_exit(m, wo);
+            for j in 0..e.len() {
+                let w = e.w[j];
+                p += w * g1o * nested.pdf(ctx, e.a[j], bo);
+                if let Some((rb, bt)) = exit_t {
+                    p += w * bt * nested.pdf(ctx, e.a[j], rb);
+                }
+            }
+        } else {
+            for j in 0..e.len() {
+                let k = e.k[j] as usize;
+                p += e.w[j] * nested.pdf(ctx, e.a[j], m.frames[k].to_local(wo));
+            }
+        }
+        p
+    }
+
+    /// The batched first order ([`super::nested_batch`]) equals the pair-by-pair one it
+    /// replaced (kept above as `old_first_order` / `old_first_pdf`) bit for bit: eval, pdf and
+    /// the walk's density, with and without a known (drawn) term, over diffuse, rough conductors
+    /// (visible-normal sampling or not) and a rough plastic (lane forms), and a `twosided`
+    /// (pair by pair), for the mirror sawtooth and the V-groove; random
+    /// ωp, ωi, ωo. The table's values do not enter (an exact Lambert table: instant).
+    #[test]
+    fn batched_first_order_is_bit_for_bit_the_pair_by_pair_one() {
+        fn bits(v: Vec3) -> [u32; 3] {
+            v.to_array().map(f32::to_bits)
+        }
+        let mut arena = BsdfArena::new();
+        let mut nodes = vec![
+            arena.push(BsdfNode::Diffuse(Diffuse {
+                reflectance: Vec3::new(0.7, 0.4, 0.2),
+            })),
+            arena.push(BsdfNode::RoughConductor(RoughConductor {
+                distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),
+                eta: Vec3::new(0.2, 0.4, 1.4),
+                k: Vec3::new(3.6, 2.4, 1.8),
+                specular_reflectance: Vec3::ONE,
+            })),
+            arena.push(BsdfNode::RoughConductor(RoughConductor {
+                distribution: MicrofacetDistribution::new(MicrofacetType::Beckmann, 0.3, false),
+                eta: Vec3::new(0.2, 0.4, 1.4),
+                k: Vec3::new(3.6, 2.4, 1.8),
+                specular_reflectance: Vec3::new(1.0, 0.8, 0.6),
+            })),
+            arena.push(BsdfNode::RoughPlastic(RoughPlastic::new(
+                MicrofacetType::Ggx,
+                0.3,
+                true,
+                Vec3::new(0.5, 0.2, 0.1),
+                Vec3::ONE,
+                1.5,
+                1.0,
+                false,
+            ))),
+        ];
+        let c = nodes[1];
+        nodes.push(arena.push(BsdfNode::TwoSided { front: c, back: c }));
+        let ctx = BsdfContext::default();
+        let mut s = Sampler::from_seed(9, 2);
+        for n in nodes {
+            for (geometry, tangent) in [
+                (Microgeometry::Sawtooth, Tangent::Mirror),
+                (Microgeometry::VGroove, Tangent::Same),
+            ] {
+                let (mut checked, mut four, mut with_known) = (0, 0, 0);
+                for _ in 0..1500 {
+                    let wp = warp::square_to_uniform_cone(s.next_2d(), 70f32.to_radians().cos());
+                    let m = MicrofacetNormalMap::new(
+                        n,
+                        wp,
+                        geometry,
+                        tangent,
+                        Evaluation::Compensated,
+                        256,
+                    );
+                    let nested = arena.bsdf(n);
+                    let wi = warp::square_to_cosine_hemisphere(s.next_2d());
+                    let wo = warp::square_to_cosine_hemisphere(s.next_2d());
+                    if m.degenerate || wi.z <= 0.0 || wo.z <= 0.0 {
+                        continue;
+                    }
+                    let e = Entries::new(&m, wi);
+                    let known = (e.len() > 0 && s.next_1d() < 0.5).then(|| Known {
+                        j: ((s.next_1d() * e.len() as f32) as usize).min(e.len() - 1),
+                        wall: m.mirror_wall && s.next_1d() < 0.5,
+                        f: Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()),
+                        p: s.next_1d(),
+                    });
+                    for kn in [None, known] {
+                        let mut s1 = Sampler::from_seed(1, 1);
+                        let mut s2 = Sampler::from_seed(1, 1);
+                        let a = first_order::<true>(&m, &e, &nested, &ctx, wo, &mut s1, kn);
+                        let b = old_first_order::<true>(&m, &e, &nested, &ctx, wo, &mut s2, kn);
+                        let at = format!("{n:?} {geometry:?} {wp} {wi} {wo} {kn:?}");
+                        assert_eq!(bits(a.f), bits(b.f), "{at}");
+                        assert_eq!(a.p.to_bits(), b.p.to_bits(), "{at}");
+                        assert_eq!(a.p_walk.to_bits(), b.p_walk.to_bits(), "{at}");
+                        with_known += usize::from(kn.is_some());
+                    }
+                    let a = first_pdf(&m, &e, &nested, &ctx, wo);
+                    let b = old_first_pdf(&m, &e, &nested, &ctx, wo);
+                    assert_eq!(a.to_bits(), b.to_bits(), "{geometry:?} {wp} {wi} {wo}");
+                    checked += 1;
+                    four += usize::from(
+                        m.mirror_wall && e.len() == 2 && wo.dot(m.surface.normal(1)) > 0.0,
+                    );
+                }
+                assert!(checked > 1400, "{checked}");
+                assert!(with_known > 600, "{with_known}");
+                assert!(
+                    geometry != Microgeometry::Sawtooth || four > 50,
+                    "{four} four-path"
+                );
+            }
         }
     }
 }

@@ -41,6 +41,7 @@ pub mod misplaced;
 pub mod ms_cache;
 pub mod ms_nested;
 pub mod ms_table;
+mod nested_batch;
 pub mod walk;
 
 use super::{Bsdf, BsdfContext, BsdfSample};
