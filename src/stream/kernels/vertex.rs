@@ -298,7 +298,9 @@ pub(crate) mod x8 {
         // 3. The kernel.
         let normals8 = normals.map(|c| c.load(avx));
         let m = |a: &[bool; 8]| -> M8 { avx.mask(a) };
-        let lo = nee.then(|| {
+        // A block, not a closure: a closure would be compiled outside `Avx2::run`'s target
+        // features and call every 8-wide operation out of line.
+        let lo = if nee {
             let mut lp = LightPoint {
                 some: m(&some),
                 d: ld.load(avx),
@@ -332,14 +334,16 @@ pub(crate) mod x8 {
                 lp.pdf = F32x8::select(t, q.pdf * avx.load(&sel), lp.pdf);
             }
             let lo = light(&surf, wi, mat, &normals8, tp.load(avx), &lp);
-            (
+            Some((
                 lo.ok.to_array(),
                 store3(lo.o),
                 store3(lo.d),
                 lo.tmax.to_array(),
                 store3(lo.contribution),
-            )
-        });
+            ))
+        } else {
+            None
+        };
         let so = sample(
             &surf,
             wi,
