@@ -365,6 +365,7 @@ fn the_lane_counters_count_the_conductor_kernels() {
     let l = load(&scene("scenes/bench/metal_plastic.xml"), "classic");
     let c = render(&l, Renderer::Stream, 1, 3).lanes;
     let share = c.conductor_lanes as f64 / c.shade_used as f64;
+    eprintln!("metal_plastic (classic), 40×36 window, 3 spp: {c:?}, conductor share {share:.4}");
     assert!((0.5..=1.0).contains(&share), "{c:?}: {share}");
 }
 
