@@ -14,7 +14,7 @@ use super::lanes::LaneBsdfSample;
 use super::{BsdfSample, Lobes};
 use crate::lane::fresnel::conductor as lane_conductor;
 use crate::lane::vec::{V2, V3};
-use crate::lane::Lane;
+use crate::lane::{Lane, LaneMask};
 use crate::spectrum::Spectrum;
 use glam::Vec3;
 
@@ -49,18 +49,31 @@ impl Conductor {
     }
 
     /// The mirror direction about the shading normal, weighted by `specular_reflectance` times
-    /// the conductor Fresnel reflectance; `ok` where `wi` is above the surface. Density 0 (a
-    /// delta lobe). `u1`, `u2` unused. The lane form; [`Self::sample`] is its width 1.
+    /// the conductor Fresnel reflectance; `ok` where `wi` is above the surface (zeros in the
+    /// other lanes). Density 0 (a delta lobe). `u1`, `u2` unused. The lane form;
+    /// [`Self::sample`] is its width 1.
     #[inline(always)]
     pub(crate) fn sample_lanes<L: Lane>(&self, wi: V3<L>, _u1: L, _u2: V2<L>) -> LaneBsdfSample<L> {
         let s = |v: Vec3| V3::splat(wi.z, v.x, v.y, v.z);
         let zero = wi.z.splat(0.0);
+        let zero3 = V3::new(zero, zero, zero);
+        let ok = !wi.z.le(zero);
+        if !ok.any() {
+            // Fast path (the bits of the selects below).
+            return LaneBsdfSample {
+                ok,
+                wo: zero3,
+                pdf: zero,
+                weight: zero3,
+            };
+        }
+        let weight = s(self.specular_reflectance) * lane_conductor(wi.z, s(self.eta), s(self.k));
         LaneBsdfSample {
-            ok: !wi.z.le(zero),
+            ok,
             // fresnel::reflect_z.
-            wo: V3::new(-wi.x, -wi.y, wi.z),
+            wo: V3::select(ok, V3::new(-wi.x, -wi.y, wi.z), zero3),
             pdf: zero,
-            weight: s(self.specular_reflectance) * lane_conductor(wi.z, s(self.eta), s(self.k)),
+            weight: V3::select(ok, weight, zero3),
         }
     }
 

@@ -130,6 +130,77 @@ impl NormalMap {
     }
 }
 
+/// The lane forms of this file's frame and shadowing term (the stream renderer's conductor
+/// kernels, `stream::kernels::conductor`): the operations of [`perturbed_frame`],
+/// [`NormalMap::frame`] and [`shadow_terminator`] in the same order, with selects for branches,
+/// so every lane equals the scalar function bit for bit (tested below).
+pub(crate) mod lanes {
+    use crate::lane::frame::Frame;
+    use crate::lane::vec::V3;
+    use crate::lane::{Lane, LaneMask};
+
+    /// `max(1 − cos², 0) / cos²` of `w`.
+    #[inline(always)]
+    fn tan2<L: Lane>(w: V3<L>) -> L {
+        let c2 = w.z * w.z;
+        (c2.splat(1.0) - c2).max(c2.splat(0.0)) / c2
+    }
+
+    /// [`super::shadow_terminator`].
+    #[inline(always)]
+    pub(crate) fn shadow_terminator<L: Lane>(n: V3<L>, wo: V3<L>) -> L {
+        let k = |c: f32| n.z.splat(c);
+        let alpha2 = (k(0.125) * tan2(n)).min(k(1.0));
+        let g = k(2.0) / (k(1.0) + (k(1.0) + alpha2 * tan2(wo)).sqrt());
+        let g = L::select(g.is_finite(), g, k(0.0));
+        L::select(alpha2.le(k(0.0)) | alpha2.is_nan(), k(1.0), g)
+    }
+
+    /// [`super::perturbed_frame`].
+    #[inline(always)]
+    pub(crate) fn perturbed_frame<L: Lane>(n: V3<L>) -> Frame<L> {
+        let k = |c: f32| n.z.splat(c);
+        let len2 = n.length_squared();
+        let good = len2.gt(k(0.0)) & len2.is_finite();
+        let n = V3::select(
+            good,
+            n.div_by(len2.sqrt()),
+            V3::splat(k(0.0), 0.0, 0.0, 1.0),
+        );
+        // Vec3::X − n · n.x.
+        let s = V3::new(k(1.0) - n.x * n.x, k(0.0) - n.y * n.x, k(0.0) - n.z * n.x);
+        let ls2 = s.length_squared();
+        let good = ls2.gt(k(0.0)) & ls2.is_finite();
+        let s = V3::select(good, s.div_by(ls2.sqrt()), V3::splat(k(0.0), 0.0, 1.0, 0.0));
+        Frame {
+            s,
+            t: n.cross(s),
+            n,
+        }
+    }
+
+    /// [`super::NormalMap::frame`] for the decoded normal `n` (not normalised) and the
+    /// incident direction `wi`.
+    #[inline(always)]
+    pub(crate) fn frame<L: Lane>(n: V3<L>, flip_invalid_normals: bool, wi: V3<L>) -> Frame<L> {
+        let f = perturbed_frame(n);
+        if !flip_invalid_normals {
+            return f;
+        }
+        let flip = (wi.z * wi.dot(n)).le(wi.z.splat(0.0));
+        if !flip.any() {
+            // Fast path (same bits as the selects below): no lane flips.
+            return f;
+        }
+        let g = perturbed_frame(V3::new(-n.x, -n.y, n.z));
+        Frame {
+            s: V3::select(flip, g.s, f.s),
+            t: V3::select(flip, g.t, f.t),
+            n: V3::select(flip, g.n, f.n),
+        }
+    }
+}
+
 /// The perturbed frame for `wi` with `wi` and `wo` in it, or `None` when `wo` changes sides
 /// between the perturbed and the unperturbed frame (no light, as in Mitsuba).
 #[inline]
@@ -255,5 +326,76 @@ pub(crate) mod load {
             }
         };
         Ok((nested, &nested_node.loc, normalmap))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::lanes::testing::*;
+    use crate::lane::vec::V3;
+    #[cfg(target_arch = "x86_64")]
+    use crate::lane::Lane;
+    use crate::math::Pcg32;
+
+    /// Decoded normals as a normal map gives them (2·rgb − 1, rgb in [0, 1], so neither unit
+    /// nor always above the surface), the exact ±z and the degenerate zero vector.
+    fn normals(r: &mut Pcg32, n: usize) -> Vec<Vec3> {
+        let mut v: Vec<Vec3> = (0..n)
+            .map(|_| Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()) * 2.0 - Vec3::ONE)
+            .collect();
+        v.extend([
+            Vec3::ZERO,
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            Vec3::new(0.5, 0.5, 1.0),
+        ]);
+        v
+    }
+
+    /// The lane frame and shadowing term at width 1 equal the scalar ones, and at width 8
+    /// width 1, lane by lane.
+    #[test]
+    fn lane_frame_and_shadowing_equal_the_scalar_ones() {
+        let mut r = Pcg32::new(9, 4);
+        let ns = normals(&mut r, 3000);
+        let cases: Vec<(Vec3, Vec3, Vec3)> = ns
+            .iter()
+            .map(|&n| (n, direction(&mut r), direction(&mut r)))
+            .collect();
+        for flip in [false, true] {
+            for &(n, wi, wo) in &cases {
+                let f = NormalMap::new(0, n, flip, true).frame(wi);
+                let g = lanes::frame(V3::from(n), flip, V3::from(wi));
+                assert!(
+                    same3(f.s, g.s.into()) && same3(f.t, g.t.into()) && same3(f.n, g.n.into()),
+                    "{n} {wi}"
+                );
+                let t = lanes::shadow_terminator(V3::from(f.n), V3::from(wo));
+                assert!(same(t, shadow_terminator(f.n, wo)), "{n} {wo}");
+            }
+            #[cfg(target_arch = "x86_64")]
+            if let Some(avx) = crate::lane::Avx2::detect() {
+                for c in cases.chunks_exact(8) {
+                    let n: [Vec3; 8] = std::array::from_fn(|k| c[k].0);
+                    let wi: [Vec3; 8] = std::array::from_fn(|k| c[k].1);
+                    let wo: [Vec3; 8] = std::array::from_fn(|k| c[k].2);
+                    let (f, t) = avx.run(|| {
+                        let f = lanes::frame(load3(avx, &n), flip, load3(avx, &wi));
+                        (f, lanes::shadow_terminator(f.n, load3(avx, &wo)))
+                    });
+                    for k in 0..8 {
+                        let g = lanes::frame(V3::from(n[k]), flip, V3::from(wi[k]));
+                        assert!(
+                            same3(lane3(f.s, k), g.s.into()) && same3(lane3(f.n, k), g.n.into())
+                        );
+                        assert!(same3(lane3(f.t, k), g.t.into()));
+                        let t1 = lanes::shadow_terminator(g.n, V3::from(wo[k]));
+                        assert!(same(t.lane(k), t1));
+                    }
+                }
+            }
+        }
     }
 }

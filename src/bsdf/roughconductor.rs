@@ -23,7 +23,7 @@ use super::{BsdfSample, Lobes};
 use crate::lane::fresnel::conductor as lane_conductor;
 use crate::lane::microfacet::Microfacet;
 use crate::lane::vec::{V2, V3};
-use crate::lane::Lane;
+use crate::lane::{Lane, LaneMask};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 
@@ -72,17 +72,25 @@ impl RoughConductor {
     #[inline(always)]
     pub(crate) fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
         let k = |c: f32| wi.z.splat(c);
+        let zero = V3::splat(k(0.0), 0.0, 0.0, 0.0);
+        let below = wi.z.le(k(0.0)) | wo.z.le(k(0.0));
+        if below.all() {
+            // Fast path (the bits of the selects below): no lane has a pair above the surface.
+            return (zero, k(0.0));
+        }
         let dist = self.microfacet(wi.z);
         let h = (wi + wo).normalize();
         let d = dist.eval(h);
+        let bad = below | d.eq(k(0.0));
+        if bad.all() {
+            return (zero, k(0.0));
+        }
         let g1i = dist.smith_g1(wi, h);
         // f cos θo = F D G / (4 cos θi).
         let f = self
             .fresnel_lanes(wi.dot(h))
             .scale(d * g1i * dist.smith_g1(wo, h) / (k(4.0) * wi.z));
         let pdf = dist.reflection_pdf(wi, wo, h, d, g1i);
-        let bad = wi.z.le(k(0.0)) | wo.z.le(k(0.0)) | d.eq(k(0.0));
-        let zero = V3::splat(k(0.0), 0.0, 0.0, 0.0);
         (V3::select(bad, zero, f), L::select(bad, k(0.0), pdf))
     }
 
@@ -91,6 +99,11 @@ impl RoughConductor {
     #[inline(always)]
     pub(crate) fn pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> L {
         let k = |c: f32| wi.z.splat(c);
+        let below = wi.z.le(k(0.0)) | wo.z.le(k(0.0));
+        if below.all() {
+            // Fast path (the bits of the select below).
+            return k(0.0);
+        }
         let dist = self.microfacet(wi.z);
         let h = (wi + wo).normalize();
         let d = dist.eval(h);
@@ -100,32 +113,51 @@ impl RoughConductor {
             k(1.0)
         };
         let pdf = dist.reflection_pdf(wi, wo, h, d, g1i);
-        L::select(wi.z.le(k(0.0)) | wo.z.le(k(0.0)), k(0.0), pdf)
+        L::select(below, k(0.0), pdf)
     }
 
     /// A microfacet normal from `u2` (`u1` unused: one lobe), `wi` reflected about it. Lanes
-    /// outside `ok` hold unspecified numbers. The lane form; [`Self::sample`] is its width 1.
+    /// outside `ok` hold zeros. The lane form; [`Self::sample`] is its width 1.
     #[inline(always)]
     pub(crate) fn sample_lanes<L: Lane>(&self, wi: V3<L>, _u1: L, u2: V2<L>) -> LaneBsdfSample<L> {
         let k = |c: f32| wi.z.splat(c);
+        let zero = V3::splat(k(0.0), 0.0, 0.0, 0.0);
+        let none = LaneBsdfSample {
+            ok: k(0.0).ne(k(0.0)),
+            wo: zero,
+            pdf: k(0.0),
+            weight: zero,
+        };
+        // Fast paths (the bits of the final selects) where no lane is left.
+        let ok = !wi.z.le(k(0.0));
+        if !ok.any() {
+            return none;
+        }
         let dist = self.microfacet(wi.z);
         let m = dist.sample_normal(wi, u2);
         let pm = dist.pdf(wi, m);
+        let ok = ok & pm.gt(k(0.0));
+        if !ok.any() {
+            return none;
+        }
         // math::reflect: 2 (wi·m) m − wi.
         let wo = m.scale(k(2.0) * wi.dot(m)) - wi;
+        let ok = ok & !wo.z.le(k(0.0));
+        if !ok.any() {
+            return none;
+        }
         let pdf = pm / (k(4.0) * wo.dot(m));
         let w = if dist.sample_visible {
             dist.smith_g1(wo, m)
         } else {
             dist.g(wi, wo, m) * wi.dot(m) / (wi.z * m.z)
         };
-        let ok =
-            !wi.z.le(k(0.0)) & pm.gt(k(0.0)) & !wo.z.le(k(0.0)) & pdf.gt(k(0.0)) & w.gt(k(0.0));
+        let ok = ok & pdf.gt(k(0.0)) & w.gt(k(0.0));
         LaneBsdfSample {
             ok,
-            wo,
-            pdf,
-            weight: self.fresnel_lanes(wi.dot(m)).scale(w),
+            wo: V3::select(ok, wo, zero),
+            pdf: L::select(ok, pdf, k(0.0)),
+            weight: V3::select(ok, self.fresnel_lanes(wi.dot(m)).scale(w), zero),
         }
     }
 

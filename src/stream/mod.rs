@@ -11,8 +11,10 @@
 //! 2. **emission**: what each ray sees, MIS-weighted ([`crate::integrator::path::PathState::add_emission`]);
 //! 3. **sort** the paths that scatter by material (stable counting sort);
 //! 4. **shade** each material's run of paths: light sample up to its shadow ray, BSDF sample,
-//!    Russian roulette. A `diffuse` run of ≥ 8 paths goes 8 at a time through the 8-wide kernel
-//!    ([`kernels::diffuse`], AVX2 machines); every other material, a run's last < 8 paths and a
+//!    Russian roulette. A run of ≥ 8 paths of a material with an 8-wide kernel (chosen per
+//!    material at load, [`Kernel`]: `diffuse`, [`kernels::diffuse`]; `roughconductor` and
+//!    `conductor` under `twosided`/classic `normalmap`, [`kernels::conductor`]) goes 8 at a
+//!    time through it (AVX2 machines); every other material, a run's last < 8 paths and a
 //!    machine without AVX2 go through the 1-lane code lane by lane
 //!    ([`crate::integrator::path::PathState::scatter`]);
 //! 5. **shadow rays** of the pending light samples, in path order, adding the unoccluded ones;
@@ -56,6 +58,9 @@ pub struct LaneCounters {
     /// Paths shaded by an 8-wide material kernel (the rest of `shade_used` went through the
     /// 1-lane code lane by lane).
     pub kernel_lanes: u64,
+    /// The part of `kernel_lanes` shaded by the `roughconductor`/`conductor` kernels
+    /// ([`kernels::conductor`]).
+    pub conductor_lanes: u64,
     /// Batches and bounces (trace stages) run.
     pub batches: u64,
     pub bounces: u64,
@@ -70,6 +75,7 @@ impl LaneCounters {
         self.shadow_used += o.shadow_used;
         self.shadow_slots += o.shadow_slots;
         self.kernel_lanes += o.kernel_lanes;
+        self.conductor_lanes += o.conductor_lanes;
         self.batches += o.batches;
         self.bounces += o.bounces;
     }
@@ -190,23 +196,36 @@ pub struct StreamScratch {
 }
 
 /// The 8-wide kernels a scene's materials can use: the AVX2 token (none without AVX2: then
-/// every path is shaded lane by lane) and, per material id, its `diffuse` reflectance texture
-/// and whether it takes light samples.
+/// every path is shaded lane by lane) and, per material id, the kernel that shades it, if any
+/// (decided once, at load, from the material tree).
 struct Kernels {
     #[cfg(target_arch = "x86_64")]
     avx: Option<crate::lane::Avx2>,
-    diffuse: Vec<Option<(crate::material::TexId, bool)>>,
+    kinds: Vec<Option<Kernel>>,
+}
+
+/// Which 8-wide kernel shades a material, with what it needs.
+#[derive(Clone, Copy, Debug)]
+enum Kernel {
+    /// `diffuse` ([`kernels::diffuse`]): its reflectance texture and whether it takes light
+    /// samples.
+    Diffuse(crate::material::TexId, bool),
+    /// `roughconductor` or `conductor` with constant parameters, bare or under `twosided` and
+    /// classic `normalmap` ([`kernels::conductor`]).
+    Conductor(kernels::conductor::Material),
 }
 
 impl Kernels {
     fn new(scene: &Scene) -> Kernels {
         use crate::material::MaterialNode;
-        let diffuse = (0..scene.materials.node_count())
+        let kinds = (0..scene.materials.node_count())
             .map(|m| match scene.materials.nodes()[m] {
-                MaterialNode::Diffuse { reflectance } => {
-                    Some((reflectance, scene.materials.lobes(m as u32).is_smooth()))
-                }
-                _ => None,
+                MaterialNode::Diffuse { reflectance } => Some(Kernel::Diffuse(
+                    reflectance,
+                    scene.materials.lobes(m as u32).is_smooth(),
+                )),
+                _ => kernels::conductor::Material::of(&scene.materials, m as u32)
+                    .map(Kernel::Conductor),
             })
             .collect();
         Kernels {
@@ -216,7 +235,7 @@ impl Kernels {
             } else {
                 crate::lane::Avx2::detect()
             },
-            diffuse,
+            kinds,
         }
     }
 
@@ -379,8 +398,12 @@ fn shade(
         while end < batch.sorted.len() && batch.material[batch.sorted[end] as usize] == m {
             end += 1;
         }
-        let done = shade_kernel(scene, cfg, batch, start..end, kernels, m);
-        scratch.rays.counters.lanes.kernel_lanes += done as u64;
+        let (done, conductor) = shade_kernel(scene, cfg, batch, start..end, kernels, m);
+        let lanes = &mut scratch.rays.counters.lanes;
+        lanes.kernel_lanes += done as u64;
+        if conductor {
+            lanes.conductor_lanes += done as u64;
+        }
         for k in start + done..end {
             let i = batch.sorted[k] as usize;
             let Some(si) = &batch.si[i] else { continue };
@@ -402,7 +425,8 @@ fn shade(
 }
 
 /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (material `m`) with
-/// `m`'s 8-wide kernel; returns how many it shaded (0 without a kernel or AVX2).
+/// `m`'s 8-wide kernel; returns how many it shaded and whether the kernel is a conductor's (0
+/// without a kernel or AVX2).
 #[cfg(target_arch = "x86_64")]
 fn shade_kernel(
     scene: &Scene,
@@ -411,30 +435,47 @@ fn shade_kernel(
     run: std::ops::Range<usize>,
     kernels: &Kernels,
     m: crate::material::MatId,
-) -> usize {
-    use kernels::diffuse::x8;
-    let (Some(avx), Some(&Some((tex, smooth)))) = (kernels.avx, kernels.diffuse.get(m as usize))
-    else {
-        return 0;
+) -> (usize, bool) {
+    let (Some(avx), Some(&Some(kind))) = (kernels.avx, kernels.kinds.get(m as usize)) else {
+        return (0, false);
     };
     let n = run.len() / 8 * 8;
     if n == 0 {
-        return 0;
+        return (0, false);
     }
-    let mat = x8::Material {
-        reflectance: &scene.materials.textures[tex as usize],
-        smooth,
-    };
-    avx.run(
-        #[inline(always)]
-        || {
-            for c in (run.start..run.start + n).step_by(8) {
-                let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
-                x8::shade(avx, scene, cfg, batch, &ids, mat);
-            }
-        },
-    );
-    n
+    let chunks = (run.start..run.start + n).step_by(8);
+    match kind {
+        Kernel::Diffuse(tex, smooth) => {
+            use kernels::diffuse::x8;
+            let mat = x8::Material {
+                reflectance: &scene.materials.textures[tex as usize],
+                smooth,
+            };
+            avx.run(
+                #[inline(always)]
+                || {
+                    for c in chunks {
+                        let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
+                        x8::shade(avx, scene, cfg, batch, &ids, mat);
+                    }
+                },
+            );
+            (n, false)
+        }
+        Kernel::Conductor(mat) => {
+            use kernels::vertex::x8;
+            avx.run(
+                #[inline(always)]
+                || {
+                    for c in chunks {
+                        let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
+                        x8::shade(avx, scene, cfg, batch, &ids, &mat);
+                    }
+                },
+            );
+            (n, true)
+        }
+    }
 }
 
 #[cfg(not(target_arch = "x86_64"))]
@@ -445,8 +486,8 @@ fn shade_kernel(
     _: std::ops::Range<usize>,
     _: &Kernels,
     _: crate::material::MatId,
-) -> usize {
-    0
+) -> (usize, bool) {
+    (0, false)
 }
 
 /// Traces the shadow rays of the paths that scattered, in path order, and adds the light

@@ -222,7 +222,7 @@ fn stream_equals_scalar_in_the_diffuse_kernel_under_every_setting() {
 /// The lane counters see the kernel: on the Cornell box (every material `diffuse`) at least
 /// 90 % of the shaded paths go through it (each run of one material at one bounce leaves its
 /// last < 8 paths to the 1-lane code: 5 materials × ≤ 7 of ~1000 paths per batch at the first
-/// bounce), on metal_plastic (no `diffuse`) none.
+/// bounce), on metal_plastic (no `diffuse`) none but the conductor kernels'.
 #[test]
 fn the_lane_counters_count_the_diffuse_kernel() {
     let l = load(&scene("scenes/cornell/cbox-rgb.xml"), "as_written");
@@ -231,7 +231,10 @@ fn the_lane_counters_count_the_diffuse_kernel() {
     assert!((0.9..=1.0).contains(&share), "{c:?}: {share}");
     let l = load(&scene("scenes/bench/metal_plastic.xml"), "classic");
     let c = render(&l, Renderer::Stream, 1, 3).lanes;
-    assert!(c.shade_used > 0 && c.kernel_lanes == 0, "{c:?}");
+    assert!(
+        c.shade_used > 0 && c.kernel_lanes == c.conductor_lanes,
+        "{c:?}"
+    );
 }
 
 /// Every ray kind traced as 8-wide packets (the default under tier A only) and camera packets
@@ -290,6 +293,80 @@ fn the_stream_renderer_refuses_other_integrators() {
         msg.contains("path integrator only") && msg.contains("direct"),
         "{msg}"
     );
+}
+
+// ---- The conductor kernels (issue 18, step 2: `stream::kernels::conductor`) ----
+
+/// The scenes where the 8-wide `roughconductor`/`conductor` kernels run give the scalar image at
+/// 1, 2, 3 and 7 threads, and the kernels shaded paths in each (a silent fallback to the 1-lane
+/// code cannot pass): the bench scenes' normal-mapped rough metals (classic), bare rough
+/// (isotropic and anisotropic GGX) and smooth metals, normal maps with Mitsuba's default flags
+/// (flipped normals, shadowing term), and `twosided` over and under `normalmap`, seen from the
+/// back, with anisotropic Beckmann sampled without visible normals
+/// (`tests/data/scenes/stream_conductors.xml`).
+#[test]
+fn stream_equals_scalar_where_the_conductor_kernels_run() {
+    for (path, mode) in [
+        (scene("scenes/bench/metal_plastic.xml"), "classic"),
+        (scene("scenes/bench/strong.xml"), "classic"),
+        (test_scene("mat_metals.xml"), "as_written"),
+        (test_scene("nmap_plane.xml"), "as_written"),
+        (test_scene("stream_conductors.xml"), "as_written"),
+    ] {
+        let l = load(&path, mode);
+        let name = path.file_name().unwrap().to_string_lossy();
+        let lanes = assert_identical(&l, &format!("{name} ({mode})"), 3);
+        assert!(
+            lanes.conductor_lanes > 0,
+            "{name}: no path went through the 8-wide conductor kernels"
+        );
+    }
+}
+
+/// The conductor kernels under the settings that change what a vertex does: the light-only and
+/// BSDF-only strategies, Russian roulette from the first bounce, the stratified sampler.
+#[test]
+fn stream_equals_scalar_in_the_conductor_kernels_under_every_setting() {
+    use groove::integrator::Strategy;
+    use groove::sampler::SamplerKind;
+    let base = || load(&test_scene("stream_conductors.xml"), "as_written");
+    let mut variants: Vec<(&str, Loaded)> = Vec::new();
+    let mut l = base();
+    l.settings.sampler.kind = SamplerKind::Stratified { jitter: true };
+    l.settings.sampler.sample_count = 4;
+    variants.push(("stratified", l));
+    for (label, edit) in [
+        (
+            "light only",
+            (|p| p.strategy = Strategy::LightOnly) as fn(&mut PathSettings),
+        ),
+        ("bsdf only", |p| p.strategy = Strategy::BsdfOnly),
+        ("rr_depth 1", |p| p.rr_depth = 1),
+    ] {
+        let mut l = base();
+        let IntegratorDesc::Path(mut p) = l.settings.integrator else {
+            unreachable!("a path scene")
+        };
+        edit(&mut p);
+        l.settings.integrator = IntegratorDesc::Path(p);
+        variants.push((label, l));
+    }
+    for (label, l) in &variants {
+        let lanes = assert_identical(l, &format!("stream_conductors ({label})"), 4);
+        assert!(lanes.conductor_lanes > 0, "{label}: the kernels never ran");
+    }
+}
+
+/// On metal_plastic (classic) the two normal-mapped rough metals (floor and gold sphere) go
+/// through the conductor kernels: most of the shaded paths, all but the plastic sphere's and the
+/// runs' tails.
+#[test]
+fn the_lane_counters_count_the_conductor_kernels() {
+    let l = load(&scene("scenes/bench/metal_plastic.xml"), "classic");
+    let c = render(&l, Renderer::Stream, 1, 3).lanes;
+    let share = c.conductor_lanes as f64 / c.shade_used as f64;
+    eprintln!("metal_plastic (classic), 40×36 window, 3 spp: {c:?}, conductor share {share:.4}");
+    assert!((0.5..=1.0).contains(&share), "{c:?}: {share}");
 }
 
 /// Slow tier: every scene of the repository that the path integrator renders, as written and

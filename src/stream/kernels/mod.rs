@@ -14,11 +14,15 @@
 //! through the very functions the scalar renderer calls.
 //!
 //! - [`diffuse`]: `diffuse` with next-event estimation.
+//! - [`conductor`]: `roughconductor` (with next-event estimation) and `conductor`, under
+//!   `twosided` and classic `normalmap`, in lanes; [`vertex`]: their 8-wide driver.
 //! - [`light`]: area lights on triangle meshes sampled in lanes.
 //! - [`ray`]: robust ray origins in lanes.
 //! - [`mis`]: the power heuristic in lanes.
 
+pub(crate) mod conductor;
 pub(crate) mod diffuse;
 pub(crate) mod light;
 pub(crate) mod mis;
 pub(crate) mod ray;
+pub(crate) mod vertex;

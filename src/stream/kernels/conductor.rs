@@ -1,0 +1,428 @@
+//! The 8-wide `roughconductor` and `conductor` kernels, bare or under `twosided` (one nested
+//! BSDF for both sides) and classic `normalmap` wrappers: what
+//! [`PathState::scatter`](crate::integrator::path::PathState::scatter) does at such a vertex, for
+//! 8 paths at a time.
+//!
+//! A material qualifies when its tree is at most [`MAX_WRAPS`] wrappers (`twosided` with
+//! `front == back`, `normalmap`) around a `roughconductor` or `conductor` leaf whose parameters
+//! are all constant (a textured `specular_reflectance` or roughness has no kernel: such a
+//! material is shaded lane by lane, as every material without a kernel, and its paths show in
+//! `LaneCounters::shade_used − kernel_lanes`). The normal maps' texture lookups are done lane
+//! by lane; their perturbed frames, the side tests and the BSDF in lanes
+//! (`bsdf::normalmap::lanes`, `RoughConductor::*_lanes`, `Conductor::*_lanes`).
+//!
+//! The per-vertex sequence (gather, random numbers, light points, scatter back) is
+//! [`super::vertex`]'s, shared with nothing else yet; the light-sample part mirrors the `diffuse`
+//! kernel's (BSDF value and density toward the light point, power heuristic, shadow ray), then
+//! the BSDF sample gives the next ray. A `conductor` (a delta lobe) takes no light sample,
+//! exactly as `PathState::scatter` asks `Lobes::is_smooth`.
+
+use crate::bsdf::lanes::LaneBsdfSample;
+use crate::bsdf::normalmap::lanes as nmap;
+use crate::bsdf::{BsdfNode, Conductor, RoughConductor};
+use crate::lane::frame::Frame;
+use crate::lane::vec::{V2, V3};
+use crate::lane::Lane;
+use crate::material::{MatId, MaterialNode, Materials, TexId};
+
+/// Most wrappers a kernel material may have around its leaf (e.g. `twosided` over `normalmap`).
+pub(crate) const MAX_WRAPS: usize = 2;
+
+/// The leaf BSDF, with its (constant) parameters.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Leaf {
+    Rough(RoughConductor),
+    Smooth(Conductor),
+}
+
+/// A wrapper around the leaf (outermost first in [`Material::wraps`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Wrap {
+    /// `twosided` with one BSDF for both sides.
+    TwoSided,
+    /// Classic `normalmap`, its texture and flags.
+    NormalMap {
+        texture: TexId,
+        flip_invalid_normals: bool,
+        use_shadowing_function: bool,
+    },
+}
+
+/// A material the conductor kernel shades: its wrappers, outermost first, and its leaf.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Material {
+    pub wraps: [Wrap; MAX_WRAPS],
+    pub n_wraps: usize,
+    pub leaf: Leaf,
+    /// It takes light samples (`Lobes::is_smooth`: the rough leaf).
+    pub smooth: bool,
+}
+
+impl Material {
+    /// The kernel material of material `m`, if its tree qualifies (see the module doc).
+    pub(crate) fn of(materials: &Materials, m: MatId) -> Option<Material> {
+        let mut wraps = [Wrap::TwoSided; MAX_WRAPS];
+        let mut n_wraps = 0;
+        let mut id = m;
+        let leaf = loop {
+            let wrap = match &materials.nodes()[id as usize] {
+                MaterialNode::Leaf { template, slots } if slots.is_empty() => {
+                    break match **template {
+                        BsdfNode::RoughConductor(b) => Leaf::Rough(b),
+                        BsdfNode::Conductor(b) => Leaf::Smooth(b),
+                        _ => return None,
+                    };
+                }
+                MaterialNode::TwoSided { front, back } if front == back => {
+                    id = *front;
+                    Wrap::TwoSided
+                }
+                MaterialNode::NormalMap {
+                    nested,
+                    normalmap,
+                    flip_invalid_normals,
+                    use_shadowing_function,
+                } => {
+                    id = *nested;
+                    Wrap::NormalMap {
+                        texture: *normalmap,
+                        flip_invalid_normals: *flip_invalid_normals,
+                        use_shadowing_function: *use_shadowing_function,
+                    }
+                }
+                _ => return None,
+            };
+            if n_wraps == MAX_WRAPS {
+                return None;
+            }
+            wraps[n_wraps] = wrap;
+            n_wraps += 1;
+        };
+        Some(Material {
+            wraps,
+            n_wraps,
+            leaf,
+            smooth: materials.lobes(m).is_smooth(),
+        })
+    }
+
+    /// The wrappers, outermost first.
+    #[inline(always)]
+    pub(crate) fn wraps(&self) -> &[Wrap] {
+        &self.wraps[..self.n_wraps]
+    }
+
+    /// The sample is through a delta lobe (the smooth `conductor`).
+    #[inline(always)]
+    pub(crate) fn delta(&self) -> bool {
+        matches!(self.leaf, Leaf::Smooth(_))
+    }
+}
+
+/// `twosided`'s mirror through the surface.
+#[inline(always)]
+fn flip<L: Lane>(w: V3<L>) -> V3<L> {
+    V3::new(w.x, w.y, -w.z)
+}
+
+/// `Bsdf::sample`'s guard, applied at every node: a finite direction and weight, a density ≥ 0.
+#[inline(always)]
+fn valid<L: Lane>(s: &LaneBsdfSample<L>) -> L::Mask {
+    let zero = s.pdf.splat(0.0);
+    s.wo.x.is_finite()
+        & s.wo.y.is_finite()
+        & s.wo.z.is_finite()
+        & s.pdf.ge(zero)
+        & s.weight.x.is_finite()
+        & s.weight.y.is_finite()
+        & s.weight.z.is_finite()
+}
+
+/// `f · |cos θo|` and the density of the material's BSDF for local `wi`, `wo` (the shading
+/// frame's), `normals[j]` the decoded normal of wrapper `j` where it is a normal map: the
+/// wrappers' `eval_pdf` (`bsdf::twosided`, `bsdf::normalmap`) down to the leaf's lane form and
+/// the shadowing terms back up, innermost first. 0 where a normal map rejects `wo`.
+#[inline(always)]
+pub(crate) fn eval_pdf<L: Lane>(
+    mat: &Material,
+    normals: &[V3<L>; MAX_WRAPS],
+    wi: V3<L>,
+    wo: V3<L>,
+) -> (V3<L>, L) {
+    let k = |c: f32| wi.z.splat(c);
+    let (mut wi, mut wo) = (wi, wo);
+    let mut reject = k(0.0).ne(k(0.0));
+    let mut shadow = [None; MAX_WRAPS];
+    for (j, w) in mat.wraps().iter().enumerate() {
+        match *w {
+            Wrap::TwoSided => {
+                let back = !wi.z.ge(k(0.0));
+                wi = V3::select(back, flip(wi), wi);
+                wo = V3::select(back, flip(wo), wo);
+            }
+            Wrap::NormalMap {
+                flip_invalid_normals,
+                use_shadowing_function,
+                ..
+            } => {
+                let f = nmap::frame(normals[j], flip_invalid_normals, wi);
+                let pwo = f.to_local(wo);
+                reject = reject | (wo.z * pwo.z).le(k(0.0));
+                if use_shadowing_function {
+                    shadow[j] = Some(nmap::shadow_terminator(f.n, wo));
+                }
+                wi = f.to_local(wi);
+                wo = pwo;
+            }
+        }
+    }
+    let (mut f, mut pdf) = match &mat.leaf {
+        Leaf::Rough(b) => b.eval_pdf_lanes(wi, wo),
+        Leaf::Smooth(b) => b.eval_pdf_lanes(wi, wo),
+    };
+    for s in shadow[..mat.n_wraps].iter().rev().flatten() {
+        f = f.scale(*s);
+    }
+    let zero = V3::splat(k(0.0), 0.0, 0.0, 0.0);
+    f = V3::select(reject, zero, f);
+    pdf = L::select(reject, k(0.0), pdf);
+    (f, pdf)
+}
+
+/// The material's BSDF sample from local `wi` (see [`eval_pdf`] for `normals`): the wrappers'
+/// `sample` down to the leaf's lane form and back up, with `Bsdf::sample`'s guard at every
+/// node. `u2` is drawn by the rough leaf only.
+#[inline(always)]
+pub(crate) fn sample<L: Lane>(
+    mat: &Material,
+    normals: &[V3<L>; MAX_WRAPS],
+    wi: V3<L>,
+    u2: V2<L>,
+) -> LaneBsdfSample<L> {
+    let k = |c: f32| wi.z.splat(c);
+    let mut wi = wi;
+    let none = k(0.0).ne(k(0.0));
+    let mut back = [none; MAX_WRAPS];
+    let mut frames = [Frame {
+        s: wi,
+        t: wi,
+        n: wi,
+    }; MAX_WRAPS];
+    for (j, w) in mat.wraps().iter().enumerate() {
+        match *w {
+            Wrap::TwoSided => {
+                back[j] = !wi.z.ge(k(0.0));
+                wi = V3::select(back[j], flip(wi), wi);
+            }
+            Wrap::NormalMap {
+                flip_invalid_normals,
+                ..
+            } => {
+                frames[j] = nmap::frame(normals[j], flip_invalid_normals, wi);
+                wi = frames[j].to_local(wi);
+            }
+        }
+    }
+    let mut s = match &mat.leaf {
+        Leaf::Rough(b) => b.sample_lanes(wi, k(0.0), u2),
+        Leaf::Smooth(b) => b.sample_lanes(wi, k(0.0), u2),
+    };
+    s.ok = s.ok & valid(&s);
+    for (j, w) in mat.wraps().iter().enumerate().rev() {
+        match *w {
+            Wrap::TwoSided => s.wo = V3::select(back[j], flip(s.wo), s.wo),
+            Wrap::NormalMap {
+                use_shadowing_function,
+                ..
+            } => {
+                let wo = frames[j].to_world(s.wo);
+                s.ok = s.ok & !(s.wo.z * wo.z).le(k(0.0));
+                s.wo = wo;
+                if use_shadowing_function {
+                    s.weight = s.weight.scale(nmap::shadow_terminator(frames[j].n, wo));
+                }
+            }
+        }
+        s.ok = s.ok & valid(&s);
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::lanes::testing::*;
+    use crate::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
+    use crate::bsdf::{BsdfArena, BsdfContext, NormalMap};
+    use crate::math::Pcg32;
+    use crate::sampler::Sampler;
+    use crate::spectrum::Spectrum;
+    use glam::{Vec2, Vec3};
+
+    /// The wrapper lists tested (outermost first): none, each alone (every flag combination of
+    /// the normal map), and both orders of the two.
+    fn wrapper_lists() -> Vec<Vec<Wrap>> {
+        let nm = |f, s| Wrap::NormalMap {
+            texture: 0,
+            flip_invalid_normals: f,
+            use_shadowing_function: s,
+        };
+        vec![
+            vec![],
+            vec![Wrap::TwoSided],
+            vec![nm(false, false)],
+            vec![nm(true, false)],
+            vec![nm(false, true)],
+            vec![nm(true, true)],
+            vec![Wrap::TwoSided, nm(true, true)],
+            vec![nm(true, true), Wrap::TwoSided],
+            vec![nm(false, false), Wrap::TwoSided],
+        ]
+    }
+
+    fn leaves() -> [Leaf; 3] {
+        let metal = |d| RoughConductor {
+            distribution: d,
+            eta: Spectrum::new(0.2, 0.92, 1.1),
+            k: Spectrum::new(3.9, 2.45, 2.14),
+            specular_reflectance: Spectrum::new(0.9, 0.8, 1.0),
+        };
+        [
+            Leaf::Rough(metal(MicrofacetDistribution::new(
+                MicrofacetType::Ggx,
+                0.2,
+                true,
+            ))),
+            Leaf::Rough(metal(MicrofacetDistribution::anisotropic(
+                MicrofacetType::Beckmann,
+                0.1,
+                0.35,
+                false,
+            ))),
+            Leaf::Smooth(Conductor::default()),
+        ]
+    }
+
+    fn material(wraps: &[Wrap], leaf: Leaf) -> Material {
+        let mut w = [Wrap::TwoSided; MAX_WRAPS];
+        w[..wraps.len()].copy_from_slice(wraps);
+        Material {
+            wraps: w,
+            n_wraps: wraps.len(),
+            leaf,
+            smooth: matches!(leaf, Leaf::Rough(_)),
+        }
+    }
+
+    /// The scalar BSDF tree of `mat` with the decoded normals `normals`; returns its root.
+    fn tree(arena: &mut BsdfArena, mat: &Material, normals: &[Vec3; MAX_WRAPS]) -> u32 {
+        arena.clear();
+        let mut id = arena.push(match mat.leaf {
+            Leaf::Rough(b) => BsdfNode::RoughConductor(b),
+            Leaf::Smooth(b) => BsdfNode::Conductor(b),
+        });
+        for (j, w) in mat.wraps().iter().enumerate().rev() {
+            id = arena.push(match *w {
+                Wrap::TwoSided => BsdfNode::TwoSided {
+                    front: id,
+                    back: id,
+                },
+                Wrap::NormalMap {
+                    flip_invalid_normals,
+                    use_shadowing_function,
+                    ..
+                } => BsdfNode::NormalMap(NormalMap::new(
+                    id,
+                    normals[j],
+                    flip_invalid_normals,
+                    use_shadowing_function,
+                )),
+            });
+        }
+        id
+    }
+
+    /// Random (wi, wo, normals): normal-map normals 2·rgb − 1 with rgb in [0, 1] (blue ≥ 0.5,
+    /// as normal maps store them, so that most are above the surface).
+    fn inputs(r: &mut Pcg32, n: usize) -> Vec<(Vec3, Vec3, [Vec3; MAX_WRAPS])> {
+        let normal = |r: &mut Pcg32| {
+            Vec3::new(r.next_f32(), r.next_f32(), 0.5 + 0.5 * r.next_f32()) * 2.0 - Vec3::ONE
+        };
+        (0..n)
+            .map(|_| {
+                let wi = direction(r);
+                let wo = direction(r);
+                (wi, wo, [normal(r), normal(r)])
+            })
+            .collect()
+    }
+
+    /// At width 1 the kernel's BSDF gives the scalar tree's `eval_pdf` and `sample` bit for bit
+    /// (the sample from the number the rough leaf draws), at width 8 width 1's, lane by lane.
+    #[test]
+    fn kernel_bsdf_equals_the_scalar_tree() {
+        let mut r = Pcg32::new(21, 2);
+        let cases = inputs(&mut r, 1600);
+        let mut arena = BsdfArena::new();
+        let ctx = BsdfContext::default();
+        let (mut nonzero, mut sampled) = (0, 0);
+        for wraps in wrapper_lists() {
+            for leaf in leaves() {
+                let mat = material(&wraps, leaf);
+                for (c, &(wi, wo, ns)) in cases.iter().enumerate() {
+                    let root = tree(&mut arena, &mat, &ns);
+                    let bsdf = arena.bsdf(root);
+                    let mut sampler = Sampler::from_seed(c as u64, 5);
+                    let (f0, p0) = bsdf.eval_pdf(&ctx, wi, wo, &mut sampler);
+                    let n1 = ns.map(V3::from);
+                    let (f1, p1) = eval_pdf(&mat, &n1, V3::from(wi), V3::from(wo));
+                    assert!(
+                        same3(f0, f1.into()) && same(p0, p1),
+                        "{mat:?} {wi} {wo} {ns:?}"
+                    );
+                    nonzero += (f0 != Vec3::ZERO) as u32;
+                    let u2 = sampler.clone().next_2d();
+                    let s0 = bsdf.sample(&ctx, wi, &mut sampler);
+                    let s1 = sample(&mat, &n1, V3::from(wi), V2::from(u2));
+                    assert_eq!(s0.is_some(), s1.ok, "{mat:?} {wi} {ns:?}");
+                    if let Some(s0) = s0 {
+                        sampled += 1;
+                        assert!(same3(s0.wo, s1.wo.into()) && same(s0.pdf, s1.pdf));
+                        assert!(same3(s0.weight, s1.weight.into()), "{mat:?} {wi}");
+                    }
+                }
+                #[cfg(target_arch = "x86_64")]
+                if let Some(avx) = crate::lane::Avx2::detect() {
+                    for c in cases.chunks_exact(8) {
+                        let wi: [Vec3; 8] = std::array::from_fn(|k| c[k].0);
+                        let wo: [Vec3; 8] = std::array::from_fn(|k| c[k].1);
+                        let n: [[Vec3; 8]; MAX_WRAPS] =
+                            std::array::from_fn(|j| std::array::from_fn(|k| c[k].2[j]));
+                        let u: [Vec2; 8] =
+                            std::array::from_fn(|k| Vec2::new(wo[k].x.abs(), wi[k].y.abs()));
+                        let (f, p, s) = avx.run(|| {
+                            let n8 = n.map(|v| load3(avx, &v));
+                            let (wi8, wo8) = (load3(avx, &wi), load3(avx, &wo));
+                            let (f, p) = eval_pdf(&mat, &n8, wi8, wo8);
+                            (f, p, sample(&mat, &n8, wi8, load2(avx, &u)))
+                        });
+                        let ok = s.ok.to_array();
+                        for k in 0..8 {
+                            let n1 = std::array::from_fn(|j| V3::from(n[j][k]));
+                            let (wi1, wo1) = (V3::from(wi[k]), V3::from(wo[k]));
+                            let (f1, p1) = eval_pdf(&mat, &n1, wi1, wo1);
+                            assert!(same3(lane3(f, k), f1.into()) && same(p.lane(k), p1));
+                            let s1 = sample(&mat, &n1, wi1, V2::from(u[k]));
+                            assert_eq!(ok[k], s1.ok);
+                            assert!(same3(lane3(s.wo, k), s1.wo.into()));
+                            assert!(same(s.pdf.lane(k), s1.pdf));
+                            assert!(same3(lane3(s.weight, k), s1.weight.into()));
+                        }
+                    }
+                }
+            }
+        }
+        // Not vacuous: many pairs carry light and many samples succeed.
+        assert!(nonzero > 5_000 && sampled > 20_000, "{nonzero} {sampled}");
+    }
+}

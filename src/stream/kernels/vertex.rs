@@ -1,0 +1,401 @@
+//! The 8-wide driver of the [`super::conductor`] kernels: one path vertex for 8 paths, in the
+//! steps of the `diffuse` kernel (`super::diffuse`, whose module doc describes them):
+//! 1. gather the surface interactions into SoA columns and run `SurfaceBsdf::new`'s side test
+//!    in lanes ([`super::diffuse::incident`]);
+//! 2. lane by lane, in each path's order: the normal maps' texture lookups, the light
+//!    selection `u_sel` and light point `u` (when the material takes light samples), the BSDF's
+//!    `u2` (the rough leaf only); light points as `nee::sample_emitter` gives them, except area
+//!    lights on triangle meshes of a constant radiance, sampled 8-wide
+//!    ([`super::light::sample_triangle`]);
+//! 3. 8-wide: the BSDF value and density toward the light point, the power heuristic, the
+//!    contribution and shadow ray ([`light`]); the BSDF sample and next ray;
+//! 4. scatter back lane by lane: the pending light sample, then `PathState::advance` (the
+//!    throughput update and Russian roulette of the scalar code).
+
+use super::conductor::{self, Material, Wrap, MAX_WRAPS};
+use super::diffuse::{LightOut, LightPoint, Surface};
+use super::mis::power_heuristic;
+use super::ray::offset_origin;
+use crate::lane::vec::V3;
+use crate::lane::Lane;
+
+/// Next-event estimation at the material's BSDF: `nee::prepare_light` after its call to
+/// `sample_emitter` (`SurfaceBsdf::eval_pdf`'s side test, the BSDF toward the light point, the
+/// zero test), and the MIS-weighted contribution and shadow ray of `PathState::scatter`, in
+/// the operations of `diffuse::light`.
+#[inline(always)]
+pub(crate) fn light<L: Lane>(
+    s: &Surface<L>,
+    wi: V3<L>,
+    mat: &Material,
+    normals: &[V3<L>; MAX_WRAPS],
+    throughput: V3<L>,
+    lp: &LightPoint<L>,
+) -> LightOut<L> {
+    let k = |c: f32| wi.z.splat(c);
+    let wo = s.frame.to_local(lp.d);
+    let consistent = (lp.d.dot(s.ng) * wo.z).gt(k(0.0));
+    let (f, bsdf_pdf) = conductor::eval_pdf(mat, normals, wi, wo);
+    let nonzero = !(f.x.eq(k(0.0)) & f.y.eq(k(0.0)) & f.z.eq(k(0.0)));
+    let ok = lp.some & consistent & nonzero;
+    let f_value = f * lp.value;
+    let w = L::select(lp.weight_one, k(1.0), power_heuristic(lp.pdf, bsdf_pdf));
+    let contribution = throughput * f_value.scale(w / lp.pdf);
+    // SurfaceInteraction::spawn_ray_to (a light point at a finite distance) or spawn_ray.
+    let d0 = lp.p - s.p;
+    let o_to = offset_origin(s.p, s.ng, d0);
+    let t_end = V3::select(lp.has_n, offset_origin(lp.p, lp.n, -d0), lp.p);
+    let d = t_end - o_to;
+    let dist = d.length();
+    let o_inf = offset_origin(s.p, s.ng, lp.d);
+    LightOut {
+        ok,
+        o: V3::select(lp.finite, o_to, o_inf),
+        d: V3::select(lp.finite, d.div_by(dist), lp.d),
+        tmax: L::select(lp.finite, dist * k(1.0 - 1e-4), k(f32::INFINITY)),
+        contribution,
+    }
+}
+
+/// The BSDF sample of [`sample`]: where it succeeded (`SurfaceBsdf::sample`'s side test
+/// included), the world direction, density, weight and the next ray's origin.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SampleOut<L: Lane> {
+    pub ok: L::Mask,
+    pub wo: V3<L>,
+    pub pdf: L,
+    pub weight: V3<L>,
+    pub o: V3<L>,
+}
+
+/// The material's BSDF sample (`Bsdf::sample`), `SurfaceBsdf::sample`'s side test and
+/// `SurfaceInteraction::spawn_ray`.
+#[inline(always)]
+pub(crate) fn sample<L: Lane>(
+    s: &Surface<L>,
+    wi: V3<L>,
+    mat: &Material,
+    normals: &[V3<L>; MAX_WRAPS],
+    u2: crate::lane::vec::V2<L>,
+) -> SampleOut<L> {
+    let k = |c: f32| wi.z.splat(c);
+    let bs = conductor::sample(mat, normals, wi, u2);
+    let wo_world = s.frame.to_world(bs.wo);
+    let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(k(0.0));
+    SampleOut {
+        ok: bs.ok & consistent,
+        wo: wo_world,
+        pdf: bs.pdf,
+        weight: bs.weight,
+        o: offset_origin(s.p, s.ng, wo_world),
+    }
+}
+
+/// The normal-map wrappers' textures of `mat`, per wrapper (`None` for `twosided`).
+fn normal_textures(mat: &Material) -> [Option<crate::material::TexId>; MAX_WRAPS] {
+    let mut t = [None; MAX_WRAPS];
+    for (j, w) in mat.wraps().iter().enumerate() {
+        if let Wrap::NormalMap { texture, .. } = *w {
+            t[j] = Some(texture);
+        }
+    }
+    t
+}
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod x8 {
+    use super::*;
+    use crate::emitter::area::AreaLight;
+    use crate::emitter::Emitter;
+    use crate::geometry::{Ray, Shape, ShapeKind, SurfaceInteraction, TriMesh};
+    use crate::integrator::path::PendingLight;
+    use crate::integrator::{PathSettings, Strategy};
+    use crate::lane::frame::Frame;
+    use crate::lane::vec::V2;
+    use crate::lane::{Avx2, F32x8, M8};
+    use crate::scene::Scene;
+    use crate::spectrum::Spectrum;
+    use crate::stream::batch::Batch;
+    use crate::stream::kernels::diffuse::{incident, reflectance};
+    use crate::stream::kernels::light::{sample_triangle, Triangle};
+    use crate::texture::Texture;
+    use glam::Vec3;
+
+    /// Three columns of 8 floats (a 3-vector per lane).
+    #[derive(Clone, Copy, Default)]
+    struct Cols3([[f32; 8]; 3]);
+
+    impl Cols3 {
+        #[inline(always)]
+        fn set(&mut self, k: usize, v: Vec3) {
+            self.0[0][k] = v.x;
+            self.0[1][k] = v.y;
+            self.0[2][k] = v.z;
+        }
+        #[inline(always)]
+        fn load(&self, avx: Avx2) -> V3<F32x8> {
+            V3::new(
+                avx.load(&self.0[0]),
+                avx.load(&self.0[1]),
+                avx.load(&self.0[2]),
+            )
+        }
+    }
+
+    /// Lane `k` of a vector of lanes.
+    #[inline(always)]
+    fn get(v: &[[f32; 8]; 3], k: usize) -> Vec3 {
+        Vec3::new(v[0][k], v[1][k], v[2][k])
+    }
+
+    #[inline(always)]
+    fn store3(v: V3<F32x8>) -> [[f32; 8]; 3] {
+        [v.x.to_array(), v.y.to_array(), v.z.to_array()]
+    }
+
+    /// An area light that [`sample_triangle`] samples (as in the `diffuse` kernel): on a
+    /// triangle mesh with a positive area, of a constant non-zero radiance.
+    #[inline(always)]
+    fn triangle_light<'a>(
+        scene: &'a Scene,
+        a: &'a AreaLight,
+    ) -> Option<(&'a Shape, &'a TriMesh, Spectrum)> {
+        let shape = &scene.shapes[a.shape as usize];
+        match (&shape.kind, &a.radiance) {
+            (ShapeKind::Mesh(m), Texture::Constant(le))
+                if shape.samples_triangles() && *le != Spectrum::ZERO =>
+            {
+                Some((shape, m, *le))
+            }
+            _ => None,
+        }
+    }
+
+    /// Shades the 8 paths `ids` (all at a surface of material `mat`) as `PathState::scatter`
+    /// would, one after the other; sets their pending light samples, and their next rays and
+    /// `alive` flags where they go on. Call inside [`Avx2::run`].
+    #[inline(always)]
+    pub(crate) fn shade(
+        avx: Avx2,
+        scene: &Scene,
+        cfg: &PathSettings,
+        b: &mut Batch,
+        ids: &[u32; 8],
+        mat: &Material,
+    ) {
+        // 1. Gather the surface interactions; the side test.
+        let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) = Default::default();
+        let si_of = |b: &Batch, i: u32| -> SurfaceInteraction {
+            b.si[i as usize].expect("a path that scatters has its interaction")
+        };
+        for (k, &i) in ids.iter().enumerate() {
+            let si = si_of(b, i);
+            Cols3::set(&mut p, k, si.p);
+            Cols3::set(&mut ng, k, si.ng);
+            Cols3::set(&mut fs, k, si.sh.s);
+            Cols3::set(&mut ft, k, si.sh.t);
+            Cols3::set(&mut fnn, k, si.sh.n);
+            Cols3::set(&mut wiw, k, si.wi);
+        }
+        let surf = Surface {
+            p: p.load(avx),
+            ng: ng.load(avx),
+            frame: Frame {
+                s: fs.load(avx),
+                t: ft.load(avx),
+                n: fnn.load(avx),
+            },
+            wi_world: wiw.load(avx),
+        };
+        let (wi, front) = incident(&surf);
+        let front = front.to_array();
+
+        // 2. Normal maps, random numbers and light points, lane by lane in each path's order.
+        let textures = normal_textures(mat);
+        let mut normals = [Cols3::default(); MAX_WRAPS];
+        let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
+        let draw_u2 = !mat.delta();
+        let (mut tp, mut ld, mut lpp, mut ln, mut lv) =
+            <(Cols3, Cols3, Cols3, Cols3, Cols3)>::default();
+        let mut lpdf = [1.0f32; 8];
+        let (mut some, mut has_n, mut finite, mut one) =
+            ([false; 8], [false; 8], [false; 8], [false; 8]);
+        let (mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8]);
+        let light_only = cfg.strategy == Strategy::LightOnly;
+        let (mut tpos, mut tnorm) = <([Cols3; 3], [Cols3; 3])>::default();
+        let (mut tri, mut tnorm_some) = ([false; 8], [false; 8]);
+        let (mut inv_area, mut sign, mut sel) = ([0.0f32; 8], [1.0f32; 8], [1.0f32; 8]);
+        let (mut tux, mut tuy) = ([0.0f32; 8], [0.0f32; 8]);
+        for (k, &i) in ids.iter().enumerate() {
+            let i = i as usize;
+            b.light[i] = None;
+            if !front[k] {
+                continue;
+            }
+            let si = si_of(b, i as u32);
+            for (j, t) in textures.iter().enumerate() {
+                if let Some(t) = t {
+                    // Materials::build_at: n = 2·rgb − 1.
+                    let rgb = reflectance(scene, &scene.materials.textures[*t as usize], &si);
+                    normals[j].set(k, 2.0 * rgb - Vec3::ONE);
+                }
+            }
+            tp.set(k, b.state[i].throughput);
+            let sampler = &mut b.sampler[i];
+            if nee {
+                let u_sel = sampler.next_1d();
+                let u = sampler.next_2d();
+                if let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) {
+                    match &scene.emitters[e] {
+                        Emitter::Area(a) if triangle_light(scene, a).is_some() => {
+                            let (shape, mesh, le) = triangle_light(scene, a).expect("checked");
+                            let (t, u) = shape.pick_triangle(u);
+                            let idx = mesh.indices[t].map(|j| j as usize);
+                            tri[k] = true;
+                            for c in 0..3 {
+                                tpos[c].set(k, mesh.positions[idx[c]]);
+                            }
+                            if let Some(ns) = &mesh.normals {
+                                tnorm_some[k] = true;
+                                for c in 0..3 {
+                                    tnorm[c].set(k, ns[idx[c]]);
+                                }
+                            }
+                            inv_area[k] = 1.0 / shape.area();
+                            sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
+                            (tux[k], tuy[k]) = (u.x, u.y);
+                            sel[k] = sel_pdf;
+                            lv.set(k, le);
+                            one[k] = light_only;
+                        }
+                        em => {
+                            if let Some(ds) = em.sample_direct(&scene.shapes, si.p, u) {
+                                if ds.value != Spectrum::ZERO {
+                                    some[k] = true;
+                                    ld.set(k, ds.d);
+                                    lpp.set(k, ds.p);
+                                    if let Some(n) = ds.n {
+                                        has_n[k] = true;
+                                        ln.set(k, n);
+                                    }
+                                    finite[k] = ds.dist.is_finite();
+                                    lpdf[k] = ds.pdf * sel_pdf;
+                                    lv.set(k, ds.value);
+                                    one[k] = ds.delta || light_only;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            if draw_u2 {
+                let u2 = sampler.next_2d();
+                ux[k] = u2.x;
+                uy[k] = u2.y;
+            }
+        }
+
+        // 3. The kernel.
+        let normals8 = normals.map(|c| c.load(avx));
+        let m = |a: &[bool; 8]| -> M8 { avx.mask(a) };
+        // A block, not a closure: a closure would be compiled outside `Avx2::run`'s target
+        // features and call every 8-wide operation out of line.
+        let lo = if nee {
+            let mut lp = LightPoint {
+                some: m(&some),
+                d: ld.load(avx),
+                p: lpp.load(avx),
+                n: ln.load(avx),
+                has_n: m(&has_n),
+                finite: m(&finite),
+                pdf: avx.load(&lpdf),
+                value: lv.load(avx),
+                weight_one: m(&one),
+            };
+            if tri.contains(&true) {
+                let t = m(&tri);
+                let q = sample_triangle(
+                    &Triangle {
+                        p: tpos.map(|c| c.load(avx)),
+                        n: tnorm.map(|c| c.load(avx)),
+                        has_normals: m(&tnorm_some),
+                        inv_area: avx.load(&inv_area),
+                        sign: avx.load(&sign),
+                        u: V2::new(avx.load(&tux), avx.load(&tuy)),
+                    },
+                    surf.p,
+                );
+                lp.some = lp.some | (t & q.ok);
+                lp.d = V3::select(t, q.d, lp.d);
+                lp.p = V3::select(t, q.p, lp.p);
+                lp.n = V3::select(t, q.n, lp.n);
+                lp.has_n = lp.has_n | t;
+                lp.finite = (t & q.dist.is_finite()) | (!t & lp.finite);
+                lp.pdf = F32x8::select(t, q.pdf * avx.load(&sel), lp.pdf);
+            }
+            let lo = light(&surf, wi, mat, &normals8, tp.load(avx), &lp);
+            Some((
+                lo.ok.to_array(),
+                store3(lo.o),
+                store3(lo.d),
+                lo.tmax.to_array(),
+                store3(lo.contribution),
+            ))
+        } else {
+            None
+        };
+        let so = sample(
+            &surf,
+            wi,
+            mat,
+            &normals8,
+            V2::new(avx.load(&ux), avx.load(&uy)),
+        );
+
+        // 4. Scatter back.
+        let (s_ok, s_wo, s_pdf, s_w, s_o) = (
+            so.ok.to_array(),
+            store3(so.wo),
+            so.pdf.to_array(),
+            store3(so.weight),
+            store3(so.o),
+        );
+        let delta = mat.delta();
+        for (k, &i) in ids.iter().enumerate() {
+            let i = i as usize;
+            if !front[k] {
+                continue;
+            }
+            if let Some((l_ok, l_o, l_d, l_tmax, l_c)) = &lo {
+                if l_ok[k] {
+                    b.light[i] = Some(PendingLight {
+                        shadow: Ray {
+                            o: get(l_o, k),
+                            d: get(l_d, k),
+                            tmin: 0.0,
+                            tmax: l_tmax[k],
+                        },
+                        contribution: get(l_c, k),
+                    });
+                }
+            }
+            if s_ok[k] {
+                let ray = Ray::new(get(&s_o, k), get(&s_wo, k));
+                let next = b.state[i].advance(
+                    cfg,
+                    get(&p.0, k),
+                    get(&s_w, k),
+                    1.0,
+                    s_pdf[k],
+                    delta,
+                    ray,
+                    &mut b.sampler[i],
+                );
+                if let Some(r) = next {
+                    b.ray[i] = r;
+                    b.alive[i] = true;
+                }
+            }
+        }
+    }
+}
