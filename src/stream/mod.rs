@@ -196,6 +196,8 @@ struct Kernels {
     #[cfg(target_arch = "x86_64")]
     avx: Option<crate::lane::Avx2>,
     diffuse: Vec<Option<(crate::material::TexId, bool)>>,
+    /// Per material id, its `plastic` / `roughplastic` kernel material ([`kernels::plastic`]).
+    plastic: Vec<Option<kernels::plastic::Material>>,
 }
 
 impl Kernels {
@@ -217,6 +219,9 @@ impl Kernels {
                 crate::lane::Avx2::detect()
             },
             diffuse,
+            plastic: (0..scene.materials.node_count() as u32)
+                .map(|m| kernels::plastic::material(scene, m))
+                .collect(),
         }
     }
 
@@ -413,6 +418,9 @@ fn shade_kernel(
     m: crate::material::MatId,
 ) -> usize {
     use kernels::diffuse::x8;
+    if let (Some(avx), Some(&Some(mat))) = (kernels.avx, kernels.plastic.get(m as usize)) {
+        return kernels::plastic::x8::shade_run(avx, scene, cfg, batch, run, mat);
+    }
     let (Some(avx), Some(&Some((tex, smooth)))) = (kernels.avx, kernels.diffuse.get(m as usize))
     else {
         return 0;

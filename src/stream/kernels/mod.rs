@@ -14,6 +14,7 @@
 //! through the very functions the scalar renderer calls.
 //!
 //! - [`diffuse`]: `diffuse` with next-event estimation.
+//! - [`plastic`]: `plastic` and `roughplastic` with next-event estimation.
 //! - [`light`]: area lights on triangle meshes sampled in lanes.
 //! - [`ray`]: robust ray origins in lanes.
 //! - [`mis`]: the power heuristic in lanes.
@@ -21,4 +22,5 @@
 pub(crate) mod diffuse;
 pub(crate) mod light;
 pub(crate) mod mis;
+pub(crate) mod plastic;
 pub(crate) mod ray;
