@@ -124,6 +124,11 @@ impl Plastic {
     pub(crate) fn eval_pdf_with<L: Lane>(&self, rho: V3<L>, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
         let k = |c: f32| wi.z.splat(c);
         let below = wi.z.le(k(0.0)) | wo.z.le(k(0.0));
+        if below.all() {
+            // Fast path (the bits of the selects below): no lane has a pair above the surface.
+            let zero = k(0.0);
+            return (V3::new(zero, zero, zero), zero);
+        }
         let (ps, f_i) = self.prob_specular(wi.z);
         let f_o = lane_fresnel::dielectric(wo.z, k(self.eta)).r;
         let cos_pdf = warp::cosine_hemisphere_pdf(wo);

@@ -331,6 +331,11 @@ impl RoughPlastic {
     ) -> (V3<L>, L) {
         let k = |c: f32| wi.z.splat(c);
         let below = wi.z.le(k(0.0)) | wo.z.le(k(0.0));
+        if below.all() {
+            // Fast path (the bits of the selects below): no lane has a pair above the surface.
+            let zero = k(0.0);
+            return (V3::new(zero, zero, zero), zero);
+        }
         let dist = self.distribution_lanes(wi.z);
         // The coating: F D G / (4 cos θi) · specular_reflectance.
         let h = (wi + wo).normalize();
