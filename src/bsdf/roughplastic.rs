@@ -31,7 +31,7 @@
 
 use super::lanes::LaneBsdfSample;
 use super::microfacet::{gauss_legendre, MicrofacetDistribution, MicrofacetType};
-use super::plastic::specular_sampling_weight;
+use super::plastic::{base_albedo, specular_sampling_weight, splat3};
 use super::{BsdfSample, Lobes};
 use crate::lane::fresnel as lane_fresnel;
 use crate::lane::microfacet::Microfacet;
@@ -331,6 +331,11 @@ impl RoughPlastic {
     ) -> (V3<L>, L) {
         let k = |c: f32| wi.z.splat(c);
         let below = wi.z.le(k(0.0)) | wo.z.le(k(0.0));
+        if below.all() {
+            // Fast path (the bits of the selects below): no lane has a pair above the surface.
+            let zero = k(0.0);
+            return (V3::new(zero, zero, zero), zero);
+        }
         let dist = self.distribution_lanes(wi.z);
         // The coating: F D G / (4 cos θi) · specular_reflectance.
         let h = (wi + wo).normalize();
@@ -340,17 +345,7 @@ impl RoughPlastic {
         let g = g1i * dist.smith_g1(wo, h);
         let specular = spec.scale(f * d * g / (k(4.0) * wi.z));
         // The base: ρ / (π η² (1 − R_int)) T(θi) T(θo) cos θo (or 1 − ρ R_int).
-        let r_int = k(self.table.internal_reflectance);
-        let albedo = if self.nonlinear {
-            let one = k(1.0);
-            V3::new(
-                rho.x / (one - rho.x * r_int),
-                rho.y / (one - rho.y * r_int),
-                rho.z / (one - rho.z * r_int),
-            )
-        } else {
-            rho.div_by(k(1.0) - r_int)
-        };
+        let albedo = base_albedo(rho, k(self.table.internal_reflectance), self.nonlinear);
         let t_i = self.table.transmittance_lanes(wi.z);
         let t = t_i * self.table.transmittance_lanes(wo.z);
         let value = specular
@@ -434,12 +429,6 @@ impl RoughPlastic {
             },
         })
     }
-}
-
-/// `c` in every lane, with the width of `like`.
-#[inline(always)]
-pub(crate) fn splat3<L: Lane>(like: L, c: Spectrum) -> V3<L> {
-    V3::splat(like, c.x, c.y, c.z)
 }
 
 impl Default for RoughPlastic {

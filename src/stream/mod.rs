@@ -213,6 +213,8 @@ enum Kernel {
     /// `roughconductor` or `conductor` with constant parameters, bare or under `twosided` and
     /// classic `normalmap` ([`kernels::conductor`]).
     Conductor(kernels::conductor::Material),
+    /// `plastic` or `roughplastic`, bare (reflectances gathered per lane; [`kernels::plastic`]).
+    Plastic(kernels::plastic::Material),
 }
 
 impl Kernels {
@@ -225,7 +227,8 @@ impl Kernels {
                     scene.materials.lobes(m as u32).is_smooth(),
                 )),
                 _ => kernels::conductor::Material::of(&scene.materials, m as u32)
-                    .map(Kernel::Conductor),
+                    .map(Kernel::Conductor)
+                    .or_else(|| kernels::plastic::material(scene, m as u32).map(Kernel::Plastic)),
             })
             .collect();
         Kernels {
@@ -475,6 +478,10 @@ fn shade_kernel(
             );
             (n, true)
         }
+        Kernel::Plastic(mat) => (
+            kernels::plastic::x8::shade_run(avx, scene, cfg, batch, run, mat),
+            false,
+        ),
     }
 }
 

@@ -150,6 +150,8 @@ const SCENES: &[(&str, Entry)] = &[
     // The stream renderer's conductor kernels (tests/render/stream.rs): a smooth `conductor`
     // sphere in view (and classic normal maps).
     ("stream_conductors.xml", Exclude(Specular("conductor"))),
+    // The stream renderer's plastic kernel (tests/render/stream.rs): smooth `plastic` in view.
+    ("stream_plastic.xml", Exclude(Specular("plastic"))),
     ("tex_hdr_pfm.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("tex_mesh_attr.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("textured_quad.xml", Compare(NONE, Nm::AsWritten, 1)),

@@ -16,6 +16,7 @@
 //! - [`diffuse`]: `diffuse` with next-event estimation.
 //! - [`conductor`]: `roughconductor` (with next-event estimation) and `conductor`, under
 //!   `twosided` and classic `normalmap`, in lanes; [`vertex`]: their 8-wide driver.
+//! - [`plastic`]: `plastic` and `roughplastic` with next-event estimation.
 //! - [`light`]: area lights on triangle meshes sampled in lanes.
 //! - [`ray`]: robust ray origins in lanes.
 //! - [`mis`]: the power heuristic in lanes.
@@ -24,5 +25,6 @@ pub(crate) mod conductor;
 pub(crate) mod diffuse;
 pub(crate) mod light;
 pub(crate) mod mis;
+pub(crate) mod plastic;
 pub(crate) mod ray;
 pub(crate) mod vertex;

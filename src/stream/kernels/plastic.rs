@@ -1,0 +1,532 @@
+//! The 8-wide `plastic` / `roughplastic` kernel with next-event estimation: what
+//! [`PathState::scatter`](crate::integrator::path::PathState::scatter) does at a vertex of either
+//! coated model (`bsdf::plastic`, `bsdf::roughplastic`), for 8 paths at a time, through the
+//! models' lane forms (`eval_pdf_with`, `sample_with`: the scalar BSDF is their `f32`
+//! instantiation, so the bits are the scalar renderer's).
+//!
+//! A material runs here when it is a leaf `plastic` or `roughplastic` (not under a normal map,
+//! `twosided` or `blendbsdf`). Textured `diffuse_reflectance` / `specular_reflectance` are
+//! **gathered**: each lane's texture is evaluated lane by lane as `Materials::build_at` patches
+//! the slot, and the lane form takes the reflectances per lane (the lobe-sampling weight stays
+//! the material's, from the textures' means, as in the scalar code).
+//!
+//! Per chunk of 8 paths, the steps of the `diffuse` kernel ([`super::diffuse`]):
+//! 1. gather the surface interactions; [`incident`] and its side test, 8-wide;
+//! 2. lane by lane: the reflectance textures, then each path's numbers in the scalar order
+//!    (light selection `u_sel`, light point `u`, lobe choice `u1`, BSDF sample `u2`) and the
+//!    light point (area lights on triangle meshes of a constant radiance sampled 8-wide by
+//!    [`super::light`], every other emitter by its own scalar `sample_direct`);
+//! 3. [`light`] and [`sample`], 8-wide: the coating's value and density toward the light point,
+//!    power heuristic, contribution, shadow ray; the coating's sample (the lobe chosen by `u1`
+//!    as a select), `Bsdf::sample`'s finiteness test, the side test, the next ray;
+//! 4. scatter back lane by lane: the pending light sample, then `PathState::advance` (throughput,
+//!    Russian roulette; `plastic`'s specular lobe is a delta lobe there).
+
+use crate::bsdf::lanes::LaneBsdfSample;
+use crate::bsdf::{BsdfNode, Plastic, RoughPlastic};
+use crate::lane::vec::{V2, V3};
+use crate::lane::Lane;
+use crate::material::{MaterialNode, Slot, TexId};
+use crate::scene::Scene;
+
+use super::diffuse::{LightOut, LightPoint, Surface};
+use super::mis::power_heuristic;
+use super::ray::offset_origin;
+
+/// The coating model of a run, its parameters uniform over the lanes (the reflectances come
+/// per lane, see [`Coating::eval_pdf`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Coating {
+    Smooth(Plastic),
+    Rough(RoughPlastic),
+}
+
+impl Coating {
+    /// `f · cos θo` and the density toward `wo`, with per-lane diffuse (`rho`) and specular
+    /// (`spec`) reflectances.
+    #[inline(always)]
+    pub(crate) fn eval_pdf<L: Lane>(
+        &self,
+        rho: V3<L>,
+        spec: V3<L>,
+        wi: V3<L>,
+        wo: V3<L>,
+    ) -> (V3<L>, L) {
+        match self {
+            Coating::Smooth(b) => b.eval_pdf_with(rho, wi, wo),
+            Coating::Rough(b) => b.eval_pdf_with(rho, spec, wi, wo),
+        }
+    }
+
+    /// The model's sample, and the lanes that took a delta lobe (`plastic`'s specular
+    /// reflection; none for `roughplastic`).
+    #[inline(always)]
+    pub(crate) fn sample<L: Lane>(
+        &self,
+        rho: V3<L>,
+        spec: V3<L>,
+        wi: V3<L>,
+        u1: L,
+        u2: V2<L>,
+    ) -> (LaneBsdfSample<L>, L::Mask) {
+        match self {
+            Coating::Smooth(b) => b.sample_with(rho, spec, wi, u1, u2),
+            Coating::Rough(b) => {
+                let (s, _) = b.sample_with(rho, spec, wi, u1, u2);
+                let k = wi.z.splat(0.0);
+                (s, k.ne(k))
+            }
+        }
+    }
+}
+
+/// What a material needs for the kernel: its coating, the textures of its reflectances (where
+/// textured) and whether it takes a light sample (`Lobes::is_smooth`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Material {
+    pub coating: Coating,
+    pub diffuse: Option<TexId>,
+    pub specular: Option<TexId>,
+    pub smooth: bool,
+}
+
+/// The kernel's view of material `m`: a leaf `plastic` or `roughplastic` whose only textured
+/// parameters are its reflectances; `None` for anything else.
+pub(crate) fn material(scene: &Scene, m: u32) -> Option<Material> {
+    let MaterialNode::Leaf { template, slots } = &scene.materials.nodes()[m as usize] else {
+        return None;
+    };
+    let coating = match **template {
+        BsdfNode::Plastic(b) => Coating::Smooth(b),
+        BsdfNode::RoughPlastic(b) => Coating::Rough(b),
+        _ => return None,
+    };
+    let (mut diffuse, mut specular) = (None, None);
+    for &(slot, tex) in slots {
+        match slot {
+            Slot::DiffuseReflectance => diffuse = Some(tex),
+            Slot::SpecularReflectance => specular = Some(tex),
+            _ => return None,
+        }
+    }
+    Some(Material {
+        coating,
+        diffuse,
+        specular,
+        smooth: scene.materials.lobes(m).is_smooth(),
+    })
+}
+
+/// Next-event estimation from the sampled light points: `nee::prepare_light` after its call to
+/// `sample_emitter` (through `SurfaceBsdf::eval_pdf`), and the MIS-weighted contribution of
+/// `PathState::scatter`. As `diffuse::light` with the coating's value and density.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn light<L: Lane>(
+    c: &Coating,
+    s: &Surface<L>,
+    wi: V3<L>,
+    rho: V3<L>,
+    spec: V3<L>,
+    throughput: V3<L>,
+    lp: &LightPoint<L>,
+) -> LightOut<L> {
+    let k = |c: f32| wi.z.splat(c);
+    // SurfaceBsdf::eval_pdf: the light direction in the shading frame and its side test.
+    let wo = s.frame.to_local(lp.d);
+    let consistent = (lp.d.dot(s.ng) * wo.z).gt(k(0.0));
+    let (f, bsdf_pdf) = c.eval_pdf(rho, spec, wi, wo);
+    let nonzero = !(f.x.eq(k(0.0)) & f.y.eq(k(0.0)) & f.z.eq(k(0.0)));
+    let ok = lp.some & consistent & nonzero;
+    let f_value = f * lp.value;
+    let w = L::select(lp.weight_one, k(1.0), power_heuristic(lp.pdf, bsdf_pdf));
+    let contribution = throughput * f_value.scale(w / lp.pdf);
+    // SurfaceInteraction::spawn_ray_to (a light point at a finite distance) or spawn_ray.
+    let d0 = lp.p - s.p;
+    let o_to = offset_origin(s.p, s.ng, d0);
+    let t_end = V3::select(lp.has_n, offset_origin(lp.p, lp.n, -d0), lp.p);
+    let d = t_end - o_to;
+    let dist = d.length();
+    let o_inf = offset_origin(s.p, s.ng, lp.d);
+    LightOut {
+        ok,
+        o: V3::select(lp.finite, o_to, o_inf),
+        d: V3::select(lp.finite, d.div_by(dist), lp.d),
+        tmax: L::select(lp.finite, dist * k(1.0 - 1e-4), k(f32::INFINITY)),
+        contribution,
+    }
+}
+
+/// The BSDF sample of [`sample`]: where it succeeded (and passed the side test), the world
+/// direction, density, weight, whether through a delta lobe, and the next ray's origin.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SampleOut<L: Lane> {
+    pub ok: L::Mask,
+    pub wo: V3<L>,
+    pub pdf: L,
+    pub weight: V3<L>,
+    pub delta: L::Mask,
+    pub o: V3<L>,
+}
+
+/// The coating's sample from `u1`, `u2`; the finiteness checks of `Bsdf::sample`, the side test
+/// of `SurfaceBsdf::sample` and `SurfaceInteraction::spawn_ray`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn sample<L: Lane>(
+    c: &Coating,
+    s: &Surface<L>,
+    wi: V3<L>,
+    rho: V3<L>,
+    spec: V3<L>,
+    u1: L,
+    u2: V2<L>,
+) -> SampleOut<L> {
+    let k = |c: f32| wi.z.splat(c);
+    let (bs, delta) = c.sample(rho, spec, wi, u1, u2);
+    let finite = bs.wo.x.is_finite()
+        & bs.wo.y.is_finite()
+        & bs.wo.z.is_finite()
+        & bs.pdf.ge(k(0.0))
+        & bs.weight.x.is_finite()
+        & bs.weight.y.is_finite()
+        & bs.weight.z.is_finite();
+    let wo_world = s.frame.to_world(bs.wo);
+    let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(k(0.0));
+    SampleOut {
+        ok: bs.ok & finite & consistent,
+        wo: wo_world,
+        pdf: bs.pdf,
+        weight: bs.weight,
+        delta,
+        o: offset_origin(s.p, s.ng, wo_world),
+    }
+}
+
+/// The 8-wide driver: gathers, the kernel at width 8 and the scatter back.
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod x8 {
+    use super::*;
+    use crate::emitter::area::AreaLight;
+    use crate::emitter::Emitter;
+    use crate::geometry::{Ray, Shape, ShapeKind, SurfaceInteraction, TriMesh};
+    use crate::integrator::path::PendingLight;
+    use crate::integrator::{PathSettings, Strategy};
+    use crate::lane::frame::Frame;
+    use crate::lane::{Avx2, F32x8, M8};
+    use crate::spectrum::Spectrum;
+    use crate::stream::batch::Batch;
+    use crate::stream::kernels::diffuse::{incident, reflectance};
+    use crate::stream::kernels::light::{sample_triangle, Triangle};
+    use crate::texture::Texture;
+    use glam::Vec3;
+
+    /// Three columns of 8 floats (a 3-vector per lane).
+    #[derive(Clone, Copy, Default)]
+    struct Cols3([[f32; 8]; 3]);
+
+    impl Cols3 {
+        #[inline(always)]
+        fn set(&mut self, k: usize, v: Vec3) {
+            self.0[0][k] = v.x;
+            self.0[1][k] = v.y;
+            self.0[2][k] = v.z;
+        }
+        #[inline(always)]
+        fn get(&self, k: usize) -> Vec3 {
+            Vec3::new(self.0[0][k], self.0[1][k], self.0[2][k])
+        }
+        #[inline(always)]
+        fn load(&self, avx: Avx2) -> V3<F32x8> {
+            V3::new(
+                avx.load(&self.0[0]),
+                avx.load(&self.0[1]),
+                avx.load(&self.0[2]),
+            )
+        }
+        #[inline(always)]
+        fn store(v: V3<F32x8>) -> Cols3 {
+            Cols3([v.x.to_array(), v.y.to_array(), v.z.to_array()])
+        }
+    }
+
+    /// An area light that [`sample_triangle`] samples: on a triangle mesh with a positive area,
+    /// of a constant non-zero radiance (as the `diffuse` kernel decides).
+    #[inline(always)]
+    fn triangle_light<'a>(
+        scene: &'a Scene,
+        a: &'a AreaLight,
+    ) -> Option<(&'a Shape, &'a TriMesh, Spectrum)> {
+        let shape = &scene.shapes[a.shape as usize];
+        match (&shape.kind, &a.radiance) {
+            (ShapeKind::Mesh(m), Texture::Constant(le))
+                if shape.samples_triangles() && *le != Spectrum::ZERO =>
+            {
+                Some((shape, m, *le))
+            }
+            _ => None,
+        }
+    }
+
+    /// The light points of the lanes `front` (drawing `u_sel` and `u` from each path's
+    /// sampler): `nee::sample_emitter` lane by lane, triangle-mesh area lights 8-wide.
+    #[inline(always)]
+    fn light_points(
+        avx: Avx2,
+        scene: &Scene,
+        light_only: bool,
+        b: &mut Batch,
+        ids: &[u32; 8],
+        front: &[bool; 8],
+        p: &Cols3,
+    ) -> LightPoint<F32x8> {
+        let (mut ld, mut lpp, mut ln, mut lv) = <(Cols3, Cols3, Cols3, Cols3)>::default();
+        let mut lpdf = [1.0f32; 8];
+        let (mut some, mut has_n, mut finite, mut one) =
+            ([false; 8], [false; 8], [false; 8], [false; 8]);
+        let (mut tpos, mut tnorm) = <([Cols3; 3], [Cols3; 3])>::default();
+        let (mut tri, mut tnorm_some) = ([false; 8], [false; 8]);
+        let (mut inv_area, mut sign, mut sel) = ([0.0f32; 8], [1.0f32; 8], [1.0f32; 8]);
+        let (mut tux, mut tuy) = ([0.0f32; 8], [0.0f32; 8]);
+        for (k, &i) in ids.iter().enumerate() {
+            if !front[k] {
+                continue;
+            }
+            let sampler = &mut b.sampler[i as usize];
+            let u_sel = sampler.next_1d();
+            let u = sampler.next_2d();
+            let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) else {
+                continue;
+            };
+            match &scene.emitters[e] {
+                Emitter::Area(a) if triangle_light(scene, a).is_some() => {
+                    let (shape, mesh, le) = triangle_light(scene, a).expect("checked");
+                    let (t, u) = shape.pick_triangle(u);
+                    let idx = mesh.indices[t].map(|j| j as usize);
+                    tri[k] = true;
+                    for c in 0..3 {
+                        tpos[c].set(k, mesh.positions[idx[c]]);
+                    }
+                    if let Some(ns) = &mesh.normals {
+                        tnorm_some[k] = true;
+                        for c in 0..3 {
+                            tnorm[c].set(k, ns[idx[c]]);
+                        }
+                    }
+                    inv_area[k] = 1.0 / shape.area();
+                    sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
+                    (tux[k], tuy[k]) = (u.x, u.y);
+                    sel[k] = sel_pdf;
+                    lv.set(k, le);
+                    one[k] = light_only;
+                }
+                em => {
+                    if let Some(ds) = em.sample_direct(&scene.shapes, p.get(k), u) {
+                        if ds.value != Spectrum::ZERO {
+                            some[k] = true;
+                            ld.set(k, ds.d);
+                            lpp.set(k, ds.p);
+                            if let Some(n) = ds.n {
+                                has_n[k] = true;
+                                ln.set(k, n);
+                            }
+                            finite[k] = ds.dist.is_finite();
+                            lpdf[k] = ds.pdf * sel_pdf;
+                            lv.set(k, ds.value);
+                            one[k] = ds.delta || light_only;
+                        }
+                    }
+                }
+            }
+        }
+        let m = |a: &[bool; 8]| -> M8 { avx.mask(a) };
+        let mut lp = LightPoint {
+            some: m(&some),
+            d: ld.load(avx),
+            p: lpp.load(avx),
+            n: ln.load(avx),
+            has_n: m(&has_n),
+            finite: m(&finite),
+            pdf: avx.load(&lpdf),
+            value: lv.load(avx),
+            weight_one: m(&one),
+        };
+        if tri.contains(&true) {
+            let t = m(&tri);
+            let q = sample_triangle(
+                &Triangle {
+                    p: tpos.map(|c| c.load(avx)),
+                    n: tnorm.map(|c| c.load(avx)),
+                    has_normals: m(&tnorm_some),
+                    inv_area: avx.load(&inv_area),
+                    sign: avx.load(&sign),
+                    u: V2::new(avx.load(&tux), avx.load(&tuy)),
+                },
+                p.load(avx),
+            );
+            lp.some = lp.some | (t & q.ok);
+            lp.d = V3::select(t, q.d, lp.d);
+            lp.p = V3::select(t, q.p, lp.p);
+            lp.n = V3::select(t, q.n, lp.n);
+            lp.has_n = lp.has_n | t;
+            lp.finite = (t & q.dist.is_finite()) | (!t & lp.finite);
+            lp.pdf = F32x8::select(t, q.pdf * avx.load(&sel), lp.pdf);
+        }
+        lp
+    }
+
+    /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (all of material
+    /// `mat`) 8 at a time; returns how many it shaded. Enters [`Avx2::run`] itself.
+    pub(crate) fn shade_run(
+        avx: Avx2,
+        scene: &Scene,
+        cfg: &PathSettings,
+        b: &mut Batch,
+        run: std::ops::Range<usize>,
+        mat: Material,
+    ) -> usize {
+        let n = run.len() / 8 * 8;
+        if n == 0 {
+            return 0;
+        }
+        avx.run(
+            #[inline(always)]
+            || {
+                for c in (run.start..run.start + n).step_by(8) {
+                    let ids: [u32; 8] = b.sorted[c..c + 8].try_into().expect("8 ids");
+                    shade(avx, scene, cfg, b, &ids, &mat);
+                }
+            },
+        );
+        n
+    }
+
+    /// Shades the 8 paths `ids` (each at a surface of material `mat`, with its interaction in
+    /// `b.si`) as `PathState::scatter` would, one after the other; sets their pending light
+    /// samples, and their next rays and `alive` flags where they go on. Call inside
+    /// [`Avx2::run`].
+    #[inline(always)]
+    fn shade(
+        avx: Avx2,
+        scene: &Scene,
+        cfg: &PathSettings,
+        b: &mut Batch,
+        ids: &[u32; 8],
+        mat: &Material,
+    ) {
+        // 1. Gather the surface interactions; the side test.
+        let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) =
+            <(Cols3, Cols3, Cols3, Cols3, Cols3, Cols3)>::default();
+        let si_of = |b: &Batch, i: u32| -> SurfaceInteraction {
+            b.si[i as usize].expect("a path that scatters has its interaction")
+        };
+        for (k, &i) in ids.iter().enumerate() {
+            let si = si_of(b, i);
+            p.set(k, si.p);
+            ng.set(k, si.ng);
+            fs.set(k, si.sh.s);
+            ft.set(k, si.sh.t);
+            fnn.set(k, si.sh.n);
+            wiw.set(k, si.wi);
+        }
+        let surf = Surface {
+            p: p.load(avx),
+            ng: ng.load(avx),
+            frame: Frame {
+                s: fs.load(avx),
+                t: ft.load(avx),
+                n: fnn.load(avx),
+            },
+            wi_world: wiw.load(avx),
+        };
+        let (wi, front) = incident(&surf);
+        let front = front.to_array();
+
+        // 2. Textures, light points and BSDF numbers, lane by lane in each path's order.
+        let (rho0, spec0) = match &mat.coating {
+            Coating::Smooth(c) => (c.diffuse_reflectance, c.specular_reflectance),
+            Coating::Rough(c) => (c.diffuse_reflectance, c.specular_reflectance),
+        };
+        let (mut rho, mut spec, mut tp) = <(Cols3, Cols3, Cols3)>::default();
+        for (k, &i) in ids.iter().enumerate() {
+            b.light[i as usize] = None;
+            if !front[k] {
+                continue;
+            }
+            let si = si_of(b, i);
+            let tex = |t: Option<TexId>, c: Spectrum| match t {
+                Some(t) => reflectance(scene, &scene.materials.textures[t as usize], &si),
+                None => c,
+            };
+            rho.set(k, tex(mat.diffuse, rho0));
+            spec.set(k, tex(mat.specular, spec0));
+            tp.set(k, b.state[i as usize].throughput);
+        }
+        let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
+        let lp = nee.then(|| {
+            let light_only = cfg.strategy == Strategy::LightOnly;
+            light_points(avx, scene, light_only, b, ids, &front, &p)
+        });
+        let (mut u1, mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
+        for (k, &i) in ids.iter().enumerate() {
+            if front[k] {
+                let sampler = &mut b.sampler[i as usize];
+                u1[k] = sampler.next_1d();
+                let u2 = sampler.next_2d();
+                (ux[k], uy[k]) = (u2.x, u2.y);
+            }
+        }
+
+        // 3. The kernel.
+        let (rho8, spec8) = (rho.load(avx), spec.load(avx));
+        let lo = lp.map(|lp| light(&mat.coating, &surf, wi, rho8, spec8, tp.load(avx), &lp));
+        let u2 = V2::new(avx.load(&ux), avx.load(&uy));
+        let so = sample(&mat.coating, &surf, wi, rho8, spec8, avx.load(&u1), u2);
+
+        // 4. Scatter back.
+        if let Some(lo) = lo {
+            let (ok, o, d) = (lo.ok.to_array(), Cols3::store(lo.o), Cols3::store(lo.d));
+            let (tmax, c) = (lo.tmax.to_array(), Cols3::store(lo.contribution));
+            for (k, &i) in ids.iter().enumerate() {
+                if front[k] && ok[k] {
+                    b.light[i as usize] = Some(PendingLight {
+                        shadow: Ray {
+                            o: o.get(k),
+                            d: d.get(k),
+                            tmin: 0.0,
+                            tmax: tmax[k],
+                        },
+                        contribution: c.get(k),
+                    });
+                }
+            }
+        }
+        let (ok, wo, pdf) = (so.ok.to_array(), Cols3::store(so.wo), so.pdf.to_array());
+        let (weight, delta, o) = (
+            Cols3::store(so.weight),
+            so.delta.to_array(),
+            Cols3::store(so.o),
+        );
+        for (k, &i) in ids.iter().enumerate() {
+            let i = i as usize;
+            if !(front[k] && ok[k]) {
+                continue;
+            }
+            let ray = Ray::new(o.get(k), wo.get(k));
+            let next = b.state[i].advance(
+                cfg,
+                p.get(k),
+                weight.get(k),
+                1.0,
+                pdf[k],
+                delta[k],
+                ray,
+                &mut b.sampler[i],
+            );
+            if let Some(r) = next {
+                b.ray[i] = r;
+                b.alive[i] = true;
+            }
+        }
+    }
+}
