@@ -66,6 +66,26 @@ impl Sampler {
         }
     }
 
+    /// The PCG32 (state, increment) of this stream when every number it draws from now on is a
+    /// plain PCG32 float (`next_1d` one, `next_2d` two, x then y): always for `independent`,
+    /// for `stratified` once its stratified 2-D draws are spent; `None` before that. With
+    /// [`Self::resume`], the stream renderer draws 8 paths' numbers 8-wide
+    /// (`lane::pcg::Pcg::from_parts`) in each path's scalar order.
+    #[inline]
+    pub fn plain_parts(&self) -> Option<(u64, u64)> {
+        match self.strata {
+            Some(_) if self.dim2 < 2 => None,
+            _ => Some(self.rng.parts()),
+        }
+    }
+
+    /// Continues this stream from the raw PCG32 `state` and `inc` that [`Self::plain_parts`]
+    /// gave, after drawing from them elsewhere.
+    #[inline]
+    pub fn resume(&mut self, state: u64, inc: u64) {
+        self.rng = Pcg32::from_parts(state, inc);
+    }
+
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
         self.rng.next_f32()
