@@ -56,6 +56,8 @@ pub struct LaneCounters {
     /// Paths shaded by an 8-wide material kernel (the rest of `shade_used` went through the
     /// 1-lane code lane by lane).
     pub kernel_lanes: u64,
+    /// Light points the kernels sampled in lanes: on triangle meshes, rectangles, spheres.
+    pub kernel_lights: [u64; 3],
     /// Batches and bounces (trace stages) run.
     pub batches: u64,
     pub bounces: u64,
@@ -70,6 +72,9 @@ impl LaneCounters {
         self.shadow_used += o.shadow_used;
         self.shadow_slots += o.shadow_slots;
         self.kernel_lanes += o.kernel_lanes;
+        for (a, b) in self.kernel_lights.iter_mut().zip(o.kernel_lights) {
+            *a += b;
+        }
         self.batches += o.batches;
         self.bounces += o.bounces;
     }
@@ -196,6 +201,8 @@ struct Kernels {
     #[cfg(target_arch = "x86_64")]
     avx: Option<crate::lane::Avx2>,
     diffuse: Vec<Option<(crate::material::TexId, bool)>>,
+    /// Per emitter, how the kernels sample it in lanes.
+    lights: Vec<Option<kernels::light::LaneLight>>,
 }
 
 impl Kernels {
@@ -217,6 +224,7 @@ impl Kernels {
                 crate::lane::Avx2::detect()
             },
             diffuse,
+            lights: kernels::light::LaneLight::table(scene),
         }
     }
 
@@ -380,7 +388,11 @@ fn shade(
             end += 1;
         }
         let done = shade_kernel(scene, cfg, batch, start..end, kernels, m);
-        scratch.rays.counters.lanes.kernel_lanes += done as u64;
+        let lanes = &mut scratch.rays.counters.lanes;
+        lanes.kernel_lanes += done as u64;
+        for (a, b) in lanes.kernel_lights.iter_mut().zip(&mut batch.light_lanes) {
+            *a += std::mem::take(b);
+        }
         for k in start + done..end {
             let i = batch.sorted[k] as usize;
             let Some(si) = &batch.si[i] else { continue };
@@ -424,6 +436,7 @@ fn shade_kernel(
     let mat = x8::Material {
         reflectance: &scene.materials.textures[tex as usize],
         smooth,
+        lights: &kernels.lights,
     };
     avx.run(
         #[inline(always)]
