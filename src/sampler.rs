@@ -177,6 +177,38 @@ mod tests {
         assert_ne!(xa, xc);
     }
 
+    /// `plain_parts` is `None` exactly while stratified 2-D draws are pending; drawing from the
+    /// parts gives the sampler's own numbers (`next_1d`, then `next_2d` x and y), and `resume`
+    /// continues the stream from there.
+    #[test]
+    fn plain_parts_continue_the_stream() {
+        for (kind, pending) in [
+            (SamplerKind::Independent, 0),
+            (SamplerKind::Stratified { jitter: true }, 2),
+        ] {
+            let d = SamplerDesc {
+                kind,
+                sample_count: 16,
+                seed: 5,
+            };
+            let mut s = Sampler::for_sample(&d, 3, 7);
+            let mut n = 0;
+            while s.plain_parts().is_none() {
+                s.next_2d();
+                n += 1;
+            }
+            assert_eq!(n, pending, "{kind:?}");
+            let (state, inc) = s.plain_parts().expect("plain");
+            let mut r = Pcg32::from_parts(state, inc);
+            let mut t = s.clone();
+            let drawn = [r.next_f32(), r.next_f32(), r.next_f32()];
+            let (x, v) = (t.next_1d(), t.next_2d());
+            assert_eq!(drawn, [x, v.x, v.y], "{kind:?}");
+            s.resume(r.parts().0, inc);
+            assert_eq!(s.next_2d(), t.next_2d(), "{kind:?}");
+        }
+    }
+
     #[test]
     fn stratified_covers_every_stratum_once() {
         let d = SamplerDesc {

@@ -147,6 +147,7 @@ const SCENES: &[(&str, Entry)] = &[
     ("shape_curves.xml", Compare(CLOSED_CURVES, Nm::AsWritten, 1)),
     ("shape_cylinder.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("shape_instance.xml", Compare(NONE, Nm::AsWritten, 1)),
+    ("stream_lights.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("tex_hdr_pfm.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("tex_mesh_attr.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("textured_quad.xml", Compare(NONE, Nm::AsWritten, 1)),

@@ -6,16 +6,21 @@
 //! 1. gather the surface interactions into SoA columns (lane by lane);
 //! 2. [`incident`], 8-wide: the incident direction in the shading frame and the strict-normal
 //!    side test of `SurfaceBsdf::new` (a path that fails it ends here, drawing nothing);
-//! 3. lane by lane: the reflectance texture, then each path's random numbers in the scalar
-//!    renderer's order (light selection `u_sel`, light point `u`, BSDF sample `u2`), the light
-//!    selection, and the light point of every emitter through its own scalar `sample_direct`,
-//!    except area lights on triangle meshes of a constant radiance: their triangle is picked
-//!    here (`Shape::pick_triangle`) and the point sampled 8-wide ([`super::light`]);
+//! 3. each path's random numbers in the scalar renderer's order (light selection `u_sel`, light
+//!    point `u`, BSDF sample `u2`): 8-wide from the 8 paths' PCG32 states gathered into one
+//!    `lane::pcg::Pcg` and scattered back, when every stream is plain (`Sampler::plain_parts`:
+//!    `independent`, and `stratified` once its stratified dimensions are spent), else lane by
+//!    lane from each `Sampler`; then lane by lane: the reflectance texture, the light selection,
+//!    and the light point of every emitter through its own scalar `sample_direct`, except area
+//!    lights of a constant radiance on triangle meshes, rectangles and spheres (seen from
+//!    outside): their triangle is picked here (`Shape::pick_triangle`) and the point sampled
+//!    8-wide ([`super::light`]);
 //! 4. [`light`] and [`sample`], 8-wide: BSDF value and density toward the light point, power
 //!    heuristic, contribution, shadow ray; cosine-hemisphere sample, its side test, next ray;
 //! 5. scatter back lane by lane: the pending light sample, then the throughput update and
 //!    Russian roulette through `PathState::advance` (the scalar code, which may draw one more
-//!    number).
+//!    number from the path's `Sampler`, whose state the 8-wide draws left where the scalar
+//!    draws would have).
 //!
 //! Each 8-wide step is the scalar code's operations in its order (see `kernels` for the rule).
 
@@ -234,6 +239,19 @@ pub(crate) mod x8 {
         [v.x.to_array(), v.y.to_array(), v.z.to_array()]
     }
 
+    /// Where `on`, the light point `q` of an 8-wide area-light sampler (its density times the
+    /// selection probability `sel`) replaces the lane-by-lane one.
+    #[inline(always)]
+    fn merge(lp: &mut LightPoint<F32x8>, on: M8, q: &AreaPoint<F32x8>, sel: F32x8) {
+        lp.some = lp.some | (on & q.ok);
+        lp.d = V3::select(on, q.d, lp.d);
+        lp.p = V3::select(on, q.p, lp.p);
+        lp.n = V3::select(on, q.n, lp.n);
+        lp.has_n = lp.has_n | on;
+        lp.finite = (on & q.dist.is_finite()) | (!on & lp.finite);
+        lp.pdf = F32x8::select(on, q.pdf * sel, lp.pdf);
+    }
+
     /// What a material needs for the kernel: its reflectance texture and whether it takes a
     /// light sample (`Lobes::is_smooth`, as `PathState::scatter` asks).
     #[derive(Clone, Copy)]
@@ -332,6 +350,7 @@ pub(crate) mod x8 {
         // The lanes' area lights sampled 8-wide: which kind (0 none, else `KIND_*`), the
         // triangle, rectangle or sphere, and what they share.
         let mut kind = [0u8; 8];
+        let mut counts = [0u32; 3];
         let (mut tpos, mut tnorm) = <([Cols3; 3], [Cols3; 3])>::default();
         let mut tnorm_some = [false; 8];
         let (mut raxes, mut rn) = <([Cols3; 4], Cols3)>::default();
@@ -369,13 +388,13 @@ pub(crate) mod x8 {
             let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) else {
                 continue;
             };
-            let lane_light = match mat.lights[e] {
+            let lane_light = match &mat.lights[e] {
                 Some(LaneLight::Sphere { center, radius, .. })
-                    if !sphere_sees_cone((center - si.p).length(), radius) =>
+                    if !sphere_sees_cone((*center - si.p).length(), *radius) =>
                 {
                     None
                 }
-                l => l,
+                l => l.as_ref(),
             };
             let Some(ll) = lane_light else {
                 if let Some(ds) = scene.emitters[e].sample_direct(&scene.shapes, si.p, u) {
@@ -396,7 +415,7 @@ pub(crate) mod x8 {
                 continue;
             };
             let mut su = u;
-            let le = match ll {
+            let le = match *ll {
                 LaneLight::Triangles {
                     shape,
                     inv_area: ia,
@@ -449,6 +468,7 @@ pub(crate) mod x8 {
                     radiance
                 }
             };
+            counts[kind[k] as usize - 1] += 1;
             (tux[k], tuy[k]) = (su.x, su.y);
             sel[k] = sel_pdf;
             lv.set(k, le);
@@ -471,17 +491,6 @@ pub(crate) mod x8 {
         };
         let su = V2::new(avx.load(&tux), avx.load(&tuy));
         let sel8 = avx.load(&sel);
-        let mut merge = |on: M8, q: AreaPoint<F32x8>| {
-            lp.some = lp.some | (on & q.ok);
-            lp.d = V3::select(on, q.d, lp.d);
-            lp.p = V3::select(on, q.p, lp.p);
-            lp.n = V3::select(on, q.n, lp.n);
-            lp.has_n = lp.has_n | on;
-            lp.finite = (on & q.dist.is_finite()) | (!on & lp.finite);
-            lp.pdf = F32x8::select(on, q.pdf * sel8, lp.pdf);
-        };
-        let counts = [KIND_TRIANGLE, KIND_RECTANGLE, KIND_SPHERE]
-            .map(|c| kind.iter().filter(|&&x| x == c).count() as u64);
         if counts[0] > 0 {
             let q = sample_triangle(
                 &Triangle {
@@ -494,7 +503,7 @@ pub(crate) mod x8 {
                 },
                 surf.p,
             );
-            merge(m(&kind.map(|c| c == KIND_TRIANGLE)), q);
+            merge(&mut lp, m(&kind.map(|c| c == KIND_TRIANGLE)), &q, sel8);
         }
         if counts[1] > 0 {
             let q = sample_rectangle(
@@ -506,7 +515,7 @@ pub(crate) mod x8 {
                 },
                 surf.p,
             );
-            merge(m(&kind.map(|c| c == KIND_RECTANGLE)), q);
+            merge(&mut lp, m(&kind.map(|c| c == KIND_RECTANGLE)), &q, sel8);
         }
         if counts[2] > 0 {
             let q = sample_sphere(
@@ -518,10 +527,10 @@ pub(crate) mod x8 {
                 },
                 surf.p,
             );
-            merge(m(&kind.map(|c| c == KIND_SPHERE)), q);
+            merge(&mut lp, m(&kind.map(|c| c == KIND_SPHERE)), &q, sel8);
         }
         for (total, c) in b.light_lanes.iter_mut().zip(counts) {
-            *total += c;
+            *total += c as u64;
         }
         let lo = light(&surf, wi, refl8, tp.load(avx), &lp);
         let so = sample(&surf, wi, refl8, V2::new(avx.load(&ux), avx.load(&uy)));
