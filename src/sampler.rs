@@ -66,6 +66,26 @@ impl Sampler {
         }
     }
 
+    /// The PCG32 (state, increment) of this stream when every number it draws from now on is a
+    /// plain PCG32 float (`next_1d` one, `next_2d` two, x then y): always for `independent`,
+    /// for `stratified` once its stratified 2-D draws are spent; `None` before that. With
+    /// [`Self::resume`], the stream renderer draws 8 paths' numbers 8-wide
+    /// (`lane::pcg::Pcg::from_parts`) in each path's scalar order.
+    #[inline]
+    pub fn plain_parts(&self) -> Option<(u64, u64)> {
+        match self.strata {
+            Some(_) if self.dim2 < 2 => None,
+            _ => Some(self.rng.parts()),
+        }
+    }
+
+    /// Continues this stream from the raw PCG32 `state` and `inc` that [`Self::plain_parts`]
+    /// gave, after drawing from them elsewhere.
+    #[inline]
+    pub fn resume(&mut self, state: u64, inc: u64) {
+        self.rng = Pcg32::from_parts(state, inc);
+    }
+
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
         self.rng.next_f32()
@@ -155,6 +175,38 @@ mod tests {
         let xc: Vec<f32> = (0..8).map(|_| c.next_1d()).collect();
         assert_eq!(xa, xb);
         assert_ne!(xa, xc);
+    }
+
+    /// `plain_parts` is `None` exactly while stratified 2-D draws are pending; drawing from the
+    /// parts gives the sampler's own numbers (`next_1d`, then `next_2d` x and y), and `resume`
+    /// continues the stream from there.
+    #[test]
+    fn plain_parts_continue_the_stream() {
+        for (kind, pending) in [
+            (SamplerKind::Independent, 0),
+            (SamplerKind::Stratified { jitter: true }, 2),
+        ] {
+            let d = SamplerDesc {
+                kind,
+                sample_count: 16,
+                seed: 5,
+            };
+            let mut s = Sampler::for_sample(&d, 3, 7);
+            let mut n = 0;
+            while s.plain_parts().is_none() {
+                s.next_2d();
+                n += 1;
+            }
+            assert_eq!(n, pending, "{kind:?}");
+            let (state, inc) = s.plain_parts().expect("plain");
+            let mut r = Pcg32::from_parts(state, inc);
+            let mut t = s.clone();
+            let drawn = [r.next_f32(), r.next_f32(), r.next_f32()];
+            let (x, v) = (t.next_1d(), t.next_2d());
+            assert_eq!(drawn, [x, v.x, v.y], "{kind:?}");
+            s.resume(r.parts().0, inc);
+            assert_eq!(s.next_2d(), t.next_2d(), "{kind:?}");
+        }
     }
 
     #[test]

@@ -712,7 +712,7 @@ impl Shape {
                 let l = Vec3::new(2.0 * u.x - 1.0, 2.0 * u.y - 1.0, 0.0);
                 PositionSample {
                     p: to_world.transform_point3(l),
-                    n: self.shading_normal.unwrap_or_else(|| self.plane_normal()) * sign,
+                    n: self.rectangle_normal() * sign,
                     uv: u,
                     pdf,
                 }
@@ -862,6 +862,14 @@ impl Shape {
         }
     }
 
+    /// The unit normal of a rectangle's sampled points before `flip_normals` (its shading normal
+    /// where Mitsuba's differs from the geometric one). Shared with the stream renderer's 8-wide
+    /// light sampling.
+    #[inline]
+    pub(crate) fn rectangle_normal(&self) -> Vec3 {
+        self.shading_normal.unwrap_or_else(|| self.plane_normal())
+    }
+
     /// The disk's unit normal before `flip_normals`: +Z by the normal transform.
     /// The unit normal of a disk or rectangle: the normal transform of +Z, as Mitsuba.
     fn plane_normal(&self) -> Vec3 {
@@ -963,7 +971,7 @@ fn sphere_uv(frame: &Mat4, radius: f32, n: Vec3) -> (Vec2, Vec3, Vec3) {
 /// which lost ~10% of the light inside an emitting sphere. A point on the outside of a convex
 /// sphere cannot see the sphere's own surface, so area sampling is correct there too.
 #[inline]
-fn sphere_sees_cone(dist_c: f32, radius: f32) -> bool {
+pub(crate) fn sphere_sees_cone(dist_c: f32, radius: f32) -> bool {
     dist_c > radius * (1.0 + 1e-3)
 }
 

@@ -28,6 +28,19 @@ impl<L: Lane> Pcg<L> {
         r
     }
 
+    /// Per lane, the generator whose raw LCG state and increment are `state` and `inc` (as
+    /// [`Self::parts`] returns them): gathers scalar generators into lanes and back.
+    #[inline(always)]
+    pub fn from_parts(state: L::U64, inc: L::U64) -> Self {
+        Pcg { state, inc }
+    }
+
+    /// The raw LCG state and increment of each lane.
+    #[inline(always)]
+    pub fn parts(&self) -> (L::U64, L::U64) {
+        (self.state, self.inc)
+    }
+
     /// The next 32 random bits of each lane (as `i32` lanes holding the `u32` bits).
     #[inline(always)]
     pub fn next_u32(&mut self) -> L::I32 {

@@ -61,6 +61,8 @@ pub struct LaneCounters {
     /// The part of `kernel_lanes` shaded by the `roughconductor`/`conductor` kernels
     /// ([`kernels::conductor`]).
     pub conductor_lanes: u64,
+    /// Light points the kernels sampled in lanes: on triangle meshes, rectangles, spheres.
+    pub kernel_lights: [u64; 3],
     /// Batches and bounces (trace stages) run.
     pub batches: u64,
     pub bounces: u64,
@@ -76,6 +78,9 @@ impl LaneCounters {
         self.shadow_slots += o.shadow_slots;
         self.kernel_lanes += o.kernel_lanes;
         self.conductor_lanes += o.conductor_lanes;
+        for (a, b) in self.kernel_lights.iter_mut().zip(o.kernel_lights) {
+            *a += b;
+        }
         self.batches += o.batches;
         self.bounces += o.bounces;
     }
@@ -202,6 +207,8 @@ struct Kernels {
     #[cfg(target_arch = "x86_64")]
     avx: Option<crate::lane::Avx2>,
     kinds: Vec<Option<Kernel>>,
+    /// Per emitter, how the kernels sample it in lanes.
+    lights: Vec<Option<kernels::light::LaneLight>>,
 }
 
 /// Which 8-wide kernel shades a material, with what it needs.
@@ -239,6 +246,7 @@ impl Kernels {
                 crate::lane::Avx2::detect()
             },
             kinds,
+            lights: kernels::light::LaneLight::table(scene),
         }
     }
 
@@ -407,6 +415,9 @@ fn shade(
         if conductor {
             lanes.conductor_lanes += done as u64;
         }
+        for (a, b) in lanes.kernel_lights.iter_mut().zip(&mut batch.light_lanes) {
+            *a += std::mem::take(b);
+        }
         for k in start + done..end {
             let i = batch.sorted[k] as usize;
             let Some(si) = &batch.si[i] else { continue };
@@ -453,6 +464,7 @@ fn shade_kernel(
             let mat = x8::Material {
                 reflectance: &scene.materials.textures[tex as usize],
                 smooth,
+                lights: &kernels.lights,
             };
             avx.run(
                 #[inline(always)]

@@ -152,6 +152,7 @@ const SCENES: &[(&str, Entry)] = &[
     ("stream_conductors.xml", Exclude(Specular("conductor"))),
     // The stream renderer's plastic kernel (tests/render/stream.rs): smooth `plastic` in view.
     ("stream_plastic.xml", Exclude(Specular("plastic"))),
+    ("stream_lights.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("tex_hdr_pfm.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("tex_mesh_attr.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("textured_quad.xml", Compare(NONE, Nm::AsWritten, 1)),

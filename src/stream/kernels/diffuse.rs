@@ -6,16 +6,21 @@
 //! 1. gather the surface interactions into SoA columns (lane by lane);
 //! 2. [`incident`], 8-wide: the incident direction in the shading frame and the strict-normal
 //!    side test of `SurfaceBsdf::new` (a path that fails it ends here, drawing nothing);
-//! 3. lane by lane: the reflectance texture, then each path's random numbers in the scalar
-//!    renderer's order (light selection `u_sel`, light point `u`, BSDF sample `u2`), the light
-//!    selection, and the light point of every emitter through its own scalar `sample_direct`,
-//!    except area lights on triangle meshes of a constant radiance: their triangle is picked
-//!    here (`Shape::pick_triangle`) and the point sampled 8-wide ([`super::light`]);
+//! 3. each path's random numbers in the scalar renderer's order (light selection `u_sel`, light
+//!    point `u`, BSDF sample `u2`): 8-wide from the 8 paths' PCG32 states gathered into one
+//!    `lane::pcg::Pcg` and scattered back, when every stream is plain (`Sampler::plain_parts`:
+//!    `independent`, and `stratified` once its stratified dimensions are spent), else lane by
+//!    lane from each `Sampler`; then lane by lane: the reflectance texture, the light selection,
+//!    and the light point of every emitter through its own scalar `sample_direct`, except area
+//!    lights of a constant radiance on triangle meshes, rectangles and spheres (seen from
+//!    outside): their triangle is picked here (`Shape::pick_triangle`) and the point sampled
+//!    8-wide ([`super::light`]);
 //! 4. [`light`] and [`sample`], 8-wide: BSDF value and density toward the light point, power
 //!    heuristic, contribution, shadow ray; cosine-hemisphere sample, its side test, next ray;
 //! 5. scatter back lane by lane: the pending light sample, then the throughput update and
 //!    Russian roulette through `PathState::advance` (the scalar code, which may draw one more
-//!    number).
+//!    number from the path's `Sampler`, whose state the 8-wide draws left where the scalar
+//!    draws would have).
 //!
 //! Each 8-wide step is the scalar code's operations in its order (see `kernels` for the rule).
 
@@ -183,16 +188,24 @@ pub(crate) fn reflectance(scene: &Scene, tex: &Texture, si: &SurfaceInteraction)
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
-    use crate::emitter::area::AreaLight;
-    use crate::emitter::Emitter;
+    use crate::geometry::shapes::sphere_sees_cone;
     use crate::geometry::Ray;
-    use crate::geometry::{Shape, ShapeKind, TriMesh};
+    use crate::geometry::ShapeKind;
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
+    use crate::lane::pcg::Pcg;
     use crate::lane::{Avx2, F32x8, M8};
     use crate::stream::batch::Batch;
-    use crate::stream::kernels::light::{sample_triangle, Triangle};
-    use glam::Vec3;
+    use crate::stream::kernels::light::{
+        sample_rectangle, sample_sphere, sample_triangle, AreaPoint, LaneLight, Rectangle, Sphere,
+        Triangle,
+    };
+    use glam::{Vec2, Vec3};
+
+    /// The kinds of `Batch::light_lanes` (index + 1).
+    const KIND_TRIANGLE: u8 = 1;
+    const KIND_RECTANGLE: u8 = 2;
+    const KIND_SPHERE: u8 = 3;
 
     /// Three columns of 8 floats (a 3-vector per lane).
     #[derive(Clone, Copy, Default)]
@@ -226,22 +239,17 @@ pub(crate) mod x8 {
         [v.x.to_array(), v.y.to_array(), v.z.to_array()]
     }
 
-    /// An area light that [`sample_triangle`] samples: on a triangle mesh with a positive area,
-    /// of a constant non-zero radiance (its shape, mesh and radiance).
+    /// Where `on`, the light point `q` of an 8-wide area-light sampler (its density times the
+    /// selection probability `sel`) replaces the lane-by-lane one.
     #[inline(always)]
-    fn triangle_light<'a>(
-        scene: &'a Scene,
-        a: &'a AreaLight,
-    ) -> Option<(&'a Shape, &'a TriMesh, Spectrum)> {
-        let shape = &scene.shapes[a.shape as usize];
-        match (&shape.kind, &a.radiance) {
-            (ShapeKind::Mesh(m), Texture::Constant(le))
-                if shape.samples_triangles() && *le != Spectrum::ZERO =>
-            {
-                Some((shape, m, *le))
-            }
-            _ => None,
-        }
+    fn merge(lp: &mut LightPoint<F32x8>, on: M8, q: &AreaPoint<F32x8>, sel: F32x8) {
+        lp.some = lp.some | (on & q.ok);
+        lp.d = V3::select(on, q.d, lp.d);
+        lp.p = V3::select(on, q.p, lp.p);
+        lp.n = V3::select(on, q.n, lp.n);
+        lp.has_n = lp.has_n | on;
+        lp.finite = (on & q.dist.is_finite()) | (!on & lp.finite);
+        lp.pdf = F32x8::select(on, q.pdf * sel, lp.pdf);
     }
 
     /// What a material needs for the kernel: its reflectance texture and whether it takes a
@@ -250,6 +258,8 @@ pub(crate) mod x8 {
     pub(crate) struct Material<'a> {
         pub reflectance: &'a Texture,
         pub smooth: bool,
+        /// Per emitter, how the kernel samples it in lanes (`LaneLight::table`).
+        pub lights: &'a [Option<LaneLight>],
     }
 
     /// Shades the 8 paths `ids` (all at a surface of material `mat`, each with its interaction in
@@ -293,8 +303,43 @@ pub(crate) mod x8 {
         let (wi, front) = incident(&surf);
         let front = front.to_array();
 
-        // 3. Textures, random numbers and light points, lane by lane in each path's order.
+        // 3a. Each path's random numbers in the scalar renderer's order: `u_sel` and `u` (x, y)
+        // when it takes a light sample, then `u2` (x, y). 8-wide from the 8 paths' PCG32 states
+        // gathered into one `Pcg` (and scattered back) when every front path's stream is plain
+        // (`Sampler::plain_parts`: always under `independent`); lane by lane otherwise (a
+        // `stratified` path whose stratified 2-D draws are not spent yet). A path that failed
+        // the side test draws nothing (its lane is computed and dropped).
         let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
+        let mut rnd = [[0.0f32; 8]; 5];
+        let mut parts = [(0u64, 1u64); 8];
+        let mut plain = true;
+        for (k, &i) in ids.iter().enumerate() {
+            if front[k] {
+                match b.sampler[i as usize].plain_parts() {
+                    Some(pp) => parts[k] = pp,
+                    None => {
+                        plain = false;
+                        break;
+                    }
+                }
+            }
+        }
+        if plain {
+            let inc = parts.map(|p| p.1);
+            let mut rng =
+                Pcg::<F32x8>::from_parts(avx.load_u64(&parts.map(|p| p.0)), avx.load_u64(&inc));
+            for r in &mut rnd[if nee { 0 } else { 3 }..] {
+                *r = rng.next_f32().to_array();
+            }
+            let state = rng.parts().0.to_array();
+            for (k, &i) in ids.iter().enumerate() {
+                if front[k] {
+                    b.sampler[i as usize].resume(state[k], inc[k]);
+                }
+            }
+        }
+
+        // 3b. Textures and light points, lane by lane in each path's order.
         let (mut refl, mut tp, mut ld, mut lpp, mut ln, mut lv) =
             <(Cols3, Cols3, Cols3, Cols3, Cols3, Cols3)>::default();
         let mut lpdf = [1.0f32; 8];
@@ -302,8 +347,14 @@ pub(crate) mod x8 {
             ([false; 8], [false; 8], [false; 8], [false; 8]);
         let (mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8]);
         let light_only = cfg.strategy == Strategy::LightOnly;
+        // The lanes' area lights sampled 8-wide: which kind (0 none, else `KIND_*`), the
+        // triangle, rectangle or sphere, and what they share.
+        let mut kind = [0u8; 8];
+        let mut counts = [0u32; 3];
         let (mut tpos, mut tnorm) = <([Cols3; 3], [Cols3; 3])>::default();
-        let (mut tri, mut tnorm_some) = ([false; 8], [false; 8]);
+        let mut tnorm_some = [false; 8];
+        let (mut raxes, mut rn) = <([Cols3; 4], Cols3)>::default();
+        let (mut center, mut radius) = (Cols3::default(), [0.0f32; 8]);
         let (mut inv_area, mut sign, mut sel) = ([0.0f32; 8], [1.0f32; 8], [1.0f32; 8]);
         let (mut tux, mut tuy) = ([0.0f32; 8], [0.0f32; 8]);
         for (k, &i) in ids.iter().enumerate() {
@@ -316,57 +367,112 @@ pub(crate) mod x8 {
             refl.set(k, reflectance(scene, mat.reflectance, &si));
             tp.set(k, b.state[i].throughput);
             let sampler = &mut b.sampler[i];
-            if nee {
-                let u_sel = sampler.next_1d();
-                let u = sampler.next_2d();
-                // `nee::sample_emitter`, with area lights on triangle meshes (of a constant,
-                // non-zero radiance) left to the 8-wide `light::sample_triangle`.
-                if let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) {
-                    match &scene.emitters[e] {
-                        Emitter::Area(a) if triangle_light(scene, a).is_some() => {
-                            let (shape, mesh, le) = triangle_light(scene, a).expect("checked");
-                            let (t, u) = shape.pick_triangle(u);
-                            let idx = mesh.indices[t].map(|j| j as usize);
-                            tri[k] = true;
-                            for c in 0..3 {
-                                tpos[c].set(k, mesh.positions[idx[c]]);
-                            }
-                            if let Some(ns) = &mesh.normals {
-                                tnorm_some[k] = true;
-                                for c in 0..3 {
-                                    tnorm[c].set(k, ns[idx[c]]);
-                                }
-                            }
-                            inv_area[k] = 1.0 / shape.area();
-                            sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
-                            (tux[k], tuy[k]) = (u.x, u.y);
-                            sel[k] = sel_pdf;
-                            lv.set(k, le);
-                            one[k] = light_only;
-                        }
-                        em => {
-                            if let Some(ds) = em.sample_direct(&scene.shapes, si.p, u) {
-                                if ds.value != Spectrum::ZERO {
-                                    some[k] = true;
-                                    ld.set(k, ds.d);
-                                    lpp.set(k, ds.p);
-                                    if let Some(n) = ds.n {
-                                        has_n[k] = true;
-                                        ln.set(k, n);
-                                    }
-                                    finite[k] = ds.dist.is_finite();
-                                    lpdf[k] = ds.pdf * sel_pdf;
-                                    lv.set(k, ds.value);
-                                    one[k] = ds.delta || light_only;
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-            let u2 = sampler.next_2d();
+            let (u_sel, u, u2) = if plain {
+                let r = |j: usize| rnd[j][k];
+                (r(0), Vec2::new(r(1), r(2)), Vec2::new(r(3), r(4)))
+            } else {
+                let (u_sel, u) = if nee {
+                    (sampler.next_1d(), sampler.next_2d())
+                } else {
+                    (0.0, Vec2::ZERO)
+                };
+                (u_sel, u, sampler.next_2d())
+            };
             ux[k] = u2.x;
             uy[k] = u2.y;
+            if !nee {
+                continue;
+            }
+            // `nee::sample_emitter`, with the area lights of `LaneLight` left to the 8-wide
+            // samplers of `kernels::light` (a sphere only from outside its cone threshold).
+            let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) else {
+                continue;
+            };
+            let lane_light = match &mat.lights[e] {
+                Some(LaneLight::Sphere { center, radius, .. })
+                    if !sphere_sees_cone((*center - si.p).length(), *radius) =>
+                {
+                    None
+                }
+                l => l.as_ref(),
+            };
+            let Some(ll) = lane_light else {
+                if let Some(ds) = scene.emitters[e].sample_direct(&scene.shapes, si.p, u) {
+                    if ds.value != Spectrum::ZERO {
+                        some[k] = true;
+                        ld.set(k, ds.d);
+                        lpp.set(k, ds.p);
+                        if let Some(n) = ds.n {
+                            has_n[k] = true;
+                            ln.set(k, n);
+                        }
+                        finite[k] = ds.dist.is_finite();
+                        lpdf[k] = ds.pdf * sel_pdf;
+                        lv.set(k, ds.value);
+                        one[k] = ds.delta || light_only;
+                    }
+                }
+                continue;
+            };
+            let mut su = u;
+            let le = match *ll {
+                LaneLight::Triangles {
+                    shape,
+                    inv_area: ia,
+                    sign: sg,
+                    radiance,
+                } => {
+                    let shape = &scene.shapes[shape as usize];
+                    let ShapeKind::Mesh(mesh) = &shape.kind else {
+                        unreachable!("LaneLight::table: a mesh")
+                    };
+                    let (t, ut) = shape.pick_triangle(u);
+                    su = ut;
+                    let idx = mesh.indices[t].map(|j| j as usize);
+                    kind[k] = KIND_TRIANGLE;
+                    for c in 0..3 {
+                        tpos[c].set(k, mesh.positions[idx[c]]);
+                    }
+                    if let Some(ns) = &mesh.normals {
+                        tnorm_some[k] = true;
+                        for c in 0..3 {
+                            tnorm[c].set(k, ns[idx[c]]);
+                        }
+                    }
+                    (inv_area[k], sign[k]) = (ia, sg);
+                    radiance
+                }
+                LaneLight::Rectangle {
+                    axes,
+                    n,
+                    inv_area: ia,
+                    radiance,
+                } => {
+                    kind[k] = KIND_RECTANGLE;
+                    for c in 0..4 {
+                        raxes[c].set(k, axes[c]);
+                    }
+                    rn.set(k, n);
+                    inv_area[k] = ia;
+                    radiance
+                }
+                LaneLight::Sphere {
+                    center: c,
+                    radius: r,
+                    sign: sg,
+                    radiance,
+                } => {
+                    kind[k] = KIND_SPHERE;
+                    center.set(k, c);
+                    (radius[k], sign[k]) = (r, sg);
+                    radiance
+                }
+            };
+            counts[kind[k] as usize - 1] += 1;
+            (tux[k], tuy[k]) = (su.x, su.y);
+            sel[k] = sel_pdf;
+            lv.set(k, le);
+            one[k] = light_only;
         }
 
         // 4. The kernel.
@@ -383,8 +489,9 @@ pub(crate) mod x8 {
             value: lv.load(avx),
             weight_one: m(&one),
         };
-        if tri.contains(&true) {
-            let t = m(&tri);
+        let su = V2::new(avx.load(&tux), avx.load(&tuy));
+        let sel8 = avx.load(&sel);
+        if counts[0] > 0 {
             let q = sample_triangle(
                 &Triangle {
                     p: tpos.map(|c| c.load(avx)),
@@ -392,17 +499,38 @@ pub(crate) mod x8 {
                     has_normals: m(&tnorm_some),
                     inv_area: avx.load(&inv_area),
                     sign: avx.load(&sign),
-                    u: V2::new(avx.load(&tux), avx.load(&tuy)),
+                    u: su,
                 },
                 surf.p,
             );
-            lp.some = lp.some | (t & q.ok);
-            lp.d = V3::select(t, q.d, lp.d);
-            lp.p = V3::select(t, q.p, lp.p);
-            lp.n = V3::select(t, q.n, lp.n);
-            lp.has_n = lp.has_n | t;
-            lp.finite = (t & q.dist.is_finite()) | (!t & lp.finite);
-            lp.pdf = F32x8::select(t, q.pdf * avx.load(&sel), lp.pdf);
+            merge(&mut lp, m(&kind.map(|c| c == KIND_TRIANGLE)), &q, sel8);
+        }
+        if counts[1] > 0 {
+            let q = sample_rectangle(
+                &Rectangle {
+                    axes: raxes.map(|c| c.load(avx)),
+                    n: rn.load(avx),
+                    inv_area: avx.load(&inv_area),
+                    u: su,
+                },
+                surf.p,
+            );
+            merge(&mut lp, m(&kind.map(|c| c == KIND_RECTANGLE)), &q, sel8);
+        }
+        if counts[2] > 0 {
+            let q = sample_sphere(
+                &Sphere {
+                    center: center.load(avx),
+                    radius: avx.load(&radius),
+                    sign: avx.load(&sign),
+                    u: su,
+                },
+                surf.p,
+            );
+            merge(&mut lp, m(&kind.map(|c| c == KIND_SPHERE)), &q, sel8);
+        }
+        for (total, c) in b.light_lanes.iter_mut().zip(counts) {
+            *total += c as u64;
         }
         let lo = light(&surf, wi, refl8, tp.load(avx), &lp);
         let so = sample(&surf, wi, refl8, V2::new(avx.load(&ux), avx.load(&uy)));

@@ -1,12 +1,105 @@
-//! Area lights on triangle meshes sampled in lanes: `Shape::sample_position`'s point on the
-//! triangle that `Shape::pick_triangle` chose (lane by lane: a search of the area CDF), its
-//! conversion to solid angle (`Shape::sample_direction`) and `AreaLight::sample_direct`'s
-//! front-side test, the same operations in the same order (uniform triangle sampling: Shirley &
-//! Chiu / Osada et al. 2002's square-root map, `lane::warp`). Other emitters, and area lights
-//! whose radiance is textured, are sampled lane by lane by the scalar code.
+//! Area lights of a constant radiance sampled in lanes, the same operations in the same order
+//! as the scalar code, so every lane equals it bit for bit:
+//! - triangle meshes: `Shape::sample_position`'s point on the triangle that
+//!   `Shape::pick_triangle` chose (lane by lane: a search of the area CDF), uniform triangle
+//!   sampling (Shirley & Chiu / Osada et al. 2002's square-root map, `lane::warp`);
+//! - rectangles: `Shape::sample_position`'s point `to_world · (2u − 1, 0)`;
+//! - spheres seen from outside: `Shape::sample_direction`'s uniform cone of directions toward
+//!   the sphere (Mitsuba 3's `Sphere::sample_direction`) and its nearest intersection;
+//!
+//! then, for the first two, the conversion from area to solid angle (`Shape::sample_direction`),
+//! and for all `AreaLight::sample_direct`'s front-side test. The light selection, other emitters,
+//! textured area lights and a reference point inside (or on) a sphere light stay with the scalar
+//! code, lane by lane.
 
+use crate::emitter::Emitter;
+use crate::geometry::ShapeKind;
+use crate::lane::frame::Frame;
 use crate::lane::vec::{V2, V3};
 use crate::lane::{warp, Lane};
+use crate::scene::Scene;
+use crate::spectrum::Spectrum;
+use crate::texture::Texture;
+use glam::Vec3;
+
+/// An emitter that the kernels sample in lanes: an area light of a constant, non-zero radiance
+/// on a triangle mesh of positive area, a rectangle or a sphere, with what the lanes need of
+/// its shape (per-shape constants computed once, by the scalar functions).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum LaneLight {
+    /// On the triangle mesh `shapes[shape]`.
+    Triangles {
+        shape: u32,
+        inv_area: f32,
+        sign: f32,
+        radiance: Spectrum,
+    },
+    /// On a rectangle: the columns of its `to_world` (x, y, z, translation) and the normal of its
+    /// points (after `flip_normals`).
+    Rectangle {
+        axes: [Vec3; 4],
+        n: Vec3,
+        inv_area: f32,
+        radiance: Spectrum,
+    },
+    /// On a sphere (sampled in lanes from outside its cone threshold only).
+    Sphere {
+        center: Vec3,
+        radius: f32,
+        sign: f32,
+        radiance: Spectrum,
+    },
+}
+
+impl LaneLight {
+    /// Per emitter of `scene`, how the kernels sample it in lanes (`None`: lane by lane through
+    /// its scalar `sample_direct`).
+    pub(crate) fn table(scene: &Scene) -> Vec<Option<LaneLight>> {
+        scene
+            .emitters
+            .iter()
+            .map(|e| {
+                let Emitter::Area(a) = e else { return None };
+                let Texture::Constant(radiance) = a.radiance else {
+                    return None;
+                };
+                if radiance == Spectrum::ZERO {
+                    return None;
+                }
+                let shape = &scene.shapes[a.shape as usize];
+                let sign = if shape.flip_normals { -1.0 } else { 1.0 };
+                // As `Shape::sample_position` computes its pdf.
+                let inv_area = 1.0 / shape.area();
+                match &shape.kind {
+                    ShapeKind::Mesh(_) if shape.samples_triangles() => Some(LaneLight::Triangles {
+                        shape: a.shape,
+                        inv_area,
+                        sign,
+                        radiance,
+                    }),
+                    ShapeKind::Rectangle { to_world } => Some(LaneLight::Rectangle {
+                        axes: [
+                            to_world.x_axis.truncate(),
+                            to_world.y_axis.truncate(),
+                            to_world.z_axis.truncate(),
+                            to_world.w_axis.truncate(),
+                        ],
+                        n: shape.rectangle_normal() * sign,
+                        inv_area,
+                        radiance,
+                    }),
+                    ShapeKind::Sphere { center, radius, .. } => Some(LaneLight::Sphere {
+                        center: *center,
+                        radius: *radius,
+                        sign,
+                        radiance,
+                    }),
+                    _ => None,
+                }
+            })
+            .collect()
+    }
+}
 
 /// One triangle per lane: its corners, optional per-vertex normals, the mesh's
 /// `1 / area`, the sign of `flip_normals` and the rescaled sample `u`.
@@ -22,10 +115,30 @@ pub(crate) struct Triangle<L: Lane> {
     pub u: V2<L>,
 }
 
-/// A light point sampled from `ref_p` (see `emitter::DirectSample`); `ok` where
-/// `sample_direction` and the area light accept it.
+/// One rectangle per lane: the columns of its `to_world`, the normal of its points (signed),
+/// `1 / area` and the sample `u`.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct TrianglePoint<L: Lane> {
+pub(crate) struct Rectangle<L: Lane> {
+    pub axes: [V3<L>; 4],
+    pub n: V3<L>,
+    pub inv_area: L,
+    pub u: V2<L>,
+}
+
+/// One sphere per lane, seen from outside its cone threshold (`shapes::sphere_sees_cone`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Sphere<L: Lane> {
+    pub center: V3<L>,
+    pub radius: L,
+    /// −1 where the shape flips its normals, else 1.
+    pub sign: L,
+    pub u: V2<L>,
+}
+
+/// A light point sampled from `ref_p` (see `emitter::DirectSample`); `ok` where
+/// `Shape::sample_direction` and the area light accept it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct AreaPoint<L: Lane> {
     pub ok: L::Mask,
     pub d: V3<L>,
     pub dist: L,
@@ -34,18 +147,54 @@ pub(crate) struct TrianglePoint<L: Lane> {
     pub pdf: L,
 }
 
-/// glam's `try_normalize(v).unwrap_or(fallback)`: `v · (1/|v|)` where that reciprocal is finite
-/// and positive.
+/// glam's `try_normalize(v)`: `v · (1/|v|)`, and where that reciprocal is finite and positive.
+#[inline(always)]
+fn try_normalize<L: Lane>(v: V3<L>) -> (V3<L>, L::Mask) {
+    let rcp = v.x.splat(1.0) / v.length();
+    (v.scale(rcp), rcp.is_finite() & rcp.gt(v.x.splat(0.0)))
+}
+
+/// glam's `try_normalize(v).unwrap_or(fallback)`.
 #[inline(always)]
 fn normalize_or<L: Lane>(v: V3<L>, fallback: V3<L>) -> V3<L> {
-    let rcp = v.x.splat(1.0) / v.length();
-    let ok = rcp.is_finite() & rcp.gt(v.x.splat(0.0));
-    V3::select(ok, v.scale(rcp), fallback)
+    let (n, ok) = try_normalize(v);
+    V3::select(ok, n, fallback)
+}
+
+/// A point `p` with normal `n` sampled by area with density `pdf_area`, seen from `ref_p`:
+/// `Shape::sample_direction`'s conversion to solid angle and `AreaLight::sample_direct`'s test.
+#[inline(always)]
+fn by_area<L: Lane>(p: V3<L>, n: V3<L>, pdf_area: L, ref_p: V3<L>) -> AreaPoint<L> {
+    let k = |c: f32| ref_p.x.splat(c);
+    let v = p - ref_p;
+    let dist2 = v.length_squared();
+    let dist = dist2.sqrt();
+    let ok = !pdf_area.eq(k(0.0)) & !(dist.is_nan() | dist.le(k(0.0)));
+    let d = v.div_by(dist);
+    let cos = d.dot(n).abs();
+    let pdf = pdf_area * dist2 / cos;
+    let ok = ok & cos.gt(k(0.0)) & pdf.is_finite();
+    AreaPoint {
+        ok: ok & front(n, d, pdf),
+        d,
+        dist,
+        p,
+        n,
+        pdf,
+    }
+}
+
+/// `AreaLight::sample_direct`'s test: the light point faces the reference point and the density
+/// is positive and finite.
+#[inline(always)]
+fn front<L: Lane>(n: V3<L>, d: V3<L>, pdf: L) -> L::Mask {
+    let zero = pdf.splat(0.0);
+    !n.dot(-d).le(zero) & pdf.is_finite() & pdf.gt(zero)
 }
 
 /// A point on each lane's triangle seen from `ref_p`.
 #[inline(always)]
-pub(crate) fn sample_triangle<L: Lane>(t: &Triangle<L>, ref_p: V3<L>) -> TrianglePoint<L> {
+pub(crate) fn sample_triangle<L: Lane>(t: &Triangle<L>, ref_p: V3<L>) -> AreaPoint<L> {
     let k = |c: f32| ref_p.x.splat(c);
     // Shape::sample_position.
     let b = warp::square_to_uniform_triangle(t.u);
@@ -58,24 +207,165 @@ pub(crate) fn sample_triangle<L: Lane>(t: &Triangle<L>, ref_p: V3<L>) -> Triangl
     let [n0, n1, n2] = t.n;
     let ns = normalize_or((n0.scale(b0) + n1.scale(b.x)) + n2.scale(b.y), ng);
     let n = V3::select(t.has_normals, ns, ng).scale(t.sign);
-    let pdf_area = t.inv_area;
-    // Shape::sample_direction (by area, converted to solid angle).
+    by_area(p, n, t.inv_area, ref_p)
+}
+
+/// A point on each lane's rectangle seen from `ref_p`.
+#[inline(always)]
+pub(crate) fn sample_rectangle<L: Lane>(r: &Rectangle<L>, ref_p: V3<L>) -> AreaPoint<L> {
+    let k = |c: f32| ref_p.x.splat(c);
+    // Shape::sample_position: l = (2u − 1, 0), then glam's `Mat4::transform_point3` in its
+    // order, w + (z·l.z + (y·l.y + x·l.x)) (the zero l.z kept: it can carry a −0 or a NaN).
+    let (lx, ly, lz) = (k(2.0) * r.u.x - k(1.0), k(2.0) * r.u.y - k(1.0), k(0.0));
+    let [ax, ay, az, aw] = r.axes;
+    let p = aw + (az.scale(lz) + (ay.scale(ly) + ax.scale(lx)));
+    by_area(p, r.n, r.inv_area, ref_p)
+}
+
+/// A point on each lane's sphere seen from `ref_p` outside it: the direction uniform in the
+/// cone the sphere subtends, the point its nearest intersection (PBRT-v3 §14.2.3 / Mitsuba 3's
+/// `Sphere::sample_direction`, as `Shape::sample_direction` writes it).
+#[inline(always)]
+pub(crate) fn sample_sphere<L: Lane>(s: &Sphere<L>, ref_p: V3<L>) -> AreaPoint<L> {
+    let k = |c: f32| ref_p.x.splat(c);
+    let dc = s.center - ref_p;
+    let dist_c = dc.length();
+    let sin_a = s.radius / dist_c;
+    let cos_a = warp::safe_sqrt(k(1.0) - sin_a * sin_a);
+    let axis = dc.div_by(dist_c);
+    let d = Frame::from_normal(axis).to_world(warp::square_to_uniform_cone(s.u, cos_a));
+    let b = d.dot(dc);
+    let disc = (s.radius * s.radius - (dist_c * dist_c - b * b)).max(k(0.0));
+    let t = b - disc.sqrt();
+    let (n0, ok) = try_normalize((ref_p + d.scale(t)) - s.center);
+    let p = s.center + n0.scale(s.radius);
     let v = p - ref_p;
-    let dist2 = v.length_squared();
-    let dist = dist2.sqrt();
-    let ok = !pdf_area.eq(k(0.0)) & !(dist.is_nan() | dist.le(k(0.0)));
+    let dist = v.length();
+    let pdf = warp::uniform_cone_pdf(cos_a);
+    let ok = ok & dist.gt(k(0.0)) & pdf.is_finite();
+    let n = n0.scale(s.sign);
     let d = v.div_by(dist);
-    let cos = d.dot(n).abs();
-    let pdf = pdf_area * dist2 / cos;
-    let ok = ok & cos.gt(k(0.0)) & pdf.is_finite();
-    // AreaLight::sample_direct: the light point faces the reference point.
-    let ok = ok & !n.dot(-d).le(k(0.0)) & pdf.is_finite() & pdf.gt(k(0.0));
-    TrianglePoint {
-        ok,
+    AreaPoint {
+        ok: ok & front(n, d, pdf),
         d,
         dist,
         p,
         n,
         pdf,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Pcg32;
+    use glam::{Mat4, Vec2};
+
+    fn same(a: f32, b: f32) -> bool {
+        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+    }
+
+    fn same3(a: V3<f32>, b: Vec3) -> bool {
+        same(a.x, b.x) && same(a.y, b.y) && same(a.z, b.z)
+    }
+
+    /// Width 1 of the lane samplers equals `AreaLight::sample_direct` (through
+    /// `Shape::sample_direction`) bit for bit on random rectangles and spheres seen from random
+    /// points, accepted or not, flipped normals included (width 8: `tests/render/stream.rs`).
+    #[test]
+    fn lane_rectangles_and_spheres_equal_the_scalar_sampling() {
+        use crate::emitter::area::AreaLight;
+        use crate::geometry::Shape;
+        let mut r = Pcg32::new(21, 4);
+        let mut f = |a: f32, b: f32| a + (b - a) * r.next_f32();
+        let mut rect_cases = Vec::new();
+        let mut sphere_cases = Vec::new();
+        for i in 0..4000 {
+            let flip = i % 3 == 0;
+            let m = Mat4::from_scale_rotation_translation(
+                Vec3::new(f(0.1, 3.0), f(0.1, 3.0), f(0.1, 3.0)),
+                glam::Quat::from_euler(
+                    glam::EulerRot::XYZ,
+                    f(-3.0, 3.0),
+                    f(-3.0, 3.0),
+                    f(-3.0, 3.0),
+                ),
+                Vec3::new(f(-2.0, 2.0), f(-2.0, 2.0), f(-2.0, 2.0)),
+            );
+            // Every fourth with a shading normal of its own (a non-unit `<rotate>`).
+            let nm = glam::Mat3::from_cols(
+                Vec3::new(1.0, f(-0.3, 0.3), 0.0),
+                Vec3::Y,
+                Vec3::new(f(-0.3, 0.3), 0.0, 1.0),
+            );
+            let rect = Shape::rectangle_with_normals(&m, (i % 4 == 1).then_some(&nm), flip);
+            let refp = Vec3::new(f(-4.0, 4.0), f(-4.0, 4.0), f(-4.0, 4.0));
+            let u = Vec2::new(f(0.0, 1.0), f(0.0, 1.0));
+            rect_cases.push((rect, refp, u));
+            let center = Vec3::new(f(-2.0, 2.0), f(-2.0, 2.0), f(-2.0, 2.0));
+            let sph = Shape::sphere(center, f(0.05, 1.5), &Mat4::IDENTITY, flip).unwrap();
+            sphere_cases.push((sph, refp, u));
+        }
+        let le = Spectrum::ONE;
+        let mut checked = [0usize; 2];
+        for (c, cases) in [&rect_cases, &sphere_cases].into_iter().enumerate() {
+            for (shape, refp, u) in cases {
+                let scene_less = [shape.clone()];
+                let light = AreaLight {
+                    shape: 0,
+                    radiance: Texture::Constant(le),
+                };
+                let ds = light.sample_direct(&scene_less, *refp, *u);
+                let sign = if shape.flip_normals { -1.0 } else { 1.0 };
+                let q = match &shape.kind {
+                    ShapeKind::Rectangle { to_world } => sample_rectangle(
+                        &Rectangle {
+                            axes: [
+                                to_world.x_axis.truncate().into(),
+                                to_world.y_axis.truncate().into(),
+                                to_world.z_axis.truncate().into(),
+                                to_world.w_axis.truncate().into(),
+                            ],
+                            n: (shape.rectangle_normal() * sign).into(),
+                            inv_area: 1.0 / shape.area(),
+                            u: (*u).into(),
+                        },
+                        (*refp).into(),
+                    ),
+                    ShapeKind::Sphere { center, radius, .. } => {
+                        if !crate::geometry::shapes::sphere_sees_cone(
+                            (*center - *refp).length(),
+                            *radius,
+                        ) {
+                            continue;
+                        }
+                        sample_sphere(
+                            &Sphere {
+                                center: (*center).into(),
+                                radius: *radius,
+                                sign,
+                                u: (*u).into(),
+                            },
+                            (*refp).into(),
+                        )
+                    }
+                    _ => unreachable!(),
+                };
+                assert_eq!(q.ok, ds.is_some(), "{c}: {refp} {u}");
+                if let Some(ds) = ds {
+                    checked[c] += 1;
+                    assert!(
+                        same3(q.p, ds.p)
+                            && same3(q.d, ds.d)
+                            && same3(q.n, ds.n.unwrap())
+                            && same(q.pdf, ds.pdf)
+                            && same(q.dist, ds.dist),
+                        "{c}: {refp} {u}"
+                    );
+                }
+            }
+        }
+        // Roughly half of the random pairs face each other.
+        assert!(checked.iter().all(|&n| n > 1000), "{checked:?}");
     }
 }
