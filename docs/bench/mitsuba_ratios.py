@@ -2,15 +2,17 @@
 """Interleaved rounds: groove classic vs Mitsuba llvm_ad_rgb and scalar_rgb, render time only,
 same scene, spp and threads. Per round the ratio groove/peer; reports median and the 2nd-lowest /
 2nd-highest of the rounds (an approximate 95 % interval for the median at 10 rounds is the
-2nd..9th order statistics)."""
-import json, re, subprocess, sys, statistics
+2nd..9th order statistics). `GROOVE_RENDERER=stream` (or `scalar`) picks groove's renderer;
+`MITSUBA_SCALAR=0` skips `scalar_rgb`."""
+import json, os, re, subprocess, sys, statistics
 G = sys.argv.pop(1) if len(sys.argv) > 1 and sys.argv[1].endswith("groove") else "target/release/groove"
 PY = sys.executable
 MR = "docs/tools/mitsuba_render.py"
 scenes = sys.argv[2:]
 rounds = int(sys.argv[1])
 def groove(scene, spp):
-    p = subprocess.run([G, "render", scene, "--spp", str(spp), "-t", "2", "-o", "/tmp/r.exr"],
+    p = subprocess.run([G, "render", scene, "--spp", str(spp), "-t", "2", "-o", "/tmp/r.exr"]
+                       + (["--renderer", os.environ["GROOVE_RENDERER"]] if os.environ.get("GROOVE_RENDERER") else []),
                        capture_output=True, text=True)
     out = p.stdout + p.stderr
     m = re.search(r"render ([0-9.]+) s", out)
@@ -27,7 +29,8 @@ for sc in scenes:
     spp = 16
     rl, rs, tg, tl, ts = [], [], [], [], []
     for r in range(rounds):
-        a = groove(sc, spp); b = mitsuba(sc, spp, "llvm_ad_rgb"); c = mitsuba(sc, spp, "scalar_rgb")
+        a = groove(sc, spp); b = mitsuba(sc, spp, "llvm_ad_rgb")
+        c = mitsuba(sc, spp, "scalar_rgb") if os.environ.get("MITSUBA_SCALAR") != "0" else float("nan")
         tg.append(a); tl.append(b); ts.append(c); rl.append(a / b); rs.append(a / c)
     def summ(x):
         s = sorted(x); return f"{statistics.median(s):.2f} [{s[1]:.2f}, {s[-2]:.2f}]"
