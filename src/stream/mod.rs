@@ -58,9 +58,12 @@ pub struct LaneCounters {
     /// Paths shaded by an 8-wide material kernel (the rest of `shade_used` went through the
     /// 1-lane code lane by lane).
     pub kernel_lanes: u64,
-    /// The part of `kernel_lanes` shaded by the `roughconductor`/`conductor` kernels
-    /// ([`kernels::conductor`]).
+    /// The part of `kernel_lanes` shaded by the wrapper-chain driver ([`kernels::conductor`],
+    /// [`kernels::vertex`]): `roughconductor`/`conductor` leaves, and `plastic`/`roughplastic`
+    /// leaves under `twosided` or classic `normalmap`.
     pub conductor_lanes: u64,
+    /// The part of `conductor_lanes` whose leaf is a `plastic` or `roughplastic`.
+    pub wrapped_plastic_lanes: u64,
     /// Light points the kernels sampled in lanes: on triangle meshes, rectangles, spheres.
     pub kernel_lights: [u64; 3],
     /// Batches and bounces (trace stages) run.
@@ -78,6 +81,7 @@ impl LaneCounters {
         self.shadow_slots += o.shadow_slots;
         self.kernel_lanes += o.kernel_lanes;
         self.conductor_lanes += o.conductor_lanes;
+        self.wrapped_plastic_lanes += o.wrapped_plastic_lanes;
         for (a, b) in self.kernel_lights.iter_mut().zip(o.kernel_lights) {
             *a += b;
         }
@@ -218,7 +222,8 @@ enum Kernel {
     /// samples.
     Diffuse(crate::material::TexId, bool),
     /// `roughconductor` or `conductor` with constant parameters, bare or under `twosided` and
-    /// classic `normalmap` ([`kernels::conductor`]).
+    /// classic `normalmap`, and `plastic` or `roughplastic` with constant parameters under them
+    /// ([`kernels::conductor`]).
     Conductor(kernels::conductor::Material),
     /// `plastic` or `roughplastic`, bare (reflectances gathered per lane; [`kernels::plastic`]).
     Plastic(kernels::plastic::Material),
@@ -233,9 +238,14 @@ impl Kernels {
                     reflectance,
                     scene.materials.lobes(m as u32).is_smooth(),
                 )),
-                _ => kernels::conductor::Material::of(&scene.materials, m as u32)
-                    .map(Kernel::Conductor)
-                    .or_else(|| kernels::plastic::material(scene, m as u32).map(Kernel::Plastic)),
+                // A bare plastic leaf goes to the plastic kernel (which gathers textured
+                // reflectances); a constant one under wrappers to the wrapper-chain driver.
+                _ => kernels::plastic::material(scene, m as u32)
+                    .map(Kernel::Plastic)
+                    .or_else(|| {
+                        kernels::conductor::Material::of(&scene.materials, m as u32)
+                            .map(Kernel::Conductor)
+                    }),
             })
             .collect();
         Kernels {
@@ -409,11 +419,14 @@ fn shade(
         while end < batch.sorted.len() && batch.material[batch.sorted[end] as usize] == m {
             end += 1;
         }
-        let (done, conductor) = shade_kernel(scene, cfg, batch, start..end, kernels, m);
+        let (done, driver) = shade_kernel(scene, cfg, batch, start..end, kernels, m);
         let lanes = &mut scratch.rays.counters.lanes;
         lanes.kernel_lanes += done as u64;
-        if conductor {
+        if let Some(plastic) = driver {
             lanes.conductor_lanes += done as u64;
+            if plastic {
+                lanes.wrapped_plastic_lanes += done as u64;
+            }
         }
         for (a, b) in lanes.kernel_lights.iter_mut().zip(&mut batch.light_lanes) {
             *a += std::mem::take(b);
@@ -439,8 +452,8 @@ fn shade(
 }
 
 /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (material `m`) with
-/// `m`'s 8-wide kernel; returns how many it shaded and whether the kernel is a conductor's (0
-/// without a kernel or AVX2).
+/// `m`'s 8-wide kernel; returns how many it shaded (0 without a kernel or AVX2) and, where the
+/// wrapper-chain driver shaded them, whether its leaf is a plastic.
 #[cfg(target_arch = "x86_64")]
 fn shade_kernel(
     scene: &Scene,
@@ -449,13 +462,13 @@ fn shade_kernel(
     run: std::ops::Range<usize>,
     kernels: &Kernels,
     m: crate::material::MatId,
-) -> (usize, bool) {
+) -> (usize, Option<bool>) {
     let (Some(avx), Some(&Some(kind))) = (kernels.avx, kernels.kinds.get(m as usize)) else {
-        return (0, false);
+        return (0, None);
     };
     let n = run.len() / 8 * 8;
     if n == 0 {
-        return (0, false);
+        return (0, None);
     }
     let chunks = (run.start..run.start + n).step_by(8);
     match kind {
@@ -475,7 +488,7 @@ fn shade_kernel(
                     }
                 },
             );
-            (n, false)
+            (n, None)
         }
         Kernel::Conductor(mat) => {
             use kernels::vertex::x8;
@@ -488,11 +501,11 @@ fn shade_kernel(
                     }
                 },
             );
-            (n, true)
+            (n, Some(mat.is_plastic()))
         }
         Kernel::Plastic(mat) => (
             kernels::plastic::x8::shade_run(avx, scene, cfg, batch, run, mat),
-            false,
+            None,
         ),
     }
 }
@@ -505,8 +518,8 @@ fn shade_kernel(
     _: std::ops::Range<usize>,
     _: &Kernels,
     _: crate::material::MatId,
-) -> (usize, bool) {
-    (0, false)
+) -> (usize, Option<bool>) {
+    (0, None)
 }
 
 /// Traces the shadow rays of the paths that scattered, in path order, and adds the light

@@ -58,13 +58,15 @@ pub(crate) fn light<L: Lane>(
 }
 
 /// The BSDF sample of [`sample`]: where it succeeded (`SurfaceBsdf::sample`'s side test
-/// included), the world direction, density, weight and the next ray's origin.
+/// included), the world direction, density, weight, whether through a delta lobe, and the next
+/// ray's origin.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct SampleOut<L: Lane> {
     pub ok: L::Mask,
     pub wo: V3<L>,
     pub pdf: L,
     pub weight: V3<L>,
+    pub delta: L::Mask,
     pub o: V3<L>,
 }
 
@@ -76,10 +78,11 @@ pub(crate) fn sample<L: Lane>(
     wi: V3<L>,
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
+    u1: L,
     u2: crate::lane::vec::V2<L>,
 ) -> SampleOut<L> {
     let k = |c: f32| wi.z.splat(c);
-    let bs = conductor::sample(mat, normals, wi, u2);
+    let (bs, delta) = conductor::sample(mat, normals, wi, u1, u2);
     let wo_world = s.frame.to_world(bs.wo);
     let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(k(0.0));
     SampleOut {
@@ -87,6 +90,7 @@ pub(crate) fn sample<L: Lane>(
         wo: wo_world,
         pdf: bs.pdf,
         weight: bs.weight,
+        delta,
         o: offset_origin(s.p, s.ng, wo_world),
     }
 }
@@ -214,13 +218,13 @@ pub(crate) mod x8 {
         let textures = normal_textures(mat);
         let mut normals = [Cols3::default(); MAX_WRAPS];
         let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
-        let draw_u2 = !mat.delta();
+        let (draw_u1, draw_u2) = (mat.draws_u1(), mat.draws_u2());
         let (mut tp, mut ld, mut lpp, mut ln, mut lv) =
             <(Cols3, Cols3, Cols3, Cols3, Cols3)>::default();
         let mut lpdf = [1.0f32; 8];
         let (mut some, mut has_n, mut finite, mut one) =
             ([false; 8], [false; 8], [false; 8], [false; 8]);
-        let (mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8]);
+        let (mut u1, mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
         let light_only = cfg.strategy == Strategy::LightOnly;
         let (mut tpos, mut tnorm) = <([Cols3; 3], [Cols3; 3])>::default();
         let (mut tri, mut tnorm_some) = ([false; 8], [false; 8]);
@@ -288,6 +292,9 @@ pub(crate) mod x8 {
                     }
                 }
             }
+            if draw_u1 {
+                u1[k] = sampler.next_1d();
+            }
             if draw_u2 {
                 let u2 = sampler.next_2d();
                 ux[k] = u2.x;
@@ -349,18 +356,19 @@ pub(crate) mod x8 {
             wi,
             mat,
             &normals8,
+            avx.load(&u1),
             V2::new(avx.load(&ux), avx.load(&uy)),
         );
 
         // 4. Scatter back.
-        let (s_ok, s_wo, s_pdf, s_w, s_o) = (
+        let (s_ok, s_wo, s_pdf, s_w, s_delta, s_o) = (
             so.ok.to_array(),
             store3(so.wo),
             so.pdf.to_array(),
             store3(so.weight),
+            so.delta.to_array(),
             store3(so.o),
         );
-        let delta = mat.delta();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             if !front[k] {
@@ -387,7 +395,7 @@ pub(crate) mod x8 {
                     get(&s_w, k),
                     1.0,
                     s_pdf[k],
-                    delta,
+                    s_delta[k],
                     ray,
                     &mut b.sampler[i],
                 );
