@@ -497,14 +497,14 @@ fn shade_kernel(
                 || {
                     for c in chunks {
                         let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
-                        x8::shade(avx, scene, cfg, batch, &ids, &mat);
+                        x8::shade(avx, scene, cfg, batch, &ids, &mat, &kernels.lights);
                     }
                 },
             );
             (n, Some(mat.is_plastic()))
         }
         Kernel::Plastic(mat) => (
-            kernels::plastic::x8::shade_run(avx, scene, cfg, batch, run, mat),
+            kernels::plastic::x8::shade_run(avx, scene, cfg, batch, run, mat, &kernels.lights),
             None,
         ),
     }

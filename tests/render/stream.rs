@@ -439,7 +439,9 @@ fn stream_equals_scalar_in_the_conductor_kernels_under_every_setting() {
 
 /// On metal_plastic (classic) the two normal-mapped rough metals (floor and gold sphere) go
 /// through the conductor kernels: most of the shaded paths, all but the plastic sphere's and the
-/// runs' tails.
+/// runs' tails. Every kernel path there is the wrapper-chain driver's, and the scene's one area
+/// light is a rectangle: the driver samples it in lanes (the shared gather of
+/// `kernels::light`), and nothing else in lanes.
 #[test]
 fn the_lane_counters_count_the_conductor_kernels() {
     let l = load(&scene("scenes/bench/metal_plastic.xml"), "classic");
@@ -447,6 +449,9 @@ fn the_lane_counters_count_the_conductor_kernels() {
     let share = c.conductor_lanes as f64 / c.shade_used as f64;
     eprintln!("metal_plastic (classic), 40×36 window, 3 spp: {c:?}, conductor share {share:.4}");
     assert!((0.5..=1.0).contains(&share), "{c:?}: {share}");
+    assert_eq!(c.kernel_lanes, c.conductor_lanes, "{c:?}");
+    let [t, r, s] = c.kernel_lights;
+    assert!(r > 0 && t == 0 && s == 0, "{c:?}");
 }
 
 // ---- Plastic leaves under the wrapper chain (issue 18, render core step 2: `kernels::vertex`) ----

@@ -207,173 +207,16 @@ pub(crate) fn sample<L: Lane>(
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
-    use crate::emitter::area::AreaLight;
-    use crate::emitter::Emitter;
-    use crate::geometry::{Ray, Shape, ShapeKind, SurfaceInteraction, TriMesh};
+    use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::frame::Frame;
-    use crate::lane::{Avx2, F32x8, M8};
+    use crate::lane::Avx2;
     use crate::spectrum::Spectrum;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::diffuse::{incident, reflectance};
-    use crate::stream::kernels::light::{sample_triangle, Triangle};
-    use crate::texture::Texture;
-    use glam::Vec3;
-
-    /// Three columns of 8 floats (a 3-vector per lane).
-    #[derive(Clone, Copy, Default)]
-    struct Cols3([[f32; 8]; 3]);
-
-    impl Cols3 {
-        #[inline(always)]
-        fn set(&mut self, k: usize, v: Vec3) {
-            self.0[0][k] = v.x;
-            self.0[1][k] = v.y;
-            self.0[2][k] = v.z;
-        }
-        #[inline(always)]
-        fn get(&self, k: usize) -> Vec3 {
-            Vec3::new(self.0[0][k], self.0[1][k], self.0[2][k])
-        }
-        #[inline(always)]
-        fn load(&self, avx: Avx2) -> V3<F32x8> {
-            V3::new(
-                avx.load(&self.0[0]),
-                avx.load(&self.0[1]),
-                avx.load(&self.0[2]),
-            )
-        }
-        #[inline(always)]
-        fn store(v: V3<F32x8>) -> Cols3 {
-            Cols3([v.x.to_array(), v.y.to_array(), v.z.to_array()])
-        }
-    }
-
-    /// An area light that [`sample_triangle`] samples: on a triangle mesh with a positive area,
-    /// of a constant non-zero radiance (as the `diffuse` kernel decides).
-    #[inline(always)]
-    fn triangle_light<'a>(
-        scene: &'a Scene,
-        a: &'a AreaLight,
-    ) -> Option<(&'a Shape, &'a TriMesh, Spectrum)> {
-        let shape = &scene.shapes[a.shape as usize];
-        match (&shape.kind, &a.radiance) {
-            (ShapeKind::Mesh(m), Texture::Constant(le))
-                if shape.samples_triangles() && *le != Spectrum::ZERO =>
-            {
-                Some((shape, m, *le))
-            }
-            _ => None,
-        }
-    }
-
-    /// The light points of the lanes `front` (drawing `u_sel` and `u` from each path's
-    /// sampler): `nee::sample_emitter` lane by lane, triangle-mesh area lights 8-wide.
-    #[inline(always)]
-    fn light_points(
-        avx: Avx2,
-        scene: &Scene,
-        light_only: bool,
-        b: &mut Batch,
-        ids: &[u32; 8],
-        front: &[bool; 8],
-        p: &Cols3,
-    ) -> LightPoint<F32x8> {
-        let (mut ld, mut lpp, mut ln, mut lv) = <(Cols3, Cols3, Cols3, Cols3)>::default();
-        let mut lpdf = [1.0f32; 8];
-        let (mut some, mut has_n, mut finite, mut one) =
-            ([false; 8], [false; 8], [false; 8], [false; 8]);
-        let (mut tpos, mut tnorm) = <([Cols3; 3], [Cols3; 3])>::default();
-        let (mut tri, mut tnorm_some) = ([false; 8], [false; 8]);
-        let (mut inv_area, mut sign, mut sel) = ([0.0f32; 8], [1.0f32; 8], [1.0f32; 8]);
-        let (mut tux, mut tuy) = ([0.0f32; 8], [0.0f32; 8]);
-        for (k, &i) in ids.iter().enumerate() {
-            if !front[k] {
-                continue;
-            }
-            let sampler = &mut b.sampler[i as usize];
-            let u_sel = sampler.next_1d();
-            let u = sampler.next_2d();
-            let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) else {
-                continue;
-            };
-            match &scene.emitters[e] {
-                Emitter::Area(a) if triangle_light(scene, a).is_some() => {
-                    let (shape, mesh, le) = triangle_light(scene, a).expect("checked");
-                    let (t, u) = shape.pick_triangle(u);
-                    let idx = mesh.indices[t].map(|j| j as usize);
-                    tri[k] = true;
-                    for c in 0..3 {
-                        tpos[c].set(k, mesh.positions[idx[c]]);
-                    }
-                    if let Some(ns) = &mesh.normals {
-                        tnorm_some[k] = true;
-                        for c in 0..3 {
-                            tnorm[c].set(k, ns[idx[c]]);
-                        }
-                    }
-                    inv_area[k] = 1.0 / shape.area();
-                    sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
-                    (tux[k], tuy[k]) = (u.x, u.y);
-                    sel[k] = sel_pdf;
-                    lv.set(k, le);
-                    one[k] = light_only;
-                }
-                em => {
-                    if let Some(ds) = em.sample_direct(&scene.shapes, p.get(k), u) {
-                        if ds.value != Spectrum::ZERO {
-                            some[k] = true;
-                            ld.set(k, ds.d);
-                            lpp.set(k, ds.p);
-                            if let Some(n) = ds.n {
-                                has_n[k] = true;
-                                ln.set(k, n);
-                            }
-                            finite[k] = ds.dist.is_finite();
-                            lpdf[k] = ds.pdf * sel_pdf;
-                            lv.set(k, ds.value);
-                            one[k] = ds.delta || light_only;
-                        }
-                    }
-                }
-            }
-        }
-        let m = |a: &[bool; 8]| -> M8 { avx.mask(a) };
-        let mut lp = LightPoint {
-            some: m(&some),
-            d: ld.load(avx),
-            p: lpp.load(avx),
-            n: ln.load(avx),
-            has_n: m(&has_n),
-            finite: m(&finite),
-            pdf: avx.load(&lpdf),
-            value: lv.load(avx),
-            weight_one: m(&one),
-        };
-        if tri.contains(&true) {
-            let t = m(&tri);
-            let q = sample_triangle(
-                &Triangle {
-                    p: tpos.map(|c| c.load(avx)),
-                    n: tnorm.map(|c| c.load(avx)),
-                    has_normals: m(&tnorm_some),
-                    inv_area: avx.load(&inv_area),
-                    sign: avx.load(&sign),
-                    u: V2::new(avx.load(&tux), avx.load(&tuy)),
-                },
-                p.load(avx),
-            );
-            lp.some = lp.some | (t & q.ok);
-            lp.d = V3::select(t, q.d, lp.d);
-            lp.p = V3::select(t, q.p, lp.p);
-            lp.n = V3::select(t, q.n, lp.n);
-            lp.has_n = lp.has_n | t;
-            lp.finite = (t & q.dist.is_finite()) | (!t & lp.finite);
-            lp.pdf = F32x8::select(t, q.pdf * avx.load(&sel), lp.pdf);
-        }
-        lp
-    }
+    use crate::stream::kernels::light::x8::{Cols3, Gather};
+    use crate::stream::kernels::light::LaneLight;
 
     /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (all of material
     /// `mat`) 8 at a time; returns how many it shaded. Enters [`Avx2::run`] itself.
@@ -384,6 +227,7 @@ pub(crate) mod x8 {
         b: &mut Batch,
         run: std::ops::Range<usize>,
         mat: Material,
+        lights: &[Option<LaneLight>],
     ) -> usize {
         let n = run.len() / 8 * 8;
         if n == 0 {
@@ -394,7 +238,7 @@ pub(crate) mod x8 {
             || {
                 for c in (run.start..run.start + n).step_by(8) {
                     let ids: [u32; 8] = b.sorted[c..c + 8].try_into().expect("8 ids");
-                    shade(avx, scene, cfg, b, &ids, &mat);
+                    shade(avx, scene, cfg, b, &ids, &mat, lights);
                 }
             },
         );
@@ -413,6 +257,7 @@ pub(crate) mod x8 {
         b: &mut Batch,
         ids: &[u32; 8],
         mat: &Material,
+        lights: &[Option<LaneLight>],
     ) {
         // 1. Gather the surface interactions; the side test.
         let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) =
@@ -462,11 +307,24 @@ pub(crate) mod x8 {
             spec.set(k, tex(mat.specular, spec0));
             tp.set(k, b.state[i as usize].throughput);
         }
+        // The light points (`u_sel`, `u` from each path's sampler), through the shared gather
+        // of `kernels::light` (area lights on meshes, rectangles and spheres 8-wide).
         let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
-        let lp = nee.then(|| {
+        let lp = if nee {
             let light_only = cfg.strategy == Strategy::LightOnly;
-            light_points(avx, scene, light_only, b, ids, &front, &p)
-        });
+            let mut gather = Gather::new();
+            for (k, &i) in ids.iter().enumerate() {
+                if front[k] {
+                    let sampler = &mut b.sampler[i as usize];
+                    let u_sel = sampler.next_1d();
+                    let u = sampler.next_2d();
+                    gather.add(k, scene, lights, light_only, u_sel, u, p.get(k));
+                }
+            }
+            Some(gather.finish(avx, surf.p, &mut b.light_lanes))
+        } else {
+            None
+        };
         let (mut u1, mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
         for (k, &i) in ids.iter().enumerate() {
             if front[k] {

@@ -109,42 +109,18 @@ fn normal_textures(mat: &Material) -> [Option<crate::material::TexId>; MAX_WRAPS
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
-    use crate::emitter::area::AreaLight;
-    use crate::emitter::Emitter;
-    use crate::geometry::{Ray, Shape, ShapeKind, SurfaceInteraction, TriMesh};
+    use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::frame::Frame;
     use crate::lane::vec::V2;
-    use crate::lane::{Avx2, F32x8, M8};
+    use crate::lane::{Avx2, F32x8};
     use crate::scene::Scene;
-    use crate::spectrum::Spectrum;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::diffuse::{incident, reflectance};
-    use crate::stream::kernels::light::{sample_triangle, Triangle};
-    use crate::texture::Texture;
+    use crate::stream::kernels::light::x8::{Cols3, Gather};
+    use crate::stream::kernels::light::LaneLight;
     use glam::Vec3;
-
-    /// Three columns of 8 floats (a 3-vector per lane).
-    #[derive(Clone, Copy, Default)]
-    struct Cols3([[f32; 8]; 3]);
-
-    impl Cols3 {
-        #[inline(always)]
-        fn set(&mut self, k: usize, v: Vec3) {
-            self.0[0][k] = v.x;
-            self.0[1][k] = v.y;
-            self.0[2][k] = v.z;
-        }
-        #[inline(always)]
-        fn load(&self, avx: Avx2) -> V3<F32x8> {
-            V3::new(
-                avx.load(&self.0[0]),
-                avx.load(&self.0[1]),
-                avx.load(&self.0[2]),
-            )
-        }
-    }
 
     /// Lane `k` of a vector of lanes.
     #[inline(always)]
@@ -155,24 +131,6 @@ pub(crate) mod x8 {
     #[inline(always)]
     fn store3(v: V3<F32x8>) -> [[f32; 8]; 3] {
         [v.x.to_array(), v.y.to_array(), v.z.to_array()]
-    }
-
-    /// An area light that [`sample_triangle`] samples (as in the `diffuse` kernel): on a
-    /// triangle mesh with a positive area, of a constant non-zero radiance.
-    #[inline(always)]
-    fn triangle_light<'a>(
-        scene: &'a Scene,
-        a: &'a AreaLight,
-    ) -> Option<(&'a Shape, &'a TriMesh, Spectrum)> {
-        let shape = &scene.shapes[a.shape as usize];
-        match (&shape.kind, &a.radiance) {
-            (ShapeKind::Mesh(m), Texture::Constant(le))
-                if shape.samples_triangles() && *le != Spectrum::ZERO =>
-            {
-                Some((shape, m, *le))
-            }
-            _ => None,
-        }
     }
 
     /// Shades the 8 paths `ids` (all at a surface of material `mat`) as `PathState::scatter`
@@ -186,6 +144,7 @@ pub(crate) mod x8 {
         b: &mut Batch,
         ids: &[u32; 8],
         mat: &Material,
+        lights: &[Option<LaneLight>],
     ) {
         // 1. Gather the surface interactions; the side test.
         let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) = Default::default();
@@ -219,17 +178,10 @@ pub(crate) mod x8 {
         let mut normals = [Cols3::default(); MAX_WRAPS];
         let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
         let (draw_u1, draw_u2) = (mat.draws_u1(), mat.draws_u2());
-        let (mut tp, mut ld, mut lpp, mut ln, mut lv) =
-            <(Cols3, Cols3, Cols3, Cols3, Cols3)>::default();
-        let mut lpdf = [1.0f32; 8];
-        let (mut some, mut has_n, mut finite, mut one) =
-            ([false; 8], [false; 8], [false; 8], [false; 8]);
+        let mut tp = Cols3::default();
         let (mut u1, mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
         let light_only = cfg.strategy == Strategy::LightOnly;
-        let (mut tpos, mut tnorm) = <([Cols3; 3], [Cols3; 3])>::default();
-        let (mut tri, mut tnorm_some) = ([false; 8], [false; 8]);
-        let (mut inv_area, mut sign, mut sel) = ([0.0f32; 8], [1.0f32; 8], [1.0f32; 8]);
-        let (mut tux, mut tuy) = ([0.0f32; 8], [0.0f32; 8]);
+        let mut gather = Gather::new();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
@@ -249,48 +201,7 @@ pub(crate) mod x8 {
             if nee {
                 let u_sel = sampler.next_1d();
                 let u = sampler.next_2d();
-                if let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) {
-                    match &scene.emitters[e] {
-                        Emitter::Area(a) if triangle_light(scene, a).is_some() => {
-                            let (shape, mesh, le) = triangle_light(scene, a).expect("checked");
-                            let (t, u) = shape.pick_triangle(u);
-                            let idx = mesh.indices[t].map(|j| j as usize);
-                            tri[k] = true;
-                            for c in 0..3 {
-                                tpos[c].set(k, mesh.positions[idx[c]]);
-                            }
-                            if let Some(ns) = &mesh.normals {
-                                tnorm_some[k] = true;
-                                for c in 0..3 {
-                                    tnorm[c].set(k, ns[idx[c]]);
-                                }
-                            }
-                            inv_area[k] = 1.0 / shape.area();
-                            sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
-                            (tux[k], tuy[k]) = (u.x, u.y);
-                            sel[k] = sel_pdf;
-                            lv.set(k, le);
-                            one[k] = light_only;
-                        }
-                        em => {
-                            if let Some(ds) = em.sample_direct(&scene.shapes, si.p, u) {
-                                if ds.value != Spectrum::ZERO {
-                                    some[k] = true;
-                                    ld.set(k, ds.d);
-                                    lpp.set(k, ds.p);
-                                    if let Some(n) = ds.n {
-                                        has_n[k] = true;
-                                        ln.set(k, n);
-                                    }
-                                    finite[k] = ds.dist.is_finite();
-                                    lpdf[k] = ds.pdf * sel_pdf;
-                                    lv.set(k, ds.value);
-                                    one[k] = ds.delta || light_only;
-                                }
-                            }
-                        }
-                    }
-                }
+                gather.add(k, scene, lights, light_only, u_sel, u, si.p);
             }
             if draw_u1 {
                 u1[k] = sampler.next_1d();
@@ -304,42 +215,10 @@ pub(crate) mod x8 {
 
         // 3. The kernel.
         let normals8 = normals.map(|c| c.load(avx));
-        let m = |a: &[bool; 8]| -> M8 { avx.mask(a) };
         // A block, not a closure: a closure would be compiled outside `Avx2::run`'s target
         // features and call every 8-wide operation out of line.
         let lo = if nee {
-            let mut lp = LightPoint {
-                some: m(&some),
-                d: ld.load(avx),
-                p: lpp.load(avx),
-                n: ln.load(avx),
-                has_n: m(&has_n),
-                finite: m(&finite),
-                pdf: avx.load(&lpdf),
-                value: lv.load(avx),
-                weight_one: m(&one),
-            };
-            if tri.contains(&true) {
-                let t = m(&tri);
-                let q = sample_triangle(
-                    &Triangle {
-                        p: tpos.map(|c| c.load(avx)),
-                        n: tnorm.map(|c| c.load(avx)),
-                        has_normals: m(&tnorm_some),
-                        inv_area: avx.load(&inv_area),
-                        sign: avx.load(&sign),
-                        u: V2::new(avx.load(&tux), avx.load(&tuy)),
-                    },
-                    surf.p,
-                );
-                lp.some = lp.some | (t & q.ok);
-                lp.d = V3::select(t, q.d, lp.d);
-                lp.p = V3::select(t, q.p, lp.p);
-                lp.n = V3::select(t, q.n, lp.n);
-                lp.has_n = lp.has_n | t;
-                lp.finite = (t & q.dist.is_finite()) | (!t & lp.finite);
-                lp.pdf = F32x8::select(t, q.pdf * avx.load(&sel), lp.pdf);
-            }
+            let lp = gather.finish(avx, surf.p, &mut b.light_lanes);
             let lo = light(&surf, wi, mat, &normals8, tp.load(avx), &lp);
             Some((
                 lo.ok.to_array(),
