@@ -433,13 +433,13 @@ pub(crate) mod x8 {
                     su = ut;
                     let idx = mesh.indices[t].map(|j| j as usize);
                     self.kind[k] = KIND_TRIANGLE;
-                    for c in 0..3 {
-                        self.tpos[c].set(k, mesh.positions[idx[c]]);
+                    for (col, &j) in self.tpos.iter_mut().zip(&idx) {
+                        col.set(k, mesh.positions[j]);
                     }
                     if let Some(ns) = &mesh.normals {
                         self.tnorm_some[k] = true;
-                        for c in 0..3 {
-                            self.tnorm[c].set(k, ns[idx[c]]);
+                        for (col, &j) in self.tnorm.iter_mut().zip(&idx) {
+                            col.set(k, ns[j]);
                         }
                     }
                     (self.inv_area[k], self.sign[k]) = (inv_area, sign);
@@ -452,8 +452,8 @@ pub(crate) mod x8 {
                     radiance,
                 } => {
                     self.kind[k] = KIND_RECTANGLE;
-                    for c in 0..4 {
-                        self.raxes[c].set(k, axes[c]);
+                    for (col, a) in self.raxes.iter_mut().zip(axes) {
+                        col.set(k, a);
                     }
                     self.rn.set(k, n);
                     self.inv_area[k] = inv_area;
