@@ -62,8 +62,6 @@ pub struct LaneCounters {
     /// [`kernels::vertex`]): `roughconductor`/`conductor` leaves, and `plastic`/`roughplastic`
     /// leaves under `twosided` or classic `normalmap`.
     pub conductor_lanes: u64,
-    /// The part of `conductor_lanes` whose leaf is a `plastic` or `roughplastic`.
-    pub wrapped_plastic_lanes: u64,
     /// Light points the kernels sampled in lanes: on triangle meshes, rectangles, spheres.
     pub kernel_lights: [u64; 3],
     /// Batches and bounces (trace stages) run.
@@ -81,7 +79,6 @@ impl LaneCounters {
         self.shadow_slots += o.shadow_slots;
         self.kernel_lanes += o.kernel_lanes;
         self.conductor_lanes += o.conductor_lanes;
-        self.wrapped_plastic_lanes += o.wrapped_plastic_lanes;
         for (a, b) in self.kernel_lights.iter_mut().zip(o.kernel_lights) {
             *a += b;
         }
@@ -422,11 +419,8 @@ fn shade(
         let (done, driver) = shade_kernel(scene, cfg, batch, start..end, kernels, m);
         let lanes = &mut scratch.rays.counters.lanes;
         lanes.kernel_lanes += done as u64;
-        if let Some(plastic) = driver {
+        if driver {
             lanes.conductor_lanes += done as u64;
-            if plastic {
-                lanes.wrapped_plastic_lanes += done as u64;
-            }
         }
         for (a, b) in lanes.kernel_lights.iter_mut().zip(&mut batch.light_lanes) {
             *a += std::mem::take(b);
@@ -452,8 +446,8 @@ fn shade(
 }
 
 /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (material `m`) with
-/// `m`'s 8-wide kernel; returns how many it shaded (0 without a kernel or AVX2) and, where the
-/// wrapper-chain driver shaded them, whether its leaf is a plastic.
+/// `m`'s 8-wide kernel; returns how many it shaded (0 without a kernel or AVX2) and whether the
+/// wrapper-chain driver shaded them.
 #[cfg(target_arch = "x86_64")]
 fn shade_kernel(
     scene: &Scene,
@@ -462,13 +456,13 @@ fn shade_kernel(
     run: std::ops::Range<usize>,
     kernels: &Kernels,
     m: crate::material::MatId,
-) -> (usize, Option<bool>) {
+) -> (usize, bool) {
     let (Some(avx), Some(&Some(kind))) = (kernels.avx, kernels.kinds.get(m as usize)) else {
-        return (0, None);
+        return (0, false);
     };
     let n = run.len() / 8 * 8;
     if n == 0 {
-        return (0, None);
+        return (0, false);
     }
     let chunks = (run.start..run.start + n).step_by(8);
     match kind {
@@ -482,30 +476,41 @@ fn shade_kernel(
             avx.run(
                 #[inline(always)]
                 || {
+                    let mut gather = kernels::light::x8::Gather::new();
                     for c in chunks {
                         let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
-                        x8::shade(avx, scene, cfg, batch, &ids, mat);
+                        x8::shade(avx, scene, cfg, batch, &ids, mat, &mut gather);
                     }
                 },
             );
-            (n, None)
+            (n, false)
         }
         Kernel::Conductor(mat) => {
             use kernels::vertex::x8;
             avx.run(
                 #[inline(always)]
                 || {
+                    let mut gather = kernels::light::x8::Gather::new();
                     for c in chunks {
                         let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
-                        x8::shade(avx, scene, cfg, batch, &ids, &mat, &kernels.lights);
+                        x8::shade(
+                            avx,
+                            scene,
+                            cfg,
+                            batch,
+                            &ids,
+                            &mat,
+                            &kernels.lights,
+                            &mut gather,
+                        );
                     }
                 },
             );
-            (n, Some(mat.is_plastic()))
+            (n, true)
         }
         Kernel::Plastic(mat) => (
             kernels::plastic::x8::shade_run(avx, scene, cfg, batch, run, mat, &kernels.lights),
-            None,
+            false,
         ),
     }
 }
@@ -518,8 +523,8 @@ fn shade_kernel(
     _: std::ops::Range<usize>,
     _: &Kernels,
     _: crate::material::MatId,
-) -> (usize, Option<bool>) {
-    (0, None)
+) -> (usize, bool) {
+    (0, false)
 }
 
 /// Traces the shadow rays of the paths that scattered, in path order, and adds the light

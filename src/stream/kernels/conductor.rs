@@ -130,12 +130,6 @@ impl Material {
     pub(crate) fn draws_u2(&self) -> bool {
         !matches!(self.leaf, Leaf::Smooth(_))
     }
-
-    /// The leaf is a plastic (`plastic` or `roughplastic`), for the lane counters.
-    #[inline(always)]
-    pub(crate) fn is_plastic(&self) -> bool {
-        self.draws_u1()
-    }
 }
 
 /// `twosided`'s mirror through the surface.

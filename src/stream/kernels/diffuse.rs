@@ -231,6 +231,7 @@ pub(crate) mod x8 {
         b: &mut Batch,
         ids: &[u32; 8],
         mat: Material<'_>,
+        gather: &mut Gather,
     ) {
         // 1. Gather the surface interactions.
         let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) = Default::default();
@@ -301,7 +302,7 @@ pub(crate) mod x8 {
         let (mut refl, mut tp) = <(Cols3, Cols3)>::default();
         let (mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8]);
         let light_only = cfg.strategy == Strategy::LightOnly;
-        let mut gather = Gather::new();
+        gather.reset();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;

@@ -236,9 +236,10 @@ pub(crate) mod x8 {
         avx.run(
             #[inline(always)]
             || {
+                let mut gather = Gather::new();
                 for c in (run.start..run.start + n).step_by(8) {
                     let ids: [u32; 8] = b.sorted[c..c + 8].try_into().expect("8 ids");
-                    shade(avx, scene, cfg, b, &ids, &mat, lights);
+                    shade(avx, scene, cfg, b, &ids, &mat, lights, &mut gather);
                 }
             },
         );
@@ -258,6 +259,7 @@ pub(crate) mod x8 {
         ids: &[u32; 8],
         mat: &Material,
         lights: &[Option<LaneLight>],
+        gather: &mut Gather,
     ) {
         // 1. Gather the surface interactions; the side test.
         let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) =
@@ -312,7 +314,7 @@ pub(crate) mod x8 {
         let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
         let lp = if nee {
             let light_only = cfg.strategy == Strategy::LightOnly;
-            let mut gather = Gather::new();
+            gather.reset();
             for (k, &i) in ids.iter().enumerate() {
                 if front[k] {
                     let sampler = &mut b.sampler[i as usize];

@@ -145,6 +145,7 @@ pub(crate) mod x8 {
         ids: &[u32; 8],
         mat: &Material,
         lights: &[Option<LaneLight>],
+        gather: &mut Gather,
     ) {
         // 1. Gather the surface interactions; the side test.
         let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) = Default::default();
@@ -181,7 +182,7 @@ pub(crate) mod x8 {
         let mut tp = Cols3::default();
         let (mut u1, mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
         let light_only = cfg.strategy == Strategy::LightOnly;
-        let mut gather = Gather::new();
+        gather.reset();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
