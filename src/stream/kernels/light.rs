@@ -522,8 +522,8 @@ pub(crate) mod x8 {
             if self.counts[0] > 0 {
                 let q = sample_triangle(
                     &Triangle {
-                        p: self.tpos.map(|c| c.load(avx)),
-                        n: self.tnorm.map(|c| c.load(avx)),
+                        p: std::array::from_fn(|c| self.tpos[c].load(avx)),
+                        n: std::array::from_fn(|c| self.tnorm[c].load(avx)),
                         has_normals: m(&self.tnorm_some),
                         inv_area: avx.load(&self.inv_area),
                         sign: avx.load(&self.sign),
@@ -536,7 +536,7 @@ pub(crate) mod x8 {
             if self.counts[1] > 0 {
                 let q = sample_rectangle(
                     &Rectangle {
-                        axes: self.raxes.map(|c| c.load(avx)),
+                        axes: std::array::from_fn(|c| self.raxes[c].load(avx)),
                         n: self.rn.load(avx),
                         inv_area: avx.load(&self.inv_area),
                         u: su,
