@@ -13,7 +13,9 @@
 //! 4. **shade** each material's run of paths: light sample up to its shadow ray, BSDF sample,
 //!    Russian roulette. A run of ≥ 8 paths of a material with an 8-wide kernel (chosen per
 //!    material at load, [`Kernel`]: `diffuse`, [`kernels::diffuse`]; `roughconductor` and
-//!    `conductor` under `twosided`/classic `normalmap`, [`kernels::conductor`]) goes 8 at a
+//!    `conductor`, and constant `plastic`/`roughplastic` leaves, under `twosided`/classic
+//!    `normalmap`, [`kernels::conductor`]; bare `plastic`/`roughplastic`,
+//!    [`kernels::plastic`]) goes 8 at a
 //!    time through it (AVX2 machines); every other material, a run's last < 8 paths and a
 //!    machine without AVX2 go through the 1-lane code lane by lane
 //!    ([`crate::integrator::path::PathState::scatter`]);

@@ -1,10 +1,13 @@
 //! The 8-wide `roughconductor` and `conductor` kernels, bare or under `twosided` (one nested
-//! BSDF for both sides) and classic `normalmap` wrappers: what
+//! BSDF for both sides) and classic `normalmap` wrappers, and the same wrappers around a
+//! `plastic` or `roughplastic` leaf of constant parameters (a bare plastic leaf goes to
+//! [`super::plastic`], which also gathers textured reflectances): what
 //! [`PathState::scatter`](crate::integrator::path::PathState::scatter) does at such a vertex, for
 //! 8 paths at a time.
 //!
 //! A material qualifies when its tree is at most [`MAX_WRAPS`] wrappers (`twosided` with
-//! `front == back`, `normalmap`) around a `roughconductor` or `conductor` leaf whose parameters
+//! `front == back`, `normalmap`) around a `roughconductor`, `conductor`, `plastic` or
+//! `roughplastic` leaf whose parameters
 //! are all constant (a textured `specular_reflectance` or roughness has no kernel: such a
 //! material is shaded lane by lane, as every material without a kernel, and its paths show in
 //! `LaneCounters::shade_used − kernel_lanes`). The normal maps' texture lookups are done lane
@@ -15,7 +18,9 @@
 //! [`super::vertex`]'s, shared with nothing else yet; the light-sample part mirrors the `diffuse`
 //! kernel's (BSDF value and density toward the light point, power heuristic, shadow ray), then
 //! the BSDF sample gives the next ray. A `conductor` (a delta lobe) takes no light sample,
-//! exactly as `PathState::scatter` asks `Lobes::is_smooth`.
+//! exactly as `PathState::scatter` asks `Lobes::is_smooth`. The plastic leaves draw `u1` (the
+//! lobe) before `u2`, as `Bsdf::sample` does; `plastic`'s specular lobe is a delta lobe per lane
+//! (the mask [`sample`] returns, passed to `PathState::advance`).
 
 use crate::bsdf::lanes::LaneBsdfSample;
 use crate::bsdf::normalmap::lanes as nmap;

@@ -4,8 +4,9 @@
 //! models' lane forms (`eval_pdf_with`, `sample_with`: the scalar BSDF is their `f32`
 //! instantiation, so the bits are the scalar renderer's).
 //!
-//! A material runs here when it is a leaf `plastic` or `roughplastic` (not under a normal map,
-//! `twosided` or `blendbsdf`). Textured `diffuse_reflectance` / `specular_reflectance` are
+//! A material runs here when it is a leaf `plastic` or `roughplastic` (under `twosided` or a
+//! classic normal map, with constant parameters, it runs in [`super::conductor`]'s wrapper
+//! chain; under `blendbsdf` or with textured reflectances under a wrapper, lane by lane). Textured `diffuse_reflectance` / `specular_reflectance` are
 //! **gathered**: each lane's texture is evaluated lane by lane as `Materials::build_at` patches
 //! the slot, and the lane form takes the reflectances per lane (the lobe-sampling weight stays
 //! the material's, from the textures' means, as in the scalar code).
@@ -14,8 +15,9 @@
 //! 1. gather the surface interactions; [`incident`] and its side test, 8-wide;
 //! 2. lane by lane: the reflectance textures, then each path's numbers in the scalar order
 //!    (light selection `u_sel`, light point `u`, lobe choice `u1`, BSDF sample `u2`) and the
-//!    light point (area lights on triangle meshes of a constant radiance sampled 8-wide by
-//!    [`super::light`], every other emitter by its own scalar `sample_direct`);
+//!    light point (through the shared gather `super::light::x8::Gather`: area lights of a
+//!    constant radiance on triangle meshes, rectangles and spheres 8-wide, every other emitter by
+//!    its own scalar `sample_direct`);
 //! 3. [`light`] and [`sample`], 8-wide: the coating's value and density toward the light point,
 //!    power heuristic, contribution, shadow ray; the coating's sample (the lobe chosen by `u1`
 //!    as a select), `Bsdf::sample`'s finiteness test, the side test, the next ray;

@@ -4,9 +4,9 @@
 //!    in lanes ([`super::diffuse::incident`]);
 //! 2. lane by lane, in each path's order: the normal maps' texture lookups, the light
 //!    selection `u_sel` and light point `u` (when the material takes light samples), the BSDF's
-//!    `u2` (the rough leaf only); light points as `nee::sample_emitter` gives them, except area
-//!    lights on triangle meshes of a constant radiance, sampled 8-wide
-//!    ([`super::light::sample_triangle`]);
+//!    `u1` (plastic leaves) and `u2` (all but the smooth conductor); light points through the
+//!    shared gather ([`super::light::x8::Gather`]: area lights of a constant radiance on
+//!    triangle meshes, rectangles and spheres 8-wide, every other emitter lane by lane);
 //! 3. 8-wide: the BSDF value and density toward the light point, the power heuristic, the
 //!    contribution and shadow ray ([`light`]); the BSDF sample and next ray;
 //! 4. scatter back lane by lane: the pending light sample, then `PathState::advance` (the
