@@ -13,7 +13,9 @@
 //! 4. **shade** each material's run of paths: light sample up to its shadow ray, BSDF sample,
 //!    Russian roulette. A run of ≥ 8 paths of a material with an 8-wide kernel (chosen per
 //!    material at load, [`Kernel`]: `diffuse`, [`kernels::diffuse`]; `roughconductor` and
-//!    `conductor` under `twosided`/classic `normalmap`, [`kernels::conductor`]) goes 8 at a
+//!    `conductor`, and constant `plastic`/`roughplastic` leaves, under `twosided`/classic
+//!    `normalmap`, [`kernels::conductor`]; bare `plastic`/`roughplastic`,
+//!    [`kernels::plastic`]) goes 8 at a
 //!    time through it (AVX2 machines); every other material, a run's last < 8 paths and a
 //!    machine without AVX2 go through the 1-lane code lane by lane
 //!    ([`crate::integrator::path::PathState::scatter`]);
@@ -58,8 +60,9 @@ pub struct LaneCounters {
     /// Paths shaded by an 8-wide material kernel (the rest of `shade_used` went through the
     /// 1-lane code lane by lane).
     pub kernel_lanes: u64,
-    /// The part of `kernel_lanes` shaded by the `roughconductor`/`conductor` kernels
-    /// ([`kernels::conductor`]).
+    /// The part of `kernel_lanes` shaded by the wrapper-chain driver ([`kernels::conductor`],
+    /// [`kernels::vertex`]): `roughconductor`/`conductor` leaves, and `plastic`/`roughplastic`
+    /// leaves under `twosided` or classic `normalmap`.
     pub conductor_lanes: u64,
     /// Light points the kernels sampled in lanes: on triangle meshes, rectangles, spheres.
     pub kernel_lights: [u64; 3],
@@ -218,7 +221,8 @@ enum Kernel {
     /// samples.
     Diffuse(crate::material::TexId, bool),
     /// `roughconductor` or `conductor` with constant parameters, bare or under `twosided` and
-    /// classic `normalmap` ([`kernels::conductor`]).
+    /// classic `normalmap`, and `plastic` or `roughplastic` with constant parameters under them
+    /// ([`kernels::conductor`]).
     Conductor(kernels::conductor::Material),
     /// `plastic` or `roughplastic`, bare (reflectances gathered per lane; [`kernels::plastic`]).
     Plastic(kernels::plastic::Material),
@@ -233,9 +237,14 @@ impl Kernels {
                     reflectance,
                     scene.materials.lobes(m as u32).is_smooth(),
                 )),
-                _ => kernels::conductor::Material::of(&scene.materials, m as u32)
-                    .map(Kernel::Conductor)
-                    .or_else(|| kernels::plastic::material(scene, m as u32).map(Kernel::Plastic)),
+                // A bare plastic leaf goes to the plastic kernel (which gathers textured
+                // reflectances); a constant one under wrappers to the wrapper-chain driver.
+                _ => kernels::plastic::material(scene, m as u32)
+                    .map(Kernel::Plastic)
+                    .or_else(|| {
+                        kernels::conductor::Material::of(&scene.materials, m as u32)
+                            .map(Kernel::Conductor)
+                    }),
             })
             .collect();
         Kernels {
@@ -409,10 +418,10 @@ fn shade(
         while end < batch.sorted.len() && batch.material[batch.sorted[end] as usize] == m {
             end += 1;
         }
-        let (done, conductor) = shade_kernel(scene, cfg, batch, start..end, kernels, m);
+        let (done, driver) = shade_kernel(scene, cfg, batch, start..end, kernels, m);
         let lanes = &mut scratch.rays.counters.lanes;
         lanes.kernel_lanes += done as u64;
-        if conductor {
+        if driver {
             lanes.conductor_lanes += done as u64;
         }
         for (a, b) in lanes.kernel_lights.iter_mut().zip(&mut batch.light_lanes) {
@@ -439,8 +448,8 @@ fn shade(
 }
 
 /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (material `m`) with
-/// `m`'s 8-wide kernel; returns how many it shaded and whether the kernel is a conductor's (0
-/// without a kernel or AVX2).
+/// `m`'s 8-wide kernel; returns how many it shaded (0 without a kernel or AVX2) and whether the
+/// wrapper-chain driver shaded them.
 #[cfg(target_arch = "x86_64")]
 fn shade_kernel(
     scene: &Scene,
@@ -469,9 +478,10 @@ fn shade_kernel(
             avx.run(
                 #[inline(always)]
                 || {
+                    let mut gather = kernels::light::x8::Gather::new();
                     for c in chunks {
                         let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
-                        x8::shade(avx, scene, cfg, batch, &ids, mat);
+                        x8::shade(avx, scene, cfg, batch, &ids, mat, &mut gather);
                     }
                 },
             );
@@ -482,16 +492,26 @@ fn shade_kernel(
             avx.run(
                 #[inline(always)]
                 || {
+                    let mut gather = kernels::light::x8::Gather::new();
                     for c in chunks {
                         let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
-                        x8::shade(avx, scene, cfg, batch, &ids, &mat);
+                        x8::shade(
+                            avx,
+                            scene,
+                            cfg,
+                            batch,
+                            &ids,
+                            &mat,
+                            &kernels.lights,
+                            &mut gather,
+                        );
                     }
                 },
             );
             (n, true)
         }
         Kernel::Plastic(mat) => (
-            kernels::plastic::x8::shade_run(avx, scene, cfg, batch, run, mat),
+            kernels::plastic::x8::shade_run(avx, scene, cfg, batch, run, mat, &kernels.lights),
             false,
         ),
     }

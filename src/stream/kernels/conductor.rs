@@ -1,10 +1,13 @@
 //! The 8-wide `roughconductor` and `conductor` kernels, bare or under `twosided` (one nested
-//! BSDF for both sides) and classic `normalmap` wrappers: what
+//! BSDF for both sides) and classic `normalmap` wrappers, and the same wrappers around a
+//! `plastic` or `roughplastic` leaf of constant parameters (a bare plastic leaf goes to
+//! [`super::plastic`], which also gathers textured reflectances): what
 //! [`PathState::scatter`](crate::integrator::path::PathState::scatter) does at such a vertex, for
 //! 8 paths at a time.
 //!
 //! A material qualifies when its tree is at most [`MAX_WRAPS`] wrappers (`twosided` with
-//! `front == back`, `normalmap`) around a `roughconductor` or `conductor` leaf whose parameters
+//! `front == back`, `normalmap`) around a `roughconductor`, `conductor`, `plastic` or
+//! `roughplastic` leaf whose parameters
 //! are all constant (a textured `specular_reflectance` or roughness has no kernel: such a
 //! material is shaded lane by lane, as every material without a kernel, and its paths show in
 //! `LaneCounters::shade_used − kernel_lanes`). The normal maps' texture lookups are done lane
@@ -15,11 +18,14 @@
 //! [`super::vertex`]'s, shared with nothing else yet; the light-sample part mirrors the `diffuse`
 //! kernel's (BSDF value and density toward the light point, power heuristic, shadow ray), then
 //! the BSDF sample gives the next ray. A `conductor` (a delta lobe) takes no light sample,
-//! exactly as `PathState::scatter` asks `Lobes::is_smooth`.
+//! exactly as `PathState::scatter` asks `Lobes::is_smooth`. The plastic leaves draw `u1` (the
+//! lobe) before `u2`, as `Bsdf::sample` does; `plastic`'s specular lobe is a delta lobe per lane
+//! (the mask [`sample`] returns, passed to `PathState::advance`).
 
 use crate::bsdf::lanes::LaneBsdfSample;
 use crate::bsdf::normalmap::lanes as nmap;
-use crate::bsdf::{BsdfNode, Conductor, RoughConductor};
+use crate::bsdf::plastic::splat3;
+use crate::bsdf::{BsdfNode, Conductor, Plastic, RoughConductor, RoughPlastic};
 use crate::lane::frame::Frame;
 use crate::lane::vec::{V2, V3};
 use crate::lane::Lane;
@@ -33,6 +39,10 @@ pub(crate) const MAX_WRAPS: usize = 2;
 pub(crate) enum Leaf {
     Rough(RoughConductor),
     Smooth(Conductor),
+    /// `plastic`: a diffuse lobe and a delta (specular) lobe, chosen per lane by `u1`.
+    Plastic(Plastic),
+    /// `roughplastic`: a diffuse and a glossy lobe, chosen per lane by `u1`.
+    RoughPlastic(RoughPlastic),
 }
 
 /// A wrapper around the leaf (outermost first in [`Material::wraps`]).
@@ -70,6 +80,8 @@ impl Material {
                     break match **template {
                         BsdfNode::RoughConductor(b) => Leaf::Rough(b),
                         BsdfNode::Conductor(b) => Leaf::Smooth(b),
+                        BsdfNode::Plastic(b) => Leaf::Plastic(b),
+                        BsdfNode::RoughPlastic(b) => Leaf::RoughPlastic(b),
                         _ => return None,
                     };
                 }
@@ -112,10 +124,16 @@ impl Material {
         &self.wraps[..self.n_wraps]
     }
 
-    /// The sample is through a delta lobe (the smooth `conductor`).
+    /// The leaf's `sample` draws the lobe choice `u1` (`Bsdf::sample`: the coated models).
     #[inline(always)]
-    pub(crate) fn delta(&self) -> bool {
-        matches!(self.leaf, Leaf::Smooth(_))
+    pub(crate) fn draws_u1(&self) -> bool {
+        matches!(self.leaf, Leaf::Plastic(_) | Leaf::RoughPlastic(_))
+    }
+
+    /// The leaf's `sample` draws `u2` (all but the smooth `conductor`).
+    #[inline(always)]
+    pub(crate) fn draws_u2(&self) -> bool {
+        !matches!(self.leaf, Leaf::Smooth(_))
     }
 }
 
@@ -179,6 +197,8 @@ pub(crate) fn eval_pdf<L: Lane>(
     let (mut f, mut pdf) = match &mat.leaf {
         Leaf::Rough(b) => b.eval_pdf_lanes(wi, wo),
         Leaf::Smooth(b) => b.eval_pdf_lanes(wi, wo),
+        Leaf::Plastic(b) => b.eval_pdf_lanes(wi, wo),
+        Leaf::RoughPlastic(b) => b.eval_pdf_lanes(wi, wo),
     };
     for s in shadow[..mat.n_wraps].iter().rev().flatten() {
         f = f.scale(*s);
@@ -191,14 +211,17 @@ pub(crate) fn eval_pdf<L: Lane>(
 
 /// The material's BSDF sample from local `wi` (see [`eval_pdf`] for `normals`): the wrappers'
 /// `sample` down to the leaf's lane form and back up, with `Bsdf::sample`'s guard at every
-/// node. `u2` is drawn by the rough leaf only.
+/// node. `u1` is drawn by the plastic leaves only, `u2` by all but the smooth conductor. Also
+/// returns the lanes whose sample went through a delta lobe (all for `conductor`, those that
+/// chose the specular lobe for `plastic`, none otherwise).
 #[inline(always)]
 pub(crate) fn sample<L: Lane>(
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
     wi: V3<L>,
+    u1: L,
     u2: V2<L>,
-) -> LaneBsdfSample<L> {
+) -> (LaneBsdfSample<L>, L::Mask) {
     let k = |c: f32| wi.z.splat(c);
     let mut wi = wi;
     let none = k(0.0).ne(k(0.0));
@@ -223,9 +246,18 @@ pub(crate) fn sample<L: Lane>(
             }
         }
     }
-    let mut s = match &mat.leaf {
-        Leaf::Rough(b) => b.sample_lanes(wi, k(0.0), u2),
-        Leaf::Smooth(b) => b.sample_lanes(wi, k(0.0), u2),
+    let all = k(0.0).eq(k(0.0));
+    let (mut s, delta) = match &mat.leaf {
+        Leaf::Rough(b) => (b.sample_lanes(wi, u1, u2), none),
+        Leaf::Smooth(b) => (b.sample_lanes(wi, u1, u2), all),
+        Leaf::Plastic(b) => {
+            let (rho, spec) = (
+                splat3(wi.z, b.diffuse_reflectance),
+                splat3(wi.z, b.specular_reflectance),
+            );
+            b.sample_with(rho, spec, wi, u1, u2)
+        }
+        Leaf::RoughPlastic(b) => (b.sample_lanes(wi, u1, u2), none),
     };
     s.ok = s.ok & valid(&s);
     for (j, w) in mat.wraps().iter().enumerate().rev() {
@@ -245,7 +277,7 @@ pub(crate) fn sample<L: Lane>(
         }
         s.ok = s.ok & valid(&s);
     }
-    s
+    (s, delta)
 }
 
 #[cfg(test)]
@@ -253,7 +285,7 @@ mod tests {
     use super::*;
     use crate::bsdf::lanes::testing::*;
     use crate::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
-    use crate::bsdf::{BsdfArena, BsdfContext, NormalMap};
+    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, NormalMap};
     use crate::math::Pcg32;
     use crate::sampler::Sampler;
     use crate::spectrum::Spectrum;
@@ -280,7 +312,7 @@ mod tests {
         ]
     }
 
-    fn leaves() -> [Leaf; 3] {
+    fn leaves() -> [Leaf; 6] {
         let metal = |d| RoughConductor {
             distribution: d,
             eta: Spectrum::new(0.2, 0.92, 1.1),
@@ -300,6 +332,33 @@ mod tests {
                 false,
             ))),
             Leaf::Smooth(Conductor::default()),
+            Leaf::Plastic(Plastic::new(
+                Spectrum::new(0.2, 0.5, 0.7),
+                Spectrum::new(0.9, 1.0, 0.8),
+                1.49,
+                1.000277,
+                false,
+            )),
+            Leaf::RoughPlastic(RoughPlastic::new(
+                MicrofacetType::Ggx,
+                0.15,
+                true,
+                Spectrum::new(0.6, 0.3, 0.1),
+                Spectrum::ONE,
+                1.5,
+                1.0,
+                true,
+            )),
+            Leaf::RoughPlastic(RoughPlastic::new(
+                MicrofacetType::Beckmann,
+                0.3,
+                false,
+                Spectrum::new(0.1, 0.4, 0.8),
+                Spectrum::new(0.7, 0.7, 0.9),
+                1.49,
+                1.000277,
+                false,
+            )),
         ]
     }
 
@@ -310,7 +369,7 @@ mod tests {
             wraps: w,
             n_wraps: wraps.len(),
             leaf,
-            smooth: matches!(leaf, Leaf::Rough(_)),
+            smooth: !matches!(leaf, Leaf::Smooth(_)),
         }
     }
 
@@ -320,6 +379,8 @@ mod tests {
         let mut id = arena.push(match mat.leaf {
             Leaf::Rough(b) => BsdfNode::RoughConductor(b),
             Leaf::Smooth(b) => BsdfNode::Conductor(b),
+            Leaf::Plastic(b) => BsdfNode::Plastic(b),
+            Leaf::RoughPlastic(b) => BsdfNode::RoughPlastic(b),
         });
         for (j, w) in mat.wraps().iter().enumerate().rev() {
             id = arena.push(match *w {
@@ -381,12 +442,16 @@ mod tests {
                         "{mat:?} {wi} {wo} {ns:?}"
                     );
                     nonzero += (f0 != Vec3::ZERO) as u32;
-                    let u2 = sampler.clone().next_2d();
+                    // The leaf's numbers in `Bsdf::sample`'s order: `u1` (plastics), `u2`.
+                    let mut draws = sampler.clone();
+                    let u1 = if mat.draws_u1() { draws.next_1d() } else { 0.0 };
+                    let u2 = draws.next_2d();
                     let s0 = bsdf.sample(&ctx, wi, &mut sampler);
-                    let s1 = sample(&mat, &n1, V3::from(wi), V2::from(u2));
+                    let (s1, d1) = sample(&mat, &n1, V3::from(wi), u1, V2::from(u2));
                     assert_eq!(s0.is_some(), s1.ok, "{mat:?} {wi} {ns:?}");
                     if let Some(s0) = s0 {
                         sampled += 1;
+                        assert_eq!(s0.lobe.intersects(Lobes::DELTA), d1, "{mat:?} {wi}");
                         assert!(same3(s0.wo, s1.wo.into()) && same(s0.pdf, s1.pdf));
                         assert!(same3(s0.weight, s1.weight.into()), "{mat:?} {wi}");
                     }
@@ -400,20 +465,22 @@ mod tests {
                             std::array::from_fn(|j| std::array::from_fn(|k| c[k].2[j]));
                         let u: [Vec2; 8] =
                             std::array::from_fn(|k| Vec2::new(wo[k].x.abs(), wi[k].y.abs()));
-                        let (f, p, s) = avx.run(|| {
+                        let u1: [f32; 8] = std::array::from_fn(|k| wo[k].y.abs());
+                        let (f, p, (s, d)) = avx.run(|| {
                             let n8 = n.map(|v| load3(avx, &v));
                             let (wi8, wo8) = (load3(avx, &wi), load3(avx, &wo));
                             let (f, p) = eval_pdf(&mat, &n8, wi8, wo8);
-                            (f, p, sample(&mat, &n8, wi8, load2(avx, &u)))
+                            let u1 = avx.load(&u1);
+                            (f, p, sample(&mat, &n8, wi8, u1, load2(avx, &u)))
                         });
-                        let ok = s.ok.to_array();
+                        let (ok, d) = (s.ok.to_array(), d.to_array());
                         for k in 0..8 {
                             let n1 = std::array::from_fn(|j| V3::from(n[j][k]));
                             let (wi1, wo1) = (V3::from(wi[k]), V3::from(wo[k]));
                             let (f1, p1) = eval_pdf(&mat, &n1, wi1, wo1);
                             assert!(same3(lane3(f, k), f1.into()) && same(p.lane(k), p1));
-                            let s1 = sample(&mat, &n1, wi1, V2::from(u[k]));
-                            assert_eq!(ok[k], s1.ok);
+                            let (s1, d1) = sample(&mat, &n1, wi1, u1[k], V2::from(u[k]));
+                            assert_eq!((ok[k], d[k]), (s1.ok, d1));
                             assert!(same3(lane3(s.wo, k), s1.wo.into()));
                             assert!(same(s.pdf.lane(k), s1.pdf));
                             assert!(same3(lane3(s.weight, k), s1.weight.into()));

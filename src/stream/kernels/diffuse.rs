@@ -188,45 +188,15 @@ pub(crate) fn reflectance(scene: &Scene, tex: &Texture, si: &SurfaceInteraction)
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
-    use crate::geometry::shapes::sphere_sees_cone;
     use crate::geometry::Ray;
-    use crate::geometry::ShapeKind;
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::pcg::Pcg;
-    use crate::lane::{Avx2, F32x8, M8};
+    use crate::lane::{Avx2, F32x8};
     use crate::stream::batch::Batch;
-    use crate::stream::kernels::light::{
-        sample_rectangle, sample_sphere, sample_triangle, AreaPoint, LaneLight, Rectangle, Sphere,
-        Triangle,
-    };
+    use crate::stream::kernels::light::x8::{Cols3, Gather};
+    use crate::stream::kernels::light::LaneLight;
     use glam::{Vec2, Vec3};
-
-    /// The kinds of `Batch::light_lanes` (index + 1).
-    const KIND_TRIANGLE: u8 = 1;
-    const KIND_RECTANGLE: u8 = 2;
-    const KIND_SPHERE: u8 = 3;
-
-    /// Three columns of 8 floats (a 3-vector per lane).
-    #[derive(Clone, Copy, Default)]
-    struct Cols3([[f32; 8]; 3]);
-
-    impl Cols3 {
-        #[inline(always)]
-        fn set(&mut self, k: usize, v: Vec3) {
-            self.0[0][k] = v.x;
-            self.0[1][k] = v.y;
-            self.0[2][k] = v.z;
-        }
-        #[inline(always)]
-        fn load(&self, avx: Avx2) -> V3<F32x8> {
-            V3::new(
-                avx.load(&self.0[0]),
-                avx.load(&self.0[1]),
-                avx.load(&self.0[2]),
-            )
-        }
-    }
 
     /// Lane `k` of a vector of lanes.
     #[inline(always)]
@@ -237,19 +207,6 @@ pub(crate) mod x8 {
     #[inline(always)]
     fn store3(v: V3<F32x8>) -> [[f32; 8]; 3] {
         [v.x.to_array(), v.y.to_array(), v.z.to_array()]
-    }
-
-    /// Where `on`, the light point `q` of an 8-wide area-light sampler (its density times the
-    /// selection probability `sel`) replaces the lane-by-lane one.
-    #[inline(always)]
-    fn merge(lp: &mut LightPoint<F32x8>, on: M8, q: &AreaPoint<F32x8>, sel: F32x8) {
-        lp.some = lp.some | (on & q.ok);
-        lp.d = V3::select(on, q.d, lp.d);
-        lp.p = V3::select(on, q.p, lp.p);
-        lp.n = V3::select(on, q.n, lp.n);
-        lp.has_n = lp.has_n | on;
-        lp.finite = (on & q.dist.is_finite()) | (!on & lp.finite);
-        lp.pdf = F32x8::select(on, q.pdf * sel, lp.pdf);
     }
 
     /// What a material needs for the kernel: its reflectance texture and whether it takes a
@@ -274,6 +231,7 @@ pub(crate) mod x8 {
         b: &mut Batch,
         ids: &[u32; 8],
         mat: Material<'_>,
+        gather: &mut Gather,
     ) {
         // 1. Gather the surface interactions.
         let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) = Default::default();
@@ -339,24 +297,12 @@ pub(crate) mod x8 {
             }
         }
 
-        // 3b. Textures and light points, lane by lane in each path's order.
-        let (mut refl, mut tp, mut ld, mut lpp, mut ln, mut lv) =
-            <(Cols3, Cols3, Cols3, Cols3, Cols3, Cols3)>::default();
-        let mut lpdf = [1.0f32; 8];
-        let (mut some, mut has_n, mut finite, mut one) =
-            ([false; 8], [false; 8], [false; 8], [false; 8]);
+        // 3b. Textures and light points, lane by lane in each path's order (the light points
+        // completed 8-wide by the shared gather of `kernels::light`).
+        let (mut refl, mut tp) = <(Cols3, Cols3)>::default();
         let (mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8]);
         let light_only = cfg.strategy == Strategy::LightOnly;
-        // The lanes' area lights sampled 8-wide: which kind (0 none, else `KIND_*`), the
-        // triangle, rectangle or sphere, and what they share.
-        let mut kind = [0u8; 8];
-        let mut counts = [0u32; 3];
-        let (mut tpos, mut tnorm) = <([Cols3; 3], [Cols3; 3])>::default();
-        let mut tnorm_some = [false; 8];
-        let (mut raxes, mut rn) = <([Cols3; 4], Cols3)>::default();
-        let (mut center, mut radius) = (Cols3::default(), [0.0f32; 8]);
-        let (mut inv_area, mut sign, mut sel) = ([0.0f32; 8], [1.0f32; 8], [1.0f32; 8]);
-        let (mut tux, mut tuy) = ([0.0f32; 8], [0.0f32; 8]);
+        gather.reset();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
@@ -380,158 +326,14 @@ pub(crate) mod x8 {
             };
             ux[k] = u2.x;
             uy[k] = u2.y;
-            if !nee {
-                continue;
+            if nee {
+                gather.add(k, scene, mat.lights, light_only, u_sel, u, si.p);
             }
-            // `nee::sample_emitter`, with the area lights of `LaneLight` left to the 8-wide
-            // samplers of `kernels::light` (a sphere only from outside its cone threshold).
-            let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) else {
-                continue;
-            };
-            let lane_light = match &mat.lights[e] {
-                Some(LaneLight::Sphere { center, radius, .. })
-                    if !sphere_sees_cone((*center - si.p).length(), *radius) =>
-                {
-                    None
-                }
-                l => l.as_ref(),
-            };
-            let Some(ll) = lane_light else {
-                if let Some(ds) = scene.emitters[e].sample_direct(&scene.shapes, si.p, u) {
-                    if ds.value != Spectrum::ZERO {
-                        some[k] = true;
-                        ld.set(k, ds.d);
-                        lpp.set(k, ds.p);
-                        if let Some(n) = ds.n {
-                            has_n[k] = true;
-                            ln.set(k, n);
-                        }
-                        finite[k] = ds.dist.is_finite();
-                        lpdf[k] = ds.pdf * sel_pdf;
-                        lv.set(k, ds.value);
-                        one[k] = ds.delta || light_only;
-                    }
-                }
-                continue;
-            };
-            let mut su = u;
-            let le = match *ll {
-                LaneLight::Triangles {
-                    shape,
-                    inv_area: ia,
-                    sign: sg,
-                    radiance,
-                } => {
-                    let shape = &scene.shapes[shape as usize];
-                    let ShapeKind::Mesh(mesh) = &shape.kind else {
-                        unreachable!("LaneLight::table: a mesh")
-                    };
-                    let (t, ut) = shape.pick_triangle(u);
-                    su = ut;
-                    let idx = mesh.indices[t].map(|j| j as usize);
-                    kind[k] = KIND_TRIANGLE;
-                    for c in 0..3 {
-                        tpos[c].set(k, mesh.positions[idx[c]]);
-                    }
-                    if let Some(ns) = &mesh.normals {
-                        tnorm_some[k] = true;
-                        for c in 0..3 {
-                            tnorm[c].set(k, ns[idx[c]]);
-                        }
-                    }
-                    (inv_area[k], sign[k]) = (ia, sg);
-                    radiance
-                }
-                LaneLight::Rectangle {
-                    axes,
-                    n,
-                    inv_area: ia,
-                    radiance,
-                } => {
-                    kind[k] = KIND_RECTANGLE;
-                    for c in 0..4 {
-                        raxes[c].set(k, axes[c]);
-                    }
-                    rn.set(k, n);
-                    inv_area[k] = ia;
-                    radiance
-                }
-                LaneLight::Sphere {
-                    center: c,
-                    radius: r,
-                    sign: sg,
-                    radiance,
-                } => {
-                    kind[k] = KIND_SPHERE;
-                    center.set(k, c);
-                    (radius[k], sign[k]) = (r, sg);
-                    radiance
-                }
-            };
-            counts[kind[k] as usize - 1] += 1;
-            (tux[k], tuy[k]) = (su.x, su.y);
-            sel[k] = sel_pdf;
-            lv.set(k, le);
-            one[k] = light_only;
         }
 
         // 4. The kernel.
         let refl8 = refl.load(avx);
-        let m = |a: &[bool; 8]| -> M8 { avx.mask(a) };
-        let mut lp = LightPoint {
-            some: m(&some),
-            d: ld.load(avx),
-            p: lpp.load(avx),
-            n: ln.load(avx),
-            has_n: m(&has_n),
-            finite: m(&finite),
-            pdf: avx.load(&lpdf),
-            value: lv.load(avx),
-            weight_one: m(&one),
-        };
-        let su = V2::new(avx.load(&tux), avx.load(&tuy));
-        let sel8 = avx.load(&sel);
-        if counts[0] > 0 {
-            let q = sample_triangle(
-                &Triangle {
-                    p: tpos.map(|c| c.load(avx)),
-                    n: tnorm.map(|c| c.load(avx)),
-                    has_normals: m(&tnorm_some),
-                    inv_area: avx.load(&inv_area),
-                    sign: avx.load(&sign),
-                    u: su,
-                },
-                surf.p,
-            );
-            merge(&mut lp, m(&kind.map(|c| c == KIND_TRIANGLE)), &q, sel8);
-        }
-        if counts[1] > 0 {
-            let q = sample_rectangle(
-                &Rectangle {
-                    axes: raxes.map(|c| c.load(avx)),
-                    n: rn.load(avx),
-                    inv_area: avx.load(&inv_area),
-                    u: su,
-                },
-                surf.p,
-            );
-            merge(&mut lp, m(&kind.map(|c| c == KIND_RECTANGLE)), &q, sel8);
-        }
-        if counts[2] > 0 {
-            let q = sample_sphere(
-                &Sphere {
-                    center: center.load(avx),
-                    radius: avx.load(&radius),
-                    sign: avx.load(&sign),
-                    u: su,
-                },
-                surf.p,
-            );
-            merge(&mut lp, m(&kind.map(|c| c == KIND_SPHERE)), &q, sel8);
-        }
-        for (total, c) in b.light_lanes.iter_mut().zip(counts) {
-            *total += c as u64;
-        }
+        let lp = gather.finish(avx, surf.p, &mut b.light_lanes);
         let lo = light(&surf, wi, refl8, tp.load(avx), &lp);
         let so = sample(&surf, wi, refl8, V2::new(avx.load(&ux), avx.load(&uy)));
 

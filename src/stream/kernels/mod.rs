@@ -14,10 +14,13 @@
 //! through the very functions the scalar renderer calls.
 //!
 //! - [`diffuse`]: `diffuse` with next-event estimation.
-//! - [`conductor`]: `roughconductor` (with next-event estimation) and `conductor`, under
-//!   `twosided` and classic `normalmap`, in lanes; [`vertex`]: their 8-wide driver.
-//! - [`plastic`]: `plastic` and `roughplastic` with next-event estimation.
-//! - [`light`]: area lights on triangle meshes sampled in lanes.
+//! - [`conductor`]: `roughconductor` (with next-event estimation), `conductor`, and constant
+//!   `plastic`/`roughplastic` leaves, under `twosided` and classic `normalmap`, in lanes;
+//!   [`vertex`]: their 8-wide driver.
+//! - [`plastic`]: bare `plastic` and `roughplastic` (textured reflectances gathered) with
+//!   next-event estimation.
+//! - [`light`]: area lights on triangle meshes, rectangles and spheres sampled in lanes, and the
+//!   one light-point gather of all kernels (`light::x8::Gather`).
 //! - [`ray`]: robust ray origins in lanes.
 //! - [`mis`]: the power heuristic in lanes.
 

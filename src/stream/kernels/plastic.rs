@@ -4,8 +4,9 @@
 //! models' lane forms (`eval_pdf_with`, `sample_with`: the scalar BSDF is their `f32`
 //! instantiation, so the bits are the scalar renderer's).
 //!
-//! A material runs here when it is a leaf `plastic` or `roughplastic` (not under a normal map,
-//! `twosided` or `blendbsdf`). Textured `diffuse_reflectance` / `specular_reflectance` are
+//! A material runs here when it is a leaf `plastic` or `roughplastic` (under `twosided` or a
+//! classic normal map, with constant parameters, it runs in [`super::conductor`]'s wrapper
+//! chain; under `blendbsdf` or with textured reflectances under a wrapper, lane by lane). Textured `diffuse_reflectance` / `specular_reflectance` are
 //! **gathered**: each lane's texture is evaluated lane by lane as `Materials::build_at` patches
 //! the slot, and the lane form takes the reflectances per lane (the lobe-sampling weight stays
 //! the material's, from the textures' means, as in the scalar code).
@@ -14,8 +15,9 @@
 //! 1. gather the surface interactions; [`incident`] and its side test, 8-wide;
 //! 2. lane by lane: the reflectance textures, then each path's numbers in the scalar order
 //!    (light selection `u_sel`, light point `u`, lobe choice `u1`, BSDF sample `u2`) and the
-//!    light point (area lights on triangle meshes of a constant radiance sampled 8-wide by
-//!    [`super::light`], every other emitter by its own scalar `sample_direct`);
+//!    light point (through the shared gather `super::light::x8::Gather`: area lights of a
+//!    constant radiance on triangle meshes, rectangles and spheres 8-wide, every other emitter by
+//!    its own scalar `sample_direct`);
 //! 3. [`light`] and [`sample`], 8-wide: the coating's value and density toward the light point,
 //!    power heuristic, contribution, shadow ray; the coating's sample (the lobe chosen by `u1`
 //!    as a select), `Bsdf::sample`'s finiteness test, the side test, the next ray;
@@ -207,173 +209,16 @@ pub(crate) fn sample<L: Lane>(
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
-    use crate::emitter::area::AreaLight;
-    use crate::emitter::Emitter;
-    use crate::geometry::{Ray, Shape, ShapeKind, SurfaceInteraction, TriMesh};
+    use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::frame::Frame;
-    use crate::lane::{Avx2, F32x8, M8};
+    use crate::lane::Avx2;
     use crate::spectrum::Spectrum;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::diffuse::{incident, reflectance};
-    use crate::stream::kernels::light::{sample_triangle, Triangle};
-    use crate::texture::Texture;
-    use glam::Vec3;
-
-    /// Three columns of 8 floats (a 3-vector per lane).
-    #[derive(Clone, Copy, Default)]
-    struct Cols3([[f32; 8]; 3]);
-
-    impl Cols3 {
-        #[inline(always)]
-        fn set(&mut self, k: usize, v: Vec3) {
-            self.0[0][k] = v.x;
-            self.0[1][k] = v.y;
-            self.0[2][k] = v.z;
-        }
-        #[inline(always)]
-        fn get(&self, k: usize) -> Vec3 {
-            Vec3::new(self.0[0][k], self.0[1][k], self.0[2][k])
-        }
-        #[inline(always)]
-        fn load(&self, avx: Avx2) -> V3<F32x8> {
-            V3::new(
-                avx.load(&self.0[0]),
-                avx.load(&self.0[1]),
-                avx.load(&self.0[2]),
-            )
-        }
-        #[inline(always)]
-        fn store(v: V3<F32x8>) -> Cols3 {
-            Cols3([v.x.to_array(), v.y.to_array(), v.z.to_array()])
-        }
-    }
-
-    /// An area light that [`sample_triangle`] samples: on a triangle mesh with a positive area,
-    /// of a constant non-zero radiance (as the `diffuse` kernel decides).
-    #[inline(always)]
-    fn triangle_light<'a>(
-        scene: &'a Scene,
-        a: &'a AreaLight,
-    ) -> Option<(&'a Shape, &'a TriMesh, Spectrum)> {
-        let shape = &scene.shapes[a.shape as usize];
-        match (&shape.kind, &a.radiance) {
-            (ShapeKind::Mesh(m), Texture::Constant(le))
-                if shape.samples_triangles() && *le != Spectrum::ZERO =>
-            {
-                Some((shape, m, *le))
-            }
-            _ => None,
-        }
-    }
-
-    /// The light points of the lanes `front` (drawing `u_sel` and `u` from each path's
-    /// sampler): `nee::sample_emitter` lane by lane, triangle-mesh area lights 8-wide.
-    #[inline(always)]
-    fn light_points(
-        avx: Avx2,
-        scene: &Scene,
-        light_only: bool,
-        b: &mut Batch,
-        ids: &[u32; 8],
-        front: &[bool; 8],
-        p: &Cols3,
-    ) -> LightPoint<F32x8> {
-        let (mut ld, mut lpp, mut ln, mut lv) = <(Cols3, Cols3, Cols3, Cols3)>::default();
-        let mut lpdf = [1.0f32; 8];
-        let (mut some, mut has_n, mut finite, mut one) =
-            ([false; 8], [false; 8], [false; 8], [false; 8]);
-        let (mut tpos, mut tnorm) = <([Cols3; 3], [Cols3; 3])>::default();
-        let (mut tri, mut tnorm_some) = ([false; 8], [false; 8]);
-        let (mut inv_area, mut sign, mut sel) = ([0.0f32; 8], [1.0f32; 8], [1.0f32; 8]);
-        let (mut tux, mut tuy) = ([0.0f32; 8], [0.0f32; 8]);
-        for (k, &i) in ids.iter().enumerate() {
-            if !front[k] {
-                continue;
-            }
-            let sampler = &mut b.sampler[i as usize];
-            let u_sel = sampler.next_1d();
-            let u = sampler.next_2d();
-            let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) else {
-                continue;
-            };
-            match &scene.emitters[e] {
-                Emitter::Area(a) if triangle_light(scene, a).is_some() => {
-                    let (shape, mesh, le) = triangle_light(scene, a).expect("checked");
-                    let (t, u) = shape.pick_triangle(u);
-                    let idx = mesh.indices[t].map(|j| j as usize);
-                    tri[k] = true;
-                    for c in 0..3 {
-                        tpos[c].set(k, mesh.positions[idx[c]]);
-                    }
-                    if let Some(ns) = &mesh.normals {
-                        tnorm_some[k] = true;
-                        for c in 0..3 {
-                            tnorm[c].set(k, ns[idx[c]]);
-                        }
-                    }
-                    inv_area[k] = 1.0 / shape.area();
-                    sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
-                    (tux[k], tuy[k]) = (u.x, u.y);
-                    sel[k] = sel_pdf;
-                    lv.set(k, le);
-                    one[k] = light_only;
-                }
-                em => {
-                    if let Some(ds) = em.sample_direct(&scene.shapes, p.get(k), u) {
-                        if ds.value != Spectrum::ZERO {
-                            some[k] = true;
-                            ld.set(k, ds.d);
-                            lpp.set(k, ds.p);
-                            if let Some(n) = ds.n {
-                                has_n[k] = true;
-                                ln.set(k, n);
-                            }
-                            finite[k] = ds.dist.is_finite();
-                            lpdf[k] = ds.pdf * sel_pdf;
-                            lv.set(k, ds.value);
-                            one[k] = ds.delta || light_only;
-                        }
-                    }
-                }
-            }
-        }
-        let m = |a: &[bool; 8]| -> M8 { avx.mask(a) };
-        let mut lp = LightPoint {
-            some: m(&some),
-            d: ld.load(avx),
-            p: lpp.load(avx),
-            n: ln.load(avx),
-            has_n: m(&has_n),
-            finite: m(&finite),
-            pdf: avx.load(&lpdf),
-            value: lv.load(avx),
-            weight_one: m(&one),
-        };
-        if tri.contains(&true) {
-            let t = m(&tri);
-            let q = sample_triangle(
-                &Triangle {
-                    p: tpos.map(|c| c.load(avx)),
-                    n: tnorm.map(|c| c.load(avx)),
-                    has_normals: m(&tnorm_some),
-                    inv_area: avx.load(&inv_area),
-                    sign: avx.load(&sign),
-                    u: V2::new(avx.load(&tux), avx.load(&tuy)),
-                },
-                p.load(avx),
-            );
-            lp.some = lp.some | (t & q.ok);
-            lp.d = V3::select(t, q.d, lp.d);
-            lp.p = V3::select(t, q.p, lp.p);
-            lp.n = V3::select(t, q.n, lp.n);
-            lp.has_n = lp.has_n | t;
-            lp.finite = (t & q.dist.is_finite()) | (!t & lp.finite);
-            lp.pdf = F32x8::select(t, q.pdf * avx.load(&sel), lp.pdf);
-        }
-        lp
-    }
+    use crate::stream::kernels::light::x8::{Cols3, Gather};
+    use crate::stream::kernels::light::LaneLight;
 
     /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (all of material
     /// `mat`) 8 at a time; returns how many it shaded. Enters [`Avx2::run`] itself.
@@ -384,6 +229,7 @@ pub(crate) mod x8 {
         b: &mut Batch,
         run: std::ops::Range<usize>,
         mat: Material,
+        lights: &[Option<LaneLight>],
     ) -> usize {
         let n = run.len() / 8 * 8;
         if n == 0 {
@@ -392,9 +238,10 @@ pub(crate) mod x8 {
         avx.run(
             #[inline(always)]
             || {
+                let mut gather = Gather::new();
                 for c in (run.start..run.start + n).step_by(8) {
                     let ids: [u32; 8] = b.sorted[c..c + 8].try_into().expect("8 ids");
-                    shade(avx, scene, cfg, b, &ids, &mat);
+                    shade(avx, scene, cfg, b, &ids, &mat, lights, &mut gather);
                 }
             },
         );
@@ -406,6 +253,7 @@ pub(crate) mod x8 {
     /// samples, and their next rays and `alive` flags where they go on. Call inside
     /// [`Avx2::run`].
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn shade(
         avx: Avx2,
         scene: &Scene,
@@ -413,6 +261,8 @@ pub(crate) mod x8 {
         b: &mut Batch,
         ids: &[u32; 8],
         mat: &Material,
+        lights: &[Option<LaneLight>],
+        gather: &mut Gather,
     ) {
         // 1. Gather the surface interactions; the side test.
         let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) =
@@ -462,11 +312,24 @@ pub(crate) mod x8 {
             spec.set(k, tex(mat.specular, spec0));
             tp.set(k, b.state[i as usize].throughput);
         }
+        // The light points (`u_sel`, `u` from each path's sampler), through the shared gather
+        // of `kernels::light` (area lights on meshes, rectangles and spheres 8-wide).
         let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
-        let lp = nee.then(|| {
+        let lp = if nee {
             let light_only = cfg.strategy == Strategy::LightOnly;
-            light_points(avx, scene, light_only, b, ids, &front, &p)
-        });
+            gather.reset();
+            for (k, &i) in ids.iter().enumerate() {
+                if front[k] {
+                    let sampler = &mut b.sampler[i as usize];
+                    let u_sel = sampler.next_1d();
+                    let u = sampler.next_2d();
+                    gather.add(k, scene, lights, light_only, u_sel, u, p.get(k));
+                }
+            }
+            Some(gather.finish(avx, surf.p, &mut b.light_lanes))
+        } else {
+            None
+        };
         let (mut u1, mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
         for (k, &i) in ids.iter().enumerate() {
             if front[k] {

@@ -4,9 +4,9 @@
 //!    in lanes ([`super::diffuse::incident`]);
 //! 2. lane by lane, in each path's order: the normal maps' texture lookups, the light
 //!    selection `u_sel` and light point `u` (when the material takes light samples), the BSDF's
-//!    `u2` (the rough leaf only); light points as `nee::sample_emitter` gives them, except area
-//!    lights on triangle meshes of a constant radiance, sampled 8-wide
-//!    ([`super::light::sample_triangle`]);
+//!    `u1` (plastic leaves) and `u2` (all but the smooth conductor); light points through the
+//!    shared gather ([`super::light::x8::Gather`]: area lights of a constant radiance on
+//!    triangle meshes, rectangles and spheres 8-wide, every other emitter lane by lane);
 //! 3. 8-wide: the BSDF value and density toward the light point, the power heuristic, the
 //!    contribution and shadow ray ([`light`]); the BSDF sample and next ray;
 //! 4. scatter back lane by lane: the pending light sample, then `PathState::advance` (the
@@ -58,13 +58,15 @@ pub(crate) fn light<L: Lane>(
 }
 
 /// The BSDF sample of [`sample`]: where it succeeded (`SurfaceBsdf::sample`'s side test
-/// included), the world direction, density, weight and the next ray's origin.
+/// included), the world direction, density, weight, whether through a delta lobe, and the next
+/// ray's origin.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct SampleOut<L: Lane> {
     pub ok: L::Mask,
     pub wo: V3<L>,
     pub pdf: L,
     pub weight: V3<L>,
+    pub delta: L::Mask,
     pub o: V3<L>,
 }
 
@@ -76,10 +78,11 @@ pub(crate) fn sample<L: Lane>(
     wi: V3<L>,
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
+    u1: L,
     u2: crate::lane::vec::V2<L>,
 ) -> SampleOut<L> {
     let k = |c: f32| wi.z.splat(c);
-    let bs = conductor::sample(mat, normals, wi, u2);
+    let (bs, delta) = conductor::sample(mat, normals, wi, u1, u2);
     let wo_world = s.frame.to_world(bs.wo);
     let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(k(0.0));
     SampleOut {
@@ -87,6 +90,7 @@ pub(crate) fn sample<L: Lane>(
         wo: wo_world,
         pdf: bs.pdf,
         weight: bs.weight,
+        delta,
         o: offset_origin(s.p, s.ng, wo_world),
     }
 }
@@ -105,42 +109,18 @@ fn normal_textures(mat: &Material) -> [Option<crate::material::TexId>; MAX_WRAPS
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
-    use crate::emitter::area::AreaLight;
-    use crate::emitter::Emitter;
-    use crate::geometry::{Ray, Shape, ShapeKind, SurfaceInteraction, TriMesh};
+    use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::frame::Frame;
     use crate::lane::vec::V2;
-    use crate::lane::{Avx2, F32x8, M8};
+    use crate::lane::{Avx2, F32x8};
     use crate::scene::Scene;
-    use crate::spectrum::Spectrum;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::diffuse::{incident, reflectance};
-    use crate::stream::kernels::light::{sample_triangle, Triangle};
-    use crate::texture::Texture;
+    use crate::stream::kernels::light::x8::{Cols3, Gather};
+    use crate::stream::kernels::light::LaneLight;
     use glam::Vec3;
-
-    /// Three columns of 8 floats (a 3-vector per lane).
-    #[derive(Clone, Copy, Default)]
-    struct Cols3([[f32; 8]; 3]);
-
-    impl Cols3 {
-        #[inline(always)]
-        fn set(&mut self, k: usize, v: Vec3) {
-            self.0[0][k] = v.x;
-            self.0[1][k] = v.y;
-            self.0[2][k] = v.z;
-        }
-        #[inline(always)]
-        fn load(&self, avx: Avx2) -> V3<F32x8> {
-            V3::new(
-                avx.load(&self.0[0]),
-                avx.load(&self.0[1]),
-                avx.load(&self.0[2]),
-            )
-        }
-    }
 
     /// Lane `k` of a vector of lanes.
     #[inline(always)]
@@ -153,28 +133,11 @@ pub(crate) mod x8 {
         [v.x.to_array(), v.y.to_array(), v.z.to_array()]
     }
 
-    /// An area light that [`sample_triangle`] samples (as in the `diffuse` kernel): on a
-    /// triangle mesh with a positive area, of a constant non-zero radiance.
-    #[inline(always)]
-    fn triangle_light<'a>(
-        scene: &'a Scene,
-        a: &'a AreaLight,
-    ) -> Option<(&'a Shape, &'a TriMesh, Spectrum)> {
-        let shape = &scene.shapes[a.shape as usize];
-        match (&shape.kind, &a.radiance) {
-            (ShapeKind::Mesh(m), Texture::Constant(le))
-                if shape.samples_triangles() && *le != Spectrum::ZERO =>
-            {
-                Some((shape, m, *le))
-            }
-            _ => None,
-        }
-    }
-
     /// Shades the 8 paths `ids` (all at a surface of material `mat`) as `PathState::scatter`
     /// would, one after the other; sets their pending light samples, and their next rays and
     /// `alive` flags where they go on. Call inside [`Avx2::run`].
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade(
         avx: Avx2,
         scene: &Scene,
@@ -182,6 +145,8 @@ pub(crate) mod x8 {
         b: &mut Batch,
         ids: &[u32; 8],
         mat: &Material,
+        lights: &[Option<LaneLight>],
+        gather: &mut Gather,
     ) {
         // 1. Gather the surface interactions; the side test.
         let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) = Default::default();
@@ -214,18 +179,11 @@ pub(crate) mod x8 {
         let textures = normal_textures(mat);
         let mut normals = [Cols3::default(); MAX_WRAPS];
         let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
-        let draw_u2 = !mat.delta();
-        let (mut tp, mut ld, mut lpp, mut ln, mut lv) =
-            <(Cols3, Cols3, Cols3, Cols3, Cols3)>::default();
-        let mut lpdf = [1.0f32; 8];
-        let (mut some, mut has_n, mut finite, mut one) =
-            ([false; 8], [false; 8], [false; 8], [false; 8]);
-        let (mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8]);
+        let (draw_u1, draw_u2) = (mat.draws_u1(), mat.draws_u2());
+        let mut tp = Cols3::default();
+        let (mut u1, mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
         let light_only = cfg.strategy == Strategy::LightOnly;
-        let (mut tpos, mut tnorm) = <([Cols3; 3], [Cols3; 3])>::default();
-        let (mut tri, mut tnorm_some) = ([false; 8], [false; 8]);
-        let (mut inv_area, mut sign, mut sel) = ([0.0f32; 8], [1.0f32; 8], [1.0f32; 8]);
-        let (mut tux, mut tuy) = ([0.0f32; 8], [0.0f32; 8]);
+        gather.reset();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
@@ -245,48 +203,10 @@ pub(crate) mod x8 {
             if nee {
                 let u_sel = sampler.next_1d();
                 let u = sampler.next_2d();
-                if let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) {
-                    match &scene.emitters[e] {
-                        Emitter::Area(a) if triangle_light(scene, a).is_some() => {
-                            let (shape, mesh, le) = triangle_light(scene, a).expect("checked");
-                            let (t, u) = shape.pick_triangle(u);
-                            let idx = mesh.indices[t].map(|j| j as usize);
-                            tri[k] = true;
-                            for c in 0..3 {
-                                tpos[c].set(k, mesh.positions[idx[c]]);
-                            }
-                            if let Some(ns) = &mesh.normals {
-                                tnorm_some[k] = true;
-                                for c in 0..3 {
-                                    tnorm[c].set(k, ns[idx[c]]);
-                                }
-                            }
-                            inv_area[k] = 1.0 / shape.area();
-                            sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
-                            (tux[k], tuy[k]) = (u.x, u.y);
-                            sel[k] = sel_pdf;
-                            lv.set(k, le);
-                            one[k] = light_only;
-                        }
-                        em => {
-                            if let Some(ds) = em.sample_direct(&scene.shapes, si.p, u) {
-                                if ds.value != Spectrum::ZERO {
-                                    some[k] = true;
-                                    ld.set(k, ds.d);
-                                    lpp.set(k, ds.p);
-                                    if let Some(n) = ds.n {
-                                        has_n[k] = true;
-                                        ln.set(k, n);
-                                    }
-                                    finite[k] = ds.dist.is_finite();
-                                    lpdf[k] = ds.pdf * sel_pdf;
-                                    lv.set(k, ds.value);
-                                    one[k] = ds.delta || light_only;
-                                }
-                            }
-                        }
-                    }
-                }
+                gather.add(k, scene, lights, light_only, u_sel, u, si.p);
+            }
+            if draw_u1 {
+                u1[k] = sampler.next_1d();
             }
             if draw_u2 {
                 let u2 = sampler.next_2d();
@@ -297,42 +217,10 @@ pub(crate) mod x8 {
 
         // 3. The kernel.
         let normals8 = normals.map(|c| c.load(avx));
-        let m = |a: &[bool; 8]| -> M8 { avx.mask(a) };
         // A block, not a closure: a closure would be compiled outside `Avx2::run`'s target
         // features and call every 8-wide operation out of line.
         let lo = if nee {
-            let mut lp = LightPoint {
-                some: m(&some),
-                d: ld.load(avx),
-                p: lpp.load(avx),
-                n: ln.load(avx),
-                has_n: m(&has_n),
-                finite: m(&finite),
-                pdf: avx.load(&lpdf),
-                value: lv.load(avx),
-                weight_one: m(&one),
-            };
-            if tri.contains(&true) {
-                let t = m(&tri);
-                let q = sample_triangle(
-                    &Triangle {
-                        p: tpos.map(|c| c.load(avx)),
-                        n: tnorm.map(|c| c.load(avx)),
-                        has_normals: m(&tnorm_some),
-                        inv_area: avx.load(&inv_area),
-                        sign: avx.load(&sign),
-                        u: V2::new(avx.load(&tux), avx.load(&tuy)),
-                    },
-                    surf.p,
-                );
-                lp.some = lp.some | (t & q.ok);
-                lp.d = V3::select(t, q.d, lp.d);
-                lp.p = V3::select(t, q.p, lp.p);
-                lp.n = V3::select(t, q.n, lp.n);
-                lp.has_n = lp.has_n | t;
-                lp.finite = (t & q.dist.is_finite()) | (!t & lp.finite);
-                lp.pdf = F32x8::select(t, q.pdf * avx.load(&sel), lp.pdf);
-            }
+            let lp = gather.finish(avx, surf.p, &mut b.light_lanes);
             let lo = light(&surf, wi, mat, &normals8, tp.load(avx), &lp);
             Some((
                 lo.ok.to_array(),
@@ -349,18 +237,19 @@ pub(crate) mod x8 {
             wi,
             mat,
             &normals8,
+            avx.load(&u1),
             V2::new(avx.load(&ux), avx.load(&uy)),
         );
 
         // 4. Scatter back.
-        let (s_ok, s_wo, s_pdf, s_w, s_o) = (
+        let (s_ok, s_wo, s_pdf, s_w, s_delta, s_o) = (
             so.ok.to_array(),
             store3(so.wo),
             so.pdf.to_array(),
             store3(so.weight),
+            so.delta.to_array(),
             store3(so.o),
         );
-        let delta = mat.delta();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             if !front[k] {
@@ -387,7 +276,7 @@ pub(crate) mod x8 {
                     get(&s_w, k),
                     1.0,
                     s_pdf[k],
-                    delta,
+                    s_delta[k],
                     ray,
                     &mut b.sampler[i],
                 );
