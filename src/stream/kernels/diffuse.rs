@@ -111,11 +111,35 @@ pub(crate) fn light<L: Lane>(
     throughput: V3<L>,
     lp: &LightPoint<L>,
 ) -> LightOut<L> {
-    let k = |c: f32| wi.z.splat(c);
     // SurfaceBsdf::eval_pdf: the light direction in the shading frame and its side test.
+    let (wo, consistent) = light_direction(s, lp);
+    let (f, bsdf_pdf) = eval_pdf(refl, wi, wo);
+    light_out(s, throughput, lp, f, bsdf_pdf, consistent)
+}
+
+/// `SurfaceBsdf::eval_pdf`'s first step toward a light point: the direction in the shading frame
+/// and its strict side test (shared by every kernel's next-event estimation).
+#[inline(always)]
+pub(crate) fn light_direction<L: Lane>(s: &Surface<L>, lp: &LightPoint<L>) -> (V3<L>, L::Mask) {
+    let k = |c: f32| lp.pdf.splat(c);
     let wo = s.frame.to_local(lp.d);
     let consistent = (lp.d.dot(s.ng) * wo.z).gt(k(0.0));
-    let (f, bsdf_pdf) = eval_pdf(refl, wi, wo);
+    (wo, consistent)
+}
+
+/// The rest of next-event estimation once the BSDF's value `f` (`f · |cos θo|`) and density
+/// toward the light point are known: the zero test, the MIS-weighted contribution of
+/// `PathState::scatter` and the shadow ray (shared by every kernel).
+#[inline(always)]
+pub(crate) fn light_out<L: Lane>(
+    s: &Surface<L>,
+    throughput: V3<L>,
+    lp: &LightPoint<L>,
+    f: V3<L>,
+    bsdf_pdf: L,
+    consistent: L::Mask,
+) -> LightOut<L> {
+    let k = |c: f32| lp.pdf.splat(c);
     let nonzero = !(f.x.eq(k(0.0)) & f.y.eq(k(0.0)) & f.z.eq(k(0.0)));
     let ok = lp.some & consistent & nonzero;
     let f_value = f * lp.value;

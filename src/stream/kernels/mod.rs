@@ -8,8 +8,9 @@
 //! scalar code in the same order (the scalar BSDF, frame, warp and vector code is the `f32`
 //! instantiation of the same `lane` functions; what the scalar renderer does with plain glam
 //! arithmetic is mirrored here operation for operation and checked lane by lane in the unit
-//! tests below and by `tests/render/stream.rs`). Random numbers are drawn per path, in the
-//! scalar renderer's order, from each path's own `Sampler`; the parts of a vertex that branch
+//! tests below and by `tests/render/stream.rs`). Random numbers follow each path's own stream in
+//! the scalar renderer's order: the `diffuse` kernel draws them 8-wide from the chunk's gathered
+//! PCG32 states, the other kernels from each path's `Sampler`; the parts of a vertex that branch
 //! on data (light selection, the emitter's own sampling, Russian roulette) run lane by lane
 //! through the very functions the scalar renderer calls.
 //!

@@ -31,8 +31,7 @@ use crate::lane::Lane;
 use crate::material::{MaterialNode, Slot, TexId};
 use crate::scene::Scene;
 
-use super::diffuse::{LightOut, LightPoint, Surface};
-use super::mis::power_heuristic;
+use super::diffuse::{light_direction, light_out, LightOut, LightPoint, Surface};
 use super::ray::offset_origin;
 
 /// The coating model of a run, its parameters uniform over the lanes (the reflectances come
@@ -133,30 +132,10 @@ pub(crate) fn light<L: Lane>(
     throughput: V3<L>,
     lp: &LightPoint<L>,
 ) -> LightOut<L> {
-    let k = |c: f32| wi.z.splat(c);
     // SurfaceBsdf::eval_pdf: the light direction in the shading frame and its side test.
-    let wo = s.frame.to_local(lp.d);
-    let consistent = (lp.d.dot(s.ng) * wo.z).gt(k(0.0));
+    let (wo, consistent) = light_direction(s, lp);
     let (f, bsdf_pdf) = c.eval_pdf(rho, spec, wi, wo);
-    let nonzero = !(f.x.eq(k(0.0)) & f.y.eq(k(0.0)) & f.z.eq(k(0.0)));
-    let ok = lp.some & consistent & nonzero;
-    let f_value = f * lp.value;
-    let w = L::select(lp.weight_one, k(1.0), power_heuristic(lp.pdf, bsdf_pdf));
-    let contribution = throughput * f_value.scale(w / lp.pdf);
-    // SurfaceInteraction::spawn_ray_to (a light point at a finite distance) or spawn_ray.
-    let d0 = lp.p - s.p;
-    let o_to = offset_origin(s.p, s.ng, d0);
-    let t_end = V3::select(lp.has_n, offset_origin(lp.p, lp.n, -d0), lp.p);
-    let d = t_end - o_to;
-    let dist = d.length();
-    let o_inf = offset_origin(s.p, s.ng, lp.d);
-    LightOut {
-        ok,
-        o: V3::select(lp.finite, o_to, o_inf),
-        d: V3::select(lp.finite, d.div_by(dist), lp.d),
-        tmax: L::select(lp.finite, dist * k(1.0 - 1e-4), k(f32::INFINITY)),
-        contribution,
-    }
+    light_out(s, throughput, lp, f, bsdf_pdf, consistent)
 }
 
 /// The BSDF sample of [`sample`]: where it succeeded (and passed the side test), the world

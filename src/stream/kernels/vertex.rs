@@ -13,8 +13,7 @@
 //!    throughput update and Russian roulette of the scalar code).
 
 use super::conductor::{self, Material, Wrap, MAX_WRAPS};
-use super::diffuse::{LightOut, LightPoint, Surface};
-use super::mis::power_heuristic;
+use super::diffuse::{light_direction, light_out, LightOut, LightPoint, Surface};
 use super::ray::offset_origin;
 use crate::lane::vec::V3;
 use crate::lane::Lane;
@@ -32,29 +31,9 @@ pub(crate) fn light<L: Lane>(
     throughput: V3<L>,
     lp: &LightPoint<L>,
 ) -> LightOut<L> {
-    let k = |c: f32| wi.z.splat(c);
-    let wo = s.frame.to_local(lp.d);
-    let consistent = (lp.d.dot(s.ng) * wo.z).gt(k(0.0));
+    let (wo, consistent) = light_direction(s, lp);
     let (f, bsdf_pdf) = conductor::eval_pdf(mat, normals, wi, wo);
-    let nonzero = !(f.x.eq(k(0.0)) & f.y.eq(k(0.0)) & f.z.eq(k(0.0)));
-    let ok = lp.some & consistent & nonzero;
-    let f_value = f * lp.value;
-    let w = L::select(lp.weight_one, k(1.0), power_heuristic(lp.pdf, bsdf_pdf));
-    let contribution = throughput * f_value.scale(w / lp.pdf);
-    // SurfaceInteraction::spawn_ray_to (a light point at a finite distance) or spawn_ray.
-    let d0 = lp.p - s.p;
-    let o_to = offset_origin(s.p, s.ng, d0);
-    let t_end = V3::select(lp.has_n, offset_origin(lp.p, lp.n, -d0), lp.p);
-    let d = t_end - o_to;
-    let dist = d.length();
-    let o_inf = offset_origin(s.p, s.ng, lp.d);
-    LightOut {
-        ok,
-        o: V3::select(lp.finite, o_to, o_inf),
-        d: V3::select(lp.finite, d.div_by(dist), lp.d),
-        tmax: L::select(lp.finite, dist * k(1.0 - 1e-4), k(f32::INFINITY)),
-        contribution,
-    }
+    light_out(s, throughput, lp, f, bsdf_pdf, consistent)
 }
 
 /// The BSDF sample of [`sample`]: where it succeeded (`SurfaceBsdf::sample`'s side test
