@@ -153,15 +153,23 @@ impl Scene {
         arena: &'a mut BsdfArena,
     ) -> Option<SurfaceBsdf<'a>> {
         arena.clear();
+        let root = self.bsdf_root(si, arena);
+        SurfaceBsdf::new(arena.bsdf(root), si.sh, si.ng, si.wi)
+    }
+
+    /// The hit material's BSDF tree at `si`, pushed onto `arena` after what it holds (not
+    /// cleared: the stream renderer's `mnm` kernel keeps 8 points' trees in one arena); returns
+    /// its root. [`Self::bsdf_at`] is this on a cleared arena and the side test.
+    #[inline]
+    pub fn bsdf_root(&self, si: &SurfaceInteraction, arena: &mut BsdfArena) -> u32 {
         let shape = si.shape as usize;
         let material = self.shape_material[shape];
-        let root = if self.shape_reads_mesh[shape] {
+        if self.shape_reads_mesh[shape] {
             let at = crate::texture::TexPoint::on_shape(si, &self.shapes[shape]);
             self.materials.build_at(material, si, at, arena)
         } else {
             self.materials.build(material, si, arena)
-        };
-        SurfaceBsdf::new(arena.bsdf(root), si.sh, si.ng, si.wi)
+        }
     }
 
     /// True when something blocks `ray` within (tmin, tmax).

@@ -15,7 +15,7 @@
 //!    material at load, [`Kernel`]: `diffuse`, [`kernels::diffuse`]; `roughconductor` and
 //!    `conductor`, and constant `plastic`/`roughplastic` leaves, under `twosided`/classic
 //!    `normalmap`, [`kernels::conductor`]; bare `plastic`/`roughplastic`,
-//!    [`kernels::plastic`]) goes 8 at a
+//!    [`kernels::plastic`]; the compensated microfacet normal map, [`kernels::mnm`]) goes 8 at a
 //!    time through it (AVX2 machines); every other material, a run's last < 8 paths and a
 //!    machine without AVX2 go through the 1-lane code lane by lane
 //!    ([`crate::integrator::path::PathState::scatter`]);
@@ -64,6 +64,9 @@ pub struct LaneCounters {
     /// [`kernels::vertex`]): `roughconductor`/`conductor` leaves, and `plastic`/`roughplastic`
     /// leaves under `twosided` or classic `normalmap`.
     pub conductor_lanes: u64,
+    /// The part of `kernel_lanes` shaded by the compensated microfacet normal map's kernel
+    /// ([`kernels::mnm`]).
+    pub mnm_lanes: u64,
     /// Light points the kernels sampled in lanes: on triangle meshes, rectangles, spheres.
     pub kernel_lights: [u64; 3],
     /// Batches and bounces (trace stages) run.
@@ -81,6 +84,7 @@ impl LaneCounters {
         self.shadow_slots += o.shadow_slots;
         self.kernel_lanes += o.kernel_lanes;
         self.conductor_lanes += o.conductor_lanes;
+        self.mnm_lanes += o.mnm_lanes;
         for (a, b) in self.kernel_lights.iter_mut().zip(o.kernel_lights) {
             *a += b;
         }
@@ -226,6 +230,8 @@ enum Kernel {
     Conductor(kernels::conductor::Material),
     /// `plastic` or `roughplastic`, bare (reflectances gathered per lane; [`kernels::plastic`]).
     Plastic(kernels::plastic::Material),
+    /// A microfacet `normalmap` with `evaluation = compensated` over a leaf ([`kernels::mnm`]).
+    Mnm,
 }
 
 impl Kernels {
@@ -237,6 +243,7 @@ impl Kernels {
                     reflectance,
                     scene.materials.lobes(m as u32).is_smooth(),
                 )),
+                _ if kernels::mnm::qualifies(&scene.materials, m as u32) => Some(Kernel::Mnm),
                 // A bare plastic leaf goes to the plastic kernel (which gathers textured
                 // reflectances); a constant one under wrappers to the wrapper-chain driver.
                 _ => kernels::plastic::material(scene, m as u32)
@@ -418,11 +425,22 @@ fn shade(
         while end < batch.sorted.len() && batch.material[batch.sorted[end] as usize] == m {
             end += 1;
         }
-        let (done, driver) = shade_kernel(scene, cfg, batch, start..end, kernels, m);
+        let (done, driver) = shade_kernel(
+            scene,
+            cfg,
+            batch,
+            start..end,
+            kernels,
+            m,
+            &mut scratch.arena,
+        );
         let lanes = &mut scratch.rays.counters.lanes;
         lanes.kernel_lanes += done as u64;
         if driver {
             lanes.conductor_lanes += done as u64;
+        }
+        if let Some(Some(Kernel::Mnm)) = kernels.kinds.get(m as usize) {
+            lanes.mnm_lanes += done as u64;
         }
         for (a, b) in lanes.kernel_lights.iter_mut().zip(&mut batch.light_lanes) {
             *a += std::mem::take(b);
@@ -458,6 +476,7 @@ fn shade_kernel(
     run: std::ops::Range<usize>,
     kernels: &Kernels,
     m: crate::material::MatId,
+    arena: &mut crate::bsdf::BsdfArena,
 ) -> (usize, bool) {
     let (Some(avx), Some(&Some(kind))) = (kernels.avx, kernels.kinds.get(m as usize)) else {
         return (0, false);
@@ -514,6 +533,21 @@ fn shade_kernel(
             kernels::plastic::x8::shade_run(avx, scene, cfg, batch, run, mat, &kernels.lights),
             false,
         ),
+        Kernel::Mnm => {
+            use kernels::mnm::x8;
+            avx.run(
+                #[inline(always)]
+                || {
+                    let mut gather = kernels::light::x8::Gather::new();
+                    for c in chunks {
+                        let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
+                        let lights = &kernels.lights;
+                        x8::shade(avx, scene, cfg, batch, &ids, lights, &mut gather, arena);
+                    }
+                },
+            );
+            (n, false)
+        }
     }
 }
 
@@ -525,6 +559,7 @@ fn shade_kernel(
     _: std::ops::Range<usize>,
     _: &Kernels,
     _: crate::material::MatId,
+    _: &mut crate::bsdf::BsdfArena,
 ) -> (usize, bool) {
     (0, false)
 }

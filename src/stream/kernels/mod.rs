@@ -20,6 +20,8 @@
 //!   [`vertex`]: their 8-wide driver.
 //! - [`plastic`]: bare `plastic` and `roughplastic` (textured reflectances gathered) with
 //!   next-event estimation.
+//! - [`mnm`]: the compensated microfacet normal map (its BSDF per lane through the scalar
+//!   model; light points, MIS and shadow rays in lanes).
 //! - [`light`]: area lights on triangle meshes, rectangles and spheres sampled in lanes, and the
 //!   one light-point gather of all kernels (`light::x8::Gather`).
 //! - [`ray`]: robust ray origins in lanes.
@@ -29,6 +31,7 @@ pub(crate) mod conductor;
 pub(crate) mod diffuse;
 pub(crate) mod light;
 pub(crate) mod mis;
+pub(crate) mod mnm;
 pub(crate) mod plastic;
 pub(crate) mod ray;
 pub(crate) mod vertex;

@@ -1,0 +1,211 @@
+//! The stream renderer's kernel for the compensated microfacet normal map (issues 17 and 18):
+//! a material whose root is a microfacet `normalmap` with `evaluation = compensated` and a
+//! remainder table (what `--normal-mapping compensated` makes of a scene's normal maps) over a
+//! leaf BSDF, 8 paths at a time, in the steps of the wrapper-chain driver ([`super::vertex`]):
+//! 1. the surface interactions gathered into SoA columns;
+//! 2. lane by lane, in each path's order: the BSDF built at the hit (the normal map's texture
+//!    lookup, the microsurface, the table cell and the incident-direction cache:
+//!    `Scene::bsdf_root`, the scalar code, into one arena for the 8 points), the side test,
+//!    the light selection and light point through the shared gather
+//!    ([`super::light::x8::Gather`]: area lights 8-wide);
+//! 3. the BSDF value and density toward each light point **lane by lane** (the scalar
+//!    compensated model, `bsdf::mnm::compensated::eval_pdf`, whose nested evaluations are
+//!    already 8-wide per query), then 8-wide: the power heuristic, the contribution and the
+//!    shadow ray ([`super::diffuse::light_out`]);
+//! 4. lane by lane: the BSDF sample (the scalar compensated sampler), the next ray and
+//!    `PathState::advance`.
+//!
+//! What is in lanes here is the driver's part of a vertex (light points, MIS, shadow rays); the
+//! compensated model itself (per-hit setup, first order, table lookups, sampling) still runs per
+//! lane through the scalar code, so the image is the scalar renderer's by construction. Its lane
+//! form (one ωp per lane: per-lane microsurfaces, entries and table cells) is the next step
+//! (`docs/mnm.md`, "Issues 17/18: the compensated model in lanes").
+
+use crate::bsdf::mnm::Evaluation;
+use crate::material::{MatId, MaterialNode, Materials};
+
+/// Whether material `m` is shaded by this kernel: a microfacet `normalmap` with `evaluation =
+/// compensated` and its table, directly over a leaf BSDF (`diffuse` or a leaf with constant
+/// or textured parameters).
+pub(crate) fn qualifies(materials: &Materials, m: MatId) -> bool {
+    let nodes = materials.nodes();
+    match &nodes[m as usize] {
+        MaterialNode::MicrofacetNormalMap {
+            nested, settings, ..
+        } => {
+            settings.evaluation == Evaluation::Compensated
+                && settings.ms_table.is_some()
+                && matches!(
+                    nodes[*nested as usize],
+                    MaterialNode::Leaf { .. } | MaterialNode::Diffuse { .. }
+                )
+        }
+        _ => false,
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod x8 {
+    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
+    use crate::geometry::{Ray, SurfaceInteraction};
+    use crate::integrator::path::PendingLight;
+    use crate::integrator::{PathSettings, Strategy};
+    use crate::lane::frame::Frame;
+    use crate::lane::Avx2;
+    use crate::scene::Scene;
+    use crate::stream::batch::Batch;
+    use crate::stream::kernels::diffuse::{light_out, Surface};
+    use crate::stream::kernels::light::x8::{Cols3, Gather};
+    use crate::stream::kernels::light::LaneLight;
+
+    /// The BSDF built at `si` in step 2 (root `root` of `arena`), whose side test passed.
+    #[inline(always)]
+    fn bsdf<'a>(arena: &'a BsdfArena, root: u32, si: &SurfaceInteraction) -> SurfaceBsdf<'a> {
+        SurfaceBsdf::new(arena.bsdf(root), si.sh, si.ng, si.wi)
+            .expect("the side test passed in step 2")
+    }
+
+    /// Shades the 8 paths `ids` (all at a surface of a material that [`super::qualifies`]) as
+    /// `PathState::scatter` would, one after the other; sets their pending light samples, and
+    /// their next rays and `alive` flags where they go on. `arena` holds the 8 points' BSDF
+    /// trees (cleared here). Call inside [`Avx2::run`].
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn shade(
+        avx: Avx2,
+        scene: &Scene,
+        cfg: &PathSettings,
+        b: &mut Batch,
+        ids: &[u32; 8],
+        lights: &[Option<LaneLight>],
+        gather: &mut Gather,
+        arena: &mut BsdfArena,
+    ) {
+        let si_of = |b: &Batch, i: u32| -> SurfaceInteraction {
+            b.si[i as usize].expect("a path that scatters has its interaction")
+        };
+        let ctx = BsdfContext::default();
+        // 1. Gather the surface interactions (the light stage's columns).
+        let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) = Default::default();
+        for (k, &i) in ids.iter().enumerate() {
+            let si = si_of(b, i);
+            Cols3::set(&mut p, k, si.p);
+            Cols3::set(&mut ng, k, si.ng);
+            Cols3::set(&mut fs, k, si.sh.s);
+            Cols3::set(&mut ft, k, si.sh.t);
+            Cols3::set(&mut fnn, k, si.sh.n);
+            Cols3::set(&mut wiw, k, si.wi);
+        }
+        let surf = Surface {
+            p: p.load(avx),
+            ng: ng.load(avx),
+            frame: Frame {
+                s: fs.load(avx),
+                t: ft.load(avx),
+                n: fnn.load(avx),
+            },
+            wi_world: wiw.load(avx),
+        };
+
+        // 2. The BSDFs, the side test, the light points, lane by lane in each path's order.
+        arena.clear();
+        let mut root = [u32::MAX; 8];
+        let mut nee = [false; 8];
+        let mut tp = Cols3::default();
+        let light_only = cfg.strategy == Strategy::LightOnly;
+        gather.reset();
+        for (k, &i) in ids.iter().enumerate() {
+            let i = i as usize;
+            b.light[i] = None;
+            let si = si_of(b, i as u32);
+            let r = scene.bsdf_root(&si, arena);
+            let Some(bsdf) = SurfaceBsdf::new(arena.bsdf(r), si.sh, si.ng, si.wi) else {
+                continue; // no light scatters toward wi: the path ends (`PathState::scatter`)
+            };
+            root[k] = r;
+            tp.set(k, b.state[i].throughput);
+            if cfg.strategy != Strategy::BsdfOnly && bsdf.lobes().is_smooth() {
+                nee[k] = true;
+                let sampler = &mut b.sampler[i];
+                let u_sel = sampler.next_1d();
+                let u = sampler.next_2d();
+                gather.add(k, scene, lights, light_only, u_sel, u, si.p);
+            }
+        }
+
+        // 3. Next-event estimation: the BSDF toward the light points lane by lane (where a
+        //    point was sampled, as `nee::prepare_light`), the rest 8-wide.
+        if nee.contains(&true) {
+            let lp = gather.finish(avx, surf.p, &mut b.light_lanes);
+            let (some, d) = (lp.some.to_array(), Cols3::store(lp.d));
+            let (mut f, mut pdf, mut consistent) = (Cols3::default(), [0.0f32; 8], [false; 8]);
+            for (k, &i) in ids.iter().enumerate() {
+                if !(nee[k] && some[k]) {
+                    continue;
+                }
+                let i = i as usize;
+                let si = si_of(b, i as u32);
+                let s = bsdf(arena, root[k], &si);
+                if let Some((fk, pk)) = s.eval_pdf(&ctx, d.get(k), &mut b.sampler[i]) {
+                    f.set(k, fk);
+                    pdf[k] = pk;
+                    consistent[k] = true;
+                }
+            }
+            let lo = light_out(
+                &surf,
+                tp.load(avx),
+                &lp,
+                f.load(avx),
+                avx.load(&pdf),
+                avx.mask(&consistent),
+            );
+            let (ok, o, dd, tmax, c) = (
+                lo.ok.to_array(),
+                Cols3::store(lo.o),
+                Cols3::store(lo.d),
+                lo.tmax.to_array(),
+                Cols3::store(lo.contribution),
+            );
+            for (k, &i) in ids.iter().enumerate() {
+                if nee[k] && ok[k] {
+                    b.light[i as usize] = Some(PendingLight {
+                        shadow: Ray {
+                            o: o.get(k),
+                            d: dd.get(k),
+                            tmin: 0.0,
+                            tmax: tmax[k],
+                        },
+                        contribution: c.get(k),
+                    });
+                }
+            }
+        }
+
+        // 4. The BSDF samples and the next rays, lane by lane (`PathState::scatter`'s end).
+        for (k, &i) in ids.iter().enumerate() {
+            if root[k] == u32::MAX {
+                continue;
+            }
+            let i = i as usize;
+            let si = si_of(b, i as u32);
+            let Some(bs) = bsdf(arena, root[k], &si).sample(&ctx, &mut b.sampler[i]) else {
+                continue;
+            };
+            let next = b.state[i].advance(
+                cfg,
+                si.p,
+                bs.weight,
+                bs.eta,
+                bs.pdf,
+                bs.lobe.intersects(Lobes::DELTA),
+                si.spawn_ray(bs.wo),
+                &mut b.sampler[i],
+            );
+            if let Some(r) = next {
+                b.ray[i] = r;
+                b.alive[i] = true;
+            }
+        }
+    }
+}
