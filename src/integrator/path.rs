@@ -11,7 +11,7 @@
 
 use super::nee::prepare_light;
 use super::{PathSettings, RayKind, Scratch, Strategy};
-use crate::bsdf::{BsdfArena, BsdfContext, Lobes};
+use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceSample};
 use crate::geometry::{Ray, SurfaceInteraction};
 use crate::math::mis::power_heuristic;
 use crate::sampler::Sampler;
@@ -155,6 +155,20 @@ impl PathState {
 
         // BSDF sampling.
         let bs = bsdf.sample(&ctx, sampler)?;
+        self.advance_sampled(cfg, si, &bs, sampler)
+    }
+
+    /// [`Self::advance`] after the BSDF sample `bs` at `si` (the end of [`Self::scatter`];
+    /// shared with the stream renderer's compensated-normal-map kernel, which samples lane by
+    /// lane).
+    #[inline(always)]
+    pub(crate) fn advance_sampled(
+        &mut self,
+        cfg: &PathSettings,
+        si: &SurfaceInteraction,
+        bs: &SurfaceSample,
+        sampler: &mut Sampler,
+    ) -> Option<Ray> {
         let ray = si.spawn_ray(bs.wo);
         self.advance(
             cfg,

@@ -407,9 +407,13 @@ fn stream_equals_scalar_where_the_conductor_kernels_run() {
 /// sampler (4 spp), the light-only and BSDF-only strategies, Russian roulette from the first
 /// bounce.
 fn settings_variants(name: &str) -> Vec<(&'static str, Loaded)> {
+    variants_of(|| load(&test_scene(name), "as_written"))
+}
+
+/// The scene `base` makes under the settings of [`settings_variants`].
+fn variants_of(base: impl Fn() -> Loaded) -> Vec<(&'static str, Loaded)> {
     use groove::integrator::Strategy;
     use groove::sampler::SamplerKind;
-    let base = || load(&test_scene(name), "as_written");
     let mut variants: Vec<(&str, Loaded)> = Vec::new();
     let mut l = base();
     l.settings.sampler.kind = SamplerKind::Stratified { jitter: true };
@@ -660,7 +664,10 @@ fn stream_equals_scalar_where_the_compensated_kernel_runs() {
     for name in ["metal_plastic", "strong"] {
         let l = load(&scene(&format!("scenes/bench/{name}.xml")), "compensated");
         let lanes = assert_identical(&l, &format!("{name} (compensated)"), 3);
-        assert!(lanes.mnm_lanes > 0, "{name}: never in the kernel: {lanes:?}");
+        assert!(
+            lanes.mnm_lanes > 0,
+            "{name}: never in the kernel: {lanes:?}"
+        );
     }
 }
 
@@ -670,30 +677,7 @@ fn stream_equals_scalar_where_the_compensated_kernel_runs() {
 /// all compensated normal maps in this mode.
 #[test]
 fn stream_equals_scalar_in_the_compensated_kernel_under_every_setting() {
-    use groove::integrator::Strategy;
-    use groove::sampler::SamplerKind;
-    let base = || load(&scene("scenes/bench/metal_plastic.xml"), "compensated");
-    let mut variants: Vec<(&str, Loaded)> = Vec::new();
-    let mut l = base();
-    l.settings.sampler.kind = SamplerKind::Stratified { jitter: true };
-    l.settings.sampler.sample_count = 4;
-    variants.push(("stratified", l));
-    for (label, edit) in [
-        (
-            "light only",
-            (|p| p.strategy = Strategy::LightOnly) as fn(&mut PathSettings),
-        ),
-        ("bsdf only", |p| p.strategy = Strategy::BsdfOnly),
-        ("rr_depth 1", |p| p.rr_depth = 1),
-    ] {
-        let mut l = base();
-        let IntegratorDesc::Path(mut p) = l.settings.integrator else {
-            unreachable!("a path scene")
-        };
-        edit(&mut p);
-        l.settings.integrator = IntegratorDesc::Path(p);
-        variants.push((label, l));
-    }
+    let variants = variants_of(|| load(&scene("scenes/bench/metal_plastic.xml"), "compensated"));
     for (label, l) in &variants {
         let spp = l.settings.sampler.sample_count.min(4);
         let lanes = assert_identical(l, &format!("metal_plastic compensated ({label})"), spp);

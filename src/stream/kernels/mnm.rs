@@ -46,7 +46,7 @@ pub(crate) fn qualifies(materials: &Materials, m: MatId) -> bool {
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
-    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
+    use crate::bsdf::{BsdfArena, BsdfContext, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
@@ -192,16 +192,7 @@ pub(crate) mod x8 {
             let Some(bs) = bsdf(arena, root[k], &si).sample(&ctx, &mut b.sampler[i]) else {
                 continue;
             };
-            let next = b.state[i].advance(
-                cfg,
-                si.p,
-                bs.weight,
-                bs.eta,
-                bs.pdf,
-                bs.lobe.intersects(Lobes::DELTA),
-                si.spawn_ray(bs.wo),
-                &mut b.sampler[i],
-            );
+            let next = b.state[i].advance_sampled(cfg, &si, &bs, &mut b.sampler[i]);
             if let Some(r) = next {
                 b.ray[i] = r;
                 b.alive[i] = true;
