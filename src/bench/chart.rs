@@ -122,7 +122,11 @@ pub fn write_bar_chart(path: &Path, r: &BenchReport) -> Result<()> {
                 let x = i as f64;
                 chart
                     .draw_series(std::iter::once(Text::new(
-                        m.mode.clone(),
+                        if r.renderers.len() > 1 {
+                            format!("{} {}", m.mode, m.renderer)
+                        } else {
+                            m.mode.clone()
+                        },
                         (x - 0.3, -tmax * 0.02),
                         ("sans-serif", 13).into_font(),
                     )))

@@ -1,6 +1,7 @@
-//! `--renderer scalar|stream`: the two render loops write the same image, the stream renderer
-//! refuses integrators other than `path` with a clear error, and an unknown loop is refused
-//! before anything renders.
+//! `--renderer auto|scalar|stream`: the two render loops write the same image, the stream renderer
+//! refuses integrators other than `path` with a clear error, `auto` (the default) runs the stream
+//! renderer where it can and the scalar one elsewhere and says which ran, an unknown loop is
+//! refused before anything renders, and `groove bench --renderer scalar,stream` records both.
 
 use assert_cmd::Command;
 use std::fs;
@@ -84,5 +85,152 @@ fn the_stream_renderer_refuses_the_direct_integrator() {
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
-    assert!(err.contains("expected one of scalar, stream"), "{err}");
+    assert!(
+        err.contains("expected one of auto, scalar, stream"),
+        "{err}"
+    );
+}
+
+/// A scene with a medium-free `volpath` integrator: one the stream renderer does not run.
+const OTHER: &str = "volpath";
+
+#[test]
+fn auto_is_the_default_and_says_which_renderer_ran() {
+    let d = tmpdir("auto");
+    fs::write(d.join("p.xml"), scene("path")).unwrap();
+    fs::write(d.join("v.xml"), scene(OTHER)).unwrap();
+    // Default and explicit `auto`: the stream on `path`, the scalar renderer on the other.
+    for extra in [&[][..], &["--renderer", "auto"][..]] {
+        let out = groove()
+            .current_dir(&d)
+            .args(["render", "p.xml", "v.xml", "-q", "-t", "2", "-o", "out"])
+            .args(extra)
+            .args(["--json", "r.json"])
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value =
+            serde_json::from_slice(&fs::read(d.join("r.json")).unwrap()).unwrap();
+        let renders = v["renders"].as_array().expect("renders");
+        let used: Vec<&str> = renders
+            .iter()
+            .map(|r| r["renderer"].as_str().unwrap())
+            .collect();
+        assert_eq!(used, ["stream", "scalar"], "{v}");
+        assert!(stdout.contains("2 threads, stream renderer"), "{stdout}");
+        assert!(stdout.contains("2 threads, scalar renderer"), "{stdout}");
+    }
+    // `auto` writes the image `scalar` writes, bit for bit.
+    let out = groove()
+        .current_dir(&d)
+        .args([
+            "render",
+            "p.xml",
+            "-q",
+            "-t",
+            "3",
+            "--renderer",
+            "scalar",
+            "-o",
+            "s.png",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let out = groove()
+        .current_dir(&d)
+        .args(["render", "p.xml", "-q", "-t", "1", "-o", "a.png"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert!(
+        fs::read(d.join("s.png")).unwrap() == fs::read(d.join("a.png")).unwrap(),
+        "auto wrote another image"
+    );
+    // `stream` on the other integrator keeps its clear error.
+    let out = groove()
+        .current_dir(&d)
+        .args(["render", "v.xml", "-q", "--renderer", "stream"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("path integrator only"),
+        "{err}"
+    );
+}
+
+#[test]
+fn bench_times_both_renderers() {
+    let d = tmpdir("bench");
+    fs::write(d.join("p.xml"), scene("path")).unwrap();
+    let out = groove()
+        .current_dir(&d)
+        .args([
+            "bench",
+            "p.xml",
+            "--renderer",
+            "scalar,stream",
+            "--modes",
+            "classic",
+        ])
+        .args(["--spp", "1", "--repeat", "2", "-t", "2", "--peer", "off"])
+        .args(["--no-ceiling", "--ref-spp", "0", "-q"])
+        .args(["--json", "b.json", "--md", "b.md", "--plot", "b.png"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value =
+        serde_json::from_slice(&fs::read(d.join("b.json")).unwrap()).unwrap();
+    assert_eq!(v["renderers"], serde_json::json!(["scalar", "stream"]));
+    // Both renderers' records, interleaved, and the stream's with its lane fractions.
+    let recs = v["records"].as_array().unwrap();
+    let used: Vec<(&str, u64)> = recs
+        .iter()
+        .map(|r| {
+            (
+                r["renderer"].as_str().unwrap(),
+                r["repeat"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        used,
+        [("scalar", 0), ("stream", 0), ("scalar", 1), ("stream", 1)]
+    );
+    for r in recs {
+        assert_eq!(r["samples"], 24 * 16);
+        assert_eq!(
+            r["active_lanes"].is_null(),
+            r["renderer"] == "scalar",
+            "{r}"
+        );
+    }
+    // The two renderers trace the same rays (the same paths, bit for bit).
+    assert_eq!(recs[0]["rays"], recs[1]["rays"]);
+    let sums = v["summaries"].as_array().unwrap();
+    let used: Vec<&str> = sums
+        .iter()
+        .map(|s| s["renderer"].as_str().unwrap())
+        .collect();
+    assert_eq!(used, ["scalar", "stream"]);
+    for s in sums {
+        assert_eq!(s["status"], "ok");
+        assert_eq!(s["ratio_to_classic"], 1.0, "{s}");
+    }
+    let md = fs::read_to_string(d.join("b.md")).unwrap();
+    assert!(
+        md.contains("| classic | scalar |") && md.contains("| classic | stream |"),
+        "{md}"
+    );
+    assert!(md.contains("renderer scalar, stream"), "{md}");
 }
