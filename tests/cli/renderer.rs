@@ -5,7 +5,7 @@
 
 use assert_cmd::Command;
 use std::fs;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 fn groove() -> Command {
     Command::cargo_bin("groove").expect("binary")
@@ -94,41 +94,48 @@ fn the_stream_renderer_refuses_the_direct_integrator() {
 /// A scene with a medium-free `volpath` integrator: one the stream renderer does not run.
 const OTHER: &str = "volpath";
 
+/// `groove ARGS` in `d`, which must succeed; its stdout.
+fn run_ok(d: &Path, args: &[&str]) -> String {
+    let out = groove().current_dir(d).args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "groove {args:?}: {err}");
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn read_json(p: &Path) -> serde_json::Value {
+    serde_json::from_slice(&fs::read(p).unwrap()).unwrap()
+}
+
+/// The string `key` of every element of the array `v[list]`.
+fn strings<'a>(v: &'a serde_json::Value, list: &str, key: &str) -> Vec<&'a str> {
+    let a = v[list]
+        .as_array()
+        .unwrap_or_else(|| panic!("no {list}: {v}"));
+    a.iter().map(|r| r[key].as_str().unwrap()).collect()
+}
+
 #[test]
 fn auto_is_the_default_and_says_which_renderer_ran() {
     let d = tmpdir("auto");
     fs::write(d.join("p.xml"), scene("path")).unwrap();
     fs::write(d.join("v.xml"), scene(OTHER)).unwrap();
+    let both = ["render", "p.xml", "v.xml", "-q", "-t", "2", "-o", "out"];
     // Default and explicit `auto`: the stream on `path`, the scalar renderer on the other.
     for extra in [&[][..], &["--renderer", "auto"][..]] {
-        let out = groove()
-            .current_dir(&d)
-            .args(["render", "p.xml", "v.xml", "-q", "-t", "2", "-o", "out"])
-            .args(extra)
-            .args(["--json", "r.json"])
-            .output()
-            .unwrap();
-        let stdout = String::from_utf8_lossy(&out.stdout);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        let stdout = run_ok(&d, &[&both[..], extra, &["--json", "r.json"]].concat());
+        let v = read_json(&d.join("r.json"));
+        assert_eq!(
+            strings(&v, "renders", "renderer"),
+            ["stream", "scalar"],
+            "{v}"
         );
-        let v: serde_json::Value =
-            serde_json::from_slice(&fs::read(d.join("r.json")).unwrap()).unwrap();
-        let renders = v["renders"].as_array().expect("renders");
-        let used: Vec<&str> = renders
-            .iter()
-            .map(|r| r["renderer"].as_str().unwrap())
-            .collect();
-        assert_eq!(used, ["stream", "scalar"], "{v}");
         assert!(stdout.contains("2 threads, stream renderer"), "{stdout}");
         assert!(stdout.contains("2 threads, scalar renderer"), "{stdout}");
     }
     // `auto` writes the image `scalar` writes, bit for bit.
-    let out = groove()
-        .current_dir(&d)
-        .args([
+    run_ok(
+        &d,
+        &[
             "render",
             "p.xml",
             "-q",
@@ -138,30 +145,12 @@ fn auto_is_the_default_and_says_which_renderer_ran() {
             "scalar",
             "-o",
             "s.png",
-        ])
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    let out = groove()
-        .current_dir(&d)
-        .args(["render", "p.xml", "-q", "-t", "1", "-o", "a.png"])
-        .output()
-        .unwrap();
-    assert!(out.status.success());
+        ],
+    );
+    run_ok(&d, &["render", "p.xml", "-q", "-t", "1", "-o", "a.png"]);
     assert!(
         fs::read(d.join("s.png")).unwrap() == fs::read(d.join("a.png")).unwrap(),
         "auto wrote another image"
-    );
-    // `stream` on the other integrator keeps its clear error.
-    let out = groove()
-        .current_dir(&d)
-        .args(["render", "v.xml", "-q", "--renderer", "stream"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && err.contains("path integrator only"),
-        "{err}"
     );
 }
 
@@ -169,45 +158,45 @@ fn auto_is_the_default_and_says_which_renderer_ran() {
 fn bench_times_both_renderers() {
     let d = tmpdir("bench");
     fs::write(d.join("p.xml"), scene("path")).unwrap();
-    let out = groove()
-        .current_dir(&d)
-        .args([
+    run_ok(
+        &d,
+        &[
             "bench",
             "p.xml",
             "--renderer",
             "scalar,stream",
             "--modes",
             "classic",
-        ])
-        .args(["--spp", "1", "--repeat", "2", "-t", "2", "--peer", "off"])
-        .args(["--no-ceiling", "--ref-spp", "0", "-q"])
-        .args(["--json", "b.json", "--md", "b.md", "--plot", "b.png"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+            "--spp",
+            "1",
+            "--repeat",
+            "2",
+            "-t",
+            "2",
+            "--peer",
+            "off",
+            "--no-ceiling",
+            "--ref-spp",
+            "0",
+            "-q",
+            "--json",
+            "b.json",
+            "--md",
+            "b.md",
+            "--plot",
+            "b.png",
+        ],
     );
-    let v: serde_json::Value =
-        serde_json::from_slice(&fs::read(d.join("b.json")).unwrap()).unwrap();
+    let v = read_json(&d.join("b.json"));
     assert_eq!(v["renderers"], serde_json::json!(["scalar", "stream"]));
     // Both renderers' records, interleaved, and the stream's with its lane fractions.
-    let recs = v["records"].as_array().unwrap();
-    let used: Vec<(&str, u64)> = recs
-        .iter()
-        .map(|r| {
-            (
-                r["renderer"].as_str().unwrap(),
-                r["repeat"].as_u64().unwrap(),
-            )
-        })
-        .collect();
     assert_eq!(
-        used,
-        [("scalar", 0), ("stream", 0), ("scalar", 1), ("stream", 1)]
+        strings(&v, "records", "renderer"),
+        ["scalar", "stream", "scalar", "stream"]
     );
-    for r in recs {
+    let recs = v["records"].as_array().unwrap();
+    for (i, r) in recs.iter().enumerate() {
+        assert_eq!(r["repeat"], i / 2, "{r}");
         assert_eq!(r["samples"], 24 * 16);
         assert_eq!(
             r["active_lanes"].is_null(),
@@ -217,13 +206,8 @@ fn bench_times_both_renderers() {
     }
     // The two renderers trace the same rays (the same paths, bit for bit).
     assert_eq!(recs[0]["rays"], recs[1]["rays"]);
-    let sums = v["summaries"].as_array().unwrap();
-    let used: Vec<&str> = sums
-        .iter()
-        .map(|s| s["renderer"].as_str().unwrap())
-        .collect();
-    assert_eq!(used, ["scalar", "stream"]);
-    for s in sums {
+    assert_eq!(strings(&v, "summaries", "renderer"), ["scalar", "stream"]);
+    for s in v["summaries"].as_array().unwrap() {
         assert_eq!(s["status"], "ok");
         assert_eq!(s["ratio_to_classic"], 1.0, "{s}");
     }
