@@ -78,9 +78,17 @@ pub struct BenchArgs {
     /// Scene parameter: sets `$key`, repeatable.
     #[arg(short = 'D', value_name = "KEY=VALUE", value_parser = parse_define)]
     pub defines: Vec<(String, String)>,
-    /// Render loop of the timed renders: `scalar` or `stream` (see `groove render --renderer`).
-    #[arg(long, value_name = "KIND", default_value = "scalar", value_parser = parse_renderer)]
-    pub renderer: crate::render::Renderer,
+    /// Render loops of the timed renders, comma-separated: `auto`, `scalar`, `stream` (see
+    /// `groove render --renderer`); with several, each mode is timed under each, interleaved,
+    /// one record per renderer.
+    #[arg(
+        long,
+        value_name = "KIND[,KIND]",
+        value_delimiter = ',',
+        default_value = "auto",
+        value_parser = parse_renderer
+    )]
+    pub renderer: Vec<crate::render::Renderer>,
     /// No progress lines.
     #[arg(short = 'q', long = "quiet")]
     pub quiet: bool,
@@ -145,9 +153,11 @@ pub struct RenderArgs {
     /// (the metadata `groove.samples` says how many samples).
     #[arg(long = "time-limit", value_name = "SECONDS", value_parser = parse_seconds)]
     pub time_limit: Option<f64>,
-    /// Render loop: `scalar` (one path at a time; every integrator) or `stream` (batches of
-    /// paths stage by stage; the `path` integrator only, same image bit for bit).
-    #[arg(long, value_name = "KIND", default_value = "scalar", value_parser = parse_renderer)]
+    /// Render loop: `auto` (the stream renderer where it runs the scene's integrator, else the
+    /// scalar one), `scalar` (one path at a time; every integrator) or `stream` (batches of
+    /// paths stage by stage; the `path` integrator only, same image bit for bit; an error for
+    /// other integrators).
+    #[arg(long, value_name = "KIND", default_value = "auto", value_parser = parse_renderer)]
     pub renderer: crate::render::Renderer,
     /// Write a JSON record of every render of the batch (timings, rays, samples, warnings,
     /// outputs) and a summary to FILE.

@@ -43,6 +43,17 @@ fn main() -> ExitCode {
     }
 }
 
+/// `--renderer` of `groove bench`: each loop once, in the order first given.
+fn dedup_renderers(v: &[groove::render::Renderer]) -> Vec<groove::render::Renderer> {
+    let mut out = Vec::new();
+    for r in v {
+        if !out.contains(r) {
+            out.push(*r);
+        }
+    }
+    out
+}
+
 fn run_bench(args: &BenchArgs) -> Result<()> {
     use groove::bench;
     for m in &args.modes {
@@ -93,7 +104,7 @@ fn run_bench(args: &BenchArgs) -> Result<()> {
         rays_only: args.rays,
         peer_python,
         verbose: !args.quiet,
-        renderer: args.renderer,
+        renderers: dedup_renderers(&args.renderer),
     };
     let t0 = std::time::Instant::now();
     let report = bench::run(&opts)?;
@@ -530,7 +541,7 @@ fn render_one(
         String::new()
     };
     println!(
-        "{}: {}x{} {} spp, load {:.2} s, render {:.3} s, {:.3} Msamples/s, {:.3} Mrays/s ({} threads){dropped} -> {}",
+        "{}: {}x{} {} spp, load {:.2} s, render {:.3} s, {:.3} Msamples/s, {:.3} Mrays/s ({} threads, {} renderer){dropped} -> {}",
         scene_path.display(),
         crop.2,
         crop.3,
@@ -540,6 +551,7 @@ fn render_one(
         st.samples_per_second() * 1e-6,
         st.rays_per_second() * 1e-6,
         st.threads,
+        st.renderer.name(),
         out.display()
     );
     Ok(json!({
@@ -554,6 +566,7 @@ fn render_one(
         "stopped_early": st.stopped_early,
         "seed": st.seed,
         "threads": st.threads,
+        "renderer": st.renderer.name(),
         "load_seconds": load_s,
         "render_seconds": st.seconds,
         "pixel_samples": st.samples,

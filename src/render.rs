@@ -30,8 +30,13 @@ pub struct RenderSettings {
 /// Which render loop runs the integrator.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Renderer {
-    /// One path at a time, depth first (every integrator).
+    /// The stream renderer where it runs the scene's integrator, the scalar renderer otherwise,
+    /// decided per render ([`RenderStats::renderer`] says which ran). The default: the stream
+    /// renderer took fewer instructions per sample than the scalar one on every scene measured
+    /// (`docs/bench/README.md`, "Issue 18: the default renderer").
     #[default]
+    Auto,
+    /// One path at a time, depth first (every integrator).
     Scalar,
     /// Batches of paths, stage by stage ([`crate::stream`]); the `path` integrator only, with
     /// an image equal to the scalar renderer's bit for bit.
@@ -40,10 +45,11 @@ pub enum Renderer {
 
 impl Renderer {
     /// The `--renderer` values.
-    pub const NAMES: &'static [&'static str] = &["scalar", "stream"];
+    pub const NAMES: &'static [&'static str] = &["auto", "scalar", "stream"];
 
     pub fn parse(s: &str) -> Option<Renderer> {
         match s {
+            "auto" => Some(Renderer::Auto),
             "scalar" => Some(Renderer::Scalar),
             "stream" => Some(Renderer::Stream),
             _ => None,
@@ -52,6 +58,7 @@ impl Renderer {
 
     pub fn name(self) -> &'static str {
         match self {
+            Renderer::Auto => "auto",
             Renderer::Scalar => "scalar",
             Renderer::Stream => "stream",
         }
@@ -129,7 +136,7 @@ impl Default for RenderOptions {
             samples: None,
             time_limit: None,
             on_pass: None,
-            renderer: Renderer::Scalar,
+            renderer: Renderer::Auto,
             packets: None,
         }
     }
@@ -153,6 +160,9 @@ pub struct RenderStats {
     pub stopped_early: bool,
     pub seed: u64,
     pub threads: usize,
+    /// The render loop that ran: [`Renderer::Scalar`] or [`Renderer::Stream`] (what
+    /// [`Renderer::Auto`] chose).
+    pub renderer: Renderer,
     pub samples: u64,
     pub rays: RayCounters,
     /// Samples whose radiance was NaN or infinite (dropped, as Mitsuba does).
@@ -269,7 +279,8 @@ pub fn render(
 ) -> Result<RenderOutput> {
     let stream_cfg = match (opts.renderer, &settings.integrator) {
         (Renderer::Scalar, _) => None,
-        (Renderer::Stream, IntegratorDesc::Path(cfg)) => Some(*cfg),
+        (Renderer::Stream | Renderer::Auto, IntegratorDesc::Path(cfg)) => Some(*cfg),
+        (Renderer::Auto, _) => None,
         (Renderer::Stream, other) => {
             return Err(Error::Usage(format!(
                 "the stream renderer (--renderer stream) runs the path integrator only, not {}; use --renderer scalar",
@@ -470,6 +481,11 @@ pub fn render(
         stopped_early: done < s_hi,
         seed: sampler_desc.seed,
         threads: pool.current_num_threads(),
+        renderer: if stream_cfg.is_some() {
+            Renderer::Stream
+        } else {
+            Renderer::Scalar
+        },
         samples: sampled_pixels * (done - s_lo) as u64,
         rays,
         invalid_samples: invalid,

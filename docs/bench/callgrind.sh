@@ -14,7 +14,7 @@ renderer=${RENDERER:-scalar}
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 valgrind --tool=callgrind --callgrind-out-file="$tmp/cg.out" "$bin" render "$scene" \
     -D spp="$spp" --spp "$spp" -t 1 -q --normal-mapping "$mode" --renderer "$renderer" ${GROOVE_ARGS:-} -o "$tmp/img.png" >/dev/null 2>&1
-loop=$(callgrind_annotate --inclusive=yes "$tmp/cg.out" 2>/dev/null \
+loop=$(callgrind_annotate --inclusive=yes --threshold=100 "$tmp/cg.out" 2>/dev/null \
     | grep -E "StackJob<L,F,R> as rayon_core::job::Job>::execute \[" | head -1 | awk '{print $1}' | tr -d ,)
 read -r w h < <(file "$tmp/img.png" | sed -E 's/.*PNG image data, ([0-9]+) x ([0-9]+).*/\1 \2/')
 echo "$scene $mode $renderer spp=$spp ${w}x${h}: render loop $loop instructions, $((loop / (w * h * spp))) per sample"

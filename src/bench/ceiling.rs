@@ -109,6 +109,9 @@ pub fn measure(
             spp: Some(spp),
             seed: Some(0),
             record_rays: RECORD_CAP,
+            // The scalar renderer: the log in its path-by-path order is what the packet
+            // statistics below assume (the stream renderer's image is the same).
+            renderer: crate::render::Renderer::Scalar,
             ..Default::default()
         },
     )?;

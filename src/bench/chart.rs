@@ -106,7 +106,7 @@ pub fn write_bar_chart(path: &Path, r: &BenchReport) -> Result<()> {
             let mut chart = ChartBuilder::on(panel)
                 .caption(*scene, ("sans-serif", 18))
                 .margin(8)
-                .x_label_area_size(28)
+                .x_label_area_size(if r.renderers.len() > 1 { 44 } else { 28 })
                 .y_label_area_size(60)
                 .build_cartesian_2d(-0.5f64..n - 0.5, 0.0f64..tmax * 1.25)
                 .map_err(draw_err(path))?;
@@ -120,13 +120,23 @@ pub fn write_bar_chart(path: &Path, r: &BenchReport) -> Result<()> {
                 .map_err(draw_err(path))?;
             for (i, m) in modes.iter().enumerate() {
                 let x = i as f64;
-                chart
-                    .draw_series(std::iter::once(Text::new(
-                        m.mode.clone(),
-                        (x - 0.3, -tmax * 0.02),
-                        ("sans-serif", 13).into_font(),
-                    )))
-                    .map_err(draw_err(path))?;
+                // The mode, and under it the render loop when the bench timed several.
+                let mut labels = vec![m.mode.clone()];
+                if r.renderers.len() > 1 {
+                    labels.push(m.renderer.clone());
+                }
+                for (row, label) in labels.into_iter().enumerate() {
+                    chart
+                        .draw_series(std::iter::once(
+                            EmptyElement::at((x - 0.3, -tmax * 0.02))
+                                + Text::new(
+                                    label,
+                                    (0, 15 * row as i32),
+                                    ("sans-serif", 13).into_font(),
+                                ),
+                        ))
+                        .map_err(draw_err(path))?;
+                }
                 if !m.median_seconds.is_finite() {
                     chart
                         .draw_series(std::iter::once(Text::new(

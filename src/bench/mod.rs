@@ -2,7 +2,9 @@
 //!
 //! For every scene the benchmark renders each normal-mapping mode (`classic`, `explicit`,
 //! `walk-mirror`, `walk-same`, `vgroove`, `ugroove`; see [`NormalMapping::parse`]) at equal spp,
-//! `repeat` times, interleaving modes so slow drifts of a shared machine hit all of them alike.
+//! `repeat` times, interleaving modes so slow drifts of a shared machine hit all of them alike;
+//! with several render loops (`--renderer scalar,stream`) each mode is timed under each, also
+//! interleaved, and every record and summary names the loop that ran.
 //! It records time, samples/s, rays/s and mean walk length, then:
 //! - the Embree ceiling ([`ceiling`]): the rays of a classic render, recorded and traced again
 //!   with no shading, so each mode's rays/s reads as a fraction of the intersection limit;
@@ -58,9 +60,10 @@ pub struct BenchOptions {
     pub peer_python: Option<String>,
     /// Progress lines on stderr.
     pub verbose: bool,
-    /// The render loop of the timed renders (the equal-time comparison and the ceiling's
-    /// recording render use the scalar one: same image, bit for bit).
-    pub renderer: Renderer,
+    /// The render loops of the timed renders, each timed on every mode (the images are the
+    /// same bit for bit: the equal-time comparison renders under `auto`, the ceiling records
+    /// the scalar loop's rays; the equal-time spp come from the first loop's times).
+    pub renderers: Vec<Renderer>,
 }
 
 /// One timed render.
@@ -68,6 +71,8 @@ pub struct BenchOptions {
 pub struct RunRecord {
     pub scene: String,
     pub mode: String,
+    /// The render loop that ran (`scalar` or `stream`: what `auto` chose).
+    pub renderer: String,
     pub repeat: u32,
     pub spp: u32,
     pub threads: usize,
@@ -94,6 +99,8 @@ pub struct RunRecord {
 pub struct ModeSummary {
     pub scene: String,
     pub mode: String,
+    /// The render loop that ran (`scalar` or `stream`; for a skipped mode, the one asked for).
+    pub renderer: String,
     /// `ok`, or `skipped` with `reason`.
     pub status: String,
     pub reason: Option<String>,
@@ -102,7 +109,7 @@ pub struct ModeSummary {
     pub samples_per_second: f64,
     pub rays_per_second: f64,
     pub mean_walk_length: Option<f64>,
-    /// Median time over the classic mode's median time.
+    /// Median time over the classic mode's median time under the same render loop.
     pub ratio_to_classic: Option<f64>,
     /// Rays traced per camera sample (paths that survive longer trace more).
     pub rays_per_sample: f64,
@@ -121,8 +128,8 @@ pub struct BenchReport {
     pub spp: u32,
     pub repeat: u32,
     pub threads: usize,
-    /// The render loop of the timed renders (`scalar` or `stream`).
-    pub renderer: String,
+    /// The render loops asked for (`--renderer`), in order: `auto`, `scalar`, `stream`.
+    pub renderers: Vec<String>,
     pub cpu: String,
     pub records: Vec<RunRecord>,
     pub summaries: Vec<ModeSummary>,
@@ -178,8 +185,9 @@ fn load_mode(path: &Path, mode: &str, defines: &[(String, String)]) -> Result<Lo
     load_scene(path, &opts)
 }
 
+/// A render under the default loop ([`Renderer::Auto`]: the same image whichever runs).
 fn render_at(loaded: &Loaded, spp: u32, seed: u64, threads: usize) -> Result<(Image, RenderStats)> {
-    render_with(loaded, spp, seed, threads, Renderer::Scalar)
+    render_with(loaded, spp, seed, threads, Renderer::Auto)
 }
 
 /// [`render_at`] with the render loop `renderer`.
@@ -209,6 +217,7 @@ fn record(scene: &str, mode: &str, repeat: u32, st: &RenderStats, w: u32, h: u32
     RunRecord {
         scene: scene.into(),
         mode: mode.into(),
+        renderer: st.renderer.name().into(),
         repeat,
         spp: st.spp,
         threads: st.threads,
@@ -252,7 +261,11 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
         spp: opts.spp,
         repeat: opts.repeat,
         threads,
-        renderer: opts.renderer.name().into(),
+        renderers: opts
+            .renderers
+            .iter()
+            .map(|r| r.name().to_string())
+            .collect(),
         cpu: cpu_model(),
         records: Vec::new(),
         summaries: Vec::new(),
@@ -332,9 +345,10 @@ fn bench_scene(
         return Ok(());
     }
     let scenes = load_modes(opts, path, &name);
+    // runs[k][i]: renderer k, mode i.
     let runs = time_modes(opts, &name, &scenes, threads, report)?;
-    let timing = timing(&scenes, &runs);
-    let eq = equal_time_modes(opts, path, &name, &scenes, &timing, threads)?;
+    let timings: Vec<Timing> = runs.iter().map(|r| timing(&scenes, r)).collect();
+    let eq = equal_time_modes(opts, path, &name, &scenes, &timings[0], threads)?;
     if let Some(dir) = &opts.images {
         let refs: Vec<(String, &Image)> = scenes
             .iter()
@@ -345,12 +359,23 @@ fn bench_scene(
             chart::write_image_grid(dir, &name, &refs)?;
         }
     }
+    let none = None;
     for (i, (mode, s)) in scenes.iter().enumerate() {
-        let summary = match s {
-            Err(e) => skipped_summary(&name, mode, e),
-            Ok(_) => mode_summary(&name, mode, &runs[i], &timing, i, ceil.as_ref(), &eq[i]),
-        };
-        report.summaries.push(summary);
+        for (k, renderer) in opts.renderers.iter().enumerate() {
+            let summary = match s {
+                Err(e) => skipped_summary(&name, mode, renderer.name(), e),
+                Ok(_) => mode_summary(
+                    &name,
+                    mode,
+                    &runs[k][i],
+                    &timings[k],
+                    i,
+                    ceil.as_ref(),
+                    if k == 0 { &eq[i] } else { &none },
+                ),
+            };
+            report.summaries.push(summary);
+        }
     }
     Ok(())
 }
@@ -368,35 +393,46 @@ fn load_modes(opts: &BenchOptions, path: &Path, name: &str) -> ModeScenes {
     scenes
 }
 
-/// Warm-up (untimed, 1 spp), then `repeat` rounds over the modes; each timed render is recorded
-/// in `report` and returned per mode.
+/// Warm-up (untimed, 1 spp), then `repeat` rounds over the modes and, within a mode, the render
+/// loops; each timed render is recorded in `report` and returned per render loop and mode.
 fn time_modes(
     opts: &BenchOptions,
     name: &str,
     scenes: &ModeScenes,
     threads: usize,
     report: &mut BenchReport,
-) -> Result<Vec<Vec<RenderStats>>> {
+) -> Result<Vec<Vec<Vec<RenderStats>>>> {
     for (_, s) in scenes {
         if let Ok(s) = s {
-            render_with(s, 1, 0, threads, opts.renderer)?;
+            for &renderer in &opts.renderers {
+                render_with(s, 1, 0, threads, renderer)?;
+            }
         }
     }
-    let mut runs: Vec<Vec<RenderStats>> = vec![Vec::new(); scenes.len()];
+    let mut runs = vec![vec![Vec::new(); scenes.len()]; opts.renderers.len()];
     for r in 0..opts.repeat.max(1) {
         for (i, (mode, s)) in scenes.iter().enumerate() {
             let Ok(s) = s else { continue };
-            let (_, st) = render_with(s, opts.spp, r as u64, threads, opts.renderer)?;
-            say(opts, format!("{name}: {mode} #{r}: {:.3} s", st.seconds));
-            report.records.push(record(
-                name,
-                mode,
-                r,
-                &st,
-                s.settings.film.crop_size.0,
-                s.settings.film.crop_size.1,
-            ));
-            runs[i].push(st);
+            for (k, &renderer) in opts.renderers.iter().enumerate() {
+                let (_, st) = render_with(s, opts.spp, r as u64, threads, renderer)?;
+                say(
+                    opts,
+                    format!(
+                        "{name}: {mode} {} #{r}: {:.3} s",
+                        st.renderer.name(),
+                        st.seconds
+                    ),
+                );
+                report.records.push(record(
+                    name,
+                    mode,
+                    r,
+                    &st,
+                    s.settings.film.crop_size.0,
+                    s.settings.film.crop_size.1,
+                ));
+                runs[k][i].push(st);
+            }
         }
     }
     Ok(runs)
@@ -477,10 +513,11 @@ fn equal_time_modes(
 }
 
 /// The summary of a mode that could not be loaded.
-fn skipped_summary(name: &str, mode: &str, reason: &str) -> ModeSummary {
+fn skipped_summary(name: &str, mode: &str, renderer: &str, reason: &str) -> ModeSummary {
     ModeSummary {
         scene: name.to_string(),
         mode: mode.to_string(),
+        renderer: renderer.to_string(),
         status: "skipped".into(),
         reason: Some(reason.to_string()),
         min_seconds: f64::NAN,
@@ -518,6 +555,7 @@ fn mode_summary(
     ModeSummary {
         scene: name.to_string(),
         mode: mode.to_string(),
+        renderer: v[0].renderer.name().to_string(),
         status: "ok".into(),
         reason: None,
         min_seconds: min,

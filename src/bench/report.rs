@@ -40,9 +40,9 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
     let _ = writeln!(s, "# groove bench\n");
     let _ = writeln!(
         s,
-        "groove {}, {} renderer, {} threads, CPU: {}, {} spp, {} repeats (min and median of the repeats).\n",
+        "groove {}, renderer {}, {} threads, CPU: {}, {} spp, {} repeats (min and median of the repeats).\n",
         r.groove_version,
-        r.renderer,
+        r.renderers.join(", "),
         r.threads,
         if r.cpu.is_empty() { "unknown" } else { &r.cpu },
         r.spp,
@@ -64,10 +64,10 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
             let _ = writeln!(s, "{}×{} pixels, {} spp.\n", rec.width, rec.height, rec.spp);
         }
         if !modes.is_empty() {
-            let _ = writeln!(s, "| mode | min s | median s | × classic | Msamples/s | Mrays/s | of Embree ceiling | rays/sample | time/ray × classic | mean walk length | equal-time spp | RMSE | rel. RMSE | efficiency × classic |");
+            let _ = writeln!(s, "| mode | renderer | min s | median s | × classic | Msamples/s | Mrays/s | of Embree ceiling | rays/sample | time/ray × classic | mean walk length | equal-time spp | RMSE | rel. RMSE | efficiency × classic |");
             let _ = writeln!(
                 s,
-                "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+                "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
             );
             let classic_eff = modes
                 .iter()
@@ -77,8 +77,9 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
                 if m.status != "ok" {
                     let _ = writeln!(
                         s,
-                        "| {} | skipped: {} |||||||||||||",
+                        "| {} | {} | skipped: {} |||||||||||||",
                         m.mode,
+                        m.renderer,
                         m.reason.as_deref().unwrap_or("").replace('|', "/")
                     );
                     continue;
@@ -86,8 +87,9 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
                 let e = m.equal_time.as_ref();
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                     m.mode,
+                    m.renderer,
                     f(m.min_seconds, 3),
                     f(m.median_seconds, 3),
                     opt(m.ratio_to_classic, 3),
@@ -171,31 +173,44 @@ pub fn markdown(r: &BenchReport, command: &str) -> String {
         }
         let peers: Vec<_> = r.peers.iter().filter(|p| p.scene == scene).collect();
         if !peers.is_empty() {
-            let classic = modes
+            // One ratio column per render loop that rendered classic.
+            let classic: Vec<&ModeSummary> = modes
                 .iter()
-                .find(|m| m.mode == "classic" && m.status == "ok")
-                .map(|m| m.median_seconds);
-            let _ = writeln!(s, "\n| Mitsuba 3 variant | min s | median s | first render s | groove classic / Mitsuba |");
-            let _ = writeln!(s, "|---|---|---|---|---|");
+                .filter(|m| m.mode == "classic" && m.status == "ok")
+                .copied()
+                .collect();
+            let heads: String = classic
+                .iter()
+                .map(|m| format!(" groove classic {} / Mitsuba |", m.renderer))
+                .collect();
+            let _ = writeln!(
+                s,
+                "\n| Mitsuba 3 variant | min s | median s | first render s |{heads}"
+            );
+            let _ = writeln!(s, "|---|---|---|---|{}", "---|".repeat(classic.len()));
             for p in peers {
                 match p.median_seconds {
                     Some(med) => {
+                        let ratios: String = classic
+                            .iter()
+                            .map(|c| format!(" {} |", f(c.median_seconds / med, 2)))
+                            .collect();
                         let _ = writeln!(
                             s,
-                            "| {} | {} | {} | {} | {} |",
+                            "| {} | {} | {} | {} |{ratios}",
                             p.variant,
                             opt(p.min_seconds, 3),
                             f(med, 3),
                             opt(p.warmup_seconds, 3),
-                            opt(classic.map(|c| c / med), 2)
                         );
                     }
                     None => {
                         let _ = writeln!(
                             s,
-                            "| {} | skipped: {} ||||",
+                            "| {} | skipped: {} |||{}",
                             p.variant,
-                            p.reason.as_deref().unwrap_or("").replace('|', "/")
+                            p.reason.as_deref().unwrap_or("").replace('|', "/"),
+                            "|".repeat(classic.len())
                         );
                     }
                 }
@@ -252,7 +267,11 @@ fn targets(s: &mut String, r: &BenchReport) {
                 ));
             }
         }
-        if let Some(c) = classic {
+        let classics = r
+            .summaries
+            .iter()
+            .filter(|m| m.scene == scene && m.mode == "classic" && m.status == "ok");
+        for c in classics {
             let ceiling = r.ceilings.iter().find(|x| x.scene == scene);
             for (variant, limit) in [("scalar_rgb", 0.6), ("llvm_ad_rgb", 1.0)] {
                 if let Some(t) = r
@@ -263,7 +282,10 @@ fn targets(s: &mut String, r: &BenchReport) {
                 {
                     let q = c.median_seconds / t;
                     rows.push((
-                        format!("groove classic time ≤ {limit:.1}× Mitsuba {variant}"),
+                        format!(
+                            "groove classic ({}) time ≤ {limit:.1}× Mitsuba {variant}",
+                            c.renderer
+                        ),
                         scene.into(),
                         q,
                         q <= limit,

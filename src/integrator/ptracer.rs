@@ -217,6 +217,7 @@ pub fn render(
         stopped_early: false,
         seed: sampler_desc.seed,
         threads,
+        renderer: crate::render::Renderer::Scalar,
         samples: total,
         rays,
         invalid_samples: invalid,

@@ -100,7 +100,24 @@ pub fn render_scene(
     render_loaded(&loaded, spp, seed, threads)
 }
 
-/// Render a loaded scene at `spp` with `seed` on `threads` workers (0: all cores).
+/// The render loop of the render tests: `$GROOVE_TEST_RENDERER` (`auto`, `scalar` or `stream`),
+/// default `auto` (the stream renderer where it runs the scene's integrator, as `groove render`
+/// does). `stream` makes the tests of other integrators fail with the stream renderer's refusal;
+/// `scalar` runs every test on the scalar renderer.
+pub fn renderer() -> groove::render::Renderer {
+    match std::env::var("GROOVE_TEST_RENDERER") {
+        Err(_) => groove::render::Renderer::Auto,
+        Ok(s) => groove::render::Renderer::parse(&s).unwrap_or_else(|| {
+            panic!(
+                "GROOVE_TEST_RENDERER={s}: expected one of {}",
+                groove::render::Renderer::NAMES.join(", ")
+            )
+        }),
+    }
+}
+
+/// Render a loaded scene at `spp` with `seed` on `threads` workers (0: all cores), on the render
+/// loop [`renderer`] says.
 pub fn render_loaded(
     loaded: &groove::load::Loaded,
     spp: u32,
@@ -111,6 +128,7 @@ pub fn render_loaded(
         threads,
         spp: Some(spp),
         seed: Some(seed),
+        renderer: renderer(),
         ..Default::default()
     };
     let out = groove::render::render(&loaded.scene, &loaded.settings, &ro).expect("render");

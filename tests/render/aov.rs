@@ -17,6 +17,7 @@ fn render(scene: &str, spp: u32, seed: u64) -> (Vec<String>, groove::film::Film)
     let ro = groove::render::RenderOptions {
         spp: Some(spp),
         seed: Some(seed),
+        renderer: crate::common::renderer(),
         ..Default::default()
     };
     let out = groove::render::render(&loaded.scene, &loaded.settings, &ro).expect("render");

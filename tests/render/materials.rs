@@ -138,6 +138,7 @@ fn shared_cbox_wavelength_values_matches_mitsuba() {
                 threads: 0,
                 spp: Some(16),
                 seed: Some(400 + s),
+                renderer: crate::common::renderer(),
                 ..Default::default()
             };
             let out = groove::render::render(&loaded.scene, &loaded.settings, &ro).expect("render");

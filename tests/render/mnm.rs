@@ -195,6 +195,7 @@ fn furnace_under(mode: &str, defines: &[(&str, String)], seed: u64) -> (f64, f64
     let ro = groove::render::RenderOptions {
         spp: Some(256),
         seed: Some(seed),
+        renderer: crate::common::renderer(),
         ..Default::default()
     };
     let out = groove::render::render(&loaded.scene, &loaded.settings, &ro).expect("render");

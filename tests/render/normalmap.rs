@@ -147,11 +147,14 @@ fn documents_upgraded_from_0_6_get_the_plain_normalmap() {
     }
 }
 
+/// `groove ARGS`; a render on the render tests' loop ([`crate::common::renderer`]).
 fn groove(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_groove"))
-        .args(args)
-        .output()
-        .expect("run groove")
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_groove"));
+    cmd.args(args);
+    if args.first() == Some(&"render") {
+        cmd.args(["--renderer", crate::common::renderer().name()]);
+    }
+    cmd.output().expect("run groove")
 }
 
 #[test]

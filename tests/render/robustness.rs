@@ -137,6 +137,7 @@ fn load(text: &str) -> Result<groove::load::Loaded, String> {
 fn render_finite(loaded: &groove::load::Loaded) -> Result<u64, String> {
     let opts = groove::render::RenderOptions {
         threads: 1,
+        renderer: crate::common::renderer(),
         ..Default::default()
     };
     let out = groove::render::render(&loaded.scene, &loaded.settings, &opts)

@@ -510,11 +510,18 @@ fn the_lane_counters_count_the_wrapped_plastic() {
 }
 
 /// Slow tier: every scene of the repository that the path integrator renders, as written and
-/// (when it has normal maps) in classic and walk modes.
+/// (when it has normal maps) in classic and walk modes; also the million-triangle scene when
+/// `scenes/bench/make_million.py` has written its meshes, and the shared Cornell boxes
+/// (`../shared/scenes/mitsuba_cbox/`) when they are beside the repository.
 #[test]
 #[ignore]
 fn stream_equals_scalar_on_every_path_scene() {
     let mut scenes = Vec::new();
+    let million = scene("scenes/bench/million");
+    let optional = [
+        million.clone(),
+        repo_root().join("../shared/scenes/mitsuba_cbox"),
+    ];
     for dir in [
         "scenes/bench",
         "scenes/cornell",
@@ -524,7 +531,13 @@ fn stream_equals_scalar_on_every_path_scene() {
     .map(scene)
     .into_iter()
     .chain([repo_root().join("tests/data/scenes")])
-    {
+    .chain(optional.into_iter().filter(|d| {
+        let here = d.is_dir() && (d != &million || d.join("million_terrain.ply").is_file());
+        if !here {
+            eprintln!("skipped: {} (not here)", d.display());
+        }
+        here
+    })) {
         let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
             .unwrap()
             .map(|e| e.unwrap().path())
