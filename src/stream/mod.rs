@@ -64,8 +64,9 @@ pub struct LaneCounters {
     /// [`kernels::vertex`]): `roughconductor`/`conductor` leaves, and `plastic`/`roughplastic`
     /// leaves under `twosided` or classic `normalmap`.
     pub conductor_lanes: u64,
-    /// Light points the kernels sampled in lanes: on triangle meshes, rectangles, spheres.
-    pub kernel_lights: [u64; 3],
+    /// Light samples the kernels took in lanes, per kind: area lights on triangle meshes,
+    /// rectangles and spheres, then `point`, `spot`, `directional`, `constant`, `envmap`.
+    pub kernel_lights: [u64; kernels::light::KINDS],
     /// Batches and bounces (trace stages) run.
     pub batches: u64,
     pub bounces: u64,
