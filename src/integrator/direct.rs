@@ -27,7 +27,7 @@ use glam::Vec3;
 
 /// What the camera ray sees (`hit`: its surface, or `None` when it escapes), added to
 /// `result` unless `hide_emitters`.
-#[inline]
+#[inline(always)]
 pub fn add_camera_emission(
     cfg: &DirectSettings,
     scene: &Scene,
@@ -53,13 +53,13 @@ pub fn add_camera_emission(
 }
 
 /// Whether the BSDF at a hit takes light samples: a smooth lobe and a light to sample.
-#[inline]
+#[inline(always)]
 pub fn takes_light_samples(scene: &Scene, bsdf: &SurfaceBsdf) -> bool {
     bsdf.lobes().is_smooth() && !scene.light_sampler.is_empty()
 }
 
 /// The MIS-weighted term of one light sample (added when its shadow ray is unblocked).
-#[inline]
+#[inline(always)]
 pub fn light_term(cfg: &DirectSettings, ls: &LightSample) -> Spectrum {
     let ne = cfg.emitter_samples as f32;
     let nb = cfg.bsdf_samples as f32;
@@ -76,7 +76,7 @@ pub fn light_term(cfg: &DirectSettings, ls: &LightSample) -> Spectrum {
 /// a delta lobe when `delta`) found `hit` (`None`: it escaped): adds the emission it sees,
 /// MIS-weighted, to `result`.
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(always)]
 pub fn add_bsdf_hit(
     cfg: &DirectSettings,
     scene: &Scene,

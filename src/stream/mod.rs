@@ -22,6 +22,8 @@
 //! 5. **shadow rays** of the pending light samples, in path order, adding the unoccluded ones;
 //! 6. **compact** the surviving paths (stable).
 //!
+//! The `direct` integrator runs on the same batch, camera trace and ray counters ([`direct`]).
+//!
 //! Then every path's radiance goes to the block in the canonical order. Each path draws from its
 //! own stream keyed by (seed, pixel, sample) and runs exactly the scalar renderer's per-vertex
 //! functions in the same order, so the image equals the scalar renderer's bit for bit at any

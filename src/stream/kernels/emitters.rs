@@ -218,15 +218,8 @@ mod tests {
     use crate::emitter::spot::SpotLight;
     use crate::emitter::DirectSample;
     use crate::math::Pcg32;
+    use crate::stream::kernels::light::tests::{same, same3};
     use glam::{Mat3, Vec2, Vec3};
-
-    fn same(a: f32, b: f32) -> bool {
-        a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
-    }
-
-    fn same3(a: V3<f32>, b: Vec3) -> bool {
-        same(a.x, b.x) && same(a.y, b.y) && same(a.z, b.z)
-    }
 
     /// The lane sample equals the scalar one where the scalar accepts it, and is refused where
     /// the scalar refuses it.

@@ -804,16 +804,18 @@ pub(crate) mod x8 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::math::Pcg32;
     use glam::{Mat4, Vec2};
 
-    fn same(a: f32, b: f32) -> bool {
+    /// Equal bits (NaN equals NaN).
+    pub(crate) fn same(a: f32, b: f32) -> bool {
         a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
     }
 
-    fn same3(a: V3<f32>, b: Vec3) -> bool {
+    /// Equal bits per component.
+    pub(crate) fn same3(a: V3<f32>, b: Vec3) -> bool {
         same(a.x, b.x) && same(a.y, b.y) && same(a.z, b.z)
     }
 
