@@ -279,11 +279,16 @@ pub fn render(
 ) -> Result<RenderOutput> {
     let stream_cfg = match (opts.renderer, &settings.integrator) {
         (Renderer::Scalar, _) => None,
-        (Renderer::Stream | Renderer::Auto, IntegratorDesc::Path(cfg)) => Some(*cfg),
+        (Renderer::Stream | Renderer::Auto, IntegratorDesc::Path(cfg)) => {
+            Some(crate::stream::StreamIntegrator::Path(*cfg))
+        }
+        (Renderer::Stream | Renderer::Auto, IntegratorDesc::Direct(cfg)) => {
+            Some(crate::stream::StreamIntegrator::Direct(*cfg))
+        }
         (Renderer::Auto, _) => None,
         (Renderer::Stream, other) => {
             return Err(Error::Usage(format!(
-                "the stream renderer (--renderer stream) runs the path integrator only, not {}; use --renderer scalar",
+                "the stream renderer (--renderer stream) runs the path and direct integrators only, not {}; use --renderer scalar",
                 integrator_name(other)
             )))
         }

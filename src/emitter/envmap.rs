@@ -171,17 +171,44 @@ impl EnvMapLight {
         self.lookup(Self::uv_of_local(l))
     }
 
-    pub fn sample_direct(&self, ref_p: Vec3, u: Vec2) -> Option<DirectSample> {
+    /// The first step of [`Self::sample_direct`]: the walk of the 2-D table from `u`, and the
+    /// texture-space (u, v) of the point it picks (`None` where the density is not positive).
+    /// Shared with the stream renderer's lanes (`stream::kernels::emitters`), which walk the
+    /// table lane by lane and do the rest 8-wide.
+    #[inline]
+    pub(crate) fn sample_uv(&self, u: Vec2) -> Option<Vec2> {
         let (p, pdf_uv) = self.dist.sample(u);
         if pdf_uv.is_nan() || pdf_uv <= 0.0 {
             return None;
         }
         // Patch space → texture space: patches start at texel centres, half a texel into u.
-        let mut uu = p.x + 0.5 / self.width as f32;
+        let mut uu = p.x + self.half_texel();
         if uu >= 1.0 {
             uu -= 1.0;
         }
-        let uv = Vec2::new(uu, p.y);
+        Some(Vec2::new(uu, p.y))
+    }
+
+    /// Half a texel in u, `0.5 / width`: the shift between patch and texture space.
+    #[inline]
+    pub(crate) fn half_texel(&self) -> f32 {
+        0.5 / self.width as f32
+    }
+
+    /// Map frame → world (a rotation), and its inverse.
+    pub(crate) fn frames(&self) -> (Mat3, Mat3) {
+        (self.to_world, self.to_local)
+    }
+
+    /// The density of the 2-D table at the patch-space point `p` ([`Self::pdf_direct`]'s
+    /// lookup, before the change to solid angle).
+    #[inline]
+    pub(crate) fn patch_pdf(&self, p: Vec2) -> f32 {
+        self.dist.pdf(p)
+    }
+
+    pub fn sample_direct(&self, ref_p: Vec3, u: Vec2) -> Option<DirectSample> {
+        let uv = self.sample_uv(u)?;
         if lm::sin(PI * uv.y) <= 0.0 {
             return None;
         }
@@ -215,7 +242,7 @@ impl EnvMapLight {
         if sin_theta.is_nan() || sin_theta <= 0.0 {
             return 0.0;
         }
-        let mut px = uv.x - 0.5 / self.width as f32;
+        let mut px = uv.x - self.half_texel();
         if px < 0.0 {
             px += 1.0;
         }

@@ -29,15 +29,15 @@ use glam::{Mat3, Vec2, Vec3};
 pub struct SpotLight {
     pub position: Vec3,
     /// World to light directions (the linear part of Mitsuba's `to_world.inverse()`).
-    to_local: Mat3,
+    pub(crate) to_local: Mat3,
     pub intensity: Spectrum,
     /// The projected texture, if any.
-    texture: Option<Texture>,
+    pub(crate) texture: Option<Texture>,
     /// Angles in radians, 0 ≤ beam_width ≤ cutoff ≤ π.
     pub cutoff: f32,
     pub beam_width: f32,
-    cos_cutoff: f32,
-    cos_beam: f32,
+    pub(crate) cos_cutoff: f32,
+    pub(crate) cos_beam: f32,
     /// tan(cutoff): the texture's uv scale.
     uv_factor: f32,
 }

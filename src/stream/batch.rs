@@ -39,8 +39,8 @@ pub(crate) struct Batch {
     /// Counting-sort bins: one per material id, plus one.
     bins: Vec<u32>,
     /// Light points the 8-wide kernels sampled in lanes since the shading stage last took
-    /// them: on triangle meshes, rectangles, spheres (`LaneCounters::kernel_lights`).
-    pub light_lanes: [u64; 3],
+    /// them, per kind (`LaneCounters::kernel_lights`).
+    pub light_lanes: [u64; crate::stream::kernels::light::KINDS],
 }
 
 impl Batch {
@@ -61,7 +61,7 @@ impl Batch {
             sorted: Vec::with_capacity(capacity),
             shadow: Vec::with_capacity(capacity),
             bins: vec![0; materials + 1],
-            light_lanes: [0; 3],
+            light_lanes: [0; crate::stream::kernels::light::KINDS],
         }
     }
 

@@ -22,18 +22,21 @@
 //! 5. **shadow rays** of the pending light samples, in path order, adding the unoccluded ones;
 //! 6. **compact** the surviving paths (stable).
 //!
+//! The `direct` integrator runs on the same batch, camera trace and ray counters ([`direct`]).
+//!
 //! Then every path's radiance goes to the block in the canonical order. Each path draws from its
 //! own stream keyed by (seed, pixel, sample) and runs exactly the scalar renderer's per-vertex
 //! functions in the same order, so the image equals the scalar renderer's bit for bit at any
 //! thread count (`tests/render/stream.rs`).
 
 pub(crate) mod batch;
+pub(crate) mod direct;
 pub(crate) mod kernels;
 
 use crate::cancel::Cancel;
 use crate::film::Block;
 use crate::geometry::{Hit, Ray};
-use crate::integrator::{PathSettings, RayKind, Rays, Scratch};
+use crate::integrator::{DirectSettings, PathSettings, RayKind, Rays, Scratch};
 use crate::sampler::{Sampler, SamplerDesc};
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
@@ -67,8 +70,9 @@ pub struct LaneCounters {
     /// The part of `kernel_lanes` shaded by the compensated microfacet normal map's kernel
     /// ([`kernels::mnm`]).
     pub mnm_lanes: u64,
-    /// Light points the kernels sampled in lanes: on triangle meshes, rectangles, spheres.
-    pub kernel_lights: [u64; 3],
+    /// Light samples the kernels took in lanes, per kind: area lights on triangle meshes,
+    /// rectangles and spheres, then `point`, `spot`, `directional`, `constant`, `envmap`.
+    pub kernel_lights: [u64; kernels::light::KINDS],
     /// Batches and bounces (trace stages) run.
     pub batches: u64,
     pub bounces: u64,
@@ -199,12 +203,22 @@ impl Packets {
     }
 }
 
+/// The integrators the stream renderer runs: `path` (this module's stages) and `direct`
+/// ([`direct`]).
+#[derive(Clone, Copy, Debug)]
+pub enum StreamIntegrator {
+    Path(PathSettings),
+    Direct(DirectSettings),
+}
+
 /// Per-worker state of the stream renderer: the batch buffers, reused for every batch, and
 /// which materials have an 8-wide kernel.
 pub struct StreamScratch {
     batch: Batch,
     packets: Packets,
     kernels: Kernels,
+    /// The `direct` integrator's samples of a batch.
+    direct: direct::Items,
 }
 
 /// The 8-wide kernels a scene's materials can use: the AVX2 token (none without AVX2: then
@@ -284,17 +298,18 @@ impl StreamScratch {
             batch: Batch::new(BATCH, materials),
             packets,
             kernels: Kernels::new(scene),
+            direct: direct::Items::default(),
         }
     }
 }
 
 /// Renders samples `samples` of the pixels `rect` (x0, y0, width, height; full-film pixels)
-/// of one block with the `path` integrator `cfg`; returns the number of invalid (NaN or
+/// of one block with the integrator `cfg`; returns the number of invalid (NaN or
 /// infinite) samples, which are dropped. Stops at the next batch once `cancel` is raised.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn render_block(
     scene: &Scene,
-    cfg: &PathSettings,
+    cfg: &StreamIntegrator,
     sampler_desc: &SamplerDesc,
     film_width: u32,
     block: &mut Block,
@@ -330,7 +345,12 @@ pub(crate) fn render_block(
             let ray = scene.camera.sample_ray(pos, &mut sampler);
             batch.push(pos, sampler, ray);
         }
-        run_batch(scene, cfg, batch, scratch, packets, kernels);
+        match cfg {
+            StreamIntegrator::Path(cfg) => run_batch(scene, cfg, batch, scratch, packets, kernels),
+            StreamIntegrator::Direct(cfg) => {
+                direct::run_batch(scene, cfg, batch, scratch, packets, &mut stream.direct)
+            }
+        }
         for (pos, st) in batch.pos.iter().zip(&batch.state) {
             let mut l = st.result;
             if !crate::spectrum::is_finite(l) {

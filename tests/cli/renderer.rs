@@ -62,9 +62,9 @@ fn scalar_and_stream_write_the_same_image() {
 }
 
 #[test]
-fn the_stream_renderer_refuses_the_direct_integrator() {
-    let d = tmpdir("direct");
-    fs::write(d.join("d.xml"), scene("direct")).unwrap();
+fn the_stream_renderer_refuses_the_volpath_integrator() {
+    let d = tmpdir("volpath");
+    fs::write(d.join("d.xml"), scene("volpath")).unwrap();
     let out = groove()
         .current_dir(&d)
         .args(["render", "d.xml", "-q", "--renderer", "stream"])
@@ -74,7 +74,7 @@ fn the_stream_renderer_refuses_the_direct_integrator() {
     assert!(!out.status.success(), "rendered: {err}");
     assert!(!err.contains("panicked"), "{err}");
     assert!(
-        err.contains("path integrator only") && err.contains("direct"),
+        err.contains("path and direct integrators only") && err.contains("volpath"),
         "{err}"
     );
     assert!(!d.join("d.exr").exists());

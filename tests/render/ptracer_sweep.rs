@@ -150,6 +150,9 @@ const SCENES: &[(&str, Entry)] = &[
     // The stream renderer's conductor kernels (tests/render/stream.rs): a smooth `conductor`
     // sphere in view (and classic normal maps).
     ("stream_conductors.xml", Exclude(Specular("conductor"))),
+    // The stream renderer's emitters in lanes (tests/render/stream.rs).
+    ("stream_emitters.xml", Compare(NONE, Nm::AsWritten, 1)),
+    ("stream_emitters_env.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("stream_lights.xml", Compare(NONE, Nm::AsWritten, 1)),
     // The stream renderer's plastic kernel (tests/render/stream.rs): smooth `plastic` in view.
     ("stream_plastic.xml", Exclude(Specular("plastic"))),

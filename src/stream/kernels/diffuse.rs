@@ -357,7 +357,7 @@ pub(crate) mod x8 {
 
         // 4. The kernel.
         let refl8 = refl.load(avx);
-        let lp = gather.finish(avx, surf.p, &mut b.light_lanes);
+        let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
         let lo = light(&surf, wi, refl8, tp.load(avx), &lp);
         let so = sample(&surf, wi, refl8, V2::new(avx.load(&ux), avx.load(&uy)));
 

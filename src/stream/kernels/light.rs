@@ -49,7 +49,37 @@ pub(crate) enum LaneLight {
         sign: f32,
         radiance: Spectrum,
     },
+    /// `point` ([`super::emitters::sample_point`]).
+    Point { position: Vec3, intensity: Spectrum },
+    /// `spot` without a texture ([`super::emitters::sample_spot`]): the columns of its
+    /// world-to-light matrix and its cone.
+    Spot {
+        position: Vec3,
+        to_local: [Vec3; 3],
+        intensity: Spectrum,
+        cos_cutoff: f32,
+        cos_beam: f32,
+        cutoff: f32,
+        beam_width: f32,
+    },
+    /// `directional`: `d` is minus its direction of travel.
+    Directional { d: Vec3, irradiance: Spectrum },
+    /// `constant`.
+    Constant { radiance: Spectrum },
+    /// `envmap`: emitter `emitter` of the scene (its table walk and texel lookups, lane by
+    /// lane), its frames' columns and half texel.
+    EnvMap {
+        emitter: u32,
+        to_world: [Vec3; 3],
+        to_local: [Vec3; 3],
+        half_texel: f32,
+    },
 }
+
+/// The kinds of light the kernels sample in lanes, in the order of
+/// `LaneCounters::kernel_lights`: triangle meshes, rectangles, spheres, point, spot,
+/// directional, constant, envmap.
+pub(crate) const KINDS: usize = 8;
 
 impl LaneLight {
     /// Per emitter of `scene`, how the kernels sample it in lanes (`None`: lane by lane through
@@ -58,8 +88,50 @@ impl LaneLight {
         scene
             .emitters
             .iter()
-            .map(|e| {
-                let Emitter::Area(a) = e else { return None };
+            .enumerate()
+            .map(|(i, e)| {
+                let cols = |m: glam::Mat3| [m.x_axis, m.y_axis, m.z_axis];
+                let a = match e {
+                    Emitter::Area(a) => a,
+                    Emitter::Point(p) => {
+                        return Some(LaneLight::Point {
+                            position: p.position,
+                            intensity: p.intensity,
+                        })
+                    }
+                    Emitter::Spot(s) if s.texture.is_none() => {
+                        return Some(LaneLight::Spot {
+                            position: s.position,
+                            to_local: cols(s.to_local),
+                            intensity: s.intensity,
+                            cos_cutoff: s.cos_cutoff,
+                            cos_beam: s.cos_beam,
+                            cutoff: s.cutoff,
+                            beam_width: s.beam_width,
+                        })
+                    }
+                    Emitter::Directional(d) => {
+                        return Some(LaneLight::Directional {
+                            d: -d.direction,
+                            irradiance: d.irradiance,
+                        })
+                    }
+                    Emitter::Constant(c) => {
+                        return Some(LaneLight::Constant {
+                            radiance: c.radiance,
+                        })
+                    }
+                    Emitter::EnvMap(m) => {
+                        let (to_world, to_local) = m.frames();
+                        return Some(LaneLight::EnvMap {
+                            emitter: i as u32,
+                            to_world: cols(to_world),
+                            to_local: cols(to_local),
+                            half_texel: m.half_texel(),
+                        });
+                    }
+                    _ => return None,
+                };
                 let Texture::Constant(radiance) = a.radiance else {
                     return None;
                 };
@@ -263,12 +335,18 @@ pub(crate) mod x8 {
     use crate::geometry::shapes::sphere_sees_cone;
     use crate::lane::{Avx2, F32x8, M8};
     use crate::stream::kernels::diffuse::LightPoint;
+    use crate::stream::kernels::emitters::{self as em, Env, FreePoint, Spot};
     use glam::Vec2;
 
-    /// The kinds of `Batch::light_lanes` (index + 1).
+    /// The kinds of `Batch::light_lanes` (index + 1; [`KINDS`]).
     const KIND_TRIANGLE: u8 = 1;
     const KIND_RECTANGLE: u8 = 2;
     const KIND_SPHERE: u8 = 3;
+    const KIND_POINT: u8 = 4;
+    const KIND_SPOT: u8 = 5;
+    const KIND_DIRECTIONAL: u8 = 6;
+    const KIND_CONSTANT: u8 = 7;
+    const KIND_ENVMAP: u8 = 8;
 
     /// Three columns of 8 floats (a 3-vector per lane).
     #[derive(Clone, Copy, Default)]
@@ -312,10 +390,27 @@ pub(crate) mod x8 {
         lp.pdf = F32x8::select(on, q.pdf * sel, lp.pdf);
     }
 
+    /// Where `on`, the light sample `q` of an emitter without a surface (density times the
+    /// selection probability `sel`) replaces the lane-by-lane one; a zero `value` is no sample
+    /// (`nee::sample_emitter`).
+    #[inline(always)]
+    fn merge_free(lp: &mut LightPoint<F32x8>, on: M8, q: &FreePoint<F32x8>, sel: F32x8) {
+        let z = sel.splat(0.0);
+        let nonzero = !(q.value.x.eq(z) & q.value.y.eq(z) & q.value.z.eq(z));
+        lp.some = lp.some | (on & q.ok & nonzero);
+        lp.d = V3::select(on, q.d, lp.d);
+        lp.p = V3::select(on, q.p, lp.p);
+        lp.finite = (on & q.dist.is_finite()) | (!on & lp.finite);
+        lp.pdf = F32x8::select(on, q.pdf * sel, lp.pdf);
+        lp.value = V3::select(on, q.value, lp.value);
+    }
+
     /// `nee::sample_emitter` for 8 paths: [`Gather::add`] lane by lane (the light selection,
-    /// and the point of every emitter that has no [`LaneLight`] through its own scalar
-    /// `sample_direct`; a sphere light lane by lane from inside its cone threshold), then
-    /// [`Gather::finish`] samples the lanes' triangles, rectangles and spheres 8-wide.
+    /// the point of every emitter that has no [`LaneLight`] through its own scalar
+    /// `sample_direct`, a sphere light lane by lane from inside its cone threshold, an
+    /// environment map's table walk), then [`Gather::finish`] samples the lanes' triangles,
+    /// rectangles, spheres, point, spot, directional, constant and environment lights 8-wide
+    /// (an environment map's density and texels looked up lane by lane in between).
     pub(crate) struct Gather {
         ld: Cols3,
         lpp: Cols3,
@@ -326,15 +421,25 @@ pub(crate) mod x8 {
         has_n: [bool; 8],
         finite: [bool; 8],
         one: [bool; 8],
-        /// The lane's area light sampled 8-wide: 0 none, else `KIND_*`.
+        /// The lane's light sampled 8-wide: 0 none, else `KIND_*`.
         kind: [u8; 8],
-        counts: [u32; 3],
+        counts: [u32; KINDS],
         tpos: [Cols3; 3],
         tnorm: [Cols3; 3],
         tnorm_some: [bool; 8],
         raxes: [Cols3; 4],
         rn: Cols3,
+        /// A sphere's centre, a point or spot light's position, a directional light's direction.
         center: Cols3,
+        /// A spot light's world-to-light columns, an environment map's map-to-world ones.
+        mat: [Cols3; 3],
+        /// An environment map's world-to-map columns.
+        mat2: [Cols3; 3],
+        /// A spot light's cos cutoff, cos beam width, cutoff, beam width.
+        cone: [[f32; 8]; 4],
+        half_texel: [f32; 8],
+        /// An environment map's emitter index.
+        emitter: [u32; 8],
         radius: [f32; 8],
         inv_area: [f32; 8],
         sign: [f32; 8],
@@ -355,7 +460,7 @@ pub(crate) mod x8 {
             self.finite = [false; 8];
             self.one = [false; 8];
             self.kind = [0; 8];
-            self.counts = [0; 3];
+            self.counts = [0; KINDS];
             self.tnorm_some = [false; 8];
         }
 
@@ -374,13 +479,18 @@ pub(crate) mod x8 {
                 finite: [false; 8],
                 one: [false; 8],
                 kind: [0; 8],
-                counts: [0; 3],
+                counts: [0; KINDS],
                 tpos: Default::default(),
                 tnorm: Default::default(),
                 tnorm_some: [false; 8],
                 raxes: Default::default(),
                 rn: Cols3::default(),
                 center: Cols3::default(),
+                mat: Default::default(),
+                mat2: Default::default(),
+                cone: [[0.0; 8]; 4],
+                half_texel: [0.0; 8],
+                emitter: [0; 8],
                 radius: [0.0; 8],
                 inv_area: [0.0; 8],
                 sign: [1.0; 8],
@@ -486,23 +596,90 @@ pub(crate) mod x8 {
                     (self.radius[k], self.sign[k]) = (radius, sign);
                     radiance
                 }
+                LaneLight::Point {
+                    position,
+                    intensity,
+                } => {
+                    self.kind[k] = KIND_POINT;
+                    self.center.set(k, position);
+                    intensity
+                }
+                LaneLight::Spot {
+                    position,
+                    to_local,
+                    intensity,
+                    cos_cutoff,
+                    cos_beam,
+                    cutoff,
+                    beam_width,
+                } => {
+                    self.kind[k] = KIND_SPOT;
+                    self.center.set(k, position);
+                    for (col, c) in self.mat.iter_mut().zip(to_local) {
+                        col.set(k, c);
+                    }
+                    for (col, c) in self
+                        .cone
+                        .iter_mut()
+                        .zip([cos_cutoff, cos_beam, cutoff, beam_width])
+                    {
+                        col[k] = c;
+                    }
+                    intensity
+                }
+                LaneLight::Directional { d, irradiance } => {
+                    self.kind[k] = KIND_DIRECTIONAL;
+                    self.center.set(k, d);
+                    irradiance
+                }
+                LaneLight::Constant { radiance } => {
+                    self.kind[k] = KIND_CONSTANT;
+                    radiance
+                }
+                LaneLight::EnvMap {
+                    emitter,
+                    to_world,
+                    to_local,
+                    half_texel,
+                } => {
+                    let Emitter::EnvMap(m) = &scene.emitters[emitter as usize] else {
+                        unreachable!("LaneLight::table: an envmap")
+                    };
+                    // The table walk, lane by lane.
+                    let Some(uv) = m.sample_uv(u) else { return };
+                    su = uv;
+                    self.kind[k] = KIND_ENVMAP;
+                    for (col, c) in self.mat.iter_mut().zip(to_world) {
+                        col.set(k, c);
+                    }
+                    for (col, c) in self.mat2.iter_mut().zip(to_local) {
+                        col.set(k, c);
+                    }
+                    self.half_texel[k] = half_texel;
+                    self.emitter[k] = emitter;
+                    // The radiance is looked up in `finish`, at the direction's (u, v).
+                    Spectrum::ZERO
+                }
             };
-            self.counts[self.kind[k] as usize - 1] += 1;
+            let kind = self.kind[k];
+            self.counts[kind as usize - 1] += 1;
             (self.tux[k], self.tuy[k]) = (su.x, su.y);
             self.sel[k] = sel_pdf;
             self.lv.set(k, le);
-            self.one[k] = light_only;
+            // Delta lights take no MIS weight.
+            self.one[k] = light_only || matches!(kind, KIND_POINT | KIND_SPOT | KIND_DIRECTIONAL);
         }
 
-        /// The 8 light points seen from `ref_p` (the lanes' surface points), the 8-wide
-        /// samplers run for the kinds some lane picked; adds the lanes sampled in lanes per kind
-        /// to `light_lanes` (`Batch::light_lanes`).
+        /// The 8 light points seen from `ref_p` (the lanes' surface points of `scene`), the
+        /// 8-wide samplers run for the kinds some lane picked; adds the lanes sampled in lanes
+        /// per kind to `light_lanes` (`Batch::light_lanes`).
         #[inline(always)]
         pub(crate) fn finish(
             &self,
             avx: Avx2,
+            scene: &Scene,
             ref_p: V3<F32x8>,
-            light_lanes: &mut [u64; 3],
+            light_lanes: &mut [u64; KINDS],
         ) -> LightPoint<F32x8> {
             let m = |a: &[bool; 8]| -> M8 { avx.mask(a) };
             let mut lp = LightPoint {
@@ -557,6 +734,67 @@ pub(crate) mod x8 {
                 );
                 merge(&mut lp, m(&kind.map(|c| c == KIND_SPHERE)), &q, sel8);
             }
+            let lv = self.lv.load(avx);
+            if self.counts[3] > 0 {
+                let q = em::sample_point(self.center.load(avx), lv, ref_p);
+                merge_free(&mut lp, m(&kind.map(|c| c == KIND_POINT)), &q, sel8);
+            }
+            if self.counts[4] > 0 {
+                let [cos_cutoff, cos_beam, cutoff, beam_width] = self.cone.map(|c| avx.load(&c));
+                let spot = Spot {
+                    pos: self.center.load(avx),
+                    to_local: std::array::from_fn(|c| self.mat[c].load(avx)),
+                    intensity: lv,
+                    cos_cutoff,
+                    cos_beam,
+                    cutoff,
+                    beam_width,
+                };
+                let q = em::sample_spot(&spot, ref_p);
+                merge_free(&mut lp, m(&kind.map(|c| c == KIND_SPOT)), &q, sel8);
+            }
+            if self.counts[5] > 0 {
+                let q = em::sample_directional(self.center.load(avx), lv, ref_p);
+                merge_free(&mut lp, m(&kind.map(|c| c == KIND_DIRECTIONAL)), &q, sel8);
+            }
+            if self.counts[6] > 0 {
+                let q = em::sample_constant(lv, su);
+                merge_free(&mut lp, m(&kind.map(|c| c == KIND_CONSTANT)), &q, sel8);
+            }
+            if self.counts[7] > 0 {
+                let on = kind.map(|c| c == KIND_ENVMAP);
+                let e = em::env_direction(&Env {
+                    to_world: std::array::from_fn(|c| self.mat[c].load(avx)),
+                    to_local: std::array::from_fn(|c| self.mat2[c].load(avx)),
+                    half_texel: avx.load(&self.half_texel),
+                    uv: su,
+                });
+                // The table's density and the texels, lane by lane (data-dependent lookups).
+                let ok = e.ok.to_array();
+                let (u, v) = (e.uv.x.to_array(), e.uv.y.to_array());
+                let px = e.patch.x.to_array();
+                let mut patch_pdf = [0.0f32; 8];
+                let mut value = Cols3::default();
+                for k in 0..8 {
+                    if on[k] && ok[k] {
+                        let Emitter::EnvMap(env) = &scene.emitters[self.emitter[k] as usize] else {
+                            unreachable!("LaneLight::table: an envmap")
+                        };
+                        patch_pdf[k] = env.patch_pdf(Vec2::new(px[k], v[k]));
+                        value.set(k, env.lookup(Vec2::new(u[k], v[k])));
+                    }
+                }
+                let (pdf, pdf_ok) = em::env_pdf(avx.load(&patch_pdf), e.sin_theta);
+                let q = FreePoint {
+                    ok: e.ok & pdf_ok,
+                    d: e.d,
+                    dist: sel8.splat(f32::INFINITY),
+                    p: ref_p + e.d,
+                    pdf,
+                    value: value.load(avx),
+                };
+                merge_free(&mut lp, m(&on), &q, sel8);
+            }
             for (total, c) in light_lanes.iter_mut().zip(self.counts) {
                 *total += c as u64;
             }
@@ -566,16 +804,18 @@ pub(crate) mod x8 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::math::Pcg32;
     use glam::{Mat4, Vec2};
 
-    fn same(a: f32, b: f32) -> bool {
+    /// Equal bits (NaN equals NaN).
+    pub(crate) fn same(a: f32, b: f32) -> bool {
         a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
     }
 
-    fn same3(a: V3<f32>, b: Vec3) -> bool {
+    /// Equal bits per component.
+    pub(crate) fn same3(a: V3<f32>, b: Vec3) -> bool {
         same(a.x, b.x) && same(a.y, b.y) && same(a.z, b.z)
     }
 

@@ -136,7 +136,7 @@ pub(crate) mod x8 {
         // 3. Next-event estimation: the BSDF toward the light points lane by lane (where a
         //    point was sampled, as `nee::prepare_light`), the rest 8-wide.
         if nee.contains(&true) {
-            let lp = gather.finish(avx, surf.p, &mut b.light_lanes);
+            let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
             let (some, d) = (lp.some.to_array(), Cols3::store(lp.d));
             let (mut f, mut pdf, mut consistent) = (Cols3::default(), [0.0f32; 8], [false; 8]);
             for (k, &i) in ids.iter().enumerate() {

@@ -23,12 +23,14 @@
 //! - [`mnm`]: the compensated microfacet normal map (its BSDF per lane through the scalar
 //!   model; light points, MIS and shadow rays in lanes).
 //! - [`light`]: area lights on triangle meshes, rectangles and spheres sampled in lanes, and the
-//!   one light-point gather of all kernels (`light::x8::Gather`).
+//!   one light-point gather of all kernels (`light::x8::Gather`);
+//!   [`emitters`]: `point`, `spot`, `directional`, `constant` and `envmap` in lanes.
 //! - [`ray`]: robust ray origins in lanes.
 //! - [`mis`]: the power heuristic in lanes.
 
 pub(crate) mod conductor;
 pub(crate) mod diffuse;
+pub(crate) mod emitters;
 pub(crate) mod light;
 pub(crate) mod mis;
 pub(crate) mod mnm;

@@ -305,7 +305,7 @@ pub(crate) mod x8 {
                     gather.add(k, scene, lights, light_only, u_sel, u, p.get(k));
                 }
             }
-            Some(gather.finish(avx, surf.p, &mut b.light_lanes))
+            Some(gather.finish(avx, scene, surf.p, &mut b.light_lanes))
         } else {
             None
         };

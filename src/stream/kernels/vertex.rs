@@ -199,7 +199,7 @@ pub(crate) mod x8 {
         // A block, not a closure: a closure would be compiled outside `Avx2::run`'s target
         // features and call every 8-wide operation out of line.
         let lo = if nee {
-            let lp = gather.finish(avx, surf.p, &mut b.light_lanes);
+            let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
             let lo = light(&surf, wi, mat, &normals8, tp.load(avx), &lp);
             Some((
                 lo.ok.to_array(),
