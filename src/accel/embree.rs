@@ -995,10 +995,10 @@ impl EmbreeScene {
         }
     }
 
-    /// Nearest hit with t in [tmin, tmax].
-    pub(crate) fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        let mut ctx = Self::context();
-        let mut rh = RTCRayHit {
+    /// A ray with no hit yet (geometry id invalid).
+    #[inline]
+    fn ray_hit(o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> RTCRayHit {
+        RTCRayHit {
             ray: Self::ray(o, d, tmin, tmax),
             hit: RTCHit {
                 Ng_x: 0.0,
@@ -1010,7 +1010,13 @@ impl EmbreeScene {
                 geomID: u32::MAX,
                 instID: [u32::MAX],
             },
-        };
+        }
+    }
+
+    /// Nearest hit with t in [tmin, tmax].
+    pub(crate) fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+        let mut ctx = Self::context();
+        let mut rh = Self::ray_hit(o, d, tmin, tmax);
         // SAFETY: the scene is committed; ctx and rh are valid, properly aligned locals.
         unsafe { rtcIntersect1(self.scene, &mut ctx, &mut rh) };
         (rh.hit.geomID != u32::MAX).then_some(Hit {
@@ -1138,19 +1144,8 @@ impl RayBuf {
     /// Refills the buffer with `rays` (tnear, tfar from each ray; no hit yet).
     fn fill<'r>(&mut self, rays: impl Iterator<Item = &'r Ray>) {
         self.rh.clear();
-        self.rh.extend(rays.map(|r| RTCRayHit {
-            ray: EmbreeScene::ray(r.o, r.d, r.tmin, r.tmax),
-            hit: RTCHit {
-                Ng_x: 0.0,
-                Ng_y: 0.0,
-                Ng_z: 0.0,
-                u: 0.0,
-                v: 0.0,
-                primID: u32::MAX,
-                geomID: u32::MAX,
-                instID: [u32::MAX],
-            },
-        }));
+        self.rh
+            .extend(rays.map(|r| EmbreeScene::ray_hit(r.o, r.d, r.tmin, r.tmax)));
     }
 }
 

@@ -192,18 +192,7 @@ fn packet_and_stream_hits_on_meshes_are_the_single_ray_hits_bit_for_bit() {
     let accel = loaded.scene.accel();
     let mut rng = Pcg32::new(19, 5);
     let all = rays(&mut rng, 8 * 3000);
-    let bits = |h: &Option<Hit>| {
-        h.map(|h| {
-            (
-                h.geom,
-                h.prim,
-                h.t.to_bits(),
-                h.u.to_bits(),
-                h.v.to_bits(),
-                h.inst,
-            )
-        })
-    };
+    use crate::tier_a::bits;
     let single: Vec<Option<Hit>> = all.iter().map(|r| accel.intersect(r)).collect();
     let blocked: Vec<bool> = all.iter().map(|r| accel.occluded(r)).collect();
     // Packets.
@@ -212,9 +201,9 @@ fn packet_and_stream_hits_on_meshes_are_the_single_ray_hits_bit_for_bit() {
         let mut got = [None; 8];
         accel.intersect8(&chunk[..n], c % 2 == 0, &mut got);
         let occ = accel.occluded8(&chunk[..n]);
-        for i in 0..n {
+        for (i, g) in got.iter().enumerate().take(n) {
             let k = 8 * c + i;
-            assert_eq!(bits(&got[i]), bits(&single[k]), "packet {c} lane {i}");
+            assert_eq!(bits(g), bits(&single[k]), "packet {c} lane {i}");
             assert_eq!(
                 occ >> i & 1 == 1,
                 blocked[k],
