@@ -23,21 +23,22 @@ const MAX_ADDEND: i128 = 1 << (62 + FRAC_BITS);
 /// The fixed-point value of `x`: clamped to ±2⁶² (so ±∞ give the clamp), 0 for NaN. The film
 /// records non-finite colour values apart (as flags).
 ///
-/// The common case, 2⁻⁴¹ ≤ |x| < 2⁶² (biased exponent 86..=188), is a shift of the 24-bit
-/// significand and a masked two's-complement negation; zero is one test more; everything else
-/// (tiny and subnormal values that need rounding, the clamp, NaN) is out of line.
+/// The common case, 2⁻⁴¹ ≤ |x| < 2⁶² (biased exponent 86..=188), is the 24-bit significand
+/// with its sign, shifted; zero is one test more; everything else (tiny and subnormal values
+/// that need rounding, the clamp, NaN) is out of line.
 #[inline(always)]
 pub(crate) fn fixed(x: f32) -> i128 {
     let bits = x.to_bits();
     let e = (bits >> 23) & 0xff;
-    // x = m · 2^(e − 150), so x · 2⁶⁴ = m · 2^(e − 86), with 0 ≤ e − 86 ≤ 102 and m < 2²⁴:
-    // below 2¹²⁶, exact.
+    // x = ±m · 2^(e − 150), so x · 2⁶⁴ = ±m · 2^(e − 86), with 0 ≤ e − 86 ≤ 102 and m < 2²⁴:
+    // below 2¹²⁶ in magnitude, exact. The sign is applied to the 64-bit significand before the
+    // shift (a left shift of a two's-complement integer multiplies it by the power of two), so
+    // the 128-bit value needs no negation.
     if e.wrapping_sub(86) <= 188 - 86 {
-        let m = ((bits & 0x7f_ffff) | 0x80_0000) as u64;
-        let mag = ((m as u128) << (e - 86)) as i128;
-        // 0 for +, −1 for −: (mag ^ s) − s is mag or −mag.
-        let s = ((bits as i32) >> 31) as i128;
-        (mag ^ s) - s
+        let m = ((bits & 0x7f_ffff) | 0x80_0000) as i64;
+        // 0 for +, −1 for −: (m ^ s) − s is m or −m.
+        let s = ((bits as i32) >> 31) as i64;
+        (((m ^ s) - s) as i128) << (e - 86)
     } else if bits << 1 == 0 {
         0
     } else {
@@ -175,6 +176,46 @@ mod tests {
                     assert_eq!(fixed(x), want, "{x:e} ({:#x})", x.to_bits());
                 }
             }
+        }
+    }
+
+    /// The common-range conversion as it was before the sign moved onto the 64-bit
+    /// significand (session 9): the frozen reference of [`fixed`].
+    fn fixed_before(x: f32) -> i128 {
+        let bits = x.to_bits();
+        let e = (bits >> 23) & 0xff;
+        if e.wrapping_sub(86) <= 188 - 86 {
+            let m = ((bits & 0x7f_ffff) | 0x80_0000) as u64;
+            let mag = ((m as u128) << (e - 86)) as i128;
+            let s = ((bits as i32) >> 31) as i128;
+            (mag ^ s) - s
+        } else if bits << 1 == 0 {
+            0
+        } else {
+            fixed_rare(x)
+        }
+    }
+
+    /// [`fixed`] equals the former conversion on every exponent and sign with boundary
+    /// significands, and on 2²⁰ random bit patterns (each lands in the common range with
+    /// probability 0.4).
+    #[test]
+    fn fixed_equals_the_former_conversion() {
+        for e in 0u32..=255 {
+            for frac in [0u32, 1, 2, 0x40_0000, 0x7f_fffe, 0x7f_ffff, 0x12_3457] {
+                for sign in [0u32, 1] {
+                    let x = f32::from_bits(sign << 31 | e << 23 | frac);
+                    assert_eq!(fixed(x), fixed_before(x), "{x:e} ({:#x})", x.to_bits());
+                }
+            }
+        }
+        let mut z = 0x9E37_79B9_7F4A_7C15u64;
+        for _ in 0..1 << 20 {
+            z = z
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let x = f32::from_bits((z >> 32) as u32);
+            assert_eq!(fixed(x), fixed_before(x), "{x:e} ({:#x})", x.to_bits());
         }
     }
 

@@ -995,10 +995,10 @@ impl EmbreeScene {
         }
     }
 
-    /// Nearest hit with t in [tmin, tmax].
-    pub(crate) fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        let mut ctx = Self::context();
-        let mut rh = RTCRayHit {
+    /// A ray with no hit yet (geometry id invalid).
+    #[inline]
+    fn ray_hit(o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> RTCRayHit {
+        RTCRayHit {
             ray: Self::ray(o, d, tmin, tmax),
             hit: RTCHit {
                 Ng_x: 0.0,
@@ -1010,7 +1010,13 @@ impl EmbreeScene {
                 geomID: u32::MAX,
                 instID: [u32::MAX],
             },
-        };
+        }
+    }
+
+    /// Nearest hit with t in [tmin, tmax].
+    pub(crate) fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+        let mut ctx = Self::context();
+        let mut rh = Self::ray_hit(o, d, tmin, tmax);
         // SAFETY: the scene is committed; ctx and rh are valid, properly aligned locals.
         unsafe { rtcIntersect1(self.scene, &mut ctx, &mut rh) };
         (rh.hit.geomID != u32::MAX).then_some(Hit {
@@ -1047,23 +1053,30 @@ impl Valid8 {
 }
 
 impl EmbreeScene {
-    /// Eight rays (or fewer: lanes past `rays.len()` are off) in Embree's packet layout.
+    /// Eight rays (or fewer: lanes past `rays.len()` are off) in Embree's packet layout. (One
+    /// pass over the rays: building each field with its own pass over checked lanes cost ~38
+    /// instructions per ray.)
     fn ray8(rays: &[Ray]) -> RTCRay8 {
-        let lane = |f: fn(&Ray) -> f32| std::array::from_fn(|i| rays.get(i).map_or(0.0, f));
-        RTCRay8 {
-            org_x: lane(|r| r.o.x),
-            org_y: lane(|r| r.o.y),
-            org_z: lane(|r| r.o.z),
-            tnear: lane(|r| r.tmin),
-            dir_x: lane(|r| r.d.x),
-            dir_y: lane(|r| r.d.y),
-            dir_z: lane(|r| r.d.z),
+        let mut p = RTCRay8 {
+            org_x: [0.0; 8],
+            org_y: [0.0; 8],
+            org_z: [0.0; 8],
+            tnear: [0.0; 8],
+            dir_x: [0.0; 8],
+            dir_y: [0.0; 8],
+            dir_z: [0.0; 8],
             time: [0.0; 8],
-            tfar: lane(|r| r.tmax),
+            tfar: [0.0; 8],
             mask: [u32::MAX; 8],
             id: [0; 8],
             flags: [0; 8],
+        };
+        for (i, r) in rays.iter().take(8).enumerate() {
+            (p.org_x[i], p.org_y[i], p.org_z[i]) = (r.o.x, r.o.y, r.o.z);
+            (p.dir_x[i], p.dir_y[i], p.dir_z[i]) = (r.d.x, r.d.y, r.d.z);
+            (p.tnear[i], p.tfar[i]) = (r.tmin, r.tmax);
         }
+        p
     }
 
     /// Nearest hits of up to 8 rays traced as one `rtcIntersect8` packet: `out[i]` is the hit
@@ -1116,6 +1129,106 @@ impl EmbreeScene {
         (0..n).fold(0, |m, i| {
             m | (((r.tfar[i] == f32::NEG_INFINITY) as u8) << i)
         })
+    }
+}
+
+/// A reusable array of rays for Embree's stream queries (`rtcIntersect1M`, `rtcOccluded1M`):
+/// one per worker thread, grown to the largest stream once and reused, so a query allocates
+/// nothing.
+#[derive(Default)]
+pub(crate) struct RayBuf {
+    rh: Vec<RTCRayHit>,
+}
+
+impl RayBuf {
+    /// Refills the buffer with `rays` (tnear, tfar from each ray; no hit yet).
+    fn fill<'r>(&mut self, rays: impl Iterator<Item = &'r Ray>) {
+        self.rh.clear();
+        self.rh
+            .extend(rays.map(|r| EmbreeScene::ray_hit(r.o, r.d, r.tmin, r.tmax)));
+    }
+}
+
+impl EmbreeScene {
+    /// A context whose flags say whether the rays of a stream are coherent (Embree then traces
+    /// them together, `intersectN`) or not (Embree 3.13: 8-wide packets for nearest hits,
+    /// octant-sorted streams for occlusion; `bvh_intersector_stream_filters.cpp`).
+    fn stream_context(coherent: bool) -> RTCIntersectContext {
+        let mut ctx = Self::context();
+        if coherent {
+            ctx.flags = RTCIntersectContextFlags::COHERENT;
+        }
+        ctx
+    }
+
+    /// Nearest hits of `rays` traced as one `rtcIntersect1M` stream through `buf`: `out(k, hit)`
+    /// for the `k`-th ray, in order.
+    pub(crate) fn intersect_stream<'r>(
+        &self,
+        rays: impl Iterator<Item = &'r Ray>,
+        coherent: bool,
+        buf: &mut RayBuf,
+        mut out: impl FnMut(usize, Option<Hit>),
+    ) {
+        buf.fill(rays);
+        let mut ctx = Self::stream_context(coherent);
+        for part in buf.rh.chunks_mut(u32::MAX as usize) {
+            // SAFETY: the scene is committed; `part` holds `part.len()` ray-hits of
+            // `RTCRayHit`'s size and 16-byte alignment, which is the stride given.
+            unsafe {
+                rtcIntersect1M(
+                    self.scene,
+                    &mut ctx,
+                    part.as_mut_ptr(),
+                    part.len() as u32,
+                    std::mem::size_of::<RTCRayHit>(),
+                )
+            };
+        }
+        for (k, rh) in buf.rh.iter().enumerate() {
+            out(
+                k,
+                (rh.hit.geomID != u32::MAX).then_some(Hit {
+                    geom: rh.hit.geomID,
+                    prim: rh.hit.primID,
+                    t: rh.ray.tfar,
+                    u: rh.hit.u,
+                    v: rh.hit.v,
+                    inst: rh.hit.instID[0],
+                }),
+            );
+        }
+    }
+
+    /// Occlusion of `rays` traced as one `rtcOccluded1M` stream through `buf`: `out(k, blocked)`
+    /// for the `k`-th ray, in order.
+    pub(crate) fn occluded_stream<'r>(
+        &self,
+        rays: impl Iterator<Item = &'r Ray>,
+        coherent: bool,
+        buf: &mut RayBuf,
+        mut out: impl FnMut(usize, bool),
+    ) {
+        buf.fill(rays);
+        let mut ctx = Self::stream_context(coherent);
+        for part in buf.rh.chunks_mut(u32::MAX as usize) {
+            // SAFETY: as in `intersect_stream`; each ray is the first member of its
+            // `RTCRayHit` (`repr(C)`), so the rays lie `size_of::<RTCRayHit>()` bytes apart, and
+            // the hit after each (geomID invalid) is what Embree's stream filter reads past it.
+            unsafe {
+                rtcOccluded1M(
+                    self.scene,
+                    &mut ctx,
+                    part.as_mut_ptr() as *mut RTCRay,
+                    part.len() as u32,
+                    std::mem::size_of::<RTCRayHit>(),
+                )
+            };
+        }
+        for (k, rh) in buf.rh.iter().enumerate() {
+            // Embree sets tfar to −∞ when the ray is occluded.
+            out(k, rh.ray.tfar == f32::NEG_INFINITY);
+        }
     }
 }
 

@@ -62,6 +62,11 @@ impl Tier {
     }
 }
 
+/// A reusable ray array for [`Accel::intersect_stream`] and [`Accel::occluded_stream`] (one
+/// per worker thread: a stream query then allocates nothing once it has grown).
+#[derive(Default)]
+pub struct RayBuf(embree::RayBuf);
+
 /// The acceleration structure over a scene's shapes. `Send + Sync`: queries run from any thread.
 pub struct Accel {
     /// Tier A's tables, when the scene takes tier A (then `scene` is `None`).
@@ -214,17 +219,11 @@ impl Accel {
         if let Some(b) = &self.brute {
             return b.intersect(ray);
         }
-        let mut hit = self
+        let hit = self
             .scene
             .as_ref()?
             .intersect(ray.o, ray.d, ray.tmin, ray.tmax)?;
-        if hit.inst != NO_INSTANCE {
-            // Embree's instance id and the group's geometry id, as scene indices.
-            let k = hit.inst.wrapping_sub(self.inst_base);
-            hit.geom += *self.first_member.get(k as usize)?;
-            hit.inst = k;
-        }
-        Some(hit)
+        self.world_hit(hit)
     }
 
     /// [`Self::intersect`] of up to 8 rays traced as one Embree packet (`out[i]` for
@@ -240,18 +239,75 @@ impl Accel {
         };
         scene.intersect8(rays, coherent, out);
         for hit in out.iter_mut() {
-            let Some(h) = hit else { continue };
-            if h.inst != NO_INSTANCE {
-                let k = h.inst.wrapping_sub(self.inst_base);
-                match self.first_member.get(k as usize) {
-                    Some(first) => {
-                        h.geom += *first;
-                        h.inst = k;
-                    }
-                    None => *hit = None,
-                }
-            }
+            *hit = hit.and_then(|h| self.world_hit(h));
         }
+    }
+
+    /// [`Self::intersect`] of many rays traced as one Embree stream (`rtcIntersect1M` through
+    /// the reusable `buf`): `out(k, hit)` for the `k`-th ray, in order. `coherent` as for
+    /// [`Self::intersect8`]. Tier A traces them as 8-wide packets. Each ray gets the hit a
+    /// single ray gets (`tests/scene/packets.rs`).
+    pub fn intersect_stream<'r>(
+        &self,
+        rays: impl Iterator<Item = &'r Ray>,
+        coherent: bool,
+        buf: &mut RayBuf,
+        mut out: impl FnMut(usize, Option<Hit>),
+    ) {
+        match (&self.brute, &self.scene) {
+            (Some(b), _) => {
+                let mut k = 0;
+                for_each_8(rays, |p| {
+                    let mut hits = [None; 8];
+                    b.intersect8(p, &mut hits);
+                    for h in &hits[..p.len()] {
+                        out(k, *h);
+                        k += 1;
+                    }
+                })
+            }
+            (None, Some(s)) => s.intersect_stream(rays, coherent, &mut buf.0, |k, hit| {
+                out(k, hit.and_then(|h| self.world_hit(h)))
+            }),
+            (None, None) => rays.enumerate().for_each(|(k, _)| out(k, None)),
+        }
+    }
+
+    /// [`Self::occluded`] of many rays traced as one Embree stream (`rtcOccluded1M` through
+    /// `buf`): `out(k, blocked)` for the `k`-th ray, in order.
+    pub fn occluded_stream<'r>(
+        &self,
+        rays: impl Iterator<Item = &'r Ray>,
+        coherent: bool,
+        buf: &mut RayBuf,
+        mut out: impl FnMut(usize, bool),
+    ) {
+        match (&self.brute, &self.scene) {
+            (Some(b), _) => {
+                let mut k = 0;
+                for_each_8(rays, |p| {
+                    let blocked = b.occluded8(p);
+                    for i in 0..p.len() {
+                        out(k, blocked >> i & 1 == 1);
+                        k += 1;
+                    }
+                })
+            }
+            (None, Some(s)) => s.occluded_stream(rays, coherent, &mut buf.0, out),
+            (None, None) => rays.enumerate().for_each(|(k, _)| out(k, false)),
+        }
+    }
+
+    /// An Embree hit with its instance id and the group's geometry id turned into scene
+    /// indices (`None` for an instance id out of range).
+    #[inline]
+    fn world_hit(&self, mut h: Hit) -> Option<Hit> {
+        if h.inst != NO_INSTANCE {
+            let k = h.inst.wrapping_sub(self.inst_base);
+            h.geom += *self.first_member.get(k as usize)?;
+            h.inst = k;
+        }
+        Some(h)
     }
 
     /// [`Self::occluded`] of up to 8 rays traced as one Embree packet: bit `i` for `rays[i]`.
@@ -271,6 +327,23 @@ impl Accel {
         self.scene
             .as_ref()
             .is_some_and(|s| s.occluded(ray.o, ray.d, ray.tmin, ray.tmax))
+    }
+}
+
+/// Calls `f` with `rays` cut into consecutive packets of 8 (the last one shorter).
+fn for_each_8<'r>(rays: impl Iterator<Item = &'r Ray>, mut f: impl FnMut(&[Ray])) {
+    let mut p = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
+    let mut n = 0;
+    for r in rays {
+        p[n] = *r;
+        n += 1;
+        if n == 8 {
+            f(&p);
+            n = 0;
+        }
+    }
+    if n > 0 {
+        f(&p[..n]);
     }
 }
 

@@ -89,6 +89,8 @@ pub struct Rays {
     pub counters: RayCounters,
     /// `Some` while recording.
     log: Option<RayLog>,
+    /// The ray array of the stream queries, reused.
+    buf: crate::accel::RayBuf,
 }
 
 impl Rays {
@@ -165,6 +167,57 @@ impl Rays {
         }
         self.log(ray, false, kind == RayKind::Camera);
         scene.accel.intersect(ray)
+    }
+
+    /// The nearest hits of many rays traced as one stream (`out(k, hit)` for the `k`-th ray,
+    /// in order), counted as `kind`; `coherent` tells Embree the rays start together and point
+    /// alike. Each ray gets the hit a single ray gets (`tests/scene/packets.rs`).
+    #[inline]
+    pub fn intersect_stream<'r>(
+        &mut self,
+        scene: &Scene,
+        rays: impl Iterator<Item = &'r Ray> + Clone,
+        kind: RayKind,
+        coherent: bool,
+        out: impl FnMut(usize, Option<Hit>),
+    ) {
+        if self.log.is_some() {
+            for r in rays.clone() {
+                self.log(r, false, kind == RayKind::Camera);
+            }
+        }
+        let mut n = 0u64;
+        let counted = rays.inspect(|_| n += 1);
+        scene
+            .accel
+            .intersect_stream(counted, coherent, &mut self.buf, out);
+        match kind {
+            RayKind::Camera => self.counters.camera += n,
+            RayKind::Bounce => self.counters.bounce += n,
+        }
+    }
+
+    /// [`Self::occluded`] of many shadow rays traced as one stream: `out(k, blocked)` for the
+    /// `k`-th ray, in order (`coherent` as for [`Self::intersect_stream`]).
+    #[inline]
+    pub fn occluded_stream<'r>(
+        &mut self,
+        scene: &Scene,
+        rays: impl Iterator<Item = &'r Ray> + Clone,
+        coherent: bool,
+        out: impl FnMut(usize, bool),
+    ) {
+        if self.log.is_some() {
+            for r in rays.clone() {
+                self.log(r, true, false);
+            }
+        }
+        let mut n = 0u64;
+        let counted = rays.inspect(|_| n += 1);
+        scene
+            .accel
+            .occluded_stream(counted, coherent, &mut self.buf, out);
+        self.counters.shadow += n;
     }
 
     /// [`Self::occluded`] of up to 8 shadow rays traced as one packet: bit `i` for `rays[i]`.

@@ -83,7 +83,7 @@ pub(crate) fn run_batch(
         scene,
         batch,
         RayKind::Camera,
-        packets.camera,
+        packets.camera.then_some(packets.stream),
         &mut scratch.rays,
     );
 

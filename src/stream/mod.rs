@@ -123,15 +123,20 @@ pub struct Packets {
     pub bounce: bool,
     /// Shadow rays (incoherent).
     pub shadow: bool,
+    /// Bounce and shadow packets go to Embree as one stream per stage
+    /// (`rtcIntersect1M`/`rtcOccluded1M`, incoherent) instead of 8-wide packets; camera rays
+    /// stay coherent 8-wide packets. Tier A traces 8-wide packets either way.
+    pub stream: bool,
 }
 
 impl Packets {
-    /// Camera rays only: the default under Embree, whose packet traversal pays off for coherent
-    /// rays only (`docs/bench/README.md`, "Packet ceilings").
+    /// Camera rays only (Embree's 8-wide packet traversal pays off for coherent rays only:
+    /// `docs/bench/README.md`, "Packet ceilings").
     pub const DEFAULT: Packets = Packets {
         camera: true,
         bounce: false,
         shadow: false,
+        stream: false,
     };
 
     /// Every ray kind: the default under tier A, where a packet is 8 rays against every shape
@@ -141,6 +146,18 @@ impl Packets {
         camera: true,
         bounce: true,
         shadow: true,
+        stream: false,
+    };
+
+    /// Camera rays as coherent 8-wide packets, bounce and shadow rays as one incoherent Embree
+    /// stream per stage: the default under Embree (fewer instructions than single rays on the
+    /// Cornell box and the million-triangle scene, and faster on the latter in interleaved
+    /// pairs: `docs/bench/README.md`, "Issue 18: rays, camera, sampler and film").
+    pub const STREAMS: Packets = Packets {
+        camera: true,
+        bounce: true,
+        shadow: true,
+        stream: true,
     };
 
     /// No packets: every ray traced alone.
@@ -148,9 +165,10 @@ impl Packets {
         camera: false,
         bounce: false,
         shadow: false,
+        stream: false,
     };
 
-    /// The default for `scene`: [`Self::ALL`] when it is traced by tier A; [`Self::DEFAULT`]
+    /// The default for `scene`: [`Self::ALL`] when it is traced by tier A; [`Self::STREAMS`]
     /// under Embree, unless the scene has curves or SDF grids, whose packet hits can differ
     /// from single-ray hits in the last bits (measured on curves: `tests/data/scenes/mat_hair.xml`
     /// came out different), which would break the bit-identity with the scalar renderer:
@@ -166,13 +184,13 @@ impl Packets {
         {
             Self::NONE
         } else {
-            Self::DEFAULT
+            Self::STREAMS
         }
     }
 
     /// The environment variable that overrides [`Self::default_for`] for measurements: a
-    /// comma-separated subset of `camera,bounce,shadow`, or `none` (packets forced on a scene
-    /// with curves may change the image's last bits).
+    /// comma-separated subset of `camera,bounce,shadow,stream`, or `none` (packets forced on a
+    /// scene with curves may change the image's last bits).
     pub const ENV: &'static str = "GROOVE_STREAM_PACKETS";
 
     /// The packets [`Self::ENV`] asks for ([`Self::default_for`] the scene when unset).
@@ -180,20 +198,17 @@ impl Packets {
         let Ok(v) = std::env::var(Self::ENV) else {
             return Ok(Self::default_for(scene));
         };
-        let mut p = Packets {
-            camera: false,
-            bounce: false,
-            shadow: false,
-        };
+        let mut p = Packets::NONE;
         for w in v.split(',').map(str::trim).filter(|w| !w.is_empty()) {
             match w {
                 "camera" => p.camera = true,
                 "bounce" => p.bounce = true,
                 "shadow" => p.shadow = true,
+                "stream" => p.stream = true,
                 "none" => {}
                 _ => {
                     return Err(crate::error::Error::Usage(format!(
-                    "{}={v}: expected a comma-separated subset of camera, bounce, shadow, or none",
+                    "{}={v}: expected a comma-separated subset of camera, bounce, shadow, stream, or none",
                     Self::ENV
                 )))
                 }
@@ -385,7 +400,13 @@ fn run_batch(
             RayKind::Camera => packets.camera,
             RayKind::Bounce => packets.bounce,
         };
-        trace(scene, batch, kind, packet, &mut scratch.rays);
+        trace(
+            scene,
+            batch,
+            kind,
+            packet.then_some(packets.stream),
+            &mut scratch.rays,
+        );
         kind = RayKind::Bounce;
 
         // Emission; the paths that scatter go on to the shading stage.
@@ -423,7 +444,12 @@ fn run_batch(
         }
         shade(scene, cfg, batch, scratch, kernels);
 
-        shadows(scene, batch, packets.shadow, &mut scratch.rays);
+        shadows(
+            scene,
+            batch,
+            packets.shadow.then_some(packets.stream),
+            &mut scratch.rays,
+        );
 
         batch.compact();
     }
@@ -585,8 +611,9 @@ fn shade_kernel(
 }
 
 /// Traces the shadow rays of the paths that scattered, in path order, and adds the light
-/// samples that nothing blocks; as 8-wide packets of consecutive pending rays when `packet`.
-fn shadows(scene: &Scene, batch: &mut Batch, packet: bool, rays: &mut Rays) {
+/// samples that nothing blocks; one by one, or grouped when `packet` is `Some(stream)`: as
+/// 8-wide packets of consecutive pending rays, or (`stream`) as one Embree stream.
+fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Rays) {
     batch.shadow.clear();
     for &i in &batch.scatter {
         if batch.light[i as usize].is_some() {
@@ -596,7 +623,17 @@ fn shadows(scene: &Scene, batch: &mut Batch, packet: bool, rays: &mut Rays) {
     let n = batch.shadow.len();
     rays.counters.lanes.shadow_used += n as u64;
     rays.counters.lanes.shadow_slots += slots(n);
-    if packet {
+    if packet == Some(true) {
+        let (shadow, light, state) = (&batch.shadow, &batch.light, &mut batch.state);
+        // Every id in `shadow` has a pending light sample (filtered above).
+        let ls = shadow.iter().filter_map(|&i| light[i as usize].as_ref());
+        rays.occluded_stream(scene, ls.map(|l| &l.shadow), false, |k, blocked| {
+            let i = shadow[k] as usize;
+            if let (Some(l), false) = (&light[i], blocked) {
+                state[i].add_light(l);
+            }
+        });
+    } else if packet.is_some() {
         let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
         for chunk in batch.shadow.chunks(8) {
             for (p, &i) in packet.iter_mut().zip(chunk) {
@@ -624,13 +661,22 @@ fn shadows(scene: &Scene, batch: &mut Batch, packet: bool, rays: &mut Rays) {
     }
 }
 
-/// Traces the rays of the active paths into `batch.hit`, one at a time or (`packet`) as 8-wide
-/// packets of consecutive active paths (coherent for camera rays: samples of one pixel).
-fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: bool, rays: &mut Rays) {
+/// Traces the rays of the active paths into `batch.hit`, one at a time or grouped when
+/// `packet` is `Some(stream)`: 8-wide packets of consecutive active paths (coherent for camera
+/// rays: samples of one pixel), or (`stream`, bounce rays) one Embree stream.
+fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, rays: &mut Rays) {
     rays.counters.lanes.bounces += 1;
     rays.counters.lanes.trace_used += batch.active.len() as u64;
     rays.counters.lanes.trace_slots += slots(batch.active.len());
-    if packet {
+    // Camera rays go as coherent 8-wide packets in either case: as one coherent stream they
+    // cost more (million.xml: +8 % of the trace's instructions).
+    if let (Some(true), RayKind::Bounce) = (packet, kind) {
+        let (active, ray, hit) = (&batch.active, &batch.ray, &mut batch.hit);
+        let traced = active.iter().map(|&i| &ray[i as usize]);
+        rays.intersect_stream(scene, traced, kind, false, |k, h| {
+            hit[active[k] as usize] = h;
+        });
+    } else if packet.is_some() {
         let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
         let mut out: [Option<Hit>; 8] = [None; 8];
         for chunk in batch.active.chunks(8) {

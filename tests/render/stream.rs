@@ -321,11 +321,7 @@ fn stream_equals_scalar_in_the_plastic_kernel_under_every_setting() {
 /// alone (the default under Embree) still give the scalar image.
 #[test]
 fn stream_with_every_packet_equals_scalar() {
-    let all = Packets {
-        camera: true,
-        bounce: true,
-        shadow: true,
-    };
+    let all = Packets::ALL;
     for (path, mode) in [
         (scene("scenes/bench/metal_plastic.xml"), "classic"),
         (scene("scenes/cornell/cbox-rgb.xml"), "as_written"),
@@ -847,5 +843,38 @@ fn stream_equals_scalar_with_the_direct_integrator() {
     for (label, l) in &cases {
         let lanes = assert_identical(l, label, 3);
         assert!(lanes.shade_used > 0, "{label}: nothing shaded");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rays as Embree streams (issue 18, rays, camera, sampler and film; ninth session)
+
+/// Bounce and shadow rays handed to Embree as one stream per stage (`rtcIntersect1M` /
+/// `rtcOccluded1M`, `Packets::stream`) give the scalar image: the Cornell box and the other
+/// mesh scenes (an instanced group, a textured mesh), an envmap scene with analytic shapes
+/// under Embree, and metal_plastic (tier A, which traces the streams as its own 8-wide
+/// packets), at 1, 2 and 7 threads.
+#[test]
+fn stream_with_embree_ray_streams_equals_scalar() {
+    let streams = Packets {
+        stream: true,
+        ..Packets::ALL
+    };
+    for (path, mode) in [
+        (scene("scenes/cornell/cbox-rgb.xml"), "as_written"),
+        (test_scene("shape_instance.xml"), "as_written"),
+        (test_scene("light_envmap.xml"), "as_written"),
+        (scene("scenes/bench/metal_plastic.xml"), "classic"),
+    ] {
+        let l = load(&path, mode);
+        let name = path.file_name().unwrap().to_string_lossy();
+        let scalar = render(&l, Renderer::Scalar, 1, 3);
+        for t in [1, 2, 7] {
+            let stream = render_seeded(&l, Renderer::Stream, t, 3, 7, streams);
+            assert!(
+                stream == scalar,
+                "{name} ({mode}): differs at {t} threads with Embree streams"
+            );
+        }
     }
 }

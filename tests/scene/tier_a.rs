@@ -78,8 +78,8 @@ fn random_set(seed: u64, n: usize) -> Loaded {
     load_text(&body)
 }
 
-/// Bit pattern of a hit, for exact comparison.
-fn bits(h: &Option<Hit>) -> Option<(u32, u32, u32, u32, u32, u32)> {
+/// Bit pattern of a hit, for exact comparison (also `packets.rs`'s).
+pub(crate) fn bits(h: &Option<Hit>) -> Option<(u32, u32, u32, u32, u32, u32)> {
     h.map(|h| {
         (
             h.geom,
