@@ -150,6 +150,12 @@ const SCENES: &[(&str, Entry)] = &[
     // The stream renderer's conductor kernels (tests/render/stream.rs): a smooth `conductor`
     // sphere in view (and classic normal maps).
     ("stream_conductors.xml", Exclude(Specular("conductor"))),
+    // Its wrapper-chain driver around diffuse leaves: classic normal maps, compared converted
+    // (as nmap_plane.xml).
+    (
+        "stream_diffuse_wrapped.xml",
+        Compare(NONE, Nm::Microfacet, 1),
+    ),
     ("stream_lights.xml", Compare(NONE, Nm::AsWritten, 1)),
     // The stream renderer's plastic kernel (tests/render/stream.rs): smooth `plastic` in view.
     ("stream_plastic.xml", Exclude(Specular("plastic"))),

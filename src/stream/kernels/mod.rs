@@ -15,8 +15,9 @@
 //! through the very functions the scalar renderer calls.
 //!
 //! - [`diffuse`]: `diffuse` with next-event estimation.
-//! - [`conductor`]: `roughconductor` (with next-event estimation), `conductor`, and constant
-//!   `plastic`/`roughplastic` leaves, under `twosided` and classic `normalmap`, in lanes;
+//! - [`conductor`]: `roughconductor` (with next-event estimation), `conductor`, constant
+//!   `plastic`/`roughplastic` leaves and `diffuse` leaves (reflectance gathered per lane), under
+//!   `twosided` and classic `normalmap`, in lanes;
 //!   [`vertex`]: their 8-wide driver.
 //! - [`plastic`]: bare `plastic` and `roughplastic` (textured reflectances gathered) with
 //!   next-event estimation.

@@ -21,18 +21,19 @@ use crate::lane::Lane;
 /// Next-event estimation at the material's BSDF: `nee::prepare_light` after its call to
 /// `sample_emitter` (`SurfaceBsdf::eval_pdf`'s side test, the BSDF toward the light point, the
 /// zero test), and the MIS-weighted contribution and shadow ray of `PathState::scatter`, in
-/// the operations of `diffuse::light`.
+/// the operations of `diffuse::light`. `rho` is a `diffuse` leaf's reflectance per lane.
 #[inline(always)]
 pub(crate) fn light<L: Lane>(
     s: &Surface<L>,
     wi: V3<L>,
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
+    rho: V3<L>,
     throughput: V3<L>,
     lp: &LightPoint<L>,
 ) -> LightOut<L> {
     let (wo, consistent) = light_direction(s, lp);
-    let (f, bsdf_pdf) = conductor::eval_pdf(mat, normals, wi, wo);
+    let (f, bsdf_pdf) = conductor::eval_pdf(mat, normals, rho, wi, wo);
     light_out(s, throughput, lp, f, bsdf_pdf, consistent)
 }
 
@@ -57,11 +58,12 @@ pub(crate) fn sample<L: Lane>(
     wi: V3<L>,
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
+    rho: V3<L>,
     u1: L,
     u2: crate::lane::vec::V2<L>,
 ) -> SampleOut<L> {
     let k = |c: f32| wi.z.splat(c);
-    let (bs, delta) = conductor::sample(mat, normals, wi, u1, u2);
+    let (bs, delta) = conductor::sample(mat, normals, rho, wi, u1, u2);
     let wo_world = s.frame.to_world(bs.wo);
     let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(k(0.0));
     SampleOut {
@@ -157,6 +159,11 @@ pub(crate) mod x8 {
         // 2. Normal maps, random numbers and light points, lane by lane in each path's order.
         let textures = normal_textures(mat);
         let mut normals = [Cols3::default(); MAX_WRAPS];
+        // A `diffuse` leaf's reflectance, looked up per lane as `Materials::build_at` does.
+        let rho_tex = mat
+            .reflectance()
+            .map(|t| &scene.materials.textures[t as usize]);
+        let mut rho = Cols3::default();
         let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
         let (draw_u1, draw_u2) = (mat.draws_u1(), mat.draws_u2());
         let mut tp = Cols3::default();
@@ -177,6 +184,9 @@ pub(crate) mod x8 {
                     normals[j].set(k, 2.0 * rgb - Vec3::ONE);
                 }
             }
+            if let Some(t) = rho_tex {
+                rho.set(k, reflectance(scene, t, &si));
+            }
             tp.set(k, b.state[i].throughput);
             let sampler = &mut b.sampler[i];
             if nee {
@@ -196,11 +206,12 @@ pub(crate) mod x8 {
 
         // 3. The kernel.
         let normals8 = normals.map(|c| c.load(avx));
+        let rho8 = rho.load(avx);
         // A block, not a closure: a closure would be compiled outside `Avx2::run`'s target
         // features and call every 8-wide operation out of line.
         let lo = if nee {
             let lp = gather.finish(avx, surf.p, &mut b.light_lanes);
-            let lo = light(&surf, wi, mat, &normals8, tp.load(avx), &lp);
+            let lo = light(&surf, wi, mat, &normals8, rho8, tp.load(avx), &lp);
             Some((
                 lo.ok.to_array(),
                 store3(lo.o),
@@ -216,6 +227,7 @@ pub(crate) mod x8 {
             wi,
             mat,
             &normals8,
+            rho8,
             avx.load(&u1),
             V2::new(avx.load(&ux), avx.load(&uy)),
         );
