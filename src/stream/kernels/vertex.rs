@@ -2,9 +2,10 @@
 //! steps of the `diffuse` kernel (`super::diffuse`, whose module doc describes them):
 //! 1. gather the surface interactions into SoA columns and run `SurfaceBsdf::new`'s side test
 //!    in lanes ([`super::diffuse::incident`]);
-//! 2. lane by lane, in each path's order: the normal maps' texture lookups, the light
-//!    selection `u_sel` and light point `u` (when the material takes light samples), the BSDF's
-//!    `u1` (plastic leaves) and `u2` (all but the smooth conductor); light points through the
+//! 2. the random numbers in each path's order, 8-wide from the gathered PCG32 states
+//!    ([`super::draws`]): the light selection `u_sel` and light point `u` (when the material
+//!    takes light samples), the BSDF's `u1` (plastic leaves) and `u2` (all but the smooth
+//!    conductor); lane by lane: the normal maps' texture lookups, the light points through the
 //!    shared gather ([`super::light::x8::Gather`]: area lights of a constant radiance on
 //!    triangle meshes, rectangles and spheres 8-wide, every other emitter lane by lane);
 //! 3. 8-wide: the BSDF value and density toward the light point, the power heuristic, the
@@ -99,9 +100,10 @@ pub(crate) mod x8 {
     use crate::scene::Scene;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::diffuse::{incident, reflectance};
+    use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
-    use glam::Vec3;
+    use glam::{Vec2, Vec3};
 
     /// Lane `k` of a vector of lanes.
     #[inline(always)]
@@ -156,7 +158,15 @@ pub(crate) mod x8 {
         let (wi, front) = incident(&surf);
         let front = front.to_array();
 
-        // 2. Normal maps, random numbers and light points, lane by lane in each path's order.
+        // 2. Random numbers, 8-wide from the gathered PCG32 states where the streams are plain
+        // (`kernels::draws`); normal maps and light points lane by lane in each path's order.
+        let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
+        let draws = Draws {
+            light: nee,
+            u1: mat.draws_u1(),
+            u2: mat.draws_u2(),
+        };
+        let num = draw(avx, &mut b.sampler, ids, &front, draws);
         let textures = normal_textures(mat);
         let mut normals = [Cols3::default(); MAX_WRAPS];
         // A `diffuse` leaf's reflectance, looked up per lane as `Materials::build_at` does.
@@ -164,10 +174,7 @@ pub(crate) mod x8 {
             .reflectance()
             .map(|t| &scene.materials.textures[t as usize]);
         let mut rho = Cols3::default();
-        let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
-        let (draw_u1, draw_u2) = (mat.draws_u1(), mat.draws_u2());
         let mut tp = Cols3::default();
-        let (mut u1, mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
         let light_only = cfg.strategy == Strategy::LightOnly;
         gather.reset();
         for (k, &i) in ids.iter().enumerate() {
@@ -188,19 +195,9 @@ pub(crate) mod x8 {
                 rho.set(k, reflectance(scene, t, &si));
             }
             tp.set(k, b.state[i].throughput);
-            let sampler = &mut b.sampler[i];
             if nee {
-                let u_sel = sampler.next_1d();
-                let u = sampler.next_2d();
-                gather.add(k, scene, lights, light_only, u_sel, u, si.p);
-            }
-            if draw_u1 {
-                u1[k] = sampler.next_1d();
-            }
-            if draw_u2 {
-                let u2 = sampler.next_2d();
-                ux[k] = u2.x;
-                uy[k] = u2.y;
+                let u = Vec2::new(num.u[0][k], num.u[1][k]);
+                gather.add(k, scene, lights, light_only, num.u_sel[k], u, si.p);
             }
         }
 
@@ -228,8 +225,8 @@ pub(crate) mod x8 {
             mat,
             &normals8,
             rho8,
-            avx.load(&u1),
-            V2::new(avx.load(&ux), avx.load(&uy)),
+            avx.load(&num.u1),
+            V2::new(avx.load(&num.u2[0]), avx.load(&num.u2[1])),
         );
 
         // 4. Scatter back.
