@@ -73,7 +73,6 @@ impl ThinDielectric {
     }
 
     /// `(eval, pdf)` per lane: 0 and 0 (two delta lobes). The lane form (`bsdf::lanes`).
-    #[allow(dead_code)] // the lane convention's evaluation; the driver takes no light sample here
     #[inline(always)]
     pub(crate) fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, _wo: V3<L>) -> (V3<L>, L) {
         let zero = wi.z.splat(0.0);

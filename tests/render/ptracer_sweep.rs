@@ -150,6 +150,8 @@ const SCENES: &[(&str, Entry)] = &[
     // The stream renderer's conductor kernels (tests/render/stream.rs): a smooth `conductor`
     // sphere in view (and classic normal maps).
     ("stream_conductors.xml", Exclude(Specular("conductor"))),
+    // Its wrapper-chain driver around dielectric leaves: smooth `dielectric` in view.
+    ("stream_dielectrics.xml", Exclude(Specular("dielectric"))),
     // Its wrapper-chain driver around diffuse leaves: classic normal maps, compared converted
     // (as nmap_plane.xml).
     (

@@ -16,8 +16,9 @@
 //!
 //! - [`diffuse`]: `diffuse` with next-event estimation.
 //! - [`conductor`]: `roughconductor` (with next-event estimation), `conductor`, constant
-//!   `plastic`/`roughplastic` leaves and `diffuse` leaves (reflectance gathered per lane), under
-//!   `twosided` and classic `normalmap`, in lanes;
+//!   `plastic`/`roughplastic` leaves, `diffuse` leaves (reflectance gathered per lane) and
+//!   `dielectric`/`roughdielectric`/`thindielectric` leaves (refraction: the crossing's η goes
+//!   to `PathState::advance`), bare or under `twosided` and classic `normalmap`, in lanes;
 //!   [`vertex`]: their 8-wide driver.
 //! - [`plastic`]: bare `plastic` and `roughplastic` (textured reflectances gathered) with
 //!   next-event estimation.

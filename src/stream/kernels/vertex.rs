@@ -48,6 +48,8 @@ pub(crate) struct SampleOut<L: Lane> {
     pub pdf: L,
     pub weight: V3<L>,
     pub delta: L::Mask,
+    /// The relative index of the crossing (1 but where a dielectric refracted).
+    pub eta: L,
     pub o: V3<L>,
 }
 
@@ -64,7 +66,7 @@ pub(crate) fn sample<L: Lane>(
     u2: crate::lane::vec::V2<L>,
 ) -> SampleOut<L> {
     let k = |c: f32| wi.z.splat(c);
-    let (bs, delta) = conductor::sample(mat, normals, rho, wi, u1, u2);
+    let (bs, delta, eta) = conductor::sample(mat, normals, rho, wi, u1, u2);
     let wo_world = s.frame.to_world(bs.wo);
     let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(k(0.0));
     SampleOut {
@@ -73,6 +75,7 @@ pub(crate) fn sample<L: Lane>(
         pdf: bs.pdf,
         weight: bs.weight,
         delta,
+        eta,
         o: offset_origin(s.p, s.ng, wo_world),
     }
 }
@@ -230,12 +233,13 @@ pub(crate) mod x8 {
         );
 
         // 4. Scatter back.
-        let (s_ok, s_wo, s_pdf, s_w, s_delta, s_o) = (
+        let (s_ok, s_wo, s_pdf, s_w, s_delta, s_eta, s_o) = (
             so.ok.to_array(),
             store3(so.wo),
             so.pdf.to_array(),
             store3(so.weight),
             so.delta.to_array(),
+            so.eta.to_array(),
             store3(so.o),
         );
         for (k, &i) in ids.iter().enumerate() {
@@ -262,7 +266,7 @@ pub(crate) mod x8 {
                     cfg,
                     get(&p.0, k),
                     get(&s_w, k),
-                    1.0,
+                    s_eta[k],
                     s_pdf[k],
                     s_delta[k],
                     ray,
