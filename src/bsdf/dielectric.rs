@@ -70,8 +70,7 @@ impl Dielectric {
     /// `(eval, pdf)` per lane: 0 and 0 (two delta lobes). The lane form (`bsdf::lanes`).
     #[inline(always)]
     pub(crate) fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, _wo: V3<L>) -> (V3<L>, L) {
-        let zero = wi.z.splat(0.0);
-        (V3::new(zero, zero, zero), zero)
+        delta_eval_pdf(wi)
     }
 
     /// Reflection where `u1 ≤ F`, refraction elsewhere (`u2` unused): the lane form of
@@ -108,18 +107,34 @@ impl Dielectric {
     /// [`Self::sample_lanes`] at width 1.
     pub fn sample(&self, mode: TransportMode, wi: Vec3, u: f32) -> Option<BsdfSample> {
         let (s, eta, reflect) = self.sample_lanes(mode, V3::from(wi), u, V2::new(0.0, 0.0));
-        s.ok.then(|| BsdfSample {
-            wo: s.wo.into(),
-            pdf: s.pdf,
-            weight: s.weight.into(),
-            eta,
-            lobe: if reflect {
-                Lobes::DELTA_REFLECTION
-            } else {
-                Lobes::DELTA_TRANSMISSION
-            },
-        })
+        let lobes = (Lobes::DELTA_REFLECTION, Lobes::DELTA_TRANSMISSION);
+        width_1_sample(s, eta, reflect, lobes)
     }
+}
+
+/// `(eval, pdf)` of delta lobes only, per lane: 0 and 0 (`dielectric`, `thindielectric`).
+#[inline(always)]
+pub(super) fn delta_eval_pdf<L: Lane>(wi: V3<L>) -> (V3<L>, L) {
+    let zero = wi.z.splat(0.0);
+    (V3::new(zero, zero, zero), zero)
+}
+
+/// A dielectric's lane-form sample at width 1 as a [`BsdfSample`]: `None` where not `ok`, the
+/// lobe `lobes.0` where reflected, else `lobes.1` (the three dielectrics' scalar `sample`).
+#[inline]
+pub(super) fn width_1_sample(
+    s: LaneBsdfSample<f32>,
+    eta: f32,
+    reflect: bool,
+    lobes: (Lobes, Lobes),
+) -> Option<BsdfSample> {
+    s.ok.then(|| BsdfSample {
+        wo: s.wo.into(),
+        pdf: s.pdf,
+        weight: s.weight.into(),
+        eta,
+        lobe: if reflect { lobes.0 } else { lobes.1 },
+    })
 }
 
 impl Default for Dielectric {

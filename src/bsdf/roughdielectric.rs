@@ -107,13 +107,7 @@ impl RoughDielectric {
     /// The distribution with its parameters in every lane (the width of `like`).
     #[inline(always)]
     fn microfacet<L: Lane>(&self, like: L) -> Microfacet<L> {
-        let d = &self.distribution;
-        Microfacet {
-            kind: d.kind,
-            alpha_u: like.splat(d.alpha_u),
-            alpha_v: like.splat(d.alpha_v),
-            sample_visible: d.sample_visible,
-        }
+        self.distribution.splat_lanes(like)
     }
 
     /// The distribution `sample` draws from for this `wi` (per lane: without visible-normal
@@ -156,15 +150,29 @@ impl RoughDielectric {
     /// [`Self::eval_pdf_lanes`]' value alone: the width-8 form of [`Self::eval`].
     #[inline(always)]
     pub(crate) fn eval_lanes<L: Lane>(&self, mode: TransportMode, wi: V3<L>, wo: V3<L>) -> V3<L> {
+        self.valued(mode, wi, wo).1
+    }
+
+    /// The half vector, f · |cos θo| (0 where the pair is unusable or D(h) = 0), and the
+    /// Fresnel reflectance, D(h) and G1(wi, h) it used.
+    #[inline(always)]
+    #[allow(clippy::type_complexity)]
+    fn valued<L: Lane>(
+        &self,
+        mode: TransportMode,
+        wi: V3<L>,
+        wo: V3<L>,
+    ) -> (Half<L>, V3<L>, L, L, L) {
         let k = |c: f32| wi.z.splat(c);
         let hv = self.half_vector(wi, wo);
         let dist = self.microfacet(wi.z);
         let d = dist.eval(hv.h);
         let f = lane_dielectric(wi.dot(hv.h), k(self.eta)).r;
+        // G1 is even in its direction argument, so G1(wi, h) also serves the flipped wi of the pdf.
         let g1i = dist.smith_g1(wi, hv.h);
         let v = self.value(mode, wi, wo, &hv, f, d, g1i);
         let zero = V3::new(k(0.0), k(0.0), k(0.0));
-        V3::select(hv.ok & !d.eq(k(0.0)), v, zero)
+        (hv, V3::select(hv.ok & !d.eq(k(0.0)), v, zero), f, d, g1i)
     }
 
     /// The density of [`Self::sample_lanes`] alone: the lane form of [`Self::pdf`].
@@ -188,15 +196,7 @@ impl RoughDielectric {
         wo: V3<L>,
     ) -> (V3<L>, L) {
         let k = |c: f32| wi.z.splat(c);
-        let hv = self.half_vector(wi, wo);
-        let dist = self.microfacet(wi.z);
-        let d = dist.eval(hv.h);
-        let f = lane_dielectric(wi.dot(hv.h), k(self.eta)).r;
-        // G1 is even in its direction argument, so G1(wi, h) also serves the flipped wi of the pdf.
-        let g1i = dist.smith_g1(wi, hv.h);
-        let zero = V3::new(k(0.0), k(0.0), k(0.0));
-        let v = self.value(mode, wi, wo, &hv, f, d, g1i);
-        let value = V3::select(hv.ok & !d.eq(k(0.0)), v, zero);
+        let (hv, value, f, d, g1i) = self.valued(mode, wi, wo);
         let p = self.density(wi, wo, &hv, f, Some((d, g1i)));
         (value, L::select(hv.ok, p, k(0.0)))
     }
@@ -350,17 +350,8 @@ impl RoughDielectric {
     /// [`Self::sample_lanes`] at width 1.
     pub fn sample(&self, mode: TransportMode, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
         let (s, eta, reflect) = self.sample_lanes(mode, V3::from(wi), u1, V2::from(u2));
-        s.ok.then(|| BsdfSample {
-            wo: s.wo.into(),
-            pdf: s.pdf,
-            weight: s.weight.into(),
-            eta,
-            lobe: if reflect {
-                Lobes::GLOSSY_REFLECTION
-            } else {
-                Lobes::GLOSSY_TRANSMISSION
-            },
-        })
+        let lobes = (Lobes::GLOSSY_REFLECTION, Lobes::GLOSSY_TRANSMISSION);
+        super::dielectric::width_1_sample(s, eta, reflect, lobes)
     }
 }
 

@@ -75,8 +75,7 @@ impl ThinDielectric {
     /// `(eval, pdf)` per lane: 0 and 0 (two delta lobes). The lane form (`bsdf::lanes`).
     #[inline(always)]
     pub(crate) fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, _wo: V3<L>) -> (V3<L>, L) {
-        let zero = wi.z.splat(0.0);
-        (V3::new(zero, zero, zero), zero)
+        super::dielectric::delta_eval_pdf(wi)
     }
 
     /// Reflection where `u1 ≤ R_total`, straight transmission elsewhere (`u2` unused): the lane
@@ -108,17 +107,8 @@ impl ThinDielectric {
     /// [`Self::sample_lanes`] at width 1.
     pub fn sample(&self, wi: Vec3, u: f32) -> Option<BsdfSample> {
         let (s, reflect) = self.sample_lanes(V3::from(wi), u, V2::new(0.0, 0.0));
-        s.ok.then(|| BsdfSample {
-            wo: s.wo.into(),
-            pdf: s.pdf,
-            weight: s.weight.into(),
-            eta: 1.0,
-            lobe: if reflect {
-                Lobes::DELTA_REFLECTION
-            } else {
-                Lobes::DELTA_TRANSMISSION
-            },
-        })
+        let lobes = (Lobes::DELTA_REFLECTION, Lobes::DELTA_TRANSMISSION);
+        super::dielectric::width_1_sample(s, 1.0, reflect, lobes)
     }
 }
 
