@@ -7,6 +7,10 @@
 //! [`TransportMode::Radiance`] the refracted weight is scaled by (η_i/η_t)² (Veach 1997, §5.2);
 //! importance is not scaled.
 //!
+//! Lane form (`src/bsdf/lanes.rs`): [`Dielectric::eval_pdf_lanes`], [`Dielectric::sample_lanes`]
+//! (with the transport mode, and the crossing's η per lane); [`Dielectric::sample`] is its width
+//! 1, checked bit for bit against the code it replaced (the tests below).
+//!
 //! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
 //!
 //! | Parameter | Type | Default | Meaning |
@@ -16,8 +20,11 @@
 //! | `specular_reflectance` | spectrum or texture | 1 | multiplier of the reflection |
 //! | `specular_transmittance` | spectrum or texture | 1 | multiplier of the transmission |
 
-use super::fresnel::{fresnel_dielectric, reflect_z};
+use super::lanes::LaneBsdfSample;
 use super::{BsdfSample, Lobes, TransportMode};
+use crate::lane::fresnel::dielectric as lane_dielectric;
+use crate::lane::vec::{V2, V3};
+use crate::lane::Lane;
 use crate::spectrum::Spectrum;
 use glam::Vec3;
 
@@ -60,32 +67,74 @@ impl Dielectric {
         0.0
     }
 
-    pub fn sample(&self, mode: TransportMode, wi: Vec3, u: f32) -> Option<BsdfSample> {
-        let f = fresnel_dielectric(wi.z, self.eta);
-        if u <= f.r {
-            Some(BsdfSample {
-                wo: reflect_z(wi),
-                pdf: 0.0,
-                weight: self.specular_reflectance,
-                eta: 1.0,
-                lobe: Lobes::DELTA_REFLECTION,
-            })
-        } else {
-            // Refraction about the normal: tangential part scales by η_i/η_t.
-            let wo = Vec3::new(-f.eta_ti * wi.x, -f.eta_ti * wi.y, f.cos_theta_t);
-            let scale = match mode {
-                TransportMode::Radiance => f.eta_ti * f.eta_ti,
-                TransportMode::Importance => 1.0,
-            };
-            Some(BsdfSample {
-                wo,
-                pdf: 0.0,
-                weight: self.specular_transmittance * scale,
-                eta: f.eta_it,
-                lobe: Lobes::DELTA_TRANSMISSION,
-            })
-        }
+    /// `(eval, pdf)` per lane: 0 and 0 (two delta lobes). The lane form (`bsdf::lanes`).
+    #[inline(always)]
+    pub(crate) fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, _wo: V3<L>) -> (V3<L>, L) {
+        delta_eval_pdf(wi)
     }
+
+    /// Reflection where `u1 ≤ F`, refraction elsewhere (`u2` unused): the lane form of
+    /// [`Self::sample`], which is its width 1. Every lane samples (`ok` all set); also returns
+    /// the relative index η of each lane's crossing (1 where reflected) and the reflected lanes.
+    #[inline(always)]
+    pub(crate) fn sample_lanes<L: Lane>(
+        &self,
+        mode: TransportMode,
+        wi: V3<L>,
+        u1: L,
+        _u2: V2<L>,
+    ) -> (LaneBsdfSample<L>, L, L::Mask) {
+        let k = |c: f32| wi.z.splat(c);
+        let f = lane_dielectric(wi.z, k(self.eta));
+        let reflect = u1.le(f.r);
+        // Refraction about the normal: the tangential part scales by η_i/η_t.
+        let t = V3::new(-f.eta_ti * wi.x, -f.eta_ti * wi.y, f.cos_theta_t);
+        let scale = match mode {
+            TransportMode::Radiance => f.eta_ti * f.eta_ti,
+            TransportMode::Importance => k(1.0),
+        };
+        let (r, tr) = (self.specular_reflectance, self.specular_transmittance);
+        let weight_t = V3::new(k(tr.x) * scale, k(tr.y) * scale, k(tr.z) * scale);
+        let sample = LaneBsdfSample {
+            ok: reflect | !reflect,
+            wo: V3::select(reflect, V3::new(-wi.x, -wi.y, wi.z), t),
+            pdf: k(0.0),
+            weight: V3::select(reflect, V3::new(k(r.x), k(r.y), k(r.z)), weight_t),
+        };
+        (sample, L::select(reflect, k(1.0), f.eta_it), reflect)
+    }
+
+    /// [`Self::sample_lanes`] at width 1.
+    pub fn sample(&self, mode: TransportMode, wi: Vec3, u: f32) -> Option<BsdfSample> {
+        let (s, eta, reflect) = self.sample_lanes(mode, V3::from(wi), u, V2::new(0.0, 0.0));
+        let lobes = (Lobes::DELTA_REFLECTION, Lobes::DELTA_TRANSMISSION);
+        width_1_sample(s, eta, reflect, lobes)
+    }
+}
+
+/// `(eval, pdf)` of delta lobes only, per lane: 0 and 0 (`dielectric`, `thindielectric`).
+#[inline(always)]
+pub(super) fn delta_eval_pdf<L: Lane>(wi: V3<L>) -> (V3<L>, L) {
+    let zero = wi.z.splat(0.0);
+    (V3::new(zero, zero, zero), zero)
+}
+
+/// A dielectric's lane-form sample at width 1 as a [`BsdfSample`]: `None` where not `ok`, the
+/// lobe `lobes.0` where reflected, else `lobes.1` (the three dielectrics' scalar `sample`).
+#[inline]
+pub(super) fn width_1_sample(
+    s: LaneBsdfSample<f32>,
+    eta: f32,
+    reflect: bool,
+    lobes: (Lobes, Lobes),
+) -> Option<BsdfSample> {
+    s.ok.then(|| BsdfSample {
+        wo: s.wo.into(),
+        pdf: s.pdf,
+        weight: s.weight.into(),
+        eta,
+        lobe: if reflect { lobes.0 } else { lobes.1 },
+    })
 }
 
 impl Default for Dielectric {
@@ -96,6 +145,96 @@ impl Default for Dielectric {
             Spectrum::ONE,
             Spectrum::ONE,
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::fresnel::{fresnel_dielectric, reflect_z};
+    use crate::bsdf::lanes::testing::*;
+    use crate::math::Pcg32;
+    use glam::Vec2;
+
+    /// The scalar `sample` this file had before its lane form, frozen as the reference.
+    fn reference(b: &Dielectric, mode: TransportMode, wi: Vec3, u: f32) -> Option<BsdfSample> {
+        let f = fresnel_dielectric(wi.z, b.eta);
+        if u <= f.r {
+            Some(BsdfSample {
+                wo: reflect_z(wi),
+                pdf: 0.0,
+                weight: b.specular_reflectance,
+                eta: 1.0,
+                lobe: Lobes::DELTA_REFLECTION,
+            })
+        } else {
+            let wo = Vec3::new(-f.eta_ti * wi.x, -f.eta_ti * wi.y, f.cos_theta_t);
+            let scale = match mode {
+                TransportMode::Radiance => f.eta_ti * f.eta_ti,
+                TransportMode::Importance => 1.0,
+            };
+            Some(BsdfSample {
+                wo,
+                pdf: 0.0,
+                weight: b.specular_transmittance * scale,
+                eta: f.eta_it,
+                lobe: Lobes::DELTA_TRANSMISSION,
+            })
+        }
+    }
+
+    fn models() -> [Dielectric; 3] {
+        [
+            Dielectric::default(),
+            Dielectric::new(1.33, 1.0, Spectrum::new(0.9, 0.8, 0.7), Spectrum::ONE),
+            Dielectric::new(1.0, 1.7, Spectrum::ONE, Spectrum::new(0.5, 0.6, 0.7)),
+        ]
+    }
+
+    /// Width 1 is the frozen scalar code bit for bit, both sides (total internal reflection
+    /// included) and both transport modes; width 8 is width 1 lane by lane.
+    #[test]
+    fn lane_form_is_the_replaced_scalar_code_bit_for_bit() {
+        let mut r = Pcg32::new(18, 9);
+        let mut refracted = 0;
+        for b in models() {
+            for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                let cases: Vec<(Vec3, f32)> = (0..4000)
+                    .map(|_| (direction(&mut r), r.next_f32()))
+                    .collect();
+                for &(wi, u) in &cases {
+                    let (a, n) = (b.sample(mode, wi, u), reference(&b, mode, wi, u));
+                    let (a, n) = (a.expect("always samples"), n.expect("always"));
+                    assert!(same3(a.wo, n.wo) && same3(a.weight, n.weight), "{wi} {u}");
+                    assert!(same(a.pdf, n.pdf) && same(a.eta, n.eta) && a.lobe == n.lobe);
+                    refracted += (a.lobe == Lobes::DELTA_TRANSMISSION) as u32;
+                    let (f, p) = b.eval_pdf_lanes(V3::from(wi), V3::from(-wi));
+                    assert!(Vec3::from(f) == Vec3::ZERO && p == 0.0);
+                }
+                #[cfg(target_arch = "x86_64")]
+                if let Some(avx) = crate::lane::Avx2::detect() {
+                    for c in cases.chunks_exact(8) {
+                        let wi: [Vec3; 8] = std::array::from_fn(|k| c[k].0);
+                        let u: [f32; 8] = std::array::from_fn(|k| c[k].1);
+                        let (s, eta, refl) = avx.run(|| {
+                            let u2 = load2(avx, &[Vec2::ZERO; 8]);
+                            b.sample_lanes(mode, load3(avx, &wi), avx.load(&u), u2)
+                        });
+                        let refl = refl.to_array();
+                        for k in 0..8 {
+                            let one =
+                                b.sample_lanes(mode, V3::from(wi[k]), u[k], V2::new(0.0, 0.0));
+                            assert_eq!((one.0.ok, one.2), (s.ok.to_array()[k], refl[k]));
+                            assert!(same3(lane3(s.wo, k), one.0.wo.into()));
+                            assert!(same3(lane3(s.weight, k), one.0.weight.into()));
+                            assert!(same(s.pdf.lane(k), one.0.pdf) && same(eta.lane(k), one.1));
+                        }
+                    }
+                }
+            }
+        }
+        // Not vacuous: both lobes are taken.
+        assert!((5_000..20_000).contains(&refracted), "{refracted}");
     }
 }
 

@@ -63,15 +63,17 @@ impl Diffuse {
     /// same order (a pair with either z ≤ 0 gives 0 and 0; a NaN z is evaluated, as there).
     #[inline(always)]
     pub fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
+        Self::eval_pdf_with(self.splat(wi.z), wi, wo)
+    }
+
+    /// [`Diffuse::eval_pdf_lanes`] with the reflectance per lane (`rho`: a textured
+    /// reflectance gathered lane by lane, as `Materials::build_at` evaluates it).
+    #[inline(always)]
+    pub(crate) fn eval_pdf_with<L: Lane>(rho: V3<L>, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
         let zero = wi.z.splat(0.0);
         let ok = !(wi.z.le(zero) | wo.z.le(zero));
         let c = wo.z.splat(crate::math::INV_PI) * wo.z;
-        let r = self.reflectance;
-        let f = V3::new(
-            zero.splat(r.x) * c,
-            zero.splat(r.y) * c,
-            zero.splat(r.z) * c,
-        );
+        let f = V3::new(rho.x * c, rho.y * c, rho.z * c);
         (
             V3::select(ok, f, V3::new(zero, zero, zero)),
             L::select(ok, lw::cosine_hemisphere_pdf(wo), zero),
@@ -79,19 +81,31 @@ impl Diffuse {
     }
 
     /// [`Diffuse::sample`] per lane (`u1` unused: one lobe).
-    #[allow(dead_code)] // the lane convention's sampler; no batch samples a nested diffuse yet
+    #[allow(dead_code)] // the lane convention's sampler; the kernels call `sample_with`
     #[inline(always)]
     pub(crate) fn sample_lanes<L: Lane>(&self, wi: V3<L>, _u1: L, u: V2<L>) -> LaneBsdfSample<L> {
+        Self::sample_with(self.splat(wi.z), wi, u)
+    }
+
+    /// [`Diffuse::sample_lanes`] with the reflectance per lane (see [`Self::eval_pdf_with`]).
+    #[inline(always)]
+    pub(crate) fn sample_with<L: Lane>(rho: V3<L>, wi: V3<L>, u: V2<L>) -> LaneBsdfSample<L> {
         let zero = wi.z.splat(0.0);
         let wo = lw::square_to_cosine_hemisphere(u);
         let pdf = lw::cosine_hemisphere_pdf(wo);
-        let r = self.reflectance;
         LaneBsdfSample {
             ok: !(wi.z.le(zero) | pdf.le(zero)),
             wo,
             pdf,
-            weight: V3::new(zero.splat(r.x), zero.splat(r.y), zero.splat(r.z)),
+            weight: rho,
         }
+    }
+
+    /// The reflectance in every lane (`like` gives the lane type).
+    #[inline(always)]
+    fn splat<L: Lane>(&self, like: L) -> V3<L> {
+        let r = self.reflectance;
+        V3::new(like.splat(r.x), like.splat(r.y), like.splat(r.z))
     }
 }
 

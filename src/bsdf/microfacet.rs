@@ -91,6 +91,17 @@ impl MicrofacetDistribution {
 
     /// This distribution as the width-1 lane kernel (`lane::microfacet`): the scalar renderer
     /// evaluates D, Λ, G1 and the densities there, so both widths share one source.
+    /// The distribution with its parameters in every lane (the width of `like`).
+    #[inline(always)]
+    pub(crate) fn splat_lanes<L: crate::lane::Lane>(&self, like: L) -> Microfacet<L> {
+        Microfacet {
+            kind: self.kind,
+            alpha_u: like.splat(self.alpha_u),
+            alpha_v: like.splat(self.alpha_v),
+            sample_visible: self.sample_visible,
+        }
+    }
+
     #[inline(always)]
     fn lanes(&self) -> Microfacet<f32> {
         Microfacet {

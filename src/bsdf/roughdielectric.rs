@@ -15,6 +15,11 @@
 //! sampling the roughness of the sampling distribution is widened by 1.2 − 0.2 √|cos θi|
 //! (Walter et al. 2007, §5.3), as Mitsuba does.
 //!
+//! Lane form (`src/bsdf/lanes.rs`, with the transport mode as an argument):
+//! [`RoughDielectric::eval_pdf_lanes`], [`RoughDielectric::sample_lanes`] (with the crossing's η
+//! per lane), and `eval_lanes` / `pdf_lanes`; the scalar `eval`, `pdf`, `eval_pdf` and `sample`
+//! are their width 1, checked bit for bit against the code they replaced (the tests below).
+//!
 //! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
 //!
 //! | Parameter | Type | Default | Meaning |
@@ -28,10 +33,13 @@
 //! | `alpha_u`, `alpha_v` | float or texture | 0.1 | roughness along the tangent and bitangent, instead of `alpha` |
 //! | `sample_visible` | boolean | true | sample the visible normals |
 
-use super::fresnel::{fresnel_dielectric, refract};
+use super::lanes::LaneBsdfSample;
 use super::microfacet::MicrofacetDistribution;
-use super::{is_positive, BsdfSample, Lobes, TransportMode};
-use crate::math::reflect;
+use super::{BsdfSample, Lobes, TransportMode};
+use crate::lane::fresnel::dielectric as lane_dielectric;
+use crate::lane::microfacet::Microfacet;
+use crate::lane::vec::{V2, V3};
+use crate::lane::Lane;
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 
@@ -45,13 +53,38 @@ pub struct RoughDielectric {
     pub specular_transmittance: Spectrum,
 }
 
-#[inline]
-fn flip_to_upper(v: Vec3) -> Vec3 {
-    if v.z < 0.0 {
-        -v
-    } else {
-        v
-    }
+/// `-v` where `v.z < 0`, else `v`.
+#[inline(always)]
+fn flip_to_upper<L: Lane>(v: V3<L>) -> V3<L> {
+    V3::select(v.z.lt(v.z.splat(0.0)), -v, v)
+}
+
+/// glam's `normalize_or_zero`: `v · (1/|v|)` where that reciprocal is finite and positive, else 0.
+#[inline(always)]
+fn normalize_or_zero<L: Lane>(v: V3<L>) -> V3<L> {
+    let k = |c: f32| v.x.splat(c);
+    let rcp = k(1.0) / v.length();
+    let zero = V3::new(k(0.0), k(0.0), k(0.0));
+    V3::select(rcp.is_finite() & rcp.gt(k(0.0)), v.scale(rcp), zero)
+}
+
+/// `v` in every lane, with the width of `like`.
+#[inline(always)]
+fn splat3<L: Lane>(like: L, v: Vec3) -> V3<L> {
+    V3::splat(like, v.x, v.y, v.z)
+}
+
+/// The generalised half vector of a pair (Walter et al. 2007, eq. 16), per lane.
+#[derive(Clone, Copy, Debug)]
+struct Half<L: Lane> {
+    /// Oriented to the upper side.
+    h: V3<L>,
+    /// The pair is a reflection (both directions on one side).
+    reflect: L::Mask,
+    /// η_t/η_i of the crossing.
+    eta: L,
+    /// Usable: neither direction in the plane, both see the facet from its front.
+    ok: L::Mask,
 }
 
 impl RoughDielectric {
@@ -71,212 +104,254 @@ impl RoughDielectric {
         }
     }
 
-    /// The distribution `sample` draws from for this `wi`.
-    #[inline]
-    fn sampling_distribution(&self, cos_theta_i: f32) -> MicrofacetDistribution {
-        if self.distribution.sample_visible {
-            self.distribution
-        } else {
-            self.distribution
-                .scaled(1.2 - 0.2 * cos_theta_i.abs().sqrt())
+    /// The distribution with its parameters in every lane (the width of `like`).
+    #[inline(always)]
+    fn microfacet<L: Lane>(&self, like: L) -> Microfacet<L> {
+        self.distribution.splat_lanes(like)
+    }
+
+    /// The distribution `sample` draws from for this `wi` (per lane: without visible-normal
+    /// sampling the roughness is widened by 1.2 − 0.2 √|cos θi|, Walter et al. 2007, §5.3).
+    #[inline(always)]
+    fn sampling_distribution<L: Lane>(&self, cos_theta_i: L) -> Microfacet<L> {
+        let d = self.microfacet(cos_theta_i);
+        if d.sample_visible {
+            return d;
+        }
+        let k = |c: f32| cos_theta_i.splat(c);
+        let s = k(1.2) - k(0.2) * cos_theta_i.abs().sqrt();
+        Microfacet {
+            alpha_u: d.alpha_u * s,
+            alpha_v: d.alpha_v * s,
+            ..d
         }
     }
 
-    /// The half vector of (wi, wo) oriented to the upper side, whether the pair is a reflection,
-    /// and the relative index η_t/η_i of the crossing; `None` for unusable configurations.
-    #[inline]
-    fn half_vector(&self, wi: Vec3, wo: Vec3) -> Option<(Vec3, bool, f32)> {
+    /// The half vector of (wi, wo), where the pair is usable.
+    #[inline(always)]
+    fn half_vector<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> Half<L> {
+        let k = |c: f32| wi.z.splat(c);
         let (ci, co) = (wi.z, wo.z);
-        if ci == 0.0 || co == 0.0 {
-            return None;
-        }
-        let is_reflect = ci * co > 0.0;
-        let eta = if ci > 0.0 { self.eta } else { 1.0 / self.eta };
-        let h = wi + wo * if is_reflect { 1.0 } else { eta };
-        let h = flip_to_upper(h.normalize_or_zero());
+        let planar = ci.eq(k(0.0)) | co.eq(k(0.0));
+        let reflect = (ci * co).gt(k(0.0));
+        let eta = L::select(ci.gt(k(0.0)), k(self.eta), k(1.0 / self.eta));
+        let h = wi + wo.scale(L::select(reflect, k(1.0), eta));
+        let h = flip_to_upper(normalize_or_zero(h));
         // Only facets seen from the front by both directions contribute.
-        if !(wi.dot(h) * ci > 0.0 && wo.dot(h) * co > 0.0) {
-            return None;
+        let front = (wi.dot(h) * ci).gt(k(0.0)) & (wo.dot(h) * co).gt(k(0.0));
+        Half {
+            h,
+            reflect,
+            eta,
+            ok: !planar & front,
         }
-        Some((h, is_reflect, eta))
     }
 
-    pub fn eval(&self, mode: TransportMode, wi: Vec3, wo: Vec3) -> Spectrum {
-        let Some((h, is_reflect, eta)) = self.half_vector(wi, wo) else {
-            return Spectrum::ZERO;
-        };
-        let d = self.distribution.eval(h);
-        if d == 0.0 {
-            return Spectrum::ZERO;
-        }
-        let f = fresnel_dielectric(wi.dot(h), self.eta).r;
-        let g1i = self.distribution.smith_g1(wi, h);
-        self.value(mode, wi, wo, (h, is_reflect, eta), f, d, g1i)
+    /// [`Self::eval_pdf_lanes`]' value alone: the width-8 form of [`Self::eval`].
+    #[inline(always)]
+    pub(crate) fn eval_lanes<L: Lane>(&self, mode: TransportMode, wi: V3<L>, wo: V3<L>) -> V3<L> {
+        self.valued(mode, wi, wo).1
     }
 
-    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let Some(hv) = self.half_vector(wi, wo) else {
-            return 0.0;
-        };
-        let f = fresnel_dielectric(wi.dot(hv.0), self.eta).r;
-        self.density(wi, wo, hv, f, None)
-    }
-
-    /// `(eval, pdf)` sharing the half vector, the Fresnel term, D(h) and G1(wi, h).
-    pub fn eval_pdf(&self, mode: TransportMode, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
-        let Some(hv) = self.half_vector(wi, wo) else {
-            return (Spectrum::ZERO, 0.0);
-        };
-        let h = hv.0;
-        let d = self.distribution.eval(h);
-        let f = fresnel_dielectric(wi.dot(h), self.eta).r;
-        // G1 is even in its direction argument, so G1(wi, h) also serves the flipped wi of the pdf.
-        let g1i = self.distribution.smith_g1(wi, h);
-        let value = if d == 0.0 {
-            Spectrum::ZERO
-        } else {
-            self.value(mode, wi, wo, hv, f, d, g1i)
-        };
-        (value, self.density(wi, wo, hv, f, Some((d, g1i))))
-    }
-
-    /// f·|cos θo| for the half vector `(h, is_reflect, eta)`, Fresnel reflectance `f`, D(h) = `d`
-    /// and G1(wi, h) = `g1i` (Walter et al. 2007, eqs. 20–21).
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    fn value(
+    /// The half vector, f · |cos θo| (0 where the pair is unusable or D(h) = 0), and the
+    /// Fresnel reflectance, D(h) and G1(wi, h) it used.
+    #[inline(always)]
+    #[allow(clippy::type_complexity)]
+    fn valued<L: Lane>(
         &self,
         mode: TransportMode,
-        wi: Vec3,
-        wo: Vec3,
-        (h, is_reflect, eta): (Vec3, bool, f32),
-        f: f32,
-        d: f32,
-        g1i: f32,
-    ) -> Spectrum {
-        let g = g1i * self.distribution.smith_g1(wo, h);
-        if is_reflect {
-            self.specular_reflectance * (f * d * g / (4.0 * wi.z.abs()))
-        } else {
-            let (dih, doh) = (wi.dot(h), wo.dot(h));
-            let denom = dih + eta * doh;
-            let scale = match mode {
-                TransportMode::Radiance => 1.0 / (eta * eta),
-                TransportMode::Importance => 1.0,
-            };
-            let v =
-                ((1.0 - f) * d * g * eta * eta * dih * doh * scale / (wi.z * denom * denom)).abs();
-            if v.is_finite() {
-                self.specular_transmittance * v
-            } else {
-                Spectrum::ZERO
-            }
-        }
+        wi: V3<L>,
+        wo: V3<L>,
+    ) -> (Half<L>, V3<L>, L, L, L) {
+        let k = |c: f32| wi.z.splat(c);
+        let hv = self.half_vector(wi, wo);
+        let dist = self.microfacet(wi.z);
+        let d = dist.eval(hv.h);
+        let f = lane_dielectric(wi.dot(hv.h), k(self.eta)).r;
+        // G1 is even in its direction argument, so G1(wi, h) also serves the flipped wi of the pdf.
+        let g1i = dist.smith_g1(wi, hv.h);
+        let v = self.value(mode, wi, wo, &hv, f, d, g1i);
+        let zero = V3::new(k(0.0), k(0.0), k(0.0));
+        (hv, V3::select(hv.ok & !d.eq(k(0.0)), v, zero), f, d, g1i)
     }
 
-    /// The density of `sample` producing `wo`, for the half vector `(h, is_reflect, eta)` and
-    /// Fresnel reflectance `f`; `shared` = (D(h), G1(wi, h)) of the unscaled distribution when the
-    /// caller has them (used when that distribution is the sampling one).
-    #[inline]
-    fn density(
+    /// The density of [`Self::sample_lanes`] alone: the lane form of [`Self::pdf`].
+    #[inline(always)]
+    pub(crate) fn pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> L {
+        let k = |c: f32| wi.z.splat(c);
+        let hv = self.half_vector(wi, wo);
+        let f = lane_dielectric(wi.dot(hv.h), k(self.eta)).r;
+        let p = self.density(wi, wo, &hv, f, None);
+        L::select(hv.ok, p, k(0.0))
+    }
+
+    /// `(f · |cos θo|, pdf)` sharing the half vector, the Fresnel term, D(h) and G1(wi, h), in
+    /// transport mode `mode` (uniform over the lanes): the lane form (`bsdf::lanes`, with the
+    /// mode); [`Self::eval_pdf`] is its width 1.
+    #[inline(always)]
+    pub(crate) fn eval_pdf_lanes<L: Lane>(
         &self,
-        wi: Vec3,
-        wo: Vec3,
-        (h, is_reflect, eta): (Vec3, bool, f32),
-        f: f32,
-        shared: Option<(f32, f32)>,
-    ) -> f32 {
+        mode: TransportMode,
+        wi: V3<L>,
+        wo: V3<L>,
+    ) -> (V3<L>, L) {
+        let k = |c: f32| wi.z.splat(c);
+        let (hv, value, f, d, g1i) = self.valued(mode, wi, wo);
+        let p = self.density(wi, wo, &hv, f, Some((d, g1i)));
+        (value, L::select(hv.ok, p, k(0.0)))
+    }
+
+    /// f·|cos θo| for the half vector `hv`, Fresnel reflectance `f`, D(h) = `d` and
+    /// G1(wi, h) = `g1i` (Walter et al. 2007, eqs. 20–21).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn value<L: Lane>(
+        &self,
+        mode: TransportMode,
+        wi: V3<L>,
+        wo: V3<L>,
+        hv: &Half<L>,
+        f: L,
+        d: L,
+        g1i: L,
+    ) -> V3<L> {
+        let k = |c: f32| wi.z.splat(c);
+        let (h, eta) = (hv.h, hv.eta);
+        let g = g1i * self.microfacet(wi.z).smith_g1(wo, h);
+        let r = splat3(f, self.specular_reflectance).scale(f * d * g / (k(4.0) * wi.z.abs()));
+        let (dih, doh) = (wi.dot(h), wo.dot(h));
+        let denom = dih + eta * doh;
+        let scale = match mode {
+            TransportMode::Radiance => k(1.0) / (eta * eta),
+            TransportMode::Importance => k(1.0),
+        };
+        let v =
+            ((k(1.0) - f) * d * g * eta * eta * dih * doh * scale / (wi.z * denom * denom)).abs();
+        let t = V3::select(
+            v.is_finite(),
+            splat3(f, self.specular_transmittance).scale(v),
+            V3::new(k(0.0), k(0.0), k(0.0)),
+        );
+        V3::select(hv.reflect, r, t)
+    }
+
+    /// The density of `sample` producing `wo`, for the half vector `hv` and Fresnel
+    /// reflectance `f`; `shared` = (D(h), G1(wi, h)) of the unscaled distribution when the
+    /// caller has them (used when that distribution is the sampling one).
+    #[inline(always)]
+    fn density<L: Lane>(
+        &self,
+        wi: V3<L>,
+        wo: V3<L>,
+        hv: &Half<L>,
+        f: L,
+        shared: Option<(L, L)>,
+    ) -> L {
+        let k = |c: f32| wi.z.splat(c);
+        let (h, eta) = (hv.h, hv.eta);
         let doh = wo.dot(h);
         // Jacobians dωh/dωo of reflection (1/(4 wo·h)) and refraction (η² wo·h / (wi·h + η wo·h)²).
-        let dh_dwo = if is_reflect {
-            1.0 / (4.0 * doh)
-        } else {
-            let denom = wi.dot(h) + eta * doh;
-            eta * eta * doh / (denom * denom)
-        };
+        let denom = wi.dot(h) + eta * doh;
+        let dh_dwo = L::select(
+            hv.reflect,
+            k(1.0) / (k(4.0) * doh),
+            eta * eta * doh / (denom * denom),
+        );
         let wi_up = flip_to_upper(wi);
         let pm = match shared {
             // Visible normals: D_wi(h) = D(h) G1(wi, h) |wi·h| / cos θi (the form of `pdf`).
-            Some((d, g1i)) if self.distribution.sample_visible => {
-                if wi_up.z <= 0.0 {
-                    0.0
-                } else {
-                    d * g1i * wi_up.dot(h).abs() / wi_up.z
-                }
-            }
+            Some((d, g1i)) if self.distribution.sample_visible => L::select(
+                wi_up.z.le(k(0.0)),
+                k(0.0),
+                d * g1i * wi_up.dot(h).abs() / wi_up.z,
+            ),
             _ => self.sampling_distribution(wi.z).pdf(wi_up, h),
         };
-        let p = pm * if is_reflect { f } else { 1.0 - f } * dh_dwo.abs();
-        if p.is_finite() {
-            p
-        } else {
-            0.0
-        }
+        let p = pm * L::select(hv.reflect, f, k(1.0) - f) * dh_dwo.abs();
+        L::select(p.is_finite(), p, k(0.0))
     }
 
-    pub fn sample(&self, mode: TransportMode, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
+    /// A microfacet normal from `u2` (seen from `wi` flipped to the upper side), then
+    /// reflection where `u1 ≤ F` and refraction elsewhere, in transport mode `mode`: the lane
+    /// form (`bsdf::lanes`, with the mode); [`Self::sample`] is its width 1. Also returns the
+    /// relative index η of each lane's crossing (1 where reflected) and the reflected lanes.
+    /// Lanes outside `ok` hold unspecified values.
+    #[inline(always)]
+    pub(crate) fn sample_lanes<L: Lane>(
+        &self,
+        mode: TransportMode,
+        wi: V3<L>,
+        u1: L,
+        u2: V2<L>,
+    ) -> (LaneBsdfSample<L>, L, L::Mask) {
+        let k = |c: f32| wi.z.splat(c);
         let ci = wi.z;
-        if ci == 0.0 {
-            return None;
-        }
         let sd = self.sampling_distribution(ci);
-        let (m, pm) = sd.sample(flip_to_upper(wi), u2);
-        if !is_positive(pm) {
-            return None;
-        }
-        let fr = fresnel_dielectric(wi.dot(m), self.eta);
-        let is_reflect = u1 <= fr.r;
-        let (wo, eta, pdf, mut weight, lobe_kind) = if is_reflect {
-            let wo = reflect(wi, m);
-            if !is_positive(ci * wo.z) {
-                return None;
-            }
-            let pdf = pm * fr.r / (4.0 * wo.dot(m)).abs();
-            (
-                wo,
-                1.0,
-                pdf,
-                self.specular_reflectance,
-                Lobes::GLOSSY_REFLECTION,
-            )
-        } else {
-            let wo = refract(wi, m, fr.cos_theta_t, fr.eta_ti);
-            if !is_positive(-ci * wo.z) {
-                return None;
-            }
-            let (dih, doh) = (wi.dot(m), wo.dot(m));
-            let denom = dih + fr.eta_it * doh;
-            let pdf = pm * (1.0 - fr.r) * (fr.eta_it * fr.eta_it * doh / (denom * denom)).abs();
-            let scale = match mode {
-                TransportMode::Radiance => fr.eta_ti * fr.eta_ti,
-                TransportMode::Importance => 1.0,
-            };
-            (
-                wo,
-                fr.eta_it,
-                pdf,
-                self.specular_transmittance * scale,
-                Lobes::GLOSSY_TRANSMISSION,
-            )
+        let wi_up = flip_to_upper(wi);
+        let m = sd.sample_normal(wi_up, u2);
+        let pm = sd.pdf(wi_up, m);
+        let fr = lane_dielectric(wi.dot(m), k(self.eta));
+        let reflect = u1.le(fr.r);
+        // Reflection (math::reflect: 2 (wi·m) m − wi).
+        let wo_r = m.scale(k(2.0) * wi.dot(m)) - wi;
+        let pdf_r = pm * fr.r / (k(4.0) * wo_r.dot(m)).abs();
+        // Refraction (fresnel::refract: m (wi·m η_ti + cos θt) − wi η_ti).
+        let wo_t = m.scale(wi.dot(m) * fr.eta_ti + fr.cos_theta_t) - wi.scale(fr.eta_ti);
+        let (dih, doh) = (wi.dot(m), wo_t.dot(m));
+        let denom = dih + fr.eta_it * doh;
+        let pdf_t = pm * (k(1.0) - fr.r) * (fr.eta_it * fr.eta_it * doh / (denom * denom)).abs();
+        let scale = match mode {
+            TransportMode::Radiance => fr.eta_ti * fr.eta_ti,
+            TransportMode::Importance => k(1.0),
         };
+        let wo = V3::select(reflect, wo_r, wo_t);
+        let side = L::select(reflect, ci * wo.z, -ci * wo.z).gt(k(0.0));
+        let pdf = L::select(reflect, pdf_r, pdf_t);
+        let mut weight = V3::select(
+            reflect,
+            splat3(ci, self.specular_reflectance),
+            splat3(ci, self.specular_transmittance).scale(scale),
+        );
         // With F / (1 − F) as the lobe choice the Fresnel factor cancels.
-        let w = if self.distribution.sample_visible {
-            self.distribution.smith_g1(wo, m)
+        let dist = self.microfacet(ci);
+        let w = if dist.sample_visible {
+            dist.smith_g1(wo, m)
         } else {
-            (self.distribution.eval(m) * self.distribution.g(wi, wo, m) * wi.dot(m) / (pm * ci))
-                .abs()
+            (dist.eval(m) * dist.g(wi, wo, m) * wi.dot(m) / (pm * ci)).abs()
         };
-        weight *= w;
-        if !(is_positive(pdf) && pdf.is_finite() && is_positive(w)) {
-            return None;
-        }
-        Some(BsdfSample {
+        weight = weight.scale(w);
+        let ok =
+            !ci.eq(k(0.0)) & pm.gt(k(0.0)) & side & pdf.gt(k(0.0)) & pdf.is_finite() & w.gt(k(0.0));
+        let sample = LaneBsdfSample {
+            ok,
             wo,
             pdf,
             weight,
-            eta,
-            lobe: lobe_kind,
-        })
+        };
+        (sample, L::select(reflect, k(1.0), fr.eta_it), reflect)
+    }
+
+    /// [`Self::eval_lanes`] at width 1.
+    pub fn eval(&self, mode: TransportMode, wi: Vec3, wo: Vec3) -> Spectrum {
+        self.eval_lanes(mode, V3::from(wi), V3::from(wo)).into()
+    }
+
+    /// [`Self::pdf_lanes`] at width 1.
+    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        self.pdf_lanes(V3::from(wi), V3::from(wo))
+    }
+
+    /// `(eval, pdf)`: [`Self::eval_pdf_lanes`] at width 1.
+    pub fn eval_pdf(&self, mode: TransportMode, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
+        let (f, p) = self.eval_pdf_lanes(mode, V3::from(wi), V3::from(wo));
+        (f.into(), p)
+    }
+
+    /// [`Self::sample_lanes`] at width 1.
+    pub fn sample(&self, mode: TransportMode, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
+        let (s, eta, reflect) = self.sample_lanes(mode, V3::from(wi), u1, V2::from(u2));
+        let lobes = (Lobes::GLOSSY_REFLECTION, Lobes::GLOSSY_TRANSMISSION);
+        super::dielectric::width_1_sample(s, eta, reflect, lobes)
     }
 }
 
@@ -290,6 +365,388 @@ impl Default for RoughDielectric {
             Spectrum::ONE,
             Spectrum::ONE,
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::lanes::testing::*;
+    use crate::bsdf::microfacet::MicrofacetType;
+    use crate::math::Pcg32;
+
+    /// The scalar code this file had before its lane form, frozen as the reference.
+    mod frozen {
+        use crate::bsdf::fresnel::{fresnel_dielectric, refract};
+        use crate::bsdf::microfacet::MicrofacetDistribution;
+        use crate::bsdf::{is_positive, BsdfSample, Lobes, TransportMode};
+        use crate::math::reflect;
+        use crate::spectrum::Spectrum;
+        use glam::{Vec2, Vec3};
+
+        pub(super) struct Frozen {
+            pub distribution: MicrofacetDistribution,
+            pub eta: f32,
+            pub specular_reflectance: Spectrum,
+            pub specular_transmittance: Spectrum,
+        }
+
+        #[inline]
+        fn flip_to_upper(v: Vec3) -> Vec3 {
+            if v.z < 0.0 {
+                -v
+            } else {
+                v
+            }
+        }
+
+        impl Frozen {
+            /// The distribution `sample` draws from for this `wi`.
+            #[inline]
+            fn sampling_distribution(&self, cos_theta_i: f32) -> MicrofacetDistribution {
+                if self.distribution.sample_visible {
+                    self.distribution
+                } else {
+                    self.distribution
+                        .scaled(1.2 - 0.2 * cos_theta_i.abs().sqrt())
+                }
+            }
+
+            /// The half vector of (wi, wo) oriented to the upper side, whether the pair is a reflection,
+            /// and the relative index η_t/η_i of the crossing; `None` for unusable configurations.
+            #[inline]
+            fn half_vector(&self, wi: Vec3, wo: Vec3) -> Option<(Vec3, bool, f32)> {
+                let (ci, co) = (wi.z, wo.z);
+                if ci == 0.0 || co == 0.0 {
+                    return None;
+                }
+                let is_reflect = ci * co > 0.0;
+                let eta = if ci > 0.0 { self.eta } else { 1.0 / self.eta };
+                let h = wi + wo * if is_reflect { 1.0 } else { eta };
+                let h = flip_to_upper(h.normalize_or_zero());
+                // Only facets seen from the front by both directions contribute.
+                if !(wi.dot(h) * ci > 0.0 && wo.dot(h) * co > 0.0) {
+                    return None;
+                }
+                Some((h, is_reflect, eta))
+            }
+
+            pub fn eval(&self, mode: TransportMode, wi: Vec3, wo: Vec3) -> Spectrum {
+                let Some((h, is_reflect, eta)) = self.half_vector(wi, wo) else {
+                    return Spectrum::ZERO;
+                };
+                let d = self.distribution.eval(h);
+                if d == 0.0 {
+                    return Spectrum::ZERO;
+                }
+                let f = fresnel_dielectric(wi.dot(h), self.eta).r;
+                let g1i = self.distribution.smith_g1(wi, h);
+                self.value(mode, wi, wo, (h, is_reflect, eta), f, d, g1i)
+            }
+
+            pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+                let Some(hv) = self.half_vector(wi, wo) else {
+                    return 0.0;
+                };
+                let f = fresnel_dielectric(wi.dot(hv.0), self.eta).r;
+                self.density(wi, wo, hv, f, None)
+            }
+
+            /// `(eval, pdf)` sharing the half vector, the Fresnel term, D(h) and G1(wi, h).
+            pub fn eval_pdf(&self, mode: TransportMode, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
+                let Some(hv) = self.half_vector(wi, wo) else {
+                    return (Spectrum::ZERO, 0.0);
+                };
+                let h = hv.0;
+                let d = self.distribution.eval(h);
+                let f = fresnel_dielectric(wi.dot(h), self.eta).r;
+                // G1 is even in its direction argument, so G1(wi, h) also serves the flipped wi of the pdf.
+                let g1i = self.distribution.smith_g1(wi, h);
+                let value = if d == 0.0 {
+                    Spectrum::ZERO
+                } else {
+                    self.value(mode, wi, wo, hv, f, d, g1i)
+                };
+                (value, self.density(wi, wo, hv, f, Some((d, g1i))))
+            }
+
+            /// f·|cos θo| for the half vector `(h, is_reflect, eta)`, Fresnel reflectance `f`, D(h) = `d`
+            /// and G1(wi, h) = `g1i` (Walter et al. 2007, eqs. 20–21).
+            #[allow(clippy::too_many_arguments)]
+            #[inline]
+            fn value(
+                &self,
+                mode: TransportMode,
+                wi: Vec3,
+                wo: Vec3,
+                (h, is_reflect, eta): (Vec3, bool, f32),
+                f: f32,
+                d: f32,
+                g1i: f32,
+            ) -> Spectrum {
+                let g = g1i * self.distribution.smith_g1(wo, h);
+                if is_reflect {
+                    self.specular_reflectance * (f * d * g / (4.0 * wi.z.abs()))
+                } else {
+                    let (dih, doh) = (wi.dot(h), wo.dot(h));
+                    let denom = dih + eta * doh;
+                    let scale = match mode {
+                        TransportMode::Radiance => 1.0 / (eta * eta),
+                        TransportMode::Importance => 1.0,
+                    };
+                    let v = ((1.0 - f) * d * g * eta * eta * dih * doh * scale
+                        / (wi.z * denom * denom))
+                        .abs();
+                    if v.is_finite() {
+                        self.specular_transmittance * v
+                    } else {
+                        Spectrum::ZERO
+                    }
+                }
+            }
+
+            /// The density of `sample` producing `wo`, for the half vector `(h, is_reflect, eta)` and
+            /// Fresnel reflectance `f`; `shared` = (D(h), G1(wi, h)) of the unscaled distribution when the
+            /// caller has them (used when that distribution is the sampling one).
+            #[inline]
+            fn density(
+                &self,
+                wi: Vec3,
+                wo: Vec3,
+                (h, is_reflect, eta): (Vec3, bool, f32),
+                f: f32,
+                shared: Option<(f32, f32)>,
+            ) -> f32 {
+                let doh = wo.dot(h);
+                // Jacobians dωh/dωo of reflection (1/(4 wo·h)) and refraction (η² wo·h / (wi·h + η wo·h)²).
+                let dh_dwo = if is_reflect {
+                    1.0 / (4.0 * doh)
+                } else {
+                    let denom = wi.dot(h) + eta * doh;
+                    eta * eta * doh / (denom * denom)
+                };
+                let wi_up = flip_to_upper(wi);
+                let pm = match shared {
+                    // Visible normals: D_wi(h) = D(h) G1(wi, h) |wi·h| / cos θi (the form of `pdf`).
+                    Some((d, g1i)) if self.distribution.sample_visible => {
+                        if wi_up.z <= 0.0 {
+                            0.0
+                        } else {
+                            d * g1i * wi_up.dot(h).abs() / wi_up.z
+                        }
+                    }
+                    _ => self.sampling_distribution(wi.z).pdf(wi_up, h),
+                };
+                let p = pm * if is_reflect { f } else { 1.0 - f } * dh_dwo.abs();
+                if p.is_finite() {
+                    p
+                } else {
+                    0.0
+                }
+            }
+
+            pub fn sample(
+                &self,
+                mode: TransportMode,
+                wi: Vec3,
+                u1: f32,
+                u2: Vec2,
+            ) -> Option<BsdfSample> {
+                let ci = wi.z;
+                if ci == 0.0 {
+                    return None;
+                }
+                let sd = self.sampling_distribution(ci);
+                let (m, pm) = sd.sample(flip_to_upper(wi), u2);
+                if !is_positive(pm) {
+                    return None;
+                }
+                let fr = fresnel_dielectric(wi.dot(m), self.eta);
+                let is_reflect = u1 <= fr.r;
+                let (wo, eta, pdf, mut weight, lobe_kind) = if is_reflect {
+                    let wo = reflect(wi, m);
+                    if !is_positive(ci * wo.z) {
+                        return None;
+                    }
+                    let pdf = pm * fr.r / (4.0 * wo.dot(m)).abs();
+                    (
+                        wo,
+                        1.0,
+                        pdf,
+                        self.specular_reflectance,
+                        Lobes::GLOSSY_REFLECTION,
+                    )
+                } else {
+                    let wo = refract(wi, m, fr.cos_theta_t, fr.eta_ti);
+                    if !is_positive(-ci * wo.z) {
+                        return None;
+                    }
+                    let (dih, doh) = (wi.dot(m), wo.dot(m));
+                    let denom = dih + fr.eta_it * doh;
+                    let pdf =
+                        pm * (1.0 - fr.r) * (fr.eta_it * fr.eta_it * doh / (denom * denom)).abs();
+                    let scale = match mode {
+                        TransportMode::Radiance => fr.eta_ti * fr.eta_ti,
+                        TransportMode::Importance => 1.0,
+                    };
+                    (
+                        wo,
+                        fr.eta_it,
+                        pdf,
+                        self.specular_transmittance * scale,
+                        Lobes::GLOSSY_TRANSMISSION,
+                    )
+                };
+                // With F / (1 − F) as the lobe choice the Fresnel factor cancels.
+                let w = if self.distribution.sample_visible {
+                    self.distribution.smith_g1(wo, m)
+                } else {
+                    (self.distribution.eval(m) * self.distribution.g(wi, wo, m) * wi.dot(m)
+                        / (pm * ci))
+                        .abs()
+                };
+                weight *= w;
+                if !(is_positive(pdf) && pdf.is_finite() && is_positive(w)) {
+                    return None;
+                }
+                Some(BsdfSample {
+                    wo,
+                    pdf,
+                    weight,
+                    eta,
+                    lobe: lobe_kind,
+                })
+            }
+        }
+    }
+
+    fn models() -> Vec<RoughDielectric> {
+        use MicrofacetType::{Beckmann, Ggx};
+        let tint = (Spectrum::new(0.9, 0.8, 0.7), Spectrum::new(0.6, 0.7, 0.8));
+        vec![
+            RoughDielectric::default(),
+            RoughDielectric::new(
+                MicrofacetDistribution::new(Ggx, 0.3, true),
+                1.5,
+                1.0,
+                tint.0,
+                tint.1,
+            ),
+            RoughDielectric::new(
+                MicrofacetDistribution::new(Beckmann, 0.2, false),
+                1.33,
+                1.000277,
+                Spectrum::ONE,
+                Spectrum::ONE,
+            ),
+            RoughDielectric::new(
+                MicrofacetDistribution::anisotropic(Ggx, 0.05, 0.4, false),
+                1.0,
+                1.7,
+                tint.0,
+                tint.1,
+            ),
+            RoughDielectric::new(
+                MicrofacetDistribution::anisotropic(Beckmann, 0.6, 0.15, true),
+                2.4,
+                1.0,
+                Spectrum::ONE,
+                tint.1,
+            ),
+        ]
+    }
+
+    fn frozen(b: &RoughDielectric) -> frozen::Frozen {
+        frozen::Frozen {
+            distribution: b.distribution,
+            eta: b.eta,
+            specular_reflectance: b.specular_reflectance,
+            specular_transmittance: b.specular_transmittance,
+        }
+    }
+
+    /// Width 1 (`eval`, `pdf`, `eval_pdf`, `sample`) is the frozen scalar code bit for bit on
+    /// random pairs from both sides (reflection and refraction pairs, near-horizon and exact
+    /// normal directions mixed in), in both transport modes; width 8 is width 1 lane by lane.
+    #[test]
+    fn lane_form_is_the_replaced_scalar_code_bit_for_bit() {
+        let mut r = Pcg32::new(18, 13);
+        let (mut nonzero, mut refracted, mut reflected) = (0, 0, 0);
+        for b in models() {
+            let old = frozen(&b);
+            for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                let cases: Vec<(Vec3, Vec3, f32, Vec2)> = (0..4000)
+                    .map(|_| {
+                        let (wi, wo) = (direction(&mut r), direction(&mut r));
+                        (wi, wo, r.next_f32(), Vec2::new(r.next_f32(), r.next_f32()))
+                    })
+                    .collect();
+                for &(wi, wo, u1, u2) in &cases {
+                    let label = format!("{b:?} {mode:?} {wi} {wo} {u1} {u2}");
+                    assert!(
+                        same3(b.eval(mode, wi, wo), old.eval(mode, wi, wo)),
+                        "{label}"
+                    );
+                    assert!(same(b.pdf(wi, wo), old.pdf(wi, wo)), "{label}");
+                    let (f, p) = b.eval_pdf(mode, wi, wo);
+                    let (f0, p0) = old.eval_pdf(mode, wi, wo);
+                    assert!(same3(f, f0) && same(p, p0), "{label}");
+                    nonzero += (f0 != Vec3::ZERO) as u32;
+                    let (a, n) = (b.sample(mode, wi, u1, u2), old.sample(mode, wi, u1, u2));
+                    assert_eq!(a.is_some(), n.is_some(), "{label}");
+                    if let (Some(a), Some(n)) = (a, n) {
+                        assert!(same3(a.wo, n.wo) && same3(a.weight, n.weight), "{label}");
+                        assert!(same(a.pdf, n.pdf) && same(a.eta, n.eta), "{label}");
+                        assert_eq!(a.lobe, n.lobe, "{label}");
+                        if a.lobe == Lobes::GLOSSY_TRANSMISSION {
+                            refracted += 1;
+                        } else {
+                            reflected += 1;
+                        }
+                    }
+                }
+                #[cfg(target_arch = "x86_64")]
+                if let Some(avx) = crate::lane::Avx2::detect() {
+                    for c in cases.chunks_exact(8) {
+                        let wi: [Vec3; 8] = std::array::from_fn(|k| c[k].0);
+                        let wo: [Vec3; 8] = std::array::from_fn(|k| c[k].1);
+                        let u1: [f32; 8] = std::array::from_fn(|k| c[k].2);
+                        let u2: [Vec2; 8] = std::array::from_fn(|k| c[k].3);
+                        let (f, p, e, q, (s, eta, refl)) = avx.run(|| {
+                            let (wi8, wo8) = (load3(avx, &wi), load3(avx, &wo));
+                            let (f, p) = b.eval_pdf_lanes(mode, wi8, wo8);
+                            let e = b.eval_lanes(mode, wi8, wo8);
+                            let q = b.pdf_lanes(wi8, wo8);
+                            let s = b.sample_lanes(mode, wi8, avx.load(&u1), load2(avx, &u2));
+                            (f, p, e, q, s)
+                        });
+                        let (ok, refl) = (s.ok.to_array(), refl.to_array());
+                        for k in 0..8 {
+                            let (wi1, wo1) = (V3::from(wi[k]), V3::from(wo[k]));
+                            let (f1, p1) = b.eval_pdf_lanes(mode, wi1, wo1);
+                            assert!(same3(lane3(f, k), f1.into()) && same(p.lane(k), p1));
+                            let e1 = b.eval_lanes(mode, wi1, wo1);
+                            assert!(same3(lane3(e, k), e1.into()));
+                            assert!(same(q.lane(k), b.pdf_lanes(wi1, wo1)));
+                            let one = b.sample_lanes(mode, wi1, u1[k], V2::from(u2[k]));
+                            assert_eq!((ok[k], refl[k]), (one.0.ok, one.2));
+                            if ok[k] {
+                                assert!(same3(lane3(s.wo, k), one.0.wo.into()));
+                                assert!(same3(lane3(s.weight, k), one.0.weight.into()));
+                                assert!(same(s.pdf.lane(k), one.0.pdf));
+                                assert!(same(eta.lane(k), one.1));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Not vacuous: many pairs carry light, both lobes are sampled often.
+        assert!(nonzero > 10_000, "{nonzero}");
+        assert!(
+            refracted > 5_000 && reflected > 1_000,
+            "{refracted} {reflected}"
+        );
     }
 }
 

@@ -13,8 +13,8 @@
 //! 4. **shade** each material's run of paths: light sample up to its shadow ray, BSDF sample,
 //!    Russian roulette. A run of ≥ 8 paths of a material with an 8-wide kernel (chosen per
 //!    material at load, [`Kernel`]: `diffuse`, [`kernels::diffuse`]; `roughconductor` and
-//!    `conductor`, and constant `plastic`/`roughplastic` leaves, under `twosided`/classic
-//!    `normalmap`, [`kernels::conductor`]; bare `plastic`/`roughplastic`,
+//!    `conductor`, the three dielectrics, and constant `plastic`/`roughplastic` leaves and
+//!    `diffuse` leaves, under `twosided`/classic `normalmap`, [`kernels::conductor`]; bare `plastic`/`roughplastic`,
 //!    [`kernels::plastic`]; the compensated microfacet normal map, [`kernels::mnm`]) goes 8 at a
 //!    time through it (AVX2 machines); every other material, a run's last < 8 paths and a
 //!    machine without AVX2 go through the 1-lane code lane by lane
@@ -65,7 +65,7 @@ pub struct LaneCounters {
     pub kernel_lanes: u64,
     /// The part of `kernel_lanes` shaded by the wrapper-chain driver ([`kernels::conductor`],
     /// [`kernels::vertex`]): `roughconductor`/`conductor` leaves, and `plastic`/`roughplastic`
-    /// leaves under `twosided` or classic `normalmap`.
+    /// and `diffuse` leaves under `twosided` or classic `normalmap`, and the dielectrics.
     pub conductor_lanes: u64,
     /// The part of `kernel_lanes` shaded by the compensated microfacet normal map's kernel
     /// ([`kernels::mnm`]).
@@ -254,8 +254,9 @@ enum Kernel {
     /// samples.
     Diffuse(crate::material::TexId, bool),
     /// `roughconductor` or `conductor` with constant parameters, bare or under `twosided` and
-    /// classic `normalmap`, and `plastic` or `roughplastic` with constant parameters under them
-    /// ([`kernels::conductor`]).
+    /// classic `normalmap`, `plastic` or `roughplastic` with constant parameters and `diffuse`
+    /// under them, and `dielectric`, `roughdielectric`, `thindielectric` with constant
+    /// parameters, bare or under them ([`kernels::conductor`]).
     Conductor(kernels::conductor::Material),
     /// `plastic` or `roughplastic`, bare (reflectances gathered per lane; [`kernels::plastic`]).
     Plastic(kernels::plastic::Material),

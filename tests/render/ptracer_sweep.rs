@@ -150,6 +150,14 @@ const SCENES: &[(&str, Entry)] = &[
     // The stream renderer's conductor kernels (tests/render/stream.rs): a smooth `conductor`
     // sphere in view (and classic normal maps).
     ("stream_conductors.xml", Exclude(Specular("conductor"))),
+    // Its wrapper-chain driver around dielectric leaves: smooth `dielectric` in view.
+    ("stream_dielectrics.xml", Exclude(Specular("dielectric"))),
+    // Its wrapper-chain driver around diffuse leaves: classic normal maps, compared converted
+    // (as nmap_plane.xml).
+    (
+        "stream_diffuse_wrapped.xml",
+        Compare(NONE, Nm::Microfacet, 1),
+    ),
     // The stream renderer's emitters in lanes (tests/render/stream.rs).
     ("stream_emitters.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("stream_emitters_env.xml", Compare(NONE, Nm::AsWritten, 1)),

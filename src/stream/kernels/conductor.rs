@@ -1,14 +1,16 @@
 //! The 8-wide `roughconductor` and `conductor` kernels, bare or under `twosided` (one nested
 //! BSDF for both sides) and classic `normalmap` wrappers, and the same wrappers around a
 //! `plastic` or `roughplastic` leaf of constant parameters (a bare plastic leaf goes to
-//! [`super::plastic`], which also gathers textured reflectances): what
+//! [`super::plastic`], which also gathers textured reflectances), and around a `diffuse` leaf
+//! (constant or textured reflectance, gathered per lane by the driver; a bare `diffuse` goes to
+//! [`super::diffuse`]): what
 //! [`PathState::scatter`](crate::integrator::path::PathState::scatter) does at such a vertex, for
 //! 8 paths at a time.
 //!
 //! A material qualifies when its tree is at most [`MAX_WRAPS`] wrappers (`twosided` with
-//! `front == back`, `normalmap`) around a `roughconductor`, `conductor`, `plastic` or
-//! `roughplastic` leaf whose parameters
-//! are all constant (a textured `specular_reflectance` or roughness has no kernel: such a
+//! `front == back`, `normalmap`) around a `diffuse` leaf, or a `roughconductor`, `conductor`,
+//! `plastic`, `roughplastic`, `dielectric`, `roughdielectric` or `thindielectric` leaf whose
+//! parameters are all constant (a textured `specular_reflectance` or roughness has no kernel: such a
 //! material is shaded lane by lane, as every material without a kernel, and its paths show in
 //! `LaneCounters::shade_used − kernel_lanes`). The normal maps' texture lookups are done lane
 //! by lane; their perturbed frames, the side tests and the BSDF in lanes
@@ -21,11 +23,22 @@
 //! exactly as `PathState::scatter` asks `Lobes::is_smooth`. The plastic leaves draw `u1` (the
 //! lobe) before `u2`, as `Bsdf::sample` does; `plastic`'s specular lobe is a delta lobe per lane
 //! (the mask [`sample`] returns, passed to `PathState::advance`).
+//!
+//! Dielectric leaves (radiance transport, the path integrator's): `dielectric` and
+//! `thindielectric` draw `u1` only and are delta lobes (no light sample); `roughdielectric`
+//! draws `u1` then `u2` and takes light samples. A refracted direction leaves on the other side;
+//! the side tests (`SurfaceBsdf`), the wrappers and the ray origin
+//! (`SurfaceInteraction::spawn_ray`) are the same operations for either side, and [`sample`]
+//! returns each lane's η for `PathState::advance` (Russian roulette uses the product of the
+//! crossings' η²).
 
 use crate::bsdf::lanes::LaneBsdfSample;
 use crate::bsdf::normalmap::lanes as nmap;
 use crate::bsdf::plastic::splat3;
-use crate::bsdf::{BsdfNode, Conductor, Plastic, RoughConductor, RoughPlastic};
+use crate::bsdf::{
+    BsdfNode, Conductor, Dielectric, Diffuse, Plastic, RoughConductor, RoughDielectric,
+    RoughPlastic, ThinDielectric, TransportMode,
+};
 use crate::lane::frame::Frame;
 use crate::lane::vec::{V2, V3};
 use crate::lane::Lane;
@@ -43,6 +56,15 @@ pub(crate) enum Leaf {
     Plastic(Plastic),
     /// `roughplastic`: a diffuse and a glossy lobe, chosen per lane by `u1`.
     RoughPlastic(RoughPlastic),
+    /// `diffuse` with its reflectance texture (constant or not: the driver evaluates it per
+    /// lane, as `Materials::build_at` does, and passes it as `rho`).
+    Diffuse(TexId),
+    /// `dielectric`: delta reflection and refraction, chosen per lane by `u1`.
+    Dielectric(Dielectric),
+    /// `roughdielectric`: glossy reflection and refraction (the lobe chosen per lane by `u1`).
+    RoughDielectric(RoughDielectric),
+    /// `thindielectric`: delta reflection and straight transmission, chosen per lane by `u1`.
+    ThinDielectric(ThinDielectric),
 }
 
 /// A wrapper around the leaf (outermost first in [`Material::wraps`]).
@@ -82,9 +104,13 @@ impl Material {
                         BsdfNode::Conductor(b) => Leaf::Smooth(b),
                         BsdfNode::Plastic(b) => Leaf::Plastic(b),
                         BsdfNode::RoughPlastic(b) => Leaf::RoughPlastic(b),
+                        BsdfNode::Dielectric(b) => Leaf::Dielectric(b),
+                        BsdfNode::RoughDielectric(b) => Leaf::RoughDielectric(b),
+                        BsdfNode::ThinDielectric(b) => Leaf::ThinDielectric(b),
                         _ => return None,
                     };
                 }
+                MaterialNode::Diffuse { reflectance } => break Leaf::Diffuse(*reflectance),
                 MaterialNode::TwoSided { front, back } if front == back => {
                     id = *front;
                     Wrap::TwoSided
@@ -124,16 +150,37 @@ impl Material {
         &self.wraps[..self.n_wraps]
     }
 
-    /// The leaf's `sample` draws the lobe choice `u1` (`Bsdf::sample`: the coated models).
+    /// The leaf's `sample` draws the lobe choice `u1` (`Bsdf::sample`: the coated models and
+    /// the dielectrics).
     #[inline(always)]
     pub(crate) fn draws_u1(&self) -> bool {
-        matches!(self.leaf, Leaf::Plastic(_) | Leaf::RoughPlastic(_))
+        matches!(
+            self.leaf,
+            Leaf::Plastic(_)
+                | Leaf::RoughPlastic(_)
+                | Leaf::Dielectric(_)
+                | Leaf::RoughDielectric(_)
+                | Leaf::ThinDielectric(_)
+        )
     }
 
-    /// The leaf's `sample` draws `u2` (all but the smooth `conductor`).
+    /// The `diffuse` leaf's reflectance texture, evaluated per lane by the driver.
+    #[inline(always)]
+    pub(crate) fn reflectance(&self) -> Option<TexId> {
+        match self.leaf {
+            Leaf::Diffuse(t) => Some(t),
+            _ => None,
+        }
+    }
+
+    /// The leaf's `sample` draws `u2` (all but the smooth `conductor`, `dielectric` and
+    /// `thindielectric`, which draw `u1` only).
     #[inline(always)]
     pub(crate) fn draws_u2(&self) -> bool {
-        !matches!(self.leaf, Leaf::Smooth(_))
+        !matches!(
+            self.leaf,
+            Leaf::Smooth(_) | Leaf::Dielectric(_) | Leaf::ThinDielectric(_)
+        )
     }
 }
 
@@ -157,13 +204,15 @@ fn valid<L: Lane>(s: &LaneBsdfSample<L>) -> L::Mask {
 }
 
 /// `f · |cos θo|` and the density of the material's BSDF for local `wi`, `wo` (the shading
-/// frame's), `normals[j]` the decoded normal of wrapper `j` where it is a normal map: the
+/// frame's), `normals[j]` the decoded normal of wrapper `j` where it is a normal map, `rho` the
+/// `diffuse` leaf's reflectance per lane (unused by the other leaves): the
 /// wrappers' `eval_pdf` (`bsdf::twosided`, `bsdf::normalmap`) down to the leaf's lane form and
 /// the shadowing terms back up, innermost first. 0 where a normal map rejects `wo`.
 #[inline(always)]
 pub(crate) fn eval_pdf<L: Lane>(
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
+    rho: V3<L>,
     wi: V3<L>,
     wo: V3<L>,
 ) -> (V3<L>, L) {
@@ -199,6 +248,11 @@ pub(crate) fn eval_pdf<L: Lane>(
         Leaf::Smooth(b) => b.eval_pdf_lanes(wi, wo),
         Leaf::Plastic(b) => b.eval_pdf_lanes(wi, wo),
         Leaf::RoughPlastic(b) => b.eval_pdf_lanes(wi, wo),
+        Leaf::Diffuse(_) => Diffuse::eval_pdf_with(rho, wi, wo),
+        // The path integrator's context: radiance transport.
+        Leaf::RoughDielectric(b) => b.eval_pdf_lanes(TransportMode::Radiance, wi, wo),
+        Leaf::Dielectric(b) => b.eval_pdf_lanes(wi, wo),
+        Leaf::ThinDielectric(b) => b.eval_pdf_lanes(wi, wo),
     };
     for s in shadow[..mat.n_wraps].iter().rev().flatten() {
         f = f.scale(*s);
@@ -209,19 +263,22 @@ pub(crate) fn eval_pdf<L: Lane>(
     (f, pdf)
 }
 
-/// The material's BSDF sample from local `wi` (see [`eval_pdf`] for `normals`): the wrappers'
+/// The material's BSDF sample from local `wi` (see [`eval_pdf`] for `normals` and `rho`): the wrappers'
 /// `sample` down to the leaf's lane form and back up, with `Bsdf::sample`'s guard at every
-/// node. `u1` is drawn by the plastic leaves only, `u2` by all but the smooth conductor. Also
-/// returns the lanes whose sample went through a delta lobe (all for `conductor`, those that
-/// chose the specular lobe for `plastic`, none otherwise).
+/// node. `u1` is drawn by the plastic and dielectric leaves, `u2` by all but the smooth
+/// conductor and the smooth and thin dielectrics. Also returns the lanes whose sample went
+/// through a delta lobe (all for `conductor`, `dielectric` and `thindielectric`, those that
+/// chose the specular lobe for `plastic`, none otherwise) and the relative index η of each
+/// lane's crossing (`BsdfSample::eta`: 1 but where a dielectric refracted).
 #[inline(always)]
 pub(crate) fn sample<L: Lane>(
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
+    rho: V3<L>,
     wi: V3<L>,
     u1: L,
     u2: V2<L>,
-) -> (LaneBsdfSample<L>, L::Mask) {
+) -> (LaneBsdfSample<L>, L::Mask, L) {
     let k = |c: f32| wi.z.splat(c);
     let mut wi = wi;
     let none = k(0.0).ne(k(0.0));
@@ -247,17 +304,29 @@ pub(crate) fn sample<L: Lane>(
         }
     }
     let all = k(0.0).eq(k(0.0));
-    let (mut s, delta) = match &mat.leaf {
-        Leaf::Rough(b) => (b.sample_lanes(wi, u1, u2), none),
-        Leaf::Smooth(b) => (b.sample_lanes(wi, u1, u2), all),
+    let one = k(1.0);
+    let (mut s, delta, eta) = match &mat.leaf {
+        Leaf::Rough(b) => (b.sample_lanes(wi, u1, u2), none, one),
+        Leaf::Smooth(b) => (b.sample_lanes(wi, u1, u2), all, one),
         Leaf::Plastic(b) => {
             let (rho, spec) = (
                 splat3(wi.z, b.diffuse_reflectance),
                 splat3(wi.z, b.specular_reflectance),
             );
-            b.sample_with(rho, spec, wi, u1, u2)
+            let (s, delta) = b.sample_with(rho, spec, wi, u1, u2);
+            (s, delta, one)
         }
-        Leaf::RoughPlastic(b) => (b.sample_lanes(wi, u1, u2), none),
+        Leaf::RoughPlastic(b) => (b.sample_lanes(wi, u1, u2), none, one),
+        Leaf::Diffuse(_) => (Diffuse::sample_with(rho, wi, u2), none, one),
+        Leaf::Dielectric(b) => {
+            let (s, eta, _) = b.sample_lanes(TransportMode::Radiance, wi, u1, u2);
+            (s, all, eta)
+        }
+        Leaf::RoughDielectric(b) => {
+            let (s, eta, _) = b.sample_lanes(TransportMode::Radiance, wi, u1, u2);
+            (s, none, eta)
+        }
+        Leaf::ThinDielectric(b) => (b.sample_lanes(wi, u1, u2).0, all, one),
     };
     s.ok = s.ok & valid(&s);
     for (j, w) in mat.wraps().iter().enumerate().rev() {
@@ -277,7 +346,7 @@ pub(crate) fn sample<L: Lane>(
         }
         s.ok = s.ok & valid(&s);
     }
-    (s, delta)
+    (s, delta, eta)
 }
 
 #[cfg(test)]
@@ -312,7 +381,7 @@ mod tests {
         ]
     }
 
-    fn leaves() -> [Leaf; 6] {
+    fn leaves() -> [Leaf; 11] {
         let metal = |d| RoughConductor {
             distribution: d,
             eta: Spectrum::new(0.2, 0.92, 1.1),
@@ -359,7 +428,29 @@ mod tests {
                 1.000277,
                 false,
             )),
+            Leaf::Diffuse(0),
+            Leaf::Dielectric(Dielectric::default()),
+            Leaf::Dielectric(Dielectric::new(
+                1.0,
+                1.33,
+                Spectrum::ONE,
+                Spectrum::splat(0.9),
+            )),
+            Leaf::RoughDielectric(RoughDielectric::new(
+                MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),
+                1.5,
+                1.0,
+                Spectrum::new(0.9, 0.8, 1.0),
+                Spectrum::ONE,
+            )),
+            Leaf::ThinDielectric(ThinDielectric::default()),
         ]
+    }
+
+    /// A `diffuse` leaf's reflectance for a test case: varies with the case (per lane at width
+    /// 8), as a texture's would.
+    fn rho_of(wi: Vec3, wo: Vec3) -> Vec3 {
+        Vec3::new(0.9 * wi.x.abs(), 0.5, 0.25 + 0.5 * wo.y.abs())
     }
 
     fn material(wraps: &[Wrap], leaf: Leaf) -> Material {
@@ -369,14 +460,22 @@ mod tests {
             wraps: w,
             n_wraps: wraps.len(),
             leaf,
-            smooth: !matches!(leaf, Leaf::Smooth(_)),
+            smooth: !matches!(
+                leaf,
+                Leaf::Smooth(_) | Leaf::Dielectric(_) | Leaf::ThinDielectric(_)
+            ),
         }
     }
 
-    /// The scalar BSDF tree of `mat` with the decoded normals `normals`; returns its root.
-    fn tree(arena: &mut BsdfArena, mat: &Material, normals: &[Vec3; MAX_WRAPS]) -> u32 {
+    /// The scalar BSDF tree of `mat` with the decoded normals `normals` (and a `diffuse` leaf's
+    /// reflectance `rho`); returns its root.
+    fn tree(arena: &mut BsdfArena, mat: &Material, normals: &[Vec3; MAX_WRAPS], rho: Vec3) -> u32 {
         arena.clear();
         let mut id = arena.push(match mat.leaf {
+            Leaf::Diffuse(_) => BsdfNode::Diffuse(Diffuse { reflectance: rho }),
+            Leaf::Dielectric(b) => BsdfNode::Dielectric(b),
+            Leaf::RoughDielectric(b) => BsdfNode::RoughDielectric(b),
+            Leaf::ThinDielectric(b) => BsdfNode::ThinDielectric(b),
             Leaf::Rough(b) => BsdfNode::RoughConductor(b),
             Leaf::Smooth(b) => BsdfNode::Conductor(b),
             Leaf::Plastic(b) => BsdfNode::Plastic(b),
@@ -431,12 +530,13 @@ mod tests {
             for leaf in leaves() {
                 let mat = material(&wraps, leaf);
                 for (c, &(wi, wo, ns)) in cases.iter().enumerate() {
-                    let root = tree(&mut arena, &mat, &ns);
+                    let rho = rho_of(wi, wo);
+                    let root = tree(&mut arena, &mat, &ns, rho);
                     let bsdf = arena.bsdf(root);
                     let mut sampler = Sampler::from_seed(c as u64, 5);
                     let (f0, p0) = bsdf.eval_pdf(&ctx, wi, wo, &mut sampler);
                     let n1 = ns.map(V3::from);
-                    let (f1, p1) = eval_pdf(&mat, &n1, V3::from(wi), V3::from(wo));
+                    let (f1, p1) = eval_pdf(&mat, &n1, rho.into(), V3::from(wi), V3::from(wo));
                     assert!(
                         same3(f0, f1.into()) && same(p0, p1),
                         "{mat:?} {wi} {wo} {ns:?}"
@@ -447,11 +547,13 @@ mod tests {
                     let u1 = if mat.draws_u1() { draws.next_1d() } else { 0.0 };
                     let u2 = draws.next_2d();
                     let s0 = bsdf.sample(&ctx, wi, &mut sampler);
-                    let (s1, d1) = sample(&mat, &n1, V3::from(wi), u1, V2::from(u2));
+                    let (s1, d1, e1) =
+                        sample(&mat, &n1, rho.into(), V3::from(wi), u1, V2::from(u2));
                     assert_eq!(s0.is_some(), s1.ok, "{mat:?} {wi} {ns:?}");
                     if let Some(s0) = s0 {
                         sampled += 1;
                         assert_eq!(s0.lobe.intersects(Lobes::DELTA), d1, "{mat:?} {wi}");
+                        assert!(same(s0.eta, e1), "{mat:?} {wi}");
                         assert!(same3(s0.wo, s1.wo.into()) && same(s0.pdf, s1.pdf));
                         assert!(same3(s0.weight, s1.weight.into()), "{mat:?} {wi}");
                     }
@@ -466,20 +568,24 @@ mod tests {
                         let u: [Vec2; 8] =
                             std::array::from_fn(|k| Vec2::new(wo[k].x.abs(), wi[k].y.abs()));
                         let u1: [f32; 8] = std::array::from_fn(|k| wo[k].y.abs());
-                        let (f, p, (s, d)) = avx.run(|| {
+                        let rho: [Vec3; 8] = std::array::from_fn(|k| rho_of(wi[k], wo[k]));
+                        let (f, p, (s, d, e)) = avx.run(|| {
                             let n8 = n.map(|v| load3(avx, &v));
                             let (wi8, wo8) = (load3(avx, &wi), load3(avx, &wo));
-                            let (f, p) = eval_pdf(&mat, &n8, wi8, wo8);
+                            let rho8 = load3(avx, &rho);
+                            let (f, p) = eval_pdf(&mat, &n8, rho8, wi8, wo8);
                             let u1 = avx.load(&u1);
-                            (f, p, sample(&mat, &n8, wi8, u1, load2(avx, &u)))
+                            (f, p, sample(&mat, &n8, rho8, wi8, u1, load2(avx, &u)))
                         });
                         let (ok, d) = (s.ok.to_array(), d.to_array());
                         for k in 0..8 {
                             let n1 = std::array::from_fn(|j| V3::from(n[j][k]));
                             let (wi1, wo1) = (V3::from(wi[k]), V3::from(wo[k]));
-                            let (f1, p1) = eval_pdf(&mat, &n1, wi1, wo1);
+                            let r1 = V3::from(rho[k]);
+                            let (f1, p1) = eval_pdf(&mat, &n1, r1, wi1, wo1);
                             assert!(same3(lane3(f, k), f1.into()) && same(p.lane(k), p1));
-                            let (s1, d1) = sample(&mat, &n1, wi1, u1[k], V2::from(u[k]));
+                            let (s1, d1, e1) = sample(&mat, &n1, r1, wi1, u1[k], V2::from(u[k]));
+                            assert!(same(e.lane(k), e1));
                             assert_eq!((ok[k], d[k]), (s1.ok, d1));
                             assert!(same3(lane3(s.wo, k), s1.wo.into()));
                             assert!(same(s.pdf.lane(k), s1.pdf));

@@ -7,10 +7,10 @@
 //! 2. [`incident`], 8-wide: the incident direction in the shading frame and the strict-normal
 //!    side test of `SurfaceBsdf::new` (a path that fails it ends here, drawing nothing);
 //! 3. each path's random numbers in the scalar renderer's order (light selection `u_sel`, light
-//!    point `u`, BSDF sample `u2`): 8-wide from the 8 paths' PCG32 states gathered into one
-//!    `lane::pcg::Pcg` and scattered back, when every stream is plain (`Sampler::plain_parts`:
-//!    `independent`, and `stratified` once its stratified dimensions are spent), else lane by
-//!    lane from each `Sampler`; then lane by lane: the reflectance texture, the light selection,
+//!    point `u`, BSDF sample `u2`): 8-wide from the 8 paths' gathered PCG32 states
+//!    ([`super::draws`]: a path whose stream is not plain PCG32, a `stratified` path at its
+//!    first vertex, draws lane by lane from its `Sampler`); then lane by lane: the reflectance
+//!    texture, the light selection,
 //!    and the light point of every emitter through its own scalar `sample_direct`, except area
 //!    lights of a constant radiance on triangle meshes, rectangles and spheres (seen from
 //!    outside): their triangle is picked here (`Shape::pick_triangle`) and the point sampled
@@ -215,9 +215,9 @@ pub(crate) mod x8 {
     use crate::geometry::Ray;
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
-    use crate::lane::pcg::Pcg;
     use crate::lane::{Avx2, F32x8};
     use crate::stream::batch::Batch;
+    use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
     use glam::{Vec2, Vec3};
@@ -285,46 +285,21 @@ pub(crate) mod x8 {
         let (wi, front) = incident(&surf);
         let front = front.to_array();
 
-        // 3a. Each path's random numbers in the scalar renderer's order: `u_sel` and `u` (x, y)
-        // when it takes a light sample, then `u2` (x, y). 8-wide from the 8 paths' PCG32 states
-        // gathered into one `Pcg` (and scattered back) when every front path's stream is plain
-        // (`Sampler::plain_parts`: always under `independent`); lane by lane otherwise (a
-        // `stratified` path whose stratified 2-D draws are not spent yet). A path that failed
-        // the side test draws nothing (its lane is computed and dropped).
+        // 3a. Each path's random numbers in the scalar renderer's order (`u_sel` and `u` when it
+        // takes a light sample, then `u2`), 8-wide from the gathered PCG32 states where the
+        // streams are plain (`kernels::draws`). A path that failed the side test draws nothing
+        // (its lane is computed and dropped).
         let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
-        let mut rnd = [[0.0f32; 8]; 5];
-        let mut parts = [(0u64, 1u64); 8];
-        let mut plain = true;
-        for (k, &i) in ids.iter().enumerate() {
-            if front[k] {
-                match b.sampler[i as usize].plain_parts() {
-                    Some(pp) => parts[k] = pp,
-                    None => {
-                        plain = false;
-                        break;
-                    }
-                }
-            }
-        }
-        if plain {
-            let inc = parts.map(|p| p.1);
-            let mut rng =
-                Pcg::<F32x8>::from_parts(avx.load_u64(&parts.map(|p| p.0)), avx.load_u64(&inc));
-            for r in &mut rnd[if nee { 0 } else { 3 }..] {
-                *r = rng.next_f32().to_array();
-            }
-            let state = rng.parts().0.to_array();
-            for (k, &i) in ids.iter().enumerate() {
-                if front[k] {
-                    b.sampler[i as usize].resume(state[k], inc[k]);
-                }
-            }
-        }
+        let draws = Draws {
+            light: nee,
+            u1: false,
+            u2: true,
+        };
+        let num = draw(avx, &mut b.sampler, ids, &front, draws);
 
         // 3b. Textures and light points, lane by lane in each path's order (the light points
         // completed 8-wide by the shared gather of `kernels::light`).
         let (mut refl, mut tp) = <(Cols3, Cols3)>::default();
-        let (mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8]);
         let light_only = cfg.strategy == Strategy::LightOnly;
         gather.reset();
         for (k, &i) in ids.iter().enumerate() {
@@ -336,22 +311,9 @@ pub(crate) mod x8 {
             let si = si_of(b, i as u32);
             refl.set(k, reflectance(scene, mat.reflectance, &si));
             tp.set(k, b.state[i].throughput);
-            let sampler = &mut b.sampler[i];
-            let (u_sel, u, u2) = if plain {
-                let r = |j: usize| rnd[j][k];
-                (r(0), Vec2::new(r(1), r(2)), Vec2::new(r(3), r(4)))
-            } else {
-                let (u_sel, u) = if nee {
-                    (sampler.next_1d(), sampler.next_2d())
-                } else {
-                    (0.0, Vec2::ZERO)
-                };
-                (u_sel, u, sampler.next_2d())
-            };
-            ux[k] = u2.x;
-            uy[k] = u2.y;
             if nee {
-                gather.add(k, scene, mat.lights, light_only, u_sel, u, si.p);
+                let u = Vec2::new(num.u[0][k], num.u[1][k]);
+                gather.add(k, scene, mat.lights, light_only, num.u_sel[k], u, si.p);
             }
         }
 
@@ -359,7 +321,8 @@ pub(crate) mod x8 {
         let refl8 = refl.load(avx);
         let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
         let lo = light(&surf, wi, refl8, tp.load(avx), &lp);
-        let so = sample(&surf, wi, refl8, V2::new(avx.load(&ux), avx.load(&uy)));
+        let u2 = V2::new(avx.load(&num.u2[0]), avx.load(&num.u2[1]));
+        let so = sample(&surf, wi, refl8, u2);
 
         // 5. Scatter back.
         let (l_ok, l_o, l_d, l_tmax, l_c) = (

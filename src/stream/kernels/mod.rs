@@ -9,14 +9,16 @@
 //! instantiation of the same `lane` functions; what the scalar renderer does with plain glam
 //! arithmetic is mirrored here operation for operation and checked lane by lane in the unit
 //! tests below and by `tests/render/stream.rs`). Random numbers follow each path's own stream in
-//! the scalar renderer's order: the `diffuse` kernel draws them 8-wide from the chunk's gathered
-//! PCG32 states, the other kernels from each path's `Sampler`; the parts of a vertex that branch
+//! the scalar renderer's order, drawn 8-wide from the chunk's gathered PCG32 states by the one
+//! helper of all kernels ([`draws`]); the parts of a vertex that branch
 //! on data (light selection, the emitter's own sampling, Russian roulette) run lane by lane
 //! through the very functions the scalar renderer calls.
 //!
 //! - [`diffuse`]: `diffuse` with next-event estimation.
-//! - [`conductor`]: `roughconductor` (with next-event estimation), `conductor`, and constant
-//!   `plastic`/`roughplastic` leaves, under `twosided` and classic `normalmap`, in lanes;
+//! - [`conductor`]: `roughconductor` (with next-event estimation), `conductor`, constant
+//!   `plastic`/`roughplastic` leaves, `diffuse` leaves (reflectance gathered per lane) and
+//!   `dielectric`/`roughdielectric`/`thindielectric` leaves (refraction: the crossing's η goes
+//!   to `PathState::advance`), bare or under `twosided` and classic `normalmap`, in lanes;
 //!   [`vertex`]: their 8-wide driver.
 //! - [`plastic`]: bare `plastic` and `roughplastic` (textured reflectances gathered) with
 //!   next-event estimation.
@@ -25,11 +27,13 @@
 //! - [`light`]: area lights on triangle meshes, rectangles and spheres sampled in lanes, and the
 //!   one light-point gather of all kernels (`light::x8::Gather`);
 //!   [`emitters`]: `point`, `spot`, `directional`, `constant` and `envmap` in lanes.
+//! - [`draws`]: a vertex's random numbers for 8 paths, 8-wide.
 //! - [`ray`]: robust ray origins in lanes.
 //! - [`mis`]: the power heuristic in lanes.
 
 pub(crate) mod conductor;
 pub(crate) mod diffuse;
+pub(crate) mod draws;
 pub(crate) mod emitters;
 pub(crate) mod light;
 pub(crate) mod mis;

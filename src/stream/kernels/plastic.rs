@@ -13,9 +13,10 @@
 //!
 //! Per chunk of 8 paths, the steps of the `diffuse` kernel ([`super::diffuse`]):
 //! 1. gather the surface interactions; [`incident`] and its side test, 8-wide;
-//! 2. lane by lane: the reflectance textures, then each path's numbers in the scalar order
-//!    (light selection `u_sel`, light point `u`, lobe choice `u1`, BSDF sample `u2`) and the
-//!    light point (through the shared gather `super::light::x8::Gather`: area lights of a
+//! 2. lane by lane: the reflectance textures; each path's numbers in the scalar order (light
+//!    selection `u_sel`, light point `u`, lobe choice `u1`, BSDF sample `u2`), 8-wide from the
+//!    gathered PCG32 states ([`super::draws`]); lane by lane: the light point (through the
+//!    shared gather `super::light::x8::Gather`: area lights of a
 //!    constant radiance on triangle meshes, rectangles and spheres 8-wide, every other emitter by
 //!    its own scalar `sample_direct`);
 //! 3. [`light`] and [`sample`], 8-wide: the coating's value and density toward the light point,
@@ -196,8 +197,10 @@ pub(crate) mod x8 {
     use crate::spectrum::Spectrum;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::diffuse::{incident, reflectance};
+    use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
+    use glam::Vec2;
 
     /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (all of material
     /// `mat`) 8 at a time; returns how many it shaded. Enters [`Avx2::run`] itself.
@@ -291,39 +294,36 @@ pub(crate) mod x8 {
             spec.set(k, tex(mat.specular, spec0));
             tp.set(k, b.state[i as usize].throughput);
         }
-        // The light points (`u_sel`, `u` from each path's sampler), through the shared gather
-        // of `kernels::light` (area lights on meshes, rectangles and spheres 8-wide).
+        // Each path's numbers (`u_sel`, `u` with a light sample, `u1`, `u2`), 8-wide from the
+        // gathered PCG32 states where the streams are plain (`kernels::draws`), then the light
+        // points through the shared gather of `kernels::light` (area lights on meshes,
+        // rectangles and spheres 8-wide).
         let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
+        let draws = Draws {
+            light: nee,
+            u1: true,
+            u2: true,
+        };
+        let num = draw(avx, &mut b.sampler, ids, &front, draws);
         let lp = if nee {
             let light_only = cfg.strategy == Strategy::LightOnly;
             gather.reset();
-            for (k, &i) in ids.iter().enumerate() {
-                if front[k] {
-                    let sampler = &mut b.sampler[i as usize];
-                    let u_sel = sampler.next_1d();
-                    let u = sampler.next_2d();
-                    gather.add(k, scene, lights, light_only, u_sel, u, p.get(k));
+            for (k, &f) in front.iter().enumerate() {
+                if f {
+                    let u = Vec2::new(num.u[0][k], num.u[1][k]);
+                    gather.add(k, scene, lights, light_only, num.u_sel[k], u, p.get(k));
                 }
             }
             Some(gather.finish(avx, scene, surf.p, &mut b.light_lanes))
         } else {
             None
         };
-        let (mut u1, mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
-        for (k, &i) in ids.iter().enumerate() {
-            if front[k] {
-                let sampler = &mut b.sampler[i as usize];
-                u1[k] = sampler.next_1d();
-                let u2 = sampler.next_2d();
-                (ux[k], uy[k]) = (u2.x, u2.y);
-            }
-        }
 
         // 3. The kernel.
         let (rho8, spec8) = (rho.load(avx), spec.load(avx));
         let lo = lp.map(|lp| light(&mat.coating, &surf, wi, rho8, spec8, tp.load(avx), &lp));
-        let u2 = V2::new(avx.load(&ux), avx.load(&uy));
-        let so = sample(&mat.coating, &surf, wi, rho8, spec8, avx.load(&u1), u2);
+        let u2 = V2::new(avx.load(&num.u2[0]), avx.load(&num.u2[1]));
+        let so = sample(&mat.coating, &surf, wi, rho8, spec8, avx.load(&num.u1), u2);
 
         // 4. Scatter back.
         if let Some(lo) = lo {

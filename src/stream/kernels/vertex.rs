@@ -2,9 +2,10 @@
 //! steps of the `diffuse` kernel (`super::diffuse`, whose module doc describes them):
 //! 1. gather the surface interactions into SoA columns and run `SurfaceBsdf::new`'s side test
 //!    in lanes ([`super::diffuse::incident`]);
-//! 2. lane by lane, in each path's order: the normal maps' texture lookups, the light
-//!    selection `u_sel` and light point `u` (when the material takes light samples), the BSDF's
-//!    `u1` (plastic leaves) and `u2` (all but the smooth conductor); light points through the
+//! 2. the random numbers in each path's order, 8-wide from the gathered PCG32 states
+//!    ([`super::draws`]): the light selection `u_sel` and light point `u` (when the material
+//!    takes light samples), the BSDF's `u1` (plastic leaves) and `u2` (all but the smooth
+//!    conductor); lane by lane: the normal maps' texture lookups, the light points through the
 //!    shared gather ([`super::light::x8::Gather`]: area lights of a constant radiance on
 //!    triangle meshes, rectangles and spheres 8-wide, every other emitter lane by lane);
 //! 3. 8-wide: the BSDF value and density toward the light point, the power heuristic, the
@@ -21,18 +22,19 @@ use crate::lane::Lane;
 /// Next-event estimation at the material's BSDF: `nee::prepare_light` after its call to
 /// `sample_emitter` (`SurfaceBsdf::eval_pdf`'s side test, the BSDF toward the light point, the
 /// zero test), and the MIS-weighted contribution and shadow ray of `PathState::scatter`, in
-/// the operations of `diffuse::light`.
+/// the operations of `diffuse::light`. `rho` is a `diffuse` leaf's reflectance per lane.
 #[inline(always)]
 pub(crate) fn light<L: Lane>(
     s: &Surface<L>,
     wi: V3<L>,
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
+    rho: V3<L>,
     throughput: V3<L>,
     lp: &LightPoint<L>,
 ) -> LightOut<L> {
     let (wo, consistent) = light_direction(s, lp);
-    let (f, bsdf_pdf) = conductor::eval_pdf(mat, normals, wi, wo);
+    let (f, bsdf_pdf) = conductor::eval_pdf(mat, normals, rho, wi, wo);
     light_out(s, throughput, lp, f, bsdf_pdf, consistent)
 }
 
@@ -46,6 +48,8 @@ pub(crate) struct SampleOut<L: Lane> {
     pub pdf: L,
     pub weight: V3<L>,
     pub delta: L::Mask,
+    /// The relative index of the crossing (1 but where a dielectric refracted).
+    pub eta: L,
     pub o: V3<L>,
 }
 
@@ -57,11 +61,12 @@ pub(crate) fn sample<L: Lane>(
     wi: V3<L>,
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
+    rho: V3<L>,
     u1: L,
     u2: crate::lane::vec::V2<L>,
 ) -> SampleOut<L> {
     let k = |c: f32| wi.z.splat(c);
-    let (bs, delta) = conductor::sample(mat, normals, wi, u1, u2);
+    let (bs, delta, eta) = conductor::sample(mat, normals, rho, wi, u1, u2);
     let wo_world = s.frame.to_world(bs.wo);
     let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(k(0.0));
     SampleOut {
@@ -70,6 +75,7 @@ pub(crate) fn sample<L: Lane>(
         pdf: bs.pdf,
         weight: bs.weight,
         delta,
+        eta,
         o: offset_origin(s.p, s.ng, wo_world),
     }
 }
@@ -97,9 +103,10 @@ pub(crate) mod x8 {
     use crate::scene::Scene;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::diffuse::{incident, reflectance};
+    use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
-    use glam::Vec3;
+    use glam::{Vec2, Vec3};
 
     /// Lane `k` of a vector of lanes.
     #[inline(always)]
@@ -154,13 +161,23 @@ pub(crate) mod x8 {
         let (wi, front) = incident(&surf);
         let front = front.to_array();
 
-        // 2. Normal maps, random numbers and light points, lane by lane in each path's order.
+        // 2. Random numbers, 8-wide from the gathered PCG32 states where the streams are plain
+        // (`kernels::draws`); normal maps and light points lane by lane in each path's order.
+        let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
+        let draws = Draws {
+            light: nee,
+            u1: mat.draws_u1(),
+            u2: mat.draws_u2(),
+        };
+        let num = draw(avx, &mut b.sampler, ids, &front, draws);
         let textures = normal_textures(mat);
         let mut normals = [Cols3::default(); MAX_WRAPS];
-        let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
-        let (draw_u1, draw_u2) = (mat.draws_u1(), mat.draws_u2());
+        // A `diffuse` leaf's reflectance, looked up per lane as `Materials::build_at` does.
+        let rho_tex = mat
+            .reflectance()
+            .map(|t| &scene.materials.textures[t as usize]);
+        let mut rho = Cols3::default();
         let mut tp = Cols3::default();
-        let (mut u1, mut ux, mut uy) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
         let light_only = cfg.strategy == Strategy::LightOnly;
         gather.reset();
         for (k, &i) in ids.iter().enumerate() {
@@ -177,30 +194,24 @@ pub(crate) mod x8 {
                     normals[j].set(k, 2.0 * rgb - Vec3::ONE);
                 }
             }
+            if let Some(t) = rho_tex {
+                rho.set(k, reflectance(scene, t, &si));
+            }
             tp.set(k, b.state[i].throughput);
-            let sampler = &mut b.sampler[i];
             if nee {
-                let u_sel = sampler.next_1d();
-                let u = sampler.next_2d();
-                gather.add(k, scene, lights, light_only, u_sel, u, si.p);
-            }
-            if draw_u1 {
-                u1[k] = sampler.next_1d();
-            }
-            if draw_u2 {
-                let u2 = sampler.next_2d();
-                ux[k] = u2.x;
-                uy[k] = u2.y;
+                let u = Vec2::new(num.u[0][k], num.u[1][k]);
+                gather.add(k, scene, lights, light_only, num.u_sel[k], u, si.p);
             }
         }
 
         // 3. The kernel.
         let normals8 = normals.map(|c| c.load(avx));
+        let rho8 = rho.load(avx);
         // A block, not a closure: a closure would be compiled outside `Avx2::run`'s target
         // features and call every 8-wide operation out of line.
         let lo = if nee {
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
-            let lo = light(&surf, wi, mat, &normals8, tp.load(avx), &lp);
+            let lo = light(&surf, wi, mat, &normals8, rho8, tp.load(avx), &lp);
             Some((
                 lo.ok.to_array(),
                 store3(lo.o),
@@ -216,17 +227,19 @@ pub(crate) mod x8 {
             wi,
             mat,
             &normals8,
-            avx.load(&u1),
-            V2::new(avx.load(&ux), avx.load(&uy)),
+            rho8,
+            avx.load(&num.u1),
+            V2::new(avx.load(&num.u2[0]), avx.load(&num.u2[1])),
         );
 
         // 4. Scatter back.
-        let (s_ok, s_wo, s_pdf, s_w, s_delta, s_o) = (
+        let (s_ok, s_wo, s_pdf, s_w, s_delta, s_eta, s_o) = (
             so.ok.to_array(),
             store3(so.wo),
             so.pdf.to_array(),
             store3(so.weight),
             so.delta.to_array(),
+            so.eta.to_array(),
             store3(so.o),
         );
         for (k, &i) in ids.iter().enumerate() {
@@ -253,7 +266,7 @@ pub(crate) mod x8 {
                     cfg,
                     get(&p.0, k),
                     get(&s_w, k),
-                    1.0,
+                    s_eta[k],
                     s_pdf[k],
                     s_delta[k],
                     ray,
