@@ -23,6 +23,7 @@
 //! - [`light`]: area lights on triangle meshes, rectangles and spheres sampled in lanes, and the
 //!   one light-point gather of all kernels (`light::x8::Gather`).
 //! - [`draws`]: a vertex's random numbers for 8 paths, 8-wide.
+//! - [`surface`]: the kernels' one surface load, 8-wide from the batch's columns.
 //! - [`ray`]: robust ray origins in lanes.
 //! - [`mis`]: the power heuristic in lanes.
 
@@ -33,4 +34,5 @@ pub(crate) mod light;
 pub(crate) mod mis;
 pub(crate) mod plastic;
 pub(crate) mod ray;
+pub(crate) mod surface;
 pub(crate) mod vertex;
