@@ -183,13 +183,14 @@ pub(crate) mod cols {
 /// metal_plastic with per-field arrays). Fixed at [`BATCH`] rows (128 KB), allocated once per
 /// worker.
 pub(crate) struct Surfaces {
-    rows: Box<[[f32; cols::ROW]; BATCH]>,
+    /// Every row, flat: field `c` of path `i` is at `i · ROW + c`.
+    flat: Box<[f32; BATCH * cols::ROW]>,
 }
 
 impl Surfaces {
     fn new() -> Surfaces {
         Surfaces {
-            rows: vec![[0.0; cols::ROW]; BATCH]
+            flat: vec![0.0; BATCH * cols::ROW]
                 .into_boxed_slice()
                 .try_into()
                 .expect("BATCH rows"),
@@ -199,16 +200,15 @@ impl Surfaces {
     /// Every row, flat: field `c` of path `i` is at `i · ROW + c`.
     #[inline(always)]
     pub fn flat(&self) -> &[f32; BATCH * cols::ROW] {
-        self.rows
-            .as_flattened()
-            .try_into()
-            .expect("BATCH · ROW floats")
+        &self.flat
     }
 
     /// Stores path `i`'s interaction.
     #[inline(always)]
     pub fn set(&mut self, i: usize, si: &SurfaceInteraction) {
-        let r = &mut self.rows[i];
+        let r: &mut [f32; cols::ROW] = (&mut self.flat[i * cols::ROW..(i + 1) * cols::ROW])
+            .try_into()
+            .expect("a row");
         let mut set3 = |c: usize, v: Vec3| {
             r[c] = v.x;
             r[c + 1] = v.y;
@@ -232,7 +232,9 @@ impl Surfaces {
     /// Path `i`'s interaction, as [`Self::set`] stored it.
     #[inline(always)]
     pub fn get(&self, i: usize) -> SurfaceInteraction {
-        let r = &self.rows[i];
+        let r: &[f32; cols::ROW] = self.flat[i * cols::ROW..(i + 1) * cols::ROW]
+            .try_into()
+            .expect("a row");
         let v3 = |c: usize| Vec3::new(r[c], r[c + 1], r[c + 2]);
         SurfaceInteraction {
             p: v3(cols::P),

@@ -287,8 +287,8 @@ pub(crate) mod x8 {
         let lp = if nee {
             let light_only = cfg.strategy == Strategy::LightOnly;
             gather.reset();
-            for k in 0..8 {
-                if front[k] {
+            for (k, &f) in front.iter().enumerate() {
+                if f {
                     let u = Vec2::new(num.u[0][k], num.u[1][k]);
                     gather.add(k, scene, lights, light_only, num.u_sel[k], u, p.get(k));
                 }
