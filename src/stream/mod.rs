@@ -420,7 +420,7 @@ fn run_batch(
             if batch.state[i].add_emission(cfg, scene, ray, si.as_ref()) {
                 if let Some(si) = si {
                     batch.material[i] = scene.shape_material[si.shape as usize];
-                    batch.si[i] = Some(si);
+                    batch.surf.set(i, &si);
                     batch.scatter.push(i as u32);
                 }
             }
@@ -494,11 +494,11 @@ fn shade(
         }
         for k in start + done..end {
             let i = batch.sorted[k] as usize;
-            let Some(si) = &batch.si[i] else { continue };
+            let si = batch.surf.get(i);
             let next = batch.state[i].scatter(
                 cfg,
                 scene,
-                si,
+                &si,
                 &mut batch.sampler[i],
                 &mut scratch.arena,
                 &mut batch.light[i],

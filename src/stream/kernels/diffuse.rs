@@ -3,7 +3,7 @@
 //! (Lambertian f = ρ/π, one-sided; `bsdf::diffuse`), for 8 paths at a time.
 //!
 //! Per chunk of 8 paths of one `diffuse` material:
-//! 1. gather the surface interactions into SoA columns (lane by lane);
+//! 1. load the surfaces 8-wide from the batch's columns ([`super::surface`]);
 //! 2. [`incident`], 8-wide: the incident direction in the shading frame and the strict-normal
 //!    side test of `SurfaceBsdf::new` (a path that fails it ends here, drawing nothing);
 //! 3. each path's random numbers in the scalar renderer's order (light selection `u_sel`, light
@@ -220,6 +220,7 @@ pub(crate) mod x8 {
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
+    use crate::stream::kernels::surface;
     use glam::{Vec2, Vec3};
 
     /// Lane `k` of a vector of lanes.
@@ -244,7 +245,7 @@ pub(crate) mod x8 {
     }
 
     /// Shades the 8 paths `ids` (all at a surface of material `mat`, each with its interaction in
-    /// `b.si`) as `PathState::scatter` would, one after the other; sets their pending light
+    /// `b.surf`) as `PathState::scatter` would, one after the other; sets their pending light
     /// samples, and their next rays and `alive` flags where they go on. Call inside
     /// [`Avx2::run`].
     #[inline(always)]
@@ -257,30 +258,9 @@ pub(crate) mod x8 {
         mat: Material<'_>,
         gather: &mut Gather,
     ) {
-        // 1. Gather the surface interactions.
-        let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) = Default::default();
-        let si_of = |b: &Batch, i: u32| -> SurfaceInteraction {
-            b.si[i as usize].expect("a path that scatters has its interaction")
-        };
-        for (k, &i) in ids.iter().enumerate() {
-            let si = si_of(b, i);
-            Cols3::set(&mut p, k, si.p);
-            Cols3::set(&mut ng, k, si.ng);
-            Cols3::set(&mut fs, k, si.sh.s);
-            Cols3::set(&mut ft, k, si.sh.t);
-            Cols3::set(&mut fnn, k, si.sh.n);
-            Cols3::set(&mut wiw, k, si.wi);
-        }
-        let surf = Surface {
-            p: p.load(avx),
-            ng: ng.load(avx),
-            frame: Frame {
-                s: fs.load(avx),
-                t: ft.load(avx),
-                n: fnn.load(avx),
-            },
-            wi_world: wiw.load(avx),
-        };
+        // 1. The surfaces, loaded 8-wide from the batch's columns.
+        let surf = surface::x8::load(avx, &b.surf, ids);
+        let p = Cols3::store(surf.p);
         // 2. The side test.
         let (wi, front) = incident(&surf);
         let front = front.to_array();
@@ -308,7 +288,7 @@ pub(crate) mod x8 {
             if !front[k] {
                 continue;
             }
-            let si = si_of(b, i as u32);
+            let si = b.surf.get(i);
             refl.set(k, reflectance(scene, mat.reflectance, &si));
             tp.set(k, b.state[i].throughput);
             if nee {
@@ -356,7 +336,7 @@ pub(crate) mod x8 {
             }
             if s_ok[k] {
                 let ray = Ray::new(get(&s_o, k), get(&s_wo, k));
-                let p = get(&p.0, k);
+                let p = p.get(k);
                 let weight = get(&refl.0, k);
                 let next = b.state[i].advance(
                     cfg,

@@ -28,6 +28,7 @@
 //!   one light-point gather of all kernels (`light::x8::Gather`);
 //!   [`emitters`]: `point`, `spot`, `directional`, `constant` and `envmap` in lanes.
 //! - [`draws`]: a vertex's random numbers for 8 paths, 8-wide.
+//! - [`surface`]: the kernels' one surface load, 8-wide from the batch's columns.
 //! - [`ray`]: robust ray origins in lanes.
 //! - [`mis`]: the power heuristic in lanes.
 
@@ -40,4 +41,5 @@ pub(crate) mod mis;
 pub(crate) mod mnm;
 pub(crate) mod plastic;
 pub(crate) mod ray;
+pub(crate) mod surface;
 pub(crate) mod vertex;

@@ -12,7 +12,8 @@
 //! the material's, from the textures' means, as in the scalar code).
 //!
 //! Per chunk of 8 paths, the steps of the `diffuse` kernel ([`super::diffuse`]):
-//! 1. gather the surface interactions; [`incident`] and its side test, 8-wide;
+//! 1. load the surfaces 8-wide from the batch's columns ([`super::surface`]); [`incident`]
+//!    and its side test, 8-wide;
 //! 2. lane by lane: the reflectance textures; each path's numbers in the scalar order (light
 //!    selection `u_sel`, light point `u`, lobe choice `u1`, BSDF sample `u2`), 8-wide from the
 //!    gathered PCG32 states ([`super::draws`]); lane by lane: the light point (through the
@@ -189,10 +190,9 @@ pub(crate) fn sample<L: Lane>(
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
-    use crate::geometry::{Ray, SurfaceInteraction};
+    use crate::geometry::Ray;
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
-    use crate::lane::frame::Frame;
     use crate::lane::Avx2;
     use crate::spectrum::Spectrum;
     use crate::stream::batch::Batch;
@@ -200,6 +200,7 @@ pub(crate) mod x8 {
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
+    use crate::stream::kernels::surface;
     use glam::Vec2;
 
     /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (all of material
@@ -231,7 +232,7 @@ pub(crate) mod x8 {
     }
 
     /// Shades the 8 paths `ids` (each at a surface of material `mat`, with its interaction in
-    /// `b.si`) as `PathState::scatter` would, one after the other; sets their pending light
+    /// `b.surf`) as `PathState::scatter` would, one after the other; sets their pending light
     /// samples, and their next rays and `alive` flags where they go on. Call inside
     /// [`Avx2::run`].
     #[inline(always)]
@@ -246,31 +247,9 @@ pub(crate) mod x8 {
         lights: &[Option<LaneLight>],
         gather: &mut Gather,
     ) {
-        // 1. Gather the surface interactions; the side test.
-        let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) =
-            <(Cols3, Cols3, Cols3, Cols3, Cols3, Cols3)>::default();
-        let si_of = |b: &Batch, i: u32| -> SurfaceInteraction {
-            b.si[i as usize].expect("a path that scatters has its interaction")
-        };
-        for (k, &i) in ids.iter().enumerate() {
-            let si = si_of(b, i);
-            p.set(k, si.p);
-            ng.set(k, si.ng);
-            fs.set(k, si.sh.s);
-            ft.set(k, si.sh.t);
-            fnn.set(k, si.sh.n);
-            wiw.set(k, si.wi);
-        }
-        let surf = Surface {
-            p: p.load(avx),
-            ng: ng.load(avx),
-            frame: Frame {
-                s: fs.load(avx),
-                t: ft.load(avx),
-                n: fnn.load(avx),
-            },
-            wi_world: wiw.load(avx),
-        };
+        // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
+        let surf = surface::x8::load(avx, &b.surf, ids);
+        let p = Cols3::store(surf.p);
         let (wi, front) = incident(&surf);
         let front = front.to_array();
 
@@ -285,7 +264,7 @@ pub(crate) mod x8 {
             if !front[k] {
                 continue;
             }
-            let si = si_of(b, i);
+            let si = b.surf.get(i as usize);
             let tex = |t: Option<TexId>, c: Spectrum| match t {
                 Some(t) => reflectance(scene, &scene.materials.textures[t as usize], &si),
                 None => c,

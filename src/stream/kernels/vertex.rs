@@ -1,7 +1,7 @@
 //! The 8-wide driver of the [`super::conductor`] kernels: one path vertex for 8 paths, in the
 //! steps of the `diffuse` kernel (`super::diffuse`, whose module doc describes them):
-//! 1. gather the surface interactions into SoA columns and run `SurfaceBsdf::new`'s side test
-//!    in lanes ([`super::diffuse::incident`]);
+//! 1. load the surfaces 8-wide from the batch's columns ([`super::surface`]) and run
+//!    `SurfaceBsdf::new`'s side test in lanes ([`super::diffuse::incident`]);
 //! 2. the random numbers in each path's order, 8-wide from the gathered PCG32 states
 //!    ([`super::draws`]): the light selection `u_sel` and light point `u` (when the material
 //!    takes light samples), the BSDF's `u1` (plastic leaves) and `u2` (all but the smooth
@@ -94,10 +94,9 @@ fn normal_textures(mat: &Material) -> [Option<crate::material::TexId>; MAX_WRAPS
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
-    use crate::geometry::{Ray, SurfaceInteraction};
+    use crate::geometry::Ray;
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
-    use crate::lane::frame::Frame;
     use crate::lane::vec::V2;
     use crate::lane::{Avx2, F32x8};
     use crate::scene::Scene;
@@ -106,6 +105,7 @@ pub(crate) mod x8 {
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
+    use crate::stream::kernels::surface;
     use glam::{Vec2, Vec3};
 
     /// Lane `k` of a vector of lanes.
@@ -134,30 +134,9 @@ pub(crate) mod x8 {
         lights: &[Option<LaneLight>],
         gather: &mut Gather,
     ) {
-        // 1. Gather the surface interactions; the side test.
-        let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) = Default::default();
-        let si_of = |b: &Batch, i: u32| -> SurfaceInteraction {
-            b.si[i as usize].expect("a path that scatters has its interaction")
-        };
-        for (k, &i) in ids.iter().enumerate() {
-            let si = si_of(b, i);
-            Cols3::set(&mut p, k, si.p);
-            Cols3::set(&mut ng, k, si.ng);
-            Cols3::set(&mut fs, k, si.sh.s);
-            Cols3::set(&mut ft, k, si.sh.t);
-            Cols3::set(&mut fnn, k, si.sh.n);
-            Cols3::set(&mut wiw, k, si.wi);
-        }
-        let surf = Surface {
-            p: p.load(avx),
-            ng: ng.load(avx),
-            frame: Frame {
-                s: fs.load(avx),
-                t: ft.load(avx),
-                n: fnn.load(avx),
-            },
-            wi_world: wiw.load(avx),
-        };
+        // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
+        let surf = surface::x8::load(avx, &b.surf, ids);
+        let p = Cols3::store(surf.p);
         let (wi, front) = incident(&surf);
         let front = front.to_array();
 
@@ -186,11 +165,11 @@ pub(crate) mod x8 {
             if !front[k] {
                 continue;
             }
-            let si = si_of(b, i as u32);
             for (j, t) in textures.iter().enumerate() {
                 if let Some(t) = t {
                     // Materials::build_at: n = 2·rgb − 1.
-                    let rgb = reflectance(scene, &scene.materials.textures[*t as usize], &si);
+                    let tex = &scene.materials.textures[*t as usize];
+                    let rgb = reflectance(scene, tex, &b.surf.get(i));
                     normals[j].set(k, 2.0 * rgb - Vec3::ONE);
                 }
             }
@@ -200,7 +179,7 @@ pub(crate) mod x8 {
             tp.set(k, b.state[i].throughput);
             if nee {
                 let u = Vec2::new(num.u[0][k], num.u[1][k]);
-                gather.add(k, scene, lights, light_only, num.u_sel[k], u, si.p);
+                gather.add(k, scene, lights, light_only, num.u_sel[k], u, p.get(k));
             }
         }
 
@@ -264,7 +243,7 @@ pub(crate) mod x8 {
                 let ray = Ray::new(get(&s_o, k), get(&s_wo, k));
                 let next = b.state[i].advance(
                     cfg,
-                    get(&p.0, k),
+                    p.get(k),
                     get(&s_w, k),
                     s_eta[k],
                     s_pdf[k],
