@@ -94,7 +94,7 @@ pub(crate) fn run_batch(
         let si = batch.hit[i].map(|h| scene.interaction(ray, &h));
         add_camera_emission(cfg, scene, &mut batch.state[i].result, ray, si.as_ref());
         if let Some(si) = si {
-            batch.si[i] = Some(si);
+            batch.surf.set(i, &si);
             batch.scatter.push(i as u32);
         }
     }
@@ -106,7 +106,7 @@ pub(crate) fn run_batch(
     let ctx = BsdfContext::default();
     items.items.clear();
     for &i in &batch.scatter {
-        let si = batch.si[i as usize].as_ref().expect("set above");
+        let si = &batch.surf.get(i as usize);
         let sampler = &mut batch.sampler[i as usize];
         let Some(bsdf) = scene.bsdf_at(si, &mut scratch.arena) else {
             continue;

@@ -81,9 +81,7 @@ pub(crate) mod x8 {
         gather: &mut Gather,
         arena: &mut BsdfArena,
     ) {
-        let si_of = |b: &Batch, i: u32| -> SurfaceInteraction {
-            b.si[i as usize].expect("a path that scatters has its interaction")
-        };
+        let si_of = |b: &Batch, i: u32| -> SurfaceInteraction { b.surf.get(i as usize) };
         let ctx = BsdfContext::default();
         // 1. Gather the surface interactions (the light stage's columns).
         let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) = Default::default();

@@ -159,22 +159,25 @@ pub(crate) mod x8 {
         let mut tp = Cols3::default();
         let light_only = cfg.strategy == Strategy::LightOnly;
         gather.reset();
+        let textured = rho_tex.is_some() || textures.iter().any(Option::is_some);
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
             if !front[k] {
                 continue;
             }
+            // The interaction, rebuilt from its row once, for the texture lookups.
+            let si = textured.then(|| b.surf.get(i));
             for (j, t) in textures.iter().enumerate() {
-                if let Some(t) = t {
+                if let (Some(t), Some(si)) = (t, &si) {
                     // Materials::build_at: n = 2·rgb − 1.
                     let tex = &scene.materials.textures[*t as usize];
-                    let rgb = reflectance(scene, tex, &b.surf.get(i));
+                    let rgb = reflectance(scene, tex, si);
                     normals[j].set(k, 2.0 * rgb - Vec3::ONE);
                 }
             }
-            if let Some(t) = rho_tex {
-                rho.set(k, reflectance(scene, t, &si));
+            if let (Some(t), Some(si)) = (rho_tex, &si) {
+                rho.set(k, reflectance(scene, t, si));
             }
             tp.set(k, b.state[i].throughput);
             if nee {
