@@ -50,11 +50,10 @@ pub(crate) mod x8 {
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
-    use crate::lane::frame::Frame;
     use crate::lane::Avx2;
     use crate::scene::Scene;
     use crate::stream::batch::Batch;
-    use crate::stream::kernels::diffuse::{light_out, Surface};
+    use crate::stream::kernels::diffuse::light_out;
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
 
@@ -83,27 +82,8 @@ pub(crate) mod x8 {
     ) {
         let si_of = |b: &Batch, i: u32| -> SurfaceInteraction { b.surf.get(i as usize) };
         let ctx = BsdfContext::default();
-        // 1. Gather the surface interactions (the light stage's columns).
-        let (mut p, mut ng, mut fs, mut ft, mut fnn, mut wiw) = Default::default();
-        for (k, &i) in ids.iter().enumerate() {
-            let si = si_of(b, i);
-            Cols3::set(&mut p, k, si.p);
-            Cols3::set(&mut ng, k, si.ng);
-            Cols3::set(&mut fs, k, si.sh.s);
-            Cols3::set(&mut ft, k, si.sh.t);
-            Cols3::set(&mut fnn, k, si.sh.n);
-            Cols3::set(&mut wiw, k, si.wi);
-        }
-        let surf = Surface {
-            p: p.load(avx),
-            ng: ng.load(avx),
-            frame: Frame {
-                s: fs.load(avx),
-                t: ft.load(avx),
-                n: fnn.load(avx),
-            },
-            wi_world: wiw.load(avx),
-        };
+        // 1. The surfaces, loaded 8-wide from the batch's rows (the light stage's columns).
+        let surf = crate::stream::kernels::surface::x8::load(avx, &b.surf, ids);
 
         // 2. The BSDFs, the side test, the light points, lane by lane in each path's order.
         arena.clear();
