@@ -215,24 +215,13 @@ pub(crate) mod x8 {
     use crate::geometry::Ray;
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
-    use crate::lane::{Avx2, F32x8};
+    use crate::lane::Avx2;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
-    use glam::{Vec2, Vec3};
-
-    /// Lane `k` of a vector of lanes.
-    #[inline(always)]
-    fn get(v: &[[f32; 8]; 3], k: usize) -> Vec3 {
-        Vec3::new(v[0][k], v[1][k], v[2][k])
-    }
-
-    #[inline(always)]
-    fn store3(v: V3<F32x8>) -> [[f32; 8]; 3] {
-        [v.x.to_array(), v.y.to_array(), v.z.to_array()]
-    }
+    use glam::Vec2;
 
     /// What a material needs for the kernel: its reflectance texture and whether it takes a
     /// light sample (`Lobes::is_smooth`, as `PathState::scatter` asks).
@@ -307,16 +296,16 @@ pub(crate) mod x8 {
         // 5. Scatter back.
         let (l_ok, l_o, l_d, l_tmax, l_c) = (
             lo.ok.to_array(),
-            store3(lo.o),
-            store3(lo.d),
+            Cols3::store(lo.o),
+            Cols3::store(lo.d),
             lo.tmax.to_array(),
-            store3(lo.contribution),
+            Cols3::store(lo.contribution),
         );
         let (s_ok, s_wo, s_pdf, s_o) = (
             so.ok.to_array(),
-            store3(so.wo),
+            Cols3::store(so.wo),
             so.pdf.to_array(),
-            store3(so.o),
+            Cols3::store(so.o),
         );
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
@@ -326,18 +315,18 @@ pub(crate) mod x8 {
             if l_ok[k] {
                 b.light[i] = Some(PendingLight {
                     shadow: Ray {
-                        o: get(&l_o, k),
-                        d: get(&l_d, k),
+                        o: l_o.get(k),
+                        d: l_d.get(k),
                         tmin: 0.0,
                         tmax: l_tmax[k],
                     },
-                    contribution: get(&l_c, k),
+                    contribution: l_c.get(k),
                 });
             }
             if s_ok[k] {
-                let ray = Ray::new(get(&s_o, k), get(&s_wo, k));
+                let ray = Ray::new(s_o.get(k), s_wo.get(k));
                 let p = p.get(k);
-                let weight = get(&refl.0, k);
+                let weight = refl.get(k);
                 let next = b.state[i].advance(
                     cfg,
                     p,

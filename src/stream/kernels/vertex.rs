@@ -98,7 +98,7 @@ pub(crate) mod x8 {
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::V2;
-    use crate::lane::{Avx2, F32x8};
+    use crate::lane::Avx2;
     use crate::scene::Scene;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::diffuse::{incident, reflectance};
@@ -107,17 +107,6 @@ pub(crate) mod x8 {
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
     use glam::{Vec2, Vec3};
-
-    /// Lane `k` of a vector of lanes.
-    #[inline(always)]
-    fn get(v: &[[f32; 8]; 3], k: usize) -> Vec3 {
-        Vec3::new(v[0][k], v[1][k], v[2][k])
-    }
-
-    #[inline(always)]
-    fn store3(v: V3<F32x8>) -> [[f32; 8]; 3] {
-        [v.x.to_array(), v.y.to_array(), v.z.to_array()]
-    }
 
     /// Shades the 8 paths `ids` (all at a surface of material `mat`) as `PathState::scatter`
     /// would, one after the other; sets their pending light samples, and their next rays and
@@ -196,10 +185,10 @@ pub(crate) mod x8 {
             let lo = light(&surf, wi, mat, &normals8, rho8, tp.load(avx), &lp);
             Some((
                 lo.ok.to_array(),
-                store3(lo.o),
-                store3(lo.d),
+                Cols3::store(lo.o),
+                Cols3::store(lo.d),
                 lo.tmax.to_array(),
-                store3(lo.contribution),
+                Cols3::store(lo.contribution),
             ))
         } else {
             None
@@ -217,12 +206,12 @@ pub(crate) mod x8 {
         // 4. Scatter back.
         let (s_ok, s_wo, s_pdf, s_w, s_delta, s_eta, s_o) = (
             so.ok.to_array(),
-            store3(so.wo),
+            Cols3::store(so.wo),
             so.pdf.to_array(),
-            store3(so.weight),
+            Cols3::store(so.weight),
             so.delta.to_array(),
             so.eta.to_array(),
-            store3(so.o),
+            Cols3::store(so.o),
         );
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
@@ -233,21 +222,21 @@ pub(crate) mod x8 {
                 if l_ok[k] {
                     b.light[i] = Some(PendingLight {
                         shadow: Ray {
-                            o: get(l_o, k),
-                            d: get(l_d, k),
+                            o: l_o.get(k),
+                            d: l_d.get(k),
                             tmin: 0.0,
                             tmax: l_tmax[k],
                         },
-                        contribution: get(l_c, k),
+                        contribution: l_c.get(k),
                     });
                 }
             }
             if s_ok[k] {
-                let ray = Ray::new(get(&s_o, k), get(&s_wo, k));
+                let ray = Ray::new(s_o.get(k), s_wo.get(k));
                 let next = b.state[i].advance(
                     cfg,
                     p.get(k),
-                    get(&s_w, k),
+                    s_w.get(k),
                     s_eta[k],
                     s_pdf[k],
                     s_delta[k],
