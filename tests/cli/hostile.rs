@@ -413,7 +413,8 @@ fn includes_are_parsed_once_and_expansion_is_budgeted() {
             "elements with includes spliced in) needs ~",
         ],
     );
-    // Under the default memory limit the element cap stops it, within seconds.
+    // Under the default memory limit the element cap stops it, at once: the include is counted
+    // on the parsed files before anything is spliced (expanding 8 M elements first took 17 s).
     let t0 = std::time::Instant::now();
     refused(
         &d,
@@ -421,7 +422,7 @@ fn includes_are_parsed_once_and_expansion_is_budgeted() {
         &["the scene expands to more than 8000000 XML elements"],
     );
     let secs = t0.elapsed().as_secs_f64();
-    assert!(secs < 20.0, "the element cap took {secs:.1} s");
+    assert!(secs < 5.0, "the element cap took {secs:.1} s");
     // A cycle.
     write(
         &d,

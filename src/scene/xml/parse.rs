@@ -8,6 +8,7 @@
 use std::collections::HashMap;
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 
 use quick_xml::events::Event;
 use quick_xml::Reader;
@@ -92,6 +93,7 @@ pub fn load_str_within(
         search_paths: vec![dir],
         warnings,
         parsed: HashMap::new(),
+        counted: HashMap::new(),
         resolved: HashMap::new(),
         files: vec![virtual_path.to_path_buf()],
         elements: 1,
@@ -501,7 +503,10 @@ struct Ctx {
     warnings: Vec<String>,
     /// Every included file, parsed, upgraded and validated once (by canonical path): a file
     /// included many times is spliced again without being read again.
-    parsed: HashMap<OsString, Vec<Node>>,
+    parsed: HashMap<OsString, Rc<Vec<Node>>>,
+    /// [`file_elements`] of each included file (by canonical path and the number of search
+    /// folders known, which decides how its own includes resolve).
+    counted: HashMap<(OsString, usize), Option<u64>>,
     /// Include lookups done: (including folder, file name, search paths known) → (path found,
     /// canonical path).
     resolved: HashMap<(OsString, String, usize), (PathBuf, PathBuf)>,
@@ -565,13 +570,7 @@ fn process_children(children: Vec<Node>, ctx: &mut Ctx, depth: usize) -> Result<
         }
         ctx.elements += 1;
         if ctx.elements > MAX_ELEMENTS {
-            return Err(Error::scene(
-                &child.loc,
-                format!(
-                    "the scene expands to more than {MAX_ELEMENTS} XML elements with its includes \
-                     spliced in (does an include graph repeat a file at every level?)"
-                ),
-            ));
+            return Err(Error::scene(&child.loc, too_many_elements()));
         }
         if ctx.elements % 4096 == 0 {
             ctx.budget
@@ -656,36 +655,7 @@ fn process_children(children: Vec<Node>, ctx: &mut Ctx, depth: usize) -> Result<
 fn include(node: &Node, ctx: &mut Ctx, depth: usize) -> Result<Vec<Node>> {
     let name = node.attr("filename").unwrap_or_default();
     let loc = node.attr_loc("filename");
-    let base = parent_dir(&node.loc.file);
-    // The same include resolves the same way while no <path> is added: looked up once.
-    let key = (
-        base.as_os_str().to_os_string(),
-        name.to_string(),
-        ctx.search_paths.len(),
-    );
-    let (path, canon) = match ctx.resolved.get(&key) {
-        Some(r) => r.clone(),
-        None => {
-            let p = Path::new(name);
-            let mut candidates = vec![if p.is_absolute() {
-                p.to_path_buf()
-            } else {
-                base.join(p)
-            }];
-            if !p.is_absolute() {
-                candidates.extend(ctx.search_paths.iter().map(|d| d.join(p)));
-            }
-            let Some(path) = candidates.into_iter().find(|c| c.exists()) else {
-                return Err(Error::scene(
-                    loc,
-                    format!("included file '{name}' not found"),
-                ));
-            };
-            let canon = canonical(&path);
-            ctx.resolved.insert(key, (path.clone(), canon.clone()));
-            (path, canon)
-        }
-    };
+    let (path, canon) = resolve(node, ctx)?;
     // Compared as strings: `PathBuf`'s `==` and `Hash` walk components and are slow.
     if ctx
         .include_stack
@@ -706,24 +676,153 @@ fn include(node: &Node, ctx: &mut Ctx, depth: usize) -> Result<Vec<Node>> {
             format!("includes nest more than {MAX_INCLUDE_DEPTH} files deep"),
         ));
     }
-    let nodes = match ctx.parsed.get(canon.as_os_str()) {
-        Some(nodes) => nodes.clone(),
-        None => {
-            let nodes = parse_include(&path, ctx).map_err(|e| match e {
-                // Name the include that asked for the file.
-                Error::Scene { .. } => e,
-                other => Error::scene(loc, format!("cannot include '{name}': {other}")),
-            })?;
-            ctx.files.push(path.clone());
-            ctx.parsed
-                .insert(canon.as_os_str().to_os_string(), nodes.clone());
-            nodes
+    let nodes = parsed_nodes(&path, &canon, ctx).map_err(|e| match e {
+        // Name the include that asked for the file.
+        Error::Scene { .. } => e,
+        other => Error::scene(loc, format!("cannot include '{name}': {other}")),
+    })?;
+    // What the include will add, counted on the parsed files before anything is spliced: an
+    // include graph that doubles at every level is refused here at once, not after building
+    // millions of elements.
+    let mut stack = vec![canon.clone()];
+    if let Some(n) = file_elements(&canon, &nodes, ctx, &mut stack, depth) {
+        let total = ctx.elements.saturating_add(n);
+        // Whichever limit the element-by-element expansion would reach first: the memory
+        // budget (checked up to the element cap) or the cap.
+        let what = format!("the scene's XML ({total} elements with includes spliced in)");
+        let bytes = |k: u64| k.saturating_mul(ELEMENT_BYTES);
+        if ctx
+            .budget
+            .check(bytes(total.min(MAX_ELEMENTS + 1)), &what)
+            .is_err()
+        {
+            if let Err(m) = ctx.budget.check(bytes(total), &what) {
+                return Err(Error::scene(&node.loc, m));
+            }
         }
-    };
+        if total > MAX_ELEMENTS {
+            return Err(Error::scene(&node.loc, too_many_elements()));
+        }
+    }
     ctx.include_stack.push(canon);
-    let res = process_children(nodes, ctx, depth);
+    let res = process_children((*nodes).clone(), ctx, depth);
     ctx.include_stack.pop();
     res
+}
+
+/// The error of a scene over [`MAX_ELEMENTS`].
+fn too_many_elements() -> String {
+    format!(
+        "the scene expands to more than {MAX_ELEMENTS} XML elements with its includes spliced in \
+         (does an include graph repeat a file at every level?)"
+    )
+}
+
+/// The file an `<include>` names, as found (relative to the including file's folder, then the
+/// search folders) and canonical.
+fn resolve(node: &Node, ctx: &mut Ctx) -> Result<(PathBuf, PathBuf)> {
+    let name = node.attr("filename").unwrap_or_default();
+    let base = parent_dir(&node.loc.file);
+    // The same include resolves the same way while no <path> is added: looked up once.
+    let key = (
+        base.as_os_str().to_os_string(),
+        name.to_string(),
+        ctx.search_paths.len(),
+    );
+    if let Some(r) = ctx.resolved.get(&key) {
+        return Ok(r.clone());
+    }
+    let p = Path::new(name);
+    let mut candidates = vec![if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        base.join(p)
+    }];
+    if !p.is_absolute() {
+        candidates.extend(ctx.search_paths.iter().map(|d| d.join(p)));
+    }
+    let Some(path) = candidates.into_iter().find(|c| c.exists()) else {
+        return Err(Error::scene(
+            node.attr_loc("filename"),
+            format!("included file '{name}' not found"),
+        ));
+    };
+    let canon = canonical(&path);
+    ctx.resolved.insert(key, (path.clone(), canon.clone()));
+    Ok((path, canon))
+}
+
+/// The nodes an included file adds, parsed on first use and kept ([`Ctx::parsed`]).
+fn parsed_nodes(path: &Path, canon: &Path, ctx: &mut Ctx) -> Result<Rc<Vec<Node>>> {
+    if let Some(nodes) = ctx.parsed.get(canon.as_os_str()) {
+        return Ok(nodes.clone());
+    }
+    let nodes = Rc::new(parse_include(path, ctx)?);
+    ctx.files.push(path.to_path_buf());
+    ctx.parsed
+        .insert(canon.as_os_str().to_os_string(), nodes.clone());
+    Ok(nodes)
+}
+
+/// How many elements splicing the file `canon` (its parsed `nodes`) adds to the expanded tree,
+/// counted as [`process_children`] counts them, from the parsed files alone (memoised in
+/// [`Ctx::counted`]). `None` where only the expansion itself can tell: an include whose file
+/// name holds a `$`, a `<path>` (later includes may resolve differently), an include that does
+/// not resolve or parse (the expansion reports it where it stands), a cycle, or nesting past the
+/// limits. `stack` holds the files being counted; `depth` the nesting of `nodes`.
+fn file_elements(
+    canon: &Path,
+    nodes: &[Node],
+    ctx: &mut Ctx,
+    stack: &mut Vec<PathBuf>,
+    depth: usize,
+) -> Option<u64> {
+    let key = (canon.as_os_str().to_os_string(), ctx.search_paths.len());
+    if let Some(&n) = ctx.counted.get(&key) {
+        return n;
+    }
+    let n = count_elements(nodes, ctx, stack, depth);
+    ctx.counted.insert(key, n);
+    n
+}
+
+/// [`file_elements`] of a list of sibling nodes at nesting `depth`.
+fn count_elements(
+    nodes: &[Node],
+    ctx: &mut Ctx,
+    stack: &mut Vec<PathBuf>,
+    depth: usize,
+) -> Option<u64> {
+    if depth >= MAX_DEPTH {
+        return None;
+    }
+    let mut n = 0u64;
+    for node in nodes {
+        n = n.saturating_add(1);
+        let inner = match node.tag.as_str() {
+            "path" => return None,
+            "default" => 0,
+            "include" => {
+                if node.attr("filename").unwrap_or_default().contains('$')
+                    || stack.len() >= MAX_INCLUDE_DEPTH
+                {
+                    return None;
+                }
+                let (path, canon) = resolve(node, ctx).ok()?;
+                if stack.iter().any(|p| p.as_os_str() == canon.as_os_str()) {
+                    return None;
+                }
+                let inner = parsed_nodes(&path, &canon, ctx).ok()?;
+                stack.push(canon.clone());
+                let k = file_elements(&canon, &inner, ctx, stack, depth);
+                stack.pop();
+                k?
+            }
+            _ => count_elements(&node.children, ctx, stack, depth + 1)?,
+        };
+        n = n.saturating_add(inner);
+    }
+    Some(n)
 }
 
 /// Reads, parses, upgrades and validates an included file; returns the nodes it adds.
