@@ -222,15 +222,20 @@ pub(crate) mod x8 {
         }
     }
 
-    /// Each lane's ray point at its hit (`Ray::at`, 8-wide).
+    /// Each lane's ray point at its hit (`Ray::at`, 8-wide), and its [`Meta`].
     #[inline(always)]
-    fn ray_points(avx: Avx2, st: &Stage, ids: &[u32; 8]) -> V3<F32x8> {
+    fn ray_points(avx: Avx2, st: &Stage, ids: &[u32; 8], m: &mut Meta) -> V3<F32x8> {
         let (mut o, mut d, mut t) = (Cols3::default(), Cols3::default(), [0.0f32; 8]);
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
-            o.set(k, st.ray[i].o);
-            d.set(k, st.ray[i].d);
-            t[k] = st.hit[i].map_or(0.0, |h| h.t);
+            let Some(h) = &st.hit[i] else {
+                continue;
+            };
+            let ray = &st.ray[i];
+            o.set(k, ray.o);
+            d.set(k, ray.d);
+            t[k] = h.t;
+            m.set(k, ray, h);
         }
         sl::ray_at(o.load(avx), d.load(avx), avx.load(&t))
     }
@@ -252,49 +257,50 @@ pub(crate) mod x8 {
             && cols::ROW == 32
     );
 
-    /// Writes the first `n` lanes of `s` into the rows of `ids`, with each path's ray
-    /// distance, incident direction (−d), shape and primitive from its hit and ray: the 32
-    /// fields as four groups of 8 lanes, each transposed into 8 rows' runs of 8 floats.
-    #[inline(always)]
-    fn store(avx: Avx2, st: &mut Stage, ids: &[u32; 8], n: usize, s: &SurfLanes<F32x8>) {
-        let (mut wi, mut t) = (Cols3::default(), [0.0f32; 8]);
-        let (mut shape, mut prim) = ([0.0f32; 8], [0.0f32; 8]);
-        for (k, &i) in ids.iter().enumerate() {
-            let i = i as usize;
-            let Some(h) = st.hit[i] else {
-                continue;
-            };
-            wi.set(k, -st.ray[i].d);
-            t[k] = h.t;
-            shape[k] = f32::from_bits(h.geom);
-            prim[k] = f32::from_bits(h.prim);
+    /// What a row takes from each lane's hit and ray besides the lane form's fields.
+    #[derive(Default)]
+    struct Meta {
+        /// −ray.d.
+        wi: Cols3,
+        t: [f32; 8],
+        /// The shape and primitive indices' bits.
+        shape: [f32; 8],
+        prim: [f32; 8],
+    }
+
+    impl Meta {
+        #[inline(always)]
+        fn set(&mut self, k: usize, ray: &Ray, h: &Hit) {
+            self.wi.set(k, -ray.d);
+            self.t[k] = h.t;
+            self.shape[k] = f32::from_bits(h.geom);
+            self.prim[k] = f32::from_bits(h.prim);
         }
-        let wi = wi.load(avx);
+    }
+
+    /// Writes the first `n` lanes of `s` and `m` into the rows of `ids`: the 32 fields as four
+    /// groups of 8 lanes, each transposed into 8 rows' runs of 8 floats (one store per group
+    /// and row instead of 29 scalar stores per row).
+    #[inline(always)]
+    fn store(avx: Avx2, st: &mut Stage, ids: &[u32; 8], n: usize, s: &SurfLanes<F32x8>, m: &Meta) {
+        let wi = m.wi.load(avx);
         let (f, z) = (&s.frame, avx.splat(0.0));
-        let groups = [
-            [s.p.x, s.p.y, s.p.z, s.ng.x, s.ng.y, s.ng.z, f.s.x, f.s.y],
-            [f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, wi.x],
-            [
-                wi.y, wi.z, s.uv.x, s.uv.y, s.dpdu.x, s.dpdu.y, s.dpdu.z, s.dpdv.x,
-            ],
-            [
-                s.dpdv.y,
-                s.dpdv.z,
-                avx.load(&t),
-                avx.load(&shape),
-                avx.load(&prim),
-                z,
-                z,
-                z,
-            ],
-        ];
-        for (g, fields) in groups.into_iter().enumerate() {
-            let rows = F32x8::transpose8(fields);
-            for (k, &i) in ids.iter().enumerate().take(n) {
-                let r = st.surf.row_mut(i as usize);
-                let out: &mut [f32; 8] = (&mut r[g * 8..g * 8 + 8]).try_into().expect("8 floats");
-                rows[k].store(out);
-            }
+        let g0 = F32x8::transpose8([s.p.x, s.p.y, s.p.z, s.ng.x, s.ng.y, s.ng.z, f.s.x, f.s.y]);
+        let g1 = F32x8::transpose8([f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, wi.x]);
+        let g2 = F32x8::transpose8([
+            wi.y, wi.z, s.uv.x, s.uv.y, s.dpdu.x, s.dpdu.y, s.dpdu.z, s.dpdv.x,
+        ]);
+        let (t, shape, prim) = (avx.load(&m.t), avx.load(&m.shape), avx.load(&m.prim));
+        let g3 = F32x8::transpose8([s.dpdv.y, s.dpdv.z, t, shape, prim, z, z, z]);
+        for (k, &i) in ids.iter().enumerate().take(n) {
+            let r = st.surf.row_mut(i as usize);
+            let (a, rest) = r.split_at_mut(8);
+            let (b, rest) = rest.split_at_mut(8);
+            let (c, d) = rest.split_at_mut(8);
+            g0[k].store(a.try_into().expect("8 floats"));
+            g1[k].store(b.try_into().expect("8 floats"));
+            g2[k].store(c.try_into().expect("8 floats"));
+            g3[k].store(d.try_into().expect("8 floats"));
         }
     }
 
@@ -307,6 +313,7 @@ pub(crate) mod x8 {
         let mut uv = [[[0.0f32; 8]; 2]; 3];
         let (mut has_n, mut has_uv) = ([false; 8], [false; 8]);
         let (mut b1, mut b2, mut sign) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
+        let mut meta = Meta::default();
         for (k, &i) in ids.iter().enumerate() {
             let Some(h) = st.hit[i as usize] else {
                 continue;
@@ -333,6 +340,7 @@ pub(crate) mod x8 {
                     uv[j][1][k] = t.y;
                 }
             }
+            meta.set(k, &st.ray[i as usize], &h);
             b1[k] = h.u;
             b2[k] = h.v;
             sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
@@ -352,7 +360,7 @@ pub(crate) mod x8 {
             sign: avx.load(&sign),
         };
         let s = sl::triangle(&x);
-        store(avx, st, &ids, n, &s);
+        store(avx, st, &ids, n, &s, &meta);
     }
 
     /// Hits on spheres with a similarity `to_world`: [`sl::sphere`].
@@ -374,10 +382,11 @@ pub(crate) mod x8 {
             f[1].set(k, frame.y_axis.truncate());
             f[2].set(k, frame.z_axis.truncate());
         }
-        let x = ray_points(avx, st, &ids);
+        let mut m = Meta::default();
+        let x = ray_points(avx, st, &ids, &mut m);
         let frame = [f[0].load(avx), f[1].load(avx), f[2].load(avx)];
         let s = sl::sphere(c.load(avx), avx.load(&r), frame, avx.load(&sign), x);
-        store(avx, st, &ids, n, &s);
+        store(avx, st, &ids, n, &s, &m);
     }
 
     #[inline(always)]
@@ -399,19 +408,20 @@ pub(crate) mod x8 {
             let Some(h) = st.hit[i as usize] else {
                 continue;
             };
-            let Form::Rectangle(m) = &st.forms[h.geom as usize] else {
+            let Form::Rectangle(r) = &st.forms[h.geom as usize] else {
                 unreachable!("a rectangle's chunk holds rectangles only");
             };
-            let (to_object, to_world, consts) = &**m;
+            let (to_object, to_world, consts) = &**r;
             for j in 0..4 {
                 o[j].set(k, to_object.col(j).truncate());
                 w[j].set(k, to_world.col(j).truncate());
                 k4[j].set(k, consts[j]);
             }
         }
-        let x = ray_points(avx, st, &ids);
+        let mut m = Meta::default();
+        let x = ray_points(avx, st, &ids, &mut m);
         let [ng, nrm, dpdu, dpdv] = load4(avx, &k4);
-        let m = sl::Rectangle {
+        let rect = sl::Rectangle {
             to_object: load4(avx, &o),
             to_world: load4(avx, &w),
             ng,
@@ -419,8 +429,8 @@ pub(crate) mod x8 {
             dpdu,
             dpdv,
         };
-        let s = sl::rectangle(&m, x);
-        store(avx, st, &ids, n, &s);
+        let s = sl::rectangle(&rect, x);
+        store(avx, st, &ids, n, &s, &m);
     }
 
     /// The vector whose x is field `c`, in the rows that start at `row` (index of a row's
@@ -439,6 +449,30 @@ pub(crate) mod x8 {
             F32x8::gather::<N>(flat, y),
             F32x8::gather::<N>(flat, z),
         )
+    }
+
+    /// The three kernels' surface prologue: the chunk's surfaces ([`load`]), their points per
+    /// lane (for the lane-by-lane light points), the incident direction in the shading frame
+    /// and the side test per lane (`diffuse::incident`).
+    pub(crate) struct Prologue {
+        pub surf: Surface<F32x8>,
+        pub p: crate::stream::kernels::light::x8::Cols3,
+        pub wi: V3<F32x8>,
+        pub front: [bool; 8],
+    }
+
+    /// [`Prologue`] of the paths `ids`. Call inside [`Avx2::run`].
+    #[inline(always)]
+    pub(crate) fn prologue(avx: Avx2, s: &Surfaces, ids: &[u32; 8]) -> Prologue {
+        let surf = load(avx, s, ids);
+        let p = crate::stream::kernels::light::x8::Cols3::store(surf.p);
+        let (wi, front) = crate::stream::kernels::diffuse::incident(&surf);
+        Prologue {
+            surf,
+            p,
+            wi,
+            front: front.to_array(),
+        }
     }
 
     /// The surfaces of the paths `ids` (each with its interaction in `s`). Call inside
