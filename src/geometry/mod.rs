@@ -18,6 +18,7 @@ pub mod sdfgrid;
 pub mod serialized;
 pub mod shapes;
 pub mod sphere_map;
+pub mod surface_lanes;
 pub mod volfile;
 
 pub use cylinder::Cylinder;

@@ -870,6 +870,39 @@ impl Shape {
         self.shading_normal.unwrap_or_else(|| self.plane_normal())
     }
 
+    /// What the lane form of a rectangle's interaction needs ([`super::surface_lanes::rectangle`]):
+    /// `to_object`, `to_world`, and the constants the scalar [`Self::interaction`] computes
+    /// per hit (signed true and shading normals, dp/du, dp/dv), computed here by the same code;
+    /// `None` for other shapes.
+    pub(crate) fn rectangle_lanes(&self) -> Option<(Mat4, Mat4, [Vec3; 4])> {
+        let ShapeKind::Rectangle { to_world } = &self.kind else {
+            return None;
+        };
+        let sign = if self.flip_normals { -1.0 } else { 1.0 };
+        let ng = self.plane_normal() * sign;
+        let n = self.shading_normal.map_or(ng, |n| n * sign);
+        let (_, dpdu, dpdv) = rectangle_uv(to_world, Vec3::ZERO);
+        Some((self.to_object, *to_world, [ng, n, dpdu, dpdv]))
+    }
+
+    /// What the lane form of a sphere's interaction needs ([`super::surface_lanes::sphere`]):
+    /// centre, radius, the rotation orienting its uv map and the `flip_normals` sign; `None`
+    /// for other shapes and for spheres whose `to_world` is not a similarity (their uv map goes
+    /// through [`SphereMap`]).
+    pub(crate) fn sphere_lanes(&self) -> Option<(Vec3, f32, Mat4, f32)> {
+        let ShapeKind::Sphere {
+            center,
+            radius,
+            frame,
+            map: None,
+        } = &self.kind
+        else {
+            return None;
+        };
+        let sign = if self.flip_normals { -1.0 } else { 1.0 };
+        Some((*center, *radius, *frame, sign))
+    }
+
     /// The disk's unit normal before `flip_normals`: +Z by the normal transform.
     /// The unit normal of a disk or rectangle: the normal transform of +Z, as Mitsuba.
     fn plane_normal(&self) -> Vec3 {

@@ -103,6 +103,42 @@ impl F32x8 {
     pub fn store(self, out: &mut [f32; 8]) {
         unsafe { _mm256_storeu_ps(out.as_mut_ptr(), self.0) };
     }
+
+    /// The 8×8 transpose: lane `k` of output `j` is lane `j` of input `k` (moves only, no
+    /// arithmetic; 24 shuffles). Turns 8 fields of 8 lanes into 8 lanes' rows of 8 fields, for
+    /// row stores (`stream::kernels::surface`).
+    #[inline(always)]
+    pub fn transpose8(v: [F32x8; 8]) -> [F32x8; 8] {
+        // SAFETY: the inputs prove AVX (module doc).
+        unsafe {
+            let t0 = _mm256_unpacklo_ps(v[0].0, v[1].0);
+            let t1 = _mm256_unpackhi_ps(v[0].0, v[1].0);
+            let t2 = _mm256_unpacklo_ps(v[2].0, v[3].0);
+            let t3 = _mm256_unpackhi_ps(v[2].0, v[3].0);
+            let t4 = _mm256_unpacklo_ps(v[4].0, v[5].0);
+            let t5 = _mm256_unpackhi_ps(v[4].0, v[5].0);
+            let t6 = _mm256_unpacklo_ps(v[6].0, v[7].0);
+            let t7 = _mm256_unpackhi_ps(v[6].0, v[7].0);
+            let u0 = _mm256_shuffle_ps::<0x44>(t0, t2);
+            let u1 = _mm256_shuffle_ps::<0xee>(t0, t2);
+            let u2 = _mm256_shuffle_ps::<0x44>(t1, t3);
+            let u3 = _mm256_shuffle_ps::<0xee>(t1, t3);
+            let u4 = _mm256_shuffle_ps::<0x44>(t4, t6);
+            let u5 = _mm256_shuffle_ps::<0xee>(t4, t6);
+            let u6 = _mm256_shuffle_ps::<0x44>(t5, t7);
+            let u7 = _mm256_shuffle_ps::<0xee>(t5, t7);
+            [
+                F32x8(_mm256_permute2f128_ps::<0x20>(u0, u4)),
+                F32x8(_mm256_permute2f128_ps::<0x20>(u1, u5)),
+                F32x8(_mm256_permute2f128_ps::<0x20>(u2, u6)),
+                F32x8(_mm256_permute2f128_ps::<0x20>(u3, u7)),
+                F32x8(_mm256_permute2f128_ps::<0x31>(u0, u4)),
+                F32x8(_mm256_permute2f128_ps::<0x31>(u1, u5)),
+                F32x8(_mm256_permute2f128_ps::<0x31>(u2, u6)),
+                F32x8(_mm256_permute2f128_ps::<0x31>(u3, u7)),
+            ]
+        }
+    }
 }
 
 impl I32x8 {

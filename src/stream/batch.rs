@@ -203,6 +203,15 @@ impl Surfaces {
         &self.flat
     }
 
+    /// Path `i`'s row, for the 8-wide gather stage (`kernels::surface::x8::fill`), which writes
+    /// the fields [`Self::set`] writes.
+    #[inline(always)]
+    pub fn row_mut(&mut self, i: usize) -> &mut [f32; cols::ROW] {
+        (&mut self.flat[i * cols::ROW..(i + 1) * cols::ROW])
+            .try_into()
+            .expect("a row")
+    }
+
     /// Stores path `i`'s interaction.
     #[inline(always)]
     pub fn set(&mut self, i: usize, si: &SurfaceInteraction) {

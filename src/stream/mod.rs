@@ -73,6 +73,9 @@ pub struct LaneCounters {
     /// Light samples the kernels took in lanes, per kind: area lights on triangle meshes,
     /// rectangles and spheres, then `point`, `spot`, `directional`, `constant`, `envmap`.
     pub kernel_lights: [u64; kernels::light::KINDS],
+    /// Hits whose surface interaction the gather stage computed 8-wide
+    /// ([`kernels::surface::fill`]; the rest went through `Scene::interaction`).
+    pub surface_lanes: u64,
     /// Batches and bounces (trace stages) run.
     pub batches: u64,
     pub bounces: u64,
@@ -92,6 +95,7 @@ impl LaneCounters {
         for (a, b) in self.kernel_lights.iter_mut().zip(o.kernel_lights) {
             *a += b;
         }
+        self.surface_lanes += o.surface_lanes;
         self.batches += o.batches;
         self.bounces += o.bounces;
     }
@@ -245,6 +249,8 @@ struct Kernels {
     kinds: Vec<Option<Kernel>>,
     /// Per emitter, how the kernels sample it in lanes.
     lights: Vec<Option<kernels::light::LaneLight>>,
+    /// Per shape, how the gather stage reconstructs its hits ([`kernels::surface::fill`]).
+    forms: Vec<kernels::surface::Form>,
 }
 
 /// Which 8-wide kernel shades a material, with what it needs.
@@ -293,6 +299,7 @@ impl Kernels {
             },
             kinds,
             lights: kernels::light::LaneLight::table(scene),
+            forms: kernels::surface::Form::table(scene),
         }
     }
 
@@ -410,17 +417,26 @@ fn run_batch(
         );
         kind = RayKind::Bounce;
 
+        // The surface rows of the hits (8-wide where a shape has a lane form).
+        kernels::surface::fill(
+            scene,
+            &kernels.forms,
+            #[cfg(target_arch = "x86_64")]
+            kernels.avx,
+            batch,
+            &mut scratch.rays.counters.lanes.surface_lanes,
+        );
+
         // Emission; the paths that scatter go on to the shading stage.
         batch.scatter.clear();
         for &i in &batch.active {
             let i = i as usize;
             let ray = &batch.ray[i];
-            let si = batch.hit[i].map(|h| scene.interaction(ray, &h));
+            let si = batch.hit[i].map(|_| batch.surf.get(i));
             batch.alive[i] = false;
             if batch.state[i].add_emission(cfg, scene, ray, si.as_ref()) {
                 if let Some(si) = si {
                     batch.material[i] = scene.shape_material[si.shape as usize];
-                    batch.surf.set(i, &si);
                     batch.scatter.push(i as u32);
                 }
             }

@@ -166,6 +166,8 @@ const SCENES: &[(&str, Entry)] = &[
     ("stream_plastic.xml", Exclude(Specular("plastic"))),
     // Its wrapper-chain driver around plastic leaves: smooth `plastic` under normal maps.
     ("stream_plastics_wrapped.xml", Exclude(Specular("plastic"))),
+    // The stream renderer's surface interactions in lanes (tests/render/stream.rs).
+    ("stream_surfaces.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("tex_hdr_pfm.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("tex_mesh_attr.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("textured_quad.xml", Compare(NONE, Nm::AsWritten, 1)),

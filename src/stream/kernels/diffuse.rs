@@ -247,12 +247,8 @@ pub(crate) mod x8 {
         mat: Material<'_>,
         gather: &mut Gather,
     ) {
-        // 1. The surfaces, loaded 8-wide from the batch's columns.
-        let surf = surface::x8::load(avx, &b.surf, ids);
-        let p = Cols3::store(surf.p);
-        // 2. The side test.
-        let (wi, front) = incident(&surf);
-        let front = front.to_array();
+        // 1. The surfaces, loaded 8-wide from the batch's rows; 2. the side test.
+        let surface::x8::Prologue { surf, p, wi, front } = surface::x8::prologue(avx, &b.surf, ids);
 
         // 3a. Each path's random numbers in the scalar renderer's order (`u_sel` and `u` when it
         // takes a light sample, then `u2`), 8-wide from the gathered PCG32 states where the

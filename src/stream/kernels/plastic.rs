@@ -196,7 +196,7 @@ pub(crate) mod x8 {
     use crate::lane::Avx2;
     use crate::spectrum::Spectrum;
     use crate::stream::batch::Batch;
-    use crate::stream::kernels::diffuse::{incident, reflectance};
+    use crate::stream::kernels::diffuse::reflectance;
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
@@ -248,10 +248,8 @@ pub(crate) mod x8 {
         gather: &mut Gather,
     ) {
         // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
-        let surf = surface::x8::load(avx, &b.surf, ids);
-        let p = Cols3::store(surf.p);
-        let (wi, front) = incident(&surf);
-        let front = front.to_array();
+        // The surfaces, their points, the incident direction and the side test.
+        let surface::x8::Prologue { surf, p, wi, front } = surface::x8::prologue(avx, &b.surf, ids);
 
         // 2. Textures, light points and BSDF numbers, lane by lane in each path's order.
         let (rho0, spec0) = match &mat.coating {

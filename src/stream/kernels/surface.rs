@@ -1,8 +1,85 @@
-//! The one surface load of the three kernels ([`super::diffuse`], [`super::vertex`],
-//! [`super::plastic`]): 8 paths' surface points, true normals, shading frames and incident
-//! directions, loaded 8-wide in place from the batch's surface rows
-//! ([`crate::stream::batch::Surfaces`], written by the emission stage), one `vgatherdps` per
-//! field over the 8 rows. Loads only: the values are the scalar interaction's bits.
+//! The surface rows of the batch ([`crate::stream::batch::Surfaces`]): the gather stage that
+//! fills them after each trace ([`fill`]: hits on triangle meshes, similarity spheres and
+//! rectangles reconstructed 8 at a time by the lane forms of [`crate::geometry::surface_lanes`],
+//! every other hit by `Scene::interaction`), and the one surface load of the three kernels
+//! ([`super::diffuse`], [`super::vertex`], [`super::plastic`]): 8 paths' surface points, true
+//! normals, shading frames and incident directions, loaded 8-wide in place from the rows, one
+//! `vgatherdps` per field over the 8 rows. The rows hold the scalar interaction's bits either way.
+
+use crate::geometry::hit::NO_INSTANCE;
+use crate::scene::Scene;
+use crate::stream::batch::Batch;
+use glam::{Mat4, Vec3};
+
+/// How the gather stage reconstructs a hit on a shape (not seen through an instance; instanced
+/// hits always take `Scene::interaction`).
+#[derive(Clone, Debug)]
+pub(crate) enum Form {
+    /// A triangle mesh: [`crate::geometry::surface_lanes::triangle`].
+    Triangles,
+    /// A sphere with a similarity `to_world`: centre, radius, uv rotation, `flip_normals` sign.
+    Sphere(Vec3, f32, Mat4, f32),
+    /// A rectangle: `to_object`, `to_world`, then signed true normal, signed shading normal,
+    /// dp/du, dp/dv (`Shape::rectangle_lanes`).
+    Rectangle(Box<(Mat4, Mat4, [Vec3; 4])>),
+    /// Anything else (disks, cylinders, curves, SDF grids, spheres through a `SphereMap`):
+    /// `Scene::interaction`, one hit at a time.
+    Scalar,
+}
+
+impl Form {
+    /// Per shape of `scene`, its form (decided once, at load).
+    pub(crate) fn table(scene: &Scene) -> Vec<Form> {
+        use crate::geometry::ShapeKind;
+        scene
+            .shapes
+            .iter()
+            .map(|s| {
+                if let ShapeKind::Mesh(_) = s.kind {
+                    Form::Triangles
+                } else if let Some(c) = s.sphere_lanes() {
+                    Form::Sphere(c.0, c.1, c.2, c.3)
+                } else if let Some(r) = s.rectangle_lanes() {
+                    Form::Rectangle(Box::new(r))
+                } else {
+                    Form::Scalar
+                }
+            })
+            .collect()
+    }
+}
+
+/// The gather stage: writes the surface row of every active path of `batch` whose ray hit
+/// something (rows of paths without a hit are left as they are). 8-wide where `avx` is given
+/// (the chunk's hits grouped by form), else one `Scene::interaction` per hit; adds the hits
+/// reconstructed in lanes to `in_lanes`.
+pub(crate) fn fill(
+    scene: &Scene,
+    forms: &[Form],
+    #[cfg(target_arch = "x86_64")] avx: Option<crate::lane::Avx2>,
+    batch: &mut Batch,
+    in_lanes: &mut u64,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx) = avx {
+        *in_lanes += x8::fill(avx, scene, forms, batch);
+        return;
+    }
+    let _ = forms;
+    let (active, hit, ray, surf) = (&batch.active, &batch.hit, &batch.ray, &mut batch.surf);
+    for &i in active {
+        let i = i as usize;
+        if let Some(h) = &hit[i] {
+            surf.set(i, &scene.interaction(&ray[i], h));
+        }
+    }
+}
+
+/// Whether a hit takes the lane forms: not through an instance.
+#[inline(always)]
+fn direct(h: &crate::geometry::Hit) -> bool {
+    h.inst == NO_INSTANCE
+}
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
@@ -14,6 +91,347 @@ pub(crate) mod x8 {
     use crate::stream::BATCH;
 
     const N: usize = BATCH * cols::ROW;
+
+    use super::Form;
+    use crate::geometry::surface_lanes::{self as sl, SurfLanes};
+    use crate::geometry::{Hit, Ray, ShapeKind};
+    use crate::lane::vec::V2;
+    use crate::scene::Scene;
+    use crate::stream::batch::Batch;
+
+    /// Up to 8 path ids of one form waiting for their 8-wide reconstruction.
+    struct Pending {
+        ids: [u32; 8],
+        n: usize,
+    }
+
+    impl Pending {
+        const EMPTY: Pending = Pending { ids: [0; 8], n: 0 };
+        /// Adds `i`; returns whether the chunk is full.
+        #[inline(always)]
+        fn push(&mut self, i: u32) -> bool {
+            self.ids[self.n] = i;
+            self.n += 1;
+            self.n == 8
+        }
+        /// The ids, padded with the first (a padded lane is computed and not stored).
+        #[inline(always)]
+        fn take(&mut self) -> ([u32; 8], usize) {
+            let n = std::mem::take(&mut self.n);
+            let mut ids = self.ids;
+            let first = ids[0];
+            for id in &mut ids[n..] {
+                *id = first;
+            }
+            (ids, n)
+        }
+    }
+
+    /// The rays, hits and rows the gather stage works on.
+    struct Stage<'a> {
+        scene: &'a Scene,
+        forms: &'a [Form],
+        ray: &'a [Ray],
+        hit: &'a [Option<Hit>],
+        surf: &'a mut Surfaces,
+    }
+
+    /// [`super::fill`] 8-wide: each active path with a hit goes to its form's pending chunk,
+    /// which is reconstructed when it holds 8 (and at the end, padded). Returns how many hits
+    /// went through the lane forms.
+    pub(crate) fn fill(avx: Avx2, scene: &Scene, forms: &[Form], batch: &mut Batch) -> u64 {
+        avx.run(
+            #[inline(always)]
+            || {
+                let mut st = Stage {
+                    scene,
+                    forms,
+                    ray: &batch.ray,
+                    hit: &batch.hit,
+                    surf: &mut batch.surf,
+                };
+                let (mut tri, mut sph, mut rect) = (Pending::EMPTY, Pending::EMPTY, Pending::EMPTY);
+                let mut scalar = 0;
+                let mut hits = 0;
+                for &i in &batch.active {
+                    let Some(h) = &st.hit[i as usize] else {
+                        continue;
+                    };
+                    hits += 1;
+                    let form = if super::direct(h) {
+                        &st.forms[h.geom as usize]
+                    } else {
+                        &Form::Scalar
+                    };
+                    match form {
+                        Form::Triangles => {
+                            if tri.push(i) {
+                                triangles(avx, &mut st, tri.take());
+                            }
+                        }
+                        Form::Sphere(..) => {
+                            if sph.push(i) {
+                                spheres(avx, &mut st, sph.take());
+                            }
+                        }
+                        Form::Rectangle(_) => {
+                            if rect.push(i) {
+                                rectangles(avx, &mut st, rect.take());
+                            }
+                        }
+                        Form::Scalar => {
+                            scalar += 1;
+                            let i = i as usize;
+                            let si = st.scene.interaction(&st.ray[i], h);
+                            st.surf.set(i, &si);
+                        }
+                    }
+                }
+                if tri.n > 0 {
+                    triangles(avx, &mut st, tri.take());
+                }
+                if sph.n > 0 {
+                    spheres(avx, &mut st, sph.take());
+                }
+                if rect.n > 0 {
+                    rectangles(avx, &mut st, rect.take());
+                }
+                hits - scalar
+            },
+        )
+    }
+
+    /// Eight lanes of 3-vectors, filled lane by lane.
+    #[derive(Clone, Copy, Default)]
+    struct Cols3([[f32; 8]; 3]);
+
+    impl Cols3 {
+        #[inline(always)]
+        fn set(&mut self, k: usize, v: glam::Vec3) {
+            self.0[0][k] = v.x;
+            self.0[1][k] = v.y;
+            self.0[2][k] = v.z;
+        }
+        #[inline(always)]
+        fn load(&self, avx: Avx2) -> V3<F32x8> {
+            V3::new(
+                avx.load(&self.0[0]),
+                avx.load(&self.0[1]),
+                avx.load(&self.0[2]),
+            )
+        }
+    }
+
+    /// Each lane's ray point at its hit (`Ray::at`, 8-wide), and its [`Meta`].
+    #[inline(always)]
+    fn ray_points(avx: Avx2, st: &Stage, ids: &[u32; 8], m: &mut Meta) -> V3<F32x8> {
+        let (mut o, mut d, mut t) = (Cols3::default(), Cols3::default(), [0.0f32; 8]);
+        for (k, &i) in ids.iter().enumerate() {
+            let i = i as usize;
+            let Some(h) = &st.hit[i] else {
+                continue;
+            };
+            let ray = &st.ray[i];
+            o.set(k, ray.o);
+            d.set(k, ray.d);
+            t[k] = h.t;
+            m.set(k, ray, h);
+        }
+        sl::ray_at(o.load(avx), d.load(avx), avx.load(&t))
+    }
+
+    // The row layout `store` writes as four groups of 8 floats.
+    const _: () = assert!(
+        cols::P == 0
+            && cols::NG == 3
+            && cols::S == 6
+            && cols::T == 9
+            && cols::N == 12
+            && cols::WI == 15
+            && cols::UV == 18
+            && cols::DPDU == 20
+            && cols::DPDV == 23
+            && cols::DIST == 26
+            && cols::SHAPE == 27
+            && cols::PRIM == 28
+            && cols::ROW == 32
+    );
+
+    /// What a row takes from each lane's hit and ray besides the lane form's fields.
+    #[derive(Default)]
+    struct Meta {
+        /// −ray.d.
+        wi: Cols3,
+        t: [f32; 8],
+        /// The shape and primitive indices' bits.
+        shape: [f32; 8],
+        prim: [f32; 8],
+    }
+
+    impl Meta {
+        #[inline(always)]
+        fn set(&mut self, k: usize, ray: &Ray, h: &Hit) {
+            self.wi.set(k, -ray.d);
+            self.t[k] = h.t;
+            self.shape[k] = f32::from_bits(h.geom);
+            self.prim[k] = f32::from_bits(h.prim);
+        }
+    }
+
+    /// Writes the first `n` lanes of `s` and `m` into the rows of `ids`: the 32 fields as four
+    /// groups of 8 lanes, each transposed into 8 rows' runs of 8 floats (one store per group
+    /// and row instead of 29 scalar stores per row).
+    #[inline(always)]
+    fn store(avx: Avx2, st: &mut Stage, ids: &[u32; 8], n: usize, s: &SurfLanes<F32x8>, m: &Meta) {
+        let wi = m.wi.load(avx);
+        let (f, z) = (&s.frame, avx.splat(0.0));
+        let g0 = F32x8::transpose8([s.p.x, s.p.y, s.p.z, s.ng.x, s.ng.y, s.ng.z, f.s.x, f.s.y]);
+        let g1 = F32x8::transpose8([f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, wi.x]);
+        let g2 = F32x8::transpose8([
+            wi.y, wi.z, s.uv.x, s.uv.y, s.dpdu.x, s.dpdu.y, s.dpdu.z, s.dpdv.x,
+        ]);
+        let (t, shape, prim) = (avx.load(&m.t), avx.load(&m.shape), avx.load(&m.prim));
+        let g3 = F32x8::transpose8([s.dpdv.y, s.dpdv.z, t, shape, prim, z, z, z]);
+        for (k, &i) in ids.iter().enumerate().take(n) {
+            let r = st.surf.row_mut(i as usize);
+            let (a, rest) = r.split_at_mut(8);
+            let (b, rest) = rest.split_at_mut(8);
+            let (c, d) = rest.split_at_mut(8);
+            g0[k].store(a.try_into().expect("8 floats"));
+            g1[k].store(b.try_into().expect("8 floats"));
+            g2[k].store(c.try_into().expect("8 floats"));
+            g3[k].store(d.try_into().expect("8 floats"));
+        }
+    }
+
+    /// Hits on triangle meshes: each lane's triangle gathered from its mesh, then
+    /// [`sl::triangle`].
+    #[inline(always)]
+    fn triangles(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
+        let mut p = [Cols3::default(); 3];
+        let mut nrm = [Cols3::default(); 3];
+        let mut uv = [[[0.0f32; 8]; 2]; 3];
+        let (mut has_n, mut has_uv) = ([false; 8], [false; 8]);
+        let (mut b1, mut b2, mut sign) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
+        let mut meta = Meta::default();
+        for (k, &i) in ids.iter().enumerate() {
+            let Some(h) = st.hit[i as usize] else {
+                continue;
+            };
+            let shape = &st.scene.shapes[h.geom as usize];
+            let ShapeKind::Mesh(m) = &shape.kind else {
+                unreachable!("Form::Triangles is set for meshes only");
+            };
+            let tri = m.indices[h.prim as usize];
+            for j in 0..3 {
+                p[j].set(k, m.positions[tri[j] as usize]);
+            }
+            if let Some(ns) = &m.normals {
+                has_n[k] = true;
+                for j in 0..3 {
+                    nrm[j].set(k, ns[tri[j] as usize]);
+                }
+            }
+            if let Some(uvs) = &m.uvs {
+                has_uv[k] = true;
+                for j in 0..3 {
+                    let t = uvs[tri[j] as usize];
+                    uv[j][0][k] = t.x;
+                    uv[j][1][k] = t.y;
+                }
+            }
+            meta.set(k, &st.ray[i as usize], &h);
+            b1[k] = h.u;
+            b2[k] = h.v;
+            sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
+        }
+        let x = sl::Triangle {
+            p: [p[0].load(avx), p[1].load(avx), p[2].load(avx)],
+            n: [nrm[0].load(avx), nrm[1].load(avx), nrm[2].load(avx)],
+            uv: [
+                V2::new(avx.load(&uv[0][0]), avx.load(&uv[0][1])),
+                V2::new(avx.load(&uv[1][0]), avx.load(&uv[1][1])),
+                V2::new(avx.load(&uv[2][0]), avx.load(&uv[2][1])),
+            ],
+            has_n: avx.mask(&has_n),
+            has_uv: avx.mask(&has_uv),
+            b1: avx.load(&b1),
+            b2: avx.load(&b2),
+            sign: avx.load(&sign),
+        };
+        let s = sl::triangle(&x);
+        store(avx, st, &ids, n, &s, &meta);
+    }
+
+    /// Hits on spheres with a similarity `to_world`: [`sl::sphere`].
+    #[inline(always)]
+    fn spheres(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
+        let (mut c, mut f) = (Cols3::default(), [Cols3::default(); 3]);
+        let (mut r, mut sign) = ([0.0f32; 8], [0.0f32; 8]);
+        for (k, &i) in ids.iter().enumerate() {
+            let Some(h) = st.hit[i as usize] else {
+                continue;
+            };
+            let Form::Sphere(centre, radius, frame, sg) = &st.forms[h.geom as usize] else {
+                unreachable!("a sphere's chunk holds spheres only");
+            };
+            c.set(k, *centre);
+            r[k] = *radius;
+            sign[k] = *sg;
+            f[0].set(k, frame.x_axis.truncate());
+            f[1].set(k, frame.y_axis.truncate());
+            f[2].set(k, frame.z_axis.truncate());
+        }
+        let mut m = Meta::default();
+        let x = ray_points(avx, st, &ids, &mut m);
+        let frame = [f[0].load(avx), f[1].load(avx), f[2].load(avx)];
+        let s = sl::sphere(c.load(avx), avx.load(&r), frame, avx.load(&sign), x);
+        store(avx, st, &ids, n, &s, &m);
+    }
+
+    #[inline(always)]
+    fn load4(avx: Avx2, c: &[Cols3; 4]) -> [V3<F32x8>; 4] {
+        [
+            c[0].load(avx),
+            c[1].load(avx),
+            c[2].load(avx),
+            c[3].load(avx),
+        ]
+    }
+
+    /// Hits on rectangles: [`sl::rectangle`].
+    #[inline(always)]
+    fn rectangles(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
+        let (mut o, mut w) = ([Cols3::default(); 4], [Cols3::default(); 4]);
+        let mut k4 = [Cols3::default(); 4];
+        for (k, &i) in ids.iter().enumerate() {
+            let Some(h) = st.hit[i as usize] else {
+                continue;
+            };
+            let Form::Rectangle(r) = &st.forms[h.geom as usize] else {
+                unreachable!("a rectangle's chunk holds rectangles only");
+            };
+            let (to_object, to_world, consts) = &**r;
+            for j in 0..4 {
+                o[j].set(k, to_object.col(j).truncate());
+                w[j].set(k, to_world.col(j).truncate());
+                k4[j].set(k, consts[j]);
+            }
+        }
+        let mut m = Meta::default();
+        let x = ray_points(avx, st, &ids, &mut m);
+        let [ng, nrm, dpdu, dpdv] = load4(avx, &k4);
+        let rect = sl::Rectangle {
+            to_object: load4(avx, &o),
+            to_world: load4(avx, &w),
+            ng,
+            n: nrm,
+            dpdu,
+            dpdv,
+        };
+        let s = sl::rectangle(&rect, x);
+        store(avx, st, &ids, n, &s, &m);
+    }
 
     /// The vector whose x is field `c`, in the rows that start at `row` (index of a row's
     /// first float).
@@ -31,6 +449,30 @@ pub(crate) mod x8 {
             F32x8::gather::<N>(flat, y),
             F32x8::gather::<N>(flat, z),
         )
+    }
+
+    /// The three kernels' surface prologue: the chunk's surfaces ([`load`]), their points per
+    /// lane (for the lane-by-lane light points), the incident direction in the shading frame
+    /// and the side test per lane (`diffuse::incident`).
+    pub(crate) struct Prologue {
+        pub surf: Surface<F32x8>,
+        pub p: crate::stream::kernels::light::x8::Cols3,
+        pub wi: V3<F32x8>,
+        pub front: [bool; 8],
+    }
+
+    /// [`Prologue`] of the paths `ids`. Call inside [`Avx2::run`].
+    #[inline(always)]
+    pub(crate) fn prologue(avx: Avx2, s: &Surfaces, ids: &[u32; 8]) -> Prologue {
+        let surf = load(avx, s, ids);
+        let p = crate::stream::kernels::light::x8::Cols3::store(surf.p);
+        let (wi, front) = crate::stream::kernels::diffuse::incident(&surf);
+        Prologue {
+            surf,
+            p,
+            wi,
+            front: front.to_array(),
+        }
     }
 
     /// The surfaces of the paths `ids` (each with its interaction in `s`). Call inside
