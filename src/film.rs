@@ -406,6 +406,48 @@ impl Block {
         self.splat::<false>(film_pos, value, &[]);
     }
 
+    /// [`Block::put`] of eight samples in turn, with the same sums to the bit. For the box
+    /// filter (and finite values) the samples' fixed-point addends, w·v = v and w·v² = v·v per
+    /// channel, are computed 8-wide ([`sum::fixed8`]: ~5 instructions each instead of ~16)
+    /// and added to each sample's pixel; other filters and non-finite values take
+    /// [`Block::put`] per sample (their exact weights, unchanged). The sums are integer sums,
+    /// so this equals `put` whatever the order ([`sum`]).
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) fn put8(&mut self, avx: crate::lane::Avx2, pos: &[Vec2; 8], value: &[Spectrum; 8]) {
+        let finite = value.iter().all(|&v| crate::spectrum::is_finite(v));
+        if !finite || !self.filter.is_box() || self.sw == 0 || self.sh == 0 {
+            for (&p, &v) in pos.iter().zip(value) {
+                self.put(p, v);
+            }
+            return;
+        }
+        avx.run(
+            #[inline(always)]
+            || {
+                let col = |c: usize| avx.load(&core::array::from_fn(|k| value[k][c]));
+                let (r, g, b) = (col(0), col(1), col(2));
+                let (f0, f1, f2) = (sum::fixed8(r), sum::fixed8(g), sum::fixed8(b));
+                let (s0, s1, s2) = (sum::fixed8(r * r), sum::fixed8(g * g), sum::fixed8(b * b));
+                for (k, p) in pos.iter().enumerate() {
+                    // As the box case of `splat`.
+                    if !p.is_finite() {
+                        continue;
+                    }
+                    let px = storage_index(p.x, self.ox, self.sw, self.exact[0]);
+                    let py = storage_index(p.y, self.oy, self.sh, self.exact[1]);
+                    if let (Some(px), Some(py)) = (px, py) {
+                        self.data[py * self.sw as usize + px].add_fixed(
+                            [f0.get(k), f1.get(k), f2.get(k)],
+                            [s0.get(k), s1.get(k), s2.get(k)],
+                            sum::ONE,
+                            sum::ONE,
+                        );
+                    }
+                }
+            },
+        );
+    }
+
     /// [`Block::put`] with the values of the block's extra channels (`aovs`, one per channel;
     /// ignored when the block has none), splatted with the same filter weights.
     pub fn put_channels(&mut self, film_pos: Vec2, value: Spectrum, aovs: &[f32]) {

@@ -123,6 +123,70 @@ pub(crate) fn add_unsigned_all<const N: usize>(acc: [&mut i128; N], x: [i128; N]
     }
 }
 
+/// [`fixed`] of eight values at once (AVX2; call it inside [`crate::lane::Avx2::run`]), equal
+/// to it bit for bit in every lane: the common range's signed significand `sm` (|sm| < 2²⁴)
+/// times 2^sh, sh = e − 86 ∈ [0, 102], as two 64-bit words per lane, low = sm << sh (0 from
+/// sh = 64 on) and high = sm << (sh − 64) for sh ≥ 64, else the arithmetic sm >> (64 − sh),
+/// made of logical shifts as s ^ ((sm ^ s) >> (64 − sh)) with s the sign (all ones or 0;
+/// AVX2 has no 64-bit arithmetic shift). ±0 gives sm = 0; the lanes outside the common range
+/// and not zero take [`fixed`] itself, one by one.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn fixed8(x: crate::lane::F32x8) -> Fixed8 {
+    use crate::lane::{I32x8, Lane, LaneI32, LaneMask, LaneU64, U64x8};
+    let bits = x.to_bits();
+    let k = |c: i32| bits.splat(c);
+    let sh = bits.shr::<23>().and(k(0xff)).sub(k(86));
+    let common = sh.gt(k(-1)) & sh.lt(k(103));
+    let m = bits.and(k(0x7f_ffff)).or(k(0x80_0000));
+    let s = bits.sar::<31>();
+    let sm = I32x8::select(common, m.xor(s).sub(s), k(0));
+    let s = I32x8::select(common, s, k(0));
+    let sh = I32x8::select(common, sh, k(0));
+    let below64 = I32x8::select(sh.lt(k(64)), k(-1), k(0));
+    let w = U64x8::from_i32;
+    let (sm64, s64) = (w(sm), w(s));
+    let lo = sm64.shl_var(w(sh));
+    // Negative counts sign-extend to counts ≥ 64, which shift everything out.
+    let hi_big = sm64.shl_var(w(sh.sub(k(64))));
+    let hi_small = sm64
+        .xor(s64)
+        .shr_var(w(k(64).sub(sh)))
+        .xor(s64)
+        .and(w(below64));
+    let mut out = Fixed8 {
+        lo: lo.to_array(),
+        hi: hi_big.or(hi_small).to_array(),
+    };
+    let rare = !common & !bits.shl::<1>().eq(k(0));
+    if rare.any() {
+        for (j, r) in rare.to_array().into_iter().enumerate() {
+            if r {
+                let f = fixed(x.lane(j));
+                (out.lo[j], out.hi[j]) = (f as u64, (f >> 64) as u64);
+            }
+        }
+    }
+    out
+}
+
+/// Eight fixed-point values ([`fixed8`]) as their low and high 64-bit words (kept apart so
+/// that the 8-wide stores write them in place; [`Fixed8::get`] joins a lane's words).
+#[cfg(target_arch = "x86_64")]
+pub(crate) struct Fixed8 {
+    lo: [u64; 8],
+    hi: [u64; 8],
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Fixed8 {
+    /// Lane `k`'s value.
+    #[inline(always)]
+    pub(crate) fn get(&self, k: usize) -> i128 {
+        ((self.hi[k] as u128) << 64 | self.lo[k] as u128) as i128
+    }
+}
+
 /// The fixed-point value of 1, the weight of a box-filter sample: [`fixed`]`(1.0)`.
 pub(crate) const ONE: i128 = 1 << FRAC_BITS;
 
@@ -216,6 +280,41 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             let x = f32::from_bits((z >> 32) as u32);
             assert_eq!(fixed(x), fixed_before(x), "{x:e} ({:#x})", x.to_bits());
+        }
+    }
+
+    /// [`fixed8`] equals [`fixed`] in every lane on every exponent and sign with boundary
+    /// significands (each value in every lane position) and on 2²⁰ random bit patterns.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn fixed8_equals_fixed() {
+        let Some(avx) = crate::lane::Avx2::detect() else {
+            eprintln!("no AVX2: fixed8 not tested");
+            return;
+        };
+        let mut xs = Vec::new();
+        for e in 0u32..=255 {
+            for frac in [0u32, 1, 2, 0x40_0000, 0x7f_fffe, 0x7f_ffff, 0x12_3457] {
+                for sign in [0u32, 1] {
+                    xs.push(f32::from_bits(sign << 31 | e << 23 | frac));
+                }
+            }
+        }
+        let mut z = 0x2545_F491_4F6C_DD1Du64;
+        for _ in 0..1 << 20 {
+            z = z
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            xs.push(f32::from_bits((z >> 32) as u32));
+        }
+        for shift in 0..8 {
+            for c in xs[shift..].chunks_exact(8) {
+                let c: [f32; 8] = c.try_into().unwrap();
+                let got = avx.run(|| fixed8(avx.load(&c)));
+                for (j, &x) in c.iter().enumerate() {
+                    assert_eq!(got.get(j), fixed(x), "{x:e} ({:#x})", x.to_bits());
+                }
+            }
         }
     }
 

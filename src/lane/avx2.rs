@@ -151,6 +151,45 @@ impl I32x8 {
 }
 
 impl U64x8 {
+    /// The eight `i32` lanes of `x` sign-extended to 64 bits (`vpmovsxdq`).
+    #[inline(always)]
+    pub fn from_i32(x: I32x8) -> U64x8 {
+        unsafe {
+            U64x8([
+                _mm256_cvtepi32_epi64(_mm256_castsi256_si128(x.0)),
+                _mm256_cvtepi32_epi64(_mm256_extracti128_si256::<1>(x.0)),
+            ])
+        }
+    }
+    /// Per lane `self << n` (`vpsllvq`): 0 where `n` ≥ 64 as an unsigned number.
+    #[inline(always)]
+    pub fn shl_var(self, n: U64x8) -> U64x8 {
+        unsafe {
+            U64x8([
+                _mm256_sllv_epi64(self.0[0], n.0[0]),
+                _mm256_sllv_epi64(self.0[1], n.0[1]),
+            ])
+        }
+    }
+    /// Per lane logical `self >> n` (`vpsrlvq`): 0 where `n` ≥ 64 as an unsigned number.
+    #[inline(always)]
+    pub fn shr_var(self, n: U64x8) -> U64x8 {
+        unsafe {
+            U64x8([
+                _mm256_srlv_epi64(self.0[0], n.0[0]),
+                _mm256_srlv_epi64(self.0[1], n.0[1]),
+            ])
+        }
+    }
+    #[inline(always)]
+    pub fn and(self, o: U64x8) -> U64x8 {
+        unsafe {
+            U64x8([
+                _mm256_and_si256(self.0[0], o.0[0]),
+                _mm256_and_si256(self.0[1], o.0[1]),
+            ])
+        }
+    }
     #[inline(always)]
     pub fn to_array(self) -> [u64; 8] {
         let mut a = [0u64; 8];

@@ -24,7 +24,8 @@
 //!
 //! The `direct` integrator runs on the same batch, camera trace and ray counters ([`direct`]).
 //!
-//! Then every path's radiance goes to the block in the canonical order. Each path draws from its
+//! Then every path's radiance goes to the block in the canonical order (8 samples at a time:
+//! [`Block::put8`]). Each path draws from its
 //! own stream keyed by (seed, pixel, sample) and runs exactly the scalar renderer's per-vertex
 //! functions in the same order, so the image equals the scalar renderer's bit for bit at any
 //! thread count (`tests/render/stream.rs`).
@@ -374,17 +375,41 @@ pub(crate) fn render_block(
                 direct::run_batch(scene, cfg, batch, scratch, packets, &mut stream.direct)
             }
         }
-        for (pos, st) in batch.pos.iter().zip(&batch.state) {
-            let mut l = st.result;
-            if !crate::spectrum::is_finite(l) {
-                invalid += 1;
-                l = Spectrum::ZERO;
-            }
-            block.put(*pos, l);
-        }
+        splat(block, batch, kernels, &mut invalid);
         k = end;
     }
     invalid
+}
+
+/// The splat: every path's radiance (0 for a non-finite one, counted in `invalid`) to the
+/// block in the canonical order, 8 samples at a time through [`Block::put8`] with AVX2 (the
+/// same sums as [`Block::put`] one by one, which takes the rest).
+fn splat(block: &mut Block, batch: &Batch, kernels: &Kernels, invalid: &mut u64) {
+    let mut value = |i: usize| {
+        let l = batch.state[i].result;
+        if crate::spectrum::is_finite(l) {
+            l
+        } else {
+            *invalid += 1;
+            Spectrum::ZERO
+        }
+    };
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx) = kernels.avx {
+        for (k, pos) in batch.pos.chunks_exact(8).enumerate() {
+            let pos: &[Vec2; 8] = pos.try_into().expect("8 positions");
+            let v: [Spectrum; 8] = core::array::from_fn(|j| value(8 * k + j));
+            block.put8(avx, pos, &v);
+            done += 8;
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = kernels;
+    for i in done..batch.len() {
+        let v = value(i);
+        block.put(batch.pos[i], v);
+    }
 }
 
 /// Runs every path of `batch` to its end, bounce by bounce.
