@@ -441,9 +441,9 @@ impl Collected {
                 }
             }
         } else {
-            for j in 0..e.len() {
+            for (j, sl) in slot.iter().enumerate().take(e.len()) {
                 let lk = e.w[j];
-                let i = slot[j][0];
+                let i = sl[0];
                 let known_p = known.map_or(0.0, |kn| kn.p);
                 if self.facing[j] {
                     let (f, pd) = if i == NONE {
