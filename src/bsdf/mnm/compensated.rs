@@ -254,6 +254,12 @@ impl AtWi {
         } else {
             MsTable::remainder(&r.table.lookup(&r.cell, wo), &self.k)
         };
+        self.remainder_from(eo, wo)
+    }
+
+    /// [`Self::remainder`] from E_ms(ωo) `eo` (looked up elsewhere; `ei` ≠ 0).
+    #[inline(always)]
+    fn remainder_from(&self, eo: Spectrum, wo: Vec3) -> Spectrum {
         self.ei * eo * self.norm * wo.z
     }
 }

@@ -56,6 +56,33 @@ struct Pending {
     known: Option<Known>,
 }
 
+/// Each pending point's rank-1 remainder at its ωo ([`AtWi::remainder`]): the table lookups at
+/// ωo of the points with a baked table 8-wide ([`crate::bsdf::mnm::ms_table::MsTable::lookup_baked_x8`], the first such
+/// point's table; a point with another table, or per-bounce colours, looks up alone).
+fn remainders(pending: &[Option<Pending>; 8], pts: &[Option<Point>; 8]) -> [Spectrum; 8] {
+    let baked = |k: usize| -> Option<&MsRef> {
+        let (pd, pt) = (pending[k].as_ref()?, pts[k].as_ref()?);
+        (pt.r.baked_norm.is_some() && pd.at.ei != Spectrum::ZERO).then_some(pt.r)
+    };
+    let mut cells = [None; 8];
+    let mut wo = [Vec3::Z; 8];
+    let table = (0..8).find_map(baked).map(|r| r.table);
+    if let Some(t) = table {
+        for k in 0..8 {
+            if let Some(r) = baked(k).filter(|r| std::ptr::eq(r.table, t)) {
+                cells[k] = Some(r.cell);
+                wo[k] = pending[k].as_ref().map_or(Vec3::Z, |p| p.wo);
+            }
+        }
+    }
+    let eo = table.map_or([Spectrum::ZERO; 8], |t| t.lookup_baked_x8(&cells, &wo));
+    std::array::from_fn(|k| match (&pending[k], &pts[k]) {
+        (Some(pd), Some(_)) if cells[k].is_some() => pd.at.remainder_from(eo[k], pd.wo),
+        (Some(pd), Some(pt)) => pd.at.remainder(pt.r, pd.wo),
+        _ => Spectrum::ZERO,
+    })
+}
+
 /// The nested BSDF every pending point shares (the first one's).
 fn shared<'a>(pts: &[Option<Point<'a>>; 8]) -> Option<Bsdf<'a>> {
     pts.iter().flatten().next().map(|p| p.nested)
@@ -97,14 +124,15 @@ pub(crate) fn eval_pdf_x8(
     let ev = Nested::of(&nested)
         .lanes(&pairs)
         .expect("a point's nested BSDF has a lane form");
-    for (k, (pd, pt)) in pending.iter().zip(pts).enumerate() {
-        let (Some(pd), Some(pt)) = (pd, pt) else {
+    let rem = remainders(&pending, pts);
+    for (k, pd) in pending.iter().enumerate() {
+        let Some(pd) = pd else {
             continue;
         };
         let fo = pd.c.sum::<false, CHUNK>(&pd.e, None, &ev);
         let a = &pd.at;
         out[k] = (
-            fo.f + a.remainder(pt.r, pd.wo),
+            fo.f + rem[k],
             (1.0 - a.select) * fo.p + a.select * pd.wo.z * INV_PI,
         );
     }
@@ -162,6 +190,7 @@ pub(crate) fn sample_x8(
     let ev = Nested::of(&nested)
         .lanes(&pairs)
         .expect("a point's nested BSDF has a lane form");
+    let rem = remainders(&pending, pts);
     for (k, (pd, pt)) in pending.iter().zip(pts).enumerate() {
         let (Some(pd), Some(pt)) = (pd, pt) else {
             continue;
@@ -176,7 +205,7 @@ pub(crate) fn sample_x8(
         let bs = BsdfSample {
             wo,
             pdf,
-            weight: (fo.f + a.remainder(pt.r, wo)) / pdf,
+            weight: (fo.f + rem[k]) / pdf,
             eta: 1.0,
             lobe: super::super::explicit::lobe_of(pt.nested.lobes()),
         };
