@@ -8,7 +8,9 @@
 //! - other kinds pair by pair through their scalar `eval_pdf` / `pdf` (the fallback is the
 //!   nested BSDF's own code, never something else).
 //!
-//! Unused lanes hold a valid pair (a = b = +z) whose results are never read.
+//! The stream kernel batches the queries of 8 shading points at once (`Pairs<CHUNK>`, up to four
+//! 8-wide calls: `compensated::lanes`). Unused lanes hold a valid pair (a = b = +z) whose
+//! results are never read.
 
 use crate::bsdf::diffuse::Diffuse;
 use crate::bsdf::roughconductor::RoughConductor;

@@ -8,18 +8,19 @@
 //!    `Scene::bsdf_root`, the scalar code, into one arena for the 8 points), the side test,
 //!    the light selection and light point through the shared gather
 //!    ([`super::light::x8::Gather`]: area lights 8-wide);
-//! 3. the BSDF value and density toward each light point **lane by lane** (the scalar
-//!    compensated model, `bsdf::mnm::compensated::eval_pdf`, whose nested evaluations are
-//!    already 8-wide per query), then 8-wide: the power heuristic, the contribution and the
+//! 3. the BSDF value and density toward each light point: where the chunk's nested leaf has no
+//!    textured parameter ([`shared_nested`]), the 8 points together through
+//!    `bsdf::mnm::compensated::lanes` (the first orders' nested pairs of all points in full
+//!    8-wide calls, the remainder's table lookups with their coordinates 8-wide), else lane by
+//!    lane (the scalar model); then 8-wide: the power heuristic, the contribution and the
 //!    shadow ray ([`super::diffuse::light_out`]);
-//! 4. lane by lane: the BSDF sample (the scalar compensated sampler), the next ray and
-//!    `PathState::advance`.
+//! 4. the BSDF samples (the same split: the points' draws lane by lane, their first orders and
+//!    remainders together), then lane by lane the next ray and `PathState::advance`.
 //!
-//! What is in lanes here is the driver's part of a vertex (light points, MIS, shadow rays); the
-//! compensated model itself (per-hit setup, first order, table lookups, sampling) still runs per
-//! lane through the scalar code, so the image is the scalar renderer's by construction. Its lane
-//! form (one ωp per lane: per-lane microsurfaces, entries and table cells) is the next step
-//! (`docs/mnm.md`, "Issues 17/18: the compensated model in lanes").
+//! The per-hit build (texture lookup, microsurface, table cell, ωi cache) and the draws still
+//! run per lane through the scalar code; every number is the scalar model's bit for bit
+//! (`compensated::lanes`' test), so the image is the scalar renderer's (`docs/mnm.md`, "Issues
+//! 17/18: the compensated model in lanes (tenth session)").
 
 use crate::bsdf::mnm::Evaluation;
 use crate::material::{MatId, MaterialNode, Materials};
