@@ -923,6 +923,36 @@ mod tests {
         }
     }
 
+    /// Nested BSDFs with a lane form for the first-order tests: a GGX rough conductor with
+    /// visible-normal sampling, a Beckmann one without, a rough plastic (`compensated::lanes`'
+    /// test uses them too).
+    pub(super) fn push_reflectors(arena: &mut BsdfArena) -> [u32; 3] {
+        [
+            arena.push(BsdfNode::RoughConductor(RoughConductor {
+                distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),
+                eta: Vec3::new(0.2, 0.4, 1.4),
+                k: Vec3::new(3.6, 2.4, 1.8),
+                specular_reflectance: Vec3::ONE,
+            })),
+            arena.push(BsdfNode::RoughConductor(RoughConductor {
+                distribution: MicrofacetDistribution::new(MicrofacetType::Beckmann, 0.3, false),
+                eta: Vec3::new(0.2, 0.4, 1.4),
+                k: Vec3::new(3.6, 2.4, 1.8),
+                specular_reflectance: Vec3::new(1.0, 0.8, 0.6),
+            })),
+            arena.push(BsdfNode::RoughPlastic(RoughPlastic::new(
+                MicrofacetType::Ggx,
+                0.3,
+                true,
+                Vec3::new(0.5, 0.2, 0.1),
+                Vec3::ONE,
+                1.5,
+                1.0,
+                false,
+            ))),
+        ]
+    }
+
     // The first order as it was before the batch (commit 6b74181), the reference of
     // `batched_first_order_is_bit_for_bit_the_pair_by_pair_one`.
     fn old_first_order<const WALK: bool>(
@@ -1041,33 +1071,10 @@ mod tests {
             v.to_array().map(f32::to_bits)
         }
         let mut arena = BsdfArena::new();
-        let mut nodes = vec![
-            arena.push(BsdfNode::Diffuse(Diffuse {
-                reflectance: Vec3::new(0.7, 0.4, 0.2),
-            })),
-            arena.push(BsdfNode::RoughConductor(RoughConductor {
-                distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),
-                eta: Vec3::new(0.2, 0.4, 1.4),
-                k: Vec3::new(3.6, 2.4, 1.8),
-                specular_reflectance: Vec3::ONE,
-            })),
-            arena.push(BsdfNode::RoughConductor(RoughConductor {
-                distribution: MicrofacetDistribution::new(MicrofacetType::Beckmann, 0.3, false),
-                eta: Vec3::new(0.2, 0.4, 1.4),
-                k: Vec3::new(3.6, 2.4, 1.8),
-                specular_reflectance: Vec3::new(1.0, 0.8, 0.6),
-            })),
-            arena.push(BsdfNode::RoughPlastic(RoughPlastic::new(
-                MicrofacetType::Ggx,
-                0.3,
-                true,
-                Vec3::new(0.5, 0.2, 0.1),
-                Vec3::ONE,
-                1.5,
-                1.0,
-                false,
-            ))),
-        ];
+        let mut nodes = vec![arena.push(BsdfNode::Diffuse(Diffuse {
+            reflectance: Vec3::new(0.7, 0.4, 0.2),
+        }))];
+        nodes.extend(push_reflectors(&mut arena));
         let c = nodes[1];
         nodes.push(arena.push(BsdfNode::TwoSided { front: c, back: c }));
         let ctx = BsdfContext::default();

@@ -12,7 +12,7 @@
 //! evaluates with the first point's): the stream kernel groups them so (a material whose
 //! nested leaf has no textured parameter).
 
-use super::super::nested_batch::{Pairs, CHUNK};
+use super::super::nested_batch::{Evaluated, Pairs, CHUNK};
 use super::{
     draw, entries, sample_record_is_exact, AtWi, Collected, Entries, Known, MsRef, Nested,
 };
@@ -83,6 +83,21 @@ fn remainders(pending: &[Option<Pending>; 8], pts: &[Option<Point>; 8]) -> [Spec
     })
 }
 
+/// The second pass's inputs: the batch's nested values (in 8-wide calls of the shared nested
+/// BSDF's lane form) and each pending point's remainder.
+#[inline(always)]
+fn evaluate(
+    nested: Bsdf,
+    pairs: &Pairs<CHUNK>,
+    pending: &[Option<Pending>; 8],
+    pts: &[Option<Point>; 8],
+) -> (Evaluated<CHUNK>, [Spectrum; 8]) {
+    let ev = Nested::of(&nested)
+        .lanes(pairs)
+        .expect("a point's nested BSDF has a lane form");
+    (ev, remainders(pending, pts))
+}
+
 /// The nested BSDF every pending point shares (the first one's).
 fn shared<'a>(pts: &[Option<Point<'a>>; 8]) -> Option<Bsdf<'a>> {
     pts.iter().flatten().next().map(|p| p.nested)
@@ -121,10 +136,7 @@ pub(crate) fn eval_pdf_x8(
             known: None,
         });
     }
-    let ev = Nested::of(&nested)
-        .lanes(&pairs)
-        .expect("a point's nested BSDF has a lane form");
-    let rem = remainders(&pending, pts);
+    let (ev, rem) = evaluate(nested, &pairs, &pending, pts);
     for (k, pd) in pending.iter().enumerate() {
         let Some(pd) = pd else {
             continue;
@@ -187,10 +199,7 @@ pub(crate) fn sample_x8(
             known,
         });
     }
-    let ev = Nested::of(&nested)
-        .lanes(&pairs)
-        .expect("a point's nested BSDF has a lane form");
-    let rem = remainders(&pending, pts);
+    let (ev, rem) = evaluate(nested, &pairs, &pending, pts);
     for (k, (pd, pt)) in pending.iter().zip(pts).enumerate() {
         let (Some(pd), Some(pt)) = (pd, pt) else {
             continue;
@@ -221,10 +230,7 @@ mod tests {
     use super::super::super::{Evaluation, Tangent};
     use super::*;
     use crate::bsdf::lanes::testing::{direction, same, same3};
-    use crate::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
-    use crate::bsdf::roughconductor::RoughConductor;
-    use crate::bsdf::roughplastic::RoughPlastic;
-    use crate::bsdf::{BsdfArena, BsdfNode};
+    use crate::bsdf::BsdfArena;
     use crate::math::Pcg32;
 
     /// The chunk's eval and sample equal the scalar model's (`Bsdf::eval_pdf` / `Bsdf::sample`
@@ -238,30 +244,7 @@ mod tests {
         let ctx = BsdfContext::default();
         let mut rng = Pcg32::new(17, 3);
         let mut arena = BsdfArena::new();
-        let nested = [
-            arena.push(BsdfNode::RoughConductor(RoughConductor {
-                distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),
-                eta: Vec3::new(0.2, 0.4, 1.4),
-                k: Vec3::new(3.6, 2.4, 1.8),
-                specular_reflectance: Vec3::ONE,
-            })),
-            arena.push(BsdfNode::RoughConductor(RoughConductor {
-                distribution: MicrofacetDistribution::new(MicrofacetType::Beckmann, 0.3, false),
-                eta: Vec3::new(0.2, 0.4, 1.4),
-                k: Vec3::new(3.6, 2.4, 1.8),
-                specular_reflectance: Vec3::new(1.0, 0.8, 0.6),
-            })),
-            arena.push(BsdfNode::RoughPlastic(RoughPlastic::new(
-                MicrofacetType::Ggx,
-                0.3,
-                true,
-                Vec3::new(0.5, 0.2, 0.1),
-                Vec3::ONE,
-                1.5,
-                1.0,
-                false,
-            ))),
-        ];
+        let nested = super::super::tests::push_reflectors(&mut arena);
         let (mut evals, mut samples, mut drawn, mut cached) = (0, 0, 0, 0);
         for (geometry, tangent) in [
             (Microgeometry::Sawtooth, Tangent::Mirror),
