@@ -12,7 +12,7 @@
 //! evaluates with the first point's): the stream kernel groups them so (a material whose
 //! nested leaf has no textured parameter).
 
-use super::super::nested_batch::{Evaluated, Pairs, CHUNK};
+use super::super::nested_batch::{Pairs, CHUNK};
 use super::{
     draw, entries, sample_record_is_exact, AtWi, Collected, Entries, Known, MsRef, Nested,
 };
@@ -83,21 +83,6 @@ fn remainders(pending: &[Option<Pending>; 8], pts: &[Option<Point>; 8]) -> [Spec
     })
 }
 
-/// The second pass's inputs: the batch's nested values (in 8-wide calls of the shared nested
-/// BSDF's lane form) and each pending point's remainder.
-#[inline(always)]
-fn evaluate(
-    nested: Bsdf,
-    pairs: &Pairs<CHUNK>,
-    pending: &[Option<Pending>; 8],
-    pts: &[Option<Point>; 8],
-) -> (Evaluated<CHUNK>, [Spectrum; 8]) {
-    let ev = Nested::of(&nested)
-        .lanes(pairs)
-        .expect("a point's nested BSDF has a lane form");
-    (ev, remainders(pending, pts))
-}
-
 /// The nested BSDF every pending point shares (the first one's).
 fn shared<'a>(pts: &[Option<Point<'a>>; 8]) -> Option<Bsdf<'a>> {
     pts.iter().flatten().next().map(|p| p.nested)
@@ -136,7 +121,10 @@ pub(crate) fn eval_pdf_x8(
             known: None,
         });
     }
-    let (ev, rem) = evaluate(nested, &pairs, &pending, pts);
+    let ev = Nested::of(&nested)
+        .lanes(&pairs)
+        .expect("a point's nested BSDF has a lane form");
+    let rem = remainders(&pending, pts);
     for (k, pd) in pending.iter().enumerate() {
         let Some(pd) = pd else {
             continue;
@@ -199,7 +187,10 @@ pub(crate) fn sample_x8(
             known,
         });
     }
-    let (ev, rem) = evaluate(nested, &pairs, &pending, pts);
+    let ev = Nested::of(&nested)
+        .lanes(&pairs)
+        .expect("a point's nested BSDF has a lane form");
+    let rem = remainders(&pending, pts);
     for (k, (pd, pt)) in pending.iter().zip(pts).enumerate() {
         let (Some(pd), Some(pt)) = (pd, pt) else {
             continue;
