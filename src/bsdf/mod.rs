@@ -538,11 +538,7 @@ impl<'a> Bsdf<'a> {
                 self.principled_sample(ctx, wi, sampler)
             }
         }?;
-        // One place rejects degenerate samples for every model.
-        if !(s.wo.is_finite() && s.pdf >= 0.0 && crate::spectrum::is_finite(s.weight)) {
-            return None;
-        }
-        Some(s)
+        accept_sample(s)
     }
 
     /// Eval and pdf together (next-event estimation needs both). Models whose two queries share
@@ -575,6 +571,16 @@ impl<'a> Bsdf<'a> {
             _ => (self.eval(ctx, wi, wo, sampler), self.pdf(ctx, wi, wo)),
         }
     }
+}
+
+/// The one place that rejects degenerate samples for every model ([`Bsdf::sample`]; the stream
+/// kernels that sample a model without it call this too).
+#[inline(always)]
+pub(crate) fn accept_sample(s: BsdfSample) -> Option<BsdfSample> {
+    if !(s.wo.is_finite() && s.pdf >= 0.0 && crate::spectrum::is_finite(s.weight)) {
+        return None;
+    }
+    Some(s)
 }
 
 impl Bsdf<'_> {

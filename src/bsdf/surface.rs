@@ -78,11 +78,16 @@ impl<'a> SurfaceBsdf<'a> {
         wo_world: Vec3,
         sampler: &mut Sampler,
     ) -> Option<(Spectrum, f32)> {
-        let wo = self.frame.to_local(wo_world);
-        if !self.consistent(wo_world, wo) {
-            return None;
-        }
+        let wo = self.local_wo(wo_world)?;
         Some(self.bsdf.eval_pdf(ctx, self.wi, wo, sampler))
+    }
+
+    /// The world direction `wo` in the shading frame; `None` when its sides disagree (what
+    /// [`Self::eval_pdf`] evaluates the local BSDF at: for kernels that evaluate it themselves).
+    #[inline]
+    pub fn local_wo(&self, wo_world: Vec3) -> Option<Vec3> {
+        let wo = self.frame.to_local(wo_world);
+        self.consistent(wo_world, wo).then_some(wo)
     }
 
     /// Importance-sample an outgoing world direction; `None` when the BSDF samples nothing or
@@ -90,6 +95,13 @@ impl<'a> SurfaceBsdf<'a> {
     #[inline]
     pub fn sample(&self, ctx: &BsdfContext, sampler: &mut Sampler) -> Option<SurfaceSample> {
         let bs = self.bsdf.sample(ctx, self.wi, sampler)?;
+        self.world_sample(bs)
+    }
+
+    /// A sample of the local BSDF (at this point's ωi) in world space; `None` when its sides
+    /// disagree ([`Self::sample`]'s end: for kernels that sample the local BSDF themselves).
+    #[inline]
+    pub(crate) fn world_sample(&self, bs: super::BsdfSample) -> Option<SurfaceSample> {
         let wo = self.frame.to_world(bs.wo);
         if !self.consistent(wo, bs.wo) {
             return None;

@@ -24,6 +24,8 @@
 //! drew from the nested sample record (F = weight · pdf, P = pdf) instead of evaluating the
 //! nested BSDF again; eval and pdf come from one pass ([`eval_pdf`]).
 
+pub(crate) mod lanes;
+
 use super::facets::MAX_FACETS;
 use super::ms_table::{Colour, MsTable, ThetaCell};
 use super::nested_batch::{self, Evaluated, Pairs};
@@ -252,6 +254,12 @@ impl AtWi {
         } else {
             MsTable::remainder(&r.table.lookup(&r.cell, wo), &self.k)
         };
+        self.remainder_from(eo, wo)
+    }
+
+    /// [`Self::remainder`] from E_ms(ωo) `eo` (looked up elsewhere; `ei` ≠ 0).
+    #[inline(always)]
+    fn remainder_from(&self, eo: Spectrum, wo: Vec3) -> Spectrum {
         self.ei * eo * self.norm * wo.z
     }
 }
@@ -320,102 +328,151 @@ fn first_order<const WALK: bool>(
     s: &mut Sampler,
     known: Option<Known>,
 ) -> FirstOrder {
-    let nested = Nested::of(nested);
-    let surf = &m.surface;
-    let g1o = surf.g1(wo);
-    let pdf_only = g1o <= 0.0;
-    let mut v = Spectrum::ZERO;
-    let mut p = 0.0;
-    let mut pw = 0.0;
-    let is_known = |j: usize, wall: bool| matches!(known, Some(kn) if kn.j == j && kn.wall == wall);
-    // Pass 1: the pairs to evaluate, in the order the terms are summed (slot NONE: the known
-    // term, or no such path).
     let mut pairs = Pairs::new();
-    let mut slot = [[NONE; 2]; MAX_FACETS];
-    if m.mirror_wall {
-        let fr = &m.frames[0];
-        let bo = fr.to_local(wo);
-        let exit_t = wall_exit(m, wo);
-        for (j, (sl, &a)) in slot.iter_mut().zip(&e.a).enumerate().take(e.len()) {
-            if !is_known(j, false) {
-                sl[0] = pairs.push(a, bo, pdf_only) as u8;
-            }
-            if let Some((rb, _)) = exit_t {
-                if !is_known(j, true) {
-                    sl[1] = pairs.push(a, rb, pdf_only) as u8;
-                }
-            }
-        }
-        let ev = nested.eval_pairs(ctx, &pairs, s);
-        // Pass 2: the sums, as before term by term.
-        let term = |j: usize, wall: bool| -> (Spectrum, f32) {
-            match known {
-                Some(kn) if kn.j == j && kn.wall == wall => (kn.f, kn.p),
-                _ => {
-                    let i = slot[j][usize::from(wall)] as usize;
-                    (if pdf_only { Spectrum::ZERO } else { ev.f(i) }, ev.p(i))
-                }
-            }
+    let c = Collected::new(m, e, wo, known, &mut pairs);
+    let ev = Nested::of(nested).eval_pairs(ctx, &pairs, s);
+    c.sum::<WALK, { nested_batch::WIDTH }>(e, known, &ev)
+}
+
+/// Pass 1 of the first order at ωo: its nested pairs pushed into a batch (slot `NONE`: the
+/// known term, or no such path), and what pass 2 ([`Collected::sum`]) needs besides their
+/// values. Split so that the stream renderer's kernel can evaluate the pairs of 8 shading
+/// points in full 8-wide calls ([`super::lanes`]).
+#[derive(Clone, Copy)]
+struct Collected {
+    mirror_wall: bool,
+    g1o: f32,
+    pdf_only: bool,
+    /// Over the mirror sawtooth: the wall exit's (R(ωo) in the facet frame, 1 − G1).
+    exit_t: Option<(Vec3, f32)>,
+    slot: [[u8; 2]; MAX_FACETS],
+    /// Elsewhere: ωo faces entry j's facet (and G1(ωo) > 0).
+    facing: [bool; MAX_FACETS],
+}
+
+impl Collected {
+    #[inline(always)]
+    fn new<const W: usize>(
+        m: &MicrofacetNormalMap,
+        e: &Entries,
+        wo: Vec3,
+        known: Option<Known>,
+        pairs: &mut Pairs<W>,
+    ) -> Collected {
+        let surf = &m.surface;
+        let g1o = surf.g1(wo);
+        let pdf_only = g1o <= 0.0;
+        let is_known =
+            |j: usize, wall: bool| matches!(known, Some(kn) if kn.j == j && kn.wall == wall);
+        let mut c = Collected {
+            mirror_wall: m.mirror_wall,
+            g1o,
+            pdf_only,
+            exit_t: None,
+            slot: [[NONE; 2]; MAX_FACETS],
+            facing: [false; MAX_FACETS],
         };
-        for j in 0..e.len() {
-            let w = e.w[j];
-            let via_wall = e.via_wall(j);
-            let (f, pd) = term(j, false);
-            v += w * f;
-            p += w * g1o * pd;
-            if WALK {
-                pw += if via_wall { w * pd } else { w * g1o * pd };
+        if m.mirror_wall {
+            let fr = &m.frames[0];
+            let bo = fr.to_local(wo);
+            c.exit_t = wall_exit(m, wo);
+            for (j, (sl, &a)) in c.slot.iter_mut().zip(&e.a).enumerate().take(e.len()) {
+                if !is_known(j, false) {
+                    sl[0] = pairs.push(a, bo, pdf_only) as u8;
+                }
+                if let Some((rb, _)) = c.exit_t {
+                    if !is_known(j, true) {
+                        sl[1] = pairs.push(a, rb, pdf_only) as u8;
+                    }
+                }
             }
-            if let Some((_, bt)) = exit_t {
-                let (f, pd) = term(j, true);
-                v += (w * bt) * f;
-                p += w * bt * pd;
-                if WALK && !via_wall {
-                    pw += w * bt * pd;
+        } else {
+            for j in 0..e.len() {
+                let k = e.k[j] as usize;
+                let b = m.frames[k].to_local(wo);
+                c.facing[j] = !pdf_only && wo.dot(surf.normal(k)) > 0.0;
+                let kn = match known {
+                    Some(kn) if c.facing[j] => kn.j == j && !kn.wall,
+                    Some(kn) => kn.j == j,
+                    None => false,
+                };
+                if !kn {
+                    c.slot[j][0] = pairs.push(e.a[j], b, !c.facing[j]) as u8;
                 }
             }
         }
-    } else {
-        let mut facing = [false; MAX_FACETS];
-        for j in 0..e.len() {
-            let k = e.k[j] as usize;
-            let b = m.frames[k].to_local(wo);
-            facing[j] = !pdf_only && wo.dot(surf.normal(k)) > 0.0;
-            let kn = match known {
-                Some(kn) if facing[j] => kn.j == j && !kn.wall,
-                Some(kn) => kn.j == j,
-                None => false,
-            };
-            if !kn {
-                slot[j][0] = pairs.push(e.a[j], b, !facing[j]) as u8;
-            }
-        }
-        let ev = nested.eval_pairs(ctx, &pairs, s);
-        for j in 0..e.len() {
-            let lk = e.w[j];
-            let i = slot[j][0];
-            let known_p = known.map_or(0.0, |kn| kn.p);
-            if facing[j] {
-                let (f, pd) = if i == NONE {
-                    (known.map_or(Spectrum::ZERO, |kn| kn.f), known_p)
-                } else {
-                    (ev.f(i as usize), ev.p(i as usize))
-                };
-                v += lk * f;
-                p += lk * pd;
-            } else {
-                let pd = if i == NONE { known_p } else { ev.p(i as usize) };
-                p += lk * pd;
-            }
-        }
-        if WALK {
-            pw = p;
-        }
+        c
     }
-    FirstOrder {
-        f: v * g1o,
-        p,
-        p_walk: pw,
+
+    /// Pass 2: the sums, term by term in the order of the explicit closed forms, from the
+    /// pairs' values `ev` (indexed by the slots of pass 1).
+    #[inline(always)]
+    fn sum<const WALK: bool, const W: usize>(
+        &self,
+        e: &Entries,
+        known: Option<Known>,
+        ev: &Evaluated<W>,
+    ) -> FirstOrder {
+        let (g1o, pdf_only, slot) = (self.g1o, self.pdf_only, &self.slot);
+        let mut v = Spectrum::ZERO;
+        let mut p = 0.0;
+        let mut pw = 0.0;
+        if self.mirror_wall {
+            let exit_t = self.exit_t;
+            let term = |j: usize, wall: bool| -> (Spectrum, f32) {
+                match known {
+                    Some(kn) if kn.j == j && kn.wall == wall => (kn.f, kn.p),
+                    _ => {
+                        let i = slot[j][usize::from(wall)] as usize;
+                        (if pdf_only { Spectrum::ZERO } else { ev.f(i) }, ev.p(i))
+                    }
+                }
+            };
+            for j in 0..e.len() {
+                let w = e.w[j];
+                let via_wall = e.via_wall(j);
+                let (f, pd) = term(j, false);
+                v += w * f;
+                p += w * g1o * pd;
+                if WALK {
+                    pw += if via_wall { w * pd } else { w * g1o * pd };
+                }
+                if let Some((_, bt)) = exit_t {
+                    let (f, pd) = term(j, true);
+                    v += (w * bt) * f;
+                    p += w * bt * pd;
+                    if WALK && !via_wall {
+                        pw += w * bt * pd;
+                    }
+                }
+            }
+        } else {
+            for (j, sl) in slot.iter().enumerate().take(e.len()) {
+                let lk = e.w[j];
+                let i = sl[0];
+                let known_p = known.map_or(0.0, |kn| kn.p);
+                if self.facing[j] {
+                    let (f, pd) = if i == NONE {
+                        (known.map_or(Spectrum::ZERO, |kn| kn.f), known_p)
+                    } else {
+                        (ev.f(i as usize), ev.p(i as usize))
+                    };
+                    v += lk * f;
+                    p += lk * pd;
+                } else {
+                    let pd = if i == NONE { known_p } else { ev.p(i as usize) };
+                    p += lk * pd;
+                }
+            }
+            if WALK {
+                pw = p;
+            }
+        }
+        FirstOrder {
+            f: v * g1o,
+            p,
+            p_walk: pw,
+        }
     }
 }
 
@@ -447,7 +504,7 @@ impl<'a, 'b> Nested<'a, 'b> {
     /// Every pair of `pairs` in one call of the nested BSDF's lane form, for the kinds that
     /// have one (`None` for the others).
     #[inline(always)]
-    fn lanes(self, pairs: &Pairs) -> Option<Evaluated> {
+    fn lanes<const W: usize>(self, pairs: &Pairs<W>) -> Option<Evaluated<W>> {
         match self {
             Nested::Diffuse(d) => Some(nested_batch::eval_pdf_lanes(d, pairs)),
             Nested::Conductor(c) => Some(nested_batch::eval_pdf_lanes(c, pairs)),
@@ -866,6 +923,36 @@ mod tests {
         }
     }
 
+    /// Nested BSDFs with a lane form for the first-order tests: a GGX rough conductor with
+    /// visible-normal sampling, a Beckmann one without, a rough plastic (`compensated::lanes`'
+    /// test uses them too).
+    pub(super) fn push_reflectors(arena: &mut BsdfArena) -> [u32; 3] {
+        [
+            arena.push(BsdfNode::RoughConductor(RoughConductor {
+                distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),
+                eta: Vec3::new(0.2, 0.4, 1.4),
+                k: Vec3::new(3.6, 2.4, 1.8),
+                specular_reflectance: Vec3::ONE,
+            })),
+            arena.push(BsdfNode::RoughConductor(RoughConductor {
+                distribution: MicrofacetDistribution::new(MicrofacetType::Beckmann, 0.3, false),
+                eta: Vec3::new(0.2, 0.4, 1.4),
+                k: Vec3::new(3.6, 2.4, 1.8),
+                specular_reflectance: Vec3::new(1.0, 0.8, 0.6),
+            })),
+            arena.push(BsdfNode::RoughPlastic(RoughPlastic::new(
+                MicrofacetType::Ggx,
+                0.3,
+                true,
+                Vec3::new(0.5, 0.2, 0.1),
+                Vec3::ONE,
+                1.5,
+                1.0,
+                false,
+            ))),
+        ]
+    }
+
     // The first order as it was before the batch (commit 6b74181), the reference of
     // `batched_first_order_is_bit_for_bit_the_pair_by_pair_one`.
     fn old_first_order<const WALK: bool>(
@@ -984,33 +1071,10 @@ mod tests {
             v.to_array().map(f32::to_bits)
         }
         let mut arena = BsdfArena::new();
-        let mut nodes = vec![
-            arena.push(BsdfNode::Diffuse(Diffuse {
-                reflectance: Vec3::new(0.7, 0.4, 0.2),
-            })),
-            arena.push(BsdfNode::RoughConductor(RoughConductor {
-                distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),
-                eta: Vec3::new(0.2, 0.4, 1.4),
-                k: Vec3::new(3.6, 2.4, 1.8),
-                specular_reflectance: Vec3::ONE,
-            })),
-            arena.push(BsdfNode::RoughConductor(RoughConductor {
-                distribution: MicrofacetDistribution::new(MicrofacetType::Beckmann, 0.3, false),
-                eta: Vec3::new(0.2, 0.4, 1.4),
-                k: Vec3::new(3.6, 2.4, 1.8),
-                specular_reflectance: Vec3::new(1.0, 0.8, 0.6),
-            })),
-            arena.push(BsdfNode::RoughPlastic(RoughPlastic::new(
-                MicrofacetType::Ggx,
-                0.3,
-                true,
-                Vec3::new(0.5, 0.2, 0.1),
-                Vec3::ONE,
-                1.5,
-                1.0,
-                false,
-            ))),
-        ];
+        let mut nodes = vec![arena.push(BsdfNode::Diffuse(Diffuse {
+            reflectance: Vec3::new(0.7, 0.4, 0.2),
+        }))];
+        nodes.extend(push_reflectors(&mut arena));
         let c = nodes[1];
         nodes.push(arena.push(BsdfNode::TwoSided { front: c, back: c }));
         let ctx = BsdfContext::default();

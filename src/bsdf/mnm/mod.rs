@@ -461,6 +461,26 @@ fn walk_or_explicit_pdf(
     }
 }
 
+/// The compensated model alone at root `b` (a microfacet normal map): `Some` exactly when
+/// [`eval_pdf`] (at ωi, ωo both above the surface) and [`sample`] (at ωi above it) reach
+/// `compensated::eval_pdf` / `compensated::sample` — not degenerate, a reflecting nested BSDF,
+/// no Lambert closed form, a table and β = 1. The stream kernel's 8-wide form
+/// ([`compensated::lanes`]) starts from it.
+#[inline]
+pub(crate) fn compensated_alone<'a>(
+    b: Bsdf<'a>,
+) -> Option<(&'a MicrofacetNormalMap, &'a compensated::MsRef, Bsdf<'a>)> {
+    let super::BsdfNode::MicrofacetNormalMap { map, .. } = b.node() else {
+        return None;
+    };
+    let m = &b.arena.mnm[*map as usize];
+    let nested = b.child(m.nested);
+    if m.degenerate || m.transmits(&nested) || m.lambert.is_some() || m.blend < 1.0 {
+        return None;
+    }
+    Some((m, m.ms.as_ref()?, nested))
+}
+
 /// Eval and pdf of one query (next-event estimation); equal to [`eval`] and [`pdf`] called
 /// separately up to rounding. The closed forms evaluate each path's nested BSDF once for both
 /// ([`explicit::eval_pdf_mirror`], [`explicit::eval_pdf_single`]); the random walk shares the

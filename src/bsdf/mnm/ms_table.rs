@@ -230,15 +230,16 @@ pub struct Coords<L: Lane> {
     pub tx: L,
 }
 
-impl Coords<f32> {
+impl<L: Lane> Coords<L> {
     /// The bilinear weights of the nodes (kz, l), (kz, l + 1), (kz + 1, l), (kz + 1, l + 1).
     #[inline(always)]
-    pub fn weights(&self) -> [f32; 4] {
+    pub fn weights(&self) -> [L; 4] {
         let (tu, tx) = (self.tu, self.tx);
+        let one = tu.splat(1.0);
         [
-            (1.0 - tu) * (1.0 - tx),
-            (1.0 - tu) * tx,
-            tu * (1.0 - tx),
+            (one - tu) * (one - tx),
+            (one - tu) * tx,
+            tu * (one - tx),
             tu * tx,
         ]
     }
@@ -331,6 +332,67 @@ impl MsTable {
     #[inline]
     pub fn lookup_baked(&self, cell: &ThetaCell, w: Vec3, with_first: bool) -> [Spectrum; 2] {
         let (idx, wgt) = self.corners(cell, w);
+        self.interpolate_baked(cell, idx[0], wgt, with_first)
+    }
+
+    /// E_ms of [`Self::lookup_baked`] (`with_first` = false) at 8 directions `w[k]` (z > 0), each
+    /// in its own cell `cells[k]` of this table (lanes without one are left 0): the node
+    /// coordinates and weights ([`coords`]) 8-wide, the node windows lane by lane; bit for bit
+    /// the scalar lookups (the lane rule of [`crate::lane`]).
+    #[inline]
+    pub fn lookup_baked_x8(&self, cells: &[Option<ThetaCell>; 8], w: &[Vec3; 8]) -> [Spectrum; 8] {
+        let mut out = [Spectrum::ZERO; 8];
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = crate::lane::Avx2::detect() {
+            let (mut ax, mut ay) = ([1.0f32; 8], [0.0f32; 8]);
+            let (mut wx, mut wy, mut wz) = ([0.0f32; 8], [0.0f32; 8], [1.0f32; 8]);
+            for (k, c) in cells.iter().enumerate() {
+                if let Some(c) = c {
+                    (ax[k], ay[k]) = (c.axis.x, c.axis.y);
+                    (wx[k], wy[k], wz[k]) = (w[k].x, w[k].y, w[k].z);
+                }
+            }
+            let (kz, l, wgt) = avx.run(
+                #[inline(always)]
+                || {
+                    let axis = V2::new(avx.load(&ax), avx.load(&ay));
+                    let d = V3::new(avx.load(&wx), avx.load(&wy), avx.load(&wz));
+                    let c = coords(axis, d);
+                    (
+                        c.kz.to_array(),
+                        c.l.to_array(),
+                        c.weights().map(|x| x.to_array()),
+                    )
+                },
+            );
+            for (k, c) in cells.iter().enumerate() {
+                if let Some(c) = c {
+                    let i = node(c.j, kz[k] as usize, l[k] as usize);
+                    let wk = [wgt[0][k], wgt[1][k], wgt[2][k], wgt[3][k]];
+                    out[k] = self.interpolate_baked(c, i, wk, false)[1];
+                }
+            }
+            return out;
+        }
+        for (k, c) in cells.iter().enumerate() {
+            if let Some(c) = c {
+                out[k] = self.lookup_baked(c, w[k], false)[1];
+            }
+        }
+        out
+    }
+
+    /// [`Self::lookup_baked`]'s interpolation from the first corner node `i0` and the bilinear
+    /// weights.
+    #[inline(always)]
+    fn interpolate_baked(
+        &self,
+        cell: &ThetaCell,
+        i0: usize,
+        wgt: [f32; 4],
+        with_first: bool,
+    ) -> [Spectrum; 2] {
+        let idx = [i0];
         // The two θp planes' corner nodes: one bounds check for all eight (the corner offsets
         // are constants inside the window).
         let win: &[Vec3A; 2 * PLANE] = self.e[idx[0]..idx[0] + 2 * PLANE]

@@ -8,7 +8,9 @@
 //! - other kinds pair by pair through their scalar `eval_pdf` / `pdf` (the fallback is the
 //!   nested BSDF's own code, never something else).
 //!
-//! Unused lanes hold a valid pair (a = b = +z) whose results are never read.
+//! The stream kernel batches the queries of 8 shading points at once (`Pairs<CHUNK>`, up to four
+//! 8-wide calls: `compensated::lanes`). Unused lanes hold a valid pair (a = b = +z) whose
+//! results are never read.
 
 use crate::bsdf::diffuse::Diffuse;
 use crate::bsdf::roughconductor::RoughConductor;
@@ -70,27 +72,31 @@ impl LaneNested for RoughPlastic {
     }
 }
 
-/// Up to [`WIDTH`] direction pairs in a facet's frame, structure of arrays; bit j of `pdf_only`
-/// says that pair j needs only the density (the scalar fallback then calls `pdf`, as the first
-/// order always did).
+/// Up to `W` direction pairs in a facet's frame (`W` a multiple of [`WIDTH`]: one query's pairs
+/// at `W` = 8, the default, or every query of a stream chunk's 8 shading points at `W` =
+/// [`CHUNK`]), structure of arrays; bit j of `pdf_only` says that pair j needs only the density
+/// (the scalar fallback then calls `pdf`, as the first order always did).
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Pairs {
-    a: [[f32; WIDTH]; 3],
-    b: [[f32; WIDTH]; 3],
+pub(super) struct Pairs<const W: usize = WIDTH> {
+    a: [[f32; W]; 3],
+    b: [[f32; W]; 3],
     /// 1 in the lanes of density-only pairs (the lane kernel's mask), else 0.
-    po: [f32; WIDTH],
+    po: [f32; W],
     n: u8,
-    pdf_only: u8,
+    pdf_only: u32,
 }
 
-impl Pairs {
+/// Pairs of a whole stream chunk: 8 shading points with at most 4 pairs each.
+pub(super) const CHUNK: usize = 4 * WIDTH;
+
+impl<const W: usize> Pairs<W> {
     #[inline(always)]
-    pub(super) fn new() -> Pairs {
-        let z = [[0.0; WIDTH], [0.0; WIDTH], [1.0; WIDTH]];
+    pub(super) fn new() -> Self {
+        let z = [[0.0; W], [0.0; W], [1.0; W]];
         Pairs {
             a: z,
             b: z,
-            po: [0.0; WIDTH],
+            po: [0.0; W],
             n: 0,
             pdf_only: 0,
         }
@@ -104,7 +110,7 @@ impl Pairs {
             self.a[c][i] = a[c];
             self.b[c][i] = b[c];
         }
-        self.pdf_only |= u8::from(pdf_only) << i;
+        self.pdf_only |= u32::from(pdf_only) << i;
         self.po[i] = f32::from(u8::from(pdf_only));
         self.n += 1;
         i
@@ -133,17 +139,17 @@ impl Pairs {
 
 /// The nested `(f·|cos θo|, pdf)` of each pair of a [`Pairs`], by index.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Evaluated {
-    f: [[f32; WIDTH]; 3],
-    p: [f32; WIDTH],
+pub(super) struct Evaluated<const W: usize = WIDTH> {
+    f: [[f32; W]; 3],
+    p: [f32; W],
 }
 
-impl Evaluated {
+impl<const W: usize> Evaluated<W> {
     #[inline(always)]
-    pub(super) fn zero() -> Evaluated {
+    pub(super) fn zero() -> Self {
         Evaluated {
-            f: [[0.0; WIDTH]; 3],
-            p: [0.0; WIDTH],
+            f: [[0.0; W]; 3],
+            p: [0.0; W],
         }
     }
 
@@ -166,7 +172,9 @@ impl Evaluated {
     }
 }
 
-/// What one lane call computes, decided once per batch.
+/// What one lane call computes, decided per call of 8 pairs (a pair's numbers do not depend on
+/// the mode: an evaluated pair always gets `eval_pdf_lanes`, a density-only one the density of
+/// `pdf`, and `f` of a density-only pair is never read).
 #[derive(Clone, Copy, PartialEq)]
 enum Mode {
     /// `eval_pdf_lanes` (every pair, or a BSDF whose `pdf` is that density).
@@ -177,11 +185,14 @@ enum Mode {
     Mixed,
 }
 
-impl Pairs {
+impl<const W: usize> Pairs<W> {
+    /// The mode of the call over pairs `8c ..` (at most 8 of them).
     #[inline(always)]
-    fn mode<B: LaneNested>(&self) -> Mode {
-        let all = self.pdf_only == ((1u16 << self.n) - 1) as u8;
-        match (B::SEPARATE_PDF, self.pdf_only) {
+    fn mode<B: LaneNested>(&self, c: usize) -> Mode {
+        let n = (self.len() - WIDTH * c).min(WIDTH);
+        let bits = (self.pdf_only >> (WIDTH * c)) & 0xff;
+        let all = bits == ((1u32 << n) - 1);
+        match (B::SEPARATE_PDF, bits) {
             (false, _) | (true, 0) => Mode::EvalPdf,
             (true, _) if all => Mode::Pdf,
             _ => Mode::Mixed,
@@ -205,30 +216,38 @@ fn kernel<L: Lane, B: LaneNested>(b: &B, mode: Mode, a: V3<L>, o: V3<L>, po: L) 
     }
 }
 
-/// Every pair of `pairs` through the lane form of `b`: one 8-wide call when the CPU has AVX2 and
-/// FMA, else pair by pair at width 1 (the same numbers). `f` of a density-only pair is not
-/// meaningful (0 or the eval); the caller does not read it.
+/// Every pair of `pairs` through the lane form of `b`: 8-wide calls (one per 8 pairs) when the
+/// CPU has AVX2 and FMA, else pair by pair at width 1 (the same numbers). `f` of a density-only
+/// pair is not meaningful (0 or the eval); the caller does not read it.
 #[inline(always)]
-pub(super) fn eval_pdf_lanes<B: LaneNested>(b: &B, pairs: &Pairs) -> Evaluated {
+pub(super) fn eval_pdf_lanes<B: LaneNested, const W: usize>(
+    b: &B,
+    pairs: &Pairs<W>,
+) -> Evaluated<W> {
     let mut out = Evaluated::zero();
     if pairs.len() == 0 {
         return out;
     }
-    let mode = pairs.mode::<B>();
     #[cfg(target_arch = "x86_64")]
     if let Some(avx) = Avx2::detect() {
         avx.run(
             #[inline(always)]
             || {
-                let v = |c: &[[f32; WIDTH]; 3]| {
-                    V3::<F32x8>::new(avx.load(&c[0]), avx.load(&c[1]), avx.load(&c[2]))
-                };
-                let po = avx.load(&pairs.po);
-                let (f, p) = kernel(b, mode, v(&pairs.a), v(&pairs.b), po);
-                f.x.store(&mut out.f[0]);
-                f.y.store(&mut out.f[1]);
-                f.z.store(&mut out.f[2]);
-                p.store(&mut out.p);
+                for c in 0..pairs.len().div_ceil(WIDTH) {
+                    let r = WIDTH * c..WIDTH * (c + 1);
+                    let ld = |x: &[f32; W]| avx.load(x[r.clone()].try_into().unwrap());
+                    let v = |x: &[[f32; W]; 3]| V3::<F32x8>::new(ld(&x[0]), ld(&x[1]), ld(&x[2]));
+                    let po = ld(&pairs.po);
+                    let mode = pairs.mode::<B>(c);
+                    let (f, p) = kernel(b, mode, v(&pairs.a), v(&pairs.b), po);
+                    let st = |v: F32x8, x: &mut [f32; W]| {
+                        v.store((&mut x[r.clone()]).try_into().unwrap())
+                    };
+                    st(f.x, &mut out.f[0]);
+                    st(f.y, &mut out.f[1]);
+                    st(f.z, &mut out.f[2]);
+                    st(p, &mut out.p);
+                }
             },
         );
         return out;
@@ -238,10 +257,10 @@ pub(super) fn eval_pdf_lanes<B: LaneNested>(b: &B, pairs: &Pairs) -> Evaluated {
 
 /// [`eval_pdf_lanes`] at width 1 (a CPU without AVX2).
 #[inline(always)]
-fn eval_pdf_width1<B: LaneNested>(b: &B, pairs: &Pairs) -> Evaluated {
-    let mode = pairs.mode::<B>();
+fn eval_pdf_width1<B: LaneNested, const W: usize>(b: &B, pairs: &Pairs<W>) -> Evaluated<W> {
     let mut out = Evaluated::zero();
     for i in 0..pairs.len() {
+        let mode = pairs.mode::<B>(i / WIDTH);
         let (a, o) = (pairs.a(i).into(), pairs.b(i).into());
         let (f, p) = kernel::<f32, B>(b, mode, a, o, pairs.po[i]);
         out.set(i, f.into(), p);
@@ -258,27 +277,41 @@ mod tests {
 
     /// The batch (at the width this machine runs it, and at width 1) against the scalar
     /// `eval_pdf` / `pdf`, bit for bit (NaN as NaN), with every count of used lanes, random
-    /// density-only pairs (all, none, mixed) and pairs on both sides of the horizon.
+    /// density-only pairs (all, none, mixed) and pairs on both sides of the horizon; one
+    /// query's batch (`W` = 8) and a chunk's (`W` = 32: up to four 8-wide calls, each with its
+    /// own mode).
     fn check<B: LaneNested>(
         b: &B,
         eval_pdf: impl Fn(Vec3, Vec3) -> (Spectrum, f32),
         pdf: impl Fn(Vec3, Vec3) -> f32,
         seed: u64,
     ) {
+        check_width::<B, WIDTH>(b, &eval_pdf, &pdf, seed);
+        check_width::<B, CHUNK>(b, &eval_pdf, &pdf, seed + 100);
+    }
+
+    fn check_width<B: LaneNested, const W: usize>(
+        b: &B,
+        eval_pdf: &impl Fn(Vec3, Vec3) -> (Spectrum, f32),
+        pdf: &impl Fn(Vec3, Vec3) -> f32,
+        seed: u64,
+    ) {
         let same = |x: f32, y: f32| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
         let mut s = Sampler::from_seed(seed, 4);
         let (mut below, mut modes) = (0, [0; 3]);
         for round in 0..600 {
-            let mut pairs = Pairs::new();
-            let n = 1 + round % WIDTH;
-            let share = [0.0, 1.0, 0.5][round % 3];
-            for _ in 0..n {
-                let a = warp::square_to_uniform_sphere(s.next_2d());
-                let o = warp::square_to_uniform_sphere(s.next_2d());
-                below += usize::from(a.z <= 0.0 || o.z <= 0.0);
-                pairs.push(a, o, s.next_1d() < share);
+            let mut pairs = Pairs::<W>::new();
+            let n = 1 + round % W;
+            for c in 0..n.div_ceil(WIDTH) {
+                let share = [0.0, 1.0, 0.5][(round + c) % 3];
+                for _ in WIDTH * c..n.min(WIDTH * (c + 1)) {
+                    let a = warp::square_to_uniform_sphere(s.next_2d());
+                    let o = warp::square_to_uniform_sphere(s.next_2d());
+                    below += usize::from(a.z <= 0.0 || o.z <= 0.0);
+                    pairs.push(a, o, s.next_1d() < share);
+                }
+                modes[pairs.mode::<B>(c) as usize] += 1;
             }
-            modes[pairs.mode::<B>() as usize] += 1;
             for ev in [eval_pdf_lanes(b, &pairs), eval_pdf_width1(b, &pairs)] {
                 for i in 0..n {
                     let (a, o) = (pairs.a(i), pairs.b(i));

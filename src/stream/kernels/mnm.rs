@@ -8,18 +8,19 @@
 //!    `Scene::bsdf_root`, the scalar code, into one arena for the 8 points), the side test,
 //!    the light selection and light point through the shared gather
 //!    ([`super::light::x8::Gather`]: area lights 8-wide);
-//! 3. the BSDF value and density toward each light point **lane by lane** (the scalar
-//!    compensated model, `bsdf::mnm::compensated::eval_pdf`, whose nested evaluations are
-//!    already 8-wide per query), then 8-wide: the power heuristic, the contribution and the
+//! 3. the BSDF value and density toward each light point: where the chunk's nested leaf has no
+//!    textured parameter ([`shared_nested`]), the 8 points together through
+//!    `bsdf::mnm::compensated::lanes` (the first orders' nested pairs of all points in full
+//!    8-wide calls, the remainder's table lookups with their coordinates 8-wide), else lane by
+//!    lane (the scalar model); then 8-wide: the power heuristic, the contribution and the
 //!    shadow ray ([`super::diffuse::light_out`]);
-//! 4. lane by lane: the BSDF sample (the scalar compensated sampler), the next ray and
-//!    `PathState::advance`.
+//! 4. the BSDF samples (the same split: the points' draws lane by lane, their first orders and
+//!    remainders together), then lane by lane the next ray and `PathState::advance`.
 //!
-//! What is in lanes here is the driver's part of a vertex (light points, MIS, shadow rays); the
-//! compensated model itself (per-hit setup, first order, table lookups, sampling) still runs per
-//! lane through the scalar code, so the image is the scalar renderer's by construction. Its lane
-//! form (one ωp per lane: per-lane microsurfaces, entries and table cells) is the next step
-//! (`docs/mnm.md`, "Issues 17/18: the compensated model in lanes").
+//! The per-hit build (texture lookup, microsurface, table cell, ωi cache) and the draws still
+//! run per lane through the scalar code; every number is the scalar model's bit for bit
+//! (`compensated::lanes`' test), so the image is the scalar renderer's (`docs/mnm.md`, "Issues
+//! 17/18: the compensated model in lanes (tenth session)").
 
 use crate::bsdf::mnm::Evaluation;
 use crate::material::{MatId, MaterialNode, Materials};
@@ -44,8 +45,23 @@ pub(crate) fn qualifies(materials: &Materials, m: MatId) -> bool {
     }
 }
 
+/// Whether every hit of material `m` (one that [`qualifies`]) builds its nested BSDF with the
+/// same parameters bit for bit: a leaf without textured parameters (its template copied as
+/// is). Then the compensated model's first order may evaluate the nested BSDF of 8 hits in
+/// shared 8-wide calls (`bsdf::mnm::compensated::lanes`).
+pub(crate) fn shared_nested(materials: &Materials, m: MatId) -> bool {
+    let nodes = materials.nodes();
+    match &nodes[m as usize] {
+        MaterialNode::MicrofacetNormalMap { nested, .. } => {
+            matches!(&nodes[*nested as usize], MaterialNode::Leaf { slots, .. } if slots.is_empty())
+        }
+        _ => false,
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
+    use crate::bsdf::mnm::compensated::lanes::{eval_pdf_x8, sample_x8, Point};
     use crate::bsdf::{BsdfArena, BsdfContext, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::path::PendingLight;
@@ -56,6 +72,7 @@ pub(crate) mod x8 {
     use crate::stream::kernels::diffuse::light_out;
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
+    use glam::Vec3;
 
     /// The BSDF built at `si` in step 2 (root `root` of `arena`), whose side test passed.
     #[inline(always)]
@@ -82,6 +99,11 @@ pub(crate) mod x8 {
     ) {
         let si_of = |b: &Batch, i: u32| -> SurfaceInteraction { b.surf.get(i as usize) };
         let ctx = BsdfContext::default();
+        // The chunk's compensated points share their nested BSDF (one material, a constant
+        // leaf): their first orders are evaluated together.
+        let m0 = b.material[ids[0] as usize];
+        let shared = super::shared_nested(&scene.materials, m0)
+            && ids.iter().all(|&i| b.material[i as usize] == m0);
         // 1. The surfaces, loaded 8-wide from the batch's rows (the light stage's columns).
         let surf = crate::stream::kernels::surface::x8::load(avx, &b.surf, ids);
 
@@ -117,6 +139,7 @@ pub(crate) mod x8 {
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
             let (some, d) = (lp.some.to_array(), Cols3::store(lp.d));
             let (mut f, mut pdf, mut consistent) = (Cols3::default(), [0.0f32; 8], [false; 8]);
+            let (mut pts, mut wo) = ([None; 8], [Vec3::ZERO; 8]);
             for (k, &i) in ids.iter().enumerate() {
                 if !(nee[k] && some[k]) {
                     continue;
@@ -124,10 +147,24 @@ pub(crate) mod x8 {
                 let i = i as usize;
                 let si = si_of(b, i as u32);
                 let s = bsdf(arena, root[k], &si);
-                if let Some((fk, pk)) = s.eval_pdf(&ctx, d.get(k), &mut b.sampler[i]) {
+                let Some(wo_k) = s.local_wo(d.get(k)) else {
+                    continue; // `SurfaceBsdf::eval_pdf`'s side test
+                };
+                consistent[k] = true;
+                let (local, wi) = s.local();
+                pts[k] = shared.then(|| Point::of(local, wi)).flatten();
+                if pts[k].is_some() {
+                    wo[k] = wo_k; // evaluated below with the other points
+                } else {
+                    let (fk, pk) = local.eval_pdf(&ctx, wi, wo_k, &mut b.sampler[i]);
                     f.set(k, fk);
                     pdf[k] = pk;
-                    consistent[k] = true;
+                }
+            }
+            for (k, (fk, pk)) in eval_pdf_x8(&ctx, &pts, &wo).into_iter().enumerate() {
+                if pts[k].is_some() {
+                    f.set(k, fk);
+                    pdf[k] = pk;
                 }
             }
             let lo = light_out(
@@ -160,14 +197,30 @@ pub(crate) mod x8 {
             }
         }
 
-        // 4. The BSDF samples and the next rays, lane by lane (`PathState::scatter`'s end).
+        // 4. The BSDF samples (the compensated model's points together, their first orders'
+        //    nested evaluations 8-wide; the others lane by lane) and the next rays, lane by
+        //    lane (`PathState::scatter`'s end).
+        let mut pts = [None; 8];
+        for (k, &i) in ids.iter().enumerate() {
+            if shared && root[k] != u32::MAX {
+                let (local, wi) = bsdf(arena, root[k], &si_of(b, i)).local();
+                pts[k] = Point::of(local, wi);
+            }
+        }
+        let sampled = sample_x8(&ctx, &pts, &mut b.sampler, ids);
         for (k, &i) in ids.iter().enumerate() {
             if root[k] == u32::MAX {
                 continue;
             }
             let i = i as usize;
             let si = si_of(b, i as u32);
-            let Some(bs) = bsdf(arena, root[k], &si).sample(&ctx, &mut b.sampler[i]) else {
+            let s = bsdf(arena, root[k], &si);
+            let bs = match (pts[k], sampled[k]) {
+                (Some(_), Some(bs)) => s.world_sample(bs),
+                (Some(_), None) => None,
+                (None, _) => s.sample(&ctx, &mut b.sampler[i]),
+            };
+            let Some(bs) = bs else {
                 continue;
             };
             let next = b.state[i].advance_sampled(cfg, &si, &bs, &mut b.sampler[i]);

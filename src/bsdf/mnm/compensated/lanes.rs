@@ -1,0 +1,356 @@
+//! The compensated model at the 8 shading points of a stream chunk (issue 18, `docs/mnm.md`
+//! "the compensated model in lanes"): each point keeps its own microsurface, entries and table
+//! cell (scalar, per point, as [`super::eval_pdf`] and [`super::sample`] compute them), while
+//! the first order's nested evaluations of all 8 points — up to 4 pairs each — are packed into
+//! one batch of [`CHUNK`] pairs and evaluated in full 8-wide calls of the nested BSDF's lane
+//! form (instead of one call per point with at most 4 of 8 lanes busy). A pair's values do not
+//! depend on its neighbours in the batch (the lane rule of [`crate::lane`]), and the sums are
+//! [`Collected::sum`], the scalar model's own code, so every point's result is the scalar
+//! model's bit for bit (`tests`).
+//!
+//! The points of one call must share their nested BSDF's parameters bit for bit (the batch
+//! evaluates with the first point's): the stream kernel groups them so (a material whose
+//! nested leaf has no textured parameter).
+
+use super::super::nested_batch::{Pairs, CHUNK};
+use super::{
+    draw, entries, sample_record_is_exact, AtWi, Collected, Entries, Known, MsRef, Nested,
+};
+use crate::bsdf::mnm::MicrofacetNormalMap;
+use crate::bsdf::{Bsdf, BsdfContext, BsdfSample};
+use crate::math::{warp, INV_PI};
+use crate::sampler::Sampler;
+use crate::spectrum::Spectrum;
+use glam::Vec3;
+
+/// One shading point of the chunk: the compensated model alone
+/// ([`crate::bsdf::mnm::compensated_alone`]) over a nested BSDF with a lane form, seen from
+/// `wi` (shading frame).
+#[derive(Clone, Copy)]
+pub(crate) struct Point<'a> {
+    m: &'a MicrofacetNormalMap,
+    r: &'a MsRef,
+    nested: Bsdf<'a>,
+    wi: Vec3,
+}
+
+impl<'a> Point<'a> {
+    /// `Some` when `eval_pdf` and `sample` of the root `b` run the compensated model alone and
+    /// its nested BSDF has a lane form (`diffuse`, `roughconductor`, `roughplastic`).
+    #[inline]
+    pub(crate) fn of(b: Bsdf<'a>, wi: Vec3) -> Option<Self> {
+        let (m, r, nested) = crate::bsdf::mnm::compensated_alone(b)?;
+        if let Nested::Other(_) = Nested::of(&nested) {
+            return None;
+        }
+        Some(Point { m, r, nested, wi })
+    }
+}
+
+/// What a point keeps between the two passes.
+struct Pending {
+    at: AtWi,
+    e: Entries,
+    c: Collected,
+    wo: Vec3,
+    known: Option<Known>,
+}
+
+/// Each pending point's rank-1 remainder at its ωo ([`AtWi::remainder`]): the table lookups at
+/// ωo of the points with a baked table 8-wide ([`crate::bsdf::mnm::ms_table::MsTable::lookup_baked_x8`], the first such
+/// point's table; a point with another table, or per-bounce colours, looks up alone).
+fn remainders(pending: &[Option<Pending>; 8], pts: &[Option<Point>; 8]) -> [Spectrum; 8] {
+    let baked = |k: usize| -> Option<&MsRef> {
+        let (pd, pt) = (pending[k].as_ref()?, pts[k].as_ref()?);
+        (pt.r.baked_norm.is_some() && pd.at.ei != Spectrum::ZERO).then_some(pt.r)
+    };
+    let mut cells = [None; 8];
+    let mut wo = [Vec3::Z; 8];
+    let table = (0..8).find_map(baked).map(|r| r.table);
+    if let Some(t) = table {
+        for k in 0..8 {
+            if let Some(r) = baked(k).filter(|r| std::ptr::eq(r.table, t)) {
+                cells[k] = Some(r.cell);
+                wo[k] = pending[k].as_ref().map_or(Vec3::Z, |p| p.wo);
+            }
+        }
+    }
+    let eo = table.map_or([Spectrum::ZERO; 8], |t| t.lookup_baked_x8(&cells, &wo));
+    std::array::from_fn(|k| match (&pending[k], &pts[k]) {
+        (Some(pd), Some(_)) if cells[k].is_some() => pd.at.remainder_from(eo[k], pd.wo),
+        (Some(pd), Some(pt)) => pd.at.remainder(pt.r, pd.wo),
+        _ => Spectrum::ZERO,
+    })
+}
+
+/// The nested BSDF every pending point shares (the first one's).
+fn shared<'a>(pts: &[Option<Point<'a>>; 8]) -> Option<Bsdf<'a>> {
+    pts.iter().flatten().next().map(|p| p.nested)
+}
+
+/// `Bsdf::eval_pdf` of each point's root toward its `wo` (shading frame), as
+/// `mnm::eval_pdf` computes it: (0, 0) unless both directions are above the surface. Lanes
+/// without a point are left (0, 0).
+pub(crate) fn eval_pdf_x8(
+    ctx: &BsdfContext,
+    pts: &[Option<Point>; 8],
+    wo: &[Vec3; 8],
+) -> [(Spectrum, f32); 8] {
+    let _ = ctx; // the lane forms read no context
+    let mut out = [(Spectrum::ZERO, 0.0); 8];
+    let Some(nested) = shared(pts) else {
+        return out;
+    };
+    let mut pairs = Pairs::<CHUNK>::new();
+    let mut pending: [Option<Pending>; 8] = Default::default();
+    for (k, pt) in pts.iter().enumerate() {
+        let Some(pt) = pt else { continue };
+        let (wi, wo) = (pt.wi, wo[k]);
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            continue;
+        }
+        let at = pt.r.at(wi);
+        let a = AtWi::new(pt.r, &pt.nested, wi, at);
+        let e = entries(pt.m, at, wi);
+        let c = Collected::new(pt.m, &e, wo, None, &mut pairs);
+        pending[k] = Some(Pending {
+            at: a,
+            e,
+            c,
+            wo,
+            known: None,
+        });
+    }
+    let ev = Nested::of(&nested)
+        .lanes(&pairs)
+        .expect("a point's nested BSDF has a lane form");
+    let rem = remainders(&pending, pts);
+    for (k, pd) in pending.iter().enumerate() {
+        let Some(pd) = pd else {
+            continue;
+        };
+        let fo = pd.c.sum::<false, CHUNK>(&pd.e, None, &ev);
+        let a = &pd.at;
+        out[k] = (
+            fo.f + rem[k],
+            (1.0 - a.select) * fo.p + a.select * pd.wo.z * INV_PI,
+        );
+    }
+    out
+}
+
+/// `Bsdf::sample` of each point's root, as `mnm::sample` and `compensated::sample` compute it
+/// (the same random numbers from each point's own sampler `samplers[ids[k]]`, in the same
+/// order), including `Bsdf::sample`'s rejection of non-finite samples. Lanes without a point
+/// draw nothing and are left `None`.
+pub(crate) fn sample_x8(
+    ctx: &BsdfContext,
+    pts: &[Option<Point>; 8],
+    samplers: &mut [Sampler],
+    ids: &[u32; 8],
+) -> [Option<BsdfSample>; 8] {
+    let mut out = [None; 8];
+    let Some(nested) = shared(pts) else {
+        return out;
+    };
+    let mut pairs = Pairs::<CHUNK>::new();
+    let mut pending: [Option<Pending>; 8] = Default::default();
+    for (k, pt) in pts.iter().enumerate() {
+        let Some(pt) = pt else { continue };
+        let wi = pt.wi;
+        if wi.z <= 0.0 {
+            continue;
+        }
+        let s = &mut samplers[ids[k] as usize];
+        let (m, r) = (pt.m, pt.r);
+        let at = r.at(wi);
+        let a = AtWi::new(r, &pt.nested, wi, at);
+        let e = entries(m, at, wi);
+        let (wo, known) = if s.next_1d() < a.select {
+            (warp::square_to_cosine_hemisphere(s.next_2d()), None)
+        } else {
+            match draw(m, &e, &pt.nested, ctx, s) {
+                Some(d) => d,
+                None => continue,
+            }
+        };
+        if wo.z <= 0.0 {
+            continue;
+        }
+        let known = known.filter(|_| sample_record_is_exact(&pt.nested));
+        let c = Collected::new(m, &e, wo, known, &mut pairs);
+        pending[k] = Some(Pending {
+            at: a,
+            e,
+            c,
+            wo,
+            known,
+        });
+    }
+    let ev = Nested::of(&nested)
+        .lanes(&pairs)
+        .expect("a point's nested BSDF has a lane form");
+    let rem = remainders(&pending, pts);
+    for (k, (pd, pt)) in pending.iter().zip(pts).enumerate() {
+        let (Some(pd), Some(pt)) = (pd, pt) else {
+            continue;
+        };
+        let fo = pd.c.sum::<false, CHUNK>(&pd.e, pd.known, &ev);
+        let a = &pd.at;
+        let wo = pd.wo;
+        let pdf = (1.0 - a.select) * fo.p + a.select * wo.z * INV_PI;
+        if !(pdf.is_finite() && pdf > 0.0) {
+            continue;
+        }
+        let bs = BsdfSample {
+            wo,
+            pdf,
+            weight: (fo.f + rem[k]) / pdf,
+            eta: 1.0,
+            lobe: super::super::explicit::lobe_of(pt.nested.lobes()),
+        };
+        out[k] = crate::bsdf::accept_sample(bs);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::super::facets::Microgeometry;
+    use super::super::super::ms_table::{Colour, MsTable, TableSpec, WALKS_PER_NODE};
+    use super::super::super::{Evaluation, Tangent};
+    use super::*;
+    use crate::bsdf::lanes::testing::{direction, same, same3};
+    use crate::bsdf::BsdfArena;
+    use crate::math::Pcg32;
+
+    /// The chunk's eval and sample equal the scalar model's (`Bsdf::eval_pdf` / `Bsdf::sample`
+    /// of the same roots, each lane with its own sampler) bit for bit, lane by lane, and leave
+    /// each sampler where the scalar call leaves it: rough conductors (GGX with visible-normal
+    /// sampling, Beckmann without) and a rough plastic, under the mirror sawtooth and the
+    /// V-groove, tables with the colour per bounce and baked in, with and without the hit's
+    /// ωi cache, random ωp, ωi and ωo (both hemispheres) and empty lanes.
+    #[test]
+    fn chunk_equals_the_scalar_model_lane_by_lane() {
+        let ctx = BsdfContext::default();
+        let mut rng = Pcg32::new(17, 3);
+        let mut arena = BsdfArena::new();
+        let nested = super::super::tests::push_reflectors(&mut arena);
+        let (mut evals, mut samples, mut drawn, mut cached) = (0, 0, 0, 0);
+        for (geometry, tangent) in [
+            (Microgeometry::Sawtooth, Tangent::Mirror),
+            (Microgeometry::VGroove, Tangent::Same),
+        ] {
+            for colour in [Colour::PerBounce, Colour::Baked] {
+                let spec = TableSpec {
+                    geometry,
+                    tangent,
+                    max_order: 256,
+                    max_theta: 85f32.to_radians(),
+                    colour,
+                    walks: WALKS_PER_NODE,
+                };
+                let table: &'static MsTable =
+                    Box::leak(Box::new(MsTable::lambert(spec, "unit".into())));
+                for &n in &nested {
+                    for _ in 0..100 {
+                        let mut roots = [u32::MAX; 8];
+                        let mut wi = [Vec3::ZERO; 8];
+                        let mut wo = [Vec3::ZERO; 8];
+                        for k in 0..8 {
+                            if rng.next_f32() < 0.1 {
+                                continue; // an empty lane
+                            }
+                            let wp = warp::square_to_uniform_cone(
+                                [rng.next_f32(), rng.next_f32()].into(),
+                                75f32.to_radians().cos(),
+                            );
+                            wi[k] = direction(&mut rng);
+                            wo[k] = direction(&mut rng);
+                            let mut m = MicrofacetNormalMap::new(
+                                n,
+                                wp,
+                                geometry,
+                                tangent,
+                                Evaluation::Compensated,
+                                256,
+                            )
+                            .with_ms_table(Some(table));
+                            if rng.next_f32() < 0.7 {
+                                m = m.with_incident(wi[k]);
+                            }
+                            roots[k] = arena.push_microfacet_normal_map(m);
+                        }
+                        let pts: [Option<Point>; 8] = std::array::from_fn(|k| {
+                            (roots[k] != u32::MAX)
+                                .then(|| Point::of(arena.bsdf(roots[k]), wi[k]))
+                                .flatten()
+                        });
+                        let seeds: [u64; 8] = std::array::from_fn(|_| rng.next_u32() as u64);
+                        // Eval toward wo.
+                        let got = eval_pdf_x8(&ctx, &pts, &wo);
+                        for k in 0..8 {
+                            if pts[k].is_none() {
+                                continue;
+                            }
+                            let mut s = Sampler::from_seed(seeds[k], 1);
+                            let (f, p) = arena.bsdf(roots[k]).eval_pdf(&ctx, wi[k], wo[k], &mut s);
+                            let at =
+                                format!("{n} {geometry:?} {colour:?} {} {} {}", wi[k], wo[k], k);
+                            assert!(
+                                same3(got[k].0, f) && same(got[k].1, p),
+                                "{at}: {got:?} vs {f} {p}"
+                            );
+                            evals += usize::from(wi[k].z > 0.0 && wo[k].z > 0.0);
+                        }
+                        // Samples, each lane from its own sampler.
+                        let mut samplers: Vec<Sampler> =
+                            seeds.iter().map(|&s| Sampler::from_seed(s, 2)).collect();
+                        let ids: [u32; 8] = std::array::from_fn(|k| (7 - k) as u32);
+                        let mut lane_pts = [None; 8];
+                        for k in 0..8 {
+                            lane_pts[7 - k] = pts[k];
+                        }
+                        let got = sample_x8(&ctx, &lane_pts, &mut samplers, &ids);
+                        for k in 0..8 {
+                            let Some(_) = pts[k] else { continue };
+                            let mut s = Sampler::from_seed(seeds[k], 2);
+                            let want = arena.bsdf(roots[k]).sample(&ctx, wi[k], &mut s);
+                            let at = format!("{n} {geometry:?} {colour:?} {}", wi[k]);
+                            match (got[7 - k], want) {
+                                (None, None) => {}
+                                (Some(a), Some(b)) => {
+                                    assert!(same3(a.wo, b.wo), "{at}");
+                                    assert!(same(a.pdf, b.pdf), "{at}");
+                                    assert!(same3(a.weight, b.weight), "{at}");
+                                    assert_eq!((a.eta, a.lobe), (b.eta, b.lobe), "{at}");
+                                    samples += 1;
+                                }
+                                (a, b) => panic!("{at}: {a:?} vs {b:?}"),
+                            }
+                            // The same random numbers consumed.
+                            assert_eq!(
+                                samplers[k].next_1d().to_bits(),
+                                s.next_1d().to_bits(),
+                                "{at}"
+                            );
+                        }
+                        drawn += pts.iter().flatten().count();
+                        cached += pts
+                            .iter()
+                            .flatten()
+                            .filter(|p| p.wi.z > 0.0 && p.r.at(p.wi).is_some())
+                            .count();
+                    }
+                }
+            }
+        }
+        // 12 × 100 chunks of ~7.2 points, a quarter with ωi and ωo above the surface.
+        assert!(evals > 1800, "{evals} evaluations above the surface");
+        assert!(samples > 2500, "{samples} samples");
+        assert!(
+            drawn > 8000 && cached > 2000,
+            "{drawn} points, {cached} with the ωi cache"
+        );
+    }
+}
