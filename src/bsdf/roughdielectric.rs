@@ -19,6 +19,7 @@
 //! [`RoughDielectric::eval_pdf_lanes`], [`RoughDielectric::sample_lanes`] (with the crossing's η
 //! per lane), and `eval_lanes` / `pdf_lanes`; the scalar `eval`, `pdf`, `eval_pdf` and `sample`
 //! are their width 1, checked bit for bit against the code they replaced (the tests below).
+//! At width 1 only the branch the lane takes (reflection or refraction) is computed.
 //!
 //! # XML parameters (Mitsuba 3 names; defaults as groove and Mitsuba 3 read them)
 //!
@@ -36,10 +37,10 @@
 use super::lanes::LaneBsdfSample;
 use super::microfacet::MicrofacetDistribution;
 use super::{BsdfSample, Lobes, TransportMode};
-use crate::lane::fresnel::dielectric as lane_dielectric;
+use crate::lane::fresnel::{dielectric as lane_dielectric, Dielectric};
 use crate::lane::microfacet::Microfacet;
 use crate::lane::vec::{V2, V3};
-use crate::lane::Lane;
+use crate::lane::{Lane, LaneMask};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 
@@ -215,10 +216,47 @@ impl RoughDielectric {
         d: L,
         g1i: L,
     ) -> V3<L> {
+        let g = g1i * self.microfacet(wi.z).smith_g1(wo, hv.h);
+        // Fast path at width 1: the lane's branch alone (the select would keep it alone; −7 %
+        // of the scalar `eval_pdf` instructions on glass). Width 8 computes both and selects:
+        // branching on chunks whose lanes all take one branch cost more than it saved there
+        // (`docs/bench/README.md`, "Issue 18: direct, textured lights, mixed kinds").
+        if L::WIDTH == 1 && hv.reflect.all() {
+            self.reflection_value(wi, f, d, g)
+        } else if L::WIDTH == 1 && !hv.reflect.any() {
+            self.refraction_value(mode, wi, wo, hv, f, d, g)
+        } else {
+            let r = self.reflection_value(wi, f, d, g);
+            V3::select(
+                hv.reflect,
+                r,
+                self.refraction_value(mode, wi, wo, hv, f, d, g),
+            )
+        }
+    }
+
+    /// f·|cos θo| of a reflection pair (Walter et al. 2007, eq. 20; `g` = G(wi, wo, h)).
+    #[inline(always)]
+    fn reflection_value<L: Lane>(&self, wi: V3<L>, f: L, d: L, g: L) -> V3<L> {
+        let k = |c: f32| wi.z.splat(c);
+        splat3(f, self.specular_reflectance).scale(f * d * g / (k(4.0) * wi.z.abs()))
+    }
+
+    /// f·|cos θo| of a refraction pair (Walter et al. 2007, eq. 21; 0 where not finite).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn refraction_value<L: Lane>(
+        &self,
+        mode: TransportMode,
+        wi: V3<L>,
+        wo: V3<L>,
+        hv: &Half<L>,
+        f: L,
+        d: L,
+        g: L,
+    ) -> V3<L> {
         let k = |c: f32| wi.z.splat(c);
         let (h, eta) = (hv.h, hv.eta);
-        let g = g1i * self.microfacet(wi.z).smith_g1(wo, h);
-        let r = splat3(f, self.specular_reflectance).scale(f * d * g / (k(4.0) * wi.z.abs()));
         let (dih, doh) = (wi.dot(h), wo.dot(h));
         let denom = dih + eta * doh;
         let scale = match mode {
@@ -227,12 +265,11 @@ impl RoughDielectric {
         };
         let v =
             ((k(1.0) - f) * d * g * eta * eta * dih * doh * scale / (wi.z * denom * denom)).abs();
-        let t = V3::select(
+        V3::select(
             v.is_finite(),
             splat3(f, self.specular_transmittance).scale(v),
             V3::new(k(0.0), k(0.0), k(0.0)),
-        );
-        V3::select(hv.reflect, r, t)
+        )
     }
 
     /// The density of `sample` producing `wo`, for the half vector `hv` and Fresnel
@@ -292,26 +329,22 @@ impl RoughDielectric {
         let pm = sd.pdf(wi_up, m);
         let fr = lane_dielectric(wi.dot(m), k(self.eta));
         let reflect = u1.le(fr.r);
-        // Reflection (math::reflect: 2 (wi·m) m − wi).
-        let wo_r = m.scale(k(2.0) * wi.dot(m)) - wi;
-        let pdf_r = pm * fr.r / (k(4.0) * wo_r.dot(m)).abs();
-        // Refraction (fresnel::refract: m (wi·m η_ti + cos θt) − wi η_ti).
-        let wo_t = m.scale(wi.dot(m) * fr.eta_ti + fr.cos_theta_t) - wi.scale(fr.eta_ti);
-        let (dih, doh) = (wi.dot(m), wo_t.dot(m));
-        let denom = dih + fr.eta_it * doh;
-        let pdf_t = pm * (k(1.0) - fr.r) * (fr.eta_it * fr.eta_it * doh / (denom * denom)).abs();
-        let scale = match mode {
-            TransportMode::Radiance => fr.eta_ti * fr.eta_ti,
-            TransportMode::Importance => k(1.0),
+        // Fast path at width 1: the lane's branch alone (the selects would keep it alone; −4 %
+        // of the scalar `sample` instructions on glass); width 8 computes both (see `value`).
+        let (wo, pdf, mut weight) = if L::WIDTH == 1 && reflect.all() {
+            self.reflected(wi, m, pm, &fr)
+        } else if L::WIDTH == 1 && !reflect.any() {
+            self.refracted(mode, wi, m, pm, &fr)
+        } else {
+            let (wo_r, pdf_r, w_r) = self.reflected(wi, m, pm, &fr);
+            let (wo_t, pdf_t, w_t) = self.refracted(mode, wi, m, pm, &fr);
+            (
+                V3::select(reflect, wo_r, wo_t),
+                L::select(reflect, pdf_r, pdf_t),
+                V3::select(reflect, w_r, w_t),
+            )
         };
-        let wo = V3::select(reflect, wo_r, wo_t);
         let side = L::select(reflect, ci * wo.z, -ci * wo.z).gt(k(0.0));
-        let pdf = L::select(reflect, pdf_r, pdf_t);
-        let mut weight = V3::select(
-            reflect,
-            splat3(ci, self.specular_reflectance),
-            splat3(ci, self.specular_transmittance).scale(scale),
-        );
         // With F / (1 − F) as the lobe choice the Fresnel factor cancels.
         let dist = self.microfacet(ci);
         let w = if dist.sample_visible {
@@ -329,6 +362,49 @@ impl RoughDielectric {
             weight,
         };
         (sample, L::select(reflect, k(1.0), fr.eta_it), reflect)
+    }
+
+    /// The reflection of `wi` about the facet normal `m` (math::reflect: 2 (wi·m) m − wi), its
+    /// density (facet density `pm`) and weight before the shadowing term.
+    #[inline(always)]
+    fn reflected<L: Lane>(
+        &self,
+        wi: V3<L>,
+        m: V3<L>,
+        pm: L,
+        fr: &Dielectric<L>,
+    ) -> (V3<L>, L, V3<L>) {
+        let k = |c: f32| wi.z.splat(c);
+        let wo = m.scale(k(2.0) * wi.dot(m)) - wi;
+        let pdf = pm * fr.r / (k(4.0) * wo.dot(m)).abs();
+        (wo, pdf, splat3(pm, self.specular_reflectance))
+    }
+
+    /// The refraction of `wi` through the facet normal `m` (fresnel::refract:
+    /// m (wi·m η_ti + cos θt) − wi η_ti), its density and weight before the shadowing term.
+    #[inline(always)]
+    fn refracted<L: Lane>(
+        &self,
+        mode: TransportMode,
+        wi: V3<L>,
+        m: V3<L>,
+        pm: L,
+        fr: &Dielectric<L>,
+    ) -> (V3<L>, L, V3<L>) {
+        let k = |c: f32| wi.z.splat(c);
+        let wo = m.scale(wi.dot(m) * fr.eta_ti + fr.cos_theta_t) - wi.scale(fr.eta_ti);
+        let (dih, doh) = (wi.dot(m), wo.dot(m));
+        let denom = dih + fr.eta_it * doh;
+        let pdf = pm * (k(1.0) - fr.r) * (fr.eta_it * fr.eta_it * doh / (denom * denom)).abs();
+        let scale = match mode {
+            TransportMode::Radiance => fr.eta_ti * fr.eta_ti,
+            TransportMode::Importance => k(1.0),
+        };
+        (
+            wo,
+            pdf,
+            splat3(pm, self.specular_transmittance).scale(scale),
+        )
     }
 
     /// [`Self::eval_lanes`] at width 1.
@@ -672,13 +748,30 @@ mod tests {
     fn lane_form_is_the_replaced_scalar_code_bit_for_bit() {
         let mut r = Pcg32::new(18, 13);
         let (mut nonzero, mut refracted, mut reflected) = (0, 0, 0);
+        // Width-8 chunks that sampled reflection in every lane, refraction in every lane.
+        let mut uniform = (0u32, 0u32);
         for b in models() {
             let old = frozen(&b);
             for mode in [TransportMode::Radiance, TransportMode::Importance] {
-                let cases: Vec<(Vec3, Vec3, f32, Vec2)> = (0..4000)
-                    .map(|_| {
-                        let (wi, wo) = (direction(&mut r), direction(&mut r));
-                        (wi, wo, r.next_f32(), Vec2::new(r.next_f32(), r.next_f32()))
+                // 4,000 random cases, then 800 whose pairs are all reflections with u1 = 0
+                // (every lane samples reflection) and 800 all refractions with u1 = 1 and wi
+                // on the side without total internal reflection (every lane refracts but where
+                // F = 1): whole chunks of 8 whose lanes take one branch.
+                let cases: Vec<(Vec3, Vec3, f32, Vec2)> = (0..5600)
+                    .map(|j| {
+                        let (mut wi, mut wo) = (direction(&mut r), direction(&mut r));
+                        let mut u1 = r.next_f32();
+                        if j >= 4000 {
+                            let same_side = j < 4800;
+                            if !same_side && (wi.z > 0.0) != (b.eta > 1.0) {
+                                wi.z = -wi.z;
+                            }
+                            if (wi.z * wo.z > 0.0) != same_side {
+                                wo.z = -wo.z;
+                            }
+                            u1 = if same_side { 0.0 } else { 1.0 };
+                        }
+                        (wi, wo, u1, Vec2::new(r.next_f32(), r.next_f32()))
                     })
                     .collect();
                 for &(wi, wo, u1, u2) in &cases {
@@ -721,6 +814,8 @@ mod tests {
                             (f, p, e, q, s)
                         });
                         let (ok, refl) = (s.ok.to_array(), refl.to_array());
+                        uniform.0 += refl.iter().all(|&x| x) as u32;
+                        uniform.1 += refl.iter().all(|&x| !x) as u32;
                         for k in 0..8 {
                             let (wi1, wo1) = (V3::from(wi[k]), V3::from(wo[k]));
                             let (f1, p1) = b.eval_pdf_lanes(mode, wi1, wo1);
@@ -747,6 +842,13 @@ mod tests {
             refracted > 5_000 && reflected > 1_000,
             "{refracted} {reflected}"
         );
+        // Whole chunks took one branch (width 1's fast path against width 8's selects on
+        // them): of the 1,000 chunks drawn for each, at least half (a lane with a NaN Fresnel
+        // term, or a facet sampled so that it reflects totally, spoils a chunk).
+        #[cfg(target_arch = "x86_64")]
+        if crate::lane::Avx2::detect().is_some() {
+            assert!(uniform.0 >= 500 && uniform.1 >= 500, "{uniform:?}");
+        }
     }
 }
 

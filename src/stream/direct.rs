@@ -9,8 +9,8 @@
 //!    `emitter_samples` light samples (`nee::prepare_light`, up to the shadow ray) and its
 //!    `bsdf_samples` BSDF samples, each path drawing from its own stream in the scalar order;
 //!    every sample becomes an item of [`Items`] with its ray, in the path's order;
-//! 4. **trace** the items' shadow and bounce rays (8-wide packets where the scene's [`Packets`]
-//!    say so for shadow and bounce rays);
+//! 4. **trace** the items' shadow and bounce rays (as one Embree stream each, or 8-wide
+//!    packets, where the scene's [`Packets`] say so, as for the path integrator's rays);
 //! 5. **add** the items in order: an unblocked light sample's term (`direct::light_term`), what a
 //!    BSDF sample found (`direct::add_bsdf_hit`).
 //!
@@ -172,9 +172,20 @@ pub(crate) fn run_batch(
     }
 }
 
+/// The ray an item traces: a light sample's shadow ray, a BSDF sample's bounce ray.
+#[inline]
+fn ray_ref(item: &Item) -> &Ray {
+    match item {
+        Item::Light { shadow, .. } => shadow,
+        Item::Bsdf { ray, .. } => ray,
+    }
+}
+
 impl Items {
     /// Traces the items' rays: the shadow rays (`occluded`), then the bounce rays, each as
-    /// 8-wide packets of consecutive items where `packets` says so.
+    /// one Embree stream (`packets.stream`, the default under Embree, as the path stream's
+    /// bounce and shadow rays) or 8-wide packets of consecutive items where `packets` says so,
+    /// else one by one.
     fn trace(&mut self, scene: &Scene, packets: Packets, scratch: &mut Scratch) {
         let n = self.items.len();
         self.blocked.clear();
@@ -195,15 +206,18 @@ impl Items {
         lanes.shadow_slots += slots(self.shadow_ids.len());
         lanes.trace_used += self.bounce_ids.len() as u64;
         lanes.trace_slots += slots(self.bounce_ids.len());
-        let ray_of = |item: &Item| match *item {
-            Item::Light { shadow, .. } => shadow,
-            Item::Bsdf { ray, .. } => ray,
-        };
+        let items = &self.items;
         let mut packet = [Ray::new(Vec3::ZERO, Vec3::Z); 8];
-        if packets.shadow {
+        if packets.shadow && packets.stream {
+            let (ids, blocked) = (&self.shadow_ids, &mut self.blocked);
+            let traced = ids.iter().map(|&k| ray_ref(&items[k as usize]));
+            rays.occluded_stream(scene, traced, false, |j, b| {
+                blocked[ids[j] as usize] = b;
+            });
+        } else if packets.shadow {
             for chunk in self.shadow_ids.chunks(8) {
                 for (p, &k) in packet.iter_mut().zip(chunk) {
-                    *p = ray_of(&self.items[k as usize]);
+                    *p = *ray_ref(&items[k as usize]);
                 }
                 let blocked = rays.occluded8(scene, &packet[..chunk.len()]);
                 for (j, &k) in chunk.iter().enumerate() {
@@ -212,14 +226,20 @@ impl Items {
             }
         } else {
             for &k in &self.shadow_ids {
-                self.blocked[k as usize] = rays.occluded(scene, &ray_of(&self.items[k as usize]));
+                self.blocked[k as usize] = rays.occluded(scene, ray_ref(&items[k as usize]));
             }
         }
-        if packets.bounce {
+        if packets.bounce && packets.stream {
+            let (ids, hit) = (&self.bounce_ids, &mut self.hit);
+            let traced = ids.iter().map(|&k| ray_ref(&items[k as usize]));
+            rays.intersect_stream(scene, traced, RayKind::Bounce, false, |j, h| {
+                hit[ids[j] as usize] = h;
+            });
+        } else if packets.bounce {
             let mut out: [Option<Hit>; 8] = [None; 8];
             for chunk in self.bounce_ids.chunks(8) {
                 for (p, &k) in packet.iter_mut().zip(chunk) {
-                    *p = ray_of(&self.items[k as usize]);
+                    *p = *ray_ref(&items[k as usize]);
                 }
                 rays.intersect8(scene, &packet[..chunk.len()], RayKind::Bounce, &mut out);
                 for (h, &k) in out.iter().zip(chunk) {
@@ -228,8 +248,8 @@ impl Items {
             }
         } else {
             for &k in &self.bounce_ids {
-                let ray = ray_of(&self.items[k as usize]);
-                self.hit[k as usize] = rays.intersect_hit(scene, &ray, RayKind::Bounce);
+                let ray = ray_ref(&items[k as usize]);
+                self.hit[k as usize] = rays.intersect_hit(scene, ray, RayKind::Bounce);
             }
         }
     }
