@@ -375,6 +375,21 @@ impl Materials {
         }
     }
 
+    /// Overwrite the fields `slots` of the leaf `node` with their textures' values at `at`
+    /// (colour slots with `eval`, scalar ones with `eval_1`), as a hit builds a
+    /// `MaterialNode::Leaf` (the stream renderer's kernels patch their own copies per lane).
+    #[inline]
+    pub(crate) fn patch_leaf(&self, node: &mut BsdfNode, slots: &[(Slot, TexId)], at: impl Lookup) {
+        for &(slot, tex) in slots {
+            let t = &self.textures[tex as usize];
+            if slot.is_scalar() {
+                patch_scalar(node, slot, t.eval_1(at));
+            } else {
+                patch(node, slot, t.eval(at));
+            }
+        }
+    }
+
     /// Build the BSDF of material `id` at `si` into `arena`, its textures looked up by `si.uv`
     /// (no mesh attributes); returns the root node index.
     pub fn build(&self, id: MatId, si: &SurfaceInteraction, arena: &mut BsdfArena) -> u32 {
@@ -399,15 +414,7 @@ impl Materials {
             MaterialNode::Leaf { template, slots } => {
                 // Copied once, into the arena, and patched there.
                 let id = arena.push_with_lobes(lobes, **template);
-                let node = arena.node_mut(id);
-                for &(slot, tex) in slots {
-                    let t = &self.textures[tex as usize];
-                    if slot.is_scalar() {
-                        patch_scalar(node, slot, t.eval_1(at));
-                    } else {
-                        patch(node, slot, t.eval(at));
-                    }
-                }
+                self.patch_leaf(arena.node_mut(id), slots, at);
                 id
             }
             MaterialNode::TwoSided { front, back } => {
