@@ -160,6 +160,17 @@ pub struct Materials {
     lobes: Vec<Lobes>,
 }
 
+/// A `blendbsdf` weight's or a `mask` opacity's texture value as the BSDF takes it: clamped to
+/// [0, 1], NaN read as 0.
+#[inline]
+pub(crate) fn unit_weight(w: f32) -> f32 {
+    if w.is_nan() {
+        0.0
+    } else {
+        w.clamp(0.0, 1.0)
+    }
+}
+
 /// Write a texture value into the field `slot` of a leaf node.
 fn patch(node: &mut BsdfNode, slot: Slot, v: Vec3) {
     match (node, slot) {
@@ -480,7 +491,7 @@ impl Materials {
                     BsdfNode::Blend(Blend {
                         bsdf0: a,
                         bsdf1: b,
-                        weight: if w.is_nan() { 0.0 } else { w.clamp(0.0, 1.0) },
+                        weight: unit_weight(w),
                     }),
                 )
             }
@@ -493,7 +504,7 @@ impl Materials {
                     lobes,
                     BsdfNode::Mask(Mask {
                         nested: child,
-                        opacity: if o.is_nan() { 0.0 } else { o.clamp(0.0, 1.0) },
+                        opacity: unit_weight(o),
                     }),
                 )
             }

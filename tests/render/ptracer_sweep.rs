@@ -164,6 +164,8 @@ const SCENES: &[(&str, Entry)] = &[
     ("stream_emitters.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("stream_emitters_env.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("stream_lights.xml", Compare(NONE, Nm::AsWritten, 1)),
+    // Its wrapper-chain driver with `mask`: a smooth `dielectric` sphere behind a mask.
+    ("stream_mask.xml", Exclude(Specular("dielectric"))),
     // The stream renderer's plastic kernel (tests/render/stream.rs): smooth `plastic` in view.
     ("stream_plastic.xml", Exclude(Specular("plastic"))),
     // Its wrapper-chain driver around plastic leaves: smooth `plastic` under normal maps.

@@ -69,6 +69,11 @@ pub(crate) struct Params<L: Lane> {
     /// `MicrofacetDistribution::anisotropic`).
     pub alpha_u: L,
     pub alpha_v: L,
+    /// The `mask` wrapper's opacity (clamped to [0, 1], NaN read as 0; 1 without a mask).
+    pub opacity: L,
+    /// The lanes whose `mask` chose the pass-through (`bsdf::null::pass_through`; none
+    /// without a mask).
+    pub through: L::Mask,
 }
 
 /// The leaf BSDF, with its constant parameters (the template that a textured leaf's slots
@@ -174,6 +179,8 @@ pub(crate) enum Wrap {
         flip_invalid_normals: bool,
         use_shadowing_function: bool,
     },
+    /// `mask` with its opacity texture (at most one per material: it draws the choice).
+    Mask { opacity: TexId },
 }
 
 /// Where a perturbed-frame wrapper's normal comes from (looked up per lane by the driver, as
@@ -236,6 +243,14 @@ impl Material {
                         use_shadowing_function: *use_shadowing_function,
                     }
                 }
+                MaterialNode::Mask { opacity, nested }
+                    if !wraps[..n_wraps]
+                        .iter()
+                        .any(|w| matches!(w, Wrap::Mask { .. })) =>
+                {
+                    id = *nested;
+                    Wrap::Mask { opacity: *opacity }
+                }
                 MaterialNode::BumpMap {
                     nested,
                     height,
@@ -283,6 +298,15 @@ impl Material {
         &self.slots[..self.n_slots]
     }
 
+    /// The `mask` wrapper's opacity texture, if it has one.
+    #[inline(always)]
+    pub(crate) fn mask(&self) -> Option<TexId> {
+        self.wraps().iter().find_map(|w| match *w {
+            Wrap::Mask { opacity } => Some(opacity),
+            _ => None,
+        })
+    }
+
     /// The leaf's [`Params`] differ per lane: the driver gathers them (a `diffuse` leaf, or
     /// textured parameters).
     #[inline(always)]
@@ -299,6 +323,8 @@ impl Material {
             c1: splat3(like, c1),
             alpha_u: like.splat(au),
             alpha_v: like.splat(av),
+            opacity: like.splat(1.0),
+            through: like.splat(0.0).ne(like.splat(0.0)),
         }
     }
 
@@ -404,6 +430,7 @@ pub(crate) fn eval_pdf<L: Lane>(
                 wi = f.to_local(wi);
                 wo = pwo;
             }
+            Wrap::Mask { .. } => {}
         }
     }
     let (mut f, mut pdf) = match &mat.leaf {
@@ -417,10 +444,24 @@ pub(crate) fn eval_pdf<L: Lane>(
         Leaf::Dielectric(b) => b.eval_pdf_lanes(wi, wo),
         Leaf::ThinDielectric(b) => b.eval_pdf_lanes(wi, wo),
     };
-    for s in shadow[..mat.n_wraps].iter().rev().flatten() {
-        f = f.scale(*s);
-    }
     let zero = V3::splat(k(0.0), 0.0, 0.0, 0.0);
+    // Back up, innermost first: the shadowing terms, the mask's opacity (`bsdf::mask`: 0 and 0
+    // where the opacity is ≤ 0, else both scaled by it).
+    for (j, w) in mat.wraps().iter().enumerate().rev() {
+        match *w {
+            Wrap::NormalMap { .. } => {
+                if let Some(s) = shadow[j] {
+                    f = f.scale(s);
+                }
+            }
+            Wrap::Mask { .. } => {
+                let gone = p.opacity.le(k(0.0));
+                f = V3::select(gone, zero, f.scale(p.opacity));
+                pdf = L::select(gone, k(0.0), p.opacity * pdf);
+            }
+            Wrap::TwoSided => {}
+        }
+    }
     f = V3::select(reject, zero, f);
     pdf = L::select(reject, k(0.0), pdf);
     (f, pdf)
@@ -451,6 +492,8 @@ pub(crate) fn sample<L: Lane>(
         t: wi,
         n: wi,
     }; MAX_WRAPS];
+    // The incident direction at each mask, for its pass-through.
+    let mut at = [wi; MAX_WRAPS];
     for (j, w) in mat.wraps().iter().enumerate() {
         match *w {
             Wrap::TwoSided => {
@@ -464,11 +507,12 @@ pub(crate) fn sample<L: Lane>(
                 frames[j] = nmap::frame(normals[j], flip_invalid_normals, wi);
                 wi = frames[j].to_local(wi);
             }
+            Wrap::Mask { .. } => at[j] = wi,
         }
     }
     let all = k(0.0).eq(k(0.0));
     let one = k(1.0);
-    let (mut s, delta, eta) = match &mat.leaf {
+    let (mut s, mut delta, mut eta) = match &mat.leaf {
         Leaf::Rough(b) => (b.sample_with(p.c0, &microfacet(b, p), wi, u2), none, one),
         Leaf::Smooth(b) => (b.sample_with(p.c0, wi), all, one),
         Leaf::Plastic(b) => {
@@ -502,6 +546,17 @@ pub(crate) fn sample<L: Lane>(
                     s.weight = s.weight.scale(nmap::shadow_terminator(frames[j].n, wo));
                 }
             }
+            Wrap::Mask { .. } => {
+                // bsdf::mask::sample: the nested sample with its density times the opacity, or
+                // the pass-through (`null::pass_through`: −wi, weight 1, a delta lobe, η 1).
+                let t = p.through;
+                s.ok = s.ok | t;
+                s.wo = V3::select(t, -at[j], s.wo);
+                s.pdf = L::select(t, k(0.0), s.pdf * p.opacity);
+                s.weight = V3::select(t, V3::splat(k(0.0), 1.0, 1.0, 1.0), s.weight);
+                delta = delta | t;
+                eta = L::select(t, one, eta);
+            }
         }
         s.ok = s.ok & valid(&s);
     }
@@ -513,7 +568,7 @@ mod tests {
     use super::*;
     use crate::bsdf::lanes::testing::*;
     use crate::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
-    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, NormalMap};
+    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, Mask, NormalMap};
     use crate::math::Pcg32;
     use crate::sampler::Sampler;
     use crate::spectrum::Spectrum;
@@ -537,6 +592,9 @@ mod tests {
             vec![Wrap::TwoSided, nm(true, true)],
             vec![nm(true, true), Wrap::TwoSided],
             vec![nm(false, false), Wrap::TwoSided],
+            vec![Wrap::Mask { opacity: 0 }],
+            vec![Wrap::Mask { opacity: 0 }, Wrap::TwoSided],
+            vec![nm(true, true), Wrap::Mask { opacity: 0 }],
         ]
     }
 
@@ -663,12 +721,26 @@ mod tests {
         }
     }
 
-    fn params1(v: (Vec3, Vec3, f32, f32)) -> Params<f32> {
+    /// A mask's opacity for a test case: 0, 1 or between, as `Materials::build_at` clamps it.
+    fn opacity_of(wi: Vec3, wo: Vec3) -> f32 {
+        let q = (wo.x + wi.y).abs();
+        if q < 0.15 {
+            0.0
+        } else if q > 0.85 {
+            1.0
+        } else {
+            q
+        }
+    }
+
+    fn params1(v: (Vec3, Vec3, f32, f32), opacity: f32, through: bool) -> Params<f32> {
         Params {
             c0: v.0.into(),
             c1: v.1.into(),
             alpha_u: v.2,
             alpha_v: v.3,
+            opacity,
+            through,
         }
     }
 
@@ -696,6 +768,7 @@ mod tests {
         leaf: &Leaf,
         normals: &[Vec3; MAX_WRAPS],
         rho: Vec3,
+        opacity: f32,
     ) -> u32 {
         arena.clear();
         let mut id = arena.push(leaf.node(rho));
@@ -715,6 +788,10 @@ mod tests {
                     flip_invalid_normals,
                     use_shadowing_function,
                 )),
+                Wrap::Mask { .. } => BsdfNode::Mask(Mask {
+                    nested: id,
+                    opacity,
+                }),
             });
         }
         id
@@ -750,11 +827,24 @@ mod tests {
                 for (c, &(wi, wo, ns)) in cases.iter().enumerate() {
                     let rho = rho_of(wi, wo);
                     let lc = textured(leaf, wi, wo);
-                    let p1 = params1(case_values(&lc, rho));
-                    let root = tree(&mut arena, &mat, &lc, &ns, rho);
+                    let masked = mat.mask().is_some();
+                    let o = if masked { opacity_of(wi, wo) } else { 1.0 };
+                    let root = tree(&mut arena, &mat, &lc, &ns, rho, o);
                     let bsdf = arena.bsdf(root);
                     let mut sampler = Sampler::from_seed(c as u64, 5);
                     let (f0, p0) = bsdf.eval_pdf(&ctx, wi, wo, &mut sampler);
+                    // The numbers in `Bsdf::sample`'s order: a mask's choice (where 0 < o < 1),
+                    // then the leaf's `u1` (plastics, dielectrics) and `u2`, as the driver draws.
+                    let mut draws = sampler.clone();
+                    let through = masked
+                        && if o <= 0.0 {
+                            true
+                        } else if o >= 1.0 {
+                            false
+                        } else {
+                            !(draws.next_1d() < o)
+                        };
+                    let p1 = params1(case_values(&lc, rho), o, through);
                     let n1 = ns.map(V3::from);
                     let (f1, q1) = eval_pdf(&mat, &n1, &p1, V3::from(wi), V3::from(wo));
                     assert!(
@@ -762,8 +852,6 @@ mod tests {
                         "{mat:?} {wi} {wo} {ns:?}"
                     );
                     nonzero += (f0 != Vec3::ZERO) as u32;
-                    // The leaf's numbers in `Bsdf::sample`'s order: `u1` (plastics), `u2`.
-                    let mut draws = sampler.clone();
                     let u1 = if mat.draws_u1() { draws.next_1d() } else { 0.0 };
                     let u2 = draws.next_2d();
                     let s0 = bsdf.sample(&ctx, wi, &mut sampler);
@@ -793,6 +881,9 @@ mod tests {
                         });
                         let (c0, c1) = (v.map(|v| v.0), v.map(|v| v.1));
                         let (au, av) = (v.map(|v| v.2), v.map(|v| v.3));
+                        let op: [f32; 8] = std::array::from_fn(|k| opacity_of(wi[k], wo[k]));
+                        let th: [bool; 8] =
+                            std::array::from_fn(|k| op[k] <= 0.0 || wi[k].x > 0.3 && op[k] < 1.0);
                         let (f, p, (s, d, e)) = avx.run(|| {
                             let n8 = n.map(|v| load3(avx, &v));
                             let (wi8, wo8) = (load3(avx, &wi), load3(avx, &wo));
@@ -801,6 +892,8 @@ mod tests {
                                 c1: load3(avx, &c1),
                                 alpha_u: avx.load(&au),
                                 alpha_v: avx.load(&av),
+                                opacity: avx.load(&op),
+                                through: avx.mask(&th),
                             };
                             let (f, p) = eval_pdf(&mat, &n8, &p8, wi8, wo8);
                             let u1 = avx.load(&u1);
@@ -810,7 +903,7 @@ mod tests {
                         for k in 0..8 {
                             let n1 = std::array::from_fn(|j| V3::from(n[j][k]));
                             let (wi1, wo1) = (V3::from(wi[k]), V3::from(wo[k]));
-                            let r1 = params1(v[k]);
+                            let r1 = params1(v[k], op[k], th[k]);
                             let (f1, p1) = eval_pdf(&mat, &n1, &r1, wi1, wo1);
                             assert!(same3(lane3(f, k), f1.into()) && same(p.lane(k), p1));
                             let (s1, d1, e1) = sample(&mat, &n1, &r1, wi1, u1[k], V2::from(u[k]));

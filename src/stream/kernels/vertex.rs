@@ -20,8 +20,9 @@ use crate::bsdf::bumpmap;
 use crate::geometry::SurfaceInteraction;
 use crate::lane::vec::V3;
 use crate::lane::Lane;
-use crate::material::TexId;
+use crate::material::{unit_weight, TexId};
 use crate::scene::Scene;
+use crate::texture::Texture;
 use glam::Vec3;
 
 /// Next-event estimation at the material's BSDF: `nee::prepare_light` after its call to
@@ -110,6 +111,18 @@ fn wrapper_normal(scene: &Scene, normal: Normal, si: &SurfaceInteraction) -> Vec
     }
 }
 
+/// A scalar texture's value at `si` (`eval_1`, a `mask`'s opacity), at the lookup
+/// `Scene::bsdf_root` picks.
+#[inline(always)]
+fn scalar_at(scene: &Scene, tex: &Texture, si: &SurfaceInteraction) -> f32 {
+    let shape = si.shape as usize;
+    if scene.shape_reads_mesh[shape] {
+        tex.eval_1(crate::texture::TexPoint::on_shape(si, &scene.shapes[shape]))
+    } else {
+        tex.eval_1(si.uv)
+    }
+}
+
 /// The parameters of a textured leaf at `si` ([`Params`]' values): its template patched as
 /// `Materials::build_at` patches a leaf, at the lookup `Scene::bsdf_root` picks.
 fn leaf_values(scene: &Scene, mat: &Material, si: &SurfaceInteraction) -> (Vec3, Vec3, f32, f32) {
@@ -163,13 +176,16 @@ pub(crate) mod x8 {
 
         // 2. Random numbers, 8-wide from the gathered PCG32 states where the streams are plain
         // (`kernels::draws`); normal maps and light points lane by lane in each path's order.
+        // Under a `mask` the BSDF's numbers depend on its choice: drawn lane by lane below.
         let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
+        let mask_tex = mat.mask().map(|t| &scene.materials.textures[t as usize]);
         let draws = Draws {
             light: nee,
-            u1: mat.draws_u1(),
-            u2: mat.draws_u2(),
+            u1: mat.draws_u1() && mask_tex.is_none(),
+            u2: mat.draws_u2() && mask_tex.is_none(),
         };
-        let num = draw(avx, &mut b.sampler, ids, &front, draws);
+        let mut num = draw(avx, &mut b.sampler, ids, &front, draws);
+        let (mut opacity, mut through) = ([1.0f32; 8], [false; 8]);
         let sources = normal_sources(mat);
         let mut normals = [Cols3::default(); MAX_WRAPS];
         // The leaf's parameters, looked up per lane as `Materials::build_at` does: a `diffuse`
@@ -183,7 +199,7 @@ pub(crate) mod x8 {
         let mut tp = Cols3::default();
         let light_only = cfg.strategy == Strategy::LightOnly;
         gather.reset();
-        let textured = mat.per_lane() || sources.iter().any(Option::is_some);
+        let textured = mat.per_lane() || mask_tex.is_some() || sources.iter().any(Option::is_some);
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
@@ -211,20 +227,49 @@ pub(crate) mod x8 {
                 let u = Vec2::new(num.u[0][k], num.u[1][k]);
                 gather.add(k, scene, lights, light_only, num.u_sel[k], u, p.get(k));
             }
+            if let (Some(t), Some(si)) = (mask_tex, &si) {
+                // bsdf::mask::sample: the choice (drawn where 0 < opacity < 1), then the nested
+                // BSDF's numbers where it is chosen.
+                let o = unit_weight(scalar_at(scene, t, si));
+                let s = &mut b.sampler[i];
+                through[k] = if o <= 0.0 {
+                    true
+                } else if o >= 1.0 {
+                    false
+                } else {
+                    !(s.next_1d() < o)
+                };
+                if !through[k] {
+                    if mat.draws_u1() {
+                        num.u1[k] = s.next_1d();
+                    }
+                    if mat.draws_u2() {
+                        let u = s.next_2d();
+                        (num.u2[0][k], num.u2[1][k]) = (u.x, u.y);
+                    }
+                }
+                opacity[k] = o;
+            }
         }
 
         // 3. The kernel.
         let normals8 = normals.map(|c| c.load(avx));
-        let params = if mat.per_lane() {
+        let mut params = if mat.per_lane() {
             Params {
                 c0: c0.load(avx),
                 c1: c1.load(avx),
                 alpha_u: avx.load(&au),
                 alpha_v: avx.load(&av),
+                opacity: wi.z.splat(1.0),
+                through: avx.mask(&[false; 8]),
             }
         } else {
             mat.params(wi.z)
         };
+        if mask_tex.is_some() {
+            params.opacity = avx.load(&opacity);
+            params.through = avx.mask(&through);
+        }
         // A block, not a closure: a closure would be compiled outside `Avx2::run`'s target
         // features and call every 8-wide operation out of line.
         let lo = if nee {
