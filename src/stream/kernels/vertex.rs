@@ -157,7 +157,8 @@ pub(crate) mod x8 {
     /// would, one after the other; sets their pending light samples, and their next rays and
     /// `alive` flags where they go on. Call inside [`Avx2::run`].
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
+    // `!(u < o)`: `bsdf::mask::sample`'s test, negated as written there (u and o are never NaN).
+    #[allow(clippy::too_many_arguments, clippy::neg_cmp_op_on_partial_ord)]
     pub(crate) fn shade(
         avx: Avx2,
         scene: &Scene,
