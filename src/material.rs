@@ -160,6 +160,17 @@ pub struct Materials {
     lobes: Vec<Lobes>,
 }
 
+/// A `blendbsdf` weight's or a `mask` opacity's texture value as the BSDF takes it: clamped to
+/// [0, 1], NaN read as 0.
+#[inline]
+pub(crate) fn unit_weight(w: f32) -> f32 {
+    if w.is_nan() {
+        0.0
+    } else {
+        w.clamp(0.0, 1.0)
+    }
+}
+
 /// Write a texture value into the field `slot` of a leaf node.
 fn patch(node: &mut BsdfNode, slot: Slot, v: Vec3) {
     match (node, slot) {
@@ -375,6 +386,21 @@ impl Materials {
         }
     }
 
+    /// Overwrite the fields `slots` of the leaf `node` with their textures' values at `at`
+    /// (colour slots with `eval`, scalar ones with `eval_1`), as a hit builds a
+    /// `MaterialNode::Leaf` (the stream renderer's kernels patch their own copies per lane).
+    #[inline]
+    pub(crate) fn patch_leaf(&self, node: &mut BsdfNode, slots: &[(Slot, TexId)], at: impl Lookup) {
+        for &(slot, tex) in slots {
+            let t = &self.textures[tex as usize];
+            if slot.is_scalar() {
+                patch_scalar(node, slot, t.eval_1(at));
+            } else {
+                patch(node, slot, t.eval(at));
+            }
+        }
+    }
+
     /// Build the BSDF of material `id` at `si` into `arena`, its textures looked up by `si.uv`
     /// (no mesh attributes); returns the root node index.
     pub fn build(&self, id: MatId, si: &SurfaceInteraction, arena: &mut BsdfArena) -> u32 {
@@ -399,15 +425,7 @@ impl Materials {
             MaterialNode::Leaf { template, slots } => {
                 // Copied once, into the arena, and patched there.
                 let id = arena.push_with_lobes(lobes, **template);
-                let node = arena.node_mut(id);
-                for &(slot, tex) in slots {
-                    let t = &self.textures[tex as usize];
-                    if slot.is_scalar() {
-                        patch_scalar(node, slot, t.eval_1(at));
-                    } else {
-                        patch(node, slot, t.eval(at));
-                    }
-                }
+                self.patch_leaf(arena.node_mut(id), slots, at);
                 id
             }
             MaterialNode::TwoSided { front, back } => {
@@ -473,7 +491,7 @@ impl Materials {
                     BsdfNode::Blend(Blend {
                         bsdf0: a,
                         bsdf1: b,
-                        weight: if w.is_nan() { 0.0 } else { w.clamp(0.0, 1.0) },
+                        weight: unit_weight(w),
                     }),
                 )
             }
@@ -486,7 +504,7 @@ impl Materials {
                     lobes,
                     BsdfNode::Mask(Mask {
                         nested: child,
-                        opacity: if o.is_nan() { 0.0 } else { o.clamp(0.0, 1.0) },
+                        opacity: unit_weight(o),
                     }),
                 )
             }

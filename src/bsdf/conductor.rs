@@ -54,6 +54,14 @@ impl Conductor {
     /// [`Self::sample`] is its width 1.
     #[inline(always)]
     pub(crate) fn sample_lanes<L: Lane>(&self, wi: V3<L>, _u1: L, _u2: V2<L>) -> LaneBsdfSample<L> {
+        let r = self.specular_reflectance;
+        self.sample_with(V3::splat(wi.z, r.x, r.y, r.z), wi)
+    }
+
+    /// [`Self::sample_lanes`] with `specular_reflectance` per lane (`spec`: the stream kernel's
+    /// textured parameter).
+    #[inline(always)]
+    pub(crate) fn sample_with<L: Lane>(&self, spec: V3<L>, wi: V3<L>) -> LaneBsdfSample<L> {
         let s = |v: Vec3| V3::splat(wi.z, v.x, v.y, v.z);
         let zero = wi.z.splat(0.0);
         let zero3 = V3::new(zero, zero, zero);
@@ -67,7 +75,7 @@ impl Conductor {
                 weight: zero3,
             };
         }
-        let weight = s(self.specular_reflectance) * lane_conductor(wi.z, s(self.eta), s(self.k));
+        let weight = spec * lane_conductor(wi.z, s(self.eta), s(self.k));
         LaneBsdfSample {
             ok,
             // fresnel::reflect_z.

@@ -84,6 +84,22 @@ impl Dielectric {
         u1: L,
         _u2: V2<L>,
     ) -> (LaneBsdfSample<L>, L, L::Mask) {
+        let (r, t) = (self.specular_reflectance, self.specular_transmittance);
+        let s = |c: Spectrum| V3::splat(wi.z, c.x, c.y, c.z);
+        self.sample_with(mode, s(r), s(t), wi, u1)
+    }
+
+    /// [`Self::sample_lanes`] with `specular_reflectance` (`r`) and `specular_transmittance`
+    /// (`tr`) per lane (the stream kernel's textured parameters).
+    #[inline(always)]
+    pub(crate) fn sample_with<L: Lane>(
+        &self,
+        mode: TransportMode,
+        r: V3<L>,
+        tr: V3<L>,
+        wi: V3<L>,
+        u1: L,
+    ) -> (LaneBsdfSample<L>, L, L::Mask) {
         let k = |c: f32| wi.z.splat(c);
         let f = lane_dielectric(wi.z, k(self.eta));
         let reflect = u1.le(f.r);
@@ -93,13 +109,12 @@ impl Dielectric {
             TransportMode::Radiance => f.eta_ti * f.eta_ti,
             TransportMode::Importance => k(1.0),
         };
-        let (r, tr) = (self.specular_reflectance, self.specular_transmittance);
-        let weight_t = V3::new(k(tr.x) * scale, k(tr.y) * scale, k(tr.z) * scale);
+        let weight_t = V3::new(tr.x * scale, tr.y * scale, tr.z * scale);
         let sample = LaneBsdfSample {
             ok: reflect | !reflect,
             wo: V3::select(reflect, V3::new(-wi.x, -wi.y, wi.z), t),
             pdf: k(0.0),
-            weight: V3::select(reflect, V3::new(k(r.x), k(r.y), k(r.z)), weight_t),
+            weight: V3::select(reflect, r, weight_t),
         };
         (sample, L::select(reflect, k(1.0), f.eta_it), reflect)
     }

@@ -58,12 +58,22 @@ impl RoughConductor {
         }
     }
 
-    /// `specular_reflectance · F(cos θ)` per lane.
+    /// `specular_reflectance · F(cos θ)` per lane (`spec`: the reflectance per lane).
     #[inline(always)]
-    fn fresnel_lanes<L: Lane>(&self, cos_theta: L) -> V3<L> {
+    fn fresnel_lanes<L: Lane>(&self, spec: V3<L>, cos_theta: L) -> V3<L> {
         let eta = splat3(cos_theta, self.eta);
         let k = splat3(cos_theta, self.k);
-        splat3(cos_theta, self.specular_reflectance) * lane_conductor(cos_theta, eta, k)
+        spec * lane_conductor(cos_theta, eta, k)
+    }
+
+    /// The textured parameters in every lane (width of `like`): `specular_reflectance` and the
+    /// distribution, what [`Self::eval_pdf_with`] and [`Self::sample_with`] take per lane.
+    #[inline(always)]
+    pub(crate) fn params_lanes<L: Lane>(&self, like: L) -> (V3<L>, Microfacet<L>) {
+        (
+            splat3(like, self.specular_reflectance),
+            self.microfacet(like),
+        )
     }
 
     /// `(f · cos θo, pdf)` sharing the half vector, D(h) and G1(wi, h); both 0 where `wi` or
@@ -71,6 +81,20 @@ impl RoughConductor {
     /// is its width 1.
     #[inline(always)]
     pub(crate) fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
+        let (spec, dist) = self.params_lanes(wi.z);
+        self.eval_pdf_with(spec, &dist, wi, wo)
+    }
+
+    /// [`Self::eval_pdf_lanes`] with `specular_reflectance` and the distribution per lane (the
+    /// stream kernel's textured parameters; [`Self::params_lanes`] gives the constant ones).
+    #[inline(always)]
+    pub(crate) fn eval_pdf_with<L: Lane>(
+        &self,
+        spec: V3<L>,
+        dist: &Microfacet<L>,
+        wi: V3<L>,
+        wo: V3<L>,
+    ) -> (V3<L>, L) {
         let k = |c: f32| wi.z.splat(c);
         let zero = V3::splat(k(0.0), 0.0, 0.0, 0.0);
         let below = wi.z.le(k(0.0)) | wo.z.le(k(0.0));
@@ -78,7 +102,6 @@ impl RoughConductor {
             // Fast path (the bits of the selects below): no lane has a pair above the surface.
             return (zero, k(0.0));
         }
-        let dist = self.microfacet(wi.z);
         let h = (wi + wo).normalize();
         let d = dist.eval(h);
         let bad = below | d.eq(k(0.0));
@@ -88,7 +111,7 @@ impl RoughConductor {
         let g1i = dist.smith_g1(wi, h);
         // f cos θo = F D G / (4 cos θi).
         let f = self
-            .fresnel_lanes(wi.dot(h))
+            .fresnel_lanes(spec, wi.dot(h))
             .scale(d * g1i * dist.smith_g1(wo, h) / (k(4.0) * wi.z));
         let pdf = dist.reflection_pdf(wi, wo, h, d, g1i);
         (V3::select(bad, zero, f), L::select(bad, k(0.0), pdf))
@@ -120,6 +143,20 @@ impl RoughConductor {
     /// outside `ok` hold zeros. The lane form; [`Self::sample`] is its width 1.
     #[inline(always)]
     pub(crate) fn sample_lanes<L: Lane>(&self, wi: V3<L>, _u1: L, u2: V2<L>) -> LaneBsdfSample<L> {
+        let (spec, dist) = self.params_lanes(wi.z);
+        self.sample_with(spec, &dist, wi, u2)
+    }
+
+    /// [`Self::sample_lanes`] with `specular_reflectance` and the distribution per lane (see
+    /// [`Self::eval_pdf_with`]).
+    #[inline(always)]
+    pub(crate) fn sample_with<L: Lane>(
+        &self,
+        spec: V3<L>,
+        dist: &Microfacet<L>,
+        wi: V3<L>,
+        u2: V2<L>,
+    ) -> LaneBsdfSample<L> {
         let k = |c: f32| wi.z.splat(c);
         let zero = V3::splat(k(0.0), 0.0, 0.0, 0.0);
         let none = LaneBsdfSample {
@@ -133,7 +170,6 @@ impl RoughConductor {
         if !ok.any() {
             return none;
         }
-        let dist = self.microfacet(wi.z);
         let m = dist.sample_normal(wi, u2);
         let pm = dist.pdf(wi, m);
         let ok = ok & pm.gt(k(0.0));
@@ -157,7 +193,7 @@ impl RoughConductor {
             ok,
             wo: V3::select(ok, wo, zero),
             pdf: L::select(ok, pdf, k(0.0)),
-            weight: V3::select(ok, self.fresnel_lanes(wi.dot(m)).scale(w), zero),
+            weight: V3::select(ok, self.fresnel_lanes(spec, wi.dot(m)).scale(w), zero),
         }
     }
 

@@ -88,18 +88,28 @@ impl ThinDielectric {
         u1: L,
         _u2: V2<L>,
     ) -> (LaneBsdfSample<L>, L::Mask) {
+        let (r, t) = (self.specular_reflectance, self.specular_transmittance);
+        let s = |c: Spectrum| V3::splat(wi.z, c.x, c.y, c.z);
+        self.sample_with(s(r), s(t), wi, u1)
+    }
+
+    /// [`Self::sample_lanes`] with `specular_reflectance` (`r`) and `specular_transmittance`
+    /// (`t`) per lane (the stream kernel's textured parameters).
+    #[inline(always)]
+    pub(crate) fn sample_with<L: Lane>(
+        &self,
+        r: V3<L>,
+        t: V3<L>,
+        wi: V3<L>,
+        u1: L,
+    ) -> (LaneBsdfSample<L>, L::Mask) {
         let k = |c: f32| wi.z.splat(c);
         let reflect = u1.le(self.reflectance_lanes(wi.z));
-        let (r, t) = (self.specular_reflectance, self.specular_transmittance);
         let sample = LaneBsdfSample {
             ok: reflect | !reflect,
             wo: V3::select(reflect, V3::new(-wi.x, -wi.y, wi.z), -wi),
             pdf: k(0.0),
-            weight: V3::select(
-                reflect,
-                V3::new(k(r.x), k(r.y), k(r.z)),
-                V3::new(k(t.x), k(t.y), k(t.z)),
-            ),
+            weight: V3::select(reflect, r, t),
         };
         (sample, reflect)
     }

@@ -13,8 +13,9 @@
 //! 4. **shade** each material's run of paths: light sample up to its shadow ray, BSDF sample,
 //!    Russian roulette. A run of ≥ 8 paths of a material with an 8-wide kernel (chosen per
 //!    material at load, [`Kernel`]: `diffuse`, [`kernels::diffuse`]; `roughconductor` and
-//!    `conductor`, the three dielectrics, and constant `plastic`/`roughplastic` leaves and
-//!    `diffuse` leaves, under `twosided`/classic `normalmap`, [`kernels::conductor`]; bare `plastic`/`roughplastic`,
+//!    `conductor`, the three dielectrics, `plastic`/`roughplastic` leaves and `diffuse` leaves
+//!    (textured parameters included, but a textured `roughdielectric`), under
+//!    `twosided`/classic `normalmap`/`bumpmap`, [`kernels::conductor`]; bare `plastic`/`roughplastic`,
 //!    [`kernels::plastic`]; the compensated microfacet normal map, [`kernels::mnm`]) goes 8 at a
 //!    time through it (AVX2 machines); every other material, a run's last < 8 paths and a
 //!    machine without AVX2 go through the 1-lane code lane by lane
@@ -260,10 +261,10 @@ enum Kernel {
     /// `diffuse` ([`kernels::diffuse`]): its reflectance texture and whether it takes light
     /// samples.
     Diffuse(crate::material::TexId, bool),
-    /// `roughconductor` or `conductor` with constant parameters, bare or under `twosided` and
-    /// classic `normalmap`, `plastic` or `roughplastic` with constant parameters and `diffuse`
-    /// under them, and `dielectric`, `roughdielectric`, `thindielectric` with constant
-    /// parameters, bare or under them ([`kernels::conductor`]).
+    /// `roughconductor` or `conductor`, bare or under `twosided`, classic `normalmap` and
+    /// `bumpmap`, `plastic`, `roughplastic` and `diffuse` under them, and `dielectric`,
+    /// `roughdielectric` (constant), `thindielectric`, bare or under them; parameters may be
+    /// textured ([`kernels::conductor`]).
     Conductor(kernels::conductor::Material),
     /// `plastic` or `roughplastic`, bare (reflectances gathered per lane; [`kernels::plastic`]).
     Plastic(kernels::plastic::Material),

@@ -147,6 +147,8 @@ const SCENES: &[(&str, Entry)] = &[
     ("shape_curves.xml", Compare(CLOSED_CURVES, Nm::AsWritten, 1)),
     ("shape_cylinder.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("shape_instance.xml", Compare(NONE, Nm::AsWritten, 1)),
+    // The stream renderer's wrapper-chain driver with `bumpmap` (tests/render/stream.rs).
+    ("stream_bumpmap.xml", Exclude(Classic("bumpmap"))),
     // The stream renderer's conductor kernels (tests/render/stream.rs): a smooth `conductor`
     // sphere in view (and classic normal maps).
     ("stream_conductors.xml", Exclude(Specular("conductor"))),
@@ -162,12 +164,16 @@ const SCENES: &[(&str, Entry)] = &[
     ("stream_emitters.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("stream_emitters_env.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("stream_lights.xml", Compare(NONE, Nm::AsWritten, 1)),
+    // Its wrapper-chain driver with `mask`: a smooth `dielectric` sphere behind a mask.
+    ("stream_mask.xml", Exclude(Specular("dielectric"))),
     // The stream renderer's plastic kernel (tests/render/stream.rs): smooth `plastic` in view.
     ("stream_plastic.xml", Exclude(Specular("plastic"))),
     // Its wrapper-chain driver around plastic leaves: smooth `plastic` under normal maps.
     ("stream_plastics_wrapped.xml", Exclude(Specular("plastic"))),
     // The stream renderer's surface interactions in lanes (tests/render/stream.rs).
     ("stream_surfaces.xml", Compare(NONE, Nm::AsWritten, 1)),
+    // Its driver around textured leaves: a smooth `conductor` sphere in view.
+    ("stream_textured_leaves.xml", Exclude(Specular("conductor"))),
     ("tex_hdr_pfm.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("tex_mesh_attr.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("textured_quad.xml", Compare(NONE, Nm::AsWritten, 1)),

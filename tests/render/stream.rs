@@ -996,3 +996,82 @@ fn stream_equals_scalar_with_surfaces_in_lanes() {
         );
     }
 }
+
+// ---- Textured leaves and bumpmap in the wrapper chain (issue 18, tenth session, h5) ----
+
+/// Renders `name` at 3 spp through [`assert_identical`] (1, 2, 3 and 7 threads) and checks that
+/// the wrapper-chain driver shaded at least 85 % of its shaded paths (every material of the
+/// scene but the emitters' default `diffuse` is the driver's: only the runs' tails, ≤ 7 paths
+/// per material, run and bounce, are shaded lane by lane), so a silent fallback to the 1-lane
+/// code fails.
+fn assert_in_the_driver(name: &str) {
+    let l = load(&test_scene(name), "as_written");
+    let lanes = assert_identical(&l, name, 3);
+    let share = lanes.conductor_lanes as f64 / lanes.shade_used as f64;
+    eprintln!("{name}, 3 spp: {lanes:?}, driver share {share:.4}");
+    assert!(share >= 0.85, "too little in lanes: {lanes:?}");
+}
+
+/// Textured leaf parameters (`tests/data/scenes/stream_textured_leaves.xml`): a bitmap `alpha`
+/// and `specular_reflectance` on a rough conductor, a textured `alpha_u` (anisotropic), a
+/// textured smooth conductor, dielectric and thin dielectric, a twosided rough plastic and a
+/// normal-mapped plastic with textured reflectances: the scalar image at 1, 2, 3 and 7 threads,
+/// with ≥ 85 % of the shaded paths in the driver.
+#[test]
+fn stream_equals_scalar_where_textured_leaves_run_in_lanes() {
+    assert_in_the_driver("stream_textured_leaves.xml");
+}
+
+/// The textured leaves under the settings that change what a vertex does: the light-only and
+/// BSDF-only strategies, Russian roulette from the first bounce, the stratified sampler.
+#[test]
+fn stream_equals_scalar_for_textured_leaves_under_every_setting() {
+    for (label, l) in &settings_variants("stream_textured_leaves.xml") {
+        let lanes = assert_identical(l, &format!("stream_textured_leaves ({label})"), 4);
+        assert!(lanes.conductor_lanes > 0, "{label}: never in lanes");
+    }
+}
+
+/// `bumpmap` as a wrapper (`tests/data/scenes/stream_bumpmap.xml`: over diffuse, a rough
+/// conductor, a rough dielectric, under and over `twosided`, both flags off on the floor): the
+/// scalar image at 1, 2, 3 and 7 threads, with ≥ 85 % of the shaded paths in the driver; and
+/// `mat_bumpmap.xml` (a Mitsuba-reference scene).
+#[test]
+fn stream_equals_scalar_where_bumpmaps_run_in_lanes() {
+    assert_in_the_driver("stream_bumpmap.xml");
+    let l = load(&test_scene("mat_bumpmap.xml"), "as_written");
+    let lanes = assert_identical(&l, "mat_bumpmap", 2);
+    assert!(lanes.conductor_lanes > 0, "mat_bumpmap: never in lanes");
+}
+
+/// The bump maps under the settings that change what a vertex does.
+#[test]
+fn stream_equals_scalar_for_bumpmaps_under_every_setting() {
+    for (label, l) in &settings_variants("stream_bumpmap.xml") {
+        let lanes = assert_identical(l, &format!("stream_bumpmap ({label})"), 4);
+        assert!(lanes.conductor_lanes > 0, "{label}: never in lanes");
+    }
+}
+
+/// `mask` as a wrapper (`tests/data/scenes/stream_mask.xml`: bitmap, checkerboard and constant
+/// opacities of 0, 1 and between, over `twosided`, a normal map, a rough conductor with a
+/// textured roughness and a dielectric, and under `twosided`): its choice and the nested BSDF's
+/// numbers drawn lane by lane in the scalar order, the pass-through continuing the path; the
+/// scalar image at 1, 2, 3 and 7 threads with ≥ 85 % of the shaded paths in the driver; and
+/// `mat_mask.xml` (a Mitsuba-reference scene with a `null` sphere, shaded lane by lane).
+#[test]
+fn stream_equals_scalar_where_masks_run_in_lanes() {
+    assert_in_the_driver("stream_mask.xml");
+    let l = load(&test_scene("mat_mask.xml"), "as_written");
+    let lanes = assert_identical(&l, "mat_mask", 2);
+    assert!(lanes.conductor_lanes > 0, "mat_mask: never in lanes");
+}
+
+/// The masks under the settings that change what a vertex does.
+#[test]
+fn stream_equals_scalar_for_masks_under_every_setting() {
+    for (label, l) in &settings_variants("stream_mask.xml") {
+        let lanes = assert_identical(l, &format!("stream_mask ({label})"), 4);
+        assert!(lanes.conductor_lanes > 0, "{label}: never in lanes");
+    }
+}

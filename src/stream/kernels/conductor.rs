@@ -1,20 +1,23 @@
 //! The 8-wide `roughconductor` and `conductor` kernels, bare or under `twosided` (one nested
-//! BSDF for both sides) and classic `normalmap` wrappers, and the same wrappers around a
-//! `plastic` or `roughplastic` leaf of constant parameters (a bare plastic leaf goes to
-//! [`super::plastic`], which also gathers textured reflectances), and around a `diffuse` leaf
-//! (constant or textured reflectance, gathered per lane by the driver; a bare `diffuse` goes to
-//! [`super::diffuse`]): what
+//! BSDF for both sides), classic `normalmap` and `bumpmap` wrappers, and the same wrappers
+//! around a `plastic` or `roughplastic` leaf (a bare plastic leaf goes to [`super::plastic`]),
+//! around a `diffuse` leaf (constant or textured reflectance, gathered per lane by the driver; a
+//! bare `diffuse` goes to [`super::diffuse`]) and around the dielectric leaves: what
 //! [`PathState::scatter`](crate::integrator::path::PathState::scatter) does at such a vertex, for
 //! 8 paths at a time.
 //!
 //! A material qualifies when its tree is at most [`MAX_WRAPS`] wrappers (`twosided` with
-//! `front == back`, `normalmap`) around a `diffuse` leaf, or a `roughconductor`, `conductor`,
-//! `plastic`, `roughplastic`, `dielectric`, `roughdielectric` or `thindielectric` leaf whose
-//! parameters are all constant (a textured `specular_reflectance` or roughness has no kernel: such a
-//! material is shaded lane by lane, as every material without a kernel, and its paths show in
-//! `LaneCounters::shade_used − kernel_lanes`). The normal maps' texture lookups are done lane
-//! by lane; their perturbed frames, the side tests and the BSDF in lanes
-//! (`bsdf::normalmap::lanes`, `RoughConductor::*_lanes`, `Conductor::*_lanes`).
+//! `front == back`, `normalmap`, `bumpmap`) around a `diffuse` leaf, or a `roughconductor`,
+//! `conductor`, `plastic`, `roughplastic`, `dielectric`, `roughdielectric` or `thindielectric`
+//! leaf. A leaf's parameters may be textured (`Leaf::takes`: colours, and the rough
+//! conductor's roughness; at most [`MAX_SLOTS`]): the driver patches the leaf's template per
+//! lane as `Materials::build_at` does and hands the values to the lane forms as [`Params`]. A
+//! textured `roughdielectric` has no kernel: such a material is shaded lane by lane, as every
+//! material without a kernel, and its paths show in `LaneCounters::shade_used − kernel_lanes`.
+//! The wrappers' texture lookups (a normal map's colour, a bump map's height gradient and
+//! `bsdf::bumpmap::perturbed_normal`) are done lane by lane; their perturbed frames (`normalmap`
+//! and `bumpmap` are both Mitsuba's `PerturbedBSDF`), the side tests and the BSDF in lanes
+//! (`bsdf::normalmap::lanes`, `RoughConductor::*_with`, `Conductor::*_with`, …).
 //!
 //! The per-vertex sequence (gather, random numbers, light points, scatter back) is
 //! [`super::vertex`]'s, shared with nothing else yet; the light-sample part mirrors the `diffuse`
@@ -40,14 +43,41 @@ use crate::bsdf::{
     RoughPlastic, ThinDielectric, TransportMode,
 };
 use crate::lane::frame::Frame;
+use crate::lane::microfacet::Microfacet;
 use crate::lane::vec::{V2, V3};
 use crate::lane::Lane;
-use crate::material::{MatId, MaterialNode, Materials, TexId};
+use crate::material::{MatId, MaterialNode, Materials, Slot, TexId};
+use glam::Vec3;
 
 /// Most wrappers a kernel material may have around its leaf (e.g. `twosided` over `normalmap`).
 pub(crate) const MAX_WRAPS: usize = 2;
 
-/// The leaf BSDF, with its (constant) parameters.
+/// Most textured parameters a kernel leaf may have (`MaterialNode::Leaf`'s slots: a rough
+/// conductor's `specular_reflectance`, `alpha_u` and `alpha_v`).
+pub(crate) const MAX_SLOTS: usize = 3;
+
+/// The leaf's parameters that textures may set, per lane: gathered by the driver where the
+/// leaf is textured (or a `diffuse`), else [`Material::params`]'s constants in every lane.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Params<L: Lane> {
+    /// `diffuse`: `reflectance`; plastics: `diffuse_reflectance`; conductors and dielectrics:
+    /// `specular_reflectance`.
+    pub c0: V3<L>,
+    /// Plastics: `specular_reflectance`; dielectrics: `specular_transmittance`.
+    pub c1: V3<L>,
+    /// The rough conductor's roughness, as its distribution holds it (clamped by
+    /// `MicrofacetDistribution::anisotropic`).
+    pub alpha_u: L,
+    pub alpha_v: L,
+    /// The `mask` wrapper's opacity (clamped to [0, 1], NaN read as 0; 1 without a mask).
+    pub opacity: L,
+    /// The lanes whose `mask` chose the pass-through (`bsdf::null::pass_through`; none
+    /// without a mask).
+    pub through: L::Mask,
+}
+
+/// The leaf BSDF, with its constant parameters (the template that a textured leaf's slots
+/// patch per lane).
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Leaf {
     Rough(RoughConductor),
@@ -67,17 +97,100 @@ pub(crate) enum Leaf {
     ThinDielectric(ThinDielectric),
 }
 
+impl Leaf {
+    /// The kernel leaf of a leaf BSDF node (`None`: no lane form in the driver).
+    pub(crate) fn of(node: &BsdfNode) -> Option<Leaf> {
+        Some(match *node {
+            BsdfNode::RoughConductor(b) => Leaf::Rough(b),
+            BsdfNode::Conductor(b) => Leaf::Smooth(b),
+            BsdfNode::Plastic(b) => Leaf::Plastic(b),
+            BsdfNode::RoughPlastic(b) => Leaf::RoughPlastic(b),
+            BsdfNode::Dielectric(b) => Leaf::Dielectric(b),
+            BsdfNode::RoughDielectric(b) => Leaf::RoughDielectric(b),
+            BsdfNode::ThinDielectric(b) => Leaf::ThinDielectric(b),
+            _ => return None,
+        })
+    }
+
+    /// The BSDF node of the leaf (a `diffuse` leaf's with reflectance `rho`).
+    pub(crate) fn node(&self, rho: Vec3) -> BsdfNode {
+        match *self {
+            Leaf::Diffuse(_) => BsdfNode::Diffuse(Diffuse { reflectance: rho }),
+            Leaf::Dielectric(b) => BsdfNode::Dielectric(b),
+            Leaf::RoughDielectric(b) => BsdfNode::RoughDielectric(b),
+            Leaf::ThinDielectric(b) => BsdfNode::ThinDielectric(b),
+            Leaf::Rough(b) => BsdfNode::RoughConductor(b),
+            Leaf::Smooth(b) => BsdfNode::Conductor(b),
+            Leaf::Plastic(b) => BsdfNode::Plastic(b),
+            Leaf::RoughPlastic(b) => BsdfNode::RoughPlastic(b),
+        }
+    }
+
+    /// The values of [`Params`] (`c0`, `c1`, `alpha_u`, `alpha_v`) this leaf holds (0 where
+    /// unused; a `diffuse` leaf's reflectance is its texture's, gathered apart).
+    pub(crate) fn values(&self) -> (Vec3, Vec3, f32, f32) {
+        let z = Vec3::ZERO;
+        match self {
+            Leaf::Rough(b) => {
+                let d = &b.distribution;
+                (b.specular_reflectance, z, d.alpha_u, d.alpha_v)
+            }
+            Leaf::Smooth(b) => (b.specular_reflectance, z, 0.0, 0.0),
+            Leaf::Plastic(b) => (b.diffuse_reflectance, b.specular_reflectance, 0.0, 0.0),
+            Leaf::RoughPlastic(b) => (b.diffuse_reflectance, b.specular_reflectance, 0.0, 0.0),
+            Leaf::Dielectric(b) => (b.specular_reflectance, b.specular_transmittance, 0.0, 0.0),
+            Leaf::ThinDielectric(b) => (b.specular_reflectance, b.specular_transmittance, 0.0, 0.0),
+            Leaf::RoughDielectric(_) | Leaf::Diffuse(_) => (z, z, 0.0, 0.0),
+        }
+    }
+
+    /// The lane form takes these textured slots per lane ([`Params`]; a rough dielectric's
+    /// textured parameters have no lane form here: such a material is shaded lane by lane).
+    fn takes(&self, slot: Slot) -> bool {
+        match self {
+            Leaf::Rough(_) => matches!(
+                slot,
+                Slot::SpecularReflectance | Slot::Alpha | Slot::AlphaU | Slot::AlphaV
+            ),
+            Leaf::Smooth(_) => slot == Slot::SpecularReflectance,
+            Leaf::Plastic(_) | Leaf::RoughPlastic(_) => {
+                matches!(slot, Slot::SpecularReflectance | Slot::DiffuseReflectance)
+            }
+            Leaf::Dielectric(_) | Leaf::ThinDielectric(_) => {
+                matches!(
+                    slot,
+                    Slot::SpecularReflectance | Slot::SpecularTransmittance
+                )
+            }
+            Leaf::RoughDielectric(_) | Leaf::Diffuse(_) => false,
+        }
+    }
+}
+
 /// A wrapper around the leaf (outermost first in [`Material::wraps`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Wrap {
     /// `twosided` with one BSDF for both sides.
     TwoSided,
-    /// Classic `normalmap`, its texture and flags.
+    /// Classic `normalmap` or `bumpmap` (both Mitsuba's `PerturbedBSDF`: `bsdf::bumpmap`), where
+    /// its normal comes from and its flags.
     NormalMap {
-        texture: TexId,
+        normal: Normal,
         flip_invalid_normals: bool,
         use_shadowing_function: bool,
     },
+    /// `mask` with its opacity texture (at most one per material: it draws the choice).
+    Mask { opacity: TexId },
+}
+
+/// Where a perturbed-frame wrapper's normal comes from (looked up per lane by the driver, as
+/// `Materials::build_at` does).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Normal {
+    /// `normalmap`: n = 2·rgb − 1 of this texture.
+    Map(TexId),
+    /// `bumpmap`: `bumpmap::perturbed_normal` of `scale` times this height texture's gradient.
+    Bump { height: TexId, scale: f32 },
 }
 
 /// A material the conductor kernel shades: its wrappers, outermost first, and its leaf.
@@ -86,6 +199,9 @@ pub(crate) struct Material {
     pub wraps: [Wrap; MAX_WRAPS],
     pub n_wraps: usize,
     pub leaf: Leaf,
+    /// The leaf's textured parameters (`MaterialNode::Leaf`'s slots), looked up per lane.
+    pub slots: [(Slot, TexId); MAX_SLOTS],
+    pub n_slots: usize,
     /// It takes light samples (`Lobes::is_smooth`: the rough leaf).
     pub smooth: bool,
 }
@@ -96,19 +212,18 @@ impl Material {
         let mut wraps = [Wrap::TwoSided; MAX_WRAPS];
         let mut n_wraps = 0;
         let mut id = m;
+        let mut slots = [(Slot::Reflectance, 0); MAX_SLOTS];
+        let mut n_slots = 0;
         let leaf = loop {
             let wrap = match &materials.nodes()[id as usize] {
-                MaterialNode::Leaf { template, slots } if slots.is_empty() => {
-                    break match **template {
-                        BsdfNode::RoughConductor(b) => Leaf::Rough(b),
-                        BsdfNode::Conductor(b) => Leaf::Smooth(b),
-                        BsdfNode::Plastic(b) => Leaf::Plastic(b),
-                        BsdfNode::RoughPlastic(b) => Leaf::RoughPlastic(b),
-                        BsdfNode::Dielectric(b) => Leaf::Dielectric(b),
-                        BsdfNode::RoughDielectric(b) => Leaf::RoughDielectric(b),
-                        BsdfNode::ThinDielectric(b) => Leaf::ThinDielectric(b),
-                        _ => return None,
-                    };
+                MaterialNode::Leaf { template, slots: s } => {
+                    let leaf = Leaf::of(template)?;
+                    if s.len() > MAX_SLOTS || !s.iter().all(|&(slot, _)| leaf.takes(slot)) {
+                        return None;
+                    }
+                    slots[..s.len()].copy_from_slice(s);
+                    n_slots = s.len();
+                    break leaf;
                 }
                 MaterialNode::Diffuse { reflectance } => break Leaf::Diffuse(*reflectance),
                 MaterialNode::TwoSided { front, back } if front == back => {
@@ -123,7 +238,32 @@ impl Material {
                 } => {
                     id = *nested;
                     Wrap::NormalMap {
-                        texture: *normalmap,
+                        normal: Normal::Map(*normalmap),
+                        flip_invalid_normals: *flip_invalid_normals,
+                        use_shadowing_function: *use_shadowing_function,
+                    }
+                }
+                MaterialNode::Mask { opacity, nested }
+                    if !wraps[..n_wraps]
+                        .iter()
+                        .any(|w| matches!(w, Wrap::Mask { .. })) =>
+                {
+                    id = *nested;
+                    Wrap::Mask { opacity: *opacity }
+                }
+                MaterialNode::BumpMap {
+                    nested,
+                    height,
+                    scale,
+                    flip_invalid_normals,
+                    use_shadowing_function,
+                } => {
+                    id = *nested;
+                    Wrap::NormalMap {
+                        normal: Normal::Bump {
+                            height: *height,
+                            scale: *scale,
+                        },
                         flip_invalid_normals: *flip_invalid_normals,
                         use_shadowing_function: *use_shadowing_function,
                     }
@@ -140,6 +280,8 @@ impl Material {
             wraps,
             n_wraps,
             leaf,
+            slots,
+            n_slots,
             smooth: materials.lobes(m).is_smooth(),
         })
     }
@@ -148,6 +290,42 @@ impl Material {
     #[inline(always)]
     pub(crate) fn wraps(&self) -> &[Wrap] {
         &self.wraps[..self.n_wraps]
+    }
+
+    /// The leaf's textured parameters.
+    #[inline(always)]
+    pub(crate) fn slots(&self) -> &[(Slot, TexId)] {
+        &self.slots[..self.n_slots]
+    }
+
+    /// The `mask` wrapper's opacity texture, if it has one.
+    #[inline(always)]
+    pub(crate) fn mask(&self) -> Option<TexId> {
+        self.wraps().iter().find_map(|w| match *w {
+            Wrap::Mask { opacity } => Some(opacity),
+            _ => None,
+        })
+    }
+
+    /// The leaf's [`Params`] differ per lane: the driver gathers them (a `diffuse` leaf, or
+    /// textured parameters).
+    #[inline(always)]
+    pub(crate) fn per_lane(&self) -> bool {
+        self.n_slots > 0 || matches!(self.leaf, Leaf::Diffuse(_))
+    }
+
+    /// The leaf's constant [`Params`] in every lane (width of `like`).
+    #[inline(always)]
+    pub(crate) fn params<L: Lane>(&self, like: L) -> Params<L> {
+        let (c0, c1, au, av) = self.leaf.values();
+        Params {
+            c0: splat3(like, c0),
+            c1: splat3(like, c1),
+            alpha_u: like.splat(au),
+            alpha_v: like.splat(av),
+            opacity: like.splat(1.0),
+            through: like.splat(0.0).ne(like.splat(0.0)),
+        }
     }
 
     /// The leaf's `sample` draws the lobe choice `u1` (`Bsdf::sample`: the coated models and
@@ -184,6 +362,17 @@ impl Material {
     }
 }
 
+/// The rough conductor's distribution with the roughness of `p` per lane.
+#[inline(always)]
+fn microfacet<L: Lane>(b: &RoughConductor, p: &Params<L>) -> Microfacet<L> {
+    Microfacet {
+        kind: b.distribution.kind,
+        alpha_u: p.alpha_u,
+        alpha_v: p.alpha_v,
+        sample_visible: b.distribution.sample_visible,
+    }
+}
+
 /// `twosided`'s mirror through the surface.
 #[inline(always)]
 fn flip<L: Lane>(w: V3<L>) -> V3<L> {
@@ -204,15 +393,15 @@ fn valid<L: Lane>(s: &LaneBsdfSample<L>) -> L::Mask {
 }
 
 /// `f · |cos θo|` and the density of the material's BSDF for local `wi`, `wo` (the shading
-/// frame's), `normals[j]` the decoded normal of wrapper `j` where it is a normal map, `rho` the
-/// `diffuse` leaf's reflectance per lane (unused by the other leaves): the
+/// frame's), `normals[j]` the decoded normal of wrapper `j` where it is a normal map, `p` the
+/// leaf's parameters per lane: the
 /// wrappers' `eval_pdf` (`bsdf::twosided`, `bsdf::normalmap`) down to the leaf's lane form and
 /// the shadowing terms back up, innermost first. 0 where a normal map rejects `wo`.
 #[inline(always)]
 pub(crate) fn eval_pdf<L: Lane>(
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
-    rho: V3<L>,
+    p: &Params<L>,
     wi: V3<L>,
     wo: V3<L>,
 ) -> (V3<L>, L) {
@@ -241,29 +430,44 @@ pub(crate) fn eval_pdf<L: Lane>(
                 wi = f.to_local(wi);
                 wo = pwo;
             }
+            Wrap::Mask { .. } => {}
         }
     }
     let (mut f, mut pdf) = match &mat.leaf {
-        Leaf::Rough(b) => b.eval_pdf_lanes(wi, wo),
+        Leaf::Rough(b) => b.eval_pdf_with(p.c0, &microfacet(b, p), wi, wo),
         Leaf::Smooth(b) => b.eval_pdf_lanes(wi, wo),
-        Leaf::Plastic(b) => b.eval_pdf_lanes(wi, wo),
-        Leaf::RoughPlastic(b) => b.eval_pdf_lanes(wi, wo),
-        Leaf::Diffuse(_) => Diffuse::eval_pdf_with(rho, wi, wo),
+        Leaf::Plastic(b) => b.eval_pdf_with(p.c0, wi, wo),
+        Leaf::RoughPlastic(b) => b.eval_pdf_with(p.c0, p.c1, wi, wo),
+        Leaf::Diffuse(_) => Diffuse::eval_pdf_with(p.c0, wi, wo),
         // The path integrator's context: radiance transport.
         Leaf::RoughDielectric(b) => b.eval_pdf_lanes(TransportMode::Radiance, wi, wo),
         Leaf::Dielectric(b) => b.eval_pdf_lanes(wi, wo),
         Leaf::ThinDielectric(b) => b.eval_pdf_lanes(wi, wo),
     };
-    for s in shadow[..mat.n_wraps].iter().rev().flatten() {
-        f = f.scale(*s);
-    }
     let zero = V3::splat(k(0.0), 0.0, 0.0, 0.0);
+    // Back up, innermost first: the shadowing terms, the mask's opacity (`bsdf::mask`: 0 and 0
+    // where the opacity is ≤ 0, else both scaled by it).
+    for (j, w) in mat.wraps().iter().enumerate().rev() {
+        match *w {
+            Wrap::NormalMap { .. } => {
+                if let Some(s) = shadow[j] {
+                    f = f.scale(s);
+                }
+            }
+            Wrap::Mask { .. } => {
+                let gone = p.opacity.le(k(0.0));
+                f = V3::select(gone, zero, f.scale(p.opacity));
+                pdf = L::select(gone, k(0.0), p.opacity * pdf);
+            }
+            Wrap::TwoSided => {}
+        }
+    }
     f = V3::select(reject, zero, f);
     pdf = L::select(reject, k(0.0), pdf);
     (f, pdf)
 }
 
-/// The material's BSDF sample from local `wi` (see [`eval_pdf`] for `normals` and `rho`): the wrappers'
+/// The material's BSDF sample from local `wi` (see [`eval_pdf`] for `normals` and `p`): the wrappers'
 /// `sample` down to the leaf's lane form and back up, with `Bsdf::sample`'s guard at every
 /// node. `u1` is drawn by the plastic and dielectric leaves, `u2` by all but the smooth
 /// conductor and the smooth and thin dielectrics. Also returns the lanes whose sample went
@@ -274,7 +478,7 @@ pub(crate) fn eval_pdf<L: Lane>(
 pub(crate) fn sample<L: Lane>(
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
-    rho: V3<L>,
+    p: &Params<L>,
     wi: V3<L>,
     u1: L,
     u2: V2<L>,
@@ -288,6 +492,8 @@ pub(crate) fn sample<L: Lane>(
         t: wi,
         n: wi,
     }; MAX_WRAPS];
+    // The incident direction at each mask, for its pass-through.
+    let mut at = [wi; MAX_WRAPS];
     for (j, w) in mat.wraps().iter().enumerate() {
         match *w {
             Wrap::TwoSided => {
@@ -301,32 +507,29 @@ pub(crate) fn sample<L: Lane>(
                 frames[j] = nmap::frame(normals[j], flip_invalid_normals, wi);
                 wi = frames[j].to_local(wi);
             }
+            Wrap::Mask { .. } => at[j] = wi,
         }
     }
     let all = k(0.0).eq(k(0.0));
     let one = k(1.0);
-    let (mut s, delta, eta) = match &mat.leaf {
-        Leaf::Rough(b) => (b.sample_lanes(wi, u1, u2), none, one),
-        Leaf::Smooth(b) => (b.sample_lanes(wi, u1, u2), all, one),
+    let (mut s, mut delta, mut eta) = match &mat.leaf {
+        Leaf::Rough(b) => (b.sample_with(p.c0, &microfacet(b, p), wi, u2), none, one),
+        Leaf::Smooth(b) => (b.sample_with(p.c0, wi), all, one),
         Leaf::Plastic(b) => {
-            let (rho, spec) = (
-                splat3(wi.z, b.diffuse_reflectance),
-                splat3(wi.z, b.specular_reflectance),
-            );
-            let (s, delta) = b.sample_with(rho, spec, wi, u1, u2);
+            let (s, delta) = b.sample_with(p.c0, p.c1, wi, u1, u2);
             (s, delta, one)
         }
-        Leaf::RoughPlastic(b) => (b.sample_lanes(wi, u1, u2), none, one),
-        Leaf::Diffuse(_) => (Diffuse::sample_with(rho, wi, u2), none, one),
+        Leaf::RoughPlastic(b) => (b.sample_with(p.c0, p.c1, wi, u1, u2).0, none, one),
+        Leaf::Diffuse(_) => (Diffuse::sample_with(p.c0, wi, u2), none, one),
         Leaf::Dielectric(b) => {
-            let (s, eta, _) = b.sample_lanes(TransportMode::Radiance, wi, u1, u2);
+            let (s, eta, _) = b.sample_with(TransportMode::Radiance, p.c0, p.c1, wi, u1);
             (s, all, eta)
         }
         Leaf::RoughDielectric(b) => {
             let (s, eta, _) = b.sample_lanes(TransportMode::Radiance, wi, u1, u2);
             (s, none, eta)
         }
-        Leaf::ThinDielectric(b) => (b.sample_lanes(wi, u1, u2).0, all, one),
+        Leaf::ThinDielectric(b) => (b.sample_with(p.c0, p.c1, wi, u1).0, all, one),
     };
     s.ok = s.ok & valid(&s);
     for (j, w) in mat.wraps().iter().enumerate().rev() {
@@ -343,6 +546,17 @@ pub(crate) fn sample<L: Lane>(
                     s.weight = s.weight.scale(nmap::shadow_terminator(frames[j].n, wo));
                 }
             }
+            Wrap::Mask { .. } => {
+                // bsdf::mask::sample: the nested sample with its density times the opacity, or
+                // the pass-through (`null::pass_through`: −wi, weight 1, a delta lobe, η 1).
+                let t = p.through;
+                s.ok = s.ok | t;
+                s.wo = V3::select(t, -at[j], s.wo);
+                s.pdf = L::select(t, k(0.0), s.pdf * p.opacity);
+                s.weight = V3::select(t, V3::splat(k(0.0), 1.0, 1.0, 1.0), s.weight);
+                delta = delta | t;
+                eta = L::select(t, one, eta);
+            }
         }
         s.ok = s.ok & valid(&s);
     }
@@ -354,7 +568,7 @@ mod tests {
     use super::*;
     use crate::bsdf::lanes::testing::*;
     use crate::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
-    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, NormalMap};
+    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, Mask, NormalMap};
     use crate::math::Pcg32;
     use crate::sampler::Sampler;
     use crate::spectrum::Spectrum;
@@ -364,7 +578,7 @@ mod tests {
     /// the normal map), and both orders of the two.
     fn wrapper_lists() -> Vec<Vec<Wrap>> {
         let nm = |f, s| Wrap::NormalMap {
-            texture: 0,
+            normal: Normal::Map(0),
             flip_invalid_normals: f,
             use_shadowing_function: s,
         };
@@ -378,6 +592,9 @@ mod tests {
             vec![Wrap::TwoSided, nm(true, true)],
             vec![nm(true, true), Wrap::TwoSided],
             vec![nm(false, false), Wrap::TwoSided],
+            vec![Wrap::Mask { opacity: 0 }],
+            vec![Wrap::Mask { opacity: 0 }, Wrap::TwoSided],
+            vec![nm(true, true), Wrap::Mask { opacity: 0 }],
         ]
     }
 
@@ -453,6 +670,80 @@ mod tests {
         Vec3::new(0.9 * wi.x.abs(), 0.5, 0.25 + 0.5 * wo.y.abs())
     }
 
+    /// `leaf` with the parameters a texture may set (`Leaf::takes`) varying with the case, as
+    /// textured ones do per lane (roughness through `MicrofacetDistribution::anisotropic`, as
+    /// `material::patch_scalar` sets it).
+    fn textured(leaf: Leaf, wi: Vec3, wo: Vec3) -> Leaf {
+        let (c0, c1) = (rho_of(wi, wo), Vec3::new(0.3 + 0.6 * wo.x.abs(), 0.8, 0.5));
+        let a = 0.02 + 0.6 * wi.y.abs();
+        match leaf {
+            Leaf::Rough(mut b) => {
+                b.specular_reflectance = c0;
+                let d = b.distribution;
+                b.distribution = MicrofacetDistribution::anisotropic(
+                    d.kind,
+                    a,
+                    0.5 * a + 0.1 * wo.z.abs(),
+                    d.sample_visible,
+                );
+                Leaf::Rough(b)
+            }
+            Leaf::Smooth(mut b) => {
+                b.specular_reflectance = c0;
+                Leaf::Smooth(b)
+            }
+            Leaf::Plastic(mut b) => {
+                (b.diffuse_reflectance, b.specular_reflectance) = (c0, c1);
+                Leaf::Plastic(b)
+            }
+            Leaf::RoughPlastic(mut b) => {
+                (b.diffuse_reflectance, b.specular_reflectance) = (c0, c1);
+                Leaf::RoughPlastic(b)
+            }
+            Leaf::Dielectric(mut b) => {
+                (b.specular_reflectance, b.specular_transmittance) = (c0, c1);
+                Leaf::Dielectric(b)
+            }
+            Leaf::ThinDielectric(mut b) => {
+                (b.specular_reflectance, b.specular_transmittance) = (c0, c1);
+                Leaf::ThinDielectric(b)
+            }
+            Leaf::RoughDielectric(_) | Leaf::Diffuse(_) => leaf,
+        }
+    }
+
+    /// The kernel's per-lane parameters of a case's (textured) leaf, as the driver gathers them
+    /// (a `diffuse` leaf's reflectance `rho`).
+    fn case_values(leaf: &Leaf, rho: Vec3) -> (Vec3, Vec3, f32, f32) {
+        match leaf {
+            Leaf::Diffuse(_) => (rho, Vec3::ZERO, 0.0, 0.0),
+            _ => leaf.values(),
+        }
+    }
+
+    /// A mask's opacity for a test case: 0, 1 or between, as `Materials::build_at` clamps it.
+    fn opacity_of(wi: Vec3, wo: Vec3) -> f32 {
+        let q = (wo.x + wi.y).abs();
+        if q < 0.15 {
+            0.0
+        } else if q > 0.85 {
+            1.0
+        } else {
+            q
+        }
+    }
+
+    fn params1(v: (Vec3, Vec3, f32, f32), opacity: f32, through: bool) -> Params<f32> {
+        Params {
+            c0: v.0.into(),
+            c1: v.1.into(),
+            alpha_u: v.2,
+            alpha_v: v.3,
+            opacity,
+            through,
+        }
+    }
+
     fn material(wraps: &[Wrap], leaf: Leaf) -> Material {
         let mut w = [Wrap::TwoSided; MAX_WRAPS];
         w[..wraps.len()].copy_from_slice(wraps);
@@ -460,6 +751,8 @@ mod tests {
             wraps: w,
             n_wraps: wraps.len(),
             leaf,
+            slots: [(Slot::Reflectance, 0); MAX_SLOTS],
+            n_slots: 0,
             smooth: !matches!(
                 leaf,
                 Leaf::Smooth(_) | Leaf::Dielectric(_) | Leaf::ThinDielectric(_)
@@ -467,20 +760,18 @@ mod tests {
         }
     }
 
-    /// The scalar BSDF tree of `mat` with the decoded normals `normals` (and a `diffuse` leaf's
-    /// reflectance `rho`); returns its root.
-    fn tree(arena: &mut BsdfArena, mat: &Material, normals: &[Vec3; MAX_WRAPS], rho: Vec3) -> u32 {
+    /// The scalar BSDF tree of `mat` with the leaf `leaf`, the decoded normals `normals` (and a
+    /// `diffuse` leaf's reflectance `rho`); returns its root.
+    fn tree(
+        arena: &mut BsdfArena,
+        mat: &Material,
+        leaf: &Leaf,
+        normals: &[Vec3; MAX_WRAPS],
+        rho: Vec3,
+        opacity: f32,
+    ) -> u32 {
         arena.clear();
-        let mut id = arena.push(match mat.leaf {
-            Leaf::Diffuse(_) => BsdfNode::Diffuse(Diffuse { reflectance: rho }),
-            Leaf::Dielectric(b) => BsdfNode::Dielectric(b),
-            Leaf::RoughDielectric(b) => BsdfNode::RoughDielectric(b),
-            Leaf::ThinDielectric(b) => BsdfNode::ThinDielectric(b),
-            Leaf::Rough(b) => BsdfNode::RoughConductor(b),
-            Leaf::Smooth(b) => BsdfNode::Conductor(b),
-            Leaf::Plastic(b) => BsdfNode::Plastic(b),
-            Leaf::RoughPlastic(b) => BsdfNode::RoughPlastic(b),
-        });
+        let mut id = arena.push(leaf.node(rho));
         for (j, w) in mat.wraps().iter().enumerate().rev() {
             id = arena.push(match *w {
                 Wrap::TwoSided => BsdfNode::TwoSided {
@@ -497,6 +788,10 @@ mod tests {
                     flip_invalid_normals,
                     use_shadowing_function,
                 )),
+                Wrap::Mask { .. } => BsdfNode::Mask(Mask {
+                    nested: id,
+                    opacity,
+                }),
             });
         }
         id
@@ -520,6 +815,7 @@ mod tests {
     /// At width 1 the kernel's BSDF gives the scalar tree's `eval_pdf` and `sample` bit for bit
     /// (the sample from the number the rough leaf draws), at width 8 width 1's, lane by lane.
     #[test]
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // the mask's choice as `bsdf::mask` writes it
     fn kernel_bsdf_equals_the_scalar_tree() {
         let mut r = Pcg32::new(21, 2);
         let cases = inputs(&mut r, 1600);
@@ -531,24 +827,36 @@ mod tests {
                 let mat = material(&wraps, leaf);
                 for (c, &(wi, wo, ns)) in cases.iter().enumerate() {
                     let rho = rho_of(wi, wo);
-                    let root = tree(&mut arena, &mat, &ns, rho);
+                    let lc = textured(leaf, wi, wo);
+                    let masked = mat.mask().is_some();
+                    let o = if masked { opacity_of(wi, wo) } else { 1.0 };
+                    let root = tree(&mut arena, &mat, &lc, &ns, rho, o);
                     let bsdf = arena.bsdf(root);
                     let mut sampler = Sampler::from_seed(c as u64, 5);
                     let (f0, p0) = bsdf.eval_pdf(&ctx, wi, wo, &mut sampler);
+                    // The numbers in `Bsdf::sample`'s order: a mask's choice (where 0 < o < 1),
+                    // then the leaf's `u1` (plastics, dielectrics) and `u2`, as the driver draws.
+                    let mut draws = sampler.clone();
+                    let through = masked
+                        && if o <= 0.0 {
+                            true
+                        } else if o >= 1.0 {
+                            false
+                        } else {
+                            !(draws.next_1d() < o)
+                        };
+                    let p1 = params1(case_values(&lc, rho), o, through);
                     let n1 = ns.map(V3::from);
-                    let (f1, p1) = eval_pdf(&mat, &n1, rho.into(), V3::from(wi), V3::from(wo));
+                    let (f1, q1) = eval_pdf(&mat, &n1, &p1, V3::from(wi), V3::from(wo));
                     assert!(
-                        same3(f0, f1.into()) && same(p0, p1),
+                        same3(f0, f1.into()) && same(p0, q1),
                         "{mat:?} {wi} {wo} {ns:?}"
                     );
                     nonzero += (f0 != Vec3::ZERO) as u32;
-                    // The leaf's numbers in `Bsdf::sample`'s order: `u1` (plastics), `u2`.
-                    let mut draws = sampler.clone();
                     let u1 = if mat.draws_u1() { draws.next_1d() } else { 0.0 };
                     let u2 = draws.next_2d();
                     let s0 = bsdf.sample(&ctx, wi, &mut sampler);
-                    let (s1, d1, e1) =
-                        sample(&mat, &n1, rho.into(), V3::from(wi), u1, V2::from(u2));
+                    let (s1, d1, e1) = sample(&mat, &n1, &p1, V3::from(wi), u1, V2::from(u2));
                     assert_eq!(s0.is_some(), s1.ok, "{mat:?} {wi} {ns:?}");
                     if let Some(s0) = s0 {
                         sampled += 1;
@@ -568,23 +876,38 @@ mod tests {
                         let u: [Vec2; 8] =
                             std::array::from_fn(|k| Vec2::new(wo[k].x.abs(), wi[k].y.abs()));
                         let u1: [f32; 8] = std::array::from_fn(|k| wo[k].y.abs());
-                        let rho: [Vec3; 8] = std::array::from_fn(|k| rho_of(wi[k], wo[k]));
+                        let v: [_; 8] = std::array::from_fn(|k| {
+                            let lc = textured(leaf, wi[k], wo[k]);
+                            case_values(&lc, rho_of(wi[k], wo[k]))
+                        });
+                        let (c0, c1) = (v.map(|v| v.0), v.map(|v| v.1));
+                        let (au, av) = (v.map(|v| v.2), v.map(|v| v.3));
+                        let op: [f32; 8] = std::array::from_fn(|k| opacity_of(wi[k], wo[k]));
+                        let th: [bool; 8] =
+                            std::array::from_fn(|k| op[k] <= 0.0 || wi[k].x > 0.3 && op[k] < 1.0);
                         let (f, p, (s, d, e)) = avx.run(|| {
                             let n8 = n.map(|v| load3(avx, &v));
                             let (wi8, wo8) = (load3(avx, &wi), load3(avx, &wo));
-                            let rho8 = load3(avx, &rho);
-                            let (f, p) = eval_pdf(&mat, &n8, rho8, wi8, wo8);
+                            let p8 = Params {
+                                c0: load3(avx, &c0),
+                                c1: load3(avx, &c1),
+                                alpha_u: avx.load(&au),
+                                alpha_v: avx.load(&av),
+                                opacity: avx.load(&op),
+                                through: avx.mask(&th),
+                            };
+                            let (f, p) = eval_pdf(&mat, &n8, &p8, wi8, wo8);
                             let u1 = avx.load(&u1);
-                            (f, p, sample(&mat, &n8, rho8, wi8, u1, load2(avx, &u)))
+                            (f, p, sample(&mat, &n8, &p8, wi8, u1, load2(avx, &u)))
                         });
                         let (ok, d) = (s.ok.to_array(), d.to_array());
                         for k in 0..8 {
                             let n1 = std::array::from_fn(|j| V3::from(n[j][k]));
                             let (wi1, wo1) = (V3::from(wi[k]), V3::from(wo[k]));
-                            let r1 = V3::from(rho[k]);
-                            let (f1, p1) = eval_pdf(&mat, &n1, r1, wi1, wo1);
+                            let r1 = params1(v[k], op[k], th[k]);
+                            let (f1, p1) = eval_pdf(&mat, &n1, &r1, wi1, wo1);
                             assert!(same3(lane3(f, k), f1.into()) && same(p.lane(k), p1));
-                            let (s1, d1, e1) = sample(&mat, &n1, r1, wi1, u1[k], V2::from(u[k]));
+                            let (s1, d1, e1) = sample(&mat, &n1, &r1, wi1, u1[k], V2::from(u[k]));
                             assert!(same(e.lane(k), e1));
                             assert_eq!((ok[k], d[k]), (s1.ok, d1));
                             assert!(same3(lane3(s.wo, k), s1.wo.into()));

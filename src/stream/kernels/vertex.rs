@@ -13,28 +13,34 @@
 //! 4. scatter back lane by lane: the pending light sample, then `PathState::advance` (the
 //!    throughput update and Russian roulette of the scalar code).
 
-use super::conductor::{self, Material, Wrap, MAX_WRAPS};
-use super::diffuse::{light_direction, light_out, LightOut, LightPoint, Surface};
+use super::conductor::{self, Leaf, Material, Normal, Params, Wrap, MAX_WRAPS};
+use super::diffuse::{light_direction, light_out, reflectance, LightOut, LightPoint, Surface};
 use super::ray::offset_origin;
+use crate::bsdf::bumpmap;
+use crate::geometry::SurfaceInteraction;
 use crate::lane::vec::V3;
 use crate::lane::Lane;
+use crate::material::{unit_weight, TexId};
+use crate::scene::Scene;
+use crate::texture::Texture;
+use glam::Vec3;
 
 /// Next-event estimation at the material's BSDF: `nee::prepare_light` after its call to
 /// `sample_emitter` (`SurfaceBsdf::eval_pdf`'s side test, the BSDF toward the light point, the
 /// zero test), and the MIS-weighted contribution and shadow ray of `PathState::scatter`, in
-/// the operations of `diffuse::light`. `rho` is a `diffuse` leaf's reflectance per lane.
+/// the operations of `diffuse::light`. `p` holds the leaf's parameters per lane.
 #[inline(always)]
 pub(crate) fn light<L: Lane>(
     s: &Surface<L>,
     wi: V3<L>,
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
-    rho: V3<L>,
+    p: &Params<L>,
     throughput: V3<L>,
     lp: &LightPoint<L>,
 ) -> LightOut<L> {
     let (wo, consistent) = light_direction(s, lp);
-    let (f, bsdf_pdf) = conductor::eval_pdf(mat, normals, rho, wi, wo);
+    let (f, bsdf_pdf) = conductor::eval_pdf(mat, normals, p, wi, wo);
     light_out(s, throughput, lp, f, bsdf_pdf, consistent)
 }
 
@@ -61,12 +67,12 @@ pub(crate) fn sample<L: Lane>(
     wi: V3<L>,
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
-    rho: V3<L>,
+    p: &Params<L>,
     u1: L,
     u2: crate::lane::vec::V2<L>,
 ) -> SampleOut<L> {
     let k = |c: f32| wi.z.splat(c);
-    let (bs, delta, eta) = conductor::sample(mat, normals, rho, wi, u1, u2);
+    let (bs, delta, eta) = conductor::sample(mat, normals, p, wi, u1, u2);
     let wo_world = s.frame.to_world(bs.wo);
     let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(k(0.0));
     SampleOut {
@@ -80,15 +86,55 @@ pub(crate) fn sample<L: Lane>(
     }
 }
 
-/// The normal-map wrappers' textures of `mat`, per wrapper (`None` for `twosided`).
-fn normal_textures(mat: &Material) -> [Option<crate::material::TexId>; MAX_WRAPS] {
+/// The perturbed-frame wrappers' normal sources of `mat`, per wrapper (`None` for `twosided`).
+fn normal_sources(mat: &Material) -> [Option<Normal>; MAX_WRAPS] {
     let mut t = [None; MAX_WRAPS];
     for (j, w) in mat.wraps().iter().enumerate() {
-        if let Wrap::NormalMap { texture, .. } = *w {
-            t[j] = Some(texture);
+        if let Wrap::NormalMap { normal, .. } = *w {
+            t[j] = Some(normal);
         }
     }
     t
+}
+
+/// The normal (shading-frame coordinates) of a perturbed-frame wrapper at `si`, as
+/// `Materials::build_at` computes it: 2·rgb − 1 of a normal map, or the bump-mapped normal of
+/// `scale` times the height's uv gradient (`bsdf::bumpmap::perturbed_normal`).
+#[inline(always)]
+fn wrapper_normal(scene: &Scene, normal: Normal, si: &SurfaceInteraction) -> Vec3 {
+    let tex = |t: TexId| &scene.materials.textures[t as usize];
+    match normal {
+        Normal::Map(t) => 2.0 * reflectance(scene, tex(t), si) - Vec3::ONE,
+        Normal::Bump { height, scale } => {
+            bumpmap::perturbed_normal(si, scale * tex(height).eval_1_grad(si.uv))
+        }
+    }
+}
+
+/// A scalar texture's value at `si` (`eval_1`, a `mask`'s opacity), at the lookup
+/// `Scene::bsdf_root` picks.
+#[inline(always)]
+fn scalar_at(scene: &Scene, tex: &Texture, si: &SurfaceInteraction) -> f32 {
+    let shape = si.shape as usize;
+    if scene.shape_reads_mesh[shape] {
+        tex.eval_1(crate::texture::TexPoint::on_shape(si, &scene.shapes[shape]))
+    } else {
+        tex.eval_1(si.uv)
+    }
+}
+
+/// The parameters of a textured leaf at `si` ([`Params`]' values): its template patched as
+/// `Materials::build_at` patches a leaf, at the lookup `Scene::bsdf_root` picks.
+fn leaf_values(scene: &Scene, mat: &Material, si: &SurfaceInteraction) -> (Vec3, Vec3, f32, f32) {
+    let mut node = mat.leaf.node(Vec3::ZERO);
+    let (m, shape) = (&scene.materials, si.shape as usize);
+    if scene.shape_reads_mesh[shape] {
+        let at = crate::texture::TexPoint::on_shape(si, &scene.shapes[shape]);
+        m.patch_leaf(&mut node, mat.slots(), at);
+    } else {
+        m.patch_leaf(&mut node, mat.slots(), si.uv);
+    }
+    Leaf::of(&node).unwrap_or(mat.leaf).values()
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -99,20 +145,19 @@ pub(crate) mod x8 {
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::V2;
     use crate::lane::Avx2;
-    use crate::scene::Scene;
     use crate::stream::batch::Batch;
-    use crate::stream::kernels::diffuse::reflectance;
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
-    use glam::{Vec2, Vec3};
+    use glam::Vec2;
 
     /// Shades the 8 paths `ids` (all at a surface of material `mat`) as `PathState::scatter`
     /// would, one after the other; sets their pending light samples, and their next rays and
     /// `alive` flags where they go on. Call inside [`Avx2::run`].
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
+    // `!(u < o)`: `bsdf::mask::sample`'s test, negated as written there (u and o are never NaN).
+    #[allow(clippy::too_many_arguments, clippy::neg_cmp_op_on_partial_ord)]
     pub(crate) fn shade(
         avx: Avx2,
         scene: &Scene,
@@ -129,24 +174,30 @@ pub(crate) mod x8 {
 
         // 2. Random numbers, 8-wide from the gathered PCG32 states where the streams are plain
         // (`kernels::draws`); normal maps and light points lane by lane in each path's order.
+        // Under a `mask` the BSDF's numbers depend on its choice: drawn lane by lane below.
         let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
+        let mask_tex = mat.mask().map(|t| &scene.materials.textures[t as usize]);
         let draws = Draws {
             light: nee,
-            u1: mat.draws_u1(),
-            u2: mat.draws_u2(),
+            u1: mat.draws_u1() && mask_tex.is_none(),
+            u2: mat.draws_u2() && mask_tex.is_none(),
         };
-        let num = draw(avx, &mut b.sampler, ids, &front, draws);
-        let textures = normal_textures(mat);
+        let mut num = draw(avx, &mut b.sampler, ids, &front, draws);
+        let (mut opacity, mut through) = ([1.0f32; 8], [false; 8]);
+        let sources = normal_sources(mat);
         let mut normals = [Cols3::default(); MAX_WRAPS];
-        // A `diffuse` leaf's reflectance, looked up per lane as `Materials::build_at` does.
+        // The leaf's parameters, looked up per lane as `Materials::build_at` does: a `diffuse`
+        // leaf's reflectance, a textured leaf's slots.
         let rho_tex = mat
             .reflectance()
             .map(|t| &scene.materials.textures[t as usize]);
-        let mut rho = Cols3::default();
+        let slots = mat.n_slots > 0;
+        let (mut c0, mut c1) = <(Cols3, Cols3)>::default();
+        let (mut au, mut av) = ([0.0f32; 8], [0.0f32; 8]);
         let mut tp = Cols3::default();
         let light_only = cfg.strategy == Strategy::LightOnly;
         gather.reset();
-        let textured = rho_tex.is_some() || textures.iter().any(Option::is_some);
+        let textured = mat.per_lane() || mask_tex.is_some() || sources.iter().any(Option::is_some);
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
@@ -155,32 +206,73 @@ pub(crate) mod x8 {
             }
             // The interaction, rebuilt from its row once, for the texture lookups.
             let si = textured.then(|| b.surf.get(i));
-            for (j, t) in textures.iter().enumerate() {
-                if let (Some(t), Some(si)) = (t, &si) {
-                    // Materials::build_at: n = 2·rgb − 1.
-                    let tex = &scene.materials.textures[*t as usize];
-                    let rgb = reflectance(scene, tex, si);
-                    normals[j].set(k, 2.0 * rgb - Vec3::ONE);
+            for (j, n) in sources.iter().enumerate() {
+                if let (Some(n), Some(si)) = (n, &si) {
+                    normals[j].set(k, wrapper_normal(scene, *n, si));
                 }
             }
             if let (Some(t), Some(si)) = (rho_tex, &si) {
-                rho.set(k, reflectance(scene, t, si));
+                c0.set(k, reflectance(scene, t, si));
+            }
+            if let (true, Some(si)) = (slots, &si) {
+                let v = leaf_values(scene, mat, si);
+                c0.set(k, v.0);
+                c1.set(k, v.1);
+                (au[k], av[k]) = (v.2, v.3);
             }
             tp.set(k, b.state[i].throughput);
             if nee {
                 let u = Vec2::new(num.u[0][k], num.u[1][k]);
                 gather.add(k, scene, lights, light_only, num.u_sel[k], u, p.get(k));
             }
+            if let (Some(t), Some(si)) = (mask_tex, &si) {
+                // bsdf::mask::sample: the choice (drawn where 0 < opacity < 1), then the nested
+                // BSDF's numbers where it is chosen.
+                let o = unit_weight(scalar_at(scene, t, si));
+                let s = &mut b.sampler[i];
+                through[k] = if o <= 0.0 {
+                    true
+                } else if o >= 1.0 {
+                    false
+                } else {
+                    !(s.next_1d() < o)
+                };
+                if !through[k] {
+                    if mat.draws_u1() {
+                        num.u1[k] = s.next_1d();
+                    }
+                    if mat.draws_u2() {
+                        let u = s.next_2d();
+                        (num.u2[0][k], num.u2[1][k]) = (u.x, u.y);
+                    }
+                }
+                opacity[k] = o;
+            }
         }
 
         // 3. The kernel.
         let normals8 = normals.map(|c| c.load(avx));
-        let rho8 = rho.load(avx);
+        let mut params = if mat.per_lane() {
+            Params {
+                c0: c0.load(avx),
+                c1: c1.load(avx),
+                alpha_u: avx.load(&au),
+                alpha_v: avx.load(&av),
+                opacity: wi.z.splat(1.0),
+                through: avx.mask(&[false; 8]),
+            }
+        } else {
+            mat.params(wi.z)
+        };
+        if mask_tex.is_some() {
+            params.opacity = avx.load(&opacity);
+            params.through = avx.mask(&through);
+        }
         // A block, not a closure: a closure would be compiled outside `Avx2::run`'s target
         // features and call every 8-wide operation out of line.
         let lo = if nee {
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
-            let lo = light(&surf, wi, mat, &normals8, rho8, tp.load(avx), &lp);
+            let lo = light(&surf, wi, mat, &normals8, &params, tp.load(avx), &lp);
             Some((
                 lo.ok.to_array(),
                 Cols3::store(lo.o),
@@ -196,7 +288,7 @@ pub(crate) mod x8 {
             wi,
             mat,
             &normals8,
-            rho8,
+            &params,
             avx.load(&num.u1),
             V2::new(avx.load(&num.u2[0]), avx.load(&num.u2[1])),
         );
