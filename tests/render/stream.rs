@@ -484,10 +484,7 @@ fn stream_equals_scalar_where_wrapped_plastics_run_in_lanes() {
 /// BSDF-only strategies, Russian roulette from the first bounce, the stratified sampler.
 #[test]
 fn stream_equals_scalar_for_wrapped_plastics_under_every_setting() {
-    for (label, l) in &settings_variants("stream_plastics_wrapped.xml") {
-        let lanes = assert_identical(l, &format!("stream_plastics_wrapped ({label})"), 4);
-        assert!(lanes.conductor_lanes > 0, "{label}: never in lanes");
-    }
+    assert_driver_under_every_setting("stream_plastics_wrapped");
 }
 
 /// On metal_plastic (classic) every material has a kernel now: the normal-mapped plastic sphere
@@ -904,10 +901,7 @@ fn stream_equals_scalar_where_wrapped_diffuse_runs_in_lanes() {
 /// and BSDF-only strategies, Russian roulette from the first bounce, the stratified sampler.
 #[test]
 fn stream_equals_scalar_for_wrapped_diffuse_under_every_setting() {
-    for (label, l) in &settings_variants("stream_diffuse_wrapped.xml") {
-        let lanes = assert_identical(l, &format!("stream_diffuse_wrapped ({label})"), 4);
-        assert!(lanes.conductor_lanes > 0, "{label}: never in lanes");
-    }
+    assert_driver_under_every_setting("stream_diffuse_wrapped");
 }
 
 /// On strong (classic) the diffuse sphere, `normalmap` over `diffuse`, now goes through the
@@ -956,15 +950,22 @@ fn stream_equals_scalar_where_dielectrics_run_in_lanes() {
     assert!(share > 0.3, "too little in lanes: {lanes:?}");
 }
 
+/// `name` (a scene in `tests/data/scenes`, without `.xml`) under the settings that change what a
+/// vertex does ([`settings_variants`]): the scalar image at 1, 2, 3 and 7 threads in each, with
+/// the wrapper-chain driver running.
+fn assert_driver_under_every_setting(name: &str) {
+    for (label, l) in &settings_variants(&format!("{name}.xml")) {
+        let lanes = assert_identical(l, &format!("{name} ({label})"), 4);
+        assert!(lanes.conductor_lanes > 0, "{label}: never in lanes");
+    }
+}
+
 /// The dielectric leaves under the settings that change what a vertex does: the light-only and
 /// BSDF-only strategies, Russian roulette from the first bounce (where η² enters the survival
 /// probability), the stratified sampler.
 #[test]
 fn stream_equals_scalar_for_dielectrics_under_every_setting() {
-    for (label, l) in &settings_variants("stream_dielectrics.xml") {
-        let lanes = assert_identical(l, &format!("stream_dielectrics ({label})"), 4);
-        assert!(lanes.conductor_lanes > 0, "{label}: never in lanes");
-    }
+    assert_driver_under_every_setting("stream_dielectrics");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1026,10 +1027,7 @@ fn stream_equals_scalar_where_textured_leaves_run_in_lanes() {
 /// BSDF-only strategies, Russian roulette from the first bounce, the stratified sampler.
 #[test]
 fn stream_equals_scalar_for_textured_leaves_under_every_setting() {
-    for (label, l) in &settings_variants("stream_textured_leaves.xml") {
-        let lanes = assert_identical(l, &format!("stream_textured_leaves ({label})"), 4);
-        assert!(lanes.conductor_lanes > 0, "{label}: never in lanes");
-    }
+    assert_driver_under_every_setting("stream_textured_leaves");
 }
 
 /// `bumpmap` as a wrapper (`tests/data/scenes/stream_bumpmap.xml`: over diffuse, a rough
@@ -1047,10 +1045,7 @@ fn stream_equals_scalar_where_bumpmaps_run_in_lanes() {
 /// The bump maps under the settings that change what a vertex does.
 #[test]
 fn stream_equals_scalar_for_bumpmaps_under_every_setting() {
-    for (label, l) in &settings_variants("stream_bumpmap.xml") {
-        let lanes = assert_identical(l, &format!("stream_bumpmap ({label})"), 4);
-        assert!(lanes.conductor_lanes > 0, "{label}: never in lanes");
-    }
+    assert_driver_under_every_setting("stream_bumpmap");
 }
 
 /// `mask` as a wrapper (`tests/data/scenes/stream_mask.xml`: bitmap, checkerboard and constant
@@ -1070,8 +1065,5 @@ fn stream_equals_scalar_where_masks_run_in_lanes() {
 /// The masks under the settings that change what a vertex does.
 #[test]
 fn stream_equals_scalar_for_masks_under_every_setting() {
-    for (label, l) in &settings_variants("stream_mask.xml") {
-        let lanes = assert_identical(l, &format!("stream_mask ({label})"), 4);
-        assert!(lanes.conductor_lanes > 0, "{label}: never in lanes");
-    }
+    assert_driver_under_every_setting("stream_mask");
 }
