@@ -475,6 +475,19 @@ pub(crate) mod x8 {
         }
     }
 
+    /// The uvs of the paths `ids` (each with its interaction in `s`), for 8-wide texture
+    /// lookups ([`crate::texture::BitmapTexture::eval_x8`]). Call inside [`Avx2::run`].
+    #[inline(always)]
+    pub(crate) fn uv(avx: Avx2, s: &Surfaces, ids: &[u32; 8]) -> V2<F32x8> {
+        let row = avx.load_i32(&ids.map(|i| (i as usize * cols::ROW) as i32));
+        let flat = s.flat();
+        let (u, v) = (
+            row.add(row.splat(cols::UV as i32)),
+            row.add(row.splat(cols::UV as i32 + 1)),
+        );
+        V2::new(F32x8::gather::<N>(flat, u), F32x8::gather::<N>(flat, v))
+    }
+
     /// The surfaces of the paths `ids` (each with its interaction in `s`). Call inside
     /// [`Avx2::run`].
     #[inline(always)]

@@ -197,6 +197,23 @@ pub(crate) mod x8 {
         let mut tp = Cols3::default();
         let light_only = cfg.strategy == Strategy::LightOnly;
         gather.reset();
+        // Normal maps of bitmaps: 8-wide lookups at the rows' uvs (a bitmap reads the uv
+        // alone, whatever lookup `Scene::bsdf_root` picks); the other sources lane by lane.
+        let (mut sources, mut normals_x8) = (sources, [None; MAX_WRAPS]);
+        for (j, n) in sources.iter_mut().enumerate() {
+            let Some(Normal::Map(t)) = *n else { continue };
+            let Some(bm) = scene.materials.textures[t as usize].as_bitmap() else {
+                continue;
+            };
+            let rgb = bm.eval_x8(avx, surface::x8::uv(avx, &b.surf, ids));
+            let (two, one) = (rgb.x.splat(2.0), rgb.x.splat(1.0));
+            normals_x8[j] = Some(V3::new(
+                two * rgb.x - one,
+                two * rgb.y - one,
+                two * rgb.z - one,
+            ));
+            *n = None;
+        }
         let textured = mat.per_lane() || mask_tex.is_some() || sources.iter().any(Option::is_some);
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
@@ -251,7 +268,12 @@ pub(crate) mod x8 {
         }
 
         // 3. The kernel.
-        let normals8 = normals.map(|c| c.load(avx));
+        let mut normals8 = normals.map(|c| c.load(avx));
+        for (n8, x8) in normals8.iter_mut().zip(normals_x8) {
+            if let Some(x8) = x8 {
+                *n8 = x8;
+            }
+        }
         let mut params = if mat.per_lane() {
             Params {
                 c0: c0.load(avx),
