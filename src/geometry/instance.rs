@@ -125,6 +125,12 @@ impl Instance {
         }
     }
 
+    /// What the lane form of [`Instance::interaction`] needs
+    /// ([`super::surface_lanes::instance`]): `to_world` and the normal matrix.
+    pub(crate) fn lanes(&self) -> (Mat4, Mat3) {
+        (self.to_world, self.normal)
+    }
+
     /// World bounds of the group bounds (`lo`, `hi`) under `to_world`: the box around the eight
     /// mapped corners (empty bounds stay empty).
     pub fn bounds(&self, (lo, hi): (Vec3, Vec3)) -> (Vec3, Vec3) {

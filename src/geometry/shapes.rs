@@ -903,6 +903,21 @@ impl Shape {
         Some((*center, *radius, *frame, sign))
     }
 
+    /// What the lane form of a disk's interaction needs ([`super::surface_lanes::disk`]):
+    /// `to_object`, `hit_to_world`, `to_world` and the signed normal; `None` for other shapes.
+    pub(crate) fn disk_lanes(&self) -> Option<(Mat4, Mat4, Mat4, Vec3)> {
+        let ShapeKind::Disk {
+            to_world,
+            hit_to_world,
+        } = &self.kind
+        else {
+            return None;
+        };
+        let sign = if self.flip_normals { -1.0 } else { 1.0 };
+        let ng = self.plane_normal() * sign;
+        Some((self.to_object, *hit_to_world, *to_world, ng))
+    }
+
     /// The disk's unit normal before `flip_normals`: +Z by the normal transform.
     /// The unit normal of a disk or rectangle: the normal transform of +Z, as Mitsuba.
     fn plane_normal(&self) -> Vec3 {

@@ -187,6 +187,73 @@ pub fn rectangle<L: Lane>(m: &Rectangle<L>, x: V3<L>) -> SurfLanes<L> {
     }
 }
 
+/// A disk hit at `x` (the ray's point): `to_object` and `hit_to_world` as columns (the last
+/// the translation; the disk is traced in the first's object space and its point mapped back by
+/// the second), `to_world`'s linear columns (the uv partials) and the signed normal `ng`.
+#[derive(Clone, Copy, Debug)]
+pub struct Disk<L> {
+    pub to_object: [V3<L>; 4],
+    pub hit_to_world: [V3<L>; 4],
+    pub to_world: [V3<L>; 3],
+    pub ng: V3<L>,
+}
+
+/// The disk branch of `Shape::interaction` (with `disk_uv`).
+#[inline(always)]
+pub fn disk<L: Lane>(m: &Disk<L>, x: V3<L>) -> SurfLanes<L> {
+    let k = |v: f32| x.x.splat(v);
+    // Projected onto the plane in object space (z = 0), then back.
+    let l = linear(&[m.to_object[0], m.to_object[1], m.to_object[2]], x) + m.to_object[3];
+    let l = V3::new(l.x, l.y, k(0.0));
+    let p = linear(
+        &[m.hit_to_world[0], m.hit_to_world[1], m.hit_to_world[2]],
+        l,
+    ) + m.hit_to_world[3];
+    // `disk_uv`: polar coordinates, the partials through `to_world`.
+    let r = (l.x * l.x + l.y * l.y).sqrt();
+    let phi = lm::atan2(l.y, l.x);
+    let phi = L::select(phi.lt(k(0.0)), phi + k(2.0 * PI), phi);
+    let positive = r.gt(k(0.0));
+    let cp = L::select(positive, l.x / r, k(1.0));
+    let sp = L::select(positive, l.y / r, k(0.0));
+    let dpdu = linear(&m.to_world, V3::new(cp, sp, k(0.0)));
+    let dpdv = linear(&m.to_world, V3::new(-sp, cp, k(0.0))).scale(k(2.0 * PI) * r);
+    SurfLanes {
+        p,
+        ng: m.ng,
+        frame: Frame::from_normal_tangent(m.ng, dpdu),
+        uv: V2::new(r, phi * k(INV_2PI)),
+        dpdu,
+        dpdv,
+    }
+}
+
+/// An instance's transform in lanes: `to_world` as columns (the last the translation) and the
+/// normal matrix's columns (`Instance`'s inverse transpose).
+#[derive(Clone, Copy, Debug)]
+pub struct InstanceLanes<L> {
+    pub to_world: [V3<L>; 4],
+    pub normal: [V3<L>; 3],
+}
+
+/// `Instance::interaction`: a member's interaction `s` (computed in group space) mapped to
+/// world space; uv stays.
+#[inline(always)]
+pub fn instance<L: Lane>(m: &InstanceLanes<L>, s: &SurfLanes<L>) -> SurfLanes<L> {
+    let w = [m.to_world[0], m.to_world[1], m.to_world[2]];
+    let dpdu = linear(&w, s.dpdu);
+    let ng = normalize_or(linear(&m.normal, s.ng), s.ng);
+    let n = normalize_or(linear(&m.normal, s.frame.n), s.frame.n);
+    SurfLanes {
+        p: linear(&w, s.p) + m.to_world[3],
+        ng,
+        frame: Frame::from_normal_tangent(n, dpdu),
+        uv: s.uv,
+        dpdu,
+        dpdv: linear(&w, s.dpdv),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     //! Every lane form against `Shape::interaction`, field by field and bit for bit, at width 1
@@ -400,6 +467,35 @@ mod tests {
             .collect()
     }
 
+    fn disk_cases(r: &mut Rng, n: usize) -> Vec<Case> {
+        (0..n)
+            .map(|k| {
+                let rot = Mat4::from_quat(glam::Quat::from_axis_angle(r.dir(), 6.0 * r.f()));
+                let scale = Vec3::new(0.5 + r.f(), 0.5 + r.f(), 0.5 + r.f());
+                let to_world = Mat4::from_translation(r.v3()) * rot * Mat4::from_scale(scale);
+                let shape = Shape::disk(&to_world, k % 2 == 0).expect("a disk");
+                // Inside the unit disk, its centre (r = 0) too.
+                let l = if k % 11 == 0 {
+                    Vec3::new(0.0, 0.0, 1e-4 * r.s())
+                } else {
+                    Vec3::new(0.7 * r.s(), 0.7 * r.s(), 1e-4 * r.s())
+                };
+                let (ray, h) = hit(r, to_world.transform_point3(l), 0, 0.0, 0.0);
+                (shape, ray, h)
+            })
+            .collect()
+    }
+
+    fn disk_input(shape: &Shape) -> Disk<f32> {
+        let (o, hw, w, ng) = shape.disk_lanes().expect("a disk");
+        Disk {
+            to_object: [0, 1, 2, 3].map(|j| v3(o.col(j).truncate())),
+            hit_to_world: [0, 1, 2, 3].map(|j| v3(hw.col(j).truncate())),
+            to_world: [0, 1, 2].map(|j| v3(w.col(j).truncate())),
+            ng: v3(ng),
+        }
+    }
+
     fn sphere_input(shape: &Shape) -> (V3<f32>, f32, [V3<f32>; 3], f32) {
         let (c, rad, f, sign) = shape.sphere_lanes().expect("a similarity sphere");
         let cols = [f.x_axis, f.y_axis, f.z_axis].map(|a| v3(a.truncate()));
@@ -429,6 +525,7 @@ mod tests {
                 sphere(c, rad, f, sign, x)
             }
             ShapeKind::Rectangle { .. } => rectangle(&rectangle_input(shape), x),
+            ShapeKind::Disk { .. } => disk(&disk_input(shape), x),
             _ => unreachable!(),
         }
     }
@@ -439,6 +536,7 @@ mod tests {
             ("triangle", triangle_cases(&mut r, 4000)),
             ("sphere", sphere_cases(&mut r, 4000)),
             ("rectangle", rectangle_cases(&mut r, 4000)),
+            ("disk", disk_cases(&mut r, 4000)),
         ]
     }
 
@@ -521,6 +619,17 @@ mod tests {
                         let (rad, sign) = (avx.load(&t.map(|t| t.1)), avx.load(&t.map(|t| t.3)));
                         avx.run(|| sphere(c, rad, f, sign, x))
                     }
+                    "disk" => {
+                        let t: [_; 8] = std::array::from_fn(|k| disk_input(&chunk[k].0));
+                        let m = Disk {
+                            to_object: [0, 1, 2, 3].map(|j| pack3(avx, t.map(|t| t.to_object[j]))),
+                            hit_to_world: [0, 1, 2, 3]
+                                .map(|j| pack3(avx, t.map(|t| t.hit_to_world[j]))),
+                            to_world: [0, 1, 2].map(|j| pack3(avx, t.map(|t| t.to_world[j]))),
+                            ng: pack3(avx, t.map(|t| t.ng)),
+                        };
+                        avx.run(|| disk(&m, x))
+                    }
                     _ => {
                         let t: [_; 8] = std::array::from_fn(|k| rectangle_input(&chunk[k].0));
                         let m = Rectangle {
@@ -545,5 +654,103 @@ mod tests {
             }
         }
         assert_no_mismatch(8, failed);
+    }
+
+    /// Instanced mesh hits: a random mesh member under a random affine `to_world` (non-uniform
+    /// scales and mirrors included), the member's triangle form then [`instance`], against
+    /// `Instance::interaction` of the member's interaction along the object ray.
+    fn instance_cases(n: usize) -> Vec<(Shape, crate::geometry::Instance, Ray, Hit)> {
+        let mut r = Rng(0x2545_f491_4f6c_dd1d);
+        let tri = triangle_cases(&mut r, n);
+        tri.into_iter()
+            .enumerate()
+            .map(|(k, (shape, ray, h))| {
+                let rot = Mat4::from_quat(glam::Quat::from_axis_angle(r.dir(), 6.0 * r.f()));
+                let mut scale = Vec3::new(0.3 + r.f(), 0.3 + r.f(), 0.3 + r.f());
+                if k % 5 == 0 {
+                    scale.x = -scale.x;
+                }
+                let to_world = Mat4::from_translation(r.v3()) * rot * Mat4::from_scale(scale);
+                let inst = crate::geometry::Instance::new(0, &to_world).expect("an instance");
+                (shape, inst, ray, h)
+            })
+            .collect()
+    }
+
+    fn instance_input(inst: &crate::geometry::Instance) -> InstanceLanes<f32> {
+        let (w, nm) = inst.lanes();
+        InstanceLanes {
+            to_world: [0, 1, 2, 3].map(|j| v3(w.col(j).truncate())),
+            normal: [0, 1, 2].map(|j| v3(nm.col(j))),
+        }
+    }
+
+    fn instance_reference(c: &(Shape, crate::geometry::Instance, Ray, Hit)) -> Vec<u32> {
+        let (shape, inst, ray, h) = c;
+        bits(&inst.interaction(shape.interaction(0, &inst.object_ray(ray), h), ray))
+    }
+
+    #[test]
+    fn width_1_instance_form_equals_instance_interaction() {
+        let cases = instance_cases(4000);
+        let bad = cases
+            .iter()
+            .filter(|c| {
+                let s = triangle(&triangle_input(&c.0, &c.3));
+                lane_bits(&instance(&instance_input(&c.1), &s), 0) != instance_reference(c)
+            })
+            .count();
+        assert_eq!(bad, 0, "{bad} of {} instanced hits differ", cases.len());
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn width_8_instance_form_equals_instance_interaction() {
+        use crate::lane::{Avx2, F32x8};
+        let Some(avx) = Avx2::detect() else {
+            eprintln!("no AVX2: width 8 not tested");
+            return;
+        };
+        let pack3 = |v: [V3<f32>; 8]| -> V3<F32x8> {
+            V3::new(
+                avx.load(&v.map(|v| v.x)),
+                avx.load(&v.map(|v| v.y)),
+                avx.load(&v.map(|v| v.z)),
+            )
+        };
+        let cases = instance_cases(4000);
+        let mut bad = 0;
+        for chunk in cases.chunks_exact(8) {
+            let t: [Triangle<f32>; 8] =
+                std::array::from_fn(|k| triangle_input(&chunk[k].0, &chunk[k].3));
+            let p3 =
+                |f: &dyn Fn(&Triangle<f32>) -> V3<f32>| pack3(std::array::from_fn(|k| f(&t[k])));
+            let p2 = |f: &dyn Fn(&Triangle<f32>) -> V2<f32>| {
+                let v: [V2<f32>; 8] = std::array::from_fn(|k| f(&t[k]));
+                V2::new(avx.load(&v.map(|v| v.x)), avx.load(&v.map(|v| v.y)))
+            };
+            let x8 = Triangle {
+                p: [p3(&|t| t.p[0]), p3(&|t| t.p[1]), p3(&|t| t.p[2])],
+                n: [p3(&|t| t.n[0]), p3(&|t| t.n[1]), p3(&|t| t.n[2])],
+                uv: [p2(&|t| t.uv[0]), p2(&|t| t.uv[1]), p2(&|t| t.uv[2])],
+                has_n: avx.mask(&t.map(|t| t.has_n)),
+                has_uv: avx.mask(&t.map(|t| t.has_uv)),
+                b1: avx.load(&t.map(|t| t.b1)),
+                b2: avx.load(&t.map(|t| t.b2)),
+                sign: avx.load(&t.map(|t| t.sign)),
+            };
+            let m: [InstanceLanes<f32>; 8] = std::array::from_fn(|k| instance_input(&chunk[k].1));
+            let m8 = InstanceLanes {
+                to_world: [0, 1, 2, 3].map(|j| pack3(m.map(|m| m.to_world[j]))),
+                normal: [0, 1, 2].map(|j| pack3(m.map(|m| m.normal[j]))),
+            };
+            let s = avx.run(|| instance(&m8, &triangle(&x8)));
+            for (k, c) in chunk.iter().enumerate() {
+                if lane_bits(&s, k) != instance_reference(c) {
+                    bad += 1;
+                }
+            }
+        }
+        assert_eq!(bad, 0, "{bad} of {} instanced hits differ", cases.len());
     }
 }

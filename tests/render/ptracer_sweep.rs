@@ -160,9 +160,13 @@ const SCENES: &[(&str, Entry)] = &[
         "stream_diffuse_wrapped.xml",
         Compare(NONE, Nm::Microfacet, 1),
     ),
+    // The stream renderer's disks in lanes (tests/render/stream.rs).
+    ("stream_disks.xml", Compare(NONE, Nm::AsWritten, 1)),
     // The stream renderer's emitters in lanes (tests/render/stream.rs).
     ("stream_emitters.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("stream_emitters_env.xml", Compare(NONE, Nm::AsWritten, 1)),
+    // The stream renderer's instanced meshes in lanes (tests/render/stream.rs).
+    ("stream_instances.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("stream_lights.xml", Compare(NONE, Nm::AsWritten, 1)),
     // Its wrapper-chain driver with `mask`: a smooth `dielectric` sphere behind a mask.
     ("stream_mask.xml", Exclude(Specular("dielectric"))),

@@ -1067,3 +1067,21 @@ fn stream_equals_scalar_where_masks_run_in_lanes() {
 fn stream_equals_scalar_for_masks_under_every_setting() {
     assert_driver_under_every_setting("stream_mask");
 }
+
+// ---- Disks and instanced meshes in lanes (issue 18, eleventh session, h2) ----
+
+/// Scenes whose every surface hit is a disk (`tests/data/scenes/stream_disks.xml`) or a mesh
+/// seen through an instance (`stream_instances.xml`): the scalar image at 1, 2, 3 and 7 threads,
+/// with hits reconstructed in lanes in each (nothing else in them has a lane form, so a silent
+/// fallback of either kind to `Scene::interaction` fails).
+#[test]
+fn stream_equals_scalar_with_disks_and_instances_in_lanes() {
+    for name in ["stream_disks.xml", "stream_instances.xml"] {
+        let l = load(&test_scene(name), "as_written");
+        let lanes = assert_identical(&l, name, 2);
+        assert!(
+            lanes.surface_lanes > 0,
+            "{name}: no surface reconstructed in lanes: {lanes:?}"
+        );
+    }
+}

@@ -1,7 +1,7 @@
 //! The surface rows of the batch ([`crate::stream::batch::Surfaces`]): the gather stage that
-//! fills them after each trace ([`fill`]: hits on triangle meshes, similarity spheres and
-//! rectangles reconstructed 8 at a time by the lane forms of [`crate::geometry::surface_lanes`],
-//! every other hit by `Scene::interaction`), and the one surface load of the three kernels
+//! fills them after each trace ([`fill`]: hits on triangle meshes, similarity spheres,
+//! rectangles and disks, and on meshes seen through instances, reconstructed 8 at a time by the
+//! lane forms of [`crate::geometry::surface_lanes`], every other hit by `Scene::interaction`), and the one surface load of the three kernels
 //! ([`super::diffuse`], [`super::vertex`], [`super::plastic`]): 8 paths' surface points, true
 //! normals, shading frames and incident directions, loaded 8-wide in place from the rows, one
 //! `vgatherdps` per field over the 8 rows. The rows hold the scalar interaction's bits either way.
@@ -11,8 +11,8 @@ use crate::scene::Scene;
 use crate::stream::batch::Batch;
 use glam::{Mat4, Vec3};
 
-/// How the gather stage reconstructs a hit on a shape (not seen through an instance; instanced
-/// hits always take `Scene::interaction`).
+/// How the gather stage reconstructs a hit on a shape (instanced hits take the lane forms on
+/// meshes only, `Scene::interaction` on other shapes).
 #[derive(Clone, Debug)]
 pub(crate) enum Form {
     /// A triangle mesh: [`crate::geometry::surface_lanes::triangle`].
@@ -22,7 +22,9 @@ pub(crate) enum Form {
     /// A rectangle: `to_object`, `to_world`, then signed true normal, signed shading normal,
     /// dp/du, dp/dv (`Shape::rectangle_lanes`).
     Rectangle(Box<(Mat4, Mat4, [Vec3; 4])>),
-    /// Anything else (disks, cylinders, curves, SDF grids, spheres through a `SphereMap`):
+    /// A disk: `to_object`, `hit_to_world`, `to_world`, signed normal (`Shape::disk_lanes`).
+    Disk(Box<(Mat4, Mat4, Mat4, Vec3)>),
+    /// Anything else (cylinders, curves, SDF grids, spheres through a `SphereMap`):
     /// `Scene::interaction`, one hit at a time.
     Scalar,
 }
@@ -41,6 +43,8 @@ impl Form {
                     Form::Sphere(c.0, c.1, c.2, c.3)
                 } else if let Some(r) = s.rectangle_lanes() {
                     Form::Rectangle(Box::new(r))
+                } else if let Some(d) = s.disk_lanes() {
+                    Form::Disk(Box::new(d))
                 } else {
                     Form::Scalar
                 }
@@ -75,7 +79,7 @@ pub(crate) fn fill(
     }
 }
 
-/// Whether a hit takes the lane forms: not through an instance.
+/// Whether a hit is on a shape itself, not seen through an instance.
 #[inline(always)]
 fn direct(h: &crate::geometry::Hit) -> bool {
     h.inst == NO_INSTANCE
@@ -151,6 +155,7 @@ pub(crate) mod x8 {
                     surf: &mut batch.surf,
                 };
                 let (mut tri, mut sph, mut rect) = (Pending::EMPTY, Pending::EMPTY, Pending::EMPTY);
+                let (mut disks, mut itri) = (Pending::EMPTY, Pending::EMPTY);
                 let mut scalar = 0;
                 let mut hits = 0;
                 for &i in &batch.active {
@@ -158,11 +163,20 @@ pub(crate) mod x8 {
                         continue;
                     };
                     hits += 1;
-                    let form = if super::direct(h) {
-                        &st.forms[h.geom as usize]
-                    } else {
-                        &Form::Scalar
-                    };
+                    let form = &st.forms[h.geom as usize];
+                    if !super::direct(h) {
+                        if let Form::Triangles = form {
+                            if itri.push(i) {
+                                instanced_triangles(avx, &mut st, itri.take());
+                            }
+                        } else {
+                            scalar += 1;
+                            let i = i as usize;
+                            let si = st.scene.interaction(&st.ray[i], h);
+                            st.surf.set(i, &si);
+                        }
+                        continue;
+                    }
                     match form {
                         Form::Triangles => {
                             if tri.push(i) {
@@ -177,6 +191,11 @@ pub(crate) mod x8 {
                         Form::Rectangle(_) => {
                             if rect.push(i) {
                                 rectangles(avx, &mut st, rect.take());
+                            }
+                        }
+                        Form::Disk(_) => {
+                            if disks.push(i) {
+                                disks_x8(avx, &mut st, disks.take());
                             }
                         }
                         Form::Scalar => {
@@ -195,6 +214,12 @@ pub(crate) mod x8 {
                 }
                 if rect.n > 0 {
                     rectangles(avx, &mut st, rect.take());
+                }
+                if disks.n > 0 {
+                    disks_x8(avx, &mut st, disks.take());
+                }
+                if itri.n > 0 {
+                    instanced_triangles(avx, &mut st, itri.take());
                 }
                 hits - scalar
             },
@@ -304,10 +329,44 @@ pub(crate) mod x8 {
         }
     }
 
-    /// Hits on triangle meshes: each lane's triangle gathered from its mesh, then
-    /// [`sl::triangle`].
+    /// Hits on triangle meshes: [`triangle_input`], then [`sl::triangle`].
     #[inline(always)]
     fn triangles(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
+        let (x, meta) = triangle_input(avx, st, &ids);
+        let s = sl::triangle(&x);
+        store(avx, st, &ids, n, &s, &meta);
+    }
+
+    /// Hits on meshes seen through instances: [`triangle_input`] (the member's triangle, in
+    /// group space), [`sl::triangle`], then each lane's instance transform ([`sl::instance`]).
+    #[inline(always)]
+    fn instanced_triangles(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
+        let (x, meta) = triangle_input(avx, st, &ids);
+        let (mut w, mut nm) = ([Cols3::default(); 4], [Cols3::default(); 3]);
+        for (k, &i) in ids.iter().enumerate() {
+            let Some(h) = st.hit[i as usize] else {
+                continue;
+            };
+            let (to_world, normal) = st.scene.instances[h.inst as usize].lanes();
+            for j in 0..4 {
+                w[j].set(k, to_world.col(j).truncate());
+            }
+            for j in 0..3 {
+                nm[j].set(k, normal.col(j));
+            }
+        }
+        let m = sl::InstanceLanes {
+            to_world: load4(avx, &w),
+            normal: [nm[0].load(avx), nm[1].load(avx), nm[2].load(avx)],
+        };
+        let s = sl::instance(&m, &sl::triangle(&x));
+        store(avx, st, &ids, n, &s, &meta);
+    }
+
+    /// Each lane's triangle gathered from its mesh (vertices, normals, uvs, barycentrics and
+    /// `flip_normals` sign), and its [`Meta`].
+    #[inline(always)]
+    fn triangle_input(avx: Avx2, st: &Stage, ids: &[u32; 8]) -> (sl::Triangle<F32x8>, Meta) {
         let mut p = [Cols3::default(); 3];
         let mut nrm = [Cols3::default(); 3];
         let mut uv = [[[0.0f32; 8]; 2]; 3];
@@ -359,8 +418,7 @@ pub(crate) mod x8 {
             b2: avx.load(&b2),
             sign: avx.load(&sign),
         };
-        let s = sl::triangle(&x);
-        store(avx, st, &ids, n, &s, &meta);
+        (x, meta)
     }
 
     /// Hits on spheres with a similarity `to_world`: [`sl::sphere`].
@@ -430,6 +488,40 @@ pub(crate) mod x8 {
             dpdv,
         };
         let s = sl::rectangle(&rect, x);
+        store(avx, st, &ids, n, &s, &m);
+    }
+
+    /// Hits on disks: [`sl::disk`].
+    #[inline(always)]
+    fn disks_x8(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
+        let (mut o, mut hw) = ([Cols3::default(); 4], [Cols3::default(); 4]);
+        let (mut w, mut ng) = ([Cols3::default(); 3], Cols3::default());
+        for (k, &i) in ids.iter().enumerate() {
+            let Some(h) = st.hit[i as usize] else {
+                continue;
+            };
+            let Form::Disk(d) = &st.forms[h.geom as usize] else {
+                unreachable!("a disk's chunk holds disks only");
+            };
+            let (to_object, hit_to_world, to_world, nrm) = &**d;
+            for j in 0..4 {
+                o[j].set(k, to_object.col(j).truncate());
+                hw[j].set(k, hit_to_world.col(j).truncate());
+            }
+            for j in 0..3 {
+                w[j].set(k, to_world.col(j).truncate());
+            }
+            ng.set(k, *nrm);
+        }
+        let mut m = Meta::default();
+        let x = ray_points(avx, st, &ids, &mut m);
+        let d = sl::Disk {
+            to_object: load4(avx, &o),
+            hit_to_world: load4(avx, &hw),
+            to_world: [w[0].load(avx), w[1].load(avx), w[2].load(avx)],
+            ng: ng.load(avx),
+        };
+        let s = sl::disk(&d, x);
         store(avx, st, &ids, n, &s, &m);
     }
 
