@@ -64,6 +64,19 @@ fn linear<L: Lane>(c: &[V3<L>; 3], v: V3<L>) -> V3<L> {
     c[0].scale(v.x) + c[1].scale(v.y) + c[2].scale(v.z)
 }
 
+/// `Mat4::transform_point3` of the affine map with columns `c` (the last the translation).
+#[inline(always)]
+fn affine<L: Lane>(c: &[V3<L>; 4], v: V3<L>) -> V3<L> {
+    linear(&[c[0], c[1], c[2]], v) + c[3]
+}
+
+/// The planar shapes' projection: `x` in the object space of `to_object` (columns), with z = 0.
+#[inline(always)]
+fn to_plane<L: Lane>(to_object: &[V3<L>; 4], x: V3<L>) -> V3<L> {
+    let l = affine(to_object, x);
+    V3::new(l.x, l.y, x.x.splat(0.0))
+}
+
 /// One triangle hit per lane: the triangle's vertices, their normals and uvs (any values in
 /// lanes whose mesh lacks them, masked by `has_n` / `has_uv`), Embree's barycentrics `b1`,
 /// `b2`, and the `flip_normals` sign (±1).
@@ -77,6 +90,20 @@ pub struct Triangle<L: Lane> {
     pub b1: L,
     pub b2: L,
     pub sign: L,
+}
+
+/// `analytic_interaction` of `shapes.rs`: the shading frame around the true normal `ng`,
+/// tangent to `dpdu`.
+#[inline(always)]
+fn analytic<L: Lane>(p: V3<L>, ng: V3<L>, uv: V2<L>, dpdu: V3<L>, dpdv: V3<L>) -> SurfLanes<L> {
+    SurfLanes {
+        p,
+        ng,
+        frame: Frame::from_normal_tangent(ng, dpdu),
+        uv,
+        dpdu,
+        dpdv,
+    }
 }
 
 /// The mesh branch of `Shape::interaction`.
@@ -146,15 +173,8 @@ pub fn sphere<L: Lane>(c: V3<L>, r: L, frame: [V3<L>; 3], sign: L, x: V3<L>) -> 
     )
     .scale(k(PI) * r);
     let (dpdu, dpdv) = (linear(&frame, dpdu), linear(&frame, dpdv));
-    let ng = n.scale(sign);
-    SurfLanes {
-        p,
-        ng,
-        frame: Frame::from_normal_tangent(ng, dpdu),
-        uv: V2::new(phi * k(INV_2PI), theta * k(1.0 / PI)),
-        dpdu,
-        dpdv,
-    }
+    let uv = V2::new(phi * k(INV_2PI), theta * k(1.0 / PI));
+    analytic(p, n.scale(sign), uv, dpdu, dpdv)
 }
 
 /// A rectangle hit at `x` (the ray's point): `to_object` and `to_world` as columns (the last
@@ -174,11 +194,9 @@ pub struct Rectangle<L> {
 #[inline(always)]
 pub fn rectangle<L: Lane>(m: &Rectangle<L>, x: V3<L>) -> SurfLanes<L> {
     let k = |v: f32| x.x.splat(v);
-    // Projected onto the plane in object space (z = 0), then back.
-    let l = linear(&[m.to_object[0], m.to_object[1], m.to_object[2]], x) + m.to_object[3];
-    let l = V3::new(l.x, l.y, k(0.0));
+    let l = to_plane(&m.to_object, x);
     SurfLanes {
-        p: linear(&[m.to_world[0], m.to_world[1], m.to_world[2]], l) + m.to_world[3],
+        p: affine(&m.to_world, l),
         ng: m.ng,
         frame: Frame::from_normal_tangent(m.n, m.dpdu),
         uv: V2::new(k(0.5) * l.x + k(0.5), k(0.5) * l.y + k(0.5)),
@@ -202,13 +220,8 @@ pub struct Disk<L> {
 #[inline(always)]
 pub fn disk<L: Lane>(m: &Disk<L>, x: V3<L>) -> SurfLanes<L> {
     let k = |v: f32| x.x.splat(v);
-    // Projected onto the plane in object space (z = 0), then back.
-    let l = linear(&[m.to_object[0], m.to_object[1], m.to_object[2]], x) + m.to_object[3];
-    let l = V3::new(l.x, l.y, k(0.0));
-    let p = linear(
-        &[m.hit_to_world[0], m.hit_to_world[1], m.hit_to_world[2]],
-        l,
-    ) + m.hit_to_world[3];
+    let l = to_plane(&m.to_object, x);
+    let p = affine(&m.hit_to_world, l);
     // `disk_uv`: polar coordinates, the partials through `to_world`.
     let r = (l.x * l.x + l.y * l.y).sqrt();
     let phi = lm::atan2(l.y, l.x);
@@ -218,14 +231,7 @@ pub fn disk<L: Lane>(m: &Disk<L>, x: V3<L>) -> SurfLanes<L> {
     let sp = L::select(positive, l.y / r, k(0.0));
     let dpdu = linear(&m.to_world, V3::new(cp, sp, k(0.0)));
     let dpdv = linear(&m.to_world, V3::new(-sp, cp, k(0.0))).scale(k(2.0 * PI) * r);
-    SurfLanes {
-        p,
-        ng: m.ng,
-        frame: Frame::from_normal_tangent(m.ng, dpdu),
-        uv: V2::new(r, phi * k(INV_2PI)),
-        dpdu,
-        dpdv,
-    }
+    analytic(p, m.ng, V2::new(r, phi * k(INV_2PI)), dpdu, dpdv)
 }
 
 /// An instance's transform in lanes: `to_world` as columns (the last the translation) and the
@@ -245,7 +251,7 @@ pub fn instance<L: Lane>(m: &InstanceLanes<L>, s: &SurfLanes<L>) -> SurfLanes<L>
     let ng = normalize_or(linear(&m.normal, s.ng), s.ng);
     let n = normalize_or(linear(&m.normal, s.frame.n), s.frame.n);
     SurfLanes {
-        p: linear(&w, s.p) + m.to_world[3],
+        p: affine(&m.to_world, s.p),
         ng,
         frame: Frame::from_normal_tangent(n, dpdu),
         uv: s.uv,
@@ -562,23 +568,49 @@ mod tests {
     }
 
     #[cfg(target_arch = "x86_64")]
+    fn pack3(avx: crate::lane::Avx2, v: [V3<f32>; 8]) -> V3<crate::lane::F32x8> {
+        V3::new(
+            avx.load(&v.map(|v| v.x)),
+            avx.load(&v.map(|v| v.y)),
+            avx.load(&v.map(|v| v.z)),
+        )
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    fn pack2(avx: crate::lane::Avx2, v: [V2<f32>; 8]) -> V2<crate::lane::F32x8> {
+        V2::new(avx.load(&v.map(|v| v.x)), avx.load(&v.map(|v| v.y)))
+    }
+
+    /// Eight width-1 triangle inputs as one width-8 input.
+    #[cfg(target_arch = "x86_64")]
+    fn pack_triangles(
+        avx: crate::lane::Avx2,
+        t: &[Triangle<f32>; 8],
+    ) -> Triangle<crate::lane::F32x8> {
+        let p3 =
+            |f: &dyn Fn(&Triangle<f32>) -> V3<f32>| pack3(avx, std::array::from_fn(|k| f(&t[k])));
+        let p2 =
+            |f: &dyn Fn(&Triangle<f32>) -> V2<f32>| pack2(avx, std::array::from_fn(|k| f(&t[k])));
+        Triangle {
+            p: [p3(&|t| t.p[0]), p3(&|t| t.p[1]), p3(&|t| t.p[2])],
+            n: [p3(&|t| t.n[0]), p3(&|t| t.n[1]), p3(&|t| t.n[2])],
+            uv: [p2(&|t| t.uv[0]), p2(&|t| t.uv[1]), p2(&|t| t.uv[2])],
+            has_n: avx.mask(&t.map(|t| t.has_n)),
+            has_uv: avx.mask(&t.map(|t| t.has_uv)),
+            b1: avx.load(&t.map(|t| t.b1)),
+            b2: avx.load(&t.map(|t| t.b2)),
+            sign: avx.load(&t.map(|t| t.sign)),
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
     #[test]
     fn width_8_forms_equal_shape_interaction() {
-        use crate::lane::{Avx2, F32x8};
+        use crate::lane::Avx2;
         let Some(avx) = Avx2::detect() else {
             eprintln!("no AVX2: width 8 not tested");
             return;
         };
-        fn pack3(avx: Avx2, v: [V3<f32>; 8]) -> V3<F32x8> {
-            V3::new(
-                avx.load(&v.map(|v| v.x)),
-                avx.load(&v.map(|v| v.y)),
-                avx.load(&v.map(|v| v.z)),
-            )
-        }
-        fn pack2(avx: Avx2, v: [V2<f32>; 8]) -> V2<F32x8> {
-            V2::new(avx.load(&v.map(|v| v.x)), avx.load(&v.map(|v| v.y)))
-        }
         let mut failed = Vec::new();
         for (kind, cases) in all_cases() {
             let mut bad = 0;
@@ -594,22 +626,7 @@ mod tests {
                     "triangle" => {
                         let t: [Triangle<f32>; 8] =
                             std::array::from_fn(|k| triangle_input(&chunk[k].0, &chunk[k].2));
-                        let p3 = |f: &dyn Fn(&Triangle<f32>) -> V3<f32>| {
-                            pack3(avx, std::array::from_fn(|k| f(&t[k])))
-                        };
-                        let p2 = |f: &dyn Fn(&Triangle<f32>) -> V2<f32>| {
-                            pack2(avx, std::array::from_fn(|k| f(&t[k])))
-                        };
-                        let x8 = Triangle {
-                            p: [p3(&|t| t.p[0]), p3(&|t| t.p[1]), p3(&|t| t.p[2])],
-                            n: [p3(&|t| t.n[0]), p3(&|t| t.n[1]), p3(&|t| t.n[2])],
-                            uv: [p2(&|t| t.uv[0]), p2(&|t| t.uv[1]), p2(&|t| t.uv[2])],
-                            has_n: avx.mask(&t.map(|t| t.has_n)),
-                            has_uv: avx.mask(&t.map(|t| t.has_uv)),
-                            b1: avx.load(&t.map(|t| t.b1)),
-                            b2: avx.load(&t.map(|t| t.b2)),
-                            sign: avx.load(&t.map(|t| t.sign)),
-                        };
+                        let x8 = pack_triangles(avx, &t);
                         avx.run(|| triangle(&x8))
                     }
                     "sphere" => {
@@ -706,43 +723,21 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn width_8_instance_form_equals_instance_interaction() {
-        use crate::lane::{Avx2, F32x8};
+        use crate::lane::Avx2;
         let Some(avx) = Avx2::detect() else {
             eprintln!("no AVX2: width 8 not tested");
             return;
-        };
-        let pack3 = |v: [V3<f32>; 8]| -> V3<F32x8> {
-            V3::new(
-                avx.load(&v.map(|v| v.x)),
-                avx.load(&v.map(|v| v.y)),
-                avx.load(&v.map(|v| v.z)),
-            )
         };
         let cases = instance_cases(4000);
         let mut bad = 0;
         for chunk in cases.chunks_exact(8) {
             let t: [Triangle<f32>; 8] =
                 std::array::from_fn(|k| triangle_input(&chunk[k].0, &chunk[k].3));
-            let p3 =
-                |f: &dyn Fn(&Triangle<f32>) -> V3<f32>| pack3(std::array::from_fn(|k| f(&t[k])));
-            let p2 = |f: &dyn Fn(&Triangle<f32>) -> V2<f32>| {
-                let v: [V2<f32>; 8] = std::array::from_fn(|k| f(&t[k]));
-                V2::new(avx.load(&v.map(|v| v.x)), avx.load(&v.map(|v| v.y)))
-            };
-            let x8 = Triangle {
-                p: [p3(&|t| t.p[0]), p3(&|t| t.p[1]), p3(&|t| t.p[2])],
-                n: [p3(&|t| t.n[0]), p3(&|t| t.n[1]), p3(&|t| t.n[2])],
-                uv: [p2(&|t| t.uv[0]), p2(&|t| t.uv[1]), p2(&|t| t.uv[2])],
-                has_n: avx.mask(&t.map(|t| t.has_n)),
-                has_uv: avx.mask(&t.map(|t| t.has_uv)),
-                b1: avx.load(&t.map(|t| t.b1)),
-                b2: avx.load(&t.map(|t| t.b2)),
-                sign: avx.load(&t.map(|t| t.sign)),
-            };
+            let x8 = pack_triangles(avx, &t);
             let m: [InstanceLanes<f32>; 8] = std::array::from_fn(|k| instance_input(&chunk[k].1));
             let m8 = InstanceLanes {
-                to_world: [0, 1, 2, 3].map(|j| pack3(m.map(|m| m.to_world[j]))),
-                normal: [0, 1, 2].map(|j| pack3(m.map(|m| m.normal[j]))),
+                to_world: [0, 1, 2, 3].map(|j| pack3(avx, m.map(|m| m.to_world[j]))),
+                normal: [0, 1, 2].map(|j| pack3(avx, m.map(|m| m.normal[j]))),
             };
             let s = avx.run(|| instance(&m8, &triangle(&x8)));
             for (k, c) in chunk.iter().enumerate() {

@@ -354,11 +354,12 @@ impl Lane for F32x8 {
         }
     }
     #[inline(always)]
-    fn gather3(table: &[[f32; 3]], idx: I32x8) -> [F32x8; 3] {
+    fn gather3(table: &[glam::Vec3], idx: I32x8) -> [F32x8; 3] {
         assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 3);
-        // SAFETY: an I32x8 exists only with AVX2. The rows are contiguous `[f32; 3]`s, so row
-        // r's component c is float 3r + c from the start; after the unsigned clamp r < len and
-        // 3r + 2 < 3·len ≤ i32::MAX, so each load reads inside `table`.
+        // SAFETY: an I32x8 exists only with AVX2. `glam::Vec3` is `#[repr(C)]` with three f32
+        // fields x, y, z (12 bytes, no padding), so vector r's component c is float 3r + c from
+        // the start; after the unsigned clamp r < len and 3r + 2 < 3·len ≤ i32::MAX, so each
+        // load reads inside `table`.
         unsafe {
             let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(table.len() as i32 - 1));
             let i3 = _mm256_add_epi32(_mm256_add_epi32(i, i), i);
@@ -371,6 +372,10 @@ impl Lane for F32x8 {
         }
     }
 }
+
+// `Lane::gather3` reads a `glam::Vec3` as three consecutive f32s.
+const _: () =
+    assert!(core::mem::size_of::<glam::Vec3>() == 12 && core::mem::align_of::<glam::Vec3>() == 4);
 
 impl LaneI32 for I32x8 {
     type F = F32x8;

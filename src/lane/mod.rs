@@ -109,13 +109,13 @@ pub trait Lane:
     /// clamped to `N − 1` as an unsigned number (so a negative index reads the last entry):
     /// always in bounds, the same entry at both widths. `N` must be in 1..=i32::MAX.
     fn gather<const N: usize>(table: &[f32; N], idx: Self::I32) -> Self;
-    /// The three floats of `table[idx]` per lane (three `vgatherdps` at width 8; a bitmap
+    /// The components of `table[idx]` per lane (three `vgatherdps` at width 8; a bitmap
     /// texture's RGB texels), each index first clamped to `table.len() − 1` as an unsigned
-    /// number: always in bounds, the same row at both widths.
+    /// number: always in bounds, the same vector at both widths.
     ///
     /// # Panics
-    /// If `table` is empty or holds more than `i32::MAX / 3` rows.
-    fn gather3(table: &[[f32; 3]], idx: Self::I32) -> [Self; 3];
+    /// If `table` is empty or holds more than `i32::MAX / 3` vectors.
+    fn gather3(table: &[glam::Vec3], idx: Self::I32) -> [Self; 3];
 
     /// |self| (clears the sign bit; NaN stays NaN).
     #[inline(always)]

@@ -123,9 +123,9 @@ impl Lane for f32 {
         table[(idx as u32).min(N as u32 - 1) as usize]
     }
     #[inline(always)]
-    fn gather3(table: &[[f32; 3]], idx: i32) -> [f32; 3] {
+    fn gather3(table: &[glam::Vec3], idx: i32) -> [f32; 3] {
         assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 3);
-        table[(idx as u32).min(table.len() as u32 - 1) as usize]
+        table[(idx as u32).min(table.len() as u32 - 1) as usize].to_array()
     }
 }
 

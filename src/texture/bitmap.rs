@@ -147,10 +147,7 @@ impl Default for BitmapOptions {
 /// ~7 % of its render in bilinear lookups of a 768 KiB map, ~4 % with a 48 KiB one).
 #[derive(Clone)]
 enum Texels {
-    /// RGB rows (plain arrays, so that the lane form gathers from them: [`Lane::gather3`]).
-    ///
-    /// [`Lane::gather3`]: crate::lane::Lane::gather3
-    F32(Vec<[f32; 3]>),
+    F32(Vec<Vec3>),
     U8 {
         /// RGB codes, padded to 4 bytes (grey: the code three times).
         codes: Vec<[u8; 4]>,
@@ -169,7 +166,7 @@ impl Texels {
     #[inline]
     fn get(&self, i: usize) -> Vec3 {
         match self {
-            Texels::F32(t) => Vec3::from_array(t[i]),
+            Texels::F32(t) => t[i],
             Texels::U8 { codes, lut } => {
                 let c = codes[i];
                 Vec3::new(lut[c[0] as usize], lut[c[1] as usize], lut[c[2] as usize])
@@ -320,7 +317,7 @@ impl BitmapTexture {
         }
         let store = match dec.codes {
             Some(codes) if !quantize => codes,
-            _ => Texels::F32(texels.iter().map(|t| t.to_array()).collect()),
+            _ => Texels::F32(texels),
         };
         let mut t = BitmapTexture::from_storage(dec.width, dec.height, store, dec.grey, opts);
         t.source = path.to_path_buf();
@@ -340,8 +337,7 @@ impl BitmapTexture {
         grey: bool,
         opts: &BitmapOptions,
     ) -> BitmapTexture {
-        let rows = texels.iter().map(|t| t.to_array()).collect();
-        Self::from_storage(width, height, Texels::F32(rows), grey, opts)
+        Self::from_storage(width, height, Texels::F32(texels), grey, opts)
     }
 
     fn from_storage(

@@ -348,11 +348,11 @@ pub(crate) mod x8 {
                 continue;
             };
             let (to_world, normal) = st.scene.instances[h.inst as usize].lanes();
-            for j in 0..4 {
-                w[j].set(k, to_world.col(j).truncate());
+            for (j, c) in w.iter_mut().enumerate() {
+                c.set(k, to_world.col(j).truncate());
             }
-            for j in 0..3 {
-                nm[j].set(k, normal.col(j));
+            for (j, c) in nm.iter_mut().enumerate() {
+                c.set(k, normal.col(j));
             }
         }
         let m = sl::InstanceLanes {
@@ -508,8 +508,8 @@ pub(crate) mod x8 {
                 o[j].set(k, to_object.col(j).truncate());
                 hw[j].set(k, hit_to_world.col(j).truncate());
             }
-            for j in 0..3 {
-                w[j].set(k, to_world.col(j).truncate());
+            for (j, c) in w.iter_mut().enumerate() {
+                c.set(k, to_world.col(j).truncate());
             }
             ng.set(k, *nrm);
         }
