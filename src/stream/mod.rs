@@ -33,6 +33,7 @@
 
 pub(crate) mod batch;
 pub(crate) mod direct;
+pub(crate) mod emission;
 pub(crate) mod kernels;
 
 use crate::cancel::Cancel;
@@ -78,6 +79,9 @@ pub struct LaneCounters {
     /// Hits whose surface interaction the gather stage computed 8-wide
     /// ([`kernels::surface::fill`]; the rest went through `Scene::interaction`).
     pub surface_lanes: u64,
+    /// Paths whose emission (what their ray sees) the emission stage computed 8-wide
+    /// ([`emission`]; the rest went through `PathState::add_emission` or saw nothing to add).
+    pub emission_lanes: u64,
     /// Batches and bounces (trace stages) run.
     pub batches: u64,
     pub bounces: u64,
@@ -98,6 +102,7 @@ impl LaneCounters {
             *a += b;
         }
         self.surface_lanes += o.surface_lanes;
+        self.emission_lanes += o.emission_lanes;
         self.batches += o.batches;
         self.bounces += o.bounces;
     }
@@ -253,6 +258,8 @@ struct Kernels {
     lights: Vec<Option<kernels::light::LaneLight>>,
     /// Per shape, how the gather stage reconstructs its hits ([`kernels::surface::fill`]).
     forms: Vec<kernels::surface::Form>,
+    /// What rays see of the emitters, for the emission stage in lanes ([`emission`]).
+    emission: emission::Lights,
 }
 
 /// Which 8-wide kernel shades a material, with what it needs.
@@ -302,6 +309,7 @@ impl Kernels {
             kinds,
             lights: kernels::light::LaneLight::table(scene),
             forms: kernels::surface::Form::table(scene),
+            emission: emission::Lights::new(scene),
         }
     }
 
@@ -454,19 +462,7 @@ fn run_batch(
         );
 
         // Emission; the paths that scatter go on to the shading stage.
-        batch.scatter.clear();
-        for &i in &batch.active {
-            let i = i as usize;
-            let ray = &batch.ray[i];
-            let si = batch.hit[i].map(|_| batch.surf.get(i));
-            batch.alive[i] = false;
-            if batch.state[i].add_emission(cfg, scene, ray, si.as_ref()) {
-                if let Some(si) = si {
-                    batch.material[i] = scene.shape_material[si.shape as usize];
-                    batch.scatter.push(i as u32);
-                }
-            }
-        }
+        emit(scene, cfg, batch, kernels, &mut scratch.rays.counters.lanes);
 
         // Shading, material by material in the stable order.
         batch.sort_by_material();
@@ -495,6 +491,43 @@ fn run_batch(
         );
 
         batch.compact();
+    }
+}
+
+/// The emission stage: what each active path's ray sees, added to its radiance (8 paths at a
+/// time in lanes with AVX2, [`emission`]; else, and for what the lanes do not cover, lane by
+/// lane through [`crate::integrator::path::PathState::add_emission`]); every active path is
+/// marked not alive, and the paths that scatter at their hit are listed in `batch.scatter`
+/// (ascending) with their material.
+fn emit(
+    scene: &Scene,
+    cfg: &PathSettings,
+    batch: &mut Batch,
+    kernels: &Kernels,
+    lanes: &mut LaneCounters,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx) = kernels.avx {
+        let lights = &kernels.emission;
+        lanes.emission_lanes += avx.run(
+            #[inline(always)]
+            || emission::x8::stage(avx, scene, cfg, lights, batch),
+        );
+        return;
+    }
+    let _ = (kernels, lanes);
+    batch.scatter.clear();
+    for &i in &batch.active {
+        let i = i as usize;
+        let ray = &batch.ray[i];
+        let si = batch.hit[i].map(|_| batch.surf.get(i));
+        batch.alive[i] = false;
+        if batch.state[i].add_emission(cfg, scene, ray, si.as_ref()) {
+            if let Some(si) = si {
+                batch.material[i] = scene.shape_material[si.shape as usize];
+                batch.scatter.push(i as u32);
+            }
+        }
     }
 }
 
