@@ -386,16 +386,12 @@ mod tests {
         let mut f = |a: f32, b: f32| a + (b - a) * r.next_f32();
         let mut checked = 0;
         for i in 0..6000 {
-            let m = Mat4::from_scale_rotation_translation(
-                Vec3::new(f(0.1, 3.0), f(0.1, 3.0), f(0.1, 3.0)),
-                glam::Quat::from_euler(
-                    glam::EulerRot::XYZ,
-                    f(-3.0, 3.0),
-                    f(-3.0, 3.0),
-                    f(-3.0, 3.0),
-                ),
-                Vec3::new(f(-2.0, 2.0), f(-2.0, 2.0), f(-2.0, 2.0)),
-            );
+            let axis = Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(0.1, 1.0)).normalize();
+            let (scale, turn) = (Vec3::new(f(0.1, 3.0), f(0.1, 3.0), 1.0), f(-3.0, 3.0));
+            let at = Vec3::new(f(-2.0, 2.0), f(-2.0, 2.0), f(-2.0, 2.0));
+            let m = Mat4::from_translation(at)
+                * Mat4::from_quat(glam::Quat::from_axis_angle(axis, turn))
+                * Mat4::from_scale(scale);
             let shape = Shape::rectangle_with_normals(&m, None, i % 3 == 0);
             let le = Vec3::new(f(0.0, 9.0), f(0.0, 9.0), f(0.0, 9.0));
             let light = AreaLight {
