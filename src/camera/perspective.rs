@@ -700,7 +700,7 @@ pub(super) mod tests {
             let t = Vec3::new(f(-5.0, 5.0), f(-5.0, 5.0), f(-5.0, 5.0));
             let mut m = look_at(o, t, Vec3::new(f(-0.3, 0.3), 1.0, f(-0.3, 0.3)));
             if c % 4 == 0 {
-                m = m * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+                m *= Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
             }
             let axis = [FovAxis::X, FovAxis::Y, FovAxis::Smaller, FovAxis::Larger][c % 4];
             let cam = Perspective::new(m, f(1.0, 170.0), axis, f(1e-3, 1.0), f(10.0, 1e5), (w, h))
