@@ -1091,7 +1091,8 @@ fn stream_equals_scalar_where_emission_runs_in_lanes() {
         scene("scenes/bench/metal_plastic.xml"),
     ] {
         let label = name.display().to_string();
-        let edits: [(&str, fn(&mut PathSettings)); 6] = [
+        type Edit = (&'static str, fn(&mut PathSettings));
+        let edits: [Edit; 6] = [
             ("as written", |_| {}),
             ("light only", |p| p.strategy = Strategy::LightOnly),
             ("bsdf only", |p| p.strategy = Strategy::BsdfOnly),
