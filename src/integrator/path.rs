@@ -40,6 +40,17 @@ pub struct PathState {
     prev: Option<PrevVertex>,
 }
 
+/// The previous vertex as the MIS weight of emission sees it ([`PathState::prev_mis`]): the
+/// weight is `power_heuristic(pdf, light_pdf)` when `mis`, 0 when `zero`, else 1 (camera rays,
+/// delta lobes, BSDF sampling only); `p` is the reference point of the light's density.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PrevMis {
+    pub p: Vec3,
+    pub pdf: f32,
+    pub mis: bool,
+    pub zero: bool,
+}
+
 /// A light sample whose shadow ray is still to be traced: `contribution` joins the path's
 /// radiance when nothing blocks `shadow` ([`PathState::add_light`]).
 #[derive(Clone, Copy, Debug)]
@@ -222,6 +233,28 @@ impl PathState {
             self.throughput /= q;
         }
         Some(ray)
+    }
+
+    /// What the MIS weight of emission seen by this path's ray needs of its previous vertex
+    /// ([`emission_weight`] unrolled for the stream renderer's emission stage in lanes,
+    /// `crate::stream::emission`): that vertex's point and BSDF density, and whether the weight
+    /// is the power heuristic against the light's density (`mis`), 0 (`zero`), or else 1.
+    #[inline(always)]
+    pub(crate) fn prev_mis(&self, cfg: &PathSettings) -> PrevMis {
+        match self.prev {
+            Some(v) if !v.delta => PrevMis {
+                p: v.p,
+                pdf: v.bsdf_pdf,
+                mis: cfg.strategy == Strategy::Mis,
+                zero: cfg.strategy == Strategy::LightOnly,
+            },
+            _ => PrevMis {
+                p: Vec3::ZERO,
+                pdf: 0.0,
+                mis: false,
+                zero: false,
+            },
+        }
     }
 
     /// Adds a light sample whose shadow ray reached the light.

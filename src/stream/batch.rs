@@ -86,7 +86,29 @@ impl Batch {
         self.shadow.clear();
     }
 
-    /// Adds a path whose camera ray is `ray` (at most [`BATCH`] paths).
+    /// Once `pos`, `sampler` and `ray` hold the batch's paths (at most [`BATCH`]), sets every
+    /// other per-path array to paths leaving the camera (one fill per array, not a push per
+    /// path and array).
+    pub fn start(&mut self) {
+        let n = self.pos.len();
+        assert!(
+            n <= BATCH && self.sampler.len() == n && self.ray.len() == n,
+            "a batch holds at most {BATCH} paths, each with its stream and ray"
+        );
+        self.state.clear();
+        self.state.resize(n, PathState::new());
+        self.hit.clear();
+        self.hit.resize(n, None);
+        self.light.clear();
+        self.light.resize(n, None);
+        self.alive.clear();
+        self.alive.resize(n, false);
+        self.material.clear();
+        self.material.resize(n, 0);
+    }
+
+    /// Adds a path whose camera ray is `ray` (at most [`BATCH`] paths; tests).
+    #[cfg(test)]
     pub fn push(&mut self, pos: Vec2, sampler: Sampler, ray: Ray) {
         assert!(
             self.pos.len() < BATCH,

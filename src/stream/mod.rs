@@ -4,11 +4,13 @@
 //!
 //! Each image block (the same fixed blocks as the scalar renderer) is cut into batches of
 //! [`BATCH`] paths in the block's canonical (y, x, sample) order; the batch size is a constant,
-//! never derived from the thread count. A batch keeps its paths in structure-of-arrays form
+//! never derived from the thread count. A batch starts with each path's stream, film position
+//! and camera ray (a pinhole camera's 8 at a time in lanes: `camera_rays`). A batch keeps its paths in structure-of-arrays form
 //! ([`batch::Batch`], allocated once per worker) and runs, per bounce:
 //! 1. **trace** the active paths' rays (camera rays as coherent 8-wide packets; bounce rays too
 //!    under tier A, [`Packets`]);
-//! 2. **emission**: what each ray sees, MIS-weighted ([`crate::integrator::path::PathState::add_emission`]);
+//! 2. **emission**: what each ray sees, MIS-weighted, 8 paths at a time in lanes ([`emission`];
+//!    what the lanes do not cover through [`crate::integrator::path::PathState::add_emission`]);
 //! 3. **sort** the paths that scatter by material (stable counting sort);
 //! 4. **shade** each material's run of paths: light sample up to its shadow ray, BSDF sample,
 //!    Russian roulette. A run of ≥ 8 paths of a material with an 8-wide kernel (chosen per
@@ -33,6 +35,7 @@
 
 pub(crate) mod batch;
 pub(crate) mod direct;
+pub(crate) mod emission;
 pub(crate) mod kernels;
 
 use crate::cancel::Cancel;
@@ -78,6 +81,9 @@ pub struct LaneCounters {
     /// Hits whose surface interaction the gather stage computed 8-wide
     /// ([`kernels::surface::fill`]; the rest went through `Scene::interaction`).
     pub surface_lanes: u64,
+    /// Paths whose emission (what their ray sees) the emission stage computed 8-wide
+    /// ([`emission`]; the rest went through `PathState::add_emission` or saw nothing to add).
+    pub emission_lanes: u64,
     /// Batches and bounces (trace stages) run.
     pub batches: u64,
     pub bounces: u64,
@@ -98,6 +104,7 @@ impl LaneCounters {
             *a += b;
         }
         self.surface_lanes += o.surface_lanes;
+        self.emission_lanes += o.emission_lanes;
         self.batches += o.batches;
         self.bounces += o.bounces;
     }
@@ -253,6 +260,8 @@ struct Kernels {
     lights: Vec<Option<kernels::light::LaneLight>>,
     /// Per shape, how the gather stage reconstructs its hits ([`kernels::surface::fill`]).
     forms: Vec<kernels::surface::Form>,
+    /// What rays see of the emitters, for the emission stage in lanes ([`emission`]).
+    emission: emission::Lights,
 }
 
 /// Which 8-wide kernel shades a material, with what it needs.
@@ -302,6 +311,7 @@ impl Kernels {
             kinds,
             lights: kernels::light::LaneLight::table(scene),
             forms: kernels::surface::Form::table(scene),
+            emission: emission::Lights::new(scene),
         }
     }
 
@@ -359,17 +369,32 @@ pub(crate) fn render_block(
         }
         let end = (k + BATCH as u64).min(total);
         batch.clear();
-        for j in k..end {
-            let s = s_lo + (j % spp) as u32;
-            let p = j / spp;
-            let x = x0 + (p % w as u64) as u32;
-            let y = y0 + (p / w as u64) as u32;
+        // The paths k..end: (pixel, sample) advanced in the canonical (y, x, sample) order from
+        // the batch's first path (one division per batch, not per path).
+        let p = k / spp;
+        let (mut s, mut x, mut y) = (
+            s_lo + (k % spp) as u32,
+            x0 + (p % w as u64) as u32,
+            y0 + (p / w as u64) as u32,
+        );
+        for _ in k..end {
             let pixel_index = y as u64 * film_width as u64 + x as u64;
             let mut sampler = Sampler::for_sample(sampler_desc, pixel_index, s);
             let pos = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-            let ray = scene.camera.sample_ray(pos, &mut sampler);
-            batch.push(pos, sampler, ray);
+            batch.pos.push(pos);
+            batch.sampler.push(sampler);
+            s += 1;
+            if s == s_hi {
+                s = s_lo;
+                x += 1;
+                if x == x0 + w {
+                    x = x0;
+                    y += 1;
+                }
+            }
         }
+        camera_rays(scene, kernels, batch);
+        batch.start();
         match cfg {
             StreamIntegrator::Path(cfg) => run_batch(scene, cfg, batch, scratch, packets, kernels),
             StreamIntegrator::Direct(cfg) => {
@@ -380,6 +405,46 @@ pub(crate) fn render_block(
         k = end;
     }
     invalid
+}
+
+/// The camera rays of the batch's paths (their film positions in `batch.pos`) into
+/// `batch.ray`: a pinhole `perspective` camera's 8 at a time in lanes with AVX2
+/// ([`crate::camera::Perspective::ray_lanes`], bit for bit its `generate_ray`; it draws no lens
+/// sample), every other camera and the tail through `Camera::sample_ray` per path.
+fn camera_rays(scene: &Scene, kernels: &Kernels, batch: &mut Batch) {
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if let (Some(avx), crate::camera::Camera::Perspective(c)) = (kernels.avx, &scene.camera) {
+        let (pos, rays) = (&batch.pos, &mut batch.ray);
+        avx.run(
+            #[inline(always)]
+            || {
+                let o = c.position();
+                for pos in pos.chunks_exact(8) {
+                    let x = avx.load(&core::array::from_fn(|k| pos[k].x));
+                    let y = avx.load(&core::array::from_fn(|k| pos[k].y));
+                    let (d, tmin, tmax) = c.ray_lanes(x, y);
+                    let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
+                    let (t0, t1) = (tmin.to_array(), tmax.to_array());
+                    for k in 0..8 {
+                        rays.push(Ray {
+                            o,
+                            d: glam::Vec3::new(dx[k], dy[k], dz[k]),
+                            tmin: t0[k],
+                            tmax: t1[k],
+                        });
+                    }
+                }
+            },
+        );
+        done = batch.ray.len();
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = kernels;
+    let (pos, sampler) = (&batch.pos[done..], &mut batch.sampler[done..]);
+    for (p, smp) in pos.iter().zip(sampler) {
+        batch.ray.push(scene.camera.sample_ray(*p, smp));
+    }
 }
 
 /// The splat: every path's radiance (0 for a non-finite one, counted in `invalid`) to the
@@ -454,19 +519,7 @@ fn run_batch(
         );
 
         // Emission; the paths that scatter go on to the shading stage.
-        batch.scatter.clear();
-        for &i in &batch.active {
-            let i = i as usize;
-            let ray = &batch.ray[i];
-            let si = batch.hit[i].map(|_| batch.surf.get(i));
-            batch.alive[i] = false;
-            if batch.state[i].add_emission(cfg, scene, ray, si.as_ref()) {
-                if let Some(si) = si {
-                    batch.material[i] = scene.shape_material[si.shape as usize];
-                    batch.scatter.push(i as u32);
-                }
-            }
-        }
+        emit(scene, cfg, batch, kernels, &mut scratch.rays.counters.lanes);
 
         // Shading, material by material in the stable order.
         batch.sort_by_material();
@@ -495,6 +548,43 @@ fn run_batch(
         );
 
         batch.compact();
+    }
+}
+
+/// The emission stage: what each active path's ray sees, added to its radiance (8 paths at a
+/// time in lanes with AVX2, [`emission`]; else, and for what the lanes do not cover, lane by
+/// lane through [`crate::integrator::path::PathState::add_emission`]); every active path is
+/// marked not alive, and the paths that scatter at their hit are listed in `batch.scatter`
+/// (ascending) with their material.
+fn emit(
+    scene: &Scene,
+    cfg: &PathSettings,
+    batch: &mut Batch,
+    kernels: &Kernels,
+    lanes: &mut LaneCounters,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx) = kernels.avx {
+        let lights = &kernels.emission;
+        lanes.emission_lanes += avx.run(
+            #[inline(always)]
+            || emission::x8::stage(avx, scene, cfg, lights, batch),
+        );
+        return;
+    }
+    let _ = (kernels, lanes);
+    batch.scatter.clear();
+    for &i in &batch.active {
+        let i = i as usize;
+        let ray = &batch.ray[i];
+        let si = batch.hit[i].map(|_| batch.surf.get(i));
+        batch.alive[i] = false;
+        if batch.state[i].add_emission(cfg, scene, ray, si.as_ref()) {
+            if let Some(si) = si {
+                batch.material[i] = scene.shape_material[si.shape as usize];
+                batch.scatter.push(i as u32);
+            }
+        }
     }
 }
 

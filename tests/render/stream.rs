@@ -1085,3 +1085,53 @@ fn stream_equals_scalar_with_disks_and_instances_in_lanes() {
         );
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Issue 18 (session 11, h3): the render loop around the kernels in lanes: the emission stage
+// (`stream::emission`).
+// ---------------------------------------------------------------------------------------------
+
+/// The emission stage in lanes (constant environment lights for escaped rays, area lights of
+/// constant radiance on meshes and rectangles; spheres and textured lights lane by lane): the
+/// scalar image at 1, 2, 3 and 7 threads on the Cornell box (a mesh light seen directly and by
+/// BSDF samples), `stream_lights.xml` (rectangle lights, a flipped one, sphere lights),
+/// `stream_emitters.xml` (a constant environment, a rectangle light, delta lights) and metal_plastic (a constant environment and a
+/// rectangle light), each under the settings that change the weight (light-only and BSDF-only
+/// strategies, hidden emitters, max_depth 1 and 2); and the stage computed paths in lanes in
+/// each but max_depth 1 (a silent fallback to `add_emission` cannot pass).
+#[test]
+fn stream_equals_scalar_where_emission_runs_in_lanes() {
+    use groove::integrator::Strategy;
+    for name in [
+        scene("scenes/cornell/cbox-rgb.xml"),
+        test_scene("stream_lights.xml"),
+        test_scene("stream_emitters.xml"),
+        scene("scenes/bench/metal_plastic.xml"),
+    ] {
+        let label = name.display().to_string();
+        type Edit = (&'static str, fn(&mut PathSettings));
+        let edits: [Edit; 6] = [
+            ("as written", |_| {}),
+            ("light only", |p| p.strategy = Strategy::LightOnly),
+            ("bsdf only", |p| p.strategy = Strategy::BsdfOnly),
+            ("hidden emitters", |p| p.hide_emitters = true),
+            ("max_depth 1", |p| p.max_depth = 1),
+            ("max_depth 2", |p| p.max_depth = 2),
+        ];
+        for (what, edit) in edits {
+            let mut l = load(&name, "as_written");
+            let IntegratorDesc::Path(mut p) = l.settings.integrator else {
+                unreachable!("a path scene")
+            };
+            edit(&mut p);
+            l.settings.integrator = IntegratorDesc::Path(p);
+            let lanes = assert_identical(&l, &format!("{label}, {what}"), 2);
+            // At max_depth 1 only camera rays see emitters, and the Cornell box's centre
+            // window sees none.
+            assert!(
+                lanes.emission_lanes > 0 || what == "max_depth 1",
+                "{label}, {what}: no emission in lanes: {lanes:?}"
+            );
+        }
+    }
+}
