@@ -775,17 +775,18 @@ mod tests {
     /// `material::patch_scalar` sets it).
     fn textured(leaf: Leaf, wi: Vec3, wo: Vec3) -> Leaf {
         let (c0, c1) = (rho_of(wi, wo), Vec3::new(0.3 + 0.6 * wo.x.abs(), 0.8, 0.5));
-        let a = 0.02 + 0.6 * wi.y.abs();
+        let (a, a2) = (
+            0.02 + 0.6 * wi.y.abs(),
+            0.02 + 0.3 * wi.y.abs() + 0.1 * wo.z.abs(),
+        );
+        // The roughness (au, av) as a texture sets it.
+        let rough = |d: MicrofacetDistribution, au, av| {
+            MicrofacetDistribution::anisotropic(d.kind, au, av, d.sample_visible)
+        };
         match leaf {
             Leaf::Rough(mut b) => {
                 b.specular_reflectance = c0;
-                let d = b.distribution;
-                b.distribution = MicrofacetDistribution::anisotropic(
-                    d.kind,
-                    a,
-                    0.5 * a + 0.1 * wo.z.abs(),
-                    d.sample_visible,
-                );
+                b.distribution = rough(b.distribution, a, a2);
                 Leaf::Rough(b)
             }
             Leaf::Smooth(mut b) => {
@@ -810,13 +811,7 @@ mod tests {
             }
             Leaf::RoughDielectric(mut b) => {
                 (b.specular_reflectance, b.specular_transmittance) = (c0, c1);
-                let d = b.distribution;
-                b.distribution = MicrofacetDistribution::anisotropic(
-                    d.kind,
-                    0.5 * a + 0.1 * wo.z.abs(),
-                    a,
-                    d.sample_visible,
-                );
+                b.distribution = rough(b.distribution, a2, a);
                 Leaf::RoughDielectric(b)
             }
             Leaf::Diffuse(_) => leaf,
