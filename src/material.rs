@@ -425,7 +425,10 @@ impl Materials {
             MaterialNode::Leaf { template, slots } => {
                 // Copied once, into the arena, and patched there.
                 let id = arena.push_with_lobes(lobes, **template);
-                self.patch_leaf(arena.node_mut(id), slots, at);
+                // A constant leaf (most of them) skips the call: `patch_leaf` is out of line.
+                if !slots.is_empty() {
+                    self.patch_leaf(arena.node_mut(id), slots, at);
+                }
                 id
             }
             MaterialNode::TwoSided { front, back } => {

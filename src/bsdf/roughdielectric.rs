@@ -75,6 +75,18 @@ fn splat3<L: Lane>(like: L, v: Vec3) -> V3<L> {
     V3::splat(like, v.x, v.y, v.z)
 }
 
+/// The parameters a texture may set, per lane: the stream kernel's textured leaf gathers them
+/// (`Materials::patch_leaf`'s values: the roughness clamped by
+/// `MicrofacetDistribution::anisotropic`); the other forms splat the constants
+/// ([`RoughDielectric::params_lanes`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Params<L: Lane> {
+    pub specular_reflectance: V3<L>,
+    pub specular_transmittance: V3<L>,
+    /// The distribution (its kind and `sample_visible` are the material's).
+    pub distribution: Microfacet<L>,
+}
+
 /// The generalised half vector of a pair (Walter et al. 2007, eq. 16), per lane.
 #[derive(Clone, Copy, Debug)]
 struct Half<L: Lane> {
@@ -105,17 +117,21 @@ impl RoughDielectric {
         }
     }
 
-    /// The distribution with its parameters in every lane (the width of `like`).
+    /// The constant parameters in every lane (the width of `like`).
     #[inline(always)]
-    fn microfacet<L: Lane>(&self, like: L) -> Microfacet<L> {
-        self.distribution.splat_lanes(like)
+    pub(crate) fn params_lanes<L: Lane>(&self, like: L) -> Params<L> {
+        Params {
+            specular_reflectance: splat3(like, self.specular_reflectance),
+            specular_transmittance: splat3(like, self.specular_transmittance),
+            distribution: self.distribution.splat_lanes(like),
+        }
     }
 
     /// The distribution `sample` draws from for this `wi` (per lane: without visible-normal
     /// sampling the roughness is widened by 1.2 − 0.2 √|cos θi|, Walter et al. 2007, §5.3).
     #[inline(always)]
-    fn sampling_distribution<L: Lane>(&self, cos_theta_i: L) -> Microfacet<L> {
-        let d = self.microfacet(cos_theta_i);
+    fn sampling_distribution<L: Lane>(&self, p: &Params<L>, cos_theta_i: L) -> Microfacet<L> {
+        let d = p.distribution;
         if d.sample_visible {
             return d;
         }
@@ -151,7 +167,7 @@ impl RoughDielectric {
     /// [`Self::eval_pdf_lanes`]' value alone: the width-8 form of [`Self::eval`].
     #[inline(always)]
     pub(crate) fn eval_lanes<L: Lane>(&self, mode: TransportMode, wi: V3<L>, wo: V3<L>) -> V3<L> {
-        self.valued(mode, wi, wo).1
+        self.valued(&self.params_lanes(wi.z), mode, wi, wo).1
     }
 
     /// The half vector, f · |cos θo| (0 where the pair is unusable or D(h) = 0), and the
@@ -160,18 +176,19 @@ impl RoughDielectric {
     #[allow(clippy::type_complexity)]
     fn valued<L: Lane>(
         &self,
+        p: &Params<L>,
         mode: TransportMode,
         wi: V3<L>,
         wo: V3<L>,
     ) -> (Half<L>, V3<L>, L, L, L) {
         let k = |c: f32| wi.z.splat(c);
         let hv = self.half_vector(wi, wo);
-        let dist = self.microfacet(wi.z);
+        let dist = p.distribution;
         let d = dist.eval(hv.h);
         let f = lane_dielectric(wi.dot(hv.h), k(self.eta)).r;
         // G1 is even in its direction argument, so G1(wi, h) also serves the flipped wi of the pdf.
         let g1i = dist.smith_g1(wi, hv.h);
-        let v = self.value(mode, wi, wo, &hv, f, d, g1i);
+        let v = self.value(p, mode, wi, wo, &hv, f, d, g1i);
         let zero = V3::new(k(0.0), k(0.0), k(0.0));
         (hv, V3::select(hv.ok & !d.eq(k(0.0)), v, zero), f, d, g1i)
     }
@@ -182,7 +199,7 @@ impl RoughDielectric {
         let k = |c: f32| wi.z.splat(c);
         let hv = self.half_vector(wi, wo);
         let f = lane_dielectric(wi.dot(hv.h), k(self.eta)).r;
-        let p = self.density(wi, wo, &hv, f, None);
+        let p = self.density(&self.params_lanes(wi.z), wi, wo, &hv, f, None);
         L::select(hv.ok, p, k(0.0))
     }
 
@@ -196,10 +213,22 @@ impl RoughDielectric {
         wi: V3<L>,
         wo: V3<L>,
     ) -> (V3<L>, L) {
+        self.eval_pdf_with(&self.params_lanes(wi.z), mode, wi, wo)
+    }
+
+    /// [`Self::eval_pdf_lanes`] with the textured parameters `p` per lane.
+    #[inline(always)]
+    pub(crate) fn eval_pdf_with<L: Lane>(
+        &self,
+        p: &Params<L>,
+        mode: TransportMode,
+        wi: V3<L>,
+        wo: V3<L>,
+    ) -> (V3<L>, L) {
         let k = |c: f32| wi.z.splat(c);
-        let (hv, value, f, d, g1i) = self.valued(mode, wi, wo);
-        let p = self.density(wi, wo, &hv, f, Some((d, g1i)));
-        (value, L::select(hv.ok, p, k(0.0)))
+        let (hv, value, f, d, g1i) = self.valued(p, mode, wi, wo);
+        let pdf = self.density(p, wi, wo, &hv, f, Some((d, g1i)));
+        (value, L::select(hv.ok, pdf, k(0.0)))
     }
 
     /// f·|cos θo| for the half vector `hv`, Fresnel reflectance `f`, D(h) = `d` and
@@ -208,6 +237,7 @@ impl RoughDielectric {
     #[inline(always)]
     fn value<L: Lane>(
         &self,
+        p: &Params<L>,
         mode: TransportMode,
         wi: V3<L>,
         wo: V3<L>,
@@ -216,30 +246,31 @@ impl RoughDielectric {
         d: L,
         g1i: L,
     ) -> V3<L> {
-        let g = g1i * self.microfacet(wi.z).smith_g1(wo, hv.h);
+        let g = g1i * p.distribution.smith_g1(wo, hv.h);
         // Fast path at width 1: the lane's branch alone (the select would keep it alone; −7 %
         // of the scalar `eval_pdf` instructions on glass). Width 8 computes both and selects:
         // branching on chunks whose lanes all take one branch cost more than it saved there
         // (`docs/bench/README.md`, "Issue 18: direct, textured lights, mixed kinds").
         if L::WIDTH == 1 && hv.reflect.all() {
-            self.reflection_value(wi, f, d, g)
+            self.reflection_value(p, wi, f, d, g)
         } else if L::WIDTH == 1 && !hv.reflect.any() {
-            self.refraction_value(mode, wi, wo, hv, f, d, g)
+            self.refraction_value(p, mode, wi, wo, hv, f, d, g)
         } else {
-            let r = self.reflection_value(wi, f, d, g);
+            let r = self.reflection_value(p, wi, f, d, g);
             V3::select(
                 hv.reflect,
                 r,
-                self.refraction_value(mode, wi, wo, hv, f, d, g),
+                self.refraction_value(p, mode, wi, wo, hv, f, d, g),
             )
         }
     }
 
     /// f·|cos θo| of a reflection pair (Walter et al. 2007, eq. 20; `g` = G(wi, wo, h)).
     #[inline(always)]
-    fn reflection_value<L: Lane>(&self, wi: V3<L>, f: L, d: L, g: L) -> V3<L> {
+    fn reflection_value<L: Lane>(&self, p: &Params<L>, wi: V3<L>, f: L, d: L, g: L) -> V3<L> {
         let k = |c: f32| wi.z.splat(c);
-        splat3(f, self.specular_reflectance).scale(f * d * g / (k(4.0) * wi.z.abs()))
+        p.specular_reflectance
+            .scale(f * d * g / (k(4.0) * wi.z.abs()))
     }
 
     /// f·|cos θo| of a refraction pair (Walter et al. 2007, eq. 21; 0 where not finite).
@@ -247,6 +278,7 @@ impl RoughDielectric {
     #[inline(always)]
     fn refraction_value<L: Lane>(
         &self,
+        p: &Params<L>,
         mode: TransportMode,
         wi: V3<L>,
         wo: V3<L>,
@@ -267,7 +299,7 @@ impl RoughDielectric {
             ((k(1.0) - f) * d * g * eta * eta * dih * doh * scale / (wi.z * denom * denom)).abs();
         V3::select(
             v.is_finite(),
-            splat3(f, self.specular_transmittance).scale(v),
+            p.specular_transmittance.scale(v),
             V3::new(k(0.0), k(0.0), k(0.0)),
         )
     }
@@ -278,6 +310,7 @@ impl RoughDielectric {
     #[inline(always)]
     fn density<L: Lane>(
         &self,
+        p: &Params<L>,
         wi: V3<L>,
         wo: V3<L>,
         hv: &Half<L>,
@@ -302,7 +335,7 @@ impl RoughDielectric {
                 k(0.0),
                 d * g1i * wi_up.dot(h).abs() / wi_up.z,
             ),
-            _ => self.sampling_distribution(wi.z).pdf(wi_up, h),
+            _ => self.sampling_distribution(p, wi.z).pdf(wi_up, h),
         };
         let p = pm * L::select(hv.reflect, f, k(1.0) - f) * dh_dwo.abs();
         L::select(p.is_finite(), p, k(0.0))
@@ -321,9 +354,22 @@ impl RoughDielectric {
         u1: L,
         u2: V2<L>,
     ) -> (LaneBsdfSample<L>, L, L::Mask) {
+        self.sample_with(&self.params_lanes(wi.z), mode, wi, u1, u2)
+    }
+
+    /// [`Self::sample_lanes`] with the textured parameters `p` per lane.
+    #[inline(always)]
+    pub(crate) fn sample_with<L: Lane>(
+        &self,
+        p: &Params<L>,
+        mode: TransportMode,
+        wi: V3<L>,
+        u1: L,
+        u2: V2<L>,
+    ) -> (LaneBsdfSample<L>, L, L::Mask) {
         let k = |c: f32| wi.z.splat(c);
         let ci = wi.z;
-        let sd = self.sampling_distribution(ci);
+        let sd = self.sampling_distribution(p, ci);
         let wi_up = flip_to_upper(wi);
         let m = sd.sample_normal(wi_up, u2);
         let pm = sd.pdf(wi_up, m);
@@ -332,12 +378,12 @@ impl RoughDielectric {
         // Fast path at width 1: the lane's branch alone (the selects would keep it alone; −4 %
         // of the scalar `sample` instructions on glass); width 8 computes both (see `value`).
         let (wo, pdf, mut weight) = if L::WIDTH == 1 && reflect.all() {
-            self.reflected(wi, m, pm, &fr)
+            self.reflected(p, wi, m, pm, &fr)
         } else if L::WIDTH == 1 && !reflect.any() {
-            self.refracted(mode, wi, m, pm, &fr)
+            self.refracted(p, mode, wi, m, pm, &fr)
         } else {
-            let (wo_r, pdf_r, w_r) = self.reflected(wi, m, pm, &fr);
-            let (wo_t, pdf_t, w_t) = self.refracted(mode, wi, m, pm, &fr);
+            let (wo_r, pdf_r, w_r) = self.reflected(p, wi, m, pm, &fr);
+            let (wo_t, pdf_t, w_t) = self.refracted(p, mode, wi, m, pm, &fr);
             (
                 V3::select(reflect, wo_r, wo_t),
                 L::select(reflect, pdf_r, pdf_t),
@@ -346,7 +392,7 @@ impl RoughDielectric {
         };
         let side = L::select(reflect, ci * wo.z, -ci * wo.z).gt(k(0.0));
         // With F / (1 − F) as the lobe choice the Fresnel factor cancels.
-        let dist = self.microfacet(ci);
+        let dist = p.distribution;
         let w = if dist.sample_visible {
             dist.smith_g1(wo, m)
         } else {
@@ -369,6 +415,7 @@ impl RoughDielectric {
     #[inline(always)]
     fn reflected<L: Lane>(
         &self,
+        p: &Params<L>,
         wi: V3<L>,
         m: V3<L>,
         pm: L,
@@ -377,7 +424,7 @@ impl RoughDielectric {
         let k = |c: f32| wi.z.splat(c);
         let wo = m.scale(k(2.0) * wi.dot(m)) - wi;
         let pdf = pm * fr.r / (k(4.0) * wo.dot(m)).abs();
-        (wo, pdf, splat3(pm, self.specular_reflectance))
+        (wo, pdf, p.specular_reflectance)
     }
 
     /// The refraction of `wi` through the facet normal `m` (fresnel::refract:
@@ -385,6 +432,7 @@ impl RoughDielectric {
     #[inline(always)]
     fn refracted<L: Lane>(
         &self,
+        p: &Params<L>,
         mode: TransportMode,
         wi: V3<L>,
         m: V3<L>,
@@ -400,11 +448,7 @@ impl RoughDielectric {
             TransportMode::Radiance => fr.eta_ti * fr.eta_ti,
             TransportMode::Importance => k(1.0),
         };
-        (
-            wo,
-            pdf,
-            splat3(pm, self.specular_transmittance).scale(scale),
-        )
+        (wo, pdf, p.specular_transmittance.scale(scale))
     }
 
     /// [`Self::eval_lanes`] at width 1.

@@ -16,8 +16,8 @@
 //!    Russian roulette. A run of ≥ 8 paths of a material with an 8-wide kernel (chosen per
 //!    material at load, [`Kernel`]: `diffuse`, [`kernels::diffuse`]; `roughconductor` and
 //!    `conductor`, the three dielectrics, `plastic`/`roughplastic` leaves and `diffuse` leaves
-//!    (textured parameters included, but a textured `roughdielectric`), under
-//!    `twosided`/classic `normalmap`/`bumpmap`, [`kernels::conductor`]; bare `plastic`/`roughplastic`,
+//!    (textured parameters included), under `twosided`/classic `normalmap`/`bumpmap`/`mask`,
+//!    [`kernels::conductor`]; `blendbsdf` has no kernel yet; bare `plastic`/`roughplastic`,
 //!    [`kernels::plastic`]; the compensated microfacet normal map, [`kernels::mnm`]) goes 8 at a
 //!    time through it (AVX2 machines); every other material, a run's last < 8 paths and a
 //!    machine without AVX2 go through the 1-lane code lane by lane
@@ -272,7 +272,7 @@ enum Kernel {
     Diffuse(crate::material::TexId, bool),
     /// `roughconductor` or `conductor`, bare or under `twosided`, classic `normalmap` and
     /// `bumpmap`, `plastic`, `roughplastic` and `diffuse` under them, and `dielectric`,
-    /// `roughdielectric` (constant), `thindielectric`, bare or under them; parameters may be
+    /// `roughdielectric`, `thindielectric`, bare or under them; parameters may be
     /// textured ([`kernels::conductor`]).
     Conductor(kernels::conductor::Material),
     /// `plastic` or `roughplastic`, bare (reflectances gathered per lane; [`kernels::plastic`]).
@@ -689,22 +689,7 @@ fn shade_kernel(
             use kernels::vertex::x8;
             avx.run(
                 #[inline(always)]
-                || {
-                    let mut gather = kernels::light::x8::Gather::new();
-                    for c in chunks {
-                        let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
-                        x8::shade(
-                            avx,
-                            scene,
-                            cfg,
-                            batch,
-                            &ids,
-                            &mat,
-                            &kernels.lights,
-                            &mut gather,
-                        );
-                    }
-                },
+                || x8::shade_run(avx, scene, cfg, batch, chunks, &mat, &kernels.lights),
             );
             (n, true)
         }

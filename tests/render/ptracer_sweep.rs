@@ -174,6 +174,11 @@ const SCENES: &[(&str, Entry)] = &[
     ("stream_plastic.xml", Exclude(Specular("plastic"))),
     // Its wrapper-chain driver around plastic leaves: smooth `plastic` under normal maps.
     ("stream_plastics_wrapped.xml", Exclude(Specular("plastic"))),
+    // Its wrapper-chain driver around textured rough dielectrics: classic normal map.
+    (
+        "stream_rough_glass_textured.xml",
+        Exclude(Classic("normalmap")),
+    ),
     // The stream renderer's surface interactions in lanes (tests/render/stream.rs).
     ("stream_surfaces.xml", Compare(NONE, Nm::AsWritten, 1)),
     // Its driver around textured leaves: a smooth `conductor` sphere in view.

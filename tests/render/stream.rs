@@ -1135,3 +1135,23 @@ fn stream_equals_scalar_where_emission_runs_in_lanes() {
         }
     }
 }
+
+// ---- The driver's materials (issue 18, eleventh session, h4) ----
+
+/// A `roughdielectric` with textured parameters (`tests/data/scenes/stream_rough_glass_textured.xml`:
+/// bitmap `alpha`, `alpha_u` and `alpha_v`, a checkerboard `alpha`, textured reflectance and
+/// transmittance; GGX and Beckmann, visible-normal sampling on and off; bare, under `twosided`
+/// with an index below the outside's, under a normal map) runs in the driver: the scalar image
+/// at 1, 2, 3 and 7 threads, with ≥ 85 % of the shaded paths in the driver.
+#[test]
+fn stream_equals_scalar_where_textured_rough_glass_runs_in_lanes() {
+    assert_in_the_driver("stream_rough_glass_textured.xml");
+}
+
+/// The textured rough dielectrics under the settings that change what a vertex does: the
+/// light-only and BSDF-only strategies, Russian roulette from the first bounce, the stratified
+/// sampler.
+#[test]
+fn stream_equals_scalar_for_textured_rough_glass_under_every_setting() {
+    assert_driver_under_every_setting("stream_rough_glass_textured");
+}

@@ -10,10 +10,14 @@
 //! `front == back`, `normalmap`, `bumpmap`) around a `diffuse` leaf, or a `roughconductor`,
 //! `conductor`, `plastic`, `roughplastic`, `dielectric`, `roughdielectric` or `thindielectric`
 //! leaf. A leaf's parameters may be textured (`Leaf::takes`: colours, and the rough
-//! conductor's roughness; at most [`MAX_SLOTS`]): the driver patches the leaf's template per
-//! lane as `Materials::build_at` does and hands the values to the lane forms as [`Params`]. A
-//! textured `roughdielectric` has no kernel: such a material is shaded lane by lane, as every
-//! material without a kernel, and its paths show in `LaneCounters::shade_used − kernel_lanes`.
+//! conductor's and rough dielectric's roughness; at most [`MAX_SLOTS`]): the driver patches the
+//! leaf's template per lane as `Materials::build_at` does and hands the values to the lane forms
+//! as [`Params`] (`RoughDielectric::*_with` take them as `roughdielectric::Params`). A constant
+//! leaf's [`Params`] are built once per run of the material, from the template; a chain without
+//! textured leaf parameters, `mask` or `bumpmap` runs the driver's lighter instance
+//! (`Material::full`). `blendbsdf` has no kernel: such a material is shaded lane by lane, as
+//! every material without a kernel, and its paths show in `LaneCounters::shade_used −
+//! kernel_lanes`.
 //! The wrappers' texture lookups (a normal map's colour, a bump map's height gradient and
 //! `bsdf::bumpmap::perturbed_normal`) are done lane by lane; their perturbed frames (`normalmap`
 //! and `bumpmap` are both Mitsuba's `PerturbedBSDF`), the side tests and the BSDF in lanes
@@ -36,8 +40,10 @@
 //! crossings' η²).
 
 use crate::bsdf::lanes::LaneBsdfSample;
+use crate::bsdf::microfacet::MicrofacetDistribution;
 use crate::bsdf::normalmap::lanes as nmap;
 use crate::bsdf::plastic::splat3;
+use crate::bsdf::roughdielectric;
 use crate::bsdf::{
     BsdfNode, Conductor, Dielectric, Diffuse, Plastic, RoughConductor, RoughDielectric,
     RoughPlastic, ThinDielectric, TransportMode,
@@ -140,17 +146,29 @@ impl Leaf {
             Leaf::RoughPlastic(b) => (b.diffuse_reflectance, b.specular_reflectance, 0.0, 0.0),
             Leaf::Dielectric(b) => (b.specular_reflectance, b.specular_transmittance, 0.0, 0.0),
             Leaf::ThinDielectric(b) => (b.specular_reflectance, b.specular_transmittance, 0.0, 0.0),
-            Leaf::RoughDielectric(_) | Leaf::Diffuse(_) => (z, z, 0.0, 0.0),
+            Leaf::RoughDielectric(b) => {
+                let d = &b.distribution;
+                let (r, t) = (b.specular_reflectance, b.specular_transmittance);
+                (r, t, d.alpha_u, d.alpha_v)
+            }
+            Leaf::Diffuse(_) => (z, z, 0.0, 0.0),
         }
     }
 
-    /// The lane form takes these textured slots per lane ([`Params`]; a rough dielectric's
-    /// textured parameters have no lane form here: such a material is shaded lane by lane).
+    /// The lane form takes these textured slots per lane ([`Params`]).
     fn takes(&self, slot: Slot) -> bool {
         match self {
             Leaf::Rough(_) => matches!(
                 slot,
                 Slot::SpecularReflectance | Slot::Alpha | Slot::AlphaU | Slot::AlphaV
+            ),
+            Leaf::RoughDielectric(_) => matches!(
+                slot,
+                Slot::SpecularReflectance
+                    | Slot::SpecularTransmittance
+                    | Slot::Alpha
+                    | Slot::AlphaU
+                    | Slot::AlphaV
             ),
             Leaf::Smooth(_) => slot == Slot::SpecularReflectance,
             Leaf::Plastic(_) | Leaf::RoughPlastic(_) => {
@@ -162,7 +180,7 @@ impl Leaf {
                     Slot::SpecularReflectance | Slot::SpecularTransmittance
                 )
             }
-            Leaf::RoughDielectric(_) | Leaf::Diffuse(_) => false,
+            Leaf::Diffuse(_) => false,
         }
     }
 }
@@ -298,6 +316,23 @@ impl Material {
         &self.slots[..self.n_slots]
     }
 
+    /// The chain needs the driver's full instance (`vertex::x8::shade`'s `FULL`): textured leaf
+    /// parameters, a `mask` or a `bumpmap`, whose lookups take the whole interaction.
+    #[inline(always)]
+    pub(crate) fn full(&self) -> bool {
+        self.n_slots > 0
+            || self.wraps().iter().any(|w| {
+                matches!(
+                    w,
+                    Wrap::Mask { .. }
+                        | Wrap::NormalMap {
+                            normal: Normal::Bump { .. },
+                            ..
+                        }
+                )
+            })
+    }
+
     /// The `mask` wrapper's opacity texture, if it has one.
     #[inline(always)]
     pub(crate) fn mask(&self) -> Option<TexId> {
@@ -362,14 +397,24 @@ impl Material {
     }
 }
 
-/// The rough conductor's distribution with the roughness of `p` per lane.
+/// A rough leaf's distribution `d` with the roughness of `p` per lane.
 #[inline(always)]
-fn microfacet<L: Lane>(b: &RoughConductor, p: &Params<L>) -> Microfacet<L> {
+fn microfacet<L: Lane>(d: &MicrofacetDistribution, p: &Params<L>) -> Microfacet<L> {
     Microfacet {
-        kind: b.distribution.kind,
+        kind: d.kind,
         alpha_u: p.alpha_u,
         alpha_v: p.alpha_v,
-        sample_visible: b.distribution.sample_visible,
+        sample_visible: d.sample_visible,
+    }
+}
+
+/// The rough dielectric's parameters per lane (`p`: reflectance, transmittance, roughness).
+#[inline(always)]
+fn rough_dielectric<L: Lane>(b: &RoughDielectric, p: &Params<L>) -> roughdielectric::Params<L> {
+    roughdielectric::Params {
+        specular_reflectance: p.c0,
+        specular_transmittance: p.c1,
+        distribution: microfacet(&b.distribution, p),
     }
 }
 
@@ -397,14 +442,18 @@ fn valid<L: Lane>(s: &LaneBsdfSample<L>) -> L::Mask {
 /// leaf's parameters per lane: the
 /// wrappers' `eval_pdf` (`bsdf::twosided`, `bsdf::normalmap`) down to the leaf's lane form and
 /// the shadowing terms back up, innermost first. 0 where a normal map rejects `wo`.
+///
+/// `MASK` false says that `mat` has no `mask` wrapper (`Material::mask`): the driver picks the
+/// instance once per run of a material, so that a chain without a mask carries no opacity.
 #[inline(always)]
-pub(crate) fn eval_pdf<L: Lane>(
+pub(crate) fn eval_pdf<L: Lane, const MASK: bool>(
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
     p: &Params<L>,
     wi: V3<L>,
     wo: V3<L>,
 ) -> (V3<L>, L) {
+    debug_assert!(MASK || mat.mask().is_none());
     let k = |c: f32| wi.z.splat(c);
     let (mut wi, mut wo) = (wi, wo);
     let mut reject = k(0.0).ne(k(0.0));
@@ -434,13 +483,15 @@ pub(crate) fn eval_pdf<L: Lane>(
         }
     }
     let (mut f, mut pdf) = match &mat.leaf {
-        Leaf::Rough(b) => b.eval_pdf_with(p.c0, &microfacet(b, p), wi, wo),
+        Leaf::Rough(b) => b.eval_pdf_with(p.c0, &microfacet(&b.distribution, p), wi, wo),
         Leaf::Smooth(b) => b.eval_pdf_lanes(wi, wo),
         Leaf::Plastic(b) => b.eval_pdf_with(p.c0, wi, wo),
         Leaf::RoughPlastic(b) => b.eval_pdf_with(p.c0, p.c1, wi, wo),
         Leaf::Diffuse(_) => Diffuse::eval_pdf_with(p.c0, wi, wo),
         // The path integrator's context: radiance transport.
-        Leaf::RoughDielectric(b) => b.eval_pdf_lanes(TransportMode::Radiance, wi, wo),
+        Leaf::RoughDielectric(b) => {
+            b.eval_pdf_with(&rough_dielectric(b, p), TransportMode::Radiance, wi, wo)
+        }
         Leaf::Dielectric(b) => b.eval_pdf_lanes(wi, wo),
         Leaf::ThinDielectric(b) => b.eval_pdf_lanes(wi, wo),
     };
@@ -454,12 +505,12 @@ pub(crate) fn eval_pdf<L: Lane>(
                     f = f.scale(s);
                 }
             }
-            Wrap::Mask { .. } => {
+            Wrap::Mask { .. } if MASK => {
                 let gone = p.opacity.le(k(0.0));
                 f = V3::select(gone, zero, f.scale(p.opacity));
                 pdf = L::select(gone, k(0.0), p.opacity * pdf);
             }
-            Wrap::TwoSided => {}
+            Wrap::TwoSided | Wrap::Mask { .. } => {}
         }
     }
     f = V3::select(reject, zero, f);
@@ -474,8 +525,9 @@ pub(crate) fn eval_pdf<L: Lane>(
 /// through a delta lobe (all for `conductor`, `dielectric` and `thindielectric`, those that
 /// chose the specular lobe for `plastic`, none otherwise) and the relative index η of each
 /// lane's crossing (`BsdfSample::eta`: 1 but where a dielectric refracted).
+/// `MASK` as in [`eval_pdf`].
 #[inline(always)]
-pub(crate) fn sample<L: Lane>(
+pub(crate) fn sample<L: Lane, const MASK: bool>(
     mat: &Material,
     normals: &[V3<L>; MAX_WRAPS],
     p: &Params<L>,
@@ -483,6 +535,7 @@ pub(crate) fn sample<L: Lane>(
     u1: L,
     u2: V2<L>,
 ) -> (LaneBsdfSample<L>, L::Mask, L) {
+    debug_assert!(MASK || mat.mask().is_none());
     let k = |c: f32| wi.z.splat(c);
     let mut wi = wi;
     let none = k(0.0).ne(k(0.0));
@@ -507,13 +560,18 @@ pub(crate) fn sample<L: Lane>(
                 frames[j] = nmap::frame(normals[j], flip_invalid_normals, wi);
                 wi = frames[j].to_local(wi);
             }
-            Wrap::Mask { .. } => at[j] = wi,
+            Wrap::Mask { .. } if MASK => at[j] = wi,
+            Wrap::Mask { .. } => {}
         }
     }
     let all = k(0.0).eq(k(0.0));
     let one = k(1.0);
     let (mut s, mut delta, mut eta) = match &mat.leaf {
-        Leaf::Rough(b) => (b.sample_with(p.c0, &microfacet(b, p), wi, u2), none, one),
+        Leaf::Rough(b) => (
+            b.sample_with(p.c0, &microfacet(&b.distribution, p), wi, u2),
+            none,
+            one,
+        ),
         Leaf::Smooth(b) => (b.sample_with(p.c0, wi), all, one),
         Leaf::Plastic(b) => {
             let (s, delta) = b.sample_with(p.c0, p.c1, wi, u1, u2);
@@ -526,7 +584,8 @@ pub(crate) fn sample<L: Lane>(
             (s, all, eta)
         }
         Leaf::RoughDielectric(b) => {
-            let (s, eta, _) = b.sample_lanes(TransportMode::Radiance, wi, u1, u2);
+            let q = rough_dielectric(b, p);
+            let (s, eta, _) = b.sample_with(&q, TransportMode::Radiance, wi, u1, u2);
             (s, none, eta)
         }
         Leaf::ThinDielectric(b) => (b.sample_with(p.c0, p.c1, wi, u1).0, all, one),
@@ -546,7 +605,7 @@ pub(crate) fn sample<L: Lane>(
                     s.weight = s.weight.scale(nmap::shadow_terminator(frames[j].n, wo));
                 }
             }
-            Wrap::Mask { .. } => {
+            Wrap::Mask { .. } if MASK => {
                 // bsdf::mask::sample: the nested sample with its density times the opacity, or
                 // the pass-through (`null::pass_through`: −wi, weight 1, a delta lobe, η 1).
                 let t = p.through;
@@ -557,6 +616,7 @@ pub(crate) fn sample<L: Lane>(
                 delta = delta | t;
                 eta = L::select(t, one, eta);
             }
+            Wrap::Mask { .. } => {}
         }
         s.ok = s.ok & valid(&s);
     }
@@ -573,6 +633,39 @@ mod tests {
     use crate::sampler::Sampler;
     use crate::spectrum::Spectrum;
     use glam::{Vec2, Vec3};
+
+    /// [`eval_pdf`] in the instance the driver picks for `mat`.
+    #[inline(always)]
+    fn eval_pdf_of<L: Lane>(
+        mat: &Material,
+        n: &[V3<L>; MAX_WRAPS],
+        p: &Params<L>,
+        wi: V3<L>,
+        wo: V3<L>,
+    ) -> (V3<L>, L) {
+        if mat.mask().is_some() {
+            eval_pdf::<L, true>(mat, n, p, wi, wo)
+        } else {
+            eval_pdf::<L, false>(mat, n, p, wi, wo)
+        }
+    }
+
+    /// [`sample`] in the instance the driver picks for `mat`.
+    #[inline(always)]
+    fn sample_of<L: Lane>(
+        mat: &Material,
+        n: &[V3<L>; MAX_WRAPS],
+        p: &Params<L>,
+        wi: V3<L>,
+        u1: L,
+        u2: V2<L>,
+    ) -> (LaneBsdfSample<L>, L::Mask, L) {
+        if mat.mask().is_some() {
+            sample::<L, true>(mat, n, p, wi, u1, u2)
+        } else {
+            sample::<L, false>(mat, n, p, wi, u1, u2)
+        }
+    }
 
     /// The wrapper lists tested (outermost first): none, each alone (every flag combination of
     /// the normal map), and both orders of the two.
@@ -598,7 +691,7 @@ mod tests {
         ]
     }
 
-    fn leaves() -> [Leaf; 11] {
+    fn leaves() -> [Leaf; 12] {
         let metal = |d| RoughConductor {
             distribution: d,
             eta: Spectrum::new(0.2, 0.92, 1.1),
@@ -660,6 +753,13 @@ mod tests {
                 Spectrum::new(0.9, 0.8, 1.0),
                 Spectrum::ONE,
             )),
+            Leaf::RoughDielectric(RoughDielectric::new(
+                MicrofacetDistribution::new(MicrofacetType::Beckmann, 0.3, false),
+                1.0,
+                1.33,
+                Spectrum::ONE,
+                Spectrum::new(0.7, 0.9, 0.8),
+            )),
             Leaf::ThinDielectric(ThinDielectric::default()),
         ]
     }
@@ -675,17 +775,18 @@ mod tests {
     /// `material::patch_scalar` sets it).
     fn textured(leaf: Leaf, wi: Vec3, wo: Vec3) -> Leaf {
         let (c0, c1) = (rho_of(wi, wo), Vec3::new(0.3 + 0.6 * wo.x.abs(), 0.8, 0.5));
-        let a = 0.02 + 0.6 * wi.y.abs();
+        let (a, a2) = (
+            0.02 + 0.6 * wi.y.abs(),
+            0.02 + 0.3 * wi.y.abs() + 0.1 * wo.z.abs(),
+        );
+        // The roughness (au, av) as a texture sets it.
+        let rough = |d: MicrofacetDistribution, au, av| {
+            MicrofacetDistribution::anisotropic(d.kind, au, av, d.sample_visible)
+        };
         match leaf {
             Leaf::Rough(mut b) => {
                 b.specular_reflectance = c0;
-                let d = b.distribution;
-                b.distribution = MicrofacetDistribution::anisotropic(
-                    d.kind,
-                    a,
-                    0.5 * a + 0.1 * wo.z.abs(),
-                    d.sample_visible,
-                );
+                b.distribution = rough(b.distribution, a, a2);
                 Leaf::Rough(b)
             }
             Leaf::Smooth(mut b) => {
@@ -708,7 +809,12 @@ mod tests {
                 (b.specular_reflectance, b.specular_transmittance) = (c0, c1);
                 Leaf::ThinDielectric(b)
             }
-            Leaf::RoughDielectric(_) | Leaf::Diffuse(_) => leaf,
+            Leaf::RoughDielectric(mut b) => {
+                (b.specular_reflectance, b.specular_transmittance) = (c0, c1);
+                b.distribution = rough(b.distribution, a2, a);
+                Leaf::RoughDielectric(b)
+            }
+            Leaf::Diffuse(_) => leaf,
         }
     }
 
@@ -847,7 +953,7 @@ mod tests {
                         };
                     let p1 = params1(case_values(&lc, rho), o, through);
                     let n1 = ns.map(V3::from);
-                    let (f1, q1) = eval_pdf(&mat, &n1, &p1, V3::from(wi), V3::from(wo));
+                    let (f1, q1) = eval_pdf_of(&mat, &n1, &p1, V3::from(wi), V3::from(wo));
                     assert!(
                         same3(f0, f1.into()) && same(p0, q1),
                         "{mat:?} {wi} {wo} {ns:?}"
@@ -856,7 +962,7 @@ mod tests {
                     let u1 = if mat.draws_u1() { draws.next_1d() } else { 0.0 };
                     let u2 = draws.next_2d();
                     let s0 = bsdf.sample(&ctx, wi, &mut sampler);
-                    let (s1, d1, e1) = sample(&mat, &n1, &p1, V3::from(wi), u1, V2::from(u2));
+                    let (s1, d1, e1) = sample_of(&mat, &n1, &p1, V3::from(wi), u1, V2::from(u2));
                     assert_eq!(s0.is_some(), s1.ok, "{mat:?} {wi} {ns:?}");
                     if let Some(s0) = s0 {
                         sampled += 1;
@@ -896,18 +1002,19 @@ mod tests {
                                 opacity: avx.load(&op),
                                 through: avx.mask(&th),
                             };
-                            let (f, p) = eval_pdf(&mat, &n8, &p8, wi8, wo8);
+                            let (f, p) = eval_pdf_of(&mat, &n8, &p8, wi8, wo8);
                             let u1 = avx.load(&u1);
-                            (f, p, sample(&mat, &n8, &p8, wi8, u1, load2(avx, &u)))
+                            (f, p, sample_of(&mat, &n8, &p8, wi8, u1, load2(avx, &u)))
                         });
                         let (ok, d) = (s.ok.to_array(), d.to_array());
                         for k in 0..8 {
                             let n1 = std::array::from_fn(|j| V3::from(n[j][k]));
                             let (wi1, wo1) = (V3::from(wi[k]), V3::from(wo[k]));
                             let r1 = params1(v[k], op[k], th[k]);
-                            let (f1, p1) = eval_pdf(&mat, &n1, &r1, wi1, wo1);
+                            let (f1, p1) = eval_pdf_of(&mat, &n1, &r1, wi1, wo1);
                             assert!(same3(lane3(f, k), f1.into()) && same(p.lane(k), p1));
-                            let (s1, d1, e1) = sample(&mat, &n1, &r1, wi1, u1[k], V2::from(u[k]));
+                            let (s1, d1, e1) =
+                                sample_of(&mat, &n1, &r1, wi1, u1[k], V2::from(u[k]));
                             assert!(same(e.lane(k), e1));
                             assert_eq!((ok[k], d[k]), (s1.ok, d1));
                             assert!(same3(lane3(s.wo, k), s1.wo.into()));

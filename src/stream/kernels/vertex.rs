@@ -28,9 +28,10 @@ use glam::Vec3;
 /// Next-event estimation at the material's BSDF: `nee::prepare_light` after its call to
 /// `sample_emitter` (`SurfaceBsdf::eval_pdf`'s side test, the BSDF toward the light point, the
 /// zero test), and the MIS-weighted contribution and shadow ray of `PathState::scatter`, in
-/// the operations of `diffuse::light`. `p` holds the leaf's parameters per lane.
+/// the operations of `diffuse::light`. `p` holds the leaf's parameters per lane; `MASK`: as in
+/// [`conductor::eval_pdf`].
 #[inline(always)]
-pub(crate) fn light<L: Lane>(
+pub(crate) fn light<L: Lane, const MASK: bool>(
     s: &Surface<L>,
     wi: V3<L>,
     mat: &Material,
@@ -40,7 +41,7 @@ pub(crate) fn light<L: Lane>(
     lp: &LightPoint<L>,
 ) -> LightOut<L> {
     let (wo, consistent) = light_direction(s, lp);
-    let (f, bsdf_pdf) = conductor::eval_pdf(mat, normals, p, wi, wo);
+    let (f, bsdf_pdf) = conductor::eval_pdf::<L, MASK>(mat, normals, p, wi, wo);
     light_out(s, throughput, lp, f, bsdf_pdf, consistent)
 }
 
@@ -60,9 +61,9 @@ pub(crate) struct SampleOut<L: Lane> {
 }
 
 /// The material's BSDF sample (`Bsdf::sample`), `SurfaceBsdf::sample`'s side test and
-/// `SurfaceInteraction::spawn_ray`.
+/// `SurfaceInteraction::spawn_ray`. `MASK` as in [`conductor::eval_pdf`].
 #[inline(always)]
-pub(crate) fn sample<L: Lane>(
+pub(crate) fn sample<L: Lane, const MASK: bool>(
     s: &Surface<L>,
     wi: V3<L>,
     mat: &Material,
@@ -72,7 +73,7 @@ pub(crate) fn sample<L: Lane>(
     u2: crate::lane::vec::V2<L>,
 ) -> SampleOut<L> {
     let k = |c: f32| wi.z.splat(c);
-    let (bs, delta, eta) = conductor::sample(mat, normals, p, wi, u1, u2);
+    let (bs, delta, eta) = conductor::sample::<L, MASK>(mat, normals, p, wi, u1, u2);
     let wo_world = s.frame.to_world(bs.wo);
     let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(k(0.0));
     SampleOut {
@@ -99,15 +100,22 @@ fn normal_sources(mat: &Material) -> [Option<Normal>; MAX_WRAPS] {
 
 /// The normal (shading-frame coordinates) of a perturbed-frame wrapper at `si`, as
 /// `Materials::build_at` computes it: 2·rgb − 1 of a normal map, or the bump-mapped normal of
-/// `scale` times the height's uv gradient (`bsdf::bumpmap::perturbed_normal`).
+/// `scale` times the height's uv gradient (`bsdf::bumpmap::perturbed_normal`). Bump maps take
+/// the driver's `FULL` instance (`Material::full`): without it the interaction's unused fields
+/// need not be rebuilt (+69 instructions per sample on metal_plastic when they were).
 #[inline(always)]
-fn wrapper_normal(scene: &Scene, normal: Normal, si: &SurfaceInteraction) -> Vec3 {
+fn wrapper_normal<const FULL: bool>(
+    scene: &Scene,
+    normal: Normal,
+    si: &SurfaceInteraction,
+) -> Vec3 {
     let tex = |t: TexId| &scene.materials.textures[t as usize];
     match normal {
         Normal::Map(t) => 2.0 * reflectance(scene, tex(t), si) - Vec3::ONE,
-        Normal::Bump { height, scale } => {
+        Normal::Bump { height, scale } if FULL => {
             bumpmap::perturbed_normal(si, scale * tex(height).eval_1_grad(si.uv))
         }
+        Normal::Bump { .. } => unreachable!("a bump map takes the driver's full instance"),
     }
 }
 
@@ -144,7 +152,7 @@ pub(crate) mod x8 {
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::V2;
-    use crate::lane::Avx2;
+    use crate::lane::{Avx2, F32x8};
     use crate::stream::batch::Batch;
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
@@ -152,22 +160,69 @@ pub(crate) mod x8 {
     use crate::stream::kernels::surface;
     use glam::Vec2;
 
+    /// Shades the paths `sorted[chunks]` (runs of 8, all at a surface of material `mat`) with
+    /// [`shade`], in the instance for `mat` picked once here: whether the leaf's parameters
+    /// differ per lane (`Material::per_lane`; else its constant [`Params`] are built once,
+    /// from the template) and whether the chain needs the full instance (`Material::full`:
+    /// textured leaf parameters, a `mask`, a `bumpmap`). Call inside [`Avx2::run`].
+    #[inline(always)]
+    pub(crate) fn shade_run(
+        avx: Avx2,
+        scene: &Scene,
+        cfg: &PathSettings,
+        b: &mut Batch,
+        chunks: impl Iterator<Item = usize>,
+        mat: &Material,
+        lights: &[Option<LaneLight>],
+    ) {
+        let mut gather = Gather::new();
+        let base = mat.params(avx.splat(0.0));
+        macro_rules! run {
+            ($per_lane:literal, $full:literal) => {
+                for c in chunks {
+                    let ids: [u32; 8] = b.sorted[c..c + 8].try_into().expect("8 ids");
+                    shade::<$per_lane, $full>(
+                        avx,
+                        scene,
+                        cfg,
+                        b,
+                        &ids,
+                        mat,
+                        &base,
+                        lights,
+                        &mut gather,
+                    );
+                }
+            };
+        }
+        match (mat.per_lane(), mat.full()) {
+            (false, false) => run!(false, false),
+            (false, true) => run!(false, true),
+            (true, false) => run!(true, false),
+            (true, true) => run!(true, true),
+        }
+    }
+
     /// Shades the 8 paths `ids` (all at a surface of material `mat`) as `PathState::scatter`
     /// would, one after the other; sets their pending light samples, and their next rays and
-    /// `alive` flags where they go on. Call inside [`Avx2::run`].
+    /// `alive` flags where they go on. `base` is `mat`'s constant [`Params`] (used as they are
+    /// unless `PER_LANE`, `mat.per_lane()`); `FULL` is `mat.full()` (without it the chain has
+    /// no textured leaf parameters, `mask` or `bumpmap`). Call inside [`Avx2::run`].
     #[inline(always)]
     // `!(u < o)`: `bsdf::mask::sample`'s test, negated as written there (u and o are never NaN).
     #[allow(clippy::too_many_arguments, clippy::neg_cmp_op_on_partial_ord)]
-    pub(crate) fn shade(
+    pub(crate) fn shade<const PER_LANE: bool, const FULL: bool>(
         avx: Avx2,
         scene: &Scene,
         cfg: &PathSettings,
         b: &mut Batch,
         ids: &[u32; 8],
         mat: &Material,
+        base: &Params<F32x8>,
         lights: &[Option<LaneLight>],
         gather: &mut Gather,
     ) {
+        debug_assert_eq!((PER_LANE, FULL), (mat.per_lane(), mat.full()));
         // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
         // The surfaces, their points, the incident direction and the side test.
         let surface::x8::Prologue { surf, p, wi, front } = surface::x8::prologue(avx, &b.surf, ids);
@@ -176,7 +231,10 @@ pub(crate) mod x8 {
         // (`kernels::draws`); normal maps and light points lane by lane in each path's order.
         // Under a `mask` the BSDF's numbers depend on its choice: drawn lane by lane below.
         let nee = cfg.strategy != Strategy::BsdfOnly && mat.smooth;
-        let mask_tex = mat.mask().map(|t| &scene.materials.textures[t as usize]);
+        let mask_tex = mat
+            .mask()
+            .filter(|_| FULL)
+            .map(|t| &scene.materials.textures[t as usize]);
         let draws = Draws {
             light: nee,
             u1: mat.draws_u1() && mask_tex.is_none(),
@@ -190,8 +248,9 @@ pub(crate) mod x8 {
         // leaf's reflectance, a textured leaf's slots.
         let rho_tex = mat
             .reflectance()
+            .filter(|_| PER_LANE)
             .map(|t| &scene.materials.textures[t as usize]);
-        let slots = mat.n_slots > 0;
+        let slots = FULL && mat.n_slots > 0;
         let (mut c0, mut c1) = <(Cols3, Cols3)>::default();
         let (mut au, mut av) = ([0.0f32; 8], [0.0f32; 8]);
         let mut tp = Cols3::default();
@@ -214,7 +273,7 @@ pub(crate) mod x8 {
             ));
             *n = None;
         }
-        let textured = mat.per_lane() || mask_tex.is_some() || sources.iter().any(Option::is_some);
+        let textured = PER_LANE || FULL || sources.iter().any(Option::is_some);
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
@@ -225,7 +284,7 @@ pub(crate) mod x8 {
             let si = textured.then(|| b.surf.get(i));
             for (j, n) in sources.iter().enumerate() {
                 if let (Some(n), Some(si)) = (n, &si) {
-                    normals[j].set(k, wrapper_normal(scene, *n, si));
+                    normals[j].set(k, wrapper_normal::<FULL>(scene, *n, si));
                 }
             }
             if let (Some(t), Some(si)) = (rho_tex, &si) {
@@ -274,17 +333,16 @@ pub(crate) mod x8 {
                 *n8 = x8;
             }
         }
-        let mut params = if mat.per_lane() {
+        let mut params = if PER_LANE {
             Params {
                 c0: c0.load(avx),
                 c1: c1.load(avx),
                 alpha_u: avx.load(&au),
                 alpha_v: avx.load(&av),
-                opacity: wi.z.splat(1.0),
-                through: avx.mask(&[false; 8]),
+                ..*base
             }
         } else {
-            mat.params(wi.z)
+            *base
         };
         if mask_tex.is_some() {
             params.opacity = avx.load(&opacity);
@@ -294,7 +352,7 @@ pub(crate) mod x8 {
         // features and call every 8-wide operation out of line.
         let lo = if nee {
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
-            let lo = light(&surf, wi, mat, &normals8, &params, tp.load(avx), &lp);
+            let lo = light::<_, FULL>(&surf, wi, mat, &normals8, &params, tp.load(avx), &lp);
             Some((
                 lo.ok.to_array(),
                 Cols3::store(lo.o),
@@ -305,7 +363,7 @@ pub(crate) mod x8 {
         } else {
             None
         };
-        let so = sample(
+        let so = sample::<_, FULL>(
             &surf,
             wi,
             mat,
