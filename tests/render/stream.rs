@@ -1067,3 +1067,55 @@ fn stream_equals_scalar_where_masks_run_in_lanes() {
 fn stream_equals_scalar_for_masks_under_every_setting() {
     assert_driver_under_every_setting("stream_mask");
 }
+
+// ---------------------------------------------------------------------------------------------
+// `direct` through the kernels (issue 18, eleventh session)
+// ---------------------------------------------------------------------------------------------
+
+/// `tests/data/scenes/NAME` with `-D` values.
+fn load_defined(name: &str, defines: &[(&str, &str)]) -> Loaded {
+    let opts = LoadOptions {
+        defines: defines
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect(),
+        ..Default::default()
+    };
+    let path = test_scene(name);
+    groove::load::load_scene(&path, &opts).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The `direct` integrator with one light and one BSDF sample per hit takes its samples in the
+/// 8-wide kernels (`stream::direct`'s tail) and gives the scalar image at 1, 2, 3 and 7 threads:
+/// `direct_delta.xml` with `es = 1` (a point and a rectangle light over `diffuse` and a bare
+/// rough plastic), `stream_emitters.xml` as `direct` (every kernel family, every emitter kind
+/// the kernels sample in lanes) and the Cornell box as `direct` (mesh lights). The counters show
+/// the kernels shaded (the wrapper-chain driver and another kernel on the emitter scene; most
+/// of the Cornell box's hits) and the lights went through the lane forms, so a silent fallback
+/// to the 1-lane code fails; with 3 emitter samples the kernels stand aside (lane by lane).
+#[test]
+fn the_direct_integrator_runs_in_the_kernels() {
+    let l = load_defined("direct_delta.xml", &[("es", "1")]);
+    let lanes = assert_identical(&l, "direct_delta.xml (es = 1)", 3);
+    assert!(lanes.kernel_lanes > 0, "direct_delta: {lanes:?}");
+    assert_eq!(kinds_in_lanes(&lanes), ["rectangle", "point"], "{lanes:?}");
+
+    let emitters = || load(&test_scene("stream_emitters.xml"), "as_written");
+    let lanes = assert_identical(&as_direct(emitters(), 1, 1, false), "emitters (1, 1)", 3);
+    assert!(
+        lanes.conductor_lanes > 0 && lanes.kernel_lanes > lanes.conductor_lanes,
+        "emitters (1, 1): {lanes:?}"
+    );
+    let kinds = ["rectangle", "point", "spot", "directional", "constant"];
+    assert_eq!(kinds_in_lanes(&lanes), kinds, "{lanes:?}");
+    let lanes = assert_identical(&as_direct(emitters(), 3, 1, false), "emitters (3, 1)", 3);
+    assert_eq!(lanes.kernel_lanes, 0, "emitters (3, 1): {lanes:?}");
+
+    let cbox = load(&scene("scenes/cornell/cbox-rgb.xml"), "as_written");
+    let lanes = assert_identical(&as_direct(cbox, 1, 1, false), "cbox-rgb (1, 1)", 3);
+    assert!(
+        lanes.kernel_lanes * 10 >= lanes.shade_used * 8,
+        "cbox-rgb (1, 1): {lanes:?}"
+    );
+    assert_eq!(kinds_in_lanes(&lanes), ["triangles"], "{lanes:?}");
+}
