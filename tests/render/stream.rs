@@ -1125,7 +1125,8 @@ fn the_direct_integrator_runs_in_the_kernels() {
 // ---------------------------------------------------------------------------------------------
 
 /// Textured lights sampled in lanes (`stream_textured_lights.xml`: bitmap radiances on a
-/// rectangle and a cube mesh, a checkerboard radiance, two spot lights projecting different
+/// rectangle, a cube mesh, a panel with irregular uvs and an octahedron without uvs, a
+/// checkerboard radiance, two spot lights projecting different
 /// bitmaps, a textured sphere light lane by lane) give the scalar image at 1, 2, 3 and 7
 /// threads, under `path` as written and under the settings that change a vertex, and under
 /// `direct` (one sample of each kind: the kernels); the counters show triangles, rectangles
