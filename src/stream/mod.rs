@@ -23,7 +23,8 @@
 //! 5. **shadow rays** of the pending light samples, in path order, adding the unoccluded ones;
 //! 6. **compact** the surviving paths (stable).
 //!
-//! The `direct` integrator runs on the same batch, camera trace and ray counters ([`direct`]).
+//! The `direct` integrator runs on the same batch, camera trace, shading stage (its own
+//! [`kernels::tail::Tail`]) and ray counters ([`direct`]).
 //!
 //! Then every path's radiance goes to the block in the canonical order (8 samples at a time:
 //! [`Block::put8`]). Each path draws from its

@@ -238,6 +238,7 @@ pub(crate) mod x8 {
     /// samples, and their next rays and `alive` flags where they go on. Call inside
     /// [`Avx2::run`].
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade(
         avx: Avx2,
         scene: &Scene,

@@ -72,8 +72,9 @@ pub(crate) fn sample_point<L: Lane>(pos: V3<L>, intensity: V3<L>, ref_p: V3<L>) 
     }
 }
 
-/// An untextured spot light per lane: position, the columns of its world-to-light matrix,
-/// intensity, and its cone (cosines and angles of cutoff and beam width).
+/// A spot light per lane: position, the columns of its world-to-light matrix, intensity, and its
+/// cone (cosines and angles of cutoff and beam width); a texture multiplies [`sample_spot`]'s
+/// value afterwards, at [`spot_uv`] (`light::x8::Gather::finish`).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Spot<L: Lane> {
     pub pos: V3<L>,
@@ -85,7 +86,7 @@ pub(crate) struct Spot<L: Lane> {
     pub beam_width: L,
 }
 
-/// `SpotLight::sample_direct` without a texture: the falloff (`SpotLight::falloff`: 0 outside
+/// `SpotLight::sample_direct` up to its texture: the falloff (`SpotLight::falloff`: 0 outside
 /// the cutoff, 1 inside the beam, linear in the angle between) of the direction in the light's
 /// frame, times intensity / dist².
 #[inline(always)]

@@ -1,4 +1,4 @@
-//! Area lights of a constant radiance sampled in lanes, the same operations in the same order
+//! Area lights sampled in lanes, the same operations in the same order
 //! as the scalar code, so every lane equals it bit for bit:
 //! - triangle meshes: `Shape::sample_position`'s point on the triangle that
 //!   `Shape::pick_triangle` chose (lane by lane: a search of the area CDF), uniform triangle
@@ -8,9 +8,11 @@
 //!   the sphere (Mitsuba 3's `Sphere::sample_direction`) and its nearest intersection;
 //!
 //! then, for the first two, the conversion from area to solid angle (`Shape::sample_direction`),
-//! and for all `AreaLight::sample_direct`'s front-side test. The light selection, other emitters,
-//! textured area lights and a reference point inside (or on) a sphere light stay with the scalar
-//! code, lane by lane.
+//! and for all `AreaLight::sample_direct`'s front-side test. A textured radiance (on meshes and
+//! rectangles) is looked up at the sampled point's uv in `x8::Gather::finish` (bitmaps 8-wide,
+//! `BitmapTexture::eval_x8`; other textures lane by lane). The light selection, other emitters,
+//! textured sphere lights and a reference point inside (or on) a sphere light stay with the
+//! scalar code, lane by lane.
 
 use crate::emitter::Emitter;
 use crate::geometry::ShapeKind;
@@ -469,6 +471,9 @@ pub(crate) mod x8 {
         tuv_some: [bool; 8],
         /// A textured spot light's `tan cutoff`.
         uv_factor: [f32; 8],
+        /// Lanes of the chunk with a textured light (`textured` is written by every lane that
+        /// picks a triangle, rectangle or spot light, and read only where this is positive).
+        n_textured: u32,
     }
 
     impl Gather {
@@ -485,8 +490,7 @@ pub(crate) mod x8 {
             self.kind = [0; 8];
             self.counts = [0; KINDS];
             self.tnorm_some = [false; 8];
-            self.textured = [false; 8];
-            self.tuv_some = [false; 8];
+            self.n_textured = 0;
         }
 
         /// No light point in any lane (made once per run of a material, [`Gather::reset`] per
@@ -526,6 +530,7 @@ pub(crate) mod x8 {
                 tuv: [[[0.0; 8]; 2]; 3],
                 tuv_some: [false; 8],
                 uv_factor: [1.0; 8],
+                n_textured: 0,
             }
         }
 
@@ -598,10 +603,12 @@ pub(crate) mod x8 {
                             col.set(k, ns[j]);
                         }
                     }
+                    self.textured[k] = textured;
                     if textured {
-                        (self.textured[k], self.emitter[k]) = (true, e as u32);
+                        self.n_textured += 1;
+                        self.emitter[k] = e as u32;
+                        self.tuv_some[k] = mesh.uvs.is_some();
                         if let Some(uvs) = &mesh.uvs {
-                            self.tuv_some[k] = true;
                             for (col, &j) in self.tuv.iter_mut().zip(&idx) {
                                 (col[0][k], col[1][k]) = (uvs[j].x, uvs[j].y);
                             }
@@ -618,8 +625,10 @@ pub(crate) mod x8 {
                     textured,
                 } => {
                     self.kind[k] = KIND_RECTANGLE;
+                    self.textured[k] = textured;
                     if textured {
-                        (self.textured[k], self.emitter[k]) = (true, e as u32);
+                        self.n_textured += 1;
+                        self.emitter[k] = e as u32;
                     }
                     for (col, a) in self.raxes.iter_mut().zip(axes) {
                         col.set(k, a);
@@ -659,8 +668,10 @@ pub(crate) mod x8 {
                     beam_width,
                 } => {
                     self.kind[k] = KIND_SPOT;
+                    self.textured[k] = textured;
                     if textured {
-                        (self.textured[k], self.emitter[k]) = (true, e as u32);
+                        self.n_textured += 1;
+                        self.emitter[k] = e as u32;
                         self.uv_factor[k] = uv_factor;
                     }
                     self.center.set(k, position);
@@ -722,7 +733,7 @@ pub(crate) mod x8 {
         /// Whether a lane of `on` has a textured light.
         #[inline(always)]
         fn any_textured(&self, on: &[bool; 8]) -> bool {
-            (0..8).any(|k| on[k] && self.textured[k])
+            self.n_textured > 0 && (0..8).any(|k| on[k] && self.textured[k])
         }
 
         /// The textures of the textured lanes of `on` where `ok`, at `uv`: per distinct emitter
@@ -841,7 +852,7 @@ pub(crate) mod x8 {
                 merge(&mut lp, m(&kind.map(|c| c == KIND_SPHERE)), &q, sel8);
             }
             let on = kind.map(|c| c == KIND_TRIANGLE || c == KIND_RECTANGLE);
-            if self.any_textured(&on) {
+            if self.n_textured > 0 && self.any_textured(&on) {
                 // AreaLight::sample_direct's `radiance.eval(uv)` at the sampled point (triangles:
                 // `Shape::sample_position`'s uv from the same barycentrics; rectangles: `u`),
                 // then `nee::sample_emitter`'s zero test.

@@ -205,6 +205,7 @@ pub(crate) mod x8 {
 
     /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (all of material
     /// `mat`) 8 at a time; returns how many it shaded. Enters [`Avx2::run`] itself.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade_run(
         avx: Avx2,
         scene: &Scene,
