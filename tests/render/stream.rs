@@ -243,15 +243,7 @@ fn the_lane_counters_count_the_diffuse_kernel() {
 
 /// `tests/data/scenes/stream_plastic.xml` with `-D` values.
 fn plastic_scene(defines: &[(&str, &str)]) -> Loaded {
-    let opts = LoadOptions {
-        defines: defines
-            .iter()
-            .map(|(k, v)| (k.to_string(), v.to_string()))
-            .collect(),
-        ..Default::default()
-    };
-    let path = test_scene("stream_plastic.xml");
-    groove::load::load_scene(&path, &opts).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    load_defined("stream_plastic.xml", defines)
 }
 
 /// The scenes where the 8-wide plastic kernel runs give the scalar image at 1, 2, 3 and 7
