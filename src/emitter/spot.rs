@@ -39,7 +39,7 @@ pub struct SpotLight {
     pub(crate) cos_cutoff: f32,
     pub(crate) cos_beam: f32,
     /// tan(cutoff): the texture's uv scale.
-    uv_factor: f32,
+    pub(crate) uv_factor: f32,
 }
 
 impl SpotLight {

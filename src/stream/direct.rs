@@ -3,11 +3,15 @@
 //! renderer's image bit for bit (`tests/render/stream.rs`).
 //!
 //! Per batch (the batch of [`super::Batch`], filled by [`super::render_block`]):
-//! 1. **trace** the camera rays ([`super::trace`], coherent 8-wide packets);
+//! 1. **trace** the camera rays ([`super::trace`], coherent 8-wide packets) and reconstruct the
+//!    hits' surfaces ([`super::kernels::surface::fill`], 8-wide where a shape has a lane form);
 //! 2. **camera emission** (`direct::add_camera_emission`) into each path's `result`;
-//! 3. **sample**, path after path in the batch order: the BSDF at the hit, then its
-//!    `emitter_samples` light samples (`nee::prepare_light`, up to the shadow ray) and its
-//!    `bsdf_samples` BSDF samples, each path drawing from its own stream in the scalar order;
+//! 3. **sample**: the paths at a surface, sorted by material (stable), go through the path
+//!    integrator's shading stage ([`super::shade`]) with this integrator's tail ([`DirectTail`]):
+//!    a run of ≥ 8 paths of a material with an 8-wide kernel takes its light sample and BSDF
+//!    sample 8 at a time (light points, BSDF values and densities, power heuristic, BSDF
+//!    samples in lanes), the rest lane by lane through the scalar steps (`nee::prepare_light`,
+//!    `SurfaceBsdf::sample`); each path draws from its own stream in the scalar order, and
 //!    every sample becomes an item of [`Items`] with its ray, in the path's order;
 //! 4. **trace** the items' shadow and bounce rays (as one Embree stream each, or 8-wide
 //!    packets, where the scene's [`Packets`] say so, as for the path integrator's rays);
@@ -15,20 +19,25 @@
 //!    BSDF sample found (`direct::add_bsdf_hit`).
 //!
 //! Tracing draws no random number and each path's terms are added in the scalar order, so
-//! drawing every sample before tracing gives the same sums. The BSDFs are shaded lane by lane
-//! (the scalar functions): the 8-wide kernels of [`super::kernels`] end a BSDF sample in
-//! `PathState::advance`, whose throughput test drops a zero-weight sample that `direct` still
-//! traces, so they are not used here yet.
+//! drawing every sample before tracing gives the same sums.
+//!
+//! The kernels serve `direct` when it takes one light sample and one BSDF sample per hit (the
+//! default, `emitter_samples = bsdf_samples = 1`): their light-sample contribution is then
+//! `light_term`'s value bit for bit (throughput 1 at the camera vertex, sample counts 1 in the
+//! power heuristic; `tests/render/stream.rs`). Other sample counts, the compensated normal
+//! map (whose kernel ends in `PathState::advance` itself) and every material without a kernel
+//! are shaded lane by lane.
 
 use super::batch::Batch;
-use super::{slots, trace, Packets};
-use crate::bsdf::{BsdfContext, Lobes};
+use super::kernels::tail::{Sampled, Tail};
+use super::{kernels, slots, trace, Kernels, Packets};
+use crate::bsdf::{BsdfArena, BsdfContext, Lobes};
 use crate::geometry::{Hit, Ray};
 use crate::integrator::direct::{
     add_bsdf_hit, add_camera_emission, light_term, takes_light_samples,
 };
 use crate::integrator::nee::prepare_light;
-use crate::integrator::{DirectSettings, RayKind, Scratch};
+use crate::integrator::{DirectSettings, PathSettings, RayKind, Scratch, Strategy};
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
 use glam::Vec3;
@@ -67,13 +76,89 @@ pub(crate) struct Items {
     bounce_ids: Vec<u32>,
 }
 
+/// The `direct` integrator's end of a vertex ([`Tail`]): the light and BSDF samples become
+/// items to trace, in each path's order.
+struct DirectTail<'a> {
+    cfg: &'a DirectSettings,
+    items: &'a mut Vec<Item>,
+}
+
+impl Tail for DirectTail<'_> {
+    /// One light and one BSDF sample per hit, the kernels' vertex (see the module comment).
+    #[inline(always)]
+    fn kernels(&self) -> bool {
+        self.cfg.emitter_samples == 1 && self.cfg.bsdf_samples == 1
+    }
+
+    const MNM: bool = false;
+
+    /// With throughput 1 and one sample of each kind, the kernels' contribution is
+    /// `light_term`'s: `1 · f·Le · (w / pdf)` with `w` the power heuristic of the two densities
+    /// (1 for a delta light).
+    #[inline(always)]
+    fn light(&mut self, _: &mut Batch, i: usize, shadow: Ray, term: Spectrum) {
+        self.items.push(Item::Light {
+            path: i as u32,
+            shadow,
+            term,
+        });
+    }
+
+    #[inline(always)]
+    fn bsdf(&mut self, _: &mut Batch, i: usize, s: &Sampled) {
+        self.items.push(Item::Bsdf {
+            path: i as u32,
+            p: s.p,
+            ray: s.ray,
+            weight: s.weight,
+            pdf: s.pdf,
+            delta: s.delta,
+        });
+    }
+
+    /// The scalar estimator's samples ([`crate::integrator::direct::li`] up to its rays).
+    fn scalar(&mut self, scene: &Scene, b: &mut Batch, i: usize, arena: &mut BsdfArena) {
+        let cfg = self.cfg;
+        let ctx = BsdfContext::default();
+        let si = &b.surf.get(i);
+        let sampler = &mut b.sampler[i];
+        let Some(bsdf) = scene.bsdf_at(si, arena) else {
+            return;
+        };
+        if takes_light_samples(scene, &bsdf) {
+            for _ in 0..cfg.emitter_samples {
+                if let Some((ls, shadow)) = prepare_light(scene, si, &bsdf, &ctx, sampler) {
+                    self.items.push(Item::Light {
+                        path: i as u32,
+                        shadow,
+                        term: light_term(cfg, &ls),
+                    });
+                }
+            }
+        }
+        for _ in 0..cfg.bsdf_samples {
+            if let Some(bs) = bsdf.sample(&ctx, sampler) {
+                self.items.push(Item::Bsdf {
+                    path: i as u32,
+                    p: si.p,
+                    ray: si.spawn_ray(bs.wo),
+                    weight: bs.weight,
+                    pdf: bs.pdf,
+                    delta: bs.lobe.intersects(Lobes::DELTA),
+                });
+            }
+        }
+    }
+}
+
 /// Runs the `direct` integrator `cfg` on every path of `batch` (camera rays set).
-pub(crate) fn run_batch(
+pub(super) fn run_batch(
     scene: &Scene,
     cfg: &DirectSettings,
     batch: &mut Batch,
     scratch: &mut Scratch,
     packets: Packets,
+    kernels: &Kernels,
     items: &mut Items,
 ) {
     scratch.rays.counters.lanes.batches += 1;
@@ -86,55 +171,46 @@ pub(crate) fn run_batch(
         packets.camera.then_some(packets.stream),
         &mut scratch.rays,
     );
+    kernels::surface::fill(
+        scene,
+        &kernels.forms,
+        #[cfg(target_arch = "x86_64")]
+        kernels.avx,
+        batch,
+        &mut scratch.rays.counters.lanes.surface_lanes,
+    );
 
     // Camera emission; the paths that hit a surface go on to the sampling stage.
     batch.scatter.clear();
     for i in 0..batch.len() {
         let ray = &batch.ray[i];
-        let si = batch.hit[i].map(|h| scene.interaction(ray, &h));
+        let si = batch.hit[i].map(|_| batch.surf.get(i));
         add_camera_emission(cfg, scene, &mut batch.state[i].result, ray, si.as_ref());
         if let Some(si) = si {
-            batch.surf.set(i, &si);
+            batch.material[i] = scene.shape_material[si.shape as usize];
             batch.scatter.push(i as u32);
         }
     }
-    let lanes = &mut scratch.rays.counters.lanes;
-    lanes.shade_used += batch.scatter.len() as u64;
-    lanes.shade_slots += slots(batch.scatter.len());
 
-    // Every sample of every path, in path order.
-    let ctx = BsdfContext::default();
+    // Every sample of every path, material by material; each path's in its order.
+    batch.sort_by_material();
     items.items.clear();
-    for &i in &batch.scatter {
-        let si = &batch.surf.get(i as usize);
-        let sampler = &mut batch.sampler[i as usize];
-        let Some(bsdf) = scene.bsdf_at(si, &mut scratch.arena) else {
-            continue;
-        };
-        if takes_light_samples(scene, &bsdf) {
-            for _ in 0..cfg.emitter_samples {
-                if let Some((ls, shadow)) = prepare_light(scene, si, &bsdf, &ctx, sampler) {
-                    items.items.push(Item::Light {
-                        path: i,
-                        shadow,
-                        term: light_term(cfg, &ls),
-                    });
-                }
-            }
-        }
-        for _ in 0..cfg.bsdf_samples {
-            if let Some(bs) = bsdf.sample(&ctx, sampler) {
-                items.items.push(Item::Bsdf {
-                    path: i,
-                    p: si.p,
-                    ray: si.spawn_ray(bs.wo),
-                    weight: bs.weight,
-                    pdf: bs.pdf,
-                    delta: bs.lobe.intersects(Lobes::DELTA),
-                });
-            }
-        }
-    }
+    // The kernels take a light sample where `takes_light_samples` would: at a smooth BSDF
+    // (their material test) when the scene has a light.
+    let strategy = if scene.light_sampler.is_empty() {
+        Strategy::BsdfOnly
+    } else {
+        Strategy::Mis
+    };
+    let path_cfg = PathSettings {
+        strategy,
+        ..PathSettings::default()
+    };
+    let mut tail = DirectTail {
+        cfg,
+        items: &mut items.items,
+    };
+    super::shade(scene, &path_cfg, batch, scratch, kernels, &mut tail);
 
     items.trace(scene, packets, scratch);
 

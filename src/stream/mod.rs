@@ -25,7 +25,8 @@
 //! 5. **shadow rays** of the pending light samples, in path order, adding the unoccluded ones;
 //! 6. **compact** the surviving paths (stable).
 //!
-//! The `direct` integrator runs on the same batch, camera trace and ray counters ([`direct`]).
+//! The `direct` integrator runs on the same batch, camera trace, shading stage (its own
+//! [`kernels::tail::Tail`]) and ray counters ([`direct`]).
 //!
 //! Then every path's radiance goes to the block in the canonical order (8 samples at a time:
 //! [`Block::put8`]). Each path draws from its
@@ -397,9 +398,15 @@ pub(crate) fn render_block(
         batch.start();
         match cfg {
             StreamIntegrator::Path(cfg) => run_batch(scene, cfg, batch, scratch, packets, kernels),
-            StreamIntegrator::Direct(cfg) => {
-                direct::run_batch(scene, cfg, batch, scratch, packets, &mut stream.direct)
-            }
+            StreamIntegrator::Direct(cfg) => direct::run_batch(
+                scene,
+                cfg,
+                batch,
+                scratch,
+                packets,
+                kernels,
+                &mut stream.direct,
+            ),
         }
         splat(block, batch, kernels, &mut invalid);
         k = end;
@@ -523,22 +530,14 @@ fn run_batch(
 
         // Shading, material by material in the stable order.
         batch.sort_by_material();
-        let lanes = &mut scratch.rays.counters.lanes;
-        let mut run = 0;
-        for (k, &i) in batch.sorted.iter().enumerate() {
-            let i = i as usize;
-            run += 1;
-            let next_differs = !matches!(
-                batch.sorted.get(k + 1),
-                Some(&j) if batch.material[j as usize] == batch.material[i]
-            );
-            if next_differs {
-                lanes.shade_used += run as u64;
-                lanes.shade_slots += slots(run);
-                run = 0;
-            }
-        }
-        shade(scene, cfg, batch, scratch, kernels);
+        shade(
+            scene,
+            cfg,
+            batch,
+            scratch,
+            kernels,
+            &mut kernels::tail::PathTail { cfg },
+        );
 
         shadows(
             scene,
@@ -589,13 +588,16 @@ fn emit(
 }
 
 /// The shading stage: each run of one material in `batch.sorted` through its 8-wide kernel 8
-/// paths at a time where it has one, the rest (and every other material) lane by lane.
-fn shade(
+/// paths at a time where it has one, the rest (and every other material) lane by lane; each
+/// vertex ends in `tail` (the integrator's). `cfg`'s strategy says where the kernels take a
+/// light sample.
+fn shade<T: kernels::tail::Tail>(
     scene: &Scene,
     cfg: &PathSettings,
     batch: &mut Batch,
     scratch: &mut Scratch,
     kernels: &Kernels,
+    tail: &mut T,
 ) {
     let mut start = 0;
     while start < batch.sorted.len() {
@@ -604,21 +606,28 @@ fn shade(
         while end < batch.sorted.len() && batch.material[batch.sorted[end] as usize] == m {
             end += 1;
         }
-        let (done, driver) = shade_kernel(
-            scene,
-            cfg,
-            batch,
-            start..end,
-            kernels,
-            m,
-            &mut scratch.arena,
-        );
+        let (done, driver) = if tail.kernels() {
+            shade_kernel(
+                scene,
+                cfg,
+                batch,
+                start..end,
+                kernels,
+                m,
+                &mut scratch.arena,
+                tail,
+            )
+        } else {
+            (0, false)
+        };
         let lanes = &mut scratch.rays.counters.lanes;
+        lanes.shade_used += (end - start) as u64;
+        lanes.shade_slots += slots(end - start);
         lanes.kernel_lanes += done as u64;
         if driver {
             lanes.conductor_lanes += done as u64;
         }
-        if let Some(Some(Kernel::Mnm)) = kernels.kinds.get(m as usize) {
+        if let (Some(Some(Kernel::Mnm)), true) = (kernels.kinds.get(m as usize), T::MNM) {
             lanes.mnm_lanes += done as u64;
         }
         for (a, b) in lanes.kernel_lights.iter_mut().zip(&mut batch.light_lanes) {
@@ -626,19 +635,7 @@ fn shade(
         }
         for k in start + done..end {
             let i = batch.sorted[k] as usize;
-            let si = batch.surf.get(i);
-            let next = batch.state[i].scatter(
-                cfg,
-                scene,
-                &si,
-                &mut batch.sampler[i],
-                &mut scratch.arena,
-                &mut batch.light[i],
-            );
-            if let Some(r) = next {
-                batch.ray[i] = r;
-                batch.alive[i] = true;
-            }
+            tail.scalar(scene, batch, i, &mut scratch.arena);
         }
         start = end;
     }
@@ -646,9 +643,10 @@ fn shade(
 
 /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (material `m`) with
 /// `m`'s 8-wide kernel; returns how many it shaded (0 without a kernel or AVX2) and whether the
-/// wrapper-chain driver shaded them.
+/// wrapper-chain driver shaded them. Each vertex ends in `tail`.
 #[cfg(target_arch = "x86_64")]
-fn shade_kernel(
+#[allow(clippy::too_many_arguments)]
+fn shade_kernel<T: kernels::tail::Tail>(
     scene: &Scene,
     cfg: &PathSettings,
     batch: &mut Batch,
@@ -656,6 +654,7 @@ fn shade_kernel(
     kernels: &Kernels,
     m: crate::material::MatId,
     arena: &mut crate::bsdf::BsdfArena,
+    tail: &mut T,
 ) -> (usize, bool) {
     let (Some(avx), Some(&Some(kind))) = (kernels.avx, kernels.kinds.get(m as usize)) else {
         return (0, false);
@@ -679,7 +678,7 @@ fn shade_kernel(
                     let mut gather = kernels::light::x8::Gather::new();
                     for c in chunks {
                         let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
-                        x8::shade(avx, scene, cfg, batch, &ids, mat, &mut gather);
+                        x8::shade(avx, scene, cfg, batch, &ids, mat, &mut gather, tail);
                     }
                 },
             );
@@ -689,14 +688,25 @@ fn shade_kernel(
             use kernels::vertex::x8;
             avx.run(
                 #[inline(always)]
-                || x8::shade_run(avx, scene, cfg, batch, chunks, &mat, &kernels.lights),
+                || x8::shade_run(avx, scene, cfg, batch, chunks, &mat, &kernels.lights, tail),
             );
             (n, true)
         }
         Kernel::Plastic(mat) => (
-            kernels::plastic::x8::shade_run(avx, scene, cfg, batch, run, mat, &kernels.lights),
+            kernels::plastic::x8::shade_run(
+                avx,
+                scene,
+                cfg,
+                batch,
+                run,
+                mat,
+                &kernels.lights,
+                tail,
+            ),
             false,
         ),
+        // The normal map's kernel ends in `PathState::advance` itself (`Tail::MNM`).
+        Kernel::Mnm if !T::MNM => (0, false),
         Kernel::Mnm => {
             use kernels::mnm::x8;
             avx.run(
@@ -716,7 +726,8 @@ fn shade_kernel(
 }
 
 #[cfg(not(target_arch = "x86_64"))]
-fn shade_kernel(
+#[allow(clippy::too_many_arguments)]
+fn shade_kernel<T: kernels::tail::Tail>(
     _: &Scene,
     _: &PathSettings,
     _: &mut Batch,
@@ -724,6 +735,7 @@ fn shade_kernel(
     _: &Kernels,
     _: crate::material::MatId,
     _: &mut crate::bsdf::BsdfArena,
+    _: &mut T,
 ) -> (usize, bool) {
     (0, false)
 }

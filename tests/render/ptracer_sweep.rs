@@ -183,6 +183,11 @@ const SCENES: &[(&str, Entry)] = &[
     ("stream_surfaces.xml", Compare(NONE, Nm::AsWritten, 1)),
     // Its driver around textured leaves: a smooth `conductor` sphere in view.
     ("stream_textured_leaves.xml", Exclude(Specular("conductor"))),
+    // The stream renderer's textured area and spot lights in lanes (tests/render/stream.rs).
+    (
+        "stream_textured_lights.xml",
+        Compare(NONE, Nm::AsWritten, 1),
+    ),
     ("tex_hdr_pfm.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("tex_mesh_attr.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("textured_quad.xml", Compare(NONE, Nm::AsWritten, 1)),

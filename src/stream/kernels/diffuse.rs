@@ -213,7 +213,6 @@ pub(crate) fn reflectance(scene: &Scene, tex: &Texture, si: &SurfaceInteraction)
 pub(crate) mod x8 {
     use super::*;
     use crate::geometry::Ray;
-    use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::Avx2;
     use crate::stream::batch::Batch;
@@ -221,6 +220,7 @@ pub(crate) mod x8 {
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
+    use crate::stream::kernels::tail::{Sampled, Tail};
     use glam::Vec2;
 
     /// What a material needs for the kernel: its reflectance texture and whether it takes a
@@ -238,6 +238,7 @@ pub(crate) mod x8 {
     /// samples, and their next rays and `alive` flags where they go on. Call inside
     /// [`Avx2::run`].
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade(
         avx: Avx2,
         scene: &Scene,
@@ -246,6 +247,7 @@ pub(crate) mod x8 {
         ids: &[u32; 8],
         mat: Material<'_>,
         gather: &mut Gather,
+        tail: &mut impl Tail,
     ) {
         // 1. The surfaces, loaded 8-wide from the batch's rows; 2. the side test.
         let surface::x8::Prologue { surf, p, wi, front } = surface::x8::prologue(avx, &b.surf, ids);
@@ -309,34 +311,24 @@ pub(crate) mod x8 {
                 continue;
             }
             if l_ok[k] {
-                b.light[i] = Some(PendingLight {
-                    shadow: Ray {
-                        o: l_o.get(k),
-                        d: l_d.get(k),
-                        tmin: 0.0,
-                        tmax: l_tmax[k],
-                    },
-                    contribution: l_c.get(k),
-                });
+                let shadow = Ray {
+                    o: l_o.get(k),
+                    d: l_d.get(k),
+                    tmin: 0.0,
+                    tmax: l_tmax[k],
+                };
+                tail.light(b, i, shadow, l_c.get(k));
             }
             if s_ok[k] {
-                let ray = Ray::new(s_o.get(k), s_wo.get(k));
-                let p = p.get(k);
-                let weight = refl.get(k);
-                let next = b.state[i].advance(
-                    cfg,
-                    p,
-                    weight,
-                    1.0,
-                    s_pdf[k],
-                    false,
-                    ray,
-                    &mut b.sampler[i],
-                );
-                if let Some(r) = next {
-                    b.ray[i] = r;
-                    b.alive[i] = true;
-                }
+                let s = Sampled {
+                    p: p.get(k),
+                    ray: Ray::new(s_o.get(k), s_wo.get(k)),
+                    weight: refl.get(k),
+                    eta: 1.0,
+                    pdf: s_pdf[k],
+                    delta: false,
+                };
+                tail.bsdf(b, i, &s);
             }
         }
     }

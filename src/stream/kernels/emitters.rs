@@ -1,4 +1,5 @@
-//! The emitters without a surface sampled in lanes: `point`, `spot` (untextured), `directional`,
+//! The emitters without a surface sampled in lanes: `point`, `spot` (its texture's uv here, the
+//! lookup in `light::x8::Gather::finish`), `directional`,
 //! `constant` and `envmap`, each the operations of its scalar `sample_direct`
 //! (`src/emitter/*.rs`) in the same order, so every lane equals it bit for bit (the unit test
 //! below at width 1, `tests/render/stream.rs` at width 8). Branches of the scalar code become
@@ -71,8 +72,9 @@ pub(crate) fn sample_point<L: Lane>(pos: V3<L>, intensity: V3<L>, ref_p: V3<L>) 
     }
 }
 
-/// An untextured spot light per lane: position, the columns of its world-to-light matrix,
-/// intensity, and its cone (cosines and angles of cutoff and beam width).
+/// A spot light per lane: position, the columns of its world-to-light matrix, intensity, and its
+/// cone (cosines and angles of cutoff and beam width); a texture multiplies [`sample_spot`]'s
+/// value afterwards, at [`spot_uv`] (`light::x8::Gather::finish`).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Spot<L: Lane> {
     pub pos: V3<L>,
@@ -84,7 +86,7 @@ pub(crate) struct Spot<L: Lane> {
     pub beam_width: L,
 }
 
-/// `SpotLight::sample_direct` without a texture: the falloff (`SpotLight::falloff`: 0 outside
+/// `SpotLight::sample_direct` up to its texture: the falloff (`SpotLight::falloff`: 0 outside
 /// the cutoff, 1 inside the beam, linear in the angle between) of the direction in the light's
 /// frame, times intensity / dist².
 #[inline(always)]
@@ -108,6 +110,18 @@ pub(crate) fn sample_spot<L: Lane>(s: &Spot<L>, ref_p: V3<L>) -> FreePoint<L> {
         pdf: k(1.0),
         value: s.intensity.scale(fall / dist2),
     }
+}
+
+/// The texture coordinates of a spot light's texture toward the light sample `d` (the
+/// direction from the reference point to the light), as `SpotLight::sample_direct` computes them:
+/// `local = to_local · −d`, `k = 0.5 / (local.z · tan cutoff)`, `uv = 0.5 + (local.x, local.y)·k`
+/// (Mitsuba 3's `spot` `direction_to_uv`).
+#[inline(always)]
+pub(crate) fn spot_uv<L: Lane>(to_local: &[V3<L>; 3], d: V3<L>, uv_factor: L) -> V2<L> {
+    let local = mat3_mul(to_local, -d);
+    let half = uv_factor.splat(0.5);
+    let k = half / (local.z * uv_factor);
+    V2::new(half + local.x * k, half + local.y * k)
 }
 
 /// `DirectionalLight::sample_direct`: the direction `d` (minus the direction of travel) at an

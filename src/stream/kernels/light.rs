@@ -1,4 +1,4 @@
-//! Area lights of a constant radiance sampled in lanes, the same operations in the same order
+//! Area lights sampled in lanes, the same operations in the same order
 //! as the scalar code, so every lane equals it bit for bit:
 //! - triangle meshes: `Shape::sample_position`'s point on the triangle that
 //!   `Shape::pick_triangle` chose (lane by lane: a search of the area CDF), uniform triangle
@@ -8,9 +8,11 @@
 //!   the sphere (Mitsuba 3's `Sphere::sample_direction`) and its nearest intersection;
 //!
 //! then, for the first two, the conversion from area to solid angle (`Shape::sample_direction`),
-//! and for all `AreaLight::sample_direct`'s front-side test. The light selection, other emitters,
-//! textured area lights and a reference point inside (or on) a sphere light stay with the scalar
-//! code, lane by lane.
+//! and for all `AreaLight::sample_direct`'s front-side test. A textured radiance (on meshes and
+//! rectangles) is looked up at the sampled point's uv in `x8::Gather::finish` (bitmaps 8-wide,
+//! `BitmapTexture::eval_x8`; other textures lane by lane). The light selection, other emitters,
+//! textured sphere lights and a reference point inside (or on) a sphere light stay with the
+//! scalar code, lane by lane.
 
 use crate::emitter::Emitter;
 use crate::geometry::ShapeKind;
@@ -27,12 +29,14 @@ use glam::Vec3;
 /// its shape (per-shape constants computed once, by the scalar functions).
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum LaneLight {
-    /// On the triangle mesh `shapes[shape]`.
+    /// On the triangle mesh `shapes[shape]`; `textured`: its radiance is the emitter's texture
+    /// at the point's uv (`radiance` unused), looked up in [`x8::Gather::finish`].
     Triangles {
         shape: u32,
         inv_area: f32,
         sign: f32,
         radiance: Spectrum,
+        textured: bool,
     },
     /// On a rectangle: the columns of its `to_world` (x, y, z, translation) and the normal of its
     /// points (after `flip_normals`).
@@ -41,6 +45,8 @@ pub(crate) enum LaneLight {
         n: Vec3,
         inv_area: f32,
         radiance: Spectrum,
+        /// As for `Triangles` (the uv of a rectangle's point is the sample `u`).
+        textured: bool,
     },
     /// On a sphere (sampled in lanes from outside its cone threshold only).
     Sphere {
@@ -51,9 +57,12 @@ pub(crate) enum LaneLight {
     },
     /// `point` ([`super::emitters::sample_point`]).
     Point { position: Vec3, intensity: Spectrum },
-    /// `spot` without a texture ([`super::emitters::sample_spot`]): the columns of its
-    /// world-to-light matrix and its cone.
+    /// `spot` ([`super::emitters::sample_spot`]): the columns of its world-to-light matrix and
+    /// its cone; with a texture, `uv_factor` (tan cutoff), the texture looked up in
+    /// [`x8::Gather::finish`] ([`super::emitters::spot_uv`]).
     Spot {
+        textured: bool,
+        uv_factor: f32,
         position: Vec3,
         to_local: [Vec3; 3],
         intensity: Spectrum,
@@ -99,8 +108,10 @@ impl LaneLight {
                             intensity: p.intensity,
                         })
                     }
-                    Emitter::Spot(s) if s.texture.is_none() => {
+                    Emitter::Spot(s) => {
                         return Some(LaneLight::Spot {
+                            textured: s.texture.is_some(),
+                            uv_factor: s.uv_factor,
                             position: s.position,
                             to_local: cols(s.to_local),
                             intensity: s.intensity,
@@ -132,12 +143,13 @@ impl LaneLight {
                     }
                     _ => return None,
                 };
-                let Texture::Constant(radiance) = a.radiance else {
-                    return None;
+                // A textured radiance: looked up in lanes at the sampled point's uv (bitmaps
+                // 8-wide, other textures lane by lane); a zero constant one is never sampled.
+                let (radiance, textured) = match a.radiance {
+                    Texture::Constant(c) if c == Spectrum::ZERO => return None,
+                    Texture::Constant(c) => (c, false),
+                    _ => (Spectrum::ZERO, true),
                 };
-                if radiance == Spectrum::ZERO {
-                    return None;
-                }
                 let shape = &scene.shapes[a.shape as usize];
                 let sign = if shape.flip_normals { -1.0 } else { 1.0 };
                 // As `Shape::sample_position` computes its pdf.
@@ -148,6 +160,7 @@ impl LaneLight {
                         inv_area,
                         sign,
                         radiance,
+                        textured,
                     }),
                     ShapeKind::Rectangle { to_world } => Some(LaneLight::Rectangle {
                         axes: [
@@ -159,7 +172,10 @@ impl LaneLight {
                         n: shape.rectangle_normal() * sign,
                         inv_area,
                         radiance,
+                        textured,
                     }),
+                    // A textured sphere light: lane by lane (its uv map is not in lanes).
+                    ShapeKind::Sphere { .. } if textured => None,
                     ShapeKind::Sphere { center, radius, .. } => Some(LaneLight::Sphere {
                         center: *center,
                         radius: *radius,
@@ -446,6 +462,18 @@ pub(crate) mod x8 {
         sel: [f32; 8],
         tux: [f32; 8],
         tuy: [f32; 8],
+        /// The lane's radiance (area) or intensity factor (spot) is emitter `emitter[k]`'s
+        /// texture, looked up in [`Gather::finish`].
+        textured: [bool; 8],
+        /// A textured triangle's corner uvs (u, v per corner), where `tuv_some` (else the
+        /// barycentrics are its uv, as `Shape::sample_position`).
+        tuv: [[[f32; 8]; 2]; 3],
+        tuv_some: [bool; 8],
+        /// A textured spot light's `tan cutoff`.
+        uv_factor: [f32; 8],
+        /// Lanes of the chunk with a textured light (`textured` is written by every lane that
+        /// picks a triangle, rectangle or spot light, and read only where this is positive).
+        n_textured: u32,
     }
 
     impl Gather {
@@ -462,6 +490,7 @@ pub(crate) mod x8 {
             self.kind = [0; 8];
             self.counts = [0; KINDS];
             self.tnorm_some = [false; 8];
+            self.n_textured = 0;
         }
 
         /// No light point in any lane (made once per run of a material, [`Gather::reset`] per
@@ -497,6 +526,11 @@ pub(crate) mod x8 {
                 sel: [1.0; 8],
                 tux: [0.0; 8],
                 tuy: [0.0; 8],
+                textured: [false; 8],
+                tuv: [[[0.0; 8]; 2]; 3],
+                tuv_some: [false; 8],
+                uv_factor: [1.0; 8],
+                n_textured: 0,
             }
         }
 
@@ -550,6 +584,7 @@ pub(crate) mod x8 {
                     inv_area,
                     sign,
                     radiance,
+                    textured,
                 } => {
                     let shape = &scene.shapes[shape as usize];
                     let ShapeKind::Mesh(mesh) = &shape.kind else {
@@ -568,6 +603,17 @@ pub(crate) mod x8 {
                             col.set(k, ns[j]);
                         }
                     }
+                    self.textured[k] = textured;
+                    if textured {
+                        self.n_textured += 1;
+                        self.emitter[k] = e as u32;
+                        self.tuv_some[k] = mesh.uvs.is_some();
+                        if let Some(uvs) = &mesh.uvs {
+                            for (col, &j) in self.tuv.iter_mut().zip(&idx) {
+                                (col[0][k], col[1][k]) = (uvs[j].x, uvs[j].y);
+                            }
+                        }
+                    }
                     (self.inv_area[k], self.sign[k]) = (inv_area, sign);
                     radiance
                 }
@@ -576,8 +622,14 @@ pub(crate) mod x8 {
                     n,
                     inv_area,
                     radiance,
+                    textured,
                 } => {
                     self.kind[k] = KIND_RECTANGLE;
+                    self.textured[k] = textured;
+                    if textured {
+                        self.n_textured += 1;
+                        self.emitter[k] = e as u32;
+                    }
                     for (col, a) in self.raxes.iter_mut().zip(axes) {
                         col.set(k, a);
                     }
@@ -605,6 +657,8 @@ pub(crate) mod x8 {
                     intensity
                 }
                 LaneLight::Spot {
+                    textured,
+                    uv_factor,
                     position,
                     to_local,
                     intensity,
@@ -614,6 +668,12 @@ pub(crate) mod x8 {
                     beam_width,
                 } => {
                     self.kind[k] = KIND_SPOT;
+                    self.textured[k] = textured;
+                    if textured {
+                        self.n_textured += 1;
+                        self.emitter[k] = e as u32;
+                        self.uv_factor[k] = uv_factor;
+                    }
                     self.center.set(k, position);
                     for (col, c) in self.mat.iter_mut().zip(to_local) {
                         col.set(k, c);
@@ -668,6 +728,63 @@ pub(crate) mod x8 {
             self.lv.set(k, le);
             // Delta lights take no MIS weight.
             self.one[k] = light_only || matches!(kind, KIND_POINT | KIND_SPOT | KIND_DIRECTIONAL);
+        }
+
+        /// Whether a lane of `on` has a textured light.
+        #[inline(always)]
+        fn any_textured(&self, on: &[bool; 8]) -> bool {
+            self.n_textured > 0 && (0..8).any(|k| on[k] && self.textured[k])
+        }
+
+        /// The textures of the textured lanes of `on` where `ok`, at `uv`: per distinct emitter
+        /// among them, a bitmap 8-wide (`BitmapTexture::eval_x8`, the other lanes' uvs set to
+        /// 0.5 so that they stay in its exact range), any other texture lane by lane, both
+        /// `Texture::eval` bit for bit. Returns the lanes looked up and their values.
+        #[inline(always)]
+        fn textures(
+            &self,
+            avx: Avx2,
+            scene: &Scene,
+            on: &[bool; 8],
+            ok: [bool; 8],
+            uv: V2<F32x8>,
+        ) -> (M8, V3<F32x8>) {
+            let look: [bool; 8] = std::array::from_fn(|k| on[k] && ok[k] && self.textured[k]);
+            let half = uv.x.splat(0.5);
+            let mut out = V3::new(half, half, half);
+            let mut done = [false; 8];
+            for k0 in 0..8 {
+                if !look[k0] || done[k0] {
+                    continue;
+                }
+                let e = self.emitter[k0];
+                let mine: [bool; 8] = std::array::from_fn(|k| look[k] && self.emitter[k] == e);
+                for (d, &y) in done.iter_mut().zip(&mine) {
+                    *d |= y;
+                }
+                let tex = match &scene.emitters[e as usize] {
+                    Emitter::Area(a) => &a.radiance,
+                    Emitter::Spot(s) => s.texture.as_ref().expect("LaneLight::table: textured"),
+                    _ => unreachable!("LaneLight::table: an area or spot light"),
+                };
+                let mm = avx.mask(&mine);
+                let v = match tex {
+                    Texture::Bitmap(b) => b.eval_x8(
+                        avx,
+                        V2::new(F32x8::select(mm, uv.x, half), F32x8::select(mm, uv.y, half)),
+                    ),
+                    t => {
+                        let (u, v) = (uv.x.to_array(), uv.y.to_array());
+                        let mut c = Cols3::default();
+                        for k in (0..8).filter(|&k| mine[k]) {
+                            c.set(k, t.eval(Vec2::new(u[k], v[k])));
+                        }
+                        c.load(avx)
+                    }
+                };
+                out = V3::select(mm, v, out);
+            }
+            (avx.mask(&look), out)
         }
 
         /// The 8 light points seen from `ref_p` (the lanes' surface points of `scene`), the
@@ -734,6 +851,31 @@ pub(crate) mod x8 {
                 );
                 merge(&mut lp, m(&kind.map(|c| c == KIND_SPHERE)), &q, sel8);
             }
+            let on = kind.map(|c| c == KIND_TRIANGLE || c == KIND_RECTANGLE);
+            if self.n_textured > 0 && self.any_textured(&on) {
+                // AreaLight::sample_direct's `radiance.eval(uv)` at the sampled point (triangles:
+                // `Shape::sample_position`'s uv from the same barycentrics; rectangles: `u`),
+                // then `nee::sample_emitter`'s zero test.
+                let b = warp::square_to_uniform_triangle(su);
+                let b0 = sel8.splat(1.0) - b.x - b.y;
+                let c = |j: usize, a: usize| avx.load(&self.tuv[j][a]);
+                let tri = |a: usize, bb: F32x8| (c(0, a) * b0 + c(1, a) * b.x) + c(2, a) * bb;
+                let has = m(&self.tuv_some);
+                let tri_uv = V2::new(
+                    F32x8::select(has, tri(0, b.y), b.x),
+                    F32x8::select(has, tri(1, b.y), b.y),
+                );
+                let rect = m(&kind.map(|c| c == KIND_RECTANGLE));
+                let uv = V2::new(
+                    F32x8::select(rect, su.x, tri_uv.x),
+                    F32x8::select(rect, su.y, tri_uv.y),
+                );
+                let (look, t) = self.textures(avx, scene, &on, lp.some.to_array(), uv);
+                let z = sel8.splat(0.0);
+                let zero = t.x.eq(z) & t.y.eq(z) & t.z.eq(z);
+                lp.value = V3::select(look, t, lp.value);
+                lp.some = lp.some & !(look & zero);
+            }
             let lv = self.lv.load(avx);
             if self.counts[3] > 0 {
                 let q = em::sample_point(self.center.load(avx), lv, ref_p);
@@ -750,8 +892,15 @@ pub(crate) mod x8 {
                     cutoff,
                     beam_width,
                 };
-                let q = em::sample_spot(&spot, ref_p);
-                merge_free(&mut lp, m(&kind.map(|c| c == KIND_SPOT)), &q, sel8);
+                let mut q = em::sample_spot(&spot, ref_p);
+                let on = kind.map(|c| c == KIND_SPOT);
+                if self.any_textured(&on) {
+                    // SpotLight::sample_direct: `value *= texture(uv)`, where it is sampled.
+                    let uv = em::spot_uv(&spot.to_local, q.d, avx.load(&self.uv_factor));
+                    let (look, t) = self.textures(avx, scene, &on, q.ok.to_array(), uv);
+                    q.value = V3::select(look, q.value * t, q.value);
+                }
+                merge_free(&mut lp, m(&on), &q, sel8);
             }
             if self.counts[5] > 0 {
                 let q = em::sample_directional(self.center.load(avx), lv, ref_p);

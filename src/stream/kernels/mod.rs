@@ -29,6 +29,8 @@
 //!   [`emitters`]: `point`, `spot`, `directional`, `constant` and `envmap` in lanes.
 //! - [`draws`]: a vertex's random numbers for 8 paths, 8-wide.
 //! - [`surface`]: the kernels' one surface load, 8-wide from the batch's columns.
+//! - [`tail`]: the end of a vertex, per integrator (`path`: `PathState::advance`; `direct`:
+//!   rays to trace), after a kernel's 8-wide samples.
 //! - [`ray`]: robust ray origins in lanes.
 //! - [`mis`]: the power heuristic in lanes.
 
@@ -42,4 +44,5 @@ pub(crate) mod mnm;
 pub(crate) mod plastic;
 pub(crate) mod ray;
 pub(crate) mod surface;
+pub(crate) mod tail;
 pub(crate) mod vertex;

@@ -191,7 +191,6 @@ pub(crate) fn sample<L: Lane>(
 pub(crate) mod x8 {
     use super::*;
     use crate::geometry::Ray;
-    use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::Avx2;
     use crate::spectrum::Spectrum;
@@ -201,10 +200,12 @@ pub(crate) mod x8 {
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
+    use crate::stream::kernels::tail::{Sampled, Tail};
     use glam::Vec2;
 
     /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (all of material
     /// `mat`) 8 at a time; returns how many it shaded. Enters [`Avx2::run`] itself.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade_run(
         avx: Avx2,
         scene: &Scene,
@@ -213,6 +214,7 @@ pub(crate) mod x8 {
         run: std::ops::Range<usize>,
         mat: Material,
         lights: &[Option<LaneLight>],
+        tail: &mut impl Tail,
     ) -> usize {
         let n = run.len() / 8 * 8;
         if n == 0 {
@@ -224,7 +226,7 @@ pub(crate) mod x8 {
                 let mut gather = Gather::new();
                 for c in (run.start..run.start + n).step_by(8) {
                     let ids: [u32; 8] = b.sorted[c..c + 8].try_into().expect("8 ids");
-                    shade(avx, scene, cfg, b, &ids, &mat, lights, &mut gather);
+                    shade(avx, scene, cfg, b, &ids, &mat, lights, &mut gather, tail);
                 }
             },
         );
@@ -246,6 +248,7 @@ pub(crate) mod x8 {
         mat: &Material,
         lights: &[Option<LaneLight>],
         gather: &mut Gather,
+        tail: &mut impl Tail,
     ) {
         // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
         // The surfaces, their points, the incident direction and the side test.
@@ -308,15 +311,13 @@ pub(crate) mod x8 {
             let (tmax, c) = (lo.tmax.to_array(), Cols3::store(lo.contribution));
             for (k, &i) in ids.iter().enumerate() {
                 if front[k] && ok[k] {
-                    b.light[i as usize] = Some(PendingLight {
-                        shadow: Ray {
-                            o: o.get(k),
-                            d: d.get(k),
-                            tmin: 0.0,
-                            tmax: tmax[k],
-                        },
-                        contribution: c.get(k),
-                    });
+                    let shadow = Ray {
+                        o: o.get(k),
+                        d: d.get(k),
+                        tmin: 0.0,
+                        tmax: tmax[k],
+                    };
+                    tail.light(b, i as usize, shadow, c.get(k));
                 }
             }
         }
@@ -331,21 +332,15 @@ pub(crate) mod x8 {
             if !(front[k] && ok[k]) {
                 continue;
             }
-            let ray = Ray::new(o.get(k), wo.get(k));
-            let next = b.state[i].advance(
-                cfg,
-                p.get(k),
-                weight.get(k),
-                1.0,
-                pdf[k],
-                delta[k],
-                ray,
-                &mut b.sampler[i],
-            );
-            if let Some(r) = next {
-                b.ray[i] = r;
-                b.alive[i] = true;
-            }
+            let s = Sampled {
+                p: p.get(k),
+                ray: Ray::new(o.get(k), wo.get(k)),
+                weight: weight.get(k),
+                eta: 1.0,
+                pdf: pdf[k],
+                delta: delta[k],
+            };
+            tail.bsdf(b, i, &s);
         }
     }
 }

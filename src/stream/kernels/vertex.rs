@@ -149,7 +149,6 @@ fn leaf_values(scene: &Scene, mat: &Material, si: &SurfaceInteraction) -> (Vec3,
 pub(crate) mod x8 {
     use super::*;
     use crate::geometry::Ray;
-    use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::V2;
     use crate::lane::{Avx2, F32x8};
@@ -158,6 +157,7 @@ pub(crate) mod x8 {
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
+    use crate::stream::kernels::tail::{Sampled, Tail};
     use glam::Vec2;
 
     /// Shades the paths `sorted[chunks]` (runs of 8, all at a surface of material `mat`) with
@@ -166,6 +166,7 @@ pub(crate) mod x8 {
     /// from the template) and whether the chain needs the full instance (`Material::full`:
     /// textured leaf parameters, a `mask`, a `bumpmap`). Call inside [`Avx2::run`].
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade_run(
         avx: Avx2,
         scene: &Scene,
@@ -174,6 +175,7 @@ pub(crate) mod x8 {
         chunks: impl Iterator<Item = usize>,
         mat: &Material,
         lights: &[Option<LaneLight>],
+        tail: &mut impl Tail,
     ) {
         let mut gather = Gather::new();
         let base = mat.params(avx.splat(0.0));
@@ -191,6 +193,7 @@ pub(crate) mod x8 {
                         &base,
                         lights,
                         &mut gather,
+                        tail,
                     );
                 }
             };
@@ -221,6 +224,7 @@ pub(crate) mod x8 {
         base: &Params<F32x8>,
         lights: &[Option<LaneLight>],
         gather: &mut Gather,
+        tail: &mut impl Tail,
     ) {
         debug_assert_eq!((PER_LANE, FULL), (mat.per_lane(), mat.full()));
         // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
@@ -390,33 +394,25 @@ pub(crate) mod x8 {
             }
             if let Some((l_ok, l_o, l_d, l_tmax, l_c)) = &lo {
                 if l_ok[k] {
-                    b.light[i] = Some(PendingLight {
-                        shadow: Ray {
-                            o: l_o.get(k),
-                            d: l_d.get(k),
-                            tmin: 0.0,
-                            tmax: l_tmax[k],
-                        },
-                        contribution: l_c.get(k),
-                    });
+                    let shadow = Ray {
+                        o: l_o.get(k),
+                        d: l_d.get(k),
+                        tmin: 0.0,
+                        tmax: l_tmax[k],
+                    };
+                    tail.light(b, i, shadow, l_c.get(k));
                 }
             }
             if s_ok[k] {
-                let ray = Ray::new(s_o.get(k), s_wo.get(k));
-                let next = b.state[i].advance(
-                    cfg,
-                    p.get(k),
-                    s_w.get(k),
-                    s_eta[k],
-                    s_pdf[k],
-                    s_delta[k],
-                    ray,
-                    &mut b.sampler[i],
-                );
-                if let Some(r) = next {
-                    b.ray[i] = r;
-                    b.alive[i] = true;
-                }
+                let s = Sampled {
+                    p: p.get(k),
+                    ray: Ray::new(s_o.get(k), s_wo.get(k)),
+                    weight: s_w.get(k),
+                    eta: s_eta[k],
+                    pdf: s_pdf[k],
+                    delta: s_delta[k],
+                };
+                tail.bsdf(b, i, &s);
             }
         }
     }
