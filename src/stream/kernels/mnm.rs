@@ -22,8 +22,14 @@
 //! (`compensated::lanes`' test), so the image is the scalar renderer's (`docs/mnm.md`, "Issues
 //! 17/18: the compensated model in lanes (tenth session)").
 
-use crate::bsdf::mnm::Evaluation;
+use crate::bsdf::mnm::facets::clamp_perturbed_normal;
+use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap};
+use crate::bsdf::BsdfArena;
+use crate::geometry::SurfaceInteraction;
 use crate::material::{MatId, MaterialNode, Materials};
+use crate::scene::Scene;
+use crate::stream::kernels::diffuse::reflectance;
+use glam::Vec3;
 
 /// Whether material `m` is shaded by this kernel: a microfacet `normalmap` with `evaluation =
 /// compensated` and its table, directly over a leaf BSDF (`diffuse` or a leaf with constant
@@ -59,9 +65,60 @@ pub(crate) fn shared_nested(materials: &Materials, m: MatId) -> bool {
     }
 }
 
+/// Pushes the microfacet normal maps of the 8 hits `si` of material `m` (one that
+/// [`qualifies`] and [`shared_nested`]) into `arena`, as `Materials::build_at` builds them but
+/// without the incident-direction cache, which `compensated::lanes::with_incident_x8` then adds
+/// for the 8 points at once; the leaf is pushed once for the chunk (a constant template: every
+/// hit's copy would be the same bit for bit). Returns the roots (`u32::MAX` for a lane whose hit
+/// is not given) and the ωi the cache is for (shading frame, as `Materials::build_at` computes
+/// it).
+pub(crate) fn build_shared(
+    scene: &Scene,
+    m: MatId,
+    si: &[Option<SurfaceInteraction>; 8],
+    arena: &mut BsdfArena,
+) -> ([u32; 8], [Vec3; 8]) {
+    let materials = &scene.materials;
+    let nodes = materials.nodes();
+    let (mut roots, mut wi) = ([u32::MAX; 8], [Vec3::Z; 8]);
+    let MaterialNode::MicrofacetNormalMap {
+        nested,
+        normalmap,
+        settings,
+    } = &nodes[m as usize]
+    else {
+        return (roots, wi);
+    };
+    let MaterialNode::Leaf { template, .. } = &nodes[*nested as usize] else {
+        return (roots, wi);
+    };
+    let child = arena.push_with_lobes(materials.lobes(*nested), **template);
+    let tex = &materials.textures[*normalmap as usize];
+    for (k, si) in si.iter().enumerate() {
+        let Some(si) = si else { continue };
+        let rgb = reflectance(scene, tex, si);
+        let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, settings.max_theta);
+        roots[k] = arena.push_microfacet_normal_map(
+            MicrofacetNormalMap::new(
+                child,
+                wp,
+                settings.geometry,
+                settings.tangent,
+                settings.evaluation,
+                settings.max_order,
+            )
+            .with_transmission_walk(settings.transmission_walk)
+            .with_lambert_closed_form(settings.lambert_closed_form)
+            .with_ms_table(settings.ms_table),
+        );
+        wi[k] = si.sh.to_local(si.wi);
+    }
+    (roots, wi)
+}
+
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
-    use crate::bsdf::mnm::compensated::lanes::{eval_pdf_x8, sample_x8, Point};
+    use crate::bsdf::mnm::compensated::lanes::{eval_pdf_x8, sample_x8, with_incident_x8, Point};
     use crate::bsdf::{BsdfArena, BsdfContext, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::path::PendingLight;
@@ -107,8 +164,18 @@ pub(crate) mod x8 {
         // 1. The surfaces, loaded 8-wide from the batch's rows (the light stage's columns).
         let surf = crate::stream::kernels::surface::x8::load(avx, &b.surf, ids);
 
-        // 2. The BSDFs, the side test, the light points, lane by lane in each path's order.
+        // 2. The BSDFs: where the nested leaf is shared, the maps built here and their ωi
+        //    caches 8-wide (`super::build_shared`, `with_incident_x8`), else by
+        //    `Scene::bsdf_root`; then the side test and the light points, lane by lane in each
+        //    path's order.
         arena.clear();
+        let mut built = [u32::MAX; 8];
+        if shared {
+            let sis = ids.map(|i| Some(si_of(b, i)));
+            let wi;
+            (built, wi) = super::build_shared(scene, m0, &sis, arena);
+            with_incident_x8(arena, &built, &wi);
+        }
         let mut root = [u32::MAX; 8];
         let mut nee = [false; 8];
         let mut tp = Cols3::default();
@@ -118,7 +185,10 @@ pub(crate) mod x8 {
             let i = i as usize;
             b.light[i] = None;
             let si = si_of(b, i as u32);
-            let r = scene.bsdf_root(&si, arena);
+            let r = match built[k] {
+                u32::MAX => scene.bsdf_root(&si, arena),
+                r => r,
+            };
             let Some(bsdf) = SurfaceBsdf::new(arena.bsdf(r), si.sh, si.ng, si.wi) else {
                 continue; // no light scatters toward wi: the path ends (`PathState::scatter`)
             };
