@@ -353,11 +353,39 @@ impl Lane for F32x8 {
             F32x8(_mm256_i32gather_ps::<4>(table.as_ptr(), i))
         }
     }
+    #[inline(always)]
+    fn gather3(table: &[[f32; 3]], idx: I32x8) -> [F32x8; 3] {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 3);
+        // SAFETY: an I32x8 exists only with AVX2. The rows are contiguous `[f32; 3]`s, so row
+        // r's component c is float 3r + c from the start; after the unsigned clamp r < len and
+        // 3r + 2 < 3·len ≤ i32::MAX, so each load reads inside `table`.
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(table.len() as i32 - 1));
+            let i3 = _mm256_add_epi32(_mm256_add_epi32(i, i), i);
+            let base = table.as_ptr().cast::<f32>();
+            [
+                F32x8(_mm256_i32gather_ps::<4>(base, i3)),
+                F32x8(_mm256_i32gather_ps::<4>(base.add(1), i3)),
+                F32x8(_mm256_i32gather_ps::<4>(base.add(2), i3)),
+            ]
+        }
+    }
 }
 
 impl LaneI32 for I32x8 {
     type F = F32x8;
     type Mask = M8;
+    #[inline(always)]
+    fn gather_bytes4(table: &[[u8; 4]], idx: I32x8) -> I32x8 {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize);
+        // SAFETY: an I32x8 exists only with AVX2; after the unsigned clamp every index is below
+        // len, so each 4-byte load reads one entry of `table` (gathers need no alignment; x86
+        // loads are little-endian, as the width-1 `from_le_bytes`).
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(table.len() as i32 - 1));
+            I32x8(_mm256_i32gather_epi32::<4>(table.as_ptr().cast::<i32>(), i))
+        }
+    }
     #[inline(always)]
     fn splat(self, c: i32) -> I32x8 {
         I32x8(unsafe { _mm256_set1_epi32(c) })

@@ -109,6 +109,13 @@ pub trait Lane:
     /// clamped to `N − 1` as an unsigned number (so a negative index reads the last entry):
     /// always in bounds, the same entry at both widths. `N` must be in 1..=i32::MAX.
     fn gather<const N: usize>(table: &[f32; N], idx: Self::I32) -> Self;
+    /// The three floats of `table[idx]` per lane (three `vgatherdps` at width 8; a bitmap
+    /// texture's RGB texels), each index first clamped to `table.len() − 1` as an unsigned
+    /// number: always in bounds, the same row at both widths.
+    ///
+    /// # Panics
+    /// If `table` is empty or holds more than `i32::MAX / 3` rows.
+    fn gather3(table: &[[f32; 3]], idx: Self::I32) -> [Self; 3];
 
     /// |self| (clears the sign bit; NaN stays NaN).
     #[inline(always)]
@@ -175,6 +182,12 @@ pub trait LaneI32: Copy + Debug {
         o.gt(self)
     }
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// `table[idx]` as a little-endian `i32` per lane (`vpgatherdd` at width 8; a bitmap
+    /// texture's 8-bit RGB codes), each index clamped as in [`Lane::gather3`].
+    ///
+    /// # Panics
+    /// If `table` is empty or holds more than `i32::MAX` entries.
+    fn gather_bytes4(table: &[[u8; 4]], idx: Self) -> Self;
     /// Signed integer to float, correctly rounded (exact below 2²⁴ in magnitude).
     fn to_f32(self) -> Self::F;
     /// Lane `i` (tests).

@@ -122,11 +122,21 @@ impl Lane for f32 {
         const { assert!(N >= 1 && N <= i32::MAX as usize) };
         table[(idx as u32).min(N as u32 - 1) as usize]
     }
+    #[inline(always)]
+    fn gather3(table: &[[f32; 3]], idx: i32) -> [f32; 3] {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 3);
+        table[(idx as u32).min(table.len() as u32 - 1) as usize]
+    }
 }
 
 impl LaneI32 for i32 {
     type F = f32;
     type Mask = bool;
+    #[inline(always)]
+    fn gather_bytes4(table: &[[u8; 4]], idx: i32) -> i32 {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize);
+        i32::from_le_bytes(table[(idx as u32).min(table.len() as u32 - 1) as usize])
+    }
     #[inline(always)]
     fn splat(self, c: i32) -> i32 {
         c

@@ -26,6 +26,8 @@ use exr::prelude::f16;
 use glam::{Mat3, Vec2, Vec3};
 
 use super::float_image;
+
+mod lanes;
 use crate::budget::{bytes_of, Budget};
 use crate::error::{Error, Result};
 use crate::spectrum::{luminance, Spectrum};
@@ -145,7 +147,10 @@ impl Default for BitmapOptions {
 /// ~7 % of its render in bilinear lookups of a 768 KiB map, ~4 % with a 48 KiB one).
 #[derive(Clone)]
 enum Texels {
-    F32(Vec<Vec3>),
+    /// RGB rows (plain arrays, so that the lane form gathers from them: [`Lane::gather3`]).
+    ///
+    /// [`Lane::gather3`]: crate::lane::Lane::gather3
+    F32(Vec<[f32; 3]>),
     U8 {
         /// RGB codes, padded to 4 bytes (grey: the code three times).
         codes: Vec<[u8; 4]>,
@@ -164,7 +169,7 @@ impl Texels {
     #[inline]
     fn get(&self, i: usize) -> Vec3 {
         match self {
-            Texels::F32(t) => t[i],
+            Texels::F32(t) => Vec3::from_array(t[i]),
             Texels::U8 { codes, lut } => {
                 let c = codes[i];
                 Vec3::new(lut[c[0] as usize], lut[c[1] as usize], lut[c[2] as usize])
@@ -315,7 +320,7 @@ impl BitmapTexture {
         }
         let store = match dec.codes {
             Some(codes) if !quantize => codes,
-            _ => Texels::F32(texels),
+            _ => Texels::F32(texels.iter().map(|t| t.to_array()).collect()),
         };
         let mut t = BitmapTexture::from_storage(dec.width, dec.height, store, dec.grey, opts);
         t.source = path.to_path_buf();
@@ -335,7 +340,8 @@ impl BitmapTexture {
         grey: bool,
         opts: &BitmapOptions,
     ) -> BitmapTexture {
-        Self::from_storage(width, height, Texels::F32(texels), grey, opts)
+        let rows = texels.iter().map(|t| t.to_array()).collect();
+        Self::from_storage(width, height, Texels::F32(rows), grey, opts)
     }
 
     fn from_storage(
