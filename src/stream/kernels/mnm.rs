@@ -25,8 +25,7 @@
 //! 17/18: the compensated model in lanes (tenth session)" and "... the compensated build and
 //! sampler in lanes (eleventh session)").
 
-use crate::bsdf::mnm::facets::clamp_perturbed_normal;
-use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap};
+use crate::bsdf::mnm::Evaluation;
 use crate::bsdf::BsdfArena;
 use crate::geometry::SurfaceInteraction;
 use crate::material::{MatId, MaterialNode, Materials};
@@ -87,9 +86,7 @@ pub(crate) fn build_shared(
     let nodes = materials.nodes();
     let (mut roots, mut wi) = ([u32::MAX; 8], [Vec3::Z; 8]);
     let MaterialNode::MicrofacetNormalMap {
-        nested,
-        normalmap,
-        settings,
+        nested, settings, ..
     } = &nodes[m as usize]
     else {
         return (roots, wi);
@@ -97,24 +94,10 @@ pub(crate) fn build_shared(
     let MaterialNode::Leaf { template, .. } = &nodes[*nested as usize] else {
         return (roots, wi);
     };
-    let _ = normalmap; // looked up by the caller
     let child = arena.push_with_lobes(materials.lobes(*nested), **template);
     for (k, si) in si.iter().enumerate() {
         let Some(si) = si else { continue };
-        let wp = clamp_perturbed_normal(2.0 * rgb[k] - Vec3::ONE, settings.max_theta);
-        roots[k] = arena.push_microfacet_normal_map(
-            MicrofacetNormalMap::new(
-                child,
-                wp,
-                settings.geometry,
-                settings.tangent,
-                settings.evaluation,
-                settings.max_order,
-            )
-            .with_transmission_walk(settings.transmission_walk)
-            .with_lambert_closed_form(settings.lambert_closed_form)
-            .with_ms_table(settings.ms_table),
-        );
+        roots[k] = arena.push_microfacet_normal_map(settings.map_at(child, rgb[k]));
         wi[k] = si.sh.to_local(si.wi);
     }
     (roots, wi)

@@ -267,6 +267,19 @@ mod tests {
     use crate::bsdf::BsdfArena;
     use crate::math::Pcg32;
 
+    /// An exact Lambert table (instant) of the tests' settings.
+    fn unit_table(geometry: Microgeometry, tangent: Tangent, colour: Colour) -> &'static MsTable {
+        let spec = TableSpec {
+            geometry,
+            tangent,
+            max_order: 256,
+            max_theta: 85f32.to_radians(),
+            colour,
+            walks: WALKS_PER_NODE,
+        };
+        Box::leak(Box::new(MsTable::lambert(spec, "unit".into())))
+    }
+
     /// The ωi caches built 8 at a time in place ([`with_incident_x8`]) equal
     /// [`MicrofacetNormalMap::with_incident`]'s bit for bit, lane by lane: the mirror sawtooth,
     /// the V-groove and a U-groove, baked and per-bounce tables mixed in one chunk (two baked
@@ -286,19 +299,7 @@ mod tests {
             .map(|&(geometry, tangent)| {
                 [Colour::Baked, Colour::Baked, Colour::PerBounce]
                     .iter()
-                    .map(|&colour| {
-                        let spec = TableSpec {
-                            geometry,
-                            tangent,
-                            max_order: 256,
-                            max_theta: 85f32.to_radians(),
-                            colour,
-                            walks: WALKS_PER_NODE,
-                        };
-                        let t: &'static MsTable =
-                            Box::leak(Box::new(MsTable::lambert(spec, "unit".into())));
-                        t
-                    })
+                    .map(|&colour| unit_table(geometry, tangent, colour))
                     .collect()
             })
             .collect();
@@ -383,16 +384,7 @@ mod tests {
             (Microgeometry::VGroove, Tangent::Same),
         ] {
             for colour in [Colour::PerBounce, Colour::Baked] {
-                let spec = TableSpec {
-                    geometry,
-                    tangent,
-                    max_order: 256,
-                    max_theta: 85f32.to_radians(),
-                    colour,
-                    walks: WALKS_PER_NODE,
-                };
-                let table: &'static MsTable =
-                    Box::leak(Box::new(MsTable::lambert(spec, "unit".into())));
+                let table = unit_table(geometry, tangent, colour);
                 for &n in &nested {
                     for _ in 0..100 {
                         let mut roots = [u32::MAX; 8];
