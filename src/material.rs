@@ -78,6 +78,27 @@ pub struct MnmSettings {
     pub ms_table: Option<&'static crate::bsdf::mnm::ms_table::MsTable>,
 }
 
+impl MnmSettings {
+    /// The map at one hit, over the arena node `nested`, with the perturbed normal `rgb` of the
+    /// normal map texture (2·rgb − 1, clamped to `max_theta`), before its ωi cache
+    /// ([`MicrofacetNormalMap::with_incident`]; the stream kernel adds 8 at once).
+    #[inline(always)]
+    pub fn map_at(&self, nested: u32, rgb: Vec3) -> MicrofacetNormalMap {
+        let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, self.max_theta);
+        MicrofacetNormalMap::new(
+            nested,
+            wp,
+            self.geometry,
+            self.tangent,
+            self.evaluation,
+            self.max_order,
+        )
+        .with_transmission_walk(self.transmission_walk)
+        .with_lambert_closed_form(self.lambert_closed_form)
+        .with_ms_table(self.ms_table)
+    }
+}
+
 #[derive(Clone, Debug)]
 pub enum MaterialNode {
     Diffuse {
@@ -447,20 +468,10 @@ impl Materials {
             } => {
                 let child = self.build_at(*nested, si, at, arena);
                 let rgb = self.textures[*normalmap as usize].eval(at);
-                let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, settings.max_theta);
                 arena.push_microfacet_normal_map(
-                    MicrofacetNormalMap::new(
-                        child,
-                        wp,
-                        settings.geometry,
-                        settings.tangent,
-                        settings.evaluation,
-                        settings.max_order,
-                    )
-                    .with_transmission_walk(settings.transmission_walk)
-                    .with_lambert_closed_form(settings.lambert_closed_form)
-                    .with_ms_table(settings.ms_table)
-                    .with_incident(si.sh.to_local(si.wi)),
+                    settings
+                        .map_at(child, rgb)
+                        .with_incident(si.sh.to_local(si.wi)),
                 )
             }
             MaterialNode::NormalMap {

@@ -307,6 +307,16 @@ impl BsdfArena {
             },
         )
     }
+    /// The microfacet normal map of node `i` (`None` for another kind), to finish its per-hit
+    /// build in place: the stream kernel's ωi caches, 8 points at once
+    /// (`mnm::compensated::lanes::with_incident_x8`).
+    #[inline]
+    pub(crate) fn mnm_mut(&mut self, i: u32) -> Option<&mut mnm::MicrofacetNormalMap> {
+        match self.nodes.get(i as usize)? {
+            BsdfNode::MicrofacetNormalMap { map, .. } => self.mnm.get_mut(*map as usize),
+            _ => None,
+        }
+    }
     /// The albedo of node `i` when it is Lambertian as the microfacet normal map's facets see it
     /// (queried from the front only): `diffuse`, or `twosided` with a `diffuse` front.
     fn lambertian_reflectance(&self, i: u32) -> Option<Spectrum> {

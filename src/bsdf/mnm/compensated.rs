@@ -164,6 +164,24 @@ impl AtIncident {
             baked,
         }
     }
+
+    /// [`Self::new`] from the baked table's [W1, E_ms] at ωi, looked up by the caller (8 points
+    /// at once: [`lanes::with_incident_x8`]).
+    #[inline(always)]
+    fn from_lookup(m: &MicrofacetNormalMap, wi: Vec3, [w1, ei]: [Spectrum; 2]) -> Self {
+        AtIncident {
+            wi,
+            entries: Entries::new(m, wi),
+            baked: Some((ei, selection(ei, w1))),
+        }
+    }
+
+    /// Whether [`MicrofacetNormalMap::with_incident`] builds a cache for `m` at `wi` (its
+    /// conditions).
+    #[inline(always)]
+    fn wanted(m: &MicrofacetNormalMap, wi: Vec3) -> bool {
+        m.ms.is_some() && wi.z > 0.0 && !m.degenerate
+    }
 }
 
 impl MicrofacetNormalMap {

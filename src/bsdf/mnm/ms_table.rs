@@ -335,13 +335,18 @@ impl MsTable {
         self.interpolate_baked(cell, idx[0], wgt, with_first)
     }
 
-    /// E_ms of [`Self::lookup_baked`] (`with_first` = false) at 8 directions `w[k]` (z > 0), each
-    /// in its own cell `cells[k]` of this table (lanes without one are left 0): the node
-    /// coordinates and weights ([`coords`]) 8-wide, the node windows lane by lane; bit for bit
-    /// the scalar lookups (the lane rule of [`crate::lane`]).
+    /// [`Self::lookup_baked`] at 8 directions `w[k]` (z > 0), each in its own cell `cells[k]` of
+    /// this table (lanes without one are left 0): the node coordinates and weights ([`coords`])
+    /// 8-wide, the node windows lane by lane; bit for bit the scalar lookups (the lane rule of
+    /// [`crate::lane`]). `with_first`: also W1 (the hit's ωi cache), else only E_ms (ωo).
     #[inline]
-    pub fn lookup_baked_x8(&self, cells: &[Option<ThetaCell>; 8], w: &[Vec3; 8]) -> [Spectrum; 8] {
-        let mut out = [Spectrum::ZERO; 8];
+    pub fn lookup_baked_x8(
+        &self,
+        cells: &[Option<ThetaCell>; 8],
+        w: &[Vec3; 8],
+        with_first: bool,
+    ) -> [[Spectrum; 2]; 8] {
+        let mut out = [[Spectrum::ZERO; 2]; 8];
         #[cfg(target_arch = "x86_64")]
         if let Some(avx) = crate::lane::Avx2::detect() {
             let (mut ax, mut ay) = ([1.0f32; 8], [0.0f32; 8]);
@@ -369,14 +374,14 @@ impl MsTable {
                 if let Some(c) = c {
                     let i = node(c.j, kz[k] as usize, l[k] as usize);
                     let wk = [wgt[0][k], wgt[1][k], wgt[2][k], wgt[3][k]];
-                    out[k] = self.interpolate_baked(c, i, wk, false)[1];
+                    out[k] = self.interpolate_baked(c, i, wk, with_first);
                 }
             }
             return out;
         }
         for (k, c) in cells.iter().enumerate() {
             if let Some(c) = c {
-                out[k] = self.lookup_baked(c, w[k], false)[1];
+                out[k] = self.lookup_baked(c, w[k], with_first);
             }
         }
         out

@@ -3,11 +3,13 @@
 //! remainder table (what `--normal-mapping compensated` makes of a scene's normal maps) over a
 //! leaf BSDF, 8 paths at a time, in the steps of the wrapper-chain driver ([`super::vertex`]):
 //! 1. the surface interactions gathered into SoA columns;
-//! 2. lane by lane, in each path's order: the BSDF built at the hit (the normal map's texture
-//!    lookup, the microsurface, the table cell and the incident-direction cache:
-//!    `Scene::bsdf_root`, the scalar code, into one arena for the 8 points), the side test,
-//!    the light selection and light point through the shared gather
-//!    ([`super::light::x8::Gather`]: area lights 8-wide);
+//! 2. the BSDFs built at the hits, into one arena for the 8 points: where the chunk's nested
+//!    leaf is constant ([`shared_nested`]), [`build_shared`] (the leaf pushed once, per lane
+//!    the normal map's texture lookup, the microsurface and the table cell) and the 8
+//!    incident-direction caches together (`compensated::lanes::with_incident_x8`: the table
+//!    lookups at ωi 8-wide), else lane by lane `Scene::bsdf_root` (the scalar code); then lane
+//!    by lane, in each path's order, the side test, the light selection and light point
+//!    through the shared gather ([`super::light::x8::Gather`]: area lights 8-wide);
 //! 3. the BSDF value and density toward each light point: where the chunk's nested leaf has no
 //!    textured parameter ([`shared_nested`]), the 8 points together through
 //!    `bsdf::mnm::compensated::lanes` (the first orders' nested pairs of all points in full
@@ -17,13 +19,19 @@
 //! 4. the BSDF samples (the same split: the points' draws lane by lane, their first orders and
 //!    remainders together), then lane by lane the next ray and `PathState::advance`.
 //!
-//! The per-hit build (texture lookup, microsurface, table cell, ωi cache) and the draws still
-//! run per lane through the scalar code; every number is the scalar model's bit for bit
-//! (`compensated::lanes`' test), so the image is the scalar renderer's (`docs/mnm.md`, "Issues
-//! 17/18: the compensated model in lanes (tenth session)").
+//! The per-hit build's texture lookup, microsurface, facet frames and entries, and the draws,
+//! still run per lane through the scalar code; every number is the scalar model's bit for bit
+//! (`compensated::lanes`' tests), so the image is the scalar renderer's (`docs/mnm.md`, "Issues
+//! 17/18: the compensated model in lanes (tenth session)" and "... the compensated build and
+//! sampler in lanes (eleventh session)").
 
 use crate::bsdf::mnm::Evaluation;
+use crate::bsdf::BsdfArena;
+use crate::geometry::SurfaceInteraction;
 use crate::material::{MatId, MaterialNode, Materials};
+use crate::scene::Scene;
+use crate::texture::Texture;
+use glam::Vec3;
 
 /// Whether material `m` is shaded by this kernel: a microfacet `normalmap` with `evaluation =
 /// compensated` and its table, directly over a leaf BSDF (`diffuse` or a leaf with constant
@@ -59,20 +67,107 @@ pub(crate) fn shared_nested(materials: &Materials, m: MatId) -> bool {
     }
 }
 
+/// Pushes the microfacet normal maps of the 8 hits `si` of material `m` (one that
+/// [`qualifies`] and [`shared_nested`]) into `arena`, as `Materials::build_at` builds them but
+/// without the incident-direction cache, which `compensated::lanes::with_incident_x8` then adds
+/// for the 8 points at once; the leaf is pushed once for the chunk (a constant template: every
+/// hit's copy would be the same bit for bit). `rgb[k]`: the normal map texture's value at hit
+/// `k` (looked up by the caller, [`normal_texture`]). Returns the roots (`u32::MAX` for a lane
+/// whose hit is not given) and the ωi the cache is for (shading frame, as `Materials::build_at`
+/// computes it).
+pub(crate) fn build_shared(
+    scene: &Scene,
+    m: MatId,
+    si: &[Option<SurfaceInteraction>; 8],
+    rgb: &[Vec3; 8],
+    arena: &mut BsdfArena,
+) -> ([u32; 8], [Vec3; 8]) {
+    let materials = &scene.materials;
+    let nodes = materials.nodes();
+    let (mut roots, mut wi) = ([u32::MAX; 8], [Vec3::Z; 8]);
+    let MaterialNode::MicrofacetNormalMap {
+        nested, settings, ..
+    } = &nodes[m as usize]
+    else {
+        return (roots, wi);
+    };
+    let MaterialNode::Leaf { template, .. } = &nodes[*nested as usize] else {
+        return (roots, wi);
+    };
+    let child = arena.push_with_lobes(materials.lobes(*nested), **template);
+    for (k, si) in si.iter().enumerate() {
+        let Some(si) = si else { continue };
+        roots[k] = arena.push_microfacet_normal_map(settings.map_at(child, rgb[k]));
+        wi[k] = si.sh.to_local(si.wi);
+    }
+    (roots, wi)
+}
+
+/// The normal map texture of material `m` (a microfacet `normalmap`).
+pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
+    match &scene.materials.nodes()[m as usize] {
+        MaterialNode::MicrofacetNormalMap { normalmap, .. } => {
+            Some(&scene.materials.textures[*normalmap as usize])
+        }
+        _ => None,
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
-    use crate::bsdf::mnm::compensated::lanes::{eval_pdf_x8, sample_x8, Point};
+    use crate::bsdf::mnm::compensated::lanes::{eval_pdf_x8, sample_x8, with_incident_x8, Point};
     use crate::bsdf::{BsdfArena, BsdfContext, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
+    use crate::lane::vec::V2;
     use crate::lane::Avx2;
     use crate::scene::Scene;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::diffuse::light_out;
+    use crate::stream::kernels::diffuse::reflectance;
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
+    use crate::texture::Texture;
     use glam::Vec3;
+
+    /// The normal map texture's values at the 8 hits `si` of material `m`, as
+    /// `Materials::build_at` looks it up (`Texture::eval` at the hit's uv, or its mesh data):
+    /// a bitmap at the 8 uvs at once (`BitmapTexture::eval_x8`, bit for bit `eval`), another
+    /// texture lane by lane. Lanes without a hit are left 0.
+    #[inline(always)]
+    fn normal_rgb(
+        avx: Avx2,
+        scene: &Scene,
+        m: crate::material::MatId,
+        si: &[Option<SurfaceInteraction>; 8],
+    ) -> [Vec3; 8] {
+        let mut rgb = [Vec3::ZERO; 8];
+        let Some(tex) = super::normal_texture(scene, m) else {
+            return rgb;
+        };
+        if let Texture::Bitmap(bt) = tex {
+            let (mut u, mut v) = ([0.0f32; 8], [0.0f32; 8]);
+            for (k, si) in si.iter().enumerate() {
+                if let Some(si) = si {
+                    (u[k], v[k]) = (si.uv.x, si.uv.y);
+                }
+            }
+            let c = Cols3::store(bt.eval_x8(avx, V2::new(avx.load(&u), avx.load(&v))));
+            for (k, si) in si.iter().enumerate() {
+                if si.is_some() {
+                    rgb[k] = c.get(k);
+                }
+            }
+        } else {
+            for (k, si) in si.iter().enumerate() {
+                if let Some(si) = si {
+                    rgb[k] = reflectance(scene, tex, si);
+                }
+            }
+        }
+        rgb
+    }
 
     /// The BSDF built at `si` in step 2 (root `root` of `arena`), whose side test passed.
     #[inline(always)]
@@ -107,8 +202,19 @@ pub(crate) mod x8 {
         // 1. The surfaces, loaded 8-wide from the batch's rows (the light stage's columns).
         let surf = crate::stream::kernels::surface::x8::load(avx, &b.surf, ids);
 
-        // 2. The BSDFs, the side test, the light points, lane by lane in each path's order.
+        // 2. The BSDFs: where the nested leaf is shared, the maps built here and their ωi
+        //    caches 8-wide (`super::build_shared`, `with_incident_x8`), else by
+        //    `Scene::bsdf_root`; then the side test and the light points, lane by lane in each
+        //    path's order.
         arena.clear();
+        let mut built = [u32::MAX; 8];
+        if shared {
+            let sis = ids.map(|i| Some(si_of(b, i)));
+            let rgb = normal_rgb(avx, scene, m0, &sis);
+            let wi;
+            (built, wi) = super::build_shared(scene, m0, &sis, &rgb, arena);
+            with_incident_x8(arena, &built, &wi);
+        }
         let mut root = [u32::MAX; 8];
         let mut nee = [false; 8];
         let mut tp = Cols3::default();
@@ -118,7 +224,10 @@ pub(crate) mod x8 {
             let i = i as usize;
             b.light[i] = None;
             let si = si_of(b, i as u32);
-            let r = scene.bsdf_root(&si, arena);
+            let r = match built[k] {
+                u32::MAX => scene.bsdf_root(&si, arena),
+                r => r,
+            };
             let Some(bsdf) = SurfaceBsdf::new(arena.bsdf(r), si.sh, si.ng, si.wi) else {
                 continue; // no light scatters toward wi: the path ends (`PathState::scatter`)
             };

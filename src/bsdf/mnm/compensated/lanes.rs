@@ -12,12 +12,14 @@
 //! evaluates with the first point's): the stream kernel groups them so (a material whose
 //! nested leaf has no textured parameter).
 
+use super::super::ms_table::MsTable;
 use super::super::nested_batch::{Pairs, CHUNK};
 use super::{
-    draw, entries, sample_record_is_exact, AtWi, Collected, Entries, Known, MsRef, Nested,
+    draw, entries, sample_record_is_exact, AtIncident, AtWi, Collected, Entries, Known, MsRef,
+    Nested,
 };
 use crate::bsdf::mnm::MicrofacetNormalMap;
-use crate::bsdf::{Bsdf, BsdfContext, BsdfSample};
+use crate::bsdf::{Bsdf, BsdfArena, BsdfContext, BsdfSample};
 use crate::math::{warp, INV_PI};
 use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
@@ -75,12 +77,53 @@ fn remainders(pending: &[Option<Pending>; 8], pts: &[Option<Point>; 8]) -> [Spec
             }
         }
     }
-    let eo = table.map_or([Spectrum::ZERO; 8], |t| t.lookup_baked_x8(&cells, &wo));
+    let eo = table.map_or([Spectrum::ZERO; 8], |t| {
+        t.lookup_baked_x8(&cells, &wo, false).map(|l| l[1])
+    });
     std::array::from_fn(|k| match (&pending[k], &pts[k]) {
         (Some(pd), Some(_)) if cells[k].is_some() => pd.at.remainder_from(eo[k], pd.wo),
         (Some(pd), Some(pt)) => pd.at.remainder(pt.r, pd.wo),
         _ => Spectrum::ZERO,
     })
+}
+
+/// [`MicrofacetNormalMap::with_incident`] of up to 8 points at once, in place: the microfacet
+/// normal maps of `arena` at the nodes `roots[k]` (`u32::MAX`: no point), seen from `wi[k]` (the
+/// per-hit build of the stream kernel, `docs/mnm.md` "the compensated build and sampler in
+/// lanes"). The table lookups at ωi of the points with a baked table in one
+/// [`MsTable::lookup_baked_x8`] with W1 (the node coordinates and weights 8-wide; the first such
+/// point's table, a point with another table looks up alone), the entries per point. Bit for
+/// bit the scalar cache (`tests`).
+pub(crate) fn with_incident_x8(arena: &mut BsdfArena, roots: &[u32; 8], wi: &[Vec3; 8]) {
+    let mut cells = [None; 8];
+    let mut table: Option<&'static MsTable> = None;
+    for (k, &root) in roots.iter().enumerate() {
+        let Some(m) = arena.mnm_mut(root) else {
+            continue;
+        };
+        let Some(r) = m.ms.filter(|_| AtIncident::wanted(m, wi[k])) else {
+            continue;
+        };
+        if r.baked_norm.is_some() && std::ptr::eq(*table.get_or_insert(r.table), r.table) {
+            cells[k] = Some(r.cell);
+        }
+    }
+    let looked = table.map(|t| t.lookup_baked_x8(&cells, wi, true));
+    for (k, &root) in roots.iter().enumerate() {
+        let Some(m) = arena.mnm_mut(root) else {
+            continue;
+        };
+        let Some(r) = m.ms.filter(|_| AtIncident::wanted(m, wi[k])) else {
+            continue;
+        };
+        let at = match (cells[k], looked) {
+            (Some(_), Some(l)) => AtIncident::from_lookup(m, wi[k], l[k]),
+            _ => AtIncident::new(m, &r, wi[k]),
+        };
+        if let Some(r) = &mut m.ms {
+            r.at = Some(at);
+        }
+    }
 }
 
 /// The nested BSDF every pending point shares (the first one's).
@@ -224,6 +267,105 @@ mod tests {
     use crate::bsdf::BsdfArena;
     use crate::math::Pcg32;
 
+    /// An exact Lambert table (instant) of the tests' settings.
+    fn unit_table(geometry: Microgeometry, tangent: Tangent, colour: Colour) -> &'static MsTable {
+        let spec = TableSpec {
+            geometry,
+            tangent,
+            max_order: 256,
+            max_theta: 85f32.to_radians(),
+            colour,
+            walks: WALKS_PER_NODE,
+        };
+        Box::leak(Box::new(MsTable::lambert(spec, "unit".into())))
+    }
+
+    /// The ωi caches built 8 at a time in place ([`with_incident_x8`]) equal
+    /// [`MicrofacetNormalMap::with_incident`]'s bit for bit, lane by lane: the mirror sawtooth,
+    /// the V-groove and a U-groove, baked and per-bounce tables mixed in one chunk (two baked
+    /// tables: the second looks up alone), random ωp (some flat: no cache), ωi over both
+    /// hemispheres, empty lanes and a lane that is not a normal map.
+    #[test]
+    fn incident_caches_8_at_a_time_equal_the_scalar_ones() {
+        let mut rng = Pcg32::new(18, 5);
+        let mut arena = BsdfArena::new();
+        let geometries = [
+            (Microgeometry::Sawtooth, Tangent::Mirror),
+            (Microgeometry::VGroove, Tangent::Same),
+            (Microgeometry::UGroove { fill: 0.6 }, Tangent::Same),
+        ];
+        let tables: Vec<Vec<&'static MsTable>> = geometries
+            .iter()
+            .map(|&(geometry, tangent)| {
+                [Colour::Baked, Colour::Baked, Colour::PerBounce]
+                    .iter()
+                    .map(|&colour| unit_table(geometry, tangent, colour))
+                    .collect()
+            })
+            .collect();
+        let (mut cached, mut baked) = (0, 0);
+        for chunk in 0..3000 {
+            let (geometry, tangent) = geometries[chunk % 3];
+            arena.clear();
+            let n = super::super::tests::push_reflectors(&mut arena)[chunk / 3 % 3];
+            let mut roots = [u32::MAX; 8];
+            let mut wi = [Vec3::Z; 8];
+            let mut want: [Option<MicrofacetNormalMap>; 8] = [None; 8];
+            for k in 0..8 {
+                let u = rng.next_f32();
+                if u < 0.1 {
+                    continue; // an empty lane
+                }
+                if u < 0.15 {
+                    roots[k] = n; // not a normal map
+                    continue;
+                }
+                let wp = if rng.next_f32() < 0.05 {
+                    Vec3::Z
+                } else {
+                    warp::square_to_uniform_cone(
+                        [rng.next_f32(), rng.next_f32()].into(),
+                        80f32.to_radians().cos(),
+                    )
+                };
+                wi[k] = direction(&mut rng);
+                // Mostly the first baked table, some the second and the per-bounce one.
+                let t = tables[chunk % 3][match rng.next_f32() {
+                    x if x < 0.8 => 0,
+                    x if x < 0.9 => 1,
+                    _ => 2,
+                }];
+                let m = MicrofacetNormalMap::new(
+                    n,
+                    wp,
+                    geometry,
+                    tangent,
+                    Evaluation::Compensated,
+                    256,
+                )
+                .with_ms_table(Some(t));
+                want[k] = Some(m.with_incident(wi[k]));
+                roots[k] = arena.push_microfacet_normal_map(m);
+            }
+            with_incident_x8(&mut arena, &roots, &wi);
+            for k in 0..8 {
+                let Some(w) = want[k] else { continue };
+                let got = arena.mnm_mut(roots[k]).expect("a normal map");
+                let (w, g) = (w.ms.and_then(|r| r.at), got.ms.and_then(|r| r.at));
+                // Debug prints each f32 as its shortest round-trip form: equal strings are
+                // equal bits.
+                assert_eq!(format!("{w:?}"), format!("{g:?}"), "chunk {chunk} lane {k}");
+                cached += usize::from(w.is_some());
+                baked += usize::from(w.is_some_and(|a| a.baked.is_some()));
+            }
+        }
+        // 3000 chunks of ~6.8 maps, half of them seen from above.
+        assert!(
+            cached > 9000 && baked > 7000,
+            "{cached} caches, {baked} baked"
+        );
+    }
+
     /// The chunk's eval and sample equal the scalar model's (`Bsdf::eval_pdf` / `Bsdf::sample`
     /// of the same roots, each lane with its own sampler) bit for bit, lane by lane, and leave
     /// each sampler where the scalar call leaves it: rough conductors (GGX with visible-normal
@@ -242,16 +384,7 @@ mod tests {
             (Microgeometry::VGroove, Tangent::Same),
         ] {
             for colour in [Colour::PerBounce, Colour::Baked] {
-                let spec = TableSpec {
-                    geometry,
-                    tangent,
-                    max_order: 256,
-                    max_theta: 85f32.to_radians(),
-                    colour,
-                    walks: WALKS_PER_NODE,
-                };
-                let table: &'static MsTable =
-                    Box::leak(Box::new(MsTable::lambert(spec, "unit".into())));
+                let table = unit_table(geometry, tangent, colour);
                 for &n in &nested {
                     for _ in 0..100 {
                         let mut roots = [u32::MAX; 8];
