@@ -22,6 +22,17 @@ impl Ray {
         }
     }
 
+    /// The segment from `o` along `d` up to distance `tmax` (a shadow ray toward a light point).
+    #[inline]
+    pub fn segment(o: Vec3, d: Vec3, tmax: f32) -> Ray {
+        Ray {
+            o,
+            d,
+            tmin: 0.0,
+            tmax,
+        }
+    }
+
     #[inline]
     pub fn at(&self, t: f32) -> Vec3 {
         self.o + self.d * t

@@ -30,7 +30,7 @@
 
 use super::batch::Batch;
 use super::kernels::tail::{Sampled, Tail};
-use super::{kernels, slots, trace, Kernels, Packets};
+use super::{slots, trace, Kernels, Packets};
 use crate::bsdf::{BsdfArena, BsdfContext, Lobes};
 use crate::geometry::{Hit, Ray};
 use crate::integrator::direct::{
@@ -171,14 +171,7 @@ pub(super) fn run_batch(
         packets.camera.then_some(packets.stream),
         &mut scratch.rays,
     );
-    kernels::surface::fill(
-        scene,
-        &kernels.forms,
-        #[cfg(target_arch = "x86_64")]
-        kernels.avx,
-        batch,
-        &mut scratch.rays.counters.lanes.surface_lanes,
-    );
+    kernels.fill_surfaces(scene, batch, &mut scratch.rays.counters.lanes);
 
     // Camera emission; the paths that hit a surface go on to the sampling stage.
     batch.scatter.clear();

@@ -283,6 +283,19 @@ enum Kernel {
 }
 
 impl Kernels {
+    /// The gather stage: each hit's surface interaction into its row of `batch.surf`
+    /// ([`kernels::surface::fill`]: 8-wide where the shape has a lane form).
+    fn fill_surfaces(&self, scene: &Scene, batch: &mut Batch, lanes: &mut LaneCounters) {
+        kernels::surface::fill(
+            scene,
+            &self.forms,
+            #[cfg(target_arch = "x86_64")]
+            self.avx,
+            batch,
+            &mut lanes.surface_lanes,
+        );
+    }
+
     fn new(scene: &Scene) -> Kernels {
         use crate::material::MaterialNode;
         let kinds = (0..scene.materials.node_count())
@@ -516,14 +529,7 @@ fn run_batch(
         kind = RayKind::Bounce;
 
         // The surface rows of the hits (8-wide where a shape has a lane form).
-        kernels::surface::fill(
-            scene,
-            &kernels.forms,
-            #[cfg(target_arch = "x86_64")]
-            kernels.avx,
-            batch,
-            &mut scratch.rays.counters.lanes.surface_lanes,
-        );
+        kernels.fill_surfaces(scene, batch, &mut scratch.rays.counters.lanes);
 
         // Emission; the paths that scatter go on to the shading stage.
         emit(scene, cfg, batch, kernels, &mut scratch.rays.counters.lanes);

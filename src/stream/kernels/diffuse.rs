@@ -311,12 +311,7 @@ pub(crate) mod x8 {
                 continue;
             }
             if l_ok[k] {
-                let shadow = Ray {
-                    o: l_o.get(k),
-                    d: l_d.get(k),
-                    tmin: 0.0,
-                    tmax: l_tmax[k],
-                };
+                let shadow = Ray::segment(l_o.get(k), l_d.get(k), l_tmax[k]);
                 tail.light(b, i, shadow, l_c.get(k));
             }
             if s_ok[k] {

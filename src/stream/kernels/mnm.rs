@@ -294,12 +294,7 @@ pub(crate) mod x8 {
             for (k, &i) in ids.iter().enumerate() {
                 if nee[k] && ok[k] {
                     b.light[i as usize] = Some(PendingLight {
-                        shadow: Ray {
-                            o: o.get(k),
-                            d: dd.get(k),
-                            tmin: 0.0,
-                            tmax: tmax[k],
-                        },
+                        shadow: Ray::segment(o.get(k), dd.get(k), tmax[k]),
                         contribution: c.get(k),
                     });
                 }

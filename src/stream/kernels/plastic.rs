@@ -311,12 +311,7 @@ pub(crate) mod x8 {
             let (tmax, c) = (lo.tmax.to_array(), Cols3::store(lo.contribution));
             for (k, &i) in ids.iter().enumerate() {
                 if front[k] && ok[k] {
-                    let shadow = Ray {
-                        o: o.get(k),
-                        d: d.get(k),
-                        tmin: 0.0,
-                        tmax: tmax[k],
-                    };
+                    let shadow = Ray::segment(o.get(k), d.get(k), tmax[k]);
                     tail.light(b, i as usize, shadow, c.get(k));
                 }
             }

@@ -394,12 +394,7 @@ pub(crate) mod x8 {
             }
             if let Some((l_ok, l_o, l_d, l_tmax, l_c)) = &lo {
                 if l_ok[k] {
-                    let shadow = Ray {
-                        o: l_o.get(k),
-                        d: l_d.get(k),
-                        tmin: 0.0,
-                        tmax: l_tmax[k],
-                    };
+                    let shadow = Ray::segment(l_o.get(k), l_d.get(k), l_tmax[k]);
                     tail.light(b, i, shadow, l_c.get(k));
                 }
             }
