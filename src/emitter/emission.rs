@@ -34,8 +34,15 @@ pub struct EmissionRay {
 /// length zero (Mitsuba's `sample_visible_emitters`).
 #[derive(Clone, Copy, Debug)]
 pub enum VisiblePoint {
-    /// A point on an area light: position, emitting normal (unit), `Le / pdf_area`.
-    Surface { p: Vec3, n: Vec3, weight: Spectrum },
+    /// A point on an area light: position, emitting (shading) normal `n` (unit; the side
+    /// test, as `AreaLight::eval`), geometric normal `ng` (unit; the area-to-solid-angle
+    /// cosine), `Le / pdf_area`.
+    Surface {
+        p: Vec3,
+        n: Vec3,
+        ng: Vec3,
+        weight: Spectrum,
+    },
     /// A direction toward an environment (unit, from the scene toward the light) and
     /// `Le / pdf_solid_angle`.
     Environment { d: Vec3, weight: Spectrum },
@@ -59,11 +66,16 @@ impl Emitter {
                 if !(ps.pdf.is_finite() && ps.pdf > 0.0) {
                     return None;
                 }
+                // A cosine-weighted direction about the emitting (shading) normal, weighted
+                // Le · cos / (pdf_area · cos/π) = Le · π / pdf_area: the flux `Le·cos θ_s dA dω`
+                // of the shading normal, the convention of the path integrator's next-event
+                // estimation (as Mitsuba's, it converts the area density to solid angle with the
+                // sampled point's shading normal), so that the two integrators agree on what a
+                // smooth-normal mesh light illuminates.
                 let local = warp::square_to_cosine_hemisphere(u_dir);
                 let d = Frame::from_normal(ps.n).to_world(local);
-                // Le · cos / (pdf_area · cos/π) = Le · π / pdf_area.
                 let w = a.radiance.eval(ps.uv) * (PI / ps.pdf);
-                (Ray::new(offset_origin(ps.p, ps.n, d), d), w)
+                (Ray::new(offset_origin(ps.p, ps.ng, d), d), w)
             }
             Emitter::Point(p) => {
                 let d = warp::square_to_uniform_sphere(u_dir);
@@ -109,6 +121,7 @@ impl Emitter {
                 Some(VisiblePoint::Surface {
                     p: ps.p,
                     n: ps.n,
+                    ng: ps.ng,
                     weight: a.radiance.eval(ps.uv) / ps.pdf,
                 })
             }
@@ -166,4 +179,45 @@ fn far_disk_ray(
     let disk = warp::square_to_disk_concentric(u) * r;
     let o = centre + toward * r + frame.s * disk.x + frame.t * disk.y;
     Some((Ray::new(o, -toward), value * (PI * r * r / pdf)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::emitter::area::AreaLight;
+    use crate::geometry::mesh::TriMesh;
+    use crate::texture::Texture;
+
+    /// A unit-radiance right triangle in z = 0 (geometric normal +z, area 1/2) whose vertex
+    /// normals all lean `alpha` toward +x: a smooth-normal mesh light whose shading and
+    /// geometric normals disagree everywhere.
+    fn tilted_triangle_light(alpha: f32) -> (Vec<Shape>, Emitter) {
+        let ns = Vec3::new(alpha.sin(), 0.0, alpha.cos());
+        let mesh = TriMesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            normals: Some(vec![ns; 3]),
+            uvs: None,
+            indices: vec![[0, 1, 2]],
+        };
+        let shape = Shape::from_mesh(mesh, false, false).expect("mesh");
+        let light = Emitter::Area(AreaLight {
+            shape: 0,
+            radiance: Texture::Constant(Spectrum::ONE),
+        });
+        (vec![shape], light)
+    }
+
+    /// The point a camera may see carries the geometric normal of its triangle next to the
+    /// shading normal (the side test), so the connection's cosine is the area element's.
+    #[test]
+    fn visible_points_of_a_smooth_normal_mesh_light_carry_the_face_normal() {
+        let (shapes, light) = tilted_triangle_light(60f32.to_radians());
+        let Some(VisiblePoint::Surface { n, ng, .. }) =
+            light.sample_visible(&shapes, Vec3::new(0.2, 0.2, 3.0), Vec2::new(0.4, 0.7))
+        else {
+            panic!("no visible point");
+        };
+        assert!((ng - Vec3::Z).length() < 1e-6, "ng = {ng}");
+        assert!((n.dot(Vec3::Z) - 0.5).abs() < 1e-5, "n = {n}");
+    }
 }

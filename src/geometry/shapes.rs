@@ -103,6 +103,10 @@ pub struct PositionSample {
     /// Unit normal at `p` on the emitting side (after `flip_normals`); the interpolated vertex
     /// normal when the mesh has one, as Mitsuba's `Mesh::sample_position`.
     pub n: Vec3,
+    /// Unit geometric (face) normal at `p` (the winding's, after `flip_normals`): the normal of
+    /// the area element itself, whose |cosine| converts area density to solid angle and weighs
+    /// emitted flux (`L·|cos θ_g| dA dω`). Equals `n` except on meshes with vertex normals.
+    pub ng: Vec3,
     pub uv: Vec2,
     /// Area density (1 / area).
     pub pdf: f32,
@@ -656,12 +660,14 @@ impl Shape {
             ShapeKind::Curves(_) | ShapeKind::SdfGrid(_) => PositionSample {
                 p: Vec3::ZERO,
                 n: Vec3::Z,
+                ng: Vec3::Z,
                 uv: Vec2::ZERO,
                 pdf: 0.0,
             },
             ShapeKind::Mesh(_) if self.cdf.is_empty() => PositionSample {
                 p: Vec3::ZERO,
                 n: Vec3::Z,
+                ng: Vec3::Z,
                 uv: Vec2::ZERO,
                 pdf: 0.0,
             },
@@ -691,6 +697,7 @@ impl Shape {
                 PositionSample {
                     p,
                     n: n * sign,
+                    ng: ng * sign,
                     uv,
                     pdf,
                 }
@@ -703,6 +710,7 @@ impl Shape {
                 PositionSample {
                     p: to_world.transform_point3(l),
                     n: self.plane_normal() * sign,
+                    ng: self.plane_normal() * sign,
                     uv: disk_uv(to_world, l).0,
                     pdf,
                 }
@@ -713,6 +721,7 @@ impl Shape {
                 PositionSample {
                     p: to_world.transform_point3(l),
                     n: self.rectangle_normal() * sign,
+                    ng: self.rectangle_normal() * sign,
                     uv: u,
                     pdf,
                 }
@@ -730,6 +739,7 @@ impl Shape {
                 PositionSample {
                     p: *center + n * *radius,
                     n: n * sign,
+                    ng: n * sign,
                     uv: sphere_param(frame, map.as_ref(), *center, *radius, n).0,
                     pdf,
                 }
@@ -739,6 +749,7 @@ impl Shape {
                 PositionSample {
                     p,
                     n: n * sign,
+                    ng: n * sign,
                     uv,
                     pdf,
                 }

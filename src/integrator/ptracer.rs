@@ -312,16 +312,19 @@ impl Context<'_> {
             return 0;
         };
         match vp {
-            VisiblePoint::Surface { p, n, weight } => {
+            VisiblePoint::Surface { p, n, ng, weight } => {
                 let Some(ss) = scene.camera.sample_direction(p, aperture, self.crop) else {
                     return 0;
                 };
-                // One-sided emission: no light leaves the back (Mitsuba clamps the cosine).
-                let cos = n.dot(ss.d);
-                if !is_positive(cos) {
+                // One-sided emission: no light leaves the back of the shading normal (the side
+                // `AreaLight::eval` tests, so the camera sees what a path hitting `p` sees).
+                if !is_positive(n.dot(ss.d)) {
                     return 0;
                 }
-                let o = offset_origin(p, n, ss.d);
+                // The area-to-solid-angle cosine is the area element's own, the geometric
+                // normal's (the shading normal's would scale a smooth-normal mesh light).
+                let cos = ng.dot(ss.d).abs();
+                let o = offset_origin(p, ng, ss.d);
                 let v = ss.p - o;
                 let dist = v.length();
                 let mut shadow = Ray::new(o, v / dist);

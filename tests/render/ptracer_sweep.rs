@@ -447,3 +447,43 @@ fn open_curve_ends_make_path_and_ptracer_disagree() {
     println!("shape_curves.xml closed: {}", closed.summary());
     assert!(closed.agrees(), "closed: {:?}", closed.failures());
 }
+
+/// A smooth-normal mesh light seen directly: the octahedron without normals gets Mitsuba's
+/// smooth vertex normals, which differ from its faces' normals everywhere. A camera ray that
+/// hits it sees its radiance; the light tracer's connection of a sampled light point to the
+/// camera must convert area to solid angle with the face's own cosine, not the shading
+/// normal's (which made the octahedron of `stream_textured_lights.xml` 25% too dark in
+/// `ptracer`). Nothing else is in the scene: what such a light illuminates is a different
+/// question (docs/consistency.md, "smooth-normal mesh lights"). The scene is written to a
+/// temporary file (its mesh by absolute path).
+#[test]
+fn path_and_ptracer_agree_on_a_smooth_normal_mesh_light_seen_directly() {
+    let obj = crate::common::repo_root().join("tests/data/geometry/octahedron.obj");
+    let xml = format!(
+        r#"<scene version="3.0.0">
+    <integrator type="path"><integer name="max_depth" value="3"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0.7, 0.9, 3" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="24"/><rfilter type="box"/></film>
+    </sensor>
+    <shape type="obj">
+        <string name="filename" value="{}"/>
+        <transform name="to_world"><scale value="0.8"/><rotate y="1" angle="20"/></transform>
+        <emitter type="area"><rgb name="radiance" value="1, 0.8, 0.6"/></emitter>
+    </shape>
+</scene>
+"#,
+        obj.display()
+    );
+    let dir = std::env::temp_dir().join(format!("groove_smooth_light_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let scene = dir.join("smooth_light.xml");
+    std::fs::write(&scene, xml).expect("write scene");
+    let loaded = load(&scene, NONE, NormalMapping::AsWritten);
+    let a = path_vs_ptracer(loaded, &plan(1, 7100));
+    let _ = std::fs::remove_dir_all(&dir);
+    println!("smooth-normal light: {}", a.summary());
+    assert!(a.agrees(), "{:?}", a.failures());
+}
