@@ -182,27 +182,15 @@ pub(crate) fn seen<L: Lane>(
 pub(crate) mod x8 {
     use super::*;
     use crate::integrator::PathSettings;
-    use crate::lane::{Avx2, F32x8};
+    use crate::lane::Avx2;
     use crate::stream::batch::{cols, Batch};
-
-    /// Three columns of 8 lanes.
-    type Cols3 = [[f32; 8]; 3];
-
-    #[inline(always)]
-    fn load3(avx: Avx2, c: &Cols3) -> V3<F32x8> {
-        V3::new(avx.load(&c[0]), avx.load(&c[1]), avx.load(&c[2]))
-    }
-
-    #[inline(always)]
-    fn set3(c: &mut Cols3, k: usize, v: Vec3) {
-        (c[0][k], c[1][k], c[2][k]) = (v.x, v.y, v.z);
-    }
+    use crate::stream::kernels::light::x8::Cols3;
 
     /// Row field `f` (three floats) of path `i`, into lane `k` of `c`.
     #[inline(always)]
     fn row3(c: &mut Cols3, k: usize, flat: &[f32], i: usize, f: usize) {
         let r = &flat[i * cols::ROW + f..i * cols::ROW + f + 3];
-        (c[0][k], c[1][k], c[2][k]) = (r[0], r[1], r[2]);
+        (c.0[0][k], c.0[1][k], c.0[2][k]) = (r[0], r[1], r[2]);
     }
 
     /// The emission stage over `batch.active`, 8 paths at a time: adds what each ray sees to
@@ -239,7 +227,7 @@ pub(crate) mod x8 {
             let mut miss = [false; 8];
             let mut on_area = [false; 8];
             let mut scalar = [false; 8];
-            let mut le: Cols3 = [[0.0; 8]; 3];
+            let mut le: Cols3 = Cols3::default();
             let mut area = [0.0f32; 8];
             let mut pmf = [0.0f32; 8];
             for (k, &i) in chunk.iter().enumerate() {
@@ -259,7 +247,7 @@ pub(crate) mod x8 {
                             } => {
                                 on_area[k] = true;
                                 lanes[k] = true;
-                                set3(&mut le, k, radiance);
+                                le.set(k, radiance);
                                 (area[k], pmf[k]) = (a, q);
                             }
                             Seen::Scalar => scalar[k] = true,
@@ -282,25 +270,25 @@ pub(crate) mod x8 {
                 }
             }
             if lanes.contains(&true) {
-                let mut t: Cols3 = [[0.0; 8]; 3];
-                let mut r: Cols3 = [[0.0; 8]; 3];
-                let mut pp: Cols3 = [[0.0; 8]; 3];
+                let mut t: Cols3 = Cols3::default();
+                let mut r: Cols3 = Cols3::default();
+                let mut pp: Cols3 = Cols3::default();
                 let mut pdf = [0.0f32; 8];
                 let mut mis = [false; 8];
                 let mut zero = [false; 8];
-                let mut p: Cols3 = [[0.0; 8]; 3];
-                let mut n: Cols3 = [[0.0; 8]; 3];
-                let mut wi: Cols3 = [[0.0; 8]; 3];
+                let mut p: Cols3 = Cols3::default();
+                let mut n: Cols3 = Cols3::default();
+                let mut wi: Cols3 = Cols3::default();
                 for (k, &i) in chunk.iter().enumerate() {
                     if !lanes[k] {
                         continue;
                     }
                     let i = i as usize;
                     let st = &state[i];
-                    set3(&mut t, k, st.throughput);
-                    set3(&mut r, k, st.result);
+                    t.set(k, st.throughput);
+                    r.set(k, st.result);
                     let pm: PrevMis = st.prev_mis(cfg);
-                    set3(&mut pp, k, pm.p);
+                    pp.set(k, pm.p);
                     (pdf[k], mis[k], zero[k]) = (pm.pdf, pm.mis, pm.zero);
                     if on_area[k] {
                         row3(&mut p, k, flat, i, cols::P);
@@ -309,20 +297,20 @@ pub(crate) mod x8 {
                     }
                 }
                 let prev = Prev {
-                    p: load3(avx, &pp),
+                    p: pp.load(avx),
                     pdf: avx.load(&pdf),
                     mis: avx.mask(&mis),
                     zero: avx.mask(&zero),
                 };
                 let out = seen(
-                    load3(avx, &r),
-                    load3(avx, &t),
+                    r.load(avx),
+                    t.load(avx),
                     &prev,
                     env_lights,
                     avx.mask(&miss),
                     avx.mask(&on_area),
-                    (load3(avx, &le), avx.load(&area), avx.load(&pmf)),
-                    (load3(avx, &p), load3(avx, &n), load3(avx, &wi)),
+                    (le.load(avx), avx.load(&area), avx.load(&pmf)),
+                    (p.load(avx), n.load(avx), wi.load(avx)),
                 );
                 let (x, y, z) = (out.x.to_array(), out.y.to_array(), out.z.to_array());
                 for (k, &i) in chunk.iter().enumerate() {
