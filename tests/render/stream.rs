@@ -6,6 +6,8 @@
 //! so that batches of 1024 paths end inside a pixel. The slow tier sweeps every scene in
 //! `scenes/` and `tests/data/scenes/` that the path integrator renders:
 //! `cargo test --release --test render stream -- --ignored`.
+//!
+//! Its helpers are `pub(super)` so that the newer `stream_*` test files share them.
 
 use crate::common::{repo_root, test_scene};
 use groove::integrator::{IntegratorDesc, PathSettings};
@@ -17,11 +19,11 @@ use std::path::{Path, PathBuf};
 
 /// What a render produced, exactly (and, not compared, the lane counters).
 #[derive(Debug)]
-struct Exact {
-    pixels: Vec<groove::film::RawPixel>,
-    rays: (u64, u64, u64),
-    invalid: u64,
-    lanes: groove::stream::LaneCounters,
+pub(super) struct Exact {
+    pub(super) pixels: Vec<groove::film::RawPixel>,
+    pub(super) rays: (u64, u64, u64),
+    pub(super) invalid: u64,
+    pub(super) lanes: groove::stream::LaneCounters,
 }
 
 impl PartialEq for Exact {
@@ -30,7 +32,7 @@ impl PartialEq for Exact {
     }
 }
 
-fn load(path: &Path, mode: &str) -> Loaded {
+pub(super) fn load(path: &Path, mode: &str) -> Loaded {
     let opts = LoadOptions {
         normal_mapping: NormalMapping::parse(mode).unwrap(),
         ..Default::default()
@@ -39,18 +41,18 @@ fn load(path: &Path, mode: &str) -> Loaded {
 }
 
 /// A window of at most 40×36 pixels around the film's centre: two by two blocks of 32.
-fn window(l: &Loaded) -> (u32, u32, u32, u32) {
+pub(super) fn window(l: &Loaded) -> (u32, u32, u32, u32) {
     let (w, h) = (l.settings.film.width, l.settings.film.height);
     let (cw, ch) = (w.min(40), h.min(36));
     ((w - cw) / 2, (h - ch) / 2, cw, ch)
 }
 
 /// With the scene's default packets.
-fn render(l: &Loaded, renderer: Renderer, threads: usize, spp: u32) -> Exact {
+pub(super) fn render(l: &Loaded, renderer: Renderer, threads: usize, spp: u32) -> Exact {
     render_seeded(l, renderer, threads, spp, 7, Packets::default_for(&l.scene))
 }
 
-fn render_seeded(
+pub(super) fn render_seeded(
     l: &Loaded,
     renderer: Renderer,
     threads: usize,
@@ -87,7 +89,7 @@ fn render_seeded(
 
 /// Stream images at 1, 2, 3 and 7 threads against the scalar image (1 thread); returns the
 /// stream renderer's lane counters at 1 thread.
-fn assert_identical(l: &Loaded, label: &str, spp: u32) -> groove::stream::LaneCounters {
+pub(super) fn assert_identical(l: &Loaded, label: &str, spp: u32) -> groove::stream::LaneCounters {
     let scalar = render(l, Renderer::Scalar, 1, spp);
     let mut lanes = None;
     assert!(scalar.rays.0 > 0, "{label}: nothing rendered");
@@ -109,7 +111,7 @@ fn assert_identical(l: &Loaded, label: &str, spp: u32) -> groove::stream::LaneCo
     lanes.expect("rendered at 1 thread")
 }
 
-fn scene(rel: &str) -> PathBuf {
+pub(super) fn scene(rel: &str) -> PathBuf {
     repo_root().join(rel)
 }
 
@@ -242,7 +244,7 @@ fn the_lane_counters_count_the_diffuse_kernel() {
 // ---------------------------------------------------------------------------------------------
 
 /// `tests/data/scenes/stream_plastic.xml` with `-D` values.
-fn plastic_scene(defines: &[(&str, &str)]) -> Loaded {
+pub(super) fn plastic_scene(defines: &[(&str, &str)]) -> Loaded {
     load_defined("stream_plastic.xml", defines)
 }
 
@@ -394,12 +396,12 @@ fn stream_equals_scalar_where_the_conductor_kernels_run() {
 /// `tests/data/scenes/NAME` under the settings that change what a vertex does: the stratified
 /// sampler (4 spp), the light-only and BSDF-only strategies, Russian roulette from the first
 /// bounce.
-fn settings_variants(name: &str) -> Vec<(&'static str, Loaded)> {
+pub(super) fn settings_variants(name: &str) -> Vec<(&'static str, Loaded)> {
     variants_of(|| load(&test_scene(name), "as_written"))
 }
 
 /// The scene `base` makes under the settings of [`settings_variants`].
-fn variants_of(base: impl Fn() -> Loaded) -> Vec<(&'static str, Loaded)> {
+pub(super) fn variants_of(base: impl Fn() -> Loaded) -> Vec<(&'static str, Loaded)> {
     use groove::integrator::Strategy;
     use groove::sampler::SamplerKind;
     let mut variants: Vec<(&str, Loaded)> = Vec::new();
@@ -720,7 +722,7 @@ const LIGHT_KINDS: [&str; 8] = [
 ];
 
 /// The kinds a render sampled in lanes.
-fn kinds_in_lanes(lanes: &groove::stream::LaneCounters) -> Vec<&'static str> {
+pub(super) fn kinds_in_lanes(lanes: &groove::stream::LaneCounters) -> Vec<&'static str> {
     LIGHT_KINDS
         .iter()
         .zip(lanes.kernel_lights)
@@ -763,7 +765,7 @@ fn stream_equals_scalar_with_every_emitter_kind_in_lanes() {
 
 /// `scene` with its integrator replaced by `direct` (`emitter_samples`, `bsdf_samples`,
 /// `hide_emitters`).
-fn as_direct(mut l: Loaded, es: u32, bs: u32, hide: bool) -> Loaded {
+pub(super) fn as_direct(mut l: Loaded, es: u32, bs: u32, hide: bool) -> Loaded {
     l.settings.integrator = IntegratorDesc::Direct(groove::integrator::DirectSettings {
         emitter_samples: es,
         bsdf_samples: bs,
