@@ -3,7 +3,9 @@
 same scene, spp and threads. Per round the ratio groove/peer; reports median and the 2nd-lowest /
 2nd-highest of the rounds (an approximate 95 % interval for the median at 10 rounds is the
 2nd..9th order statistics). `GROOVE_RENDERER=stream` (or `scalar`) picks groove's renderer;
-`MITSUBA_SCALAR=0` skips `scalar_rgb`."""
+`MITSUBA_SCALAR=0` skips `scalar_rgb`. `DRJIT_LLVM_TARGET=CPU:FEATURES:WIDTH` (see
+`docs/tools/mitsuba_render.py`) pins `llvm_ad_rgb`'s target, e.g. 8-wide AVX2 on an AVX-512 host;
+each line names the target that ran."""
 import json, os, re, subprocess, sys, statistics
 G = sys.argv.pop(1) if len(sys.argv) > 1 and sys.argv[1].endswith("groove") else "target/release/groove"
 PY = sys.executable
@@ -24,7 +26,9 @@ def mitsuba(scene, spp, variant):
                           "--repeat", "3", "--no-write", "--json", "--quiet"], capture_output=True, text=True).stdout
     line = [l for l in out.splitlines() if l.startswith("RESULT")][-1]
     d = json.loads(line[7:])
+    TARGET[variant] = d.get("llvm_target")
     return min(d["render_all_s"][1:])  # after the first (JIT for llvm)
+TARGET = {}
 for sc in scenes:
     spp = 16
     rl, rs, tg, tl, ts = [], [], [], [], []
@@ -35,4 +39,5 @@ for sc in scenes:
     def summ(x):
         s = sorted(x); return f"{statistics.median(s):.2f} [{s[1]:.2f}, {s[-2]:.2f}]"
     print(f"{sc.split('/')[-1]}: groove {statistics.median(tg):.3f} s, llvm {statistics.median(tl):.3f} s, "
-          f"scalar {statistics.median(ts):.3f} s; groove/llvm {summ(rl)}; groove/scalar {summ(rs)}", flush=True)
+          f"scalar {statistics.median(ts):.3f} s; groove/llvm {summ(rl)}; groove/scalar {summ(rs)}"
+          f" (llvm target {TARGET.get('llvm_ad_rgb')})", flush=True)
