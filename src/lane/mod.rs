@@ -45,7 +45,7 @@ pub mod warp;
 #[cfg(target_arch = "x86_64")]
 pub use avx2::{Avx2, F32x8, I32x8, U64x8, M8};
 #[cfg(target_arch = "x86_64")]
-pub use avx512::{Avx512, F32x16, I32x16, M16, U64x16};
+pub use avx512::{Avx512, F32x16, I32x16, U64x16, M16};
 
 /// A lane mask: per lane true or false (`bool` at width 1, all-ones/all-zeros lanes at width 8).
 pub trait LaneMask:
