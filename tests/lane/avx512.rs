@@ -244,7 +244,7 @@ fn pcg16() {
             );
             for d in 0..draws {
                 for l in 0..16 {
-                    assert_eq!(u[d][l], one[l].next_u32() as i32, "draw {d} lane {l}");
+                    assert_eq!(u[d][l], one[l].next_u32(), "draw {d} lane {l}");
                     let g = one[l].next_f32();
                     assert_eq!(f[d][l].to_bits(), g.to_bits(), "draw {d} lane {l}");
                 }
