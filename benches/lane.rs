@@ -14,7 +14,7 @@ use groove::lane::frame::Frame;
 use groove::lane::microfacet::Microfacet;
 use groove::lane::pcg::Pcg;
 use groove::lane::vec::{V2, V3};
-use groove::lane::{math, Lane};
+use groove::lane::{fresnel, math, warp, Lane};
 use groove::math::Pcg32;
 use std::time::Duration;
 
@@ -194,9 +194,147 @@ fn config() -> Criterion {
         .sample_size(20)
 }
 
+// Width 16 (AVX-512, experimental) against width 8 (AVX2) on the same batch work (twelfth
+// session, h7): groups `lane16/<kernel>` with `w8` and `w16` over the same N elements, 6 SoA
+// input arrays in [0.01, 1), each kernel mapping them to its domain.
+
+/// `out = f(x)` over chunks of `W` lanes of the SoA arrays `x` (N a multiple of 16).
+#[inline(always)]
+fn soa_w<L: Lane, const W: usize>(
+    x: &[Vec<f32>],
+    out: &mut [f32],
+    load: impl Fn(&[f32; W]) -> L,
+    store: impl Fn(L, &mut [f32; W]),
+    f: impl Fn([L; 6]) -> L,
+) {
+    for (i, o) in out.chunks_exact_mut(W).enumerate() {
+        let v: [L; 6] = std::array::from_fn(
+            #[inline(always)]
+            |k| load(x[k][W * i..W * i + W].try_into().expect("W")),
+        );
+        store(f(v), o.try_into().expect("W"));
+    }
+}
+
+#[inline(always)]
+fn k_sincos<L: Lane>(x: [L; 6]) -> L {
+    let (s, c) = math::sincos(x[0] * x[0].splat(14.0) - x[0].splat(7.0));
+    s + c
+}
+#[inline(always)]
+fn k_exp<L: Lane>(x: [L; 6]) -> L {
+    math::exp(x[0] * x[0].splat(160.0) - x[0].splat(80.0))
+}
+#[inline(always)]
+fn k_log<L: Lane>(x: [L; 6]) -> L {
+    math::log(x[0] * x[1] * x[2])
+}
+#[inline(always)]
+fn k_pow<L: Lane>(x: [L; 6]) -> L {
+    math::pow(
+        x[0] * x[0].splat(4.0),
+        x[1] * x[1].splat(8.0) - x[1].splat(4.0),
+    )
+}
+#[inline(always)]
+fn k_atan2<L: Lane>(x: [L; 6]) -> L {
+    let h = x[0].splat(0.5);
+    math::atan2(x[0] - h, x[1] - h)
+}
+#[inline(always)]
+fn k_ggx_eval<L: Lane>(x: [L; 6]) -> L {
+    let d = Microfacet::new(MicrofacetType::Ggx, x[5], x[5], true);
+    let wi = V3::new(x[3], x[4], x[2]).normalize();
+    let m = V3::new(x[0], x[1], x[2]).normalize();
+    d.eval(m) * d.smith_g1(wi, m)
+}
+#[inline(always)]
+fn k_fresnel<L: Lane>(x: [L; 6]) -> L {
+    let one = x[0].splat(1.0);
+    let d = fresnel::dielectric(x[0] + x[0] - one, x[1] + one);
+    let c = fresnel::conductor_1(x[0], x[4] + x[4] + one, x[5] + x[5] + x[5]);
+    d.r + c
+}
+#[inline(always)]
+fn k_warps<L: Lane>(x: [L; 6]) -> L {
+    let u = V2::new(x[0], x[1]);
+    let h = warp::square_to_cosine_hemisphere(u);
+    let s = warp::square_to_uniform_sphere(u);
+    let c = warp::square_to_uniform_cone(u, x[2]);
+    h.z + s.x + c.y + warp::cosine_hemisphere_pdf(h)
+}
+
+fn bench_wide(c: &mut Criterion) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use groove::lane::{Avx2, Avx512, F32x16, F32x8};
+        let (Some(a8), Some(a16)) = (Avx2::detect(), Avx512::detect()) else {
+            eprintln!("lane16 bench: this CPU has no AVX-512 (or AVX2), skipped");
+            return;
+        };
+        let x = inputs(6, 0.01, 1.0);
+        let mut out = vec![0.0f32; N];
+        macro_rules! wide {
+            ($name:expr, $f:ident) => {{
+                let mut g = c.benchmark_group(format!("lane16/{}", $name));
+                g.throughput(Throughput::Elements(N as u64));
+                g.bench_function(BenchmarkId::new("w8", N), |b| {
+                    b.iter(|| {
+                        a8.run(
+                            #[inline(always)]
+                            || {
+                                soa_w::<F32x8, 8>(
+                                    black_box(&x),
+                                    &mut out,
+                                    #[inline(always)]
+                                    |a| a8.load(a),
+                                    #[inline(always)]
+                                    |v, o| v.store(o),
+                                    $f,
+                                )
+                            },
+                        )
+                    })
+                });
+                g.bench_function(BenchmarkId::new("w16", N), |b| {
+                    b.iter(|| {
+                        a16.run(
+                            #[inline(always)]
+                            || {
+                                soa_w::<F32x16, 16>(
+                                    black_box(&x),
+                                    &mut out,
+                                    #[inline(always)]
+                                    |a| a16.load(a),
+                                    #[inline(always)]
+                                    |v, o| v.store(o),
+                                    $f,
+                                )
+                            },
+                        )
+                    })
+                });
+                g.finish();
+            }};
+        }
+        wide!("sincos", k_sincos);
+        wide!("exp", k_exp);
+        wide!("log", k_log);
+        wide!("pow", k_pow);
+        wide!("atan2", k_atan2);
+        wide!("ggx_eval_g1", k_ggx_eval);
+        wide!("ggx_sample_pdf", ggx_kernel);
+        wide!("fresnel", k_fresnel);
+        wide!("warps", k_warps);
+        wide!("frame", frame_kernel);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = c;
+}
+
 criterion_group! {
     name = benches;
     config = config();
-    targets = bench
+    targets = bench, bench_wide
 }
 criterion_main!(benches);

@@ -17,7 +17,11 @@
 //! intrinsics, sound because an AVX2 value can only be built from an [`Avx2`] token or from
 //! another AVX2 value).
 //!
-//! Contents: the traits (this file), `scalar` (width 1), `avx2` (width 8), [`math`] (polynomial
+//! An experimental third width, [`F32x16`] (AVX-512, behind an [`Avx512`] token), follows the
+//! same rule; no renderer uses it (see `docs/design/lanes.md`, twelfth session).
+//!
+//! Contents: the traits (this file), `scalar` (width 1), `avx2` (width 8), `avx512` (width 16,
+//! experimental), [`math`] (polynomial
 //! `sin cos acos atan2 exp log pow`), [`vec`] (3- and 2-vectors), [`frame`], [`warp`],
 //! [`microfacet`], [`fresnel`], [`pcg`] (PCG32 per lane), [`batch`] (slice entry points).
 
@@ -26,6 +30,8 @@ use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+#[cfg(target_arch = "x86_64")]
+mod avx512;
 pub mod batch;
 pub mod frame;
 pub mod fresnel;
@@ -38,6 +44,8 @@ pub mod warp;
 
 #[cfg(target_arch = "x86_64")]
 pub use avx2::{Avx2, F32x8, I32x8, U64x8, M8};
+#[cfg(target_arch = "x86_64")]
+pub use avx512::{Avx512, F32x16, I32x16, U64x16, M16};
 
 /// A lane mask: per lane true or false (`bool` at width 1, all-ones/all-zeros lanes at width 8).
 pub trait LaneMask:

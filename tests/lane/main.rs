@@ -6,6 +6,8 @@
 //!   and their special values;
 //! - `scalar`: width 1 against groove's scalar code where they must agree (frames, Fresnel,
 //!   microfacets, PCG32) or nearly agree (warps);
+//! - `avx512`: the experimental 16-wide AVX-512 type equals width 1 bit for bit (skipped
+//!   without AVX-512);
 //! - `beckmann`: the f32 visible-Beckmann sampler against its f64 reference (`beckmann_ref`).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
@@ -15,6 +17,7 @@
 //! On a CPU without AVX2/FMA the 8-wide half is skipped and says so.
 
 mod accuracy;
+mod avx512;
 mod beckmann;
 mod beckmann_ref;
 mod bits;

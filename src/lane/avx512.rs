@@ -1,0 +1,504 @@
+//! Width 16: thin wrappers over `core::arch::x86_64` AVX-512 (`__m512`, `__m512i`, `__mmask16`),
+//! an experiment (issue 18, twelfth session): does doubling the lane width pay on a CPU with
+//! AVX-512 (Zen 4)? See `docs/design/lanes.md` for the measurements and the verdict.
+//!
+//! Soundness as in `avx2.rs`: a value of these types can only be built from an [`Avx512`] token
+//! (which [`Avx512::detect`] returns only when the CPU has AVX-512 F, DQ, BW and VL, and FMA) or
+//! computed from another such value; their fields are private (the mask [`M16`] holds a plain
+//! `u16` and needs no feature). Every operation is `#[inline(always)]`; put loops inside
+//! [`Avx512::run`].
+//!
+//! The semantics match `scalar.rs` and `avx2.rs` lane by lane: the same correctly rounded
+//! operations (`vaddps vsubps vmulps vdivps vsqrtps`, FMA only in `mul_add`), ordered
+//! comparisons (`!=` unordered) into mask registers, `vminps`/`vmaxps` (second operand on NaN or
+//! equal), `vcvtps2dq`/`vcvttps2dq` (`i32::MIN` when out of range), selects as mask blends.
+//! Shifts by a constant go through the count-register form (`vpslld zmm, xmm`), whose
+//! semantics for counts ≥ 32 (zero, or sign fill) are those of the immediate form; the
+//! intrinsics' immediate form wants a `u32` constant, which a generic `i32` one cannot become
+//! on stable Rust. LLVM folds the constant count back into an immediate.
+
+// The AVX-512 intrinsics are stable since Rust 1.89, above the crate's declared MSRV (1.78):
+// this experimental module needs 1.89 (the toolchain here is 1.95); merging it for real means
+// raising `rust-version`.
+#![allow(clippy::incompatible_msrv)]
+
+use super::{Lane, LaneI32, LaneMask, LaneU64};
+use core::arch::x86_64::*;
+use core::fmt;
+use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
+
+/// Proof that the CPU has AVX-512 F/DQ/BW/VL and FMA: the only way to make 16-wide values.
+#[derive(Clone, Copy, Debug)]
+pub struct Avx512(());
+
+/// Sixteen `f32` lanes.
+#[derive(Clone, Copy)]
+#[repr(transparent)]
+pub struct F32x16(__m512);
+
+/// Sixteen lane masks: bit `i` is lane `i` (an AVX-512 mask register).
+#[derive(Clone, Copy, PartialEq, Eq)]
+#[repr(transparent)]
+pub struct M16(u16);
+
+/// Sixteen `i32` lanes.
+#[derive(Clone, Copy)]
+#[repr(transparent)]
+pub struct I32x16(__m512i);
+
+/// Sixteen `u64` lanes: lanes 0–7 in the first register, 8–15 in the second.
+#[derive(Clone, Copy)]
+pub struct U64x16([__m512i; 2]);
+
+impl Avx512 {
+    /// The token, when this CPU has AVX-512 F, DQ, BW, VL and FMA.
+    pub fn detect() -> Option<Avx512> {
+        if is_x86_feature_detected!("avx512f")
+            && is_x86_feature_detected!("avx512dq")
+            && is_x86_feature_detected!("avx512bw")
+            && is_x86_feature_detected!("avx512vl")
+            && is_x86_feature_detected!("avx2")
+            && is_x86_feature_detected!("fma")
+        {
+            Some(Avx512(()))
+        } else {
+            None
+        }
+    }
+
+    /// Run `f` inside a function compiled for AVX-512, so that the 16-wide operations inlined
+    /// into it become single instructions. Put whole loops inside.
+    #[inline(always)]
+    pub fn run<R>(self, f: impl FnOnce() -> R) -> R {
+        // SAFETY: the token exists only when the CPU has these features.
+        unsafe { run_avx512(f) }
+    }
+
+    #[inline(always)]
+    pub fn splat(self, c: f32) -> F32x16 {
+        // SAFETY: the token proves AVX-512F (here and below).
+        F32x16(unsafe { _mm512_set1_ps(c) })
+    }
+    #[inline(always)]
+    pub fn load(self, a: &[f32; 16]) -> F32x16 {
+        F32x16(unsafe { _mm512_loadu_ps(a.as_ptr()) })
+    }
+    #[inline(always)]
+    pub fn load_i32(self, a: &[i32; 16]) -> I32x16 {
+        I32x16(unsafe { _mm512_loadu_epi32(a.as_ptr()) })
+    }
+    #[inline(always)]
+    pub fn load_u64(self, a: &[u64; 16]) -> U64x16 {
+        let p = a.as_ptr().cast::<i64>();
+        // SAFETY: `a` holds 16 u64, two registers of 8.
+        unsafe { U64x16([_mm512_loadu_epi64(p), _mm512_loadu_epi64(p.add(8))]) }
+    }
+    /// A mask from sixteen booleans.
+    #[inline(always)]
+    pub fn mask(self, a: &[bool; 16]) -> M16 {
+        M16(a
+            .iter()
+            .enumerate()
+            .fold(0u16, |m, (i, &b)| m | (b as u16) << i))
+    }
+}
+
+#[target_feature(enable = "avx512f,avx512dq,avx512bw,avx512vl,avx2,fma")]
+fn run_avx512<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
+
+impl F32x16 {
+    #[inline(always)]
+    pub fn to_array(self) -> [f32; 16] {
+        let mut a = [0.0f32; 16];
+        // SAFETY: an F32x16 exists only with AVX-512F (module doc); `a` holds 16 floats.
+        unsafe { _mm512_storeu_ps(a.as_mut_ptr(), self.0) };
+        a
+    }
+    #[inline(always)]
+    pub fn store(self, out: &mut [f32; 16]) {
+        unsafe { _mm512_storeu_ps(out.as_mut_ptr(), self.0) };
+    }
+}
+
+impl I32x16 {
+    #[inline(always)]
+    pub fn to_array(self) -> [i32; 16] {
+        let mut a = [0i32; 16];
+        unsafe { _mm512_storeu_epi32(a.as_mut_ptr(), self.0) };
+        a
+    }
+}
+
+impl U64x16 {
+    #[inline(always)]
+    pub fn to_array(self) -> [u64; 16] {
+        let mut a = [0u64; 16];
+        let p = a.as_mut_ptr().cast::<i64>();
+        unsafe {
+            _mm512_storeu_epi64(p, self.0[0]);
+            _mm512_storeu_epi64(p.add(8), self.0[1]);
+        }
+        a
+    }
+}
+
+impl M16 {
+    #[inline(always)]
+    pub fn to_array(self) -> [bool; 16] {
+        core::array::from_fn(|i| self.0 >> i & 1 == 1)
+    }
+}
+
+impl fmt::Debug for F32x16 {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "F32x16{:?}", self.to_array())
+    }
+}
+impl fmt::Debug for I32x16 {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "I32x16{:?}", self.to_array())
+    }
+}
+impl fmt::Debug for U64x16 {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "U64x16{:?}", self.to_array())
+    }
+}
+impl fmt::Debug for M16 {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "M16{:?}", self.to_array())
+    }
+}
+
+macro_rules! binop {
+    ($tr:ident, $f:ident, $intr:ident) => {
+        impl $tr for F32x16 {
+            type Output = F32x16;
+            #[inline(always)]
+            fn $f(self, o: F32x16) -> F32x16 {
+                // SAFETY: an F32x16 exists only with AVX-512F (module doc).
+                F32x16(unsafe { $intr(self.0, o.0) })
+            }
+        }
+    };
+}
+binop!(Add, add, _mm512_add_ps);
+binop!(Sub, sub, _mm512_sub_ps);
+binop!(Mul, mul, _mm512_mul_ps);
+binop!(Div, div, _mm512_div_ps);
+
+impl Neg for F32x16 {
+    type Output = F32x16;
+    #[inline(always)]
+    fn neg(self) -> F32x16 {
+        // Flips the sign bit only (NaN stays NaN), as `-x` at width 1.
+        F32x16(unsafe {
+            _mm512_castsi512_ps(_mm512_xor_si512(
+                _mm512_castps_si512(self.0),
+                _mm512_set1_epi32(i32::MIN),
+            ))
+        })
+    }
+}
+
+impl BitAnd for M16 {
+    type Output = M16;
+    #[inline(always)]
+    fn bitand(self, o: M16) -> M16 {
+        M16(self.0 & o.0)
+    }
+}
+impl BitOr for M16 {
+    type Output = M16;
+    #[inline(always)]
+    fn bitor(self, o: M16) -> M16 {
+        M16(self.0 | o.0)
+    }
+}
+impl BitXor for M16 {
+    type Output = M16;
+    #[inline(always)]
+    fn bitxor(self, o: M16) -> M16 {
+        M16(self.0 ^ o.0)
+    }
+}
+impl Not for M16 {
+    type Output = M16;
+    #[inline(always)]
+    fn not(self) -> M16 {
+        M16(!self.0)
+    }
+}
+
+impl LaneMask for M16 {
+    #[inline(always)]
+    fn any(self) -> bool {
+        self.0 != 0
+    }
+    #[inline(always)]
+    fn all(self) -> bool {
+        self.0 == u16::MAX
+    }
+}
+
+macro_rules! cmp {
+    ($f:ident, $imm:ident) => {
+        #[inline(always)]
+        fn $f(self, o: F32x16) -> M16 {
+            M16(unsafe { _mm512_cmp_ps_mask::<$imm>(self.0, o.0) })
+        }
+    };
+}
+
+/// A shift count as the low quadword of an `xmm` register (`vpsllX zmm, zmm, xmm`).
+#[inline(always)]
+fn count(n: i32) -> __m128i {
+    // SAFETY: SSE2 is part of x86-64.
+    unsafe { _mm_cvtsi32_si128(n) }
+}
+
+impl Lane for F32x16 {
+    type Mask = M16;
+    type I32 = I32x16;
+    type U64 = U64x16;
+    const WIDTH: usize = 16;
+
+    #[inline(always)]
+    fn splat(self, c: f32) -> F32x16 {
+        F32x16(unsafe { _mm512_set1_ps(c) })
+    }
+    #[inline(always)]
+    fn sqrt(self) -> F32x16 {
+        F32x16(unsafe { _mm512_sqrt_ps(self.0) })
+    }
+    #[inline(always)]
+    fn mul_add(self, a: F32x16, b: F32x16) -> F32x16 {
+        F32x16(unsafe { _mm512_fmadd_ps(self.0, a.0, b.0) })
+    }
+    #[inline(always)]
+    fn min(self, o: F32x16) -> F32x16 {
+        F32x16(unsafe { _mm512_min_ps(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn max(self, o: F32x16) -> F32x16 {
+        F32x16(unsafe { _mm512_max_ps(self.0, o.0) })
+    }
+    cmp!(eq, _CMP_EQ_OQ);
+    cmp!(ne, _CMP_NEQ_UQ);
+    cmp!(lt, _CMP_LT_OQ);
+    cmp!(le, _CMP_LE_OQ);
+    cmp!(gt, _CMP_GT_OQ);
+    cmp!(ge, _CMP_GE_OQ);
+    #[inline(always)]
+    fn select(m: M16, a: F32x16, b: F32x16) -> F32x16 {
+        // vblendmps takes the second operand where the mask is set.
+        F32x16(unsafe { _mm512_mask_blend_ps(m.0, b.0, a.0) })
+    }
+    #[inline(always)]
+    fn to_bits(self) -> I32x16 {
+        I32x16(unsafe { _mm512_castps_si512(self.0) })
+    }
+    #[inline(always)]
+    fn from_bits(b: I32x16) -> F32x16 {
+        F32x16(unsafe { _mm512_castsi512_ps(b.0) })
+    }
+    #[inline(always)]
+    fn round_i32(self) -> I32x16 {
+        I32x16(unsafe { _mm512_cvtps_epi32(self.0) })
+    }
+    #[inline(always)]
+    fn trunc_i32(self) -> I32x16 {
+        I32x16(unsafe { _mm512_cvttps_epi32(self.0) })
+    }
+    #[inline(always)]
+    fn lane(self, i: usize) -> f32 {
+        self.to_array()[i]
+    }
+    #[inline(always)]
+    fn gather<const N: usize>(table: &[f32; N], idx: I32x16) -> F32x16 {
+        const { assert!(N >= 1 && N <= i32::MAX as usize) };
+        // SAFETY: an I32x16 exists only with AVX-512F; after the unsigned clamp every index is
+        // below N, so each of the 16 loads reads inside `table`.
+        unsafe {
+            let i = _mm512_min_epu32(idx.0, _mm512_set1_epi32(N as i32 - 1));
+            F32x16(_mm512_i32gather_ps::<4>(i, table.as_ptr()))
+        }
+    }
+    #[inline(always)]
+    fn gather3(table: &[glam::Vec3], idx: I32x16) -> [F32x16; 3] {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 3);
+        // SAFETY: as `avx2.rs` (`glam::Vec3` is three consecutive f32, asserted there); after
+        // the unsigned clamp r < len and 3r + 2 < 3·len ≤ i32::MAX, so each load reads inside
+        // `table`.
+        unsafe {
+            let i = _mm512_min_epu32(idx.0, _mm512_set1_epi32(table.len() as i32 - 1));
+            let i3 = _mm512_add_epi32(_mm512_add_epi32(i, i), i);
+            let base = table.as_ptr().cast::<f32>();
+            [
+                F32x16(_mm512_i32gather_ps::<4>(i3, base)),
+                F32x16(_mm512_i32gather_ps::<4>(i3, base.add(1))),
+                F32x16(_mm512_i32gather_ps::<4>(i3, base.add(2))),
+            ]
+        }
+    }
+}
+
+impl LaneI32 for I32x16 {
+    type F = F32x16;
+    type Mask = M16;
+    #[inline(always)]
+    fn gather_bytes4(table: &[[u8; 4]], idx: I32x16) -> I32x16 {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize);
+        // SAFETY: an I32x16 exists only with AVX-512F; after the unsigned clamp every index is
+        // below len, so each 4-byte load reads one entry of `table` (little-endian, as width 1).
+        unsafe {
+            let i = _mm512_min_epu32(idx.0, _mm512_set1_epi32(table.len() as i32 - 1));
+            I32x16(_mm512_i32gather_epi32::<4>(i, table.as_ptr().cast::<i32>()))
+        }
+    }
+    #[inline(always)]
+    fn splat(self, c: i32) -> I32x16 {
+        I32x16(unsafe { _mm512_set1_epi32(c) })
+    }
+    #[inline(always)]
+    fn add(self, o: I32x16) -> I32x16 {
+        I32x16(unsafe { _mm512_add_epi32(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn sub(self, o: I32x16) -> I32x16 {
+        I32x16(unsafe { _mm512_sub_epi32(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn and(self, o: I32x16) -> I32x16 {
+        I32x16(unsafe { _mm512_and_si512(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn andnot(self, o: I32x16) -> I32x16 {
+        // vpandnd computes !first & second.
+        I32x16(unsafe { _mm512_andnot_si512(o.0, self.0) })
+    }
+    #[inline(always)]
+    fn or(self, o: I32x16) -> I32x16 {
+        I32x16(unsafe { _mm512_or_si512(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn xor(self, o: I32x16) -> I32x16 {
+        I32x16(unsafe { _mm512_xor_si512(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn shl<const N: i32>(self) -> I32x16 {
+        I32x16(unsafe { _mm512_sll_epi32(self.0, count(N)) })
+    }
+    #[inline(always)]
+    fn shr<const N: i32>(self) -> I32x16 {
+        I32x16(unsafe { _mm512_srl_epi32(self.0, count(N)) })
+    }
+    #[inline(always)]
+    fn sar<const N: i32>(self) -> I32x16 {
+        I32x16(unsafe { _mm512_sra_epi32(self.0, count(N)) })
+    }
+    #[inline(always)]
+    fn rotate_right(self, r: I32x16) -> I32x16 {
+        // vprorvd rotates by the count modulo 32, as `u32::rotate_right(r & 31)`.
+        I32x16(unsafe { _mm512_rorv_epi32(self.0, r.0) })
+    }
+    #[inline(always)]
+    fn eq(self, o: I32x16) -> M16 {
+        M16(unsafe { _mm512_cmpeq_epi32_mask(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn gt(self, o: I32x16) -> M16 {
+        M16(unsafe { _mm512_cmpgt_epi32_mask(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn select(m: M16, a: I32x16, b: I32x16) -> I32x16 {
+        I32x16(unsafe { _mm512_mask_blend_epi32(m.0, b.0, a.0) })
+    }
+    #[inline(always)]
+    fn to_f32(self) -> F32x16 {
+        F32x16(unsafe { _mm512_cvtepi32_ps(self.0) })
+    }
+    #[inline(always)]
+    fn lane(self, i: usize) -> i32 {
+        self.to_array()[i]
+    }
+}
+
+impl LaneU64 for U64x16 {
+    type I32 = I32x16;
+    #[inline(always)]
+    fn splat(self, c: u64) -> U64x16 {
+        let v = unsafe { _mm512_set1_epi64(c as i64) };
+        U64x16([v, v])
+    }
+    #[inline(always)]
+    fn add(self, o: U64x16) -> U64x16 {
+        unsafe {
+            U64x16([
+                _mm512_add_epi64(self.0[0], o.0[0]),
+                _mm512_add_epi64(self.0[1], o.0[1]),
+            ])
+        }
+    }
+    #[inline(always)]
+    fn mul(self, o: U64x16) -> U64x16 {
+        // SAFETY: the token proves AVX-512DQ (vpmullq: the low 64 bits of the product).
+        unsafe {
+            U64x16([
+                _mm512_mullo_epi64(self.0[0], o.0[0]),
+                _mm512_mullo_epi64(self.0[1], o.0[1]),
+            ])
+        }
+    }
+    #[inline(always)]
+    fn xor(self, o: U64x16) -> U64x16 {
+        unsafe {
+            U64x16([
+                _mm512_xor_si512(self.0[0], o.0[0]),
+                _mm512_xor_si512(self.0[1], o.0[1]),
+            ])
+        }
+    }
+    #[inline(always)]
+    fn or(self, o: U64x16) -> U64x16 {
+        unsafe {
+            U64x16([
+                _mm512_or_si512(self.0[0], o.0[0]),
+                _mm512_or_si512(self.0[1], o.0[1]),
+            ])
+        }
+    }
+    #[inline(always)]
+    fn shl<const N: i32>(self) -> U64x16 {
+        unsafe {
+            U64x16([
+                _mm512_sll_epi64(self.0[0], count(N)),
+                _mm512_sll_epi64(self.0[1], count(N)),
+            ])
+        }
+    }
+    #[inline(always)]
+    fn shr<const N: i32>(self) -> U64x16 {
+        unsafe {
+            U64x16([
+                _mm512_srl_epi64(self.0[0], count(N)),
+                _mm512_srl_epi64(self.0[1], count(N)),
+            ])
+        }
+    }
+    #[inline(always)]
+    fn low_u32(self) -> I32x16 {
+        // vpmovqd truncates each quadword to its low doubleword.
+        unsafe {
+            let a = _mm512_cvtepi64_epi32(self.0[0]);
+            let b = _mm512_cvtepi64_epi32(self.0[1]);
+            I32x16(_mm512_inserti64x4::<1>(_mm512_castsi256_si512(a), b))
+        }
+    }
+    #[inline(always)]
+    fn lane(self, i: usize) -> u64 {
+        self.to_array()[i]
+    }
+}
