@@ -6,6 +6,9 @@
 //! 2-D dimensions of each pixel's samples over a √N × √N grid, using a per-pixel permutation of
 //! the strata, and falls back to independent numbers afterwards.
 
+use crate::lane::mix;
+use crate::lane::pcg::Pcg;
+use crate::lane::{Lane, LaneU64};
 use crate::math::rng::{mix64, Pcg32};
 use glam::Vec2;
 
@@ -35,21 +38,26 @@ pub struct Sampler {
 impl Sampler {
     /// The stream of sample `sample_index` of pixel `pixel_index`.
     pub fn for_sample(desc: &SamplerDesc, pixel_index: u64, sample_index: u32) -> Sampler {
-        let key = mix64(desc.seed ^ mix64(pixel_index.wrapping_mul(0x9E37_79B9) ^ 0x5851_F42D));
-        let rng = Pcg32::new(key, (sample_index as u64) << 1 | 1);
-        let strata = match desc.kind {
-            SamplerKind::Independent => None,
-            SamplerKind::Stratified { jitter } => {
-                let res = (desc.sample_count as f64).sqrt().floor() as u32;
-                if res * res == desc.sample_count && res > 1 {
-                    // Per-pixel random permutation of the strata: a bijective hash of the index.
-                    let perm = permute(sample_index, res * res, key as u32);
-                    Some((perm, res, jitter))
-                } else {
-                    None
-                }
-            }
-        };
+        let key = stream_key(desc.seed, pixel_index);
+        Sampler::keyed(
+            desc,
+            key,
+            sample_generator::<f32>(key, sample_index as u64),
+            sample_index,
+        )
+    }
+
+    /// The stream of sample `sample_index` of the pixel whose key is `key` ([`stream_key`]),
+    /// once its generator `rng` ([`sample_generator`]) is made: the stratum set-up, shared by
+    /// [`Self::for_sample`] and the 8-wide set-up ([`for_samples_x8`]).
+    #[inline(always)]
+    fn keyed(desc: &SamplerDesc, key: u64, rng: Pcg<f32>, sample_index: u32) -> Sampler {
+        let (state, inc) = rng.parts();
+        let rng = Pcg32::from_parts(state, inc);
+        let strata = grid(desc).map(|(res, jitter)| {
+            // Per-pixel random permutation of the strata: a bijective hash of the index.
+            (permute(sample_index, res * res, key as u32), res, jitter)
+        });
         Sampler {
             rng,
             strata,
@@ -120,6 +128,72 @@ impl Sampler {
         let b = self.rng.next_u32() as u64;
         Pcg32::new(mix64(a << 32 | b), 0x2545_F491)
     }
+}
+
+/// The resolution of the strata grid and whether to jitter, when `desc` stratifies the first 2-D
+/// draws (`stratified` with a square sample count above 1).
+#[inline]
+fn grid(desc: &SamplerDesc) -> Option<(u32, bool)> {
+    match desc.kind {
+        SamplerKind::Independent => None,
+        SamplerKind::Stratified { jitter } => {
+            let res = (desc.sample_count as f64).sqrt().floor() as u32;
+            (res * res == desc.sample_count && res > 1).then_some((res, jitter))
+        }
+    }
+}
+
+/// The key of pixel `pixel`'s streams under seed `seed`, per lane: `mix64(seed ^
+/// mix64(pixel · 0x9E3779B9 ^ 0x5851F42D))` (one definition for the 1- and 8-lane set-ups).
+#[inline(always)]
+pub fn stream_key<U: LaneU64>(seed: U, pixel: U) -> U {
+    let h = pixel
+        .mul(pixel.splat(0x9E37_79B9))
+        .xor(pixel.splat(0x5851_F42D));
+    mix::mix64(seed.xor(mix::mix64(h)))
+}
+
+/// The PCG32 generator of sample `sample` (as a 64-bit lane) of the pixel keyed `key`, per lane:
+/// seed `key`, stream `2·sample + 1`.
+#[inline(always)]
+pub fn sample_generator<L: Lane>(key: L::U64, sample: L::U64) -> Pcg<L> {
+    Pcg::new(key, sample.shl::<1>().or(sample.splat(1)))
+}
+
+/// The streams of 8 paths (pixel `pixel[k]`, sample `sample[k]`) and each one's first 2-D draw
+/// (`next_2d`), bit for bit [`Sampler::for_sample`] then `next_2d` per path: the keys and the
+/// generators 8-wide (two 64-bit multiplies per `mix64`, two PCG steps), the strata per path,
+/// the first draw 8-wide when no path has strata (else per path). Call it inside
+/// [`crate::lane::Avx2::run`] (the stream renderer's batch fill, `stream::batch`).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub fn for_samples_x8(
+    avx: crate::lane::Avx2,
+    desc: &SamplerDesc,
+    pixel: &[u64; 8],
+    sample: &[u32; 8],
+) -> ([Sampler; 8], [Vec2; 8]) {
+    let key = stream_key(avx.load_u64(&[desc.seed; 8]), avx.load_u64(pixel));
+    let mut rng: Pcg<crate::lane::F32x8> =
+        sample_generator(key, avx.load_u64(&sample.map(|s| s as u64)));
+    let keys = key.to_array();
+    let plain = grid(desc).is_none();
+    let mut first = [Vec2::ZERO; 8];
+    if plain {
+        let (x, y) = (rng.next_f32().to_array(), rng.next_f32().to_array());
+        first = core::array::from_fn(|k| Vec2::new(x[k], y[k]));
+    }
+    let (state, inc) = rng.parts();
+    let (state, inc) = (state.to_array(), inc.to_array());
+    let mut samplers = core::array::from_fn(|k| {
+        Sampler::keyed(desc, keys[k], Pcg::from_parts(state[k], inc[k]), sample[k])
+    });
+    if !plain {
+        for (u, s) in first.iter_mut().zip(&mut samplers) {
+            *u = s.next_2d();
+        }
+    }
+    (samplers, first)
 }
 
 /// A bijective permutation of `0..n` selected by `seed` (Kensler 2013, "Correlated Multi-Jittered
@@ -224,5 +298,98 @@ mod tests {
             seen[cell] += 1;
         }
         assert!(seen.iter().all(|&c| c == 1), "{seen:?}");
+    }
+
+    /// (seed, pixel, sample) triples over the ranges the renderers use and their edges.
+    fn triples() -> Vec<(u64, u64, u32)> {
+        let mut r = Pcg32::new(9, 11);
+        let mut v = vec![
+            (0, 0, 0),
+            (u64::MAX, u64::MAX, u32::MAX),
+            (1, u32::MAX as u64, 1 << 31),
+            (1 << 63, 1 << 32, 7),
+        ];
+        for _ in 0..2048 {
+            let seed = match r.next_u32() % 3 {
+                0 => r.next_u32() as u64 % 4,
+                1 => (r.next_u32() as u64) << 32 | r.next_u32() as u64,
+                _ => r.next_u32() as u64,
+            };
+            let pixel = if r.next_u32() % 2 == 0 {
+                r.next_u32() as u64 % 4_000_000
+            } else {
+                (r.next_u32() as u64) << 32 | r.next_u32() as u64
+            };
+            let sample = if r.next_u32() % 2 == 0 {
+                r.next_u32() % 1024
+            } else {
+                r.next_u32()
+            };
+            v.push((seed, pixel, sample));
+        }
+        v
+    }
+
+    fn descs(seed: u64) -> [SamplerDesc; 4] {
+        let d = |kind, sample_count| SamplerDesc {
+            kind,
+            sample_count,
+            seed,
+        };
+        [
+            d(SamplerKind::Independent, 16),
+            d(SamplerKind::Stratified { jitter: true }, 16),
+            d(SamplerKind::Stratified { jitter: false }, 64),
+            d(SamplerKind::Stratified { jitter: true }, 8),
+        ]
+    }
+
+    /// Width 1: the stream key and generator written out with `u64` operations and `Pcg32`.
+    #[test]
+    fn for_sample_is_the_keyed_pcg() {
+        for (seed, pixel, sample) in triples() {
+            let key = mix64(seed ^ mix64(pixel.wrapping_mul(0x9E37_79B9) ^ 0x5851_F42D));
+            let mut want = Pcg32::new(key, (sample as u64) << 1 | 1);
+            let d = &descs(seed)[0];
+            let mut got = Sampler::for_sample(d, pixel, sample);
+            for _ in 0..4 {
+                assert_eq!(got.next_1d().to_bits(), want.next_f32().to_bits());
+            }
+        }
+    }
+
+    /// Width 8: every lane's stream and first 2-D draw equal `for_sample` then `next_2d`, for
+    /// every sampler kind, and the streams go on identically.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn eight_wide_set_up_equals_for_sample() {
+        let Some(avx) = crate::lane::Avx2::detect() else {
+            eprintln!("no AVX2/FMA: skipping the 8-wide half");
+            return;
+        };
+        let t = triples();
+        for chunk in t.chunks_exact(8) {
+            let seed = chunk[0].0;
+            let pixel: [u64; 8] = core::array::from_fn(|k| chunk[k].1);
+            let sample: [u32; 8] = core::array::from_fn(|k| chunk[k].2);
+            for d in &descs(seed) {
+                let (mut got, first) = avx.run(|| for_samples_x8(avx, d, &pixel, &sample));
+                for k in 0..8 {
+                    let mut want = Sampler::for_sample(d, pixel[k], sample[k]);
+                    let u = want.next_2d();
+                    let ctx = (d.kind, seed, pixel[k], sample[k]);
+                    assert_eq!(
+                        first[k].to_array().map(f32::to_bits),
+                        u.to_array().map(f32::to_bits),
+                        "{ctx:?}"
+                    );
+                    assert_eq!(got[k].plain_parts(), want.plain_parts(), "{ctx:?}");
+                    for _ in 0..3 {
+                        assert_eq!(got[k].next_2d(), want.next_2d(), "{ctx:?}");
+                        assert_eq!(got[k].next_1d(), want.next_1d(), "{ctx:?}");
+                    }
+                }
+            }
+        }
     }
 }

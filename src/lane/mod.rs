@@ -23,7 +23,7 @@
 //! Contents: the traits (this file), `scalar` (width 1), `avx2` (width 8), `avx512` (width 16,
 //! experimental), [`math`] (polynomial
 //! `sin cos acos atan2 exp log pow`), [`vec`] (3- and 2-vectors), [`frame`], [`warp`],
-//! [`microfacet`], [`fresnel`], [`pcg`] (PCG32 per lane), [`batch`] (slice entry points).
+//! [`microfacet`], [`fresnel`], [`mix`] (SplitMix64's finaliser per 64-bit lane), [`pcg`] (PCG32 per lane), [`batch`] (slice entry points).
 
 use core::fmt::Debug;
 use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
@@ -37,6 +37,7 @@ pub mod frame;
 pub mod fresnel;
 pub mod math;
 pub mod microfacet;
+pub mod mix;
 pub mod pcg;
 mod scalar;
 pub mod vec;

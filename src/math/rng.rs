@@ -49,13 +49,11 @@ impl Pcg32 {
     }
 }
 
-/// SplitMix64 finaliser: a bijective 64-bit mixer, used to turn (seed, pixel, sample) into seeds.
+/// SplitMix64 finaliser: a bijective 64-bit mixer, used to turn (seed, pixel, sample) into seeds
+/// (`lane::mix::mix64` at width 1: the stream renderer keys 8 paths at once with the same code).
 #[inline]
-pub fn mix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+pub fn mix64(z: u64) -> u64 {
+    crate::lane::mix::mix64(z)
 }
 
 #[cfg(test)]

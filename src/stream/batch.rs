@@ -8,8 +8,14 @@ use crate::geometry::{Hit, Ray, SurfaceInteraction};
 use crate::integrator::path::{PathState, PendingLight};
 use crate::material::MatId;
 use crate::math::Frame;
-use crate::sampler::Sampler;
+use crate::sampler::{Sampler, SamplerDesc};
 use glam::{Vec2, Vec3};
+
+/// The AVX2 token of the 8-wide set-up (none on other architectures).
+#[cfg(target_arch = "x86_64")]
+type Avx = crate::lane::Avx2;
+#[cfg(not(target_arch = "x86_64"))]
+type Avx = core::convert::Infallible;
 
 /// The per-path arrays of one batch, indexed by the path's position in the batch (its place in
 /// the block's canonical (y, x, sample) order), and the lists of path ids the stages walk.
@@ -84,6 +90,98 @@ impl Batch {
         self.scatter.clear();
         self.sorted.clear();
         self.shadow.clear();
+    }
+
+    /// Fills `pos` and `sampler` with paths `k..end` (at most [`BATCH`]) of a block: the pixels
+    /// of `rect` (x0, y0, width, height) of a film `film_width` pixels wide, each with the samples
+    /// `samples` (lo..hi), in the canonical (y, x, sample) order; each path's stream is
+    /// `Sampler::for_sample` of its (pixel, sample) and its film position the pixel's corner plus
+    /// the stream's first 2-D draw. With `avx`, 8 paths' streams at a time in lanes
+    /// (`sampler::for_samples_x8`, bit for bit the same streams).
+    #[allow(clippy::too_many_arguments)]
+    pub fn fill(
+        &mut self,
+        desc: &SamplerDesc,
+        film_width: u32,
+        rect: (u32, u32, u32, u32),
+        samples: (u32, u32),
+        k: u64,
+        end: u64,
+        avx: Option<Avx>,
+    ) {
+        assert!(
+            end >= k && end - k <= BATCH as u64,
+            "a batch holds at most {BATCH} paths"
+        );
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = avx {
+            return avx.run(
+                #[inline(always)]
+                || self.fill_with(desc, film_width, rect, samples, k, end, Some(avx)),
+            );
+        }
+        self.fill_with(desc, film_width, rect, samples, k, end, None);
+    }
+
+    /// [`Self::fill`]'s loop, with or without lanes.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn fill_with(
+        &mut self,
+        desc: &SamplerDesc,
+        film_width: u32,
+        rect: (u32, u32, u32, u32),
+        samples: (u32, u32),
+        k: u64,
+        end: u64,
+        avx: Option<Avx>,
+    ) {
+        let (x0, y0, w, _) = rect;
+        let (s_lo, s_hi) = samples;
+        let spp = s_hi.saturating_sub(s_lo) as u64;
+        // (pixel, sample) advanced from the batch's first path (one division per batch).
+        let p = k / spp;
+        let (mut s, mut x, mut y) = (
+            s_lo + (k % spp) as u32,
+            x0 + (p % w as u64) as u32,
+            y0 + (p / w as u64) as u32,
+        );
+        let mut left = (end - k) as usize;
+        while left > 0 {
+            let m = left.min(8);
+            let (mut pixel, mut sample, mut corner) = ([0u64; 8], [0u32; 8], [Vec2::ZERO; 8]);
+            for j in 0..m {
+                pixel[j] = y as u64 * film_width as u64 + x as u64;
+                sample[j] = s;
+                corner[j] = Vec2::new(x as f32, y as f32);
+                s += 1;
+                if s == s_hi {
+                    s = s_lo;
+                    x += 1;
+                    if x == x0 + w {
+                        x = x0;
+                        y += 1;
+                    }
+                }
+            }
+            left -= m;
+            #[cfg(target_arch = "x86_64")]
+            if let (Some(avx), 8) = (avx, m) {
+                let (smp, first) = crate::sampler::for_samples_x8(avx, desc, &pixel, &sample);
+                // Whole arrays (one capacity check each, not one per path).
+                self.pos
+                    .extend(core::array::from_fn::<Vec2, 8, _>(|j| corner[j] + first[j]));
+                self.sampler.extend(smp);
+                continue;
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            let _ = avx;
+            for j in 0..m {
+                let mut sm = Sampler::for_sample(desc, pixel[j], sample[j]);
+                self.pos.push(corner[j] + sm.next_2d());
+                self.sampler.push(sm);
+            }
+        }
     }
 
     /// Once `pos`, `sampler` and `ray` hold the batch's paths (at most [`BATCH`]), sets every

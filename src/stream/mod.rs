@@ -43,7 +43,7 @@ use crate::cancel::Cancel;
 use crate::film::Block;
 use crate::geometry::{Hit, Ray};
 use crate::integrator::{DirectSettings, PathSettings, RayKind, Rays, Scratch};
-use crate::sampler::{Sampler, SamplerDesc};
+use crate::sampler::SamplerDesc;
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
 use batch::Batch;
@@ -368,7 +368,7 @@ pub(crate) fn render_block(
     stream: &mut StreamScratch,
     cancel: Option<&Cancel>,
 ) -> u64 {
-    let (x0, y0, w, h) = rect;
+    let (_, _, w, h) = rect;
     let (s_lo, s_hi) = samples;
     let spp = s_hi.saturating_sub(s_lo) as u64;
     let total = w as u64 * h as u64 * spp;
@@ -383,30 +383,11 @@ pub(crate) fn render_block(
         }
         let end = (k + BATCH as u64).min(total);
         batch.clear();
-        // The paths k..end: (pixel, sample) advanced in the canonical (y, x, sample) order from
-        // the batch's first path (one division per batch, not per path).
-        let p = k / spp;
-        let (mut s, mut x, mut y) = (
-            s_lo + (k % spp) as u32,
-            x0 + (p % w as u64) as u32,
-            y0 + (p / w as u64) as u32,
-        );
-        for _ in k..end {
-            let pixel_index = y as u64 * film_width as u64 + x as u64;
-            let mut sampler = Sampler::for_sample(sampler_desc, pixel_index, s);
-            let pos = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-            batch.pos.push(pos);
-            batch.sampler.push(sampler);
-            s += 1;
-            if s == s_hi {
-                s = s_lo;
-                x += 1;
-                if x == x0 + w {
-                    x = x0;
-                    y += 1;
-                }
-            }
-        }
+        #[cfg(target_arch = "x86_64")]
+        let avx = kernels.avx;
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx = None;
+        batch.fill(sampler_desc, film_width, rect, samples, k, end, avx);
         camera_rays(scene, kernels, batch);
         batch.start();
         match cfg {
