@@ -70,3 +70,21 @@ fn stream_equals_scalar_with_sphere_light_emission_in_lanes() {
     let lanes = assert_identical(&l, "metal_plastic", 2);
     assert_eq!(lanes.emission_env_lanes, 0);
 }
+
+/// Hits on cylinders are reconstructed 8-wide (`surface_lanes::cylinder`, with the crate's
+/// `atan2` in both renderers): the scalar image bit for bit on a scene of cylinders only (so
+/// any hit in lanes is a cylinder's) and on the Mitsuba-reference scenes with cylinders.
+#[test]
+fn stream_equals_scalar_with_cylinders_gathered_in_lanes() {
+    let l = load(&test_scene("stream_cylinders.xml"), "as_written");
+    let lanes = assert_identical(&l, "stream_cylinders", 2);
+    assert!(
+        lanes.surface_lanes > 0,
+        "no cylinder hit in lanes: {lanes:?}"
+    );
+    for name in ["shape_cylinder.xml", "cylinder_quirks.xml"] {
+        let l = load(&test_scene(name), "as_written");
+        let lanes = assert_identical(&l, name, 2);
+        assert!(lanes.surface_lanes > 0, "{name}: {lanes:?}");
+    }
+}
