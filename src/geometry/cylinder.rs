@@ -43,6 +43,7 @@
 //! outward (see the tests).
 
 use crate::error::{Error, Result};
+use crate::lane::math as lm;
 use crate::math::{Frame, INV_2PI, PI};
 use crate::scene::xml::props::Props;
 use glam::{DMat4, Mat3, Mat4, Vec2, Vec3};
@@ -212,7 +213,9 @@ impl Cylinder {
         } else {
             (1.0, 0.0)
         };
-        let mut phi = y.atan2(x);
+        // The crate's own atan2 (not `f32::atan2`), which the stream renderer's lanes reproduce
+        // bit for bit (`surface_lanes::cylinder`).
+        let mut phi = lm::atan2(y, x);
         if phi < 0.0 {
             phi += 2.0 * PI;
         }
@@ -227,6 +230,22 @@ impl Cylinder {
             self.to_world.transform_point3(l)
         };
         (p, n, uv, dpdu, dpdv)
+    }
+
+    /// What the lane form of [`Self::surface`] needs ([`super::surface_lanes::cylinder`]): M
+    /// and Mitsuba's inverse of it as columns (the last the translation), the columns of the
+    /// normal map M⁻ᵀ (linear part), dp/dv = M·(0, 0, 1) as [`Self::surface`] computes it, and
+    /// whether the hit point stays the ray's (the quirk in the module docs).
+    pub(crate) fn lanes(&self) -> CylinderLanes {
+        let col = |m: &Mat4, j: usize| m.col(j).truncate();
+        let nm = Mat3::from_mat4(self.to_object).transpose();
+        CylinderLanes {
+            to_world: [0, 1, 2, 3].map(|j| col(&self.to_world, j)),
+            to_object: [0, 1, 2, 3].map(|j| col(&self.hit_to_object, j)),
+            normal: [nm.x_axis, nm.y_axis, nm.z_axis],
+            dpdv: self.partials(Vec3::ZERO).1,
+            quirk: self.quirk,
+        }
     }
 
     /// A point by (φ, z): φ = 2π·u.y, z = u.x, uv = (u.y, u.x), as Mitsuba's
@@ -247,6 +266,16 @@ impl Cylinder {
             .transform_vector3(Vec3::new(-l.y, l.x, 0.0) * (2.0 * PI));
         (dpdu, self.to_world.transform_vector3(Vec3::Z))
     }
+}
+
+/// A cylinder's constants for the lane form of its hit reconstruction ([`Cylinder::lanes`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct CylinderLanes {
+    pub to_world: [Vec3; 4],
+    pub to_object: [Vec3; 4],
+    pub normal: [Vec3; 3],
+    pub dpdv: Vec3,
+    pub quirk: bool,
 }
 
 /// `n`·(l.x, l.y, 0), normalised (+z if it vanishes).

@@ -1,5 +1,5 @@
 //! Lane forms of [`super::Shape::interaction`] for the shapes the stream renderer meets most:
-//! triangles of meshes, spheres (similarity `to_world`) and rectangles, written once over
+//! triangles of meshes, spheres (similarity `to_world`), rectangles, disks and cylinders, written once over
 //! [`Lane`] so 8 hits are reconstructed at once (`stream::kernels::surface`, issue 18).
 //!
 //! Bit identity: each form performs the scalar code's glam operations in the same order
@@ -260,13 +260,52 @@ pub fn instance<L: Lane>(m: &InstanceLanes<L>, s: &SurfLanes<L>) -> SurfLanes<L>
     }
 }
 
+/// A cylinder hit at `x` (the ray's point): M (`to_world`) and Mitsuba's inverse of it
+/// (`to_object`) as columns (the last the translation), the normal map's columns, the constant
+/// dp/dv, the `flip_normals` sign (±1), and where the hit point stays the ray's (`quirk`).
+#[derive(Clone, Copy, Debug)]
+pub struct CylinderLanes<L: Lane> {
+    pub to_world: [V3<L>; 4],
+    pub to_object: [V3<L>; 4],
+    pub normal: [V3<L>; 3],
+    pub dpdv: V3<L>,
+    pub sign: L,
+    pub quirk: L::Mask,
+}
+
+/// The cylinder branch of `Shape::interaction` (`Cylinder::surface`): the point in object
+/// space, its angle φ around the axis (the crate's `atan2`), the outward normal by the normal
+/// map, dp/du, and the point reprojected onto the tube unless `quirk`.
+#[inline(always)]
+pub fn cylinder<L: Lane>(m: &CylinderLanes<L>, x: V3<L>) -> SurfLanes<L> {
+    let k = |v: f32| x.x.splat(v);
+    let l = affine(&m.to_object, x);
+    let r = (l.x * l.x + l.y * l.y).sqrt();
+    let positive = r.gt(k(0.0));
+    let cx = L::select(positive, l.x / r, k(1.0));
+    let cy = L::select(positive, l.y / r, k(0.0));
+    let phi = lm::atan2(cy, cx);
+    let phi = L::select(phi.lt(k(0.0)), phi + k(2.0 * PI), phi);
+    let uv = V2::new(phi * k(INV_2PI), l.z);
+    let n = normalize_or(
+        linear(&m.normal, V3::new(cx, cy, k(0.0))),
+        V3::splat(x.x, 0.0, 0.0, 1.0),
+    );
+    let w = [m.to_world[0], m.to_world[1], m.to_world[2]];
+    let two_pi = k(2.0 * PI);
+    let dpdu = linear(&w, V3::new(-cy * two_pi, cx * two_pi, k(0.0) * two_pi));
+    let p = V3::select(m.quirk, x, affine(&m.to_world, V3::new(cx, cy, l.z)));
+    analytic(p, n.scale(m.sign), uv, dpdu, m.dpdv)
+}
+
 #[cfg(test)]
 mod tests {
     //! Every lane form against `Shape::interaction`, field by field and bit for bit, at width 1
     //! and (with AVX2) width 8, on thousands of random hits per kind: meshes with and without
     //! vertex normals and uvs (degenerate uvs, zero normals and collinear triangles included),
     //! spheres under rotations and uniform scales, rectangles (with Mitsuba's quirky shading
-    //! normal too), each with and without `flip_normals`.
+    //! normal too), disks, cylinders (with Mitsuba's quirky inverse too), each with and without
+    //! `flip_normals`.
     use super::*;
     use crate::geometry::{Hit, Ray, Shape, ShapeKind, SurfaceInteraction, TriMesh};
     use glam::{Mat3, Mat4, Vec2, Vec3};
@@ -492,6 +531,69 @@ mod tests {
             .collect()
     }
 
+    /// Cylinders under random affine maps (uneven scales and shears too), with and without
+    /// `flip_normals` and Mitsuba's quirky inverse (the hit point stays the ray's); hits all
+    /// around the tube, on the seam (φ = 0, π), off the surface and on the axis (r = 0).
+    fn cylinder_cases(r: &mut Rng, n: usize) -> Vec<Case> {
+        use crate::geometry::cylinder::Cylinder;
+        (0..n)
+            .map(|k| {
+                let rot = Mat4::from_quat(glam::Quat::from_axis_angle(r.dir(), 6.0 * r.f()));
+                let scale = if k % 3 == 0 {
+                    Vec3::splat(0.5 + r.f())
+                } else {
+                    Vec3::new(0.5 + r.f(), 0.5 + r.f(), 0.5 + r.f())
+                };
+                let to_world = Mat4::from_translation(r.v3()) * rot * Mat4::from_scale(scale);
+                let (p0, p1) = (r.v3(), r.v3() + Vec3::splat(2.0));
+                let radius = if k % 7 == 0 {
+                    -0.3 - r.f()
+                } else {
+                    0.3 + r.f()
+                };
+                let quirk = (k % 4 == 1)
+                    .then(|| (to_world * Mat4::from_scale(Vec3::splat(1.01))).inverse());
+                let c = Cylinder::with_inverse(p0, p1, radius, &to_world, quirk.as_ref())
+                    .expect("a cylinder");
+                let w = c.lanes().to_world;
+                let m = Mat4::from_cols(
+                    w[0].extend(0.0),
+                    w[1].extend(0.0),
+                    w[2].extend(0.0),
+                    w[3].extend(1.0),
+                );
+                let phi = match k % 9 {
+                    0 => 0.0,
+                    1 => crate::math::PI,
+                    _ => 6.3 * r.f(),
+                };
+                let rad = match k % 13 {
+                    0 => 0.0,
+                    _ => 1.0 + 1e-3 * r.s(),
+                };
+                let l = Vec3::new(rad * phi.cos(), rad * phi.sin(), r.f());
+                let shape = Shape::cylinder(c, k % 2 == 0);
+                let (ray, h) = hit(r, m.transform_point3(l), 0, 0.0, 0.0);
+                (shape, ray, h)
+            })
+            .collect()
+    }
+
+    fn cylinder_input(shape: &Shape) -> CylinderLanes<f32> {
+        let ShapeKind::Cylinder(c) = &shape.kind else {
+            panic!("a cylinder")
+        };
+        let m = c.lanes();
+        CylinderLanes {
+            to_world: m.to_world.map(v3),
+            to_object: m.to_object.map(v3),
+            normal: m.normal.map(v3),
+            dpdv: v3(m.dpdv),
+            sign: if shape.flip_normals { -1.0 } else { 1.0 },
+            quirk: m.quirk,
+        }
+    }
+
     fn disk_input(shape: &Shape) -> Disk<f32> {
         let (o, hw, w, ng) = shape.disk_lanes().expect("a disk");
         Disk {
@@ -532,6 +634,7 @@ mod tests {
             }
             ShapeKind::Rectangle { .. } => rectangle(&rectangle_input(shape), x),
             ShapeKind::Disk { .. } => disk(&disk_input(shape), x),
+            ShapeKind::Cylinder(_) => cylinder(&cylinder_input(shape), x),
             _ => unreachable!(),
         }
     }
@@ -543,6 +646,7 @@ mod tests {
             ("sphere", sphere_cases(&mut r, 4000)),
             ("rectangle", rectangle_cases(&mut r, 4000)),
             ("disk", disk_cases(&mut r, 4000)),
+            ("cylinder", cylinder_cases(&mut r, 4000)),
         ]
     }
 
@@ -646,6 +750,18 @@ mod tests {
                             ng: pack3(avx, t.map(|t| t.ng)),
                         };
                         avx.run(|| disk(&m, x))
+                    }
+                    "cylinder" => {
+                        let t: [_; 8] = std::array::from_fn(|k| cylinder_input(&chunk[k].0));
+                        let m = CylinderLanes {
+                            to_world: [0, 1, 2, 3].map(|j| pack3(avx, t.map(|t| t.to_world[j]))),
+                            to_object: [0, 1, 2, 3].map(|j| pack3(avx, t.map(|t| t.to_object[j]))),
+                            normal: [0, 1, 2].map(|j| pack3(avx, t.map(|t| t.normal[j]))),
+                            dpdv: pack3(avx, t.map(|t| t.dpdv)),
+                            sign: avx.load(&t.map(|t| t.sign)),
+                            quirk: avx.mask(&t.map(|t| t.quirk)),
+                        };
+                        avx.run(|| cylinder(&m, x))
                     }
                     _ => {
                         let t: [_; 8] = std::array::from_fn(|k| rectangle_input(&chunk[k].0));

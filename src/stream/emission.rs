@@ -8,10 +8,13 @@
 //! `tests/render/stream.rs`): the power heuristic (Veach 1997, eq. 9.13, β = 2) of the previous
 //! vertex's BSDF density against the light's, `Shape::pdf_direction`'s area-measure density
 //! `dist² / (|cos| · area)` times the light selection's pmf, and `result += throughput · Le · w`.
-//! What it does not cover goes lane by lane through [`PathState::add_emission`] itself: misses
-//! when an environment light is not `constant` (an `envmap` looks its texels up per ray), and
-//! hits on area lights with textured radiance or on spheres (whose density is a cone's from
-//! outside).
+//! Sphere lights add the density of their cone sampling from outside (`Shape::pdf_direction`:
+//! `uniform_cone_pdf` of the cone the sphere subtends, where the reference point is far enough
+//! out); environment maps ([`env_uv`]: the world direction to (u, v), sin θ and the table's
+//! patch point with the crate's `lane::math`, as `EnvMapLight::eval` and `pdf_direct`) look
+//! their texels and table density up lane by lane and do the rest in lanes. What it does not
+//! cover goes lane by lane through [`PathState::add_emission`] itself: hits on area lights
+//! with textured radiance.
 
 use crate::emitter::Emitter;
 use crate::geometry::shapes::ShapeKind;
@@ -20,6 +23,7 @@ use crate::lane::vec::V3;
 use crate::lane::Lane;
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
+use crate::stream::kernels::emitters::env_uv;
 use crate::stream::kernels::mis::power_heuristic;
 use crate::texture::Texture;
 use glam::Vec3;
@@ -32,9 +36,14 @@ use crate::integrator::path::PathState;
 pub(crate) enum Seen {
     /// Nothing: the shape emits nothing (or zero radiance).
     Dark,
-    /// An area light of constant `radiance` on a shape of `area` that is not a sphere, picked
-    /// by the light sampler with probability `pmf`: in lanes.
-    Area { radiance: Vec3, area: f32, pmf: f32 },
+    /// An area light of constant `radiance` on a shape of `area`, picked by the light sampler
+    /// with probability `pmf`, on a sphere (`Some((center, radius))`) or not: in lanes.
+    Area {
+        radiance: Vec3,
+        area: f32,
+        pmf: f32,
+        sphere: Option<(Vec3, f32)>,
+    },
     /// Anything else: [`PathState::add_emission`], lane by lane.
     Scalar,
 }
@@ -44,10 +53,25 @@ pub(crate) enum Seen {
 pub(crate) struct Lights {
     /// Per shape.
     pub shapes: Vec<Seen>,
-    /// The environment lights in `Scene::env_emission`'s order when every one is `constant`:
-    /// (radiance, light density = `pdf_direct_env · pmf`), those of zero radiance left out;
-    /// `None` when one is not (escaped rays then go lane by lane).
-    pub env: Option<Vec<(Vec3, f32)>>,
+    /// The environment lights in `Scene::env_emission`'s order when every one is `constant`
+    /// or `envmap` (constant ones of zero radiance left out); `None` when one is neither
+    /// (escaped rays then go lane by lane).
+    pub env: Option<Vec<Env>>,
+}
+
+/// An environment light as escaped rays see it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Env {
+    /// `constant`: its radiance and light density (`pdf_direct_env · pmf`).
+    Constant { radiance: Vec3, pdf: f32 },
+    /// `envmap`: emitter `emitter` (an `Emitter::EnvMap`) picked with probability `pmf`, its
+    /// world-to-map frame's columns and `EnvMapLight::half_texel`.
+    Map {
+        emitter: u32,
+        pmf: f32,
+        to_local: [Vec3; 3],
+        half_texel: f32,
+    },
 }
 
 impl Lights {
@@ -59,20 +83,22 @@ impl Lights {
                 };
                 match &scene.emitters[e as usize] {
                     Emitter::Area(a) => match a.radiance {
-                        Texture::Constant(le)
-                            if !matches!(
-                                scene.shapes[a.shape as usize].kind,
-                                ShapeKind::Sphere { .. }
-                            ) =>
-                        {
+                        Texture::Constant(le) => {
                             // `add_emission` adds nothing when the radiance is zero.
                             if le == Spectrum::ZERO {
                                 Seen::Dark
                             } else {
+                                let shape = &scene.shapes[a.shape as usize];
                                 Seen::Area {
                                     radiance: le,
-                                    area: scene.shapes[a.shape as usize].area(),
+                                    area: shape.area(),
                                     pmf: scene.light_sampler.pmf(e as usize),
+                                    sphere: match shape.kind {
+                                        ShapeKind::Sphere { center, radius, .. } => {
+                                            Some((center, radius))
+                                        }
+                                        _ => None,
+                                    },
                                 }
                             }
                         }
@@ -86,17 +112,31 @@ impl Lights {
         let env = scene
             .env_emitters
             .iter()
-            .map(|&e| match &scene.emitters[e as usize] {
-                Emitter::Constant(c) => Some((
-                    c.radiance,
-                    c.pdf_direct(Vec3::Z) * scene.light_sampler.pmf(e as usize),
-                )),
-                _ => None,
+            .map(|&e| {
+                let pmf = scene.light_sampler.pmf(e as usize);
+                match &scene.emitters[e as usize] {
+                    Emitter::Constant(c) => Some(Env::Constant {
+                        radiance: c.radiance,
+                        pdf: c.pdf_direct(Vec3::Z) * pmf,
+                    }),
+                    Emitter::EnvMap(m) => {
+                        let (_, to_local) = m.frames();
+                        Some(Env::Map {
+                            emitter: e,
+                            pmf,
+                            to_local: [to_local.x_axis, to_local.y_axis, to_local.z_axis],
+                            half_texel: m.half_texel(),
+                        })
+                    }
+                    _ => None,
+                }
             })
             .collect::<Option<Vec<_>>>()
             .map(|v| {
                 v.into_iter()
-                    .filter(|(le, _)| *le != Spectrum::ZERO)
+                    .filter(|e| {
+                        !matches!(e, Env::Constant { radiance, .. } if *radiance == Spectrum::ZERO)
+                    })
                     .collect()
             });
         Lights { shapes, env }
@@ -135,6 +175,39 @@ pub(crate) fn area_pdf<L: Lane>(p: V3<L>, n: V3<L>, ref_p: V3<L>, area: L) -> L 
     L::select(pdf.is_finite(), pdf, pdf.splat(0.0))
 }
 
+/// `Shape::pdf_direction` for an area light that may be a sphere (`sphere`, its `center` and
+/// `radius`): from a reference point outside the cone threshold (`shapes::sphere_sees_cone`)
+/// the density of the cone the sphere subtends, else [`area_pdf`].
+#[inline(always)]
+pub(crate) fn light_pdf<L: Lane>(
+    p: V3<L>,
+    n: V3<L>,
+    ref_p: V3<L>,
+    area: L,
+    sphere: (L::Mask, V3<L>, L),
+) -> L {
+    let k = |c: f32| area.splat(c);
+    let (is_sphere, center, radius) = sphere;
+    let dist_c = (center - ref_p).length();
+    let cone = is_sphere & dist_c.gt(radius * k(1.0 + 1e-3));
+    let sin_a = radius / dist_c;
+    let cos_a = (k(1.0) - sin_a * sin_a).max(k(0.0)).sqrt();
+    L::select(
+        cone,
+        crate::lane::warp::uniform_cone_pdf(cos_a),
+        area_pdf(p, n, ref_p, area),
+    )
+}
+
+/// An environment map's light density (`EnvMapLight::pdf_direct` · pmf) from the table's
+/// density `table` at the patch point, where `ok` (a non-zero local direction and a positive
+/// sin θ; elsewhere `pdf_direct` is 0).
+#[inline(always)]
+pub(crate) fn env_light_pdf<L: Lane>(ok: L::Mask, table: L, sin_theta: L, pmf: L) -> L {
+    let (pdf, _) = crate::stream::kernels::emitters::env_pdf(table, sin_theta);
+    L::select(ok, pdf, pmf.splat(0.0)) * pmf
+}
+
 /// `AreaLight::eval`'s side test: the point emits toward `wi` unless `n · wi ≤ 0` (a NaN
 /// product emits, as in the scalar test).
 #[inline(always)]
@@ -149,33 +222,60 @@ pub(crate) fn add<L: Lane>(result: V3<L>, throughput: V3<L>, le: V3<L>, w: L) ->
     result + (throughput * le).scale(w)
 }
 
-/// Emission seen by `L::WIDTH` paths with radiance `result`, throughput `throughput` and
-/// previous vertices `prev`: the constant environment lights `env` where `miss`, the area light
-/// of constant radiance `le`, `area` and pmf `pmf` at the point `p` (shading normal `n`,
-/// toward the previous vertex `wi`) where `on_area`. Returns the new radiance.
+/// One environment light seen by `L::WIDTH` escaped paths with radiance `result`, throughput
+/// `throughput` and previous vertices `prev`: radiance `le` of light density `light_pdf`
+/// (`pdf_direct_env · pmf`) added where `on` (the ray escaped and `le` is not zero). Returns
+/// the new radiance.
+#[inline(always)]
+pub(crate) fn seen_env<L: Lane>(
+    result: V3<L>,
+    throughput: V3<L>,
+    prev: &Prev<L>,
+    on: L::Mask,
+    le: V3<L>,
+    light_pdf: L,
+) -> V3<L> {
+    let w = weight(prev, light_pdf);
+    V3::select(on, add(result, throughput, le, w), result)
+}
+
+/// An area light's emission seen by `L::WIDTH` paths with radiance `result`, throughput
+/// `throughput` and previous vertices `prev`: the light of constant radiance `le`, `area`, pmf
+/// `pmf` and `sphere` (as [`light_pdf`]) at the point `p` (shading normal `n`, toward the
+/// previous vertex `wi`) where `on_area`. Returns the new radiance.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn seen<L: Lane>(
-    mut result: V3<L>,
+    result: V3<L>,
     throughput: V3<L>,
     prev: &Prev<L>,
-    env: &[(Vec3, f32)],
-    miss: L::Mask,
     on_area: L::Mask,
     area: (V3<L>, L, L),
+    sphere: (L::Mask, V3<L>, L),
     hit: (V3<L>, V3<L>, V3<L>),
 ) -> V3<L> {
-    let like = prev.pdf;
-    for &(le, light_pdf) in env {
-        let w = weight(prev, like.splat(light_pdf));
-        let le = V3::splat(like, le.x, le.y, le.z);
-        result = V3::select(miss, add(result, throughput, le, w), result);
-    }
     let (le, a, pmf) = area;
     let (p, n, wi) = hit;
     let on = on_area & front(n, wi);
-    let w = weight(prev, area_pdf(p, n, prev.p, a) * pmf);
+    let w = weight(prev, light_pdf(p, n, prev.p, a, sphere) * pmf);
     V3::select(on, add(result, throughput, le, w), result)
+}
+
+/// The (u, v) of the escaped rays' directions `d` in an environment map of world-to-map
+/// columns `to_local` and half texel `half_texel`, as [`env_uv`]; returns per lane whether the
+/// map sees the direction, (u, v), the patch point and whether sin θ passes, for the lookups.
+#[inline(always)]
+pub(crate) fn env_where<L: Lane>(
+    to_local: &[Vec3; 3],
+    half_texel: f32,
+    d: V3<L>,
+) -> crate::stream::kernels::emitters::EnvUv<L> {
+    let c = |v: Vec3| V3::splat(d.x, v.x, v.y, v.z);
+    env_uv(
+        &[c(to_local[0]), c(to_local[1]), c(to_local[2])],
+        d.x.splat(half_texel),
+        d,
+    )
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -185,6 +285,7 @@ pub(crate) mod x8 {
     use crate::lane::Avx2;
     use crate::stream::batch::{cols, Batch};
     use crate::stream::kernels::light::x8::Cols3;
+    use glam::Vec2;
 
     /// Row field `f` (three floats) of path `i`, into lane `k` of `c`.
     #[inline(always)]
@@ -193,10 +294,20 @@ pub(crate) mod x8 {
         (c.0[0][k], c.0[1][k], c.0[2][k]) = (r[0], r[1], r[2]);
     }
 
+    /// What the emission stage did in lanes (`LaneCounters`): paths whose emission went
+    /// through the lanes, of which escaped rays under an environment map and hits on sphere
+    /// lights.
+    #[derive(Clone, Copy, Debug, Default)]
+    pub(crate) struct Counts {
+        pub lanes: u64,
+        pub env_map: u64,
+        pub sphere: u64,
+    }
+
     /// The emission stage over `batch.active`, 8 paths at a time: adds what each ray sees to
     /// its path, marks every active path not alive, and lists in `batch.scatter` (ascending) the
-    /// paths that scatter at their hit (depth + 1 < max_depth), with their material. Returns the
-    /// paths whose emission went through the lanes. Call inside [`Avx2::run`].
+    /// paths that scatter at their hit (depth + 1 < max_depth), with their material. Returns
+    /// what went through the lanes. Call inside [`Avx2::run`].
     #[inline(always)]
     pub(crate) fn stage(
         avx: Avx2,
@@ -204,11 +315,12 @@ pub(crate) mod x8 {
         cfg: &PathSettings,
         lights: &Lights,
         batch: &mut Batch,
-    ) -> u64 {
+    ) -> Counts {
         let limit = crate::integrator::depth_limit(cfg.max_depth);
         let env = lights.env.as_deref();
         let env_lights = env.unwrap_or(&[]);
-        let mut in_lanes = 0;
+        let has_map = env_lights.iter().any(|e| matches!(e, Env::Map { .. }));
+        let mut counts = Counts::default();
         batch.scatter.clear();
         let Batch {
             active,
@@ -230,6 +342,9 @@ pub(crate) mod x8 {
             let mut le: Cols3 = Cols3::default();
             let mut area = [0.0f32; 8];
             let mut pmf = [0.0f32; 8];
+            let mut is_sphere = [false; 8];
+            let mut center: Cols3 = Cols3::default();
+            let mut radius = [0.0f32; 8];
             for (k, &i) in chunk.iter().enumerate() {
                 let i = i as usize;
                 alive[i] = false;
@@ -244,11 +359,18 @@ pub(crate) mod x8 {
                                 radiance,
                                 area: a,
                                 pmf: q,
+                                sphere,
                             } => {
                                 on_area[k] = true;
                                 lanes[k] = true;
                                 le.set(k, radiance);
                                 (area[k], pmf[k]) = (a, q);
+                                if let Some((c, r)) = sphere {
+                                    is_sphere[k] = true;
+                                    center.set(k, c);
+                                    radius[k] = r;
+                                    counts.sphere += 1;
+                                }
                             }
                             Seen::Scalar => scalar[k] = true,
                         }
@@ -263,6 +385,7 @@ pub(crate) mod x8 {
                         Some(e) if !e.is_empty() => {
                             miss[k] = true;
                             lanes[k] = true;
+                            counts.env_map += has_map as u64;
                         }
                         Some(_) => {}
                         None => scalar[k] = true,
@@ -279,6 +402,7 @@ pub(crate) mod x8 {
                 let mut p: Cols3 = Cols3::default();
                 let mut n: Cols3 = Cols3::default();
                 let mut wi: Cols3 = Cols3::default();
+                let mut d: Cols3 = Cols3::default();
                 for (k, &i) in chunk.iter().enumerate() {
                     if !lanes[k] {
                         continue;
@@ -294,6 +418,8 @@ pub(crate) mod x8 {
                         row3(&mut p, k, flat, i, cols::P);
                         row3(&mut n, k, flat, i, cols::N);
                         row3(&mut wi, k, flat, i, cols::WI);
+                    } else if miss[k] {
+                        d.set(k, ray[i].d);
                     }
                 }
                 let prev = Prev {
@@ -302,21 +428,71 @@ pub(crate) mod x8 {
                     mis: avx.mask(&mis),
                     zero: avx.mask(&zero),
                 };
+                let throughput = t.load(avx);
+                let mut out = r.load(avx);
+                let miss_m = avx.mask(&miss);
+                for e in env_lights {
+                    out = match *e {
+                        Env::Constant { radiance: c, pdf } => seen_env(
+                            out,
+                            throughput,
+                            &prev,
+                            miss_m,
+                            V3::splat(prev.pdf, c.x, c.y, c.z),
+                            avx.splat(pdf),
+                        ),
+                        Env::Map {
+                            emitter,
+                            pmf,
+                            to_local,
+                            half_texel,
+                        } => {
+                            let Emitter::EnvMap(m) = &scene.emitters[emitter as usize] else {
+                                unreachable!("Env::Map is an envmap")
+                            };
+                            let q = env_where(&to_local, half_texel, d.load(avx));
+                            let (seen, sin_ok) = (q.seen.to_array(), q.sin_ok.to_array());
+                            let (u, v) = (q.uv.x.to_array(), q.uv.y.to_array());
+                            let px = q.patch.x.to_array();
+                            let mut map_le: Cols3 = Cols3::default();
+                            let mut table = [0.0f32; 8];
+                            for k in 0..8 {
+                                if miss[k] && seen[k] {
+                                    map_le.set(k, m.lookup(Vec2::new(u[k], v[k])));
+                                    if sin_ok[k] {
+                                        table[k] = m.patch_pdf(Vec2::new(px[k], v[k]));
+                                    }
+                                }
+                            }
+                            let map_le = map_le.load(avx);
+                            let z = avx.splat(0.0);
+                            let on = miss_m
+                                & q.seen
+                                & !(map_le.x.eq(z) & map_le.y.eq(z) & map_le.z.eq(z));
+                            let lpdf = env_light_pdf(
+                                q.seen & q.sin_ok,
+                                avx.load(&table),
+                                q.sin_theta,
+                                avx.splat(pmf),
+                            );
+                            seen_env(out, throughput, &prev, on, map_le, lpdf)
+                        }
+                    };
+                }
                 let out = seen(
-                    r.load(avx),
-                    t.load(avx),
+                    out,
+                    throughput,
                     &prev,
-                    env_lights,
-                    avx.mask(&miss),
                     avx.mask(&on_area),
                     (le.load(avx), avx.load(&area), avx.load(&pmf)),
+                    (avx.mask(&is_sphere), center.load(avx), avx.load(&radius)),
                     (p.load(avx), n.load(avx), wi.load(avx)),
                 );
                 let (x, y, z) = (out.x.to_array(), out.y.to_array(), out.z.to_array());
                 for (k, &i) in chunk.iter().enumerate() {
                     if lanes[k] {
                         state[i as usize].result = Vec3::new(x[k], y[k], z[k]);
-                        in_lanes += 1;
+                        counts.lanes += 1;
                     }
                 }
             }
@@ -330,7 +506,7 @@ pub(crate) mod x8 {
                 }
             }
         }
-        in_lanes
+        counts
     }
 }
 
@@ -372,7 +548,7 @@ mod tests {
         use crate::math::Frame;
         let mut r = Pcg32::new(17, 3);
         let mut f = |a: f32, b: f32| a + (b - a) * r.next_f32();
-        let mut checked = 0;
+        let mut checked = [0usize; 2];
         for i in 0..6000 {
             let axis = Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(0.1, 1.0)).normalize();
             let (scale, turn) = (Vec3::new(f(0.1, 3.0), f(0.1, 3.0), 1.0), f(-3.0, 3.0));
@@ -380,17 +556,30 @@ mod tests {
             let m = Mat4::from_translation(at)
                 * Mat4::from_quat(glam::Quat::from_axis_angle(axis, turn))
                 * Mat4::from_scale(scale);
-            let shape = Shape::rectangle_with_normals(&m, None, i % 3 == 0);
+            // Every fourth a sphere (its cone density from outside, the area density from
+            // inside or near it), the rest rectangles.
+            let ball = (i % 4 == 3).then(|| (at, f(0.05, 1.5)));
+            let shape = match ball {
+                Some((c, rad)) => Shape::sphere(c, rad, &Mat4::IDENTITY, i % 3 == 0).unwrap(),
+                None => Shape::rectangle_with_normals(&m, None, i % 3 == 0),
+            };
             let le = Vec3::new(f(0.0, 9.0), f(0.0, 9.0), f(0.0, 9.0));
             let light = AreaLight {
                 shape: 0,
                 radiance: Texture::Constant(le),
             };
             let n = Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)).normalize();
-            let p = m.transform_point3(Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), 0.0));
-            let refp = match i % 7 {
-                0 => p,
-                1 => p + n * 1e-30,
+            let p = match ball {
+                Some((c, rad)) => c + n * rad,
+                None => m.transform_point3(Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), 0.0)),
+            };
+            let refp = match (i % 7, ball) {
+                (0, _) => p,
+                (1, _) => p + n * 1e-30,
+                // At the cone threshold of a sphere, inside it and just outside.
+                (2, Some((c, rad))) => c + n * (rad * (1.0 + 1e-3)),
+                (3, Some((c, rad))) => c + n * (rad * f(0.0, 1.0)),
+                (4, Some((c, rad))) => c + n * (rad * f(1.0, 1.01)),
                 _ => Vec3::new(f(-4.0, 4.0), f(-4.0, 4.0), f(-4.0, 4.0)),
             };
             let wi = match i % 11 {
@@ -433,14 +622,14 @@ mod tests {
                 zero: pm.zero,
             };
             let area = shapes[0].area();
+            let (c, rad) = ball.unwrap_or((Vec3::ZERO, 0.0));
             let got = seen::<f32>(
                 r0.into(),
                 t.into(),
                 &prev,
-                &[],
-                false,
                 true,
                 (le.into(), area, pmf),
+                (ball.is_some(), c.into(), rad),
                 (p.into(), si.sh.n.into(), wi.into()),
             );
             assert!(same3(got, expect), "{i}: {got:?} vs {expect}");
@@ -459,10 +648,9 @@ mod tests {
                         v(r0),
                         v(t),
                         &prev,
-                        &[],
-                        m(false),
                         m(true),
                         (v(le), avx.splat(area), avx.splat(pmf)),
+                        (m(ball.is_some()), v(c), avx.splat(rad)),
                         (v(p), v(si.sh.n), v(wi)),
                     )
                 });
@@ -472,19 +660,128 @@ mod tests {
             // A constant environment light seen by an escaped ray.
             let lpdf = crate::math::warp::uniform_sphere_pdf() * pmf;
             let expect = r0 + t * le * scalar_weight(&pm, lpdf);
-            let got = seen::<f32>(
-                r0.into(),
-                t.into(),
-                &prev,
-                &[(le, lpdf)],
-                true,
-                false,
-                (le.into(), 1.0, 1.0),
-                (p.into(), n.into(), wi.into()),
-            );
+            let got = seen_env::<f32>(r0.into(), t.into(), &prev, true, le.into(), lpdf);
             assert!(same3(got, expect), "{i} (environment)");
-            checked += (sle != Spectrum::ZERO) as usize;
+            checked[ball.is_some() as usize] += (sle != Spectrum::ZERO) as usize;
         }
-        assert!(checked > 1500, "{checked}");
+        assert!(checked[0] > 1000 && checked[1] > 300, "{checked:?}");
+    }
+
+    /// Width 1 (and width 8 in lane 3) of an environment map seen by escaped rays equals
+    /// `add_emission`'s environment branch bit for bit: `EnvMapLight::eval` (through
+    /// [`env_where`] and the texel lookup) and `pdf_direct` · pmf (through [`env_light_pdf`]),
+    /// on a random map under random rotations, for random directions, the poles, the seam
+    /// (u = 0), unnormalised and zero directions, under every MIS case.
+    #[test]
+    fn lane_envmap_emission_equals_the_scalar_code() {
+        use crate::emitter::envmap::EnvMapLight;
+        use glam::Mat3;
+        let mut r = Pcg32::new(23, 5);
+        let mut f = |a: f32, b: f32| a + (b - a) * r.next_f32();
+        let (w, h) = (11, 6);
+        let px: Vec<[f32; 3]> = (0..w * h)
+            .map(|i| {
+                let x = (i * 7919 % 101) as f32 / 50.0;
+                // Some all-zero texels: rays that see nothing add nothing.
+                if i % 7 == 0 {
+                    [0.0; 3]
+                } else {
+                    [x, 0.5 * x, if i % 5 == 0 { 0.0 } else { 1.0 }]
+                }
+            })
+            .collect();
+        let mut seen_some = 0;
+        for i in 0..4000 {
+            let rot = glam::Quat::from_euler(
+                glam::EulerRot::XYZ,
+                f(-3.0, 3.0),
+                f(-3.0, 3.0),
+                f(-3.0, 3.0),
+            );
+            let to_world = if i % 9 == 0 {
+                Mat3::IDENTITY
+            } else {
+                Mat3::from_quat(rot)
+            };
+            let em = EnvMapLight::new(w, h, &px, f(0.5, 2.0), to_world).unwrap();
+            let d = match i % 13 {
+                0 => Vec3::ZERO,
+                1 => to_world * Vec3::Y,
+                2 => to_world * -Vec3::Y,
+                3 => to_world * -Vec3::Z,
+                4 => Vec3::new(f(-9.0, 9.0), f(-9.0, 9.0), f(-9.0, 9.0)),
+                _ => Vec3::new(f(-1.0, 1.0), f(-1.0, 1.0), f(-1.0, 1.0)).normalize_or(Vec3::X),
+            };
+            let pm = PrevMis {
+                p: Vec3::ZERO,
+                pdf: [0.0, f(0.0, 5.0), f32::INFINITY, 1e30][i % 4],
+                mis: i % 5 != 0,
+                zero: i % 5 == 0 && i % 2 == 0,
+            };
+            let pmf = f(0.1, 1.0);
+            let t = Vec3::new(f(0.0, 2.0), f(0.0, 2.0), f(0.0, 2.0));
+            let r0 = Vec3::new(f(0.0, 2.0), f(0.0, 2.0), f(0.0, 2.0));
+            // The scalar code (`add_emission`'s environment branch).
+            let sle = em.eval(d);
+            let mut expect = r0;
+            if sle != Spectrum::ZERO {
+                expect += t * sle * scalar_weight(&pm, em.pdf_direct(d) * pmf);
+                seen_some += 1;
+            }
+            let (_, tl) = em.frames();
+            let cols = [tl.x_axis, tl.y_axis, tl.z_axis];
+            // The lanes' steps, at width 1.
+            let q = env_where::<f32>(&cols, em.half_texel(), d.into());
+            let le = if q.seen {
+                em.lookup(q.uv.into())
+            } else {
+                Vec3::ZERO
+            };
+            let table = if q.seen && q.sin_ok {
+                em.patch_pdf(q.patch.into())
+            } else {
+                0.0
+            };
+            let on = q.seen && le != Spectrum::ZERO;
+            let lpdf = env_light_pdf(q.seen & q.sin_ok, table, q.sin_theta, pmf);
+            let prev = Prev {
+                p: pm.p.into(),
+                pdf: pm.pdf,
+                mis: pm.mis,
+                zero: pm.zero,
+            };
+            let got = seen_env::<f32>(r0.into(), t.into(), &prev, on, le.into(), lpdf);
+            assert!(same3(got, expect), "{i}: {got:?} vs {expect} ({d})");
+            #[cfg(target_arch = "x86_64")]
+            if let Some(avx) = crate::lane::Avx2::detect() {
+                let v = |v: Vec3| V3::splat(avx.splat(0.0), v.x, v.y, v.z);
+                let m = |b: bool| avx.mask(&[b; 8]);
+                let (g, ok) = avx.run(|| {
+                    let q8 = env_where(&cols, em.half_texel(), v(d));
+                    let prev = Prev {
+                        p: v(pm.p),
+                        pdf: avx.splat(pm.pdf),
+                        mis: m(pm.mis),
+                        zero: m(pm.zero),
+                    };
+                    let lpdf = env_light_pdf(
+                        q8.seen & q8.sin_ok,
+                        avx.splat(table),
+                        q8.sin_theta,
+                        avx.splat(pmf),
+                    );
+                    let same_uv = same(q8.uv.x.lane(3), q.uv.x)
+                        && same(q8.uv.y.lane(3), q.uv.y)
+                        && same(q8.patch.x.lane(3), q.patch.x)
+                        && q8.seen.to_array()[3] == q.seen
+                        && q8.sin_ok.to_array()[3] == q.sin_ok;
+                    (seen_env(v(r0), v(t), &prev, m(on), v(le), lpdf), same_uv)
+                });
+                assert!(ok, "{i}: (u, v) at width 8");
+                let g = V3::new(g.x.lane(3), g.y.lane(3), g.z.lane(3));
+                assert!(same3(g, expect), "{i} at width 8");
+            }
+        }
+        assert!(seen_some > 2500, "{seen_some}");
     }
 }

@@ -88,6 +88,12 @@ pub struct LaneCounters {
     /// Batches and bounces (trace stages) run.
     pub batches: u64,
     pub bounces: u64,
+    /// The part of `emission_lanes` that escaped under an environment map (its (u, v) and
+    /// density in lanes, [`emission::env_where`]).
+    pub emission_env_lanes: u64,
+    /// The part of `emission_lanes` that hit a sphere light (its cone density in lanes,
+    /// [`emission::light_pdf`]).
+    pub emission_sphere_lanes: u64,
 }
 
 impl LaneCounters {
@@ -108,6 +114,8 @@ impl LaneCounters {
         self.emission_lanes += o.emission_lanes;
         self.batches += o.batches;
         self.bounces += o.bounces;
+        self.emission_env_lanes += o.emission_env_lanes;
+        self.emission_sphere_lanes += o.emission_sphere_lanes;
     }
 
     /// Active-lane fractions (trace, shade, shadow); NaN for a stage that never ran.
@@ -552,10 +560,13 @@ fn emit(
     #[cfg(target_arch = "x86_64")]
     if let Some(avx) = kernels.avx {
         let lights = &kernels.emission;
-        lanes.emission_lanes += avx.run(
+        let c = avx.run(
             #[inline(always)]
             || emission::x8::stage(avx, scene, cfg, lights, batch),
         );
+        lanes.emission_lanes += c.lanes;
+        lanes.emission_env_lanes += c.env_map;
+        lanes.emission_sphere_lanes += c.sphere;
         return;
     }
     let _ = (kernels, lanes);

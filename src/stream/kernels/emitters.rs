@@ -5,7 +5,9 @@
 //! below at width 1, `tests/render/stream.rs` at width 8). Branches of the scalar code become
 //! masks; an environment map's table walk and texel lookups stay lane by lane (they branch on
 //! data), its trigonometry (the direction of the sampled (u, v), and back to (u, v) for the
-//! density and radiance, as the scalar `sample_direct` recomputes them) runs in lanes.
+//! density and radiance, as the scalar `sample_direct` recomputes them) runs in lanes; the way
+//! back to (u, v) ([`env_uv`]) also serves the emission stage's escaped rays
+//! (`stream::emission`).
 
 use crate::lane::math as lm;
 use crate::lane::vec::{V2, V3};
@@ -193,8 +195,37 @@ pub(crate) fn env_direction<L: Lane>(e: &Env<L>) -> EnvDir<L> {
     let (st, ct) = lm::sincos(k(PI) * e.uv.y);
     let local = V3::new(st * sp, ct, -st * cp);
     let d = mat3_mul(&e.to_world, local).normalize();
-    // pdf_direct and eval: the local direction (0 → refused), its (u, v).
-    let l = normalize_or_zero(mat3_mul(&e.to_local, d));
+    let q = env_uv(&e.to_local, e.half_texel, d);
+    EnvDir {
+        ok: ok & q.seen & q.sin_ok,
+        d,
+        uv: q.uv,
+        patch: q.patch,
+        sin_theta: q.sin_theta,
+    }
+}
+
+/// Where an environment map looks up the world direction `d` (the direction of an escaped ray,
+/// or a sampled one), as `EnvMapLight::eval` and `pdf_direct` compute it: the local direction
+/// `normalize_or_zero(to_local · d)`, its (u, v) (`EnvMapLight::uv_of_local`), sin θ and the
+/// patch-space point of the table's density.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct EnvUv<L: Lane> {
+    /// The local direction is not zero (where it is, `eval` is 0 and `pdf_direct` 0).
+    pub seen: L::Mask,
+    pub uv: V2<L>,
+    pub patch: V2<L>,
+    pub sin_theta: L,
+    /// sin θ is neither NaN nor ≤ 0 (where it is, `pdf_direct` is 0).
+    pub sin_ok: L::Mask,
+}
+
+/// [`EnvUv`] of the world direction `d` under the map frame `to_local` (columns), with
+/// `EnvMapLight::half_texel` `half_texel`.
+#[inline(always)]
+pub(crate) fn env_uv<L: Lane>(to_local: &[V3<L>; 3], half_texel: L, d: V3<L>) -> EnvUv<L> {
+    let k = |c: f32| d.x.splat(c);
+    let l = normalize_or_zero(mat3_mul(to_local, d));
     let zero = l.x.eq(k(0.0)) & l.y.eq(k(0.0)) & l.z.eq(k(0.0));
     let u = lm::atan2(l.x, -l.z) * k(0.5 / PI);
     let u = L::select(u.lt(k(0.0)), u + k(1.0), u);
@@ -202,14 +233,14 @@ pub(crate) fn env_direction<L: Lane>(e: &Env<L>) -> EnvDir<L> {
     let v = lm::acos(clamp(l.y, -1.0, 1.0)) / k(PI);
     let sin_theta = lm::sin(k(PI) * v);
     let sin_ok = !(sin_theta.is_nan() | sin_theta.le(k(0.0)));
-    let px = u - e.half_texel;
+    let px = u - half_texel;
     let px = L::select(px.lt(k(0.0)), px + k(1.0), px);
-    EnvDir {
-        ok: ok & !zero & sin_ok,
-        d,
+    EnvUv {
+        seen: !zero,
         uv: V2::new(u, v),
         patch: V2::new(px, v),
         sin_theta,
+        sin_ok,
     }
 }
 

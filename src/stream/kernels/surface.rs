@@ -1,6 +1,6 @@
 //! The surface rows of the batch ([`crate::stream::batch::Surfaces`]): the gather stage that
 //! fills them after each trace ([`fill`]: hits on triangle meshes, similarity spheres,
-//! rectangles and disks, and on meshes seen through instances, reconstructed 8 at a time by the
+//! rectangles, disks and cylinders, and on meshes seen through instances, reconstructed 8 at a time by the
 //! lane forms of [`crate::geometry::surface_lanes`], every other hit by `Scene::interaction`), and the one surface load of the three kernels
 //! ([`super::diffuse`], [`super::vertex`], [`super::plastic`]): 8 paths' surface points, true
 //! normals, shading frames and incident directions, loaded 8-wide in place from the rows, one
@@ -24,7 +24,9 @@ pub(crate) enum Form {
     Rectangle(Box<(Mat4, Mat4, [Vec3; 4])>),
     /// A disk: `to_object`, `hit_to_world`, `to_world`, signed normal (`Shape::disk_lanes`).
     Disk(Box<(Mat4, Mat4, Mat4, Vec3)>),
-    /// Anything else (cylinders, curves, SDF grids, spheres through a `SphereMap`):
+    /// A cylinder: its constants (`Cylinder::lanes`) and `flip_normals` sign.
+    Cylinder(Box<(crate::geometry::cylinder::CylinderLanes, f32)>),
+    /// Anything else (curves, SDF grids, spheres through a `SphereMap`):
     /// `Scene::interaction`, one hit at a time.
     Scalar,
 }
@@ -45,6 +47,9 @@ impl Form {
                     Form::Rectangle(Box::new(r))
                 } else if let Some(d) = s.disk_lanes() {
                     Form::Disk(Box::new(d))
+                } else if let ShapeKind::Cylinder(c) = &s.kind {
+                    let sign = if s.flip_normals { -1.0 } else { 1.0 };
+                    Form::Cylinder(Box::new((c.lanes(), sign)))
                 } else {
                     Form::Scalar
                 }
@@ -156,6 +161,7 @@ pub(crate) mod x8 {
                 };
                 let (mut tri, mut sph, mut rect) = (Pending::EMPTY, Pending::EMPTY, Pending::EMPTY);
                 let (mut disks, mut itri) = (Pending::EMPTY, Pending::EMPTY);
+                let mut cyl = Pending::EMPTY;
                 let mut scalar = 0;
                 let mut hits = 0;
                 for &i in &batch.active {
@@ -198,6 +204,11 @@ pub(crate) mod x8 {
                                 disks_x8(avx, &mut st, disks.take());
                             }
                         }
+                        Form::Cylinder(_) => {
+                            if cyl.push(i) {
+                                cylinders(avx, &mut st, cyl.take());
+                            }
+                        }
                         Form::Scalar => {
                             scalar += 1;
                             let i = i as usize;
@@ -220,6 +231,9 @@ pub(crate) mod x8 {
                 }
                 if itri.n > 0 {
                     instanced_triangles(avx, &mut st, itri.take());
+                }
+                if cyl.n > 0 {
+                    cylinders(avx, &mut st, cyl.take());
                 }
                 hits - scalar
             },
@@ -522,6 +536,44 @@ pub(crate) mod x8 {
             ng: ng.load(avx),
         };
         let s = sl::disk(&d, x);
+        store(avx, st, &ids, n, &s, &m);
+    }
+
+    /// Hits on cylinders: [`sl::cylinder`].
+    #[inline(always)]
+    fn cylinders(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
+        let (mut w, mut o) = ([Cols3::default(); 4], [Cols3::default(); 4]);
+        let (mut nm, mut dpdv) = ([Cols3::default(); 3], Cols3::default());
+        let (mut sign, mut quirk) = ([0.0f32; 8], [false; 8]);
+        for (k, &i) in ids.iter().enumerate() {
+            let Some(h) = st.hit[i as usize] else {
+                continue;
+            };
+            let Form::Cylinder(c) = &st.forms[h.geom as usize] else {
+                unreachable!("a cylinder's chunk holds cylinders only");
+            };
+            let (c, sg) = &**c;
+            for j in 0..4 {
+                w[j].set(k, c.to_world[j]);
+                o[j].set(k, c.to_object[j]);
+            }
+            for (j, col) in nm.iter_mut().enumerate() {
+                col.set(k, c.normal[j]);
+            }
+            dpdv.set(k, c.dpdv);
+            (sign[k], quirk[k]) = (*sg, c.quirk);
+        }
+        let mut m = Meta::default();
+        let x = ray_points(avx, st, &ids, &mut m);
+        let c = sl::CylinderLanes {
+            to_world: load4(avx, &w),
+            to_object: load4(avx, &o),
+            normal: [nm[0].load(avx), nm[1].load(avx), nm[2].load(avx)],
+            dpdv: dpdv.load(avx),
+            sign: avx.load(&sign),
+            quirk: avx.mask(&quirk),
+        };
+        let s = sl::cylinder(&c, x);
         store(avx, st, &ids, n, &s, &m);
     }
 
