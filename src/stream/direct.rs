@@ -24,9 +24,8 @@
 //! The kernels serve `direct` when it takes one light sample and one BSDF sample per hit (the
 //! default, `emitter_samples = bsdf_samples = 1`): their light-sample contribution is then
 //! `light_term`'s value bit for bit (throughput 1 at the camera vertex, sample counts 1 in the
-//! power heuristic; `tests/render/stream.rs`). Other sample counts, the compensated normal
-//! map (whose kernel ends in `PathState::advance` itself) and every material without a kernel
-//! are shaded lane by lane.
+//! power heuristic; `tests/render/stream.rs`), the compensated normal map's kernel included.
+//! Other sample counts and every material without a kernel are shaded lane by lane.
 
 use super::batch::Batch;
 use super::kernels::tail::{Sampled, Tail};
@@ -89,8 +88,6 @@ impl Tail for DirectTail<'_> {
     fn kernels(&self) -> bool {
         self.cfg.emitter_samples == 1 && self.cfg.bsdf_samples == 1
     }
-
-    const MNM: bool = false;
 
     /// With throughput 1 and one sample of each kind, the kernels' contribution is
     /// `light_term`'s: `1 · f·Le · (w / pdf)` with `w` the power heuristic of the two densities

@@ -625,7 +625,7 @@ fn shade<T: kernels::tail::Tail>(
         if driver {
             lanes.conductor_lanes += done as u64;
         }
-        if let (Some(Some(Kernel::Mnm)), true) = (kernels.kinds.get(m as usize), T::MNM) {
+        if let Some(Some(Kernel::Mnm)) = kernels.kinds.get(m as usize) {
             lanes.mnm_lanes += done as u64;
         }
         for (a, b) in lanes.kernel_lights.iter_mut().zip(&mut batch.light_lanes) {
@@ -703,8 +703,6 @@ fn shade_kernel<T: kernels::tail::Tail>(
             ),
             false,
         ),
-        // The normal map's kernel ends in `PathState::advance` itself (`Tail::MNM`).
-        Kernel::Mnm if !T::MNM => (0, false),
         Kernel::Mnm => {
             use kernels::mnm::x8;
             avx.run(
@@ -714,7 +712,17 @@ fn shade_kernel<T: kernels::tail::Tail>(
                     for c in chunks {
                         let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
                         let lights = &kernels.lights;
-                        x8::shade(avx, scene, cfg, batch, &ids, lights, &mut gather, arena);
+                        x8::shade(
+                            avx,
+                            scene,
+                            cfg,
+                            batch,
+                            &ids,
+                            lights,
+                            &mut gather,
+                            arena,
+                            tail,
+                        );
                     }
                 },
             );

@@ -25,6 +25,8 @@ mod robustness;
 mod sdfgrid;
 mod stream;
 mod stream_emission_shapes;
+
+mod stream_blend_direct;
 mod textures;
 mod transform_quirks;
 mod volpathmis;

@@ -17,7 +17,9 @@
 //!    lane (the scalar model); then 8-wide: the power heuristic, the contribution and the
 //!    shadow ray ([`super::diffuse::light_out`]);
 //! 4. the BSDF samples (the same split: the points' draws lane by lane, their first orders and
-//!    remainders together), then lane by lane the next ray and `PathState::advance`.
+//!    remainders together), then lane by lane the next ray; each lane's light and BSDF samples
+//!    go to the integrator's [`super::tail::Tail`] (`PathState::advance` for `path`, rays to
+//!    trace for `direct`).
 //!
 //! The per-hit build's texture lookup, microsurface, facet frames and entries, and the draws,
 //! still run per lane through the scalar code; every number is the scalar model's bit for bit
@@ -116,9 +118,8 @@ pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{eval_pdf_x8, sample_x8, with_incident_x8, Point};
-    use crate::bsdf::{BsdfArena, BsdfContext, SurfaceBsdf};
+    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
-    use crate::integrator::path::PendingLight;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::V2;
     use crate::lane::Avx2;
@@ -128,6 +129,7 @@ pub(crate) mod x8 {
     use crate::stream::kernels::diffuse::reflectance;
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
+    use crate::stream::kernels::tail::{Sampled, Tail};
     use crate::texture::Texture;
     use glam::Vec3;
 
@@ -177,9 +179,9 @@ pub(crate) mod x8 {
     }
 
     /// Shades the 8 paths `ids` (all at a surface of a material that [`super::qualifies`]) as
-    /// `PathState::scatter` would, one after the other; sets their pending light samples, and
-    /// their next rays and `alive` flags where they go on. `arena` holds the 8 points' BSDF
-    /// trees (cleared here). Call inside [`Avx2::run`].
+    /// `PathState::scatter` would, one after the other; hands each lane's light sample, then
+    /// its BSDF sample, to `tail` (the integrator's end of the vertex). `arena` holds the 8
+    /// points' BSDF trees (cleared here). Call inside [`Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade(
@@ -191,6 +193,7 @@ pub(crate) mod x8 {
         lights: &[Option<LaneLight>],
         gather: &mut Gather,
         arena: &mut BsdfArena,
+        tail: &mut impl Tail,
     ) {
         let si_of = |b: &Batch, i: u32| -> SurfaceInteraction { b.surf.get(i as usize) };
         let ctx = BsdfContext::default();
@@ -293,17 +296,15 @@ pub(crate) mod x8 {
             );
             for (k, &i) in ids.iter().enumerate() {
                 if nee[k] && ok[k] {
-                    b.light[i as usize] = Some(PendingLight {
-                        shadow: Ray::segment(o.get(k), dd.get(k), tmax[k]),
-                        contribution: c.get(k),
-                    });
+                    let shadow = Ray::segment(o.get(k), dd.get(k), tmax[k]);
+                    tail.light(b, i as usize, shadow, c.get(k));
                 }
             }
         }
 
         // 4. The BSDF samples (the compensated model's points together, their first orders'
         //    nested evaluations 8-wide; the others lane by lane) and the next rays, lane by
-        //    lane (`PathState::scatter`'s end).
+        //    lane, to the tail (for `path`, `PathState::scatter`'s end).
         let mut pts = [None; 8];
         for (k, &i) in ids.iter().enumerate() {
             if shared && root[k] != u32::MAX {
@@ -327,11 +328,16 @@ pub(crate) mod x8 {
             let Some(bs) = bs else {
                 continue;
             };
-            let next = b.state[i].advance_sampled(cfg, &si, &bs, &mut b.sampler[i]);
-            if let Some(r) = next {
-                b.ray[i] = r;
-                b.alive[i] = true;
-            }
+            // `PathState::advance_sampled`'s arguments, for the tail.
+            let s = Sampled {
+                p: si.p,
+                ray: si.spawn_ray(bs.wo),
+                weight: bs.weight,
+                eta: bs.eta,
+                pdf: bs.pdf,
+                delta: bs.lobe.intersects(Lobes::DELTA),
+            };
+            tail.bsdf(b, i, &s);
         }
     }
 }

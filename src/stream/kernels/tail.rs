@@ -35,9 +35,6 @@ pub(crate) struct Sampled {
 pub(crate) trait Tail {
     /// Whether the 8-wide kernels may shade (else every path goes through [`Tail::scalar`]).
     fn kernels(&self) -> bool;
-    /// Whether the compensated normal map's kernel may shade (its tail is not split yet: it
-    /// ends in `PathState::advance` itself, which only the `path` integrator wants).
-    const MNM: bool;
     /// Path `i`'s light sample: its shadow ray and contribution (throughput × f·Le × MIS
     /// weight / density, the weight of `PathState::scatter`).
     fn light(&mut self, b: &mut Batch, i: usize, shadow: Ray, contribution: Spectrum);
@@ -57,8 +54,6 @@ impl Tail for PathTail<'_> {
     fn kernels(&self) -> bool {
         true
     }
-
-    const MNM: bool = true;
 
     #[inline(always)]
     fn light(&mut self, b: &mut Batch, i: usize, shadow: Ray, contribution: Spectrum) {

@@ -1,0 +1,27 @@
+//! The stream renderer's `direct` integrator through more of the kernels (issue 18, twelfth
+//! session, h6): the compensated microfacet normal map's kernel under `direct`.
+
+use super::stream::{as_direct, assert_identical, load, scene};
+
+/// `metal_plastic` and `strong` with `--normal-mapping compensated` under `direct` (one light
+/// and one BSDF sample per hit, the kernels' vertex; with `hide_emitters`; BSDF samples only)
+/// give the scalar image at 1, 2, 3 and 7 threads, and the compensated kernel shaded (its
+/// counter is only counted where the kernel ran, so a fallback to the 1-lane code fails). With
+/// 3 emitter samples the kernels stand aside.
+#[test]
+fn the_compensated_kernel_runs_under_direct() {
+    for name in ["metal_plastic", "strong"] {
+        let base = || load(&scene(&format!("scenes/bench/{name}.xml")), "compensated");
+        for (label, es, bs, hide) in [("1, 1", 1, 1, false), ("1, 1, hidden", 1, 1, true)] {
+            let l = as_direct(base(), es, bs, hide);
+            let lanes = assert_identical(&l, &format!("{name} compensated direct ({label})"), 3);
+            assert!(
+                lanes.mnm_lanes > 0 && lanes.mnm_lanes <= lanes.kernel_lanes,
+                "{name} ({label}): {lanes:?}"
+            );
+        }
+        let l = as_direct(base(), 3, 1, false);
+        let lanes = assert_identical(&l, &format!("{name} compensated direct (3, 1)"), 2);
+        assert_eq!(lanes.mnm_lanes, 0, "{name} (3, 1): {lanes:?}");
+    }
+}
