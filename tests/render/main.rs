@@ -24,6 +24,7 @@ mod refs_selfcheck;
 mod robustness;
 mod sdfgrid;
 mod stream;
+mod stream_mnm_build;
 mod textures;
 mod transform_quirks;
 mod volpathmis;
