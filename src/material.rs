@@ -97,6 +97,25 @@ impl MnmSettings {
         .with_lambert_closed_form(self.lambert_closed_form)
         .with_ms_table(self.ms_table)
     }
+
+    /// [`Self::map_at`] written in place into `slot` (every field: the arena's in-place
+    /// build, [`crate::bsdf::BsdfArena::push_microfacet_normal_map_with`]); the same map bit
+    /// for bit.
+    #[inline(always)]
+    pub fn map_into(&self, slot: &mut MicrofacetNormalMap, nested: u32, rgb: Vec3) {
+        let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, self.max_theta);
+        *slot = MicrofacetNormalMap::new(
+            nested,
+            wp,
+            self.geometry,
+            self.tangent,
+            self.evaluation,
+            self.max_order,
+        );
+        slot.transmission_walk = self.transmission_walk;
+        slot.set_lambert_closed_form(self.lambert_closed_form);
+        slot.set_ms_table(self.ms_table);
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -468,11 +487,11 @@ impl Materials {
             } => {
                 let child = self.build_at(*nested, si, at, arena);
                 let rgb = self.textures[*normalmap as usize].eval(at);
-                arena.push_microfacet_normal_map(
-                    settings
-                        .map_at(child, rgb)
-                        .with_incident(si.sh.to_local(si.wi)),
-                )
+                let wi = si.sh.to_local(si.wi);
+                arena.push_microfacet_normal_map_with(child, |m| {
+                    settings.map_into(m, child, rgb);
+                    m.set_incident(wi);
+                })
             }
             MaterialNode::NormalMap {
                 nested,

@@ -225,8 +225,12 @@ pub struct BsdfArena {
     /// The lobes of each node ([`BsdfNode::lobes`]), computed when it is pushed (its children
     /// come before it), so that [`Bsdf::lobes`] is a load, not a walk of the tree.
     lobes: Vec<Lobes>,
-    /// Payloads of the `BsdfNode::MicrofacetNormalMap` nodes.
+    /// Payloads of the `BsdfNode::MicrofacetNormalMap` nodes: the first `mnm_len` are this
+    /// hit's; the slots after them are kept across [`BsdfArena::clear`] (plain `Copy` values)
+    /// so that the next hits build their maps in place
+    /// ([`BsdfArena::push_microfacet_normal_map_with`]) instead of copying a ~400-byte value in.
     mnm: Vec<mnm::MicrofacetNormalMap>,
+    mnm_len: usize,
     /// Closed forms of the microfacet normal maps over Lambertian nested BSDFs.
     lambert: Vec<mnm::lambert::LambertForm>,
     /// Payloads of the `BsdfNode::Principled` and `BsdfNode::PrincipledThin` nodes.
@@ -253,6 +257,7 @@ impl BsdfArena {
             nodes: Vec::with_capacity(16),
             lobes: Vec::with_capacity(16),
             mnm: Vec::with_capacity(4),
+            mnm_len: 0,
             lambert: Vec::with_capacity(4),
             principled: Vec::new(),
             principled_thin: Vec::new(),
@@ -264,7 +269,7 @@ impl BsdfArena {
     pub fn clear(&mut self) {
         self.nodes.clear();
         self.lobes.clear();
-        self.mnm.clear();
+        self.mnm_len = 0; // the slots stay, to be overwritten in place
         self.lambert.clear();
         self.principled.clear();
         self.principled_thin.clear();
@@ -285,24 +290,43 @@ impl BsdfArena {
         (self.nodes.len() - 1) as u32
     }
     /// Store a microfacet normal map and return its node's index.
-    #[inline]
     /// Over a `diffuse` nested BSDF (or a `twosided` whose front is one) the walk's closed
     /// form is prepared here ([`mnm::lambert`]).
-    pub fn push_microfacet_normal_map(&mut self, mut m: mnm::MicrofacetNormalMap) -> u32 {
-        let nested = m.nested;
-        if let Some(form) = self
-            .lambertian_reflectance(nested)
-            .and_then(|rho| mnm::lambert::LambertForm::new(&m, rho))
-        {
+    #[inline]
+    pub fn push_microfacet_normal_map(&mut self, m: mnm::MicrofacetNormalMap) -> u32 {
+        self.push_microfacet_normal_map_with(m.nested, |slot| *slot = m)
+    }
+
+    /// [`Self::push_microfacet_normal_map`] built in place: `build` writes the whole map over
+    /// node `nested` into the arena's slot (a slot of an earlier hit, or a placeholder when
+    /// the arena grows; `build` must overwrite every field, e.g. `*slot =
+    /// MicrofacetNormalMap::new(..)` and then its `set_*` steps), so that the per-hit build
+    /// does not copy the ~400-byte model from the stack into the arena. Same node, same
+    /// values as pushing the built map.
+    #[inline(always)]
+    pub fn push_microfacet_normal_map_with(
+        &mut self,
+        nested: u32,
+        build: impl FnOnce(&mut mnm::MicrofacetNormalMap),
+    ) -> u32 {
+        let rho = self.lambertian_reflectance(nested);
+        let i = self.mnm_len;
+        if i == self.mnm.len() {
+            self.mnm.push(mnm::MicrofacetNormalMap::placeholder());
+        }
+        self.mnm_len += 1;
+        let m = &mut self.mnm[i];
+        build(m);
+        debug_assert_eq!(m.nested, nested, "the map is built over `nested`");
+        if let Some(form) = rho.and_then(|rho| mnm::lambert::LambertForm::new(m, rho)) {
             self.lambert.push(form);
             m.set_lambert((self.lambert.len() - 1) as u32);
         }
-        self.mnm.push(m);
         let lobes = self.lobes[nested as usize];
         self.push_with_lobes(
             lobes,
             BsdfNode::MicrofacetNormalMap {
-                map: (self.mnm.len() - 1) as u32,
+                map: i as u32,
                 nested,
             },
         )
@@ -313,7 +337,9 @@ impl BsdfArena {
     #[inline]
     pub(crate) fn mnm_mut(&mut self, i: u32) -> Option<&mut mnm::MicrofacetNormalMap> {
         match self.nodes.get(i as usize)? {
-            BsdfNode::MicrofacetNormalMap { map, .. } => self.mnm.get_mut(*map as usize),
+            BsdfNode::MicrofacetNormalMap { map, .. } => {
+                self.mnm[..self.mnm_len].get_mut(*map as usize)
+            }
             _ => None,
         }
     }

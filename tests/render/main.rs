@@ -27,6 +27,8 @@ mod stream;
 mod stream_emission_shapes;
 
 mod stream_blend_direct;
+
+mod stream_mnm_build;
 mod textures;
 mod transform_quirks;
 mod volpathmis;

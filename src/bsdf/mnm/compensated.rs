@@ -190,15 +190,22 @@ impl MicrofacetNormalMap {
     /// or with ωi below the surface, nothing changes. Results are the same with or without it.
     #[inline(always)]
     pub fn with_incident(mut self, wi: Vec3) -> Self {
+        self.set_incident(wi);
+        self
+    }
+
+    /// [`Self::with_incident`] in place (the arena's in-place build,
+    /// [`crate::bsdf::BsdfArena::push_microfacet_normal_map_with`]).
+    #[inline(always)]
+    pub fn set_incident(&mut self, wi: Vec3) {
         if let Some(r) = &self.ms {
             if wi.z > 0.0 && !self.degenerate {
-                let at = AtIncident::new(&self, r, wi);
+                let at = AtIncident::new(self, r, wi);
                 if let Some(r) = &mut self.ms {
                     r.at = Some(at);
                 }
             }
         }
-        self
     }
 }
 

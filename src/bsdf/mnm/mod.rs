@@ -200,15 +200,23 @@ impl MicrofacetNormalMap {
     /// ([`misplaced::blend`]); β = 0, or a table without M, leaves the walk.
     #[inline(always)]
     pub fn with_ms_table(mut self, table: Option<&'static ms_table::MsTable>) -> Self {
+        self.set_ms_table(table);
+        self
+    }
+
+    /// [`Self::with_ms_table`] in place (the arena's in-place build,
+    /// [`crate::bsdf::BsdfArena::push_microfacet_normal_map_with`]).
+    #[inline(always)]
+    pub fn set_ms_table(&mut self, table: Option<&'static ms_table::MsTable>) {
         if self.degenerate {
-            return self;
+            return;
         }
         match self.evaluation {
             Evaluation::Compensated => {
                 self.ms = table.map(|t| compensated::MsRef::new(t, self.wp));
             }
             Evaluation::Auto => {
-                let Some(t) = table else { return self };
+                let Some(t) = table else { return };
                 let beta = t
                     .misplaced
                     .get()
@@ -217,7 +225,19 @@ impl MicrofacetNormalMap {
             }
             _ => {}
         }
-        self
+    }
+
+    /// A map for an arena slot that is about to be overwritten (the flat microsurface).
+    #[inline(never)]
+    pub(crate) fn placeholder() -> Self {
+        Self::new(
+            0,
+            Vec3::Z,
+            Microgeometry::Sawtooth,
+            Tangent::Mirror,
+            Evaluation::Explicit,
+            1,
+        )
     }
 
     /// `evaluation = auto` with the blend β forced (tests of the mixture; β ∈ [0, 1]).
@@ -254,8 +274,14 @@ impl MicrofacetNormalMap {
     /// BSDF runs the random walk (tests that compare the two).
     #[inline]
     pub fn with_lambert_closed_form(mut self, on: bool) -> Self {
-        self.lambert_closed_form = on;
+        self.set_lambert_closed_form(on);
         self
+    }
+
+    /// [`Self::with_lambert_closed_form`] in place.
+    #[inline(always)]
+    pub fn set_lambert_closed_form(&mut self, on: bool) {
+        self.lambert_closed_form = on;
     }
 
     /// Point at the closed form over the nested Lambertian, entry `i` of the arena's table

@@ -99,7 +99,9 @@ pub(crate) fn build_shared(
     let child = arena.push_with_lobes(materials.lobes(*nested), **template);
     for (k, si) in si.iter().enumerate() {
         let Some(si) = si else { continue };
-        roots[k] = arena.push_microfacet_normal_map(settings.map_at(child, rgb[k]));
+        roots[k] = arena.push_microfacet_normal_map_with(child, |m| {
+            settings.map_into(m, child, rgb[k]);
+        });
         wi[k] = si.sh.to_local(si.wi);
     }
     (roots, wi)
