@@ -185,6 +185,10 @@ pub(crate) fn eval_pdf_x8(
     out
 }
 
+/// A point's sampled ωo before its first order is evaluated: its ωi state, entries, ωo and the
+/// drawn path's term.
+type Drawn = (AtWi, Entries, Vec3, Option<Known>);
+
 /// `Bsdf::sample` of each point's root, as `mnm::sample` and `compensated::sample` compute it
 /// (the same random numbers from each point's own sampler `samplers[ids[k]]`, in the same
 /// order; the `ids` of one call are distinct), including `Bsdf::sample`'s rejection of
@@ -212,7 +216,7 @@ pub(crate) fn sample_x8(
     let kind = Nested::of(&nested);
     let exact = sample_record_is_exact(&nested);
     // Pass 1: the lobe choice, the cosine lobe, the entry and the nested sample's numbers.
-    let mut drawn: [Option<(AtWi, Entries, Vec3, Option<Known>)>; 8] = Default::default();
+    let mut drawn: [Option<Drawn>; 8] = Default::default();
     let mut asked: [Option<(AtWi, Entries, usize)>; 8] = Default::default();
     let mut asks = sample::Asks::new();
     for (k, pt) in pts.iter().enumerate() {
@@ -270,12 +274,13 @@ pub(crate) fn sample_x8(
                     p: bpdf,
                 })
             };
-            let (wo, known) = if !m.mirror_wall {
-                (u, known(false))
-            } else if samplers[ids[k] as usize].next_1d() < m.surface.g1(u) {
+            // Over the mirror sawtooth u leaves directly with probability G1(u) (one more
+            // number drawn), else it is blocked: the ray hits the mirror wall.
+            let direct = !m.mirror_wall || samplers[ids[k] as usize].next_1d() < m.surface.g1(u);
+            let (wo, known) = if direct {
                 (u, known(false))
             } else {
-                (m.reflect_wall(u), known(true)) // blocked: the ray hits the mirror wall
+                (m.reflect_wall(u), known(true))
             };
             drawn[k] = Some((a, e, wo, known));
         }
