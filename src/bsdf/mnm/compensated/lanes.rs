@@ -6,7 +6,9 @@
 //! form (instead of one call per point with at most 4 of 8 lanes busy). A pair's values do not
 //! depend on its neighbours in the batch (the lane rule of [`crate::lane`]), and the sums are
 //! [`Collected::sum`], the scalar model's own code, so every point's result is the scalar
-//! model's bit for bit (`tests`).
+//! model's bit for bit (`tests`). The sampler runs with per-lane decisions (lobe choice, cosine
+//! lobe, first-order entry, mirror wall), its nested samples of all 8 points in one 8-wide call
+//! of the nested BSDF's lane form ([`sample`]).
 //!
 //! The points of one call must share their nested BSDF's parameters bit for bit (the batch
 //! evaluates with the first point's): the stream kernel groups them so (a material whose
@@ -14,9 +16,10 @@
 
 use super::super::ms_table::MsTable;
 use super::super::nested_batch::{Pairs, CHUNK};
+mod sample;
+
 use super::{
-    draw, entries, sample_record_is_exact, AtIncident, AtWi, Collected, Entries, Known, MsRef,
-    Nested,
+    entries, sample_record_is_exact, AtIncident, AtWi, Collected, Entries, Known, MsRef, Nested,
 };
 use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfArena, BsdfContext, BsdfSample};
@@ -182,22 +185,40 @@ pub(crate) fn eval_pdf_x8(
     out
 }
 
+/// A point's sampled ωo before its first order is evaluated: its ωi state, entries, ωo and the
+/// drawn path's term.
+type Drawn = (AtWi, Entries, Vec3, Option<Known>);
+
 /// `Bsdf::sample` of each point's root, as `mnm::sample` and `compensated::sample` compute it
 /// (the same random numbers from each point's own sampler `samplers[ids[k]]`, in the same
-/// order), including `Bsdf::sample`'s rejection of non-finite samples. Lanes without a point
-/// draw nothing and are left `None`.
+/// order; the `ids` of one call are distinct), including `Bsdf::sample`'s rejection of
+/// non-finite samples. Lanes without a point draw nothing and are left `None`.
+///
+/// In three passes over the lanes with per-lane decisions: (1) each point draws the lobe
+/// choice, then either the cosine lobe's direction or the first order's entry and the nested
+/// BSDF's random numbers ([`sample::Asks`]); (2) the nested samples of all points that asked, in
+/// one 8-wide call of the nested BSDF's lane form ([`sample::Asks::answer`]); (3) each such
+/// point finishes [`super::draw`] (the facet frame, the mirror wall's draw) with its own
+/// sampler. Every point touches only its own sampler, so splitting its draws across the passes
+/// keeps their order. The first orders at the sampled directions are then evaluated together
+/// as in [`eval_pdf_x8`].
 pub(crate) fn sample_x8(
     ctx: &BsdfContext,
     pts: &[Option<Point>; 8],
     samplers: &mut [Sampler],
     ids: &[u32; 8],
 ) -> [Option<BsdfSample>; 8] {
+    let _ = ctx; // the lane forms read no context
     let mut out = [None; 8];
     let Some(nested) = shared(pts) else {
         return out;
     };
-    let mut pairs = Pairs::<CHUNK>::new();
-    let mut pending: [Option<Pending>; 8] = Default::default();
+    let kind = Nested::of(&nested);
+    let exact = sample_record_is_exact(&nested);
+    // Pass 1: the lobe choice, the cosine lobe, the entry and the nested sample's numbers.
+    let mut drawn: [Option<Drawn>; 8] = Default::default();
+    let mut asked: [Option<(AtWi, Entries, usize)>; 8] = Default::default();
+    let mut asks = sample::Asks::new();
     for (k, pt) in pts.iter().enumerate() {
         let Some(pt) = pt else { continue };
         let wi = pt.wi;
@@ -205,23 +226,77 @@ pub(crate) fn sample_x8(
             continue;
         }
         let s = &mut samplers[ids[k] as usize];
-        let (m, r) = (pt.m, pt.r);
-        let at = r.at(wi);
-        let a = AtWi::new(r, &pt.nested, wi, at);
-        let e = entries(m, at, wi);
-        let (wo, known) = if s.next_1d() < a.select {
-            (warp::square_to_cosine_hemisphere(s.next_2d()), None)
-        } else {
-            match draw(m, &e, &pt.nested, ctx, s) {
-                Some(d) => d,
-                None => continue,
+        let at = pt.r.at(wi);
+        let a = AtWi::new(pt.r, &pt.nested, wi, at);
+        let e = entries(pt.m, at, wi);
+        if s.next_1d() < a.select {
+            let wo = warp::square_to_cosine_hemisphere(s.next_2d());
+            drawn[k] = Some((a, e, wo, None));
+            continue;
+        }
+        // `draw`'s entry by weight (the weights sum to 1 up to rounding; the last entry takes
+        // the rest), then the nested sample from the entry's direction.
+        let x = s.next_1d();
+        let n = e.len();
+        let mut j = 0;
+        let mut acc = 0.0;
+        while j + 1 < n {
+            acc += e.w[j];
+            if x < acc {
+                break;
             }
+            j += 1;
+        }
+        if n == 0 {
+            continue;
+        }
+        asks.push(kind, k, e.a[j], s);
+        asked[k] = Some((a, e, j));
+    }
+    // Pass 2: the nested samples 8-wide.
+    if !asks.is_empty() {
+        let answered = asks.answer(kind);
+        // Pass 3: the rest of `draw` per point.
+        for (k, ask) in asked.iter_mut().enumerate() {
+            let (Some((a, e, j)), Some(pt)) = (ask.take(), pts[k].as_ref()) else {
+                continue;
+            };
+            let Some((bwo, bpdf, bweight)) = answered.get(k) else {
+                continue;
+            };
+            let m = pt.m;
+            let u = m.frames[e.k[j] as usize].to_world(bwo);
+            let known = |wall| {
+                (bpdf.is_finite() && bpdf > 0.0).then_some(Known {
+                    j,
+                    wall,
+                    f: bweight * bpdf,
+                    p: bpdf,
+                })
+            };
+            // Over the mirror sawtooth u leaves directly with probability G1(u) (one more
+            // number drawn), else it is blocked: the ray hits the mirror wall.
+            let direct = !m.mirror_wall || samplers[ids[k] as usize].next_1d() < m.surface.g1(u);
+            let (wo, known) = if direct {
+                (u, known(false))
+            } else {
+                (m.reflect_wall(u), known(true))
+            };
+            drawn[k] = Some((a, e, wo, known));
+        }
+    }
+    // The first orders at the sampled directions, their nested pairs in one batch.
+    let mut pairs = Pairs::<CHUNK>::new();
+    let mut pending: [Option<Pending>; 8] = Default::default();
+    for (k, d) in drawn.into_iter().enumerate() {
+        let (Some((a, e, wo, known)), Some(pt)) = (d, pts[k].as_ref()) else {
+            continue;
         };
         if wo.z <= 0.0 {
             continue;
         }
-        let known = known.filter(|_| sample_record_is_exact(&pt.nested));
-        let c = Collected::new(m, &e, wo, known, &mut pairs);
+        let known = known.filter(|_| exact);
+        let c = Collected::new(pt.m, &e, wo, known, &mut pairs);
         pending[k] = Some(Pending {
             at: a,
             e,
@@ -230,7 +305,7 @@ pub(crate) fn sample_x8(
             known,
         });
     }
-    let ev = Nested::of(&nested)
+    let ev = kind
         .lanes(&pairs)
         .expect("a point's nested BSDF has a lane form");
     let rem = remainders(&pending, pts);
