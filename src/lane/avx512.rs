@@ -17,10 +17,7 @@
 //! intrinsics' immediate form wants a `u32` constant, which a generic `i32` one cannot become
 //! on stable Rust. LLVM folds the constant count back into an immediate.
 
-// The AVX-512 intrinsics are stable since Rust 1.89, above the crate's declared MSRV (1.78):
-// this experimental module needs 1.89 (the toolchain here is 1.95); merging it for real means
-// raising `rust-version`.
-#![allow(clippy::incompatible_msrv)]
+// The AVX-512 intrinsics are stable since Rust 1.89, the crate's `rust-version`.
 
 use super::{Lane, LaneI32, LaneMask, LaneU64};
 use core::arch::x86_64::*;

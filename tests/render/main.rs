@@ -24,10 +24,8 @@ mod refs_selfcheck;
 mod robustness;
 mod sdfgrid;
 mod stream;
-mod stream_emission_shapes;
-
 mod stream_blend_direct;
-
+mod stream_emission_shapes;
 mod stream_mnm_build;
 mod textures;
 mod transform_quirks;
