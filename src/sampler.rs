@@ -315,12 +315,12 @@ mod tests {
                 1 => (r.next_u32() as u64) << 32 | r.next_u32() as u64,
                 _ => r.next_u32() as u64,
             };
-            let pixel = if r.next_u32() % 2 == 0 {
+            let pixel = if r.next_u32().is_multiple_of(2) {
                 r.next_u32() as u64 % 4_000_000
             } else {
                 (r.next_u32() as u64) << 32 | r.next_u32() as u64
             };
-            let sample = if r.next_u32() % 2 == 0 {
+            let sample = if r.next_u32().is_multiple_of(2) {
                 r.next_u32() % 1024
             } else {
                 r.next_u32()

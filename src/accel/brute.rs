@@ -99,7 +99,7 @@ pub(crate) fn analytic_count(shapes: &[Shape]) -> Option<usize> {
 }
 
 fn push_row<T: Copy>(table: &mut Vec<T>, rows: &mut usize, empty: T) -> (usize, usize) {
-    if *rows % W == 0 {
+    if (*rows).is_multiple_of(W) {
         table.push(empty);
     }
     *rows += 1;

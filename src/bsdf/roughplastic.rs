@@ -309,7 +309,6 @@ impl RoughPlastic {
     /// `sample_lanes` of the convention (`u1` picks the lobe). The stream kernel calls
     /// [`Self::sample_with`] (per-lane reflectances, and the lobe); the compensated normal map
     /// (issue 17) calls this.
-    #[allow(dead_code)] // until issue 17's caller lands
     #[inline(always)]
     pub(crate) fn sample_lanes<L: Lane>(&self, wi: V3<L>, u1: L, u2: V2<L>) -> LaneBsdfSample<L> {
         let rho = splat3(wi.z, self.diffuse_reflectance);
@@ -757,7 +756,7 @@ mod tests {
             62.5 / 63.0,
             1e-30,
         ]);
-        while xs.len() % 8 != 0 {
+        while !xs.len().is_multiple_of(8) {
             xs.push(0.25);
         }
         for c in xs.chunks_exact(8) {

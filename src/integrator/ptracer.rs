@@ -106,7 +106,7 @@ pub fn render(
     let spp = opts.spp.unwrap_or(settings.sampler.sample_count).max(1);
     if let Some(per_pass) = cfg.samples_per_pass {
         let per_pass = per_pass.min(spp);
-        if spp % per_pass != 0 {
+        if !spp.is_multiple_of(per_pass) {
             return Err(Error::scene(
                 &cfg.loc,
                 format!("sample_count ({spp}) must be a multiple of samples_per_pass ({per_pass})"),
@@ -256,7 +256,7 @@ impl Context<'_> {
         let mut invalid = 0;
         let spp = self.sampler.sample_count as u64;
         for i in begin..end {
-            if (i - begin) % 4096 == 0 && self.cancelled() {
+            if (i - begin).is_multiple_of(4096) && self.cancelled() {
                 break;
             }
             let mut sampler = Sampler::for_sample(self.sampler, i / spp, (i % spp) as u32);

@@ -152,6 +152,8 @@ const SCENES: &[(&str, Entry)] = &[
     // The stream renderer's conductor kernels (tests/render/stream.rs): a smooth `conductor`
     // sphere in view (and classic normal maps).
     ("stream_conductors.xml", Exclude(Specular("conductor"))),
+    // The stream renderer's cylinders in lanes (tests/render/stream_emission_shapes.rs).
+    ("stream_cylinders.xml", Compare(NONE, Nm::AsWritten, 1)),
     // Its wrapper-chain driver around dielectric leaves: smooth `dielectric` in view.
     ("stream_dielectrics.xml", Exclude(Specular("dielectric"))),
     // Its wrapper-chain driver around diffuse leaves: classic normal maps, compared converted
@@ -165,6 +167,8 @@ const SCENES: &[(&str, Entry)] = &[
     // The stream renderer's emitters in lanes (tests/render/stream.rs).
     ("stream_emitters.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("stream_emitters_env.xml", Compare(NONE, Nm::AsWritten, 1)),
+    // Envmap and sphere-light emission in lanes (tests/render/stream_emission_shapes.rs).
+    ("stream_envmap_spheres.xml", Compare(NONE, Nm::AsWritten, 1)),
     // The stream renderer's instanced meshes in lanes (tests/render/stream.rs).
     ("stream_instances.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("stream_lights.xml", Compare(NONE, Nm::AsWritten, 1)),

@@ -544,7 +544,7 @@ impl MsTable {
         build_seconds: f32,
     ) -> MsTable {
         let cos_theta = std::array::from_fn(|j| theta_node(j, spec.max_theta).cos());
-        let pad = std::iter::repeat(Vec3A::ZERO).take(PLANE);
+        let pad = std::iter::repeat_n(Vec3A::ZERO, PLANE);
         let e = w
             .iter()
             .map(|v| Vec3A::from(v[1] + v[2] + v[3]))

@@ -572,7 +572,7 @@ fn process_children(children: Vec<Node>, ctx: &mut Ctx, depth: usize) -> Result<
         if ctx.elements > MAX_ELEMENTS {
             return Err(Error::scene(&child.loc, too_many_elements()));
         }
-        if ctx.elements % 4096 == 0 {
+        if ctx.elements.is_multiple_of(4096) {
             ctx.budget
                 .check(
                     ctx.elements * ELEMENT_BYTES,
