@@ -16,6 +16,12 @@ use std::ffi::{c_char, c_void, CStr};
 use std::ptr;
 use std::sync::Mutex;
 
+/// Embree's device configuration: at most AVX2 kernels. On an AVX-512 host (Zen 4, twelfth
+/// session) Debian's Embree 3.13.5 picks its AVX-512 kernels, and `rtcOccluded1M` over the
+/// packet test's rays (`tests/scene/packets.rs`) never returned; capped at AVX2 it does, and the
+/// renderer's 8-wide packets match the kernels' width.
+const EMBREE_CONFIG: &CStr = c"isa=avx2";
+
 /// Geometry handed to Embree, borrowed from the shapes.
 pub(crate) enum GeomDesc<'a> {
     Triangles {
@@ -761,7 +767,7 @@ impl EmbreeScene {
         // the device/scene passes to the returned value (released in Drop, also on error paths
         // because `this` is constructed before anything can fail).
         unsafe {
-            let device = rtcNewDevice(ptr::null());
+            let device = rtcNewDevice(EMBREE_CONFIG.as_ptr());
             if device.is_null() {
                 return Err("Embree: rtcNewDevice failed (unsupported CPU?)".into());
             }
