@@ -496,12 +496,12 @@ fn the_lane_counters_count_the_wrapped_plastic() {
     assert!((0.85..=1.0).contains(&share), "{c:?}: {share}");
 }
 
-/// Slow tier: every scene of the repository that the path integrator renders, as written and
-/// (when it has normal maps) in classic and walk modes; also the million-triangle scene when
+/// Every scene of the repository that the path integrator renders, as written and (when it has
+/// normal maps) in classic and walk modes; also the million-triangle scene when
 /// `scenes/bench/make_million.py` has written its meshes, and the shared Cornell boxes
-/// (`../shared/scenes/mitsuba_cbox/`) when they are beside the repository.
+/// (`../shared/scenes/mitsuba_cbox/`) when they are beside the repository. Once a slow tier; it
+/// takes about 4 s (96 pairs at small size), so it runs by default.
 #[test]
-#[ignore]
 fn stream_equals_scalar_on_every_path_scene() {
     let mut scenes = Vec::new();
     let million = scene("scenes/bench/million");
