@@ -1,7 +1,7 @@
 //! Materials: the scene's `<bsdf>` trees with textured parameters. At a hit a material evaluates
 //! its textures and writes plain-valued [`BsdfNode`]s into the per-thread arena.
 
-use crate::bsdf::mnm::facets::{clamp_perturbed_normal, Microgeometry};
+use crate::bsdf::mnm::facets::{MaxTilt, Microgeometry};
 use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent, TransmissionWalk};
 use crate::bsdf::{
     bumpmap, Blend, BsdfArena, BsdfNode, Diffuse, Lobes, Mask, NormalMap, Principled,
@@ -68,8 +68,8 @@ pub struct MnmSettings {
     pub tangent: Tangent,
     pub evaluation: Evaluation,
     pub max_order: u32,
-    /// Largest tilt of the perturbed normal, radians.
-    pub max_theta: f32,
+    /// Largest tilt of the perturbed normal (radians, with its cosine and sine).
+    pub max_theta: MaxTilt,
     /// Over a transmitting nested BSDF: two-sided (§9.3) or early-exit (§9.4) walk.
     pub transmission_walk: TransmissionWalk,
     /// Over a diffuse nested BSDF, the random walk's exact closed forms (`bsdf::mnm::lambert`).
@@ -84,7 +84,7 @@ impl MnmSettings {
     /// ([`MicrofacetNormalMap::with_incident`]; the stream kernel adds 8 at once).
     #[inline(always)]
     pub fn map_at(&self, nested: u32, rgb: Vec3) -> MicrofacetNormalMap {
-        let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, self.max_theta);
+        let wp = self.max_theta.clamp(2.0 * rgb - Vec3::ONE);
         MicrofacetNormalMap::new(
             nested,
             wp,
@@ -103,7 +103,7 @@ impl MnmSettings {
     /// for bit.
     #[inline(always)]
     pub fn map_into(&self, slot: &mut MicrofacetNormalMap, nested: u32, rgb: Vec3) {
-        let wp = clamp_perturbed_normal(2.0 * rgb - Vec3::ONE, self.max_theta);
+        let wp = self.max_theta.clamp(2.0 * rgb - Vec3::ONE);
         *slot = MicrofacetNormalMap::new(
             nested,
             wp,

@@ -95,7 +95,7 @@ fn normal_mapping_switch_converts_at_load() {
         }) => {
             assert!(matches!(n[*nested as usize], MaterialNode::Diffuse { .. }));
             assert_eq!(settings.max_order, 256);
-            assert!((settings.max_theta - 85f32.to_radians()).abs() < 1e-6);
+            assert!((settings.max_theta.radians() - 85f32.to_radians()).abs() < 1e-6);
         }
         _ => unreachable!(),
     }

@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 use groove::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
-use groove::bsdf::mnm::facets::Microgeometry;
+use groove::bsdf::mnm::facets::{MaxTilt, Microgeometry};
 use groove::bsdf::mnm::ms_table::{Colour, MsTable, TableSpec, WALKS_PER_NODE};
 use groove::bsdf::mnm::{Evaluation, Tangent, TransmissionWalk};
 use groove::bsdf::roughconductor::RoughConductor;
@@ -56,7 +56,7 @@ fn settings(rng: &mut Pcg32) -> MnmSettings {
         tangent,
         evaluation,
         max_order: 1 + rng.next_u32() % 300,
-        max_theta: 85f32.to_radians(),
+        max_theta: MaxTilt::new(85f32.to_radians()),
         transmission_walk: TransmissionWalk::TwoSided,
         lambert_closed_form: rng.next_f32() < 0.7,
         ms_table: (rng.next_f32() < 0.9).then(|| table(geometry, tangent, colour)),

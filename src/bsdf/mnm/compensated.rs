@@ -93,17 +93,20 @@ pub(super) struct Entries {
 }
 
 impl Entries {
+    /// No entries (also [`lanes`]' placeholder for a lane without a point).
+    const EMPTY: Entries = Entries {
+        k: [0; MAX_FACETS],
+        n: 0,
+        via_wall: 0,
+        w: [0.0; MAX_FACETS],
+        a: [Vec3::ZERO; MAX_FACETS],
+    };
+
     /// The entries at `wi` (z > 0), with the same conditions and values as
     /// `explicit::eval_pdf_complete` / `eval_pdf_single` use.
     fn new(m: &MicrofacetNormalMap, wi: Vec3) -> Entries {
         let surf = &m.surface;
-        let mut e = Entries {
-            k: [0; MAX_FACETS],
-            w: [0.0; MAX_FACETS],
-            a: [Vec3::ZERO; MAX_FACETS],
-            n: 0,
-            via_wall: 0,
-        };
+        let mut e = Entries::EMPTY;
         let l = surf.lambdas(wi);
         if m.mirror_wall {
             let fr = &m.frames[0];
@@ -210,6 +213,7 @@ impl MicrofacetNormalMap {
 }
 
 /// What depends on ωi only: the colour coefficients, Ē_ms, E_ms(ωi) and the lobe choice s(ωi).
+#[derive(Clone, Copy)]
 struct AtWi {
     k: [[Spectrum; 3]; 2],
     /// 1 / (π Ē_ms) per channel (0 where Ē_ms = 0).
@@ -236,6 +240,14 @@ fn colour(r: &MsRef, nested: &Bsdf) -> Spectrum {
 }
 
 impl AtWi {
+    /// A placeholder (all zero) for a lane without a point ([`lanes`]' per-lane state).
+    const UNUSED: AtWi = AtWi {
+        k: [[Spectrum::ZERO; 3]; 2],
+        norm: Spectrum::ZERO,
+        ei: Spectrum::ZERO,
+        select: 0.0,
+    };
+
     #[inline]
     fn new(r: &MsRef, nested: &Bsdf, wi: Vec3, at: Option<&AtIncident>) -> AtWi {
         let t = r.table;
@@ -376,6 +388,16 @@ struct Collected {
 }
 
 impl Collected {
+    /// A placeholder for a lane without a point ([`lanes`]' per-lane state; never summed).
+    const UNUSED: Collected = Collected {
+        mirror_wall: false,
+        g1o: 0.0,
+        pdf_only: true,
+        exit_t: None,
+        slot: [[NONE; 2]; MAX_FACETS],
+        facing: [false; MAX_FACETS],
+    };
+
     #[inline(always)]
     fn new<const W: usize>(
         m: &MicrofacetNormalMap,
@@ -809,9 +831,9 @@ fn sample_with<const WALK: bool>(
     Some((bs, fo.p_walk))
 }
 
-/// The first order's sampler from the entries: pick an entry by its weight, sample the nested
-/// BSDF in its facet's frame; over the mirror sawtooth the direction u leaves directly with
-/// probability G1(u), else through the wall (R(u)). Returns ωo and the drawn term.
+/// The first order's sampler from the entries: pick an entry by its weight ([`pick_entry`]),
+/// sample the nested BSDF in its facet's frame, then leave the microsurface ([`leave`]).
+/// Returns ωo and the drawn term.
 fn draw(
     m: &MicrofacetNormalMap,
     e: &Entries,
@@ -819,11 +841,19 @@ fn draw(
     ctx: &BsdfContext,
     s: &mut Sampler,
 ) -> Option<(Vec3, Option<Known>)> {
-    // Entry by weight (the weights sum to 1 up to rounding; the last entry takes the rest).
-    let x = s.next_1d();
+    let j = pick_entry(e, s.next_1d())?;
+    let bs = nested.sample(ctx, e.a[j], s)?;
+    Some(leave(m, e, j, (bs.wo, bs.pdf, bs.weight), s))
+}
+
+/// The entry that `x` (a uniform number) picks by the entries' weights (they sum to 1 up to
+/// rounding; the last entry takes the rest); `None` without entries. [`draw`]'s first step,
+/// shared with the stream kernel's sampler (`lanes::sample_x8`).
+#[inline(always)]
+fn pick_entry(e: &Entries, x: f32) -> Option<usize> {
+    let n = e.len();
     let mut j = 0;
     let mut acc = 0.0;
-    let n = e.len();
     while j + 1 < n {
         acc += e.w[j];
         if x < acc {
@@ -831,27 +861,36 @@ fn draw(
         }
         j += 1;
     }
-    if n == 0 {
-        return None;
-    }
-    let fr = &m.frames[e.k[j] as usize];
-    let bs = nested.sample(ctx, e.a[j], s)?;
-    let u = fr.to_world(bs.wo);
+    (n != 0).then_some(j)
+}
+
+/// [`draw`]'s last step, once entry `j`'s nested sample `(ωo, pdf, weight)` (ωo in the
+/// entry's facet frame) is known: u = ωo in the shading frame; over the mirror sawtooth u
+/// leaves directly with probability G1(u) (one more number drawn from `s`), else it is
+/// blocked and leaves through the wall (R(u)). Returns ωo and the drawn term. Shared with the
+/// stream kernel's sampler (`lanes::sample_x8`), which samples the nested BSDF of 8 points at
+/// once in between.
+#[inline(always)]
+fn leave(
+    m: &MicrofacetNormalMap,
+    e: &Entries,
+    j: usize,
+    (bwo, bpdf, bweight): (Vec3, f32, Spectrum),
+    s: &mut Sampler,
+) -> (Vec3, Option<Known>) {
+    let u = m.frames[e.k[j] as usize].to_world(bwo);
     let known = |wall| {
-        (bs.pdf.is_finite() && bs.pdf > 0.0).then_some(Known {
+        (bpdf.is_finite() && bpdf > 0.0).then_some(Known {
             j,
             wall,
-            f: bs.weight * bs.pdf,
-            p: bs.pdf,
+            f: bweight * bpdf,
+            p: bpdf,
         })
     };
-    if !m.mirror_wall {
-        return Some((u, known(false)));
-    }
-    if s.next_1d() < m.surface.g1(u) {
-        Some((u, known(false)))
+    if !m.mirror_wall || s.next_1d() < m.surface.g1(u) {
+        (u, known(false))
     } else {
-        Some((m.reflect_wall(u), known(true))) // blocked: the ray hits the mirror wall
+        (m.reflect_wall(u), known(true)) // blocked: the ray hits the mirror wall
     }
 }
 

@@ -210,19 +210,52 @@ impl Microsurface {
 
 /// The perturbed normal used by microfacet normal mapping: `n` (from the normal map, in the
 /// shading frame) normalised, with its tilt clamped to `max_theta` (radians) and a normal below
-/// the horizon clamped as well (decisions page: `max_theta`, default 85°).
+/// the horizon clamped as well (decisions page: `max_theta`, default 85°). [`MaxTilt::clamp`]
+/// with the cosine and sine of `max_theta` computed here.
 pub fn clamp_perturbed_normal(n: Vec3, max_theta: f32) -> Vec3 {
-    let Some(n) = n.try_normalize() else {
-        return Vec3::Z;
-    };
-    let cos_min = max_theta.cos();
-    if n.z >= cos_min {
-        return n;
+    MaxTilt::new(max_theta).clamp(n)
+}
+
+/// The largest tilt `max_theta` of the perturbed normal (radians) with its cosine and sine
+/// computed once (a material's setting: the per-hit clamp, [`Self::clamp`], then makes no
+/// `cos`/`sin` call).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MaxTilt {
+    radians: f32,
+    cos: f32,
+    sin: f32,
+}
+
+impl MaxTilt {
+    pub fn new(radians: f32) -> Self {
+        MaxTilt {
+            radians,
+            cos: radians.cos(),
+            sin: radians.sin(),
+        }
     }
-    let h = Vec3::new(n.x, n.y, 0.0);
-    match h.try_normalize() {
-        Some(h) => h * max_theta.sin() + Vec3::Z * cos_min,
-        None => Vec3::Z, // straight down: no meaningful tilt direction
+
+    /// The tilt in radians.
+    #[inline]
+    pub fn radians(&self) -> f32 {
+        self.radians
+    }
+
+    /// [`clamp_perturbed_normal`] of `n` for this tilt, bit for bit.
+    #[inline]
+    pub fn clamp(&self, n: Vec3) -> Vec3 {
+        let Some(n) = n.try_normalize() else {
+            return Vec3::Z;
+        };
+        let cos_min = self.cos;
+        if n.z >= cos_min {
+            return n;
+        }
+        let h = Vec3::new(n.x, n.y, 0.0);
+        match h.try_normalize() {
+            Some(h) => h * self.sin + Vec3::Z * cos_min,
+            None => Vec3::Z, // straight down: no meaningful tilt direction
+        }
     }
 }
 

@@ -17,7 +17,7 @@
 //! | `max_theta` | float | 85 | largest tilt of the perturbed normal, degrees, in (0, 90) |
 //! | `transmission_walk` | string | `two_sided` | over a transmitting BSDF: `two_sided` (§9.3) or `exit_on_refraction` (§9.4) |
 
-use super::facets::Microgeometry;
+use super::facets::{MaxTilt, Microgeometry};
 use super::{ms_nested, Evaluation, Tangent, TransmissionWalk};
 
 use crate::bsdf::normalmap::load::parts;
@@ -87,7 +87,7 @@ pub(crate) fn build(cx: &mut BsdfCtx<'_, '_>, forced: Option<MnmMode>) -> Result
         tangent,
         evaluation,
         max_order: max_order as u32,
-        max_theta: max_theta.to_radians(),
+        max_theta: MaxTilt::new(max_theta.to_radians()),
         transmission_walk,
         lambert_closed_form,
         ms_table: None,
@@ -125,7 +125,7 @@ fn compensate(
             settings.geometry,
             settings.tangent,
             settings.max_order,
-            settings.max_theta,
+            settings.max_theta.radians(),
             settings.lambert_closed_form,
         )
     } else {
@@ -135,7 +135,7 @@ fn compensate(
             settings.geometry,
             settings.tangent,
             settings.max_order,
-            settings.max_theta,
+            settings.max_theta.radians(),
         )
     };
     if auto && why.is_err() {
@@ -176,7 +176,7 @@ pub(crate) fn from_normalmap(cx: &mut BsdfCtx<'_, '_>, mode: MnmMode) -> Result<
         tangent: mode.tangent,
         evaluation: mode.evaluation,
         max_order: 256,
-        max_theta: 85f32.to_radians(),
+        max_theta: MaxTilt::new(85f32.to_radians()),
         transmission_walk: TransmissionWalk::TwoSided,
         lambert_closed_form: true,
         ms_table: None,

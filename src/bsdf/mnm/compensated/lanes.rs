@@ -19,7 +19,8 @@ use super::super::nested_batch::{Pairs, CHUNK};
 mod sample;
 
 use super::{
-    entries, sample_record_is_exact, AtIncident, AtWi, Collected, Entries, Known, MsRef, Nested,
+    entries, leave, pick_entry, sample_record_is_exact, AtIncident, AtWi, Collected, Entries,
+    Known, MsRef, Nested,
 };
 use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfArena, BsdfContext, BsdfSample};
@@ -52,22 +53,46 @@ impl<'a> Point<'a> {
     }
 }
 
-/// What a point keeps between the two passes.
-struct Pending {
-    at: AtWi,
-    e: Entries,
-    c: Collected,
-    wo: Vec3,
-    known: Option<Known>,
+/// What the points keep between the passes, in place by lane (lane k's values are read only
+/// where bit k of `live` is set; the others hold placeholders): fixed arrays written once per
+/// point instead of per-point records moved through `Option`s (each such move of a few hundred
+/// bytes was a `memcpy` call).
+struct States {
+    /// Bit k: lane k has a point whose first order is pending.
+    live: u8,
+    at: [AtWi; 8],
+    e: [Entries; 8],
+    c: [Collected; 8],
+    wo: [Vec3; 8],
+    known: [Option<Known>; 8],
 }
 
-/// Each pending point's rank-1 remainder at its ωo ([`AtWi::remainder`]): the table lookups at
-/// ωo of the points with a baked table 8-wide ([`crate::bsdf::mnm::ms_table::MsTable::lookup_baked_x8`], the first such
+impl States {
+    #[inline(always)]
+    fn new() -> Self {
+        States {
+            live: 0,
+            at: [AtWi::UNUSED; 8],
+            e: [Entries::EMPTY; 8],
+            c: [Collected::UNUSED; 8],
+            wo: [Vec3::Z; 8],
+            known: [None; 8],
+        }
+    }
+
+    #[inline(always)]
+    fn is_live(&self, k: usize) -> bool {
+        self.live & (1 << k) != 0
+    }
+}
+
+/// Each live point's rank-1 remainder at its ωo ([`AtWi::remainder`]): the table lookups at
+/// ωo of the points with a baked table 8-wide ([`MsTable::lookup_baked_x8`], the first such
 /// point's table; a point with another table, or per-bounce colours, looks up alone).
-fn remainders(pending: &[Option<Pending>; 8], pts: &[Option<Point>; 8]) -> [Spectrum; 8] {
+fn remainders(st: &States, pts: &[Option<Point>; 8]) -> [Spectrum; 8] {
     let baked = |k: usize| -> Option<&MsRef> {
-        let (pd, pt) = (pending[k].as_ref()?, pts[k].as_ref()?);
-        (pt.r.baked_norm.is_some() && pd.at.ei != Spectrum::ZERO).then_some(pt.r)
+        let pt = pts[k].as_ref().filter(|_| st.is_live(k))?;
+        (pt.r.baked_norm.is_some() && st.at[k].ei != Spectrum::ZERO).then_some(pt.r)
     };
     let mut cells = [None; 8];
     let mut wo = [Vec3::Z; 8];
@@ -76,16 +101,16 @@ fn remainders(pending: &[Option<Pending>; 8], pts: &[Option<Point>; 8]) -> [Spec
         for k in 0..8 {
             if let Some(r) = baked(k).filter(|r| std::ptr::eq(r.table, t)) {
                 cells[k] = Some(r.cell);
-                wo[k] = pending[k].as_ref().map_or(Vec3::Z, |p| p.wo);
+                wo[k] = st.wo[k];
             }
         }
     }
     let eo = table.map_or([Spectrum::ZERO; 8], |t| {
         t.lookup_baked_x8(&cells, &wo, false).map(|l| l[1])
     });
-    std::array::from_fn(|k| match (&pending[k], &pts[k]) {
-        (Some(pd), Some(_)) if cells[k].is_some() => pd.at.remainder_from(eo[k], pd.wo),
-        (Some(pd), Some(pt)) => pd.at.remainder(pt.r, pd.wo),
+    std::array::from_fn(|k| match &pts[k] {
+        Some(_) if st.is_live(k) && cells[k].is_some() => st.at[k].remainder_from(eo[k], st.wo[k]),
+        Some(pt) if st.is_live(k) => st.at[k].remainder(pt.r, st.wo[k]),
         _ => Spectrum::ZERO,
     })
 }
@@ -98,30 +123,34 @@ fn remainders(pending: &[Option<Pending>; 8], pts: &[Option<Point>; 8]) -> [Spec
 /// point's table, a point with another table looks up alone), the entries per point. Bit for
 /// bit the scalar cache (`tests`).
 pub(crate) fn with_incident_x8(arena: &mut BsdfArena, roots: &[u32; 8], wi: &[Vec3; 8]) {
+    // Pass 1: the lanes that get a cache (bit k of `wanted`) and the baked table's cells. The
+    // table reference is read in place (a copy of the `MsRef` would copy its cache slot too).
     let mut cells = [None; 8];
+    let mut wanted = 0u8;
     let mut table: Option<&'static MsTable> = None;
     for (k, &root) in roots.iter().enumerate() {
         let Some(m) = arena.mnm_mut(root) else {
             continue;
         };
-        let Some(r) = m.ms.filter(|_| AtIncident::wanted(m, wi[k])) else {
+        let Some(r) = m.ms.as_ref().filter(|_| AtIncident::wanted(m, wi[k])) else {
             continue;
         };
+        wanted |= 1 << k;
         if r.baked_norm.is_some() && std::ptr::eq(*table.get_or_insert(r.table), r.table) {
             cells[k] = Some(r.cell);
         }
     }
     let looked = table.map(|t| t.lookup_baked_x8(&cells, wi, true));
+    // Pass 2: each wanted lane's cache, written into its map.
     for (k, &root) in roots.iter().enumerate() {
-        let Some(m) = arena.mnm_mut(root) else {
+        if wanted & (1 << k) == 0 {
             continue;
-        };
-        let Some(r) = m.ms.filter(|_| AtIncident::wanted(m, wi[k])) else {
-            continue;
-        };
-        let at = match (cells[k], looked) {
-            (Some(_), Some(l)) => AtIncident::from_lookup(m, wi[k], l[k]),
-            _ => AtIncident::new(m, &r, wi[k]),
+        }
+        let m = arena.mnm_mut(root).expect("a wanted lane's map");
+        let at = match (cells[k], looked, &m.ms) {
+            (Some(_), Some(l), _) => AtIncident::from_lookup(m, wi[k], l[k]),
+            (_, _, Some(r)) => AtIncident::new(m, r, wi[k]),
+            (_, _, None) => unreachable!("a wanted lane has a table"),
         };
         if let Some(r) = &mut m.ms {
             r.at = Some(at);
@@ -148,7 +177,7 @@ pub(crate) fn eval_pdf_x8(
         return out;
     };
     let mut pairs = Pairs::<CHUNK>::new();
-    let mut pending: [Option<Pending>; 8] = Default::default();
+    let mut st = States::new();
     for (k, pt) in pts.iter().enumerate() {
         let Some(pt) = pt else { continue };
         let (wi, wo) = (pt.wi, wo[k]);
@@ -156,38 +185,29 @@ pub(crate) fn eval_pdf_x8(
             continue;
         }
         let at = pt.r.at(wi);
-        let a = AtWi::new(pt.r, &pt.nested, wi, at);
-        let e = entries(pt.m, at, wi);
-        let c = Collected::new(pt.m, &e, wo, None, &mut pairs);
-        pending[k] = Some(Pending {
-            at: a,
-            e,
-            c,
-            wo,
-            known: None,
-        });
+        st.at[k] = AtWi::new(pt.r, &pt.nested, wi, at);
+        st.e[k] = entries(pt.m, at, wi);
+        st.c[k] = Collected::new(pt.m, &st.e[k], wo, None, &mut pairs);
+        st.wo[k] = wo;
+        st.live |= 1 << k;
     }
     let ev = Nested::of(&nested)
         .lanes(&pairs)
         .expect("a point's nested BSDF has a lane form");
-    let rem = remainders(&pending, pts);
-    for (k, pd) in pending.iter().enumerate() {
-        let Some(pd) = pd else {
+    let rem = remainders(&st, pts);
+    for (k, o) in out.iter_mut().enumerate() {
+        if !st.is_live(k) {
             continue;
-        };
-        let fo = pd.c.sum::<false, CHUNK>(&pd.e, None, &ev);
-        let a = &pd.at;
-        out[k] = (
+        }
+        let fo = st.c[k].sum::<false, CHUNK>(&st.e[k], None, &ev);
+        let a = &st.at[k];
+        *o = (
             fo.f + rem[k],
-            (1.0 - a.select) * fo.p + a.select * pd.wo.z * INV_PI,
+            (1.0 - a.select) * fo.p + a.select * st.wo[k].z * INV_PI,
         );
     }
     out
 }
-
-/// A point's sampled ωo before its first order is evaluated: its ωi state, entries, ωo and the
-/// drawn path's term.
-type Drawn = (AtWi, Entries, Vec3, Option<Known>);
 
 /// `Bsdf::sample` of each point's root, as `mnm::sample` and `compensated::sample` compute it
 /// (the same random numbers from each point's own sampler `samplers[ids[k]]`, in the same
@@ -195,11 +215,12 @@ type Drawn = (AtWi, Entries, Vec3, Option<Known>);
 /// non-finite samples. Lanes without a point draw nothing and are left `None`.
 ///
 /// In three passes over the lanes with per-lane decisions: (1) each point draws the lobe
-/// choice, then either the cosine lobe's direction or the first order's entry and the nested
-/// BSDF's random numbers ([`sample::Asks`]); (2) the nested samples of all points that asked, in
-/// one 8-wide call of the nested BSDF's lane form ([`sample::Asks::answer`]); (3) each such
-/// point finishes [`super::draw`] (the facet frame, the mirror wall's draw) with its own
-/// sampler. Every point touches only its own sampler, so splitting its draws across the passes
+/// choice, then either the cosine lobe's direction or the first order's entry
+/// ([`super::pick_entry`], the scalar `draw`'s own step) and the nested BSDF's random numbers
+/// ([`sample::Asks`]); (2) the nested samples of all points that asked, in one 8-wide call of
+/// the nested BSDF's lane form ([`sample::Asks::answer`]); (3) each such point finishes `draw`
+/// with its own sampler ([`super::leave`], the scalar `draw`'s last step: the facet frame, the
+/// mirror wall's draw). Every point touches only its own sampler, so splitting its draws across the passes
 /// keeps their order. The first orders at the sampled directions are then evaluated together
 /// as in [`eval_pdf_x8`].
 pub(crate) fn sample_x8(
@@ -216,8 +237,11 @@ pub(crate) fn sample_x8(
     let kind = Nested::of(&nested);
     let exact = sample_record_is_exact(&nested);
     // Pass 1: the lobe choice, the cosine lobe, the entry and the nested sample's numbers.
-    let mut drawn: [Option<Drawn>; 8] = Default::default();
-    let mut asked: [Option<(AtWi, Entries, usize)>; 8] = Default::default();
+    // Each point's ωi state and entries go to `st` in place; `drawn`: the lanes with an ωo
+    // (in `st.wo`); `entry`: the entry of a lane that asked for a nested sample.
+    let mut st = States::new();
+    let mut drawn = 0u8;
+    let mut entry = [usize::MAX; 8];
     let mut asks = sample::Asks::new();
     for (k, pt) in pts.iter().enumerate() {
         let Some(pt) = pt else { continue };
@@ -227,95 +251,60 @@ pub(crate) fn sample_x8(
         }
         let s = &mut samplers[ids[k] as usize];
         let at = pt.r.at(wi);
-        let a = AtWi::new(pt.r, &pt.nested, wi, at);
-        let e = entries(pt.m, at, wi);
-        if s.next_1d() < a.select {
-            let wo = warp::square_to_cosine_hemisphere(s.next_2d());
-            drawn[k] = Some((a, e, wo, None));
+        st.at[k] = AtWi::new(pt.r, &pt.nested, wi, at);
+        st.e[k] = entries(pt.m, at, wi);
+        if s.next_1d() < st.at[k].select {
+            st.wo[k] = warp::square_to_cosine_hemisphere(s.next_2d());
+            drawn |= 1 << k;
             continue;
         }
-        // `draw`'s entry by weight (the weights sum to 1 up to rounding; the last entry takes
-        // the rest), then the nested sample from the entry's direction.
-        let x = s.next_1d();
-        let n = e.len();
-        let mut j = 0;
-        let mut acc = 0.0;
-        while j + 1 < n {
-            acc += e.w[j];
-            if x < acc {
-                break;
-            }
-            j += 1;
-        }
-        if n == 0 {
+        // `draw`'s entry by weight, then the nested sample from the entry's direction.
+        let Some(j) = pick_entry(&st.e[k], s.next_1d()) else {
             continue;
-        }
-        asks.push(kind, k, e.a[j], s);
-        asked[k] = Some((a, e, j));
+        };
+        asks.push(kind, k, st.e[k].a[j], s);
+        entry[k] = j;
     }
     // Pass 2: the nested samples 8-wide.
     if !asks.is_empty() {
         let answered = asks.answer(kind);
-        // Pass 3: the rest of `draw` per point.
-        for (k, ask) in asked.iter_mut().enumerate() {
-            let (Some((a, e, j)), Some(pt)) = (ask.take(), pts[k].as_ref()) else {
+        // Pass 3: the rest of `draw` per point (the facet frame and the mirror wall's draw).
+        for (k, &j) in entry.iter().enumerate() {
+            let Some(pt) = pts[k].as_ref().filter(|_| j != usize::MAX) else {
                 continue;
             };
-            let Some((bwo, bpdf, bweight)) = answered.get(k) else {
+            let Some(sampled) = answered.get(k) else {
                 continue;
             };
-            let m = pt.m;
-            let u = m.frames[e.k[j] as usize].to_world(bwo);
-            let known = |wall| {
-                (bpdf.is_finite() && bpdf > 0.0).then_some(Known {
-                    j,
-                    wall,
-                    f: bweight * bpdf,
-                    p: bpdf,
-                })
-            };
-            // Over the mirror sawtooth u leaves directly with probability G1(u) (one more
-            // number drawn), else it is blocked: the ray hits the mirror wall.
-            let direct = !m.mirror_wall || samplers[ids[k] as usize].next_1d() < m.surface.g1(u);
-            let (wo, known) = if direct {
-                (u, known(false))
-            } else {
-                (m.reflect_wall(u), known(true))
-            };
-            drawn[k] = Some((a, e, wo, known));
+            let s = &mut samplers[ids[k] as usize];
+            (st.wo[k], st.known[k]) = leave(pt.m, &st.e[k], j, sampled, s);
+            drawn |= 1 << k;
         }
     }
     // The first orders at the sampled directions, their nested pairs in one batch.
     let mut pairs = Pairs::<CHUNK>::new();
-    let mut pending: [Option<Pending>; 8] = Default::default();
-    for (k, d) in drawn.into_iter().enumerate() {
-        let (Some((a, e, wo, known)), Some(pt)) = (d, pts[k].as_ref()) else {
+    for (k, pt) in pts.iter().enumerate() {
+        let Some(pt) = pt.as_ref().filter(|_| drawn & (1 << k) != 0) else {
             continue;
         };
-        if wo.z <= 0.0 {
+        if st.wo[k].z <= 0.0 {
             continue;
         }
-        let known = known.filter(|_| exact);
-        let c = Collected::new(pt.m, &e, wo, known, &mut pairs);
-        pending[k] = Some(Pending {
-            at: a,
-            e,
-            c,
-            wo,
-            known,
-        });
+        st.known[k] = st.known[k].filter(|_| exact);
+        st.c[k] = Collected::new(pt.m, &st.e[k], st.wo[k], st.known[k], &mut pairs);
+        st.live |= 1 << k;
     }
     let ev = kind
         .lanes(&pairs)
         .expect("a point's nested BSDF has a lane form");
-    let rem = remainders(&pending, pts);
-    for (k, (pd, pt)) in pending.iter().zip(pts).enumerate() {
-        let (Some(pd), Some(pt)) = (pd, pt) else {
+    let rem = remainders(&st, pts);
+    for (k, pt) in pts.iter().enumerate() {
+        let Some(pt) = pt.as_ref().filter(|_| st.is_live(k)) else {
             continue;
         };
-        let fo = pd.c.sum::<false, CHUNK>(&pd.e, pd.known, &ev);
-        let a = &pd.at;
-        let wo = pd.wo;
+        let fo = st.c[k].sum::<false, CHUNK>(&st.e[k], st.known[k], &ev);
+        let a = &st.at[k];
+        let wo = st.wo[k];
         let pdf = (1.0 - a.select) * fo.p + a.select * wo.z * INV_PI;
         if !(pdf.is_finite() && pdf > 0.0) {
             continue;
