@@ -17,8 +17,9 @@
 //! intrinsics, sound because an AVX2 value can only be built from an [`Avx2`] token or from
 //! another AVX2 value).
 //!
-//! An experimental third width, [`F32x16`] (AVX-512, behind an [`Avx512`] token), follows the
-//! same rule; no renderer uses it (see `docs/design/lanes.md`, twelfth session).
+//! A third width, [`F32x16`] (AVX-512, behind an [`Avx512`] token), follows the same rule; the
+//! stream renderer's shading kernels run at it where the CPU has AVX-512, through the
+//! [`Wide`] token trait (see `docs/design/lanes.md`, "Width 16").
 //!
 //! Contents: the traits (this file), `scalar` (width 1), `avx2` (width 8), `avx512` (width 16,
 //! experimental), [`math`] (polynomial

@@ -19,9 +19,13 @@
 //!    (textured parameters included), under `twosided`/classic `normalmap`/`bumpmap`/`mask`,
 //!    [`kernels::conductor`]; `blendbsdf` has no kernel yet; bare `plastic`/`roughplastic`,
 //!    [`kernels::plastic`]; the compensated microfacet normal map, [`kernels::mnm`]) goes 8 at a
-//!    time through it (AVX2 machines); every other material, a run's last < 8 paths and a
-//!    machine without AVX2 go through the 1-lane code lane by lane
-//!    ([`crate::integrator::path::PathState::scatter`]);
+//!    time through it (AVX2 machines); on AVX-512 machines the `diffuse`, wrapper-chain and
+//!    plastic kernels take a run's first multiple of 16 paths 16 at a time (the same functions
+//!    instantiated at width 16 through [`crate::lane::Wide`]; `GROOVE_LANES=8` or
+//!    [`crate::render::RenderOptions::lanes`] caps the width), then 8; every other material, a
+//!    run's last < 8 paths and a machine without AVX2 go through the 1-lane code lane by lane
+//!    ([`crate::integrator::path::PathState::scatter`]). The other stages (surface gather,
+//!    emission, camera rays, splat) are 8 wide;
 //! 5. **shadow rays** of the pending light samples, in path order, adding the unoccluded ones;
 //! 6. **compact** the surviving paths (stable).
 //!
@@ -368,7 +372,12 @@ impl Kernels {
     fn sixteen_wide(&self, m: crate::material::MatId) -> bool {
         #[cfg(target_arch = "x86_64")]
         if self.avx512.is_some() {
-            return matches!(self.kinds.get(m as usize), Some(Some(Kernel::Diffuse(..))));
+            return matches!(
+                self.kinds.get(m as usize),
+                Some(Some(
+                    Kernel::Diffuse(..) | Kernel::Conductor(..) | Kernel::Plastic(..)
+                ))
+            );
         }
         let _ = m;
         false
@@ -746,25 +755,35 @@ fn shade_kernel<T: kernels::tail::Tail>(
         }
         Kernel::Conductor(mat) => {
             use kernels::vertex::x8;
+            let lights = &kernels.lights;
+            let mut c = run.start;
+            if let Some(w16) = kernels.avx512 {
+                let n16 = run.len() / 16 * 16;
+                let chunks = (c..c + n16).step_by(16);
+                w16.run(
+                    #[inline(always)]
+                    || x8::shade_run(w16, scene, cfg, batch, chunks, &mat, lights, tail),
+                );
+                c += n16;
+            }
+            let n8 = (run.end - c) / 8 * 8;
+            let chunks = (c..c + n8).step_by(8);
             avx.run(
                 #[inline(always)]
-                || x8::shade_run(avx, scene, cfg, batch, chunks, &mat, &kernels.lights, tail),
+                || x8::shade_run(avx, scene, cfg, batch, chunks, &mat, lights, tail),
             );
-            (n, true)
+            (c + n8 - run.start, true)
         }
-        Kernel::Plastic(mat) => (
-            kernels::plastic::x8::shade_run(
-                avx,
-                scene,
-                cfg,
-                batch,
-                run,
-                mat,
-                &kernels.lights,
-                tail,
-            ),
-            false,
-        ),
+        Kernel::Plastic(mat) => {
+            use kernels::plastic::x8;
+            let lights = &kernels.lights;
+            let mut c = run.start;
+            if let Some(w16) = kernels.avx512 {
+                c += x8::shade_run(w16, scene, cfg, batch, c..run.end, mat, lights, tail);
+            }
+            c += x8::shade_run(avx, scene, cfg, batch, c..run.end, mat, lights, tail);
+            (c - run.start, false)
+        }
         Kernel::Mnm => {
             use kernels::mnm::x8;
             avx.run(
