@@ -95,3 +95,43 @@ macro_rules! wide {
 wide!(Avx2, 8, F32x8, M8, I32x8, U64x8);
 #[cfg(target_arch = "x86_64")]
 wide!(Avx512, 16, F32x16, M16, I32x16, U64x16);
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use super::*;
+    use crate::lane::{Lane, LaneMask};
+
+    /// Loads, a lane operation and stores through the trait at width `W` equal width 1.
+    fn round_trip<T: Wide<W>, const W: usize>(t: T) {
+        t.run(|| {
+            let a: [f32; W] = core::array::from_fn(|k| k as f32 * 0.37 - 2.0);
+            let m: [bool; W] = core::array::from_fn(|k| k % 3 == 1);
+            let x = t.load(&a);
+            let y = T::F::select(t.mask(&m), x.sqrt(), x * t.splat(3.0));
+            let want: [f32; W] =
+                core::array::from_fn(|k| if m[k] { a[k].sqrt() } else { a[k] * 3.0 });
+            let got = y.to_array();
+            for k in 0..W {
+                assert_eq!(got[k].to_bits(), want[k].to_bits(), "lane {k} of {W}");
+            }
+            assert_eq!(t.mask(&m).to_array(), m);
+            assert_eq!(t.mask(&m).any(), m.iter().any(|&b| b));
+            let i: [i32; W] = core::array::from_fn(|k| k as i32 * 7 - 3);
+            assert_eq!(t.load_i32(&i).to_array(), i);
+            let u: [u64; W] = core::array::from_fn(|k| (k as u64) << 40 | 5);
+            assert_eq!(t.load_u64(&u).to_array(), u);
+        });
+    }
+
+    #[test]
+    fn both_tokens_load_and_store_their_width() {
+        match Avx2::detect() {
+            Some(t) => round_trip(t),
+            None => eprintln!("note: no AVX2, width 8 not checked"),
+        }
+        match Avx512::detect() {
+            Some(t) => round_trip(t),
+            None => eprintln!("note: no AVX-512, width 16 not checked"),
+        }
+    }
+}
