@@ -106,6 +106,10 @@ pub struct RenderOptions {
     /// Which rays the stream renderer traces as packets; `None`: as
     /// [`crate::stream::Packets::from_env`] says.
     pub packets: Option<crate::stream::Packets>,
+    /// The widest lanes the stream renderer may use (1, 8 or 16; it uses the widest the CPU
+    /// has up to this); `None`: as the `GROOVE_LANES` environment variable says (default 16).
+    /// The image is the same at every width.
+    pub lanes: Option<usize>,
 }
 
 /// What a [`PassHook`] runs: the film so far and the sample range [a, b) it holds.
@@ -138,6 +142,7 @@ impl Default for RenderOptions {
             on_pass: None,
             renderer: Renderer::Auto,
             packets: None,
+            lanes: None,
         }
     }
 }
@@ -403,7 +408,8 @@ pub fn render(
                         if opts.record_rays > 0 {
                             s.rays.record(log_budget.clone());
                         }
-                        let stream = stream_cfg.map(|_| StreamScratch::new(scene, packets));
+                        let stream =
+                            stream_cfg.map(|_| StreamScratch::new(scene, packets, opts.lanes));
                         (s, stream)
                     },
                     |(scratch, stream), &(x0, y0, w, h)| {

@@ -17,13 +17,15 @@
 //! intrinsics, sound because an AVX2 value can only be built from an [`Avx2`] token or from
 //! another AVX2 value).
 //!
-//! An experimental third width, [`F32x16`] (AVX-512, behind an [`Avx512`] token), follows the
-//! same rule; no renderer uses it (see `docs/design/lanes.md`, twelfth session).
+//! A third width, [`F32x16`] (AVX-512, behind an [`Avx512`] token), follows the same rule; the
+//! stream renderer's shading kernels run at it where the CPU has AVX-512, through the
+//! [`Wide`] token trait (see `docs/design/lanes.md`, "Width 16").
 //!
 //! Contents: the traits (this file), `scalar` (width 1), `avx2` (width 8), `avx512` (width 16,
 //! experimental), [`math`] (polynomial
 //! `sin cos acos atan2 exp log pow`), [`vec`] (3- and 2-vectors), [`frame`], [`warp`],
-//! [`microfacet`], [`fresnel`], [`mix`] (SplitMix64's finaliser per 64-bit lane), [`pcg`] (PCG32 per lane), [`batch`] (slice entry points).
+//! [`microfacet`], [`fresnel`], [`mix`] (SplitMix64's finaliser per 64-bit lane), [`pcg`] (PCG32 per lane), [`batch`] (slice entry points), [`wide`] (the tokens as one
+//! generic parameter over the width, for the stream renderer).
 
 use core::fmt::Debug;
 use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
@@ -42,11 +44,13 @@ pub mod pcg;
 mod scalar;
 pub mod vec;
 pub mod warp;
+pub mod wide;
 
 #[cfg(target_arch = "x86_64")]
 pub use avx2::{Avx2, F32x8, I32x8, U64x8, M8};
 #[cfg(target_arch = "x86_64")]
 pub use avx512::{Avx512, F32x16, I32x16, U64x16, M16};
+pub use wide::{ToArray, Wide};
 
 /// A lane mask: per lane true or false (`bool` at width 1, all-ones/all-zeros lanes at width 8).
 pub trait LaneMask:

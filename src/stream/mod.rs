@@ -19,9 +19,13 @@
 //!    (textured parameters included), under `twosided`/classic `normalmap`/`bumpmap`/`mask`,
 //!    [`kernels::conductor`]; `blendbsdf` has no kernel yet; bare `plastic`/`roughplastic`,
 //!    [`kernels::plastic`]; the compensated microfacet normal map, [`kernels::mnm`]) goes 8 at a
-//!    time through it (AVX2 machines); every other material, a run's last < 8 paths and a
-//!    machine without AVX2 go through the 1-lane code lane by lane
-//!    ([`crate::integrator::path::PathState::scatter`]);
+//!    time through it (AVX2 machines); on AVX-512 machines the `diffuse`, wrapper-chain and
+//!    plastic kernels take a run's first multiple of 16 paths 16 at a time (the same functions
+//!    instantiated at width 16 through [`crate::lane::Wide`]; `GROOVE_LANES=8` or
+//!    [`crate::render::RenderOptions::lanes`] caps the width), then 8; every other material, a
+//!    run's last < 8 paths and a machine without AVX2 go through the 1-lane code lane by lane
+//!    ([`crate::integrator::path::PathState::scatter`]). The other stages (surface gather,
+//!    emission, camera rays, splat) are 8 wide;
 //! 5. **shadow rays** of the pending light samples, in path order, adding the unoccluded ones;
 //! 6. **compact** the surviving paths (stable).
 //!
@@ -76,6 +80,8 @@ pub struct LaneCounters {
     /// The part of `kernel_lanes` shaded by the compensated microfacet normal map's kernel
     /// ([`kernels::mnm`]).
     pub mnm_lanes: u64,
+    /// The part of `kernel_lanes` shaded 16 wide (AVX-512; the rest of `kernel_lanes` 8 wide).
+    pub kernel_lanes_16: u64,
     /// Light samples the kernels took in lanes, per kind: area lights on triangle meshes,
     /// rectangles and spheres, then `point`, `spot`, `directional`, `constant`, `envmap`.
     pub kernel_lights: [u64; kernels::light::KINDS],
@@ -107,6 +113,7 @@ impl LaneCounters {
         self.kernel_lanes += o.kernel_lanes;
         self.conductor_lanes += o.conductor_lanes;
         self.mnm_lanes += o.mnm_lanes;
+        self.kernel_lanes_16 += o.kernel_lanes_16;
         for (a, b) in self.kernel_lights.iter_mut().zip(o.kernel_lights) {
             *a += b;
         }
@@ -264,6 +271,11 @@ pub struct StreamScratch {
 struct Kernels {
     #[cfg(target_arch = "x86_64")]
     avx: Option<crate::lane::Avx2>,
+    /// The AVX-512 token, where the CPU has it and [`Kernels::LANES`] does not cap the width
+    /// below 16: then the kernels that run 16 wide ([`kernels::diffuse`]) shade a run's first
+    /// multiple of 16 paths 16 at a time, and the next 8 with [`Kernels::avx`].
+    #[cfg(target_arch = "x86_64")]
+    avx512: Option<crate::lane::Avx512>,
     kinds: Vec<Option<Kernel>>,
     /// Per emitter, how the kernels sample it in lanes.
     lights: Vec<Option<kernels::light::LaneLight>>,
@@ -304,7 +316,7 @@ impl Kernels {
         );
     }
 
-    fn new(scene: &Scene) -> Kernels {
+    fn new(scene: &Scene, lanes: Option<usize>) -> Kernels {
         use crate::material::MaterialNode;
         let kinds = (0..scene.materials.node_count())
             .map(|m| match scene.materials.nodes()[m] {
@@ -323,12 +335,20 @@ impl Kernels {
                     }),
             })
             .collect();
+        let off = std::env::var_os(Self::ENV).is_some_and(|v| v == "0");
+        let lanes = lanes.unwrap_or_else(Self::max_lanes);
         Kernels {
             #[cfg(target_arch = "x86_64")]
-            avx: if std::env::var_os(Self::ENV).is_some_and(|v| v == "0") {
+            avx: if off || lanes < 8 {
                 None
             } else {
                 crate::lane::Avx2::detect()
+            },
+            #[cfg(target_arch = "x86_64")]
+            avx512: if off || lanes < 16 {
+                None
+            } else {
+                crate::lane::Avx512::detect()
             },
             kinds,
             lights: kernels::light::LaneLight::table(scene),
@@ -340,11 +360,42 @@ impl Kernels {
     /// Set to `0`, the environment variable turns the 8-wide kernels off (every path shaded
     /// lane by lane, as before them), for measurements.
     const ENV: &'static str = "GROOVE_STREAM_KERNELS";
+
+    /// The widest lanes the stream renderer may use: `1`, `8` or `16` (the default: the widest
+    /// the CPU has). `8` keeps an AVX-512 machine on the AVX2 path (valgrind 3.19 cannot run
+    /// AVX-512 instructions; the tests compare the widths); `1` turns the lanes off. The image
+    /// is the same at every width.
+    pub const LANES: &'static str = "GROOVE_LANES";
+
+    /// Whether material `m`'s kernel runs 16 wide (then a run's first multiple of 16 paths;
+    /// [`shade_kernel`]).
+    fn sixteen_wide(&self, m: crate::material::MatId) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx512.is_some() {
+            return matches!(
+                self.kinds.get(m as usize),
+                Some(Some(
+                    Kernel::Diffuse(..) | Kernel::Conductor(..) | Kernel::Plastic(..)
+                ))
+            );
+        }
+        let _ = m;
+        false
+    }
+
+    /// [`Self::LANES`] as a number (16 when unset or not a number).
+    fn max_lanes() -> usize {
+        std::env::var(Self::LANES)
+            .ok()
+            .and_then(|v| v.trim().parse().ok())
+            .unwrap_or(16)
+    }
 }
 
 impl StreamScratch {
-    /// Buffers for the scene's materials.
-    pub fn new(scene: &Scene, packets: Packets) -> StreamScratch {
+    /// Buffers for the scene's materials; the lanes at most `lanes` wide
+    /// ([`crate::render::RenderOptions::lanes`]).
+    pub fn new(scene: &Scene, packets: Packets, lanes: Option<usize>) -> StreamScratch {
         let materials = scene
             .shape_material
             .iter()
@@ -354,7 +405,7 @@ impl StreamScratch {
         StreamScratch {
             batch: Batch::new(BATCH, materials),
             packets,
-            kernels: Kernels::new(scene),
+            kernels: Kernels::new(scene, lanes),
             direct: direct::Items::default(),
         }
     }
@@ -628,6 +679,9 @@ fn shade<T: kernels::tail::Tail>(
         if let Some(Some(Kernel::Mnm)) = kernels.kinds.get(m as usize) {
             lanes.mnm_lanes += done as u64;
         }
+        if kernels.sixteen_wide(m) {
+            lanes.kernel_lanes_16 += (done / 16 * 16) as u64;
+        }
         for (a, b) in lanes.kernel_lights.iter_mut().zip(&mut batch.light_lanes) {
             *a += std::mem::take(b);
         }
@@ -670,39 +724,66 @@ fn shade_kernel<T: kernels::tail::Tail>(
                 smooth,
                 lights: &kernels.lights,
             };
+            // 16 paths at a time where AVX-512 is on, then 8 (the same functions at both
+            // widths, so the same numbers: only the chunking differs).
+            let mut c = run.start;
+            if let Some(w16) = kernels.avx512 {
+                w16.run(
+                    #[inline(always)]
+                    || {
+                        let mut gather = kernels::light::x8::Gather::<16>::new();
+                        while c + 16 <= run.end {
+                            let ids: [u32; 16] = batch.sorted[c..c + 16].try_into().expect("16");
+                            x8::shade(w16, scene, cfg, batch, &ids, mat, &mut gather, tail);
+                            c += 16;
+                        }
+                    },
+                );
+            }
             avx.run(
                 #[inline(always)]
                 || {
-                    let mut gather = kernels::light::x8::Gather::new();
-                    for c in chunks {
+                    let mut gather = kernels::light::x8::Gather::<8>::new();
+                    while c + 8 <= run.end {
                         let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
                         x8::shade(avx, scene, cfg, batch, &ids, mat, &mut gather, tail);
+                        c += 8;
                     }
                 },
             );
-            (n, false)
+            (c - run.start, false)
         }
         Kernel::Conductor(mat) => {
             use kernels::vertex::x8;
+            let lights = &kernels.lights;
+            let mut c = run.start;
+            if let Some(w16) = kernels.avx512 {
+                let n16 = run.len() / 16 * 16;
+                let chunks = (c..c + n16).step_by(16);
+                w16.run(
+                    #[inline(always)]
+                    || x8::shade_run(w16, scene, cfg, batch, chunks, &mat, lights, tail),
+                );
+                c += n16;
+            }
+            let n8 = (run.end - c) / 8 * 8;
+            let chunks = (c..c + n8).step_by(8);
             avx.run(
                 #[inline(always)]
-                || x8::shade_run(avx, scene, cfg, batch, chunks, &mat, &kernels.lights, tail),
+                || x8::shade_run(avx, scene, cfg, batch, chunks, &mat, lights, tail),
             );
-            (n, true)
+            (c + n8 - run.start, true)
         }
-        Kernel::Plastic(mat) => (
-            kernels::plastic::x8::shade_run(
-                avx,
-                scene,
-                cfg,
-                batch,
-                run,
-                mat,
-                &kernels.lights,
-                tail,
-            ),
-            false,
-        ),
+        Kernel::Plastic(mat) => {
+            use kernels::plastic::x8;
+            let lights = &kernels.lights;
+            let mut c = run.start;
+            if let Some(w16) = kernels.avx512 {
+                c += x8::shade_run(w16, scene, cfg, batch, c..run.end, mat, lights, tail);
+            }
+            c += x8::shade_run(avx, scene, cfg, batch, c..run.end, mat, lights, tail);
+            (c - run.start, false)
+        }
         Kernel::Mnm => {
             use kernels::mnm::x8;
             avx.run(

@@ -27,6 +27,7 @@ mod stream;
 mod stream_blend_direct;
 mod stream_emission_shapes;
 mod stream_mnm_build;
+mod stream_width;
 mod textures;
 mod transform_quirks;
 mod volpathmis;

@@ -214,7 +214,7 @@ pub(crate) mod x8 {
     use super::*;
     use crate::geometry::Ray;
     use crate::integrator::{PathSettings, Strategy};
-    use crate::lane::Avx2;
+    use crate::lane::{ToArray, Wide};
     use crate::stream::batch::Batch;
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
@@ -236,17 +236,17 @@ pub(crate) mod x8 {
     /// Shades the 8 paths `ids` (all at a surface of material `mat`, each with its interaction in
     /// `b.surf`) as `PathState::scatter` would, one after the other; sets their pending light
     /// samples, and their next rays and `alive` flags where they go on. Call inside
-    /// [`Avx2::run`].
+    /// [`Wide::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn shade(
-        avx: Avx2,
+    pub(crate) fn shade<T: Wide<W>, const W: usize>(
+        avx: T,
         scene: &Scene,
         cfg: &PathSettings,
         b: &mut Batch,
-        ids: &[u32; 8],
+        ids: &[u32; W],
         mat: Material<'_>,
-        gather: &mut Gather,
+        gather: &mut Gather<W>,
         tail: &mut impl Tail,
     ) {
         // 1. The surfaces, loaded 8-wide from the batch's rows; 2. the side test.
@@ -266,7 +266,7 @@ pub(crate) mod x8 {
 
         // 3b. Textures and light points, lane by lane in each path's order (the light points
         // completed 8-wide by the shared gather of `kernels::light`).
-        let (mut refl, mut tp) = <(Cols3, Cols3)>::default();
+        let (mut refl, mut tp) = <(Cols3<W>, Cols3<W>)>::default();
         let light_only = cfg.strategy == Strategy::LightOnly;
         gather.reset();
         for (k, &i) in ids.iter().enumerate() {

@@ -22,36 +22,47 @@ pub(crate) struct Draws {
     pub u2: bool,
 }
 
-/// 8 paths' numbers of one vertex, per lane (0 where not drawn).
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Numbers {
-    pub u_sel: [f32; 8],
+/// `W` paths' numbers of one vertex, per lane (0 where not drawn).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Numbers<const W: usize = 8> {
+    pub u_sel: [f32; W],
     /// The light point's `u` (x, y).
-    pub u: [[f32; 8]; 2],
-    pub u1: [f32; 8],
+    pub u: [[f32; W]; 2],
+    pub u1: [f32; W],
     /// The BSDF's `u2` (x, y).
-    pub u2: [[f32; 8]; 2],
+    pub u2: [[f32; W]; 2],
+}
+
+impl<const W: usize> Default for Numbers<W> {
+    fn default() -> Self {
+        Numbers {
+            u_sel: [0.0; W],
+            u: [[0.0; W]; 2],
+            u1: [0.0; W],
+            u2: [[0.0; W]; 2],
+        }
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
     use crate::lane::pcg::Pcg;
-    use crate::lane::{Avx2, F32x8};
+    use crate::lane::{ToArray, Wide};
     use crate::sampler::Sampler;
 
     /// The numbers `d` of the paths `ids` (indices into `samplers`) where `drawing`, each from
     /// its own stream in the scalar order (see the module doc). Call inside [`Avx2::run`].
     #[inline(always)]
-    pub(crate) fn draw(
-        avx: Avx2,
+    pub(crate) fn draw<T: Wide<W>, const W: usize>(
+        avx: T,
         samplers: &mut [Sampler],
-        ids: &[u32; 8],
-        drawing: &[bool; 8],
+        ids: &[u32; W],
+        drawing: &[bool; W],
         d: Draws,
-    ) -> Numbers {
-        let mut parts = [(0u64, 1u64); 8];
-        let mut plain = [false; 8];
+    ) -> Numbers<W> {
+        let mut parts = [(0u64, 1u64); W];
+        let mut plain = [false; W];
         let mut any_plain = false;
         let mut all_plain = true;
         for (k, &i) in ids.iter().enumerate() {
@@ -70,7 +81,7 @@ pub(crate) mod x8 {
         if any_plain {
             let inc = parts.map(|p| p.1);
             let mut rng =
-                Pcg::<F32x8>::from_parts(avx.load_u64(&parts.map(|p| p.0)), avx.load_u64(&inc));
+                Pcg::<T::F>::from_parts(avx.load_u64(&parts.map(|p| p.0)), avx.load_u64(&inc));
             // Plain statements, not a closure: a closure would be compiled outside
             // `Avx2::run`'s target features (see `kernels`).
             if d.light {
@@ -105,7 +116,7 @@ pub(crate) mod x8 {
     /// Lane `k`'s numbers `d`, drawn from its `Sampler` (a stream that is not plain).
     #[inline(never)]
     #[cold]
-    fn draw_one(s: &mut Sampler, d: Draws, n: &mut Numbers, k: usize) {
+    fn draw_one<const W: usize>(s: &mut Sampler, d: Draws, n: &mut Numbers<W>, k: usize) {
         if d.light {
             n.u_sel[k] = s.next_1d();
             let u = s.next_2d();

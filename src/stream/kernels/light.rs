@@ -349,7 +349,7 @@ pub(crate) fn sample_sphere<L: Lane>(s: &Sphere<L>, ref_p: V3<L>) -> AreaPoint<L
 pub(crate) mod x8 {
     use super::*;
     use crate::geometry::shapes::sphere_sees_cone;
-    use crate::lane::{Avx2, F32x8, M8};
+    use crate::lane::{Lane, ToArray, Wide};
     use crate::stream::kernels::diffuse::LightPoint;
     use crate::stream::kernels::emitters::{self as em, Env, FreePoint, Spot};
     use glam::Vec2;
@@ -365,10 +365,17 @@ pub(crate) mod x8 {
     const KIND_ENVMAP: u8 = 8;
 
     /// Three columns of 8 floats (a 3-vector per lane).
-    #[derive(Clone, Copy, Default)]
-    pub(crate) struct Cols3(pub [[f32; 8]; 3]);
+    #[derive(Clone, Copy)]
+    pub(crate) struct Cols3<const W: usize = 8>(pub [[f32; W]; 3]);
 
-    impl Cols3 {
+    impl<const W: usize> Default for Cols3<W> {
+        #[inline(always)]
+        fn default() -> Self {
+            Cols3([[0.0; W]; 3])
+        }
+    }
+
+    impl<const W: usize> Cols3<W> {
         #[inline(always)]
         pub(crate) fn set(&mut self, k: usize, v: Vec3) {
             self.0[0][k] = v.x;
@@ -380,7 +387,7 @@ pub(crate) mod x8 {
             Vec3::new(self.0[0][k], self.0[1][k], self.0[2][k])
         }
         #[inline(always)]
-        pub(crate) fn load(&self, avx: Avx2) -> V3<F32x8> {
+        pub(crate) fn load<T: Wide<W>>(&self, avx: T) -> V3<T::F> {
             V3::new(
                 avx.load(&self.0[0]),
                 avx.load(&self.0[1]),
@@ -388,7 +395,7 @@ pub(crate) mod x8 {
             )
         }
         #[inline(always)]
-        pub(crate) fn store(v: V3<F32x8>) -> Cols3 {
+        pub(crate) fn store<L: Lane + crate::lane::ToArray<f32, W>>(v: V3<L>) -> Cols3<W> {
             Cols3([v.x.to_array(), v.y.to_array(), v.z.to_array()])
         }
     }
@@ -396,28 +403,28 @@ pub(crate) mod x8 {
     /// Where `on`, the light point `q` of an 8-wide area-light sampler (its density times the
     /// selection probability `sel`) replaces the lane-by-lane one.
     #[inline(always)]
-    fn merge(lp: &mut LightPoint<F32x8>, on: M8, q: &AreaPoint<F32x8>, sel: F32x8) {
+    fn merge<L: Lane>(lp: &mut LightPoint<L>, on: L::Mask, q: &AreaPoint<L>, sel: L) {
         lp.some = lp.some | (on & q.ok);
         lp.d = V3::select(on, q.d, lp.d);
         lp.p = V3::select(on, q.p, lp.p);
         lp.n = V3::select(on, q.n, lp.n);
         lp.has_n = lp.has_n | on;
         lp.finite = (on & q.dist.is_finite()) | (!on & lp.finite);
-        lp.pdf = F32x8::select(on, q.pdf * sel, lp.pdf);
+        lp.pdf = L::select(on, q.pdf * sel, lp.pdf);
     }
 
     /// Where `on`, the light sample `q` of an emitter without a surface (density times the
     /// selection probability `sel`) replaces the lane-by-lane one; a zero `value` is no sample
     /// (`nee::sample_emitter`).
     #[inline(always)]
-    fn merge_free(lp: &mut LightPoint<F32x8>, on: M8, q: &FreePoint<F32x8>, sel: F32x8) {
+    fn merge_free<L: Lane>(lp: &mut LightPoint<L>, on: L::Mask, q: &FreePoint<L>, sel: L) {
         let z = sel.splat(0.0);
         let nonzero = !(q.value.x.eq(z) & q.value.y.eq(z) & q.value.z.eq(z));
         lp.some = lp.some | (on & q.ok & nonzero);
         lp.d = V3::select(on, q.d, lp.d);
         lp.p = V3::select(on, q.p, lp.p);
         lp.finite = (on & q.dist.is_finite()) | (!on & lp.finite);
-        lp.pdf = F32x8::select(on, q.pdf * sel, lp.pdf);
+        lp.pdf = L::select(on, q.pdf * sel, lp.pdf);
         lp.value = V3::select(on, q.value, lp.value);
     }
 
@@ -427,109 +434,109 @@ pub(crate) mod x8 {
     /// environment map's table walk), then [`Gather::finish`] samples the lanes' triangles,
     /// rectangles, spheres, point, spot, directional, constant and environment lights 8-wide
     /// (an environment map's density and texels looked up lane by lane in between).
-    pub(crate) struct Gather {
-        ld: Cols3,
-        lpp: Cols3,
-        ln: Cols3,
-        lv: Cols3,
-        lpdf: [f32; 8],
-        some: [bool; 8],
-        has_n: [bool; 8],
-        finite: [bool; 8],
-        one: [bool; 8],
+    pub(crate) struct Gather<const W: usize = 8> {
+        ld: Cols3<W>,
+        lpp: Cols3<W>,
+        ln: Cols3<W>,
+        lv: Cols3<W>,
+        lpdf: [f32; W],
+        some: [bool; W],
+        has_n: [bool; W],
+        finite: [bool; W],
+        one: [bool; W],
         /// The lane's light sampled 8-wide: 0 none, else `KIND_*`.
-        kind: [u8; 8],
+        kind: [u8; W],
         counts: [u32; KINDS],
-        tpos: [Cols3; 3],
-        tnorm: [Cols3; 3],
-        tnorm_some: [bool; 8],
-        raxes: [Cols3; 4],
-        rn: Cols3,
+        tpos: [Cols3<W>; 3],
+        tnorm: [Cols3<W>; 3],
+        tnorm_some: [bool; W],
+        raxes: [Cols3<W>; 4],
+        rn: Cols3<W>,
         /// A sphere's centre, a point or spot light's position, a directional light's direction.
-        center: Cols3,
+        center: Cols3<W>,
         /// A spot light's world-to-light columns, an environment map's map-to-world ones.
-        mat: [Cols3; 3],
+        mat: [Cols3<W>; 3],
         /// An environment map's world-to-map columns.
-        mat2: [Cols3; 3],
+        mat2: [Cols3<W>; 3],
         /// A spot light's cos cutoff, cos beam width, cutoff, beam width.
-        cone: [[f32; 8]; 4],
-        half_texel: [f32; 8],
+        cone: [[f32; W]; 4],
+        half_texel: [f32; W],
         /// An environment map's emitter index.
-        emitter: [u32; 8],
-        radius: [f32; 8],
-        inv_area: [f32; 8],
-        sign: [f32; 8],
-        sel: [f32; 8],
-        tux: [f32; 8],
-        tuy: [f32; 8],
+        emitter: [u32; W],
+        radius: [f32; W],
+        inv_area: [f32; W],
+        sign: [f32; W],
+        sel: [f32; W],
+        tux: [f32; W],
+        tuy: [f32; W],
         /// The lane's radiance (area) or intensity factor (spot) is emitter `emitter[k]`'s
         /// texture, looked up in [`Gather::finish`].
-        textured: [bool; 8],
+        textured: [bool; W],
         /// A textured triangle's corner uvs (u, v per corner), where `tuv_some` (else the
         /// barycentrics are its uv, as `Shape::sample_position`).
-        tuv: [[[f32; 8]; 2]; 3],
-        tuv_some: [bool; 8],
+        tuv: [[[f32; W]; 2]; 3],
+        tuv_some: [bool; W],
         /// A textured spot light's `tan cutoff`.
-        uv_factor: [f32; 8],
+        uv_factor: [f32; W],
         /// Lanes of the chunk with a textured light (`textured` is written by every lane that
         /// picks a triangle, rectangle or spot light, and read only where this is positive).
         n_textured: u32,
     }
 
-    impl Gather {
+    impl<const W: usize> Gather<W> {
         /// Ready for a chunk: no light point in any lane. Only the flags are cleared: the
         /// columns keep the last chunk's values in the lanes that [`Gather::add`] does not
         /// write, which the masks of [`Gather::finish`] and of the kernels drop (resetting
         /// ~2 KB per chunk cost ~350 instructions per sample on the Cornell box).
         #[inline(always)]
         pub(crate) fn reset(&mut self) {
-            self.some = [false; 8];
-            self.has_n = [false; 8];
-            self.finite = [false; 8];
-            self.one = [false; 8];
-            self.kind = [0; 8];
+            self.some = [false; W];
+            self.has_n = [false; W];
+            self.finite = [false; W];
+            self.one = [false; W];
+            self.kind = [0; W];
             self.counts = [0; KINDS];
-            self.tnorm_some = [false; 8];
+            self.tnorm_some = [false; W];
             self.n_textured = 0;
         }
 
         /// No light point in any lane (made once per run of a material, [`Gather::reset`] per
         /// chunk).
         #[inline(always)]
-        pub(crate) fn new() -> Gather {
+        pub(crate) fn new() -> Gather<W> {
             Gather {
                 ld: Cols3::default(),
                 lpp: Cols3::default(),
                 ln: Cols3::default(),
                 lv: Cols3::default(),
-                lpdf: [1.0; 8],
-                some: [false; 8],
-                has_n: [false; 8],
-                finite: [false; 8],
-                one: [false; 8],
-                kind: [0; 8],
+                lpdf: [1.0; W],
+                some: [false; W],
+                has_n: [false; W],
+                finite: [false; W],
+                one: [false; W],
+                kind: [0; W],
                 counts: [0; KINDS],
                 tpos: Default::default(),
                 tnorm: Default::default(),
-                tnorm_some: [false; 8],
+                tnorm_some: [false; W],
                 raxes: Default::default(),
                 rn: Cols3::default(),
                 center: Cols3::default(),
                 mat: Default::default(),
                 mat2: Default::default(),
-                cone: [[0.0; 8]; 4],
-                half_texel: [0.0; 8],
-                emitter: [0; 8],
-                radius: [0.0; 8],
-                inv_area: [0.0; 8],
-                sign: [1.0; 8],
-                sel: [1.0; 8],
-                tux: [0.0; 8],
-                tuy: [0.0; 8],
-                textured: [false; 8],
-                tuv: [[[0.0; 8]; 2]; 3],
-                tuv_some: [false; 8],
-                uv_factor: [1.0; 8],
+                cone: [[0.0; W]; 4],
+                half_texel: [0.0; W],
+                emitter: [0; W],
+                radius: [0.0; W],
+                inv_area: [0.0; W],
+                sign: [1.0; W],
+                sel: [1.0; W],
+                tux: [0.0; W],
+                tuy: [0.0; W],
+                textured: [false; W],
+                tuv: [[[0.0; W]; 2]; 3],
+                tuv_some: [false; W],
+                uv_factor: [1.0; W],
                 n_textured: 0,
             }
         }
@@ -732,8 +739,8 @@ pub(crate) mod x8 {
 
         /// Whether a lane of `on` has a textured light.
         #[inline(always)]
-        fn any_textured(&self, on: &[bool; 8]) -> bool {
-            self.n_textured > 0 && (0..8).any(|k| on[k] && self.textured[k])
+        fn any_textured(&self, on: &[bool; W]) -> bool {
+            self.n_textured > 0 && (0..W).any(|k| on[k] && self.textured[k])
         }
 
         /// The textures of the textured lanes of `on` where `ok`, at `uv`: per distinct emitter
@@ -741,24 +748,24 @@ pub(crate) mod x8 {
         /// 0.5 so that they stay in its exact range), any other texture lane by lane, both
         /// `Texture::eval` bit for bit. Returns the lanes looked up and their values.
         #[inline(always)]
-        fn textures(
+        fn textures<T: Wide<W>>(
             &self,
-            avx: Avx2,
+            avx: T,
             scene: &Scene,
-            on: &[bool; 8],
-            ok: [bool; 8],
-            uv: V2<F32x8>,
-        ) -> (M8, V3<F32x8>) {
-            let look: [bool; 8] = std::array::from_fn(|k| on[k] && ok[k] && self.textured[k]);
+            on: &[bool; W],
+            ok: [bool; W],
+            uv: V2<T::F>,
+        ) -> (T::M, V3<T::F>) {
+            let look: [bool; W] = std::array::from_fn(|k| on[k] && ok[k] && self.textured[k]);
             let half = uv.x.splat(0.5);
             let mut out = V3::new(half, half, half);
-            let mut done = [false; 8];
-            for k0 in 0..8 {
+            let mut done = [false; W];
+            for k0 in 0..W {
                 if !look[k0] || done[k0] {
                     continue;
                 }
                 let e = self.emitter[k0];
-                let mine: [bool; 8] = std::array::from_fn(|k| look[k] && self.emitter[k] == e);
+                let mine: [bool; W] = std::array::from_fn(|k| look[k] && self.emitter[k] == e);
                 for (d, &y) in done.iter_mut().zip(&mine) {
                     *d |= y;
                 }
@@ -771,12 +778,12 @@ pub(crate) mod x8 {
                 let v = match tex {
                     Texture::Bitmap(b) => b.eval_x8(
                         avx,
-                        V2::new(F32x8::select(mm, uv.x, half), F32x8::select(mm, uv.y, half)),
+                        V2::new(T::F::select(mm, uv.x, half), T::F::select(mm, uv.y, half)),
                     ),
                     t => {
                         let (u, v) = (uv.x.to_array(), uv.y.to_array());
                         let mut c = Cols3::default();
-                        for k in (0..8).filter(|&k| mine[k]) {
+                        for k in (0..W).filter(|&k| mine[k]) {
                             c.set(k, t.eval(Vec2::new(u[k], v[k])));
                         }
                         c.load(avx)
@@ -791,14 +798,14 @@ pub(crate) mod x8 {
         /// 8-wide samplers run for the kinds some lane picked; adds the lanes sampled in lanes
         /// per kind to `light_lanes` (`Batch::light_lanes`).
         #[inline(always)]
-        pub(crate) fn finish(
+        pub(crate) fn finish<T: Wide<W>>(
             &self,
-            avx: Avx2,
+            avx: T,
             scene: &Scene,
-            ref_p: V3<F32x8>,
+            ref_p: V3<T::F>,
             light_lanes: &mut [u64; KINDS],
-        ) -> LightPoint<F32x8> {
-            let m = |a: &[bool; 8]| -> M8 { avx.mask(a) };
+        ) -> LightPoint<T::F> {
+            let m = |a: &[bool; W]| -> T::M { avx.mask(a) };
             let mut lp = LightPoint {
                 some: m(&self.some),
                 d: self.ld.load(avx),
@@ -859,16 +866,16 @@ pub(crate) mod x8 {
                 let b = warp::square_to_uniform_triangle(su);
                 let b0 = sel8.splat(1.0) - b.x - b.y;
                 let c = |j: usize, a: usize| avx.load(&self.tuv[j][a]);
-                let tri = |a: usize, bb: F32x8| (c(0, a) * b0 + c(1, a) * b.x) + c(2, a) * bb;
+                let tri = |a: usize, bb: T::F| (c(0, a) * b0 + c(1, a) * b.x) + c(2, a) * bb;
                 let has = m(&self.tuv_some);
                 let tri_uv = V2::new(
-                    F32x8::select(has, tri(0, b.y), b.x),
-                    F32x8::select(has, tri(1, b.y), b.y),
+                    T::F::select(has, tri(0, b.y), b.x),
+                    T::F::select(has, tri(1, b.y), b.y),
                 );
                 let rect = m(&kind.map(|c| c == KIND_RECTANGLE));
                 let uv = V2::new(
-                    F32x8::select(rect, su.x, tri_uv.x),
-                    F32x8::select(rect, su.y, tri_uv.y),
+                    T::F::select(rect, su.x, tri_uv.x),
+                    T::F::select(rect, su.y, tri_uv.y),
                 );
                 let (look, t) = self.textures(avx, scene, &on, lp.some.to_array(), uv);
                 let z = sel8.splat(0.0);
@@ -922,9 +929,9 @@ pub(crate) mod x8 {
                 let ok = e.ok.to_array();
                 let (u, v) = (e.uv.x.to_array(), e.uv.y.to_array());
                 let px = e.patch.x.to_array();
-                let mut patch_pdf = [0.0f32; 8];
+                let mut patch_pdf = [0.0f32; W];
                 let mut value = Cols3::default();
-                for k in 0..8 {
+                for k in 0..W {
                     if on[k] && ok[k] {
                         let Emitter::EnvMap(env) = &scene.emitters[self.emitter[k] as usize] else {
                             unreachable!("LaneLight::table: an envmap")

@@ -1,6 +1,9 @@
 //! The stream renderer's 8-wide material kernels (issue 18): a run of at least 8 paths of one
 //! material, after the stable sort, is shaded 8 at a time by code written once over
-//! [`crate::lane::Lane`]. A material without a kernel, a run's tail (< 8 paths) and a machine
+//! [`crate::lane::Lane`]. The drivers of `diffuse`, the wrapper chain and plastic (and the
+//! helpers they share: [`draws`], [`light`]'s gather, [`surface`]'s prologue) are generic over
+//! the chunk width `W` and its token ([`crate::lane::Wide`]), and run 16 wide on AVX-512 (their
+//! modules keep the name `x8` from their first width; [`mnm`] is still 8-wide only). A material without a kernel, a run's tail (< 8 paths) and a machine
 //! without AVX2 go through the 1-lane code lane by lane ([`crate::integrator::path::PathState::scatter`]),
 //! never through something else.
 //!

@@ -192,7 +192,7 @@ pub(crate) mod x8 {
     use super::*;
     use crate::geometry::Ray;
     use crate::integrator::{PathSettings, Strategy};
-    use crate::lane::Avx2;
+    use crate::lane::{ToArray, Wide};
     use crate::spectrum::Spectrum;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::diffuse::reflectance;
@@ -203,11 +203,11 @@ pub(crate) mod x8 {
     use crate::stream::kernels::tail::{Sampled, Tail};
     use glam::Vec2;
 
-    /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (all of material
-    /// `mat`) 8 at a time; returns how many it shaded. Enters [`Avx2::run`] itself.
+    /// Shades the first multiple of `W` paths of the run `batch.sorted[run]` (all of material
+    /// `mat`) `W` at a time; returns how many it shaded. Enters [`Wide::run`] itself.
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn shade_run(
-        avx: Avx2,
+    pub(crate) fn shade_run<T: Wide<W>, const W: usize>(
+        avx: T,
         scene: &Scene,
         cfg: &PathSettings,
         b: &mut Batch,
@@ -216,16 +216,16 @@ pub(crate) mod x8 {
         lights: &[Option<LaneLight>],
         tail: &mut impl Tail,
     ) -> usize {
-        let n = run.len() / 8 * 8;
+        let n = run.len() / W * W;
         if n == 0 {
             return 0;
         }
         avx.run(
             #[inline(always)]
             || {
-                let mut gather = Gather::new();
-                for c in (run.start..run.start + n).step_by(8) {
-                    let ids: [u32; 8] = b.sorted[c..c + 8].try_into().expect("8 ids");
+                let mut gather = Gather::<W>::new();
+                for c in (run.start..run.start + n).step_by(W) {
+                    let ids: [u32; W] = b.sorted[c..c + W].try_into().expect("W ids");
                     shade(avx, scene, cfg, b, &ids, &mat, lights, &mut gather, tail);
                 }
             },
@@ -239,15 +239,15 @@ pub(crate) mod x8 {
     /// [`Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn shade(
-        avx: Avx2,
+    fn shade<T: Wide<W>, const W: usize>(
+        avx: T,
         scene: &Scene,
         cfg: &PathSettings,
         b: &mut Batch,
-        ids: &[u32; 8],
+        ids: &[u32; W],
         mat: &Material,
         lights: &[Option<LaneLight>],
-        gather: &mut Gather,
+        gather: &mut Gather<W>,
         tail: &mut impl Tail,
     ) {
         // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
@@ -259,7 +259,7 @@ pub(crate) mod x8 {
             Coating::Smooth(c) => (c.diffuse_reflectance, c.specular_reflectance),
             Coating::Rough(c) => (c.diffuse_reflectance, c.specular_reflectance),
         };
-        let (mut rho, mut spec, mut tp) = <(Cols3, Cols3, Cols3)>::default();
+        let (mut rho, mut spec, mut tp) = <(Cols3<W>, Cols3<W>, Cols3<W>)>::default();
         for (k, &i) in ids.iter().enumerate() {
             b.light[i as usize] = None;
             if !front[k] {

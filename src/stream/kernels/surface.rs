@@ -94,7 +94,7 @@ fn direct(h: &crate::geometry::Hit) -> bool {
 pub(crate) mod x8 {
     use crate::lane::frame::Frame;
     use crate::lane::vec::V3;
-    use crate::lane::{Avx2, F32x8, I32x8, Lane, LaneI32};
+    use crate::lane::{Avx2, F32x8, Lane, LaneI32, ToArray, Wide};
     use crate::stream::batch::{cols, Surfaces};
     use crate::stream::kernels::diffuse::Surface;
     use crate::stream::BATCH;
@@ -580,7 +580,7 @@ pub(crate) mod x8 {
     /// The vector whose x is field `c`, in the rows that start at `row` (index of a row's
     /// first float).
     #[inline(always)]
-    fn v3(flat: &[f32; N], c: usize, row: I32x8) -> V3<F32x8> {
+    fn v3<I: LaneI32>(flat: &[f32; N], c: usize, row: I) -> V3<I::F> {
         // Plain statements, not a closure (a closure would be compiled outside `Avx2::run`'s
         // target features, see `kernels`).
         let (x, y, z) = (
@@ -589,25 +589,29 @@ pub(crate) mod x8 {
             row.add(row.splat(c as i32 + 2)),
         );
         V3::new(
-            F32x8::gather::<N>(flat, x),
-            F32x8::gather::<N>(flat, y),
-            F32x8::gather::<N>(flat, z),
+            I::F::gather::<N>(flat, x),
+            I::F::gather::<N>(flat, y),
+            I::F::gather::<N>(flat, z),
         )
     }
 
     /// The three kernels' surface prologue: the chunk's surfaces ([`load`]), their points per
     /// lane (for the lane-by-lane light points), the incident direction in the shading frame
     /// and the side test per lane (`diffuse::incident`).
-    pub(crate) struct Prologue {
-        pub surf: Surface<F32x8>,
-        pub p: crate::stream::kernels::light::x8::Cols3,
-        pub wi: V3<F32x8>,
-        pub front: [bool; 8],
+    pub(crate) struct Prologue<L: Lane, const W: usize> {
+        pub surf: Surface<L>,
+        pub p: crate::stream::kernels::light::x8::Cols3<W>,
+        pub wi: V3<L>,
+        pub front: [bool; W],
     }
 
     /// [`Prologue`] of the paths `ids`. Call inside [`Avx2::run`].
     #[inline(always)]
-    pub(crate) fn prologue(avx: Avx2, s: &Surfaces, ids: &[u32; 8]) -> Prologue {
+    pub(crate) fn prologue<T: Wide<W>, const W: usize>(
+        avx: T,
+        s: &Surfaces,
+        ids: &[u32; W],
+    ) -> Prologue<T::F, W> {
         let surf = load(avx, s, ids);
         let p = crate::stream::kernels::light::x8::Cols3::store(surf.p);
         let (wi, front) = crate::stream::kernels::diffuse::incident(&surf);
@@ -622,20 +626,27 @@ pub(crate) mod x8 {
     /// The uvs of the paths `ids` (each with its interaction in `s`), for 8-wide texture
     /// lookups ([`crate::texture::BitmapTexture::eval_x8`]). Call inside [`Avx2::run`].
     #[inline(always)]
-    pub(crate) fn uv(avx: Avx2, s: &Surfaces, ids: &[u32; 8]) -> V2<F32x8> {
+    pub(crate) fn uv<T: Wide<W>, const W: usize>(avx: T, s: &Surfaces, ids: &[u32; W]) -> V2<T::F> {
         let row = avx.load_i32(&ids.map(|i| (i as usize * cols::ROW) as i32));
         let flat = s.flat();
         let (u, v) = (
             row.add(row.splat(cols::UV as i32)),
             row.add(row.splat(cols::UV as i32 + 1)),
         );
-        V2::new(F32x8::gather::<N>(flat, u), F32x8::gather::<N>(flat, v))
+        V2::new(
+            <T::F as Lane>::gather::<N>(flat, u),
+            <T::F as Lane>::gather::<N>(flat, v),
+        )
     }
 
     /// The surfaces of the paths `ids` (each with its interaction in `s`). Call inside
     /// [`Avx2::run`].
     #[inline(always)]
-    pub(crate) fn load(avx: Avx2, s: &Surfaces, ids: &[u32; 8]) -> Surface<F32x8> {
+    pub(crate) fn load<T: Wide<W>, const W: usize>(
+        avx: T,
+        s: &Surfaces,
+        ids: &[u32; W],
+    ) -> Surface<T::F> {
         let row = avx.load_i32(&ids.map(|i| (i as usize * cols::ROW) as i32));
         let flat = s.flat();
         Surface {

@@ -151,7 +151,7 @@ pub(crate) mod x8 {
     use crate::geometry::Ray;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::V2;
-    use crate::lane::{Avx2, F32x8};
+    use crate::lane::{ToArray, Wide};
     use crate::stream::batch::Batch;
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
@@ -160,15 +160,15 @@ pub(crate) mod x8 {
     use crate::stream::kernels::tail::{Sampled, Tail};
     use glam::Vec2;
 
-    /// Shades the paths `sorted[chunks]` (runs of 8, all at a surface of material `mat`) with
+    /// Shades the paths `sorted[chunks]` (runs of `W`, all at a surface of material `mat`) with
     /// [`shade`], in the instance for `mat` picked once here: whether the leaf's parameters
     /// differ per lane (`Material::per_lane`; else its constant [`Params`] are built once,
     /// from the template) and whether the chain needs the full instance (`Material::full`:
     /// textured leaf parameters, a `mask`, a `bumpmap`). Call inside [`Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn shade_run(
-        avx: Avx2,
+    pub(crate) fn shade_run<T: Wide<W>, const W: usize>(
+        avx: T,
         scene: &Scene,
         cfg: &PathSettings,
         b: &mut Batch,
@@ -177,13 +177,13 @@ pub(crate) mod x8 {
         lights: &[Option<LaneLight>],
         tail: &mut impl Tail,
     ) {
-        let mut gather = Gather::new();
+        let mut gather = Gather::<W>::new();
         let base = mat.params(avx.splat(0.0));
         macro_rules! run {
             ($per_lane:literal, $full:literal) => {
                 for c in chunks {
-                    let ids: [u32; 8] = b.sorted[c..c + 8].try_into().expect("8 ids");
-                    shade::<$per_lane, $full>(
+                    let ids: [u32; W] = b.sorted[c..c + W].try_into().expect("W ids");
+                    shade::<T, W, $per_lane, $full>(
                         avx,
                         scene,
                         cfg,
@@ -214,16 +214,16 @@ pub(crate) mod x8 {
     #[inline(always)]
     // `!(u < o)`: `bsdf::mask::sample`'s test, negated as written there (u and o are never NaN).
     #[allow(clippy::too_many_arguments, clippy::neg_cmp_op_on_partial_ord)]
-    pub(crate) fn shade<const PER_LANE: bool, const FULL: bool>(
-        avx: Avx2,
+    pub(crate) fn shade<T: Wide<W>, const W: usize, const PER_LANE: bool, const FULL: bool>(
+        avx: T,
         scene: &Scene,
         cfg: &PathSettings,
         b: &mut Batch,
-        ids: &[u32; 8],
+        ids: &[u32; W],
         mat: &Material,
-        base: &Params<F32x8>,
+        base: &Params<T::F>,
         lights: &[Option<LaneLight>],
-        gather: &mut Gather,
+        gather: &mut Gather<W>,
         tail: &mut impl Tail,
     ) {
         debug_assert_eq!((PER_LANE, FULL), (mat.per_lane(), mat.full()));
@@ -245,9 +245,9 @@ pub(crate) mod x8 {
             u2: mat.draws_u2() && mask_tex.is_none(),
         };
         let mut num = draw(avx, &mut b.sampler, ids, &front, draws);
-        let (mut opacity, mut through) = ([1.0f32; 8], [false; 8]);
+        let (mut opacity, mut through) = ([1.0f32; W], [false; W]);
         let sources = normal_sources(mat);
-        let mut normals = [Cols3::default(); MAX_WRAPS];
+        let mut normals = [Cols3::<W>::default(); MAX_WRAPS];
         // The leaf's parameters, looked up per lane as `Materials::build_at` does: a `diffuse`
         // leaf's reflectance, a textured leaf's slots.
         let rho_tex = mat
@@ -255,9 +255,9 @@ pub(crate) mod x8 {
             .filter(|_| PER_LANE)
             .map(|t| &scene.materials.textures[t as usize]);
         let slots = FULL && mat.n_slots > 0;
-        let (mut c0, mut c1) = <(Cols3, Cols3)>::default();
-        let (mut au, mut av) = ([0.0f32; 8], [0.0f32; 8]);
-        let mut tp = Cols3::default();
+        let (mut c0, mut c1) = <(Cols3<W>, Cols3<W>)>::default();
+        let (mut au, mut av) = ([0.0f32; W], [0.0f32; W]);
+        let mut tp = Cols3::<W>::default();
         let light_only = cfg.strategy == Strategy::LightOnly;
         gather.reset();
         // Normal maps of bitmaps: 8-wide lookups at the rows' uvs (a bitmap reads the uv

@@ -154,20 +154,20 @@ impl BitmapTexture {
 #[cfg(target_arch = "x86_64")]
 mod x8 {
     use super::*;
-    use crate::lane::{Avx2, F32x8};
+    use crate::lane::{ToArray, Wide};
     use glam::Vec2;
 
     impl BitmapTexture {
-        /// [`BitmapTexture::eval`] at 8 uvs: [`BitmapTexture::try_eval_lanes`], or `eval` lane
-        /// by lane where that declines. Call inside [`Avx2::run`].
+        /// [`BitmapTexture::eval`] at `W` uvs (8 or 16): [`BitmapTexture::try_eval_lanes`], or
+        /// `eval` lane by lane where that declines. Call inside [`Wide::run`].
         #[inline(always)]
-        pub fn eval_x8(&self, avx: Avx2, uv: V2<F32x8>) -> V3<F32x8> {
+        pub fn eval_x8<T: Wide<W>, const W: usize>(&self, avx: T, uv: V2<T::F>) -> V3<T::F> {
             if let Some(c) = self.try_eval_lanes(uv) {
                 return c;
             }
             let (u, v) = (uv.x.to_array(), uv.y.to_array());
-            let mut out = [[0.0f32; 8]; 3];
-            for k in 0..8 {
+            let mut out = [[0.0f32; W]; 3];
+            for k in 0..W {
                 let c = self.eval(Vec2::new(u[k], v[k]));
                 (out[0][k], out[1][k], out[2][k]) = (c.x, c.y, c.z);
             }
