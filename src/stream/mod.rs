@@ -17,7 +17,8 @@
 //!    material at load, [`Kernel`]: `diffuse`, [`kernels::diffuse`]; `roughconductor` and
 //!    `conductor`, the three dielectrics, `plastic`/`roughplastic` leaves and `diffuse` leaves
 //!    (textured parameters included), under `twosided`/classic `normalmap`/`bumpmap`/`mask`,
-//!    [`kernels::conductor`]; `blendbsdf` has no kernel yet; bare `plastic`/`roughplastic`,
+//!    [`kernels::conductor`]; `blendbsdf` of two such children, bare or under `twosided`,
+//!    [`kernels::blend`]; bare `plastic`/`roughplastic`,
 //!    [`kernels::plastic`]; the compensated microfacet normal map, [`kernels::mnm`]) goes 8 at a
 //!    time through it (AVX2 machines); every other material, a run's last < 8 paths and a
 //!    machine without AVX2 go through the 1-lane code lane by lane
@@ -76,6 +77,8 @@ pub struct LaneCounters {
     /// The part of `kernel_lanes` shaded by the compensated microfacet normal map's kernel
     /// ([`kernels::mnm`]).
     pub mnm_lanes: u64,
+    /// The part of `kernel_lanes` shaded by the `blendbsdf` kernel ([`kernels::blend`]).
+    pub blend_lanes: u64,
     /// Light samples the kernels took in lanes, per kind: area lights on triangle meshes,
     /// rectangles and spheres, then `point`, `spot`, `directional`, `constant`, `envmap`.
     pub kernel_lights: [u64; kernels::light::KINDS],
@@ -107,6 +110,7 @@ impl LaneCounters {
         self.kernel_lanes += o.kernel_lanes;
         self.conductor_lanes += o.conductor_lanes;
         self.mnm_lanes += o.mnm_lanes;
+        self.blend_lanes += o.blend_lanes;
         for (a, b) in self.kernel_lights.iter_mut().zip(o.kernel_lights) {
             *a += b;
         }
@@ -288,6 +292,8 @@ enum Kernel {
     Plastic(kernels::plastic::Material),
     /// A microfacet `normalmap` with `evaluation = compensated` over a leaf ([`kernels::mnm`]).
     Mnm,
+    /// `blendbsdf` of two wrapper-chain children, bare or under `twosided` ([`kernels::blend`]).
+    Blend(kernels::blend::Material),
 }
 
 impl Kernels {
@@ -320,6 +326,9 @@ impl Kernels {
                     .or_else(|| {
                         kernels::conductor::Material::of(&scene.materials, m as u32)
                             .map(Kernel::Conductor)
+                    })
+                    .or_else(|| {
+                        kernels::blend::Material::of(&scene.materials, m as u32).map(Kernel::Blend)
                     }),
             })
             .collect();
@@ -625,8 +634,10 @@ fn shade<T: kernels::tail::Tail>(
         if driver {
             lanes.conductor_lanes += done as u64;
         }
-        if let Some(Some(Kernel::Mnm)) = kernels.kinds.get(m as usize) {
-            lanes.mnm_lanes += done as u64;
+        match kernels.kinds.get(m as usize) {
+            Some(Some(Kernel::Mnm)) => lanes.mnm_lanes += done as u64,
+            Some(Some(Kernel::Blend(_))) => lanes.blend_lanes += done as u64,
+            _ => {}
         }
         for (a, b) in lanes.kernel_lights.iter_mut().zip(&mut batch.light_lanes) {
             *a += std::mem::take(b);
@@ -689,6 +700,14 @@ fn shade_kernel<T: kernels::tail::Tail>(
                 || x8::shade_run(avx, scene, cfg, batch, chunks, &mat, &kernels.lights, tail),
             );
             (n, true)
+        }
+        Kernel::Blend(mat) => {
+            use kernels::blend::x8;
+            avx.run(
+                #[inline(always)]
+                || x8::shade_run(avx, scene, cfg, batch, chunks, &mat, &kernels.lights, tail),
+            );
+            (n, false)
         }
         Kernel::Plastic(mat) => (
             kernels::plastic::x8::shade_run(
