@@ -8,14 +8,15 @@
 //! The blend is the scalar model `bsdf::blend` in lanes, with the weight `w` looked up per lane
 //! (`unit_weight` of the `weight` texture at the lookup `Scene::bsdf_root` picks, as
 //! `Materials::build_at` does):
-//! - eval and pdf ([`eval_pdf`]): both children's lane forms in every lane, combined per lane in
-//!   the scalar order, `v = 0 + (1 − w)·f₀` where `w < 1`, then `v + w·f₁` where `w > 0` (the
-//!   children's eval and pdf equal `(eval, pdf)` called apart, `Bsdf::eval_pdf`'s rule);
+//! - eval and pdf ([`eval_pdf`]): both children's lane forms (each where some lane weighs it),
+//!   combined per lane in the scalar order, `v = 0 + (1 − w)·f₀` where `w < 1`, then `v + w·f₁`
+//!   where `w > 0` (the children's eval and pdf equal `(eval, pdf)` called apart,
+//!   `Bsdf::eval_pdf`'s rule);
 //! - sample ([`sample`]): the choice of the child is drawn by the driver lane by lane, and only
 //!   in the lanes where `0 < w < 1` (a lane with w ∈ {0, 1} draws nothing, as the scalar
 //!   `blend::sample`), then the chosen child's own numbers (`u1`, `u2`, each where that child
-//!   draws it); both children sample in every lane from those numbers and each lane keeps its
-//!   chosen child's sample; where it is smooth (not through a delta lobe) and `0 < w < 1` the
+//!   draws it); each child chosen by some lane samples from those numbers and each lane keeps
+//!   its chosen child's sample; where it is smooth (not through a delta lobe) and `0 < w < 1` the
 //!   full mixture's eval and pdf replace its weight (`eval / pdf`) and density, and the lane
 //!   fails where that pdf is not positive. `Bsdf::sample`'s guard runs at every node.
 //!
@@ -30,7 +31,7 @@ use super::ray::offset_origin;
 use super::vertex::SampleOut;
 use crate::bsdf::lanes::LaneBsdfSample;
 use crate::lane::vec::{V2, V3};
-use crate::lane::Lane;
+use crate::lane::{Lane, LaneMask};
 use crate::material::{MatId, MaterialNode, Materials, TexId};
 
 /// A `blendbsdf` material the kernel shades.
@@ -92,12 +93,21 @@ fn no_normals<L: Lane>(like: L) -> [V3<L>; MAX_WRAPS] {
 fn mix<L: Lane>(mat: &Material, p: &[Params<L>; 2], w: L, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
     let k = |c: f32| wi.z.splat(c);
     let n = no_normals(k(0.0));
-    let (f0, p0) = conductor::eval_pdf::<L, false>(&mat.children[0], &n, &p[0], wi, wo);
-    let (f1, p1) = conductor::eval_pdf::<L, false>(&mat.children[1], &n, &p[1], wi, wo);
     let (zero, one) = (k(0.0), k(1.0));
     let (has0, has1) = (w.lt(one), w.gt(zero));
-    let a = one - w;
     let z3 = V3::splat(zero, 0.0, 0.0, 0.0);
+    // A child no lane weighs is not evaluated (its lanes are not read below).
+    let (f0, p0) = if has0.any() {
+        conductor::eval_pdf::<L, false>(&mat.children[0], &n, &p[0], wi, wo)
+    } else {
+        (z3, zero)
+    };
+    let (f1, p1) = if has1.any() {
+        conductor::eval_pdf::<L, false>(&mat.children[1], &n, &p[1], wi, wo)
+    } else {
+        (z3, zero)
+    };
+    let a = one - w;
     let f = V3::select(has0, z3 + f0.scale(a), z3);
     let f = V3::select(has1, f + f1.scale(w), f);
     let pdf = L::select(has0, zero + a * p0, zero);
@@ -144,8 +154,28 @@ pub(crate) fn sample<L: Lane>(
         wi = V3::select(back, flip(wi), wi);
     }
     let n = no_normals(k(0.0));
-    let (s0, d0, e0) = conductor::sample::<L, false>(&mat.children[0], &n, &p[0], wi, u1, u2);
-    let (s1, d1, e1) = conductor::sample::<L, false>(&mat.children[1], &n, &p[1], wi, u1, u2);
+    // Each child samples where some lane chose it (the other lanes of its sample are dropped).
+    let skip = || {
+        let none = k(0.0).ne(k(0.0));
+        let z3 = V3::splat(k(0.0), 0.0, 0.0, 0.0);
+        let s = LaneBsdfSample {
+            ok: none,
+            wo: z3,
+            pdf: k(0.0),
+            weight: z3,
+        };
+        (s, none, k(1.0))
+    };
+    let (s0, d0, e0) = if (!pick1).any() {
+        conductor::sample::<L, false>(&mat.children[0], &n, &p[0], wi, u1, u2)
+    } else {
+        skip()
+    };
+    let (s1, d1, e1) = if pick1.any() {
+        conductor::sample::<L, false>(&mat.children[1], &n, &p[1], wi, u1, u2)
+    } else {
+        skip()
+    };
     let sel = |a: L, b: L| L::select(pick1, b, a);
     let mut s = LaneBsdfSample {
         ok: (pick1 & s1.ok) | (!pick1 & s0.ok),
@@ -157,10 +187,12 @@ pub(crate) fn sample<L: Lane>(
     let eta = sel(e0, e1);
     // A smooth sample of a true mixture: the full mixture's eval and pdf.
     let mixed = !delta & w.gt(k(0.0)) & w.lt(k(1.0));
-    let (f, pdf) = mix(mat, p, w, wi, s.wo);
-    s.ok = s.ok & (!mixed | pdf.gt(k(0.0)));
-    s.weight = V3::select(mixed, f.div_by(pdf), s.weight);
-    s.pdf = L::select(mixed, pdf, s.pdf);
+    if mixed.any() {
+        let (f, pdf) = mix(mat, p, w, wi, s.wo);
+        s.ok = s.ok & (!mixed | pdf.gt(k(0.0)));
+        s.weight = V3::select(mixed, f.div_by(pdf), s.weight);
+        s.pdf = L::select(mixed, pdf, s.pdf);
+    }
     s.ok = s.ok & conductor::valid(&s);
     if mat.twosided {
         s.wo = V3::select(back, flip(s.wo), s.wo);
