@@ -17,7 +17,8 @@
 //!    material at load, [`Kernel`]: `diffuse`, [`kernels::diffuse`]; `roughconductor` and
 //!    `conductor`, the three dielectrics, `plastic`/`roughplastic` leaves and `diffuse` leaves
 //!    (textured parameters included), under `twosided`/classic `normalmap`/`bumpmap`/`mask`,
-//!    [`kernels::conductor`]; `blendbsdf` has no kernel yet; bare `plastic`/`roughplastic`,
+//!    [`kernels::conductor`]; `blendbsdf` of two such children, bare or under `twosided`,
+//!    [`kernels::blend`]; bare `plastic`/`roughplastic`,
 //!    [`kernels::plastic`]; the compensated microfacet normal map, [`kernels::mnm`]) goes 8 at a
 //!    time through it (AVX2 machines); on AVX-512 machines the `diffuse`, wrapper-chain and
 //!    plastic kernels take a run's first multiple of 16 paths 16 at a time (the same functions
@@ -82,6 +83,8 @@ pub struct LaneCounters {
     pub mnm_lanes: u64,
     /// The part of `kernel_lanes` shaded 16 wide (AVX-512; the rest of `kernel_lanes` 8 wide).
     pub kernel_lanes_16: u64,
+    /// The part of `kernel_lanes` shaded by the `blendbsdf` kernel ([`kernels::blend`]).
+    pub blend_lanes: u64,
     /// Light samples the kernels took in lanes, per kind: area lights on triangle meshes,
     /// rectangles and spheres, then `point`, `spot`, `directional`, `constant`, `envmap`.
     pub kernel_lights: [u64; kernels::light::KINDS],
@@ -114,6 +117,7 @@ impl LaneCounters {
         self.conductor_lanes += o.conductor_lanes;
         self.mnm_lanes += o.mnm_lanes;
         self.kernel_lanes_16 += o.kernel_lanes_16;
+        self.blend_lanes += o.blend_lanes;
         for (a, b) in self.kernel_lights.iter_mut().zip(o.kernel_lights) {
             *a += b;
         }
@@ -300,6 +304,8 @@ enum Kernel {
     Plastic(kernels::plastic::Material),
     /// A microfacet `normalmap` with `evaluation = compensated` over a leaf ([`kernels::mnm`]).
     Mnm,
+    /// `blendbsdf` of two wrapper-chain children, bare or under `twosided` ([`kernels::blend`]).
+    Blend(kernels::blend::Material),
 }
 
 impl Kernels {
@@ -332,6 +338,9 @@ impl Kernels {
                     .or_else(|| {
                         kernels::conductor::Material::of(&scene.materials, m as u32)
                             .map(Kernel::Conductor)
+                    })
+                    .or_else(|| {
+                        kernels::blend::Material::of(&scene.materials, m as u32).map(Kernel::Blend)
                     }),
             })
             .collect();
@@ -676,8 +685,10 @@ fn shade<T: kernels::tail::Tail>(
         if driver {
             lanes.conductor_lanes += done as u64;
         }
-        if let Some(Some(Kernel::Mnm)) = kernels.kinds.get(m as usize) {
-            lanes.mnm_lanes += done as u64;
+        match kernels.kinds.get(m as usize) {
+            Some(Some(Kernel::Mnm)) => lanes.mnm_lanes += done as u64,
+            Some(Some(Kernel::Blend(_))) => lanes.blend_lanes += done as u64,
+            _ => {}
         }
         if kernels.sixteen_wide(m) {
             lanes.kernel_lanes_16 += (done / 16 * 16) as u64;
@@ -783,6 +794,14 @@ fn shade_kernel<T: kernels::tail::Tail>(
             }
             c += x8::shade_run(avx, scene, cfg, batch, c..run.end, mat, lights, tail);
             (c - run.start, false)
+        }
+        Kernel::Blend(mat) => {
+            use kernels::blend::x8;
+            avx.run(
+                #[inline(always)]
+                || x8::shade_run(avx, scene, cfg, batch, chunks, &mat, &kernels.lights, tail),
+            );
+            (n, false)
         }
         Kernel::Mnm => {
             use kernels::mnm::x8;

@@ -24,6 +24,7 @@ mod refs_selfcheck;
 mod robustness;
 mod sdfgrid;
 mod stream;
+mod stream_blend;
 mod stream_blend_direct;
 mod stream_emission_shapes;
 mod stream_mnm_build;

@@ -147,6 +147,9 @@ const SCENES: &[(&str, Entry)] = &[
     ("shape_curves.xml", Compare(CLOSED_CURVES, Nm::AsWritten, 1)),
     ("shape_cylinder.xml", Compare(NONE, Nm::AsWritten, 1)),
     ("shape_instance.xml", Compare(NONE, Nm::AsWritten, 1)),
+    // The stream renderer's `blendbsdf` kernel (tests/render/stream_blend.rs): a smooth
+    // `conductor` and `dielectric` child in view.
+    ("stream_blend.xml", Exclude(Specular("conductor"))),
     // The stream renderer's wrapper-chain driver with `bumpmap` (tests/render/stream.rs).
     ("stream_bumpmap.xml", Exclude(Classic("bumpmap"))),
     // The stream renderer's conductor kernels (tests/render/stream.rs): a smooth `conductor`

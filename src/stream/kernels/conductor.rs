@@ -15,9 +15,8 @@
 //! as [`Params`] (`RoughDielectric::*_with` take them as `roughdielectric::Params`). A constant
 //! leaf's [`Params`] are built once per run of the material, from the template; a chain without
 //! textured leaf parameters, `mask` or `bumpmap` runs the driver's lighter instance
-//! (`Material::full`). `blendbsdf` has no kernel: such a material is shaded lane by lane, as
-//! every material without a kernel, and its paths show in `LaneCounters::shade_used −
-//! kernel_lanes`.
+//! (`Material::full`). A `blendbsdf` of two such chains (their wrappers `twosided` only)
+//! goes to [`super::blend`], which runs both children's lane forms here and mixes them.
 //! The wrappers' texture lookups (a normal map's colour, a bump map's height gradient and
 //! `bsdf::bumpmap::perturbed_normal`) are done lane by lane; their perturbed frames (`normalmap`
 //! and `bumpmap` are both Mitsuba's `PerturbedBSDF`), the side tests and the BSDF in lanes
@@ -426,7 +425,7 @@ fn flip<L: Lane>(w: V3<L>) -> V3<L> {
 
 /// `Bsdf::sample`'s guard, applied at every node: a finite direction and weight, a density ≥ 0.
 #[inline(always)]
-fn valid<L: Lane>(s: &LaneBsdfSample<L>) -> L::Mask {
+pub(crate) fn valid<L: Lane>(s: &LaneBsdfSample<L>) -> L::Mask {
     let zero = s.pdf.splat(0.0);
     s.wo.x.is_finite()
         & s.wo.y.is_finite()
@@ -624,7 +623,7 @@ pub(crate) fn sample<L: Lane, const MASK: bool>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::bsdf::lanes::testing::*;
     use crate::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
@@ -691,7 +690,7 @@ mod tests {
         ]
     }
 
-    fn leaves() -> [Leaf; 12] {
+    pub(in crate::stream::kernels) fn leaves() -> [Leaf; 12] {
         let metal = |d| RoughConductor {
             distribution: d,
             eta: Spectrum::new(0.2, 0.92, 1.1),
@@ -766,7 +765,7 @@ mod tests {
 
     /// A `diffuse` leaf's reflectance for a test case: varies with the case (per lane at width
     /// 8), as a texture's would.
-    fn rho_of(wi: Vec3, wo: Vec3) -> Vec3 {
+    pub(in crate::stream::kernels) fn rho_of(wi: Vec3, wo: Vec3) -> Vec3 {
         Vec3::new(0.9 * wi.x.abs(), 0.5, 0.25 + 0.5 * wo.y.abs())
     }
 
@@ -820,7 +819,10 @@ mod tests {
 
     /// The kernel's per-lane parameters of a case's (textured) leaf, as the driver gathers them
     /// (a `diffuse` leaf's reflectance `rho`).
-    fn case_values(leaf: &Leaf, rho: Vec3) -> (Vec3, Vec3, f32, f32) {
+    pub(in crate::stream::kernels) fn case_values(
+        leaf: &Leaf,
+        rho: Vec3,
+    ) -> (Vec3, Vec3, f32, f32) {
         match leaf {
             Leaf::Diffuse(_) => (rho, Vec3::ZERO, 0.0, 0.0),
             _ => leaf.values(),
@@ -839,7 +841,11 @@ mod tests {
         }
     }
 
-    fn params1(v: (Vec3, Vec3, f32, f32), opacity: f32, through: bool) -> Params<f32> {
+    pub(in crate::stream::kernels) fn params1(
+        v: (Vec3, Vec3, f32, f32),
+        opacity: f32,
+        through: bool,
+    ) -> Params<f32> {
         Params {
             c0: v.0.into(),
             c1: v.1.into(),
@@ -850,7 +856,7 @@ mod tests {
         }
     }
 
-    fn material(wraps: &[Wrap], leaf: Leaf) -> Material {
+    pub(in crate::stream::kernels) fn material(wraps: &[Wrap], leaf: Leaf) -> Material {
         let mut w = [Wrap::TwoSided; MAX_WRAPS];
         w[..wraps.len()].copy_from_slice(wraps);
         Material {

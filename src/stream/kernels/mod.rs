@@ -23,6 +23,8 @@
 //!   `dielectric`/`roughdielectric`/`thindielectric` leaves (refraction: the crossing's η goes
 //!   to `PathState::advance`), bare or under `twosided` and classic `normalmap`, in lanes;
 //!   [`vertex`]: their 8-wide driver.
+//! - [`blend`]: `blendbsdf` (bare or under `twosided`) of two children the wrapper-chain
+//!   driver has lane forms for, its weight constant or textured.
 //! - [`plastic`]: bare `plastic` and `roughplastic` (textured reflectances gathered) with
 //!   next-event estimation.
 //! - [`mnm`]: the compensated microfacet normal map (its BSDF per lane through the scalar
@@ -37,6 +39,7 @@
 //! - [`ray`]: robust ray origins in lanes.
 //! - [`mis`]: the power heuristic in lanes.
 
+pub(crate) mod blend;
 pub(crate) mod conductor;
 pub(crate) mod diffuse;
 pub(crate) mod draws;

@@ -122,7 +122,7 @@ fn wrapper_normal<const FULL: bool>(
 /// A scalar texture's value at `si` (`eval_1`, a `mask`'s opacity), at the lookup
 /// `Scene::bsdf_root` picks.
 #[inline(always)]
-fn scalar_at(scene: &Scene, tex: &Texture, si: &SurfaceInteraction) -> f32 {
+pub(crate) fn scalar_at(scene: &Scene, tex: &Texture, si: &SurfaceInteraction) -> f32 {
     let shape = si.shape as usize;
     if scene.shape_reads_mesh[shape] {
         tex.eval_1(crate::texture::TexPoint::on_shape(si, &scene.shapes[shape]))
@@ -133,7 +133,11 @@ fn scalar_at(scene: &Scene, tex: &Texture, si: &SurfaceInteraction) -> f32 {
 
 /// The parameters of a textured leaf at `si` ([`Params`]' values): its template patched as
 /// `Materials::build_at` patches a leaf, at the lookup `Scene::bsdf_root` picks.
-fn leaf_values(scene: &Scene, mat: &Material, si: &SurfaceInteraction) -> (Vec3, Vec3, f32, f32) {
+pub(crate) fn leaf_values(
+    scene: &Scene,
+    mat: &Material,
+    si: &SurfaceInteraction,
+) -> (Vec3, Vec3, f32, f32) {
     let mut node = mat.leaf.node(Vec3::ZERO);
     let (m, shape) = (&scene.materials, si.shape as usize);
     if scene.shape_reads_mesh[shape] {
