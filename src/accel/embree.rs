@@ -16,10 +16,13 @@ use std::ffi::{c_char, c_void, CStr};
 use std::ptr;
 use std::sync::Mutex;
 
-/// Embree's device configuration: at most AVX2 kernels. On an AVX-512 host (Zen 4, twelfth
-/// session) Debian's Embree 3.13.5 picks its AVX-512 kernels, and `rtcOccluded1M` over the
-/// packet test's rays (`tests/scene/packets.rs`) never returned; capped at AVX2 it does, and the
-/// renderer's 8-wide packets match the kernels' width.
+/// Embree's device configuration: at most AVX2 kernels. On an AVX-512 host (Zen 4) Debian's
+/// Embree 3.13.5 picks its AVX-512 kernels, whose coherent `rtcOccluded1M` over a scene with an
+/// instance, rays of mixed octants, never returns when the stack below the caller holds non-zero
+/// bytes: a read of uninitialised memory inside Embree, not a bad input from groove (thirteenth
+/// session; reproduction in C: `docs/bench/embree/avx512_occluded_hang.c`). Capped at AVX2 it
+/// returns, AVX-512 was not faster in wall clock (`docs/bench/README.md`), and the renderer's
+/// 8-wide packets match the kernels' width.
 const EMBREE_CONFIG: &CStr = c"isa=avx2";
 
 /// Geometry handed to Embree, borrowed from the shapes.
