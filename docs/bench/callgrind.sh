@@ -7,7 +7,10 @@
 # default classic; SPP default 2; one thread). Needs valgrind; runs ~100× slower than a render.
 # RENDERER=stream counts the stream renderer (default scalar); GROOVE_STREAM_PACKETS picks its packets.
 # GROOVE_ARGS adds render arguments (e.g. GROOVE_ARGS="-D distribution=beckmann").
+# The stream renderer's lanes are capped at 8 (GROOVE_LANES, unless set): valgrind 3.19 cannot run
+# AVX-512 instructions, so the 16-wide kernels of an AVX-512 host cannot be counted.
 set -euo pipefail
+export GROOVE_LANES=${GROOVE_LANES:-8}
 scene=$1; mode=${2:-classic}; spp=${3:-2}
 bin=${GROOVE:-target/release/groove}
 renderer=${RENDERER:-scalar}
