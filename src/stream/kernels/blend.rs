@@ -248,7 +248,6 @@ pub(crate) fn sample_out<L: Lane>(
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
-    use crate::geometry::Ray;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::{Avx2, F32x8};
     use crate::material::unit_weight;
@@ -259,7 +258,8 @@ pub(crate) mod x8 {
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
-    use crate::stream::kernels::tail::{Sampled, Tail};
+    use crate::stream::kernels::tail::Tail;
+    use crate::stream::kernels::vertex::x8::{scatter, LightCols};
     use crate::stream::kernels::vertex::{leaf_values, scalar_at};
     use glam::Vec2;
 
@@ -404,13 +404,7 @@ pub(crate) mod x8 {
         let lo = if nee {
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
             let lo = light(&surf, wi, mat, &params, w8, tp.load(avx), &lp);
-            Some((
-                lo.ok.to_array(),
-                Cols3::store(lo.o),
-                Cols3::store(lo.d),
-                lo.tmax.to_array(),
-                Cols3::store(lo.contribution),
-            ))
+            Some(LightCols::store(&lo))
         } else {
             None
         };
@@ -426,38 +420,7 @@ pub(crate) mod x8 {
         );
 
         // 4. Scatter back.
-        let (s_ok, s_wo, s_pdf, s_w, s_delta, s_eta, s_o) = (
-            so.ok.to_array(),
-            Cols3::store(so.wo),
-            so.pdf.to_array(),
-            Cols3::store(so.weight),
-            so.delta.to_array(),
-            so.eta.to_array(),
-            Cols3::store(so.o),
-        );
-        for (k, &i) in ids.iter().enumerate() {
-            let i = i as usize;
-            if !front[k] {
-                continue;
-            }
-            if let Some((l_ok, l_o, l_d, l_tmax, l_c)) = &lo {
-                if l_ok[k] {
-                    let shadow = Ray::segment(l_o.get(k), l_d.get(k), l_tmax[k]);
-                    tail.light(b, i, shadow, l_c.get(k));
-                }
-            }
-            if s_ok[k] {
-                let s = Sampled {
-                    p: p.get(k),
-                    ray: Ray::new(s_o.get(k), s_wo.get(k)),
-                    weight: s_w.get(k),
-                    eta: s_eta[k],
-                    pdf: s_pdf[k],
-                    delta: s_delta[k],
-                };
-                tail.bsdf(b, i, &s);
-            }
-        }
+        scatter(b, ids, &front, &p, lo.as_ref(), &so, tail);
     }
 }
 

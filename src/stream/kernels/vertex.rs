@@ -361,13 +361,7 @@ pub(crate) mod x8 {
         let lo = if nee {
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
             let lo = light::<_, FULL>(&surf, wi, mat, &normals8, &params, tp.load(avx), &lp);
-            Some((
-                lo.ok.to_array(),
-                Cols3::store(lo.o),
-                Cols3::store(lo.d),
-                lo.tmax.to_array(),
-                Cols3::store(lo.contribution),
-            ))
+            Some(LightCols::store(&lo))
         } else {
             None
         };
@@ -382,6 +376,50 @@ pub(crate) mod x8 {
         );
 
         // 4. Scatter back.
+        scatter(b, ids, &front, &p, lo.as_ref(), &so, tail);
+    }
+
+    /// A chunk's light samples as the scatter reads them: per lane whether a shadow ray is
+    /// pending, its origin, direction, length and contribution.
+    pub(crate) struct LightCols<const W: usize> {
+        ok: [bool; W],
+        o: Cols3<W>,
+        d: Cols3<W>,
+        tmax: [f32; W],
+        c: Cols3<W>,
+    }
+
+    impl<const W: usize> LightCols<W> {
+        #[inline(always)]
+        pub(crate) fn store<L: Lane + ToArray<f32, W>>(lo: &LightOut<L>) -> Self
+        where
+            L::Mask: ToArray<bool, W>,
+        {
+            LightCols {
+                ok: lo.ok.to_array(),
+                o: Cols3::store(lo.o),
+                d: Cols3::store(lo.d),
+                tmax: lo.tmax.to_array(),
+                c: Cols3::store(lo.contribution),
+            }
+        }
+    }
+
+    /// Step 4 of a chunk (the wrapper-chain driver's and [`crate::stream::kernels::blend`]'s):
+    /// each front-facing lane's pending shadow ray, then its BSDF sample, to the integrator's
+    /// tail, in path order.
+    #[inline(always)]
+    pub(crate) fn scatter<L: Lane + ToArray<f32, W>, const W: usize>(
+        b: &mut Batch,
+        ids: &[u32; W],
+        front: &[bool; W],
+        p: &Cols3<W>,
+        lo: Option<&LightCols<W>>,
+        so: &SampleOut<L>,
+        tail: &mut impl Tail,
+    ) where
+        L::Mask: ToArray<bool, W>,
+    {
         let (s_ok, s_wo, s_pdf, s_w, s_delta, s_eta, s_o) = (
             so.ok.to_array(),
             Cols3::store(so.wo),
@@ -396,10 +434,10 @@ pub(crate) mod x8 {
             if !front[k] {
                 continue;
             }
-            if let Some((l_ok, l_o, l_d, l_tmax, l_c)) = &lo {
-                if l_ok[k] {
-                    let shadow = Ray::segment(l_o.get(k), l_d.get(k), l_tmax[k]);
-                    tail.light(b, i, shadow, l_c.get(k));
+            if let Some(l) = lo {
+                if l.ok[k] {
+                    let shadow = Ray::segment(l.o.get(k), l.d.get(k), l.tmax[k]);
+                    tail.light(b, i, shadow, l.c.get(k));
                 }
             }
             if s_ok[k] {
