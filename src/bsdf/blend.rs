@@ -59,6 +59,20 @@ pub(super) fn pdf(b: Bsdf, m: &Blend, ctx: &BsdfContext, wi: Vec3, wo: Vec3) -> 
     p
 }
 
+/// Whether `sample` takes the second BSDF at weight `w`: always for w ≥ 1, never for w ≤ 0,
+/// else with probability w from one number of `s` (drawn only then; the stream renderer's blend
+/// kernel draws its choices through this too).
+#[inline(always)]
+pub(crate) fn picks_second(w: f32, s: &mut Sampler) -> bool {
+    if w <= 0.0 {
+        false
+    } else if w >= 1.0 {
+        true
+    } else {
+        s.next_1d() < w
+    }
+}
+
 pub(super) fn sample(
     b: Bsdf,
     m: &Blend,
@@ -67,13 +81,7 @@ pub(super) fn sample(
     s: &mut Sampler,
 ) -> Option<BsdfSample> {
     let w = m.weight;
-    let pick1 = if w <= 0.0 {
-        false
-    } else if w >= 1.0 {
-        true
-    } else {
-        s.next_1d() < w
-    };
+    let pick1 = picks_second(w, s);
     let chosen = if pick1 { m.bsdf1 } else { m.bsdf0 };
     let mut bs = b.child(chosen).sample(ctx, wi, s)?;
     if bs.lobe.intersects(Lobes::DELTA) || w <= 0.0 || w >= 1.0 {

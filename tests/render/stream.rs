@@ -60,20 +60,27 @@ pub(super) fn render_seeded(
     seed: u64,
     packets: Packets,
 ) -> Exact {
-    let out = groove::render::render(
-        &l.scene,
-        &l.settings,
-        &RenderOptions {
+    render_with(
+        l,
+        RenderOptions {
             threads,
             spp: Some(spp),
             seed: Some(seed),
-            crop: Some(window(l)),
             renderer,
             packets: Some(packets),
             ..Default::default()
         },
     )
-    .expect("render");
+}
+
+/// `l` rendered with `opts` over its centre window ([`window`]): the film's exact sums, the ray
+/// counts, the dropped samples and the lane counters.
+pub(super) fn render_with(l: &Loaded, opts: RenderOptions) -> Exact {
+    let opts = RenderOptions {
+        crop: Some(window(l)),
+        ..opts
+    };
+    let out = groove::render::render(&l.scene, &l.settings, &opts).expect("render");
     let n = out.film.develop().data.len();
     Exact {
         pixels: (0..n).map(|i| out.film.raw_pixel(i)).collect(),

@@ -3,7 +3,7 @@
 //! ray counts and dropped samples), at 1 and 3 threads. Without AVX-512 the 16-wide renders run
 //! 8 wide, which is checked too, and a note says the 16-wide comparison was not made.
 
-use super::stream::{load, scene, window, Exact};
+use super::stream::{load, render_with, scene, Exact};
 use crate::common::test_scene;
 use groove::load::Loaded;
 use groove::render::{RenderOptions, Renderer};
@@ -11,32 +11,18 @@ use groove::stream::Packets;
 
 /// `l` rendered by `renderer` with lanes at most `lanes` wide.
 fn render_lanes(l: &Loaded, renderer: Renderer, threads: usize, spp: u32, lanes: usize) -> Exact {
-    let out = groove::render::render(
-        &l.scene,
-        &l.settings,
-        &RenderOptions {
+    render_with(
+        l,
+        RenderOptions {
             threads,
             spp: Some(spp),
             seed: Some(7),
-            crop: Some(window(l)),
             renderer,
             packets: Some(Packets::default_for(&l.scene)),
             lanes: Some(lanes),
             ..Default::default()
         },
     )
-    .expect("render");
-    let n = out.film.develop().data.len();
-    Exact {
-        pixels: (0..n).map(|i| out.film.raw_pixel(i)).collect(),
-        rays: (
-            out.stats.rays.camera,
-            out.stats.rays.bounce,
-            out.stats.rays.shadow,
-        ),
-        invalid: out.stats.invalid_samples,
-        lanes: out.stats.rays.lanes,
-    }
 }
 
 fn assert_same(label: &str, a: &Exact, b: &Exact) {

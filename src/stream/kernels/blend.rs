@@ -27,7 +27,6 @@
 
 use super::conductor::{self, Material as Chain, Params, Wrap, MAX_WRAPS};
 use super::diffuse::{light_direction, light_out, LightOut, LightPoint, Surface};
-use super::ray::offset_origin;
 use super::vertex::SampleOut;
 use crate::bsdf::lanes::LaneBsdfSample;
 use crate::lane::vec::{V2, V3};
@@ -232,17 +231,7 @@ pub(crate) fn sample_out<L: Lane>(
     u2: V2<L>,
 ) -> SampleOut<L> {
     let (bs, delta, eta) = sample(mat, p, w, pick1, wi, u1, u2);
-    let wo_world = s.frame.to_world(bs.wo);
-    let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(wi.z.splat(0.0));
-    SampleOut {
-        ok: bs.ok & consistent,
-        wo: wo_world,
-        pdf: bs.pdf,
-        weight: bs.weight,
-        delta,
-        eta,
-        o: offset_origin(s.p, s.ng, wo_world),
-    }
+    SampleOut::at(s, wi, &bs, delta, eta)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -369,14 +358,7 @@ pub(crate) mod x8 {
             }
             // bsdf::blend::sample: the choice, then the chosen child's numbers.
             let s = &mut b.sampler[i];
-            let wk = w[k];
-            pick1[k] = if wk <= 0.0 {
-                false
-            } else if wk >= 1.0 {
-                true
-            } else {
-                s.next_1d() < wk
-            };
+            pick1[k] = crate::bsdf::blend::picks_second(w[k], s);
             let ch = &mat.children[usize::from(pick1[k])];
             if ch.draws_u1() {
                 u1[k] = s.next_1d();

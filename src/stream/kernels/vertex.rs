@@ -72,18 +72,33 @@ pub(crate) fn sample<L: Lane, const MASK: bool>(
     u1: L,
     u2: crate::lane::vec::V2<L>,
 ) -> SampleOut<L> {
-    let k = |c: f32| wi.z.splat(c);
     let (bs, delta, eta) = conductor::sample::<L, MASK>(mat, normals, p, wi, u1, u2);
-    let wo_world = s.frame.to_world(bs.wo);
-    let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(k(0.0));
-    SampleOut {
-        ok: bs.ok & consistent,
-        wo: wo_world,
-        pdf: bs.pdf,
-        weight: bs.weight,
-        delta,
-        eta,
-        o: offset_origin(s.p, s.ng, wo_world),
+    SampleOut::at(s, wi, &bs, delta, eta)
+}
+
+impl<L: Lane> SampleOut<L> {
+    /// A local BSDF sample `bs` (with its delta lanes and η) at surface `s` seen from local
+    /// `wi`: `SurfaceBsdf::sample`'s side test and `SurfaceInteraction::spawn_ray` (shared by
+    /// [`sample`] and the blend kernel's `sample_out`).
+    #[inline(always)]
+    pub(crate) fn at(
+        s: &Surface<L>,
+        wi: V3<L>,
+        bs: &crate::bsdf::lanes::LaneBsdfSample<L>,
+        delta: L::Mask,
+        eta: L,
+    ) -> SampleOut<L> {
+        let wo_world = s.frame.to_world(bs.wo);
+        let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(wi.z.splat(0.0));
+        SampleOut {
+            ok: bs.ok & consistent,
+            wo: wo_world,
+            pdf: bs.pdf,
+            weight: bs.weight,
+            delta,
+            eta,
+            o: offset_origin(s.p, s.ng, wo_world),
+        }
     }
 }
 
