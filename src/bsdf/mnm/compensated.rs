@@ -215,7 +215,10 @@ impl MicrofacetNormalMap {
 /// What depends on ωi only: the colour coefficients, Ē_ms, E_ms(ωi) and the lobe choice s(ωi).
 #[derive(Clone, Copy)]
 struct AtWi {
-    k: [[Spectrum; 3]; 2],
+    /// Per-bounce colours: the per-order coefficients ([`MsTable::coefficients`]); `None` for a
+    /// table with the colours baked in (the remainder is then the baked lookup, and a baked
+    /// point's state is not burdened with 72 bytes of ones).
+    k: Option<[[Spectrum; 3]; 2]>,
     /// 1 / (π Ē_ms) per channel (0 where Ē_ms = 0).
     norm: Spectrum,
     ei: Spectrum,
@@ -242,7 +245,7 @@ fn colour(r: &MsRef, nested: &Bsdf) -> Spectrum {
 impl AtWi {
     /// A placeholder (all zero) for a lane without a point ([`lanes`]' per-lane state).
     const UNUSED: AtWi = AtWi {
-        k: [[Spectrum::ZERO; 3]; 2],
+        k: None,
         norm: Spectrum::ZERO,
         ei: Spectrum::ZERO,
         select: 0.0,
@@ -260,7 +263,7 @@ impl AtWi {
                 }
             };
             return AtWi {
-                k: [[Spectrum::ONE; 3]; 2],
+                k: None,
                 norm,
                 ei,
                 select,
@@ -273,7 +276,7 @@ impl AtWi {
         let l = t.lookup(&r.cell, wi);
         let ei = MsTable::remainder(&l, &k);
         AtWi {
-            k,
+            k: Some(k),
             norm,
             ei,
             select: selection(ei, c * MsTable::first(&l, &r.cell)),
@@ -286,10 +289,9 @@ impl AtWi {
         if self.ei == Spectrum::ZERO {
             return Spectrum::ZERO;
         }
-        let eo = if r.baked_norm.is_some() {
-            r.table.lookup_baked(&r.cell, wo, false)[1]
-        } else {
-            MsTable::remainder(&r.table.lookup(&r.cell, wo), &self.k)
+        let eo = match &self.k {
+            None => r.table.lookup_baked(&r.cell, wo, false)[1],
+            Some(k) => MsTable::remainder(&r.table.lookup(&r.cell, wo), k),
         };
         self.remainder_from(eo, wo)
     }

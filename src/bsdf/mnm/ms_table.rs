@@ -116,6 +116,10 @@ pub struct MsTable {
     /// zero nodes so that the window of a lookup at the last θp node stays inside.
     e: Vec<Vec3A>,
     e1: Vec<Vec3A>,
+    /// The same node values as packed vectors (no padding) for the lane gathers of
+    /// [`Self::lookup_baked_x8`] ([`interpolate_baked_lanes`]).
+    e_nodes: Vec<Vec3>,
+    e1_nodes: Vec<Vec3>,
     /// Per θp node: hemisphere means (1/π ∫ W z dω) of the interpolant.
     mean: [[Spectrum; ORDERS]; N_THETA],
     /// Per θp node: tail ratio r̄ per channel.
@@ -286,6 +290,116 @@ pub fn coords<L: Lane>(axis: V2<L>, w: V3<L>) -> Coords<L> {
     Coords { kz, l, tu, tx }
 }
 
+/// Up to 8 lookups of one table for [`MsTable::lookup_baked_x8`], by lane (structure of
+/// arrays, filled in place by the callers): the cell's azimuth, plane (j · [`PLANE`]) and θp
+/// weight, and the direction. Lanes without a lookup hold valid placeholders (+z in cell 0)
+/// whose results are never read.
+#[derive(Clone, Copy, Debug)]
+pub struct Lookups8 {
+    ax: [f32; 8],
+    ay: [f32; 8],
+    wx: [f32; 8],
+    wy: [f32; 8],
+    wz: [f32; 8],
+    plane: [i32; 8],
+    t: [f32; 8],
+    /// Bit k: lane k has a lookup.
+    used: u8,
+}
+
+impl Default for Lookups8 {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Lookups8 {
+    #[inline(always)]
+    pub fn new() -> Self {
+        Lookups8 {
+            ax: [1.0; 8],
+            ay: [0.0; 8],
+            wx: [0.0; 8],
+            wy: [0.0; 8],
+            wz: [1.0; 8],
+            plane: [0; 8],
+            t: [0.0; 8],
+            used: 0,
+        }
+    }
+
+    /// Lane `k` looks up direction `w` (z > 0) in `cell`.
+    #[inline(always)]
+    pub fn push(&mut self, k: usize, cell: &ThetaCell, w: Vec3) {
+        (self.ax[k], self.ay[k]) = (cell.axis.x, cell.axis.y);
+        (self.wx[k], self.wy[k], self.wz[k]) = (w.x, w.y, w.z);
+        (self.plane[k], self.t[k]) = ((cell.j * PLANE) as i32, cell.t);
+        self.used |= 1 << k;
+    }
+
+    /// Whether lane `k` has a lookup.
+    #[inline(always)]
+    pub fn is_used(&self, k: usize) -> bool {
+        self.used & (1 << k) != 0
+    }
+
+    /// Lane `k`'s cell and direction, as pushed.
+    #[inline]
+    pub fn get(&self, k: usize) -> Option<(ThetaCell, Vec3)> {
+        self.is_used(k).then(|| {
+            let cell = ThetaCell {
+                j: self.plane[k] as usize / PLANE,
+                t: self.t[k],
+                axis: Vec2::new(self.ax[k], self.ay[k]),
+            };
+            (cell, Vec3::new(self.wx[k], self.wy[k], self.wz[k]))
+        })
+    }
+}
+
+/// The corner offsets of a lookup's window from its first node (kz, l) at the lower θp node:
+/// (kz, l), (kz, l + 1), (kz + 1, l), (kz + 1, l + 1), in [`Coords::weights`]' order.
+const CORNERS: [usize; 4] = [0, 1, N_PHI, N_PHI + 1];
+
+/// Lane kernel (one source for 1 and 8 lanes, `crate::lane`) of [`MsTable::lookup_baked`]'s
+/// interpolation: [W1, E_ms] at the coordinates `c` in the θp cell whose lower node's plane
+/// starts at node `plane` (j · [`PLANE`]) with weight `t` of the upper node, from the node
+/// values `e` (W2 + W3 + W≥4) and `e1` (W1) gathered per lane. The products and sums are those
+/// of the scalar interpolation in its order (per channel: θp weight times bilinear weight,
+/// times the node value, added to the running sum from 0), so each lane's result is the scalar
+/// lookup's bit for bit. `with_first`: also W1 (else it stays 0).
+#[inline(always)]
+pub fn interpolate_baked_lanes<L: Lane>(
+    e: &[Vec3],
+    e1: &[Vec3],
+    plane: L::I32,
+    t: L,
+    c: &Coords<L>,
+    with_first: bool,
+) -> [V3<L>; 2] {
+    const { assert!(N_PHI == 9) };
+    // node(j, kz, l) = j·PLANE + 9·kz + l.
+    let i0 = plane.add(c.kz.shl::<3>()).add(c.kz).add(c.l);
+    let wgt = c.weights();
+    let zero = t.splat(0.0);
+    let mut out = [V3::new(zero, zero, zero); 2];
+    let acc = |o: &mut V3<L>, k: L, v: [L; 3]| {
+        *o = V3::new(o.x + k * v[0], o.y + k * v[1], o.z + k * v[2]);
+    };
+    for h in 0..2 {
+        let wt = if h == 0 { t.splat(1.0) - t } else { t };
+        for (corner, &wc) in CORNERS.iter().zip(&wgt) {
+            let i = i0.add(i0.splat((corner + h * PLANE) as i32));
+            let k = wt * wc;
+            acc(&mut out[1], k, L::gather3(e, i));
+            if with_first {
+                acc(&mut out[0], k, L::gather3(e1, i));
+            }
+        }
+    }
+    out
+}
+
 impl MsTable {
     /// The θp cell of ωp = `wp` (not flat: `wp.xy` ≠ 0).
     pub fn cell(&self, wp: Vec3) -> ThetaCell {
@@ -335,53 +449,48 @@ impl MsTable {
         self.interpolate_baked(cell, idx[0], wgt, with_first)
     }
 
-    /// [`Self::lookup_baked`] at 8 directions `w[k]` (z > 0), each in its own cell `cells[k]` of
-    /// this table (lanes without one are left 0): the node coordinates and weights ([`coords`])
-    /// 8-wide, the node windows lane by lane; bit for bit the scalar lookups (the lane rule of
-    /// [`crate::lane`]). `with_first`: also W1 (the hit's ωi cache), else only E_ms (ωo).
+    /// [`Self::lookup_baked`] of the 8 lanes of `q` (each a direction z > 0 in its own cell of
+    /// this table; lanes without a lookup are left 0), all of it 8-wide under the [`Avx2`]
+    /// token: the node coordinates and weights ([`coords`]), the corner nodes' gathers and the
+    /// interpolation ([`interpolate_baked_lanes`]), one transpose to the lanes' rows. Bit for
+    /// bit the scalar lookups (the lane rule of [`crate::lane`]; `tests`), which a CPU without
+    /// AVX2 runs lane by lane. `with_first`: also W1 (the hit's ωi cache), else only E_ms (ωo).
+    ///
+    /// [`Avx2`]: crate::lane::Avx2
     #[inline]
-    pub fn lookup_baked_x8(
-        &self,
-        cells: &[Option<ThetaCell>; 8],
-        w: &[Vec3; 8],
-        with_first: bool,
-    ) -> [[Spectrum; 2]; 8] {
+    pub fn lookup_baked_x8(&self, q: &Lookups8, with_first: bool) -> [[Spectrum; 2]; 8] {
         let mut out = [[Spectrum::ZERO; 2]; 8];
         #[cfg(target_arch = "x86_64")]
         if let Some(avx) = crate::lane::Avx2::detect() {
-            let (mut ax, mut ay) = ([1.0f32; 8], [0.0f32; 8]);
-            let (mut wx, mut wy, mut wz) = ([0.0f32; 8], [0.0f32; 8], [1.0f32; 8]);
-            for (k, c) in cells.iter().enumerate() {
-                if let Some(c) = c {
-                    (ax[k], ay[k]) = (c.axis.x, c.axis.y);
-                    (wx[k], wy[k], wz[k]) = (w[k].x, w[k].y, w[k].z);
-                }
-            }
-            let (kz, l, wgt) = avx.run(
+            use crate::lane::F32x8;
+            let rows = avx.run(
                 #[inline(always)]
                 || {
-                    let axis = V2::new(avx.load(&ax), avx.load(&ay));
-                    let d = V3::new(avx.load(&wx), avx.load(&wy), avx.load(&wz));
+                    let axis = V2::new(avx.load(&q.ax), avx.load(&q.ay));
+                    let d = V3::new(avx.load(&q.wx), avx.load(&q.wy), avx.load(&q.wz));
                     let c = coords(axis, d);
-                    (
-                        c.kz.to_array(),
-                        c.l.to_array(),
-                        c.weights().map(|x| x.to_array()),
-                    )
+                    let [w1, e] = interpolate_baked_lanes(
+                        &self.e_nodes,
+                        &self.e1_nodes,
+                        avx.load_i32(&q.plane),
+                        avx.load(&q.t),
+                        &c,
+                        with_first,
+                    );
+                    let z = avx.splat(0.0);
+                    F32x8::transpose8([w1.x, w1.y, w1.z, e.x, e.y, e.z, z, z]).map(|r| r.to_array())
                 },
             );
-            for (k, c) in cells.iter().enumerate() {
-                if let Some(c) = c {
-                    let i = node(c.j, kz[k] as usize, l[k] as usize);
-                    let wk = [wgt[0][k], wgt[1][k], wgt[2][k], wgt[3][k]];
-                    out[k] = self.interpolate_baked(c, i, wk, with_first);
+            for (k, (o, r)) in out.iter_mut().zip(&rows).enumerate() {
+                if q.is_used(k) {
+                    *o = [Vec3::new(r[0], r[1], r[2]), Vec3::new(r[3], r[4], r[5])];
                 }
             }
             return out;
         }
-        for (k, c) in cells.iter().enumerate() {
-            if let Some(c) = c {
-                out[k] = self.lookup_baked(c, w[k], with_first);
+        for (k, o) in out.iter_mut().enumerate() {
+            if let Some((cell, w)) = q.get(k) {
+                *o = self.lookup_baked(&cell, w, with_first);
             }
         }
         out
@@ -411,14 +520,13 @@ impl MsTable {
         } else {
             win
         };
-        const OFF: [usize; 4] = [0, 1, N_PHI, N_PHI + 1];
         let mut out = [Vec3A::ZERO; 2];
         // Same products and sums in the same order as a per-component loop (Vec3A lanes are
         // the IEEE operations of Vec3's components): bit for bit the scalar interpolation.
         for h in 0..2 {
             let wt = if h == 0 { 1.0 - cell.t } else { cell.t };
             for c in 0..4 {
-                let i = OFF[c] + h * PLANE;
+                let i = CORNERS[c] + h * PLANE;
                 let k = wt * wgt[c];
                 out[1] += k * win[i];
                 if with_first {
@@ -551,6 +659,8 @@ impl MsTable {
             .chain(pad.clone())
             .collect();
         let e1 = w.iter().map(|v| Vec3A::from(v[0])).chain(pad).collect();
+        let e_nodes = w.iter().map(|v| v[1] + v[2] + v[3]).collect();
+        let e1_nodes = w.iter().map(|v| v[0]).collect();
         let mean_e = mean.map(|m| m[1] + m[2] + m[3]);
         MsTable {
             key,
@@ -559,6 +669,8 @@ impl MsTable {
             w,
             e,
             e1,
+            e_nodes,
+            e1_nodes,
             tail,
             mean,
             mean_e,
@@ -760,5 +872,99 @@ fn ratio(r: f64, denom: f64) -> f32 {
         r.clamp(0.0, 0.999) as f32
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::lanes::testing::{direction, same3};
+    use crate::math::{warp, Pcg32};
+
+    /// A table with random node values, different per channel and order (the lookups' sums
+    /// must keep every channel and node apart), assembled as a table read from the disk is.
+    fn random_table(rng: &mut Pcg32) -> MsTable {
+        let spec = TableSpec {
+            geometry: Microgeometry::VGroove,
+            tangent: Tangent::Same,
+            max_order: 256,
+            max_theta: 85f32.to_radians(),
+            colour: Colour::Baked,
+            walks: WALKS_PER_NODE,
+        };
+        let mut v = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let w = (0..N_THETA * PLANE).map(|_| [v(), v(), v(), v()]).collect();
+        let mean = std::array::from_fn(|_| [v(), v(), v(), v()]);
+        let tail = std::array::from_fn(|_| v());
+        MsTable::assemble("random".into(), spec, w, mean, tail, 0.0)
+    }
+
+    /// The 8-wide lookups ([`MsTable::lookup_baked_x8`], with and without W1) and the lane
+    /// kernel at width 1 ([`interpolate_baked_lanes`] after [`coords`]) equal the scalar
+    /// [`MsTable::lookup_baked`] bit for bit, lane by lane: random ωp up to the table's largest
+    /// θp (its last cell included), directions over the upper hemisphere with grazing, normal
+    /// and node-exact ones mixed in, lanes without a cell left 0.
+    #[test]
+    fn lane_lookups_equal_the_scalar_ones() {
+        let mut rng = Pcg32::new(14, 4);
+        let table = random_table(&mut rng);
+        let (mut looked, mut last_cell) = (0, 0);
+        for round in 0..4000 {
+            let mut cells = [None; 8];
+            let mut w = [Vec3::Z; 8];
+            let mut q = Lookups8::new();
+            for k in 0..8 {
+                if rng.next_f32() < 0.15 {
+                    continue; // a lane without a cell
+                }
+                let cos_max = if round % 4 == 0 { 0.0872 } else { 0.0 };
+                let wp = warp::square_to_uniform_cone(
+                    [rng.next_f32(), rng.next_f32()].into(),
+                    cos_max.max(85f32.to_radians().cos() * rng.next_f32()),
+                );
+                if wp.x == 0.0 && wp.y == 0.0 {
+                    continue;
+                }
+                let c = table.cell(wp);
+                last_cell += usize::from(c.j == N_THETA - 2);
+                cells[k] = Some(c);
+                let d = direction(&mut rng);
+                w[k] = match rng.next_f32() {
+                    x if x < 0.05 => MsTable::direction(rng.next_u32() as usize % N_Z, 3),
+                    _ => Vec3::new(d.x, d.y, d.z.abs().max(1e-6)),
+                };
+                q.push(k, &c, w[k]);
+            }
+            for with_first in [true, false] {
+                let got = table.lookup_baked_x8(&q, with_first);
+                for k in 0..8 {
+                    let want = match &cells[k] {
+                        Some(c) => table.lookup_baked(c, w[k], with_first),
+                        None => [Spectrum::ZERO; 2],
+                    };
+                    let at = format!("round {round} lane {k} {:?} {}", cells[k], w[k]);
+                    assert!(same3(got[k][0], want[0]), "{at}: {:?} vs {want:?}", got[k]);
+                    assert!(same3(got[k][1], want[1]), "{at}: {:?} vs {want:?}", got[k]);
+                    let Some(c) = &cells[k] else { continue };
+                    let co = coords::<f32>(V2::from(c.axis), V3::from(w[k]));
+                    let one: [Vec3; 2] = interpolate_baked_lanes::<f32>(
+                        &table.e_nodes,
+                        &table.e1_nodes,
+                        (c.j * PLANE) as i32,
+                        c.t,
+                        &co,
+                        with_first,
+                    )
+                    .map(Vec3::from);
+                    assert!(same3(one[0], want[0]) && same3(one[1], want[1]), "{at}");
+                    looked += 1;
+                }
+            }
+        }
+        // 4000 rounds of ~6.8 cells, twice; the last θp cell reached by the steep quarter.
+        assert!(
+            looked > 50_000 && last_cell > 500,
+            "{looked} lookups, {last_cell} in the last cell"
+        );
     }
 }

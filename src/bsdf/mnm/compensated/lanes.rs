@@ -14,7 +14,7 @@
 //! evaluates with the first point's): the stream kernel groups them so (a material whose
 //! nested leaf has no textured parameter).
 
-use super::super::ms_table::MsTable;
+use super::super::ms_table::{Lookups8, MsTable};
 use super::super::nested_batch::{Pairs, CHUNK};
 mod sample;
 
@@ -90,26 +90,23 @@ impl States {
 /// ωo of the points with a baked table 8-wide ([`MsTable::lookup_baked_x8`], the first such
 /// point's table; a point with another table, or per-bounce colours, looks up alone).
 fn remainders(st: &States, pts: &[Option<Point>; 8]) -> [Spectrum; 8] {
-    let baked = |k: usize| -> Option<&MsRef> {
-        let pt = pts[k].as_ref().filter(|_| st.is_live(k))?;
-        (pt.r.baked_norm.is_some() && st.at[k].ei != Spectrum::ZERO).then_some(pt.r)
-    };
-    let mut cells = [None; 8];
-    let mut wo = [Vec3::Z; 8];
-    let table = (0..8).find_map(baked).map(|r| r.table);
-    if let Some(t) = table {
-        for k in 0..8 {
-            if let Some(r) = baked(k).filter(|r| std::ptr::eq(r.table, t)) {
-                cells[k] = Some(r.cell);
-                wo[k] = st.wo[k];
-            }
+    let mut q = Lookups8::new();
+    let mut table: Option<&'static MsTable> = None;
+    for (k, pt) in pts.iter().enumerate() {
+        let Some(pt) = pt.as_ref().filter(|_| st.is_live(k)) else {
+            continue;
+        };
+        let r = pt.r;
+        if r.baked_norm.is_some()
+            && st.at[k].ei != Spectrum::ZERO
+            && std::ptr::eq(*table.get_or_insert(r.table), r.table)
+        {
+            q.push(k, &r.cell, st.wo[k]);
         }
     }
-    let eo = table.map_or([Spectrum::ZERO; 8], |t| {
-        t.lookup_baked_x8(&cells, &wo, false).map(|l| l[1])
-    });
+    let eo = table.map_or([[Spectrum::ZERO; 2]; 8], |t| t.lookup_baked_x8(&q, false));
     std::array::from_fn(|k| match &pts[k] {
-        Some(_) if st.is_live(k) && cells[k].is_some() => st.at[k].remainder_from(eo[k], st.wo[k]),
+        Some(_) if q.is_used(k) => st.at[k].remainder_from(eo[k][1], st.wo[k]),
         Some(pt) if st.is_live(k) => st.at[k].remainder(pt.r, st.wo[k]),
         _ => Spectrum::ZERO,
     })
@@ -125,7 +122,7 @@ fn remainders(st: &States, pts: &[Option<Point>; 8]) -> [Spectrum; 8] {
 pub(crate) fn with_incident_x8(arena: &mut BsdfArena, roots: &[u32; 8], wi: &[Vec3; 8]) {
     // Pass 1: the lanes that get a cache (bit k of `wanted`) and the baked table's cells. The
     // table reference is read in place (a copy of the `MsRef` would copy its cache slot too).
-    let mut cells = [None; 8];
+    let mut q = Lookups8::new();
     let mut wanted = 0u8;
     let mut table: Option<&'static MsTable> = None;
     for (k, &root) in roots.iter().enumerate() {
@@ -137,20 +134,20 @@ pub(crate) fn with_incident_x8(arena: &mut BsdfArena, roots: &[u32; 8], wi: &[Ve
         };
         wanted |= 1 << k;
         if r.baked_norm.is_some() && std::ptr::eq(*table.get_or_insert(r.table), r.table) {
-            cells[k] = Some(r.cell);
+            q.push(k, &r.cell, wi[k]);
         }
     }
-    let looked = table.map(|t| t.lookup_baked_x8(&cells, wi, true));
+    let looked = table.map(|t| t.lookup_baked_x8(&q, true));
     // Pass 2: each wanted lane's cache, written into its map.
     for (k, &root) in roots.iter().enumerate() {
         if wanted & (1 << k) == 0 {
             continue;
         }
         let m = arena.mnm_mut(root).expect("a wanted lane's map");
-        let at = match (cells[k], looked, &m.ms) {
-            (Some(_), Some(l), _) => AtIncident::from_lookup(m, wi[k], l[k]),
-            (_, _, Some(r)) => AtIncident::new(m, r, wi[k]),
-            (_, _, None) => unreachable!("a wanted lane has a table"),
+        let at = match (looked.filter(|_| q.is_used(k)), &m.ms) {
+            (Some(l), _) => AtIncident::from_lookup(m, wi[k], l[k]),
+            (_, Some(r)) => AtIncident::new(m, r, wi[k]),
+            (_, None) => unreachable!("a wanted lane has a table"),
         };
         if let Some(r) = &mut m.ms {
             r.at = Some(at);
