@@ -35,6 +35,7 @@ mod avx2;
 #[cfg(target_arch = "x86_64")]
 mod avx512;
 pub mod batch;
+pub mod bits;
 pub mod frame;
 pub mod fresnel;
 pub mod math;
