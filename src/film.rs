@@ -410,8 +410,7 @@ impl Block {
     /// filter (and finite values) the samples' fixed-point addends, w·v = v and w·v² = v·v per
     /// channel, are computed 8-wide ([`sum::fixed8`]: ~5 instructions each instead of ~16),
     /// and so are their pixels where the block's bounds are exact f32s (every real film;
-    /// [`storage_index`] in lanes); the addends go to each sample's pixel, summed first over a
-    /// run of samples on one pixel. Other filters and
+    /// [`storage_index`] in lanes); the addends go to each sample's pixel. Other filters and
     /// non-finite values take [`Block::put`] per sample (their exact weights, unchanged). The
     /// sums are integer sums, so this equals `put` whatever the order ([`sum`]). (The tests'
     /// reference for [`Block::put8_finite`], which the stream renderer calls.)
@@ -508,34 +507,15 @@ impl Block {
             return;
         }
         let sw = self.sw as usize;
-        let inside = inside.to_array();
-        let idx: [usize; 8] = core::array::from_fn(|k| py[k] as usize * sw + px[k] as usize);
-        // A run of lanes on one pixel (a pixel's samples are consecutive) is summed first and
-        // added once: integer sums, wrapping for the first moments and saturating for the
-        // non-negative second moments and weights, so the grouping does not change them.
-        let mut k = 0;
-        while k < 8 {
-            if !inside[k] {
-                k += 1;
-                continue;
+        for (k, inside) in inside.to_array().into_iter().enumerate() {
+            if inside {
+                self.data[py[k] as usize * sw + px[k] as usize].add_fixed(
+                    [f0.get(k), f1.get(k), f2.get(k)],
+                    [s0.get(k), s1.get(k), s2.get(k)],
+                    sum::ONE,
+                    sum::ONE,
+                );
             }
-            let mut first = [f0.get(k), f1.get(k), f2.get(k)];
-            let mut second = [s0.get(k), s1.get(k), s2.get(k)];
-            let mut w = sum::ONE;
-            let mut j = k + 1;
-            while j < 8 && inside[j] && idx[j] == idx[k] {
-                for (a, x) in first.iter_mut().zip([f0.get(j), f1.get(j), f2.get(j)]) {
-                    sum::add_signed(a, x);
-                }
-                for (a, x) in second.iter_mut().zip([s0.get(j), s1.get(j), s2.get(j)]) {
-                    sum::add_unsigned(a, x);
-                }
-                // At most 8 · 2^64: no overflow.
-                w += sum::ONE;
-                j += 1;
-            }
-            self.data[idx[k]].add_fixed(first, second, w, w);
-            k = j;
         }
     }
 

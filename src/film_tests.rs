@@ -433,8 +433,7 @@ fn put8_equals_put_one_by_one() {
         let mut samples = Vec::new();
         let mut pixel = (0, 0);
         for k in 0..4000u32 {
-            // Runs of samples on one pixel, as a renderer's samples of a pixel come in turn
-            // (`put8` sums a run first).
+            // Runs of samples on one pixel, as a renderer's samples of a pixel come in turn.
             if k % 5 < 2 {
                 pixel = (rng.next_u32() % 11, rng.next_u32() % 9);
             }
