@@ -495,14 +495,13 @@ fn camera_rays(scene: &Scene, kernels: &Kernels, batch: &mut Batch) {
                     let (d, tmin, tmax) = c.ray_lanes(x, y);
                     let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
                     let (t0, t1) = (tmin.to_array(), tmax.to_array());
-                    for k in 0..8 {
-                        rays.push(Ray {
-                            o,
-                            d: glam::Vec3::new(dx[k], dy[k], dz[k]),
-                            tmin: t0[k],
-                            tmax: t1[k],
-                        });
-                    }
+                    // A whole array: one capacity check, not one per ray.
+                    rays.extend(core::array::from_fn::<Ray, 8, _>(|k| Ray {
+                        o,
+                        d: glam::Vec3::new(dx[k], dy[k], dz[k]),
+                        tmin: t0[k],
+                        tmax: t1[k],
+                    }));
                 }
             },
         );
