@@ -9,8 +9,8 @@ pub fn bools8(m: u32) -> [bool; 8] {
     // The byte broadcast (no carries: m < 256), each byte keeping its own bit (byte k: bit k,
     // value 0 or 2^k), then 0x7f added per byte (no carry out of a byte: 2^k + 0x7f ≤ 0xff),
     // so that a byte's top bit is set exactly when its bit was: shifted down to bit 0.
-    let b = (m & 0xff) as u64 * 0x0101_0101_0101_0101 & 0x8040_2010_0804_0201;
-    let b = (b + 0x7f7f_7f7f_7f7f_7f7f) >> 7 & 0x0101_0101_0101_0101;
+    let b = ((m & 0xff) as u64 * 0x0101_0101_0101_0101) & 0x8040_2010_0804_0201;
+    let b = ((b + 0x7f7f_7f7f_7f7f_7f7f) >> 7) & 0x0101_0101_0101_0101;
     // SAFETY: every byte is 0 or 1, the two valid bit patterns of `bool` (same size and
     // alignment as `u8`).
     unsafe { core::mem::transmute::<[u8; 8], [bool; 8]>(b.to_le_bytes()) }
