@@ -386,7 +386,12 @@ pub(crate) mod x8 {
     /// [`load3`] of four.
     #[inline(always)]
     fn load4<T: Wide<W>, const W: usize>(avx: T, c: &[Cols3<W>; 4]) -> [V3<T::F>; 4] {
-        [c[0].load(avx), c[1].load(avx), c[2].load(avx), c[3].load(avx)]
+        [
+            c[0].load(avx),
+            c[1].load(avx),
+            c[2].load(avx),
+            c[3].load(avx),
+        ]
     }
 
     impl<const W: usize> Cols3<W> {
