@@ -408,44 +408,115 @@ impl Block {
 
     /// [`Block::put`] of eight samples in turn, with the same sums to the bit. For the box
     /// filter (and finite values) the samples' fixed-point addends, w·v = v and w·v² = v·v per
-    /// channel, are computed 8-wide ([`sum::fixed8`]: ~5 instructions each instead of ~16)
-    /// and added to each sample's pixel; other filters and non-finite values take
-    /// [`Block::put`] per sample (their exact weights, unchanged). The sums are integer sums,
-    /// so this equals `put` whatever the order ([`sum`]).
-    #[cfg(target_arch = "x86_64")]
+    /// channel, are computed 8-wide ([`sum::fixed8`]: ~5 instructions each instead of ~16),
+    /// and so are their pixels where the block's bounds are exact f32s (every real film;
+    /// [`storage_index`] in lanes); the addends go to each sample's pixel. Other filters and
+    /// non-finite values take [`Block::put`] per sample (their exact weights, unchanged). The
+    /// sums are integer sums, so this equals `put` whatever the order ([`sum`]). (The tests'
+    /// reference for [`Block::put8_finite`], which the stream renderer calls.)
+    #[cfg(all(target_arch = "x86_64", test))]
     pub(crate) fn put8(&mut self, avx: crate::lane::Avx2, pos: &[Vec2; 8], value: &[Spectrum; 8]) {
-        let finite = value.iter().all(|&v| crate::spectrum::is_finite(v));
-        if !finite || !self.filter.is_box() || self.sw == 0 || self.sh == 0 {
-            for (&p, &v) in pos.iter().zip(value) {
-                self.put(p, v);
-            }
-            return;
-        }
         avx.run(
             #[inline(always)]
             || {
-                let col = |c: usize| avx.load(&core::array::from_fn(|k| value[k][c]));
-                let (r, g, b) = (col(0), col(1), col(2));
-                let (f0, f1, f2) = (sum::fixed8(r), sum::fixed8(g), sum::fixed8(b));
-                let (s0, s1, s2) = (sum::fixed8(r * r), sum::fixed8(g * g), sum::fixed8(b * b));
-                for (k, p) in pos.iter().enumerate() {
-                    // As the box case of `splat`.
-                    if !p.is_finite() {
-                        continue;
-                    }
-                    let px = storage_index(p.x, self.ox, self.sw, self.exact[0]);
-                    let py = storage_index(p.y, self.oy, self.sh, self.exact[1]);
-                    if let (Some(px), Some(py)) = (px, py) {
-                        self.data[py * self.sw as usize + px].add_fixed(
-                            [f0.get(k), f1.get(k), f2.get(k)],
-                            [s0.get(k), s1.get(k), s2.get(k)],
-                            sum::ONE,
-                            sum::ONE,
-                        );
-                    }
-                }
+                let [r, g, b] = columns(avx, value);
+                self.put8_columns(avx, pos, [r, g, b]);
             },
         );
+    }
+
+    /// [`Block::put`] of eight samples in turn (the same sums to the bit; the fast paths of
+    /// `put8`, the tests' reference), with every non-finite value (any channel NaN or infinite)
+    /// replaced by 0, as the renderers drop invalid samples; returns how many were replaced.
+    /// The finiteness test and the replacement are 8-wide.
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) fn put8_finite(
+        &mut self,
+        avx: crate::lane::Avx2,
+        pos: &[Vec2; 8],
+        value: &[Spectrum; 8],
+    ) -> u32 {
+        use crate::lane::{F32x8, Lane, LaneMask};
+        avx.run(
+            #[inline(always)]
+            || {
+                let [r, g, b] = columns(avx, value);
+                let ok = r.is_finite() & g.is_finite() & b.is_finite();
+                let mut invalid = 0;
+                let cols = if ok.all() {
+                    [r, g, b]
+                } else {
+                    invalid = ok.to_array().iter().filter(|&&f| !f).count() as u32;
+                    // +0.0, the bits of `Spectrum::ZERO`.
+                    let z = avx.splat(0.0);
+                    [r, g, b].map(|c| F32x8::select(ok, c, z))
+                };
+                self.put8_columns(avx, pos, cols);
+                invalid
+            },
+        )
+    }
+
+    /// `put8` of the values given as their R, G and B columns. Call inside
+    /// [`crate::lane::Avx2::run`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn put8_columns(
+        &mut self,
+        avx: crate::lane::Avx2,
+        pos: &[Vec2; 8],
+        rgb: [crate::lane::F32x8; 3],
+    ) {
+        use crate::lane::{I32x8, Lane, LaneI32, LaneMask};
+        let [r, g, b] = rgb;
+        let finite = (r.is_finite() & g.is_finite() & b.is_finite()).all();
+        let bounds = match self.exact {
+            [Some(x), Some(y)] => Some((x, y)),
+            _ => None,
+        };
+        let (true, true, Some(([x_lo, x_hi], [y_lo, y_hi]))) = (
+            finite,
+            self.filter.is_box() && self.sw != 0 && self.sh != 0,
+            bounds,
+        ) else {
+            let (r, g, b) = (r.to_array(), g.to_array(), b.to_array());
+            for (k, &p) in pos.iter().enumerate() {
+                self.put(p, Spectrum::new(r[k], g[k], b[k]));
+            }
+            return;
+        };
+        let (f0, f1, f2) = (sum::fixed8(r), sum::fixed8(g), sum::fixed8(b));
+        let (s0, s1, s2) = (sum::fixed8(r * r), sum::fixed8(g * g), sum::fixed8(b * b));
+        // `storage_index` with exact bounds, in lanes: inside [lo, hi) on both axes (false for
+        // NaN and ±∞, so the scalar path's finiteness test is implied), floor(x) − origin.
+        let x = avx.load(&core::array::from_fn(|k| pos[k].x));
+        let y = avx.load(&core::array::from_fn(|k| pos[k].y));
+        let inside = x.ge(avx.splat(x_lo))
+            & x.lt(avx.splat(x_hi))
+            & y.ge(avx.splat(y_lo))
+            & y.lt(avx.splat(y_hi));
+        let floor = |v: crate::lane::F32x8| {
+            let t = v.trunc_i32();
+            let up = t.to_f32().gt(v);
+            t.sub(I32x8::select(up, t.splat(1), t.splat(0)))
+        };
+        // Exact bounds hold |origin| <= 2^24: the differences fit an i32.
+        let px = floor(x).sub(avx.load_i32(&[self.ox as i32; 8])).to_array();
+        let py = floor(y).sub(avx.load_i32(&[self.oy as i32; 8])).to_array();
+        if !inside.any() {
+            return;
+        }
+        let sw = self.sw as usize;
+        for (k, inside) in inside.to_array().into_iter().enumerate() {
+            if inside {
+                self.data[py[k] as usize * sw + px[k] as usize].add_fixed(
+                    [f0.get(k), f1.get(k), f2.get(k)],
+                    [s0.get(k), s1.get(k), s2.get(k)],
+                    sum::ONE,
+                    sum::ONE,
+                );
+            }
+        }
     }
 
     /// [`Block::put`] with the values of the block's extra channels (`aovs`, one per channel;
@@ -527,6 +598,13 @@ impl Block {
             }
         }
     }
+}
+
+/// The R, G and B columns of eight values. Call inside [`crate::lane::Avx2::run`].
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn columns(avx: crate::lane::Avx2, value: &[Spectrum; 8]) -> [crate::lane::F32x8; 3] {
+    [0, 1, 2].map(|c| avx.load(&core::array::from_fn(|k| value[k][c])))
 }
 
 /// The storage column (or row) of the pixel that holds the coordinate `x`, floor(x) − `origin`,

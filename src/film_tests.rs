@@ -411,9 +411,11 @@ fn storage_index_matches_floor_and_bounds() {
 }
 
 /// `Block::put8` gives the same sums, to the bit, as `Block::put` of each of its samples, for
-/// every filter: positions on pixel edges, outside the block and non-finite, negative values,
-/// values below the fixed-point grid's exact range and values whose square overflows; chunks
-/// with a non-finite value take `put` (the non-finite flags).
+/// every filter: runs of samples on one pixel, positions on pixel edges, outside the block and
+/// non-finite, negative values, values below the fixed-point grid's exact range and values
+/// whose square overflows; chunks
+/// with a non-finite value take `put` (the non-finite flags). `Block::put8_finite` equals
+/// `put` of the values with the non-finite ones zeroed, and counts them.
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn put8_equals_put_one_by_one() {
@@ -429,8 +431,13 @@ fn put8_equals_put_one_by_one() {
     ] {
         let d = desc(9, 7, filter);
         let mut samples = Vec::new();
+        let mut pixel = (0, 0);
         for k in 0..4000u32 {
-            let (x, y) = (rng.next_u32() % 11, rng.next_u32() % 9);
+            // Runs of samples on one pixel, as a renderer's samples of a pixel come in turn.
+            if k % 5 < 2 {
+                pixel = (rng.next_u32() % 11, rng.next_u32() % 9);
+            }
+            let (x, y) = pixel;
             let u = match k % 7 {
                 0 => Vec2::new(1.0f32.next_down(), 0.0),
                 1 => Vec2::new(0.0, 1.0f32.next_down()),
@@ -467,6 +474,26 @@ fn put8_equals_put_one_by_one() {
             assert!(
                 one.data == eight.data,
                 "{filter:?} block {:?}",
+                (x0, y0, w, h)
+            );
+            // `put8_finite`: `put` of the values with the non-finite ones zeroed, and their count.
+            let (mut zeroed, mut bad) = (Block::new(&d, x0, y0, w, h), 0);
+            for &(p, v) in &samples {
+                let finite = crate::spectrum::is_finite(v);
+                bad += !finite as u32;
+                zeroed.put(p, if finite { v } else { Spectrum::ZERO });
+            }
+            let (mut fin, mut counted) = (Block::new(&d, x0, y0, w, h), 0);
+            for c in samples.chunks_exact(8) {
+                let pos: [Vec2; 8] = core::array::from_fn(|k| c[k].0);
+                let v: [Spectrum; 8] = core::array::from_fn(|k| c[k].1);
+                counted += fin.put8_finite(avx, &pos, &v);
+            }
+            assert!(bad > 0);
+            assert_eq!(counted, bad);
+            assert!(
+                zeroed.data == fin.data,
+                "put8_finite, {filter:?} block {:?}",
                 (x0, y0, w, h)
             );
         }

@@ -205,7 +205,7 @@ impl M8 {
     #[inline(always)]
     pub fn to_array(self) -> [bool; 8] {
         let m = unsafe { _mm256_movemask_ps(self.0) };
-        core::array::from_fn(|i| m >> i & 1 == 1)
+        super::bits::bools8(m as u32)
     }
 }
 

@@ -144,7 +144,7 @@ impl U64x16 {
 impl M16 {
     #[inline(always)]
     pub fn to_array(self) -> [bool; 16] {
-        core::array::from_fn(|i| self.0 >> i & 1 == 1)
+        super::bits::bools16(self.0 as u32)
     }
 }
 

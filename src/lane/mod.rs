@@ -24,8 +24,9 @@
 //! Contents: the traits (this file), `scalar` (width 1), `avx2` (width 8), `avx512` (width 16,
 //! experimental), [`math`] (polynomial
 //! `sin cos acos atan2 exp log pow`), [`vec`] (3- and 2-vectors), [`frame`], [`warp`],
-//! [`microfacet`], [`fresnel`], [`mix`] (SplitMix64's finaliser per 64-bit lane), [`pcg`] (PCG32 per lane), [`batch`] (slice entry points), [`wide`] (the tokens as one
-//! generic parameter over the width, for the stream renderer).
+//! [`microfacet`], [`fresnel`], [`mix`] (SplitMix64's finaliser per 64-bit lane), [`pcg`] (PCG32 per lane), [`batch`] (slice entry points), [`bits`] (masks'
+//! bits as `[bool; W]`), [`wide`] (the tokens as one generic parameter over the width, for the
+//! stream renderer).
 
 use core::fmt::Debug;
 use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
@@ -35,6 +36,7 @@ mod avx2;
 #[cfg(target_arch = "x86_64")]
 mod avx512;
 pub mod batch;
+pub mod bits;
 pub mod frame;
 pub mod fresnel;
 pub mod math;

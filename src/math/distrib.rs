@@ -46,17 +46,24 @@ impl Distribution1D {
         self.pmf[i]
     }
 
+    /// Up to this many bins, [`Self::sample`] counts the CDF entries <= u instead of searching.
+    const COUNTED: usize = 8;
+
     /// Pick an index with `u ∈ [0,1)`; returns (index, probability, `u` rescaled to [0,1) within
     /// the chosen bin so it can be reused).
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
-        // Largest i with cdf[i] <= u, restricted to bins with non-zero mass.
+        // Largest i with cdf[i] <= u, restricted to bins with non-zero mass. The CDF does not
+        // decrease, so the entries <= u are a prefix: its length is the partition point, and a
+        // count for a few bins (light selection: one per emitter) is cheaper than the search
+        // and gives the same index.
         let n = self.pmf.len();
-        let mut i = self
-            .cdf
-            .partition_point(|&c| c <= u)
-            .saturating_sub(1)
-            .min(n - 1);
+        let prefix = if n <= Self::COUNTED {
+            self.cdf.iter().map(|&c| (c <= u) as usize).sum()
+        } else {
+            self.cdf.partition_point(|&c| c <= u)
+        };
+        let mut i = prefix.saturating_sub(1).min(n - 1);
         while self.pmf[i] == 0.0 && i + 1 < n {
             i += 1;
         }
@@ -173,6 +180,36 @@ mod tests {
         assert!((counts[0] as f32 / n as f32 - 0.25).abs() < 1e-3);
         assert!(Distribution1D::new(&[0.0, 0.0]).is_none());
         assert!(Distribution1D::new(&[f32::NAN]).is_none());
+    }
+
+    /// The counted prefix of [`Distribution1D::sample`] (up to `COUNTED` bins) is the
+    /// partition point: the same bin for every `u`, at bin edges, outside [0, 1) and for NaN.
+    #[test]
+    fn counting_equals_the_search() {
+        let weights: [&[f32]; 6] = [
+            &[1.0],
+            &[1.0, 3.0],
+            &[0.0, 2.0, 0.0],
+            &[0.5, 0.0, 0.0, 1e-30, 7.0, 0.0, 2.0, 1.0],
+            &[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0],
+            &[1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        ];
+        for w in weights {
+            let d = Distribution1D::new(w).unwrap();
+            assert!(d.len() <= Distribution1D::COUNTED);
+            let mut us: Vec<f32> = d
+                .cdf
+                .iter()
+                .flat_map(|&c| [c, c.next_down(), c.next_up()])
+                .collect();
+            us.extend((0..1000).map(|k| k as f32 / 1000.0));
+            us.extend([-1.0, 2.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY]);
+            for u in us {
+                let searched = d.cdf.partition_point(|&c| c <= u);
+                let counted: usize = d.cdf.iter().map(|&c| (c <= u) as usize).sum();
+                assert_eq!(counted, searched, "{w:?} u = {u}");
+            }
+        }
     }
 
     #[test]

@@ -34,7 +34,7 @@
 //! [`kernels::tail::Tail`]) and ray counters ([`direct`]).
 //!
 //! Then every path's radiance goes to the block in the canonical order (8 samples at a time:
-//! [`Block::put8`]). Each path draws from its
+//! [`Block::put8_finite`]). Each path draws from its
 //! own stream keyed by (seed, pixel, sample) and runs exactly the scalar renderer's per-vertex
 //! functions in the same order, so the image equals the scalar renderer's bit for bit at any
 //! thread count (`tests/render/stream.rs`).
@@ -495,14 +495,13 @@ fn camera_rays(scene: &Scene, kernels: &Kernels, batch: &mut Batch) {
                     let (d, tmin, tmax) = c.ray_lanes(x, y);
                     let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
                     let (t0, t1) = (tmin.to_array(), tmax.to_array());
-                    for k in 0..8 {
-                        rays.push(Ray {
-                            o,
-                            d: glam::Vec3::new(dx[k], dy[k], dz[k]),
-                            tmin: t0[k],
-                            tmax: t1[k],
-                        });
-                    }
+                    // A whole array: one capacity check, not one per ray.
+                    rays.extend(core::array::from_fn::<Ray, 8, _>(|k| Ray {
+                        o,
+                        d: glam::Vec3::new(dx[k], dy[k], dz[k]),
+                        tmin: t0[k],
+                        tmax: t1[k],
+                    }));
                 }
             },
         );
@@ -517,32 +516,31 @@ fn camera_rays(scene: &Scene, kernels: &Kernels, batch: &mut Batch) {
 }
 
 /// The splat: every path's radiance (0 for a non-finite one, counted in `invalid`) to the
-/// block in the canonical order, 8 samples at a time through [`Block::put8`] with AVX2 (the
-/// same sums as [`Block::put`] one by one, which takes the rest).
+/// block in the canonical order, 8 samples at a time through [`Block::put8_finite`] with AVX2
+/// (the same sums as [`Block::put`] one by one, which takes the rest).
 fn splat(block: &mut Block, batch: &Batch, kernels: &Kernels, invalid: &mut u64) {
-    let mut value = |i: usize| {
-        let l = batch.state[i].result;
-        if crate::spectrum::is_finite(l) {
-            l
-        } else {
-            *invalid += 1;
-            Spectrum::ZERO
-        }
-    };
     let mut done = 0;
     #[cfg(target_arch = "x86_64")]
     if let Some(avx) = kernels.avx {
-        for (k, pos) in batch.pos.chunks_exact(8).enumerate() {
+        // The finiteness test and the zeroing in lanes too (`Block::put8_finite`).
+        let chunks = batch.pos.chunks_exact(8).zip(batch.state.chunks_exact(8));
+        for (pos, state) in chunks {
             let pos: &[Vec2; 8] = pos.try_into().expect("8 positions");
-            let v: [Spectrum; 8] = core::array::from_fn(|j| value(8 * k + j));
-            block.put8(avx, pos, &v);
+            let v: [Spectrum; 8] = core::array::from_fn(|j| state[j].result);
+            *invalid += block.put8_finite(avx, pos, &v) as u64;
             done += 8;
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = kernels;
     for i in done..batch.len() {
-        let v = value(i);
+        let l = batch.state[i].result;
+        let v = if crate::spectrum::is_finite(l) {
+            l
+        } else {
+            *invalid += 1;
+            Spectrum::ZERO
+        };
         block.put(batch.pos[i], v);
     }
 }

@@ -375,6 +375,25 @@ pub(crate) mod x8 {
         }
     }
 
+    /// Three column triples loaded, written out: `std::array::from_fn` there was an
+    /// out-of-line call compiled without the lanes' target features (~380 instructions per
+    /// call, `docs/bench/README.md`, fourteenth session).
+    #[inline(always)]
+    fn load3<T: Wide<W>, const W: usize>(avx: T, c: &[Cols3<W>; 3]) -> [V3<T::F>; 3] {
+        [c[0].load(avx), c[1].load(avx), c[2].load(avx)]
+    }
+
+    /// [`load3`] of four.
+    #[inline(always)]
+    fn load4<T: Wide<W>, const W: usize>(avx: T, c: &[Cols3<W>; 4]) -> [V3<T::F>; 4] {
+        [
+            c[0].load(avx),
+            c[1].load(avx),
+            c[2].load(avx),
+            c[3].load(avx),
+        ]
+    }
+
     impl<const W: usize> Cols3<W> {
         #[inline(always)]
         pub(crate) fn set(&mut self, k: usize, v: Vec3) {
@@ -823,8 +842,8 @@ pub(crate) mod x8 {
             if self.counts[0] > 0 {
                 let q = sample_triangle(
                     &Triangle {
-                        p: std::array::from_fn(|c| self.tpos[c].load(avx)),
-                        n: std::array::from_fn(|c| self.tnorm[c].load(avx)),
+                        p: load3(avx, &self.tpos),
+                        n: load3(avx, &self.tnorm),
                         has_normals: m(&self.tnorm_some),
                         inv_area: avx.load(&self.inv_area),
                         sign: avx.load(&self.sign),
@@ -837,7 +856,7 @@ pub(crate) mod x8 {
             if self.counts[1] > 0 {
                 let q = sample_rectangle(
                     &Rectangle {
-                        axes: std::array::from_fn(|c| self.raxes[c].load(avx)),
+                        axes: load4(avx, &self.raxes),
                         n: self.rn.load(avx),
                         inv_area: avx.load(&self.inv_area),
                         u: su,
@@ -892,7 +911,7 @@ pub(crate) mod x8 {
                 let [cos_cutoff, cos_beam, cutoff, beam_width] = self.cone.map(|c| avx.load(&c));
                 let spot = Spot {
                     pos: self.center.load(avx),
-                    to_local: std::array::from_fn(|c| self.mat[c].load(avx)),
+                    to_local: load3(avx, &self.mat),
                     intensity: lv,
                     cos_cutoff,
                     cos_beam,
@@ -920,8 +939,8 @@ pub(crate) mod x8 {
             if self.counts[7] > 0 {
                 let on = kind.map(|c| c == KIND_ENVMAP);
                 let e = em::env_direction(&Env {
-                    to_world: std::array::from_fn(|c| self.mat[c].load(avx)),
-                    to_local: std::array::from_fn(|c| self.mat2[c].load(avx)),
+                    to_world: load3(avx, &self.mat),
+                    to_local: load3(avx, &self.mat2),
                     half_texel: avx.load(&self.half_texel),
                     uv: su,
                 });

@@ -308,6 +308,18 @@ pub(crate) mod x8 {
     }
 
     impl Meta {
+        /// The shape every lane hit, when they all hit one (the common case of a chunk of
+        /// spheres or rectangles: one large shape): then its lane form's constants are splat
+        /// instead of gathered lane by lane (the same values, so the same results).
+        #[inline(always)]
+        fn one_shape(&self) -> Option<usize> {
+            let g = self.shape[0].to_bits();
+            self.shape
+                .iter()
+                .all(|s| s.to_bits() == g)
+                .then_some(g as usize)
+        }
+
         #[inline(always)]
         fn set(&mut self, k: usize, ray: &Ray, h: &Hit) {
             self.wi.set(k, -ray.d);
@@ -438,6 +450,22 @@ pub(crate) mod x8 {
     /// Hits on spheres with a similarity `to_world`: [`sl::sphere`].
     #[inline(always)]
     fn spheres(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
+        let mut m = Meta::default();
+        let x = ray_points(avx, st, &ids, &mut m);
+        if let Some(g) = m.one_shape() {
+            let Form::Sphere(centre, radius, frame, sg) = &st.forms[g] else {
+                unreachable!("a sphere's chunk holds spheres only");
+            };
+            let frame = [
+                splat3(avx, frame.x_axis.truncate()),
+                splat3(avx, frame.y_axis.truncate()),
+                splat3(avx, frame.z_axis.truncate()),
+            ];
+            let (c, r, sign) = (splat3(avx, *centre), avx.splat(*radius), avx.splat(*sg));
+            let s = sl::sphere(c, r, frame, sign, x);
+            store(avx, st, &ids, n, &s, &m);
+            return;
+        }
         let (mut c, mut f) = (Cols3::default(), [Cols3::default(); 3]);
         let (mut r, mut sign) = ([0.0f32; 8], [0.0f32; 8]);
         for (k, &i) in ids.iter().enumerate() {
@@ -454,11 +482,15 @@ pub(crate) mod x8 {
             f[1].set(k, frame.y_axis.truncate());
             f[2].set(k, frame.z_axis.truncate());
         }
-        let mut m = Meta::default();
-        let x = ray_points(avx, st, &ids, &mut m);
         let frame = [f[0].load(avx), f[1].load(avx), f[2].load(avx)];
         let s = sl::sphere(c.load(avx), avx.load(&r), frame, avx.load(&sign), x);
         store(avx, st, &ids, n, &s, &m);
+    }
+
+    /// `v` in every lane.
+    #[inline(always)]
+    fn splat3(avx: Avx2, v: glam::Vec3) -> V3<F32x8> {
+        V3::new(avx.splat(v.x), avx.splat(v.y), avx.splat(v.z))
     }
 
     #[inline(always)]
@@ -474,6 +506,36 @@ pub(crate) mod x8 {
     /// Hits on rectangles: [`sl::rectangle`].
     #[inline(always)]
     fn rectangles(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
+        let mut m = Meta::default();
+        let x = ray_points(avx, st, &ids, &mut m);
+        if let Some(g) = m.one_shape() {
+            let Form::Rectangle(r) = &st.forms[g] else {
+                unreachable!("a rectangle's chunk holds rectangles only");
+            };
+            let (to_object, to_world, consts) = &**r;
+            // Written out, not `map`/`from_fn`: those can be out-of-line calls compiled
+            // without the lanes' target features.
+            let col = |a: &glam::Mat4, j: usize| splat3(avx, a.col(j).truncate());
+            let cols = |a| [col(a, 0), col(a, 1), col(a, 2), col(a, 3)];
+            let [ng, nrm, dpdu, dpdv] = *consts;
+            let (ng, nrm, dpdu, dpdv) = (
+                splat3(avx, ng),
+                splat3(avx, nrm),
+                splat3(avx, dpdu),
+                splat3(avx, dpdv),
+            );
+            let rect = sl::Rectangle {
+                to_object: cols(to_object),
+                to_world: cols(to_world),
+                ng,
+                n: nrm,
+                dpdu,
+                dpdv,
+            };
+            let s = sl::rectangle(&rect, x);
+            store(avx, st, &ids, n, &s, &m);
+            return;
+        }
         let (mut o, mut w) = ([Cols3::default(); 4], [Cols3::default(); 4]);
         let mut k4 = [Cols3::default(); 4];
         for (k, &i) in ids.iter().enumerate() {
@@ -490,8 +552,6 @@ pub(crate) mod x8 {
                 k4[j].set(k, consts[j]);
             }
         }
-        let mut m = Meta::default();
-        let x = ray_points(avx, st, &ids, &mut m);
         let [ng, nrm, dpdu, dpdv] = load4(avx, &k4);
         let rect = sl::Rectangle {
             to_object: load4(avx, &o),

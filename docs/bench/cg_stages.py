@@ -1,0 +1,104 @@
+#!/usr/bin/env python3
+"""Where a callgrind profile's instructions go inside inlined code: each instruction's exclusive
+cost (callgrind --dump-instr=yes) is attributed through its inline chain (addr2line -i), since the
+stream renderer's stages are all inlined into `groove::lane::avx2::run_avx2`.
+
+Usage: cg_stages.py CALLGRIND_OUT BINARY MODE [DEPTH] [TOP]
+  MODE stage: per chain of groove functions from the outside in (DEPTH of them, default 2);
+       line:  per innermost groove source line (not library code);
+       at=FILE:LINE (or a substring of a path): the callers (DEPTH source lines) of that code.
+  STAGE=NAME (environment) keeps only instructions whose chain has a function containing NAME.
+Collect the render loop only with --toggle-collect='*stream::render_block*', e.g.
+  GROOVE_LANES=8 valgrind --tool=callgrind --dump-instr=yes --toggle-collect='*stream::render_block*' \
+    --callgrind-out-file=/tmp/cg.out target/release/groove render scenes/bench/metal_plastic.xml \
+    -D spp=2 --spp 2 -t 1 -q --renderer stream -o /tmp/x.exr
+  docs/bench/cg_stages.py /tmp/cg.out target/release/groove stage 1
+"""
+import collections
+import os
+import re
+import subprocess
+import sys
+
+
+def main():
+    cg, binary, mode = sys.argv[1], sys.argv[2], sys.argv[3]
+    depth = int(sys.argv[4]) if len(sys.argv) > 4 else 2
+    top = int(sys.argv[5]) if len(sys.argv) > 5 else 40
+    obs, fns, cur_ob, cur_fn = {}, {}, None, None
+    cost, other = collections.Counter(), collections.Counter()
+    addr, skip_next = 0, False
+    for line in open(cg):
+        line = line.rstrip("\n")
+        if not line:
+            continue
+        c = line[0]
+        if c.isdigit() or c in "+-*":
+            parts = line.split()
+            t = parts[0]
+            if t != "*":
+                addr = addr + int(t[1:], 0) if t[0] == "+" else addr - int(t[1:], 0) if t[0] == "-" else int(t, 0)
+            if skip_next:  # the inclusive cost of a call
+                skip_next = False
+                continue
+            if len(parts) >= 3:
+                if cur_ob and os.path.basename(binary) in cur_ob:
+                    cost[addr] += int(parts[2])
+                else:
+                    other[cur_fn] += int(parts[2])
+            continue
+        m = re.match(r"(ob|fn|cob|cfn|cfi|cfl|fl|fi|fe)=\((\d+)\)(?: (.*))?", line)
+        if m:
+            kind, ident, name = m.groups()
+            table = obs if kind in ("ob", "cob") else fns if kind in ("fn", "cfn") else None
+            if table is not None and name:
+                table[ident] = name
+            if kind == "ob":
+                cur_ob = obs[ident]
+            elif kind == "fn":
+                cur_fn = fns[ident]
+        elif line.startswith("calls="):
+            skip_next = True
+    addrs = sorted(cost)
+    out = subprocess.run(["addr2line", "-i", "-f", "-C", "-a", "-e", binary],
+                         input="\n".join(hex(a) for a in addrs), capture_output=True, text=True).stdout
+    chains, cur, fn = {}, None, None
+    for l in out.split("\n"):
+        if l.startswith("0x"):
+            cur, fn = int(l, 16), None
+            chains[cur] = []
+        elif cur is not None:
+            if fn is None:
+                fn = l
+            else:
+                chains[cur].append((fn, l.split(" ")[0]))
+                fn = None
+    own = lambda loc: "/src/" in loc and "/rustc/" not in loc and ".cargo" not in loc
+    short = lambda loc: re.sub(r"^.*?/src/", "src/", loc)
+    flt = os.environ.get("STAGE")
+    agg, total = collections.Counter(), sum(cost.values())
+    for a, v in cost.items():
+        ch = chains.get(a, [])
+        if flt and not any(flt in f for f, _ in ch):
+            continue
+        if mode == "line":
+            key = next((short(loc) for _, loc in ch if own(loc)), "?")
+        elif mode.startswith("at="):
+            j = next((j for j, (_, loc) in enumerate(ch) if mode[3:] in loc), None)
+            if j is None:
+                continue
+            key = " < ".join([short(loc) for _, loc in ch[j + 1:] if own(loc)][:depth])
+        else:
+            names = [re.sub(r"<.*?>", "", f) for f, _ in reversed(ch)]
+            names = [n for n in names if "run_avx2" not in n and "{{closure}}" not in n]
+            key = " > ".join(names[:depth])
+        agg[key] += v
+    for k, v in agg.most_common(top):
+        print(f"{v:>12,} {100 * v / total:5.1f}%  {k}")
+    print(f"{total:>12,} in {os.path.basename(binary)}; other objects:")
+    for k, v in other.most_common(5):
+        print(f"{v:>12,}  {k}")
+
+
+if __name__ == "__main__":
+    main()
