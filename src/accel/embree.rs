@@ -2,7 +2,7 @@
 //!
 //! One device and one scene per [`EmbreeScene`]; geometry `i` is attached with id `i`, so Embree's
 //! `geomID` is the caller's shape index. Shape groups are scenes of their own, instanced into the
-//! top-level scene (`build_instanced`). Embree scenes are immutable after `rtcCommitScene` and
+//! top-level scene (`build_instanced_with`). Embree scenes are immutable after `rtcCommitScene` and
 //! `rtcIntersect1` / `rtcOccluded1` are thread-safe (Embree 3 API docs, "rtcIntersect1"), which is
 //! what makes the wrapper `Send + Sync`.
 
@@ -38,8 +38,10 @@ pub(crate) enum GeomDesc<'a> {
     /// The unit disk (z = 0, r ≤ 1) of object space mapped by `to_world`: an Embree user
     /// geometry intersected exactly by the callbacks below.
     Disk { to_world: Mat4 },
-    /// The square [−1,1]² (z = 0) of object space mapped by `to_world`: a user geometry like
-    /// the disk.
+    /// The square [−1,1]² (z = 0) of object space mapped by `to_world`. At the top level Embree
+    /// traces a thin box of triangles around it whose hits a filter decides exactly
+    /// ([`RectSlab`]: the user geometry's hits and misses without its callbacks); inside a
+    /// shape group (or without filter functions) it is a user geometry like the disk.
     Rectangle { to_world: Mat4 },
     /// The box [−1,1]³ of object space mapped by an invertible `to_world`, given as the 6 faces
     /// of a triangle mesh (corners in order around each face, triangles (0,1,2) and (3,0,2) of
@@ -62,7 +64,7 @@ pub(crate) enum GeomDesc<'a> {
 }
 
 /// An instance of a shape group: the group's index in the `groups` given to
-/// [`EmbreeScene::build_instanced`] and its object-to-world map (affine, invertible).
+/// [`EmbreeScene::build_instanced_with`] and its object-to-world map (affine, invertible).
 pub(crate) struct InstanceDesc {
     pub(crate) group: u32,
     pub(crate) to_world: Mat4,
@@ -216,6 +218,171 @@ impl ObjectSpace {
     }
 }
 
+/// The ray parameter where the object-space ray `ol + t·dl` meets the plane z = 0: the
+/// disk's and rectangle's callbacks (and so the rectangle's filter) and tier A's planar kernel
+/// all compute it so.
+#[inline(always)]
+fn plane_t(ol: Vec3, dl: Vec3) -> f32 {
+    -ol.z / dl.z
+}
+
+/// The thin box Embree traces for a top-level rectangle ([`RectSlab`]): the square [−1,1]² of
+/// `to_world`'s z = 0 plane widened by `pad` along both of its axes and thickened by `pad`
+/// to either side of the plane (`pad`: 2⁻¹⁶ of the rectangle's world coordinates' scale,
+/// ~256 ulps of them), as 8 corners (bit 0: +x side, bit 1: +y, bit 2: +normal) and the 12
+/// triangles of its 6 faces. `None` for a degenerate rectangle.
+fn rectangle_slab(to_world: &Mat4) -> Option<([Vec3; 8], [[u32; 3]; 12])> {
+    let c = to_world.transform_point3(Vec3::ZERO);
+    let ax = to_world.transform_vector3(Vec3::X);
+    let ay = to_world.transform_vector3(Vec3::Y);
+    let n = ax.cross(ay).normalize_or_zero();
+    let pad = (c.abs().max_element() + ax.length() + ay.length()) * (1.0 / 65536.0);
+    let (ex, ey) = (
+        ax + ax.normalize_or_zero() * pad,
+        ay + ay.normalize_or_zero() * pad,
+    );
+    if n == Vec3::ZERO || !(pad.is_finite() && ex.is_finite() && ey.is_finite()) {
+        return None;
+    }
+    let corners = std::array::from_fn(|k| {
+        let s = |bit: usize| if k & bit != 0 { 1.0 } else { -1.0 };
+        c + ex * s(1) + ey * s(2) + n * (pad * s(4))
+    });
+    // Each face as a quad (a, b, c, d) in order around it: triangles (a, b, c) and (a, c, d).
+    let faces: [[u32; 4]; 6] = [
+        [0, 1, 3, 2],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 3, 7, 5],
+    ];
+    let mut tris = [[0; 3]; 12];
+    for (f, q) in faces.iter().enumerate() {
+        tris[2 * f] = [q[0], q[1], q[2]];
+        tris[2 * f + 1] = [q[0], q[2], q[3]];
+    }
+    Some((corners, tris))
+}
+
+/// A top-level rectangle traced by Embree as the thin box of [`rectangle_slab`] around it,
+/// with Embree's own triangle intersector (no user-geometry callback: ~270 of ~5,000
+/// instructions per sample on the million-triangle scene went to the callbacks), and a
+/// filter function on the box's hits that decides with the rectangle's exact intersection
+/// ([`PlanarData::hit`], the callbacks' and tier A's arithmetic) what the user geometry would
+/// have reported: the box contains every point the exact test can accept, by a margin far
+/// above rounding, so every ray the exact test hits crosses one of its faces, and each
+/// crossing is filtered. The ray's interval comes from what groove stores in the ray and hit:
+/// - the query's tmax, in the ray's `id` (Embree copies it into its packets; [`EmbreeScene::ray`]);
+/// - the t of the hit found so far, when the hit came from a user geometry or a rectangle (their
+///   callbacks and this filter store it in the hit's `Ng_x`, which groove reads nowhere else),
+///   with the callbacks' tie rule ([`tie_tfar`]). A hit found so far on a triangle mesh, curve or
+///   instance has no exact t groove knows (Embree's filter sees tfar already set to the
+///   candidate's): the filter then accepts the rectangle's hit marked [`UNSURE`], and the query
+///   settles it afterwards by tracing again up to the rectangle's t ([`EmbreeScene::settle`]).
+///
+/// Reported like the user geometry: the rectangle's t, primitive 0, zero barycentrics.
+struct RectSlab {
+    exact: PlanarData,
+    /// Per top-level geometry id: whether its hits store their t in `Ng_x` (`EmbreeScene::known`).
+    known: *const [bool],
+}
+
+/// Whether the top-level rectangles of `geoms` are traced as [`RectSlab`]s: when the level has
+/// triangles and no user geometry but rectangles. Embree keeps one BVH per geometry type and
+/// traverses each: there the slabs remove the user-geometry BVH (and the callbacks of every
+/// ray that reaches a rectangle's bounds, e.g. each shadow ray toward a rectangular light)
+/// without adding a triangle BVH. Elsewhere they were measured slower (`docs/bench/README.md`,
+/// fourteenth session, h3): a scene of user geometries gains a second BVH, and a ray that hits
+/// a rectangle costs Embree's filtered triangle epilog, about twice a callback.
+fn slabs_pay(geoms: &[GeomDesc]) -> bool {
+    geoms
+        .iter()
+        .any(|g| matches!(g, GeomDesc::Triangles { .. }))
+        && geoms.iter().all(|g| {
+            matches!(
+                g,
+                GeomDesc::Triangles { .. }
+                    | GeomDesc::Rectangle { .. }
+                    | GeomDesc::Curves(_)
+                    | GeomDesc::Empty
+            )
+        })
+}
+
+/// The primitive id a rectangle's filter gives a hit it accepted over a hit of unknown t.
+const UNSURE: u32 = 1;
+
+/// Word index of the ray's `id` (the query's tmax).
+const RAY_ID: usize = 10;
+
+/// The rectangle's intersection filter (nearest hits).
+unsafe extern "C" fn rect_intersect_filter(args: *const RTCFilterFunctionNArguments) {
+    // SAFETY: Embree passes a ray-hit packet and a candidate hit packet of width N with N valid
+    // flags (Embree 3 API, "RTCFilterFunctionN"; for nearest-hit queries `ray` points to the
+    // ray-hit, whose hit is the one found so far); the user pointer is the scene's boxed
+    // `RectSlab`, whose `known` lives as long as the scene.
+    unsafe {
+        let a = &*args;
+        let slab = &*(a.geometryUserPtr as *const RectSlab);
+        let known = &*slab.known;
+        each_valid_lane(a.valid, a.ray as *mut u32, a.N as usize, |r| {
+            let cand = Lane {
+                base: a.hit as *mut u32,
+                ..r
+            };
+            let geom = cand.get(GEOM_ID).to_bits();
+            let so_far = r.hit();
+            let (hit_geom, hit_inst) =
+                (so_far.get(GEOM_ID).to_bits(), so_far.get(INST_ID).to_bits());
+            let tmax = f32::from_bits(r.get(RAY_ID).to_bits());
+            let (tfar, unsure) = if hit_geom == u32::MAX {
+                (tmax, false)
+            } else if hit_inst == u32::MAX && known.get(hit_geom as usize) == Some(&true) {
+                let t = so_far.get(NG_X);
+                let flat = cand.get(INST_ID).to_bits() == u32::MAX;
+                if flat && geom < hit_geom && (0.0..f32::INFINITY).contains(&t) {
+                    (f32::from_bits(t.to_bits() + 1), false)
+                } else {
+                    (t, false)
+                }
+            } else {
+                (tmax, true)
+            };
+            let (o, d) = (r.vec(ORG_X), r.vec(DIR_X));
+            match slab.exact.hit(o, d, r.get(TNEAR), tfar) {
+                Some(h) => {
+                    r.set(TFAR, h.t.to_bits());
+                    cand.set(NG_X, h.t.to_bits());
+                    cand.set(HIT_U, 0);
+                    cand.set(HIT_V, 0);
+                    cand.set(PRIM_ID, if unsure { UNSURE } else { 0 });
+                }
+                None => *a.valid.add(r.i) = 0,
+            }
+        });
+    }
+}
+
+/// The rectangle's occlusion filter: the exact test over (tnear, the query's tmax).
+unsafe extern "C" fn rect_occluded_filter(args: *const RTCFilterFunctionNArguments) {
+    // SAFETY: as in `rect_intersect_filter`, with a ray packet.
+    unsafe {
+        let a = &*args;
+        let slab = &*(a.geometryUserPtr as *const RectSlab);
+        each_valid_lane(a.valid, a.ray as *mut u32, a.N as usize, |r| {
+            let tmax = f32::from_bits(r.get(RAY_ID).to_bits());
+            if slab
+                .exact
+                .hit(r.vec(ORG_X), r.vec(DIR_X), r.get(TNEAR), tmax)
+                .is_none()
+            {
+                *a.valid.add(r.i) = 0;
+            }
+        });
+    }
+}
+
 /// What the callbacks of a disk or rectangle need, owned by the scene (Embree holds a raw
 /// pointer to it).
 struct PlanarData {
@@ -248,7 +415,7 @@ impl UserShape for PlanarData {
 
     fn hit(&self, o: Vec3, d: Vec3, tnear: f32, tfar: f32) -> Option<UserHit> {
         let (ol, dl) = self.space.ray(o, d);
-        let t = -ol.z / dl.z;
+        let t = plane_t(ol, dl);
         let l = ol + dl * t;
         let inside = if self.square {
             l.x.abs() <= 1.0 && l.y.abs() <= 1.0
@@ -475,6 +642,8 @@ unsafe extern "C" fn user_intersect<T: UserPrims>(args: *const RTCIntersectFunct
             let tfar = tie_tfar(r.tfar, a.geomID, rh.hit.geomID, rh.hit.instID[0], a);
             if let Some(h) = shape.prim_hit(a.primID, o, d, r.tnear, tfar) {
                 rh.ray.tfar = h.t;
+                // The t, for the rectangles' filter (`RectSlab`).
+                rh.hit.Ng_x = h.t;
                 rh.hit.u = h.u;
                 rh.hit.v = h.v;
                 rh.hit.primID = h.prim;
@@ -522,13 +691,15 @@ unsafe fn user_intersect_n<T: UserPrims>(a: &RTCIntersectFunctionNArguments, sha
     // SAFETY: the caller's contract.
     unsafe {
         each_valid_lane(a.valid, a.rayhit as *mut u32, a.N as usize, |r| {
-            // groove reads no Ng, so the callbacks leave it unset.
+            // groove reads no normal from Embree: Ng_x holds the hit's t for the rectangles'
+            // filter (`RectSlab`), Ng_y and Ng_z stay unset.
             let hit = r.hit();
             let (geom, inst) = (hit.get(GEOM_ID).to_bits(), hit.get(INST_ID).to_bits());
             let tfar = tie_tfar(r.get(TFAR), a.geomID, geom, inst, a);
             let (o, d) = (r.vec(ORG_X), r.vec(DIR_X));
             if let Some(h) = shape.prim_hit(a.primID, o, d, r.get(TNEAR), tfar) {
                 r.set(TFAR, h.t.to_bits());
+                hit.set(NG_X, h.t.to_bits());
                 hit.set(HIT_U, h.u.to_bits());
                 hit.set(HIT_V, h.v.to_bits());
                 hit.set(PRIM_ID, h.prim);
@@ -707,6 +878,13 @@ pub(crate) struct EmbreeScene {
     groups: Vec<RTCScene>,
     /// Messages reported by Embree's error callback (the callback's user pointer points here).
     _errors: Box<Mutex<Vec<String>>>,
+    /// Per top-level geometry id: a rectangle traced as a [`RectSlab`].
+    rects: Vec<bool>,
+    /// Per top-level geometry id: its hits store their t in `Ng_x` (user geometries and
+    /// rectangles; read by [`rect_intersect_filter`]).
+    known: Box<[bool]>,
+    #[allow(clippy::vec_box)]
+    _slabs: Vec<Box<RectSlab>>,
     /// User data of the user geometries; boxed so the addresses Embree holds stay valid while
     /// the Vecs grow (hence the allow: the Box is what pins each address).
     #[allow(clippy::vec_box)]
@@ -751,7 +929,7 @@ impl EmbreeScene {
     /// Builds and commits a scene; geometry `i` gets Embree id `i`.
     #[cfg(test)]
     pub(crate) fn build(geoms: &[GeomDesc]) -> Result<EmbreeScene, String> {
-        Self::build_instanced(geoms, &[], &[])
+        Self::build_instanced_with(geoms, &[], &[], false)
     }
 
     /// Builds and commits a scene with instancing: geometry `i` of `geoms` gets Embree id `i`;
@@ -760,10 +938,13 @@ impl EmbreeScene {
     /// `geoms.len() + k` in the top-level scene. A hit through instance `k` reports that id as
     /// [`Hit::inst`], and the group's geometry and primitive as `geom` and `prim` (Embree 3 API,
     /// `RTC_GEOMETRY_TYPE_INSTANCE`); without an instance `inst` is `u32::MAX`.
-    pub(crate) fn build_instanced(
+    /// `rect_slabs`: the top-level rectangles become [`RectSlab`]s whatever the scene holds
+    /// (else only where [`slabs_pay`]).
+    pub(crate) fn build_instanced_with(
         geoms: &[GeomDesc],
         groups: &[Vec<GeomDesc>],
         instances: &[InstanceDesc],
+        rect_slabs: bool,
     ) -> Result<EmbreeScene, String> {
         let errors = Box::new(Mutex::new(Vec::new()));
         // SAFETY: plain C calls; every handle is checked for null before use, and ownership of
@@ -785,6 +966,9 @@ impl EmbreeScene {
                 scene,
                 groups: Vec::new(),
                 _errors: errors,
+                rects: Vec::new(),
+                known: Box::new([]),
+                _slabs: Vec::new(),
                 _planes: Vec::new(),
                 _spheres: Vec::new(),
                 _boxes: Vec::new(),
@@ -801,10 +985,10 @@ impl EmbreeScene {
                     return Err(this.error_text("rtcNewScene failed"));
                 }
                 this.groups.push(group);
-                Self::attach(&mut this, group, g)?;
+                Self::attach(&mut this, group, g, false, false)?;
                 rtcCommitScene(group);
             }
-            Self::attach(&mut this, scene, geoms)?;
+            Self::attach(&mut this, scene, geoms, true, rect_slabs)?;
             Self::attach_instances(&mut this, geoms.len(), instances)?;
             rtcCommitScene(scene);
             let code = rtcGetDeviceError(device);
@@ -820,7 +1004,9 @@ impl EmbreeScene {
         }
     }
 
-    /// Attaches `geoms` to `scene` (a scene of `this`'s device), geometry `i` with id `i`.
+    /// Attaches `geoms` to `scene` (a scene of `this`'s device), geometry `i` with id `i`;
+    /// `top`: `scene` is the top-level scene (whose rectangles may become [`RectSlab`]s, always
+    /// with `rect_slabs`).
     ///
     /// # Safety
     /// `scene` is a valid, uncommitted scene of `this.device`.
@@ -828,12 +1014,47 @@ impl EmbreeScene {
         this: &mut EmbreeScene,
         scene: RTCScene,
         geoms: &[GeomDesc],
+        top: bool,
+        rect_slabs: bool,
     ) -> Result<(), String> {
         // SAFETY: plain C calls on valid handles (the caller's contract); Embree copies the
         // triangle buffers, and the user geometries' data is kept boxed in `this`.
         unsafe {
             let device = this.device;
+            // Without filter functions a rectangle stays a user geometry; see `slabs_pay`.
+            let slabs = top
+                && (rect_slabs || slabs_pay(geoms))
+                && rtcGetDeviceProperty(device, RTCDeviceProperty::FILTER_FUNCTION_SUPPORTED) != 0;
+            if top {
+                this.known = geoms
+                    .iter()
+                    .map(|g| {
+                        !matches!(
+                            g,
+                            GeomDesc::Triangles { .. } | GeomDesc::Curves(_) | GeomDesc::Empty
+                        )
+                    })
+                    .collect();
+                this.rects = vec![false; geoms.len()];
+            }
             for (id, g) in geoms.iter().enumerate() {
+                let slab = match g {
+                    GeomDesc::Rectangle { to_world } if slabs => {
+                        rectangle_slab(to_world).map(|mesh| (mesh, PlanarData::new(to_world, true)))
+                    }
+                    _ => None,
+                };
+                let slab_desc;
+                let g = match &slab {
+                    Some(((corners, tris), _)) => {
+                        slab_desc = GeomDesc::Triangles {
+                            positions: corners,
+                            indices: tris,
+                        };
+                        &slab_desc
+                    }
+                    None => g,
+                };
                 let geom = match g {
                     GeomDesc::Empty => continue,
                     GeomDesc::Triangles { positions, indices } => {
@@ -914,6 +1135,17 @@ impl EmbreeScene {
                         geom
                     }
                 };
+                if let Some((_, exact)) = slab {
+                    let data = Box::new(RectSlab {
+                        exact,
+                        known: &*this.known as *const [bool],
+                    });
+                    rtcSetGeometryUserData(geom, &*data as *const RectSlab as *mut c_void);
+                    rtcSetGeometryIntersectFilterFunction(geom, Some(rect_intersect_filter));
+                    rtcSetGeometryOccludedFilterFunction(geom, Some(rect_occluded_filter));
+                    this._slabs.push(data);
+                    this.rects[id] = true;
+                }
                 rtcCommitGeometry(geom);
                 rtcAttachGeometryByID(scene, geom, id as u32);
                 // The scene holds its own reference.
@@ -999,7 +1231,8 @@ impl EmbreeScene {
             time: 0.0,
             tfar: tmax,
             mask: u32::MAX,
-            id: 0,
+            // The query's tmax, for the rectangles' filters (`RectSlab`).
+            id: tmax.to_bits(),
             flags: 0,
         }
     }
@@ -1028,14 +1261,38 @@ impl EmbreeScene {
         let mut rh = Self::ray_hit(o, d, tmin, tmax);
         // SAFETY: the scene is committed; ctx and rh are valid, properly aligned locals.
         unsafe { rtcIntersect1(self.scene, &mut ctx, &mut rh) };
-        (rh.hit.geomID != u32::MAX).then_some(Hit {
-            geom: rh.hit.geomID,
-            prim: rh.hit.primID,
-            t: rh.ray.tfar,
-            u: rh.hit.u,
-            v: rh.hit.v,
-            inst: rh.hit.instID[0],
+        (rh.hit.geomID != u32::MAX).then(|| {
+            let hit = Hit {
+                geom: rh.hit.geomID,
+                prim: rh.hit.primID,
+                t: rh.ray.tfar,
+                u: rh.hit.u,
+                v: rh.hit.v,
+                inst: rh.hit.instID[0],
+            };
+            self.settle(hit, o, d, tmin)
         })
+    }
+
+    /// `hit`, found by a nearest-hit query of the ray `o + t·d` from `tmin`, as the callbacks
+    /// would have found it: a rectangle's hit the filter accepted over a hit of unknown t
+    /// ([`UNSURE`]) is checked by tracing again up to its t (Embree's triangles are closed at
+    /// tfar, the rectangle's filter is not): a hit there is nearer, or as near and wins the
+    /// tie unless it is a top-level shape of higher index (tier A's rule).
+    #[inline(always)]
+    fn settle(&self, mut hit: Hit, o: Vec3, d: Vec3, tmin: f32) -> Hit {
+        if hit.prim == UNSURE
+            && hit.inst == u32::MAX
+            && self.rects.get(hit.geom as usize) == Some(&true)
+        {
+            hit.prim = 0;
+            if let Some(x) = self.intersect(o, d, tmin, hit.t) {
+                if !(x.t == hit.t && x.inst == u32::MAX && hit.geom < x.geom) {
+                    return x;
+                }
+            }
+        }
+        hit
     }
 
     /// Whether anything is hit with t in [tmin, tmax].
@@ -1084,6 +1341,8 @@ impl EmbreeScene {
             (p.org_x[i], p.org_y[i], p.org_z[i]) = (r.o.x, r.o.y, r.o.z);
             (p.dir_x[i], p.dir_y[i], p.dir_z[i]) = (r.d.x, r.d.y, r.d.z);
             (p.tnear[i], p.tfar[i]) = (r.tmin, r.tmax);
+            // As in `ray`.
+            p.id[i] = r.tmax.to_bits();
         }
         p
     }
@@ -1115,13 +1374,16 @@ impl EmbreeScene {
         // the alignments Embree requires (32 bytes for the mask and the packet).
         unsafe { rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, &mut rh) };
         for (i, o) in out.iter_mut().enumerate() {
-            *o = (i < n && rh.hit.geomID[i] != u32::MAX).then(|| Hit {
-                geom: rh.hit.geomID[i],
-                prim: rh.hit.primID[i],
-                t: rh.ray.tfar[i],
-                u: rh.hit.u[i],
-                v: rh.hit.v[i],
-                inst: rh.hit.instID[0][i],
+            *o = (i < n && rh.hit.geomID[i] != u32::MAX).then(|| {
+                let hit = Hit {
+                    geom: rh.hit.geomID[i],
+                    prim: rh.hit.primID[i],
+                    t: rh.ray.tfar[i],
+                    u: rh.hit.u[i],
+                    v: rh.hit.v[i],
+                    inst: rh.hit.instID[0][i],
+                };
+                self.settle(hit, rays[i].o, rays[i].d, rays[i].tmin)
             });
         }
     }
@@ -1195,15 +1457,21 @@ impl EmbreeScene {
             };
         }
         for (k, rh) in buf.rh.iter().enumerate() {
+            let r = &rh.ray;
             out(
                 k,
-                (rh.hit.geomID != u32::MAX).then_some(Hit {
-                    geom: rh.hit.geomID,
-                    prim: rh.hit.primID,
-                    t: rh.ray.tfar,
-                    u: rh.hit.u,
-                    v: rh.hit.v,
-                    inst: rh.hit.instID[0],
+                (rh.hit.geomID != u32::MAX).then(|| {
+                    let hit = Hit {
+                        geom: rh.hit.geomID,
+                        prim: rh.hit.primID,
+                        t: r.tfar,
+                        u: rh.hit.u,
+                        v: rh.hit.v,
+                        inst: rh.hit.instID[0],
+                    };
+                    // Embree leaves org and dir as given.
+                    let o = Vec3::new(r.org_x, r.org_y, r.org_z);
+                    self.settle(hit, o, Vec3::new(r.dir_x, r.dir_y, r.dir_z), r.tnear)
                 }),
             );
         }
@@ -1295,5 +1563,167 @@ mod tests {
         // The interval is open: a hit beyond tfar, or behind tnear, is no hit.
         assert!(s.hit(Vec3::ZERO, Vec3::Z, 0.0, 9998.0).is_none());
         assert!(s.hit(Vec3::ZERO, -Vec3::Z, 0.0, f32::MAX).is_none());
+    }
+
+    /// A top-level rectangle, traced as a filtered slab of triangles, reports exactly what its
+    /// user geometry (still used inside shape groups) reports: hit or miss, the same t bits,
+    /// primitive 0, zero barycentrics, for single rays, packets and streams, and the same
+    /// occlusion; over rays aimed at and beyond its edges, rays from points on it, rays in its
+    /// plane, and tmin or tmax at, just before and just after the hit.
+    #[test]
+    fn a_rectangle_as_a_slab_reports_the_exact_rectangle_hit() {
+        let to_world = Mat4::from_translation(Vec3::new(0.3, -0.2, 0.5))
+            * Mat4::from_rotation_x(0.7)
+            * Mat4::from_scale(Vec3::new(0.8, 0.5, 1.0));
+        let scene =
+            EmbreeScene::build_instanced_with(&[GeomDesc::Rectangle { to_world }], &[], &[], true)
+                .unwrap();
+        assert!(scene.rects[0], "traced as a slab");
+        let exact = PlanarData::new(&to_world, true);
+        let mut rng = crate::math::Pcg32::new(3, 11);
+        let mut unit = || 2.0 * rng.next_f32() - 1.0;
+        let mut rays = Vec::new();
+        for k in 0..40_000 {
+            let o = Vec3::new(unit(), unit(), unit()).normalize_or(Vec3::Z) * 3.0;
+            // Aimed at the square, its edges (1 ± a few ulps) and beyond.
+            let (x, y) = match k % 3 {
+                0 => (1.2 * unit(), 1.2 * unit()),
+                1 => (
+                    f32::from_bits(1f32.to_bits() + (k % 5) as u32 - 2) * unit().signum(),
+                    unit(),
+                ),
+                _ => (unit(), unit()),
+            };
+            let target = to_world.transform_point3(Vec3::new(x, y, 0.0));
+            let mut ray = Ray::new(o, (target - o).normalize());
+            match k % 7 {
+                // From a point on the plane, any direction.
+                0 => {
+                    ray = Ray::new(
+                        target,
+                        Vec3::new(unit(), unit(), unit()).normalize_or(Vec3::X),
+                    )
+                }
+                // In the plane.
+                1 => {
+                    let d = to_world
+                        .transform_vector3(Vec3::new(unit(), unit(), 0.0))
+                        .normalize_or(Vec3::X);
+                    ray = Ray::new(target - d * 3.0, d);
+                }
+                2..=4 => {
+                    if let Some(h) = exact.hit(ray.o, ray.d, ray.tmin, ray.tmax) {
+                        let b = h.t.to_bits();
+                        match k % 6 {
+                            0 => ray.tmax = h.t,
+                            1 => ray.tmax = f32::from_bits(b + 1),
+                            2 => ray.tmax = f32::from_bits(b - 1),
+                            3 => ray.tmin = h.t,
+                            4 => ray.tmin = f32::from_bits(b - 1),
+                            _ => ray.tmin = f32::from_bits(b + 1),
+                        }
+                    }
+                }
+                _ => {}
+            }
+            rays.push(ray);
+        }
+        let mut hits = 0;
+        for ray in &rays {
+            let want = exact.hit(ray.o, ray.d, ray.tmin, ray.tmax).map(|h| Hit {
+                geom: 0,
+                prim: 0,
+                t: h.t,
+                u: 0.0,
+                v: 0.0,
+                inst: u32::MAX,
+            });
+            let got = scene.intersect(ray.o, ray.d, ray.tmin, ray.tmax);
+            assert_eq!(
+                got.map(|h| h.t.to_bits()),
+                want.map(|h| h.t.to_bits()),
+                "{ray:?}"
+            );
+            assert_eq!(got, want, "{ray:?}");
+            assert_eq!(
+                scene.occluded(ray.o, ray.d, ray.tmin, ray.tmax),
+                want.is_some(),
+                "{ray:?}"
+            );
+            hits += usize::from(want.is_some());
+        }
+        assert!(hits > 8_000, "{hits} hits");
+        // Packets and the stream give the single-ray hits.
+        for chunk in rays.chunks(8) {
+            let mut got = [None; 8];
+            scene.intersect8(chunk, false, &mut got);
+            let blocked = scene.occluded8(chunk);
+            for (i, (r, g)) in chunk.iter().zip(got).enumerate() {
+                let want = scene.intersect(r.o, r.d, r.tmin, r.tmax);
+                assert_eq!(g, want);
+                assert_eq!(blocked & (1 << i) != 0, want.is_some());
+            }
+        }
+        let mut buf = RayBuf::default();
+        scene.intersect_stream(rays.iter(), false, &mut buf, |k, g| {
+            let r = &rays[k];
+            assert_eq!(g, scene.intersect(r.o, r.d, r.tmin, r.tmax));
+        });
+        scene.occluded_stream(rays.iter(), false, &mut buf, |k, b| {
+            let r = &rays[k];
+            assert_eq!(b, scene.occluded(r.o, r.d, r.tmin, r.tmax));
+        });
+    }
+
+    /// A rectangle's hit found after a mesh hit (whose t the filter cannot see) is settled by
+    /// tracing again: the nearer of the two wins whatever order Embree finds them in, for a
+    /// mesh just in front of, at, or just behind the rectangle.
+    #[test]
+    fn a_rectangle_behind_or_before_a_mesh_gives_the_nearer_hit() {
+        for dz in [-1e-3f32, -1e-6, 0.0, 1e-6, 1e-3] {
+            let positions = [
+                Vec3::new(-2.0, -2.0, dz),
+                Vec3::new(2.0, -2.0, dz),
+                Vec3::new(2.0, 2.0, dz),
+                Vec3::new(-2.0, 2.0, dz),
+            ];
+            let indices = [[0, 1, 2], [0, 2, 3]];
+            for rect_first in [false, true] {
+                let mesh = GeomDesc::Triangles {
+                    positions: &positions,
+                    indices: &indices,
+                };
+                let rect = GeomDesc::Rectangle {
+                    to_world: Mat4::IDENTITY,
+                };
+                let geoms = if rect_first {
+                    [rect, mesh]
+                } else {
+                    [mesh, rect]
+                };
+                let scene = EmbreeScene::build(&geoms).unwrap();
+                let (rect_id, mesh_id) = if rect_first { (0, 1) } else { (1, 0) };
+                let mut rng = crate::math::Pcg32::new(5, 1);
+                for _ in 0..2_000 {
+                    let o = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, 2.0);
+                    let target =
+                        Vec3::new(1.8 * rng.next_f32() - 0.9, 1.8 * rng.next_f32() - 0.9, 0.0);
+                    let ray = Ray::new(o, (target - o).normalize());
+                    let h = scene.intersect(ray.o, ray.d, ray.tmin, ray.tmax).unwrap();
+                    let r = PlanarData::new(&Mat4::IDENTITY, true)
+                        .hit(ray.o, ray.d, 0.0, f32::INFINITY)
+                        .unwrap();
+                    let m = scene.intersect(ray.o, ray.d, ray.tmin, r.t);
+                    // `m`: the nearest hit up to the rectangle's t (closed), i.e. the mesh when
+                    // it is at least as near.
+                    match m {
+                        Some(m) if m.t < r.t || (m.t == r.t && mesh_id < rect_id) => {
+                            assert_eq!((h.geom, h.t), (mesh_id, m.t), "{dz} {ray:?}");
+                        }
+                        _ => assert_eq!((h.geom, h.prim, h.t), (rect_id, 0, r.t), "{dz} {ray:?}"),
+                    }
+                }
+            }
+        }
     }
 }

@@ -145,6 +145,23 @@ impl Accel {
         groups: &[Range<u32>],
         instances: &[Instance],
     ) -> Result<Accel> {
+        Accel::build_embree_with(shapes, groups, instances, false)
+    }
+
+    /// [`Self::build_embree`] of a scene without groups, with every top-level rectangle traced
+    /// as a filtered slab of triangles whatever the scene holds (by default only where that
+    /// pays: scenes of triangle meshes and rectangles). Both give the same hits; this lets the
+    /// tests compare the slabs with tier A on scenes of analytic shapes.
+    pub fn build_embree_rect_slabs(shapes: &[Shape]) -> Result<Accel> {
+        Accel::build_embree_with(shapes, &[], &[], true)
+    }
+
+    fn build_embree_with(
+        shapes: &[Shape],
+        groups: &[Range<u32>],
+        instances: &[Instance],
+        rect_slabs: bool,
+    ) -> Result<Accel> {
         let descs: Vec<embree::GeomDesc> = shapes
             .iter()
             .map(|s| match (&s.kind, s.box_to_world) {
@@ -200,8 +217,13 @@ impl Accel {
                 to_world: *i.to_world(),
             })
             .collect();
-        let scene = embree::EmbreeScene::build_instanced(&descs, &group_descs, &inst_descs)
-            .map_err(Error::Native)?;
+        let scene = embree::EmbreeScene::build_instanced_with(
+            &descs,
+            &group_descs,
+            &inst_descs,
+            rect_slabs,
+        )
+        .map_err(Error::Native)?;
         Ok(Accel {
             brute: None,
             scene: Some(scene),

@@ -207,13 +207,22 @@ fn rays(loaded: &Loaded, embree: &Accel, seed: u64) -> Vec<Ray> {
     out
 }
 
-/// Every query of tier A against Embree's on `loaded`; returns (hits, ties).
+/// Every query of tier A against Embree's on `loaded`, Embree tracing the rectangles as user
+/// geometries (as it does in a scene of analytic shapes) and as filtered slabs of triangles
+/// (as in a scene of meshes and rectangles); returns (hits, ties and cut-offs) of the latter.
 fn compare(name: &str, loaded: &Loaded, seed: u64) -> (usize, usize) {
     let shapes = loaded.scene.shapes();
     let embree = Accel::build_tiered(shapes, &[], &[], Tier::Embree).unwrap();
     let brute = Accel::build_tiered(shapes, &[], &[], Tier::Brute).unwrap();
     assert_eq!((embree.tier(), brute.tier()), (Tier::Embree, Tier::Brute));
     let all = rays(loaded, &embree, seed);
+    compare_rays(name, &embree, &brute, &all);
+    let slabs = Accel::build_embree_rect_slabs(shapes).unwrap();
+    compare_rays(&format!("{name}, rectangle slabs"), &slabs, &brute, &all)
+}
+
+/// Every query of tier A (`brute`) against Embree's (`embree`) for the rays `all`.
+fn compare_rays(name: &str, embree: &Accel, brute: &Accel, all: &[Ray]) -> (usize, usize) {
     let (mut hits, mut start, mut k) = (0, 0, 0);
     let mut counts = [0usize; 4];
     while start < all.len() {
