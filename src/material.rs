@@ -203,6 +203,9 @@ impl<L: Lane> MnmLanes<L> {
         L: ToArray<f32, W>,
         L::I32: ToArray<i32, W>,
     {
+        // A `match`, not `Option::map`: a closure may be compiled out of the kernel's SIMD
+        // function (its stores become calls).
+        #[allow(clippy::manual_map)]
         let cells = match &self.cells {
             Some(c) => Some(CellCols {
                 j: c.j.to_array(),
