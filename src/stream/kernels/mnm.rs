@@ -4,8 +4,9 @@
 //! leaf BSDF, 8 paths at a time, in the steps of the wrapper-chain driver ([`super::vertex`]):
 //! 1. the surface interactions gathered into SoA columns;
 //! 2. the BSDFs built at the hits, into one arena for the 8 points: where the chunk's nested
-//!    leaf is constant ([`shared_nested`]), [`build_shared`] (the leaf pushed once, per lane
-//!    the normal map's texture lookup, the microsurface and the table cell) and the 8
+//!    leaf is constant ([`shared_nested`]), [`build_shared`] (the leaf pushed once; the
+//!    perturbed normals, candidate facets, facet frames and table cells 8-wide, then each
+//!    point's map written from them) and the 8
 //!    incident-direction caches together (`compensated::lanes::with_incident_x8`: the table
 //!    lookups at ωi 8-wide), else lane by lane `Scene::bsdf_root` (the scalar code); then lane
 //!    by lane, in each path's order, the side test, the light selection and light point
@@ -21,8 +22,8 @@
 //!    go to the integrator's [`super::tail::Tail`] (`PathState::advance` for `path`, rays to
 //!    trace for `direct`).
 //!
-//! The per-hit build's texture lookup, microsurface, facet frames and entries, and the draws,
-//! still run per lane through the scalar code; every number is the scalar model's bit for bit
+//! The per-hit build's per-point write (facet compaction, the map itself), the entries and
+//! the draws still run per lane through the scalar code; every number is the scalar model's bit for bit
 //! (`compensated::lanes`' tests), so the image is the scalar renderer's (`docs/mnm.md`, "Issues
 //! 17/18: the compensated model in lanes (tenth session)" and "... the compensated build and
 //! sampler in lanes (eleventh session)").
