@@ -1,15 +1,18 @@
 //! Materials: the scene's `<bsdf>` trees with textured parameters. At a hit a material evaluates
 //! its textures and writes plain-valued [`BsdfNode`]s into the per-thread arena.
 
-use crate::bsdf::mnm::facets::{MaxTilt, Microgeometry};
+use crate::bsdf::mnm::facets::{store3, Candidates, FacetCols, MaxTilt, Microgeometry};
+use crate::bsdf::mnm::ms_table::{ThetaCell, ThetaCells};
 use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent, TransmissionWalk};
 use crate::bsdf::{
     bumpmap, Blend, BsdfArena, BsdfNode, Diffuse, Lobes, Mask, NormalMap, Principled,
     PrincipledThin,
 };
 use crate::geometry::SurfaceInteraction;
+use crate::lane::vec::V3;
+use crate::lane::{Lane, ToArray};
 use crate::texture::{Lookup, Texture};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// Index of a texture in [`Materials::textures`].
 pub type TexId = u32;
@@ -116,6 +119,123 @@ impl MnmSettings {
         slot.set_lambert_closed_form(self.lambert_closed_form);
         slot.set_ms_table(self.ms_table);
     }
+
+    /// The arithmetic of [`Self::map_into`] at several hits at once (lanes), from their normal
+    /// map values `rgb`: the clamped perturbed normals, the microsurfaces' candidate facets and
+    /// frames, and (compensated, with a table) the θp cells; [`Self::map_lane_into`] then
+    /// writes each hit's map.
+    #[inline(always)]
+    pub fn lanes_at<L: Lane>(&self, rgb: V3<L>) -> MnmLanes<L> {
+        let like = rgb.z;
+        let (two, one) = (like.splat(2.0), like.splat(1.0));
+        let n = V3::new(two * rgb.x - one, two * rgb.y - one, two * rgb.z - one);
+        let wp = self.max_theta.clamp_lanes(n);
+        let eps = like.splat(1e-6);
+        let flat = wp.x.abs().lt(eps) & wp.y.abs().lt(eps);
+        let z = V3::splat(like, 0.0, 0.0, 1.0);
+        let facets = Candidates::new(
+            self.geometry,
+            V3::select(flat, z, wp),
+            MicrofacetNormalMap::framed(self.geometry, self.tangent),
+        );
+        let cells = match self.ms_table {
+            Some(t) if self.evaluation == Evaluation::Compensated => Some(t.cells(wp)),
+            _ => None,
+        };
+        MnmLanes { wp, facets, cells }
+    }
+
+    /// [`Self::map_into`] for lane `i` of `lanes` ([`Self::lanes_at`], stored:
+    /// [`MnmLanes::cols`]): the same map bit for bit as `map_into` with that lane's `rgb`.
+    #[inline(always)]
+    pub fn map_lane_into<const W: usize>(
+        &self,
+        slot: &mut MicrofacetNormalMap,
+        nested: u32,
+        lanes: &MnmCols<W>,
+        i: usize,
+    ) {
+        let wp = Vec3::new(lanes.wp[0][i], lanes.wp[1][i], lanes.wp[2][i]);
+        *slot = MicrofacetNormalMap::of_lane(
+            nested,
+            wp,
+            &lanes.facets,
+            i,
+            self.geometry,
+            self.tangent,
+            self.evaluation,
+            self.max_order,
+        );
+        slot.transmission_walk = self.transmission_walk;
+        slot.set_lambert_closed_form(self.lambert_closed_form);
+        match &lanes.cells {
+            Some(c) => {
+                let cell = ThetaCell {
+                    j: c.j[i] as usize,
+                    t: c.t[i],
+                    axis: Vec2::new(c.axis[0][i], c.axis[1][i]),
+                };
+                slot.set_ms_table_in(self.ms_table, cell);
+            }
+            None => slot.set_ms_table(self.ms_table),
+        }
+    }
+}
+
+/// What [`MnmSettings::lanes_at`] computes for several hits at once.
+#[derive(Clone, Copy, Debug)]
+pub struct MnmLanes<L: Lane> {
+    /// The clamped perturbed normals.
+    wp: V3<L>,
+    /// Their microsurfaces' candidate facets (+z's where ωp is flat).
+    facets: Candidates<L>,
+    /// Their θp cells in the compensated model's table.
+    cells: Option<ThetaCells<L>>,
+}
+
+impl<L: Lane> MnmLanes<L> {
+    /// The lanes stored as arrays of `W` (the lane width), what
+    /// [`MnmSettings::map_lane_into`] reads (plain numbers: the per-hit writes, which the
+    /// compiler may keep out of the kernel's SIMD function, need no SIMD instruction).
+    #[inline(always)]
+    pub fn cols<const W: usize>(&self) -> MnmCols<W>
+    where
+        L: ToArray<f32, W>,
+        L::I32: ToArray<i32, W>,
+    {
+        // A `match`, not `Option::map`: a closure may be compiled out of the kernel's SIMD
+        // function (its stores become calls).
+        #[allow(clippy::manual_map)]
+        let cells = match &self.cells {
+            Some(c) => Some(CellCols {
+                j: c.j.to_array(),
+                t: c.t.to_array(),
+                axis: [c.axis.x.to_array(), c.axis.y.to_array()],
+            }),
+            None => None,
+        };
+        MnmCols {
+            wp: store3(self.wp),
+            facets: self.facets.cols(),
+            cells,
+        }
+    }
+}
+
+/// [`MnmLanes`] stored per lane (`[component][lane]`).
+#[derive(Clone, Copy, Debug)]
+pub struct MnmCols<const W: usize> {
+    wp: [[f32; W]; 3],
+    facets: FacetCols<W>,
+    cells: Option<CellCols<W>>,
+}
+
+/// θp cells stored per lane.
+#[derive(Clone, Copy, Debug)]
+struct CellCols<const W: usize> {
+    j: [i32; W],
+    t: [f32; W],
+    axis: [[f32; W]; 2],
 }
 
 #[derive(Clone, Debug)]

@@ -68,6 +68,21 @@ impl MsRef {
         }
     }
 
+    /// [`Self::new`] with ωp's cell already found ([`MsTable::cells`], several points at once).
+    #[inline(always)]
+    pub fn in_cell(table: &'static MsTable, cell: ThetaCell) -> MsRef {
+        let baked_norm = (table.spec.colour == Colour::Baked).then(|| {
+            let m = table.mean_baked(&cell);
+            Vec3::new(inv(m.x), inv(m.y), inv(m.z)) * INV_PI
+        });
+        MsRef {
+            table,
+            cell,
+            baked_norm,
+            at: None,
+        }
+    }
+
     /// The cached incident share for the query direction `wi`, if it was built for exactly it
     /// (bit for bit: a query from another ωi, e.g. a light path's, computes its own).
     #[inline]

@@ -5,7 +5,18 @@
 //! Each facet k is stored as its *area vector* `v_k = A_k · m_k` (area per unit macro area times
 //! unit normal). Then the projected area toward ω is `a_k(ω) = ⟨ω, v_k⟩`, closure reads
 //! `Σ v_k = ωg`, and no formula divides by cos θp or sin θp (the robust form of §2.4).
+//!
+//! The per-hit build has a lane form ([`Candidates`], [`MaxTilt::clamp_lanes`]) with the
+//! arithmetic of the scalar build ([`Microsurface::new`], [`MaxTilt::clamp`]): the stream
+//! renderer's compensated kernel runs it 8 points at a time, then keeps each lane's facets
+//! with [`Microsurface::of_lane`] (the same dropped facets, so the same microsurface bit for
+//! bit; `tests`). The scalar renderer keeps the scalar build: at width 1 the lane form (every
+//! candidate, frame and select computed, then stored) cost it ~4% more instructions.
 
+use crate::lane::frame::Frame as LaneFrame;
+use crate::lane::vec::V3;
+use crate::lane::{Lane, ToArray};
+use crate::math::Frame;
 use glam::Vec3;
 
 /// Most facets any microgeometry here uses.
@@ -21,6 +32,122 @@ pub enum Microgeometry {
     /// Three facets: ωp, a flat bottom ωg and the tangent wall; `fill` s ∈ (0, 1] (§10.3):
     /// A_p = s / cos θp, A_t = s · tan θp, A_n = 1 − s. s = 1 is the sawtooth.
     UGroove { fill: f32 },
+}
+
+/// Area vectors shorter than this are left out of a microsurface (zero-area facets).
+const MIN_AREA: f32 = 1e-7;
+
+/// Every candidate facet of a microgeometry at one or more shading points (lanes), before the
+/// zero-area ones are dropped: area vectors, their lengths and unit normals (`v / |v|`, not
+/// finite for a zero vector), and the facet frames (tangent along the shading frame's s) of
+/// the first `framed` candidates. [`Microsurface::of_lane`] keeps lane `i`'s facets (of the
+/// stored form, [`Candidates::cols`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Candidates<L: Lane> {
+    v: [V3<L>; MAX_FACETS],
+    len: [L; MAX_FACETS],
+    m: [V3<L>; MAX_FACETS],
+    frames: [LaneFrame<L>; MAX_FACETS],
+    /// Candidates of the microgeometry (2 or 3).
+    n: usize,
+    /// Candidates with a frame in `frames` (the first ones).
+    framed: usize,
+}
+
+impl<L: Lane> Candidates<L> {
+    /// The candidates for the perturbed normals `wp` (unit, z > 0) with the frames of the
+    /// first `framed` of them, with the arithmetic of [`Microsurface::new`].
+    #[inline(always)]
+    pub fn new(geometry: Microgeometry, wp: V3<L>, framed: usize) -> Self {
+        let like = wp.z;
+        let inv_cos = like.splat(1.0) / wp.z;
+        // ωt_u = ωg (ωg·ωp) − ωp: horizontal, length sin θp, pointing away from ωp's lean.
+        let wt_u = V3::new(-wp.x, -wp.y, like.splat(0.0));
+        let zero = V3::splat(like, 0.0, 0.0, 0.0);
+        let (v, n) = match geometry {
+            Microgeometry::Sawtooth => ([wp.scale(inv_cos), wt_u.scale(inv_cos), zero], 2),
+            Microgeometry::VGroove => {
+                let mirror = V3::new(-wp.x, -wp.y, wp.z);
+                let a = like.splat(0.5) * inv_cos;
+                ([wp.scale(a), mirror.scale(a), zero], 2)
+            }
+            Microgeometry::UGroove { fill } => {
+                let a = like.splat(fill) * inv_cos;
+                let flat = V3::splat(like, 0.0, 0.0, 1.0 - fill);
+                ([wp.scale(a), flat, wt_u.scale(a)], 3)
+            }
+        };
+        // Explicit loops, no closures (`array::from_fn`, `map`): a closure may be compiled
+        // out of the kernel's SIMD function, and its 8-wide operations become calls.
+        let z = V3::splat(like, 0.0, 0.0, 1.0);
+        let (mut len, mut m) = ([like; MAX_FACETS], [z; MAX_FACETS]);
+        for k in 0..MAX_FACETS {
+            len[k] = v[k].length();
+            m[k] = v[k].div_by(len[k]);
+        }
+        let framed = framed.min(n);
+        let x = V3::splat(like, 1.0, 0.0, 0.0);
+        let mut frames = [LaneFrame { s: z, t: z, n: z }; MAX_FACETS];
+        for k in 0..framed {
+            // Tangent along the shading frame's s (= dp/du), as Mitsuba's normalmap does.
+            frames[k] = LaneFrame::from_normal_tangent(m[k], x);
+        }
+        Candidates {
+            v,
+            len,
+            m,
+            frames,
+            n,
+            framed,
+        }
+    }
+}
+
+impl<L: Lane> Candidates<L> {
+    /// The lanes stored as arrays of `W` (the lane width): what [`Microsurface::of_lane`]
+    /// reads, plain numbers (the per-point writes need no SIMD instruction).
+    #[inline(always)]
+    pub fn cols<const W: usize>(&self) -> FacetCols<W>
+    where
+        L: ToArray<f32, W>,
+    {
+        let mut c = FacetCols {
+            v: [[[0.0; W]; 3]; MAX_FACETS],
+            len: [[0.0; W]; MAX_FACETS],
+            m: [[[0.0; W]; 3]; MAX_FACETS],
+            frames: [[[[0.0; W]; 3]; 3]; MAX_FACETS],
+            n: self.n,
+            framed: self.framed,
+        };
+        for k in 0..self.n {
+            c.v[k] = store3(self.v[k]);
+            c.len[k] = self.len[k].to_array();
+            c.m[k] = store3(self.m[k]);
+        }
+        for k in 0..self.framed {
+            let f = &self.frames[k];
+            c.frames[k] = [store3(f.s), store3(f.t), store3(f.n)];
+        }
+        c
+    }
+}
+
+/// `v` stored as `[component][lane]`.
+#[inline(always)]
+pub(crate) fn store3<L: ToArray<f32, W>, const W: usize>(v: V3<L>) -> [[f32; W]; 3] {
+    [v.x.to_array(), v.y.to_array(), v.z.to_array()]
+}
+
+/// [`Candidates`] stored per lane ([`Candidates::cols`]): `[component][lane]`.
+#[derive(Clone, Copy, Debug)]
+pub struct FacetCols<const W: usize> {
+    v: [[[f32; W]; 3]; MAX_FACETS],
+    len: [[f32; W]; MAX_FACETS],
+    m: [[[f32; W]; 3]; MAX_FACETS],
+    /// s, t, n of the first `framed` candidates' frames.
+    frames: [[[[f32; W]; 3]; 3]; MAX_FACETS],
+    n: usize,
+    framed: usize,
 }
 
 /// The facets at one shading point, in the macro (shading) frame where ωg = +z.
@@ -64,6 +191,52 @@ impl Microsurface {
         s
     }
 
+    /// The microsurface of lane `i` of `c`: its candidates of nonzero area, in order (as
+    /// [`Self::new`] keeps them: the same test), and for each kept facet `k` its candidate's
+    /// index.
+    #[inline(always)]
+    pub fn of_lane<const W: usize>(c: &FacetCols<W>, i: usize) -> (Microsurface, [u8; MAX_FACETS]) {
+        let mut s = Microsurface {
+            v: [Vec3::ZERO; MAX_FACETS],
+            m: [Vec3::ZERO; MAX_FACETS],
+            n: 0,
+        };
+        let mut from = [0u8; MAX_FACETS];
+        for j in 0..c.n {
+            if c.len[j][i] > MIN_AREA {
+                from[s.n] = j as u8;
+                s.v[s.n] = lane3(&c.v[j], i);
+                s.m[s.n] = lane3(&c.m[j], i);
+                s.n += 1;
+            }
+        }
+        (s, from)
+    }
+
+    /// The frame of facet `k` of lane `i`'s microsurface (`from`: [`Self::of_lane`]'s
+    /// candidate indices): `Frame::from_normal_tangent(normal(k), +x)`, taken from `c` when it
+    /// holds that candidate's frame (the same bits: the same normal and arithmetic).
+    #[inline(always)]
+    pub fn frame_of_lane<const W: usize>(
+        &self,
+        c: &FacetCols<W>,
+        from: &[u8; MAX_FACETS],
+        i: usize,
+        k: usize,
+    ) -> Frame {
+        let j = from[k] as usize;
+        if j < c.framed {
+            let f = &c.frames[j];
+            Frame {
+                s: lane3(&f[0], i),
+                t: lane3(&f[1], i),
+                n: lane3(&f[2], i),
+            }
+        } else {
+            Frame::from_normal_tangent(self.m[k], Vec3::X)
+        }
+    }
+
     /// A microsurface from explicit area vectors (experiments and tests, e.g. a deliberately
     /// broken closure). At most [`MAX_FACETS`] are used; zero vectors are skipped.
     pub fn from_area_vectors(vs: &[Vec3]) -> Microsurface {
@@ -85,7 +258,7 @@ impl Microsurface {
 
     fn push(&mut self, v: Vec3) {
         let len = v.length();
-        if len > 1e-7 {
+        if len > MIN_AREA {
             self.v[self.n] = v;
             self.m[self.n] = v / len;
             self.n += 1;
@@ -257,6 +430,37 @@ impl MaxTilt {
             None => Vec3::Z, // straight down: no meaningful tilt direction
         }
     }
+
+    /// [`Self::clamp`] per lane, bit for bit: `n` normalised (glam's `try_normalize`: times 1/|n| where that
+    /// is finite and positive, else +z), its tilt clamped to this one (the horizontal part
+    /// normalised the same way, times sin, plus +z times cos; +z when it has none).
+    #[inline(always)]
+    pub fn clamp_lanes<L: Lane>(&self, n: V3<L>) -> V3<L> {
+        let like = n.z;
+        let (zero, one) = (like.splat(0.0), like.splat(1.0));
+        let z = V3::new(zero, zero, one);
+        let (n, ok) = try_normalize(n);
+        let cos_min = like.splat(self.cos);
+        let h = V3::new(n.x, n.y, zero);
+        let (h, h_ok) = try_normalize(h);
+        let tilted = h.scale(like.splat(self.sin)) + z.scale(cos_min);
+        // Straight down (no horizontal part): no meaningful tilt direction, +z.
+        let clamped = V3::select(h_ok, tilted, z);
+        V3::select(ok, V3::select(n.z.ge(cos_min), n, clamped), z)
+    }
+}
+
+/// glam's `try_normalize` per lane: `v · (1/|v|)` and whether `1/|v|` is finite and positive.
+#[inline(always)]
+fn try_normalize<L: Lane>(v: V3<L>) -> (V3<L>, L::Mask) {
+    let rcp = v.z.splat(1.0) / v.length();
+    (v.scale(rcp), rcp.is_finite() & rcp.gt(rcp.splat(0.0)))
+}
+
+/// Lane `i` of the stored vector `v` (`[component][lane]`).
+#[inline(always)]
+fn lane3<const W: usize>(v: &[[f32; W]; 3], i: usize) -> Vec3 {
+    Vec3::new(v[0][i], v[1][i], v[2][i])
 }
 
 #[cfg(test)]
@@ -401,5 +605,127 @@ mod tests {
         let ok = Vec3::new(0.3, 0.0, 0.9).normalize();
         assert_eq!(clamp_perturbed_normal(ok, mt), ok);
         assert_eq!(clamp_perturbed_normal(Vec3::ZERO, mt), Vec3::Z);
+    }
+
+    /// The per-hit build 8 hits at a time (`MnmSettings::lanes_at` then `map_lane_into`, as
+    /// the stream renderer's compensated kernel runs it) writes the map `map_into` builds (the
+    /// scalar renderer's, this module's code at width 1) bit for bit, lane by lane: every
+    /// microgeometry (a U-groove that drops its flat bottom, fill = 1), baked and per-bounce
+    /// tables and no table, compensated and random walk; normal map values anywhere in the
+    /// cube (tilts beyond the clamp, below the horizon), flat and nearly flat, zero and
+    /// straight down.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn per_hit_build_in_lanes_equals_the_scalar_build_bit_for_bit() {
+        use super::super::ms_table::{Colour, MsTable, TableSpec, WALKS_PER_NODE};
+        use super::super::{Evaluation, MicrofacetNormalMap, Tangent, TransmissionWalk};
+        use crate::lane::vec::V3;
+        use crate::lane::Avx2;
+        use crate::material::MnmSettings;
+        let Some(avx) = Avx2::detect() else { return };
+        fn bits(m: &MicrofacetNormalMap) -> Vec<u32> {
+            let mut b = vec![
+                m.nested,
+                m.max_order,
+                m.degenerate as u32,
+                m.mirror_wall as u32,
+            ];
+            let mut v3 = |v: Vec3| b.extend(v.to_array().map(f32::to_bits));
+            v3(m.wp);
+            for k in 0..MAX_FACETS {
+                v3(m.surface.v[k]);
+                v3(m.surface.m[k]);
+                v3(m.frames[k].s);
+                v3(m.frames[k].t);
+                v3(m.frames[k].n);
+            }
+            b.push(m.surface.n as u32);
+            b.push(m.mis_c.map_or(u32::MAX, f32::to_bits));
+            b.push(m.blend.to_bits());
+            b.push(m.lambert_closed_form as u32);
+            if let Some(r) = &m.ms {
+                b.extend([r.cell.j as u32, r.cell.t.to_bits()]);
+                b.extend([r.cell.axis.x.to_bits(), r.cell.axis.y.to_bits()]);
+                b.push(std::ptr::from_ref(r.table) as usize as u32);
+            }
+            b
+        }
+        let table = |geometry, tangent, colour| -> &'static MsTable {
+            let spec = TableSpec {
+                geometry,
+                tangent,
+                max_order: 256,
+                max_theta: 85f32.to_radians(),
+                colour,
+                walks: WALKS_PER_NODE,
+            };
+            Box::leak(Box::new(MsTable::lambert(spec, "unit".into())))
+        };
+        let cases = [
+            (
+                Microgeometry::Sawtooth,
+                Tangent::Mirror,
+                Some(Colour::Baked),
+            ),
+            (
+                Microgeometry::VGroove,
+                Tangent::Same,
+                Some(Colour::PerBounce),
+            ),
+            (Microgeometry::UGroove { fill: 0.6 }, Tangent::Same, None),
+            (Microgeometry::UGroove { fill: 1.0 }, Tangent::Same, None),
+            (Microgeometry::Sawtooth, Tangent::Same, None),
+        ];
+        let special = [
+            Vec3::new(0.5, 0.5, 1.0),
+            Vec3::new(0.5, 0.5, 0.5),
+            Vec3::new(0.5, 0.5, 0.0),
+            Vec3::new(0.5 + 2e-7, 0.5, 1.0),
+            Vec3::new(0.5, 0.5 + 1e-6, 0.9),
+            Vec3::new(1.0, 0.5, 0.5),
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.9, 0.1, 0.55),
+        ];
+        let mut r = Pcg32::new(14, 2);
+        let mut flat = 0;
+        for (geometry, tangent, colour) in cases {
+            let ms_table = colour.map(|c| table(geometry, tangent, c));
+            for evaluation in [Evaluation::Compensated, Evaluation::RandomWalk] {
+                let settings = MnmSettings {
+                    geometry,
+                    tangent,
+                    evaluation,
+                    max_order: 256,
+                    max_theta: MaxTilt::new(70f32.to_radians()),
+                    transmission_walk: TransmissionWalk::TwoSided,
+                    lambert_closed_form: true,
+                    ms_table,
+                };
+                for chunk in 0..200 {
+                    let rgb: [Vec3; 8] = std::array::from_fn(|k| {
+                        if chunk == 0 {
+                            special[k]
+                        } else {
+                            Vec3::new(r.next_f32(), r.next_f32(), r.next_f32())
+                        }
+                    });
+                    let lanes = avx.run(|| {
+                        let col = |c: usize| avx.load(&rgb.map(|v| v[c]));
+                        settings
+                            .lanes_at(V3::new(col(0), col(1), col(2)))
+                            .cols::<8>()
+                    });
+                    for (k, &rgb) in rgb.iter().enumerate() {
+                        let mut want = MicrofacetNormalMap::placeholder();
+                        settings.map_into(&mut want, 3, rgb);
+                        let mut got = MicrofacetNormalMap::placeholder();
+                        settings.map_lane_into(&mut got, 3, &lanes, k);
+                        assert_eq!(bits(&got), bits(&want), "{geometry:?} {evaluation:?} {rgb}");
+                        flat += want.degenerate as usize;
+                    }
+                }
+            }
+        }
+        assert!(flat >= 5 * 2 * 3, "the flat cases ran: {flat}");
     }
 }

@@ -192,6 +192,76 @@ impl MicrofacetNormalMap {
         }
     }
 
+    /// Whether the perturbed normal `wp` counts as unperturbed (the reference guard, §2.5).
+    #[inline(always)]
+    pub(crate) fn is_flat(wp: Vec3) -> bool {
+        wp.x.abs() < 1e-6 && wp.y.abs() < 1e-6
+    }
+
+    /// How many of a microgeometry's candidate facets may carry the nested BSDF and so get a
+    /// frame ([`facets::Candidates::new`]'s `framed`): the sawtooth's first facet only under
+    /// the mirror wall, else all.
+    #[inline(always)]
+    pub(crate) fn framed(geometry: Microgeometry, tangent: Tangent) -> usize {
+        if geometry == Microgeometry::Sawtooth && tangent == Tangent::Mirror {
+            1
+        } else {
+            MAX_FACETS
+        }
+    }
+
+    /// [`Self::new`] for lane `i` of `facets`, the candidates built for the perturbed normals
+    /// (per lane: +z where [`Self::is_flat`]) with [`Self::framed`] frames, stored
+    /// ([`facets::Candidates::cols`]); `wp`: lane `i`'s
+    /// perturbed normal. Several points' candidates are built at once by the stream
+    /// renderer's compensated kernel (the same map as [`Self::new`] bit for bit: `tests` of
+    /// `facets.rs`).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn of_lane<const W: usize>(
+        nested: u32,
+        wp: Vec3,
+        facets: &facets::FacetCols<W>,
+        i: usize,
+        geometry: Microgeometry,
+        tangent: Tangent,
+        evaluation: Evaluation,
+        max_order: u32,
+    ) -> Self {
+        let degenerate = Self::is_flat(wp);
+        let (surface, from) = Microsurface::of_lane(facets, i);
+        let mirror_wall =
+            geometry == Microgeometry::Sawtooth && tangent == Tangent::Mirror && surface.len() == 2;
+        let mut frames = [Frame::from_normal(Vec3::Z); MAX_FACETS];
+        // Only facets that carry the nested BSDF get a frame: the mirror wall is never queried
+        // in one (every nested query goes through `facet_bsdf.rs`, which never sees it), and
+        // its frame was a normalisation and a Gram–Schmidt step per hit for nothing.
+        let carrying = if mirror_wall { 1 } else { surface.len() };
+        for (k, f) in frames.iter_mut().enumerate().take(carrying) {
+            // Tangent along the shading frame's s (= dp/du), as Mitsuba's normalmap does.
+            *f = surface.frame_of_lane(facets, &from, i, k);
+        }
+        let mis_c =
+            matches!(evaluation, Evaluation::RandomWalk | Evaluation::Auto).then(|| mis_weight(wp));
+        MicrofacetNormalMap {
+            nested,
+            wp,
+            surface,
+            frames,
+            mirror_wall,
+            evaluation,
+            max_order: max_order.max(1),
+            degenerate,
+            mis_c,
+            transmission_walk: TransmissionWalk::TwoSided,
+            geometry: Some(geometry),
+            lambert_closed_form: true,
+            lambert: None,
+            ms: None,
+            blend: 1.0,
+        }
+    }
+
     /// Attach the remainder table of `evaluation = compensated` ([`ms_table`]; built for this
     /// nested BSDF, microgeometry, wall and `max_order`). Without a table (or for another
     /// evaluation) nothing changes: a compensated BSDF without one is the random walk.
@@ -224,6 +294,24 @@ impl MicrofacetNormalMap {
                 self.set_blend(t, beta);
             }
             _ => {}
+        }
+    }
+
+    /// [`Self::set_ms_table`] with ωp's θp cell `cell` (the table's
+    /// [`ms_table::MsTable::cell`] of ωp, found for several points at once): under
+    /// `evaluation = compensated` the table's reference in that cell, else `set_ms_table`.
+    #[inline(always)]
+    pub(crate) fn set_ms_table_in(
+        &mut self,
+        table: Option<&'static ms_table::MsTable>,
+        cell: ms_table::ThetaCell,
+    ) {
+        match (self.degenerate, self.evaluation) {
+            (true, _) => {}
+            (false, Evaluation::Compensated) => {
+                self.ms = table.map(|t| compensated::MsRef::in_cell(t, cell));
+            }
+            _ => self.set_ms_table(table),
         }
     }
 

@@ -218,6 +218,26 @@ pub struct ThetaCell {
     pub axis: Vec2,
 }
 
+/// [`ThetaCell`]s of several shading points (lanes): [`MsTable::cells`].
+#[derive(Clone, Copy, Debug)]
+pub struct ThetaCells<L: Lane> {
+    pub j: L::I32,
+    pub t: L,
+    pub axis: V2<L>,
+}
+
+impl<L: Lane> ThetaCells<L> {
+    /// The cell of lane `i`.
+    #[inline(always)]
+    pub fn lane(&self, i: usize) -> ThetaCell {
+        ThetaCell {
+            j: self.j.lane(i) as usize,
+            t: self.t.lane(i),
+            axis: Vec2::new(self.axis.x.lane(i), self.axis.y.lane(i)),
+        }
+    }
+}
+
 /// Interpolated node values at one direction, for the two θp nodes of a cell.
 #[derive(Clone, Copy, Debug)]
 pub struct Lookup {
@@ -412,6 +432,39 @@ impl MsTable {
         let t = ((c0 - c) / (c0 - c1)).clamp(0.0, 1.0);
         let axis = Vec2::new(wp.x, wp.y).normalize_or(Vec2::X);
         ThetaCell { j, t, axis }
+    }
+
+    /// [`Self::cell`] per lane, bit for bit (the stream renderer's per-hit build, 8 points at
+    /// once): the θp cells of the perturbed normals `wp` (not flat): the node j is the
+    /// number of leading nodes 1, 2, …, N_THETA − 2 with cos θp below theirs (the search that
+    /// stops at the first node it is not below: branch-free, the same j for any node order),
+    /// the weight t = (c_j − cos θp) / (c_j − c_{j+1}) clamped to [0, 1] (NaN stays NaN, as
+    /// `f32::clamp`), the azimuth as glam's `normalize_or(+x)` of `wp.xy`.
+    #[inline(always)]
+    pub fn cells<L: Lane>(&self, wp: V3<L>) -> ThetaCells<L> {
+        let c = wp.z;
+        let k = |x: f32| c.splat(x);
+        let (zero, one) = (c.to_bits().splat(0), c.to_bits().splat(1));
+        let mut below = c.lt(k(self.cos_theta[1]));
+        let mut j = L::I32::select(below, one, zero);
+        for &node in &self.cos_theta[2..N_THETA - 1] {
+            below = below & c.lt(k(node));
+            j = L::I32::select(below, j.add(one), j);
+        }
+        let (c0, c1) = (
+            L::gather(&self.cos_theta, j),
+            L::gather(&self.cos_theta, j.add(one)),
+        );
+        let t = (c0 - c) / (c0 - c1);
+        let t = L::select(t.lt(k(0.0)), k(0.0), t);
+        let t = L::select(t.gt(k(1.0)), k(1.0), t);
+        let rcp = k(1.0) / (wp.x * wp.x + wp.y * wp.y).sqrt();
+        let ok = rcp.is_finite() & rcp.gt(k(0.0));
+        let axis = V2::new(
+            L::select(ok, wp.x * rcp, k(1.0)),
+            L::select(ok, wp.y * rcp, k(0.0)),
+        );
+        ThetaCells { j, t, axis }
     }
 
     /// The four nodes around direction `w` (z > 0) at θp node `cell.j` (those at `cell.j + 1`

@@ -4,8 +4,9 @@
 //! leaf BSDF, 8 paths at a time, in the steps of the wrapper-chain driver ([`super::vertex`]):
 //! 1. the surface interactions gathered into SoA columns;
 //! 2. the BSDFs built at the hits, into one arena for the 8 points: where the chunk's nested
-//!    leaf is constant ([`shared_nested`]), [`build_shared`] (the leaf pushed once, per lane
-//!    the normal map's texture lookup, the microsurface and the table cell) and the 8
+//!    leaf is constant ([`shared_nested`]), [`build_shared`] (the leaf pushed once; the
+//!    perturbed normals, candidate facets, facet frames and table cells 8-wide, then each
+//!    point's map written from them) and the 8
 //!    incident-direction caches together (`compensated::lanes::with_incident_x8`: the table
 //!    lookups at ωi 8-wide), else lane by lane `Scene::bsdf_root` (the scalar code); then lane
 //!    by lane, in each path's order, the side test, the light selection and light point
@@ -21,8 +22,8 @@
 //!    go to the integrator's [`super::tail::Tail`] (`PathState::advance` for `path`, rays to
 //!    trace for `direct`).
 //!
-//! The per-hit build's texture lookup, microsurface, facet frames and entries, and the draws,
-//! still run per lane through the scalar code; every number is the scalar model's bit for bit
+//! The per-hit build's per-point write (facet compaction, the map itself), the entries and
+//! the draws still run per lane through the scalar code; every number is the scalar model's bit for bit
 //! (`compensated::lanes`' tests), so the image is the scalar renderer's (`docs/mnm.md`, "Issues
 //! 17/18: the compensated model in lanes (tenth session)" and "... the compensated build and
 //! sampler in lanes (eleventh session)").
@@ -30,6 +31,8 @@
 use crate::bsdf::mnm::Evaluation;
 use crate::bsdf::BsdfArena;
 use crate::geometry::SurfaceInteraction;
+use crate::lane::vec::V3;
+use crate::lane::{Lane, ToArray};
 use crate::material::{MatId, MaterialNode, Materials};
 use crate::scene::Scene;
 use crate::texture::Texture;
@@ -73,17 +76,26 @@ pub(crate) fn shared_nested(materials: &Materials, m: MatId) -> bool {
 /// [`qualifies`] and [`shared_nested`]) into `arena`, as `Materials::build_at` builds them but
 /// without the incident-direction cache, which `compensated::lanes::with_incident_x8` then adds
 /// for the 8 points at once; the leaf is pushed once for the chunk (a constant template: every
-/// hit's copy would be the same bit for bit). `rgb[k]`: the normal map texture's value at hit
-/// `k` (looked up by the caller, [`normal_texture`]). Returns the roots (`u32::MAX` for a lane
-/// whose hit is not given) and the ωi the cache is for (shading frame, as `Materials::build_at`
-/// computes it).
-pub(crate) fn build_shared(
+/// hit's copy would be the same bit for bit). `rgb`: the normal map texture's values at the
+/// hits (looked up by the caller, [`normal_texture`]); the maps' arithmetic (perturbed
+/// normals, microsurfaces, facet frames, θp cells) runs for the 8 lanes together
+/// (`MnmSettings::lanes_at`, at the width of `L`), then each hit's map is written
+/// (`MnmSettings::map_lane_into`: `map_into`'s map bit for bit). Returns the roots
+/// (`u32::MAX` for a lane whose hit is not given) and the ωi the cache is for (shading frame,
+/// as `Materials::build_at` computes it). Inlined into the kernel (inside `Avx2::run`, where
+/// the 8-wide operations are single instructions).
+#[inline(always)]
+pub(crate) fn build_shared<L>(
     scene: &Scene,
     m: MatId,
     si: &[Option<SurfaceInteraction>; 8],
-    rgb: &[Vec3; 8],
+    rgb: V3<L>,
     arena: &mut BsdfArena,
-) -> ([u32; 8], [Vec3; 8]) {
+) -> ([u32; 8], [Vec3; 8])
+where
+    L: Lane + ToArray<f32, 8>,
+    L::I32: ToArray<i32, 8>,
+{
     let materials = &scene.materials;
     let nodes = materials.nodes();
     let (mut roots, mut wi) = ([u32::MAX; 8], [Vec3::Z; 8]);
@@ -97,10 +109,11 @@ pub(crate) fn build_shared(
         return (roots, wi);
     };
     let child = arena.push_with_lobes(materials.lobes(*nested), **template);
+    let lanes = settings.lanes_at(rgb).cols::<8>();
     for (k, si) in si.iter().enumerate() {
         let Some(si) = si else { continue };
         roots[k] = arena.push_microfacet_normal_map_with(child, |m| {
-            settings.map_into(m, child, rgb[k]);
+            settings.map_lane_into(m, child, &lanes, k);
         });
         wi[k] = si.sh.to_local(si.wi);
     }
@@ -123,8 +136,8 @@ pub(crate) mod x8 {
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::{PathSettings, Strategy};
-    use crate::lane::vec::V2;
-    use crate::lane::Avx2;
+    use crate::lane::vec::{V2, V3};
+    use crate::lane::{Avx2, F32x8};
     use crate::scene::Scene;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::diffuse::light_out;
@@ -138,17 +151,17 @@ pub(crate) mod x8 {
     /// The normal map texture's values at the 8 hits `si` of material `m`, as
     /// `Materials::build_at` looks it up (`Texture::eval` at the hit's uv, or its mesh data):
     /// a bitmap at the 8 uvs at once (`BitmapTexture::eval_x8`, bit for bit `eval`), another
-    /// texture lane by lane. Lanes without a hit are left 0.
+    /// texture lane by lane. Lanes without a hit hold any value (they are not built).
     #[inline(always)]
     fn normal_rgb(
         avx: Avx2,
         scene: &Scene,
         m: crate::material::MatId,
         si: &[Option<SurfaceInteraction>; 8],
-    ) -> [Vec3; 8] {
-        let mut rgb = [Vec3::ZERO; 8];
+    ) -> V3<F32x8> {
+        let zero = avx.splat(0.0);
         let Some(tex) = super::normal_texture(scene, m) else {
-            return rgb;
+            return V3::new(zero, zero, zero);
         };
         if let Texture::Bitmap(bt) = tex {
             let (mut u, mut v) = ([0.0f32; 8], [0.0f32; 8]);
@@ -157,20 +170,16 @@ pub(crate) mod x8 {
                     (u[k], v[k]) = (si.uv.x, si.uv.y);
                 }
             }
-            let c = Cols3::store(bt.eval_x8(avx, V2::new(avx.load(&u), avx.load(&v))));
-            for (k, si) in si.iter().enumerate() {
-                if si.is_some() {
-                    rgb[k] = c.get(k);
-                }
-            }
+            bt.eval_x8(avx, V2::new(avx.load(&u), avx.load(&v)))
         } else {
+            let mut rgb = Cols3::default();
             for (k, si) in si.iter().enumerate() {
                 if let Some(si) = si {
-                    rgb[k] = reflectance(scene, tex, si);
+                    rgb.set(k, reflectance(scene, tex, si));
                 }
             }
+            rgb.load(avx)
         }
-        rgb
     }
 
     /// The BSDF built at `si` in step 2 (root `root` of `arena`), whose side test passed.
@@ -217,7 +226,7 @@ pub(crate) mod x8 {
             let sis = ids.map(|i| Some(si_of(b, i)));
             let rgb = normal_rgb(avx, scene, m0, &sis);
             let wi;
-            (built, wi) = super::build_shared(scene, m0, &sis, &rgb, arena);
+            (built, wi) = super::build_shared(scene, m0, &sis, rgb, arena);
             with_incident_x8(arena, &built, &wi);
         }
         let mut root = [u32::MAX; 8];
