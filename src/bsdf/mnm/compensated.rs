@@ -55,17 +55,7 @@ impl MsRef {
     /// `wp`: the (clamped, not flat) perturbed normal.
     #[inline(always)]
     pub fn new(table: &'static MsTable, wp: Vec3) -> MsRef {
-        let cell = table.cell(wp);
-        let baked_norm = (table.spec.colour == Colour::Baked).then(|| {
-            let m = table.mean_baked(&cell);
-            Vec3::new(inv(m.x), inv(m.y), inv(m.z)) * INV_PI
-        });
-        MsRef {
-            table,
-            cell,
-            baked_norm,
-            at: None,
-        }
+        Self::in_cell(table, table.cell(wp))
     }
 
     /// [`Self::new`] with ωp's cell already found ([`MsTable::cells`], several points at once).
@@ -927,7 +917,6 @@ impl MicrofacetNormalMap {
 mod tests {
     use super::super::explicit;
     use super::super::facets::Microgeometry;
-    use super::super::ms_table::{TableSpec, WALKS_PER_NODE};
     use super::super::{Evaluation, Tangent};
     use super::*;
     use crate::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
@@ -953,16 +942,8 @@ mod tests {
             (Microgeometry::Sawtooth, Tangent::Mirror),
             (Microgeometry::VGroove, Tangent::Same),
         ] {
-            let spec = TableSpec {
-                geometry,
-                tangent,
-                max_order: 256,
-                max_theta: 85f32.to_radians(),
-                colour: super::super::ms_table::Colour::PerBounce,
-                walks: WALKS_PER_NODE,
-            };
-            let table: &'static MsTable =
-                Box::leak(Box::new(MsTable::lambert(spec, "unit".into())));
+            let table =
+                MsTable::unit_lambert(geometry, tangent, super::super::ms_table::Colour::PerBounce);
             let (mut walls, mut checked) = (0, 0);
             for _ in 0..2000 {
                 let wp = warp::square_to_uniform_cone(s.next_2d(), 70f32.to_radians().cos());

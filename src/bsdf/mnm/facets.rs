@@ -617,7 +617,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn per_hit_build_in_lanes_equals_the_scalar_build_bit_for_bit() {
-        use super::super::ms_table::{Colour, MsTable, TableSpec, WALKS_PER_NODE};
+        use super::super::ms_table::{Colour, MsTable};
         use super::super::{Evaluation, MicrofacetNormalMap, Tangent, TransmissionWalk};
         use crate::lane::vec::V3;
         use crate::lane::Avx2;
@@ -650,17 +650,6 @@ mod tests {
             }
             b
         }
-        let table = |geometry, tangent, colour| -> &'static MsTable {
-            let spec = TableSpec {
-                geometry,
-                tangent,
-                max_order: 256,
-                max_theta: 85f32.to_radians(),
-                colour,
-                walks: WALKS_PER_NODE,
-            };
-            Box::leak(Box::new(MsTable::lambert(spec, "unit".into())))
-        };
         let cases = [
             (
                 Microgeometry::Sawtooth,
@@ -689,7 +678,7 @@ mod tests {
         let mut r = Pcg32::new(14, 2);
         let mut flat = 0;
         for (geometry, tangent, colour) in cases {
-            let ms_table = colour.map(|c| table(geometry, tangent, c));
+            let ms_table = colour.map(|c| MsTable::unit_lambert(geometry, tangent, c));
             for evaluation in [Evaluation::Compensated, Evaluation::RandomWalk] {
                 let settings = MnmSettings {
                     geometry,

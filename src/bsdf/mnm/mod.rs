@@ -158,8 +158,37 @@ impl MicrofacetNormalMap {
         max_order: u32,
     ) -> Self {
         // Reference guard (§2.5): no perturbation → the nested BSDF in the macro frame.
-        let degenerate = wp.x.abs() < 1e-6 && wp.y.abs() < 1e-6;
+        let degenerate = Self::is_flat(wp);
         let surface = Microsurface::new(geometry, if degenerate { Vec3::Z } else { wp });
+        Self::assemble(
+            nested,
+            wp,
+            degenerate,
+            surface,
+            geometry,
+            tangent,
+            evaluation,
+            max_order,
+            // Tangent along the shading frame's s (= dp/du), as Mitsuba's normalmap does.
+            |surface, k| Frame::from_normal_tangent(surface.normal(k), Vec3::X),
+        )
+    }
+
+    /// The map of [`Self::new`] and [`Self::of_lane`] from its microsurface; `frame(surface,
+    /// k)`: facet `k`'s frame.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn assemble(
+        nested: u32,
+        wp: Vec3,
+        degenerate: bool,
+        surface: Microsurface,
+        geometry: Microgeometry,
+        tangent: Tangent,
+        evaluation: Evaluation,
+        max_order: u32,
+        mut frame: impl FnMut(&Microsurface, usize) -> Frame,
+    ) -> Self {
         let mirror_wall =
             geometry == Microgeometry::Sawtooth && tangent == Tangent::Mirror && surface.len() == 2;
         let mut frames = [Frame::from_normal(Vec3::Z); MAX_FACETS];
@@ -168,8 +197,7 @@ impl MicrofacetNormalMap {
         // its frame was a normalisation and a Gram–Schmidt step per hit for nothing.
         let carrying = if mirror_wall { 1 } else { surface.len() };
         for (k, f) in frames.iter_mut().enumerate().take(carrying) {
-            // Tangent along the shading frame's s (= dp/du), as Mitsuba's normalmap does.
-            *f = Frame::from_normal_tangent(surface.normal(k), Vec3::X);
+            *f = frame(&surface, k);
         }
         let mis_c =
             matches!(evaluation, Evaluation::RandomWalk | Evaluation::Auto).then(|| mis_weight(wp));
@@ -230,36 +258,17 @@ impl MicrofacetNormalMap {
     ) -> Self {
         let degenerate = Self::is_flat(wp);
         let (surface, from) = Microsurface::of_lane(facets, i);
-        let mirror_wall =
-            geometry == Microgeometry::Sawtooth && tangent == Tangent::Mirror && surface.len() == 2;
-        let mut frames = [Frame::from_normal(Vec3::Z); MAX_FACETS];
-        // Only facets that carry the nested BSDF get a frame: the mirror wall is never queried
-        // in one (every nested query goes through `facet_bsdf.rs`, which never sees it), and
-        // its frame was a normalisation and a Gram–Schmidt step per hit for nothing.
-        let carrying = if mirror_wall { 1 } else { surface.len() };
-        for (k, f) in frames.iter_mut().enumerate().take(carrying) {
-            // Tangent along the shading frame's s (= dp/du), as Mitsuba's normalmap does.
-            *f = surface.frame_of_lane(facets, &from, i, k);
-        }
-        let mis_c =
-            matches!(evaluation, Evaluation::RandomWalk | Evaluation::Auto).then(|| mis_weight(wp));
-        MicrofacetNormalMap {
+        Self::assemble(
             nested,
             wp,
-            surface,
-            frames,
-            mirror_wall,
-            evaluation,
-            max_order: max_order.max(1),
             degenerate,
-            mis_c,
-            transmission_walk: TransmissionWalk::TwoSided,
-            geometry: Some(geometry),
-            lambert_closed_form: true,
-            lambert: None,
-            ms: None,
-            blend: 1.0,
-        }
+            surface,
+            geometry,
+            tangent,
+            evaluation,
+            max_order,
+            |surface, k| surface.frame_of_lane(facets, &from, i, k),
+        )
     }
 
     /// Attach the remainder table of `evaluation = compensated` ([`ms_table`]; built for this

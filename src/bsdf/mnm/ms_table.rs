@@ -794,6 +794,25 @@ impl MsTable {
         Self::finish(key, spec, w, &beyond4, t0.elapsed().as_secs_f32())
     }
 
+    /// The tests' exact Lambert table (instant to build): `max_order` 256, `max_theta` 85°,
+    /// leaked so that maps can hold it as a `&'static` as the scene's tables are.
+    #[cfg(test)]
+    pub(crate) fn unit_lambert(
+        geometry: Microgeometry,
+        tangent: Tangent,
+        colour: Colour,
+    ) -> &'static MsTable {
+        let spec = TableSpec {
+            geometry,
+            tangent,
+            max_order: 256,
+            max_theta: 85f32.to_radians(),
+            colour,
+            walks: WALKS_PER_NODE,
+        };
+        Box::leak(Box::new(MsTable::lambert(spec, "unit".into())))
+    }
+
     /// The exact table over a white Lambertian nested BSDF (colour per bounce at run time):
     /// W_n(ω) = Σ_j λ_j(ω) [Q^{n−1} e]_j for the facet chain (`lambert.rs`), which for the
     /// mirror sawtooth (every path through p, return probability q = 1 − cos θp) is

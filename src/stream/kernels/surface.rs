@@ -508,7 +508,7 @@ pub(crate) mod x8 {
     fn rectangles(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
         let mut m = Meta::default();
         let x = ray_points(avx, st, &ids, &mut m);
-        if let Some(g) = m.one_shape() {
+        let rect = if let Some(g) = m.one_shape() {
             let Form::Rectangle(r) = &st.forms[g] else {
                 unreachable!("a rectangle's chunk holds rectangles only");
             };
@@ -524,42 +524,40 @@ pub(crate) mod x8 {
                 splat3(avx, dpdu),
                 splat3(avx, dpdv),
             );
-            let rect = sl::Rectangle {
+            sl::Rectangle {
                 to_object: cols(to_object),
                 to_world: cols(to_world),
                 ng,
                 n: nrm,
                 dpdu,
                 dpdv,
-            };
-            let s = sl::rectangle(&rect, x);
-            store(avx, st, &ids, n, &s, &m);
-            return;
-        }
-        let (mut o, mut w) = ([Cols3::default(); 4], [Cols3::default(); 4]);
-        let mut k4 = [Cols3::default(); 4];
-        for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
-                continue;
-            };
-            let Form::Rectangle(r) = &st.forms[h.geom as usize] else {
-                unreachable!("a rectangle's chunk holds rectangles only");
-            };
-            let (to_object, to_world, consts) = &**r;
-            for j in 0..4 {
-                o[j].set(k, to_object.col(j).truncate());
-                w[j].set(k, to_world.col(j).truncate());
-                k4[j].set(k, consts[j]);
             }
-        }
-        let [ng, nrm, dpdu, dpdv] = load4(avx, &k4);
-        let rect = sl::Rectangle {
-            to_object: load4(avx, &o),
-            to_world: load4(avx, &w),
-            ng,
-            n: nrm,
-            dpdu,
-            dpdv,
+        } else {
+            let (mut o, mut w) = ([Cols3::default(); 4], [Cols3::default(); 4]);
+            let mut k4 = [Cols3::default(); 4];
+            for (k, &i) in ids.iter().enumerate() {
+                let Some(h) = st.hit[i as usize] else {
+                    continue;
+                };
+                let Form::Rectangle(r) = &st.forms[h.geom as usize] else {
+                    unreachable!("a rectangle's chunk holds rectangles only");
+                };
+                let (to_object, to_world, consts) = &**r;
+                for j in 0..4 {
+                    o[j].set(k, to_object.col(j).truncate());
+                    w[j].set(k, to_world.col(j).truncate());
+                    k4[j].set(k, consts[j]);
+                }
+            }
+            let [ng, nrm, dpdu, dpdv] = load4(avx, &k4);
+            sl::Rectangle {
+                to_object: load4(avx, &o),
+                to_world: load4(avx, &w),
+                ng,
+                n: nrm,
+                dpdu,
+                dpdv,
+            }
         };
         let s = sl::rectangle(&rect, x);
         store(avx, st, &ids, n, &s, &m);

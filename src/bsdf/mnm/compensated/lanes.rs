@@ -321,7 +321,7 @@ pub(crate) fn sample_x8(
 #[cfg(test)]
 mod tests {
     use super::super::super::facets::Microgeometry;
-    use super::super::super::ms_table::{Colour, MsTable, TableSpec, WALKS_PER_NODE};
+    use super::super::super::ms_table::{Colour, MsTable};
     use super::super::super::{Evaluation, Tangent};
     use super::*;
     use crate::bsdf::lanes::testing::{direction, same, same3};
@@ -330,15 +330,7 @@ mod tests {
 
     /// An exact Lambert table (instant) of the tests' settings.
     fn unit_table(geometry: Microgeometry, tangent: Tangent, colour: Colour) -> &'static MsTable {
-        let spec = TableSpec {
-            geometry,
-            tangent,
-            max_order: 256,
-            max_theta: 85f32.to_radians(),
-            colour,
-            walks: WALKS_PER_NODE,
-        };
-        Box::leak(Box::new(MsTable::lambert(spec, "unit".into())))
+        MsTable::unit_lambert(geometry, tangent, colour)
     }
 
     /// The ωi caches built 8 at a time in place ([`with_incident_x8`]) equal
