@@ -198,22 +198,28 @@ fn config() -> Criterion {
 // session, h7): groups `lane16/<kernel>` with `w8` and `w16` over the same N elements, 6 SoA
 // input arrays in [0.01, 1), each kernel mapping them to its domain.
 
-/// `out = f(x)` over chunks of `W` lanes of the SoA arrays `x` (N a multiple of 16).
-#[inline(always)]
-fn soa_w<L: Lane, const W: usize>(
-    x: &[Vec<f32>],
-    out: &mut [f32],
-    load: impl Fn(&[f32; W]) -> L,
-    store: impl Fn(L, &mut [f32; W]),
-    f: impl Fn([L; 6]) -> L,
-) {
-    for (i, o) in out.chunks_exact_mut(W).enumerate() {
-        let v: [L; 6] = std::array::from_fn(
-            #[inline(always)]
-            |k| load(x[k][W * i..W * i + W].try_into().expect("W")),
-        );
-        store(f(v), o.try_into().expect("W"));
-    }
+/// `out = f(x)` over chunks of `W` lanes of the SoA arrays `x` (N a multiple of 16), with
+/// `tok` the width's token (its `load`). A macro, not a function taking closures: a closure or
+/// function item passed as `impl Fn` is called through a `Fn::call` shim that LLVM may leave out
+/// of line, and the shim is compiled without the SIMD function's target features, so every
+/// intrinsic in it became a call (the 8-wide warps ran ~90x slower than the 16-wide ones until
+/// this was a macro; `array::from_fn` has the same trap).
+macro_rules! soa_w {
+    ($w:literal, $tok:expr, $x:expr, $out:expr, $f:path) => {{
+        let (x, tok) = ($x, $tok);
+        for (i, o) in $out.chunks_exact_mut($w).enumerate() {
+            let at = |k: usize| -> &[f32; $w] { x[k][$w * i..$w * i + $w].try_into().expect("W") };
+            let v = [
+                tok.load(at(0)),
+                tok.load(at(1)),
+                tok.load(at(2)),
+                tok.load(at(3)),
+                tok.load(at(4)),
+                tok.load(at(5)),
+            ];
+            $f(v).store(o.try_into().expect("W"));
+        }
+    }};
 }
 
 #[inline(always)]
@@ -282,17 +288,7 @@ fn bench_wide(c: &mut Criterion) {
                     b.iter(|| {
                         a8.run(
                             #[inline(always)]
-                            || {
-                                soa_w::<F32x8, 8>(
-                                    black_box(&x),
-                                    &mut out,
-                                    #[inline(always)]
-                                    |a| a8.load(a),
-                                    #[inline(always)]
-                                    |v, o| v.store(o),
-                                    $f,
-                                )
-                            },
+                            || soa_w!(8, a8, black_box(&x), &mut out, $f::<F32x8>),
                         )
                     })
                 });
@@ -300,17 +296,7 @@ fn bench_wide(c: &mut Criterion) {
                     b.iter(|| {
                         a16.run(
                             #[inline(always)]
-                            || {
-                                soa_w::<F32x16, 16>(
-                                    black_box(&x),
-                                    &mut out,
-                                    #[inline(always)]
-                                    |a| a16.load(a),
-                                    #[inline(always)]
-                                    |v, o| v.store(o),
-                                    $f,
-                                )
-                            },
+                            || soa_w!(16, a16, black_box(&x), &mut out, $f::<F32x16>),
                         )
                     })
                 });
