@@ -301,7 +301,12 @@ pub(crate) mod x8 {
 
         // 3. The kernel.
         let (rho8, spec8) = (rho.load(avx), spec.load(avx));
-        let lo = lp.map(|lp| light(&mat.coating, &surf, wi, rho8, spec8, tp.load(avx), &lp));
+        // A `match`, not `Option::map`: the closure would be compiled out of line without the
+        // lanes' target features, and every intrinsic in `light` would become a call.
+        let lo = match lp {
+            Some(lp) => Some(light(&mat.coating, &surf, wi, rho8, spec8, tp.load(avx), &lp)),
+            None => None,
+        };
         let u2 = V2::new(avx.load(&num.u2[0]), avx.load(&num.u2[1]));
         let so = sample(&mat.coating, &surf, wi, rho8, spec8, avx.load(&num.u1), u2);
 
