@@ -3,7 +3,7 @@
 //! links of README.md and docs/ resolve inside the repository; module `bench`: `groove bench` on
 //! two tiny scenes and its JSON schema; module `split`: split renders
 //! (`--crop`, `--tile`, `--samples`, `--time-limit`) merged by `groove merge`, bit for bit; module `slurm` (as root only: a
-//! private Slurm): the Slurm recipe end to end; module `renderer`: `--renderer scalar|stream`; module `node_loss` (ignored, slow): a node lost
+//! private Slurm): the Slurm recipe end to end; module `renderer`: `--renderer scalar|stream`; module `simd_calls`: no SIMD intrinsic called out of line in the release binary; module `node_loss` (ignored, slow): a node lost
 //! under a `--requeue` task.
 
 #[path = "cli/bench.rs"]
@@ -16,6 +16,8 @@ mod hostile;
 mod node_loss;
 #[path = "cli/renderer.rs"]
 mod renderer;
+#[path = "cli/simd_calls.rs"]
+mod simd_calls;
 #[path = "cli/slurm.rs"]
 mod slurm;
 #[path = "cli/split.rs"]

@@ -304,7 +304,15 @@ pub(crate) mod x8 {
         // A `match`, not `Option::map`: the closure would be compiled out of line without the
         // lanes' target features, and every intrinsic in `light` would become a call.
         let lo = match lp {
-            Some(lp) => Some(light(&mat.coating, &surf, wi, rho8, spec8, tp.load(avx), &lp)),
+            Some(lp) => Some(light(
+                &mat.coating,
+                &surf,
+                wi,
+                rho8,
+                spec8,
+                tp.load(avx),
+                &lp,
+            )),
             None => None,
         };
         let u2 = V2::new(avx.load(&num.u2[0]), avx.load(&num.u2[1]));
