@@ -10,6 +10,12 @@
 //! lobe, first-order entry, mirror wall), its nested samples of all 8 points in one 8-wide call
 //! of the nested BSDF's lane form ([`sample`]).
 //!
+//! Over the mirror sawtooth (every point of the call), the whole first order at ωo runs in
+//! lanes, one lane per point ([`first`], instead of `Collected` and the batch): G1, the wall
+//! exit, the four nested paths and their sums, from the points' facets, frames and entries
+//! copied once into columns, in the scalar code's operations and order (bit for bit: `tests`
+//! and `first`'s own).
+//!
 //! The points of one call must share their nested BSDF's parameters bit for bit (the batch
 //! evaluates with the first point's): the stream kernel groups them so (a material whose
 //! nested leaf has no textured parameter).
