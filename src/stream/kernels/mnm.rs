@@ -22,8 +22,11 @@
 //!    go to the integrator's [`super::tail::Tail`] (`PathState::advance` for `path`, rays to
 //!    trace for `direct`).
 //!
-//! The per-hit build's per-point write (facet compaction, the map itself), the entries and
-//! the draws still run per lane through the scalar code; every number is the scalar model's bit for bit
+//! Over the mirror sawtooth the first orders of steps 3 and 4 run in lanes too
+//! (`compensated::lanes`' `first`); each point's `Point` is found once for both steps. The
+//! per-hit build's per-point write (facet compaction, the map itself), the entries, the
+//! per-point ωi state and the draws still run per lane through the scalar code; every number
+//! is the scalar model's bit for bit
 //! (`compensated::lanes`' tests), so the image is the scalar renderer's (`docs/mnm.md`, "Issues
 //! 17/18: the compensated model in lanes (tenth session)" and "... the compensated build and
 //! sampler in lanes (eleventh session)").
@@ -256,13 +259,22 @@ pub(crate) mod x8 {
             }
         }
 
+        // The compensated model's points (where the nested leaf is shared), for steps 3 and 4.
+        let mut pts = [None; 8];
+        for (k, &i) in ids.iter().enumerate() {
+            if shared && root[k] != u32::MAX {
+                let (local, wi) = bsdf(arena, root[k], &si_of(b, i)).local();
+                pts[k] = Point::of(local, wi);
+            }
+        }
+
         // 3. Next-event estimation: the BSDF toward the light points lane by lane (where a
         //    point was sampled, as `nee::prepare_light`), the rest 8-wide.
         if nee.contains(&true) {
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
             let (some, d) = (lp.some.to_array(), Cols3::store(lp.d));
             let (mut f, mut pdf, mut consistent) = (Cols3::default(), [0.0f32; 8], [false; 8]);
-            let (mut pts, mut wo) = ([None; 8], [Vec3::ZERO; 8]);
+            let (mut lit, mut wo) = ([None; 8], [Vec3::ZERO; 8]);
             for (k, &i) in ids.iter().enumerate() {
                 if !(nee[k] && some[k]) {
                     continue;
@@ -274,18 +286,18 @@ pub(crate) mod x8 {
                     continue; // `SurfaceBsdf::eval_pdf`'s side test
                 };
                 consistent[k] = true;
-                let (local, wi) = s.local();
-                pts[k] = shared.then(|| Point::of(local, wi)).flatten();
-                if pts[k].is_some() {
+                lit[k] = pts[k];
+                if lit[k].is_some() {
                     wo[k] = wo_k; // evaluated below with the other points
                 } else {
+                    let (local, wi) = s.local();
                     let (fk, pk) = local.eval_pdf(&ctx, wi, wo_k, &mut b.sampler[i]);
                     f.set(k, fk);
                     pdf[k] = pk;
                 }
             }
-            for (k, (fk, pk)) in eval_pdf_x8(&ctx, &pts, &wo).into_iter().enumerate() {
-                if pts[k].is_some() {
+            for (k, (fk, pk)) in eval_pdf_x8(&ctx, &lit, &wo).into_iter().enumerate() {
+                if lit[k].is_some() {
                     f.set(k, fk);
                     pdf[k] = pk;
                 }
@@ -316,13 +328,6 @@ pub(crate) mod x8 {
         // 4. The BSDF samples (the compensated model's points together, their first orders'
         //    nested evaluations 8-wide; the others lane by lane) and the next rays, lane by
         //    lane, to the tail (for `path`, `PathState::scatter`'s end).
-        let mut pts = [None; 8];
-        for (k, &i) in ids.iter().enumerate() {
-            if shared && root[k] != u32::MAX {
-                let (local, wi) = bsdf(arena, root[k], &si_of(b, i)).local();
-                pts[k] = Point::of(local, wi);
-            }
-        }
         let sampled = sample_x8(&ctx, &pts, &mut b.sampler, ids);
         for (k, &i) in ids.iter().enumerate() {
             if root[k] == u32::MAX {

@@ -10,12 +10,19 @@
 //! lobe, first-order entry, mirror wall), its nested samples of all 8 points in one 8-wide call
 //! of the nested BSDF's lane form ([`sample`]).
 //!
+//! Over the mirror sawtooth (every point of the call), the whole first order at ωo runs in
+//! lanes, one lane per point ([`first`], instead of `Collected` and the batch): G1, the wall
+//! exit, the four nested paths and their sums, from the points' facets, frames and entries
+//! copied once into columns, in the scalar code's operations and order (bit for bit: `tests`
+//! and `first`'s own).
+//!
 //! The points of one call must share their nested BSDF's parameters bit for bit (the batch
 //! evaluates with the first point's): the stream kernel groups them so (a material whose
 //! nested leaf has no textured parameter).
 
 use super::super::ms_table::{Lookups8, MsTable};
 use super::super::nested_batch::{Pairs, CHUNK};
+mod first;
 mod sample;
 
 use super::{
@@ -155,6 +162,17 @@ pub(crate) fn with_incident_x8(arena: &mut BsdfArena, roots: &[u32; 8], wi: &[Ve
     }
 }
 
+/// Whether every point is over the mirror sawtooth (then their first orders run in lanes,
+/// [`first::Mirror8`]).
+#[inline(always)]
+fn all_mirror(pts: &[Option<Point>; 8]) -> bool {
+    let mut all = true;
+    for pt in pts.iter().flatten() {
+        all &= pt.m.mirror_wall;
+    }
+    all
+}
+
 /// The nested BSDF every pending point shares (the first one's).
 fn shared<'a>(pts: &[Option<Point<'a>>; 8]) -> Option<Bsdf<'a>> {
     pts.iter().flatten().next().map(|p| p.nested)
@@ -173,6 +191,10 @@ pub(crate) fn eval_pdf_x8(
     let Some(nested) = shared(pts) else {
         return out;
     };
+    // Over the mirror sawtooth the first orders run in lanes ([`first`]), else each point's
+    // nested pairs go to one batch.
+    let mirror = all_mirror(pts);
+    let mut lanes = first::Mirror8::new();
     let mut pairs = Pairs::<CHUNK>::new();
     let mut st = States::new();
     for (k, pt) in pts.iter().enumerate() {
@@ -184,24 +206,65 @@ pub(crate) fn eval_pdf_x8(
         let at = pt.r.at(wi);
         st.at[k] = AtWi::new(pt.r, &pt.nested, wi, at);
         st.e[k] = entries(pt.m, at, wi);
-        st.c[k] = Collected::new(pt.m, &st.e[k], wo, None, &mut pairs);
+        if mirror {
+            lanes.push(k, pt.m, &st.e[k], wo, None);
+        } else {
+            st.c[k] = Collected::new(pt.m, &st.e[k], wo, None, &mut pairs);
+        }
         st.wo[k] = wo;
         st.live |= 1 << k;
     }
-    let ev = Nested::of(&nested)
-        .lanes(&pairs)
-        .expect("a point's nested BSDF has a lane form");
+    let kind = Nested::of(&nested);
+    let fo = first_orders(kind, mirror, &lanes, &pairs, &st, None);
     let rem = remainders(&st, pts);
     for (k, o) in out.iter_mut().enumerate() {
         if !st.is_live(k) {
             continue;
         }
-        let fo = st.c[k].sum::<false, CHUNK>(&st.e[k], None, &ev);
+        let (f, p) = fo[k];
         let a = &st.at[k];
         *o = (
-            fo.f + rem[k],
-            (1.0 - a.select) * fo.p + a.select * st.wo[k].z * INV_PI,
+            f + rem[k],
+            (1.0 - a.select) * p + a.select * st.wo[k].z * INV_PI,
         );
+    }
+    out
+}
+
+/// The first order (f1·z(ωo), p1) of each live point of `st`: over the mirror sawtooth from
+/// `lanes` ([`first::Mirror8::eval`]), else from the points' `Collected` and their nested
+/// `pairs` (`Collected::sum`), with the drawn paths' `known` terms (sampling).
+#[inline(always)]
+fn first_orders(
+    kind: Nested,
+    mirror: bool,
+    lanes: &first::Mirror8,
+    pairs: &Pairs<CHUNK>,
+    st: &States,
+    known: Option<&[Option<Known>; 8]>,
+) -> [(Spectrum, f32); 8] {
+    let mut out = [(Spectrum::ZERO, 0.0); 8];
+    if mirror {
+        let fo = lanes.eval(kind);
+        for (k, o) in out.iter_mut().enumerate() {
+            if st.is_live(k) {
+                *o = fo.get(k);
+            }
+        }
+        return out;
+    }
+    let ev = kind
+        .lanes(pairs)
+        .expect("a point's nested BSDF has a lane form");
+    for (k, o) in out.iter_mut().enumerate() {
+        if st.is_live(k) {
+            let kn = match known {
+                Some(kn) => kn[k],
+                None => None,
+            };
+            let fo = st.c[k].sum::<false, CHUNK>(&st.e[k], kn, &ev);
+            *o = (fo.f, fo.p);
+        }
     }
     out
 }
@@ -278,7 +341,10 @@ pub(crate) fn sample_x8(
             drawn |= 1 << k;
         }
     }
-    // The first orders at the sampled directions, their nested pairs in one batch.
+    // The first orders at the sampled directions: in lanes over the mirror sawtooth, else
+    // their nested pairs in one batch.
+    let mirror = all_mirror(pts);
+    let mut lanes = first::Mirror8::new();
     let mut pairs = Pairs::<CHUNK>::new();
     for (k, pt) in pts.iter().enumerate() {
         let Some(pt) = pt.as_ref().filter(|_| drawn & (1 << k) != 0) else {
@@ -288,28 +354,30 @@ pub(crate) fn sample_x8(
             continue;
         }
         st.known[k] = st.known[k].filter(|_| exact);
-        st.c[k] = Collected::new(pt.m, &st.e[k], st.wo[k], st.known[k], &mut pairs);
+        if mirror {
+            lanes.push(k, pt.m, &st.e[k], st.wo[k], st.known[k]);
+        } else {
+            st.c[k] = Collected::new(pt.m, &st.e[k], st.wo[k], st.known[k], &mut pairs);
+        }
         st.live |= 1 << k;
     }
-    let ev = kind
-        .lanes(&pairs)
-        .expect("a point's nested BSDF has a lane form");
+    let fo = first_orders(kind, mirror, &lanes, &pairs, &st, Some(&st.known));
     let rem = remainders(&st, pts);
     for (k, pt) in pts.iter().enumerate() {
         let Some(pt) = pt.as_ref().filter(|_| st.is_live(k)) else {
             continue;
         };
-        let fo = st.c[k].sum::<false, CHUNK>(&st.e[k], st.known[k], &ev);
+        let (f, p) = fo[k];
         let a = &st.at[k];
         let wo = st.wo[k];
-        let pdf = (1.0 - a.select) * fo.p + a.select * wo.z * INV_PI;
+        let pdf = (1.0 - a.select) * p + a.select * wo.z * INV_PI;
         if !(pdf.is_finite() && pdf > 0.0) {
             continue;
         }
         let bs = BsdfSample {
             wo,
             pdf,
-            weight: (fo.f + rem[k]) / pdf,
+            weight: (f + rem[k]) / pdf,
             eta: 1.0,
             lobe: super::super::explicit::lobe_of(pt.nested.lobes()),
         };

@@ -1,0 +1,392 @@
+//! The compensated model's first order over the mirror sawtooth at up to 8 shading points in
+//! lanes (issue 18): what `Collected::new`, the nested batch and `Collected::sum::<false>` of
+//! `compensated.rs` compute per point — G1(ωo), ωo in the facet frame, the wall exit (R(ωo),
+//! 1 − G1(R(ωo))), the nested BSDF's four paths per point ([p] and [t,p] from each of the two
+//! entries) and their weighted sums — computed for the 8 points together, one lane per point,
+//! from the points' microsurfaces, facet frames and entries copied once into [`Mirror8`].
+//!
+//! Bit for bit the scalar first order: every lane runs the scalar code's operations in its
+//! order (the same dot products, the same sums, term by term, with a missing entry or wall exit
+//! skipped by a select where the scalar code skips the addition; a known term, the sample
+//! record's, taken instead of the evaluated one), and the nested values come from the lane
+//! form the scalar path's batch calls (the lane rule of [`crate::lane`]: a lane's values do not
+//! depend on its neighbours). Paths that no lane needs are not evaluated (a horizontal test
+//! whose both branches give the same bits). Under the [`Avx2`] token 8-wide, else lane by lane
+//! at width 1 (the same source). Tested against the scalar model by `super::tests` (every
+//! mirror-sawtooth point of the chunk tests goes through here) and width 1 against width 8
+//! (`tests`).
+
+use super::super::super::nested_batch::LaneNested;
+use super::super::{Entries, Known, Nested};
+use crate::bsdf::mnm::MicrofacetNormalMap;
+use crate::lane::frame::Frame as LaneFrame;
+use crate::lane::vec::V3;
+#[cfg(target_arch = "x86_64")]
+use crate::lane::{Avx2, F32x8};
+use crate::lane::{Lane, LaneMask};
+use crate::spectrum::Spectrum;
+use glam::Vec3;
+
+/// Entries per point over the mirror sawtooth: facet 0 directly and through the wall.
+const ENTRIES: usize = 2;
+
+/// The first-order inputs of up to 8 mirror-sawtooth points, by lane (`[component][lane]`):
+/// the microsurface (area vectors of the facet and the wall, the wall's normal), the facet's
+/// frame, the entries at ωi (weight, direction in the facet frame, and 1 where the entry
+/// exists), ωo, and the known term (its path `2 j + wall`, −1 for none). Unused lanes hold
+/// finite placeholders whose results are never read.
+pub(in crate::bsdf::mnm::compensated) struct Mirror8 {
+    v0: [[f32; 8]; 3],
+    v1: [[f32; 8]; 3],
+    n1: [[f32; 8]; 3],
+    /// s, t, n of facet 0's frame.
+    fr: [[[f32; 8]; 3]; 3],
+    w: [[f32; 8]; ENTRIES],
+    a: [[[f32; 8]; 3]; ENTRIES],
+    has: [[f32; 8]; ENTRIES],
+    wo: [[f32; 8]; 3],
+    ks: [f32; 8],
+    kf: [[f32; 8]; 3],
+    kp: [f32; 8],
+    used: u8,
+}
+
+/// [`Mirror8::eval`]'s results by lane: the first order's f1·z(ωo) and density p1.
+pub(in crate::bsdf::mnm::compensated) struct FirstOrders {
+    f: [[f32; 8]; 3],
+    p: [f32; 8],
+}
+
+impl FirstOrders {
+    /// Lane `k`'s (f1·z(ωo), p1).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn get(&self, k: usize) -> (Spectrum, f32) {
+        (
+            Vec3::new(self.f[0][k], self.f[1][k], self.f[2][k]),
+            self.p[k],
+        )
+    }
+}
+
+#[inline(always)]
+fn set3(x: &mut [[f32; 8]; 3], k: usize, v: Vec3) {
+    x[0][k] = v.x;
+    x[1][k] = v.y;
+    x[2][k] = v.z;
+}
+
+impl Mirror8 {
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn new() -> Self {
+        let z = [[0.0; 8], [0.0; 8], [1.0; 8]];
+        Mirror8 {
+            v0: z,
+            v1: z,
+            n1: z,
+            fr: [z; 3],
+            w: [[0.0; 8]; ENTRIES],
+            a: [z; ENTRIES],
+            has: [[0.0; 8]; ENTRIES],
+            wo: z,
+            ks: [-1.0; 8],
+            kf: [[0.0; 8]; 3],
+            kp: [0.0; 8],
+            used: 0,
+        }
+    }
+
+    /// Lane `k`: the point of map `m` (over the mirror sawtooth: `m.mirror_wall`) with the
+    /// entries `e` at its ωi, toward `wo` (z > 0), with the drawn path's `known` term.
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn push(
+        &mut self,
+        k: usize,
+        m: &MicrofacetNormalMap,
+        e: &Entries,
+        wo: Vec3,
+        known: Option<Known>,
+    ) {
+        debug_assert!(m.mirror_wall && e.len() <= ENTRIES);
+        let surf = &m.surface;
+        set3(&mut self.v0, k, surf.area_vector(0));
+        set3(&mut self.v1, k, surf.area_vector(1));
+        set3(&mut self.n1, k, surf.normal(1));
+        let f = &m.frames[0];
+        set3(&mut self.fr[0], k, f.s);
+        set3(&mut self.fr[1], k, f.t);
+        set3(&mut self.fr[2], k, f.n);
+        for j in 0..e.len().min(ENTRIES) {
+            self.w[j][k] = e.w[j];
+            set3(&mut self.a[j], k, e.a[j]);
+            self.has[j][k] = 1.0;
+        }
+        set3(&mut self.wo, k, wo);
+        if let Some(kn) = known {
+            self.ks[k] = (2 * kn.j + usize::from(kn.wall)) as f32;
+            set3(&mut self.kf, k, kn.f);
+            self.kp[k] = kn.p;
+        }
+        self.used |= 1 << k;
+    }
+
+    /// The first order of every pushed lane, its nested paths through `nested`'s lane form (the
+    /// points' shared nested BSDF, a kind with one).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn eval(&self, nested: Nested) -> FirstOrders {
+        match nested {
+            Nested::Diffuse(d) => self.eval_with(d),
+            Nested::Conductor(c) => self.eval_with(c),
+            Nested::Plastic(p) => self.eval_with(p),
+            Nested::Other(_) => unreachable!("a point's nested BSDF has a lane form"),
+        }
+    }
+
+    /// 8-wide when the CPU has AVX2 and FMA, else lane by lane at width 1 (the same numbers).
+    #[inline(always)]
+    fn eval_with<B: LaneNested>(&self, b: &B) -> FirstOrders {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = Avx2::detect() {
+            return avx.run(
+                #[inline(always)]
+                || {
+                    let q = self.load8(avx);
+                    let (f, p) = first(b, &q);
+                    let mut out = FirstOrders {
+                        f: [[0.0; 8]; 3],
+                        p: [0.0; 8],
+                    };
+                    f.x.store(&mut out.f[0]);
+                    f.y.store(&mut out.f[1]);
+                    f.z.store(&mut out.f[2]);
+                    p.store(&mut out.p);
+                    out
+                },
+            );
+        }
+        self.eval_width1(b)
+    }
+
+    /// [`Self::eval_with`] lane by lane at width 1.
+    #[inline(always)]
+    fn eval_width1<B: LaneNested>(&self, b: &B) -> FirstOrders {
+        let mut out = FirstOrders {
+            f: [[0.0; 8]; 3],
+            p: [0.0; 8],
+        };
+        for k in 0..8 {
+            if self.used & (1 << k) == 0 {
+                continue;
+            }
+            let (f, p) = first::<f32, B>(b, &self.load1(k));
+            set3(&mut out.f, k, f.into());
+            out.p[k] = p;
+        }
+        out
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn load8(&self, avx: Avx2) -> Lanes<F32x8> {
+        // A plain function, not a closure: a closure may be compiled out of the SIMD
+        // function, and its loads become calls.
+        #[inline(always)]
+        fn l3(avx: Avx2, x: &[[f32; 8]; 3]) -> V3<F32x8> {
+            V3::new(avx.load(&x[0]), avx.load(&x[1]), avx.load(&x[2]))
+        }
+        Lanes {
+            v0: l3(avx, &self.v0),
+            v1: l3(avx, &self.v1),
+            n1: l3(avx, &self.n1),
+            fr: LaneFrame {
+                s: l3(avx, &self.fr[0]),
+                t: l3(avx, &self.fr[1]),
+                n: l3(avx, &self.fr[2]),
+            },
+            w: [avx.load(&self.w[0]), avx.load(&self.w[1])],
+            a: [l3(avx, &self.a[0]), l3(avx, &self.a[1])],
+            has: [avx.load(&self.has[0]), avx.load(&self.has[1])],
+            wo: l3(avx, &self.wo),
+            ks: avx.load(&self.ks),
+            kf: l3(avx, &self.kf),
+            kp: avx.load(&self.kp),
+        }
+    }
+
+    #[inline(always)]
+    fn load1(&self, k: usize) -> Lanes<f32> {
+        #[inline(always)]
+        fn l3(x: &[[f32; 8]; 3], k: usize) -> V3<f32> {
+            V3::new(x[0][k], x[1][k], x[2][k])
+        }
+        Lanes {
+            v0: l3(&self.v0, k),
+            v1: l3(&self.v1, k),
+            n1: l3(&self.n1, k),
+            fr: LaneFrame {
+                s: l3(&self.fr[0], k),
+                t: l3(&self.fr[1], k),
+                n: l3(&self.fr[2], k),
+            },
+            w: [self.w[0][k], self.w[1][k]],
+            a: [l3(&self.a[0], k), l3(&self.a[1], k)],
+            has: [self.has[0][k], self.has[1][k]],
+            wo: l3(&self.wo, k),
+            ks: self.ks[k],
+            kf: l3(&self.kf, k),
+            kp: self.kp[k],
+        }
+    }
+}
+
+/// [`Mirror8`] loaded into lanes.
+struct Lanes<L: Lane> {
+    v0: V3<L>,
+    v1: V3<L>,
+    n1: V3<L>,
+    fr: LaneFrame<L>,
+    w: [L; ENTRIES],
+    a: [V3<L>; ENTRIES],
+    has: [L; ENTRIES],
+    wo: V3<L>,
+    ks: L,
+    kf: V3<L>,
+    kp: L,
+}
+
+/// `Microsurface::g1` of the two-facet microsurface (area vectors `v0`, `v1`) toward `w`, in
+/// its operations and order: the facing facets' ⟨ω, v_k⟩ summed from 0, 1 when every facet
+/// faces ω or the sum is not positive, else min(1, z / Σ); 0 below the surface.
+#[inline(always)]
+fn g1<L: Lane>(v0: V3<L>, v1: V3<L>, w: V3<L>) -> L {
+    let like = w.z;
+    let (zero, one) = (like.splat(0.0), like.splat(1.0));
+    let (a0, a1) = (w.dot(v0), w.dot(v1));
+    let (f0, f1) = (a0.ge(zero), a1.ge(zero));
+    let s0 = L::select(f0, zero + a0, zero);
+    let s = L::select(f1, s0 + a1, s0);
+    let open = (f0 & f1) | s.le(zero);
+    let g = L::select(open, one, (w.z / s).min(one));
+    L::select(w.z.le(zero), zero, g)
+}
+
+/// The nested (f·|cos θo|, pdf) of the pairs (a, o) as the scalar path's batch evaluates them:
+/// `eval_pdf_lanes`, and for the density-only lanes `po` of a kind with its own `pdf`,
+/// `pdf_lanes`' density.
+#[inline(always)]
+fn nested<L: Lane, B: LaneNested>(b: &B, a: V3<L>, o: V3<L>, po: L::Mask) -> (V3<L>, L) {
+    let (f, p) = b.eval_pdf_lanes(a, o);
+    if B::SEPARATE_PDF && po.any() {
+        (f, L::select(po, b.pdf_lanes(a, o), p))
+    } else {
+        (f, p)
+    }
+}
+
+/// The first order (f1·z(ωo), p1) of every lane: `Collected::new` and `Collected::sum::<false>`
+/// over the mirror sawtooth, lane by lane in their operations and order.
+#[inline(always)]
+fn first<L: Lane, B: LaneNested>(b: &B, q: &Lanes<L>) -> (V3<L>, L) {
+    let like = q.wo.z;
+    let zero = like.splat(0.0);
+    let zero3 = V3::new(zero, zero, zero);
+    let g1o = g1(q.v0, q.v1, q.wo);
+    let pdf_only = g1o.le(zero);
+    let bo = q.fr.to_local(q.wo);
+    // The wall exit (`wall_exit`): R(ωo) = ωo − (2 ⟨ωo, ωt⟩) ωt where ωo faces the wall, and
+    // 1 − G1(R(ωo)) > 0.
+    let d = q.wo.dot(q.n1);
+    let rwo = q.wo - q.n1.scale(like.splat(2.0) * d);
+    let bt = like.splat(1.0) - g1(q.v0, q.v1, rwo);
+    let exit = d.gt(zero) & bt.gt(zero);
+    let rb = q.fr.to_local(rwo);
+    let mut v = zero3;
+    let mut p = zero;
+    for j in 0..ENTRIES {
+        let has = q.has[j].gt(zero);
+        let w = q.w[j];
+        // Path [p] (slot 2j), then [t,p] (slot 2j + 1) where the wall lets ωo out.
+        for wall in 0..2 {
+            let on = if wall == 0 { has } else { has & exit };
+            let known = q.ks.eq(like.splat((2 * j + wall) as f32));
+            let (fe, pe) = if (on & !known).any() {
+                nested(b, q.a[j], if wall == 0 { bo } else { rb }, pdf_only)
+            } else {
+                (zero3, zero)
+            };
+            let f = V3::select(known, q.kf, V3::select(pdf_only, zero3, fe));
+            let pd = L::select(known, q.kp, pe);
+            let (wf, wp) = if wall == 0 {
+                (w, w * g1o)
+            } else {
+                (w * bt, w * bt)
+            };
+            v = V3::select(on, v + f.scale(wf), v);
+            p = L::select(on, p + wp * pd, p);
+        }
+    }
+    (v.scale(g1o), p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::lanes::testing::{direction, same, same3};
+    use crate::math::Pcg32;
+
+    /// The 8-wide first order equals the width-1 one lane by lane, bit for bit, on random
+    /// inputs (the scalar model is checked against the 8-wide one by `super::super::tests`):
+    /// the model's rough conductors and rough plastic, random microsurfaces, frames, entries
+    /// (0, 1 or 2), ωo over both hemispheres and known terms on every path.
+    #[test]
+    fn width_8_equals_width_1() {
+        let mut rng = Pcg32::new(15, 2);
+        let mut arena = crate::bsdf::BsdfArena::new();
+        let nested = super::super::super::tests::push_reflectors(&mut arena);
+        let mut compared = 0;
+        for round in 0..600 {
+            let b = arena.bsdf(nested[round % 3]);
+            let kind = Nested::of(&b);
+            let mut q = Mirror8::new();
+            for k in 0..8 {
+                if rng.next_f32() < 0.15 {
+                    continue;
+                }
+                let wp = direction(&mut rng);
+                let wp = Vec3::new(wp.x, wp.y, wp.z.abs().max(0.05)).normalize();
+                let m = MicrofacetNormalMap::new(
+                    0,
+                    wp,
+                    crate::bsdf::mnm::facets::Microgeometry::Sawtooth,
+                    crate::bsdf::mnm::Tangent::Mirror,
+                    crate::bsdf::mnm::Evaluation::Compensated,
+                    256,
+                );
+                if !m.mirror_wall {
+                    continue;
+                }
+                let wi = direction(&mut rng);
+                let e = Entries::new(&m, Vec3::new(wi.x, wi.y, wi.z.abs()));
+                let known = (rng.next_f32() < 0.5).then(|| Known {
+                    j: (rng.next_u32() % 2) as usize,
+                    wall: rng.next_f32() < 0.5,
+                    f: Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()),
+                    p: rng.next_f32(),
+                });
+                q.push(k, &m, &e, direction(&mut rng), known);
+            }
+            let wide = q.eval(kind);
+            let one = match kind {
+                Nested::Diffuse(d) => q.eval_width1(d),
+                Nested::Conductor(c) => q.eval_width1(c),
+                Nested::Plastic(p) => q.eval_width1(p),
+                Nested::Other(_) => unreachable!(),
+            };
+            for k in (0..8).filter(|&k| q.used & (1 << k) != 0) {
+                let ((f8, p8), (f1, p1)) = (wide.get(k), one.get(k));
+                assert!(same3(f8, f1) && same(p8, p1), "{round} {k}");
+                compared += 1;
+            }
+        }
+        assert!(compared > 3500, "{compared} lanes");
+    }
+}
