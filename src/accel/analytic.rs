@@ -81,6 +81,30 @@ pub(crate) fn sphere<L: Lane>(ray: &RayL<L>, c: V3<L>, r: L) -> (L, L::Mask) {
     (L::select(in_lo, lo, hi), real & (in_lo | in_hi))
 }
 
+/// Where the ray crosses the plane z = 0 of the object space that `to_object` maps it into:
+/// t and the crossing's object-space x and y, as `PlanarData::hit` computes them.
+#[inline(always)]
+fn plane_cross<L: Lane>(ray: &RayL<L>, to_object: &Affine<L>) -> (L, L, L) {
+    let ol = to_object.point(ray.o);
+    let dl = to_object.vector(ray.d);
+    let t = -ol.z / dl.z;
+    let l = ol + dl.scale(t);
+    (t, l.x, l.y)
+}
+
+/// Whether the crossing (x, y) lies in the unit square [−1,1]².
+#[inline(always)]
+fn in_square<L: Lane>(x: L, y: L) -> L::Mask {
+    let one = x.splat(1.0);
+    x.abs().le(one) & y.abs().le(one)
+}
+
+/// Whether the crossing (x, y) lies in the unit disk.
+#[inline(always)]
+fn in_disk<L: Lane>(x: L, y: L) -> L::Mask {
+    (x * x + y * y).le(x.splat(1.0))
+}
+
 /// The unit square [−1,1]² (`square`) or the unit disk of the plane z = 0 of the object space
 /// that `to_object` maps the ray into, as `PlanarData::hit`.
 #[inline(always)]
@@ -89,15 +113,23 @@ pub(crate) fn planar<L: Lane>(
     to_object: &Affine<L>,
     square: L::Mask,
 ) -> (L, L::Mask) {
-    let ol = to_object.point(ray.o);
-    let dl = to_object.vector(ray.d);
-    let one = ray.tnear.splat(1.0);
-    let t = -ol.z / dl.z;
-    let l = ol + dl.scale(t);
-    let in_square = l.x.abs().le(one) & l.y.abs().le(one);
-    let in_disk = (l.x * l.x + l.y * l.y).le(one);
-    let inside = (square & in_square) | (!square & in_disk);
+    let (t, x, y) = plane_cross(ray, to_object);
+    let inside = (square & in_square(x, y)) | (!square & in_disk(x, y));
     (t, t.gt(ray.tnear) & t.lt(ray.tfar) & inside)
+}
+
+/// [`planar`] for a square in every lane (one rectangle against a packet).
+#[inline(always)]
+pub(crate) fn square<L: Lane>(ray: &RayL<L>, to_object: &Affine<L>) -> (L, L::Mask) {
+    let (t, x, y) = plane_cross(ray, to_object);
+    (t, t.gt(ray.tnear) & t.lt(ray.tfar) & in_square(x, y))
+}
+
+/// [`planar`] for a disk in every lane.
+#[inline(always)]
+pub(crate) fn disk<L: Lane>(ray: &RayL<L>, to_object: &Affine<L>) -> (L, L::Mask) {
+    let (t, x, y) = plane_cross(ray, to_object);
+    (t, t.gt(ray.tnear) & t.lt(ray.tfar) & in_disk(x, y))
 }
 
 /// What the box test found; `entering`, `near`, `far`, `ol` and `dl` let the width-1 caller
