@@ -15,7 +15,10 @@
 //! equal t broken by the lower shape index, and the callbacks' primitive and barycentrics (the
 //! box's triangle; zero for the others), computed at width 1 for the winner only.
 
-use super::analytic::{cube, disk, planar, sphere, square, Affine, BoxHit, RayL};
+use super::analytic::{
+    cube, in_disk, in_square, planar, plane_cross, sphere, sphere_disc, sphere_roots, Affine,
+    BoxHit, RayL,
+};
 use crate::geometry::hit::NO_INSTANCE;
 use crate::geometry::shapes::{Shape, ShapeKind, CUBE_FACES};
 use crate::geometry::{Hit, Ray};
@@ -361,18 +364,29 @@ impl Brute {
     fn nearest_of_each<L: Lane>(&self, ray: &RayL<L>, like: L, none: i32) -> (L, L::I32) {
         let gi = like.to_bits();
         let mut best = (like.splat(f32::INFINITY), gi.splat(none));
+        // A primitive that no lane can hit is left at its first half: its mask would be
+        // false in every lane, and `keep` would keep nothing.
         for s in &self.sphere_rows {
             let c = V3::new(like.splat(s.c[0]), like.splat(s.c[1]), like.splat(s.c[2]));
-            let (t, m) = sphere(ray, c, like.splat(s.r));
-            keep(&mut best, t, m, gi.splat(s.geom));
+            let d = sphere_disc(ray, c, like.splat(s.r));
+            if d.real.any() {
+                let (t, m) = sphere_roots(ray, &d);
+                keep(&mut best, t, m, gi.splat(s.geom));
+            }
         }
         for p in &self.square_rows {
-            let (t, m) = square(ray, &row_map(p, like));
-            keep(&mut best, t, m, gi.splat(p.geom));
+            let c = plane_cross(ray, &row_map(p, like));
+            if c.within.any() {
+                let (x, y) = c.at();
+                keep(&mut best, c.t, c.within & in_square(x, y), gi.splat(p.geom));
+            }
         }
         for p in &self.disk_rows {
-            let (t, m) = disk(ray, &row_map(p, like));
-            keep(&mut best, t, m, gi.splat(p.geom));
+            let c = plane_cross(ray, &row_map(p, like));
+            if c.within.any() {
+                let (x, y) = c.at();
+                keep(&mut best, c.t, c.within & in_disk(x, y), gi.splat(p.geom));
+            }
         }
         for b in &self.box_rows {
             let h = cube(ray, &row_map(b, like));
@@ -392,21 +406,32 @@ impl Brute {
         }
         for s in &self.sphere_rows {
             let c = V3::new(like.splat(s.c[0]), like.splat(s.c[1]), like.splat(s.c[2]));
-            any = any | sphere(ray, c, like.splat(s.r)).1;
-            if any.all() {
-                return any;
+            let d = sphere_disc(ray, c, like.splat(s.r));
+            if d.real.any() {
+                any = any | sphere_roots(ray, &d).1;
+                if any.all() {
+                    return any;
+                }
             }
         }
         for p in &self.square_rows {
-            any = any | square(ray, &row_map(p, like)).1;
-            if any.all() {
-                return any;
+            let c = plane_cross(ray, &row_map(p, like));
+            if c.within.any() {
+                let (x, y) = c.at();
+                any = any | (c.within & in_square(x, y));
+                if any.all() {
+                    return any;
+                }
             }
         }
         for p in &self.disk_rows {
-            any = any | disk(ray, &row_map(p, like)).1;
-            if any.all() {
-                return any;
+            let c = plane_cross(ray, &row_map(p, like));
+            if c.within.any() {
+                let (x, y) = c.at();
+                any = any | (c.within & in_disk(x, y));
+                if any.all() {
+                    return any;
+                }
             }
         }
         for b in &self.box_rows {
