@@ -6,8 +6,10 @@
 //! over the kernels of [`super::analytic`]:
 //! - one ray × 8 primitives ([`Brute::intersect`], [`Brute::occluded`]): the scalar renderer's
 //!   rays, each chunk one 8-wide test;
-//! - 8 rays × every primitive ([`Brute::intersect8`], [`Brute::occluded8`]): a packet, each
-//!   primitive splat across the lanes.
+//! - 8 rays × every primitive ([`Brute::intersect8`], [`Brute::occluded8`]): a packet (the rays
+//!   turned into lanes by one 8×8 transpose), each primitive splat across the lanes from a
+//!   second copy of the tables, one primitive per row (rectangles and disks apart); a primitive
+//!   no lane can hit stops after its first half (the sphere's discriminant, the plane's t).
 //!
 //! Without AVX2 both run at width 1 over every primitive. Every form reports the same [`Hit`]:
 //! the smallest t in the open interval (tmin, tmax) (Embree shrinks tfar after each accepted
