@@ -61,6 +61,25 @@ pub(crate) fn max_num<L: Lane>(a: L, b: L) -> L {
 /// Gems, 2019, ch. 7), as `SphereData::hit`. Returns t and the hit mask.
 #[inline(always)]
 pub(crate) fn sphere<L: Lane>(ray: &RayL<L>, c: V3<L>, r: L) -> (L, L::Mask) {
+    sphere_roots(ray, &sphere_disc(ray, c, r))
+}
+
+/// The first half of [`sphere`]: the discriminant and what the roots need. Where `real` is
+/// false in every lane, [`sphere_roots`] reports no hit in any lane, so a packet may skip it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SphereDisc<L: Lane> {
+    f: V3<L>,
+    a: L,
+    b: L,
+    r2: L,
+    disc: L,
+    /// The line meets the sphere (a real discriminant, a nonzero direction).
+    pub real: L::Mask,
+}
+
+/// [`sphere`] up to its discriminant.
+#[inline(always)]
+pub(crate) fn sphere_disc<L: Lane>(ray: &RayL<L>, c: V3<L>, r: L) -> SphereDisc<L> {
     let (o, d) = (ray.o, ray.d);
     let zero = r.splat(0.0);
     let f = o - c;
@@ -70,6 +89,21 @@ pub(crate) fn sphere<L: Lane>(ray: &RayL<L>, c: V3<L>, r: L) -> (L, L::Mask) {
     let r2 = r * r;
     let disc = r2 - l.dot(l);
     let real = !(disc.is_nan() | disc.lt(zero) | a.eq(zero));
+    SphereDisc {
+        f,
+        a,
+        b,
+        r2,
+        disc,
+        real,
+    }
+}
+
+/// [`sphere`] from its discriminant: t and the hit mask (false wherever `s.real` is).
+#[inline(always)]
+pub(crate) fn sphere_roots<L: Lane>(ray: &RayL<L>, s: &SphereDisc<L>) -> (L, L::Mask) {
+    let (f, a, b, r2, disc) = (s.f, s.a, s.b, s.r2, s.disc);
+    let zero = a.splat(0.0);
     let cc = f.dot(f) - r2;
     let q = -b - (a * disc).sqrt().copysign(b);
     let t0 = q / a;
@@ -78,7 +112,55 @@ pub(crate) fn sphere<L: Lane>(ray: &RayL<L>, c: V3<L>, r: L) -> (L, L::Mask) {
     let (lo, hi) = (L::select(swap, t1, t0), L::select(swap, t0, t1));
     let in_lo = lo.gt(ray.tnear) & lo.lt(ray.tfar);
     let in_hi = hi.gt(ray.tnear) & hi.lt(ray.tfar);
-    (L::select(in_lo, lo, hi), real & (in_lo | in_hi))
+    (L::select(in_lo, lo, hi), s.real & (in_lo | in_hi))
+}
+
+/// Where a ray crosses the plane z = 0 of an object space: t, whether t lies in the ray's
+/// open interval, and the ray in object space (for [`PlaneCross::at`]). Where `within` is false
+/// in every lane, [`square`] and [`disk`] report no hit in any lane, so a packet may stop there.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PlaneCross<L: Lane> {
+    pub t: L,
+    pub within: L::Mask,
+    ol: V3<L>,
+    dl: V3<L>,
+}
+
+impl<L: Lane> PlaneCross<L> {
+    /// The crossing's object-space x and y.
+    #[inline(always)]
+    pub(crate) fn at(&self) -> (L, L) {
+        let l = self.ol + self.dl.scale(self.t);
+        (l.x, l.y)
+    }
+}
+
+/// The crossing of the plane z = 0 of the object space that `to_object` maps the ray into, as
+/// `PlanarData::hit` computes it.
+#[inline(always)]
+pub(crate) fn plane_cross<L: Lane>(ray: &RayL<L>, to_object: &Affine<L>) -> PlaneCross<L> {
+    let ol = to_object.point(ray.o);
+    let dl = to_object.vector(ray.d);
+    let t = -ol.z / dl.z;
+    PlaneCross {
+        t,
+        within: t.gt(ray.tnear) & t.lt(ray.tfar),
+        ol,
+        dl,
+    }
+}
+
+/// Whether the crossing (x, y) lies in the unit square [−1,1]².
+#[inline(always)]
+pub(crate) fn in_square<L: Lane>(x: L, y: L) -> L::Mask {
+    let one = x.splat(1.0);
+    x.abs().le(one) & y.abs().le(one)
+}
+
+/// Whether the crossing (x, y) lies in the unit disk.
+#[inline(always)]
+pub(crate) fn in_disk<L: Lane>(x: L, y: L) -> L::Mask {
+    (x * x + y * y).le(x.splat(1.0))
 }
 
 /// The unit square [−1,1]² (`square`) or the unit disk of the plane z = 0 of the object space
@@ -89,15 +171,10 @@ pub(crate) fn planar<L: Lane>(
     to_object: &Affine<L>,
     square: L::Mask,
 ) -> (L, L::Mask) {
-    let ol = to_object.point(ray.o);
-    let dl = to_object.vector(ray.d);
-    let one = ray.tnear.splat(1.0);
-    let t = -ol.z / dl.z;
-    let l = ol + dl.scale(t);
-    let in_square = l.x.abs().le(one) & l.y.abs().le(one);
-    let in_disk = (l.x * l.x + l.y * l.y).le(one);
-    let inside = (square & in_square) | (!square & in_disk);
-    (t, t.gt(ray.tnear) & t.lt(ray.tfar) & inside)
+    let p = plane_cross(ray, to_object);
+    let (x, y) = p.at();
+    let inside = (square & in_square(x, y)) | (!square & in_disk(x, y));
+    (p.t, p.within & inside)
 }
 
 /// What the box test found; `entering`, `near`, `far`, `ol` and `dl` let the width-1 caller

@@ -6,8 +6,10 @@
 //! over the kernels of [`super::analytic`]:
 //! - one ray × 8 primitives ([`Brute::intersect`], [`Brute::occluded`]): the scalar renderer's
 //!   rays, each chunk one 8-wide test;
-//! - 8 rays × every primitive ([`Brute::intersect8`], [`Brute::occluded8`]): a packet, each
-//!   primitive splat across the lanes.
+//! - 8 rays × every primitive ([`Brute::intersect8`], [`Brute::occluded8`]): a packet (the rays
+//!   turned into lanes by one 8×8 transpose), each primitive splat across the lanes from a
+//!   second copy of the tables, one primitive per row (rectangles and disks apart); a primitive
+//!   no lane can hit stops after its first half (the sphere's discriminant, the plane's t).
 //!
 //! Without AVX2 both run at width 1 over every primitive. Every form reports the same [`Hit`]:
 //! the smallest t in the open interval (tmin, tmax) (Embree shrinks tfar after each accepted
@@ -15,7 +17,10 @@
 //! equal t broken by the lower shape index, and the callbacks' primitive and barycentrics (the
 //! box's triangle; zero for the others), computed at width 1 for the winner only.
 
-use super::analytic::{cube, planar, sphere, Affine, BoxHit, RayL};
+use super::analytic::{
+    cube, in_disk, in_square, planar, plane_cross, sphere, sphere_disc, sphere_roots, Affine,
+    BoxHit, RayL,
+};
 use crate::geometry::hit::NO_INSTANCE;
 use crate::geometry::shapes::{Shape, ShapeKind, CUBE_FACES};
 use crate::geometry::{Hit, Ray};
@@ -46,6 +51,22 @@ struct Mapped {
     geom: [i32; W],
 }
 
+/// One sphere for the packet form (8 rays × one primitive): centre, radius, shape index.
+#[derive(Clone, Copy)]
+struct SphereRow {
+    c: [f32; 3],
+    r: f32,
+    geom: i32,
+}
+
+/// One affinely mapped unit shape for the packet form: the 12 entries of its world-to-object
+/// map by column, and the shape index.
+#[derive(Clone, Copy)]
+struct MappedRow {
+    m: [f32; 12],
+    geom: i32,
+}
+
 /// Which table holds shape `i`, and at which row.
 #[derive(Clone, Copy, Debug)]
 enum Slot {
@@ -67,11 +88,20 @@ struct Face {
 
 /// The tier-A tables of one scene.
 pub(crate) struct Brute {
+    /// Chunks of 8 primitives, for one ray at a time.
     spheres: Vec<Spheres>,
     planes: Vec<Mapped>,
     boxes: Vec<Mapped>,
-    /// Live rows per table (the last chunk may be partly empty).
+    /// Live rows per chunk table (the last chunk may be partly empty).
     rows: [usize; 3],
+    /// The same primitives one per row, for packets and width 1 (each splat across the
+    /// lanes); rectangles and disks apart, so that neither pays for the other's inside test
+    /// (the order of the tests cannot change a strict lexicographic minimum, [`keep`]).
+    sphere_rows: Vec<SphereRow>,
+    square_rows: Vec<MappedRow>,
+    disk_rows: Vec<MappedRow>,
+    /// Row `k` is the box at [`Slot::Box`]`(k)`.
+    box_rows: Vec<MappedRow>,
     slots: Vec<Slot>,
     /// Box faces indexed by `2·axis + (side > 0)`.
     faces: [Face; 6],
@@ -127,28 +157,34 @@ impl Brute {
             planes: Vec::new(),
             boxes: Vec::new(),
             rows: [0; 3],
+            sphere_rows: Vec::new(),
+            square_rows: Vec::new(),
+            disk_rows: Vec::new(),
+            box_rows: Vec::new(),
             slots: Vec::with_capacity(shapes.len()),
             faces: box_faces(),
             #[cfg(target_arch = "x86_64")]
             avx: Avx2::detect(),
         };
         let mapped = |t: &mut Mapped, l: usize, to_world: &Mat4, square: bool, geom: usize| {
-            let inv = to_world.inverse();
-            let cols = [inv.x_axis, inv.y_axis, inv.z_axis, inv.w_axis];
-            for (k, c) in cols.iter().enumerate() {
-                for j in 0..3 {
-                    t.m[3 * k + j][l] = c[j];
-                }
+            let m = to_object(to_world);
+            for (k, x) in m.into_iter().enumerate() {
+                t.m[k][l] = x;
             }
             t.square[l] = if square { 1.0 } else { 0.0 };
             t.geom[l] = geom as i32;
+            MappedRow {
+                m,
+                geom: geom as i32,
+            }
         };
         for (i, s) in shapes.iter().enumerate() {
             let slot = match (&s.kind, s.box_to_world) {
                 (ShapeKind::Mesh(m), _) if m.indices.is_empty() => Slot::Plain,
                 (ShapeKind::Mesh(_), Some(to_world)) => {
                     let (c, l) = push_row(&mut b.boxes, &mut b.rows[2], empty_mapped);
-                    mapped(&mut b.boxes[c], l, &to_world, false, i);
+                    let row = mapped(&mut b.boxes[c], l, &to_world, false, i);
+                    b.box_rows.push(row);
                     Slot::Box((c * W + l) as u32)
                 }
                 (ShapeKind::Sphere { center, radius, .. }, _) => {
@@ -157,16 +193,23 @@ impl Brute {
                     (t.c[0][l], t.c[1][l], t.c[2][l]) = (center.x, center.y, center.z);
                     t.r[l] = *radius;
                     t.geom[l] = i as i32;
+                    b.sphere_rows.push(SphereRow {
+                        c: center.to_array(),
+                        r: *radius,
+                        geom: i as i32,
+                    });
                     Slot::Plain
                 }
                 (ShapeKind::Disk { hit_to_world, .. }, _) => {
                     let (c, l) = push_row(&mut b.planes, &mut b.rows[1], empty_mapped);
-                    mapped(&mut b.planes[c], l, hit_to_world, false, i);
+                    let row = mapped(&mut b.planes[c], l, hit_to_world, false, i);
+                    b.disk_rows.push(row);
                     Slot::Plain
                 }
                 (ShapeKind::Rectangle { to_world }, _) => {
                     let (c, l) = push_row(&mut b.planes, &mut b.rows[1], empty_mapped);
-                    mapped(&mut b.planes[c], l, to_world, true, i);
+                    let row = mapped(&mut b.planes[c], l, to_world, true, i);
+                    b.square_rows.push(row);
                     Slot::Plain
                 }
                 _ => return None,
@@ -202,7 +245,7 @@ impl Brute {
                 || self.any_across(avx, ray),
             );
         }
-        self.any_of_each(&ray_lanes(ray)).any()
+        self.any_of_each(&ray_lanes(ray), false)
     }
 
     /// [`Self::intersect`] of up to 8 rays as one packet: `out[i]` for `rays[i]`, the others
@@ -219,17 +262,21 @@ impl Brute {
                 },
             );
             for (i, o) in out.iter_mut().enumerate() {
-                *o = rays
-                    .get(i)
-                    .and_then(|ray| self.finish(ray, ts[i], geoms[i]));
+                *o = match rays.get(i) {
+                    Some(ray) => self.finish(ray, ts[i], geoms[i]),
+                    None => None,
+                };
             }
             return;
         }
         for (i, o) in out.iter_mut().enumerate() {
-            *o = rays.get(i).and_then(|ray| {
-                let (t, g) = self.nearest_of_each(&ray_lanes(ray), 0.0f32, NONE);
-                self.finish(ray, t, g)
-            });
+            *o = match rays.get(i) {
+                Some(ray) => {
+                    let (t, g) = self.nearest_of_each(&ray_lanes(ray), 0.0f32, NONE);
+                    self.finish(ray, t, g)
+                }
+                None => None,
+            };
         }
     }
 
@@ -241,20 +288,28 @@ impl Brute {
             return avx.run(
                 #[inline(always)]
                 || {
-                    let m = self.any_of_each(&packet(avx, &rays[..n])).to_array();
-                    (0..n).fold(0u8, |b, i| b | (u8::from(m[i]) << i))
+                    // The lanes past `n` start done, so that a partial packet can stop early.
+                    let idx = avx.load_i32(&[0, 1, 2, 3, 4, 5, 6, 7]);
+                    let live = idx.lt(idx.splat(n as i32));
+                    let any = self.any_of_each(&packet(avx, &rays[..n]), !live) & live;
+                    any.bits() as u8
                 },
             );
         }
-        (0..n).fold(0u8, |b, i| {
-            b | (u8::from(self.any_of_each(&ray_lanes(&rays[i])).any()) << i)
-        })
+        let mut blocked = 0u8;
+        for (i, ray) in rays[..n].iter().enumerate() {
+            blocked |= u8::from(self.any_of_each(&ray_lanes(ray), false)) << i;
+        }
+        blocked
     }
 
-    /// The hit of shape `geom` at `t` (its winner), with the box's triangle and barycentrics.
-    #[inline]
+    /// The hit of shape `geom` at `t` (its winner; `None` for [`NONE`]), with the box's
+    /// triangle and barycentrics.
+    #[inline(always)]
     fn finish(&self, ray: &Ray, t: f32, geom: i32) -> Option<Hit> {
-        let slot = *self.slots.get(usize::try_from(geom).ok()?)?;
+        if geom == NONE {
+            return None;
+        }
         let mut hit = Hit {
             geom: geom as u32,
             prim: 0,
@@ -263,13 +318,19 @@ impl Brute {
             v: 0.0,
             inst: NO_INSTANCE,
         };
-        if let Slot::Box(row) = slot {
-            let b = &self.boxes[row as usize / W];
-            let to_object = mapped_lanes(b, row as usize % W, 0.0f32);
-            let bh = cube(&ray_lanes(ray), &to_object);
-            (hit.prim, hit.u, hit.v) = self.box_triangle(&bh);
+        if !self.box_rows.is_empty() {
+            if let Some(&Slot::Box(row)) = self.slots.get(geom as usize) {
+                (hit.prim, hit.u, hit.v) = self.box_hit(ray, row as usize);
+            }
         }
         Some(hit)
+    }
+
+    /// The triangle and barycentrics of the box at `row` where `ray` hits it (width 1).
+    #[inline(never)]
+    fn box_hit(&self, ray: &Ray, row: usize) -> (u32, f32, f32) {
+        let to_object = row_map(&self.box_rows[row], 0.0f32);
+        self.box_triangle(&cube(&ray_lanes(ray), &to_object))
     }
 
     /// The triangle of the face hit and its barycentrics, as `BoxData::hit` picks them: the
@@ -305,50 +366,78 @@ impl Brute {
     fn nearest_of_each<L: Lane>(&self, ray: &RayL<L>, like: L, none: i32) -> (L, L::I32) {
         let gi = like.to_bits();
         let mut best = (like.splat(f32::INFINITY), gi.splat(none));
-        for row in 0..self.rows[0] {
-            let s = &self.spheres[row / W];
-            let (c, r) = sphere_lanes(s, row % W, like);
-            let (t, m) = sphere(ray, c, r);
-            keep(&mut best, t, m, gi.splat(s.geom[row % W]));
+        // A primitive that no lane can hit is left at its first half: its mask would be
+        // false in every lane, and `keep` would keep nothing.
+        for s in &self.sphere_rows {
+            let c = V3::new(like.splat(s.c[0]), like.splat(s.c[1]), like.splat(s.c[2]));
+            let d = sphere_disc(ray, c, like.splat(s.r));
+            if d.real.any() {
+                let (t, m) = sphere_roots(ray, &d);
+                keep(&mut best, t, m, gi.splat(s.geom));
+            }
         }
-        for row in 0..self.rows[1] {
-            let p = &self.planes[row / W];
-            let sq = like.splat(p.square[row % W]).gt(like.splat(0.0));
-            let (t, m) = planar(ray, &mapped_lanes(p, row % W, like), sq);
-            keep(&mut best, t, m, gi.splat(p.geom[row % W]));
+        for p in &self.square_rows {
+            let c = plane_cross(ray, &row_map(p, like));
+            if c.within.any() {
+                let (x, y) = c.at();
+                keep(&mut best, c.t, c.within & in_square(x, y), gi.splat(p.geom));
+            }
         }
-        for row in 0..self.rows[2] {
-            let b = &self.boxes[row / W];
-            let h = cube(ray, &mapped_lanes(b, row % W, like));
-            keep(&mut best, h.t, h.hit, gi.splat(b.geom[row % W]));
+        for p in &self.disk_rows {
+            let c = plane_cross(ray, &row_map(p, like));
+            if c.within.any() {
+                let (x, y) = c.at();
+                keep(&mut best, c.t, c.within & in_disk(x, y), gi.splat(p.geom));
+            }
+        }
+        for b in &self.box_rows {
+            let h = cube(ray, &row_map(b, like));
+            keep(&mut best, h.t, h.hit, gi.splat(b.geom));
         }
         best
     }
 
-    /// Per lane of `ray`, whether any primitive is hit (stops once every lane is).
+    /// Per lane of `ray`, whether any primitive is hit, starting from the lanes of `done`
+    /// (stops once every lane is).
     #[inline(always)]
-    fn any_of_each<L: Lane>(&self, ray: &RayL<L>) -> L::Mask {
+    fn any_of_each<L: Lane>(&self, ray: &RayL<L>, done: L::Mask) -> L::Mask {
         let like = ray.tnear;
-        // All lanes false (`x < x` fails even for NaN).
-        let mut any = like.lt(like);
-        for row in 0..self.rows[0] {
-            let (c, r) = sphere_lanes(&self.spheres[row / W], row % W, like);
-            any = any | sphere(ray, c, r).1;
-            if any.all() {
-                return any;
+        let mut any = done;
+        if any.all() {
+            return any;
+        }
+        for s in &self.sphere_rows {
+            let c = V3::new(like.splat(s.c[0]), like.splat(s.c[1]), like.splat(s.c[2]));
+            let d = sphere_disc(ray, c, like.splat(s.r));
+            if d.real.any() {
+                any = any | sphere_roots(ray, &d).1;
+                if any.all() {
+                    return any;
+                }
             }
         }
-        for row in 0..self.rows[1] {
-            let p = &self.planes[row / W];
-            let sq = like.splat(p.square[row % W]).gt(like.splat(0.0));
-            any = any | planar(ray, &mapped_lanes(p, row % W, like), sq).1;
-            if any.all() {
-                return any;
+        for p in &self.square_rows {
+            let c = plane_cross(ray, &row_map(p, like));
+            if c.within.any() {
+                let (x, y) = c.at();
+                any = any | (c.within & in_square(x, y));
+                if any.all() {
+                    return any;
+                }
             }
         }
-        for row in 0..self.rows[2] {
-            let b = &self.boxes[row / W];
-            any = any | cube(ray, &mapped_lanes(b, row % W, like)).hit;
+        for p in &self.disk_rows {
+            let c = plane_cross(ray, &row_map(p, like));
+            if c.within.any() {
+                let (x, y) = c.at();
+                any = any | (c.within & in_disk(x, y));
+                if any.all() {
+                    return any;
+                }
+            }
+        }
+        for b in &self.box_rows {
+            any = any | cube(ray, &row_map(b, like)).hit;
             if any.all() {
                 return any;
             }
@@ -437,69 +526,58 @@ fn splat_ray(avx: Avx2, ray: &Ray) -> RayL<F32x8> {
     }
 }
 
-/// Up to 8 rays, one per lane; lanes past `rays.len()` get a NaN interval (never hit).
+/// Up to 8 rays, one per lane; lanes past `rays.len()` get a NaN interval (never hit). Each
+/// ray is one row of 8 floats, turned into 8 lanes per field by one 8×8 transpose (moves only).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn packet(avx: Avx2, rays: &[Ray]) -> RayL<F32x8> {
-    let mut a = [[0.0f32; W]; 8];
-    a[5] = [1.0; W];
-    a[6] = [f32::NAN; W];
-    a[7] = [f32::NAN; W];
-    for (i, r) in rays.iter().take(W).enumerate() {
-        for (k, x) in [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.tmin, r.tmax]
-            .into_iter()
-            .enumerate()
-        {
-            a[k][i] = x;
-        }
+    const PAD: [f32; W] = [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, f32::NAN, f32::NAN];
+    let mut rows = [PAD; W];
+    for (row, r) in rows.iter_mut().zip(rays) {
+        *row = [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.tmin, r.tmax];
     }
+    let l = Load(avx);
+    let [ox, oy, oz, dx, dy, dz, tnear, tfar] = F32x8::transpose8([
+        l.f(&rows[0]),
+        l.f(&rows[1]),
+        l.f(&rows[2]),
+        l.f(&rows[3]),
+        l.f(&rows[4]),
+        l.f(&rows[5]),
+        l.f(&rows[6]),
+        l.f(&rows[7]),
+    ]);
     RayL {
-        o: V3::new(avx.load(&a[0]), avx.load(&a[1]), avx.load(&a[2])),
-        d: V3::new(avx.load(&a[3]), avx.load(&a[4]), avx.load(&a[5])),
-        tnear: avx.load(&a[6]),
-        tfar: avx.load(&a[7]),
+        o: V3::new(ox, oy, oz),
+        d: V3::new(dx, dy, dz),
+        tnear,
+        tfar,
     }
 }
 
-/// Row `l` of a sphere chunk, splat to the width of `like`.
+/// A row's world-to-object map, splat to the width of `like`.
 #[inline(always)]
-fn sphere_lanes<L: Lane>(s: &Spheres, l: usize, like: L) -> (V3<L>, L) {
-    (
-        V3::new(
-            like.splat(s.c[0][l]),
-            like.splat(s.c[1][l]),
-            like.splat(s.c[2][l]),
-        ),
-        like.splat(s.r[l]),
-    )
-}
-
-/// Row `l` of a mapped chunk's world-to-object map, splat to the width of `like`.
-#[inline(always)]
-fn mapped_lanes<L: Lane>(p: &Mapped, l: usize, like: L) -> Affine<L> {
+fn row_map<L: Lane>(p: &MappedRow, like: L) -> Affine<L> {
     let m = &p.m;
     Affine {
-        x: V3::new(
-            like.splat(m[0][l]),
-            like.splat(m[1][l]),
-            like.splat(m[2][l]),
-        ),
-        y: V3::new(
-            like.splat(m[3][l]),
-            like.splat(m[4][l]),
-            like.splat(m[5][l]),
-        ),
-        z: V3::new(
-            like.splat(m[6][l]),
-            like.splat(m[7][l]),
-            like.splat(m[8][l]),
-        ),
-        w: V3::new(
-            like.splat(m[9][l]),
-            like.splat(m[10][l]),
-            like.splat(m[11][l]),
-        ),
+        x: V3::new(like.splat(m[0]), like.splat(m[1]), like.splat(m[2])),
+        y: V3::new(like.splat(m[3]), like.splat(m[4]), like.splat(m[5])),
+        z: V3::new(like.splat(m[6]), like.splat(m[7]), like.splat(m[8])),
+        w: V3::new(like.splat(m[9]), like.splat(m[10]), like.splat(m[11])),
     }
+}
+
+/// The 12 entries by column of the inverse of `to_world` (its upper 3×4 part).
+fn to_object(to_world: &Mat4) -> [f32; 12] {
+    let inv = to_world.inverse();
+    let mut m = [0.0; 12];
+    for (k, c) in [inv.x_axis, inv.y_axis, inv.z_axis, inv.w_axis]
+        .iter()
+        .enumerate()
+    {
+        m[3 * k..3 * k + 3].copy_from_slice(&c.to_array()[..3]);
+    }
+    m
 }
 
 /// Keeps, per lane, the hit (t, shape index `g`) of mask `m` when it comes before `best`: a

@@ -207,6 +207,12 @@ impl M8 {
         let m = unsafe { _mm256_movemask_ps(self.0) };
         super::bits::bools8(m as u32)
     }
+    /// The mask as 8 bits (movemask): bit `k` for lane `k`.
+    #[inline(always)]
+    pub fn bits(self) -> u32 {
+        // SAFETY: an M8 exists only with AVX (module doc).
+        unsafe { _mm256_movemask_ps(self.0) as u32 }
+    }
 }
 
 impl fmt::Debug for F32x8 {
