@@ -428,67 +428,33 @@ impl Block {
     /// [`Block::put`] of eight samples in turn (the same sums to the bit; the fast paths of
     /// `put8`, the tests' reference), with every non-finite value (any channel NaN or infinite)
     /// replaced by 0, as the renderers drop invalid samples; returns how many were replaced.
-    /// The finiteness test and the replacement are 8-wide. (The tests' reference for
-    /// [`Block::put8_finite_rgb`], which the stream renderer calls.)
-    #[cfg(all(target_arch = "x86_64", test))]
+    /// The finiteness test and the replacement are 8-wide.
+    #[cfg(target_arch = "x86_64")]
     pub(crate) fn put8_finite(
         &mut self,
         avx: crate::lane::Avx2,
         pos: &[Vec2; 8],
         value: &[Spectrum; 8],
     ) -> u32 {
-        avx.run(
-            #[inline(always)]
-            || self.finite8_columns(avx, pos, columns(avx, value)),
-        )
-    }
-
-    /// [`Self::put8_finite`] of the values given as their R, G and B columns in memory (the
-    /// stream renderer's radiance columns of 8 consecutive paths).
-    #[cfg(target_arch = "x86_64")]
-    pub(crate) fn put8_finite_rgb(
-        &mut self,
-        avx: crate::lane::Avx2,
-        pos: &[Vec2; 8],
-        rgb: [&[f32; 8]; 3],
-    ) -> u32 {
+        use crate::lane::{F32x8, Lane, LaneMask};
         avx.run(
             #[inline(always)]
             || {
-                let cols = [avx.load(rgb[0]), avx.load(rgb[1]), avx.load(rgb[2])];
-                self.finite8_columns(avx, pos, cols)
+                let [r, g, b] = columns(avx, value);
+                let ok = r.is_finite() & g.is_finite() & b.is_finite();
+                let mut invalid = 0;
+                let cols = if ok.all() {
+                    [r, g, b]
+                } else {
+                    invalid = ok.to_array().iter().filter(|&&f| !f).count() as u32;
+                    // +0.0, the bits of `Spectrum::ZERO`.
+                    let z = avx.splat(0.0);
+                    [r, g, b].map(|c| F32x8::select(ok, c, z))
+                };
+                self.put8_columns(avx, pos, cols);
+                invalid
             },
         )
-    }
-
-    /// The body of [`Self::put8_finite`] on the values' columns: the finiteness test and the
-    /// replacement 8-wide, then [`Self::put8_columns`]. Call inside [`crate::lane::Avx2::run`].
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn finite8_columns(
-        &mut self,
-        avx: crate::lane::Avx2,
-        pos: &[Vec2; 8],
-        rgb: [crate::lane::F32x8; 3],
-    ) -> u32 {
-        use crate::lane::{F32x8, Lane, LaneMask};
-        let [r, g, b] = rgb;
-        let ok = r.is_finite() & g.is_finite() & b.is_finite();
-        let mut invalid = 0;
-        let cols = if ok.all() {
-            [r, g, b]
-        } else {
-            invalid = ok.to_array().iter().filter(|&&f| !f).count() as u32;
-            // +0.0, the bits of `Spectrum::ZERO`.
-            let z = avx.splat(0.0);
-            [
-                F32x8::select(ok, r, z),
-                F32x8::select(ok, g, z),
-                F32x8::select(ok, b, z),
-            ]
-        };
-        self.put8_columns(avx, pos, cols);
-        invalid
     }
 
     /// `put8` of the values given as their R, G and B columns. Call inside
@@ -635,7 +601,7 @@ impl Block {
 }
 
 /// The R, G and B columns of eight values. Call inside [`crate::lane::Avx2::run`].
-#[cfg(all(target_arch = "x86_64", test))]
+#[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn columns(avx: crate::lane::Avx2, value: &[Spectrum; 8]) -> [crate::lane::F32x8; 3] {
     [0, 1, 2].map(|c| avx.load(&core::array::from_fn(|k| value[k][c])))

@@ -496,20 +496,6 @@ fn put8_equals_put_one_by_one() {
                 "put8_finite, {filter:?} block {:?}",
                 (x0, y0, w, h)
             );
-            // `put8_finite_rgb`: the same, from the values' columns.
-            let (mut rgb, mut counted) = (Block::new(&d, x0, y0, w, h), 0);
-            for c in samples.chunks_exact(8) {
-                let pos: [Vec2; 8] = core::array::from_fn(|k| c[k].0);
-                let col = |j: usize| -> [f32; 8] { core::array::from_fn(|k| c[k].1[j]) };
-                let (r, g, b) = (col(0), col(1), col(2));
-                counted += rgb.put8_finite_rgb(avx, &pos, [&r, &g, &b]);
-            }
-            assert_eq!(counted, bad);
-            assert!(
-                zeroed.data == rgb.data,
-                "put8_finite_rgb, {filter:?} block {:?}",
-                (x0, y0, w, h)
-            );
         }
     }
 }

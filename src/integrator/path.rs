@@ -43,9 +43,6 @@ pub struct PathState {
 /// The previous vertex as the MIS weight of emission sees it ([`PathState::prev_mis`]): the
 /// weight is `power_heuristic(pdf, light_pdf)` when `mis`, 0 when `zero`, else 1 (camera rays,
 /// delta lobes, BSDF sampling only); `p` is the reference point of the light's density.
-// The stream renderer's emission lanes read the previous vertex from its path columns
-// (`crate::stream::batch::Paths::prev_mis`), tested against this.
-#[cfg_attr(not(test), allow(dead_code))]
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PrevMis {
     pub p: Vec3,
@@ -242,7 +239,6 @@ impl PathState {
     /// ([`emission_weight`] unrolled for the stream renderer's emission stage in lanes,
     /// `crate::stream::emission`): that vertex's point and BSDF density, and whether the weight
     /// is the power heuristic against the light's density (`mis`), 0 (`zero`), or else 1.
-    #[cfg_attr(not(test), allow(dead_code))]
     #[inline(always)]
     pub(crate) fn prev_mis(&self, cfg: &PathSettings) -> PrevMis {
         match self.prev {
@@ -258,33 +254,6 @@ impl PathState {
                 mis: false,
                 zero: false,
             },
-        }
-    }
-
-    /// The previous vertex as the stream renderer's path columns hold it
-    /// (`crate::stream::batch::Paths`): its point, BSDF density and whether it was a delta lobe;
-    /// `None` while the camera ray is traced.
-    #[inline(always)]
-    pub(crate) fn prev_parts(&self) -> Option<(Vec3, f32, bool)> {
-        self.prev.map(|v| (v.p, v.bsdf_pdf, v.delta))
-    }
-
-    /// The state of the given fields (the inverse of the public fields and
-    /// [`Self::prev_parts`]; the stream renderer's path columns rebuild a path with it).
-    #[inline(always)]
-    pub(crate) fn from_parts(
-        result: Spectrum,
-        throughput: Spectrum,
-        eta: f32,
-        depth: u32,
-        prev: Option<(Vec3, f32, bool)>,
-    ) -> PathState {
-        PathState {
-            result,
-            throughput,
-            eta,
-            depth,
-            prev: prev.map(|(p, bsdf_pdf, delta)| PrevVertex { p, bsdf_pdf, delta }),
         }
     }
 

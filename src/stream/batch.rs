@@ -1,17 +1,14 @@
 //! A batch of paths in structure-of-arrays form, allocated once per worker and reused for every
 //! batch it renders (no allocation per ray), with the two list operations of the scheduler: the
 //! stable counting sort of the active paths by material and the stable compaction; the surface
-//! interactions of the paths that scatter as columns ([`Surfaces`]); the path states
-//! (`PathState`'s fields) as columns ([`Paths`]).
+//! interactions of the paths that scatter as columns ([`Surfaces`]).
 
 use super::BATCH;
 use crate::geometry::{Hit, Ray, SurfaceInteraction};
 use crate::integrator::path::{PathState, PendingLight};
-use crate::integrator::{PathSettings, Strategy};
 use crate::material::MatId;
 use crate::math::Frame;
 use crate::sampler::{Sampler, SamplerDesc};
-use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 
 /// The AVX2 token of the 8-wide set-up (none on other architectures).
@@ -27,8 +24,7 @@ pub(crate) struct Batch {
     pub pos: Vec<Vec2>,
     /// Each path's random stream, keyed by (seed, pixel, sample) as in the scalar renderer.
     pub sampler: Vec<Sampler>,
-    /// Each path's state (`PathState`) in columns.
-    pub paths: Paths,
+    pub state: Vec<PathState>,
     /// The ray each path traces next.
     pub ray: Vec<Ray>,
     /// What the last trace found.
@@ -64,7 +60,7 @@ impl Batch {
         Batch {
             pos: Vec::with_capacity(capacity),
             sampler: Vec::with_capacity(capacity),
-            paths: Paths::new(),
+            state: Vec::with_capacity(capacity),
             ray: Vec::with_capacity(capacity),
             hit: Vec::with_capacity(capacity),
             surf: Surfaces::new(),
@@ -84,6 +80,7 @@ impl Batch {
     pub fn clear(&mut self) {
         self.pos.clear();
         self.sampler.clear();
+        self.state.clear();
         self.ray.clear();
         self.hit.clear();
         self.light.clear();
@@ -196,7 +193,8 @@ impl Batch {
             n <= BATCH && self.sampler.len() == n && self.ray.len() == n,
             "a batch holds at most {BATCH} paths, each with its stream and ray"
         );
-        self.paths.start(n);
+        self.state.clear();
+        self.state.resize(n, PathState::new());
         self.hit.clear();
         self.hit.resize(n, None);
         self.light.clear();
@@ -215,8 +213,8 @@ impl Batch {
             "a batch holds at most {BATCH} paths"
         );
         self.pos.push(pos);
-        self.paths.set(self.pos.len() - 1, &PathState::new());
         self.sampler.push(sampler);
+        self.state.push(PathState::new());
         self.ray.push(ray);
         self.hit.push(None);
         self.light.push(None);
@@ -265,216 +263,6 @@ impl Batch {
     pub fn compact(&mut self) {
         let alive = &self.alive;
         self.active.retain(|&i| alive[i as usize]);
-    }
-}
-
-/// How a path's previous vertex is held (its [`pcol::PREV`] column): none (the camera ray), a
-/// vertex sampled through a non-delta lobe (its point and density matter to MIS), or through a
-/// delta lobe.
-pub(crate) mod prev {
-    pub const NONE: u32 = 0;
-    pub const SMOOTH: u32 = 1;
-    pub const DELTA: u32 = 2;
-}
-
-/// The columns of [`Paths`], each [`BATCH`] floats: column `c` of path `i` is at
-/// `c · BATCH + i`. Vectors take three consecutive columns (x, y, z), named by the first;
-/// integers are held as the bits of a float.
-pub(crate) mod pcol {
-    /// Radiance gathered so far.
-    pub const RESULT: usize = 0;
-    pub const THROUGHPUT: usize = 3;
-    /// Product of the relative indices of refraction crossed.
-    pub const ETA: usize = 6;
-    /// Vertices scattered from so far (u32 bits).
-    pub const DEPTH: usize = 7;
-    /// The previous vertex's kind (`super::prev`, u32 bits), point and BSDF density (the
-    /// point and density are those `PathState` holds, whatever the kind).
-    pub const PREV: usize = 8;
-    pub const PREV_P: usize = 9;
-    pub const PREV_PDF: usize = 12;
-    /// Columns.
-    pub const N: usize = 13;
-}
-
-// Path ids are masked with BATCH − 1 (so every access is in bounds without a check per column).
-const _: () = assert!(BATCH.is_power_of_two());
-
-/// The state of a batch's paths (`PathState`'s fields) in columns indexed by path id
-/// ([`pcol`]), so that the 8-wide stages load 8 paths' field with one gather (`vgatherdps`
-/// over the ids) or, for consecutive paths (the splat), one load, instead of a load and a
-/// store per lane and field from per-path records. The 1-lane code (`PathState::scatter`,
-/// `add_emission`) works on a copy ([`Self::get`], then [`Self::set`]), bit for bit the same
-/// fields. One zeroed allocation per worker (52 KB; `vec!` of zeros, which the allocator
-/// hands out without clearing fresh pages), every column at a constant offset from it.
-pub(crate) struct Paths {
-    flat: Box<[f32; pcol::N * BATCH]>,
-}
-
-impl Paths {
-    fn new() -> Paths {
-        Paths {
-            flat: vec![0.0; pcol::N * BATCH]
-                .into_boxed_slice()
-                .try_into()
-                .expect("the path columns"),
-        }
-    }
-
-    /// Every column, flat (for gathers: column `c` of path `i` is at `c · BATCH + i`).
-    #[inline(always)]
-    pub fn flat(&self) -> &[f32; pcol::N * BATCH] {
-        &self.flat
-    }
-
-    /// Column `c`, paths `0..BATCH`.
-    #[inline(always)]
-    pub fn col(&self, c: usize) -> &[f32] {
-        &self.flat[c * BATCH..(c + 1) * BATCH]
-    }
-
-    /// Column `c` of path `i`.
-    #[inline(always)]
-    pub fn at(&self, c: usize, i: usize) -> f32 {
-        self.flat[c * BATCH + (i & (BATCH - 1))]
-    }
-
-    #[inline(always)]
-    pub fn put(&mut self, c: usize, i: usize, v: f32) {
-        self.flat[c * BATCH + (i & (BATCH - 1))] = v;
-    }
-
-    /// Columns `c..c + 3` of path `i`.
-    #[inline(always)]
-    pub fn at3(&self, c: usize, i: usize) -> Vec3 {
-        Vec3::new(self.at(c, i), self.at(c + 1, i), self.at(c + 2, i))
-    }
-
-    #[inline(always)]
-    pub fn put3(&mut self, c: usize, i: usize, v: Vec3) {
-        self.put(c, i, v.x);
-        self.put(c + 1, i, v.y);
-        self.put(c + 2, i, v.z);
-    }
-
-    #[inline(always)]
-    pub fn depth(&self, i: usize) -> u32 {
-        self.at(pcol::DEPTH, i).to_bits()
-    }
-
-    #[inline(always)]
-    pub fn set_depth(&mut self, i: usize, d: u32) {
-        self.put(pcol::DEPTH, i, f32::from_bits(d));
-    }
-
-    /// Path `i`'s previous vertex kind ([`prev`]).
-    #[inline(always)]
-    pub fn prev(&self, i: usize) -> u32 {
-        self.at(pcol::PREV, i).to_bits()
-    }
-
-    /// Paths `0..n` leaving the camera (`PathState::new`), one fill per column (the previous
-    /// vertex's point and density are not read while its kind is `prev::NONE`). The fill
-    /// values pass through `black_box`: a constant 0 becomes a `memset` (`rep stosb`), which
-    /// callgrind counts per byte (+2.3 M of `metal_plastic`'s ~140 M, more than the loop's
-    /// stores), so that the instruction counts compare with the per-path records' loop.
-    fn start(&mut self, n: usize) {
-        let s = PathState::new();
-        let mut fill = |c: usize, v: f32| {
-            self.flat[c * BATCH..c * BATCH + n].fill(core::hint::black_box(v));
-        };
-        for c in 0..3 {
-            fill(pcol::RESULT + c, s.result[c]);
-            fill(pcol::THROUGHPUT + c, s.throughput[c]);
-        }
-        fill(pcol::ETA, s.eta);
-        fill(pcol::DEPTH, f32::from_bits(s.depth));
-        fill(pcol::PREV, f32::from_bits(prev::NONE));
-    }
-
-    /// Path `i`'s state, rebuilt from the columns.
-    #[inline(always)]
-    pub fn get(&self, i: usize) -> PathState {
-        let prev = match self.prev(i) {
-            prev::NONE => None,
-            k => Some((
-                self.at3(pcol::PREV_P, i),
-                self.at(pcol::PREV_PDF, i),
-                k == prev::DELTA,
-            )),
-        };
-        PathState::from_parts(
-            self.result(i),
-            self.throughput(i),
-            self.at(pcol::ETA, i),
-            self.depth(i),
-            prev,
-        )
-    }
-
-    /// Stores path `i`'s state.
-    #[inline(always)]
-    pub fn set(&mut self, i: usize, s: &PathState) {
-        self.set_result(i, s.result);
-        self.set_vertex(i, s);
-    }
-
-    /// Stores path `i`'s state except its radiance (what `PathState::advance` changes).
-    #[inline(always)]
-    pub fn set_vertex(&mut self, i: usize, s: &PathState) {
-        self.put3(pcol::THROUGHPUT, i, s.throughput);
-        self.put(pcol::ETA, i, s.eta);
-        self.set_depth(i, s.depth);
-        match s.prev_parts() {
-            None => self.put(pcol::PREV, i, f32::from_bits(prev::NONE)),
-            Some((p, pdf, delta)) => self.set_prev(i, p, pdf, delta),
-        }
-    }
-
-    /// Stores path `i`'s previous vertex: its point, BSDF density and whether its lobe was a
-    /// delta.
-    #[inline(always)]
-    pub fn set_prev(&mut self, i: usize, p: Vec3, pdf: f32, delta: bool) {
-        let k = if delta { prev::DELTA } else { prev::SMOOTH };
-        self.put(pcol::PREV, i, f32::from_bits(k));
-        self.put3(pcol::PREV_P, i, p);
-        self.put(pcol::PREV_PDF, i, pdf);
-    }
-
-    /// Path `i`'s radiance so far.
-    #[inline(always)]
-    pub fn result(&self, i: usize) -> Spectrum {
-        self.at3(pcol::RESULT, i)
-    }
-
-    #[inline(always)]
-    pub fn set_result(&mut self, i: usize, v: Spectrum) {
-        self.put3(pcol::RESULT, i, v);
-    }
-
-    /// Adds `v` to path `i`'s radiance (`PathState::add_light`'s sum, per component).
-    #[inline(always)]
-    pub fn add_result(&mut self, i: usize, v: Spectrum) {
-        let r = self.result(i) + v;
-        self.set_result(i, r);
-    }
-
-    /// The flags of `PathState::prev_mis` for path `i` under `cfg`: whether its previous
-    /// vertex was sampled through a smooth lobe (its point and density count; else they are
-    /// 0), whether the weight of emission is the power heuristic (`mis`), and whether it is 0.
-    #[inline(always)]
-    pub fn prev_mis(&self, i: usize, cfg: &PathSettings) -> (bool, bool, bool) {
-        let smooth = self.prev(i) == prev::SMOOTH;
-        (
-            smooth,
-            smooth && cfg.strategy == Strategy::Mis,
-            smooth && cfg.strategy == Strategy::LightOnly,
-        )
-    }
-
-    #[inline(always)]
-    pub fn throughput(&self, i: usize) -> Spectrum {
-        self.at3(pcol::THROUGHPUT, i)
     }
 }
 
@@ -635,54 +423,6 @@ mod tests {
         }
         b.compact();
         assert_eq!(b.active, [1, 2, 5]);
-    }
-
-    /// The path columns give back the state stored, bit for bit, and the previous vertex's
-    /// flags and (where smooth) point and density of `PathState::prev_mis`.
-    #[test]
-    fn paths_round_trip() {
-        let mut paths = Paths::new();
-        paths.start(BATCH);
-        let v = |k: f32| Vec3::new(k, -k * 0.5, k + 0.25);
-        let states = [
-            PathState::new(),
-            PathState::from_parts(v(1.0), v(2.0), 1.5, 3, Some((v(4.0), 0.75, false))),
-            PathState::from_parts(v(-1.0), v(0.5), 0.5, 7, Some((v(-4.0), 2.5, true))),
-            PathState::from_parts(v(f32::NAN), v(-0.0), 1.0, 1, Some((v(0.0), 0.0, false))),
-        ];
-        for (k, s) in states.iter().enumerate() {
-            let i = [0, 9, 500, BATCH - 1][k];
-            paths.set(i, s);
-            assert_eq!(format!("{:?}", paths.get(i)), format!("{s:?}"));
-            assert_eq!(
-                paths.result(i).to_array().map(f32::to_bits),
-                s.result.to_array().map(f32::to_bits)
-            );
-            for strategy in [Strategy::Mis, Strategy::LightOnly, Strategy::BsdfOnly] {
-                let cfg = PathSettings {
-                    strategy,
-                    ..PathSettings::default()
-                };
-                let pm = s.prev_mis(&cfg);
-                let (smooth, mis, zero) = paths.prev_mis(i, &cfg);
-                assert_eq!((mis, zero), (pm.mis, pm.zero), "{s:?} {strategy:?}");
-                if smooth {
-                    assert_eq!(paths.at(pcol::PREV_PDF, i).to_bits(), pm.pdf.to_bits());
-                    for c in 0..3 {
-                        assert_eq!(paths.at(pcol::PREV_P + c, i).to_bits(), pm.p[c].to_bits());
-                    }
-                } else {
-                    assert_eq!((pm.p, pm.pdf), (Vec3::ZERO, 0.0));
-                }
-            }
-        }
-        let mut s = states[1];
-        s.add_light(&PendingLight {
-            shadow: Ray::new(Vec3::ZERO, Vec3::Z),
-            contribution: v(0.125),
-        });
-        paths.add_result(9, v(0.125));
-        assert_eq!(format!("{:?}", paths.get(9)), format!("{s:?}"));
     }
 
     /// `get` returns what `set` stored, bit for bit, in every field (the 1-lane code and the

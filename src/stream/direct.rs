@@ -175,9 +175,7 @@ pub(super) fn run_batch(
     for i in 0..batch.len() {
         let ray = &batch.ray[i];
         let si = batch.hit[i].map(|_| batch.surf.get(i));
-        let mut result = batch.paths.result(i);
-        add_camera_emission(cfg, scene, &mut result, ray, si.as_ref());
-        batch.paths.set_result(i, result);
+        add_camera_emission(cfg, scene, &mut batch.state[i].result, ray, si.as_ref());
         if let Some(si) = si {
             batch.material[i] = scene.shape_material[si.shape as usize];
             batch.scatter.push(i as u32);
@@ -211,7 +209,7 @@ pub(super) fn run_batch(
         match *item {
             Item::Light { path, term, .. } => {
                 if !items.blocked[k] {
-                    batch.paths.add_result(path as usize, term);
+                    batch.state[path as usize].result += term;
                 }
             }
             Item::Bsdf {
@@ -223,11 +221,11 @@ pub(super) fn run_batch(
                 delta,
             } => {
                 let hit = items.hit[k].map(|h| scene.interaction(&ray, &h));
-                let mut result = batch.paths.result(path as usize);
+                let result = &mut batch.state[path as usize].result;
                 add_bsdf_hit(
                     cfg,
                     scene,
-                    &mut result,
+                    result,
                     p,
                     ray.d,
                     weight,
@@ -235,7 +233,6 @@ pub(super) fn run_batch(
                     delta,
                     hit.as_ref(),
                 );
-                batch.paths.set_result(path as usize, result);
             }
         }
     }

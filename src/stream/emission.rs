@@ -18,7 +18,6 @@
 
 use crate::emitter::Emitter;
 use crate::geometry::shapes::ShapeKind;
-#[cfg(test)]
 use crate::integrator::path::PrevMis;
 use crate::lane::vec::V3;
 use crate::lane::Lane;
@@ -283,11 +282,9 @@ pub(crate) fn env_where<L: Lane>(
 pub(crate) mod x8 {
     use super::*;
     use crate::integrator::PathSettings;
-    use crate::lane::LaneI32;
-    use crate::lane::{Avx2, F32x8, I32x8};
-    use crate::stream::batch::{cols, pcol, Batch, Paths};
+    use crate::lane::Avx2;
+    use crate::stream::batch::{cols, Batch};
     use crate::stream::kernels::light::x8::Cols3;
-    use crate::stream::BATCH;
     use glam::Vec2;
 
     /// Row field `f` (three floats) of path `i`, into lane `k` of `c`.
@@ -295,22 +292,6 @@ pub(crate) mod x8 {
     fn row3(c: &mut Cols3, k: usize, flat: &[f32], i: usize, f: usize) {
         let r = &flat[i * cols::ROW + f..i * cols::ROW + f + 3];
         (c.0[0][k], c.0[1][k], c.0[2][k]) = (r[0], r[1], r[2]);
-    }
-
-    /// Path column `c` (`batch::pcol`) at 8 path ids, one gather.
-    #[inline(always)]
-    fn col(paths: &Paths, c: usize, idx: I32x8) -> F32x8 {
-        F32x8::gather(paths.flat(), idx.add(idx.splat((c * BATCH) as i32)))
-    }
-
-    /// Path columns `c..c + 3` at 8 path ids, one gather per component.
-    #[inline(always)]
-    fn col3(paths: &Paths, c: usize, idx: I32x8) -> V3<F32x8> {
-        V3::new(
-            col(paths, c, idx),
-            col(paths, c + 1, idx),
-            col(paths, c + 2, idx),
-        )
     }
 
     /// What the emission stage did in lanes (`LaneCounters`): paths whose emission went
@@ -343,7 +324,7 @@ pub(crate) mod x8 {
         batch.scatter.clear();
         let Batch {
             active,
-            paths,
+            state,
             hit,
             surf,
             alive,
@@ -364,14 +345,11 @@ pub(crate) mod x8 {
             let mut is_sphere = [false; 8];
             let mut center: Cols3 = Cols3::default();
             let mut radius = [0.0f32; 8];
-            // The chunk's path ids (the missing lanes of a short chunk read path 0, unused).
-            let mut idx = [0i32; 8];
             for (k, &i) in chunk.iter().enumerate() {
-                idx[k] = i as i32;
                 let i = i as usize;
                 alive[i] = false;
-                let depth = paths.depth(i);
-                let show = depth > 0 || !cfg.hide_emitters;
+                let st = &state[i];
+                let show = st.depth > 0 || !cfg.hide_emitters;
                 if hit[i].is_some() {
                     let shape = flat[i * cols::ROW + cols::SHAPE].to_bits() as usize;
                     if show {
@@ -398,7 +376,7 @@ pub(crate) mod x8 {
                         }
                     }
                     // Mitsuba: continue only while depth + 1 < max_depth.
-                    if depth.saturating_add(1) < limit {
+                    if st.depth.saturating_add(1) < limit {
                         material[i] = scene.shape_material[shape];
                         scatter.push(i as u32);
                     }
@@ -415,9 +393,10 @@ pub(crate) mod x8 {
                 }
             }
             if lanes.contains(&true) {
-                // `PathState::prev_mis` in lanes: the previous vertex's point and density
-                // where it was sampled through a smooth lobe, else 0; the weight's kind.
-                let mut smooth = [false; 8];
+                let mut t: Cols3 = Cols3::default();
+                let mut r: Cols3 = Cols3::default();
+                let mut pp: Cols3 = Cols3::default();
+                let mut pdf = [0.0f32; 8];
                 let mut mis = [false; 8];
                 let mut zero = [false; 8];
                 let mut p: Cols3 = Cols3::default();
@@ -429,7 +408,12 @@ pub(crate) mod x8 {
                         continue;
                     }
                     let i = i as usize;
-                    (smooth[k], mis[k], zero[k]) = paths.prev_mis(i, cfg);
+                    let st = &state[i];
+                    t.set(k, st.throughput);
+                    r.set(k, st.result);
+                    let pm: PrevMis = st.prev_mis(cfg);
+                    pp.set(k, pm.p);
+                    (pdf[k], mis[k], zero[k]) = (pm.pdf, pm.mis, pm.zero);
                     if on_area[k] {
                         row3(&mut p, k, flat, i, cols::P);
                         row3(&mut n, k, flat, i, cols::N);
@@ -438,16 +422,14 @@ pub(crate) mod x8 {
                         d.set(k, ray[i].d);
                     }
                 }
-                let idx = avx.load_i32(&idx);
-                let (smooth, z) = (avx.mask(&smooth), avx.splat(0.0));
                 let prev = Prev {
-                    p: V3::select(smooth, col3(paths, pcol::PREV_P, idx), V3::new(z, z, z)),
-                    pdf: F32x8::select(smooth, col(paths, pcol::PREV_PDF, idx), z),
+                    p: pp.load(avx),
+                    pdf: avx.load(&pdf),
                     mis: avx.mask(&mis),
                     zero: avx.mask(&zero),
                 };
-                let throughput = col3(paths, pcol::THROUGHPUT, idx);
-                let mut out = col3(paths, pcol::RESULT, idx);
+                let throughput = t.load(avx);
+                let mut out = r.load(avx);
                 let miss_m = avx.mask(&miss);
                 for e in env_lights {
                     out = match *e {
@@ -509,7 +491,7 @@ pub(crate) mod x8 {
                 let (x, y, z) = (out.x.to_array(), out.y.to_array(), out.z.to_array());
                 for (k, &i) in chunk.iter().enumerate() {
                     if lanes[k] {
-                        paths.set_result(i as usize, Vec3::new(x[k], y[k], z[k]));
+                        state[i as usize].result = Vec3::new(x[k], y[k], z[k]);
                         counts.lanes += 1;
                     }
                 }
@@ -519,9 +501,7 @@ pub(crate) mod x8 {
                     if scalar[k] {
                         let i = i as usize;
                         let si = hit[i].map(|_| surf.get(i));
-                        let mut st = paths.get(i);
-                        st.add_emission(cfg, scene, &ray[i], si.as_ref());
-                        paths.set_result(i, st.result);
+                        state[i].add_emission(cfg, scene, &ray[i], si.as_ref());
                     }
                 }
             }

@@ -34,7 +34,7 @@
 //! [`kernels::tail::Tail`]) and ray counters ([`direct`]).
 //!
 //! Then every path's radiance goes to the block in the canonical order (8 samples at a time:
-//! [`Block::put8_finite_rgb`], from the radiance columns). Each path draws from its
+//! [`Block::put8_finite`]). Each path draws from its
 //! own stream keyed by (seed, pixel, sample) and runs exactly the scalar renderer's per-vertex
 //! functions in the same order, so the image equals the scalar renderer's bit for bit at any
 //! thread count (`tests/render/stream.rs`).
@@ -516,26 +516,25 @@ fn camera_rays(scene: &Scene, kernels: &Kernels, batch: &mut Batch) {
 }
 
 /// The splat: every path's radiance (0 for a non-finite one, counted in `invalid`) to the
-/// block in the canonical order, 8 samples at a time through [`Block::put8_finite_rgb`] with AVX2
+/// block in the canonical order, 8 samples at a time through [`Block::put8_finite`] with AVX2
 /// (the same sums as [`Block::put`] one by one, which takes the rest).
 fn splat(block: &mut Block, batch: &Batch, kernels: &Kernels, invalid: &mut u64) {
     let mut done = 0;
     #[cfg(target_arch = "x86_64")]
     if let Some(avx) = kernels.avx {
-        // The radiance columns of 8 consecutive paths, loaded in place.
-        let r = [0, 1, 2].map(|c| batch.paths.col(batch::pcol::RESULT + c));
-        let chunks = batch.pos.chunks_exact(8).enumerate();
-        for (j, pos) in chunks {
+        // The finiteness test and the zeroing in lanes too (`Block::put8_finite`).
+        let chunks = batch.pos.chunks_exact(8).zip(batch.state.chunks_exact(8));
+        for (pos, state) in chunks {
             let pos: &[Vec2; 8] = pos.try_into().expect("8 positions");
-            let at = |c: usize| -> &[f32; 8] { r[c][8 * j..8 * j + 8].try_into().expect("8") };
-            *invalid += block.put8_finite_rgb(avx, pos, [at(0), at(1), at(2)]) as u64;
+            let v: [Spectrum; 8] = core::array::from_fn(|j| state[j].result);
+            *invalid += block.put8_finite(avx, pos, &v) as u64;
             done += 8;
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = kernels;
     for i in done..batch.len() {
-        let l = batch.paths.result(i);
+        let l = batch.state[i].result;
         let v = if crate::spectrum::is_finite(l) {
             l
         } else {
@@ -635,10 +634,7 @@ fn emit(
         let ray = &batch.ray[i];
         let si = batch.hit[i].map(|_| batch.surf.get(i));
         batch.alive[i] = false;
-        let mut st = batch.paths.get(i);
-        let scatters = st.add_emission(cfg, scene, ray, si.as_ref());
-        batch.paths.set_result(i, st.result);
-        if scatters {
+        if batch.state[i].add_emission(cfg, scene, ray, si.as_ref()) {
             if let Some(si) = si {
                 batch.material[i] = scene.shape_material[si.shape as usize];
                 batch.scatter.push(i as u32);
@@ -862,13 +858,13 @@ fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Ra
     rays.counters.lanes.shadow_used += n as u64;
     rays.counters.lanes.shadow_slots += slots(n);
     if packet == Some(true) {
-        let (shadow, light, paths) = (&batch.shadow, &batch.light, &mut batch.paths);
+        let (shadow, light, state) = (&batch.shadow, &batch.light, &mut batch.state);
         // Every id in `shadow` has a pending light sample (filtered above).
         let ls = shadow.iter().filter_map(|&i| light[i as usize].as_ref());
         rays.occluded_stream(scene, ls.map(|l| &l.shadow), false, |k, blocked| {
             let i = shadow[k] as usize;
             if let (Some(l), false) = (&light[i], blocked) {
-                paths.add_result(i, l.contribution);
+                state[i].add_light(l);
             }
         });
     } else if packet.is_some() {
@@ -883,7 +879,7 @@ fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Ra
             for (k, &i) in chunk.iter().enumerate() {
                 let i = i as usize;
                 if let (Some(l), false) = (&batch.light[i], blocked >> k & 1 == 1) {
-                    batch.paths.add_result(i, l.contribution);
+                    batch.state[i].add_light(l);
                 }
             }
         }
@@ -892,7 +888,7 @@ fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Ra
             let i = i as usize;
             if let Some(l) = &batch.light[i] {
                 if !rays.occluded(scene, &l.shadow) {
-                    batch.paths.add_result(i, l.contribution);
+                    batch.state[i].add_light(l);
                 }
             }
         }

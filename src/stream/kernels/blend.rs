@@ -351,7 +351,7 @@ pub(crate) mod x8 {
                     (au[c][k], av[c][k]) = (v.2, v.3);
                 }
             }
-            tp.set(k, b.paths.throughput(i));
+            tp.set(k, b.state[i].throughput);
             if nee {
                 let u = Vec2::new(num.u[0][k], num.u[1][k]);
                 gather.add(k, scene, lights, light_only, num.u_sel[k], u, p.get(k));
@@ -402,17 +402,7 @@ pub(crate) mod x8 {
         );
 
         // 4. Scatter back.
-        scatter(
-            avx,
-            b,
-            ids,
-            &front,
-            &p,
-            lo.as_ref(),
-            &so,
-            tp.load(avx),
-            tail,
-        );
+        scatter(b, ids, &front, &p, lo.as_ref(), &so, tail);
     }
 }
 

@@ -277,7 +277,7 @@ pub(crate) mod x8 {
             }
             let si = b.surf.get(i);
             refl.set(k, reflectance(scene, mat.reflectance, &si));
-            tp.set(k, b.paths.throughput(i));
+            tp.set(k, b.state[i].throughput);
             if nee {
                 let u = Vec2::new(num.u[0][k], num.u[1][k]);
                 gather.add(k, scene, mat.lights, light_only, num.u_sel[k], u, si.p);
@@ -305,10 +305,6 @@ pub(crate) mod x8 {
             so.pdf.to_array(),
             Cols3::store(so.o),
         );
-        // Under the `path` integrator the BSDF samples end their vertices in lanes, after the
-        // light samples (`tail::advance`).
-        let adv = tail.advances();
-        let lanes = adv.is_some();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             if !front[k] {
@@ -318,7 +314,7 @@ pub(crate) mod x8 {
                 let shadow = Ray::segment(l_o.get(k), l_d.get(k), l_tmax[k]);
                 tail.light(b, i, shadow, l_c.get(k));
             }
-            if s_ok[k] && !lanes {
+            if s_ok[k] {
                 let s = Sampled {
                     p: p.get(k),
                     ray: Ray::new(s_o.get(k), s_wo.get(k)),
@@ -329,19 +325,6 @@ pub(crate) mod x8 {
                 };
                 tail.bsdf(b, i, &s);
             }
-        }
-        if let Some(cfg) = adv {
-            let s = crate::stream::kernels::tail::Lanes {
-                ok: so.ok,
-                p: &p,
-                o: so.o,
-                wo: so.wo,
-                weight: refl8,
-                eta: avx.splat(1.0),
-                pdf: so.pdf,
-                delta: avx.mask(&[false; W]),
-            };
-            crate::stream::kernels::tail::advance(avx, &cfg, b, ids, &front, tp.load(avx), &s);
         }
     }
 }

@@ -249,7 +249,7 @@ pub(crate) mod x8 {
                 continue; // no light scatters toward wi: the path ends (`PathState::scatter`)
             };
             root[k] = r;
-            tp.set(k, b.paths.throughput(i));
+            tp.set(k, b.state[i].throughput);
             if cfg.strategy != Strategy::BsdfOnly && bsdf.lobes().is_smooth() {
                 nee[k] = true;
                 let sampler = &mut b.sampler[i];

@@ -272,7 +272,7 @@ pub(crate) mod x8 {
             };
             rho.set(k, tex(mat.diffuse, rho0));
             spec.set(k, tex(mat.specular, spec0));
-            tp.set(k, b.paths.throughput(i as usize));
+            tp.set(k, b.state[i as usize].throughput);
         }
         // Each path's numbers (`u_sel`, `u` with a light sample, `u1`, `u2`), 8-wide from the
         // gathered PCG32 states where the streams are plain (`kernels::draws`), then the light
@@ -328,22 +328,6 @@ pub(crate) mod x8 {
                     tail.light(b, i as usize, shadow, c.get(k));
                 }
             }
-        }
-        // Under the `path` integrator the BSDF samples end their vertices in lanes
-        // (`tail::advance`).
-        if let Some(cfg) = tail.advances() {
-            let s = crate::stream::kernels::tail::Lanes {
-                ok: so.ok,
-                p: &p,
-                o: so.o,
-                wo: so.wo,
-                weight: so.weight,
-                eta: avx.splat(1.0),
-                pdf: so.pdf,
-                delta: so.delta,
-            };
-            crate::stream::kernels::tail::advance(avx, &cfg, b, ids, &front, tp.load(avx), &s);
-            return;
         }
         let (ok, wo, pdf) = (so.ok.to_array(), Cols3::store(so.wo), so.pdf.to_array());
         let (weight, delta, o) = (

@@ -319,7 +319,7 @@ pub(crate) mod x8 {
                 c1.set(k, v.1);
                 (au[k], av[k]) = (v.2, v.3);
             }
-            tp.set(k, b.paths.throughput(i));
+            tp.set(k, b.state[i].throughput);
             if nee {
                 let u = Vec2::new(num.u[0][k], num.u[1][k]);
                 gather.add(k, scene, lights, light_only, num.u_sel[k], u, p.get(k));
@@ -391,17 +391,7 @@ pub(crate) mod x8 {
         );
 
         // 4. Scatter back.
-        scatter(
-            avx,
-            b,
-            ids,
-            &front,
-            &p,
-            lo.as_ref(),
-            &so,
-            tp.load(avx),
-            tail,
-        );
+        scatter(b, ids, &front, &p, lo.as_ref(), &so, tail);
     }
 
     /// A chunk's light samples as the scatter reads them: per lane whether a shadow ray is
@@ -432,44 +422,19 @@ pub(crate) mod x8 {
 
     /// Step 4 of a chunk (the wrapper-chain driver's and [`crate::stream::kernels::blend`]'s):
     /// each front-facing lane's pending shadow ray, then its BSDF sample, to the integrator's
-    /// tail, in path order. Under the `path` integrator ([`Tail::advances`]) the light
-    /// samples go first, then the BSDF samples end their vertices in lanes
-    /// ([`crate::stream::kernels::tail::advance`], `tp` the lanes' throughputs).
-    #[allow(clippy::too_many_arguments)]
+    /// tail, in path order.
     #[inline(always)]
-    pub(crate) fn scatter<T: Wide<W>, const W: usize>(
-        avx: T,
+    pub(crate) fn scatter<L: Lane + ToArray<f32, W>, const W: usize>(
         b: &mut Batch,
         ids: &[u32; W],
         front: &[bool; W],
         p: &Cols3<W>,
         lo: Option<&LightCols<W>>,
-        so: &SampleOut<T::F>,
-        tp: V3<T::F>,
+        so: &SampleOut<L>,
         tail: &mut impl Tail,
-    ) {
-        if let Some(cfg) = tail.advances() {
-            for (k, &i) in ids.iter().enumerate() {
-                if let (true, Some(l)) = (front[k], lo) {
-                    if l.ok[k] {
-                        let shadow = Ray::segment(l.o.get(k), l.d.get(k), l.tmax[k]);
-                        tail.light(b, i as usize, shadow, l.c.get(k));
-                    }
-                }
-            }
-            let s = crate::stream::kernels::tail::Lanes {
-                ok: so.ok,
-                p,
-                o: so.o,
-                wo: so.wo,
-                weight: so.weight,
-                eta: so.eta,
-                pdf: so.pdf,
-                delta: so.delta,
-            };
-            crate::stream::kernels::tail::advance(avx, &cfg, b, ids, front, tp, &s);
-            return;
-        }
+    ) where
+        L::Mask: ToArray<bool, W>,
+    {
         let (s_ok, s_wo, s_pdf, s_w, s_delta, s_eta, s_o) = (
             so.ok.to_array(),
             Cols3::store(so.wo),
