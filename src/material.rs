@@ -115,9 +115,16 @@ impl MnmSettings {
             self.evaluation,
             self.max_order,
         );
+        self.options_into(slot);
+        slot.set_ms_table(self.ms_table);
+    }
+
+    /// The settings both map builds copy as they are: the transmission walk and the Lambert
+    /// closed form.
+    #[inline(always)]
+    fn options_into(&self, slot: &mut MicrofacetNormalMap) {
         slot.transmission_walk = self.transmission_walk;
         slot.set_lambert_closed_form(self.lambert_closed_form);
-        slot.set_ms_table(self.ms_table);
     }
 
     /// The arithmetic of [`Self::map_into`] at several hits at once (lanes), from their normal
@@ -166,8 +173,7 @@ impl MnmSettings {
             self.evaluation,
             self.max_order,
         );
-        slot.transmission_walk = self.transmission_walk;
-        slot.set_lambert_closed_form(self.lambert_closed_form);
+        self.options_into(slot);
         match &lanes.cells {
             Some(c) => {
                 let cell = ThetaCell {
