@@ -135,7 +135,9 @@ pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
-    use crate::bsdf::mnm::compensated::lanes::{eval_pdf_x8, sample_x8, with_incident_x8, Point};
+    use crate::bsdf::mnm::compensated::lanes::{
+        eval_pdf_x8, sample_x8, with_incident_x8, Chunk, Point,
+    };
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::{PathSettings, Strategy};
@@ -259,7 +261,8 @@ pub(crate) mod x8 {
             }
         }
 
-        // The compensated model's points (where the nested leaf is shared), for steps 3 and 4.
+        // The compensated model's points (where the nested leaf is shared) and their state
+        // at ωi, once for steps 3 and 4.
         let mut pts = [None; 8];
         for (k, &i) in ids.iter().enumerate() {
             if shared && root[k] != u32::MAX {
@@ -267,6 +270,7 @@ pub(crate) mod x8 {
                 pts[k] = Point::of(local, wi);
             }
         }
+        let chunk = Chunk::new(pts);
 
         // 3. Next-event estimation: the BSDF toward the light points lane by lane (where a
         //    point was sampled, as `nee::prepare_light`), the rest 8-wide.
@@ -274,7 +278,7 @@ pub(crate) mod x8 {
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
             let (some, d) = (lp.some.to_array(), Cols3::store(lp.d));
             let (mut f, mut pdf, mut consistent) = (Cols3::default(), [0.0f32; 8], [false; 8]);
-            let (mut lit, mut wo) = ([None; 8], [Vec3::ZERO; 8]);
+            let (mut lit, mut wo) = (0u8, [Vec3::ZERO; 8]);
             for (k, &i) in ids.iter().enumerate() {
                 if !(nee[k] && some[k]) {
                     continue;
@@ -286,8 +290,8 @@ pub(crate) mod x8 {
                     continue; // `SurfaceBsdf::eval_pdf`'s side test
                 };
                 consistent[k] = true;
-                lit[k] = pts[k];
-                if lit[k].is_some() {
+                if pts[k].is_some() {
+                    lit |= 1 << k;
                     wo[k] = wo_k; // evaluated below with the other points
                 } else {
                     let (local, wi) = s.local();
@@ -296,8 +300,8 @@ pub(crate) mod x8 {
                     pdf[k] = pk;
                 }
             }
-            for (k, (fk, pk)) in eval_pdf_x8(&ctx, &lit, &wo).into_iter().enumerate() {
-                if lit[k].is_some() {
+            for (k, (fk, pk)) in eval_pdf_x8(&ctx, &chunk, lit, &wo).into_iter().enumerate() {
+                if lit & (1 << k) != 0 {
                     f.set(k, fk);
                     pdf[k] = pk;
                 }
@@ -328,7 +332,7 @@ pub(crate) mod x8 {
         // 4. The BSDF samples (the compensated model's points together, their first orders'
         //    nested evaluations 8-wide; the others lane by lane) and the next rays, lane by
         //    lane, to the tail (for `path`, `PathState::scatter`'s end).
-        let sampled = sample_x8(&ctx, &pts, &mut b.sampler, ids);
+        let sampled = sample_x8(&ctx, &chunk, &mut b.sampler, ids);
         for (k, &i) in ids.iter().enumerate() {
             if root[k] == u32::MAX {
                 continue;

@@ -60,15 +60,66 @@ impl<'a> Point<'a> {
     }
 }
 
-/// What the points keep between the passes, in place by lane (lane k's values are read only
-/// where bit k of `live` is set; the others hold placeholders): fixed arrays written once per
-/// point instead of per-point records moved through `Option`s (each such move of a few hundred
-/// bytes was a `memcpy` call).
+/// The chunk's points and what they compute once for their ωi, for both queries
+/// ([`eval_pdf_x8`] toward the light points, [`sample_x8`] for the next bounce): each point's
+/// ωi state ([`AtWi`]) and entries, and over the mirror sawtooth the first order's per-point
+/// inputs in columns ([`first::Points8`]). In place by lane (lane k's values are read only
+/// where bit k of `above` is set).
+pub(crate) struct Chunk<'a> {
+    pts: [Option<Point<'a>>; 8],
+    /// Bit k: lane k has a point seen from above (ωi.z > 0).
+    above: u8,
+    at: [AtWi; 8],
+    e: [Entries; 8],
+    /// Every point is over the mirror sawtooth (its first orders run in lanes, from `geo`).
+    mirror: bool,
+    geo: first::Points8,
+}
+
+impl<'a> Chunk<'a> {
+    /// The state of the points `pts` (lanes without a point: `None`); see [`Point`].
+    #[inline(always)]
+    pub(crate) fn new(pts: [Option<Point<'a>>; 8]) -> Self {
+        let mirror = all_mirror(&pts);
+        let mut c = Chunk {
+            pts,
+            above: 0,
+            at: [AtWi::UNUSED; 8],
+            e: [Entries::EMPTY; 8],
+            mirror,
+            geo: first::Points8::new(),
+        };
+        for (k, pt) in pts.iter().enumerate() {
+            let Some(pt) = pt else { continue };
+            let wi = pt.wi;
+            if wi.z <= 0.0 {
+                continue;
+            }
+            let at = pt.r.at(wi);
+            c.at[k] = AtWi::new(pt.r, &pt.nested, wi, at);
+            c.e[k] = entries(pt.m, at, wi);
+            if mirror {
+                c.geo.push(k, pt.m, &c.e[k]);
+            }
+            c.above |= 1 << k;
+        }
+        c
+    }
+
+    /// Lane `k`'s point, if it is seen from above.
+    #[inline(always)]
+    fn above(&self, k: usize) -> Option<&Point<'a>> {
+        self.pts[k].as_ref().filter(|_| self.above & (1 << k) != 0)
+    }
+}
+
+/// What the points keep between the passes of one query, in place by lane (lane k's values are
+/// read only where bit k of `live` is set; the others hold placeholders): fixed arrays written
+/// once per point instead of per-point records moved through `Option`s (each such move of a
+/// few hundred bytes was a `memcpy` call).
 struct States {
     /// Bit k: lane k has a point whose first order is pending.
     live: u8,
-    at: [AtWi; 8],
-    e: [Entries; 8],
     c: [Collected; 8],
     wo: [Vec3; 8],
     known: [Option<Known>; 8],
@@ -79,8 +130,6 @@ impl States {
     fn new() -> Self {
         States {
             live: 0,
-            at: [AtWi::UNUSED; 8],
-            e: [Entries::EMPTY; 8],
             c: [Collected::UNUSED; 8],
             wo: [Vec3::Z; 8],
             known: [None; 8],
@@ -96,7 +145,8 @@ impl States {
 /// Each live point's rank-1 remainder at its ωo ([`AtWi::remainder`]): the table lookups at
 /// ωo of the points with a baked table 8-wide ([`MsTable::lookup_baked_x8`], the first such
 /// point's table; a point with another table, or per-bounce colours, looks up alone).
-fn remainders(st: &States, pts: &[Option<Point>; 8]) -> [Spectrum; 8] {
+fn remainders(st: &States, c: &Chunk) -> [Spectrum; 8] {
+    let pts = &c.pts;
     let mut q = Lookups8::new();
     let mut table: Option<&'static MsTable> = None;
     for (k, pt) in pts.iter().enumerate() {
@@ -105,18 +155,22 @@ fn remainders(st: &States, pts: &[Option<Point>; 8]) -> [Spectrum; 8] {
         };
         let r = pt.r;
         if r.baked_norm.is_some()
-            && st.at[k].ei != Spectrum::ZERO
+            && c.at[k].ei != Spectrum::ZERO
             && std::ptr::eq(*table.get_or_insert(r.table), r.table)
         {
             q.push(k, &r.cell, st.wo[k]);
         }
     }
     let eo = table.map_or([[Spectrum::ZERO; 2]; 8], |t| t.lookup_baked_x8(&q, false));
-    std::array::from_fn(|k| match &pts[k] {
-        Some(_) if q.is_used(k) => st.at[k].remainder_from(eo[k][1], st.wo[k]),
-        Some(pt) if st.is_live(k) => st.at[k].remainder(pt.r, st.wo[k]),
-        _ => Spectrum::ZERO,
-    })
+    let mut out = [Spectrum::ZERO; 8];
+    for (k, o) in out.iter_mut().enumerate() {
+        *o = match &pts[k] {
+            Some(_) if q.is_used(k) => c.at[k].remainder_from(eo[k][1], st.wo[k]),
+            Some(pt) if st.is_live(k) => c.at[k].remainder(pt.r, st.wo[k]),
+            _ => Spectrum::ZERO,
+        };
+    }
+    out
 }
 
 /// [`MicrofacetNormalMap::with_incident`] of up to 8 points at once, in place: the microfacet
@@ -178,51 +232,50 @@ fn shared<'a>(pts: &[Option<Point<'a>>; 8]) -> Option<Bsdf<'a>> {
     pts.iter().flatten().next().map(|p| p.nested)
 }
 
-/// `Bsdf::eval_pdf` of each point's root toward its `wo` (shading frame), as
-/// `mnm::eval_pdf` computes it: (0, 0) unless both directions are above the surface. Lanes
-/// without a point are left (0, 0).
+/// `Bsdf::eval_pdf` of the root of each point of `c` in `lit` (bit k: lane k) toward its `wo`
+/// (shading frame), as `mnm::eval_pdf` computes it: (0, 0) unless both directions are above
+/// the surface. Other lanes are left (0, 0).
 pub(crate) fn eval_pdf_x8(
     ctx: &BsdfContext,
-    pts: &[Option<Point>; 8],
+    c: &Chunk,
+    lit: u8,
     wo: &[Vec3; 8],
 ) -> [(Spectrum, f32); 8] {
     let _ = ctx; // the lane forms read no context
     let mut out = [(Spectrum::ZERO, 0.0); 8];
-    let Some(nested) = shared(pts) else {
+    let Some(nested) = shared(&c.pts) else {
         return out;
     };
     // Over the mirror sawtooth the first orders run in lanes ([`first`]), else each point's
     // nested pairs go to one batch.
-    let mirror = all_mirror(pts);
     let mut lanes = first::Mirror8::new();
     let mut pairs = Pairs::<CHUNK>::new();
     let mut st = States::new();
-    for (k, pt) in pts.iter().enumerate() {
-        let Some(pt) = pt else { continue };
-        let (wi, wo) = (pt.wi, wo[k]);
-        if wi.z <= 0.0 || wo.z <= 0.0 {
+    for k in 0..8 {
+        let Some(pt) = c.above(k).filter(|_| lit & (1 << k) != 0) else {
+            continue;
+        };
+        let wo = wo[k];
+        if wo.z <= 0.0 {
             continue;
         }
-        let at = pt.r.at(wi);
-        st.at[k] = AtWi::new(pt.r, &pt.nested, wi, at);
-        st.e[k] = entries(pt.m, at, wi);
-        if mirror {
-            lanes.push(k, pt.m, &st.e[k], wo, None);
+        if c.mirror {
+            lanes.push(k, wo, None);
         } else {
-            st.c[k] = Collected::new(pt.m, &st.e[k], wo, None, &mut pairs);
+            st.c[k] = Collected::new(pt.m, &c.e[k], wo, None, &mut pairs);
         }
         st.wo[k] = wo;
         st.live |= 1 << k;
     }
     let kind = Nested::of(&nested);
-    let fo = first_orders(kind, mirror, &lanes, &pairs, &st, None);
-    let rem = remainders(&st, pts);
+    let fo = first_orders(kind, c, &lanes, &pairs, &st, None);
+    let rem = remainders(&st, c);
     for (k, o) in out.iter_mut().enumerate() {
         if !st.is_live(k) {
             continue;
         }
         let (f, p) = fo[k];
-        let a = &st.at[k];
+        let a = &c.at[k];
         *o = (
             f + rem[k],
             (1.0 - a.select) * p + a.select * st.wo[k].z * INV_PI,
@@ -237,15 +290,15 @@ pub(crate) fn eval_pdf_x8(
 #[inline(always)]
 fn first_orders(
     kind: Nested,
-    mirror: bool,
+    c: &Chunk,
     lanes: &first::Mirror8,
     pairs: &Pairs<CHUNK>,
     st: &States,
     known: Option<&[Option<Known>; 8]>,
 ) -> [(Spectrum, f32); 8] {
     let mut out = [(Spectrum::ZERO, 0.0); 8];
-    if mirror {
-        let fo = lanes.eval(kind);
+    if c.mirror {
+        let fo = lanes.eval(&c.geo, kind);
         for (k, o) in out.iter_mut().enumerate() {
             if st.is_live(k) {
                 *o = fo.get(k);
@@ -262,7 +315,7 @@ fn first_orders(
                 Some(kn) => kn[k],
                 None => None,
             };
-            let fo = st.c[k].sum::<false, CHUNK>(&st.e[k], kn, &ev);
+            let fo = st.c[k].sum::<false, CHUNK>(&c.e[k], kn, &ev);
             *o = (fo.f, fo.p);
         }
     }
@@ -285,44 +338,40 @@ fn first_orders(
 /// as in [`eval_pdf_x8`].
 pub(crate) fn sample_x8(
     ctx: &BsdfContext,
-    pts: &[Option<Point>; 8],
+    c: &Chunk,
     samplers: &mut [Sampler],
     ids: &[u32; 8],
 ) -> [Option<BsdfSample>; 8] {
     let _ = ctx; // the lane forms read no context
     let mut out = [None; 8];
+    let pts = &c.pts;
     let Some(nested) = shared(pts) else {
         return out;
     };
     let kind = Nested::of(&nested);
     let exact = sample_record_is_exact(&nested);
-    // Pass 1: the lobe choice, the cosine lobe, the entry and the nested sample's numbers.
-    // Each point's ωi state and entries go to `st` in place; `drawn`: the lanes with an ωo
-    // (in `st.wo`); `entry`: the entry of a lane that asked for a nested sample.
+    // Pass 1: the lobe choice, the cosine lobe, the entry and the nested sample's numbers
+    // (each point's ωi state and entries from `c`); `drawn`: the lanes with an ωo (in
+    // `st.wo`); `entry`: the entry of a lane that asked for a nested sample.
     let mut st = States::new();
     let mut drawn = 0u8;
     let mut entry = [usize::MAX; 8];
     let mut asks = sample::Asks::new();
-    for (k, pt) in pts.iter().enumerate() {
-        let Some(pt) = pt else { continue };
-        let wi = pt.wi;
-        if wi.z <= 0.0 {
+    for k in 0..8 {
+        if c.above(k).is_none() {
             continue;
         }
         let s = &mut samplers[ids[k] as usize];
-        let at = pt.r.at(wi);
-        st.at[k] = AtWi::new(pt.r, &pt.nested, wi, at);
-        st.e[k] = entries(pt.m, at, wi);
-        if s.next_1d() < st.at[k].select {
+        if s.next_1d() < c.at[k].select {
             st.wo[k] = warp::square_to_cosine_hemisphere(s.next_2d());
             drawn |= 1 << k;
             continue;
         }
         // `draw`'s entry by weight, then the nested sample from the entry's direction.
-        let Some(j) = pick_entry(&st.e[k], s.next_1d()) else {
+        let Some(j) = pick_entry(&c.e[k], s.next_1d()) else {
             continue;
         };
-        asks.push(kind, k, st.e[k].a[j], s);
+        asks.push(kind, k, c.e[k].a[j], s);
         entry[k] = j;
     }
     // Pass 2: the nested samples 8-wide.
@@ -337,13 +386,12 @@ pub(crate) fn sample_x8(
                 continue;
             };
             let s = &mut samplers[ids[k] as usize];
-            (st.wo[k], st.known[k]) = leave(pt.m, &st.e[k], j, sampled, s);
+            (st.wo[k], st.known[k]) = leave(pt.m, &c.e[k], j, sampled, s);
             drawn |= 1 << k;
         }
     }
     // The first orders at the sampled directions: in lanes over the mirror sawtooth, else
     // their nested pairs in one batch.
-    let mirror = all_mirror(pts);
     let mut lanes = first::Mirror8::new();
     let mut pairs = Pairs::<CHUNK>::new();
     for (k, pt) in pts.iter().enumerate() {
@@ -354,21 +402,21 @@ pub(crate) fn sample_x8(
             continue;
         }
         st.known[k] = st.known[k].filter(|_| exact);
-        if mirror {
-            lanes.push(k, pt.m, &st.e[k], st.wo[k], st.known[k]);
+        if c.mirror {
+            lanes.push(k, st.wo[k], st.known[k]);
         } else {
-            st.c[k] = Collected::new(pt.m, &st.e[k], st.wo[k], st.known[k], &mut pairs);
+            st.c[k] = Collected::new(pt.m, &c.e[k], st.wo[k], st.known[k], &mut pairs);
         }
         st.live |= 1 << k;
     }
-    let fo = first_orders(kind, mirror, &lanes, &pairs, &st, Some(&st.known));
-    let rem = remainders(&st, pts);
+    let fo = first_orders(kind, c, &lanes, &pairs, &st, Some(&st.known));
+    let rem = remainders(&st, c);
     for (k, pt) in pts.iter().enumerate() {
         let Some(pt) = pt.as_ref().filter(|_| st.is_live(k)) else {
             continue;
         };
         let (f, p) = fo[k];
-        let a = &st.at[k];
+        let a = &c.at[k];
         let wo = st.wo[k];
         let pdf = (1.0 - a.select) * p + a.select * wo.z * INV_PI;
         if !(pdf.is_finite() && pdf > 0.0) {
@@ -542,7 +590,7 @@ mod tests {
                         });
                         let seeds: [u64; 8] = std::array::from_fn(|_| rng.next_u32() as u64);
                         // Eval toward wo.
-                        let got = eval_pdf_x8(&ctx, &pts, &wo);
+                        let got = eval_pdf_x8(&ctx, &Chunk::new(pts), u8::MAX, &wo);
                         for k in 0..8 {
                             if pts[k].is_none() {
                                 continue;
@@ -565,7 +613,7 @@ mod tests {
                         for k in 0..8 {
                             lane_pts[7 - k] = pts[k];
                         }
-                        let got = sample_x8(&ctx, &lane_pts, &mut samplers, &ids);
+                        let got = sample_x8(&ctx, &Chunk::new(lane_pts), &mut samplers, &ids);
                         for k in 0..8 {
                             let Some(_) = pts[k] else { continue };
                             let mut s = Sampler::from_seed(seeds[k], 2);
