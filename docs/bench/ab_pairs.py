@@ -7,7 +7,10 @@ Per scene, ROUNDS pairs at 16 spp on 2 threads, the order alternating every roun
 even rounds), each time read from groove's own "render N s" line (the render, not the scene load).
 Prints per scene the median times and the median of the per-round ratios new/old with the 2nd
 lowest and 2nd highest ratio as a rough interval. On a shared machine, run it quiet.
+GROOVE_ARGS (environment) adds render arguments to both binaries' renders, split at spaces
+(e.g. GROOVE_ARGS="--normal-mapping compensated").
 """
+import os
 import re
 import statistics
 import subprocess
@@ -17,7 +20,7 @@ import sys
 def render_seconds(binary, scene):
     out = subprocess.run(
         [binary, "render", scene, "--spp", "16", "-t", "2", "-o", "/tmp/ab_pairs.exr",
-         "--renderer", "stream"],
+         "--renderer", "stream"] + os.environ.get("GROOVE_ARGS", "").split(),
         capture_output=True, text=True, check=True)
     return float(re.search(r"render ([0-9.]+) s", out.stdout + out.stderr).group(1))
 

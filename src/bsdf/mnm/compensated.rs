@@ -218,7 +218,7 @@ impl MicrofacetNormalMap {
 }
 
 /// What depends on ωi only: the colour coefficients, Ē_ms, E_ms(ωi) and the lobe choice s(ωi).
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct AtWi {
     /// Per-bounce colours: the per-order coefficients ([`MsTable::coefficients`]); `None` for a
     /// table with the colours baked in (the remainder is then the baked lookup, and a baked
@@ -285,6 +285,18 @@ impl AtWi {
             norm,
             ei,
             select: selection(ei, c * MsTable::first(&l, &r.cell)),
+        }
+    }
+
+    /// [`Self::new`] of a point with a baked table (`r.baked_norm` set) from its [W1, E_ms] at
+    /// ωi, looked up by the caller (8 points at once: [`lanes::Chunk::new`]).
+    #[inline(always)]
+    fn baked(r: &MsRef, [w1, ei]: [Spectrum; 2]) -> AtWi {
+        AtWi {
+            k: None,
+            norm: r.baked_norm.expect("a baked table"),
+            ei,
+            select: selection(ei, w1),
         }
     }
 

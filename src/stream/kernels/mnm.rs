@@ -6,11 +6,13 @@
 //! 2. the BSDFs built at the hits, into one arena for the 8 points: where the chunk's nested
 //!    leaf is constant ([`shared_nested`]), [`build_shared`] (the leaf pushed once; the
 //!    perturbed normals, candidate facets, facet frames and table cells 8-wide, then each
-//!    point's map written from them) and the 8
-//!    incident-direction caches together (`compensated::lanes::with_incident_x8`: the table
-//!    lookups at ωi 8-wide), else lane by lane `Scene::bsdf_root` (the scalar code); then lane
-//!    by lane, in each path's order, the side test, the light selection and light point
-//!    through the shared gather ([`super::light::x8::Gather`]: area lights 8-wide);
+//!    point's map written from them), else lane by lane `Scene::bsdf_root` (the scalar code);
+//!    then lane by lane, in each path's order, the side test, the light selection and light
+//!    point through the shared gather ([`super::light::x8::Gather`]: area lights 8-wide);
+//!    then the chunk's compensated points and their state at ωi, once for steps 3 and 4
+//!    (`compensated::lanes::Chunk`: the table lookups at ωi 8-wide, over the mirror sawtooth
+//!    the entries in lanes; a built map that is no such point gets its ωi cache instead,
+//!    `compensated::lanes::with_incident_alone_x8`);
 //! 3. the BSDF value and density toward each light point: where the chunk's nested leaf has no
 //!    textured parameter ([`shared_nested`]), the 8 points together through
 //!    `bsdf::mnm::compensated::lanes` (the first orders' nested pairs of all points in full
@@ -23,9 +25,9 @@
 //!    trace for `direct`).
 //!
 //! Over the mirror sawtooth the first orders of steps 3 and 4 run in lanes too
-//! (`compensated::lanes`' `first`); each point's `Point` is found once for both steps. The
-//! per-hit build's per-point write (facet compaction, the map itself), the entries, the
-//! per-point ωi state and the draws still run per lane through the scalar code; every number
+//! (`compensated::lanes`' `first`), from the chunk's columns built once for both steps. The
+//! per-hit build's per-point write (facet compaction, the map itself) and the draws still run
+//! per lane through the scalar code; every number
 //! is the scalar model's bit for bit
 //! (`compensated::lanes`' tests), so the image is the scalar renderer's (`docs/mnm.md`, "Issues
 //! 17/18: the compensated model in lanes (tenth session)" and "... the compensated build and
@@ -136,7 +138,7 @@ pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
-        eval_pdf_x8, sample_x8, with_incident_x8, Chunk, Point,
+        eval_pdf_x8, sample_x8, with_incident_alone_x8, Chunk, Point,
     };
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
@@ -227,12 +229,11 @@ pub(crate) mod x8 {
         //    path's order.
         arena.clear();
         let mut built = [u32::MAX; 8];
+        let mut wi = [Vec3::Z; 8];
         if shared {
             let sis = ids.map(|i| Some(si_of(b, i)));
             let rgb = normal_rgb(avx, scene, m0, &sis);
-            let wi;
             (built, wi) = super::build_shared(scene, m0, &sis, rgb, arena);
-            with_incident_x8(arena, &built, &wi);
         }
         let mut root = [u32::MAX; 8];
         let mut nee = [false; 8];
@@ -262,7 +263,11 @@ pub(crate) mod x8 {
         }
 
         // The compensated model's points (where the nested leaf is shared) and their state
-        // at ωi, once for steps 3 and 4.
+        // at ωi, once for steps 3 and 4 ([`Chunk`], 8-wide). The built maps that are no such
+        // points (the scalar model answers their queries) get their ωi caches.
+        if shared {
+            with_incident_alone_x8(arena, &built, &wi);
+        }
         let mut pts = [None; 8];
         for (k, &i) in ids.iter().enumerate() {
             if shared && root[k] != u32::MAX {

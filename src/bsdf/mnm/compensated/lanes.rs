@@ -10,10 +10,14 @@
 //! lobe, first-order entry, mirror wall), its nested samples of all 8 points in one 8-wide call
 //! of the nested BSDF's lane form ([`sample`]).
 //!
+//! The points' state at their ωi (the [`AtWi`] of each, its entries) is computed once per
+//! chunk for both queries ([`Chunk`]): the baked table's lookups at ωi 8-wide, over the
+//! mirror sawtooth the entries in lanes, else per point.
+//!
 //! Over the mirror sawtooth (every point of the call), the whole first order at ωo runs in
 //! lanes, one lane per point ([`first`], instead of `Collected` and the batch): G1, the wall
 //! exit, the four nested paths and their sums, from the points' facets, frames and entries
-//! copied once into columns, in the scalar code's operations and order (bit for bit: `tests`
+//! in the chunk's columns, in the scalar code's operations and order (bit for bit: `tests`
 //! and `first`'s own).
 //!
 //! The points of one call must share their nested BSDF's parameters bit for bit (the batch
@@ -26,8 +30,8 @@ mod first;
 mod sample;
 
 use super::{
-    entries, leave, pick_entry, sample_record_is_exact, AtIncident, AtWi, Collected, Entries,
-    Known, MsRef, Nested,
+    leave, pick_entry, sample_record_is_exact, AtIncident, AtWi, Collected, Entries, Known, MsRef,
+    Nested,
 };
 use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfArena, BsdfContext, BsdfSample};
@@ -77,7 +81,13 @@ pub(crate) struct Chunk<'a> {
 }
 
 impl<'a> Chunk<'a> {
-    /// The state of the points `pts` (lanes without a point: `None`); see [`Point`].
+    /// The state of the points `pts` (lanes without a point: `None`; see [`Point`]), as the
+    /// scalar model computes it per query (bit for bit, `tests`), for the 8 points together:
+    /// the table lookups at ωi of the points with a baked table in one
+    /// [`MsTable::lookup_baked_x8`] with W1 (the first such point's table; a point with
+    /// another table, or per-bounce colours, looks up alone), and over the mirror sawtooth
+    /// the entries in lanes ([`first::Points8::entries`]), else per point. The maps' own ωi
+    /// caches are not needed (nor read: the same numbers).
     #[inline(always)]
     pub(crate) fn new(pts: [Option<Point<'a>>; 8]) -> Self {
         let mirror = all_mirror(&pts);
@@ -89,19 +99,43 @@ impl<'a> Chunk<'a> {
             mirror,
             geo: first::Points8::new(),
         };
+        let mut q = Lookups8::new();
+        let mut table: Option<&'static MsTable> = None;
         for (k, pt) in pts.iter().enumerate() {
             let Some(pt) = pt else { continue };
             let wi = pt.wi;
             if wi.z <= 0.0 {
                 continue;
             }
-            let at = pt.r.at(wi);
-            c.at[k] = AtWi::new(pt.r, &pt.nested, wi, at);
-            c.e[k] = entries(pt.m, at, wi);
+            let r = pt.r;
+            if r.baked_norm.is_some() && std::ptr::eq(*table.get_or_insert(r.table), r.table) {
+                q.push(k, &r.cell, wi);
+            } else {
+                c.at[k] = AtWi::new(r, &pt.nested, wi, None);
+            }
             if mirror {
-                c.geo.push(k, pt.m, &c.e[k]);
+                c.geo.push_point(k, pt.m, wi);
+            } else {
+                c.e[k] = Entries::new(pt.m, wi);
             }
             c.above |= 1 << k;
+        }
+        if let Some(t) = table {
+            let l = t.lookup_baked_x8(&q, true);
+            for (k, pt) in pts.iter().enumerate() {
+                match pt {
+                    Some(pt) if q.is_used(k) => c.at[k] = AtWi::baked(pt.r, l[k]),
+                    _ => {}
+                }
+            }
+        }
+        if mirror && c.above != 0 {
+            c.geo.entries();
+            for k in 0..8 {
+                if c.above & (1 << k) != 0 {
+                    c.e[k] = c.geo.entries_of(k);
+                }
+            }
         }
         c
     }
@@ -214,6 +248,27 @@ pub(crate) fn with_incident_x8(arena: &mut BsdfArena, roots: &[u32; 8], wi: &[Ve
             r.at = Some(at);
         }
     }
+}
+
+/// [`with_incident_x8`] for the maps among `roots` that are no [`Point`] (the scalar model
+/// answers their queries; a [`Chunk`] computes its points' ωi state itself). Whether a
+/// non-degenerate map is a point depends on its material only (the nested BSDF's kind, the
+/// closed forms, the blend), the same for every map of the stream kernel's chunk, and a
+/// degenerate one wants no cache: when the first map is a point, none is built.
+pub(crate) fn with_incident_alone_x8(arena: &mut BsdfArena, roots: &[u32; 8], wi: &[Vec3; 8]) {
+    let Some(k0) = roots.iter().position(|&r| r != u32::MAX) else {
+        return;
+    };
+    if Point::of(arena.bsdf(roots[k0]), wi[k0]).is_some() {
+        return;
+    }
+    let mut alone = [u32::MAX; 8];
+    for (k, &r) in roots.iter().enumerate() {
+        if r != u32::MAX && Point::of(arena.bsdf(r), wi[k]).is_none() {
+            alone[k] = r;
+        }
+    }
+    with_incident_x8(arena, &alone, wi);
 }
 
 /// Whether every point is over the mirror sawtooth (then their first orders run in lanes,
@@ -532,6 +587,117 @@ mod tests {
         assert!(
             cached > 9000 && baked > 7000,
             "{cached} caches, {baked} baked"
+        );
+    }
+
+    /// The chunk's per-point state ([`Chunk::new`]: the baked tables' lookups at ωi 8-wide,
+    /// the mirror sawtooth's entries in lanes) equals the scalar model's (`AtWi::new` without
+    /// a cache, `Entries::new`) bit for bit, lane by lane: the mirror sawtooth and the
+    /// V-groove, baked and per-bounce tables mixed in one chunk (two baked tables: the second
+    /// looks up alone), rough conductors and a rough plastic, random ωp (some flat: no
+    /// point), ωi over both hemispheres (and grazing: entries through the wall alone), maps
+    /// with and without their ωi cache, empty lanes.
+    #[test]
+    fn chunk_state_equals_the_scalar_one() {
+        let mut rng = Pcg32::new(16, 3);
+        let mut arena = BsdfArena::new();
+        let nested = super::super::tests::push_reflectors(&mut arena);
+        let geometries = [
+            (Microgeometry::Sawtooth, Tangent::Mirror),
+            (Microgeometry::VGroove, Tangent::Same),
+        ];
+        let tables: Vec<Vec<&'static MsTable>> = geometries
+            .iter()
+            .map(|&(geometry, tangent)| {
+                [Colour::Baked, Colour::Baked, Colour::PerBounce]
+                    .iter()
+                    .map(|&colour| unit_table(geometry, tangent, colour))
+                    .collect()
+            })
+            .collect();
+        let (mut compared, mut wall_only, mut both) = (0, 0, 0);
+        for chunk in 0..2000 {
+            let (geometry, tangent) = geometries[chunk % 2];
+            let tables = &tables[chunk % 2];
+            let n = nested[chunk / 2 % 3];
+            let mut roots = [u32::MAX; 8];
+            let mut wi = [Vec3::Z; 8];
+            for k in 0..8 {
+                if rng.next_f32() < 0.1 {
+                    continue; // an empty lane
+                }
+                let wp = if rng.next_f32() < 0.05 {
+                    Vec3::Z
+                } else {
+                    warp::square_to_uniform_cone(
+                        [rng.next_f32(), rng.next_f32()].into(),
+                        80f32.to_radians().cos(),
+                    )
+                };
+                wi[k] = direction(&mut rng);
+                if rng.next_f32() < 0.2 {
+                    // Grazing: through the wall alone, or no entry.
+                    wi[k] = Vec3::new(wi[k].x, wi[k].y, 0.02 * wi[k].z.abs()).normalize();
+                }
+                let t = tables[match rng.next_f32() {
+                    x if x < 0.8 => 0,
+                    x if x < 0.9 => 1,
+                    _ => 2,
+                }];
+                let mut m = MicrofacetNormalMap::new(
+                    n,
+                    wp,
+                    geometry,
+                    tangent,
+                    Evaluation::Compensated,
+                    256,
+                )
+                .with_ms_table(Some(t));
+                if rng.next_f32() < 0.5 {
+                    m = m.with_incident(wi[k]);
+                }
+                roots[k] = arena.push_microfacet_normal_map(m);
+            }
+            let mut pts = [None; 8];
+            for k in 0..8 {
+                if roots[k] != u32::MAX {
+                    pts[k] = Point::of(arena.bsdf(roots[k]), wi[k]);
+                }
+            }
+            let c = Chunk::new(pts);
+            for (k, pt) in pts.iter().enumerate() {
+                let above = pt.filter(|p| p.wi.z > 0.0);
+                assert_eq!(
+                    c.above(k).is_some(),
+                    above.is_some(),
+                    "chunk {chunk} lane {k}"
+                );
+                let Some(pt) = above else { continue };
+                let at = AtWi::new(pt.r, &pt.nested, pt.wi, None);
+                let e = Entries::new(pt.m, pt.wi);
+                // Debug prints each f32 as its shortest round-trip form: equal strings are
+                // equal bits.
+                assert_eq!(
+                    format!("{:?}", c.at[k]),
+                    format!("{at:?}"),
+                    "chunk {chunk} lane {k}"
+                );
+                assert_eq!(
+                    format!("{:?}", c.e[k]),
+                    format!("{e:?}"),
+                    "chunk {chunk} lane {k}"
+                );
+                compared += 1;
+                if pt.m.mirror_wall {
+                    wall_only += usize::from(e.len() == 1 && e.via_wall(0));
+                    both += usize::from(e.len() == 2);
+                }
+            }
+        }
+        // 2000 chunks of ~7 points, ~40 % of them seen from above.
+        assert!(
+            compared > 4000 && wall_only > 20 && both > 500,
+            "{compared} points, {wall_only} entered through the wall alone, {both} both ways"
         );
     }
 

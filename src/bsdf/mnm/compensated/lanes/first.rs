@@ -3,7 +3,9 @@
 //! `compensated.rs` compute per point — G1(ωo), ωo in the facet frame, the wall exit (R(ωo),
 //! 1 − G1(R(ωo))), the nested BSDF's four paths per point ([p] and [t,p] from each of the two
 //! entries) and their weighted sums — computed for the 8 points together, one lane per point,
-//! from the points' microsurfaces, facet frames and entries copied once into [`Mirror8`].
+//! from the points' microsurfaces, facet frames and entries copied once per chunk into
+//! [`Points8`] (the entries themselves computed there in lanes, [`Points8::entries`]: what
+//! `Entries::new` computes, in its operations), with each query's ωo in [`Mirror8`].
 //!
 //! Bit for bit the scalar first order: every lane runs the scalar code's operations in its
 //! order (the same dot products, the same sums, term by term, with a missing entry or wall exit
@@ -44,6 +46,13 @@ pub(in crate::bsdf::mnm::compensated) struct Points8 {
     w: [[f32; 8]; ENTRIES],
     a: [[[f32; 8]; 3]; ENTRIES],
     has: [[f32; 8]; ENTRIES],
+    /// ωi, and 1 where the entry of slot 0 is the wall's (no direct entry) and where there is
+    /// a wall entry at all ([`Self::entries`]' inputs and what [`Self::entries_of`] reads).
+    wi: [[f32; 8]; 3],
+    wall0: [f32; 8],
+    wall: [f32; 8],
+    /// Bit k: lane k was pushed.
+    pushed: u8,
 }
 
 /// One query's first-order inputs over [`Points8`], by lane: ωo, the known term (its path
@@ -94,12 +103,134 @@ impl Points8 {
             w: [[0.0; 8]; ENTRIES],
             a: [z; ENTRIES],
             has: [[0.0; 8]; ENTRIES],
+            wi: z,
+            wall0: [0.0; 8],
+            wall: [0.0; 8],
+            pushed: 0,
         }
     }
 
-    /// Lane `k`: the point of map `m` (over the mirror sawtooth: `m.mirror_wall`) with the
-    /// entries `e` at its ωi.
+    /// Lane `k`: the point of map `m` (over the mirror sawtooth: `m.mirror_wall`) seen from
+    /// `wi` (z > 0), whose entries [`Self::entries`] then computes with the other lanes'.
     #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn push_point(
+        &mut self,
+        k: usize,
+        m: &MicrofacetNormalMap,
+        wi: Vec3,
+    ) {
+        debug_assert!(m.mirror_wall);
+        let surf = &m.surface;
+        set3(&mut self.v0, k, surf.area_vector(0));
+        set3(&mut self.v1, k, surf.area_vector(1));
+        set3(&mut self.n1, k, surf.normal(1));
+        let f = &m.frames[0];
+        set3(&mut self.fr[0], k, f.s);
+        set3(&mut self.fr[1], k, f.t);
+        set3(&mut self.fr[2], k, f.n);
+        set3(&mut self.wi, k, wi);
+        self.pushed |= 1 << k;
+    }
+
+    /// `Entries::new` of every lane pushed by [`Self::push_point`], in lanes (8-wide when the
+    /// CPU has AVX2 and FMA, else lane by lane at width 1: the same numbers), into the entry
+    /// columns; [`Self::entries_of`] gives a lane's as the scalar `Entries`.
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn entries(&mut self) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = Avx2::detect() {
+            avx.run(
+                #[inline(always)]
+                || {
+                    #[inline(always)]
+                    fn l3(avx: Avx2, x: &[[f32; 8]; 3]) -> V3<F32x8> {
+                        V3::new(avx.load(&x[0]), avx.load(&x[1]), avx.load(&x[2]))
+                    }
+                    #[inline(always)]
+                    fn s3(v: V3<F32x8>, x: &mut [[f32; 8]; 3]) {
+                        v.x.store(&mut x[0]);
+                        v.y.store(&mut x[1]);
+                        v.z.store(&mut x[2]);
+                    }
+                    let fr = LaneFrame {
+                        s: l3(avx, &self.fr[0]),
+                        t: l3(avx, &self.fr[1]),
+                        n: l3(avx, &self.fr[2]),
+                    };
+                    let e = entries(
+                        l3(avx, &self.v0),
+                        l3(avx, &self.v1),
+                        l3(avx, &self.n1),
+                        &fr,
+                        l3(avx, &self.wi),
+                    );
+                    for j in 0..ENTRIES {
+                        e.w[j].store(&mut self.w[j]);
+                        s3(e.a[j], &mut self.a[j]);
+                        e.has[j].store(&mut self.has[j]);
+                    }
+                    e.wall0.store(&mut self.wall0);
+                    e.wall.store(&mut self.wall);
+                },
+            );
+            return;
+        }
+        self.entries_width1();
+    }
+
+    /// [`Self::entries`] lane by lane at width 1.
+    #[inline(always)]
+    fn entries_width1(&mut self) {
+        #[inline(always)]
+        fn l3(x: &[[f32; 8]; 3], k: usize) -> V3<f32> {
+            V3::new(x[0][k], x[1][k], x[2][k])
+        }
+        for k in 0..8 {
+            if self.pushed & (1 << k) == 0 {
+                continue;
+            }
+            let fr = LaneFrame {
+                s: l3(&self.fr[0], k),
+                t: l3(&self.fr[1], k),
+                n: l3(&self.fr[2], k),
+            };
+            let e = entries(
+                l3(&self.v0, k),
+                l3(&self.v1, k),
+                l3(&self.n1, k),
+                &fr,
+                l3(&self.wi, k),
+            );
+            for j in 0..ENTRIES {
+                self.w[j][k] = e.w[j];
+                set3(&mut self.a[j], k, e.a[j].into());
+                self.has[j][k] = e.has[j];
+            }
+            self.wall0[k] = e.wall0;
+            self.wall[k] = e.wall;
+        }
+    }
+
+    /// Lane `k`'s entries (computed by [`Self::entries`]) as `Entries::new` gives them.
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn entries_of(&self, k: usize) -> Entries {
+        let mut e = Entries::EMPTY;
+        for j in 0..ENTRIES {
+            if self.has[j][k] > 0.0 {
+                let a = Vec3::new(self.a[j][0][k], self.a[j][1][k], self.a[j][2][k]);
+                e.push(0, self.w[j][k], a);
+            }
+        }
+        // The wall's entry is the last one.
+        if self.wall[k] > 0.0 {
+            e.via_wall = if self.wall0[k] > 0.0 { 1 } else { 2 };
+        }
+        e
+    }
+
+    /// Lane `k`: the point of map `m` (over the mirror sawtooth: `m.mirror_wall`) with the
+    /// entries `e` at its ωi given (the tests' random entries).
+    #[cfg(test)]
     pub(in crate::bsdf::mnm::compensated) fn push(
         &mut self,
         k: usize,
@@ -271,6 +402,62 @@ impl Mirror8 {
     }
 }
 
+/// [`entries`]' results, by lane: slot 0 the direct entry (or the wall's where there is no
+/// direct one), slot 1 the wall's after a direct one; 1 where each slot exists; 1 where slot 0
+/// is the wall's, and where a wall entry exists.
+struct EntryLanes<L: Lane> {
+    w: [L; ENTRIES],
+    a: [V3<L>; ENTRIES],
+    has: [L; ENTRIES],
+    wall0: L,
+    wall: L,
+}
+
+/// `Entries::new` over the mirror sawtooth in its operations and order, lane by lane: λ_k(ωi)
+/// = a_k / Σ (`Microsurface::lambdas`: a_k = max(⟨ωi, v_k⟩, 0), Σ their sum, 0 where Σ ≤ 0);
+/// the direct entry (facet 0 from ωi, weight λ0) where λ0 > 0, then the wall's (facet 0 from
+/// R(ωi) = ωi − (2 ⟨ωi, ωt⟩) ωt, weight λ1) where λ1 > 0 and ⟨ωi, ωt⟩ > 0, compacted as the
+/// scalar pushes them (no direct entry: the wall's is slot 0).
+#[inline(always)]
+fn entries<L: Lane>(
+    v0: V3<L>,
+    v1: V3<L>,
+    n1: V3<L>,
+    fr: &LaneFrame<L>,
+    wi: V3<L>,
+) -> EntryLanes<L> {
+    let like = wi.z;
+    let (zero, one) = (like.splat(0.0), like.splat(1.0));
+    let (a0, a1) = (wi.dot(v0).max(zero), wi.dot(v1).max(zero));
+    // Σ summed from 0 as `Microsurface::sigma` (Σ > 0 tests the same either way).
+    let s = zero + a0 + a1;
+    let pos = s.gt(zero);
+    let l0 = L::select(pos, a0 / s, zero);
+    let l1 = L::select(pos, a1 / s, zero);
+    let d = wi.dot(n1);
+    let direct = l0.gt(zero);
+    let wall = l1.gt(zero) & d.gt(zero);
+    let ad = fr.to_local(wi);
+    let at = fr.to_local(wi - n1.scale(like.splat(2.0) * d));
+    let zero3 = V3::new(zero, zero, zero);
+    EntryLanes {
+        w: [
+            L::select(direct, l0, L::select(wall, l1, zero)),
+            L::select(direct & wall, l1, zero),
+        ],
+        a: [
+            V3::select(direct, ad, V3::select(wall, at, zero3)),
+            V3::select(direct & wall, at, zero3),
+        ],
+        has: [
+            L::select(direct | wall, one, zero),
+            L::select(direct & wall, one, zero),
+        ],
+        wall0: L::select(!direct & wall, one, zero),
+        wall: L::select(wall, one, zero),
+    }
+}
+
 /// [`Mirror8`] loaded into lanes.
 struct Lanes<L: Lane> {
     v0: V3<L>,
@@ -365,6 +552,54 @@ mod tests {
     use super::*;
     use crate::bsdf::lanes::testing::{direction, same, same3};
     use crate::math::Pcg32;
+
+    /// The entries in lanes ([`Points8::entries`], 8-wide, and lane by lane at width 1)
+    /// equal `Entries::new` bit for bit, lane by lane: random mirror-sawtooth microsurfaces,
+    /// ωi above the surface (some grazing: through the wall alone, or no entry).
+    #[test]
+    fn entries_in_lanes_equal_the_scalar_ones() {
+        let mut rng = Pcg32::new(16, 7);
+        let (mut compared, mut wall_only) = (0, 0);
+        for round in 0..500 {
+            let (mut wide, mut one) = (Points8::new(), Points8::new());
+            let mut want = [None; 8];
+            for (k, want) in want.iter_mut().enumerate() {
+                let wp = direction(&mut rng);
+                let wp = Vec3::new(wp.x, wp.y, wp.z.abs().max(0.05)).normalize();
+                let m = MicrofacetNormalMap::new(
+                    0,
+                    wp,
+                    crate::bsdf::mnm::facets::Microgeometry::Sawtooth,
+                    crate::bsdf::mnm::Tangent::Mirror,
+                    crate::bsdf::mnm::Evaluation::Compensated,
+                    256,
+                );
+                if !m.mirror_wall || rng.next_f32() < 0.1 {
+                    continue;
+                }
+                let wi = direction(&mut rng);
+                let z = if rng.next_f32() < 0.3 { 0.02 } else { 1.0 };
+                let wi = Vec3::new(wi.x, wi.y, z * wi.z.abs().max(1e-3)).normalize();
+                wide.push_point(k, &m, wi);
+                one.push_point(k, &m, wi);
+                *want = Some(Entries::new(&m, wi));
+            }
+            wide.entries();
+            one.entries_width1();
+            for (k, w) in want.iter().enumerate() {
+                let Some(w) = w else { continue };
+                let w = format!("{w:?}");
+                assert_eq!(format!("{:?}", wide.entries_of(k)), w, "{round} {k}");
+                assert_eq!(format!("{:?}", one.entries_of(k)), w, "{round} {k}");
+                compared += 1;
+                wall_only += usize::from(w.contains("n: 1, via_wall: 1"));
+            }
+        }
+        assert!(
+            compared > 2500 && wall_only > 20,
+            "{compared} lanes, {wall_only} through the wall alone"
+        );
+    }
 
     /// The 8-wide first order equals the width-1 one lane by lane, bit for bit, on random
     /// inputs (the scalar model is checked against the 8-wide one by `super::super::tests`):
