@@ -151,17 +151,36 @@ impl Batch {
         while left > 0 {
             let m = left.min(8);
             let (mut pixel, mut sample, mut corner) = ([0u64; 8], [0u32; 8], [Vec2::ZERO; 8]);
-            for j in 0..m {
-                pixel[j] = y as u64 * film_width as u64 + x as u64;
-                sample[j] = s;
-                corner[j] = Vec2::new(x as f32, y as f32);
-                s += 1;
+            if m == 8 && s_hi - s >= 8 {
+                // Eight samples of one pixel (every chunk at 8 or more samples per pixel, a
+                // multiple of 8): no per-path stepping.
+                pixel = [y as u64 * film_width as u64 + x as u64; 8];
+                corner = [Vec2::new(x as f32, y as f32); 8];
+                for (j, sj) in sample.iter_mut().enumerate() {
+                    *sj = s + j as u32;
+                }
+                s += 8;
                 if s == s_hi {
                     s = s_lo;
                     x += 1;
                     if x == x0 + w {
                         x = x0;
                         y += 1;
+                    }
+                }
+            } else {
+                for j in 0..m {
+                    pixel[j] = y as u64 * film_width as u64 + x as u64;
+                    sample[j] = s;
+                    corner[j] = Vec2::new(x as f32, y as f32);
+                    s += 1;
+                    if s == s_hi {
+                        s = s_lo;
+                        x += 1;
+                        if x == x0 + w {
+                            x = x0;
+                            y += 1;
+                        }
                     }
                 }
             }
