@@ -411,7 +411,7 @@ fn storage_index_matches_floor_and_bounds() {
 }
 
 /// `Block::put8` gives the same sums, to the bit, as `Block::put` of each of its samples, for
-/// every filter: runs of samples on one pixel, positions on pixel edges, outside the block and
+/// every filter: runs of samples on one pixel (short ones and whole chunks), positions on pixel edges, outside the block and
 /// non-finite, negative values, values below the fixed-point grid's exact range and values
 /// whose square overflows; chunks
 /// with a non-finite value take `put` (the non-finite flags). `Block::put8_finite` equals
@@ -430,72 +430,75 @@ fn put8_equals_put_one_by_one() {
         Filter::gaussian(0.5),
     ] {
         let d = desc(9, 7, filter);
-        let mut samples = Vec::new();
-        let mut pixel = (0, 0);
-        for k in 0..4000u32 {
-            // Runs of samples on one pixel, as a renderer's samples of a pixel come in turn.
-            if k % 5 < 2 {
-                pixel = (rng.next_u32() % 11, rng.next_u32() % 9);
+        // Runs of samples on one pixel, as a renderer's samples of a pixel come in turn: of up
+        // to 4 samples, and of 15 (whole chunks of 8 on one pixel).
+        for run in [5, 16] {
+            let mut samples = Vec::new();
+            let mut pixel = (0, 0);
+            for k in 0..4000u32 {
+                if k % run < 2 {
+                    pixel = (rng.next_u32() % 11, rng.next_u32() % 9);
+                }
+                let (x, y) = pixel;
+                let u = match k % 7 {
+                    0 => Vec2::new(1.0f32.next_down(), 0.0),
+                    1 => Vec2::new(0.0, 1.0f32.next_down()),
+                    _ => Vec2::new(rng.next_f32(), rng.next_f32()),
+                };
+                let pos = Vec2::new(x as f32 - 1.0, y as f32 - 1.0) + u;
+                let c = |r: &mut Pcg32| (r.next_f32() - 0.1) * 3.0;
+                let v = match rng.next_u32() % 1000 {
+                    0 => Spectrum::new(f32::NAN, 1.0, 0.5),
+                    1 => Spectrum::new(0.25, f32::INFINITY, -f32::INFINITY),
+                    2..=40 => Spectrum::new(3e19, 1e-30, -2e-7),
+                    41..=90 => Spectrum::ZERO,
+                    _ => Spectrum::new(c(&mut rng), c(&mut rng), c(&mut rng)),
+                };
+                let pos = match rng.next_u32() % 200 {
+                    0 => Vec2::new(f32::NAN, pos.y),
+                    1 => Vec2::new(pos.x, f32::INFINITY),
+                    _ => pos,
+                };
+                samples.push((pos, v));
             }
-            let (x, y) = pixel;
-            let u = match k % 7 {
-                0 => Vec2::new(1.0f32.next_down(), 0.0),
-                1 => Vec2::new(0.0, 1.0f32.next_down()),
-                _ => Vec2::new(rng.next_f32(), rng.next_f32()),
-            };
-            let pos = Vec2::new(x as f32 - 1.0, y as f32 - 1.0) + u;
-            let c = |r: &mut Pcg32| (r.next_f32() - 0.1) * 3.0;
-            let v = match rng.next_u32() % 1000 {
-                0 => Spectrum::new(f32::NAN, 1.0, 0.5),
-                1 => Spectrum::new(0.25, f32::INFINITY, -f32::INFINITY),
-                2..=40 => Spectrum::new(3e19, 1e-30, -2e-7),
-                41..=90 => Spectrum::ZERO,
-                _ => Spectrum::new(c(&mut rng), c(&mut rng), c(&mut rng)),
-            };
-            let pos = match rng.next_u32() % 200 {
-                0 => Vec2::new(f32::NAN, pos.y),
-                1 => Vec2::new(pos.x, f32::INFINITY),
-                _ => pos,
-            };
-            samples.push((pos, v));
-        }
-        for (x0, y0, w, h) in [(0, 0, 9, 7), (2, 3, 4, 2), (8, 6, 1, 1)] {
-            let mut one = Block::new(&d, x0, y0, w, h);
-            for &(p, v) in &samples {
-                one.put(p, v);
+            for (x0, y0, w, h) in [(0, 0, 9, 7), (2, 3, 4, 2), (8, 6, 1, 1)] {
+                let mut one = Block::new(&d, x0, y0, w, h);
+                for &(p, v) in &samples {
+                    one.put(p, v);
+                }
+                let mut eight = Block::new(&d, x0, y0, w, h);
+                for c in samples.chunks_exact(8) {
+                    let pos: [Vec2; 8] = core::array::from_fn(|k| c[k].0);
+                    let v: [Spectrum; 8] = core::array::from_fn(|k| c[k].1);
+                    eight.put8(avx, &pos, &v);
+                }
+                assert!(one.data.iter().any(|a| a.w != 0 && a.bad == 0));
+                assert!(
+                    one.data == eight.data,
+                    "{filter:?} block {:?}",
+                    (x0, y0, w, h)
+                );
+                // `put8_finite`: `put` of the values with the non-finite ones zeroed, and their count.
+                let (mut zeroed, mut bad) = (Block::new(&d, x0, y0, w, h), 0);
+                for &(p, v) in &samples {
+                    let finite = crate::spectrum::is_finite(v);
+                    bad += !finite as u32;
+                    zeroed.put(p, if finite { v } else { Spectrum::ZERO });
+                }
+                let (mut fin, mut counted) = (Block::new(&d, x0, y0, w, h), 0);
+                for c in samples.chunks_exact(8) {
+                    let pos: [Vec2; 8] = core::array::from_fn(|k| c[k].0);
+                    let v: [Spectrum; 8] = core::array::from_fn(|k| c[k].1);
+                    counted += fin.put8_finite(avx, &pos, &v);
+                }
+                assert!(bad > 0);
+                assert_eq!(counted, bad);
+                assert!(
+                    zeroed.data == fin.data,
+                    "put8_finite, {filter:?} block {:?}",
+                    (x0, y0, w, h)
+                );
             }
-            let mut eight = Block::new(&d, x0, y0, w, h);
-            for c in samples.chunks_exact(8) {
-                let pos: [Vec2; 8] = core::array::from_fn(|k| c[k].0);
-                let v: [Spectrum; 8] = core::array::from_fn(|k| c[k].1);
-                eight.put8(avx, &pos, &v);
-            }
-            assert!(one.data.iter().any(|a| a.w != 0 && a.bad == 0));
-            assert!(
-                one.data == eight.data,
-                "{filter:?} block {:?}",
-                (x0, y0, w, h)
-            );
-            // `put8_finite`: `put` of the values with the non-finite ones zeroed, and their count.
-            let (mut zeroed, mut bad) = (Block::new(&d, x0, y0, w, h), 0);
-            for &(p, v) in &samples {
-                let finite = crate::spectrum::is_finite(v);
-                bad += !finite as u32;
-                zeroed.put(p, if finite { v } else { Spectrum::ZERO });
-            }
-            let (mut fin, mut counted) = (Block::new(&d, x0, y0, w, h), 0);
-            for c in samples.chunks_exact(8) {
-                let pos: [Vec2; 8] = core::array::from_fn(|k| c[k].0);
-                let v: [Spectrum; 8] = core::array::from_fn(|k| c[k].1);
-                counted += fin.put8_finite(avx, &pos, &v);
-            }
-            assert!(bad > 0);
-            assert_eq!(counted, bad);
-            assert!(
-                zeroed.data == fin.data,
-                "put8_finite, {filter:?} block {:?}",
-                (x0, y0, w, h)
-            );
         }
     }
 }

@@ -27,6 +27,64 @@ pub struct RenderSettings {
     pub sampler: SamplerDesc,
 }
 
+/// Values kept per rayon worker (indexed by `rayon::current_thread_index`) across the jobs of
+/// one render, so that per-worker buffers are built once per worker rather than once per job
+/// split. A slot is locked only to take or return its value (with `try_lock`: a slot that is
+/// busy, empty or out of range just means a fresh value), never while the value is in use, so a
+/// nested job on the same worker cannot deadlock: it finds the slot empty and builds its own.
+struct WorkerPool<T> {
+    slots: Vec<std::sync::Mutex<Option<T>>>,
+}
+
+/// A value taken from a [`WorkerPool`] (or freshly built), returned to the current worker's
+/// slot when dropped.
+struct Held<'a, T> {
+    value: Option<T>,
+    pool: &'a WorkerPool<T>,
+}
+
+impl<T> WorkerPool<T> {
+    fn new(workers: usize) -> WorkerPool<T> {
+        WorkerPool {
+            slots: (0..workers).map(|_| std::sync::Mutex::new(None)).collect(),
+        }
+    }
+
+    /// The current worker's slot.
+    fn slot(&self) -> Option<&std::sync::Mutex<Option<T>>> {
+        self.slots.get(rayon::current_thread_index()?)
+    }
+
+    /// The current worker's value, or `make()` when it has none (or its slot is busy).
+    fn take_or(&self, make: impl FnOnce() -> T) -> Held<'_, T> {
+        let kept = self
+            .slot()
+            .and_then(|s| s.try_lock().ok().and_then(|mut v| v.take()));
+        Held {
+            value: Some(kept.unwrap_or_else(make)),
+            pool: self,
+        }
+    }
+}
+
+impl<T> Held<'_, T> {
+    fn get(&mut self) -> &mut T {
+        self.value.as_mut().expect("held until dropped")
+    }
+}
+
+impl<T> Drop for Held<'_, T> {
+    fn drop(&mut self) {
+        if let Some(slot) = self.pool.slot() {
+            if let Ok(mut v) = slot.try_lock() {
+                if v.is_none() {
+                    *v = self.value.take();
+                }
+            }
+        }
+    }
+}
+
 /// Which render loop runs the integrator.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Renderer {
@@ -398,21 +456,28 @@ pub fn render(
     let mut invalid = 0;
     let mut ray_log = Vec::new();
     let mut done = s_lo;
+    // One scratch per worker for the whole render: rayon calls `map_init`'s init about once
+    // per job split (≈ once per block), and a stream scratch is ~300 KB of buffers and the
+    // scene's kernel tables.
+    let workers = WorkerPool::new(pool.current_num_threads());
     for &(p_lo, p_hi) in &passes {
         let results: Vec<(Block, RayCounters, u64, Vec<LoggedRay>)> = pool.install(|| {
             rects
                 .par_iter()
                 .map_init(
                     || {
-                        let mut s = Scratch::default();
-                        if opts.record_rays > 0 {
-                            s.rays.record(log_budget.clone());
-                        }
-                        let stream =
-                            stream_cfg.map(|_| StreamScratch::new(scene, packets, opts.lanes));
-                        (s, stream)
+                        workers.take_or(|| {
+                            let mut s = Scratch::default();
+                            if opts.record_rays > 0 {
+                                s.rays.record(log_budget.clone());
+                            }
+                            let stream =
+                                stream_cfg.map(|_| StreamScratch::new(scene, packets, opts.lanes));
+                            (s, stream)
+                        })
                     },
-                    |(scratch, stream), &(x0, y0, w, h)| {
+                    |held, &(x0, y0, w, h)| {
+                        let (scratch, stream) = held.get();
                         scratch.rays.counters = RayCounters::default();
                         let _ = scratch.arena.take_walk_counts();
                         let mut block = Block::with_channels(desc, x0, y0, w, h, nch);

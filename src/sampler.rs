@@ -173,7 +173,13 @@ pub fn for_samples_x8(
     pixel: &[u64; 8],
     sample: &[u32; 8],
 ) -> ([Sampler; 8], [Vec2; 8]) {
-    let key = stream_key(avx.load_u64(&[desc.seed; 8]), avx.load_u64(pixel));
+    // Eight samples of one pixel (every chunk of a render at 8 or more samples per pixel, a
+    // multiple of 8): one key, the 1-lane function's, in every lane.
+    let key = if pixel.iter().all(|&p| p == pixel[0]) {
+        avx.load_u64(&[stream_key(desc.seed, pixel[0]); 8])
+    } else {
+        stream_key(avx.load_u64(&[desc.seed; 8]), avx.load_u64(pixel))
+    };
     let mut rng: Pcg<crate::lane::F32x8> =
         sample_generator(key, avx.load_u64(&sample.map(|s| s as u64)));
     let keys = key.to_array();
@@ -359,7 +365,8 @@ mod tests {
     }
 
     /// Width 8: every lane's stream and first 2-D draw equal `for_sample` then `next_2d`, for
-    /// every sampler kind, and the streams go on identically.
+    /// every sampler kind, eight pixels or eight samples of one, and the streams go on
+    /// identically.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn eight_wide_set_up_equals_for_sample() {
@@ -370,9 +377,14 @@ mod tests {
         let t = triples();
         for chunk in t.chunks_exact(8) {
             let seed = chunk[0].0;
-            let pixel: [u64; 8] = core::array::from_fn(|k| chunk[k].1);
+            let pixels: [u64; 8] = core::array::from_fn(|k| chunk[k].1);
             let sample: [u32; 8] = core::array::from_fn(|k| chunk[k].2);
-            for d in &descs(seed) {
+            // Eight pixels, and eight samples of one pixel (the one-key case).
+            for (pixel, d) in [pixels, [pixels[0]; 8]]
+                .into_iter()
+                .flat_map(|p| descs(seed).into_iter().map(move |d| (p, d)))
+            {
+                let d = &d;
                 let (mut got, first) = avx.run(|| for_samples_x8(avx, d, &pixel, &sample));
                 for k in 0..8 {
                     let mut want = Sampler::for_sample(d, pixel[k], sample[k]);

@@ -45,8 +45,11 @@ pub(crate) struct Batch {
     pub sorted: Vec<u32>,
     /// Ids of the paths with a pending shadow ray, ascending.
     pub shadow: Vec<u32>,
-    /// Counting-sort bins: one per material id, plus one.
+    /// Counting-sort bins: one per material id, plus one. After a sort that binned
+    /// (`binned`), `bins[m]` is the end of material `m`'s run in `sorted`.
     bins: Vec<u32>,
+    /// Whether the last sort went through the bins (else `sorted` is one material's run).
+    binned: bool,
     /// Light points the 8-wide kernels sampled in lanes since the shading stage last took
     /// them, per kind (`LaneCounters::kernel_lights`).
     pub light_lanes: [u64; crate::stream::kernels::light::KINDS],
@@ -72,20 +75,18 @@ impl Batch {
             sorted: Vec::with_capacity(capacity),
             shadow: Vec::with_capacity(capacity),
             bins: vec![0; materials + 1],
+            binned: false,
             light_lanes: [0; crate::stream::kernels::light::KINDS],
         }
     }
 
-    /// Empties the batch (capacities are kept).
+    /// Empties the batch (capacities are kept). `hit`, `light`, `alive` and `material` keep
+    /// their contents: [`Self::start`] only sizes them (see there).
     pub fn clear(&mut self) {
         self.pos.clear();
         self.sampler.clear();
         self.state.clear();
         self.ray.clear();
-        self.hit.clear();
-        self.light.clear();
-        self.alive.clear();
-        self.material.clear();
         self.active.clear();
         self.scatter.clear();
         self.sorted.clear();
@@ -150,11 +151,15 @@ impl Batch {
         while left > 0 {
             let m = left.min(8);
             let (mut pixel, mut sample, mut corner) = ([0u64; 8], [0u32; 8], [Vec2::ZERO; 8]);
-            for j in 0..m {
-                pixel[j] = y as u64 * film_width as u64 + x as u64;
-                sample[j] = s;
-                corner[j] = Vec2::new(x as f32, y as f32);
-                s += 1;
+            if m == 8 && s_hi - s >= 8 {
+                // Eight samples of one pixel (every chunk at 8 or more samples per pixel, a
+                // multiple of 8): no per-path stepping.
+                pixel = [y as u64 * film_width as u64 + x as u64; 8];
+                corner = [Vec2::new(x as f32, y as f32); 8];
+                for (j, sj) in sample.iter_mut().enumerate() {
+                    *sj = s + j as u32;
+                }
+                s += 8;
                 if s == s_hi {
                     s = s_lo;
                     x += 1;
@@ -163,14 +168,33 @@ impl Batch {
                         y += 1;
                     }
                 }
+            } else {
+                for j in 0..m {
+                    pixel[j] = y as u64 * film_width as u64 + x as u64;
+                    sample[j] = s;
+                    corner[j] = Vec2::new(x as f32, y as f32);
+                    s += 1;
+                    if s == s_hi {
+                        s = s_lo;
+                        x += 1;
+                        if x == x0 + w {
+                            x = x0;
+                            y += 1;
+                        }
+                    }
+                }
             }
             left -= m;
             #[cfg(target_arch = "x86_64")]
             if let (Some(avx), 8) = (avx, m) {
                 let (smp, first) = crate::sampler::for_samples_x8(avx, desc, &pixel, &sample);
-                // Whole arrays (one capacity check each, not one per path).
-                self.pos
-                    .extend(core::array::from_fn::<Vec2, 8, _>(|j| corner[j] + first[j]));
+                // Whole arrays (one capacity check each, not one per path; the positions as
+                // one 64-byte copy).
+                let mut pos = [Vec2::ZERO; 8];
+                for j in 0..8 {
+                    pos[j] = corner[j] + first[j];
+                }
+                self.pos.extend_from_slice(&pos);
                 self.sampler.extend(smp);
                 continue;
             }
@@ -185,8 +209,12 @@ impl Batch {
     }
 
     /// Once `pos`, `sampler` and `ray` hold the batch's paths (at most [`BATCH`]), sets every
-    /// other per-path array to paths leaving the camera (one fill per array, not a push per
-    /// path and array).
+    /// path's state to a path leaving the camera (one fill, not a push per path) and sizes the
+    /// other per-path arrays. Those keep what the previous batch left in them: each is written
+    /// for a path before the path's stages read it in a bounce (`hit` by the trace of every
+    /// active path, `alive` by the emission stage for every active path and `material` for
+    /// every path that scatters, `light` by the shading of every path that scatters, which
+    /// starts with `None`), so filling them would only cost a pass over ~60 KB per batch.
     pub fn start(&mut self) {
         let n = self.pos.len();
         assert!(
@@ -195,13 +223,9 @@ impl Batch {
         );
         self.state.clear();
         self.state.resize(n, PathState::new());
-        self.hit.clear();
         self.hit.resize(n, None);
-        self.light.clear();
         self.light.resize(n, None);
-        self.alive.clear();
         self.alive.resize(n, false);
-        self.material.clear();
         self.material.resize(n, 0);
     }
 
@@ -231,6 +255,7 @@ impl Batch {
     /// their ascending path order). Returns whether `sorted` holds more than one material.
     pub fn sort_by_material(&mut self) -> bool {
         self.sorted.clear();
+        self.binned = false;
         let Some(&first) = self.scatter.first() else {
             return false;
         };
@@ -256,13 +281,34 @@ impl Batch {
             self.sorted[*b as usize] = i;
             *b += 1;
         }
+        self.binned = true;
         true
+    }
+
+    /// The end in `sorted` of the run of material `m` (the material of the path at the run's
+    /// start) after [`Self::sort_by_material`]: where the sort's bins left it, without walking
+    /// the run.
+    #[inline]
+    pub fn run_end(&self, m: MatId) -> usize {
+        if self.binned {
+            self.bins[m as usize] as usize
+        } else {
+            self.sorted.len()
+        }
     }
 
     /// Keeps in `active` the paths still alive, in ascending order (stable compaction).
     pub fn compact(&mut self) {
-        let alive = &self.alive;
-        self.active.retain(|&i| alive[i as usize]);
+        let (active, alive) = (&mut self.active, &self.alive);
+        // In place and branch-free: every id is written at the write position, which advances
+        // past the alive ones only (it never passes the read position).
+        let mut kept = 0;
+        for r in 0..active.len() {
+            let i = active[r];
+            active[kept] = i;
+            kept += alive[i as usize] as usize;
+        }
+        active.truncate(kept);
     }
 }
 
@@ -408,10 +454,14 @@ mod tests {
         b.scatter.extend([0, 1, 2, 4, 5, 6]);
         assert!(b.sort_by_material());
         assert_eq!(b.sorted, [1, 4, 0, 2, 6, 5]);
+        // Each run's end, from its material.
+        let ends: Vec<usize> = [1, 3, 7].iter().map(|&m| b.run_end(m)).collect();
+        assert_eq!(ends, [2, 5, 6]);
         b.scatter.clear();
         b.scatter.extend([0, 2, 6]);
         assert!(!b.sort_by_material());
         assert_eq!(b.sorted, [0, 2, 6]);
+        assert_eq!(b.run_end(3), 3);
     }
 
     #[test]

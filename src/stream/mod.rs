@@ -658,10 +658,7 @@ fn shade<T: kernels::tail::Tail>(
     let mut start = 0;
     while start < batch.sorted.len() {
         let m = batch.material[batch.sorted[start] as usize];
-        let mut end = start + 1;
-        while end < batch.sorted.len() && batch.material[batch.sorted[end] as usize] == m {
-            end += 1;
-        }
+        let end = batch.run_end(m);
         let (done, driver) = if tail.kernels() {
             shade_kernel(
                 scene,
@@ -848,12 +845,18 @@ fn shade_kernel<T: kernels::tail::Tail>(
 /// samples that nothing blocks; one by one, or grouped when `packet` is `Some(stream)`: as
 /// 8-wide packets of consecutive pending rays, or (`stream`) as one Embree stream.
 fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Rays) {
+    // `shadow` is a subsequence of `scatter`: written in place over a copy of it, branch-free
+    // (the write position advances past the paths with a pending sample only).
     batch.shadow.clear();
-    for &i in &batch.scatter {
-        if batch.light[i as usize].is_some() {
-            batch.shadow.push(i);
-        }
+    batch.shadow.extend_from_slice(&batch.scatter);
+    let (shadow, light) = (&mut batch.shadow, &batch.light);
+    let mut pending = 0;
+    for r in 0..shadow.len() {
+        let i = shadow[r];
+        shadow[pending] = i;
+        pending += light[i as usize].is_some() as usize;
     }
+    shadow.truncate(pending);
     let n = batch.shadow.len();
     rays.counters.lanes.shadow_used += n as u64;
     rays.counters.lanes.shadow_slots += slots(n);

@@ -28,6 +28,7 @@ mod stream_blend;
 mod stream_emission_shapes;
 mod stream_mnm_build;
 mod stream_mnm_direct;
+mod stream_spp;
 mod stream_width;
 mod textures;
 mod transform_quirks;
