@@ -136,6 +136,57 @@ pub(crate) mod x8 {
         }
     }
 
+    /// How many one-mesh chunks [`MeshChunks`] keeps.
+    const SLOTS: usize = 8;
+
+    /// Direct hits on triangle meshes waiting for their 8-wide reconstruction, in chunks of one
+    /// mesh each where they can (slot `geom % SLOTS` holds one mesh's hits at a time; those are
+    /// gathered with vector gathers, [`one_mesh_triangles`]), else in `mixed` (gathered lane by
+    /// lane, [`triangles`]). Which chunk a hit waits in changes only the order in which rows are
+    /// written, not what they hold.
+    struct MeshChunks {
+        geom: [u32; SLOTS],
+        slot: [Pending; SLOTS],
+        mixed: Pending,
+    }
+
+    impl MeshChunks {
+        const EMPTY: MeshChunks = MeshChunks {
+            geom: [0; SLOTS],
+            slot: [Pending::EMPTY; SLOTS],
+            mixed: Pending::EMPTY,
+        };
+
+        /// Adds path `i`, whose ray hit mesh `geom`; reconstructs the chunk it fills.
+        #[inline(always)]
+        fn push(&mut self, avx: Avx2, st: &mut Stage, geom: u32, i: u32) {
+            let s = geom as usize % SLOTS;
+            if self.slot[s].n == 0 {
+                self.geom[s] = geom;
+            }
+            if self.geom[s] == geom {
+                if self.slot[s].push(i) {
+                    one_mesh_triangles(avx, st, geom, self.slot[s].take());
+                }
+            } else if self.mixed.push(i) {
+                triangles(avx, st, self.mixed.take());
+            }
+        }
+
+        /// Reconstructs the partly filled chunks (padded).
+        #[inline(always)]
+        fn flush(&mut self, avx: Avx2, st: &mut Stage) {
+            for s in 0..SLOTS {
+                if self.slot[s].n > 0 {
+                    one_mesh_triangles(avx, st, self.geom[s], self.slot[s].take());
+                }
+            }
+            if self.mixed.n > 0 {
+                triangles(avx, st, self.mixed.take());
+            }
+        }
+    }
+
     /// The rays, hits and rows the gather stage works on.
     struct Stage<'a> {
         scene: &'a Scene,
@@ -159,7 +210,8 @@ pub(crate) mod x8 {
                     hit: &batch.hit,
                     surf: &mut batch.surf,
                 };
-                let (mut tri, mut sph, mut rect) = (Pending::EMPTY, Pending::EMPTY, Pending::EMPTY);
+                let mut tri = MeshChunks::EMPTY;
+                let (mut sph, mut rect) = (Pending::EMPTY, Pending::EMPTY);
                 let (mut disks, mut itri) = (Pending::EMPTY, Pending::EMPTY);
                 let mut cyl = Pending::EMPTY;
                 let mut scalar = 0;
@@ -184,11 +236,7 @@ pub(crate) mod x8 {
                         continue;
                     }
                     match form {
-                        Form::Triangles => {
-                            if tri.push(i) {
-                                triangles(avx, &mut st, tri.take());
-                            }
-                        }
+                        Form::Triangles => tri.push(avx, &mut st, h.geom, i),
                         Form::Sphere(..) => {
                             if sph.push(i) {
                                 spheres(avx, &mut st, sph.take());
@@ -217,9 +265,7 @@ pub(crate) mod x8 {
                         }
                     }
                 }
-                if tri.n > 0 {
-                    triangles(avx, &mut st, tri.take());
-                }
+                tri.flush(avx, &mut st);
                 if sph.n > 0 {
                     spheres(avx, &mut st, sph.take());
                 }
@@ -361,6 +407,104 @@ pub(crate) mod x8 {
         let (x, meta) = triangle_input(avx, st, &ids);
         let s = sl::triangle(&x);
         store(avx, st, &ids, n, &s, &meta);
+    }
+
+    /// Hits on one triangle mesh, shape `g` (every lane's): [`one_mesh_input`], then
+    /// [`sl::triangle`]; a mesh too large for 32-bit gather offsets takes [`triangles`].
+    #[inline(always)]
+    fn one_mesh_triangles(avx: Avx2, st: &mut Stage, g: u32, (ids, n): ([u32; 8], usize)) {
+        let shape = &st.scene.shapes[g as usize];
+        let ShapeKind::Mesh(m) = &shape.kind else {
+            unreachable!("Form::Triangles is set for meshes only");
+        };
+        let fits = |len: usize| len <= i32::MAX as usize / 3;
+        if !(fits(m.indices.len())
+            && fits(m.positions.len())
+            && m.normals.as_ref().is_none_or(|v| fits(v.len()))
+            && m.uvs.as_ref().is_none_or(|v| fits(v.len())))
+        {
+            return triangles(avx, st, (ids, n));
+        }
+        let (x, meta) = one_mesh_input(avx, st, &ids, m, shape.flip_normals);
+        let s = sl::triangle(&x);
+        store(avx, st, &ids, n, &s, &meta);
+    }
+
+    /// [`triangle_input`] for lanes that all hit mesh `m` (whose `flip_normals` is `flip`):
+    /// the triangles' vertex indices, then their positions, normals and uvs, by vector
+    /// gathers; the per-mesh flags and sign splat. The same values as lane by lane (the mesh is
+    /// validated at load: its indices are in range, so the gathers' clamps change nothing).
+    #[inline(always)]
+    fn one_mesh_input(
+        avx: Avx2,
+        st: &Stage,
+        ids: &[u32; 8],
+        m: &crate::geometry::mesh::TriMesh,
+        flip: bool,
+    ) -> (sl::Triangle<F32x8>, Meta) {
+        let (mut prim, mut b1, mut b2) = ([0i32; 8], [0.0f32; 8], [0.0f32; 8]);
+        let mut meta = Meta::default();
+        for (k, &i) in ids.iter().enumerate() {
+            let Some(h) = st.hit[i as usize] else {
+                continue;
+            };
+            prim[k] = h.prim as i32;
+            b1[k] = h.u;
+            b2[k] = h.v;
+            meta.set(k, &st.ray[i as usize], &h);
+        }
+        let tri = avx.gather3_u32(&m.indices, avx.load_i32(&prim));
+        let p = [
+            gv3(F32x8::gather3(&m.positions, tri[0])),
+            gv3(F32x8::gather3(&m.positions, tri[1])),
+            gv3(F32x8::gather3(&m.positions, tri[2])),
+        ];
+        let z = avx.splat(0.0);
+        let (n, has_n) = match &m.normals {
+            Some(ns) => (
+                [
+                    gv3(F32x8::gather3(ns, tri[0])),
+                    gv3(F32x8::gather3(ns, tri[1])),
+                    gv3(F32x8::gather3(ns, tri[2])),
+                ],
+                avx.mask_splat(true),
+            ),
+            None => ([V3::new(z, z, z); 3], avx.mask_splat(false)),
+        };
+        let (uv, has_uv) = match &m.uvs {
+            Some(uvs) => (
+                [
+                    gv2(avx.gather2(uvs, tri[0])),
+                    gv2(avx.gather2(uvs, tri[1])),
+                    gv2(avx.gather2(uvs, tri[2])),
+                ],
+                avx.mask_splat(true),
+            ),
+            None => ([V2::new(z, z); 3], avx.mask_splat(false)),
+        };
+        let x = sl::Triangle {
+            p,
+            n,
+            uv,
+            has_n,
+            has_uv,
+            b1: avx.load(&b1),
+            b2: avx.load(&b2),
+            sign: avx.splat(if flip { -1.0 } else { 1.0 }),
+        };
+        (x, meta)
+    }
+
+    /// A gathered vector's components as a [`V3`] (a plain function, not a closure: see
+    /// `tests/cli/simd_calls.rs`).
+    #[inline(always)]
+    fn gv3(c: [F32x8; 3]) -> V3<F32x8> {
+        V3::new(c[0], c[1], c[2])
+    }
+
+    #[inline(always)]
+    fn gv2(c: [F32x8; 2]) -> V2<F32x8> {
+        V2::new(c[0], c[1])
     }
 
     /// Hits on meshes seen through instances: [`triangle_input`] (the member's triangle, in
