@@ -127,6 +127,22 @@ impl Avx2 {
             ]
         }
     }
+    /// The rays `rays[ids[k]]` in lanes, field by field: o.x, o.y, o.z, d.x, d.y, d.z, tmin,
+    /// tmax (one 32-byte load per ray, then [`F32x8::transpose8`]; the gather stage's rays).
+    ///
+    /// # Panics
+    /// If an id is out of range.
+    #[inline(always)]
+    pub fn ray_fields(self, rays: &[crate::geometry::Ray], ids: &[u32; 8]) -> [F32x8; 8] {
+        let mut rows = [self.splat(0.0); 8];
+        for k in 0..8 {
+            let r: *const crate::geometry::Ray = &rays[ids[k] as usize];
+            // SAFETY: the token proves AVX. A `Ray` is eight f32s, o.x … tmax, without padding
+            // (asserted below), all initialised, so the 32-byte load reads exactly `*r`.
+            rows[k] = F32x8(unsafe { _mm256_loadu_ps(r.cast::<f32>()) });
+        }
+        F32x8::transpose8(rows)
+    }
     /// A mask from eight booleans.
     #[inline(always)]
     pub fn mask(self, a: &[bool; 8]) -> M8 {
@@ -435,6 +451,19 @@ const _: () = assert!(
         && core::mem::align_of::<glam::Vec2>() == 4
         && core::mem::size_of::<[u32; 3]>() == 12
 );
+
+// `Avx2::ray_fields` reads a `Ray` as eight consecutive f32s in this order.
+const _: () = {
+    use crate::geometry::Ray;
+    use core::mem::{offset_of, size_of};
+    assert!(
+        size_of::<Ray>() == 32
+            && offset_of!(Ray, o) == 0
+            && offset_of!(Ray, d) == 12
+            && offset_of!(Ray, tmin) == 24
+            && offset_of!(Ray, tmax) == 28
+    );
+};
 
 // `Lane::gather3` reads a `glam::Vec3` as three consecutive f32s.
 const _: () =

@@ -310,19 +310,14 @@ pub(crate) mod x8 {
     /// Each lane's ray point at its hit (`Ray::at`, 8-wide), and its [`Meta`].
     #[inline(always)]
     fn ray_points(avx: Avx2, st: &Stage, ids: &[u32; 8], m: &mut Meta) -> V3<F32x8> {
-        let (mut o, mut d, mut t) = (Cols3::default(), Cols3::default(), [0.0f32; 8]);
         for (k, &i) in ids.iter().enumerate() {
-            let i = i as usize;
-            let Some(h) = &st.hit[i] else {
+            let Some(h) = &st.hit[i as usize] else {
                 continue;
             };
-            let ray = &st.ray[i];
-            o.set(k, ray.o);
-            d.set(k, ray.d);
-            t[k] = h.t;
-            m.set(k, ray, h);
+            m.set(k, h);
         }
-        sl::ray_at(o.load(avx), d.load(avx), avx.load(&t))
+        let (o, d) = m.rays(avx, st, ids);
+        sl::ray_at(o, d, avx.load(&m.t))
     }
 
     // The row layout `store` writes as four groups of 8 floats.
@@ -343,10 +338,9 @@ pub(crate) mod x8 {
     );
 
     /// What a row takes from each lane's hit and ray besides the lane form's fields.
-    #[derive(Default)]
     struct Meta {
-        /// −ray.d.
-        wi: Cols3,
+        /// −ray.d ([`Meta::rays`]).
+        wi: V3<F32x8>,
         t: [f32; 8],
         /// The shape and primitive indices' bits.
         shape: [f32; 8],
@@ -354,6 +348,17 @@ pub(crate) mod x8 {
     }
 
     impl Meta {
+        #[inline(always)]
+        fn new(avx: Avx2) -> Meta {
+            let z = avx.splat(0.0);
+            Meta {
+                wi: V3::new(z, z, z),
+                t: [0.0; 8],
+                shape: [0.0; 8],
+                prim: [0.0; 8],
+            }
+        }
+
         /// The shape every lane hit, when they all hit one (the common case of a chunk of
         /// spheres or rectangles: one large shape): then its lane form's constants are splat
         /// instead of gathered lane by lane (the same values, so the same results).
@@ -367,11 +372,20 @@ pub(crate) mod x8 {
         }
 
         #[inline(always)]
-        fn set(&mut self, k: usize, ray: &Ray, h: &Hit) {
-            self.wi.set(k, -ray.d);
+        fn set(&mut self, k: usize, h: &Hit) {
             self.t[k] = h.t;
             self.shape[k] = f32::from_bits(h.geom);
             self.prim[k] = f32::from_bits(h.prim);
+        }
+
+        /// The lanes' ray origins and directions (each ray loaded whole and transposed, not
+        /// field by field); sets `wi`.
+        #[inline(always)]
+        fn rays(&mut self, avx: Avx2, st: &Stage, ids: &[u32; 8]) -> (V3<F32x8>, V3<F32x8>) {
+            let f = avx.ray_fields(st.ray, ids);
+            let d = V3::new(f[3], f[4], f[5]);
+            self.wi = -d;
+            (V3::new(f[0], f[1], f[2]), d)
         }
     }
 
@@ -380,7 +394,7 @@ pub(crate) mod x8 {
     /// and row instead of 29 scalar stores per row).
     #[inline(always)]
     fn store(avx: Avx2, st: &mut Stage, ids: &[u32; 8], n: usize, s: &SurfLanes<F32x8>, m: &Meta) {
-        let wi = m.wi.load(avx);
+        let wi = m.wi;
         let (f, z) = (&s.frame, avx.splat(0.0));
         let g0 = F32x8::transpose8([s.p.x, s.p.y, s.p.z, s.ng.x, s.ng.y, s.ng.z, f.s.x, f.s.y]);
         let g1 = F32x8::transpose8([f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, wi.x]);
@@ -443,7 +457,7 @@ pub(crate) mod x8 {
         flip: bool,
     ) -> (sl::Triangle<F32x8>, Meta) {
         let (mut prim, mut b1, mut b2) = ([0i32; 8], [0.0f32; 8], [0.0f32; 8]);
-        let mut meta = Meta::default();
+        let mut meta = Meta::new(avx);
         for (k, &i) in ids.iter().enumerate() {
             let Some(h) = st.hit[i as usize] else {
                 continue;
@@ -451,8 +465,9 @@ pub(crate) mod x8 {
             prim[k] = h.prim as i32;
             b1[k] = h.u;
             b2[k] = h.v;
-            meta.set(k, &st.ray[i as usize], &h);
+            meta.set(k, &h);
         }
+        meta.rays(avx, st, ids);
         let tri = avx.gather3_u32(&m.indices, avx.load_i32(&prim));
         let p = [
             gv3(F32x8::gather3(&m.positions, tri[0])),
@@ -542,7 +557,7 @@ pub(crate) mod x8 {
         let mut uv = [[[0.0f32; 8]; 2]; 3];
         let (mut has_n, mut has_uv) = ([false; 8], [false; 8]);
         let (mut b1, mut b2, mut sign) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
-        let mut meta = Meta::default();
+        let mut meta = Meta::new(avx);
         for (k, &i) in ids.iter().enumerate() {
             let Some(h) = st.hit[i as usize] else {
                 continue;
@@ -569,11 +584,12 @@ pub(crate) mod x8 {
                     uv[j][1][k] = t.y;
                 }
             }
-            meta.set(k, &st.ray[i as usize], &h);
+            meta.set(k, &h);
             b1[k] = h.u;
             b2[k] = h.v;
             sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
         }
+        meta.rays(avx, st, ids);
         let x = sl::Triangle {
             p: [p[0].load(avx), p[1].load(avx), p[2].load(avx)],
             n: [nrm[0].load(avx), nrm[1].load(avx), nrm[2].load(avx)],
@@ -594,7 +610,7 @@ pub(crate) mod x8 {
     /// Hits on spheres with a similarity `to_world`: [`sl::sphere`].
     #[inline(always)]
     fn spheres(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
-        let mut m = Meta::default();
+        let mut m = Meta::new(avx);
         let x = ray_points(avx, st, &ids, &mut m);
         if let Some(g) = m.one_shape() {
             let Form::Sphere(centre, radius, frame, sg) = &st.forms[g] else {
@@ -650,7 +666,7 @@ pub(crate) mod x8 {
     /// Hits on rectangles: [`sl::rectangle`].
     #[inline(always)]
     fn rectangles(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
-        let mut m = Meta::default();
+        let mut m = Meta::new(avx);
         let x = ray_points(avx, st, &ids, &mut m);
         let rect = if let Some(g) = m.one_shape() {
             let Form::Rectangle(r) = &st.forms[g] else {
@@ -729,7 +745,7 @@ pub(crate) mod x8 {
             }
             ng.set(k, *nrm);
         }
-        let mut m = Meta::default();
+        let mut m = Meta::new(avx);
         let x = ray_points(avx, st, &ids, &mut m);
         let d = sl::Disk {
             to_object: load4(avx, &o),
@@ -765,7 +781,7 @@ pub(crate) mod x8 {
             dpdv.set(k, c.dpdv);
             (sign[k], quirk[k]) = (*sg, c.quirk);
         }
-        let mut m = Meta::default();
+        let mut m = Meta::new(avx);
         let x = ray_points(avx, st, &ids, &mut m);
         let c = sl::CylinderLanes {
             to_world: load4(avx, &w),
