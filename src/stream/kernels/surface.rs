@@ -424,7 +424,7 @@ pub(crate) mod x8 {
     }
 
     /// Hits on one triangle mesh, shape `g` (every lane's): [`one_mesh_input`], then
-    /// [`sl::triangle`]; a mesh too large for 32-bit gather offsets takes [`triangles`].
+    /// [`sl::triangle`] ([`sl::triangle_no_uv`] for a mesh without uvs); a mesh too large for 32-bit gather offsets takes [`triangles`].
     #[inline(always)]
     fn one_mesh_triangles(avx: Avx2, st: &mut Stage, g: u32, (ids, n): ([u32; 8], usize)) {
         let shape = &st.scene.shapes[g as usize];
@@ -440,7 +440,11 @@ pub(crate) mod x8 {
             return triangles(avx, st, (ids, n));
         }
         let (x, meta) = one_mesh_input(avx, st, &ids, m, shape.flip_normals);
-        let s = sl::triangle(&x);
+        let s = if m.uvs.is_some() {
+            sl::triangle(&x)
+        } else {
+            sl::triangle_no_uv(&x)
+        };
         store(avx, st, &ids, n, &s, &meta);
     }
 
