@@ -532,8 +532,7 @@ fn splat_ray(avx: Avx2, ray: &Ray) -> RayL<F32x8> {
 fn packet(avx: Avx2, rays: &[Ray]) -> RayL<F32x8> {
     if rays.len() == W {
         // A full packet: each ray loaded whole (the same rows).
-        let [ox, oy, oz, dx, dy, dz, tnear, tfar] =
-            avx.ray_fields(rays, &[0, 1, 2, 3, 4, 5, 6, 7]);
+        let [ox, oy, oz, dx, dy, dz, tnear, tfar] = avx.ray_fields(rays, &[0, 1, 2, 3, 4, 5, 6, 7]);
         return RayL {
             o: V3::new(ox, oy, oz),
             d: V3::new(dx, dy, dz),

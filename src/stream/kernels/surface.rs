@@ -1,7 +1,9 @@
 //! The surface rows of the batch ([`crate::stream::batch::Surfaces`]): the gather stage that
 //! fills them after each trace ([`fill`]: hits on triangle meshes, similarity spheres,
 //! rectangles, disks and cylinders, and on meshes seen through instances, reconstructed 8 at a time by the
-//! lane forms of [`crate::geometry::surface_lanes`], every other hit by `Scene::interaction`), and the one surface load of the three kernels
+//! lane forms of [`crate::geometry::surface_lanes`], every other hit by `Scene::interaction`;
+//! direct mesh hits wait in chunks of one mesh where they can, whose triangles, vertices,
+//! normals and uvs are vector gathers, `x8::MeshChunks`), and the one surface load of the three kernels
 //! ([`super::diffuse`], [`super::vertex`], [`super::plastic`]): 8 paths' surface points, true
 //! normals, shading frames and incident directions, loaded 8-wide in place from the rows, one
 //! `vgatherdps` per field over the 8 rows. The rows hold the scalar interaction's bits either way.
