@@ -261,11 +261,9 @@ impl Brute {
                     (t.to_array(), g.to_array())
                 },
             );
-            for (i, o) in out.iter_mut().enumerate() {
-                *o = match rays.get(i) {
-                    Some(ray) => self.finish(ray, ts[i], geoms[i]),
-                    None => None,
-                };
+            *out = [None; W];
+            for (i, ray) in rays.iter().enumerate() {
+                out[i] = self.finish(ray, ts[i], geoms[i]);
             }
             return;
         }
@@ -527,10 +525,21 @@ fn splat_ray(avx: Avx2, ray: &Ray) -> RayL<F32x8> {
 }
 
 /// Up to 8 rays, one per lane; lanes past `rays.len()` get a NaN interval (never hit). Each
-/// ray is one row of 8 floats, turned into 8 lanes per field by one 8×8 transpose (moves only).
+/// ray is one row of 8 floats (a full packet's loaded in place, [`Avx2::ray_fields`]), turned
+/// into 8 lanes per field by one 8×8 transpose (moves only).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn packet(avx: Avx2, rays: &[Ray]) -> RayL<F32x8> {
+    if rays.len() == W {
+        // A full packet: each ray loaded whole (the same rows).
+        let [ox, oy, oz, dx, dy, dz, tnear, tfar] = avx.ray_fields(rays, &[0, 1, 2, 3, 4, 5, 6, 7]);
+        return RayL {
+            o: V3::new(ox, oy, oz),
+            d: V3::new(dx, dy, dz),
+            tnear,
+            tfar,
+        };
+    }
     const PAD: [f32; W] = [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, f32::NAN, f32::NAN];
     let mut rows = [PAD; W];
     for (row, r) in rows.iter_mut().zip(rays) {

@@ -109,6 +109,20 @@ fn analytic<L: Lane>(p: V3<L>, ng: V3<L>, uv: V2<L>, dpdu: V3<L>, dpdv: V3<L>) -
 /// The mesh branch of `Shape::interaction`.
 #[inline(always)]
 pub fn triangle<L: Lane>(x: &Triangle<L>) -> SurfLanes<L> {
+    triangle_with::<L, true>(x)
+}
+
+/// [`triangle`] for lanes none of whose meshes has uvs (`x.has_uv` false in every lane, known
+/// beforehand: one mesh's chunk): uv = (b1, b2) and the frame around the face normal, the
+/// values [`triangle`]'s selects take there, without computing the uv terms they discard.
+#[inline(always)]
+pub fn triangle_no_uv<L: Lane>(x: &Triangle<L>) -> SurfLanes<L> {
+    triangle_with::<L, false>(x)
+}
+
+/// [`triangle`], with the uv terms when `UV` (else as if no lane had uvs).
+#[inline(always)]
+fn triangle_with<L: Lane, const UV: bool>(x: &Triangle<L>) -> SurfLanes<L> {
     let (b1, b2) = (x.b1, x.b2);
     let k = |c: f32| b1.splat(c);
     let b0 = k(1.0) - b1 - b2;
@@ -119,22 +133,27 @@ pub fn triangle<L: Lane>(x: &Triangle<L>) -> SurfLanes<L> {
     let ng = normalize_or(dp0.cross(dp1), V3::splat(b1, 0.0, 0.0, 1.0));
     // uvs: interpolated, and dp/du, dp/dv from them where their determinant is non-zero;
     // else uv = (b1, b2) and the frame around the face normal.
-    let [t0, t1, t2] = x.uv;
-    let uv = V2::new(
-        t0.x * b0 + t1.x * b1 + t2.x * b2,
-        t0.y * b0 + t1.y * b1 + t2.y * b2,
-    );
-    let uv = V2::select(x.has_uv, uv, V2::new(b1, b2));
-    let (d0, d1) = (
-        V2::new(t1.x - t0.x, t1.y - t0.y),
-        V2::new(t2.x - t0.x, t2.y - t0.y),
-    );
-    let det = d0.x * d1.y - d0.y * d1.x;
-    let derivs = x.has_uv & det.ne(k(0.0));
-    let inv = k(1.0) / det;
     let f = Frame::from_normal(ng);
-    let dpdu = V3::select(derivs, (dp0.scale(d1.y) - dp1.scale(d0.y)).scale(inv), f.s);
-    let dpdv = V3::select(derivs, (dp1.scale(d0.x) - dp0.scale(d1.x)).scale(inv), f.t);
+    let (uv, dpdu, dpdv) = if UV {
+        let [t0, t1, t2] = x.uv;
+        let uv = V2::new(
+            t0.x * b0 + t1.x * b1 + t2.x * b2,
+            t0.y * b0 + t1.y * b1 + t2.y * b2,
+        );
+        let uv = V2::select(x.has_uv, uv, V2::new(b1, b2));
+        let (d0, d1) = (
+            V2::new(t1.x - t0.x, t1.y - t0.y),
+            V2::new(t2.x - t0.x, t2.y - t0.y),
+        );
+        let det = d0.x * d1.y - d0.y * d1.x;
+        let derivs = x.has_uv & det.ne(k(0.0));
+        let inv = k(1.0) / det;
+        let dpdu = V3::select(derivs, (dp0.scale(d1.y) - dp1.scale(d0.y)).scale(inv), f.s);
+        let dpdv = V3::select(derivs, (dp1.scale(d0.x) - dp0.scale(d1.x)).scale(inv), f.t);
+        (uv, dpdu, dpdv)
+    } else {
+        (V2::new(b1, b2), f.s, f.t)
+    };
     let [n0, n1, n2] = x.n;
     let (ns, ns_ok) = try_normalize(lerp3(n0, n1, n2, w));
     let ns = V3::select(x.has_n & ns_ok, ns, ng);
@@ -654,6 +673,27 @@ mod tests {
     /// another's).
     fn assert_no_mismatch(width: usize, failed: Vec<String>) {
         assert!(failed.is_empty(), "width {width}: {}", failed.join("; "));
+    }
+
+    /// [`triangle_no_uv`] equals `Shape::interaction` on every triangle case without uvs (and
+    /// there are such cases).
+    #[test]
+    fn the_no_uv_triangle_form_equals_shape_interaction() {
+        let mut r = Rng(0x2545_f491_4f6c_dd1d);
+        let (mut n, mut bad) = (0, 0);
+        for (shape, ray, h) in triangle_cases(&mut r, 4000) {
+            let ShapeKind::Mesh(m) = &shape.kind else {
+                unreachable!()
+            };
+            if m.uvs.is_some() {
+                continue;
+            }
+            n += 1;
+            let s = triangle_no_uv(&triangle_input(&shape, &h));
+            bad += usize::from(lane_bits(&s, 0) != bits(&shape.interaction(0, &ray, &h)));
+        }
+        assert!(n > 100, "only {n} triangle cases without uvs");
+        assert_eq!(bad, 0, "{bad} of {n} hits differ");
     }
 
     #[test]

@@ -78,6 +78,71 @@ impl Avx2 {
             ])
         }
     }
+    /// `b` in every lane of a mask (a chunk-wide flag).
+    #[inline(always)]
+    pub fn mask_splat(self, b: bool) -> M8 {
+        M8(unsafe { _mm256_castsi256_ps(_mm256_set1_epi32(-(b as i32))) })
+    }
+    /// The three indices of `table[idx]` per lane (three `vpgatherdd`; a mesh's triangles),
+    /// each index first clamped to `table.len() − 1` as an unsigned number (as
+    /// [`crate::lane::Lane::gather3`]): always in bounds.
+    ///
+    /// # Panics
+    /// If `table` is empty or holds more than `i32::MAX / 3` rows.
+    #[inline(always)]
+    pub fn gather3_u32(self, table: &[[u32; 3]], idx: I32x8) -> [I32x8; 3] {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 3);
+        // SAFETY: the token proves AVX2. `[u32; 3]` is three consecutive u32s (12 bytes), so
+        // row r's entry c is u32 3r + c from the start; after the clamp r < len and
+        // 3r + 2 < 3·len ≤ i32::MAX, so each load reads inside `table`.
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(table.len() as i32 - 1));
+            let i3 = _mm256_add_epi32(_mm256_add_epi32(i, i), i);
+            let base = table.as_ptr().cast::<i32>();
+            [
+                I32x8(_mm256_i32gather_epi32::<4>(base, i3)),
+                I32x8(_mm256_i32gather_epi32::<4>(base.add(1), i3)),
+                I32x8(_mm256_i32gather_epi32::<4>(base.add(2), i3)),
+            ]
+        }
+    }
+    /// The components of `table[idx]` per lane (two `vgatherdps`; a mesh's uvs), each index
+    /// clamped as in [`Avx2::gather3_u32`].
+    ///
+    /// # Panics
+    /// If `table` is empty or holds more than `i32::MAX / 2` vectors.
+    #[inline(always)]
+    pub fn gather2(self, table: &[glam::Vec2], idx: I32x8) -> [F32x8; 2] {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 2);
+        // SAFETY: the token proves AVX2. `glam::Vec2` is `#[repr(C)]` with two f32 fields x, y
+        // (8 bytes, asserted below), so vector r's component c is float 2r + c; after the clamp
+        // r < len and 2r + 1 < 2·len ≤ i32::MAX, so each load reads inside `table`.
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(table.len() as i32 - 1));
+            let i2 = _mm256_add_epi32(i, i);
+            let base = table.as_ptr().cast::<f32>();
+            [
+                F32x8(_mm256_i32gather_ps::<4>(base, i2)),
+                F32x8(_mm256_i32gather_ps::<4>(base.add(1), i2)),
+            ]
+        }
+    }
+    /// The rays `rays[ids[k]]` in lanes, field by field: o.x, o.y, o.z, d.x, d.y, d.z, tmin,
+    /// tmax (one 32-byte load per ray, then [`F32x8::transpose8`]; the gather stage's rays).
+    ///
+    /// # Panics
+    /// If an id is out of range.
+    #[inline(always)]
+    pub fn ray_fields(self, rays: &[crate::geometry::Ray], ids: &[u32; 8]) -> [F32x8; 8] {
+        let mut rows = [self.splat(0.0); 8];
+        for k in 0..8 {
+            let r: *const crate::geometry::Ray = &rays[ids[k] as usize];
+            // SAFETY: the token proves AVX. A `Ray` is eight f32s, o.x … tmax, without padding
+            // (asserted below), all initialised, so the 32-byte load reads exactly `*r`.
+            rows[k] = F32x8(unsafe { _mm256_loadu_ps(r.cast::<f32>()) });
+        }
+        F32x8::transpose8(rows)
+    }
     /// A mask from eight booleans.
     #[inline(always)]
     pub fn mask(self, a: &[bool; 8]) -> M8 {
@@ -378,6 +443,27 @@ impl Lane for F32x8 {
         }
     }
 }
+
+// `Avx2::gather2` reads a `glam::Vec2` as two consecutive f32s, `gather3_u32` a `[u32; 3]` as
+// three consecutive u32s.
+const _: () = assert!(
+    core::mem::size_of::<glam::Vec2>() == 8
+        && core::mem::align_of::<glam::Vec2>() == 4
+        && core::mem::size_of::<[u32; 3]>() == 12
+);
+
+// `Avx2::ray_fields` reads a `Ray` as eight consecutive f32s in this order.
+const _: () = {
+    use crate::geometry::Ray;
+    use core::mem::{offset_of, size_of};
+    assert!(
+        size_of::<Ray>() == 32
+            && offset_of!(Ray, o) == 0
+            && offset_of!(Ray, d) == 12
+            && offset_of!(Ray, tmin) == 24
+            && offset_of!(Ray, tmax) == 28
+    );
+};
 
 // `Lane::gather3` reads a `glam::Vec3` as three consecutive f32s.
 const _: () =

@@ -177,6 +177,9 @@ const SCENES: &[(&str, Entry)] = &[
     ("stream_lights.xml", Compare(NONE, Nm::AsWritten, 1)),
     // Its wrapper-chain driver with `mask`: a smooth `dielectric` sphere behind a mask.
     ("stream_mask.xml", Exclude(Specular("dielectric"))),
+    // The gather stage's one-mesh and mixed chunks of triangle hits
+    // (tests/render/stream_mesh_chunks.rs).
+    ("stream_mesh_chunks.xml", Compare(NONE, Nm::AsWritten, 1)),
     // The stream renderer's plastic kernel (tests/render/stream.rs): smooth `plastic` in view.
     ("stream_plastic.xml", Exclude(Specular("plastic"))),
     // Its wrapper-chain driver around plastic leaves: smooth `plastic` under normal maps.

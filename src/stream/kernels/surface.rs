@@ -1,7 +1,9 @@
 //! The surface rows of the batch ([`crate::stream::batch::Surfaces`]): the gather stage that
 //! fills them after each trace ([`fill`]: hits on triangle meshes, similarity spheres,
 //! rectangles, disks and cylinders, and on meshes seen through instances, reconstructed 8 at a time by the
-//! lane forms of [`crate::geometry::surface_lanes`], every other hit by `Scene::interaction`), and the one surface load of the three kernels
+//! lane forms of [`crate::geometry::surface_lanes`], every other hit by `Scene::interaction`;
+//! direct mesh hits wait in chunks of one mesh where they can, whose triangles, vertices,
+//! normals and uvs are vector gathers, `x8::MeshChunks`), and the one surface load of the three kernels
 //! ([`super::diffuse`], [`super::vertex`], [`super::plastic`]): 8 paths' surface points, true
 //! normals, shading frames and incident directions, loaded 8-wide in place from the rows, one
 //! `vgatherdps` per field over the 8 rows. The rows hold the scalar interaction's bits either way.
@@ -136,6 +138,57 @@ pub(crate) mod x8 {
         }
     }
 
+    /// How many one-mesh chunks [`MeshChunks`] keeps.
+    const SLOTS: usize = 8;
+
+    /// Direct hits on triangle meshes waiting for their 8-wide reconstruction, in chunks of one
+    /// mesh each where they can (slot `geom % SLOTS` holds one mesh's hits at a time; those are
+    /// gathered with vector gathers, [`one_mesh_triangles`]), else in `mixed` (gathered lane by
+    /// lane, [`triangles`]). Which chunk a hit waits in changes only the order in which rows are
+    /// written, not what they hold.
+    struct MeshChunks {
+        geom: [u32; SLOTS],
+        slot: [Pending; SLOTS],
+        mixed: Pending,
+    }
+
+    impl MeshChunks {
+        const EMPTY: MeshChunks = MeshChunks {
+            geom: [0; SLOTS],
+            slot: [Pending::EMPTY; SLOTS],
+            mixed: Pending::EMPTY,
+        };
+
+        /// Adds path `i`, whose ray hit mesh `geom`; reconstructs the chunk it fills.
+        #[inline(always)]
+        fn push(&mut self, avx: Avx2, st: &mut Stage, geom: u32, i: u32) {
+            let s = geom as usize % SLOTS;
+            if self.slot[s].n == 0 {
+                self.geom[s] = geom;
+            }
+            if self.geom[s] == geom {
+                if self.slot[s].push(i) {
+                    one_mesh_triangles(avx, st, geom, self.slot[s].take());
+                }
+            } else if self.mixed.push(i) {
+                triangles(avx, st, self.mixed.take());
+            }
+        }
+
+        /// Reconstructs the partly filled chunks (padded).
+        #[inline(always)]
+        fn flush(&mut self, avx: Avx2, st: &mut Stage) {
+            for s in 0..SLOTS {
+                if self.slot[s].n > 0 {
+                    one_mesh_triangles(avx, st, self.geom[s], self.slot[s].take());
+                }
+            }
+            if self.mixed.n > 0 {
+                triangles(avx, st, self.mixed.take());
+            }
+        }
+    }
+
     /// The rays, hits and rows the gather stage works on.
     struct Stage<'a> {
         scene: &'a Scene,
@@ -159,7 +212,8 @@ pub(crate) mod x8 {
                     hit: &batch.hit,
                     surf: &mut batch.surf,
                 };
-                let (mut tri, mut sph, mut rect) = (Pending::EMPTY, Pending::EMPTY, Pending::EMPTY);
+                let mut tri = MeshChunks::EMPTY;
+                let (mut sph, mut rect) = (Pending::EMPTY, Pending::EMPTY);
                 let (mut disks, mut itri) = (Pending::EMPTY, Pending::EMPTY);
                 let mut cyl = Pending::EMPTY;
                 let mut scalar = 0;
@@ -184,11 +238,7 @@ pub(crate) mod x8 {
                         continue;
                     }
                     match form {
-                        Form::Triangles => {
-                            if tri.push(i) {
-                                triangles(avx, &mut st, tri.take());
-                            }
-                        }
+                        Form::Triangles => tri.push(avx, &mut st, h.geom, i),
                         Form::Sphere(..) => {
                             if sph.push(i) {
                                 spheres(avx, &mut st, sph.take());
@@ -217,9 +267,7 @@ pub(crate) mod x8 {
                         }
                     }
                 }
-                if tri.n > 0 {
-                    triangles(avx, &mut st, tri.take());
-                }
+                tri.flush(avx, &mut st);
                 if sph.n > 0 {
                     spheres(avx, &mut st, sph.take());
                 }
@@ -264,19 +312,14 @@ pub(crate) mod x8 {
     /// Each lane's ray point at its hit (`Ray::at`, 8-wide), and its [`Meta`].
     #[inline(always)]
     fn ray_points(avx: Avx2, st: &Stage, ids: &[u32; 8], m: &mut Meta) -> V3<F32x8> {
-        let (mut o, mut d, mut t) = (Cols3::default(), Cols3::default(), [0.0f32; 8]);
         for (k, &i) in ids.iter().enumerate() {
-            let i = i as usize;
-            let Some(h) = &st.hit[i] else {
+            let Some(h) = &st.hit[i as usize] else {
                 continue;
             };
-            let ray = &st.ray[i];
-            o.set(k, ray.o);
-            d.set(k, ray.d);
-            t[k] = h.t;
-            m.set(k, ray, h);
+            m.set(k, h);
         }
-        sl::ray_at(o.load(avx), d.load(avx), avx.load(&t))
+        let (o, d) = m.rays(avx, st, ids);
+        sl::ray_at(o, d, avx.load(&m.t))
     }
 
     // The row layout `store` writes as four groups of 8 floats.
@@ -297,10 +340,9 @@ pub(crate) mod x8 {
     );
 
     /// What a row takes from each lane's hit and ray besides the lane form's fields.
-    #[derive(Default)]
     struct Meta {
-        /// −ray.d.
-        wi: Cols3,
+        /// −ray.d ([`Meta::rays`]).
+        wi: V3<F32x8>,
         t: [f32; 8],
         /// The shape and primitive indices' bits.
         shape: [f32; 8],
@@ -308,6 +350,17 @@ pub(crate) mod x8 {
     }
 
     impl Meta {
+        #[inline(always)]
+        fn new(avx: Avx2) -> Meta {
+            let z = avx.splat(0.0);
+            Meta {
+                wi: V3::new(z, z, z),
+                t: [0.0; 8],
+                shape: [0.0; 8],
+                prim: [0.0; 8],
+            }
+        }
+
         /// The shape every lane hit, when they all hit one (the common case of a chunk of
         /// spheres or rectangles: one large shape): then its lane form's constants are splat
         /// instead of gathered lane by lane (the same values, so the same results).
@@ -321,11 +374,20 @@ pub(crate) mod x8 {
         }
 
         #[inline(always)]
-        fn set(&mut self, k: usize, ray: &Ray, h: &Hit) {
-            self.wi.set(k, -ray.d);
+        fn set(&mut self, k: usize, h: &Hit) {
             self.t[k] = h.t;
             self.shape[k] = f32::from_bits(h.geom);
             self.prim[k] = f32::from_bits(h.prim);
+        }
+
+        /// The lanes' ray origins and directions (each ray loaded whole and transposed, not
+        /// field by field); sets `wi`.
+        #[inline(always)]
+        fn rays(&mut self, avx: Avx2, st: &Stage, ids: &[u32; 8]) -> (V3<F32x8>, V3<F32x8>) {
+            let f = avx.ray_fields(st.ray, ids);
+            let d = V3::new(f[3], f[4], f[5]);
+            self.wi = -d;
+            (V3::new(f[0], f[1], f[2]), d)
         }
     }
 
@@ -334,7 +396,7 @@ pub(crate) mod x8 {
     /// and row instead of 29 scalar stores per row).
     #[inline(always)]
     fn store(avx: Avx2, st: &mut Stage, ids: &[u32; 8], n: usize, s: &SurfLanes<F32x8>, m: &Meta) {
-        let wi = m.wi.load(avx);
+        let wi = m.wi;
         let (f, z) = (&s.frame, avx.splat(0.0));
         let g0 = F32x8::transpose8([s.p.x, s.p.y, s.p.z, s.ng.x, s.ng.y, s.ng.z, f.s.x, f.s.y]);
         let g1 = F32x8::transpose8([f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, wi.x]);
@@ -361,6 +423,109 @@ pub(crate) mod x8 {
         let (x, meta) = triangle_input(avx, st, &ids);
         let s = sl::triangle(&x);
         store(avx, st, &ids, n, &s, &meta);
+    }
+
+    /// Hits on one triangle mesh, shape `g` (every lane's): [`one_mesh_input`], then
+    /// [`sl::triangle`] ([`sl::triangle_no_uv`] for a mesh without uvs); a mesh too large for 32-bit gather offsets takes [`triangles`].
+    #[inline(always)]
+    fn one_mesh_triangles(avx: Avx2, st: &mut Stage, g: u32, (ids, n): ([u32; 8], usize)) {
+        let shape = &st.scene.shapes[g as usize];
+        let ShapeKind::Mesh(m) = &shape.kind else {
+            unreachable!("Form::Triangles is set for meshes only");
+        };
+        let fits = |len: usize| len <= i32::MAX as usize / 3;
+        if !(fits(m.indices.len())
+            && fits(m.positions.len())
+            && m.normals.as_ref().is_none_or(|v| fits(v.len()))
+            && m.uvs.as_ref().is_none_or(|v| fits(v.len())))
+        {
+            return triangles(avx, st, (ids, n));
+        }
+        let (x, meta) = one_mesh_input(avx, st, &ids, m, shape.flip_normals);
+        let s = if m.uvs.is_some() {
+            sl::triangle(&x)
+        } else {
+            sl::triangle_no_uv(&x)
+        };
+        store(avx, st, &ids, n, &s, &meta);
+    }
+
+    /// [`triangle_input`] for lanes that all hit mesh `m` (whose `flip_normals` is `flip`):
+    /// the triangles' vertex indices, then their positions, normals and uvs, by vector
+    /// gathers; the per-mesh flags and sign splat. The same values as lane by lane (the mesh is
+    /// validated at load: its indices are in range, so the gathers' clamps change nothing).
+    #[inline(always)]
+    fn one_mesh_input(
+        avx: Avx2,
+        st: &Stage,
+        ids: &[u32; 8],
+        m: &crate::geometry::mesh::TriMesh,
+        flip: bool,
+    ) -> (sl::Triangle<F32x8>, Meta) {
+        let (mut prim, mut b1, mut b2) = ([0i32; 8], [0.0f32; 8], [0.0f32; 8]);
+        let mut meta = Meta::new(avx);
+        for (k, &i) in ids.iter().enumerate() {
+            let Some(h) = st.hit[i as usize] else {
+                continue;
+            };
+            prim[k] = h.prim as i32;
+            b1[k] = h.u;
+            b2[k] = h.v;
+            meta.set(k, &h);
+        }
+        meta.rays(avx, st, ids);
+        let tri = avx.gather3_u32(&m.indices, avx.load_i32(&prim));
+        let p = [
+            gv3(F32x8::gather3(&m.positions, tri[0])),
+            gv3(F32x8::gather3(&m.positions, tri[1])),
+            gv3(F32x8::gather3(&m.positions, tri[2])),
+        ];
+        let z = avx.splat(0.0);
+        let (n, has_n) = match &m.normals {
+            Some(ns) => (
+                [
+                    gv3(F32x8::gather3(ns, tri[0])),
+                    gv3(F32x8::gather3(ns, tri[1])),
+                    gv3(F32x8::gather3(ns, tri[2])),
+                ],
+                avx.mask_splat(true),
+            ),
+            None => ([V3::new(z, z, z); 3], avx.mask_splat(false)),
+        };
+        let (uv, has_uv) = match &m.uvs {
+            Some(uvs) => (
+                [
+                    gv2(avx.gather2(uvs, tri[0])),
+                    gv2(avx.gather2(uvs, tri[1])),
+                    gv2(avx.gather2(uvs, tri[2])),
+                ],
+                avx.mask_splat(true),
+            ),
+            None => ([V2::new(z, z); 3], avx.mask_splat(false)),
+        };
+        let x = sl::Triangle {
+            p,
+            n,
+            uv,
+            has_n,
+            has_uv,
+            b1: avx.load(&b1),
+            b2: avx.load(&b2),
+            sign: avx.splat(if flip { -1.0 } else { 1.0 }),
+        };
+        (x, meta)
+    }
+
+    /// A gathered vector's components as a [`V3`] (a plain function, not a closure: see
+    /// `tests/cli/simd_calls.rs`).
+    #[inline(always)]
+    fn gv3(c: [F32x8; 3]) -> V3<F32x8> {
+        V3::new(c[0], c[1], c[2])
+    }
+
+    #[inline(always)]
+    fn gv2(c: [F32x8; 2]) -> V2<F32x8> {
+        V2::new(c[0], c[1])
     }
 
     /// Hits on meshes seen through instances: [`triangle_input`] (the member's triangle, in
@@ -398,7 +563,7 @@ pub(crate) mod x8 {
         let mut uv = [[[0.0f32; 8]; 2]; 3];
         let (mut has_n, mut has_uv) = ([false; 8], [false; 8]);
         let (mut b1, mut b2, mut sign) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
-        let mut meta = Meta::default();
+        let mut meta = Meta::new(avx);
         for (k, &i) in ids.iter().enumerate() {
             let Some(h) = st.hit[i as usize] else {
                 continue;
@@ -425,11 +590,12 @@ pub(crate) mod x8 {
                     uv[j][1][k] = t.y;
                 }
             }
-            meta.set(k, &st.ray[i as usize], &h);
+            meta.set(k, &h);
             b1[k] = h.u;
             b2[k] = h.v;
             sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
         }
+        meta.rays(avx, st, ids);
         let x = sl::Triangle {
             p: [p[0].load(avx), p[1].load(avx), p[2].load(avx)],
             n: [nrm[0].load(avx), nrm[1].load(avx), nrm[2].load(avx)],
@@ -450,7 +616,7 @@ pub(crate) mod x8 {
     /// Hits on spheres with a similarity `to_world`: [`sl::sphere`].
     #[inline(always)]
     fn spheres(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
-        let mut m = Meta::default();
+        let mut m = Meta::new(avx);
         let x = ray_points(avx, st, &ids, &mut m);
         if let Some(g) = m.one_shape() {
             let Form::Sphere(centre, radius, frame, sg) = &st.forms[g] else {
@@ -506,7 +672,7 @@ pub(crate) mod x8 {
     /// Hits on rectangles: [`sl::rectangle`].
     #[inline(always)]
     fn rectangles(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
-        let mut m = Meta::default();
+        let mut m = Meta::new(avx);
         let x = ray_points(avx, st, &ids, &mut m);
         let rect = if let Some(g) = m.one_shape() {
             let Form::Rectangle(r) = &st.forms[g] else {
@@ -585,7 +751,7 @@ pub(crate) mod x8 {
             }
             ng.set(k, *nrm);
         }
-        let mut m = Meta::default();
+        let mut m = Meta::new(avx);
         let x = ray_points(avx, st, &ids, &mut m);
         let d = sl::Disk {
             to_object: load4(avx, &o),
@@ -621,7 +787,7 @@ pub(crate) mod x8 {
             dpdv.set(k, c.dpdv);
             (sign[k], quirk[k]) = (*sg, c.quirk);
         }
-        let mut m = Meta::default();
+        let mut m = Meta::new(avx);
         let x = ray_points(avx, st, &ids, &mut m);
         let c = sl::CylinderLanes {
             to_world: load4(avx, &w),
