@@ -26,6 +26,7 @@ mod sdfgrid;
 mod stream;
 mod stream_blend;
 mod stream_emission_shapes;
+mod stream_light;
 mod stream_mnm_build;
 mod stream_mnm_direct;
 mod stream_width;

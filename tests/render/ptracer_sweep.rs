@@ -177,6 +177,12 @@ const SCENES: &[(&str, Entry)] = &[
     ("stream_lights.xml", Compare(NONE, Nm::AsWritten, 1)),
     // Its wrapper-chain driver with `mask`: a smooth `dielectric` sphere behind a mask.
     ("stream_mask.xml", Exclude(Specular("dielectric"))),
+    // Triangle-mesh lights sampled in lanes (tests/render/stream_light.rs); glossy.
+    ("stream_mesh_lights.xml", Compare(NONE, Nm::AsWritten, 4)),
+    (
+        "stream_mesh_lights_many.xml",
+        Compare(NONE, Nm::AsWritten, 4),
+    ),
     // The stream renderer's plastic kernel (tests/render/stream.rs): smooth `plastic` in view.
     ("stream_plastic.xml", Exclude(Specular("plastic"))),
     // Its wrapper-chain driver around plastic leaves: smooth `plastic` under normal maps.
