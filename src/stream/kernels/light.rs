@@ -424,6 +424,21 @@ pub(crate) mod x8 {
         }
     }
 
+    /// `new` where `on`, else the column `old` (`WHOLE`: `new` everywhere).
+    #[inline(always)]
+    fn keep<T: Wide<W>, const W: usize, const WHOLE: bool>(
+        avx: T,
+        on: T::M,
+        new: V3<T::F>,
+        old: &Cols3<W>,
+    ) -> V3<T::F> {
+        if WHOLE {
+            new
+        } else {
+            V3::select(on, new, old.load(avx))
+        }
+    }
+
     /// Where `on`, the light point `q` of an 8-wide area-light sampler (its density times the
     /// selection probability `sel`) replaces the lane-by-lane one.
     #[inline(always)]
@@ -710,7 +725,7 @@ pub(crate) mod x8 {
             }
             if self.add_uniform(lights, light_only, on, &emitter, &pmf, u) {
                 if self.n_deferred > 0 {
-                    self.triangles_x8(avx, scene, u);
+                    self.triangles_x8::<T, true>(avx, scene, u);
                 }
                 return;
             }
@@ -722,7 +737,7 @@ pub(crate) mod x8 {
                 }
             }
             if self.n_deferred > 0 {
-                self.triangles_x8(avx, scene, u);
+                self.triangles_x8::<T, false>(avx, scene, u);
             }
         }
 
@@ -780,8 +795,8 @@ pub(crate) mod x8 {
                 }
                 _ => return false,
             };
-            for k in 0..W {
-                if on[k] {
+            for (k, &o) in on.iter().enumerate() {
+                if o {
                     self.kind[k] = kind;
                     self.textured[k] = false;
                     self.one[k] = light_only;
@@ -799,9 +814,15 @@ pub(crate) mod x8 {
         /// [`Gather::finish`] reads: the count of triangle-CDF entries `<= u.y` (the
         /// partition point: the entries `<= u.y` are a prefix) by a binary search in lanes,
         /// then the same `u.y` rescaling, and the vertex indices, positions and normals
-        /// gathered.
+        /// gathered. `WHOLE`: every lane with a light is deferred ([`Gather::add_uniform`]), so
+        /// the columns are written whole (the other lanes have no `kind`).
         #[inline(always)]
-        fn triangles_x8<T: Wide<W>>(&mut self, avx: T, scene: &Scene, u: &[[f32; W]; 2]) {
+        fn triangles_x8<T: Wide<W>, const WHOLE: bool>(
+            &mut self,
+            avx: T,
+            scene: &Scene,
+            u: &[[f32; W]; 2],
+        ) {
             let shape = &scene.shapes[self.tri_shape as usize];
             let ShapeKind::Mesh(mesh) = &shape.kind else {
                 unreachable!("LaneLight::table: a mesh")
@@ -833,18 +854,31 @@ pub(crate) mod x8 {
             let top = avx.splat(1.0 - f32::EPSILON * 0.5);
             let r = T::F::select(r.gt(top), top, r);
             let uy = T::F::select(w.gt(zero), r, avx.splat(0.5));
-            self.tuy = T::F::select(on, uy, avx.load(&self.tuy)).to_array();
+            self.tuy = if WHOLE {
+                uy
+            } else {
+                T::F::select(on, uy, avx.load(&self.tuy))
+            }
+            .to_array();
             let flat = mesh.indices.as_flattened();
             let i3 = i.add(i).add(i);
             for c in 0..3 {
                 let vi = T::I::gather_u32(flat, i3.add(zi.splat(c as i32)));
                 let [x, y, z] = T::F::gather3(&mesh.positions, vi);
-                let old = self.tpos[c].load(avx);
-                self.tpos[c] = Cols3::store(V3::select(on, V3::new(x, y, z), old));
+                self.tpos[c] = Cols3::store(keep::<T, W, WHOLE>(
+                    avx,
+                    on,
+                    V3::new(x, y, z),
+                    &self.tpos[c],
+                ));
                 if let Some(ns) = &mesh.normals {
                     let [x, y, z] = T::F::gather3(ns, vi);
-                    let old = self.tnorm[c].load(avx);
-                    self.tnorm[c] = Cols3::store(V3::select(on, V3::new(x, y, z), old));
+                    self.tnorm[c] = Cols3::store(keep::<T, W, WHOLE>(
+                        avx,
+                        on,
+                        V3::new(x, y, z),
+                        &self.tnorm[c],
+                    ));
                 }
             }
             if mesh.normals.is_some() {
