@@ -46,6 +46,13 @@ impl LightSampler {
         self.dist.as_ref().map(|d| d.sample(u))
     }
 
+    /// The selection distribution (`None`: no emitter), for the stream renderer's 8-wide
+    /// selection, which equals [`Self::sample`] bit for bit.
+    #[inline]
+    pub(crate) fn distribution(&self) -> Option<&Distribution1D> {
+        self.dist.as_ref()
+    }
+
     /// True when the scene has no emitter to sample.
     #[inline]
     pub fn is_empty(&self) -> bool {

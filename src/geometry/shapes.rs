@@ -776,6 +776,13 @@ impl Shape {
         (i, Vec2::new(u.x, uy))
     }
 
+    /// A mesh's normalised cumulative triangle areas, which [`Self::pick_triangle`] searches
+    /// (empty for other shapes and meshes of zero area).
+    #[inline]
+    pub(crate) fn triangle_cdf(&self) -> &[f32] {
+        &self.cdf
+    }
+
     /// Whether [`Self::sample_position`] samples this shape as a triangle mesh (a mesh with
     /// a positive area).
     #[inline]

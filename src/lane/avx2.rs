@@ -425,6 +425,16 @@ impl Lane for F32x8 {
         }
     }
     #[inline(always)]
+    fn gather_slice(table: &[f32], idx: I32x8) -> F32x8 {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize);
+        // SAFETY: an I32x8 exists only with AVX2; after the unsigned clamp every index is
+        // below len, so each of the 8 loads reads inside `table`.
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(table.len() as i32 - 1));
+            F32x8(_mm256_i32gather_ps::<4>(table.as_ptr(), i))
+        }
+    }
+    #[inline(always)]
     fn gather3(table: &[glam::Vec3], idx: I32x8) -> [F32x8; 3] {
         assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 3);
         // SAFETY: an I32x8 exists only with AVX2. `glam::Vec3` is `#[repr(C)]` with three f32
@@ -472,6 +482,16 @@ const _: () =
 impl LaneI32 for I32x8 {
     type F = F32x8;
     type Mask = M8;
+    #[inline(always)]
+    fn gather_u32(table: &[u32], idx: I32x8) -> I32x8 {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize);
+        // SAFETY: an I32x8 exists only with AVX2; after the unsigned clamp every index is
+        // below len, so each 4-byte load reads one entry of `table`.
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(table.len() as i32 - 1));
+            I32x8(_mm256_i32gather_epi32::<4>(table.as_ptr().cast::<i32>(), i))
+        }
+    }
     #[inline(always)]
     fn gather_bytes4(table: &[[u8; 4]], idx: I32x8) -> I32x8 {
         assert!(!table.is_empty() && table.len() <= i32::MAX as usize);

@@ -324,6 +324,16 @@ impl Lane for F32x16 {
         }
     }
     #[inline(always)]
+    fn gather_slice(table: &[f32], idx: I32x16) -> F32x16 {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize);
+        // SAFETY: an I32x16 exists only with AVX-512F; after the unsigned clamp every index is
+        // below len, so each of the 16 loads reads inside `table`.
+        unsafe {
+            let i = _mm512_min_epu32(idx.0, _mm512_set1_epi32(table.len() as i32 - 1));
+            F32x16(_mm512_i32gather_ps::<4>(i, table.as_ptr()))
+        }
+    }
+    #[inline(always)]
     fn gather3(table: &[glam::Vec3], idx: I32x16) -> [F32x16; 3] {
         assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 3);
         // SAFETY: as `avx2.rs` (`glam::Vec3` is three consecutive f32, asserted there); after
@@ -345,6 +355,16 @@ impl Lane for F32x16 {
 impl LaneI32 for I32x16 {
     type F = F32x16;
     type Mask = M16;
+    #[inline(always)]
+    fn gather_u32(table: &[u32], idx: I32x16) -> I32x16 {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize);
+        // SAFETY: an I32x16 exists only with AVX-512F; after the unsigned clamp every index is
+        // below len, so each 4-byte load reads one entry of `table`.
+        unsafe {
+            let i = _mm512_min_epu32(idx.0, _mm512_set1_epi32(table.len() as i32 - 1));
+            I32x16(_mm512_i32gather_epi32::<4>(i, table.as_ptr().cast::<i32>()))
+        }
+    }
     #[inline(always)]
     fn gather_bytes4(table: &[[u8; 4]], idx: I32x16) -> I32x16 {
         assert!(!table.is_empty() && table.len() <= i32::MAX as usize);

@@ -131,6 +131,12 @@ pub trait Lane:
     /// # Panics
     /// If `table` is empty or holds more than `i32::MAX / 3` vectors.
     fn gather3(table: &[glam::Vec3], idx: Self::I32) -> [Self; 3];
+    /// `table[idx]` per lane from a table of any length (`vgatherdps` at width 8; a mesh's
+    /// triangle CDF), each index first clamped to `table.len() − 1` as an unsigned number.
+    ///
+    /// # Panics
+    /// If `table` is empty or holds more than `i32::MAX` entries.
+    fn gather_slice(table: &[f32], idx: Self::I32) -> Self;
 
     /// |self| (clears the sign bit; NaN stays NaN).
     #[inline(always)]
@@ -203,6 +209,12 @@ pub trait LaneI32: Copy + Debug {
     /// # Panics
     /// If `table` is empty or holds more than `i32::MAX` entries.
     fn gather_bytes4(table: &[[u8; 4]], idx: Self) -> Self;
+    /// `table[idx]` (its bits as an `i32`) per lane (`vpgatherdd` at width 8; a mesh's vertex
+    /// indices), each index clamped as in [`Lane::gather3`].
+    ///
+    /// # Panics
+    /// If `table` is empty or holds more than `i32::MAX` entries.
+    fn gather_u32(table: &[u32], idx: Self) -> Self;
     /// Signed integer to float, correctly rounded (exact below 2²⁴ in magnitude).
     fn to_f32(self) -> Self::F;
     /// Lane `i` (tests).

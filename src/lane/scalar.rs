@@ -127,6 +127,11 @@ impl Lane for f32 {
         assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 3);
         table[(idx as u32).min(table.len() as u32 - 1) as usize].to_array()
     }
+    #[inline(always)]
+    fn gather_slice(table: &[f32], idx: i32) -> f32 {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize);
+        table[(idx as u32).min(table.len() as u32 - 1) as usize]
+    }
 }
 
 impl LaneI32 for i32 {
@@ -136,6 +141,11 @@ impl LaneI32 for i32 {
     fn gather_bytes4(table: &[[u8; 4]], idx: i32) -> i32 {
         assert!(!table.is_empty() && table.len() <= i32::MAX as usize);
         i32::from_le_bytes(table[(idx as u32).min(table.len() as u32 - 1) as usize])
+    }
+    #[inline(always)]
+    fn gather_u32(table: &[u32], idx: i32) -> i32 {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize);
+        table[(idx as u32).min(table.len() as u32 - 1) as usize] as i32
     }
     #[inline(always)]
     fn splat(self, c: i32) -> i32 {

@@ -49,6 +49,35 @@ impl Distribution1D {
     /// Up to this many bins, [`Self::sample`] counts the CDF entries <= u instead of searching.
     const COUNTED: usize = 8;
 
+    /// The normalised CDF (`len() + 1` entries, from 0 to 1).
+    #[inline]
+    pub fn cdf(&self) -> &[f32] {
+        &self.cdf
+    }
+
+    /// Whether [`Self::sample`] counts the CDF entries `<= u` (few bins) rather than searching
+    /// (the count and the search give the same `prefix`).
+    #[inline]
+    pub fn is_counted(&self) -> bool {
+        self.len() <= Self::COUNTED
+    }
+
+    /// The bin [`Self::sample`] picks when `prefix` CDF entries are `<= u`: the last bin
+    /// starting at or below `u`, moved to the next bin of non-zero mass (up, then down). The
+    /// 8-wide light selection looks it up per count (`stream::kernels::light`).
+    #[inline]
+    pub fn bin_of_prefix(&self, prefix: usize) -> usize {
+        let n = self.pmf.len();
+        let mut i = prefix.saturating_sub(1).min(n - 1);
+        while self.pmf[i] == 0.0 && i + 1 < n {
+            i += 1;
+        }
+        while self.pmf[i] == 0.0 && i > 0 {
+            i -= 1;
+        }
+        i
+    }
+
     /// Pick an index with `u ∈ [0,1)`; returns (index, probability, `u` rescaled to [0,1) within
     /// the chosen bin so it can be reused).
     #[inline]
@@ -63,13 +92,7 @@ impl Distribution1D {
         } else {
             self.cdf.partition_point(|&c| c <= u)
         };
-        let mut i = prefix.saturating_sub(1).min(n - 1);
-        while self.pmf[i] == 0.0 && i + 1 < n {
-            i += 1;
-        }
-        while self.pmf[i] == 0.0 && i > 0 {
-            i -= 1;
-        }
+        let i = self.bin_of_prefix(prefix);
         let width = self.cdf[i + 1] - self.cdf[i];
         let ur = if width > 0.0 {
             ((u - self.cdf[i]) / width).clamp(0.0, 1.0 - f32::EPSILON / 2.0)

@@ -180,6 +180,13 @@ const SCENES: &[(&str, Entry)] = &[
     // The gather stage's one-mesh and mixed chunks of triangle hits
     // (tests/render/stream_mesh_chunks.rs).
     ("stream_mesh_chunks.xml", Compare(NONE, Nm::AsWritten, 1)),
+
+    // Triangle-mesh lights sampled in lanes (tests/render/stream_light.rs); glossy.
+    ("stream_mesh_lights.xml", Compare(NONE, Nm::AsWritten, 4)),
+    (
+        "stream_mesh_lights_many.xml",
+        Compare(NONE, Nm::AsWritten, 4),
+    ),
     // The stream renderer's plastic kernel (tests/render/stream.rs): smooth `plastic` in view.
     ("stream_plastic.xml", Exclude(Specular("plastic"))),
     // Its wrapper-chain driver around plastic leaves: smooth `plastic` under normal maps.

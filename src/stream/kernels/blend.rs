@@ -250,7 +250,6 @@ pub(crate) mod x8 {
     use crate::stream::kernels::tail::Tail;
     use crate::stream::kernels::vertex::x8::{scatter, LightCols};
     use crate::stream::kernels::vertex::{leaf_values, scalar_at};
-    use glam::Vec2;
 
     /// The chunk width: the lanes of [`F32x8`].
     const W: usize = <F32x8 as Lane>::WIDTH;
@@ -352,10 +351,6 @@ pub(crate) mod x8 {
                 }
             }
             tp.set(k, b.state[i].throughput);
-            if nee {
-                let u = Vec2::new(num.u[0][k], num.u[1][k]);
-                gather.add(k, scene, lights, light_only, num.u_sel[k], u, p.get(k));
-            }
             // bsdf::blend::sample: the choice, then the chosen child's numbers.
             let s = &mut b.sampler[i];
             pick1[k] = crate::bsdf::blend::picks_second(w[k], s);
@@ -384,6 +379,8 @@ pub(crate) mod x8 {
         }
         let w8 = avx.load(&w);
         let lo = if nee {
+            let (u_sel, u) = (&num.u_sel, &num.u);
+            gather.add_x8(avx, scene, lights, light_only, &front, u_sel, u, &p);
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
             let lo = light(&surf, wi, mat, &params, w8, tp.load(avx), &lp);
             Some(LightCols::store(&lo))

@@ -221,7 +221,6 @@ pub(crate) mod x8 {
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
     use crate::stream::kernels::tail::{Sampled, Tail};
-    use glam::Vec2;
 
     /// What a material needs for the kernel: its reflectance texture and whether it takes a
     /// light sample (`Lobes::is_smooth`, as `PathState::scatter` asks).
@@ -278,10 +277,10 @@ pub(crate) mod x8 {
             let si = b.surf.get(i);
             refl.set(k, reflectance(scene, mat.reflectance, &si));
             tp.set(k, b.state[i].throughput);
-            if nee {
-                let u = Vec2::new(num.u[0][k], num.u[1][k]);
-                gather.add(k, scene, mat.lights, light_only, num.u_sel[k], u, si.p);
-            }
+        }
+        if nee {
+            let (u_sel, u) = (&num.u_sel, &num.u);
+            gather.add_x8(avx, scene, mat.lights, light_only, &front, u_sel, u, &p);
         }
 
         // 4. The kernel.

@@ -1,7 +1,12 @@
 //! Area lights sampled in lanes, the same operations in the same order
 //! as the scalar code, so every lane equals it bit for bit:
+//! - the light selection (`LightSampler::sample`): up to 8 emitters, the count of selection-CDF
+//!   entries `<= u_sel` by a compare and add per entry, then each count's emitter and
+//!   probability from a table (`Distribution1D::bin_of_prefix`); one emitter needs no count;
+//!   more than 8 are searched lane by lane (`x8::Gather::add_x8`);
 //! - triangle meshes: `Shape::sample_position`'s point on the triangle that
-//!   `Shape::pick_triangle` chose (lane by lane: a search of the area CDF), uniform triangle
+//!   `Shape::pick_triangle` chose (for the untextured lights of one mesh per chunk, 8-wide: a
+//!   binary search of the area CDF and the vertex gathers; else lane by lane), uniform triangle
 //!   sampling (Shirley & Chiu / Osada et al. 2002's square-root map, `lane::warp`);
 //! - rectangles: `Shape::sample_position`'s point `to_world · (2u − 1, 0)`;
 //! - spheres seen from outside: `Shape::sample_direction`'s uniform cone of directions toward
@@ -10,9 +15,9 @@
 //! then, for the first two, the conversion from area to solid angle (`Shape::sample_direction`),
 //! and for all `AreaLight::sample_direct`'s front-side test. A textured radiance (on meshes and
 //! rectangles) is looked up at the sampled point's uv in `x8::Gather::finish` (bitmaps 8-wide,
-//! `BitmapTexture::eval_x8`; other textures lane by lane). The light selection, other emitters,
-//! textured sphere lights and a reference point inside (or on) a sphere light stay with the
-//! scalar code, lane by lane.
+//! `BitmapTexture::eval_x8`; other textures lane by lane). Other emitters, textured sphere
+//! lights and a reference point inside (or on) a sphere light stay with the scalar code, lane
+//! by lane.
 
 use crate::emitter::Emitter;
 use crate::geometry::ShapeKind;
@@ -349,7 +354,7 @@ pub(crate) fn sample_sphere<L: Lane>(s: &Sphere<L>, ref_p: V3<L>) -> AreaPoint<L
 pub(crate) mod x8 {
     use super::*;
     use crate::geometry::shapes::sphere_sees_cone;
-    use crate::lane::{Lane, ToArray, Wide};
+    use crate::lane::{Lane, LaneI32, ToArray, Wide};
     use crate::stream::kernels::diffuse::LightPoint;
     use crate::stream::kernels::emitters::{self as em, Env, FreePoint, Spot};
     use glam::Vec2;
@@ -419,6 +424,21 @@ pub(crate) mod x8 {
         }
     }
 
+    /// `new` where `on`, else the column `old` (`WHOLE`: `new` everywhere).
+    #[inline(always)]
+    fn keep<T: Wide<W>, const W: usize, const WHOLE: bool>(
+        avx: T,
+        on: T::M,
+        new: V3<T::F>,
+        old: &Cols3<W>,
+    ) -> V3<T::F> {
+        if WHOLE {
+            new
+        } else {
+            V3::select(on, new, old.load(avx))
+        }
+    }
+
     /// Where `on`, the light point `q` of an 8-wide area-light sampler (its density times the
     /// selection probability `sel`) replaces the lane-by-lane one.
     #[inline(always)]
@@ -447,8 +467,9 @@ pub(crate) mod x8 {
         lp.value = V3::select(on, q.value, lp.value);
     }
 
-    /// `nee::sample_emitter` for 8 paths: [`Gather::add`] lane by lane (the light selection,
-    /// the point of every emitter that has no [`LaneLight`] through its own scalar
+    /// `nee::sample_emitter` for 8 paths: [`Gather::add_x8`] (the light selection 8-wide, one
+    /// mesh light's triangles picked 8-wide, [`Gather::add`] for one lane; lane by lane the
+    /// point of every emitter that has no [`LaneLight`] through its own scalar
     /// `sample_direct`, a sphere light lane by lane from inside its cone threshold, an
     /// environment map's table walk), then [`Gather::finish`] samples the lanes' triangles,
     /// rectangles, spheres, point, spot, directional, constant and environment lights 8-wide
@@ -500,6 +521,72 @@ pub(crate) mod x8 {
         /// Lanes of the chunk with a textured light (`textured` is written by every lane that
         /// picks a triangle, rectangle or spot light, and read only where this is positive).
         n_textured: u32,
+        /// The lanes whose triangle (of mesh `tri_shape`, untextured) [`Gather::add_x8`] picks
+        /// 8-wide after its lane-by-lane pass, and how many there are.
+        deferred: [bool; W],
+        n_deferred: u32,
+        tri_shape: u32,
+        /// The light selection in lanes, made from the scene's light sampler at the first
+        /// [`Gather::add_x8`] (a gather serves one scene).
+        select: Option<Select>,
+    }
+
+    /// `LightSampler::sample`'s emitter and probability for 8 lanes at once: the count of CDF
+    /// entries `<= u_sel` (`Distribution1D::sample`'s counted form, ≤ 8 bins) by a compare and
+    /// add per entry in lanes, then the bin of each count from a table
+    /// (`Distribution1D::bin_of_prefix`, the zero-mass skipping included). The rescaled `u`
+    /// is not needed (`nee::sample_emitter` drops it).
+    #[derive(Clone, Copy, Debug)]
+    struct Select {
+        /// No emitter (`None` from the sampler), one bin for every count, counted, or
+        /// searched lane by lane (more bins than the counted form takes).
+        mode: SelectMode,
+        /// The CDF's entries (`n + 1`, at most 9).
+        cdf: [f32; 9],
+        n: usize,
+        /// Per count of entries `<= u` (0..=n + 1): the emitter and its probability.
+        emitter: [u32; 10],
+        pmf: [f32; 10],
+    }
+
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+    enum SelectMode {
+        Empty,
+        One,
+        Counted,
+        Searched,
+    }
+
+    impl Select {
+        fn new(scene: &Scene) -> Select {
+            let mut s = Select {
+                mode: SelectMode::Empty,
+                cdf: [0.0; 9],
+                n: 0,
+                emitter: [0; 10],
+                pmf: [0.0; 10],
+            };
+            let Some(d) = scene.light_sampler.distribution() else {
+                return s;
+            };
+            if !d.is_counted() {
+                s.mode = SelectMode::Searched;
+                return s;
+            }
+            s.n = d.len();
+            s.cdf[..=s.n].copy_from_slice(d.cdf());
+            for c in 0..=s.n + 1 {
+                let i = d.bin_of_prefix(c);
+                (s.emitter[c], s.pmf[c]) = (i as u32, d.pmf(i));
+            }
+            let one = (0..=s.n + 1).all(|c| s.emitter[c] == s.emitter[0]);
+            s.mode = if one {
+                SelectMode::One
+            } else {
+                SelectMode::Counted
+            };
+            s
+        }
     }
 
     impl<const W: usize> Gather<W> {
@@ -517,6 +604,8 @@ pub(crate) mod x8 {
             self.counts = [0; KINDS];
             self.tnorm_some = [false; W];
             self.n_textured = 0;
+            self.deferred = [false; W];
+            self.n_deferred = 0;
         }
 
         /// No light point in any lane (made once per run of a material, [`Gather::reset`] per
@@ -557,6 +646,10 @@ pub(crate) mod x8 {
                 tuv_some: [false; W],
                 uv_factor: [1.0; W],
                 n_textured: 0,
+                deferred: [false; W],
+                n_deferred: 0,
+                tri_shape: 0,
+                select: None,
             }
         }
 
@@ -577,6 +670,241 @@ pub(crate) mod x8 {
             let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) else {
                 return;
             };
+            self.add_selected(k, scene, lights, light_only, e, sel_pdf, u, p, false);
+        }
+
+        /// [`Gather::add`] for the lanes `on` of a chunk, the light selection 8-wide
+        /// ([`Select`]) and the triangles of one untextured mesh light picked 8-wide
+        /// ([`Gather::triangles_x8`]); the rest lane by lane as [`Gather::add`]. `u_sel`, `u`:
+        /// the lanes' light-sample numbers; `p`: their surface points.
+        #[inline(always)]
+        #[allow(clippy::too_many_arguments)]
+        pub(crate) fn add_x8<T: Wide<W>>(
+            &mut self,
+            avx: T,
+            scene: &Scene,
+            lights: &[Option<LaneLight>],
+            light_only: bool,
+            on: &[bool; W],
+            u_sel: &[f32; W],
+            u: &[[f32; W]; 2],
+            p: &Cols3<W>,
+        ) {
+            if self.select.is_none() {
+                self.select = Some(Select::new(scene));
+            }
+            let Some(sel) = self.select else { return };
+            let mut emitter = [sel.emitter[0]; W];
+            let mut pmf = [sel.pmf[0]; W];
+            match sel.mode {
+                SelectMode::Empty => return,
+                SelectMode::One => {}
+                SelectMode::Counted => {
+                    // Distribution1D::sample's count of the CDF entries <= u, 8-wide.
+                    let us = avx.load(u_sel);
+                    let (zero, one) = (avx.splat(0.0), avx.splat(1.0));
+                    let mut count = zero;
+                    for &c in &sel.cdf[..=sel.n] {
+                        count = count + T::F::select(avx.splat(c).le(us), one, zero);
+                    }
+                    let count = count.trunc_i32().to_array();
+                    for k in 0..W {
+                        let c = count[k] as usize;
+                        (emitter[k], pmf[k]) = (sel.emitter[c], sel.pmf[c]);
+                    }
+                }
+                SelectMode::Searched => {
+                    for k in 0..W {
+                        if on[k] {
+                            if let Some((e, q, _)) = scene.light_sampler.sample(u_sel[k]) {
+                                (emitter[k], pmf[k]) = (e as u32, q);
+                            }
+                        }
+                    }
+                }
+            }
+            if self.add_uniform(lights, light_only, on, &emitter, &pmf, u) {
+                if self.n_deferred > 0 {
+                    self.triangles_x8::<T, true>(avx, scene, u);
+                }
+                return;
+            }
+            for k in 0..W {
+                if on[k] {
+                    let uk = Vec2::new(u[0][k], u[1][k]);
+                    let e = emitter[k] as usize;
+                    self.add_selected(k, scene, lights, light_only, e, pmf[k], uk, p.get(k), true);
+                }
+            }
+            if self.n_deferred > 0 {
+                self.triangles_x8::<T, false>(avx, scene, u);
+            }
+        }
+
+        /// Where every lane of `on` selected the same emitter and it is an untextured mesh or
+        /// rectangle light, [`Gather::add_selected`]'s writes for all of them at once (whole
+        /// columns: the lanes off have no `kind` and are dropped by [`Gather::finish`]'s
+        /// masks); returns whether it did (else nothing is written).
+        #[inline(always)]
+        #[allow(clippy::too_many_arguments)]
+        fn add_uniform(
+            &mut self,
+            lights: &[Option<LaneLight>],
+            light_only: bool,
+            on: &[bool; W],
+            emitter: &[u32; W],
+            pmf: &[f32; W],
+            u: &[[f32; W]; 2],
+        ) -> bool {
+            let Some(k0) = (0..W).find(|&k| on[k]) else {
+                return true;
+            };
+            let e = emitter[k0];
+            if (0..W).any(|k| on[k] && emitter[k] != e) {
+                return false;
+            }
+            let n_on = on.iter().filter(|&&o| o).count() as u32;
+            let (kind, le) = match lights[e as usize] {
+                Some(LaneLight::Triangles {
+                    shape,
+                    inv_area,
+                    sign,
+                    radiance,
+                    textured: false,
+                }) => {
+                    self.deferred = *on;
+                    self.n_deferred = n_on;
+                    self.tri_shape = shape;
+                    self.inv_area = [inv_area; W];
+                    self.sign = [sign; W];
+                    (KIND_TRIANGLE, radiance)
+                }
+                Some(LaneLight::Rectangle {
+                    axes,
+                    n,
+                    inv_area,
+                    radiance,
+                    textured: false,
+                }) => {
+                    for (col, a) in self.raxes.iter_mut().zip(axes) {
+                        *col = Cols3([[a.x; W], [a.y; W], [a.z; W]]);
+                    }
+                    self.rn = Cols3([[n.x; W], [n.y; W], [n.z; W]]);
+                    self.inv_area = [inv_area; W];
+                    (KIND_RECTANGLE, radiance)
+                }
+                _ => return false,
+            };
+            for (k, &o) in on.iter().enumerate() {
+                if o {
+                    self.kind[k] = kind;
+                    self.textured[k] = false;
+                    self.one[k] = light_only;
+                }
+            }
+            self.counts[kind as usize - 1] += n_on;
+            (self.tux, self.tuy) = (u[0], u[1]);
+            self.sel = *pmf;
+            self.lv = Cols3([[le.x; W], [le.y; W], [le.z; W]]);
+            true
+        }
+
+        /// `Shape::pick_triangle` and the corners (and vertex normals) of the picked triangles
+        /// for the lanes `deferred` (all on mesh `tri_shape`), 8-wide, into the columns that
+        /// [`Gather::finish`] reads: the count of triangle-CDF entries `<= u.y` (the
+        /// partition point: the entries `<= u.y` are a prefix) by a binary search in lanes,
+        /// then the same `u.y` rescaling, and the vertex indices, positions and normals
+        /// gathered. `WHOLE`: every lane with a light is deferred ([`Gather::add_uniform`]), so
+        /// the columns are written whole (the other lanes have no `kind`).
+        #[inline(always)]
+        fn triangles_x8<T: Wide<W>, const WHOLE: bool>(
+            &mut self,
+            avx: T,
+            scene: &Scene,
+            u: &[[f32; W]; 2],
+        ) {
+            let shape = &scene.shapes[self.tri_shape as usize];
+            let ShapeKind::Mesh(mesh) = &shape.kind else {
+                unreachable!("LaneLight::table: a mesh")
+            };
+            let cdf = shape.triangle_cdf();
+            let m = cdf.len();
+            let on = avx.mask(&self.deferred);
+            let uy = avx.load(&u[1]);
+            let zi = avx.load_i32(&[0; W]);
+            let (one_i, last) = (zi.splat(1), zi.splat(m as i32 - 1));
+            // The partition point, by powers of two from the largest <= m down: take a step
+            // where the entry before its end is <= u.y (and the end is within the CDF).
+            let mut count = zi;
+            let mut step = 1usize << (usize::BITS - 1 - m.leading_zeros());
+            while step > 0 {
+                let next = count.add(zi.splat(step as i32));
+                let c = T::F::gather_slice(cdf, next.sub(one_i));
+                let take = c.le(uy) & !next.gt(zi.splat(m as i32));
+                count = T::I::select(take, next, count);
+                step >>= 1;
+            }
+            let i = T::I::select(count.gt(last), last, count);
+            let zero = avx.splat(0.0);
+            let lo = T::F::select(i.eq(zi), zero, T::F::gather_slice(cdf, i.sub(one_i)));
+            let w = T::F::gather_slice(cdf, i) - lo;
+            // f32::clamp(0, 1 − ε/2), as written there.
+            let r = (uy - lo) / w;
+            let r = T::F::select(r.lt(zero), zero, r);
+            let top = avx.splat(1.0 - f32::EPSILON * 0.5);
+            let r = T::F::select(r.gt(top), top, r);
+            let uy = T::F::select(w.gt(zero), r, avx.splat(0.5));
+            self.tuy = if WHOLE {
+                uy
+            } else {
+                T::F::select(on, uy, avx.load(&self.tuy))
+            }
+            .to_array();
+            let flat = mesh.indices.as_flattened();
+            let i3 = i.add(i).add(i);
+            for c in 0..3 {
+                let vi = T::I::gather_u32(flat, i3.add(zi.splat(c as i32)));
+                let [x, y, z] = T::F::gather3(&mesh.positions, vi);
+                self.tpos[c] = Cols3::store(keep::<T, W, WHOLE>(
+                    avx,
+                    on,
+                    V3::new(x, y, z),
+                    &self.tpos[c],
+                ));
+                if let Some(ns) = &mesh.normals {
+                    let [x, y, z] = T::F::gather3(ns, vi);
+                    self.tnorm[c] = Cols3::store(keep::<T, W, WHOLE>(
+                        avx,
+                        on,
+                        V3::new(x, y, z),
+                        &self.tnorm[c],
+                    ));
+                }
+            }
+            if mesh.normals.is_some() {
+                for k in 0..W {
+                    self.tnorm_some[k] |= self.deferred[k];
+                }
+            }
+        }
+
+        /// Lane `k`'s light point from `u`, seen from `p`, for emitter `e` selected with
+        /// probability `sel_pdf`; `defer`: an untextured triangle of the chunk's first mesh
+        /// light is left to [`Gather::triangles_x8`].
+        #[inline(always)]
+        #[allow(clippy::too_many_arguments)]
+        fn add_selected(
+            &mut self,
+            k: usize,
+            scene: &Scene,
+            lights: &[Option<LaneLight>],
+            light_only: bool,
+            e: usize,
+            sel_pdf: f32,
+            u: Vec2,
+            p: Vec3,
+            defer: bool,
+        ) {
             let lane_light = match &lights[e] {
                 Some(LaneLight::Sphere { center, radius, .. })
                     if !sphere_sees_cone((*center - p).length(), *radius) =>
@@ -605,6 +933,22 @@ pub(crate) mod x8 {
             };
             let mut su = u;
             let le = match *ll {
+                LaneLight::Triangles {
+                    shape,
+                    inv_area,
+                    sign,
+                    radiance,
+                    textured,
+                } if defer && !textured && (self.n_deferred == 0 || self.tri_shape == shape) => {
+                    // The triangle and its rescaled u.y in `triangles_x8`.
+                    self.kind[k] = KIND_TRIANGLE;
+                    self.textured[k] = false;
+                    self.deferred[k] = true;
+                    self.n_deferred += 1;
+                    self.tri_shape = shape;
+                    (self.inv_area[k], self.sign[k]) = (inv_area, sign);
+                    radiance
+                }
                 LaneLight::Triangles {
                     shape,
                     inv_area,
@@ -992,6 +1336,93 @@ pub(super) mod tests {
     /// Equal bits per component.
     pub(crate) fn same3(a: V3<f32>, b: Vec3) -> bool {
         same(a.x, b.x) && same(a.y, b.y) && same(a.z, b.z)
+    }
+
+    /// `x8::Gather::add_x8` then `finish` (the light selection 8-wide, mesh triangles picked
+    /// and gathered 8-wide) equal `nee::sample_emitter`'s scalar selection and
+    /// `sample_direct` bit for bit, on the mesh-light test scenes (one selection counted, one
+    /// searched) at random reference points and numbers, with `u_sel` and `u.y` also at the
+    /// selection's and the ball's triangle CDF entries and their neighbours, lanes off at
+    /// random.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn lane_selection_and_triangles_equal_the_scalar_sampling() {
+        use super::x8::{Cols3, Gather};
+        use crate::lane::Avx2;
+        let Some(avx) = Avx2::detect() else {
+            eprintln!("no AVX2: not run");
+            return;
+        };
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/scenes/");
+        for name in ["stream_mesh_lights.xml", "stream_mesh_lights_many.xml"] {
+            let path = std::path::PathBuf::from(dir).join(name);
+            let l = crate::load::load_scene(&path, &Default::default()).unwrap();
+            let scene = &l.scene;
+            let lights = LaneLight::table(scene);
+            let dist = scene.light_sampler.distribution().unwrap();
+            let mut edges: Vec<f32> = Vec::new();
+            let ball = scene.shapes.iter().max_by_key(|s| s.triangle_cdf().len());
+            for c in dist.cdf().iter().chain(ball.unwrap().triangle_cdf()) {
+                edges.extend([*c, c.next_down(), c.next_up()]);
+            }
+            edges.retain(|u| (0.0..1.0).contains(u));
+            let mut r = Pcg32::new(5, 11);
+            let mut counts = [0usize; 3];
+            for round in 0..3000 {
+                let mut f = |a: f32, b: f32| a + (b - a) * r.next_f32();
+                let mut on = [false; 8];
+                let (mut u_sel, mut u) = ([0.0f32; 8], [[0.0f32; 8]; 2]);
+                let mut p = Cols3::<8>::default();
+                for k in 0..8 {
+                    on[k] = f(0.0, 1.0) < 0.9;
+                    u_sel[k] = f(0.0, 1.0);
+                    u[0][k] = f(0.0, 1.0);
+                    u[1][k] = f(0.0, 1.0);
+                    if round % 4 == 1 {
+                        let j = (f(0.0, 1.0) * edges.len() as f32) as usize;
+                        u_sel[k] = edges[j.min(edges.len() - 1)];
+                        let j = (f(0.0, 1.0) * edges.len() as f32) as usize;
+                        u[1][k] = edges[j.min(edges.len() - 1)];
+                    }
+                    p.set(k, Vec3::new(f(-2.5, 2.5), f(0.0, 3.6), f(-2.5, 2.5)));
+                }
+                let mut g = Gather::<8>::new();
+                let mut kinds = [0u64; KINDS];
+                let lp = avx.run(|| {
+                    g.reset();
+                    g.add_x8(avx, scene, &lights, false, &on, &u_sel, &u, &p);
+                    g.finish(avx, scene, p.load(avx), &mut kinds)
+                });
+                let some = lp.some.to_array();
+                let (d, q, n) = (Cols3::store(lp.d), Cols3::store(lp.p), Cols3::store(lp.n));
+                let (pdf, value) = (lp.pdf.to_array(), Cols3::store(lp.value));
+                for k in 0..8 {
+                    let uk = Vec2::new(u[0][k], u[1][k]);
+                    let want = if on[k] {
+                        crate::integrator::nee::sample_emitter(scene, p.get(k), u_sel[k], uk)
+                    } else {
+                        None
+                    };
+                    assert_eq!(some[k], want.is_some(), "{name} {round} lane {k}");
+                    let Some((ds, sel)) = want else { continue };
+                    let e = scene.light_sampler.sample(u_sel[k]).unwrap().0;
+                    if let Emitter::Area(a) = &scene.emitters[e] {
+                        counts[scene.shapes[a.shape as usize].triangle_cdf().len().min(2)] += 1;
+                    }
+                    let v3 = |c: &Cols3<8>| V3::new(c.0[0][k], c.0[1][k], c.0[2][k]);
+                    assert!(
+                        same3(v3(&d), ds.d)
+                            && same3(v3(&q), ds.p)
+                            && same3(v3(&n), ds.n.unwrap())
+                            && same(pdf[k], ds.pdf * sel)
+                            && same3(v3(&value), ds.value),
+                        "{name} {round} lane {k}"
+                    );
+                }
+            }
+            // Lanes on the ball (and the octahedron) and on the other lights were compared.
+            assert!(counts[2] > 1000 && counts[0] > 1000, "{name}: {counts:?}");
+        }
     }
 
     /// Width 1 of the lane samplers equals `AreaLight::sample_direct` (through

@@ -14,7 +14,7 @@
 //! tests below and by `tests/render/stream.rs`). Random numbers follow each path's own stream in
 //! the scalar renderer's order, drawn 8-wide from the chunk's gathered PCG32 states by the one
 //! helper of all kernels ([`draws`]); the parts of a vertex that branch
-//! on data (light selection, the emitter's own sampling, Russian roulette) run lane by lane
+//! on data (the sampling of emitters without a lane form, Russian roulette) run lane by lane
 //! through the very functions the scalar renderer calls.
 //!
 //! - [`diffuse`]: `diffuse` with next-event estimation.
@@ -29,8 +29,8 @@
 //!   next-event estimation.
 //! - [`mnm`]: the compensated microfacet normal map (its BSDF per lane through the scalar
 //!   model; light points, MIS and shadow rays in lanes).
-//! - [`light`]: area lights on triangle meshes, rectangles and spheres sampled in lanes, and the
-//!   one light-point gather of all kernels (`light::x8::Gather`);
+//! - [`light`]: the light selection and area lights on triangle meshes, rectangles and spheres
+//!   sampled in lanes, and the one light-point gather of all kernels (`light::x8::Gather`);
 //!   [`emitters`]: `point`, `spot`, `directional`, `constant` and `envmap` in lanes.
 //! - [`draws`]: a vertex's random numbers for 8 paths, 8-wide.
 //! - [`surface`]: the kernels' one surface load, 8-wide from the batch's columns.

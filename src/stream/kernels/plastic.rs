@@ -201,7 +201,6 @@ pub(crate) mod x8 {
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
     use crate::stream::kernels::tail::{Sampled, Tail};
-    use glam::Vec2;
 
     /// Shades the first multiple of `W` paths of the run `batch.sorted[run]` (all of material
     /// `mat`) `W` at a time; returns how many it shaded. Enters [`Wide::run`] itself.
@@ -288,12 +287,8 @@ pub(crate) mod x8 {
         let lp = if nee {
             let light_only = cfg.strategy == Strategy::LightOnly;
             gather.reset();
-            for (k, &f) in front.iter().enumerate() {
-                if f {
-                    let u = Vec2::new(num.u[0][k], num.u[1][k]);
-                    gather.add(k, scene, lights, light_only, num.u_sel[k], u, p.get(k));
-                }
-            }
+            let (u_sel, u) = (&num.u_sel, &num.u);
+            gather.add_x8(avx, scene, lights, light_only, &front, u_sel, u, &p);
             Some(gather.finish(avx, scene, surf.p, &mut b.light_lanes))
         } else {
             None

@@ -177,7 +177,6 @@ pub(crate) mod x8 {
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
     use crate::stream::kernels::tail::{Sampled, Tail};
-    use glam::Vec2;
 
     /// Shades the paths `sorted[chunks]` (runs of `W`, all at a surface of material `mat`) with
     /// [`shade`], in the instance for `mat` picked once here: whether the leaf's parameters
@@ -320,10 +319,6 @@ pub(crate) mod x8 {
                 (au[k], av[k]) = (v.2, v.3);
             }
             tp.set(k, b.state[i].throughput);
-            if nee {
-                let u = Vec2::new(num.u[0][k], num.u[1][k]);
-                gather.add(k, scene, lights, light_only, num.u_sel[k], u, p.get(k));
-            }
             if let (Some(t), Some(si)) = (mask_tex, &si) {
                 // bsdf::mask::sample: the choice (drawn where 0 < opacity < 1), then the nested
                 // BSDF's numbers where it is chosen.
@@ -374,6 +369,8 @@ pub(crate) mod x8 {
         // A block, not a closure: a closure would be compiled outside `Avx2::run`'s target
         // features and call every 8-wide operation out of line.
         let lo = if nee {
+            let (u_sel, u) = (&num.u_sel, &num.u);
+            gather.add_x8(avx, scene, lights, light_only, &front, u_sel, u, &p);
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
             let lo = light::<_, FULL>(&surf, wi, mat, &normals8, &params, tp.load(avx), &lp);
             Some(LightCols::store(&lo))
