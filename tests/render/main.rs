@@ -26,9 +26,8 @@ mod sdfgrid;
 mod stream;
 mod stream_blend;
 mod stream_emission_shapes;
-mod stream_mesh_chunks;
-
 mod stream_light;
+mod stream_mesh_chunks;
 mod stream_mnm_build;
 mod stream_mnm_direct;
 mod stream_spp;

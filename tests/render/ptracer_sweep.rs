@@ -180,7 +180,6 @@ const SCENES: &[(&str, Entry)] = &[
     // The gather stage's one-mesh and mixed chunks of triangle hits
     // (tests/render/stream_mesh_chunks.rs).
     ("stream_mesh_chunks.xml", Compare(NONE, Nm::AsWritten, 1)),
-
     // Triangle-mesh lights sampled in lanes (tests/render/stream_light.rs); glossy.
     ("stream_mesh_lights.xml", Compare(NONE, Nm::AsWritten, 4)),
     (
