@@ -78,9 +78,9 @@ pub fn prepare_light(
 
 /// The light point of [`prepare_light`] from its three random numbers: the emitter chosen by
 /// `u_sel`, a point on it sampled from `p` with `u`, and the selection probability; `None` when
-/// the scene has no light or the sample carries nothing. The stream renderer's `diffuse` kernel
-/// (`stream::kernels::diffuse`) does the same lane by lane, except that it leaves area lights on
-/// triangle meshes to its 8-wide `stream::kernels::light`.
+/// the scene has no light or the sample carries nothing. The stream renderer's kernels do the
+/// same with the same bits in `stream::kernels::light` (the selection 8-wide for up to 8
+/// emitters, area lights on meshes, rectangles and spheres 8-wide, other emitters lane by lane).
 #[inline(always)]
 pub(crate) fn sample_emitter(
     scene: &Scene,

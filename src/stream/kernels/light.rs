@@ -468,7 +468,7 @@ pub(crate) mod x8 {
     }
 
     /// `nee::sample_emitter` for 8 paths: [`Gather::add_x8`] (the light selection 8-wide, one
-    /// mesh light's triangles picked 8-wide, [`Gather::add`] for one lane; lane by lane the
+    /// mesh light's triangles picked 8-wide; lane by lane the
     /// point of every emitter that has no [`LaneLight`] through its own scalar
     /// `sample_direct`, a sphere light lane by lane from inside its cone threshold, an
     /// environment map's table walk), then [`Gather::finish`] samples the lanes' triangles,
@@ -591,7 +591,7 @@ pub(crate) mod x8 {
 
     impl<const W: usize> Gather<W> {
         /// Ready for a chunk: no light point in any lane. Only the flags are cleared: the
-        /// columns keep the last chunk's values in the lanes that [`Gather::add`] does not
+        /// columns keep the last chunk's values in the lanes that [`Gather::add_x8`] does not
         /// write, which the masks of [`Gather::finish`] and of the kernels drop (resetting
         /// ~2 KB per chunk cost ~350 instructions per sample on the Cornell box).
         #[inline(always)]
@@ -653,29 +653,10 @@ pub(crate) mod x8 {
             }
         }
 
-        /// Lane `k`'s light selection from `u_sel` and its light point from `u`, seen from `p`
-        /// (`lights`: `LaneLight::table`; `light_only`: the MIS weight is 1).
-        #[inline(always)]
-        #[allow(clippy::too_many_arguments)]
-        pub(crate) fn add(
-            &mut self,
-            k: usize,
-            scene: &Scene,
-            lights: &[Option<LaneLight>],
-            light_only: bool,
-            u_sel: f32,
-            u: Vec2,
-            p: Vec3,
-        ) {
-            let Some((e, sel_pdf, _)) = scene.light_sampler.sample(u_sel) else {
-                return;
-            };
-            self.add_selected(k, scene, lights, light_only, e, sel_pdf, u, p, false);
-        }
-
-        /// [`Gather::add`] for the lanes `on` of a chunk, the light selection 8-wide
-        /// ([`Select`]) and the triangles of one untextured mesh light picked 8-wide
-        /// ([`Gather::triangles_x8`]); the rest lane by lane as [`Gather::add`]. `u_sel`, `u`:
+        /// The light points of the lanes `on` of a chunk (`lights`: `LaneLight::table`;
+        /// `light_only`: the MIS weight is 1): the light selection 8-wide ([`Select`]) and the
+        /// triangles of one untextured mesh light picked 8-wide ([`Gather::triangles_x8`]); the
+        /// rest lane by lane ([`Gather::add_selected`]). `u_sel`, `u`:
         /// the lanes' light-sample numbers; `p`: their surface points.
         #[inline(always)]
         #[allow(clippy::too_many_arguments)]

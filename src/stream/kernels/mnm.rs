@@ -240,6 +240,7 @@ pub(crate) mod x8 {
         let mut tp = Cols3::default();
         let light_only = cfg.strategy == Strategy::LightOnly;
         gather.reset();
+        let (mut u_sel8, mut u8, mut p8) = ([0.0f32; 8], [[0.0f32; 8]; 2], Cols3::default());
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
@@ -256,10 +257,14 @@ pub(crate) mod x8 {
             if cfg.strategy != Strategy::BsdfOnly && bsdf.lobes().is_smooth() {
                 nee[k] = true;
                 let sampler = &mut b.sampler[i];
-                let u_sel = sampler.next_1d();
+                u_sel8[k] = sampler.next_1d();
                 let u = sampler.next_2d();
-                gather.add(k, scene, lights, light_only, u_sel, u, si.p);
+                (u8[0][k], u8[1][k]) = (u.x, u.y);
+                p8.set(k, si.p);
             }
+        }
+        if nee.contains(&true) {
+            gather.add_x8(avx, scene, lights, light_only, &nee, &u_sel8, &u8, &p8);
         }
 
         // The compensated model's points (where the nested leaf is shared) and their state
