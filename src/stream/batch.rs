@@ -159,29 +159,13 @@ impl Batch {
                 for (j, sj) in sample.iter_mut().enumerate() {
                     *sj = s + j as u32;
                 }
-                s += 8;
-                if s == s_hi {
-                    s = s_lo;
-                    x += 1;
-                    if x == x0 + w {
-                        x = x0;
-                        y += 1;
-                    }
-                }
+                advance((&mut s, &mut x, &mut y), 8, samples, (x0, w));
             } else {
                 for j in 0..m {
                     pixel[j] = y as u64 * film_width as u64 + x as u64;
                     sample[j] = s;
                     corner[j] = Vec2::new(x as f32, y as f32);
-                    s += 1;
-                    if s == s_hi {
-                        s = s_lo;
-                        x += 1;
-                        if x == x0 + w {
-                            x = x0;
-                            y += 1;
-                        }
-                    }
+                    advance((&mut s, &mut x, &mut y), 1, samples, (x0, w));
                 }
             }
             left -= m;
@@ -430,6 +414,27 @@ impl Surfaces {
     }
 }
 
+/// Moves the block's (sample, x, y) cursor on by `n` samples of one pixel (`n` no more than the
+/// pixel's samples left in `samples`): after the pixel's last sample, to the next pixel of the
+/// block's rows (`x0`, `w`: the block's first column and width).
+#[inline(always)]
+fn advance(
+    (s, x, y): (&mut u32, &mut u32, &mut u32),
+    n: u32,
+    (s_lo, s_hi): (u32, u32),
+    (x0, w): (u32, u32),
+) {
+    *s += n;
+    if *s == s_hi {
+        *s = s_lo;
+        *x += 1;
+        if *x == x0 + w {
+            *x = x0;
+            *y += 1;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -506,3 +511,4 @@ mod tests {
         }
     }
 }
+

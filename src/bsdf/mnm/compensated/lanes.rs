@@ -499,6 +499,18 @@ mod tests {
     use crate::bsdf::BsdfArena;
     use crate::math::Pcg32;
 
+    /// The tests' compensated normal map over nested node `n` with table `t`.
+    fn compensated_map(
+        n: u32,
+        wp: Vec3,
+        geometry: Microgeometry,
+        tangent: Tangent,
+        t: &'static MsTable,
+    ) -> MicrofacetNormalMap {
+        MicrofacetNormalMap::new(n, wp, geometry, tangent, Evaluation::Compensated, 256)
+            .with_ms_table(Some(t))
+    }
+
     /// An exact Lambert table (instant) of the tests' settings.
     fn unit_table(geometry: Microgeometry, tangent: Tangent, colour: Colour) -> &'static MsTable {
         MsTable::unit_lambert(geometry, tangent, colour)
@@ -559,15 +571,7 @@ mod tests {
                     x if x < 0.9 => 1,
                     _ => 2,
                 }];
-                let m = MicrofacetNormalMap::new(
-                    n,
-                    wp,
-                    geometry,
-                    tangent,
-                    Evaluation::Compensated,
-                    256,
-                )
-                .with_ms_table(Some(t));
+                let m = compensated_map(n, wp, geometry, tangent, t);
                 want[k] = Some(m.with_incident(wi[k]));
                 roots[k] = arena.push_microfacet_normal_map(m);
             }
@@ -644,15 +648,7 @@ mod tests {
                     x if x < 0.9 => 1,
                     _ => 2,
                 }];
-                let mut m = MicrofacetNormalMap::new(
-                    n,
-                    wp,
-                    geometry,
-                    tangent,
-                    Evaluation::Compensated,
-                    256,
-                )
-                .with_ms_table(Some(t));
+                let mut m = compensated_map(n, wp, geometry, tangent, t);
                 if rng.next_f32() < 0.5 {
                     m = m.with_incident(wi[k]);
                 }
@@ -735,15 +731,7 @@ mod tests {
                             );
                             wi[k] = direction(&mut rng);
                             wo[k] = direction(&mut rng);
-                            let mut m = MicrofacetNormalMap::new(
-                                n,
-                                wp,
-                                geometry,
-                                tangent,
-                                Evaluation::Compensated,
-                                256,
-                            )
-                            .with_ms_table(Some(table));
+                            let mut m = compensated_map(n, wp, geometry, tangent, table);
                             if rng.next_f32() < 0.7 {
                                 m = m.with_incident(wi[k]);
                             }
