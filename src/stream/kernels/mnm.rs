@@ -280,7 +280,9 @@ pub(crate) mod x8 {
                 pts[k] = Point::of(local, wi);
             }
         }
-        let chunk = Chunk::new(pts);
+        // Built in place (a struct literal, then its state at ωi).
+        let mut chunk = Chunk::of(pts);
+        chunk.prepare();
 
         // 3. Next-event estimation: the BSDF toward the light points lane by lane (where a
         //    point was sampled, as `nee::prepare_light`), the rest 8-wide.

@@ -81,28 +81,44 @@ pub(crate) struct Chunk<'a> {
 }
 
 impl<'a> Chunk<'a> {
-    /// The state of the points `pts` (lanes without a point: `None`; see [`Point`]), as the
-    /// scalar model computes it per query (bit for bit, `tests`), for the 8 points together:
-    /// the table lookups at ωi of the points with a baked table in one
-    /// [`MsTable::lookup_baked_x8`] with W1 (the first such point's table; a point with
-    /// another table, or per-bounce colours, looks up alone), and over the mirror sawtooth
-    /// the entries in lanes ([`first::Points8::entries`]), else per point. The maps' own ωi
-    /// caches are not needed (nor read: the same numbers).
+    /// The chunk of the points `pts` (lanes without a point: `None`; see [`Point`]) before
+    /// their state at ωi, which [`Self::prepare`] then computes in place: a plain struct
+    /// literal, built in the caller's slot (built and returned as one value, the ~3 KB chunk
+    /// was copied by a `memcpy` call per chunk).
     #[inline(always)]
-    pub(crate) fn new(pts: [Option<Point<'a>>; 8]) -> Self {
-        let mirror = all_mirror(&pts);
-        let mut c = Chunk {
+    pub(crate) fn of(pts: [Option<Point<'a>>; 8]) -> Self {
+        Chunk {
             pts,
             above: 0,
             at: [AtWi::UNUSED; 8],
             e: [Entries::EMPTY; 8],
-            mirror,
+            mirror: all_mirror(&pts),
             geo: first::Points8::new(),
-        };
+        }
+    }
+
+    /// [`Self::of`] and [`Self::prepare`] (the tests' chunks).
+    #[cfg(test)]
+    pub(crate) fn new(pts: [Option<Point<'a>>; 8]) -> Self {
+        let mut c = Self::of(pts);
+        c.prepare();
+        c
+    }
+
+    /// The state of the points, as the scalar model computes it per query (bit for bit,
+    /// `tests`), for the 8 points together: the table lookups at ωi of the points with a baked
+    /// table in one [`MsTable::lookup_baked_x8`] with W1 (the first such point's table; a
+    /// point with another table, or per-bounce colours, looks up alone), and over the mirror
+    /// sawtooth the entries in lanes ([`first::Points8::entries`]), else per point. The maps'
+    /// own ωi caches are not needed (nor read: the same numbers). Call once, on a chunk fresh
+    /// from [`Self::of`].
+    #[inline(always)]
+    pub(crate) fn prepare(&mut self) {
+        let mirror = self.mirror;
         let mut q = Lookups8::new();
         let mut table: Option<&'static MsTable> = None;
-        for (k, pt) in pts.iter().enumerate() {
-            let Some(pt) = pt else { continue };
+        for k in 0..8 {
+            let Some(pt) = self.pts[k] else { continue };
             let wi = pt.wi;
             if wi.z <= 0.0 {
                 continue;
@@ -111,33 +127,32 @@ impl<'a> Chunk<'a> {
             if r.baked_norm.is_some() && std::ptr::eq(*table.get_or_insert(r.table), r.table) {
                 q.push(k, &r.cell, wi);
             } else {
-                c.at[k] = AtWi::new(r, &pt.nested, wi, None);
+                self.at[k] = AtWi::new(r, &pt.nested, wi, None);
             }
             if mirror {
-                c.geo.push_point(k, pt.m, wi);
+                self.geo.push_point(k, pt.m, wi);
             } else {
-                c.e[k] = Entries::new(pt.m, wi);
+                self.e[k] = Entries::new(pt.m, wi);
             }
-            c.above |= 1 << k;
+            self.above |= 1 << k;
         }
         if let Some(t) = table {
             let l = t.lookup_baked_x8(&q, true);
-            for (k, pt) in pts.iter().enumerate() {
-                match pt {
-                    Some(pt) if q.is_used(k) => c.at[k] = AtWi::baked(pt.r, l[k]),
+            for k in 0..8 {
+                match self.pts[k] {
+                    Some(pt) if q.is_used(k) => self.at[k] = AtWi::baked(pt.r, l[k]),
                     _ => {}
                 }
             }
         }
-        if mirror && c.above != 0 {
-            c.geo.entries();
+        if mirror && self.above != 0 {
+            self.geo.entries();
             for k in 0..8 {
-                if c.above & (1 << k) != 0 {
-                    c.e[k] = c.geo.entries_of(k);
+                if self.above & (1 << k) != 0 {
+                    self.e[k] = self.geo.entries_of(k);
                 }
             }
         }
-        c
     }
 
     /// Lane `k`'s point, if it is seen from above.
