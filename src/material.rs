@@ -2,7 +2,7 @@
 //! its textures and writes plain-valued [`BsdfNode`]s into the per-thread arena.
 
 use crate::bsdf::mnm::facets::{store3, Candidates, FacetCols, MaxTilt, Microgeometry};
-use crate::bsdf::mnm::ms_table::{ThetaCell, ThetaCells};
+use crate::bsdf::mnm::ms_table::{CellCols, ThetaCells};
 use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent, TransmissionWalk};
 use crate::bsdf::{
     bumpmap, Blend, BsdfArena, BsdfNode, Diffuse, Lobes, Mask, NormalMap, Principled,
@@ -12,7 +12,7 @@ use crate::geometry::SurfaceInteraction;
 use crate::lane::vec::V3;
 use crate::lane::{Lane, ToArray};
 use crate::texture::{Lookup, Texture};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 /// Index of a texture in [`Materials::textures`].
 pub type TexId = u32;
@@ -162,7 +162,7 @@ impl MnmSettings {
         lanes: &MnmCols<W>,
         i: usize,
     ) {
-        let wp = Vec3::new(lanes.wp[0][i], lanes.wp[1][i], lanes.wp[2][i]);
+        let wp = lanes.wp(i);
         *slot = MicrofacetNormalMap::of_lane(
             nested,
             wp,
@@ -175,14 +175,7 @@ impl MnmSettings {
         );
         self.options_into(slot);
         match &lanes.cells {
-            Some(c) => {
-                let cell = ThetaCell {
-                    j: c.j[i] as usize,
-                    t: c.t[i],
-                    axis: Vec2::new(c.axis[0][i], c.axis[1][i]),
-                };
-                slot.set_ms_table_in(self.ms_table, cell);
-            }
+            Some(c) => slot.set_ms_table_in(self.ms_table, c.get(i)),
             None => slot.set_ms_table(self.ms_table),
         }
     }
@@ -213,11 +206,7 @@ impl<L: Lane> MnmLanes<L> {
         // function (its stores become calls).
         #[allow(clippy::manual_map)]
         let cells = match &self.cells {
-            Some(c) => Some(CellCols {
-                j: c.j.to_array(),
-                t: c.t.to_array(),
-                axis: [c.axis.x.to_array(), c.axis.y.to_array()],
-            }),
+            Some(c) => Some(c.cols()),
             None => None,
         };
         MnmCols {
@@ -236,12 +225,34 @@ pub struct MnmCols<const W: usize> {
     cells: Option<CellCols<W>>,
 }
 
-/// θp cells stored per lane.
-#[derive(Clone, Copy, Debug)]
-struct CellCols<const W: usize> {
-    j: [i32; W],
-    t: [f32; W],
-    axis: [[f32; W]; 2],
+impl<const W: usize> MnmCols<W> {
+    /// Lane `i`'s clamped perturbed normal.
+    #[inline(always)]
+    pub fn wp(&self, i: usize) -> Vec3 {
+        Vec3::new(self.wp[0][i], self.wp[1][i], self.wp[2][i])
+    }
+
+    /// The microsurfaces' candidate facets and frames, by lane.
+    #[inline(always)]
+    pub fn facets(&self) -> &FacetCols<W> {
+        &self.facets
+    }
+
+    /// Whether lane `i`'s map ([`MnmSettings::map_lane_into`]) is not flat
+    /// (`MicrofacetNormalMap::is_flat`), keeps its first two candidate facets and has a θp cell:
+    /// over the mirror sawtooth of a compensated material with a table, a map with its mirror
+    /// wall and its table reference (the stream kernel builds such points without the map,
+    /// `compensated::lanes::Chunk::of_facets`).
+    #[inline(always)]
+    pub fn two_facets_with_cell(&self, i: usize) -> bool {
+        !MicrofacetNormalMap::is_flat(self.wp(i)) && self.facets.keeps(2, i) && self.cells.is_some()
+    }
+
+    /// The θp cells in the compensated model's table, by lane (compensated, with a table).
+    #[inline(always)]
+    pub fn cells(&self) -> Option<&CellCols<W>> {
+        self.cells.as_ref()
+    }
 }
 
 #[derive(Clone, Debug)]

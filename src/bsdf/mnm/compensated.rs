@@ -39,16 +39,48 @@ use crate::sampler::Sampler;
 use crate::spectrum::{luminance, Spectrum};
 use glam::Vec3;
 
-/// A shading point's table and its place in it (built per hit).
+/// A shading point's table and its place in it (built per hit), with the ωi cache
+/// ([`MsPlace`], which it dereferences to, and [`AtIncident`]).
 #[derive(Clone, Copy, Debug)]
 pub struct MsRef {
+    place: MsPlace,
+    /// The incident direction's share, when the hit's ωi is known at build time
+    /// ([`MicrofacetNormalMap::with_incident`]); used for queries with that exact ωi.
+    at: Option<AtIncident>,
+}
+
+/// A shading point's table and its place in it: what every query reads ([`MsRef`] without
+/// its ωi cache; the stream kernel's points keep this alone, `lanes::Point`).
+#[derive(Clone, Copy, Debug)]
+pub struct MsPlace {
     pub table: &'static MsTable,
     pub cell: ThetaCell,
     /// With the colour baked in ([`Colour::Baked`]): 1 / (π Ē_ms) of this point, per channel.
     baked_norm: Option<Spectrum>,
-    /// The incident direction's share, when the hit's ωi is known at build time
-    /// ([`MicrofacetNormalMap::with_incident`]); used for queries with that exact ωi.
-    at: Option<AtIncident>,
+}
+
+impl std::ops::Deref for MsRef {
+    type Target = MsPlace;
+    #[inline(always)]
+    fn deref(&self) -> &MsPlace {
+        &self.place
+    }
+}
+
+impl MsPlace {
+    /// [`MsRef::in_cell`] without the cache.
+    #[inline(always)]
+    pub fn in_cell(table: &'static MsTable, cell: ThetaCell) -> MsPlace {
+        let baked_norm = (table.spec.colour == Colour::Baked).then(|| {
+            let m = table.mean_baked(&cell);
+            Vec3::new(inv(m.x), inv(m.y), inv(m.z)) * INV_PI
+        });
+        MsPlace {
+            table,
+            cell,
+            baked_norm,
+        }
+    }
 }
 
 impl MsRef {
@@ -61,14 +93,8 @@ impl MsRef {
     /// [`Self::new`] with ωp's cell already found ([`MsTable::cells`], several points at once).
     #[inline(always)]
     pub fn in_cell(table: &'static MsTable, cell: ThetaCell) -> MsRef {
-        let baked_norm = (table.spec.colour == Colour::Baked).then(|| {
-            let m = table.mean_baked(&cell);
-            Vec3::new(inv(m.x), inv(m.y), inv(m.z)) * INV_PI
-        });
         MsRef {
-            table,
-            cell,
-            baked_norm,
+            place: MsPlace::in_cell(table, cell),
             at: None,
         }
     }
@@ -232,7 +258,7 @@ struct AtWi {
 
 /// The per-bounce colour c at this hit (1 when the table has the colours baked in).
 #[inline]
-fn colour(r: &MsRef, nested: &Bsdf) -> Spectrum {
+fn colour(r: &MsPlace, nested: &Bsdf) -> Spectrum {
     if r.table.spec.colour == Colour::Baked {
         return Spectrum::ONE;
     }
@@ -257,7 +283,7 @@ impl AtWi {
     };
 
     #[inline]
-    fn new(r: &MsRef, nested: &Bsdf, wi: Vec3, at: Option<&AtIncident>) -> AtWi {
+    fn new(r: &MsPlace, nested: &Bsdf, wi: Vec3, at: Option<&AtIncident>) -> AtWi {
         let t = r.table;
         if let Some(norm) = r.baked_norm {
             let (ei, select) = match at.and_then(|a| a.baked) {
@@ -291,7 +317,7 @@ impl AtWi {
     /// [`Self::new`] of a point with a baked table (`r.baked_norm` set) from its [W1, E_ms] at
     /// ωi, looked up by the caller (8 points at once: [`lanes::Chunk::new`]).
     #[inline(always)]
-    fn baked(r: &MsRef, [w1, ei]: [Spectrum; 2]) -> AtWi {
+    fn baked(r: &MsPlace, [w1, ei]: [Spectrum; 2]) -> AtWi {
         AtWi {
             k: None,
             norm: r.baked_norm.expect("a baked table"),
@@ -302,7 +328,7 @@ impl AtWi {
 
     /// The rank-1 remainder's f·z(ωo).
     #[inline]
-    fn remainder(&self, r: &MsRef, wo: Vec3) -> Spectrum {
+    fn remainder(&self, r: &MsPlace, wo: Vec3) -> Spectrum {
         if self.ei == Spectrum::ZERO {
             return Spectrum::ZERO;
         }
@@ -900,14 +926,14 @@ fn pick_entry(e: &Entries, x: f32) -> Option<usize> {
 /// stream kernel's sampler (`lanes::sample_x8`), which samples the nested BSDF of 8 points at
 /// once in between.
 #[inline(always)]
-fn leave(
-    m: &MicrofacetNormalMap,
+fn leave<M: Leaves>(
+    m: &M,
     e: &Entries,
     j: usize,
     (bwo, bpdf, bweight): (Vec3, f32, Spectrum),
     s: &mut Sampler,
 ) -> (Vec3, Option<Known>) {
-    let u = m.frames[e.k[j] as usize].to_world(bwo);
+    let u = m.facet_to_world(e.k[j] as usize, bwo);
     let known = |wall| {
         (bpdf.is_finite() && bpdf > 0.0).then_some(Known {
             j,
@@ -916,10 +942,43 @@ fn leave(
             p: bpdf,
         })
     };
-    if !m.mirror_wall || s.next_1d() < m.surface.g1(u) {
+    if !m.mirror_wall() || s.next_1d() < m.g1(u) {
         (u, known(false))
     } else {
         (m.reflect_wall(u), known(true)) // blocked: the ray hits the mirror wall
+    }
+}
+
+/// What [`leave`] reads of a point's microsurface: the map itself, or over the mirror
+/// sawtooth one lane of the stream chunk's columns (`lanes`, points built without their map;
+/// the same numbers, so the same operations on them).
+trait Leaves {
+    /// `w` (in facet `k`'s frame) in the shading frame.
+    fn facet_to_world(&self, k: usize, w: Vec3) -> Vec3;
+    /// Facet 1 is the sawtooth's mirror wall.
+    fn mirror_wall(&self) -> bool;
+    /// G1 of the microsurface ([`super::facets::Microsurface::g1`]).
+    fn g1(&self, w: Vec3) -> f32;
+    /// The mirror wall's reflection ([`MicrofacetNormalMap::reflect_wall`]).
+    fn reflect_wall(&self, w: Vec3) -> Vec3;
+}
+
+impl Leaves for MicrofacetNormalMap {
+    #[inline(always)]
+    fn facet_to_world(&self, k: usize, w: Vec3) -> Vec3 {
+        self.frames[k].to_world(w)
+    }
+    #[inline(always)]
+    fn mirror_wall(&self) -> bool {
+        self.mirror_wall
+    }
+    #[inline(always)]
+    fn g1(&self, w: Vec3) -> f32 {
+        self.surface.g1(w)
+    }
+    #[inline(always)]
+    fn reflect_wall(&self, w: Vec3) -> Vec3 {
+        MicrofacetNormalMap::reflect_wall(self, w)
     }
 }
 

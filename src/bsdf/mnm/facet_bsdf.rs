@@ -18,8 +18,7 @@ impl MicrofacetNormalMap {
     /// Mirror image across the wall's plane: R(ω) = ω − 2(ω·ωt)ωt.
     #[inline]
     pub(super) fn reflect_wall(&self, w: Vec3) -> Vec3 {
-        let wt = self.surface.normal(1);
-        w - 2.0 * w.dot(wt) * wt
+        reflect_across(w, self.surface.normal(1))
     }
 
     /// Nested eval with both directions in facet k's frame: F_k(a, b) (includes |b·m_k|).
@@ -80,4 +79,12 @@ impl MicrofacetNormalMap {
         bs.wo = fr.to_world(bs.wo);
         Some(bs)
     }
+}
+
+/// Mirror image of `w` across the plane of unit normal `wt`: ω − 2(ω·ωt)ωt (the wall's
+/// [`MicrofacetNormalMap::reflect_wall`], and the stream kernel's points whose wall normal is
+/// kept in columns, `compensated::lanes`).
+#[inline(always)]
+pub(super) fn reflect_across(w: Vec3, wt: Vec3) -> Vec3 {
+    w - 2.0 * w.dot(wt) * wt
 }

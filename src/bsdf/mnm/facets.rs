@@ -150,6 +150,38 @@ pub struct FacetCols<const W: usize> {
     framed: usize,
 }
 
+impl<const W: usize> FacetCols<W> {
+    /// Candidate `j`'s area vectors, `[component][lane]`.
+    #[inline(always)]
+    pub(crate) fn area_vectors(&self, j: usize) -> &[[f32; W]; 3] {
+        &self.v[j]
+    }
+
+    /// Candidate `j`'s unit normals, `[component][lane]`.
+    #[inline(always)]
+    pub(crate) fn normals(&self, j: usize) -> &[[f32; W]; 3] {
+        &self.m[j]
+    }
+
+    /// Candidate `j`'s frame (s, t, n, each `[component][lane]`; `j` below `framed`).
+    #[inline(always)]
+    pub(crate) fn frame(&self, j: usize) -> &[[[f32; W]; 3]; 3] {
+        debug_assert!(j < self.framed);
+        &self.frames[j]
+    }
+
+    /// Whether lane `i` keeps its first `n` candidates, in order, as its facets
+    /// ([`Microsurface::of_lane`]'s test: none of them of zero area).
+    #[inline(always)]
+    pub(crate) fn keeps(&self, n: usize, i: usize) -> bool {
+        let mut all = n <= self.n;
+        for j in 0..n.min(self.n) {
+            all &= self.len[j][i] > MIN_AREA;
+        }
+        all
+    }
+}
+
 /// The facets at one shading point, in the macro (shading) frame where ωg = +z.
 #[derive(Clone, Copy, Debug)]
 pub struct Microsurface {
@@ -303,30 +335,7 @@ impl Microsurface {
     /// Smith masking of the macro surface seen from ω: G1(ω) = χ(z)·min(1, z / Σ(ω)).
     #[inline]
     pub fn g1(&self, w: Vec3) -> f32 {
-        if w.z <= 0.0 {
-            return 0.0;
-        }
-        // One pass over the facets gives both the test below and Σ(ω) (each ⟨ω, v_k⟩ once; the
-        // sum is [`sigma`](Self::sigma)'s, bit for bit: negative terms add nothing).
-        let mut s = 0.0;
-        let mut all_face = true;
-        for k in 0..self.n {
-            let a = w.dot(self.v[k]);
-            if a >= 0.0 {
-                s += a;
-            } else {
-                all_face = false;
-            }
-        }
-        // Every facet faces ω: nothing can block it. Closure makes Σ = z exactly then; testing
-        // it directly keeps rounding (z/Σ = 0.9999999) from inventing blocked rays.
-        if all_face {
-            return 1.0;
-        }
-        if s <= 0.0 {
-            return 1.0;
-        }
-        (w.z / s).min(1.0)
+        g1_of(&self.v[..self.n], w)
     }
 
     /// λ_k(ω) for every facet with Σ(ω) computed once (entries past [`len`](Self::len) are 0);
@@ -461,6 +470,37 @@ fn try_normalize<L: Lane>(v: V3<L>) -> (V3<L>, L::Mask) {
 #[inline(always)]
 fn lane3<const W: usize>(v: &[[f32; W]; 3], i: usize) -> Vec3 {
     Vec3::new(v[0][i], v[1][i], v[2][i])
+}
+
+/// [`Microsurface::g1`] of the microsurface with the area vectors `v` (its facets, in order):
+/// also the stream kernel's mirror-sawtooth points, whose facets are kept in columns
+/// (`compensated::lanes`), so that both compute G1 in the same operations.
+#[inline(always)]
+pub(crate) fn g1_of(v: &[Vec3], w: Vec3) -> f32 {
+    if w.z <= 0.0 {
+        return 0.0;
+    }
+    // One pass over the facets gives both the test below and Σ(ω) (each ⟨ω, v_k⟩ once; the
+    // sum is [`Microsurface::sigma`]'s, bit for bit: negative terms add nothing).
+    let mut s = 0.0;
+    let mut all_face = true;
+    for vk in v {
+        let a = w.dot(*vk);
+        if a >= 0.0 {
+            s += a;
+        } else {
+            all_face = false;
+        }
+    }
+    // Every facet faces ω: nothing can block it. Closure makes Σ = z exactly then; testing
+    // it directly keeps rounding (z/Σ = 0.9999999) from inventing blocked rays.
+    if all_face {
+        return 1.0;
+    }
+    if s <= 0.0 {
+        return 1.0;
+    }
+    (w.z / s).min(1.0)
 }
 
 #[cfg(test)]

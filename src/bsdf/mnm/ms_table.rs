@@ -40,7 +40,7 @@ use super::lambert::FacetChain;
 use super::{walk, Evaluation, MicrofacetNormalMap, Tangent};
 use crate::bsdf::{Bsdf, BsdfContext, TransportMode};
 use crate::lane::vec::{V2, V3};
-use crate::lane::{Lane, LaneI32};
+use crate::lane::{Lane, LaneI32, ToArray};
 use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3, Vec3A};
@@ -234,6 +234,43 @@ impl<L: Lane> ThetaCells<L> {
             j: self.j.lane(i) as usize,
             t: self.t.lane(i),
             axis: Vec2::new(self.axis.x.lane(i), self.axis.y.lane(i)),
+        }
+    }
+}
+
+impl<L: Lane> ThetaCells<L> {
+    /// The lanes stored as arrays of `W` (the lane width): plain numbers, read per lane
+    /// ([`CellCols::get`]) where the points are built one by one.
+    #[inline(always)]
+    pub fn cols<const W: usize>(&self) -> CellCols<W>
+    where
+        L: ToArray<f32, W>,
+        L::I32: ToArray<i32, W>,
+    {
+        CellCols {
+            j: self.j.to_array(),
+            t: self.t.to_array(),
+            axis: [self.axis.x.to_array(), self.axis.y.to_array()],
+        }
+    }
+}
+
+/// [`ThetaCells`] stored per lane ([`ThetaCells::cols`]).
+#[derive(Clone, Copy, Debug)]
+pub struct CellCols<const W: usize> {
+    j: [i32; W],
+    t: [f32; W],
+    axis: [[f32; W]; 2],
+}
+
+impl<const W: usize> CellCols<W> {
+    /// The cell of lane `i` ([`ThetaCells::lane`] of the stored lanes).
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> ThetaCell {
+        ThetaCell {
+            j: self.j[i] as usize,
+            t: self.t[i],
+            axis: Vec2::new(self.axis[0][i], self.axis[1][i]),
         }
     }
 }

@@ -5,8 +5,11 @@
 //! 1. the surface interactions gathered into SoA columns;
 //! 2. the BSDFs built at the hits, into one arena for the 8 points: where the chunk's nested
 //!    leaf is constant ([`shared_nested`]), [`build_shared`] (the leaf pushed once; the
-//!    perturbed normals, candidate facets, facet frames and table cells 8-wide, then each
-//!    point's map written from them), else lane by lane `Scene::bsdf_root` (the scalar code);
+//!    perturbed normals, candidate facets, facet frames and table cells 8-wide; then over the
+//!    mirror sawtooth with a `roughconductor` or `roughplastic` leaf ([`lane_points`]) no map
+//!    for a hit that is not flat: its numbers stay in the build's columns, which become the
+//!    chunk's (`compensated::lanes::Chunk::of_facets`); each other point's map written from
+//!    them), else lane by lane `Scene::bsdf_root` (the scalar code);
 //!    then lane by lane, in each path's order, the side test, the light selection and light
 //!    point through the shared gather ([`super::light::x8::Gather`]: area lights 8-wide);
 //!    then the chunk's compensated points and their state at ωi, once for steps 3 and 4
@@ -25,20 +28,21 @@
 //!    trace for `direct`).
 //!
 //! Over the mirror sawtooth the first orders of steps 3 and 4 run in lanes too
-//! (`compensated::lanes`' `first`), from the chunk's columns built once for both steps. The
-//! per-hit build's per-point write (facet compaction, the map itself) and the draws still run
-//! per lane through the scalar code; every number
+//! (`compensated::lanes`' `first`), from the chunk's columns built once for both steps (there
+//! from the build's columns as they are: no per-point map, issue 18, seventeenth session).
+//! The draws still run per lane through the scalar code; every number
 //! is the scalar model's bit for bit
 //! (`compensated::lanes`' tests), so the image is the scalar renderer's (`docs/mnm.md`, "Issues
 //! 17/18: the compensated model in lanes (tenth session)" and "... the compensated build and
 //! sampler in lanes (eleventh session)").
 
-use crate::bsdf::mnm::Evaluation;
-use crate::bsdf::BsdfArena;
+use crate::bsdf::mnm::facets::Microgeometry;
+use crate::bsdf::mnm::{Evaluation, Tangent};
+use crate::bsdf::{BsdfArena, BsdfNode};
 use crate::geometry::SurfaceInteraction;
 use crate::lane::vec::V3;
 use crate::lane::{Lane, ToArray};
-use crate::material::{MatId, MaterialNode, Materials};
+use crate::material::{MatId, MaterialNode, Materials, MnmCols};
 use crate::scene::Scene;
 use crate::texture::Texture;
 use glam::Vec3;
@@ -77,52 +81,127 @@ pub(crate) fn shared_nested(materials: &Materials, m: MatId) -> bool {
     }
 }
 
-/// Pushes the microfacet normal maps of the 8 hits `si` of material `m` (one that
-/// [`qualifies`] and [`shared_nested`]) into `arena`, as `Materials::build_at` builds them but
-/// without the incident-direction cache, which `compensated::lanes::with_incident_x8` then adds
-/// for the 8 points at once; the leaf is pushed once for the chunk (a constant template: every
-/// hit's copy would be the same bit for bit). `rgb`: the normal map texture's values at the
-/// hits (looked up by the caller, [`normal_texture`]); the maps' arithmetic (perturbed
-/// normals, microsurfaces, facet frames, θp cells) runs for the 8 lanes together
-/// (`MnmSettings::lanes_at`, at the width of `L`), then each hit's map is written
-/// (`MnmSettings::map_lane_into`: `map_into`'s map bit for bit). Returns the roots
-/// (`u32::MAX` for a lane whose hit is not given) and the ωi the cache is for (shading frame,
-/// as `Materials::build_at` computes it). Inlined into the kernel (inside `Avx2::run`, where
-/// the 8-wide operations are single instructions).
+/// What [`build_shared`] built for a chunk.
+pub(crate) struct Built {
+    /// Each lane's BSDF root (`u32::MAX` for a lane whose hit is not given): its map, or for a
+    /// point built without one (bit k of `points`) the nested leaf (the map's lobes; its
+    /// queries go through the chunk, only its side test and frames through the root).
+    pub roots: [u32; 8],
+    /// The hits' ωi in the shading frame (as `Materials::build_at` computes it).
+    pub wi: [Vec3; 8],
+    /// The nested leaf's node, shared by the chunk's maps and points.
+    pub child: u32,
+    /// Bit k: lane k is a point over the mirror sawtooth built without its map
+    /// ([`lane_points`]).
+    pub points: u8,
+}
+
+/// The arithmetic of the maps of material `m` (a microfacet `normalmap`) at 8 hits, from the
+/// normal map texture's values `rgb` there (looked up by the caller, [`normal_texture`]):
+/// `MnmSettings::lanes_at` (perturbed normals, microsurfaces, facet frames, θp cells) at the
+/// width of `L`, stored by lane. Returned straight into the caller's slot (the ~2 KB columns
+/// are not moved again: [`build_shared`] and `Chunk::of_facets` read them in place).
 #[inline(always)]
-pub(crate) fn build_shared<L>(
-    scene: &Scene,
-    m: MatId,
-    si: &[Option<SurfaceInteraction>; 8],
-    rgb: V3<L>,
-    arena: &mut BsdfArena,
-) -> ([u32; 8], [Vec3; 8])
+pub(crate) fn build_lanes<L>(scene: &Scene, m: MatId, rgb: V3<L>) -> Option<MnmCols<8>>
 where
     L: Lane + ToArray<f32, 8>,
     L::I32: ToArray<i32, 8>,
 {
+    match &scene.materials.nodes()[m as usize] {
+        MaterialNode::MicrofacetNormalMap { settings, .. } => {
+            Some(settings.lanes_at(rgb).cols::<8>())
+        }
+        _ => None,
+    }
+}
+
+/// Builds the BSDFs of the 8 hits `si` of material `m` (one that [`qualifies`] and
+/// [`shared_nested`]) into `arena`: the leaf once for the chunk (a constant template: every
+/// hit's copy would be the same bit for bit); then, from the maps' arithmetic for the 8 lanes
+/// together (`lanes`, [`build_lanes`]), where the material's points are built without their
+/// maps (`points`, [`lane_points`]) every hit whose ωp is not flat is such a point (its
+/// numbers stay in `lanes`, for `Chunk::of_facets`), and each other hit's map is written
+/// (`MnmSettings::map_lane_into`: `map_into`'s map bit for bit), as `Materials::build_at`
+/// builds it but without the incident-direction cache (which
+/// `compensated::lanes::with_incident_alone_x8` adds where the scalar model answers).
+#[inline(always)]
+pub(crate) fn build_shared(
+    scene: &Scene,
+    m: MatId,
+    si: &[Option<SurfaceInteraction>; 8],
+    lanes: &MnmCols<8>,
+    points: bool,
+    arena: &mut BsdfArena,
+) -> Option<Built> {
     let materials = &scene.materials;
     let nodes = materials.nodes();
-    let (mut roots, mut wi) = ([u32::MAX; 8], [Vec3::Z; 8]);
     let MaterialNode::MicrofacetNormalMap {
         nested, settings, ..
     } = &nodes[m as usize]
     else {
-        return (roots, wi);
+        return None;
     };
     let MaterialNode::Leaf { template, .. } = &nodes[*nested as usize] else {
-        return (roots, wi);
+        return None;
     };
     let child = arena.push_with_lobes(materials.lobes(*nested), **template);
-    let lanes = settings.lanes_at(rgb).cols::<8>();
+    let mut b = Built {
+        roots: [u32::MAX; 8],
+        wi: [Vec3::Z; 8],
+        child,
+        points: 0,
+    };
     for (k, si) in si.iter().enumerate() {
         let Some(si) = si else { continue };
-        roots[k] = arena.push_microfacet_normal_map_with(child, |m| {
-            settings.map_lane_into(m, child, &lanes, k);
+        b.wi[k] = si.sh.to_local(si.wi);
+        // A point: not flat (`MicrofacetNormalMap::is_flat`, the map's `degenerate`), both
+        // facets kept (the map's `mirror_wall`), with its table cell.
+        if points && lanes.two_facets_with_cell(k) {
+            b.roots[k] = child;
+            b.points |= 1 << k;
+            continue;
+        }
+        b.roots[k] = arena.push_microfacet_normal_map_with(child, |m| {
+            settings.map_lane_into(m, child, lanes, k);
         });
-        wi[k] = si.sh.to_local(si.wi);
     }
-    (roots, wi)
+    Some(b)
+}
+
+/// Whether the points of material `m` (one that [`qualifies`] and [`shared_nested`]) are built
+/// without their maps where they can be (`compensated::lanes::Chunk::of_facets`, issue 18):
+/// over the mirror sawtooth, a nested leaf with a lane form that neither transmits nor has a
+/// Lambert closed form (`roughconductor`, `roughplastic`), so that every hit that is not flat
+/// is the compensated model alone (`mnm::compensated_alone`) over the mirror sawtooth.
+pub(crate) fn lane_points(materials: &Materials, m: MatId) -> bool {
+    let nodes = materials.nodes();
+    let MaterialNode::MicrofacetNormalMap {
+        nested, settings, ..
+    } = &nodes[m as usize]
+    else {
+        return false;
+    };
+    let MaterialNode::Leaf { template, .. } = &nodes[*nested as usize] else {
+        return false;
+    };
+    settings.geometry == Microgeometry::Sawtooth
+        && settings.tangent == Tangent::Mirror
+        && matches!(
+            **template,
+            BsdfNode::RoughConductor(_) | BsdfNode::RoughPlastic(_)
+        )
+        && !materials.lobes(*nested).has_transmission()
+}
+
+/// The remainder table of material `m` (a microfacet `normalmap` with one).
+pub(crate) fn ms_table(
+    scene: &Scene,
+    m: MatId,
+) -> Option<&'static crate::bsdf::mnm::ms_table::MsTable> {
+    match &scene.materials.nodes()[m as usize] {
+        MaterialNode::MicrofacetNormalMap { settings, .. } => settings.ms_table,
+        _ => None,
+    }
 }
 
 /// The normal map texture of material `m` (a microfacet `normalmap`).
@@ -189,13 +268,6 @@ pub(crate) mod x8 {
         }
     }
 
-    /// The BSDF built at `si` in step 2 (root `root` of `arena`), whose side test passed.
-    #[inline(always)]
-    fn bsdf<'a>(arena: &'a BsdfArena, root: u32, si: &SurfaceInteraction) -> SurfaceBsdf<'a> {
-        SurfaceBsdf::new(arena.bsdf(root), si.sh, si.ng, si.wi)
-            .expect("the side test passed in step 2")
-    }
-
     /// Shades the 8 paths `ids` (all at a surface of a material that [`super::qualifies`]) as
     /// `PathState::scatter` would, one after the other; hands each lane's light sample, then
     /// its BSDF sample, to `tail` (the integrator's end of the vertex). `arena` holds the 8
@@ -213,7 +285,6 @@ pub(crate) mod x8 {
         arena: &mut BsdfArena,
         tail: &mut impl Tail,
     ) {
-        let si_of = |b: &Batch, i: u32| -> SurfaceInteraction { b.surf.get(i as usize) };
         let ctx = BsdfContext::default();
         // The chunk's compensated points share their nested BSDF (one material, a constant
         // leaf): their first orders are evaluated together.
@@ -228,14 +299,41 @@ pub(crate) mod x8 {
         //    `Scene::bsdf_root`; then the side test and the light points, lane by lane in each
         //    path's order.
         arena.clear();
-        let mut built = [u32::MAX; 8];
-        let mut wi = [Vec3::Z; 8];
-        if shared {
-            let sis = ids.map(|i| Some(si_of(b, i)));
-            let rgb = normal_rgb(avx, scene, m0, &sis);
-            (built, wi) = super::build_shared(scene, m0, &sis, rgb, arena);
+        // Each lane's surface interaction, read from the batch's row once for the kernel.
+        let mut sis = [None; 8];
+        for (k, &i) in ids.iter().enumerate() {
+            sis[k] = Some(b.surf.get(i as usize));
         }
-        let mut root = [u32::MAX; 8];
+        let si_at = |k: usize| -> &SurfaceInteraction { sis[k].as_ref().expect("a hit per lane") };
+        let lane_points = shared && super::lane_points(&scene.materials, m0);
+        let lanes = match shared {
+            true => super::build_lanes(scene, m0, normal_rgb(avx, scene, m0, &sis)),
+            false => None,
+        };
+        let built = match &lanes {
+            Some(l) => super::build_shared(scene, m0, &sis, l, lane_points, arena),
+            None => None,
+        };
+        let (roots, wi) = match &built {
+            Some(bt) => (bt.roots, bt.wi),
+            None => ([u32::MAX; 8], [Vec3::Z; 8]),
+        };
+        // The other lanes' BSDFs (the scalar code), then where the maps answer their own
+        // queries (no points built without maps) the built maps that are no chunk points (the
+        // scalar model answers their queries) get their ωi caches: the arena is complete.
+        let mut all = roots;
+        for (k, r) in all.iter_mut().enumerate() {
+            if *r == u32::MAX {
+                *r = scene.bsdf_root(si_at(k), arena);
+            }
+        }
+        if shared && !lane_points {
+            with_incident_alone_x8(arena, &roots, &wi);
+        }
+        let arena: &BsdfArena = arena;
+        // The side test, then the light points, lane by lane in each path's order; each
+        // lane's `SurfaceBsdf` kept for steps 3 and 4.
+        let mut sb: [Option<SurfaceBsdf>; 8] = [None; 8];
         let mut nee = [false; 8];
         let mut tp = Cols3::default();
         let light_only = cfg.strategy == Strategy::LightOnly;
@@ -244,15 +342,11 @@ pub(crate) mod x8 {
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
-            let si = si_of(b, i as u32);
-            let r = match built[k] {
-                u32::MAX => scene.bsdf_root(&si, arena),
-                r => r,
-            };
-            let Some(bsdf) = SurfaceBsdf::new(arena.bsdf(r), si.sh, si.ng, si.wi) else {
+            let si = si_at(k);
+            let Some(bsdf) = SurfaceBsdf::new(arena.bsdf(all[k]), si.sh, si.ng, si.wi) else {
                 continue; // no light scatters toward wi: the path ends (`PathState::scatter`)
             };
-            root[k] = r;
+            sb[k] = Some(bsdf);
             tp.set(k, b.state[i].throughput);
             if cfg.strategy != Strategy::BsdfOnly && bsdf.lobes().is_smooth() {
                 nee[k] = true;
@@ -268,20 +362,38 @@ pub(crate) mod x8 {
         }
 
         // The compensated model's points (where the nested leaf is shared) and their state
-        // at ωi, once for steps 3 and 4 ([`Chunk`], 8-wide). The built maps that are no such
-        // points (the scalar model answers their queries) get their ωi caches.
-        if shared {
-            with_incident_alone_x8(arena, &built, &wi);
-        }
+        // at ωi, once for steps 3 and 4 ([`Chunk`], 8-wide; built in place: a struct literal,
+        // then its state at ωi): where the material's points are built without their maps
+        // (`super::lane_points`), from the build's lanes (the other lanes' maps are flat:
+        // the nested BSDF answers), else from the maps.
+        // (Each chunk a struct literal straight into `chunk`, then filled in place.)
         let mut pts = [None; 8];
-        for (k, &i) in ids.iter().enumerate() {
-            if shared && root[k] != u32::MAX {
-                let (local, wi) = bsdf(arena, root[k], &si_of(b, i)).local();
-                pts[k] = Point::of(local, wi);
+        if !lane_points {
+            for (k, bsdf) in sb.iter().enumerate() {
+                match bsdf {
+                    Some(bsdf) if shared => {
+                        let (local, wi) = bsdf.local();
+                        pts[k] = Point::of(local, wi);
+                    }
+                    _ => {}
+                }
             }
         }
-        // Built in place (a struct literal, then its state at ωi).
-        let mut chunk = Chunk::of(pts);
+        let mut chunk = match (&lanes, lane_points) {
+            (Some(l), true) => Chunk::of_facets(l.facets()),
+            _ => Chunk::of(pts),
+        };
+        if let (Some(l), Some(bt), true) = (&lanes, &built, lane_points) {
+            let mut on = 0u8;
+            for (k, bsdf) in sb.iter().enumerate() {
+                if bsdf.is_some() && bt.points & (1 << k) != 0 {
+                    on |= 1 << k;
+                }
+            }
+            if let (Some(cells), Some(table)) = (l.cells(), super::ms_table(scene, m0)) {
+                chunk.set_lanes(arena.bsdf(bt.child), table, cells, on, &wi);
+            }
+        }
         chunk.prepare();
 
         // 3. Next-event estimation: the BSDF toward the light points lane by lane (where a
@@ -296,13 +408,12 @@ pub(crate) mod x8 {
                     continue;
                 }
                 let i = i as usize;
-                let si = si_of(b, i as u32);
-                let s = bsdf(arena, root[k], &si);
+                let Some(s) = &sb[k] else { continue };
                 let Some(wo_k) = s.local_wo(d.get(k)) else {
                     continue; // `SurfaceBsdf::eval_pdf`'s side test
                 };
                 consistent[k] = true;
-                if pts[k].is_some() {
+                if chunk.has(k) {
                     lit |= 1 << k;
                     wo[k] = wo_k; // evaluated below with the other points
                 } else {
@@ -346,16 +457,13 @@ pub(crate) mod x8 {
         //    lane, to the tail (for `path`, `PathState::scatter`'s end).
         let sampled = sample_x8(&ctx, &chunk, &mut b.sampler, ids);
         for (k, &i) in ids.iter().enumerate() {
-            if root[k] == u32::MAX {
-                continue;
-            }
+            let Some(s) = &sb[k] else { continue };
             let i = i as usize;
-            let si = si_of(b, i as u32);
-            let s = bsdf(arena, root[k], &si);
-            let bs = match (pts[k], sampled[k]) {
-                (Some(_), Some(bs)) => s.world_sample(bs),
-                (Some(_), None) => None,
-                (None, _) => s.sample(&ctx, &mut b.sampler[i]),
+            let si = si_at(k);
+            let bs = match (chunk.has(k), sampled[k]) {
+                (true, Some(bs)) => s.world_sample(bs),
+                (true, None) => None,
+                (false, _) => s.sample(&ctx, &mut b.sampler[i]),
             };
             let Some(bs) = bs else {
                 continue;

@@ -20,18 +20,26 @@
 //! in the chunk's columns, in the scalar code's operations and order (bit for bit: `tests`
 //! and `first`'s own).
 //!
+//! The stream kernel builds its points over the mirror sawtooth without their maps
+//! ([`Chunk::of_facets`], [`Chunk::set_lanes`]): the build's facet and frame columns are the
+//! chunk's as they are, each point keeps only its place in the table ([`MsPlace`]), and the
+//! sampler's last step reads the point's microsurface from the columns (`first::Lane8`, the
+//! map's numbers in the map's operations), so the answers are the scalar model's over the map
+//! (`tests`).
+//!
 //! The points of one call must share their nested BSDF's parameters bit for bit (the batch
 //! evaluates with the first point's): the stream kernel groups them so (a material whose
 //! nested leaf has no textured parameter).
 
-use super::super::ms_table::{Lookups8, MsTable};
+use super::super::facets::FacetCols;
+use super::super::ms_table::{CellCols, Lookups8, MsTable, ThetaCell};
 use super::super::nested_batch::{Pairs, CHUNK};
 mod first;
 mod sample;
 
 use super::{
-    leave, pick_entry, sample_record_is_exact, AtIncident, AtWi, Collected, Entries, Known, MsRef,
-    Nested,
+    leave, pick_entry, sample_record_is_exact, AtIncident, AtWi, Collected, Entries, Known,
+    MsPlace, Nested,
 };
 use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfArena, BsdfContext, BsdfSample};
@@ -42,11 +50,13 @@ use glam::Vec3;
 
 /// One shading point of the chunk: the compensated model alone
 /// ([`crate::bsdf::mnm::compensated_alone`]) over a nested BSDF with a lane form, seen from
-/// `wi` (shading frame).
+/// `wi` (shading frame): its map (`None` for a point over the mirror sawtooth built without
+/// one, [`Chunk::of_lanes`]: its microsurface is in the chunk's columns) and its place in the
+/// table (the map's `MsRef` without the ωi cache, which the chunk does not read).
 #[derive(Clone, Copy)]
 pub(crate) struct Point<'a> {
-    m: &'a MicrofacetNormalMap,
-    r: &'a MsRef,
+    m: Option<&'a MicrofacetNormalMap>,
+    r: MsPlace,
     nested: Bsdf<'a>,
     wi: Vec3,
 }
@@ -60,7 +70,19 @@ impl<'a> Point<'a> {
         if let Nested::Other(_) = Nested::of(&nested) {
             return None;
         }
-        Some(Point { m, r, nested, wi })
+        Some(Point {
+            m: Some(m),
+            r: r.place,
+            nested,
+            wi,
+        })
+    }
+
+    /// The point's map (a point built with one: over another microgeometry than the mirror
+    /// sawtooth every point is).
+    #[inline(always)]
+    fn map(&self) -> &'a MicrofacetNormalMap {
+        self.m.expect("a point off the mirror sawtooth has its map")
     }
 }
 
@@ -80,6 +102,16 @@ pub(crate) struct Chunk<'a> {
     geo: first::Points8,
 }
 
+/// [`MsPlace::in_cell`] out of line, for [`Chunk::set_lanes`] in the stream kernel: inlined
+/// there (inside `Avx2::run`), LLVM vectorised its three reciprocals with a register-to-register
+/// `vmovq` (VEX 66 0F D6) that valgrind 3.19 cannot decode, so callgrind (`docs/bench/callgrind.sh`)
+/// stopped with SIGILL on the compensated stream renders; out of line it is the scalar code the
+/// per-point map's build ran (`MsRef::in_cell` in `map_lane_into`).
+#[inline(never)]
+fn place_in(table: &'static MsTable, cell: ThetaCell) -> MsPlace {
+    MsPlace::in_cell(table, cell)
+}
+
 impl<'a> Chunk<'a> {
     /// The chunk of the points `pts` (lanes without a point: `None`; see [`Point`]) before
     /// their state at ωi, which [`Self::prepare`] then computes in place: a plain struct
@@ -95,6 +127,57 @@ impl<'a> Chunk<'a> {
             mirror: all_mirror(&pts),
             geo: first::Points8::new(),
         }
+    }
+
+    /// The chunk of the stream kernel's points over the mirror sawtooth built without their
+    /// maps (issue 18), from the build's columns `facets` (`MnmSettings::lanes_at`): the
+    /// facets and frames go to the chunk's columns as they are
+    /// ([`first::Points8::of_facets`]); then [`Self::set_lanes`] places the points and
+    /// [`Self::prepare`] computes their state, as for [`Self::of`]. A struct literal, built in
+    /// the caller's slot.
+    #[inline(always)]
+    pub(crate) fn of_facets(facets: &FacetCols<8>) -> Self {
+        Chunk {
+            pts: [None; 8],
+            above: 0,
+            at: [AtWi::UNUSED; 8],
+            e: [Entries::EMPTY; 8],
+            mirror: true,
+            geo: first::Points8::of_facets(facets),
+        }
+    }
+
+    /// The points of a chunk from [`Self::of_facets`]: lane k (bit k of `lanes`) is the point
+    /// that `MnmSettings::map_lane_into` would write from lane k of the build (its
+    /// microsurface keeps both candidates, [`FacetCols::keeps`]; not flat; a compensated map
+    /// alone, see [`Point`]) with θp cell `cells.get(k)` in `table`, over the shared nested BSDF
+    /// `nested`, seen from `wi[k]`: its facets and frame are the map's, its table reference
+    /// the map's (`MsPlace::in_cell`), so every query answers as over the map (`tests`).
+    #[inline(always)]
+    pub(crate) fn set_lanes(
+        &mut self,
+        nested: Bsdf<'a>,
+        table: &'static MsTable,
+        cells: &CellCols<8>,
+        lanes: u8,
+        wi: &[Vec3; 8],
+    ) {
+        for k in 0..8 {
+            if lanes & (1 << k) != 0 {
+                self.pts[k] = Some(Point {
+                    m: None,
+                    r: place_in(table, cells.get(k)),
+                    nested,
+                    wi: wi[k],
+                });
+            }
+        }
+    }
+
+    /// Lane `k` has a point (its queries go through the chunk).
+    #[inline(always)]
+    pub(crate) fn has(&self, k: usize) -> bool {
+        self.pts[k].is_some()
     }
 
     /// [`Self::of`] and [`Self::prepare`] (the tests' chunks).
@@ -123,16 +206,16 @@ impl<'a> Chunk<'a> {
             if wi.z <= 0.0 {
                 continue;
             }
-            let r = pt.r;
+            let r = &pt.r;
             if r.baked_norm.is_some() && std::ptr::eq(*table.get_or_insert(r.table), r.table) {
                 q.push(k, &r.cell, wi);
             } else {
                 self.at[k] = AtWi::new(r, &pt.nested, wi, None);
             }
-            if mirror {
-                self.geo.push_point(k, pt.m, wi);
-            } else {
-                self.e[k] = Entries::new(pt.m, wi);
+            match (mirror, pt.m) {
+                (true, Some(m)) => self.geo.push_point(k, m, wi),
+                (true, None) => self.geo.push_wi(k, wi),
+                (false, _) => self.e[k] = Entries::new(pt.map(), wi),
             }
             self.above |= 1 << k;
         }
@@ -140,10 +223,13 @@ impl<'a> Chunk<'a> {
             let l = t.lookup_baked_x8(&q, true);
             for k in 0..8 {
                 match self.pts[k] {
-                    Some(pt) if q.is_used(k) => self.at[k] = AtWi::baked(pt.r, l[k]),
+                    Some(pt) if q.is_used(k) => self.at[k] = AtWi::baked(&pt.r, l[k]),
                     _ => {}
                 }
             }
+        }
+        if mirror {
+            self.geo.clear_unpushed();
         }
         if mirror && self.above != 0 {
             self.geo.entries();
@@ -202,7 +288,7 @@ fn remainders(st: &States, c: &Chunk) -> [Spectrum; 8] {
         let Some(pt) = pt.as_ref().filter(|_| st.is_live(k)) else {
             continue;
         };
-        let r = pt.r;
+        let r = &pt.r;
         if r.baked_norm.is_some()
             && c.at[k].ei != Spectrum::ZERO
             && std::ptr::eq(*table.get_or_insert(r.table), r.table)
@@ -215,7 +301,7 @@ fn remainders(st: &States, c: &Chunk) -> [Spectrum; 8] {
     for (k, o) in out.iter_mut().enumerate() {
         *o = match &pts[k] {
             Some(_) if q.is_used(k) => c.at[k].remainder_from(eo[k][1], st.wo[k]),
-            Some(pt) if st.is_live(k) => c.at[k].remainder(pt.r, st.wo[k]),
+            Some(pt) if st.is_live(k) => c.at[k].remainder(&pt.r, st.wo[k]),
             _ => Spectrum::ZERO,
         };
     }
@@ -292,7 +378,10 @@ pub(crate) fn with_incident_alone_x8(arena: &mut BsdfArena, roots: &[u32; 8], wi
 fn all_mirror(pts: &[Option<Point>; 8]) -> bool {
     let mut all = true;
     for pt in pts.iter().flatten() {
-        all &= pt.m.mirror_wall;
+        all &= match pt.m {
+            Some(m) => m.mirror_wall,
+            None => true, // built over the mirror sawtooth (`Chunk::of_lanes`)
+        };
     }
     all
 }
@@ -332,7 +421,7 @@ pub(crate) fn eval_pdf_x8(
         if c.mirror {
             lanes.push(k, wo, None);
         } else {
-            st.c[k] = Collected::new(pt.m, &c.e[k], wo, None, &mut pairs);
+            st.c[k] = Collected::new(pt.map(), &c.e[k], wo, None, &mut pairs);
         }
         st.wo[k] = wo;
         st.live |= 1 << k;
@@ -456,7 +545,12 @@ pub(crate) fn sample_x8(
                 continue;
             };
             let s = &mut samplers[ids[k] as usize];
-            (st.wo[k], st.known[k]) = leave(pt.m, &c.e[k], j, sampled, s);
+            // Over the mirror sawtooth from the chunk's columns (the map's numbers).
+            (st.wo[k], st.known[k]) = if c.mirror {
+                leave(&c.geo.lane(k), &c.e[k], j, sampled, s)
+            } else {
+                leave(pt.map(), &c.e[k], j, sampled, s)
+            };
             drawn |= 1 << k;
         }
     }
@@ -475,7 +569,7 @@ pub(crate) fn sample_x8(
         if c.mirror {
             lanes.push(k, st.wo[k], st.known[k]);
         } else {
-            st.c[k] = Collected::new(pt.m, &c.e[k], st.wo[k], st.known[k], &mut pairs);
+            st.c[k] = Collected::new(pt.map(), &c.e[k], st.wo[k], st.known[k], &mut pairs);
         }
         st.live |= 1 << k;
     }
@@ -684,8 +778,8 @@ mod tests {
                     "chunk {chunk} lane {k}"
                 );
                 let Some(pt) = above else { continue };
-                let at = AtWi::new(pt.r, &pt.nested, pt.wi, None);
-                let e = Entries::new(pt.m, pt.wi);
+                let at = AtWi::new(&pt.r, &pt.nested, pt.wi, None);
+                let e = Entries::new(pt.map(), pt.wi);
                 // Debug prints each f32 as its shortest round-trip form: equal strings are
                 // equal bits.
                 assert_eq!(
@@ -699,7 +793,7 @@ mod tests {
                     "chunk {chunk} lane {k}"
                 );
                 compared += 1;
-                if pt.m.mirror_wall {
+                if pt.map().mirror_wall {
                     wall_only += usize::from(e.len() == 1 && e.via_wall(0));
                     both += usize::from(e.len() == 2);
                 }
@@ -810,7 +904,10 @@ mod tests {
                         cached += pts
                             .iter()
                             .flatten()
-                            .filter(|p| p.wi.z > 0.0 && p.r.at(p.wi).is_some())
+                            .filter(|p| {
+                                let r = p.map().ms.as_ref().expect("a compensated map");
+                                p.wi.z > 0.0 && r.at(p.wi).is_some()
+                            })
                             .count();
                     }
                 }
@@ -822,6 +919,137 @@ mod tests {
         assert!(
             drawn > 8000 && cached > 2000,
             "{drawn} points, {cached} with the ωi cache"
+        );
+    }
+
+    /// The chunk of points built without their maps (`Chunk::of_facets` and `set_lanes`: the
+    /// stream kernel's build over the mirror sawtooth, from `MnmSettings::lanes_at`'s columns)
+    /// answers eval and sample as the scalar model over the maps the scalar renderer builds
+    /// (`MnmSettings::map_into`, with and without the ωi cache) bit for bit, lane by lane,
+    /// and leaves each sampler where the scalar call leaves it; the lanes it takes
+    /// (`MnmCols::two_facets_with_cell`) are exactly those whose map is the compensated model
+    /// alone over the mirror sawtooth: rough conductors and a rough plastic, baked and
+    /// per-bounce tables, random normal map values (beyond the tilt clamp, below the horizon,
+    /// flat ones), ωi and ωo over both hemispheres, lanes left out (a failed side test).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn chunk_of_the_build_lanes_equals_the_scalar_model() {
+        use super::super::super::facets::MaxTilt;
+        use super::super::super::TransmissionWalk;
+        use crate::lane::vec::V3;
+        use crate::lane::Avx2;
+        use crate::material::MnmSettings;
+        let Some(avx) = Avx2::detect() else { return };
+        let ctx = BsdfContext::default();
+        let mut rng = Pcg32::new(18, 9);
+        let mut arena = BsdfArena::new();
+        let nested = super::super::tests::push_reflectors(&mut arena);
+        let (geometry, tangent) = (Microgeometry::Sawtooth, Tangent::Mirror);
+        let (mut evals, mut samples, mut points, mut flat) = (0, 0, 0, 0);
+        for colour in [Colour::Baked, Colour::PerBounce] {
+            let table = unit_table(geometry, tangent, colour);
+            let settings = MnmSettings {
+                geometry,
+                tangent,
+                evaluation: Evaluation::Compensated,
+                max_order: 256,
+                max_theta: MaxTilt::new(70f32.to_radians()),
+                transmission_walk: TransmissionWalk::TwoSided,
+                lambert_closed_form: true,
+                ms_table: Some(table),
+            };
+            for &n in &nested {
+                for _ in 0..150 {
+                    let mut rgb = [Vec3::ZERO; 8];
+                    let (mut wi, mut wo) = ([Vec3::Z; 8], [Vec3::Z; 8]);
+                    for k in 0..8 {
+                        let z = rng.next_f32();
+                        rgb[k] = if rng.next_f32() < 0.1 {
+                            Vec3::new(0.5, 0.5, z) // flat
+                        } else {
+                            Vec3::new(rng.next_f32(), rng.next_f32(), z)
+                        };
+                        wi[k] = direction(&mut rng);
+                        wo[k] = direction(&mut rng);
+                    }
+                    let lanes = avx.run(|| {
+                        let col = |c: usize| avx.load(&rgb.map(|v| v[c]));
+                        settings
+                            .lanes_at(V3::new(col(0), col(1), col(2)))
+                            .cols::<8>()
+                    });
+                    let mut roots = [u32::MAX; 8];
+                    let mut mask = 0u8;
+                    for k in 0..8 {
+                        let mut m = MicrofacetNormalMap::placeholder();
+                        settings.map_into(&mut m, n, rgb[k]);
+                        if rng.next_f32() < 0.5 {
+                            m = m.with_incident(wi[k]);
+                        }
+                        roots[k] = arena.push_microfacet_normal_map(m);
+                        let alone = crate::bsdf::mnm::compensated_alone(arena.bsdf(roots[k]))
+                            .is_some_and(|(m, _, _)| m.mirror_wall);
+                        assert_eq!(lanes.two_facets_with_cell(k), alone, "{}", rgb[k]);
+                        flat += usize::from(!alone);
+                        if alone && rng.next_f32() < 0.9 {
+                            mask |= 1 << k;
+                        }
+                    }
+                    let chunk = || {
+                        let mut c = Chunk::of_facets(lanes.facets());
+                        let cells = lanes.cells().expect("compensated, with a table");
+                        c.set_lanes(arena.bsdf(n), table, cells, mask, &wi);
+                        c.prepare();
+                        c
+                    };
+                    let seeds: [u64; 8] = std::array::from_fn(|_| rng.next_u32() as u64);
+                    let got = eval_pdf_x8(&ctx, &chunk(), u8::MAX, &wo);
+                    let ids: [u32; 8] = std::array::from_fn(|k| k as u32);
+                    let mut samplers: Vec<Sampler> =
+                        seeds.iter().map(|&s| Sampler::from_seed(s, 2)).collect();
+                    let sampled = sample_x8(&ctx, &chunk(), &mut samplers, &ids);
+                    for k in 0..8 {
+                        if mask & (1 << k) == 0 {
+                            assert!(got[k] == (Spectrum::ZERO, 0.0) && sampled[k].is_none());
+                            continue;
+                        }
+                        points += 1;
+                        let b = arena.bsdf(roots[k]);
+                        let at = format!("{n} {colour:?} {} {} {}", rgb[k], wi[k], wo[k]);
+                        let mut s = Sampler::from_seed(seeds[k], 1);
+                        let (f, p) = b.eval_pdf(&ctx, wi[k], wo[k], &mut s);
+                        assert!(
+                            same3(got[k].0, f) && same(got[k].1, p),
+                            "{at}: {:?} vs {f} {p}",
+                            got[k]
+                        );
+                        evals += usize::from(wi[k].z > 0.0 && wo[k].z > 0.0);
+                        let mut s = Sampler::from_seed(seeds[k], 2);
+                        match (sampled[k], b.sample(&ctx, wi[k], &mut s)) {
+                            (None, None) => {}
+                            (Some(a), Some(w)) => {
+                                assert!(same3(a.wo, w.wo), "{at}");
+                                assert!(same(a.pdf, w.pdf), "{at}");
+                                assert!(same3(a.weight, w.weight), "{at}");
+                                assert_eq!((a.eta, a.lobe), (w.eta, w.lobe), "{at}");
+                                samples += 1;
+                            }
+                            (a, w) => panic!("{at}: {a:?} vs {w:?}"),
+                        }
+                        assert_eq!(
+                            samplers[k].next_1d().to_bits(),
+                            s.next_1d().to_bits(),
+                            "{at}"
+                        );
+                    }
+                }
+            }
+        }
+        // 6 × 150 chunks of 8 lanes: ~10 % flat, ~86 % of the rest points, a quarter of
+        // those with ωi and ωo above, half of them sampled.
+        assert!(
+            flat > 400 && points > 5000 && evals > 1000 && samples > 2000,
+            "{flat} flat, {points} points, {evals} evaluations, {samples} samples"
         );
     }
 }

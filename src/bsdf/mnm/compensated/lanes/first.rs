@@ -18,14 +18,17 @@
 //! mirror-sawtooth point of the chunk tests goes through here) and width 1 against width 8
 //! (`tests`).
 
+use super::super::super::facet_bsdf::reflect_across;
+use super::super::super::facets::{g1_of, FacetCols};
 use super::super::super::nested_batch::LaneNested;
-use super::super::{Entries, Known, Nested};
+use super::super::{Entries, Known, Leaves, Nested};
 use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::lane::frame::Frame as LaneFrame;
 use crate::lane::vec::V3;
 #[cfg(target_arch = "x86_64")]
 use crate::lane::{Avx2, F32x8};
 use crate::lane::{Lane, LaneMask};
+use crate::math::Frame;
 use crate::spectrum::Spectrum;
 use glam::Vec3;
 
@@ -53,6 +56,48 @@ pub(in crate::bsdf::mnm::compensated) struct Points8 {
     wall: [f32; 8],
     /// Bit k: lane k was pushed.
     pushed: u8,
+}
+
+/// Lane `k` of a [`Points8`] as [`super::super::leave`] reads a point's microsurface: facet
+/// 0's frame, the area vectors of the facet and the wall, the wall's normal, the numbers of
+/// the point's map ([`Points8::push_point`], [`Points8::of_facets`]) in the map's operations
+/// (`Frame::to_world`, [`g1_of`], [`reflect_across`]).
+pub(in crate::bsdf::mnm::compensated) struct Lane8<'p> {
+    p: &'p Points8,
+    k: usize,
+}
+
+impl Lane8<'_> {
+    #[inline(always)]
+    fn get(&self, x: &[[f32; 8]; 3]) -> Vec3 {
+        Vec3::new(x[0][self.k], x[1][self.k], x[2][self.k])
+    }
+}
+
+impl Leaves for Lane8<'_> {
+    #[inline(always)]
+    fn facet_to_world(&self, k: usize, w: Vec3) -> Vec3 {
+        debug_assert_eq!(k, 0, "over the mirror sawtooth every entry is facet 0's");
+        let fr = &self.p.fr;
+        Frame {
+            s: self.get(&fr[0]),
+            t: self.get(&fr[1]),
+            n: self.get(&fr[2]),
+        }
+        .to_world(w)
+    }
+    #[inline(always)]
+    fn mirror_wall(&self) -> bool {
+        true
+    }
+    #[inline(always)]
+    fn g1(&self, w: Vec3) -> f32 {
+        g1_of(&[self.get(&self.p.v0), self.get(&self.p.v1)], w)
+    }
+    #[inline(always)]
+    fn reflect_wall(&self, w: Vec3) -> Vec3 {
+        reflect_across(w, self.get(&self.p.n1))
+    }
 }
 
 /// One query's first-order inputs over [`Points8`], by lane: ωo, the known term (its path
@@ -108,6 +153,60 @@ impl Points8 {
             wall: [0.0; 8],
             pushed: 0,
         }
+    }
+
+    /// The microsurfaces and facet frames of the lanes of `f` (the stream kernel's build,
+    /// `MnmSettings::lanes_at`, over the mirror sawtooth): each lane that keeps both candidates
+    /// ([`FacetCols::keeps`]) holds the numbers [`Self::push_point`] copies from its map (the
+    /// map's facets and frame are these candidates, `Microsurface::of_lane`), without the map;
+    /// its ωi then comes with [`Self::push_wi`]. Lanes never pushed are reset to placeholders
+    /// by [`Self::clear_unpushed`].
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn of_facets(f: &FacetCols<8>) -> Self {
+        let z = [[0.0; 8], [0.0; 8], [1.0; 8]];
+        Points8 {
+            v0: *f.area_vectors(0),
+            v1: *f.area_vectors(1),
+            n1: *f.normals(1),
+            fr: *f.frame(0),
+            w: [[0.0; 8]; ENTRIES],
+            a: [z; ENTRIES],
+            has: [[0.0; 8]; ENTRIES],
+            wi: z,
+            wall0: [0.0; 8],
+            wall: [0.0; 8],
+            pushed: 0,
+        }
+    }
+
+    /// Lane `k` (its microsurface from [`Self::of_facets`]) seen from `wi` (z > 0).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn push_wi(&mut self, k: usize, wi: Vec3) {
+        set3(&mut self.wi, k, wi);
+        self.pushed |= 1 << k;
+    }
+
+    /// The lanes not pushed get [`Self::new`]'s placeholders (a lane of [`Self::of_facets`]
+    /// without a point may hold a flat microsurface's non-finite wall normal).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn clear_unpushed(&mut self) {
+        let z = Vec3::Z;
+        for k in 0..8 {
+            if self.pushed & (1 << k) == 0 {
+                set3(&mut self.v0, k, z);
+                set3(&mut self.v1, k, z);
+                set3(&mut self.n1, k, z);
+                for c in 0..3 {
+                    set3(&mut self.fr[c], k, z);
+                }
+            }
+        }
+    }
+
+    /// Lane `k`'s microsurface as [`super::super::leave`] reads it.
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn lane(&self, k: usize) -> Lane8<'_> {
+        Lane8 { p: self, k }
     }
 
     /// Lane `k`: the point of map `m` (over the mirror sawtooth: `m.mirror_wall`) seen from
