@@ -162,13 +162,13 @@ impl<'a> Chunk<'a> {
         lanes: u8,
         wi: &[Vec3; 8],
     ) {
-        for k in 0..8 {
+        for (k, &wi) in wi.iter().enumerate() {
             if lanes & (1 << k) != 0 {
                 self.pts[k] = Some(Point {
                     m: None,
                     r: place_in(table, cells.get(k)),
                     nested,
-                    wi: wi[k],
+                    wi,
                 });
             }
         }
@@ -221,9 +221,9 @@ impl<'a> Chunk<'a> {
         }
         if let Some(t) = table {
             let l = t.lookup_baked_x8(&q, true);
-            for k in 0..8 {
-                match self.pts[k] {
-                    Some(pt) if q.is_used(k) => self.at[k] = AtWi::baked(&pt.r, l[k]),
+            for (k, &lk) in l.iter().enumerate() {
+                match &self.pts[k] {
+                    Some(pt) if q.is_used(k) => self.at[k] = AtWi::baked(&pt.r, lk),
                     _ => {}
                 }
             }
