@@ -431,6 +431,12 @@ pub(crate) mod x8 {
         T::F::gather(col, count).to_array()
     }
 
+    /// The lanes whose kind (`kinds`: [`Gather`]'s `kind` column as integers) is `c`.
+    #[inline(always)]
+    fn is_kind<T: Wide<W>, const W: usize>(kinds: T::I, c: u8) -> T::M {
+        kinds.eq(kinds.splat(c as i32))
+    }
+
     /// `new` where `on`, else the column `old` (`WHOLE`: `new` everywhere).
     #[inline(always)]
     fn keep<T: Wide<W>, const W: usize, const WHOLE: bool>(
@@ -1313,6 +1319,9 @@ pub(crate) mod x8 {
             let su = V2::new(avx.load(&self.tux), avx.load(&self.tuy));
             let sel8 = avx.load(&self.sel);
             let kind = self.kind;
+            // The lanes' kinds as integers, compared 8-wide per kind (not 8 byte compares and
+            // a mask built from them).
+            let kinds = avx.load_i32(&kind.map(i32::from));
             if self.counts[0] > 0 {
                 let q = sample_triangle(
                     &Triangle {
@@ -1325,7 +1334,7 @@ pub(crate) mod x8 {
                     },
                     ref_p,
                 );
-                merge(&mut lp, m(&kind.map(|c| c == KIND_TRIANGLE)), &q, sel8);
+                merge(&mut lp, is_kind::<T, W>(kinds, KIND_TRIANGLE), &q, sel8);
             }
             if self.counts[1] > 0 {
                 let q = sample_rectangle(
@@ -1337,7 +1346,7 @@ pub(crate) mod x8 {
                     },
                     ref_p,
                 );
-                merge(&mut lp, m(&kind.map(|c| c == KIND_RECTANGLE)), &q, sel8);
+                merge(&mut lp, is_kind::<T, W>(kinds, KIND_RECTANGLE), &q, sel8);
             }
             if self.counts[2] > 0 {
                 let q = sample_sphere(
@@ -1349,10 +1358,16 @@ pub(crate) mod x8 {
                     },
                     ref_p,
                 );
-                merge(&mut lp, m(&kind.map(|c| c == KIND_SPHERE)), &q, sel8);
+                merge(&mut lp, is_kind::<T, W>(kinds, KIND_SPHERE), &q, sel8);
             }
-            let on = kind.map(|c| c == KIND_TRIANGLE || c == KIND_RECTANGLE);
-            if self.n_textured > 0 && self.any_textured(&on) {
+            // The textured area lights' lanes (the flags built only when a lane has one).
+            let on_area = if self.n_textured > 0 {
+                kind.map(|c| c == KIND_TRIANGLE || c == KIND_RECTANGLE)
+            } else {
+                [false; W]
+            };
+            if self.any_textured(&on_area) {
+                let on = on_area;
                 // AreaLight::sample_direct's `radiance.eval(uv)` at the sampled point (triangles:
                 // `Shape::sample_position`'s uv from the same barycentrics; rectangles: `u`),
                 // then `nee::sample_emitter`'s zero test.
@@ -1365,7 +1380,7 @@ pub(crate) mod x8 {
                     T::F::select(has, tri(0, b.y), b.x),
                     T::F::select(has, tri(1, b.y), b.y),
                 );
-                let rect = m(&kind.map(|c| c == KIND_RECTANGLE));
+                let rect = is_kind::<T, W>(kinds, KIND_RECTANGLE);
                 let uv = V2::new(
                     T::F::select(rect, su.x, tri_uv.x),
                     T::F::select(rect, su.y, tri_uv.y),
@@ -1379,7 +1394,7 @@ pub(crate) mod x8 {
             let lv = self.lv.load(avx);
             if self.counts[3] > 0 {
                 let q = em::sample_point(self.center.load(avx), lv, ref_p);
-                merge_free(&mut lp, m(&kind.map(|c| c == KIND_POINT)), &q, sel8);
+                merge_free(&mut lp, is_kind::<T, W>(kinds, KIND_POINT), &q, sel8);
             }
             if self.counts[4] > 0 {
                 let [cos_cutoff, cos_beam, cutoff, beam_width] = self.cone.map(|c| avx.load(&c));
@@ -1404,11 +1419,11 @@ pub(crate) mod x8 {
             }
             if self.counts[5] > 0 {
                 let q = em::sample_directional(self.center.load(avx), lv, ref_p);
-                merge_free(&mut lp, m(&kind.map(|c| c == KIND_DIRECTIONAL)), &q, sel8);
+                merge_free(&mut lp, is_kind::<T, W>(kinds, KIND_DIRECTIONAL), &q, sel8);
             }
             if self.counts[6] > 0 {
                 let q = em::sample_constant(lv, su);
-                merge_free(&mut lp, m(&kind.map(|c| c == KIND_CONSTANT)), &q, sel8);
+                merge_free(&mut lp, is_kind::<T, W>(kinds, KIND_CONSTANT), &q, sel8);
             }
             if self.counts[7] > 0 {
                 let on = kind.map(|c| c == KIND_ENVMAP);
