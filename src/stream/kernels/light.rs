@@ -848,6 +848,8 @@ pub(crate) mod x8 {
             let zi = count.splat(0);
             let kind = T::I::select(avx.mask(on), T::I::gather_u32(&t.kind, count), zi);
             let kind = kind.to_array();
+            // Lane k of three columns (`kind`, `self.kind`, `self.one`): an index loop.
+            #[allow(clippy::needless_range_loop)]
             for k in 0..W {
                 let c = kind[k] as u8;
                 self.kind[k] = c;
