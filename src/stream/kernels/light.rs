@@ -3,7 +3,9 @@
 //! - the light selection (`LightSampler::sample`): up to 8 emitters, the count of selection-CDF
 //!   entries `<= u_sel` by a compare and add per entry, then each count's emitter and
 //!   probability from a table (`Distribution1D::bin_of_prefix`); one emitter needs no count;
-//!   more than 8 are searched lane by lane (`x8::Gather::add_x8`);
+//!   more than 8 are searched lane by lane (`x8::Gather::add_x8`); when every selectable
+//!   emitter is an untextured rectangle, a constant, point or directional light, the lanes'
+//!   emitter data are gathered 8-wide by that count from per-count columns (`x8::Gather::add_table`);
 //! - triangle meshes: `Shape::sample_position`'s point on the triangle that
 //!   `Shape::pick_triangle` chose (for the untextured lights of one mesh per chunk, 8-wide: a
 //!   binary search of the area CDF and the vertex gathers; else lane by lane), uniform triangle
