@@ -61,15 +61,17 @@ pub(crate) mod x8 {
         drawing: &[bool; W],
         d: Draws,
     ) -> Numbers<W> {
-        let mut parts = [(0u64, 1u64); W];
+        // The (state, increment) pairs in two columns, written in place (no array of pairs
+        // split by `map` afterwards).
+        let (mut state, mut inc) = ([0u64; W], [1u64; W]);
         let mut plain = [false; W];
         let mut any_plain = false;
         let mut all_plain = true;
         for (k, &i) in ids.iter().enumerate() {
             if drawing[k] {
                 match samplers[i as usize].plain_parts() {
-                    Some(pp) => {
-                        parts[k] = pp;
+                    Some((s, c)) => {
+                        (state[k], inc[k]) = (s, c);
                         plain[k] = true;
                         any_plain = true;
                     }
@@ -79,9 +81,7 @@ pub(crate) mod x8 {
         }
         let mut n = Numbers::default();
         if any_plain {
-            let inc = parts.map(|p| p.1);
-            let mut rng =
-                Pcg::<T::F>::from_parts(avx.load_u64(&parts.map(|p| p.0)), avx.load_u64(&inc));
+            let mut rng = Pcg::<T::F>::from_parts(avx.load_u64(&state), avx.load_u64(&inc));
             // Plain statements, not a closure: a closure would be compiled outside
             // `Avx2::run`'s target features (see `kernels`).
             if d.light {

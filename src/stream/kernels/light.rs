@@ -3,7 +3,9 @@
 //! - the light selection (`LightSampler::sample`): up to 8 emitters, the count of selection-CDF
 //!   entries `<= u_sel` by a compare and add per entry, then each count's emitter and
 //!   probability from a table (`Distribution1D::bin_of_prefix`); one emitter needs no count;
-//!   more than 8 are searched lane by lane (`x8::Gather::add_x8`);
+//!   more than 8 are searched lane by lane (`x8::Gather::add_x8`); when every selectable
+//!   emitter is an untextured rectangle, a constant, point or directional light, the lanes'
+//!   emitter data are gathered 8-wide by that count from per-count columns (`x8::Gather::add_table`);
 //! - triangle meshes: `Shape::sample_position`'s point on the triangle that
 //!   `Shape::pick_triangle` chose (for the untextured lights of one mesh per chunk, 8-wide: a
 //!   binary search of the area CDF and the vertex gathers; else lane by lane), uniform triangle
@@ -358,6 +360,7 @@ pub(crate) mod x8 {
     use crate::stream::kernels::diffuse::LightPoint;
     use crate::stream::kernels::emitters::{self as em, Env, FreePoint, Spot};
     use glam::Vec2;
+    use std::rc::Rc;
 
     /// The kinds of `Batch::light_lanes` (index + 1; [`KINDS`]).
     const KIND_TRIANGLE: u8 = 1;
@@ -422,6 +425,18 @@ pub(crate) mod x8 {
         pub(crate) fn store<L: Lane + crate::lane::ToArray<f32, W>>(v: V3<L>) -> Cols3<W> {
             Cols3([v.x.to_array(), v.y.to_array(), v.z.to_array()])
         }
+    }
+
+    /// Column `col` of a [`Table`] at each lane's selection count.
+    #[inline(always)]
+    fn by_count<T: Wide<W>, const W: usize>(col: &[f32; 10], count: T::I) -> [f32; W] {
+        T::F::gather(col, count).to_array()
+    }
+
+    /// The lanes whose kind (`kinds`: [`Gather`]'s `kind` column as integers) is `c`.
+    #[inline(always)]
+    fn is_kind<T: Wide<W>, const W: usize>(kinds: T::I, c: u8) -> T::M {
+        kinds.eq(kinds.splat(c as i32))
     }
 
     /// `new` where `on`, else the column `old` (`WHOLE`: `new` everywhere).
@@ -527,8 +542,8 @@ pub(crate) mod x8 {
         n_deferred: u32,
         tri_shape: u32,
         /// The light selection in lanes, made from the scene's light sampler at the first
-        /// [`Gather::add_x8`] (a gather serves one scene).
-        select: Option<Select>,
+        /// [`Gather::add_x8`] (a gather serves one scene; shared, not copied, per chunk).
+        select: Option<Rc<Select>>,
     }
 
     /// `LightSampler::sample`'s emitter and probability for 8 lanes at once: the count of CDF
@@ -547,6 +562,81 @@ pub(crate) mod x8 {
         /// Per count of entries `<= u` (0..=n + 1): the emitter and its probability.
         emitter: [u32; 10],
         pmf: [f32; 10],
+        /// Per count, what [`Gather::add_selected`] writes for its emitter, when every
+        /// count's emitter is one whose writes do not depend on the lane ([`Table`]).
+        table: Option<Table>,
+    }
+
+    /// [`Select`]'s emitters as columns indexed by the count of CDF entries `<= u_sel`, for
+    /// [`Gather::add_table`]: made when every emitter of the selection is an untextured
+    /// rectangle, a constant, a point or a directional light (the writes of
+    /// [`Gather::add_selected`] are then constants of the emitter: no triangle to pick, no
+    /// cone test, no table walk), so that 8 lanes' writes are 8-wide gathers (by count) instead
+    /// of a pass lane by lane. Unused entries of a column are 0 (never read: a lane's kind masks
+    /// them in [`Gather::finish`]).
+    #[derive(Clone, Copy, Debug, Default)]
+    struct Table {
+        /// The `KIND_*` of each count's emitter.
+        kind: [u32; 10],
+        /// The radiance (intensity, irradiance) of each count's emitter.
+        le: [[f32; 10]; 3],
+        /// A rectangle's columns (x, y, z, translation) and normal, and `1 / area`.
+        axes: [[[f32; 10]; 3]; 4],
+        n: [[f32; 10]; 3],
+        inv_area: [f32; 10],
+        /// A point light's position or a directional light's direction.
+        center: [[f32; 10]; 3],
+        /// Which of the columns above some emitter uses.
+        rect: bool,
+        center_used: bool,
+    }
+
+    impl Table {
+        /// The table of the emitters `emitter[..=n + 1]` (`lights`: `LaneLight::table`), or
+        /// `None` if one is not a constant of its emitter.
+        fn new(lights: &[Option<LaneLight>], emitter: &[u32; 10], n: usize) -> Option<Table> {
+            let mut t = Table::default();
+            for (c, &e) in emitter.iter().enumerate().take(n + 2) {
+                let set3 = |col: &mut [[f32; 10]; 3], v: Vec3| {
+                    (col[0][c], col[1][c], col[2][c]) = (v.x, v.y, v.z);
+                };
+                let (kind, le) = match *lights.get(e as usize)? {
+                    Some(LaneLight::Rectangle {
+                        axes,
+                        n,
+                        inv_area,
+                        radiance,
+                        textured: false,
+                    }) => {
+                        for (col, a) in t.axes.iter_mut().zip(axes) {
+                            set3(col, a);
+                        }
+                        set3(&mut t.n, n);
+                        t.inv_area[c] = inv_area;
+                        t.rect = true;
+                        (KIND_RECTANGLE, radiance)
+                    }
+                    Some(LaneLight::Constant { radiance }) => (KIND_CONSTANT, radiance),
+                    Some(LaneLight::Point {
+                        position,
+                        intensity,
+                    }) => {
+                        set3(&mut t.center, position);
+                        t.center_used = true;
+                        (KIND_POINT, intensity)
+                    }
+                    Some(LaneLight::Directional { d, irradiance }) => {
+                        set3(&mut t.center, d);
+                        t.center_used = true;
+                        (KIND_DIRECTIONAL, irradiance)
+                    }
+                    _ => return None,
+                };
+                t.kind[c] = kind as u32;
+                set3(&mut t.le, le);
+            }
+            Some(t)
+        }
     }
 
     #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -558,13 +648,14 @@ pub(crate) mod x8 {
     }
 
     impl Select {
-        fn new(scene: &Scene) -> Select {
+        fn new(scene: &Scene, lights: &[Option<LaneLight>]) -> Select {
             let mut s = Select {
                 mode: SelectMode::Empty,
                 cdf: [0.0; 9],
                 n: 0,
                 emitter: [0; 10],
                 pmf: [0.0; 10],
+                table: None,
             };
             let Some(d) = scene.light_sampler.distribution() else {
                 return s;
@@ -585,6 +676,7 @@ pub(crate) mod x8 {
             } else {
                 SelectMode::Counted
             };
+            s.table = Table::new(lights, &s.emitter, s.n);
             s
         }
     }
@@ -672,23 +764,37 @@ pub(crate) mod x8 {
             p: &Cols3<W>,
         ) {
             if self.select.is_none() {
-                self.select = Some(Select::new(scene));
+                self.select = Some(Rc::new(Select::new(scene, lights)));
             }
-            let Some(sel) = self.select else { return };
+            let Some(sel) = self.select.clone() else {
+                return;
+            };
+            if sel.mode == SelectMode::Empty {
+                return;
+            }
+            // Distribution1D::sample's count of the CDF entries <= u, 8-wide (one count,
+            // 0, for every lane where one emitter takes every count).
+            let count = if sel.mode == SelectMode::Counted {
+                let us = avx.load(u_sel);
+                let (zero, one) = (avx.splat(0.0), avx.splat(1.0));
+                let mut count = zero;
+                for &c in &sel.cdf[..=sel.n] {
+                    count = count + T::F::select(avx.splat(c).le(us), one, zero);
+                }
+                count.trunc_i32()
+            } else {
+                avx.load_i32(&[0; W])
+            };
+            if let Some(t) = &sel.table {
+                self.add_table(avx, t, &sel.pmf, count, light_only, on, u);
+                return;
+            }
             let mut emitter = [sel.emitter[0]; W];
             let mut pmf = [sel.pmf[0]; W];
             match sel.mode {
-                SelectMode::Empty => return,
-                SelectMode::One => {}
+                SelectMode::Empty | SelectMode::One => {}
                 SelectMode::Counted => {
-                    // Distribution1D::sample's count of the CDF entries <= u, 8-wide.
-                    let us = avx.load(u_sel);
-                    let (zero, one) = (avx.splat(0.0), avx.splat(1.0));
-                    let mut count = zero;
-                    for &c in &sel.cdf[..=sel.n] {
-                        count = count + T::F::select(avx.splat(c).le(us), one, zero);
-                    }
-                    let count = count.trunc_i32().to_array();
+                    let count = count.to_array();
                     for k in 0..W {
                         let c = count[k] as usize;
                         (emitter[k], pmf[k]) = (sel.emitter[c], sel.pmf[c]);
@@ -720,6 +826,59 @@ pub(crate) mod x8 {
             if self.n_deferred > 0 {
                 self.triangles_x8::<T, false>(avx, scene, u);
             }
+        }
+
+        /// [`Gather::add_selected`]'s writes for the lanes `on` whose selection counts are
+        /// `count` (`pmf`: [`Select::pmf`]), from the selection's [`Table`]: every column
+        /// 8-wide, gathered by count (written whole: the lanes off have no `kind` and are
+        /// dropped by [`Gather::finish`]'s masks).
+        #[inline(always)]
+        #[allow(clippy::too_many_arguments)]
+        fn add_table<T: Wide<W>>(
+            &mut self,
+            avx: T,
+            t: &Table,
+            pmf: &[f32; 10],
+            count: T::I,
+            light_only: bool,
+            on: &[bool; W],
+            u: &[[f32; W]; 2],
+        ) {
+            // A function, not a closure (a closure is compiled outside the lanes' target
+            // features, `kernels`).
+            let g = by_count::<T, W>;
+            let zi = count.splat(0);
+            let kind = T::I::select(avx.mask(on), T::I::gather_u32(&t.kind, count), zi);
+            let kind = kind.to_array();
+            // Lane k of three columns (`kind`, `self.kind`, `self.one`): an index loop.
+            #[allow(clippy::needless_range_loop)]
+            for k in 0..W {
+                let c = kind[k] as u8;
+                self.kind[k] = c;
+                if c != 0 {
+                    self.counts[c as usize - 1] += 1;
+                    // Delta lights take no MIS weight.
+                    self.one[k] = light_only || matches!(c, KIND_POINT | KIND_DIRECTIONAL);
+                }
+            }
+            self.textured = [false; W];
+            if t.rect {
+                for (col, a) in self.raxes.iter_mut().zip(&t.axes) {
+                    *col = Cols3([g(&a[0], count), g(&a[1], count), g(&a[2], count)]);
+                }
+                self.rn = Cols3([g(&t.n[0], count), g(&t.n[1], count), g(&t.n[2], count)]);
+                self.inv_area = g(&t.inv_area, count);
+            }
+            if t.center_used {
+                self.center = Cols3([
+                    g(&t.center[0], count),
+                    g(&t.center[1], count),
+                    g(&t.center[2], count),
+                ]);
+            }
+            (self.tux, self.tuy) = (u[0], u[1]);
+            self.sel = g(pmf, count);
+            self.lv = Cols3([g(&t.le[0], count), g(&t.le[1], count), g(&t.le[2], count)]);
         }
 
         /// Where every lane of `on` selected the same emitter and it is an untextured mesh or
@@ -1164,6 +1323,9 @@ pub(crate) mod x8 {
             let su = V2::new(avx.load(&self.tux), avx.load(&self.tuy));
             let sel8 = avx.load(&self.sel);
             let kind = self.kind;
+            // The lanes' kinds as integers, compared 8-wide per kind (not 8 byte compares and
+            // a mask built from them).
+            let kinds = avx.load_i32(&kind.map(i32::from));
             if self.counts[0] > 0 {
                 let q = sample_triangle(
                     &Triangle {
@@ -1176,7 +1338,7 @@ pub(crate) mod x8 {
                     },
                     ref_p,
                 );
-                merge(&mut lp, m(&kind.map(|c| c == KIND_TRIANGLE)), &q, sel8);
+                merge(&mut lp, is_kind::<T, W>(kinds, KIND_TRIANGLE), &q, sel8);
             }
             if self.counts[1] > 0 {
                 let q = sample_rectangle(
@@ -1188,7 +1350,7 @@ pub(crate) mod x8 {
                     },
                     ref_p,
                 );
-                merge(&mut lp, m(&kind.map(|c| c == KIND_RECTANGLE)), &q, sel8);
+                merge(&mut lp, is_kind::<T, W>(kinds, KIND_RECTANGLE), &q, sel8);
             }
             if self.counts[2] > 0 {
                 let q = sample_sphere(
@@ -1200,10 +1362,16 @@ pub(crate) mod x8 {
                     },
                     ref_p,
                 );
-                merge(&mut lp, m(&kind.map(|c| c == KIND_SPHERE)), &q, sel8);
+                merge(&mut lp, is_kind::<T, W>(kinds, KIND_SPHERE), &q, sel8);
             }
-            let on = kind.map(|c| c == KIND_TRIANGLE || c == KIND_RECTANGLE);
-            if self.n_textured > 0 && self.any_textured(&on) {
+            // The textured area lights' lanes (the flags built only when a lane has one).
+            let on_area = if self.n_textured > 0 {
+                kind.map(|c| c == KIND_TRIANGLE || c == KIND_RECTANGLE)
+            } else {
+                [false; W]
+            };
+            if self.any_textured(&on_area) {
+                let on = on_area;
                 // AreaLight::sample_direct's `radiance.eval(uv)` at the sampled point (triangles:
                 // `Shape::sample_position`'s uv from the same barycentrics; rectangles: `u`),
                 // then `nee::sample_emitter`'s zero test.
@@ -1216,7 +1384,7 @@ pub(crate) mod x8 {
                     T::F::select(has, tri(0, b.y), b.x),
                     T::F::select(has, tri(1, b.y), b.y),
                 );
-                let rect = m(&kind.map(|c| c == KIND_RECTANGLE));
+                let rect = is_kind::<T, W>(kinds, KIND_RECTANGLE);
                 let uv = V2::new(
                     T::F::select(rect, su.x, tri_uv.x),
                     T::F::select(rect, su.y, tri_uv.y),
@@ -1230,7 +1398,7 @@ pub(crate) mod x8 {
             let lv = self.lv.load(avx);
             if self.counts[3] > 0 {
                 let q = em::sample_point(self.center.load(avx), lv, ref_p);
-                merge_free(&mut lp, m(&kind.map(|c| c == KIND_POINT)), &q, sel8);
+                merge_free(&mut lp, is_kind::<T, W>(kinds, KIND_POINT), &q, sel8);
             }
             if self.counts[4] > 0 {
                 let [cos_cutoff, cos_beam, cutoff, beam_width] = self.cone.map(|c| avx.load(&c));
@@ -1255,11 +1423,11 @@ pub(crate) mod x8 {
             }
             if self.counts[5] > 0 {
                 let q = em::sample_directional(self.center.load(avx), lv, ref_p);
-                merge_free(&mut lp, m(&kind.map(|c| c == KIND_DIRECTIONAL)), &q, sel8);
+                merge_free(&mut lp, is_kind::<T, W>(kinds, KIND_DIRECTIONAL), &q, sel8);
             }
             if self.counts[6] > 0 {
                 let q = em::sample_constant(lv, su);
-                merge_free(&mut lp, m(&kind.map(|c| c == KIND_CONSTANT)), &q, sel8);
+                merge_free(&mut lp, is_kind::<T, W>(kinds, KIND_CONSTANT), &q, sel8);
             }
             if self.counts[7] > 0 {
                 let on = kind.map(|c| c == KIND_ENVMAP);

@@ -296,51 +296,62 @@ pub(crate) mod x8 {
             *n = None;
         }
         let textured = PER_LANE || FULL || sources.iter().any(Option::is_some);
-        for (k, &i) in ids.iter().enumerate() {
-            let i = i as usize;
-            b.light[i] = None;
-            if !front[k] {
-                continue;
+        if !textured {
+            // Nothing to look up lane by lane (so no `mask` either, which takes `FULL`): the
+            // pending light samples cleared and the throughputs gathered, in every lane (a lane
+            // behind its surface keeps its throughput too; its results are dropped).
+            for (k, &i) in ids.iter().enumerate() {
+                let i = i as usize;
+                b.light[i] = None;
+                tp.set(k, b.state[i].throughput);
             }
-            // The interaction, rebuilt from its row once, for the texture lookups.
-            let si = textured.then(|| b.surf.get(i));
-            for (j, n) in sources.iter().enumerate() {
-                if let (Some(n), Some(si)) = (n, &si) {
-                    normals[j].set(k, wrapper_normal::<FULL>(scene, *n, si));
+        } else {
+            for (k, &i) in ids.iter().enumerate() {
+                let i = i as usize;
+                b.light[i] = None;
+                if !front[k] {
+                    continue;
                 }
-            }
-            if let (Some(t), Some(si)) = (rho_tex, &si) {
-                c0.set(k, reflectance(scene, t, si));
-            }
-            if let (true, Some(si)) = (slots, &si) {
-                let v = leaf_values(scene, mat, si);
-                c0.set(k, v.0);
-                c1.set(k, v.1);
-                (au[k], av[k]) = (v.2, v.3);
-            }
-            tp.set(k, b.state[i].throughput);
-            if let (Some(t), Some(si)) = (mask_tex, &si) {
-                // bsdf::mask::sample: the choice (drawn where 0 < opacity < 1), then the nested
-                // BSDF's numbers where it is chosen.
-                let o = unit_weight(scalar_at(scene, t, si));
-                let s = &mut b.sampler[i];
-                through[k] = if o <= 0.0 {
-                    true
-                } else if o >= 1.0 {
-                    false
-                } else {
-                    !(s.next_1d() < o)
-                };
-                if !through[k] {
-                    if mat.draws_u1() {
-                        num.u1[k] = s.next_1d();
-                    }
-                    if mat.draws_u2() {
-                        let u = s.next_2d();
-                        (num.u2[0][k], num.u2[1][k]) = (u.x, u.y);
+                // The interaction, rebuilt from its row once, for the texture lookups.
+                let si = Some(b.surf.get(i));
+                for (j, n) in sources.iter().enumerate() {
+                    if let (Some(n), Some(si)) = (n, &si) {
+                        normals[j].set(k, wrapper_normal::<FULL>(scene, *n, si));
                     }
                 }
-                opacity[k] = o;
+                if let (Some(t), Some(si)) = (rho_tex, &si) {
+                    c0.set(k, reflectance(scene, t, si));
+                }
+                if let (true, Some(si)) = (slots, &si) {
+                    let v = leaf_values(scene, mat, si);
+                    c0.set(k, v.0);
+                    c1.set(k, v.1);
+                    (au[k], av[k]) = (v.2, v.3);
+                }
+                tp.set(k, b.state[i].throughput);
+                if let (Some(t), Some(si)) = (mask_tex, &si) {
+                    // bsdf::mask::sample: the choice (drawn where 0 < opacity < 1), then the nested
+                    // BSDF's numbers where it is chosen.
+                    let o = unit_weight(scalar_at(scene, t, si));
+                    let s = &mut b.sampler[i];
+                    through[k] = if o <= 0.0 {
+                        true
+                    } else if o >= 1.0 {
+                        false
+                    } else {
+                        !(s.next_1d() < o)
+                    };
+                    if !through[k] {
+                        if mat.draws_u1() {
+                            num.u1[k] = s.next_1d();
+                        }
+                        if mat.draws_u2() {
+                            let u = s.next_2d();
+                            (num.u2[0][k], num.u2[1][k]) = (u.x, u.y);
+                        }
+                    }
+                    opacity[k] = o;
+                }
             }
         }
 
