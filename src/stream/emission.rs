@@ -48,11 +48,30 @@ pub(crate) enum Seen {
     Scalar,
 }
 
+/// What the emission stage's first pass needs of a shape a ray hits, in one small row: its
+/// material (the sort key of the paths that scatter there) and what a ray that hits it sees
+/// ([`Seen`]'s variant: [`DARK`], [`AREA`] or [`SCALAR`]). Most hits see nothing, and for them
+/// this row is all the stage reads of the shape.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ShapeInfo {
+    pub material: crate::material::MatId,
+    pub seen: u8,
+}
+
+/// [`ShapeInfo::seen`] of a shape whose [`Seen`] is `Dark`.
+pub(crate) const DARK: u8 = 0;
+/// [`ShapeInfo::seen`] of a shape whose [`Seen`] is `Area`.
+pub(crate) const AREA: u8 = 1;
+/// [`ShapeInfo::seen`] of a shape whose [`Seen`] is `Scalar`.
+pub(crate) const SCALAR: u8 = 2;
+
 /// The scene's emission as the stage sees it, decided once at load.
 #[derive(Clone, Debug)]
 pub(crate) struct Lights {
     /// Per shape.
     pub shapes: Vec<Seen>,
+    /// Per shape, its material and its `shapes` entry's variant.
+    pub info: Vec<ShapeInfo>,
     /// The environment lights in `Scene::env_emission`'s order when every one is `constant`
     /// or `envmap` (constant ones of zero radiance left out); `None` when one is neither
     /// (escaped rays then go lane by lane).
@@ -76,7 +95,7 @@ pub(crate) enum Env {
 
 impl Lights {
     pub(crate) fn new(scene: &Scene) -> Lights {
-        let shapes = (0..scene.shapes.len())
+        let shapes: Vec<Seen> = (0..scene.shapes.len())
             .map(|s| {
                 let Some(e) = scene.shape_emitter[s] else {
                     return Seen::Dark;
@@ -139,7 +158,19 @@ impl Lights {
                     })
                     .collect()
             });
-        Lights { shapes, env }
+        let info = shapes
+            .iter()
+            .enumerate()
+            .map(|(s, seen)| ShapeInfo {
+                material: scene.shape_material[s],
+                seen: match seen {
+                    Seen::Dark => DARK,
+                    Seen::Area { .. } => AREA,
+                    Seen::Scalar => SCALAR,
+                },
+            })
+            .collect();
+        Lights { shapes, info, env }
     }
 }
 
@@ -282,17 +313,10 @@ pub(crate) fn env_where<L: Lane>(
 pub(crate) mod x8 {
     use super::*;
     use crate::integrator::PathSettings;
-    use crate::lane::Avx2;
+    use crate::lane::{Avx2, F32x8};
     use crate::stream::batch::{cols, Batch};
     use crate::stream::kernels::light::x8::Cols3;
     use glam::Vec2;
-
-    /// Row field `f` (three floats) of path `i`, into lane `k` of `c`.
-    #[inline(always)]
-    fn row3(c: &mut Cols3, k: usize, flat: &[f32], i: usize, f: usize) {
-        let r = &flat[i * cols::ROW + f..i * cols::ROW + f + 3];
-        (c.0[0][k], c.0[1][k], c.0[2][k]) = (r[0], r[1], r[2]);
-    }
 
     /// What the emission stage did in lanes (`LaneCounters`): paths whose emission went
     /// through the lanes, of which escaped rays under an environment map and hits on sphere
@@ -308,6 +332,14 @@ pub(crate) mod x8 {
     /// its path, marks every active path not alive, and lists in `batch.scatter` (ascending) the
     /// paths that scatter at their hit (depth + 1 < max_depth), with their material. Returns
     /// what went through the lanes. Call inside [`Avx2::run`].
+    ///
+    /// A first pass over a chunk's paths reads only what every path needs (its depth, whether
+    /// it hit, the hit shape's [`ShapeInfo`]), writes the scatter list without a capacity test
+    /// per path (the list is sized to the active paths first and cut to what was written) and
+    /// notes in bit masks the lanes that see something; the lanes' loads, arithmetic and
+    /// stores run only for a chunk with such a lane (most chunks have none, or only escaped
+    /// rays), each part only when one of its lanes is set. The per-path arrays are cut to the
+    /// batch's length once, so one bounds test covers a path's accesses.
     #[inline(always)]
     pub(crate) fn stage(
         avx: Avx2,
@@ -320,8 +352,19 @@ pub(crate) mod x8 {
         let env = lights.env.as_deref();
         let env_lights = env.unwrap_or(&[]);
         let has_map = env_lights.iter().any(|e| matches!(e, Env::Map { .. }));
+        // Where escaped rays that show their emission go: to the lanes, lane by lane through
+        // `add_emission` (an environment light the lanes do not cover), or nowhere (none).
+        let (miss_lanes, miss_scalar) = match env {
+            Some(e) => (!e.is_empty(), false),
+            None => (false, true),
+        };
+        // A path shows what its ray sees from this depth on (`!hide_emitters`, else after
+        // its first vertex), and scatters at its hit while depth < `last` (Mitsuba: while
+        // depth + 1 < max_depth).
+        let show_from = cfg.hide_emitters as u32;
+        let last = limit.saturating_sub(1);
         let mut counts = Counts::default();
-        batch.scatter.clear();
+        let n = batch.len();
         let Batch {
             active,
             state,
@@ -333,92 +376,74 @@ pub(crate) mod x8 {
             ray,
             ..
         } = batch;
-        let flat = &surf.flat()[..];
+        let (state, hit, alive, material, ray) = (
+            &mut state[..n],
+            &hit[..n],
+            &mut alive[..n],
+            &mut material[..n],
+            &ray[..n],
+        );
+        let rows = &surf.flat().as_chunks::<{ cols::ROW }>().0[..n];
+        let info = &lights.info[..];
+        scatter.clear();
+        scatter.resize(active.len(), 0);
+        let mut scattered = 0;
         for chunk in active.chunks(8) {
-            let mut lanes = [false; 8];
-            let mut miss = [false; 8];
-            let mut on_area = [false; 8];
-            let mut scalar = [false; 8];
-            let mut le: Cols3 = Cols3::default();
-            let mut area = [0.0f32; 8];
-            let mut pmf = [0.0f32; 8];
-            let mut is_sphere = [false; 8];
-            let mut center: Cols3 = Cols3::default();
-            let mut radius = [0.0f32; 8];
+            // Lane masks (bit k: the chunk's path k): escaped rays seen in lanes, hits on area
+            // lights seen in lanes, paths that go through `add_emission`.
+            let (mut miss, mut area, mut scalar) = (0u32, 0u32, 0u32);
             for (k, &i) in chunk.iter().enumerate() {
                 let i = i as usize;
                 alive[i] = false;
-                let st = &state[i];
-                let show = st.depth > 0 || !cfg.hide_emitters;
+                let depth = state[i].depth;
+                let show = depth >= show_from;
                 if hit[i].is_some() {
-                    let shape = flat[i * cols::ROW + cols::SHAPE].to_bits() as usize;
-                    if show {
-                        match lights.shapes[shape] {
-                            Seen::Dark => {}
-                            Seen::Area {
-                                radiance,
-                                area: a,
-                                pmf: q,
-                                sphere,
-                            } => {
-                                on_area[k] = true;
-                                lanes[k] = true;
-                                le.set(k, radiance);
-                                (area[k], pmf[k]) = (a, q);
-                                if let Some((c, r)) = sphere {
-                                    is_sphere[k] = true;
-                                    center.set(k, c);
-                                    radius[k] = r;
-                                    counts.sphere += 1;
-                                }
-                            }
-                            Seen::Scalar => scalar[k] = true,
+                    let shape = info[rows[i][cols::SHAPE].to_bits() as usize];
+                    // Written for every hit; read only for the paths listed (the sort key).
+                    material[i] = shape.material;
+                    scatter[scattered] = i as u32;
+                    scattered += (depth < last) as usize;
+                    if show && shape.seen != DARK {
+                        let bit = 1 << k;
+                        if shape.seen == AREA {
+                            area |= bit;
+                        } else {
+                            scalar |= bit;
                         }
-                    }
-                    // Mitsuba: continue only while depth + 1 < max_depth.
-                    if st.depth.saturating_add(1) < limit {
-                        material[i] = scene.shape_material[shape];
-                        scatter.push(i as u32);
                     }
                 } else if show {
-                    match env {
-                        Some(e) if !e.is_empty() => {
-                            miss[k] = true;
-                            lanes[k] = true;
-                            counts.env_map += has_map as u64;
-                        }
-                        Some(_) => {}
-                        None => scalar[k] = true,
-                    }
+                    miss |= 1 << k;
                 }
             }
-            if lanes.contains(&true) {
+            if miss_scalar {
+                (scalar, miss) = (scalar | miss, 0);
+            } else if !miss_lanes {
+                miss = 0;
+            }
+            let lanes = miss | area;
+            if lanes != 0 {
                 let mut t: Cols3 = Cols3::default();
                 let mut r: Cols3 = Cols3::default();
                 let mut pp: Cols3 = Cols3::default();
                 let mut pdf = [0.0f32; 8];
                 let mut mis = [false; 8];
                 let mut zero = [false; 8];
-                let mut p: Cols3 = Cols3::default();
-                let mut n: Cols3 = Cols3::default();
-                let mut wi: Cols3 = Cols3::default();
                 let mut d: Cols3 = Cols3::default();
-                for (k, &i) in chunk.iter().enumerate() {
-                    if !lanes[k] {
-                        continue;
-                    }
-                    let i = i as usize;
+                let mut b = lanes;
+                while b != 0 {
+                    let k = b.trailing_zeros() as usize;
+                    b &= b - 1;
+                    // Counted per lane: `count_ones` is a library call without `popcnt`.
+                    counts.lanes += 1;
+                    counts.env_map += (has_map & (miss >> k & 1 == 1)) as u64;
+                    let i = chunk[k] as usize;
                     let st = &state[i];
                     t.set(k, st.throughput);
                     r.set(k, st.result);
                     let pm: PrevMis = st.prev_mis(cfg);
                     pp.set(k, pm.p);
                     (pdf[k], mis[k], zero[k]) = (pm.pdf, pm.mis, pm.zero);
-                    if on_area[k] {
-                        row3(&mut p, k, flat, i, cols::P);
-                        row3(&mut n, k, flat, i, cols::N);
-                        row3(&mut wi, k, flat, i, cols::WI);
-                    } else if miss[k] {
+                    if miss >> k & 1 == 1 {
                         d.set(k, ray[i].d);
                     }
                 }
@@ -430,83 +455,178 @@ pub(crate) mod x8 {
                 };
                 let throughput = t.load(avx);
                 let mut out = r.load(avx);
-                let miss_m = avx.mask(&miss);
-                for e in env_lights {
-                    out = match *e {
-                        Env::Constant { radiance: c, pdf } => seen_env(
-                            out,
-                            throughput,
-                            &prev,
-                            miss_m,
-                            V3::splat(prev.pdf, c.x, c.y, c.z),
-                            avx.splat(pdf),
-                        ),
-                        Env::Map {
-                            emitter,
-                            pmf,
-                            to_local,
-                            half_texel,
-                        } => {
-                            let Emitter::EnvMap(m) = &scene.emitters[emitter as usize] else {
-                                unreachable!("Env::Map is an envmap")
-                            };
-                            let q = env_where(&to_local, half_texel, d.load(avx));
-                            let (seen, sin_ok) = (q.seen.to_array(), q.sin_ok.to_array());
-                            let (u, v) = (q.uv.x.to_array(), q.uv.y.to_array());
-                            let px = q.patch.x.to_array();
-                            let mut map_le: Cols3 = Cols3::default();
-                            let mut table = [0.0f32; 8];
-                            for k in 0..8 {
-                                if miss[k] && seen[k] {
-                                    map_le.set(k, m.lookup(Vec2::new(u[k], v[k])));
-                                    if sin_ok[k] {
-                                        table[k] = m.patch_pdf(Vec2::new(px[k], v[k]));
-                                    }
-                                }
-                            }
-                            let map_le = map_le.load(avx);
-                            let z = avx.splat(0.0);
-                            let on = miss_m
-                                & q.seen
-                                & !(map_le.x.eq(z) & map_le.y.eq(z) & map_le.z.eq(z));
-                            let lpdf = env_light_pdf(
-                                q.seen & q.sin_ok,
-                                avx.load(&table),
-                                q.sin_theta,
-                                avx.splat(pmf),
-                            );
-                            seen_env(out, throughput, &prev, on, map_le, lpdf)
-                        }
-                    };
+                if miss != 0 {
+                    out = seen_envs(avx, scene, env_lights, &prev, throughput, out, miss, &d);
                 }
-                let out = seen(
-                    out,
-                    throughput,
-                    &prev,
-                    avx.mask(&on_area),
-                    (le.load(avx), avx.load(&area), avx.load(&pmf)),
-                    (avx.mask(&is_sphere), center.load(avx), avx.load(&radius)),
-                    (p.load(avx), n.load(avx), wi.load(avx)),
-                );
+                if area != 0 {
+                    out = seen_areas(avx, lights, rows, chunk, area, &prev, throughput, out);
+                    counts.sphere += sphere_lanes(lights, rows, chunk, area);
+                }
                 let (x, y, z) = (out.x.to_array(), out.y.to_array(), out.z.to_array());
-                for (k, &i) in chunk.iter().enumerate() {
-                    if lanes[k] {
-                        state[i as usize].result = Vec3::new(x[k], y[k], z[k]);
-                        counts.lanes += 1;
-                    }
+                let mut b = lanes;
+                while b != 0 {
+                    let k = b.trailing_zeros() as usize;
+                    b &= b - 1;
+                    state[chunk[k] as usize].result = Vec3::new(x[k], y[k], z[k]);
                 }
             }
-            if scalar.contains(&true) {
-                for (k, &i) in chunk.iter().enumerate() {
-                    if scalar[k] {
-                        let i = i as usize;
-                        let si = hit[i].map(|_| surf.get(i));
-                        state[i].add_emission(cfg, scene, &ray[i], si.as_ref());
-                    }
-                }
+            let mut b = scalar;
+            while b != 0 {
+                let k = b.trailing_zeros() as usize;
+                b &= b - 1;
+                let i = chunk[k] as usize;
+                let si = hit[i].map(|_| surf.get(i));
+                state[i].add_emission(cfg, scene, &ray[i], si.as_ref());
             }
         }
+        scatter.truncate(scattered);
         counts
+    }
+
+    /// Every environment light seen by the escaped rays of a chunk (lanes `miss`, directions
+    /// `d`) whose paths have radiance `out`, throughput `throughput` and previous vertices
+    /// `prev`, in `Scene::env_emission`'s order. Returns the new radiance.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn seen_envs(
+        avx: Avx2,
+        scene: &Scene,
+        env_lights: &[Env],
+        prev: &Prev<F32x8>,
+        throughput: V3<F32x8>,
+        mut out: V3<F32x8>,
+        miss: u32,
+        d: &Cols3,
+    ) -> V3<F32x8> {
+        let miss_m = avx.mask_bits(miss);
+        for e in env_lights {
+            out = match *e {
+                Env::Constant { radiance: c, pdf } => seen_env(
+                    out,
+                    throughput,
+                    prev,
+                    miss_m,
+                    V3::splat(prev.pdf, c.x, c.y, c.z),
+                    avx.splat(pdf),
+                ),
+                Env::Map {
+                    emitter,
+                    pmf,
+                    to_local,
+                    half_texel,
+                } => {
+                    let Emitter::EnvMap(m) = &scene.emitters[emitter as usize] else {
+                        unreachable!("Env::Map is an envmap")
+                    };
+                    let q = env_where(&to_local, half_texel, d.load(avx));
+                    let (seen, sin_ok) = (q.seen.to_array(), q.sin_ok.to_array());
+                    let (u, v) = (q.uv.x.to_array(), q.uv.y.to_array());
+                    let px = q.patch.x.to_array();
+                    let mut map_le: Cols3 = Cols3::default();
+                    let mut table = [0.0f32; 8];
+                    for k in 0..8 {
+                        if miss >> k & 1 == 1 && seen[k] {
+                            map_le.set(k, m.lookup(Vec2::new(u[k], v[k])));
+                            if sin_ok[k] {
+                                table[k] = m.patch_pdf(Vec2::new(px[k], v[k]));
+                            }
+                        }
+                    }
+                    let map_le = map_le.load(avx);
+                    let z = avx.splat(0.0);
+                    let on = miss_m & q.seen & !(map_le.x.eq(z) & map_le.y.eq(z) & map_le.z.eq(z));
+                    let lpdf = env_light_pdf(
+                        q.seen & q.sin_ok,
+                        avx.load(&table),
+                        q.sin_theta,
+                        avx.splat(pmf),
+                    );
+                    seen_env(out, throughput, prev, on, map_le, lpdf)
+                }
+            };
+        }
+        out
+    }
+
+    /// The area lights seen by the paths of a chunk (lanes `area`, each a hit on a shape whose
+    /// [`Seen`] is `Area`, its row in `rows`) whose paths have radiance `out`, throughput
+    /// `throughput` and previous vertices `prev`. Returns the new radiance.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn seen_areas(
+        avx: Avx2,
+        lights: &Lights,
+        rows: &[[f32; cols::ROW]],
+        chunk: &[u32],
+        area: u32,
+        prev: &Prev<F32x8>,
+        throughput: V3<F32x8>,
+        out: V3<F32x8>,
+    ) -> V3<F32x8> {
+        let mut le: Cols3 = Cols3::default();
+        let mut a = [0.0f32; 8];
+        let mut pmf = [0.0f32; 8];
+        let mut is_sphere = [false; 8];
+        let mut center: Cols3 = Cols3::default();
+        let mut radius = [0.0f32; 8];
+        let mut p: Cols3 = Cols3::default();
+        let mut n: Cols3 = Cols3::default();
+        let mut wi: Cols3 = Cols3::default();
+        let mut b = area;
+        while b != 0 {
+            let k = b.trailing_zeros() as usize;
+            b &= b - 1;
+            let row = &rows[chunk[k] as usize];
+            let Seen::Area {
+                radiance,
+                area: sa,
+                pmf: q,
+                sphere,
+            } = lights.shapes[row[cols::SHAPE].to_bits() as usize]
+            else {
+                unreachable!("lane {k} hit an area light")
+            };
+            le.set(k, radiance);
+            (a[k], pmf[k]) = (sa, q);
+            if let Some((c, r)) = sphere {
+                is_sphere[k] = true;
+                center.set(k, c);
+                radius[k] = r;
+            }
+            let v3 = |c: usize| Vec3::new(row[c], row[c + 1], row[c + 2]);
+            p.set(k, v3(cols::P));
+            n.set(k, v3(cols::N));
+            wi.set(k, v3(cols::WI));
+        }
+        seen(
+            out,
+            throughput,
+            prev,
+            avx.mask_bits(area),
+            (le.load(avx), avx.load(&a), avx.load(&pmf)),
+            (avx.mask(&is_sphere), center.load(avx), avx.load(&radius)),
+            (p.load(avx), n.load(avx), wi.load(avx)),
+        )
+    }
+
+    /// How many of a chunk's lanes `area` (hits on area lights) hit a sphere light.
+    #[inline(always)]
+    fn sphere_lanes(lights: &Lights, rows: &[[f32; cols::ROW]], chunk: &[u32], area: u32) -> u64 {
+        let mut spheres = 0;
+        let mut b = area;
+        while b != 0 {
+            let k = b.trailing_zeros() as usize;
+            b &= b - 1;
+            let shape = rows[chunk[k] as usize][cols::SHAPE].to_bits() as usize;
+            spheres += matches!(
+                lights.shapes[shape],
+                Seen::Area {
+                    sphere: Some(_),
+                    ..
+                }
+            ) as u64;
+        }
+        spheres
     }
 }
 
