@@ -312,6 +312,8 @@ pub(crate) fn env_where<L: Lane>(
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
+    use crate::geometry::Ray;
+    use crate::integrator::path::PathState;
     use crate::integrator::PathSettings;
     use crate::lane::{Avx2, F32x8};
     use crate::stream::batch::{cols, Batch};
@@ -328,18 +330,18 @@ pub(crate) mod x8 {
         pub sphere: u64,
     }
 
-    /// The emission stage over `batch.active`, 8 paths at a time: adds what each ray sees to
-    /// its path, marks every active path not alive, and lists in `batch.scatter` (ascending) the
-    /// paths that scatter at their hit (depth + 1 < max_depth), with their material. Returns
-    /// what went through the lanes. Call inside [`Avx2::run`].
+    /// The emission stage over `batch.active`: adds what each ray sees to its path, marks
+    /// every active path not alive, and lists in `batch.scatter` (ascending) the paths that
+    /// scatter at their hit (depth + 1 < max_depth), with their material. Returns what went
+    /// through the lanes. Call inside [`Avx2::run`].
     ///
-    /// A first pass over a chunk's paths reads only what every path needs (its depth, whether
-    /// it hit, the hit shape's [`ShapeInfo`]), writes the scatter list without a capacity test
-    /// per path (the list is sized to the active paths first and cut to what was written) and
-    /// notes in bit masks the lanes that see something; the lanes' loads, arithmetic and
-    /// stores run only for a chunk with such a lane (most chunks have none, or only escaped
-    /// rays), each part only when one of its lanes is set. The per-path arrays are cut to the
-    /// batch's length once, so one bounds test covers a path's accesses.
+    /// One pass over the active paths reads only what every path needs (its depth, whether it
+    /// hit, the hit shape's [`ShapeInfo`]) and sorts the paths whose ray shows emission into
+    /// three lists (`batch.escaped`, `batch.on_lights`, `batch.one_by_one`) without a branch
+    /// for the escaped ones; then each list goes 8 paths at a time through its lanes (full
+    /// chunks: most paths see nothing, so lanes of mixed chunks would mostly idle), the last
+    /// lane by lane. The per-path arrays are cut to the batch's length once, so one bounds test
+    /// covers a path's accesses.
     #[inline(always)]
     pub(crate) fn stage(
         avx: Avx2,
@@ -349,21 +351,11 @@ pub(crate) mod x8 {
         batch: &mut Batch,
     ) -> Counts {
         let limit = crate::integrator::depth_limit(cfg.max_depth);
-        let env = lights.env.as_deref();
-        let env_lights = env.unwrap_or(&[]);
-        let has_map = env_lights.iter().any(|e| matches!(e, Env::Map { .. }));
-        // Where escaped rays that show their emission go: to the lanes, lane by lane through
-        // `add_emission` (an environment light the lanes do not cover), or nowhere (none).
-        let (miss_lanes, miss_scalar) = match env {
-            Some(e) => (!e.is_empty(), false),
-            None => (false, true),
-        };
         // A path shows what its ray sees from this depth on (`!hide_emitters`, else after
         // its first vertex), and scatters at its hit while depth < `last` (Mitsuba: while
         // depth + 1 < max_depth).
         let show_from = cfg.hide_emitters as u32;
         let last = limit.saturating_sub(1);
-        let mut counts = Counts::default();
         let n = batch.len();
         let Batch {
             active,
@@ -373,6 +365,9 @@ pub(crate) mod x8 {
             alive,
             material,
             scatter,
+            escaped,
+            on_lights,
+            one_by_one,
             ray,
             ..
         } = batch;
@@ -386,126 +381,129 @@ pub(crate) mod x8 {
         let rows = &surf.flat().as_chunks::<{ cols::ROW }>().0[..n];
         let info = &lights.info[..];
         scatter.clear();
-        scatter.resize(active.len(), 0);
-        let mut scattered = 0;
-        for chunk in active.chunks(8) {
-            // Lane masks (bit k: the chunk's path k): escaped rays seen in lanes, hits on area
-            // lights seen in lanes, paths that go through `add_emission`.
-            let (mut miss, mut area, mut scalar) = (0u32, 0u32, 0u32);
-            for (k, &i) in chunk.iter().enumerate() {
-                let i = i as usize;
-                alive[i] = false;
-                let depth = state[i].depth;
-                let show = depth >= show_from;
-                if hit[i].is_some() {
-                    let shape = info[rows[i][cols::SHAPE].to_bits() as usize];
-                    // Written for every hit; read only for the paths listed (the sort key).
-                    material[i] = shape.material;
-                    scatter[scattered] = i as u32;
-                    scattered += (depth < last) as usize;
-                    if show && shape.seen != DARK {
-                        let bit = 1 << k;
-                        if shape.seen == AREA {
-                            area |= bit;
-                        } else {
-                            scalar |= bit;
-                        }
-                    }
-                } else if show {
-                    miss |= 1 << k;
-                }
-            }
-            if miss_scalar {
-                (scalar, miss) = (scalar | miss, 0);
-            } else if !miss_lanes {
-                miss = 0;
-            }
-            let lanes = miss | area;
-            if lanes != 0 {
-                let mut t: Cols3 = Cols3::default();
-                let mut r: Cols3 = Cols3::default();
-                let mut pp: Cols3 = Cols3::default();
-                let mut pdf = [0.0f32; 8];
-                let mut mis = [false; 8];
-                let mut zero = [false; 8];
-                let mut d: Cols3 = Cols3::default();
-                let mut b = lanes;
-                while b != 0 {
-                    let k = b.trailing_zeros() as usize;
-                    b &= b - 1;
-                    // Counted per lane: `count_ones` is a library call without `popcnt`.
-                    counts.lanes += 1;
-                    counts.env_map += (has_map & (miss >> k & 1 == 1)) as u64;
-                    let i = chunk[k] as usize;
-                    let st = &state[i];
-                    t.set(k, st.throughput);
-                    r.set(k, st.result);
-                    let pm: PrevMis = st.prev_mis(cfg);
-                    pp.set(k, pm.p);
-                    (pdf[k], mis[k], zero[k]) = (pm.pdf, pm.mis, pm.zero);
-                    if miss >> k & 1 == 1 {
-                        d.set(k, ray[i].d);
+        escaped.clear();
+        on_lights.clear();
+        one_by_one.clear();
+        for &i in active.iter() {
+            let i = i as usize;
+            alive[i] = false;
+            let depth = state[i].depth;
+            let show = depth >= show_from;
+            if hit[i].is_some() {
+                let shape = info[rows[i][cols::SHAPE].to_bits() as usize];
+                // Written for every hit; read only for the paths listed (the sort key).
+                material[i] = shape.material;
+                scatter.put(i as u32, depth < last);
+                if show && shape.seen != DARK {
+                    if shape.seen == AREA {
+                        on_lights.push(i as u32);
+                    } else {
+                        one_by_one.push(i as u32);
                     }
                 }
-                let prev = Prev {
-                    p: pp.load(avx),
-                    pdf: avx.load(&pdf),
-                    mis: avx.mask(&mis),
-                    zero: avx.mask(&zero),
-                };
-                let throughput = t.load(avx);
-                let mut out = r.load(avx);
-                if miss != 0 {
-                    out = seen_envs(avx, scene, env_lights, &prev, throughput, out, miss, &d);
-                }
-                if area != 0 {
-                    out = seen_areas(avx, lights, rows, chunk, area, &prev, throughput, out);
-                    counts.sphere += sphere_lanes(lights, rows, chunk, area);
-                }
-                let (x, y, z) = (out.x.to_array(), out.y.to_array(), out.z.to_array());
-                let mut b = lanes;
-                while b != 0 {
-                    let k = b.trailing_zeros() as usize;
-                    b &= b - 1;
-                    state[chunk[k] as usize].result = Vec3::new(x[k], y[k], z[k]);
-                }
-            }
-            let mut b = scalar;
-            while b != 0 {
-                let k = b.trailing_zeros() as usize;
-                b &= b - 1;
-                let i = chunk[k] as usize;
-                let si = hit[i].map(|_| surf.get(i));
-                state[i].add_emission(cfg, scene, &ray[i], si.as_ref());
+            } else {
+                escaped.put(i as u32, show);
             }
         }
-        scatter.truncate(scattered);
+        let mut counts = Counts::default();
+        match lights.env.as_deref() {
+            // No environment light: escaped rays see nothing.
+            Some([]) => {}
+            Some(env) => {
+                for ids in escaped.chunks(8) {
+                    seen_envs(avx, scene, cfg, env, ids, state, ray);
+                }
+                counts.lanes += escaped.len() as u64;
+                if env.iter().any(|e| matches!(e, Env::Map { .. })) {
+                    counts.env_map += escaped.len() as u64;
+                }
+            }
+            // An environment light the lanes do not cover.
+            None => {
+                for &i in escaped.iter() {
+                    let i = i as usize;
+                    state[i].add_emission(cfg, scene, &ray[i], None);
+                }
+            }
+        }
+        for ids in on_lights.chunks(8) {
+            counts.sphere += seen_areas(avx, cfg, lights, rows, ids, state);
+        }
+        counts.lanes += on_lights.len() as u64;
+        for &i in one_by_one.iter() {
+            let i = i as usize;
+            let si = surf.get(i);
+            state[i].add_emission(cfg, scene, &ray[i], Some(&si));
+        }
         counts
     }
 
-    /// Every environment light seen by the escaped rays of a chunk (lanes `miss`, directions
-    /// `d`) whose paths have radiance `out`, throughput `throughput` and previous vertices
-    /// `prev`, in `Scene::env_emission`'s order. Returns the new radiance.
-    #[allow(clippy::too_many_arguments)]
+    /// The radiance, throughput and previous vertices of the paths `ids` (at most 8) in
+    /// lanes (the lanes past `ids.len()` 0 and without MIS).
+    #[inline(always)]
+    fn paths(
+        avx: Avx2,
+        cfg: &PathSettings,
+        ids: &[u32],
+        state: &[PathState],
+    ) -> (V3<F32x8>, V3<F32x8>, Prev<F32x8>) {
+        let mut t: Cols3 = Cols3::default();
+        let mut r: Cols3 = Cols3::default();
+        let mut pp: Cols3 = Cols3::default();
+        let mut pdf = [0.0f32; 8];
+        let mut mis = [false; 8];
+        let mut zero = [false; 8];
+        for (k, &i) in ids.iter().enumerate() {
+            let st = &state[i as usize];
+            t.set(k, st.throughput);
+            r.set(k, st.result);
+            let pm: PrevMis = st.prev_mis(cfg);
+            pp.set(k, pm.p);
+            (pdf[k], mis[k], zero[k]) = (pm.pdf, pm.mis, pm.zero);
+        }
+        let prev = Prev {
+            p: pp.load(avx),
+            pdf: avx.load(&pdf),
+            mis: avx.mask(&mis),
+            zero: avx.mask(&zero),
+        };
+        (r.load(avx), t.load(avx), prev)
+    }
+
+    /// The new radiance `out` of the paths `ids` (at most 8) into their states.
+    #[inline(always)]
+    fn write(ids: &[u32], out: V3<F32x8>, state: &mut [PathState]) {
+        let (x, y, z) = (out.x.to_array(), out.y.to_array(), out.z.to_array());
+        for (k, &i) in ids.iter().enumerate() {
+            state[i as usize].result = Vec3::new(x[k], y[k], z[k]);
+        }
+    }
+
+    /// Every environment light `env` (in `Scene::env_emission`'s order) seen by the escaped
+    /// rays of the paths `ids` (at most 8), added to their radiance.
     #[inline(always)]
     fn seen_envs(
         avx: Avx2,
         scene: &Scene,
-        env_lights: &[Env],
-        prev: &Prev<F32x8>,
-        throughput: V3<F32x8>,
-        mut out: V3<F32x8>,
-        miss: u32,
-        d: &Cols3,
-    ) -> V3<F32x8> {
-        let miss_m = avx.mask_bits(miss);
-        for e in env_lights {
+        cfg: &PathSettings,
+        env: &[Env],
+        ids: &[u32],
+        state: &mut [PathState],
+        ray: &[Ray],
+    ) {
+        let (mut out, throughput, prev) = paths(avx, cfg, ids, state);
+        let mut d: Cols3 = Cols3::default();
+        for (k, &i) in ids.iter().enumerate() {
+            d.set(k, ray[i as usize].d);
+        }
+        let used = avx.mask_bits(0xff >> (8 - ids.len()));
+        for e in env {
             out = match *e {
                 Env::Constant { radiance: c, pdf } => seen_env(
                     out,
                     throughput,
-                    prev,
-                    miss_m,
+                    &prev,
+                    used,
                     V3::splat(prev.pdf, c.x, c.y, c.z),
                     avx.splat(pdf),
                 ),
@@ -524,8 +522,8 @@ pub(crate) mod x8 {
                     let px = q.patch.x.to_array();
                     let mut map_le: Cols3 = Cols3::default();
                     let mut table = [0.0f32; 8];
-                    for k in 0..8 {
-                        if miss >> k & 1 == 1 && seen[k] {
+                    for k in 0..ids.len() {
+                        if seen[k] {
                             map_le.set(k, m.lookup(Vec2::new(u[k], v[k])));
                             if sin_ok[k] {
                                 table[k] = m.patch_pdf(Vec2::new(px[k], v[k]));
@@ -534,35 +532,33 @@ pub(crate) mod x8 {
                     }
                     let map_le = map_le.load(avx);
                     let z = avx.splat(0.0);
-                    let on = miss_m & q.seen & !(map_le.x.eq(z) & map_le.y.eq(z) & map_le.z.eq(z));
+                    let on = used & q.seen & !(map_le.x.eq(z) & map_le.y.eq(z) & map_le.z.eq(z));
                     let lpdf = env_light_pdf(
                         q.seen & q.sin_ok,
                         avx.load(&table),
                         q.sin_theta,
                         avx.splat(pmf),
                     );
-                    seen_env(out, throughput, prev, on, map_le, lpdf)
+                    seen_env(out, throughput, &prev, on, map_le, lpdf)
                 }
             };
         }
-        out
+        write(ids, out, state);
     }
 
-    /// The area lights seen by the paths of a chunk (lanes `area`, each a hit on a shape whose
-    /// [`Seen`] is `Area`, its row in `rows`) whose paths have radiance `out`, throughput
-    /// `throughput` and previous vertices `prev`. Returns the new radiance.
-    #[allow(clippy::too_many_arguments)]
+    /// The area lights seen by the paths `ids` (at most 8; each a hit on a shape whose
+    /// [`Seen`] is `Area`, its row in `rows`), added to their radiance. Returns how many hit a
+    /// sphere light.
     #[inline(always)]
     fn seen_areas(
         avx: Avx2,
+        cfg: &PathSettings,
         lights: &Lights,
         rows: &[[f32; cols::ROW]],
-        chunk: &[u32],
-        area: u32,
-        prev: &Prev<F32x8>,
-        throughput: V3<F32x8>,
-        out: V3<F32x8>,
-    ) -> V3<F32x8> {
+        ids: &[u32],
+        state: &mut [PathState],
+    ) -> u64 {
+        let (out, throughput, prev) = paths(avx, cfg, ids, state);
         let mut le: Cols3 = Cols3::default();
         let mut a = [0.0f32; 8];
         let mut pmf = [0.0f32; 8];
@@ -572,11 +568,9 @@ pub(crate) mod x8 {
         let mut p: Cols3 = Cols3::default();
         let mut n: Cols3 = Cols3::default();
         let mut wi: Cols3 = Cols3::default();
-        let mut b = area;
-        while b != 0 {
-            let k = b.trailing_zeros() as usize;
-            b &= b - 1;
-            let row = &rows[chunk[k] as usize];
+        let mut spheres = 0;
+        for (k, &i) in ids.iter().enumerate() {
+            let row = &rows[i as usize];
             let Seen::Area {
                 radiance,
                 area: sa,
@@ -584,7 +578,7 @@ pub(crate) mod x8 {
                 sphere,
             } = lights.shapes[row[cols::SHAPE].to_bits() as usize]
             else {
-                unreachable!("lane {k} hit an area light")
+                unreachable!("path {i} hit an area light")
             };
             le.set(k, radiance);
             (a[k], pmf[k]) = (sa, q);
@@ -592,40 +586,23 @@ pub(crate) mod x8 {
                 is_sphere[k] = true;
                 center.set(k, c);
                 radius[k] = r;
+                spheres += 1;
             }
             let v3 = |c: usize| Vec3::new(row[c], row[c + 1], row[c + 2]);
             p.set(k, v3(cols::P));
             n.set(k, v3(cols::N));
             wi.set(k, v3(cols::WI));
         }
-        seen(
+        let out = seen(
             out,
             throughput,
-            prev,
-            avx.mask_bits(area),
+            &prev,
+            avx.mask_bits(0xff >> (8 - ids.len())),
             (le.load(avx), avx.load(&a), avx.load(&pmf)),
             (avx.mask(&is_sphere), center.load(avx), avx.load(&radius)),
             (p.load(avx), n.load(avx), wi.load(avx)),
-        )
-    }
-
-    /// How many of a chunk's lanes `area` (hits on area lights) hit a sphere light.
-    #[inline(always)]
-    fn sphere_lanes(lights: &Lights, rows: &[[f32; cols::ROW]], chunk: &[u32], area: u32) -> u64 {
-        let mut spheres = 0;
-        let mut b = area;
-        while b != 0 {
-            let k = b.trailing_zeros() as usize;
-            b &= b - 1;
-            let shape = rows[chunk[k] as usize][cols::SHAPE].to_bits() as usize;
-            spheres += matches!(
-                lights.shapes[shape],
-                Seen::Area {
-                    sphere: Some(_),
-                    ..
-                }
-            ) as u64;
-        }
+        );
+        write(ids, out, state);
         spheres
     }
 }
