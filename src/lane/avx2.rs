@@ -149,6 +149,17 @@ impl Avx2 {
         let b = a.map(|x| -(x as i32));
         M8(unsafe { _mm256_castsi256_ps(_mm256_loadu_si256(b.as_ptr().cast())) })
     }
+    /// A mask from the low eight bits of `bits` (lane `k` set when bit `k` is; the inverse of
+    /// [`M8::bits`]): a broadcast, an and and a compare, no per-lane stores.
+    #[inline(always)]
+    pub fn mask_bits(self, bits: u32) -> M8 {
+        // SAFETY: the token proves AVX2.
+        unsafe {
+            let lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+            let b = _mm256_and_si256(_mm256_set1_epi32(bits as i32), lane_bit);
+            M8(_mm256_castsi256_ps(_mm256_cmpeq_epi32(b, lane_bit)))
+        }
+    }
 }
 
 #[target_feature(enable = "avx2,fma")]

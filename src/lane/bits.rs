@@ -46,4 +46,19 @@ mod tests {
             );
         }
     }
+
+    /// `Avx2::mask_bits` sets lane `k` exactly when bit `k` is set (bits above the eighth
+    /// ignored): `M8::bits` and `Avx2::mask` agree with it on every byte.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn a_mask_from_bits_has_those_bits() {
+        let Some(avx) = crate::lane::Avx2::detect() else {
+            return;
+        };
+        for m in 0..256u32 {
+            let (a, b) = (avx.mask_bits(m | 0x7f00), avx.mask(&bools8(m)));
+            assert_eq!((a.bits(), b.bits()), (m, m), "{m:#x}");
+            assert_eq!(a.to_array(), bools8(m));
+        }
+    }
 }

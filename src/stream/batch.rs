@@ -40,7 +40,13 @@ pub(crate) struct Batch {
     /// Ids of the paths to trace, ascending.
     pub active: Vec<u32>,
     /// Ids of the paths that scatter at this bounce, ascending (before the sort).
-    pub scatter: Vec<u32>,
+    pub scatter: Ids,
+    /// The emission stage's lists of the paths whose ray shows emission (ascending): escaped
+    /// rays, hits on area lights of constant radiance (both in lanes), and the paths that go
+    /// through `PathState::add_emission` one by one ([`crate::stream::emission`]).
+    pub escaped: Ids,
+    pub on_lights: Ids,
+    pub one_by_one: Ids,
     /// `scatter` stably sorted by material.
     pub sorted: Vec<u32>,
     /// Ids of the paths with a pending shadow ray, ascending.
@@ -71,7 +77,10 @@ impl Batch {
             alive: Vec::with_capacity(capacity),
             material: Vec::with_capacity(capacity),
             active: Vec::with_capacity(capacity),
-            scatter: Vec::with_capacity(capacity),
+            scatter: Ids::new(),
+            escaped: Ids::new(),
+            on_lights: Ids::new(),
+            one_by_one: Ids::new(),
             sorted: Vec::with_capacity(capacity),
             shadow: Vec::with_capacity(capacity),
             bins: vec![0; materials + 1],
@@ -89,6 +98,9 @@ impl Batch {
         self.ray.clear();
         self.active.clear();
         self.scatter.clear();
+        self.escaped.clear();
+        self.on_lights.clear();
+        self.one_by_one.clear();
         self.sorted.clear();
         self.shadow.clear();
     }
@@ -249,18 +261,18 @@ impl Batch {
             .iter()
             .all(|&i| self.material[i as usize] == m0)
         {
-            self.sorted.extend_from_slice(&self.scatter);
+            self.sorted.extend_from_slice(&self.scatter[..]);
             return false;
         }
         self.bins.fill(0);
-        for &i in &self.scatter {
+        for &i in self.scatter.iter() {
             self.bins[self.material[i as usize] as usize + 1] += 1;
         }
         for k in 1..self.bins.len() {
             self.bins[k] += self.bins[k - 1];
         }
         self.sorted.resize(self.scatter.len(), 0);
-        for &i in &self.scatter {
+        for &i in self.scatter.iter() {
             let b = &mut self.bins[self.material[i as usize] as usize];
             self.sorted[*b as usize] = i;
             *b += 1;
@@ -293,6 +305,59 @@ impl Batch {
             kept += alive[i as usize] as usize;
         }
         active.truncate(kept);
+    }
+}
+
+/// A list of path ids of one batch (at most [`BATCH`]) in a buffer of `BATCH` ids allocated
+/// once: appending is a store and an add, and [`Ids::put`] appends without a branch (a stage
+/// that keeps some of the ids it walks writes each one and advances past the kept ones), where
+/// `Vec::push` tests the capacity per id (measured in the emission stage: `docs/bench/README.md`,
+/// seventeenth session, h3).
+pub(crate) struct Ids {
+    buf: Box<[u32; BATCH]>,
+    len: usize,
+}
+
+impl Ids {
+    fn new() -> Ids {
+        Ids {
+            buf: vec![0; BATCH]
+                .into_boxed_slice()
+                .try_into()
+                .expect("BATCH ids"),
+            len: 0,
+        }
+    }
+
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// Appends `i`.
+    ///
+    /// # Panics
+    /// If the list holds [`BATCH`] ids.
+    #[inline(always)]
+    pub fn push(&mut self, i: u32) {
+        self.put(i, true);
+    }
+
+    /// Appends `i` when `keep` (the slot past the end is written either way).
+    ///
+    /// # Panics
+    /// If the list holds [`BATCH`] ids.
+    #[inline(always)]
+    pub fn put(&mut self, i: u32, keep: bool) {
+        self.buf[self.len] = i;
+        self.len += keep as usize;
+    }
+}
+
+impl core::ops::Deref for Ids {
+    type Target = [u32];
+    #[inline(always)]
+    fn deref(&self) -> &[u32] {
+        &self.buf[..self.len]
     }
 }
 
@@ -456,17 +521,40 @@ mod tests {
     #[test]
     fn the_material_sort_is_stable() {
         let mut b = batch(&[3, 1, 3, 0, 1, 7, 3]);
-        b.scatter.extend([0, 1, 2, 4, 5, 6]);
+        for i in [0, 1, 2, 4, 5, 6] {
+            b.scatter.push(i);
+        }
         assert!(b.sort_by_material());
         assert_eq!(b.sorted, [1, 4, 0, 2, 6, 5]);
         // Each run's end, from its material.
         let ends: Vec<usize> = [1, 3, 7].iter().map(|&m| b.run_end(m)).collect();
         assert_eq!(ends, [2, 5, 6]);
         b.scatter.clear();
-        b.scatter.extend([0, 2, 6]);
+        for i in [0, 2, 6] {
+            b.scatter.push(i);
+        }
         assert!(!b.sort_by_material());
         assert_eq!(b.sorted, [0, 2, 6]);
         assert_eq!(b.run_end(3), 3);
+    }
+
+    /// `put` keeps exactly the ids it is told to keep, in order, and a full list refuses more.
+    #[test]
+    fn id_lists_keep_what_they_are_told() {
+        let mut l = Ids::new();
+        for i in 0..BATCH as u32 {
+            l.put(i, i % 3 != 1);
+        }
+        let want: Vec<u32> = (0..BATCH as u32).filter(|i| i % 3 != 1).collect();
+        assert_eq!(&l[..], &want[..]);
+        l.clear();
+        assert!(l.is_empty());
+        for i in 0..BATCH as u32 {
+            l.push(i);
+        }
+        assert_eq!(l.len(), BATCH);
+        let full = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| l.put(0, false)));
+        assert!(full.is_err(), "a full list takes no more ids");
     }
 
     #[test]

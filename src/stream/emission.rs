@@ -48,11 +48,30 @@ pub(crate) enum Seen {
     Scalar,
 }
 
+/// What the emission stage's first pass needs of a shape a ray hits, in one small row: its
+/// material (the sort key of the paths that scatter there) and what a ray that hits it sees
+/// ([`Seen`]'s variant: [`DARK`], [`AREA`] or [`SCALAR`]). Most hits see nothing, and for them
+/// this row is all the stage reads of the shape.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ShapeInfo {
+    pub material: crate::material::MatId,
+    pub seen: u8,
+}
+
+/// [`ShapeInfo::seen`] of a shape whose [`Seen`] is `Dark`.
+pub(crate) const DARK: u8 = 0;
+/// [`ShapeInfo::seen`] of a shape whose [`Seen`] is `Area`.
+pub(crate) const AREA: u8 = 1;
+/// [`ShapeInfo::seen`] of a shape whose [`Seen`] is `Scalar`.
+pub(crate) const SCALAR: u8 = 2;
+
 /// The scene's emission as the stage sees it, decided once at load.
 #[derive(Clone, Debug)]
 pub(crate) struct Lights {
     /// Per shape.
     pub shapes: Vec<Seen>,
+    /// Per shape, its material and its `shapes` entry's variant.
+    pub info: Vec<ShapeInfo>,
     /// The environment lights in `Scene::env_emission`'s order when every one is `constant`
     /// or `envmap` (constant ones of zero radiance left out); `None` when one is neither
     /// (escaped rays then go lane by lane).
@@ -76,7 +95,7 @@ pub(crate) enum Env {
 
 impl Lights {
     pub(crate) fn new(scene: &Scene) -> Lights {
-        let shapes = (0..scene.shapes.len())
+        let shapes: Vec<Seen> = (0..scene.shapes.len())
             .map(|s| {
                 let Some(e) = scene.shape_emitter[s] else {
                     return Seen::Dark;
@@ -139,7 +158,19 @@ impl Lights {
                     })
                     .collect()
             });
-        Lights { shapes, env }
+        let info = shapes
+            .iter()
+            .enumerate()
+            .map(|(s, seen)| ShapeInfo {
+                material: scene.shape_material[s],
+                seen: match seen {
+                    Seen::Dark => DARK,
+                    Seen::Area { .. } => AREA,
+                    Seen::Scalar => SCALAR,
+                },
+            })
+            .collect();
+        Lights { shapes, info, env }
     }
 }
 
@@ -281,18 +312,13 @@ pub(crate) fn env_where<L: Lane>(
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
+    use crate::geometry::Ray;
+    use crate::integrator::path::PathState;
     use crate::integrator::PathSettings;
-    use crate::lane::Avx2;
+    use crate::lane::{Avx2, F32x8};
     use crate::stream::batch::{cols, Batch};
     use crate::stream::kernels::light::x8::Cols3;
     use glam::Vec2;
-
-    /// Row field `f` (three floats) of path `i`, into lane `k` of `c`.
-    #[inline(always)]
-    fn row3(c: &mut Cols3, k: usize, flat: &[f32], i: usize, f: usize) {
-        let r = &flat[i * cols::ROW + f..i * cols::ROW + f + 3];
-        (c.0[0][k], c.0[1][k], c.0[2][k]) = (r[0], r[1], r[2]);
-    }
 
     /// What the emission stage did in lanes (`LaneCounters`): paths whose emission went
     /// through the lanes, of which escaped rays under an environment map and hits on sphere
@@ -304,10 +330,18 @@ pub(crate) mod x8 {
         pub sphere: u64,
     }
 
-    /// The emission stage over `batch.active`, 8 paths at a time: adds what each ray sees to
-    /// its path, marks every active path not alive, and lists in `batch.scatter` (ascending) the
-    /// paths that scatter at their hit (depth + 1 < max_depth), with their material. Returns
-    /// what went through the lanes. Call inside [`Avx2::run`].
+    /// The emission stage over `batch.active`: adds what each ray sees to its path, marks
+    /// every active path not alive, and lists in `batch.scatter` (ascending) the paths that
+    /// scatter at their hit (depth + 1 < max_depth), with their material. Returns what went
+    /// through the lanes. Call inside [`Avx2::run`].
+    ///
+    /// One pass over the active paths reads only what every path needs (its depth, whether it
+    /// hit, the hit shape's [`ShapeInfo`]) and sorts the paths whose ray shows emission into
+    /// three lists (`batch.escaped`, `batch.on_lights`, `batch.one_by_one`) without a branch
+    /// for the escaped ones; then each list goes 8 paths at a time through its lanes (full
+    /// chunks: most paths see nothing, so lanes of mixed chunks would mostly idle), the last
+    /// lane by lane. The per-path arrays are cut to the batch's length once, so one bounds test
+    /// covers a path's accesses.
     #[inline(always)]
     pub(crate) fn stage(
         avx: Avx2,
@@ -317,11 +351,12 @@ pub(crate) mod x8 {
         batch: &mut Batch,
     ) -> Counts {
         let limit = crate::integrator::depth_limit(cfg.max_depth);
-        let env = lights.env.as_deref();
-        let env_lights = env.unwrap_or(&[]);
-        let has_map = env_lights.iter().any(|e| matches!(e, Env::Map { .. }));
-        let mut counts = Counts::default();
-        batch.scatter.clear();
+        // A path shows what its ray sees from this depth on (`!hide_emitters`, else after
+        // its first vertex), and scatters at its hit while depth < `last` (Mitsuba: while
+        // depth + 1 < max_depth).
+        let show_from = cfg.hide_emitters as u32;
+        let last = limit.saturating_sub(1);
+        let n = batch.len();
         let Batch {
             active,
             state,
@@ -330,183 +365,245 @@ pub(crate) mod x8 {
             alive,
             material,
             scatter,
+            escaped,
+            on_lights,
+            one_by_one,
             ray,
             ..
         } = batch;
-        let flat = &surf.flat()[..];
-        for chunk in active.chunks(8) {
-            let mut lanes = [false; 8];
-            let mut miss = [false; 8];
-            let mut on_area = [false; 8];
-            let mut scalar = [false; 8];
-            let mut le: Cols3 = Cols3::default();
-            let mut area = [0.0f32; 8];
-            let mut pmf = [0.0f32; 8];
-            let mut is_sphere = [false; 8];
-            let mut center: Cols3 = Cols3::default();
-            let mut radius = [0.0f32; 8];
-            for (k, &i) in chunk.iter().enumerate() {
-                let i = i as usize;
-                alive[i] = false;
-                let st = &state[i];
-                let show = st.depth > 0 || !cfg.hide_emitters;
-                if hit[i].is_some() {
-                    let shape = flat[i * cols::ROW + cols::SHAPE].to_bits() as usize;
-                    if show {
-                        match lights.shapes[shape] {
-                            Seen::Dark => {}
-                            Seen::Area {
-                                radiance,
-                                area: a,
-                                pmf: q,
-                                sphere,
-                            } => {
-                                on_area[k] = true;
-                                lanes[k] = true;
-                                le.set(k, radiance);
-                                (area[k], pmf[k]) = (a, q);
-                                if let Some((c, r)) = sphere {
-                                    is_sphere[k] = true;
-                                    center.set(k, c);
-                                    radius[k] = r;
-                                    counts.sphere += 1;
-                                }
-                            }
-                            Seen::Scalar => scalar[k] = true,
-                        }
-                    }
-                    // Mitsuba: continue only while depth + 1 < max_depth.
-                    if st.depth.saturating_add(1) < limit {
-                        material[i] = scene.shape_material[shape];
-                        scatter.push(i as u32);
-                    }
-                } else if show {
-                    match env {
-                        Some(e) if !e.is_empty() => {
-                            miss[k] = true;
-                            lanes[k] = true;
-                            counts.env_map += has_map as u64;
-                        }
-                        Some(_) => {}
-                        None => scalar[k] = true,
+        let (state, hit, alive, material, ray) = (
+            &mut state[..n],
+            &hit[..n],
+            &mut alive[..n],
+            &mut material[..n],
+            &ray[..n],
+        );
+        let rows = &surf.flat().as_chunks::<{ cols::ROW }>().0[..n];
+        let info = &lights.info[..];
+        scatter.clear();
+        escaped.clear();
+        on_lights.clear();
+        one_by_one.clear();
+        for &i in active.iter() {
+            let i = i as usize;
+            alive[i] = false;
+            let depth = state[i].depth;
+            let show = depth >= show_from;
+            if hit[i].is_some() {
+                let shape = info[rows[i][cols::SHAPE].to_bits() as usize];
+                // Written for every hit; read only for the paths listed (the sort key).
+                material[i] = shape.material;
+                scatter.put(i as u32, depth < last);
+                if show && shape.seen != DARK {
+                    if shape.seen == AREA {
+                        on_lights.push(i as u32);
+                    } else {
+                        one_by_one.push(i as u32);
                     }
                 }
+            } else {
+                escaped.put(i as u32, show);
             }
-            if lanes.contains(&true) {
-                let mut t: Cols3 = Cols3::default();
-                let mut r: Cols3 = Cols3::default();
-                let mut pp: Cols3 = Cols3::default();
-                let mut pdf = [0.0f32; 8];
-                let mut mis = [false; 8];
-                let mut zero = [false; 8];
-                let mut p: Cols3 = Cols3::default();
-                let mut n: Cols3 = Cols3::default();
-                let mut wi: Cols3 = Cols3::default();
-                let mut d: Cols3 = Cols3::default();
-                for (k, &i) in chunk.iter().enumerate() {
-                    if !lanes[k] {
-                        continue;
-                    }
+        }
+        let mut counts = Counts::default();
+        match lights.env.as_deref() {
+            // No environment light: escaped rays see nothing.
+            Some([]) => {}
+            Some(env) => {
+                for ids in escaped.chunks(8) {
+                    seen_envs(avx, scene, cfg, env, ids, state, ray);
+                }
+                counts.lanes += escaped.len() as u64;
+                if env.iter().any(|e| matches!(e, Env::Map { .. })) {
+                    counts.env_map += escaped.len() as u64;
+                }
+            }
+            // An environment light the lanes do not cover.
+            None => {
+                for &i in escaped.iter() {
                     let i = i as usize;
-                    let st = &state[i];
-                    t.set(k, st.throughput);
-                    r.set(k, st.result);
-                    let pm: PrevMis = st.prev_mis(cfg);
-                    pp.set(k, pm.p);
-                    (pdf[k], mis[k], zero[k]) = (pm.pdf, pm.mis, pm.zero);
-                    if on_area[k] {
-                        row3(&mut p, k, flat, i, cols::P);
-                        row3(&mut n, k, flat, i, cols::N);
-                        row3(&mut wi, k, flat, i, cols::WI);
-                    } else if miss[k] {
-                        d.set(k, ray[i].d);
-                    }
-                }
-                let prev = Prev {
-                    p: pp.load(avx),
-                    pdf: avx.load(&pdf),
-                    mis: avx.mask(&mis),
-                    zero: avx.mask(&zero),
-                };
-                let throughput = t.load(avx);
-                let mut out = r.load(avx);
-                let miss_m = avx.mask(&miss);
-                for e in env_lights {
-                    out = match *e {
-                        Env::Constant { radiance: c, pdf } => seen_env(
-                            out,
-                            throughput,
-                            &prev,
-                            miss_m,
-                            V3::splat(prev.pdf, c.x, c.y, c.z),
-                            avx.splat(pdf),
-                        ),
-                        Env::Map {
-                            emitter,
-                            pmf,
-                            to_local,
-                            half_texel,
-                        } => {
-                            let Emitter::EnvMap(m) = &scene.emitters[emitter as usize] else {
-                                unreachable!("Env::Map is an envmap")
-                            };
-                            let q = env_where(&to_local, half_texel, d.load(avx));
-                            let (seen, sin_ok) = (q.seen.to_array(), q.sin_ok.to_array());
-                            let (u, v) = (q.uv.x.to_array(), q.uv.y.to_array());
-                            let px = q.patch.x.to_array();
-                            let mut map_le: Cols3 = Cols3::default();
-                            let mut table = [0.0f32; 8];
-                            for k in 0..8 {
-                                if miss[k] && seen[k] {
-                                    map_le.set(k, m.lookup(Vec2::new(u[k], v[k])));
-                                    if sin_ok[k] {
-                                        table[k] = m.patch_pdf(Vec2::new(px[k], v[k]));
-                                    }
-                                }
-                            }
-                            let map_le = map_le.load(avx);
-                            let z = avx.splat(0.0);
-                            let on = miss_m
-                                & q.seen
-                                & !(map_le.x.eq(z) & map_le.y.eq(z) & map_le.z.eq(z));
-                            let lpdf = env_light_pdf(
-                                q.seen & q.sin_ok,
-                                avx.load(&table),
-                                q.sin_theta,
-                                avx.splat(pmf),
-                            );
-                            seen_env(out, throughput, &prev, on, map_le, lpdf)
-                        }
-                    };
-                }
-                let out = seen(
-                    out,
-                    throughput,
-                    &prev,
-                    avx.mask(&on_area),
-                    (le.load(avx), avx.load(&area), avx.load(&pmf)),
-                    (avx.mask(&is_sphere), center.load(avx), avx.load(&radius)),
-                    (p.load(avx), n.load(avx), wi.load(avx)),
-                );
-                let (x, y, z) = (out.x.to_array(), out.y.to_array(), out.z.to_array());
-                for (k, &i) in chunk.iter().enumerate() {
-                    if lanes[k] {
-                        state[i as usize].result = Vec3::new(x[k], y[k], z[k]);
-                        counts.lanes += 1;
-                    }
-                }
-            }
-            if scalar.contains(&true) {
-                for (k, &i) in chunk.iter().enumerate() {
-                    if scalar[k] {
-                        let i = i as usize;
-                        let si = hit[i].map(|_| surf.get(i));
-                        state[i].add_emission(cfg, scene, &ray[i], si.as_ref());
-                    }
+                    state[i].add_emission(cfg, scene, &ray[i], None);
                 }
             }
         }
+        for ids in on_lights.chunks(8) {
+            counts.sphere += seen_areas(avx, cfg, lights, rows, ids, state);
+        }
+        counts.lanes += on_lights.len() as u64;
+        for &i in one_by_one.iter() {
+            let i = i as usize;
+            let si = surf.get(i);
+            state[i].add_emission(cfg, scene, &ray[i], Some(&si));
+        }
         counts
+    }
+
+    /// The radiance, throughput and previous vertices of the paths `ids` (at most 8) in
+    /// lanes (the lanes past `ids.len()` 0 and without MIS).
+    #[inline(always)]
+    fn paths(
+        avx: Avx2,
+        cfg: &PathSettings,
+        ids: &[u32],
+        state: &[PathState],
+    ) -> (V3<F32x8>, V3<F32x8>, Prev<F32x8>) {
+        let mut t: Cols3 = Cols3::default();
+        let mut r: Cols3 = Cols3::default();
+        let mut pp: Cols3 = Cols3::default();
+        let mut pdf = [0.0f32; 8];
+        let mut mis = [false; 8];
+        let mut zero = [false; 8];
+        for (k, &i) in ids.iter().enumerate() {
+            let st = &state[i as usize];
+            t.set(k, st.throughput);
+            r.set(k, st.result);
+            let pm: PrevMis = st.prev_mis(cfg);
+            pp.set(k, pm.p);
+            (pdf[k], mis[k], zero[k]) = (pm.pdf, pm.mis, pm.zero);
+        }
+        let prev = Prev {
+            p: pp.load(avx),
+            pdf: avx.load(&pdf),
+            mis: avx.mask(&mis),
+            zero: avx.mask(&zero),
+        };
+        (r.load(avx), t.load(avx), prev)
+    }
+
+    /// The new radiance `out` of the paths `ids` (at most 8) into their states.
+    #[inline(always)]
+    fn write(ids: &[u32], out: V3<F32x8>, state: &mut [PathState]) {
+        let (x, y, z) = (out.x.to_array(), out.y.to_array(), out.z.to_array());
+        for (k, &i) in ids.iter().enumerate() {
+            state[i as usize].result = Vec3::new(x[k], y[k], z[k]);
+        }
+    }
+
+    /// Every environment light `env` (in `Scene::env_emission`'s order) seen by the escaped
+    /// rays of the paths `ids` (at most 8), added to their radiance.
+    #[inline(always)]
+    fn seen_envs(
+        avx: Avx2,
+        scene: &Scene,
+        cfg: &PathSettings,
+        env: &[Env],
+        ids: &[u32],
+        state: &mut [PathState],
+        ray: &[Ray],
+    ) {
+        let (mut out, throughput, prev) = paths(avx, cfg, ids, state);
+        let mut d: Cols3 = Cols3::default();
+        for (k, &i) in ids.iter().enumerate() {
+            d.set(k, ray[i as usize].d);
+        }
+        let used = avx.mask_bits(0xff >> (8 - ids.len()));
+        for e in env {
+            out = match *e {
+                Env::Constant { radiance: c, pdf } => seen_env(
+                    out,
+                    throughput,
+                    &prev,
+                    used,
+                    V3::splat(prev.pdf, c.x, c.y, c.z),
+                    avx.splat(pdf),
+                ),
+                Env::Map {
+                    emitter,
+                    pmf,
+                    to_local,
+                    half_texel,
+                } => {
+                    let Emitter::EnvMap(m) = &scene.emitters[emitter as usize] else {
+                        unreachable!("Env::Map is an envmap")
+                    };
+                    let q = env_where(&to_local, half_texel, d.load(avx));
+                    let (seen, sin_ok) = (q.seen.to_array(), q.sin_ok.to_array());
+                    let (u, v) = (q.uv.x.to_array(), q.uv.y.to_array());
+                    let px = q.patch.x.to_array();
+                    let mut map_le: Cols3 = Cols3::default();
+                    let mut table = [0.0f32; 8];
+                    for k in 0..ids.len() {
+                        if seen[k] {
+                            map_le.set(k, m.lookup(Vec2::new(u[k], v[k])));
+                            if sin_ok[k] {
+                                table[k] = m.patch_pdf(Vec2::new(px[k], v[k]));
+                            }
+                        }
+                    }
+                    let map_le = map_le.load(avx);
+                    let z = avx.splat(0.0);
+                    let on = used & q.seen & !(map_le.x.eq(z) & map_le.y.eq(z) & map_le.z.eq(z));
+                    let lpdf = env_light_pdf(
+                        q.seen & q.sin_ok,
+                        avx.load(&table),
+                        q.sin_theta,
+                        avx.splat(pmf),
+                    );
+                    seen_env(out, throughput, &prev, on, map_le, lpdf)
+                }
+            };
+        }
+        write(ids, out, state);
+    }
+
+    /// The area lights seen by the paths `ids` (at most 8; each a hit on a shape whose
+    /// [`Seen`] is `Area`, its row in `rows`), added to their radiance. Returns how many hit a
+    /// sphere light.
+    #[inline(always)]
+    fn seen_areas(
+        avx: Avx2,
+        cfg: &PathSettings,
+        lights: &Lights,
+        rows: &[[f32; cols::ROW]],
+        ids: &[u32],
+        state: &mut [PathState],
+    ) -> u64 {
+        let (out, throughput, prev) = paths(avx, cfg, ids, state);
+        let mut le: Cols3 = Cols3::default();
+        let mut a = [0.0f32; 8];
+        let mut pmf = [0.0f32; 8];
+        let mut is_sphere = [false; 8];
+        let mut center: Cols3 = Cols3::default();
+        let mut radius = [0.0f32; 8];
+        let mut p: Cols3 = Cols3::default();
+        let mut n: Cols3 = Cols3::default();
+        let mut wi: Cols3 = Cols3::default();
+        let mut spheres = 0;
+        for (k, &i) in ids.iter().enumerate() {
+            let row = &rows[i as usize];
+            let Seen::Area {
+                radiance,
+                area: sa,
+                pmf: q,
+                sphere,
+            } = lights.shapes[row[cols::SHAPE].to_bits() as usize]
+            else {
+                unreachable!("path {i} hit an area light")
+            };
+            le.set(k, radiance);
+            (a[k], pmf[k]) = (sa, q);
+            if let Some((c, r)) = sphere {
+                is_sphere[k] = true;
+                center.set(k, c);
+                radius[k] = r;
+                spheres += 1;
+            }
+            let v3 = |c: usize| Vec3::new(row[c], row[c + 1], row[c + 2]);
+            p.set(k, v3(cols::P));
+            n.set(k, v3(cols::N));
+            wi.set(k, v3(cols::WI));
+        }
+        let out = seen(
+            out,
+            throughput,
+            &prev,
+            avx.mask_bits(0xff >> (8 - ids.len())),
+            (le.load(avx), avx.load(&a), avx.load(&pmf)),
+            (avx.mask(&is_sphere), center.load(avx), avx.load(&radius)),
+            (p.load(avx), n.load(avx), wi.load(avx)),
+        );
+        write(ids, out, state);
+        spheres
     }
 }
 

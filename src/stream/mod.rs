@@ -848,7 +848,7 @@ fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Ra
     // `shadow` is a subsequence of `scatter`: written in place over a copy of it, branch-free
     // (the write position advances past the paths with a pending sample only).
     batch.shadow.clear();
-    batch.shadow.extend_from_slice(&batch.scatter);
+    batch.shadow.extend_from_slice(&batch.scatter[..]);
     let (shadow, light) = (&mut batch.shadow, &batch.light);
     let mut pending = 0;
     for r in 0..shadow.len() {
