@@ -25,7 +25,7 @@ use super::analytic::{
     cube, in_disk, in_square, planar, plane_cross, sphere, sphere_disc, sphere_roots, Affine,
     BoxHit, RayL,
 };
-use super::triangle::{in_bounds, tri_data, tri_edges, tri_t, triangle, TriL};
+use super::triangle::{in_bounds, tri_data, tri_edges, tri_plane, triangle, TriL, TriPlane};
 use crate::geometry::hit::NO_INSTANCE;
 use crate::geometry::shapes::{Shape, ShapeKind, CUBE_FACES};
 use crate::geometry::{Hit, Ray};
@@ -117,8 +117,8 @@ enum Slot {
     Plain,
     /// A box at this row of the box table.
     Box(u32),
-    /// A triangle mesh whose triangle 0 is this row of the triangle table.
-    Mesh(u32),
+    /// A triangle mesh (its hits carry their barycentrics from the test).
+    Mesh,
 }
 
 /// A box face as `BoxData` in `embree.rs` keeps it: a corner, its two edges each divided by
@@ -278,7 +278,7 @@ impl Brute {
                         hi: hi.to_array(),
                         rows: first..b.tri_rows.len(),
                     });
-                    Slot::Mesh(first as u32)
+                    Slot::Mesh
                 }
                 (ShapeKind::Sphere { center, radius, .. }, _) => {
                     let (c, l) = push_row(&mut b.spheres, &mut b.rows[0], empty_sphere);
@@ -317,15 +317,14 @@ impl Brute {
     pub(crate) fn intersect(&self, ray: &Ray) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
         if let Some(avx) = self.avx {
-            let (t, geom) = avx.run(
+            let (t, geom, u, v) = avx.run(
                 #[inline(always)]
                 || self.nearest_across(avx, ray),
             );
-            return self.finish(ray, t, geom);
+            return self.finish(ray, t, geom, u, v);
         }
-        let r = ray_lanes(ray);
-        let (t, geom) = self.nearest_of_each(&r, 0.0f32, NONE);
-        self.finish(ray, t, geom)
+        let b = self.nearest_of_each(&ray_lanes(ray), 0.0f32, NONE);
+        self.finish(ray, b.t, b.g, b.u / b.a, b.v / b.a)
     }
 
     /// Whether anything lies on `ray` in (tmin, tmax).
@@ -347,24 +346,28 @@ impl Brute {
         let rays = &rays[..rays.len().min(W)];
         #[cfg(target_arch = "x86_64")]
         if let Some(avx) = self.avx {
-            let (ts, geoms) = avx.run(
+            let (ts, geoms, us, vs) = avx.run(
                 #[inline(always)]
                 || {
-                    let (t, g) = self.nearest_of_each(&packet(avx, rays), avx.splat(0.0), NONE);
-                    (t.to_array(), g.to_array())
+                    let b = self.nearest_of_each(&packet(avx, rays), avx.splat(0.0), NONE);
+                    let (t, g) = (b.t.to_array(), b.g.to_array());
+                    if self.tri_rows.is_empty() {
+                        return (t, g, [0.0; W], [0.0; W]);
+                    }
+                    (t, g, (b.u / b.a).to_array(), (b.v / b.a).to_array())
                 },
             );
             *out = [None; W];
             for (i, ray) in rays.iter().enumerate() {
-                out[i] = self.finish(ray, ts[i], geoms[i]);
+                out[i] = self.finish(ray, ts[i], geoms[i], us[i], vs[i]);
             }
             return;
         }
         for (i, o) in out.iter_mut().enumerate() {
             *o = match rays.get(i) {
                 Some(ray) => {
-                    let (t, g) = self.nearest_of_each(&ray_lanes(ray), 0.0f32, NONE);
-                    self.finish(ray, t, g)
+                    let b = self.nearest_of_each(&ray_lanes(ray), 0.0f32, NONE);
+                    self.finish(ray, b.t, b.g, b.u / b.a, b.v / b.a)
                 }
                 None => None,
             };
@@ -395,9 +398,10 @@ impl Brute {
     }
 
     /// The hit of the primitive of key `key` at `t` (its winner; `None` for [`NONE`]), with the
-    /// triangle and barycentrics of a box or mesh.
+    /// triangle and barycentrics of a box, or the barycentrics `u`, `v` of a mesh triangle (the
+    /// test's numerators over |d·n|, divided in lanes or at width 1 alike).
     #[inline(always)]
-    fn finish(&self, ray: &Ray, t: f32, key: i32) -> Option<Hit> {
+    fn finish(&self, ray: &Ray, t: f32, key: i32, u: f32, v: f32) -> Option<Hit> {
         if key == NONE {
             return None;
         }
@@ -411,22 +415,15 @@ impl Brute {
             v: 0.0,
             inst: NO_INSTANCE,
         };
+        if self.box_rows.is_empty() && self.tri_rows.is_empty() {
+            return Some(hit);
+        }
         match self.slots.get(geom as usize) {
             Some(&Slot::Box(row)) => (hit.prim, hit.u, hit.v) = self.box_hit(ray, row as usize),
-            Some(&Slot::Mesh(first)) => {
-                (hit.u, hit.v) = self.tri_uv(ray, (first + prim) as usize);
-            }
+            Some(&Slot::Mesh) => (hit.u, hit.v) = (u, v),
             _ => {}
         }
         Some(hit)
-    }
-
-    /// The barycentrics (u, v) of `ray`'s crossing of the triangle at `row` (width 1, the
-    /// numerators the hit test compared, divided by |d·n|).
-    #[inline(never)]
-    fn tri_uv(&self, ray: &Ray, row: usize) -> (f32, f32) {
-        let e = tri_edges(&ray_lanes(ray), &tri_row(&self.tri_rows[row], 0.0f32));
-        (e.u / e.a, e.v / e.a)
     }
 
     /// The triangle and barycentrics of the box at `row` where `ray` hits it (width 1).
@@ -466,9 +463,9 @@ impl Brute {
     /// Width 1 or 8 rays (`ray`'s width) against every primitive, each splat across the lanes:
     /// per lane the smallest t and, on equal t, the lowest shape index (`NONE`: no hit).
     #[inline(always)]
-    fn nearest_of_each<L: Lane>(&self, ray: &RayL<L>, like: L, none: i32) -> (L, L::I32) {
+    fn nearest_of_each<L: Lane>(&self, ray: &RayL<L>, like: L, none: i32) -> Best<L> {
         let gi = like.to_bits();
-        let mut best = (like.splat(f32::INFINITY), gi.splat(none));
+        let mut best = Best::new(like, none);
         // A primitive that no lane can hit is left at its first half: its mask would be
         // false in every lane, and `keep` would keep nothing.
         for s in &self.sphere_rows {
@@ -507,11 +504,12 @@ impl Brute {
                 }
                 for r in &self.tri_rows[mesh.rows.clone()] {
                     let tri = tri_row(r, like);
-                    let mut e = tri_edges(ray, &tri);
-                    e.inside = e.inside & within;
-                    if e.inside.any() {
-                        let (t, m) = tri_t(ray, &tri, &e);
-                        keep(&mut best, t, m, gi.splat(r.geom));
+                    let p = tri_plane(ray, &tri);
+                    // Only a crossing in the interval, at or before the nearest hit so far,
+                    // can be kept (`keep_tri`), so the edge half may be skipped without it.
+                    if (within & p.t.gt(ray.tnear) & p.t.le(best.t)).any() {
+                        let (u, v, m) = tri_edges(ray, &tri, &p);
+                        keep_tri(&mut best, &p, u, v, m & within, gi.splat(r.geom));
                     }
                 }
             }
@@ -577,10 +575,9 @@ impl Brute {
             }
             for r in &self.tri_rows[mesh.rows.clone()] {
                 let tri = tri_row(r, like);
-                let mut e = tri_edges(ray, &tri);
-                e.inside = e.inside & within;
-                if e.inside.any() {
-                    any = any | tri_t(ray, &tri, &e).1;
+                let p = tri_plane(ray, &tri);
+                if (within & p.t.gt(ray.tnear) & p.t.lt(ray.tfar)).any() {
+                    any = any | (tri_edges(ray, &tri, &p).2 & within);
                     if any.all() {
                         return any;
                     }
@@ -597,10 +594,10 @@ impl Brute {
     /// index), then the smallest over the lanes (the order of the comparisons cannot change a
     /// strict lexicographic minimum). `(∞, NONE)` when nothing is hit.
     #[inline(always)]
-    fn nearest_across(&self, avx: Avx2, ray: &Ray) -> (f32, i32) {
+    fn nearest_across(&self, avx: Avx2, ray: &Ray) -> (f32, i32, f32, f32) {
         let r = splat_ray(avx, ray);
         let load = Load(avx);
-        let mut best = (avx.splat(f32::INFINITY), avx.load_i32(&[NONE; W]));
+        let mut best = Best::new(avx.splat(0.0), NONE);
         for s in &self.spheres {
             let c = V3::new(load.f(&s.c[0]), load.f(&s.c[1]), load.f(&s.c[2]));
             let (t, m) = sphere(&r, c, load.f(&s.r));
@@ -620,18 +617,19 @@ impl Brute {
             let load = Load(avx);
             let within = in_bounds(&r, inv, chunk_v3(load, &c.lo), chunk_v3(load, &c.hi));
             if within.any() {
-                let (t, m) = triangle(&r, &tri_chunk(avx, c));
-                keep(&mut best, t, m & within, avx.load_i32(&c.geom));
+                let (p, u, v, m) = triangle(&r, &tri_chunk(avx, c));
+                keep_tri(&mut best, &p, u, v, m & within, avx.load_i32(&c.geom));
             }
         }
-        let (ts, gs) = (best.0.to_array(), best.1.to_array());
-        (0..W).fold((f32::INFINITY, NONE), |(t, g), i| {
-            if ts[i] < t || (ts[i] == t && gs[i] < g) {
-                (ts[i], gs[i])
-            } else {
-                (t, g)
+        let (ts, gs) = (best.t.to_array(), best.g.to_array());
+        let mut k = 0;
+        for i in 1..W {
+            if ts[i] < ts[k] || (ts[i] == ts[k] && gs[i] < gs[k]) {
+                k = i;
             }
-        })
+        }
+        let (us, vs, a) = (best.u.to_array(), best.v.to_array(), best.a.to_array());
+        (ts[k], gs[k], us[k] / a[k], vs[k] / a[k])
     }
 
     /// One ray: whether any chunk has a lane hit.
@@ -659,7 +657,7 @@ impl Brute {
         let inv = tri_inv(avx, &r, !self.tris.is_empty());
         for c in &self.tris {
             let within = in_bounds(&r, inv, chunk_v3(load, &c.lo), chunk_v3(load, &c.hi));
-            if within.any() && (triangle(&r, &tri_chunk(avx, c)).1 & within).any() {
+            if within.any() && (triangle(&r, &tri_chunk(avx, c)).3 & within).any() {
                 return true;
             }
         }
@@ -823,15 +821,48 @@ fn to_object(to_world: &Mat4) -> [f32; 12] {
     m
 }
 
-/// Keeps, per lane, the hit (t, shape index `g`) of mask `m` when it comes before `best`: a
-/// smaller t, or the same t and a lower index.
+/// Per lane, the nearest hit so far: t, key, and for a mesh triangle the numerators of u and v
+/// and |d·n| (stale for the other kinds, whose barycentrics come from elsewhere).
+#[derive(Clone, Copy)]
+struct Best<L: Lane> {
+    t: L,
+    g: L::I32,
+    u: L,
+    v: L,
+    a: L,
+}
+
+impl<L: Lane> Best<L> {
+    /// No hit yet (t = ∞, key `none`), at the width of `like`.
+    #[inline(always)]
+    fn new(like: L, none: i32) -> Self {
+        Best {
+            t: like.splat(f32::INFINITY),
+            g: like.to_bits().splat(none),
+            u: like.splat(0.0),
+            v: like.splat(0.0),
+            a: like.splat(1.0),
+        }
+    }
+}
+
+/// Keeps, per lane, the hit (t, key `g`) of mask `m` when it comes before `best`: a smaller t,
+/// or the same t and a lower key. Returns where it kept.
 #[inline(always)]
-fn keep<L: Lane>(best: &mut (L, L::I32), t: L, m: L::Mask, g: L::I32) {
-    let better = m & (t.lt(best.0) | (t.eq(best.0) & g.lt(best.1)));
-    *best = (
-        L::select(better, t, best.0),
-        L::I32::select(better, g, best.1),
-    );
+fn keep<L: Lane>(best: &mut Best<L>, t: L, m: L::Mask, g: L::I32) -> L::Mask {
+    let better = m & (t.lt(best.t) | (t.eq(best.t) & g.lt(best.g)));
+    best.t = L::select(better, t, best.t);
+    best.g = L::I32::select(better, g, best.g);
+    better
+}
+
+/// [`keep`] of a triangle's hit, with its barycentric numerators `u`, `v` and |d·n|.
+#[inline(always)]
+fn keep_tri<L: Lane>(best: &mut Best<L>, p: &TriPlane<L>, u: L, v: L, m: L::Mask, g: L::I32) {
+    let better = keep(best, p.t, m, g);
+    best.u = L::select(better, u, best.u);
+    best.v = L::select(better, v, best.v);
+    best.a = L::select(better, p.a, best.a);
 }
 
 /// 8-wide loads (a named helper: closures in `Avx2::run` bodies are not always inlined).

@@ -40,49 +40,41 @@ pub(crate) fn tri_data(p0: glam::Vec3, p1: glam::Vec3, p2: glam::Vec3) -> [f32; 
     out
 }
 
-/// The edge half of the test: the sign-corrected numerators of u and v, |d·n|, and whether
-/// the ray's line crosses the triangle (a nonzero determinant, `U ≥ 0`, `V ≥ 0`,
-/// `U + V ≤ |d·n|`). Where `inside` is false in every lane, [`tri_t`] adds no hit, so a packet
-/// may stop here.
+/// The plane half of the test: where the ray's line crosses the triangle's plane. A packet
+/// whose lanes all cross outside the interval (or behind their nearest hit so far) may stop
+/// here: [`tri_edges`] cannot add a nearer hit.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct TriEdges<L: Lane> {
+pub(crate) struct TriPlane<L: Lane> {
     c: V3<L>,
     den: L,
     /// |d·n|.
     pub a: L,
-    /// u·|d·n| and v·|d·n|.
-    pub u: L,
-    pub v: L,
-    pub inside: L::Mask,
+    /// The ray parameter of the crossing, `(c·n)/(d·n)` (the numerator's sign flipped by the
+    /// determinant's, over |d·n|).
+    pub t: L,
 }
 
-/// [`TriEdges`] of `ray` and `tri`.
+/// [`TriPlane`] of `ray` and `tri`.
 #[inline(always)]
-pub(crate) fn tri_edges<L: Lane>(ray: &RayL<L>, tri: &TriL<L>) -> TriEdges<L> {
+pub(crate) fn tri_plane<L: Lane>(ray: &RayL<L>, tri: &TriL<L>) -> TriPlane<L> {
     let c = tri.p0 - ray.o;
-    let r = c.cross(ray.d);
     let den = tri.n.dot(ray.d);
     let a = den.abs();
-    let u = tri.e2.dot(r).mulsign(den);
-    let v = tri.e1.dot(r).mulsign(den);
-    let zero = a.splat(0.0);
-    let inside = a.gt(zero) & u.ge(zero) & v.ge(zero) & (u + v).le(a);
-    TriEdges {
-        c,
-        den,
-        a,
-        u,
-        v,
-        inside,
-    }
+    let t = tri.n.dot(c).mulsign(den) / a;
+    TriPlane { c, den, a, t }
 }
 
-/// The ray parameter of the crossing and the hit mask (the crossing inside the triangle and t
-/// in the open interval (tnear, tfar)).
+/// The edge half: the numerators u·|d·n| and v·|d·n| (signs flipped by the determinant's) and
+/// the hit mask (a nonzero determinant, `U ≥ 0`, `V ≥ 0`, `U + V ≤ |d·n|`, t in the open
+/// interval (tnear, tfar)).
 #[inline(always)]
-pub(crate) fn tri_t<L: Lane>(ray: &RayL<L>, tri: &TriL<L>, e: &TriEdges<L>) -> (L, L::Mask) {
-    let t = tri.n.dot(e.c).mulsign(e.den) / e.a;
-    (t, e.inside & t.gt(ray.tnear) & t.lt(ray.tfar))
+pub(crate) fn tri_edges<L: Lane>(ray: &RayL<L>, tri: &TriL<L>, p: &TriPlane<L>) -> (L, L, L::Mask) {
+    let r = p.c.cross(ray.d);
+    let u = tri.e2.dot(r).mulsign(p.den);
+    let v = tri.e1.dot(r).mulsign(p.den);
+    let zero = p.a.splat(0.0);
+    let inside = p.a.gt(zero) & u.ge(zero) & v.ge(zero) & (u + v).le(p.a);
+    (u, v, inside & p.t.gt(ray.tnear) & p.t.lt(ray.tfar))
 }
 
 /// Whether the ray meets the box `[lo, hi]` within its interval: the slab test (Kay & Kajiya,
@@ -98,10 +90,13 @@ pub(crate) fn in_bounds<L: Lane>(ray: &RayL<L>, inv: V3<L>, lo: V3<L>, hi: V3<L>
     enter.max(ray.tnear).le(exit.min(ray.tfar))
 }
 
-/// The whole test: t and the hit mask.
+/// The whole test: the crossing ([`TriPlane`]: t and |d·n|), the numerators of u and v, and
+/// the hit mask.
 #[inline(always)]
-pub(crate) fn triangle<L: Lane>(ray: &RayL<L>, tri: &TriL<L>) -> (L, L::Mask) {
-    tri_t(ray, tri, &tri_edges(ray, tri))
+pub(crate) fn triangle<L: Lane>(ray: &RayL<L>, tri: &TriL<L>) -> (TriPlane<L>, L, L, L::Mask) {
+    let p = tri_plane(ray, tri);
+    let (u, v, m) = tri_edges(ray, tri, &p);
+    (p, u, v, m)
 }
 
 #[cfg(test)]
@@ -140,11 +135,10 @@ mod tests {
                 (Vec3::new(0.25, 0.5, -2.0), Vec3::Z),
             ] {
                 let r = ray(o, d, 0.0, f32::INFINITY);
-                let e = tri_edges(&r, &t);
-                let (hit_t, hit) = tri_t(&r, &t, &e);
+                let (p, u, v, hit) = triangle(&r, &t);
                 assert!(hit);
-                assert_eq!(hit_t, o.z.abs());
-                let (u, v) = (e.u / e.a, e.v / e.a);
+                assert_eq!(p.t, o.z.abs());
+                let (u, v) = (u / p.a, v / p.a);
                 // u weights corner 1, v corner 2.
                 let want = if flip { (0.5, 0.25) } else { (0.25, 0.5) };
                 assert_eq!((u, v), want);
@@ -156,7 +150,7 @@ mod tests {
     #[test]
     fn rejects_outside_and_the_interval_ends() {
         let t = tri([Vec3::ZERO, Vec3::X, Vec3::Y]);
-        let hits = |o: Vec3, d: Vec3, lo: f32, hi: f32| triangle(&ray(o, d, lo, hi), &t).1;
+        let hits = |o: Vec3, d: Vec3, lo: f32, hi: f32| triangle(&ray(o, d, lo, hi), &t).3;
         assert!(!hits(Vec3::new(0.6, 0.6, 1.0), Vec3::NEG_Z, 0.0, 9.0));
         assert!(!hits(Vec3::new(-0.1, 0.5, 1.0), Vec3::NEG_Z, 0.0, 9.0));
         assert!(!hits(Vec3::new(0.5, -0.1, 1.0), Vec3::NEG_Z, 0.0, 9.0));
@@ -169,8 +163,8 @@ mod tests {
         assert!(hits(Vec3::new(0.0, 0.0, 1.0), Vec3::NEG_Z, 0.0, 9.0));
         // A degenerate triangle and NaN corners are never hit.
         let flat = tri([Vec3::ZERO, Vec3::X, Vec3::X * 2.0]);
-        assert!(!triangle(&ray(Vec3::new(0.5, 0.0, 1.0), Vec3::NEG_Z, 0.0, 9.0), &flat).1);
+        assert!(!triangle(&ray(Vec3::new(0.5, 0.0, 1.0), Vec3::NEG_Z, 0.0, 9.0), &flat).3);
         let nan = tri([Vec3::NAN; 3]);
-        assert!(!triangle(&ray(Vec3::Z, Vec3::NEG_Z, 0.0, 9.0), &nan).1);
+        assert!(!triangle(&ray(Vec3::Z, Vec3::NEG_Z, 0.0, 9.0), &nan).3);
     }
 }
