@@ -1,26 +1,31 @@
-//! Tier A: the few analytic primitives of a scene intersected by brute force, 8 lanes at a time
-//! (issue 16 item 3), instead of an Embree BVH over user geometries with per-ray callbacks.
+//! Tier A: the few primitives of a scene intersected by brute force, 8 lanes at a time (issue
+//! 16 item 3; mesh triangles since issue 18), instead of an Embree BVH (with per-ray callbacks
+//! for the analytic shapes).
 //!
-//! Primitives (spheres, disks and rectangles, exact boxes) sit in structure-of-arrays tables of
-//! 8 per chunk, padded with NaN parameters (which fail every interval test). Two forms, both
-//! over the kernels of [`super::analytic`]:
+//! Primitives (spheres, disks and rectangles, exact boxes, mesh triangles) sit in
+//! structure-of-arrays tables of 8 per chunk, padded with NaN parameters (which fail every
+//! interval test). Two forms, both over the kernels of [`super::analytic`] and
+//! [`super::triangle`]:
 //! - one ray × 8 primitives ([`Brute::intersect`], [`Brute::occluded`]): the scalar renderer's
 //!   rays, each chunk one 8-wide test;
 //! - 8 rays × every primitive ([`Brute::intersect8`], [`Brute::occluded8`]): a packet (the rays
 //!   turned into lanes by one 8×8 transpose), each primitive splat across the lanes from a
 //!   second copy of the tables, one primitive per row (rectangles and disks apart); a primitive
-//!   no lane can hit stops after its first half (the sphere's discriminant, the plane's t).
+//!   no lane can hit stops after its first half (the sphere's discriminant, the plane's t, the
+//!   triangle's edge tests).
 //!
 //! Without AVX2 both run at width 1 over every primitive. Every form reports the same [`Hit`]:
 //! the smallest t in the open interval (tmin, tmax) (Embree shrinks tfar after each accepted
 //! hit and the callbacks test the open interval, so Embree's answer is that minimum too), ties on
-//! equal t broken by the lower shape index, and the callbacks' primitive and barycentrics (the
-//! box's triangle; zero for the others), computed at width 1 for the winner only.
+//! equal t broken by the lower key (shape index, then triangle index), and the primitive and
+//! barycentrics (the box's triangle as the callbacks report it; the mesh triangle's u and v;
+//! zero for the others), computed at width 1 for the winner only.
 
 use super::analytic::{
     cube, in_disk, in_square, planar, plane_cross, sphere, sphere_disc, sphere_roots, Affine,
     BoxHit, RayL,
 };
+use super::triangle::{in_bounds, tri_data, tri_edges, tri_plane, triangle, TriL, TriPlane};
 use crate::geometry::hit::NO_INSTANCE;
 use crate::geometry::shapes::{Shape, ShapeKind, CUBE_FACES};
 use crate::geometry::{Hit, Ray};
@@ -31,10 +36,22 @@ use glam::{Mat4, Vec3};
 
 /// Lanes per chunk.
 const W: usize = 8;
-/// The shape index of an empty lane (never hit: its parameters are NaN).
+/// The key of an empty lane (never hit: its parameters are NaN).
 const NONE: i32 = i32::MAX;
+/// A primitive's key is `shape index << PRIM_BITS | triangle index` (0 for the analytic
+/// shapes): one integer whose order is that of (shape, triangle), for the tie rule.
+const PRIM_BITS: u32 = 12;
+/// Meshes of more triangles than this, and scenes of more shapes than [`MAX_KEYED_SHAPES`],
+/// do not fit a key (and are far past any budget).
+pub(crate) const MAX_MESH_TRIANGLES: usize = 1 << PRIM_BITS;
+const MAX_KEYED_SHAPES: usize = 1 << (31 - PRIM_BITS);
 
-/// 8 spheres: centre components, radius, shape index.
+/// The key of triangle `prim` of shape `geom`.
+fn key(geom: usize, prim: usize) -> i32 {
+    ((geom << PRIM_BITS) | prim) as i32
+}
+
+/// 8 spheres: centre components, radius, key.
 #[derive(Clone, Copy)]
 struct Spheres {
     c: [[f32; W]; 3],
@@ -43,7 +60,7 @@ struct Spheres {
 }
 
 /// 8 affinely mapped unit shapes (disks and rectangles, or boxes): the 12 entries of the
-/// world-to-object map by column, 1 for a square (rectangle), and the shape index.
+/// world-to-object map by column, 1 for a square (rectangle), and the key.
 #[derive(Clone, Copy)]
 struct Mapped {
     m: [[f32; W]; 12],
@@ -51,7 +68,7 @@ struct Mapped {
     geom: [i32; W],
 }
 
-/// One sphere for the packet form (8 rays × one primitive): centre, radius, shape index.
+/// One sphere for the packet form (8 rays × one primitive): centre, radius, key.
 #[derive(Clone, Copy)]
 struct SphereRow {
     c: [f32; 3],
@@ -60,10 +77,36 @@ struct SphereRow {
 }
 
 /// One affinely mapped unit shape for the packet form: the 12 entries of its world-to-object
-/// map by column, and the shape index.
+/// map by column, and the key.
 #[derive(Clone, Copy)]
 struct MappedRow {
     m: [f32; 12],
+    geom: i32,
+}
+
+/// 8 triangles: the 12 numbers of each ([`tri_data`]: corner, two edges, normal) by component,
+/// the padded bounding box of each one's mesh, and the key.
+#[derive(Clone, Copy)]
+struct Tris {
+    v: [[f32; W]; 12],
+    lo: [[f32; W]; 3],
+    hi: [[f32; W]; 3],
+    geom: [i32; W],
+}
+
+/// A mesh for the packet form: its padded bounding box ([`mesh_bounds`]) and its rows of
+/// [`Brute::tri_rows`]. A ray outside the box hits none of its triangles, in every form.
+#[derive(Clone)]
+struct MeshBox {
+    lo: [f32; 3],
+    hi: [f32; 3],
+    rows: std::ops::Range<usize>,
+}
+
+/// One triangle for the packet form: its 12 numbers and its key.
+#[derive(Clone, Copy)]
+struct TriRow {
+    v: [f32; 12],
     geom: i32,
 }
 
@@ -74,6 +117,8 @@ enum Slot {
     Plain,
     /// A box at this row of the box table.
     Box(u32),
+    /// A triangle mesh (its hits carry their barycentrics from the test).
+    Mesh,
 }
 
 /// A box face as `BoxData` in `embree.rs` keeps it: a corner, its two edges each divided by
@@ -92,8 +137,9 @@ pub(crate) struct Brute {
     spheres: Vec<Spheres>,
     planes: Vec<Mapped>,
     boxes: Vec<Mapped>,
+    tris: Vec<Tris>,
     /// Live rows per chunk table (the last chunk may be partly empty).
-    rows: [usize; 3],
+    rows: [usize; 4],
     /// The same primitives one per row, for packets and width 1 (each splat across the
     /// lanes); rectangles and disks apart, so that neither pays for the other's inside test
     /// (the order of the tests cannot change a strict lexicographic minimum, [`keep`]).
@@ -102,6 +148,9 @@ pub(crate) struct Brute {
     disk_rows: Vec<MappedRow>,
     /// Row `k` is the box at [`Slot::Box`]`(k)`.
     box_rows: Vec<MappedRow>,
+    /// Every mesh's triangles in shape order, each mesh's in its own order.
+    tri_rows: Vec<TriRow>,
+    meshes: Vec<MeshBox>,
     slots: Vec<Slot>,
     /// Box faces indexed by `2·axis + (side > 0)`.
     faces: [Face; 6],
@@ -109,23 +158,34 @@ pub(crate) struct Brute {
     avx: Option<Avx2>,
 }
 
-/// Whether tier A can trace `shape` (and how: `Some(None)` for an empty mesh).
-fn slot_kind(shape: &Shape) -> Option<Option<u8>> {
+/// What tier A traces of `shape`: `Some((analytic primitives, triangles))`, or `None` for a
+/// shape it cannot trace (a cylinder, curves, an SDF grid, a mesh of more than
+/// [`MAX_MESH_TRIANGLES`] or with a vertex index out of range).
+fn slot_kind(shape: &Shape) -> Option<(usize, usize)> {
     match (&shape.kind, shape.box_to_world) {
-        (ShapeKind::Mesh(m), _) if m.indices.is_empty() => Some(None),
-        (ShapeKind::Mesh(_), Some(_)) => Some(Some(2)),
-        (ShapeKind::Sphere { .. }, _) => Some(Some(0)),
-        (ShapeKind::Disk { .. } | ShapeKind::Rectangle { .. }, _) => Some(Some(1)),
+        (ShapeKind::Mesh(m), _) if m.indices.is_empty() => Some((0, 0)),
+        (ShapeKind::Mesh(_), Some(_)) => Some((1, 0)),
+        (ShapeKind::Mesh(m), None) => {
+            let n = m.positions.len();
+            let valid = m.indices.iter().flatten().all(|&i| (i as usize) < n);
+            (valid && m.indices.len() <= MAX_MESH_TRIANGLES).then_some((0, m.indices.len()))
+        }
+        (ShapeKind::Sphere { .. }, _) => Some((1, 0)),
+        (ShapeKind::Disk { .. } | ShapeKind::Rectangle { .. }, _) => Some((1, 0)),
         _ => None,
     }
 }
 
-/// The number of primitives tier A would trace, or `None` when a shape needs Embree (a
-/// triangle mesh, cylinder or curves).
-pub(crate) fn analytic_count(shapes: &[Shape]) -> Option<usize> {
-    shapes
-        .iter()
-        .try_fold(0, |n, s| slot_kind(s).map(|k| n + usize::from(k.is_some())))
+/// The numbers of analytic primitives (spheres, disks, rectangles, boxes) and of mesh
+/// triangles tier A would trace, or `None` when a shape needs Embree (a cylinder, curves, an
+/// SDF grid, a large mesh) or the scene has too many shapes for a key.
+pub(crate) fn primitive_counts(shapes: &[Shape]) -> Option<(usize, usize)> {
+    if shapes.len() >= MAX_KEYED_SHAPES {
+        return None;
+    }
+    shapes.iter().try_fold((0, 0), |(a, t), s| {
+        slot_kind(s).map(|(da, dt)| (a + da, t + dt))
+    })
 }
 
 fn push_row<T: Copy>(table: &mut Vec<T>, rows: &mut usize, empty: T) -> (usize, usize) {
@@ -140,7 +200,7 @@ impl Brute {
     /// The tables of `shapes` (shape `i` reported as `Hit::geom == i`), or `None` when a shape
     /// is of a kind tier A does not trace.
     pub(crate) fn new(shapes: &[Shape]) -> Option<Brute> {
-        analytic_count(shapes)?;
+        primitive_counts(shapes)?;
         let nan = [f32::NAN; W];
         let empty_sphere = Spheres {
             c: [nan; 3],
@@ -152,15 +212,24 @@ impl Brute {
             square: [0.0; W],
             geom: [NONE; W],
         };
+        let empty_tris = Tris {
+            v: [nan; 12],
+            lo: [nan; 3],
+            hi: [nan; 3],
+            geom: [NONE; W],
+        };
         let mut b = Brute {
             spheres: Vec::new(),
             planes: Vec::new(),
             boxes: Vec::new(),
-            rows: [0; 3],
+            tris: Vec::new(),
+            rows: [0; 4],
             sphere_rows: Vec::new(),
             square_rows: Vec::new(),
             disk_rows: Vec::new(),
             box_rows: Vec::new(),
+            tri_rows: Vec::new(),
+            meshes: Vec::new(),
             slots: Vec::with_capacity(shapes.len()),
             faces: box_faces(),
             #[cfg(target_arch = "x86_64")]
@@ -172,10 +241,10 @@ impl Brute {
                 t.m[k][l] = x;
             }
             t.square[l] = if square { 1.0 } else { 0.0 };
-            t.geom[l] = geom as i32;
+            t.geom[l] = key(geom, 0);
             MappedRow {
                 m,
-                geom: geom as i32,
+                geom: key(geom, 0),
             }
         };
         for (i, s) in shapes.iter().enumerate() {
@@ -187,16 +256,40 @@ impl Brute {
                     b.box_rows.push(row);
                     Slot::Box((c * W + l) as u32)
                 }
+                (ShapeKind::Mesh(m), None) => {
+                    let first = b.tri_rows.len();
+                    let (lo, hi) = mesh_bounds(m);
+                    for (k, idx) in m.indices.iter().enumerate() {
+                        let [p0, p1, p2] = idx.map(|i| m.positions[i as usize]);
+                        let v = tri_data(p0, p1, p2);
+                        let (c, l) = push_row(&mut b.tris, &mut b.rows[3], empty_tris);
+                        let t = &mut b.tris[c];
+                        for (j, x) in v.into_iter().enumerate() {
+                            t.v[j][l] = x;
+                        }
+                        for j in 0..3 {
+                            (t.lo[j][l], t.hi[j][l]) = (lo[j], hi[j]);
+                        }
+                        t.geom[l] = key(i, k);
+                        b.tri_rows.push(TriRow { v, geom: key(i, k) });
+                    }
+                    b.meshes.push(MeshBox {
+                        lo: lo.to_array(),
+                        hi: hi.to_array(),
+                        rows: first..b.tri_rows.len(),
+                    });
+                    Slot::Mesh
+                }
                 (ShapeKind::Sphere { center, radius, .. }, _) => {
                     let (c, l) = push_row(&mut b.spheres, &mut b.rows[0], empty_sphere);
                     let t = &mut b.spheres[c];
                     (t.c[0][l], t.c[1][l], t.c[2][l]) = (center.x, center.y, center.z);
                     t.r[l] = *radius;
-                    t.geom[l] = i as i32;
+                    t.geom[l] = key(i, 0);
                     b.sphere_rows.push(SphereRow {
                         c: center.to_array(),
                         r: *radius,
-                        geom: i as i32,
+                        geom: key(i, 0),
                     });
                     Slot::Plain
                 }
@@ -224,15 +317,14 @@ impl Brute {
     pub(crate) fn intersect(&self, ray: &Ray) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
         if let Some(avx) = self.avx {
-            let (t, geom) = avx.run(
+            let (t, geom, u, v) = avx.run(
                 #[inline(always)]
                 || self.nearest_across(avx, ray),
             );
-            return self.finish(ray, t, geom);
+            return self.finish(ray, t, geom, u, v);
         }
-        let r = ray_lanes(ray);
-        let (t, geom) = self.nearest_of_each(&r, 0.0f32, NONE);
-        self.finish(ray, t, geom)
+        let b = self.nearest_of_each(&ray_lanes(ray), 0.0f32, NONE);
+        self.finish(ray, b.t, b.g, b.u / b.a, b.v / b.a)
     }
 
     /// Whether anything lies on `ray` in (tmin, tmax).
@@ -254,24 +346,28 @@ impl Brute {
         let rays = &rays[..rays.len().min(W)];
         #[cfg(target_arch = "x86_64")]
         if let Some(avx) = self.avx {
-            let (ts, geoms) = avx.run(
+            let (ts, geoms, us, vs) = avx.run(
                 #[inline(always)]
                 || {
-                    let (t, g) = self.nearest_of_each(&packet(avx, rays), avx.splat(0.0), NONE);
-                    (t.to_array(), g.to_array())
+                    let b = self.nearest_of_each(&packet(avx, rays), avx.splat(0.0), NONE);
+                    let (t, g) = (b.t.to_array(), b.g.to_array());
+                    if self.tri_rows.is_empty() {
+                        return (t, g, [0.0; W], [0.0; W]);
+                    }
+                    (t, g, (b.u / b.a).to_array(), (b.v / b.a).to_array())
                 },
             );
             *out = [None; W];
             for (i, ray) in rays.iter().enumerate() {
-                out[i] = self.finish(ray, ts[i], geoms[i]);
+                out[i] = self.finish(ray, ts[i], geoms[i], us[i], vs[i]);
             }
             return;
         }
         for (i, o) in out.iter_mut().enumerate() {
             *o = match rays.get(i) {
                 Some(ray) => {
-                    let (t, g) = self.nearest_of_each(&ray_lanes(ray), 0.0f32, NONE);
-                    self.finish(ray, t, g)
+                    let b = self.nearest_of_each(&ray_lanes(ray), 0.0f32, NONE);
+                    self.finish(ray, b.t, b.g, b.u / b.a, b.v / b.a)
                 }
                 None => None,
             };
@@ -301,25 +397,31 @@ impl Brute {
         blocked
     }
 
-    /// The hit of shape `geom` at `t` (its winner; `None` for [`NONE`]), with the box's
-    /// triangle and barycentrics.
+    /// The hit of the primitive of key `key` at `t` (its winner; `None` for [`NONE`]), with the
+    /// triangle and barycentrics of a box, or the barycentrics `u`, `v` of a mesh triangle (the
+    /// test's numerators over |d·n|, divided in lanes or at width 1 alike).
     #[inline(always)]
-    fn finish(&self, ray: &Ray, t: f32, geom: i32) -> Option<Hit> {
-        if geom == NONE {
+    fn finish(&self, ray: &Ray, t: f32, key: i32, u: f32, v: f32) -> Option<Hit> {
+        if key == NONE {
             return None;
         }
+        let geom = (key as u32) >> PRIM_BITS;
+        let prim = (key as u32) & ((1 << PRIM_BITS) - 1);
         let mut hit = Hit {
-            geom: geom as u32,
-            prim: 0,
+            geom,
+            prim,
             t,
             u: 0.0,
             v: 0.0,
             inst: NO_INSTANCE,
         };
-        if !self.box_rows.is_empty() {
-            if let Some(&Slot::Box(row)) = self.slots.get(geom as usize) {
-                (hit.prim, hit.u, hit.v) = self.box_hit(ray, row as usize);
-            }
+        if self.box_rows.is_empty() && self.tri_rows.is_empty() {
+            return Some(hit);
+        }
+        match self.slots.get(geom as usize) {
+            Some(&Slot::Box(row)) => (hit.prim, hit.u, hit.v) = self.box_hit(ray, row as usize),
+            Some(&Slot::Mesh) => (hit.u, hit.v) = (u, v),
+            _ => {}
         }
         Some(hit)
     }
@@ -361,9 +463,9 @@ impl Brute {
     /// Width 1 or 8 rays (`ray`'s width) against every primitive, each splat across the lanes:
     /// per lane the smallest t and, on equal t, the lowest shape index (`NONE`: no hit).
     #[inline(always)]
-    fn nearest_of_each<L: Lane>(&self, ray: &RayL<L>, like: L, none: i32) -> (L, L::I32) {
+    fn nearest_of_each<L: Lane>(&self, ray: &RayL<L>, like: L, none: i32) -> Best<L> {
         let gi = like.to_bits();
-        let mut best = (like.splat(f32::INFINITY), gi.splat(none));
+        let mut best = Best::new(like, none);
         // A primitive that no lane can hit is left at its first half: its mask would be
         // false in every lane, and `keep` would keep nothing.
         for s in &self.sphere_rows {
@@ -391,6 +493,26 @@ impl Brute {
         for b in &self.box_rows {
             let h = cube(ray, &row_map(b, like));
             keep(&mut best, h.t, h.hit, gi.splat(b.geom));
+        }
+        if !self.meshes.is_empty() {
+            let one = like.splat(1.0);
+            let inv = V3::new(one / ray.d.x, one / ray.d.y, one / ray.d.z);
+            for mesh in &self.meshes {
+                let within = in_bounds(ray, inv, v3(like, mesh.lo), v3(like, mesh.hi));
+                if !within.any() {
+                    continue;
+                }
+                for r in &self.tri_rows[mesh.rows.clone()] {
+                    let tri = tri_row(r, like);
+                    let p = tri_plane(ray, &tri);
+                    // Only a crossing in the interval, at or before the nearest hit so far,
+                    // can be kept (`keep_tri`), so the edge half may be skipped without it.
+                    if (within & p.t.gt(ray.tnear) & p.t.le(best.t)).any() {
+                        let (u, v, m) = tri_edges(ray, &tri, &p);
+                        keep_tri(&mut best, &p, u, v, m & within, gi.splat(r.geom));
+                    }
+                }
+            }
         }
         best
     }
@@ -440,6 +562,28 @@ impl Brute {
                 return any;
             }
         }
+        if self.meshes.is_empty() {
+            return any;
+        }
+        let one = like.splat(1.0);
+        let inv = V3::new(one / ray.d.x, one / ray.d.y, one / ray.d.z);
+        for mesh in &self.meshes {
+            // Only the lanes not yet blocked.
+            let within = in_bounds(ray, inv, v3(like, mesh.lo), v3(like, mesh.hi)) & !any;
+            if !within.any() {
+                continue;
+            }
+            for r in &self.tri_rows[mesh.rows.clone()] {
+                let tri = tri_row(r, like);
+                let p = tri_plane(ray, &tri);
+                if (within & p.t.gt(ray.tnear) & p.t.lt(ray.tfar)).any() {
+                    any = any | (tri_edges(ray, &tri, &p).2 & within);
+                    if any.all() {
+                        return any;
+                    }
+                }
+            }
+        }
         any
     }
 }
@@ -450,10 +594,10 @@ impl Brute {
     /// index), then the smallest over the lanes (the order of the comparisons cannot change a
     /// strict lexicographic minimum). `(∞, NONE)` when nothing is hit.
     #[inline(always)]
-    fn nearest_across(&self, avx: Avx2, ray: &Ray) -> (f32, i32) {
+    fn nearest_across(&self, avx: Avx2, ray: &Ray) -> (f32, i32, f32, f32) {
         let r = splat_ray(avx, ray);
         let load = Load(avx);
-        let mut best = (avx.splat(f32::INFINITY), avx.load_i32(&[NONE; W]));
+        let mut best = Best::new(avx.splat(0.0), NONE);
         for s in &self.spheres {
             let c = V3::new(load.f(&s.c[0]), load.f(&s.c[1]), load.f(&s.c[2]));
             let (t, m) = sphere(&r, c, load.f(&s.r));
@@ -468,14 +612,24 @@ impl Brute {
             let h = cube(&r, &mapped_chunk(avx, b));
             keep(&mut best, h.t, h.hit, avx.load_i32(&b.geom));
         }
-        let (ts, gs) = (best.0.to_array(), best.1.to_array());
-        (0..W).fold((f32::INFINITY, NONE), |(t, g), i| {
-            if ts[i] < t || (ts[i] == t && gs[i] < g) {
-                (ts[i], gs[i])
-            } else {
-                (t, g)
+        let inv = tri_inv(avx, &r, !self.tris.is_empty());
+        for c in &self.tris {
+            let load = Load(avx);
+            let within = in_bounds(&r, inv, chunk_v3(load, &c.lo), chunk_v3(load, &c.hi));
+            if within.any() {
+                let (p, u, v, m) = triangle(&r, &tri_chunk(avx, c));
+                keep_tri(&mut best, &p, u, v, m & within, avx.load_i32(&c.geom));
             }
-        })
+        }
+        let (ts, gs) = (best.t.to_array(), best.g.to_array());
+        let mut k = 0;
+        for i in 1..W {
+            if ts[i] < ts[k] || (ts[i] == ts[k] && gs[i] < gs[k]) {
+                k = i;
+            }
+        }
+        let (us, vs, a) = (best.u.to_array(), best.v.to_array(), best.a.to_array());
+        (ts[k], gs[k], us[k] / a[k], vs[k] / a[k])
     }
 
     /// One ray: whether any chunk has a lane hit.
@@ -495,9 +649,19 @@ impl Brute {
                 return true;
             }
         }
-        self.boxes
-            .iter()
-            .any(|b| cube(&r, &mapped_chunk(avx, b)).hit.any())
+        for b in &self.boxes {
+            if cube(&r, &mapped_chunk(avx, b)).hit.any() {
+                return true;
+            }
+        }
+        let inv = tri_inv(avx, &r, !self.tris.is_empty());
+        for c in &self.tris {
+            let within = in_bounds(&r, inv, chunk_v3(load, &c.lo), chunk_v3(load, &c.hi));
+            if within.any() && (triangle(&r, &tri_chunk(avx, c)).3 & within).any() {
+                return true;
+            }
+        }
+        false
     }
 }
 
@@ -576,6 +740,74 @@ fn row_map<L: Lane>(p: &MappedRow, like: L) -> Affine<L> {
     }
 }
 
+/// `a` splat to the width of `like`.
+#[inline(always)]
+fn v3<L: Lane>(like: L, a: [f32; 3]) -> V3<L> {
+    V3::new(like.splat(a[0]), like.splat(a[1]), like.splat(a[2]))
+}
+
+/// The per-lane vectors of a chunk's three component rows.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn chunk_v3(load: Load, a: &[[f32; W]; 3]) -> V3<F32x8> {
+    V3::new(load.f(&a[0]), load.f(&a[1]), load.f(&a[2]))
+}
+
+/// `1/d` per component of the splat ray `r` for the bounding-box test (when `needed`: a scene
+/// without meshes skips the divisions).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn tri_inv(avx: Avx2, r: &RayL<F32x8>, needed: bool) -> V3<F32x8> {
+    let one = avx.splat(1.0);
+    if needed {
+        V3::new(one / r.d.x, one / r.d.y, one / r.d.z)
+    } else {
+        V3::new(one, one, one)
+    }
+}
+
+/// A mesh's bounding box, padded on every side by 10⁻⁴ of its largest extent plus its largest
+/// coordinate magnitude: far more than the rounding of the triangle test (about 10⁻⁷ of
+/// |p0| + |o| + t, divided by the cosine of the incidence), so that the box culls no hit the
+/// triangle test would report but at grazing incidence below a cosine of about 10⁻³.
+fn mesh_bounds(m: &crate::geometry::mesh::TriMesh) -> (Vec3, Vec3) {
+    let (lo, hi) = m
+        .indices
+        .iter()
+        .flatten()
+        .map(|&i| m.positions[i as usize])
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p), hi.max(p))
+        });
+    let pad = 1e-4 * ((hi - lo).max_element() + lo.abs().max(hi.abs()).max_element());
+    (lo - Vec3::splat(pad), hi + Vec3::splat(pad))
+}
+
+/// A triangle row splat to the width of `like`.
+#[inline(always)]
+fn tri_row<L: Lane>(r: &TriRow, like: L) -> TriL<L> {
+    let v = &r.v;
+    TriL {
+        p0: V3::new(like.splat(v[0]), like.splat(v[1]), like.splat(v[2])),
+        e1: V3::new(like.splat(v[3]), like.splat(v[4]), like.splat(v[5])),
+        e2: V3::new(like.splat(v[6]), like.splat(v[7]), like.splat(v[8])),
+        n: V3::new(like.splat(v[9]), like.splat(v[10]), like.splat(v[11])),
+    }
+}
+
+/// A triangle chunk's 8 triangles, one per lane.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn tri_chunk(avx: Avx2, c: &Tris) -> TriL<F32x8> {
+    let v = &c.v;
+    TriL {
+        p0: V3::new(avx.load(&v[0]), avx.load(&v[1]), avx.load(&v[2])),
+        e1: V3::new(avx.load(&v[3]), avx.load(&v[4]), avx.load(&v[5])),
+        e2: V3::new(avx.load(&v[6]), avx.load(&v[7]), avx.load(&v[8])),
+        n: V3::new(avx.load(&v[9]), avx.load(&v[10]), avx.load(&v[11])),
+    }
+}
+
 /// The 12 entries by column of the inverse of `to_world` (its upper 3×4 part).
 fn to_object(to_world: &Mat4) -> [f32; 12] {
     let inv = to_world.inverse();
@@ -589,15 +821,48 @@ fn to_object(to_world: &Mat4) -> [f32; 12] {
     m
 }
 
-/// Keeps, per lane, the hit (t, shape index `g`) of mask `m` when it comes before `best`: a
-/// smaller t, or the same t and a lower index.
+/// Per lane, the nearest hit so far: t, key, and for a mesh triangle the numerators of u and v
+/// and |d·n| (stale for the other kinds, whose barycentrics come from elsewhere).
+#[derive(Clone, Copy)]
+struct Best<L: Lane> {
+    t: L,
+    g: L::I32,
+    u: L,
+    v: L,
+    a: L,
+}
+
+impl<L: Lane> Best<L> {
+    /// No hit yet (t = ∞, key `none`), at the width of `like`.
+    #[inline(always)]
+    fn new(like: L, none: i32) -> Self {
+        Best {
+            t: like.splat(f32::INFINITY),
+            g: like.to_bits().splat(none),
+            u: like.splat(0.0),
+            v: like.splat(0.0),
+            a: like.splat(1.0),
+        }
+    }
+}
+
+/// Keeps, per lane, the hit (t, key `g`) of mask `m` when it comes before `best`: a smaller t,
+/// or the same t and a lower key. Returns where it kept.
 #[inline(always)]
-fn keep<L: Lane>(best: &mut (L, L::I32), t: L, m: L::Mask, g: L::I32) {
-    let better = m & (t.lt(best.0) | (t.eq(best.0) & g.lt(best.1)));
-    *best = (
-        L::select(better, t, best.0),
-        L::I32::select(better, g, best.1),
-    );
+fn keep<L: Lane>(best: &mut Best<L>, t: L, m: L::Mask, g: L::I32) -> L::Mask {
+    let better = m & (t.lt(best.t) | (t.eq(best.t) & g.lt(best.g)));
+    best.t = L::select(better, t, best.t);
+    best.g = L::I32::select(better, g, best.g);
+    better
+}
+
+/// [`keep`] of a triangle's hit, with its barycentric numerators `u`, `v` and |d·n|.
+#[inline(always)]
+fn keep_tri<L: Lane>(best: &mut Best<L>, p: &TriPlane<L>, u: L, v: L, m: L::Mask, g: L::I32) {
+    let better = keep(best, p.t, m, g);
+    best.u = L::select(better, u, best.u);
+    best.v = L::select(better, v, best.v);
+    best.a = L::select(better, p.a, best.a);
 }
 
 /// 8-wide loads (a named helper: closures in `Avx2::run` bodies are not always inlined).

@@ -2,15 +2,19 @@
 //! scene by [`Accel::build_instanced`]:
 //! - **Embree** (`embree.rs` holds all FFI): a BVH over triangles, curves, instances and the
 //!   analytic shapes as user geometries;
-//! - **tier A** (`brute.rs`, kernels in `analytic.rs`): scenes of at most [`BRUTE_MAX_SHAPES`]
-//!   spheres, disks, rectangles and boxes and nothing else, intersected by brute force 8 lanes
-//!   at a time. Both tiers report the same [`Hit`] bit for bit (`tests/scene/tier_a.rs`).
+//! - **tier A** (`brute.rs`, kernels in `analytic.rs` and `triangle.rs`): scenes of a few
+//!   spheres, disks, rectangles, boxes and mesh triangles and nothing else (within the budget
+//!   of [`BRUTE_MAX_SHAPES`] and [`BRUTE_MAX_TRIANGLES`], no instances), intersected by brute
+//!   force 8 lanes at a time. For the analytic shapes both tiers report the same [`Hit`] bit
+//!   for bit; for triangles tier A's own arithmetic (Möller–Trumbore) differs from Embree's in
+//!   the last bits (`tests/scene/tier_a.rs`).
 
 mod analytic;
 mod brute;
 #[cfg(test)]
 mod curve_tests;
 mod embree;
+mod triangle;
 
 use crate::error::{Error, Result};
 use crate::geometry::curves::CurveBasis;
@@ -23,17 +27,35 @@ use std::ops::Range;
 /// crossover of the replay throughputs measured in `docs/bench/README.md` ("Tier A").
 pub const BRUTE_MAX_SHAPES: usize = 16;
 
-/// The number of analytic primitives tier A would trace in `shapes`, or `None` when a shape
-/// needs Embree (a triangle mesh, cylinder or curves).
+/// Scenes of at most this many mesh triangles (and nothing else) take tier A. A scene of both
+/// takes it when `analytic / BRUTE_MAX_SHAPES + triangles / BRUTE_MAX_TRIANGLES ≤ 1` (each
+/// budget the crossover with Embree of its own kind, so the mixed cost is their sum).
+/// Measured on the Cornell box (36 triangles) and on it with extra triangles in
+/// `docs/bench/README.md` ("seventeenth session, h4").
+pub const BRUTE_MAX_TRIANGLES: usize = 64;
+
+/// The most triangles [`Tier::Brute`] accepts when forced (a bound on the cost of a query).
+pub const BRUTE_FORCED_MAX_TRIANGLES: usize = 4096;
+
+/// The number of primitives (analytic shapes and mesh triangles) tier A would trace in
+/// `shapes`, or `None` when a shape needs Embree (a cylinder, curves, an SDF grid, a mesh of
+/// more than 4096 triangles).
 pub fn analytic_primitives(shapes: &[Shape]) -> Option<usize> {
-    brute::analytic_count(shapes)
+    brute::primitive_counts(shapes).map(|(a, t)| a + t)
+}
+
+/// Whether a scene of `analytic` analytic primitives and `triangles` mesh triangles is within
+/// tier A's budget ([`BRUTE_MAX_TRIANGLES`]).
+pub fn within_brute_budget(analytic: usize, triangles: usize) -> bool {
+    analytic * BRUTE_MAX_TRIANGLES + triangles * BRUTE_MAX_SHAPES
+        <= BRUTE_MAX_SHAPES * BRUTE_MAX_TRIANGLES
 }
 
 /// Which intersection tier a scene uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Tier {
-    /// Tier A when the scene qualifies (only spheres, disks, rectangles and boxes, at most
-    /// [`BRUTE_MAX_SHAPES`], no instances), else Embree.
+    /// Tier A when the scene qualifies (only spheres, disks, rectangles, boxes and triangle
+    /// meshes, within [`within_brute_budget`], no instances), else Embree.
     Auto,
     /// Embree for every scene.
     Embree,
@@ -110,18 +132,20 @@ impl Accel {
         tier: Tier,
     ) -> Result<Accel> {
         let flat = groups.is_empty() && instances.is_empty();
-        let count = brute::analytic_count(shapes).filter(|_| flat);
+        let count = brute::primitive_counts(shapes).filter(|_| flat);
         let brute = match (tier, count) {
             (Tier::Embree, _) => None,
-            (Tier::Auto, Some(n)) if n <= BRUTE_MAX_SHAPES => brute::Brute::new(shapes),
+            (Tier::Auto, Some((a, t))) if within_brute_budget(a, t) => brute::Brute::new(shapes),
             (Tier::Auto, _) => None,
-            (Tier::Brute, Some(_)) => brute::Brute::new(shapes),
-            (Tier::Brute, None) => {
-                return Err(Error::Native(
-                    "tier A (brute force) traces only spheres, disks, rectangles and cubes, \
-                     without instances: this scene needs Embree"
-                        .into(),
-                ))
+            (Tier::Brute, Some((_, t))) if t <= BRUTE_FORCED_MAX_TRIANGLES => {
+                brute::Brute::new(shapes)
+            }
+            (Tier::Brute, _) => {
+                return Err(Error::Native(format!(
+                    "tier A (brute force) traces only spheres, disks, rectangles, cubes and \
+                     at most {BRUTE_FORCED_MAX_TRIANGLES} mesh triangles, without instances: \
+                     this scene needs Embree"
+                )))
             }
         };
         match brute {
