@@ -785,7 +785,9 @@ pub(crate) mod x8 {
             } else {
                 avx.load_i32(&[0; W])
             };
-            if let Some(t) = &sel.table {
+            // One emitter keeps the whole-chunk path below (`add_uniform`), which is cheaper
+            // than the table's gathers.
+            if let (Some(t), SelectMode::Counted) = (&sel.table, sel.mode) {
                 self.add_table(avx, t, &sel.pmf, count, light_only, on, u);
                 return;
             }
