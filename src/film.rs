@@ -480,8 +480,15 @@ impl Block {
             bounds,
         ) else {
             let (r, g, b) = (r.to_array(), g.to_array(), b.to_array());
+            // Finite values under another filter: the footprints in lanes.
+            let lanes = finite && !self.filter.is_box();
             for (k, &p) in pos.iter().enumerate() {
-                self.put(p, Spectrum::new(r[k], g[k], b[k]));
+                let v = Spectrum::new(r[k], g[k], b[k]);
+                if lanes {
+                    self.splat_lanes(avx, p, v);
+                } else {
+                    self.put(p, v);
+                }
             }
             return;
         };
@@ -550,23 +557,10 @@ impl Block {
             }
             return;
         }
-        let r = self.filter.radius();
-        // Position in full-film pixel-centre coordinates: the footprint and its weights must
-        // not depend on where the block lies (a split render puts blocks elsewhere).
-        let pxf = film_pos.x - 0.5;
-        let pyf = film_pos.y - 0.5;
-        // Footprint in full-film pixels, then cut to the storage.
-        let fx_lo = ((pxf - r).ceil() as i64).max(self.ox);
-        let fy_lo = ((pyf - r).ceil() as i64).max(self.oy);
-        let fx_hi = (crate::math::floor(pxf + r) as i64).min(self.ox + self.sw as i64 - 1);
-        let fy_hi = (crate::math::floor(pyf + r) as i64).min(self.oy + self.sh as i64 - 1);
-        if fx_lo > fx_hi || fy_lo > fy_hi {
+        let Some(fp) = self.footprint(film_pos) else {
             return;
-        }
-        let (x_lo, x_hi) = (fx_lo - self.ox, fx_hi - self.ox);
-        let (y_lo, y_hi) = (fy_lo - self.oy, fy_hi - self.oy);
-        let nx = (x_hi - x_lo + 1) as usize;
-        let ny = (y_hi - y_lo + 1) as usize;
+        };
+        let (nx, ny) = (fp.nx, fp.ny);
         // The footprint is at most 2·border+1 wide; keep the weights on the stack when small.
         let mut wx_buf = [0.0f32; 16];
         let mut wy_buf = [0.0f32; 16];
@@ -579,23 +573,165 @@ impl Block {
             wy_heap.resize(ny, 0.0);
             (&mut wx_heap[..], &mut wy_heap[..])
         };
-        let rel_x = fx_lo as f32 - pxf;
-        let rel_y = fy_lo as f32 - pyf;
-        for (i, w) in wx.iter_mut().enumerate() {
-            *w = self.table.eval(rel_x + i as f32);
-        }
-        for (j, w) in wy.iter_mut().enumerate() {
-            *w = self.table.eval(rel_y + j as f32);
-        }
+        fp.weights(&self.table, wx, wy);
+        let (x_lo, y_lo) = (fp.x_lo, fp.y_lo);
         let sw = self.sw as usize;
         for (j, &wyj) in wy.iter().enumerate() {
-            let row = (y_lo as usize + j) * sw + x_lo as usize;
+            let row = (y_lo + j) * sw + x_lo;
             for (i, &wxi) in wx.iter().enumerate() {
                 self.data[row + i].add_sample(v, wxi * wyj);
                 if !aovs.is_empty() {
                     self.add_extra(row + i, aovs, wxi * wyj);
                 }
             }
+        }
+    }
+}
+
+impl Block {
+    /// The pixels that a splat at `film_pos` reaches under a filter other than the box, cut to
+    /// the storage; `None` when it reaches none.
+    #[inline(always)]
+    fn footprint(&self, film_pos: Vec2) -> Option<Footprint> {
+        let r = self.filter.radius();
+        // Position in full-film pixel-centre coordinates: the footprint and its weights must
+        // not depend on where the block lies (a split render puts blocks elsewhere).
+        let pxf = film_pos.x - 0.5;
+        let pyf = film_pos.y - 0.5;
+        // Footprint in full-film pixels, then cut to the storage.
+        let fx_lo = ((pxf - r).ceil() as i64).max(self.ox);
+        let fy_lo = ((pyf - r).ceil() as i64).max(self.oy);
+        let fx_hi = (crate::math::floor(pxf + r) as i64).min(self.ox + self.sw as i64 - 1);
+        let fy_hi = (crate::math::floor(pyf + r) as i64).min(self.oy + self.sh as i64 - 1);
+        if fx_lo > fx_hi || fy_lo > fy_hi {
+            return None;
+        }
+        Some(Footprint {
+            x_lo: (fx_lo - self.ox) as usize,
+            y_lo: (fy_lo - self.oy) as usize,
+            nx: (fx_hi - fx_lo + 1) as usize,
+            ny: (fy_hi - fy_lo + 1) as usize,
+            rel_x: fx_lo as f32 - pxf,
+            rel_y: fy_lo as f32 - pyf,
+        })
+    }
+
+    /// [`Block::put`] of one value with finite channels under a filter other than the box, the
+    /// footprint's pixels 8 at a time: each pixel's weight w = wx·wy and its addends w·v, w·v²
+    /// (per channel), w and w² are the same f32 products as [`Block::splat`]'s, turned into
+    /// fixed point 8-wide ([`sum::fixed8`], equal to [`sum::fixed`] lane by lane), so the sums
+    /// are `put`'s to the bit. A footprint wider than 16 pixels, or one where some w·v could be
+    /// non-finite (which `put` records as a flag), takes `put`. Call inside
+    /// [`crate::lane::Avx2::run`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn splat_lanes(&mut self, avx: crate::lane::Avx2, film_pos: Vec2, value: Spectrum) {
+        if !film_pos.is_finite() || self.sw == 0 || self.sh == 0 {
+            return;
+        }
+        let Some(fp) = self.footprint(film_pos) else {
+            return;
+        };
+        if fp.nx > 16 || fp.ny > 16 {
+            self.put(film_pos, value);
+            return;
+        }
+        let (mut wx, mut wy) = ([0.0f32; 16], [0.0f32; 16]);
+        let (wx, wy) = (&mut wx[..fp.nx], &mut wy[..fp.ny]);
+        fp.weights(&self.table, wx, wy);
+        // |wx·wy| ≤ max|wx|·max|wy| after rounding too (rounding is monotonic), so a finite
+        // |v|·max|wx|·max|wy| on every channel means every w·v is finite.
+        let (mut mx, mut my, mut finite) = (0.0f32, 0.0f32, true);
+        for &w in wx.iter() {
+            finite &= w.is_finite();
+            mx = mx.max(w.abs());
+        }
+        for &w in wy.iter() {
+            finite &= w.is_finite();
+            my = my.max(w.abs());
+        }
+        let v = value.to_array();
+        let wmax = mx * my;
+        for &c in &v {
+            finite &= (c.abs() * wmax).is_finite();
+        }
+        if !finite {
+            self.put(film_pos, value);
+            return;
+        }
+        let sw = self.sw as usize;
+        let (mut w, mut at, mut n) = ([0.0f32; 8], [0usize; 8], 0);
+        for (j, &wyj) in wy.iter().enumerate() {
+            let row = (fp.y_lo + j) * sw + fp.x_lo;
+            for (i, &wxi) in wx.iter().enumerate() {
+                w[n] = wxi * wyj;
+                at[n] = row + i;
+                n += 1;
+                if n == 8 {
+                    self.add8(avx, &w, &at, 8, v);
+                    n = 0;
+                }
+            }
+        }
+        if n > 0 {
+            self.add8(avx, &w, &at, n, v);
+        }
+    }
+
+    /// Adds the first `n` of eight weighted contributions of the value `v` (weights `w`, to
+    /// the pixels `at`): [`Acc::add_sample`] with the addends converted 8-wide. Call inside
+    /// [`crate::lane::Avx2::run`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn add8(
+        &mut self,
+        avx: crate::lane::Avx2,
+        w: &[f32; 8],
+        at: &[usize; 8],
+        n: usize,
+        v: [f32; 3],
+    ) {
+        let w8 = avx.load(w);
+        let (r, g, b) = (avx.splat(v[0]), avx.splat(v[1]), avx.splat(v[2]));
+        let (wr, wg, wb) = (r * w8, g * w8, b * w8);
+        let (f0, f1, f2) = (sum::fixed8(wr), sum::fixed8(wg), sum::fixed8(wb));
+        let (s0, s1, s2) = (
+            sum::fixed8(wr * r),
+            sum::fixed8(wg * g),
+            sum::fixed8(wb * b),
+        );
+        let (fw, fw2) = (sum::fixed8(w8), sum::fixed8(w8 * w8));
+        for (k, &a) in at.iter().enumerate().take(n) {
+            self.data[a].add_fixed(
+                [f0.get(k), f1.get(k), f2.get(k)],
+                [s0.get(k), s1.get(k), s2.get(k)],
+                fw.get(k),
+                fw2.get(k),
+            );
+        }
+    }
+}
+
+/// The pixels a splat reaches (in storage coordinates) and the offsets of its first pixel
+/// centre from the splat position along each axis, which the filter weights are taken at.
+struct Footprint {
+    x_lo: usize,
+    y_lo: usize,
+    nx: usize,
+    ny: usize,
+    rel_x: f32,
+    rel_y: f32,
+}
+
+impl Footprint {
+    /// The filter weights along each axis (`wx` of length `nx`, `wy` of length `ny`).
+    #[inline(always)]
+    fn weights(&self, table: &FilterTable, wx: &mut [f32], wy: &mut [f32]) {
+        for (i, w) in wx.iter_mut().enumerate() {
+            *w = table.eval(self.rel_x + i as f32);
+        }
+        for (j, w) in wy.iter_mut().enumerate() {
+            *w = table.eval(self.rel_y + j as f32);
         }
     }
 }
