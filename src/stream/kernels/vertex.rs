@@ -313,23 +313,23 @@ pub(crate) mod x8 {
                     continue;
                 }
                 // The interaction, rebuilt from its row once, for the texture lookups.
-                let si = Some(b.surf.get(i));
+                let si = &b.surf.get(i);
                 for (j, n) in sources.iter().enumerate() {
-                    if let (Some(n), Some(si)) = (n, &si) {
+                    if let Some(n) = n {
                         normals[j].set(k, wrapper_normal::<FULL>(scene, *n, si));
                     }
                 }
-                if let (Some(t), Some(si)) = (rho_tex, &si) {
+                if let Some(t) = rho_tex {
                     c0.set(k, reflectance(scene, t, si));
                 }
-                if let (true, Some(si)) = (slots, &si) {
+                if slots {
                     let v = leaf_values(scene, mat, si);
                     c0.set(k, v.0);
                     c1.set(k, v.1);
                     (au[k], av[k]) = (v.2, v.3);
                 }
                 tp.set(k, b.state[i].throughput);
-                if let (Some(t), Some(si)) = (mask_tex, &si) {
+                if let Some(t) = mask_tex {
                     // bsdf::mask::sample: the choice (drawn where 0 < opacity < 1), then the nested
                     // BSDF's numbers where it is chosen.
                     let o = unit_weight(scalar_at(scene, t, si));

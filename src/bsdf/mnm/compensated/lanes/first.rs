@@ -163,19 +163,12 @@ impl Points8 {
     /// by [`Self::clear_unpushed`].
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn of_facets(f: &FacetCols<8>) -> Self {
-        let z = [[0.0; 8], [0.0; 8], [1.0; 8]];
         Points8 {
             v0: *f.area_vectors(0),
             v1: *f.area_vectors(1),
             n1: *f.normals(1),
             fr: *f.frame(0),
-            w: [[0.0; 8]; ENTRIES],
-            a: [z; ENTRIES],
-            has: [[0.0; 8]; ENTRIES],
-            wi: z,
-            wall0: [0.0; 8],
-            wall: [0.0; 8],
-            pushed: 0,
+            ..Self::new()
         }
     }
 
