@@ -30,8 +30,10 @@ pub const BRUTE_MAX_SHAPES: usize = 16;
 /// Scenes of at most this many mesh triangles (and nothing else) take tier A. A scene of both
 /// takes it when `analytic / BRUTE_MAX_SHAPES + triangles / BRUTE_MAX_TRIANGLES ≤ 1` (each
 /// budget the crossover with Embree of its own kind, so the mixed cost is their sum).
-/// Measured on the Cornell box (36 triangles) and on it with extra triangles in
-/// `docs/bench/README.md` ("seventeenth session, h4").
+/// Measured on the Cornell box (38 triangles) with a sphere of N more triangles in view
+/// (`docs/bench/tier_triangles.py`, `docs/bench/README.md`, "eighteenth session, h4"): tier A
+/// costs about 30 instructions per sample more per visible triangle, Embree almost nothing, and
+/// they cross near 70 triangles.
 pub const BRUTE_MAX_TRIANGLES: usize = 64;
 
 /// The most triangles [`Tier::Brute`] accepts when forced (a bound on the cost of a query).

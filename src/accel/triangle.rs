@@ -77,17 +77,60 @@ pub(crate) fn tri_edges<L: Lane>(ray: &RayL<L>, tri: &TriL<L>, p: &TriPlane<L>) 
     (u, v, inside & p.t.gt(ray.tnear) & p.t.lt(ray.tfar))
 }
 
-/// Whether the ray meets the box `[lo, hi]` within its interval: the slab test (Kay & Kajiya,
-/// "Ray Tracing Complex Scenes", SIGGRAPH 1986) with `inv = 1/d` per component, over
-/// [tnear, tfar] closed. Tier A culls a mesh's triangles by their (padded) bounding box with it;
-/// the forms run the same operations per (ray, box), so they cull alike.
+/// The per-ray half of the slab test ([`in_bounds`]): `1/d` per component and, per axis,
+/// whether it is negative (its sign bit: −0 gives −∞), which names the box side the ray
+/// enters by.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Slab<L: Lane> {
+    inv: V3<L>,
+    neg: [L::Mask; 3],
+}
+
+/// [`Slab`] of `ray` (once per ray or packet, for all of its box tests).
 #[inline(always)]
-pub(crate) fn in_bounds<L: Lane>(ray: &RayL<L>, inv: V3<L>, lo: V3<L>, hi: V3<L>) -> L::Mask {
-    let t0 = (lo - ray.o) * inv;
-    let t1 = (hi - ray.o) * inv;
-    let enter = t0.x.min(t1.x).max(t0.y.min(t1.y)).max(t0.z.min(t1.z));
-    let exit = t0.x.max(t1.x).min(t0.y.max(t1.y)).min(t0.z.max(t1.z));
-    enter.max(ray.tnear).le(exit.min(ray.tfar))
+pub(crate) fn slab<L: Lane>(ray: &RayL<L>) -> Slab<L> {
+    let one = ray.tnear.splat(1.0);
+    let inv = V3::new(one / ray.d.x, one / ray.d.y, one / ray.d.z);
+    Slab {
+        inv,
+        neg: [inv.x.sign_bit(), inv.y.sign_bit(), inv.z.sign_bit()],
+    }
+}
+
+/// Whether the ray meets the closed box `[lo, hi]` within its interval [tnear, tfar]: the slab
+/// test (Kay & Kajiya, "Ray Tracing Complex Scenes", SIGGRAPH 1986). Tier A culls a mesh's
+/// triangles by their (padded) bounding box with it; the forms run the same operations per
+/// (ray, box), so they cull alike.
+///
+/// Each axis's entry and exit are taken by the sign of `1/d` (Williams et al., "An Efficient
+/// and Robust Ray–Box Intersection Algorithm", JGT 10(1), 2005), not by `min`/`max` of the two
+/// planes' parameters: a ray parallel to an axis (`d` = ±0, or subnormal, so `1/d` = ±∞) whose
+/// origin lies exactly on one of that axis's planes gets 0·∞ = NaN for that plane, and the other
+/// plane's parameter is then the right infinite bound (−∞ entry, +∞ exit: the ray stays inside
+/// the slab). The NaN lands in the entry or the exit and is dropped there: x86 `max`/`min`
+/// return the second operand when the first is NaN, so each axis is folded in as the first
+/// operand onto tnear and tfar. (With `min`/`max` per axis the NaN could instead become +∞
+/// entry or −∞ exit and reject the box.) Without NaN both forms give the same answer: the
+/// products are monotone in the plane, so the sign picks what `min`/`max` would. A NaN tnear or
+/// tfar (a packet's empty lane) still rejects.
+#[inline(always)]
+pub(crate) fn in_bounds<L: Lane>(ray: &RayL<L>, s: &Slab<L>, lo: V3<L>, hi: V3<L>) -> L::Mask {
+    let t0 = (lo - ray.o) * s.inv;
+    let t1 = (hi - ray.o) * s.inv;
+    let near = |k: usize, a: L, b: L| L::select(s.neg[k], b, a);
+    let (nx, ny, nz) = (
+        near(0, t0.x, t1.x),
+        near(1, t0.y, t1.y),
+        near(2, t0.z, t1.z),
+    );
+    let (fx, fy, fz) = (
+        near(0, t1.x, t0.x),
+        near(1, t1.y, t0.y),
+        near(2, t1.z, t0.z),
+    );
+    let enter = nx.max(ny.max(nz.max(ray.tnear)));
+    let exit = fx.min(fy.min(fz.min(ray.tfar)));
+    enter.le(exit)
 }
 
 /// The whole test: the crossing ([`TriPlane`]: t and |d·n|), the numerators of u and v, and
@@ -166,5 +209,189 @@ mod tests {
         assert!(!triangle(&ray(Vec3::new(0.5, 0.0, 1.0), Vec3::NEG_Z, 0.0, 9.0), &flat).3);
         let nan = tri([Vec3::NAN; 3]);
         assert!(!triangle(&ray(Vec3::Z, Vec3::NEG_Z, 0.0, 9.0), &nan).3);
+    }
+
+    /// The slab test as it was before issue 18's NaN fix: `min`/`max` of the two planes'
+    /// parameters per axis (x86 semantics through [`Lane`]), then onto tnear and tfar.
+    fn in_bounds_min_max(ray: &RayL<f32>, lo: Vec3, hi: Vec3) -> (bool, bool) {
+        let (lo, hi): (V3<f32>, V3<f32>) = (lo.into(), hi.into());
+        let inv = V3::new(1.0 / ray.d.x, 1.0 / ray.d.y, 1.0 / ray.d.z);
+        let t0 = (lo - ray.o) * inv;
+        let t1 = (hi - ray.o) * inv;
+        let nan = [t0.x, t0.y, t0.z, t1.x, t1.y, t1.z]
+            .iter()
+            .any(|t| t.is_nan());
+        let enter = Lane::max(
+            Lane::max(Lane::min(t0.x, t1.x), Lane::min(t0.y, t1.y)),
+            Lane::min(t0.z, t1.z),
+        );
+        let exit = Lane::min(
+            Lane::min(Lane::max(t0.x, t1.x), Lane::max(t0.y, t1.y)),
+            Lane::max(t0.z, t1.z),
+        );
+        (
+            Lane::max(enter, ray.tnear) <= Lane::min(exit, ray.tfar),
+            nan,
+        )
+    }
+
+    fn boxed(r: &RayL<f32>, lo: Vec3, hi: Vec3) -> bool {
+        in_bounds(r, &slab(r), lo.into(), hi.into())
+    }
+
+    /// A ray parallel to an axis (d = +0 or −0 there) whose origin lies exactly on one of the
+    /// box's planes of that axis stays on the closed box's boundary: inside. The `min`/`max`
+    /// form got 0·∞ = NaN there and rejected the box whenever the origin lay on the low plane
+    /// (+0: entry +∞; −0: exit −∞), 12 of these 24 rays; the sign form keeps all, at width 1
+    /// and 8. A hair outside the plane is outside in both.
+    #[test]
+    fn the_slab_test_keeps_rays_on_a_box_plane() {
+        let (lo, hi) = (Vec3::new(-1.0, -2.0, -3.0), Vec3::new(2.0, 1.0, 0.5));
+        let mut old_rejected = 0;
+        for axis in 0..3 {
+            for side in [lo[axis], hi[axis]] {
+                for zero in [0.0f32, -0.0] {
+                    for (k, sign) in [(1usize, 1.0f32), (2, -1.0)] {
+                        // Start outside on another axis and travel into the box along it.
+                        let other = (axis + k) % 3;
+                        let mut o = Vec3::splat(0.25);
+                        o[axis] = side;
+                        o[other] = if sign > 0.0 {
+                            lo[other] - 4.0
+                        } else {
+                            hi[other] + 4.0
+                        };
+                        // Along the third axis (inside its slab) a slow drift.
+                        let mut d = Vec3::splat(0.01);
+                        d[axis] = zero;
+                        d[other] = sign;
+                        let r = ray(o, d, 0.0, f32::INFINITY);
+                        assert!(boxed(&r, lo, hi), "on plane {axis} at {side}: {o} {d}");
+                        let (old, nan) = in_bounds_min_max(&r, lo, hi);
+                        assert!(nan);
+                        old_rejected += usize::from(!old);
+                        // Just outside the plane: never inside.
+                        let mut out = o;
+                        out[axis] = if side == lo[axis] {
+                            side.next_down()
+                        } else {
+                            side.next_up()
+                        };
+                        let r = ray(out, d, 0.0, f32::INFINITY);
+                        assert!(!boxed(&r, lo, hi), "outside plane {axis}: {out} {d}");
+                        assert!(!in_bounds_min_max(&r, lo, hi).0);
+                        #[cfg(target_arch = "x86_64")]
+                        wide_agrees(&ray(o, d, 0.0, f32::INFINITY), lo, hi);
+                        #[cfg(target_arch = "x86_64")]
+                        wide_agrees(&r, lo, hi);
+                    }
+                }
+            }
+        }
+        // What the fix changes: the old form dropped the box for most of these rays.
+        assert_eq!(old_rejected, 12);
+    }
+
+    /// The 8-wide form of [`in_bounds`] gives the width-1 answer for `r` in every lane (one
+    /// ray × 8 boxes and 8 rays × one box are the same operations per lane).
+    #[cfg(target_arch = "x86_64")]
+    fn wide_agrees(r: &RayL<f32>, lo: Vec3, hi: Vec3) {
+        let Some(avx) = crate::lane::Avx2::detect() else {
+            return;
+        };
+        let want = boxed(r, lo, hi);
+        let s = |x: f32| avx.splat(x);
+        let v = |p: V3<f32>| V3::new(s(p.x), s(p.y), s(p.z));
+        let wide = RayL {
+            o: v(r.o),
+            d: v(r.d),
+            tnear: s(r.tnear),
+            tfar: s(r.tfar),
+        };
+        let got = avx.run(|| in_bounds(&wide, &slab(&wide), v(lo.into()), v(hi.into())));
+        assert_eq!(got.bits(), if want { 0xff } else { 0 }, "{r:?}");
+    }
+
+    /// Wherever no 0·∞ arises, the sign form answers as the `min`/`max` form (so no hit of a
+    /// renderer's ray changed with the fix), over random rays and boxes with ±0, subnormal,
+    /// huge and infinite components and infinite or NaN intervals. Where one arises (the origin
+    /// on a plane of an axis with 1/d = ±∞), it answers as if that axis's slab were the whole
+    /// line: the ray does not leave the plane, which the closed slab holds.
+    #[test]
+    fn the_slab_test_equals_min_max_without_nan() {
+        let mut rng = crate::math::rng::Pcg32::new(7, 18);
+        let specials = [
+            0.0f32,
+            -0.0,
+            1e-40,
+            -1e-40,
+            f32::MIN_POSITIVE,
+            1e30,
+            -1e30,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        let pick = |rng: &mut crate::math::rng::Pcg32, scale: f32| {
+            let u = rng.next_f32();
+            if u < 0.3 {
+                specials[(rng.next_u32() % specials.len() as u32) as usize]
+            } else if u < 0.4 {
+                // A small integer: often exactly on a plane of the box.
+                (rng.next_u32() % 5) as f32 - 2.0
+            } else {
+                scale * (2.0 * rng.next_f32() - 1.0)
+            }
+        };
+        let (mut same, mut with_nan) = (0, 0);
+        for k in 0..200_000 {
+            let mut v = || {
+                Vec3::new(
+                    pick(&mut rng, 4.0),
+                    pick(&mut rng, 4.0),
+                    pick(&mut rng, 4.0),
+                )
+            };
+            let (a, b, o, d) = (v(), v(), v(), v());
+            if !(o.is_finite() && d.is_finite() && a.is_finite() && b.is_finite()) {
+                continue;
+            }
+            let (lo, hi) = (a.min(b), a.max(b));
+            let tnear = [0.0, 1e-4, f32::NAN][k % 3];
+            let tfar = [f32::INFINITY, 3.0, f32::MAX, f32::NAN][k % 4];
+            let r = ray(o, d, tnear, tfar);
+            let got = boxed(&r, lo, hi);
+            #[cfg(target_arch = "x86_64")]
+            if k % 16 == 0 {
+                wide_agrees(&r, lo, hi);
+            }
+            let (old, nan) = in_bounds_min_max(&r, lo, hi);
+            if !nan {
+                assert_eq!(got, old, "{r:?} {lo} {hi}");
+                same += 1;
+            } else {
+                with_nan += 1;
+                let mut flat = r;
+                let (mut flo, mut fhi) = (lo, hi);
+                for a in 0..3 {
+                    if (1.0 / d[a]).is_infinite() && (o[a] == lo[a] || o[a] == hi[a]) {
+                        // That axis's slab made the whole line: entry −∞, exit +∞.
+                        (flo[a], fhi[a]) = (f32::MIN, f32::MAX);
+                        let mut fo = Vec3::from(flat.o);
+                        fo[a] = 0.0;
+                        flat.o = fo.into();
+                    }
+                }
+                if !(tnear.is_nan() || tfar.is_nan()) {
+                    let want = in_bounds_min_max(&flat, flo, fhi);
+                    if !want.1 {
+                        assert_eq!(got, want.0, "{r:?} {lo} {hi}");
+                    }
+                } else {
+                    assert!(!got);
+                }
+            }
+        }
+        assert!(same > 50_000 && with_nan > 1_000, "{same} {with_nan}");
     }
 }

@@ -579,3 +579,115 @@ fn cbox_triangles_agree_with_embree() {
     // Only the edge-aimed fifth of the rays can land within a few ulps of an edge.
     assert!(edges * 20 <= all.len(), "{edges} rays differ at edges");
 }
+
+/// Rays parallel to an axis (that direction component +0 or −0) whose origin lies exactly on a
+/// plane of a mesh's padded bounding box, tier A's cull (`mesh_bounds` in
+/// `src/accel/brute.rs`: padded by 10⁻⁴ of the largest extent plus the largest coordinate
+/// magnitude, recomputed here): its slab test takes 1/d = ±∞ for that axis and the plane's
+/// parameter is 0·∞ = NaN. The slab test keeps such rays since issue 18
+/// (`triangle::tests::the_slab_test_keeps_rays_on_a_box_plane`); before, the box was dropped
+/// when the origin lay on a low plane. Such a ray lies outside the mesh by the padding, so no
+/// hit was lost either way: tier A's four queries agree bit for bit with each other and find
+/// what Embree finds (nothing, or the other mesh the ray meets on its plane), for every plane,
+/// both zeros, and rays that run along the plane into and across the box.
+#[test]
+fn rays_on_a_mesh_box_plane_parallel_to_it() {
+    use groove::geometry::TriMesh;
+    // An octahedron (8 triangles, box [−1, 1]³) and a big quad crossing it at z = 0.1.
+    let mut positions = vec![
+        Vec3::X,
+        Vec3::NEG_X,
+        Vec3::Y,
+        Vec3::NEG_Y,
+        Vec3::Z,
+        Vec3::NEG_Z,
+    ];
+    let mut indices = Vec::new();
+    for (a, b) in [(0, 2), (2, 1), (1, 3), (3, 0)] {
+        indices.push([a, b, 4]);
+        indices.push([b, a, 5]);
+    }
+    let octa = TriMesh {
+        positions: positions.clone(),
+        normals: None,
+        uvs: None,
+        indices,
+    };
+    positions = [(-3.0, -3.0), (3.0, -3.0), (3.0, 3.0), (-3.0, 3.0)]
+        .map(|(x, y)| Vec3::new(x, y, 0.1))
+        .to_vec();
+    let quad = TriMesh {
+        positions,
+        normals: None,
+        uvs: None,
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+    };
+    let padded = |m: &TriMesh| {
+        let (lo, hi) = m
+            .positions
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+                (lo.min(p), hi.max(p))
+            });
+        let pad = 1e-4 * ((hi - lo).max_element() + lo.abs().max(hi.abs()).max_element());
+        (lo - Vec3::splat(pad), hi + Vec3::splat(pad))
+    };
+    let boxes = [padded(&octa), padded(&quad)];
+    let shapes = vec![
+        Shape::from_mesh(octa, false, true).unwrap(),
+        Shape::from_mesh(quad, false, true).unwrap(),
+    ];
+    let embree = Accel::build_tiered(&shapes, &[], &[], Tier::Embree).unwrap();
+    let brute = Accel::build_tiered(&shapes, &[], &[], Tier::Brute).unwrap();
+    let mut rng = Pcg32::new(18, 4);
+    let mut all = Vec::new();
+    for (lo, hi) in boxes {
+        for axis in 0..3 {
+            for side in [lo[axis], hi[axis]] {
+                for zero in [0.0f32, -0.0] {
+                    for _ in 0..64 {
+                        let mut u = || 2.0 * rng.next_f32() - 1.0;
+                        // On the plane, anywhere over (and around) the box's face.
+                        let mut o = Vec3::new(u(), u(), u()) * 4.0;
+                        o[axis] = side;
+                        let mut d = Vec3::new(u(), u(), u());
+                        d[axis] = zero;
+                        all.push(Ray::new(o, d.normalize_or(Vec3::X)));
+                    }
+                }
+            }
+        }
+    }
+    let (mut hits, mut start) = (0, 0);
+    while start < all.len() {
+        // Full packets and partial ones (8, 7, 6 rays).
+        let lanes = &all[start..(start + 8 - start % 3).min(all.len())];
+        start += lanes.len();
+        let mut packet = [None; 8];
+        brute.intersect8(lanes, false, &mut packet);
+        let blocked = brute.occluded8(lanes);
+        for (i, ray) in lanes.iter().enumerate() {
+            let (want, got) = (embree.intersect(ray), brute.intersect(ray));
+            assert!(ray.d.to_array().contains(&0.0), "{ray:?}");
+            assert_eq!(bits(&got), bits(&packet[i]), "ray {ray:?}: packet");
+            assert_eq!(brute.occluded(ray), got.is_some(), "ray {ray:?}: occluded");
+            assert_eq!(
+                blocked >> i & 1 == 1,
+                got.is_some(),
+                "ray {ray:?}: occluded8"
+            );
+            assert_eq!(
+                want.map(|h| (h.geom, h.prim)),
+                got.map(|h| (h.geom, h.prim)),
+                "ray {ray:?}: Embree {want:?}, tier A {got:?}"
+            );
+            if let (Some(w), Some(g)) = (want, got) {
+                assert!((w.t - g.t).abs() <= 1e-5 * w.t.max(1.0), "{w:?} {g:?}");
+                hits += 1;
+            }
+        }
+    }
+    // The quad's padded planes z = 0.1 ± pad lie inside the octahedron's box: rays there meet
+    // the octahedron, and rays on the octahedron's planes x, y = ±(1 + pad) meet the quad.
+    assert!(hits > 100, "{hits} hits");
+}
