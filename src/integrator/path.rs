@@ -13,6 +13,8 @@ use super::nee::prepare_light;
 use super::{PathSettings, RayKind, Scratch, Strategy};
 use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceSample};
 use crate::geometry::{Ray, SurfaceInteraction};
+use crate::lane::vec::V3;
+use crate::lane::Lane;
 use crate::math::mis::power_heuristic;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
@@ -235,6 +237,32 @@ impl PathState {
         Some(ray)
     }
 
+    /// The state [`Self::advance`] leaves before its roulette: throughput `throughput` (the
+    /// product, divided by the survival probability if the path won its roulette), index
+    /// product `eta`, previous vertex `p` sampled with density `pdf` (through a delta lobe when
+    /// `delta`), one vertex deeper. The stream renderer's lane form of `advance`
+    /// ([`advance_lanes`], `crate::stream::kernels::vertex`) writes each lane's result with it.
+    #[inline(always)]
+    pub(crate) fn set_advanced(
+        &mut self,
+        throughput: Spectrum,
+        eta: f32,
+        p: Vec3,
+        pdf: f32,
+        delta: bool,
+    ) {
+        self.throughput = throughput;
+        self.eta = eta;
+        self.prev = Some(PrevVertex {
+            p,
+            bsdf_pdf: pdf,
+            delta,
+        });
+        // `advance`'s `depth += 1` as release code runs it (depth never nears u32::MAX: it is
+        // bounded by the path's vertices).
+        self.depth = self.depth.wrapping_add(1);
+    }
+
     /// What the MIS weight of emission seen by this path's ray needs of its previous vertex
     /// ([`emission_weight`] unrolled for the stream renderer's emission stage in lanes,
     /// `crate::stream::emission`): that vertex's point and BSDF density, and whether the weight
@@ -261,6 +289,55 @@ impl PathState {
     #[inline]
     pub fn add_light(&mut self, light: &PendingLight) {
         self.result += light.contribution;
+    }
+}
+
+/// [`PathState::advance`]'s arithmetic for a lane per path, before its one random draw: the
+/// throughput and index products, whether the path passes the throughput test (`live`) and
+/// its roulette survival probability `q` (meaningful where `live`; roulette plays where also
+/// depth + 1 ≥ rr_depth, decided by the caller, which draws there and compares `u ≥ q` to end
+/// the path, as `advance` does).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Advanced<L: Lane> {
+    pub throughput: V3<L>,
+    pub eta: L,
+    pub live: L::Mask,
+    pub q: L,
+}
+
+/// `f32::max` in lanes (IEEE maxNum: a NaN operand gives the other one), from the x86 maximum
+/// `b.max(a)` (`if b > a { b } else { a }`: a NaN `b` gives `a`) and a select for a NaN `a`.
+/// Equal operands of different signs (±0) may come out with either sign; [`advance_lanes`]
+/// reads the result only through `> 0`, where both zeros fail.
+#[inline(always)]
+fn max_num<L: Lane>(a: L, b: L) -> L {
+    L::select(a.is_nan(), b, b.max(a))
+}
+
+/// [`PathState::advance`] up to its roulette draw, in lanes: from each path's throughput
+/// `throughput` and index product `eta`, and its BSDF sample's weight `weight` and relative
+/// index `eta_s`. Bit for bit `advance`'s operations in its order: the component-wise product,
+/// `max_component` (`x.max(y).max(z)` with `f32::max`'s NaN rule: [`max_num`]), the finite and
+/// positive test, `(tmax · η) · η` and `f32::min(…, 0.95)` (a NaN product gives 0.95: the x86
+/// minimum `p.min(0.95)` returns its second operand then, as `f32::min` does; the two agree on
+/// every other input, the product being never −0 where `tmax > 0`).
+#[inline(always)]
+pub(crate) fn advance_lanes<L: Lane>(
+    throughput: V3<L>,
+    eta: L,
+    weight: V3<L>,
+    eta_s: L,
+) -> Advanced<L> {
+    let t = throughput * weight;
+    let eta = eta * eta_s;
+    let tmax = max_num(max_num(t.x, t.y), t.z);
+    let live = tmax.is_finite() & tmax.gt(tmax.splat(0.0));
+    let q = (tmax * eta * eta).min(tmax.splat(0.95));
+    Advanced {
+        throughput: t,
+        eta,
+        live,
+        q,
     }
 }
 

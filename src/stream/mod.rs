@@ -845,6 +845,9 @@ fn shade_kernel<T: kernels::tail::Tail>(
 /// samples that nothing blocks; one by one, or grouped when `packet` is `Some(stream)`: as
 /// 8-wide packets of consecutive pending rays, or (`stream`) as one Embree stream.
 fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Rays) {
+    if packet == Some(false) {
+        return shadow_packets(scene, batch, rays);
+    }
     // `shadow` is a subsequence of `scatter`: written in place over a copy of it, branch-free
     // (the write position advances past the paths with a pending sample only).
     batch.shadow.clear();
@@ -896,6 +899,55 @@ fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Ra
             }
         }
     }
+}
+
+/// [`shadows`] as 8-wide packets of consecutive pending rays in path order, in one pass over
+/// `batch.scatter`: each pending sample's ray joins the packet (and its path the packet's
+/// list) as the pass meets it, and a full packet (the last one, partly filled) is traced and
+/// its unblocked samples added. The same packets as filtering the pending paths into
+/// `batch.shadow` first, without that list's pass and the rays' second read.
+fn shadow_packets(scene: &Scene, batch: &mut Batch, rays: &mut Rays) {
+    let (scatter, light, state) = (&batch.scatter, &batch.light, &mut batch.state);
+    let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
+    let mut who = [0u32; 8];
+    let (mut n, mut total) = (0, 0);
+    /// Traces `packet` and adds the samples of the paths `who` (one per ray) that nothing blocks.
+    #[inline(always)]
+    fn flush(
+        scene: &Scene,
+        rays: &mut Rays,
+        packet: &[Ray],
+        who: &[u32],
+        light: &[Option<crate::integrator::path::PendingLight>],
+        state: &mut [crate::integrator::path::PathState],
+    ) {
+        let blocked = rays.occluded8(scene, packet);
+        for (k, &i) in who.iter().enumerate() {
+            let i = i as usize;
+            if let (Some(l), false) = (&light[i], blocked >> k & 1 == 1) {
+                state[i].add_light(l);
+            }
+        }
+    }
+    for &i in scatter.iter() {
+        if let Some(l) = &light[i as usize] {
+            packet[n] = l.shadow;
+            who[n] = i;
+            n += 1;
+            if n == 8 {
+                flush(scene, rays, &packet, &who, light, state);
+                total += 8;
+                n = 0;
+            }
+        }
+    }
+    if n > 0 {
+        flush(scene, rays, &packet[..n], &who[..n], light, state);
+        total += n;
+    }
+    batch.shadow.clear();
+    rays.counters.lanes.shadow_used += total as u64;
+    rays.counters.lanes.shadow_slots += slots(total);
 }
 
 /// Traces the rays of the active paths into `batch.hit`, one at a time or grouped when

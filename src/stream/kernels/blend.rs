@@ -399,7 +399,17 @@ pub(crate) mod x8 {
         );
 
         // 4. Scatter back.
-        scatter(b, ids, &front, &p, lo.as_ref(), &so, tail);
+        scatter(
+            avx,
+            b,
+            ids,
+            &front,
+            &p,
+            tp.load(avx),
+            lo.as_ref(),
+            &so,
+            tail,
+        );
     }
 }
 

@@ -35,6 +35,12 @@ pub(crate) struct Sampled {
 pub(crate) trait Tail {
     /// Whether the 8-wide kernels may shade (else every path goes through [`Tail::scalar`]).
     fn kernels(&self) -> bool;
+    /// The `path` integrator's settings when this tail is its [`PathTail`] (whose
+    /// [`Tail::light`] only stores the sample and whose [`Tail::bsdf`] is `PathState::advance`):
+    /// then a kernel may end a chunk's vertices in lanes (`kernels::vertex::x8::scatter`).
+    fn path(&self) -> Option<&PathSettings> {
+        None
+    }
     /// Path `i`'s light sample: its shadow ray and contribution (throughput × f·Le × MIS
     /// weight / density, the weight of `PathState::scatter`).
     fn light(&mut self, b: &mut Batch, i: usize, shadow: Ray, contribution: Spectrum);
@@ -53,6 +59,11 @@ impl Tail for PathTail<'_> {
     #[inline(always)]
     fn kernels(&self) -> bool {
         true
+    }
+
+    #[inline(always)]
+    fn path(&self) -> Option<&PathSettings> {
+        Some(self.cfg)
     }
 
     #[inline(always)]

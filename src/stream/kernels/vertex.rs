@@ -168,6 +168,7 @@ pub(crate) fn leaf_values(
 pub(crate) mod x8 {
     use super::*;
     use crate::geometry::Ray;
+    use crate::integrator::path::advance_lanes;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::V2;
     use crate::lane::{ToArray, Wide};
@@ -379,11 +380,12 @@ pub(crate) mod x8 {
         }
         // A block, not a closure: a closure would be compiled outside `Avx2::run`'s target
         // features and call every 8-wide operation out of line.
+        let tp8 = tp.load(avx);
         let lo = if nee {
             let (u_sel, u) = (&num.u_sel, &num.u);
             gather.add_x8(avx, scene, lights, light_only, &front, u_sel, u, &p);
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
-            let lo = light::<_, FULL>(&surf, wi, mat, &normals8, &params, tp.load(avx), &lp);
+            let lo = light::<_, FULL>(&surf, wi, mat, &normals8, &params, tp8, &lp);
             Some(LightCols::store(&lo))
         } else {
             None
@@ -399,7 +401,7 @@ pub(crate) mod x8 {
         );
 
         // 4. Scatter back.
-        scatter(b, ids, &front, &p, lo.as_ref(), &so, tail);
+        scatter(avx, b, ids, &front, &p, tp8, lo.as_ref(), &so, tail);
     }
 
     /// A chunk's light samples as the scatter reads them: per lane whether a shadow ray is
@@ -430,19 +432,35 @@ pub(crate) mod x8 {
 
     /// Step 4 of a chunk (the wrapper-chain driver's and [`crate::stream::kernels::blend`]'s):
     /// each front-facing lane's pending shadow ray, then its BSDF sample, to the integrator's
-    /// tail, in path order.
+    /// tail, in path order (`throughput`: the paths' throughputs, read by the `path` tail; a
+    /// lane behind its surface may hold any value there). Under the `path` integrator's tail ([`Tail::path`]) the light
+    /// samples are stored lane by lane and the vertices end in lanes ([`advance`]); the order
+    /// does not matter there (each lane writes its own path's fields).
     #[inline(always)]
-    pub(crate) fn scatter<L: Lane + ToArray<f32, W>, const W: usize>(
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn scatter<T: Wide<W>, const W: usize>(
+        avx: T,
         b: &mut Batch,
         ids: &[u32; W],
         front: &[bool; W],
         p: &Cols3<W>,
+        throughput: V3<T::F>,
         lo: Option<&LightCols<W>>,
-        so: &SampleOut<L>,
+        so: &SampleOut<T::F>,
         tail: &mut impl Tail,
-    ) where
-        L::Mask: ToArray<bool, W>,
-    {
+    ) {
+        if let Some(cfg) = tail.path().copied() {
+            if let Some(l) = lo {
+                for (k, &i) in ids.iter().enumerate() {
+                    if front[k] && l.ok[k] {
+                        let shadow = Ray::segment(l.o.get(k), l.d.get(k), l.tmax[k]);
+                        tail.light(b, i as usize, shadow, l.c.get(k));
+                    }
+                }
+            }
+            advance(avx, &cfg, b, ids, front, p, throughput, so);
+            return;
+        }
         let (s_ok, s_wo, s_pdf, s_w, s_delta, s_eta, s_o) = (
             so.ok.to_array(),
             Cols3::store(so.wo),
@@ -475,5 +493,224 @@ pub(crate) mod x8 {
                 tail.bsdf(b, i, &s);
             }
         }
+    }
+
+    /// `PathState::advance` (the `path` integrator's [`Tail::bsdf`]) for the lanes of a chunk
+    /// whose BSDF sample passed (`front` and `so.ok`; `p`: their points; `throughput`: the
+    /// paths' throughputs, as gathered by the kernel for its light samples): the throughput update,
+    /// the test and the survival probability in lanes (`path::advance_lanes`), then lane by
+    /// lane the roulette draw where it plays (depth + 1 ≥ rr_depth on a live lane: the one
+    /// `next_1d` of `advance`, from the path's own stream), the state written, and the next ray
+    /// and `alive` of the paths that go on. Bit for bit `advance` per lane (the test
+    /// `the_lane_advance_equals_advance`).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn advance<T: Wide<W>, const W: usize>(
+        avx: T,
+        cfg: &PathSettings,
+        b: &mut Batch,
+        ids: &[u32; W],
+        front: &[bool; W],
+        p: &Cols3<W>,
+        throughput: V3<T::F>,
+        so: &SampleOut<T::F>,
+    ) {
+        let mut eta = [1.0f32; W];
+        for (k, &i) in ids.iter().enumerate() {
+            eta[k] = b.state[i as usize].eta;
+        }
+        let rr_depth = cfg.rr_depth as i64;
+        let a = advance_lanes(throughput, avx.load(&eta), so.weight, so.eta);
+        let (t, e, live, q) = (
+            Cols3::store(a.throughput),
+            a.eta.to_array(),
+            a.live.to_array(),
+            a.q.to_array(),
+        );
+        let (ok, o, wo) = (so.ok.to_array(), Cols3::store(so.o), Cols3::store(so.wo));
+        let (pdf, delta) = (so.pdf.to_array(), so.delta.to_array());
+        for (k, &i) in ids.iter().enumerate() {
+            if !(front[k] && ok[k]) {
+                continue;
+            }
+            let i = i as usize;
+            let (mut tk, mut on) = (t.get(k), live[k]);
+            let st = &mut b.state[i];
+            // Roulette from rr_depth on, as `advance` tests it after its `depth += 1`.
+            if on && st.depth.wrapping_add(1) as i64 >= rr_depth {
+                // `advance`'s roulette: the path ends at u ≥ q, else its throughput is divided.
+                if b.sampler[i].next_1d() >= q[k] {
+                    on = false;
+                } else {
+                    tk /= q[k];
+                }
+            }
+            st.set_advanced(tk, e[k], p.get(k), pdf[k], delta[k]);
+            if on {
+                b.ray[i] = Ray::new(o.get(k), wo.get(k));
+                b.alive[i] = true;
+            }
+        }
+    }
+}
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use super::x8::advance;
+    use super::SampleOut;
+    use crate::geometry::Ray;
+    use crate::integrator::PathSettings;
+    use crate::lane::Avx2;
+    use crate::math::rng::Pcg32;
+    use crate::sampler::Sampler;
+    use crate::stream::batch::Batch;
+    use crate::stream::kernels::light::x8::Cols3;
+    use crate::stream::kernels::tail::{PathTail, Sampled, Tail};
+    use glam::{Vec2, Vec3};
+
+    /// Values that reach `advance`'s operations: zeros of both signs, subnormals, huge values
+    /// (whose products overflow), infinities, NaN, and ordinary ones.
+    const EDGES: [f32; 16] = [
+        0.0,
+        -0.0,
+        1e-40,
+        -1e-40,
+        f32::MIN_POSITIVE,
+        1e30,
+        3e38,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        0.5,
+        1.0,
+        2.0,
+        0.95,
+        1e-3,
+        -0.25,
+    ];
+
+    /// An edge value half of the time, else a uniform number in [0, 2).
+    fn value(r: &mut Pcg32) -> f32 {
+        if r.next_u32() & 1 == 0 {
+            EDGES[(r.next_u32() % EDGES.len() as u32) as usize]
+        } else {
+            2.0 * r.next_f32()
+        }
+    }
+
+    /// The lane form of the vertex's end ([`advance`]) leaves every path's state, stream, next
+    /// ray and `alive` flag bit for bit where `PathState::advance` (the `path` tail's
+    /// `Tail::bsdf`) leaves them lane by lane, over random and edge throughputs, weights and
+    /// indices, depths below, at and past `rr_depth`, and lanes that are behind their surface or
+    /// whose sample failed (untouched on both sides).
+    #[test]
+    fn the_lane_advance_equals_advance() {
+        let Some(avx) = Avx2::detect() else {
+            return;
+        };
+        let mut r = Pcg32::new(7, 11);
+        let (mut roulette, mut survived, mut nan_kept) = (0, 0, 0);
+        for round in 0..3000u32 {
+            let cfg = PathSettings {
+                rr_depth: [5, 0, 3, -1, 100, 1][round as usize % 6],
+                ..PathSettings::default()
+            };
+            // The same 12 paths in two batches; the chunk takes 8 of them, out of order.
+            let ids = [3u32, 0, 11, 5, 6, 9, 1, 7];
+            let mut batches = [Batch::new(12, 1), Batch::new(12, 1)];
+            let states: Vec<(Vec3, f32, u32)> = (0..12)
+                .map(|_| {
+                    let t = Vec3::new(value(&mut r), value(&mut r), value(&mut r));
+                    (t, value(&mut r), r.next_u32() % 8)
+                })
+                .collect();
+            for b in &mut batches {
+                for (j, &(t, eta, depth)) in states.iter().enumerate() {
+                    let ray = Ray::new(Vec3::splat(j as f32), Vec3::Z);
+                    b.push(Vec2::ZERO, Sampler::from_seed(round as u64, j as u64), ray);
+                    let st = &mut b.state[j];
+                    (st.throughput, st.eta, st.depth) = (t, eta, depth);
+                }
+            }
+            let front: [bool; 8] = core::array::from_fn(|_| r.next_u32() & 7 != 0);
+            let ok: [bool; 8] = core::array::from_fn(|_| r.next_u32() & 7 != 0);
+            let delta: [bool; 8] = core::array::from_fn(|_| r.next_u32() & 1 == 0);
+            let mut col = || {
+                Cols3::<8>(core::array::from_fn(|_| {
+                    core::array::from_fn(|_| value(&mut r))
+                }))
+            };
+            let (p, o, wo, w) = (col(), col(), col(), col());
+            let eta_s: [f32; 8] = core::array::from_fn(|_| value(&mut r));
+            let pdf: [f32; 8] = core::array::from_fn(|_| value(&mut r));
+            let [lanes, scalar] = &mut batches;
+            avx.run(|| {
+                let so = SampleOut {
+                    ok: avx.mask(&ok),
+                    wo: wo.load(avx),
+                    pdf: avx.load(&pdf),
+                    weight: w.load(avx),
+                    delta: avx.mask(&delta),
+                    eta: avx.load(&eta_s),
+                    o: o.load(avx),
+                };
+                let mut tp = Cols3::<8>::default();
+                for (k, &i) in ids.iter().enumerate() {
+                    tp.set(k, lanes.state[i as usize].throughput);
+                }
+                let tp = tp.load(avx);
+                advance(avx, &cfg, lanes, &ids, &front, &p, tp, &so);
+            });
+            let mut tail = PathTail { cfg: &cfg };
+            for (k, &i) in ids.iter().enumerate() {
+                if !(front[k] && ok[k]) {
+                    continue;
+                }
+                let i = i as usize;
+                let before = scalar.state[i];
+                let s = Sampled {
+                    p: p.get(k),
+                    ray: Ray::new(o.get(k), wo.get(k)),
+                    weight: w.get(k),
+                    eta: eta_s[k],
+                    pdf: pdf[k],
+                    delta: delta[k],
+                };
+                tail.bsdf(scalar, i, &s);
+                let after = &scalar.state[i];
+                let tmax = crate::spectrum::max_component(before.throughput * s.weight);
+                if tmax.is_finite() && tmax > 0.0 && after.depth as i64 >= cfg.rr_depth as i64 {
+                    roulette += 1;
+                    survived += scalar.alive[i] as u32;
+                }
+                nan_kept +=
+                    (scalar.alive[i] && !crate::spectrum::is_finite(after.throughput)) as u32;
+            }
+            for i in 0..12 {
+                let (a, s) = (&mut lanes.sampler[i], &mut scalar.sampler[i]);
+                assert_eq!(
+                    a.next_1d().to_bits(),
+                    s.next_1d().to_bits(),
+                    "round {round} path {i}"
+                );
+                assert_eq!(
+                    format!("{:?}", lanes.state[i]),
+                    format!("{:?}", scalar.state[i]),
+                    "round {round} path {i}"
+                );
+                assert_eq!(
+                    format!("{:?}", lanes.ray[i]),
+                    format!("{:?}", scalar.ray[i]),
+                    "round {round} path {i}"
+                );
+                assert_eq!(lanes.alive[i], scalar.alive[i], "round {round} path {i}");
+            }
+        }
+        // The cases the lanes must get right were all reached.
+        assert!(roulette > 1000 && survived > 100 && roulette - survived > 100);
+        assert!(
+            nan_kept > 10,
+            "a NaN component next to a positive maximum goes on"
+        );
     }
 }
