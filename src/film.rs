@@ -186,16 +186,45 @@ impl FilmDesc {
 /// depend on the order or grouping in which contributions arrive.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Acc {
-    wv: [i128; 3],
-    wv2: [i128; 3],
-    w: i128,
-    w2: i128,
+    /// Σw·v (R, G, B), Σw·v² (R, G, B), Σw, Σw² ([`RawPixel`]'s order), in one array so that
+    /// the 8-wide splats add a contribution's eight addends in four registers
+    /// ([`crate::lane::Avx2::add_i128x8`]).
+    sums: [i128; 8],
     /// Non-finite colour values seen (they cannot be summed in fixed point): bit c NaN, bit 3+c
     /// +∞, bit 6+c −∞ for channel c. A set of flags does not depend on the order either.
     bad: u16,
 }
 
+/// The sums of an [`Acc`] that saturate (non-negative addends, [`sum::add_unsigned`]): Σw·v²
+/// and the weights, bits 3 to 7.
+#[cfg(target_arch = "x86_64")]
+const UNSIGNED_SUMS: u32 = 0b1111_1000;
+
 impl Acc {
+    /// Σw·v of channel `c`.
+    #[inline]
+    fn wv(&self, c: usize) -> i128 {
+        self.sums[c]
+    }
+
+    /// Σw·v² of channel `c`.
+    #[inline]
+    fn wv2(&self, c: usize) -> i128 {
+        self.sums[3 + c]
+    }
+
+    /// Σw.
+    #[inline]
+    fn w(&self) -> i128 {
+        self.sums[6]
+    }
+
+    /// Σw².
+    #[inline]
+    fn w2(&self) -> i128 {
+        self.sums[7]
+    }
+
     #[inline(always)]
     fn add_sample(&mut self, v: [f32; 3], w: f32) {
         let mut first = [0i128; 3];
@@ -233,14 +262,11 @@ impl Acc {
     /// channel adds 0).
     #[inline(always)]
     fn add_fixed(&mut self, first: [i128; 3], second: [i128; 3], w: i128, w2: i128) {
-        for (s, x) in self.wv.iter_mut().zip(first) {
+        let [s0, s1, s2, r, g, b, sw, sw2] = &mut self.sums;
+        for (s, x) in [s0, s1, s2].into_iter().zip(first) {
             sum::add_signed(s, x);
         }
-        let [r, g, b] = &mut self.wv2;
-        sum::add_unsigned_all(
-            [r, g, b, &mut self.w, &mut self.w2],
-            [second[0], second[1], second[2], w, w2],
-        );
+        sum::add_unsigned_all([r, g, b, sw, sw2], [second[0], second[1], second[2], w, w2]);
     }
 
     /// Records the non-finite value `x` of channel `c`.
@@ -257,7 +283,8 @@ impl Acc {
 
     #[inline]
     fn add(&mut self, o: &Acc) {
-        self.add_fixed(o.wv, o.wv2, o.w, o.w2);
+        let s = &o.sums;
+        self.add_fixed([s[0], s[1], s[2]], [s[3], s[4], s[5]], s[6], s[7]);
         self.bad |= o.bad;
     }
 
@@ -268,9 +295,9 @@ impl Acc {
             (true, _, _) | (_, true, true) => f32::NAN,
             (_, true, false) => f32::INFINITY,
             (_, false, true) => f32::NEG_INFINITY,
-            _ if self.w == 0 => 0.0,
+            _ if self.w() == 0 => 0.0,
             // The 2⁻⁶⁴ scale cancels.
-            _ => (self.wv[c] as f64 / self.w as f64) as f32,
+            _ => (self.wv(c) as f64 / self.w() as f64) as f32,
         }
     }
 }
@@ -289,9 +316,7 @@ pub struct RawPixel {
 impl From<&Acc> for RawPixel {
     fn from(a: &Acc) -> RawPixel {
         RawPixel {
-            sums: [
-                a.wv[0], a.wv[1], a.wv[2], a.wv2[0], a.wv2[1], a.wv2[2], a.w, a.w2,
-            ],
+            sums: a.sums,
             bad: a.bad,
         }
     }
@@ -299,12 +324,8 @@ impl From<&Acc> for RawPixel {
 
 impl From<&RawPixel> for Acc {
     fn from(r: &RawPixel) -> Acc {
-        let s = r.sums;
         Acc {
-            wv: [s[0], s[1], s[2]],
-            wv2: [s[3], s[4], s[5]],
-            w: s[6],
-            w2: s[7],
+            sums: r.sums,
             bad: r.bad,
         }
     }
@@ -330,6 +351,9 @@ pub struct Block {
     /// exact like the colour sums; a non-finite channel value counts as 0.
     nch: usize,
     extra: Vec<[i128; 2]>,
+    /// The 8-wide splats' addends: row k holds lane k's eight fixed-point addends in
+    /// [`Acc::sums`]' order (scratch, kept here so that it is not zeroed per call).
+    lanes: Box<[[i128; 8]; 8]>,
 }
 
 impl Block {
@@ -360,6 +384,7 @@ impl Block {
             data: Vec::new(),
             nch,
             extra: Vec::new(),
+            lanes: Box::new([[0; 8]; 8]),
         };
         b.clear(x0, y0, w, h);
         b
@@ -408,7 +433,7 @@ impl Block {
 
     /// [`Block::put`] of eight samples in turn, with the same sums to the bit. For the box
     /// filter (and finite values) the samples' fixed-point addends, w·v = v and w·v² = v·v per
-    /// channel, are computed 8-wide ([`sum::fixed8`]: ~5 instructions each instead of ~16),
+    /// channel, are computed 8-wide ([`sum::fixed8_into`]) and added 8 sums at a time,
     /// and so are their pixels where the block's bounds are exact f32s (every real film;
     /// [`storage_index`] in lanes); the addends go to each sample's pixel. Other filters and
     /// non-finite values take [`Block::put`] per sample (their exact weights, unchanged). The
@@ -492,8 +517,14 @@ impl Block {
             }
             return;
         };
-        let (f0, f1, f2) = (sum::fixed8(r), sum::fixed8(g), sum::fixed8(b));
-        let (s0, s1, s2) = (sum::fixed8(r * r), sum::fixed8(g * g), sum::fixed8(b * b));
+        let t = &mut *self.lanes;
+        for (j, c) in [r, g, b].into_iter().enumerate() {
+            sum::fixed8_into(c, t, j);
+            sum::fixed8_into(c * c, t, 3 + j);
+        }
+        for row in t.iter_mut() {
+            (row[6], row[7]) = (sum::ONE, sum::ONE);
+        }
         // `storage_index` with exact bounds, in lanes: inside [lo, hi) on both axes (false for
         // NaN and ±∞, so the scalar path's finiteness test is implied), floor(x) − origin.
         let x = avx.load(&core::array::from_fn(|k| pos[k].x));
@@ -516,12 +547,8 @@ impl Block {
         let sw = self.sw as usize;
         for (k, inside) in inside.to_array().into_iter().enumerate() {
             if inside {
-                self.data[py[k] as usize * sw + px[k] as usize].add_fixed(
-                    [f0.get(k), f1.get(k), f2.get(k)],
-                    [s0.get(k), s1.get(k), s2.get(k)],
-                    sum::ONE,
-                    sum::ONE,
-                );
+                let a = &mut self.data[py[k] as usize * sw + px[k] as usize];
+                avx.add_i128x8::<UNSIGNED_SUMS>(&mut a.sums, &self.lanes[k]);
             }
         }
     }
@@ -619,7 +646,7 @@ impl Block {
     /// [`Block::put`] of one value with finite channels under a filter other than the box, the
     /// footprint's pixels 8 at a time: each pixel's weight w = wx·wy and its addends w·v, w·v²
     /// (per channel), w and w² are the same f32 products as [`Block::splat`]'s, turned into
-    /// fixed point 8-wide ([`sum::fixed8`], equal to [`sum::fixed`] lane by lane), so the sums
+    /// fixed point 8-wide ([`sum::fixed8_into`], equal to [`sum::fixed`] lane by lane), so the sums
     /// are `put`'s to the bit. A footprint wider than 16 pixels, or one where some w·v could be
     /// non-finite (which `put` records as a flag), takes `put`. Call inside
     /// [`crate::lane::Avx2::run`].
@@ -693,21 +720,16 @@ impl Block {
     ) {
         let w8 = avx.load(w);
         let (r, g, b) = (avx.splat(v[0]), avx.splat(v[1]), avx.splat(v[2]));
-        let (wr, wg, wb) = (r * w8, g * w8, b * w8);
-        let (f0, f1, f2) = (sum::fixed8(wr), sum::fixed8(wg), sum::fixed8(wb));
-        let (s0, s1, s2) = (
-            sum::fixed8(wr * r),
-            sum::fixed8(wg * g),
-            sum::fixed8(wb * b),
-        );
-        let (fw, fw2) = (sum::fixed8(w8), sum::fixed8(w8 * w8));
+        let t = &mut *self.lanes;
+        for (j, c) in [r, g, b].into_iter().enumerate() {
+            let wc = c * w8;
+            sum::fixed8_into(wc, t, j);
+            sum::fixed8_into(wc * c, t, 3 + j);
+        }
+        sum::fixed8_into(w8, t, 6);
+        sum::fixed8_into(w8 * w8, t, 7);
         for (k, &a) in at.iter().enumerate().take(n) {
-            self.data[a].add_fixed(
-                [f0.get(k), f1.get(k), f2.get(k)],
-                [s0.get(k), s1.get(k), s2.get(k)],
-                fw.get(k),
-                fw2.get(k),
-            );
+            avx.add_i128x8::<UNSIGNED_SUMS>(&mut self.data[a].sums, &self.lanes[k]);
         }
     }
 }
@@ -904,10 +926,10 @@ impl Film {
             .iter()
             .enumerate()
             .map(|(i, a)| {
-                if a.w == 0 {
+                if a.w() == 0 {
                     0.0
                 } else {
-                    (self.extra[i * self.nch + c][0] as f64 / a.w as f64) as f32
+                    (self.extra[i * self.nch + c][0] as f64 / a.w() as f64) as f32
                 }
             })
             .collect()
@@ -925,8 +947,8 @@ impl Film {
             .map(|(i, a)| {
                 let e = self.extra[i * self.nch + c];
                 variance_of_mean(
-                    sum::to_f64(a.w),
-                    sum::to_f64(a.w2),
+                    sum::to_f64(a.w()),
+                    sum::to_f64(a.w2()),
                     sum::to_f64(e[0]),
                     sum::to_f64(e[1]),
                 )
@@ -951,9 +973,9 @@ impl Film {
             .data
             .iter()
             .map(|a| {
-                let (w, w2) = (sum::to_f64(a.w), sum::to_f64(a.w2));
+                let (w, w2) = (sum::to_f64(a.w()), sum::to_f64(a.w2()));
                 [0, 1, 2]
-                    .map(|c| variance_of_mean(w, w2, sum::to_f64(a.wv[c]), sum::to_f64(a.wv2[c])))
+                    .map(|c| variance_of_mean(w, w2, sum::to_f64(a.wv(c)), sum::to_f64(a.wv2(c))))
             })
             .collect();
         Image {

@@ -124,66 +124,52 @@ pub(crate) fn add_unsigned_all<const N: usize>(acc: [&mut i128; N], x: [i128; N]
 }
 
 /// [`fixed`] of eight values at once (AVX2; call it inside [`crate::lane::Avx2::run`]), equal
-/// to it bit for bit in every lane: the common range's signed significand `sm` (|sm| < 2²⁴)
-/// times 2^sh, sh = e − 86 ∈ [0, 102], as two 64-bit words per lane, low = sm << sh (0 from
-/// sh = 64 on) and high = sm << (sh − 64) for sh ≥ 64, else the arithmetic sm >> (64 − sh),
-/// made of logical shifts as s ^ ((sm ^ s) >> (64 − sh)) with s the sign (all ones or 0;
-/// AVX2 has no 64-bit arithmetic shift). ±0 gives sm = 0; the lanes outside the common range
-/// and not zero take [`fixed`] itself, one by one.
+/// to it bit for bit in every lane: lane k's value goes to `out[k][j]` (a column of a per-lane
+/// table whose rows are the addends of one pixel, [`crate::lane::Avx2::add_i128x8`]).
+///
+/// In the common range the value is the signed significand `sm` (|sm| < 2²⁴) times 2^sh,
+/// sh = e − 86 ∈ [0, 102]; its 32-bit word i (bits 32i to 32i + 31) is ⌊sm·2^(sh − 32i)⌋
+/// mod 2³²: with d = sh − 32i, `sm << d` for d ≥ 0 (0 from d = 32 on, as the multiple of 2³²
+/// it is) and the arithmetic `sm >> −d` for d < 0 (the sign from −d = 32 on). AVX2 has these
+/// variable 32-bit shifts (`vpsllvd`, `vpsravd`), so the four words of eight lanes take ~16
+/// instructions and a 4×4 transpose joins them ([`crate::lane::I32x8::join_words_into`]);
+/// word 0 has d = sh ≥ 0. ±0 and the lanes outside the common range get sm = 0; those outside
+/// it and not zero then take [`fixed`] itself, one by one.
+///
+/// # Panics
+/// If `j` ≥ 8.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(crate) fn fixed8(x: crate::lane::F32x8) -> Fixed8 {
-    use crate::lane::{I32x8, Lane, LaneI32, LaneMask, LaneU64, U64x8};
+pub(crate) fn fixed8_into(x: crate::lane::F32x8, out: &mut [[i128; 8]; 8], j: usize) {
+    use crate::lane::{I32x8, Lane, LaneI32, LaneMask};
+    /// Word `i` ≥ 1 of sm·2^sh (a function, not a closure: a closure may be compiled out of
+    /// line, without AVX2).
+    #[inline(always)]
+    fn word(sm: I32x8, sh: I32x8, i: i32) -> I32x8 {
+        let d = sh.sub(sh.splat(32 * i));
+        d.select_neg(sm.sar_var(sh.splat(32 * i).sub(sh)), sm.shl_var(d))
+    }
     let bits = x.to_bits();
-    let k = |c: i32| bits.splat(c);
-    let sh = bits.shr::<23>().and(k(0xff)).sub(k(86));
-    let common = sh.gt(k(-1)) & sh.lt(k(103));
-    let m = bits.and(k(0x7f_ffff)).or(k(0x80_0000));
+    let sh = bits.shr::<23>().and(bits.splat(0xff)).sub(bits.splat(86));
+    // 0 ≤ sh ≤ 102 as an unsigned comparison.
+    let common = sh.min_u32(bits.splat(102)).eq(sh);
+    let m = bits.and(bits.splat(0x7f_ffff)).or(bits.splat(0x80_0000));
     let s = bits.sar::<31>();
-    let sm = I32x8::select(common, m.xor(s).sub(s), k(0));
-    let s = I32x8::select(common, s, k(0));
-    let sh = I32x8::select(common, sh, k(0));
-    let below64 = I32x8::select(sh.lt(k(64)), k(-1), k(0));
-    let w = U64x8::from_i32;
-    let (sm64, s64) = (w(sm), w(s));
-    let lo = sm64.shl_var(w(sh));
-    // Negative counts sign-extend to counts ≥ 64, which shift everything out.
-    let hi_big = sm64.shl_var(w(sh.sub(k(64))));
-    let hi_small = sm64
-        .xor(s64)
-        .shr_var(w(k(64).sub(sh)))
-        .xor(s64)
-        .and(w(below64));
-    let mut out = Fixed8 {
-        lo: lo.to_array(),
-        hi: hi_big.or(hi_small).to_array(),
-    };
-    let rare = !common & !bits.shl::<1>().eq(k(0));
-    if rare.any() {
-        for (j, r) in rare.to_array().into_iter().enumerate() {
-            if r {
-                let f = fixed(x.lane(j));
-                (out.lo[j], out.hi[j]) = (f as u64, (f >> 64) as u64);
+    let sm = I32x8::select(common, m.xor(s).sub(s), bits.splat(0));
+    let words = [
+        sm.shl_var(sh),
+        word(sm, sh, 1),
+        word(sm, sh, 2),
+        word(sm, sh, 3),
+    ];
+    I32x8::join_words_into(words, out, j);
+    let plain = common | bits.shl::<1>().eq(bits.splat(0));
+    if !plain.all() {
+        for (l, p) in plain.to_array().into_iter().enumerate() {
+            if !p {
+                out[l][j] = fixed(x.lane(l));
             }
         }
-    }
-    out
-}
-
-/// Eight fixed-point values ([`fixed8`]) as their low and high 64-bit words (kept apart so
-/// that the 8-wide stores write them in place; [`Fixed8::get`] joins a lane's words).
-#[cfg(target_arch = "x86_64")]
-pub(crate) struct Fixed8 {
-    lo: [u64; 8],
-    hi: [u64; 8],
-}
-
-#[cfg(target_arch = "x86_64")]
-impl Fixed8 {
-    /// Lane `k`'s value.
-    #[inline(always)]
-    pub(crate) fn get(&self, k: usize) -> i128 {
-        ((self.hi[k] as u128) << 64 | self.lo[k] as u128) as i128
     }
 }
 
@@ -283,13 +269,13 @@ mod tests {
         }
     }
 
-    /// [`fixed8`] equals [`fixed`] in every lane on every exponent and sign with boundary
+    /// [`fixed8_into`] equals [`fixed`] in every lane (and writes only its column) on every exponent and sign with boundary
     /// significands (each value in every lane position) and on 2²⁰ random bit patterns.
     #[cfg(target_arch = "x86_64")]
     #[test]
-    fn fixed8_equals_fixed() {
+    fn fixed8_into_equals_fixed() {
         let Some(avx) = crate::lane::Avx2::detect() else {
-            eprintln!("no AVX2: fixed8 not tested");
+            eprintln!("no AVX2: fixed8_into not tested");
             return;
         };
         let mut xs = Vec::new();
@@ -310,9 +296,17 @@ mod tests {
         for shift in 0..8 {
             for c in xs[shift..].chunks_exact(8) {
                 let c: [f32; 8] = c.try_into().unwrap();
-                let got = avx.run(|| fixed8(avx.load(&c)));
-                for (j, &x) in c.iter().enumerate() {
-                    assert_eq!(got.get(j), fixed(x), "{x:e} ({:#x})", x.to_bits());
+                let col = shift;
+                let mut t = [[-5i128; 8]; 8];
+                avx.run(|| fixed8_into(avx.load(&c), &mut t, col));
+                for (row, &x) in t.iter().zip(&c) {
+                    for (j, &v) in row.iter().enumerate() {
+                        if j == col {
+                            assert_eq!(v, fixed(x), "{x:e} ({:#x})", x.to_bits());
+                        } else {
+                            assert_eq!(v, -5);
+                        }
+                    }
                 }
             }
         }

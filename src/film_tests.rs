@@ -72,7 +72,7 @@ fn block_matches_mitsuba_imageblock() {
             expected[y * b.sw as usize + x] = [v[0], v[1], v[2], v[3]];
         }
         for (k, (a, e)) in b.data.iter().zip(&expected).enumerate() {
-            let got = [a.wv[0], a.wv[1], a.wv[2], a.w].map(|x| sum::to_f64(x) as f32);
+            let got = [a.wv(0), a.wv(1), a.wv(2), a.w()].map(|x| sum::to_f64(x) as f32);
             for c in 0..4 {
                 // Mitsuba's f32 polynomial differs from ours by up to ~1e-5 near the cut-off.
                 assert!(
@@ -108,7 +108,7 @@ fn box_filter_is_plain_average() {
     let img = film.develop();
     for k in 0..12 {
         let got = img.data[k];
-        assert_eq!(sum::to_f64(film.data[k].w), n[k] as f64);
+        assert_eq!(sum::to_f64(film.data[k].w()), n[k] as f64);
         for c in 0..3 {
             assert!((got[c] as f64 - sums[k][c] / n[k] as f64).abs() < 1e-5);
         }
@@ -143,7 +143,7 @@ fn weights_of_interior_pixels_count_the_samples() {
         };
         for y in 3..9 {
             for x in 3..9 {
-                let w = sum::to_f64(film.data[y * 12 + x].w) as f32;
+                let w = sum::to_f64(film.data[y * 12 + x].w()) as f32;
                 assert!(
                     (w - expect).abs() < 1e-3 * expect,
                     "{filter:?}: {w} vs {expect}"
@@ -325,8 +325,8 @@ fn variance_matches_for_iid_samples() {
         for y in 2..14 {
             for x in 2..14 {
                 let a = film.data[y * 16 + x];
-                let w = sum::to_f64(a.w);
-                let w2 = sum::to_f64(a.w2);
+                let w = sum::to_f64(a.w());
+                let w2 = sum::to_f64(a.w2());
                 sum += var.data[y * 16 + x][0] as f64 * w * w / w2;
                 cnt += 1.0;
             }
@@ -413,8 +413,9 @@ fn storage_index_matches_floor_and_bounds() {
 /// `Block::put8` gives the same sums, to the bit, as `Block::put` of each of its samples, for
 /// every filter (footprints of up to 16 pixels a side in lanes, wider ones not): runs of samples
 /// on one pixel (short ones and whole chunks), positions on pixel edges, outside the block and
-/// non-finite, negative values, values below the fixed-point grid's exact range, values whose
-/// square overflows and ±f32::MAX; chunks
+/// non-finite, negative values, signed zeros, subnormals, values below the fixed-point grid's
+/// exact range, values whose square is near the clamp or overflows and ±f32::MAX, into blocks
+/// that start empty or with sums near their limits (saturation and wrapping); chunks
 /// with a non-finite value take `put` (the non-finite flags). `Block::put8_finite` equals
 /// `put` of the values with the non-finite ones zeroed, and counts them.
 #[cfg(target_arch = "x86_64")]
@@ -454,7 +455,12 @@ fn put8_equals_put_one_by_one() {
                     0 => Spectrum::new(f32::NAN, 1.0, 0.5),
                     1 => Spectrum::new(0.25, f32::INFINITY, -f32::INFINITY),
                     2..=40 => Spectrum::new(3e19, 1e-30, -2e-7),
-                    41..=90 => Spectrum::ZERO,
+                    // Subnormal, below the grid's exact range (w·v² rounds), signed zeros,
+                    // squares near and past the clamp at 2⁶².
+                    41..=50 => Spectrum::new(1e-40, -1e-13, 2e-21),
+                    51..=55 => Spectrum::new(-0.0, 2.1e9, -3e9),
+                    56..=60 => Spectrum::new(-4e18, 0.0, 7e-12),
+                    61..=90 => Spectrum::ZERO,
                     91..=100 => Spectrum::new(f32::MAX, -f32::MAX, 1.0),
                     _ => Spectrum::new(c(&mut rng), c(&mut rng), c(&mut rng)),
                 };
@@ -465,12 +471,36 @@ fn put8_equals_put_one_by_one() {
                 };
                 samples.push((pos, v));
             }
-            for (x0, y0, w, h) in [(0, 0, 9, 7), (2, 3, 4, 2), (8, 6, 1, 1)] {
+            // Blocks that start from sums near their limits (so that the saturating sums,
+            // weights included, saturate and the wrapping ones wrap), or from zero.
+            let start = |b: &mut Block, near: bool| {
+                if near {
+                    for (i, a) in b.data.iter_mut().enumerate().filter(|(i, _)| i % 3 != 1) {
+                        let i = i as i128;
+                        for (c, s) in a.sums.iter_mut().enumerate() {
+                            *s = if c < 3 {
+                                i128::MAX - (i << 62) - c as i128
+                            } else {
+                                i128::MAX - (i << 58) - (c as i128) * (1 << 60)
+                            };
+                        }
+                    }
+                }
+            };
+            for ((x0, y0, w, h), near) in [
+                ((0, 0, 9, 7), false),
+                ((2, 3, 4, 2), false),
+                ((8, 6, 1, 1), false),
+                ((0, 0, 9, 7), true),
+                ((2, 3, 4, 2), true),
+            ] {
                 let mut one = Block::new(&d, x0, y0, w, h);
+                start(&mut one, near);
                 for &(p, v) in &samples {
                     one.put(p, v);
                 }
                 let mut eight = Block::new(&d, x0, y0, w, h);
+                start(&mut eight, near);
                 for c in samples.chunks_exact(8) {
                     let pos: [Vec2; 8] = core::array::from_fn(|k| c[k].0);
                     let v: [Spectrum; 8] = core::array::from_fn(|k| c[k].1);
@@ -479,7 +509,11 @@ fn put8_equals_put_one_by_one() {
                 // Some pixel has weight and no flag (under the wide filter every pixel meets
                 // a non-finite sample, so only the weight is asked there).
                 let wide = filter.radius() > 8.0;
-                assert!(one.data.iter().any(|a| a.w != 0 && (wide || a.bad == 0)));
+                assert!(one.data.iter().any(|a| a.w() != 0 && (wide || a.bad == 0)));
+                if near {
+                    assert!(one.data.iter().any(|a| a.w() == i128::MAX));
+                    assert!(one.data.iter().any(|a| a.wv(0) < 0));
+                }
                 assert!(
                     one.data == eight.data,
                     "{filter:?} block {:?}",
@@ -487,12 +521,14 @@ fn put8_equals_put_one_by_one() {
                 );
                 // `put8_finite`: `put` of the values with the non-finite ones zeroed, and their count.
                 let (mut zeroed, mut bad) = (Block::new(&d, x0, y0, w, h), 0);
+                start(&mut zeroed, near);
                 for &(p, v) in &samples {
                     let finite = crate::spectrum::is_finite(v);
                     bad += !finite as u32;
                     zeroed.put(p, if finite { v } else { Spectrum::ZERO });
                 }
                 let (mut fin, mut counted) = (Block::new(&d, x0, y0, w, h), 0);
+                start(&mut fin, near);
                 for c in samples.chunks_exact(8) {
                     let pos: [Vec2; 8] = core::array::from_fn(|k| c[k].0);
                     let v: [Spectrum; 8] = core::array::from_fn(|k| c[k].1);

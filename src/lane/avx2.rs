@@ -15,6 +15,9 @@ use core::arch::x86_64::*;
 use core::fmt;
 use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 
+#[path = "avx2_i128.rs"]
+mod i128_sums;
+
 /// Proof that the CPU has AVX2 and FMA: the only way to make 8-wide values.
 #[derive(Clone, Copy, Debug)]
 pub struct Avx2(());
