@@ -219,17 +219,19 @@ pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
         eval_pdf_x8, sample_x8, with_incident_alone_x8, Chunk, Point,
     };
-    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
+    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf, SurfaceSample};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::{V2, V3};
-    use crate::lane::{Avx2, F32x8};
+    use crate::lane::{Avx2, F32x8, Lane};
     use crate::scene::Scene;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::diffuse::light_out;
     use crate::stream::kernels::diffuse::reflectance;
+    use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
+    use crate::stream::kernels::ray::offset_origin;
     use crate::stream::kernels::tail::{Sampled, Tail};
     use crate::texture::Texture;
     use glam::Vec3;
@@ -338,7 +340,7 @@ pub(crate) mod x8 {
         let mut tp = Cols3::default();
         let light_only = cfg.strategy == Strategy::LightOnly;
         gather.reset();
-        let (mut u_sel8, mut u8, mut p8) = ([0.0f32; 8], [[0.0f32; 8]; 2], Cols3::default());
+        let mut p8 = Cols3::default();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
@@ -350,15 +352,20 @@ pub(crate) mod x8 {
             tp.set(k, b.state[i].throughput);
             if cfg.strategy != Strategy::BsdfOnly && bsdf.lobes().is_smooth() {
                 nee[k] = true;
-                let sampler = &mut b.sampler[i];
-                u_sel8[k] = sampler.next_1d();
-                let u = sampler.next_2d();
-                (u8[0][k], u8[1][k]) = (u.x, u.y);
                 p8.set(k, si.p);
             }
         }
+        // The light selection and light point numbers of the lanes that take a light sample,
+        // 8-wide from their streams (`draws::x8::draw`: each stream's scalar order; every
+        // lane's numbers come before its BSDF sample's, as in `PathState::scatter`).
         if nee.contains(&true) {
-            gather.add_x8(avx, scene, lights, light_only, &nee, &u_sel8, &u8, &p8);
+            let light = Draws {
+                light: true,
+                u1: false,
+                u2: false,
+            };
+            let n = draw(avx, &mut b.sampler, ids, &nee, light);
+            gather.add_x8(avx, scene, lights, light_only, &nee, &n.u_sel, &n.u, &p8);
         }
 
         // The compensated model's points (where the nested leaf is shared) and their state
@@ -453,31 +460,53 @@ pub(crate) mod x8 {
         }
 
         // 4. The BSDF samples (the compensated model's points together, their first orders'
-        //    nested evaluations 8-wide; the others lane by lane) and the next rays, lane by
-        //    lane, to the tail (for `path`, `PathState::scatter`'s end).
+        //    nested evaluations 8-wide; the others lane by lane), then 8-wide the chunk
+        //    points' world directions with `SurfaceBsdf::world_sample`'s side test and every
+        //    sample's ray origin (`SurfaceInteraction::spawn_ray`'s `offset_origin`, the lane
+        //    form: the same bits), then lane by lane the next rays to the tail (for `path`,
+        //    `PathState::scatter`'s end).
         let sampled = sample_x8(&ctx, &chunk, &mut b.sampler, ids);
+        let mut local = Cols3::default();
+        for (k, bs) in sampled.iter().enumerate() {
+            if let (true, Some(bs)) = (chunk.has(k), bs) {
+                local.set(k, bs.wo);
+            }
+        }
+        let local = local.load(avx);
+        let world = surf.frame.to_world(local);
+        let consistent = (world.dot(surf.ng) * local.z).gt(avx.splat(0.0)).to_array();
+        let mut wo = Cols3::store(world);
+        let mut out: [Option<SurfaceSample>; 8] = [None; 8];
         for (k, &i) in ids.iter().enumerate() {
             let Some(s) = &sb[k] else { continue };
-            let i = i as usize;
-            let si = si_at(k);
-            let bs = match (chunk.has(k), sampled[k]) {
-                (true, Some(bs)) => s.world_sample(bs),
-                (true, None) => None,
-                (false, _) => s.sample(&ctx, &mut b.sampler[i]),
+            out[k] = match (chunk.has(k), sampled[k]) {
+                (true, Some(bs)) if consistent[k] => Some(SurfaceSample {
+                    wo: wo.get(k),
+                    pdf: bs.pdf,
+                    weight: bs.weight,
+                    eta: bs.eta,
+                    lobe: bs.lobe,
+                }),
+                (true, _) => None,
+                (false, _) => s.sample(&ctx, &mut b.sampler[i as usize]),
             };
-            let Some(bs) = bs else {
-                continue;
-            };
+            if let Some(bs) = &out[k] {
+                wo.set(k, bs.wo);
+            }
+        }
+        let origin = Cols3::store(offset_origin(surf.p, surf.ng, wo.load(avx)));
+        for (k, &i) in ids.iter().enumerate() {
+            let Some(bs) = &out[k] else { continue };
             // `PathState::advance_sampled`'s arguments, for the tail.
             let s = Sampled {
-                p: si.p,
-                ray: si.spawn_ray(bs.wo),
+                p: si_at(k).p,
+                ray: Ray::new(origin.get(k), bs.wo),
                 weight: bs.weight,
                 eta: bs.eta,
                 pdf: bs.pdf,
                 delta: bs.lobe.intersects(Lobes::DELTA),
             };
-            tail.bsdf(b, i, &s);
+            tail.bsdf(b, i as usize, &s);
         }
     }
 }
