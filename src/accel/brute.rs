@@ -4,14 +4,14 @@
 //!
 //! Primitives (spheres, disks and rectangles, exact boxes, mesh triangles) sit in
 //! structure-of-arrays tables of 8 per chunk, padded with NaN parameters (which fail every
-//! interval test; a triangle lane's mesh box is empty). Two forms, both over the kernels of [`super::analytic`] and
+//! interval test; a triangle lane's mesh box is empty). Two forms, both over the kernels of
+//! [`super::analytic`] and
 //! [`super::triangle`]:
 //! - one ray × 8 primitives ([`Brute::intersect`], [`Brute::occluded`]): the scalar renderer's
 //!   rays, each chunk one 8-wide test;
 //! - 8 rays × every primitive ([`Brute::intersect8`], [`Brute::occluded8`]): a packet (the rays
 //!   turned into lanes by one 8×8 transpose), each primitive splat across the lanes from a
-//!   second copy of the tables, one primitive per row (rectangles and disks apart; triangles
-//!   stored already splat, [`TriWide`]); a primitive
+//!   second copy of the tables, one primitive per row (rectangles and disks apart); a primitive
 //!   no lane can hit stops after its first half (the sphere's discriminant, the plane's t, the
 //!   triangle's edge tests).
 //!
@@ -111,64 +111,6 @@ struct TriRow {
     geom: i32,
 }
 
-/// A [`TriRow`] stored already splat across 8 lanes, for the 8-wide packet form: its loads fold
-/// into the arithmetic that reads them, where a row splat at run time costs a broadcast per
-/// number (12 per triangle and packet: 12 % of tier A's instructions on the Cornell box).
-#[derive(Clone, Copy)]
-struct TriWide {
-    v: [[f32; W]; 12],
-    geom: i32,
-}
-
-/// Where the packet form (8 rays, or one at width 1) reads its triangles: [`Splat`] or
-/// [`Wide`], the same numbers either way.
-trait TriSource<L: Lane> {
-    type Row;
-    /// The rows, in the order of [`Brute::tri_rows`].
-    fn table(&self) -> &[Self::Row];
-    /// A row's triangle in lanes, and its key.
-    fn tri(&self, row: &Self::Row) -> (TriL<L>, i32);
-}
-
-/// The triangles of [`Brute::tri_rows`] splat to the width of the lane.
-struct Splat<'a, L>(&'a [TriRow], L);
-
-impl<L: Lane> TriSource<L> for Splat<'_, L> {
-    type Row = TriRow;
-    #[inline(always)]
-    fn table(&self) -> &[TriRow] {
-        self.0
-    }
-    #[inline(always)]
-    fn tri(&self, row: &TriRow) -> (TriL<L>, i32) {
-        (tri_row(row, self.1), row.geom)
-    }
-}
-
-/// The triangles of [`Brute::tri_wide`], loaded.
-#[cfg(target_arch = "x86_64")]
-struct Wide<'a>(Avx2, &'a [TriWide]);
-
-#[cfg(target_arch = "x86_64")]
-impl TriSource<F32x8> for Wide<'_> {
-    type Row = TriWide;
-    #[inline(always)]
-    fn table(&self) -> &[TriWide] {
-        self.1
-    }
-    #[inline(always)]
-    fn tri(&self, row: &TriWide) -> (TriL<F32x8>, i32) {
-        let (l, v) = (self.0, &row.v);
-        let tri = TriL {
-            p0: V3::new(l.load(&v[0]), l.load(&v[1]), l.load(&v[2])),
-            e1: V3::new(l.load(&v[3]), l.load(&v[4]), l.load(&v[5])),
-            e2: V3::new(l.load(&v[6]), l.load(&v[7]), l.load(&v[8])),
-            n: V3::new(l.load(&v[9]), l.load(&v[10]), l.load(&v[11])),
-        };
-        (tri, row.geom)
-    }
-}
-
 /// Which table holds shape `i`, and at which row.
 #[derive(Clone, Copy, Debug)]
 enum Slot {
@@ -209,8 +151,6 @@ pub(crate) struct Brute {
     box_rows: Vec<MappedRow>,
     /// Every mesh's triangles in shape order, each mesh's in its own order.
     tri_rows: Vec<TriRow>,
-    /// The same rows splat across 8 lanes (empty without AVX2).
-    tri_wide: Vec<TriWide>,
     meshes: Vec<MeshBox>,
     slots: Vec<Slot>,
     /// Box faces indexed by `2·axis + (side > 0)`.
@@ -292,17 +232,12 @@ impl Brute {
             disk_rows: Vec::new(),
             box_rows: Vec::new(),
             tri_rows: Vec::new(),
-            tri_wide: Vec::new(),
             meshes: Vec::new(),
             slots: Vec::with_capacity(shapes.len()),
             faces: box_faces(),
             #[cfg(target_arch = "x86_64")]
             avx: Avx2::detect(),
         };
-        #[cfg(target_arch = "x86_64")]
-        let avx = b.avx.is_some();
-        #[cfg(not(target_arch = "x86_64"))]
-        let avx = false;
         let mapped = |t: &mut Mapped, l: usize, to_world: &Mat4, square: bool, geom: usize| {
             let m = to_object(to_world);
             for (k, x) in m.into_iter().enumerate() {
@@ -340,12 +275,6 @@ impl Brute {
                         }
                         t.geom[l] = key(i, k);
                         b.tri_rows.push(TriRow { v, geom: key(i, k) });
-                        if avx {
-                            b.tri_wide.push(TriWide {
-                                v: v.map(|x| [x; W]),
-                                geom: key(i, k),
-                            });
-                        }
                     }
                     b.meshes.push(MeshBox {
                         lo: lo.to_array(),
@@ -397,7 +326,7 @@ impl Brute {
             );
             return self.finish(ray, t, geom, u, v);
         }
-        let b = self.nearest_of_each(&ray_lanes(ray), 0.0f32, NONE, self.splat());
+        let b = self.nearest_of_each(&ray_lanes(ray), 0.0f32, NONE);
         self.finish(ray, b.t, b.g, b.u / b.a, b.v / b.a)
     }
 
@@ -411,7 +340,7 @@ impl Brute {
                 || self.any_across(avx, ray),
             );
         }
-        self.any_of_each(&ray_lanes(ray), false, self.splat())
+        self.any_of_each(&ray_lanes(ray), false)
     }
 
     /// [`Self::intersect`] of up to 8 rays as one packet: `out[i]` for `rays[i]`, the others
@@ -423,12 +352,7 @@ impl Brute {
             let (ts, geoms, us, vs) = avx.run(
                 #[inline(always)]
                 || {
-                    let b = self.nearest_of_each(
-                        &packet(avx, rays),
-                        avx.splat(0.0),
-                        NONE,
-                        Wide(avx, &self.tri_wide),
-                    );
+                    let b = self.nearest_of_each(&packet(avx, rays), avx.splat(0.0), NONE);
                     let (t, g) = (b.t.to_array(), b.g.to_array());
                     if self.tri_rows.is_empty() {
                         return (t, g, [0.0; W], [0.0; W]);
@@ -445,7 +369,7 @@ impl Brute {
         for (i, o) in out.iter_mut().enumerate() {
             *o = match rays.get(i) {
                 Some(ray) => {
-                    let b = self.nearest_of_each(&ray_lanes(ray), 0.0f32, NONE, self.splat());
+                    let b = self.nearest_of_each(&ray_lanes(ray), 0.0f32, NONE);
                     self.finish(ray, b.t, b.g, b.u / b.a, b.v / b.a)
                 }
                 None => None,
@@ -464,26 +388,16 @@ impl Brute {
                     // The lanes past `n` start done, so that a partial packet can stop early.
                     let idx = avx.load_i32(&[0, 1, 2, 3, 4, 5, 6, 7]);
                     let live = idx.lt(idx.splat(n as i32));
-                    let any = self.any_of_each(
-                        &packet(avx, &rays[..n]),
-                        !live,
-                        Wide(avx, &self.tri_wide),
-                    ) & live;
+                    let any = self.any_of_each(&packet(avx, &rays[..n]), !live) & live;
                     any.bits() as u8
                 },
             );
         }
         let mut blocked = 0u8;
         for (i, ray) in rays[..n].iter().enumerate() {
-            blocked |= u8::from(self.any_of_each(&ray_lanes(ray), false, self.splat())) << i;
+            blocked |= u8::from(self.any_of_each(&ray_lanes(ray), false)) << i;
         }
         blocked
-    }
-
-    /// The width-1 source of the row forms' triangles.
-    #[inline(always)]
-    fn splat(&self) -> Splat<'_, f32> {
-        Splat(&self.tri_rows, 0.0)
     }
 
     /// The hit of the primitive of key `key` at `t` (its winner; `None` for [`NONE`]), with the
@@ -552,13 +466,7 @@ impl Brute {
     /// Width 1 or 8 rays (`ray`'s width) against every primitive, each splat across the lanes:
     /// per lane the smallest t and, on equal t, the lowest shape index (`NONE`: no hit).
     #[inline(always)]
-    fn nearest_of_each<L: Lane, S: TriSource<L>>(
-        &self,
-        ray: &RayL<L>,
-        like: L,
-        none: i32,
-        src: S,
-    ) -> Best<L> {
+    fn nearest_of_each<L: Lane>(&self, ray: &RayL<L>, like: L, none: i32) -> Best<L> {
         let gi = like.to_bits();
         let mut best = Best::new(like, none);
         // A primitive that no lane can hit is left at its first half: its mask would be
@@ -596,14 +504,14 @@ impl Brute {
                 if !within.any() {
                     continue;
                 }
-                for r in &src.table()[mesh.rows.clone()] {
-                    let (tri, geom) = src.tri(r);
+                for r in &self.tri_rows[mesh.rows.clone()] {
+                    let tri = tri_row(r, like);
                     let p = tri_plane(ray, &tri);
                     // Only a crossing in the interval, at or before the nearest hit so far,
                     // can be kept (`keep_tri`), so the edge half may be skipped without it.
                     if (within & p.t.gt(ray.tnear) & p.t.le(best.t)).any() {
                         let (u, v, m) = tri_edges(ray, &tri, &p);
-                        keep_tri(&mut best, &p, u, v, m & within, gi.splat(geom));
+                        keep_tri(&mut best, &p, u, v, m & within, gi.splat(r.geom));
                     }
                 }
             }
@@ -614,12 +522,7 @@ impl Brute {
     /// Per lane of `ray`, whether any primitive is hit, starting from the lanes of `done`
     /// (stops once every lane is).
     #[inline(always)]
-    fn any_of_each<L: Lane, S: TriSource<L>>(
-        &self,
-        ray: &RayL<L>,
-        done: L::Mask,
-        src: S,
-    ) -> L::Mask {
+    fn any_of_each<L: Lane>(&self, ray: &RayL<L>, done: L::Mask) -> L::Mask {
         let like = ray.tnear;
         let mut any = done;
         if any.all() {
@@ -671,8 +574,8 @@ impl Brute {
             if !within.any() {
                 continue;
             }
-            for r in &src.table()[mesh.rows.clone()] {
-                let tri = src.tri(r).0;
+            for r in &self.tri_rows[mesh.rows.clone()] {
+                let tri = tri_row(r, like);
                 let p = tri_plane(ray, &tri);
                 if (within & p.t.gt(ray.tnear) & p.t.lt(ray.tfar)).any() {
                     any = any | (tri_edges(ray, &tri, &p).2 & within);

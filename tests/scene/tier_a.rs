@@ -82,6 +82,27 @@ fn random_set(seed: u64, n: usize) -> Loaded {
     load_text(&body)
 }
 
+/// Tier A's packet, occlusion and 8-wide occlusion answers for `lanes` (at most 8 rays) equal
+/// its single-ray hits bit for bit; returns those hits, ray by ray.
+fn self_consistent(brute: &Accel, lanes: &[Ray], coherent: bool) -> Vec<Option<Hit>> {
+    let mut packet = [None; 8];
+    brute.intersect8(lanes, coherent, &mut packet);
+    let blocked = brute.occluded8(lanes);
+    let mut hits = Vec::with_capacity(lanes.len());
+    for (i, ray) in lanes.iter().enumerate() {
+        let got = brute.intersect(ray);
+        assert_eq!(bits(&got), bits(&packet[i]), "ray {ray:?}: packet");
+        assert_eq!(brute.occluded(ray), got.is_some(), "ray {ray:?}: occluded");
+        assert_eq!(
+            blocked >> i & 1 == 1,
+            got.is_some(),
+            "ray {ray:?}: occluded8"
+        );
+        hits.push(got);
+    }
+    hits
+}
+
 /// Bit pattern of a hit, for exact comparison (also `packets.rs`'s).
 pub(crate) fn bits(h: &Option<Hit>) -> Option<(u32, u32, u32, u32, u32, u32)> {
     h.map(|h| {
@@ -498,18 +519,9 @@ fn cbox_triangles_agree_with_embree() {
     while start < all.len() {
         let n = if k % 4 == 3 { 1 + k % 7 } else { 8 };
         let lanes = &all[start..(start + n).min(all.len())];
-        let mut packet = [None; 8];
-        brute.intersect8(lanes, k % 2 == 0, &mut packet);
-        let blocked = brute.occluded8(lanes);
-        for (i, ray) in lanes.iter().enumerate() {
-            let (want, got) = (embree.intersect(ray), brute.intersect(ray));
-            assert_eq!(bits(&got), bits(&packet[i]), "ray {ray:?}: packet");
-            assert_eq!(brute.occluded(ray), got.is_some(), "ray {ray:?}: occluded");
-            assert_eq!(
-                blocked >> i & 1 == 1,
-                got.is_some(),
-                "ray {ray:?}: occluded8"
-            );
+        let got_all = self_consistent(&brute, lanes, k % 2 == 0);
+        for (ray, got) in lanes.iter().zip(got_all) {
+            let want = embree.intersect(ray);
             let scale = |h: &Hit| {
                 let [p0, p1, p2] = corners(shapes, h.geom, h.prim);
                 let nrm = (p1 - p0).cross(p2 - p0).normalize();
@@ -663,19 +675,10 @@ fn rays_on_a_mesh_box_plane_parallel_to_it() {
         // Full packets and partial ones (8, 7, 6 rays).
         let lanes = &all[start..(start + 8 - start % 3).min(all.len())];
         start += lanes.len();
-        let mut packet = [None; 8];
-        brute.intersect8(lanes, false, &mut packet);
-        let blocked = brute.occluded8(lanes);
-        for (i, ray) in lanes.iter().enumerate() {
-            let (want, got) = (embree.intersect(ray), brute.intersect(ray));
+        let got_all = self_consistent(&brute, lanes, false);
+        for (ray, got) in lanes.iter().zip(got_all) {
+            let want = embree.intersect(ray);
             assert!(ray.d.to_array().contains(&0.0), "{ray:?}");
-            assert_eq!(bits(&got), bits(&packet[i]), "ray {ray:?}: packet");
-            assert_eq!(brute.occluded(ray), got.is_some(), "ray {ray:?}: occluded");
-            assert_eq!(
-                blocked >> i & 1 == 1,
-                got.is_some(),
-                "ray {ray:?}: occluded8"
-            );
             assert_eq!(
                 want.map(|h| (h.geom, h.prim)),
                 got.map(|h| (h.geom, h.prim)),
