@@ -16,6 +16,9 @@ mod hostile;
 mod node_loss;
 #[path = "cli/renderer.rs"]
 mod renderer;
+#[path = "common/scratch.rs"]
+#[allow(dead_code)]
+mod scratch;
 #[path = "cli/simd_calls.rs"]
 mod simd_calls;
 #[path = "cli/slurm.rs"]
@@ -31,11 +34,8 @@ fn groove() -> Command {
     Command::cargo_bin("groove").expect("binary")
 }
 
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("groove-cli-{}-{name}", std::process::id()));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
+fn tmpdir(name: &str) -> crate::scratch::Scratch {
+    crate::scratch::Scratch::new(&format!("groove-cli-{}-{name}", std::process::id()))
 }
 
 /// A tiny valid scene: a diffuse rectangle under a constant environment.

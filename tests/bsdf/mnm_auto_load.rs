@@ -9,10 +9,10 @@ use groove::bsdf::mnm::Evaluation;
 use groove::load::load_scene;
 use groove::load::options::{LoadOptions, NormalMapping};
 use groove::material::MaterialNode;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// A one-sphere scene whose BSDF is `bsdf`, written to a fresh temporary folder.
-fn scene(name: &str, bsdf: &str) -> PathBuf {
+fn scene(name: &str, bsdf: &str) -> crate::common::ScratchFile {
     crate::common::one_sphere_scene("auto-load", name, bsdf)
 }
 

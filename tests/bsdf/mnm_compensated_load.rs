@@ -6,10 +6,9 @@
 
 use groove::load::load_scene;
 use groove::load::options::{LoadOptions, NormalMapping};
-use std::path::PathBuf;
 
 /// A one-sphere scene whose BSDF is `bsdf`, written to a fresh temporary folder.
-fn scene(name: &str, bsdf: &str) -> PathBuf {
+fn scene(name: &str, bsdf: &str) -> crate::common::ScratchFile {
     crate::common::one_sphere_scene("comp-load", name, bsdf)
 }
 

@@ -380,8 +380,7 @@ fn blendbsdf_matches_mitsuba_pointwise() {
 fn blendbsdf_loads_and_rejects_bad_input() {
     use groove::load::load_scene;
     use groove::load::options::LoadOptions;
-    let dir = std::env::temp_dir().join(format!("groove-blend-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::Scratch::new(&format!("groove-blend-{}", std::process::id()));
     let scene = |inner: &str| {
         format!(
             r#"<scene version="3.0.0">

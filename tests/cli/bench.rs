@@ -11,11 +11,8 @@ fn groove() -> Command {
     Command::cargo_bin("groove").expect("binary")
 }
 
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("groove-bench-{}-{name}", std::process::id()));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
+fn tmpdir(name: &str) -> crate::scratch::Scratch {
+    crate::scratch::Scratch::new(&format!("groove-bench-{}-{name}", std::process::id()))
 }
 
 fn scene(name: &str) -> PathBuf {

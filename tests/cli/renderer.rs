@@ -5,17 +5,14 @@
 
 use assert_cmd::Command;
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 fn groove() -> Command {
     Command::cargo_bin("groove").expect("binary")
 }
 
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("groove-renderer-{}-{name}", std::process::id()));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
+fn tmpdir(name: &str) -> crate::scratch::Scratch {
+    crate::scratch::Scratch::new(&format!("groove-renderer-{}-{name}", std::process::id()))
 }
 
 /// A small scene with the given integrator: a diffuse sphere on a rectangle, an area light.

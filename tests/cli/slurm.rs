@@ -39,7 +39,7 @@ pub(super) fn run_and_compare(script: &str, name: &str) {
     let out = std::process::Command::new("bash")
         .arg(&script)
         .arg(assert_cmd::cargo::cargo_bin("groove"))
-        .arg(&d)
+        .arg(d.as_os_str())
         .output()
         .unwrap();
     assert!(

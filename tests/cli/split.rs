@@ -3,7 +3,7 @@
 //! writes nothing; the batch niceties (`--json`, SIGUSR1, SIGINT).
 
 use super::{groove, stderr_of, tmpdir, write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// An odd-sized film (37×29: tiles never align with the 32-pixel blocks) with the filter and
 /// sampler as parameters; a sphere and a diffuse floor lit by an environment and a point light.
@@ -76,7 +76,7 @@ fn assert_same_bits(a: &Path, b: &Path) {
     }
 }
 
-fn setup(name: &str) -> PathBuf {
+fn setup(name: &str) -> crate::scratch::Scratch {
     let d = tmpdir(name);
     write(&d, "s.xml", SCENE);
     d

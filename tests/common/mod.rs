@@ -3,6 +3,9 @@
 
 pub mod chi2;
 pub mod imgcmp;
+pub mod scratch;
+
+pub use scratch::{Scratch, ScratchFile};
 
 pub use imgcmp::{
     compare, mean_and_var_of_mean, read_exr_rgb, write_exr_rgb, Comparison, RgbImage,
@@ -230,10 +233,9 @@ pub fn rough_plastic(
 
 /// A one-sphere scene (8×8 perspective film) whose BSDF is the XML `bsdf`, written to a fresh
 /// temporary folder named by `tag` and `name`.
-pub fn one_sphere_scene(tag: &str, name: &str, bsdf: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("groove-{tag}-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("scene.xml");
+pub fn one_sphere_scene(tag: &str, name: &str, bsdf: &str) -> ScratchFile {
+    let dir = Scratch::new(&format!("groove-{tag}-{}-{name}", std::process::id()));
+    let path = ScratchFile::new(dir, "scene.xml");
     let xml = format!(
         r#"<scene version="3.0.0">
     <sensor type="perspective">

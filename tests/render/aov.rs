@@ -227,8 +227,7 @@ fn aov_channels_match_mitsuba() {
 #[test]
 fn aov_channels_are_written_to_exr_by_name_and_dropped_from_png() {
     let (names, film) = render("aov.xml", 4, 13);
-    let dir = std::env::temp_dir().join(format!("groove-aov-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::Scratch::new(&format!("groove-aov-{}", std::process::id()));
     let extra: Vec<(String, Vec<f32>)> = names
         .iter()
         .enumerate()
@@ -253,7 +252,6 @@ fn aov_channels_are_written_to_exr_by_name_and_dropped_from_png() {
     let png = dir.join("aov.png");
     assert!(!groove::output::write_image_channels(&png, &img, &extra, &meta).unwrap());
     assert!(png.is_file());
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

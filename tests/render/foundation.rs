@@ -208,8 +208,7 @@ fn same_seed_gives_identical_pixels_with_one_or_two_threads() {
     };
     assert_eq!(bits(&a.mean), bits(&b.mean));
     // And the written EXRs carry identical pixel data.
-    let dir = std::env::temp_dir().join(format!("groove-det-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::Scratch::new(&format!("groove-det-{}", std::process::id()));
     let mut pixels = Vec::new();
     for (r, name) in [(&a, "t1.exr"), (&b, "t2.exr")] {
         let img = groove::film::Image {

@@ -61,8 +61,7 @@ fn flat_normal_map_gives_the_nested_bsdf_image() {
     .replace("<default name=\"nz\" value=\"0.85\"/>", "")
     .replace("<default name=\"evaluation\" value=\"random_walk\"/>", "")
     .replace("<default name=\"tangent\" value=\"mirror\"/>", "");
-    let dir = std::env::temp_dir().join(format!("groove-mnm-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::Scratch::new(&format!("groove-mnm-{}", std::process::id()));
     let path = dir.join("plain.xml");
     std::fs::write(&path, plain).unwrap();
     let reference = render_scene(&path, &[], 32, 3, 0, |_| {});

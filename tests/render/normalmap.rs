@@ -114,8 +114,7 @@ fn normal_mapping_switch_converts_at_load() {
 
 #[test]
 fn documents_upgraded_from_0_6_get_the_plain_normalmap() {
-    let dir = std::env::temp_dir().join(format!("groove-nmap-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::Scratch::new(&format!("groove-nmap-{}", std::process::id()));
     let tex = repo_root().join("tests/data/textures/nmap_bumps.exr");
     let scene = |version: &str| {
         format!(
@@ -159,8 +158,7 @@ fn groove(args: &[&str]) -> std::process::Output {
 
 #[test]
 fn cli_normal_mapping_flag() {
-    let dir = std::env::temp_dir().join(format!("groove-nmap-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::Scratch::new(&format!("groove-nmap-cli-{}", std::process::id()));
     let scene = test_scene("nmap_plane.xml");
     let scene = scene.to_str().unwrap();
     let out = |name: &str| dir.join(name).to_str().unwrap().to_string();

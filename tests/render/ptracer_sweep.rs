@@ -493,13 +493,11 @@ fn path_and_ptracer_agree_on_a_smooth_normal_mesh_light_seen_directly() {
 "#,
         obj.display()
     );
-    let dir = std::env::temp_dir().join(format!("groove_smooth_light_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = crate::common::Scratch::new(&format!("groove_smooth_light_{}", std::process::id()));
     let scene = dir.join("smooth_light.xml");
     std::fs::write(&scene, xml).expect("write scene");
     let loaded = load(&scene, NONE, NormalMapping::AsWritten);
     let a = path_vs_ptracer(loaded, &plan(1, 7100));
-    let _ = std::fs::remove_dir_all(&dir);
     println!("smooth-normal light: {}", a.summary());
     assert!(a.agrees(), "{:?}", a.failures());
 }

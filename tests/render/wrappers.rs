@@ -93,8 +93,7 @@ fn the_comparisons_see_bumps_and_roughness_textures() {
 /// pixel of this scene as 0 at depth 2 and 0.39 at depth 3 (0.50 without the panel).
 #[test]
 fn null_counts_as_a_bounce() {
-    let dir = std::env::temp_dir().join(format!("groove-null-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::Scratch::new(&format!("groove-null-{}", std::process::id()));
     let path = dir.join("null_panel.xml");
     std::fs::write(
         &path,

@@ -4,14 +4,11 @@
 use groove::geometry::ShapeKind;
 use groove::load::load_scene;
 use groove::load::options::LoadOptions;
-use std::path::PathBuf;
 
 /// A scratch folder with `curves.txt` holding `curves`, and `scene.xml` with `shape` (XML, on
 /// line 3) beside it.
 fn load(tag: &str, curves: &str, shape: &str) -> groove::Result<groove::load::Loaded> {
-    let d: PathBuf =
-        std::env::temp_dir().join(format!("groove_curves_{}_{tag}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
+    let d = crate::common::Scratch::new(&format!("groove_curves_{}_{tag}", std::process::id()));
     std::fs::write(d.join("curves.txt"), curves).unwrap();
     let scene = format!(
         "<?xml version=\"1.0\"?>\n<scene version=\"3.0.0\">\n{shape}\n<sensor type=\"perspective\"/>\n</scene>\n"

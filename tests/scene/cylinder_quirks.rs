@@ -19,8 +19,7 @@ const SHEARED: &str = r#"<transform name="to_world"><matrix value="1 0.4 0.3 0.1
 const ROTATED: &str = r#"<transform name="to_world"><rotate x="0.6" y="0.3" z="1.2" angle="50"/><rotate x="1" angle="80"/></transform><float name="radius" value="0.6"/>"#;
 
 fn load(name: &str, body: &str) -> Loaded {
-    let dir = std::env::temp_dir().join(format!("groove_cylq_{}_{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::Scratch::new(&format!("groove_cylq_{}_{name}", std::process::id()));
     let text = format!(
         "<?xml version=\"1.0\"?>\n<scene version=\"3.0.0\">\n<shape type=\"cylinder\">{body}</shape>\n\
          <sensor type=\"perspective\"/>\n</scene>\n"

@@ -81,8 +81,7 @@ fn zero_area_triangles_are_never_sampled() {
 
 #[test]
 fn a_zero_area_area_light_is_an_error() {
-    let dir = std::env::temp_dir().join(format!("groove_degenerate_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::Scratch::new(&format!("groove_degenerate_{}", std::process::id()));
     let mesh = repo().join("tests/data/geometry/flat_line.obj");
     let text = format!(
         "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n<shape type=\"obj\">\n<string name=\"filename\" value=\"{}\"/>\n<emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter>\n</shape>\n</scene>\n",

@@ -24,10 +24,8 @@ fn fixture() -> PathBuf {
 }
 
 /// A scratch folder of its own for each test.
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("groove_emitters_{}_{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn scratch(name: &str) -> crate::common::Scratch {
+    crate::common::Scratch::new(&format!("groove_emitters_{}_{name}", std::process::id()))
 }
 
 /// A minimal scene (a sphere, a camera) with `emitters` (XML) at the top level, written to

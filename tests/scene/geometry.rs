@@ -26,10 +26,8 @@ fn data(name: &str) -> PathBuf {
         .join(name)
 }
 
-fn tmp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("groove-geom-{tag}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp_dir(tag: &str) -> crate::common::Scratch {
+    crate::common::Scratch::new(&format!("groove-geom-{tag}-{}", std::process::id()))
 }
 
 fn u2(r: &mut Pcg32) -> Vec2 {
@@ -451,7 +449,6 @@ fn serialized_errors_through_the_scene_loader_name_the_xml_position() {
     let loaded =
         groove::load::load_scene(&p, &opts).unwrap_or_else(|e| panic!("the good scene: {e}"));
     assert_eq!(loaded.scene.shapes().len(), 1);
-    std::fs::remove_dir_all(&d).ok();
 }
 
 fn rel_close(a: f32, b: f32, tol: f32) -> bool {

@@ -4,8 +4,7 @@ use groove::load::load_scene;
 use groove::load::options::LoadOptions;
 
 fn load(tag: &str, bsdf: &str) -> groove::Result<groove::load::Loaded> {
-    let d = std::env::temp_dir().join(format!("groove_hair_{}_{tag}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
+    let d = crate::common::Scratch::new(&format!("groove_hair_{}_{tag}", std::process::id()));
     let scene = format!(
         "<?xml version=\"1.0\"?>\n<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n{bsdf}\n</shape>\n<sensor type=\"perspective\"/>\n</scene>\n"
     );

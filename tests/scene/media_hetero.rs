@@ -95,15 +95,16 @@ fn a_constant_heterogeneous_medium_lives_in_the_unit_cube() {
     assert_eq!((t0, t1), (1.0, 5.0));
 }
 
-/// Writes a `.vol` file into the temporary directory.
+/// Writes a `.vol` file into a scratch folder of its own (removed with the returned file).
 fn temp_vol(
     name: &str,
     n: [i32; 3],
     channels: i32,
     values: &[f32],
     real_len: Option<usize>,
-) -> PathBuf {
-    let path = std::env::temp_dir().join(format!("groove_h21_{}_{name}.vol", std::process::id()));
+) -> crate::common::ScratchFile {
+    let dir = crate::common::Scratch::new(&format!("groove_h21_{}_{name}", std::process::id()));
+    let path = crate::common::ScratchFile::new(dir, "grid.vol");
     let mut b = b"VOL\x03".to_vec();
     for v in [1, n[0], n[1], n[2], channels] {
         b.extend_from_slice(&v.to_le_bytes());
@@ -171,9 +172,6 @@ fn heterogeneous_errors_name_the_element() {
     std::fs::write(&bad, bytes).unwrap();
     let e = load_err(&grid_medium(&bad, ""));
     assert_err(&e, "mem.xml:3:30", "no 'VOL' magic");
-    for p in [nan, six, short, huge, bad] {
-        let _ = std::fs::remove_file(p);
-    }
     // Other volume plugins, names, and grids where groove needs a constant.
     let e = load_err(
         "<medium type=\"heterogeneous\"><volume type=\"sphere\" name=\"sigma_t\"/></medium>",

@@ -225,8 +225,7 @@ fn misused_attributes_are_errors_at_the_texture() {
 #[test]
 fn four_value_colours_cannot_be_evaluated() {
     // red green blue alpha → a 4-value vertex_color, which Mitsuba's eval refuses.
-    let dir = std::env::temp_dir().join(format!("groove-attr-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::Scratch::new(&format!("groove-attr-{}", std::process::id()));
     let ply = dir.join("rgba.ply");
     std::fs::write(
         &ply,

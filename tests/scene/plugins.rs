@@ -233,7 +233,7 @@ fn high_quality_edges_is_accepted_with_a_warning_only_in_upgraded_scenes() {
 
 #[test]
 fn a_path_inside_an_included_file_is_relative_to_that_file() {
-    let dir = std::env::temp_dir().join(format!("groove-incpath-{}", std::process::id()));
+    let dir = crate::common::Scratch::new(&format!("groove-incpath-{}", std::process::id()));
     let sub = dir.join("sub");
     std::fs::create_dir_all(sub.join("assets")).unwrap();
     std::fs::copy(
@@ -253,7 +253,6 @@ fn a_path_inside_an_included_file_is_relative_to_that_file() {
     )
     .unwrap();
     let l = groove::load::load_scene(&main, &Default::default());
-    std::fs::remove_dir_all(&dir).ok();
     assert_eq!(l.unwrap_or_else(|e| panic!("{e}")).scene.shapes().len(), 1);
 }
 
@@ -263,7 +262,7 @@ fn a_path_inside_an_included_file_is_relative_to_that_file() {
 /// meant from `docs/scenes/`.
 #[test]
 fn a_path_inside_an_included_file_falls_back_to_the_search_folders() {
-    let dir = std::env::temp_dir().join(format!("groove-incpath2-{}", std::process::id()));
+    let dir = crate::common::Scratch::new(&format!("groove-incpath2-{}", std::process::id()));
     let scenes = dir.join("docs/scenes");
     std::fs::create_dir_all(scenes.join("include")).unwrap();
     std::fs::create_dir_all(dir.join("common/meshes")).unwrap();
@@ -284,6 +283,5 @@ fn a_path_inside_an_included_file_falls_back_to_the_search_folders() {
     )
     .unwrap();
     let l = groove::load::load_scene(&main, &Default::default());
-    std::fs::remove_dir_all(&dir).ok();
     assert_eq!(l.unwrap_or_else(|e| panic!("{e}")).scene.shapes().len(), 1);
 }

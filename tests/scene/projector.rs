@@ -15,8 +15,8 @@ fn repo() -> PathBuf {
 
 /// A scene with `body` (on line 3 on) and a camera, written to a scratch folder and loaded.
 fn load_body(name: &str, body: &str) -> groove::Result<Loaded> {
-    let dir = std::env::temp_dir().join(format!("groove_projector_{}_{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir =
+        crate::common::Scratch::new(&format!("groove_projector_{}_{name}", std::process::id()));
     let text = format!(
         "<?xml version=\"1.0\"?>\n<scene version=\"3.0.0\">\n{body}\n<sensor type=\"perspective\"/>\n</scene>\n"
     );

@@ -12,8 +12,7 @@ use groove::load::{load_scene, Loaded};
 use groove::scene::xml::transform::rotate_raw;
 
 fn load_body(name: &str, body: &str) -> Loaded {
-    let dir = std::env::temp_dir().join(format!("groove_rotate_{}_{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::Scratch::new(&format!("groove_rotate_{}_{name}", std::process::id()));
     let text = format!(
         "<?xml version=\"1.0\"?>\n<scene version=\"3.0.0\">\n{body}\n<sensor type=\"perspective\"/>\n</scene>\n"
     );

@@ -27,10 +27,9 @@ fn scene_text(body: &str) -> String {
     )
 }
 
-fn write_scene(name: &str, body: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("groove_sdf_{}_{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("scene.xml");
+fn write_scene(name: &str, body: &str) -> crate::common::ScratchFile {
+    let dir = crate::common::Scratch::new(&format!("groove_sdf_{}_{name}", std::process::id()));
+    let path = crate::common::ScratchFile::new(dir, "scene.xml");
     std::fs::write(&path, scene_text(body)).unwrap();
     path
 }
@@ -195,8 +194,7 @@ fn error(name: &str, body: &str) -> String {
 
 #[test]
 fn sdfgrid_errors_name_the_element_and_the_problem() {
-    let dir = std::env::temp_dir().join(format!("groove_sdf_{}_bad", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::Scratch::new(&format!("groove_sdf_{}_bad", std::process::id()));
     let good = std::fs::read(grid_file("torus16.vol")).unwrap();
     let bad = |name: &str, bytes: &[u8]| {
         let p = dir.join(name);

@@ -50,11 +50,8 @@ fn bitmap_xml(file: &str, extra: &str) -> String {
 }
 
 /// A fresh temporary folder for files written by a test.
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("groove-texture-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn temp_dir(name: &str) -> crate::common::Scratch {
+    crate::common::Scratch::new(&format!("groove-texture-{}-{name}", std::process::id()))
 }
 
 fn close(a: Vec3, b: Vec3, tol: f32) -> bool {
@@ -162,7 +159,6 @@ fn srgb_decode_of_all_8bit_codes_matches_the_formula() {
     }
     assert_eq!(srgb_to_linear(0.04045), 0.04045 / 12.92);
     assert!((srgb_to_linear(0.5) - 0.214_041_140_482_232_54).abs() < 1e-15);
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
@@ -502,7 +498,6 @@ fn bad_bitmap_files_are_errors_at_the_texture() {
     assert!(e.contains("unreferenced property 'gamma'"), "{e}");
     // And a good file in the same folder loads.
     assert!(load_texture_in(&dir, &bitmap_xml("ok.png", "")).is_ok());
-    let _ = std::fs::remove_dir_all(dir);
 }
 
 fn smallvec_of<T, const N: usize>(items: [T; N]) -> exr::prelude::SmallVec<[T; 4]> {
@@ -534,5 +529,4 @@ fn bmp_and_ppm_load_like_png() {
             }
         }
     }
-    let _ = std::fs::remove_dir_all(dir);
 }

@@ -15,8 +15,7 @@ use groove::load::options::LoadOptions;
 use groove::load::{load_scene, Loaded};
 
 fn load_body(name: &str, body: &str) -> Loaded {
-    let dir = std::env::temp_dir().join(format!("groove_quirks_{}_{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = crate::common::Scratch::new(&format!("groove_quirks_{}_{name}", std::process::id()));
     let text = format!(
         "<?xml version=\"1.0\"?>\n<scene version=\"3.0.0\">\n{body}\n<sensor type=\"perspective\"/>\n</scene>\n"
     );
