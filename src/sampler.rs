@@ -160,10 +160,12 @@ pub fn sample_generator<L: Lane>(key: L::U64, sample: L::U64) -> Pcg<L> {
     Pcg::new(key, sample.shl::<1>().or(sample.splat(1)))
 }
 
-/// The streams of 8 paths (pixel `pixel[k]`, sample `sample[k]`) and each one's first 2-D draw
-/// (`next_2d`), bit for bit [`Sampler::for_sample`] then `next_2d` per path: the keys and the
+/// The streams of 8 paths (pixel `pixel[k]`, sample `sample[k]`), appended to `out` in lane
+/// order, and each one's first 2-D draw (`next_2d`, returned; the streams in `out` are past
+/// it), bit for bit [`Sampler::for_sample`] then `next_2d` per path: the keys and the
 /// generators 8-wide (two 64-bit multiplies per `mix64`, two PCG steps), the strata per path,
-/// the first draw 8-wide when no path has strata (else per path). Call it inside
+/// the first draw 8-wide when no path has strata (else per path). The streams are built in
+/// place in `out` (one capacity check, no array of 8 moved). Call it inside
 /// [`crate::lane::Avx2::run`] (the stream renderer's batch fill, `stream::batch`).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
@@ -172,7 +174,8 @@ pub fn for_samples_x8(
     desc: &SamplerDesc,
     pixel: &[u64; 8],
     sample: &[u32; 8],
-) -> ([Sampler; 8], [Vec2; 8]) {
+    out: &mut Vec<Sampler>,
+) -> [Vec2; 8] {
     // Eight samples of one pixel (every chunk of a render at 8 or more samples per pixel, a
     // multiple of 8): one key, the 1-lane function's, in every lane.
     let key = if pixel.iter().all(|&p| p == pixel[0]) {
@@ -191,15 +194,16 @@ pub fn for_samples_x8(
     }
     let (state, inc) = rng.parts();
     let (state, inc) = (state.to_array(), inc.to_array());
-    let mut samplers = core::array::from_fn(|k| {
-        Sampler::keyed(desc, keys[k], Pcg::from_parts(state[k], inc[k]), sample[k])
-    });
+    let start = out.len();
+    out.extend(
+        (0..8).map(|k| Sampler::keyed(desc, keys[k], Pcg::from_parts(state[k], inc[k]), sample[k])),
+    );
     if !plain {
-        for (u, s) in first.iter_mut().zip(&mut samplers) {
+        for (u, s) in first.iter_mut().zip(&mut out[start..]) {
             *u = s.next_2d();
         }
     }
-    (samplers, first)
+    first
 }
 
 /// A bijective permutation of `0..n` selected by `seed` (Kensler 2013, "Correlated Multi-Jittered
@@ -385,7 +389,11 @@ mod tests {
                 .flat_map(|p| descs(seed).into_iter().map(move |d| (p, d)))
             {
                 let d = &d;
-                let (mut got, first) = avx.run(|| for_samples_x8(avx, d, &pixel, &sample));
+                // Appended after what `got` holds.
+                let mut got = vec![Sampler::from_seed(1, 2)];
+                let first = avx.run(|| for_samples_x8(avx, d, &pixel, &sample, &mut got));
+                assert_eq!(got.len(), 9);
+                got.remove(0);
                 for k in 0..8 {
                     let mut want = Sampler::for_sample(d, pixel[k], sample[k]);
                     let u = want.next_2d();

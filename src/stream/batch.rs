@@ -172,6 +172,22 @@ impl Batch {
                     *sj = s + j as u32;
                 }
                 advance((&mut s, &mut x, &mut y), 8, samples, (x0, w));
+            } else if let Some(sh) = whole_pixels(m, s, samples, x, x0 + w) {
+                // 8 / spp whole pixels of one row (spp 1, 2 or 4, the chunk starting at a
+                // pixel's first sample): path j is sample j mod spp of the row's pixel x + j / spp,
+                // so no per-path stepping either.
+                let px = y as u64 * film_width as u64 + x as u64;
+                for j in 0..8 {
+                    let dx = (j >> sh) as u32;
+                    pixel[j] = px + dx as u64;
+                    sample[j] = s_lo + (j as u32 & ((1 << sh) - 1));
+                    corner[j] = Vec2::new((x + dx) as f32, y as f32);
+                }
+                x += 8 >> sh;
+                if x == x0 + w {
+                    x = x0;
+                    y += 1;
+                }
             } else {
                 for j in 0..m {
                     pixel[j] = y as u64 * film_width as u64 + x as u64;
@@ -183,15 +199,15 @@ impl Batch {
             left -= m;
             #[cfg(target_arch = "x86_64")]
             if let (Some(avx), 8) = (avx, m) {
-                let (smp, first) = crate::sampler::for_samples_x8(avx, desc, &pixel, &sample);
-                // Whole arrays (one capacity check each, not one per path; the positions as
-                // one 64-byte copy).
+                let first =
+                    crate::sampler::for_samples_x8(avx, desc, &pixel, &sample, &mut self.sampler);
+                // A whole array (one capacity check, not one per path; the positions as one
+                // 64-byte copy).
                 let mut pos = [Vec2::ZERO; 8];
                 for j in 0..8 {
                     pos[j] = corner[j] + first[j];
                 }
                 self.pos.extend_from_slice(&pos);
-                self.sampler.extend(smp);
                 continue;
             }
             #[cfg(not(target_arch = "x86_64"))]
@@ -479,6 +495,22 @@ impl Surfaces {
     }
 }
 
+/// When a chunk of `m` paths whose first is sample `s` of the row's pixel `x` (`row_end`: one
+/// past the block's last column) is 8 / spp whole pixels of that row, at spp = 1, 2 or 4 (its
+/// first path a pixel's first sample, its pixels all in the row): log2(spp), for
+/// [`Batch::fill`]'s per-pixel fill. `None` otherwise.
+#[inline(always)]
+fn whole_pixels(m: usize, s: u32, (s_lo, s_hi): (u32, u32), x: u32, row_end: u32) -> Option<u32> {
+    let spp = s_hi.wrapping_sub(s_lo);
+    let sh = match spp {
+        1 => 0,
+        2 => 1,
+        4 => 2,
+        _ => return None,
+    };
+    (m == 8 && s == s_lo && x + (8 >> sh) <= row_end).then_some(sh)
+}
+
 /// Moves the block's (sample, x, y) cursor on by `n` samples of one pixel (`n` no more than the
 /// pixel's samples left in `samples`): after the pixel's last sample, to the next pixel of the
 /// block's rows (`x0`, `w`: the block's first column and width).
@@ -555,6 +587,66 @@ mod tests {
         assert_eq!(l.len(), BATCH);
         let full = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| l.put(0, false)));
         assert!(full.is_err(), "a full list takes no more ids");
+    }
+
+    /// `fill` gives every path the stream and film position of its (pixel, sample), found
+    /// here by division from its index in the block, with and without lanes: over sample
+    /// counts 1 to 9 and 16 (the whole-pixel chunks of 1, 2 and 4, the one-pixel chunks of 8
+    /// and 16, and the per-path stepping of the others), sample ranges that do not start at 0,
+    /// blocks whose rows end inside a chunk, and batches that start mid-pixel.
+    #[test]
+    fn fill_gives_each_path_its_pixel_and_sample() {
+        use crate::sampler::SamplerKind;
+        #[cfg(target_arch = "x86_64")]
+        let avx = crate::lane::Avx2::detect();
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx = None;
+        let mut checked = 0;
+        for kind in [
+            SamplerKind::Independent,
+            SamplerKind::Stratified { jitter: true },
+        ] {
+            for (spp, s_lo) in [1, 2, 3, 4, 5, 6, 7, 8, 9, 16]
+                .iter()
+                .flat_map(|&n| [(n, 0), (n, 3)])
+            {
+                let desc = SamplerDesc {
+                    kind,
+                    sample_count: spp + s_lo,
+                    seed: 5,
+                };
+                let samples = (s_lo, s_lo + spp);
+                for rect in [(3, 2, 5, 3), (0, 0, 8, 2), (7, 1, 12, 2)] {
+                    let (x0, y0, w, h) = rect;
+                    let total = (w * h * spp) as u64;
+                    for first in [0, 1, 5] {
+                        for lanes in [None, avx] {
+                            let mut b = Batch::new(BATCH, 1);
+                            let end = total.min(first + 40);
+                            b.fill(&desc, 31, rect, samples, first, end, lanes);
+                            assert_eq!(b.len() as u64, end - first);
+                            for (j, k) in (first..end).enumerate() {
+                                let p = (k / spp as u64) as u32;
+                                let s = s_lo + (k % spp as u64) as u32;
+                                let (x, y) = (x0 + p % w, y0 + p / w);
+                                let mut want = Sampler::for_sample(&desc, (y * 31 + x) as u64, s);
+                                let pos = Vec2::new(x as f32, y as f32) + want.next_2d();
+                                let ctx = (kind, spp, s_lo, rect, first, k);
+                                assert_eq!(
+                                    b.pos[j].to_array().map(f32::to_bits),
+                                    pos.to_array().map(f32::to_bits),
+                                    "{ctx:?}"
+                                );
+                                assert_eq!(b.sampler[j].next_2d(), want.next_2d(), "{ctx:?}");
+                                assert_eq!(b.sampler[j].next_1d(), want.next_1d(), "{ctx:?}");
+                                checked += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 10_000, "{checked}");
     }
 
     #[test]

@@ -17,10 +17,11 @@
 //!    8-wide ([`super::light`]);
 //! 4. [`light`] and [`sample`], 8-wide: BSDF value and density toward the light point, power
 //!    heuristic, contribution, shadow ray; cosine-hemisphere sample, its side test, next ray;
-//! 5. scatter back lane by lane: the pending light sample, then the throughput update and
-//!    Russian roulette through `PathState::advance` (the scalar code, which may draw one more
-//!    number from the path's `Sampler`, whose state the 8-wide draws left where the scalar
-//!    draws would have).
+//! 5. scatter back (`vertex::x8::scatter`): the pending light samples lane by lane, then the
+//!    throughput update and Russian roulette of `PathState::advance` in lanes under the `path`
+//!    integrator (`vertex::x8::advance`; the roulette draw, where it plays, from the path's
+//!    `Sampler`, whose state the 8-wide draws left where the scalar draws would have); under
+//!    another integrator's tail, each lane's samples in path order.
 //!
 //! Each 8-wide step is the scalar code's operations in its order (see `kernels` for the rule).
 
@@ -212,15 +213,16 @@ pub(crate) fn reflectance(scene: &Scene, tex: &Texture, si: &SurfaceInteraction)
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use super::*;
-    use crate::geometry::Ray;
     use crate::integrator::{PathSettings, Strategy};
-    use crate::lane::{ToArray, Wide};
+    use crate::lane::Wide;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
-    use crate::stream::kernels::tail::{Sampled, Tail};
+    use crate::stream::kernels::tail::Tail;
+    use crate::stream::kernels::vertex::x8::{scatter, LightCols};
+    use crate::stream::kernels::vertex::SampleOut;
 
     /// What a material needs for the kernel: its reflectance texture and whether it takes a
     /// light sample (`Lobes::is_smooth`, as `PathState::scatter` asks).
@@ -286,44 +288,25 @@ pub(crate) mod x8 {
         // 4. The kernel.
         let refl8 = refl.load(avx);
         let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
-        let lo = light(&surf, wi, refl8, tp.load(avx), &lp);
+        let tp8 = tp.load(avx);
+        let lo = light(&surf, wi, refl8, tp8, &lp);
         let u2 = V2::new(avx.load(&num.u2[0]), avx.load(&num.u2[1]));
         let so = sample(&surf, wi, refl8, u2);
 
-        // 5. Scatter back.
-        let (l_ok, l_o, l_d, l_tmax, l_c) = (
-            lo.ok.to_array(),
-            Cols3::store(lo.o),
-            Cols3::store(lo.d),
-            lo.tmax.to_array(),
-            Cols3::store(lo.contribution),
-        );
-        let (s_ok, s_wo, s_pdf, s_o) = (
-            so.ok.to_array(),
-            Cols3::store(so.wo),
-            so.pdf.to_array(),
-            Cols3::store(so.o),
-        );
-        for (k, &i) in ids.iter().enumerate() {
-            let i = i as usize;
-            if !front[k] {
-                continue;
-            }
-            if l_ok[k] {
-                let shadow = Ray::segment(l_o.get(k), l_d.get(k), l_tmax[k]);
-                tail.light(b, i, shadow, l_c.get(k));
-            }
-            if s_ok[k] {
-                let s = Sampled {
-                    p: p.get(k),
-                    ray: Ray::new(s_o.get(k), s_wo.get(k)),
-                    weight: refl.get(k),
-                    eta: 1.0,
-                    pdf: s_pdf[k],
-                    delta: false,
-                };
-                tail.bsdf(b, i, &s);
-            }
-        }
+        // 5. Scatter back through the wrapper-chain driver's step 4 (`vertex::x8::scatter`):
+        // under the `path` tail the light samples are stored and the vertices end in lanes
+        // (`vertex::x8::advance`, bit for bit `PathState::advance`); under another tail each
+        // lane's light sample, then its BSDF sample (weight ρ, η 1, not delta), in path order.
+        let lo = LightCols::store(&lo);
+        let so = SampleOut {
+            ok: so.ok,
+            wo: so.wo,
+            pdf: so.pdf,
+            weight: refl8,
+            delta: avx.mask(&[false; W]),
+            eta: avx.splat(1.0),
+            o: so.o,
+        };
+        scatter(avx, b, ids, &front, &p, tp8, nee.then_some(&lo), &so, tail);
     }
 }

@@ -23,8 +23,10 @@
 //! 3. [`light`] and [`sample`], 8-wide: the coating's value and density toward the light point,
 //!    power heuristic, contribution, shadow ray; the coating's sample (the lobe chosen by `u1`
 //!    as a select), `Bsdf::sample`'s finiteness test, the side test, the next ray;
-//! 4. scatter back lane by lane: the pending light sample, then `PathState::advance` (throughput,
-//!    Russian roulette; `plastic`'s specular lobe is a delta lobe there).
+//! 4. scatter back: under the `path` integrator, the pending light samples lane by lane, then
+//!    `PathState::advance` (throughput, Russian roulette; `plastic`'s specular lobe is a delta
+//!    lobe there) in lanes (`vertex::x8::scatter`); under another integrator's tail, the light
+//!    samples then the BSDF samples lane by lane.
 
 use crate::bsdf::lanes::LaneBsdfSample;
 use crate::bsdf::{BsdfNode, Plastic, RoughPlastic};
@@ -201,6 +203,8 @@ pub(crate) mod x8 {
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
     use crate::stream::kernels::tail::{Sampled, Tail};
+    use crate::stream::kernels::vertex;
+    use crate::stream::kernels::vertex::x8::{scatter, LightCols};
 
     /// Shades the first multiple of `W` paths of the run `batch.sorted[run]` (all of material
     /// `mat`) `W` at a time; returns how many it shaded. Enters [`Wide::run`] itself.
@@ -295,25 +299,39 @@ pub(crate) mod x8 {
         };
 
         // 3. The kernel.
-        let (rho8, spec8) = (rho.load(avx), spec.load(avx));
+        let (rho8, spec8, tp8) = (rho.load(avx), spec.load(avx), tp.load(avx));
         // A `match`, not `Option::map`: the closure would be compiled out of line without the
         // lanes' target features, and every intrinsic in `light` would become a call.
         let lo = match lp {
-            Some(lp) => Some(light(
-                &mat.coating,
-                &surf,
-                wi,
-                rho8,
-                spec8,
-                tp.load(avx),
-                &lp,
-            )),
+            Some(lp) => Some(light(&mat.coating, &surf, wi, rho8, spec8, tp8, &lp)),
             None => None,
         };
         let u2 = V2::new(avx.load(&num.u2[0]), avx.load(&num.u2[1]));
         let so = sample(&mat.coating, &surf, wi, rho8, spec8, avx.load(&num.u1), u2);
 
-        // 4. Scatter back.
+        // 4. Scatter back. Under the `path` tail, through the wrapper-chain driver's step 4
+        // (`vertex::x8::scatter`): the light samples stored, then the vertices' ends in lanes
+        // (`vertex::x8::advance`, bit for bit `PathState::advance`; η 1).
+        if tail.path().is_some() {
+            // A `match`, not `Option::map` (as for `lo` above: a closure would run outside the
+            // lanes' target features).
+            #[allow(clippy::manual_map)]
+            let lc = match lo {
+                Some(lo) => Some(LightCols::store(&lo)),
+                None => None,
+            };
+            let so = vertex::SampleOut {
+                ok: so.ok,
+                wo: so.wo,
+                pdf: so.pdf,
+                weight: so.weight,
+                delta: so.delta,
+                eta: avx.splat(1.0),
+                o: so.o,
+            };
+            scatter(avx, b, ids, &front, &p, tp8, lc.as_ref(), &so, tail);
+            return;
+        }
         if let Some(lo) = lo {
             let (ok, o, d) = (lo.ok.to_array(), Cols3::store(lo.o), Cols3::store(lo.d));
             let (tmax, c) = (lo.tmax.to_array(), Cols3::store(lo.contribution));
