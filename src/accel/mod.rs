@@ -291,6 +291,40 @@ impl Accel {
         }
     }
 
+    /// [`Self::intersect8`] of up to 16 rays (`out[i]` for `rays[i]`, the others `None`): tier A
+    /// traces them as one 16-wide packet on AVX-512 (each lane's hit bit for bit the single
+    /// ray's, `tests/scene/tier_a.rs`); Embree, and tier A without AVX-512, as two 8-wide
+    /// packets.
+    pub fn intersect16(&self, rays: &[Ray], coherent: bool, out: &mut [Option<Hit>; 16]) {
+        if let Some(b) = &self.brute {
+            return b.intersect16(rays, out);
+        }
+        let rays = &rays[..rays.len().min(16)];
+        let (lo, hi) = rays.split_at(rays.len().min(8));
+        let mut half = [None; 8];
+        self.intersect8(lo, coherent, &mut half);
+        out[..8].copy_from_slice(&half);
+        self.intersect8(hi, coherent, &mut half);
+        out[8..].copy_from_slice(&half);
+    }
+
+    /// [`Self::occluded8`] of up to 16 rays: bit `i` for `rays[i]` (one 16-wide packet under
+    /// tier A on AVX-512, else two 8-wide packets).
+    pub fn occluded16(&self, rays: &[Ray]) -> u16 {
+        if let Some(b) = &self.brute {
+            return b.occluded16(rays);
+        }
+        let rays = &rays[..rays.len().min(16)];
+        let (lo, hi) = rays.split_at(rays.len().min(8));
+        u16::from(self.occluded8(lo)) | u16::from(self.occluded8(hi)) << 8
+    }
+
+    /// Whether [`Self::intersect16`] and [`Self::occluded16`] trace 16 rays as one packet (tier
+    /// A on a CPU with AVX-512); elsewhere they cost what two 8-wide packets cost.
+    pub fn packets16(&self) -> bool {
+        self.brute.as_ref().is_some_and(brute::Brute::sixteen_wide)
+    }
+
     /// [`Self::intersect`] of many rays traced as one Embree stream (`rtcIntersect1M` through
     /// the reusable `buf`): `out(k, hit)` for the `k`-th ray, in order. `coherent` as for
     /// [`Self::intersect8`]. Tier A traces them as 8-wide packets. Each ray gets the hit a

@@ -91,6 +91,8 @@ pub struct Rays {
     log: Option<RayLog>,
     /// The ray array of the stream queries, reused.
     buf: crate::accel::RayBuf,
+    /// Whether the stream renderer traces its packets 16 rays wide ([`Self::set_packets16`]).
+    packets16: bool,
 }
 
 impl Rays {
@@ -230,6 +232,55 @@ impl Rays {
             }
         }
         scene.accel.occluded8(rays)
+    }
+
+    /// Lets the stream renderer trace 16-ray packets ([`Self::intersect16`],
+    /// [`Self::occluded16`]) instead of 8-ray ones: set per block, on when its lanes may be 16
+    /// wide and the scene's accelerator traces 16 rays as one packet
+    /// ([`crate::accel::Accel::packets16`]).
+    pub(crate) fn set_packets16(&mut self, on: bool) {
+        self.packets16 = on;
+    }
+
+    /// Whether [`Self::set_packets16`] turned the 16-ray packets on.
+    #[inline]
+    pub(crate) fn packets16(&self) -> bool {
+        self.packets16
+    }
+
+    /// [`Self::intersect8`] of up to 16 rays (`out[i]` for `rays[i]`), one packet under tier A
+    /// on AVX-512 ([`crate::accel::Accel::intersect16`]).
+    #[inline]
+    pub fn intersect16(
+        &mut self,
+        scene: &Scene,
+        rays: &[Ray],
+        kind: RayKind,
+        out: &mut [Option<Hit>; 16],
+    ) {
+        let n = rays.len().min(16) as u64;
+        match kind {
+            RayKind::Camera => self.counters.camera += n,
+            RayKind::Bounce => self.counters.bounce += n,
+        }
+        if self.log.is_some() {
+            for r in rays {
+                self.log(r, false, kind == RayKind::Camera);
+            }
+        }
+        scene.accel.intersect16(rays, kind == RayKind::Camera, out);
+    }
+
+    /// [`Self::occluded8`] of up to 16 shadow rays: bit `i` for `rays[i]`.
+    #[inline]
+    pub fn occluded16(&mut self, scene: &Scene, rays: &[Ray]) -> u16 {
+        self.counters.shadow += rays.len().min(16) as u64;
+        if self.log.is_some() {
+            for r in rays {
+                self.log(r, true, false);
+            }
+        }
+        scene.accel.occluded16(rays)
     }
 
     /// True when something blocks the shadow ray `ray`.

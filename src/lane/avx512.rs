@@ -90,6 +90,56 @@ impl Avx512 {
         // SAFETY: `a` holds 16 u64, two registers of 8.
         unsafe { U64x16([_mm512_loadu_epi64(p), _mm512_loadu_epi64(p.add(8))]) }
     }
+    /// Sixteen consecutive rays in lanes, field by field: o.x, o.y, o.z, d.x, d.y, d.z, tmin,
+    /// tmax (tier A's 16-ray packets). Moves only: eight 64-byte loads (rays 2k and 2k + 1 each,
+    /// a `Ray` being eight f32s, asserted in `avx2.rs`), the 4×4 transposes of
+    /// [`super::F32x8::transpose8`] within each 128-bit lane, then one two-source permute per
+    /// field that puts the rays back in order.
+    #[inline(always)]
+    pub fn ray_fields16(self, rays: &[crate::geometry::Ray; 16]) -> [F32x16; 8] {
+        let p = rays.as_ptr().cast::<f32>();
+        // SAFETY: the token proves AVX-512F; `rays` is 16 × 8 initialised f32s without padding,
+        // so load k reads floats 16k .. 16k + 16, inside it.
+        unsafe {
+            let v: [__m512; 8] = core::array::from_fn(|k| _mm512_loadu_ps(p.add(16 * k)));
+            // Per 128-bit lane L of row k (L0: ray 2k fields 0–3, L1: its fields 4–7, L2 and
+            // L3: ray 2k + 1's), as in `transpose8`: u[j] holds element j of each lane of rows
+            // 0–3, u[4 + j] of rows 4–7.
+            let t0 = _mm512_unpacklo_ps(v[0], v[1]);
+            let t1 = _mm512_unpackhi_ps(v[0], v[1]);
+            let t2 = _mm512_unpacklo_ps(v[2], v[3]);
+            let t3 = _mm512_unpackhi_ps(v[2], v[3]);
+            let t4 = _mm512_unpacklo_ps(v[4], v[5]);
+            let t5 = _mm512_unpackhi_ps(v[4], v[5]);
+            let t6 = _mm512_unpacklo_ps(v[6], v[7]);
+            let t7 = _mm512_unpackhi_ps(v[6], v[7]);
+            let u = [
+                _mm512_shuffle_ps::<0x44>(t0, t2),
+                _mm512_shuffle_ps::<0xee>(t0, t2),
+                _mm512_shuffle_ps::<0x44>(t1, t3),
+                _mm512_shuffle_ps::<0xee>(t1, t3),
+                _mm512_shuffle_ps::<0x44>(t4, t6),
+                _mm512_shuffle_ps::<0xee>(t4, t6),
+                _mm512_shuffle_ps::<0x44>(t5, t7),
+                _mm512_shuffle_ps::<0xee>(t5, t7),
+            ];
+            // Field j of ray 2i is u[j]'s element i (lane L0), of ray 2i + 1 its element 8 + i
+            // (lane L2); rays 8–15 likewise in u[4 + j] (indices 16 up); fields 4–7 are 4
+            // elements further (lanes L1 and L3).
+            let lo = _mm512_setr_epi32(0, 8, 1, 9, 2, 10, 3, 11, 16, 24, 17, 25, 18, 26, 19, 27);
+            let hi = _mm512_add_epi32(lo, _mm512_set1_epi32(4));
+            [
+                F32x16(_mm512_permutex2var_ps(u[0], lo, u[4])),
+                F32x16(_mm512_permutex2var_ps(u[1], lo, u[5])),
+                F32x16(_mm512_permutex2var_ps(u[2], lo, u[6])),
+                F32x16(_mm512_permutex2var_ps(u[3], lo, u[7])),
+                F32x16(_mm512_permutex2var_ps(u[0], hi, u[4])),
+                F32x16(_mm512_permutex2var_ps(u[1], hi, u[5])),
+                F32x16(_mm512_permutex2var_ps(u[2], hi, u[6])),
+                F32x16(_mm512_permutex2var_ps(u[3], hi, u[7])),
+            ]
+        }
+    }
     /// A mask from sixteen booleans.
     #[inline(always)]
     pub fn mask(self, a: &[bool; 16]) -> M16 {
@@ -145,6 +195,11 @@ impl M16 {
     #[inline(always)]
     pub fn to_array(self) -> [bool; 16] {
         super::bits::bools16(self.0 as u32)
+    }
+    /// The lanes as the low 16 bits of a number (bit `i` for lane `i`), as [`super::M8::bits`].
+    #[inline(always)]
+    pub fn bits(self) -> u32 {
+        self.0 as u32
     }
 }
 

@@ -443,6 +443,7 @@ pub(crate) fn render_block(
     let batch = &mut stream.batch;
     let packets = stream.packets;
     let kernels = &stream.kernels;
+    scratch.rays.set_packets16(packets16(scene, kernels));
     let mut invalid = 0;
     let mut k = 0u64;
     while k < total {
@@ -901,27 +902,43 @@ fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Ra
     }
 }
 
-/// [`shadows`] as 8-wide packets of consecutive pending rays in path order, in one pass over
-/// `batch.scatter`: each pending sample's ray joins the packet (and its path the packet's
-/// list) as the pass meets it, and a full packet (the last one, partly filled) is traced and
-/// its unblocked samples added. The same packets as filtering the pending paths into
+/// [`shadows`] as 8-wide packets of consecutive pending rays in path order (16-wide where
+/// [`Rays::packets16`] says so: the same rays in the same order, so the same answers), in one
+/// pass over `batch.scatter`: each pending sample's ray joins the packet (and its path the
+/// packet's list) as the pass meets it, and a full packet (the last one, partly filled) is
+/// traced and its unblocked samples added. The same packets as filtering the pending paths into
 /// `batch.shadow` first, without that list's pass and the rays' second read.
 fn shadow_packets(scene: &Scene, batch: &mut Batch, rays: &mut Rays) {
+    let total = if rays.packets16() {
+        shadow_packets_of::<16>(batch, rays, |rays, p| u32::from(rays.occluded16(scene, p)))
+    } else {
+        shadow_packets_of::<8>(batch, rays, |rays, p| u32::from(rays.occluded8(scene, p)))
+    };
+    batch.shadow.clear();
+    rays.counters.lanes.shadow_used += total as u64;
+    rays.counters.lanes.shadow_slots += slots(total);
+}
+
+/// [`shadow_packets`] with packets of `N` rays traced by `occluded` (bit `k` set when ray `k`
+/// is blocked); returns the number of rays traced.
+#[inline(always)]
+fn shadow_packets_of<const N: usize>(
+    batch: &mut Batch,
+    rays: &mut Rays,
+    mut occluded: impl FnMut(&mut Rays, &[Ray]) -> u32,
+) -> usize {
     let (scatter, light, state) = (&batch.scatter, &batch.light, &mut batch.state);
-    let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
-    let mut who = [0u32; 8];
+    let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); N];
+    let mut who = [0u32; N];
     let (mut n, mut total) = (0, 0);
-    /// Traces `packet` and adds the samples of the paths `who` (one per ray) that nothing blocks.
+    /// Adds the samples of the paths `who` (one per ray) that nothing blocks.
     #[inline(always)]
-    fn flush(
-        scene: &Scene,
-        rays: &mut Rays,
-        packet: &[Ray],
+    fn add(
+        blocked: u32,
         who: &[u32],
         light: &[Option<crate::integrator::path::PendingLight>],
         state: &mut [crate::integrator::path::PathState],
     ) {
-        let blocked = rays.occluded8(scene, packet);
         for (k, &i) in who.iter().enumerate() {
             let i = i as usize;
             if let (Some(l), false) = (&light[i], blocked >> k & 1 == 1) {
@@ -934,25 +951,24 @@ fn shadow_packets(scene: &Scene, batch: &mut Batch, rays: &mut Rays) {
             packet[n] = l.shadow;
             who[n] = i;
             n += 1;
-            if n == 8 {
-                flush(scene, rays, &packet, &who, light, state);
-                total += 8;
+            if n == N {
+                add(occluded(rays, &packet), &who, light, state);
+                total += N;
                 n = 0;
             }
         }
     }
     if n > 0 {
-        flush(scene, rays, &packet[..n], &who[..n], light, state);
+        add(occluded(rays, &packet[..n]), &who[..n], light, state);
         total += n;
     }
-    batch.shadow.clear();
-    rays.counters.lanes.shadow_used += total as u64;
-    rays.counters.lanes.shadow_slots += slots(total);
+    total
 }
 
 /// Traces the rays of the active paths into `batch.hit`, one at a time or grouped when
 /// `packet` is `Some(stream)`: 8-wide packets of consecutive active paths (coherent for camera
-/// rays: samples of one pixel), or (`stream`, bounce rays) one Embree stream.
+/// rays: samples of one pixel; 16-wide where [`Rays::packets16`] says so, tier A on AVX-512: the
+/// same hits), or (`stream`, bounce rays) one Embree stream.
 fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, rays: &mut Rays) {
     rays.counters.lanes.bounces += 1;
     rays.counters.lanes.trace_used += batch.active.len() as u64;
@@ -965,22 +981,52 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, 
         rays.intersect_stream(scene, traced, kind, false, |k, h| {
             hit[active[k] as usize] = h;
         });
+    } else if packet.is_some() && rays.packets16() {
+        trace_packets::<16>(batch, rays, |rays, p, out| {
+            rays.intersect16(scene, p, kind, out)
+        });
     } else if packet.is_some() {
-        let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
-        let mut out: [Option<Hit>; 8] = [None; 8];
-        for chunk in batch.active.chunks(8) {
-            for (p, &i) in packet.iter_mut().zip(chunk) {
-                *p = batch.ray[i as usize];
-            }
-            rays.intersect8(scene, &packet[..chunk.len()], kind, &mut out);
-            for (h, &i) in out.iter().zip(chunk) {
-                batch.hit[i as usize] = *h;
-            }
-        }
+        trace_packets::<8>(batch, rays, |rays, p, out| {
+            rays.intersect8(scene, p, kind, out)
+        });
     } else {
         for &i in &batch.active {
             let i = i as usize;
             batch.hit[i] = rays.intersect_hit(scene, &batch.ray[i], kind);
         }
+    }
+}
+
+/// [`trace`]'s packets: the rays of `N` consecutive active paths at a time (the last packet
+/// shorter) through `intersect`, their hits into `batch.hit`.
+#[inline(always)]
+fn trace_packets<const N: usize>(
+    batch: &mut Batch,
+    rays: &mut Rays,
+    mut intersect: impl FnMut(&mut Rays, &[Ray], &mut [Option<Hit>; N]),
+) {
+    let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); N];
+    let mut out: [Option<Hit>; N] = [None; N];
+    for chunk in batch.active.chunks(N) {
+        for (p, &i) in packet.iter_mut().zip(chunk) {
+            *p = batch.ray[i as usize];
+        }
+        intersect(rays, &packet[..chunk.len()], &mut out);
+        for (h, &i) in out.iter().zip(chunk) {
+            batch.hit[i as usize] = *h;
+        }
+    }
+}
+
+/// Whether [`trace`] and [`shadow_packets`] send 16-ray packets ([`Rays::set_packets16`]): the
+/// lanes may be 16 wide (the AVX-512 token of [`Kernels`], which [`Kernels::LANES`] caps) and
+/// the scene's accelerator traces 16 rays as one packet (tier A on AVX-512; Embree keeps 8).
+fn packets16(scene: &Scene, kernels: &Kernels) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return kernels.avx512.is_some() && scene.accel.packets16();
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (scene, kernels);
+        false
     }
 }

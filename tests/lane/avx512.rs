@@ -322,3 +322,41 @@ impl I32x16Sel {
         <groove::lane::I32x16 as groove::lane::LaneI32>::select(m, a, b).to_array()
     }
 }
+
+/// `Avx512::ray_fields16` puts field f of ray i in lane i of its f-th vector, every bit kept
+/// (random bit patterns, NaNs and signed zeros included), and its mask's `bits` are its lanes.
+#[test]
+fn ray_fields16_transposes_sixteen_rays() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use groove::geometry::Ray;
+        use groove::lane::Lane;
+        let Some(avx) = token("ray_fields16") else {
+            return;
+        };
+        let mut rng = Pcg32::new(16, 8);
+        for _ in 0..64 {
+            let rays: [Ray; 16] = core::array::from_fn(|_| {
+                let mut f = || f32::from_bits(rng.next_u32());
+                let v = |a, b, c| glam::Vec3::new(a, b, c);
+                Ray {
+                    o: v(f(), f(), f()),
+                    d: v(f(), f(), f()),
+                    tmin: f(),
+                    tmax: f(),
+                }
+            });
+            let got = avx.run(|| avx.ray_fields16(&rays).map(F32x16::to_array));
+            for (i, r) in rays.iter().enumerate() {
+                let want = [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.tmin, r.tmax];
+                for (f, w) in want.iter().enumerate() {
+                    assert_eq!(got[f][i].to_bits(), w.to_bits(), "ray {i} field {f}");
+                }
+            }
+            let x = avx.load(&got[0]);
+            let m = avx.run(|| x.lt(avx.splat(0.0)));
+            let bits = (0..16).fold(0, |b, l| b | u32::from(got[0][l] < 0.0) << l);
+            assert_eq!(m.bits(), bits);
+        }
+    }
+}

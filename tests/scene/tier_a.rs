@@ -1,7 +1,8 @@
 //! Tier A (brute-force analytic intersection, issue 16 item 3) reports the `Hit` the Embree tier
 //! reports, bit for bit: same shape, triangle, t, u and v, for the nearest-hit and occlusion
 //! queries, one ray at a time (one ray × 8 primitives) and in packets (8 rays × every
-//! primitive, full and partial). Over the bench scenes and random primitive sets, ≥ 30,000 rays
+//! primitive, full and partial; and 16 rays on AVX-512, equal to the 8-ray packets and single
+//! rays bit for bit, `sixteen_consistent`). Over the bench scenes and random primitive sets, ≥ 30,000 rays
 //! each: from outside and inside, from points on the surfaces, aimed at sphere silhouettes,
 //! rectangle, disk and box edges, grazing along planes, and with tmax/tmin cut at a hit's t.
 //!
@@ -101,6 +102,59 @@ fn self_consistent(brute: &Accel, lanes: &[Ray], coherent: bool) -> Vec<Option<H
         hits.push(got);
     }
     hits
+}
+
+/// Whether this CPU runs tier A's 16-ray packets 16 wide (else they are two 8-ray packets, and
+/// the comparisons below check only that fallback).
+fn has_avx512() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        groove::lane::Avx512::detect().is_some()
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Prints why `name` compares the 16-ray packets only as two 8-ray packets, where it does.
+fn note_width(name: &str) {
+    if !has_avx512() {
+        eprintln!("{name}: this CPU has no AVX-512; 16-ray packets run as two 8-ray packets");
+    }
+}
+
+/// Tier A's 16-ray packets (`Accel::intersect16`, `occluded16`) give every ray of `all` the
+/// hit and the occlusion its 8-ray packets and its single-ray queries give, bit for bit; in
+/// packets of 16 rays mostly and of 1..15 every few (so a ray meets every lane position, and
+/// the padded lanes stay empty).
+fn sixteen_consistent(name: &str, brute: &Accel, all: &[Ray]) {
+    let (mut start, mut k) = (0, 0);
+    while start < all.len() {
+        let n = if k % 4 == 3 { 1 + k % 15 } else { 16 };
+        let lanes = &all[start..(start + n).min(all.len())];
+        let mut wide = [None; 16];
+        brute.intersect16(lanes, k % 2 == 0, &mut wide);
+        let blocked = brute.occluded16(lanes);
+        assert_eq!(u32::from(blocked) >> lanes.len(), 0, "{name}: lanes past n");
+        assert!(wide[lanes.len()..].iter().all(Option::is_none), "{name}");
+        for (h, half) in lanes.chunks(8).enumerate() {
+            let mut eight = [None; 8];
+            brute.intersect8(half, false, &mut eight);
+            let blocked8 = brute.occluded8(half);
+            for (i, r) in half.iter().enumerate() {
+                let j = 8 * h + i;
+                let one = brute.intersect(r);
+                assert_eq!(bits(&wide[j]), bits(&eight[i]), "{name}: {r:?}: 16 vs 8");
+                assert_eq!(bits(&wide[j]), bits(&one), "{name}: {r:?}: 16 vs one ray");
+                let b = blocked >> j & 1 == 1;
+                assert_eq!(b, blocked8 >> i & 1 == 1, "{name}: {r:?}: occluded16 vs 8");
+                assert_eq!(b, brute.occluded(r), "{name}: {r:?}: occluded16 vs one ray");
+            }
+        }
+        start += lanes.len();
+        k += 1;
+    }
 }
 
 /// Bit pattern of a hit, for exact comparison (also `packets.rs`'s).
@@ -241,6 +295,7 @@ fn compare(name: &str, loaded: &Loaded, seed: u64) -> (usize, usize) {
     let brute = Accel::build_tiered(shapes, &[], &[], Tier::Brute).unwrap();
     assert_eq!((embree.tier(), brute.tier()), (Tier::Embree, Tier::Brute));
     let all = rays(loaded, &embree, seed);
+    sixteen_consistent(name, &brute, &all);
     compare_rays(name, &embree, &brute, &all);
     let slabs = Accel::build_embree_rect_slabs(shapes).unwrap();
     compare_rays(&format!("{name}, rectangle slabs"), &slabs, &brute, &all)
@@ -349,6 +404,7 @@ fn classify(r: &Ray, want: &Option<Hit>, got: &Option<Hit>) -> Diff {
 
 #[test]
 fn tier_a_hits_equal_embree_on_the_bench_scenes() {
+    note_width("bench scenes");
     for name in ["metal_plastic", "glass", "strong"] {
         let loaded = load_file(&format!("scenes/bench/{name}.xml"));
         compare(name, &loaded, 3);
@@ -515,6 +571,8 @@ fn cbox_triangles_agree_with_embree() {
         };
         all.push(ray);
     }
+    note_width("cbox");
+    sixteen_consistent("cbox", &brute, &all);
     let (mut hits, mut edges, mut coincident, mut k, mut start) = (0, 0, 0, 0, 0);
     while start < all.len() {
         let n = if k % 4 == 3 { 1 + k % 7 } else { 8 };
@@ -670,6 +728,7 @@ fn rays_on_a_mesh_box_plane_parallel_to_it() {
             }
         }
     }
+    sixteen_consistent("mesh box planes", &brute, &all);
     let (mut hits, mut start) = (0, 0);
     while start < all.len() {
         // Full packets and partial ones (8, 7, 6 rays).
@@ -693,4 +752,91 @@ fn rays_on_a_mesh_box_plane_parallel_to_it() {
     // The quad's padded planes z = 0.1 ± pad lie inside the octahedron's box: rays there meet
     // the octahedron, and rays on the octahedron's planes x, y = ±(1 + pad) meet the quad.
     assert!(hits > 100, "{hits} hits");
+}
+
+/// Tier A's 16-ray packets equal its 8-ray packets and single rays bit for bit on hostile rays,
+/// over the bench scenes, a random primitive set and the Cornell box: directions along the axes
+/// (the other components +0 or −0) from origins on the planes of the shapes' bounding boxes,
+/// subnormal and huge components, tmin = tmax, tmin = −0, tmax = ∞, origins at ±∞ and NaN in
+/// any field.
+#[test]
+fn sixteen_ray_packets_on_hostile_rays() {
+    note_width("hostile rays");
+    let specials = [
+        0.0f32,
+        -0.0,
+        1.0,
+        -1.0,
+        1e-40,
+        -1e-40,
+        f32::MIN_POSITIVE,
+        3e38,
+        -3e38,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+    ];
+    let mut scenes = vec![
+        (
+            "metal_plastic".to_string(),
+            load_file("scenes/bench/metal_plastic.xml"),
+        ),
+        ("random set".to_string(), random_set(7, 12)),
+    ];
+    let cbox = groove::load::load_scene(&crate::common::shared_cbox(), &Default::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    scenes.push(("cbox".to_string(), cbox));
+    for (name, loaded) in &scenes {
+        let brute = Accel::build_tiered(loaded.scene.shapes(), &[], &[], Tier::Brute).unwrap();
+        let (c, r) = loaded.scene.bsphere();
+        let mut rng = Pcg32::new(21, 5);
+        let mut all = Vec::new();
+        // The planes of every shape's box (from tier A's own hits: the points where rays from
+        // outside enter), as origins of axis-parallel rays.
+        let mut planes = Vec::new();
+        for _ in 0..64 {
+            let mut u = || 2.0 * rng.next_f32() - 1.0;
+            let o = c + Vec3::new(u(), u(), u()).normalize_or(Vec3::Z) * 2.0 * r;
+            let ray = Ray::new(o, (c + Vec3::new(u(), u(), u()) * 0.5 * r - o).normalize());
+            if let Some(h) = brute.intersect(&ray) {
+                planes.push(ray.at(h.t));
+            }
+        }
+        for (k, p) in planes.iter().enumerate() {
+            for axis in 0..3 {
+                for sign in [1.0f32, -1.0] {
+                    for zero in [0.0f32, -0.0] {
+                        let mut d = Vec3::splat(zero);
+                        d[axis] = sign;
+                        let mut o = *p;
+                        // Every other ray starts a little back along its axis.
+                        if k % 2 == 1 {
+                            o[axis] -= sign * 0.25 * r;
+                        }
+                        all.push(Ray::new(o, d));
+                    }
+                }
+            }
+        }
+        // Special values in one field at a time, over ordinary rays.
+        for k in 0..2048 {
+            let mut u = || 2.0 * rng.next_f32() - 1.0;
+            let o = c + Vec3::new(u(), u(), u()) * 1.5 * r;
+            let mut ray = Ray::new(o, Vec3::new(u(), u(), u()).normalize_or(Vec3::X));
+            let x = specials[k % specials.len()];
+            match (k / specials.len()) % 9 {
+                f @ 0..=2 => ray.o[f] = x,
+                f @ 3..=5 => ray.d[f - 3] = x,
+                6 => ray.tmin = x,
+                7 => ray.tmax = x,
+                _ => {
+                    // tmin = tmax at the ray's hit (or at x).
+                    let t = brute.intersect(&ray).map_or(x, |h| h.t);
+                    (ray.tmin, ray.tmax) = (t, t);
+                }
+            }
+            all.push(ray);
+        }
+        sixteen_consistent(name, &brute, &all);
+    }
 }
