@@ -132,6 +132,9 @@ fn poly(c: &[f64], t: f64) -> f64 {
 struct FilterTable {
     values: [f32; FILTER_RESOLUTION + 1],
     scale: f32,
+    /// The square of the largest |value|, rounded to f32 (+∞ when a value is not finite): a
+    /// bound on every product of two weights, |wx·wy| ≤ `max_sq` (rounding is monotonic).
+    max_sq: f32,
 }
 
 impl FilterTable {
@@ -141,9 +144,17 @@ impl FilterTable {
         for (i, v) in values.iter_mut().take(FILTER_RESOLUTION).enumerate() {
             *v = filter.eval(r * i as f32 / FILTER_RESOLUTION as f32);
         }
+        let max = values.iter().fold(0.0f32, |m, &v| {
+            if v.is_finite() {
+                m.max(v.abs())
+            } else {
+                f32::INFINITY
+            }
+        });
         FilterTable {
             values,
             scale: FILTER_RESOLUTION as f32 / r,
+            max_sq: max * max,
         }
     }
 
@@ -153,6 +164,46 @@ impl FilterTable {
         let i = ((x * self.scale).abs() as usize).min(FILTER_RESOLUTION);
         self.values[i]
     }
+
+    /// [`FilterTable::eval`] in eight lanes, equal to it lane by lane: the same product and
+    /// absolute value, then the bin: the truncation below 31, 31 from there up to +∞ (where
+    /// `as usize` saturates and the min cuts), 0 for NaN; a gather from the table.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn eval8(&self, avx: crate::lane::Avx2, x: crate::lane::F32x8) -> crate::lane::F32x8 {
+        use crate::lane::{F32x8, I32x8, Lane, LaneI32};
+        const LAST: i32 = FILTER_RESOLUTION as i32;
+        let t = (x * avx.splat(self.scale)).abs();
+        let i = t.trunc_i32();
+        let big = I32x8::select(t.is_nan(), i.splat(0), i.splat(LAST));
+        F32x8::gather(
+            &self.values,
+            I32x8::select(t.lt(avx.splat(LAST as f32)), i, big),
+        )
+    }
+}
+
+/// Footprints of up to 8×8 pixels in lanes ([`Block::splat_lanes`]): for a footprint `nx`
+/// pixels wide, pixel p (row-major) is column p mod nx and row ⌊p / nx⌋; `FOOT_I[nx − 1][g]`
+/// and `FOOT_J[nx − 1][g]` hold them for p = 8g, …, 8g + 7 (lanes past the footprint's end are
+/// never added).
+const FOOT_I: [[[i32; 8]; 8]; 8] = foot_table(false);
+/// See [`FOOT_I`].
+const FOOT_J: [[[i32; 8]; 8]; 8] = foot_table(true);
+
+/// [`FOOT_I`] (`rows` false) or [`FOOT_J`] (`rows` true).
+const fn foot_table(rows: bool) -> [[[i32; 8]; 8]; 8] {
+    let mut t = [[[0i32; 8]; 8]; 8];
+    let mut nx = 1;
+    while nx <= 8 {
+        let mut p = 0;
+        while p < 64 {
+            t[nx - 1][p / 8][p % 8] = if rows { p / nx } else { p % nx } as i32;
+            p += 1;
+        }
+        nx += 1;
+    }
+    t
 }
 
 /// Film geometry and filter: the full film size and the crop window that is rendered.
@@ -184,11 +235,12 @@ impl FilmDesc {
 
 /// Per-pixel sums Σw·v, Σw·v², Σw, Σw², exact in fixed point (see [`sum`]), so that they do not
 /// depend on the order or grouping in which contributions arrive.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Acc {
-    /// Σw·v (R, G, B), Σw·v² (R, G, B), Σw, Σw² ([`RawPixel`]'s order), in one array so that
-    /// the 8-wide splats add a contribution's eight addends in four registers
-    /// ([`crate::lane::Avx2::add_i128x8`]).
+    /// Σw·v (R, G, B), Σw·v² (R, G, B), Σw, Σw² ([`RawPixel`]'s order), each stored biased
+    /// (s ^ [`sum::LOW_BIAS`]; [`Acc::sum`] reads them), in one array so that the 8-wide splats
+    /// add a contribution's eight addends in four registers
+    /// ([`crate::lane::Avx2::add_i128x8_biased`]).
     sums: [i128; 8],
     /// Non-finite colour values seen (they cannot be summed in fixed point): bit c NaN, bit 3+c
     /// +∞, bit 6+c −∞ for channel c. A set of flags does not depend on the order either.
@@ -200,29 +252,51 @@ struct Acc {
 #[cfg(target_arch = "x86_64")]
 const UNSIGNED_SUMS: u32 = 0b1111_1000;
 
+impl Default for Acc {
+    /// No contribution: every sum 0 (stored biased).
+    fn default() -> Acc {
+        Acc {
+            sums: [sum::LOW_BIAS; 8],
+            bad: 0,
+        }
+    }
+}
+
 impl Acc {
+    /// Sum `i` ([`RawPixel`]'s order), unbiased.
+    #[inline(always)]
+    fn sum(&self, i: usize) -> i128 {
+        self.sums[i] ^ sum::LOW_BIAS
+    }
+
+    /// The eight sums, unbiased.
+    #[inline(always)]
+    fn unbiased(&self) -> [i128; 8] {
+        self.sums.map(|s| s ^ sum::LOW_BIAS)
+    }
+
     /// Σw·v of channel `c`.
     #[inline]
     fn wv(&self, c: usize) -> i128 {
-        self.sums[c]
+        self.sum(c)
     }
 
     /// Σw·v² of channel `c`.
     #[inline]
     fn wv2(&self, c: usize) -> i128 {
-        self.sums[3 + c]
+        self.sum(3 + c)
     }
 
     /// Σw.
     #[inline]
     fn w(&self) -> i128 {
-        self.sums[6]
+        self.sum(6)
     }
 
     /// Σw².
     #[inline]
     fn w2(&self) -> i128 {
-        self.sums[7]
+        self.sum(7)
     }
 
     #[inline(always)]
@@ -262,11 +336,13 @@ impl Acc {
     /// channel adds 0).
     #[inline(always)]
     fn add_fixed(&mut self, first: [i128; 3], second: [i128; 3], w: i128, w2: i128) {
-        let [s0, s1, s2, r, g, b, sw, sw2] = &mut self.sums;
+        let mut sums = self.unbiased();
+        let [s0, s1, s2, r, g, b, sw, sw2] = &mut sums;
         for (s, x) in [s0, s1, s2].into_iter().zip(first) {
             sum::add_signed(s, x);
         }
         sum::add_unsigned_all([r, g, b, sw, sw2], [second[0], second[1], second[2], w, w2]);
+        self.sums = sums.map(|s| s ^ sum::LOW_BIAS);
     }
 
     /// Records the non-finite value `x` of channel `c`.
@@ -283,7 +359,7 @@ impl Acc {
 
     #[inline]
     fn add(&mut self, o: &Acc) {
-        let s = &o.sums;
+        let s = o.unbiased();
         self.add_fixed([s[0], s[1], s[2]], [s[3], s[4], s[5]], s[6], s[7]);
         self.bad |= o.bad;
     }
@@ -316,7 +392,7 @@ pub struct RawPixel {
 impl From<&Acc> for RawPixel {
     fn from(a: &Acc) -> RawPixel {
         RawPixel {
-            sums: a.sums,
+            sums: a.unbiased(),
             bad: a.bad,
         }
     }
@@ -325,7 +401,7 @@ impl From<&Acc> for RawPixel {
 impl From<&RawPixel> for Acc {
     fn from(r: &RawPixel) -> Acc {
         Acc {
-            sums: r.sums,
+            sums: r.sums.map(|s| s ^ sum::LOW_BIAS),
             bad: r.bad,
         }
     }
@@ -354,6 +430,11 @@ pub struct Block {
     /// The 8-wide splats' addends: row k holds lane k's eight fixed-point addends in
     /// [`Acc::sums`]' order (scratch, kept here so that it is not zeroed per call).
     lanes: Box<[[i128; 8]; 8]>,
+    /// j·`sw` for j = 0, …, 7 (wrapping): the storage offsets of a footprint's rows.
+    rows: [i32; 8],
+    /// The AVX2 token when the CPU has it: [`Block::put`] splats in lanes then.
+    #[cfg(target_arch = "x86_64")]
+    avx: Option<crate::lane::Avx2>,
 }
 
 impl Block {
@@ -385,6 +466,9 @@ impl Block {
             nch,
             extra: Vec::new(),
             lanes: Box::new([[0; 8]; 8]),
+            rows: [0; 8],
+            #[cfg(target_arch = "x86_64")]
+            avx: crate::lane::Avx2::detect(),
         };
         b.clear(x0, y0, w, h);
         b
@@ -396,6 +480,7 @@ impl Block {
         self.oy = y0 as i64 - self.border as i64;
         self.sw = w.saturating_add(2 * self.border);
         self.sh = h.saturating_add(2 * self.border);
+        self.rows = core::array::from_fn(|j| (j as i32).wrapping_mul(self.sw as i32));
         self.exact = [
             exact_bounds(self.ox, self.sw),
             exact_bounds(self.oy, self.sh),
@@ -427,7 +512,18 @@ impl Block {
     /// storage only reach the pixels that exist; non-finite positions are ignored. Non-finite
     /// values are recorded per pixel and channel, and the developed pixel shows them (NaN, or
     /// ±∞ when only one sign of infinity arrived).
+    ///
+    /// With AVX2, a filter other than the box takes [`Block::splat_lanes`] (the same sums to
+    /// the bit: the scalar renderer's splats convert 8 addends at a time too).
     pub fn put(&mut self, film_pos: Vec2, value: Spectrum) {
+        #[cfg(target_arch = "x86_64")]
+        if let (Some(avx), false) = (self.avx, self.filter.is_box()) {
+            avx.run(
+                #[inline(always)]
+                || self.splat_lanes(avx, film_pos, value),
+            );
+            return;
+        }
         self.splat::<false>(film_pos, value, &[]);
     }
 
@@ -548,7 +644,7 @@ impl Block {
         for (k, inside) in inside.to_array().into_iter().enumerate() {
             if inside {
                 let a = &mut self.data[py[k] as usize * sw + px[k] as usize];
-                avx.add_i128x8::<UNSIGNED_SUMS>(&mut a.sums, &self.lanes[k]);
+                avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut a.sums, &self.lanes[k]);
             }
         }
     }
@@ -647,78 +743,82 @@ impl Block {
     /// footprint's pixels 8 at a time: each pixel's weight w = wx·wy and its addends w·v, w·v²
     /// (per channel), w and w² are the same f32 products as [`Block::splat`]'s, turned into
     /// fixed point 8-wide ([`sum::fixed8_into`], equal to [`sum::fixed`] lane by lane), so the sums
-    /// are `put`'s to the bit. A footprint wider than 16 pixels, or one where some w·v could be
-    /// non-finite (which `put` records as a flag), takes `put`. Call inside
+    /// are the scalar splat's to the bit. A footprint of up to 8×8 pixels is laid out in lanes: the weights
+    /// of each axis in one register ([`FilterTable::eval8`]), and each group of 8 pixels takes
+    /// its wx, wy and storage index by lane permutes ([`FOOT_I`], [`FOOT_J`]). A footprint of up
+    /// to 16×16 takes the weights one by one; a wider one, or one where some w·v could be
+    /// non-finite (which `put` records as a flag), takes the scalar splat. Call inside
     /// [`crate::lane::Avx2::run`].
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn splat_lanes(&mut self, avx: crate::lane::Avx2, film_pos: Vec2, value: Spectrum) {
+        use crate::lane::LaneI32;
         if !film_pos.is_finite() || self.sw == 0 || self.sh == 0 {
             return;
         }
         let Some(fp) = self.footprint(film_pos) else {
             return;
         };
-        if fp.nx > 16 || fp.ny > 16 {
-            self.put(film_pos, value);
+        let v = value.to_array();
+        // Every weight wx·wy is at most `max_sq` in magnitude, so a finite |v|·max_sq on every
+        // channel means every w·v is finite (rounding is monotonic). Storage indices are i32s.
+        let wmax = self.table.max_sq;
+        let finite = v.iter().all(|&c| (c.abs() * wmax).is_finite());
+        if !finite || fp.nx > 16 || fp.ny > 16 || self.data.len() > i32::MAX as usize {
+            self.splat::<false>(film_pos, value, &[]);
+            return;
+        }
+        let sw = self.sw as usize;
+        let base = ((fp.y_lo * sw) + fp.x_lo) as i32;
+        if fp.nx <= 8 && fp.ny <= 8 {
+            let iota = avx.load(&[0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
+            let wx = self.table.eval8(avx, avx.splat(fp.rel_x) + iota);
+            let wy = self.table.eval8(avx, avx.splat(fp.rel_y) + iota);
+            let rows = avx.load_i32(&self.rows).add(avx.load_i32(&[base; 8]));
+            let n = fp.nx * fp.ny;
+            let (ti, tj) = (&FOOT_I[fp.nx - 1], &FOOT_J[fp.nx - 1]);
+            for (g, (fi, fj)) in ti.iter().zip(tj).enumerate().take(n.div_ceil(8)) {
+                let (i, j) = (avx.load_i32(fi), avx.load_i32(fj));
+                let w = wx.permute(i) * wy.permute(j);
+                let at = rows.permute(j).add(i).to_array();
+                self.add8(avx, w, &at, (n - 8 * g).min(8), v);
+            }
             return;
         }
         let (mut wx, mut wy) = ([0.0f32; 16], [0.0f32; 16]);
         let (wx, wy) = (&mut wx[..fp.nx], &mut wy[..fp.ny]);
         fp.weights(&self.table, wx, wy);
-        // |wx·wy| ≤ max|wx|·max|wy| after rounding too (rounding is monotonic), so a finite
-        // |v|·max|wx|·max|wy| on every channel means every w·v is finite.
-        let (mut mx, mut my, mut finite) = (0.0f32, 0.0f32, true);
-        for &w in wx.iter() {
-            finite &= w.is_finite();
-            mx = mx.max(w.abs());
-        }
-        for &w in wy.iter() {
-            finite &= w.is_finite();
-            my = my.max(w.abs());
-        }
-        let v = value.to_array();
-        let wmax = mx * my;
-        for &c in &v {
-            finite &= (c.abs() * wmax).is_finite();
-        }
-        if !finite {
-            self.put(film_pos, value);
-            return;
-        }
-        let sw = self.sw as usize;
-        let (mut w, mut at, mut n) = ([0.0f32; 8], [0usize; 8], 0);
+        let (mut w, mut at, mut n) = ([0.0f32; 8], [0i32; 8], 0);
         for (j, &wyj) in wy.iter().enumerate() {
-            let row = (fp.y_lo + j) * sw + fp.x_lo;
+            let row = base + (j * sw) as i32;
             for (i, &wxi) in wx.iter().enumerate() {
                 w[n] = wxi * wyj;
-                at[n] = row + i;
+                at[n] = row + i as i32;
                 n += 1;
                 if n == 8 {
-                    self.add8(avx, &w, &at, 8, v);
+                    self.add8(avx, avx.load(&w), &at, 8, v);
                     n = 0;
                 }
             }
         }
         if n > 0 {
-            self.add8(avx, &w, &at, n, v);
+            self.add8(avx, avx.load(&w), &at, n, v);
         }
     }
 
     /// Adds the first `n` of eight weighted contributions of the value `v` (weights `w`, to
-    /// the pixels `at`): [`Acc::add_sample`] with the addends converted 8-wide. Call inside
-    /// [`crate::lane::Avx2::run`].
+    /// the storage pixels `at`): [`Acc::add_sample`] with the addends converted 8-wide. Call
+    /// inside [`crate::lane::Avx2::run`].
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn add8(
         &mut self,
         avx: crate::lane::Avx2,
-        w: &[f32; 8],
-        at: &[usize; 8],
+        w8: crate::lane::F32x8,
+        at: &[i32; 8],
         n: usize,
         v: [f32; 3],
     ) {
-        let w8 = avx.load(w);
         let (r, g, b) = (avx.splat(v[0]), avx.splat(v[1]), avx.splat(v[2]));
         let t = &mut *self.lanes;
         for (j, c) in [r, g, b].into_iter().enumerate() {
@@ -729,7 +829,7 @@ impl Block {
         sum::fixed8_into(w8, t, 6);
         sum::fixed8_into(w8 * w8, t, 7);
         for (k, &a) in at.iter().enumerate().take(n) {
-            avx.add_i128x8::<UNSIGNED_SUMS>(&mut self.data[a].sums, &self.lanes[k]);
+            avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut self.data[a as usize].sums, &self.lanes[k]);
         }
     }
 }

@@ -125,7 +125,7 @@ pub(crate) fn add_unsigned_all<const N: usize>(acc: [&mut i128; N], x: [i128; N]
 
 /// [`fixed`] of eight values at once (AVX2; call it inside [`crate::lane::Avx2::run`]), equal
 /// to it bit for bit in every lane: lane k's value goes to `out[k][j]` (a column of a per-lane
-/// table whose rows are the addends of one pixel, [`crate::lane::Avx2::add_i128x8`]).
+/// table whose rows are the addends of one pixel, [`crate::lane::Avx2::add_i128x8_biased`]).
 ///
 /// In the common range the value is the signed significand `sm` (|sm| < 2²⁴) times 2^sh,
 /// sh = e − 86 ∈ [0, 102]; its 32-bit word i (bits 32i to 32i + 31) is ⌊sm·2^(sh − 32i)⌋
@@ -172,6 +172,12 @@ pub(crate) fn fixed8_into(x: crate::lane::F32x8, out: &mut [[i128; 8]; 8], j: us
         }
     }
 }
+
+/// The bias of the sums a film keeps: a sum s is stored as s ^ `LOW_BIAS` (bit 63, the top
+/// bit of its low 64-bit word, flipped), so that the 8-wide adds find the carry out of the low
+/// word with one signed compare ([`crate::lane::Avx2::add_i128x8_biased`]). The high word is
+/// untouched, so a stored sum has the sign of the sum; zero is stored as `LOW_BIAS`.
+pub(crate) const LOW_BIAS: i128 = 1 << 63;
 
 /// The fixed-point value of 1, the weight of a box-filter sample: [`fixed`]`(1.0)`.
 pub(crate) const ONE: i128 = 1 << FRAC_BITS;

@@ -46,6 +46,128 @@ fn gaussian_matches_mitsuba() {
     assert_eq!(Filter::Box.eval(-0.5), 1.0);
 }
 
+/// `FilterTable::eval8` equals `FilterTable::eval` lane by lane: on bin edges and their
+/// neighbours, ±0, the table's end and past it, huge values, ±∞, NaN and random offsets, for
+/// filters of several radii (a tiny radius makes the scale huge, so products overflow).
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn filter_table_eval8_equals_eval() {
+    let Some(avx) = crate::lane::Avx2::detect() else {
+        eprintln!("no AVX2: eval8 not tested");
+        return;
+    };
+    let mut rng = Pcg32::new(5, 9);
+    for filter in [
+        Filter::gaussian(0.5),
+        Filter::gaussian(1.0),
+        Filter::Tent { radius: 1.0 },
+        Filter::Tent { radius: 3.5 },
+        Filter::Tent { radius: 1e-30 },
+        Filter::Gaussian {
+            stddev: f32::NAN,
+            radius: f32::NAN,
+        },
+    ] {
+        let t = FilterTable::new(&filter);
+        let mut xs = vec![
+            0.0f32,
+            -0.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::MAX,
+            -f32::MAX,
+            1e-45,
+            3e9,
+            -3e9,
+        ];
+        let r = filter.radius();
+        for i in 0..=40 {
+            let x = if r.is_finite() {
+                r * i as f32 / 31.0
+            } else {
+                i as f32
+            };
+            for x in [x, x.next_up(), x.next_down()] {
+                xs.extend([x, -x]);
+            }
+        }
+        for _ in 0..4000 {
+            xs.push((rng.next_f32() - 0.5) * 6.0);
+        }
+        for c in xs.chunks(8) {
+            let a: [f32; 8] = core::array::from_fn(|k| c[k % c.len()]);
+            let got = avx.run(|| t.eval8(avx, avx.load(&a)).to_array());
+            for (g, &x) in got.iter().zip(&a) {
+                assert_eq!(g.to_bits(), t.eval(x).to_bits(), "{filter:?} at {x:e}");
+            }
+        }
+    }
+}
+
+/// The footprint tables of `Block::splat_lanes` visit every pixel of every footprint of up to
+/// 8×8 pixels exactly once, in their first nx·ny entries.
+#[test]
+fn footprint_tables_cover_each_pixel_once() {
+    for nx in 1..=8 {
+        for ny in 1..=8 {
+            let mut seen = [[0u32; 8]; 8];
+            for p in 0..nx * ny {
+                let (i, j) = (FOOT_I[nx - 1][p / 8][p % 8], FOOT_J[nx - 1][p / 8][p % 8]);
+                assert!((0..nx as i32).contains(&i) && (0..ny as i32).contains(&j));
+                seen[j as usize][i as usize] += 1;
+            }
+            for (j, row) in seen.iter().enumerate() {
+                for (i, &n) in row.iter().enumerate() {
+                    assert_eq!(n, (i < nx && j < ny) as u32, "{nx}×{ny}: ({i}, {j})");
+                }
+            }
+        }
+    }
+}
+
+/// The sums are stored biased (`sum::LOW_BIAS`) and read unbiased: an empty pixel reads 0
+/// and gives the zero `RawPixel`, and raw sums go in and come out unchanged, extremes included.
+#[test]
+fn biased_sums_read_and_convert_unbiased() {
+    let a = Acc::default();
+    assert_eq!((a.w(), a.w2(), a.wv(0), a.wv2(2)), (0, 0, 0, 0));
+    assert_eq!(RawPixel::from(&a), RawPixel::default());
+    let r = RawPixel {
+        sums: [
+            i128::MIN,
+            -1,
+            1 << 63,
+            i128::MAX,
+            0,
+            (1 << 63) - 1,
+            1,
+            1 << 64,
+        ],
+        bad: 5,
+    };
+    let a = Acc::from(&r);
+    assert_eq!(RawPixel::from(&a), r);
+    assert_eq!(
+        (a.wv(0), a.wv2(0), a.w(), a.w2()),
+        (i128::MIN, i128::MAX, 1, 1 << 64)
+    );
+    let mut f = Film::new(desc(1, 1, Filter::Box));
+    f.add_raw(0, &r, &[]);
+    f.add_raw(0, &r, &[]);
+    let twice = f.raw_pixel(0);
+    for (i, (&t, &s)) in twice.sums.iter().zip(&r.sums).enumerate() {
+        let want = if (3..8).contains(&i) {
+            let mut x = s;
+            sum::add_unsigned(&mut x, s);
+            x
+        } else {
+            s.wrapping_add(s)
+        };
+        assert_eq!(t, want, "sum {i}");
+    }
+}
+
 #[test]
 fn block_matches_mitsuba_imageblock() {
     // Raw block contents (border included) from Mitsuba 3.9.1's ImageBlock::put, see the file.
@@ -410,9 +532,10 @@ fn storage_index_matches_floor_and_bounds() {
     assert!(exact_bounds(1 << 25, 4).is_none());
 }
 
-/// `Block::put8` gives the same sums, to the bit, as `Block::put` of each of its samples, for
-/// every filter (footprints of up to 16 pixels a side in lanes, wider ones not): runs of samples
-/// on one pixel (short ones and whole chunks), positions on pixel edges, outside the block and
+/// `Block::put8` and `Block::put` give the same sums, to the bit, as the scalar splat of each
+/// sample, for every filter (footprints of up to 8 pixels a side laid out in lanes, up to 16
+/// with weights one by one, wider ones by the scalar splat): runs of samples on one pixel
+/// (short ones and whole chunks), positions on pixel edges and centres, outside the block and
 /// non-finite, negative values, signed zeros, subnormals, values below the fixed-point grid's
 /// exact range, values whose square is near the clamp or overflows and ±f32::MAX, into blocks
 /// that start empty or with sums near their limits (saturation and wrapping); chunks
@@ -430,7 +553,12 @@ fn put8_equals_put_one_by_one() {
         Filter::Box,
         Filter::Tent { radius: 1.0 },
         Filter::gaussian(0.5),
-        // A footprint wider than 16 pixels (`splat_lanes` hands it to `put`).
+        // Footprints of 7 or 8 pixels a side (in lanes), 8 or 9 (in lanes, or weights one by
+        // one), 16 or 17 (one by one, or the scalar splat).
+        Filter::Tent { radius: 3.5 },
+        Filter::gaussian(1.0),
+        Filter::gaussian(2.0),
+        // A footprint wider than 16 pixels (`splat_lanes` hands it to the scalar splat).
         Filter::gaussian(5.0),
     ] {
         let d = desc(9, 7, filter);
@@ -447,6 +575,9 @@ fn put8_equals_put_one_by_one() {
                 let u = match k % 7 {
                     0 => Vec2::new(1.0f32.next_down(), 0.0),
                     1 => Vec2::new(0.0, 1.0f32.next_down()),
+                    // On pixel centres: footprints one pixel wider.
+                    2 => Vec2::new(0.5, 0.5),
+                    3 => Vec2::new(0.5, rng.next_f32()),
                     _ => Vec2::new(rng.next_f32(), rng.next_f32()),
                 };
                 let pos = Vec2::new(x as f32 - 1.0, y as f32 - 1.0) + u;
@@ -482,7 +613,7 @@ fn put8_equals_put_one_by_one() {
                                 i128::MAX - (i << 62) - c as i128
                             } else {
                                 i128::MAX - (i << 58) - (c as i128) * (1 << 60)
-                            };
+                            } ^ sum::LOW_BIAS;
                         }
                     }
                 }
@@ -496,9 +627,21 @@ fn put8_equals_put_one_by_one() {
             ] {
                 let mut one = Block::new(&d, x0, y0, w, h);
                 start(&mut one, near);
+                // The scalar splat, the reference of `put` (which splats in lanes with AVX2)
+                // and of `put8`.
                 for &(p, v) in &samples {
-                    one.put(p, v);
+                    one.splat::<false>(p, v, &[]);
                 }
+                let mut via_put = Block::new(&d, x0, y0, w, h);
+                start(&mut via_put, near);
+                for &(p, v) in &samples {
+                    via_put.put(p, v);
+                }
+                assert!(
+                    one.data == via_put.data,
+                    "put, {filter:?} block {:?}",
+                    (x0, y0, w, h)
+                );
                 let mut eight = Block::new(&d, x0, y0, w, h);
                 start(&mut eight, near);
                 for c in samples.chunks_exact(8) {
@@ -506,9 +649,10 @@ fn put8_equals_put_one_by_one() {
                     let v: [Spectrum; 8] = core::array::from_fn(|k| c[k].1);
                     eight.put8(avx, &pos, &v);
                 }
-                // Some pixel has weight and no flag (under the wide filter every pixel meets
-                // a non-finite sample, so only the weight is asked there).
-                let wide = filter.radius() > 8.0;
+                // Some pixel has weight and no flag (under the other filters a footprint is
+                // wide enough that every pixel may meet a non-finite sample, so only the
+                // weight is asked there; the sums are compared whatever the flags).
+                let wide = !filter.is_box();
                 assert!(one.data.iter().any(|a| a.w() != 0 && (wide || a.bad == 0)));
                 if near {
                     assert!(one.data.iter().any(|a| a.w() == i128::MAX));
@@ -525,7 +669,7 @@ fn put8_equals_put_one_by_one() {
                 for &(p, v) in &samples {
                     let finite = crate::spectrum::is_finite(v);
                     bad += !finite as u32;
-                    zeroed.put(p, if finite { v } else { Spectrum::ZERO });
+                    zeroed.splat::<false>(p, if finite { v } else { Spectrum::ZERO }, &[]);
                 }
                 let (mut fin, mut counted) = (Block::new(&d, x0, y0, w, h), 0);
                 start(&mut fin, near);

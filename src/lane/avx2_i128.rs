@@ -1,14 +1,30 @@
 //! Width 8: the operations of the film's exact 128-bit fixed-point sums (`film::sum`): variable
 //! 32-bit shifts, the join of four 32-bit words per lane into eight `i128`s, and the addition
-//! of eight `i128` addends to a pixel's eight sums in four registers (two sums each).
+//! of eight `i128` addends to a pixel's eight (biased) sums in four registers (two sums each); and the
+//! lane permutes that lay a splat's footprint of filter weights out in lanes.
 //!
 //! A child of `avx2` (it reads the private fields of [`I32x8`]); the same soundness argument:
 //! its values and the [`Avx2`] token exist only when the CPU has AVX2.
 
-use super::{Avx2, I32x8};
+use super::{Avx2, F32x8, I32x8};
 use core::arch::x86_64::*;
 
+impl F32x8 {
+    /// Lane k of the result is lane `idx[k] & 7` of `self` (`vpermps`).
+    #[inline(always)]
+    pub fn permute(self, idx: I32x8) -> F32x8 {
+        // SAFETY: an F32x8 exists only with AVX2 (module doc).
+        F32x8(unsafe { _mm256_permutevar8x32_ps(self.0, idx.0) })
+    }
+}
+
 impl I32x8 {
+    /// Lane k of the result is lane `idx[k] & 7` of `self` (`vpermd`).
+    #[inline(always)]
+    pub fn permute(self, idx: I32x8) -> I32x8 {
+        // SAFETY: an I32x8 exists only with AVX2 (module doc).
+        I32x8(unsafe { _mm256_permutevar8x32_epi32(self.0, idx.0) })
+    }
     /// Per lane `self << n` (`vpsllvd`): 0 where `n` ≥ 32 as an unsigned number (so also
     /// where `n` is negative).
     #[inline(always)]
@@ -73,29 +89,36 @@ impl I32x8 {
     }
 }
 
+/// The bias of a biased sum ([`Avx2::add_i128x8_biased`]): bit 63, the sign bit of the low
+/// 64-bit word, flipped (the film's `sum::LOW_BIAS`).
+const LOW_BIAS: i128 = 1 << 63;
+
 impl Avx2 {
-    /// `acc[i] = acc[i].wrapping_add(*x[i])` for the eight `i`, then `acc[i] = i128::MAX` where
-    /// bit `i` of `SAT` is set and the sum is negative (the film's saturating sums of
-    /// non-negative addends, `film::sum::add_unsigned`). Two sums per register: the 64-bit
-    /// words are added (`vpaddq`), the low word's carry is its unsigned overflow, sum < addend
-    /// (a signed compare after flipping both sign bits), moved onto the high word (`vpslldq`
-    /// by 8 bytes, inside each 128-bit half) and added there; the saturation test is one
-    /// `vptest` of the selected sums' sign bits.
+    /// Adds eight `i128` addends to eight sums held *biased* (each sum s stored as
+    /// s ^ [`LOW_BIAS`], its low word's top bit flipped): s = s.wrapping_add(x[i]), then
+    /// s = `i128::MAX` where bit `i` of `SAT` is set and s is negative (the film's saturating
+    /// sums of non-negative addends, `film::sum::add_unsigned`). Two sums per register: the
+    /// 64-bit words are added (`vpaddq`); flipping the top bit of the low word a is adding 2⁶³
+    /// mod 2⁶⁴, so the biased low word plus x is the biased low sum s', and the carry out of
+    /// the low word, s <ᵤ a, is the signed s' < a' — one `vpcmpgtq` on the values at hand (the
+    /// bias spares the two sign flips an unsigned compare needs). The carry is moved onto the
+    /// high word (`vpslldq` by 8 bytes, inside each 128-bit half) and added there; the
+    /// saturation test is one `vptest` of the selected sums' sign bits (the high words carry
+    /// no bias).
     #[inline(always)]
-    pub fn add_i128x8<const SAT: u32>(self, acc: &mut [i128; 8], x: &[i128; 8]) {
+    pub fn add_i128x8_biased<const SAT: u32>(self, acc: &mut [i128; 8], x: &[i128; 8]) {
         let mut any = false;
         // SAFETY: the token proves AVX2. The 32-byte loads and stores read and write two
         // consecutive `i128`s of `acc` or `x`.
         unsafe {
-            let flip = _mm256_set1_epi64x(i64::MIN);
             let p = acc.as_mut_ptr().cast::<__m256i>();
             let q = x.as_ptr().cast::<__m256i>();
             let mut neg = _mm256_setzero_si256();
             for j in 0..4 {
-                let v = _mm256_loadu_si256(q.add(j));
-                let s = _mm256_add_epi64(_mm256_loadu_si256(p.add(j)), v);
-                // Carry out of the low word: s <u v (only the low words' result is kept).
-                let c = _mm256_cmpgt_epi64(_mm256_xor_si256(v, flip), _mm256_xor_si256(s, flip));
+                let a = _mm256_loadu_si256(p.add(j));
+                let s = _mm256_add_epi64(a, _mm256_loadu_si256(q.add(j)));
+                // Carry out of the low word: s' <ₛ a' (only the low words' result is kept).
+                let c = _mm256_cmpgt_epi64(a, s);
                 let s = _mm256_sub_epi64(s, _mm256_bslli_epi128::<8>(c));
                 _mm256_storeu_si256(p.add(j), s);
                 let (a, b) = ((SAT >> (2 * j)) & 1, (SAT >> (2 * j + 1)) & 1);
@@ -115,13 +138,14 @@ impl Avx2 {
     }
 }
 
-/// The rare saturation of [`Avx2::add_i128x8`].
+/// The rare saturation of [`Avx2::add_i128x8_biased`] (on biased sums: the sign is the high
+/// word's, and the maximum is stored biased).
 #[cold]
 #[inline(never)]
 fn saturate<const SAT: u32>(acc: &mut [i128; 8]) {
     for (i, a) in acc.iter_mut().enumerate() {
         if SAT >> i & 1 != 0 && *a < 0 {
-            *a = i128::MAX;
+            *a = i128::MAX ^ LOW_BIAS;
         }
     }
 }
@@ -151,7 +175,7 @@ mod tests {
     }
 
     #[test]
-    fn add_i128x8_equals_scalar_adds() {
+    fn add_i128x8_biased_equals_scalar_adds() {
         let Some(avx) = Avx2::detect() else {
             return;
         };
@@ -175,14 +199,15 @@ mod tests {
             };
             let acc0: [i128; 8] = core::array::from_fn(|_| pick());
             let x: [i128; 8] = core::array::from_fn(|_| pick());
-            let mut got = acc0;
+            // The sums go in biased and come out biased.
+            let mut got = acc0.map(|a| a ^ LOW_BIAS);
             let want_wrap: [i128; 8] = core::array::from_fn(|i| acc0[i].wrapping_add(x[i]));
             if round % 2 == 0 {
-                avx.run(|| avx.add_i128x8::<0>(&mut got, &x));
-                assert_eq!(got, want_wrap, "{acc0:?} + {x:?}");
+                avx.run(|| avx.add_i128x8_biased::<0>(&mut got, &x));
+                assert_eq!(got.map(|s| s ^ LOW_BIAS), want_wrap, "{acc0:?} + {x:?}");
             } else {
                 const SAT: u32 = 0b1111_1000;
-                avx.run(|| avx.add_i128x8::<SAT>(&mut got, &x));
+                avx.run(|| avx.add_i128x8_biased::<SAT>(&mut got, &x));
                 let want: [i128; 8] = core::array::from_fn(|i| {
                     let s = want_wrap[i];
                     if SAT >> i & 1 != 0 && s < 0 {
@@ -191,13 +216,13 @@ mod tests {
                         s
                     }
                 });
-                assert_eq!(got, want, "{acc0:?} + {x:?}");
+                assert_eq!(got.map(|s| s ^ LOW_BIAS), want, "{acc0:?} + {x:?}");
             }
         }
     }
 
     #[test]
-    fn variable_shifts_blend_and_join_match_scalar() {
+    fn variable_shifts_blend_permutes_and_join_match_scalar() {
         let Some(avx) = Avx2::detect() else {
             return;
         };
@@ -223,12 +248,17 @@ mod tests {
                 let (shl, sar) = (va.shl_var(vn).to_array(), va.sar_var(vn).to_array());
                 let sel = vn.select_neg(va, vn).to_array();
                 let min = va.min_u32(vn).to_array();
+                let perm = va.permute(vn).to_array();
+                let fa: [f32; 8] = core::array::from_fn(|k| a[k] as f32 * 0.5);
+                let fperm = avx.load(&fa).permute(vn).to_array();
                 for k in 0..8 {
                     let c = n[k] as u32;
                     assert_eq!(shl[k], if c < 32 { a[k] << c } else { 0 });
                     assert_eq!(sar[k], a[k] >> c.min(31));
                     assert_eq!(sel[k], if n[k] < 0 { a[k] } else { n[k] });
                     assert_eq!(min[k] as u32, (a[k] as u32).min(c));
+                    assert_eq!(perm[k], a[(c & 7) as usize]);
+                    assert_eq!(fperm[k].to_bits(), fa[(c & 7) as usize].to_bits());
                 }
                 let words = [va, vn, avx.load_i32(&w2), avx.load_i32(&w3)];
                 let col = (z >> 20) as usize % 8;
