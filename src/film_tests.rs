@@ -689,3 +689,61 @@ fn put8_equals_put_one_by_one() {
         }
     }
 }
+
+/// A merge's row add in lanes equals [`Acc::add`] pixel by pixel: signed sums that wrap,
+/// weights and second moments that saturate at `i128::MAX` (alone or several at once), zeros,
+/// and the flags.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn merge_rows_in_lanes_equal_acc_add() {
+    let Some(avx) = crate::lane::Avx2::detect() else {
+        eprintln!("no AVX2: only the scalar add runs");
+        return;
+    };
+    let mut rng = Pcg32::new(77, 5);
+    let word = |rng: &mut Pcg32| {
+        (rng.next_u32() as u128) << 96
+            | (rng.next_u32() as u128) << 64
+            | (rng.next_u32() as u128) << 32
+            | rng.next_u32() as u128
+    };
+    let edge = [
+        0i128,
+        1,
+        -1,
+        i128::MAX,
+        i128::MIN,
+        i128::MAX - 1,
+        1 << 63,
+        (1 << 64) - 1,
+        -(1 << 63),
+    ];
+    let acc = |rng: &mut Pcg32| {
+        let mut sums = [0i128; 8];
+        for (i, s) in sums.iter_mut().enumerate() {
+            let v = match rng.next_u32() % 4 {
+                0 => edge[(rng.next_u32() % edge.len() as u32) as usize],
+                1 => (word(rng) >> (rng.next_u32() % 128)) as i128,
+                _ => word(rng) as i128,
+            };
+            // The saturating sums are never negative (part files are checked for it).
+            *s = if i >= 3 { v & i128::MAX } else { v };
+        }
+        Acc {
+            sums: sums.map(|s| s ^ sum::LOW_BIAS),
+            bad: (rng.next_u32() % 512) as u16 * (rng.next_u32() % 4 == 0) as u16,
+        }
+    };
+    for _ in 0..200 {
+        let n = 1 + (rng.next_u32() % 40) as usize;
+        let d: Vec<Acc> = (0..n).map(|_| acc(&mut rng)).collect();
+        let s: Vec<Acc> = (0..n).map(|_| acc(&mut rng)).collect();
+        let mut want = d.clone();
+        for (w, s) in want.iter_mut().zip(&s) {
+            w.add(s);
+        }
+        let mut got = d.clone();
+        add_row(Some(avx), &mut got, &s);
+        assert_eq!(got, want);
+    }
+}
