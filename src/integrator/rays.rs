@@ -146,16 +146,7 @@ impl Rays {
         kind: RayKind,
         out: &mut [Option<Hit>; 8],
     ) {
-        let n = rays.len().min(8) as u64;
-        match kind {
-            RayKind::Camera => self.counters.camera += n,
-            RayKind::Bounce => self.counters.bounce += n,
-        }
-        if self.log.is_some() {
-            for r in rays {
-                self.log(r, false, kind == RayKind::Camera);
-            }
-        }
+        self.note_packet(rays, 8, Some(kind));
         scene.accel.intersect8(rays, kind == RayKind::Camera, out);
     }
 
@@ -225,13 +216,25 @@ impl Rays {
     /// [`Self::occluded`] of up to 8 shadow rays traced as one packet: bit `i` for `rays[i]`.
     #[inline]
     pub fn occluded8(&mut self, scene: &Scene, rays: &[Ray]) -> u8 {
-        self.counters.shadow += rays.len().min(8) as u64;
+        self.note_packet(rays, 8, None);
+        scene.accel.occluded8(rays)
+    }
+
+    /// Counts the rays of one packet of at most `width` (as `kind`, or as shadow rays when
+    /// `None`) and logs each of them when a log is on: the bookkeeping every packet query shares.
+    #[inline(always)]
+    fn note_packet(&mut self, rays: &[Ray], width: usize, kind: Option<RayKind>) {
+        let n = rays.len().min(width) as u64;
+        match kind {
+            Some(RayKind::Camera) => self.counters.camera += n,
+            Some(RayKind::Bounce) => self.counters.bounce += n,
+            None => self.counters.shadow += n,
+        }
         if self.log.is_some() {
             for r in rays {
-                self.log(r, true, false);
+                self.log(r, kind.is_none(), kind == Some(RayKind::Camera));
             }
         }
-        scene.accel.occluded8(rays)
     }
 
     /// Lets the stream renderer trace 16-ray packets ([`Self::intersect16`],
@@ -258,28 +261,14 @@ impl Rays {
         kind: RayKind,
         out: &mut [Option<Hit>; 16],
     ) {
-        let n = rays.len().min(16) as u64;
-        match kind {
-            RayKind::Camera => self.counters.camera += n,
-            RayKind::Bounce => self.counters.bounce += n,
-        }
-        if self.log.is_some() {
-            for r in rays {
-                self.log(r, false, kind == RayKind::Camera);
-            }
-        }
+        self.note_packet(rays, 16, Some(kind));
         scene.accel.intersect16(rays, kind == RayKind::Camera, out);
     }
 
     /// [`Self::occluded8`] of up to 16 shadow rays: bit `i` for `rays[i]`.
     #[inline]
     pub fn occluded16(&mut self, scene: &Scene, rays: &[Ray]) -> u16 {
-        self.counters.shadow += rays.len().min(16) as u64;
-        if self.log.is_some() {
-            for r in rays {
-                self.log(r, true, false);
-            }
-        }
+        self.note_packet(rays, 16, None);
         scene.accel.occluded16(rays)
     }
 
