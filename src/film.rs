@@ -357,16 +357,15 @@ impl Acc {
     }
 
     /// Adds one contribution's fixed-point addends: Σw·v, Σw·v², w, w² (a skipped, non-finite
-    /// channel adds 0).
+    /// channel adds 0), to the biased sums in place.
     #[inline(always)]
     fn add_fixed(&mut self, first: [i128; 3], second: [i128; 3], w: i128, w2: i128) {
-        let mut sums = self.unbiased();
-        let [s0, s1, s2, r, g, b, sw, sw2] = &mut sums;
+        let [s0, s1, s2, r, g, b, sw, sw2] = &mut self.sums;
         for (s, x) in [s0, s1, s2].into_iter().zip(first) {
-            sum::add_signed(s, x);
+            sum::add_signed_biased(s, x);
         }
-        sum::add_unsigned_all([r, g, b, sw, sw2], [second[0], second[1], second[2], w, w2]);
-        self.sums = sums.map(|s| s ^ sum::LOW_BIAS);
+        let x = [second[0], second[1], second[2], w, w2];
+        sum::add_unsigned_all_biased([r, g, b, sw, sw2], x);
     }
 
     /// Records the non-finite value `x` of channel `c`.
@@ -537,23 +536,57 @@ impl Block {
     /// values are recorded per pixel and channel, and the developed pixel shows them (NaN, or
     /// ±∞ when only one sign of infinity arrived).
     ///
-    /// With AVX2, a filter other than the box takes [`Block::splat_lanes`] (the same sums to
-    /// the bit: the scalar renderer's splats convert 8 addends at a time too).
+    /// With AVX2, the box filter takes [`Block::put_box_lanes`] and the other filters
+    /// [`Block::splat_lanes`] (the same sums to the bit: the scalar renderer's splats convert
+    /// 8 addends at a time too).
     pub fn put(&mut self, film_pos: Vec2, value: Spectrum) {
         #[cfg(target_arch = "x86_64")]
-        if let (Some(avx), false) = (self.avx, self.filter.is_box()) {
-            avx.run(
-                #[inline(always)]
-                || self.splat_lanes(avx, film_pos, value),
-            );
+        if let Some(avx) = self.avx {
+            if self.filter.is_box() {
+                avx.run(
+                    #[inline(always)]
+                    || self.put_box_lanes(avx, film_pos, value),
+                );
+            } else {
+                avx.run(
+                    #[inline(always)]
+                    || self.splat_lanes(avx, film_pos, value),
+                );
+            }
             return;
         }
         self.splat::<false>(film_pos, value, &[]);
     }
 
+    /// [`Block::put`] under the box filter with AVX2: the pixel as [`Block::splat`] finds it;
+    /// the sample's eight addends (v and v·v per channel, the same f32 products, then the
+    /// weights 1 and 1) converted in one register and joined in four ([`sum::Fixed8::row`])
+    /// and added in four ([`crate::lane::Avx2::add_i128x8_biased_regs`]) when every addend is
+    /// in `fixed`'s common range or zero (so every value is finite and no flag is due); else
+    /// [`Acc::add_unit_sample`], as the scalar splat. Call inside [`crate::lane::Avx2::run`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn put_box_lanes(&mut self, avx: crate::lane::Avx2, film_pos: Vec2, value: Spectrum) {
+        if !film_pos.is_finite() || self.sw == 0 || self.sh == 0 {
+            return;
+        }
+        let px = storage_index(film_pos.x, self.ox, self.sw, self.exact[0]);
+        let py = storage_index(film_pos.y, self.oy, self.sh, self.exact[1]);
+        let (Some(px), Some(py)) = (px, py) else {
+            return;
+        };
+        let a = &mut self.data[py * self.sw as usize + px];
+        let [r, g, b] = value.to_array();
+        let x = avx.load(&[r, g, b, r * r, g * g, b * b, 1.0, 1.0]);
+        match sum::Fixed8::single(avx).row(x) {
+            Some(row) => avx.add_i128x8_biased_regs::<UNSIGNED_SUMS>(&mut a.sums, row),
+            None => a.add_unit_sample([r, g, b]),
+        }
+    }
+
     /// [`Block::put`] of eight samples in turn, with the same sums to the bit. For the box
     /// filter (and finite values) the samples' fixed-point addends, w·v = v and w·v² = v·v per
-    /// channel, are computed 8-wide ([`sum::fixed8_into`]) and added 8 sums at a time,
+    /// channel, are computed 8-wide ([`sum::Fixed8::into_column`]) and added 8 sums at a time,
     /// and so are their pixels where the block's bounds are exact f32s (every real film;
     /// [`storage_index`] in lanes); the addends go to each sample's pixel. Other filters and
     /// non-finite values take [`Block::put`] per sample (their exact weights, unchanged). The
@@ -638,9 +671,9 @@ impl Block {
             return;
         };
         let t = &mut *self.lanes;
-        for (j, c) in [r, g, b].into_iter().enumerate() {
-            sum::fixed8_into(c, t, j);
-            sum::fixed8_into(c * c, t, 3 + j);
+        let fx = sum::Fixed8::new(avx);
+        for (j, x) in [r, g, b, r * r, g * g, b * b].into_iter().enumerate() {
+            fx.into_column(x, t, j);
         }
         for row in t.iter_mut() {
             (row[6], row[7]) = (sum::ONE, sum::ONE);
@@ -665,10 +698,11 @@ impl Block {
             return;
         }
         let sw = self.sw as usize;
+        let (data, t) = (&mut self.data[..], &*self.lanes);
         for (k, inside) in inside.to_array().into_iter().enumerate() {
             if inside {
-                let a = &mut self.data[py[k] as usize * sw + px[k] as usize];
-                avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut a.sums, &self.lanes[k]);
+                let a = &mut data[py[k] as usize * sw + px[k] as usize];
+                avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut a.sums, &t[k]);
             }
         }
     }
@@ -766,7 +800,7 @@ impl Block {
     /// [`Block::put`] of one value with finite channels under a filter other than the box, the
     /// footprint's pixels 8 at a time: each pixel's weight w = wx·wy and its addends w·v, w·v²
     /// (per channel), w and w² are the same f32 products as [`Block::splat`]'s, turned into
-    /// fixed point 8-wide ([`sum::fixed8_into`], equal to [`sum::fixed`] lane by lane), so the sums
+    /// fixed point 8-wide ([`sum::Fixed8::into_column`], equal to [`sum::fixed`] lane by lane), so the sums
     /// are the scalar splat's to the bit. A footprint of up to 8×8 pixels is laid out in lanes: the weights
     /// of each axis in one register ([`FilterTable::eval8`]), and each group of 8 pixels takes
     /// its wx, wy and storage index by lane permutes ([`FOOT_I`], [`FOOT_J`]). A footprint of up
@@ -794,6 +828,7 @@ impl Block {
         }
         let sw = self.sw as usize;
         let base = ((fp.y_lo * sw) + fp.x_lo) as i32;
+        let fx = sum::Fixed8::new(avx);
         if fp.nx <= 8 && fp.ny <= 8 {
             let iota = avx.load(&[0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
             let wx = self.table.eval8(avx, avx.splat(fp.rel_x) + iota);
@@ -805,7 +840,7 @@ impl Block {
                 let (i, j) = (avx.load_i32(fi), avx.load_i32(fj));
                 let w = wx.permute(i) * wy.permute(j);
                 let at = rows.permute(j).add(i).to_array();
-                self.add8(avx, w, &at, (n - 8 * g).min(8), v);
+                self.add8(avx, fx, w, &at, (n - 8 * g).min(8), v);
             }
             return;
         }
@@ -820,13 +855,13 @@ impl Block {
                 at[n] = row + i as i32;
                 n += 1;
                 if n == 8 {
-                    self.add8(avx, avx.load(&w), &at, 8, v);
+                    self.add8(avx, fx, avx.load(&w), &at, 8, v);
                     n = 0;
                 }
             }
         }
         if n > 0 {
-            self.add8(avx, avx.load(&w), &at, n, v);
+            self.add8(avx, fx, avx.load(&w), &at, n, v);
         }
     }
 
@@ -838,22 +873,23 @@ impl Block {
     fn add8(
         &mut self,
         avx: crate::lane::Avx2,
+        fx: sum::Fixed8,
         w8: crate::lane::F32x8,
         at: &[i32; 8],
         n: usize,
         v: [f32; 3],
     ) {
         let (r, g, b) = (avx.splat(v[0]), avx.splat(v[1]), avx.splat(v[2]));
-        let t = &mut *self.lanes;
-        for (j, c) in [r, g, b].into_iter().enumerate() {
-            let wc = c * w8;
-            sum::fixed8_into(wc, t, j);
-            sum::fixed8_into(wc * c, t, 3 + j);
+        let (wr, wg, wb) = (r * w8, g * w8, b * w8);
+        // The eight addends' columns, converted in a loop (one conversion's code, its
+        // constants held once: `sum::Fixed8`).
+        let xs = [wr, wg, wb, wr * r, wg * g, wb * b, w8, w8 * w8];
+        let (data, t) = (&mut self.data[..], &mut *self.lanes);
+        for (j, x) in xs.into_iter().enumerate() {
+            fx.into_column(x, t, j);
         }
-        sum::fixed8_into(w8, t, 6);
-        sum::fixed8_into(w8 * w8, t, 7);
         for (k, &a) in at.iter().enumerate().take(n) {
-            avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut self.data[a as usize].sums, &self.lanes[k]);
+            avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut data[a as usize].sums, &t[k]);
         }
     }
 }

@@ -105,71 +105,139 @@ pub(crate) fn add_unsigned(acc: &mut i128, x: i128) {
     *acc = if s < 0 { i128::MAX } else { s };
 }
 
-/// Adds non-negative addends to non-negative sums, like [`add_unsigned`] on each pair, with one
-/// test for all: only when some wrapped sum is negative are they saturated one by one.
+/// [`add_signed`] on a sum stored biased (s ^ [`LOW_BIAS`], as a film keeps it): unbiased,
+/// added and biased again in place, two `xor`s of its low word.
 #[inline(always)]
-pub(crate) fn add_unsigned_all<const N: usize>(acc: [&mut i128; N], x: [i128; N]) {
+pub(crate) fn add_signed_biased(acc: &mut i128, x: i128) {
+    *acc = (*acc ^ LOW_BIAS).wrapping_add(x) ^ LOW_BIAS;
+}
+
+/// Adds non-negative addends to non-negative sums stored biased (s ^ [`LOW_BIAS`]), like
+/// [`add_unsigned`] on each unbiased pair, with one test for all: only when some wrapped sum is
+/// negative are they saturated one by one. The bias leaves bit 127 alone, so a biased sum has
+/// the sign of the sum and the test reads the biased values; a saturated sum is stored as
+/// `i128::MAX ^ LOW_BIAS`. (In place: unbiasing a pixel's eight sums into a copy and biasing
+/// them back cost the scalar box splat 73 instructions a sample, session 19.)
+#[inline(always)]
+pub(crate) fn add_unsigned_all_biased<const N: usize>(acc: [&mut i128; N], x: [i128; N]) {
     let mut any = 0i128;
-    let mut s = [0i128; N];
-    for ((d, a), &v) in s.iter_mut().zip(&acc).zip(&x) {
-        *d = a.wrapping_add(v);
-        any |= *d;
+    for (a, &v) in acc.iter().zip(&x) {
+        any |= (**a ^ LOW_BIAS).wrapping_add(v);
     }
     if any < 0 {
-        s = s.map(|v| if v < 0 { i128::MAX } else { v });
-    }
-    for (a, v) in acc.into_iter().zip(s) {
-        *a = v;
+        for (a, v) in acc.into_iter().zip(x) {
+            let s = (*a ^ LOW_BIAS).wrapping_add(v);
+            *a = if s < 0 { i128::MAX } else { s } ^ LOW_BIAS;
+        }
+    } else {
+        for (a, v) in acc.into_iter().zip(x) {
+            *a = (*a ^ LOW_BIAS).wrapping_add(v) ^ LOW_BIAS;
+        }
     }
 }
 
-/// [`fixed`] of eight values at once (AVX2; call it inside [`crate::lane::Avx2::run`]), equal
-/// to it bit for bit in every lane: lane k's value goes to `out[k][j]` (a column of a per-lane
-/// table whose rows are the addends of one pixel, [`crate::lane::Avx2::add_i128x8_biased`]).
+/// [`fixed`] of eight values at once (AVX2; call its methods inside
+/// [`crate::lane::Avx2::run`]), equal to it bit for bit in every lane: into a column of a
+/// per-lane table ([`Fixed8::into_column`]) or into registers ([`Fixed8::row`]).
 ///
 /// In the common range the value is the signed significand `sm` (|sm| < 2²⁴) times 2^sh,
 /// sh = e − 86 ∈ [0, 102]; its 32-bit word i (bits 32i to 32i + 31) is ⌊sm·2^(sh − 32i)⌋
 /// mod 2³²: with d = sh − 32i, `sm << d` for d ≥ 0 (0 from d = 32 on, as the multiple of 2³²
 /// it is) and the arithmetic `sm >> −d` for d < 0 (the sign from −d = 32 on). AVX2 has these
 /// variable 32-bit shifts (`vpsllvd`, `vpsravd`), so the four words of eight lanes take ~16
-/// instructions and a 4×4 transpose joins them ([`crate::lane::I32x8::join_words_into`]);
-/// word 0 has d = sh ≥ 0. ±0 and the lanes outside the common range get sm = 0; those outside
-/// it and not zero then take [`fixed`] itself, one by one.
+/// instructions and a 4×4 transpose joins them; word 0 has d = sh ≥ 0. ±0 and the lanes
+/// outside the common range get sm = 0; those outside it and not zero then take [`fixed`]
+/// itself, one by one.
 ///
-/// # Panics
-/// If `j` ≥ 8.
+/// The struct holds the count step 32 in every lane, hidden from the optimiser
+/// ([`core::hint::black_box`]: one store and load per [`Fixed8::new`]): words 1 to 3 step
+/// their counts d and −d by it. Seeing constants, LLVM folds the steps into six distinct
+/// ones (sh − 32i and 32i − sh, i = 1, 2, 3) plus a compare per word, more than the 16
+/// registers hold next to a splat's values, and re-broadcast or spilled them in every
+/// conversion (session 18's "what is left"); so a splat makes one [`Fixed8`] and converts
+/// with it in a loop.
 #[cfg(target_arch = "x86_64")]
-#[inline(always)]
-pub(crate) fn fixed8_into(x: crate::lane::F32x8, out: &mut [[i128; 8]; 8], j: usize) {
-    use crate::lane::{I32x8, Lane, LaneI32, LaneMask};
-    /// Word `i` ≥ 1 of sm·2^sh (a function, not a closure: a closure may be compiled out of
-    /// line, without AVX2).
+#[derive(Clone, Copy)]
+pub(crate) struct Fixed8 {
+    step: crate::lane::I32x8,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Fixed8 {
+    /// The conversions of one splat (the step hidden from the optimiser).
     #[inline(always)]
-    fn word(sm: I32x8, sh: I32x8, i: i32) -> I32x8 {
-        let d = sh.sub(sh.splat(32 * i));
-        d.select_neg(sm.sar_var(sh.splat(32 * i).sub(sh)), sm.shl_var(d))
+    pub(crate) fn new(avx: crate::lane::Avx2) -> Fixed8 {
+        Fixed8 {
+            step: core::hint::black_box(avx.load_i32(&[32; 8])),
+        }
     }
-    let bits = x.to_bits();
-    let sh = bits.shr::<23>().and(bits.splat(0xff)).sub(bits.splat(86));
-    // 0 ≤ sh ≤ 102 as an unsigned comparison.
-    let common = sh.min_u32(bits.splat(102)).eq(sh);
-    let m = bits.and(bits.splat(0x7f_ffff)).or(bits.splat(0x80_0000));
-    let s = bits.sar::<31>();
-    let sm = I32x8::select(common, m.xor(s).sub(s), bits.splat(0));
-    let words = [
-        sm.shl_var(sh),
-        word(sm, sh, 1),
-        word(sm, sh, 2),
-        word(sm, sh, 3),
-    ];
-    I32x8::join_words_into(words, out, j);
-    let plain = common | bits.shl::<1>().eq(bits.splat(0));
-    if !plain.all() {
-        for (l, p) in plain.to_array().into_iter().enumerate() {
-            if !p {
-                out[l][j] = fixed(x.lane(l));
+
+    /// The conversion of a single value vector (the step a plain constant).
+    #[inline(always)]
+    pub(crate) fn single(avx: crate::lane::Avx2) -> Fixed8 {
+        Fixed8 {
+            step: avx.load_i32(&[32; 8]),
+        }
+    }
+
+    /// The four 32-bit words of `fixed(x)` per lane where x is in the common range or ±0, and
+    /// the mask of those lanes (where the words are `fixed`'s).
+    #[inline(always)]
+    fn words(self, x: crate::lane::F32x8) -> ([crate::lane::I32x8; 4], crate::lane::M8) {
+        use crate::lane::{I32x8, Lane, LaneI32};
+        /// Word i ≥ 1 from its counts d = sh − 32i and n = −d (a function, not a closure: a
+        /// closure may be compiled out of line, without AVX2).
+        #[inline(always)]
+        fn word(sm: I32x8, d: I32x8, n: I32x8) -> I32x8 {
+            d.select_neg(sm.sar_var(n), sm.shl_var(d))
+        }
+        let bits = x.to_bits();
+        let sh = bits.shr::<23>().and(bits.splat(0xff)).sub(bits.splat(86));
+        // 0 ≤ sh ≤ 102 as an unsigned comparison.
+        let common = sh.min_u32(bits.splat(102)).eq(sh);
+        let m = bits.and(bits.splat(0x7f_ffff)).or(bits.splat(0x80_0000));
+        let s = bits.sar::<31>();
+        let sm = I32x8::select(common, m.xor(s).sub(s), bits.splat(0));
+        let k = self.step;
+        let (d1, n1) = (sh.sub(k), k.sub(sh));
+        let (d2, n2) = (d1.sub(k), n1.add(k));
+        let (d3, n3) = (d2.sub(k), n2.add(k));
+        let words = [
+            sm.shl_var(sh),
+            word(sm, d1, n1),
+            word(sm, d2, n2),
+            word(sm, d3, n3),
+        ];
+        (words, common | x.eq(x.splat(0.0)))
+    }
+
+    /// Lane k's `fixed(x)` to `out[k][j]` (a column of a per-lane table whose rows are the
+    /// addends of one pixel, [`crate::lane::Avx2::add_i128x8_biased`]).
+    ///
+    /// # Panics
+    /// If `j` ≥ 8.
+    #[inline(always)]
+    pub(crate) fn into_column(self, x: crate::lane::F32x8, out: &mut [[i128; 8]; 8], j: usize) {
+        use crate::lane::{I32x8, Lane, LaneMask};
+        let (words, plain) = self.words(x);
+        I32x8::join_words_into(words, out, j);
+        if !plain.all() {
+            for (l, p) in plain.to_array().into_iter().enumerate() {
+                if !p {
+                    out[l][j] = fixed(x.lane(l));
+                }
             }
         }
+    }
+
+    /// `fixed` of the eight lanes of `x` in registers (value k from lane k: one pixel's
+    /// addends, [`crate::lane::Avx2::add_i128x8_biased_regs`]), when every lane is in the
+    /// common range or ±0; `None` otherwise.
+    #[inline(always)]
+    pub(crate) fn row(self, x: crate::lane::F32x8) -> Option<crate::lane::I128x8> {
+        use crate::lane::{I32x8, LaneMask};
+        let (words, plain) = self.words(x);
+        plain.all().then(|| I32x8::join_words(words))
     }
 }
 
@@ -275,13 +343,16 @@ mod tests {
         }
     }
 
-    /// [`fixed8_into`] equals [`fixed`] in every lane (and writes only its column) on every exponent and sign with boundary
-    /// significands (each value in every lane position) and on 2²⁰ random bit patterns.
+    /// [`Fixed8::into_column`] equals [`fixed`] in every lane (and writes only its column) on
+    /// every exponent and sign with boundary significands (each value in every lane position)
+    /// and on 2²⁰ random bit patterns; [`Fixed8::row`] gives the same values when every lane
+    /// is in the common range or ±0, and `None` exactly otherwise. Both with the step hidden
+    /// ([`Fixed8::new`]) and constant ([`Fixed8::single`]).
     #[cfg(target_arch = "x86_64")]
     #[test]
-    fn fixed8_into_equals_fixed() {
+    fn fixed8_equals_fixed() {
         let Some(avx) = crate::lane::Avx2::detect() else {
-            eprintln!("no AVX2: fixed8_into not tested");
+            eprintln!("no AVX2: Fixed8 not tested");
             return;
         };
         let mut xs = Vec::new();
@@ -299,12 +370,35 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             xs.push(f32::from_bits((z >> 32) as u32));
         }
+        // Runs of common-range values (and zeros), so that whole rows convert in registers.
+        for k in 0..1 << 16 {
+            z = z
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let e = 86 + (z >> 40) as u32 % 103;
+            let bits = ((z >> 63) as u32) << 31 | e << 23 | (z as u32 & 0x7f_ffff);
+            xs.push(if k % 29 == 0 {
+                -0.0
+            } else {
+                f32::from_bits(bits)
+            });
+        }
+        let plain = |x: f32| x == 0.0 || (86..=188).contains(&((x.to_bits() >> 23) & 0xff));
+        let (mut rows, mut nones) = (0, 0);
         for shift in 0..8 {
-            for c in xs[shift..].chunks_exact(8) {
+            for (i, c) in xs[shift..].chunks_exact(8).enumerate() {
                 let c: [f32; 8] = c.try_into().unwrap();
                 let col = shift;
+                let fx = if i % 2 == 0 {
+                    Fixed8::new(avx)
+                } else {
+                    Fixed8::single(avx)
+                };
                 let mut t = [[-5i128; 8]; 8];
-                avx.run(|| fixed8_into(avx.load(&c), &mut t, col));
+                let row = avx.run(|| {
+                    fx.into_column(avx.load(&c), &mut t, col);
+                    fx.row(avx.load(&c)).map(|r| r.to_array())
+                });
                 for (row, &x) in t.iter().zip(&c) {
                     for (j, &v) in row.iter().enumerate() {
                         if j == col {
@@ -314,27 +408,75 @@ mod tests {
                         }
                     }
                 }
+                match row {
+                    Some(r) => {
+                        rows += 1;
+                        assert_eq!(r, c.map(fixed), "{c:?}");
+                    }
+                    None => {
+                        nones += 1;
+                        assert!(!c.iter().all(|&x| plain(x)), "{c:?}");
+                    }
+                }
             }
         }
+        assert!(rows > 10_000 && nones > 10_000, "{rows} {nones}");
     }
 
+    /// The biased scalar adds equal the unbiased ones ([`add_signed`], [`add_unsigned`] pair
+    /// by pair, which saturates like `saturating_add` on non-negative values) on sums at and
+    /// near the word boundaries and the limits, with addends that carry, wrap and saturate
+    /// (alone, several at once, or not at all).
     #[test]
-    fn grouped_saturation_equals_pairwise() {
+    fn biased_scalar_adds_equal_unbiased() {
         let near = i128::MAX - 3;
-        for (acc, x) in [
-            ([1i128, 2, 3], [4i128, 5, 6]),
-            ([near, 0, 7], [10, 0, 1]),
-            ([near, near, 0], [3, 4, 0]),
-            ([i128::MAX, 1, 2], [i128::MAX, 0, 0]),
-        ] {
-            let mut a = acc;
-            let mut b = acc;
-            let [a0, a1, a2] = &mut a;
-            add_unsigned_all([a0, a1, a2], x);
-            for (s, v) in b.iter_mut().zip(x) {
-                *s = s.saturating_add(v);
+        let mut edge = vec![0i128, 1, 2, near, i128::MAX, i128::MAX - (1 << 64)];
+        for k in [32, 62, 63, 64, 65, 100, 126] {
+            let p = 1i128 << k;
+            edge.extend([p - 1, p, p + 1]);
+        }
+        let mut z = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            z = z
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            z
+        };
+        for round in 0..40_000 {
+            let mut pick = |signed: bool| -> i128 {
+                let r = next();
+                let v = match r % 3 {
+                    0 => edge[(r >> 8) as usize % edge.len()],
+                    1 => ((next() as u128) << 64 | next() as u128) as i128 & i128::MAX,
+                    _ => (next() >> (r >> 58)) as i128,
+                };
+                if signed && r & 1 << 20 != 0 {
+                    v.wrapping_neg()
+                } else {
+                    v
+                }
+            };
+            let acc: [i128; 5] = core::array::from_fn(|_| pick(false));
+            let x: [i128; 5] = core::array::from_fn(|_| pick(false));
+            let (sa, sx) = (pick(true), pick(true));
+            let mut want = acc;
+            for (a, &v) in want.iter_mut().zip(&x) {
+                add_unsigned(a, v);
+                assert!(*a >= 0);
             }
-            assert_eq!(a, b);
+            let mut got = acc.map(|a| a ^ LOW_BIAS);
+            let [g0, g1, g2, g3, g4] = &mut got;
+            add_unsigned_all_biased([g0, g1, g2, g3, g4], x);
+            assert_eq!(
+                got.map(|a| a ^ LOW_BIAS),
+                want,
+                "round {round}: {acc:?} + {x:?}"
+            );
+            let sat: [i128; 5] = core::array::from_fn(|i| acc[i].saturating_add(x[i]));
+            assert_eq!(want, sat);
+            let mut s = sa ^ LOW_BIAS;
+            add_signed_biased(&mut s, sx);
+            assert_eq!(s ^ LOW_BIAS, sa.wrapping_add(sx));
         }
     }
 

@@ -1,13 +1,44 @@
 //! Width 8: the operations of the film's exact 128-bit fixed-point sums (`film::sum`): variable
-//! 32-bit shifts, the join of four 32-bit words per lane into eight `i128`s, and the addition
-//! of eight `i128` addends to a pixel's eight (biased) sums in four registers (two sums each); and the
-//! lane permutes that lay a splat's footprint of filter weights out in lanes.
+//! 32-bit shifts, the join of four 32-bit words per lane into eight `i128`s (into a column of a
+//! per-lane table, or into registers, [`I128x8`]), and the addition of eight `i128` addends to
+//! a pixel's eight (biased) sums in four registers (two sums each); and the lane permutes that
+//! lay a splat's footprint of filter weights out in lanes.
 //!
 //! A child of `avx2` (it reads the private fields of [`I32x8`]); the same soundness argument:
 //! its values and the [`Avx2`] token exist only when the CPU has AVX2.
 
 use super::{Avx2, F32x8, I32x8};
 use core::arch::x86_64::*;
+
+/// Eight `i128`s in four AVX2 registers, two per register: value 2j in the low and 2j + 1 in
+/// the high 128-bit half of register j (the layout of a `[i128; 8]` in memory), so that they
+/// are added to a pixel's eight sums without a trip through memory
+/// ([`Avx2::add_i128x8_biased_regs`]).
+#[derive(Clone, Copy)]
+pub struct I128x8([__m256i; 4]);
+
+impl I128x8 {
+    /// The eight values of `a` (four 32-byte loads).
+    #[inline(always)]
+    pub fn load(_avx: Avx2, a: &[i128; 8]) -> I128x8 {
+        let p = a.as_ptr().cast::<__m256i>();
+        // SAFETY: the token proves AVX; each load reads two consecutive `i128`s of `a`.
+        I128x8(unsafe { core::array::from_fn(|j| _mm256_loadu_si256(p.add(j))) })
+    }
+    /// The eight values (tests).
+    #[inline(always)]
+    pub fn to_array(self) -> [i128; 8] {
+        let mut a = [0i128; 8];
+        let p = a.as_mut_ptr().cast::<__m256i>();
+        // SAFETY: an I128x8 exists only with AVX2; each store writes two `i128`s of `a`.
+        unsafe {
+            for (j, v) in self.0.into_iter().enumerate() {
+                _mm256_storeu_si256(p.add(j), v);
+            }
+        }
+        a
+    }
+}
 
 impl F32x8 {
     /// Lane k of the result is lane `idx[k] & 7` of `self` (`vpermps`).
@@ -54,6 +85,23 @@ impl I32x8 {
     pub fn min_u32(self, o: I32x8) -> I32x8 {
         I32x8(unsafe { _mm256_min_epu32(self.0, o.0) })
     }
+    /// The eight 128-bit integers whose 32-bit words (least significant first) are lane `k` of
+    /// `words[0]`, …, `words[3]`, value k from lane k, in registers: the 4×4 transpose of
+    /// [`I32x8::join_words_into`] (eight unpacks), then four `vperm2i128` that pair the
+    /// 128-bit halves (lanes 0 and 1, 2 and 3, …) instead of its eight stores.
+    #[inline(always)]
+    pub fn join_words(words: [I32x8; 4]) -> I128x8 {
+        let [p0, p1, p2, p3] = transpose_words(words);
+        // SAFETY: as above.
+        unsafe {
+            I128x8([
+                _mm256_permute2x128_si256::<0x20>(p0, p1),
+                _mm256_permute2x128_si256::<0x20>(p2, p3),
+                _mm256_permute2x128_si256::<0x31>(p0, p1),
+                _mm256_permute2x128_si256::<0x31>(p2, p3),
+            ])
+        }
+    }
     /// Writes the 128-bit integer whose 32-bit words (least significant first) are lane `k` of
     /// `words[0]`, …, `words[3]` to `out[k][j]`, for the eight `k`: a 4×4 transpose of 32-bit
     /// words in each 128-bit half (eight unpacks), then eight 16-byte stores. (A column of a
@@ -64,21 +112,9 @@ impl I32x8 {
     #[inline(always)]
     pub fn join_words_into(words: [I32x8; 4], out: &mut [[i128; 8]; 8], j: usize) {
         assert!(j < 8);
+        let p = transpose_words(words);
         // SAFETY: as above; each 16-byte store writes `out[k][j]` (k < 8, j < 8).
         unsafe {
-            let [r0, r1, r2, r3] = [words[0].0, words[1].0, words[2].0, words[3].0];
-            // Per half (lanes 0–3, lanes 4–7): t0 = [r0₀ r1₀ r0₁ r1₁], t1 = [r0₂ r1₂ r0₃ r1₃], …
-            let t0 = _mm256_unpacklo_epi32(r0, r1);
-            let t1 = _mm256_unpackhi_epi32(r0, r1);
-            let t2 = _mm256_unpacklo_epi32(r2, r3);
-            let t3 = _mm256_unpackhi_epi32(r2, r3);
-            // p0 = [lane 0 | lane 4], p1 = [1 | 5], p2 = [2 | 6], p3 = [3 | 7].
-            let p = [
-                _mm256_unpacklo_epi64(t0, t2),
-                _mm256_unpackhi_epi64(t0, t2),
-                _mm256_unpacklo_epi64(t1, t3),
-                _mm256_unpackhi_epi64(t1, t3),
-            ];
             for (k, v) in p.into_iter().enumerate() {
                 let lo: *mut i128 = &mut out[k][j];
                 let hi: *mut i128 = &mut out[k + 4][j];
@@ -86,6 +122,28 @@ impl I32x8 {
                 _mm_storeu_si128(hi.cast(), _mm256_extracti128_si256::<1>(v));
             }
         }
+    }
+}
+
+/// The 4×4 transposes of 32-bit words in each 128-bit half of `words` (eight unpacks): lane k's
+/// four words (least significant first) as one 128-bit value, in the order [lane 0 | lane 4],
+/// [1 | 5], [2 | 6], [3 | 7].
+#[inline(always)]
+fn transpose_words(words: [I32x8; 4]) -> [__m256i; 4] {
+    // SAFETY: an I32x8 exists only with AVX2.
+    unsafe {
+        let [r0, r1, r2, r3] = [words[0].0, words[1].0, words[2].0, words[3].0];
+        // Per half (lanes 0–3, lanes 4–7): t0 = [r0₀ r1₀ r0₁ r1₁], t1 = [r0₂ r1₂ r0₃ r1₃], …
+        let t0 = _mm256_unpacklo_epi32(r0, r1);
+        let t1 = _mm256_unpackhi_epi32(r0, r1);
+        let t2 = _mm256_unpacklo_epi32(r2, r3);
+        let t3 = _mm256_unpackhi_epi32(r2, r3);
+        [
+            _mm256_unpacklo_epi64(t0, t2),
+            _mm256_unpackhi_epi64(t0, t2),
+            _mm256_unpacklo_epi64(t1, t3),
+            _mm256_unpackhi_epi64(t1, t3),
+        ]
     }
 }
 
@@ -107,16 +165,21 @@ impl Avx2 {
     /// no bias).
     #[inline(always)]
     pub fn add_i128x8_biased<const SAT: u32>(self, acc: &mut [i128; 8], x: &[i128; 8]) {
+        self.add_i128x8_biased_regs::<SAT>(acc, I128x8::load(self, x));
+    }
+
+    /// [`Avx2::add_i128x8_biased`] of addends held in registers.
+    #[inline(always)]
+    pub fn add_i128x8_biased_regs<const SAT: u32>(self, acc: &mut [i128; 8], x: I128x8) {
         let mut any = false;
         // SAFETY: the token proves AVX2. The 32-byte loads and stores read and write two
-        // consecutive `i128`s of `acc` or `x`.
+        // consecutive `i128`s of `acc`.
         unsafe {
             let p = acc.as_mut_ptr().cast::<__m256i>();
-            let q = x.as_ptr().cast::<__m256i>();
             let mut neg = _mm256_setzero_si256();
-            for j in 0..4 {
+            for (j, xj) in x.0.into_iter().enumerate() {
                 let a = _mm256_loadu_si256(p.add(j));
-                let s = _mm256_add_epi64(a, _mm256_loadu_si256(q.add(j)));
+                let s = _mm256_add_epi64(a, xj);
                 // Carry out of the low word: s' <ₛ a' (only the low words' result is kept).
                 let c = _mm256_cmpgt_epi64(a, s);
                 let s = _mm256_sub_epi64(s, _mm256_bslli_epi128::<8>(c));
@@ -264,6 +327,7 @@ mod tests {
                 let col = (z >> 20) as usize % 8;
                 let mut t = [[7i128; 8]; 8];
                 I32x8::join_words_into(words, &mut t, col);
+                let regs = I32x8::join_words(words).to_array();
                 for (k, row) in t.iter().enumerate() {
                     let want = (a[k] as u32 as u128)
                         | (n[k] as u32 as u128) << 32
@@ -272,7 +336,11 @@ mod tests {
                     for (j, &v) in row.iter().enumerate() {
                         assert_eq!(v, if j == col { want as i128 } else { 7 });
                     }
+                    assert_eq!(regs[k], want as i128);
                 }
+                // The registers' layout is the array's: load and store are inverses.
+                let vals: [i128; 8] = core::array::from_fn(|k| t[k][col] ^ (k as i128) << 100);
+                assert_eq!(I128x8::load(avx, &vals).to_array(), vals);
             });
         }
     }
