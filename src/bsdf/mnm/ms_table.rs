@@ -1245,7 +1245,10 @@ mod tests {
                     let inv = |x: f32| if x > 0.0 { 1.0 / x } else { 0.0 };
                     let want = Vec3::new(inv(m.x), inv(m.y), inv(m.z)) * crate::math::INV_PI;
                     let g = Vec3::new(got[0][k], got[1][k], got[2][k]);
-                    assert!(same3(g, want), "round {round} lane {k}: {g} vs {want} ({m})");
+                    assert!(
+                        same3(g, want),
+                        "round {round} lane {k}: {g} vs {want} ({m})"
+                    );
                     compared += 1;
                     zero += usize::from(want.min_element() == 0.0);
                     odd += usize::from(!m.is_finite() || m.min_element() <= 0.0);
