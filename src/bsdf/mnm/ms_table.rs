@@ -431,6 +431,19 @@ impl Lookups8 {
         self.used |= 1 << k;
     }
 
+    /// The lanes with a lookup, as bits (bit k: lane k).
+    #[inline(always)]
+    pub fn used(&self) -> u8 {
+        self.used
+    }
+
+    /// Lane `k` (one with a lookup) looks up direction `w` (z > 0) instead, in the same cell:
+    /// one query's lookups at ωo from the cells a chunk pushed once at ωi.
+    #[inline(always)]
+    pub fn set_direction(&mut self, k: usize, w: Vec3) {
+        (self.wx[k], self.wy[k], self.wz[k]) = (w.x, w.y, w.z);
+    }
+
     /// Whether lane `k` has a lookup.
     #[inline(always)]
     pub fn is_used(&self, k: usize) -> bool {
@@ -623,6 +636,32 @@ impl MsTable {
         out
     }
 
+    /// E_ms (the baked W2 + W3 + W≥4, no W1) of [`Self::lookup_baked_x8`]'s lanes, left in
+    /// registers for a caller already inside [`crate::lane::Avx2::run`] that goes on in lanes
+    /// (the compensated chunk's remainders at ωo): the same coordinates and interpolation, so
+    /// lane k (one with a lookup) is `lookup_baked(cell, w, false)[1]` bit for bit; the other
+    /// lanes hold the placeholders' values.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub fn lookup_baked_e_lanes(
+        &self,
+        avx: crate::lane::Avx2,
+        q: &Lookups8,
+    ) -> V3<crate::lane::F32x8> {
+        let axis = V2::new(avx.load(&q.ax), avx.load(&q.ay));
+        let d = V3::new(avx.load(&q.wx), avx.load(&q.wy), avx.load(&q.wz));
+        let c = coords(axis, d);
+        let [_, e] = interpolate_baked_lanes(
+            &self.e_nodes,
+            &self.e1_nodes,
+            avx.load_i32(&q.plane),
+            avx.load(&q.t),
+            &c,
+            false,
+        );
+        e
+    }
+
     /// [`Self::lookup_baked`]'s interpolation from the first corner node `i0` and the bilinear
     /// weights.
     #[inline(always)]
@@ -668,6 +707,47 @@ impl MsTable {
     #[inline]
     pub fn mean_baked(&self, cell: &ThetaCell) -> Spectrum {
         (1.0 - cell.t) * self.mean_e[cell.j] + cell.t * self.mean_e[cell.j + 1]
+    }
+
+    /// 1 / (π Ē_ms) of each lane's cell of `cells` with the colour baked in (the compensated
+    /// point's `baked_norm`, `MsPlace::in_cell`: [`Self::mean_baked`], then per channel 1/x
+    /// where x > 0, else 0, times 1/π), by channel: 8-wide under the [`crate::lane::Avx2`]
+    /// token (the two θp nodes' Ē_ms gathered, the same products, sum and division in the same
+    /// order: each lane the scalar value bit for bit, `tests`), else lane by lane. Every lane's
+    /// cell must be a cell of this table (a lane of [`Self::cells`]).
+    #[inline]
+    pub fn baked_norms_x8(&self, cells: &CellCols<8>) -> [[f32; 8]; 3] {
+        let mut out = [[0.0f32; 8]; 3];
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = crate::lane::Avx2::detect() {
+            use crate::lane::F32x8;
+            avx.run(
+                #[inline(always)]
+                || {
+                    let j = avx.load_i32(&cells.j);
+                    let t = avx.load(&cells.t);
+                    let (zero, one) = (avx.splat(0.0), avx.splat(1.0));
+                    let m0 = F32x8::gather3(&self.mean_e, j);
+                    let m1 = F32x8::gather3(&self.mean_e, j.add(j.splat(1)));
+                    let inv_pi = avx.splat(crate::math::INV_PI);
+                    for c in 0..3 {
+                        let m = (one - t) * m0[c] + t * m1[c];
+                        let inv = F32x8::select(m.gt(zero), one / m, zero);
+                        (inv * inv_pi).store(&mut out[c]);
+                    }
+                },
+            );
+            return out;
+        }
+        for k in 0..8 {
+            let m = self.mean_baked(&cells.get(k));
+            let inv = |x: f32| if x > 0.0 { 1.0 / x } else { 0.0 };
+            let n = Vec3::new(inv(m.x), inv(m.y), inv(m.z)) * crate::math::INV_PI;
+            for c in 0..3 {
+                out[c][k] = n[c];
+            }
+        }
+        out
     }
 
     /// Per-order coefficients (c², c³, c⁴(1 − r̄)/(1 − c r̄)) at the two θp nodes of `cell`,
@@ -1111,6 +1191,106 @@ mod tests {
         assert!(
             looked > 50_000 && last_cell > 500,
             "{looked} lookups, {last_cell} in the last cell"
+        );
+    }
+
+    /// The baked 1 / (π Ē_ms) of 8 cells at once ([`MsTable::baked_norms_x8`]) equals the
+    /// scalar one (`MsPlace::in_cell`'s: [`MsTable::mean_baked`], 1/x where x > 0, else 0,
+    /// times 1/π) bit for bit, lane by lane; and [`MsTable::lookup_baked_e_lanes`] equals
+    /// `lookup_baked(…, false)[1]`. Random tables whose Ē_ms nodes hold edge values (±0,
+    /// negative, subnormal, huge, ±∞, NaN) among random ones, every θp cell, weights t of 0 and
+    /// 1 among random ones.
+    #[test]
+    fn baked_norms_and_e_lanes_equal_the_scalar_ones() {
+        let mut rng = Pcg32::new(20, 2);
+        let edges = [
+            0.0,
+            -0.0,
+            -0.5,
+            1e-40,
+            -1e-40,
+            3e38,
+            1e-38,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        let (mut compared, mut zero, mut odd) = (0, 0, 0);
+        for round in 0..40 {
+            let mut table = random_table(&mut rng);
+            for m in table.mean_e.iter_mut() {
+                for c in 0..3 {
+                    if rng.next_f32() < 0.4 {
+                        m[c] = edges[rng.next_u32() as usize % edges.len()];
+                    }
+                }
+            }
+            for _ in 0..200 {
+                let mut cells = CellCols::<8> {
+                    j: [0; 8],
+                    t: [0.0; 8],
+                    axis: [[1.0; 8], [0.0; 8]],
+                };
+                for k in 0..8 {
+                    cells.j[k] = (rng.next_u32() as usize % (N_THETA - 1)) as i32;
+                    cells.t[k] = match rng.next_f32() {
+                        x if x < 0.1 => 0.0,
+                        x if x < 0.2 => 1.0,
+                        _ => rng.next_f32(),
+                    };
+                }
+                let got = table.baked_norms_x8(&cells);
+                for k in 0..8 {
+                    let m = table.mean_baked(&cells.get(k));
+                    let inv = |x: f32| if x > 0.0 { 1.0 / x } else { 0.0 };
+                    let want = Vec3::new(inv(m.x), inv(m.y), inv(m.z)) * crate::math::INV_PI;
+                    let g = Vec3::new(got[0][k], got[1][k], got[2][k]);
+                    assert!(
+                        same3(g, want),
+                        "round {round} lane {k}: {g} vs {want} ({m})"
+                    );
+                    compared += 1;
+                    zero += usize::from(want.min_element() == 0.0);
+                    odd += usize::from(!m.is_finite() || m.min_element() <= 0.0);
+                }
+            }
+            #[cfg(target_arch = "x86_64")]
+            if let Some(avx) = crate::lane::Avx2::detect() {
+                for _ in 0..100 {
+                    let mut q = Lookups8::new();
+                    let mut want = [None; 8];
+                    for k in 0..8 {
+                        if rng.next_f32() < 0.15 {
+                            continue;
+                        }
+                        let wp = warp::square_to_uniform_cone(
+                            [rng.next_f32(), rng.next_f32()].into(),
+                            85f32.to_radians().cos(),
+                        );
+                        if wp.x == 0.0 && wp.y == 0.0 {
+                            continue;
+                        }
+                        let c = table.cell(wp);
+                        let d = direction(&mut rng);
+                        let w = Vec3::new(d.x, d.y, d.z.abs().max(1e-6));
+                        q.push(k, &c, w);
+                        want[k] = Some(table.lookup_baked(&c, w, false)[1]);
+                    }
+                    let e = avx.run(|| {
+                        let e = table.lookup_baked_e_lanes(avx, &q);
+                        [e.x.to_array(), e.y.to_array(), e.z.to_array()]
+                    });
+                    for (k, w) in want.iter().enumerate() {
+                        let Some(w) = w else { continue };
+                        let g = Vec3::new(e[0][k], e[1][k], e[2][k]);
+                        assert!(same3(g, *w), "round {round} lane {k}: {g} vs {w}");
+                    }
+                }
+            }
+        }
+        assert!(
+            compared == 64_000 && zero > 5_000 && odd > 5_000,
+            "{compared} lanes, {zero} with a zero channel, {odd} with an edge Ē_ms"
         );
     }
 

@@ -32,7 +32,7 @@
 //! nested leaf has no textured parameter).
 
 use super::super::facets::FacetCols;
-use super::super::ms_table::{CellCols, Lookups8, MsTable, ThetaCell};
+use super::super::ms_table::{CellCols, Colour, Lookups8, MsTable};
 use super::super::nested_batch::{Pairs, CHUNK};
 mod first;
 mod sample;
@@ -100,16 +100,14 @@ pub(crate) struct Chunk<'a> {
     /// Every point is over the mirror sawtooth (its first orders run in lanes, from `geo`).
     mirror: bool,
     geo: first::Points8,
-}
-
-/// [`MsPlace::in_cell`] out of line, for [`Chunk::set_lanes`] in the stream kernel: inlined
-/// there (inside `Avx2::run`), LLVM vectorised its three reciprocals with a register-to-register
-/// `vmovq` (VEX 66 0F D6) that valgrind 3.19 cannot decode, so callgrind (`docs/bench/callgrind.sh`)
-/// stopped with SIGILL on the compensated stream renders; out of line it is the scalar code the
-/// per-point map's build ran (`MsRef::in_cell` in `map_lane_into`).
-#[inline(never)]
-fn place_in(table: &'static MsTable, cell: ThetaCell) -> MsPlace {
-    MsPlace::in_cell(table, cell)
+    /// The lookups at ωi of the points with the shared baked table (`table`; the lanes of
+    /// `q.used()`): each query's remainders at ωo look up in the same cells
+    /// ([`remainders`], in lanes).
+    q: Lookups8,
+    table: Option<&'static MsTable>,
+    /// Those points' E_ms(ωi) and 1 / (π Ē_ms) (their `AtWi`'s `ei` and `norm`), by channel.
+    ei: [[f32; 8]; 3],
+    norm: [[f32; 8]; 3],
 }
 
 impl<'a> Chunk<'a> {
@@ -126,6 +124,10 @@ impl<'a> Chunk<'a> {
             e: [Entries::EMPTY; 8],
             mirror: all_mirror(&pts),
             geo: first::Points8::new(),
+            q: Lookups8::new(),
+            table: None,
+            ei: [[0.0; 8]; 3],
+            norm: [[0.0; 8]; 3],
         }
     }
 
@@ -144,6 +146,10 @@ impl<'a> Chunk<'a> {
             e: [Entries::EMPTY; 8],
             mirror: true,
             geo: first::Points8::of_facets(facets),
+            q: Lookups8::new(),
+            table: None,
+            ei: [[0.0; 8]; 3],
+            norm: [[0.0; 8]; 3],
         }
     }
 
@@ -152,7 +158,8 @@ impl<'a> Chunk<'a> {
     /// microsurface keeps both candidates, [`FacetCols::keeps`]; not flat; a compensated map
     /// alone, see [`Point`]) with θp cell `cells.get(k)` in `table`, over the shared nested BSDF
     /// `nested`, seen from `wi[k]`: its facets and frame are the map's, its table reference
-    /// the map's (`MsPlace::in_cell`), so every query answers as over the map (`tests`).
+    /// the map's (`MsPlace::in_cell`'s, its baked 1 / (π Ē_ms) for the 8 cells at once:
+    /// [`MsTable::baked_norms_x8`]), so every query answers as over the map (`tests`).
     #[inline(always)]
     pub(crate) fn set_lanes(
         &mut self,
@@ -162,11 +169,17 @@ impl<'a> Chunk<'a> {
         lanes: u8,
         wi: &[Vec3; 8],
     ) {
+        let norms = (table.spec.colour == Colour::Baked).then(|| table.baked_norms_x8(cells));
         for (k, &wi) in wi.iter().enumerate() {
             if lanes & (1 << k) != 0 {
+                let r = MsPlace {
+                    table,
+                    cell: cells.get(k),
+                    baked_norm: norms.map(|n| Vec3::new(n[0][k], n[1][k], n[2][k])),
+                };
                 self.pts[k] = Some(Point {
                     m: None,
-                    r: place_in(table, cells.get(k)),
+                    r,
                     nested,
                     wi,
                 });
@@ -198,7 +211,7 @@ impl<'a> Chunk<'a> {
     #[inline(always)]
     pub(crate) fn prepare(&mut self) {
         let mirror = self.mirror;
-        let mut q = Lookups8::new();
+        let q = &mut self.q;
         let mut table: Option<&'static MsTable> = None;
         for k in 0..8 {
             let Some(pt) = self.pts[k] else { continue };
@@ -220,14 +233,22 @@ impl<'a> Chunk<'a> {
             self.above |= 1 << k;
         }
         if let Some(t) = table {
-            let l = t.lookup_baked_x8(&q, true);
+            let l = t.lookup_baked_x8(&self.q, true);
             for (k, &lk) in l.iter().enumerate() {
                 match &self.pts[k] {
-                    Some(pt) if q.is_used(k) => self.at[k] = AtWi::baked(&pt.r, lk),
+                    Some(pt) if self.q.is_used(k) => {
+                        let at = AtWi::baked(&pt.r, lk);
+                        for c in 0..3 {
+                            self.ei[c][k] = at.ei[c];
+                            self.norm[c][k] = at.norm[c];
+                        }
+                        self.at[k] = at;
+                    }
                     _ => {}
                 }
             }
         }
+        self.table = table;
         if mirror {
             self.geo.clear_unpushed();
         }
@@ -277,35 +298,77 @@ impl States {
     }
 }
 
-/// Each live point's rank-1 remainder at its ωo ([`AtWi::remainder`]): the table lookups at
-/// ωo of the points with a baked table 8-wide ([`MsTable::lookup_baked_x8`], the first such
-/// point's table; a point with another table, or per-bounce colours, looks up alone).
+/// Each live point's rank-1 remainder at its ωo ([`AtWi::remainder`]): the points with the
+/// chunk's shared baked table in lanes ([`remainders_x8`]: their cells from
+/// [`Chunk::prepare`]'s lookups at ωi), each other point (another table, per-bounce colours,
+/// a CPU without AVX2) alone.
 fn remainders(st: &States, c: &Chunk) -> [Spectrum; 8] {
-    let pts = &c.pts;
-    let mut q = Lookups8::new();
-    let mut table: Option<&'static MsTable> = None;
-    for (k, pt) in pts.iter().enumerate() {
-        let Some(pt) = pt.as_ref().filter(|_| st.is_live(k)) else {
-            continue;
-        };
-        let r = &pt.r;
-        if r.baked_norm.is_some()
-            && c.at[k].ei != Spectrum::ZERO
-            && std::ptr::eq(*table.get_or_insert(r.table), r.table)
-        {
-            q.push(k, &r.cell, st.wo[k]);
+    let mut out = [Spectrum::ZERO; 8];
+    let mut rest = st.live;
+    #[cfg(target_arch = "x86_64")]
+    if let (Some(t), Some(avx)) = (c.table, crate::lane::Avx2::detect()) {
+        let lanes = st.live & c.q.used();
+        if lanes != 0 {
+            let r = remainders_x8(avx, t, c, lanes, &st.wo);
+            for (k, o) in out.iter_mut().enumerate() {
+                if lanes & (1 << k) != 0 {
+                    *o = Vec3::new(r[0][k], r[1][k], r[2][k]);
+                }
+            }
+            rest &= !lanes;
         }
     }
-    let eo = table.map_or([[Spectrum::ZERO; 2]; 8], |t| t.lookup_baked_x8(&q, false));
-    let mut out = [Spectrum::ZERO; 8];
     for (k, o) in out.iter_mut().enumerate() {
-        *o = match &pts[k] {
-            Some(_) if q.is_used(k) => c.at[k].remainder_from(eo[k][1], st.wo[k]),
-            Some(pt) if st.is_live(k) => c.at[k].remainder(&pt.r, st.wo[k]),
-            _ => Spectrum::ZERO,
-        };
+        if rest & (1 << k) == 0 {
+            continue;
+        }
+        if let Some(pt) = &c.pts[k] {
+            *o = c.at[k].remainder(&pt.r, st.wo[k]);
+        }
     }
     out
+}
+
+/// [`AtWi::remainder`] of the points `lanes` (bit k: lane k; each a point of the chunk's
+/// lookups at ωi in baked `table`, [`Chunk::prepare`]) toward `wo[k]` (z > 0), 8-wide: E_ms(ωo)
+/// from the same cells ([`MsTable::lookup_baked_e_lanes`], each lane the scalar
+/// `lookup_baked`), then `remainder_from`'s products in its order per channel, ((E_ms(ωi) ·
+/// E_ms(ωo)) · 1/(πĒ_ms)) · z(ωo), and 0 where E_ms(ωi) = 0 (the scalar code's early return,
+/// whose lookup it skips). By channel, by lane; other lanes hold any value.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn remainders_x8(
+    avx: crate::lane::Avx2,
+    table: &'static MsTable,
+    c: &Chunk,
+    lanes: u8,
+    wo: &[Vec3; 8],
+) -> [[f32; 8]; 3] {
+    use crate::lane::Lane;
+    let mut q = c.q;
+    let mut z = [1.0f32; 8];
+    for (k, &w) in wo.iter().enumerate() {
+        if lanes & (1 << k) != 0 {
+            q.set_direction(k, w);
+            z[k] = w.z;
+        }
+    }
+    avx.run(
+        #[inline(always)]
+        || {
+            let eo = table.lookup_baked_e_lanes(avx, &q);
+            let zero = avx.splat(0.0);
+            let z = avx.load(&z);
+            let ei = [avx.load(&c.ei[0]), avx.load(&c.ei[1]), avx.load(&c.ei[2])];
+            let none = ei[0].eq(zero) & ei[1].eq(zero) & ei[2].eq(zero);
+            let mut out = [[0.0f32; 8]; 3];
+            for (ch, e) in [eo.x, eo.y, eo.z].into_iter().enumerate() {
+                let r = ei[ch] * e * avx.load(&c.norm[ch]) * z;
+                crate::lane::F32x8::select(none, zero, r).store(&mut out[ch]);
+            }
+            out
+        },
+    )
 }
 
 /// [`MicrofacetNormalMap::with_incident`] of up to 8 points at once, in place: the microfacet
