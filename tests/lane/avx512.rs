@@ -360,3 +360,76 @@ fn ray_fields16_transposes_sixteen_rays() {
         }
     }
 }
+
+/// `Avx512::gather3_u32` and `gather2` give per lane the entries `Avx2::gather3_u32` and
+/// `gather2` give (and the table's own entries for indices in range): random tables of random
+/// bit patterns (NaNs, signed zeros, subnormals), indices in range, at both ends, negative and
+/// past the end (clamped to the last row as unsigned numbers).
+#[test]
+fn gather3_u32_and_gather2_at_16_equal_8() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use groove::lane::{Avx2, I32x16, I32x8};
+        let Some(w16) = token("gather3_u32/gather2") else {
+            return;
+        };
+        let avx = Avx2::detect().expect("AVX-512 implies AVX2");
+        let mut rng = Pcg32::new(3, 16);
+        for round in 0..200 {
+            let len = 1 + (rng.next_u32() % 40) as usize;
+            let tris: Vec<[u32; 3]> = (0..len)
+                .map(|_| [rng.next_u32(), rng.next_u32(), rng.next_u32()])
+                .collect();
+            let uvs: Vec<glam::Vec2> = (0..len)
+                .map(|_| {
+                    glam::Vec2::new(
+                        f32::from_bits(rng.next_u32()),
+                        f32::from_bits(rng.next_u32()),
+                    )
+                })
+                .collect();
+            let idx: [i32; 16] = core::array::from_fn(|k| match (round + k) % 7 {
+                0 => 0,
+                1 => len as i32 - 1,
+                2 => len as i32,
+                3 => -1 - (rng.next_u32() % 5) as i32,
+                4 => i32::MAX,
+                _ => (rng.next_u32() % len as u32) as i32,
+            });
+            let (t16, u16): ([I32x16; 3], [F32x16; 2]) = w16.run(|| {
+                let i = w16.load_i32(&idx);
+                (w16.gather3_u32(&tris, i), w16.gather2(&uvs, i))
+            });
+            let (t16, u16) = (t16.map(I32x16::to_array), u16.map(F32x16::to_array));
+            for half in 0..2 {
+                let ix: [i32; 8] = idx[8 * half..8 * half + 8].try_into().unwrap();
+                let (t8, u8) = avx.run(|| {
+                    let i = avx.load_i32(&ix);
+                    (avx.gather3_u32(&tris, i), avx.gather2(&uvs, i))
+                });
+                let (t8, u8) = (t8.map(I32x8::to_array), u8.map(|v| v.to_array()));
+                for k in 0..8 {
+                    let l = 8 * half + k;
+                    let row = (idx[l] as u32).min(len as u32 - 1) as usize;
+                    for c in 0..3 {
+                        assert_eq!(t16[c][l], t8[c][k], "round {round} lane {l} index {c}");
+                        assert_eq!(t16[c][l] as u32, tris[row][c], "round {round} lane {l}");
+                    }
+                    let want = [uvs[row].x.to_bits(), uvs[row].y.to_bits()];
+                    for c in 0..2 {
+                        assert_eq!(
+                            u16[c][l].to_bits(),
+                            u8[c][k].to_bits(),
+                            "round {round} lane {l}"
+                        );
+                        assert_eq!(
+                            u16[c][l].to_bits(),
+                            want[c],
+                            "round {round} lane {l} uv {c}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
