@@ -724,7 +724,14 @@ fn shade_kernel<T: kernels::tail::Tail>(
         return (0, false);
     };
     let n = run.len() / 8 * 8;
-    if n == 0 {
+    // The conductor, diffuse and plastic kernels also take a run's last `PAD_MIN` to 7 paths,
+    // as one padded chunk (`kernels::vertex::x8::padded`).
+    let pad_min = kernels::vertex::x8::PAD_MIN;
+    let pads = matches!(
+        kind,
+        Kernel::Conductor(_) | Kernel::Diffuse(..) | Kernel::Plastic(_)
+    );
+    if n == 0 && !(pads && run.len() >= pad_min) {
         return (0, false);
     }
     let chunks = (run.start..run.start + n).step_by(8);
@@ -737,7 +744,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
                 lights: &kernels.lights,
             };
             // 16 paths at a time where AVX-512 is on, then 8 (the same functions at both
-            // widths, so the same numbers: only the chunking differs).
+            // widths, so the same numbers: only the chunking differs), then the rest padded.
             let mut c = run.start;
             if let Some(w16) = kernels.avx512 {
                 w16.run(
@@ -746,7 +753,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
                         let mut gather = kernels::light::x8::Gather::<16>::new();
                         while c + 16 <= run.end {
                             let ids: [u32; 16] = batch.sorted[c..c + 16].try_into().expect("16");
-                            x8::shade(w16, scene, cfg, batch, &ids, mat, &mut gather, tail);
+                            x8::shade(w16, scene, cfg, batch, &ids, 16, mat, &mut gather, tail);
                             c += 16;
                         }
                     },
@@ -758,8 +765,14 @@ fn shade_kernel<T: kernels::tail::Tail>(
                     let mut gather = kernels::light::x8::Gather::<8>::new();
                     while c + 8 <= run.end {
                         let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
-                        x8::shade(avx, scene, cfg, batch, &ids, mat, &mut gather, tail);
+                        x8::shade(avx, scene, cfg, batch, &ids, 8, mat, &mut gather, tail);
                         c += 8;
+                    }
+                    let rest = run.end - c;
+                    if rest > 0 && rest >= pad_min {
+                        let ids = kernels::vertex::x8::padded::<8>(&batch.sorted[c..run.end]);
+                        x8::shade(avx, scene, cfg, batch, &ids, rest, mat, &mut gather, tail);
+                        c = run.end;
                     }
                 },
             );
@@ -770,30 +783,38 @@ fn shade_kernel<T: kernels::tail::Tail>(
             let lights = &kernels.lights;
             let mut c = run.start;
             if let Some(w16) = kernels.avx512 {
-                let n16 = run.len() / 16 * 16;
-                let chunks = (c..c + n16).step_by(16);
-                w16.run(
+                let r = c..run.end;
+                c = w16.run(
                     #[inline(always)]
-                    || x8::shade_run(w16, scene, cfg, batch, chunks, &mat, lights, tail),
+                    || x8::shade_run(w16, scene, cfg, batch, r, usize::MAX, &mat, lights, tail),
                 );
-                c += n16;
             }
-            let n8 = (run.end - c) / 8 * 8;
-            let chunks = (c..c + n8).step_by(8);
-            avx.run(
+            let r = c..run.end;
+            c = avx.run(
                 #[inline(always)]
-                || x8::shade_run(avx, scene, cfg, batch, chunks, &mat, lights, tail),
+                || x8::shade_run(avx, scene, cfg, batch, r, pad_min, &mat, lights, tail),
             );
-            (c + n8 - run.start, true)
+            (c - run.start, true)
         }
         Kernel::Plastic(mat) => {
             use kernels::plastic::x8;
             let lights = &kernels.lights;
             let mut c = run.start;
             if let Some(w16) = kernels.avx512 {
-                c += x8::shade_run(w16, scene, cfg, batch, c..run.end, mat, lights, tail);
+                let r = c..run.end;
+                c += x8::shade_run(w16, scene, cfg, batch, r, usize::MAX, mat, lights, tail);
             }
-            c += x8::shade_run(avx, scene, cfg, batch, c..run.end, mat, lights, tail);
+            c += x8::shade_run(
+                avx,
+                scene,
+                cfg,
+                batch,
+                c..run.end,
+                pad_min,
+                mat,
+                lights,
+                tail,
+            );
             (c - run.start, false)
         }
         Kernel::Blend(mat) => {

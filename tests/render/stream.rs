@@ -229,21 +229,31 @@ fn stream_equals_scalar_in_the_diffuse_kernel_under_every_setting() {
 }
 
 /// The lane counters see the kernel: on the Cornell box (every material `diffuse`) at least
-/// 90 % of the shaded paths go through it (each run of one material at one bounce leaves its
-/// last < 8 paths to the 1-lane code: 5 materials × ≤ 7 of ~1000 paths per batch at the first
-/// bounce), on metal_plastic (no `diffuse`) none but the conductor kernels'.
+/// 98 % of the shaded paths go through it, on metal_plastic (no `diffuse` but its area
+/// light's own) as many, nearly all of them the conductor kernels'. A run of one material at
+/// one bounce leaves to the 1-lane code
+/// only a last path alone: its last 2–7 paths are one padded chunk
+/// (`kernels::vertex::x8::PAD_MIN`); without that, metal_plastic's share was ~0.97.
 #[test]
 fn the_lane_counters_count_the_diffuse_kernel() {
     let l = load(&scene("scenes/cornell/cbox-rgb.xml"), "as_written");
     let c = render(&l, Renderer::Stream, 1, 3).lanes;
     let share = c.kernel_lanes as f64 / c.shade_used as f64;
-    assert!((0.9..=1.0).contains(&share), "{c:?}: {share}");
+    assert!((0.98..=1.0).contains(&share), "{c:?}: {share}");
     let l = load(&scene("scenes/bench/metal_plastic.xml"), "classic");
     let c = render(&l, Renderer::Stream, 1, 3).lanes;
+    let share = c.kernel_lanes as f64 / c.shade_used as f64;
     assert!(
-        c.shade_used > 0 && c.kernel_lanes == c.conductor_lanes,
-        "{c:?}"
+        c.shade_used > 0 && driver_all_but_emitters(&c) && share >= 0.98,
+        "{c:?}: {share}"
     );
+}
+
+/// On a scene whose every material is a wrapper chain, the kernel paths are the driver's but
+/// those that scatter off an area light's own default `diffuse` BSDF: runs of a few paths, which
+/// the `diffuse` kernel takes as padded chunks (under 1 % of the shaded paths).
+pub(super) fn driver_all_but_emitters(c: &groove::stream::LaneCounters) -> bool {
+    c.kernel_lanes >= c.conductor_lanes && c.kernel_lanes - c.conductor_lanes <= c.shade_used / 100
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -447,9 +457,11 @@ fn stream_equals_scalar_in_the_conductor_kernels_under_every_setting() {
 
 /// On metal_plastic (classic) the two normal-mapped rough metals (floor and gold sphere) go
 /// through the conductor kernels: most of the shaded paths, all but the plastic sphere's and the
-/// runs' tails. Every kernel path there is the wrapper-chain driver's, and the scene's one area
-/// light is a rectangle: the driver samples it in lanes (the shared gather of
-/// `kernels::light`), and nothing else in lanes.
+/// runs' tails. Every kernel path there is the wrapper-chain driver's but the few that scatter
+/// off the area light's own default `diffuse` (runs of 2–7 paths, which the `diffuse` kernel
+/// takes as padded chunks: under 1 % of the shaded paths), and the scene's one area light is a
+/// rectangle: the driver samples it in lanes (the shared gather of `kernels::light`), and
+/// nothing else in lanes.
 #[test]
 fn the_lane_counters_count_the_conductor_kernels() {
     let l = load(&scene("scenes/bench/metal_plastic.xml"), "classic");
@@ -457,7 +469,7 @@ fn the_lane_counters_count_the_conductor_kernels() {
     let share = c.conductor_lanes as f64 / c.shade_used as f64;
     eprintln!("metal_plastic (classic), 40×36 window, 3 spp: {c:?}, conductor share {share:.4}");
     assert!((0.5..=1.0).contains(&share), "{c:?}: {share}");
-    assert_eq!(c.kernel_lanes, c.conductor_lanes, "{c:?}");
+    assert!(driver_all_but_emitters(&c), "{c:?}");
     let [t, r, s, ..] = c.kernel_lights;
     assert!(r > 0 && t == 0 && s == 0, "{c:?}");
 }
@@ -499,7 +511,7 @@ fn the_lane_counters_count_the_wrapped_plastic() {
     let c = render(&l, Renderer::Stream, 1, 3).lanes;
     let share = c.kernel_lanes as f64 / c.shade_used as f64;
     eprintln!("metal_plastic (classic), 40×36 window, 3 spp: {c:?}, kernel share {share:.4}");
-    assert!(c.kernel_lanes == c.conductor_lanes, "{c:?}");
+    assert!(driver_all_but_emitters(&c), "{c:?}");
     assert!((0.85..=1.0).contains(&share), "{c:?}: {share}");
 }
 
@@ -914,9 +926,9 @@ fn the_lane_counters_count_the_wrapped_diffuse() {
     let c = render(&l, Renderer::Stream, 1, 3).lanes;
     let share = c.conductor_lanes as f64 / c.shade_used as f64;
     eprintln!("strong (classic), 40×36 window, 3 spp: {c:?}, driver share {share:.4}");
-    // Every material is wrapped now: all kernel paths are the driver's, and only the runs'
-    // tails (3 materials × ≤ 7 paths per run and bounce) are shaded lane by lane.
-    assert_eq!(c.kernel_lanes, c.conductor_lanes, "{c:?}");
+    // Every material is wrapped now: all kernel paths are the driver's (but the area light's
+    // own `diffuse`), and only a run's last path alone is shaded lane by lane.
+    assert!(driver_all_but_emitters(&c), "{c:?}");
     assert!((0.85..=1.0).contains(&share), "{c:?}: {share}");
 }
 

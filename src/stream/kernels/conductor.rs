@@ -436,6 +436,59 @@ pub(crate) fn valid<L: Lane>(s: &LaneBsdfSample<L>) -> L::Mask {
         & s.weight.z.is_finite()
 }
 
+/// The incident direction's way down the wrappers, outermost first: where `twosided`
+/// mirrored it, each normal map's perturbed frame (`bsdf::normalmap::lanes::frame` of its
+/// normal and the incident direction it sees), the incident direction each `mask` sees, and
+/// the leaf's local `wi`. It depends on `wi` alone, so [`eval_pdf_from`] (toward the light) and
+/// [`sample_from`] share it: the same operations as each did on its own, done once.
+#[derive(Clone, Copy)]
+pub(crate) struct Down<L: Lane> {
+    back: [L::Mask; MAX_WRAPS],
+    frames: [Frame<L>; MAX_WRAPS],
+    at: [V3<L>; MAX_WRAPS],
+    wi: V3<L>,
+}
+
+/// [`Down`] of local `wi` (the shading frame's) through `mat`'s wrappers (`normals[j]` the
+/// decoded normal of wrapper `j` where it is a normal map). `MASK` as in [`eval_pdf`].
+#[inline(always)]
+pub(crate) fn down<L: Lane, const MASK: bool>(
+    mat: &Material,
+    normals: &[V3<L>; MAX_WRAPS],
+    wi: V3<L>,
+) -> Down<L> {
+    let k = |c: f32| wi.z.splat(c);
+    let none = k(0.0).ne(k(0.0));
+    let mut d = Down {
+        back: [none; MAX_WRAPS],
+        frames: [Frame {
+            s: wi,
+            t: wi,
+            n: wi,
+        }; MAX_WRAPS],
+        at: [wi; MAX_WRAPS],
+        wi,
+    };
+    for (j, w) in mat.wraps().iter().enumerate() {
+        match *w {
+            Wrap::TwoSided => {
+                d.back[j] = !d.wi.z.ge(k(0.0));
+                d.wi = V3::select(d.back[j], flip(d.wi), d.wi);
+            }
+            Wrap::NormalMap {
+                flip_invalid_normals,
+                ..
+            } => {
+                d.frames[j] = nmap::frame(normals[j], flip_invalid_normals, d.wi);
+                d.wi = d.frames[j].to_local(d.wi);
+            }
+            Wrap::Mask { .. } if MASK => d.at[j] = d.wi,
+            Wrap::Mask { .. } => {}
+        }
+    }
+    d
+}
+
 /// `f · |cos θo|` and the density of the material's BSDF for local `wi`, `wo` (the shading
 /// frame's), `normals[j]` the decoded normal of wrapper `j` where it is a normal map, `p` the
 /// leaf's parameters per lane: the
@@ -452,35 +505,41 @@ pub(crate) fn eval_pdf<L: Lane, const MASK: bool>(
     wi: V3<L>,
     wo: V3<L>,
 ) -> (V3<L>, L) {
+    eval_pdf_from::<L, MASK>(mat, p, &down::<L, MASK>(mat, normals, wi), wo)
+}
+
+/// [`eval_pdf`] from the incident direction's [`Down`] (`wo`: local, the shading frame's).
+#[inline(always)]
+pub(crate) fn eval_pdf_from<L: Lane, const MASK: bool>(
+    mat: &Material,
+    p: &Params<L>,
+    dn: &Down<L>,
+    wo: V3<L>,
+) -> (V3<L>, L) {
     debug_assert!(MASK || mat.mask().is_none());
-    let k = |c: f32| wi.z.splat(c);
-    let (mut wi, mut wo) = (wi, wo);
+    let k = |c: f32| wo.z.splat(c);
+    let mut wo = wo;
     let mut reject = k(0.0).ne(k(0.0));
     let mut shadow = [None; MAX_WRAPS];
     for (j, w) in mat.wraps().iter().enumerate() {
         match *w {
-            Wrap::TwoSided => {
-                let back = !wi.z.ge(k(0.0));
-                wi = V3::select(back, flip(wi), wi);
-                wo = V3::select(back, flip(wo), wo);
-            }
+            Wrap::TwoSided => wo = V3::select(dn.back[j], flip(wo), wo),
             Wrap::NormalMap {
-                flip_invalid_normals,
                 use_shadowing_function,
                 ..
             } => {
-                let f = nmap::frame(normals[j], flip_invalid_normals, wi);
+                let f = &dn.frames[j];
                 let pwo = f.to_local(wo);
                 reject = reject | (wo.z * pwo.z).le(k(0.0));
                 if use_shadowing_function {
                     shadow[j] = Some(nmap::shadow_terminator(f.n, wo));
                 }
-                wi = f.to_local(wi);
                 wo = pwo;
             }
             Wrap::Mask { .. } => {}
         }
     }
+    let wi = dn.wi;
     let (mut f, mut pdf) = match &mat.leaf {
         Leaf::Rough(b) => b.eval_pdf_with(p.c0, &microfacet(&b.distribution, p), wi, wo),
         Leaf::Smooth(b) => b.eval_pdf_lanes(wi, wo),
@@ -534,35 +593,23 @@ pub(crate) fn sample<L: Lane, const MASK: bool>(
     u1: L,
     u2: V2<L>,
 ) -> (LaneBsdfSample<L>, L::Mask, L) {
+    sample_from::<L, MASK>(mat, p, &down::<L, MASK>(mat, normals, wi), u1, u2)
+}
+
+/// [`sample`] from the incident direction's [`Down`].
+#[inline(always)]
+pub(crate) fn sample_from<L: Lane, const MASK: bool>(
+    mat: &Material,
+    p: &Params<L>,
+    dn: &Down<L>,
+    u1: L,
+    u2: V2<L>,
+) -> (LaneBsdfSample<L>, L::Mask, L) {
     debug_assert!(MASK || mat.mask().is_none());
+    let wi = dn.wi;
     let k = |c: f32| wi.z.splat(c);
-    let mut wi = wi;
     let none = k(0.0).ne(k(0.0));
-    let mut back = [none; MAX_WRAPS];
-    let mut frames = [Frame {
-        s: wi,
-        t: wi,
-        n: wi,
-    }; MAX_WRAPS];
-    // The incident direction at each mask, for its pass-through.
-    let mut at = [wi; MAX_WRAPS];
-    for (j, w) in mat.wraps().iter().enumerate() {
-        match *w {
-            Wrap::TwoSided => {
-                back[j] = !wi.z.ge(k(0.0));
-                wi = V3::select(back[j], flip(wi), wi);
-            }
-            Wrap::NormalMap {
-                flip_invalid_normals,
-                ..
-            } => {
-                frames[j] = nmap::frame(normals[j], flip_invalid_normals, wi);
-                wi = frames[j].to_local(wi);
-            }
-            Wrap::Mask { .. } if MASK => at[j] = wi,
-            Wrap::Mask { .. } => {}
-        }
-    }
+    let (back, frames, at) = (&dn.back, &dn.frames, &dn.at);
     let all = k(0.0).eq(k(0.0));
     let one = k(1.0);
     let (mut s, mut delta, mut eta) = match &mat.leaf {

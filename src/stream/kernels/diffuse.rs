@@ -221,7 +221,7 @@ pub(crate) mod x8 {
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
     use crate::stream::kernels::tail::Tail;
-    use crate::stream::kernels::vertex::x8::{scatter, LightCols};
+    use crate::stream::kernels::vertex::x8::{live_only, scatter, LightCols};
     use crate::stream::kernels::vertex::SampleOut;
 
     /// What a material needs for the kernel: its reflectance texture and whether it takes a
@@ -236,8 +236,9 @@ pub(crate) mod x8 {
 
     /// Shades the 8 paths `ids` (all at a surface of material `mat`, each with its interaction in
     /// `b.surf`) as `PathState::scatter` would, one after the other; sets their pending light
-    /// samples, and their next rays and `alive` flags where they go on. Call inside
-    /// [`Wide::run`].
+    /// samples, and their next rays and `alive` flags where they go on. Only the first `live`
+    /// lanes are paths (a padded chunk: `vertex::x8::padded`, `vertex::x8::live_only`). Call
+    /// inside [`Wide::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade<T: Wide<W>, const W: usize>(
@@ -246,12 +247,19 @@ pub(crate) mod x8 {
         cfg: &PathSettings,
         b: &mut Batch,
         ids: &[u32; W],
+        live: usize,
         mat: Material<'_>,
         gather: &mut Gather<W>,
         tail: &mut impl Tail,
     ) {
         // 1. The surfaces, loaded 8-wide from the batch's rows; 2. the side test.
-        let surface::x8::Prologue { surf, p, wi, front } = surface::x8::prologue(avx, &b.surf, ids);
+        let surface::x8::Prologue {
+            surf,
+            p,
+            wi,
+            mut front,
+        } = surface::x8::prologue(avx, &b.surf, ids);
+        live_only(&mut front, live);
 
         // 3a. Each path's random numbers in the scalar renderer's order (`u_sel` and `u` when it
         // takes a light sample, then `u2`), 8-wide from the gathered PCG32 states where the

@@ -204,10 +204,11 @@ pub(crate) mod x8 {
     use crate::stream::kernels::surface;
     use crate::stream::kernels::tail::{Sampled, Tail};
     use crate::stream::kernels::vertex;
-    use crate::stream::kernels::vertex::x8::{scatter, LightCols};
+    use crate::stream::kernels::vertex::x8::{live_only, padded, scatter, LightCols};
 
-    /// Shades the first multiple of `W` paths of the run `batch.sorted[run]` (all of material
-    /// `mat`) `W` at a time; returns how many it shaded. Enters [`Wide::run`] itself.
+    /// Shades the paths of the run `batch.sorted[run]` (all of material `mat`) `W` at a time,
+    /// then the last `run.len() % W` as one padded chunk (`vertex::x8::padded`) when there are
+    /// at least `pad_min` of them; returns how many it shaded. Enters [`Wide::run`] itself.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade_run<T: Wide<W>, const W: usize>(
         avx: T,
@@ -215,12 +216,15 @@ pub(crate) mod x8 {
         cfg: &PathSettings,
         b: &mut Batch,
         run: std::ops::Range<usize>,
+        pad_min: usize,
         mat: Material,
         lights: &[Option<LaneLight>],
         tail: &mut impl Tail,
     ) -> usize {
         let n = run.len() / W * W;
-        if n == 0 {
+        let rest = run.len() - n;
+        let pad = rest > 0 && rest >= pad_min;
+        if n == 0 && !pad {
             return 0;
         }
         avx.run(
@@ -229,17 +233,37 @@ pub(crate) mod x8 {
                 let mut gather = Gather::<W>::new();
                 for c in (run.start..run.start + n).step_by(W) {
                     let ids: [u32; W] = b.sorted[c..c + W].try_into().expect("W ids");
-                    shade(avx, scene, cfg, b, &ids, &mat, lights, &mut gather, tail);
+                    shade(avx, scene, cfg, b, &ids, W, &mat, lights, &mut gather, tail);
+                }
+                if pad {
+                    let ids = padded::<W>(&b.sorted[run.start + n..run.end]);
+                    shade(
+                        avx,
+                        scene,
+                        cfg,
+                        b,
+                        &ids,
+                        rest,
+                        &mat,
+                        lights,
+                        &mut gather,
+                        tail,
+                    );
                 }
             },
         );
-        n
+        if pad {
+            run.len()
+        } else {
+            n
+        }
     }
 
     /// Shades the 8 paths `ids` (each at a surface of material `mat`, with its interaction in
     /// `b.surf`) as `PathState::scatter` would, one after the other; sets their pending light
-    /// samples, and their next rays and `alive` flags where they go on. Call inside
-    /// [`Avx2::run`].
+    /// samples, and their next rays and `alive` flags where they go on. Only the first `live`
+    /// lanes are paths (a padded chunk: `vertex::x8::padded`, `vertex::x8::live_only`). Call
+    /// inside [`Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn shade<T: Wide<W>, const W: usize>(
@@ -248,6 +272,7 @@ pub(crate) mod x8 {
         cfg: &PathSettings,
         b: &mut Batch,
         ids: &[u32; W],
+        live: usize,
         mat: &Material,
         lights: &[Option<LaneLight>],
         gather: &mut Gather<W>,
@@ -255,7 +280,13 @@ pub(crate) mod x8 {
     ) {
         // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
         // The surfaces, their points, the incident direction and the side test.
-        let surface::x8::Prologue { surf, p, wi, front } = surface::x8::prologue(avx, &b.surf, ids);
+        let surface::x8::Prologue {
+            surf,
+            p,
+            wi,
+            mut front,
+        } = surface::x8::prologue(avx, &b.surf, ids);
+        live_only(&mut front, live);
 
         // 2. Textures, light points and BSDF numbers, lane by lane in each path's order.
         let (rho0, spec0) = match &mat.coating {

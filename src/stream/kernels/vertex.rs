@@ -13,7 +13,7 @@
 //! 4. scatter back lane by lane: the pending light sample, then `PathState::advance` (the
 //!    throughput update and Russian roulette of the scalar code).
 
-use super::conductor::{self, Leaf, Material, Normal, Params, Wrap, MAX_WRAPS};
+use super::conductor::{self, Down, Leaf, Material, Normal, Params, Wrap, MAX_WRAPS};
 use super::diffuse::{light_direction, light_out, reflectance, LightOut, LightPoint, Surface};
 use super::ray::offset_origin;
 use crate::bsdf::bumpmap;
@@ -28,20 +28,20 @@ use glam::Vec3;
 /// Next-event estimation at the material's BSDF: `nee::prepare_light` after its call to
 /// `sample_emitter` (`SurfaceBsdf::eval_pdf`'s side test, the BSDF toward the light point, the
 /// zero test), and the MIS-weighted contribution and shadow ray of `PathState::scatter`, in
-/// the operations of `diffuse::light`. `p` holds the leaf's parameters per lane; `MASK`: as in
-/// [`conductor::eval_pdf`].
+/// the operations of `diffuse::light`. `dn` is the incident direction's way down the wrappers
+/// (`conductor::down`, shared with [`sample`]); `p` holds the leaf's parameters per lane;
+/// `MASK`: as in [`conductor::eval_pdf`].
 #[inline(always)]
 pub(crate) fn light<L: Lane, const MASK: bool>(
     s: &Surface<L>,
-    wi: V3<L>,
+    dn: &Down<L>,
     mat: &Material,
-    normals: &[V3<L>; MAX_WRAPS],
     p: &Params<L>,
     throughput: V3<L>,
     lp: &LightPoint<L>,
 ) -> LightOut<L> {
     let (wo, consistent) = light_direction(s, lp);
-    let (f, bsdf_pdf) = conductor::eval_pdf::<L, MASK>(mat, normals, p, wi, wo);
+    let (f, bsdf_pdf) = conductor::eval_pdf_from::<L, MASK>(mat, p, dn, wo);
     light_out(s, throughput, lp, f, bsdf_pdf, consistent)
 }
 
@@ -61,18 +61,19 @@ pub(crate) struct SampleOut<L: Lane> {
 }
 
 /// The material's BSDF sample (`Bsdf::sample`), `SurfaceBsdf::sample`'s side test and
-/// `SurfaceInteraction::spawn_ray`. `MASK` as in [`conductor::eval_pdf`].
+/// `SurfaceInteraction::spawn_ray`; `wi` is the shading frame's incident direction and `dn`
+/// its way down the wrappers (`conductor::down`). `MASK` as in [`conductor::eval_pdf`].
 #[inline(always)]
 pub(crate) fn sample<L: Lane, const MASK: bool>(
     s: &Surface<L>,
     wi: V3<L>,
+    dn: &Down<L>,
     mat: &Material,
-    normals: &[V3<L>; MAX_WRAPS],
     p: &Params<L>,
     u1: L,
     u2: crate::lane::vec::V2<L>,
 ) -> SampleOut<L> {
-    let (bs, delta, eta) = conductor::sample::<L, MASK>(mat, normals, p, wi, u1, u2);
+    let (bs, delta, eta) = conductor::sample_from::<L, MASK>(mat, p, dn, u1, u2);
     SampleOut::at(s, wi, &bs, delta, eta)
 }
 
@@ -179,8 +180,10 @@ pub(crate) mod x8 {
     use crate::stream::kernels::surface;
     use crate::stream::kernels::tail::{Sampled, Tail};
 
-    /// Shades the paths `sorted[chunks]` (runs of `W`, all at a surface of material `mat`) with
-    /// [`shade`], in the instance for `mat` picked once here: whether the leaf's parameters
+    /// Shades the paths `sorted[run]` (all at a surface of material `mat`) with [`shade`], `W`
+    /// at a time, then the last `run.len() % W` as one padded chunk ([`padded`]) when there
+    /// are at least `pad_min` of them; returns where it stopped (the rest is left to the
+    /// 1-lane code). The instance for `mat` is picked once here: whether the leaf's parameters
     /// differ per lane (`Material::per_lane`; else its constant [`Params`] are built once,
     /// from the template) and whether the chain needs the full instance (`Material::full`:
     /// textured leaf parameters, a `mask`, a `bumpmap`). Call inside [`Avx2::run`].
@@ -191,16 +194,19 @@ pub(crate) mod x8 {
         scene: &Scene,
         cfg: &PathSettings,
         b: &mut Batch,
-        chunks: impl Iterator<Item = usize>,
+        run: std::ops::Range<usize>,
+        pad_min: usize,
         mat: &Material,
         lights: &[Option<LaneLight>],
         tail: &mut impl Tail,
-    ) {
+    ) -> usize {
         let mut gather = Gather::<W>::new();
         let base = mat.params(avx.splat(0.0));
+        let full = run.start + run.len() / W * W;
+        let rest = run.end - full;
         macro_rules! run {
-            ($per_lane:literal, $full:literal) => {
-                for c in chunks {
+            ($per_lane:literal, $full:literal) => {{
+                for c in (run.start..full).step_by(W) {
                     let ids: [u32; W] = b.sorted[c..c + W].try_into().expect("W ids");
                     shade::<T, W, $per_lane, $full>(
                         avx,
@@ -208,6 +214,7 @@ pub(crate) mod x8 {
                         cfg,
                         b,
                         &ids,
+                        W,
                         mat,
                         &base,
                         lights,
@@ -215,7 +222,26 @@ pub(crate) mod x8 {
                         tail,
                     );
                 }
-            };
+                if rest > 0 && rest >= pad_min {
+                    let ids = padded::<W>(&b.sorted[full..run.end]);
+                    shade::<T, W, $per_lane, $full>(
+                        avx,
+                        scene,
+                        cfg,
+                        b,
+                        &ids,
+                        rest,
+                        mat,
+                        &base,
+                        lights,
+                        &mut gather,
+                        tail,
+                    );
+                    run.end
+                } else {
+                    full
+                }
+            }};
         }
         match (mat.per_lane(), mat.full()) {
             (false, false) => run!(false, false),
@@ -227,9 +253,12 @@ pub(crate) mod x8 {
 
     /// Shades the 8 paths `ids` (all at a surface of material `mat`) as `PathState::scatter`
     /// would, one after the other; sets their pending light samples, and their next rays and
-    /// `alive` flags where they go on. `base` is `mat`'s constant [`Params`] (used as they are
-    /// unless `PER_LANE`, `mat.per_lane()`); `FULL` is `mat.full()` (without it the chain has
-    /// no textured leaf parameters, `mask` or `bumpmap`). Call inside [`Avx2::run`].
+    /// `alive` flags where they go on. Only the first `live` lanes are paths (a padded chunk,
+    /// [`padded`]: the others repeat the last path's id and are treated as behind their
+    /// surface, [`live_only`]: they draw, write and hand over nothing). `base` is `mat`'s
+    /// constant [`Params`] (used as they are unless `PER_LANE`, `mat.per_lane()`); `FULL` is
+    /// `mat.full()` (without it the chain has no textured leaf parameters, `mask` or
+    /// `bumpmap`). Call inside [`Avx2::run`].
     #[inline(always)]
     // `!(u < o)`: `bsdf::mask::sample`'s test, negated as written there (u and o are never NaN).
     #[allow(clippy::too_many_arguments, clippy::neg_cmp_op_on_partial_ord)]
@@ -239,6 +268,7 @@ pub(crate) mod x8 {
         cfg: &PathSettings,
         b: &mut Batch,
         ids: &[u32; W],
+        live: usize,
         mat: &Material,
         base: &Params<T::F>,
         lights: &[Option<LaneLight>],
@@ -248,7 +278,13 @@ pub(crate) mod x8 {
         debug_assert_eq!((PER_LANE, FULL), (mat.per_lane(), mat.full()));
         // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
         // The surfaces, their points, the incident direction and the side test.
-        let surface::x8::Prologue { surf, p, wi, front } = surface::x8::prologue(avx, &b.surf, ids);
+        let surface::x8::Prologue {
+            surf,
+            p,
+            wi,
+            mut front,
+        } = surface::x8::prologue(avx, &b.surf, ids);
+        live_only(&mut front, live);
 
         // 2. Random numbers, 8-wide from the gathered PCG32 states where the streams are plain
         // (`kernels::draws`); normal maps and light points lane by lane in each path's order.
@@ -381,11 +417,14 @@ pub(crate) mod x8 {
         // A block, not a closure: a closure would be compiled outside `Avx2::run`'s target
         // features and call every 8-wide operation out of line.
         let tp8 = tp.load(avx);
+        // The incident direction's way down the wrappers, once for the light sample and the
+        // BSDF sample.
+        let dn = conductor::down::<_, FULL>(mat, &normals8, wi);
         let lo = if nee {
             let (u_sel, u) = (&num.u_sel, &num.u);
             gather.add_x8(avx, scene, lights, light_only, &front, u_sel, u, &p);
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
-            let lo = light::<_, FULL>(&surf, wi, mat, &normals8, &params, tp8, &lp);
+            let lo = light::<_, FULL>(&surf, &dn, mat, &params, tp8, &lp);
             Some(LightCols::store(&lo))
         } else {
             None
@@ -393,8 +432,8 @@ pub(crate) mod x8 {
         let so = sample::<_, FULL>(
             &surf,
             wi,
+            &dn,
             mat,
-            &normals8,
             &params,
             avx.load(&num.u1),
             V2::new(avx.load(&num.u2[0]), avx.load(&num.u2[1])),
@@ -402,6 +441,37 @@ pub(crate) mod x8 {
 
         // 4. Scatter back.
         scatter(avx, b, ids, &front, &p, tp8, lo.as_ref(), &so, tail);
+    }
+
+    /// The fewest paths left at the end of a material's run (fewer than a chunk) that the
+    /// kernels shade as one padded chunk rather than lane by lane in the 1-lane code. On
+    /// metal_plastic a path through the 1-lane code cost ~2,060 instructions (`PathState::scatter`,
+    /// inclusive), a chunk of 8 in the wrapper-chain driver ~4,340, of which ~140 per lane
+    /// that does work: one path is cheaper alone, two and more in a padded chunk.
+    pub(crate) const PAD_MIN: usize = 2;
+
+    /// The ids of a padded chunk: the last `rest.len()` (1 to `W` − 1) paths of a run, then
+    /// the last of them again in the lanes beyond. A repeated id, not an arbitrary path: the
+    /// kernels' steps that run in every lane whatever [`live_only`] says (the surface loads,
+    /// the `b.light[i] = None` of each lane) then touch only paths of the chunk, whose own
+    /// lanes clear the same pending sample before any is stored.
+    #[inline(always)]
+    pub(crate) fn padded<const W: usize>(rest: &[u32]) -> [u32; W] {
+        let last = *rest.last().expect("a padded chunk has a path");
+        let mut ids = [last; W];
+        ids[..rest.len()].copy_from_slice(rest);
+        ids
+    }
+
+    /// Marks the lanes from `live` on as behind their surface (`front` false), so that a
+    /// padded chunk's extra lanes draw no numbers (`draws::x8::draw` draws where `front`),
+    /// gather no light point, and hand no sample to the tail; their computed values are
+    /// dropped, as those of a lane that fails the side test.
+    #[inline(always)]
+    pub(crate) fn live_only<const W: usize>(front: &mut [bool; W], live: usize) {
+        for (k, f) in front.iter_mut().enumerate() {
+            *f &= k < live;
+        }
     }
 
     /// A chunk's light samples as the scatter reads them: per lane whether a shadow ray is
