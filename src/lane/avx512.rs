@@ -140,51 +140,6 @@ impl Avx512 {
             ]
         }
     }
-    /// The three indices of `table[idx]` per lane (three `vpgatherdd`; a mesh's triangles),
-    /// each index first clamped to `table.len() − 1` as an unsigned number: always in bounds,
-    /// the entries [`super::Avx2::gather3_u32`] gives in each of its 8 lanes.
-    ///
-    /// # Panics
-    /// If `table` is empty or holds more than `i32::MAX / 3` rows.
-    #[inline(always)]
-    pub fn gather3_u32(self, table: &[[u32; 3]], idx: I32x16) -> [I32x16; 3] {
-        assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 3);
-        // SAFETY: the token proves AVX-512F. `[u32; 3]` is three consecutive u32s (12 bytes),
-        // so row r's entry c is u32 3r + c from the start; after the clamp r < len and
-        // 3r + 2 < 3·len ≤ i32::MAX, so each load reads inside `table`.
-        unsafe {
-            let i = _mm512_min_epu32(idx.0, _mm512_set1_epi32(table.len() as i32 - 1));
-            let i3 = _mm512_add_epi32(_mm512_add_epi32(i, i), i);
-            let base = table.as_ptr().cast::<i32>();
-            [
-                I32x16(_mm512_i32gather_epi32::<4>(i3, base)),
-                I32x16(_mm512_i32gather_epi32::<4>(i3, base.add(1))),
-                I32x16(_mm512_i32gather_epi32::<4>(i3, base.add(2))),
-            ]
-        }
-    }
-    /// The components of `table[idx]` per lane (two `vgatherdps`; a mesh's uvs), each index
-    /// clamped as in [`Avx512::gather3_u32`]: [`super::Avx2::gather2`] 16 wide.
-    ///
-    /// # Panics
-    /// If `table` is empty or holds more than `i32::MAX / 2` vectors.
-    #[inline(always)]
-    pub fn gather2(self, table: &[glam::Vec2], idx: I32x16) -> [F32x16; 2] {
-        assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 2);
-        // SAFETY: the token proves AVX-512F. `glam::Vec2` is `#[repr(C)]` with two f32 fields
-        // x, y (8 bytes, asserted in `avx2.rs`), so vector r's component c is float 2r + c;
-        // after the clamp r < len and 2r + 1 < 2·len ≤ i32::MAX, so each load reads inside
-        // `table`.
-        unsafe {
-            let i = _mm512_min_epu32(idx.0, _mm512_set1_epi32(table.len() as i32 - 1));
-            let i2 = _mm512_add_epi32(i, i);
-            let base = table.as_ptr().cast::<f32>();
-            [
-                F32x16(_mm512_i32gather_ps::<4>(i2, base)),
-                F32x16(_mm512_i32gather_ps::<4>(i2, base.add(1))),
-            ]
-        }
-    }
     /// A mask from sixteen booleans.
     #[inline(always)]
     pub fn mask(self, a: &[bool; 16]) -> M16 {

@@ -25,9 +25,8 @@
 //!    instantiated at width 16 through [`crate::lane::Wide`]; `GROOVE_LANES=8` or
 //!    [`crate::render::RenderOptions::lanes`] caps the width), then 8; every other material, a
 //!    run's last < 8 paths and a machine without AVX2 go through the 1-lane code lane by lane
-//!    ([`crate::integrator::path::PathState::scatter`]). The surface gather takes one
-//!    mesh's hits 16 at a time there too ([`kernels::surface::fill`]); the other stages
-//!    (emission, camera rays, splat) are 8 wide;
+//!    ([`crate::integrator::path::PathState::scatter`]). The other stages (surface gather,
+//!    emission, camera rays, splat) are 8 wide;
 //! 5. **shadow rays** of the pending light samples, in path order, adding the unoccluded ones;
 //! 6. **compact** the surviving paths (stable).
 //!
@@ -89,11 +88,9 @@ pub struct LaneCounters {
     /// Light samples the kernels took in lanes, per kind: area lights on triangle meshes,
     /// rectangles and spheres, then `point`, `spot`, `directional`, `constant`, `envmap`.
     pub kernel_lights: [u64; kernels::light::KINDS],
-    /// Hits whose surface interaction the gather stage computed in lanes
+    /// Hits whose surface interaction the gather stage computed 8-wide
     /// ([`kernels::surface::fill`]; the rest went through `Scene::interaction`).
     pub surface_lanes: u64,
-    /// The part of `surface_lanes` computed 16 wide (one mesh's hits, on AVX-512).
-    pub surface_lanes_16: u64,
     /// Paths whose emission (what their ray sees) the emission stage computed 8-wide
     /// ([`emission`]; the rest went through `PathState::add_emission` or saw nothing to add).
     pub emission_lanes: u64,
@@ -125,7 +122,6 @@ impl LaneCounters {
             *a += b;
         }
         self.surface_lanes += o.surface_lanes;
-        self.surface_lanes_16 += o.surface_lanes_16;
         self.emission_lanes += o.emission_lanes;
         self.batches += o.batches;
         self.bounces += o.bounces;
@@ -314,16 +310,15 @@ enum Kernel {
 
 impl Kernels {
     /// The gather stage: each hit's surface interaction into its row of `batch.surf`
-    /// ([`kernels::surface::fill`]: 8-wide where the shape has a lane form, one mesh's hits 16
-    /// at a time where the AVX-512 token is on).
+    /// ([`kernels::surface::fill`]: 8-wide where the shape has a lane form).
     fn fill_surfaces(&self, scene: &Scene, batch: &mut Batch, lanes: &mut LaneCounters) {
         kernels::surface::fill(
             scene,
             &self.forms,
             #[cfg(target_arch = "x86_64")]
-            self.avx.map(|a| (a, self.avx512)),
+            self.avx,
             batch,
-            (&mut lanes.surface_lanes, &mut lanes.surface_lanes_16),
+            &mut lanes.surface_lanes,
         );
     }
 

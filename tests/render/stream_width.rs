@@ -49,20 +49,13 @@ fn has_avx512() -> bool {
 
 /// Scalar == stream at width 8 == stream at width 16 (1 and 3 threads); the kernels shade the
 /// same paths at both widths, never 16 wide at width 8, and (`runs`: the scene has runs of ≥ 16
-/// paths of a material with a 16-wide kernel) some 16 wide where AVX-512 exists; the gather
-/// stage reconstructs the same hits in lanes at both widths, none 16 wide at width 8. Returns
-/// the lane counters of the 1-thread render at width 16.
-fn check_widths(l: &Loaded, label: &str, spp: u32, runs: bool) -> groove::stream::LaneCounters {
+/// paths of a material with a 16-wide kernel) some 16 wide where AVX-512 exists.
+fn check_widths(l: &Loaded, label: &str, spp: u32, runs: bool) {
     let scalar = render_lanes(l, Renderer::Scalar, 1, spp, 16);
     assert!(scalar.rays.0 > 0, "{label}: nothing rendered");
     let w8 = render_lanes(l, Renderer::Stream, 1, spp, 8);
     assert_same(&format!("{label}: width 8 vs scalar"), &w8, &scalar);
     assert_eq!(w8.lanes.kernel_lanes_16, 0, "{label}: 16 wide at width 8");
-    assert_eq!(
-        w8.lanes.surface_lanes_16, 0,
-        "{label}: gather 16 wide at width 8"
-    );
-    let mut one = None;
     for t in [1, 3] {
         let w16 = render_lanes(l, Renderer::Stream, t, spp, 16);
         assert_same(
@@ -72,15 +65,8 @@ fn check_widths(l: &Loaded, label: &str, spp: u32, runs: bool) -> groove::stream
         );
         if t == 1 {
             eprintln!(
-                "{label}: {} of {} kernel lanes, {} of {} gathered surfaces 16 wide",
-                w16.lanes.kernel_lanes_16,
-                w16.lanes.kernel_lanes,
-                w16.lanes.surface_lanes_16,
-                w16.lanes.surface_lanes
-            );
-            assert_eq!(
-                w16.lanes.surface_lanes, w8.lanes.surface_lanes,
-                "{label}: the gather stage reconstructs the same hits in lanes at both widths"
+                "{label}: {} of {} kernel lanes 16 wide",
+                w16.lanes.kernel_lanes_16, w16.lanes.kernel_lanes
             );
             if has_avx512() {
                 assert!(
@@ -93,15 +79,12 @@ fn check_widths(l: &Loaded, label: &str, spp: u32, runs: bool) -> groove::stream
                 );
             } else {
                 assert_eq!(
-                    w16.lanes.kernel_lanes_16 + w16.lanes.surface_lanes_16,
-                    0,
+                    w16.lanes.kernel_lanes_16, 0,
                     "{label}: 16 wide without AVX-512"
                 );
             }
-            one = Some(w16.lanes);
         }
     }
-    one.expect("the 1-thread render")
 }
 
 #[test]
@@ -127,30 +110,5 @@ fn stream_width_16_equals_width_8_and_scalar() {
     ] {
         let l = load(&path, mode);
         check_widths(&l, &format!("{} ({mode})", path.display()), 3, runs);
-    }
-}
-
-/// The gather stage's one-mesh chunks 16 wide: eleven meshes (three pairs sharing a slot, so
-/// mixed chunks too; with and without normals and uvs, flipped, face normals) at 1, 2 and 5 spp,
-/// so that chunks end at many lengths (full 16-wide chunks, padded ones of 9–15 hits, and the
-/// 8-wide ones of at most 8 that a flush takes), give the scalar image at widths 8 and 16, with
-/// hits gathered 16 wide where AVX-512 exists.
-#[test]
-fn stream_width_16_mesh_chunks_equal_width_8_and_scalar() {
-    let path = test_scene("stream_mesh_chunks.xml");
-    let l = load(&path, "as_written");
-    for spp in [1, 2, 5] {
-        let lanes = check_widths(
-            &l,
-            &format!("stream_mesh_chunks.xml, {spp} spp"),
-            spp,
-            false,
-        );
-        if has_avx512() {
-            assert!(
-                lanes.surface_lanes_16 > 0 && lanes.surface_lanes_16 < lanes.surface_lanes,
-                "{spp} spp: the gather should run both 16 and 8 wide: {lanes:?}"
-            );
-        }
     }
 }

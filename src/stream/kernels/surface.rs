@@ -1,14 +1,12 @@
 //! The surface rows of the batch ([`crate::stream::batch::Surfaces`]): the gather stage that
 //! fills them after each trace ([`fill`]: hits on triangle meshes, similarity spheres,
-//! rectangles, disks and cylinders, and on meshes seen through instances, reconstructed 8 at a
-//! time by the lane forms of [`crate::geometry::surface_lanes`], every other hit by
-//! `Scene::interaction`; direct mesh hits wait in chunks of one mesh where they can, whose
-//! triangles, vertices, normals and uvs are vector gathers, `x8::MeshChunks`, 16 at a time on
-//! AVX-512: the same functions instantiated at width 16, a flushed chunk of at most 8 hits 8
-//! wide), and the one surface load of the three kernels ([`super::diffuse`], [`super::vertex`],
-//! [`super::plastic`]): 8 paths' surface points, true normals, shading frames and incident
-//! directions, loaded 8-wide in place from the rows, one `vgatherdps` per field over the 8
-//! rows. The rows hold the scalar interaction's bits either way.
+//! rectangles, disks and cylinders, and on meshes seen through instances, reconstructed 8 at a time by the
+//! lane forms of [`crate::geometry::surface_lanes`], every other hit by `Scene::interaction`;
+//! direct mesh hits wait in chunks of one mesh where they can, whose triangles, vertices,
+//! normals and uvs are vector gathers, `x8::MeshChunks`), and the one surface load of the three kernels
+//! ([`super::diffuse`], [`super::vertex`], [`super::plastic`]): 8 paths' surface points, true
+//! normals, shading frames and incident directions, loaded 8-wide in place from the rows, one
+//! `vgatherdps` per field over the 8 rows. The rows hold the scalar interaction's bits either way.
 
 use crate::geometry::hit::NO_INSTANCE;
 use crate::scene::Scene;
@@ -64,24 +62,21 @@ impl Form {
 
 /// The gather stage: writes the surface row of every active path of `batch` whose ray hit
 /// something (rows of paths without a hit are left as they are). 8-wide where `avx` is given
-/// (the chunk's hits grouped by form; one mesh's hits 16 at a time where `avx512` is given too,
-/// [`x8::fill`]), else one `Scene::interaction` per hit; adds the hits reconstructed in lanes
-/// to `in_lanes.0`, the part of them reconstructed 16 wide to `in_lanes.1`.
+/// (the chunk's hits grouped by form), else one `Scene::interaction` per hit; adds the hits
+/// reconstructed in lanes to `in_lanes`.
 pub(crate) fn fill(
     scene: &Scene,
     forms: &[Form],
-    #[cfg(target_arch = "x86_64")] avx: Option<(crate::lane::Avx2, Option<crate::lane::Avx512>)>,
+    #[cfg(target_arch = "x86_64")] avx: Option<crate::lane::Avx2>,
     batch: &mut Batch,
-    in_lanes: (&mut u64, &mut u64),
+    in_lanes: &mut u64,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if let Some((avx, w16)) = avx {
-        let (lanes, lanes16) = x8::fill(avx, w16, scene, forms, batch);
-        *in_lanes.0 += lanes;
-        *in_lanes.1 += lanes16;
+    if let Some(avx) = avx {
+        *in_lanes += x8::fill(avx, scene, forms, batch);
         return;
     }
-    let _ = (forms, in_lanes);
+    let _ = forms;
     let (active, hit, ray, surf) = (&batch.active, &batch.hit, &batch.ray, &mut batch.surf);
     for &i in active {
         let i = i as usize;
@@ -101,7 +96,7 @@ fn direct(h: &crate::geometry::Hit) -> bool {
 pub(crate) mod x8 {
     use crate::lane::frame::Frame;
     use crate::lane::vec::V3;
-    use crate::lane::{Avx2, Avx512, F32x16, F32x8, Lane, LaneI32, ToArray, Wide};
+    use crate::lane::{Avx2, F32x8, Lane, LaneI32, ToArray, Wide};
     use crate::stream::batch::{cols, Surfaces};
     use crate::stream::kernels::diffuse::Surface;
     use crate::stream::BATCH;
@@ -115,24 +110,24 @@ pub(crate) mod x8 {
     use crate::scene::Scene;
     use crate::stream::batch::Batch;
 
-    /// Up to `W` path ids of one form waiting for their `W`-wide reconstruction.
-    struct Pending<const W: usize = 8> {
-        ids: [u32; W],
+    /// Up to 8 path ids of one form waiting for their 8-wide reconstruction.
+    struct Pending {
+        ids: [u32; 8],
         n: usize,
     }
 
-    impl<const W: usize> Pending<W> {
-        const EMPTY: Pending<W> = Pending { ids: [0; W], n: 0 };
+    impl Pending {
+        const EMPTY: Pending = Pending { ids: [0; 8], n: 0 };
         /// Adds `i`; returns whether the chunk is full.
         #[inline(always)]
         fn push(&mut self, i: u32) -> bool {
             self.ids[self.n] = i;
             self.n += 1;
-            self.n == W
+            self.n == 8
         }
         /// The ids, padded with the first (a padded lane is computed and not stored).
         #[inline(always)]
-        fn take(&mut self) -> ([u32; W], usize) {
+        fn take(&mut self) -> ([u32; 8], usize) {
             let n = std::mem::take(&mut self.n);
             let mut ids = self.ids;
             let first = ids[0];
@@ -146,19 +141,19 @@ pub(crate) mod x8 {
     /// How many one-mesh chunks [`MeshChunks`] keeps.
     const SLOTS: usize = 8;
 
-    /// Direct hits on triangle meshes waiting for their `W`-wide reconstruction, in chunks of
-    /// one mesh each where they can (slot `geom % SLOTS` holds one mesh's hits at a time; those
-    /// are gathered with vector gathers, [`one_mesh_triangles`]), else in `mixed` (8 wide,
-    /// gathered lane by lane, [`triangles`]). Which chunk a hit waits in changes only the order
-    /// in which rows are written, not what they hold.
-    struct MeshChunks<const W: usize> {
+    /// Direct hits on triangle meshes waiting for their 8-wide reconstruction, in chunks of one
+    /// mesh each where they can (slot `geom % SLOTS` holds one mesh's hits at a time; those are
+    /// gathered with vector gathers, [`one_mesh_triangles`]), else in `mixed` (gathered lane by
+    /// lane, [`triangles`]). Which chunk a hit waits in changes only the order in which rows are
+    /// written, not what they hold.
+    struct MeshChunks {
         geom: [u32; SLOTS],
-        slot: [Pending<W>; SLOTS],
+        slot: [Pending; SLOTS],
         mixed: Pending,
     }
 
-    impl<const W: usize> MeshChunks<W> {
-        const EMPTY: MeshChunks<W> = MeshChunks {
+    impl MeshChunks {
+        const EMPTY: MeshChunks = MeshChunks {
             geom: [0; SLOTS],
             slot: [Pending::EMPTY; SLOTS],
             mixed: Pending::EMPTY,
@@ -166,32 +161,26 @@ pub(crate) mod x8 {
 
         /// Adds path `i`, whose ray hit mesh `geom`; reconstructs the chunk it fills.
         #[inline(always)]
-        fn push<T: Rows<W>>(&mut self, t: T, avx: Avx2, st: &mut Stage, geom: u32, i: u32) {
+        fn push(&mut self, avx: Avx2, st: &mut Stage, geom: u32, i: u32) {
             let s = geom as usize % SLOTS;
             if self.slot[s].n == 0 {
                 self.geom[s] = geom;
             }
             if self.geom[s] == geom {
                 if self.slot[s].push(i) {
-                    one_mesh_triangles(t, avx, st, geom, self.slot[s].take());
+                    one_mesh_triangles(avx, st, geom, self.slot[s].take());
                 }
             } else if self.mixed.push(i) {
                 triangles(avx, st, self.mixed.take());
             }
         }
 
-        /// Reconstructs the partly filled chunks (padded); at width 16 a chunk of at most 8
-        /// hits goes 8 wide (the same rows: only the chunking changes).
+        /// Reconstructs the partly filled chunks (padded).
         #[inline(always)]
-        fn flush<T: Rows<W>>(&mut self, t: T, avx: Avx2, st: &mut Stage) {
+        fn flush(&mut self, avx: Avx2, st: &mut Stage) {
             for s in 0..SLOTS {
-                let n = self.slot[s].n;
-                if n > 8 || (n > 0 && W == 8) {
-                    one_mesh_triangles(t, avx, st, self.geom[s], self.slot[s].take());
-                } else if n > 0 {
-                    let (ids, n) = self.slot[s].take();
-                    let ids: [u32; 8] = ids[..8].try_into().expect("8 ids");
-                    one_mesh_triangles(avx, avx, st, self.geom[s], (ids, n));
+                if self.slot[s].n > 0 {
+                    one_mesh_triangles(avx, st, self.geom[s], self.slot[s].take());
                 }
             }
             if self.mixed.n > 0 {
@@ -207,209 +196,23 @@ pub(crate) mod x8 {
         ray: &'a [Ray],
         hit: &'a [Option<Hit>],
         surf: &'a mut Surfaces,
-        /// Hits whose rows were written by a 16-wide chunk.
-        lanes16: u64,
     }
 
-    /// What the gather stage needs of a lane width besides [`Wide`]: a chunk's rays, a mesh's
-    /// triangles and uvs by vector gathers, and the rows' stores. [`Avx2`] is width 8;
-    /// [`Avx512`] width 16, whose rays are two 8-wide loads joined and whose rows are stored as
-    /// two 8-wide halves (moves only, so the same bits).
-    trait Rows<const W: usize>: Wide<W> {
-        /// The rays of the paths `ids` in lanes: o.x, o.y, o.z, d.x, d.y, d.z, tmin, tmax.
-        fn ray_fields(self, avx: Avx2, rays: &[Ray], ids: &[u32; W]) -> [Self::F; 8];
-        /// [`Avx2::gather3_u32`] at this width.
-        fn gather3_u32(self, table: &[[u32; 3]], idx: Self::I) -> [Self::I; 3];
-        /// [`Avx2::gather2`] at this width.
-        fn gather2(self, table: &[glam::Vec2], idx: Self::I) -> [Self::F; 2];
-        /// `b` in every lane.
-        fn all(self, b: bool) -> Self::M;
-        /// [`store`] at this width.
-        fn store(
-            self,
-            avx: Avx2,
-            st: &mut Stage,
-            ids: &[u32; W],
-            n: usize,
-            s: &SurfLanes<Self::F>,
-            m: &Meta<Self::F, W>,
-        );
-    }
-
-    impl Rows<8> for Avx2 {
-        #[inline(always)]
-        fn ray_fields(self, _: Avx2, rays: &[Ray], ids: &[u32; 8]) -> [F32x8; 8] {
-            Avx2::ray_fields(self, rays, ids)
-        }
-        #[inline(always)]
-        fn gather3_u32(
-            self,
-            table: &[[u32; 3]],
-            idx: crate::lane::I32x8,
-        ) -> [crate::lane::I32x8; 3] {
-            Avx2::gather3_u32(self, table, idx)
-        }
-        #[inline(always)]
-        fn gather2(self, table: &[glam::Vec2], idx: crate::lane::I32x8) -> [F32x8; 2] {
-            Avx2::gather2(self, table, idx)
-        }
-        #[inline(always)]
-        fn all(self, b: bool) -> crate::lane::M8 {
-            self.mask_splat(b)
-        }
-        #[inline(always)]
-        fn store(
-            self,
-            _: Avx2,
-            st: &mut Stage,
-            ids: &[u32; 8],
-            n: usize,
-            s: &SurfLanes<F32x8>,
-            m: &Meta<F32x8, 8>,
-        ) {
-            store(self, st, ids, n, s, m)
-        }
-    }
-
-    /// Two 8-wide vectors as one 16-wide (lanes 0–7, then 8–15).
-    #[inline(always)]
-    fn join(w: Avx512, lo: F32x8, hi: F32x8) -> F32x16 {
-        let mut a = [0.0f32; 16];
-        let (l, h) = a.split_at_mut(8);
-        lo.store(l.try_into().expect("8 floats"));
-        hi.store(h.try_into().expect("8 floats"));
-        w.load(&a)
-    }
-
-    /// A 16-wide vector's lanes 0–7 (`half` 0) or 8–15 (`half` 1) as an 8-wide one.
-    #[inline(always)]
-    fn half(avx: Avx2, v: F32x16, half: usize) -> F32x8 {
-        let a = v.to_array();
-        avx.load(a[8 * half..8 * half + 8].try_into().expect("8 floats"))
-    }
-
-    #[inline(always)]
-    fn half3(avx: Avx2, v: V3<F32x16>, h: usize) -> V3<F32x8> {
-        V3::new(half(avx, v.x, h), half(avx, v.y, h), half(avx, v.z, h))
-    }
-
-    impl Rows<16> for Avx512 {
-        #[inline(always)]
-        fn ray_fields(self, avx: Avx2, rays: &[Ray], ids: &[u32; 16]) -> [F32x16; 8] {
-            let lo = avx.ray_fields(rays, ids[..8].try_into().expect("8 ids"));
-            let hi = avx.ray_fields(rays, ids[8..].try_into().expect("8 ids"));
-            [
-                join(self, lo[0], hi[0]),
-                join(self, lo[1], hi[1]),
-                join(self, lo[2], hi[2]),
-                join(self, lo[3], hi[3]),
-                join(self, lo[4], hi[4]),
-                join(self, lo[5], hi[5]),
-                join(self, lo[6], hi[6]),
-                join(self, lo[7], hi[7]),
-            ]
-        }
-        #[inline(always)]
-        fn gather3_u32(
-            self,
-            table: &[[u32; 3]],
-            idx: crate::lane::I32x16,
-        ) -> [crate::lane::I32x16; 3] {
-            Avx512::gather3_u32(self, table, idx)
-        }
-        #[inline(always)]
-        fn gather2(self, table: &[glam::Vec2], idx: crate::lane::I32x16) -> [F32x16; 2] {
-            Avx512::gather2(self, table, idx)
-        }
-        #[inline(always)]
-        fn all(self, b: bool) -> crate::lane::M16 {
-            self.mask(&[b; 16])
-        }
-        /// Lanes 0–7, then (where `n` > 8) lanes 8–15, each through the 8-wide [`store`].
-        #[inline(always)]
-        fn store(
-            self,
-            avx: Avx2,
-            st: &mut Stage,
-            ids: &[u32; 16],
-            n: usize,
-            s: &SurfLanes<F32x16>,
-            m: &Meta<F32x16, 16>,
-        ) {
-            st.lanes16 += n as u64;
-            for h in 0..2 {
-                if n <= 8 * h {
-                    break;
-                }
-                let (f, r) = (&s.frame, 8 * h..8 * h + 8);
-                let s8 = SurfLanes {
-                    p: half3(avx, s.p, h),
-                    ng: half3(avx, s.ng, h),
-                    frame: Frame {
-                        s: half3(avx, f.s, h),
-                        t: half3(avx, f.t, h),
-                        n: half3(avx, f.n, h),
-                    },
-                    uv: V2::new(half(avx, s.uv.x, h), half(avx, s.uv.y, h)),
-                    dpdu: half3(avx, s.dpdu, h),
-                    dpdv: half3(avx, s.dpdv, h),
-                };
-                let m8 = Meta {
-                    wi: half3(avx, m.wi, h),
-                    t: m.t[r.clone()].try_into().expect("8 floats"),
-                    shape: m.shape[r.clone()].try_into().expect("8 floats"),
-                    prim: m.prim[r.clone()].try_into().expect("8 floats"),
-                };
-                let ids: &[u32; 8] = ids[r].try_into().expect("8 ids");
-                store(avx, st, ids, (n - 8 * h).min(8), &s8, &m8);
-            }
-        }
-    }
-
-    /// [`super::fill`] in lanes: each active path with a hit goes to its form's pending chunk,
-    /// which is reconstructed when it holds 8 (one mesh's hits: 16 where `w16` is given) and at
-    /// the end, padded. Returns how many hits went through the lane forms, and how many of them
-    /// 16 wide.
-    pub(crate) fn fill(
-        avx: Avx2,
-        w16: Option<Avx512>,
-        scene: &Scene,
-        forms: &[Form],
-        batch: &mut Batch,
-    ) -> (u64, u64) {
-        match w16 {
-            Some(w) => w.run(
-                #[inline(always)]
-                || fill_in(w, avx, scene, forms, batch),
-            ),
-            None => avx.run(
-                #[inline(always)]
-                || fill_in(avx, avx, scene, forms, batch),
-            ),
-        }
-    }
-
-    /// [`fill`] with one mesh's hits `W` wide through `t`, the rest 8 wide through `avx`. Call
-    /// inside `t`'s `run`.
-    #[inline(always)]
-    fn fill_in<T: Rows<W>, const W: usize>(
-        t: T,
-        avx: Avx2,
-        scene: &Scene,
-        forms: &[Form],
-        batch: &mut Batch,
-    ) -> (u64, u64) {
-        {
-            {
+    /// [`super::fill`] 8-wide: each active path with a hit goes to its form's pending chunk,
+    /// which is reconstructed when it holds 8 (and at the end, padded). Returns how many hits
+    /// went through the lane forms.
+    pub(crate) fn fill(avx: Avx2, scene: &Scene, forms: &[Form], batch: &mut Batch) -> u64 {
+        avx.run(
+            #[inline(always)]
+            || {
                 let mut st = Stage {
                     scene,
                     forms,
                     ray: &batch.ray,
                     hit: &batch.hit,
                     surf: &mut batch.surf,
-                    lanes16: 0,
                 };
-                let mut tri = MeshChunks::<W>::EMPTY;
+                let mut tri = MeshChunks::EMPTY;
                 let (mut sph, mut rect) = (Pending::EMPTY, Pending::EMPTY);
                 let (mut disks, mut itri) = (Pending::EMPTY, Pending::EMPTY);
                 let mut cyl = Pending::EMPTY;
@@ -435,7 +238,7 @@ pub(crate) mod x8 {
                         continue;
                     }
                     match form {
-                        Form::Triangles => tri.push(t, avx, &mut st, h.geom, i),
+                        Form::Triangles => tri.push(avx, &mut st, h.geom, i),
                         Form::Sphere(..) => {
                             if sph.push(i) {
                                 spheres(avx, &mut st, sph.take());
@@ -464,7 +267,7 @@ pub(crate) mod x8 {
                         }
                     }
                 }
-                tri.flush(t, avx, &mut st);
+                tri.flush(avx, &mut st);
                 if sph.n > 0 {
                     spheres(avx, &mut st, sph.take());
                 }
@@ -480,9 +283,9 @@ pub(crate) mod x8 {
                 if cyl.n > 0 {
                     cylinders(avx, &mut st, cyl.take());
                 }
-                (hits - scalar, st.lanes16)
-            }
-        }
+                hits - scalar
+            },
+        )
     }
 
     /// Eight lanes of 3-vectors, filled lane by lane.
@@ -515,7 +318,7 @@ pub(crate) mod x8 {
             };
             m.set(k, h);
         }
-        let (o, d) = m.rays(avx, avx, st, ids);
+        let (o, d) = m.rays(avx, st, ids);
         sl::ray_at(o, d, avx.load(&m.t))
     }
 
@@ -536,26 +339,25 @@ pub(crate) mod x8 {
             && cols::ROW == 32
     );
 
-    /// What a row takes from each lane's hit and ray besides the lane form's fields (`W`
-    /// lanes of type `F`).
-    struct Meta<F = F32x8, const W: usize = 8> {
+    /// What a row takes from each lane's hit and ray besides the lane form's fields.
+    struct Meta {
         /// −ray.d ([`Meta::rays`]).
-        wi: V3<F>,
-        t: [f32; W],
+        wi: V3<F32x8>,
+        t: [f32; 8],
         /// The shape and primitive indices' bits.
-        shape: [f32; W],
-        prim: [f32; W],
+        shape: [f32; 8],
+        prim: [f32; 8],
     }
 
-    impl<F: Lane, const W: usize> Meta<F, W> {
+    impl Meta {
         #[inline(always)]
-        fn new<T: Wide<W, F = F>>(t: T) -> Meta<F, W> {
-            let z = t.splat(0.0);
+        fn new(avx: Avx2) -> Meta {
+            let z = avx.splat(0.0);
             Meta {
                 wi: V3::new(z, z, z),
-                t: [0.0; W],
-                shape: [0.0; W],
-                prim: [0.0; W],
+                t: [0.0; 8],
+                shape: [0.0; 8],
+                prim: [0.0; 8],
             }
         }
 
@@ -581,14 +383,8 @@ pub(crate) mod x8 {
         /// The lanes' ray origins and directions (each ray loaded whole and transposed, not
         /// field by field); sets `wi`.
         #[inline(always)]
-        fn rays<T: Rows<W, F = F>>(
-            &mut self,
-            t: T,
-            avx: Avx2,
-            st: &Stage,
-            ids: &[u32; W],
-        ) -> (V3<F>, V3<F>) {
-            let f = t.ray_fields(avx, st.ray, ids);
+        fn rays(&mut self, avx: Avx2, st: &Stage, ids: &[u32; 8]) -> (V3<F32x8>, V3<F32x8>) {
+            let f = avx.ray_fields(st.ray, ids);
             let d = V3::new(f[3], f[4], f[5]);
             self.wi = -d;
             (V3::new(f[0], f[1], f[2]), d)
@@ -629,17 +425,10 @@ pub(crate) mod x8 {
         store(avx, st, &ids, n, &s, &meta);
     }
 
-    /// Hits on one triangle mesh, shape `g` (every lane's), `W` at a time through `t`:
-    /// [`one_mesh_input`], then [`sl::triangle`] ([`sl::triangle_no_uv`] for a mesh without
-    /// uvs); a mesh too large for 32-bit gather offsets takes [`triangles`], 8 at a time.
+    /// Hits on one triangle mesh, shape `g` (every lane's): [`one_mesh_input`], then
+    /// [`sl::triangle`] ([`sl::triangle_no_uv`] for a mesh without uvs); a mesh too large for 32-bit gather offsets takes [`triangles`].
     #[inline(always)]
-    fn one_mesh_triangles<T: Rows<W>, const W: usize>(
-        t: T,
-        avx: Avx2,
-        st: &mut Stage,
-        g: u32,
-        (ids, n): ([u32; W], usize),
-    ) {
+    fn one_mesh_triangles(avx: Avx2, st: &mut Stage, g: u32, (ids, n): ([u32; 8], usize)) {
         let shape = &st.scene.shapes[g as usize];
         let ShapeKind::Mesh(m) = &shape.kind else {
             unreachable!("Form::Triangles is set for meshes only");
@@ -650,20 +439,15 @@ pub(crate) mod x8 {
             && m.normals.as_ref().is_none_or(|v| fits(v.len()))
             && m.uvs.as_ref().is_none_or(|v| fits(v.len())))
         {
-            // Eight lanes at a time (padded with the chunk's first id, as `Pending::take`).
-            for h in (0..W).step_by(8).take_while(|&h| h < n) {
-                let ids8: [u32; 8] = ids[h..h + 8].try_into().expect("8 ids");
-                triangles(avx, st, (ids8, (n - h).min(8)));
-            }
-            return;
+            return triangles(avx, st, (ids, n));
         }
-        let (x, meta) = one_mesh_input(t, avx, st, &ids, m, shape.flip_normals);
+        let (x, meta) = one_mesh_input(avx, st, &ids, m, shape.flip_normals);
         let s = if m.uvs.is_some() {
             sl::triangle(&x)
         } else {
             sl::triangle_no_uv(&x)
         };
-        t.store(avx, st, &ids, n, &s, &meta);
+        store(avx, st, &ids, n, &s, &meta);
     }
 
     /// [`triangle_input`] for lanes that all hit mesh `m` (whose `flip_normals` is `flip`):
@@ -671,16 +455,15 @@ pub(crate) mod x8 {
     /// gathers; the per-mesh flags and sign splat. The same values as lane by lane (the mesh is
     /// validated at load: its indices are in range, so the gathers' clamps change nothing).
     #[inline(always)]
-    fn one_mesh_input<T: Rows<W>, const W: usize>(
-        t: T,
+    fn one_mesh_input(
         avx: Avx2,
         st: &Stage,
-        ids: &[u32; W],
+        ids: &[u32; 8],
         m: &crate::geometry::mesh::TriMesh,
         flip: bool,
-    ) -> (sl::Triangle<T::F>, Meta<T::F, W>) {
-        let (mut prim, mut b1, mut b2) = ([0i32; W], [0.0f32; W], [0.0f32; W]);
-        let mut meta = Meta::new(t);
+    ) -> (sl::Triangle<F32x8>, Meta) {
+        let (mut prim, mut b1, mut b2) = ([0i32; 8], [0.0f32; 8], [0.0f32; 8]);
+        let mut meta = Meta::new(avx);
         for (k, &i) in ids.iter().enumerate() {
             let Some(h) = st.hit[i as usize] else {
                 continue;
@@ -690,35 +473,35 @@ pub(crate) mod x8 {
             b2[k] = h.v;
             meta.set(k, &h);
         }
-        meta.rays(t, avx, st, ids);
-        let tri = t.gather3_u32(&m.indices, t.load_i32(&prim));
+        meta.rays(avx, st, ids);
+        let tri = avx.gather3_u32(&m.indices, avx.load_i32(&prim));
         let p = [
-            gv3(T::F::gather3(&m.positions, tri[0])),
-            gv3(T::F::gather3(&m.positions, tri[1])),
-            gv3(T::F::gather3(&m.positions, tri[2])),
+            gv3(F32x8::gather3(&m.positions, tri[0])),
+            gv3(F32x8::gather3(&m.positions, tri[1])),
+            gv3(F32x8::gather3(&m.positions, tri[2])),
         ];
-        let z = t.splat(0.0);
+        let z = avx.splat(0.0);
         let (n, has_n) = match &m.normals {
             Some(ns) => (
                 [
-                    gv3(T::F::gather3(ns, tri[0])),
-                    gv3(T::F::gather3(ns, tri[1])),
-                    gv3(T::F::gather3(ns, tri[2])),
+                    gv3(F32x8::gather3(ns, tri[0])),
+                    gv3(F32x8::gather3(ns, tri[1])),
+                    gv3(F32x8::gather3(ns, tri[2])),
                 ],
-                t.all(true),
+                avx.mask_splat(true),
             ),
-            None => ([V3::new(z, z, z); 3], t.all(false)),
+            None => ([V3::new(z, z, z); 3], avx.mask_splat(false)),
         };
         let (uv, has_uv) = match &m.uvs {
             Some(uvs) => (
                 [
-                    gv2(t.gather2(uvs, tri[0])),
-                    gv2(t.gather2(uvs, tri[1])),
-                    gv2(t.gather2(uvs, tri[2])),
+                    gv2(avx.gather2(uvs, tri[0])),
+                    gv2(avx.gather2(uvs, tri[1])),
+                    gv2(avx.gather2(uvs, tri[2])),
                 ],
-                t.all(true),
+                avx.mask_splat(true),
             ),
-            None => ([V2::new(z, z); 3], t.all(false)),
+            None => ([V2::new(z, z); 3], avx.mask_splat(false)),
         };
         let x = sl::Triangle {
             p,
@@ -726,9 +509,9 @@ pub(crate) mod x8 {
             uv,
             has_n,
             has_uv,
-            b1: t.load(&b1),
-            b2: t.load(&b2),
-            sign: t.splat(if flip { -1.0 } else { 1.0 }),
+            b1: avx.load(&b1),
+            b2: avx.load(&b2),
+            sign: avx.splat(if flip { -1.0 } else { 1.0 }),
         };
         (x, meta)
     }
@@ -736,12 +519,12 @@ pub(crate) mod x8 {
     /// A gathered vector's components as a [`V3`] (a plain function, not a closure: see
     /// `tests/cli/simd_calls.rs`).
     #[inline(always)]
-    fn gv3<L: Lane>(c: [L; 3]) -> V3<L> {
+    fn gv3(c: [F32x8; 3]) -> V3<F32x8> {
         V3::new(c[0], c[1], c[2])
     }
 
     #[inline(always)]
-    fn gv2<L: Lane>(c: [L; 2]) -> V2<L> {
+    fn gv2(c: [F32x8; 2]) -> V2<F32x8> {
         V2::new(c[0], c[1])
     }
 
@@ -812,7 +595,7 @@ pub(crate) mod x8 {
             b2[k] = h.v;
             sign[k] = if shape.flip_normals { -1.0 } else { 1.0 };
         }
-        meta.rays(avx, avx, st, ids);
+        meta.rays(avx, st, ids);
         let x = sl::Triangle {
             p: [p[0].load(avx), p[1].load(avx), p[2].load(avx)],
             n: [nrm[0].load(avx), nrm[1].load(avx), nrm[2].load(avx)],
