@@ -62,7 +62,6 @@ impl Conductor {
     /// textured parameter).
     #[inline(always)]
     pub(crate) fn sample_with<L: Lane>(&self, spec: V3<L>, wi: V3<L>) -> LaneBsdfSample<L> {
-        let s = |v: Vec3| V3::splat(wi.z, v.x, v.y, v.z);
         let zero = wi.z.splat(0.0);
         let zero3 = V3::new(zero, zero, zero);
         let ok = !wi.z.le(zero);
@@ -75,7 +74,12 @@ impl Conductor {
                 weight: zero3,
             };
         }
-        let weight = spec * lane_conductor(wi.z, s(self.eta), s(self.k));
+        // The splats written out, not through a closure (which may be left out of line,
+        // outside the SIMD target features: `tests/cli/simd_calls.rs`).
+        let (eta, k) = (self.eta, self.k);
+        let eta = V3::splat(wi.z, eta.x, eta.y, eta.z);
+        let k = V3::splat(wi.z, k.x, k.y, k.z);
+        let weight = spec * lane_conductor(wi.z, eta, k);
         LaneBsdfSample {
             ok,
             // fresnel::reflect_z.

@@ -1310,17 +1310,18 @@ pub(crate) mod x8 {
             ref_p: V3<T::F>,
             light_lanes: &mut [u64; KINDS],
         ) -> LightPoint<T::F> {
-            let m = |a: &[bool; W]| -> T::M { avx.mask(a) };
+            // Masks through `avx.mask` directly: a closure here may be left out of line,
+            // outside the SIMD target features (`tests/cli/simd_calls.rs`).
             let mut lp = LightPoint {
-                some: m(&self.some),
+                some: avx.mask(&self.some),
                 d: self.ld.load(avx),
                 p: self.lpp.load(avx),
                 n: self.ln.load(avx),
-                has_n: m(&self.has_n),
-                finite: m(&self.finite),
+                has_n: avx.mask(&self.has_n),
+                finite: avx.mask(&self.finite),
                 pdf: avx.load(&self.lpdf),
                 value: self.lv.load(avx),
-                weight_one: m(&self.one),
+                weight_one: avx.mask(&self.one),
             };
             let su = V2::new(avx.load(&self.tux), avx.load(&self.tuy));
             let sel8 = avx.load(&self.sel);
@@ -1333,7 +1334,7 @@ pub(crate) mod x8 {
                     &Triangle {
                         p: load3(avx, &self.tpos),
                         n: load3(avx, &self.tnorm),
-                        has_normals: m(&self.tnorm_some),
+                        has_normals: avx.mask(&self.tnorm_some),
                         inv_area: avx.load(&self.inv_area),
                         sign: avx.load(&self.sign),
                         u: su,
@@ -1381,7 +1382,7 @@ pub(crate) mod x8 {
                 let b0 = sel8.splat(1.0) - b.x - b.y;
                 let c = |j: usize, a: usize| avx.load(&self.tuv[j][a]);
                 let tri = |a: usize, bb: T::F| (c(0, a) * b0 + c(1, a) * b.x) + c(2, a) * bb;
-                let has = m(&self.tuv_some);
+                let has = avx.mask(&self.tuv_some);
                 let tri_uv = V2::new(
                     T::F::select(has, tri(0, b.y), b.x),
                     T::F::select(has, tri(1, b.y), b.y),
@@ -1403,7 +1404,13 @@ pub(crate) mod x8 {
                 merge_free(&mut lp, is_kind::<T, W>(kinds, KIND_POINT), &q, sel8);
             }
             if self.counts[4] > 0 {
-                let [cos_cutoff, cos_beam, cutoff, beam_width] = self.cone.map(|c| avx.load(&c));
+                // Four loads, not `self.cone.map(..)`: the closure may be left out of line.
+                let [cos_cutoff, cos_beam, cutoff, beam_width] = [
+                    avx.load(&self.cone[0]),
+                    avx.load(&self.cone[1]),
+                    avx.load(&self.cone[2]),
+                    avx.load(&self.cone[3]),
+                ];
                 let spot = Spot {
                     pos: self.center.load(avx),
                     to_local: load3(avx, &self.mat),
@@ -1421,7 +1428,7 @@ pub(crate) mod x8 {
                     let (look, t) = self.textures(avx, scene, &on, q.ok.to_array(), uv);
                     q.value = V3::select(look, q.value * t, q.value);
                 }
-                merge_free(&mut lp, m(&on), &q, sel8);
+                merge_free(&mut lp, avx.mask(&on), &q, sel8);
             }
             if self.counts[5] > 0 {
                 let q = em::sample_directional(self.center.load(avx), lv, ref_p);
@@ -1463,7 +1470,7 @@ pub(crate) mod x8 {
                     pdf,
                     value: value.load(avx),
                 };
-                merge_free(&mut lp, m(&on), &q, sel8);
+                merge_free(&mut lp, avx.mask(&on), &q, sel8);
             }
             for (total, c) in light_lanes.iter_mut().zip(self.counts) {
                 *total += c as u64;
