@@ -1380,13 +1380,15 @@ pub(crate) mod x8 {
                 // then `nee::sample_emitter`'s zero test.
                 let b = warp::square_to_uniform_triangle(su);
                 let b0 = sel8.splat(1.0) - b.x - b.y;
-                let c = |j: usize, a: usize| avx.load(&self.tuv[j][a]);
-                let tri = |a: usize, bb: T::F| (c(0, a) * b0 + c(1, a) * b.x) + c(2, a) * bb;
+                // Written out, not through closures (which LLVM may leave out of line, outside
+                // the SIMD target features: `tests/cli/simd_calls.rs`).
+                let t = &self.tuv;
+                let (u0, u1, u2) = (avx.load(&t[0][0]), avx.load(&t[1][0]), avx.load(&t[2][0]));
+                let (v0, v1, v2) = (avx.load(&t[0][1]), avx.load(&t[1][1]), avx.load(&t[2][1]));
+                let tri_u = (u0 * b0 + u1 * b.x) + u2 * b.y;
+                let tri_v = (v0 * b0 + v1 * b.x) + v2 * b.y;
                 let has = avx.mask(&self.tuv_some);
-                let tri_uv = V2::new(
-                    T::F::select(has, tri(0, b.y), b.x),
-                    T::F::select(has, tri(1, b.y), b.y),
-                );
+                let tri_uv = V2::new(T::F::select(has, tri_u, b.x), T::F::select(has, tri_v, b.y));
                 let rect = is_kind::<T, W>(kinds, KIND_RECTANGLE);
                 let uv = V2::new(
                     T::F::select(rect, su.x, tri_uv.x),
