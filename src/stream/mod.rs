@@ -740,38 +740,32 @@ fn shade_kernel<T: kernels::tail::Tail>(
             };
             // 16 paths at a time where AVX-512 is on, then 8 (the same functions at both
             // widths, so the same numbers: only the chunking differs), then the rest padded.
+            use kernels::vertex::x8::Chunks;
             let mut c = run.start;
             if let Some(w16) = kernels.avx512 {
+                let mut chunks = Chunks::<16>::new(c..run.end, usize::MAX);
                 w16.run(
                     #[inline(always)]
                     || {
                         let mut gather = kernels::light::x8::Gather::<16>::new();
-                        while c + 16 <= run.end {
-                            let ids: [u32; 16] = batch.sorted[c..c + 16].try_into().expect("16");
-                            x8::shade(w16, scene, cfg, batch, &ids, 16, mat, &mut gather, tail);
-                            c += 16;
+                        while let Some((ids, live)) = chunks.next(&batch.sorted) {
+                            x8::shade(w16, scene, cfg, batch, &ids, live, mat, &mut gather, tail);
                         }
                     },
                 );
+                c = chunks.at();
             }
+            let mut chunks = Chunks::<8>::new(c..run.end, pad_min);
             avx.run(
                 #[inline(always)]
                 || {
                     let mut gather = kernels::light::x8::Gather::<8>::new();
-                    while c + 8 <= run.end {
-                        let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
-                        x8::shade(avx, scene, cfg, batch, &ids, 8, mat, &mut gather, tail);
-                        c += 8;
-                    }
-                    let rest = run.end - c;
-                    if rest > 0 && rest >= pad_min {
-                        let ids = kernels::vertex::x8::padded::<8>(&batch.sorted[c..run.end]);
-                        x8::shade(avx, scene, cfg, batch, &ids, rest, mat, &mut gather, tail);
-                        c = run.end;
+                    while let Some((ids, live)) = chunks.next(&batch.sorted) {
+                        x8::shade(avx, scene, cfg, batch, &ids, live, mat, &mut gather, tail);
                     }
                 },
             );
-            (c - run.start, false)
+            (chunks.at() - run.start, false)
         }
         Kernel::Conductor(mat) => {
             use kernels::vertex::x8;

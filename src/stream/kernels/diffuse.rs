@@ -221,7 +221,7 @@ pub(crate) mod x8 {
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::surface;
     use crate::stream::kernels::tail::Tail;
-    use crate::stream::kernels::vertex::x8::{live_only, scatter, LightCols};
+    use crate::stream::kernels::vertex::x8::{prologue, scatter, LightCols};
     use crate::stream::kernels::vertex::SampleOut;
 
     /// What a material needs for the kernel: its reflectance texture and whether it takes a
@@ -253,13 +253,7 @@ pub(crate) mod x8 {
         tail: &mut impl Tail,
     ) {
         // 1. The surfaces, loaded 8-wide from the batch's rows; 2. the side test.
-        let surface::x8::Prologue {
-            surf,
-            p,
-            wi,
-            mut front,
-        } = surface::x8::prologue(avx, &b.surf, ids);
-        live_only(&mut front, live);
+        let surface::x8::Prologue { surf, p, wi, front } = prologue(avx, &b.surf, ids, live);
 
         // 3a. Each path's random numbers in the scalar renderer's order (`u_sel` and `u` when it
         // takes a light sample, then `u2`), 8-wide from the gathered PCG32 states where the

@@ -204,7 +204,7 @@ pub(crate) mod x8 {
     use crate::stream::kernels::surface;
     use crate::stream::kernels::tail::{Sampled, Tail};
     use crate::stream::kernels::vertex;
-    use crate::stream::kernels::vertex::x8::{live_only, padded, scatter, LightCols};
+    use crate::stream::kernels::vertex::x8::{prologue, scatter, Chunks, LightCols};
 
     /// Shades the paths of the run `batch.sorted[run]` (all of material `mat`) `W` at a time,
     /// then the last `run.len() % W` as one padded chunk (`vertex::x8::padded`) when there are
@@ -221,29 +221,22 @@ pub(crate) mod x8 {
         lights: &[Option<LaneLight>],
         tail: &mut impl Tail,
     ) -> usize {
-        let n = run.len() / W * W;
-        let rest = run.len() - n;
-        let pad = rest > 0 && rest >= pad_min;
-        if n == 0 && !pad {
+        let mut chunks = Chunks::<W>::new(run.clone(), pad_min);
+        if !chunks.any() {
             return 0;
         }
         avx.run(
             #[inline(always)]
             || {
                 let mut gather = Gather::<W>::new();
-                for c in (run.start..run.start + n).step_by(W) {
-                    let ids: [u32; W] = b.sorted[c..c + W].try_into().expect("W ids");
-                    shade(avx, scene, cfg, b, &ids, W, &mat, lights, &mut gather, tail);
-                }
-                if pad {
-                    let ids = padded::<W>(&b.sorted[run.start + n..run.end]);
+                while let Some((ids, live)) = chunks.next(&b.sorted) {
                     shade(
                         avx,
                         scene,
                         cfg,
                         b,
                         &ids,
-                        rest,
+                        live,
                         &mat,
                         lights,
                         &mut gather,
@@ -252,11 +245,7 @@ pub(crate) mod x8 {
                 }
             },
         );
-        if pad {
-            run.len()
-        } else {
-            n
-        }
+        chunks.at() - run.start
     }
 
     /// Shades the 8 paths `ids` (each at a surface of material `mat`, with its interaction in
@@ -280,13 +269,7 @@ pub(crate) mod x8 {
     ) {
         // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
         // The surfaces, their points, the incident direction and the side test.
-        let surface::x8::Prologue {
-            surf,
-            p,
-            wi,
-            mut front,
-        } = surface::x8::prologue(avx, &b.surf, ids);
-        live_only(&mut front, live);
+        let surface::x8::Prologue { surf, p, wi, front } = prologue(avx, &b.surf, ids, live);
 
         // 2. Textures, light points and BSDF numbers, lane by lane in each path's order.
         let (rho0, spec0) = match &mat.coating {

@@ -202,19 +202,17 @@ pub(crate) mod x8 {
     ) -> usize {
         let mut gather = Gather::<W>::new();
         let base = mat.params(avx.splat(0.0));
-        let full = run.start + run.len() / W * W;
-        let rest = run.end - full;
         macro_rules! run {
             ($per_lane:literal, $full:literal) => {{
-                for c in (run.start..full).step_by(W) {
-                    let ids: [u32; W] = b.sorted[c..c + W].try_into().expect("W ids");
+                let mut chunks = Chunks::<W>::new(run, pad_min);
+                while let Some((ids, live)) = chunks.next(&b.sorted) {
                     shade::<T, W, $per_lane, $full>(
                         avx,
                         scene,
                         cfg,
                         b,
                         &ids,
-                        W,
+                        live,
                         mat,
                         &base,
                         lights,
@@ -222,25 +220,7 @@ pub(crate) mod x8 {
                         tail,
                     );
                 }
-                if rest > 0 && rest >= pad_min {
-                    let ids = padded::<W>(&b.sorted[full..run.end]);
-                    shade::<T, W, $per_lane, $full>(
-                        avx,
-                        scene,
-                        cfg,
-                        b,
-                        &ids,
-                        rest,
-                        mat,
-                        &base,
-                        lights,
-                        &mut gather,
-                        tail,
-                    );
-                    run.end
-                } else {
-                    full
-                }
+                chunks.at()
             }};
         }
         match (mat.per_lane(), mat.full()) {
@@ -278,13 +258,7 @@ pub(crate) mod x8 {
         debug_assert_eq!((PER_LANE, FULL), (mat.per_lane(), mat.full()));
         // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
         // The surfaces, their points, the incident direction and the side test.
-        let surface::x8::Prologue {
-            surf,
-            p,
-            wi,
-            mut front,
-        } = surface::x8::prologue(avx, &b.surf, ids);
-        live_only(&mut front, live);
+        let surface::x8::Prologue { surf, p, wi, front } = prologue(avx, &b.surf, ids, live);
 
         // 2. Random numbers, 8-wide from the gathered PCG32 states where the streams are plain
         // (`kernels::draws`); normal maps and light points lane by lane in each path's order.
@@ -471,6 +445,71 @@ pub(crate) mod x8 {
     pub(crate) fn live_only<const W: usize>(front: &mut [bool; W], live: usize) {
         for (k, f) in front.iter_mut().enumerate() {
             *f &= k < live;
+        }
+    }
+
+    /// [`surface::x8::prologue`] of a chunk whose first `live` lanes are paths (the others
+    /// marked behind their surface: [`live_only`]).
+    #[inline(always)]
+    pub(crate) fn prologue<T: Wide<W>, const W: usize>(
+        avx: T,
+        s: &crate::stream::batch::Surfaces,
+        ids: &[u32; W],
+        live: usize,
+    ) -> surface::x8::Prologue<T::F, W> {
+        let mut pr = surface::x8::prologue(avx, s, ids);
+        live_only(&mut pr.front, live);
+        pr
+    }
+
+    /// The chunks the kernels shade of a run of one material in `Batch::sorted`: `W` paths
+    /// at a time, then the last `run.len() % W` as one padded chunk ([`padded`]) when there
+    /// are at least `pad_min` of them (`usize::MAX`: never); the rest is left to the 1-lane
+    /// code, from [`Chunks::at`] on.
+    pub(crate) struct Chunks<const W: usize> {
+        next: usize,
+        end: usize,
+        pad_min: usize,
+    }
+
+    impl<const W: usize> Chunks<W> {
+        #[inline(always)]
+        pub(crate) fn new(run: std::ops::Range<usize>, pad_min: usize) -> Self {
+            Chunks {
+                next: run.start,
+                end: run.end,
+                pad_min,
+            }
+        }
+
+        /// Whether a chunk is left (without taking it).
+        #[inline(always)]
+        pub(crate) fn any(&self) -> bool {
+            let rest = self.end - self.next;
+            rest >= W || (rest > 0 && rest >= self.pad_min)
+        }
+
+        /// The next chunk's ids and how many of its lanes are paths, read from `sorted`.
+        #[inline(always)]
+        pub(crate) fn next(&mut self, sorted: &[u32]) -> Option<([u32; W], usize)> {
+            let rest = self.end - self.next;
+            if rest >= W {
+                let ids = sorted[self.next..self.next + W].try_into().expect("W ids");
+                self.next += W;
+                Some((ids, W))
+            } else if rest > 0 && rest >= self.pad_min {
+                let ids = padded::<W>(&sorted[self.next..self.end]);
+                self.next = self.end;
+                Some((ids, rest))
+            } else {
+                None
+            }
+        }
+
+        /// Where the chunks taken so far end.
+        #[inline(always)]
+        pub(crate) fn at(&self) -> usize {
+            self.next
         }
     }
 
