@@ -606,17 +606,7 @@ impl MsTable {
             let rows = avx.run(
                 #[inline(always)]
                 || {
-                    let axis = V2::new(avx.load(&q.ax), avx.load(&q.ay));
-                    let d = V3::new(avx.load(&q.wx), avx.load(&q.wy), avx.load(&q.wz));
-                    let c = coords(axis, d);
-                    let [w1, e] = interpolate_baked_lanes(
-                        &self.e_nodes,
-                        &self.e1_nodes,
-                        avx.load_i32(&q.plane),
-                        avx.load(&q.t),
-                        &c,
-                        with_first,
-                    );
+                    let [w1, e] = self.baked_lanes(avx, q, with_first);
                     let z = avx.splat(0.0);
                     F32x8::transpose8([w1.x, w1.y, w1.z, e.x, e.y, e.z, z, z]).map(|r| r.to_array())
                 },
@@ -648,18 +638,32 @@ impl MsTable {
         avx: crate::lane::Avx2,
         q: &Lookups8,
     ) -> V3<crate::lane::F32x8> {
+        let [_, e] = self.baked_lanes(avx, q, false);
+        e
+    }
+
+    /// W1 (when `with_first`; else zeros) and E_ms of the lanes of `q`, in registers: the
+    /// coordinates and the interpolation that [`Self::lookup_baked_x8`] and
+    /// [`Self::lookup_baked_e_lanes`] share. Call inside [`crate::lane::Avx2::run`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn baked_lanes(
+        &self,
+        avx: crate::lane::Avx2,
+        q: &Lookups8,
+        with_first: bool,
+    ) -> [V3<crate::lane::F32x8>; 2] {
         let axis = V2::new(avx.load(&q.ax), avx.load(&q.ay));
         let d = V3::new(avx.load(&q.wx), avx.load(&q.wy), avx.load(&q.wz));
         let c = coords(axis, d);
-        let [_, e] = interpolate_baked_lanes(
+        interpolate_baked_lanes(
             &self.e_nodes,
             &self.e1_nodes,
             avx.load_i32(&q.plane),
             avx.load(&q.t),
             &c,
-            false,
-        );
-        e
+            with_first,
+        )
     }
 
     /// [`Self::lookup_baked`]'s interpolation from the first corner node `i0` and the bilinear
