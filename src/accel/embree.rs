@@ -1319,10 +1319,11 @@ impl Valid8 {
 }
 
 impl EmbreeScene {
-    /// Eight rays (or fewer: lanes past `rays.len()` are off) in Embree's packet layout. (One
-    /// pass over the rays: building each field with its own pass over checked lanes cost ~38
-    /// instructions per ray.)
-    fn ray8(rays: &[Ray]) -> RTCRay8 {
+    /// Eight rays (or fewer: lanes past `n` are off; lane `k` is `ray(k)`) in Embree's packet
+    /// layout. (One pass over the rays: building each field with its own pass over checked
+    /// lanes cost ~38 instructions per ray.)
+    #[inline(always)]
+    fn ray8<'r>(n: usize, ray: impl Fn(usize) -> &'r Ray) -> RTCRay8 {
         let mut p = RTCRay8 {
             org_x: [0.0; 8],
             org_y: [0.0; 8],
@@ -1337,7 +1338,8 @@ impl EmbreeScene {
             id: [0; 8],
             flags: [0; 8],
         };
-        for (i, r) in rays.iter().take(8).enumerate() {
+        for i in 0..n.min(8) {
+            let r = ray(i);
             (p.org_x[i], p.org_y[i], p.org_z[i]) = (r.o.x, r.o.y, r.o.z);
             (p.dir_x[i], p.dir_y[i], p.dir_z[i]) = (r.d.x, r.d.y, r.d.z);
             (p.tnear[i], p.tfar[i]) = (r.tmin, r.tmax);
@@ -1351,14 +1353,30 @@ impl EmbreeScene {
     /// of `rays[i]` (`coherent`: the rays start near each other and point alike, e.g. camera
     /// rays of one pixel, which Embree may use to traverse them together).
     pub(crate) fn intersect8(&self, rays: &[Ray], coherent: bool, out: &mut [Option<Hit>; 8]) {
-        let n = rays.len().min(8);
+        *out = [None; 8];
+        self.intersect8_with(rays.len(), coherent, |k| &rays[k], |k, h| out[k] = h);
+    }
+
+    /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each hit
+    /// handed to `out(k, hit)` in lane order: the rays read from, and the hits written to,
+    /// wherever the caller keeps them (the stream renderer's path columns), without a packet of
+    /// rays or of hits in between.
+    #[inline(always)]
+    pub(crate) fn intersect8_with<'r>(
+        &self,
+        n: usize,
+        coherent: bool,
+        ray: impl Fn(usize) -> &'r Ray,
+        mut out: impl FnMut(usize, Option<Hit>),
+    ) {
+        let n = n.min(8);
         let valid = Valid8::first(n);
         let mut ctx = Self::context();
         if coherent {
             ctx.flags = RTCIntersectContextFlags::COHERENT;
         }
         let mut rh = RTCRayHit8 {
-            ray: Self::ray8(rays),
+            ray: Self::ray8(n, &ray),
             hit: RTCHit8 {
                 Ng_x: [0.0; 8],
                 Ng_y: [0.0; 8],
@@ -1373,8 +1391,8 @@ impl EmbreeScene {
         // SAFETY: the scene is committed; the mask, context and packet are valid locals with
         // the alignments Embree requires (32 bytes for the mask and the packet).
         unsafe { rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, &mut rh) };
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = (i < n && rh.hit.geomID[i] != u32::MAX).then(|| {
+        for i in 0..n {
+            let h = (rh.hit.geomID[i] != u32::MAX).then(|| {
                 let hit = Hit {
                     geom: rh.hit.geomID[i],
                     prim: rh.hit.primID[i],
@@ -1383,8 +1401,10 @@ impl EmbreeScene {
                     v: rh.hit.v[i],
                     inst: rh.hit.instID[0][i],
                 };
-                self.settle(hit, rays[i].o, rays[i].d, rays[i].tmin)
+                let r = ray(i);
+                self.settle(hit, r.o, r.d, r.tmin)
             });
+            out(i, h);
         }
     }
 
@@ -1394,7 +1414,7 @@ impl EmbreeScene {
         let n = rays.len().min(8);
         let valid = Valid8::first(n);
         let mut ctx = Self::context();
-        let mut r = Self::ray8(rays);
+        let mut r = Self::ray8(n, |k| &rays[k]);
         // SAFETY: as in `intersect8`.
         unsafe { rtcOccluded8(valid.0.as_ptr(), self.scene, &mut ctx, &mut r) };
         (0..n).fold(0, |m, i| {
@@ -1405,18 +1425,61 @@ impl EmbreeScene {
 
 /// A reusable array of rays for Embree's stream queries (`rtcIntersect1M`, `rtcOccluded1M`):
 /// one per worker thread, grown to the largest stream once and reused, so a query allocates
-/// nothing.
+/// nothing. Filled ([`RayBuf::fill`]) and traced ([`EmbreeScene::intersect_filled`],
+/// [`EmbreeScene::occluded_filled`]) in two steps, so that the caller can note what goes in
+/// (the stream renderer's shadow stage lists the pending paths as it fills).
 #[derive(Default)]
 pub(crate) struct RayBuf {
+    /// Slots, never shrunk; the first `n` hold the stream.
     rh: Vec<RTCRayHit>,
+    n: usize,
 }
 
 impl RayBuf {
-    /// Refills the buffer with `rays` (tnear, tfar from each ray; no hit yet).
-    fn fill<'r>(&mut self, rays: impl Iterator<Item = &'r Ray>) {
-        self.rh.clear();
-        self.rh
-            .extend(rays.map(|r| EmbreeScene::ray_hit(r.o, r.d, r.tmin, r.tmax)));
+    /// Refills the buffer with `rays` (tnear, tfar from each ray; no hit yet); returns how many.
+    /// The rays are written into slots grown beforehand to the iterator's upper bound, so
+    /// a ray costs no capacity check and no length store (as `Vec::extend` paid for iterators
+    /// without a trusted length: 33 instructions per ray on million.xml's bounce stream).
+    #[inline(always)]
+    pub(crate) fn fill<'r>(&mut self, mut rays: impl Iterator<Item = &'r Ray>) -> usize {
+        let (lo, hi) = rays.size_hint();
+        let want = hi.unwrap_or(lo);
+        if self.rh.len() < want {
+            let empty = EmbreeScene::ray_hit(Vec3::ZERO, Vec3::Z, 0.0, 0.0);
+            self.rh.resize(want, empty);
+        }
+        let mut n = 0;
+        // The slots first: `zip` stops when they run out without taking a ray.
+        for (slot, r) in self.rh.iter_mut().zip(&mut rays) {
+            *slot = EmbreeScene::ray_hit(r.o, r.d, r.tmin, r.tmax);
+            n += 1;
+        }
+        // An iterator longer than its upper bound said, or without one (the slots ran out, so
+        // `n` is their number).
+        for r in rays {
+            self.rh.push(EmbreeScene::ray_hit(r.o, r.d, r.tmin, r.tmax));
+            n += 1;
+        }
+        self.n = n;
+        n
+    }
+
+    /// The rays of the stream, as given to [`Self::fill`] (before a query changes their tfar).
+    pub(crate) fn rays(&self) -> impl Iterator<Item = Ray> + '_ {
+        self.rh[..self.n].iter().map(|rh| {
+            let r = &rh.ray;
+            Ray {
+                o: Vec3::new(r.org_x, r.org_y, r.org_z),
+                d: Vec3::new(r.dir_x, r.dir_y, r.dir_z),
+                tmin: r.tnear,
+                tmax: r.tfar,
+            }
+        })
+    }
+
+    /// How many rays the stream holds.
+    pub(crate) fn len(&self) -> usize {
+        self.n
     }
 }
 
@@ -1439,11 +1502,22 @@ impl EmbreeScene {
         rays: impl Iterator<Item = &'r Ray>,
         coherent: bool,
         buf: &mut RayBuf,
-        mut out: impl FnMut(usize, Option<Hit>),
+        out: impl FnMut(usize, Option<Hit>),
     ) {
         buf.fill(rays);
+        self.intersect_filled(coherent, buf, out);
+    }
+
+    /// [`Self::intersect_stream`] of the rays [`RayBuf::fill`] put in `buf`.
+    pub(crate) fn intersect_filled(
+        &self,
+        coherent: bool,
+        buf: &mut RayBuf,
+        mut out: impl FnMut(usize, Option<Hit>),
+    ) {
         let mut ctx = Self::stream_context(coherent);
-        for part in buf.rh.chunks_mut(u32::MAX as usize) {
+        let rh = &mut buf.rh[..buf.n];
+        for part in rh.chunks_mut(u32::MAX as usize) {
             // SAFETY: the scene is committed; `part` holds `part.len()` ray-hits of
             // `RTCRayHit`'s size and 16-byte alignment, which is the stride given.
             unsafe {
@@ -1456,7 +1530,7 @@ impl EmbreeScene {
                 )
             };
         }
-        for (k, rh) in buf.rh.iter().enumerate() {
+        for (k, rh) in rh.iter().enumerate() {
             let r = &rh.ray;
             out(
                 k,
@@ -1484,12 +1558,23 @@ impl EmbreeScene {
         rays: impl Iterator<Item = &'r Ray>,
         coherent: bool,
         buf: &mut RayBuf,
-        mut out: impl FnMut(usize, bool),
+        out: impl FnMut(usize, bool),
     ) {
         buf.fill(rays);
+        self.occluded_filled(coherent, buf, out);
+    }
+
+    /// [`Self::occluded_stream`] of the rays [`RayBuf::fill`] put in `buf`.
+    pub(crate) fn occluded_filled(
+        &self,
+        coherent: bool,
+        buf: &mut RayBuf,
+        mut out: impl FnMut(usize, bool),
+    ) {
         let mut ctx = Self::stream_context(coherent);
-        for part in buf.rh.chunks_mut(u32::MAX as usize) {
-            // SAFETY: as in `intersect_stream`; each ray is the first member of its
+        let rh = &mut buf.rh[..buf.n];
+        for part in rh.chunks_mut(u32::MAX as usize) {
+            // SAFETY: as in `intersect_filled`; each ray is the first member of its
             // `RTCRayHit` (`repr(C)`), so the rays lie `size_of::<RTCRayHit>()` bytes apart, and
             // the hit after each (geomID invalid) is what Embree's stream filter reads past it.
             unsafe {
@@ -1502,7 +1587,7 @@ impl EmbreeScene {
                 )
             };
         }
-        for (k, rh) in buf.rh.iter().enumerate() {
+        for (k, rh) in rh.iter().enumerate() {
             // Embree sets tfar to −∞ when the ray is occluded.
             out(k, rh.ray.tfar == f32::NEG_INFINITY);
         }

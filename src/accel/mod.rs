@@ -91,6 +91,32 @@ impl Tier {
 #[derive(Default)]
 pub struct RayBuf(embree::RayBuf);
 
+impl RayBuf {
+    /// Fills the buffer with `rays` for [`Accel::intersect_filled`] or
+    /// [`Accel::occluded_filled`]; returns how many.
+    #[inline(always)]
+    pub fn fill<'r>(&mut self, rays: impl Iterator<Item = &'r Ray>) -> usize {
+        self.0.fill(rays)
+    }
+
+    /// The rays [`Self::fill`] put in, in order (as given: before a query changes them).
+    pub fn rays(&self) -> impl Iterator<Item = Ray> + '_ {
+        self.0.rays()
+    }
+
+    /// How many rays the buffer holds.
+    #[inline(always)]
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    /// Whether the buffer holds no ray.
+    #[inline(always)]
+    pub fn is_empty(&self) -> bool {
+        self.0.len() == 0
+    }
+}
+
 /// The acceleration structure over a scene's shapes. `Send + Sync`: queries run from any thread.
 pub struct Accel {
     /// Tier A's tables, when the scene takes tier A (then `scene` is `None`).
@@ -291,6 +317,36 @@ impl Accel {
         }
     }
 
+    /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each hit handed
+    /// to `out(k, hit)` in lane order: no packet of rays or of hits in between under Embree
+    /// (the stream renderer's camera packets, read from and written to its path columns).
+    #[inline(always)]
+    pub fn intersect8_with<'r>(
+        &self,
+        n: usize,
+        coherent: bool,
+        ray: impl Fn(usize) -> &'r Ray,
+        mut out: impl FnMut(usize, Option<Hit>),
+    ) {
+        let n = n.min(8);
+        match (&self.brute, &self.scene) {
+            (None, Some(s)) => s.intersect8_with(n, coherent, ray, |k, h| {
+                out(k, h.and_then(|h| self.world_hit(h)))
+            }),
+            _ => {
+                let mut p = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
+                for (k, p) in p.iter_mut().enumerate().take(n) {
+                    *p = *ray(k);
+                }
+                let mut hits = [None; 8];
+                self.intersect8(&p[..n], coherent, &mut hits);
+                for (k, h) in hits.into_iter().enumerate().take(n) {
+                    out(k, h);
+                }
+            }
+        }
+    }
+
     /// [`Self::intersect8`] of up to 16 rays (`out[i]` for `rays[i]`, the others `None`): tier A
     /// traces them as one 16-wide packet on AVX-512 (each lane's hit bit for bit the single
     /// ray's, `tests/scene/tier_a.rs`); Embree, and tier A without AVX-512, as two 8-wide
@@ -337,21 +393,41 @@ impl Accel {
         mut out: impl FnMut(usize, Option<Hit>),
     ) {
         match (&self.brute, &self.scene) {
-            (Some(b), _) => {
-                let mut k = 0;
-                for_each_8(rays, |p| {
-                    let mut hits = [None; 8];
-                    b.intersect8(p, &mut hits);
-                    for h in &hits[..p.len()] {
-                        out(k, *h);
-                        k += 1;
-                    }
-                })
-            }
+            (Some(b), _) => brute_intersect(b, rays.copied(), out),
             (None, Some(s)) => s.intersect_stream(rays, coherent, &mut buf.0, |k, hit| {
                 out(k, hit.and_then(|h| self.world_hit(h)))
             }),
             (None, None) => rays.enumerate().for_each(|(k, _)| out(k, None)),
+        }
+    }
+
+    /// [`Self::intersect_stream`] of the rays [`RayBuf::fill`] put in `buf`.
+    pub fn intersect_filled(
+        &self,
+        coherent: bool,
+        buf: &mut RayBuf,
+        mut out: impl FnMut(usize, Option<Hit>),
+    ) {
+        match (&self.brute, &self.scene) {
+            (None, Some(s)) => s.intersect_filled(coherent, &mut buf.0, |k, hit| {
+                out(k, hit.and_then(|h| self.world_hit(h)))
+            }),
+            (Some(b), _) => brute_intersect(b, buf.0.rays(), out),
+            (None, None) => (0..buf.0.len()).for_each(|k| out(k, None)),
+        }
+    }
+
+    /// [`Self::occluded_stream`] of the rays [`RayBuf::fill`] put in `buf`.
+    pub fn occluded_filled(
+        &self,
+        coherent: bool,
+        buf: &mut RayBuf,
+        mut out: impl FnMut(usize, bool),
+    ) {
+        match (&self.brute, &self.scene) {
+            (None, Some(s)) => s.occluded_filled(coherent, &mut buf.0, out),
+            (Some(b), _) => brute_occluded(b, buf.0.rays(), out),
+            (None, None) => (0..buf.0.len()).for_each(|k| out(k, false)),
         }
     }
 
@@ -365,16 +441,7 @@ impl Accel {
         mut out: impl FnMut(usize, bool),
     ) {
         match (&self.brute, &self.scene) {
-            (Some(b), _) => {
-                let mut k = 0;
-                for_each_8(rays, |p| {
-                    let blocked = b.occluded8(p);
-                    for i in 0..p.len() {
-                        out(k, blocked >> i & 1 == 1);
-                        k += 1;
-                    }
-                })
-            }
+            (Some(b), _) => brute_occluded(b, rays.copied(), out),
             (None, Some(s)) => s.occluded_stream(rays, coherent, &mut buf.0, out),
             (None, None) => rays.enumerate().for_each(|(k, _)| out(k, false)),
         }
@@ -412,12 +479,45 @@ impl Accel {
     }
 }
 
+/// Tier A's streams: `rays` as 8-wide packets, `out(k, hit)` for the `k`-th ray, in order.
+fn brute_intersect(
+    b: &brute::Brute,
+    rays: impl Iterator<Item = Ray>,
+    mut out: impl FnMut(usize, Option<Hit>),
+) {
+    let mut k = 0;
+    for_each_8(rays, |p| {
+        let mut hits = [None; 8];
+        b.intersect8(p, &mut hits);
+        for h in &hits[..p.len()] {
+            out(k, *h);
+            k += 1;
+        }
+    })
+}
+
+/// [`brute_intersect`] for occlusion: `out(k, blocked)`.
+fn brute_occluded(
+    b: &brute::Brute,
+    rays: impl Iterator<Item = Ray>,
+    mut out: impl FnMut(usize, bool),
+) {
+    let mut k = 0;
+    for_each_8(rays, |p| {
+        let blocked = b.occluded8(p);
+        for i in 0..p.len() {
+            out(k, blocked >> i & 1 == 1);
+            k += 1;
+        }
+    })
+}
+
 /// Calls `f` with `rays` cut into consecutive packets of 8 (the last one shorter).
-fn for_each_8<'r>(rays: impl Iterator<Item = &'r Ray>, mut f: impl FnMut(&[Ray])) {
+fn for_each_8(rays: impl Iterator<Item = Ray>, mut f: impl FnMut(&[Ray])) {
     let mut p = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
     let mut n = 0;
     for r in rays {
-        p[n] = *r;
+        p[n] = r;
         n += 1;
         if n == 8 {
             f(&p);

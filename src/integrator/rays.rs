@@ -150,6 +150,33 @@ impl Rays {
         scene.accel.intersect8(rays, kind == RayKind::Camera, out);
     }
 
+    /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each hit handed
+    /// to `out(k, hit)` in lane order, without a packet of rays or of hits in between (the
+    /// stream renderer reads the rays from, and writes the hits to, its path columns).
+    #[inline]
+    pub fn intersect8_with<'r>(
+        &mut self,
+        scene: &Scene,
+        n: usize,
+        kind: RayKind,
+        ray: impl Fn(usize) -> &'r Ray,
+        out: impl FnMut(usize, Option<Hit>),
+    ) {
+        let n = n.min(8);
+        match kind {
+            RayKind::Camera => self.counters.camera += n as u64,
+            RayKind::Bounce => self.counters.bounce += n as u64,
+        }
+        if self.log.is_some() {
+            for k in 0..n {
+                self.log(ray(k), false, kind == RayKind::Camera);
+            }
+        }
+        scene
+            .accel
+            .intersect8_with(n, kind == RayKind::Camera, ray, out);
+    }
+
     /// The nearest hit of one ray as the accelerator reports it (no surface interaction yet),
     /// counted as `kind`.
     #[inline]
@@ -169,25 +196,13 @@ impl Rays {
     pub fn intersect_stream<'r>(
         &mut self,
         scene: &Scene,
-        rays: impl Iterator<Item = &'r Ray> + Clone,
+        rays: impl Iterator<Item = &'r Ray>,
         kind: RayKind,
         coherent: bool,
         out: impl FnMut(usize, Option<Hit>),
     ) {
-        if self.log.is_some() {
-            for r in rays.clone() {
-                self.log(r, false, kind == RayKind::Camera);
-            }
-        }
-        let mut n = 0u64;
-        let counted = rays.inspect(|_| n += 1);
-        scene
-            .accel
-            .intersect_stream(counted, coherent, &mut self.buf, out);
-        match kind {
-            RayKind::Camera => self.counters.camera += n,
-            RayKind::Bounce => self.counters.bounce += n,
-        }
+        self.fill_stream(rays);
+        self.intersect_filled(scene, kind, coherent, out);
     }
 
     /// [`Self::occluded`] of many shadow rays traced as one stream: `out(k, blocked)` for the
@@ -196,21 +211,63 @@ impl Rays {
     pub fn occluded_stream<'r>(
         &mut self,
         scene: &Scene,
-        rays: impl Iterator<Item = &'r Ray> + Clone,
+        rays: impl Iterator<Item = &'r Ray>,
         coherent: bool,
         out: impl FnMut(usize, bool),
     ) {
-        if self.log.is_some() {
-            for r in rays.clone() {
-                self.log(r, true, false);
+        self.fill_stream(rays);
+        self.occluded_filled(scene, coherent, out);
+    }
+
+    /// The first step of a stream query: `rays` into the stream buffer (nothing traced or
+    /// counted yet); returns how many. The caller may note what it puts in as the iterator
+    /// runs (the stream renderer's shadow stage lists its pending paths in the same pass).
+    #[inline]
+    pub fn fill_stream<'r>(&mut self, rays: impl Iterator<Item = &'r Ray>) -> usize {
+        self.buf.fill(rays)
+    }
+
+    /// The second step: [`Self::intersect_stream`] of the rays [`Self::fill_stream`] put in.
+    #[inline]
+    pub fn intersect_filled(
+        &mut self,
+        scene: &Scene,
+        kind: RayKind,
+        coherent: bool,
+        out: impl FnMut(usize, Option<Hit>),
+    ) {
+        self.log_stream(false, kind == RayKind::Camera);
+        let n = self.buf_len();
+        scene.accel.intersect_filled(coherent, &mut self.buf, out);
+        match kind {
+            RayKind::Camera => self.counters.camera += n,
+            RayKind::Bounce => self.counters.bounce += n,
+        }
+    }
+
+    /// The second step: [`Self::occluded_stream`] of the rays [`Self::fill_stream`] put in.
+    #[inline]
+    pub fn occluded_filled(&mut self, scene: &Scene, coherent: bool, out: impl FnMut(usize, bool)) {
+        self.log_stream(true, false);
+        let n = self.buf_len();
+        scene.accel.occluded_filled(coherent, &mut self.buf, out);
+        self.counters.shadow += n;
+    }
+
+    /// How many rays the stream buffer holds.
+    #[inline(always)]
+    fn buf_len(&self) -> u64 {
+        self.buf.len() as u64
+    }
+
+    /// Logs the stream buffer's rays when a log is on (before the query changes them).
+    #[inline(always)]
+    fn log_stream(&mut self, shadow: bool, camera: bool) {
+        if let Some(l) = &mut self.log {
+            for r in self.buf.rays() {
+                l.push(&r, shadow, camera);
             }
         }
-        let mut n = 0u64;
-        let counted = rays.inspect(|_| n += 1);
-        scene
-            .accel
-            .occluded_stream(counted, coherent, &mut self.buf, out);
-        self.counters.shadow += n;
     }
 
     /// [`Self::occluded`] of up to 8 shadow rays traced as one packet: bit `i` for `rays[i]`.

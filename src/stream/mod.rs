@@ -864,6 +864,9 @@ fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Ra
     if packet == Some(false) {
         return shadow_packets(scene, batch, rays);
     }
+    if packet == Some(true) {
+        return shadow_stream(scene, batch, rays);
+    }
     // `shadow` is a subsequence of `scatter`: written in place over a copy of it, branch-free
     // (the write position advances past the paths with a pending sample only).
     batch.shadow.clear();
@@ -879,17 +882,7 @@ fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Ra
     let n = batch.shadow.len();
     rays.counters.lanes.shadow_used += n as u64;
     rays.counters.lanes.shadow_slots += slots(n);
-    if packet == Some(true) {
-        let (shadow, light, state) = (&batch.shadow, &batch.light, &mut batch.state);
-        // Every id in `shadow` has a pending light sample (filtered above).
-        let ls = shadow.iter().filter_map(|&i| light[i as usize].as_ref());
-        rays.occluded_stream(scene, ls.map(|l| &l.shadow), false, |k, blocked| {
-            let i = shadow[k] as usize;
-            if let (Some(l), false) = (&light[i], blocked) {
-                state[i].add_light(l);
-            }
-        });
-    } else if packet.is_some() {
+    if packet.is_some() {
         let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
         for chunk in batch.shadow.chunks(8) {
             for (p, &i) in packet.iter_mut().zip(chunk) {
@@ -915,6 +908,29 @@ fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Ra
             }
         }
     }
+}
+
+/// [`shadows`] as one Embree stream (`rtcOccluded1M`), in one pass over `batch.scatter`: each
+/// pending sample's ray goes into the stream and its path into `batch.shadow` as the pass meets
+/// it; then the unblocked samples are added. The same stream as filtering the pending paths into
+/// `batch.shadow` first, without that pass.
+fn shadow_stream(scene: &Scene, batch: &mut Batch, rays: &mut Rays) {
+    let (scatter, light, shadow) = (&batch.scatter, &batch.light, &mut batch.shadow);
+    shadow.clear();
+    let n = rays.fill_stream(scatter.iter().filter_map(|&i| {
+        let l = light[i as usize].as_ref()?;
+        shadow.push(i);
+        Some(&l.shadow)
+    }));
+    rays.counters.lanes.shadow_used += n as u64;
+    rays.counters.lanes.shadow_slots += slots(n);
+    let (shadow, state) = (&batch.shadow, &mut batch.state);
+    rays.occluded_filled(scene, false, |k, blocked| {
+        let i = shadow[k] as usize;
+        if let (Some(l), false) = (&light[i], blocked) {
+            state[i].add_light(l);
+        }
+    });
 }
 
 /// [`shadows`] as 8-wide packets of consecutive pending rays in path order (16-wide where
@@ -1000,10 +1016,20 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, 
         trace_packets::<16>(batch, rays, |rays, p, out| {
             rays.intersect16(scene, p, kind, out)
         });
-    } else if packet.is_some() {
+    } else if packet.is_some() && scene.accel.tier() == crate::accel::Tier::Brute {
         trace_packets::<8>(batch, rays, |rays, p, out| {
             rays.intersect8(scene, p, kind, out)
         });
+    } else if packet.is_some() {
+        // Under Embree, each packet's rays read from, and its hits written to, the path
+        // columns directly (tier A takes whole packets of rays: `trace_packets`).
+        let (active, ray, hit) = (&batch.active, &batch.ray, &mut batch.hit);
+        for chunk in active.chunks(8) {
+            let ray = |k: usize| &ray[chunk[k] as usize];
+            rays.intersect8_with(scene, chunk.len(), kind, ray, |k, h| {
+                hit[chunk[k] as usize] = h;
+            });
+        }
     } else {
         for &i in &batch.active {
             let i = i as usize;

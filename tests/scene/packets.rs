@@ -236,6 +236,59 @@ fn packet_and_stream_hits_on_meshes_are_the_single_ray_hits_bit_for_bit() {
         assert_eq!(seen, 2 * part.len());
         start += part.len();
     }
+    // The stream renderer's forms: packets read through an index map and written through a
+    // callback (`Accel::intersect8_with`), and streams filled in a step of their own from
+    // iterators of unknown length (`RayBuf::fill`: an upper bound, as the shadow stage's
+    // filter gives, or none, which takes the slow path past the buffer's slots), then traced
+    // (`Accel::intersect_filled`, `Accel::occluded_filled`).
+    let order: Vec<usize> = (0..all.len()).map(|k| (k * 7919) % all.len()).collect();
+    for (c, ids) in order.chunks(8).enumerate() {
+        let n = if c % 4 == 3 { 1 + c % 7 } else { ids.len() };
+        let mut seen = 0;
+        accel.intersect8_with(
+            n,
+            c % 2 == 0,
+            |k| &all[ids[k]],
+            |k, h| {
+                assert_eq!(
+                    bits(&h),
+                    bits(&single[ids[k]]),
+                    "packet {c} lane {k} (with)"
+                );
+                seen += 1;
+            },
+        );
+        assert_eq!(seen, n);
+    }
+    let mut buf = groove::accel::RayBuf::default();
+    for (s, len) in [3usize, 700, 1024, 2000, 5].into_iter().enumerate() {
+        let part = &order[..len];
+        let keep = |k: &&usize| **k % 3 != 1;
+        let kept: Vec<usize> = part.iter().filter(keep).copied().collect();
+        let n = if s % 2 == 0 {
+            buf.fill(part.iter().filter(keep).map(|&k| &all[k]))
+        } else {
+            let mut it = kept.iter();
+            buf.fill(std::iter::from_fn(|| it.next().map(|&k| &all[k])))
+        };
+        assert_eq!((n, buf.len()), (kept.len(), kept.len()), "stream {s}");
+        let mut seen = 0;
+        accel.intersect_filled(s % 2 == 1, &mut buf, |k, h| {
+            assert_eq!(
+                bits(&h),
+                bits(&single[kept[k]]),
+                "filled stream {s} ray {k}"
+            );
+            seen += 1;
+        });
+        // The query changed tfar: fill again before the occlusion query.
+        buf.fill(kept.iter().map(|&k| &all[k]));
+        accel.occluded_filled(false, &mut buf, |k, b| {
+            assert_eq!(b, blocked[kept[k]], "filled stream {s} ray {k}: occlusion");
+            seen += 1;
+        });
+        assert_eq!(seen, 2 * kept.len());
+    }
     let hits = single.iter().flatten().count();
     let instanced = single
         .iter()
