@@ -114,11 +114,27 @@ pub(in crate::bsdf::mnm::compensated) struct Mirror8 {
 
 /// [`Mirror8::eval`]'s results by lane: the first order's f1·z(ωo) and density p1.
 pub(in crate::bsdf::mnm::compensated) struct FirstOrders {
-    f: [[f32; 8]; 3],
-    p: [f32; 8],
+    pub(in crate::bsdf::mnm::compensated) f: [[f32; 8]; 3],
+    pub(in crate::bsdf::mnm::compensated) p: [f32; 8],
 }
 
 impl FirstOrders {
+    /// Every lane (0, 0).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn zero() -> Self {
+        FirstOrders {
+            f: [[0.0; 8]; 3],
+            p: [0.0; 8],
+        }
+    }
+
+    /// Lane `k` set to (`f`, `p`).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn set(&mut self, k: usize, f: Spectrum, p: f32) {
+        set3(&mut self.f, k, f);
+        self.p[k] = p;
+    }
+
     /// Lane `k`'s (f1·z(ωo), p1).
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn get(&self, k: usize) -> (Spectrum, f32) {
@@ -404,10 +420,7 @@ impl Mirror8 {
                 || {
                     let q = self.load8(avx, pts);
                     let (f, p) = first(b, &q);
-                    let mut out = FirstOrders {
-                        f: [[0.0; 8]; 3],
-                        p: [0.0; 8],
-                    };
+                    let mut out = FirstOrders::zero();
                     f.x.store(&mut out.f[0]);
                     f.y.store(&mut out.f[1]);
                     f.z.store(&mut out.f[2]);
@@ -422,10 +435,7 @@ impl Mirror8 {
     /// [`Self::eval_with`] lane by lane at width 1.
     #[inline(always)]
     fn eval_width1<B: LaneNested>(&self, pts: &Points8, b: &B) -> FirstOrders {
-        let mut out = FirstOrders {
-            f: [[0.0; 8]; 3],
-            p: [0.0; 8],
-        };
+        let mut out = FirstOrders::zero();
         for k in 0..8 {
             if self.used & (1 << k) == 0 {
                 continue;
