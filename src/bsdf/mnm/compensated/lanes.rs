@@ -240,36 +240,68 @@ impl<'a> Chunk<'a> {
             self.above |= 1 << k;
         }
         if let Some(t) = table {
-            let l = t.lookup_baked_x8(&self.q, true);
-            for (k, &lk) in l.iter().enumerate() {
-                match &self.pts[k] {
-                    Some(pt) if self.q.is_used(k) => {
-                        let at = AtWi::baked(&pt.r, lk);
-                        for c in 0..3 {
-                            self.ei[c][k] = at.ei[c];
-                            self.norm[c][k] = at.norm[c];
-                        }
-                        self.at[k] = at;
-                    }
-                    _ => {}
-                }
-            }
+            self.baked_state(t);
         }
         self.table = table;
         for k in 0..8 {
-            if self.above & (1 << k) != 0 {
+            if self.above & (1 << k) != 0 && !self.q.is_used(k) {
                 self.sel[k] = self.at[k].select;
             }
         }
         if mirror {
             self.geo.clear_unpushed();
         }
+        // Over the mirror sawtooth the entries stay in the columns (no `Entries` row per
+        // point: the sampler picks from the columns, `first::Points8::pick`).
         if mirror && self.above != 0 {
             self.geo.entries();
-            for k in 0..8 {
-                if self.above & (1 << k) != 0 {
-                    self.e[k] = self.geo.entries_of(k);
+        }
+    }
+
+    /// The state at ωi of the points of the lookups `q` (those with the shared baked table
+    /// `t`), in columns: E_ms(ωi) (`ei`), 1 / (π Ē_ms) (`norm`, the points' own) and the lobe
+    /// choice s(ωi) (`sel`), the numbers of `AtWi::baked` over `lookup_baked(.., true)` per
+    /// point: 8-wide when the CPU has AVX2 and FMA ([`MsTable::baked_lanes`],
+    /// [`selection_lanes`]; the queries then read the columns only), else per point (also
+    /// kept in `at`, which the remainders then read). Lanes of `sel` and `ei` without a lookup
+    /// hold any value until [`Self::prepare`] sets theirs.
+    #[inline(always)]
+    fn baked_state(&mut self, t: &'static MsTable) {
+        for k in 0..8 {
+            if let (Some(pt), true) = (&self.pts[k], self.q.is_used(k)) {
+                let n = pt.r.baked_norm.expect("a point of the baked lookups");
+                for (c, col) in self.norm.iter_mut().enumerate() {
+                    col[k] = n[c];
                 }
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = crate::lane::Avx2::detect() {
+            let (q, ei, sel) = (&self.q, &mut self.ei, &mut self.sel);
+            avx.run(
+                #[inline(always)]
+                || {
+                    let [w1, e] = t.baked_lanes(avx, q, true);
+                    e.x.store(&mut ei[0]);
+                    e.y.store(&mut ei[1]);
+                    e.z.store(&mut ei[2]);
+                    selection_lanes(e, w1).store(sel);
+                },
+            );
+            return;
+        }
+        let l = t.lookup_baked_x8(&self.q, true);
+        for (k, &lk) in l.iter().enumerate() {
+            match &self.pts[k] {
+                Some(pt) if self.q.is_used(k) => {
+                    let at = AtWi::baked(&pt.r, lk);
+                    for c in 0..3 {
+                        self.ei[c][k] = at.ei[c];
+                    }
+                    self.sel[k] = at.select;
+                    self.at[k] = at;
+                }
+                _ => {}
             }
         }
     }
@@ -445,6 +477,26 @@ pub(crate) fn with_incident_alone_x8(arena: &mut BsdfArena, roots: &[u32; 8], wi
     with_incident_x8(arena, &alone, wi);
 }
 
+/// `compensated::selection` lane by lane in its operations and order: s(ωi) = Y(E_ms) /
+/// (Y(W1) + Y(E_ms)) with Y the luminance (`spectrum::luminance`, its products and sums in
+/// order, no fused multiply-add), each Y first raised to 0, and 0 where Y(E_ms) is not
+/// positive. The x86 maximum gives 0 for NaN as `f32::max` does; where the two may differ
+/// (the sign of a zero) the result does not: a zero Y(E_ms) gives 0, a zero Y(W1) adds nothing.
+#[inline(always)]
+fn selection_lanes<L: crate::lane::Lane>(
+    ei: crate::lane::vec::V3<L>,
+    first: crate::lane::vec::V3<L>,
+) -> L {
+    #[inline(always)]
+    fn luminance<L: crate::lane::Lane>(c: crate::lane::vec::V3<L>) -> L {
+        c.x.splat(0.212671) * c.x + c.x.splat(0.715160) * c.y + c.x.splat(0.072169) * c.z
+    }
+    let zero = ei.x.splat(0.0);
+    let a = luminance(ei).max(zero);
+    let b = luminance(first).max(zero);
+    L::select(a.gt(zero), a / (a + b), zero)
+}
+
 /// Whether every point is over the mirror sawtooth (then their first orders run in lanes,
 /// [`first::Mirror8`]).
 #[inline(always)]
@@ -507,9 +559,9 @@ pub(crate) fn eval_pdf_x8(
             continue;
         }
         let (f, p) = fo.get(k);
-        let a = &c.at[k];
+        let s = c.sel[k];
         let r = Vec3::new(rem[0][k], rem[1][k], rem[2][k]);
-        *o = (f + r, (1.0 - a.select) * p + a.select * st.wo[k].z * INV_PI);
+        *o = (f + r, (1.0 - s) * p + s * st.wo[k].z * INV_PI);
     }
     out
 }
@@ -587,16 +639,25 @@ pub(crate) fn sample_x8(
             continue;
         }
         let s = &mut samplers[ids[k] as usize];
-        if s.next_1d() < c.at[k].select {
+        if s.next_1d() < c.sel[k] {
             st.wo[k] = warp::square_to_cosine_hemisphere(s.next_2d());
             drawn |= 1 << k;
             continue;
         }
         // `draw`'s entry by weight, then the nested sample from the entry's direction.
-        let Some(j) = pick_entry(&c.e[k], s.next_1d()) else {
-            continue;
+        // Over the mirror sawtooth from the chunk's entry columns (the same pick and
+        // direction as `pick_entry` over the point's `Entries`).
+        let u = s.next_1d();
+        let (j, a) = if c.mirror {
+            let Some(j) = c.geo.pick(k, u) else { continue };
+            (j, c.geo.entry_dir(k, j))
+        } else {
+            let Some(j) = pick_entry(&c.e[k], u) else {
+                continue;
+            };
+            (j, c.e[k].a[j])
         };
-        asks.push(kind, k, c.e[k].a[j], s);
+        asks.push(kind, k, a, s);
         entry[k] = j;
     }
     // Pass 2: the nested samples 8-wide.
@@ -613,9 +674,9 @@ pub(crate) fn sample_x8(
             let s = &mut samplers[ids[k] as usize];
             // Over the mirror sawtooth from the chunk's columns (the map's numbers).
             (st.wo[k], st.known[k]) = if c.mirror {
-                leave(&c.geo.lane(k), &c.e[k], j, sampled, s)
+                leave(&c.geo.lane(k), 0, j, sampled, s) // every entry is facet 0's
             } else {
-                leave(pt.map(), &c.e[k], j, sampled, s)
+                leave(pt.map(), c.e[k].k[j] as usize, j, sampled, s)
             };
             drawn |= 1 << k;
         }
@@ -901,6 +962,73 @@ mod tests {
         );
     }
 
+    /// s(ωi) in lanes ([`selection_lanes`], 8-wide on this machine and at width 1) equals
+    /// `compensated::selection` bit for bit: random E_ms and W1 (negative components too)
+    /// mixed with ±0, subnormals, huge values, ±∞ and NaN.
+    #[test]
+    fn selection_in_lanes_equals_the_scalar_one() {
+        use crate::lane::vec::V3;
+        let mut rng = Pcg32::new(21, 5);
+        let specials = [
+            0.0,
+            -0.0,
+            1e-40,
+            -1e-40,
+            f32::MIN_POSITIVE,
+            1e30,
+            -1e30,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        let value = |rng: &mut Pcg32| {
+            if rng.next_f32() < 0.1 {
+                specials[rng.next_u32() as usize % specials.len()]
+            } else {
+                2.0 * rng.next_f32() - 0.5
+            }
+        };
+        let (mut positive, mut zero) = (0, 0);
+        for round in 0..20000 {
+            let (mut e, mut w) = ([[0.0f32; 8]; 3], [[0.0f32; 8]; 3]);
+            for k in 0..8 {
+                for ch in 0..3 {
+                    e[ch][k] = value(&mut rng);
+                    w[ch][k] = value(&mut rng);
+                }
+            }
+            let mut wide = None;
+            #[cfg(target_arch = "x86_64")]
+            if let Some(avx) = crate::lane::Avx2::detect() {
+                wide = Some(avx.run(|| {
+                    let l3 = |x: &[[f32; 8]; 3]| {
+                        V3::new(avx.load(&x[0]), avx.load(&x[1]), avx.load(&x[2]))
+                    };
+                    let mut out = [0.0f32; 8];
+                    selection_lanes(l3(&e), l3(&w)).store(&mut out);
+                    out
+                }));
+            }
+            for k in 0..8 {
+                let ek = Vec3::new(e[0][k], e[1][k], e[2][k]);
+                let wk = Vec3::new(w[0][k], w[1][k], w[2][k]);
+                let want = super::super::selection(ek, wk);
+                let one = selection_lanes::<f32>(ek.into(), wk.into());
+                assert!(same(one, want), "{round} {k}: {one} vs {want}");
+                if let Some(wide) = wide {
+                    assert!(same(wide[k], want), "{round} {k}: {} vs {want}", wide[k]);
+                }
+                positive += usize::from(want > 0.0);
+                zero += usize::from(want == 0.0);
+            }
+        }
+        assert!(
+            positive > 50000 && zero > 30000,
+            "{positive} positive, {zero} zero"
+        );
+    }
+
     /// The samples' last step in lanes ([`finish_samples`], 8-wide on this machine and lane by
     /// lane at width 1) equals the scalar code's (`compensated::sample`'s density and weight,
     /// its test pdf finite and > 0, then `accept_sample`) bit for bit, lane by lane: kept or
@@ -1068,14 +1196,28 @@ mod tests {
                 let at = AtWi::new(&pt.r, &pt.nested, pt.wi, None);
                 let e = Entries::new(pt.map(), pt.wi);
                 // Debug prints each f32 as its shortest round-trip form: equal strings are
-                // equal bits.
+                // equal bits. The points of the baked lookups keep E_ms(ωi), 1 / (π Ē_ms)
+                // and s(ωi) in columns, the others their `AtWi`; every point its s(ωi) in
+                // `sel`.
+                let (got, want) = if c.q.is_used(k) {
+                    let col = |x: &[[f32; 8]; 3]| Vec3::new(x[0][k], x[1][k], x[2][k]);
+                    assert!(at.k.is_none(), "chunk {chunk} lane {k}");
+                    (
+                        format!("{:?}", (col(&c.ei), col(&c.norm), c.sel[k])),
+                        format!("{:?}", (at.ei, at.norm, at.select)),
+                    )
+                } else {
+                    assert!(same(c.sel[k], at.select), "chunk {chunk} lane {k}");
+                    (format!("{:?}", c.at[k]), format!("{at:?}"))
+                };
+                assert_eq!(got, want, "chunk {chunk} lane {k}");
+                // Over the mirror sawtooth the entries stay in the columns.
+                let got = match c.mirror {
+                    true => c.geo.entries_of(k),
+                    false => c.e[k],
+                };
                 assert_eq!(
-                    format!("{:?}", c.at[k]),
-                    format!("{at:?}"),
-                    "chunk {chunk} lane {k}"
-                );
-                assert_eq!(
-                    format!("{:?}", c.e[k]),
+                    format!("{got:?}"),
                     format!("{e:?}"),
                     "chunk {chunk} lane {k}"
                 );
