@@ -898,7 +898,7 @@ fn draw(
 ) -> Option<(Vec3, Option<Known>)> {
     let j = pick_entry(e, s.next_1d())?;
     let bs = nested.sample(ctx, e.a[j], s)?;
-    Some(leave(m, e, j, (bs.wo, bs.pdf, bs.weight), s))
+    Some(leave(m, e.k[j] as usize, j, (bs.wo, bs.pdf, bs.weight), s))
 }
 
 /// The entry that `x` (a uniform number) picks by the entries' weights (they sum to 1 up to
@@ -920,7 +920,7 @@ fn pick_entry(e: &Entries, x: f32) -> Option<usize> {
 }
 
 /// [`draw`]'s last step, once entry `j`'s nested sample `(ωo, pdf, weight)` (ωo in the
-/// entry's facet frame) is known: u = ωo in the shading frame; over the mirror sawtooth u
+/// frame of the entry's facet `facet`) is known: u = ωo in the shading frame; over the mirror sawtooth u
 /// leaves directly with probability G1(u) (one more number drawn from `s`), else it is
 /// blocked and leaves through the wall (R(u)). Returns ωo and the drawn term. Shared with the
 /// stream kernel's sampler (`lanes::sample_x8`), which samples the nested BSDF of 8 points at
@@ -928,12 +928,12 @@ fn pick_entry(e: &Entries, x: f32) -> Option<usize> {
 #[inline(always)]
 fn leave<M: Leaves>(
     m: &M,
-    e: &Entries,
+    facet: usize,
     j: usize,
     (bwo, bpdf, bweight): (Vec3, f32, Spectrum),
     s: &mut Sampler,
 ) -> (Vec3, Option<Known>) {
-    let u = m.facet_to_world(e.k[j] as usize, bwo);
+    let u = m.facet_to_world(facet, bwo);
     let known = |wall| {
         (bpdf.is_finite() && bpdf > 0.0).then_some(Known {
             j,

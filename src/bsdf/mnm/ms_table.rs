@@ -644,10 +644,13 @@ impl MsTable {
 
     /// W1 (when `with_first`; else zeros) and E_ms of the lanes of `q`, in registers: the
     /// coordinates and the interpolation that [`Self::lookup_baked_x8`] and
-    /// [`Self::lookup_baked_e_lanes`] share. Call inside [`crate::lane::Avx2::run`].
+    /// [`Self::lookup_baked_e_lanes`] share (and the compensated chunk's state at ωi, which
+    /// goes on in lanes). Lane k (one with a lookup) is `lookup_baked(cell, w, with_first)`
+    /// bit for bit; the other lanes hold the placeholders' values. Call inside
+    /// [`crate::lane::Avx2::run`].
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn baked_lanes(
+    pub(in crate::bsdf::mnm) fn baked_lanes(
         &self,
         avx: crate::lane::Avx2,
         q: &Lookups8,

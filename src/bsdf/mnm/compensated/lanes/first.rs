@@ -21,7 +21,9 @@
 use super::super::super::facet_bsdf::reflect_across;
 use super::super::super::facets::{g1_of, FacetCols};
 use super::super::super::nested_batch::LaneNested;
-use super::super::{Entries, Known, Leaves, Nested};
+#[cfg(test)]
+use super::super::Entries;
+use super::super::{Known, Leaves, Nested};
 use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::lane::frame::Frame as LaneFrame;
 use crate::lane::vec::V3;
@@ -114,11 +116,27 @@ pub(in crate::bsdf::mnm::compensated) struct Mirror8 {
 
 /// [`Mirror8::eval`]'s results by lane: the first order's f1·z(ωo) and density p1.
 pub(in crate::bsdf::mnm::compensated) struct FirstOrders {
-    f: [[f32; 8]; 3],
-    p: [f32; 8],
+    pub(in crate::bsdf::mnm::compensated) f: [[f32; 8]; 3],
+    pub(in crate::bsdf::mnm::compensated) p: [f32; 8],
 }
 
 impl FirstOrders {
+    /// Every lane (0, 0).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn zero() -> Self {
+        FirstOrders {
+            f: [[0.0; 8]; 3],
+            p: [0.0; 8],
+        }
+    }
+
+    /// Lane `k` set to (`f`, `p`).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn set(&mut self, k: usize, f: Spectrum, p: f32) {
+        set3(&mut self.f, k, f);
+        self.p[k] = p;
+    }
+
     /// Lane `k`'s (f1·z(ωo), p1).
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn get(&self, k: usize) -> (Spectrum, f32) {
@@ -303,7 +321,9 @@ impl Points8 {
         }
     }
 
-    /// Lane `k`'s entries (computed by [`Self::entries`]) as `Entries::new` gives them.
+    /// Lane `k`'s entries (computed by [`Self::entries`]) as `Entries::new` gives them (the
+    /// tests' view: the sampler reads the columns, [`Self::pick`]).
+    #[cfg(test)]
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn entries_of(&self, k: usize) -> Entries {
         let mut e = Entries::EMPTY;
@@ -318,6 +338,30 @@ impl Points8 {
             e.via_wall = if self.wall0[k] > 0.0 { 1 } else { 2 };
         }
         e
+    }
+
+    /// `pick_entry` over lane `k`'s entries ([`Self::entries_of`]) from the columns: `None`
+    /// without an entry, slot 0 when it is the only one, else slot 0 where `x` < 0 + w0
+    /// (`pick_entry`'s running sum from 0) and slot 1 otherwise. A second slot exists only
+    /// with a first (`entries`), so these are the scalar loop's cases for up to 2 entries.
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn pick(&self, k: usize, x: f32) -> Option<usize> {
+        if self.has[0][k] <= 0.0 {
+            return None;
+        }
+        if self.has[1][k] <= 0.0 {
+            return Some(0);
+        }
+        let mut acc = 0.0f32;
+        acc += self.w[0][k];
+        Some(if x < acc { 0 } else { 1 })
+    }
+
+    /// The direction of lane `k`'s entry `j` in facet 0's frame (`entries_of(k).a[j]`).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn entry_dir(&self, k: usize, j: usize) -> Vec3 {
+        let a = &self.a[j];
+        Vec3::new(a[0][k], a[1][k], a[2][k])
     }
 
     /// Lane `k`: the point of map `m` (over the mirror sawtooth: `m.mirror_wall`) with the
@@ -404,10 +448,7 @@ impl Mirror8 {
                 || {
                     let q = self.load8(avx, pts);
                     let (f, p) = first(b, &q);
-                    let mut out = FirstOrders {
-                        f: [[0.0; 8]; 3],
-                        p: [0.0; 8],
-                    };
+                    let mut out = FirstOrders::zero();
                     f.x.store(&mut out.f[0]);
                     f.y.store(&mut out.f[1]);
                     f.z.store(&mut out.f[2]);
@@ -422,10 +463,7 @@ impl Mirror8 {
     /// [`Self::eval_with`] lane by lane at width 1.
     #[inline(always)]
     fn eval_width1<B: LaneNested>(&self, pts: &Points8, b: &B) -> FirstOrders {
-        let mut out = FirstOrders {
-            f: [[0.0; 8]; 3],
-            p: [0.0; 8],
-        };
+        let mut out = FirstOrders::zero();
         for k in 0..8 {
             if self.used & (1 << k) == 0 {
                 continue;
@@ -652,6 +690,7 @@ mod tests {
     fn entries_in_lanes_equal_the_scalar_ones() {
         let mut rng = Pcg32::new(16, 7);
         let (mut compared, mut wall_only) = (0, 0);
+        let mut picks = [0; 2];
         for round in 0..500 {
             let (mut wide, mut one) = (Points8::new(), Points8::new());
             let mut want = [None; 8];
@@ -683,13 +722,34 @@ mod tests {
                 let w = format!("{w:?}");
                 assert_eq!(format!("{:?}", wide.entries_of(k)), w, "{round} {k}");
                 assert_eq!(format!("{:?}", one.entries_of(k)), w, "{round} {k}");
+                // The sampler's pick and direction from the columns: `pick_entry`'s over
+                // the entries, for random numbers and each entry's edge (the weight itself,
+                // its neighbours), 0, 1 and NaN.
+                let e = wide.entries_of(k);
+                let w0 = if e.len() > 0 { e.w[0] } else { 0.5 };
+                for x in [
+                    rng.next_f32(),
+                    0.0,
+                    1.0,
+                    w0,
+                    f32::from_bits(w0.to_bits().wrapping_add(1)),
+                    f32::from_bits(w0.to_bits().wrapping_sub(1)),
+                    f32::NAN,
+                ] {
+                    let want = super::super::super::pick_entry(&e, x);
+                    assert_eq!(wide.pick(k, x), want, "{round} {k} {x}");
+                    if let Some(j) = want {
+                        assert!(same3(wide.entry_dir(k, j), e.a[j]), "{round} {k}");
+                        picks[j] += 1;
+                    }
+                }
                 compared += 1;
                 wall_only += usize::from(w.contains("n: 1, via_wall: 1"));
             }
         }
         assert!(
-            compared > 2500 && wall_only > 20,
-            "{compared} lanes, {wall_only} through the wall alone"
+            compared > 2500 && wall_only > 20 && picks[0] > 5000 && picks[1] > 1000,
+            "{compared} lanes, {wall_only} through the wall alone, {picks:?} picks"
         );
     }
 
