@@ -169,7 +169,7 @@ pub(crate) fn leaf_values(
 pub(crate) mod x8 {
     use super::*;
     use crate::geometry::Ray;
-    use crate::integrator::path::advance_lanes;
+    use crate::integrator::path::{advance_lanes, PendingLight};
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::V2;
     use crate::lane::{ToArray, Wide};
@@ -186,7 +186,10 @@ pub(crate) mod x8 {
     /// 1-lane code). The instance for `mat` is picked once here: whether the leaf's parameters
     /// differ per lane (`Material::per_lane`; else its constant [`Params`] are built once,
     /// from the template) and whether the chain needs the full instance (`Material::full`:
-    /// textured leaf parameters, a `mask`, a `bumpmap`). Call inside [`Avx2::run`].
+    /// textured leaf parameters, a `mask`, a `bumpmap`). `gather` is the caller's, made once
+    /// per shading stage rather than per run (its light selection is the scene's: building it
+    /// and its [`Gather`] per run cost ~10 instructions per sample on metal_plastic). Call
+    /// inside [`Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade_run<T: Wide<W>, const W: usize>(
@@ -198,26 +201,16 @@ pub(crate) mod x8 {
         pad_min: usize,
         mat: &Material,
         lights: &[Option<LaneLight>],
+        gather: &mut Gather<W>,
         tail: &mut impl Tail,
     ) -> usize {
-        let mut gather = Gather::<W>::new();
         let base = mat.params(avx.splat(0.0));
         macro_rules! run {
             ($per_lane:literal, $full:literal) => {{
                 let mut chunks = Chunks::<W>::new(run, pad_min);
                 while let Some((ids, live)) = chunks.next(&b.sorted) {
                     shade::<T, W, $per_lane, $full>(
-                        avx,
-                        scene,
-                        cfg,
-                        b,
-                        &ids,
-                        live,
-                        mat,
-                        &base,
-                        lights,
-                        &mut gather,
-                        tail,
+                        avx, scene, cfg, b, &ids, live, mat, &base, lights, gather, tail,
                     );
                 }
                 chunks.at()
@@ -309,17 +302,16 @@ pub(crate) mod x8 {
         let textured = PER_LANE || FULL || sources.iter().any(Option::is_some);
         if !textured {
             // Nothing to look up lane by lane (so no `mask` either, which takes `FULL`): the
-            // pending light samples cleared and the throughputs gathered, in every lane (a lane
-            // behind its surface keeps its throughput too; its results are dropped).
+            // throughputs gathered in every lane (a lane behind its surface keeps its
+            // throughput too; its results are dropped). The pending light samples are
+            // cleared or set by `scatter`.
+            let state = &b.state[..];
             for (k, &i) in ids.iter().enumerate() {
-                let i = i as usize;
-                b.light[i] = None;
-                tp.set(k, b.state[i].throughput);
+                tp.set(k, state[i as usize].throughput);
             }
         } else {
             for (k, &i) in ids.iter().enumerate() {
                 let i = i as usize;
-                b.light[i] = None;
                 if !front[k] {
                     continue;
                 }
@@ -427,8 +419,8 @@ pub(crate) mod x8 {
     /// The ids of a padded chunk: the last `rest.len()` (1 to `W` − 1) paths of a run, then
     /// the last of them again in the lanes beyond. A repeated id, not an arbitrary path: the
     /// kernels' steps that run in every lane whatever [`live_only`] says (the surface loads,
-    /// the `b.light[i] = None` of each lane) then touch only paths of the chunk, whose own
-    /// lanes clear the same pending sample before any is stored.
+    /// the throughput gathers) then touch only paths of the chunk; [`scatter`] writes each
+    /// path's pending light sample last from its own lane.
     #[inline(always)]
     pub(crate) fn padded<const W: usize>(rest: &[u32]) -> [u32; W] {
         let last = *rest.last().expect("a padded chunk has a path");
@@ -443,8 +435,11 @@ pub(crate) mod x8 {
     /// dropped, as those of a lane that fails the side test.
     #[inline(always)]
     pub(crate) fn live_only<const W: usize>(front: &mut [bool; W], live: usize) {
-        for (k, f) in front.iter_mut().enumerate() {
-            *f &= k < live;
+        // Only a padded chunk has lanes to clear (a full chunk's pass cost ~50 instructions).
+        if live < W {
+            for f in &mut front[live..] {
+                *f = false;
+            }
         }
     }
 
@@ -542,9 +537,13 @@ pub(crate) mod x8 {
     /// Step 4 of a chunk (the wrapper-chain driver's and [`crate::stream::kernels::blend`]'s):
     /// each front-facing lane's pending shadow ray, then its BSDF sample, to the integrator's
     /// tail, in path order (`throughput`: the paths' throughputs, read by the `path` tail; a
-    /// lane behind its surface may hold any value there). Under the `path` integrator's tail ([`Tail::path`]) the light
-    /// samples are stored lane by lane and the vertices end in lanes ([`advance`]); the order
-    /// does not matter there (each lane writes its own path's fields).
+    /// lane behind its surface may hold any value there). Every path's pending light sample
+    /// (`b.light`) is set here: `None` but where the lane's light sample passed (the kernels do
+    /// not clear it first: a padded chunk's repeated lanes clear only paths of the chunk,
+    /// before any is stored). Under the `path` integrator's tail ([`Tail::path`], whose
+    /// [`Tail::light`] only stores the sample) the light samples are stored here and the
+    /// vertices end in lanes ([`advance`]); the order does not matter there (each lane writes
+    /// its own path's fields).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn scatter<T: Wide<W>, const W: usize>(
@@ -558,12 +557,21 @@ pub(crate) mod x8 {
         so: &SampleOut<T::F>,
         tail: &mut impl Tail,
     ) {
+        // Every pending sample cleared, then the passing ones stored: two passes, not one
+        // `Some`-or-`None` store per lane (LLVM merges those into a store of the whole 48-byte
+        // row in every lane).
+        let pending = &mut b.light[..];
+        for &i in ids {
+            pending[i as usize] = None;
+        }
         if let Some(cfg) = tail.path().copied() {
             if let Some(l) = lo {
                 for (k, &i) in ids.iter().enumerate() {
                     if front[k] && l.ok[k] {
-                        let shadow = Ray::segment(l.o.get(k), l.d.get(k), l.tmax[k]);
-                        tail.light(b, i as usize, shadow, l.c.get(k));
+                        pending[i as usize] = Some(PendingLight {
+                            shadow: Ray::segment(l.o.get(k), l.d.get(k), l.tmax[k]),
+                            contribution: l.c.get(k),
+                        });
                     }
                 }
             }
@@ -624,9 +632,12 @@ pub(crate) mod x8 {
         throughput: V3<T::F>,
         so: &SampleOut<T::F>,
     ) {
+        // The rows as slices held apart (their lengths and pointers stay in registers).
+        let (state, sampler) = (&mut b.state[..], &mut b.sampler[..]);
+        let (ray, alive) = (&mut b.ray[..], &mut b.alive[..]);
         let mut eta = [1.0f32; W];
         for (k, &i) in ids.iter().enumerate() {
-            eta[k] = b.state[i as usize].eta;
+            eta[k] = state[i as usize].eta;
         }
         let rr_depth = cfg.rr_depth as i64;
         let a = advance_lanes(throughput, avx.load(&eta), so.weight, so.eta);
@@ -644,11 +655,11 @@ pub(crate) mod x8 {
             }
             let i = i as usize;
             let (mut tk, mut on) = (t.get(k), live[k]);
-            let st = &mut b.state[i];
+            let st = &mut state[i];
             // Roulette from rr_depth on, as `advance` tests it after its `depth += 1`.
             if on && st.depth.wrapping_add(1) as i64 >= rr_depth {
                 // `advance`'s roulette: the path ends at u ≥ q, else its throughput is divided.
-                if b.sampler[i].next_1d() >= q[k] {
+                if sampler[i].next_1d() >= q[k] {
                     on = false;
                 } else {
                     tk /= q[k];
@@ -656,8 +667,8 @@ pub(crate) mod x8 {
             }
             st.set_advanced(tk, e[k], p.get(k), pdf[k], delta[k]);
             if on {
-                b.ray[i] = Ray::new(o.get(k), wo.get(k));
-                b.alive[i] = true;
+                ray[i] = Ray::new(o.get(k), wo.get(k));
+                alive[i] = true;
             }
         }
     }
