@@ -657,12 +657,10 @@ fn shade<T: kernels::tail::Tail>(
     tail: &mut T,
 ) {
     // The light gathers of the diffuse and wrapper-chain kernels, one per width for the whole
-    // stage (not one per run: each builds the scene's light selection once).
+    // stage (not one per run: each builds the scene's light selection once), made at the
+    // first run that takes one.
     #[cfg(target_arch = "x86_64")]
-    let mut gathers = (
-        kernels::light::x8::Gather::<8>::new(),
-        kernels::light::x8::Gather::<16>::new(),
-    );
+    let mut gathers = (None, None);
     #[cfg(not(target_arch = "x86_64"))]
     let mut gathers = ();
     let mut start = 0;
@@ -713,7 +711,7 @@ fn shade<T: kernels::tail::Tail>(
 /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (material `m`) with
 /// `m`'s 8-wide kernel; returns how many it shaded (0 without a kernel or AVX2) and whether the
 /// wrapper-chain driver shaded them. Each vertex ends in `tail`. `gathers`: the stage's light
-/// gathers of width 8 and 16 (the diffuse and wrapper-chain kernels').
+/// gathers of width 8 and 16 (the diffuse and wrapper-chain kernels'), made when first needed.
 #[cfg(target_arch = "x86_64")]
 #[allow(clippy::too_many_arguments)]
 fn shade_kernel<T: kernels::tail::Tail>(
@@ -725,12 +723,11 @@ fn shade_kernel<T: kernels::tail::Tail>(
     m: crate::material::MatId,
     arena: &mut crate::bsdf::BsdfArena,
     gathers: &mut (
-        kernels::light::x8::Gather<8>,
-        kernels::light::x8::Gather<16>,
+        Option<kernels::light::x8::Gather<8>>,
+        Option<kernels::light::x8::Gather<16>>,
     ),
     tail: &mut T,
 ) -> (usize, bool) {
-    let (g8, g16) = gathers;
     let (Some(avx), Some(&Some(kind))) = (kernels.avx, kernels.kinds.get(m as usize)) else {
         return (0, false);
     };
@@ -760,6 +757,9 @@ fn shade_kernel<T: kernels::tail::Tail>(
             let mut c = run.start;
             if let Some(w16) = kernels.avx512 {
                 let mut chunks = Chunks::<16>::new(c..run.end, usize::MAX);
+                let g16 = gathers
+                    .1
+                    .get_or_insert_with(kernels::light::x8::Gather::new);
                 w16.run(
                     #[inline(always)]
                     || {
@@ -771,6 +771,9 @@ fn shade_kernel<T: kernels::tail::Tail>(
                 c = chunks.at();
             }
             let mut chunks = Chunks::<8>::new(c..run.end, pad_min);
+            let g8 = gathers
+                .0
+                .get_or_insert_with(kernels::light::x8::Gather::new);
             avx.run(
                 #[inline(always)]
                 || {
@@ -787,6 +790,9 @@ fn shade_kernel<T: kernels::tail::Tail>(
             let mut c = run.start;
             if let Some(w16) = kernels.avx512 {
                 let r = c..run.end;
+                let g16 = gathers
+                    .1
+                    .get_or_insert_with(kernels::light::x8::Gather::new);
                 c = w16.run(
                     #[inline(always)]
                     || {
@@ -796,6 +802,9 @@ fn shade_kernel<T: kernels::tail::Tail>(
                 );
             }
             let r = c..run.end;
+            let g8 = gathers
+                .0
+                .get_or_insert_with(kernels::light::x8::Gather::new);
             c = avx.run(
                 #[inline(always)]
                 || x8::shade_run(avx, scene, cfg, batch, r, pad_min, &mat, lights, g8, tail),

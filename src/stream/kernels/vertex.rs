@@ -114,6 +114,34 @@ fn normal_sources(mat: &Material) -> [Option<Normal>; MAX_WRAPS] {
     t
 }
 
+/// The perturbed-frame wrappers' normal sources of a material, split once per run of it
+/// (`vertex::x8::shade_run`): normal maps of bitmaps (looked up 8-wide at the rows' uvs) and
+/// the others (looked up lane by lane), per wrapper.
+pub(crate) struct Maps<'a> {
+    pub bitmap: [Option<&'a crate::texture::BitmapTexture>; MAX_WRAPS],
+    pub lane: [Option<Normal>; MAX_WRAPS],
+    /// Some wrapper's normal is looked up lane by lane.
+    pub any_lane: bool,
+}
+
+impl<'a> Maps<'a> {
+    pub(crate) fn new(scene: &'a Scene, mat: &Material) -> Maps<'a> {
+        let mut m = Maps {
+            bitmap: [None; MAX_WRAPS],
+            lane: normal_sources(mat),
+            any_lane: false,
+        };
+        for (j, n) in m.lane.iter_mut().enumerate() {
+            let Some(Normal::Map(t)) = *n else { continue };
+            if let Some(bm) = scene.materials.textures[t as usize].as_bitmap() {
+                (m.bitmap[j], *n) = (Some(bm), None);
+            }
+        }
+        m.any_lane = m.lane.iter().any(Option::is_some);
+        m
+    }
+}
+
 /// The normal (shading-frame coordinates) of a perturbed-frame wrapper at `si`, as
 /// `Materials::build_at` computes it: 2·rgb − 1 of a normal map, or the bump-mapped normal of
 /// `scale` times the height's uv gradient (`bsdf::bumpmap::perturbed_normal`). Bump maps take
@@ -205,12 +233,13 @@ pub(crate) mod x8 {
         tail: &mut impl Tail,
     ) -> usize {
         let base = mat.params(avx.splat(0.0));
+        let maps = Maps::new(scene, mat);
         macro_rules! run {
             ($per_lane:literal, $full:literal) => {{
                 let mut chunks = Chunks::<W>::new(run, pad_min);
                 while let Some((ids, live)) = chunks.next(&b.sorted) {
                     shade::<T, W, $per_lane, $full>(
-                        avx, scene, cfg, b, &ids, live, mat, &base, lights, gather, tail,
+                        avx, scene, cfg, b, &ids, live, mat, &base, &maps, lights, gather, tail,
                     );
                 }
                 chunks.at()
@@ -244,6 +273,7 @@ pub(crate) mod x8 {
         live: usize,
         mat: &Material,
         base: &Params<T::F>,
+        maps: &Maps,
         lights: &[Option<LaneLight>],
         gather: &mut Gather<W>,
         tail: &mut impl Tail,
@@ -268,7 +298,6 @@ pub(crate) mod x8 {
         };
         let mut num = draw(avx, &mut b.sampler, ids, &front, draws);
         let (mut opacity, mut through) = ([1.0f32; W], [false; W]);
-        let sources = normal_sources(mat);
         let mut normals = [Cols3::<W>::default(); MAX_WRAPS];
         // The leaf's parameters, looked up per lane as `Materials::build_at` does: a `diffuse`
         // leaf's reflectance, a textured leaf's slots.
@@ -284,12 +313,9 @@ pub(crate) mod x8 {
         gather.reset();
         // Normal maps of bitmaps: 8-wide lookups at the rows' uvs (a bitmap reads the uv
         // alone, whatever lookup `Scene::bsdf_root` picks); the other sources lane by lane.
-        let (mut sources, mut normals_x8) = (sources, [None; MAX_WRAPS]);
-        for (j, n) in sources.iter_mut().enumerate() {
-            let Some(Normal::Map(t)) = *n else { continue };
-            let Some(bm) = scene.materials.textures[t as usize].as_bitmap() else {
-                continue;
-            };
+        let (sources, mut normals_x8) = (&maps.lane, [None; MAX_WRAPS]);
+        for (j, bm) in maps.bitmap.iter().enumerate() {
+            let Some(bm) = bm else { continue };
             let rgb = bm.eval_x8(avx, surface::x8::uv(avx, &b.surf, ids));
             let (two, one) = (rgb.x.splat(2.0), rgb.x.splat(1.0));
             normals_x8[j] = Some(V3::new(
@@ -297,9 +323,8 @@ pub(crate) mod x8 {
                 two * rgb.y - one,
                 two * rgb.z - one,
             ));
-            *n = None;
         }
-        let textured = PER_LANE || FULL || sources.iter().any(Option::is_some);
+        let textured = PER_LANE || FULL || maps.any_lane;
         if !textured {
             // Nothing to look up lane by lane (so no `mask` either, which takes `FULL`): the
             // throughputs gathered in every lane (a lane behind its surface keeps its
