@@ -656,6 +656,13 @@ fn shade<T: kernels::tail::Tail>(
     kernels: &Kernels,
     tail: &mut T,
 ) {
+    // The light gathers of the diffuse and wrapper-chain kernels, one per width for the whole
+    // stage (not one per run: each builds the scene's light selection once), made at the
+    // first run that takes one.
+    #[cfg(target_arch = "x86_64")]
+    let mut gathers = (None, None);
+    #[cfg(not(target_arch = "x86_64"))]
+    let mut gathers = ();
     let mut start = 0;
     while start < batch.sorted.len() {
         let m = batch.material[batch.sorted[start] as usize];
@@ -669,6 +676,7 @@ fn shade<T: kernels::tail::Tail>(
                 kernels,
                 m,
                 &mut scratch.arena,
+                &mut gathers,
                 tail,
             )
         } else {
@@ -702,7 +710,8 @@ fn shade<T: kernels::tail::Tail>(
 
 /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (material `m`) with
 /// `m`'s 8-wide kernel; returns how many it shaded (0 without a kernel or AVX2) and whether the
-/// wrapper-chain driver shaded them. Each vertex ends in `tail`.
+/// wrapper-chain driver shaded them. Each vertex ends in `tail`. `gathers`: the stage's light
+/// gathers of width 8 and 16 (the diffuse and wrapper-chain kernels'), made when first needed.
 #[cfg(target_arch = "x86_64")]
 #[allow(clippy::too_many_arguments)]
 fn shade_kernel<T: kernels::tail::Tail>(
@@ -713,6 +722,10 @@ fn shade_kernel<T: kernels::tail::Tail>(
     kernels: &Kernels,
     m: crate::material::MatId,
     arena: &mut crate::bsdf::BsdfArena,
+    gathers: &mut (
+        Option<kernels::light::x8::Gather<8>>,
+        Option<kernels::light::x8::Gather<16>>,
+    ),
     tail: &mut T,
 ) -> (usize, bool) {
     let (Some(avx), Some(&Some(kind))) = (kernels.avx, kernels.kinds.get(m as usize)) else {
@@ -744,24 +757,28 @@ fn shade_kernel<T: kernels::tail::Tail>(
             let mut c = run.start;
             if let Some(w16) = kernels.avx512 {
                 let mut chunks = Chunks::<16>::new(c..run.end, usize::MAX);
+                let g16 = gathers
+                    .1
+                    .get_or_insert_with(kernels::light::x8::Gather::new);
                 w16.run(
                     #[inline(always)]
                     || {
-                        let mut gather = kernels::light::x8::Gather::<16>::new();
                         while let Some((ids, live)) = chunks.next(&batch.sorted) {
-                            x8::shade(w16, scene, cfg, batch, &ids, live, mat, &mut gather, tail);
+                            x8::shade(w16, scene, cfg, batch, &ids, live, mat, g16, tail);
                         }
                     },
                 );
                 c = chunks.at();
             }
             let mut chunks = Chunks::<8>::new(c..run.end, pad_min);
+            let g8 = gathers
+                .0
+                .get_or_insert_with(kernels::light::x8::Gather::new);
             avx.run(
                 #[inline(always)]
                 || {
-                    let mut gather = kernels::light::x8::Gather::<8>::new();
                     while let Some((ids, live)) = chunks.next(&batch.sorted) {
-                        x8::shade(avx, scene, cfg, batch, &ids, live, mat, &mut gather, tail);
+                        x8::shade(avx, scene, cfg, batch, &ids, live, mat, g8, tail);
                     }
                 },
             );
@@ -773,15 +790,24 @@ fn shade_kernel<T: kernels::tail::Tail>(
             let mut c = run.start;
             if let Some(w16) = kernels.avx512 {
                 let r = c..run.end;
+                let g16 = gathers
+                    .1
+                    .get_or_insert_with(kernels::light::x8::Gather::new);
                 c = w16.run(
                     #[inline(always)]
-                    || x8::shade_run(w16, scene, cfg, batch, r, usize::MAX, &mat, lights, tail),
+                    || {
+                        let max = usize::MAX;
+                        x8::shade_run(w16, scene, cfg, batch, r, max, &mat, lights, g16, tail)
+                    },
                 );
             }
             let r = c..run.end;
+            let g8 = gathers
+                .0
+                .get_or_insert_with(kernels::light::x8::Gather::new);
             c = avx.run(
                 #[inline(always)]
-                || x8::shade_run(avx, scene, cfg, batch, r, pad_min, &mat, lights, tail),
+                || x8::shade_run(avx, scene, cfg, batch, r, pad_min, &mat, lights, g8, tail),
             );
             (c - run.start, true)
         }
@@ -852,6 +878,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
     _: &Kernels,
     _: crate::material::MatId,
     _: &mut crate::bsdf::BsdfArena,
+    _: &mut (),
     _: &mut T,
 ) -> (usize, bool) {
     (0, false)

@@ -330,7 +330,6 @@ pub(crate) mod x8 {
         gather.reset();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
-            b.light[i] = None;
             if !front[k] {
                 continue;
             }

@@ -114,6 +114,34 @@ fn normal_sources(mat: &Material) -> [Option<Normal>; MAX_WRAPS] {
     t
 }
 
+/// The perturbed-frame wrappers' normal sources of a material, split once per run of it
+/// (`vertex::x8::shade_run`): normal maps of bitmaps (looked up 8-wide at the rows' uvs) and
+/// the others (looked up lane by lane), per wrapper.
+pub(crate) struct Maps<'a> {
+    pub bitmap: [Option<&'a crate::texture::BitmapTexture>; MAX_WRAPS],
+    pub lane: [Option<Normal>; MAX_WRAPS],
+    /// Some wrapper's normal is looked up lane by lane.
+    pub any_lane: bool,
+}
+
+impl<'a> Maps<'a> {
+    pub(crate) fn new(scene: &'a Scene, mat: &Material) -> Maps<'a> {
+        let mut m = Maps {
+            bitmap: [None; MAX_WRAPS],
+            lane: normal_sources(mat),
+            any_lane: false,
+        };
+        for (j, n) in m.lane.iter_mut().enumerate() {
+            let Some(Normal::Map(t)) = *n else { continue };
+            if let Some(bm) = scene.materials.textures[t as usize].as_bitmap() {
+                (m.bitmap[j], *n) = (Some(bm), None);
+            }
+        }
+        m.any_lane = m.lane.iter().any(Option::is_some);
+        m
+    }
+}
+
 /// The normal (shading-frame coordinates) of a perturbed-frame wrapper at `si`, as
 /// `Materials::build_at` computes it: 2·rgb − 1 of a normal map, or the bump-mapped normal of
 /// `scale` times the height's uv gradient (`bsdf::bumpmap::perturbed_normal`). Bump maps take
@@ -169,7 +197,7 @@ pub(crate) fn leaf_values(
 pub(crate) mod x8 {
     use super::*;
     use crate::geometry::Ray;
-    use crate::integrator::path::advance_lanes;
+    use crate::integrator::path::{advance_lanes, PendingLight};
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::V2;
     use crate::lane::{ToArray, Wide};
@@ -186,7 +214,10 @@ pub(crate) mod x8 {
     /// 1-lane code). The instance for `mat` is picked once here: whether the leaf's parameters
     /// differ per lane (`Material::per_lane`; else its constant [`Params`] are built once,
     /// from the template) and whether the chain needs the full instance (`Material::full`:
-    /// textured leaf parameters, a `mask`, a `bumpmap`). Call inside [`Avx2::run`].
+    /// textured leaf parameters, a `mask`, a `bumpmap`). `gather` is the caller's, made once
+    /// per shading stage rather than per run (its light selection is the scene's: building it
+    /// and its [`Gather`] per run cost ~10 instructions per sample on metal_plastic). Call
+    /// inside [`Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade_run<T: Wide<W>, const W: usize>(
@@ -198,26 +229,17 @@ pub(crate) mod x8 {
         pad_min: usize,
         mat: &Material,
         lights: &[Option<LaneLight>],
+        gather: &mut Gather<W>,
         tail: &mut impl Tail,
     ) -> usize {
-        let mut gather = Gather::<W>::new();
         let base = mat.params(avx.splat(0.0));
+        let maps = Maps::new(scene, mat);
         macro_rules! run {
             ($per_lane:literal, $full:literal) => {{
                 let mut chunks = Chunks::<W>::new(run, pad_min);
                 while let Some((ids, live)) = chunks.next(&b.sorted) {
                     shade::<T, W, $per_lane, $full>(
-                        avx,
-                        scene,
-                        cfg,
-                        b,
-                        &ids,
-                        live,
-                        mat,
-                        &base,
-                        lights,
-                        &mut gather,
-                        tail,
+                        avx, scene, cfg, b, &ids, live, mat, &base, &maps, lights, gather, tail,
                     );
                 }
                 chunks.at()
@@ -251,6 +273,7 @@ pub(crate) mod x8 {
         live: usize,
         mat: &Material,
         base: &Params<T::F>,
+        maps: &Maps,
         lights: &[Option<LaneLight>],
         gather: &mut Gather<W>,
         tail: &mut impl Tail,
@@ -275,7 +298,6 @@ pub(crate) mod x8 {
         };
         let mut num = draw(avx, &mut b.sampler, ids, &front, draws);
         let (mut opacity, mut through) = ([1.0f32; W], [false; W]);
-        let sources = normal_sources(mat);
         let mut normals = [Cols3::<W>::default(); MAX_WRAPS];
         // The leaf's parameters, looked up per lane as `Materials::build_at` does: a `diffuse`
         // leaf's reflectance, a textured leaf's slots.
@@ -291,12 +313,9 @@ pub(crate) mod x8 {
         gather.reset();
         // Normal maps of bitmaps: 8-wide lookups at the rows' uvs (a bitmap reads the uv
         // alone, whatever lookup `Scene::bsdf_root` picks); the other sources lane by lane.
-        let (mut sources, mut normals_x8) = (sources, [None; MAX_WRAPS]);
-        for (j, n) in sources.iter_mut().enumerate() {
-            let Some(Normal::Map(t)) = *n else { continue };
-            let Some(bm) = scene.materials.textures[t as usize].as_bitmap() else {
-                continue;
-            };
+        let (sources, mut normals_x8) = (&maps.lane, [None; MAX_WRAPS]);
+        for (j, bm) in maps.bitmap.iter().enumerate() {
+            let Some(bm) = bm else { continue };
             let rgb = bm.eval_x8(avx, surface::x8::uv(avx, &b.surf, ids));
             let (two, one) = (rgb.x.splat(2.0), rgb.x.splat(1.0));
             normals_x8[j] = Some(V3::new(
@@ -304,22 +323,20 @@ pub(crate) mod x8 {
                 two * rgb.y - one,
                 two * rgb.z - one,
             ));
-            *n = None;
         }
-        let textured = PER_LANE || FULL || sources.iter().any(Option::is_some);
+        let textured = PER_LANE || FULL || maps.any_lane;
         if !textured {
             // Nothing to look up lane by lane (so no `mask` either, which takes `FULL`): the
-            // pending light samples cleared and the throughputs gathered, in every lane (a lane
-            // behind its surface keeps its throughput too; its results are dropped).
+            // throughputs gathered in every lane (a lane behind its surface keeps its
+            // throughput too; its results are dropped). The pending light samples are
+            // cleared or set by `scatter`.
+            let state = &b.state[..];
             for (k, &i) in ids.iter().enumerate() {
-                let i = i as usize;
-                b.light[i] = None;
-                tp.set(k, b.state[i].throughput);
+                tp.set(k, state[i as usize].throughput);
             }
         } else {
             for (k, &i) in ids.iter().enumerate() {
                 let i = i as usize;
-                b.light[i] = None;
                 if !front[k] {
                     continue;
                 }
@@ -427,8 +444,8 @@ pub(crate) mod x8 {
     /// The ids of a padded chunk: the last `rest.len()` (1 to `W` − 1) paths of a run, then
     /// the last of them again in the lanes beyond. A repeated id, not an arbitrary path: the
     /// kernels' steps that run in every lane whatever [`live_only`] says (the surface loads,
-    /// the `b.light[i] = None` of each lane) then touch only paths of the chunk, whose own
-    /// lanes clear the same pending sample before any is stored.
+    /// the throughput gathers) then touch only paths of the chunk; [`scatter`] writes each
+    /// path's pending light sample last from its own lane.
     #[inline(always)]
     pub(crate) fn padded<const W: usize>(rest: &[u32]) -> [u32; W] {
         let last = *rest.last().expect("a padded chunk has a path");
@@ -443,8 +460,11 @@ pub(crate) mod x8 {
     /// dropped, as those of a lane that fails the side test.
     #[inline(always)]
     pub(crate) fn live_only<const W: usize>(front: &mut [bool; W], live: usize) {
-        for (k, f) in front.iter_mut().enumerate() {
-            *f &= k < live;
+        // Only a padded chunk has lanes to clear (a full chunk's pass cost ~50 instructions).
+        if live < W {
+            for f in &mut front[live..] {
+                *f = false;
+            }
         }
     }
 
@@ -542,9 +562,13 @@ pub(crate) mod x8 {
     /// Step 4 of a chunk (the wrapper-chain driver's and [`crate::stream::kernels::blend`]'s):
     /// each front-facing lane's pending shadow ray, then its BSDF sample, to the integrator's
     /// tail, in path order (`throughput`: the paths' throughputs, read by the `path` tail; a
-    /// lane behind its surface may hold any value there). Under the `path` integrator's tail ([`Tail::path`]) the light
-    /// samples are stored lane by lane and the vertices end in lanes ([`advance`]); the order
-    /// does not matter there (each lane writes its own path's fields).
+    /// lane behind its surface may hold any value there). Every path's pending light sample
+    /// (`b.light`) is set here: `None` but where the lane's light sample passed (the kernels do
+    /// not clear it first: a padded chunk's repeated lanes clear only paths of the chunk,
+    /// before any is stored). Under the `path` integrator's tail ([`Tail::path`], whose
+    /// [`Tail::light`] only stores the sample) the light samples are stored here and the
+    /// vertices end in lanes ([`advance`]); the order does not matter there (each lane writes
+    /// its own path's fields).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn scatter<T: Wide<W>, const W: usize>(
@@ -558,12 +582,21 @@ pub(crate) mod x8 {
         so: &SampleOut<T::F>,
         tail: &mut impl Tail,
     ) {
+        // Every pending sample cleared, then the passing ones stored: two passes, not one
+        // `Some`-or-`None` store per lane (LLVM merges those into a store of the whole 48-byte
+        // row in every lane).
+        let pending = &mut b.light[..];
+        for &i in ids {
+            pending[i as usize] = None;
+        }
         if let Some(cfg) = tail.path().copied() {
             if let Some(l) = lo {
                 for (k, &i) in ids.iter().enumerate() {
                     if front[k] && l.ok[k] {
-                        let shadow = Ray::segment(l.o.get(k), l.d.get(k), l.tmax[k]);
-                        tail.light(b, i as usize, shadow, l.c.get(k));
+                        pending[i as usize] = Some(PendingLight {
+                            shadow: Ray::segment(l.o.get(k), l.d.get(k), l.tmax[k]),
+                            contribution: l.c.get(k),
+                        });
                     }
                 }
             }
@@ -624,9 +657,12 @@ pub(crate) mod x8 {
         throughput: V3<T::F>,
         so: &SampleOut<T::F>,
     ) {
+        // The rows as slices held apart (their lengths and pointers stay in registers).
+        let (state, sampler) = (&mut b.state[..], &mut b.sampler[..]);
+        let (ray, alive) = (&mut b.ray[..], &mut b.alive[..]);
         let mut eta = [1.0f32; W];
         for (k, &i) in ids.iter().enumerate() {
-            eta[k] = b.state[i as usize].eta;
+            eta[k] = state[i as usize].eta;
         }
         let rr_depth = cfg.rr_depth as i64;
         let a = advance_lanes(throughput, avx.load(&eta), so.weight, so.eta);
@@ -644,11 +680,11 @@ pub(crate) mod x8 {
             }
             let i = i as usize;
             let (mut tk, mut on) = (t.get(k), live[k]);
-            let st = &mut b.state[i];
+            let st = &mut state[i];
             // Roulette from rr_depth on, as `advance` tests it after its `depth += 1`.
             if on && st.depth.wrapping_add(1) as i64 >= rr_depth {
                 // `advance`'s roulette: the path ends at u ≥ q, else its throughput is divided.
-                if b.sampler[i].next_1d() >= q[k] {
+                if sampler[i].next_1d() >= q[k] {
                     on = false;
                 } else {
                     tk /= q[k];
@@ -656,8 +692,8 @@ pub(crate) mod x8 {
             }
             st.set_advanced(tk, e[k], p.get(k), pdf[k], delta[k]);
             if on {
-                b.ray[i] = Ray::new(o.get(k), wo.get(k));
-                b.alive[i] = true;
+                ray[i] = Ray::new(o.get(k), wo.get(k));
+                alive[i] = true;
             }
         }
     }
