@@ -181,9 +181,10 @@ impl Fixed8 {
     }
 
     /// The four 32-bit words of `fixed(x)` per lane where x is in the common range or ±0, and
-    /// the mask of those lanes (where the words are `fixed`'s).
+    /// the lanes where they are not `fixed`'s (outside the common range and not ±0): nonzero
+    /// there, 0 elsewhere.
     #[inline(always)]
-    fn words(self, x: crate::lane::F32x8) -> ([crate::lane::I32x8; 4], crate::lane::M8) {
+    fn words(self, x: crate::lane::F32x8) -> ([crate::lane::I32x8; 4], crate::lane::I32x8) {
         use crate::lane::{I32x8, Lane, LaneI32};
         /// Word i ≥ 1 from its counts d = sh − 32i and n = −d (a function, not a closure: a
         /// closure may be compiled out of line, without AVX2).
@@ -192,12 +193,15 @@ impl Fixed8 {
             d.select_neg(sm.sar_var(n), sm.shl_var(d))
         }
         let bits = x.to_bits();
-        let sh = bits.shr::<23>().and(bits.splat(0xff)).sub(bits.splat(86));
+        // The biased exponent with the sign shifted out (no mask constant), less 86.
+        let magnitude = bits.shl::<1>();
+        let sh = magnitude.shr::<24>().sub(bits.splat(86));
         // 0 ≤ sh ≤ 102 as an unsigned comparison.
         let common = sh.min_u32(bits.splat(102)).eq(sh);
         let m = bits.and(bits.splat(0x7f_ffff)).or(bits.splat(0x80_0000));
-        let s = bits.sar::<31>();
-        let sm = I32x8::select(common, m.xor(s).sub(s), bits.splat(0));
+        // ±m by the sign of the bits (`vpsignd`; bits 0 is +0.0, outside the common range).
+        let zero = bits.splat(0);
+        let sm = I32x8::select(common, m.sign_by(bits), zero);
         let k = self.step;
         let (d1, n1) = (sh.sub(k), k.sub(sh));
         let (d2, n2) = (d1.sub(k), n1.add(k));
@@ -208,7 +212,8 @@ impl Fixed8 {
             word(sm, d2, n2),
             word(sm, d3, n3),
         ];
-        (words, common | x.eq(x.splat(0.0)))
+        // Nonzero where x is neither in the common range nor ±0 (|x|'s bits not 0).
+        (words, I32x8::select(common, zero, magnitude))
     }
 
     /// Lane k's `fixed(x)` to `out[k][j]` (a column of a per-lane table whose rows are the
@@ -218,12 +223,12 @@ impl Fixed8 {
     /// If `j` ≥ 8.
     #[inline(always)]
     pub(crate) fn into_column(self, x: crate::lane::F32x8, out: &mut [[i128; 8]; 8], j: usize) {
-        use crate::lane::{I32x8, Lane, LaneMask};
-        let (words, plain) = self.words(x);
+        use crate::lane::{I32x8, Lane};
+        let (words, odd) = self.words(x);
         I32x8::join_words_into(words, out, j);
-        if !plain.all() {
-            for (l, p) in plain.to_array().into_iter().enumerate() {
-                if !p {
+        if !odd.is_zero() {
+            for (l, o) in odd.to_array().into_iter().enumerate() {
+                if o != 0 {
                     out[l][j] = fixed(x.lane(l));
                 }
             }
@@ -235,11 +240,42 @@ impl Fixed8 {
     /// common range or ±0; `None` otherwise.
     #[inline(always)]
     pub(crate) fn row(self, x: crate::lane::F32x8) -> Option<crate::lane::I128x8> {
-        use crate::lane::{I32x8, LaneMask};
-        let (words, plain) = self.words(x);
-        plain.all().then(|| I32x8::join_words(words))
+        use crate::lane::I32x8;
+        let (words, odd) = self.words(x);
+        odd.is_zero().then(|| I32x8::join_words(words))
+    }
+
+    /// `fixed` of the eight lanes of `x` in registers, for lanes in the paired order
+    /// [`PAIRED`] (lane l holds value `PAIRED[l]`; [`crate::lane::I32x8::join_words_paired`]:
+    /// no lane crossing), every lane: those outside the common range and not ±0 (rare: tiny
+    /// weights squared, the clamp) are patched with [`fixed`] through memory. Equal to
+    /// `PAIRED`-ordered `fixed` bit for bit (`fixed8_equals_fixed`).
+    #[inline(always)]
+    pub(crate) fn row_paired(
+        self,
+        avx: crate::lane::Avx2,
+        x: crate::lane::F32x8,
+    ) -> crate::lane::I128x8 {
+        use crate::lane::{I128x8, I32x8, Lane};
+        let (words, odd) = self.words(x);
+        let row = I32x8::join_words_paired(words);
+        if odd.is_zero() {
+            return row;
+        }
+        let mut a = row.to_array();
+        for (l, o) in odd.to_array().into_iter().enumerate() {
+            if o != 0 {
+                a[PAIRED[l]] = fixed(x.lane(l));
+            }
+        }
+        I128x8::load(avx, &a)
     }
 }
+
+/// The paired lane order of [`Fixed8::row_paired`]: lane l holds value `PAIRED[l]` (value 2q in
+/// lane q, 2q + 1 in lane 4 + q).
+#[cfg(target_arch = "x86_64")]
+pub(crate) const PAIRED: [usize; 8] = [0, 2, 4, 6, 1, 3, 5, 7];
 
 /// The bias of the sums a film keeps: a sum s is stored as s ^ `LOW_BIAS` (bit 63, the top
 /// bit of its low 64-bit word, flipped), so that the 8-wide adds find the carry out of the low
@@ -346,7 +382,8 @@ mod tests {
     /// [`Fixed8::into_column`] equals [`fixed`] in every lane (and writes only its column) on
     /// every exponent and sign with boundary significands (each value in every lane position)
     /// and on 2²⁰ random bit patterns; [`Fixed8::row`] gives the same values when every lane
-    /// is in the common range or ±0, and `None` exactly otherwise. Both with the step hidden
+    /// is in the common range or ±0, and `None` exactly otherwise; [`Fixed8::row_paired`]
+    /// gives every lane's value in its paired slot. Both with the step hidden
     /// ([`Fixed8::new`]) and constant ([`Fixed8::single`]).
     #[cfg(target_arch = "x86_64")]
     #[test]
@@ -395,10 +432,17 @@ mod tests {
                     Fixed8::single(avx)
                 };
                 let mut t = [[-5i128; 8]; 8];
-                let row = avx.run(|| {
+                let (row, paired) = avx.run(|| {
                     fx.into_column(avx.load(&c), &mut t, col);
-                    fx.row(avx.load(&c)).map(|r| r.to_array())
+                    (
+                        fx.row(avx.load(&c)).map(|r| r.to_array()),
+                        fx.row_paired(avx, avx.load(&c)).to_array(),
+                    )
                 });
+                // Lane l's value lands in slot PAIRED[l], every lane (rare ones patched).
+                for (l, &x) in c.iter().enumerate() {
+                    assert_eq!(paired[PAIRED[l]], fixed(x), "{x:e} ({:#x})", x.to_bits());
+                }
                 for (row, &x) in t.iter().zip(&c) {
                     for (j, &v) in row.iter().enumerate() {
                         if j == col {
