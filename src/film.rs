@@ -820,9 +820,6 @@ impl Block {
         let last = avx.mask_bits(0x80);
         let fx = sum::Fixed8::new(avx);
         let sw = self.sw as usize;
-        // The footprint's pixels are distinct, so one saturation test serves them all
-        // (`add_i128x8_biased_lazy`).
-        let mut signs = crate::lane::SatSigns::new(avx);
         // The footprint lies inside the storage (`footprint` cuts it), so each row is a slice.
         for (j, &wyj) in wy[..fp.ny].iter().enumerate() {
             let at = (fp.y_lo + j) * sw + fp.x_lo;
@@ -830,15 +827,7 @@ impl Block {
                 let w = avx.splat(wxi * wyj);
                 let x = (w * c1) * F32x8::select(last, w, c2);
                 let row = fx.row_paired(avx, x);
-                avx.add_i128x8_biased_lazy::<UNSIGNED_SUMS>(&mut a.sums, row, &mut signs);
-            }
-        }
-        if signs.any() {
-            for j in 0..fp.ny {
-                let at = (fp.y_lo + j) * sw + fp.x_lo;
-                for a in &mut self.data[at..at + fp.nx] {
-                    avx.saturate_biased::<UNSIGNED_SUMS>(&mut a.sums);
-                }
+                avx.add_i128x8_biased_regs::<UNSIGNED_SUMS>(&mut a.sums, row);
             }
         }
     }

@@ -181,10 +181,9 @@ impl Fixed8 {
     }
 
     /// The four 32-bit words of `fixed(x)` per lane where x is in the common range or ±0, and
-    /// the lanes where they are not `fixed`'s (outside the common range and not ±0): nonzero
-    /// there, 0 elsewhere.
+    /// the mask of those lanes (where the words are `fixed`'s).
     #[inline(always)]
-    fn words(self, x: crate::lane::F32x8) -> ([crate::lane::I32x8; 4], crate::lane::I32x8) {
+    fn words(self, x: crate::lane::F32x8) -> ([crate::lane::I32x8; 4], crate::lane::M8) {
         use crate::lane::{I32x8, Lane, LaneI32};
         /// Word i ≥ 1 from its counts d = sh − 32i and n = −d (a function, not a closure: a
         /// closure may be compiled out of line, without AVX2).
@@ -193,15 +192,12 @@ impl Fixed8 {
             d.select_neg(sm.sar_var(n), sm.shl_var(d))
         }
         let bits = x.to_bits();
-        // The biased exponent with the sign shifted out (no mask constant), less 86.
-        let magnitude = bits.shl::<1>();
-        let sh = magnitude.shr::<24>().sub(bits.splat(86));
+        let sh = bits.shr::<23>().and(bits.splat(0xff)).sub(bits.splat(86));
         // 0 ≤ sh ≤ 102 as an unsigned comparison.
         let common = sh.min_u32(bits.splat(102)).eq(sh);
         let m = bits.and(bits.splat(0x7f_ffff)).or(bits.splat(0x80_0000));
-        // ±m by the sign of the bits (`vpsignd`; bits 0 is +0.0, outside the common range).
-        let zero = bits.splat(0);
-        let sm = I32x8::select(common, m.sign_by(bits), zero);
+        let s = bits.sar::<31>();
+        let sm = I32x8::select(common, m.xor(s).sub(s), bits.splat(0));
         let k = self.step;
         let (d1, n1) = (sh.sub(k), k.sub(sh));
         let (d2, n2) = (d1.sub(k), n1.add(k));
@@ -212,8 +208,7 @@ impl Fixed8 {
             word(sm, d2, n2),
             word(sm, d3, n3),
         ];
-        // Nonzero where x is neither in the common range nor ±0 (|x|'s bits not 0).
-        (words, I32x8::select(common, zero, magnitude))
+        (words, common | x.eq(x.splat(0.0)))
     }
 
     /// Lane k's `fixed(x)` to `out[k][j]` (a column of a per-lane table whose rows are the
@@ -223,12 +218,12 @@ impl Fixed8 {
     /// If `j` ≥ 8.
     #[inline(always)]
     pub(crate) fn into_column(self, x: crate::lane::F32x8, out: &mut [[i128; 8]; 8], j: usize) {
-        use crate::lane::{I32x8, Lane};
-        let (words, odd) = self.words(x);
+        use crate::lane::{I32x8, Lane, LaneMask};
+        let (words, plain) = self.words(x);
         I32x8::join_words_into(words, out, j);
-        if !odd.is_zero() {
-            for (l, o) in odd.to_array().into_iter().enumerate() {
-                if o != 0 {
+        if !plain.all() {
+            for (l, p) in plain.to_array().into_iter().enumerate() {
+                if !p {
                     out[l][j] = fixed(x.lane(l));
                 }
             }
@@ -240,9 +235,9 @@ impl Fixed8 {
     /// common range or ±0; `None` otherwise.
     #[inline(always)]
     pub(crate) fn row(self, x: crate::lane::F32x8) -> Option<crate::lane::I128x8> {
-        use crate::lane::I32x8;
-        let (words, odd) = self.words(x);
-        odd.is_zero().then(|| I32x8::join_words(words))
+        use crate::lane::{I32x8, LaneMask};
+        let (words, plain) = self.words(x);
+        plain.all().then(|| I32x8::join_words(words))
     }
 
     /// `fixed` of the eight lanes of `x` in registers, for lanes in the paired order
@@ -256,15 +251,15 @@ impl Fixed8 {
         avx: crate::lane::Avx2,
         x: crate::lane::F32x8,
     ) -> crate::lane::I128x8 {
-        use crate::lane::{I128x8, I32x8, Lane};
-        let (words, odd) = self.words(x);
+        use crate::lane::{I128x8, I32x8, Lane, LaneMask};
+        let (words, plain) = self.words(x);
         let row = I32x8::join_words_paired(words);
-        if odd.is_zero() {
+        if plain.all() {
             return row;
         }
         let mut a = row.to_array();
-        for (l, o) in odd.to_array().into_iter().enumerate() {
-            if o != 0 {
+        for (l, p) in plain.to_array().into_iter().enumerate() {
+            if !p {
                 a[PAIRED[l]] = fixed(x.lane(l));
             }
         }

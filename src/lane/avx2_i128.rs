@@ -80,17 +80,6 @@ impl I32x8 {
             )))
         }
     }
-    /// Per lane `self` times the sign of `s` (`vpsignd`): −self where `s` < 0, 0 where `s` is
-    /// 0, self where `s` > 0 (wrapping: `i32::MIN` stays).
-    #[inline(always)]
-    pub fn sign_by(self, s: I32x8) -> I32x8 {
-        I32x8(unsafe { _mm256_sign_epi32(self.0, s.0) })
-    }
-    /// True when every bit of every lane is 0 (`vptest`).
-    #[inline(always)]
-    pub fn is_zero(self) -> bool {
-        unsafe { _mm256_testz_si256(self.0, self.0) != 0 }
-    }
     /// Per lane the smaller as unsigned numbers (`vpminud`).
     #[inline(always)]
     pub fn min_u32(self, o: I32x8) -> I32x8 {
@@ -192,30 +181,12 @@ impl Avx2 {
     /// [`Avx2::add_i128x8_biased`] of addends held in registers.
     #[inline(always)]
     pub fn add_i128x8_biased_regs<const SAT: u32>(self, acc: &mut [i128; 8], x: I128x8) {
-        let mut signs = SatSigns::new(self);
-        self.add_i128x8_biased_lazy::<SAT>(acc, x, &mut signs);
-        if signs.any() {
-            saturate::<SAT>(acc);
-        }
-    }
-
-    /// [`Avx2::add_i128x8_biased_regs`] without its saturation test: the sign bits of the
-    /// selected sums (bit `i` of `SAT`) are or-ed into `signs`, so that several adds to
-    /// distinct pixels take one test ([`SatSigns::any`]) and, when it is true, each of those
-    /// pixels [`Avx2::saturate_biased`]: each pixel's sums are then what the immediate
-    /// saturation gives (saturating a sum depends only on its own value after its add).
-    #[inline(always)]
-    pub fn add_i128x8_biased_lazy<const SAT: u32>(
-        self,
-        acc: &mut [i128; 8],
-        x: I128x8,
-        signs: &mut SatSigns,
-    ) {
+        let mut any = false;
         // SAFETY: the token proves AVX2. The 32-byte loads and stores read and write two
         // consecutive `i128`s of `acc`.
         unsafe {
             let p = acc.as_mut_ptr().cast::<__m256i>();
-            let mut neg = signs.0;
+            let mut neg = _mm256_setzero_si256();
             for (j, xj) in x.0.into_iter().enumerate() {
                 let a = _mm256_loadu_si256(p.add(j));
                 let s = _mm256_add_epi64(a, xj);
@@ -230,34 +201,13 @@ impl Avx2 {
                     neg = _mm256_or_si256(neg, _mm256_and_si256(s, m));
                 }
             }
-            signs.0 = neg;
+            if SAT != 0 {
+                any = _mm256_testz_si256(neg, neg) == 0;
+            }
         }
-    }
-
-    /// The saturation of [`Avx2::add_i128x8_biased_lazy`]: each selected sum (bit `i` of
-    /// `SAT`) that is negative becomes `i128::MAX` (stored biased).
-    #[inline(always)]
-    pub fn saturate_biased<const SAT: u32>(self, acc: &mut [i128; 8]) {
-        saturate::<SAT>(acc);
-    }
-}
-
-/// The sign bits of saturating sums gathered over adds ([`Avx2::add_i128x8_biased_lazy`]).
-#[derive(Clone, Copy)]
-pub struct SatSigns(__m256i);
-
-impl SatSigns {
-    /// No sign bit.
-    #[inline(always)]
-    pub fn new(_avx: Avx2) -> SatSigns {
-        // SAFETY: the token proves AVX.
-        SatSigns(unsafe { _mm256_setzero_si256() })
-    }
-    /// True when some gathered sum is negative (`vptest`).
-    #[inline(always)]
-    pub fn any(self) -> bool {
-        // SAFETY: a SatSigns exists only with AVX2.
-        unsafe { _mm256_testz_si256(self.0, self.0) == 0 }
+        if any {
+            saturate::<SAT>(acc);
+        }
     }
 }
 
@@ -330,23 +280,7 @@ mod tests {
                 assert_eq!(got.map(|s| s ^ LOW_BIAS), want_wrap, "{acc0:?} + {x:?}");
             } else {
                 const SAT: u32 = 0b1111_1000;
-                // The lazy form: this add and one to a second pixel that never saturates,
-                // one test, then both pixels saturated.
-                let mut lazy = acc0.map(|a| a ^ LOW_BIAS);
-                let mut other = [LOW_BIAS; 8];
-                avx.run(|| {
-                    let mut signs = SatSigns::new(avx);
-                    avx.add_i128x8_biased_lazy::<SAT>(&mut lazy, I128x8::load(avx, &x), &mut signs);
-                    let one = I128x8::load(avx, &[1; 8]);
-                    avx.add_i128x8_biased_lazy::<SAT>(&mut other, one, &mut signs);
-                    if signs.any() {
-                        avx.saturate_biased::<SAT>(&mut lazy);
-                        avx.saturate_biased::<SAT>(&mut other);
-                    }
-                });
-                assert_eq!(other.map(|s| s ^ LOW_BIAS), [1; 8]);
                 avx.run(|| avx.add_i128x8_biased::<SAT>(&mut got, &x));
-                assert_eq!(lazy, got, "lazy: {acc0:?} + {x:?}");
                 let want: [i128; 8] = core::array::from_fn(|i| {
                     let s = want_wrap[i];
                     if SAT >> i & 1 != 0 && s < 0 {
@@ -387,12 +321,6 @@ mod tests {
                 let (shl, sar) = (va.shl_var(vn).to_array(), va.sar_var(vn).to_array());
                 let sel = vn.select_neg(va, vn).to_array();
                 let min = va.min_u32(vn).to_array();
-                let sign = va.sign_by(vn).to_array();
-                assert_eq!(va.is_zero(), a == [0; 8]);
-                assert!(avx.load_i32(&[0; 8]).is_zero());
-                let mut one = [0i32; 8];
-                one[(z >> 40) as usize % 8] = 1 << ((z >> 50) % 32);
-                assert!(!avx.load_i32(&one).is_zero());
                 let perm = va.permute(vn).to_array();
                 let fa: [f32; 8] = core::array::from_fn(|k| a[k] as f32 * 0.5);
                 let fperm = avx.load(&fa).permute(vn).to_array();
@@ -402,12 +330,6 @@ mod tests {
                     assert_eq!(sar[k], a[k] >> c.min(31));
                     assert_eq!(sel[k], if n[k] < 0 { a[k] } else { n[k] });
                     assert_eq!(min[k] as u32, (a[k] as u32).min(c));
-                    let want = match n[k].signum() {
-                        -1 => a[k].wrapping_neg(),
-                        0 => 0,
-                        _ => a[k],
-                    };
-                    assert_eq!(sign[k], want);
                     assert_eq!(perm[k], a[(c & 7) as usize]);
                     assert_eq!(fperm[k].to_bits(), fa[(c & 7) as usize].to_bits());
                 }
