@@ -183,6 +183,29 @@ impl FilterTable {
     }
 }
 
+/// Footprints of up to 8×8 pixels in lanes ([`Block::splat_lanes`]): for a footprint `nx`
+/// pixels wide, pixel p (row-major) is column p mod nx and row ⌊p / nx⌋; `FOOT_I[nx − 1][g]`
+/// and `FOOT_J[nx − 1][g]` hold them for p = 8g, …, 8g + 7 (lanes past the footprint's end are
+/// never added).
+const FOOT_I: [[[i32; 8]; 8]; 8] = foot_table(false);
+/// See [`FOOT_I`].
+const FOOT_J: [[[i32; 8]; 8]; 8] = foot_table(true);
+
+/// [`FOOT_I`] (`rows` false) or [`FOOT_J`] (`rows` true).
+const fn foot_table(rows: bool) -> [[[i32; 8]; 8]; 8] {
+    let mut t = [[[0i32; 8]; 8]; 8];
+    let mut nx = 1;
+    while nx <= 8 {
+        let mut p = 0;
+        while p < 64 {
+            t[nx - 1][p / 8][p % 8] = if rows { p / nx } else { p % nx } as i32;
+            p += 1;
+        }
+        nx += 1;
+    }
+    t
+}
+
 /// Film geometry and filter: the full film size and the crop window that is rendered.
 #[derive(Clone, Debug)]
 pub struct FilmDesc {
@@ -430,6 +453,8 @@ pub struct Block {
     /// The 8-wide splats' addends: row k holds lane k's eight fixed-point addends in
     /// [`Acc::sums`]' order (scratch, kept here so that it is not zeroed per call).
     lanes: Box<[[i128; 8]; 8]>,
+    /// j·`sw` for j = 0, …, 7 (wrapping): the storage offsets of a footprint's rows.
+    rows: [i32; 8],
     /// The AVX2 token when the CPU has it: [`Block::put`] splats in lanes then.
     #[cfg(target_arch = "x86_64")]
     avx: Option<crate::lane::Avx2>,
@@ -464,6 +489,7 @@ impl Block {
             nch,
             extra: Vec::new(),
             lanes: Box::new([[0; 8]; 8]),
+            rows: [0; 8],
             #[cfg(target_arch = "x86_64")]
             avx: crate::lane::Avx2::detect(),
         };
@@ -477,6 +503,7 @@ impl Block {
         self.oy = y0 as i64 - self.border as i64;
         self.sw = w.saturating_add(2 * self.border);
         self.sh = h.saturating_add(2 * self.border);
+        self.rows = core::array::from_fn(|j| (j as i32).wrapping_mul(self.sw as i32));
         self.exact = [
             exact_bounds(self.ox, self.sw),
             exact_bounds(self.oy, self.sh),
@@ -770,24 +797,20 @@ impl Block {
         })
     }
 
-    /// [`Block::put`] of one value with finite channels under a filter other than the box, in
-    /// lanes pixel by pixel: each footprint pixel's eight addends (w·v and (w·v)·v per channel,
-    /// w and w·w, with w = wx·wy) are the same f32 products as [`Block::splat`]'s, computed in
-    /// one register in the paired order of [`sum::Fixed8::row_paired`], turned into fixed
-    /// point there (equal to [`sum::fixed`] lane by lane) and added to the pixel's sums in
-    /// four registers ([`crate::lane::Avx2::add_i128x8_biased_regs`]), so the sums are the
-    /// scalar splat's to the bit with no trip through memory. The weights of each axis come
-    /// from [`FilterTable::eval8`] for footprints of up to 8 pixels a side, one by one up to
-    /// 16; a wider footprint, or one where some w·v could be non-finite (which `put` records
-    /// as a flag), takes the scalar splat. Call inside [`crate::lane::Avx2::run`].
-    ///
-    /// (Sessions 17 to 20 converted the addends of 8 pixels per register, a column per
-    /// addend, and wrote them to a per-lane table that the adds read back: 16 of a
-    /// conversion's ~60 instructions were its transpose and stores.)
+    /// [`Block::put`] of one value with finite channels under a filter other than the box, the
+    /// footprint's pixels 8 at a time: each pixel's weight w = wx·wy and its addends w·v, w·v²
+    /// (per channel), w and w² are the same f32 products as [`Block::splat`]'s, turned into
+    /// fixed point 8-wide ([`sum::Fixed8::into_column`], equal to [`sum::fixed`] lane by lane), so the sums
+    /// are the scalar splat's to the bit. A footprint of up to 8×8 pixels is laid out in lanes: the weights
+    /// of each axis in one register ([`FilterTable::eval8`]), and each group of 8 pixels takes
+    /// its wx, wy and storage index by lane permutes ([`FOOT_I`], [`FOOT_J`]). A footprint of up
+    /// to 16×16 takes the weights one by one; a wider one, or one where some w·v could be
+    /// non-finite (which `put` records as a flag), takes the scalar splat. Call inside
+    /// [`crate::lane::Avx2::run`].
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn splat_lanes(&mut self, avx: crate::lane::Avx2, film_pos: Vec2, value: Spectrum) {
-        use crate::lane::{F32x8, Lane};
+        use crate::lane::LaneI32;
         if !film_pos.is_finite() || self.sw == 0 || self.sh == 0 {
             return;
         }
@@ -796,39 +819,77 @@ impl Block {
         };
         let v = value.to_array();
         // Every weight wx·wy is at most `max_sq` in magnitude, so a finite |v|·max_sq on every
-        // channel means every w·v is finite (rounding is monotonic).
+        // channel means every w·v is finite (rounding is monotonic). Storage indices are i32s.
         let wmax = self.table.max_sq;
         let finite = v.iter().all(|&c| (c.abs() * wmax).is_finite());
-        if !finite || fp.nx > 16 || fp.ny > 16 {
+        if !finite || fp.nx > 16 || fp.ny > 16 || self.data.len() > i32::MAX as usize {
             self.splat::<false>(film_pos, value, &[]);
             return;
         }
-        let (mut wx, mut wy) = ([0.0f32; 16], [0.0f32; 16]);
+        let sw = self.sw as usize;
+        let base = ((fp.y_lo * sw) + fp.x_lo) as i32;
+        let fx = sum::Fixed8::new(avx);
         if fp.nx <= 8 && fp.ny <= 8 {
             let iota = avx.load(&[0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
-            wx[..8].copy_from_slice(&self.table.eval8(avx, avx.splat(fp.rel_x) + iota).to_array());
-            wy[..8].copy_from_slice(&self.table.eval8(avx, avx.splat(fp.rel_y) + iota).to_array());
-        } else {
-            fp.weights(&self.table, &mut wx[..fp.nx], &mut wy[..fp.ny]);
-        }
-        // A pixel's addends in the paired order (sums 0, 2, 4, 6, 1, 3, 5, 7 of `Acc::sums`):
-        // w·r, w·b, (w·g)·g, w, w·g, (w·r)·r, (w·b)·b, w·w. With t = w·c1 and u = c2 with w in
-        // lane 7, t·u is that: a factor 1 leaves a product unchanged (the values are finite).
-        let [r, g, b] = v;
-        let c1 = avx.load(&[r, b, g, 1.0, g, r, b, 1.0]);
-        let c2 = avx.load(&[1.0, 1.0, g, 1.0, 1.0, r, b, 1.0]);
-        let last = avx.mask_bits(0x80);
-        let fx = sum::Fixed8::new(avx);
-        let sw = self.sw as usize;
-        // The footprint lies inside the storage (`footprint` cuts it), so each row is a slice.
-        for (j, &wyj) in wy[..fp.ny].iter().enumerate() {
-            let at = (fp.y_lo + j) * sw + fp.x_lo;
-            for (a, &wxi) in self.data[at..at + fp.nx].iter_mut().zip(&wx[..fp.nx]) {
-                let w = avx.splat(wxi * wyj);
-                let x = (w * c1) * F32x8::select(last, w, c2);
-                let row = fx.row_paired(avx, x);
-                avx.add_i128x8_biased_regs::<UNSIGNED_SUMS>(&mut a.sums, row);
+            let wx = self.table.eval8(avx, avx.splat(fp.rel_x) + iota);
+            let wy = self.table.eval8(avx, avx.splat(fp.rel_y) + iota);
+            let rows = avx.load_i32(&self.rows).add(avx.load_i32(&[base; 8]));
+            let n = fp.nx * fp.ny;
+            let (ti, tj) = (&FOOT_I[fp.nx - 1], &FOOT_J[fp.nx - 1]);
+            for (g, (fi, fj)) in ti.iter().zip(tj).enumerate().take(n.div_ceil(8)) {
+                let (i, j) = (avx.load_i32(fi), avx.load_i32(fj));
+                let w = wx.permute(i) * wy.permute(j);
+                let at = rows.permute(j).add(i).to_array();
+                self.add8(avx, fx, w, &at, (n - 8 * g).min(8), v);
             }
+            return;
+        }
+        let (mut wx, mut wy) = ([0.0f32; 16], [0.0f32; 16]);
+        let (wx, wy) = (&mut wx[..fp.nx], &mut wy[..fp.ny]);
+        fp.weights(&self.table, wx, wy);
+        let (mut w, mut at, mut n) = ([0.0f32; 8], [0i32; 8], 0);
+        for (j, &wyj) in wy.iter().enumerate() {
+            let row = base + (j * sw) as i32;
+            for (i, &wxi) in wx.iter().enumerate() {
+                w[n] = wxi * wyj;
+                at[n] = row + i as i32;
+                n += 1;
+                if n == 8 {
+                    self.add8(avx, fx, avx.load(&w), &at, 8, v);
+                    n = 0;
+                }
+            }
+        }
+        if n > 0 {
+            self.add8(avx, fx, avx.load(&w), &at, n, v);
+        }
+    }
+
+    /// Adds the first `n` of eight weighted contributions of the value `v` (weights `w`, to
+    /// the storage pixels `at`): [`Acc::add_sample`] with the addends converted 8-wide. Call
+    /// inside [`crate::lane::Avx2::run`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn add8(
+        &mut self,
+        avx: crate::lane::Avx2,
+        fx: sum::Fixed8,
+        w8: crate::lane::F32x8,
+        at: &[i32; 8],
+        n: usize,
+        v: [f32; 3],
+    ) {
+        let (r, g, b) = (avx.splat(v[0]), avx.splat(v[1]), avx.splat(v[2]));
+        let (wr, wg, wb) = (r * w8, g * w8, b * w8);
+        // The eight addends' columns, converted in a loop (one conversion's code, its
+        // constants held once: `sum::Fixed8`).
+        let xs = [wr, wg, wb, wr * r, wg * g, wb * b, w8, w8 * w8];
+        let (data, t) = (&mut self.data[..], &mut *self.lanes);
+        for (j, x) in xs.into_iter().enumerate() {
+            fx.into_column(x, t, j);
+        }
+        for (k, &a) in at.iter().enumerate().take(n) {
+            avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut data[a as usize].sums, &t[k]);
         }
     }
 }

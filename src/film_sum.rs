@@ -239,38 +239,7 @@ impl Fixed8 {
         let (words, plain) = self.words(x);
         plain.all().then(|| I32x8::join_words(words))
     }
-
-    /// `fixed` of the eight lanes of `x` in registers, for lanes in the paired order
-    /// [`PAIRED`] (lane l holds value `PAIRED[l]`; [`crate::lane::I32x8::join_words_paired`]:
-    /// no lane crossing), every lane: those outside the common range and not ±0 (rare: tiny
-    /// weights squared, the clamp) are patched with [`fixed`] through memory. Equal to
-    /// `PAIRED`-ordered `fixed` bit for bit (`fixed8_equals_fixed`).
-    #[inline(always)]
-    pub(crate) fn row_paired(
-        self,
-        avx: crate::lane::Avx2,
-        x: crate::lane::F32x8,
-    ) -> crate::lane::I128x8 {
-        use crate::lane::{I128x8, I32x8, Lane, LaneMask};
-        let (words, plain) = self.words(x);
-        let row = I32x8::join_words_paired(words);
-        if plain.all() {
-            return row;
-        }
-        let mut a = row.to_array();
-        for (l, p) in plain.to_array().into_iter().enumerate() {
-            if !p {
-                a[PAIRED[l]] = fixed(x.lane(l));
-            }
-        }
-        I128x8::load(avx, &a)
-    }
 }
-
-/// The paired lane order of [`Fixed8::row_paired`]: lane l holds value `PAIRED[l]` (value 2q in
-/// lane q, 2q + 1 in lane 4 + q).
-#[cfg(target_arch = "x86_64")]
-pub(crate) const PAIRED: [usize; 8] = [0, 2, 4, 6, 1, 3, 5, 7];
 
 /// The bias of the sums a film keeps: a sum s is stored as s ^ `LOW_BIAS` (bit 63, the top
 /// bit of its low 64-bit word, flipped), so that the 8-wide adds find the carry out of the low
@@ -377,8 +346,7 @@ mod tests {
     /// [`Fixed8::into_column`] equals [`fixed`] in every lane (and writes only its column) on
     /// every exponent and sign with boundary significands (each value in every lane position)
     /// and on 2²⁰ random bit patterns; [`Fixed8::row`] gives the same values when every lane
-    /// is in the common range or ±0, and `None` exactly otherwise; [`Fixed8::row_paired`]
-    /// gives every lane's value in its paired slot. Both with the step hidden
+    /// is in the common range or ±0, and `None` exactly otherwise. Both with the step hidden
     /// ([`Fixed8::new`]) and constant ([`Fixed8::single`]).
     #[cfg(target_arch = "x86_64")]
     #[test]
@@ -427,17 +395,10 @@ mod tests {
                     Fixed8::single(avx)
                 };
                 let mut t = [[-5i128; 8]; 8];
-                let (row, paired) = avx.run(|| {
+                let row = avx.run(|| {
                     fx.into_column(avx.load(&c), &mut t, col);
-                    (
-                        fx.row(avx.load(&c)).map(|r| r.to_array()),
-                        fx.row_paired(avx, avx.load(&c)).to_array(),
-                    )
+                    fx.row(avx.load(&c)).map(|r| r.to_array())
                 });
-                // Lane l's value lands in slot PAIRED[l], every lane (rare ones patched).
-                for (l, &x) in c.iter().enumerate() {
-                    assert_eq!(paired[PAIRED[l]], fixed(x), "{x:e} ({:#x})", x.to_bits());
-                }
                 for (row, &x) in t.iter().zip(&c) {
                     for (j, &v) in row.iter().enumerate() {
                         if j == col {

@@ -102,16 +102,6 @@ impl I32x8 {
             ])
         }
     }
-    /// The eight 128-bit integers whose 32-bit words (least significant first) are lane `k` of
-    /// `words[0]`, …, `words[3]`, in registers, where the lanes hold the values in the *paired*
-    /// order 0, 2, 4, 6, 1, 3, 5, 7 (value 2q in lane q, value 2q + 1 in lane 4 + q): the 4×4
-    /// transpose alone, whose register q is [lane q | lane 4 + q] = [value 2q | value 2q + 1],
-    /// the layout of [`I128x8`], so no lane crossing is needed ([`I32x8::join_words`] pays four
-    /// `vperm2i128` for the natural order).
-    #[inline(always)]
-    pub fn join_words_paired(words: [I32x8; 4]) -> I128x8 {
-        I128x8(transpose_words(words))
-    }
     /// Writes the 128-bit integer whose 32-bit words (least significant first) are lane `k` of
     /// `words[0]`, …, `words[3]` to `out[k][j]`, for the eight `k`: a 4×4 transpose of 32-bit
     /// words in each 128-bit half (eight unpacks), then eight 16-byte stores. (A column of a
@@ -338,7 +328,6 @@ mod tests {
                 let mut t = [[7i128; 8]; 8];
                 I32x8::join_words_into(words, &mut t, col);
                 let regs = I32x8::join_words(words).to_array();
-                let paired = I32x8::join_words_paired(words).to_array();
                 for (k, row) in t.iter().enumerate() {
                     let want = (a[k] as u32 as u128)
                         | (n[k] as u32 as u128) << 32
@@ -348,9 +337,6 @@ mod tests {
                         assert_eq!(v, if j == col { want as i128 } else { 7 });
                     }
                     assert_eq!(regs[k], want as i128);
-                    // Lane k holds value 2k (k < 4) or 2(k − 4) + 1 in the paired order.
-                    let slot = if k < 4 { 2 * k } else { 2 * (k - 4) + 1 };
-                    assert_eq!(paired[slot], want as i128);
                 }
                 // The registers' layout is the array's: load and store are inverses.
                 let vals: [i128; 8] = core::array::from_fn(|k| t[k][col] ^ (k as i128) << 100);
