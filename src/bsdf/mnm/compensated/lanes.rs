@@ -867,6 +867,32 @@ mod tests {
     use crate::bsdf::BsdfArena;
     use crate::math::Pcg32;
 
+    /// Edge values for the lane-vs-scalar tests: zeros of both signs, subnormals, one, huge
+    /// values (whose products overflow), infinities and NaN.
+    const EDGES: [f32; 12] = [
+        0.0,
+        -0.0,
+        1e-40,
+        -1e-40,
+        f32::MIN_POSITIVE,
+        1.0,
+        1e30,
+        -1e30,
+        f32::MAX,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+    ];
+
+    /// With probability `p` one of [`EDGES`], else uniform in [lo, hi).
+    fn edge_or_uniform(rng: &mut Pcg32, p: f32, lo: f32, hi: f32) -> f32 {
+        if rng.next_f32() < p {
+            EDGES[rng.next_u32() as usize % EDGES.len()]
+        } else {
+            lo + (hi - lo) * rng.next_f32()
+        }
+    }
+
     /// The tests' compensated normal map over nested node `n` with table `t`.
     fn compensated_map(
         n: u32,
@@ -969,26 +995,7 @@ mod tests {
     fn selection_in_lanes_equals_the_scalar_one() {
         use crate::lane::vec::V3;
         let mut rng = Pcg32::new(21, 5);
-        let specials = [
-            0.0,
-            -0.0,
-            1e-40,
-            -1e-40,
-            f32::MIN_POSITIVE,
-            1e30,
-            -1e30,
-            f32::MAX,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NAN,
-        ];
-        let value = |rng: &mut Pcg32| {
-            if rng.next_f32() < 0.1 {
-                specials[rng.next_u32() as usize % specials.len()]
-            } else {
-                2.0 * rng.next_f32() - 0.5
-            }
-        };
+        let value = |rng: &mut Pcg32| edge_or_uniform(rng, 0.1, -0.5, 1.5);
         let (mut positive, mut zero) = (0, 0);
         for round in 0..20000 {
             let (mut e, mut w) = ([[0.0f32; 8]; 3], [[0.0f32; 8]; 3]);
@@ -1038,27 +1045,7 @@ mod tests {
     #[test]
     fn samples_last_step_in_lanes_equals_the_scalar_one() {
         let mut rng = Pcg32::new(21, 2);
-        let specials = [
-            0.0,
-            -0.0,
-            1e-40,
-            -1e-40,
-            f32::MIN_POSITIVE,
-            1.0,
-            1e30,
-            -1e30,
-            f32::MAX,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NAN,
-        ];
-        let value = |rng: &mut Pcg32, lo: f32, hi: f32| {
-            if rng.next_f32() < 0.08 {
-                specials[rng.next_u32() as usize % specials.len()]
-            } else {
-                lo + (hi - lo) * rng.next_f32()
-            }
-        };
+        let value = |rng: &mut Pcg32, lo: f32, hi: f32| edge_or_uniform(rng, 0.08, lo, hi);
         let (mut kept, mut dropped) = (0, 0);
         for round in 0..20000 {
             let mut fo = first::FirstOrders::zero();
