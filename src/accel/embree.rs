@@ -1495,20 +1495,8 @@ impl EmbreeScene {
         ctx
     }
 
-    /// Nearest hits of `rays` traced as one `rtcIntersect1M` stream through `buf`: `out(k, hit)`
-    /// for the `k`-th ray, in order.
-    pub(crate) fn intersect_stream<'r>(
-        &self,
-        rays: impl Iterator<Item = &'r Ray>,
-        coherent: bool,
-        buf: &mut RayBuf,
-        out: impl FnMut(usize, Option<Hit>),
-    ) {
-        buf.fill(rays);
-        self.intersect_filled(coherent, buf, out);
-    }
-
-    /// [`Self::intersect_stream`] of the rays [`RayBuf::fill`] put in `buf`.
+    /// Nearest hits of the rays [`RayBuf::fill`] put in `buf`, traced as one `rtcIntersect1M`
+    /// stream: `out(k, hit)` for the `k`-th ray, in order.
     pub(crate) fn intersect_filled(
         &self,
         coherent: bool,
@@ -1551,20 +1539,8 @@ impl EmbreeScene {
         }
     }
 
-    /// Occlusion of `rays` traced as one `rtcOccluded1M` stream through `buf`: `out(k, blocked)`
-    /// for the `k`-th ray, in order.
-    pub(crate) fn occluded_stream<'r>(
-        &self,
-        rays: impl Iterator<Item = &'r Ray>,
-        coherent: bool,
-        buf: &mut RayBuf,
-        out: impl FnMut(usize, bool),
-    ) {
-        buf.fill(rays);
-        self.occluded_filled(coherent, buf, out);
-    }
-
-    /// [`Self::occluded_stream`] of the rays [`RayBuf::fill`] put in `buf`.
+    /// Occlusion of the rays [`RayBuf::fill`] put in `buf`, traced as one `rtcOccluded1M`
+    /// stream: `out(k, blocked)` for the `k`-th ray, in order.
     pub(crate) fn occluded_filled(
         &self,
         coherent: bool,
@@ -1750,11 +1726,13 @@ mod tests {
             }
         }
         let mut buf = RayBuf::default();
-        scene.intersect_stream(rays.iter(), false, &mut buf, |k, g| {
+        buf.fill(rays.iter());
+        scene.intersect_filled(false, &mut buf, |k, g| {
             let r = &rays[k];
             assert_eq!(g, scene.intersect(r.o, r.d, r.tmin, r.tmax));
         });
-        scene.occluded_stream(rays.iter(), false, &mut buf, |k, b| {
+        buf.fill(rays.iter());
+        scene.occluded_filled(false, &mut buf, |k, b| {
             let r = &rays[k];
             assert_eq!(b, scene.occluded(r.o, r.d, r.tmin, r.tmax));
         });

@@ -390,15 +390,10 @@ impl Accel {
         rays: impl Iterator<Item = &'r Ray>,
         coherent: bool,
         buf: &mut RayBuf,
-        mut out: impl FnMut(usize, Option<Hit>),
+        out: impl FnMut(usize, Option<Hit>),
     ) {
-        match (&self.brute, &self.scene) {
-            (Some(b), _) => brute_intersect(b, rays.copied(), out),
-            (None, Some(s)) => s.intersect_stream(rays, coherent, &mut buf.0, |k, hit| {
-                out(k, hit.and_then(|h| self.world_hit(h)))
-            }),
-            (None, None) => rays.enumerate().for_each(|(k, _)| out(k, None)),
-        }
+        buf.fill(rays);
+        self.intersect_filled(coherent, buf, out);
     }
 
     /// [`Self::intersect_stream`] of the rays [`RayBuf::fill`] put in `buf`.
@@ -438,13 +433,10 @@ impl Accel {
         rays: impl Iterator<Item = &'r Ray>,
         coherent: bool,
         buf: &mut RayBuf,
-        mut out: impl FnMut(usize, bool),
+        out: impl FnMut(usize, bool),
     ) {
-        match (&self.brute, &self.scene) {
-            (Some(b), _) => brute_occluded(b, rays.copied(), out),
-            (None, Some(s)) => s.occluded_stream(rays, coherent, &mut buf.0, out),
-            (None, None) => rays.enumerate().for_each(|(k, _)| out(k, false)),
-        }
+        buf.fill(rays);
+        self.occluded_filled(coherent, buf, out);
     }
 
     /// An Embree hit with its instance id and the group's geometry id turned into scene
