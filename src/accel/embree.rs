@@ -1324,21 +1324,19 @@ impl EmbreeScene {
     /// lanes cost ~38 instructions per ray.)
     #[inline(always)]
     fn ray8<'r>(n: usize, ray: impl Fn(usize) -> &'r Ray) -> RTCRay8 {
-        let mut p = RTCRay8 {
-            org_x: [0.0; 8],
-            org_y: [0.0; 8],
-            org_z: [0.0; 8],
-            tnear: [0.0; 8],
-            dir_x: [0.0; 8],
-            dir_y: [0.0; 8],
-            dir_z: [0.0; 8],
-            time: [0.0; 8],
-            tfar: [0.0; 8],
-            mask: [u32::MAX; 8],
-            id: [0; 8],
-            flags: [0; 8],
-        };
-        for i in 0..n.min(8) {
+        let mut p = EMPTY8.ray;
+        Self::set_rays8(&mut p, n, ray);
+        p
+    }
+
+    /// Writes lanes `0..n` of `p` from `ray(0)`, … `ray(n − 1)` and, when `n < 8`, the ray
+    /// fields of lanes `n..8` as [`EMPTY8`] has them, so that the packet holds what a fresh
+    /// [`Self::ray8`] would (its mask, time and flags, which Embree only reads, stay as
+    /// [`EMPTY8`] set them).
+    #[inline(always)]
+    fn set_rays8<'r>(p: &mut RTCRay8, n: usize, ray: impl Fn(usize) -> &'r Ray) {
+        let n = n.min(8);
+        for i in 0..n {
             let r = ray(i);
             (p.org_x[i], p.org_y[i], p.org_z[i]) = (r.o.x, r.o.y, r.o.z);
             (p.dir_x[i], p.dir_y[i], p.dir_z[i]) = (r.d.x, r.d.y, r.d.z);
@@ -1346,7 +1344,11 @@ impl EmbreeScene {
             // As in `ray`.
             p.id[i] = r.tmax.to_bits();
         }
-        p
+        for i in n..8 {
+            (p.org_x[i], p.org_y[i], p.org_z[i]) = (0.0, 0.0, 0.0);
+            (p.dir_x[i], p.dir_y[i], p.dir_z[i]) = (0.0, 0.0, 0.0);
+            (p.tnear[i], p.tfar[i], p.id[i]) = (0.0, 0.0, 0);
+        }
     }
 
     /// Nearest hits of up to 8 rays traced as one `rtcIntersect8` packet: `out[i]` is the hit
@@ -1354,16 +1356,41 @@ impl EmbreeScene {
     /// rays of one pixel, which Embree may use to traverse them together).
     pub(crate) fn intersect8(&self, rays: &[Ray], coherent: bool, out: &mut [Option<Hit>; 8]) {
         *out = [None; 8];
-        self.intersect8_with(rays.len(), coherent, |k| &rays[k], |k, h| out[k] = h);
+        let mut rh = EMPTY8;
+        self.intersect8_into(
+            &mut rh,
+            rays.len(),
+            coherent,
+            |k| &rays[k],
+            |k, h| out[k] = h,
+        );
     }
 
     /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each hit
     /// handed to `out(k, hit)` in lane order: the rays read from, and the hits written to,
     /// wherever the caller keeps them (the stream renderer's path columns), without a packet of
-    /// rays or of hits in between.
+    /// rays or of hits in between. The packet Embree reads is `buf`'s, kept from query to
+    /// query: only its used lanes and hit ids are rewritten, where building one afresh cost
+    /// two 640-byte copies and its zeroing per query.
     #[inline(always)]
     pub(crate) fn intersect8_with<'r>(
         &self,
+        buf: &mut RayBuf,
+        n: usize,
+        coherent: bool,
+        ray: impl Fn(usize) -> &'r Ray,
+        out: impl FnMut(usize, Option<Hit>),
+    ) {
+        self.intersect8_into(&mut buf.packet, n, coherent, ray, out);
+    }
+
+    /// [`Self::intersect8_with`] through the packet `rh`, whose ray fields
+    /// [`Self::set_rays8`] rewrites and whose hit ids are reset (Embree writes a hit's other
+    /// fields, and nothing reads them without a hit).
+    #[inline(always)]
+    fn intersect8_into<'r>(
+        &self,
+        rh: &mut RTCRayHit8,
         n: usize,
         coherent: bool,
         ray: impl Fn(usize) -> &'r Ray,
@@ -1375,22 +1402,14 @@ impl EmbreeScene {
         if coherent {
             ctx.flags = RTCIntersectContextFlags::COHERENT;
         }
-        let mut rh = RTCRayHit8 {
-            ray: Self::ray8(n, &ray),
-            hit: RTCHit8 {
-                Ng_x: [0.0; 8],
-                Ng_y: [0.0; 8],
-                Ng_z: [0.0; 8],
-                u: [0.0; 8],
-                v: [0.0; 8],
-                primID: [u32::MAX; 8],
-                geomID: [u32::MAX; 8],
-                instID: [[u32::MAX; 8]],
-            },
-        };
-        // SAFETY: the scene is committed; the mask, context and packet are valid locals with
-        // the alignments Embree requires (32 bytes for the mask and the packet).
-        unsafe { rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, &mut rh) };
+        Self::set_rays8(&mut rh.ray, n, &ray);
+        rh.hit.primID = [u32::MAX; 8];
+        rh.hit.geomID = [u32::MAX; 8];
+        rh.hit.instID = [[u32::MAX; 8]];
+        // SAFETY: the scene is committed; the mask, context and packet are valid, with the
+        // alignments Embree requires (32 bytes for the mask and the packet: `RTCRayHit8` is
+        // `align(32)` wherever it lives).
+        unsafe { rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, rh) };
         for i in 0..n {
             let h = (rh.hit.geomID[i] != u32::MAX).then(|| {
                 let hit = Hit {
@@ -1428,11 +1447,50 @@ impl EmbreeScene {
 /// nothing. Filled ([`RayBuf::fill`]) and traced ([`EmbreeScene::intersect_filled`],
 /// [`EmbreeScene::occluded_filled`]) in two steps, so that the caller can note what goes in
 /// (the stream renderer's shadow stage lists the pending paths as it fills).
-#[derive(Default)]
 pub(crate) struct RayBuf {
     /// Slots, never shrunk; the first `n` hold the stream.
     rh: Vec<RTCRayHit>,
     n: usize,
+    /// The packet of [`EmbreeScene::intersect8_with`], reused from query to query.
+    packet: RTCRayHit8,
+}
+
+/// An empty packet: every ray field zero but the mask (all bits), every hit id invalid.
+const EMPTY8: RTCRayHit8 = RTCRayHit8 {
+    ray: RTCRay8 {
+        org_x: [0.0; 8],
+        org_y: [0.0; 8],
+        org_z: [0.0; 8],
+        tnear: [0.0; 8],
+        dir_x: [0.0; 8],
+        dir_y: [0.0; 8],
+        dir_z: [0.0; 8],
+        time: [0.0; 8],
+        tfar: [0.0; 8],
+        mask: [u32::MAX; 8],
+        id: [0; 8],
+        flags: [0; 8],
+    },
+    hit: RTCHit8 {
+        Ng_x: [0.0; 8],
+        Ng_y: [0.0; 8],
+        Ng_z: [0.0; 8],
+        u: [0.0; 8],
+        v: [0.0; 8],
+        primID: [u32::MAX; 8],
+        geomID: [u32::MAX; 8],
+        instID: [[u32::MAX; 8]],
+    },
+};
+
+impl Default for RayBuf {
+    fn default() -> RayBuf {
+        RayBuf {
+            rh: Vec::new(),
+            n: 0,
+            packet: EMPTY8,
+        }
+    }
 }
 
 impl RayBuf {

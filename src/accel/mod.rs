@@ -87,7 +87,8 @@ impl Tier {
 }
 
 /// A reusable ray array for [`Accel::intersect_stream`] and [`Accel::occluded_stream`] (one
-/// per worker thread: a stream query then allocates nothing once it has grown).
+/// per worker thread: a stream query then allocates nothing once it has grown), and the
+/// reused packet of [`Accel::intersect8_with`].
 #[derive(Default)]
 pub struct RayBuf(embree::RayBuf);
 
@@ -319,10 +320,12 @@ impl Accel {
 
     /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each hit handed
     /// to `out(k, hit)` in lane order: no packet of rays or of hits in between under Embree
-    /// (the stream renderer's camera packets, read from and written to its path columns).
+    /// (the stream renderer's camera packets, read from and written to its path columns), whose
+    /// one packet is `buf`'s, reused from query to query.
     #[inline(always)]
     pub fn intersect8_with<'r>(
         &self,
+        buf: &mut RayBuf,
         n: usize,
         coherent: bool,
         ray: impl Fn(usize) -> &'r Ray,
@@ -330,7 +333,7 @@ impl Accel {
     ) {
         let n = n.min(8);
         match (&self.brute, &self.scene) {
-            (None, Some(s)) => s.intersect8_with(n, coherent, ray, |k, h| {
+            (None, Some(s)) => s.intersect8_with(&mut buf.0, n, coherent, ray, |k, h| {
                 out(k, h.and_then(|h| self.world_hit(h)))
             }),
             _ => {

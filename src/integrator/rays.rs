@@ -174,7 +174,7 @@ impl Rays {
         }
         scene
             .accel
-            .intersect8_with(n, kind == RayKind::Camera, ray, out);
+            .intersect8_with(&mut self.buf, n, kind == RayKind::Camera, ray, out);
     }
 
     /// The nearest hit of one ray as the accelerator reports it (no surface interaction yet),

@@ -241,11 +241,15 @@ fn packet_and_stream_hits_on_meshes_are_the_single_ray_hits_bit_for_bit() {
     // iterators of unknown length (`RayBuf::fill`: an upper bound, as the shadow stage's
     // filter gives, or none, which takes the slow path past the buffer's slots), then traced
     // (`Accel::intersect_filled`, `Accel::occluded_filled`).
+    // One buffer for every packet: its packet is kept from query to query (full packets and
+    // partial ones after them, whose lanes past `n` held the last packet's rays).
     let order: Vec<usize> = (0..all.len()).map(|k| (k * 7919) % all.len()).collect();
+    let mut pbuf = groove::accel::RayBuf::default();
     for (c, ids) in order.chunks(8).enumerate() {
         let n = if c % 4 == 3 { 1 + c % 7 } else { ids.len() };
         let mut seen = 0;
         accel.intersect8_with(
+            &mut pbuf,
             n,
             c % 2 == 0,
             |k| &all[ids[k]],
