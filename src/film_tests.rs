@@ -685,9 +685,113 @@ fn put8_equals_put_one_by_one() {
                     "put8_finite, {filter:?} block {:?}",
                     (x0, y0, w, h)
                 );
+                // The same at width 16 (`put8_finite_512`: the footprints' pixels converted
+                // through f64 and added in 512-bit registers).
+                if let Some(w16) = crate::lane::Avx512::detect() {
+                    let (mut wide16, mut counted16) = (Block::new(&d, x0, y0, w, h), 0);
+                    start(&mut wide16, near);
+                    for c in samples.chunks_exact(8) {
+                        let pos: [Vec2; 8] = core::array::from_fn(|k| c[k].0);
+                        let v: [Spectrum; 8] = core::array::from_fn(|k| c[k].1);
+                        counted16 += wide16.put8_finite_512(avx, w16, &pos, &v);
+                    }
+                    assert_eq!(counted16, bad);
+                    assert!(
+                        zeroed.data == wide16.data,
+                        "put8_finite_512, {filter:?} block {:?}",
+                        (x0, y0, w, h)
+                    );
+                } else if filter == Filter::Box && !near {
+                    eprintln!("no AVX-512: put8_finite_512 not tested");
+                }
             }
         }
     }
+}
+
+/// `Block::splat_lanes` equals the scalar splat where a footprint's pixels have addends
+/// outside `fixed`'s common range: corner weights whose square is below 2⁻⁴¹, values that are
+/// tiny, subnormal, ±0, or whose squares reach the clamp at 2⁶², on footprints of 4 to 7 pixels
+/// a side, and sums that start near their limits (saturating and wrapping); at width 8 and,
+/// with AVX-512, at width 16 (whose pixels patch such lanes one by one).
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn splat_lanes_rare_lanes_equal_the_scalar_splat() {
+    let Some(avx) = crate::lane::Avx2::detect() else {
+        eprintln!("no AVX2: splat_lanes not tested");
+        return;
+    };
+    let w16 = crate::lane::Avx512::detect();
+    if w16.is_none() {
+        eprintln!("no AVX-512: splat_lanes at width 16 not tested");
+    }
+    let mut rng = Pcg32::new(29, 3);
+    let mut rare = 0u32;
+    for filter in [
+        Filter::gaussian(0.5),
+        Filter::gaussian(1.5),
+        Filter::Tent { radius: 2.5 },
+    ] {
+        let d = desc(24, 20, filter);
+        let mut lanes = Block::new(&d, 0, 0, 24, 20);
+        let mut one = Block::new(&d, 0, 0, 24, 20);
+        for (i, (l, o)) in lanes.data.iter_mut().zip(one.data.iter_mut()).enumerate() {
+            if i % 5 == 0 {
+                let s: [i128; 8] = core::array::from_fn(|c| {
+                    if c < 3 {
+                        i128::MAX - c as i128
+                    } else {
+                        i128::MAX - (1 << 100)
+                    }
+                });
+                l.sums = s.map(|x| x ^ sum::LOW_BIAS);
+                o.sums = l.sums;
+            }
+        }
+        let mut wide = lanes.clone();
+        for k in 0..3000u32 {
+            // Near a pixel's edge, so that the footprint's far pixels get the table's
+            // smallest weights.
+            let e = [1e-4f32, 0.5, 1.0f32.next_down(), 0.0][k as usize % 4];
+            let u = Vec2::new(e, if k % 3 == 0 { e } else { rng.next_f32() });
+            let pos = Vec2::new(
+                (rng.next_u32() % 26) as f32 - 1.0,
+                (rng.next_u32() % 22) as f32 - 1.0,
+            ) + u;
+            let v = match k % 9 {
+                0 => Spectrum::new(1e-40, -1e-30, 3e-13),
+                1 => Spectrum::new(-0.0, 0.0, 1.0),
+                2 => Spectrum::new(2.0e9, -3.1e9, 4.0e9),
+                3 => Spectrum::new(-4.0e18, 1e-20, 0.5),
+                _ => Spectrum::new(
+                    rng.next_f32() * 4.0 - 1.0,
+                    rng.next_f32(),
+                    rng.next_f32() * 20.0,
+                ),
+            };
+            if let Some(fp) = one.footprint(pos) {
+                let mut wx = vec![0.0f32; fp.nx];
+                let mut wy = vec![0.0f32; fp.ny];
+                fp.weights(&one.table, &mut wx, &mut wy);
+                let tiny = |x: f32| x != 0.0 && x.abs() < 2f32.powi(-41);
+                rare += wx
+                    .iter()
+                    .any(|&a| wy.iter().any(|&b| tiny(a * b * (a * b))))
+                    as u32;
+            }
+            one.splat::<false>(pos, v, &[]);
+            avx.run(|| lanes.splat_lanes(avx, None, pos, v));
+            if let Some(w16) = w16 {
+                w16.run(|| wide.splat_lanes(avx, Some(w16), pos, v));
+            }
+        }
+        assert!(lanes.data == one.data, "{filter:?}");
+        if w16.is_some() {
+            assert!(wide.data == one.data, "width 16, {filter:?}");
+        }
+        assert!(one.data.iter().any(|a| a.wv2(1) == i128::MAX));
+    }
+    assert!(rare > 100, "{rare}");
 }
 
 /// A merge's row add in lanes equals [`Acc::add`] pixel by pixel: signed sums that wrap,

@@ -2,12 +2,15 @@
 //! 32-bit shifts, the join of four 32-bit words per lane into eight `i128`s (into a column of a
 //! per-lane table, or into registers, [`I128x8`]), and the addition of eight `i128` addends to
 //! a pixel's eight (biased) sums in four registers (two sums each); and the lane permutes that
-//! lay a splat's footprint of filter weights out in lanes.
+//! lay a splat's footprint of filter weights out in lanes. With AVX-512 (F, DQ, VL), the
+//! conversion of a pixel's eight addends through `f64` and the add in two 512-bit registers
+//! ([`Avx512::fixed_sums`], [`Avx512::add_sums`]).
 //!
 //! A child of `avx2` (it reads the private fields of [`I32x8`]); the same soundness argument:
 //! its values and the [`Avx2`] token exist only when the CPU has AVX2.
 
 use super::{Avx2, F32x8, I32x8};
+use crate::lane::Avx512;
 use core::arch::x86_64::*;
 
 /// Eight `i128`s in four AVX2 registers, two per register: value 2j in the low and 2j + 1 in
@@ -201,6 +204,129 @@ impl Avx2 {
     }
 }
 
+/// A pixel's eight `i128` sums or addends in two AVX-512 registers, four each (sums 0–3 and
+/// 4–7: the layout of a `[i128; 8]` in memory), [`Avx512::fixed_sums`], [`Avx512::add_sums`].
+#[derive(Clone, Copy)]
+pub struct Sums512([__m512i; 2]);
+
+impl Sums512 {
+    /// All bits zero.
+    #[inline(always)]
+    pub fn zero(_w16: Avx512) -> Sums512 {
+        // SAFETY: the token proves AVX-512 F.
+        unsafe { Sums512([_mm512_setzero_si512(); 2]) }
+    }
+    /// The eight values of `a` (two 64-byte loads).
+    #[inline(always)]
+    pub fn load(_w16: Avx512, a: &[i128; 8]) -> Sums512 {
+        let p = a.as_ptr().cast::<__m512i>();
+        // SAFETY: the token proves AVX-512 F; each load reads four `i128`s of `a`.
+        unsafe {
+            Sums512([
+                _mm512_loadu_si512(p.cast()),
+                _mm512_loadu_si512(p.add(1).cast()),
+            ])
+        }
+    }
+    /// The eight values (tests).
+    #[inline(always)]
+    pub fn to_array(self) -> [i128; 8] {
+        let mut a = [0i128; 8];
+        let p = a.as_mut_ptr().cast::<__m512i>();
+        // SAFETY: a Sums512 exists only with AVX-512 F; each store writes four `i128`s of `a`.
+        unsafe {
+            _mm512_storeu_si512(p.cast(), self.0[0]);
+            _mm512_storeu_si512(p.add(1).cast(), self.0[1]);
+        }
+        a
+    }
+    /// True when some value `i` with bit `i` of `SAT` set has its sign bit (bit 127) set: the
+    /// saturation test of or-ed sums ([`Avx512::add_sums`]).
+    #[inline(always)]
+    pub fn any_negative<const SAT: u32>(self) -> bool {
+        let m = |i: u32| -(((SAT >> i) & 1) as i64) << 63;
+        // SAFETY: as above.
+        unsafe {
+            let m0 = _mm512_setr_epi64(0, m(0), 0, m(1), 0, m(2), 0, m(3));
+            let m1 = _mm512_setr_epi64(0, m(4), 0, m(5), 0, m(6), 0, m(7));
+            let t = _mm512_or_si512(
+                _mm512_and_si512(self.0[0], m0),
+                _mm512_and_si512(self.0[1], m1),
+            );
+            _mm512_test_epi64_mask(t, t) != 0
+        }
+    }
+}
+
+impl Avx512 {
+    /// `film::sum::fixed` of the eight lanes of `x`, where lane 2i holds the addend of sum i
+    /// and lane 2i + 1 that of sum 4 + i, as [`Sums512`] in sum order; and the mask of the lanes
+    /// (bit l for lane l) where the value is `fixed`'s: ±0 and the common range 2⁻⁴¹ ≤ |x| < 2⁶²
+    /// (biased exponent 86..=188). The other lanes are 0; the caller adds them one by one.
+    ///
+    /// Through `f64` (exact: an f32 widens exactly): for a = |x|, the integer part
+    /// h = trunc(a) < 2⁶² is the high word (`vcvttpd2qq`), and (a − trunc(a))·2⁶⁴ the low word
+    /// (`vcvttpd2uqq`): the fraction keeps only bits of a, so the difference is exact, and in
+    /// the common range a's last bit is at least 2⁻⁶⁴, so the scaled fraction is an integer
+    /// below 2⁶⁴. The sign is then applied as a 128-bit negation (−lo, −hi − (lo ≠ 0)). Two
+    /// unpacks pair each lane's low and high words into the sums' layout. Call inside
+    /// [`Avx512::run`].
+    #[inline(always)]
+    pub fn fixed_sums(self, x: F32x8) -> (Sums512, u32) {
+        // SAFETY: the token proves AVX-512 F, DQ and VL (and AVX2).
+        unsafe {
+            let bits = _mm256_castps_si256(x.0);
+            let e = _mm256_and_si256(_mm256_srli_epi32::<23>(bits), _mm256_set1_epi32(0xff));
+            let sh = _mm256_sub_epi32(e, _mm256_set1_epi32(86));
+            let common = _mm256_cmple_epu32_mask(sh, _mm256_set1_epi32(102));
+            let zero = _mm256_cmp_ps_mask::<_CMP_EQ_OQ>(x.0, _mm256_setzero_ps());
+            let neg = _mm256_movepi32_mask(bits);
+            let a = _mm512_abs_pd(_mm512_cvtps_pd(x.0));
+            let hi = _mm512_maskz_cvttpd_epi64(common, a);
+            // Truncation (toward zero) of a ≥ 0, exceptions suppressed.
+            let t = _mm512_roundscale_pd::<0x0B>(a);
+            let f = _mm512_mul_pd(_mm512_sub_pd(a, t), _mm512_set1_pd(18446744073709551616.0));
+            let lo = _mm512_maskz_cvttpd_epu64(common, f);
+            let z = _mm512_setzero_si512();
+            let borrow = neg & _mm512_test_epi64_mask(lo, lo);
+            let lo = _mm512_mask_sub_epi64(lo, neg, z, lo);
+            let hi = _mm512_mask_sub_epi64(hi, neg, z, hi);
+            let hi = _mm512_mask_sub_epi64(hi, borrow, hi, _mm512_set1_epi64(1));
+            let sums = Sums512([_mm512_unpacklo_epi64(lo, hi), _mm512_unpackhi_epi64(lo, hi)]);
+            (sums, (common | zero) as u32)
+        }
+    }
+
+    /// Adds eight `i128` addends to eight sums held biased (as [`Avx2::add_i128x8_biased`]),
+    /// wrapping, in two 512-bit registers: the carry out of each low word is the signed
+    /// compare of the biased words (a mask), added to the high word by a masked subtract of
+    /// −1. The new sums are or-ed into `seen` for one saturation test over several pixels
+    /// ([`Sums512::any_negative`]). Call inside [`Avx512::run`].
+    #[inline(always)]
+    pub fn add_sums(self, acc: &mut [i128; 8], x: Sums512, seen: &mut Sums512) {
+        // SAFETY: the token proves AVX-512 F; the 64-byte loads and stores read and write
+        // four consecutive `i128`s of `acc` each.
+        unsafe {
+            let p = acc.as_mut_ptr().cast::<__m512i>();
+            let ones = _mm512_set1_epi64(-1);
+            let a0 = _mm512_loadu_si512(p.cast());
+            let a1 = _mm512_loadu_si512(p.add(1).cast());
+            let s0 = _mm512_add_epi64(a0, x.0[0]);
+            let s1 = _mm512_add_epi64(a1, x.0[1]);
+            let c0 = _mm512_cmplt_epi64_mask(s0, a0) & 0x55;
+            let c1 = _mm512_cmplt_epi64_mask(s1, a1) & 0x55;
+            let s0 = _mm512_mask_sub_epi64(s0, c0 << 1, s0, ones);
+            let s1 = _mm512_mask_sub_epi64(s1, c1 << 1, s1, ones);
+            _mm512_storeu_si512(p.cast(), s0);
+            _mm512_storeu_si512(p.add(1).cast(), s1);
+            seen.0 = [
+                _mm512_or_si512(seen.0[0], s0),
+                _mm512_or_si512(seen.0[1], s1),
+            ];
+        }
+    }
+}
+
 /// The rare saturation of [`Avx2::add_i128x8_biased`] (on biased sums: the sign is the high
 /// word's, and the maximum is stored biased).
 #[cold]
@@ -281,6 +407,129 @@ mod tests {
                 });
                 assert_eq!(got.map(|s| s ^ LOW_BIAS), want, "{acc0:?} + {x:?}");
             }
+        }
+    }
+
+    /// [`Avx512::fixed_sums`] equals `film::sum::fixed` in every lane (lane 2i as sum i, lane
+    /// 2i + 1 as sum 4 + i) where its mask is set, which is exactly ±0 and the common range, and
+    /// gives 0 elsewhere: every exponent and sign with boundary significands in every lane
+    /// position, 2¹⁸ random bit patterns, and runs of common-range values with full
+    /// significands (negative ones near 2⁻⁴¹ need all 64 fraction bits) and zeros.
+    #[test]
+    fn fixed_sums_at_width_16_equal_fixed() {
+        let (Some(avx), Some(w16)) = (Avx2::detect(), Avx512::detect()) else {
+            eprintln!("no AVX-512: fixed_sums not tested");
+            return;
+        };
+        use crate::film::sum::fixed;
+        let mut xs = Vec::new();
+        for e in 0u32..=255 {
+            for frac in [0u32, 1, 2, 0x40_0000, 0x7f_fffe, 0x7f_ffff, 0x12_3457] {
+                for sign in [0u32, 1] {
+                    xs.push(f32::from_bits(sign << 31 | e << 23 | frac));
+                }
+            }
+        }
+        let mut z = 0x3c6e_f372_fe94_f82bu64;
+        let mut next = || {
+            z = z
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            z
+        };
+        for _ in 0..1 << 18 {
+            xs.push(f32::from_bits((next() >> 32) as u32));
+        }
+        for k in 0..1 << 16 {
+            let r = next();
+            let e = if k % 3 == 0 {
+                86 + (r >> 40) as u32 % 4
+            } else {
+                86 + (r >> 40) as u32 % 103
+            };
+            let bits = ((r >> 63) as u32) << 31 | e << 23 | (r as u32 & 0x7f_ffff);
+            xs.push(if k % 31 == 0 {
+                -0.0
+            } else {
+                f32::from_bits(bits)
+            });
+        }
+        let plain = |x: f32| x == 0.0 || (86..=188).contains(&((x.to_bits() >> 23) & 0xff));
+        let mut lanes = 0u64;
+        for shift in 0..8 {
+            for c in xs[shift..].chunks_exact(8) {
+                let c: [f32; 8] = c.try_into().unwrap();
+                let (sums, ok) = w16.run(|| {
+                    let (s, ok) = w16.fixed_sums(avx.load(&c));
+                    (s.to_array(), ok)
+                });
+                for (l, &x) in c.iter().enumerate() {
+                    let i = if l % 2 == 0 { l / 2 } else { 4 + l / 2 };
+                    assert_eq!(ok >> l & 1 != 0, plain(x), "{x:e} ({:#x})", x.to_bits());
+                    let want = if plain(x) { fixed(x) } else { 0 };
+                    assert_eq!(sums[i], want, "{x:e} ({:#x})", x.to_bits());
+                    lanes += plain(x) as u64;
+                }
+                assert!(ok < 256);
+            }
+        }
+        assert!(lanes > 1 << 20, "{lanes}");
+    }
+
+    /// [`Avx512::add_sums`] equals the scalar wrapping adds on biased sums (carries, wraps,
+    /// extremes), or-s the new sums into `seen`, and [`Sums512::any_negative`] reads the sign
+    /// of exactly the selected sums.
+    #[test]
+    fn add_sums_at_width_16_equal_scalar_adds() {
+        let (Some(avx), Some(w16)) = (Avx2::detect(), Avx512::detect()) else {
+            eprintln!("no AVX-512: add_sums not tested");
+            return;
+        };
+        let _ = avx;
+        let e = edge();
+        let mut z = 0x510e_527f_ade6_82d1u64;
+        let mut next = || {
+            z = z
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            z
+        };
+        for _ in 0..20000 {
+            let mut pick = || -> i128 {
+                let r = next();
+                match r % 4 {
+                    0 => e[(r >> 8) as usize % e.len()],
+                    1 => (((next() as u128) << 64) | next() as u128) as i128,
+                    2 => (next() >> (r >> 58)) as i128 * if r & 1 << 20 != 0 { -1 } else { 1 },
+                    _ => (i128::MAX - (next() >> 40) as i128) * (r >> 21 & 1) as i128,
+                }
+            };
+            let acc0: [i128; 8] = core::array::from_fn(|_| pick());
+            let x: [i128; 8] = core::array::from_fn(|_| pick());
+            let y: [i128; 8] = core::array::from_fn(|_| pick());
+            let mut got = acc0.map(|s| s ^ LOW_BIAS);
+            let mut other = y.map(|s| s ^ LOW_BIAS);
+            let want: [i128; 8] = core::array::from_fn(|i| acc0[i].wrapping_add(x[i]));
+            let wanty: [i128; 8] = core::array::from_fn(|i| y[i].wrapping_add(x[i]));
+            let (seen, neg) = w16.run(|| {
+                let mut seen = Sums512::zero(w16);
+                let xs = Sums512::load(w16, &x);
+                w16.add_sums(&mut got, xs, &mut seen);
+                w16.add_sums(&mut other, xs, &mut seen);
+                let neg: [bool; 4] = [
+                    seen.any_negative::<0>(),
+                    seen.any_negative::<0b1111_1000>(),
+                    seen.any_negative::<1>(),
+                    seen.any_negative::<0b1000_0000>(),
+                ];
+                (seen.to_array(), neg)
+            });
+            assert_eq!(got.map(|s| s ^ LOW_BIAS), want, "{acc0:?} + {x:?}");
+            assert_eq!(other.map(|s| s ^ LOW_BIAS), wanty, "{y:?} + {x:?}");
+            let or: [i128; 8] = core::array::from_fn(|i| got[i] | other[i]);
+            assert_eq!(seen, or);
+            let sel = |m: u32| (0..8).any(|i| m >> i & 1 != 0 && or[i] < 0);
+            assert_eq!(neg, [false, sel(0b1111_1000), sel(1), sel(0b1000_0000)]);
         }
     }
 
