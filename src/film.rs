@@ -550,7 +550,7 @@ impl Block {
             } else {
                 avx.run(
                     #[inline(always)]
-                    || self.splat_lanes(avx, None, film_pos, value),
+                    || self.splat_lanes(avx, film_pos, value),
                 );
             }
             return;
@@ -598,7 +598,7 @@ impl Block {
             #[inline(always)]
             || {
                 let [r, g, b] = columns(avx, value);
-                self.put8_columns(avx, None, pos, [r, g, b]);
+                self.put8_columns(avx, pos, [r, g, b]);
             },
         );
     }
@@ -614,54 +614,25 @@ impl Block {
         pos: &[Vec2; 8],
         value: &[Spectrum; 8],
     ) -> u32 {
+        use crate::lane::{F32x8, Lane, LaneMask};
         avx.run(
             #[inline(always)]
-            || self.put8_finite_in(avx, None, pos, value),
+            || {
+                let [r, g, b] = columns(avx, value);
+                let ok = r.is_finite() & g.is_finite() & b.is_finite();
+                let mut invalid = 0;
+                let cols = if ok.all() {
+                    [r, g, b]
+                } else {
+                    invalid = ok.to_array().iter().filter(|&&f| !f).count() as u32;
+                    // +0.0, the bits of `Spectrum::ZERO`.
+                    let z = avx.splat(0.0);
+                    [r, g, b].map(|c| F32x8::select(ok, c, z))
+                };
+                self.put8_columns(avx, pos, cols);
+                invalid
+            },
         )
-    }
-
-    /// [`Block::put8_finite`] inside a function compiled for AVX-512 (the stream renderer at
-    /// width 16): a footprint's pixels take [`crate::lane::Avx512::fixed_sums`] and
-    /// [`crate::lane::Avx512::add_sums`] ([`Block::add8`]); the same sums to the bit.
-    #[cfg(target_arch = "x86_64")]
-    pub(crate) fn put8_finite_512(
-        &mut self,
-        avx: crate::lane::Avx2,
-        w16: crate::lane::Avx512,
-        pos: &[Vec2; 8],
-        value: &[Spectrum; 8],
-    ) -> u32 {
-        w16.run(
-            #[inline(always)]
-            || self.put8_finite_in(avx, Some(w16), pos, value),
-        )
-    }
-
-    /// The body of [`Block::put8_finite`] (`w16`: inside [`crate::lane::Avx512::run`], else
-    /// inside [`crate::lane::Avx2::run`]).
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn put8_finite_in(
-        &mut self,
-        avx: crate::lane::Avx2,
-        w16: Option<crate::lane::Avx512>,
-        pos: &[Vec2; 8],
-        value: &[Spectrum; 8],
-    ) -> u32 {
-        use crate::lane::{F32x8, Lane, LaneMask};
-        let [r, g, b] = columns(avx, value);
-        let ok = r.is_finite() & g.is_finite() & b.is_finite();
-        let mut invalid = 0;
-        let cols = if ok.all() {
-            [r, g, b]
-        } else {
-            invalid = ok.to_array().iter().filter(|&&f| !f).count() as u32;
-            // +0.0, the bits of `Spectrum::ZERO`.
-            let z = avx.splat(0.0);
-            [r, g, b].map(|c| F32x8::select(ok, c, z))
-        };
-        self.put8_columns(avx, w16, pos, cols);
-        invalid
     }
 
     /// `put8` of the values given as their R, G and B columns. Call inside
@@ -671,7 +642,6 @@ impl Block {
     fn put8_columns(
         &mut self,
         avx: crate::lane::Avx2,
-        w16: Option<crate::lane::Avx512>,
         pos: &[Vec2; 8],
         rgb: [crate::lane::F32x8; 3],
     ) {
@@ -693,7 +663,7 @@ impl Block {
             for (k, &p) in pos.iter().enumerate() {
                 let v = Spectrum::new(r[k], g[k], b[k]);
                 if lanes {
-                    self.splat_lanes(avx, w16, p, v);
+                    self.splat_lanes(avx, p, v);
                 } else {
                     self.put(p, v);
                 }
@@ -839,13 +809,7 @@ impl Block {
     /// [`crate::lane::Avx2::run`].
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn splat_lanes(
-        &mut self,
-        avx: crate::lane::Avx2,
-        w16: Option<crate::lane::Avx512>,
-        film_pos: Vec2,
-        value: Spectrum,
-    ) {
+    fn splat_lanes(&mut self, avx: crate::lane::Avx2, film_pos: Vec2, value: Spectrum) {
         use crate::lane::LaneI32;
         if !film_pos.is_finite() || self.sw == 0 || self.sh == 0 {
             return;
@@ -876,7 +840,7 @@ impl Block {
                 let (i, j) = (avx.load_i32(fi), avx.load_i32(fj));
                 let w = wx.permute(i) * wy.permute(j);
                 let at = rows.permute(j).add(i).to_array();
-                self.add8(avx, w16, fx, w, &at, (n - 8 * g).min(8), v);
+                self.add8(avx, fx, w, &at, (n - 8 * g).min(8), v);
             }
             return;
         }
@@ -891,67 +855,30 @@ impl Block {
                 at[n] = row + i as i32;
                 n += 1;
                 if n == 8 {
-                    self.add8(avx, w16, fx, avx.load(&w), &at, 8, v);
+                    self.add8(avx, fx, avx.load(&w), &at, 8, v);
                     n = 0;
                 }
             }
         }
         if n > 0 {
-            self.add8(avx, w16, fx, avx.load(&w), &at, n, v);
+            self.add8(avx, fx, avx.load(&w), &at, n, v);
         }
     }
 
     /// Adds the first `n` of eight weighted contributions of the value `v` (weights `w`, to
     /// the storage pixels `at`): [`Acc::add_sample`] with the addends converted 8-wide. Call
     /// inside [`crate::lane::Avx2::run`].
-    ///
-    /// With `w16` (inside [`crate::lane::Avx512::run`]) pixel by pixel instead: the pixel's
-    /// eight addends in one register, (w·c1)·c2 with per-value constants (the same f32 products;
-    /// w·w through a blend of w into lane 7), in the lane order that
-    /// [`crate::lane::Avx512::fixed_sums`] converts into the sums' layout, added in two
-    /// 512-bit registers ([`crate::lane::Avx512::add_sums`]); one saturation test per call
-    /// (the pixels are distinct: each sum receives one addend, so a saturating sum is negative
-    /// afterwards exactly when it overflowed), and the lanes outside the conversion's range
-    /// (which added 0) one by one ([`add_rare_lanes`]).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     fn add8(
         &mut self,
         avx: crate::lane::Avx2,
-        w16: Option<crate::lane::Avx512>,
         fx: sum::Fixed8,
         w8: crate::lane::F32x8,
         at: &[i32; 8],
         n: usize,
         v: [f32; 3],
     ) {
-        use crate::lane::{F32x8, Lane, Sums512};
-        if let Some(w16) = w16 {
-            let [r, g, b] = v;
-            // Lanes: Σw·v R, Σw·v² G, Σw·v G, Σw·v² B, Σw·v B, Σw, Σw·v² R, Σw² (lane 2i sum i,
-            // lane 2i + 1 sum 4 + i).
-            let c1 = avx.load(&[r, g, g, b, b, 1.0, r, 1.0]);
-            let c2 = avx.load(&[1.0, g, 1.0, b, 1.0, 1.0, r, 1.0]);
-            let last = avx.mask_bits(0x80);
-            let ws = w8.to_array();
-            let (data, at) = (&mut self.data[..], &at[..n]);
-            let mut seen = Sums512::zero(w16);
-            for (&a, &w) in at.iter().zip(&ws) {
-                let w = avx.splat(w);
-                let x = (w * c1) * F32x8::select(last, w, c2);
-                let (sums, ok) = w16.fixed_sums(x);
-                let acc = &mut data[a as usize].sums;
-                w16.add_sums(acc, sums, &mut seen);
-                if ok != 0xff {
-                    add_rare_lanes(acc, x.to_array(), ok);
-                }
-            }
-            if seen.any_negative::<UNSIGNED_SUMS>() {
-                saturate_pixels(data, at);
-            }
-            return;
-        }
         let (r, g, b) = (avx.splat(v[0]), avx.splat(v[1]), avx.splat(v[2]));
         let (wr, wg, wb) = (r * w8, g * w8, b * w8);
         // The eight addends' columns, converted in a loop (one conversion's code, its
@@ -963,44 +890,6 @@ impl Block {
         }
         for (k, &a) in at.iter().enumerate().take(n) {
             avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut data[a as usize].sums, &t[k]);
-        }
-    }
-}
-
-/// [`Block::add8`]'s saturation at width 16: the saturating sums ([`UNSIGNED_SUMS`]) of the
-/// pixels `at` that are negative (overflowed) set to `i128::MAX` (stored biased).
-#[cfg(target_arch = "x86_64")]
-#[cold]
-#[inline(never)]
-fn saturate_pixels(data: &mut [Acc], at: &[i32]) {
-    for &a in at {
-        for (i, s) in data[a as usize].sums.iter_mut().enumerate() {
-            if UNSIGNED_SUMS >> i & 1 != 0 && *s < 0 {
-                *s = i128::MAX ^ sum::LOW_BIAS;
-            }
-        }
-    }
-}
-
-/// [`Block::add8`]'s lanes at width 16 outside the conversion's range (bit l of `ok` clear),
-/// which added 0: lane l of `x` is the addend of sum l/2 (l even) or 4 + l/2 (l odd), added
-/// as [`Acc::add_fixed`] adds it (wrapping for Σw·v, saturating for the others). A sum that
-/// overflowed in the lane add is negative here, and the saturating add keeps it at the
-/// maximum, as adding in the other order would.
-#[cfg(target_arch = "x86_64")]
-#[cold]
-#[inline(never)]
-fn add_rare_lanes(sums: &mut [i128; 8], x: [f32; 8], ok: u32) {
-    for (l, &xl) in x.iter().enumerate() {
-        if ok >> l & 1 != 0 {
-            continue;
-        }
-        let i = if l % 2 == 0 { l / 2 } else { 4 + l / 2 };
-        let f = sum::fixed(xl);
-        if UNSIGNED_SUMS >> i & 1 != 0 {
-            sum::add_unsigned_all_biased([&mut sums[i]], [f]);
-        } else {
-            sum::add_signed_biased(&mut sums[i], f);
         }
     }
 }

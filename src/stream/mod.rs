@@ -528,10 +528,7 @@ fn splat(block: &mut Block, batch: &Batch, kernels: &Kernels, invalid: &mut u64)
         for (pos, state) in chunks {
             let pos: &[Vec2; 8] = pos.try_into().expect("8 positions");
             let v: [Spectrum; 8] = core::array::from_fn(|j| state[j].result);
-            *invalid += match kernels.avx512 {
-                Some(w16) => block.put8_finite_512(avx, w16, pos, &v),
-                None => block.put8_finite(avx, pos, &v),
-            } as u64;
+            *invalid += block.put8_finite(avx, pos, &v) as u64;
             done += 8;
         }
     }
