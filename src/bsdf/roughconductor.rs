@@ -20,7 +20,7 @@
 use super::lanes::LaneBsdfSample;
 use super::microfacet::MicrofacetDistribution;
 use super::{BsdfSample, Lobes};
-use crate::lane::fresnel::conductor as lane_conductor;
+use crate::lane::fresnel::{conductor as lane_conductor, ConductorIndex};
 use crate::lane::microfacet::Microfacet;
 use crate::lane::vec::{V2, V3};
 use crate::lane::{Lane, LaneMask};
@@ -59,11 +59,32 @@ impl RoughConductor {
     }
 
     /// `specular_reflectance · F(cos θ)` per lane (`spec`: the reflectance per lane).
+    /// `ix`: this material's [`Self::index`] where the caller computed it once (the stream's
+    /// wrapper-chain driver, once per run of the material); else the index's terms are
+    /// computed here, in lanes (the same values).
     #[inline(always)]
-    fn fresnel_lanes<L: Lane>(&self, spec: V3<L>, cos_theta: L) -> V3<L> {
-        let eta = splat3(cos_theta, self.eta);
-        let k = splat3(cos_theta, self.k);
-        spec * lane_conductor(cos_theta, eta, k)
+    fn fresnel_lanes<L: Lane>(
+        &self,
+        spec: V3<L>,
+        cos_theta: L,
+        ix: Option<&ConductorIndex>,
+    ) -> V3<L> {
+        match ix {
+            Some(ix) => spec * ix.reflectance(cos_theta),
+            None => {
+                let eta = splat3(cos_theta, self.eta);
+                let k = splat3(cos_theta, self.k);
+                spec * lane_conductor(cos_theta, eta, k)
+            }
+        }
+    }
+
+    /// The complex index's angle-free Fresnel terms (η² − k², 4η²k² per channel), for a
+    /// caller that evaluates this material many times to compute once
+    /// ([`Self::eval_pdf_ix`], [`Self::sample_ix`]).
+    #[inline(always)]
+    pub(crate) fn index(&self) -> ConductorIndex {
+        ConductorIndex::new(self.eta.to_array(), self.k.to_array())
     }
 
     /// The textured parameters in every lane (width of `like`): `specular_reflectance` and the
@@ -95,6 +116,19 @@ impl RoughConductor {
         wi: V3<L>,
         wo: V3<L>,
     ) -> (V3<L>, L) {
+        self.eval_pdf_ix(spec, dist, None, wi, wo)
+    }
+
+    /// [`Self::eval_pdf_with`] with the Fresnel terms `ix` computed by the caller ([`Self::index`]).
+    #[inline(always)]
+    pub(crate) fn eval_pdf_ix<L: Lane>(
+        &self,
+        spec: V3<L>,
+        dist: &Microfacet<L>,
+        ix: Option<&ConductorIndex>,
+        wi: V3<L>,
+        wo: V3<L>,
+    ) -> (V3<L>, L) {
         let k = |c: f32| wi.z.splat(c);
         let zero = V3::splat(k(0.0), 0.0, 0.0, 0.0);
         let below = wi.z.le(k(0.0)) | wo.z.le(k(0.0));
@@ -111,7 +145,7 @@ impl RoughConductor {
         let g1i = dist.smith_g1(wi, h);
         // f cos θo = F D G / (4 cos θi).
         let f = self
-            .fresnel_lanes(spec, wi.dot(h))
+            .fresnel_lanes(spec, wi.dot(h), ix)
             .scale(d * g1i * dist.smith_g1(wo, h) / (k(4.0) * wi.z));
         let pdf = dist.reflection_pdf(wi, wo, h, d, g1i);
         (V3::select(bad, zero, f), L::select(bad, k(0.0), pdf))
@@ -157,6 +191,19 @@ impl RoughConductor {
         wi: V3<L>,
         u2: V2<L>,
     ) -> LaneBsdfSample<L> {
+        self.sample_ix(spec, dist, None, wi, u2)
+    }
+
+    /// [`Self::sample_with`] with the Fresnel terms `ix` computed by the caller ([`Self::index`]).
+    #[inline(always)]
+    pub(crate) fn sample_ix<L: Lane>(
+        &self,
+        spec: V3<L>,
+        dist: &Microfacet<L>,
+        ix: Option<&ConductorIndex>,
+        wi: V3<L>,
+        u2: V2<L>,
+    ) -> LaneBsdfSample<L> {
         let k = |c: f32| wi.z.splat(c);
         let zero = V3::splat(k(0.0), 0.0, 0.0, 0.0);
         let none = LaneBsdfSample {
@@ -193,7 +240,7 @@ impl RoughConductor {
             ok,
             wo: V3::select(ok, wo, zero),
             pdf: L::select(ok, pdf, k(0.0)),
-            weight: V3::select(ok, self.fresnel_lanes(spec, wi.dot(m)).scale(w), zero),
+            weight: V3::select(ok, self.fresnel_lanes(spec, wi.dot(m), ix).scale(w), zero),
         }
     }
 

@@ -48,6 +48,7 @@ use crate::bsdf::{
     RoughPlastic, ThinDielectric, TransportMode,
 };
 use crate::lane::frame::Frame;
+use crate::lane::fresnel::ConductorIndex;
 use crate::lane::microfacet::Microfacet;
 use crate::lane::vec::{V2, V3};
 use crate::lane::Lane;
@@ -79,6 +80,9 @@ pub(crate) struct Params<L: Lane> {
     /// The lanes whose `mask` chose the pass-through (`bsdf::null::pass_through`; none
     /// without a mask).
     pub through: L::Mask,
+    /// The rough conductor's Fresnel terms of its (constant) index, computed once per run of
+    /// the material ([`Leaf::fresnel`]); `None`: computed at each evaluation.
+    pub fresnel: Option<ConductorIndex>,
 }
 
 /// The leaf BSDF, with its constant parameters (the template that a textured leaf's slots
@@ -151,6 +155,15 @@ impl Leaf {
                 (r, t, d.alpha_u, d.alpha_v)
             }
             Leaf::Diffuse(_) => (z, z, 0.0, 0.0),
+        }
+    }
+
+    /// The rough conductor's angle-free Fresnel terms ([`RoughConductor::index`]; its index
+    /// is the template's in every lane: the lane form takes no textured η or k).
+    pub(crate) fn fresnel(&self) -> Option<ConductorIndex> {
+        match self {
+            Leaf::Rough(b) => Some(b.index()),
+            _ => None,
         }
     }
 
@@ -359,6 +372,7 @@ impl Material {
             alpha_v: like.splat(av),
             opacity: like.splat(1.0),
             through: like.splat(0.0).ne(like.splat(0.0)),
+            fresnel: self.leaf.fresnel(),
         }
     }
 
@@ -441,12 +455,38 @@ pub(crate) fn valid<L: Lane>(s: &LaneBsdfSample<L>) -> L::Mask {
 /// normal and the incident direction it sees), the incident direction each `mask` sees, and
 /// the leaf's local `wi`. It depends on `wi` alone, so [`eval_pdf_from`] (toward the light) and
 /// [`sample_from`] share it: the same operations as each did on its own, done once.
+///
+/// Each wrapper's entry is an `Option`, set only at the wrappers of its kind: a `None` is one
+/// byte to write, where a placeholder frame was nine vectors stored per chunk (and the masks'
+/// and `mask`s' entries three more), for slots that no wrapper reads.
 #[derive(Clone, Copy)]
 pub(crate) struct Down<L: Lane> {
-    back: [L::Mask; MAX_WRAPS],
-    frames: [Frame<L>; MAX_WRAPS],
-    at: [V3<L>; MAX_WRAPS],
+    back: [Option<L::Mask>; MAX_WRAPS],
+    frames: [Option<Frame<L>>; MAX_WRAPS],
+    at: [Option<V3<L>>; MAX_WRAPS],
     wi: V3<L>,
+}
+
+impl<L: Lane> Down<L> {
+    /// Where `twosided` wrapper `j` mirrored the incident direction.
+    #[inline(always)]
+    fn back(&self, j: usize) -> L::Mask {
+        self.back[j].expect("set by `down` at a twosided wrapper")
+    }
+
+    /// The perturbed frame of normal-map wrapper `j`.
+    #[inline(always)]
+    fn frame(&self, j: usize) -> &Frame<L> {
+        self.frames[j]
+            .as_ref()
+            .expect("set by `down` at a normal-map wrapper")
+    }
+
+    /// The incident direction `mask` wrapper `j` sees.
+    #[inline(always)]
+    fn at(&self, j: usize) -> V3<L> {
+        self.at[j].expect("set by `down` at a mask wrapper")
+    }
 }
 
 /// [`Down`] of local `wi` (the shading frame's) through `mat`'s wrappers (`normals[j]` the
@@ -458,31 +498,28 @@ pub(crate) fn down<L: Lane, const MASK: bool>(
     wi: V3<L>,
 ) -> Down<L> {
     let k = |c: f32| wi.z.splat(c);
-    let none = k(0.0).ne(k(0.0));
     let mut d = Down {
-        back: [none; MAX_WRAPS],
-        frames: [Frame {
-            s: wi,
-            t: wi,
-            n: wi,
-        }; MAX_WRAPS],
-        at: [wi; MAX_WRAPS],
+        back: [None; MAX_WRAPS],
+        frames: [None; MAX_WRAPS],
+        at: [None; MAX_WRAPS],
         wi,
     };
     for (j, w) in mat.wraps().iter().enumerate() {
         match *w {
             Wrap::TwoSided => {
-                d.back[j] = !d.wi.z.ge(k(0.0));
-                d.wi = V3::select(d.back[j], flip(d.wi), d.wi);
+                let back = !d.wi.z.ge(k(0.0));
+                d.back[j] = Some(back);
+                d.wi = V3::select(back, flip(d.wi), d.wi);
             }
             Wrap::NormalMap {
                 flip_invalid_normals,
                 ..
             } => {
-                d.frames[j] = nmap::frame(normals[j], flip_invalid_normals, d.wi);
-                d.wi = d.frames[j].to_local(d.wi);
+                let f = nmap::frame(normals[j], flip_invalid_normals, d.wi);
+                d.wi = f.to_local(d.wi);
+                d.frames[j] = Some(f);
             }
-            Wrap::Mask { .. } if MASK => d.at[j] = d.wi,
+            Wrap::Mask { .. } if MASK => d.at[j] = Some(d.wi),
             Wrap::Mask { .. } => {}
         }
     }
@@ -523,12 +560,12 @@ pub(crate) fn eval_pdf_from<L: Lane, const MASK: bool>(
     let mut shadow = [None; MAX_WRAPS];
     for (j, w) in mat.wraps().iter().enumerate() {
         match *w {
-            Wrap::TwoSided => wo = V3::select(dn.back[j], flip(wo), wo),
+            Wrap::TwoSided => wo = V3::select(dn.back(j), flip(wo), wo),
             Wrap::NormalMap {
                 use_shadowing_function,
                 ..
             } => {
-                let f = &dn.frames[j];
+                let f = dn.frame(j);
                 let pwo = f.to_local(wo);
                 reject = reject | (wo.z * pwo.z).le(k(0.0));
                 if use_shadowing_function {
@@ -541,7 +578,13 @@ pub(crate) fn eval_pdf_from<L: Lane, const MASK: bool>(
     }
     let wi = dn.wi;
     let (mut f, mut pdf) = match &mat.leaf {
-        Leaf::Rough(b) => b.eval_pdf_with(p.c0, &microfacet(&b.distribution, p), wi, wo),
+        Leaf::Rough(b) => b.eval_pdf_ix(
+            p.c0,
+            &microfacet(&b.distribution, p),
+            p.fresnel.as_ref(),
+            wi,
+            wo,
+        ),
         Leaf::Smooth(b) => b.eval_pdf_lanes(wi, wo),
         Leaf::Plastic(b) => b.eval_pdf_with(p.c0, wi, wo),
         Leaf::RoughPlastic(b) => b.eval_pdf_with(p.c0, p.c1, wi, wo),
@@ -609,12 +652,17 @@ pub(crate) fn sample_from<L: Lane, const MASK: bool>(
     let wi = dn.wi;
     let k = |c: f32| wi.z.splat(c);
     let none = k(0.0).ne(k(0.0));
-    let (back, frames, at) = (&dn.back, &dn.frames, &dn.at);
     let all = k(0.0).eq(k(0.0));
     let one = k(1.0);
     let (mut s, mut delta, mut eta) = match &mat.leaf {
         Leaf::Rough(b) => (
-            b.sample_with(p.c0, &microfacet(&b.distribution, p), wi, u2),
+            b.sample_ix(
+                p.c0,
+                &microfacet(&b.distribution, p),
+                p.fresnel.as_ref(),
+                wi,
+                u2,
+            ),
             none,
             one,
         ),
@@ -639,16 +687,17 @@ pub(crate) fn sample_from<L: Lane, const MASK: bool>(
     s.ok = s.ok & valid(&s);
     for (j, w) in mat.wraps().iter().enumerate().rev() {
         match *w {
-            Wrap::TwoSided => s.wo = V3::select(back[j], flip(s.wo), s.wo),
+            Wrap::TwoSided => s.wo = V3::select(dn.back(j), flip(s.wo), s.wo),
             Wrap::NormalMap {
                 use_shadowing_function,
                 ..
             } => {
-                let wo = frames[j].to_world(s.wo);
+                let f = dn.frame(j);
+                let wo = f.to_world(s.wo);
                 s.ok = s.ok & !(s.wo.z * wo.z).le(k(0.0));
                 s.wo = wo;
                 if use_shadowing_function {
-                    s.weight = s.weight.scale(nmap::shadow_terminator(frames[j].n, wo));
+                    s.weight = s.weight.scale(nmap::shadow_terminator(f.n, wo));
                 }
             }
             Wrap::Mask { .. } if MASK => {
@@ -656,7 +705,7 @@ pub(crate) fn sample_from<L: Lane, const MASK: bool>(
                 // the pass-through (`null::pass_through`: −wi, weight 1, a delta lobe, η 1).
                 let t = p.through;
                 s.ok = s.ok | t;
-                s.wo = V3::select(t, -at[j], s.wo);
+                s.wo = V3::select(t, -dn.at(j), s.wo);
                 s.pdf = L::select(t, k(0.0), s.pdf * p.opacity);
                 s.weight = V3::select(t, V3::splat(k(0.0), 1.0, 1.0, 1.0), s.weight);
                 delta = delta | t;
@@ -900,6 +949,7 @@ pub(super) mod tests {
             alpha_v: v.3,
             opacity,
             through,
+            fresnel: None,
         }
     }
 
@@ -1054,6 +1104,7 @@ pub(super) mod tests {
                                 alpha_v: avx.load(&av),
                                 opacity: avx.load(&op),
                                 through: avx.mask(&th),
+                                fresnel: mat.leaf.fresnel(),
                             };
                             let (f, p) = eval_pdf_of(&mat, &n8, &p8, wi8, wo8);
                             let u1 = avx.load(&u1);

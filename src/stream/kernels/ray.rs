@@ -14,6 +14,39 @@ pub(crate) fn offset_origin<L: Lane>(p: V3<L>, n: V3<L>, dir: V3<L>) -> V3<L> {
     V3::new(offset_1(p.x, n.x), offset_1(p.y, n.y), offset_1(p.z, n.z))
 }
 
+/// The two origins [`offset_origin`] can give for one point `p` and normal `n`: moved along
+/// `n` or along `−n`, whichever side a direction points to. A vertex spawns up to three rays
+/// from its point (the light sample's toward a point and toward a direction at infinity, and
+/// the BSDF sample's); their offsets differ only in that side, so both candidates are computed
+/// once and each ray picks one ([`Offsets::toward`]): the same values as [`offset_origin`],
+/// lane by lane (`offset_1` is per lane, so offsetting by the selected normal is selecting
+/// between the offsets by either normal).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Offsets<L: Lane> {
+    n: V3<L>,
+    along: V3<L>,
+    against: V3<L>,
+}
+
+impl<L: Lane> Offsets<L> {
+    #[inline(always)]
+    pub(crate) fn new(p: V3<L>, n: V3<L>) -> Self {
+        let m = -n;
+        Offsets {
+            n,
+            along: V3::new(offset_1(p.x, n.x), offset_1(p.y, n.y), offset_1(p.z, n.z)),
+            against: V3::new(offset_1(p.x, m.x), offset_1(p.y, m.y), offset_1(p.z, m.z)),
+        }
+    }
+
+    /// [`offset_origin`]`(p, n, dir)`.
+    #[inline(always)]
+    pub(crate) fn toward(&self, dir: V3<L>) -> V3<L> {
+        let flip = self.n.dot(dir).lt(dir.x.splat(0.0));
+        V3::select(flip, self.against, self.along)
+    }
+}
+
 /// One coordinate of [`offset_origin`].
 #[inline(always)]
 fn offset_1<L: Lane>(p: L, n: L) -> L {
@@ -83,6 +116,10 @@ mod tests {
                 "{p} {n} {d}: {w1} vs {}",
                 scalar(p, n, d)
             );
+            let shared: Vec3 = Offsets::new(V3::from(p), V3::from(n))
+                .toward(V3::from(d))
+                .into();
+            assert!(same(shared, scalar(p, n, d)), "{p} {n} {d}: {shared}");
         }
         #[cfg(target_arch = "x86_64")]
         if let Some(avx) = crate::lane::Avx2::detect() {
@@ -96,9 +133,13 @@ mod tests {
                     )
                 };
                 let o = avx.run(|| offset_origin(col(&|x| x.0), col(&|x| x.1), col(&|x| x.2)));
+                let (p8, n8) = (col(&|x| x.0), col(&|x| x.1));
+                let shared = avx.run(|| Offsets::new(p8, n8).toward(col(&|x| x.2)));
                 for (k, &(p, n, d)) in c.iter().enumerate() {
                     let got = Vec3::new(o.x.lane(k), o.y.lane(k), o.z.lane(k));
                     assert!(same(got, scalar(p, n, d)), "lane {k}: {p} {n} {d}");
+                    let got = Vec3::new(shared.x.lane(k), shared.y.lane(k), shared.z.lane(k));
+                    assert!(same(got, scalar(p, n, d)), "shared, lane {k}: {p} {n} {d}");
                 }
             }
         }

@@ -14,8 +14,9 @@
 //!    throughput update and Russian roulette of the scalar code).
 
 use super::conductor::{self, Down, Leaf, Material, Normal, Params, Wrap, MAX_WRAPS};
-use super::diffuse::{light_direction, light_out, reflectance, LightOut, LightPoint, Surface};
-use super::ray::offset_origin;
+use super::diffuse::{light_direction, reflectance, LightOut, LightPoint, Surface};
+use super::mis::power_heuristic;
+use super::ray::{offset_origin, Offsets};
 use crate::bsdf::bumpmap;
 use crate::geometry::SurfaceInteraction;
 use crate::lane::vec::V3;
@@ -30,10 +31,13 @@ use glam::Vec3;
 /// zero test), and the MIS-weighted contribution and shadow ray of `PathState::scatter`, in
 /// the operations of `diffuse::light`. `dn` is the incident direction's way down the wrappers
 /// (`conductor::down`, shared with [`sample`]); `p` holds the leaf's parameters per lane;
-/// `MASK`: as in [`conductor::eval_pdf`].
+/// `offs` the surface point's two ray origins (shared with [`sample`]); `MASK`: as in
+/// [`conductor::eval_pdf`].
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn light<L: Lane, const MASK: bool>(
     s: &Surface<L>,
+    offs: &Offsets<L>,
     dn: &Down<L>,
     mat: &Material,
     p: &Params<L>,
@@ -42,7 +46,42 @@ pub(crate) fn light<L: Lane, const MASK: bool>(
 ) -> LightOut<L> {
     let (wo, consistent) = light_direction(s, lp);
     let (f, bsdf_pdf) = conductor::eval_pdf_from::<L, MASK>(mat, p, dn, wo);
-    light_out(s, throughput, lp, f, bsdf_pdf, consistent)
+    light_out(s, offs, throughput, lp, f, bsdf_pdf, consistent)
+}
+
+/// `diffuse::light_out` (the zero test, the MIS-weighted contribution and the shadow ray) with
+/// the surface point's ray origins taken from `offs` ([`Offsets::toward`], the values of
+/// `offset_origin(s.p, s.ng, ·)`) instead of offset anew for each of its two rays.
+#[inline(always)]
+fn light_out<L: Lane>(
+    s: &Surface<L>,
+    offs: &Offsets<L>,
+    throughput: V3<L>,
+    lp: &LightPoint<L>,
+    f: V3<L>,
+    bsdf_pdf: L,
+    consistent: L::Mask,
+) -> LightOut<L> {
+    let k = |c: f32| lp.pdf.splat(c);
+    let nonzero = !(f.x.eq(k(0.0)) & f.y.eq(k(0.0)) & f.z.eq(k(0.0)));
+    let ok = lp.some & consistent & nonzero;
+    let f_value = f * lp.value;
+    let w = L::select(lp.weight_one, k(1.0), power_heuristic(lp.pdf, bsdf_pdf));
+    let contribution = throughput * f_value.scale(w / lp.pdf);
+    // SurfaceInteraction::spawn_ray_to (a light point at a finite distance) or spawn_ray.
+    let d0 = lp.p - s.p;
+    let o_to = offs.toward(d0);
+    let t_end = V3::select(lp.has_n, offset_origin(lp.p, lp.n, -d0), lp.p);
+    let d = t_end - o_to;
+    let dist = d.length();
+    let o_inf = offs.toward(lp.d);
+    LightOut {
+        ok,
+        o: V3::select(lp.finite, o_to, o_inf),
+        d: V3::select(lp.finite, d.div_by(dist), lp.d),
+        tmax: L::select(lp.finite, dist * k(1.0 - 1e-4), k(f32::INFINITY)),
+        contribution,
+    }
 }
 
 /// The BSDF sample of [`sample`]: where it succeeded (`SurfaceBsdf::sample`'s side test
@@ -62,10 +101,14 @@ pub(crate) struct SampleOut<L: Lane> {
 
 /// The material's BSDF sample (`Bsdf::sample`), `SurfaceBsdf::sample`'s side test and
 /// `SurfaceInteraction::spawn_ray`; `wi` is the shading frame's incident direction and `dn`
-/// its way down the wrappers (`conductor::down`). `MASK` as in [`conductor::eval_pdf`].
+/// its way down the wrappers (`conductor::down`); `offs` the point's ray origins where the
+/// light sample computed them (else the origin is offset here). `MASK` as in
+/// [`conductor::eval_pdf`].
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn sample<L: Lane, const MASK: bool>(
     s: &Surface<L>,
+    offs: Option<&Offsets<L>>,
     wi: V3<L>,
     dn: &Down<L>,
     mat: &Material,
@@ -74,7 +117,10 @@ pub(crate) fn sample<L: Lane, const MASK: bool>(
     u2: crate::lane::vec::V2<L>,
 ) -> SampleOut<L> {
     let (bs, delta, eta) = conductor::sample_from::<L, MASK>(mat, p, dn, u1, u2);
-    SampleOut::at(s, wi, &bs, delta, eta)
+    match offs {
+        Some(offs) => SampleOut::at_with(s, offs, wi, &bs, delta, eta),
+        None => SampleOut::at(s, wi, &bs, delta, eta),
+    }
 }
 
 impl<L: Lane> SampleOut<L> {
@@ -99,6 +145,29 @@ impl<L: Lane> SampleOut<L> {
             delta,
             eta,
             o: offset_origin(s.p, s.ng, wo_world),
+        }
+    }
+
+    /// [`SampleOut::at`] with the origin from the point's shared [`Offsets`] (the same value).
+    #[inline(always)]
+    pub(crate) fn at_with(
+        s: &Surface<L>,
+        offs: &Offsets<L>,
+        wi: V3<L>,
+        bs: &crate::bsdf::lanes::LaneBsdfSample<L>,
+        delta: L::Mask,
+        eta: L,
+    ) -> SampleOut<L> {
+        let wo_world = s.frame.to_world(bs.wo);
+        let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(wi.z.splat(0.0));
+        SampleOut {
+            ok: bs.ok & consistent,
+            wo: wo_world,
+            pdf: bs.pdf,
+            weight: bs.weight,
+            delta,
+            eta,
+            o: offs.toward(wo_world),
         }
     }
 }
@@ -411,17 +480,26 @@ pub(crate) mod x8 {
         // The incident direction's way down the wrappers, once for the light sample and the
         // BSDF sample.
         let dn = conductor::down::<_, FULL>(mat, &normals8, wi);
-        let lo = if nee {
+        // The point's two ray origins, shared by the light sample's rays and the BSDF sample's
+        // (without a light sample the one origin is offset alone).
+        // (A plain `if`, not `bool::then`'s closure: see the block note above.)
+        let offs = if nee {
+            Some(Offsets::new(surf.p, surf.ng))
+        } else {
+            None
+        };
+        let lo = if let Some(offs) = &offs {
             let (u_sel, u) = (&num.u_sel, &num.u);
             gather.add_x8(avx, scene, lights, light_only, &front, u_sel, u, &p);
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
-            let lo = light::<_, FULL>(&surf, &dn, mat, &params, tp8, &lp);
+            let lo = light::<_, FULL>(&surf, offs, &dn, mat, &params, tp8, &lp);
             Some(LightCols::store(&lo))
         } else {
             None
         };
         let so = sample::<_, FULL>(
             &surf,
+            offs.as_ref(),
             wi,
             &dn,
             mat,
