@@ -75,3 +75,65 @@ pub fn conductor<L: Lane>(cos_theta_i: L, eta: V3<L>, k: V3<L>) -> V3<L> {
         conductor_1(cos_theta_i, eta.z, k.z),
     )
 }
+
+/// [`conductor`]'s terms that depend on the complex index η + ik alone, per channel: η² − k²
+/// and 4η²k², for many evaluations with one index (the compensated first order evaluates a
+/// `roughconductor` four times per query, issue 18). [`ConductorTerms::eval`] is [`conductor`]
+/// bit for bit: the same operations in the same order, the index's terms computed once.
+#[derive(Clone, Copy, Debug)]
+pub struct ConductorTerms<L> {
+    /// η² − k² (`conductor_1`'s `eta * eta - k * k`, before `- s2`).
+    d: V3<L>,
+    /// 4η²k² (`conductor_1`'s `4 * eta * eta * k * k`, in that order).
+    c4: V3<L>,
+}
+
+impl<L: Lane> ConductorTerms<L> {
+    /// The terms of the index `eta + i k`.
+    #[inline(always)]
+    pub fn new(eta: V3<L>, k: V3<L>) -> Self {
+        #[inline(always)]
+        fn d<L: Lane>(eta: L, k: L) -> L {
+            eta * eta - k * k
+        }
+        #[inline(always)]
+        fn c4<L: Lane>(eta: L, k: L) -> L {
+            eta.splat(4.0) * eta * eta * k * k
+        }
+        ConductorTerms {
+            d: V3::new(d(eta.x, k.x), d(eta.y, k.y), d(eta.z, k.z)),
+            c4: V3::new(c4(eta.x, k.x), c4(eta.y, k.y), c4(eta.z, k.z)),
+        }
+    }
+
+    /// [`conductor`]`(cos_theta_i, eta, k)` of the index of [`Self::new`].
+    #[inline(always)]
+    pub fn eval(&self, cos_theta_i: L) -> V3<L> {
+        V3::new(
+            conductor_1_terms(cos_theta_i, self.d.x, self.c4.x),
+            conductor_1_terms(cos_theta_i, self.d.y, self.c4.y),
+            conductor_1_terms(cos_theta_i, self.d.z, self.c4.z),
+        )
+    }
+}
+
+/// [`conductor_1`] from the index's terms `d` = η² − k² and `c4` = 4η²k² ([`ConductorTerms`]).
+#[inline(always)]
+fn conductor_1_terms<L: Lane>(cos_theta_i: L, d: L, c4: L) -> L {
+    let k = |c: f32| d.splat(c);
+    let safe_sqrt = |x: L| x.max(k(0.0)).sqrt();
+    let c2 = (cos_theta_i * cos_theta_i).min(k(1.0));
+    let s2 = k(1.0) - c2;
+    let s4 = s2 * s2;
+    let t0 = d - s2;
+    let a2pb2 = safe_sqrt(t0 * t0 + c4);
+    let a = safe_sqrt(k(0.5) * (a2pb2 + t0));
+    let t1 = a2pb2 + c2;
+    let t2 = k(2.0) * cos_theta_i * a;
+    let rs = (t1 - t2) / (t1 + t2);
+    let t3 = a2pb2 * c2 + s4;
+    let t4 = t2 * s2;
+    let rp = rs * (t3 - t4) / (t3 + t4);
+    let r = k(0.5) * (rs + rp);
+    L::select(r.is_finite(), r, k(1.0))
+}

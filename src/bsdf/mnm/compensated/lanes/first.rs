@@ -620,11 +620,18 @@ fn g1<L: Lane>(v0: V3<L>, v1: V3<L>, w: V3<L>) -> L {
 }
 
 /// The nested (f·|cos θo|, pdf) of the pairs (a, o) as the scalar path's batch evaluates them:
-/// `eval_pdf_lanes`, and for the density-only lanes `po` of a kind with its own `pdf`,
+/// `eval_pdf_lanes` (here `eval_pdf_dirs` from the query's terms `s` and the directions' `da`,
+/// `dout`: the same bits), and for the density-only lanes `po` of a kind with its own `pdf`,
 /// `pdf_lanes`' density.
 #[inline(always)]
-fn nested<L: Lane, B: LaneNested>(b: &B, a: V3<L>, o: V3<L>, po: L::Mask) -> (V3<L>, L) {
-    let (f, p) = b.eval_pdf_lanes(a, o);
+fn nested<L: Lane, B: LaneNested>(
+    b: &B,
+    s: &B::Shared<L>,
+    (a, da): (V3<L>, &B::Dir<L>),
+    (o, dout): (V3<L>, &B::Dir<L>),
+    po: L::Mask,
+) -> (V3<L>, L) {
+    let (f, p) = b.eval_pdf_dirs(s, a, da, o, dout);
     if B::SEPARATE_PDF && po.any() {
         (f, L::select(po, b.pdf_lanes(a, o), p))
     } else {
@@ -632,8 +639,31 @@ fn nested<L: Lane, B: LaneNested>(b: &B, a: V3<L>, o: V3<L>, po: L::Mask) -> (V3
     }
 }
 
+/// `b.dir(s, v)`, computed into `slot` the first time it is asked for (a direction's terms
+/// serve up to two of the query's four evaluations: each entry's two paths, and each exit's
+/// two entries).
+#[inline(always)]
+fn dir_once<L: Lane, B: LaneNested>(
+    b: &B,
+    s: &B::Shared<L>,
+    slot: &mut Option<B::Dir<L>>,
+    v: V3<L>,
+) -> B::Dir<L> {
+    match *slot {
+        Some(d) => d,
+        None => {
+            let d = b.dir(s, v);
+            *slot = Some(d);
+            d
+        }
+    }
+}
+
 /// The first order (f1·z(ωo), p1) of every lane: `Collected::new` and `Collected::sum::<false>`
-/// over the mirror sawtooth, lane by lane in their operations and order.
+/// over the mirror sawtooth, lane by lane in their operations and order. The nested BSDF's
+/// terms that do not change within the query (its parameters, a conductor's Fresnel terms) are
+/// computed once, and those of each direction (a conductor's G1 toward its own normal) once
+/// for the two evaluations that share it (`LaneNested::eval_pdf_dirs`: the same bits).
 #[inline(always)]
 fn first<L: Lane, B: LaneNested>(b: &B, q: &Lanes<L>) -> (V3<L>, L) {
     let like = q.wo.z;
@@ -649,17 +679,24 @@ fn first<L: Lane, B: LaneNested>(b: &B, q: &Lanes<L>) -> (V3<L>, L) {
     let bt = like.splat(1.0) - g1(q.v0, q.v1, rwo);
     let exit = d.gt(zero) & bt.gt(zero);
     let rb = q.fr.to_local(rwo);
+    let s = b.shared(like);
+    // The exits' terms ([p] toward bo, [t,p] toward rb), each computed when first needed.
+    let mut dout: [Option<B::Dir<L>>; 2] = [None, None];
     let mut v = zero3;
     let mut p = zero;
     for j in 0..ENTRIES {
         let has = q.has[j].gt(zero);
         let w = q.w[j];
+        let mut da: Option<B::Dir<L>> = None;
         // Path [p] (slot 2j), then [t,p] (slot 2j + 1) where the wall lets ωo out.
         for wall in 0..2 {
             let on = if wall == 0 { has } else { has & exit };
             let known = q.ks.eq(like.splat((2 * j + wall) as f32));
             let (fe, pe) = if (on & !known).any() {
-                nested(b, q.a[j], if wall == 0 { bo } else { rb }, pdf_only)
+                let o = if wall == 0 { bo } else { rb };
+                let di = dir_once(b, &s, &mut da, q.a[j]);
+                let dw = dir_once(b, &s, &mut dout[wall], o);
+                nested(b, &s, (q.a[j], &di), (o, &dw), pdf_only)
             } else {
                 (zero3, zero)
             };
