@@ -364,3 +364,36 @@ fn slope_to_normal<L: Lane>(sx: L, sy: L) -> V3<L> {
 fn rust_max<L: Lane>(a: L, b: L) -> L {
     a.max(b)
 }
+
+/// Smith's G1(v, m) in two steps, for many microfacet normals `m` seen from one direction `v`
+/// (the compensated first order evaluates its nested BSDF from each entry and toward each exit
+/// more than once per query, issue 18): [`Microfacet::smith_g1_of`] the part that depends on
+/// `v` alone, [`Microfacet::smith_g1_from`] the back-facing test against `m`. Together they are
+/// [`Microfacet::smith_g1`] bit for bit: its operations in its order, split after the last one
+/// that does not read `m`.
+impl<L: Lane> Microfacet<L> {
+    /// [`Microfacet::smith_g1`] before its test against `m`: G1 toward the normal itself (1
+    /// where `v` is exactly normal, 0 where not finite).
+    #[inline(always)]
+    pub fn smith_g1_of(&self, v: V3<L>) -> L {
+        let k = |c: f32| v.z.splat(c);
+        let (t2, normal) = self.alpha_tan2(v);
+        let g = match self.kind {
+            MicrofacetType::Ggx => k(2.0) / (k(1.0) + (k(1.0) + t2).sqrt()),
+            MicrofacetType::Beckmann => {
+                let a = k(1.0) / t2.sqrt();
+                L::select(a.ge(k(1.6)), k(1.0), Self::beckmann_rational(a))
+            }
+        };
+        let g = L::select(g.is_finite(), g, k(0.0));
+        L::select(normal, k(1.0), g)
+    }
+
+    /// G1(v, m) from `g` = [`Microfacet::smith_g1_of`]`(v)`: 0 where `m` is back-facing as
+    /// seen from `v`'s side.
+    #[inline(always)]
+    pub fn smith_g1_from(g: L, v: V3<L>, m: V3<L>) -> L {
+        let zero = g.splat(0.0);
+        L::select((v.dot(m) * v.z).le(zero), zero, g)
+    }
+}

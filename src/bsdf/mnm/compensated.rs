@@ -934,19 +934,42 @@ fn leave<M: Leaves>(
     s: &mut Sampler,
 ) -> (Vec3, Option<Known>) {
     let u = m.facet_to_world(facet, bwo);
-    let known = |wall| {
-        (bpdf.is_finite() && bpdf > 0.0).then_some(Known {
-            j,
-            wall,
-            f: bweight * bpdf,
-            p: bpdf,
-        })
-    };
-    if !m.mirror_wall() || s.next_1d() < m.g1(u) {
-        (u, known(false))
-    } else {
-        (m.reflect_wall(u), known(true)) // blocked: the ray hits the mirror wall
+    if !m.mirror_wall() {
+        return (u, known_term(j, false, bpdf, bweight));
     }
+    leave_mirror(u, m.g1(u), || m.reflect_wall(u), j, (bpdf, bweight), s)
+}
+
+/// [`leave`]'s last step over the mirror sawtooth from u (the nested sample's ωo in the
+/// shading frame), G1(u) and R(u) (`reflect`, called only where the ray is blocked): one number
+/// drawn from `s`, u where it is below G1(u), else R(u). Also the stream kernel's, which
+/// computes u, G1(u) and R(u) of 8 points in lanes (`lanes::sample_x8`).
+#[inline(always)]
+fn leave_mirror(
+    u: Vec3,
+    g1u: f32,
+    reflect: impl FnOnce() -> Vec3,
+    j: usize,
+    (bpdf, bweight): (f32, Spectrum),
+    s: &mut Sampler,
+) -> (Vec3, Option<Known>) {
+    if s.next_1d() < g1u {
+        (u, known_term(j, false, bpdf, bweight))
+    } else {
+        (reflect(), known_term(j, true, bpdf, bweight)) // blocked: the ray hits the mirror wall
+    }
+}
+
+/// The term of entry `j` (through the wall or not) that the nested sample (density `bpdf`,
+/// weight `bweight`) makes known: `None` unless its density is finite and positive.
+#[inline(always)]
+fn known_term(j: usize, wall: bool, bpdf: f32, bweight: Spectrum) -> Option<Known> {
+    (bpdf.is_finite() && bpdf > 0.0).then_some(Known {
+        j,
+        wall,
+        f: bweight * bpdf,
+        p: bpdf,
+    })
 }
 
 /// What [`leave`] reads of a point's microsurface: the map itself, or over the mirror

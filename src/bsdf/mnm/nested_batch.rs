@@ -15,10 +15,12 @@
 use crate::bsdf::diffuse::Diffuse;
 use crate::bsdf::roughconductor::RoughConductor;
 use crate::bsdf::roughplastic::RoughPlastic;
+use crate::lane::fresnel::ConductorTerms;
+use crate::lane::microfacet::Microfacet;
 use crate::lane::vec::V3;
-use crate::lane::Lane;
 #[cfg(target_arch = "x86_64")]
 use crate::lane::{Avx2, F32x8};
+use crate::lane::{Lane, LaneMask};
 use crate::spectrum::Spectrum;
 use glam::Vec3;
 
@@ -34,16 +36,68 @@ pub(super) trait LaneNested {
     /// True when `pdf_lanes` may differ from `eval_pdf_lanes`' density in the last bits (then a
     /// batch with density-only pairs computes both; otherwise one call serves all pairs).
     const SEPARATE_PDF: bool;
+    /// What [`Self::eval_pdf_dirs`] shares between the evaluations of one query (the BSDF's
+    /// parameters in lanes and the terms that depend on them alone; `()` where none).
+    type Shared<L: Lane>: Copy;
+    /// What it shares between the evaluations from or toward one direction (`()` where none).
+    type Dir<L: Lane>: Copy;
     fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> (V3<L>, L);
     #[inline(always)]
     fn pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> L {
         self.eval_pdf_lanes(wi, wo).1
     }
+    /// The terms of one query (the width of `like`).
+    fn shared<L: Lane>(&self, like: L) -> Self::Shared<L>;
+    /// The terms of direction `v`.
+    fn dir<L: Lane>(&self, s: &Self::Shared<L>, v: V3<L>) -> Self::Dir<L>;
+    /// `eval_pdf_lanes(wi, wo)` bit for bit, from the query's terms `s` and the directions'
+    /// `di` = `dir(s, wi)`, `dout` = `dir(s, wo)` (computed once for several evaluations).
+    fn eval_pdf_dirs<L: Lane>(
+        &self,
+        s: &Self::Shared<L>,
+        wi: V3<L>,
+        di: &Self::Dir<L>,
+        wo: V3<L>,
+        dout: &Self::Dir<L>,
+    ) -> (V3<L>, L);
+}
+
+/// Nothing shared: `eval_pdf_dirs` is `eval_pdf_lanes`.
+macro_rules! nothing_shared {
+    () => {
+        type Shared<L: Lane> = ();
+        type Dir<L: Lane> = ();
+        #[inline(always)]
+        fn shared<L: Lane>(&self, _like: L) {}
+        #[inline(always)]
+        fn dir<L: Lane>(&self, _s: &(), _v: V3<L>) {}
+        #[inline(always)]
+        fn eval_pdf_dirs<L: Lane>(
+            &self,
+            _s: &(),
+            wi: V3<L>,
+            _di: &(),
+            wo: V3<L>,
+            _dout: &(),
+        ) -> (V3<L>, L) {
+            self.eval_pdf_lanes(wi, wo)
+        }
+    };
+}
+
+/// A `roughconductor`'s terms of one query: its parameters in lanes and its index's Fresnel
+/// terms (`RoughConductor::eval_pdf_with`'s, computed once).
+#[derive(Clone, Copy)]
+pub(super) struct ConductorShared<L> {
+    spec: V3<L>,
+    dist: Microfacet<L>,
+    fresnel: ConductorTerms<L>,
 }
 
 /// `pdf` is `eval`'s cosine density (both `diffuse.rs`).
 impl LaneNested for Diffuse {
     const SEPARATE_PDF: bool = false;
+    nothing_shared!();
     #[inline(always)]
     fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
         Diffuse::eval_pdf_lanes(self, wi, wo)
@@ -61,11 +115,64 @@ impl LaneNested for RoughConductor {
     fn pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> L {
         RoughConductor::pdf_lanes(self, wi, wo)
     }
+    /// The parameters in lanes (`params_lanes`) and the Fresnel terms of (η, k).
+    type Shared<L: Lane> = ConductorShared<L>;
+    /// G1 toward the direction's own normal (`Microfacet::smith_g1_of`): the part of G1(v, h)
+    /// that does not depend on h.
+    type Dir<L: Lane> = L;
+    #[inline(always)]
+    fn shared<L: Lane>(&self, like: L) -> ConductorShared<L> {
+        let (spec, dist) = self.params_lanes(like);
+        let eta = V3::splat(like, self.eta.x, self.eta.y, self.eta.z);
+        let k = V3::splat(like, self.k.x, self.k.y, self.k.z);
+        ConductorShared {
+            spec,
+            dist,
+            fresnel: ConductorTerms::new(eta, k),
+        }
+    }
+    #[inline(always)]
+    fn dir<L: Lane>(&self, s: &ConductorShared<L>, v: V3<L>) -> L {
+        s.dist.smith_g1_of(v)
+    }
+    /// `RoughConductor::eval_pdf_with`'s operations in its order (over `params_lanes`), with
+    /// the Fresnel term from the index's terms ([`ConductorTerms::eval`], `fresnel_lanes`'
+    /// `conductor` bit for bit) and G1(ωi, h), G1(ωo, h) from the directions' own parts
+    /// (`Microfacet::smith_g1_from`, `smith_g1` bit for bit).
+    #[inline(always)]
+    fn eval_pdf_dirs<L: Lane>(
+        &self,
+        s: &ConductorShared<L>,
+        wi: V3<L>,
+        gi: &L,
+        wo: V3<L>,
+        go: &L,
+    ) -> (V3<L>, L) {
+        let k = |c: f32| wi.z.splat(c);
+        let zero = V3::splat(k(0.0), 0.0, 0.0, 0.0);
+        let below = wi.z.le(k(0.0)) | wo.z.le(k(0.0));
+        if below.all() {
+            return (zero, k(0.0));
+        }
+        let dist = &s.dist;
+        let h = (wi + wo).normalize();
+        let d = dist.eval(h);
+        let bad = below | d.eq(k(0.0));
+        if bad.all() {
+            return (zero, k(0.0));
+        }
+        let g1i = Microfacet::smith_g1_from(*gi, wi, h);
+        let f = (s.spec * s.fresnel.eval(wi.dot(h)))
+            .scale(d * g1i * Microfacet::smith_g1_from(*go, wo, h) / (k(4.0) * wi.z));
+        let pdf = dist.reflection_pdf(wi, wo, h, d, g1i);
+        (V3::select(bad, zero, f), L::select(bad, k(0.0), pdf))
+    }
 }
 
 /// `pdf` is `eval_pdf`'s density (`roughplastic.rs`).
 impl LaneNested for RoughPlastic {
     const SEPARATE_PDF: bool = false;
+    nothing_shared!();
     #[inline(always)]
     fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
         RoughPlastic::eval_pdf_lanes(self, wi, wo)
@@ -365,6 +472,174 @@ mod tests {
                 false,
             );
             check(&p, |a, o| p.eval_pdf(a, o), |a, o| p.pdf(a, o), 3);
+        }
+    }
+
+    /// Edge values for the shared-terms test: zeros of both signs, subnormals, one, huge
+    /// values, infinities and NaN.
+    const EDGES: [f32; 11] = [
+        0.0,
+        -0.0,
+        1e-40,
+        -1e-40,
+        1.0,
+        -1.0,
+        1e30,
+        f32::MAX,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+    ];
+
+    /// A direction for the shared-terms test: random (both hemispheres, near-horizon, non-unit
+    /// ones: `testing::direction`), or with some components edge values.
+    fn edge_direction(r: &mut crate::math::Pcg32) -> Vec3 {
+        let mut v = crate::bsdf::lanes::testing::direction(r);
+        for c in 0..3 {
+            if r.next_f32() < 0.08 {
+                v[c] = EDGES[r.next_u32() as usize % EDGES.len()];
+            }
+        }
+        v
+    }
+
+    /// `eval_pdf_dirs` from the query's and the directions' terms equals `eval_pdf_lanes` bit
+    /// for bit (NaN as NaN), 8-wide on this machine and at width 1, lane by lane: rough
+    /// conductors (GGX and Beckmann, visible or all normals, a textured-like reflectance, the
+    /// named metals' indices and edge indices: 0, subnormal, huge, ∞), the rough plastic and a
+    /// diffuse BSDF, over random directions mixed with ±0, subnormals, huge values, ±∞ and
+    /// NaN in their components.
+    #[test]
+    fn shared_terms_equal_the_plain_evaluation() {
+        let mut r = crate::math::Pcg32::new(22, 2);
+        let indices = [
+            (Vec3::new(0.2, 0.4, 1.4), Vec3::new(3.6, 2.4, 1.8)),
+            (Vec3::new(1.66, 0.88, 0.52), Vec3::new(9.2, 6.3, 4.8)),
+            (Vec3::new(0.0, -0.0, 1e-40), Vec3::new(1.0, 0.0, 1e-20)),
+            (
+                Vec3::new(1e20, f32::MAX, 1.0),
+                Vec3::new(1e20, 1.0, f32::INFINITY),
+            ),
+        ];
+        let mut compared = 0;
+        for (kind, alpha, visible) in [
+            (MicrofacetType::Ggx, 0.2, true),
+            (MicrofacetType::Ggx, 0.3, false),
+            (MicrofacetType::Beckmann, 0.1, true),
+            (MicrofacetType::Beckmann, 0.5, false),
+        ] {
+            for &(eta, k) in &indices {
+                let c = RoughConductor {
+                    distribution: MicrofacetDistribution::new(kind, alpha, visible),
+                    eta,
+                    k,
+                    specular_reflectance: Vec3::new(1.0, 0.9, 0.8),
+                };
+                compared += check_shared(&c, &mut r);
+            }
+            let p = RoughPlastic::new(
+                kind,
+                alpha,
+                visible,
+                Vec3::new(0.5, 0.2, 0.1),
+                Vec3::ONE,
+                1.5,
+                1.0,
+                false,
+            );
+            compared += check_shared(&p, &mut r);
+        }
+        let d = Diffuse {
+            reflectance: Vec3::new(0.8, 0.35, 0.05),
+        };
+        compared += check_shared(&d, &mut r);
+        assert!(compared > 100_000, "{compared}");
+    }
+
+    /// [`shared_terms_equal_the_plain_evaluation`] for one BSDF; the number of pairs compared.
+    fn check_shared<B: LaneNested>(b: &B, r: &mut crate::math::Pcg32) -> usize {
+        use crate::bsdf::lanes::testing::{same, same3};
+        let mut compared = 0;
+        for _ in 0..400 {
+            let a: [Vec3; 8] = std::array::from_fn(|_| edge_direction(r));
+            let o: [Vec3; 8] = std::array::from_fn(|_| edge_direction(r));
+            // Width 1: each pair alone.
+            for k in 0..8 {
+                let (want_f, want_p) = b.eval_pdf_lanes::<f32>(a[k].into(), o[k].into());
+                let s = b.shared(1.0f32);
+                let (da, dout) = (b.dir(&s, a[k].into()), b.dir(&s, o[k].into()));
+                let (f, p) = b.eval_pdf_dirs(&s, a[k].into(), &da, o[k].into(), &dout);
+                assert!(same3(f.into(), want_f.into()), "{} {}", a[k], o[k]);
+                assert!(same(p, want_p), "{} {}", a[k], o[k]);
+                compared += 1;
+            }
+            #[cfg(target_arch = "x86_64")]
+            if let Some(avx) = Avx2::detect() {
+                use crate::bsdf::lanes::testing::{lane3, load3};
+                avx.run(|| {
+                    let (a8, o8) = (load3(avx, &a), load3(avx, &o));
+                    let (want_f, want_p) = b.eval_pdf_lanes(a8, o8);
+                    let s = b.shared(avx.splat(0.0));
+                    let (da, dout) = (b.dir(&s, a8), b.dir(&s, o8));
+                    let (f, p) = b.eval_pdf_dirs(&s, a8, &da, o8, &dout);
+                    for k in 0..8 {
+                        assert!(same3(lane3(f, k), lane3(want_f, k)), "{} {}", a[k], o[k]);
+                        assert!(same(p.lane(k), want_p.lane(k)), "{} {}", a[k], o[k]);
+                        compared += 1;
+                    }
+                });
+            }
+        }
+        compared
+    }
+
+    /// The conductor's Fresnel terms of one index ([`ConductorTerms`]) give
+    /// `lane::fresnel::conductor` bit for bit, and G1 in two steps (`smith_g1_of`,
+    /// `smith_g1_from`) gives `smith_g1`, at width 1 over random and edge inputs (both are
+    /// lane-generic code: the 8-wide form is checked through `eval_pdf_dirs` above).
+    #[test]
+    fn fresnel_terms_and_g1_in_two_steps_equal_the_plain_ones() {
+        use crate::bsdf::lanes::testing::{same, same3};
+        let mut r = crate::math::Pcg32::new(22, 3);
+        let value = |r: &mut crate::math::Pcg32, lo: f32, hi: f32| {
+            if r.next_f32() < 0.15 {
+                EDGES[r.next_u32() as usize % EDGES.len()]
+            } else {
+                lo + (hi - lo) * r.next_f32()
+            }
+        };
+        for _ in 0..20000 {
+            let eta = Vec3::new(
+                value(&mut r, 0.0, 3.0),
+                value(&mut r, 0.0, 3.0),
+                value(&mut r, 0.0, 3.0),
+            );
+            let k = Vec3::new(
+                value(&mut r, 0.0, 10.0),
+                value(&mut r, 0.0, 10.0),
+                value(&mut r, 0.0, 10.0),
+            );
+            let cos = value(&mut r, -1.0, 1.0);
+            let want = crate::lane::fresnel::conductor::<f32>(cos, eta.into(), k.into());
+            let got = ConductorTerms::<f32>::new(eta.into(), k.into()).eval(cos);
+            assert!(same3(got.into(), want.into()), "{eta} {k} {cos}");
+        }
+        for (kind, visible) in [
+            (MicrofacetType::Ggx, true),
+            (MicrofacetType::Beckmann, false),
+        ] {
+            for _ in 0..20000 {
+                let dist = Microfacet::<f32> {
+                    kind,
+                    alpha_u: value(&mut r, 0.01, 1.0),
+                    alpha_v: value(&mut r, 0.01, 1.0),
+                    sample_visible: visible,
+                };
+                let (v, m) = (edge_direction(&mut r), edge_direction(&mut r));
+                let want = dist.smith_g1(v.into(), m.into());
+                let got = Microfacet::smith_g1_from(dist.smith_g1_of(v.into()), v.into(), m.into());
+                assert!(same(got, want), "{v} {m}");
+            }
         }
     }
 }

@@ -38,8 +38,8 @@ mod first;
 mod sample;
 
 use super::{
-    leave, pick_entry, sample_record_is_exact, AtIncident, AtWi, Collected, Entries, Known,
-    MsPlace, Nested,
+    leave, leave_mirror, pick_entry, sample_record_is_exact, AtIncident, AtWi, Collected, Entries,
+    Known, MsPlace, Nested,
 };
 use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfArena, BsdfContext, BsdfSample};
@@ -663,6 +663,14 @@ pub(crate) fn sample_x8(
     // Pass 2: the nested samples 8-wide.
     if !asks.is_empty() {
         let answered = asks.answer(kind);
+        // Over the mirror sawtooth `leave`'s numbers before its draw (the samples' directions
+        // in the shading frame, G1 there, the mirror wall's reflection) for all lanes at once,
+        // from the chunk's columns (the map's numbers).
+        let left = if c.mirror {
+            Some(c.geo.leave_dirs(answered.wo()))
+        } else {
+            None
+        };
         // Pass 3: the rest of `draw` per point (the facet frame and the mirror wall's draw).
         for (k, &j) in entry.iter().enumerate() {
             let Some(pt) = pts[k].as_ref().filter(|_| j != usize::MAX) else {
@@ -672,11 +680,14 @@ pub(crate) fn sample_x8(
                 continue;
             };
             let s = &mut samplers[ids[k] as usize];
-            // Over the mirror sawtooth from the chunk's columns (the map's numbers).
-            (st.wo[k], st.known[k]) = if c.mirror {
-                leave(&c.geo.lane(k), 0, j, sampled, s) // every entry is facet 0's
-            } else {
-                leave(pt.map(), c.e[k].k[j] as usize, j, sampled, s)
+            // Over the mirror sawtooth `leave`'s last step from the numbers in lanes (every
+            // entry is facet 0's; the same draw, `leave_mirror`).
+            (st.wo[k], st.known[k]) = match &left {
+                Some(l) => {
+                    let (u, g, r) = l.get(k);
+                    leave_mirror(u, g, || r, j, (sampled.1, sampled.2), s)
+                }
+                None => leave(pt.map(), c.e[k].k[j] as usize, j, sampled, s),
             };
             drawn |= 1 << k;
         }
@@ -694,7 +705,11 @@ pub(crate) fn sample_x8(
         if st.wo[k].z <= 0.0 {
             continue;
         }
-        st.known[k] = st.known[k].filter(|_| exact);
+        // (`Option::filter` by `exact`, written only where it changes the term: the rewrite
+        // of every lane's ~40-byte record cost more than the test.)
+        if !exact {
+            st.known[k] = None;
+        }
         if c.mirror {
             lanes.push(k, st.wo[k], st.known[k]);
         } else {

@@ -18,18 +18,24 @@
 //! mirror-sawtooth point of the chunk tests goes through here) and width 1 against width 8
 //! (`tests`).
 
+#[cfg(test)]
 use super::super::super::facet_bsdf::reflect_across;
-use super::super::super::facets::{g1_of, FacetCols};
+#[cfg(test)]
+use super::super::super::facets::g1_of;
+use super::super::super::facets::FacetCols;
 use super::super::super::nested_batch::LaneNested;
 #[cfg(test)]
 use super::super::Entries;
-use super::super::{Known, Leaves, Nested};
+#[cfg(test)]
+use super::super::Leaves;
+use super::super::{Known, Nested};
 use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::lane::frame::Frame as LaneFrame;
 use crate::lane::vec::V3;
 #[cfg(target_arch = "x86_64")]
 use crate::lane::{Avx2, F32x8};
 use crate::lane::{Lane, LaneMask};
+#[cfg(test)]
 use crate::math::Frame;
 use crate::spectrum::Spectrum;
 use glam::Vec3;
@@ -63,12 +69,15 @@ pub(in crate::bsdf::mnm::compensated) struct Points8 {
 /// Lane `k` of a [`Points8`] as [`super::super::leave`] reads a point's microsurface: facet
 /// 0's frame, the area vectors of the facet and the wall, the wall's normal, the numbers of
 /// the point's map ([`Points8::push_point`], [`Points8::of_facets`]) in the map's operations
-/// (`Frame::to_world`, [`g1_of`], [`reflect_across`]).
+/// (`Frame::to_world`, [`g1_of`], [`reflect_across`]). The tests' reference for
+/// [`Points8::leave_dirs`] (the sampler computes those numbers for 8 lanes at once).
+#[cfg(test)]
 pub(in crate::bsdf::mnm::compensated) struct Lane8<'p> {
     p: &'p Points8,
     k: usize,
 }
 
+#[cfg(test)]
 impl Lane8<'_> {
     #[inline(always)]
     fn get(&self, x: &[[f32; 8]; 3]) -> Vec3 {
@@ -76,6 +85,7 @@ impl Lane8<'_> {
     }
 }
 
+#[cfg(test)]
 impl Leaves for Lane8<'_> {
     #[inline(always)]
     fn facet_to_world(&self, k: usize, w: Vec3) -> Vec3 {
@@ -147,6 +157,55 @@ impl FirstOrders {
     }
 }
 
+/// [`Points8::leave_dirs`]' results by lane: u (a nested sample's ωo in the shading frame),
+/// G1(u) and R(u).
+pub(in crate::bsdf::mnm::compensated) struct Left {
+    u: [[f32; 8]; 3],
+    g: [f32; 8],
+    r: [[f32; 8]; 3],
+}
+
+impl Left {
+    #[inline(always)]
+    fn zero() -> Self {
+        Left {
+            u: [[0.0; 8]; 3],
+            g: [0.0; 8],
+            r: [[0.0; 8]; 3],
+        }
+    }
+
+    /// Lane `k`'s (u, G1(u), R(u)).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn get(&self, k: usize) -> (Vec3, f32, Vec3) {
+        let (u, r) = (&self.u, &self.r);
+        (
+            Vec3::new(u[0][k], u[1][k], u[2][k]),
+            self.g[k],
+            Vec3::new(r[0][k], r[1][k], r[2][k]),
+        )
+    }
+}
+
+/// `leave`'s numbers over the mirror sawtooth in lanes (`Lane8`'s operations): u = the facet
+/// frame `fr`'s `to_world(wo)` (`Frame::to_world` is this lane form at width 1), G1(u) of the
+/// microsurface (`g1`, `facets::g1_of`'s operations) and R(u) = u − (2 ⟨u, ωt⟩) ωt
+/// (`facet_bsdf::reflect_across`: `w - 2.0 * w.dot(wt) * wt`; a product's factors commute bit
+/// for bit).
+#[inline(always)]
+fn leave_lanes<L: Lane>(
+    v0: V3<L>,
+    v1: V3<L>,
+    n1: V3<L>,
+    fr: &LaneFrame<L>,
+    wo: V3<L>,
+) -> (V3<L>, L, V3<L>) {
+    let u = fr.to_world(wo);
+    let g = g1(v0, v1, u);
+    let r = u - n1.scale(u.z.splat(2.0) * u.dot(n1));
+    (u, g, r)
+}
+
 #[inline(always)]
 fn set3(x: &mut [[f32; 8]; 3], k: usize, v: Vec3) {
     x[0][k] = v.x;
@@ -215,9 +274,84 @@ impl Points8 {
     }
 
     /// Lane `k`'s microsurface as [`super::super::leave`] reads it.
-    #[inline(always)]
+    #[cfg(test)]
     pub(in crate::bsdf::mnm::compensated) fn lane(&self, k: usize) -> Lane8<'_> {
         Lane8 { p: self, k }
+    }
+
+    /// [`super::super::leave`]'s numbers before its draw over the mirror sawtooth, for every
+    /// lane at once: u = facet 0's frame to the shading frame of the nested samples'
+    /// directions `wo` (by component), G1(u) and the mirror wall's reflection R(u) (`Lane8`'s
+    /// `facet_to_world(0, ·)`, `g1`, `reflect_wall`, in their operations and order: bit for bit,
+    /// `tests`). 8-wide when the CPU has AVX2 and FMA, else lane by lane at width 1 (the same
+    /// numbers). Lanes without a point or a sample hold any value.
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn leave_dirs(&self, wo: &[[f32; 8]; 3]) -> Left {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = Avx2::detect() {
+            return avx.run(
+                #[inline(always)]
+                || {
+                    // A plain function, not a closure (see `Mirror8::load8`).
+                    #[inline(always)]
+                    fn l3(avx: Avx2, x: &[[f32; 8]; 3]) -> V3<F32x8> {
+                        V3::new(avx.load(&x[0]), avx.load(&x[1]), avx.load(&x[2]))
+                    }
+                    #[inline(always)]
+                    fn s3(v: V3<F32x8>, x: &mut [[f32; 8]; 3]) {
+                        v.x.store(&mut x[0]);
+                        v.y.store(&mut x[1]);
+                        v.z.store(&mut x[2]);
+                    }
+                    let fr = LaneFrame {
+                        s: l3(avx, &self.fr[0]),
+                        t: l3(avx, &self.fr[1]),
+                        n: l3(avx, &self.fr[2]),
+                    };
+                    let (u, g, r) = leave_lanes(
+                        l3(avx, &self.v0),
+                        l3(avx, &self.v1),
+                        l3(avx, &self.n1),
+                        &fr,
+                        l3(avx, wo),
+                    );
+                    let mut out = Left::zero();
+                    s3(u, &mut out.u);
+                    g.store(&mut out.g);
+                    s3(r, &mut out.r);
+                    out
+                },
+            );
+        }
+        self.leave_dirs_width1(wo)
+    }
+
+    /// [`Self::leave_dirs`] lane by lane at width 1.
+    #[inline(always)]
+    fn leave_dirs_width1(&self, wo: &[[f32; 8]; 3]) -> Left {
+        #[inline(always)]
+        fn l3(x: &[[f32; 8]; 3], k: usize) -> V3<f32> {
+            V3::new(x[0][k], x[1][k], x[2][k])
+        }
+        let mut out = Left::zero();
+        for k in 0..8 {
+            let fr = LaneFrame {
+                s: l3(&self.fr[0], k),
+                t: l3(&self.fr[1], k),
+                n: l3(&self.fr[2], k),
+            };
+            let (u, g, r) = leave_lanes(
+                l3(&self.v0, k),
+                l3(&self.v1, k),
+                l3(&self.n1, k),
+                &fr,
+                l3(wo, k),
+            );
+            set3(&mut out.u, k, u.into());
+            out.g[k] = g;
+            set3(&mut out.r, k, r.into());
+        }
+        out
     }
 
     /// Lane `k`: the point of map `m` (over the mirror sawtooth: `m.mirror_wall`) seen from
@@ -620,11 +754,18 @@ fn g1<L: Lane>(v0: V3<L>, v1: V3<L>, w: V3<L>) -> L {
 }
 
 /// The nested (f·|cos θo|, pdf) of the pairs (a, o) as the scalar path's batch evaluates them:
-/// `eval_pdf_lanes`, and for the density-only lanes `po` of a kind with its own `pdf`,
+/// `eval_pdf_lanes` (here `eval_pdf_dirs` from the query's terms `s` and the directions' `da`,
+/// `dout`: the same bits), and for the density-only lanes `po` of a kind with its own `pdf`,
 /// `pdf_lanes`' density.
 #[inline(always)]
-fn nested<L: Lane, B: LaneNested>(b: &B, a: V3<L>, o: V3<L>, po: L::Mask) -> (V3<L>, L) {
-    let (f, p) = b.eval_pdf_lanes(a, o);
+fn nested<L: Lane, B: LaneNested>(
+    b: &B,
+    s: &B::Shared<L>,
+    (a, da): (V3<L>, &B::Dir<L>),
+    (o, dout): (V3<L>, &B::Dir<L>),
+    po: L::Mask,
+) -> (V3<L>, L) {
+    let (f, p) = b.eval_pdf_dirs(s, a, da, o, dout);
     if B::SEPARATE_PDF && po.any() {
         (f, L::select(po, b.pdf_lanes(a, o), p))
     } else {
@@ -632,8 +773,31 @@ fn nested<L: Lane, B: LaneNested>(b: &B, a: V3<L>, o: V3<L>, po: L::Mask) -> (V3
     }
 }
 
+/// `b.dir(s, v)`, computed into `slot` the first time it is asked for (a direction's terms
+/// serve up to two of the query's four evaluations: each entry's two paths, and each exit's
+/// two entries).
+#[inline(always)]
+fn dir_once<L: Lane, B: LaneNested>(
+    b: &B,
+    s: &B::Shared<L>,
+    slot: &mut Option<B::Dir<L>>,
+    v: V3<L>,
+) -> B::Dir<L> {
+    match *slot {
+        Some(d) => d,
+        None => {
+            let d = b.dir(s, v);
+            *slot = Some(d);
+            d
+        }
+    }
+}
+
 /// The first order (f1·z(ωo), p1) of every lane: `Collected::new` and `Collected::sum::<false>`
-/// over the mirror sawtooth, lane by lane in their operations and order.
+/// over the mirror sawtooth, lane by lane in their operations and order. The nested BSDF's
+/// terms that do not change within the query (its parameters, a conductor's Fresnel terms) are
+/// computed once, and those of each direction (a conductor's G1 toward its own normal) once
+/// for the two evaluations that share it (`LaneNested::eval_pdf_dirs`: the same bits).
 #[inline(always)]
 fn first<L: Lane, B: LaneNested>(b: &B, q: &Lanes<L>) -> (V3<L>, L) {
     let like = q.wo.z;
@@ -649,17 +813,24 @@ fn first<L: Lane, B: LaneNested>(b: &B, q: &Lanes<L>) -> (V3<L>, L) {
     let bt = like.splat(1.0) - g1(q.v0, q.v1, rwo);
     let exit = d.gt(zero) & bt.gt(zero);
     let rb = q.fr.to_local(rwo);
+    let s = b.shared(like);
+    // The exits' terms ([p] toward bo, [t,p] toward rb), each computed when first needed.
+    let mut dout: [Option<B::Dir<L>>; 2] = [None, None];
     let mut v = zero3;
     let mut p = zero;
     for j in 0..ENTRIES {
         let has = q.has[j].gt(zero);
         let w = q.w[j];
+        let mut da: Option<B::Dir<L>> = None;
         // Path [p] (slot 2j), then [t,p] (slot 2j + 1) where the wall lets ωo out.
-        for wall in 0..2 {
+        for (wall, dout) in dout.iter_mut().enumerate() {
             let on = if wall == 0 { has } else { has & exit };
             let known = q.ks.eq(like.splat((2 * j + wall) as f32));
             let (fe, pe) = if (on & !known).any() {
-                nested(b, q.a[j], if wall == 0 { bo } else { rb }, pdf_only)
+                let o = if wall == 0 { bo } else { rb };
+                let di = dir_once(b, &s, &mut da, q.a[j]);
+                let dw = dir_once(b, &s, dout, o);
+                nested(b, &s, (q.a[j], &di), (o, &dw), pdf_only)
             } else {
                 (zero3, zero)
             };
@@ -750,6 +921,101 @@ mod tests {
         assert!(
             compared > 2500 && wall_only > 20 && picks[0] > 5000 && picks[1] > 1000,
             "{compared} lanes, {wall_only} through the wall alone, {picks:?} picks"
+        );
+    }
+
+    /// `leave` from the numbers in lanes ([`Points8::leave_dirs`], 8-wide on this machine and
+    /// at width 1, then `leave_mirror`) equals the scalar `leave` over the lane's microsurface
+    /// (`Lane8`, the map's numbers) bit for bit, and leaves each sampler where it does: random
+    /// mirror-sawtooth microsurfaces, nested samples' directions over both hemispheres (some
+    /// grazing, non-unit) mixed with ±0, subnormals, huge values, ±∞ and NaN components,
+    /// densities with the same edges (no known term where not finite and positive).
+    #[test]
+    fn leave_in_lanes_equals_the_scalar_one() {
+        use super::super::super::{leave, leave_mirror};
+        use crate::sampler::Sampler;
+        const EDGES: [f32; 10] = [
+            0.0,
+            -0.0,
+            1e-40,
+            -1e-40,
+            1.0,
+            1e30,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        let mut rng = Pcg32::new(22, 9);
+        let (mut compared, mut walls) = (0, 0);
+        for round in 0..1500 {
+            let mut pts = Points8::new();
+            for k in 0..8 {
+                let wp = direction(&mut rng);
+                let wp = Vec3::new(wp.x, wp.y, wp.z.abs().max(0.05)).normalize();
+                let m = MicrofacetNormalMap::new(
+                    0,
+                    wp,
+                    crate::bsdf::mnm::facets::Microgeometry::Sawtooth,
+                    crate::bsdf::mnm::Tangent::Mirror,
+                    crate::bsdf::mnm::Evaluation::Compensated,
+                    256,
+                );
+                if !m.mirror_wall || rng.next_f32() < 0.1 {
+                    continue;
+                }
+                let wi = direction(&mut rng);
+                pts.push_point(k, &m, Vec3::new(wi.x, wi.y, wi.z.abs().max(1e-3)));
+            }
+            pts.clear_unpushed();
+            let mut wo = [[0.0f32; 8]; 3];
+            let mut sampled = [(Vec3::ZERO, 0.0f32, Vec3::ZERO); 8];
+            for (k, smp) in sampled.iter_mut().enumerate() {
+                let mut d = direction(&mut rng);
+                for c in 0..3 {
+                    if rng.next_f32() < 0.04 {
+                        d[c] = EDGES[rng.next_u32() as usize % EDGES.len()];
+                    }
+                }
+                let pdf = if rng.next_f32() < 0.1 {
+                    EDGES[rng.next_u32() as usize % EDGES.len()]
+                } else {
+                    4.0 * rng.next_f32()
+                };
+                let w = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+                set3(&mut wo, k, d);
+                *smp = (d, pdf, w);
+            }
+            let (wide, one) = (pts.leave_dirs(&wo), pts.leave_dirs_width1(&wo));
+            for (k, &smp) in sampled.iter().enumerate() {
+                if pts.pushed & (1 << k) == 0 {
+                    continue;
+                }
+                let j = (rng.next_u32() % 2) as usize;
+                let seed = u64::from(rng.next_u32());
+                let mut s = Sampler::from_seed(seed, 3);
+                let (want_wo, want_known) = leave(&pts.lane(k), 0, j, smp, &mut s);
+                let want_next = s.next_1d();
+                for l in [&wide, &one] {
+                    let mut s = Sampler::from_seed(seed, 3);
+                    let (u, g, r) = l.get(k);
+                    let (got_wo, got_known) = leave_mirror(u, g, || r, j, (smp.1, smp.2), &mut s);
+                    assert!(same3(got_wo, want_wo), "{round} {k}: {got_wo} {want_wo}");
+                    // Debug prints each f32 as its shortest round-trip form.
+                    assert_eq!(
+                        format!("{got_known:?}"),
+                        format!("{want_known:?}"),
+                        "{round} {k}"
+                    );
+                    assert!(same(s.next_1d(), want_next), "{round} {k}");
+                }
+                compared += 1;
+                walls += usize::from(want_known.is_some_and(|kn| kn.wall));
+            }
+        }
+        assert!(
+            compared > 5000 && walls > 200,
+            "{compared} lanes, {walls} through the wall"
         );
     }
 

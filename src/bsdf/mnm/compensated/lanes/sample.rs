@@ -193,6 +193,13 @@ impl Answered {
         }
     }
 
+    /// The sampled directions by component (lanes without a sample: any value): what
+    /// `first::Points8::leave_dirs` turns to the shading frame for all lanes at once.
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn wo(&self) -> &[[f32; 8]; 3] {
+        &self.wo
+    }
+
     /// Lane `k`'s sample as `Bsdf::sample` returns it: (ωo, pdf, weight), `None` where the
     /// model sampled nothing or the sample is degenerate (non-finite ωo or weight, negative
     /// pdf: `Bsdf::sample`'s test).
