@@ -103,18 +103,7 @@ impl<L: Lane> Microfacet<L> {
     /// Smith's G1(v, m); 0 when `m` is back-facing as seen from `v`'s side.
     #[inline(always)]
     pub fn smith_g1(&self, v: V3<L>, m: V3<L>) -> L {
-        let k = |c: f32| v.z.splat(c);
-        let (t2, normal) = self.alpha_tan2(v);
-        let g = match self.kind {
-            MicrofacetType::Ggx => k(2.0) / (k(1.0) + (k(1.0) + t2).sqrt()),
-            MicrofacetType::Beckmann => {
-                let a = k(1.0) / t2.sqrt();
-                L::select(a.ge(k(1.6)), k(1.0), Self::beckmann_rational(a))
-            }
-        };
-        let g = L::select(g.is_finite(), g, k(0.0));
-        let g = L::select(normal, k(1.0), g);
-        L::select((v.dot(m) * v.z).le(k(0.0)), k(0.0), g)
+        Self::smith_g1_from(self.smith_g1_of(v), v, m)
     }
 
     /// G(wi, wo, m) = G1(wi, m) G1(wo, m).

@@ -35,7 +35,7 @@ use crate::spectrum::Spectrum;
 use crate::texture::Texture;
 
 use super::mis::power_heuristic;
-use super::ray::offset_origin;
+use super::ray::{offset_origin, AtPoint, Origin};
 
 /// A surface point per lane.
 #[derive(Clone, Copy, Debug)]
@@ -140,6 +140,22 @@ pub(crate) fn light_out<L: Lane>(
     bsdf_pdf: L,
     consistent: L::Mask,
 ) -> LightOut<L> {
+    let at = AtPoint { p: s.p, n: s.ng };
+    light_out_from(s, &at, throughput, lp, f, bsdf_pdf, consistent)
+}
+
+/// [`light_out`] with the ray origins of `s`'s point from `origin` (`s.p` and `s.ng` offset
+/// per ray, or picked from the point's offsets made once: the same values).
+#[inline(always)]
+pub(crate) fn light_out_from<L: Lane, O: Origin<L>>(
+    s: &Surface<L>,
+    origin: &O,
+    throughput: V3<L>,
+    lp: &LightPoint<L>,
+    f: V3<L>,
+    bsdf_pdf: L,
+    consistent: L::Mask,
+) -> LightOut<L> {
     let k = |c: f32| lp.pdf.splat(c);
     let nonzero = !(f.x.eq(k(0.0)) & f.y.eq(k(0.0)) & f.z.eq(k(0.0)));
     let ok = lp.some & consistent & nonzero;
@@ -148,11 +164,11 @@ pub(crate) fn light_out<L: Lane>(
     let contribution = throughput * f_value.scale(w / lp.pdf);
     // SurfaceInteraction::spawn_ray_to (a light point at a finite distance) or spawn_ray.
     let d0 = lp.p - s.p;
-    let o_to = offset_origin(s.p, s.ng, d0);
+    let o_to = origin.toward(d0);
     let t_end = V3::select(lp.has_n, offset_origin(lp.p, lp.n, -d0), lp.p);
     let d = t_end - o_to;
     let dist = d.length();
-    let o_inf = offset_origin(s.p, s.ng, lp.d);
+    let o_inf = origin.toward(lp.d);
     LightOut {
         ok,
         o: V3::select(lp.finite, o_to, o_inf),

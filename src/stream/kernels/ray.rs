@@ -47,6 +47,35 @@ impl<L: Lane> Offsets<L> {
     }
 }
 
+/// Where a surface point's rays start ([`offset_origin`] toward a direction): offset per ray
+/// ([`AtPoint`]) or picked from the point's two offsets made once ([`Offsets`]). The kernels'
+/// shared steps (`diffuse::light_out_from`, `vertex::SampleOut::at_with`) take either.
+pub(crate) trait Origin<L: Lane> {
+    /// [`offset_origin`]`(p, n, dir)` of the point.
+    fn toward(&self, dir: V3<L>) -> V3<L>;
+}
+
+/// A point `p` and geometric normal `n` whose rays are offset one by one.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct AtPoint<L: Lane> {
+    pub p: V3<L>,
+    pub n: V3<L>,
+}
+
+impl<L: Lane> Origin<L> for AtPoint<L> {
+    #[inline(always)]
+    fn toward(&self, dir: V3<L>) -> V3<L> {
+        offset_origin(self.p, self.n, dir)
+    }
+}
+
+impl<L: Lane> Origin<L> for Offsets<L> {
+    #[inline(always)]
+    fn toward(&self, dir: V3<L>) -> V3<L> {
+        Offsets::toward(self, dir)
+    }
+}
+
 /// One coordinate of [`offset_origin`].
 #[inline(always)]
 fn offset_1<L: Lane>(p: L, n: L) -> L {

@@ -14,9 +14,8 @@
 //!    throughput update and Russian roulette of the scalar code).
 
 use super::conductor::{self, Down, Leaf, Material, Normal, Params, Wrap, MAX_WRAPS};
-use super::diffuse::{light_direction, reflectance, LightOut, LightPoint, Surface};
-use super::mis::power_heuristic;
-use super::ray::{offset_origin, Offsets};
+use super::diffuse::{light_direction, light_out_from, reflectance, LightOut, LightPoint, Surface};
+use super::ray::{AtPoint, Offsets, Origin};
 use crate::bsdf::bumpmap;
 use crate::geometry::SurfaceInteraction;
 use crate::lane::vec::V3;
@@ -46,42 +45,7 @@ pub(crate) fn light<L: Lane, const MASK: bool>(
 ) -> LightOut<L> {
     let (wo, consistent) = light_direction(s, lp);
     let (f, bsdf_pdf) = conductor::eval_pdf_from::<L, MASK>(mat, p, dn, wo);
-    light_out(s, offs, throughput, lp, f, bsdf_pdf, consistent)
-}
-
-/// `diffuse::light_out` (the zero test, the MIS-weighted contribution and the shadow ray) with
-/// the surface point's ray origins taken from `offs` ([`Offsets::toward`], the values of
-/// `offset_origin(s.p, s.ng, ·)`) instead of offset anew for each of its two rays.
-#[inline(always)]
-fn light_out<L: Lane>(
-    s: &Surface<L>,
-    offs: &Offsets<L>,
-    throughput: V3<L>,
-    lp: &LightPoint<L>,
-    f: V3<L>,
-    bsdf_pdf: L,
-    consistent: L::Mask,
-) -> LightOut<L> {
-    let k = |c: f32| lp.pdf.splat(c);
-    let nonzero = !(f.x.eq(k(0.0)) & f.y.eq(k(0.0)) & f.z.eq(k(0.0)));
-    let ok = lp.some & consistent & nonzero;
-    let f_value = f * lp.value;
-    let w = L::select(lp.weight_one, k(1.0), power_heuristic(lp.pdf, bsdf_pdf));
-    let contribution = throughput * f_value.scale(w / lp.pdf);
-    // SurfaceInteraction::spawn_ray_to (a light point at a finite distance) or spawn_ray.
-    let d0 = lp.p - s.p;
-    let o_to = offs.toward(d0);
-    let t_end = V3::select(lp.has_n, offset_origin(lp.p, lp.n, -d0), lp.p);
-    let d = t_end - o_to;
-    let dist = d.length();
-    let o_inf = offs.toward(lp.d);
-    LightOut {
-        ok,
-        o: V3::select(lp.finite, o_to, o_inf),
-        d: V3::select(lp.finite, d.div_by(dist), lp.d),
-        tmax: L::select(lp.finite, dist * k(1.0 - 1e-4), k(f32::INFINITY)),
-        contribution,
-    }
+    light_out_from(s, offs, throughput, lp, f, bsdf_pdf, consistent)
 }
 
 /// The BSDF sample of [`sample`]: where it succeeded (`SurfaceBsdf::sample`'s side test
@@ -135,24 +99,16 @@ impl<L: Lane> SampleOut<L> {
         delta: L::Mask,
         eta: L,
     ) -> SampleOut<L> {
-        let wo_world = s.frame.to_world(bs.wo);
-        let consistent = (wo_world.dot(s.ng) * bs.wo.z).gt(wi.z.splat(0.0));
-        SampleOut {
-            ok: bs.ok & consistent,
-            wo: wo_world,
-            pdf: bs.pdf,
-            weight: bs.weight,
-            delta,
-            eta,
-            o: offset_origin(s.p, s.ng, wo_world),
-        }
+        let at = AtPoint { p: s.p, n: s.ng };
+        Self::at_with(s, &at, wi, bs, delta, eta)
     }
 
-    /// [`SampleOut::at`] with the origin from the point's shared [`Offsets`] (the same value).
+    /// [`SampleOut::at`] with the origin from `origin` (the point's shared [`Offsets`] or
+    /// one offset per ray: the same value).
     #[inline(always)]
-    pub(crate) fn at_with(
+    pub(crate) fn at_with<O: Origin<L>>(
         s: &Surface<L>,
-        offs: &Offsets<L>,
+        origin: &O,
         wi: V3<L>,
         bs: &crate::bsdf::lanes::LaneBsdfSample<L>,
         delta: L::Mask,
@@ -167,7 +123,7 @@ impl<L: Lane> SampleOut<L> {
             weight: bs.weight,
             delta,
             eta,
-            o: offs.toward(wo_world),
+            o: origin.toward(wo_world),
         }
     }
 }

@@ -213,7 +213,58 @@ fn set3(x: &mut [[f32; 8]; 3], k: usize, v: Vec3) {
     x[2][k] = v.z;
 }
 
+/// Column `x` (three rows of 8 lanes) as 8-wide lanes. A plain function, not a closure: a
+/// closure may be compiled out of the SIMD function, and its loads become calls.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn l3_8(avx: Avx2, x: &[[f32; 8]; 3]) -> V3<F32x8> {
+    V3::new(avx.load(&x[0]), avx.load(&x[1]), avx.load(&x[2]))
+}
+
+/// 8-wide lanes stored into column `x` (the inverse of [`l3_8`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn s3_8(v: V3<F32x8>, x: &mut [[f32; 8]; 3]) {
+    v.x.store(&mut x[0]);
+    v.y.store(&mut x[1]);
+    v.z.store(&mut x[2]);
+}
+
+/// Lane `k` of column `x`.
+#[inline(always)]
+fn l3_1(x: &[[f32; 8]; 3], k: usize) -> V3<f32> {
+    V3::new(x[0][k], x[1][k], x[2][k])
+}
+
 impl Points8 {
+    /// The points' microsurface (area vectors `v0`, `v1`, normal `n1`) and facet frame, 8 wide.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn geometry8(&self, avx: Avx2) -> (V3<F32x8>, V3<F32x8>, V3<F32x8>, LaneFrame<F32x8>) {
+        let fr = LaneFrame {
+            s: l3_8(avx, &self.fr[0]),
+            t: l3_8(avx, &self.fr[1]),
+            n: l3_8(avx, &self.fr[2]),
+        };
+        (
+            l3_8(avx, &self.v0),
+            l3_8(avx, &self.v1),
+            l3_8(avx, &self.n1),
+            fr,
+        )
+    }
+
+    /// [`Self::geometry8`] of lane `k`.
+    #[inline(always)]
+    fn geometry1(&self, k: usize) -> (V3<f32>, V3<f32>, V3<f32>, LaneFrame<f32>) {
+        let fr = LaneFrame {
+            s: l3_1(&self.fr[0], k),
+            t: l3_1(&self.fr[1], k),
+            n: l3_1(&self.fr[2], k),
+        };
+        (l3_1(&self.v0, k), l3_1(&self.v1, k), l3_1(&self.n1, k), fr)
+    }
+
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn new() -> Self {
         let z = [[0.0; 8], [0.0; 8], [1.0; 8]];
@@ -292,33 +343,12 @@ impl Points8 {
             return avx.run(
                 #[inline(always)]
                 || {
-                    // A plain function, not a closure (see `Mirror8::load8`).
-                    #[inline(always)]
-                    fn l3(avx: Avx2, x: &[[f32; 8]; 3]) -> V3<F32x8> {
-                        V3::new(avx.load(&x[0]), avx.load(&x[1]), avx.load(&x[2]))
-                    }
-                    #[inline(always)]
-                    fn s3(v: V3<F32x8>, x: &mut [[f32; 8]; 3]) {
-                        v.x.store(&mut x[0]);
-                        v.y.store(&mut x[1]);
-                        v.z.store(&mut x[2]);
-                    }
-                    let fr = LaneFrame {
-                        s: l3(avx, &self.fr[0]),
-                        t: l3(avx, &self.fr[1]),
-                        n: l3(avx, &self.fr[2]),
-                    };
-                    let (u, g, r) = leave_lanes(
-                        l3(avx, &self.v0),
-                        l3(avx, &self.v1),
-                        l3(avx, &self.n1),
-                        &fr,
-                        l3(avx, wo),
-                    );
+                    let (v0, v1, n1, fr) = self.geometry8(avx);
+                    let (u, g, r) = leave_lanes(v0, v1, n1, &fr, l3_8(avx, wo));
                     let mut out = Left::zero();
-                    s3(u, &mut out.u);
+                    s3_8(u, &mut out.u);
                     g.store(&mut out.g);
-                    s3(r, &mut out.r);
+                    s3_8(r, &mut out.r);
                     out
                 },
             );
@@ -329,24 +359,10 @@ impl Points8 {
     /// [`Self::leave_dirs`] lane by lane at width 1.
     #[inline(always)]
     fn leave_dirs_width1(&self, wo: &[[f32; 8]; 3]) -> Left {
-        #[inline(always)]
-        fn l3(x: &[[f32; 8]; 3], k: usize) -> V3<f32> {
-            V3::new(x[0][k], x[1][k], x[2][k])
-        }
         let mut out = Left::zero();
         for k in 0..8 {
-            let fr = LaneFrame {
-                s: l3(&self.fr[0], k),
-                t: l3(&self.fr[1], k),
-                n: l3(&self.fr[2], k),
-            };
-            let (u, g, r) = leave_lanes(
-                l3(&self.v0, k),
-                l3(&self.v1, k),
-                l3(&self.n1, k),
-                &fr,
-                l3(wo, k),
-            );
+            let (v0, v1, n1, fr) = self.geometry1(k);
+            let (u, g, r) = leave_lanes(v0, v1, n1, &fr, l3_1(wo, k));
             set3(&mut out.u, k, u.into());
             out.g[k] = g;
             set3(&mut out.r, k, r.into());
@@ -386,31 +402,11 @@ impl Points8 {
             avx.run(
                 #[inline(always)]
                 || {
-                    #[inline(always)]
-                    fn l3(avx: Avx2, x: &[[f32; 8]; 3]) -> V3<F32x8> {
-                        V3::new(avx.load(&x[0]), avx.load(&x[1]), avx.load(&x[2]))
-                    }
-                    #[inline(always)]
-                    fn s3(v: V3<F32x8>, x: &mut [[f32; 8]; 3]) {
-                        v.x.store(&mut x[0]);
-                        v.y.store(&mut x[1]);
-                        v.z.store(&mut x[2]);
-                    }
-                    let fr = LaneFrame {
-                        s: l3(avx, &self.fr[0]),
-                        t: l3(avx, &self.fr[1]),
-                        n: l3(avx, &self.fr[2]),
-                    };
-                    let e = entries(
-                        l3(avx, &self.v0),
-                        l3(avx, &self.v1),
-                        l3(avx, &self.n1),
-                        &fr,
-                        l3(avx, &self.wi),
-                    );
+                    let (v0, v1, n1, fr) = self.geometry8(avx);
+                    let e = entries(v0, v1, n1, &fr, l3_8(avx, &self.wi));
                     for j in 0..ENTRIES {
                         e.w[j].store(&mut self.w[j]);
-                        s3(e.a[j], &mut self.a[j]);
+                        s3_8(e.a[j], &mut self.a[j]);
                         e.has[j].store(&mut self.has[j]);
                     }
                     e.wall0.store(&mut self.wall0);
@@ -425,26 +421,12 @@ impl Points8 {
     /// [`Self::entries`] lane by lane at width 1.
     #[inline(always)]
     fn entries_width1(&mut self) {
-        #[inline(always)]
-        fn l3(x: &[[f32; 8]; 3], k: usize) -> V3<f32> {
-            V3::new(x[0][k], x[1][k], x[2][k])
-        }
         for k in 0..8 {
             if self.pushed & (1 << k) == 0 {
                 continue;
             }
-            let fr = LaneFrame {
-                s: l3(&self.fr[0], k),
-                t: l3(&self.fr[1], k),
-                n: l3(&self.fr[2], k),
-            };
-            let e = entries(
-                l3(&self.v0, k),
-                l3(&self.v1, k),
-                l3(&self.n1, k),
-                &fr,
-                l3(&self.wi, k),
-            );
+            let (v0, v1, n1, fr) = self.geometry1(k);
+            let e = entries(v0, v1, n1, &fr, l3_1(&self.wi, k));
             for j in 0..ENTRIES {
                 self.w[j][k] = e.w[j];
                 set3(&mut self.a[j], k, e.a[j].into());
@@ -612,55 +594,39 @@ impl Mirror8 {
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn load8(&self, avx: Avx2, p: &Points8) -> Lanes<F32x8> {
-        // A plain function, not a closure: a closure may be compiled out of the SIMD
-        // function, and its loads become calls.
-        #[inline(always)]
-        fn l3(avx: Avx2, x: &[[f32; 8]; 3]) -> V3<F32x8> {
-            V3::new(avx.load(&x[0]), avx.load(&x[1]), avx.load(&x[2]))
-        }
         // The entries of the lanes this query does not use are off (min with 0): their paths
         // are not evaluated for nothing.
         let on = avx.load(&self.on);
+        let (v0, v1, n1, fr) = p.geometry8(avx);
         Lanes {
-            v0: l3(avx, &p.v0),
-            v1: l3(avx, &p.v1),
-            n1: l3(avx, &p.n1),
-            fr: LaneFrame {
-                s: l3(avx, &p.fr[0]),
-                t: l3(avx, &p.fr[1]),
-                n: l3(avx, &p.fr[2]),
-            },
+            v0,
+            v1,
+            n1,
+            fr,
             w: [avx.load(&p.w[0]), avx.load(&p.w[1])],
-            a: [l3(avx, &p.a[0]), l3(avx, &p.a[1])],
+            a: [l3_8(avx, &p.a[0]), l3_8(avx, &p.a[1])],
             has: [avx.load(&p.has[0]).min(on), avx.load(&p.has[1]).min(on)],
-            wo: l3(avx, &self.wo),
+            wo: l3_8(avx, &self.wo),
             ks: avx.load(&self.ks),
-            kf: l3(avx, &self.kf),
+            kf: l3_8(avx, &self.kf),
             kp: avx.load(&self.kp),
         }
     }
 
     #[inline(always)]
     fn load1(&self, p: &Points8, k: usize) -> Lanes<f32> {
-        #[inline(always)]
-        fn l3(x: &[[f32; 8]; 3], k: usize) -> V3<f32> {
-            V3::new(x[0][k], x[1][k], x[2][k])
-        }
+        let (v0, v1, n1, fr) = p.geometry1(k);
         Lanes {
-            v0: l3(&p.v0, k),
-            v1: l3(&p.v1, k),
-            n1: l3(&p.n1, k),
-            fr: LaneFrame {
-                s: l3(&p.fr[0], k),
-                t: l3(&p.fr[1], k),
-                n: l3(&p.fr[2], k),
-            },
+            v0,
+            v1,
+            n1,
+            fr,
             w: [p.w[0][k], p.w[1][k]],
-            a: [l3(&p.a[0], k), l3(&p.a[1], k)],
+            a: [l3_1(&p.a[0], k), l3_1(&p.a[1], k)],
             has: [p.has[0][k].min(self.on[k]), p.has[1][k].min(self.on[k])],
-            wo: l3(&self.wo, k),
+            wo: l3_1(&self.wo, k),
             ks: self.ks[k],
-            kf: l3(&self.kf, k),
+            kf: l3_1(&self.kf, k),
             kp: self.kp[k],
         }
     }
