@@ -109,30 +109,27 @@ impl ConductorIndex {
         }
     }
 
-    /// [`conductor`] at `cos_theta_i` with this index (its terms broadcast to the lanes).
+    /// The terms in lanes of `like`'s width, for many evaluations at this index
+    /// ([`ConductorTerms::eval`]).
+    #[inline(always)]
+    pub fn lanes<L: Lane>(&self, like: L) -> ConductorTerms<L> {
+        let s = |x: [f32; 3]| V3::new(like.splat(x[0]), like.splat(x[1]), like.splat(x[2]));
+        ConductorTerms {
+            d: s(self.eta2_minus_k2),
+            c4: s(self.four_eta2_k2),
+        }
+    }
+
+    /// [`conductor`] at `cos_theta_i` with this index.
     #[inline(always)]
     pub fn reflectance<L: Lane>(&self, cos_theta_i: L) -> V3<L> {
-        let (a, b) = (&self.eta2_minus_k2, &self.four_eta2_k2);
-        let s = |x: [f32; 3]| {
-            V3::new(
-                cos_theta_i.splat(x[0]),
-                cos_theta_i.splat(x[1]),
-                cos_theta_i.splat(x[2]),
-            )
-        };
-        ConductorTerms {
-            d: s(*a),
-            c4: s(*b),
-        }
-        .eval(cos_theta_i)
+        self.lanes(cos_theta_i).eval(cos_theta_i)
     }
 }
 
-/// [`conductor`]'s terms that depend on the complex index η + ik alone, per channel and per
-/// lane (the index may differ between lanes; [`ConductorIndex`] is the form for one index
-/// shared by all lanes): η² − k² and 4η²k², for many evaluations with one index (the
-/// compensated first order evaluates a `roughconductor` four times per query, issue 18). [`ConductorTerms::eval`] is [`conductor`]
-/// bit for bit: the same operations in the same order, the index's terms computed once.
+/// A [`ConductorIndex`]'s terms broadcast to the lanes ([`ConductorIndex::lanes`]), for many
+/// evaluations with one index (the compensated first order evaluates a `roughconductor` four
+/// times per query, issue 18): [`ConductorTerms::eval`] is [`conductor`] bit for bit.
 #[derive(Clone, Copy, Debug)]
 pub struct ConductorTerms<L> {
     /// η² − k² (`conductor_1`'s `eta * eta - k * k`, before `- s2`).
@@ -142,24 +139,8 @@ pub struct ConductorTerms<L> {
 }
 
 impl<L: Lane> ConductorTerms<L> {
-    /// The terms of the index `eta + i k`.
-    #[inline(always)]
-    pub fn new(eta: V3<L>, k: V3<L>) -> Self {
-        #[inline(always)]
-        fn d<L: Lane>(eta: L, k: L) -> L {
-            eta * eta - k * k
-        }
-        #[inline(always)]
-        fn c4<L: Lane>(eta: L, k: L) -> L {
-            eta.splat(4.0) * eta * eta * k * k
-        }
-        ConductorTerms {
-            d: V3::new(d(eta.x, k.x), d(eta.y, k.y), d(eta.z, k.z)),
-            c4: V3::new(c4(eta.x, k.x), c4(eta.y, k.y), c4(eta.z, k.z)),
-        }
-    }
-
-    /// [`conductor`]`(cos_theta_i, eta, k)` of the index of [`Self::new`].
+    /// [`conductor`]`(cos_theta_i, eta, k)` of the index these terms came from
+    /// ([`ConductorIndex::lanes`]).
     #[inline(always)]
     pub fn eval(&self, cos_theta_i: L) -> V3<L> {
         V3::new(

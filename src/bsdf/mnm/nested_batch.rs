@@ -123,12 +123,10 @@ impl LaneNested for RoughConductor {
     #[inline(always)]
     fn shared<L: Lane>(&self, like: L) -> ConductorShared<L> {
         let (spec, dist) = self.params_lanes(like);
-        let eta = V3::splat(like, self.eta.x, self.eta.y, self.eta.z);
-        let k = V3::splat(like, self.k.x, self.k.y, self.k.z);
         ConductorShared {
             spec,
             dist,
-            fresnel: ConductorTerms::new(eta, k),
+            fresnel: self.index().lanes(like),
         }
     }
     #[inline(always)]
@@ -621,7 +619,8 @@ mod tests {
             );
             let cos = value(&mut r, -1.0, 1.0);
             let want = crate::lane::fresnel::conductor::<f32>(cos, eta.into(), k.into());
-            let got = ConductorTerms::<f32>::new(eta.into(), k.into()).eval(cos);
+            let ix = crate::lane::fresnel::ConductorIndex::new(eta.to_array(), k.to_array());
+            let got = ix.lanes(cos).eval(cos);
             assert!(same3(got.into(), want.into()), "{eta} {k} {cos}");
         }
         for (kind, visible) in [
