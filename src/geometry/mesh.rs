@@ -1,6 +1,5 @@
 //! Indexed triangle meshes: the common currency of the OBJ/PLY loaders and of Mitsuba's `cube`.
 
-use crate::lane::Row8;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 
 /// An indexed triangle mesh in world space (after [`TriMesh::transform`]).
@@ -13,38 +12,6 @@ pub struct TriMesh {
     pub uvs: Option<Vec<Vec2>>,
     /// Triangles as vertex indices; the winding defines the geometric normal `(p1−p0)×(p2−p0)`.
     pub indices: Vec<[u32; 3]>,
-}
-
-/// A mesh's vertices as interleaved rows ([`TriMesh::vertex_rows`]): row `i` holds vertex
-/// `i`'s position (fields 0–2), shading normal (3–5) and uv (6–7).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct VertexRows {
-    pub rows: Vec<Row8>,
-    /// The mesh has vertex normals (else fields 3–5 are zero).
-    pub has_normals: bool,
-    /// The mesh has uvs (else fields 6–7 are zero).
-    pub has_uvs: bool,
-}
-
-impl VertexRows {
-    /// Vertex `i`'s position.
-    #[inline(always)]
-    pub fn p(&self, i: u32) -> Vec3 {
-        let r = &self.rows[i as usize].0;
-        Vec3::new(r[0], r[1], r[2])
-    }
-    /// Vertex `i`'s normal (zero without normals).
-    #[inline(always)]
-    pub fn n(&self, i: u32) -> Vec3 {
-        let r = &self.rows[i as usize].0;
-        Vec3::new(r[3], r[4], r[5])
-    }
-    /// Vertex `i`'s uv (zero without uvs).
-    #[inline(always)]
-    pub fn uv(&self, i: u32) -> Vec2 {
-        let r = &self.rows[i as usize].0;
-        Vec2::new(r[6], r[7])
-    }
 }
 
 impl TriMesh {
@@ -162,31 +129,6 @@ impl TriMesh {
         }
     }
 
-    /// One interleaved row per vertex for the render's surface lookups: position, normal, uv
-    /// (`px py pz nx ny nz u v`, [`Row8`]), so that a hit's three vertices are three half
-    /// cache lines instead of up to nine lines in three arrays. A mesh without normals or
-    /// uvs holds zeros there (what the lane forms are given for absent attributes). Built once
-    /// per shape ([`super::Shape`]); the mesh must be valid ([`TriMesh::validate`]: one normal
-    /// and uv per vertex).
-    pub fn vertex_rows(&self) -> VertexRows {
-        let n = |i: usize| self.normals.as_ref().map_or(Vec3::ZERO, |ns| ns[i]);
-        let t = |i: usize| self.uvs.as_ref().map_or(Vec2::ZERO, |ts| ts[i]);
-        let rows = self
-            .positions
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                let (n, t) = (n(i), t(i));
-                Row8([p.x, p.y, p.z, n.x, n.y, n.z, t.x, t.y])
-            })
-            .collect();
-        VertexRows {
-            rows,
-            has_normals: self.normals.is_some(),
-            has_uvs: self.uvs.is_some(),
-        }
-    }
-
     /// The area of triangle `i`.
     #[inline]
     pub fn triangle_area(&self, i: usize) -> f32 {
@@ -251,103 +193,6 @@ mod tests {
         let n0 = m.normals.as_ref().unwrap()[0];
         let expect = Vec3::new(1.0, 0.0, 1.0).normalize();
         assert!((n0 - expect).length() < 1e-5, "{n0}");
-    }
-
-    /// Values a vertex can hold in the rows' tests: edge cases (±0, subnormals, the largest
-    /// finite, ±∞, NaN with a payload) and random bit patterns.
-    fn edge_or_random(k: usize, r: &mut crate::math::Pcg32) -> f32 {
-        const EDGES: [f32; 9] = [
-            0.0,
-            -0.0,
-            f32::MIN_POSITIVE,
-            1e-40,
-            -1e-45,
-            f32::MAX,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            1.5,
-        ];
-        match k % 3 {
-            0 => EDGES[(k / 3) % EDGES.len()],
-            1 => f32::from_bits(0x7fc0_1234 | (k as u32 & 1) << 31),
-            _ => f32::from_bits(r.next_u32()),
-        }
-    }
-
-    /// A mesh of `n` vertices with every kind of value, with or without normals and uvs.
-    fn odd_mesh(n: usize, normals: bool, uvs: bool) -> TriMesh {
-        let mut r = crate::math::Pcg32::new(7, n as u64);
-        let mut k = 0;
-        let mut f = || {
-            k += 1;
-            edge_or_random(k, &mut r)
-        };
-        let mut v3 = || Vec3::new(f(), f(), f());
-        let positions: Vec<Vec3> = (0..n).map(|_| v3()).collect();
-        let ns: Vec<Vec3> = (0..n).map(|_| v3()).collect();
-        let ts: Vec<Vec2> = (0..n).map(|_| Vec2::new(f(), f())).collect();
-        TriMesh {
-            positions,
-            normals: normals.then_some(ns),
-            uvs: uvs.then_some(ts),
-            indices: vec![[0, 1, 2]],
-        }
-    }
-
-    #[test]
-    fn vertex_rows_hold_the_arrays_bit_for_bit() {
-        for (normals, uvs) in [(true, true), (true, false), (false, true), (false, false)] {
-            let m = odd_mesh(300, normals, uvs);
-            let rows = m.vertex_rows();
-            assert_eq!((rows.has_normals, rows.has_uvs), (normals, uvs));
-            assert_eq!(rows.rows.len(), m.positions.len());
-            for (i, row) in rows.rows.iter().enumerate() {
-                let n = m.normals.as_ref().map_or(Vec3::ZERO, |ns| ns[i]);
-                let t = m.uvs.as_ref().map_or(Vec2::ZERO, |ts| ts[i]);
-                let p = m.positions[i];
-                let want = [p.x, p.y, p.z, n.x, n.y, n.z, t.x, t.y].map(f32::to_bits);
-                assert_eq!(row.0.map(f32::to_bits), want, "vertex {i}");
-                let k = i as u32;
-                assert_eq!(
-                    rows.p(k).to_array().map(f32::to_bits),
-                    [0, 1, 2].map(|c| want[c])
-                );
-                assert_eq!(
-                    rows.n(k).to_array().map(f32::to_bits),
-                    [3, 4, 5].map(|c| want[c])
-                );
-                assert_eq!(
-                    rows.uv(k).to_array().map(f32::to_bits),
-                    [6, 7].map(|c| want[c])
-                );
-            }
-        }
-    }
-
-    /// A shape's rows are its mesh's vertices; the shape's mesh keeps positions and indices.
-    #[test]
-    fn a_mesh_shape_reads_its_vertices_from_the_rows() {
-        let mut m = quad();
-        m.uvs = Some(vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::new(-0.0, 1e-40)]);
-        m.normals = Some(vec![Vec3::Z, Vec3::Z, -Vec3::Z, Vec3::new(0.0, 0.6, 0.8)]);
-        let want = m.vertex_rows();
-        let s = crate::geometry::Shape::from_mesh(m.clone(), false, false).unwrap();
-        assert_eq!(s.vertex_rows().rows.len(), 4);
-        for (a, b) in s.vertex_rows().rows.iter().zip(&want.rows) {
-            assert_eq!(a.0.map(f32::to_bits), b.0.map(f32::to_bits));
-        }
-        assert!(s.vertex_rows().has_normals && s.vertex_rows().has_uvs);
-        let crate::geometry::ShapeKind::Mesh(sm) = &s.kind else {
-            panic!("a mesh")
-        };
-        assert_eq!((&sm.positions, &sm.indices), (&m.positions, &m.indices));
-        assert!(sm.normals.is_none() && sm.uvs.is_none());
-        // Face normals: no normals in the rows; no uvs: zeros there.
-        m.uvs = None;
-        let s = crate::geometry::Shape::from_mesh(m, false, true).unwrap();
-        let rows = s.vertex_rows();
-        assert!(!rows.has_normals && !rows.has_uvs);
-        assert!(rows.rows.iter().all(|r| r.0[3..] == [0.0; 5]));
     }
 
     #[test]

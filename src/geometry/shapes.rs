@@ -9,7 +9,7 @@ use super::attributes::Attribute;
 use super::curves::Curves;
 use super::cylinder::Cylinder;
 use super::interaction::SurfaceInteraction;
-use super::mesh::{TriMesh, VertexRows};
+use super::mesh::TriMesh;
 use super::sdfgrid::SdfGrid;
 use super::sphere_map::SphereMap;
 use super::Hit;
@@ -22,9 +22,7 @@ use glam::{Mat3, Mat4, Vec2, Vec3};
 /// What a shape is made of.
 #[derive(Clone, Debug)]
 pub enum ShapeKind {
-    /// A triangle mesh in world space. Its vertex normals and uvs live in the shape's
-    /// interleaved rows ([`Shape::vertex_rows`]): the shape's `TriMesh` holds positions and
-    /// indices only (its `normals` and `uvs` are `None` after the build).
+    /// A triangle mesh in world space.
     Mesh(TriMesh),
     /// An exact sphere; `frame` is the rotation part of `to_world`, which orients the uv map.
     /// `map` is set when `to_world` is not a similarity (Mitsuba's sphere is then still this
@@ -96,10 +94,6 @@ pub struct Shape {
     pub box_to_world: Option<Mat4>,
     /// A mesh's `vertex_…` / `face_…` attributes (from a PLY file), for `mesh_attribute`.
     attributes: Vec<Attribute>,
-    /// A mesh's vertices as interleaved rows (position, normal, uv: [`TriMesh::vertex_rows`]),
-    /// which the surface lookups read (here and in the stream's gather); empty for other
-    /// shapes.
-    rows: VertexRows,
 }
 
 /// A point sampled uniformly on a shape's surface.
@@ -164,14 +158,7 @@ impl Shape {
             // area light as Mitsuba does).
             cdf.clear();
         }
-        // The render reads the vertices from their interleaved rows; the mesh keeps its
-        // positions (Embree's build, tier A's triangles, the emitter sampling, the attributes
-        // and the area read them) and drops its separate normals and uvs, which the rows hold.
-        let rows = mesh.vertex_rows();
-        let mut mesh = mesh;
-        (mesh.normals, mesh.uvs) = (None, None);
         Ok(Shape {
-            rows,
             kind: ShapeKind::Mesh(mesh),
             flip_normals,
             face_normals,
@@ -206,13 +193,6 @@ impl Shape {
         }
         self.attributes = attributes;
         Ok(self)
-    }
-
-    /// A mesh's vertices as interleaved rows (empty for other shapes): what the surface
-    /// lookups read.
-    #[inline]
-    pub fn vertex_rows(&self) -> &VertexRows {
-        &self.rows
     }
 
     /// The mesh's attributes (none for other shapes).
@@ -283,7 +263,6 @@ impl Shape {
             to_object: to_world.inverse(),
             box_to_world: None,
             attributes: Vec::new(),
-            rows: VertexRows::default(),
             shading_normal: None,
             scene_index: 0,
         })
@@ -451,7 +430,6 @@ impl Shape {
             to_object: Mat4::IDENTITY,
             box_to_world: None,
             attributes: Vec::new(),
-            rows: VertexRows::default(),
             shading_normal: None,
             scene_index: 0,
         })
@@ -468,7 +446,6 @@ impl Shape {
             to_object: Mat4::IDENTITY,
             box_to_world: None,
             attributes: Vec::new(),
-            rows: VertexRows::default(),
             shading_normal: None,
             scene_index: 0,
         }
@@ -500,7 +477,6 @@ impl Shape {
             to_object: Mat4::IDENTITY,
             box_to_world: None,
             attributes: Vec::new(),
-            rows: VertexRows::default(),
             shading_normal: None,
             scene_index: 0,
         }
@@ -518,7 +494,6 @@ impl Shape {
             to_object: Mat4::IDENTITY,
             box_to_world: None,
             attributes: Vec::new(),
-            rows: VertexRows::default(),
             shading_normal: None,
             scene_index: 0,
         }
@@ -562,10 +537,8 @@ impl Shape {
         let sign = if self.flip_normals { -1.0 } else { 1.0 };
         match &self.kind {
             ShapeKind::Mesh(m) => {
-                // The vertices from their interleaved rows (the same values as the mesh's
-                // arrays, one cache line per vertex).
-                let (tri, rows) = (m.indices[hit.prim as usize], &self.rows);
-                let [p0, p1, p2] = tri.map(|i| rows.p(i));
+                let tri = m.indices[hit.prim as usize];
+                let [p0, p1, p2] = tri.map(|i| m.positions[i as usize]);
                 let (b1, b2) = (hit.u, hit.v);
                 let b0 = 1.0 - b1 - b2;
                 let p = p0 * b0 + p1 * b1 + p2 * b2;
@@ -575,8 +548,8 @@ impl Shape {
                 // tangent frame around the face normal (built only when needed).
                 let mut uv = Vec2::new(b1, b2);
                 let mut derivs = None;
-                if rows.has_uvs {
-                    let [t0, t1, t2] = tri.map(|i| rows.uv(i));
+                if let Some(uvs) = &m.uvs {
+                    let [t0, t1, t2] = tri.map(|i| uvs[i as usize]);
                     uv = t0 * b0 + t1 * b1 + t2 * b2;
                     let (d0, d1) = (t1 - t0, t2 - t0);
                     let det = d0.x * d1.y - d0.y * d1.x;
@@ -593,8 +566,8 @@ impl Shape {
                     (f.s, f.t)
                 });
                 let mut ns = ng;
-                if rows.has_normals {
-                    let [n0, n1, n2] = tri.map(|i| rows.n(i));
+                if let Some(nrm) = &m.normals {
+                    let [n0, n1, n2] = tri.map(|i| nrm[i as usize]);
                     if let Some(n) = (n0 * b0 + n1 * b1 + n2 * b2).try_normalize() {
                         ns = n;
                     }
@@ -701,24 +674,25 @@ impl Shape {
             ShapeKind::Mesh(m) => {
                 let (i, u) = self.pick_triangle(u);
                 let b = warp::square_to_uniform_triangle(u);
-                let (tri, rows) = (m.indices[i], &self.rows);
-                let [p0, p1, p2] = tri.map(|k| rows.p(k));
+                let tri = m.indices[i];
+                let [p0, p1, p2] = tri.map(|k| m.positions[k as usize]);
                 let b0 = 1.0 - b.x - b.y;
                 let p = p0 + (p1 - p0) * b.x + (p2 - p0) * b.y;
                 let ng = (p1 - p0).cross(p2 - p0).try_normalize().unwrap_or(Vec3::Z);
-                let n = rows
-                    .has_normals
-                    .then(|| {
-                        let [n0, n1, n2] = tri.map(|k| rows.n(k));
+                let n = m
+                    .normals
+                    .as_ref()
+                    .and_then(|ns| {
+                        let [n0, n1, n2] = tri.map(|k| ns[k as usize]);
                         (n0 * b0 + n1 * b.x + n2 * b.y).try_normalize()
                     })
-                    .flatten()
                     .unwrap_or(ng);
-                let uv = if rows.has_uvs {
-                    let [t0, t1, t2] = tri.map(|k| rows.uv(k));
-                    t0 * b0 + t1 * b.x + t2 * b.y
-                } else {
-                    b
+                let uv = match &m.uvs {
+                    Some(uvs) => {
+                        let [t0, t1, t2] = tri.map(|k| uvs[k as usize]);
+                        t0 * b0 + t1 * b.x + t2 * b.y
+                    }
+                    None => b,
                 };
                 PositionSample {
                     p,
@@ -984,7 +958,6 @@ fn degenerate() -> Shape {
         to_object: Mat4::IDENTITY,
         box_to_world: None,
         attributes: Vec::new(),
-        rows: VertexRows::default(),
         shading_normal: None,
         scene_index: 0,
     }

@@ -51,21 +51,6 @@ fn lerp3<L: Lane>(a: V3<L>, b: V3<L>, c: V3<L>, w: [L; 3]) -> V3<L> {
     a.scale(w[0]) + b.scale(w[1]) + c.scale(w[2])
 }
 
-/// The normals (fields 3–5) of the vertex rows `vi` per lane, from the rows' floats
-/// (`lane::Row8::flatten` of [`super::mesh::VertexRows`]): [`Lane::gather_slice`] at
-/// `8·vi + 3`, `+ 4`, `+ 5` (the emitter sampling's vertex normals; for the mesh's valid
-/// indices the normals array's values, bit for bit).
-#[inline(always)]
-pub fn row_normal<L: Lane>(flat: &[f32], vi: L::I32) -> [L; 3] {
-    use crate::lane::LaneI32;
-    let i8 = vi.shl::<3>();
-    [
-        L::gather_slice(flat, i8.add(i8.splat(3))),
-        L::gather_slice(flat, i8.add(i8.splat(4))),
-        L::gather_slice(flat, i8.add(i8.splat(5))),
-    ]
-}
-
 /// The ray's point `o + d·t` (`Ray::at`).
 #[inline(always)]
 pub fn ray_at<L: Lane>(o: V3<L>, d: V3<L>, t: L) -> V3<L> {
@@ -454,13 +439,19 @@ mod tests {
         let ShapeKind::Mesh(m) = &shape.kind else {
             panic!("a mesh")
         };
-        let (tri, rows) = (m.indices[h.prim as usize], shape.vertex_rows());
+        let tri = m.indices[h.prim as usize];
+        let nr = |j: usize| {
+            m.normals
+                .as_ref()
+                .map_or(Vec3::ZERO, |n| n[tri[j] as usize])
+        };
+        let uv = |j: usize| m.uvs.as_ref().map_or(Vec2::ZERO, |t| t[tri[j] as usize]);
         Triangle {
             p: tri.map(|i| v3(m.positions[i as usize])),
-            n: tri.map(|i| v3(rows.n(i))),
-            uv: tri.map(|i| rows.uv(i).into()),
-            has_n: rows.has_normals,
-            has_uv: rows.has_uvs,
+            n: [0, 1, 2].map(|j| v3(nr(j))),
+            uv: [0, 1, 2].map(|j| uv(j).into()),
+            has_n: m.normals.is_some(),
+            has_uv: m.uvs.is_some(),
             b1: h.u,
             b2: h.v,
             sign: if shape.flip_normals { -1.0 } else { 1.0 },
@@ -691,7 +682,10 @@ mod tests {
         let mut r = Rng(0x2545_f491_4f6c_dd1d);
         let (mut n, mut bad) = (0, 0);
         for (shape, ray, h) in triangle_cases(&mut r, 4000) {
-            if shape.vertex_rows().has_uvs {
+            let ShapeKind::Mesh(m) = &shape.kind else {
+                unreachable!()
+            };
+            if m.uvs.is_some() {
                 continue;
             }
             n += 1;

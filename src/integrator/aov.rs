@@ -38,7 +38,7 @@ use glam::Vec3;
 fn uv_partials(scene: &Scene, si: &SurfaceInteraction) -> (Vec3, Vec3) {
     if let Some(shape) = scene.shapes.get(si.shape as usize) {
         if let ShapeKind::Mesh(m) = &shape.kind {
-            if !shape.vertex_rows().has_uvs {
+            if m.uvs.is_none() {
                 if let Some(tri) = m.indices.get(si.prim as usize) {
                     let [p0, p1, p2] = tri.map(|i| m.positions[i as usize]);
                     return (p1 - p0, p2 - p0);

@@ -677,31 +677,3 @@ fn mul64(a: __m256i, b: __m256i) -> __m256i {
         _mm256_add_epi64(ll, _mm256_slli_epi64::<32>(_mm256_add_epi64(hl, lh)))
     }
 }
-
-impl Avx2 {
-    /// Fields `0..K` of the rows `table[idx]` per lane (`K` `vgatherdps` with a stride of 8
-    /// floats, all from the row's one cache line; a mesh's interleaved vertices), each index
-    /// first clamped to `table.len() − 1` as an unsigned number (as [`Lane::gather3`]): always
-    /// in bounds, so lane `k` of field `c` is `table[min(idx[k], len − 1)].0[c]`.
-    ///
-    /// # Panics
-    /// If `table` is empty or holds more than `i32::MAX / 8` rows.
-    #[inline(always)]
-    pub fn gather_rows<const K: usize>(self, table: &[super::Row8], idx: I32x8) -> [F32x8; K] {
-        const { assert!(K <= 8) };
-        assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 8);
-        let mut out = [self.splat(0.0); K];
-        // SAFETY: the token proves AVX2. `Row8` is `#[repr(C)]` around eight f32s (32 bytes,
-        // asserted in `lane`), so row r's field c is float 8r + c from the start; after the
-        // clamp r < len and 8r + c < 8·len ≤ i32::MAX, so each load reads inside `table`.
-        unsafe {
-            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(table.len() as i32 - 1));
-            let i8 = _mm256_slli_epi32::<3>(i);
-            let base = table.as_ptr().cast::<f32>();
-            for (c, o) in out.iter_mut().enumerate() {
-                *o = F32x8(_mm256_i32gather_ps::<4>(base.add(c), i8));
-            }
-        }
-        out
-    }
-}

@@ -238,26 +238,3 @@ pub trait LaneU64: Copy + Debug {
     /// Lane `i` (tests).
     fn lane(self, i: usize) -> u64;
 }
-
-/// Eight `f32`s on a 32-byte boundary: one row of a table that the lanes read field by field
-/// with a stride of 8 floats ([`Avx2::gather_rows`]), e.g. a mesh's interleaved vertex
-/// (position, normal, uv: `geometry::mesh::TriMesh::vertex_rows`). The alignment puts two rows
-/// in each 64-byte cache line and none across two lines, so every field of a row is read from
-/// one line.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[repr(C, align(32))]
-pub struct Row8(pub [f32; 8]);
-
-const _: () = assert!(std::mem::size_of::<Row8>() == 32 && std::mem::align_of::<Row8>() == 32);
-
-impl Row8 {
-    /// The rows' floats in order (row `r`'s field `c` is float `8r + c`), for the lanes' table
-    /// gathers ([`Lane::gather_slice`]).
-    #[inline(always)]
-    pub fn flatten(rows: &[Row8]) -> &[f32] {
-        // SAFETY: `Row8` is `#[repr(C)]` around `[f32; 8]` (32 bytes, asserted above, no
-        // padding), so `rows` is `8 · len` consecutive initialised f32s, borrowed as long as
-        // `rows`.
-        unsafe { std::slice::from_raw_parts(rows.as_ptr().cast::<f32>(), rows.len() * 8) }
-    }
-}

@@ -42,17 +42,16 @@ impl<'d> Builder<'d> {
         Error::scene(p.loc(), format!("cannot load {kind} '{name}': {e}"))
     }
 
-    /// Reserves what a loaded mesh keeps: its positions and indices, its interleaved vertex
-    /// rows (32 bytes a vertex, `TriMesh::vertex_rows`, which hold the normals and uvs), and
-    /// the acceleration structure's copy of the positions and indices.
+    /// Reserves what a loaded mesh keeps (its arrays, and the acceleration structure's copy).
     fn reserve_mesh(
         &self,
         p: &Props<'d>,
         name: &str,
         m: &crate::geometry::mesh::TriMesh,
     ) -> Result<()> {
-        let per_vertex = 12 + 32 + 12;
-        let bytes = m.positions.len() as u64 * per_vertex + 2 * m.indices.len() as u64 * 12;
+        let per_vertex =
+            12 + m.normals.as_ref().map_or(0, |_| 12) + m.uvs.as_ref().map_or(0, |_| 8);
+        let bytes = 2 * (m.positions.len() as u64 * per_vertex + m.indices.len() as u64 * 12);
         self.budget
             .reserve(
                 bytes,

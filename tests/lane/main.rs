@@ -8,9 +8,7 @@
 //!   microfacets, PCG32) or nearly agree (warps);
 //! - `avx512`: the experimental 16-wide AVX-512 type equals width 1 bit for bit (skipped
 //!   without AVX-512);
-//! - `beckmann`: the f32 visible-Beckmann sampler against its f64 reference (`beckmann_ref`);
-//! - `rows`: a mesh's interleaved vertex rows gathered in lanes equal the separate arrays'
-//!   gathers bit for bit.
+//! - `beckmann`: the f32 visible-Beckmann sampler against its f64 reference (`beckmann_ref`).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
@@ -24,5 +22,4 @@ mod beckmann;
 mod beckmann_ref;
 mod bits;
 mod harness;
-mod rows;
 mod scalar;

@@ -1003,8 +1003,6 @@ pub(crate) mod x8 {
             }
             .to_array();
             let flat = mesh.indices.as_flattened();
-            let rows = shape.vertex_rows();
-            let rows_flat = crate::lane::Row8::flatten(&rows.rows);
             let i3 = i.add(i).add(i);
             for c in 0..3 {
                 let vi = T::I::gather_u32(flat, i3.add(zi.splat(c as i32)));
@@ -1015,9 +1013,8 @@ pub(crate) mod x8 {
                     V3::new(x, y, z),
                     &self.tpos[c],
                 ));
-                if rows.has_normals {
-                    let [x, y, z] =
-                        crate::geometry::surface_lanes::row_normal::<T::F>(rows_flat, vi);
+                if let Some(ns) = &mesh.normals {
+                    let [x, y, z] = T::F::gather3(ns, vi);
                     self.tnorm[c] = Cols3::store(keep::<T, W, WHOLE>(
                         avx,
                         on,
@@ -1026,7 +1023,7 @@ pub(crate) mod x8 {
                     ));
                 }
             }
-            if rows.has_normals {
+            if mesh.normals.is_some() {
                 for k in 0..W {
                     self.tnorm_some[k] |= self.deferred[k];
                 }
@@ -1112,22 +1109,20 @@ pub(crate) mod x8 {
                     for (col, &j) in self.tpos.iter_mut().zip(&idx) {
                         col.set(k, mesh.positions[j]);
                     }
-                    let rows = shape.vertex_rows();
-                    if rows.has_normals {
+                    if let Some(ns) = &mesh.normals {
                         self.tnorm_some[k] = true;
                         for (col, &j) in self.tnorm.iter_mut().zip(&idx) {
-                            col.set(k, rows.n(j as u32));
+                            col.set(k, ns[j]);
                         }
                     }
                     self.textured[k] = textured;
                     if textured {
                         self.n_textured += 1;
                         self.emitter[k] = e as u32;
-                        self.tuv_some[k] = rows.has_uvs;
-                        if rows.has_uvs {
+                        self.tuv_some[k] = mesh.uvs.is_some();
+                        if let Some(uvs) = &mesh.uvs {
                             for (col, &j) in self.tuv.iter_mut().zip(&idx) {
-                                let t = rows.uv(j as u32);
-                                (col[0][k], col[1][k]) = (t.x, t.y);
+                                (col[0][k], col[1][k]) = (uvs[j].x, uvs[j].y);
                             }
                         }
                     }

@@ -433,12 +433,16 @@ pub(crate) mod x8 {
         let ShapeKind::Mesh(m) = &shape.kind else {
             unreachable!("Form::Triangles is set for meshes only");
         };
-        let rows = shape.vertex_rows();
-        if !(m.indices.len() <= i32::MAX as usize / 3 && rows.rows.len() <= i32::MAX as usize / 8) {
+        let fits = |len: usize| len <= i32::MAX as usize / 3;
+        if !(fits(m.indices.len())
+            && fits(m.positions.len())
+            && m.normals.as_ref().is_none_or(|v| fits(v.len()))
+            && m.uvs.as_ref().is_none_or(|v| fits(v.len())))
+        {
             return triangles(avx, st, (ids, n));
         }
-        let (x, meta) = one_mesh_input(avx, st, &ids, m, shape);
-        let s = if rows.has_uvs {
+        let (x, meta) = one_mesh_input(avx, st, &ids, m, shape.flip_normals);
+        let s = if m.uvs.is_some() {
             sl::triangle(&x)
         } else {
             sl::triangle_no_uv(&x)
@@ -446,18 +450,17 @@ pub(crate) mod x8 {
         store(avx, st, &ids, n, &s, &meta);
     }
 
-    /// [`triangle_input`] for lanes that all hit mesh `m` (of `shape`): the triangles' vertex
-    /// indices, then their vertices' interleaved rows (`Shape::vertex_rows`: position, normal,
-    /// uv; one half cache line per vertex) by vector gathers with a stride of 8 floats; the
-    /// per-mesh flags and sign splat. The same values as lane by lane (the mesh is validated at
-    /// load: its indices are in range, so the gathers' clamps change nothing).
+    /// [`triangle_input`] for lanes that all hit mesh `m` (whose `flip_normals` is `flip`):
+    /// the triangles' vertex indices, then their positions, normals and uvs, by vector
+    /// gathers; the per-mesh flags and sign splat. The same values as lane by lane (the mesh is
+    /// validated at load: its indices are in range, so the gathers' clamps change nothing).
     #[inline(always)]
     fn one_mesh_input(
         avx: Avx2,
         st: &Stage,
         ids: &[u32; 8],
         m: &crate::geometry::mesh::TriMesh,
-        shape: &crate::geometry::Shape,
+        flip: bool,
     ) -> (sl::Triangle<F32x8>, Meta) {
         let (mut prim, mut b1, mut b2) = ([0i32; 8], [0.0f32; 8], [0.0f32; 8]);
         let mut meta = Meta::new(avx);
@@ -472,48 +475,57 @@ pub(crate) mod x8 {
         }
         meta.rays(avx, st, ids);
         let tri = avx.gather3_u32(&m.indices, avx.load_i32(&prim));
-        let rows = shape.vertex_rows();
+        let p = [
+            gv3(F32x8::gather3(&m.positions, tri[0])),
+            gv3(F32x8::gather3(&m.positions, tri[1])),
+            gv3(F32x8::gather3(&m.positions, tri[2])),
+        ];
         let z = avx.splat(0.0);
-        let (mut p, mut n, mut uv) = (
-            [V3::new(z, z, z); 3],
-            [V3::new(z, z, z); 3],
-            [V2::new(z, z); 3],
-        );
-        // Without uvs only the position and normal fields are gathered (the uvs stay zero, as
-        // the rows hold them); without normals the rows' zero normals are what the lane form
-        // is given for absent normals.
-        for j in 0..3 {
-            if rows.has_uvs {
-                let r = avx.gather_rows::<8>(&rows.rows, tri[j]);
-                (p[j], n[j], uv[j]) = row_fields(r);
-            } else {
-                let r = avx.gather_rows::<6>(&rows.rows, tri[j]);
-                p[j] = V3::new(r[0], r[1], r[2]);
-                n[j] = V3::new(r[3], r[4], r[5]);
-            }
-        }
+        let (n, has_n) = match &m.normals {
+            Some(ns) => (
+                [
+                    gv3(F32x8::gather3(ns, tri[0])),
+                    gv3(F32x8::gather3(ns, tri[1])),
+                    gv3(F32x8::gather3(ns, tri[2])),
+                ],
+                avx.mask_splat(true),
+            ),
+            None => ([V3::new(z, z, z); 3], avx.mask_splat(false)),
+        };
+        let (uv, has_uv) = match &m.uvs {
+            Some(uvs) => (
+                [
+                    gv2(avx.gather2(uvs, tri[0])),
+                    gv2(avx.gather2(uvs, tri[1])),
+                    gv2(avx.gather2(uvs, tri[2])),
+                ],
+                avx.mask_splat(true),
+            ),
+            None => ([V2::new(z, z); 3], avx.mask_splat(false)),
+        };
         let x = sl::Triangle {
             p,
             n,
             uv,
-            has_n: avx.mask_splat(rows.has_normals),
-            has_uv: avx.mask_splat(rows.has_uvs),
+            has_n,
+            has_uv,
             b1: avx.load(&b1),
             b2: avx.load(&b2),
-            sign: avx.splat(if shape.flip_normals { -1.0 } else { 1.0 }),
+            sign: avx.splat(if flip { -1.0 } else { 1.0 }),
         };
         (x, meta)
     }
 
-    /// A gathered row's position, normal and uv (a plain function, not a closure: see
+    /// A gathered vector's components as a [`V3`] (a plain function, not a closure: see
     /// `tests/cli/simd_calls.rs`).
     #[inline(always)]
-    fn row_fields(r: [F32x8; 8]) -> (V3<F32x8>, V3<F32x8>, V2<F32x8>) {
-        (
-            V3::new(r[0], r[1], r[2]),
-            V3::new(r[3], r[4], r[5]),
-            V2::new(r[6], r[7]),
-        )
+    fn gv3(c: [F32x8; 3]) -> V3<F32x8> {
+        V3::new(c[0], c[1], c[2])
+    }
+
+    #[inline(always)]
+    fn gv2(c: [F32x8; 2]) -> V2<F32x8> {
+        V2::new(c[0], c[1])
     }
 
     /// Hits on meshes seen through instances: [`triangle_input`] (the member's triangle, in
@@ -560,20 +572,20 @@ pub(crate) mod x8 {
             let ShapeKind::Mesh(m) = &shape.kind else {
                 unreachable!("Form::Triangles is set for meshes only");
             };
-            let (tri, rows) = (m.indices[h.prim as usize], shape.vertex_rows());
+            let tri = m.indices[h.prim as usize];
             for j in 0..3 {
-                p[j].set(k, rows.p(tri[j]));
+                p[j].set(k, m.positions[tri[j] as usize]);
             }
-            if rows.has_normals {
+            if let Some(ns) = &m.normals {
                 has_n[k] = true;
                 for j in 0..3 {
-                    nrm[j].set(k, rows.n(tri[j]));
+                    nrm[j].set(k, ns[tri[j] as usize]);
                 }
             }
-            if rows.has_uvs {
+            if let Some(uvs) = &m.uvs {
                 has_uv[k] = true;
                 for j in 0..3 {
-                    let t = rows.uv(tri[j]);
+                    let t = uvs[tri[j] as usize];
                     uv[j][0][k] = t.x;
                     uv[j][1][k] = t.y;
                 }
