@@ -490,11 +490,9 @@ pub struct Block {
     /// exact like the colour sums; a non-finite channel value counts as 0.
     nch: usize,
     extra: Vec<[i128; 2]>,
-    /// The 8-wide splats' addends, eight lanes' eight fixed-point addends in [`Acc::sums`]'
-    /// order, as the conversions store them ([`crate::lane::Columns8`]; scratch, kept here so
-    /// that it is not zeroed per call).
-    #[cfg(target_arch = "x86_64")]
-    lanes: Box<crate::lane::Columns8>,
+    /// The 8-wide splats' addends: row k holds lane k's eight fixed-point addends as words,
+    /// in [`Acc::words`]' layout (scratch, kept here so that it is not zeroed per call).
+    lanes: Box<[[[u64; 8]; 2]; 8]>,
     /// j·`sw` for j = 0, …, 7 (wrapping): the storage offsets of a footprint's rows.
     rows: [i32; 8],
     /// The AVX2 token when the CPU has it: [`Block::put`] splats in lanes then.
@@ -530,8 +528,7 @@ impl Block {
             data: Vec::new(),
             nch,
             extra: Vec::new(),
-            #[cfg(target_arch = "x86_64")]
-            lanes: Box::default(),
+            lanes: Box::new([[[0; 8]; 2]; 8]),
             rows: [0; 8],
             #[cfg(target_arch = "x86_64")]
             avx: crate::lane::Avx2::detect(),
@@ -718,11 +715,13 @@ impl Block {
         let t = &mut *self.lanes;
         let fx = sum::Fixed8::new(avx);
         let xs = [r, g, b, r * r, g * g, b * b];
-        for q in 0..3 {
-            fx.into_columns([xs[2 * q], xs[2 * q + 1]], t, q);
+        for p in 0..3 {
+            fx.into_columns([xs[2 * p], xs[2 * p + 1]], t, 2 * p);
         }
-        // The weights' sums (values 6 and 7) take `sum::ONE` = 2⁶⁴: low word 0, high word 1.
-        t.0[3] = [[[0; 4]; 4], [[1; 4]; 4]];
+        for row in t.iter_mut() {
+            // The weights' sums take `sum::ONE` = 2⁶⁴: low word 0, high word 1.
+            (row[0][6], row[0][7], row[1][6], row[1][7]) = (0, 0, 1, 1);
+        }
         // `storage_index` with exact bounds, in lanes: inside [lo, hi) on both axes (false for
         // NaN and ±∞, so the scalar path's finiteness test is implied), floor(x) − origin.
         let x = avx.load(&core::array::from_fn(|k| pos[k].x));
@@ -747,7 +746,7 @@ impl Block {
         for (k, inside) in inside.to_array().into_iter().enumerate() {
             if inside {
                 let a = &mut data[py[k] as usize * sw + px[k] as usize];
-                avx.add_i128x8_biased_regs::<UNSIGNED_SUMS>(&mut a.words, t.row(avx, k));
+                avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut a.words, &t[k]);
             }
         }
     }
@@ -930,11 +929,11 @@ impl Block {
         // its constants held once: `sum::Fixed8`).
         let xs = [wr, wg, wb, wr * r, wg * g, wb * b, w8, w8 * w8];
         let (data, t) = (&mut self.data[..], &mut *self.lanes);
-        for q in 0..4 {
-            fx.into_columns([xs[2 * q], xs[2 * q + 1]], t, q);
+        for p in 0..4 {
+            fx.into_columns([xs[2 * p], xs[2 * p + 1]], t, 2 * p);
         }
         for (k, &a) in at.iter().enumerate().take(n) {
-            avx.add_i128x8_biased_regs::<UNSIGNED_SUMS>(&mut data[a as usize].words, t.row(avx, k));
+            avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut data[a as usize].words, &t[k]);
         }
     }
 }

@@ -138,8 +138,8 @@ pub(crate) fn add_unsigned_all_biased<const N: usize>(acc: [&mut i128; N], x: [i
 
 /// [`fixed`] of eight values at once (AVX2; call its methods inside
 /// [`crate::lane::Avx2::run`]), equal to it bit for bit in every lane: into two columns of a
-/// splat's addends ([`Fixed8::into_columns`], [`crate::lane::Columns8`]) or into registers
-/// ([`Fixed8::row`]), as separate low and high 64-bit words ([`crate::lane::Words8`]).
+/// per-lane table ([`Fixed8::into_columns`]) or into registers ([`Fixed8::row`]), as separate
+/// low and high 64-bit words ([`crate::lane::Words8`]).
 ///
 /// In the common range the value is the signed significand `sm` (|sm| < 2²⁴) times 2^sh,
 /// sh = e − 86 ∈ [0, 102]; its 32-bit word i (bits 32i to 32i + 31) is ⌊sm·2^(sh − 32i)⌋
@@ -212,29 +212,30 @@ impl Fixed8 {
         (words, common | x.eq(x.splat(0.0)))
     }
 
-    /// Lane k's `fixed(x[0])` and `fixed(x[1])` as values 2q and 2q + 1 of lane k of `out`
-    /// (two columns of a splat's addends, whose rows are read as
-    /// [`crate::lane::Columns8::row`]): two conversions, joined by
+    /// Lane k's `fixed(x[0])` and `fixed(x[1])` to slots `s` and `s + 1` of `out[k]` (two
+    /// columns of a per-lane table whose rows are the addends of one pixel as words,
+    /// [`crate::lane::Avx2::add_i128x8_biased`]): two conversions, joined by
     /// [`crate::lane::I32x8::join_pair_into`].
     ///
     /// # Panics
-    /// If `q` ≥ 4.
+    /// If `s` ≥ 7.
     #[inline(always)]
     pub(crate) fn into_columns(
         self,
         x: [crate::lane::F32x8; 2],
-        out: &mut crate::lane::Columns8,
-        q: usize,
+        out: &mut [crate::lane::Words8; 8],
+        s: usize,
     ) {
         use crate::lane::{I32x8, Lane, LaneMask};
         let (wa, pa) = self.words(x[0]);
         let (wb, pb) = self.words(x[1]);
-        I32x8::join_pair_into(wa, wb, out, q);
+        I32x8::join_pair_into(wa, wb, out, s);
         if !(pa & pb).all() {
             for (c, (x, p)) in [(x[0], pa), (x[1], pb)].into_iter().enumerate() {
                 for (l, p) in p.to_array().into_iter().enumerate() {
                     if !p {
-                        out.set(l, 2 * q + c, fixed(x.lane(l)));
+                        let v = fixed(x.lane(l));
+                        (out[l][0][s + c], out[l][1][s + c]) = (v as u64, (v >> 64) as u64);
                     }
                 }
             }
@@ -356,7 +357,7 @@ mod tests {
     }
 
     /// [`Fixed8::into_columns`] equals [`fixed`] in every lane of both columns (and writes
-    /// only its two values of each lane, read back by `Columns8::row`) on every exponent and sign with boundary significands (each value in
+    /// only its two slots) on every exponent and sign with boundary significands (each value in
     /// every lane position and in both columns) and on 2²⁰ random bit patterns; [`Fixed8::row`]
     /// gives the same values (value i from lane `ROW_LANES[i]`) when every lane is in the
     /// common range or ±0, and `None` exactly otherwise. Both with the step hidden
@@ -405,24 +406,23 @@ mod tests {
                 // The second column: the same values three lanes on (each value meets other
                 // lanes' values in the pair).
                 let c2: [f32; 8] = core::array::from_fn(|k| c[(k + 3) % 8]);
-                let q = shift % 4;
+                let s = shift % 7;
                 let fx = if i % 2 == 0 {
                     Fixed8::new(avx)
                 } else {
                     Fixed8::single(avx)
                 };
-                let mut t = crate::lane::Columns8([[[[0x5555_5555_5555_5555u64; 4]; 4]; 2]; 4]);
+                let mut t = [[[0x5555_5555_5555_5555u64; 8]; 2]; 8];
                 let row = avx.run(|| {
-                    fx.into_columns([avx.load(&c), avx.load(&c2)], &mut t, q);
+                    fx.into_columns([avx.load(&c), avx.load(&c2)], &mut t, s);
                     fx.row(avx.load(&c)).map(|r| r.to_words())
                 });
-                for k in 0..8 {
-                    let row = avx.run(|| t.row(avx, k).to_words());
+                for (k, row) in t.iter().enumerate() {
                     for j in 0..8 {
-                        let v = value(&row, j);
+                        let v = value(row, j);
                         let want = match j {
-                            _ if j == 2 * q => fixed(c[k]),
-                            _ if j == 2 * q + 1 => fixed(c2[k]),
+                            _ if j == s => fixed(c[k]),
+                            _ if j == s + 1 => fixed(c2[k]),
                             _ => 0x5555_5555_5555_5555_5555_5555_5555_5555,
                         };
                         assert_eq!(v, want, "lane {k} slot {j}: {c:?} {c2:?}");

@@ -1,7 +1,7 @@
 //! Width 8: the operations of the film's exact 128-bit fixed-point sums (`film::sum`): variable
 //! 32-bit shifts, the join of four 32-bit words per lane into eight `i128`s held as separate
-//! low and high 64-bit words (two columns into a splat's scratch, [`Columns8`], or a row into
-//! registers, [`I128x8`]), and the addition of eight `i128` addends to a pixel's eight (biased) sums held
+//! low and high 64-bit words (into two slots of a per-lane table, or into registers,
+//! [`I128x8`]), and the addition of eight `i128` addends to a pixel's eight (biased) sums held
 //! the same way; and the lane permutes that lay a splat's footprint of filter weights out in
 //! lanes.
 //!
@@ -119,19 +119,21 @@ impl I32x8 {
         }
     }
     /// Writes the 128-bit integers whose 32-bit words (least significant first) are lane `k`
-    /// of `a[0]`, …, `a[3]` and of `b[0]`, …, `b[3]` to `out` as values 2q and 2q + 1 of lane
-    /// `k`, for the eight `k` ([`Columns8`]): per word pair, unpacks of the 32-bit words give
-    /// lanes [0, 1 | 4, 5] and [2, 3 | 6, 7] of each column as 64-bit words, and unpacks of
-    /// the two columns' 64-bit words put a lane's two values side by side ([a | b] of lane k
-    /// and of lane k + 4 in one register), stored whole: 16 unpacks and eight 32-byte stores
-    /// for the two columns.
+    /// of `a[0]`, …, `a[3]` and of `b[0]`, …, `b[3]` to slots `s` and `s + 1` of `out[k]`,
+    /// for the eight `k` (two columns of a per-lane table, so that lane `k`'s row `out[k]` is
+    /// read with full-width loads): per word pair, unpacks of the 32-bit words give lanes
+    /// [0, 1 | 4, 5] and [2, 3 | 6, 7] of each column as 64-bit words, unpacks of the two
+    /// columns' 64-bit words put a lane's two values side by side ([a | b] of lane 0 and
+    /// lane 4 in one register, …), and 16-byte stores write them: 16 unpacks and 16 stores
+    /// for the two columns, as many as a column of whole `i128`s took.
     ///
     /// # Panics
-    /// If `q` ≥ 4.
+    /// If `s` ≥ 7.
     #[inline(always)]
-    pub fn join_pair_into(a: [I32x8; 4], b: [I32x8; 4], out: &mut Columns8, q: usize) {
-        assert!(q < 4);
-        // SAFETY: as above; each 32-byte store writes `out.0[q][h][k]` (h < 2, k < 4).
+    pub fn join_pair_into(a: [I32x8; 4], b: [I32x8; 4], out: &mut [Words8; 8], s: usize) {
+        assert!(s < 7);
+        // SAFETY: as above; each 16-byte store writes `out[k][h][s]` and `out[k][h][s + 1]`
+        // (k < 8, h < 2, s + 1 < 8).
         unsafe {
             for h in 0..2 {
                 let (a0, a1, b0, b1) = (a[2 * h].0, a[2 * h + 1].0, b[2 * h].0, b[2 * h + 1].0);
@@ -146,85 +148,13 @@ impl I32x8 {
                     _mm256_unpackhi_epi64(a23, b23),
                 ];
                 for (k, v) in p.into_iter().enumerate() {
-                    _mm256_storeu_si256(out.0[q][h][k].as_mut_ptr().cast(), v);
+                    let lo = out[k][h][s..s + 2].as_mut_ptr();
+                    let hi = out[k + 4][h][s..s + 2].as_mut_ptr();
+                    _mm_storeu_si128(lo.cast(), _mm256_castsi256_si128(v));
+                    _mm_storeu_si128(hi.cast(), _mm256_extracti128_si256::<1>(v));
                 }
             }
         }
-    }
-}
-
-/// Eight lanes' eight `i128`s as [`I32x8::join_pair_into`] leaves them, two values of two
-/// lanes per 32-byte entry: `[q][h][k]` holds word h (0 low, 1 high) of values 2q and 2q + 1
-/// of lane k in its low 16 bytes and of lane k + 4 in its high 16 bytes. The conversions
-/// store whole registers, and [`Columns8::row`] reads a lane's values with 16-byte loads, each
-/// inside one of those stores: a load that spans two stores still in the store buffer is not
-/// forwarded from them and waits until they reach the cache (a 32-byte row of a table written
-/// by 16-byte stores did, the splat's hottest stall).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[repr(C, align(32))]
-pub struct Columns8(pub [[[[u64; 4]; 4]; 2]; 4]);
-
-impl Columns8 {
-    /// Lane `k`'s eight values in registers as [`Words8`] holds them: per register, two
-    /// 16-byte loads joined by `vinserti128` (values 4j, 4j + 1 from entry 2j, 4j + 2, 4j + 3
-    /// from entry 2j + 1).
-    ///
-    /// # Panics
-    /// If `k` ≥ 8.
-    #[inline(always)]
-    pub fn row(&self, _avx: Avx2, k: usize) -> I128x8 {
-        assert!(k < 8);
-        let (e, half) = (k % 4, 2 * (k / 4));
-        // SAFETY: the token proves AVX2.
-        unsafe {
-            I128x8([
-                self.join(e, half, 0, 0),
-                self.join(e, half, 0, 1),
-                self.join(e, half, 1, 0),
-                self.join(e, half, 1, 1),
-            ])
-        }
-    }
-
-    /// Word `h` of values 4j to 4j + 3 of lane `e` (+ 4 when `half` is 2): two 16-byte loads
-    /// (of words `half`, `half + 1` of entries [2j][h][e] and [2j + 1][h][e]) joined.
-    ///
-    /// # Safety
-    /// AVX2 (the callers hold the token).
-    #[inline(always)]
-    unsafe fn join(&self, e: usize, half: usize, h: usize, j: usize) -> __m256i {
-        let lo = self.0[2 * j][h][e][half..half + 2]
-            .as_ptr()
-            .cast::<__m128i>();
-        let hi = self.0[2 * j + 1][h][e][half..half + 2]
-            .as_ptr()
-            .cast::<__m128i>();
-        _mm256_inserti128_si256::<1>(
-            _mm256_castsi128_si256(_mm_loadu_si128(lo)),
-            _mm_loadu_si128(hi),
-        )
-    }
-
-    /// Value `i` of lane `k` (the rare lanes that a conversion patches; tests).
-    ///
-    /// # Panics
-    /// If `k` ≥ 8 or `i` ≥ 8.
-    #[inline(always)]
-    pub fn set(&mut self, k: usize, i: usize, v: i128) {
-        let (q, c) = (i / 2, i % 2);
-        let at = 2 * (k / 4) + c;
-        self.0[q][0][k % 4][at] = v as u64;
-        self.0[q][1][k % 4][at] = (v >> 64) as u64;
-    }
-
-    /// Value `i` of lane `k`.
-    ///
-    /// # Panics
-    /// If `k` ≥ 8 or `i` ≥ 8.
-    pub fn get(&self, k: usize, i: usize) -> i128 {
-        let (q, c) = (i / 2, i % 2);
-        let at = 2 * (k / 4) + c;
-        ((self.0[q][1][k % 4][at] as i128) << 64) | self.0[q][0][k % 4][at] as i128
     }
 }
 
@@ -440,25 +370,19 @@ mod tests {
                         | (w[2][k] as u32 as u128) << 64
                         | (w[3][k] as u32 as u128) << 96) as i128
                 };
-                let q = (z >> 20) as usize % 4;
-                let mut t = Columns8::default();
-                for k in 0..8 {
-                    for i in 0..8 {
-                        t.set(k, i, (7 << 64) | 7);
-                    }
-                }
-                I32x8::join_pair_into(words, bw, &mut t, q);
+                let s = (z >> 20) as usize % 7;
+                let mut t = [[[7u64; 8]; 2]; 8];
+                I32x8::join_pair_into(words, bw, &mut t, s);
                 let regs = join(I32x8::join_words(words).to_words());
-                for k in 0..8 {
-                    let row = join(t.row(avx, k).to_words());
+                for (k, row) in t.iter().enumerate() {
+                    let row = join(*row);
                     for (j, &v) in row.iter().enumerate() {
                         let want = match j {
-                            _ if j == 2 * q => value([a, n, w2, w3], k),
-                            _ if j == 2 * q + 1 => value([b0, b1, b2, b3], k),
+                            _ if j == s => value([a, n, w2, w3], k),
+                            _ if j == s + 1 => value([b0, b1, b2, b3], k),
                             _ => (7 << 64) | 7,
                         };
-                        assert_eq!(v, want, "lane {k} slot {j} (q = {q})");
-                        assert_eq!(t.get(k, j), want);
+                        assert_eq!(v, want, "lane {k} slot {j} (s = {s})");
                     }
                     // The row conversion: value i from lane ROW_LANES[i].
                     let i = ROW_LANES.iter().position(|&l| l == k).unwrap();
