@@ -234,14 +234,18 @@ impl FilmDesc {
 }
 
 /// Per-pixel sums Σw·v, Σw·v², Σw, Σw², exact in fixed point (see [`sum`]), so that they do not
-/// depend on the order or grouping in which contributions arrive.
+/// depend on the order or grouping in which contributions arrive. Aligned to 16 bytes, as when
+/// the sums were `i128`s: the same size ([`PIXEL_BYTES`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(16))]
 struct Acc {
-    /// Σw·v (R, G, B), Σw·v² (R, G, B), Σw, Σw² ([`RawPixel`]'s order), each stored biased
-    /// (s ^ [`sum::LOW_BIAS`]; [`Acc::sum`] reads them), in one array so that the 8-wide splats
-    /// add a contribution's eight addends in four registers
+    /// Σw·v (R, G, B), Σw·v² (R, G, B), Σw, Σw² ([`RawPixel`]'s order) as separate words:
+    /// `words[0][i]` the low 64-bit word of sum i, stored biased (its top bit flipped,
+    /// [`sum::LOW_BIAS`]), `words[1][i]` its high word. Read and written through
+    /// [`Acc::sum`], [`Acc::sums`] and [`Acc::from_sums`] outside the 8-wide adds, which add a
+    /// contribution's eight addends in four registers with each carry in its lane
     /// ([`crate::lane::Avx2::add_i128x8_biased`]).
-    sums: [i128; 8],
+    words: [[u64; 8]; 2],
     /// Non-finite colour values seen (they cannot be summed in fixed point): bit c NaN, bit 3+c
     /// +∞, bit 6+c −∞ for channel c. A set of flags does not depend on the order either.
     bad: u16,
@@ -258,7 +262,7 @@ fn add_row(avx: Option<crate::lane::Avx2>, d: &mut [Acc], s: &[Acc]) {
             #[inline(always)]
             || {
                 for (d, s) in d.iter_mut().zip(s) {
-                    avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut d.sums, &s.unbiased());
+                    avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut d.words, &s.unbiased_words());
                     d.bad |= s.bad;
                 }
             },
@@ -280,23 +284,58 @@ impl Default for Acc {
     /// No contribution: every sum 0 (stored biased).
     fn default() -> Acc {
         Acc {
-            sums: [sum::LOW_BIAS; 8],
+            words: [[sum::LOW_BIAS as u64; 8], [0; 8]],
             bad: 0,
         }
     }
 }
 
 impl Acc {
+    /// Sum `i` ([`RawPixel`]'s order) as stored, biased.
+    #[inline(always)]
+    fn stored(&self, i: usize) -> i128 {
+        ((self.words[1][i] as i128) << 64) | self.words[0][i] as i128
+    }
+
+    /// Stores the biased sum `s` as sum `i`.
+    #[inline(always)]
+    fn store(&mut self, i: usize, s: i128) {
+        (self.words[0][i], self.words[1][i]) = (s as u64, (s >> 64) as u64);
+    }
+
     /// Sum `i` ([`RawPixel`]'s order), unbiased.
     #[inline(always)]
     fn sum(&self, i: usize) -> i128 {
-        self.sums[i] ^ sum::LOW_BIAS
+        self.stored(i) ^ sum::LOW_BIAS
     }
 
     /// The eight sums, unbiased.
     #[inline(always)]
-    fn unbiased(&self) -> [i128; 8] {
-        self.sums.map(|s| s ^ sum::LOW_BIAS)
+    fn sums(&self) -> [i128; 8] {
+        core::array::from_fn(|i| self.sum(i))
+    }
+
+    /// A pixel of the eight (unbiased) sums `s` and the flags `bad`.
+    #[inline(always)]
+    fn from_sums(s: [i128; 8], bad: u16) -> Acc {
+        let mut a = Acc {
+            bad,
+            ..Acc::default()
+        };
+        for (i, s) in s.into_iter().enumerate() {
+            a.store(i, s ^ sum::LOW_BIAS);
+        }
+        a
+    }
+
+    /// The eight sums' words, unbiased (the addends of a merge).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn unbiased_words(&self) -> [[u64; 8]; 2] {
+        [
+            self.words[0].map(|w| w ^ sum::LOW_BIAS as u64),
+            self.words[1],
+        ]
     }
 
     /// Σw·v of channel `c`.
@@ -360,12 +399,16 @@ impl Acc {
     /// channel adds 0), to the biased sums in place.
     #[inline(always)]
     fn add_fixed(&mut self, first: [i128; 3], second: [i128; 3], w: i128, w2: i128) {
-        let [s0, s1, s2, r, g, b, sw, sw2] = &mut self.sums;
+        let mut sums: [i128; 8] = core::array::from_fn(|i| self.stored(i));
+        let [s0, s1, s2, r, g, b, sw, sw2] = &mut sums;
         for (s, x) in [s0, s1, s2].into_iter().zip(first) {
             sum::add_signed_biased(s, x);
         }
         let x = [second[0], second[1], second[2], w, w2];
         sum::add_unsigned_all_biased([r, g, b, sw, sw2], x);
+        for (i, s) in sums.into_iter().enumerate() {
+            self.store(i, s);
+        }
     }
 
     /// Records the non-finite value `x` of channel `c`.
@@ -382,7 +425,7 @@ impl Acc {
 
     #[inline]
     fn add(&mut self, o: &Acc) {
-        let s = o.unbiased();
+        let s = o.sums();
         self.add_fixed([s[0], s[1], s[2]], [s[3], s[4], s[5]], s[6], s[7]);
         self.bad |= o.bad;
     }
@@ -415,7 +458,7 @@ pub struct RawPixel {
 impl From<&Acc> for RawPixel {
     fn from(a: &Acc) -> RawPixel {
         RawPixel {
-            sums: a.unbiased(),
+            sums: a.sums(),
             bad: a.bad,
         }
     }
@@ -423,10 +466,7 @@ impl From<&Acc> for RawPixel {
 
 impl From<&RawPixel> for Acc {
     fn from(r: &RawPixel) -> Acc {
-        Acc {
-            sums: r.sums.map(|s| s ^ sum::LOW_BIAS),
-            bad: r.bad,
-        }
+        Acc::from_sums(r.sums, r.bad)
     }
 }
 
@@ -450,9 +490,9 @@ pub struct Block {
     /// exact like the colour sums; a non-finite channel value counts as 0.
     nch: usize,
     extra: Vec<[i128; 2]>,
-    /// The 8-wide splats' addends: row k holds lane k's eight fixed-point addends in
-    /// [`Acc::sums`]' order (scratch, kept here so that it is not zeroed per call).
-    lanes: Box<[[i128; 8]; 8]>,
+    /// The 8-wide splats' addends: row k holds lane k's eight fixed-point addends as words,
+    /// in [`Acc::words`]' layout (scratch, kept here so that it is not zeroed per call).
+    lanes: Box<[[[u64; 8]; 2]; 8]>,
     /// j·`sw` for j = 0, …, 7 (wrapping): the storage offsets of a footprint's rows.
     rows: [i32; 8],
     /// The AVX2 token when the CPU has it: [`Block::put`] splats in lanes then.
@@ -488,7 +528,7 @@ impl Block {
             data: Vec::new(),
             nch,
             extra: Vec::new(),
-            lanes: Box::new([[0; 8]; 8]),
+            lanes: Box::new([[[0; 8]; 2]; 8]),
             rows: [0; 8],
             #[cfg(target_arch = "x86_64")]
             avx: crate::lane::Avx2::detect(),
@@ -577,16 +617,18 @@ impl Block {
         };
         let a = &mut self.data[py * self.sw as usize + px];
         let [r, g, b] = value.to_array();
-        let x = avx.load(&[r, g, b, r * r, g * g, b * b, 1.0, 1.0]);
+        // The addends r, g, b, r·r, g·g, b·b, 1, 1 in the row conversion's lane order
+        // (`crate::lane::ROW_LANES`: sums 0, 1, 4, 5, 2, 3, 6, 7).
+        let x = avx.load(&[r, g, g * g, b * b, b, r * r, 1.0, 1.0]);
         match sum::Fixed8::single(avx).row(x) {
-            Some(row) => avx.add_i128x8_biased_regs::<UNSIGNED_SUMS>(&mut a.sums, row),
+            Some(row) => avx.add_i128x8_biased_regs::<UNSIGNED_SUMS>(&mut a.words, row),
             None => a.add_unit_sample([r, g, b]),
         }
     }
 
     /// [`Block::put`] of eight samples in turn, with the same sums to the bit. For the box
     /// filter (and finite values) the samples' fixed-point addends, w·v = v and w·v² = v·v per
-    /// channel, are computed 8-wide ([`sum::Fixed8::into_column`]) and added 8 sums at a time,
+    /// channel, are computed 8-wide ([`sum::Fixed8::into_columns`]) and added 8 sums at a time,
     /// and so are their pixels where the block's bounds are exact f32s (every real film;
     /// [`storage_index`] in lanes); the addends go to each sample's pixel. Other filters and
     /// non-finite values take [`Block::put`] per sample (their exact weights, unchanged). The
@@ -672,11 +714,13 @@ impl Block {
         };
         let t = &mut *self.lanes;
         let fx = sum::Fixed8::new(avx);
-        for (j, x) in [r, g, b, r * r, g * g, b * b].into_iter().enumerate() {
-            fx.into_column(x, t, j);
+        let xs = [r, g, b, r * r, g * g, b * b];
+        for p in 0..3 {
+            fx.into_columns([xs[2 * p], xs[2 * p + 1]], t, 2 * p);
         }
         for row in t.iter_mut() {
-            (row[6], row[7]) = (sum::ONE, sum::ONE);
+            // The weights' sums take `sum::ONE` = 2⁶⁴: low word 0, high word 1.
+            (row[0][6], row[0][7], row[1][6], row[1][7]) = (0, 0, 1, 1);
         }
         // `storage_index` with exact bounds, in lanes: inside [lo, hi) on both axes (false for
         // NaN and ±∞, so the scalar path's finiteness test is implied), floor(x) − origin.
@@ -702,7 +746,7 @@ impl Block {
         for (k, inside) in inside.to_array().into_iter().enumerate() {
             if inside {
                 let a = &mut data[py[k] as usize * sw + px[k] as usize];
-                avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut a.sums, &t[k]);
+                avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut a.words, &t[k]);
             }
         }
     }
@@ -800,7 +844,7 @@ impl Block {
     /// [`Block::put`] of one value with finite channels under a filter other than the box, the
     /// footprint's pixels 8 at a time: each pixel's weight w = wx·wy and its addends w·v, w·v²
     /// (per channel), w and w² are the same f32 products as [`Block::splat`]'s, turned into
-    /// fixed point 8-wide ([`sum::Fixed8::into_column`], equal to [`sum::fixed`] lane by lane), so the sums
+    /// fixed point 8-wide ([`sum::Fixed8::into_columns`], equal to [`sum::fixed`] lane by lane), so the sums
     /// are the scalar splat's to the bit. A footprint of up to 8×8 pixels is laid out in lanes: the weights
     /// of each axis in one register ([`FilterTable::eval8`]), and each group of 8 pixels takes
     /// its wx, wy and storage index by lane permutes ([`FOOT_I`], [`FOOT_J`]). A footprint of up
@@ -881,15 +925,15 @@ impl Block {
     ) {
         let (r, g, b) = (avx.splat(v[0]), avx.splat(v[1]), avx.splat(v[2]));
         let (wr, wg, wb) = (r * w8, g * w8, b * w8);
-        // The eight addends' columns, converted in a loop (one conversion's code, its
-        // constants held once: `sum::Fixed8`).
+        // The eight addends' columns, converted two at a time in a loop (one pair's code,
+        // its constants held once: `sum::Fixed8`).
         let xs = [wr, wg, wb, wr * r, wg * g, wb * b, w8, w8 * w8];
         let (data, t) = (&mut self.data[..], &mut *self.lanes);
-        for (j, x) in xs.into_iter().enumerate() {
-            fx.into_column(x, t, j);
+        for p in 0..4 {
+            fx.into_columns([xs[2 * p], xs[2 * p + 1]], t, 2 * p);
         }
         for (k, &a) in at.iter().enumerate().take(n) {
-            avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut data[a as usize].sums, &t[k]);
+            avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut data[a as usize].words, &t[k]);
         }
     }
 }

@@ -137,8 +137,9 @@ pub(crate) fn add_unsigned_all_biased<const N: usize>(acc: [&mut i128; N], x: [i
 }
 
 /// [`fixed`] of eight values at once (AVX2; call its methods inside
-/// [`crate::lane::Avx2::run`]), equal to it bit for bit in every lane: into a column of a
-/// per-lane table ([`Fixed8::into_column`]) or into registers ([`Fixed8::row`]).
+/// [`crate::lane::Avx2::run`]), equal to it bit for bit in every lane: into two columns of a
+/// per-lane table ([`Fixed8::into_columns`]) or into registers ([`Fixed8::row`]), as separate
+/// low and high 64-bit words ([`crate::lane::Words8`]).
 ///
 /// In the common range the value is the signed significand `sm` (|sm| < 2²⁴) times 2^sh,
 /// sh = e − 86 ∈ [0, 102]; its 32-bit word i (bits 32i to 32i + 31) is ⌊sm·2^(sh − 32i)⌋
@@ -211,28 +212,40 @@ impl Fixed8 {
         (words, common | x.eq(x.splat(0.0)))
     }
 
-    /// Lane k's `fixed(x)` to `out[k][j]` (a column of a per-lane table whose rows are the
-    /// addends of one pixel, [`crate::lane::Avx2::add_i128x8_biased`]).
+    /// Lane k's `fixed(x[0])` and `fixed(x[1])` to slots `s` and `s + 1` of `out[k]` (two
+    /// columns of a per-lane table whose rows are the addends of one pixel as words,
+    /// [`crate::lane::Avx2::add_i128x8_biased`]): two conversions, joined by
+    /// [`crate::lane::I32x8::join_pair_into`].
     ///
     /// # Panics
-    /// If `j` ≥ 8.
+    /// If `s` ≥ 7.
     #[inline(always)]
-    pub(crate) fn into_column(self, x: crate::lane::F32x8, out: &mut [[i128; 8]; 8], j: usize) {
+    pub(crate) fn into_columns(
+        self,
+        x: [crate::lane::F32x8; 2],
+        out: &mut [crate::lane::Words8; 8],
+        s: usize,
+    ) {
         use crate::lane::{I32x8, Lane, LaneMask};
-        let (words, plain) = self.words(x);
-        I32x8::join_words_into(words, out, j);
-        if !plain.all() {
-            for (l, p) in plain.to_array().into_iter().enumerate() {
-                if !p {
-                    out[l][j] = fixed(x.lane(l));
+        let (wa, pa) = self.words(x[0]);
+        let (wb, pb) = self.words(x[1]);
+        I32x8::join_pair_into(wa, wb, out, s);
+        if !(pa & pb).all() {
+            for (c, (x, p)) in [(x[0], pa), (x[1], pb)].into_iter().enumerate() {
+                for (l, p) in p.to_array().into_iter().enumerate() {
+                    if !p {
+                        let v = fixed(x.lane(l));
+                        (out[l][0][s + c], out[l][1][s + c]) = (v as u64, (v >> 64) as u64);
+                    }
                 }
             }
         }
     }
 
-    /// `fixed` of the eight lanes of `x` in registers (value k from lane k: one pixel's
-    /// addends, [`crate::lane::Avx2::add_i128x8_biased_regs`]), when every lane is in the
-    /// common range or ±0; `None` otherwise.
+    /// `fixed` of the eight lanes of `x` in registers as words (value i from lane
+    /// [`crate::lane::ROW_LANES`]`[i]`: one pixel's addends, given in that order,
+    /// [`crate::lane::Avx2::add_i128x8_biased_regs`]), when every lane is in the common range
+    /// or ±0; `None` otherwise.
     #[inline(always)]
     pub(crate) fn row(self, x: crate::lane::F32x8) -> Option<crate::lane::I128x8> {
         use crate::lane::{I32x8, LaneMask};
@@ -343,10 +356,11 @@ mod tests {
         }
     }
 
-    /// [`Fixed8::into_column`] equals [`fixed`] in every lane (and writes only its column) on
-    /// every exponent and sign with boundary significands (each value in every lane position)
-    /// and on 2²⁰ random bit patterns; [`Fixed8::row`] gives the same values when every lane
-    /// is in the common range or ±0, and `None` exactly otherwise. Both with the step hidden
+    /// [`Fixed8::into_columns`] equals [`fixed`] in every lane of both columns (and writes
+    /// only its two slots) on every exponent and sign with boundary significands (each value in
+    /// every lane position and in both columns) and on 2²⁰ random bit patterns; [`Fixed8::row`]
+    /// gives the same values (value i from lane `ROW_LANES[i]`) when every lane is in the
+    /// common range or ±0, and `None` exactly otherwise. Both with the step hidden
     /// ([`Fixed8::new`]) and constant ([`Fixed8::single`]).
     #[cfg(target_arch = "x86_64")]
     #[test]
@@ -384,34 +398,42 @@ mod tests {
             });
         }
         let plain = |x: f32| x == 0.0 || (86..=188).contains(&((x.to_bits() >> 23) & 0xff));
+        let value = |w: &[[u64; 8]; 2], i: usize| ((w[1][i] as i128) << 64) | w[0][i] as i128;
         let (mut rows, mut nones) = (0, 0);
         for shift in 0..8 {
             for (i, c) in xs[shift..].chunks_exact(8).enumerate() {
                 let c: [f32; 8] = c.try_into().unwrap();
-                let col = shift;
+                // The second column: the same values three lanes on (each value meets other
+                // lanes' values in the pair).
+                let c2: [f32; 8] = core::array::from_fn(|k| c[(k + 3) % 8]);
+                let s = shift % 7;
                 let fx = if i % 2 == 0 {
                     Fixed8::new(avx)
                 } else {
                     Fixed8::single(avx)
                 };
-                let mut t = [[-5i128; 8]; 8];
+                let mut t = [[[0x5555_5555_5555_5555u64; 8]; 2]; 8];
                 let row = avx.run(|| {
-                    fx.into_column(avx.load(&c), &mut t, col);
-                    fx.row(avx.load(&c)).map(|r| r.to_array())
+                    fx.into_columns([avx.load(&c), avx.load(&c2)], &mut t, s);
+                    fx.row(avx.load(&c)).map(|r| r.to_words())
                 });
-                for (row, &x) in t.iter().zip(&c) {
-                    for (j, &v) in row.iter().enumerate() {
-                        if j == col {
-                            assert_eq!(v, fixed(x), "{x:e} ({:#x})", x.to_bits());
-                        } else {
-                            assert_eq!(v, -5);
-                        }
+                for (k, row) in t.iter().enumerate() {
+                    for j in 0..8 {
+                        let v = value(row, j);
+                        let want = match j {
+                            _ if j == s => fixed(c[k]),
+                            _ if j == s + 1 => fixed(c2[k]),
+                            _ => 0x5555_5555_5555_5555_5555_5555_5555_5555,
+                        };
+                        assert_eq!(v, want, "lane {k} slot {j}: {c:?} {c2:?}");
                     }
                 }
                 match row {
                     Some(r) => {
                         rows += 1;
-                        assert_eq!(r, c.map(fixed), "{c:?}");
+                        for (i, &l) in crate::lane::ROW_LANES.iter().enumerate() {
+                            assert_eq!(value(&r, i), fixed(c[l]), "{c:?}");
+                        }
                     }
                     None => {
                         nones += 1;

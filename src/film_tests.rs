@@ -148,6 +148,14 @@ fn biased_sums_read_and_convert_unbiased() {
     };
     let a = Acc::from(&r);
     assert_eq!(RawPixel::from(&a), r);
+    // The layout: low words biased, high words as they are, sum i in slot i; the size that of
+    // eight `i128`s and the flags.
+    for (i, &v) in r.sums.iter().enumerate() {
+        assert_eq!(a.words[0][i], v as u64 ^ 1 << 63, "sum {i}");
+        assert_eq!(a.words[1][i], (v >> 64) as u64, "sum {i}");
+        assert_eq!(a.sum(i), v);
+    }
+    assert_eq!(PIXEL_BYTES, 144);
     assert_eq!(
         (a.wv(0), a.wv2(0), a.w(), a.w2()),
         (i128::MIN, i128::MAX, 1, 1 << 64)
@@ -608,13 +616,14 @@ fn put8_equals_put_one_by_one() {
                 if near {
                     for (i, a) in b.data.iter_mut().enumerate().filter(|(i, _)| i % 3 != 1) {
                         let i = i as i128;
-                        for (c, s) in a.sums.iter_mut().enumerate() {
-                            *s = if c < 3 {
+                        let sums = core::array::from_fn(|c| {
+                            if c < 3 {
                                 i128::MAX - (i << 62) - c as i128
                             } else {
                                 i128::MAX - (i << 58) - (c as i128) * (1 << 60)
-                            } ^ sum::LOW_BIAS;
-                        }
+                            }
+                        });
+                        *a = Acc::from_sums(sums, a.bad);
                     }
                 }
             };
@@ -729,10 +738,10 @@ fn merge_rows_in_lanes_equal_acc_add() {
             // The saturating sums are never negative (part files are checked for it).
             *s = if i >= 3 { v & i128::MAX } else { v };
         }
-        Acc {
-            sums: sums.map(|s| s ^ sum::LOW_BIAS),
-            bad: (rng.next_u32() % 512) as u16 * (rng.next_u32() >> 30 == 0) as u16,
-        }
+        Acc::from_sums(
+            sums,
+            (rng.next_u32() % 512) as u16 * (rng.next_u32() >> 30 == 0) as u16,
+        )
     };
     for _ in 0..200 {
         let n = 1 + (rng.next_u32() % 40) as usize;

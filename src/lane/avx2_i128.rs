@@ -1,8 +1,16 @@
 //! Width 8: the operations of the film's exact 128-bit fixed-point sums (`film::sum`): variable
-//! 32-bit shifts, the join of four 32-bit words per lane into eight `i128`s (into a column of a
-//! per-lane table, or into registers, [`I128x8`]), and the addition of eight `i128` addends to
-//! a pixel's eight (biased) sums in four registers (two sums each); and the lane permutes that
-//! lay a splat's footprint of filter weights out in lanes.
+//! 32-bit shifts, the join of four 32-bit words per lane into eight `i128`s held as separate
+//! low and high 64-bit words (into two slots of a per-lane table, or into registers,
+//! [`I128x8`]), and the addition of eight `i128` addends to a pixel's eight (biased) sums held
+//! the same way; and the lane permutes that lay a splat's footprint of filter weights out in
+//! lanes.
+//!
+//! The split layout, `[[u64; 8]; 2]` (the eight low words, then the eight high words, value i
+//! in slot i of each): a 128-bit add is a 64-bit add of the low words, the carry out of them
+//! (one compare) and two 64-bit adds of the high words, all in the same lane, so no byte
+//! shift moves the carry from one half of a register to the other; the sign bits a saturation
+//! test reads sit in two registers; and a 4×4 word transpose's first unpacks give the layout
+//! as they are.
 //!
 //! A child of `avx2` (it reads the private fields of [`I32x8`]); the same soundness argument:
 //! its values and the [`Avx2`] token exist only when the CPU has AVX2.
@@ -10,27 +18,35 @@
 use super::{Avx2, F32x8, I32x8};
 use core::arch::x86_64::*;
 
-/// Eight `i128`s in four AVX2 registers, two per register: value 2j in the low and 2j + 1 in
-/// the high 128-bit half of register j (the layout of a `[i128; 8]` in memory), so that they
-/// are added to a pixel's eight sums without a trip through memory
-/// ([`Avx2::add_i128x8_biased_regs`]).
+/// Eight `i128`s as their words: `[0]` the low 64-bit words, `[1]` the high ones (two's
+/// complement), value i in slot i of each (the film's `Acc` sums and per-lane table rows).
+pub type Words8 = [[u64; 8]; 2];
+
+/// The lane of a [`I32x8::join_words`] input that gives value i of its [`I128x8`]: the first
+/// unpacks of a 4×4 word transpose pair lanes 0, 1 (and 4, 5 in the upper half) and lanes 2, 3
+/// (6, 7), so a row conversion takes its values in this order.
+pub const ROW_LANES: [usize; 8] = [0, 1, 4, 5, 2, 3, 6, 7];
+
+/// Eight `i128`s in four AVX2 registers as [`Words8`] holds them: the low words of values 0–3,
+/// of values 4–7, then the high words of values 0–3 and 4–7, so that they are added to a
+/// pixel's eight sums without a trip through memory ([`Avx2::add_i128x8_biased_regs`]).
 #[derive(Clone, Copy)]
 pub struct I128x8([__m256i; 4]);
 
 impl I128x8 {
     /// The eight values of `a` (four 32-byte loads).
     #[inline(always)]
-    pub fn load(_avx: Avx2, a: &[i128; 8]) -> I128x8 {
+    pub fn load(_avx: Avx2, a: &Words8) -> I128x8 {
         let p = a.as_ptr().cast::<__m256i>();
-        // SAFETY: the token proves AVX; each load reads two consecutive `i128`s of `a`.
+        // SAFETY: the token proves AVX; load j reads words 4j to 4j + 3 of the 16 in `a`.
         I128x8(unsafe { core::array::from_fn(|j| _mm256_loadu_si256(p.add(j))) })
     }
-    /// The eight values (tests).
+    /// The eight values' words (tests).
     #[inline(always)]
-    pub fn to_array(self) -> [i128; 8] {
-        let mut a = [0i128; 8];
+    pub fn to_words(self) -> Words8 {
+        let mut a = [[0u64; 8]; 2];
         let p = a.as_mut_ptr().cast::<__m256i>();
-        // SAFETY: an I128x8 exists only with AVX2; each store writes two `i128`s of `a`.
+        // SAFETY: an I128x8 exists only with AVX2; store j writes words 4j to 4j + 3 of `a`.
         unsafe {
             for (j, v) in self.0.into_iter().enumerate() {
                 _mm256_storeu_si256(p.add(j), v);
@@ -86,113 +102,114 @@ impl I32x8 {
         I32x8(unsafe { _mm256_min_epu32(self.0, o.0) })
     }
     /// The eight 128-bit integers whose 32-bit words (least significant first) are lane `k` of
-    /// `words[0]`, …, `words[3]`, value k from lane k, in registers: the 4×4 transpose of
-    /// [`I32x8::join_words_into`] (eight unpacks), then four `vperm2i128` that pair the
-    /// 128-bit halves (lanes 0 and 1, 2 and 3, …) instead of its eight stores.
+    /// `words[0]`, …, `words[3]`, in registers as [`Words8`] holds them, value i from lane
+    /// [`ROW_LANES`]`[i]`: the first half of a 4×4 word transpose (four unpacks) gives the low
+    /// words of lanes 0, 1, 4, 5 and of lanes 2, 3, 6, 7, and the high words likewise.
     #[inline(always)]
     pub fn join_words(words: [I32x8; 4]) -> I128x8 {
-        let [p0, p1, p2, p3] = transpose_words(words);
-        // SAFETY: as above.
+        // SAFETY: an I32x8 exists only with AVX2.
         unsafe {
+            let [w0, w1, w2, w3] = [words[0].0, words[1].0, words[2].0, words[3].0];
             I128x8([
-                _mm256_permute2x128_si256::<0x20>(p0, p1),
-                _mm256_permute2x128_si256::<0x20>(p2, p3),
-                _mm256_permute2x128_si256::<0x31>(p0, p1),
-                _mm256_permute2x128_si256::<0x31>(p2, p3),
+                _mm256_unpacklo_epi32(w0, w1),
+                _mm256_unpackhi_epi32(w0, w1),
+                _mm256_unpacklo_epi32(w2, w3),
+                _mm256_unpackhi_epi32(w2, w3),
             ])
         }
     }
-    /// Writes the 128-bit integer whose 32-bit words (least significant first) are lane `k` of
-    /// `words[0]`, …, `words[3]` to `out[k][j]`, for the eight `k`: a 4×4 transpose of 32-bit
-    /// words in each 128-bit half (eight unpacks), then eight 16-byte stores. (A column of a
-    /// per-lane table, so that lane `k`'s row `out[k]` is read with full-width loads.)
+    /// Writes the 128-bit integers whose 32-bit words (least significant first) are lane `k`
+    /// of `a[0]`, …, `a[3]` and of `b[0]`, …, `b[3]` to slots `s` and `s + 1` of `out[k]`,
+    /// for the eight `k` (two columns of a per-lane table, so that lane `k`'s row `out[k]` is
+    /// read with full-width loads): per word pair, unpacks of the 32-bit words give lanes
+    /// [0, 1 | 4, 5] and [2, 3 | 6, 7] of each column as 64-bit words, unpacks of the two
+    /// columns' 64-bit words put a lane's two values side by side ([a | b] of lane 0 and
+    /// lane 4 in one register, …), and 16-byte stores write them: 16 unpacks and 16 stores
+    /// for the two columns, as many as a column of whole `i128`s took.
     ///
     /// # Panics
-    /// If `j` ≥ 8.
+    /// If `s` ≥ 7.
     #[inline(always)]
-    pub fn join_words_into(words: [I32x8; 4], out: &mut [[i128; 8]; 8], j: usize) {
-        assert!(j < 8);
-        let p = transpose_words(words);
-        // SAFETY: as above; each 16-byte store writes `out[k][j]` (k < 8, j < 8).
+    pub fn join_pair_into(a: [I32x8; 4], b: [I32x8; 4], out: &mut [Words8; 8], s: usize) {
+        assert!(s < 7);
+        // SAFETY: as above; each 16-byte store writes `out[k][h][s]` and `out[k][h][s + 1]`
+        // (k < 8, h < 2, s + 1 < 8).
         unsafe {
-            for (k, v) in p.into_iter().enumerate() {
-                let lo: *mut i128 = &mut out[k][j];
-                let hi: *mut i128 = &mut out[k + 4][j];
-                _mm_storeu_si128(lo.cast(), _mm256_castsi256_si128(v));
-                _mm_storeu_si128(hi.cast(), _mm256_extracti128_si256::<1>(v));
+            for h in 0..2 {
+                let (a0, a1, b0, b1) = (a[2 * h].0, a[2 * h + 1].0, b[2 * h].0, b[2 * h + 1].0);
+                // Word h of lanes [0, 1 | 4, 5] and [2, 3 | 6, 7] of each column.
+                let (a01, a23) = (_mm256_unpacklo_epi32(a0, a1), _mm256_unpackhi_epi32(a0, a1));
+                let (b01, b23) = (_mm256_unpacklo_epi32(b0, b1), _mm256_unpackhi_epi32(b0, b1));
+                // Lane k and lane k + 4: [a | b] in each half.
+                let p = [
+                    _mm256_unpacklo_epi64(a01, b01),
+                    _mm256_unpackhi_epi64(a01, b01),
+                    _mm256_unpacklo_epi64(a23, b23),
+                    _mm256_unpackhi_epi64(a23, b23),
+                ];
+                for (k, v) in p.into_iter().enumerate() {
+                    let lo = out[k][h][s..s + 2].as_mut_ptr();
+                    let hi = out[k + 4][h][s..s + 2].as_mut_ptr();
+                    _mm_storeu_si128(lo.cast(), _mm256_castsi256_si128(v));
+                    _mm_storeu_si128(hi.cast(), _mm256_extracti128_si256::<1>(v));
+                }
             }
         }
     }
 }
 
-/// The 4×4 transposes of 32-bit words in each 128-bit half of `words` (eight unpacks): lane k's
-/// four words (least significant first) as one 128-bit value, in the order [lane 0 | lane 4],
-/// [1 | 5], [2 | 6], [3 | 7].
-#[inline(always)]
-fn transpose_words(words: [I32x8; 4]) -> [__m256i; 4] {
-    // SAFETY: an I32x8 exists only with AVX2.
-    unsafe {
-        let [r0, r1, r2, r3] = [words[0].0, words[1].0, words[2].0, words[3].0];
-        // Per half (lanes 0–3, lanes 4–7): t0 = [r0₀ r1₀ r0₁ r1₁], t1 = [r0₂ r1₂ r0₃ r1₃], …
-        let t0 = _mm256_unpacklo_epi32(r0, r1);
-        let t1 = _mm256_unpackhi_epi32(r0, r1);
-        let t2 = _mm256_unpacklo_epi32(r2, r3);
-        let t3 = _mm256_unpackhi_epi32(r2, r3);
-        [
-            _mm256_unpacklo_epi64(t0, t2),
-            _mm256_unpackhi_epi64(t0, t2),
-            _mm256_unpacklo_epi64(t1, t3),
-            _mm256_unpackhi_epi64(t1, t3),
-        ]
-    }
-}
-
-/// The bias of a biased sum ([`Avx2::add_i128x8_biased`]): bit 63, the sign bit of the low
-/// 64-bit word, flipped (the film's `sum::LOW_BIAS`).
-const LOW_BIAS: i128 = 1 << 63;
+/// The bias of a biased sum ([`Avx2::add_i128x8_biased`]): bit 63 of the low word, the top
+/// bit, flipped (the film's `sum::LOW_BIAS`).
+const LOW_BIAS: u64 = 1 << 63;
 
 impl Avx2 {
     /// Adds eight `i128` addends to eight sums held *biased* (each sum s stored as
-    /// s ^ [`LOW_BIAS`], its low word's top bit flipped): s = s.wrapping_add(x[i]), then
-    /// s = `i128::MAX` where bit `i` of `SAT` is set and s is negative (the film's saturating
-    /// sums of non-negative addends, `film::sum::add_unsigned`). Two sums per register: the
-    /// 64-bit words are added (`vpaddq`); flipping the top bit of the low word a is adding 2⁶³
-    /// mod 2⁶⁴, so the biased low word plus x is the biased low sum s', and the carry out of
-    /// the low word, s <ᵤ a, is the signed s' < a' — one `vpcmpgtq` on the values at hand (the
-    /// bias spares the two sign flips an unsigned compare needs). The carry is moved onto the
-    /// high word (`vpslldq` by 8 bytes, inside each 128-bit half) and added there; the
-    /// saturation test is one `vptest` of the selected sums' sign bits (the high words carry
-    /// no bias).
+    /// s ^ [`LOW_BIAS`], its low word's top bit flipped), both as [`Words8`]:
+    /// s = s.wrapping_add(x[i]), then s = `i128::MAX` where bit `i` of `SAT` is set and s is
+    /// negative (the film's saturating sums of non-negative addends,
+    /// `film::sum::add_unsigned`). Four sums per register: the low words are added
+    /// (`vpaddq`); flipping the top bit of the low word a is adding 2⁶³ mod 2⁶⁴, so the biased
+    /// low word plus x is the biased low sum s', and the carry out of the low word, s <ᵤ a, is
+    /// the signed s' < a' — one `vpcmpgtq` on the values at hand, −1 where it carries. The
+    /// high words are added and the carry subtracted, in the same lane. The saturation test is
+    /// one `vtestpd` of the selected sums' high words' sign bits (the high words carry no
+    /// bias).
     #[inline(always)]
-    pub fn add_i128x8_biased<const SAT: u32>(self, acc: &mut [i128; 8], x: &[i128; 8]) {
+    pub fn add_i128x8_biased<const SAT: u32>(self, acc: &mut Words8, x: &Words8) {
         self.add_i128x8_biased_regs::<SAT>(acc, I128x8::load(self, x));
     }
 
     /// [`Avx2::add_i128x8_biased`] of addends held in registers.
     #[inline(always)]
-    pub fn add_i128x8_biased_regs<const SAT: u32>(self, acc: &mut [i128; 8], x: I128x8) {
+    pub fn add_i128x8_biased_regs<const SAT: u32>(self, acc: &mut Words8, x: I128x8) {
         let mut any = false;
-        // SAFETY: the token proves AVX2. The 32-byte loads and stores read and write two
-        // consecutive `i128`s of `acc`.
+        // SAFETY: the token proves AVX2. The 32-byte loads and stores read and write words
+        // 4j to 4j + 3 of the 16 in `acc` (j < 4).
         unsafe {
             let p = acc.as_mut_ptr().cast::<__m256i>();
             let mut neg = _mm256_setzero_si256();
-            for (j, xj) in x.0.into_iter().enumerate() {
+            for j in 0..2 {
                 let a = _mm256_loadu_si256(p.add(j));
-                let s = _mm256_add_epi64(a, xj);
-                // Carry out of the low word: s' <ₛ a' (only the low words' result is kept).
+                let s = _mm256_add_epi64(a, x.0[j]);
+                // Carry out of the low word: s' <ₛ a', −1 where it carries.
                 let c = _mm256_cmpgt_epi64(a, s);
-                let s = _mm256_sub_epi64(s, _mm256_bslli_epi128::<8>(c));
                 _mm256_storeu_si256(p.add(j), s);
-                let (a, b) = ((SAT >> (2 * j)) & 1, (SAT >> (2 * j + 1)) & 1);
-                if a | b != 0 {
-                    // The sign bits of the high words of the selected sums.
-                    let m = _mm256_setr_epi64x(0, -(a as i64) << 63, 0, -(b as i64) << 63);
-                    neg = _mm256_or_si256(neg, _mm256_and_si256(s, m));
+                let h = _mm256_add_epi64(_mm256_loadu_si256(p.add(2 + j)), x.0[2 + j]);
+                let h = _mm256_sub_epi64(h, c);
+                _mm256_storeu_si256(p.add(2 + j), h);
+                // The high words of the selected sums (their sign bits are tested).
+                let sel = (SAT >> (4 * j)) & 15;
+                if sel == 15 {
+                    neg = _mm256_or_si256(neg, h);
+                } else if sel != 0 {
+                    let bit = |i: u32| -((sel >> i & 1) as i64);
+                    let m = _mm256_setr_epi64x(bit(0), bit(1), bit(2), bit(3));
+                    neg = _mm256_or_si256(neg, _mm256_and_si256(h, m));
                 }
             }
-            if SAT != 0 {
-                any = _mm256_testz_si256(neg, neg) == 0;
+            if SAT & 0xff != 0 {
+                let n = _mm256_castsi256_pd(neg);
+                any = _mm256_testz_pd(n, n) == 0;
             }
         }
         if any {
@@ -205,10 +222,11 @@ impl Avx2 {
 /// word's, and the maximum is stored biased).
 #[cold]
 #[inline(never)]
-fn saturate<const SAT: u32>(acc: &mut [i128; 8]) {
-    for (i, a) in acc.iter_mut().enumerate() {
-        if SAT >> i & 1 != 0 && *a < 0 {
-            *a = i128::MAX ^ LOW_BIAS;
+fn saturate<const SAT: u32>(acc: &mut Words8) {
+    let [lo, hi] = acc;
+    for (i, (lo, hi)) in lo.iter_mut().zip(hi.iter_mut()).enumerate() {
+        if SAT >> i & 1 != 0 && (*hi as i64) < 0 {
+            (*lo, *hi) = (u64::MAX ^ LOW_BIAS, i64::MAX as u64);
         }
     }
 }
@@ -216,6 +234,16 @@ fn saturate<const SAT: u32>(acc: &mut [i128; 8]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `v`'s values as words.
+    fn split(v: [i128; 8]) -> Words8 {
+        [v.map(|x| x as u64), v.map(|x| (x >> 64) as u64)]
+    }
+
+    /// The values of words.
+    fn join(w: Words8) -> [i128; 8] {
+        core::array::from_fn(|i| ((w[1][i] as i128) << 64) | w[0][i] as i128)
+    }
 
     /// Values that stress carries and signs: 0, ±1, the 64-bit word boundaries and extremes.
     fn edge() -> Vec<i128> {
@@ -237,9 +265,13 @@ mod tests {
         v
     }
 
+    /// The split add equals scalar wrapping adds, and saturating ones where `SAT` selects a
+    /// sum: with the film's selection (sums 3 to 7), with none, with every sum, and with one
+    /// in each register.
     #[test]
     fn add_i128x8_biased_equals_scalar_adds() {
         let Some(avx) = Avx2::detect() else {
+            eprintln!("no AVX2: add_i128x8_biased not tested");
             return;
         };
         let e = edge();
@@ -250,7 +282,23 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             z
         };
-        for round in 0..20000 {
+        fn check<const SAT: u32>(avx: Avx2, acc0: [i128; 8], x: [i128; 8]) {
+            // The sums go in biased and come out biased.
+            let mut got = split(acc0.map(|a| a ^ LOW_BIAS as i128));
+            avx.run(|| avx.add_i128x8_biased::<SAT>(&mut got, &split(x)));
+            let want: [i128; 8] = core::array::from_fn(|i| {
+                let s = acc0[i].wrapping_add(x[i]);
+                if SAT >> i & 1 != 0 && s < 0 {
+                    i128::MAX
+                } else {
+                    s
+                }
+            });
+            let got = join(got).map(|s| s ^ LOW_BIAS as i128);
+            assert_eq!(got, want, "SAT {SAT:#b}: {acc0:?} + {x:?}");
+        }
+        let mut saturated = 0;
+        for round in 0..40000 {
             let mut pick = || -> i128 {
                 let r = next();
                 match r % 4 {
@@ -262,31 +310,21 @@ mod tests {
             };
             let acc0: [i128; 8] = core::array::from_fn(|_| pick());
             let x: [i128; 8] = core::array::from_fn(|_| pick());
-            // The sums go in biased and come out biased.
-            let mut got = acc0.map(|a| a ^ LOW_BIAS);
-            let want_wrap: [i128; 8] = core::array::from_fn(|i| acc0[i].wrapping_add(x[i]));
-            if round % 2 == 0 {
-                avx.run(|| avx.add_i128x8_biased::<0>(&mut got, &x));
-                assert_eq!(got.map(|s| s ^ LOW_BIAS), want_wrap, "{acc0:?} + {x:?}");
-            } else {
-                const SAT: u32 = 0b1111_1000;
-                avx.run(|| avx.add_i128x8_biased::<SAT>(&mut got, &x));
-                let want: [i128; 8] = core::array::from_fn(|i| {
-                    let s = want_wrap[i];
-                    if SAT >> i & 1 != 0 && s < 0 {
-                        i128::MAX
-                    } else {
-                        s
-                    }
-                });
-                assert_eq!(got.map(|s| s ^ LOW_BIAS), want, "{acc0:?} + {x:?}");
+            saturated += acc0.iter().zip(&x).any(|(a, b)| a.wrapping_add(*b) < 0) as u32;
+            match round % 4 {
+                0 => check::<0>(avx, acc0, x),
+                1 => check::<0b1111_1000>(avx, acc0, x),
+                2 => check::<0b1111_1111>(avx, acc0, x),
+                _ => check::<0b0010_0100>(avx, acc0, x),
             }
         }
+        assert!(saturated > 1000, "{saturated}");
     }
 
     #[test]
     fn variable_shifts_blend_permutes_and_join_match_scalar() {
         let Some(avx) = Avx2::detect() else {
+            eprintln!("no AVX2: the lane operations not tested");
             return;
         };
         let mut z = 0x2545_f491_4f6c_dd1du64;
@@ -306,6 +344,7 @@ mod tests {
                 })
             };
             let (a, n, w2, w3) = (arr(), arr(), arr(), arr());
+            let (b0, b1, b2, b3) = (arr(), arr(), arr(), arr());
             avx.run(|| {
                 let (va, vn) = (avx.load_i32(&a), avx.load_i32(&n));
                 let (shl, sar) = (va.shl_var(vn).to_array(), va.sar_var(vn).to_array());
@@ -324,23 +363,34 @@ mod tests {
                     assert_eq!(fperm[k].to_bits(), fa[(c & 7) as usize].to_bits());
                 }
                 let words = [va, vn, avx.load_i32(&w2), avx.load_i32(&w3)];
-                let col = (z >> 20) as usize % 8;
-                let mut t = [[7i128; 8]; 8];
-                I32x8::join_words_into(words, &mut t, col);
-                let regs = I32x8::join_words(words).to_array();
+                let bw = [b0, b1, b2, b3].map(|w| avx.load_i32(&w));
+                let value = |w: [[i32; 8]; 4], k: usize| {
+                    ((w[0][k] as u32 as u128)
+                        | (w[1][k] as u32 as u128) << 32
+                        | (w[2][k] as u32 as u128) << 64
+                        | (w[3][k] as u32 as u128) << 96) as i128
+                };
+                let s = (z >> 20) as usize % 7;
+                let mut t = [[[7u64; 8]; 2]; 8];
+                I32x8::join_pair_into(words, bw, &mut t, s);
+                let regs = join(I32x8::join_words(words).to_words());
                 for (k, row) in t.iter().enumerate() {
-                    let want = (a[k] as u32 as u128)
-                        | (n[k] as u32 as u128) << 32
-                        | (w2[k] as u32 as u128) << 64
-                        | (w3[k] as u32 as u128) << 96;
+                    let row = join(*row);
                     for (j, &v) in row.iter().enumerate() {
-                        assert_eq!(v, if j == col { want as i128 } else { 7 });
+                        let want = match j {
+                            _ if j == s => value([a, n, w2, w3], k),
+                            _ if j == s + 1 => value([b0, b1, b2, b3], k),
+                            _ => (7 << 64) | 7,
+                        };
+                        assert_eq!(v, want, "lane {k} slot {j} (s = {s})");
                     }
-                    assert_eq!(regs[k], want as i128);
+                    // The row conversion: value i from lane ROW_LANES[i].
+                    let i = ROW_LANES.iter().position(|&l| l == k).unwrap();
+                    assert_eq!(regs[i], value([a, n, w2, w3], k));
                 }
-                // The registers' layout is the array's: load and store are inverses.
-                let vals: [i128; 8] = core::array::from_fn(|k| t[k][col] ^ (k as i128) << 100);
-                assert_eq!(I128x8::load(avx, &vals).to_array(), vals);
+                // The registers' layout is the words': load and store are inverses.
+                let vals: [i128; 8] = core::array::from_fn(|k| regs[k] ^ (k as i128) << 100);
+                assert_eq!(join(I128x8::load(avx, &split(vals)).to_words()), vals);
             });
         }
     }
