@@ -123,12 +123,15 @@ where
 /// numbers stay in `lanes`, for `Chunk::of_facets`), and each other hit's map is written
 /// (`MnmSettings::map_lane_into`: `map_into`'s map bit for bit), as `Materials::build_at`
 /// builds it but without the incident-direction cache (which
-/// `compensated::lanes::with_incident_alone_x8` adds where the scalar model answers).
+/// `compensated::lanes::with_incident_alone_x8` adds where the scalar model answers). `wi`: the
+/// hits' ωi in the shading frame by component (`SurfaceBsdf::new`'s `frame.to_local(wi)`,
+/// computed 8-wide by the caller: `diffuse::incident`).
 #[inline(always)]
 pub(crate) fn build_shared(
     scene: &Scene,
     m: MatId,
     si: &[Option<SurfaceInteraction>; 8],
+    wi: &[[f32; 8]; 3],
     lanes: &MnmCols<8>,
     points: bool,
     arena: &mut BsdfArena,
@@ -152,8 +155,10 @@ pub(crate) fn build_shared(
         points: 0,
     };
     for (k, si) in si.iter().enumerate() {
-        let Some(si) = si else { continue };
-        b.wi[k] = si.sh.to_local(si.wi);
+        if si.is_none() {
+            continue;
+        }
+        b.wi[k] = Vec3::new(wi[0][k], wi[1][k], wi[2][k]);
         // A point: not flat (`MicrofacetNormalMap::is_flat`, the map's `degenerate`), both
         // facets kept (the map's `mirror_wall`), with its table cell.
         if points && lanes.two_facets_with_cell(k) {
@@ -217,9 +222,9 @@ pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
-        eval_pdf_x8, sample_x8, with_incident_alone_x8, Chunk, Point,
+        eval_pdf_x8_into, sample_x8_cols, with_incident_alone_x8, Chunk, Point,
     };
-    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf, SurfaceSample};
+    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::{V2, V3};
@@ -312,8 +317,10 @@ pub(crate) mod x8 {
             true => super::build_lanes(scene, m0, normal_rgb(avx, scene, m0, &sis)),
             false => None,
         };
+        // The hits' ωi in the shading frame, 8-wide (as `SurfaceBsdf::new` computes it).
+        let wi_local = Cols3::store(crate::stream::kernels::diffuse::incident(&surf).0);
         let built = match &lanes {
-            Some(l) => super::build_shared(scene, m0, &sis, l, lane_points, arena),
+            Some(l) => super::build_shared(scene, m0, &sis, &wi_local.0, l, lane_points, arena),
             None => None,
         };
         let (roots, wi) = match &built {
@@ -403,39 +410,38 @@ pub(crate) mod x8 {
         }
         chunk.prepare();
 
-        // 3. Next-event estimation: the BSDF toward the light points lane by lane (where a
-        //    point was sampled, as `nee::prepare_light`), the rest 8-wide.
+        // 3. Next-event estimation: the light directions in the shading frame with
+        //    `SurfaceBsdf::local_wo`'s side test 8-wide (the lanes' frames and true normals are
+        //    their `SurfaceBsdf`'s, from the same rows; `Frame::to_local` is the lane form at
+        //    width 1), the BSDF toward them lane by lane where a point was not one of the
+        //    chunk's (as `nee::prepare_light`), the chunk's points together into the columns,
+        //    the rest 8-wide.
         if nee.contains(&true) {
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
-            let (some, d) = (lp.some.to_array(), Cols3::store(lp.d));
+            let zero = avx.splat(0.0);
+            let local = surf.frame.to_local(lp.d);
+            let side = (lp.d.dot(surf.ng) * local.z).gt(zero) & lp.some;
+            let (side, local) = (side.to_array(), Cols3::store(local));
             let (mut f, mut pdf, mut consistent) = (Cols3::default(), [0.0f32; 8], [false; 8]);
             let (mut lit, mut wo) = (0u8, [Vec3::ZERO; 8]);
             for (k, &i) in ids.iter().enumerate() {
-                if !(nee[k] && some[k]) {
+                if !(nee[k] && side[k]) {
                     continue;
                 }
-                let i = i as usize;
                 let Some(s) = &sb[k] else { continue };
-                let Some(wo_k) = s.local_wo(d.get(k)) else {
-                    continue; // `SurfaceBsdf::eval_pdf`'s side test
-                };
+                let wo_k = local.get(k);
                 consistent[k] = true;
                 if chunk.has(k) {
                     lit |= 1 << k;
                     wo[k] = wo_k; // evaluated below with the other points
                 } else {
                     let (local, wi) = s.local();
-                    let (fk, pk) = local.eval_pdf(&ctx, wi, wo_k, &mut b.sampler[i]);
+                    let (fk, pk) = local.eval_pdf(&ctx, wi, wo_k, &mut b.sampler[i as usize]);
                     f.set(k, fk);
                     pdf[k] = pk;
                 }
             }
-            for (k, (fk, pk)) in eval_pdf_x8(&ctx, &chunk, lit, &wo).into_iter().enumerate() {
-                if lit & (1 << k) != 0 {
-                    f.set(k, fk);
-                    pdf[k] = pk;
-                }
-            }
+            eval_pdf_x8_into(&ctx, &chunk, lit, &wo, &mut f.0, &mut pdf);
             let lo = light_out(
                 &surf,
                 tp.load(avx),
@@ -460,51 +466,48 @@ pub(crate) mod x8 {
         }
 
         // 4. The BSDF samples (the compensated model's points together, their first orders'
-        //    nested evaluations 8-wide; the others lane by lane), then 8-wide the chunk
-        //    points' world directions with `SurfaceBsdf::world_sample`'s side test and every
-        //    sample's ray origin (`SurfaceInteraction::spawn_ray`'s `offset_origin`, the lane
-        //    form: the same bits), then lane by lane the next rays to the tail (for `path`,
-        //    `PathState::scatter`'s end).
-        let sampled = sample_x8(&ctx, &chunk, &mut b.sampler, ids);
-        let mut local = Cols3::default();
-        for (k, bs) in sampled.iter().enumerate() {
-            if let (true, Some(bs)) = (chunk.has(k), bs) {
-                local.set(k, bs.wo);
-            }
-        }
-        let local = local.load(avx);
+        //    nested evaluations 8-wide, in columns; the others lane by lane), then 8-wide the
+        //    chunk points' world directions with `SurfaceBsdf::world_sample`'s side test and
+        //    every sample's ray origin (`SurfaceInteraction::spawn_ray`'s `offset_origin`, the
+        //    lane form: the same bits), then lane by lane the next rays to the tail (for
+        //    `path`, `PathState::scatter`'s end).
+        let sampled = sample_x8_cols(&ctx, &chunk, &mut b.sampler, ids);
+        let local = Cols3(sampled.wo).load(avx);
         let world = surf.frame.to_world(local);
-        let consistent = (world.dot(surf.ng) * local.z).gt(avx.splat(0.0)).to_array();
+        let side = (world.dot(surf.ng) * local.z).gt(avx.splat(0.0));
+        // Bit k: lane k has a sample (the chunk's points: kept and on the side of their ωo).
+        let mut keep = sampled.ok & side.bits() as u8;
         let mut wo = Cols3::store(world);
-        let mut out: [Option<SurfaceSample>; 8] = [None; 8];
+        let (mut pdf, mut w, mut eta) = (sampled.pdf, Cols3(sampled.w), [1.0f32; 8]);
+        let mut delta = [sampled.lobe.intersects(Lobes::DELTA); 8];
         for (k, &i) in ids.iter().enumerate() {
-            let Some(s) = &sb[k] else { continue };
-            out[k] = match (chunk.has(k), sampled[k]) {
-                (true, Some(bs)) if consistent[k] => Some(SurfaceSample {
-                    wo: wo.get(k),
-                    pdf: bs.pdf,
-                    weight: bs.weight,
-                    eta: bs.eta,
-                    lobe: bs.lobe,
-                }),
-                (true, _) => None,
-                (false, _) => s.sample(&ctx, &mut b.sampler[i as usize]),
+            let Some(s) = &sb[k] else {
+                keep &= !(1 << k);
+                continue;
             };
-            if let Some(bs) = &out[k] {
+            if chunk.has(k) {
+                continue;
+            }
+            if let Some(bs) = s.sample(&ctx, &mut b.sampler[i as usize]) {
                 wo.set(k, bs.wo);
+                (pdf[k], eta[k], delta[k]) = (bs.pdf, bs.eta, bs.lobe.intersects(Lobes::DELTA));
+                w.set(k, bs.weight);
+                keep |= 1 << k;
             }
         }
         let origin = Cols3::store(offset_origin(surf.p, surf.ng, wo.load(avx)));
         for (k, &i) in ids.iter().enumerate() {
-            let Some(bs) = &out[k] else { continue };
+            if keep & (1 << k) == 0 {
+                continue;
+            }
             // `PathState::advance_sampled`'s arguments, for the tail.
             let s = Sampled {
                 p: si_at(k).p,
-                ray: Ray::new(origin.get(k), bs.wo),
-                weight: bs.weight,
-                eta: bs.eta,
-                pdf: bs.pdf,
-                delta: bs.lobe.intersects(Lobes::DELTA),
+                ray: Ray::new(origin.get(k), wo.get(k)),
+                weight: w.get(k),
+                eta: eta[k],
+                pdf: pdf[k],
+                delta: delta[k],
             };
             tail.bsdf(b, i as usize, &s);
         }
