@@ -112,6 +112,10 @@ pub(crate) struct Chunk<'a> {
     /// The points' lobe choice s(ωi) (their `AtWi`'s `select`) by lane, 0 in lanes without a
     /// point seen from above: the samples' densities in lanes ([`finish_samples`]).
     sel: [f32; 8],
+    /// [`Self::set_lanes`] placed the points with the baked table in the lookups at ωi
+    /// (`above`, `q`, `table`, `norm`, the entries' ωi): [`Self::prepare`] does not walk the
+    /// points again.
+    placed: bool,
 }
 
 impl<'a> Chunk<'a> {
@@ -133,6 +137,7 @@ impl<'a> Chunk<'a> {
             ei: [[0.0; 8]; 3],
             norm: [[0.0; 8]; 3],
             sel: [0.0; 8],
+            placed: false,
         }
     }
 
@@ -156,6 +161,7 @@ impl<'a> Chunk<'a> {
             ei: [[0.0; 8]; 3],
             norm: [[0.0; 8]; 3],
             sel: [0.0; 8],
+            placed: false,
         }
     }
 
@@ -191,6 +197,27 @@ impl<'a> Chunk<'a> {
                 });
             }
         }
+        // With the colours baked in, what [`Self::prepare`]'s walk over the points would do
+        // for them, from the columns here (every point shares `table`, so each one seen from
+        // above looks up at ωi with the others, in lane order; its 1 / (π Ē_ms) is its lane
+        // of `norms`, as in its `MsPlace`); `prepare` then goes on from its state at ωi.
+        if let Some(n) = norms {
+            let mut above = 0u8;
+            for (k, &wi) in wi.iter().enumerate() {
+                // (`prepare`'s test, z ≤ 0 skipped: a NaN z is not.)
+                if lanes & (1 << k) != 0 && (wi.z > 0.0 || wi.z.is_nan()) {
+                    self.q.push(k, &cells.get(k), wi);
+                    self.geo.push_wi(k, wi);
+                    for (c, col) in self.norm.iter_mut().enumerate() {
+                        col[k] = n[c][k];
+                    }
+                    above |= 1 << k;
+                }
+            }
+            self.above = above;
+            self.table = Some(table);
+            self.placed = true;
+        }
     }
 
     /// Lane `k` has a point (its queries go through the chunk).
@@ -218,8 +245,11 @@ impl<'a> Chunk<'a> {
     pub(crate) fn prepare(&mut self) {
         let mirror = self.mirror;
         let q = &mut self.q;
-        let mut table: Option<&'static MsTable> = None;
+        let mut table: Option<&'static MsTable> = self.table;
         for k in 0..8 {
+            if self.placed {
+                break; // `set_lanes` placed the points (each in the shared baked lookups)
+            }
             // The point read in place (a copy of the ~80-byte `Point` per lane cost more than
             // the reads it saved).
             let Some(pt) = &self.pts[k] else { continue };
@@ -268,7 +298,11 @@ impl<'a> Chunk<'a> {
     /// hold any value until [`Self::prepare`] sets theirs.
     #[inline(always)]
     fn baked_state(&mut self, t: &'static MsTable) {
+        // (After `set_lanes`, `norm` is written.)
         for k in 0..8 {
+            if self.placed {
+                break;
+            }
             if let (Some(pt), true) = (&self.pts[k], self.q.is_used(k)) {
                 let n = pt.r.baked_norm.expect("a point of the baked lookups");
                 for (c, col) in self.norm.iter_mut().enumerate() {
