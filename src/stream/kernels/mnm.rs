@@ -39,7 +39,6 @@
 use crate::bsdf::mnm::facets::Microgeometry;
 use crate::bsdf::mnm::{Evaluation, Tangent};
 use crate::bsdf::{BsdfArena, BsdfNode};
-use crate::geometry::SurfaceInteraction;
 use crate::lane::vec::V3;
 use crate::lane::{Lane, ToArray};
 use crate::material::{MatId, MaterialNode, Materials, MnmCols};
@@ -115,7 +114,7 @@ where
     }
 }
 
-/// Builds the BSDFs of the 8 hits `si` of material `m` (one that [`qualifies`] and
+/// Builds the BSDFs of the 8 hits of material `m` (one that [`qualifies`] and
 /// [`shared_nested`]) into `arena`: the leaf once for the chunk (a constant template: every
 /// hit's copy would be the same bit for bit); then, from the maps' arithmetic for the 8 lanes
 /// together (`lanes`, [`build_lanes`]), where the material's points are built without their
@@ -123,12 +122,14 @@ where
 /// numbers stay in `lanes`, for `Chunk::of_facets`), and each other hit's map is written
 /// (`MnmSettings::map_lane_into`: `map_into`'s map bit for bit), as `Materials::build_at`
 /// builds it but without the incident-direction cache (which
-/// `compensated::lanes::with_incident_alone_x8` adds where the scalar model answers).
+/// `compensated::lanes::with_incident_alone_x8` adds where the scalar model answers). `wi`: the
+/// hits' ωi in the shading frame by component (`SurfaceBsdf::new`'s `frame.to_local(wi)`,
+/// computed 8-wide by the caller: `diffuse::incident`).
 #[inline(always)]
 pub(crate) fn build_shared(
     scene: &Scene,
     m: MatId,
-    si: &[Option<SurfaceInteraction>; 8],
+    wi: &[[f32; 8]; 3],
     lanes: &MnmCols<8>,
     points: bool,
     arena: &mut BsdfArena,
@@ -151,9 +152,8 @@ pub(crate) fn build_shared(
         child,
         points: 0,
     };
-    for (k, si) in si.iter().enumerate() {
-        let Some(si) = si else { continue };
-        b.wi[k] = si.sh.to_local(si.wi);
+    for (k, w) in b.wi.iter_mut().enumerate() {
+        *w = Vec3::new(wi[0][k], wi[1][k], wi[2][k]);
         // A point: not flat (`MicrofacetNormalMap::is_flat`, the map's `degenerate`), both
         // facets kept (the map's `mirror_wall`), with its table cell.
         if points && lanes.two_facets_with_cell(k) {
@@ -217,12 +217,12 @@ pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
-        eval_pdf_x8, sample_x8, with_incident_alone_x8, Chunk, Point,
+        eval_pdf_x8_into, sample_x8_cols, with_incident_alone_x8, Chunk, Point,
     };
-    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf, SurfaceSample};
+    use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::{PathSettings, Strategy};
-    use crate::lane::vec::{V2, V3};
+    use crate::lane::vec::V3;
     use crate::lane::{Avx2, F32x8, Lane};
     use crate::scene::Scene;
     use crate::stream::batch::Batch;
@@ -236,35 +236,32 @@ pub(crate) mod x8 {
     use crate::texture::Texture;
     use glam::Vec3;
 
-    /// The normal map texture's values at the 8 hits `si` of material `m`, as
+    /// The normal map texture's values at the hits of the 8 paths `ids` (material `m`), as
     /// `Materials::build_at` looks it up (`Texture::eval` at the hit's uv, or its mesh data):
-    /// a bitmap at the 8 uvs at once (`BitmapTexture::eval_x8`, bit for bit `eval`), another
-    /// texture lane by lane. Lanes without a hit hold any value (they are not built).
+    /// a bitmap at the 8 uvs at once (gathered from the batch's rows,
+    /// `surface::x8::uv`; `BitmapTexture::eval_x8`, bit for bit `eval`), another texture lane
+    /// by lane.
     #[inline(always)]
     fn normal_rgb(
         avx: Avx2,
         scene: &Scene,
         m: crate::material::MatId,
-        si: &[Option<SurfaceInteraction>; 8],
+        b: &Batch,
+        ids: &[u32; 8],
     ) -> V3<F32x8> {
         let zero = avx.splat(0.0);
         let Some(tex) = super::normal_texture(scene, m) else {
             return V3::new(zero, zero, zero);
         };
         if let Texture::Bitmap(bt) = tex {
-            let (mut u, mut v) = ([0.0f32; 8], [0.0f32; 8]);
-            for (k, si) in si.iter().enumerate() {
-                if let Some(si) = si {
-                    (u[k], v[k]) = (si.uv.x, si.uv.y);
-                }
-            }
-            bt.eval_x8(avx, V2::new(avx.load(&u), avx.load(&v)))
+            bt.eval_x8(
+                avx,
+                crate::stream::kernels::surface::x8::uv(avx, &b.surf, ids),
+            )
         } else {
             let mut rgb = Cols3::default();
-            for (k, si) in si.iter().enumerate() {
-                if let Some(si) = si {
-                    rgb.set(k, reflectance(scene, tex, si));
-                }
+            for (k, &i) in ids.iter().enumerate() {
+                rgb.set(k, reflectance(scene, tex, &b.surf.get(i as usize)));
             }
             rgb.load(avx)
         }
@@ -301,24 +298,27 @@ pub(crate) mod x8 {
         //    `Scene::bsdf_root`; then the side test and the light points, lane by lane in each
         //    path's order.
         arena.clear();
-        // Each lane's surface interaction, read from the batch's row once for the kernel.
-        let mut sis = [None; 8];
-        for (k, &i) in ids.iter().enumerate() {
-            sis[k] = Some(b.surf.get(i as usize));
-        }
-        let si_at = |k: usize| -> &SurfaceInteraction { sis[k].as_ref().expect("a hit per lane") };
+        // A lane's surface interaction is read from the batch's row only where the scalar
+        // code needs it (a BSDF built by `Scene::bsdf_root`, a map or the nested leaf queried
+        // through its `SurfaceBsdf`): the chunk's points read the 8-wide columns (`surf`,
+        // the same rows).
+        let si_at = |b: &Batch, k: usize| -> SurfaceInteraction { b.surf.get(ids[k] as usize) };
+        let p = Cols3::store(surf.p);
         let lane_points = shared && super::lane_points(&scene.materials, m0);
         let lanes = match shared {
-            true => super::build_lanes(scene, m0, normal_rgb(avx, scene, m0, &sis)),
+            true => super::build_lanes(scene, m0, normal_rgb(avx, scene, m0, b, ids)),
             false => None,
         };
+        // The hits' ωi in the shading frame and `SurfaceBsdf::new`'s side test, 8-wide.
+        let (wi_local, front) = crate::stream::kernels::diffuse::incident(&surf);
+        let (wi_local, front) = (Cols3::store(wi_local), front.bits() as u8);
         let built = match &lanes {
-            Some(l) => super::build_shared(scene, m0, &sis, l, lane_points, arena),
+            Some(l) => super::build_shared(scene, m0, &wi_local.0, l, lane_points, arena),
             None => None,
         };
-        let (roots, wi) = match &built {
-            Some(bt) => (bt.roots, bt.wi),
-            None => ([u32::MAX; 8], [Vec3::Z; 8]),
+        let (roots, wi, points) = match &built {
+            Some(bt) => (bt.roots, bt.wi, bt.points),
+            None => ([u32::MAX; 8], [Vec3::Z; 8], 0),
         };
         // The other lanes' BSDFs (the scalar code), then where the maps answer their own
         // queries (no points built without maps) the built maps that are no chunk points (the
@@ -326,7 +326,7 @@ pub(crate) mod x8 {
         let mut all = roots;
         for (k, r) in all.iter_mut().enumerate() {
             if *r == u32::MAX {
-                *r = scene.bsdf_root(si_at(k), arena);
+                *r = scene.bsdf_root(&si_at(b, k), arena);
             }
         }
         if shared && !lane_points {
@@ -334,8 +334,13 @@ pub(crate) mod x8 {
         }
         let arena: &BsdfArena = arena;
         // The side test, then the light points, lane by lane in each path's order; each
-        // lane's `SurfaceBsdf` kept for steps 3 and 4.
+        // lane's `SurfaceBsdf` kept for steps 3 and 4, but a point built without its map
+        // (bit k of `points`), whose queries all go through the chunk: its side test is
+        // `front` (`SurfaceBsdf::new`'s, 8-wide) and its lobes the nested leaf's (its root).
+        // Bit k of `alive`: lane k scatters (it has a `SurfaceBsdf` or is such a point).
         let mut sb: [Option<SurfaceBsdf>; 8] = [None; 8];
+        let mut alive = 0u8;
+        let point_lobes = built.as_ref().map(|bt| arena.bsdf(bt.child).lobes());
         let mut nee = [false; 8];
         let mut tp = Cols3::default();
         let light_only = cfg.strategy == Strategy::LightOnly;
@@ -344,15 +349,28 @@ pub(crate) mod x8 {
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
-            let si = si_at(k);
-            let Some(bsdf) = SurfaceBsdf::new(arena.bsdf(all[k]), si.sh, si.ng, si.wi) else {
-                continue; // no light scatters toward wi: the path ends (`PathState::scatter`)
+            let lobes = match point_lobes {
+                Some(l) if points & (1 << k) != 0 => {
+                    if front & (1 << k) == 0 {
+                        continue; // no light scatters toward wi: the path ends
+                    }
+                    l
+                }
+                _ => {
+                    let si = si_at(b, k);
+                    let Some(bsdf) = SurfaceBsdf::new(arena.bsdf(all[k]), si.sh, si.ng, si.wi)
+                    else {
+                        continue; // as `PathState::scatter`: the path ends
+                    };
+                    sb[k] = Some(bsdf);
+                    bsdf.lobes()
+                }
             };
-            sb[k] = Some(bsdf);
+            alive |= 1 << k;
             tp.set(k, b.state[i].throughput);
-            if cfg.strategy != Strategy::BsdfOnly && bsdf.lobes().is_smooth() {
+            if cfg.strategy != Strategy::BsdfOnly && lobes.is_smooth() {
                 nee[k] = true;
-                p8.set(k, si.p);
+                p8.set(k, p.get(k));
             }
         }
         // The light selection and light point numbers of the lanes that take a light sample,
@@ -391,51 +409,46 @@ pub(crate) mod x8 {
             _ => Chunk::of(pts),
         };
         if let (Some(l), Some(bt), true) = (&lanes, &built, lane_points) {
-            let mut on = 0u8;
-            for (k, bsdf) in sb.iter().enumerate() {
-                if bsdf.is_some() && bt.points & (1 << k) != 0 {
-                    on |= 1 << k;
-                }
-            }
+            let on = alive & bt.points;
             if let (Some(cells), Some(table)) = (l.cells(), super::ms_table(scene, m0)) {
                 chunk.set_lanes(arena.bsdf(bt.child), table, cells, on, &wi);
             }
         }
         chunk.prepare();
 
-        // 3. Next-event estimation: the BSDF toward the light points lane by lane (where a
-        //    point was sampled, as `nee::prepare_light`), the rest 8-wide.
+        // 3. Next-event estimation: the light directions in the shading frame with
+        //    `SurfaceBsdf::local_wo`'s side test 8-wide (the lanes' frames and true normals are
+        //    their `SurfaceBsdf`'s, from the same rows; `Frame::to_local` is the lane form at
+        //    width 1), the BSDF toward them lane by lane where a point was not one of the
+        //    chunk's (as `nee::prepare_light`), the chunk's points together into the columns,
+        //    the rest 8-wide.
         if nee.contains(&true) {
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
-            let (some, d) = (lp.some.to_array(), Cols3::store(lp.d));
+            let zero = avx.splat(0.0);
+            let local = surf.frame.to_local(lp.d);
+            let side = (lp.d.dot(surf.ng) * local.z).gt(zero) & lp.some;
+            let (side, local) = (side.to_array(), Cols3::store(local));
             let (mut f, mut pdf, mut consistent) = (Cols3::default(), [0.0f32; 8], [false; 8]);
             let (mut lit, mut wo) = (0u8, [Vec3::ZERO; 8]);
             for (k, &i) in ids.iter().enumerate() {
-                if !(nee[k] && some[k]) {
+                if !(nee[k] && side[k]) {
                     continue;
                 }
-                let i = i as usize;
-                let Some(s) = &sb[k] else { continue };
-                let Some(wo_k) = s.local_wo(d.get(k)) else {
-                    continue; // `SurfaceBsdf::eval_pdf`'s side test
-                };
-                consistent[k] = true;
+                let wo_k = local.get(k);
                 if chunk.has(k) {
+                    consistent[k] = true;
                     lit |= 1 << k;
                     wo[k] = wo_k; // evaluated below with the other points
-                } else {
-                    let (local, wi) = s.local();
-                    let (fk, pk) = local.eval_pdf(&ctx, wi, wo_k, &mut b.sampler[i]);
-                    f.set(k, fk);
-                    pdf[k] = pk;
+                    continue;
                 }
+                let Some(s) = &sb[k] else { continue };
+                consistent[k] = true;
+                let (local, wi) = s.local();
+                let (fk, pk) = local.eval_pdf(&ctx, wi, wo_k, &mut b.sampler[i as usize]);
+                f.set(k, fk);
+                pdf[k] = pk;
             }
-            for (k, (fk, pk)) in eval_pdf_x8(&ctx, &chunk, lit, &wo).into_iter().enumerate() {
-                if lit & (1 << k) != 0 {
-                    f.set(k, fk);
-                    pdf[k] = pk;
-                }
-            }
+            eval_pdf_x8_into(&ctx, &chunk, lit, &wo, &mut f.0, &mut pdf);
             let lo = light_out(
                 &surf,
                 tp.load(avx),
@@ -460,51 +473,46 @@ pub(crate) mod x8 {
         }
 
         // 4. The BSDF samples (the compensated model's points together, their first orders'
-        //    nested evaluations 8-wide; the others lane by lane), then 8-wide the chunk
-        //    points' world directions with `SurfaceBsdf::world_sample`'s side test and every
-        //    sample's ray origin (`SurfaceInteraction::spawn_ray`'s `offset_origin`, the lane
-        //    form: the same bits), then lane by lane the next rays to the tail (for `path`,
-        //    `PathState::scatter`'s end).
-        let sampled = sample_x8(&ctx, &chunk, &mut b.sampler, ids);
-        let mut local = Cols3::default();
-        for (k, bs) in sampled.iter().enumerate() {
-            if let (true, Some(bs)) = (chunk.has(k), bs) {
-                local.set(k, bs.wo);
-            }
-        }
-        let local = local.load(avx);
+        //    nested evaluations 8-wide, in columns; the others lane by lane), then 8-wide the
+        //    chunk points' world directions with `SurfaceBsdf::world_sample`'s side test and
+        //    every sample's ray origin (`SurfaceInteraction::spawn_ray`'s `offset_origin`, the
+        //    lane form: the same bits), then lane by lane the next rays to the tail (for
+        //    `path`, `PathState::scatter`'s end).
+        let sampled = sample_x8_cols(&ctx, &chunk, &mut b.sampler, ids);
+        let local = Cols3(sampled.wo).load(avx);
         let world = surf.frame.to_world(local);
-        let consistent = (world.dot(surf.ng) * local.z).gt(avx.splat(0.0)).to_array();
+        let side = (world.dot(surf.ng) * local.z).gt(avx.splat(0.0));
+        // Bit k: lane k has a sample (the chunk's points, every one alive: kept and on the
+        // side of their ωo).
+        let mut keep = sampled.ok & side.bits() as u8;
         let mut wo = Cols3::store(world);
-        let mut out: [Option<SurfaceSample>; 8] = [None; 8];
+        let (mut pdf, mut w, mut eta) = (sampled.pdf, Cols3(sampled.w), [1.0f32; 8]);
+        let mut delta = [sampled.lobe.intersects(Lobes::DELTA); 8];
         for (k, &i) in ids.iter().enumerate() {
+            if chunk.has(k) {
+                continue;
+            }
             let Some(s) = &sb[k] else { continue };
-            out[k] = match (chunk.has(k), sampled[k]) {
-                (true, Some(bs)) if consistent[k] => Some(SurfaceSample {
-                    wo: wo.get(k),
-                    pdf: bs.pdf,
-                    weight: bs.weight,
-                    eta: bs.eta,
-                    lobe: bs.lobe,
-                }),
-                (true, _) => None,
-                (false, _) => s.sample(&ctx, &mut b.sampler[i as usize]),
-            };
-            if let Some(bs) = &out[k] {
+            if let Some(bs) = s.sample(&ctx, &mut b.sampler[i as usize]) {
                 wo.set(k, bs.wo);
+                (pdf[k], eta[k], delta[k]) = (bs.pdf, bs.eta, bs.lobe.intersects(Lobes::DELTA));
+                w.set(k, bs.weight);
+                keep |= 1 << k;
             }
         }
         let origin = Cols3::store(offset_origin(surf.p, surf.ng, wo.load(avx)));
         for (k, &i) in ids.iter().enumerate() {
-            let Some(bs) = &out[k] else { continue };
+            if keep & (1 << k) == 0 {
+                continue;
+            }
             // `PathState::advance_sampled`'s arguments, for the tail.
             let s = Sampled {
-                p: si_at(k).p,
-                ray: Ray::new(origin.get(k), bs.wo),
-                weight: bs.weight,
-                eta: bs.eta,
-                pdf: bs.pdf,
-                delta: bs.lobe.intersects(Lobes::DELTA),
+                p: p.get(k),
+                ray: Ray::new(origin.get(k), wo.get(k)),
+                weight: w.get(k),
+                eta: eta[k],
+                pdf: pdf[k],
+                delta: delta[k],
             };
             tail.bsdf(b, i as usize, &s);
         }

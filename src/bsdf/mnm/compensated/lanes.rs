@@ -45,6 +45,7 @@ use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfArena, BsdfContext, BsdfSample};
 use crate::math::{warp, INV_PI};
 use crate::sampler::Sampler;
+#[cfg(test)]
 use crate::spectrum::Spectrum;
 use glam::Vec3;
 
@@ -111,6 +112,10 @@ pub(crate) struct Chunk<'a> {
     /// The points' lobe choice s(ωi) (their `AtWi`'s `select`) by lane, 0 in lanes without a
     /// point seen from above: the samples' densities in lanes ([`finish_samples`]).
     sel: [f32; 8],
+    /// [`Self::set_lanes`] placed the points with the baked table in the lookups at ωi
+    /// (`above`, `q`, `table`, `norm`, the entries' ωi): [`Self::prepare`] does not walk the
+    /// points again.
+    placed: bool,
 }
 
 impl<'a> Chunk<'a> {
@@ -132,6 +137,7 @@ impl<'a> Chunk<'a> {
             ei: [[0.0; 8]; 3],
             norm: [[0.0; 8]; 3],
             sel: [0.0; 8],
+            placed: false,
         }
     }
 
@@ -155,6 +161,7 @@ impl<'a> Chunk<'a> {
             ei: [[0.0; 8]; 3],
             norm: [[0.0; 8]; 3],
             sel: [0.0; 8],
+            placed: false,
         }
     }
 
@@ -190,6 +197,27 @@ impl<'a> Chunk<'a> {
                 });
             }
         }
+        // With the colours baked in, what [`Self::prepare`]'s walk over the points would do
+        // for them, from the columns here (every point shares `table`, so each one seen from
+        // above looks up at ωi with the others, in lane order; its 1 / (π Ē_ms) is its lane
+        // of `norms`, as in its `MsPlace`); `prepare` then goes on from its state at ωi.
+        if let Some(n) = norms {
+            let mut above = 0u8;
+            for (k, &wi) in wi.iter().enumerate() {
+                // (`prepare`'s test, z ≤ 0 skipped: a NaN z is not.)
+                if lanes & (1 << k) != 0 && (wi.z > 0.0 || wi.z.is_nan()) {
+                    self.q.push(k, &cells.get(k), wi);
+                    self.geo.push_wi(k, wi);
+                    for (c, col) in self.norm.iter_mut().enumerate() {
+                        col[k] = n[c][k];
+                    }
+                    above |= 1 << k;
+                }
+            }
+            self.above = above;
+            self.table = Some(table);
+            self.placed = true;
+        }
     }
 
     /// Lane `k` has a point (its queries go through the chunk).
@@ -217,8 +245,11 @@ impl<'a> Chunk<'a> {
     pub(crate) fn prepare(&mut self) {
         let mirror = self.mirror;
         let q = &mut self.q;
-        let mut table: Option<&'static MsTable> = None;
+        let mut table: Option<&'static MsTable> = self.table;
         for k in 0..8 {
+            if self.placed {
+                break; // `set_lanes` placed the points (each in the shared baked lookups)
+            }
             // The point read in place (a copy of the ~80-byte `Point` per lane cost more than
             // the reads it saved).
             let Some(pt) = &self.pts[k] else { continue };
@@ -267,7 +298,11 @@ impl<'a> Chunk<'a> {
     /// hold any value until [`Self::prepare`] sets theirs.
     #[inline(always)]
     fn baked_state(&mut self, t: &'static MsTable) {
+        // (After `set_lanes`, `norm` is written.)
         for k in 0..8 {
+            if self.placed {
+                break;
+            }
             if let (Some(pt), true) = (&self.pts[k], self.q.is_used(k)) {
                 let n = pt.r.baked_norm.expect("a point of the baked lookups");
                 for (c, col) in self.norm.iter_mut().enumerate() {
@@ -320,7 +355,6 @@ impl<'a> Chunk<'a> {
 struct States {
     /// Bit k: lane k has a point whose first order is pending.
     live: u8,
-    c: [Collected; 8],
     wo: [Vec3; 8],
     known: [Option<Known>; 8],
 }
@@ -330,7 +364,6 @@ impl States {
     fn new() -> Self {
         States {
             live: 0,
-            c: [Collected::UNUSED; 8],
             wo: [Vec3::Z; 8],
             known: [None; 8],
         }
@@ -339,6 +372,32 @@ impl States {
     #[inline(always)]
     fn is_live(&self, k: usize) -> bool {
         self.live & (1 << k) != 0
+    }
+}
+
+/// The first order's state off the mirror sawtooth: each point's `Collected` (in place by lane,
+/// as [`States`]) and their nested pairs in one batch. Made only for such chunks: its ~1.2 KB
+/// of placeholders were initialised (a `memcpy` call) for every query of every chunk, though a
+/// mirror-sawtooth chunk reads none of them.
+struct General {
+    c: [Collected; 8],
+    pairs: Pairs<CHUNK>,
+}
+
+impl General {
+    #[inline(always)]
+    fn new() -> Self {
+        General {
+            c: [Collected::UNUSED; 8],
+            pairs: Pairs::<CHUNK>::new(),
+        }
+    }
+
+    /// Lane `k`'s point `pt` (with its entries `e`) toward `wo`, with the drawn path's `known`
+    /// term.
+    #[inline(always)]
+    fn push(&mut self, k: usize, pt: &Point, e: &Entries, wo: Vec3, known: Option<Known>) {
+        self.c[k] = Collected::new(pt.map(), e, wo, known, &mut self.pairs);
     }
 }
 
@@ -518,22 +577,44 @@ fn shared<'a>(pts: &[Option<Point<'a>>; 8]) -> Option<Bsdf<'a>> {
 
 /// `Bsdf::eval_pdf` of the root of each point of `c` in `lit` (bit k: lane k) toward its `wo`
 /// (shading frame), as `mnm::eval_pdf` computes it: (0, 0) unless both directions are above
-/// the surface. Other lanes are left (0, 0).
+/// the surface. Other lanes are left (0, 0). The tests' view of [`eval_pdf_x8_into`].
+#[cfg(test)]
 pub(crate) fn eval_pdf_x8(
     ctx: &BsdfContext,
     c: &Chunk,
     lit: u8,
     wo: &[Vec3; 8],
 ) -> [(Spectrum, f32); 8] {
+    let (mut f, mut p) = ([[0.0f32; 8]; 3], [0.0f32; 8]);
+    eval_pdf_x8_into(ctx, c, lit, wo, &mut f, &mut p);
+    std::array::from_fn(|k| (Vec3::new(f[0][k], f[1][k], f[2][k]), p[k]))
+}
+
+/// [`eval_pdf_x8`] into the caller's columns: lane k of `f` (by channel) and `p` gets lane
+/// k's value and density for each lane k of `lit` ((0, 0) unless both directions are above the
+/// surface); other lanes are not written. The stream kernel's form (no row of `(Spectrum,
+/// f32)` per lane to copy into its columns).
+pub(crate) fn eval_pdf_x8_into(
+    ctx: &BsdfContext,
+    c: &Chunk,
+    lit: u8,
+    wo: &[Vec3; 8],
+    f: &mut [[f32; 8]; 3],
+    p: &mut [f32; 8],
+) {
     let _ = ctx; // the lane forms read no context
-    let mut out = [(Spectrum::ZERO, 0.0); 8];
+    for k in 0..8 {
+        if lit & (1 << k) != 0 {
+            (f[0][k], f[1][k], f[2][k], p[k]) = (0.0, 0.0, 0.0, 0.0);
+        }
+    }
     let Some(nested) = shared(&c.pts) else {
-        return out;
+        return;
     };
     // Over the mirror sawtooth the first orders run in lanes ([`first`]), else each point's
-    // nested pairs go to one batch.
+    // nested pairs go to one batch ([`General`], made only then).
     let mut lanes = first::Mirror8::new();
-    let mut pairs = Pairs::<CHUNK>::new();
+    let mut general = (!c.mirror).then(General::new);
     let mut st = States::new();
     for k in 0..8 {
         let Some(pt) = c.above(k).filter(|_| lit & (1 << k) != 0) else {
@@ -543,48 +624,49 @@ pub(crate) fn eval_pdf_x8(
         if wo.z <= 0.0 {
             continue;
         }
-        if c.mirror {
-            lanes.push(k, wo, None);
-        } else {
-            st.c[k] = Collected::new(pt.map(), &c.e[k], wo, None, &mut pairs);
+        match &mut general {
+            None => lanes.push(k, wo, None),
+            Some(g) => g.push(k, pt, &c.e[k], wo, None),
         }
         st.wo[k] = wo;
         st.live |= 1 << k;
     }
     let kind = Nested::of(&nested);
-    let fo = first_orders(kind, c, &lanes, &pairs, &st, None);
+    let fo = first_orders(kind, c, &lanes, general.as_ref(), &st, None);
     let rem = remainders(&st, c);
-    for (k, o) in out.iter_mut().enumerate() {
+    for k in 0..8 {
         if !st.is_live(k) {
             continue;
         }
-        let (f, p) = fo.get(k);
+        let (fk, pk) = fo.get(k);
         let s = c.sel[k];
         let r = Vec3::new(rem[0][k], rem[1][k], rem[2][k]);
-        *o = (f + r, (1.0 - s) * p + s * st.wo[k].z * INV_PI);
+        let v = fk + r;
+        (f[0][k], f[1][k], f[2][k]) = (v.x, v.y, v.z);
+        p[k] = (1.0 - s) * pk + s * st.wo[k].z * INV_PI;
     }
-    out
 }
 
 /// The first order (f1·z(ωo), p1) of each live point of `st`, by lane (the lanes that are not
 /// live hold any finite value): over the mirror sawtooth from `lanes`
 /// ([`first::Mirror8::eval`], its columns as they are), else from the points' `Collected` and
-/// their nested `pairs` (`Collected::sum`), with the drawn paths' `known` terms (sampling).
+/// their nested pairs (`general`, `Collected::sum`), with the drawn paths' `known` terms
+/// (sampling).
 #[inline(always)]
 fn first_orders(
     kind: Nested,
     c: &Chunk,
     lanes: &first::Mirror8,
-    pairs: &Pairs<CHUNK>,
+    general: Option<&General>,
     st: &States,
     known: Option<&[Option<Known>; 8]>,
 ) -> first::FirstOrders {
-    if c.mirror {
+    let Some(g) = general else {
         return lanes.eval(&c.geo, kind);
-    }
+    };
     let mut out = first::FirstOrders::zero();
     let ev = kind
-        .lanes(pairs)
+        .lanes(&g.pairs)
         .expect("a point's nested BSDF has a lane form");
     for k in 0..8 {
         if st.is_live(k) {
@@ -592,7 +674,7 @@ fn first_orders(
                 Some(kn) => kn[k],
                 None => None,
             };
-            let fo = st.c[k].sum::<false, CHUNK>(&c.e[k], kn, &ev);
+            let fo = g.c[k].sum::<false, CHUNK>(&c.e[k], kn, &ev);
             out.set(k, fo.f, fo.p);
         }
     }
@@ -612,18 +694,67 @@ fn first_orders(
 /// with its own sampler ([`super::leave`], the scalar `draw`'s last step: the facet frame, the
 /// mirror wall's draw). Every point touches only its own sampler, so splitting its draws across the passes
 /// keeps their order. The first orders at the sampled directions are then evaluated together
-/// as in [`eval_pdf_x8`].
+/// as in [`eval_pdf_x8`]. The tests' view of [`sample_x8_cols`].
+#[cfg(test)]
 pub(crate) fn sample_x8(
     ctx: &BsdfContext,
     c: &Chunk,
     samplers: &mut [Sampler],
     ids: &[u32; 8],
 ) -> [Option<BsdfSample>; 8] {
+    let s = sample_x8_cols(ctx, c, samplers, ids);
+    std::array::from_fn(|k| s.get(k))
+}
+
+/// The chunk's BSDF samples ([`sample_x8_cols`]) by lane, in columns: bit k of `ok` says lane
+/// k's sample is kept (its direction `wo` in the shading frame, density `pdf`, weight `w` by
+/// channel; η = 1 and the lobe `lobe` of every point); other lanes hold any value.
+pub(crate) struct Samples8 {
+    pub(crate) ok: u8,
+    pub(crate) wo: [[f32; 8]; 3],
+    pub(crate) pdf: [f32; 8],
+    pub(crate) w: [[f32; 8]; 3],
+    pub(crate) lobe: crate::bsdf::Lobes,
+}
+
+impl Samples8 {
+    /// No sample kept.
+    #[inline(always)]
+    fn none() -> Self {
+        Samples8 {
+            ok: 0,
+            wo: [[0.0; 8]; 3],
+            pdf: [0.0; 8],
+            w: [[0.0; 8]; 3],
+            lobe: crate::bsdf::Lobes::EMPTY,
+        }
+    }
+
+    /// Lane `k`'s sample, as `Bsdf::sample` gives it.
+    #[cfg(test)]
+    pub(crate) fn get(&self, k: usize) -> Option<BsdfSample> {
+        (self.ok & (1 << k) != 0).then(|| BsdfSample {
+            wo: Vec3::new(self.wo[0][k], self.wo[1][k], self.wo[2][k]),
+            pdf: self.pdf[k],
+            weight: Vec3::new(self.w[0][k], self.w[1][k], self.w[2][k]),
+            eta: 1.0,
+            lobe: self.lobe,
+        })
+    }
+}
+
+/// [`sample_x8`] in columns (the stream kernel's form: no `Option<BsdfSample>` row per lane
+/// to copy into its columns).
+pub(crate) fn sample_x8_cols(
+    ctx: &BsdfContext,
+    c: &Chunk,
+    samplers: &mut [Sampler],
+    ids: &[u32; 8],
+) -> Samples8 {
     let _ = ctx; // the lane forms read no context
-    let mut out = [None; 8];
     let pts = &c.pts;
     let Some(nested) = shared(pts) else {
-        return out;
+        return Samples8::none();
     };
     let kind = Nested::of(&nested);
     let exact = sample_record_is_exact(&nested);
@@ -693,9 +824,9 @@ pub(crate) fn sample_x8(
         }
     }
     // The first orders at the sampled directions: in lanes over the mirror sawtooth, else
-    // their nested pairs in one batch.
+    // their nested pairs in one batch ([`General`], made only then).
     let mut lanes = first::Mirror8::new();
-    let mut pairs = Pairs::<CHUNK>::new();
+    let mut general = (!c.mirror).then(General::new);
     // The live lanes' ωo by component, for the last step in lanes (others: 0).
     let mut wo = [[0.0f32; 8]; 3];
     for (k, pt) in pts.iter().enumerate() {
@@ -710,10 +841,9 @@ pub(crate) fn sample_x8(
         if !exact {
             st.known[k] = None;
         }
-        if c.mirror {
-            lanes.push(k, st.wo[k], st.known[k]);
-        } else {
-            st.c[k] = Collected::new(pt.map(), &c.e[k], st.wo[k], st.known[k], &mut pairs);
+        match &mut general {
+            None => lanes.push(k, st.wo[k], st.known[k]),
+            Some(g) => g.push(k, pt, &c.e[k], st.wo[k], st.known[k]),
         }
         for (ch, w) in wo.iter_mut().enumerate() {
             w[k] = st.wo[k][ch];
@@ -721,25 +851,20 @@ pub(crate) fn sample_x8(
         st.live |= 1 << k;
     }
     if st.live == 0 {
-        return out;
+        return Samples8::none();
     }
-    let fo = first_orders(kind, c, &lanes, &pairs, &st, Some(&st.known));
+    let fo = first_orders(kind, c, &lanes, general.as_ref(), &st, Some(&st.known));
     let rem = remainders(&st, c);
     let done = finish_samples(st.live, &c.sel, &fo, &rem, &wo);
-    // Every point's lobe is its nested BSDF's (the points share it).
-    let lobe = super::super::explicit::lobe_of(nested.lobes());
-    for (k, o) in out.iter_mut().enumerate() {
-        if done.ok & (1 << k) != 0 {
-            *o = Some(BsdfSample {
-                wo: st.wo[k],
-                pdf: done.pdf[k],
-                weight: Vec3::new(done.w[0][k], done.w[1][k], done.w[2][k]),
-                eta: 1.0,
-                lobe,
-            });
-        }
+    // Every point's lobe is its nested BSDF's (the points share it); the kept lanes' ωo are
+    // the live lanes' of `wo`.
+    Samples8 {
+        ok: done.ok,
+        wo,
+        pdf: done.pdf,
+        w: done.w,
+        lobe: super::super::explicit::lobe_of(nested.lobes()),
     }
-    out
 }
 
 /// [`finish_samples`]' results by lane: each sample's density and weight, and the lanes whose
