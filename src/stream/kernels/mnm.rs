@@ -425,7 +425,7 @@ pub(crate) mod x8 {
                     wo[k] = wo_k; // evaluated below with the other points
                 } else {
                     let (local, wi) = s.local();
-                    let (fk, pk) = local.eval_pdf(&ctx, wi, wo_k, &mut b.sampler[i]);
+                    let (fk, pk) = local.eval_pdf(&ctx, wi, wo_k, &mut b.sampler.at(i));
                     f.set(k, fk);
                     pdf[k] = pk;
                 }
@@ -465,7 +465,9 @@ pub(crate) mod x8 {
         //    sample's ray origin (`SurfaceInteraction::spawn_ray`'s `offset_origin`, the lane
         //    form: the same bits), then lane by lane the next rays to the tail (for `path`,
         //    `PathState::scatter`'s end).
-        let sampled = sample_x8(&ctx, &chunk, &mut b.sampler, ids);
+        let mut rows = b.sampler.rows(ids);
+        let sampled = sample_x8(&ctx, &chunk, &mut rows, &crate::sampler::LANES8);
+        b.sampler.put_rows(ids, &rows);
         let mut local = Cols3::default();
         for (k, bs) in sampled.iter().enumerate() {
             if let (true, Some(bs)) = (chunk.has(k), bs) {
@@ -488,7 +490,7 @@ pub(crate) mod x8 {
                     lobe: bs.lobe,
                 }),
                 (true, _) => None,
-                (false, _) => s.sample(&ctx, &mut b.sampler[i as usize]),
+                (false, _) => s.sample(&ctx, &mut b.sampler.at(i as usize)),
             };
             if let Some(bs) = &out[k] {
                 wo.set(k, bs.wo);
