@@ -130,6 +130,213 @@ impl Sampler {
     }
 }
 
+/// The random streams of a batch of paths (the stream renderer's `Batch::sampler`) as columns:
+/// each path's PCG32 `state` and increment `inc` in two `u64` arrays, the rest of its
+/// [`Sampler`] (strata and the count of stratified 2-D draws) in a third. The 8-wide kernels
+/// read and write the PCG32 columns in place (`stream::kernels::draws`: one load per lane and
+/// column, no `Sampler` row taken apart and put back); the code that draws lane by lane goes
+/// through [`Self::at`], a [`Sampler`] rebuilt from the columns and written back when dropped.
+/// `strata` tells whether any stream has strata (a stream without them is plain PCG32,
+/// [`Sampler::plain_parts`]): never under `independent`, so the kernels skip the per-path test.
+#[derive(Clone, Debug, Default)]
+pub struct Samplers {
+    state: Vec<u64>,
+    inc: Vec<u64>,
+    rest: Vec<Rest>,
+    strata: bool,
+}
+
+/// A [`Sampler`] without its PCG32: its strata and its count of stratified 2-D draws.
+#[derive(Clone, Copy, Debug)]
+struct Rest {
+    strata: Option<(u32, u32, bool)>,
+    dim2: u32,
+}
+
+impl Rest {
+    /// The rest of a stream without strata (`independent`, or a grid of one stratum).
+    const PLAIN: Rest = Rest {
+        strata: None,
+        dim2: 0,
+    };
+
+    /// Whether a stream with these strata draws plain PCG32 floats ([`Sampler::plain_parts`]).
+    #[inline(always)]
+    fn plain(self) -> bool {
+        !(self.strata.is_some() && self.dim2 < 2)
+    }
+}
+
+impl Samplers {
+    /// Room for `capacity` streams.
+    pub fn with_capacity(capacity: usize) -> Samplers {
+        Samplers {
+            state: Vec::with_capacity(capacity),
+            inc: Vec::with_capacity(capacity),
+            rest: Vec::with_capacity(capacity),
+            strata: false,
+        }
+    }
+
+    /// Number of streams.
+    #[inline(always)]
+    pub fn len(&self) -> usize {
+        self.rest.len()
+    }
+
+    /// Whether there is no stream.
+    #[inline(always)]
+    pub fn is_empty(&self) -> bool {
+        self.rest.is_empty()
+    }
+
+    /// Removes every stream (capacities are kept).
+    pub fn clear(&mut self) {
+        self.state.clear();
+        self.inc.clear();
+        self.rest.clear();
+        self.strata = false;
+    }
+
+    /// Appends `s`.
+    #[inline(always)]
+    pub fn push(&mut self, s: &Sampler) {
+        let (state, inc) = s.rng.parts();
+        let rest = Rest {
+            strata: s.strata,
+            dim2: s.dim2,
+        };
+        self.state.push(state);
+        self.inc.push(inc);
+        self.rest.push(rest);
+        self.strata |= rest.strata.is_some();
+    }
+
+    /// Appends `s`, column by column (one capacity check per column, not per stream).
+    #[inline(always)]
+    pub fn extend_from(&mut self, s: &[Sampler]) {
+        self.state.extend(s.iter().map(|s| s.rng.parts().0));
+        self.inc.extend(s.iter().map(|s| s.rng.parts().1));
+        let rest = s.iter().map(|s| Rest {
+            strata: s.strata,
+            dim2: s.dim2,
+        });
+        self.rest.extend(rest);
+        self.strata |= s.iter().any(|s| s.strata.is_some());
+    }
+
+    /// Stream `i`, as a [`Sampler`].
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> Sampler {
+        let rest = self.rest[i];
+        Sampler {
+            rng: Pcg32::from_parts(self.state[i], self.inc[i]),
+            strata: rest.strata,
+            dim2: rest.dim2,
+        }
+    }
+
+    /// Makes stream `i` continue as `s`.
+    #[inline(always)]
+    pub fn set(&mut self, i: usize, s: &Sampler) {
+        let rest = Rest {
+            strata: s.strata,
+            dim2: s.dim2,
+        };
+        self.rest[i] = rest;
+        self.strata |= rest.strata.is_some();
+        (self.state[i], self.inc[i]) = s.rng.parts();
+    }
+
+    /// Stream `i` as a [`Sampler`] to draw from, written back into the columns when the
+    /// returned guard is dropped (for `&mut Sampler` arguments: `&mut samplers.at(i)`).
+    #[inline(always)]
+    pub fn at(&mut self, i: usize) -> SamplerAt<'_> {
+        SamplerAt {
+            s: self.get(i),
+            i,
+            cols: self,
+        }
+    }
+
+    /// Whether every stream is plain PCG32 from here on ([`Sampler::plain_parts`] `Some`)
+    /// because none has strata (`false` does not say that some stream is not plain).
+    #[inline(always)]
+    pub fn all_plain(&self) -> bool {
+        !self.strata
+    }
+
+    /// Whether stream `i` is plain PCG32 from here on ([`Sampler::plain_parts`] `Some`).
+    #[inline(always)]
+    pub fn plain(&self, i: usize) -> bool {
+        self.rest[i].plain()
+    }
+
+    /// The PCG32 columns: every stream's state (to read and write) and increment.
+    #[inline(always)]
+    pub fn pcg_mut(&mut self) -> (&mut [u64], &[u64]) {
+        (&mut self.state[..], &self.inc[..])
+    }
+
+    /// `next_1d` of stream `i` (one PCG32 float whatever the stream's strata), on the columns.
+    #[inline(always)]
+    pub fn next_1d(&mut self, i: usize) -> f32 {
+        let mut rng = Pcg32::from_parts(self.state[i], self.inc[i]);
+        let u = rng.next_f32();
+        self.state[i] = rng.parts().0;
+        u
+    }
+
+    /// Streams `ids` as [`Sampler`]s (for code that takes a slice of them and the indices
+    /// `0..W`); [`Self::put_rows`] writes them back.
+    #[inline(always)]
+    pub fn rows<const W: usize>(&self, ids: &[u32; W]) -> [Sampler; W] {
+        core::array::from_fn(|k| self.get(ids[k] as usize))
+    }
+
+    /// Writes back what [`Self::rows`] gave: stream `ids[k]` continues as `rows[k]`, the lanes
+    /// written from the last to the first, so that where an id repeats (a padded chunk's extra
+    /// lanes repeat its last path, and draw nothing) its first lane's stream is kept.
+    #[inline(always)]
+    pub fn put_rows<const W: usize>(&mut self, ids: &[u32; W], rows: &[Sampler; W]) {
+        for k in (0..W).rev() {
+            self.set(ids[k] as usize, &rows[k]);
+        }
+    }
+}
+
+/// The indices `0..8`, for [`Samplers::rows`]' copies.
+pub const LANES8: [u32; 8] = [0, 1, 2, 3, 4, 5, 6, 7];
+
+/// One stream of a [`Samplers`] as a [`Sampler`] ([`Samplers::at`]); written back on drop.
+pub struct SamplerAt<'a> {
+    s: Sampler,
+    i: usize,
+    cols: &'a mut Samplers,
+}
+
+impl core::ops::Deref for SamplerAt<'_> {
+    type Target = Sampler;
+    #[inline(always)]
+    fn deref(&self) -> &Sampler {
+        &self.s
+    }
+}
+
+impl core::ops::DerefMut for SamplerAt<'_> {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut Sampler {
+        &mut self.s
+    }
+}
+
+impl Drop for SamplerAt<'_> {
+    #[inline(always)]
+    fn drop(&mut self) {
+        self.cols.set(self.i, &self.s);
+    }
+}
+
 /// The resolution of the strata grid and whether to jitter, when `desc` stratifies the first 2-D
 /// draws (`stratified` with a square sample count above 1).
 #[inline]
@@ -164,8 +371,7 @@ pub fn sample_generator<L: Lane>(key: L::U64, sample: L::U64) -> Pcg<L> {
 /// order, and each one's first 2-D draw (`next_2d`, returned; the streams in `out` are past
 /// it), bit for bit [`Sampler::for_sample`] then `next_2d` per path: the keys and the
 /// generators 8-wide (two 64-bit multiplies per `mix64`, two PCG steps), the strata per path,
-/// the first draw 8-wide when no path has strata (else per path). The streams are built in
-/// place in `out` (one capacity check, no array of 8 moved). Call it inside
+/// the first draw 8-wide when no path has strata (else per path). Call it inside
 /// [`crate::lane::Avx2::run`] (the stream renderer's batch fill, `stream::batch`).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
@@ -174,7 +380,7 @@ pub fn for_samples_x8(
     desc: &SamplerDesc,
     pixel: &[u64; 8],
     sample: &[u32; 8],
-    out: &mut Vec<Sampler>,
+    out: &mut Samplers,
 ) -> [Vec2; 8] {
     // Eight samples of one pixel (every chunk of a render at 8 or more samples per pixel, a
     // multiple of 8): one key, the 1-lane function's, in every lane.
@@ -194,15 +400,21 @@ pub fn for_samples_x8(
     }
     let (state, inc) = rng.parts();
     let (state, inc) = (state.to_array(), inc.to_array());
-    let start = out.len();
-    out.extend(
-        (0..8).map(|k| Sampler::keyed(desc, keys[k], Pcg::from_parts(state[k], inc[k]), sample[k])),
-    );
-    if !plain {
-        for (u, s) in first.iter_mut().zip(&mut out[start..]) {
-            *u = s.next_2d();
-        }
+    if plain {
+        // `Sampler::keyed` without a grid: no strata, no 2-D draw spent; the PCG32 columns
+        // as they are.
+        out.state.extend_from_slice(&state);
+        out.inc.extend_from_slice(&inc);
+        out.rest.extend_from_slice(&[Rest::PLAIN; 8]);
+        return first;
     }
+    let mut s: [Sampler; 8] = core::array::from_fn(|k| {
+        Sampler::keyed(desc, keys[k], Pcg::from_parts(state[k], inc[k]), sample[k])
+    });
+    for (u, s) in first.iter_mut().zip(&mut s) {
+        *u = s.next_2d();
+    }
+    out.extend_from(&s);
     first
 }
 
@@ -354,6 +566,63 @@ mod tests {
         ]
     }
 
+    /// The columns behave as a `Vec<Sampler>`: streams pushed, drawn from through `at`,
+    /// `next_1d` on the columns, `rows` / `put_rows` (a repeated id keeps its first lane's
+    /// stream) and `set` give the numbers the rows give, and `all_plain` / `plain` follow each
+    /// stream's `plain_parts` as stratified streams spend their 2-D draws (`all_plain` only
+    /// where no stream has strata).
+    #[test]
+    fn the_columns_are_the_samplers() {
+        for d in descs(7) {
+            let mut rows: Vec<Sampler> = (0..12)
+                .map(|s| Sampler::for_sample(&d, 3 + s, s as u32))
+                .collect();
+            let mut cols = Samplers::with_capacity(4);
+            cols.push(&rows[0]);
+            cols.extend_from(&rows[1..]);
+            let check = |cols: &Samplers, rows: &[Sampler]| {
+                assert_eq!(cols.len(), rows.len());
+                for (i, r) in rows.iter().enumerate() {
+                    assert_eq!(cols.plain(i), r.plain_parts().is_some(), "{:?}", d.kind);
+                    assert_eq!(cols.get(i).plain_parts(), r.plain_parts());
+                    assert_eq!(format!("{:?}", cols.get(i)), format!("{r:?}"));
+                }
+                let none = rows.iter().all(|r| r.strata.is_none());
+                assert_eq!(cols.all_plain(), none, "{:?}", d.kind);
+                if cols.all_plain() {
+                    assert!(rows.iter().all(|r| r.plain_parts().is_some()));
+                }
+            };
+            check(&cols, &rows);
+            let mut r = Pcg32::new(1, 2);
+            for step in 0..200 {
+                let i = r.next_u32() as usize % rows.len();
+                match step % 4 {
+                    0 => assert_eq!(cols.at(i).next_2d(), rows[i].next_2d()),
+                    1 => assert_eq!(cols.next_1d(i).to_bits(), rows[i].next_1d().to_bits()),
+                    2 => {
+                        let (j, m) = ((i + 1) % rows.len(), (i + 2) % rows.len());
+                        let ids = [i as u32, j as u32, m as u32, i as u32];
+                        let mut got = cols.rows(&ids);
+                        let u = got[0].next_2d();
+                        assert_eq!(u, rows[i].next_2d());
+                        assert_eq!(got[1].next_1d(), rows[j].next_1d());
+                        cols.put_rows(&ids, &got);
+                    }
+                    _ => {
+                        let mut s = rows[(i + 1) % rows.len()].clone();
+                        s.next_2d();
+                        cols.set(i, &s);
+                        rows[i] = s;
+                    }
+                }
+                check(&cols, &rows);
+            }
+            cols.clear();
+            assert!(cols.is_empty() && cols.all_plain());
+        }
+    }
+
     /// Width 1: the stream key and generator written out with `u64` operations and `Pcg32`.
     #[test]
     fn for_sample_is_the_keyed_pcg() {
@@ -390,10 +659,11 @@ mod tests {
             {
                 let d = &d;
                 // Appended after what `got` holds.
-                let mut got = vec![Sampler::from_seed(1, 2)];
-                let first = avx.run(|| for_samples_x8(avx, d, &pixel, &sample, &mut got));
-                assert_eq!(got.len(), 9);
-                got.remove(0);
+                let mut cols = Samplers::default();
+                cols.push(&Sampler::from_seed(1, 2));
+                let first = avx.run(|| for_samples_x8(avx, d, &pixel, &sample, &mut cols));
+                assert_eq!(cols.len(), 9);
+                let mut got: Vec<Sampler> = (1..9).map(|i| cols.get(i)).collect();
                 for k in 0..8 {
                     let mut want = Sampler::for_sample(d, pixel[k], sample[k]);
                     let u = want.next_2d();

@@ -8,7 +8,7 @@ use crate::geometry::{Hit, Ray, SurfaceInteraction};
 use crate::integrator::path::{PathState, PendingLight};
 use crate::material::MatId;
 use crate::math::Frame;
-use crate::sampler::{Sampler, SamplerDesc};
+use crate::sampler::{Sampler, SamplerDesc, Samplers};
 use glam::{Vec2, Vec3};
 
 /// The AVX2 token of the 8-wide set-up (none on other architectures).
@@ -22,8 +22,9 @@ type Avx = core::convert::Infallible;
 pub(crate) struct Batch {
     /// Film position of each path's camera sample.
     pub pos: Vec<Vec2>,
-    /// Each path's random stream, keyed by (seed, pixel, sample) as in the scalar renderer.
-    pub sampler: Vec<Sampler>,
+    /// Each path's random stream, keyed by (seed, pixel, sample) as in the scalar renderer, as
+    /// columns (the PCG32 states read and written 8-wide by the kernels' draws).
+    pub sampler: Samplers,
     pub state: Vec<PathState>,
     /// The ray each path traces next.
     pub ray: Vec<Ray>,
@@ -68,7 +69,7 @@ impl Batch {
         assert!(capacity <= BATCH, "a batch holds at most {BATCH} paths");
         Batch {
             pos: Vec::with_capacity(capacity),
-            sampler: Vec::with_capacity(capacity),
+            sampler: Samplers::with_capacity(capacity),
             state: Vec::with_capacity(capacity),
             ray: Vec::with_capacity(capacity),
             hit: Vec::with_capacity(capacity),
@@ -215,7 +216,7 @@ impl Batch {
             for j in 0..m {
                 let mut sm = Sampler::for_sample(desc, pixel[j], sample[j]);
                 self.pos.push(corner[j] + sm.next_2d());
-                self.sampler.push(sm);
+                self.sampler.push(&sm);
             }
         }
     }
@@ -249,7 +250,7 @@ impl Batch {
             "a batch holds at most {BATCH} paths"
         );
         self.pos.push(pos);
-        self.sampler.push(sampler);
+        self.sampler.push(&sampler);
         self.state.push(PathState::new());
         self.ray.push(ray);
         self.hit.push(None);
@@ -637,8 +638,9 @@ mod tests {
                                     pos.to_array().map(f32::to_bits),
                                     "{ctx:?}"
                                 );
-                                assert_eq!(b.sampler[j].next_2d(), want.next_2d(), "{ctx:?}");
-                                assert_eq!(b.sampler[j].next_1d(), want.next_1d(), "{ctx:?}");
+                                let mut got = b.sampler.at(j);
+                                assert_eq!(got.next_2d(), want.next_2d(), "{ctx:?}");
+                                assert_eq!(got.next_1d(), want.next_1d(), "{ctx:?}");
                                 checked += 1;
                             }
                         }

@@ -118,7 +118,7 @@ impl Tail for DirectTail<'_> {
         let cfg = self.cfg;
         let ctx = BsdfContext::default();
         let si = &b.surf.get(i);
-        let sampler = &mut b.sampler[i];
+        let sampler = &mut b.sampler.at(i);
         let Some(bsdf) = scene.bsdf_at(si, arena) else {
             return;
         };

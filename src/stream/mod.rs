@@ -510,9 +510,11 @@ fn camera_rays(scene: &Scene, kernels: &Kernels, batch: &mut Batch) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = kernels;
-    let (pos, sampler) = (&batch.pos[done..], &mut batch.sampler[done..]);
-    for (p, smp) in pos.iter().zip(sampler) {
-        batch.ray.push(scene.camera.sample_ray(*p, smp));
+    for j in done..batch.pos.len() {
+        let ray = scene
+            .camera
+            .sample_ray(batch.pos[j], &mut batch.sampler.at(j));
+        batch.ray.push(ray);
     }
 }
 

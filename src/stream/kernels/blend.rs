@@ -351,7 +351,7 @@ pub(crate) mod x8 {
             }
             tp.set(k, b.state[i].throughput);
             // bsdf::blend::sample: the choice, then the chosen child's numbers.
-            let s = &mut b.sampler[i];
+            let s = &mut b.sampler.at(i);
             pick1[k] = crate::bsdf::blend::picks_second(w[k], s);
             let ch = &mat.children[usize::from(pick1[k])];
             if ch.draws_u1() {

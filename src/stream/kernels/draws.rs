@@ -8,8 +8,8 @@
 //! always under `independent`, under `stratified` once its stratified 2-D draws are spent)
 //! `next_1d` is one PCG32 float and `next_2d` two (x, then y), so the 8 paths' (state,
 //! increment) pairs are gathered into one `lane::pcg::Pcg`, the vertex's numbers drawn 8-wide
-//! in that order, and the states scattered back (`Sampler::resume`): each stream ends where the
-//! scalar draws would have left it. A path whose stream is not plain (a `stratified` path at its
+//! in that order, and the states written back into the batch's columns (`Samplers`): each stream
+//! ends where the scalar draws would have left it. A path whose stream is not plain (a `stratified` path at its
 //! first vertex) draws its numbers lane by lane from its `Sampler`, in the same order, after
 //! the 8-wide draw (its lane of the 8-wide draw is dropped). A path that is not `drawing` (it
 //! failed the side test) draws nothing.
@@ -49,38 +49,37 @@ pub(crate) mod x8 {
     use super::*;
     use crate::lane::pcg::Pcg;
     use crate::lane::{ToArray, Wide};
-    use crate::sampler::Sampler;
+    use crate::sampler::{Sampler, Samplers};
 
     /// The numbers `d` of the paths `ids` (indices into `samplers`) where `drawing`, each from
-    /// its own stream in the scalar order (see the module doc). Call inside [`Avx2::run`].
+    /// its own stream in the scalar order (see the module doc). The PCG32 states and
+    /// increments are read from `samplers`' columns lane by lane (every lane: a padded chunk's
+    /// ids are paths of the batch too) and the drawing lanes' states written back in place;
+    /// the per-path plain test only when some stream of the batch has strata
+    /// (`Samplers::all_plain`: never under `independent`). Call inside [`Avx2::run`].
     #[inline(always)]
     pub(crate) fn draw<T: Wide<W>, const W: usize>(
         avx: T,
-        samplers: &mut [Sampler],
+        samplers: &mut Samplers,
         ids: &[u32; W],
         drawing: &[bool; W],
         d: Draws,
     ) -> Numbers<W> {
-        // The (state, increment) pairs in two columns, written in place (no array of pairs
-        // split by `map` afterwards).
-        let (mut state, mut inc) = ([0u64; W], [1u64; W]);
-        let mut plain = [false; W];
-        let mut any_plain = false;
-        let mut all_plain = true;
-        for (k, &i) in ids.iter().enumerate() {
-            if drawing[k] {
-                match samplers[i as usize].plain_parts() {
-                    Some((s, c)) => {
-                        (state[k], inc[k]) = (s, c);
-                        plain[k] = true;
-                        any_plain = true;
-                    }
-                    None => all_plain = false,
-                }
+        // Which lanes draw from the 8-wide PCG32: the drawing ones whose stream is plain.
+        let all_plain = samplers.all_plain();
+        let mut plain = *drawing;
+        if !all_plain {
+            for (k, &i) in ids.iter().enumerate() {
+                plain[k] &= samplers.plain(i as usize);
             }
         }
         let mut n = Numbers::default();
-        if any_plain {
+        {
+            let (states, incs) = samplers.pcg_mut();
+            let (mut state, mut inc) = ([0u64; W], [0u64; W]);
+            for (k, &i) in ids.iter().enumerate() {
+                (state[k], inc[k]) = (states[i as usize], incs[i as usize]);
+            }
             let mut rng = Pcg::<T::F>::from_parts(avx.load_u64(&state), avx.load_u64(&inc));
             // Plain statements, not a closure: a closure would be compiled outside
             // `Avx2::run`'s target features (see `kernels`).
@@ -99,14 +98,14 @@ pub(crate) mod x8 {
             let state = rng.parts().0.to_array();
             for (k, &i) in ids.iter().enumerate() {
                 if plain[k] {
-                    samplers[i as usize].resume(state[k], inc[k]);
+                    states[i as usize] = state[k];
                 }
             }
         }
         if !all_plain {
             for (k, &i) in ids.iter().enumerate() {
                 if drawing[k] && !plain[k] {
-                    draw_one(&mut samplers[i as usize], d, &mut n, k);
+                    draw_one(&mut samplers.at(i as usize), d, &mut n, k);
                 }
             }
         }
@@ -135,7 +134,7 @@ pub(crate) mod x8 {
 #[cfg(all(test, target_arch = "x86_64"))]
 mod tests {
     use super::*;
-    use crate::sampler::{Sampler, SamplerDesc, SamplerKind};
+    use crate::sampler::{Sampler, SamplerDesc, SamplerKind, Samplers};
 
     /// The 8-wide draw gives each drawing path the numbers its `Sampler` gives lane by lane in
     /// the scalar order, leaves its stream where the scalar draws leave it, and leaves the
@@ -164,7 +163,7 @@ mod tests {
                 };
                 // 12 paths, 8 of them in the chunk (out of order), 6 drawing; the odd ones spent
                 // their stratified dimensions already, so plain and not-plain lanes are mixed.
-                let mut samplers: Vec<Sampler> = (0..12)
+                let rows: Vec<Sampler> = (0..12)
                     .map(|s| {
                         let mut sm = Sampler::for_sample(&desc, 40 + s, s as u32);
                         for _ in 0..2 * (s % 2) {
@@ -173,36 +172,52 @@ mod tests {
                         sm
                     })
                     .collect();
-                let ids = [3, 0, 11, 5, 6, 9, 1, 7];
-                let drawing = [true, true, false, true, true, true, false, true];
-                let mut reference = samplers.clone();
-                let n = avx.run(|| x8::draw(avx, &mut samplers, &ids, &drawing, d));
-                for (k, &i) in ids.iter().enumerate() {
-                    let s = &mut reference[i as usize];
-                    if !drawing[k] {
-                        continue;
+                // A full chunk, and a padded one (its last lanes repeat path 9, not drawing).
+                let chunks = [
+                    (
+                        [3, 0, 11, 5, 6, 9, 1, 7],
+                        [true, true, false, true, true, true, false, true],
+                    ),
+                    (
+                        [3, 0, 11, 5, 6, 9, 9, 9],
+                        [true, true, false, true, true, true, false, false],
+                    ),
+                ];
+                for (ids, drawing) in chunks {
+                    let mut reference = rows.clone();
+                    let mut samplers = Samplers::default();
+                    for r in &rows {
+                        samplers.push(r);
                     }
-                    if d.light {
-                        assert_eq!(n.u_sel[k].to_bits(), s.next_1d().to_bits());
-                        let u = s.next_2d();
-                        assert_eq!([n.u[0][k], n.u[1][k]], [u.x, u.y], "{kind:?} {d:?}");
+                    let n = avx.run(|| x8::draw(avx, &mut samplers, &ids, &drawing, d));
+                    for (k, &i) in ids.iter().enumerate() {
+                        let s = &mut reference[i as usize];
+                        if !drawing[k] {
+                            continue;
+                        }
+                        if d.light {
+                            assert_eq!(n.u_sel[k].to_bits(), s.next_1d().to_bits());
+                            let u = s.next_2d();
+                            assert_eq!([n.u[0][k], n.u[1][k]], [u.x, u.y], "{kind:?} {d:?}");
+                        }
+                        if d.u1 {
+                            assert_eq!(n.u1[k], s.next_1d(), "{kind:?} {d:?}");
+                        }
+                        if d.u2 {
+                            let u = s.next_2d();
+                            assert_eq!([n.u2[0][k], n.u2[1][k]], [u.x, u.y], "{kind:?} {d:?}");
+                        }
+                        checked += 1;
                     }
-                    if d.u1 {
-                        assert_eq!(n.u1[k], s.next_1d(), "{kind:?} {d:?}");
+                    // Every stream continues where the scalar draws left it (untouched if not drawn).
+                    for (i, b) in reference.iter_mut().enumerate() {
+                        let mut a = samplers.at(i);
+                        assert_eq!(a.next_2d(), b.next_2d(), "{kind:?} {d:?}");
+                        assert_eq!(a.next_1d(), b.next_1d(), "{kind:?} {d:?}");
                     }
-                    if d.u2 {
-                        let u = s.next_2d();
-                        assert_eq!([n.u2[0][k], n.u2[1][k]], [u.x, u.y], "{kind:?} {d:?}");
-                    }
-                    checked += 1;
-                }
-                // Every stream continues where the scalar draws left it (untouched if not drawn).
-                for (a, b) in samplers.iter_mut().zip(&mut reference) {
-                    assert_eq!(a.next_2d(), b.next_2d(), "{kind:?} {d:?}");
-                    assert_eq!(a.next_1d(), b.next_1d(), "{kind:?} {d:?}");
                 }
             }
         }
-        assert_eq!(checked, 2 * 8 * 6);
+        assert_eq!(checked, 2 * 8 * (6 + 5));
     }
 }

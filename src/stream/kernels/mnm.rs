@@ -444,7 +444,7 @@ pub(crate) mod x8 {
                 let Some(s) = &sb[k] else { continue };
                 consistent[k] = true;
                 let (local, wi) = s.local();
-                let (fk, pk) = local.eval_pdf(&ctx, wi, wo_k, &mut b.sampler[i as usize]);
+                let (fk, pk) = local.eval_pdf(&ctx, wi, wo_k, &mut b.sampler.at(i as usize));
                 f.set(k, fk);
                 pdf[k] = pk;
             }
@@ -478,7 +478,9 @@ pub(crate) mod x8 {
         //    every sample's ray origin (`SurfaceInteraction::spawn_ray`'s `offset_origin`, the
         //    lane form: the same bits), then lane by lane the next rays to the tail (for
         //    `path`, `PathState::scatter`'s end).
-        let sampled = sample_x8_cols(&ctx, &chunk, &mut b.sampler, ids);
+        let mut rows = b.sampler.rows(ids);
+        let sampled = sample_x8_cols(&ctx, &chunk, &mut rows, &crate::sampler::LANES8);
+        b.sampler.put_rows(ids, &rows);
         let local = Cols3(sampled.wo).load(avx);
         let world = surf.frame.to_world(local);
         let side = (world.dot(surf.ng) * local.z).gt(avx.splat(0.0));
@@ -493,7 +495,7 @@ pub(crate) mod x8 {
                 continue;
             }
             let Some(s) = &sb[k] else { continue };
-            if let Some(bs) = s.sample(&ctx, &mut b.sampler[i as usize]) {
+            if let Some(bs) = s.sample(&ctx, &mut b.sampler.at(i as usize)) {
                 wo.set(k, bs.wo);
                 (pdf[k], eta[k], delta[k]) = (bs.pdf, bs.eta, bs.lobe.intersects(Lobes::DELTA));
                 w.set(k, bs.weight);

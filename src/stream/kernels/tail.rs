@@ -84,7 +84,7 @@ impl Tail for PathTail<'_> {
             s.pdf,
             s.delta,
             s.ray,
-            &mut b.sampler[i],
+            &mut b.sampler.at(i),
         );
         if let Some(r) = next {
             b.ray[i] = r;
@@ -99,7 +99,7 @@ impl Tail for PathTail<'_> {
             self.cfg,
             scene,
             &si,
-            &mut b.sampler[i],
+            &mut b.sampler.at(i),
             arena,
             &mut b.light[i],
         );

@@ -386,7 +386,7 @@ pub(crate) mod x8 {
                     // bsdf::mask::sample: the choice (drawn where 0 < opacity < 1), then the nested
                     // BSDF's numbers where it is chosen.
                     let o = unit_weight(scalar_at(scene, t, si));
-                    let s = &mut b.sampler[i];
+                    let s = &mut b.sampler.at(i);
                     through[k] = if o <= 0.0 {
                         true
                     } else if o >= 1.0 {
@@ -692,7 +692,7 @@ pub(crate) mod x8 {
         so: &SampleOut<T::F>,
     ) {
         // The rows as slices held apart (their lengths and pointers stay in registers).
-        let (state, sampler) = (&mut b.state[..], &mut b.sampler[..]);
+        let (state, sampler) = (&mut b.state[..], &mut b.sampler);
         let (ray, alive) = (&mut b.ray[..], &mut b.alive[..]);
         let mut eta = [1.0f32; W];
         for (k, &i) in ids.iter().enumerate() {
@@ -718,7 +718,7 @@ pub(crate) mod x8 {
             // Roulette from rr_depth on, as `advance` tests it after its `depth += 1`.
             if on && st.depth.wrapping_add(1) as i64 >= rr_depth {
                 // `advance`'s roulette: the path ends at u ≥ q, else its throughput is divided.
-                if sampler[i].next_1d() >= q[k] {
+                if sampler.next_1d(i) >= q[k] {
                     on = false;
                 } else {
                     tk /= q[k];
@@ -866,10 +866,9 @@ mod tests {
                     (scalar.alive[i] && !crate::spectrum::is_finite(after.throughput)) as u32;
             }
             for i in 0..12 {
-                let (a, s) = (&mut lanes.sampler[i], &mut scalar.sampler[i]);
                 assert_eq!(
-                    a.next_1d().to_bits(),
-                    s.next_1d().to_bits(),
+                    lanes.sampler.next_1d(i).to_bits(),
+                    scalar.sampler.at(i).next_1d().to_bits(),
                     "round {round} path {i}"
                 );
                 assert_eq!(
