@@ -191,14 +191,15 @@ impl PathState {
             bs.pdf,
             bs.lobe.intersects(Lobes::DELTA),
             ray,
-            sampler,
+            || sampler.next_1d(),
         )
     }
 
     /// The end of [`Self::scatter`], once the BSDF sampled `ray` (leaving the vertex `p` with
     /// sample weight `weight`, relative index of refraction `eta`, density `pdf`, through a
     /// delta lobe when `delta`): the throughput update, then Russian roulette (Mitsuba 3:
-    /// survival min(max(throughput)·η², 0.95) from rr_depth on), which may draw one number.
+    /// survival min(max(throughput)·η², 0.95) from rr_depth on), which may draw one number
+    /// (`roulette`: the path's next `next_1d`, from a row or the stream renderer's columns).
     /// Returns the ray, or `None` when the path ends. Shared with the stream renderer's 8-wide
     /// kernels (`crate::stream::kernels`), which call it lane by lane after their BSDF sample.
     #[allow(clippy::too_many_arguments)]
@@ -212,7 +213,7 @@ impl PathState {
         pdf: f32,
         delta: bool,
         ray: Ray,
-        sampler: &mut Sampler,
+        roulette: impl FnOnce() -> f32,
     ) -> Option<Ray> {
         self.throughput *= weight;
         self.eta *= eta;
@@ -229,7 +230,7 @@ impl PathState {
         }
         if self.depth as i64 >= cfg.rr_depth as i64 {
             let q = (tmax * self.eta * self.eta).min(0.95);
-            if sampler.next_1d() >= q {
+            if roulette() >= q {
                 return None;
             }
             self.throughput /= q;

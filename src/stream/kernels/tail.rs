@@ -84,7 +84,7 @@ impl Tail for PathTail<'_> {
             s.pdf,
             s.delta,
             s.ray,
-            &mut b.sampler.at(i),
+            || b.sampler.next_1d(i),
         );
         if let Some(r) = next {
             b.ray[i] = r;
