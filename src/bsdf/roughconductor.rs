@@ -81,7 +81,7 @@ impl RoughConductor {
 
     /// The complex index's angle-free Fresnel terms (η² − k², 4η²k² per channel), for a
     /// caller that evaluates this material many times to compute once
-    /// ([`Self::eval_pdf_ix`], [`Self::sample_ix`]).
+    /// ([`Self::eval_pdf_with`], [`Self::sample_with`]).
     #[inline(always)]
     pub(crate) fn index(&self) -> ConductorIndex {
         ConductorIndex::new(self.eta.to_array(), self.k.to_array())
@@ -103,25 +103,14 @@ impl RoughConductor {
     #[inline(always)]
     pub(crate) fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
         let (spec, dist) = self.params_lanes(wi.z);
-        self.eval_pdf_with(spec, &dist, wi, wo)
+        self.eval_pdf_with(spec, &dist, None, wi, wo)
     }
 
     /// [`Self::eval_pdf_lanes`] with `specular_reflectance` and the distribution per lane (the
-    /// stream kernel's textured parameters; [`Self::params_lanes`] gives the constant ones).
+    /// stream kernel's textured parameters; [`Self::params_lanes`] gives the constant ones), and
+    /// the Fresnel terms `ix` when the caller computed them ([`Self::index`]; `None`: here).
     #[inline(always)]
     pub(crate) fn eval_pdf_with<L: Lane>(
-        &self,
-        spec: V3<L>,
-        dist: &Microfacet<L>,
-        wi: V3<L>,
-        wo: V3<L>,
-    ) -> (V3<L>, L) {
-        self.eval_pdf_ix(spec, dist, None, wi, wo)
-    }
-
-    /// [`Self::eval_pdf_with`] with the Fresnel terms `ix` computed by the caller ([`Self::index`]).
-    #[inline(always)]
-    pub(crate) fn eval_pdf_ix<L: Lane>(
         &self,
         spec: V3<L>,
         dist: &Microfacet<L>,
@@ -178,25 +167,13 @@ impl RoughConductor {
     #[inline(always)]
     pub(crate) fn sample_lanes<L: Lane>(&self, wi: V3<L>, _u1: L, u2: V2<L>) -> LaneBsdfSample<L> {
         let (spec, dist) = self.params_lanes(wi.z);
-        self.sample_with(spec, &dist, wi, u2)
+        self.sample_with(spec, &dist, None, wi, u2)
     }
 
-    /// [`Self::sample_lanes`] with `specular_reflectance` and the distribution per lane (see
-    /// [`Self::eval_pdf_with`]).
+    /// [`Self::sample_lanes`] with `specular_reflectance`, the distribution and the Fresnel
+    /// terms as [`Self::eval_pdf_with`] takes them.
     #[inline(always)]
     pub(crate) fn sample_with<L: Lane>(
-        &self,
-        spec: V3<L>,
-        dist: &Microfacet<L>,
-        wi: V3<L>,
-        u2: V2<L>,
-    ) -> LaneBsdfSample<L> {
-        self.sample_ix(spec, dist, None, wi, u2)
-    }
-
-    /// [`Self::sample_with`] with the Fresnel terms `ix` computed by the caller ([`Self::index`]).
-    #[inline(always)]
-    pub(crate) fn sample_ix<L: Lane>(
         &self,
         spec: V3<L>,
         dist: &Microfacet<L>,

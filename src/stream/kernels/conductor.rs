@@ -578,7 +578,7 @@ pub(crate) fn eval_pdf_from<L: Lane, const MASK: bool>(
     }
     let wi = dn.wi;
     let (mut f, mut pdf) = match &mat.leaf {
-        Leaf::Rough(b) => b.eval_pdf_ix(
+        Leaf::Rough(b) => b.eval_pdf_with(
             p.c0,
             &microfacet(&b.distribution, p),
             p.fresnel.as_ref(),
@@ -656,7 +656,7 @@ pub(crate) fn sample_from<L: Lane, const MASK: bool>(
     let one = k(1.0);
     let (mut s, mut delta, mut eta) = match &mat.leaf {
         Leaf::Rough(b) => (
-            b.sample_ix(
+            b.sample_with(
                 p.c0,
                 &microfacet(&b.distribution, p),
                 p.fresnel.as_ref(),
