@@ -101,24 +101,7 @@ impl Sampler {
 
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
-        if let Some((stratum, res, jitter)) = self.strata {
-            if self.dim2 < 2 {
-                self.dim2 += 1;
-                let sx = stratum % res;
-                let sy = stratum / res;
-                let (jx, jy) = if jitter {
-                    (self.rng.next_f32(), self.rng.next_f32())
-                } else {
-                    (0.5, 0.5)
-                };
-                let inv = 1.0 / res as f32;
-                return Vec2::new(
-                    ((sx as f32 + jx) * inv).min(1.0 - f32::EPSILON / 2.0),
-                    ((sy as f32 + jy) * inv).min(1.0 - f32::EPSILON / 2.0),
-                );
-            }
-        }
-        Vec2::new(self.rng.next_f32(), self.rng.next_f32())
+        next_2d(&mut self.rng, self.strata, &mut self.dim2)
     }
 
     /// A derived independent generator for stochastic BSDF evaluation (random walks): it consumes
@@ -127,6 +110,72 @@ impl Sampler {
         let a = self.rng.next_u32() as u64;
         let b = self.rng.next_u32() as u64;
         Pcg32::new(mix64(a << 32 | b), 0x2545_F491)
+    }
+}
+
+/// [`Sampler::next_2d`] of a stream with generator `rng`, strata `strata` and `dim2`
+/// stratified 2-D draws spent (one definition for a [`Sampler`] and for a stream of the
+/// [`Samplers`] columns, [`Samplers::next_2d`]): the first two 2-D draws of a stratified
+/// stream jittered in its stratum (two PCG32 floats, none without jitter), every other draw two
+/// plain PCG32 floats, x then y.
+#[inline(always)]
+fn next_2d(rng: &mut Pcg32, strata: Option<(u32, u32, bool)>, dim2: &mut u32) -> Vec2 {
+    if let Some((stratum, res, jitter)) = strata {
+        if *dim2 < 2 {
+            *dim2 += 1;
+            let sx = stratum % res;
+            let sy = stratum / res;
+            let (jx, jy) = if jitter {
+                (rng.next_f32(), rng.next_f32())
+            } else {
+                (0.5, 0.5)
+            };
+            let inv = 1.0 / res as f32;
+            return Vec2::new(
+                ((sx as f32 + jx) * inv).min(1.0 - f32::EPSILON / 2.0),
+                ((sy as f32 + jy) * inv).min(1.0 - f32::EPSILON / 2.0),
+            );
+        }
+    }
+    Vec2::new(rng.next_f32(), rng.next_f32())
+}
+
+/// A path's source of random numbers as the BSDF samplers draw them: a [`Sampler`], or one
+/// stream of a [`Samplers`] drawn on its columns ([`Samplers::stream`], no [`Sampler`] copied
+/// out and back). Code generic over it draws the same numbers, in the same order, from either.
+pub trait Draw {
+    /// [`Sampler::next_1d`].
+    fn next_1d(&mut self) -> f32;
+    /// [`Sampler::next_2d`].
+    fn next_2d(&mut self) -> Vec2;
+}
+
+impl Draw for Sampler {
+    #[inline(always)]
+    fn next_1d(&mut self) -> f32 {
+        Sampler::next_1d(self)
+    }
+    #[inline(always)]
+    fn next_2d(&mut self) -> Vec2 {
+        Sampler::next_2d(self)
+    }
+}
+
+/// Stream `i` of a [`Samplers`] to draw from in place ([`Samplers::stream`]): each draw reads
+/// and writes the columns.
+pub struct Stream<'a> {
+    cols: &'a mut Samplers,
+    i: usize,
+}
+
+impl Draw for Stream<'_> {
+    #[inline(always)]
+    fn next_1d(&mut self) -> f32 {
+        self.cols.next_1d(self.i)
+    }
+    #[inline(always)]
+    fn next_2d(&mut self) -> Vec2 {
+        self.cols.next_2d(self.i)
     }
 }
 
@@ -285,6 +334,29 @@ impl Samplers {
         let u = rng.next_f32();
         self.state[i] = rng.parts().0;
         u
+    }
+
+    /// `next_2d` of stream `i` ([`Sampler::next_2d`]: its strata while stratified 2-D draws
+    /// are pending, then two plain PCG32 floats), on the columns. Where no stream has strata
+    /// ([`Self::all_plain`]) the stream's strata are not read.
+    #[inline(always)]
+    pub fn next_2d(&mut self, i: usize) -> Vec2 {
+        let mut rng = Pcg32::from_parts(self.state[i], self.inc[i]);
+        let u = if self.strata {
+            let rest = &mut self.rest[i];
+            next_2d(&mut rng, rest.strata, &mut rest.dim2)
+        } else {
+            Vec2::new(rng.next_f32(), rng.next_f32())
+        };
+        self.state[i] = rng.parts().0;
+        u
+    }
+
+    /// Stream `i` to draw from in place, through [`Draw`] (its `next_1d` and `next_2d` are
+    /// [`Self::next_1d`] and [`Self::next_2d`] of `i`).
+    #[inline(always)]
+    pub fn stream(&mut self, i: usize) -> Stream<'_> {
+        Stream { cols: self, i }
     }
 
     /// Streams `ids` as [`Sampler`]s (for code that takes a slice of them and the indices
@@ -595,11 +667,23 @@ mod tests {
             };
             check(&cols, &rows);
             let mut r = Pcg32::new(1, 2);
-            for step in 0..200 {
+            let bits = |u: Vec2| u.to_array().map(f32::to_bits);
+            for step in 0..300 {
                 let i = r.next_u32() as usize % rows.len();
-                match step % 4 {
+                match step % 6 {
                     0 => assert_eq!(cols.at(i).next_2d(), rows[i].next_2d()),
                     1 => assert_eq!(cols.next_1d(i).to_bits(), rows[i].next_1d().to_bits()),
+                    4 => assert_eq!(bits(cols.next_2d(i)), bits(rows[i].next_2d()), "{d:?}"),
+                    5 => {
+                        // Through `Draw`, generic as the BSDF samplers draw.
+                        fn two<D: Draw>(s: &mut D) -> (f32, Vec2, f32) {
+                            (s.next_1d(), s.next_2d(), s.next_1d())
+                        }
+                        let (a, u, b) = two(&mut cols.stream(i));
+                        let (x, v, y) = two(&mut rows[i]);
+                        assert_eq!((a.to_bits(), b.to_bits()), (x.to_bits(), y.to_bits()));
+                        assert_eq!(bits(u), bits(v), "{d:?}");
+                    }
                     2 => {
                         let (j, m) = ((i + 1) % rows.len(), (i + 2) % rows.len());
                         let ids = [i as u32, j as u32, m as u32, i as u32];
@@ -620,6 +704,45 @@ mod tests {
             }
             cols.clear();
             assert!(cols.is_empty() && cols.all_plain());
+        }
+    }
+
+    /// `next_2d` on the columns (and through [`Samplers::stream`]) equals each stream's
+    /// `Sampler::next_2d` where plain and stratified streams are mixed in one batch (the
+    /// stratified ones' first two draws in their strata, jittered or at the centres, then
+    /// plain; a plain stream's draws whatever the others have), interleaved with `next_1d`.
+    #[test]
+    fn the_columns_draw_2d_as_the_samplers_do() {
+        let mut r = Pcg32::new(3, 4);
+        for round in 0..64u64 {
+            let mut rows: Vec<Sampler> = (0..10)
+                .map(|s| {
+                    let d = &descs(round)[(r.next_u32() % 4) as usize];
+                    Sampler::for_sample(d, 5 + s + round, r.next_u32() % 64)
+                })
+                .collect();
+            rows.push(Sampler::from_seed(round, 9));
+            let mut cols = Samplers::default();
+            cols.extend_from(&rows);
+            for _ in 0..80 {
+                let i = r.next_u32() as usize % rows.len();
+                let (got, want) = match r.next_u32() % 3 {
+                    0 => (cols.next_2d(i), rows[i].next_2d()),
+                    1 => (Draw::next_2d(&mut cols.stream(i)), rows[i].next_2d()),
+                    _ => {
+                        let u = Vec2::splat(cols.next_1d(i));
+                        (u, Vec2::splat(rows[i].next_1d()))
+                    }
+                };
+                assert_eq!(
+                    got.to_array().map(f32::to_bits),
+                    want.to_array().map(f32::to_bits),
+                    "round {round}, stream {i}"
+                );
+            }
+            for (i, s) in rows.iter().enumerate() {
+                assert_eq!(format!("{:?}", cols.get(i)), format!("{s:?}"));
+            }
         }
     }
 

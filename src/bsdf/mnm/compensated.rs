@@ -35,7 +35,7 @@ use crate::bsdf::roughconductor::RoughConductor;
 use crate::bsdf::roughplastic::RoughPlastic;
 use crate::bsdf::{Bsdf, BsdfContext, BsdfNode, BsdfSample};
 use crate::math::{warp, INV_PI};
-use crate::sampler::Sampler;
+use crate::sampler::{Draw, Sampler};
 use crate::spectrum::{luminance, Spectrum};
 use glam::Vec3;
 
@@ -931,7 +931,7 @@ fn leave<M: Leaves>(
     facet: usize,
     j: usize,
     (bwo, bpdf, bweight): (Vec3, f32, Spectrum),
-    s: &mut Sampler,
+    s: &mut impl Draw,
 ) -> (Vec3, Option<Known>) {
     let u = m.facet_to_world(facet, bwo);
     if !m.mirror_wall() {
@@ -943,7 +943,8 @@ fn leave<M: Leaves>(
 /// [`leave`]'s last step over the mirror sawtooth from u (the nested sample's ωo in the
 /// shading frame), G1(u) and R(u) (`reflect`, called only where the ray is blocked): one number
 /// drawn from `s`, u where it is below G1(u), else R(u). Also the stream kernel's, which
-/// computes u, G1(u) and R(u) of 8 points in lanes (`lanes::sample_x8`).
+/// computes u, G1(u) and R(u) of 8 points in lanes (`lanes::sample_x8`) and draws from the
+/// batch's columns (`Samplers::stream`, the same number as the path's `Sampler`).
 #[inline(always)]
 fn leave_mirror(
     u: Vec3,
@@ -951,7 +952,7 @@ fn leave_mirror(
     reflect: impl FnOnce() -> Vec3,
     j: usize,
     (bpdf, bweight): (f32, Spectrum),
-    s: &mut Sampler,
+    s: &mut impl Draw,
 ) -> (Vec3, Option<Known>) {
     if s.next_1d() < g1u {
         (u, known_term(j, false, bpdf, bweight))

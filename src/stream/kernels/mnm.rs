@@ -478,9 +478,7 @@ pub(crate) mod x8 {
         //    every sample's ray origin (`SurfaceInteraction::spawn_ray`'s `offset_origin`, the
         //    lane form: the same bits), then lane by lane the next rays to the tail (for
         //    `path`, `PathState::scatter`'s end).
-        let mut rows = b.sampler.rows(ids);
-        let sampled = sample_x8_cols(&ctx, &chunk, &mut rows, &crate::sampler::LANES8);
-        b.sampler.put_rows(ids, &rows);
+        let sampled = sample_x8_cols(&ctx, &chunk, &mut b.sampler, ids);
         let local = Cols3(sampled.wo).load(avx);
         let world = surf.frame.to_world(local);
         let side = (world.dot(surf.ng) * local.z).gt(avx.splat(0.0));

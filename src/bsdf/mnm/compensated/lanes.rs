@@ -44,7 +44,9 @@ use super::{
 use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfArena, BsdfContext, BsdfSample};
 use crate::math::{warp, INV_PI};
+#[cfg(test)]
 use crate::sampler::Sampler;
+use crate::sampler::{Draw, Samplers};
 #[cfg(test)]
 use crate::spectrum::Spectrum;
 use glam::Vec3;
@@ -702,7 +704,13 @@ pub(crate) fn sample_x8(
     samplers: &mut [Sampler],
     ids: &[u32; 8],
 ) -> [Option<BsdfSample>; 8] {
-    let s = sample_x8_cols(ctx, c, samplers, ids);
+    // The streams as the stream renderer's columns, written back after.
+    let mut cols = crate::sampler::Samplers::with_capacity(samplers.len());
+    cols.extend_from(samplers);
+    let s = sample_x8_cols(ctx, c, &mut cols, ids);
+    for (i, s) in samplers.iter_mut().enumerate() {
+        *s = cols.get(i);
+    }
     std::array::from_fn(|k| s.get(k))
 }
 
@@ -744,11 +752,13 @@ impl Samples8 {
 }
 
 /// [`sample_x8`] in columns (the stream kernel's form: no `Option<BsdfSample>` row per lane
-/// to copy into its columns).
+/// to copy into its columns), each point drawing from stream `ids[k]` of the batch's columns
+/// in place (`Samplers::stream`: the numbers its `Sampler` draws, strata included; no
+/// `Sampler` copied out and back).
 pub(crate) fn sample_x8_cols(
     ctx: &BsdfContext,
     c: &Chunk,
-    samplers: &mut [Sampler],
+    samplers: &mut Samplers,
     ids: &[u32; 8],
 ) -> Samples8 {
     let _ = ctx; // the lane forms read no context
@@ -769,7 +779,7 @@ pub(crate) fn sample_x8_cols(
         if c.above(k).is_none() {
             continue;
         }
-        let s = &mut samplers[ids[k] as usize];
+        let s = &mut samplers.stream(ids[k] as usize);
         if s.next_1d() < c.sel[k] {
             st.wo[k] = warp::square_to_cosine_hemisphere(s.next_2d());
             drawn |= 1 << k;
@@ -810,7 +820,7 @@ pub(crate) fn sample_x8_cols(
             let Some(sampled) = answered.get(k) else {
                 continue;
             };
-            let s = &mut samplers[ids[k] as usize];
+            let s = &mut samplers.stream(ids[k] as usize);
             // Over the mirror sawtooth `leave`'s last step from the numbers in lanes (every
             // entry is facet 0's; the same draw, `leave_mirror`).
             (st.wo[k], st.known[k]) = match &left {

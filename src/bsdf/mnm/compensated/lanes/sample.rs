@@ -18,7 +18,7 @@ use crate::lane::vec::{V2, V3};
 use crate::lane::Lane;
 #[cfg(target_arch = "x86_64")]
 use crate::lane::{Avx2, F32x8};
-use crate::sampler::Sampler;
+use crate::sampler::Draw;
 use crate::spectrum::Spectrum;
 use glam::Vec3;
 
@@ -83,7 +83,7 @@ impl Asks {
         nested: Nested,
         k: usize,
         wi: Vec3,
-        s: &mut Sampler,
+        s: &mut impl Draw,
     ) {
         let draws_u1 = match nested {
             Nested::Diffuse(_) => Diffuse::DRAWS_U1,
@@ -221,6 +221,7 @@ mod tests {
     use crate::bsdf::lanes::testing::{direction, same, same3};
     use crate::bsdf::{BsdfArena, BsdfContext, BsdfNode};
     use crate::math::Pcg32;
+    use crate::sampler::Sampler;
 
     /// The nested samples of a chunk (8-wide on this machine, and at width 1) equal the
     /// scalar `Bsdf::sample` of the same nested BSDF lane by lane, bit for bit (`None` where
