@@ -698,4 +698,17 @@ impl Avx2 {
             out.assume_init()
         }
     }
+
+    /// Eight lanes' rows of 8 floats from 8 fields in lanes: row `k` is lane `k` of each field,
+    /// in order ([`F32x8::transpose8`], then one store per row; moves only). For rows of other
+    /// structures than rays (the stream kernels' path states).
+    #[inline(always)]
+    pub fn rows8(self, f: [F32x8; 8]) -> [[f32; 8]; 8] {
+        let rows = F32x8::transpose8(f);
+        let mut out = [[0.0f32; 8]; 8];
+        for (o, r) in out.iter_mut().zip(rows) {
+            r.store(o);
+        }
+        out
+    }
 }

@@ -103,6 +103,9 @@ pub(crate) trait RayRows<const W: usize>: crate::lane::Wide<W> {
     /// Lane `k`'s ray: `Ray { o: (o.x, o.y, o.z)[k], d: (d.x, d.y, d.z)[k], tmin: 0, tmax }`
     /// with `tmax` splat to every lane (`Ray::new` at `f32::INFINITY`).
     fn ray_rows(self, o: V3<Self::F>, d: V3<Self::F>, tmax: f32) -> [crate::geometry::Ray; W];
+    /// Each lane's row of the 8 fields `f`: row `k` is lane `k` of `f[0]`, …, `f[7]` (the same
+    /// transpose, for the rows of the path states the kernels write whole).
+    fn rows8(self, f: [Self::F; 8]) -> [[f32; 8]; W];
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -112,6 +115,10 @@ impl RayRows<8> for crate::lane::Avx2 {
         let (z, t) = (self.splat(0.0), self.splat(tmax));
         crate::lane::Avx2::ray_rows(self, [o.x, o.y, o.z, d.x, d.y, d.z, z, t])
     }
+    #[inline(always)]
+    fn rows8(self, f: [Self::F; 8]) -> [[f32; 8]; 8] {
+        crate::lane::Avx2::rows8(self, f)
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -120,6 +127,10 @@ impl RayRows<16> for crate::lane::Avx512 {
     fn ray_rows(self, o: V3<Self::F>, d: V3<Self::F>, tmax: f32) -> [crate::geometry::Ray; 16] {
         let (z, t) = (self.splat(0.0), self.splat(tmax));
         self.ray_rows16([o.x, o.y, o.z, d.x, d.y, d.z, z, t])
+    }
+    #[inline(always)]
+    fn rows8(self, f: [Self::F; 8]) -> [[f32; 8]; 16] {
+        self.rows8_16(f)
     }
 }
 
@@ -203,8 +214,8 @@ mod tests {
         }
     }
 
-    /// The rows of [`RayRows`] are `Ray::segment` of each lane's fields, bit for bit (moves
-    /// only), at width 8 and 16: random values and ±0, subnormals, huge values, ±∞ and NaNs
+    /// The rows of [`RayRows`] are `Ray::segment` of each lane's fields, and its `rows8` each
+    /// lane's 8 fields, bit for bit (moves only), at width 8 and 16: random values and ±0, subnormals, huge values, ±∞ and NaNs
     /// with payloads, in every field.
     #[cfg(target_arch = "x86_64")]
     #[test]
@@ -239,6 +250,13 @@ mod tests {
                     let c = |j: usize| t.load(&f[j]);
                     t.ray_rows(V3::new(c(0), c(1), c(2)), V3::new(c(3), c(4), c(5)), tmax)
                 });
+                let g: [[f32; W]; 8] =
+                    core::array::from_fn(|j| if j < 6 { f[j] } else { f[j - 6] });
+                let plain = t.run(|| t.rows8(g.map(|c| t.load(&c))));
+                for (k, row) in plain.iter().enumerate() {
+                    let want: [u32; 8] = core::array::from_fn(|j| g[j][k].to_bits());
+                    assert_eq!(row.map(f32::to_bits), want, "rows8, width {W}, lane {k}");
+                }
                 for (k, row) in rows.iter().enumerate() {
                     let want = Ray::segment(
                         Vec3::new(f[0][k], f[1][k], f[2][k]),

@@ -701,21 +701,20 @@ pub(crate) mod x8 {
         }
         let rr_depth = cfg.rr_depth as i64;
         let a = advance_lanes(throughput, avx.load(&eta), so.weight, so.eta);
-        let (t, e, live, q) = (
-            Cols3::store(a.throughput),
-            a.eta.to_array(),
-            a.live.to_array(),
-            a.q.to_array(),
-        );
+        let (live, q) = (a.live.to_array(), a.q.to_array());
+        // Each lane's state row (`PathState::set_advanced_row`: the throughput and index
+        // products, the vertex and its density), transposed once per chunk.
+        let (t, pl) = (a.throughput, p.load(avx));
+        let rows = avx.rows8([t.x, t.y, t.z, a.eta, pl.x, pl.y, pl.z, so.pdf]);
         // The next rays as whole rows (`Ray::new`'s fields, transposed once per chunk).
         let (ok, rays) = (so.ok.to_array(), avx.ray_rows(so.o, so.wo, f32::INFINITY));
-        let (pdf, delta) = (so.pdf.to_array(), so.delta.to_array());
+        let delta = so.delta.to_array();
         for (k, &i) in ids.iter().enumerate() {
             if !(front[k] && ok[k]) {
                 continue;
             }
             let i = i as usize;
-            let (mut tk, mut on) = (t.get(k), live[k]);
+            let (mut on, mut won) = (live[k], false);
             let st = &mut state[i];
             // Roulette from rr_depth on, as `advance` tests it after its `depth += 1`.
             if on && st.depth.wrapping_add(1) as i64 >= rr_depth {
@@ -723,10 +722,13 @@ pub(crate) mod x8 {
                 if sampler.next_1d(i) >= q[k] {
                     on = false;
                 } else {
-                    tk /= q[k];
+                    won = true;
                 }
             }
-            st.set_advanced(tk, e[k], p.get(k), pdf[k], delta[k]);
+            st.set_advanced_row(&rows[k], delta[k]);
+            if won {
+                st.throughput /= q[k];
+            }
             if on {
                 ray[i] = rays[k];
                 alive[i] = true;
