@@ -29,17 +29,37 @@ struct PrevVertex {
     delta: bool,
 }
 
+/// What the previous vertex was ([`PathState`]'s flattened `Option<PrevVertex>`): none (the
+/// path is on its camera ray), a vertex sampled through a delta lobe, or one with a density.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+enum PrevKind {
+    None,
+    Delta,
+    Smooth,
+}
+
 /// One path between two vertices: everything the estimator carries from one bounce to the next.
+///
+/// `repr(C)`, its first eight floats in the order of [`PathState::set_advanced_row`]'s row
+/// (throughput, η, the previous vertex's point and BSDF density): what the end of a vertex
+/// writes, contiguous, so the stream renderer's kernels store it as one 32-byte copy per path
+/// rather than eight scalar stores.
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub struct PathState {
-    /// Radiance gathered so far.
-    pub result: Spectrum,
     pub throughput: Spectrum,
     /// Product of the relative indices of refraction crossed (for Russian roulette).
     pub eta: f32,
+    /// The previous vertex's point and BSDF density (meaningful where `prev_kind` is not
+    /// `None`; see [`PathState::prev`]).
+    prev_p: Vec3,
+    prev_pdf: f32,
+    /// Radiance gathered so far.
+    pub result: Spectrum,
     /// Vertices scattered from so far (0 while the camera ray is traced).
     pub depth: u32,
-    prev: Option<PrevVertex>,
+    prev_kind: PrevKind,
 }
 
 /// The previous vertex as the MIS weight of emission sees it ([`PathState::prev_mis`]): the
@@ -76,8 +96,36 @@ impl PathState {
             throughput: Spectrum::ONE,
             eta: 1.0,
             depth: 0,
-            prev: None,
+            prev_p: Vec3::ZERO,
+            prev_pdf: 0.0,
+            prev_kind: PrevKind::None,
         }
+    }
+
+    /// The previous vertex, if any (the fields' `Option` form).
+    #[inline(always)]
+    fn prev(&self) -> Option<PrevVertex> {
+        match self.prev_kind {
+            PrevKind::None => None,
+            kind => Some(PrevVertex {
+                p: self.prev_p,
+                bsdf_pdf: self.prev_pdf,
+                delta: kind == PrevKind::Delta,
+            }),
+        }
+    }
+
+    /// Sets the previous vertex: point `p`, BSDF density `pdf`, through a delta lobe when
+    /// `delta`.
+    #[inline(always)]
+    fn set_prev(&mut self, p: Vec3, pdf: f32, delta: bool) {
+        self.prev_p = p;
+        self.prev_pdf = pdf;
+        self.prev_kind = if delta {
+            PrevKind::Delta
+        } else {
+            PrevKind::Smooth
+        };
     }
 
     /// The counter the ray of the current depth goes to.
@@ -103,7 +151,7 @@ impl PathState {
         hit: Option<&SurfaceInteraction>,
     ) -> bool {
         let show = self.depth > 0 || !cfg.hide_emitters;
-        let prev = self.prev;
+        let prev = self.prev();
         let Some(si) = hit else {
             if show {
                 for (e, em, le) in scene.env_emission(ray.d) {
@@ -217,11 +265,7 @@ impl PathState {
     ) -> Option<Ray> {
         self.throughput *= weight;
         self.eta *= eta;
-        self.prev = Some(PrevVertex {
-            p,
-            bsdf_pdf: pdf,
-            delta,
-        });
+        self.set_prev(p, pdf, delta);
         self.depth += 1;
 
         let tmax = max_component(self.throughput);
@@ -238,27 +282,18 @@ impl PathState {
         Some(ray)
     }
 
-    /// The state [`Self::advance`] leaves before its roulette: throughput `throughput` (the
-    /// product, divided by the survival probability if the path won its roulette), index
-    /// product `eta`, previous vertex `p` sampled with density `pdf` (through a delta lobe when
-    /// `delta`), one vertex deeper. The stream renderer's lane form of `advance`
-    /// ([`advance_lanes`], `crate::stream::kernels::vertex`) writes each lane's result with it.
+    /// The state [`Self::advance`] leaves before its roulette, from `row` = [throughput x,
+    /// y, z, η, p x, y, z, pdf] (the throughput and index products, the previous vertex `p`
+    /// sampled with density `pdf`), through a delta lobe when `delta`, one vertex deeper. The
+    /// row is this struct's first eight floats (`repr(C)`), so its eight stores are one copy.
+    /// The stream renderer's lane form of `advance` ([`advance_lanes`],
+    /// `crate::stream::kernels::vertex`) writes each lane's row with it (the roulette's
+    /// division, where the path won it, after).
     #[inline(always)]
-    pub(crate) fn set_advanced(
-        &mut self,
-        throughput: Spectrum,
-        eta: f32,
-        p: Vec3,
-        pdf: f32,
-        delta: bool,
-    ) {
-        self.throughput = throughput;
-        self.eta = eta;
-        self.prev = Some(PrevVertex {
-            p,
-            bsdf_pdf: pdf,
-            delta,
-        });
+    pub(crate) fn set_advanced_row(&mut self, row: &[f32; 8], delta: bool) {
+        self.throughput = Vec3::new(row[0], row[1], row[2]);
+        self.eta = row[3];
+        self.set_prev(Vec3::new(row[4], row[5], row[6]), row[7], delta);
         // `advance`'s `depth += 1` as release code runs it (depth never nears u32::MAX: it is
         // bounded by the path's vertices).
         self.depth = self.depth.wrapping_add(1);
@@ -270,7 +305,7 @@ impl PathState {
     /// is the power heuristic against the light's density (`mis`), 0 (`zero`), or else 1.
     #[inline(always)]
     pub(crate) fn prev_mis(&self, cfg: &PathSettings) -> PrevMis {
-        match self.prev {
+        match self.prev() {
             Some(v) if !v.delta => PrevMis {
                 p: v.p,
                 pdf: v.bsdf_pdf,

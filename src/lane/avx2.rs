@@ -677,3 +677,38 @@ fn mul64(a: __m256i, b: __m256i) -> __m256i {
         _mm256_add_epi64(ll, _mm256_slli_epi64::<32>(_mm256_add_epi64(hl, lh)))
     }
 }
+
+impl Avx2 {
+    /// Eight rays from their fields in lanes (o.x, o.y, o.z, d.x, d.y, d.z, tmin, tmax): the
+    /// inverse of [`Avx2::ray_fields`], [`F32x8::transpose8`] then one 32-byte store per ray
+    /// (moves only: each ray's fields are its lane's bits). The stream kernels' next rays,
+    /// written whole into the batch's rows instead of six scalar stores per ray.
+    #[inline(always)]
+    pub fn ray_rows(self, f: [F32x8; 8]) -> [crate::geometry::Ray; 8] {
+        let rows = F32x8::transpose8(f);
+        let mut out = core::mem::MaybeUninit::<[crate::geometry::Ray; 8]>::uninit();
+        let p = out.as_mut_ptr().cast::<f32>();
+        // SAFETY: the token proves AVX. A `Ray` is eight f32s, o.x … tmax, without padding
+        // (asserted above `impl LaneI32 for I32x8`), so the 8 stores of 8 floats at 8k
+        // initialise every ray of `out`, all of whose bit patterns are valid `f32`s.
+        unsafe {
+            for (k, r) in rows.iter().enumerate() {
+                _mm256_storeu_ps(p.add(8 * k), r.0);
+            }
+            out.assume_init()
+        }
+    }
+
+    /// Eight lanes' rows of 8 floats from 8 fields in lanes: row `k` is lane `k` of each field,
+    /// in order ([`F32x8::transpose8`], then one store per row; moves only). For rows of other
+    /// structures than rays (the stream kernels' path states).
+    #[inline(always)]
+    pub fn rows8(self, f: [F32x8; 8]) -> [[f32; 8]; 8] {
+        let rows = F32x8::transpose8(f);
+        let mut out = [[0.0f32; 8]; 8];
+        for (o, r) in out.iter_mut().zip(rows) {
+            r.store(o);
+        }
+        out
+    }
+}

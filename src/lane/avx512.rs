@@ -574,3 +574,73 @@ impl LaneU64 for U64x16 {
         self.to_array()[i]
     }
 }
+
+impl Avx512 {
+    /// Sixteen rays from their fields in lanes (o.x, o.y, o.z, d.x, d.y, d.z, tmin, tmax): the
+    /// inverse of [`Avx512::ray_fields16`] (moves only: each ray's fields are its lane's bits).
+    #[inline(always)]
+    pub fn ray_rows16(self, f: [F32x16; 8]) -> [crate::geometry::Ray; 16] {
+        let mut out = core::mem::MaybeUninit::<[crate::geometry::Ray; 16]>::uninit();
+        // SAFETY: the token proves AVX-512F and DQ (`Avx512::run`'s features); a `Ray` is
+        // eight f32s without padding (asserted in `avx2.rs`), so `rows16`'s 16 runs of 8
+        // floats initialise every ray of `out`, all of whose bit patterns are valid `f32`s.
+        unsafe {
+            rows16(f, out.as_mut_ptr().cast::<f32>());
+            out.assume_init()
+        }
+    }
+
+    /// Sixteen lanes' rows of 8 floats from 8 fields in lanes: row `k` is lane `k` of each
+    /// field, in order (moves only; [`Avx512::ray_rows16`]'s transpose, for rows of other
+    /// structures: the stream kernels' path states).
+    #[inline(always)]
+    pub fn rows8_16(self, f: [F32x16; 8]) -> [[f32; 8]; 16] {
+        let mut out = [[0.0f32; 8]; 16];
+        // SAFETY: the token proves AVX-512F and DQ; `out` is 16 × 8 floats.
+        unsafe { rows16(f, out.as_mut_ptr().cast::<f32>()) };
+        out
+    }
+}
+
+/// Writes lane `r` of the 8 fields `f` as floats `8r .. 8r + 8` from `p`, for r in 0..16. The
+/// 4×4 transposes of [`super::F32x8::transpose8`] within each 128-bit lane give, in 128-bit
+/// lane L of `u[m]`, fields 0–3 of row 4L + m (`u[4 + m]`: its fields 4–7); one two-source
+/// permute per pair of rows joins the halves, and each 256-bit half is one row.
+///
+/// # Safety
+/// AVX-512F and DQ must be available, and `p` valid for writes of 128 floats.
+#[inline(always)]
+unsafe fn rows16(f: [F32x16; 8], p: *mut f32) {
+    let v = [
+        f[0].0, f[1].0, f[2].0, f[3].0, f[4].0, f[5].0, f[6].0, f[7].0,
+    ];
+    let t0 = _mm512_unpacklo_ps(v[0], v[1]);
+    let t1 = _mm512_unpackhi_ps(v[0], v[1]);
+    let t2 = _mm512_unpacklo_ps(v[2], v[3]);
+    let t3 = _mm512_unpackhi_ps(v[2], v[3]);
+    let t4 = _mm512_unpacklo_ps(v[4], v[5]);
+    let t5 = _mm512_unpackhi_ps(v[4], v[5]);
+    let t6 = _mm512_unpacklo_ps(v[6], v[7]);
+    let t7 = _mm512_unpackhi_ps(v[6], v[7]);
+    let u = [
+        _mm512_shuffle_ps::<0x44>(t0, t2),
+        _mm512_shuffle_ps::<0xee>(t0, t2),
+        _mm512_shuffle_ps::<0x44>(t1, t3),
+        _mm512_shuffle_ps::<0xee>(t1, t3),
+        _mm512_shuffle_ps::<0x44>(t4, t6),
+        _mm512_shuffle_ps::<0xee>(t4, t6),
+        _mm512_shuffle_ps::<0x44>(t5, t7),
+        _mm512_shuffle_ps::<0xee>(t5, t7),
+    ];
+    // Rows m and 4 + m (128-bit lanes 0 and 1), then 8 + m and 12 + m (lanes 2, 3).
+    let lo = _mm512_setr_epi32(0, 1, 2, 3, 16, 17, 18, 19, 4, 5, 6, 7, 20, 21, 22, 23);
+    let hi = _mm512_add_epi32(lo, _mm512_set1_epi32(8));
+    for m in 0..4 {
+        let a = _mm512_permutex2var_ps(u[m], lo, u[4 + m]);
+        let b = _mm512_permutex2var_ps(u[m], hi, u[4 + m]);
+        _mm256_storeu_ps(p.add(8 * m), _mm512_castps512_ps256(a));
+        _mm256_storeu_ps(p.add(8 * (4 + m)), _mm512_extractf32x8_ps::<1>(a));
+        _mm256_storeu_ps(p.add(8 * (8 + m)), _mm512_castps512_ps256(b));
+        _mm256_storeu_ps(p.add(8 * (12 + m)), _mm512_extractf32x8_ps::<1>(b));
+    }
+}

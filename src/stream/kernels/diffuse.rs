@@ -230,11 +230,11 @@ pub(crate) fn reflectance(scene: &Scene, tex: &Texture, si: &SurfaceInteraction)
 pub(crate) mod x8 {
     use super::*;
     use crate::integrator::{PathSettings, Strategy};
-    use crate::lane::Wide;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
+    use crate::stream::kernels::ray::RayRows;
     use crate::stream::kernels::surface;
     use crate::stream::kernels::tail::Tail;
     use crate::stream::kernels::vertex::x8::{prologue, scatter, LightCols};
@@ -254,10 +254,10 @@ pub(crate) mod x8 {
     /// `b.surf`) as `PathState::scatter` would, one after the other; sets their pending light
     /// samples, and their next rays and `alive` flags where they go on. Only the first `live`
     /// lanes are paths (a padded chunk: `vertex::x8::padded`, `vertex::x8::live_only`). Call
-    /// inside [`Wide::run`].
+    /// inside [`crate::lane::Wide::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn shade<T: Wide<W>, const W: usize>(
+    pub(crate) fn shade<T: RayRows<W>, const W: usize>(
         avx: T,
         scene: &Scene,
         cfg: &PathSettings,

@@ -194,13 +194,14 @@ pub(crate) mod x8 {
     use super::*;
     use crate::geometry::Ray;
     use crate::integrator::{PathSettings, Strategy};
-    use crate::lane::{ToArray, Wide};
+    use crate::lane::ToArray;
     use crate::spectrum::Spectrum;
     use crate::stream::batch::Batch;
     use crate::stream::kernels::diffuse::reflectance;
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
+    use crate::stream::kernels::ray::RayRows;
     use crate::stream::kernels::surface;
     use crate::stream::kernels::tail::{Sampled, Tail};
     use crate::stream::kernels::vertex;
@@ -208,9 +209,9 @@ pub(crate) mod x8 {
 
     /// Shades the paths of the run `batch.sorted[run]` (all of material `mat`) `W` at a time,
     /// then the last `run.len() % W` as one padded chunk (`vertex::x8::padded`) when there are
-    /// at least `pad_min` of them; returns how many it shaded. Enters [`Wide::run`] itself.
+    /// at least `pad_min` of them; returns how many it shaded. Enters [`crate::lane::Wide::run`] itself.
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn shade_run<T: Wide<W>, const W: usize>(
+    pub(crate) fn shade_run<T: RayRows<W>, const W: usize>(
         avx: T,
         scene: &Scene,
         cfg: &PathSettings,
@@ -255,7 +256,7 @@ pub(crate) mod x8 {
     /// inside [`Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn shade<T: Wide<W>, const W: usize>(
+    fn shade<T: RayRows<W>, const W: usize>(
         avx: T,
         scene: &Scene,
         cfg: &PathSettings,

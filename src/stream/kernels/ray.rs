@@ -94,6 +94,46 @@ fn offset_1<L: Lane>(p: L, n: L) -> L {
     L::select(p.abs().lt(k(ORIGIN)), p + k(FLOAT_SCALE) * n, p_i)
 }
 
+/// Rays from their fields in `W` lanes, one `Ray` per lane ([`crate::lane::Avx2::ray_rows`],
+/// [`crate::lane::Avx512::ray_rows16`]: a transpose and one 32-byte store per ray, moves only),
+/// so a kernel writes each lane's next ray into the batch's rows as one copy rather than six
+/// scalar stores (`vertex::x8::advance`).
+#[cfg(target_arch = "x86_64")]
+pub(crate) trait RayRows<const W: usize>: crate::lane::Wide<W> {
+    /// Lane `k`'s ray: `Ray { o: (o.x, o.y, o.z)[k], d: (d.x, d.y, d.z)[k], tmin: 0, tmax }`
+    /// with `tmax` splat to every lane (`Ray::new` at `f32::INFINITY`).
+    fn ray_rows(self, o: V3<Self::F>, d: V3<Self::F>, tmax: f32) -> [crate::geometry::Ray; W];
+    /// Each lane's row of the 8 fields `f`: row `k` is lane `k` of `f[0]`, …, `f[7]` (the same
+    /// transpose, for the rows of the path states the kernels write whole).
+    fn rows8(self, f: [Self::F; 8]) -> [[f32; 8]; W];
+}
+
+#[cfg(target_arch = "x86_64")]
+impl RayRows<8> for crate::lane::Avx2 {
+    #[inline(always)]
+    fn ray_rows(self, o: V3<Self::F>, d: V3<Self::F>, tmax: f32) -> [crate::geometry::Ray; 8] {
+        let (z, t) = (self.splat(0.0), self.splat(tmax));
+        crate::lane::Avx2::ray_rows(self, [o.x, o.y, o.z, d.x, d.y, d.z, z, t])
+    }
+    #[inline(always)]
+    fn rows8(self, f: [Self::F; 8]) -> [[f32; 8]; 8] {
+        crate::lane::Avx2::rows8(self, f)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl RayRows<16> for crate::lane::Avx512 {
+    #[inline(always)]
+    fn ray_rows(self, o: V3<Self::F>, d: V3<Self::F>, tmax: f32) -> [crate::geometry::Ray; 16] {
+        let (z, t) = (self.splat(0.0), self.splat(tmax));
+        self.ray_rows16([o.x, o.y, o.z, d.x, d.y, d.z, z, t])
+    }
+    #[inline(always)]
+    fn rows8(self, f: [Self::F; 8]) -> [[f32; 8]; 16] {
+        self.rows8_16(f)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -171,6 +211,73 @@ mod tests {
                     assert!(same(got, scalar(p, n, d)), "shared, lane {k}: {p} {n} {d}");
                 }
             }
+        }
+    }
+
+    /// The rows of [`RayRows`] are `Ray::segment` of each lane's fields, and its `rows8` each
+    /// lane's 8 fields, bit for bit (moves only), at width 8 and 16: random values and ±0, subnormals, huge values, ±∞ and NaNs
+    /// with payloads, in every field.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn ray_rows_are_each_lanes_ray() {
+        use crate::geometry::Ray;
+        use crate::lane::{Avx2, Avx512};
+        fn check<T: RayRows<W>, const W: usize>(t: T, r: &mut Pcg32) {
+            const EDGES: [u32; 10] = [
+                0x0000_0000,
+                0x8000_0000,
+                0x0000_0001,
+                0x807f_ffff,
+                0x7f7f_ffff,
+                0x7f80_0000,
+                0xff80_0000,
+                0x7fc0_0000,
+                0x7fa0_1234,
+                0xffc0_0001,
+            ];
+            for round in 0..200 {
+                let mut v = || {
+                    let u = r.next_u32();
+                    f32::from_bits(if u & 3 == 0 {
+                        EDGES[(u >> 8) as usize % 10]
+                    } else {
+                        u
+                    })
+                };
+                let f: [[f32; W]; 6] = core::array::from_fn(|_| core::array::from_fn(|_| v()));
+                let tmax = [f32::INFINITY, v()][round % 2];
+                let rows = t.run(|| {
+                    let c = |j: usize| t.load(&f[j]);
+                    t.ray_rows(V3::new(c(0), c(1), c(2)), V3::new(c(3), c(4), c(5)), tmax)
+                });
+                let g: [[f32; W]; 8] =
+                    core::array::from_fn(|j| if j < 6 { f[j] } else { f[j - 6] });
+                let plain = t.run(|| t.rows8(g.map(|c| t.load(&c))));
+                for (k, row) in plain.iter().enumerate() {
+                    let want: [u32; 8] = core::array::from_fn(|j| g[j][k].to_bits());
+                    assert_eq!(row.map(f32::to_bits), want, "rows8, width {W}, lane {k}");
+                }
+                for (k, row) in rows.iter().enumerate() {
+                    let want = Ray::segment(
+                        Vec3::new(f[0][k], f[1][k], f[2][k]),
+                        Vec3::new(f[3][k], f[4][k], f[5][k]),
+                        tmax,
+                    );
+                    let bits = |r: &Ray| {
+                        [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.tmin, r.tmax].map(f32::to_bits)
+                    };
+                    assert_eq!(bits(row), bits(&want), "width {W}, lane {k}");
+                }
+            }
+        }
+        let mut r = Pcg32::new(3, 17);
+        match Avx2::detect() {
+            Some(t) => check(t, &mut r),
+            None => eprintln!("note: no AVX2, width 8 not checked"),
+        }
+        match Avx512::detect() {
+            Some(t) => check(t, &mut r),
+            None => eprintln!("note: no AVX-512, width 16 not checked"),
         }
     }
 }

@@ -230,6 +230,7 @@ pub(crate) mod x8 {
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
+    use crate::stream::kernels::ray::RayRows;
     use crate::stream::kernels::surface;
     use crate::stream::kernels::tail::{Sampled, Tail};
 
@@ -245,7 +246,7 @@ pub(crate) mod x8 {
     /// inside [`Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn shade_run<T: Wide<W>, const W: usize>(
+    pub(crate) fn shade_run<T: RayRows<W>, const W: usize>(
         avx: T,
         scene: &Scene,
         cfg: &PathSettings,
@@ -289,7 +290,7 @@ pub(crate) mod x8 {
     #[inline(always)]
     // `!(u < o)`: `bsdf::mask::sample`'s test, negated as written there (u and o are never NaN).
     #[allow(clippy::too_many_arguments, clippy::neg_cmp_op_on_partial_ord)]
-    pub(crate) fn shade<T: Wide<W>, const W: usize, const PER_LANE: bool, const FULL: bool>(
+    pub(crate) fn shade<T: RayRows<W>, const W: usize, const PER_LANE: bool, const FULL: bool>(
         avx: T,
         scene: &Scene,
         cfg: &PathSettings,
@@ -605,7 +606,7 @@ pub(crate) mod x8 {
     /// its own path's fields).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn scatter<T: Wide<W>, const W: usize>(
+    pub(crate) fn scatter<T: RayRows<W>, const W: usize>(
         avx: T,
         b: &mut Batch,
         ids: &[u32; W],
@@ -681,7 +682,7 @@ pub(crate) mod x8 {
     /// `the_lane_advance_equals_advance`).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn advance<T: Wide<W>, const W: usize>(
+    pub(crate) fn advance<T: RayRows<W>, const W: usize>(
         avx: T,
         cfg: &PathSettings,
         b: &mut Batch,
@@ -700,20 +701,20 @@ pub(crate) mod x8 {
         }
         let rr_depth = cfg.rr_depth as i64;
         let a = advance_lanes(throughput, avx.load(&eta), so.weight, so.eta);
-        let (t, e, live, q) = (
-            Cols3::store(a.throughput),
-            a.eta.to_array(),
-            a.live.to_array(),
-            a.q.to_array(),
-        );
-        let (ok, o, wo) = (so.ok.to_array(), Cols3::store(so.o), Cols3::store(so.wo));
-        let (pdf, delta) = (so.pdf.to_array(), so.delta.to_array());
+        let (live, q) = (a.live.to_array(), a.q.to_array());
+        // Each lane's state row (`PathState::set_advanced_row`: the throughput and index
+        // products, the vertex and its density), transposed once per chunk.
+        let (t, pl) = (a.throughput, p.load(avx));
+        let rows = avx.rows8([t.x, t.y, t.z, a.eta, pl.x, pl.y, pl.z, so.pdf]);
+        // The next rays as whole rows (`Ray::new`'s fields, transposed once per chunk).
+        let (ok, rays) = (so.ok.to_array(), avx.ray_rows(so.o, so.wo, f32::INFINITY));
+        let delta = so.delta.to_array();
         for (k, &i) in ids.iter().enumerate() {
             if !(front[k] && ok[k]) {
                 continue;
             }
             let i = i as usize;
-            let (mut tk, mut on) = (t.get(k), live[k]);
+            let (mut on, mut won) = (live[k], false);
             let st = &mut state[i];
             // Roulette from rr_depth on, as `advance` tests it after its `depth += 1`.
             if on && st.depth.wrapping_add(1) as i64 >= rr_depth {
@@ -721,12 +722,15 @@ pub(crate) mod x8 {
                 if sampler.next_1d(i) >= q[k] {
                     on = false;
                 } else {
-                    tk /= q[k];
+                    won = true;
                 }
             }
-            st.set_advanced(tk, e[k], p.get(k), pdf[k], delta[k]);
+            st.set_advanced_row(&rows[k], delta[k]);
+            if won {
+                st.throughput /= q[k];
+            }
             if on {
-                ray[i] = Ray::new(o.get(k), wo.get(k));
+                ray[i] = rays[k];
                 alive[i] = true;
             }
         }
