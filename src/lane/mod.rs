@@ -85,7 +85,7 @@ pub trait Lane:
     /// 32-bit integer lanes of the same width (bit views, exponents, PCG outputs).
     type I32: LaneI32<F = Self, Mask = Self::Mask>;
     /// 64-bit unsigned integer lanes of the same width (PCG state).
-    type U64: LaneU64<I32 = Self::I32>;
+    type U64: LaneU64<I32 = Self::I32> + pcg::PcgOps<Self::I32>;
     /// Number of lanes.
     const WIDTH: usize;
 
