@@ -719,3 +719,14 @@ impl super::pcg::PcgOps<I32x8> for U64x8 {
         }
     }
 }
+
+impl super::LaneLookup<F32x8> for I32x8 {
+    #[inline(always)]
+    fn lookup8(table: &[f32; 8], idx: I32x8) -> F32x8 {
+        // SAFETY: an I32x8 exists only with AVX2; the load reads the 8 floats of `table`.
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(7));
+            F32x8(_mm256_permutevar8x32_ps(_mm256_loadu_ps(table.as_ptr()), i))
+        }
+    }
+}

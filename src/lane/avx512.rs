@@ -616,3 +616,17 @@ impl super::pcg::PcgOps<I32x16> for U64x16 {
         }
     }
 }
+
+impl super::LaneLookup<F32x16> for I32x16 {
+    #[inline(always)]
+    fn lookup8(table: &[f32; 8], idx: I32x16) -> F32x16 {
+        // SAFETY: an I32x16 exists only with AVX-512; the load reads the 8 floats of `table`,
+        // and after the clamp vpermps reads only those (the upper half of the register is never
+        // selected).
+        unsafe {
+            let i = _mm512_min_epu32(idx.0, _mm512_set1_epi32(7));
+            let t = _mm512_castps256_ps512(_mm256_loadu_ps(table.as_ptr()));
+            F32x16(_mm512_permutexvar_ps(i, t))
+        }
+    }
+}

@@ -268,3 +268,10 @@ impl super::pcg::PcgOps<i32> for u64 {
         xorshifted.rotate_right((self >> 59) as u32) as i32
     }
 }
+
+impl super::LaneLookup<f32> for i32 {
+    #[inline(always)]
+    fn lookup8(table: &[f32; 8], idx: i32) -> f32 {
+        table[(idx as u32).min(7) as usize]
+    }
+}
