@@ -712,3 +712,56 @@ impl Avx2 {
         out
     }
 }
+
+impl super::pcg::PcgOps<I32x8> for U64x8 {
+    #[inline(always)]
+    fn gather_u64(table: &[u64], idx: I32x8) -> U64x8 {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize);
+        // SAFETY: an I32x8 exists only with AVX2; after the unsigned clamp every index is
+        // below len, so each of the 8 loads (`vpgatherdq`, four per half) reads inside `table`.
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(table.len() as i32 - 1));
+            let p = table.as_ptr().cast::<i64>();
+            U64x8([
+                _mm256_i32gather_epi64::<8>(p, _mm256_castsi256_si128(i)),
+                _mm256_i32gather_epi64::<8>(p, _mm256_extracti128_si256::<1>(i)),
+            ])
+        }
+    }
+    #[inline(always)]
+    fn xsh_rr(self) -> I32x8 {
+        // SAFETY: a U64x8 exists only with AVX2.
+        unsafe {
+            // x = ((s >> 18) ^ s) >> 27 per 64-bit lane: its low word is the xorshifted
+            // output and its high word is s >> 59, the rotation (bits 46..63 of s pass the xor
+            // unchanged, and x has 37 bits).
+            let a = self.0[0];
+            let a = _mm256_srli_epi64::<27>(_mm256_xor_si256(_mm256_srli_epi64::<18>(a), a));
+            let b = self.0[1];
+            let b = _mm256_srli_epi64::<27>(_mm256_xor_si256(_mm256_srli_epi64::<18>(b), b));
+            // vshufps takes the low (0x88) or the high (0xDD) words of both registers in one
+            // instruction, both in the lane order 0 1 4 5 2 3 6 7.
+            let (fa, fb) = (_mm256_castsi256_ps(a), _mm256_castsi256_ps(b));
+            let lo = _mm256_castps_si256(_mm256_shuffle_ps::<0x88>(fa, fb));
+            let rot = _mm256_castps_si256(_mm256_shuffle_ps::<0xDD>(fa, fb));
+            // Rotate right by rot < 32: vpsllvd gives 0 for a count of 32 (rot = 0).
+            let r = _mm256_or_si256(
+                _mm256_srlv_epi32(lo, rot),
+                _mm256_sllv_epi32(lo, _mm256_sub_epi32(_mm256_set1_epi32(32), rot)),
+            );
+            // Back to the lane order: the 64-bit pieces 0 2 1 3.
+            I32x8(_mm256_permute4x64_epi64::<0xD8>(r))
+        }
+    }
+}
+
+impl super::LaneLookup<F32x8> for I32x8 {
+    #[inline(always)]
+    fn lookup8(table: &[f32; 8], idx: I32x8) -> F32x8 {
+        // SAFETY: an I32x8 exists only with AVX2; the load reads the 8 floats of `table`.
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(7));
+            F32x8(_mm256_permutevar8x32_ps(_mm256_loadu_ps(table.as_ptr()), i))
+        }
+    }
+}

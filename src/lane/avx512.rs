@@ -644,3 +644,59 @@ unsafe fn rows16(f: [F32x16; 8], p: *mut f32) {
         _mm256_storeu_ps(p.add(8 * (12 + m)), _mm512_extractf32x8_ps::<1>(b));
     }
 }
+
+impl super::pcg::PcgOps<I32x16> for U64x16 {
+    #[inline(always)]
+    fn gather_u64(table: &[u64], idx: I32x16) -> U64x16 {
+        assert!(!table.is_empty() && table.len() <= i32::MAX as usize);
+        // SAFETY: an I32x16 exists only with AVX-512; after the unsigned clamp every index is
+        // below len, so each of the 16 loads (`vpgatherdq`, eight per half) reads inside `table`.
+        unsafe {
+            let i = _mm512_min_epu32(idx.0, _mm512_set1_epi32(table.len() as i32 - 1));
+            let p = table.as_ptr().cast::<i64>();
+            U64x16([
+                _mm512_i32gather_epi64::<8>(_mm512_castsi512_si256(i), p),
+                _mm512_i32gather_epi64::<8>(_mm512_extracti64x4_epi64::<1>(i), p),
+            ])
+        }
+    }
+    #[inline(always)]
+    fn xsh_rr(self) -> I32x16 {
+        // SAFETY: a U64x16 exists only with AVX-512.
+        unsafe {
+            // x = ((s >> 18) ^ s) >> 27 per 64-bit lane: its low word is the xorshifted
+            // output, its high word s >> 59, the rotation (as in `avx2.rs`).
+            let a = self.0[0];
+            let a = _mm512_srl_epi64(
+                _mm512_xor_si512(_mm512_srl_epi64(a, count(18)), a),
+                count(27),
+            );
+            let b = self.0[1];
+            let b = _mm512_srl_epi64(
+                _mm512_xor_si512(_mm512_srl_epi64(b, count(18)), b),
+                count(27),
+            );
+            // vpermt2d: the low (even) or the high (odd) words of both registers, in lane order.
+            let even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+            let odd = _mm512_add_epi32(even, _mm512_set1_epi32(1));
+            let lo = _mm512_permutex2var_epi32(a, even, b);
+            let rot = _mm512_permutex2var_epi32(a, odd, b);
+            // vprorvd rotates by the count modulo 32 (rot < 32).
+            I32x16(_mm512_rorv_epi32(lo, rot))
+        }
+    }
+}
+
+impl super::LaneLookup<F32x16> for I32x16 {
+    #[inline(always)]
+    fn lookup8(table: &[f32; 8], idx: I32x16) -> F32x16 {
+        // SAFETY: an I32x16 exists only with AVX-512; the load reads the 8 floats of `table`,
+        // and after the clamp vpermps reads only those (the upper half of the register is never
+        // selected).
+        unsafe {
+            let i = _mm512_min_epu32(idx.0, _mm512_set1_epi32(7));
+            let t = _mm512_castps256_ps512(_mm256_loadu_ps(table.as_ptr()));
+            F32x16(_mm512_permutexvar_ps(i, t))
+        }
+    }
+}

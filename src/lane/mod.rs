@@ -83,9 +83,9 @@ pub trait Lane:
     /// The mask type of comparisons.
     type Mask: LaneMask;
     /// 32-bit integer lanes of the same width (bit views, exponents, PCG outputs).
-    type I32: LaneI32<F = Self, Mask = Self::Mask>;
+    type I32: LaneI32<F = Self, Mask = Self::Mask> + LaneLookup<Self>;
     /// 64-bit unsigned integer lanes of the same width (PCG state).
-    type U64: LaneU64<I32 = Self::I32>;
+    type U64: LaneU64<I32 = Self::I32> + pcg::PcgOps<Self::I32>;
     /// Number of lanes.
     const WIDTH: usize;
 
@@ -237,4 +237,11 @@ pub trait LaneU64: Copy + Debug {
     fn low_u32(self) -> Self::I32;
     /// Lane `i` (tests).
     fn lane(self, i: usize) -> u64;
+}
+
+/// Lookups in a table of 8 floats by a lane index (`vpermps`: one instruction per table where a
+/// gather loads every lane), for the small tables of the light stage.
+pub trait LaneLookup<F> {
+    /// `table[min(idx as u32, 7)]` per lane (the index clamped as in [`Lane::gather`]).
+    fn lookup8(table: &[f32; 8], idx: Self) -> F;
 }

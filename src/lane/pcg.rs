@@ -35,6 +35,20 @@ impl<L: Lane> Pcg<L> {
         Pcg { state, inc }
     }
 
+    /// Per lane `k`, the generator of raw state `states[idx[k]]` and increment `incs[idx[k]]`
+    /// (the batch's columns read by path index; each index clamped as in
+    /// [`PcgOps::gather_u64`]).
+    ///
+    /// # Panics
+    /// If a column is empty or holds more than `i32::MAX` entries.
+    #[inline(always)]
+    pub fn gather(states: &[u64], incs: &[u64], idx: L::I32) -> Self {
+        Pcg {
+            state: L::U64::gather_u64(states, idx),
+            inc: L::U64::gather_u64(incs, idx),
+        }
+    }
+
     /// The raw LCG state and increment of each lane.
     #[inline(always)]
     pub fn parts(&self) -> (L::U64, L::U64) {
@@ -46,9 +60,7 @@ impl<L: Lane> Pcg<L> {
     pub fn next_u32(&mut self) -> L::I32 {
         let old = self.state;
         self.state = old.mul(old.splat(MULT)).add(self.inc);
-        let xorshifted = old.shr::<18>().xor(old).shr::<27>().low_u32();
-        let rot = old.shr::<59>().low_u32();
-        xorshifted.rotate_right(rot)
+        old.xsh_rr()
     }
 
     /// A float uniform in [0, 1) per lane: 24 random bits, exactly representable, never 1.
@@ -57,4 +69,18 @@ impl<L: Lane> Pcg<L> {
         let f = self.next_u32().shr::<8>().to_f32();
         f * f.splat(1.0 / 16_777_216.0)
     }
+}
+
+/// The operations of PCG32 that each lane width writes with its own instructions (at the end of
+/// `scalar.rs`, `avx2.rs` and `avx512.rs`): every lane type's `U64` has them (`Lane::U64`).
+pub trait PcgOps<I>: Sized {
+    /// `table[idx]` per lane (`vpgatherdq` at widths 8 and 16: the batch's state and increment
+    /// columns read by path index), each index clamped as in `Lane::gather3`.
+    ///
+    /// # Panics
+    /// If `table` is empty or holds more than `i32::MAX` entries.
+    fn gather_u64(table: &[u64], idx: I) -> Self;
+    /// PCG32's XSH-RR output of the LCG state `self` per lane (O'Neill 2014, section 6.3.1):
+    /// `(((s >> 18) ^ s) >> 27) as u32` rotated right by `s >> 59`, as `i32` bits.
+    fn xsh_rr(self) -> I;
 }

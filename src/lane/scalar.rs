@@ -256,3 +256,22 @@ impl LaneU64 for u64 {
         self
     }
 }
+
+impl super::pcg::PcgOps<i32> for u64 {
+    #[inline(always)]
+    fn gather_u64(table: &[u64], idx: i32) -> u64 {
+        table[(idx as u32 as usize).min(table.len() - 1)]
+    }
+    #[inline(always)]
+    fn xsh_rr(self) -> i32 {
+        let xorshifted = (((self >> 18) ^ self) >> 27) as u32;
+        xorshifted.rotate_right((self >> 59) as u32) as i32
+    }
+}
+
+impl super::LaneLookup<f32> for i32 {
+    #[inline(always)]
+    fn lookup8(table: &[f32; 8], idx: i32) -> f32 {
+        table[(idx as u32).min(7) as usize]
+    }
+}

@@ -8,7 +8,9 @@
 //!   microfacets, PCG32) or nearly agree (warps);
 //! - `avx512`: the experimental 16-wide AVX-512 type equals width 1 bit for bit (skipped
 //!   without AVX-512);
-//! - `beckmann`: the f32 visible-Beckmann sampler against its f64 reference (`beckmann_ref`).
+//! - `beckmann`: the f32 visible-Beckmann sampler against its f64 reference (`beckmann_ref`);
+//! - `pcg_ops`, `lookup`: the per-width PCG32 operations and small-table lookups against plain
+//!   scalar references (every state class; edge floats and out-of-range indices).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
@@ -22,4 +24,6 @@ mod beckmann;
 mod beckmann_ref;
 mod bits;
 mod harness;
+mod lookup;
+mod pcg_ops;
 mod scalar;

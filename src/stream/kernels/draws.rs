@@ -76,11 +76,13 @@ pub(crate) mod x8 {
         let mut n = Numbers::default();
         {
             let (states, incs) = samplers.pcg_mut();
-            let (mut state, mut inc) = ([0u64; W], [0u64; W]);
-            for (k, &i) in ids.iter().enumerate() {
-                (state[k], inc[k]) = (states[i as usize], incs[i as usize]);
+            // The lanes' states and increments gathered from the columns by path index.
+            let mut idx = [0i32; W];
+            for (d, &i) in idx.iter_mut().zip(ids) {
+                *d = i as i32;
             }
-            let mut rng = Pcg::<T::F>::from_parts(avx.load_u64(&state), avx.load_u64(&inc));
+            let idx = avx.load_i32(&idx);
+            let mut rng = Pcg::<T::F>::gather(states, incs, idx);
             // Plain statements, not a closure: a closure would be compiled outside
             // `Avx2::run`'s target features (see `kernels`).
             if d.light {

@@ -362,15 +362,16 @@ pub(crate) mod x8 {
     use glam::Vec2;
     use std::rc::Rc;
 
-    /// The kinds of `Batch::light_lanes` (index + 1; [`KINDS`]).
-    const KIND_TRIANGLE: u8 = 1;
-    const KIND_RECTANGLE: u8 = 2;
-    const KIND_SPHERE: u8 = 3;
-    const KIND_POINT: u8 = 4;
-    const KIND_SPOT: u8 = 5;
-    const KIND_DIRECTIONAL: u8 = 6;
-    const KIND_CONSTANT: u8 = 7;
-    const KIND_ENVMAP: u8 = 8;
+    /// The kinds of `Batch::light_lanes` (index + 1; [`KINDS`]), as `i32`s: [`Gather`]'s
+    /// `kind` column is loaded into integer lanes as it is.
+    const KIND_TRIANGLE: i32 = 1;
+    const KIND_RECTANGLE: i32 = 2;
+    const KIND_SPHERE: i32 = 3;
+    const KIND_POINT: i32 = 4;
+    const KIND_SPOT: i32 = 5;
+    const KIND_DIRECTIONAL: i32 = 6;
+    const KIND_CONSTANT: i32 = 7;
+    const KIND_ENVMAP: i32 = 8;
 
     /// Three columns of 8 floats (a 3-vector per lane).
     #[derive(Clone, Copy)]
@@ -427,16 +428,83 @@ pub(crate) mod x8 {
         }
     }
 
-    /// Column `col` of a [`Table`] at each lane's selection count.
+    /// Column `col` of a [`Table`] at each lane's selection count (`SMALL`: every count is
+    /// below 8, so the column's first 8 entries are looked up by a permute, not gathered).
     #[inline(always)]
-    fn by_count<T: Wide<W>, const W: usize>(col: &[f32; 10], count: T::I) -> [f32; W] {
-        T::F::gather(col, count).to_array()
+    fn by_count<T: Wide<W>, const W: usize, const SMALL: bool>(
+        col: &[f32; 10],
+        count: T::I,
+    ) -> [f32; W] {
+        match col.first_chunk::<8>() {
+            Some(head) if SMALL => lookup8::<T::F>(head, count).to_array(),
+            _ => T::F::gather(col, count).to_array(),
+        }
+    }
+
+    /// `table[idx]` per lane for a table of at most 8 entries (`lane::LaneLookup::lookup8`:
+    /// `vpermps`, where a gather would load every lane).
+    #[inline(always)]
+    fn lookup8<L: Lane>(table: &[f32; 8], idx: L::I32) -> L {
+        <L::I32 as crate::lane::LaneLookup<L>>::lookup8(table, idx)
+    }
+
+    /// A mesh light of at most 8 triangles as tables by triangle, for
+    /// [`Gather::triangles_x8`]'s lookups (a permute per column instead of the gathers of the
+    /// vertex indices, then of their positions and normals); built from the mesh at the first
+    /// chunk of a run that picks its triangles.
+    #[derive(Clone, Copy)]
+    struct SmallMesh {
+        /// The shape it was built from (`u32::MAX`: none yet).
+        shape: u32,
+        /// The triangle CDF (`Shape::triangle_cdf`), zero after its `m` entries.
+        cdf: [f32; 8],
+        /// Corner `c`'s position and vertex normal, component by component, per triangle.
+        pos: [[[f32; 8]; 3]; 3],
+        norm: [[[f32; 8]; 3]; 3],
+    }
+
+    /// The largest mesh light [`SmallMesh`] holds.
+    const SMALL_MESH: usize = 8;
+
+    impl SmallMesh {
+        const NONE: SmallMesh = SmallMesh {
+            shape: u32::MAX,
+            cdf: [0.0; 8],
+            pos: [[[0.0; 8]; 3]; 3],
+            norm: [[[0.0; 8]; 3]; 3],
+        };
+
+        /// The tables of mesh `shape` (`m` ≤ 8 triangles, triangle CDF `cdf`).
+        fn new(shape: u32, mesh: &crate::geometry::TriMesh, cdf: &[f32]) -> SmallMesh {
+            let mut s = SmallMesh::NONE;
+            s.shape = shape;
+            for (t, &c) in cdf.iter().enumerate().take(SMALL_MESH) {
+                s.cdf[t] = c;
+                for (corner, &j) in mesh.indices[t].iter().enumerate() {
+                    let p = mesh.positions[j as usize];
+                    (
+                        s.pos[corner][0][t],
+                        s.pos[corner][1][t],
+                        s.pos[corner][2][t],
+                    ) = (p.x, p.y, p.z);
+                    if let Some(ns) = &mesh.normals {
+                        let n = ns[j as usize];
+                        (
+                            s.norm[corner][0][t],
+                            s.norm[corner][1][t],
+                            s.norm[corner][2][t],
+                        ) = (n.x, n.y, n.z);
+                    }
+                }
+            }
+            s
+        }
     }
 
     /// The lanes whose kind (`kinds`: [`Gather`]'s `kind` column as integers) is `c`.
     #[inline(always)]
-    fn is_kind<T: Wide<W>, const W: usize>(kinds: T::I, c: u8) -> T::M {
-        kinds.eq(kinds.splat(c as i32))
+    fn is_kind<T: Wide<W>, const W: usize>(kinds: T::I, c: i32) -> T::M {
+        kinds.eq(kinds.splat(c))
     }
 
     /// `new` where `on`, else the column `old` (`WHOLE`: `new` everywhere).
@@ -500,7 +568,7 @@ pub(crate) mod x8 {
         finite: [bool; W],
         one: [bool; W],
         /// The lane's light sampled 8-wide: 0 none, else `KIND_*`.
-        kind: [u8; W],
+        kind: [i32; W],
         counts: [u32; KINDS],
         tpos: [Cols3<W>; 3],
         tnorm: [Cols3<W>; 3],
@@ -544,6 +612,11 @@ pub(crate) mod x8 {
         /// The light selection in lanes, made from the scene's light sampler at the first
         /// [`Gather::add_x8`] (a gather serves one scene; shared, not copied, per chunk).
         select: Option<Rc<Select>>,
+        /// The small mesh light last picked from ([`SmallMesh`]).
+        small: SmallMesh,
+        /// Whether [`Gather::triangles_x8`] may use [`SmallMesh`] (tests turn it off to
+        /// compare with the gathers).
+        small_ok: bool,
     }
 
     /// `LightSampler::sample`'s emitter and probability for 8 lanes at once: the count of CDF
@@ -742,7 +815,17 @@ pub(crate) mod x8 {
                 n_deferred: 0,
                 tri_shape: 0,
                 select: None,
+                small: SmallMesh::NONE,
+                small_ok: true,
             }
+        }
+
+        /// The same gather with [`SmallMesh`] turned off: every mesh light's triangles
+        /// gathered (tests: the lookups equal the gathers).
+        #[cfg(test)]
+        pub(crate) fn without_small_meshes(mut self) -> Gather<W> {
+            self.small_ok = false;
+            self
         }
 
         /// The light points of the lanes `on` of a chunk (`lights`: `LaneLight::table`;
@@ -788,7 +871,12 @@ pub(crate) mod x8 {
             // One emitter keeps the whole-chunk path below (`add_uniform`), which is cheaper
             // than the table's gathers.
             if let (Some(t), SelectMode::Counted) = (&sel.table, sel.mode) {
-                self.add_table(avx, t, &sel.pmf, count, light_only, on, u);
+                // Counts 0..=n + 1: below 8, the columns are looked up by a permute.
+                if sel.n + 2 <= 8 {
+                    self.add_table::<T, true>(avx, t, &sel.pmf, count, light_only, on, u);
+                } else {
+                    self.add_table::<T, false>(avx, t, &sel.pmf, count, light_only, on, u);
+                }
                 return;
             }
             let mut emitter = [sel.emitter[0]; W];
@@ -812,7 +900,8 @@ pub(crate) mod x8 {
                     }
                 }
             }
-            if self.add_uniform(lights, light_only, on, &emitter, &pmf, u) {
+            let same = sel.mode == SelectMode::One;
+            if self.add_uniform(lights, light_only, on, &emitter, &pmf, u, same) {
                 if self.n_deferred > 0 {
                     self.triangles_x8::<T, true>(avx, scene, u);
                 }
@@ -836,7 +925,7 @@ pub(crate) mod x8 {
         /// dropped by [`Gather::finish`]'s masks).
         #[inline(always)]
         #[allow(clippy::too_many_arguments)]
-        fn add_table<T: Wide<W>>(
+        fn add_table<T: Wide<W>, const SMALL: bool>(
             &mut self,
             avx: T,
             t: &Table,
@@ -848,14 +937,14 @@ pub(crate) mod x8 {
         ) {
             // A function, not a closure (a closure is compiled outside the lanes' target
             // features, `kernels`).
-            let g = by_count::<T, W>;
+            let g = by_count::<T, W, SMALL>;
             let zi = count.splat(0);
             let kind = T::I::select(avx.mask(on), T::I::gather_u32(&t.kind, count), zi);
             let kind = kind.to_array();
             // Lane k of three columns (`kind`, `self.kind`, `self.one`): an index loop.
             #[allow(clippy::needless_range_loop)]
             for k in 0..W {
-                let c = kind[k] as u8;
+                let c = kind[k];
                 self.kind[k] = c;
                 if c != 0 {
                     self.counts[c as usize - 1] += 1;
@@ -886,7 +975,8 @@ pub(crate) mod x8 {
         /// Where every lane of `on` selected the same emitter and it is an untextured mesh or
         /// rectangle light, [`Gather::add_selected`]'s writes for all of them at once (whole
         /// columns: the lanes off have no `kind` and are dropped by [`Gather::finish`]'s
-        /// masks); returns whether it did (else nothing is written).
+        /// masks); returns whether it did (else nothing is written). `same`: every lane's
+        /// `emitter` is the same (one emitter takes every count), not tested again.
         #[inline(always)]
         #[allow(clippy::too_many_arguments)]
         fn add_uniform(
@@ -897,12 +987,13 @@ pub(crate) mod x8 {
             emitter: &[u32; W],
             pmf: &[f32; W],
             u: &[[f32; W]; 2],
+            same: bool,
         ) -> bool {
             let Some(k0) = (0..W).find(|&k| on[k]) else {
                 return true;
             };
             let e = emitter[k0];
-            if (0..W).any(|k| on[k] && emitter[k] != e) {
+            if !same && (0..W).any(|k| on[k] && emitter[k] != e) {
                 return false;
             }
             let n_on = on.iter().filter(|&&o| o).count() as u32;
@@ -937,12 +1028,11 @@ pub(crate) mod x8 {
                 }
                 _ => return false,
             };
+            // Per lane without a branch (the lanes off keep their values).
             for (k, &o) in on.iter().enumerate() {
-                if o {
-                    self.kind[k] = kind;
-                    self.textured[k] = false;
-                    self.one[k] = light_only;
-                }
+                self.kind[k] = if o { kind } else { self.kind[k] };
+                self.textured[k] &= !o;
+                self.one[k] = if o { light_only } else { self.one[k] };
             }
             self.counts[kind as usize - 1] += n_on;
             (self.tux, self.tuy) = (u[0], u[1]);
@@ -971,25 +1061,44 @@ pub(crate) mod x8 {
             };
             let cdf = shape.triangle_cdf();
             let m = cdf.len();
+            // At most 8 triangles: the CDF and the corners looked up by permutes (`SmallMesh`).
+            let small = m <= SMALL_MESH && self.small_ok;
+            if small && self.small.shape != self.tri_shape {
+                self.small = SmallMesh::new(self.tri_shape, mesh, cdf);
+            }
             let on = avx.mask(&self.deferred);
             let uy = avx.load(&u[1]);
             let zi = avx.load_i32(&[0; W]);
             let (one_i, last) = (zi.splat(1), zi.splat(m as i32 - 1));
-            // The partition point, by powers of two from the largest <= m down: take a step
-            // where the entry before its end is <= u.y (and the end is within the CDF).
-            let mut count = zi;
-            let mut step = 1usize << (usize::BITS - 1 - m.leading_zeros());
-            while step > 0 {
-                let next = count.add(zi.splat(step as i32));
-                let c = T::F::gather_slice(cdf, next.sub(one_i));
-                let take = c.le(uy) & !next.gt(zi.splat(m as i32));
-                count = T::I::select(take, next, count);
-                step >>= 1;
-            }
-            let i = T::I::select(count.gt(last), last, count);
             let zero = avx.splat(0.0);
-            let lo = T::F::select(i.eq(zi), zero, T::F::gather_slice(cdf, i.sub(one_i)));
-            let w = T::F::gather_slice(cdf, i) - lo;
+            let (i, lo, w) = if small {
+                // The partition point as the count of the entries <= u.y (a prefix of the
+                // nondecreasing CDF: the same count as the search below).
+                let t = &self.small.cdf;
+                let mut count = zi;
+                for &c in &t[..m] {
+                    count = count.add(T::I::select(avx.splat(c).le(uy), one_i, zi));
+                }
+                let i = T::I::select(count.gt(last), last, count);
+                let lo = T::F::select(i.eq(zi), zero, lookup8::<T::F>(t, i.sub(one_i)));
+                (i, lo, lookup8::<T::F>(t, i) - lo)
+            } else {
+                // The partition point, by powers of two from the largest <= m down: take a
+                // step where the entry before its end is <= u.y (and the end is within the
+                // CDF).
+                let mut count = zi;
+                let mut step = 1usize << (usize::BITS - 1 - m.leading_zeros());
+                while step > 0 {
+                    let next = count.add(zi.splat(step as i32));
+                    let c = T::F::gather_slice(cdf, next.sub(one_i));
+                    let take = c.le(uy) & !next.gt(zi.splat(m as i32));
+                    count = T::I::select(take, next, count);
+                    step >>= 1;
+                }
+                let i = T::I::select(count.gt(last), last, count);
+                let lo = T::F::select(i.eq(zi), zero, T::F::gather_slice(cdf, i.sub(one_i)));
+                (i, lo, T::F::gather_slice(cdf, i) - lo)
+            };
             // f32::clamp(0, 1 − ε/2), as written there.
             let r = (uy - lo) / w;
             let r = T::F::select(r.lt(zero), zero, r);
@@ -1005,22 +1114,36 @@ pub(crate) mod x8 {
             let flat = mesh.indices.as_flattened();
             let i3 = i.add(i).add(i);
             for c in 0..3 {
-                let vi = T::I::gather_u32(flat, i3.add(zi.splat(c as i32)));
-                let [x, y, z] = T::F::gather3(&mesh.positions, vi);
-                self.tpos[c] = Cols3::store(keep::<T, W, WHOLE>(
-                    avx,
-                    on,
-                    V3::new(x, y, z),
-                    &self.tpos[c],
-                ));
-                if let Some(ns) = &mesh.normals {
-                    let [x, y, z] = T::F::gather3(ns, vi);
-                    self.tnorm[c] = Cols3::store(keep::<T, W, WHOLE>(
-                        avx,
-                        on,
-                        V3::new(x, y, z),
-                        &self.tnorm[c],
-                    ));
+                // Written out per branch, not through closures (which may be left out of line,
+                // outside the SIMD target features).
+                let (p, n) = if small {
+                    let (sp, sn) = (&self.small.pos[c], &self.small.norm[c]);
+                    let p = V3::new(
+                        lookup8::<T::F>(&sp[0], i),
+                        lookup8::<T::F>(&sp[1], i),
+                        lookup8::<T::F>(&sp[2], i),
+                    );
+                    let n = V3::new(
+                        lookup8::<T::F>(&sn[0], i),
+                        lookup8::<T::F>(&sn[1], i),
+                        lookup8::<T::F>(&sn[2], i),
+                    );
+                    (p, n)
+                } else {
+                    let vi = T::I::gather_u32(flat, i3.add(zi.splat(c as i32)));
+                    let [x, y, z] = T::F::gather3(&mesh.positions, vi);
+                    let n = match &mesh.normals {
+                        Some(ns) => {
+                            let [x, y, z] = T::F::gather3(ns, vi);
+                            V3::new(x, y, z)
+                        }
+                        None => V3::new(zero, zero, zero),
+                    };
+                    (V3::new(x, y, z), n)
+                };
+                self.tpos[c] = Cols3::store(keep::<T, W, WHOLE>(avx, on, p, &self.tpos[c]));
+                if mesh.normals.is_some() {
+                    self.tnorm[c] = Cols3::store(keep::<T, W, WHOLE>(avx, on, n, &self.tnorm[c]));
                 }
             }
             if mesh.normals.is_some() {
@@ -1328,7 +1451,7 @@ pub(crate) mod x8 {
             let kind = self.kind;
             // The lanes' kinds as integers, compared 8-wide per kind (not 8 byte compares and
             // a mask built from them).
-            let kinds = avx.load_i32(&kind.map(i32::from));
+            let kinds = avx.load_i32(&kind);
             if self.counts[0] > 0 {
                 let q = sample_triangle(
                     &Triangle {
@@ -1547,12 +1670,37 @@ pub(super) mod tests {
                     p.set(k, Vec3::new(f(-2.5, 2.5), f(0.0, 3.6), f(-2.5, 2.5)));
                 }
                 let mut g = Gather::<8>::new();
+                let mut slow = Gather::<8>::new().without_small_meshes();
                 let mut kinds = [0u64; KINDS];
-                let lp = avx.run(|| {
+                let (lp, lp_slow) = avx.run(|| {
                     g.reset();
                     g.add_x8(avx, scene, &lights, false, &on, &u_sel, &u, &p);
-                    g.finish(avx, scene, p.load(avx), &mut kinds)
+                    slow.reset();
+                    slow.add_x8(avx, scene, &lights, false, &on, &u_sel, &u, &p);
+                    (
+                        g.finish(avx, scene, p.load(avx), &mut kinds),
+                        slow.finish(avx, scene, p.load(avx), &mut kinds),
+                    )
                 });
+                // The small meshes' lookups equal the gathers bit for bit in every lane (the
+                // octahedron light has 8 triangles), the lanes without a point included.
+                let bits = |l: &crate::stream::kernels::diffuse::LightPoint<crate::lane::F32x8>| {
+                    let c = |v: V3<crate::lane::F32x8>| {
+                        [v.x.to_array(), v.y.to_array(), v.z.to_array()]
+                            .map(|a| a.map(f32::to_bits))
+                    };
+                    (
+                        l.some.to_array(),
+                        c(l.d),
+                        c(l.p),
+                        c(l.n),
+                        l.pdf.to_array().map(f32::to_bits),
+                        c(l.value),
+                        l.finite.to_array(),
+                        (l.has_n.to_array(), l.weight_one.to_array()),
+                    )
+                };
+                assert_eq!(bits(&lp), bits(&lp_slow), "{name} {round}");
                 let some = lp.some.to_array();
                 let (d, q, n) = (Cols3::store(lp.d), Cols3::store(lp.p), Cols3::store(lp.n));
                 let (pdf, value) = (lp.pdf.to_array(), Cols3::store(lp.value));
