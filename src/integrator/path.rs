@@ -34,9 +34,10 @@ struct PrevVertex {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
 enum PrevKind {
-    None,
-    Delta,
+    // Smooth 0 and Delta 1, so that `set_prev` stores the `delta` flag's byte as it is.
     Smooth,
+    Delta,
+    None,
 }
 
 /// One path between two vertices: everything the estimator carries from one bounce to the next.

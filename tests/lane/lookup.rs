@@ -47,7 +47,12 @@ where
         );
         for k in 0..W {
             let want = table[(idx[k] as u32).min(7) as usize];
-            assert_eq!(got[k].to_bits(), want.to_bits(), "width {W} index {}", idx[k]);
+            assert_eq!(
+                got[k].to_bits(),
+                want.to_bits(),
+                "width {W} index {}",
+                idx[k]
+            );
             assert_eq!(
                 i32::lookup8(&table, idx[k]).to_bits(),
                 want.to_bits(),
