@@ -105,24 +105,7 @@ impl Avx512 {
             // Per 128-bit lane L of row k (L0: ray 2k fields 0–3, L1: its fields 4–7, L2 and
             // L3: ray 2k + 1's), as in `transpose8`: u[j] holds element j of each lane of rows
             // 0–3, u[4 + j] of rows 4–7.
-            let t0 = _mm512_unpacklo_ps(v[0], v[1]);
-            let t1 = _mm512_unpackhi_ps(v[0], v[1]);
-            let t2 = _mm512_unpacklo_ps(v[2], v[3]);
-            let t3 = _mm512_unpackhi_ps(v[2], v[3]);
-            let t4 = _mm512_unpacklo_ps(v[4], v[5]);
-            let t5 = _mm512_unpackhi_ps(v[4], v[5]);
-            let t6 = _mm512_unpacklo_ps(v[6], v[7]);
-            let t7 = _mm512_unpackhi_ps(v[6], v[7]);
-            let u = [
-                _mm512_shuffle_ps::<0x44>(t0, t2),
-                _mm512_shuffle_ps::<0xee>(t0, t2),
-                _mm512_shuffle_ps::<0x44>(t1, t3),
-                _mm512_shuffle_ps::<0xee>(t1, t3),
-                _mm512_shuffle_ps::<0x44>(t4, t6),
-                _mm512_shuffle_ps::<0xee>(t4, t6),
-                _mm512_shuffle_ps::<0x44>(t5, t7),
-                _mm512_shuffle_ps::<0xee>(t5, t7),
-            ];
+            let u = quads16(v);
             // Field j of ray 2i is u[j]'s element i (lane L0), of ray 2i + 1 its element 8 + i
             // (lane L2); rays 8–15 likewise in u[4 + j] (indices 16 up); fields 4–7 are 4
             // elements further (lanes L1 and L3).
@@ -602,6 +585,34 @@ impl Avx512 {
     }
 }
 
+/// The 4×4 transposes of [`super::F32x8::transpose8`] within each 128-bit lane of 8 rows
+/// (unpacks, then shuffles): element j of each 128-bit lane of rows 0–3 in `u[j]`, of rows
+/// 4–7 in `u[4 + j]`. Moves only. Shared by [`Avx512::ray_fields16`] and `rows16`.
+///
+/// # Safety
+/// AVX-512F must be available.
+#[inline(always)]
+unsafe fn quads16(v: [__m512; 8]) -> [__m512; 8] {
+    let t0 = _mm512_unpacklo_ps(v[0], v[1]);
+    let t1 = _mm512_unpackhi_ps(v[0], v[1]);
+    let t2 = _mm512_unpacklo_ps(v[2], v[3]);
+    let t3 = _mm512_unpackhi_ps(v[2], v[3]);
+    let t4 = _mm512_unpacklo_ps(v[4], v[5]);
+    let t5 = _mm512_unpackhi_ps(v[4], v[5]);
+    let t6 = _mm512_unpacklo_ps(v[6], v[7]);
+    let t7 = _mm512_unpackhi_ps(v[6], v[7]);
+    [
+        _mm512_shuffle_ps::<0x44>(t0, t2),
+        _mm512_shuffle_ps::<0xee>(t0, t2),
+        _mm512_shuffle_ps::<0x44>(t1, t3),
+        _mm512_shuffle_ps::<0xee>(t1, t3),
+        _mm512_shuffle_ps::<0x44>(t4, t6),
+        _mm512_shuffle_ps::<0xee>(t4, t6),
+        _mm512_shuffle_ps::<0x44>(t5, t7),
+        _mm512_shuffle_ps::<0xee>(t5, t7),
+    ]
+}
+
 /// Writes lane `r` of the 8 fields `f` as floats `8r .. 8r + 8` from `p`, for r in 0..16. The
 /// 4×4 transposes of [`super::F32x8::transpose8`] within each 128-bit lane give, in 128-bit
 /// lane L of `u[m]`, fields 0–3 of row 4L + m (`u[4 + m]`: its fields 4–7); one two-source
@@ -614,24 +625,7 @@ unsafe fn rows16(f: [F32x16; 8], p: *mut f32) {
     let v = [
         f[0].0, f[1].0, f[2].0, f[3].0, f[4].0, f[5].0, f[6].0, f[7].0,
     ];
-    let t0 = _mm512_unpacklo_ps(v[0], v[1]);
-    let t1 = _mm512_unpackhi_ps(v[0], v[1]);
-    let t2 = _mm512_unpacklo_ps(v[2], v[3]);
-    let t3 = _mm512_unpackhi_ps(v[2], v[3]);
-    let t4 = _mm512_unpacklo_ps(v[4], v[5]);
-    let t5 = _mm512_unpackhi_ps(v[4], v[5]);
-    let t6 = _mm512_unpacklo_ps(v[6], v[7]);
-    let t7 = _mm512_unpackhi_ps(v[6], v[7]);
-    let u = [
-        _mm512_shuffle_ps::<0x44>(t0, t2),
-        _mm512_shuffle_ps::<0xee>(t0, t2),
-        _mm512_shuffle_ps::<0x44>(t1, t3),
-        _mm512_shuffle_ps::<0xee>(t1, t3),
-        _mm512_shuffle_ps::<0x44>(t4, t6),
-        _mm512_shuffle_ps::<0xee>(t4, t6),
-        _mm512_shuffle_ps::<0x44>(t5, t7),
-        _mm512_shuffle_ps::<0xee>(t5, t7),
-    ];
+    let u = quads16(v);
     // Rows m and 4 + m (128-bit lanes 0 and 1), then 8 + m and 12 + m (lanes 2, 3).
     let lo = _mm512_setr_epi32(0, 1, 2, 3, 16, 17, 18, 19, 4, 5, 6, 7, 20, 21, 22, 23);
     let hi = _mm512_add_epi32(lo, _mm512_set1_epi32(8));
