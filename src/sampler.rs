@@ -358,27 +358,7 @@ impl Samplers {
     pub fn stream(&mut self, i: usize) -> Stream<'_> {
         Stream { cols: self, i }
     }
-
-    /// Streams `ids` as [`Sampler`]s (for code that takes a slice of them and the indices
-    /// `0..W`); [`Self::put_rows`] writes them back.
-    #[inline(always)]
-    pub fn rows<const W: usize>(&self, ids: &[u32; W]) -> [Sampler; W] {
-        core::array::from_fn(|k| self.get(ids[k] as usize))
-    }
-
-    /// Writes back what [`Self::rows`] gave: stream `ids[k]` continues as `rows[k]`, the lanes
-    /// written from the last to the first, so that where an id repeats (a padded chunk's extra
-    /// lanes repeat its last path, and draw nothing) its first lane's stream is kept.
-    #[inline(always)]
-    pub fn put_rows<const W: usize>(&mut self, ids: &[u32; W], rows: &[Sampler; W]) {
-        for k in (0..W).rev() {
-            self.set(ids[k] as usize, &rows[k]);
-        }
-    }
 }
-
-/// The indices `0..8`, for [`Samplers::rows`]' copies.
-pub const LANES8: [u32; 8] = [0, 1, 2, 3, 4, 5, 6, 7];
 
 /// One stream of a [`Samplers`] as a [`Sampler`] ([`Samplers::at`]); written back on drop.
 pub struct SamplerAt<'a> {
@@ -639,8 +619,8 @@ mod tests {
     }
 
     /// The columns behave as a `Vec<Sampler>`: streams pushed, drawn from through `at`,
-    /// `next_1d` on the columns, `rows` / `put_rows` (a repeated id keeps its first lane's
-    /// stream) and `set` give the numbers the rows give, and `all_plain` / `plain` follow each
+    /// `next_1d` and `next_2d` on the columns, `stream` and `set` give the numbers the rows
+    /// give, and `all_plain` / `plain` follow each
     /// stream's `plain_parts` as stratified streams spend their 2-D draws (`all_plain` only
     /// where no stream has strata).
     #[test]
@@ -683,15 +663,6 @@ mod tests {
                         let (x, v, y) = two(&mut rows[i]);
                         assert_eq!((a.to_bits(), b.to_bits()), (x.to_bits(), y.to_bits()));
                         assert_eq!(bits(u), bits(v), "{d:?}");
-                    }
-                    2 => {
-                        let (j, m) = ((i + 1) % rows.len(), (i + 2) % rows.len());
-                        let ids = [i as u32, j as u32, m as u32, i as u32];
-                        let mut got = cols.rows(&ids);
-                        let u = got[0].next_2d();
-                        assert_eq!(u, rows[i].next_2d());
-                        assert_eq!(got[1].next_1d(), rows[j].next_1d());
-                        cols.put_rows(&ids, &got);
                     }
                     _ => {
                         let mut s = rows[(i + 1) % rows.len()].clone();
