@@ -123,13 +123,16 @@ impl Avx512 {
             ]
         }
     }
-    /// A mask from sixteen booleans.
+    /// A mask from sixteen booleans: one 16-byte load and a byte test (`vptestmb`), not 16
+    /// booleans widened to `i32` lanes.
     #[inline(always)]
     pub fn mask(self, a: &[bool; 16]) -> M16 {
-        M16(a
-            .iter()
-            .enumerate()
-            .fold(0u16, |m, (i, &b)| m | (b as u16) << i))
+        // SAFETY: the token proves AVX-512BW and VL (`Avx512::detect`); the load reads the 16
+        // bytes of `a`, each 0 or 1 (a `bool`), so the test sets bit k exactly where `a[k]`.
+        M16(unsafe {
+            let b = _mm_loadu_si128(a.as_ptr().cast());
+            _mm_test_epi8_mask(b, b)
+        })
     }
 }
 
@@ -692,5 +695,14 @@ impl super::LaneLookup<F32x16> for I32x16 {
             let t = _mm512_castps256_ps512(_mm256_loadu_ps(table.as_ptr()));
             F32x16(_mm512_permutexvar_ps(i, t))
         }
+    }
+}
+
+impl Avx512 {
+    /// A mask from the low sixteen bits of `bits` (lane `k` set when bit `k` is; the inverse
+    /// of [`M16::bits`]): a move to a mask register, no per-lane work.
+    #[inline(always)]
+    pub fn mask_bits(self, bits: u32) -> M16 {
+        M16(bits as u16)
     }
 }

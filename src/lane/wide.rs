@@ -36,6 +36,12 @@ pub trait Wide<const W: usize>: Copy + core::fmt::Debug {
     fn load_u64(self, a: &[u64; W]) -> Self::U;
     /// A mask from `W` booleans.
     fn mask(self, a: &[bool; W]) -> Self::M;
+    /// A mask from the low `W` bits of `bits` (lane `k` set when bit `k` is; higher bits
+    /// ignored): flags kept as bits become masks without `[bool; W]` stores and loads.
+    fn mask_bits(self, bits: u32) -> Self::M;
+    /// The lanes of `m` as the low `W` bits of a number (bit `k` for lane `k`; the inverse of
+    /// [`Wide::mask_bits`]).
+    fn bits(m: Self::M) -> u32;
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -86,6 +92,14 @@ macro_rules! wide {
             #[inline(always)]
             fn mask(self, a: &[bool; $w]) -> $m {
                 <$tok>::mask(self, a)
+            }
+            #[inline(always)]
+            fn mask_bits(self, bits: u32) -> $m {
+                <$tok>::mask_bits(self, bits)
+            }
+            #[inline(always)]
+            fn bits(m: $m) -> u32 {
+                m.bits()
             }
         }
     };

@@ -10,7 +10,9 @@
 //!   without AVX-512);
 //! - `beckmann`: the f32 visible-Beckmann sampler against its f64 reference (`beckmann_ref`);
 //! - `pcg_ops`, `lookup`: the per-width PCG32 operations and small-table lookups against plain
-//!   scalar references (every state class; edge floats and out-of-range indices).
+//!   scalar references (every state class; edge floats and out-of-range indices);
+//! - `masks`: masks from booleans and from bits, and back to bits, at width 8 and 16 (every
+//!   pattern, bits above the width ignored).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
@@ -25,5 +27,6 @@ mod beckmann_ref;
 mod bits;
 mod harness;
 mod lookup;
+mod masks;
 mod pcg_ops;
 mod scalar;

@@ -501,6 +501,29 @@ pub(crate) mod x8 {
         }
     }
 
+    /// The number of lanes set in `bits` (at most 16 lanes): two lookups in a table of the
+    /// bytes' counts (the lanes' target features have no `popcnt`, which `count_ones` would
+    /// otherwise spell out in ~12 instructions).
+    #[inline(always)]
+    fn lane_count(bits: u32) -> u32 {
+        const COUNTS: [u8; 256] = {
+            let mut t = [0u8; 256];
+            let mut b = 0;
+            while b < 256 {
+                t[b] = (b as u32).count_ones() as u8;
+                b += 1;
+            }
+            t
+        };
+        COUNTS[(bits & 0xff) as usize] as u32 + COUNTS[(bits >> 8 & 0xff) as usize] as u32
+    }
+
+    /// Sets or clears bit `k` of `bits` by `on`.
+    #[inline(always)]
+    fn set_bit(bits: &mut u32, k: usize, on: bool) {
+        *bits = (*bits & !(1 << k)) | (on as u32) << k;
+    }
+
     /// The lanes whose kind (`kinds`: [`Gather`]'s `kind` column as integers) is `c`.
     #[inline(always)]
     fn is_kind<T: Wide<W>, const W: usize>(kinds: T::I, c: i32) -> T::M {
@@ -563,16 +586,20 @@ pub(crate) mod x8 {
         ln: Cols3<W>,
         lv: Cols3<W>,
         lpdf: [f32; W],
-        some: [bool; W],
-        has_n: [bool; W],
-        finite: [bool; W],
-        one: [bool; W],
+        /// Per-lane flags as bits (bit `k` for lane `k`): masks in [`Gather::finish`] by
+        /// `Wide::mask_bits`, without `[bool; W]` stores read back as vectors.
+        some: u32,
+        has_n: u32,
+        finite: u32,
+        /// No MIS weight (delta lights, `light_only`).
+        one: u32,
         /// The lane's light sampled 8-wide: 0 none, else `KIND_*`.
         kind: [i32; W],
         counts: [u32; KINDS],
         tpos: [Cols3<W>; 3],
         tnorm: [Cols3<W>; 3],
-        tnorm_some: [bool; W],
+        /// Bits: the lane's triangle has vertex normals.
+        tnorm_some: u32,
         raxes: [Cols3<W>; 4],
         rn: Cols3<W>,
         /// A sphere's centre, a point or spot light's position, a directional light's direction.
@@ -592,21 +619,22 @@ pub(crate) mod x8 {
         sel: [f32; W],
         tux: [f32; W],
         tuy: [f32; W],
-        /// The lane's radiance (area) or intensity factor (spot) is emitter `emitter[k]`'s
-        /// texture, looked up in [`Gather::finish`].
-        textured: [bool; W],
+        /// Bits: the lane's radiance (area) or intensity factor (spot) is emitter
+        /// `emitter[k]`'s texture, looked up in [`Gather::finish`].
+        textured: u32,
         /// A textured triangle's corner uvs (u, v per corner), where `tuv_some` (else the
         /// barycentrics are its uv, as `Shape::sample_position`).
         tuv: [[[f32; W]; 2]; 3],
-        tuv_some: [bool; W],
+        /// Bits: where the textured triangle has corner uvs.
+        tuv_some: u32,
         /// A textured spot light's `tan cutoff`.
         uv_factor: [f32; W],
         /// Lanes of the chunk with a textured light (`textured` is written by every lane that
         /// picks a triangle, rectangle or spot light, and read only where this is positive).
         n_textured: u32,
-        /// The lanes whose triangle (of mesh `tri_shape`, untextured) [`Gather::add_x8`] picks
-        /// 8-wide after its lane-by-lane pass, and how many there are.
-        deferred: [bool; W],
+        /// The lanes (bits) whose triangle (of mesh `tri_shape`, untextured) [`Gather::add_x8`]
+        /// picks 8-wide after its lane-by-lane pass, and how many there are.
+        deferred: u32,
         n_deferred: u32,
         tri_shape: u32,
         /// The light selection in lanes, made from the scene's light sampler at the first
@@ -649,8 +677,12 @@ pub(crate) mod x8 {
     /// them in [`Gather::finish`]).
     #[derive(Clone, Copy, Debug, Default)]
     struct Table {
-        /// The `KIND_*` of each count's emitter.
+        /// The `KIND_*` of each count's emitter, as integers and as the bits of floats (looked
+        /// up by a permute).
         kind: [u32; 10],
+        kind_bits: [f32; 10],
+        /// Bit `c − 1` for each `KIND_*` `c` some count's emitter has.
+        kinds: u32,
         /// The radiance (intensity, irradiance) of each count's emitter.
         le: [[f32; 10]; 3],
         /// A rectangle's columns (x, y, z, translation) and normal, and `1 / area`.
@@ -706,6 +738,8 @@ pub(crate) mod x8 {
                     _ => return None,
                 };
                 t.kind[c] = kind as u32;
+                t.kind_bits[c] = f32::from_bits(kind as u32);
+                t.kinds |= 1 << (kind - 1);
                 set3(&mut t.le, le);
             }
             Some(t)
@@ -761,15 +795,15 @@ pub(crate) mod x8 {
         /// ~2 KB per chunk cost ~350 instructions per sample on the Cornell box).
         #[inline(always)]
         pub(crate) fn reset(&mut self) {
-            self.some = [false; W];
-            self.has_n = [false; W];
-            self.finite = [false; W];
-            self.one = [false; W];
+            self.some = 0;
+            self.has_n = 0;
+            self.finite = 0;
+            self.one = 0;
             self.kind = [0; W];
             self.counts = [0; KINDS];
-            self.tnorm_some = [false; W];
+            self.tnorm_some = 0;
             self.n_textured = 0;
-            self.deferred = [false; W];
+            self.deferred = 0;
             self.n_deferred = 0;
         }
 
@@ -783,15 +817,15 @@ pub(crate) mod x8 {
                 ln: Cols3::default(),
                 lv: Cols3::default(),
                 lpdf: [1.0; W],
-                some: [false; W],
-                has_n: [false; W],
-                finite: [false; W],
-                one: [false; W],
+                some: 0,
+                has_n: 0,
+                finite: 0,
+                one: 0,
                 kind: [0; W],
                 counts: [0; KINDS],
                 tpos: Default::default(),
                 tnorm: Default::default(),
-                tnorm_some: [false; W],
+                tnorm_some: 0,
                 raxes: Default::default(),
                 rn: Cols3::default(),
                 center: Cols3::default(),
@@ -806,12 +840,12 @@ pub(crate) mod x8 {
                 sel: [1.0; W],
                 tux: [0.0; W],
                 tuy: [0.0; W],
-                textured: [false; W],
+                textured: 0,
                 tuv: [[[0.0; W]; 2]; 3],
-                tuv_some: [false; W],
+                tuv_some: 0,
                 uv_factor: [1.0; W],
                 n_textured: 0,
-                deferred: [false; W],
+                deferred: 0,
                 n_deferred: 0,
                 tri_shape: 0,
                 select: None,
@@ -846,15 +880,34 @@ pub(crate) mod x8 {
             u: &[[f32; W]; 2],
             p: &Cols3<W>,
         ) {
-            if self.select.is_none() {
-                self.select = Some(Rc::new(Select::new(scene, lights)));
-            }
-            let Some(sel) = self.select.clone() else {
-                return;
+            // The selection moved out and back (not an `Rc` clone and drop per chunk).
+            let sel = match self.select.take() {
+                Some(s) => s,
+                None => Rc::new(Select::new(scene, lights)),
             };
+            self.add_with(avx, &sel, scene, lights, light_only, on, u_sel, u, p);
+            self.select = Some(sel);
+        }
+
+        /// [`Gather::add_x8`] with the scene's selection `sel`.
+        #[inline(always)]
+        #[allow(clippy::too_many_arguments)]
+        fn add_with<T: Wide<W>>(
+            &mut self,
+            avx: T,
+            sel: &Select,
+            scene: &Scene,
+            lights: &[Option<LaneLight>],
+            light_only: bool,
+            on: &[bool; W],
+            u_sel: &[f32; W],
+            u: &[[f32; W]; 2],
+            p: &Cols3<W>,
+        ) {
             if sel.mode == SelectMode::Empty {
                 return;
             }
+            let on_bits = T::bits(avx.mask(on));
             // Distribution1D::sample's count of the CDF entries <= u, 8-wide (one count,
             // 0, for every lane where one emitter takes every count).
             let count = if sel.mode == SelectMode::Counted {
@@ -873,9 +926,9 @@ pub(crate) mod x8 {
             if let (Some(t), SelectMode::Counted) = (&sel.table, sel.mode) {
                 // Counts 0..=n + 1: below 8, the columns are looked up by a permute.
                 if sel.n + 2 <= 8 {
-                    self.add_table::<T, true>(avx, t, &sel.pmf, count, light_only, on, u);
+                    self.add_table::<T, true>(avx, t, &sel.pmf, count, light_only, on_bits, u);
                 } else {
-                    self.add_table::<T, false>(avx, t, &sel.pmf, count, light_only, on, u);
+                    self.add_table::<T, false>(avx, t, &sel.pmf, count, light_only, on_bits, u);
                 }
                 return;
             }
@@ -901,7 +954,9 @@ pub(crate) mod x8 {
                 }
             }
             let same = sel.mode == SelectMode::One;
-            if self.add_uniform(lights, light_only, on, &emitter, &pmf, u, same) {
+            if self.add_uniform(
+                avx, lights, light_only, on, on_bits, &emitter, &pmf, u, same,
+            ) {
                 if self.n_deferred > 0 {
                     self.triangles_x8::<T, true>(avx, scene, u);
                 }
@@ -919,10 +974,11 @@ pub(crate) mod x8 {
             }
         }
 
-        /// [`Gather::add_selected`]'s writes for the lanes `on` whose selection counts are
-        /// `count` (`pmf`: [`Select::pmf`]), from the selection's [`Table`]: every column
+        /// [`Gather::add_selected`]'s writes for the lanes `on` (bits) whose selection counts
+        /// are `count` (`pmf`: [`Select::pmf`]), from the selection's [`Table`]: every column
         /// 8-wide, gathered by count (written whole: the lanes off have no `kind` and are
-        /// dropped by [`Gather::finish`]'s masks).
+        /// dropped by [`Gather::finish`]'s masks); the kinds' lane counts and the delta flags
+        /// from a compare per kind of the table, not lane by lane.
         #[inline(always)]
         #[allow(clippy::too_many_arguments)]
         fn add_table<T: Wide<W>, const SMALL: bool>(
@@ -932,27 +988,34 @@ pub(crate) mod x8 {
             pmf: &[f32; 10],
             count: T::I,
             light_only: bool,
-            on: &[bool; W],
+            on: u32,
             u: &[[f32; W]; 2],
         ) {
             // A function, not a closure (a closure is compiled outside the lanes' target
             // features, `kernels`).
             let g = by_count::<T, W, SMALL>;
             let zi = count.splat(0);
-            let kind = T::I::select(avx.mask(on), T::I::gather_u32(&t.kind, count), zi);
-            let kind = kind.to_array();
-            // Lane k of three columns (`kind`, `self.kind`, `self.one`): an index loop.
-            #[allow(clippy::needless_range_loop)]
-            for k in 0..W {
-                let c = kind[k];
-                self.kind[k] = c;
-                if c != 0 {
-                    self.counts[c as usize - 1] += 1;
-                    // Delta lights take no MIS weight.
-                    self.one[k] = light_only || matches!(c, KIND_POINT | KIND_DIRECTIONAL);
+            // Every count's kind is positive (`Table::new`): the lanes with a kind are `on`.
+            let kind = match t.kind_bits.first_chunk::<8>() {
+                Some(head) if SMALL => lookup8::<T::F>(head, count).to_bits(),
+                _ => T::I::gather_u32(&t.kind, count),
+            };
+            let kind = T::I::select(avx.mask_bits(on), kind, zi);
+            self.kind = kind.to_array();
+            // Per kind of the table: its lanes, counted, and the delta lights' (no MIS weight).
+            let mut delta = 0u32;
+            let mut kinds = t.kinds;
+            while kinds != 0 {
+                let c = kinds.trailing_zeros() as i32 + 1;
+                kinds &= kinds - 1;
+                let lanes = T::bits(is_kind::<T, W>(kind, c));
+                self.counts[c as usize - 1] += lane_count(lanes);
+                if matches!(c, KIND_POINT | KIND_DIRECTIONAL) {
+                    delta |= lanes;
                 }
             }
-            self.textured = [false; W];
+            self.one = (self.one & !on) | if light_only { on } else { delta };
+            self.textured = 0;
             if t.rect {
                 for (col, a) in self.raxes.iter_mut().zip(&t.axes) {
                     *col = Cols3([g(&a[0], count), g(&a[1], count), g(&a[2], count)]);
@@ -972,31 +1035,34 @@ pub(crate) mod x8 {
             self.lv = Cols3([g(&t.le[0], count), g(&t.le[1], count), g(&t.le[2], count)]);
         }
 
-        /// Where every lane of `on` selected the same emitter and it is an untextured mesh or
-        /// rectangle light, [`Gather::add_selected`]'s writes for all of them at once (whole
-        /// columns: the lanes off have no `kind` and are dropped by [`Gather::finish`]'s
-        /// masks); returns whether it did (else nothing is written). `same`: every lane's
-        /// `emitter` is the same (one emitter takes every count), not tested again.
+        /// Where every lane of `on` (`on_bits`: the same lanes as bits) selected the same
+        /// emitter and it is an untextured mesh or rectangle light, [`Gather::add_selected`]'s
+        /// writes for all of them at once (whole columns: the lanes off have no `kind` and are
+        /// dropped by [`Gather::finish`]'s masks); returns whether it did (else nothing is
+        /// written). `same`: every lane's `emitter` is the same (one emitter takes every
+        /// count), not tested again.
         #[inline(always)]
         #[allow(clippy::too_many_arguments)]
-        fn add_uniform(
+        fn add_uniform<T: Wide<W>>(
             &mut self,
+            avx: T,
             lights: &[Option<LaneLight>],
             light_only: bool,
             on: &[bool; W],
+            on_bits: u32,
             emitter: &[u32; W],
             pmf: &[f32; W],
             u: &[[f32; W]; 2],
             same: bool,
         ) -> bool {
-            let Some(k0) = (0..W).find(|&k| on[k]) else {
+            if on_bits == 0 {
                 return true;
-            };
-            let e = emitter[k0];
+            }
+            let e = emitter[on_bits.trailing_zeros() as usize];
             if !same && (0..W).any(|k| on[k] && emitter[k] != e) {
                 return false;
             }
-            let n_on = on.iter().filter(|&&o| o).count() as u32;
+            let n_on = lane_count(on_bits);
             let (kind, le) = match lights[e as usize] {
                 Some(LaneLight::Triangles {
                     shape,
@@ -1005,7 +1071,7 @@ pub(crate) mod x8 {
                     radiance,
                     textured: false,
                 }) => {
-                    self.deferred = *on;
+                    self.deferred = on_bits;
                     self.n_deferred = n_on;
                     self.tri_shape = shape;
                     self.inv_area = [inv_area; W];
@@ -1028,12 +1094,11 @@ pub(crate) mod x8 {
                 }
                 _ => return false,
             };
-            // Per lane without a branch (the lanes off keep their values).
-            for (k, &o) in on.iter().enumerate() {
-                self.kind[k] = if o { kind } else { self.kind[k] };
-                self.textured[k] &= !o;
-                self.one[k] = if o { light_only } else { self.one[k] };
-            }
+            // In lanes and bits (the lanes off keep their values).
+            let old = avx.load_i32(&self.kind);
+            self.kind = T::I::select(avx.mask_bits(on_bits), old.splat(kind), old).to_array();
+            self.textured &= !on_bits;
+            self.one = (self.one & !on_bits) | if light_only { on_bits } else { 0 };
             self.counts[kind as usize - 1] += n_on;
             (self.tux, self.tuy) = (u[0], u[1]);
             self.sel = *pmf;
@@ -1066,7 +1131,7 @@ pub(crate) mod x8 {
             if small && self.small.shape != self.tri_shape {
                 self.small = SmallMesh::new(self.tri_shape, mesh, cdf);
             }
-            let on = avx.mask(&self.deferred);
+            let on = avx.mask_bits(self.deferred);
             let uy = avx.load(&u[1]);
             let zi = avx.load_i32(&[0; W]);
             let (one_i, last) = (zi.splat(1), zi.splat(m as i32 - 1));
@@ -1147,9 +1212,7 @@ pub(crate) mod x8 {
                 }
             }
             if mesh.normals.is_some() {
-                for k in 0..W {
-                    self.tnorm_some[k] |= self.deferred[k];
-                }
+                self.tnorm_some |= self.deferred;
             }
         }
 
@@ -1181,17 +1244,17 @@ pub(crate) mod x8 {
             let Some(ll) = lane_light else {
                 if let Some(ds) = scene.emitters[e].sample_direct(&scene.shapes, p, u) {
                     if ds.value != Spectrum::ZERO {
-                        self.some[k] = true;
+                        self.some |= 1 << k;
                         self.ld.set(k, ds.d);
                         self.lpp.set(k, ds.p);
                         if let Some(n) = ds.n {
-                            self.has_n[k] = true;
+                            self.has_n |= 1 << k;
                             self.ln.set(k, n);
                         }
-                        self.finite[k] = ds.dist.is_finite();
+                        set_bit(&mut self.finite, k, ds.dist.is_finite());
                         self.lpdf[k] = ds.pdf * sel_pdf;
                         self.lv.set(k, ds.value);
-                        self.one[k] = ds.delta || light_only;
+                        set_bit(&mut self.one, k, ds.delta || light_only);
                     }
                 }
                 return;
@@ -1207,8 +1270,8 @@ pub(crate) mod x8 {
                 } if defer && !textured && (self.n_deferred == 0 || self.tri_shape == shape) => {
                     // The triangle and its rescaled u.y in `triangles_x8`.
                     self.kind[k] = KIND_TRIANGLE;
-                    self.textured[k] = false;
-                    self.deferred[k] = true;
+                    set_bit(&mut self.textured, k, false);
+                    self.deferred |= 1 << k;
                     self.n_deferred += 1;
                     self.tri_shape = shape;
                     (self.inv_area[k], self.sign[k]) = (inv_area, sign);
@@ -1233,16 +1296,16 @@ pub(crate) mod x8 {
                         col.set(k, mesh.positions[j]);
                     }
                     if let Some(ns) = &mesh.normals {
-                        self.tnorm_some[k] = true;
+                        self.tnorm_some |= 1 << k;
                         for (col, &j) in self.tnorm.iter_mut().zip(&idx) {
                             col.set(k, ns[j]);
                         }
                     }
-                    self.textured[k] = textured;
+                    set_bit(&mut self.textured, k, textured);
                     if textured {
                         self.n_textured += 1;
                         self.emitter[k] = e as u32;
-                        self.tuv_some[k] = mesh.uvs.is_some();
+                        set_bit(&mut self.tuv_some, k, mesh.uvs.is_some());
                         if let Some(uvs) = &mesh.uvs {
                             for (col, &j) in self.tuv.iter_mut().zip(&idx) {
                                 (col[0][k], col[1][k]) = (uvs[j].x, uvs[j].y);
@@ -1260,7 +1323,7 @@ pub(crate) mod x8 {
                     textured,
                 } => {
                     self.kind[k] = KIND_RECTANGLE;
-                    self.textured[k] = textured;
+                    set_bit(&mut self.textured, k, textured);
                     if textured {
                         self.n_textured += 1;
                         self.emitter[k] = e as u32;
@@ -1303,7 +1366,7 @@ pub(crate) mod x8 {
                     beam_width,
                 } => {
                     self.kind[k] = KIND_SPOT;
-                    self.textured[k] = textured;
+                    set_bit(&mut self.textured, k, textured);
                     if textured {
                         self.n_textured += 1;
                         self.emitter[k] = e as u32;
@@ -1362,47 +1425,48 @@ pub(crate) mod x8 {
             self.sel[k] = sel_pdf;
             self.lv.set(k, le);
             // Delta lights take no MIS weight.
-            self.one[k] = light_only || matches!(kind, KIND_POINT | KIND_SPOT | KIND_DIRECTIONAL);
+            let delta = matches!(kind, KIND_POINT | KIND_SPOT | KIND_DIRECTIONAL);
+            set_bit(&mut self.one, k, light_only || delta);
         }
 
-        /// Whether a lane of `on` has a textured light.
+        /// Whether a lane of `on` (bits) has a textured light.
         #[inline(always)]
-        fn any_textured(&self, on: &[bool; W]) -> bool {
-            self.n_textured > 0 && (0..W).any(|k| on[k] && self.textured[k])
+        fn any_textured(&self, on: u32) -> bool {
+            self.n_textured > 0 && on & self.textured != 0
         }
 
-        /// The textures of the textured lanes of `on` where `ok`, at `uv`: per distinct emitter
-        /// among them, a bitmap 8-wide (`BitmapTexture::eval_x8`, the other lanes' uvs set to
-        /// 0.5 so that they stay in its exact range), any other texture lane by lane, both
-        /// `Texture::eval` bit for bit. Returns the lanes looked up and their values.
+        /// The textures of the textured lanes of `on` (bits) where `ok`, at `uv`: per distinct
+        /// emitter among them, a bitmap 8-wide (`BitmapTexture::eval_x8`, the other lanes' uvs
+        /// set to 0.5 so that they stay in its exact range), any other texture lane by lane,
+        /// both `Texture::eval` bit for bit. Returns the lanes looked up and their values.
         #[inline(always)]
         fn textures<T: Wide<W>>(
             &self,
             avx: T,
             scene: &Scene,
-            on: &[bool; W],
-            ok: [bool; W],
+            on: u32,
+            ok: T::M,
             uv: V2<T::F>,
         ) -> (T::M, V3<T::F>) {
-            let look: [bool; W] = std::array::from_fn(|k| on[k] && ok[k] && self.textured[k]);
+            let look = on & T::bits(ok) & self.textured;
             let half = uv.x.splat(0.5);
             let mut out = V3::new(half, half, half);
-            let mut done = [false; W];
-            for k0 in 0..W {
-                if !look[k0] || done[k0] {
-                    continue;
+            let mut left = look;
+            while left != 0 {
+                let e = self.emitter[left.trailing_zeros() as usize];
+                let mut mine = 0u32;
+                for k in 0..W {
+                    if left >> k & 1 == 1 && self.emitter[k] == e {
+                        mine |= 1 << k;
+                    }
                 }
-                let e = self.emitter[k0];
-                let mine: [bool; W] = std::array::from_fn(|k| look[k] && self.emitter[k] == e);
-                for (d, &y) in done.iter_mut().zip(&mine) {
-                    *d |= y;
-                }
+                left &= !mine;
                 let tex = match &scene.emitters[e as usize] {
                     Emitter::Area(a) => &a.radiance,
                     Emitter::Spot(s) => s.texture.as_ref().expect("LaneLight::table: textured"),
                     _ => unreachable!("LaneLight::table: an area or spot light"),
                 };
-                let mm = avx.mask(&mine);
+                let mm = avx.mask_bits(mine);
                 let v = match tex {
                     Texture::Bitmap(b) => b.eval_x8(
                         avx,
@@ -1411,7 +1475,7 @@ pub(crate) mod x8 {
                     t => {
                         let (u, v) = (uv.x.to_array(), uv.y.to_array());
                         let mut c = Cols3::default();
-                        for k in (0..W).filter(|&k| mine[k]) {
+                        for k in (0..W).filter(|&k| mine >> k & 1 == 1) {
                             c.set(k, t.eval(Vec2::new(u[k], v[k])));
                         }
                         c.load(avx)
@@ -1419,7 +1483,7 @@ pub(crate) mod x8 {
                 };
                 out = V3::select(mm, v, out);
             }
-            (avx.mask(&look), out)
+            (avx.mask_bits(look), out)
         }
 
         /// The 8 light points seen from `ref_p` (the lanes' surface points of `scene`), the
@@ -1433,31 +1497,31 @@ pub(crate) mod x8 {
             ref_p: V3<T::F>,
             light_lanes: &mut [u64; KINDS],
         ) -> LightPoint<T::F> {
-            // Masks through `avx.mask` directly: a closure here may be left out of line,
-            // outside the SIMD target features (`tests/cli/simd_calls.rs`).
+            // Masks through `avx.mask_bits` directly (from the flags' bits): a closure here
+            // may be left out of line, outside the SIMD target features
+            // (`tests/cli/simd_calls.rs`).
             let mut lp = LightPoint {
-                some: avx.mask(&self.some),
+                some: avx.mask_bits(self.some),
                 d: self.ld.load(avx),
                 p: self.lpp.load(avx),
                 n: self.ln.load(avx),
-                has_n: avx.mask(&self.has_n),
-                finite: avx.mask(&self.finite),
+                has_n: avx.mask_bits(self.has_n),
+                finite: avx.mask_bits(self.finite),
                 pdf: avx.load(&self.lpdf),
                 value: self.lv.load(avx),
-                weight_one: avx.mask(&self.one),
+                weight_one: avx.mask_bits(self.one),
             };
             let su = V2::new(avx.load(&self.tux), avx.load(&self.tuy));
             let sel8 = avx.load(&self.sel);
-            let kind = self.kind;
             // The lanes' kinds as integers, compared 8-wide per kind (not 8 byte compares and
             // a mask built from them).
-            let kinds = avx.load_i32(&kind);
+            let kinds = avx.load_i32(&self.kind);
             if self.counts[0] > 0 {
                 let q = sample_triangle(
                     &Triangle {
                         p: load3(avx, &self.tpos),
                         n: load3(avx, &self.tnorm),
-                        has_normals: avx.mask(&self.tnorm_some),
+                        has_normals: avx.mask_bits(self.tnorm_some),
                         inv_area: avx.load(&self.inv_area),
                         sign: avx.load(&self.sign),
                         u: su,
@@ -1490,14 +1554,15 @@ pub(crate) mod x8 {
                 );
                 merge(&mut lp, is_kind::<T, W>(kinds, KIND_SPHERE), &q, sel8);
             }
-            // The textured area lights' lanes (the flags built only when a lane has one).
+            // The textured area lights' lanes (the compares made only when a lane has one).
             let on_area = if self.n_textured > 0 {
-                kind.map(|c| c == KIND_TRIANGLE || c == KIND_RECTANGLE)
+                let area =
+                    is_kind::<T, W>(kinds, KIND_TRIANGLE) | is_kind::<T, W>(kinds, KIND_RECTANGLE);
+                T::bits(area)
             } else {
-                [false; W]
+                0
             };
-            if self.any_textured(&on_area) {
-                let on = on_area;
+            if self.any_textured(on_area) {
                 // AreaLight::sample_direct's `radiance.eval(uv)` at the sampled point (triangles:
                 // `Shape::sample_position`'s uv from the same barycentrics; rectangles: `u`),
                 // then `nee::sample_emitter`'s zero test.
@@ -1510,14 +1575,14 @@ pub(crate) mod x8 {
                 let (v0, v1, v2) = (avx.load(&t[0][1]), avx.load(&t[1][1]), avx.load(&t[2][1]));
                 let tri_u = (u0 * b0 + u1 * b.x) + u2 * b.y;
                 let tri_v = (v0 * b0 + v1 * b.x) + v2 * b.y;
-                let has = avx.mask(&self.tuv_some);
+                let has = avx.mask_bits(self.tuv_some);
                 let tri_uv = V2::new(T::F::select(has, tri_u, b.x), T::F::select(has, tri_v, b.y));
                 let rect = is_kind::<T, W>(kinds, KIND_RECTANGLE);
                 let uv = V2::new(
                     T::F::select(rect, su.x, tri_uv.x),
                     T::F::select(rect, su.y, tri_uv.y),
                 );
-                let (look, t) = self.textures(avx, scene, &on, lp.some.to_array(), uv);
+                let (look, t) = self.textures(avx, scene, on_area, lp.some, uv);
                 let z = sel8.splat(0.0);
                 let zero = t.x.eq(z) & t.y.eq(z) & t.z.eq(z);
                 lp.value = V3::select(look, t, lp.value);
@@ -1546,14 +1611,15 @@ pub(crate) mod x8 {
                     beam_width,
                 };
                 let mut q = em::sample_spot(&spot, ref_p);
-                let on = kind.map(|c| c == KIND_SPOT);
-                if self.any_textured(&on) {
+                let on = is_kind::<T, W>(kinds, KIND_SPOT);
+                let on_bits = T::bits(on);
+                if self.any_textured(on_bits) {
                     // SpotLight::sample_direct: `value *= texture(uv)`, where it is sampled.
                     let uv = em::spot_uv(&spot.to_local, q.d, avx.load(&self.uv_factor));
-                    let (look, t) = self.textures(avx, scene, &on, q.ok.to_array(), uv);
+                    let (look, t) = self.textures(avx, scene, on_bits, q.ok, uv);
                     q.value = V3::select(look, q.value * t, q.value);
                 }
-                merge_free(&mut lp, avx.mask(&on), &q, sel8);
+                merge_free(&mut lp, on, &q, sel8);
             }
             if self.counts[5] > 0 {
                 let q = em::sample_directional(self.center.load(avx), lv, ref_p);
@@ -1564,7 +1630,7 @@ pub(crate) mod x8 {
                 merge_free(&mut lp, is_kind::<T, W>(kinds, KIND_CONSTANT), &q, sel8);
             }
             if self.counts[7] > 0 {
-                let on = kind.map(|c| c == KIND_ENVMAP);
+                let on = is_kind::<T, W>(kinds, KIND_ENVMAP);
                 let e = em::env_direction(&Env {
                     to_world: load3(avx, &self.mat),
                     to_local: load3(avx, &self.mat2),
@@ -1572,13 +1638,13 @@ pub(crate) mod x8 {
                     uv: su,
                 });
                 // The table's density and the texels, lane by lane (data-dependent lookups).
-                let ok = e.ok.to_array();
+                let look = T::bits(on & e.ok);
                 let (u, v) = (e.uv.x.to_array(), e.uv.y.to_array());
                 let px = e.patch.x.to_array();
                 let mut patch_pdf = [0.0f32; W];
                 let mut value = Cols3::default();
                 for k in 0..W {
-                    if on[k] && ok[k] {
+                    if look >> k & 1 == 1 {
                         let Emitter::EnvMap(env) = &scene.emitters[self.emitter[k] as usize] else {
                             unreachable!("LaneLight::table: an envmap")
                         };
@@ -1595,7 +1661,7 @@ pub(crate) mod x8 {
                     pdf,
                     value: value.load(avx),
                 };
-                merge_free(&mut lp, avx.mask(&on), &q, sel8);
+                merge_free(&mut lp, on, &q, sel8);
             }
             for (total, c) in light_lanes.iter_mut().zip(self.counts) {
                 *total += c as u64;
