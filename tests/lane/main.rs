@@ -10,7 +10,8 @@
 //!   without AVX-512);
 //! - `beckmann`: the f32 visible-Beckmann sampler against its f64 reference (`beckmann_ref`);
 //! - `pcg_ops`, `lookup`: the per-width PCG32 operations and small-table lookups against plain
-//!   scalar references (every state class; edge floats and out-of-range indices).
+//!   scalar references (every state class; edge floats and out-of-range indices);
+//! - `rows4`: the 8-wide rows-of-4 transposes move every bit (edge floats, NaN payloads).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
@@ -26,4 +27,5 @@ mod bits;
 mod harness;
 mod lookup;
 mod pcg_ops;
+mod rows4;
 mod scalar;
