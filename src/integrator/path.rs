@@ -66,6 +66,7 @@ pub struct PathState {
 /// The previous vertex as the MIS weight of emission sees it ([`PathState::prev_mis`]): the
 /// weight is `power_heuristic(pdf, light_pdf)` when `mis`, 0 when `zero`, else 1 (camera rays,
 /// delta lobes, BSDF sampling only); `p` is the reference point of the light's density.
+#[cfg(test)]
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PrevMis {
     pub p: Vec3,
@@ -300,11 +301,50 @@ impl PathState {
         self.depth = self.depth.wrapping_add(1);
     }
 
+    /// This struct's first eight floats as one row: [throughput x, y, z, η, previous vertex
+    /// x, y, z, its BSDF density] (the row [`Self::set_advanced_row`] writes; the point and
+    /// density are meaningful where [`Self::prev_kind_i32`] is 0). Contiguous (`repr(C)`), so the
+    /// stream renderer's emission stage reads it as one 32-byte load per path and transposes
+    /// 8 paths' rows into lanes (`crate::stream::emission`).
+    #[inline(always)]
+    pub(crate) fn row8(&self) -> [f32; 8] {
+        let (t, p) = (self.throughput, self.prev_p);
+        [t.x, t.y, t.z, self.eta, p.x, p.y, p.z, self.prev_pdf]
+    }
+
+    /// The radiance and depth as one row of 4: [result x, y, z, depth's bits] (floats 8–11 of
+    /// the `repr(C)` struct, one 16-byte load).
+    #[inline(always)]
+    pub(crate) fn result_row(&self) -> [f32; 4] {
+        let r = self.result;
+        [r.x, r.y, r.z, f32::from_bits(self.depth)]
+    }
+
+    /// Writes [`Self::result_row`]'s row back: the radiance from its first three floats, the
+    /// depth from the fourth's bits (the emission stage writes back the depth it read, so the
+    /// row is one 16-byte store).
+    #[inline(always)]
+    pub(crate) fn set_result_row(&mut self, row: &[f32; 4]) {
+        self.result = Vec3::new(row[0], row[1], row[2]);
+        self.depth = row[3].to_bits();
+    }
+
+    /// Whether the previous vertex has a density (a vertex not sampled through a delta lobe,
+    /// and not the camera), as an `i32` lane value: 0 where it has (`PrevKind::Smooth`'s byte),
+    /// else 1 or 2. The emission stage compares 8 of them at once for [`Self::prev_mis`]'s
+    /// flags.
+    #[inline(always)]
+    pub(crate) fn prev_kind_i32(&self) -> i32 {
+        self.prev_kind as i32
+    }
+
     /// What the MIS weight of emission seen by this path's ray needs of its previous vertex
     /// ([`emission_weight`] unrolled for the stream renderer's emission stage in lanes,
     /// `crate::stream::emission`): that vertex's point and BSDF density, and whether the weight
     /// is the power heuristic against the light's density (`mis`), 0 (`zero`), or else 1.
-    #[inline(always)]
+    /// The reference of the emission stage's lane form (which reads the fields as rows:
+    /// [`Self::row8`], [`Self::prev_kind_i32`]) in its tests.
+    #[cfg(test)]
     pub(crate) fn prev_mis(&self, cfg: &PathSettings) -> PrevMis {
         match self.prev() {
             Some(v) if !v.delta => PrevMis {

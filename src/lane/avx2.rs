@@ -765,3 +765,61 @@ impl super::LaneLookup<F32x8> for I32x8 {
         }
     }
 }
+
+impl Avx2 {
+    /// Eight rows of 4 floats as 4 fields in lanes: lane `k` of field `j` is `rows[k][j]`
+    /// (moves only). Rows `k` and `k + 4` share a register (one 16-byte load each), then the
+    /// 4×4 transposes of [`F32x8::transpose8`] within each 128-bit half. For structures read a
+    /// row of 4 per path (the stream renderer's path states: radiance and depth).
+    #[inline(always)]
+    pub fn fields4(self, rows: &[[f32; 4]; 8]) -> [F32x8; 4] {
+        // SAFETY: the token proves AVX; each load reads the 4 floats of one row of `rows`.
+        unsafe {
+            // (Written out: a closure or `array::from_fn` may be compiled out of line, without
+            // the target features.)
+            let r = |k: usize| rows[k].as_ptr();
+            let v = [
+                _mm256_set_m128(_mm_loadu_ps(r(4)), _mm_loadu_ps(r(0))),
+                _mm256_set_m128(_mm_loadu_ps(r(5)), _mm_loadu_ps(r(1))),
+                _mm256_set_m128(_mm_loadu_ps(r(6)), _mm_loadu_ps(r(2))),
+                _mm256_set_m128(_mm_loadu_ps(r(7)), _mm_loadu_ps(r(3))),
+            ];
+            let t0 = _mm256_unpacklo_ps(v[0], v[1]);
+            let t1 = _mm256_unpackhi_ps(v[0], v[1]);
+            let t2 = _mm256_unpacklo_ps(v[2], v[3]);
+            let t3 = _mm256_unpackhi_ps(v[2], v[3]);
+            [
+                F32x8(_mm256_shuffle_ps::<0x44>(t0, t2)),
+                F32x8(_mm256_shuffle_ps::<0xee>(t0, t2)),
+                F32x8(_mm256_shuffle_ps::<0x44>(t1, t3)),
+                F32x8(_mm256_shuffle_ps::<0xee>(t1, t3)),
+            ]
+        }
+    }
+
+    /// The inverse of [`Avx2::fields4`]: eight lanes' rows of the 4 fields `f` (row `k` is
+    /// lane `k` of `f[0]`, …, `f[3]`; moves only, one 16-byte store per row).
+    #[inline(always)]
+    pub fn rows4(self, f: [F32x8; 4]) -> [[f32; 4]; 8] {
+        let mut out = [[0.0f32; 4]; 8];
+        // SAFETY: the token proves AVX; each store writes the 4 floats of one row of `out`.
+        unsafe {
+            let t0 = _mm256_unpacklo_ps(f[0].0, f[1].0);
+            let t1 = _mm256_unpackhi_ps(f[0].0, f[1].0);
+            let t2 = _mm256_unpacklo_ps(f[2].0, f[3].0);
+            let t3 = _mm256_unpackhi_ps(f[2].0, f[3].0);
+            // Rows m (low half) and m + 4 (high half) in u[m].
+            let u = [
+                _mm256_shuffle_ps::<0x44>(t0, t2),
+                _mm256_shuffle_ps::<0xee>(t0, t2),
+                _mm256_shuffle_ps::<0x44>(t1, t3),
+                _mm256_shuffle_ps::<0xee>(t1, t3),
+            ];
+            for (m, r) in u.iter().enumerate() {
+                _mm_storeu_ps(out[m].as_mut_ptr(), _mm256_castps256_ps128(*r));
+                _mm_storeu_ps(out[m + 4].as_mut_ptr(), _mm256_extractf128_ps::<1>(*r));
+            }
+        }
+        out
+    }
+}

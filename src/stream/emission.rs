@@ -18,7 +18,6 @@
 
 use crate::emitter::Emitter;
 use crate::geometry::shapes::ShapeKind;
-use crate::integrator::path::PrevMis;
 use crate::lane::vec::V3;
 use crate::lane::Lane;
 use crate::scene::Scene;
@@ -174,7 +173,8 @@ impl Lights {
     }
 }
 
-/// The previous vertices of `L::WIDTH` paths as the MIS weight sees them ([`PrevMis`]).
+/// The previous vertices of `L::WIDTH` paths as the MIS weight sees them (`PathState::prev_mis`'s
+/// fields in lanes).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Prev<L: Lane> {
     pub p: V3<L>,
@@ -314,8 +314,8 @@ pub(crate) mod x8 {
     use super::*;
     use crate::geometry::Ray;
     use crate::integrator::path::PathState;
-    use crate::integrator::PathSettings;
-    use crate::lane::{Avx2, F32x8};
+    use crate::integrator::{PathSettings, Strategy};
+    use crate::lane::{Avx2, F32x8, LaneI32};
     use crate::stream::batch::{cols, Batch};
     use crate::stream::kernels::light::x8::Cols3;
     use glam::Vec2;
@@ -438,44 +438,97 @@ pub(crate) mod x8 {
         counts
     }
 
-    /// The radiance, throughput and previous vertices of the paths `ids` (at most 8) in
-    /// lanes (the lanes past `ids.len()` 0 and without MIS).
+    /// The radiance, throughput and previous vertices of the paths `ids` (1 to 8) in lanes,
+    /// and their depths' bits for [`write`] (the lanes past `ids.len()` repeat
+    /// the last path; nothing of them is written back). Each path's first 8 floats
+    /// (`PathState::row8`: throughput, η, the previous vertex and its density) are one
+    /// 32-byte load, transposed with the chunk's others ([`F32x8::transpose8`]); its radiance
+    /// and depth one 16-byte load (`PathState::result_row`, [`Avx2::fields4`]). The MIS flags
+    /// of `PathState::prev_mis` from the 8 previous-vertex kinds at once: `mis` (or `zero`)
+    /// where the vertex has a density and the strategy is MIS (light sampling only). Where it
+    /// has none `prev_mis` gives the point and density 0, the rows their stored values: the
+    /// weight ([`weight`]) reads them only where `mis`, so the radiance is the same bits.
     #[inline(always)]
-    fn paths(
+    pub(super) fn paths(
         avx: Avx2,
         cfg: &PathSettings,
         ids: &[u32],
         state: &[PathState],
-    ) -> (V3<F32x8>, V3<F32x8>, Prev<F32x8>) {
-        let mut t: Cols3 = Cols3::default();
-        let mut r: Cols3 = Cols3::default();
-        let mut pp: Cols3 = Cols3::default();
-        let mut pdf = [0.0f32; 8];
-        let mut mis = [false; 8];
-        let mut zero = [false; 8];
-        for (k, &i) in ids.iter().enumerate() {
-            let st = &state[i as usize];
-            t.set(k, st.throughput);
-            r.set(k, st.result);
-            let pm: PrevMis = st.prev_mis(cfg);
-            pp.set(k, pm.p);
-            (pdf[k], mis[k], zero[k]) = (pm.pdf, pm.mis, pm.zero);
-        }
+    ) -> (V3<F32x8>, V3<F32x8>, Prev<F32x8>, F32x8) {
+        let last = ids.len() - 1;
+        let st = |k: usize| &state[ids[k.min(last)] as usize];
+        // Written out, not `array::from_fn` (a closure compiled out of line would lose the
+        // lanes' target features).
+        let r8 = [
+            st(0).row8(),
+            st(1).row8(),
+            st(2).row8(),
+            st(3).row8(),
+            st(4).row8(),
+            st(5).row8(),
+            st(6).row8(),
+            st(7).row8(),
+        ];
+        let f = F32x8::transpose8([
+            avx.load(&r8[0]),
+            avx.load(&r8[1]),
+            avx.load(&r8[2]),
+            avx.load(&r8[3]),
+            avx.load(&r8[4]),
+            avx.load(&r8[5]),
+            avx.load(&r8[6]),
+            avx.load(&r8[7]),
+        ]);
+        let r4 = [
+            st(0).result_row(),
+            st(1).result_row(),
+            st(2).result_row(),
+            st(3).result_row(),
+            st(4).result_row(),
+            st(5).result_row(),
+            st(6).result_row(),
+            st(7).result_row(),
+        ];
+        let r = avx.fields4(&r4);
+        let kind = [
+            st(0).prev_kind_i32(),
+            st(1).prev_kind_i32(),
+            st(2).prev_kind_i32(),
+            st(3).prev_kind_i32(),
+            st(4).prev_kind_i32(),
+            st(5).prev_kind_i32(),
+            st(6).prev_kind_i32(),
+            st(7).prev_kind_i32(),
+        ];
+        let kind = avx.load_i32(&kind);
+        let smooth = kind.eq(kind.splat(0));
         let prev = Prev {
-            p: pp.load(avx),
-            pdf: avx.load(&pdf),
-            mis: avx.mask(&mis),
-            zero: avx.mask(&zero),
+            p: V3::new(f[4], f[5], f[6]),
+            pdf: f[7],
+            mis: smooth & avx.mask_splat(cfg.strategy == Strategy::Mis),
+            zero: smooth & avx.mask_splat(cfg.strategy == Strategy::LightOnly),
         };
-        (r.load(avx), t.load(avx), prev)
+        (
+            V3::new(r[0], r[1], r[2]),
+            V3::new(f[0], f[1], f[2]),
+            prev,
+            r[3],
+        )
     }
 
-    /// The new radiance `out` of the paths `ids` (at most 8) into their states.
+    /// The new radiance `out` of the paths `ids` (1 to 8) into their states: one 16-byte row
+    /// per path ([`Avx2::rows4`]: the radiance and the depth `depth` as [`paths`] read it).
     #[inline(always)]
-    fn write(ids: &[u32], out: V3<F32x8>, state: &mut [PathState]) {
-        let (x, y, z) = (out.x.to_array(), out.y.to_array(), out.z.to_array());
-        for (k, &i) in ids.iter().enumerate() {
-            state[i as usize].result = Vec3::new(x[k], y[k], z[k]);
+    pub(super) fn write(
+        avx: Avx2,
+        ids: &[u32],
+        out: V3<F32x8>,
+        depth: F32x8,
+        state: &mut [PathState],
+    ) {
+        let rows = avx.rows4([out.x, out.y, out.z, depth]);
+        for (row, &i) in rows.iter().zip(ids) {
+            state[i as usize].set_result_row(row);
         }
     }
 
@@ -491,7 +544,7 @@ pub(crate) mod x8 {
         state: &mut [PathState],
         ray: &[Ray],
     ) {
-        let (mut out, throughput, prev) = paths(avx, cfg, ids, state);
+        let (mut out, throughput, prev, depth) = paths(avx, cfg, ids, state);
         let mut d: Cols3 = Cols3::default();
         for (k, &i) in ids.iter().enumerate() {
             d.set(k, ray[i as usize].d);
@@ -543,7 +596,7 @@ pub(crate) mod x8 {
                 }
             };
         }
-        write(ids, out, state);
+        write(avx, ids, out, depth, state);
     }
 
     /// The area lights seen by the paths `ids` (at most 8; each a hit on a shape whose
@@ -558,7 +611,7 @@ pub(crate) mod x8 {
         ids: &[u32],
         state: &mut [PathState],
     ) -> u64 {
-        let (out, throughput, prev) = paths(avx, cfg, ids, state);
+        let (out, throughput, prev, depth) = paths(avx, cfg, ids, state);
         let mut le: Cols3 = Cols3::default();
         let mut a = [0.0f32; 8];
         let mut pmf = [0.0f32; 8];
@@ -602,7 +655,7 @@ pub(crate) mod x8 {
             (avx.mask(&is_sphere), center.load(avx), avx.load(&radius)),
             (p.load(avx), n.load(avx), wi.load(avx)),
         );
-        write(ids, out, state);
+        write(avx, ids, out, depth, state);
         spheres
     }
 }
@@ -611,6 +664,7 @@ pub(crate) mod x8 {
 mod tests {
     use super::*;
     use crate::geometry::Shape;
+    use crate::integrator::path::PrevMis;
     use crate::math::mis::power_heuristic as scalar_ph;
     use crate::math::Pcg32;
     use glam::{Mat4, Vec2};
@@ -880,5 +934,97 @@ mod tests {
             }
         }
         assert!(seen_some > 2500, "{seen_some}");
+    }
+
+    /// The emission stage's rows ([`x8::paths`], [`x8::write`]) read each path's radiance,
+    /// throughput and `PathState::prev_mis` bit for bit (the previous vertex's point and
+    /// density where it has a density; the flags under every strategy, after the camera, a
+    /// delta and a smooth vertex), and write back each listed path's radiance and nothing
+    /// else: chunks of 1 to 8 paths out of order, random and edge values (±0, ±∞, NaN).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_rows_read_and_write_each_path() {
+        use crate::integrator::path::PathState;
+        use crate::integrator::{PathSettings, Strategy};
+        use crate::lane::Avx2;
+        let Some(avx) = Avx2::detect() else {
+            return;
+        };
+        let mut r = Pcg32::new(9, 21);
+        let mut v = move || {
+            let u = r.next_u32();
+            match u % 8 {
+                0 => [0.0, -0.0, f32::INFINITY, f32::NAN, 1e-40][(u >> 8) as usize % 5],
+                _ => f32::from_bits(u & 0x3fff_ffff) - 1.0,
+            }
+        };
+        for round in 0..3000 {
+            let strategy = [Strategy::Mis, Strategy::LightOnly, Strategy::BsdfOnly][round % 3];
+            let cfg = PathSettings {
+                strategy,
+                ..PathSettings::default()
+            };
+            let mut state: Vec<PathState> = (0..12)
+                .map(|j| {
+                    let mut s = PathState::new();
+                    let row: [f32; 8] = core::array::from_fn(|_| v());
+                    // None (the camera), then a smooth and a delta vertex.
+                    if j % 3 != 0 {
+                        s.set_advanced_row(&row, j % 3 == 2);
+                    }
+                    s.result = Vec3::new(v(), v(), v());
+                    s.depth = (v().to_bits() >> (round % 32)) % 1000;
+                    s
+                })
+                .collect();
+            let n = 1 + round % 8;
+            let start = (round / 8) % 12;
+            let ids: Vec<u32> = (0..n).map(|k| ((start + 5 * k) % 12) as u32).collect();
+            let before = state.clone();
+            let new: [[f32; 8]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| v()));
+            let got = avx.run(|| {
+                let (res, t, prev, depth) = x8::paths(avx, &cfg, &ids, &state);
+                let out = V3::new(avx.load(&new[0]), avx.load(&new[1]), avx.load(&new[2]));
+                x8::write(avx, &ids, out, depth, &mut state);
+                let a =
+                    |x: V3<crate::lane::F32x8>| [x.x.to_array(), x.y.to_array(), x.z.to_array()];
+                (
+                    a(res),
+                    a(t),
+                    a(prev.p),
+                    prev.pdf.to_array(),
+                    prev.mis.to_array(),
+                    prev.zero.to_array(),
+                )
+            });
+            let (res, t, pp, pdf, mis, zero) = got;
+            let b = |x: f32| x.to_bits();
+            for (k, &i) in ids.iter().enumerate() {
+                let (st, i) = (&before[i as usize], i as usize);
+                let pm = st.prev_mis(&cfg);
+                let at = |c: &[[f32; 8]; 3]| [b(c[0][k]), b(c[1][k]), b(c[2][k])];
+                assert_eq!(at(&res), st.result.to_array().map(b), "{round} lane {k}");
+                assert_eq!(at(&t), st.throughput.to_array().map(b), "{round} lane {k}");
+                assert_eq!((mis[k], zero[k]), (pm.mis, pm.zero), "{round} lane {k}");
+                if i % 3 == 1 {
+                    assert_eq!(at(&pp), pm.p.to_array().map(b), "{round} lane {k}");
+                    assert_eq!(b(pdf[k]), b(pm.pdf), "{round} lane {k}");
+                }
+                // The radiance written, the rest of the state as it was.
+                let mut want = *st;
+                want.result = Vec3::new(new[0][k], new[1][k], new[2][k]);
+                assert_eq!(
+                    format!("{:?}", state[i]),
+                    format!("{want:?}"),
+                    "{round} {i}"
+                );
+            }
+            for i in 0..12 {
+                if !ids.contains(&(i as u32)) {
+                    let (a, w) = (&state[i], &before[i]);
+                    assert_eq!(format!("{a:?}"), format!("{w:?}"), "{round} untouched {i}");
+                }
+            }
+        }
     }
 }

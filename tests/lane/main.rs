@@ -13,6 +13,8 @@
 //!   scalar references (every state class; edge floats and out-of-range indices);
 //! - `masks`: masks from booleans and from bits, and back to bits, at width 8 and 16 (every
 //!   pattern, bits above the width ignored).
+
+//! - `rows4`: the 8-wide rows-of-4 transposes move every bit (edge floats, NaN payloads).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
@@ -29,4 +31,5 @@ mod harness;
 mod lookup;
 mod masks;
 mod pcg_ops;
+mod rows4;
 mod scalar;

@@ -457,17 +457,13 @@ pub(crate) mod x8 {
                 avx.load(&pdf),
                 avx.mask(&consistent),
             );
-            let (ok, o, dd, tmax, c) = (
-                lo.ok.to_array(),
-                Cols3::store(lo.o),
-                Cols3::store(lo.d),
-                lo.tmax.to_array(),
-                Cols3::store(lo.contribution),
-            );
+            let (ok, c) = (lo.ok.to_array(), Cols3::store(lo.contribution));
+            // The shadow rays as whole rows (`RayRows::segment_rows`).
+            let shadow =
+                crate::stream::kernels::ray::RayRows::segment_rows(avx, lo.o, lo.d, lo.tmax);
             for (k, &i) in ids.iter().enumerate() {
                 if nee[k] && ok[k] {
-                    let shadow = Ray::segment(o.get(k), dd.get(k), tmax[k]);
-                    tail.light(b, i as usize, shadow, c.get(k));
+                    tail.light(b, i as usize, shadow[k], c.get(k));
                 }
             }
         }

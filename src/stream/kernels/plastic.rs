@@ -353,12 +353,12 @@ pub(crate) mod x8 {
             return;
         }
         if let Some(lo) = lo {
-            let (ok, o, d) = (lo.ok.to_array(), Cols3::store(lo.o), Cols3::store(lo.d));
-            let (tmax, c) = (lo.tmax.to_array(), Cols3::store(lo.contribution));
+            let (ok, c) = (lo.ok.to_array(), Cols3::store(lo.contribution));
+            // The shadow rays as whole rows (`RayRows::segment_rows`).
+            let shadow = avx.segment_rows(lo.o, lo.d, lo.tmax);
             for (k, &i) in ids.iter().enumerate() {
                 if front[k] && ok[k] {
-                    let shadow = Ray::segment(o.get(k), d.get(k), tmax[k]);
-                    tail.light(b, i as usize, shadow, c.get(k));
+                    tail.light(b, i as usize, shadow[k], c.get(k));
                 }
             }
         }

@@ -106,6 +106,15 @@ pub(crate) trait RayRows<const W: usize>: crate::lane::Wide<W> {
     /// Each lane's row of the 8 fields `f`: row `k` is lane `k` of `f[0]`, …, `f[7]` (the same
     /// transpose, for the rows of the path states the kernels write whole).
     fn rows8(self, f: [Self::F; 8]) -> [[f32; 8]; W];
+    /// Lane `k`'s segment: `Ray::segment((o.x, o.y, o.z)[k], (d.x, d.y, d.z)[k], tmax[k])`
+    /// (the same transpose; the pending light samples' shadow rays, whose lengths differ per
+    /// lane).
+    fn segment_rows(
+        self,
+        o: V3<Self::F>,
+        d: V3<Self::F>,
+        tmax: Self::F,
+    ) -> [crate::geometry::Ray; W];
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -119,6 +128,16 @@ impl RayRows<8> for crate::lane::Avx2 {
     fn rows8(self, f: [Self::F; 8]) -> [[f32; 8]; 8] {
         crate::lane::Avx2::rows8(self, f)
     }
+    #[inline(always)]
+    fn segment_rows(
+        self,
+        o: V3<Self::F>,
+        d: V3<Self::F>,
+        tmax: Self::F,
+    ) -> [crate::geometry::Ray; 8] {
+        let z = self.splat(0.0);
+        crate::lane::Avx2::ray_rows(self, [o.x, o.y, o.z, d.x, d.y, d.z, z, tmax])
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -131,6 +150,16 @@ impl RayRows<16> for crate::lane::Avx512 {
     #[inline(always)]
     fn rows8(self, f: [Self::F; 8]) -> [[f32; 8]; 16] {
         self.rows8_16(f)
+    }
+    #[inline(always)]
+    fn segment_rows(
+        self,
+        o: V3<Self::F>,
+        d: V3<Self::F>,
+        tmax: Self::F,
+    ) -> [crate::geometry::Ray; 16] {
+        let z = self.splat(0.0);
+        self.ray_rows16([o.x, o.y, o.z, d.x, d.y, d.z, z, tmax])
     }
 }
 
@@ -214,7 +243,8 @@ mod tests {
         }
     }
 
-    /// The rows of [`RayRows`] are `Ray::segment` of each lane's fields, and its `rows8` each
+    /// The rows of [`RayRows`] are `Ray::segment` of each lane's fields (with one length or
+    /// each lane's: `segment_rows`), and its `rows8` each
     /// lane's 8 fields, bit for bit (moves only), at width 8 and 16: random values and ±0, subnormals, huge values, ±∞ and NaNs
     /// with payloads, in every field.
     #[cfg(target_arch = "x86_64")]
@@ -257,15 +287,33 @@ mod tests {
                     let want: [u32; 8] = core::array::from_fn(|j| g[j][k].to_bits());
                     assert_eq!(row.map(f32::to_bits), want, "rows8, width {W}, lane {k}");
                 }
+                // Per-lane lengths: the shadow rays' segments.
+                let tl: [f32; W] = core::array::from_fn(|_| v());
+                let segs = t.run(|| {
+                    let c = |j: usize| t.load(&f[j]);
+                    t.segment_rows(
+                        V3::new(c(0), c(1), c(2)),
+                        V3::new(c(3), c(4), c(5)),
+                        t.load(&tl),
+                    )
+                });
+                let bits = |r: &Ray| {
+                    [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.tmin, r.tmax].map(f32::to_bits)
+                };
+                for (k, row) in segs.iter().enumerate() {
+                    let want = Ray::segment(
+                        Vec3::new(f[0][k], f[1][k], f[2][k]),
+                        Vec3::new(f[3][k], f[4][k], f[5][k]),
+                        tl[k],
+                    );
+                    assert_eq!(bits(row), bits(&want), "segment, width {W}, lane {k}");
+                }
                 for (k, row) in rows.iter().enumerate() {
                     let want = Ray::segment(
                         Vec3::new(f[0][k], f[1][k], f[2][k]),
                         Vec3::new(f[3][k], f[4][k], f[5][k]),
                         tmax,
                     );
-                    let bits = |r: &Ray| {
-                        [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.tmin, r.tmax].map(f32::to_bits)
-                    };
                     assert_eq!(bits(row), bits(&want), "width {W}, lane {k}");
                 }
             }
