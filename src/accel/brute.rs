@@ -28,9 +28,7 @@ use super::analytic::{
     cube, in_disk, in_square, planar, plane_cross, sphere, sphere_disc, sphere_roots, Affine,
     BoxHit, RayL,
 };
-use super::triangle::{
-    in_bounds, may_cross, slab, tri_cross, tri_data, tri_inside, triangle, TriL, TriPlane,
-};
+use super::triangle::{in_bounds, slab, tri_data, tri_edges, tri_plane, triangle, TriL, TriPlane};
 use crate::geometry::hit::NO_INSTANCE;
 use crate::geometry::shapes::{Shape, ShapeKind, CUBE_FACES};
 use crate::geometry::{Hit, Ray};
@@ -323,11 +321,6 @@ impl Brute {
             };
             b.slots.push(slot);
         }
-        // The packets test the smaller meshes first (a stable sort by the box's diagonal): in
-        // a closed room the walls come last, after the objects in front of them, so that more
-        // of their rows are culled by the nearest hit so far. Which mesh is tested first cannot
-        // change a strict lexicographic minimum ([`keep`]).
-        b.meshes.sort_by(|p, q| diagonal(p).total_cmp(&diagonal(q)));
         Some(b)
     }
 
@@ -577,7 +570,6 @@ impl Brute {
         }
         if !self.meshes.is_empty() {
             let s = slab(ray);
-            let neg = ray.tnear.lt(like.splat(0.0));
             for mesh in &self.meshes {
                 let within = in_bounds(ray, &s, v3(like, mesh.lo), v3(like, mesh.hi));
                 if !within.any() {
@@ -585,18 +577,11 @@ impl Brute {
                 }
                 for r in &self.tri_rows[mesh.rows.clone()] {
                     let tri = tri_row(r, like);
-                    let x = tri_cross(ray, &tri);
+                    let p = tri_plane(ray, &tri);
                     // Only a crossing in the interval, at or before the nearest hit so far,
-                    // can be kept (`keep_tri`): the edge half is skipped where no lane may
-                    // have one, and the division where no lane also passes the edges.
-                    let may = within & may_cross(&x, neg, best.t);
-                    if !may.any() {
-                        continue;
-                    }
-                    let (u, v, inside) = tri_inside(ray, &tri, &x);
-                    if (may & inside).any() {
-                        let p = x.plane();
-                        let m = inside & p.t.gt(ray.tnear) & p.t.lt(ray.tfar);
+                    // can be kept (`keep_tri`), so the edge half may be skipped without it.
+                    if (within & p.t.gt(ray.tnear) & p.t.le(best.t)).any() {
+                        let (u, v, m) = tri_edges(ray, &tri, &p);
                         keep_tri(&mut best, &p, u, v, m & within, gi.splat(r.geom));
                     }
                 }
@@ -654,7 +639,6 @@ impl Brute {
             return any;
         }
         let s = slab(ray);
-        let neg = ray.tnear.lt(like.splat(0.0));
         for mesh in &self.meshes {
             // Only the lanes not yet blocked.
             let within = in_bounds(ray, &s, v3(like, mesh.lo), v3(like, mesh.hi)) & !any;
@@ -663,16 +647,9 @@ impl Brute {
             }
             for r in &self.tri_rows[mesh.rows.clone()] {
                 let tri = tri_row(r, like);
-                let x = tri_cross(ray, &tri);
-                // t < tfar implies t ≤ tfar: `may_cross` holds wherever a lane may hit.
-                let may = within & may_cross(&x, neg, ray.tfar);
-                if !may.any() {
-                    continue;
-                }
-                let (_, _, inside) = tri_inside(ray, &tri, &x);
-                if (may & inside).any() {
-                    let t = x.plane().t;
-                    any = any | (inside & t.gt(ray.tnear) & t.lt(ray.tfar) & within);
+                let p = tri_plane(ray, &tri);
+                if (within & p.t.gt(ray.tnear) & p.t.lt(ray.tfar)).any() {
+                    any = any | (tri_edges(ray, &tri, &p).2 & within);
                     if any.all() {
                         return any;
                     }
@@ -895,11 +872,6 @@ fn mesh_bounds(m: &crate::geometry::mesh::TriMesh) -> (Vec3, Vec3) {
         });
     let pad = 1e-4 * ((hi - lo).max_element() + lo.abs().max(hi.abs()).max_element());
     (lo - Vec3::splat(pad), hi + Vec3::splat(pad))
-}
-
-/// The length of a mesh box's diagonal ([`Brute::new`]'s order of the meshes).
-fn diagonal(m: &MeshBox) -> f32 {
-    (Vec3::from(m.hi) - Vec3::from(m.lo)).length()
 }
 
 /// A triangle row splat to the width of `like`.

@@ -54,71 +54,14 @@ pub(crate) struct TriPlane<L: Lane> {
     pub t: L,
 }
 
-/// [`TriPlane`] of `ray` and `tri` (the division of [`TriCross::plane`]).
+/// [`TriPlane`] of `ray` and `tri`.
 #[inline(always)]
 pub(crate) fn tri_plane<L: Lane>(ray: &RayL<L>, tri: &TriL<L>) -> TriPlane<L> {
-    tri_cross(ray, tri).plane()
-}
-
-/// The plane half without its division: the crossing's parameter as the numerator
-/// `tn = c·n` (its sign flipped by the determinant's) over `a = |d·n|`. The packet forms test
-/// it against the interval by [`may_cross`] and divide only for a row some lane may keep (a
-/// 16-wide `vdivps` is one of the slowest instructions of the loop).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct TriCross<L: Lane> {
-    c: V3<L>,
-    den: L,
-    a: L,
-    tn: L,
-}
-
-/// [`TriCross`] of `ray` and `tri`.
-#[inline(always)]
-pub(crate) fn tri_cross<L: Lane>(ray: &RayL<L>, tri: &TriL<L>) -> TriCross<L> {
     let c = tri.p0 - ray.o;
     let den = tri.n.dot(ray.d);
     let a = den.abs();
-    let tn = tri.n.dot(c).mulsign(den);
-    TriCross { c, den, a, tn }
-}
-
-impl<L: Lane> TriCross<L> {
-    /// The whole plane half: t = tn / a (the operations [`tri_plane`] always did, so the same
-    /// bits).
-    #[inline(always)]
-    pub(crate) fn plane(&self) -> TriPlane<L> {
-        TriPlane {
-            c: self.c,
-            den: self.den,
-            a: self.a,
-            t: self.tn / self.a,
-        }
-    }
-}
-
-/// 1 + 2⁻²⁰: [`may_cross`]'s margin on `a·bound`, far above the roundings it covers.
-pub(crate) const MARGIN: f32 = 1.0 + 1.0 / 1_048_576.0;
-/// 2⁻⁹⁹: [`may_cross`]'s floor on its bound (where `a·bound` may have underflowed).
-pub(crate) const FLOOR: f32 = f32::from_bits(28 << 23);
-
-/// A test without division that holds in every lane where the crossing `t = tn / a`
-/// (rounded, [`TriCross::plane`]) can satisfy `a > 0`, `t > tnear` and `t ≤ bound` (`neg`:
-/// the lanes whose tnear is negative); it may hold elsewhere too. The packet forms skip a row
-/// where it holds in no lane they could keep, so the skip changes no hit.
-///
-/// Why it holds. Low end: with `a > 0`, `tn ≤ 0` gives `t ≤ 0`, never above a tnear ≥ 0.
-/// High end: let `b = max(bound, 2⁻¹²⁶)`, a normal float (or +∞, and then the bound below is
-/// +∞). `t ≤ bound ≤ b` needs the exact quotient `tn / a ≤ b·(1 + 2⁻²⁴)` (beyond half an ulp
-/// of b it would round above b), so `tn ≤ a·b·(1 + 2⁻²⁴)`. If `a·b` rounds to a normal float,
-/// each of the two rounded products loses at most a factor 1 − 2⁻²⁴, and
-/// `(1 − 2⁻²⁴)²·(1 + 2⁻²⁰) > 1 + 2⁻²⁴`; if it rounds below 2⁻¹²⁶, then
-/// `tn < 2⁻¹²⁵ < 2⁻⁹⁹`; if it overflows, the bound is +∞. A NaN `tn` fails here, and its
-/// t (NaN) fails `t > tnear` too.
-#[inline(always)]
-pub(crate) fn may_cross<L: Lane>(x: &TriCross<L>, neg: L::Mask, bound: L) -> L::Mask {
-    let b = bound.max(bound.splat(f32::MIN_POSITIVE));
-    let hi = ((x.a * b) * bound.splat(MARGIN)).max(bound.splat(FLOOR));
-    (x.tn.gt(bound.splat(0.0)) | neg) & x.tn.le(hi)
+    let t = tri.n.dot(c).mulsign(den) / a;
+    TriPlane { c, den, a, t }
 }
 
 /// The edge half: the numerators u·|d·n| and v·|d·n| (signs flipped by the determinant's) and
@@ -126,29 +69,12 @@ pub(crate) fn may_cross<L: Lane>(x: &TriCross<L>, neg: L::Mask, bound: L) -> L::
 /// interval (tnear, tfar)).
 #[inline(always)]
 pub(crate) fn tri_edges<L: Lane>(ray: &RayL<L>, tri: &TriL<L>, p: &TriPlane<L>) -> (L, L, L::Mask) {
-    let (u, v, inside) = edges(ray, tri, p.c, p.den, p.a);
+    let r = p.c.cross(ray.d);
+    let u = tri.e2.dot(r).mulsign(p.den);
+    let v = tri.e1.dot(r).mulsign(p.den);
+    let zero = p.a.splat(0.0);
+    let inside = p.a.gt(zero) & u.ge(zero) & v.ge(zero) & (u + v).le(p.a);
     (u, v, inside & p.t.gt(ray.tnear) & p.t.lt(ray.tfar))
-}
-
-/// [`tri_edges`] before the division: the numerators and the edge tests (`a > 0`, `U ≥ 0`,
-/// `V ≥ 0`, `U + V ≤ a`), without the interval.
-#[inline(always)]
-pub(crate) fn tri_inside<L: Lane>(
-    ray: &RayL<L>,
-    tri: &TriL<L>,
-    x: &TriCross<L>,
-) -> (L, L, L::Mask) {
-    edges(ray, tri, x.c, x.den, x.a)
-}
-
-/// The numerators u·a and v·a and the edge tests, from the plane half's `c`, `den` and `a`.
-#[inline(always)]
-fn edges<L: Lane>(ray: &RayL<L>, tri: &TriL<L>, c: V3<L>, den: L, a: L) -> (L, L, L::Mask) {
-    let r = c.cross(ray.d);
-    let u = tri.e2.dot(r).mulsign(den);
-    let v = tri.e1.dot(r).mulsign(den);
-    let zero = a.splat(0.0);
-    (u, v, a.gt(zero) & u.ge(zero) & v.ge(zero) & (u + v).le(a))
 }
 
 /// The per-ray half of the slab test ([`in_bounds`]): `1/d` per component and, per axis,
@@ -283,111 +209,6 @@ mod tests {
         assert!(!triangle(&ray(Vec3::new(0.5, 0.0, 1.0), Vec3::NEG_Z, 0.0, 9.0), &flat).3);
         let nan = tri([Vec3::NAN; 3]);
         assert!(!triangle(&ray(Vec3::Z, Vec3::NEG_Z, 0.0, 9.0), &nan).3);
-    }
-
-    /// [`may_cross`] holds wherever the rounded crossing `t = tn / a` has `a > 0`,
-    /// `t > tnear` and `t ≤ bound` (the packet forms skip a row only where it fails in every
-    /// lane, so it must never fail there), at width 1 and 8 alike: over random and special
-    /// numerators, determinants, bounds and tnears (±0, subnormals, 2⁻¹²⁶, huge, ±∞, NaN), and
-    /// over bounds set to the quotient itself and its neighbours (the tightest cases), with
-    /// products `a·bound` that underflow or overflow. It must also cull: most crossings beyond
-    /// a bound fail it.
-    #[test]
-    fn may_cross_holds_wherever_a_crossing_can_be_kept() {
-        let mut rng = crate::math::rng::Pcg32::new(25, 1);
-        let specials = [
-            0.0f32,
-            -0.0,
-            1e-45,
-            1e-40,
-            -1e-40,
-            f32::MIN_POSITIVE,
-            1e-30,
-            1.0,
-            -1.0,
-            1e30,
-            f32::MAX,
-            -f32::MAX,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NAN,
-        ];
-        let pick = |rng: &mut crate::math::rng::Pcg32| {
-            let u = rng.next_f32();
-            if u < 0.25 {
-                specials[(rng.next_u32() % specials.len() as u32) as usize]
-            } else if u < 0.5 {
-                // Any bit pattern: every exponent, subnormals and NaNs included.
-                f32::from_bits(rng.next_u32())
-            } else {
-                let e = (rng.next_u32() % 80) as i32 - 40;
-                (2.0 * rng.next_f32() - 1.0) * 2f32.powi(e)
-            }
-        };
-        let (mut kept, mut culled, mut beyond) = (0, 0, 0);
-        for k in 0..400_000 {
-            let (tn, a) = (pick(&mut rng), pick(&mut rng).abs());
-            let t = tn / a;
-            let bound = match k % 4 {
-                0 => t,
-                1 => t.next_down(),
-                2 => t.next_up(),
-                _ => pick(&mut rng),
-            };
-            let tnear = [0.0, -0.0, 1e-4, -1.0, pick(&mut rng)][k % 5];
-            let x = TriCross {
-                c: V3::new(0.0, 0.0, 0.0),
-                den: a,
-                a,
-                tn,
-            };
-            let got = may_cross(&x, tnear < 0.0, bound);
-            let keepable = a > 0.0 && t > tnear && t <= bound;
-            if keepable {
-                assert!(
-                    got,
-                    "tn {tn:e} a {a:e} t {t:e} bound {bound:e} tnear {tnear:e}"
-                );
-                kept += 1;
-            } else if !got {
-                culled += 1;
-            }
-            // Far beyond a normal bound, with `a·bound` well inside the normal range: culled.
-            let ab = f64::from(a) * f64::from(bound);
-            if t.is_finite()
-                && t > 2.0 * bound
-                && bound >= f32::MIN_POSITIVE
-                && ab > 1e-28
-                && ab < 1e37
-                && tnear >= 0.0
-            {
-                beyond += 1;
-                assert!(!got, "tn {tn:e} a {a:e} bound {bound:e}: not culled");
-            }
-            #[cfg(target_arch = "x86_64")]
-            if k % 64 == 0 {
-                if let Some(avx) = crate::lane::Avx2::detect() {
-                    let s = |v: f32| avx.splat(v);
-                    let wide = TriCross {
-                        c: V3::new(s(0.0), s(0.0), s(0.0)),
-                        den: s(a),
-                        a: s(a),
-                        tn: s(tn),
-                    };
-                    let neg = s(tnear).lt(s(0.0));
-                    let m = avx.run(|| may_cross(&wide, neg, s(bound)));
-                    assert_eq!(
-                        m.bits(),
-                        if got { 0xff } else { 0 },
-                        "{tn:e} {a:e} {bound:e}"
-                    );
-                }
-            }
-        }
-        assert!(
-            kept > 50_000 && culled > 50_000 && beyond > 2_000,
-            "{kept} {culled} {beyond}"
-        );
     }
 
     /// The slab test as it was before issue 18's NaN fix: `min`/`max` of the two planes'
