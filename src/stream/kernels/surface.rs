@@ -17,8 +17,9 @@ use glam::{Mat4, Vec3};
 /// meshes only, `Scene::interaction` on other shapes).
 #[derive(Clone, Debug)]
 pub(crate) enum Form {
-    /// A triangle mesh: [`crate::geometry::surface_lanes::triangle`].
-    Triangles,
+    /// A triangle mesh: [`crate::geometry::surface_lanes::triangle`]; a mesh of at most
+    /// [`SMALL_TRIS`] triangles also as tables by triangle ([`SmallTris`]).
+    Triangles(Option<Box<SmallTris>>),
     /// A sphere with a similarity `to_world`: centre, radius, uv rotation, `flip_normals` sign.
     Sphere(Vec3, f32, Mat4, f32),
     /// A rectangle: `to_object`, `to_world`, then signed true normal, signed shading normal,
@@ -41,8 +42,8 @@ impl Form {
             .shapes
             .iter()
             .map(|s| {
-                if let ShapeKind::Mesh(_) = s.kind {
-                    Form::Triangles
+                if let ShapeKind::Mesh(m) = &s.kind {
+                    Form::Triangles(SmallTris::new(m).map(Box::new))
                 } else if let Some(c) = s.sphere_lanes() {
                     Form::Sphere(c.0, c.1, c.2, c.3)
                 } else if let Some(r) = s.rectangle_lanes() {
@@ -57,6 +58,61 @@ impl Form {
                 }
             })
             .collect()
+    }
+}
+
+/// The most triangles a mesh held as [`SmallTris`] has.
+pub(crate) const SMALL_TRIS: usize = 8;
+
+/// A mesh of at most [`SMALL_TRIS`] triangles (a Cornell box's wall, its light) as tables by
+/// triangle, built once at load: per corner, its position, vertex normal and uv, component by
+/// component, 8 triangles wide (zero past the mesh's triangles and for an attribute the mesh
+/// has not). The gather stage reads a chunk's corners from them by one `vpermps` per
+/// component, indexed by the triangle (`lane::LaneLookup::lookup8`), instead of the vertex
+/// indices' gather and the position, normal and uv gathers that depend on it: the same floats,
+/// so the same rows.
+#[derive(Clone, Debug)]
+pub(crate) struct SmallTris {
+    p: [[[f32; 8]; 3]; 3],
+    n: [[[f32; 8]; 3]; 3],
+    uv: [[[f32; 8]; 2]; 3],
+}
+
+impl SmallTris {
+    /// The tables of `m`, or `None` when it has more than [`SMALL_TRIS`] triangles or a vertex
+    /// index out of range of its positions, normals or uvs.
+    fn new(m: &crate::geometry::mesh::TriMesh) -> Option<SmallTris> {
+        let n = m.positions.len();
+        let within = |len: Option<usize>| len.is_none_or(|l| l == n);
+        if m.indices.len() > SMALL_TRIS
+            || !within(m.normals.as_ref().map(Vec::len))
+            || !within(m.uvs.as_ref().map(Vec::len))
+            || m.indices.iter().flatten().any(|&i| i as usize >= n)
+        {
+            return None;
+        }
+        let mut s = SmallTris {
+            p: [[[0.0; 8]; 3]; 3],
+            n: [[[0.0; 8]; 3]; 3],
+            uv: [[[0.0; 8]; 2]; 3],
+        };
+        for (t, tri) in m.indices.iter().enumerate() {
+            for (c, &j) in tri.iter().enumerate() {
+                let j = j as usize;
+                for (k, x) in m.positions[j].to_array().into_iter().enumerate() {
+                    s.p[c][k][t] = x;
+                }
+                if let Some(ns) = &m.normals {
+                    for (k, x) in ns[j].to_array().into_iter().enumerate() {
+                        s.n[c][k][t] = x;
+                    }
+                }
+                if let Some(uvs) = &m.uvs {
+                    (s.uv[c][0][t], s.uv[c][1][t]) = (uvs[j].x, uvs[j].y);
+                }
+            }
+        }
+        Some(s)
     }
 }
 
@@ -96,14 +152,14 @@ fn direct(h: &crate::geometry::Hit) -> bool {
 pub(crate) mod x8 {
     use crate::lane::frame::Frame;
     use crate::lane::vec::V3;
-    use crate::lane::{Avx2, F32x8, Lane, LaneI32, ToArray, Wide};
+    use crate::lane::{Avx2, F32x8, I32x8, Lane, LaneI32, LaneLookup, ToArray, Wide};
     use crate::stream::batch::{cols, Surfaces};
     use crate::stream::kernels::diffuse::Surface;
     use crate::stream::BATCH;
 
     const N: usize = BATCH * cols::ROW;
 
-    use super::Form;
+    use super::{Form, SmallTris};
     use crate::geometry::surface_lanes::{self as sl, SurfLanes};
     use crate::geometry::{Hit, Ray, ShapeKind};
     use crate::lane::vec::V2;
@@ -225,7 +281,7 @@ pub(crate) mod x8 {
                     hits += 1;
                     let form = &st.forms[h.geom as usize];
                     if !super::direct(h) {
-                        if let Form::Triangles = form {
+                        if let Form::Triangles(_) = form {
                             if itri.push(i) {
                                 instanced_triangles(avx, &mut st, itri.take());
                             }
@@ -238,7 +294,7 @@ pub(crate) mod x8 {
                         continue;
                     }
                     match form {
-                        Form::Triangles => tri.push(avx, &mut st, h.geom, i),
+                        Form::Triangles(_) => tri.push(avx, &mut st, h.geom, i),
                         Form::Sphere(..) => {
                             if sph.push(i) {
                                 spheres(avx, &mut st, sph.take());
@@ -441,7 +497,12 @@ pub(crate) mod x8 {
         {
             return triangles(avx, st, (ids, n));
         }
-        let (x, meta) = one_mesh_input(avx, st, &ids, m, shape.flip_normals);
+        let (x, meta) = match &st.forms[g as usize] {
+            Form::Triangles(Some(small)) => {
+                small_input(avx, st, &ids, m, small, shape.flip_normals)
+            }
+            _ => one_mesh_input(avx, st, &ids, m, shape.flip_normals),
+        };
         let s = if m.uvs.is_some() {
             sl::triangle(&x)
         } else {
@@ -514,6 +575,84 @@ pub(crate) mod x8 {
             sign: avx.splat(if flip { -1.0 } else { 1.0 }),
         };
         (x, meta)
+    }
+
+    /// [`one_mesh_input`] for a mesh held as [`SmallTris`]: each lane's corners looked up by
+    /// its triangle index in the tables (the same floats as the gathers read).
+    #[inline(always)]
+    fn small_input(
+        avx: Avx2,
+        st: &Stage,
+        ids: &[u32; 8],
+        m: &crate::geometry::mesh::TriMesh,
+        small: &SmallTris,
+        flip: bool,
+    ) -> (sl::Triangle<F32x8>, Meta) {
+        let (mut prim, mut b1, mut b2) = ([0i32; 8], [0.0f32; 8], [0.0f32; 8]);
+        let mut meta = Meta::new(avx);
+        for (k, &i) in ids.iter().enumerate() {
+            let Some(h) = st.hit[i as usize] else {
+                continue;
+            };
+            prim[k] = h.prim as i32;
+            b1[k] = h.u;
+            b2[k] = h.v;
+            meta.set(k, &h);
+        }
+        meta.rays(avx, st, ids);
+        let t = avx.load_i32(&prim);
+        let p = [
+            look3(&small.p[0], t),
+            look3(&small.p[1], t),
+            look3(&small.p[2], t),
+        ];
+        let z = avx.splat(0.0);
+        let (n, has_n) = if m.normals.is_some() {
+            let n = [
+                look3(&small.n[0], t),
+                look3(&small.n[1], t),
+                look3(&small.n[2], t),
+            ];
+            (n, avx.mask_splat(true))
+        } else {
+            ([V3::new(z, z, z); 3], avx.mask_splat(false))
+        };
+        let (uv, has_uv) = if m.uvs.is_some() {
+            let uv = [
+                look2(&small.uv[0], t),
+                look2(&small.uv[1], t),
+                look2(&small.uv[2], t),
+            ];
+            (uv, avx.mask_splat(true))
+        } else {
+            ([V2::new(z, z); 3], avx.mask_splat(false))
+        };
+        let x = sl::Triangle {
+            p,
+            n,
+            uv,
+            has_n,
+            has_uv,
+            b1: avx.load(&b1),
+            b2: avx.load(&b2),
+            sign: avx.splat(if flip { -1.0 } else { 1.0 }),
+        };
+        (x, meta)
+    }
+
+    /// Per lane, `table[k][t]` for the three components `k` ([`SmallTris`]).
+    #[inline(always)]
+    fn look3(table: &[[f32; 8]; 3], t: I32x8) -> V3<F32x8> {
+        V3::new(
+            I32x8::lookup8(&table[0], t),
+            I32x8::lookup8(&table[1], t),
+            I32x8::lookup8(&table[2], t),
+        )
+    }
+
+    #[inline(always)]
+    fn look2(table: &[[f32; 8]; 2], t: I32x8) -> V2<F32x8> {
+        V2::new(I32x8::lookup8(&table[0], t), I32x8::lookup8(&table[1], t))
     }
 
     /// A gathered vector's components as a [`V3`] (a plain function, not a closure: see
@@ -883,5 +1022,73 @@ pub(crate) mod x8 {
             },
             wi_world: v3(flat, cols::WI, row),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{SmallTris, SMALL_TRIS};
+    use crate::geometry::mesh::TriMesh;
+    use glam::{Vec2, Vec3};
+
+    /// A mesh of `tris` triangles over `tris + 2` vertices (a fan), with every attribute's
+    /// bits distinct (signed zeros, subnormals, infinities and NaN payloads among them).
+    fn mesh(tris: usize, normals: bool, uvs: bool) -> TriMesh {
+        let n = tris + 2;
+        let odd = [
+            0.0f32,
+            -0.0,
+            1e-40,
+            f32::INFINITY,
+            f32::from_bits(0x7fc0_1234),
+        ];
+        let f = |k: usize| odd.get(k % 11).copied().unwrap_or(k as f32 * 1.25 - 7.0);
+        TriMesh {
+            positions: (0..n)
+                .map(|i| Vec3::new(f(3 * i), f(3 * i + 1), f(3 * i + 2)))
+                .collect(),
+            normals: normals.then(|| (0..n).map(|i| Vec3::new(f(i + 50), -f(i), 0.5)).collect()),
+            uvs: uvs.then(|| (0..n).map(|i| Vec2::new(f(i + 90), f(2 * i))).collect()),
+            indices: (0..tris as u32).map(|t| [0, t + 1, t + 2]).collect(),
+        }
+    }
+
+    /// The tables hold each triangle's corners' positions, normals and uvs bit for bit (zero
+    /// for an attribute the mesh has not and past its triangles); a mesh of more than
+    /// [`SMALL_TRIS`] triangles, or with an index out of range, or attribute arrays of another
+    /// length than the positions, gets none (the gathers take it).
+    #[test]
+    fn small_tables_hold_the_mesh_bits() {
+        for tris in 0..=SMALL_TRIS {
+            for (normals, uvs) in [(false, false), (true, false), (false, true), (true, true)] {
+                let m = mesh(tris, normals, uvs);
+                let s = SmallTris::new(&m).expect("small");
+                for t in 0..8 {
+                    for c in 0..3 {
+                        let j = m.indices.get(t).map(|i| i[c] as usize);
+                        for k in 0..3 {
+                            let want = |v: Option<&Vec<Vec3>>| {
+                                j.zip(v).map_or(0, |(j, v)| v[j].to_array()[k].to_bits())
+                            };
+                            assert_eq!(s.p[c][k][t].to_bits(), want(Some(&m.positions)));
+                            assert_eq!(s.n[c][k][t].to_bits(), want(m.normals.as_ref()));
+                        }
+                        for k in 0..2 {
+                            let want = j
+                                .zip(m.uvs.as_ref())
+                                .map_or(0, |(j, v)| v[j].to_array()[k].to_bits());
+                            assert_eq!(s.uv[c][k][t].to_bits(), want);
+                        }
+                    }
+                }
+            }
+        }
+        assert!(SmallTris::new(&mesh(SMALL_TRIS + 1, true, true)).is_none());
+        let mut bad = mesh(3, true, false);
+        bad.indices[2][1] = bad.positions.len() as u32;
+        assert!(SmallTris::new(&bad).is_none());
+        let mut short = mesh(3, true, true);
+        short.uvs.as_mut().unwrap().pop();
+        assert!(SmallTris::new(&short).is_none());
     }
 }
