@@ -209,14 +209,14 @@ impl<'a> Chunk<'a> {
         self.on = lanes;
         self.nested = (lanes != 0).then_some(nested);
         if table.spec.colour != Colour::Baked {
-            for k in 0..8 {
+            for (k, pt) in self.pts.iter_mut().enumerate() {
                 if lanes & (1 << k) != 0 {
                     let r = MsPlace {
                         table,
                         cell: cells.get(k),
                         baked_norm: None,
                     };
-                    self.pts[k] = Some(Point {
+                    *pt = Some(Point {
                         m: None,
                         r,
                         nested,
@@ -233,7 +233,7 @@ impl<'a> Chunk<'a> {
         // NaN z is not.)
         let mut above = 0u8;
         for (k, &z) in wi[2].iter().enumerate() {
-            above |= u8::from(!(z <= 0.0)) << k;
+            above |= u8::from(z > 0.0 || z.is_nan()) << k;
         }
         let above = above & lanes;
         self.q.push_lanes(above, cells, wi);
@@ -886,7 +886,8 @@ pub(crate) fn sample_x8_cols(
                 // through the wall; its known term in columns.
                 Some(l) => {
                     let (u, g, r) = l.get(k);
-                    let wall = !(s.next_1d() < g);
+                    let through = s.next_1d() < g;
+                    let wall = !through;
                     st.wo[k] = if wall { r } else { u };
                     ks[k] = (2 * j + usize::from(wall)) as f32;
                     from_nested |= 1 << k;
