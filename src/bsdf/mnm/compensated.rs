@@ -942,9 +942,11 @@ fn leave<M: Leaves>(
 
 /// [`leave`]'s last step over the mirror sawtooth from u (the nested sample's ωo in the
 /// shading frame), G1(u) and R(u) (`reflect`, called only where the ray is blocked): one number
-/// drawn from `s`, u where it is below G1(u), else R(u). Also the stream kernel's, which
-/// computes u, G1(u) and R(u) of 8 points in lanes (`lanes::sample_x8`) and draws from the
-/// batch's columns (`Samplers::stream`, the same number as the path's `Sampler`).
+/// drawn from `s`, u where it is below G1(u), else R(u). The stream kernel's chunk
+/// (`lanes::sample_x8_cols`) computes u, G1(u) and R(u) of 8 points in lanes, makes this draw
+/// and comparison per lane from the batch's columns (`Samplers::stream`, the same number as the
+/// path's `Sampler`) and keeps the known terms in columns (`lanes::first::Mirror8::sampled`:
+/// [`known_term`]'s test and products).
 #[inline(always)]
 fn leave_mirror(
     u: Vec3,

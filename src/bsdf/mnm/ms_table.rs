@@ -431,6 +431,27 @@ impl Lookups8 {
         self.used |= 1 << k;
     }
 
+    /// The lanes `on` (bit k: lane k) look up their direction (lane k of `w`, by component;
+    /// z > 0) in their cells (lane k of `cells`): [`Self::push`] of each, from the columns as
+    /// they are (`cells.get(k)`'s cell, its plane `j · PLANE` in the same wrapping integer
+    /// product), the other lanes kept. Written as a select per column, which the compiler turns
+    /// into blends.
+    #[inline(always)]
+    pub fn push_lanes(&mut self, on: u8, cells: &CellCols<8>, w: &[[f32; 8]; 3]) {
+        for k in 0..8 {
+            let m = on & (1 << k) != 0;
+            self.ax[k] = if m { cells.axis[0][k] } else { self.ax[k] };
+            self.ay[k] = if m { cells.axis[1][k] } else { self.ay[k] };
+            self.wx[k] = if m { w[0][k] } else { self.wx[k] };
+            self.wy[k] = if m { w[1][k] } else { self.wy[k] };
+            self.wz[k] = if m { w[2][k] } else { self.wz[k] };
+            let plane = (cells.j[k] as usize).wrapping_mul(PLANE) as i32;
+            self.plane[k] = if m { plane } else { self.plane[k] };
+            self.t[k] = if m { cells.t[k] } else { self.t[k] };
+        }
+        self.used |= on;
+    }
+
     /// The lanes with a lookup, as bits (bit k: lane k).
     #[inline(always)]
     pub fn used(&self) -> u8 {

@@ -411,7 +411,7 @@ pub(crate) mod x8 {
         if let (Some(l), Some(bt), true) = (&lanes, &built, lane_points) {
             let on = alive & bt.points;
             if let (Some(cells), Some(table)) = (l.cells(), super::ms_table(scene, m0)) {
-                chunk.set_lanes(arena.bsdf(bt.child), table, cells, on, &wi);
+                chunk.set_lanes(arena.bsdf(bt.child), table, cells, on, &wi_local.0);
             }
         }
         chunk.prepare();
@@ -427,35 +427,38 @@ pub(crate) mod x8 {
             let zero = avx.splat(0.0);
             let local = surf.frame.to_local(lp.d);
             let side = (lp.d.dot(surf.ng) * local.z).gt(zero) & lp.some;
-            let (side, local) = (side.to_array(), Cols3::store(local));
-            let (mut f, mut pdf, mut consistent) = (Cols3::default(), [0.0f32; 8], [false; 8]);
-            let (mut lit, mut wo) = (0u8, [Vec3::ZERO; 8]);
+            let lwo = Cols3::store(local);
+            let (mut f, mut pdf) = (Cols3::default(), [0.0f32; 8]);
+            // Bits: the lanes toward their light point; those of the chunk's points (evaluated
+            // together below, their directions in the columns as they are); the lanes whose
+            // value is consistent (every one of the chunk's, the others where they have a
+            // `SurfaceBsdf`, evaluated lane by lane).
+            let mut toward = 0u8;
+            for (k, &n) in nee.iter().enumerate() {
+                toward |= u8::from(n) << k;
+            }
+            let toward = toward & side.bits() as u8;
+            let lit = toward & chunk.lanes();
+            let mut consistent = lit;
             for (k, &i) in ids.iter().enumerate() {
-                if !(nee[k] && side[k]) {
-                    continue;
-                }
-                let wo_k = local.get(k);
-                if chunk.has(k) {
-                    consistent[k] = true;
-                    lit |= 1 << k;
-                    wo[k] = wo_k; // evaluated below with the other points
+                if (toward & !lit) & (1 << k) == 0 {
                     continue;
                 }
                 let Some(s) = &sb[k] else { continue };
-                consistent[k] = true;
+                consistent |= 1 << k;
                 let (local, wi) = s.local();
-                let (fk, pk) = local.eval_pdf(&ctx, wi, wo_k, &mut b.sampler.at(i as usize));
+                let (fk, pk) = local.eval_pdf(&ctx, wi, lwo.get(k), &mut b.sampler.at(i as usize));
                 f.set(k, fk);
                 pdf[k] = pk;
             }
-            eval_pdf_x8_into(&ctx, &chunk, lit, &wo, &mut f.0, &mut pdf);
+            eval_pdf_x8_into(&ctx, &chunk, lit, &lwo.0, &mut f.0, &mut pdf);
             let lo = light_out(
                 &surf,
                 tp.load(avx),
                 &lp,
                 f.load(avx),
                 avx.load(&pdf),
-                avx.mask(&consistent),
+                avx.mask_bits(u32::from(consistent)),
             );
             let (ok, c) = (lo.ok.to_array(), Cols3::store(lo.contribution));
             // The shadow rays as whole rows (`RayRows::segment_rows`).

@@ -38,8 +38,8 @@ mod first;
 mod sample;
 
 use super::{
-    leave, leave_mirror, pick_entry, sample_record_is_exact, AtIncident, AtWi, Collected, Entries,
-    Known, MsPlace, Nested,
+    leave, pick_entry, sample_record_is_exact, AtIncident, AtWi, Collected, Entries, Known,
+    MsPlace, Nested,
 };
 use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfArena, BsdfContext, BsdfSample};
@@ -95,7 +95,14 @@ impl<'a> Point<'a> {
 /// inputs in columns ([`first::Points8`]). In place by lane (lane k's values are read only
 /// where bit k of `above` is set).
 pub(crate) struct Chunk<'a> {
+    /// The points' rows, where a query reads them ([`Self::point`]): none for the points that
+    /// [`Self::set_lanes`] placed in the baked lookups (their places are in `q`, `table` and
+    /// `norm`, [`Self::place`]).
     pts: [Option<Point<'a>>; 8],
+    /// Bit k: lane k has a point (with or without its row in `pts`).
+    on: u8,
+    /// The nested BSDF the points share (the first point's; `None` without a point).
+    nested: Option<Bsdf<'a>>,
     /// Bit k: lane k has a point seen from above (ωi.z > 0).
     above: u8,
     at: [AtWi; 8],
@@ -127,8 +134,14 @@ impl<'a> Chunk<'a> {
     /// was copied by a `memcpy` call per chunk).
     #[inline(always)]
     pub(crate) fn of(pts: [Option<Point<'a>>; 8]) -> Self {
+        let mut on = 0u8;
+        for (k, pt) in pts.iter().enumerate() {
+            on |= u8::from(pt.is_some()) << k;
+        }
         Chunk {
             pts,
+            on,
+            nested: shared(&pts),
             above: 0,
             at: [AtWi::UNUSED; 8],
             e: [Entries::EMPTY; 8],
@@ -153,6 +166,8 @@ impl<'a> Chunk<'a> {
     pub(crate) fn of_facets(facets: &FacetCols<8>) -> Self {
         Chunk {
             pts: [None; 8],
+            on: 0,
+            nested: None,
             above: 0,
             at: [AtWi::UNUSED; 8],
             e: [Entries::EMPTY; 8],
@@ -171,9 +186,17 @@ impl<'a> Chunk<'a> {
     /// that `MnmSettings::map_lane_into` would write from lane k of the build (its
     /// microsurface keeps both candidates, [`FacetCols::keeps`]; not flat; a compensated map
     /// alone, see [`Point`]) with θp cell `cells.get(k)` in `table`, over the shared nested BSDF
-    /// `nested`, seen from `wi[k]`: its facets and frame are the map's, its table reference
-    /// the map's (`MsPlace::in_cell`'s, its baked 1 / (π Ē_ms) for the 8 cells at once:
-    /// [`MsTable::baked_norms_x8`]), so every query answers as over the map (`tests`).
+    /// `nested`, seen from ωi (lane k of `wi`, by component): its facets and frame are the
+    /// map's, its table reference the map's (`MsPlace::in_cell`'s, its baked 1 / (π Ē_ms) for
+    /// the 8 cells at once: [`MsTable::baked_norms_x8`]), so every query answers as over the
+    /// map (`tests`).
+    ///
+    /// With the colours baked in, no `Point` row is built (eight ~80-byte rows per chunk that
+    /// no query over the mirror sawtooth reads): the points seen from above go to the lookups
+    /// at ωi and the entries' ωi from the columns as they are ([`Lookups8::push_lanes`],
+    /// [`first::Points8::push_wi_lanes`]), their 1 / (π Ē_ms) is `norms` as it is, and a lane's
+    /// place, where a CPU without AVX2 reads it, comes back from those ([`Self::place`]).
+    /// With per-bounce colours the rows are built and [`Self::prepare`] walks them.
     #[inline(always)]
     pub(crate) fn set_lanes(
         &mut self,
@@ -181,51 +204,56 @@ impl<'a> Chunk<'a> {
         table: &'static MsTable,
         cells: &CellCols<8>,
         lanes: u8,
-        wi: &[Vec3; 8],
+        wi: &[[f32; 8]; 3],
     ) {
-        let norms = (table.spec.colour == Colour::Baked).then(|| table.baked_norms_x8(cells));
-        for (k, &wi) in wi.iter().enumerate() {
-            if lanes & (1 << k) != 0 {
-                let r = MsPlace {
-                    table,
-                    cell: cells.get(k),
-                    baked_norm: norms.map(|n| Vec3::new(n[0][k], n[1][k], n[2][k])),
-                };
-                self.pts[k] = Some(Point {
-                    m: None,
-                    r,
-                    nested,
-                    wi,
-                });
-            }
-        }
-        // With the colours baked in, what [`Self::prepare`]'s walk over the points would do
-        // for them, from the columns here (every point shares `table`, so each one seen from
-        // above looks up at ωi with the others, in lane order; its 1 / (π Ē_ms) is its lane
-        // of `norms`, as in its `MsPlace`); `prepare` then goes on from its state at ωi.
-        if let Some(n) = norms {
-            let mut above = 0u8;
-            for (k, &wi) in wi.iter().enumerate() {
-                // (`prepare`'s test, z ≤ 0 skipped: a NaN z is not.)
-                if lanes & (1 << k) != 0 && (wi.z > 0.0 || wi.z.is_nan()) {
-                    self.q.push(k, &cells.get(k), wi);
-                    self.geo.push_wi(k, wi);
-                    for (c, col) in self.norm.iter_mut().enumerate() {
-                        col[k] = n[c][k];
-                    }
-                    above |= 1 << k;
+        self.on = lanes;
+        self.nested = (lanes != 0).then_some(nested);
+        if table.spec.colour != Colour::Baked {
+            for (k, pt) in self.pts.iter_mut().enumerate() {
+                if lanes & (1 << k) != 0 {
+                    let r = MsPlace {
+                        table,
+                        cell: cells.get(k),
+                        baked_norm: None,
+                    };
+                    *pt = Some(Point {
+                        m: None,
+                        r,
+                        nested,
+                        wi: Vec3::new(wi[0][k], wi[1][k], wi[2][k]),
+                    });
                 }
             }
-            self.above = above;
-            self.table = Some(table);
-            self.placed = true;
+            return;
         }
+        // What [`Self::prepare`]'s walk over the points would do for them, from the columns
+        // here (every point shares `table`, so each one seen from above looks up at ωi with
+        // the others; its 1 / (π Ē_ms) is its lane of the norms, as in its `MsPlace`);
+        // `prepare` then goes on from their state at ωi. (`prepare`'s test, z ≤ 0 skipped: a
+        // NaN z is not.)
+        let mut above = 0u8;
+        for (k, &z) in wi[2].iter().enumerate() {
+            above |= u8::from(z > 0.0 || z.is_nan()) << k;
+        }
+        let above = above & lanes;
+        self.q.push_lanes(above, cells, wi);
+        self.geo.push_wi_lanes(above, wi);
+        self.norm = table.baked_norms_x8(cells);
+        self.above = above;
+        self.table = Some(table);
+        self.placed = true;
     }
 
     /// Lane `k` has a point (its queries go through the chunk).
     #[inline(always)]
     pub(crate) fn has(&self, k: usize) -> bool {
-        self.pts[k].is_some()
+        self.on & (1 << k) != 0
+    }
+
+    /// The lanes with a point, as bits (bit k: lane k; [`Self::has`]).
+    #[inline(always)]
+    pub(crate) fn lanes(&self) -> u8 {
+        self.on
     }
 
     /// [`Self::of`] and [`Self::prepare`] (the tests' chunks).
@@ -329,24 +357,47 @@ impl<'a> Chunk<'a> {
         }
         let l = t.lookup_baked_x8(&self.q, true);
         for (k, &lk) in l.iter().enumerate() {
-            match &self.pts[k] {
-                Some(pt) if self.q.is_used(k) => {
-                    let at = AtWi::baked(&pt.r, lk);
-                    for c in 0..3 {
-                        self.ei[c][k] = at.ei[c];
-                    }
-                    self.sel[k] = at.select;
-                    self.at[k] = at;
+            if self.has(k) && self.q.is_used(k) {
+                let at = AtWi::baked(&self.place(k), lk);
+                for c in 0..3 {
+                    self.ei[c][k] = at.ei[c];
                 }
-                _ => {}
+                self.sel[k] = at.select;
+                self.at[k] = at;
             }
         }
     }
 
-    /// Lane `k`'s point, if it is seen from above.
+    /// Whether lane `k` has a point seen from above.
     #[inline(always)]
-    fn above(&self, k: usize) -> Option<&Point<'a>> {
-        self.pts[k].as_ref().filter(|_| self.above & (1 << k) != 0)
+    fn is_above(&self, k: usize) -> bool {
+        self.above & (1 << k) != 0
+    }
+
+    /// Lane `k`'s point as a row: a chunk off the mirror sawtooth (from [`Self::of`]: every
+    /// point has its row), where the queries read its map.
+    #[inline(always)]
+    fn point(&self, k: usize) -> &Point<'a> {
+        self.pts[k]
+            .as_ref()
+            .expect("a point off the mirror sawtooth has its row")
+    }
+
+    /// Lane `k`'s place in the table (a point's): its row's, or for a point that
+    /// [`Self::set_lanes`] placed in the baked lookups without a row, the same place from the
+    /// lookups' cell (`Lookups8::get`: the cell pushed, as `CellCols::get` gives it), the
+    /// chunk's table and its lane of `norm`.
+    #[inline(always)]
+    fn place(&self, k: usize) -> MsPlace {
+        match (&self.pts[k], self.q.get(k), self.table) {
+            (Some(pt), _, _) => pt.r,
+            (None, Some((cell, _)), Some(table)) => MsPlace {
+                table,
+                cell,
+                baked_norm: Some(Vec3::new(self.norm[0][k], self.norm[1][k], self.norm[2][k])),
+            },
+            _ => unreachable!("a point without its row is in the baked lookups"),
+        }
     }
 }
 
@@ -422,8 +473,8 @@ fn remainders(st: &States, c: &Chunk) -> [[f32; 8]; 3] {
         if rest & (1 << k) == 0 {
             continue;
         }
-        if let Some(pt) = &c.pts[k] {
-            let r = c.at[k].remainder(&pt.r, st.wo[k]);
+        if c.has(k) {
+            let r = c.at[k].remainder(&c.place(k), st.wo[k]);
             for (ch, o) in out.iter_mut().enumerate() {
                 o[k] = r[ch];
             }
@@ -588,19 +639,21 @@ pub(crate) fn eval_pdf_x8(
     wo: &[Vec3; 8],
 ) -> [(Spectrum, f32); 8] {
     let (mut f, mut p) = ([[0.0f32; 8]; 3], [0.0f32; 8]);
-    eval_pdf_x8_into(ctx, c, lit, wo, &mut f, &mut p);
+    let wo = [wo.map(|v| v.x), wo.map(|v| v.y), wo.map(|v| v.z)];
+    eval_pdf_x8_into(ctx, c, lit, &wo, &mut f, &mut p);
     std::array::from_fn(|k| (Vec3::new(f[0][k], f[1][k], f[2][k]), p[k]))
 }
 
-/// [`eval_pdf_x8`] into the caller's columns: lane k of `f` (by channel) and `p` gets lane
-/// k's value and density for each lane k of `lit` ((0, 0) unless both directions are above the
-/// surface); other lanes are not written. The stream kernel's form (no row of `(Spectrum,
-/// f32)` per lane to copy into its columns).
+/// [`eval_pdf_x8`] from and into the caller's columns: toward lane k of `wo` (by component),
+/// lane k of `f` (by channel) and `p` gets lane k's value and density for each lane k of `lit`
+/// ((0, 0) unless both directions are above the surface); other lanes are not written. The
+/// stream kernel's form (no row of `(Spectrum, f32)` or `Vec3` per lane to copy from or into
+/// its columns).
 pub(crate) fn eval_pdf_x8_into(
     ctx: &BsdfContext,
     c: &Chunk,
     lit: u8,
-    wo: &[Vec3; 8],
+    wo: &[[f32; 8]; 3],
     f: &mut [[f32; 8]; 3],
     p: &mut [f32; 8],
 ) {
@@ -610,7 +663,7 @@ pub(crate) fn eval_pdf_x8_into(
             (f[0][k], f[1][k], f[2][k], p[k]) = (0.0, 0.0, 0.0, 0.0);
         }
     }
-    let Some(nested) = shared(&c.pts) else {
+    let Some(nested) = c.nested else {
         return;
     };
     // Over the mirror sawtooth the first orders run in lanes ([`first`]), else each point's
@@ -619,16 +672,16 @@ pub(crate) fn eval_pdf_x8_into(
     let mut general = (!c.mirror).then(General::new);
     let mut st = States::new();
     for k in 0..8 {
-        let Some(pt) = c.above(k).filter(|_| lit & (1 << k) != 0) else {
+        if !c.is_above(k) || lit & (1 << k) == 0 {
             continue;
-        };
-        let wo = wo[k];
+        }
+        let wo = Vec3::new(wo[0][k], wo[1][k], wo[2][k]);
         if wo.z <= 0.0 {
             continue;
         }
         match &mut general {
             None => lanes.push(k, wo, None),
-            Some(g) => g.push(k, pt, &c.e[k], wo, None),
+            Some(g) => g.push(k, c.point(k), &c.e[k], wo, None),
         }
         st.wo[k] = wo;
         st.live |= 1 << k;
@@ -762,8 +815,7 @@ pub(crate) fn sample_x8_cols(
     ids: &[u32; 8],
 ) -> Samples8 {
     let _ = ctx; // the lane forms read no context
-    let pts = &c.pts;
-    let Some(nested) = shared(pts) else {
+    let Some(nested) = c.nested else {
         return Samples8::none();
     };
     let kind = Nested::of(&nested);
@@ -776,7 +828,7 @@ pub(crate) fn sample_x8_cols(
     let mut entry = [usize::MAX; 8];
     let mut asks = sample::Asks::new();
     for k in 0..8 {
-        if c.above(k).is_none() {
+        if !c.is_above(k) {
             continue;
         }
         let s = &mut samplers.stream(ids[k] as usize);
@@ -802,58 +854,69 @@ pub(crate) fn sample_x8_cols(
         entry[k] = j;
     }
     // Pass 2: the nested samples 8-wide.
+    // Over the mirror sawtooth, the known terms of the lanes that took a nested sample in
+    // columns: `from_nested` (bit k: lane k), each one's path 2 j + wall (`ks`), its nested
+    // density and weight from `answered` (`known_term`'s inputs, its test and products done
+    // for the 8 lanes below, [`first::Mirror8::sampled`]).
+    let mut from_nested = 0u8;
+    let mut ks = [0.0f32; 8];
+    let mut answered = None;
     if !asks.is_empty() {
-        let answered = asks.answer(kind);
+        let a = asks.answer(kind);
         // Over the mirror sawtooth `leave`'s numbers before its draw (the samples' directions
         // in the shading frame, G1 there, the mirror wall's reflection) for all lanes at once,
         // from the chunk's columns (the map's numbers).
         let left = if c.mirror {
-            Some(c.geo.leave_dirs(answered.wo()))
+            Some(c.geo.leave_dirs(a.wo()))
         } else {
             None
         };
         // Pass 3: the rest of `draw` per point (the facet frame and the mirror wall's draw).
         for (k, &j) in entry.iter().enumerate() {
-            let Some(pt) = pts[k].as_ref().filter(|_| j != usize::MAX) else {
+            if j == usize::MAX {
                 continue;
-            };
-            let Some(sampled) = answered.get(k) else {
+            }
+            let Some(sampled) = a.get(k) else {
                 continue;
             };
             let s = &mut samplers.stream(ids[k] as usize);
-            // Over the mirror sawtooth `leave`'s last step from the numbers in lanes (every
-            // entry is facet 0's; the same draw, `leave_mirror`).
-            (st.wo[k], st.known[k]) = match &left {
+            match &left {
+                // Over the mirror sawtooth `leave_mirror`'s draw from the numbers in lanes
+                // (every entry is facet 0's): u where the number is below G1(u), else R(u)
+                // through the wall; its known term in columns.
                 Some(l) => {
                     let (u, g, r) = l.get(k);
-                    leave_mirror(u, g, || r, j, (sampled.1, sampled.2), s)
+                    let through = s.next_1d() < g;
+                    let wall = !through;
+                    st.wo[k] = if wall { r } else { u };
+                    ks[k] = (2 * j + usize::from(wall)) as f32;
+                    from_nested |= 1 << k;
                 }
-                None => leave(pt.map(), c.e[k].k[j] as usize, j, sampled, s),
-            };
+                None => {
+                    (st.wo[k], st.known[k]) =
+                        leave(c.point(k).map(), c.e[k].k[j] as usize, j, sampled, s);
+                }
+            }
             drawn |= 1 << k;
         }
+        answered = Some(a);
     }
     // The first orders at the sampled directions: in lanes over the mirror sawtooth, else
     // their nested pairs in one batch ([`General`], made only then).
-    let mut lanes = first::Mirror8::new();
     let mut general = (!c.mirror).then(General::new);
     // The live lanes' ωo by component, for the last step in lanes (others: 0).
     let mut wo = [[0.0f32; 8]; 3];
-    for (k, pt) in pts.iter().enumerate() {
-        let Some(pt) = pt.as_ref().filter(|_| drawn & (1 << k) != 0) else {
-            continue;
-        };
-        if st.wo[k].z <= 0.0 {
+    for k in 0..8 {
+        if drawn & (1 << k) == 0 || st.wo[k].z <= 0.0 {
             continue;
         }
-        // (`Option::filter` by `exact`, written only where it changes the term: the rewrite
-        // of every lane's ~40-byte record cost more than the test.)
-        if !exact {
-            st.known[k] = None;
-        }
-        match &mut general {
-            None => lanes.push(k, st.wo[k], st.known[k]),
-            Some(g) => g.push(k, pt, &c.e[k], st.wo[k], st.known[k]),
+        if let Some(g) = &mut general {
+            // (`Option::filter` by `exact`, written only where it changes the term: the
+            // rewrite of every lane's ~40-byte record cost more than the test.)
+            if !exact {
+                st.known[k] = None;
+            }
+            g.push(k, c.point(k), &c.e[k], st.wo[k], st.known[k]);
         }
         for (ch, w) in wo.iter_mut().enumerate() {
             w[k] = st.wo[k][ch];
@@ -863,6 +926,16 @@ pub(crate) fn sample_x8_cols(
     if st.live == 0 {
         return Samples8::none();
     }
+    // Over the mirror sawtooth the query's inputs from the columns (the known terms where
+    // the sample record is exact: `Option::filter` by `exact`).
+    let lanes = match (&general, &answered) {
+        (None, Some(a)) => {
+            let known = from_nested & st.live & if exact { u8::MAX } else { 0 };
+            first::Mirror8::sampled(st.live, &wo, known, &ks, a.pdf(), a.weight())
+        }
+        (None, None) => first::Mirror8::sampled(st.live, &wo, 0, &ks, &[0.0; 8], &[[0.0; 8]; 3]),
+        (Some(_), _) => first::Mirror8::new(),
+    };
     let fo = first_orders(kind, c, &lanes, general.as_ref(), &st, Some(&st.known));
     let rem = remainders(&st, c);
     let done = finish_samples(st.live, &c.sel, &fo, &rem, &wo);
@@ -1324,11 +1397,7 @@ mod tests {
             let c = Chunk::new(pts);
             for (k, pt) in pts.iter().enumerate() {
                 let above = pt.filter(|p| p.wi.z > 0.0);
-                assert_eq!(
-                    c.above(k).is_some(),
-                    above.is_some(),
-                    "chunk {chunk} lane {k}"
-                );
+                assert_eq!(c.is_above(k), above.is_some(), "chunk {chunk} lane {k}");
                 let Some(pt) = above else { continue };
                 let at = AtWi::new(&pt.r, &pt.nested, pt.wi, None);
                 let e = Entries::new(pt.map(), pt.wi);
@@ -1564,6 +1633,7 @@ mod tests {
                     let chunk = || {
                         let mut c = Chunk::of_facets(lanes.facets());
                         let cells = lanes.cells().expect("compensated, with a table");
+                        let wi = [wi.map(|v| v.x), wi.map(|v| v.y), wi.map(|v| v.z)];
                         c.set_lanes(arena.bsdf(n), table, cells, mask, &wi);
                         c.prepare();
                         c

@@ -307,6 +307,18 @@ impl Points8 {
         self.pushed |= 1 << k;
     }
 
+    /// [`Self::push_wi`] of the lanes `on` (bit k: lane k), ωi from lane k of `wi` (by
+    /// component), the other lanes kept: a select per column.
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn push_wi_lanes(&mut self, on: u8, wi: &[[f32; 8]; 3]) {
+        for (dst, src) in self.wi.iter_mut().zip(wi) {
+            for k in 0..8 {
+                dst[k] = if on & (1 << k) != 0 { src[k] } else { dst[k] };
+            }
+        }
+        self.pushed |= on;
+    }
+
     /// The lanes not pushed get [`Self::new`]'s placeholders (a lane of [`Self::of_facets`]
     /// without a point may hold a flat microsurface's non-finite wall normal).
     #[inline(always)]
@@ -517,6 +529,39 @@ impl Mirror8 {
             on: [0.0; 8],
             used: 0,
         }
+    }
+
+    /// A sampling query from columns: the lanes `live` (bit k: lane k, a point of the
+    /// [`Points8`] it is evaluated over) toward lane k of `wo` (z > 0; by component), and the
+    /// lanes `known` among them with the known term of the nested sample that drew them
+    /// (path `ks[k]` = 2 j + wall, the sample's density `pdf[k]` and weight `w[..][k]`):
+    /// `known_term`'s, kept where the density is finite and positive, its value the weight
+    /// times the density per channel. What [`Self::push`] of each live lane with
+    /// `known_term`'s `Option` gives, for the 8 lanes from their columns.
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn sampled(
+        live: u8,
+        wo: &[[f32; 8]; 3],
+        known: u8,
+        ks: &[f32; 8],
+        pdf: &[f32; 8],
+        w: &[[f32; 8]; 3],
+    ) -> Self {
+        let mut m = Self::new();
+        for k in 0..8 {
+            let on = live & (1 << k) != 0;
+            let p = pdf[k];
+            let kn = known & (1 << k) != 0 && p.is_finite() && p > 0.0;
+            for c in 0..3 {
+                m.wo[c][k] = if on { wo[c][k] } else { m.wo[c][k] };
+                m.kf[c][k] = if kn { w[c][k] * p } else { 0.0 };
+            }
+            m.ks[k] = if kn { ks[k] } else { -1.0 };
+            m.kp[k] = if kn { p } else { 0.0 };
+            m.on[k] = if on { 1.0 } else { 0.0 };
+        }
+        m.used = live;
+        m
     }
 
     /// Lane `k` (a point of the [`Points8`] this query is evaluated over) toward `wo`

@@ -137,9 +137,7 @@ impl Asks {
                     let u2 = V2::new(avx.load(&self.u2[0]), avx.load(&self.u2[1]));
                     let s = b.sample_lanes(wi, avx.load(&self.u1), u2);
                     let mut out = Answered::zero();
-                    let one = avx.splat(1.0);
-                    let zero = avx.splat(0.0);
-                    F32x8::select(s.ok, one, zero).store(&mut out.ok);
+                    out.ok = accepted(&s).bits() as u8;
                     s.wo.x.store(&mut out.wo[0]);
                     s.wo.y.store(&mut out.wo[1]);
                     s.wo.z.store(&mut out.wo[2]);
@@ -162,7 +160,7 @@ impl Asks {
             let wi = Vec3::new(self.wi[0][k], self.wi[1][k], self.wi[2][k]);
             let u2 = glam::Vec2::new(self.u2[0][k], self.u2[1][k]);
             let s = b.sample_lanes::<f32>(wi.into(), self.u1[k], u2.into());
-            out.ok[k] = f32::from(u8::from(s.ok));
+            out.ok |= u8::from(accepted(&s)) << k;
             let (wo, w): (Vec3, Vec3) = (s.wo.into(), s.weight.into());
             for c in 0..3 {
                 out.wo[c][k] = wo[c];
@@ -174,10 +172,25 @@ impl Asks {
     }
 }
 
+/// Where a lane form's sample is one that `Bsdf::sample` returns: sampled (`ok`), ωo and the
+/// weight finite and the density not negative (`Bsdf::sample`'s test, `accept_sample`: a NaN
+/// density fails `pdf >= 0` as it does here), in lanes (8-wide in [`Asks::answer_with`], so
+/// [`Answered::get`] tests one bit instead of seven numbers per lane).
+#[inline(always)]
+fn accepted<L: Lane>(s: &LaneBsdfSample<L>) -> L::Mask {
+    s.ok & s.wo.x.is_finite()
+        & s.wo.y.is_finite()
+        & s.wo.z.is_finite()
+        & s.pdf.ge(s.pdf.splat(0.0))
+        & s.weight.x.is_finite()
+        & s.weight.y.is_finite()
+        & s.weight.z.is_finite()
+}
+
 /// The nested samples of [`Asks::answer`], by lane.
 pub(in crate::bsdf::mnm::compensated) struct Answered {
-    /// 1 where the lane form sampled a direction.
-    ok: [f32; 8],
+    /// Bit k: lane k's sample is kept ([`accepted`]).
+    ok: u8,
     wo: [[f32; 8]; 3],
     pdf: [f32; 8],
     weight: [[f32; 8]; 3],
@@ -186,7 +199,7 @@ pub(in crate::bsdf::mnm::compensated) struct Answered {
 impl Answered {
     fn zero() -> Self {
         Answered {
-            ok: [0.0; 8],
+            ok: 0,
             wo: [[0.0; 8]; 3],
             pdf: [0.0; 8],
             weight: [[0.0; 8]; 3],
@@ -200,18 +213,29 @@ impl Answered {
         &self.wo
     }
 
+    /// The samples' densities by lane (lanes without a sample: any value).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn pdf(&self) -> &[f32; 8] {
+        &self.pdf
+    }
+
+    /// The samples' weights by channel, by lane (lanes without a sample: any value).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn weight(&self) -> &[[f32; 8]; 3] {
+        &self.weight
+    }
+
     /// Lane `k`'s sample as `Bsdf::sample` returns it: (ωo, pdf, weight), `None` where the
     /// model sampled nothing or the sample is degenerate (non-finite ωo or weight, negative
     /// pdf: `Bsdf::sample`'s test).
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn get(&self, k: usize) -> Option<(Vec3, f32, Spectrum)> {
-        if self.ok[k] == 0.0 {
+        if self.ok & (1 << k) == 0 {
             return None;
         }
         let wo = Vec3::new(self.wo[0][k], self.wo[1][k], self.wo[2][k]);
         let w = Vec3::new(self.weight[0][k], self.weight[1][k], self.weight[2][k]);
-        let pdf = self.pdf[k];
-        (wo.is_finite() && pdf >= 0.0 && crate::spectrum::is_finite(w)).then_some((wo, pdf, w))
+        Some((wo, self.pdf[k], w))
     }
 }
 
