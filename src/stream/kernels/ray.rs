@@ -101,8 +101,12 @@ fn offset_1<L: Lane>(p: L, n: L) -> L {
 #[cfg(target_arch = "x86_64")]
 pub(crate) trait RayRows<const W: usize>: crate::lane::Wide<W> {
     /// Lane `k`'s ray: `Ray { o: (o.x, o.y, o.z)[k], d: (d.x, d.y, d.z)[k], tmin: 0, tmax }`
-    /// with `tmax` splat to every lane (`Ray::new` at `f32::INFINITY`).
-    fn ray_rows(self, o: V3<Self::F>, d: V3<Self::F>, tmax: f32) -> [crate::geometry::Ray; W];
+    /// with `tmax` splat to every lane (`Ray::new` at `f32::INFINITY`): [`Self::segment_rows`]
+    /// at one length.
+    #[inline(always)]
+    fn ray_rows(self, o: V3<Self::F>, d: V3<Self::F>, tmax: f32) -> [crate::geometry::Ray; W] {
+        self.segment_rows(o, d, self.splat(tmax))
+    }
     /// Each lane's row of the 8 fields `f`: row `k` is lane `k` of `f[0]`, …, `f[7]` (the same
     /// transpose, for the rows of the path states the kernels write whole).
     fn rows8(self, f: [Self::F; 8]) -> [[f32; 8]; W];
@@ -119,11 +123,6 @@ pub(crate) trait RayRows<const W: usize>: crate::lane::Wide<W> {
 
 #[cfg(target_arch = "x86_64")]
 impl RayRows<8> for crate::lane::Avx2 {
-    #[inline(always)]
-    fn ray_rows(self, o: V3<Self::F>, d: V3<Self::F>, tmax: f32) -> [crate::geometry::Ray; 8] {
-        let (z, t) = (self.splat(0.0), self.splat(tmax));
-        crate::lane::Avx2::ray_rows(self, [o.x, o.y, o.z, d.x, d.y, d.z, z, t])
-    }
     #[inline(always)]
     fn rows8(self, f: [Self::F; 8]) -> [[f32; 8]; 8] {
         crate::lane::Avx2::rows8(self, f)
@@ -142,11 +141,6 @@ impl RayRows<8> for crate::lane::Avx2 {
 
 #[cfg(target_arch = "x86_64")]
 impl RayRows<16> for crate::lane::Avx512 {
-    #[inline(always)]
-    fn ray_rows(self, o: V3<Self::F>, d: V3<Self::F>, tmax: f32) -> [crate::geometry::Ray; 16] {
-        let (z, t) = (self.splat(0.0), self.splat(tmax));
-        self.ray_rows16([o.x, o.y, o.z, d.x, d.y, d.z, z, t])
-    }
     #[inline(always)]
     fn rows8(self, f: [Self::F; 8]) -> [[f32; 8]; 16] {
         self.rows8_16(f)

@@ -523,19 +523,8 @@ pub(crate) mod x8 {
         m: &crate::geometry::mesh::TriMesh,
         flip: bool,
     ) -> (sl::Triangle<F32x8>, Meta) {
-        let (mut prim, mut b1, mut b2) = ([0i32; 8], [0.0f32; 8], [0.0f32; 8]);
-        let mut meta = Meta::new(avx);
-        for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
-                continue;
-            };
-            prim[k] = h.prim as i32;
-            b1[k] = h.u;
-            b2[k] = h.v;
-            meta.set(k, &h);
-        }
-        meta.rays(avx, st, ids);
-        let tri = avx.gather3_u32(&m.indices, avx.load_i32(&prim));
+        let (prim, b, meta) = mesh_hits(avx, st, ids);
+        let tri = avx.gather3_u32(&m.indices, prim);
         let p = [
             gv3(F32x8::gather3(&m.positions, tri[0])),
             gv3(F32x8::gather3(&m.positions, tri[1])),
@@ -570,11 +559,31 @@ pub(crate) mod x8 {
             uv,
             has_n,
             has_uv,
-            b1: avx.load(&b1),
-            b2: avx.load(&b2),
+            b1: b[0],
+            b2: b[1],
             sign: avx.splat(if flip { -1.0 } else { 1.0 }),
         };
         (x, meta)
+    }
+
+    /// The hits of the lanes `ids` on one mesh, as [`one_mesh_input`] and [`small_input`] read
+    /// them: the triangle indices, the barycentrics (`Hit::u`, `Hit::v`) and the lanes'
+    /// [`Meta`] with their rays (0 and no hit in the lanes past the chunk's paths).
+    #[inline(always)]
+    fn mesh_hits(avx: Avx2, st: &Stage, ids: &[u32; 8]) -> (I32x8, [F32x8; 2], Meta) {
+        let (mut prim, mut b1, mut b2) = ([0i32; 8], [0.0f32; 8], [0.0f32; 8]);
+        let mut meta = Meta::new(avx);
+        for (k, &i) in ids.iter().enumerate() {
+            let Some(h) = st.hit[i as usize] else {
+                continue;
+            };
+            prim[k] = h.prim as i32;
+            b1[k] = h.u;
+            b2[k] = h.v;
+            meta.set(k, &h);
+        }
+        meta.rays(avx, st, ids);
+        (avx.load_i32(&prim), [avx.load(&b1), avx.load(&b2)], meta)
     }
 
     /// [`one_mesh_input`] for a mesh held as [`SmallTris`]: each lane's corners looked up by
@@ -588,19 +597,7 @@ pub(crate) mod x8 {
         small: &SmallTris,
         flip: bool,
     ) -> (sl::Triangle<F32x8>, Meta) {
-        let (mut prim, mut b1, mut b2) = ([0i32; 8], [0.0f32; 8], [0.0f32; 8]);
-        let mut meta = Meta::new(avx);
-        for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
-                continue;
-            };
-            prim[k] = h.prim as i32;
-            b1[k] = h.u;
-            b2[k] = h.v;
-            meta.set(k, &h);
-        }
-        meta.rays(avx, st, ids);
-        let t = avx.load_i32(&prim);
+        let (t, b, meta) = mesh_hits(avx, st, ids);
         let p = [
             look3(&small.p[0], t),
             look3(&small.p[1], t),
@@ -633,8 +630,8 @@ pub(crate) mod x8 {
             uv,
             has_n,
             has_uv,
-            b1: avx.load(&b1),
-            b2: avx.load(&b2),
+            b1: b[0],
+            b2: b[1],
             sign: avx.splat(if flip { -1.0 } else { 1.0 }),
         };
         (x, meta)
