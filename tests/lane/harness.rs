@@ -23,6 +23,44 @@ macro_rules! kernel {
     };
 }
 
+/// `at_8_and_16!(test8, test16, "label", check)` defines two tests that run `check(avx)` at
+/// width 8 (AVX2/FMA) and at width 16 (AVX-512), each saying so and passing on a CPU without
+/// those lanes.
+#[macro_export]
+macro_rules! at_8_and_16 {
+    ($t8:ident, $t16:ident, $label:literal, $check:ident) => {
+        #[test]
+        fn $t8() {
+            #[cfg(target_arch = "x86_64")]
+            {
+                let Some(avx) = groove::lane::Avx2::detect() else {
+                    eprintln!(concat!(
+                        $label,
+                        " 8: this CPU has no AVX2/FMA, skipping the 8-wide check"
+                    ));
+                    return;
+                };
+                $check(avx);
+            }
+        }
+
+        #[test]
+        fn $t16() {
+            #[cfg(target_arch = "x86_64")]
+            {
+                let Some(avx) = groove::lane::Avx512::detect() else {
+                    eprintln!(concat!(
+                        $label,
+                        " 16: this CPU has no AVX-512 F/DQ/BW/VL, skipping the 16-wide check"
+                    ));
+                    return;
+                };
+                $check(avx);
+            }
+        }
+    };
+}
+
 /// Inputs per polynomial function and for PCG32 (`GROOVE_LANE_N`, default 10⁷).
 pub fn count() -> usize {
     std::env::var("GROOVE_LANE_N")

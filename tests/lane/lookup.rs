@@ -63,26 +63,9 @@ where
     }
 }
 
-#[test]
-fn lookup8_equals_the_scalar_lookup_8() {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let Some(avx) = groove::lane::Avx2::detect() else {
-            eprintln!("lookup8 8: this CPU has no AVX2/FMA, skipping the 8-wide check");
-            return;
-        };
-        check(avx);
-    }
-}
-
-#[test]
-fn lookup8_equals_the_scalar_lookup_16() {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let Some(avx) = groove::lane::Avx512::detect() else {
-            eprintln!("lookup8 16: this CPU has no AVX-512 F/DQ/BW/VL, skipping the 16-wide check");
-            return;
-        };
-        check(avx);
-    }
-}
+crate::at_8_and_16!(
+    lookup8_equals_the_scalar_lookup_8,
+    lookup8_equals_the_scalar_lookup_16,
+    "lookup8",
+    check
+);

@@ -37,26 +37,9 @@ fn check<T: Wide<W>, const W: usize>(avx: T) {
     }
 }
 
-#[test]
-fn masks_from_and_to_bits_8() {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let Some(avx) = groove::lane::Avx2::detect() else {
-            eprintln!("masks 8: this CPU has no AVX2/FMA, skipping the 8-wide check");
-            return;
-        };
-        check(avx);
-    }
-}
-
-#[test]
-fn masks_from_and_to_bits_16() {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let Some(avx) = groove::lane::Avx512::detect() else {
-            eprintln!("masks 16: this CPU has no AVX-512, skipping the 16-wide check");
-            return;
-        };
-        check(avx);
-    }
-}
+crate::at_8_and_16!(
+    masks_from_and_to_bits_8,
+    masks_from_and_to_bits_16,
+    "masks",
+    check
+);

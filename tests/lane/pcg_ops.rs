@@ -142,26 +142,9 @@ where
     }
 }
 
-#[test]
-fn pcg_ops_equal_the_scalar_reference_8() {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let Some(avx) = groove::lane::Avx2::detect() else {
-            eprintln!("pcg_ops 8: this CPU has no AVX2/FMA, skipping the 8-wide check");
-            return;
-        };
-        check(avx);
-    }
-}
-
-#[test]
-fn pcg_ops_equal_the_scalar_reference_16() {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let Some(avx) = groove::lane::Avx512::detect() else {
-            eprintln!("pcg_ops 16: this CPU has no AVX-512 F/DQ/BW/VL, skipping the 16-wide check");
-            return;
-        };
-        check(avx);
-    }
-}
+crate::at_8_and_16!(
+    pcg_ops_equal_the_scalar_reference_8,
+    pcg_ops_equal_the_scalar_reference_16,
+    "pcg_ops",
+    check
+);
