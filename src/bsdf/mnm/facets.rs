@@ -180,6 +180,21 @@ impl<const W: usize> FacetCols<W> {
         }
         all
     }
+
+    /// [`Self::keeps`] of every lane, as bits (bit i: lane i), its tests without a branch per
+    /// lane.
+    #[inline(always)]
+    pub(crate) fn keeps_bits(&self, n: usize) -> u32 {
+        let mut bits = if n <= self.n { u32::MAX } else { 0 };
+        for j in 0..n.min(self.n) {
+            let mut b = 0u32;
+            for (i, &l) in self.len[j].iter().enumerate() {
+                b |= u32::from(l > MIN_AREA) << i;
+            }
+            bits &= b;
+        }
+        bits & (u32::MAX >> (32 - W))
+    }
 }
 
 /// The facets at one shading point, in the macro (shading) frame where ωg = +z.
@@ -744,6 +759,23 @@ mod tests {
                             .lanes_at(V3::new(col(0), col(1), col(2)))
                             .cols::<8>()
                     });
+                    // `keeps_bits` is `keeps` of each lane.
+                    for n in 1..=3 {
+                        let bits = lanes.facets().keeps_bits(n);
+                        for k in 0..8 {
+                            let want = lanes.facets().keeps(n, k);
+                            assert_eq!(bits & (1 << k) != 0, want, "{geometry:?} {n} {k}");
+                        }
+                        assert_eq!(bits >> 8, 0);
+                    }
+                    // The stream kernel's points (with cells): `two_facets_with_cell` of each.
+                    if lanes.cells().is_some() {
+                        let pts = crate::stream::kernels::mnm::point_bits(&lanes);
+                        for k in 0..8 {
+                            let want = lanes.two_facets_with_cell(k);
+                            assert_eq!(pts & (1 << k) != 0, want, "{geometry:?} {k}");
+                        }
+                    }
                     for (k, &rgb) in rgb.iter().enumerate() {
                         let mut want = MicrofacetNormalMap::placeholder();
                         settings.map_into(&mut want, 3, rgb);

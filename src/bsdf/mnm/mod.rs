@@ -36,6 +36,7 @@ pub mod explicit;
 pub mod facet_bsdf;
 pub mod facets;
 pub mod lambert;
+pub(crate) mod lane_cols;
 pub(crate) mod load;
 pub mod misplaced;
 pub mod ms_cache;

@@ -37,7 +37,7 @@
 
 use super::facets::Microgeometry;
 use super::lambert::FacetChain;
-use super::{walk, Evaluation, MicrofacetNormalMap, Tangent};
+use super::{lane_cols, walk, Evaluation, MicrofacetNormalMap, Tangent};
 use crate::bsdf::{Bsdf, BsdfContext, TransportMode};
 use crate::lane::vec::{V2, V3};
 use crate::lane::{Lane, LaneI32, ToArray};
@@ -434,22 +434,27 @@ impl Lookups8 {
     /// The lanes `on` (bit k: lane k) look up their direction (lane k of `w`, by component;
     /// z > 0) in their cells (lane k of `cells`): [`Self::push`] of each, from the columns as
     /// they are (`cells.get(k)`'s cell, its plane `j · PLANE` in the same wrapping integer
-    /// product), the other lanes kept. Written as a select per column, which the compiler turns
-    /// into blends.
+    /// product), the other lanes kept: a blend per column ([`lane_cols::blend`]; the select
+    /// per lane written before compiled to a branch per lane and column).
     #[inline(always)]
     pub fn push_lanes(&mut self, on: u8, cells: &CellCols<8>, w: &[[f32; 8]; 3]) {
-        for k in 0..8 {
-            let m = on & (1 << k) != 0;
-            self.ax[k] = if m { cells.axis[0][k] } else { self.ax[k] };
-            self.ay[k] = if m { cells.axis[1][k] } else { self.ay[k] };
-            self.wx[k] = if m { w[0][k] } else { self.wx[k] };
-            self.wy[k] = if m { w[1][k] } else { self.wy[k] };
-            self.wz[k] = if m { w[2][k] } else { self.wz[k] };
-            let plane = (cells.j[k] as usize).wrapping_mul(PLANE) as i32;
-            self.plane[k] = if m { plane } else { self.plane[k] };
-            self.t[k] = if m { cells.t[k] } else { self.t[k] };
-        }
+        lane_cols::blend(on, &mut self.ax, &cells.axis[0]);
+        lane_cols::blend(on, &mut self.ay, &cells.axis[1]);
+        self.set_directions(on, w);
+        let plane: [i32; 8] =
+            std::array::from_fn(|k| (cells.j[k] as usize).wrapping_mul(PLANE) as i32);
+        lane_cols::blend_i32(on, &mut self.plane, &plane);
+        lane_cols::blend(on, &mut self.t, &cells.t);
         self.used |= on;
+    }
+
+    /// [`Self::set_direction`] of the lanes `on` (bit k: lane k; each with a lookup), from
+    /// lane k of `w` (by component), the other lanes kept: a blend per column.
+    #[inline(always)]
+    pub fn set_directions(&mut self, on: u8, w: &[[f32; 8]; 3]) {
+        lane_cols::blend(on, &mut self.wx, &w[0]);
+        lane_cols::blend(on, &mut self.wy, &w[1]);
+        lane_cols::blend(on, &mut self.wz, &w[2]);
     }
 
     /// The lanes with a lookup, as bits (bit k: lane k).

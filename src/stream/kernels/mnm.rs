@@ -82,11 +82,12 @@ pub(crate) fn shared_nested(materials: &Materials, m: MatId) -> bool {
 
 /// What [`build_shared`] built for a chunk.
 pub(crate) struct Built {
-    /// Each lane's BSDF root (`u32::MAX` for a lane whose hit is not given): its map, or for a
-    /// point built without one (bit k of `points`) the nested leaf (the map's lobes; its
-    /// queries go through the chunk, only its side test and frames through the root).
+    /// Each lane's BSDF root: its map, or for a point built without one (bit k of `points`)
+    /// the nested leaf (the map's lobes; its queries go through the chunk, only its side test
+    /// and frames through the root).
     pub roots: [u32; 8],
-    /// The hits' ωi in the shading frame (as `Materials::build_at` computes it).
+    /// The hits' ωi in the shading frame (as `Materials::build_at` computes it), where the
+    /// points are built with their maps (else `+z`: nothing reads them).
     pub wi: [Vec3; 8],
     /// The nested leaf's node, shared by the chunk's maps and points.
     pub child: u32,
@@ -146,26 +147,47 @@ pub(crate) fn build_shared(
         return None;
     };
     let child = arena.push_with_lobes(materials.lobes(*nested), **template);
+    // The points: not flat (`MicrofacetNormalMap::is_flat`, the map's `degenerate`), both
+    // facets kept (the map's `mirror_wall`), with a table cell (`two_facets_with_cell` of each
+    // lane, as bits).
+    let pts = match (points, lanes.cells()) {
+        (true, Some(_)) => point_bits(lanes),
+        _ => 0,
+    };
     let mut b = Built {
-        roots: [u32::MAX; 8],
+        roots: [child; 8],
         wi: [Vec3::Z; 8],
         child,
-        points: 0,
+        points: pts,
     };
-    for (k, w) in b.wi.iter_mut().enumerate() {
-        *w = Vec3::new(wi[0][k], wi[1][k], wi[2][k]);
-        // A point: not flat (`MicrofacetNormalMap::is_flat`, the map's `degenerate`), both
-        // facets kept (the map's `mirror_wall`), with its table cell.
-        if points && lanes.two_facets_with_cell(k) {
-            b.roots[k] = child;
-            b.points |= 1 << k;
-            continue;
-        }
+    // Each other lane's map, in lane order. The ωi rows only where the maps answer their own
+    // queries (`with_incident_alone_x8` reads them; no point is built without its map).
+    let mut rest = !pts;
+    while rest != 0 {
+        let k = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
         b.roots[k] = arena.push_microfacet_normal_map_with(child, |m| {
             settings.map_lane_into(m, child, lanes, k);
         });
     }
+    if !points {
+        for (k, w) in b.wi.iter_mut().enumerate() {
+            *w = Vec3::new(wi[0][k], wi[1][k], wi[2][k]);
+        }
+    }
     Some(b)
+}
+
+/// The lanes of `lanes` that are not flat and keep their first two candidate facets, as bits
+/// (bit k: lane k): `MnmCols::two_facets_with_cell` of each lane of columns with cells,
+/// without a branch per lane.
+#[inline(always)]
+pub(crate) fn point_bits(lanes: &MnmCols<8>) -> u8 {
+    let mut flat = 0u8;
+    for k in 0..8 {
+        flat |= u8::from(crate::bsdf::mnm::MicrofacetNormalMap::is_flat(lanes.wp(k))) << k;
+    }
+    lanes.facets().keeps_bits(2) as u8 & !flat
 }
 
 /// Whether the points of material `m` (one that [`qualifies`] and [`shared_nested`]) are built
@@ -324,8 +346,8 @@ pub(crate) mod x8 {
         // queries (no points built without maps) the built maps that are no chunk points (the
         // scalar model answers their queries) get their ωi caches: the arena is complete.
         let mut all = roots;
-        for (k, r) in all.iter_mut().enumerate() {
-            if *r == u32::MAX {
+        if built.is_none() {
+            for (k, r) in all.iter_mut().enumerate() {
                 *r = scene.bsdf_root(&si_at(b, k), arena);
             }
         }
@@ -440,10 +462,11 @@ pub(crate) mod x8 {
             let toward = toward & side.bits() as u8;
             let lit = toward & chunk.lanes();
             let mut consistent = lit;
-            for (k, &i) in ids.iter().enumerate() {
-                if (toward & !lit) & (1 << k) == 0 {
-                    continue;
-                }
+            let mut rest = toward & !lit;
+            while rest != 0 {
+                let k = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                let i = ids[k];
                 let Some(s) = &sb[k] else { continue };
                 consistent |= 1 << k;
                 let (local, wi) = s.local();
@@ -487,10 +510,11 @@ pub(crate) mod x8 {
         let mut wo = Cols3::store(world);
         let (mut pdf, mut w, mut eta) = (sampled.pdf, Cols3(sampled.w), [1.0f32; 8]);
         let mut delta = [sampled.lobe.intersects(Lobes::DELTA); 8];
-        for (k, &i) in ids.iter().enumerate() {
-            if chunk.has(k) {
-                continue;
-            }
+        let mut rest = !chunk.lanes();
+        while rest != 0 {
+            let k = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let i = ids[k];
             let Some(s) = &sb[k] else { continue };
             if let Some(bs) = s.sample(&ctx, &mut b.sampler.at(i as usize)) {
                 wo.set(k, bs.wo);
@@ -500,10 +524,11 @@ pub(crate) mod x8 {
             }
         }
         let origin = Cols3::store(offset_origin(surf.p, surf.ng, wo.load(avx)));
-        for (k, &i) in ids.iter().enumerate() {
-            if keep & (1 << k) == 0 {
-                continue;
-            }
+        let mut rest = keep;
+        while rest != 0 {
+            let k = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let i = ids[k];
             // `PathState::advance_sampled`'s arguments, for the tail.
             let s = Sampled {
                 p: p.get(k),

@@ -32,6 +32,7 @@
 //! nested leaf has no textured parameter).
 
 use super::super::facets::FacetCols;
+use super::super::lane_cols;
 use super::super::ms_table::{CellCols, Colour, Lookups8, MsTable};
 use super::super::nested_batch::{Pairs, CHUNK};
 mod first;
@@ -408,7 +409,6 @@ impl<'a> Chunk<'a> {
 struct States {
     /// Bit k: lane k has a point whose first order is pending.
     live: u8,
-    wo: [Vec3; 8],
     known: [Option<Known>; 8],
 }
 
@@ -417,7 +417,6 @@ impl States {
     fn new() -> Self {
         States {
             live: 0,
-            wo: [Vec3::Z; 8],
             known: [None; 8],
         }
     }
@@ -455,26 +454,27 @@ impl General {
 }
 
 /// Each live point's rank-1 remainder at its ωo ([`AtWi::remainder`]), by channel, by lane
-/// (the lanes that are not live hold any value): the points with the chunk's shared baked
-/// table in lanes ([`remainders_x8`]: their cells from [`Chunk::prepare`]'s lookups at ωi),
-/// each other point (another table, per-bounce colours, a CPU without AVX2) alone.
-fn remainders(st: &States, c: &Chunk) -> [[f32; 8]; 3] {
+/// (`live`: bit k for lane k; the lanes that are not live hold any value), toward lane k of
+/// `wo` (by component): the points with the chunk's shared baked table in lanes
+/// ([`remainders_x8`]: their cells from [`Chunk::prepare`]'s lookups at ωi), each other point
+/// (another table, per-bounce colours, a CPU without AVX2) alone.
+fn remainders(live: u8, wo: &[[f32; 8]; 3], c: &Chunk) -> [[f32; 8]; 3] {
     let mut out = [[0.0f32; 8]; 3];
-    let mut rest = st.live;
+    let mut rest = live;
     #[cfg(target_arch = "x86_64")]
     if let (Some(t), Some(avx)) = (c.table, crate::lane::Avx2::detect()) {
-        let lanes = st.live & c.q.used();
+        let lanes = live & c.q.used();
         if lanes != 0 {
-            out = remainders_x8(avx, t, c, lanes, &st.wo);
+            out = remainders_x8(avx, t, c, lanes, wo);
             rest &= !lanes;
         }
     }
-    for k in 0..8 {
-        if rest & (1 << k) == 0 {
-            continue;
-        }
+    while rest != 0 {
+        let k = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
         if c.has(k) {
-            let r = c.at[k].remainder(&c.place(k), st.wo[k]);
+            let w = Vec3::new(wo[0][k], wo[1][k], wo[2][k]);
+            let r = c.at[k].remainder(&c.place(k), w);
             for (ch, o) in out.iter_mut().enumerate() {
                 o[k] = r[ch];
             }
@@ -484,11 +484,12 @@ fn remainders(st: &States, c: &Chunk) -> [[f32; 8]; 3] {
 }
 
 /// [`AtWi::remainder`] of the points `lanes` (bit k: lane k; each a point of the chunk's
-/// lookups at ωi in baked `table`, [`Chunk::prepare`]) toward `wo[k]` (z > 0), 8-wide: E_ms(ωo)
-/// from the same cells ([`MsTable::lookup_baked_e_lanes`], each lane the scalar
-/// `lookup_baked`), then `remainder_from`'s products in its order per channel, ((E_ms(ωi) ·
-/// E_ms(ωo)) · 1/(πĒ_ms)) · z(ωo), and 0 where E_ms(ωi) = 0 (the scalar code's early return,
-/// whose lookup it skips). By channel, by lane; other lanes hold any value.
+/// lookups at ωi in baked `table`, [`Chunk::prepare`]) toward lane k of `wo` (by component;
+/// z > 0), 8-wide: E_ms(ωo) from the same cells ([`MsTable::lookup_baked_e_lanes`], each lane
+/// the scalar `lookup_baked`; the directions blended in, [`Lookups8::set_directions`]), then
+/// `remainder_from`'s products in its order per channel, ((E_ms(ωi) · E_ms(ωo)) · 1/(πĒ_ms)) ·
+/// z(ωo), and 0 where E_ms(ωi) = 0 (the scalar code's early return, whose lookup it skips).
+/// By channel, by lane; other lanes hold any value.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn remainders_x8(
@@ -496,23 +497,21 @@ fn remainders_x8(
     table: &'static MsTable,
     c: &Chunk,
     lanes: u8,
-    wo: &[Vec3; 8],
+    wo: &[[f32; 8]; 3],
 ) -> [[f32; 8]; 3] {
     use crate::lane::Lane;
     let mut q = c.q;
-    let mut z = [1.0f32; 8];
-    for (k, &w) in wo.iter().enumerate() {
-        if lanes & (1 << k) != 0 {
-            q.set_direction(k, w);
-            z[k] = w.z;
-        }
-    }
+    q.set_directions(lanes, wo);
     avx.run(
         #[inline(always)]
         || {
             let eo = table.lookup_baked_e_lanes(avx, &q);
             let zero = avx.splat(0.0);
-            let z = avx.load(&z);
+            let z = crate::lane::F32x8::select(
+                avx.mask_bits(u32::from(lanes)),
+                avx.load(&wo[2]),
+                avx.splat(1.0),
+            );
             let ei = [avx.load(&c.ei[0]), avx.load(&c.ei[1]), avx.load(&c.ei[2])];
             let none = ei[0].eq(zero) & ei[1].eq(zero) & ei[2].eq(zero);
             let mut out = [[0.0f32; 8]; 3];
@@ -658,19 +657,36 @@ pub(crate) fn eval_pdf_x8_into(
     p: &mut [f32; 8],
 ) {
     let _ = ctx; // the lane forms read no context
-    for k in 0..8 {
-        if lit & (1 << k) != 0 {
-            (f[0][k], f[1][k], f[2][k], p[k]) = (0.0, 0.0, 0.0, 0.0);
-        }
-    }
     let Some(nested) = c.nested else {
+        finish_evals_width1(
+            lit,
+            0,
+            &c.sel,
+            &first::FirstOrders::zero(),
+            &[[0.0; 8]; 3],
+            wo,
+            f,
+            p,
+        );
         return;
     };
-    // Over the mirror sawtooth the first orders run in lanes ([`first`]), else each point's
-    // nested pairs go to one batch ([`General`], made only then).
-    let mut lanes = first::Mirror8::new();
-    let mut general = (!c.mirror).then(General::new);
-    let mut st = States::new();
+    let kind = Nested::of(&nested);
+    // Over the mirror sawtooth the first orders run in lanes ([`first`]) from the columns as
+    // they are: the live lanes (lit, seen from above, ωo not below: the loop below's tests) as
+    // one mask, the query's inputs by blends ([`first::Mirror8::sampled`] without a known term:
+    // what [`first::Mirror8::push`] of each live lane without one gives).
+    if c.mirror {
+        let live = lit & c.above & lane_cols::not_le_zero(&wo[2]);
+        let none = ([-1.0; 8], [0.0; 8], [[0.0; 8]; 3]);
+        let lanes = first::Mirror8::sampled(live, wo, 0, &none.0, &none.1, &none.2);
+        let fo = lanes.eval(&c.geo, kind);
+        let rem = remainders(live, wo, c);
+        finish_evals(lit, live, &c.sel, &fo, &rem, wo, f, p);
+        return;
+    }
+    // Else each point's nested pairs go to one batch ([`General`], made only then).
+    let mut general = General::new();
+    let mut live = 0u8;
     for k in 0..8 {
         if !c.is_above(k) || lit & (1 << k) == 0 {
             continue;
@@ -679,26 +695,92 @@ pub(crate) fn eval_pdf_x8_into(
         if wo.z <= 0.0 {
             continue;
         }
-        match &mut general {
-            None => lanes.push(k, wo, None),
-            Some(g) => g.push(k, c.point(k), &c.e[k], wo, None),
-        }
-        st.wo[k] = wo;
-        st.live |= 1 << k;
+        general.push(k, c.point(k), &c.e[k], wo, None);
+        live |= 1 << k;
     }
-    let kind = Nested::of(&nested);
-    let fo = first_orders(kind, c, &lanes, general.as_ref(), &st, None);
-    let rem = remainders(&st, c);
+    let st = States {
+        live,
+        ..States::new()
+    };
+    let fo = first_orders(kind, c, &first::Mirror8::new(), Some(&general), &st, None);
+    let rem = remainders(live, wo, c);
+    finish_evals(lit, live, &c.sel, &fo, &rem, wo, f, p);
+}
+
+/// The last step of `mnm::eval_pdf` for the lanes `lit` of a light query (bit k: lane k) from
+/// the first orders `fo` and remainders `rem` of its live lanes `live` (a subset), with the
+/// lanes' lobe choice s(ωi) `sel` and directions `wo` (by component): a live lane's value is
+/// f1·z(ωo) + f_ms per channel and its density (1 − s) p1 + (s z(ωo)) / π (the scalar code's
+/// operations in its order, no fused multiply-add), a lit lane that is not live gets (0, 0),
+/// the other lanes are kept. 8-wide when the CPU has AVX2 and FMA, else lane by lane (the
+/// same numbers).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn finish_evals(
+    lit: u8,
+    live: u8,
+    sel: &[f32; 8],
+    fo: &first::FirstOrders,
+    rem: &[[f32; 8]; 3],
+    wo: &[[f32; 8]; 3],
+    f: &mut [[f32; 8]; 3],
+    p: &mut [f32; 8],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx) = crate::lane::Avx2::detect() {
+        use crate::lane::{F32x8, Lane};
+        avx.run(
+            #[inline(always)]
+            || {
+                let (on, at) = (
+                    avx.mask_bits(u32::from(live)),
+                    avx.mask_bits(u32::from(lit)),
+                );
+                let zero = avx.splat(0.0);
+                for ch in 0..3 {
+                    let v = avx.load(&fo.f[ch]) + avx.load(&rem[ch]);
+                    let kept = F32x8::select(at, zero, avx.load(&f[ch]));
+                    F32x8::select(on, v, kept).store(&mut f[ch]);
+                }
+                let s = avx.load(sel);
+                let pd = (avx.splat(1.0) - s) * avx.load(&fo.p)
+                    + s * avx.load(&wo[2]) * avx.splat(INV_PI);
+                let kept = F32x8::select(at, zero, avx.load(p));
+                F32x8::select(on, pd, kept).store(p);
+            },
+        );
+        return;
+    }
+    finish_evals_width1(lit, live, sel, fo, rem, wo, f, p);
+}
+
+/// [`finish_evals`] lane by lane.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn finish_evals_width1(
+    lit: u8,
+    live: u8,
+    sel: &[f32; 8],
+    fo: &first::FirstOrders,
+    rem: &[[f32; 8]; 3],
+    wo: &[[f32; 8]; 3],
+    f: &mut [[f32; 8]; 3],
+    p: &mut [f32; 8],
+) {
     for k in 0..8 {
-        if !st.is_live(k) {
+        if lit & (1 << k) == 0 {
+            continue;
+        }
+        (f[0][k], f[1][k], f[2][k], p[k]) = (0.0, 0.0, 0.0, 0.0);
+        if live & (1 << k) == 0 {
             continue;
         }
         let (fk, pk) = fo.get(k);
-        let s = c.sel[k];
+        let s = sel[k];
         let r = Vec3::new(rem[0][k], rem[1][k], rem[2][k]);
         let v = fk + r;
         (f[0][k], f[1][k], f[2][k]) = (v.x, v.y, v.z);
-        p[k] = (1.0 - s) * pk + s * st.wo[k].z * INV_PI;
+        p[k] = (1.0 - s) * pk + s * wo[2][k] * INV_PI;
     }
 }
 
@@ -821,19 +903,22 @@ pub(crate) fn sample_x8_cols(
     let kind = Nested::of(&nested);
     let exact = sample_record_is_exact(&nested);
     // Pass 1: the lobe choice, the cosine lobe, the entry and the nested sample's numbers
-    // (each point's ωi state and entries from `c`); `drawn`: the lanes with an ωo (in
-    // `st.wo`); `entry`: the entry of a lane that asked for a nested sample.
+    // (each point's ωi state and entries from `c`); `drawn`: the lanes with an ωo (in the
+    // columns `wc`, by component); `entry`: the entry of a lane that asked for a nested
+    // sample.
     let mut st = States::new();
+    let mut wc = [[0.0f32; 8]; 3];
     let mut drawn = 0u8;
     let mut entry = [usize::MAX; 8];
     let mut asks = sample::Asks::new();
-    for k in 0..8 {
-        if !c.is_above(k) {
-            continue;
-        }
+    let mut above = c.above;
+    while above != 0 {
+        let k = above.trailing_zeros() as usize;
+        above &= above - 1;
         let s = &mut samplers.stream(ids[k] as usize);
         if s.next_1d() < c.sel[k] {
-            st.wo[k] = warp::square_to_cosine_hemisphere(s.next_2d());
+            let d = warp::square_to_cosine_hemisphere(s.next_2d());
+            (wc[0][k], wc[1][k], wc[2][k]) = (d.x, d.y, d.z);
             drawn |= 1 << k;
             continue;
         }
@@ -863,68 +948,72 @@ pub(crate) fn sample_x8_cols(
     let mut answered = None;
     if !asks.is_empty() {
         let a = asks.answer(kind);
-        // Over the mirror sawtooth `leave`'s numbers before its draw (the samples' directions
-        // in the shading frame, G1 there, the mirror wall's reflection) for all lanes at once,
-        // from the chunk's columns (the map's numbers).
-        let left = if c.mirror {
-            Some(c.geo.leave_dirs(a.wo()))
-        } else {
-            None
-        };
-        // Pass 3: the rest of `draw` per point (the facet frame and the mirror wall's draw).
+        // Pass 3: the rest of `draw` per point (the facet frame and the mirror wall's draw),
+        // for the lanes with an entry whose nested sample is kept (`Answered::get`'s test).
+        let mut asked = 0u8;
         for (k, &j) in entry.iter().enumerate() {
-            if j == usize::MAX {
-                continue;
-            }
-            let Some(sampled) = a.get(k) else {
-                continue;
-            };
-            let s = &mut samplers.stream(ids[k] as usize);
-            match &left {
-                // Over the mirror sawtooth `leave_mirror`'s draw from the numbers in lanes
-                // (every entry is facet 0's): u where the number is below G1(u), else R(u)
-                // through the wall; its known term in columns.
-                Some(l) => {
-                    let (u, g, r) = l.get(k);
-                    let through = s.next_1d() < g;
-                    let wall = !through;
-                    st.wo[k] = if wall { r } else { u };
-                    ks[k] = (2 * j + usize::from(wall)) as f32;
-                    from_nested |= 1 << k;
-                }
-                None => {
-                    (st.wo[k], st.known[k]) =
-                        leave(c.point(k).map(), c.e[k].k[j] as usize, j, sampled, s);
-                }
-            }
-            drawn |= 1 << k;
+            asked |= u8::from(j != usize::MAX) << k;
         }
+        let mut rest = asked & a.ok();
+        if c.mirror {
+            // Over the mirror sawtooth `leave`'s numbers before its draw (the samples'
+            // directions in the shading frame, G1 there, the mirror wall's reflection) for all
+            // lanes at once, from the chunk's columns (the map's numbers); `leave_mirror`'s
+            // draw per lane (every entry is facet 0's): u where the number is below G1(u),
+            // else R(u) through the wall (bit k of `wall`), blended into the columns after;
+            // the known terms in columns.
+            let l = c.geo.leave_dirs(a.wo());
+            let mut wall = 0u8;
+            while rest != 0 {
+                let k = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                let s = &mut samplers.stream(ids[k] as usize);
+                let through = s.next_1d() < l.g(k);
+                wall |= u8::from(!through) << k;
+                ks[k] = (2 * entry[k] + usize::from(!through)) as f32;
+                from_nested |= 1 << k;
+            }
+            l.blend_into(from_nested, wall, &mut wc);
+        } else {
+            while rest != 0 {
+                let k = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                let j = entry[k];
+                let sampled = a.get(k).expect("a kept nested sample");
+                let s = &mut samplers.stream(ids[k] as usize);
+                let (wo, known) = leave(c.point(k).map(), c.e[k].k[j] as usize, j, sampled, s);
+                (wc[0][k], wc[1][k], wc[2][k]) = (wo.x, wo.y, wo.z);
+                st.known[k] = known;
+                from_nested |= 1 << k;
+            }
+        }
+        drawn |= from_nested;
         answered = Some(a);
     }
+    // The live lanes: drawn, ωo not below the surface (the scalar `z <= 0` test, as a mask);
+    // their ωo by component for the last step in lanes (others: 0).
+    st.live = drawn & lane_cols::not_le_zero(&wc[2]);
+    if st.live == 0 {
+        return Samples8::none();
+    }
+    let mut wo = [[0.0f32; 8]; 3];
+    lane_cols::blend3(st.live, &mut wo, &wc);
     // The first orders at the sampled directions: in lanes over the mirror sawtooth, else
     // their nested pairs in one batch ([`General`], made only then).
     let mut general = (!c.mirror).then(General::new);
-    // The live lanes' ωo by component, for the last step in lanes (others: 0).
-    let mut wo = [[0.0f32; 8]; 3];
-    for k in 0..8 {
-        if drawn & (1 << k) == 0 || st.wo[k].z <= 0.0 {
-            continue;
-        }
-        if let Some(g) = &mut general {
+    if let Some(g) = &mut general {
+        let mut rest = st.live;
+        while rest != 0 {
+            let k = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
             // (`Option::filter` by `exact`, written only where it changes the term: the
             // rewrite of every lane's ~40-byte record cost more than the test.)
             if !exact {
                 st.known[k] = None;
             }
-            g.push(k, c.point(k), &c.e[k], st.wo[k], st.known[k]);
+            let w = Vec3::new(wo[0][k], wo[1][k], wo[2][k]);
+            g.push(k, c.point(k), &c.e[k], w, st.known[k]);
         }
-        for (ch, w) in wo.iter_mut().enumerate() {
-            w[k] = st.wo[k][ch];
-        }
-        st.live |= 1 << k;
-    }
-    if st.live == 0 {
-        return Samples8::none();
     }
     // Over the mirror sawtooth the query's inputs from the columns (the known terms where
     // the sample record is exact: `Option::filter` by `exact`).
@@ -937,7 +1026,7 @@ pub(crate) fn sample_x8_cols(
         (Some(_), _) => first::Mirror8::new(),
     };
     let fo = first_orders(kind, c, &lanes, general.as_ref(), &st, Some(&st.known));
-    let rem = remainders(&st, c);
+    let rem = remainders(st.live, &wo, c);
     let done = finish_samples(st.live, &c.sel, &fo, &rem, &wo);
     // Every point's lobe is its nested BSDF's (the points share it); the kept lanes' ωo are
     // the live lanes' of `wo`.

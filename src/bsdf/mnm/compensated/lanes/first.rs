@@ -23,12 +23,15 @@ use super::super::super::facet_bsdf::reflect_across;
 #[cfg(test)]
 use super::super::super::facets::g1_of;
 use super::super::super::facets::FacetCols;
+use super::super::super::lane_cols;
 use super::super::super::nested_batch::LaneNested;
 #[cfg(test)]
 use super::super::Entries;
 #[cfg(test)]
+use super::super::Known;
+#[cfg(test)]
 use super::super::Leaves;
-use super::super::{Known, Nested};
+use super::super::Nested;
 use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::lane::frame::Frame as LaneFrame;
 use crate::lane::vec::V3;
@@ -175,7 +178,27 @@ impl Left {
         }
     }
 
+    /// Lane `k`'s G1(u).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn g(&self, k: usize) -> f32 {
+        self.g[k]
+    }
+
+    /// The sampler's directions into `wo` (by component), for the lanes `on` (bit k: lane k;
+    /// the others kept): R(u) in the lanes of `wall`, else u (`leave_mirror`'s choice).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn blend_into(
+        &self,
+        on: u8,
+        wall: u8,
+        wo: &mut [[f32; 8]; 3],
+    ) {
+        lane_cols::blend3(on & !wall, wo, &self.u);
+        lane_cols::blend3(on & wall, wo, &self.r);
+    }
+
     /// Lane `k`'s (u, G1(u), R(u)).
+    #[cfg(test)]
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn get(&self, k: usize) -> (Vec3, f32, Vec3) {
         let (u, r) = (&self.u, &self.r);
@@ -308,14 +331,10 @@ impl Points8 {
     }
 
     /// [`Self::push_wi`] of the lanes `on` (bit k: lane k), ωi from lane k of `wi` (by
-    /// component), the other lanes kept: a select per column.
+    /// component), the other lanes kept: a blend per column.
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn push_wi_lanes(&mut self, on: u8, wi: &[[f32; 8]; 3]) {
-        for (dst, src) in self.wi.iter_mut().zip(wi) {
-            for k in 0..8 {
-                dst[k] = if on & (1 << k) != 0 { src[k] } else { dst[k] };
-            }
-        }
+        lane_cols::blend3(on, &mut self.wi, wi);
         self.pushed |= on;
     }
 
@@ -324,14 +343,16 @@ impl Points8 {
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn clear_unpushed(&mut self) {
         let z = Vec3::Z;
-        for k in 0..8 {
-            if self.pushed & (1 << k) == 0 {
-                set3(&mut self.v0, k, z);
-                set3(&mut self.v1, k, z);
-                set3(&mut self.n1, k, z);
-                for c in 0..3 {
-                    set3(&mut self.fr[c], k, z);
-                }
+        // Over the lanes not pushed only (most chunks have none).
+        let mut rest = !self.pushed;
+        while rest != 0 {
+            let k = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            set3(&mut self.v0, k, z);
+            set3(&mut self.v1, k, z);
+            set3(&mut self.n1, k, z);
+            for c in 0..3 {
+                set3(&mut self.fr[c], k, z);
             }
         }
     }
@@ -538,8 +559,45 @@ impl Mirror8 {
     /// `known_term`'s, kept where the density is finite and positive, its value the weight
     /// times the density per channel. What [`Self::push`] of each live lane with
     /// `known_term`'s `Option` gives, for the 8 lanes from their columns.
+    /// 8-wide when the CPU has AVX2 and FMA (selects by the lanes' bits, the products `w · pdf`
+    /// per lane: the same numbers), else lane by lane ([`Self::sampled_width1`]).
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn sampled(
+        live: u8,
+        wo: &[[f32; 8]; 3],
+        known: u8,
+        ks: &[f32; 8],
+        pdf: &[f32; 8],
+        w: &[[f32; 8]; 3],
+    ) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = Avx2::detect() {
+            return avx.run(
+                #[inline(always)]
+                || {
+                    let mut m = Self::new();
+                    let (zero, one) = (avx.splat(0.0), avx.splat(1.0));
+                    let on = avx.mask_bits(u32::from(live));
+                    let p = avx.load(pdf);
+                    let kn = avx.mask_bits(u32::from(known)) & p.is_finite() & p.gt(zero);
+                    let dflt = l3_8(avx, &m.wo);
+                    s3_8(V3::select(on, l3_8(avx, wo), dflt), &mut m.wo);
+                    let kf = l3_8(avx, w).scale(p);
+                    s3_8(V3::select(kn, kf, V3::new(zero, zero, zero)), &mut m.kf);
+                    F32x8::select(kn, avx.load(ks), avx.splat(-1.0)).store(&mut m.ks);
+                    F32x8::select(kn, p, zero).store(&mut m.kp);
+                    F32x8::select(on, one, zero).store(&mut m.on);
+                    m.used = live;
+                    m
+                },
+            );
+        }
+        Self::sampled_width1(live, wo, known, ks, pdf, w)
+    }
+
+    /// [`Self::sampled`] lane by lane.
+    #[inline(always)]
+    fn sampled_width1(
         live: u8,
         wo: &[[f32; 8]; 3],
         known: u8,
@@ -565,7 +623,9 @@ impl Mirror8 {
     }
 
     /// Lane `k` (a point of the [`Points8`] this query is evaluated over) toward `wo`
-    /// (z > 0), with the drawn path's `known` term.
+    /// (z > 0), with the drawn path's `known` term (the tests' queries; the queries of
+    /// `super` come from columns, [`Self::sampled`]).
+    #[cfg(test)]
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn push(
         &mut self,
@@ -1028,6 +1088,61 @@ mod tests {
             compared > 5000 && walls > 200,
             "{compared} lanes, {walls} through the wall"
         );
+    }
+
+    /// A sampling query's inputs from columns ([`Mirror8::sampled`], 8-wide on this machine)
+    /// equal the lane-by-lane form bit for bit (NaNs as NaNs), every column and the mask: random
+    /// live and known lanes, densities and weights with ±0, subnormals, huge values, ±∞ and NaN
+    /// (a known term only where the density is finite and positive).
+    #[test]
+    fn sampled_query_in_lanes_equals_the_loop() {
+        const EDGES: [f32; 10] = [
+            0.0,
+            -0.0,
+            1e-40,
+            -1e-40,
+            1.0,
+            -1.0,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        fn num(rng: &mut Pcg32) -> f32 {
+            if rng.next_f32() < 0.25 {
+                EDGES[rng.next_u32() as usize % EDGES.len()]
+            } else {
+                4.0 * rng.next_f32() - 1.0
+            }
+        }
+        fn col(rng: &mut Pcg32) -> [f32; 8] {
+            std::array::from_fn(|_| num(rng))
+        }
+        let mut rng = Pcg32::new(26, 11);
+        let mut kept = 0;
+        for round in 0..3000 {
+            let (live, known) = (rng.next_u32() as u8, rng.next_u32() as u8);
+            let wo = [col(&mut rng), col(&mut rng), col(&mut rng)];
+            let w = [col(&mut rng), col(&mut rng), col(&mut rng)];
+            let ks = std::array::from_fn(|_| (rng.next_u32() % 4) as f32);
+            let pdf = col(&mut rng);
+            let (a, b) = (
+                Mirror8::sampled(live, &wo, known, &ks, &pdf, &w),
+                Mirror8::sampled_width1(live, &wo, known, &ks, &pdf, &w),
+            );
+            assert_eq!(a.used, b.used, "{round}");
+            for k in 0..8 {
+                for c in 0..3 {
+                    assert!(same(a.wo[c][k], b.wo[c][k]), "{round} {k} {c}");
+                    assert!(same(a.kf[c][k], b.kf[c][k]), "{round} {k} {c}");
+                }
+                assert!(same(a.ks[k], b.ks[k]), "{round} {k}");
+                assert!(same(a.kp[k], b.kp[k]), "{round} {k}");
+                assert!(same(a.on[k], b.on[k]), "{round} {k}");
+                kept += usize::from(b.ks[k] >= 0.0);
+            }
+        }
+        assert!(kept > 3000, "{kept} known terms kept");
     }
 
     /// The 8-wide first order equals the width-1 one lane by lane, bit for bit, on random

@@ -225,6 +225,12 @@ impl Answered {
         &self.weight
     }
 
+    /// The lanes whose nested sample is kept (bit k: lane k; [`Self::get`] is `Some`).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn ok(&self) -> u8 {
+        self.ok
+    }
+
     /// Lane `k`'s sample as `Bsdf::sample` returns it: (ωo, pdf, weight), `None` where the
     /// model sampled nothing or the sample is degenerate (non-finite ωo or weight, negative
     /// pdf: `Bsdf::sample`'s test).
