@@ -236,7 +236,10 @@ mod tests {
         }
         let mut rng = crate::math::rng::Pcg32::new(26, 1);
         for _ in 0..1_000_000 {
-            let (tn, den) = (f32::from_bits(rng.next_u32()), f32::from_bits(rng.next_u32()));
+            let (tn, den) = (
+                f32::from_bits(rng.next_u32()),
+                f32::from_bits(rng.next_u32()),
+            );
             check(tn, den);
             check(tn, den * 1e-30);
         }

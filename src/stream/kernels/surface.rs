@@ -658,7 +658,11 @@ pub(crate) mod x8 {
         /// Per lane, `table[k][t]` for the three components `k`.
         #[inline(always)]
         fn v3(self, table: &[[f32; SMALL_TRIS]; 3]) -> V3<F32x8> {
-            V3::new(self.one(&table[0]), self.one(&table[1]), self.one(&table[2]))
+            V3::new(
+                self.one(&table[0]),
+                self.one(&table[1]),
+                self.one(&table[2]),
+            )
         }
 
         #[inline(always)]
