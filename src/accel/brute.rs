@@ -155,6 +155,8 @@ pub(crate) struct Brute {
     box_rows: Vec<MappedRow>,
     /// Every mesh's triangles in shape order, each mesh's in its own order.
     tri_rows: Vec<TriRow>,
+    /// The meshes by their boxes' largest extent, smallest first (stable: shape order on
+    /// ties).
     meshes: Vec<MeshBox>,
     slots: Vec<Slot>,
     /// Box faces indexed by `2·axis + (side > 0)`.
@@ -321,6 +323,12 @@ impl Brute {
             };
             b.slots.push(slot);
         }
+        // The packets test the meshes of smallest extent first: in a closed room (the Cornell
+        // boxes) the walls are the largest and lie behind everything else, so a ray that hits
+        // an object first has its t before it reaches them, and their rows stop at the plane
+        // half. The order cannot change a hit: the nearest is a strict minimum of (t, key),
+        // and the cull keeps every crossing at or before it.
+        b.meshes.sort_by(|p, q| extent(p).total_cmp(&extent(q)));
         Some(b)
     }
 
@@ -641,7 +649,7 @@ impl Brute {
         let s = slab(ray);
         for mesh in &self.meshes {
             // Only the lanes not yet blocked.
-            let within = in_bounds(ray, &s, v3(like, mesh.lo), v3(like, mesh.hi)) & !any;
+            let mut within = in_bounds(ray, &s, v3(like, mesh.lo), v3(like, mesh.hi)) & !any;
             if !within.any() {
                 continue;
             }
@@ -652,6 +660,11 @@ impl Brute {
                     any = any | (tri_edges(ray, &tri, &p).2 & within);
                     if any.all() {
                         return any;
+                    }
+                    // A lane blocked by this row needs none of the mesh's other rows.
+                    within = within & !any;
+                    if !within.any() {
+                        break;
                     }
                 }
             }
@@ -872,6 +885,11 @@ fn mesh_bounds(m: &crate::geometry::mesh::TriMesh) -> (Vec3, Vec3) {
         });
     let pad = 1e-4 * ((hi - lo).max_element() + lo.abs().max(hi.abs()).max_element());
     (lo - Vec3::splat(pad), hi + Vec3::splat(pad))
+}
+
+/// A mesh box's largest extent (the order of [`Brute::meshes`]).
+fn extent(m: &MeshBox) -> f32 {
+    (Vec3::from(m.hi) - Vec3::from(m.lo)).max_element()
 }
 
 /// A triangle row splat to the width of `like`.

@@ -49,18 +49,25 @@ pub(crate) struct TriPlane<L: Lane> {
     den: L,
     /// |d·n|.
     pub a: L,
-    /// The ray parameter of the crossing, `(c·n)/(d·n)` (the numerator's sign flipped by the
-    /// determinant's, over |d·n|).
+    /// The ray parameter of the crossing, `(c·n)/(d·n)`.
     pub t: L,
 }
 
 /// [`TriPlane`] of `ray` and `tri`.
+///
+/// t is `(c·n)/(d·n)` as one division. It was the numerator's sign flipped by the
+/// determinant's over |d·n|, which is the same number: IEEE 754 gives a quotient the
+/// exclusive or of its operands' signs and the rounded quotient of their magnitudes (the
+/// rounding to nearest is symmetric), zeros and infinities included; only a NaN's sign bit may
+/// differ, and a NaN t is never a hit. Two operations less per (ray, triangle) before the
+/// packets' cull (the sign mask and the flip); |d·n| is left for the edge half. The test
+/// `tn_over_den_is_the_sign_flipped_quotient` checks the equality.
 #[inline(always)]
 pub(crate) fn tri_plane<L: Lane>(ray: &RayL<L>, tri: &TriL<L>) -> TriPlane<L> {
     let c = tri.p0 - ray.o;
     let den = tri.n.dot(ray.d);
     let a = den.abs();
-    let t = tri.n.dot(c).mulsign(den) / a;
+    let t = tri.n.dot(c) / den;
     TriPlane { c, den, a, t }
 }
 
@@ -185,6 +192,67 @@ mod tests {
                 // u weights corner 1, v corner 2.
                 let want = if flip { (0.5, 0.25) } else { (0.25, 0.5) };
                 assert_eq!((u, v), want);
+            }
+        }
+    }
+
+    /// `tn / den` (what [`tri_plane`] computes) is `tn.mulsign(den) / |den|` (what it computed
+    /// before) bit for bit wherever that is not NaN, and NaN where it is, at width 1 and 8: over
+    /// every pair of special values (±0, subnormals, ±`f32::MAX`, ±∞, NaN) and random bit
+    /// patterns.
+    #[test]
+    fn tn_over_den_is_the_sign_flipped_quotient() {
+        let special = [
+            0.0f32,
+            -0.0,
+            1e-45,
+            -1e-45,
+            1.1e-38,
+            -3e-39,
+            1.0,
+            -1.0,
+            3.0,
+            -7.0,
+            f32::MAX,
+            -f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+        ];
+        let check = |tn: f32, den: f32| {
+            let (new, old) = (tn / den, tn.mulsign(den) / den.abs());
+            if old.is_nan() {
+                assert!(new.is_nan(), "{tn} / {den}");
+            } else {
+                assert_eq!(new.to_bits(), old.to_bits(), "{tn} / {den}");
+            }
+            (new, old)
+        };
+        for &tn in &special {
+            for &den in &special {
+                check(tn, den);
+            }
+        }
+        let mut rng = crate::math::rng::Pcg32::new(26, 1);
+        for _ in 0..1_000_000 {
+            let (tn, den) = (
+                f32::from_bits(rng.next_u32()),
+                f32::from_bits(rng.next_u32()),
+            );
+            check(tn, den);
+            check(tn, den * 1e-30);
+        }
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = crate::lane::Avx2::detect() {
+            for k in 0..special.len() {
+                let tn: [f32; 8] = std::array::from_fn(|i| special[(k + i) % special.len()]);
+                let den: [f32; 8] = std::array::from_fn(|i| special[(3 * k + i) % special.len()]);
+                let got = avx.run(|| (avx.load(&tn) / avx.load(&den)).to_array());
+                for i in 0..8 {
+                    let (new, _) = check(tn[i], den[i]);
+                    assert!(got[i].to_bits() == new.to_bits() || new.is_nan() && got[i].is_nan());
+                }
             }
         }
     }

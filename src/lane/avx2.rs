@@ -822,4 +822,23 @@ impl Avx2 {
         }
         out
     }
+
+    // The twenty-sixth session's h1: a lookup in a table of 16 floats.
+
+    /// `table[min(idx as u32, 15)]` per lane: two `vpermps` (the table's halves, by the index's
+    /// low three bits) and one `vblendvps` on the index's bit 3 (moved to the sign bit). For the
+    /// surface gather's tables of meshes of 9 to 16 triangles (the Cornell boxes' 12), where
+    /// [`super::LaneLookup::lookup8`] serves 8. The clamp and the shift depend on `idx` only, so
+    /// a run of lookups by one index shares them.
+    #[inline(always)]
+    pub fn lookup16(self, table: &[f32; 16], idx: I32x8) -> F32x8 {
+        // SAFETY: the token proves AVX2; the loads read the 16 floats of `table`.
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(15));
+            let lo = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table.as_ptr()), i);
+            let hi = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table.as_ptr().add(8)), i);
+            let high = _mm256_castsi256_ps(_mm256_slli_epi32::<28>(i));
+            F32x8(_mm256_blendv_ps(lo, hi, high))
+        }
+    }
 }

@@ -2,7 +2,8 @@
 //! the scalar lookup `table[min(idx as u32, 7)]` bit for bit in every lane, at width 1, 8 and 16
 //! (the 16-wide half skipped, with a note, without AVX-512): over random tables holding ±0,
 //! subnormals, huge values, ±∞ and NaNs of several payloads, and indices in range, negative and
-//! far out of range.
+//! far out of range. `Avx2::lookup16` (two permutes and a blend, the surface gather's tables of
+//! up to 16 triangles) likewise against `table[min(idx as u32, 15)]`.
 
 use groove::lane::wide::{ToArray, Wide};
 use groove::lane::LaneLookup;
@@ -69,3 +70,42 @@ crate::at_8_and_16!(
     "lookup8",
     check
 );
+
+/// `Avx2::lookup16` (the surface gather's tables of meshes of 9 to 16 triangles) equals the
+/// scalar lookup `table[min(idx as u32, 15)]` bit for bit in every lane: random tables of edge
+/// floats and random bit patterns (NaN payloads, signalling ones included), every index 0 to 15
+/// in every lane position, and indices past the table (16, 23, 24, −1, `i32::MIN`, random).
+/// Skipped, with a note, without AVX2.
+#[test]
+fn lookup16_equals_the_scalar_lookup() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let Some(avx) = groove::lane::Avx2::detect() else {
+            eprintln!("lookup16: this CPU has no AVX2/FMA, skipping");
+            return;
+        };
+        let mut r = Pcg32::new(16, 26);
+        for round in 0..20_000usize {
+            let table: [f32; 16] = std::array::from_fn(|j| match (round + j) % 3 {
+                0 => EDGES[(r.next_u32() % 12) as usize],
+                1 => f32::from_bits(r.next_u32()),
+                _ => r.next_f32() * 4.0 - 2.0,
+            });
+            let idx: [i32; 8] = std::array::from_fn(|k| match (round / 16 + k) % 8 {
+                // Every index in every lane over 16 rounds.
+                0..=3 => ((round + k) % 16) as i32,
+                4 => [16, 23, 24, -1, i32::MIN, i32::MAX, 8, 15][(round + k) % 8],
+                5 => r.next_u32() as i32,
+                _ => (r.next_u32() % 16) as i32,
+            });
+            let got = avx.run(
+                #[inline(always)]
+                || avx.lookup16(&table, avx.load_i32(&idx)).to_array(),
+            );
+            for k in 0..8 {
+                let want = table[(idx[k] as u32).min(15) as usize];
+                assert_eq!(got[k].to_bits(), want.to_bits(), "index {}", idx[k]);
+            }
+        }
+    }
+}

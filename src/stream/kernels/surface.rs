@@ -62,20 +62,23 @@ impl Form {
 }
 
 /// The most triangles a mesh held as [`SmallTris`] has.
-pub(crate) const SMALL_TRIS: usize = 8;
+pub(crate) const SMALL_TRIS: usize = 16;
 
-/// A mesh of at most [`SMALL_TRIS`] triangles (a Cornell box's wall, its light) as tables by
-/// triangle, built once at load: per corner, its position, vertex normal and uv, component by
-/// component, 8 triangles wide (zero past the mesh's triangles and for an attribute the mesh
-/// has not). The gather stage reads a chunk's corners from them by one `vpermps` per
-/// component, indexed by the triangle (`lane::LaneLookup::lookup8`), instead of the vertex
-/// indices' gather and the position, normal and uv gathers that depend on it: the same floats,
-/// so the same rows.
+/// A mesh of at most [`SMALL_TRIS`] triangles (a Cornell box's wall, its light, its two
+/// boxes of 12) as tables by triangle, built once at load: per corner, its position, vertex
+/// normal and uv, component by component, 16 triangles wide (zero past the mesh's triangles and
+/// for an attribute the mesh has not). The gather stage reads a chunk's corners from them by
+/// permutes indexed by the triangle, instead of the vertex indices' gather and the position,
+/// normal and uv gathers that depend on it: one `vpermps` per component for a mesh of at most 8
+/// triangles (`lane::LaneLookup::lookup8` on the tables' first halves), two and a blend for
+/// more (`Avx2::lookup16`). The same floats, so the same rows.
 #[derive(Clone, Debug)]
 pub(crate) struct SmallTris {
-    p: [[[f32; 8]; 3]; 3],
-    n: [[[f32; 8]; 3]; 3],
-    uv: [[[f32; 8]; 2]; 3],
+    p: [[[f32; SMALL_TRIS]; 3]; 3],
+    n: [[[f32; SMALL_TRIS]; 3]; 3],
+    uv: [[[f32; SMALL_TRIS]; 2]; 3],
+    /// More than 8 triangles: the lookups read both halves.
+    wide: bool,
 }
 
 impl SmallTris {
@@ -92,9 +95,10 @@ impl SmallTris {
             return None;
         }
         let mut s = SmallTris {
-            p: [[[0.0; 8]; 3]; 3],
-            n: [[[0.0; 8]; 3]; 3],
-            uv: [[[0.0; 8]; 2]; 3],
+            p: [[[0.0; SMALL_TRIS]; 3]; 3],
+            n: [[[0.0; SMALL_TRIS]; 3]; 3],
+            uv: [[[0.0; SMALL_TRIS]; 2]; 3],
+            wide: m.indices.len() > 8,
         };
         for (t, tri) in m.indices.iter().enumerate() {
             for (c, &j) in tri.iter().enumerate() {
@@ -159,7 +163,7 @@ pub(crate) mod x8 {
 
     const N: usize = BATCH * cols::ROW;
 
-    use super::{Form, SmallTris};
+    use super::{Form, SmallTris, SMALL_TRIS};
     use crate::geometry::surface_lanes::{self as sl, SurfLanes};
     use crate::geometry::{Hit, Ray, ShapeKind};
     use crate::lane::vec::V2;
@@ -598,28 +602,21 @@ pub(crate) mod x8 {
         flip: bool,
     ) -> (sl::Triangle<F32x8>, Meta) {
         let (t, b, meta) = mesh_hits(avx, st, ids);
-        let p = [
-            look3(&small.p[0], t),
-            look3(&small.p[1], t),
-            look3(&small.p[2], t),
-        ];
+        let l = Look {
+            avx,
+            t,
+            wide: small.wide,
+        };
+        let p = [l.v3(&small.p[0]), l.v3(&small.p[1]), l.v3(&small.p[2])];
         let z = avx.splat(0.0);
         let (n, has_n) = if m.normals.is_some() {
-            let n = [
-                look3(&small.n[0], t),
-                look3(&small.n[1], t),
-                look3(&small.n[2], t),
-            ];
+            let n = [l.v3(&small.n[0]), l.v3(&small.n[1]), l.v3(&small.n[2])];
             (n, avx.mask_splat(true))
         } else {
             ([V3::new(z, z, z); 3], avx.mask_splat(false))
         };
         let (uv, has_uv) = if m.uvs.is_some() {
-            let uv = [
-                look2(&small.uv[0], t),
-                look2(&small.uv[1], t),
-                look2(&small.uv[2], t),
-            ];
+            let uv = [l.v2(&small.uv[0]), l.v2(&small.uv[1]), l.v2(&small.uv[2])];
             (uv, avx.mask_splat(true))
         } else {
             ([V2::new(z, z); 3], avx.mask_splat(false))
@@ -637,19 +634,41 @@ pub(crate) mod x8 {
         (x, meta)
     }
 
-    /// Per lane, `table[k][t]` for the three components `k` ([`SmallTris`]).
-    #[inline(always)]
-    fn look3(table: &[[f32; 8]; 3], t: I32x8) -> V3<F32x8> {
-        V3::new(
-            I32x8::lookup8(&table[0], t),
-            I32x8::lookup8(&table[1], t),
-            I32x8::lookup8(&table[2], t),
-        )
+    /// The lookups of a chunk's triangles `t` in a [`SmallTris`]' tables: the first 8 entries
+    /// by one permute where the mesh has at most 8 triangles, all 16 by two and a blend else.
+    #[derive(Clone, Copy)]
+    struct Look {
+        avx: Avx2,
+        t: I32x8,
+        wide: bool,
     }
 
-    #[inline(always)]
-    fn look2(table: &[[f32; 8]; 2], t: I32x8) -> V2<F32x8> {
-        V2::new(I32x8::lookup8(&table[0], t), I32x8::lookup8(&table[1], t))
+    impl Look {
+        /// Per lane, `table[t]`.
+        #[inline(always)]
+        fn one(self, table: &[f32; SMALL_TRIS]) -> F32x8 {
+            if self.wide {
+                self.avx.lookup16(table, self.t)
+            } else {
+                let (half, _) = table.split_first_chunk::<8>().expect("16 entries");
+                I32x8::lookup8(half, self.t)
+            }
+        }
+
+        /// Per lane, `table[k][t]` for the three components `k`.
+        #[inline(always)]
+        fn v3(self, table: &[[f32; SMALL_TRIS]; 3]) -> V3<F32x8> {
+            V3::new(
+                self.one(&table[0]),
+                self.one(&table[1]),
+                self.one(&table[2]),
+            )
+        }
+
+        #[inline(always)]
+        fn v2(self, table: &[[f32; SMALL_TRIS]; 2]) -> V2<F32x8> {
+            V2::new(self.one(&table[0]), self.one(&table[1]))
+        }
     }
 
     /// A gathered vector's components as a [`V3`] (a plain function, not a closure: see
@@ -1060,7 +1079,8 @@ mod tests {
             for (normals, uvs) in [(false, false), (true, false), (false, true), (true, true)] {
                 let m = mesh(tris, normals, uvs);
                 let s = SmallTris::new(&m).expect("small");
-                for t in 0..8 {
+                assert_eq!(s.wide, tris > 8);
+                for t in 0..SMALL_TRIS {
                     for c in 0..3 {
                         let j = m.indices.get(t).map(|i| i[c] as usize);
                         for k in 0..3 {
