@@ -320,15 +320,6 @@ impl PathState {
         [r.x, r.y, r.z, f32::from_bits(self.depth)]
     }
 
-    /// Writes [`Self::result_row`]'s row back: the radiance from its first three floats, the
-    /// depth from the fourth's bits (the emission stage writes back the depth it read, so the
-    /// row is one 16-byte store).
-    #[inline(always)]
-    pub(crate) fn set_result_row(&mut self, row: &[f32; 4]) {
-        self.result = Vec3::new(row[0], row[1], row[2]);
-        self.depth = row[3].to_bits();
-    }
-
     /// Whether the previous vertex has a density (a vertex not sampled through a delta lobe,
     /// and not the camera), as an `i32` lane value: 0 where it has (`PrevKind::Smooth`'s byte),
     /// else 1 or 2. The emission stage compares 8 of them at once for [`Self::prev_mis`]'s

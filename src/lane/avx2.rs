@@ -841,4 +841,50 @@ impl Avx2 {
             F32x8(_mm256_blendv_ps(lo, hi, high))
         }
     }
+
+    // Added in the twenty-sixth session (h2).
+
+    /// Per lane `k`, from the last lane to the first, `table[idx[k]] = new[k]` where `on`,
+    /// else `old[k]`: where an index repeats, the lowest lane's value is the one left. For
+    /// writing back values gathered from `table` (`old`, e.g. by `PcgOps::gather_u64`) and
+    /// updated where `on` (the stream kernels' PCG32 states, `kernels::draws`): a store per
+    /// lane, without a branch or a bounds test per lane.
+    ///
+    /// # Panics
+    /// If an index (as `u32`) is not below `table.len()`, before any store.
+    #[inline(always)]
+    pub fn store_u64_at(self, table: &mut [u64], idx: I32x8, on: M8, new: U64x8, old: U64x8) {
+        assert!(!table.is_empty(), "store_u64_at: an empty table");
+        let last = table.len().min(u32::MAX as usize) as u32 - 1;
+        let mut ix = [0u32; 8];
+        let mut v = [0u64; 8];
+        // SAFETY: the token proves AVX2. The stores write the locals `ix` and `v`.
+        let fits = unsafe {
+            let i = idx.0;
+            let fits = _mm256_cmpeq_epi32(_mm256_min_epu32(i, _mm256_set1_epi32(last as i32)), i);
+            // The 32-bit lane masks widened to the 64-bit lanes of each half.
+            let m = _mm256_castps_si256(on.0);
+            let lo = _mm256_cvtepi32_epi64(_mm256_castsi256_si128(m));
+            let hi = _mm256_cvtepi32_epi64(_mm256_extracti128_si256::<1>(m));
+            let v0 = _mm256_blendv_epi8(old.0[0], new.0[0], lo);
+            let v1 = _mm256_blendv_epi8(old.0[1], new.0[1], hi);
+            _mm256_storeu_si256(ix.as_mut_ptr().cast(), i);
+            _mm256_storeu_si256(v.as_mut_ptr().cast(), v0);
+            _mm256_storeu_si256(v.as_mut_ptr().add(4).cast(), v1);
+            _mm256_movemask_ps(_mm256_castsi256_ps(fits))
+        };
+        assert!(fits == 0xff, "store_u64_at: an index out of range");
+        let p = table.as_mut_ptr();
+        // SAFETY: every index is at most `last` < `table.len()` (tested above).
+        unsafe {
+            *p.add(ix[7] as usize) = v[7];
+            *p.add(ix[6] as usize) = v[6];
+            *p.add(ix[5] as usize) = v[5];
+            *p.add(ix[4] as usize) = v[4];
+            *p.add(ix[3] as usize) = v[3];
+            *p.add(ix[2] as usize) = v[2];
+            *p.add(ix[1] as usize) = v[1];
+            *p.add(ix[0] as usize) = v[0];
+        }
+    }
 }

@@ -705,4 +705,39 @@ impl Avx512 {
     pub fn mask_bits(self, bits: u32) -> M16 {
         M16(bits as u16)
     }
+
+    // Added in the twenty-sixth session (h2).
+
+    /// Per lane `k`, from the last lane to the first, `table[idx[k]] = new[k]` where `on`,
+    /// else `old[k]` (where an index repeats, the lowest lane's value is left), as
+    /// [`super::Avx2::store_u64_at`]: one range test in lanes, two blends, then a store per
+    /// lane.
+    ///
+    /// # Panics
+    /// If an index (as `u32`) is not below `table.len()`, before any store.
+    #[inline(always)]
+    pub fn store_u64_at(self, table: &mut [u64], idx: I32x16, on: M16, new: U64x16, old: U64x16) {
+        assert!(!table.is_empty(), "store_u64_at: an empty table");
+        let last = table.len().min(u32::MAX as usize) as u32 - 1;
+        let mut ix = [0u32; 16];
+        let mut v = [0u64; 16];
+        // SAFETY: the token proves AVX-512 F. The stores write the locals `ix` and `v`.
+        let fits = unsafe {
+            let fits = _mm512_cmple_epu32_mask(idx.0, _mm512_set1_epi32(last as i32));
+            let v0 = _mm512_mask_blend_epi64(on.0 as u8, old.0[0], new.0[0]);
+            let v1 = _mm512_mask_blend_epi64((on.0 >> 8) as u8, old.0[1], new.0[1]);
+            _mm512_storeu_si512(ix.as_mut_ptr().cast(), idx.0);
+            _mm512_storeu_si512(v.as_mut_ptr().cast(), v0);
+            _mm512_storeu_si512(v.as_mut_ptr().add(8).cast(), v1);
+            fits
+        };
+        assert!(fits == 0xffff, "store_u64_at: an index out of range");
+        let p = table.as_mut_ptr();
+        // SAFETY: every index is at most `last` < `table.len()` (tested above).
+        unsafe {
+            for k in (0..16).rev() {
+                *p.add(ix[k] as usize) = v[k];
+            }
+        }
+    }
 }

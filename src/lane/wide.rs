@@ -42,6 +42,14 @@ pub trait Wide<const W: usize>: Copy + core::fmt::Debug {
     /// The lanes of `m` as the low `W` bits of a number (bit `k` for lane `k`; the inverse of
     /// [`Wide::mask_bits`]).
     fn bits(m: Self::M) -> u32;
+    /// Per lane `k`, from the last lane to the first, `table[idx[k]] = new[k]` where `on`,
+    /// else `old[k]` (where an index repeats, the lowest lane's value is left): a write-back of
+    /// values gathered from `table` and updated where `on`, without a branch or a bounds test
+    /// per lane (`Avx2::store_u64_at`, `Avx512::store_u64_at`).
+    ///
+    /// # Panics
+    /// If an index (as `u32`) is not below `table.len()`, before any store.
+    fn store_u64_at(self, table: &mut [u64], idx: Self::I, on: Self::M, new: Self::U, old: Self::U);
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -100,6 +108,10 @@ macro_rules! wide {
             #[inline(always)]
             fn bits(m: $m) -> u32 {
                 m.bits()
+            }
+            #[inline(always)]
+            fn store_u64_at(self, table: &mut [u64], idx: $i, on: $m, new: $u, old: $u) {
+                <$tok>::store_u64_at(self, table, idx, on, new, old)
             }
         }
     };

@@ -368,6 +368,24 @@ impl Ids {
         self.buf[self.len] = i;
         self.len += keep as usize;
     }
+
+    /// The whole buffer, for a pass that appends to several lists with their lengths in
+    /// registers (the emission stage's first pass, `emission::x8::classify`): it writes
+    /// `buf[len]` itself, then sets the length with [`Ids::set_len`].
+    #[inline(always)]
+    pub fn buf_mut(&mut self) -> &mut [u32; BATCH] {
+        &mut self.buf
+    }
+
+    /// The list is `buf[..len]` (after appending through [`Ids::buf_mut`]).
+    ///
+    /// # Panics
+    /// If `len` is more than [`BATCH`].
+    #[inline(always)]
+    pub fn set_len(&mut self, len: usize) {
+        assert!(len <= BATCH, "a list holds at most {BATCH} ids");
+        self.len = len;
+    }
 }
 
 impl core::ops::Deref for Ids {

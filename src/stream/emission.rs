@@ -351,10 +351,8 @@ pub(crate) mod x8 {
         batch: &mut Batch,
     ) -> Counts {
         let limit = crate::integrator::depth_limit(cfg.max_depth);
-        // A path shows what its ray sees from this depth on (`!hide_emitters`, else after
-        // its first vertex), and scatters at its hit while depth < `last` (Mitsuba: while
-        // depth + 1 < max_depth).
-        let show_from = cfg.hide_emitters as u32;
+        // A path scatters at its hit while depth < `last` (Mitsuba: while depth + 1 <
+        // max_depth).
         let last = limit.saturating_sub(1);
         let n = batch.len();
         let Batch {
@@ -379,31 +377,22 @@ pub(crate) mod x8 {
             &ray[..n],
         );
         let rows = &surf.flat().as_chunks::<{ cols::ROW }>().0[..n];
-        let info = &lights.info[..];
-        scatter.clear();
-        escaped.clear();
-        on_lights.clear();
-        one_by_one.clear();
-        for &i in active.iter() {
-            let i = i as usize;
-            alive[i] = false;
-            let depth = state[i].depth;
-            let show = depth >= show_from;
-            if hit[i].is_some() {
-                let shape = info[rows[i][cols::SHAPE].to_bits() as usize];
-                // Written for every hit; read only for the paths listed (the sort key).
-                material[i] = shape.material;
-                scatter.put(i as u32, depth < last);
-                if show && shape.seen != DARK {
-                    if shape.seen == AREA {
-                        on_lights.push(i as u32);
-                    } else {
-                        one_by_one.push(i as u32);
-                    }
-                }
-            } else {
-                escaped.put(i as u32, show);
-            }
+        let lists = [
+            &mut *scatter,
+            &mut *escaped,
+            &mut *on_lights,
+            &mut *one_by_one,
+        ];
+        let paths = Paths {
+            state: &*state,
+            hit,
+            rows,
+            info: &lights.info,
+        };
+        if cfg.hide_emitters {
+            classify::<true>(active, paths, alive, material, last, lists);
+        } else {
+            classify::<false>(active, paths, alive, material, last, lists);
         }
         let mut counts = Counts::default();
         match lights.env.as_deref() {
@@ -438,12 +427,82 @@ pub(crate) mod x8 {
         counts
     }
 
-    /// The radiance, throughput and previous vertices of the paths `ids` (1 to 8) in lanes,
-    /// and their depths' bits for [`write`] (the lanes past `ids.len()` repeat
-    /// the last path; nothing of them is written back). Each path's first 8 floats
+    /// What [`classify`] reads of the batch's paths (each slice cut to the batch's length).
+    struct Paths<'a> {
+        state: &'a [PathState],
+        hit: &'a [Option<crate::geometry::Hit>],
+        rows: &'a [[f32; cols::ROW]],
+        info: &'a [ShapeInfo],
+    }
+
+    /// The emission stage's first pass over the active paths `active` (see [`stage`]): marks
+    /// each not alive, and appends it to `lists`: `[scatter, escaped, on_lights, one_by_one]`
+    /// (each cleared first), the hits that scatter (depth < `last`) with their material, the
+    /// escaped rays that show emission, and the hits that show an area light's ([`AREA`]) or
+    /// other ([`SCALAR`]) emission. `HIDE`: `hide_emitters` (a path shows emission only after
+    /// its first vertex).
+    ///
+    /// A scalar loop of its own, not inlined into the lanes' function (there its list lengths
+    /// and slices were spilled and reloaded per path, ~30 instructions per path on
+    /// metal_plastic): each list's length stays in a register and an id is written at
+    /// `buf[len % BATCH]` (no bounds test: a list never holds more ids than the paths walked
+    /// before it, fewer than [`crate::stream::BATCH`]) with the length advanced by the kept
+    /// flag, as [`crate::stream::batch::Ids::put`] (the escaped rays and the scattering hits
+    /// are appended without a branch).
+    #[inline(never)]
+    fn classify<const HIDE: bool>(
+        active: &[u32],
+        paths: Paths,
+        alive: &mut [bool],
+        material: &mut [crate::material::MatId],
+        last: u32,
+        lists: [&mut crate::stream::batch::Ids; 4],
+    ) {
+        use crate::stream::BATCH;
+        let n = paths.state.len();
+        let (state, hit, rows, info) = (paths.state, &paths.hit[..n], &paths.rows[..n], paths.info);
+        let (alive, material) = (&mut alive[..n], &mut material[..n]);
+        // A path shows what its ray sees from this depth on.
+        let show_from = HIDE as u32;
+        let [scatter, escaped, on_lights, one_by_one] = lists;
+        on_lights.clear();
+        one_by_one.clear();
+        let (sb, eb) = (scatter.buf_mut(), escaped.buf_mut());
+        let (mut ns, mut ne) = (0usize, 0usize);
+        for &i in active {
+            let i = i as usize;
+            alive[i] = false;
+            let depth = state[i].depth;
+            let show = depth >= show_from;
+            if hit[i].is_some() {
+                let shape = info[rows[i][cols::SHAPE].to_bits() as usize];
+                // Written for every hit; read only for the paths listed (the sort key).
+                material[i] = shape.material;
+                sb[ns % BATCH] = i as u32;
+                ns += (depth < last) as usize;
+                // Rare (hits on emitters): through the lists' own appends.
+                if show && shape.seen != DARK {
+                    if shape.seen == AREA {
+                        on_lights.push(i as u32);
+                    } else {
+                        one_by_one.push(i as u32);
+                    }
+                }
+            } else {
+                eb[ne % BATCH] = i as u32;
+                ne += show as usize;
+            }
+        }
+        scatter.set_len(ns);
+        escaped.set_len(ne);
+    }
+
+    /// The radiance, throughput and previous vertices of the paths `ids` (1 to 8) in lanes
+    /// (the lanes past `ids.len()` repeat the last path; nothing of them is written back).
+    /// Each lane's state is looked up once. Each path's first 8 floats
     /// (`PathState::row8`: throughput, η, the previous vertex and its density) are one
     /// 32-byte load, transposed with the chunk's others ([`F32x8::transpose8`]); its radiance
-    /// and depth one 16-byte load (`PathState::result_row`, [`Avx2::fields4`]). The MIS flags
+    /// (and depth, unused) one 16-byte load (`PathState::result_row`, [`Avx2::fields4`]). The MIS flags
     /// of `PathState::prev_mis` from the 8 previous-vertex kinds at once: `mis` (or `zero`)
     /// where the vertex has a density and the strategy is MIS (light sampling only). Where it
     /// has none `prev_mis` gives the point and density 0, the rows their stored values: the
@@ -454,20 +513,22 @@ pub(crate) mod x8 {
         cfg: &PathSettings,
         ids: &[u32],
         state: &[PathState],
-    ) -> (V3<F32x8>, V3<F32x8>, Prev<F32x8>, F32x8) {
+    ) -> (V3<F32x8>, V3<F32x8>, Prev<F32x8>) {
         let last = ids.len() - 1;
-        let st = |k: usize| &state[ids[k.min(last)] as usize];
+        let at = |k: usize| &state[ids[k.min(last)] as usize];
+        // Each lane's state looked up once (its clamp and bounds test), then read three times.
+        let st = [at(0), at(1), at(2), at(3), at(4), at(5), at(6), at(7)];
         // Written out, not `array::from_fn` (a closure compiled out of line would lose the
         // lanes' target features).
         let r8 = [
-            st(0).row8(),
-            st(1).row8(),
-            st(2).row8(),
-            st(3).row8(),
-            st(4).row8(),
-            st(5).row8(),
-            st(6).row8(),
-            st(7).row8(),
+            st[0].row8(),
+            st[1].row8(),
+            st[2].row8(),
+            st[3].row8(),
+            st[4].row8(),
+            st[5].row8(),
+            st[6].row8(),
+            st[7].row8(),
         ];
         let f = F32x8::transpose8([
             avx.load(&r8[0]),
@@ -480,25 +541,25 @@ pub(crate) mod x8 {
             avx.load(&r8[7]),
         ]);
         let r4 = [
-            st(0).result_row(),
-            st(1).result_row(),
-            st(2).result_row(),
-            st(3).result_row(),
-            st(4).result_row(),
-            st(5).result_row(),
-            st(6).result_row(),
-            st(7).result_row(),
+            st[0].result_row(),
+            st[1].result_row(),
+            st[2].result_row(),
+            st[3].result_row(),
+            st[4].result_row(),
+            st[5].result_row(),
+            st[6].result_row(),
+            st[7].result_row(),
         ];
         let r = avx.fields4(&r4);
         let kind = [
-            st(0).prev_kind_i32(),
-            st(1).prev_kind_i32(),
-            st(2).prev_kind_i32(),
-            st(3).prev_kind_i32(),
-            st(4).prev_kind_i32(),
-            st(5).prev_kind_i32(),
-            st(6).prev_kind_i32(),
-            st(7).prev_kind_i32(),
+            st[0].prev_kind_i32(),
+            st[1].prev_kind_i32(),
+            st[2].prev_kind_i32(),
+            st[3].prev_kind_i32(),
+            st[4].prev_kind_i32(),
+            st[5].prev_kind_i32(),
+            st[6].prev_kind_i32(),
+            st[7].prev_kind_i32(),
         ];
         let kind = avx.load_i32(&kind);
         let smooth = kind.eq(kind.splat(0));
@@ -508,28 +569,43 @@ pub(crate) mod x8 {
             mis: smooth & avx.mask_splat(cfg.strategy == Strategy::Mis),
             zero: smooth & avx.mask_splat(cfg.strategy == Strategy::LightOnly),
         };
-        (
-            V3::new(r[0], r[1], r[2]),
-            V3::new(f[0], f[1], f[2]),
-            prev,
-            r[3],
-        )
+        (V3::new(r[0], r[1], r[2]), V3::new(f[0], f[1], f[2]), prev)
     }
 
-    /// The new radiance `out` of the paths `ids` (1 to 8) into their states: one 16-byte row
-    /// per path ([`Avx2::rows4`]: the radiance and the depth `depth` as [`paths`] read it).
+    /// The new radiance `out` of the paths `ids` (1 to 8) into their states, by columns: per
+    /// path three floats from the stored lanes. (As rows, `Avx2::rows4` and one row per path,
+    /// it was 0.84 M instructions on metal_plastic against 0.57 M: LLVM split each row's store
+    /// and reloaded the depth; `docs/bench/README.md`, twenty-fifth session, h4.)
     #[inline(always)]
-    pub(super) fn write(
-        avx: Avx2,
-        ids: &[u32],
-        out: V3<F32x8>,
-        depth: F32x8,
-        state: &mut [PathState],
-    ) {
-        let rows = avx.rows4([out.x, out.y, out.z, depth]);
-        for (row, &i) in rows.iter().zip(ids) {
-            state[i as usize].set_result_row(row);
+    pub(super) fn write(ids: &[u32], out: V3<F32x8>, state: &mut [PathState]) {
+        let (x, y, z) = (out.x.to_array(), out.y.to_array(), out.z.to_array());
+        for (k, &i) in ids.iter().enumerate() {
+            state[i as usize].result = Vec3::new(x[k], y[k], z[k]);
         }
+    }
+
+    /// The directions of the rays of the paths `ids` (1 to 8) in lanes (the lanes past
+    /// `ids.len()` repeat the last path's): per ray one 16-byte row (`d`, then `tmin`, unused)
+    /// transposed by [`Avx2::fields4`], not three column writes per lane. Only an environment
+    /// map reads them (a constant environment light sees every escaped ray alike).
+    #[inline(always)]
+    fn directions(avx: Avx2, ids: &[u32], ray: &[Ray]) -> V3<F32x8> {
+        let last = ids.len() - 1;
+        let row = |k: usize| {
+            let r = &ray[ids[k.min(last)] as usize];
+            [r.d.x, r.d.y, r.d.z, r.tmin]
+        };
+        let f = avx.fields4(&[
+            row(0),
+            row(1),
+            row(2),
+            row(3),
+            row(4),
+            row(5),
+            row(6),
+            row(7),
+        ]);
+        V3::new(f[0], f[1], f[2])
     }
 
     /// Every environment light `env` (in `Scene::env_emission`'s order) seen by the escaped
@@ -544,11 +620,7 @@ pub(crate) mod x8 {
         state: &mut [PathState],
         ray: &[Ray],
     ) {
-        let (mut out, throughput, prev, depth) = paths(avx, cfg, ids, state);
-        let mut d: Cols3 = Cols3::default();
-        for (k, &i) in ids.iter().enumerate() {
-            d.set(k, ray[i as usize].d);
-        }
+        let (mut out, throughput, prev) = paths(avx, cfg, ids, state);
         let used = avx.mask_bits(0xff >> (8 - ids.len()));
         for e in env {
             out = match *e {
@@ -569,7 +641,7 @@ pub(crate) mod x8 {
                     let Emitter::EnvMap(m) = &scene.emitters[emitter as usize] else {
                         unreachable!("Env::Map is an envmap")
                     };
-                    let q = env_where(&to_local, half_texel, d.load(avx));
+                    let q = env_where(&to_local, half_texel, directions(avx, ids, ray));
                     let (seen, sin_ok) = (q.seen.to_array(), q.sin_ok.to_array());
                     let (u, v) = (q.uv.x.to_array(), q.uv.y.to_array());
                     let px = q.patch.x.to_array();
@@ -596,7 +668,7 @@ pub(crate) mod x8 {
                 }
             };
         }
-        write(avx, ids, out, depth, state);
+        write(ids, out, state);
     }
 
     /// The area lights seen by the paths `ids` (at most 8; each a hit on a shape whose
@@ -611,7 +683,7 @@ pub(crate) mod x8 {
         ids: &[u32],
         state: &mut [PathState],
     ) -> u64 {
-        let (out, throughput, prev, depth) = paths(avx, cfg, ids, state);
+        let (out, throughput, prev) = paths(avx, cfg, ids, state);
         let mut le: Cols3 = Cols3::default();
         let mut a = [0.0f32; 8];
         let mut pmf = [0.0f32; 8];
@@ -655,7 +727,7 @@ pub(crate) mod x8 {
             (avx.mask(&is_sphere), center.load(avx), avx.load(&radius)),
             (p.load(avx), n.load(avx), wi.load(avx)),
         );
-        write(avx, ids, out, depth, state);
+        write(ids, out, state);
         spheres
     }
 }
@@ -983,9 +1055,9 @@ mod tests {
             let before = state.clone();
             let new: [[f32; 8]; 3] = core::array::from_fn(|_| core::array::from_fn(|_| v()));
             let got = avx.run(|| {
-                let (res, t, prev, depth) = x8::paths(avx, &cfg, &ids, &state);
+                let (res, t, prev) = x8::paths(avx, &cfg, &ids, &state);
                 let out = V3::new(avx.load(&new[0]), avx.load(&new[1]), avx.load(&new[2]));
-                x8::write(avx, &ids, out, depth, &mut state);
+                x8::write(&ids, out, &mut state);
                 let a =
                     |x: V3<crate::lane::F32x8>| [x.x.to_array(), x.y.to_array(), x.z.to_array()];
                 (

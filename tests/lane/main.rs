@@ -15,6 +15,8 @@
 //!   pattern, bits above the width ignored).
 
 //! - `rows4`: the 8-wide rows-of-4 transposes move every bit (edge floats, NaN payloads).
+//! - `store_at`: the write-back of gathered 64-bit values (`Wide::store_u64_at`) against a
+//!   scalar reference at width 8 and 16 (repeated and out-of-range indices).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
@@ -33,3 +35,4 @@ mod masks;
 mod pcg_ops;
 mod rows4;
 mod scalar;
+mod store_at;

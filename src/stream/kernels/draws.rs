@@ -54,7 +54,9 @@ pub(crate) mod x8 {
     /// The numbers `d` of the paths `ids` (indices into `samplers`) where `drawing`, each from
     /// its own stream in the scalar order (see the module doc). The PCG32 states and
     /// increments are read from `samplers`' columns lane by lane (every lane: a padded chunk's
-    /// ids are paths of the batch too) and the drawing lanes' states written back in place;
+    /// ids are paths of the batch too) and the drawing lanes' states written back in place
+    /// (where a path repeats in `ids`, its first lane must be the one that draws, if any: a
+    /// padded chunk's copies of its last path draw nothing);
     /// the per-path plain test only when some stream of the batch has strata
     /// (`Samplers::all_plain`: never under `independent`). Call inside [`Avx2::run`].
     #[inline(always)]
@@ -83,6 +85,7 @@ pub(crate) mod x8 {
             }
             let idx = avx.load_i32(&idx);
             let mut rng = Pcg::<T::F>::gather(states, incs, idx);
+            let old = rng.parts().0;
             // Plain statements, not a closure: a closure would be compiled outside
             // `Avx2::run`'s target features (see `kernels`).
             if d.light {
@@ -97,12 +100,11 @@ pub(crate) mod x8 {
                 n.u2[0] = rng.next_f32().to_array();
                 n.u2[1] = rng.next_f32().to_array();
             }
-            let state = rng.parts().0.to_array();
-            for (k, &i) in ids.iter().enumerate() {
-                if plain[k] {
-                    states[i as usize] = state[k];
-                }
-            }
+            // Every lane's state stored, the gathered one where the lane does not draw from
+            // the 8-wide PCG32, from the last lane to the first (`Wide::store_u64_at`: no
+            // branch or bounds test per lane). A path repeated in `ids` (a padded chunk's
+            // extra lanes repeat its last path and draw nothing) keeps its first lane's state.
+            avx.store_u64_at(states, idx, avx.mask(&plain), rng.parts().0, old);
         }
         if !all_plain {
             for (k, &i) in ids.iter().enumerate() {

@@ -573,6 +573,50 @@ pub(crate) mod x8 {
         lp.value = V3::select(on, q.value, lp.value);
     }
 
+    /// The part of a [`Gather`] that [`Gather::reset`] clears per chunk, in one block of 32-bit
+    /// words (`repr(C)`), so that the clear is a few vector stores: spread over the gather as
+    /// separate fields, the flags as bits cost ~27 instructions per chunk to clear
+    /// (`docs/bench/README.md`, twenty-fifth session, h3).
+    #[derive(Clone, Copy)]
+    #[repr(C)]
+    struct Flags<const W: usize> {
+        /// Per-lane flags as bits (bit `k` for lane `k`): masks in [`Gather::finish`] by
+        /// `Wide::mask_bits`, without `[bool; W]` stores read back as vectors.
+        some: u32,
+        has_n: u32,
+        finite: u32,
+        /// No MIS weight (delta lights, `light_only`).
+        one: u32,
+        /// Bits: the lane's triangle has vertex normals.
+        tnorm_some: u32,
+        /// Lanes of the chunk with a textured light (`textured` is written by every lane that
+        /// picks a triangle, rectangle or spot light, and read only where this is positive).
+        n_textured: u32,
+        /// The lanes (bits) whose triangle (of mesh `tri_shape`, untextured) [`Gather::add_x8`]
+        /// picks 8-wide after its lane-by-lane pass, and how many there are.
+        deferred: u32,
+        n_deferred: u32,
+        /// The lane's light sampled 8-wide: 0 none, else `KIND_*`.
+        kind: [i32; W],
+        counts: [u32; KINDS],
+    }
+
+    impl<const W: usize> Flags<W> {
+        /// No light point in any lane.
+        const ZERO: Flags<W> = Flags {
+            some: 0,
+            has_n: 0,
+            finite: 0,
+            one: 0,
+            tnorm_some: 0,
+            n_textured: 0,
+            deferred: 0,
+            n_deferred: 0,
+            kind: [0; W],
+            counts: [0; KINDS],
+        };
+    }
+
     /// `nee::sample_emitter` for 8 paths: [`Gather::add_x8`] (the light selection 8-wide, one
     /// mesh light's triangles picked 8-wide; lane by lane the
     /// point of every emitter that has no [`LaneLight`] through its own scalar
@@ -586,20 +630,10 @@ pub(crate) mod x8 {
         ln: Cols3<W>,
         lv: Cols3<W>,
         lpdf: [f32; W],
-        /// Per-lane flags as bits (bit `k` for lane `k`): masks in [`Gather::finish`] by
-        /// `Wide::mask_bits`, without `[bool; W]` stores read back as vectors.
-        some: u32,
-        has_n: u32,
-        finite: u32,
-        /// No MIS weight (delta lights, `light_only`).
-        one: u32,
-        /// The lane's light sampled 8-wide: 0 none, else `KIND_*`.
-        kind: [i32; W],
-        counts: [u32; KINDS],
+        /// What [`Gather::reset`] clears per chunk: the flags, kinds and counts.
+        f: Flags<W>,
         tpos: [Cols3<W>; 3],
         tnorm: [Cols3<W>; 3],
-        /// Bits: the lane's triangle has vertex normals.
-        tnorm_some: u32,
         raxes: [Cols3<W>; 4],
         rn: Cols3<W>,
         /// A sphere's centre, a point or spot light's position, a directional light's direction.
@@ -629,13 +663,6 @@ pub(crate) mod x8 {
         tuv_some: u32,
         /// A textured spot light's `tan cutoff`.
         uv_factor: [f32; W],
-        /// Lanes of the chunk with a textured light (`textured` is written by every lane that
-        /// picks a triangle, rectangle or spot light, and read only where this is positive).
-        n_textured: u32,
-        /// The lanes (bits) whose triangle (of mesh `tri_shape`, untextured) [`Gather::add_x8`]
-        /// picks 8-wide after its lane-by-lane pass, and how many there are.
-        deferred: u32,
-        n_deferred: u32,
         tri_shape: u32,
         /// The light selection in lanes, made from the scene's light sampler at the first
         /// [`Gather::add_x8`] (a gather serves one scene; shared, not copied, per chunk).
@@ -795,16 +822,7 @@ pub(crate) mod x8 {
         /// ~2 KB per chunk cost ~350 instructions per sample on the Cornell box).
         #[inline(always)]
         pub(crate) fn reset(&mut self) {
-            self.some = 0;
-            self.has_n = 0;
-            self.finite = 0;
-            self.one = 0;
-            self.kind = [0; W];
-            self.counts = [0; KINDS];
-            self.tnorm_some = 0;
-            self.n_textured = 0;
-            self.deferred = 0;
-            self.n_deferred = 0;
+            self.f = Flags::ZERO;
         }
 
         /// No light point in any lane (made once per run of a material, [`Gather::reset`] per
@@ -817,15 +835,9 @@ pub(crate) mod x8 {
                 ln: Cols3::default(),
                 lv: Cols3::default(),
                 lpdf: [1.0; W],
-                some: 0,
-                has_n: 0,
-                finite: 0,
-                one: 0,
-                kind: [0; W],
-                counts: [0; KINDS],
+                f: Flags::ZERO,
                 tpos: Default::default(),
                 tnorm: Default::default(),
-                tnorm_some: 0,
                 raxes: Default::default(),
                 rn: Cols3::default(),
                 center: Cols3::default(),
@@ -844,9 +856,6 @@ pub(crate) mod x8 {
                 tuv: [[[0.0; W]; 2]; 3],
                 tuv_some: 0,
                 uv_factor: [1.0; W],
-                n_textured: 0,
-                deferred: 0,
-                n_deferred: 0,
                 tri_shape: 0,
                 select: None,
                 small: SmallMesh::NONE,
@@ -957,7 +966,7 @@ pub(crate) mod x8 {
             if self.add_uniform(
                 avx, lights, light_only, on, on_bits, &emitter, &pmf, u, same,
             ) {
-                if self.n_deferred > 0 {
+                if self.f.n_deferred > 0 {
                     self.triangles_x8::<T, true>(avx, scene, u);
                 }
                 return;
@@ -969,7 +978,7 @@ pub(crate) mod x8 {
                     self.add_selected(k, scene, lights, light_only, e, pmf[k], uk, p.get(k), true);
                 }
             }
-            if self.n_deferred > 0 {
+            if self.f.n_deferred > 0 {
                 self.triangles_x8::<T, false>(avx, scene, u);
             }
         }
@@ -1001,7 +1010,7 @@ pub(crate) mod x8 {
                 _ => T::I::gather_u32(&t.kind, count),
             };
             let kind = T::I::select(avx.mask_bits(on), kind, zi);
-            self.kind = kind.to_array();
+            self.f.kind = kind.to_array();
             // Per kind of the table: its lanes, counted, and the delta lights' (no MIS weight).
             let mut delta = 0u32;
             let mut kinds = t.kinds;
@@ -1009,12 +1018,12 @@ pub(crate) mod x8 {
                 let c = kinds.trailing_zeros() as i32 + 1;
                 kinds &= kinds - 1;
                 let lanes = T::bits(is_kind::<T, W>(kind, c));
-                self.counts[c as usize - 1] += lane_count(lanes);
+                self.f.counts[c as usize - 1] += lane_count(lanes);
                 if matches!(c, KIND_POINT | KIND_DIRECTIONAL) {
                     delta |= lanes;
                 }
             }
-            self.one = (self.one & !on) | if light_only { on } else { delta };
+            self.f.one = (self.f.one & !on) | if light_only { on } else { delta };
             self.textured = 0;
             if t.rect {
                 for (col, a) in self.raxes.iter_mut().zip(&t.axes) {
@@ -1071,8 +1080,8 @@ pub(crate) mod x8 {
                     radiance,
                     textured: false,
                 }) => {
-                    self.deferred = on_bits;
-                    self.n_deferred = n_on;
+                    self.f.deferred = on_bits;
+                    self.f.n_deferred = n_on;
                     self.tri_shape = shape;
                     self.inv_area = [inv_area; W];
                     self.sign = [sign; W];
@@ -1095,11 +1104,11 @@ pub(crate) mod x8 {
                 _ => return false,
             };
             // In lanes and bits (the lanes off keep their values).
-            let old = avx.load_i32(&self.kind);
-            self.kind = T::I::select(avx.mask_bits(on_bits), old.splat(kind), old).to_array();
+            let old = avx.load_i32(&self.f.kind);
+            self.f.kind = T::I::select(avx.mask_bits(on_bits), old.splat(kind), old).to_array();
             self.textured &= !on_bits;
-            self.one = (self.one & !on_bits) | if light_only { on_bits } else { 0 };
-            self.counts[kind as usize - 1] += n_on;
+            self.f.one = (self.f.one & !on_bits) | if light_only { on_bits } else { 0 };
+            self.f.counts[kind as usize - 1] += n_on;
             (self.tux, self.tuy) = (u[0], u[1]);
             self.sel = *pmf;
             self.lv = Cols3([[le.x; W], [le.y; W], [le.z; W]]);
@@ -1131,7 +1140,7 @@ pub(crate) mod x8 {
             if small && self.small.shape != self.tri_shape {
                 self.small = SmallMesh::new(self.tri_shape, mesh, cdf);
             }
-            let on = avx.mask_bits(self.deferred);
+            let on = avx.mask_bits(self.f.deferred);
             let uy = avx.load(&u[1]);
             let zi = avx.load_i32(&[0; W]);
             let (one_i, last) = (zi.splat(1), zi.splat(m as i32 - 1));
@@ -1212,7 +1221,7 @@ pub(crate) mod x8 {
                 }
             }
             if mesh.normals.is_some() {
-                self.tnorm_some |= self.deferred;
+                self.f.tnorm_some |= self.f.deferred;
             }
         }
 
@@ -1244,17 +1253,17 @@ pub(crate) mod x8 {
             let Some(ll) = lane_light else {
                 if let Some(ds) = scene.emitters[e].sample_direct(&scene.shapes, p, u) {
                     if ds.value != Spectrum::ZERO {
-                        self.some |= 1 << k;
+                        self.f.some |= 1 << k;
                         self.ld.set(k, ds.d);
                         self.lpp.set(k, ds.p);
                         if let Some(n) = ds.n {
-                            self.has_n |= 1 << k;
+                            self.f.has_n |= 1 << k;
                             self.ln.set(k, n);
                         }
-                        set_bit(&mut self.finite, k, ds.dist.is_finite());
+                        set_bit(&mut self.f.finite, k, ds.dist.is_finite());
                         self.lpdf[k] = ds.pdf * sel_pdf;
                         self.lv.set(k, ds.value);
-                        set_bit(&mut self.one, k, ds.delta || light_only);
+                        set_bit(&mut self.f.one, k, ds.delta || light_only);
                     }
                 }
                 return;
@@ -1267,12 +1276,12 @@ pub(crate) mod x8 {
                     sign,
                     radiance,
                     textured,
-                } if defer && !textured && (self.n_deferred == 0 || self.tri_shape == shape) => {
+                } if defer && !textured && (self.f.n_deferred == 0 || self.tri_shape == shape) => {
                     // The triangle and its rescaled u.y in `triangles_x8`.
-                    self.kind[k] = KIND_TRIANGLE;
+                    self.f.kind[k] = KIND_TRIANGLE;
                     set_bit(&mut self.textured, k, false);
-                    self.deferred |= 1 << k;
-                    self.n_deferred += 1;
+                    self.f.deferred |= 1 << k;
+                    self.f.n_deferred += 1;
                     self.tri_shape = shape;
                     (self.inv_area[k], self.sign[k]) = (inv_area, sign);
                     radiance
@@ -1291,19 +1300,19 @@ pub(crate) mod x8 {
                     let (t, ut) = shape.pick_triangle(u);
                     su = ut;
                     let idx = mesh.indices[t].map(|j| j as usize);
-                    self.kind[k] = KIND_TRIANGLE;
+                    self.f.kind[k] = KIND_TRIANGLE;
                     for (col, &j) in self.tpos.iter_mut().zip(&idx) {
                         col.set(k, mesh.positions[j]);
                     }
                     if let Some(ns) = &mesh.normals {
-                        self.tnorm_some |= 1 << k;
+                        self.f.tnorm_some |= 1 << k;
                         for (col, &j) in self.tnorm.iter_mut().zip(&idx) {
                             col.set(k, ns[j]);
                         }
                     }
                     set_bit(&mut self.textured, k, textured);
                     if textured {
-                        self.n_textured += 1;
+                        self.f.n_textured += 1;
                         self.emitter[k] = e as u32;
                         set_bit(&mut self.tuv_some, k, mesh.uvs.is_some());
                         if let Some(uvs) = &mesh.uvs {
@@ -1322,10 +1331,10 @@ pub(crate) mod x8 {
                     radiance,
                     textured,
                 } => {
-                    self.kind[k] = KIND_RECTANGLE;
+                    self.f.kind[k] = KIND_RECTANGLE;
                     set_bit(&mut self.textured, k, textured);
                     if textured {
-                        self.n_textured += 1;
+                        self.f.n_textured += 1;
                         self.emitter[k] = e as u32;
                     }
                     for (col, a) in self.raxes.iter_mut().zip(axes) {
@@ -1341,7 +1350,7 @@ pub(crate) mod x8 {
                     sign,
                     radiance,
                 } => {
-                    self.kind[k] = KIND_SPHERE;
+                    self.f.kind[k] = KIND_SPHERE;
                     self.center.set(k, center);
                     (self.radius[k], self.sign[k]) = (radius, sign);
                     radiance
@@ -1350,7 +1359,7 @@ pub(crate) mod x8 {
                     position,
                     intensity,
                 } => {
-                    self.kind[k] = KIND_POINT;
+                    self.f.kind[k] = KIND_POINT;
                     self.center.set(k, position);
                     intensity
                 }
@@ -1365,10 +1374,10 @@ pub(crate) mod x8 {
                     cutoff,
                     beam_width,
                 } => {
-                    self.kind[k] = KIND_SPOT;
+                    self.f.kind[k] = KIND_SPOT;
                     set_bit(&mut self.textured, k, textured);
                     if textured {
-                        self.n_textured += 1;
+                        self.f.n_textured += 1;
                         self.emitter[k] = e as u32;
                         self.uv_factor[k] = uv_factor;
                     }
@@ -1386,12 +1395,12 @@ pub(crate) mod x8 {
                     intensity
                 }
                 LaneLight::Directional { d, irradiance } => {
-                    self.kind[k] = KIND_DIRECTIONAL;
+                    self.f.kind[k] = KIND_DIRECTIONAL;
                     self.center.set(k, d);
                     irradiance
                 }
                 LaneLight::Constant { radiance } => {
-                    self.kind[k] = KIND_CONSTANT;
+                    self.f.kind[k] = KIND_CONSTANT;
                     radiance
                 }
                 LaneLight::EnvMap {
@@ -1406,7 +1415,7 @@ pub(crate) mod x8 {
                     // The table walk, lane by lane.
                     let Some(uv) = m.sample_uv(u) else { return };
                     su = uv;
-                    self.kind[k] = KIND_ENVMAP;
+                    self.f.kind[k] = KIND_ENVMAP;
                     for (col, c) in self.mat.iter_mut().zip(to_world) {
                         col.set(k, c);
                     }
@@ -1419,20 +1428,20 @@ pub(crate) mod x8 {
                     Spectrum::ZERO
                 }
             };
-            let kind = self.kind[k];
-            self.counts[kind as usize - 1] += 1;
+            let kind = self.f.kind[k];
+            self.f.counts[kind as usize - 1] += 1;
             (self.tux[k], self.tuy[k]) = (su.x, su.y);
             self.sel[k] = sel_pdf;
             self.lv.set(k, le);
             // Delta lights take no MIS weight.
             let delta = matches!(kind, KIND_POINT | KIND_SPOT | KIND_DIRECTIONAL);
-            set_bit(&mut self.one, k, light_only || delta);
+            set_bit(&mut self.f.one, k, light_only || delta);
         }
 
         /// Whether a lane of `on` (bits) has a textured light.
         #[inline(always)]
         fn any_textured(&self, on: u32) -> bool {
-            self.n_textured > 0 && on & self.textured != 0
+            self.f.n_textured > 0 && on & self.textured != 0
         }
 
         /// The textures of the textured lanes of `on` (bits) where `ok`, at `uv`: per distinct
@@ -1501,27 +1510,27 @@ pub(crate) mod x8 {
             // may be left out of line, outside the SIMD target features
             // (`tests/cli/simd_calls.rs`).
             let mut lp = LightPoint {
-                some: avx.mask_bits(self.some),
+                some: avx.mask_bits(self.f.some),
                 d: self.ld.load(avx),
                 p: self.lpp.load(avx),
                 n: self.ln.load(avx),
-                has_n: avx.mask_bits(self.has_n),
-                finite: avx.mask_bits(self.finite),
+                has_n: avx.mask_bits(self.f.has_n),
+                finite: avx.mask_bits(self.f.finite),
                 pdf: avx.load(&self.lpdf),
                 value: self.lv.load(avx),
-                weight_one: avx.mask_bits(self.one),
+                weight_one: avx.mask_bits(self.f.one),
             };
             let su = V2::new(avx.load(&self.tux), avx.load(&self.tuy));
             let sel8 = avx.load(&self.sel);
             // The lanes' kinds as integers, compared 8-wide per kind (not 8 byte compares and
             // a mask built from them).
-            let kinds = avx.load_i32(&self.kind);
-            if self.counts[0] > 0 {
+            let kinds = avx.load_i32(&self.f.kind);
+            if self.f.counts[0] > 0 {
                 let q = sample_triangle(
                     &Triangle {
                         p: load3(avx, &self.tpos),
                         n: load3(avx, &self.tnorm),
-                        has_normals: avx.mask_bits(self.tnorm_some),
+                        has_normals: avx.mask_bits(self.f.tnorm_some),
                         inv_area: avx.load(&self.inv_area),
                         sign: avx.load(&self.sign),
                         u: su,
@@ -1530,7 +1539,7 @@ pub(crate) mod x8 {
                 );
                 merge(&mut lp, is_kind::<T, W>(kinds, KIND_TRIANGLE), &q, sel8);
             }
-            if self.counts[1] > 0 {
+            if self.f.counts[1] > 0 {
                 let q = sample_rectangle(
                     &Rectangle {
                         axes: load4(avx, &self.raxes),
@@ -1542,7 +1551,7 @@ pub(crate) mod x8 {
                 );
                 merge(&mut lp, is_kind::<T, W>(kinds, KIND_RECTANGLE), &q, sel8);
             }
-            if self.counts[2] > 0 {
+            if self.f.counts[2] > 0 {
                 let q = sample_sphere(
                     &Sphere {
                         center: self.center.load(avx),
@@ -1555,7 +1564,7 @@ pub(crate) mod x8 {
                 merge(&mut lp, is_kind::<T, W>(kinds, KIND_SPHERE), &q, sel8);
             }
             // The textured area lights' lanes (the compares made only when a lane has one).
-            let on_area = if self.n_textured > 0 {
+            let on_area = if self.f.n_textured > 0 {
                 let area =
                     is_kind::<T, W>(kinds, KIND_TRIANGLE) | is_kind::<T, W>(kinds, KIND_RECTANGLE);
                 T::bits(area)
@@ -1589,11 +1598,11 @@ pub(crate) mod x8 {
                 lp.some = lp.some & !(look & zero);
             }
             let lv = self.lv.load(avx);
-            if self.counts[3] > 0 {
+            if self.f.counts[3] > 0 {
                 let q = em::sample_point(self.center.load(avx), lv, ref_p);
                 merge_free(&mut lp, is_kind::<T, W>(kinds, KIND_POINT), &q, sel8);
             }
-            if self.counts[4] > 0 {
+            if self.f.counts[4] > 0 {
                 // Four loads, not `self.cone.map(..)`: the closure may be left out of line.
                 let [cos_cutoff, cos_beam, cutoff, beam_width] = [
                     avx.load(&self.cone[0]),
@@ -1621,15 +1630,15 @@ pub(crate) mod x8 {
                 }
                 merge_free(&mut lp, on, &q, sel8);
             }
-            if self.counts[5] > 0 {
+            if self.f.counts[5] > 0 {
                 let q = em::sample_directional(self.center.load(avx), lv, ref_p);
                 merge_free(&mut lp, is_kind::<T, W>(kinds, KIND_DIRECTIONAL), &q, sel8);
             }
-            if self.counts[6] > 0 {
+            if self.f.counts[6] > 0 {
                 let q = em::sample_constant(lv, su);
                 merge_free(&mut lp, is_kind::<T, W>(kinds, KIND_CONSTANT), &q, sel8);
             }
-            if self.counts[7] > 0 {
+            if self.f.counts[7] > 0 {
                 let on = is_kind::<T, W>(kinds, KIND_ENVMAP);
                 let e = em::env_direction(&Env {
                     to_world: load3(avx, &self.mat),
@@ -1663,7 +1672,7 @@ pub(crate) mod x8 {
                 };
                 merge_free(&mut lp, on, &q, sel8);
             }
-            for (total, c) in light_lanes.iter_mut().zip(self.counts) {
+            for (total, c) in light_lanes.iter_mut().zip(self.f.counts) {
                 *total += c as u64;
             }
             lp
