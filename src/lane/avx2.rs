@@ -171,6 +171,13 @@ fn run_avx2<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
+/// [`Lane::outlined`] at width 8: as [`run_avx2`], never inlined.
+#[target_feature(enable = "avx2,fma")]
+#[inline(never)]
+fn outlined_avx2<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
+
 impl F32x8 {
     #[inline(always)]
     pub fn to_array(self) -> [f32; 8] {
@@ -377,6 +384,12 @@ impl Lane for F32x8 {
     type I32 = I32x8;
     type U64 = U64x8;
     const WIDTH: usize = 8;
+
+    #[inline(always)]
+    fn outlined<R>(self, f: impl FnOnce() -> R) -> R {
+        // SAFETY: an F32x8 exists only where AVX2 and FMA are on (module doc).
+        unsafe { outlined_avx2(f) }
+    }
 
     #[inline(always)]
     fn splat(self, c: f32) -> F32x8 {

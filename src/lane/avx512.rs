@@ -141,6 +141,13 @@ fn run_avx512<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
+/// [`Lane::outlined`] at width 16: as [`run_avx512`], never inlined.
+#[target_feature(enable = "avx512f,avx512dq,avx512bw,avx512vl,avx2,fma")]
+#[inline(never)]
+fn outlined_avx512<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
+
 impl F32x16 {
     #[inline(always)]
     pub fn to_array(self) -> [f32; 16] {
@@ -302,6 +309,12 @@ impl Lane for F32x16 {
     type I32 = I32x16;
     type U64 = U64x16;
     const WIDTH: usize = 16;
+
+    #[inline(always)]
+    fn outlined<R>(self, f: impl FnOnce() -> R) -> R {
+        // SAFETY: an F32x16 exists only where the AVX-512 features are on (module doc).
+        unsafe { outlined_avx512(f) }
+    }
 
     #[inline(always)]
     fn splat(self, c: f32) -> F32x16 {

@@ -137,6 +137,13 @@ pub trait Lane:
     /// # Panics
     /// If `table` is empty or holds more than `i32::MAX` entries.
     fn gather_slice(table: &[f32], idx: Self::I32) -> Self;
+    /// `f()` in a function of its own, compiled for this lane type's instructions and never
+    /// inlined (give it an `#[inline(always)]` closure). For a large piece that a kernel would
+    /// otherwise inline several times (a whole BSDF evaluation), so that the optimiser works on
+    /// pieces of bounded size: LLVM's SROA pass grows faster than linearly with a function's
+    /// size, and the blend kernel as one function took half of the library's build time.
+    /// The numbers are the same as inlined.
+    fn outlined<R>(self, f: impl FnOnce() -> R) -> R;
 
     /// |self| (clears the sign bit; NaN stays NaN).
     #[inline(always)]

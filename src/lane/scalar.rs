@@ -21,6 +21,12 @@ impl Lane for f32 {
     type U64 = u64;
     const WIDTH: usize = 1;
 
+    /// Inlined as written: the scalar code has no piece large enough to need it.
+    #[inline(always)]
+    fn outlined<R>(self, f: impl FnOnce() -> R) -> R {
+        f()
+    }
+
     #[inline(always)]
     fn splat(self, c: f32) -> f32 {
         c

@@ -86,23 +86,48 @@ fn no_normals<L: Lane>(like: L) -> [V3<L>; MAX_WRAPS] {
     [V3::splat(like, 0.0, 0.0, 1.0); MAX_WRAPS]
 }
 
+/// One child's `conductor::eval_pdf` in a function of its own ([`Lane::outlined`]): the blend
+/// kernel would inline it four times (two children, in the light query and in the mixed
+/// sample), and LLVM's SROA took minutes over the one function that made.
+#[inline(always)]
+fn child_eval_pdf<L: Lane>(ch: &Chain, p: &Params<L>, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
+    wi.z.outlined(
+        #[inline(always)]
+        || conductor::eval_pdf::<L, false>(ch, &no_normals(wi.z), p, wi, wo),
+    )
+}
+
+/// One child's `conductor::sample` in a function of its own (as [`child_eval_pdf`]).
+#[inline(always)]
+fn child_sample<L: Lane>(
+    ch: &Chain,
+    p: &Params<L>,
+    wi: V3<L>,
+    u1: L,
+    u2: V2<L>,
+) -> (LaneBsdfSample<L>, L::Mask, L) {
+    wi.z.outlined(
+        #[inline(always)]
+        || conductor::sample::<L, false>(ch, &no_normals(wi.z), p, wi, u1, u2),
+    )
+}
+
 /// `blend::eval` and `blend::pdf` below the outer `twosided`: per lane `0 + (1 − w)·x₀` where
 /// `w < 1`, then `+ w·x₁` where `w > 0`.
 #[inline(always)]
 fn mix<L: Lane>(mat: &Material, p: &[Params<L>; 2], w: L, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
     let k = |c: f32| wi.z.splat(c);
-    let n = no_normals(k(0.0));
     let (zero, one) = (k(0.0), k(1.0));
     let (has0, has1) = (w.lt(one), w.gt(zero));
     let z3 = V3::splat(zero, 0.0, 0.0, 0.0);
     // A child no lane weighs is not evaluated (its lanes are not read below).
     let (f0, p0) = if has0.any() {
-        conductor::eval_pdf::<L, false>(&mat.children[0], &n, &p[0], wi, wo)
+        child_eval_pdf(&mat.children[0], &p[0], wi, wo)
     } else {
         (z3, zero)
     };
     let (f1, p1) = if has1.any() {
-        conductor::eval_pdf::<L, false>(&mat.children[1], &n, &p[1], wi, wo)
+        child_eval_pdf(&mat.children[1], &p[1], wi, wo)
     } else {
         (z3, zero)
     };
@@ -152,7 +177,6 @@ pub(crate) fn sample<L: Lane>(
     if mat.twosided {
         wi = V3::select(back, flip(wi), wi);
     }
-    let n = no_normals(k(0.0));
     // Each child samples where some lane chose it (the other lanes of its sample are dropped).
     let skip = || {
         let none = k(0.0).ne(k(0.0));
@@ -166,12 +190,12 @@ pub(crate) fn sample<L: Lane>(
         (s, none, k(1.0))
     };
     let (s0, d0, e0) = if (!pick1).any() {
-        conductor::sample::<L, false>(&mat.children[0], &n, &p[0], wi, u1, u2)
+        child_sample(&mat.children[0], &p[0], wi, u1, u2)
     } else {
         skip()
     };
     let (s1, d1, e1) = if pick1.any() {
-        conductor::sample::<L, false>(&mat.children[1], &n, &p[1], wi, u1, u2)
+        child_sample(&mat.children[1], &p[1], wi, u1, u2)
     } else {
         skip()
     };
