@@ -3,28 +3,146 @@
 //! points' numbers (issue 18). A column written lane by lane under a test of each bit compiled
 //! to a branch and two moves per lane; here it is one blend of two 8-wide loads when the CPU
 //! has AVX2 (the same bits: a blend copies each lane's bits as they are), else the plain loop.
+//!
+//! The CPU's answer is a token, [`Cols`], detected once per chunk (or taken from the stream
+//! kernel's own `Avx2` token) and handed down: each of its operations is a few instructions
+//! inside [`Cols::run`] (one AVX2 region per calling function), where detecting AVX2 and
+//! entering a region per blend cost ~20 instructions each (twenty-sixth session's profile).
 
 #[cfg(target_arch = "x86_64")]
 use crate::lane::{Avx2, F32x8, Lane};
 
-/// `dst[k] = src[k]` for each lane k of `on` (bit k), the other lanes of `dst` kept.
-#[inline(always)]
-pub(crate) fn blend(on: u8, dst: &mut [f32; 8], src: &[f32; 8]) {
+/// Whether the chunk's columns are blended 8-wide (the CPU has AVX2 and FMA: its token) or
+/// lane by lane. Its operations are correct anywhere; they compile to single instructions
+/// only inside [`Self::run`] (else each 8-wide operation is a call).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Cols {
     #[cfg(target_arch = "x86_64")]
-    if let Some(avx) = Avx2::detect() {
-        avx.run(
-            #[inline(always)]
-            || {
-                let m = avx.mask_bits(u32::from(on));
-                F32x8::select(m, avx.load(src), avx.load(dst)).store(dst);
-            },
-        );
-        return;
-    }
-    blend_width1(on, dst, src);
+    avx: Option<Avx2>,
 }
 
-/// [`blend`] lane by lane.
+/// A column's number type, whose lanes a blend copies as bits (`f32`, `i32`).
+pub(crate) trait Col: Copy {
+    /// The column as 8 `f32` lanes (the same bits).
+    #[cfg(target_arch = "x86_64")]
+    fn load(avx: Avx2, a: &[Self; 8]) -> F32x8;
+    /// Stores 8 lanes' bits into the column.
+    #[cfg(target_arch = "x86_64")]
+    fn store(v: F32x8, a: &mut [Self; 8]);
+}
+
+impl Col for f32 {
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn load(avx: Avx2, a: &[f32; 8]) -> F32x8 {
+        avx.load(a)
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn store(v: F32x8, a: &mut [f32; 8]) {
+        v.store(a);
+    }
+}
+
+impl Col for i32 {
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn load(avx: Avx2, a: &[i32; 8]) -> F32x8 {
+        F32x8::from_bits(avx.load_i32(a))
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn store(v: F32x8, a: &mut [i32; 8]) {
+        *a = v.to_bits().to_array();
+    }
+}
+
+impl Cols {
+    /// 8-wide when this CPU has AVX2 and FMA, else lane by lane (the tests' chunks; the
+    /// stream kernel hands its own token, [`Self::of`]).
+    #[cfg(test)]
+    pub(crate) fn detect() -> Self {
+        Cols {
+            #[cfg(target_arch = "x86_64")]
+            avx: Avx2::detect(),
+        }
+    }
+
+    /// Lane by lane (a CPU without AVX2; the tests' reference).
+    #[cfg(test)]
+    pub(crate) const LOOPS: Cols = Cols {
+        #[cfg(target_arch = "x86_64")]
+        avx: None,
+    };
+
+    /// 8-wide, from a caller's token (the stream kernel runs inside its `Avx2::run`).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn of(avx: Avx2) -> Self {
+        Cols { avx: Some(avx) }
+    }
+
+    /// The AVX2 token, when 8-wide.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn avx(self) -> Option<Avx2> {
+        self.avx
+    }
+
+    /// `f(cols)` inside one AVX2 region when 8-wide (`Avx2::run`; the token handed to `f` is
+    /// known there, so its blends compile without a test), else `f(self)` as it is. Give it a
+    /// closure marked `#[inline(always)]` (a closure compiled out of the region makes its
+    /// 8-wide operations calls).
+    #[inline(always)]
+    pub(crate) fn run<R>(self, f: impl FnOnce(Cols) -> R) -> R {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = self.avx {
+            return avx.run(
+                #[inline(always)]
+                move || f(Cols::of(avx)),
+            );
+        }
+        f(self)
+    }
+
+    /// `dst[k] = src[k]` for each lane k of `on` (bit k), the other lanes of `dst` kept (their
+    /// bits as they are: `f32` or `i32` columns, one body).
+    #[inline(always)]
+    pub(crate) fn blend<T: Col>(self, on: u8, dst: &mut [T; 8], src: &[T; 8]) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = self.avx {
+            let m = avx.mask_bits(u32::from(on));
+            T::store(F32x8::select(m, T::load(avx, src), T::load(avx, dst)), dst);
+            return;
+        }
+        blend_width1(on, dst, src);
+    }
+
+    /// [`Self::blend`] of the three columns of a vector column (`[component][lane]`).
+    #[inline(always)]
+    pub(crate) fn blend3(self, on: u8, dst: &mut [[f32; 8]; 3], src: &[[f32; 8]; 3]) {
+        for (d, s) in dst.iter_mut().zip(src) {
+            self.blend(on, d, s);
+        }
+    }
+
+    /// The lanes (bits) where column `x` is not at most 0 (`!(x <= 0.0)`: above 0, or NaN),
+    /// the scalar code's `if x <= 0.0 { continue }` of each lane as one compare.
+    #[inline(always)]
+    pub(crate) fn not_le_zero(self, x: &[f32; 8]) -> u8 {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = self.avx {
+            return (!avx.load(x).le(avx.splat(0.0))).bits() as u8;
+        }
+        let mut bits = 0u8;
+        for (k, &v) in x.iter().enumerate() {
+            bits |= u8::from(v > 0.0 || v.is_nan()) << k;
+        }
+        bits
+    }
+}
+
+/// [`Cols::blend`] lane by lane.
 #[inline(always)]
 fn blend_width1<T: Copy>(on: u8, dst: &mut [T; 8], src: &[T; 8]) {
     for k in 0..8 {
@@ -32,53 +150,6 @@ fn blend_width1<T: Copy>(on: u8, dst: &mut [T; 8], src: &[T; 8]) {
             dst[k] = src[k];
         }
     }
-}
-
-/// [`blend`] of the three columns of a vector column (`[component][lane]`).
-#[inline(always)]
-pub(crate) fn blend3(on: u8, dst: &mut [[f32; 8]; 3], src: &[[f32; 8]; 3]) {
-    for (d, s) in dst.iter_mut().zip(src) {
-        blend(on, d, s);
-    }
-}
-
-/// [`blend`] of integer columns (the bits of each lane copied as they are).
-#[inline(always)]
-pub(crate) fn blend_i32(on: u8, dst: &mut [i32; 8], src: &[i32; 8]) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(avx) = Avx2::detect() {
-        avx.run(
-            #[inline(always)]
-            || {
-                let m = avx.mask_bits(u32::from(on));
-                let (a, b) = (
-                    F32x8::from_bits(avx.load_i32(src)),
-                    F32x8::from_bits(avx.load_i32(dst)),
-                );
-                *dst = F32x8::select(m, a, b).to_bits().to_array();
-            },
-        );
-        return;
-    }
-    blend_width1(on, dst, src);
-}
-
-/// The lanes (bits) where column `x` is not at most 0 (`!(x <= 0.0)`: above 0, or NaN), the
-/// scalar code's `if x <= 0.0 { continue }` of each lane as one compare.
-#[inline(always)]
-pub(crate) fn not_le_zero(x: &[f32; 8]) -> u8 {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(avx) = Avx2::detect() {
-        return avx.run(
-            #[inline(always)]
-            || (!avx.load(x).le(avx.splat(0.0))).bits() as u8,
-        );
-    }
-    let mut bits = 0u8;
-    for (k, &v) in x.iter().enumerate() {
-        bits |= u8::from(v > 0.0 || v.is_nan()) << k;
-    }
-    bits
 }
 
 #[cfg(test)]
@@ -108,7 +179,8 @@ mod tests {
     }
 
     /// The blends and the sign test equal the lane-by-lane loops bit for bit, for every mask
-    /// of 8 lanes, on columns with edge values (NaN payloads kept).
+    /// of 8 lanes, on columns with edge values (NaN payloads kept): 8-wide inside one region
+    /// ([`Cols::run`]), 8-wide outside it, and the loops ([`Cols::LOOPS`]).
     #[test]
     fn blends_and_tests_equal_the_loops() {
         let mut rng = Pcg32::new(26, 3);
@@ -116,29 +188,55 @@ mod tests {
             for _ in 0..8 {
                 let (d, s) = (column(&mut rng), column(&mut rng));
                 let (df, sf) = (d.map(f32::from_bits), s.map(f32::from_bits));
-                let (mut got, mut want) = (df, df);
-                blend(on, &mut got, &sf);
-                blend_width1(on, &mut want, &sf);
-                assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "{on}");
-                for k in 0..8 {
-                    let want = if on & (1 << k) != 0 { s[k] } else { d[k] };
-                    assert_eq!(got[k].to_bits(), want, "{on} {k}");
-                }
                 let (di, si) = (d.map(|x| x as i32), s.map(|x| x as i32));
-                let mut got = di;
-                blend_i32(on, &mut got, &si);
+                let mut want = df;
+                blend_width1(on, &mut want, &sf);
                 for k in 0..8 {
-                    let want = if on & (1 << k) != 0 { si[k] } else { di[k] };
-                    assert_eq!(got[k], want, "{on} {k}");
+                    let w = if on & (1 << k) != 0 { s[k] } else { d[k] };
+                    assert_eq!(want[k].to_bits(), w, "{on} {k}");
                 }
-                let mut want = 0u8;
+                let mut le = 0u8;
                 for (k, &v) in df.iter().enumerate() {
                     if v <= 0.0 {
                         continue;
                     }
-                    want |= 1 << k;
+                    le |= 1 << k;
                 }
-                assert_eq!(not_le_zero(&df), want, "{df:?}");
+                let (d3, s3) = ([df, sf, df], [sf, df, sf]);
+                let mut want3 = d3;
+                for (w, s) in want3.iter_mut().zip(&s3) {
+                    blend_width1(on, w, s);
+                }
+                for cols in [Cols::detect(), Cols::LOOPS] {
+                    for inside in [true, false] {
+                        let mut got = df;
+                        let mut got_i = di;
+                        let mut got3 = d3;
+                        let mut bits = 0;
+                        let mut body = |c: Cols| {
+                            c.blend(on, &mut got, &sf);
+                            c.blend(on, &mut got_i, &si);
+                            c.blend3(on, &mut got3, &s3);
+                            bits = c.not_le_zero(&df);
+                        };
+                        if inside {
+                            cols.run(body);
+                        } else {
+                            body(cols);
+                        }
+                        assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "{on}");
+                        for k in 0..8 {
+                            let w = if on & (1 << k) != 0 { si[k] } else { di[k] };
+                            assert_eq!(got_i[k], w, "{on} {k}");
+                        }
+                        assert_eq!(
+                            got3.map(|c| c.map(f32::to_bits)),
+                            want3.map(|c| c.map(f32::to_bits)),
+                            "{on}"
+                        );
+                        assert_eq!(bits, le, "{df:?}");
+                    }
+                }
             }
         }
     }

@@ -37,7 +37,7 @@
 
 use super::facets::Microgeometry;
 use super::lambert::FacetChain;
-use super::{lane_cols, walk, Evaluation, MicrofacetNormalMap, Tangent};
+use super::{lane_cols::Cols, walk, Evaluation, MicrofacetNormalMap, Tangent};
 use crate::bsdf::{Bsdf, BsdfContext, TransportMode};
 use crate::lane::vec::{V2, V3};
 use crate::lane::{Lane, LaneI32, ToArray};
@@ -434,27 +434,35 @@ impl Lookups8 {
     /// The lanes `on` (bit k: lane k) look up their direction (lane k of `w`, by component;
     /// z > 0) in their cells (lane k of `cells`): [`Self::push`] of each, from the columns as
     /// they are (`cells.get(k)`'s cell, its plane `j · PLANE` in the same wrapping integer
-    /// product), the other lanes kept: a blend per column ([`lane_cols::blend`]; the select
-    /// per lane written before compiled to a branch per lane and column).
+    /// product), the other lanes kept: a blend per column ([`Cols::blend`]; the select
+    /// per lane written before compiled to a branch per lane and column). Call inside
+    /// [`Cols::run`].
     #[inline(always)]
-    pub fn push_lanes(&mut self, on: u8, cells: &CellCols<8>, w: &[[f32; 8]; 3]) {
-        lane_cols::blend(on, &mut self.ax, &cells.axis[0]);
-        lane_cols::blend(on, &mut self.ay, &cells.axis[1]);
-        self.set_directions(on, w);
+    pub(crate) fn push_lanes(
+        &mut self,
+        cols: Cols,
+        on: u8,
+        cells: &CellCols<8>,
+        w: &[[f32; 8]; 3],
+    ) {
+        cols.blend(on, &mut self.ax, &cells.axis[0]);
+        cols.blend(on, &mut self.ay, &cells.axis[1]);
+        self.set_directions(cols, on, w);
         let plane: [i32; 8] =
             std::array::from_fn(|k| (cells.j[k] as usize).wrapping_mul(PLANE) as i32);
-        lane_cols::blend_i32(on, &mut self.plane, &plane);
-        lane_cols::blend(on, &mut self.t, &cells.t);
+        cols.blend(on, &mut self.plane, &plane);
+        cols.blend(on, &mut self.t, &cells.t);
         self.used |= on;
     }
 
     /// [`Self::set_direction`] of the lanes `on` (bit k: lane k; each with a lookup), from
-    /// lane k of `w` (by component), the other lanes kept: a blend per column.
+    /// lane k of `w` (by component), the other lanes kept: a blend per column. Call inside
+    /// [`Cols::run`].
     #[inline(always)]
-    pub fn set_directions(&mut self, on: u8, w: &[[f32; 8]; 3]) {
-        lane_cols::blend(on, &mut self.wx, &w[0]);
-        lane_cols::blend(on, &mut self.wy, &w[1]);
-        lane_cols::blend(on, &mut self.wz, &w[2]);
+    pub(crate) fn set_directions(&mut self, cols: Cols, on: u8, w: &[[f32; 8]; 3]) {
+        cols.blend(on, &mut self.wx, &w[0]);
+        cols.blend(on, &mut self.wy, &w[1]);
+        cols.blend(on, &mut self.wz, &w[2]);
     }
 
     /// The lanes with a lookup, as bits (bit k: lane k).
@@ -747,12 +755,12 @@ impl MsTable {
     /// where x > 0, else 0, times 1/π), by channel: 8-wide under the [`crate::lane::Avx2`]
     /// token (the two θp nodes' Ē_ms gathered, the same products, sum and division in the same
     /// order: each lane the scalar value bit for bit, `tests`), else lane by lane. Every lane's
-    /// cell must be a cell of this table (a lane of [`Self::cells`]).
+    /// cell must be a cell of this table (a lane of [`Self::cells`]). 8-wide when `cols` is.
     #[inline]
-    pub fn baked_norms_x8(&self, cells: &CellCols<8>) -> [[f32; 8]; 3] {
+    pub(crate) fn baked_norms_x8(&self, cols: Cols, cells: &CellCols<8>) -> [[f32; 8]; 3] {
         let mut out = [[0.0f32; 8]; 3];
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx) = crate::lane::Avx2::detect() {
+        if let Some(avx) = cols.avx() {
             use crate::lane::F32x8;
             avx.run(
                 #[inline(always)]
@@ -1272,7 +1280,7 @@ mod tests {
                         _ => rng.next_f32(),
                     };
                 }
-                let got = table.baked_norms_x8(&cells);
+                let got = table.baked_norms_x8(Cols::detect(), &cells);
                 for k in 0..8 {
                     let m = table.mean_baked(&cells.get(k));
                     let inv = |x: f32| if x > 0.0 { 1.0 / x } else { 0.0 };

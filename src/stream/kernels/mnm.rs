@@ -239,7 +239,7 @@ pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
-        eval_pdf_x8_into, sample_x8_cols, with_incident_alone_x8, Chunk, Point,
+        eval_pdf_x8_into, sample_x8_cols, with_incident_alone_x8, Chunk, Cols, Point,
     };
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
@@ -427,8 +427,8 @@ pub(crate) mod x8 {
             }
         }
         let mut chunk = match (&lanes, lane_points) {
-            (Some(l), true) => Chunk::of_facets(l.facets()),
-            _ => Chunk::of(pts),
+            (Some(l), true) => Chunk::of_facets(Cols::of(avx), l.facets()),
+            _ => Chunk::of(Cols::of(avx), pts),
         };
         if let (Some(l), Some(bt), true) = (&lanes, &built, lane_points) {
             let on = alive & bt.points;

@@ -32,7 +32,7 @@
 //! nested leaf has no textured parameter).
 
 use super::super::facets::FacetCols;
-use super::super::lane_cols;
+pub(crate) use super::super::lane_cols::Cols;
 use super::super::ms_table::{CellCols, Colour, Lookups8, MsTable};
 use super::super::nested_batch::{Pairs, CHUNK};
 mod first;
@@ -126,15 +126,19 @@ pub(crate) struct Chunk<'a> {
     /// (`above`, `q`, `table`, `norm`, the entries' ωi): [`Self::prepare`] does not walk the
     /// points again.
     placed: bool,
+    /// 8-wide or lane by lane (the CPU's answer, taken once per chunk): every query's and
+    /// state's column code reads it instead of detecting AVX2 itself.
+    cols: Cols,
 }
 
 impl<'a> Chunk<'a> {
     /// The chunk of the points `pts` (lanes without a point: `None`; see [`Point`]) before
     /// their state at ωi, which [`Self::prepare`] then computes in place: a plain struct
     /// literal, built in the caller's slot (built and returned as one value, the ~3 KB chunk
-    /// was copied by a `memcpy` call per chunk).
+    /// was copied by a `memcpy` call per chunk). Its column code 8-wide or not as `cols` says
+    /// (the stream kernel's AVX2 token, `Cols::of`).
     #[inline(always)]
-    pub(crate) fn of(pts: [Option<Point<'a>>; 8]) -> Self {
+    pub(crate) fn of(cols: Cols, pts: [Option<Point<'a>>; 8]) -> Self {
         let mut on = 0u8;
         for (k, pt) in pts.iter().enumerate() {
             on |= u8::from(pt.is_some()) << k;
@@ -154,6 +158,7 @@ impl<'a> Chunk<'a> {
             norm: [[0.0; 8]; 3],
             sel: [0.0; 8],
             placed: false,
+            cols,
         }
     }
 
@@ -164,7 +169,7 @@ impl<'a> Chunk<'a> {
     /// [`Self::prepare`] computes their state, as for [`Self::of`]. A struct literal, built in
     /// the caller's slot.
     #[inline(always)]
-    pub(crate) fn of_facets(facets: &FacetCols<8>) -> Self {
+    pub(crate) fn of_facets(cols: Cols, facets: &FacetCols<8>) -> Self {
         Chunk {
             pts: [None; 8],
             on: 0,
@@ -180,6 +185,7 @@ impl<'a> Chunk<'a> {
             norm: [[0.0; 8]; 3],
             sel: [0.0; 8],
             placed: false,
+            cols,
         }
     }
 
@@ -232,14 +238,17 @@ impl<'a> Chunk<'a> {
         // the others; its 1 / (π Ē_ms) is its lane of the norms, as in its `MsPlace`);
         // `prepare` then goes on from their state at ωi. (`prepare`'s test, z ≤ 0 skipped: a
         // NaN z is not.)
-        let mut above = 0u8;
-        for (k, &z) in wi[2].iter().enumerate() {
-            above |= u8::from(z > 0.0 || z.is_nan()) << k;
-        }
-        let above = above & lanes;
-        self.q.push_lanes(above, cells, wi);
-        self.geo.push_wi_lanes(above, wi);
-        self.norm = table.baked_norms_x8(cells);
+        let (q, geo) = (&mut self.q, &mut self.geo);
+        let above = self.cols.run(
+            #[inline(always)]
+            |cols| {
+                let above = cols.not_le_zero(&wi[2]) & lanes;
+                q.push_lanes(cols, above, cells, wi);
+                geo.push_wi_lanes(cols, above, wi);
+                above
+            },
+        );
+        self.norm = table.baked_norms_x8(self.cols, cells);
         self.above = above;
         self.table = Some(table);
         self.placed = true;
@@ -260,7 +269,7 @@ impl<'a> Chunk<'a> {
     /// [`Self::of`] and [`Self::prepare`] (the tests' chunks).
     #[cfg(test)]
     pub(crate) fn new(pts: [Option<Point<'a>>; 8]) -> Self {
-        let mut c = Self::of(pts);
+        let mut c = Self::of(Cols::detect(), pts);
         c.prepare();
         c
     }
@@ -316,7 +325,7 @@ impl<'a> Chunk<'a> {
         // Over the mirror sawtooth the entries stay in the columns (no `Entries` row per
         // point: the sampler picks from the columns, `first::Points8::pick`).
         if mirror && self.above != 0 {
-            self.geo.entries();
+            self.geo.entries(self.cols);
         }
     }
 
@@ -342,7 +351,7 @@ impl<'a> Chunk<'a> {
             }
         }
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx) = crate::lane::Avx2::detect() {
+        if let Some(avx) = self.cols.avx() {
             let (q, ei, sel) = (&self.q, &mut self.ei, &mut self.sel);
             avx.run(
                 #[inline(always)]
@@ -462,7 +471,7 @@ fn remainders(live: u8, wo: &[[f32; 8]; 3], c: &Chunk) -> [[f32; 8]; 3] {
     let mut out = [[0.0f32; 8]; 3];
     let mut rest = live;
     #[cfg(target_arch = "x86_64")]
-    if let (Some(t), Some(avx)) = (c.table, crate::lane::Avx2::detect()) {
+    if let (Some(t), Some(avx)) = (c.table, c.cols.avx()) {
         let lanes = live & c.q.used();
         if lanes != 0 {
             out = remainders_x8(avx, t, c, lanes, wo);
@@ -500,11 +509,11 @@ fn remainders_x8(
     wo: &[[f32; 8]; 3],
 ) -> [[f32; 8]; 3] {
     use crate::lane::Lane;
-    let mut q = c.q;
-    q.set_directions(lanes, wo);
     avx.run(
         #[inline(always)]
         || {
+            let mut q = c.q;
+            q.set_directions(Cols::of(avx), lanes, wo);
             let eo = table.lookup_baked_e_lanes(avx, &q);
             let zero = avx.splat(0.0);
             let z = crate::lane::F32x8::select(
@@ -658,16 +667,8 @@ pub(crate) fn eval_pdf_x8_into(
 ) {
     let _ = ctx; // the lane forms read no context
     let Some(nested) = c.nested else {
-        finish_evals_width1(
-            lit,
-            0,
-            &c.sel,
-            &first::FirstOrders::zero(),
-            &[[0.0; 8]; 3],
-            wo,
-            f,
-            p,
-        );
+        let none = (first::FirstOrders::zero(), [[0.0; 8]; 3]);
+        finish_evals(c, lit, 0, &none.0, &none.1, wo, f, p);
         return;
     };
     let kind = Nested::of(&nested);
@@ -676,12 +677,16 @@ pub(crate) fn eval_pdf_x8_into(
     // one mask, the query's inputs by blends ([`first::Mirror8::sampled`] without a known term:
     // what [`first::Mirror8::push`] of each live lane without one gives).
     if c.mirror {
-        let live = lit & c.above & lane_cols::not_le_zero(&wo[2]);
+        let above = c.cols.run(
+            #[inline(always)]
+            |cols| cols.not_le_zero(&wo[2]),
+        );
+        let live = lit & c.above & above;
         let none = ([-1.0; 8], [0.0; 8], [[0.0; 8]; 3]);
-        let lanes = first::Mirror8::sampled(live, wo, 0, &none.0, &none.1, &none.2);
-        let fo = lanes.eval(&c.geo, kind);
+        let lanes = first::Mirror8::sampled(c.cols, live, wo, 0, &none.0, &none.1, &none.2);
+        let fo = lanes.eval(c.cols, &c.geo, kind);
         let rem = remainders(live, wo, c);
-        finish_evals(lit, live, &c.sel, &fo, &rem, wo, f, p);
+        finish_evals(c, lit, live, &fo, &rem, wo, f, p);
         return;
     }
     // Else each point's nested pairs go to one batch ([`General`], made only then).
@@ -704,30 +709,31 @@ pub(crate) fn eval_pdf_x8_into(
     };
     let fo = first_orders(kind, c, &first::Mirror8::new(), Some(&general), &st, None);
     let rem = remainders(live, wo, c);
-    finish_evals(lit, live, &c.sel, &fo, &rem, wo, f, p);
+    finish_evals(c, lit, live, &fo, &rem, wo, f, p);
 }
 
 /// The last step of `mnm::eval_pdf` for the lanes `lit` of a light query (bit k: lane k) from
 /// the first orders `fo` and remainders `rem` of its live lanes `live` (a subset), with the
-/// lanes' lobe choice s(ωi) `sel` and directions `wo` (by component): a live lane's value is
-/// f1·z(ωo) + f_ms per channel and its density (1 − s) p1 + (s z(ωo)) / π (the scalar code's
-/// operations in its order, no fused multiply-add), a lit lane that is not live gets (0, 0),
-/// the other lanes are kept. 8-wide when the CPU has AVX2 and FMA, else lane by lane (the
-/// same numbers).
+/// lanes' lobe choice s(ωi) (`c.sel`) and directions `wo` (by component): a live lane's value
+/// is f1·z(ωo) + f_ms per channel and its density (1 − s) p1 + (s z(ωo)) / π (the scalar
+/// code's operations in its order, no fused multiply-add), a lit lane that is not live gets
+/// (0, 0), the other lanes are kept. 8-wide when the chunk's columns are (`c.cols`: AVX2 and
+/// FMA), else lane by lane (the same numbers; `tests`).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn finish_evals(
+    c: &Chunk,
     lit: u8,
     live: u8,
-    sel: &[f32; 8],
     fo: &first::FirstOrders,
     rem: &[[f32; 8]; 3],
     wo: &[[f32; 8]; 3],
     f: &mut [[f32; 8]; 3],
     p: &mut [f32; 8],
 ) {
+    let sel = &c.sel;
     #[cfg(target_arch = "x86_64")]
-    if let Some(avx) = crate::lane::Avx2::detect() {
+    if let Some(avx) = c.cols.avx() {
         use crate::lane::{F32x8, Lane};
         avx.run(
             #[inline(always)]
@@ -751,22 +757,6 @@ fn finish_evals(
         );
         return;
     }
-    finish_evals_width1(lit, live, sel, fo, rem, wo, f, p);
-}
-
-/// [`finish_evals`] lane by lane.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn finish_evals_width1(
-    lit: u8,
-    live: u8,
-    sel: &[f32; 8],
-    fo: &first::FirstOrders,
-    rem: &[[f32; 8]; 3],
-    wo: &[[f32; 8]; 3],
-    f: &mut [[f32; 8]; 3],
-    p: &mut [f32; 8],
-) {
     for k in 0..8 {
         if lit & (1 << k) == 0 {
             continue;
@@ -799,7 +789,7 @@ fn first_orders(
     known: Option<&[Option<Known>; 8]>,
 ) -> first::FirstOrders {
     let Some(g) = general else {
-        return lanes.eval(&c.geo, kind);
+        return lanes.eval(c.cols, &c.geo, kind);
     };
     let mut out = first::FirstOrders::zero();
     let ev = kind
@@ -947,7 +937,7 @@ pub(crate) fn sample_x8_cols(
     let mut ks = [0.0f32; 8];
     let mut answered = None;
     if !asks.is_empty() {
-        let a = asks.answer(kind);
+        let a = asks.answer(c.cols, kind);
         // Pass 3: the rest of `draw` per point (the facet frame and the mirror wall's draw),
         // for the lanes with an entry whose nested sample is kept (`Answered::get`'s test).
         let mut asked = 0u8;
@@ -962,7 +952,7 @@ pub(crate) fn sample_x8_cols(
             // draw per lane (every entry is facet 0's): u where the number is below G1(u),
             // else R(u) through the wall (bit k of `wall`), blended into the columns after;
             // the known terms in columns.
-            let l = c.geo.leave_dirs(a.wo());
+            let l = c.geo.leave_dirs(c.cols, a.wo());
             let mut wall = 0u8;
             while rest != 0 {
                 let k = rest.trailing_zeros() as usize;
@@ -973,7 +963,10 @@ pub(crate) fn sample_x8_cols(
                 ks[k] = (2 * entry[k] + usize::from(!through)) as f32;
                 from_nested |= 1 << k;
             }
-            l.blend_into(from_nested, wall, &mut wc);
+            c.cols.run(
+                #[inline(always)]
+                |cols| l.blend_into(cols, from_nested, wall, &mut wc),
+            );
         } else {
             while rest != 0 {
                 let k = rest.trailing_zeros() as usize;
@@ -992,12 +985,19 @@ pub(crate) fn sample_x8_cols(
     }
     // The live lanes: drawn, ωo not below the surface (the scalar `z <= 0` test, as a mask);
     // their ωo by component for the last step in lanes (others: 0).
-    st.live = drawn & lane_cols::not_le_zero(&wc[2]);
+    // (One region for the test and the blend.)
+    let mut wo = [[0.0f32; 8]; 3];
+    st.live = c.cols.run(
+        #[inline(always)]
+        |cols| {
+            let live = drawn & cols.not_le_zero(&wc[2]);
+            cols.blend3(live, &mut wo, &wc);
+            live
+        },
+    );
     if st.live == 0 {
         return Samples8::none();
     }
-    let mut wo = [[0.0f32; 8]; 3];
-    lane_cols::blend3(st.live, &mut wo, &wc);
     // The first orders at the sampled directions: in lanes over the mirror sawtooth, else
     // their nested pairs in one batch ([`General`], made only then).
     let mut general = (!c.mirror).then(General::new);
@@ -1020,14 +1020,17 @@ pub(crate) fn sample_x8_cols(
     let lanes = match (&general, &answered) {
         (None, Some(a)) => {
             let known = from_nested & st.live & if exact { u8::MAX } else { 0 };
-            first::Mirror8::sampled(st.live, &wo, known, &ks, a.pdf(), a.weight())
+            first::Mirror8::sampled(c.cols, st.live, &wo, known, &ks, a.pdf(), a.weight())
         }
-        (None, None) => first::Mirror8::sampled(st.live, &wo, 0, &ks, &[0.0; 8], &[[0.0; 8]; 3]),
+        (None, None) => {
+            let none = ([0.0; 8], [[0.0; 8]; 3]);
+            first::Mirror8::sampled(c.cols, st.live, &wo, 0, &ks, &none.0, &none.1)
+        }
         (Some(_), _) => first::Mirror8::new(),
     };
     let fo = first_orders(kind, c, &lanes, general.as_ref(), &st, Some(&st.known));
     let rem = remainders(st.live, &wo, c);
-    let done = finish_samples(st.live, &c.sel, &fo, &rem, &wo);
+    let done = finish_samples(c.cols, st.live, &c.sel, &fo, &rem, &wo);
     // Every point's lobe is its nested BSDF's (the points share it); the kept lanes' ωo are
     // the live lanes' of `wo`.
     Samples8 {
@@ -1065,6 +1068,7 @@ impl Finished {
 /// numbers, `tests`). Other lanes are not kept.
 #[inline(always)]
 fn finish_samples(
+    cols: Cols,
     live: u8,
     sel: &[f32; 8],
     fo: &first::FirstOrders,
@@ -1072,7 +1076,7 @@ fn finish_samples(
     wo: &[[f32; 8]; 3],
 ) -> Finished {
     #[cfg(target_arch = "x86_64")]
-    if let Some(avx) = crate::lane::Avx2::detect() {
+    if let Some(avx) = cols.avx() {
         return avx.run(
             #[inline(always)]
             || {
@@ -1377,7 +1381,7 @@ mod tests {
                 }
                 sel[k] = value(&mut rng, 0.0, 1.0);
             }
-            let wide = finish_samples(live, &sel, &fo, &rem, &wo);
+            let wide = finish_samples(Cols::detect(), live, &sel, &fo, &rem, &wo);
             let one = finish_samples_width1(live, &sel, &fo, &rem, &wo);
             for k in 0..8 {
                 let at = format!("round {round} lane {k}");
@@ -1720,7 +1724,7 @@ mod tests {
                         }
                     }
                     let chunk = || {
-                        let mut c = Chunk::of_facets(lanes.facets());
+                        let mut c = Chunk::of_facets(Cols::detect(), lanes.facets());
                         let cells = lanes.cells().expect("compensated, with a table");
                         let wi = [wi.map(|v| v.x), wi.map(|v| v.y), wi.map(|v| v.z)];
                         c.set_lanes(arena.bsdf(n), table, cells, mask, &wi);

@@ -23,7 +23,7 @@ use super::super::super::facet_bsdf::reflect_across;
 #[cfg(test)]
 use super::super::super::facets::g1_of;
 use super::super::super::facets::FacetCols;
-use super::super::super::lane_cols;
+use super::super::super::lane_cols::Cols;
 use super::super::super::nested_batch::LaneNested;
 #[cfg(test)]
 use super::super::Entries;
@@ -185,16 +185,18 @@ impl Left {
     }
 
     /// The sampler's directions into `wo` (by component), for the lanes `on` (bit k: lane k;
-    /// the others kept): R(u) in the lanes of `wall`, else u (`leave_mirror`'s choice).
+    /// the others kept): R(u) in the lanes of `wall`, else u (`leave_mirror`'s choice). Call
+    /// inside [`Cols::run`].
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn blend_into(
         &self,
+        cols: Cols,
         on: u8,
         wall: u8,
         wo: &mut [[f32; 8]; 3],
     ) {
-        lane_cols::blend3(on & !wall, wo, &self.u);
-        lane_cols::blend3(on & wall, wo, &self.r);
+        cols.blend3(on & !wall, wo, &self.u);
+        cols.blend3(on & wall, wo, &self.r);
     }
 
     /// Lane `k`'s (u, G1(u), R(u)).
@@ -331,10 +333,15 @@ impl Points8 {
     }
 
     /// [`Self::push_wi`] of the lanes `on` (bit k: lane k), ωi from lane k of `wi` (by
-    /// component), the other lanes kept: a blend per column.
+    /// component), the other lanes kept: a blend per column. Call inside [`Cols::run`].
     #[inline(always)]
-    pub(in crate::bsdf::mnm::compensated) fn push_wi_lanes(&mut self, on: u8, wi: &[[f32; 8]; 3]) {
-        lane_cols::blend3(on, &mut self.wi, wi);
+    pub(in crate::bsdf::mnm::compensated) fn push_wi_lanes(
+        &mut self,
+        cols: Cols,
+        on: u8,
+        wi: &[[f32; 8]; 3],
+    ) {
+        cols.blend3(on, &mut self.wi, wi);
         self.pushed |= on;
     }
 
@@ -370,9 +377,13 @@ impl Points8 {
     /// `tests`). 8-wide when the CPU has AVX2 and FMA, else lane by lane at width 1 (the same
     /// numbers). Lanes without a point or a sample hold any value.
     #[inline(always)]
-    pub(in crate::bsdf::mnm::compensated) fn leave_dirs(&self, wo: &[[f32; 8]; 3]) -> Left {
+    pub(in crate::bsdf::mnm::compensated) fn leave_dirs(
+        &self,
+        cols: Cols,
+        wo: &[[f32; 8]; 3],
+    ) -> Left {
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx) = Avx2::detect() {
+        if let Some(avx) = cols.avx() {
             return avx.run(
                 #[inline(always)]
                 || {
@@ -429,9 +440,9 @@ impl Points8 {
     /// CPU has AVX2 and FMA, else lane by lane at width 1: the same numbers), into the entry
     /// columns; [`Self::entries_of`] gives a lane's as the scalar `Entries`.
     #[inline(always)]
-    pub(in crate::bsdf::mnm::compensated) fn entries(&mut self) {
+    pub(in crate::bsdf::mnm::compensated) fn entries(&mut self, cols: Cols) {
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx) = Avx2::detect() {
+        if let Some(avx) = cols.avx() {
             avx.run(
                 #[inline(always)]
                 || {
@@ -563,6 +574,7 @@ impl Mirror8 {
     /// per lane: the same numbers), else lane by lane ([`Self::sampled_width1`]).
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn sampled(
+        cols: Cols,
         live: u8,
         wo: &[[f32; 8]; 3],
         known: u8,
@@ -571,7 +583,7 @@ impl Mirror8 {
         w: &[[f32; 8]; 3],
     ) -> Self {
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx) = Avx2::detect() {
+        if let Some(avx) = cols.avx() {
             return avx.run(
                 #[inline(always)]
                 || {
@@ -648,22 +660,23 @@ impl Mirror8 {
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn eval(
         &self,
+        cols: Cols,
         pts: &Points8,
         nested: Nested,
     ) -> FirstOrders {
         match nested {
-            Nested::Diffuse(d) => self.eval_with(pts, d),
-            Nested::Conductor(c) => self.eval_with(pts, c),
-            Nested::Plastic(p) => self.eval_with(pts, p),
+            Nested::Diffuse(d) => self.eval_with(cols, pts, d),
+            Nested::Conductor(c) => self.eval_with(cols, pts, c),
+            Nested::Plastic(p) => self.eval_with(cols, pts, p),
             Nested::Other(_) => unreachable!("a point's nested BSDF has a lane form"),
         }
     }
 
     /// 8-wide when the CPU has AVX2 and FMA, else lane by lane at width 1 (the same numbers).
     #[inline(always)]
-    fn eval_with<B: LaneNested>(&self, pts: &Points8, b: &B) -> FirstOrders {
+    fn eval_with<B: LaneNested>(&self, cols: Cols, pts: &Points8, b: &B) -> FirstOrders {
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx) = Avx2::detect() {
+        if let Some(avx) = cols.avx() {
             return avx.run(
                 #[inline(always)]
                 || {
@@ -957,7 +970,7 @@ mod tests {
                 one.push_point(k, &m, wi);
                 *want = Some(Entries::new(&m, wi));
             }
-            wide.entries();
+            wide.entries(Cols::detect());
             one.entries_width1();
             for (k, w) in want.iter().enumerate() {
                 let Some(w) = w else { continue };
@@ -1057,7 +1070,10 @@ mod tests {
                 set3(&mut wo, k, d);
                 *smp = (d, pdf, w);
             }
-            let (wide, one) = (pts.leave_dirs(&wo), pts.leave_dirs_width1(&wo));
+            let (wide, one) = (
+                pts.leave_dirs(Cols::detect(), &wo),
+                pts.leave_dirs_width1(&wo),
+            );
             for (k, &smp) in sampled.iter().enumerate() {
                 if pts.pushed & (1 << k) == 0 {
                     continue;
@@ -1127,7 +1143,7 @@ mod tests {
             let ks = std::array::from_fn(|_| (rng.next_u32() % 4) as f32);
             let pdf = col(&mut rng);
             let (a, b) = (
-                Mirror8::sampled(live, &wo, known, &ks, &pdf, &w),
+                Mirror8::sampled(Cols::detect(), live, &wo, known, &ks, &pdf, &w),
                 Mirror8::sampled_width1(live, &wo, known, &ks, &pdf, &w),
             );
             assert_eq!(a.used, b.used, "{round}");
@@ -1191,7 +1207,7 @@ mod tests {
                     q.push(k, direction(&mut rng), known);
                 }
             }
-            let wide = q.eval(&pts, kind);
+            let wide = q.eval(Cols::detect(), &pts, kind);
             let one = match kind {
                 Nested::Diffuse(d) => q.eval_width1(&pts, d),
                 Nested::Conductor(c) => q.eval_width1(&pts, c),

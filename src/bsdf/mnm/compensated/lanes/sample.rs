@@ -9,15 +9,16 @@
 //! [`Answered::get`] applies `Bsdf::sample`'s rejection of non-finite samples, so each answer
 //! is the scalar `nested.sample` of that point bit for bit (`super::tests`).
 
+use super::super::super::lane_cols::Cols;
 use super::super::Nested;
 use crate::bsdf::diffuse::Diffuse;
 use crate::bsdf::lanes::LaneBsdfSample;
 use crate::bsdf::roughconductor::RoughConductor;
 use crate::bsdf::roughplastic::RoughPlastic;
 use crate::lane::vec::{V2, V3};
-use crate::lane::Lane;
 #[cfg(target_arch = "x86_64")]
-use crate::lane::{Avx2, F32x8};
+use crate::lane::F32x8;
+use crate::lane::Lane;
 use crate::sampler::Draw;
 use crate::spectrum::Spectrum;
 use glam::Vec3;
@@ -111,11 +112,11 @@ impl Asks {
 
     /// Every ask answered by `nested` (the points' shared nested BSDF).
     #[inline(always)]
-    pub(in crate::bsdf::mnm::compensated) fn answer(&self, nested: Nested) -> Answered {
+    pub(in crate::bsdf::mnm::compensated) fn answer(&self, cols: Cols, nested: Nested) -> Answered {
         match nested {
-            Nested::Diffuse(d) => self.answer_with(d),
-            Nested::Conductor(c) => self.answer_with(c),
-            Nested::Plastic(p) => self.answer_with(p),
+            Nested::Diffuse(d) => self.answer_with(cols, d),
+            Nested::Conductor(c) => self.answer_with(cols, c),
+            Nested::Plastic(p) => self.answer_with(cols, p),
             Nested::Other(_) => unreachable!("a point's nested BSDF has a lane form"),
         }
     }
@@ -123,9 +124,9 @@ impl Asks {
     /// One 8-wide call when the CPU has AVX2 and FMA, else ask by ask at width 1 (the same
     /// numbers).
     #[inline(always)]
-    fn answer_with<B: LaneSample>(&self, b: &B) -> Answered {
+    fn answer_with<B: LaneSample>(&self, cols: Cols, b: &B) -> Answered {
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx) = Avx2::detect() {
+        if let Some(avx) = cols.avx() {
             return avx.run(
                 #[inline(always)]
                 || {
@@ -288,7 +289,7 @@ mod tests {
                     wi[k] = direction(&mut rng);
                     asks.push(kind, k, wi[k], &mut samplers[k]);
                 }
-                let wide = asks.answer(kind);
+                let wide = asks.answer(Cols::detect(), kind);
                 let one = match kind {
                     Nested::Diffuse(d) => asks.answer_width1(d),
                     Nested::Conductor(c) => asks.answer_width1(c),
