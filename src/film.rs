@@ -491,7 +491,8 @@ pub struct Block {
     nch: usize,
     extra: Vec<[i128; 2]>,
     /// The 8-wide splats' addends: row k holds lane k's eight fixed-point addends as words,
-    /// in [`Acc::words`]' layout (scratch, kept here so that it is not zeroed per call).
+    /// in [`Acc::words`]' layout (scratch, kept here so that it is not zeroed per call). Under
+    /// the box filter the weights' two slots are constant and written once ([`box_lanes`]).
     lanes: Box<[[[u64; 8]; 2]; 8]>,
     /// j·`sw` for j = 0, …, 7 (wrapping): the storage offsets of a footprint's rows.
     rows: [i32; 8],
@@ -528,7 +529,11 @@ impl Block {
             data: Vec::new(),
             nch,
             extra: Vec::new(),
-            lanes: Box::new([[[0; 8]; 2]; 8]),
+            lanes: Box::new(if filter.is_box() {
+                box_lanes()
+            } else {
+                [[[0; 8]; 2]; 8]
+            }),
             rows: [0; 8],
             #[cfg(target_arch = "x86_64")]
             avx: crate::lane::Avx2::detect(),
@@ -718,10 +723,9 @@ impl Block {
         for p in 0..3 {
             fx.into_columns([xs[2 * p], xs[2 * p + 1]], t, 2 * p);
         }
-        for row in t.iter_mut() {
-            // The weights' sums take `sum::ONE` = 2⁶⁴: low word 0, high word 1.
-            (row[0][6], row[0][7], row[1][6], row[1][7]) = (0, 0, 1, 1);
-        }
+        // The weights' slots (6 and 7) of every row hold `sum::ONE` since the block was made
+        // (`box_lanes`): only this box path and `splat_lanes` (never under the box filter)
+        // write them.
         // `storage_index` with exact bounds, in lanes: inside [lo, hi) on both axes (false for
         // NaN and ±∞, so the scalar path's finiteness test is implied), floor(x) − origin.
         let x = avx.load(&core::array::from_fn(|k| pos[k].x));
@@ -936,6 +940,19 @@ impl Block {
             avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut data[a as usize].words, &t[k]);
         }
     }
+}
+
+/// [`Block`]'s addend rows under the box filter: the two weights' slots (6 and 7: a sample's
+/// weight and its square, both 1) hold `sum::ONE` = 2⁶⁴ (low word 0, high word 1) in every
+/// row, set once when the block is made instead of per 8 samples (~20 instructions per
+/// `put8_columns`); the other slots are scratch.
+fn box_lanes() -> [[[u64; 8]; 2]; 8] {
+    let mut t = [[[0; 8]; 2]; 8];
+    for row in &mut t {
+        (row[0][6], row[0][7]) = (sum::ONE as u64, sum::ONE as u64);
+        (row[1][6], row[1][7]) = ((sum::ONE >> 64) as u64, (sum::ONE >> 64) as u64);
+    }
+    t
 }
 
 /// The pixels a splat reaches (in storage coordinates) and the offsets of its first pixel

@@ -330,7 +330,13 @@ pub(crate) mod x8 {
         tail: &mut impl Tail,
     ) {
         // 1. The surfaces, their points, the incident direction and the side test.
-        let surface::x8::Prologue { surf, p, wi, front } = surface::x8::prologue(avx, &b.surf, ids);
+        let surface::x8::Prologue {
+            surf,
+            p,
+            wi,
+            front,
+            bits: front_bits,
+        } = surface::x8::prologue(avx, &b.surf, ids);
 
         // 2. The light sample's numbers 8-wide; per lane the weight, the children's
         // parameters, the light point and the BSDF's numbers (the choice where 0 < w < 1, then
@@ -403,7 +409,7 @@ pub(crate) mod x8 {
         let w8 = avx.load(&w);
         let lo = if nee {
             let (u_sel, u) = (&num.u_sel, &num.u);
-            gather.add_x8(avx, scene, lights, light_only, &front, u_sel, u, &p);
+            gather.add_x8(avx, scene, lights, light_only, front_bits, u_sel, u, &p);
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
             let lo = light(&surf, wi, mat, &params, w8, tp.load(avx), &lp);
             Some(LightCols::store(&lo))

@@ -269,7 +269,13 @@ pub(crate) mod x8 {
         tail: &mut impl Tail,
     ) {
         // 1. The surfaces, loaded 8-wide from the batch's rows; 2. the side test.
-        let surface::x8::Prologue { surf, p, wi, front } = prologue(avx, &b.surf, ids, live);
+        let surface::x8::Prologue {
+            surf,
+            p,
+            wi,
+            front,
+            bits: front_bits,
+        } = prologue(avx, &b.surf, ids, live);
 
         // 3a. Each path's random numbers in the scalar renderer's order (`u_sel` and `u` when it
         // takes a light sample, then `u2`), 8-wide from the gathered PCG32 states where the
@@ -299,7 +305,7 @@ pub(crate) mod x8 {
         }
         if nee {
             let (u_sel, u) = (&num.u_sel, &num.u);
-            gather.add_x8(avx, scene, mat.lights, light_only, &front, u_sel, u, &p);
+            gather.add_x8(avx, scene, mat.lights, light_only, front_bits, u_sel, u, &p);
         }
 
         // 4. The kernel.

@@ -518,6 +518,16 @@ pub(crate) mod x8 {
         COUNTS[(bits & 0xff) as usize] as u32 + COUNTS[(bits >> 8 & 0xff) as usize] as u32
     }
 
+    /// The bits of the lanes of a chunk `w` lanes wide (bits `0..w`).
+    #[inline(always)]
+    pub(crate) const fn lane_bits(w: usize) -> u32 {
+        if w >= 32 {
+            u32::MAX
+        } else {
+            (1 << w) - 1
+        }
+    }
+
     /// Sets or clears bit `k` of `bits` by `on`.
     #[inline(always)]
     fn set_bit(bits: &mut u32, k: usize, on: bool) {
@@ -871,7 +881,9 @@ pub(crate) mod x8 {
             self
         }
 
-        /// The light points of the lanes `on` of a chunk (`lights`: `LaneLight::table`;
+        /// The light points of the lanes `on` (bit `k` for lane `k`: the kernels' side test as
+        /// bits, `surface::x8::Prologue::bits`, so that no mask is rebuilt from booleans) of a
+        /// chunk (`lights`: `LaneLight::table`;
         /// `light_only`: the MIS weight is 1): the light selection 8-wide ([`Select`]) and the
         /// triangles of one untextured mesh light picked 8-wide ([`Gather::triangles_x8`]); the
         /// rest lane by lane ([`Gather::add_selected`]). `u_sel`, `u`:
@@ -884,7 +896,7 @@ pub(crate) mod x8 {
             scene: &Scene,
             lights: &[Option<LaneLight>],
             light_only: bool,
-            on: &[bool; W],
+            on: u32,
             u_sel: &[f32; W],
             u: &[[f32; W]; 2],
             p: &Cols3<W>,
@@ -908,7 +920,7 @@ pub(crate) mod x8 {
             scene: &Scene,
             lights: &[Option<LaneLight>],
             light_only: bool,
-            on: &[bool; W],
+            on: u32,
             u_sel: &[f32; W],
             u: &[[f32; W]; 2],
             p: &Cols3<W>,
@@ -916,7 +928,9 @@ pub(crate) mod x8 {
             if sel.mode == SelectMode::Empty {
                 return;
             }
-            let on_bits = T::bits(avx.mask(on));
+            // The lanes of the chunk only (a caller's bits above `W` are not lanes).
+            let on_bits = on & lane_bits(W);
+            let lane_on = |k: usize| on_bits >> k & 1 != 0;
             // Distribution1D::sample's count of the CDF entries <= u, 8-wide (one count,
             // 0, for every lane where one emitter takes every count).
             let count = if sel.mode == SelectMode::Counted {
@@ -954,7 +968,7 @@ pub(crate) mod x8 {
                 }
                 SelectMode::Searched => {
                     for k in 0..W {
-                        if on[k] {
+                        if lane_on(k) {
                             if let Some((e, q, _)) = scene.light_sampler.sample(u_sel[k]) {
                                 (emitter[k], pmf[k]) = (e as u32, q);
                             }
@@ -963,16 +977,14 @@ pub(crate) mod x8 {
                 }
             }
             let same = sel.mode == SelectMode::One;
-            if self.add_uniform(
-                avx, lights, light_only, on, on_bits, &emitter, &pmf, u, same,
-            ) {
+            if self.add_uniform(avx, lights, light_only, on_bits, &emitter, &pmf, u, same) {
                 if self.f.n_deferred > 0 {
                     self.triangles_x8::<T, true>(avx, scene, u);
                 }
                 return;
             }
             for k in 0..W {
-                if on[k] {
+                if lane_on(k) {
                     let uk = Vec2::new(u[0][k], u[1][k]);
                     let e = emitter[k] as usize;
                     self.add_selected(k, scene, lights, light_only, e, pmf[k], uk, p.get(k), true);
@@ -1044,7 +1056,7 @@ pub(crate) mod x8 {
             self.lv = Cols3([g(&t.le[0], count), g(&t.le[1], count), g(&t.le[2], count)]);
         }
 
-        /// Where every lane of `on` (`on_bits`: the same lanes as bits) selected the same
+        /// Where every lane of `on_bits` selected the same
         /// emitter and it is an untextured mesh or rectangle light, [`Gather::add_selected`]'s
         /// writes for all of them at once (whole columns: the lanes off have no `kind` and are
         /// dropped by [`Gather::finish`]'s masks); returns whether it did (else nothing is
@@ -1057,7 +1069,6 @@ pub(crate) mod x8 {
             avx: T,
             lights: &[Option<LaneLight>],
             light_only: bool,
-            on: &[bool; W],
             on_bits: u32,
             emitter: &[u32; W],
             pmf: &[f32; W],
@@ -1068,7 +1079,7 @@ pub(crate) mod x8 {
                 return true;
             }
             let e = emitter[on_bits.trailing_zeros() as usize];
-            if !same && (0..W).any(|k| on[k] && emitter[k] != e) {
+            if !same && (0..W).any(|k| on_bits >> k & 1 != 0 && emitter[k] != e) {
                 return false;
             }
             let n_on = lane_count(on_bits);
@@ -1747,11 +1758,14 @@ pub(super) mod tests {
                 let mut g = Gather::<8>::new();
                 let mut slow = Gather::<8>::new().without_small_meshes();
                 let mut kinds = [0u64; KINDS];
+                // The lanes as bits; some rounds set bits above the chunk's (not lanes: ignored).
+                let on_bits = (0..8).fold(0u32, |b, k| b | (on[k] as u32) << k)
+                    | if round % 3 == 2 { 0xff00 } else { 0 };
                 let (lp, lp_slow) = avx.run(|| {
                     g.reset();
-                    g.add_x8(avx, scene, &lights, false, &on, &u_sel, &u, &p);
+                    g.add_x8(avx, scene, &lights, false, on_bits, &u_sel, &u, &p);
                     slow.reset();
-                    slow.add_x8(avx, scene, &lights, false, &on, &u_sel, &u, &p);
+                    slow.add_x8(avx, scene, &lights, false, on_bits, &u_sel, &u, &p);
                     (
                         g.finish(avx, scene, p.load(avx), &mut kinds),
                         slow.finish(avx, scene, p.load(avx), &mut kinds),

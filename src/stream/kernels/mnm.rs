@@ -405,7 +405,16 @@ pub(crate) mod x8 {
                 u2: false,
             };
             let n = draw(avx, &mut b.sampler, ids, &nee, light);
-            gather.add_x8(avx, scene, lights, light_only, &nee, &n.u_sel, &n.u, &p8);
+            gather.add_x8(
+                avx,
+                scene,
+                lights,
+                light_only,
+                avx.mask(&nee).bits(),
+                &n.u_sel,
+                &n.u,
+                &p8,
+            );
         }
 
         // The compensated model's points (where the nested leaf is shared) and their state

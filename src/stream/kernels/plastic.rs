@@ -270,7 +270,13 @@ pub(crate) mod x8 {
     ) {
         // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
         // The surfaces, their points, the incident direction and the side test.
-        let surface::x8::Prologue { surf, p, wi, front } = prologue(avx, &b.surf, ids, live);
+        let surface::x8::Prologue {
+            surf,
+            p,
+            wi,
+            front,
+            bits: front_bits,
+        } = prologue(avx, &b.surf, ids, live);
 
         // 2. Textures, light points and BSDF numbers, lane by lane in each path's order.
         let (rho0, spec0) = match &mat.coating {
@@ -312,7 +318,7 @@ pub(crate) mod x8 {
             let light_only = cfg.strategy == Strategy::LightOnly;
             gather.reset();
             let (u_sel, u) = (&num.u_sel, &num.u);
-            gather.add_x8(avx, scene, lights, light_only, &front, u_sel, u, &p);
+            gather.add_x8(avx, scene, lights, light_only, front_bits, u_sel, u, &p);
             Some(gather.finish(avx, scene, surf.p, &mut b.light_lanes))
         } else {
             None

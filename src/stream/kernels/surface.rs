@@ -976,12 +976,15 @@ pub(crate) mod x8 {
 
     /// The three kernels' surface prologue: the chunk's surfaces ([`load`]), their points per
     /// lane (for the lane-by-lane light points), the incident direction in the shading frame
-    /// and the side test per lane (`diffuse::incident`).
+    /// and the side test per lane (`diffuse::incident`), as booleans (the per-lane loops) and
+    /// as bits (`bits`, bit `k` for lane `k`: the light gather's lanes,
+    /// `light::x8::Gather::add_x8`, without a mask rebuilt from the booleans).
     pub(crate) struct Prologue<L: Lane, const W: usize> {
         pub surf: Surface<L>,
         pub p: crate::stream::kernels::light::x8::Cols3<W>,
         pub wi: V3<L>,
         pub front: [bool; W],
+        pub bits: u32,
     }
 
     /// [`Prologue`] of the paths `ids`. Call inside [`Avx2::run`].
@@ -999,6 +1002,7 @@ pub(crate) mod x8 {
             p,
             wi,
             front: front.to_array(),
+            bits: T::bits(front),
         }
     }
 

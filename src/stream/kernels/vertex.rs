@@ -307,7 +307,13 @@ pub(crate) mod x8 {
         debug_assert_eq!((PER_LANE, FULL), (mat.per_lane(), mat.full()));
         // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
         // The surfaces, their points, the incident direction and the side test.
-        let surface::x8::Prologue { surf, p, wi, front } = prologue(avx, &b.surf, ids, live);
+        let surface::x8::Prologue {
+            surf,
+            p,
+            wi,
+            front,
+            bits: front_bits,
+        } = prologue(avx, &b.surf, ids, live);
 
         // 2. Random numbers, 8-wide from the gathered PCG32 states where the streams are plain
         // (`kernels::draws`); normal maps and light points lane by lane in each path's order.
@@ -447,7 +453,7 @@ pub(crate) mod x8 {
         };
         let lo = if let Some(offs) = &offs {
             let (u_sel, u) = (&num.u_sel, &num.u);
-            gather.add_x8(avx, scene, lights, light_only, &front, u_sel, u, &p);
+            gather.add_x8(avx, scene, lights, light_only, front_bits, u_sel, u, &p);
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
             let lo = light::<_, FULL>(&surf, offs, &dn, mat, &params, tp8, &lp);
             Some(LightCols::store(&lo))
@@ -514,6 +520,7 @@ pub(crate) mod x8 {
     ) -> surface::x8::Prologue<T::F, W> {
         let mut pr = surface::x8::prologue(avx, s, ids);
         live_only(&mut pr.front, live);
+        pr.bits &= crate::stream::kernels::light::x8::lane_bits(live.min(W));
         pr
     }
 
