@@ -113,10 +113,15 @@ impl ConductorIndex {
     /// ([`ConductorTerms::eval`]).
     #[inline(always)]
     pub fn lanes<L: Lane>(&self, like: L) -> ConductorTerms<L> {
-        let s = |x: [f32; 3]| V3::new(like.splat(x[0]), like.splat(x[1]), like.splat(x[2]));
+        // A function, not a closure: a closure called twice may stay out of line, and its
+        // splats with it (`tests/cli/simd_calls.rs`).
+        #[inline(always)]
+        fn s<L: Lane>(like: L, x: [f32; 3]) -> V3<L> {
+            V3::new(like.splat(x[0]), like.splat(x[1]), like.splat(x[2]))
+        }
         ConductorTerms {
-            d: s(self.eta2_minus_k2),
-            c4: s(self.four_eta2_k2),
+            d: s(like, self.eta2_minus_k2),
+            c4: s(like, self.four_eta2_k2),
         }
     }
 

@@ -269,7 +269,6 @@ pub(crate) mod x8 {
         tail: &mut impl Tail,
     ) {
         // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
-        // The surfaces, their points, the incident direction and the side test.
         let surface::x8::Prologue {
             surf,
             p,

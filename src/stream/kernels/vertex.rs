@@ -306,7 +306,6 @@ pub(crate) mod x8 {
     ) {
         debug_assert_eq!((PER_LANE, FULL), (mat.per_lane(), mat.full()));
         // 1. The surfaces, loaded 8-wide from the batch's columns; the side test.
-        // The surfaces, their points, the incident direction and the side test.
         let surface::x8::Prologue {
             surf,
             p,
