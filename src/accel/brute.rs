@@ -28,7 +28,9 @@ use super::analytic::{
     cube, in_disk, in_square, planar, plane_cross, sphere, sphere_disc, sphere_roots, Affine,
     BoxHit, RayL,
 };
-use super::triangle::{in_bounds, slab, tri_data, tri_edges, tri_plane, triangle, TriL, TriPlane};
+use super::triangle::{
+    in_bounds, in_bounds_until, slab, tri_data, tri_edges, tri_plane, triangle, TriL, TriPlane,
+};
 use crate::geometry::hit::NO_INSTANCE;
 use crate::geometry::shapes::{Shape, ShapeKind, CUBE_FACES};
 use crate::geometry::{Hit, Ray};
@@ -579,7 +581,12 @@ impl Brute {
         if !self.meshes.is_empty() {
             let s = slab(ray);
             for mesh in &self.meshes {
-                let within = in_bounds(ray, &s, v3(like, mesh.lo), v3(like, mesh.hi));
+                // Up to the nearest hit so far: a crossing behind it is never kept (the rows'
+                // cull below), and one at it lies inside the padded box, so it enters first
+                // (the padding is far above the slab test's rounding, see `mesh_bounds`). A
+                // lane's NaN tfar (an empty lane) stays NaN and rejects.
+                let tmax = best.t.min(ray.tfar);
+                let within = in_bounds_until(ray, &s, v3(like, mesh.lo), v3(like, mesh.hi), tmax);
                 if !within.any() {
                     continue;
                 }

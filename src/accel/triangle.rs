@@ -122,6 +122,20 @@ pub(crate) fn slab<L: Lane>(ray: &RayL<L>) -> Slab<L> {
 /// tfar (a packet's empty lane) still rejects.
 #[inline(always)]
 pub(crate) fn in_bounds<L: Lane>(ray: &RayL<L>, s: &Slab<L>, lo: V3<L>, hi: V3<L>) -> L::Mask {
+    in_bounds_until(ray, s, lo, hi, ray.tfar)
+}
+
+/// [`in_bounds`] over [tnear, `tfar`] instead of the ray's own interval: the nearest-hit
+/// packets pass the nearest t found so far, so a mesh whose box lies wholly behind every
+/// lane's hit is skipped (its crossings would all be culled by the plane half anyway).
+#[inline(always)]
+pub(crate) fn in_bounds_until<L: Lane>(
+    ray: &RayL<L>,
+    s: &Slab<L>,
+    lo: V3<L>,
+    hi: V3<L>,
+    tfar: L,
+) -> L::Mask {
     let t0 = (lo - ray.o) * s.inv;
     let t1 = (hi - ray.o) * s.inv;
     let near = |k: usize, a: L, b: L| L::select(s.neg[k], b, a);
@@ -136,7 +150,7 @@ pub(crate) fn in_bounds<L: Lane>(ray: &RayL<L>, s: &Slab<L>, lo: V3<L>, hi: V3<L
         near(2, t1.z, t0.z),
     );
     let enter = nx.max(ny.max(nz.max(ray.tnear)));
-    let exit = fx.min(fy.min(fz.min(ray.tfar)));
+    let exit = fx.min(fy.min(fz.min(tfar)));
     enter.le(exit)
 }
 
