@@ -121,7 +121,8 @@ impl SmallTris {
 }
 
 /// The gather stage: writes the surface row of every active path of `batch` whose ray hit
-/// something (rows of paths without a hit are left as they are). 8-wide where `avx` is given
+/// something (rows of paths without a hit are left as they are) and every active path's
+/// `Batch::hit_flag`. 8-wide where `avx` is given
 /// (the chunk's hits grouped by form), else one `Scene::interaction` per hit; adds the hits
 /// reconstructed in lanes to `in_lanes`.
 pub(crate) fn fill(
@@ -138,8 +139,10 @@ pub(crate) fn fill(
     }
     let _ = forms;
     let (active, hit, ray, surf) = (&batch.active, &batch.hit, &batch.ray, &mut batch.surf);
+    let flag = &mut batch.hit_flag;
     for &i in active {
         let i = i as usize;
+        flag[i] = hit[i].is_some() as u32;
         if let Some(h) = &hit[i] {
             surf.set(i, &scene.interaction(&ray[i], h));
         }
@@ -278,8 +281,12 @@ pub(crate) mod x8 {
                 let mut cyl = Pending::EMPTY;
                 let mut scalar = 0;
                 let mut hits = 0;
+                let flag = &mut batch.hit_flag[..];
                 for &i in &batch.active {
-                    let Some(h) = &st.hit[i as usize] else {
+                    // The hit flag of every active path (`Batch::hit_flag`).
+                    let hit = &st.hit[i as usize];
+                    flag[i as usize] = hit.is_some() as u32;
+                    let Some(h) = hit else {
                         continue;
                     };
                     hits += 1;
