@@ -989,6 +989,30 @@ impl Avx2 {
             M8(_mm256_castsi256_ps(_mm256_cmpgt_epi32(b, zero)))
         }
     }
+
+    /// The x and y columns of eight 2-D points: lane `k` of the first is `v[k].x`, of the
+    /// second `v[k].y` (moves only). Two 32-byte loads, two shuffles and two 64-bit permutes,
+    /// not 16 scalar moves through the stack: the film positions of the stream renderer's
+    /// camera rays and splat.
+    #[inline(always)]
+    pub fn vec2_columns(self, v: &[glam::Vec2; 8]) -> [F32x8; 2] {
+        // SAFETY: the token proves AVX2. A `glam::Vec2` is two f32s, x then y, 8 bytes
+        // (asserted below `impl Lane for F32x8`), so `v` is 16 consecutive floats and each load
+        // reads 8 of them.
+        unsafe {
+            let p = v.as_ptr().cast::<f32>();
+            // x0 y0 x1 y1 | x2 y2 x3 y3 and x4 y4 x5 y5 | x6 y6 x7 y7.
+            let (a, b) = (_mm256_loadu_ps(p), _mm256_loadu_ps(p.add(8)));
+            // Per 128-bit half: x0 x1 x4 x5 | x2 x3 x6 x7 (and the y's), then the 64-bit
+            // pairs in the order 0, 2, 1, 3.
+            let xs = _mm256_castps_pd(_mm256_shuffle_ps::<0x88>(a, b));
+            let ys = _mm256_castps_pd(_mm256_shuffle_ps::<0xDD>(a, b));
+            [
+                F32x8(_mm256_castpd_ps(_mm256_permute4x64_pd::<0xD8>(xs))),
+                F32x8(_mm256_castpd_ps(_mm256_permute4x64_pd::<0xD8>(ys))),
+            ]
+        }
+    }
 }
 
 /// [`Avx2::compress_store`]'s table, per mask (bit k for lane k): the source lane of each of

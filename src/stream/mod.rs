@@ -34,7 +34,7 @@
 //! [`kernels::tail::Tail`]) and ray counters ([`direct`]).
 //!
 //! Then every path's radiance goes to the block in the canonical order (8 samples at a time:
-//! [`Block::put8_finite`]). Each path draws from its
+//! [`Block::put8_finite_rows`]). Each path draws from its
 //! own stream keyed by (seed, pixel, sample) and runs exactly the scalar renderer's per-vertex
 //! functions in the same order, so the image equals the scalar renderer's bit for bit at any
 //! thread count (`tests/render/stream.rs`).
@@ -492,8 +492,8 @@ fn camera_rays(scene: &Scene, kernels: &Kernels, batch: &mut Batch) {
                 let o = c.position();
                 let (ox, oy, oz) = (avx.splat(o.x), avx.splat(o.y), avx.splat(o.z));
                 for pos in pos.chunks_exact(8) {
-                    let x = avx.load(&core::array::from_fn(|k| pos[k].x));
-                    let y = avx.load(&core::array::from_fn(|k| pos[k].y));
+                    let pos: &[Vec2; 8] = pos.try_into().expect("8 positions");
+                    let [x, y] = avx.vec2_columns(pos);
                     let (d, tmin, tmax) = c.ray_lanes(x, y);
                     // The 8 rays whole from their fields (a transpose and 8 row stores, not
                     // 64 scalar moves), then one capacity check.
@@ -515,18 +515,19 @@ fn camera_rays(scene: &Scene, kernels: &Kernels, batch: &mut Batch) {
 }
 
 /// The splat: every path's radiance (0 for a non-finite one, counted in `invalid`) to the
-/// block in the canonical order, 8 samples at a time through [`Block::put8_finite`] with AVX2
-/// (the same sums as [`Block::put`] one by one, which takes the rest).
+/// block in the canonical order, 8 samples at a time through [`Block::put8_finite_rows`] with
+/// AVX2 (the same sums as [`Block::put`] one by one, which takes the rest).
 fn splat(block: &mut Block, batch: &Batch, kernels: &Kernels, invalid: &mut u64) {
     let mut done = 0;
     #[cfg(target_arch = "x86_64")]
     if let Some(avx) = kernels.avx {
-        // The finiteness test and the zeroing in lanes too (`Block::put8_finite`).
+        // The finiteness test and the zeroing in lanes too (`Block::put8_finite_rows`).
         let chunks = batch.pos.chunks_exact(8).zip(batch.state.chunks_exact(8));
         for (pos, state) in chunks {
             let pos: &[Vec2; 8] = pos.try_into().expect("8 positions");
-            let v: [Spectrum; 8] = core::array::from_fn(|j| state[j].result);
-            *invalid += block.put8_finite(avx, pos, &v) as u64;
+            // The radiance rows (radiance and depth: one 16-byte copy per path).
+            let rows: [[f32; 4]; 8] = core::array::from_fn(|j| state[j].result_row());
+            *invalid += block.put8_finite_rows(avx, pos, &rows) as u64;
             done += 8;
         }
     }

@@ -1,6 +1,7 @@
 //! `Avx2::compress_store` (the stream's lists of path ids filtered 8 at a time),
-//! `Avx2::gather_depth` (8 path states' depths) and `Avx2::gather_bools` (8 paths' `alive`
-//! flags) against scalar references: every mask pattern, ids with edge values (0, −1,
+//! `Avx2::gather_depth` (8 path states' depths), `Avx2::gather_bools` (8 paths' `alive`
+//! flags) and `Avx2::vec2_columns` (8 film positions' x and y columns, every bit moved, NaN
+//! payloads among them) against scalar references: every mask pattern, ids with edge values (0, −1,
 //! `i32::MIN`, `i32::MAX`), lists at every offset up to the last one that fits 8 slots (the
 //! slots outside `at..at + 8` untouched, the kept ids first in lane order, then the others in
 //! lane order), a panic before any store when 8 slots do not fit; depths and flags at indices
@@ -158,5 +159,40 @@ fn gather_bools_reads_each_flag() {
             )
         });
         assert!(result.is_err(), "{len} flags: no panic");
+    }
+}
+
+#[test]
+fn vec2_columns_move_every_bit() {
+    let Some(avx) = Avx2::detect() else {
+        eprintln!("no AVX2/FMA: the 2-D columns test is skipped");
+        return;
+    };
+    let mut r = Pcg32::new(28, 5);
+    let edges = [
+        0.0f32,
+        -0.0,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        1e-40,
+        f32::MAX,
+    ];
+    for round in 0..2000 {
+        let v: [glam::Vec2; 8] = std::array::from_fn(|k| {
+            let mut f = || match (round + k) % 5 {
+                0 => edges[r.next_u32() as usize % edges.len()],
+                // NaNs with their payloads and every other bit pattern.
+                _ => f32::from_bits(r.next_u32()),
+            };
+            glam::Vec2::new(f(), f())
+        });
+        let [x, y] = avx.run(
+            #[inline(always)]
+            || avx.vec2_columns(&v).map(|c| c.to_array()),
+        );
+        for k in 0..8 {
+            assert_eq!(x[k].to_bits(), v[k].x.to_bits(), "round {round} lane {k} x");
+            assert_eq!(y[k].to_bits(), v[k].y.to_bits(), "round {round} lane {k} y");
+        }
     }
 }

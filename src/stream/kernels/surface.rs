@@ -281,14 +281,15 @@ pub(crate) mod x8 {
                 let mut cyl = Pending::EMPTY;
                 let mut scalar = 0;
                 let mut hits = 0;
-                let flag = &mut batch.hit_flag[..];
+                // The hit flag of every active path (`Batch::hit_flag`), cut to the hits'
+                // length (one bounds test covers both) and stored in each branch.
+                let flag = &mut batch.hit_flag[..st.hit.len()];
                 for &i in &batch.active {
-                    // The hit flag of every active path (`Batch::hit_flag`).
-                    let hit = &st.hit[i as usize];
-                    flag[i as usize] = hit.is_some() as u32;
-                    let Some(h) = hit else {
+                    let Some(h) = &st.hit[i as usize] else {
+                        flag[i as usize] = 0;
                         continue;
                     };
+                    flag[i as usize] = 1;
                     hits += 1;
                     let form = &st.forms[h.geom as usize];
                     if !super::direct(h) {
