@@ -653,19 +653,36 @@ impl Block {
     /// [`Block::put`] of eight samples in turn (the same sums to the bit; the fast paths of
     /// `put8`, the tests' reference), with every non-finite value (any channel NaN or infinite)
     /// replaced by 0, as the renderers drop invalid samples; returns how many were replaced.
-    /// The finiteness test and the replacement are 8-wide.
-    #[cfg(target_arch = "x86_64")]
+    /// The finiteness test and the replacement are 8-wide. (The tests' form of
+    /// [`Block::put8_finite_rows`], through it: the values as rows whose fourth float is a NaN,
+    /// which it ignores.)
+    #[cfg(all(target_arch = "x86_64", test))]
     pub(crate) fn put8_finite(
         &mut self,
         avx: crate::lane::Avx2,
         pos: &[Vec2; 8],
         value: &[Spectrum; 8],
     ) -> u32 {
+        let rows = value.map(|v| [v.x, v.y, v.z, f32::NAN]);
+        self.put8_finite_rows(avx, pos, &rows)
+    }
+
+    /// [`Block::put8_finite`] of the values given as rows of 4 floats (R, G, B and a float
+    /// that is ignored: the stream renderer's path states' radiance rows,
+    /// `PathState::result_row`), read into lanes by one 16-byte load per row and two 4×4
+    /// transposes ([`crate::lane::Avx2::fields4`]), not 24 scalar loads and stores.
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) fn put8_finite_rows(
+        &mut self,
+        avx: crate::lane::Avx2,
+        pos: &[Vec2; 8],
+        rows: &[[f32; 4]; 8],
+    ) -> u32 {
         use crate::lane::{F32x8, Lane, LaneMask};
         avx.run(
             #[inline(always)]
             || {
-                let [r, g, b] = columns(avx, value);
+                let [r, g, b, _] = avx.fields4(rows);
                 let ok = r.is_finite() & g.is_finite() & b.is_finite();
                 let mut invalid = 0;
                 let cols = if ok.all() {
@@ -728,8 +745,7 @@ impl Block {
         // write them.
         // `storage_index` with exact bounds, in lanes: inside [lo, hi) on both axes (false for
         // NaN and ±∞, so the scalar path's finiteness test is implied), floor(x) − origin.
-        let x = avx.load(&core::array::from_fn(|k| pos[k].x));
-        let y = avx.load(&core::array::from_fn(|k| pos[k].y));
+        let [x, y] = avx.vec2_columns(pos);
         let inside = x.ge(avx.splat(x_lo))
             & x.lt(avx.splat(x_hi))
             & y.ge(avx.splat(y_lo))
@@ -979,8 +995,9 @@ impl Footprint {
     }
 }
 
-/// The R, G and B columns of eight values. Call inside [`crate::lane::Avx2::run`].
-#[cfg(target_arch = "x86_64")]
+/// The R, G and B columns of eight values (the tests' `put8`). Call inside
+/// [`crate::lane::Avx2::run`].
+#[cfg(all(target_arch = "x86_64", test))]
 #[inline(always)]
 fn columns(avx: crate::lane::Avx2, value: &[Spectrum; 8]) -> [crate::lane::F32x8; 3] {
     [0, 1, 2].map(|c| avx.load(&core::array::from_fn(|k| value[k][c])))

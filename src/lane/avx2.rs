@@ -906,4 +906,141 @@ impl Avx2 {
             *p.add(ix[0] as usize) = v[0];
         }
     }
+
+    // Added in the twenty-eighth session (h1).
+
+    /// A compress: the lanes of `ids` where `keep`, in lane order, appended to a list at
+    /// `out[at..]`; returns `at` plus the number kept. All eight lanes are written to
+    /// `out[at..at + 8]`, the kept ones first and the others after them in lane order (slots
+    /// past the list's new end, which the next append overwrites). One permute chosen by the
+    /// mask from a table of the 256 masks ([`COMPRESS`]), one store: the stream renderer's
+    /// lists of path ids filtered 8 at a time without a branch per path (the emission
+    /// stage's first pass, `stream::emission`).
+    ///
+    /// # Panics
+    /// If `at + 8 > out.len()`, before any store.
+    #[inline(always)]
+    pub fn compress_store(self, ids: I32x8, keep: M8, out: &mut [u32], at: usize) -> usize {
+        let dst: &mut [u32; 8] = (&mut out[at..][..8]).try_into().expect("8 slots");
+        let row = COMPRESS[keep.bits() as usize];
+        // SAFETY: the token proves AVX2; `dst` holds 8 u32s, so the 32-byte store writes
+        // exactly `dst`.
+        unsafe {
+            // Lane j's source lane is bits 3j..3j + 3 of the row.
+            let shifts = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
+            let perm = _mm256_and_si256(
+                _mm256_srlv_epi32(_mm256_set1_epi32(row as i32), shifts),
+                _mm256_set1_epi32(7),
+            );
+            let v = _mm256_permutevar8x32_epi32(ids.0, perm);
+            _mm256_storeu_si256(dst.as_mut_ptr().cast(), v);
+        }
+        at + (row >> 24) as usize
+    }
+
+    /// The `depth` of the path states `state[idx[k]]` in lanes (one `vpgatherdd` at the
+    /// field's offset in each state), each index first clamped to `state.len() − 1` as an
+    /// unsigned number (as [`LaneI32::gather_u32`]): always in bounds. A typed gather (not a
+    /// generic "field of `&[T]`": the field is a `u32` of a `repr(C)` struct, initialised in
+    /// every element, which the compiler checks here through `offset_of!`): the emission
+    /// stage's first pass reads 8 paths' depths with it.
+    ///
+    /// # Panics
+    /// If `state` is empty or larger than `i32::MAX` bytes.
+    #[inline(always)]
+    pub fn gather_depth(self, state: &[crate::integrator::path::PathState], idx: I32x8) -> I32x8 {
+        use crate::integrator::path::PathState;
+        const SIZE: usize = core::mem::size_of::<PathState>();
+        const AT: usize = core::mem::offset_of!(PathState, depth);
+        const { assert!(AT.is_multiple_of(4) && SIZE.is_multiple_of(4) && AT + 4 <= SIZE) };
+        assert!(!state.is_empty() && state.len() <= i32::MAX as usize / SIZE);
+        // SAFETY: the token proves AVX2. After the unsigned clamp every index r is below
+        // len, so the byte offset r·SIZE fits an i32 (asserted above) and the 4-byte load at
+        // r·SIZE + AT reads the `depth: u32` of `state[r]`, always initialised.
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(state.len() as i32 - 1));
+            let off = _mm256_mullo_epi32(i, _mm256_set1_epi32(SIZE as i32));
+            let base = state.as_ptr().cast::<u8>().add(AT).cast::<i32>();
+            I32x8(_mm256_i32gather_epi32::<1>(base, off))
+        }
+    }
+
+    /// `table[idx[k]]` in lanes as a mask, each index first clamped to `table.len() − 1` as an
+    /// unsigned number: always in bounds. Each lane reads the 4 bytes that end at its entry
+    /// (those that start at the table's first for the first three entries), so no load leaves
+    /// the table, and keeps its entry's byte. The stream renderer's `alive` flags of 8 paths
+    /// (the compaction of the active list, `stream::batch`).
+    ///
+    /// # Panics
+    /// If `table` holds fewer than 4 or more than `i32::MAX` entries.
+    #[inline(always)]
+    pub fn gather_bools(self, table: &[bool], idx: I32x8) -> M8 {
+        assert!(table.len() >= 4 && table.len() <= i32::MAX as usize);
+        // SAFETY: the token proves AVX2. After the clamp i < len; the load starts at byte
+        // s = max(i − 3, 0) and reads bytes s..s + 4, inside the table (i ≥ 3: up to i; else
+        // up to 3 < len), every byte an initialised `bool` (0 or 1).
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(table.len() as i32 - 1));
+            let zero = _mm256_setzero_si256();
+            let start = _mm256_max_epi32(_mm256_sub_epi32(i, _mm256_set1_epi32(3)), zero);
+            let w = _mm256_i32gather_epi32::<1>(table.as_ptr().cast::<i32>(), start);
+            let shift = _mm256_slli_epi32::<3>(_mm256_sub_epi32(i, start));
+            let b = _mm256_and_si256(_mm256_srlv_epi32(w, shift), _mm256_set1_epi32(0xff));
+            M8(_mm256_castsi256_ps(_mm256_cmpgt_epi32(b, zero)))
+        }
+    }
+
+    /// The x and y columns of eight 2-D points: lane `k` of the first is `v[k].x`, of the
+    /// second `v[k].y` (moves only). Two 32-byte loads, two shuffles and two 64-bit permutes,
+    /// not 16 scalar moves through the stack: the film positions of the stream renderer's
+    /// camera rays and splat.
+    #[inline(always)]
+    pub fn vec2_columns(self, v: &[glam::Vec2; 8]) -> [F32x8; 2] {
+        // SAFETY: the token proves AVX2. A `glam::Vec2` is two f32s, x then y, 8 bytes
+        // (asserted below `impl Lane for F32x8`), so `v` is 16 consecutive floats and each load
+        // reads 8 of them.
+        unsafe {
+            let p = v.as_ptr().cast::<f32>();
+            // x0 y0 x1 y1 | x2 y2 x3 y3 and x4 y4 x5 y5 | x6 y6 x7 y7.
+            let (a, b) = (_mm256_loadu_ps(p), _mm256_loadu_ps(p.add(8)));
+            // Per 128-bit half: x0 x1 x4 x5 | x2 x3 x6 x7 (and the y's), then the 64-bit
+            // pairs in the order 0, 2, 1, 3.
+            let xs = _mm256_castps_pd(_mm256_shuffle_ps::<0x88>(a, b));
+            let ys = _mm256_castps_pd(_mm256_shuffle_ps::<0xDD>(a, b));
+            [
+                F32x8(_mm256_castpd_ps(_mm256_permute4x64_pd::<0xD8>(xs))),
+                F32x8(_mm256_castpd_ps(_mm256_permute4x64_pd::<0xD8>(ys))),
+            ]
+        }
+    }
 }
+
+/// [`Avx2::compress_store`]'s table, per mask (bit k for lane k): the source lane of each of
+/// the 8 outputs in bits 3j..3j + 3 (the kept lanes in order, then the others in order) and
+/// the number kept in bits 24..28.
+const COMPRESS: [u32; 256] = {
+    let mut t = [0u32; 256];
+    let mut m = 0;
+    while m < 256 {
+        let (mut row, mut n) = (0u32, 0u32);
+        let mut pass = 0;
+        while pass < 2 {
+            let mut k = 0;
+            while k < 8 {
+                // Pass 0 takes the kept lanes, pass 1 the others.
+                if (m >> k & 1) as u32 == 1 - pass {
+                    row |= (k as u32) << (3 * n);
+                    n += 1;
+                }
+                k += 1;
+            }
+            if pass == 0 {
+                row |= n << 24;
+            }
+            pass += 1;
+        }
+        t[m] = row;
+        m += 1;
+    }
+    t
+};

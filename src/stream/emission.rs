@@ -71,6 +71,10 @@ pub(crate) struct Lights {
     pub shapes: Vec<Seen>,
     /// Per shape, its material and its `shapes` entry's variant.
     pub info: Vec<ShapeInfo>,
+    /// `info`'s two fields as columns (`seen` widened to `u32`; one entry of 0 when the scene
+    /// has no shape), which the emission stage's first pass gathers 8 hits at a time.
+    pub info_material: Vec<u32>,
+    pub info_seen: Vec<u32>,
     /// The environment lights in `Scene::env_emission`'s order when every one is `constant`
     /// or `envmap` (constant ones of zero radiance left out); `None` when one is neither
     /// (escaped rays then go lane by lane).
@@ -157,7 +161,7 @@ impl Lights {
                     })
                     .collect()
             });
-        let info = shapes
+        let info: Vec<ShapeInfo> = shapes
             .iter()
             .enumerate()
             .map(|(s, seen)| ShapeInfo {
@@ -169,7 +173,22 @@ impl Lights {
                 },
             })
             .collect();
-        Lights { shapes, info, env }
+        let column = |f: fn(&ShapeInfo) -> u32| {
+            let c: Vec<u32> = info.iter().map(f).collect();
+            if c.is_empty() {
+                vec![0]
+            } else {
+                c
+            }
+        };
+        let (info_material, info_seen) = (column(|i| i.material), column(|i| i.seen as u32));
+        Lights {
+            shapes,
+            info,
+            info_material,
+            info_seen,
+            env,
+        }
     }
 }
 
@@ -359,6 +378,7 @@ pub(crate) mod x8 {
             active,
             state,
             hit,
+            hit_flag,
             surf,
             alive,
             material,
@@ -386,14 +406,22 @@ pub(crate) mod x8 {
         let paths = Paths {
             state: &*state,
             hit,
+            hit_flag: &hit_flag[..n],
             rows,
-            info: &lights.info,
+            flat: &surf.flat()[..n * cols::ROW],
+            lights,
         };
-        if cfg.hide_emitters {
-            classify::<true>(active, paths, alive, material, last, lists);
-        } else {
-            classify::<false>(active, paths, alive, material, last, lists);
-        }
+        // The first pass in a function of its own (its list lengths stay in registers).
+        avx.splat(0.0).outlined(
+            #[inline(always)]
+            || {
+                if cfg.hide_emitters {
+                    classify::<true>(avx, active, paths, alive, material, last, lists);
+                } else {
+                    classify::<false>(avx, active, paths, alive, material, last, lists);
+                }
+            },
+        );
         let mut counts = Counts::default();
         match lights.env.as_deref() {
             // No environment light: escaped rays see nothing.
@@ -431,8 +459,12 @@ pub(crate) mod x8 {
     struct Paths<'a> {
         state: &'a [PathState],
         hit: &'a [Option<crate::geometry::Hit>],
+        /// `Batch::hit_flag`.
+        hit_flag: &'a [u32],
         rows: &'a [[f32; cols::ROW]],
-        info: &'a [ShapeInfo],
+        /// `rows` as one slice of floats (for the shape indices' gather).
+        flat: &'a [f32],
+        lights: &'a Lights,
     }
 
     /// The emission stage's first pass over the active paths `active` (see [`stage`]): marks
@@ -440,17 +472,21 @@ pub(crate) mod x8 {
     /// (each cleared first), the hits that scatter (depth < `last`) with their material, the
     /// escaped rays that show emission, and the hits that show an area light's ([`AREA`]) or
     /// other ([`SCALAR`]) emission. `HIDE`: `hide_emitters` (a path shows emission only after
-    /// its first vertex).
+    /// its first vertex). Call inside an AVX2 region.
     ///
-    /// A scalar loop of its own, not inlined into the lanes' function (there its list lengths
-    /// and slices were spilled and reloaded per path, ~30 instructions per path on
-    /// metal_plastic): each list's length stays in a register and an id is written at
-    /// `buf[len % BATCH]` (no bounds test: a list never holds more ids than the paths walked
-    /// before it, fewer than [`crate::stream::BATCH`]) with the length advanced by the kept
-    /// flag, as [`crate::stream::batch::Ids::put`] (the escaped rays and the scattering hits
-    /// are appended without a branch).
-    #[inline(never)]
+    /// 8 paths at a time in lanes: their hit flags (`Batch::hit_flag`) and depths
+    /// ([`Avx2::gather_depth`]) by two gathers, the hit shapes' indices from their surface rows
+    /// and the shapes' materials and [`Seen`] variants from [`Lights::info_material`] and
+    /// [`Lights::info_seen`] by three more; the scattering hits and the escaped rays appended
+    /// to their lists by one compress each ([`Avx2::compress_store`], the ids in the order
+    /// walked, so the lists are those of the path-by-path loop); the rare hits on emitters
+    /// appended lane by lane. `alive` and `material` are written per lane (the material of
+    /// every path of the chunk: read only for the paths listed, the sort key). The last
+    /// `active.len() % 8` paths go through the path-by-path loop ([`classify_one`]).
+    /// (The path-by-path loop for every path cost 28 instructions a path on metal_plastic.)
+    #[inline(always)]
     fn classify<const HIDE: bool>(
+        avx: Avx2,
         active: &[u32],
         paths: Paths,
         alive: &mut [bool],
@@ -458,17 +494,95 @@ pub(crate) mod x8 {
         last: u32,
         lists: [&mut crate::stream::batch::Ids; 4],
     ) {
-        use crate::stream::BATCH;
+        use crate::lane::{I32x8, LaneMask};
         let n = paths.state.len();
-        let (state, hit, rows, info) = (paths.state, &paths.hit[..n], &paths.rows[..n], paths.info);
+        let (state, flag, flat) = (paths.state, &paths.hit_flag[..n], paths.flat);
+        let (info_material, info_seen) = (&paths.lights.info_material, &paths.lights.info_seen);
+        let (alive, material) = (&mut alive[..n], &mut material[..n]);
+        let [scatter, escaped, on_lights, one_by_one] = lists;
+        on_lights.clear();
+        one_by_one.clear();
+        let (mut ns, mut ne) = (0usize, 0usize);
+        let chunks = active.chunks_exact(8);
+        let rest = chunks.remainder();
+        // A row's shape index is float `32·i + SHAPE` of `flat`.
+        const { assert!(cols::ROW == 32) };
+        for ids in chunks {
+            let ids: &[u32; 8] = ids.try_into().expect("8 ids");
+            let idv = avx.load_i32(&ids.map(|i| i as i32));
+            let zero = idv.splat(0);
+            let hit = !I32x8::gather_u32(flag, idv).eq(zero);
+            let depth = avx.gather_depth(state, idv);
+            let at = idv.shl::<5>().add(idv.splat(cols::SHAPE as i32));
+            // Misses' rows are stale: their shape is taken as 0 (its material is written,
+            // never read).
+            let shape = I32x8::select(hit, F32x8::gather_slice(flat, at).to_bits(), zero);
+            let mat = I32x8::gather_u32(info_material, shape).to_array();
+            let seen = I32x8::gather_u32(info_seen, shape);
+            for k in 0..8 {
+                let i = ids[k] as usize;
+                alive[i] = false;
+                material[i] = mat[k] as crate::material::MatId;
+            }
+            // depth < last and depth >= show_from, as unsigned numbers.
+            let lastv = idv.splat(last as i32);
+            let below = !depth.min_u32(lastv).eq(lastv);
+            let show = if HIDE { !depth.eq(zero) } else { zero.eq(zero) };
+            ns = avx.compress_store(idv, hit & below, &mut scatter.buf_mut()[..], ns);
+            ne = avx.compress_store(idv, !hit & show, &mut escaped.buf_mut()[..], ne);
+            // Rare (hits on emitters): through the lists' own appends, in lane order.
+            let lit = hit & show & !seen.eq(idv.splat(DARK as i32));
+            if lit.any() {
+                let (bits, seen) = (lit.bits(), seen.to_array());
+                for k in 0..8 {
+                    if bits >> k & 1 == 1 {
+                        if seen[k] == AREA as i32 {
+                            on_lights.push(ids[k]);
+                        } else {
+                            one_by_one.push(ids[k]);
+                        }
+                    }
+                }
+            }
+        }
+        let rest = (rest, paths, alive, material, last);
+        classify_one::<HIDE>(rest, [scatter, escaped, on_lights, one_by_one], (ns, ne));
+    }
+
+    /// [`classify`] path by path, for the paths `walk.0` (the rest after its chunks of 8), the
+    /// scattering hits and escaped rays appended at lengths `lens` of the first two lists (the
+    /// last two are appended to as they stand). Each list's length stays in a register and
+    /// an id is written at `buf[len % BATCH]` (no bounds test: a list never holds more ids
+    /// than the paths walked before it, fewer than [`crate::stream::BATCH`]) with the length
+    /// advanced by the kept flag, as [`crate::stream::batch::Ids::put`].
+    #[allow(clippy::type_complexity)]
+    #[inline(always)]
+    fn classify_one<const HIDE: bool>(
+        walk: (
+            &[u32],
+            Paths,
+            &mut [bool],
+            &mut [crate::material::MatId],
+            u32,
+        ),
+        lists: [&mut crate::stream::batch::Ids; 4],
+        lens: (usize, usize),
+    ) {
+        use crate::stream::BATCH;
+        let (active, paths, alive, material, last) = walk;
+        let n = paths.state.len();
+        let (state, hit, rows, info) = (
+            paths.state,
+            &paths.hit[..n],
+            &paths.rows[..n],
+            &paths.lights.info[..],
+        );
         let (alive, material) = (&mut alive[..n], &mut material[..n]);
         // A path shows what its ray sees from this depth on.
         let show_from = HIDE as u32;
         let [scatter, escaped, on_lights, one_by_one] = lists;
-        on_lights.clear();
-        one_by_one.clear();
         let (sb, eb) = (scatter.buf_mut(), escaped.buf_mut());
-        let (mut ns, mut ne) = (0usize, 0usize);
+        let (mut ns, mut ne) = lens;
         for &i in active {
             let i = i as usize;
             alive[i] = false;

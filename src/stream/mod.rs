@@ -34,7 +34,7 @@
 //! [`kernels::tail::Tail`]) and ray counters ([`direct`]).
 //!
 //! Then every path's radiance goes to the block in the canonical order (8 samples at a time:
-//! [`Block::put8_finite`]). Each path draws from its
+//! [`Block::put8_finite_rows`]). Each path draws from its
 //! own stream keyed by (seed, pixel, sample) and runs exactly the scalar renderer's per-vertex
 //! functions in the same order, so the image equals the scalar renderer's bit for bit at any
 //! thread count (`tests/render/stream.rs`).
@@ -490,19 +490,15 @@ fn camera_rays(scene: &Scene, kernels: &Kernels, batch: &mut Batch) {
             #[inline(always)]
             || {
                 let o = c.position();
+                let (ox, oy, oz) = (avx.splat(o.x), avx.splat(o.y), avx.splat(o.z));
                 for pos in pos.chunks_exact(8) {
-                    let x = avx.load(&core::array::from_fn(|k| pos[k].x));
-                    let y = avx.load(&core::array::from_fn(|k| pos[k].y));
+                    let pos: &[Vec2; 8] = pos.try_into().expect("8 positions");
+                    let [x, y] = avx.vec2_columns(pos);
                     let (d, tmin, tmax) = c.ray_lanes(x, y);
-                    let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
-                    let (t0, t1) = (tmin.to_array(), tmax.to_array());
-                    // A whole array: one capacity check, not one per ray.
-                    rays.extend(core::array::from_fn::<Ray, 8, _>(|k| Ray {
-                        o,
-                        d: glam::Vec3::new(dx[k], dy[k], dz[k]),
-                        tmin: t0[k],
-                        tmax: t1[k],
-                    }));
+                    // The 8 rays whole from their fields (a transpose and 8 row stores, not
+                    // 64 scalar moves), then one capacity check.
+                    let r = avx.ray_rows([ox, oy, oz, d.x, d.y, d.z, tmin, tmax]);
+                    rays.extend_from_slice(&r);
                 }
             },
         );
@@ -519,18 +515,19 @@ fn camera_rays(scene: &Scene, kernels: &Kernels, batch: &mut Batch) {
 }
 
 /// The splat: every path's radiance (0 for a non-finite one, counted in `invalid`) to the
-/// block in the canonical order, 8 samples at a time through [`Block::put8_finite`] with AVX2
-/// (the same sums as [`Block::put`] one by one, which takes the rest).
+/// block in the canonical order, 8 samples at a time through [`Block::put8_finite_rows`] with
+/// AVX2 (the same sums as [`Block::put`] one by one, which takes the rest).
 fn splat(block: &mut Block, batch: &Batch, kernels: &Kernels, invalid: &mut u64) {
     let mut done = 0;
     #[cfg(target_arch = "x86_64")]
     if let Some(avx) = kernels.avx {
-        // The finiteness test and the zeroing in lanes too (`Block::put8_finite`).
+        // The finiteness test and the zeroing in lanes too (`Block::put8_finite_rows`).
         let chunks = batch.pos.chunks_exact(8).zip(batch.state.chunks_exact(8));
         for (pos, state) in chunks {
             let pos: &[Vec2; 8] = pos.try_into().expect("8 positions");
-            let v: [Spectrum; 8] = core::array::from_fn(|j| state[j].result);
-            *invalid += block.put8_finite(avx, pos, &v) as u64;
+            // The radiance rows (radiance and depth: one 16-byte copy per path).
+            let rows: [[f32; 4]; 8] = core::array::from_fn(|j| state[j].result_row());
+            *invalid += block.put8_finite_rows(avx, pos, &rows) as u64;
             done += 8;
         }
     }
@@ -602,6 +599,12 @@ fn run_batch(
             &mut scratch.rays,
         );
 
+        #[cfg(target_arch = "x86_64")]
+        match kernels.avx {
+            Some(avx) => batch.compact_x8(avx),
+            None => batch.compact(),
+        }
+        #[cfg(not(target_arch = "x86_64"))]
         batch.compact();
     }
 }
@@ -659,12 +662,9 @@ fn shade<T: kernels::tail::Tail>(
     tail: &mut T,
 ) {
     // The light gathers of the diffuse and wrapper-chain kernels, one per width for the whole
-    // stage (not one per run: each builds the scene's light selection once), made at the
-    // first run that takes one.
-    #[cfg(target_arch = "x86_64")]
-    let mut gathers = (None, None);
-    #[cfg(not(target_arch = "x86_64"))]
-    let mut gathers = ();
+    // render (not one per run or stage: each builds the scene's light selection once), kept
+    // in the batch and moved out for the stage (two pointers).
+    let mut gathers = core::mem::take(&mut batch.gathers);
     let mut start = 0;
     while start < batch.sorted.len() {
         let m = batch.material[batch.sorted[start] as usize];
@@ -708,6 +708,7 @@ fn shade<T: kernels::tail::Tail>(
         }
         start = end;
     }
+    batch.gathers = gathers;
 }
 
 /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (material `m`) with
@@ -724,10 +725,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
     kernels: &Kernels,
     m: crate::material::MatId,
     arena: &mut crate::bsdf::BsdfArena,
-    gathers: &mut (
-        Option<kernels::light::x8::Gather<8>>,
-        Option<kernels::light::x8::Gather<16>>,
-    ),
+    gathers: &mut batch::Gathers,
     tail: &mut T,
 ) -> (usize, bool) {
     let (Some(avx), Some(&Some(kind))) = (kernels.avx, kernels.kinds.get(m as usize)) else {
@@ -761,7 +759,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
                 let mut chunks = Chunks::<16>::new(c..run.end, usize::MAX);
                 let g16 = gathers
                     .1
-                    .get_or_insert_with(kernels::light::x8::Gather::new);
+                    .get_or_insert_with(|| Box::new(kernels::light::x8::Gather::new()));
                 w16.run(
                     #[inline(always)]
                     || {
@@ -775,7 +773,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
             let mut chunks = Chunks::<8>::new(c..run.end, pad_min);
             let g8 = gathers
                 .0
-                .get_or_insert_with(kernels::light::x8::Gather::new);
+                .get_or_insert_with(|| Box::new(kernels::light::x8::Gather::new()));
             avx.run(
                 #[inline(always)]
                 || {
@@ -794,7 +792,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
                 let r = c..run.end;
                 let g16 = gathers
                     .1
-                    .get_or_insert_with(kernels::light::x8::Gather::new);
+                    .get_or_insert_with(|| Box::new(kernels::light::x8::Gather::new()));
                 c = w16.run(
                     #[inline(always)]
                     || {
@@ -806,7 +804,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
             let r = c..run.end;
             let g8 = gathers
                 .0
-                .get_or_insert_with(kernels::light::x8::Gather::new);
+                .get_or_insert_with(|| Box::new(kernels::light::x8::Gather::new()));
             c = avx.run(
                 #[inline(always)]
                 || x8::shade_run(avx, scene, cfg, batch, r, pad_min, &mat, lights, g8, tail),

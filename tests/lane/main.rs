@@ -15,6 +15,9 @@
 //!   pattern, bits above the width ignored).
 
 //! - `rows4`: the 8-wide rows-of-4 transposes move every bit (edge floats, NaN payloads).
+//! - `compress`: the 8-wide compress of path ids (`Avx2::compress_store`, every mask), the
+//!   path states' depth gather (`Avx2::gather_depth`), the flags' gather (`Avx2::gather_bools`)
+//!   and the 2-D points' columns (`Avx2::vec2_columns`) against scalar references.
 //! - `store_at`: the write-back of gathered 64-bit values (`Wide::store_u64_at`) against a
 //!   scalar reference at width 8 and 16 (repeated and out-of-range indices).
 //!
@@ -29,6 +32,7 @@ mod avx512;
 mod beckmann;
 mod beckmann_ref;
 mod bits;
+mod compress;
 mod harness;
 mod lookup;
 mod masks;

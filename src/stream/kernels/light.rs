@@ -360,7 +360,7 @@ pub(crate) mod x8 {
     use crate::stream::kernels::diffuse::LightPoint;
     use crate::stream::kernels::emitters::{self as em, Env, FreePoint, Spot};
     use glam::Vec2;
-    use std::rc::Rc;
+    use std::sync::Arc;
 
     /// The kinds of `Batch::light_lanes` (index + 1; [`KINDS`]), as `i32`s: [`Gather`]'s
     /// `kind` column is loaded into integer lanes as it is.
@@ -675,8 +675,10 @@ pub(crate) mod x8 {
         uv_factor: [f32; W],
         tri_shape: u32,
         /// The light selection in lanes, made from the scene's light sampler at the first
-        /// [`Gather::add_x8`] (a gather serves one scene; shared, not copied, per chunk).
-        select: Option<Rc<Select>>,
+        /// [`Gather::add_x8`] (a gather serves one scene; shared, not copied, per chunk; an
+        /// `Arc`, so that a worker's batch, which keeps its gathers for the whole render, may
+        /// move between threads).
+        select: Option<Arc<Select>>,
         /// The small mesh light last picked from ([`SmallMesh`]).
         small: SmallMesh,
         /// Whether [`Gather::triangles_x8`] may use [`SmallMesh`] (tests turn it off to
@@ -901,10 +903,10 @@ pub(crate) mod x8 {
             u: &[[f32; W]; 2],
             p: &Cols3<W>,
         ) {
-            // The selection moved out and back (not an `Rc` clone and drop per chunk).
+            // The selection moved out and back (not an `Arc` clone and drop per chunk).
             let sel = match self.select.take() {
                 Some(s) => s,
-                None => Rc::new(Select::new(scene, lights)),
+                None => Arc::new(Select::new(scene, lights)),
             };
             self.add_with(avx, &sel, scene, lights, light_only, on, u_sel, u, p);
             self.select = Some(sel);

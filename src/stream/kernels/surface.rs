@@ -121,7 +121,8 @@ impl SmallTris {
 }
 
 /// The gather stage: writes the surface row of every active path of `batch` whose ray hit
-/// something (rows of paths without a hit are left as they are). 8-wide where `avx` is given
+/// something (rows of paths without a hit are left as they are) and every active path's
+/// `Batch::hit_flag`. 8-wide where `avx` is given
 /// (the chunk's hits grouped by form), else one `Scene::interaction` per hit; adds the hits
 /// reconstructed in lanes to `in_lanes`.
 pub(crate) fn fill(
@@ -138,8 +139,10 @@ pub(crate) fn fill(
     }
     let _ = forms;
     let (active, hit, ray, surf) = (&batch.active, &batch.hit, &batch.ray, &mut batch.surf);
+    let flag = &mut batch.hit_flag;
     for &i in active {
         let i = i as usize;
+        flag[i] = hit[i].is_some() as u32;
         if let Some(h) = &hit[i] {
             surf.set(i, &scene.interaction(&ray[i], h));
         }
@@ -278,10 +281,15 @@ pub(crate) mod x8 {
                 let mut cyl = Pending::EMPTY;
                 let mut scalar = 0;
                 let mut hits = 0;
+                // The hit flag of every active path (`Batch::hit_flag`), cut to the hits'
+                // length (one bounds test covers both) and stored in each branch.
+                let flag = &mut batch.hit_flag[..st.hit.len()];
                 for &i in &batch.active {
                     let Some(h) = &st.hit[i as usize] else {
+                        flag[i as usize] = 0;
                         continue;
                     };
+                    flag[i as usize] = 1;
                     hits += 1;
                     let form = &st.forms[h.geom as usize];
                     if !super::direct(h) {

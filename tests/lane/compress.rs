@@ -1,0 +1,198 @@
+//! `Avx2::compress_store` (the stream's lists of path ids filtered 8 at a time),
+//! `Avx2::gather_depth` (8 path states' depths), `Avx2::gather_bools` (8 paths' `alive`
+//! flags) and `Avx2::vec2_columns` (8 film positions' x and y columns, every bit moved, NaN
+//! payloads among them) against scalar references: every mask pattern, ids with edge values (0, −1,
+//! `i32::MIN`, `i32::MAX`), lists at every offset up to the last one that fits 8 slots (the
+//! slots outside `at..at + 8` untouched, the kept ids first in lane order, then the others in
+//! lane order), a panic before any store when 8 slots do not fit; depths and flags at indices
+//! inside, at the ends of and out of the slice (clamped to its last entry; the flags' first
+//! three, whose loads start at the table's first byte, among them), a panic on slices too
+//! short.
+
+use groove::integrator::path::PathState;
+use groove::lane::Avx2;
+use groove::math::Pcg32;
+
+#[test]
+fn compress_store_equals_the_filter() {
+    let Some(avx) = Avx2::detect() else {
+        eprintln!("no AVX2/FMA: the compress test is skipped");
+        return;
+    };
+    let mut r = Pcg32::new(28, 1);
+    let len = 40;
+    for mask in 0u32..256 {
+        for at in [0usize, 1, 7, 13, len - 9, len - 8] {
+            let ids: [i32; 8] = std::array::from_fn(|k| match (mask as usize + k + at) % 6 {
+                0 => 0,
+                1 => -1,
+                2 => i32::MIN,
+                3 => i32::MAX,
+                _ => r.next_u32() as i32,
+            });
+            let keep: [bool; 8] = std::array::from_fn(|k| mask >> k & 1 == 1);
+            let before: Vec<u32> = (0..len).map(|_| r.next_u32()).collect();
+            let mut got = before.clone();
+            let end = avx.run(
+                #[inline(always)]
+                || avx.compress_store(avx.load_i32(&ids), avx.mask(&keep), &mut got, at),
+            );
+            let kept: Vec<u32> = (0..8).filter(|&k| keep[k]).map(|k| ids[k] as u32).collect();
+            let others = (0..8).filter(|&k| !keep[k]).map(|k| ids[k] as u32);
+            let mut want = before.clone();
+            for (slot, id) in want[at..at + 8]
+                .iter_mut()
+                .zip(kept.iter().copied().chain(others))
+            {
+                *slot = id;
+            }
+            assert_eq!(end, at + kept.len(), "mask {mask:#x} at {at}");
+            assert_eq!(got, want, "mask {mask:#x} at {at}: ids {ids:?}");
+        }
+    }
+    // 8 slots past `at` do not fit: a panic, and the list untouched.
+    for at in [len - 7, len - 1, len, len + 3] {
+        let mut list = vec![5u32; len];
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            avx.run(
+                #[inline(always)]
+                || avx.compress_store(avx.load_i32(&[1; 8]), avx.mask(&[true; 8]), &mut list, at),
+            )
+        }));
+        assert!(result.is_err(), "at {at}: no panic");
+        assert!(
+            list.iter().all(|&v| v == 5),
+            "at {at}: a store before the panic"
+        );
+    }
+}
+
+#[test]
+fn gather_depth_reads_each_state() {
+    let Some(avx) = Avx2::detect() else {
+        eprintln!("no AVX2/FMA: the depth gather test is skipped");
+        return;
+    };
+    let mut r = Pcg32::new(28, 2);
+    for len in [1usize, 2, 9, 1024] {
+        let states: Vec<PathState> = (0..len)
+            .map(|_| {
+                let mut s = PathState::new();
+                s.depth = match r.next_u32() % 4 {
+                    0 => 0,
+                    1 => u32::MAX,
+                    _ => r.next_u32(),
+                };
+                s.result = glam::Vec3::splat(f32::from_bits(r.next_u32()));
+                s
+            })
+            .collect();
+        for round in 0..200 {
+            let idx: [i32; 8] = std::array::from_fn(|k| match (round + k) % 7 {
+                0 => 0,
+                1 => len as i32 - 1,
+                2 => len as i32,
+                3 => -1,
+                4 => i32::MIN,
+                _ => (r.next_u32() as usize % len) as i32,
+            });
+            let got = avx.run(
+                #[inline(always)]
+                || avx.gather_depth(&states, avx.load_i32(&idx)).to_array(),
+            );
+            for k in 0..8 {
+                // Out of range (as u32): the last state.
+                let i = (idx[k] as u32 as usize).min(len - 1);
+                assert_eq!(
+                    got[k] as u32, states[i].depth,
+                    "len {len} round {round} lane {k}"
+                );
+            }
+        }
+    }
+    let result = std::panic::catch_unwind(|| {
+        avx.run(
+            #[inline(always)]
+            || avx.gather_depth(&[], avx.load_i32(&[0; 8])).to_array(),
+        )
+    });
+    assert!(result.is_err(), "an empty slice: no panic");
+}
+
+#[test]
+fn gather_bools_reads_each_flag() {
+    let Some(avx) = Avx2::detect() else {
+        eprintln!("no AVX2/FMA: the flag gather test is skipped");
+        return;
+    };
+    let mut r = Pcg32::new(28, 4);
+    for len in [4usize, 5, 7, 8, 33, 1024] {
+        let flags: Vec<bool> = (0..len).map(|_| r.next_u32().is_multiple_of(2)).collect();
+        for round in 0..300 {
+            let idx: [i32; 8] = std::array::from_fn(|k| match (round + k) % 9 {
+                0 => 0,
+                1 => 1,
+                2 => 2,
+                3 => len as i32 - 1,
+                4 => len as i32,
+                5 => -1,
+                6 => i32::MIN,
+                _ => (r.next_u32() as usize % len) as i32,
+            });
+            let got = avx.run(
+                #[inline(always)]
+                || avx.gather_bools(&flags, avx.load_i32(&idx)).to_array(),
+            );
+            for k in 0..8 {
+                // Out of range (as u32): the last flag.
+                let i = (idx[k] as u32 as usize).min(len - 1);
+                assert_eq!(got[k], flags[i], "len {len} round {round} lane {k}");
+            }
+        }
+    }
+    for len in [0usize, 1, 3] {
+        let flags = vec![true; len];
+        let result = std::panic::catch_unwind(|| {
+            avx.run(
+                #[inline(always)]
+                || avx.gather_bools(&flags, avx.load_i32(&[0; 8])).to_array(),
+            )
+        });
+        assert!(result.is_err(), "{len} flags: no panic");
+    }
+}
+
+#[test]
+fn vec2_columns_move_every_bit() {
+    let Some(avx) = Avx2::detect() else {
+        eprintln!("no AVX2/FMA: the 2-D columns test is skipped");
+        return;
+    };
+    let mut r = Pcg32::new(28, 5);
+    let edges = [
+        0.0f32,
+        -0.0,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        1e-40,
+        f32::MAX,
+    ];
+    for round in 0..2000 {
+        let v: [glam::Vec2; 8] = std::array::from_fn(|k| {
+            let mut f = || match (round + k) % 5 {
+                0 => edges[r.next_u32() as usize % edges.len()],
+                // NaNs with their payloads and every other bit pattern.
+                _ => f32::from_bits(r.next_u32()),
+            };
+            glam::Vec2::new(f(), f())
+        });
+        let [x, y] = avx.run(
+            #[inline(always)]
+            || avx.vec2_columns(&v).map(|c| c.to_array()),
+        );
+        for k in 0..8 {
+            assert_eq!(x[k].to_bits(), v[k].x.to_bits(), "round {round} lane {k} x");
+            assert_eq!(y[k].to_bits(), v[k].y.to_bits(), "round {round} lane {k} y");
+        }
+    }
+}
