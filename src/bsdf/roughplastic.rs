@@ -278,7 +278,7 @@ impl RoughPlastic {
 
     /// The lane form's distribution (the parameters splatted; already clamped by `new`).
     #[inline(always)]
-    fn distribution_lanes<L: Lane>(&self, like: L) -> Microfacet<L> {
+    pub(crate) fn distribution_lanes<L: Lane>(&self, like: L) -> Microfacet<L> {
         let d = &self.distribution;
         Microfacet {
             kind: d.kind,
@@ -291,7 +291,7 @@ impl RoughPlastic {
     /// Probability of the specular lobe given T(θi): ps / (ps + pd) with ps = (1 − T) w_s and
     /// pd = T (1 − w_s).
     #[inline(always)]
-    fn prob_specular<L: Lane>(&self, t_i: L) -> L {
+    pub(crate) fn prob_specular<L: Lane>(&self, t_i: L) -> L {
         let k = |c: f32| t_i.splat(c);
         let ps = (k(1.0) - t_i) * k(self.specular_sampling_weight);
         let pd = t_i * k(1.0 - self.specular_sampling_weight);

@@ -1013,6 +1013,27 @@ impl Avx2 {
             ]
         }
     }
+
+    // Added in the twenty-eighth session (h2).
+
+    /// Per 64-bit lane `k`, `a[k]` where lane `k` of `on` is set, else `b[k]` (each 32-bit
+    /// mask lane widened to its 64-bit lane; its sign bit decides, as in `F32x8::select`): a
+    /// masked PCG32 step keeps the state of the lanes that do not draw (the compensated
+    /// sampler's draws, `bsdf::mnm::compensated::lanes`).
+    #[inline(always)]
+    pub fn select_u64(self, on: M8, a: U64x8, b: U64x8) -> U64x8 {
+        // SAFETY: the token proves AVX2.
+        unsafe {
+            let m = _mm256_castps_si256(on.0);
+            let lo = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(m)));
+            let hi = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_extracti128_si256::<1>(m)));
+            // (Written out, not a closure: a closure may be compiled out of the SIMD
+            // function, its intrinsics then calls.)
+            let v0 = _mm256_blendv_pd(_mm256_castsi256_pd(b.0[0]), _mm256_castsi256_pd(a.0[0]), lo);
+            let v1 = _mm256_blendv_pd(_mm256_castsi256_pd(b.0[1]), _mm256_castsi256_pd(a.0[1]), hi);
+            U64x8([_mm256_castpd_si256(v0), _mm256_castpd_si256(v1)])
+        }
+    }
 }
 
 /// [`Avx2::compress_store`]'s table, per mask (bit k for lane k): the source lane of each of

@@ -148,3 +148,57 @@ crate::at_8_and_16!(
     "pcg_ops",
     check
 );
+
+/// `Avx2::select_u64` (the compensated sampler's masked PCG32 steps) against a scalar
+/// reference: every mask pattern, as bits (`mask_bits`) and from float compares with ±0, NaN
+/// and ±∞ in the lanes, over states of every class (all ones, the high bit, 0) in both inputs.
+#[test]
+fn select_u64_equals_the_scalar_reference() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use groove::lane::Lane;
+        let Some(avx) = groove::lane::Avx2::detect() else {
+            eprintln!("select_u64: this CPU has no AVX2/FMA, skipping the 8-wide check");
+            return;
+        };
+        let s = states(4096);
+        let edge = [
+            0.0f32,
+            -0.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1.0,
+        ];
+        for bits in 0..256u32 {
+            let a: [u64; 8] = std::array::from_fn(|k| s[(bits as usize * 8 + k) % s.len()]);
+            let b: [u64; 8] =
+                std::array::from_fn(|k| s[(bits as usize * 13 + 5 * k + 1) % s.len()]);
+            let on: [bool; 8] = std::array::from_fn(|k| bits >> k & 1 == 1);
+            let want: [u64; 8] = std::array::from_fn(|k| if on[k] { a[k] } else { b[k] });
+            // The mask as bits, and the same lanes from a compare (`x < 0.5`: 0 where set,
+            // an edge value at or above 0.5, or NaN, where not).
+            let x: [f32; 8] = std::array::from_fn(|k| {
+                let e = edge[(bits as usize + k) % edge.len()];
+                match (on[k], e < 0.5) {
+                    (true, true) | (false, false) => e,
+                    (true, false) => 0.25,
+                    (false, true) => 2.0,
+                }
+            });
+            let (by_bits, by_cmp) = avx.run(
+                #[inline(always)]
+                || {
+                    let (va, vb) = (avx.load_u64(&a), avx.load_u64(&b));
+                    let m = avx.load(&x).lt(avx.splat(0.5));
+                    (
+                        avx.select_u64(avx.mask_bits(bits), va, vb).to_array(),
+                        avx.select_u64(m, va, vb).to_array(),
+                    )
+                },
+            );
+            assert_eq!(by_bits, want, "mask bits {bits:#010b}");
+            assert_eq!(by_cmp, want, "mask {bits:#010b} from {x:?}");
+        }
+    }
+}

@@ -40,7 +40,7 @@ use super::lambert::FacetChain;
 use super::{lane_cols::Cols, walk, Evaluation, MicrofacetNormalMap, Tangent};
 use crate::bsdf::{Bsdf, BsdfContext, TransportMode};
 use crate::lane::vec::{V2, V3};
-use crate::lane::{Lane, LaneI32, ToArray};
+use crate::lane::{Lane, LaneI32, LaneLookup, ToArray};
 use crate::sampler::Sampler;
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3, Vec3A};
@@ -176,6 +176,27 @@ const fn cos_phi_nodes() -> [f32; N_PHI] {
     ]
 }
 const COS_PHI: [f32; N_PHI] = cos_phi_nodes();
+const _: () = assert!(N_PHI == 9, "the φ cells' cosines are tables of 8");
+/// cos φ of each φ cell's lower and upper node (cells 0 to 7), for [`coords`]' lookups (a
+/// table of 8: `LaneLookup::lookup8`).
+const COS_PHI_LO: [f32; 8] = {
+    let mut t = [0.0; 8];
+    let mut i = 0;
+    while i < 8 {
+        t[i] = COS_PHI[i];
+        i += 1;
+    }
+    t
+};
+const COS_PHI_HI: [f32; 8] = {
+    let mut t = [0.0; 8];
+    let mut i = 0;
+    while i < 8 {
+        t[i] = COS_PHI[i + 1];
+        i += 1;
+    }
+    t
+};
 
 /// The node direction (θ from z node k, φ node l) for ωp leaning toward +x.
 fn node_direction(k: usize, l: usize) -> Vec3 {
@@ -335,14 +356,15 @@ pub fn coords<L: Lane>(axis: V2<L>, w: V3<L>) -> Coords<L> {
         .max(k(-1.0))
         .min(k(1.0));
     let x = L::select(r2.gt(k(1e-12)), x, k(1.0));
+    // The cell l counts the inner nodes above x (a prefix: the cosines decrease), and its
+    // nodes' cosines are looked up by l (`LaneLookup::lookup8`, one permute each: the same
+    // values as a select per node).
     let mut l = kz.splat(0);
-    let (mut c0, mut c1) = (k(COS_PHI[0]), k(COS_PHI[1]));
-    for i in 1..N_PHI - 1 {
-        let above = x.lt(k(COS_PHI[i]));
-        l = L::I32::select(above, l.add(l.splat(1)), l);
-        c0 = L::select(above, k(COS_PHI[i]), c0);
-        c1 = L::select(above, k(COS_PHI[i + 1]), c1);
+    for &c in &COS_PHI[1..N_PHI - 1] {
+        l = L::I32::select(x.lt(k(c)), l.add(l.splat(1)), l);
     }
+    let c0 = <L::I32 as LaneLookup<L>>::lookup8(&COS_PHI_LO, l);
+    let c1 = <L::I32 as LaneLookup<L>>::lookup8(&COS_PHI_HI, l);
     let tx = ((c0 - x) * (k(1.0) / (c0 - c1))).max(k(0.0)).min(k(1.0));
     Coords { kz, l, tu, tx }
 }

@@ -13,6 +13,7 @@
 //! results are never read.
 
 use crate::bsdf::diffuse::Diffuse;
+use crate::bsdf::plastic::{base_albedo, splat3};
 use crate::bsdf::roughconductor::RoughConductor;
 use crate::bsdf::roughplastic::RoughPlastic;
 use crate::lane::fresnel::ConductorTerms;
@@ -167,13 +168,92 @@ impl LaneNested for RoughConductor {
     }
 }
 
+/// A `roughplastic`'s terms of one query: its reflectances and distribution in lanes, and the
+/// base's albedo through the coating (`RoughPlastic::eval_pdf_with`'s, computed once).
+#[derive(Clone, Copy)]
+pub(super) struct PlasticShared<L> {
+    spec: V3<L>,
+    dist: Microfacet<L>,
+    albedo: V3<L>,
+}
+
+/// A `roughplastic`'s terms of one direction v: G1 toward its own normal
+/// (`Microfacet::smith_g1_of`) and the coating's transmittance T(θ) at z(v).
+#[derive(Clone, Copy)]
+pub(super) struct PlasticDir<L> {
+    g1: L,
+    t: L,
+}
+
 /// `pdf` is `eval_pdf`'s density (`roughplastic.rs`).
 impl LaneNested for RoughPlastic {
     const SEPARATE_PDF: bool = false;
-    nothing_shared!();
     #[inline(always)]
     fn eval_pdf_lanes<L: Lane>(&self, wi: V3<L>, wo: V3<L>) -> (V3<L>, L) {
         RoughPlastic::eval_pdf_lanes(self, wi, wo)
+    }
+    type Shared<L: Lane> = PlasticShared<L>;
+    type Dir<L: Lane> = PlasticDir<L>;
+    #[inline(always)]
+    fn shared<L: Lane>(&self, like: L) -> PlasticShared<L> {
+        let rho = splat3(like, self.diffuse_reflectance);
+        PlasticShared {
+            spec: splat3(like, self.specular_reflectance),
+            dist: self.distribution_lanes(like),
+            albedo: base_albedo(
+                rho,
+                like.splat(self.table.internal_reflectance),
+                self.nonlinear,
+            ),
+        }
+    }
+    #[inline(always)]
+    fn dir<L: Lane>(&self, s: &PlasticShared<L>, v: V3<L>) -> PlasticDir<L> {
+        PlasticDir {
+            g1: s.dist.smith_g1_of(v),
+            t: self.table.transmittance_lanes(v.z),
+        }
+    }
+    /// `RoughPlastic::eval_pdf_with`'s operations in its order (over `eval_pdf_lanes`'
+    /// reflectances), with G1(ωi, h), G1(ωo, h) from the directions' own parts
+    /// (`Microfacet::smith_g1_from`, `smith_g1` bit for bit) and T(θi), T(θo) from the
+    /// directions' terms (the same `transmittance_lanes`): each direction's terms once for the
+    /// query's evaluations that share it.
+    #[inline(always)]
+    fn eval_pdf_dirs<L: Lane>(
+        &self,
+        s: &PlasticShared<L>,
+        wi: V3<L>,
+        di: &PlasticDir<L>,
+        wo: V3<L>,
+        dout: &PlasticDir<L>,
+    ) -> (V3<L>, L) {
+        let k = |c: f32| wi.z.splat(c);
+        let zero = k(0.0);
+        let below = wi.z.le(zero) | wo.z.le(zero);
+        if below.all() {
+            return (V3::new(zero, zero, zero), zero);
+        }
+        let dist = &s.dist;
+        let h = (wi + wo).normalize();
+        let d = dist.eval(h);
+        let g1i = Microfacet::smith_g1_from(di.g1, wi, h);
+        let f = crate::lane::fresnel::dielectric(wi.dot(h), k(self.eta)).r;
+        let g = g1i * Microfacet::smith_g1_from(dout.g1, wo, h);
+        let specular = s.spec.scale(f * d * g / (k(4.0) * wi.z));
+        let t_i = di.t;
+        let t = t_i * dout.t;
+        let value = specular
+            + s.albedo
+                .scale(k(crate::math::INV_PI) * wo.z * t / (k(self.eta) * k(self.eta)));
+        let ps = self.prob_specular(t_i);
+        let p_spec = dist.reflection_pdf(wi, wo, h, d, g1i);
+        let p = ps * p_spec + (k(1.0) - ps) * crate::lane::warp::cosine_hemisphere_pdf(wo);
+        let p = L::select(p.is_finite(), p, zero);
+        (
+            V3::select(below, V3::new(zero, zero, zero), value),
+            L::select(below, zero, p),
+        )
     }
 }
 

@@ -10,8 +10,9 @@
 //!    for a hit that is not flat: its numbers stay in the build's columns, which become the
 //!    chunk's (`compensated::lanes::Chunk::of_facets`); each other point's map written from
 //!    them), else lane by lane `Scene::bsdf_root` (the scalar code);
-//!    then lane by lane, in each path's order, the side test, the light selection and light
-//!    point through the shared gather ([`super::light::x8::Gather`]: area lights 8-wide);
+//!    then the side test (as bits for the points built without maps, else lane by lane), the
+//!    light selection and light point through the shared gather
+//!    ([`super::light::x8::Gather`]: area lights 8-wide);
 //!    then the chunk's compensated points and their state at ωi, once for steps 3 and 4
 //!    (`compensated::lanes::Chunk`: the table lookups at ωi 8-wide, over the mirror sawtooth
 //!    the entries in lanes; a built map that is no such point gets its ωi cache instead,
@@ -22,7 +23,8 @@
 //!    8-wide calls, the remainder's table lookups with their coordinates 8-wide), else lane by
 //!    lane (the scalar model); then 8-wide: the power heuristic, the contribution and the
 //!    shadow ray ([`super::diffuse::light_out`]);
-//! 4. the BSDF samples (the same split: the points' draws lane by lane, their first orders and
+//! 4. the BSDF samples (the same split: over the mirror sawtooth the points' draws 8-wide,
+//!    masked PCG32 steps on their streams, else lane by lane; their first orders and
 //!    remainders together), then lane by lane the next ray; each lane's light and BSDF samples
 //!    go to the integrator's [`super::tail::Tail`] (`PathState::advance` for `path`, rays to
 //!    trace for `direct`).
@@ -30,8 +32,7 @@
 //! Over the mirror sawtooth the first orders of steps 3 and 4 run in lanes too
 //! (`compensated::lanes`' `first`), from the chunk's columns built once for both steps (there
 //! from the build's columns as they are: no per-point map, issue 18, seventeenth session).
-//! The draws still run per lane through the scalar code; every number
-//! is the scalar model's bit for bit
+//! Every number is the scalar model's bit for bit
 //! (`compensated::lanes`' tests), so the image is the scalar renderer's (`docs/mnm.md`, "Issues
 //! 17/18: the compensated model in lanes (tenth session)" and "... the compensated build and
 //! sampler in lanes (eleventh session)").
@@ -355,62 +356,67 @@ pub(crate) mod x8 {
             with_incident_alone_x8(arena, &roots, &wi);
         }
         let arena: &BsdfArena = arena;
-        // The side test, then the light points, lane by lane in each path's order; each
-        // lane's `SurfaceBsdf` kept for steps 3 and 4, but a point built without its map
-        // (bit k of `points`), whose queries all go through the chunk: its side test is
-        // `front` (`SurfaceBsdf::new`'s, 8-wide) and its lobes the nested leaf's (its root).
-        // Bit k of `alive`: lane k scatters (it has a `SurfaceBsdf` or is such a point).
+        // The side test, then the light points, in each path's order; each lane's
+        // `SurfaceBsdf` kept for steps 3 and 4, but a point built without its map (bit k of
+        // `points`), whose queries all go through the chunk: its side test is `front`
+        // (`SurfaceBsdf::new`'s, 8-wide) and its lobes the nested leaf's (its root), so those
+        // lanes are settled as bits, together; the other lanes build their `SurfaceBsdf` one by
+        // one. Bit k of `alive`: lane k scatters (it has a `SurfaceBsdf` or is such a point);
+        // of `nee`: it takes a light sample (smooth lobes, a strategy with light samples).
         let mut sb: [Option<SurfaceBsdf>; 8] = [None; 8];
-        let mut alive = 0u8;
-        let point_lobes = built.as_ref().map(|bt| arena.bsdf(bt.child).lobes());
-        let mut nee = [false; 8];
+        let light_samples = cfg.strategy != Strategy::BsdfOnly;
+        let mut alive = points & front;
+        let mut nee = match &built {
+            Some(bt) if light_samples && arena.bsdf(bt.child).lobes().is_smooth() => alive,
+            _ => 0,
+        };
+        let mut rest = !points;
+        while rest != 0 {
+            let k = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let si = si_at(b, k);
+            let Some(bsdf) = SurfaceBsdf::new(arena.bsdf(all[k]), si.sh, si.ng, si.wi) else {
+                continue; // as `PathState::scatter`: the path ends
+            };
+            sb[k] = Some(bsdf);
+            alive |= 1 << k;
+            nee |= u8::from(light_samples && bsdf.lobes().is_smooth()) << k;
+        }
+        // Every path's light sample cleared; the scattering paths' throughputs; the light
+        // sample's points (the others 0).
         let mut tp = Cols3::default();
-        let light_only = cfg.strategy == Strategy::LightOnly;
-        gather.reset();
-        let mut p8 = Cols3::default();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             b.light[i] = None;
-            let lobes = match point_lobes {
-                Some(l) if points & (1 << k) != 0 => {
-                    if front & (1 << k) == 0 {
-                        continue; // no light scatters toward wi: the path ends
-                    }
-                    l
-                }
-                _ => {
-                    let si = si_at(b, k);
-                    let Some(bsdf) = SurfaceBsdf::new(arena.bsdf(all[k]), si.sh, si.ng, si.wi)
-                    else {
-                        continue; // as `PathState::scatter`: the path ends
-                    };
-                    sb[k] = Some(bsdf);
-                    bsdf.lobes()
-                }
-            };
-            alive |= 1 << k;
-            tp.set(k, b.state[i].throughput);
-            if cfg.strategy != Strategy::BsdfOnly && lobes.is_smooth() {
-                nee[k] = true;
-                p8.set(k, p.get(k));
+            if alive & (1 << k) != 0 {
+                tp.set(k, b.state[i].throughput);
             }
         }
+        let light_only = cfg.strategy == Strategy::LightOnly;
+        gather.reset();
+        let zero = avx.splat(0.0);
+        let p8 = Cols3::store(V3::select(
+            avx.mask_bits(u32::from(nee)),
+            surf.p,
+            V3::new(zero, zero, zero),
+        ));
         // The light selection and light point numbers of the lanes that take a light sample,
         // 8-wide from their streams (`draws::x8::draw`: each stream's scalar order; every
         // lane's numbers come before its BSDF sample's, as in `PathState::scatter`).
-        if nee.contains(&true) {
+        if nee != 0 {
             let light = Draws {
                 light: true,
                 u1: false,
                 u2: false,
             };
-            let n = draw(avx, &mut b.sampler, ids, &nee, light);
+            let on = crate::lane::bits::bools8(u32::from(nee));
+            let n = draw(avx, &mut b.sampler, ids, &on, light);
             gather.add_x8(
                 avx,
                 scene,
                 lights,
                 light_only,
-                avx.mask(&nee).bits(),
+                u32::from(nee),
                 &n.u_sel,
                 &n.u,
                 &p8,
@@ -453,7 +459,7 @@ pub(crate) mod x8 {
         //    width 1), the BSDF toward them lane by lane where a point was not one of the
         //    chunk's (as `nee::prepare_light`), the chunk's points together into the columns,
         //    the rest 8-wide.
-        if nee.contains(&true) {
+        if nee != 0 {
             let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
             let zero = avx.splat(0.0);
             let local = surf.frame.to_local(lp.d);
@@ -464,11 +470,7 @@ pub(crate) mod x8 {
             // together below, their directions in the columns as they are); the lanes whose
             // value is consistent (every one of the chunk's, the others where they have a
             // `SurfaceBsdf`, evaluated lane by lane).
-            let mut toward = 0u8;
-            for (k, &n) in nee.iter().enumerate() {
-                toward |= u8::from(n) << k;
-            }
-            let toward = toward & side.bits() as u8;
+            let toward = nee & side.bits() as u8;
             let lit = toward & chunk.lanes();
             let mut consistent = lit;
             let mut rest = toward & !lit;
@@ -497,7 +499,7 @@ pub(crate) mod x8 {
             let shadow =
                 crate::stream::kernels::ray::RayRows::segment_rows(avx, lo.o, lo.d, lo.tmax);
             for (k, &i) in ids.iter().enumerate() {
-                if nee[k] && ok[k] {
+                if nee & (1 << k) != 0 && ok[k] {
                     tail.light(b, i as usize, shadow[k], c.get(k));
                 }
             }

@@ -8,7 +8,9 @@
 //! [`Collected::sum`], the scalar model's own code, so every point's result is the scalar
 //! model's bit for bit (`tests`). The sampler runs with per-lane decisions (lobe choice, cosine
 //! lobe, first-order entry, mirror wall), its nested samples of all 8 points in one 8-wide call
-//! of the nested BSDF's lane form ([`sample`]).
+//! of the nested BSDF's lane form ([`sample`]); over the mirror sawtooth its random numbers
+//! are drawn for the 8 points at once, as masked 8-wide PCG32 steps on their streams
+//! ([`draws`]).
 //!
 //! The points' state at their ωi (the [`AtWi`] of each, its entries) is computed once per
 //! chunk for both queries ([`Chunk`]): the baked table's lookups at ωi 8-wide, over the
@@ -35,6 +37,8 @@ use super::super::facets::FacetCols;
 pub(crate) use super::super::lane_cols::Cols;
 use super::super::ms_table::{CellCols, Colour, Lookups8, MsTable};
 use super::super::nested_batch::{Pairs, CHUNK};
+#[cfg(target_arch = "x86_64")]
+mod draws;
 mod first;
 mod sample;
 
@@ -893,41 +897,15 @@ pub(crate) fn sample_x8_cols(
     let kind = Nested::of(&nested);
     let exact = sample_record_is_exact(&nested);
     // Pass 1: the lobe choice, the cosine lobe, the entry and the nested sample's numbers
-    // (each point's ωi state and entries from `c`); `drawn`: the lanes with an ωo (in the
-    // columns `wc`, by component); `entry`: the entry of a lane that asked for a nested
-    // sample.
+    // (each point's ωi state and entries from `c`; [`first_pass`]); `drawn`: the lanes with
+    // an ωo (in the columns `wc`, by component); `entry`: the entry of a lane that asked for
+    // a nested sample (off the mirror sawtooth).
     let mut st = States::new();
     let mut wc = [[0.0f32; 8]; 3];
-    let mut drawn = 0u8;
     let mut entry = [usize::MAX; 8];
     let mut asks = sample::Asks::new();
-    let mut above = c.above;
-    while above != 0 {
-        let k = above.trailing_zeros() as usize;
-        above &= above - 1;
-        let s = &mut samplers.stream(ids[k] as usize);
-        if s.next_1d() < c.sel[k] {
-            let d = warp::square_to_cosine_hemisphere(s.next_2d());
-            (wc[0][k], wc[1][k], wc[2][k]) = (d.x, d.y, d.z);
-            drawn |= 1 << k;
-            continue;
-        }
-        // `draw`'s entry by weight, then the nested sample from the entry's direction.
-        // Over the mirror sawtooth from the chunk's entry columns (the same pick and
-        // direction as `pick_entry` over the point's `Entries`).
-        let u = s.next_1d();
-        let (j, a) = if c.mirror {
-            let Some(j) = c.geo.pick(k, u) else { continue };
-            (j, c.geo.entry_dir(k, j))
-        } else {
-            let Some(j) = pick_entry(&c.e[k], u) else {
-                continue;
-            };
-            (j, c.e[k].a[j])
-        };
-        asks.push(kind, k, a, s);
-        entry[k] = j;
-    }
+    let p1 = first_pass(c, kind, samplers, ids, &mut asks, &mut wc, &mut entry);
+    let mut drawn = p1.cosine;
     // Pass 2: the nested samples 8-wide.
     // Over the mirror sawtooth, the known terms of the lanes that took a nested sample in
     // columns: `from_nested` (bit k: lane k), each one's path 2 j + wall (`ks`), its nested
@@ -940,29 +918,18 @@ pub(crate) fn sample_x8_cols(
         let a = asks.answer(c.cols, kind);
         // Pass 3: the rest of `draw` per point (the facet frame and the mirror wall's draw),
         // for the lanes with an entry whose nested sample is kept (`Answered::get`'s test).
-        let mut asked = 0u8;
-        for (k, &j) in entry.iter().enumerate() {
-            asked |= u8::from(j != usize::MAX) << k;
-        }
-        let mut rest = asked & a.ok();
+        let mut rest = p1.asked & a.ok();
         if c.mirror {
             // Over the mirror sawtooth `leave`'s numbers before its draw (the samples'
             // directions in the shading frame, G1 there, the mirror wall's reflection) for all
             // lanes at once, from the chunk's columns (the map's numbers); `leave_mirror`'s
-            // draw per lane (every entry is facet 0's): u where the number is below G1(u),
-            // else R(u) through the wall (bit k of `wall`), blended into the columns after;
-            // the known terms in columns.
+            // draw ([`wall_pass`]: every entry is facet 0's): u where the number is below
+            // G1(u), else R(u) through the wall (bit k of `wall`), blended into the columns
+            // after; the known terms in columns.
             let l = c.geo.leave_dirs(c.cols, a.wo());
-            let mut wall = 0u8;
-            while rest != 0 {
-                let k = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                let s = &mut samplers.stream(ids[k] as usize);
-                let through = s.next_1d() < l.g(k);
-                wall |= u8::from(!through) << k;
-                ks[k] = (2 * entry[k] + usize::from(!through)) as f32;
-                from_nested |= 1 << k;
-            }
+            let wall;
+            (wall, ks) = wall_pass(c.cols, samplers, ids, rest, &l, p1.second);
+            from_nested = rest;
             c.cols.run(
                 #[inline(always)]
                 |cols| l.blend_into(cols, from_nested, wall, &mut wc),
@@ -1040,6 +1007,103 @@ pub(crate) fn sample_x8_cols(
         w: done.w,
         lobe: super::super::explicit::lobe_of(nested.lobes()),
     }
+}
+
+/// What the sampler's pass 1 drew ([`first_pass`]), as lane bits (bit k: lane k): the lanes
+/// that took the cosine lobe (their directions in the caller's columns), those that picked an
+/// entry and asked for a nested sample, and among those the ones whose entry is slot 1 (over
+/// the mirror sawtooth: the wall's after a direct one).
+struct Drawn {
+    cosine: u8,
+    asked: u8,
+    second: u8,
+}
+
+/// Pass 1 of [`sample_x8_cols`] for the points of `c` seen from above, each drawing from
+/// stream `ids[k]`: the lobe choice (the cosine lobe where the number is below s(ωi): its
+/// direction into `wc`), else the entry by weight and the nested sample's numbers (into
+/// `asks`; the entry into `entry`, off the mirror sawtooth). Over the mirror sawtooth with
+/// AVX2 the 8 points' draws in lanes ([`draws::first8`]), else point by point in the scalar
+/// code (`Cols::LOOPS`: the tests' reference; the same numbers).
+#[inline(always)]
+fn first_pass(
+    c: &Chunk,
+    kind: Nested,
+    samplers: &mut Samplers,
+    ids: &[u32; 8],
+    asks: &mut sample::Asks,
+    wc: &mut [[f32; 8]; 3],
+    entry: &mut [usize; 8],
+) -> Drawn {
+    #[cfg(target_arch = "x86_64")]
+    if let (Some(avx), true) = (c.cols.avx(), c.mirror) {
+        return draws::first8(avx, c, samplers, ids, sample::draws_u1(kind), asks, wc);
+    }
+    let mut d = Drawn {
+        cosine: 0,
+        asked: 0,
+        second: 0,
+    };
+    let mut above = c.above;
+    while above != 0 {
+        let k = above.trailing_zeros() as usize;
+        above &= above - 1;
+        let s = &mut samplers.stream(ids[k] as usize);
+        if s.next_1d() < c.sel[k] {
+            let v = warp::square_to_cosine_hemisphere(s.next_2d());
+            (wc[0][k], wc[1][k], wc[2][k]) = (v.x, v.y, v.z);
+            d.cosine |= 1 << k;
+            continue;
+        }
+        // `draw`'s entry by weight, then the nested sample from the entry's direction.
+        // Over the mirror sawtooth from the chunk's entry columns (the same pick and
+        // direction as `pick_entry` over the point's `Entries`).
+        let u = s.next_1d();
+        let (j, a) = if c.mirror {
+            let Some(j) = c.geo.pick(k, u) else { continue };
+            (j, c.geo.entry_dir(k, j))
+        } else {
+            let Some(j) = pick_entry(&c.e[k], u) else {
+                continue;
+            };
+            (j, c.e[k].a[j])
+        };
+        asks.push(kind, k, a, s);
+        entry[k] = j;
+        d.asked |= 1 << k;
+        d.second |= u8::from(j == 1) << k;
+    }
+    d
+}
+
+/// Pass 3's draw over the mirror sawtooth (`leave_mirror`'s, every entry facet 0's): each
+/// lane of `rest` (a kept nested sample) draws a number from stream `ids[k]` and leaves
+/// through the wall where it is not below G1(u) (`l`). Returns the lanes through the wall and
+/// each lane's path 2 j + wall (`second`: the lanes of entry 1). With AVX2 in lanes
+/// ([`draws::wall8`]), else lane by lane (the same numbers).
+#[inline(always)]
+fn wall_pass(
+    cols: Cols,
+    samplers: &mut Samplers,
+    ids: &[u32; 8],
+    rest: u8,
+    l: &first::Left,
+    second: u8,
+) -> (u8, [f32; 8]) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx) = cols.avx() {
+        return draws::wall8(avx, samplers, ids, rest, l.g_col(), second);
+    }
+    let (mut wall, mut ks) = (0u8, [0.0f32; 8]);
+    let mut left = rest;
+    while left != 0 {
+        let k = left.trailing_zeros() as usize;
+        left &= left - 1;
+        let through = samplers.stream(ids[k] as usize).next_1d() < l.g(k);
+        wall |= u8::from(!through) << k;
+        ks[k] = (2 * usize::from(second & (1 << k) != 0) + usize::from(!through)) as f32;
+    }
+    (wall, ks)
 }
 
 /// [`finish_samples`]' results by lane: each sample's density and weight, and the lanes whose
@@ -1658,7 +1722,9 @@ mod tests {
     /// (`MnmCols::two_facets_with_cell`) are exactly those whose map is the compensated model
     /// alone over the mirror sawtooth: rough conductors and a rough plastic, baked and
     /// per-bounce tables, random normal map values (beyond the tilt clamp, below the horizon,
-    /// flat ones), ωi and ωo over both hemispheres, lanes left out (a failed side test).
+    /// flat ones), ωi and ωo over both hemispheres, lanes left out (a failed side test);
+    /// independent and stratified streams (some with a stratified 2-D draw pending), with the
+    /// chunk's columns 8-wide and lane by lane (`Cols::LOOPS`).
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn chunk_of_the_build_lanes_equals_the_scalar_model() {
@@ -1674,7 +1740,15 @@ mod tests {
         let nested = super::super::tests::push_reflectors(&mut arena);
         let (geometry, tangent) = (Microgeometry::Sawtooth, Tangent::Mirror);
         let (mut evals, mut samples, mut points, mut flat) = (0, 0, 0, 0);
-        for colour in [Colour::Baked, Colour::PerBounce] {
+        let mut strata = 0;
+        // 8-wide (the sampler's draws in lanes) and lane by lane (`Cols::LOOPS`: the loops
+        // that a CPU without AVX2 runs, `finish_evals`' among them).
+        for (colour, cols) in [
+            (Colour::Baked, Cols::detect()),
+            (Colour::PerBounce, Cols::detect()),
+            (Colour::Baked, Cols::LOOPS),
+            (Colour::PerBounce, Cols::LOOPS),
+        ] {
             let table = unit_table(geometry, tangent, colour);
             let settings = MnmSettings {
                 geometry,
@@ -1687,7 +1761,7 @@ mod tests {
                 ms_table: Some(table),
             };
             for &n in &nested {
-                for _ in 0..150 {
+                for round in 0..150 {
                     let mut rgb = [Vec3::ZERO; 8];
                     let (mut wi, mut wo) = ([Vec3::Z; 8], [Vec3::Z; 8]);
                     for k in 0..8 {
@@ -1724,7 +1798,7 @@ mod tests {
                         }
                     }
                     let chunk = || {
-                        let mut c = Chunk::of_facets(Cols::detect(), lanes.facets());
+                        let mut c = Chunk::of_facets(cols, lanes.facets());
                         let cells = lanes.cells().expect("compensated, with a table");
                         let wi = [wi.map(|v| v.x), wi.map(|v| v.y), wi.map(|v| v.z)];
                         c.set_lanes(arena.bsdf(n), table, cells, mask, &wi);
@@ -1734,8 +1808,29 @@ mod tests {
                     let seeds: [u64; 8] = std::array::from_fn(|_| rng.next_u32() as u64);
                     let got = eval_pdf_x8(&ctx, &chunk(), u8::MAX, &wo);
                     let ids: [u32; 8] = std::array::from_fn(|k| k as u32);
-                    let mut samplers: Vec<Sampler> =
-                        seeds.iter().map(|&s| Sampler::from_seed(s, 2)).collect();
+                    // Independent streams, or every other round stratified ones (with and
+                    // without jitter), each lane with 0 to 2 of its stratified 2-D draws
+                    // spent: plain and stratified streams in one chunk.
+                    let fresh: Vec<Sampler> = (0..8)
+                        .map(|k| match round % 4 {
+                            0 | 2 => Sampler::from_seed(seeds[k], 2),
+                            r => {
+                                let desc = crate::sampler::SamplerDesc {
+                                    kind: crate::sampler::SamplerKind::Stratified {
+                                        jitter: r == 1,
+                                    },
+                                    sample_count: 16,
+                                    seed: seeds[k],
+                                };
+                                let mut s = Sampler::for_sample(&desc, 7 + k as u64, k as u32);
+                                for _ in 0..(k + round) % 3 {
+                                    s.next_2d();
+                                }
+                                s
+                            }
+                        })
+                        .collect();
+                    let mut samplers = fresh.clone();
                     let sampled = sample_x8(&ctx, &chunk(), &mut samplers, &ids);
                     for k in 0..8 {
                         if mask & (1 << k) == 0 {
@@ -1753,7 +1848,8 @@ mod tests {
                             got[k]
                         );
                         evals += usize::from(wi[k].z > 0.0 && wo[k].z > 0.0);
-                        let mut s = Sampler::from_seed(seeds[k], 2);
+                        let mut s = fresh[k].clone();
+                        strata += usize::from(s.plain_parts().is_none() && wi[k].z > 0.0);
                         match (sampled[k], b.sample(&ctx, wi[k], &mut s)) {
                             (None, None) => {}
                             (Some(a), Some(w)) => {
@@ -1774,11 +1870,13 @@ mod tests {
                 }
             }
         }
-        // 6 × 150 chunks of 8 lanes: ~10 % flat, ~86 % of the rest points, a quarter of
-        // those with ωi and ωo above, half of them sampled.
+        // 12 × 150 chunks of 8 lanes: ~10 % flat, ~86 % of the rest points, a quarter of
+        // those with ωi and ωo above, half of them sampled; a third of the points of the
+        // stratified rounds seen from above with a stratified 2-D draw pending.
         assert!(
-            flat > 400 && points > 5000 && evals > 1000 && samples > 2000,
-            "{flat} flat, {points} points, {evals} evaluations, {samples} samples"
+            flat > 800 && points > 10000 && evals > 2000 && samples > 4000 && strata > 800,
+            "{flat} flat, {points} points, {evals} evaluations, {samples} samples, \
+             {strata} stratified"
         );
     }
 }

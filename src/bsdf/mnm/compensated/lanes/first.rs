@@ -36,7 +36,7 @@ use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::lane::frame::Frame as LaneFrame;
 use crate::lane::vec::V3;
 #[cfg(target_arch = "x86_64")]
-use crate::lane::{Avx2, F32x8};
+use crate::lane::{Avx2, F32x8, M8};
 use crate::lane::{Lane, LaneMask};
 #[cfg(test)]
 use crate::math::Frame;
@@ -182,6 +182,12 @@ impl Left {
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn g(&self, k: usize) -> f32 {
         self.g[k]
+    }
+
+    /// G1(u) by lane (the mirror wall's draws in lanes, `super::draws`).
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn g_col(&self) -> &[f32; 8] {
+        &self.g
     }
 
     /// The sampler's directions into `wo` (by component), for the lanes `on` (bit k: lane k;
@@ -517,6 +523,27 @@ impl Points8 {
         Some(if x < acc { 0 } else { 1 })
     }
 
+    /// [`Self::pick`] and [`Self::entry_dir`] of the 8 lanes at once, from the numbers `x` by
+    /// lane: the lanes with an entry (`pick`'s `Some`: slot 0 exists, its 1 not at most 0), the
+    /// lanes whose pick is slot 1 (a second slot, and `x` not below 0 + w0: `pick`'s sum and
+    /// compare), and the picked entry's direction in facet 0's frame (lanes without an entry:
+    /// any value). Call inside [`Avx2::run`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn pick8(
+        &self,
+        avx: Avx2,
+        x: F32x8,
+    ) -> (M8, M8, V3<F32x8>) {
+        let zero = avx.splat(0.0);
+        let some = !avx.load(&self.has[0]).le(zero);
+        let two = !avx.load(&self.has[1]).le(zero);
+        let acc = zero + avx.load(&self.w[0]);
+        let second = some & two & !x.lt(acc);
+        let a = V3::select(second, l3_8(avx, &self.a[1]), l3_8(avx, &self.a[0]));
+        (some, second, a)
+    }
+
     /// The direction of lane `k`'s entry `j` in facet 0's frame (`entries_of(k).a[j]`).
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn entry_dir(&self, k: usize, j: usize) -> Vec3 {
@@ -571,7 +598,7 @@ impl Mirror8 {
     /// times the density per channel. What [`Self::push`] of each live lane with
     /// `known_term`'s `Option` gives, for the 8 lanes from their columns.
     /// 8-wide when the CPU has AVX2 and FMA (selects by the lanes' bits, the products `w · pdf`
-    /// per lane: the same numbers), else lane by lane ([`Self::sampled_width1`]).
+    /// per lane: the same numbers), else lane by lane (`Cols::LOOPS`: the tests' reference).
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn sampled(
         cols: Cols,
@@ -604,19 +631,6 @@ impl Mirror8 {
                 },
             );
         }
-        Self::sampled_width1(live, wo, known, ks, pdf, w)
-    }
-
-    /// [`Self::sampled`] lane by lane.
-    #[inline(always)]
-    fn sampled_width1(
-        live: u8,
-        wo: &[[f32; 8]; 3],
-        known: u8,
-        ks: &[f32; 8],
-        pdf: &[f32; 8],
-        w: &[[f32; 8]; 3],
-    ) -> Self {
         let mut m = Self::new();
         for k in 0..8 {
             let on = live & (1 << k) != 0;
@@ -1106,6 +1120,75 @@ mod tests {
         );
     }
 
+    /// The entry picks in lanes ([`Points8::pick8`]) equal [`Points8::pick`] and
+    /// [`Points8::entry_dir`] lane by lane: slots present or not (1, 0, −0, NaN), weights and
+    /// numbers with ±0, subnormals, ±∞, NaN, and numbers equal to the weight.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn picks_in_lanes_equal_the_scalar_ones() {
+        let Some(avx) = Avx2::detect() else { return };
+        const EDGES: [f32; 9] = [
+            0.0,
+            -0.0,
+            1e-40,
+            1.0,
+            0.5,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -1.0,
+        ];
+        let mut rng = Pcg32::new(28, 2);
+        let num = |rng: &mut Pcg32| {
+            if rng.next_f32() < 0.3 {
+                EDGES[rng.next_u32() as usize % EDGES.len()]
+            } else {
+                rng.next_f32()
+            }
+        };
+        let (mut seconds, mut nones) = (0, 0);
+        for _ in 0..4000 {
+            let mut p = Points8::new();
+            let mut x = [0.0f32; 8];
+            for (k, xk) in x.iter_mut().enumerate() {
+                for j in 0..ENTRIES {
+                    p.has[j][k] = [1.0, 0.0, -0.0, f32::NAN][rng.next_u32() as usize % 4];
+                    p.w[j][k] = num(&mut rng);
+                    for c in 0..3 {
+                        p.a[j][c][k] = num(&mut rng);
+                    }
+                }
+                *xk = if rng.next_f32() < 0.2 {
+                    p.w[0][k]
+                } else {
+                    num(&mut rng)
+                };
+            }
+            let (some, second, a) = avx.run(|| {
+                let (some, second, a) = p.pick8(avx, avx.load(&x));
+                let mut out = [[0.0f32; 8]; 3];
+                s3_8(a, &mut out);
+                (some.bits(), second.bits(), out)
+            });
+            for k in 0..8 {
+                let want = p.pick(k, x[k]);
+                assert_eq!(some >> k & 1 == 1, want.is_some(), "{k} {x:?}");
+                let Some(j) = want else {
+                    nones += 1;
+                    continue;
+                };
+                assert_eq!(second >> k & 1 == 1, j == 1, "{k} {x:?}");
+                seconds += usize::from(j == 1);
+                let got = Vec3::new(a[0][k], a[1][k], a[2][k]);
+                assert!(same3(got, p.entry_dir(k, j)), "{k}");
+            }
+        }
+        assert!(
+            seconds > 4000 && nones > 4000,
+            "{seconds} second slots, {nones} none"
+        );
+    }
+
     /// A sampling query's inputs from columns ([`Mirror8::sampled`], 8-wide on this machine)
     /// equal the lane-by-lane form bit for bit (NaNs as NaNs), every column and the mask: random
     /// live and known lanes, densities and weights with ±0, subnormals, huge values, ±∞ and NaN
@@ -1144,7 +1227,7 @@ mod tests {
             let pdf = col(&mut rng);
             let (a, b) = (
                 Mirror8::sampled(Cols::detect(), live, &wo, known, &ks, &pdf, &w),
-                Mirror8::sampled_width1(live, &wo, known, &ks, &pdf, &w),
+                Mirror8::sampled(Cols::LOOPS, live, &wo, known, &ks, &pdf, &w),
             );
             assert_eq!(a.used, b.used, "{round}");
             for k in 0..8 {

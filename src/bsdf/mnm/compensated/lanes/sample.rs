@@ -55,6 +55,18 @@ impl LaneSample for RoughPlastic {
     }
 }
 
+/// Whether `Bsdf::sample` of `nested` (a kind with a lane form) draws the lobe number `u1`
+/// before `u2`.
+#[inline(always)]
+pub(in crate::bsdf::mnm::compensated) fn draws_u1(nested: Nested) -> bool {
+    match nested {
+        Nested::Diffuse(_) => Diffuse::DRAWS_U1,
+        Nested::Conductor(_) => RoughConductor::DRAWS_U1,
+        Nested::Plastic(_) => RoughPlastic::DRAWS_U1,
+        Nested::Other(_) => unreachable!("a point's nested BSDF has a lane form"),
+    }
+}
+
 /// Up to 8 asks for a nested sample, by lane (structure of arrays): the incident direction in
 /// the facet's frame and the random numbers drawn for it. Lanes without an ask hold +z and
 /// zeros (valid inputs whose answers are never read).
@@ -86,13 +98,7 @@ impl Asks {
         wi: Vec3,
         s: &mut impl Draw,
     ) {
-        let draws_u1 = match nested {
-            Nested::Diffuse(_) => Diffuse::DRAWS_U1,
-            Nested::Conductor(_) => RoughConductor::DRAWS_U1,
-            Nested::Plastic(_) => RoughPlastic::DRAWS_U1,
-            Nested::Other(_) => unreachable!("a point's nested BSDF has a lane form"),
-        };
-        if draws_u1 {
+        if draws_u1(nested) {
             self.u1[k] = s.next_1d();
         }
         let u2 = s.next_2d();
@@ -102,6 +108,35 @@ impl Asks {
         self.u2[0][k] = u2.x;
         self.u2[1][k] = u2.y;
         self.used |= 1 << k;
+    }
+
+    /// The lanes `on` (bit k: lane k) ask for a sample from `wi` with the numbers `u1` (read
+    /// where [`draws_u1`]) and `u2` drawn for them (the sampler's draws in lanes,
+    /// `super::draws`), the other lanes kept: [`Self::push`] of each such lane, from lanes.
+    /// Call inside [`crate::lane::Avx2::run`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(in crate::bsdf::mnm::compensated) fn set_lanes(
+        &mut self,
+        avx: crate::lane::Avx2,
+        on: crate::lane::M8,
+        wi: V3<F32x8>,
+        u1: F32x8,
+        u2: V2<F32x8>,
+    ) {
+        // A plain function, not a closure: a closure may be compiled out of the SIMD
+        // function, and its loads become calls.
+        #[inline(always)]
+        fn blend(avx: crate::lane::Avx2, on: crate::lane::M8, v: F32x8, col: &mut [f32; 8]) {
+            F32x8::select(on, v, avx.load(col)).store(col);
+        }
+        blend(avx, on, wi.x, &mut self.wi[0]);
+        blend(avx, on, wi.y, &mut self.wi[1]);
+        blend(avx, on, wi.z, &mut self.wi[2]);
+        blend(avx, on, u1, &mut self.u1);
+        blend(avx, on, u2.x, &mut self.u2[0]);
+        blend(avx, on, u2.y, &mut self.u2[1]);
+        self.used |= on.bits() as u8;
     }
 
     /// Whether no lane asked.
