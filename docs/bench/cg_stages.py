@@ -8,8 +8,10 @@ Usage: cg_stages.py CALLGRIND_OUT BINARY MODE [DEPTH] [TOP]
        line:  per innermost groove source line (not library code);
        at=FILE:LINE (or a substring of a path): the callers (DEPTH source lines) of that code.
   STAGE=NAME (environment) keeps only instructions whose chain has a function containing NAME.
-Collect the render loop only with --toggle-collect='*stream::render_block*', e.g.
-  GROOVE_LANES=8 valgrind --tool=callgrind --dump-instr=yes --toggle-collect='*stream::render_block*' \
+Collect the render loop only with --toggle-collect='*StackJob*execute*' (rayon's block jobs, what
+callgrind.sh counts; builds since the twenty-eighth session inline `stream::render_block` into them,
+so '*stream::render_block*' collects nothing there), e.g.
+  GROOVE_LANES=8 valgrind --tool=callgrind --dump-instr=yes --toggle-collect='*StackJob*execute*' \
     --callgrind-out-file=/tmp/cg.out target/release/groove render scenes/bench/metal_plastic.xml \
     -D spp=2 --spp 2 -t 1 -q --renderer stream -o /tmp/x.exr
   docs/bench/cg_stages.py /tmp/cg.out target/release/groove stage 1
