@@ -337,16 +337,7 @@ impl Batch {
 
     /// Keeps in `active` the paths still alive, in ascending order (stable compaction).
     pub fn compact(&mut self) {
-        let (active, alive) = (&mut self.active, &self.alive);
-        // In place and branch-free: every id is written at the write position, which advances
-        // past the alive ones only (it never passes the read position).
-        let mut kept = 0;
-        for r in 0..active.len() {
-            let i = active[r];
-            active[kept] = i;
-            kept += alive[i as usize] as usize;
-        }
-        active.truncate(kept);
+        compact_from(&mut self.active, &self.alive, 0, 0);
     }
 
     /// [`Self::compact`] 8 ids at a time with AVX2: each chunk's `alive` flags by one gather
@@ -367,20 +358,29 @@ impl Batch {
                 let (mut kept, mut r) = (0, 0);
                 while r + 8 <= len {
                     let ids: &[u32; 8] = active[r..r + 8].try_into().expect("8 ids");
-                    let idv = avx.load_i32(&ids.map(|i| i as i32));
+                    let idv = avx.load_u32(ids);
                     let keep = avx.gather_bools(alive, idv);
                     kept = avx.compress_store(idv, keep, &mut active[..], kept);
                     r += 8;
                 }
-                for r in r..len {
-                    let i = active[r];
-                    active[kept] = i;
-                    kept += alive[i as usize] as usize;
-                }
-                active.truncate(kept);
+                compact_from(active, alive, r, kept);
             },
         );
     }
+}
+
+/// The compaction of `active` from read position `r` and write position `kept` (`kept` ≤ `r`,
+/// the ids before `kept` already kept): in place and branch-free, every id is written at the
+/// write position, which advances past the alive ones only (it never passes the read
+/// position); the list then ends at the write position.
+#[inline(always)]
+fn compact_from(active: &mut Vec<u32>, alive: &[bool], r: usize, mut kept: usize) {
+    for r in r..active.len() {
+        let i = active[r];
+        active[kept] = i;
+        kept += alive[i as usize] as usize;
+    }
+    active.truncate(kept);
 }
 
 /// A list of path ids of one batch (at most [`BATCH`]) in a buffer of `BATCH` ids allocated

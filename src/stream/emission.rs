@@ -47,32 +47,24 @@ pub(crate) enum Seen {
     Scalar,
 }
 
-/// What the emission stage's first pass needs of a shape a ray hits, in one small row: its
-/// material (the sort key of the paths that scatter there) and what a ray that hits it sees
-/// ([`Seen`]'s variant: [`DARK`], [`AREA`] or [`SCALAR`]). Most hits see nothing, and for them
-/// this row is all the stage reads of the shape.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct ShapeInfo {
-    pub material: crate::material::MatId,
-    pub seen: u8,
-}
-
-/// [`ShapeInfo::seen`] of a shape whose [`Seen`] is `Dark`.
-pub(crate) const DARK: u8 = 0;
-/// [`ShapeInfo::seen`] of a shape whose [`Seen`] is `Area`.
-pub(crate) const AREA: u8 = 1;
-/// [`ShapeInfo::seen`] of a shape whose [`Seen`] is `Scalar`.
-pub(crate) const SCALAR: u8 = 2;
+/// [`Lights::info_seen`] of a shape whose [`Seen`] is `Dark`.
+pub(crate) const DARK: u32 = 0;
+/// [`Lights::info_seen`] of a shape whose [`Seen`] is `Area`.
+pub(crate) const AREA: u32 = 1;
+/// [`Lights::info_seen`] of a shape whose [`Seen`] is `Scalar`.
+pub(crate) const SCALAR: u32 = 2;
 
 /// The scene's emission as the stage sees it, decided once at load.
 #[derive(Clone, Debug)]
 pub(crate) struct Lights {
     /// Per shape.
     pub shapes: Vec<Seen>,
-    /// Per shape, its material and its `shapes` entry's variant.
-    pub info: Vec<ShapeInfo>,
-    /// `info`'s two fields as columns (`seen` widened to `u32`; one entry of 0 when the scene
-    /// has no shape), which the emission stage's first pass gathers 8 hits at a time.
+    /// What the emission stage's first pass needs of a shape a ray hits, as two columns by
+    /// shape (one entry of 0 each when the scene has no shape, so that the first pass may
+    /// gather from them 8 hits at a time): its material (the sort key of the paths that
+    /// scatter there) and what a ray that hits it sees ([`Seen`]'s variant: [`DARK`],
+    /// [`AREA`] or [`SCALAR`]). Most hits see nothing, and for them these are all the stage
+    /// reads of the shape.
     pub info_material: Vec<u32>,
     pub info_seen: Vec<u32>,
     /// The environment lights in `Scene::env_emission`'s order when every one is `constant`
@@ -161,30 +153,24 @@ impl Lights {
                     })
                     .collect()
             });
-        let info: Vec<ShapeInfo> = shapes
-            .iter()
-            .enumerate()
-            .map(|(s, seen)| ShapeInfo {
-                material: scene.shape_material[s],
-                seen: match seen {
-                    Seen::Dark => DARK,
-                    Seen::Area { .. } => AREA,
-                    Seen::Scalar => SCALAR,
-                },
-            })
-            .collect();
-        let column = |f: fn(&ShapeInfo) -> u32| {
-            let c: Vec<u32> = info.iter().map(f).collect();
-            if c.is_empty() {
-                vec![0]
-            } else {
-                c
+        let column = |f: &dyn Fn(usize, &Seen) -> u32| -> Vec<u32> {
+            match shapes.len() {
+                0 => vec![0],
+                _ => shapes
+                    .iter()
+                    .enumerate()
+                    .map(|(s, seen)| f(s, seen))
+                    .collect(),
             }
         };
-        let (info_material, info_seen) = (column(|i| i.material), column(|i| i.seen as u32));
+        let info_material = column(&|s, _| scene.shape_material[s]);
+        let info_seen = column(&|_, seen| match seen {
+            Seen::Dark => DARK,
+            Seen::Area { .. } => AREA,
+            Seen::Scalar => SCALAR,
+        });
         Lights {
             shapes,
-            info,
             info_material,
             info_seen,
             env,
@@ -355,7 +341,7 @@ pub(crate) mod x8 {
     /// through the lanes. Call inside [`Avx2::run`].
     ///
     /// One pass over the active paths reads only what every path needs (its depth, whether it
-    /// hit, the hit shape's [`ShapeInfo`]) and sorts the paths whose ray shows emission into
+    /// hit, the hit shape's [`Lights::info_material`] and [`Lights::info_seen`]) and sorts the paths whose ray shows emission into
     /// three lists (`batch.escaped`, `batch.on_lights`, `batch.one_by_one`) without a branch
     /// for the escaped ones; then each list goes 8 paths at a time through its lanes (full
     /// chunks: most paths see nothing, so lanes of mixed chunks would mostly idle), the last
@@ -509,7 +495,7 @@ pub(crate) mod x8 {
         const { assert!(cols::ROW == 32) };
         for ids in chunks {
             let ids: &[u32; 8] = ids.try_into().expect("8 ids");
-            let idv = avx.load_i32(&ids.map(|i| i as i32));
+            let idv = avx.load_u32(ids);
             let zero = idv.splat(0);
             let hit = !I32x8::gather_u32(flag, idv).eq(zero);
             let depth = avx.gather_depth(state, idv);
@@ -571,12 +557,8 @@ pub(crate) mod x8 {
         use crate::stream::BATCH;
         let (active, paths, alive, material, last) = walk;
         let n = paths.state.len();
-        let (state, hit, rows, info) = (
-            paths.state,
-            &paths.hit[..n],
-            &paths.rows[..n],
-            &paths.lights.info[..],
-        );
+        let (state, hit, rows) = (paths.state, &paths.hit[..n], &paths.rows[..n]);
+        let (info_material, info_seen) = (&paths.lights.info_material, &paths.lights.info_seen);
         let (alive, material) = (&mut alive[..n], &mut material[..n]);
         // A path shows what its ray sees from this depth on.
         let show_from = HIDE as u32;
@@ -589,14 +571,15 @@ pub(crate) mod x8 {
             let depth = state[i].depth;
             let show = depth >= show_from;
             if hit[i].is_some() {
-                let shape = info[rows[i][cols::SHAPE].to_bits() as usize];
+                let shape = rows[i][cols::SHAPE].to_bits() as usize;
                 // Written for every hit; read only for the paths listed (the sort key).
-                material[i] = shape.material;
+                material[i] = info_material[shape];
                 sb[ns % BATCH] = i as u32;
                 ns += (depth < last) as usize;
                 // Rare (hits on emitters): through the lists' own appends.
-                if show && shape.seen != DARK {
-                    if shape.seen == AREA {
+                let seen = info_seen[shape];
+                if show && seen != DARK {
+                    if seen == AREA {
                         on_lights.push(i as u32);
                     } else {
                         one_by_one.push(i as u32);

@@ -1,4 +1,5 @@
-//! `Avx2::compress_store` (the stream's lists of path ids filtered 8 at a time),
+//! `Avx2::compress_store` (the stream's lists of path ids filtered 8 at a time), `Avx2::load_u32`
+//! (8 ids as `i32` lanes),
 //! `Avx2::gather_depth` (8 path states' depths), `Avx2::gather_bools` (8 paths' `alive`
 //! flags) and `Avx2::vec2_columns` (8 film positions' x and y columns, every bit moved, NaN
 //! payloads among them) against scalar references: every mask pattern, ids with edge values (0, −1,
@@ -194,5 +195,31 @@ fn vec2_columns_move_every_bit() {
             assert_eq!(x[k].to_bits(), v[k].x.to_bits(), "round {round} lane {k} x");
             assert_eq!(y[k].to_bits(), v[k].y.to_bits(), "round {round} lane {k} y");
         }
+    }
+}
+
+/// `Avx2::load_u32` gives each `u32` as `x as i32` in its lane, bit for bit: ids at the
+/// edges (0, 1, 2³¹ − 1, 2³¹, `u32::MAX`) in every lane and random ones.
+#[test]
+fn load_u32_equals_the_casts() {
+    let Some(avx) = Avx2::detect() else {
+        eprintln!("no AVX2/FMA: the id load test is skipped");
+        return;
+    };
+    let mut r = Pcg32::new(28, 6);
+    let edges = [0u32, 1, i32::MAX as u32, 1 << 31, u32::MAX];
+    for round in 0..500 {
+        let a: [u32; 8] = std::array::from_fn(|k| {
+            if round < 40 {
+                edges[(round + k) % edges.len()]
+            } else {
+                r.next_u32()
+            }
+        });
+        let got = avx.run(
+            #[inline(always)]
+            || avx.load_u32(&a).to_array(),
+        );
+        assert_eq!(got, a.map(|x| x as i32), "round {round}");
     }
 }

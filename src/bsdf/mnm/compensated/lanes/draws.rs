@@ -32,16 +32,6 @@ fn step(avx: Avx2, rng: &mut Pcg<F32x8>, on: M8) -> F32x8 {
     u
 }
 
-/// The paths `ids` as 8 `i32` lanes (gather and store indices).
-#[inline(always)]
-fn lanes(avx: Avx2, ids: &[u32; 8]) -> crate::lane::I32x8 {
-    let mut idx = [0i32; 8];
-    for (d, &i) in idx.iter_mut().zip(ids) {
-        *d = i as i32;
-    }
-    avx.load_i32(&idx)
-}
-
 /// Pass 1 of the sampler for the points of `c` seen from above (`c` over the mirror sawtooth),
 /// each from stream `ids[k]` of `samplers`: the cosine lobe's directions into `wc` (by
 /// component, those lanes only) and the nested samples' asks into `asks` (`draws_u1`: the
@@ -72,7 +62,7 @@ pub(super) fn first8(
         #[inline(always)]
         || {
             let zero = avx.splat(0.0);
-            let idx = lanes(avx, ids);
+            let idx = avx.load_u32(ids);
             let (states, incs) = samplers.pcg_mut();
             let mut rng = Pcg::<F32x8>::gather(states, incs, idx);
             let old = rng.parts().0;
@@ -156,7 +146,7 @@ pub(super) fn wall8(
     avx.run(
         #[inline(always)]
         || {
-            let idx = lanes(avx, ids);
+            let idx = avx.load_u32(ids);
             let (states, incs) = samplers.pcg_mut();
             let mut rng = Pcg::<F32x8>::gather(states, incs, idx);
             let old = rng.parts().0;
