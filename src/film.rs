@@ -14,6 +14,7 @@
 //! render into crops and sample ranges (`groove merge`). Positions are taken in full-film
 //! coordinates for the same reason. Developing rounds each exact sum once.
 
+use crate::error::{Error, Result};
 use crate::math::Vec2;
 use crate::spectrum::Spectrum;
 
@@ -214,6 +215,11 @@ pub struct FilmDesc {
     pub crop_offset: (u32, u32),
     pub crop_size: (u32, u32),
     pub filter: Filter,
+    /// Keep the second moments Σw·v² and Σw² beside Σw·v and Σw: what a variance
+    /// ([`Film::develop_variance`]) and a part file (`output::part`) need. Without them a
+    /// splat converts and adds half the sums (the image, Σw·v / Σw, is the same bit for bit),
+    /// and asking for a variance is an error.
+    pub second_moments: bool,
 }
 
 impl FilmDesc {
@@ -236,11 +242,16 @@ impl FilmDesc {
 /// Per-pixel sums Σw·v, Σw·v², Σw, Σw², exact in fixed point (see [`sum`]), so that they do not
 /// depend on the order or grouping in which contributions arrive. Aligned to 16 bytes, as when
 /// the sums were `i128`s: the same size ([`PIXEL_BYTES`]).
+///
+/// Stored in the order Σw·v (R, G, B), Σw, Σw·v² (R, G, B), Σw² ([`SLOT`]), so that the
+/// image's sums are the first four and a film without second moments
+/// ([`FilmDesc::second_moments`]) adds them in two registers instead of four
+/// ([`crate::lane::Avx2::add_i128x4_biased`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(16))]
 struct Acc {
-    /// Σw·v (R, G, B), Σw·v² (R, G, B), Σw, Σw² ([`RawPixel`]'s order) as separate words:
-    /// `words[0][i]` the low 64-bit word of sum i, stored biased (its top bit flipped,
+    /// Σw·v (R, G, B), Σw, Σw·v² (R, G, B), Σw² (the storage order, [`SLOT`]) as separate
+    /// words: `words[0][i]` the low 64-bit word of slot i, stored biased (its top bit flipped,
     /// [`sum::LOW_BIAS`]), `words[1][i]` its high word. Read and written through
     /// [`Acc::sum`], [`Acc::sums`] and [`Acc::from_sums`] outside the 8-wide adds, which add a
     /// contribution's eight addends in four registers with each carry in its lane
@@ -254,15 +265,16 @@ struct Acc {
 /// `d[i] += s[i]` for a row of pixels ([`Acc::add`]): in lanes where the CPU has AVX2, each
 /// pixel's eight sums added in four registers ([`crate::lane::Avx2::add_i128x8_biased`], the
 /// same wrapping and saturating adds), so a merge costs what it did before the sums were
-/// stored biased.
+/// stored biased; with `second` false (a film without second moments) only the first four
+/// sums, in two registers.
 #[cfg(target_arch = "x86_64")]
-fn add_row(avx: Option<crate::lane::Avx2>, d: &mut [Acc], s: &[Acc]) {
+fn add_row(avx: Option<crate::lane::Avx2>, second: bool, d: &mut [Acc], s: &[Acc]) {
     match avx {
         Some(avx) => avx.run(
             #[inline(always)]
             || {
                 for (d, s) in d.iter_mut().zip(s) {
-                    avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut d.words, &s.unbiased_words());
+                    d.add_addends(avx, second, &s.unbiased_words());
                     d.bad |= s.bad;
                 }
             },
@@ -275,10 +287,15 @@ fn add_row(avx: Option<crate::lane::Avx2>, d: &mut [Acc], s: &[Acc]) {
     }
 }
 
-/// The sums of an [`Acc`] that saturate (non-negative addends, [`sum::add_unsigned`]): Σw·v²
-/// and the weights, bits 3 to 7.
+/// The storage slots of an [`Acc`] that saturate (non-negative addends,
+/// [`sum::add_unsigned`]): Σw, Σw·v² and Σw², slots 3 to 7 (in [`RawPixel`]'s order too,
+/// sums 3 to 7).
 #[cfg(target_arch = "x86_64")]
 const UNSIGNED_SUMS: u32 = 0b1111_1000;
+
+/// The storage slot of each of [`RawPixel`]'s sums (Σw·v R, G, B, Σw·v² R, G, B, Σw, Σw²) in
+/// an [`Acc`]: the first moments and the weight first, then the second moments.
+const SLOT: [usize; 8] = [0, 1, 2, 4, 5, 6, 3, 7];
 
 impl Default for Acc {
     /// No contribution: every sum 0 (stored biased).
@@ -294,13 +311,15 @@ impl Acc {
     /// Sum `i` ([`RawPixel`]'s order) as stored, biased.
     #[inline(always)]
     fn stored(&self, i: usize) -> i128 {
-        ((self.words[1][i] as i128) << 64) | self.words[0][i] as i128
+        let k = SLOT[i];
+        ((self.words[1][k] as i128) << 64) | self.words[0][k] as i128
     }
 
-    /// Stores the biased sum `s` as sum `i`.
+    /// Stores the biased sum `s` as sum `i` ([`RawPixel`]'s order).
     #[inline(always)]
     fn store(&mut self, i: usize, s: i128) {
-        (self.words[0][i], self.words[1][i]) = (s as u64, (s >> 64) as u64);
+        let k = SLOT[i];
+        (self.words[0][k], self.words[1][k]) = (s as u64, (s >> 64) as u64);
     }
 
     /// Sum `i` ([`RawPixel`]'s order), unbiased.
@@ -336,6 +355,19 @@ impl Acc {
             self.words[0].map(|w| w ^ sum::LOW_BIAS as u64),
             self.words[1],
         ]
+    }
+
+    /// Adds one contribution's addends `t` (words in the storage order, [`SLOT`]): all eight
+    /// sums, or with `second` false only the first four (Σw·v and Σw; the second moments are
+    /// not kept then).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn add_addends(&mut self, avx: crate::lane::Avx2, second: bool, t: &crate::lane::Words8) {
+        if second {
+            avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut self.words, t);
+        } else {
+            avx.add_i128x4_biased::<UNSIGNED_SUMS>(&mut self.words, t);
+        }
     }
 
     /// Σw·v of channel `c`.
@@ -491,9 +523,10 @@ pub struct Block {
     nch: usize,
     extra: Vec<[i128; 2]>,
     /// The 8-wide splats' addends: row k holds lane k's eight fixed-point addends as words,
-    /// in [`Acc::words`]' layout (scratch, kept here so that it is not zeroed per call). Under
-    /// the box filter the weights' two slots are constant and written once ([`box_lanes`]).
+    /// in [`Acc::words`]' layout (scratch, kept here so that it is not zeroed per call).
     lanes: Box<[[[u64; 8]; 2]; 8]>,
+    /// [`FilmDesc::second_moments`]: the 8-wide splats convert and add Σw·v² and Σw² too.
+    second: bool,
     /// j·`sw` for j = 0, …, 7 (wrapping): the storage offsets of a footprint's rows.
     rows: [i32; 8],
     /// The AVX2 token when the CPU has it: [`Block::put`] splats in lanes then.
@@ -529,11 +562,8 @@ impl Block {
             data: Vec::new(),
             nch,
             extra: Vec::new(),
-            lanes: Box::new(if filter.is_box() {
-                box_lanes()
-            } else {
-                [[[0; 8]; 2]; 8]
-            }),
+            lanes: Box::new([[[0; 8]; 2]; 8]),
+            second: desc.second_moments,
             rows: [0; 8],
             #[cfg(target_arch = "x86_64")]
             avx: crate::lane::Avx2::detect(),
@@ -622,11 +652,15 @@ impl Block {
         };
         let a = &mut self.data[py * self.sw as usize + px];
         let [r, g, b] = value.to_array();
-        // The addends r, g, b, r·r, g·g, b·b, 1, 1 in the row conversion's lane order
-        // (`crate::lane::ROW_LANES`: sums 0, 1, 4, 5, 2, 3, 6, 7).
-        let x = avx.load(&[r, g, g * g, b * b, b, r * r, 1.0, 1.0]);
+        // The addends r, g, b, 1, r·r, g·g, b·b, 1 (slots 0 to 7) in the row conversion's
+        // lane order (`crate::lane::ROW_LANES`: lane l gives the slot i whose
+        // `ROW_LANES[i]` is l, slots 0, 1, 4, 5, 2, 3, 6, 7).
+        let x = avx.load(&[r, g, r * r, g * g, b, 1.0, b * b, 1.0]);
         match sum::Fixed8::single(avx).row(x) {
-            Some(row) => avx.add_i128x8_biased_regs::<UNSIGNED_SUMS>(&mut a.words, row),
+            Some(row) if self.second => {
+                avx.add_i128x8_biased_regs::<UNSIGNED_SUMS>(&mut a.words, row)
+            }
+            Some(row) => avx.add_i128x4_biased_regs::<UNSIGNED_SUMS>(&mut a.words, row),
             None => a.add_unit_sample([r, g, b]),
         }
     }
@@ -734,15 +768,16 @@ impl Block {
             }
             return;
         };
+        let pairs = self.pairs();
         let t = &mut *self.lanes;
         let fx = sum::Fixed8::new(avx);
-        let xs = [r, g, b, r * r, g * g, b * b];
-        for p in 0..3 {
+        // The addends in slot order: v and the weight 1 (`sum::fixed(1.0)` is `sum::ONE`), then
+        // v·v and 1; the second pairs only when the film keeps the second moments.
+        let one = avx.splat(1.0);
+        let xs = [r, g, b, one, r * r, g * g, b * b, one];
+        for p in 0..pairs {
             fx.into_columns([xs[2 * p], xs[2 * p + 1]], t, 2 * p);
         }
-        // The weights' slots (6 and 7) of every row hold `sum::ONE` since the block was made
-        // (`box_lanes`): only this box path and `splat_lanes` (never under the box filter)
-        // write them.
         // `storage_index` with exact bounds, in lanes: inside [lo, hi) on both axes (false for
         // NaN and ±∞, so the scalar path's finiteness test is implied), floor(x) − origin.
         let [x, y] = avx.vec2_columns(pos);
@@ -762,11 +797,11 @@ impl Block {
             return;
         }
         let sw = self.sw as usize;
-        let (data, t) = (&mut self.data[..], &*self.lanes);
+        let (data, t, second) = (&mut self.data[..], &*self.lanes, self.second);
         for (k, inside) in inside.to_array().into_iter().enumerate() {
             if inside {
                 let a = &mut data[py[k] as usize * sw + px[k] as usize];
-                avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut a.words, &t[k]);
+                a.add_addends(avx, second, &t[k]);
             }
         }
     }
@@ -834,6 +869,18 @@ impl Block {
 }
 
 impl Block {
+    /// The pairs of addend columns an 8-wide splat converts: the four slots of Σw·v and Σw,
+    /// and the four of the second moments when the film keeps them.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn pairs(&self) -> usize {
+        if self.second {
+            4
+        } else {
+            2
+        }
+    }
+
     /// The pixels that a splat at `film_pos` reaches under a filter other than the box, cut to
     /// the storage; `None` when it reaches none.
     #[inline(always)]
@@ -945,30 +992,19 @@ impl Block {
     ) {
         let (r, g, b) = (avx.splat(v[0]), avx.splat(v[1]), avx.splat(v[2]));
         let (wr, wg, wb) = (r * w8, g * w8, b * w8);
-        // The eight addends' columns, converted two at a time in a loop (one pair's code,
-        // its constants held once: `sum::Fixed8`).
-        let xs = [wr, wg, wb, wr * r, wg * g, wb * b, w8, w8 * w8];
-        let (data, t) = (&mut self.data[..], &mut *self.lanes);
-        for p in 0..4 {
+        // The addends' columns in slot order, converted two at a time in a loop (one pair's
+        // code, its constants held once: `sum::Fixed8`): w·v and w, then w·v·v and w·w only
+        // when the film keeps the second moments.
+        let xs = [wr, wg, wb, w8, wr * r, wg * g, wb * b, w8 * w8];
+        let pairs = self.pairs();
+        let (data, t, second) = (&mut self.data[..], &mut *self.lanes, self.second);
+        for p in 0..pairs {
             fx.into_columns([xs[2 * p], xs[2 * p + 1]], t, 2 * p);
         }
         for (k, &a) in at.iter().enumerate().take(n) {
-            avx.add_i128x8_biased::<UNSIGNED_SUMS>(&mut data[a as usize].words, &t[k]);
+            data[a as usize].add_addends(avx, second, &t[k]);
         }
     }
-}
-
-/// [`Block`]'s addend rows under the box filter: the two weights' slots (6 and 7: a sample's
-/// weight and its square, both 1) hold `sum::ONE` = 2⁶⁴ (low word 0, high word 1) in every
-/// row, set once when the block is made instead of per 8 samples (~20 instructions per
-/// `put8_columns`); the other slots are scratch.
-fn box_lanes() -> [[[u64; 8]; 2]; 8] {
-    let mut t = [[[0; 8]; 2]; 8];
-    for row in &mut t {
-        (row[0][6], row[0][7]) = (sum::ONE as u64, sum::ONE as u64);
-        (row[1][6], row[1][7]) = ((sum::ONE >> 64) as u64, (sum::ONE >> 64) as u64);
-    }
-    t
 }
 
 /// The pixels a splat reaches (in storage coordinates) and the offsets of its first pixel
@@ -1094,7 +1130,7 @@ impl Film {
             let di = (block.oy + j - cy) as usize * cw + x0;
             let (d, s) = (&mut self.data[di..di + n], &block.data[si..si + n]);
             #[cfg(target_arch = "x86_64")]
-            add_row(avx, d, s);
+            add_row(avx, self.desc.second_moments, d, s);
             #[cfg(not(target_arch = "x86_64"))]
             for (d, s) in d.iter_mut().zip(s) {
                 d.add(s);
@@ -1177,12 +1213,15 @@ impl Film {
     }
 
     /// The variance of extra channel `c`'s pixel estimates, by the estimator of
-    /// [`Film::develop_variance`]. Empty when `c` is out of range.
-    pub fn develop_channel_variance(&self, c: usize) -> Vec<f32> {
+    /// [`Film::develop_variance`]. Empty when `c` is out of range; an error when the film keeps
+    /// no second moments.
+    pub fn develop_channel_variance(&self, c: usize) -> Result<Vec<f32>> {
+        self.need_second_moments()?;
         if c >= self.nch {
-            return Vec::new();
+            return Ok(Vec::new());
         }
-        self.data
+        Ok(self
+            .data
             .iter()
             .enumerate()
             .map(|(i, a)| {
@@ -1194,7 +1233,25 @@ impl Film {
                     sum::to_f64(e[1]),
                 )
             })
-            .collect()
+            .collect())
+    }
+
+    /// Whether the film keeps Σw·v² and Σw² ([`FilmDesc::second_moments`]).
+    pub fn has_second_moments(&self) -> bool {
+        self.desc.second_moments
+    }
+
+    /// An error unless the film keeps its second moments.
+    fn need_second_moments(&self) -> Result<()> {
+        if self.desc.second_moments {
+            Ok(())
+        } else {
+            Err(Error::Usage(
+                "this film was rendered without second moments (Σw·v², Σw²): it has no \
+                 variance; render with `RenderOptions::second_moments` (a part file keeps them)"
+                    .into(),
+            ))
+        }
     }
 
     /// Per-pixel variance of the pixel estimate (its squared standard error), per channel.
@@ -1209,7 +1266,10 @@ impl Film {
     /// With the box filter (w = 1) this is exactly the sample variance divided by n. A pixel
     /// without samples gets 0; a pixel with a single effective sample (W² ≤ W₂, e.g. one sample
     /// with the box filter) has no variance estimate and gets +∞.
-    pub fn develop_variance(&self) -> Image {
+    ///
+    /// An error when the film keeps no second moments ([`FilmDesc::second_moments`]).
+    pub fn develop_variance(&self) -> Result<Image> {
+        self.need_second_moments()?;
         let data = self
             .data
             .iter()
@@ -1219,11 +1279,11 @@ impl Film {
                     .map(|c| variance_of_mean(w, w2, sum::to_f64(a.wv(c)), sum::to_f64(a.wv2(c))))
             })
             .collect();
-        Image {
+        Ok(Image {
             width: self.crop.2,
             height: self.crop.3,
             data,
-        }
+        })
     }
 }
 

@@ -12,6 +12,7 @@ fn desc(w: u32, h: u32, filter: Filter) -> FilmDesc {
         crop_offset: (0, 0),
         crop_size: (w, h),
         filter,
+        second_moments: true,
     }
 }
 
@@ -148,11 +149,12 @@ fn biased_sums_read_and_convert_unbiased() {
     };
     let a = Acc::from(&r);
     assert_eq!(RawPixel::from(&a), r);
-    // The layout: low words biased, high words as they are, sum i in slot i; the size that of
-    // eight `i128`s and the flags.
+    // The layout: low words biased, high words as they are, sum i in slot `SLOT[i]` (the first
+    // moments and Σw in slots 0 to 3); the size that of eight `i128`s and the flags.
+    assert_eq!(SLOT, [0, 1, 2, 4, 5, 6, 3, 7]);
     for (i, &v) in r.sums.iter().enumerate() {
-        assert_eq!(a.words[0][i], v as u64 ^ 1 << 63, "sum {i}");
-        assert_eq!(a.words[1][i], (v >> 64) as u64, "sum {i}");
+        assert_eq!(a.words[0][SLOT[i]], v as u64 ^ 1 << 63, "sum {i}");
+        assert_eq!(a.words[1][SLOT[i]], (v >> 64) as u64, "sum {i}");
         assert_eq!(a.sum(i), v);
     }
     assert_eq!(PIXEL_BYTES, 144);
@@ -293,6 +295,7 @@ fn gaussian_constant_develops_to_constant_everywhere() {
         crop_offset: (1, 2),
         crop_size: (7, 4),
         filter: Filter::default(),
+        second_moments: true,
     };
     let mut film = Film::new(d.clone());
     let mut b = Block::new(&d, 1, 2, 7, 4);
@@ -440,7 +443,7 @@ fn variance_matches_for_iid_samples() {
         }
         let mut film = Film::new(d);
         film.merge(&b);
-        let var = film.develop_variance();
+        let var = film.develop_variance().unwrap();
         if filter.is_box() {
             for (k, s) in samples.iter().enumerate() {
                 let m = s.iter().sum::<f64>() / n as f64;
@@ -478,6 +481,49 @@ fn variance_matches_for_iid_samples() {
     }
 }
 
+/// A film without second moments develops the same image, bit for bit, as one with them
+/// (blocks filled by `put`, merged), for the box and a Gaussian filter; its variance (and an
+/// extra channel's) is an error, not zeros.
+#[test]
+fn film_without_second_moments_develops_the_same_image() {
+    let mut rng = Pcg32::new(21, 9);
+    for filter in [Filter::Box, Filter::default()] {
+        let d = desc(12, 9, filter);
+        let d1 = FilmDesc {
+            second_moments: false,
+            ..d.clone()
+        };
+        let (mut both, mut first) = (
+            Film::with_channels(d.clone(), 1),
+            Film::with_channels(d1.clone(), 1),
+        );
+        for (x0, y0) in [(0, 0), (6, 0), (0, 5), (6, 5)] {
+            let (mut b, mut b1) = (Block::new(&d, x0, y0, 6, 5), Block::new(&d1, x0, y0, 6, 5));
+            for _ in 0..600 {
+                let p = Vec2::new(
+                    x0 as f32 + 6.0 * rng.next_f32(),
+                    y0 as f32 + 5.0 * rng.next_f32(),
+                );
+                let v = Spectrum::new(rng.next_f32(), 3.0 * rng.next_f32(), rng.next_f32() - 0.5);
+                b.put(p, v);
+                b1.put(p, v);
+            }
+            both.merge(&b);
+            first.merge(&b1);
+        }
+        let (a, b) = (both.develop(), first.develop());
+        assert!(a.data.iter().any(|p| p[0] != 0.0));
+        let bits =
+            |i: &Image| -> Vec<[u32; 3]> { i.data.iter().map(|p| p.map(f32::to_bits)).collect() };
+        assert_eq!(bits(&a), bits(&b), "{filter:?}");
+        assert!(both.has_second_moments() && !first.has_second_moments());
+        assert!(both.develop_variance().is_ok());
+        let e = first.develop_variance().unwrap_err().to_string();
+        assert!(e.contains("second moments"), "{e}");
+        assert!(first.develop_channel_variance(0).is_err());
+    }
+}
+
 #[test]
 fn variance_edge_cases_and_junk_input() {
     let d = desc(3, 1, Filter::Box);
@@ -489,7 +535,7 @@ fn variance_edge_cases_and_junk_input() {
     b.put(Vec2::new(1.5, 0.5), Spectrum::ONE);
     b.put(Vec2::new(1.5, 0.5), Spectrum::ONE);
     film.merge(&b);
-    let v = film.develop_variance();
+    let v = film.develop_variance().unwrap();
     assert_eq!(v.get(0, 0)[0], f32::INFINITY);
     assert_eq!(v.get(1, 0)[0], 0.0);
     assert_eq!(v.get(2, 0)[0], 0.0);
@@ -501,6 +547,7 @@ fn variance_edge_cases_and_junk_input() {
         crop_offset: (3, 9),
         crop_size: (10, 10),
         filter: Filter::default(),
+        second_moments: true,
     };
     let f = Film::new(bad);
     assert_eq!(f.develop().data.len(), 0);
@@ -694,6 +741,40 @@ fn put8_equals_put_one_by_one() {
                     "put8_finite, {filter:?} block {:?}",
                     (x0, y0, w, h)
                 );
+                // Without second moments: the same first moments, weights and flags by every
+                // path (`put`, `put8`, `put8_finite`).
+                let d1 = FilmDesc {
+                    second_moments: false,
+                    ..d.clone()
+                };
+                let first = |b: &Block| -> Vec<_> {
+                    b.data
+                        .iter()
+                        .map(|a| ([a.wv(0), a.wv(1), a.wv(2)], a.w(), a.bad))
+                        .collect()
+                };
+                let (mut p1, mut e1, mut f1) = (
+                    Block::new(&d1, x0, y0, w, h),
+                    Block::new(&d1, x0, y0, w, h),
+                    Block::new(&d1, x0, y0, w, h),
+                );
+                for b in [&mut p1, &mut e1, &mut f1] {
+                    assert!(!b.second);
+                    start(b, near);
+                }
+                for &(p, v) in &samples {
+                    p1.put(p, v);
+                }
+                for c in samples.chunks_exact(8) {
+                    let pos: [Vec2; 8] = core::array::from_fn(|k| c[k].0);
+                    let v: [Spectrum; 8] = core::array::from_fn(|k| c[k].1);
+                    e1.put8(avx, &pos, &v);
+                    f1.put8_finite(avx, &pos, &v);
+                }
+                let what = |p: &str| format!("{p} without second moments, {filter:?} {x0},{y0}");
+                assert!(first(&p1) == first(&one), "{}", what("put"));
+                assert!(first(&e1) == first(&one), "{}", what("put8"));
+                assert!(first(&f1) == first(&zeroed), "{}", what("put8_finite"));
             }
         }
     }
@@ -701,7 +782,7 @@ fn put8_equals_put_one_by_one() {
 
 /// A merge's row add in lanes equals [`Acc::add`] pixel by pixel: signed sums that wrap,
 /// weights and second moments that saturate at `i128::MAX` (alone or several at once), zeros,
-/// and the flags.
+/// and the flags; without second moments, on the first moments and Σw only.
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn merge_rows_in_lanes_equal_acc_add() {
@@ -752,7 +833,16 @@ fn merge_rows_in_lanes_equal_acc_add() {
             w.add(s);
         }
         let mut got = d.clone();
-        add_row(Some(avx), &mut got, &s);
+        add_row(Some(avx), true, &mut got, &s);
         assert_eq!(got, want);
+        // Without second moments: the first moments and Σw as above, the rest as they were.
+        let mut got = d.clone();
+        add_row(Some(avx), false, &mut got, &s);
+        for ((g, w), d) in got.iter().zip(&want).zip(&d) {
+            let (g, w, d) = (g.sums(), w.sums(), d.sums());
+            assert_eq!([g[0], g[1], g[2], g[6]], [w[0], w[1], w[2], w[6]]);
+            assert_eq!([g[3], g[4], g[5], g[7]], [d[3], d[4], d[5], d[7]]);
+        }
+        assert!(got.iter().zip(&want).all(|(g, w)| g.bad == w.bad));
     }
 }

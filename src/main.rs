@@ -413,6 +413,8 @@ fn render_one(
         samples: args.samples,
         time_limit: args.time_limit,
         renderer: args.renderer,
+        // Only a part carries the second moments (Σw·v², Σw²); an image needs the first ones.
+        second_moments: is_part,
         ..Default::default()
     };
     let desc = groove::render::film_for(&loaded.settings, &opts)?;

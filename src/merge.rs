@@ -93,6 +93,8 @@ pub fn merge(parts: &[PathBuf], allow_missing: bool, budget: &Budget) -> Result<
         crop_size: (w, h),
         // Developing does not use the filter; the parts' own is in the metadata.
         filter: Filter::default(),
+        // The parts carry them (and a merged film may be asked for its variance).
+        second_moments: true,
     };
     budget
         .check(

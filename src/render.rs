@@ -169,6 +169,10 @@ pub struct RenderOptions {
     /// has up to this); `None`: as the `GROOVE_LANES` environment variable says (default 16).
     /// The image is the same at every width.
     pub lanes: Option<usize>,
+    /// Keep each pixel's second moments (Σw·v², Σw²), which [`Film::develop_variance`] and a
+    /// part file need (default). Without them the splats convert and add half the sums; the
+    /// image is the same bit for bit ([`crate::film::FilmDesc::second_moments`]).
+    pub second_moments: bool,
 }
 
 /// What a [`PassHook`] runs: the film so far and the sample range [a, b) it holds.
@@ -202,6 +206,7 @@ impl Default for RenderOptions {
             renderer: Renderer::Auto,
             packets: None,
             lanes: None,
+            second_moments: true,
         }
     }
 }
@@ -331,6 +336,7 @@ pub fn film_for(settings: &RenderSettings, opts: &RenderOptions) -> Result<FilmD
         desc.crop_offset = (x, y);
         desc.crop_size = (w, h);
     }
+    desc.second_moments = opts.second_moments;
     Ok(desc)
 }
 

@@ -207,6 +207,8 @@ fn render_with(
             seed: Some(seed),
             progress: false,
             renderer,
+            // The developed image only, as `groove render` without a part.
+            second_moments: false,
             ..Default::default()
         },
     )?;

@@ -180,6 +180,7 @@ mod tests {
             crop_offset: (2, 1),
             crop_size: (10, 8),
             filter,
+            second_moments: true,
         }
     }
 

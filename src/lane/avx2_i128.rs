@@ -38,8 +38,16 @@ impl I128x8 {
     #[inline(always)]
     pub fn load(_avx: Avx2, a: &Words8) -> I128x8 {
         let p = a.as_ptr().cast::<__m256i>();
-        // SAFETY: the token proves AVX; load j reads words 4j to 4j + 3 of the 16 in `a`.
-        I128x8(unsafe { core::array::from_fn(|j| _mm256_loadu_si256(p.add(j))) })
+        // SAFETY: the token proves AVX; load j reads words 4j to 4j + 3 of the 16 in `a`. (Four
+        // loads written out: `array::from_fn`'s closure may be compiled out of line.)
+        I128x8(unsafe {
+            [
+                _mm256_loadu_si256(p),
+                _mm256_loadu_si256(p.add(1)),
+                _mm256_loadu_si256(p.add(2)),
+                _mm256_loadu_si256(p.add(3)),
+            ]
+        })
     }
     /// The eight values' words (tests).
     #[inline(always)]
@@ -182,19 +190,56 @@ impl Avx2 {
     /// [`Avx2::add_i128x8_biased`] of addends held in registers.
     #[inline(always)]
     pub fn add_i128x8_biased_regs<const SAT: u32>(self, acc: &mut Words8, x: I128x8) {
+        self.add_biased_halves::<SAT, 2>(acc, x.0);
+    }
+
+    /// [`Avx2::add_i128x8_biased`] of the first four values only (values 0–3 of `x` added to
+    /// sums 0–3 of `acc`; sums 4–7 untouched): two registers' adds instead of four, for a
+    /// film that keeps only its first four sums (`film::FilmDesc::second_moments` false).
+    /// `SAT`'s bits 4–7 select nothing here.
+    #[inline(always)]
+    pub fn add_i128x4_biased<const SAT: u32>(self, acc: &mut Words8, x: &Words8) {
+        let p = x.as_ptr().cast::<__m256i>();
+        // SAFETY: the token proves AVX; the loads read words 0–3 and 8–11 of the 16 in `x`.
+        let (lo, hi) = unsafe { (_mm256_loadu_si256(p), _mm256_loadu_si256(p.add(2))) };
+        let z = self.zero_i256();
+        self.add_biased_halves::<SAT, 1>(acc, [lo, z, hi, z]);
+    }
+
+    /// [`Avx2::add_i128x4_biased`] of addends held in registers (values 0–3 of `x`).
+    #[inline(always)]
+    pub fn add_i128x4_biased_regs<const SAT: u32>(self, acc: &mut Words8, x: I128x8) {
+        self.add_biased_halves::<SAT, 1>(acc, x.0);
+    }
+
+    /// An all-zero register (the unused operands of a half add).
+    #[inline(always)]
+    fn zero_i256(self) -> __m256i {
+        // SAFETY: the token proves AVX.
+        unsafe { _mm256_setzero_si256() }
+    }
+
+    /// The biased adds of [`Avx2::add_i128x8_biased`] on the first `HALVES` (1 or 2) groups of
+    /// four values: registers `x[j]` (low words) and `x[2 + j]` (high words) for j < `HALVES`.
+    #[inline(always)]
+    fn add_biased_halves<const SAT: u32, const HALVES: usize>(
+        self,
+        acc: &mut Words8,
+        x: [__m256i; 4],
+    ) {
         let mut any = false;
         // SAFETY: the token proves AVX2. The 32-byte loads and stores read and write words
-        // 4j to 4j + 3 of the 16 in `acc` (j < 4).
+        // 4j to 4j + 3 and 8 + 4j to 8 + 4j + 3 of the 16 in `acc` (j < HALVES ≤ 2).
         unsafe {
             let p = acc.as_mut_ptr().cast::<__m256i>();
             let mut neg = _mm256_setzero_si256();
-            for j in 0..2 {
+            for j in 0..HALVES {
                 let a = _mm256_loadu_si256(p.add(j));
-                let s = _mm256_add_epi64(a, x.0[j]);
+                let s = _mm256_add_epi64(a, x[j]);
                 // Carry out of the low word: s' <ₛ a', −1 where it carries.
                 let c = _mm256_cmpgt_epi64(a, s);
                 _mm256_storeu_si256(p.add(j), s);
-                let h = _mm256_add_epi64(_mm256_loadu_si256(p.add(2 + j)), x.0[2 + j]);
+                let h = _mm256_add_epi64(_mm256_loadu_si256(p.add(2 + j)), x[2 + j]);
                 let h = _mm256_sub_epi64(h, c);
                 _mm256_storeu_si256(p.add(2 + j), h);
                 // The high words of the selected sums (their sign bits are tested).
@@ -207,13 +252,14 @@ impl Avx2 {
                     neg = _mm256_or_si256(neg, _mm256_and_si256(h, m));
                 }
             }
-            if SAT & 0xff != 0 {
+            let mask = if HALVES == 1 { SAT & 15 } else { SAT & 0xff };
+            if mask != 0 {
                 let n = _mm256_castsi256_pd(neg);
                 any = _mm256_testz_pd(n, n) == 0;
             }
         }
         if any {
-            saturate::<SAT>(acc);
+            saturate::<SAT>(acc, 4 * HALVES);
         }
     }
 }
@@ -222,9 +268,9 @@ impl Avx2 {
 /// word's, and the maximum is stored biased).
 #[cold]
 #[inline(never)]
-fn saturate<const SAT: u32>(acc: &mut Words8) {
+fn saturate<const SAT: u32>(acc: &mut Words8, n: usize) {
     let [lo, hi] = acc;
-    for (i, (lo, hi)) in lo.iter_mut().zip(hi.iter_mut()).enumerate() {
+    for (i, (lo, hi)) in lo.iter_mut().zip(hi.iter_mut()).enumerate().take(n) {
         if SAT >> i & 1 != 0 && (*hi as i64) < 0 {
             (*lo, *hi) = (u64::MAX ^ LOW_BIAS, i64::MAX as u64);
         }
@@ -267,7 +313,7 @@ mod tests {
 
     /// The split add equals scalar wrapping adds, and saturating ones where `SAT` selects a
     /// sum: with the film's selection (sums 3 to 7), with none, with every sum, and with one
-    /// in each register.
+    /// in each register; the half adds likewise on sums 0–3, leaving sums 4–7 as they were.
     #[test]
     fn add_i128x8_biased_equals_scalar_adds() {
         let Some(avx) = Avx2::detect() else {
@@ -296,6 +342,25 @@ mod tests {
             });
             let got = join(got).map(|s| s ^ LOW_BIAS as i128);
             assert_eq!(got, want, "SAT {SAT:#b}: {acc0:?} + {x:?}");
+            // The half adds: sums 0–3 as above, sums 4–7 as they were (from memory and from
+            // registers).
+            let half: [i128; 8] = core::array::from_fn(|i| if i < 4 { want[i] } else { acc0[i] });
+            for regs in [false, true] {
+                let mut got = split(acc0.map(|a| a ^ LOW_BIAS as i128));
+                avx.run(|| {
+                    if regs {
+                        let r = I128x8::load(avx, &split(x));
+                        avx.add_i128x4_biased_regs::<SAT>(&mut got, r);
+                    } else {
+                        avx.add_i128x4_biased::<SAT>(&mut got, &split(x));
+                    }
+                });
+                let got = join(got).map(|s| s ^ LOW_BIAS as i128);
+                assert_eq!(
+                    got, half,
+                    "half, regs {regs}, SAT {SAT:#b}: {acc0:?} + {x:?}"
+                );
+            }
         }
         let mut saturated = 0;
         for round in 0..40000 {

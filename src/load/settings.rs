@@ -314,6 +314,7 @@ impl<'d> Builder<'d> {
                 stddev: 0.5,
                 radius: 2.0,
             },
+            second_moments: true,
         })
     }
 
@@ -385,6 +386,7 @@ impl<'d> Builder<'d> {
             crop_offset: (cx as u32, cy as u32),
             crop_size: (cw as u32, ch as u32),
             filter,
+            second_moments: true,
         };
         // Refused here, at the <film>, rather than after the rest of the scene has loaded.
         let need = crate::render::film_bytes(&desc, crate::render::DEFAULT_BLOCK);

@@ -138,6 +138,12 @@ pub fn write_part(path: &Path, film: &Film, aovs: &[String], meta: &Metadata) ->
     if w == 0 || h == 0 {
         return Err(Error::file(path, "the part's crop window is empty"));
     }
+    if !film.has_second_moments() {
+        return Err(Error::file(
+            path,
+            "a part carries every exact sum, but this film was rendered without its second moments",
+        ));
+    }
     let desc = film.desc();
     let n = w as usize * h as usize;
     let nch = film.channel_count().min(aovs.len());

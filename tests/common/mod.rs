@@ -137,7 +137,7 @@ pub fn render_loaded(
     let out = groove::render::render(&loaded.scene, &loaded.settings, &ro).expect("render");
     Rendered {
         mean: to_rgb(&out.film.develop()),
-        var: to_rgb(&out.film.develop_variance()),
+        var: to_rgb(&out.film.develop_variance().expect("second moments")),
         stats: out.stats,
     }
 }

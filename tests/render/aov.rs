@@ -116,7 +116,7 @@ fn check_channels(
     let (m, v) = load_reference(reference);
     compare(
         &to_rgb(&film.develop()),
-        &to_rgb(&film.develop_variance()),
+        &to_rgb(&film.develop_variance().expect("second moments")),
         &m,
         &v,
         block,
@@ -131,7 +131,7 @@ fn check_channels(
         let mut ours: Vec<Vec<f32>> = idx.iter().map(|&c| film.develop_channel(c)).collect();
         let mut ours_var: Vec<Vec<f32>> = idx
             .iter()
-            .map(|&c| film.develop_channel_variance(c))
+            .map(|&c| film.develop_channel_variance(c).expect("second moments"))
             .collect();
         let refm: Vec<&[f32]> = group.iter().map(|g| RefChannels::get(&r.mean, g)).collect();
         let refv: Vec<&[f32]> = group.iter().map(|g| RefChannels::get(&r.var, g)).collect();
@@ -195,7 +195,7 @@ fn moment_channels_match_mitsuba() {
     // The image is the inner path estimate: the plain path reference of the same scene applies.
     let (m, v) = load_reference("depth_sphere_d3");
     let img = film.develop();
-    let var = film.develop_variance();
+    let var = film.develop_variance().expect("second moments");
     let rgb = |i: &groove::film::Image| {
         pack(
             i.width,

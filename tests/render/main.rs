@@ -7,6 +7,7 @@ mod common;
 mod aov;
 mod curves;
 mod cylinder_quirks;
+mod film_moments;
 mod foundation;
 mod instances;
 mod lights;

@@ -199,7 +199,7 @@ fn furnace_under(mode: &str, defines: &[(&str, String)], seed: u64) -> (f64, f64
     };
     let out = groove::render::render(&loaded.scene, &loaded.settings, &ro).expect("render");
     let img = out.film.develop();
-    let var = out.film.develop_variance();
+    let var = out.film.develop_variance().expect("second moments");
     assert!(
         img.data.iter().all(|p| p.iter().all(|c| c.is_finite())),
         "{mode}: non-finite pixel"
