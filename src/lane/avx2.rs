@@ -1041,6 +1041,81 @@ impl Avx2 {
             U64x8([_mm256_castpd_si256(v0), _mm256_castpd_si256(v1)])
         }
     }
+
+    // Added in the twenty-ninth session (h1).
+
+    /// The 4-byte word at byte `AT` of the path states `state[idx[k]]` in lanes (one
+    /// `vpgatherdd`), each index first clamped to `state.len() − 1` as an unsigned number (as
+    /// [`Self::gather_depth`]): always in bounds. Private: its typed callers name the field
+    /// through `offset_of!`, so `AT` is always a whole `f32` field of the `repr(C)` struct.
+    ///
+    /// # Panics
+    /// If `state` is empty or larger than `i32::MAX` bytes.
+    #[inline(always)]
+    fn gather_state_word<const AT: usize>(
+        self,
+        state: &[crate::integrator::path::PathState],
+        idx: I32x8,
+    ) -> __m256i {
+        const SIZE: usize = core::mem::size_of::<crate::integrator::path::PathState>();
+        const { assert!(AT.is_multiple_of(4) && SIZE.is_multiple_of(4) && AT + 4 <= SIZE) };
+        assert!(!state.is_empty() && state.len() <= i32::MAX as usize / SIZE);
+        // SAFETY: the token proves AVX2. After the unsigned clamp every index r is below
+        // len, so the byte offset r·SIZE fits an i32 (asserted above) and the 4-byte load at
+        // r·SIZE + AT reads a field of `state[r]` (the callers pass a field's offset), always
+        // initialised.
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(state.len() as i32 - 1));
+            let off = _mm256_mullo_epi32(i, _mm256_set1_epi32(SIZE as i32));
+            let base = state.as_ptr().cast::<u8>().add(AT).cast::<i32>();
+            _mm256_i32gather_epi32::<1>(base, off)
+        }
+    }
+
+    /// The `eta` of the path states `state[idx[k]]` in lanes (one gather, every bit moved),
+    /// each index clamped as [`Self::gather_depth`]: the stream renderer's vertex end reads 8
+    /// paths' index products with it (`stream::kernels::vertex::x8::advance`), not 8 scalar
+    /// loads and inserts.
+    ///
+    /// # Panics
+    /// If `state` is empty or larger than `i32::MAX` bytes.
+    #[inline(always)]
+    pub fn gather_eta(self, state: &[crate::integrator::path::PathState], idx: I32x8) -> F32x8 {
+        const AT: usize = core::mem::offset_of!(crate::integrator::path::PathState, eta);
+        // SAFETY: the token proves AVX2 (a bit cast).
+        F32x8(unsafe { _mm256_castsi256_ps(self.gather_state_word::<AT>(state, idx)) })
+    }
+
+    /// The `throughput` (x, y, z) of the path states `state[idx[k]]` in lanes (three gathers,
+    /// every bit moved), each index clamped as [`Self::gather_depth`]: the wrapper-chain
+    /// kernels' throughputs of 8 paths (`stream::kernels::vertex::x8::shade`), not 24 scalar
+    /// copies through the stack.
+    ///
+    /// # Panics
+    /// If `state` is empty or larger than `i32::MAX` bytes.
+    #[inline(always)]
+    pub fn gather_throughput(
+        self,
+        state: &[crate::integrator::path::PathState],
+        idx: I32x8,
+    ) -> [F32x8; 3] {
+        use crate::integrator::path::PathState;
+        const X: usize = core::mem::offset_of!(PathState, throughput);
+        // glam's `Vec3` is three `f32`s, x, y, z (`repr(C)`).
+        const { assert!(core::mem::size_of::<glam::Vec3>() == 12) };
+        // SAFETY: the token proves AVX2 (bit casts).
+        unsafe {
+            [
+                F32x8(_mm256_castsi256_ps(self.gather_state_word::<X>(state, idx))),
+                F32x8(_mm256_castsi256_ps(
+                    self.gather_state_word::<{ X + 4 }>(state, idx),
+                )),
+                F32x8(_mm256_castsi256_ps(
+                    self.gather_state_word::<{ X + 8 }>(state, idx),
+                )),
+            ]
+        }
+    }
 }
 
 /// [`Avx2::compress_store`]'s table, per mask (bit k for lane k): the source lane of each of

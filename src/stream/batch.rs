@@ -39,14 +39,23 @@ pub(crate) struct Batch {
     pub surf: Surfaces,
     /// The light sample whose shadow ray is pending.
     pub light: Vec<Option<PendingLight>>,
-    /// Whether the path goes on after the shading stage.
-    pub alive: Vec<bool>,
-    /// Material of the surface each path scatters at (the sort key).
+    /// Whether the path goes on after the shading stage, as a stamp: the path goes on when its
+    /// entry equals [`Self::round`] (the shading stage writes `round` for the paths that go
+    /// on; the entries of the others are older rounds), so no stage clears the flags.
+    pub alive: Vec<u32>,
+    /// The stamp of the current bounce's `alive` flags ([`Self::next_round`]): it only grows
+    /// over the batch buffers' life, so every older entry of `alive` is below it.
+    pub round: u32,
+    /// Material of the surface each path scatters at (written by the sort for the paths of
+    /// `scatter`, from `scatter_material`; the kernels read it).
     pub material: Vec<MatId>,
     /// Ids of the paths to trace, ascending.
     pub active: Vec<u32>,
     /// Ids of the paths that scatter at this bounce, ascending (before the sort).
     pub scatter: Ids,
+    /// The materials of `scatter`'s paths, in its order (the sort key, appended with each id:
+    /// [`Self::push_scatter`], or by the emission stage's first pass in lanes).
+    pub scatter_material: Ids,
     /// The emission stage's lists of the paths whose ray shows emission (ascending): escaped
     /// rays, hits on area lights of constant radiance (both in lanes), and the paths that go
     /// through `PathState::add_emission` one by one ([`crate::stream::emission`]).
@@ -97,9 +106,11 @@ impl Batch {
             surf: Surfaces::new(),
             light: Vec::with_capacity(capacity),
             alive: Vec::with_capacity(capacity),
+            round: 0,
             material: Vec::with_capacity(capacity),
             active: Vec::with_capacity(capacity),
             scatter: Ids::new(),
+            scatter_material: Ids::new(),
             escaped: Ids::new(),
             on_lights: Ids::new(),
             one_by_one: Ids::new(),
@@ -121,6 +132,7 @@ impl Batch {
         self.ray.clear();
         self.active.clear();
         self.scatter.clear();
+        self.scatter_material.clear();
         self.escaped.clear();
         self.on_lights.clear();
         self.one_by_one.clear();
@@ -262,8 +274,40 @@ impl Batch {
         self.hit.resize(n, None);
         self.hit_flag.resize(n, 0);
         self.light.resize(n, None);
-        self.alive.resize(n, false);
+        self.alive.resize(n, 0);
         self.material.resize(n, 0);
+    }
+
+    /// A new stamp for the `alive` flags of the bounce about to be shaded: every path counts
+    /// as ending until the shading stage marks it ([`Self::set_alive`]), with no flag cleared.
+    /// When the stamps run out (after 2³² − 1 bounces) the flags are cleared once and the
+    /// stamps start over.
+    pub fn next_round(&mut self) {
+        if self.round == u32::MAX {
+            self.alive.fill(0);
+            self.round = 0;
+        }
+        self.round += 1;
+    }
+
+    /// Marks path `i` as going on after this bounce's shading stage.
+    #[inline(always)]
+    pub fn set_alive(&mut self, i: usize) {
+        self.alive[i] = self.round;
+    }
+
+    /// Whether path `i` goes on after this bounce's shading stage (tests; the compaction
+    /// compares the stamps itself).
+    #[cfg(test)]
+    pub fn is_alive(&self, i: usize) -> bool {
+        self.alive[i] == self.round
+    }
+
+    /// Appends path `i`, which scatters at a surface of material `m`, to `scatter`.
+    #[inline(always)]
+    pub fn push_scatter(&mut self, i: u32, m: MatId) {
+        self.scatter.push(i);
+        self.scatter_material.push(m);
     }
 
     /// Adds a path whose camera ray is `ray` (at most [`BATCH`] paths; tests).
@@ -280,7 +324,7 @@ impl Batch {
         self.hit.push(None);
         self.hit_flag.push(0);
         self.light.push(None);
-        self.alive.push(false);
+        self.alive.push(0);
         self.material.push(0);
     }
 
@@ -294,29 +338,35 @@ impl Batch {
     pub fn sort_by_material(&mut self) -> bool {
         self.sorted.clear();
         self.binned = false;
-        let Some(&first) = self.scatter.first() else {
+        let n = self.scatter.len();
+        let (ids, mats) = (&self.scatter[..], &self.scatter_material[..n]);
+        let Some(&m0) = mats.first() else {
             return false;
         };
-        let m0 = self.material[first as usize];
-        if self
-            .scatter
-            .iter()
-            .all(|&i| self.material[i as usize] == m0)
-        {
-            self.sorted.extend_from_slice(&self.scatter[..]);
+        let material = &mut self.material[..];
+        // The materials are read from their list in order (not through each path's id), and
+        // each path's written where the kernels read it.
+        if mats.iter().all(|&m| m == m0) {
+            for &i in ids {
+                material[i as usize] = m0;
+            }
+            self.sorted.extend_from_slice(ids);
             return false;
         }
-        self.bins.fill(0);
-        for &i in self.scatter.iter() {
-            self.bins[self.material[i as usize] as usize + 1] += 1;
+        let bins = &mut self.bins[..];
+        bins.fill(0);
+        for (&i, &m) in ids.iter().zip(mats) {
+            material[i as usize] = m;
+            bins[m as usize + 1] += 1;
         }
-        for k in 1..self.bins.len() {
-            self.bins[k] += self.bins[k - 1];
+        for k in 1..bins.len() {
+            bins[k] += bins[k - 1];
         }
-        self.sorted.resize(self.scatter.len(), 0);
-        for &i in self.scatter.iter() {
-            let b = &mut self.bins[self.material[i as usize] as usize];
-            self.sorted[*b as usize] = i;
+        self.sorted.resize(n, 0);
+        let sorted = &mut self.sorted[..];
+        for (&i, &m) in ids.iter().zip(mats) {
+            let b = &mut bins[m as usize];
+            sorted[*b as usize] = i;
             *b += 1;
         }
         self.binned = true;
@@ -337,18 +387,20 @@ impl Batch {
 
     /// Keeps in `active` the paths still alive, in ascending order (stable compaction).
     pub fn compact(&mut self) {
-        compact_from(&mut self.active, &self.alive, 0, 0);
+        compact_from(&mut self.active, &self.alive, self.round, 0, 0);
     }
 
-    /// [`Self::compact`] 8 ids at a time with AVX2: each chunk's `alive` flags by one gather
-    /// ([`crate::lane::Avx2::gather_bools`]) and its kept ids appended by one compress
+    /// [`Self::compact`] 8 ids at a time with AVX2: each chunk's `alive` stamps by one gather
+    /// ([`crate::lane::LaneI32::gather_u32`]) compared with the round's, and its kept ids
+    /// appended by one compress
     /// ([`crate::lane::Avx2::compress_store`]: its 8 stores never pass the chunk, which is
     /// already read); the last `len % 8` ids as `compact` does. The same list (the path-by-path
     /// pass cost ~11 instructions a path on metal_plastic).
     #[cfg(target_arch = "x86_64")]
     pub fn compact_x8(&mut self, avx: Avx) {
-        let (active, alive) = (&mut self.active, &self.alive[..]);
-        if alive.len() < 4 {
+        use crate::lane::LaneI32;
+        let (active, alive, round) = (&mut self.active, &self.alive[..], self.round);
+        if alive.is_empty() {
             return self.compact();
         }
         avx.run(
@@ -356,14 +408,15 @@ impl Batch {
             || {
                 let len = active.len();
                 let (mut kept, mut r) = (0, 0);
+                let now = avx.load_u32(&[round; 8]);
                 while r + 8 <= len {
                     let ids: &[u32; 8] = active[r..r + 8].try_into().expect("8 ids");
                     let idv = avx.load_u32(ids);
-                    let keep = avx.gather_bools(alive, idv);
+                    let keep = crate::lane::I32x8::gather_u32(alive, idv).eq(now);
                     kept = avx.compress_store(idv, keep, &mut active[..], kept);
                     r += 8;
                 }
-                compact_from(active, alive, r, kept);
+                compact_from(active, alive, round, r, kept);
             },
         );
     }
@@ -374,11 +427,11 @@ impl Batch {
 /// write position, which advances past the alive ones only (it never passes the read
 /// position); the list then ends at the write position.
 #[inline(always)]
-fn compact_from(active: &mut Vec<u32>, alive: &[bool], r: usize, mut kept: usize) {
+fn compact_from(active: &mut Vec<u32>, alive: &[u32], round: u32, r: usize, mut kept: usize) {
     for r in r..active.len() {
         let i = active[r];
         active[kept] = i;
-        kept += alive[i as usize] as usize;
+        kept += (alive[i as usize] == round) as usize;
     }
     active.truncate(kept);
 }
@@ -614,37 +667,66 @@ mod tests {
     use super::*;
     use glam::Vec3;
 
-    fn batch(materials: &[MatId]) -> Batch {
-        let mut b = Batch::new(materials.len(), 8);
-        for &m in materials {
+    fn batch(n: usize) -> Batch {
+        let mut b = Batch::new(n, 8);
+        for _ in 0..n {
             b.push(
                 Vec2::ZERO,
                 Sampler::from_seed(1, 1),
                 Ray::new(Vec3::ZERO, Vec3::Z),
             );
-            *b.material.last_mut().unwrap() = m;
         }
         b
     }
 
+    /// The sort keeps each material's paths in ascending order, ends each run where its bins
+    /// say, and leaves each sorted path's material where the kernels read it (`material`).
     #[test]
     fn the_material_sort_is_stable() {
-        let mut b = batch(&[3, 1, 3, 0, 1, 7, 3]);
+        let mats = [3, 1, 3, 0, 1, 7, 3];
+        let mut b = batch(mats.len());
         for i in [0, 1, 2, 4, 5, 6] {
-            b.scatter.push(i);
+            b.push_scatter(i, mats[i as usize]);
         }
         assert!(b.sort_by_material());
         assert_eq!(b.sorted, [1, 4, 0, 2, 6, 5]);
         // Each run's end, from its material.
         let ends: Vec<usize> = [1, 3, 7].iter().map(|&m| b.run_end(m)).collect();
         assert_eq!(ends, [2, 5, 6]);
+        for &i in &b.sorted {
+            assert_eq!(b.material[i as usize], mats[i as usize], "path {i}");
+        }
         b.scatter.clear();
+        b.scatter_material.clear();
+        b.material.fill(99);
         for i in [0, 2, 6] {
-            b.scatter.push(i);
+            b.push_scatter(i, mats[i as usize]);
         }
         assert!(!b.sort_by_material());
         assert_eq!(b.sorted, [0, 2, 6]);
         assert_eq!(b.run_end(3), 3);
+        for i in [0, 2, 6] {
+            assert_eq!(b.material[i], 3, "path {i}");
+        }
+    }
+
+    /// A path is alive only in the round it was marked in; when the stamps run out, the flags
+    /// start over cleared.
+    #[test]
+    fn alive_stamps_last_one_round() {
+        let mut b = batch(4);
+        b.next_round();
+        b.set_alive(1);
+        assert!(b.is_alive(1) && !b.is_alive(0));
+        b.next_round();
+        assert!(!b.is_alive(1));
+        b.set_alive(2);
+        b.round = u32::MAX;
+        b.set_alive(3);
+        assert!(b.is_alive(3));
+        b.next_round();
+        assert_eq!(b.round, 1);
+        assert!((0..4).all(|i| !b.is_alive(i)));
     }
 
     /// `put` keeps exactly the ids it is told to keep, in order, and a full list refuses more.
@@ -729,10 +811,12 @@ mod tests {
 
     #[test]
     fn compaction_keeps_the_order() {
-        let mut b = batch(&[0; 6]);
+        let mut b = batch(6);
         b.active.extend([0, 1, 2, 3, 4, 5]);
+        b.next_round();
+        b.alive[3] = b.round - 1;
         for i in [1, 2, 5] {
-            b.alive[i] = true;
+            b.set_alive(i);
         }
         b.compact();
         assert_eq!(b.active, [1, 2, 5]);
@@ -747,19 +831,28 @@ mod tests {
             return;
         };
         let mut r = crate::math::Pcg32::new(28, 3);
-        let mut b = batch(&[0; 300]);
+        let mut b = batch(300);
         for round in 0..2000 {
             let len = round % 101;
             let mut ids: Vec<u32> = (0..300)
                 .filter(|_| r.next_u32().is_multiple_of(3))
                 .collect();
             ids.truncate(len);
+            b.next_round();
+            let now = b.round;
             for (k, a) in b.alive.iter_mut().enumerate() {
-                // Every chunk's 8 flags from the round's pattern, or random.
-                *a = if round % 2 == 0 {
+                // Every chunk's 8 flags from the round's pattern, or random; the others
+                // stamped with an older round (or 0), or a newer one (never written, but not
+                // alive either).
+                let on = if round % 2 == 0 {
                     (round / 2) >> (k % 8) & 1 == 1
                 } else {
                     r.next_u32().is_multiple_of(2)
+                };
+                *a = if on {
+                    now
+                } else {
+                    [0, now - 1, now + 1][k % 3]
                 };
             }
             b.active.clear();

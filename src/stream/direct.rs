@@ -172,13 +172,13 @@ pub(super) fn run_batch(
 
     // Camera emission; the paths that hit a surface go on to the sampling stage.
     batch.scatter.clear();
+    batch.scatter_material.clear();
     for i in 0..batch.len() {
         let ray = &batch.ray[i];
         let si = batch.hit[i].map(|_| batch.surf.get(i));
         add_camera_emission(cfg, scene, &mut batch.state[i].result, ray, si.as_ref());
         if let Some(si) = si {
-            batch.material[i] = scene.shape_material[si.shape as usize];
-            batch.scatter.push(i as u32);
+            batch.push_scatter(i as u32, scene.shape_material[si.shape as usize]);
         }
     }
 

@@ -335,9 +335,9 @@ pub(crate) mod x8 {
         pub sphere: u64,
     }
 
-    /// The emission stage over `batch.active`: adds what each ray sees to its path, marks
-    /// every active path not alive, and lists in `batch.scatter` (ascending) the paths that
-    /// scatter at their hit (depth + 1 < max_depth), with their material. Returns what went
+    /// The emission stage over `batch.active`: adds what each ray sees to its path, and lists
+    /// in `batch.scatter` (ascending) the paths that scatter at their hit (depth + 1 <
+    /// max_depth), with their materials in `batch.scatter_material`. Returns what went
     /// through the lanes. Call inside [`Avx2::run`].
     ///
     /// One pass over the active paths reads only what every path needs (its depth, whether it
@@ -366,22 +366,15 @@ pub(crate) mod x8 {
             hit,
             hit_flag,
             surf,
-            alive,
-            material,
             scatter,
+            scatter_material,
             escaped,
             on_lights,
             one_by_one,
             ray,
             ..
         } = batch;
-        let (state, hit, alive, material, ray) = (
-            &mut state[..n],
-            &hit[..n],
-            &mut alive[..n],
-            &mut material[..n],
-            &ray[..n],
-        );
+        let (state, hit, ray) = (&mut state[..n], &hit[..n], &ray[..n]);
         let rows = &surf.flat().as_chunks::<{ cols::ROW }>().0[..n];
         let lists = [
             &mut *scatter,
@@ -401,10 +394,11 @@ pub(crate) mod x8 {
         avx.splat(0.0).outlined(
             #[inline(always)]
             || {
+                let mats = &mut *scatter_material;
                 if cfg.hide_emitters {
-                    classify::<true>(avx, active, paths, alive, material, last, lists);
+                    classify::<true>(avx, active, paths, mats, last, lists);
                 } else {
-                    classify::<false>(avx, active, paths, alive, material, last, lists);
+                    classify::<false>(avx, active, paths, mats, last, lists);
                 }
             },
         );
@@ -453,9 +447,10 @@ pub(crate) mod x8 {
         lights: &'a Lights,
     }
 
-    /// The emission stage's first pass over the active paths `active` (see [`stage`]): marks
-    /// each not alive, and appends it to `lists`: `[scatter, escaped, on_lights, one_by_one]`
-    /// (each cleared first), the hits that scatter (depth < `last`) with their material, the
+    /// The emission stage's first pass over the active paths `active` (see [`stage`]): appends
+    /// each to `lists`: `[scatter, escaped, on_lights, one_by_one]` (each cleared first), the
+    /// hits that scatter (depth < `last`) with their material (to `materials`, in the order of
+    /// `scatter`), the
     /// escaped rays that show emission, and the hits that show an area light's ([`AREA`]) or
     /// other ([`SCALAR`]) emission. `HIDE`: `hide_emitters` (a path shows emission only after
     /// its first vertex). Call inside an AVX2 region.
@@ -465,18 +460,20 @@ pub(crate) mod x8 {
     /// and the shapes' materials and [`Seen`] variants from [`Lights::info_material`] and
     /// [`Lights::info_seen`] by three more; the scattering hits and the escaped rays appended
     /// to their lists by one compress each ([`Avx2::compress_store`], the ids in the order
-    /// walked, so the lists are those of the path-by-path loop); the rare hits on emitters
-    /// appended lane by lane. `alive` and `material` are written per lane (the material of
-    /// every path of the chunk: read only for the paths listed, the sort key). The last
+    /// walked, so the lists are those of the path-by-path loop), the scattering hits'
+    /// materials by a third with the same mask; the rare hits on emitters appended lane by
+    /// lane. Nothing is written per path: the `alive` flags are stamps of the bounce
+    /// (`Batch::next_round`), and the sort writes the scattering paths' materials. The last
     /// `active.len() % 8` paths go through the path-by-path loop ([`classify_one`]).
-    /// (The path-by-path loop for every path cost 28 instructions a path on metal_plastic.)
+    /// (The path-by-path loop for every path cost 28 instructions a path on metal_plastic;
+    /// with `alive` and `material` stored per lane, the lanes cost ~45 instructions a chunk
+    /// more.)
     #[inline(always)]
     fn classify<const HIDE: bool>(
         avx: Avx2,
         active: &[u32],
         paths: Paths,
-        alive: &mut [bool],
-        material: &mut [crate::material::MatId],
+        materials: &mut crate::stream::batch::Ids,
         last: u32,
         lists: [&mut crate::stream::batch::Ids; 4],
     ) {
@@ -484,7 +481,6 @@ pub(crate) mod x8 {
         let n = paths.state.len();
         let (state, flag, flat) = (paths.state, &paths.hit_flag[..n], paths.flat);
         let (info_material, info_seen) = (&paths.lights.info_material, &paths.lights.info_seen);
-        let (alive, material) = (&mut alive[..n], &mut material[..n]);
         let [scatter, escaped, on_lights, one_by_one] = lists;
         on_lights.clear();
         one_by_one.clear();
@@ -500,20 +496,16 @@ pub(crate) mod x8 {
             let hit = !I32x8::gather_u32(flag, idv).eq(zero);
             let depth = avx.gather_depth(state, idv);
             let at = idv.shl::<5>().add(idv.splat(cols::SHAPE as i32));
-            // Misses' rows are stale: their shape is taken as 0 (its material is written,
-            // never read).
+            // Misses' rows are stale: their shape is taken as 0 (their material is dropped
+            // by the compress).
             let shape = I32x8::select(hit, F32x8::gather_slice(flat, at).to_bits(), zero);
-            let mat = I32x8::gather_u32(info_material, shape).to_array();
+            let mat = I32x8::gather_u32(info_material, shape);
             let seen = I32x8::gather_u32(info_seen, shape);
-            for k in 0..8 {
-                let i = ids[k] as usize;
-                alive[i] = false;
-                material[i] = mat[k] as crate::material::MatId;
-            }
             // depth < last and depth >= show_from, as unsigned numbers.
             let lastv = idv.splat(last as i32);
             let below = !depth.min_u32(lastv).eq(lastv);
             let show = if HIDE { !depth.eq(zero) } else { zero.eq(zero) };
+            avx.compress_store(mat, hit & below, &mut materials.buf_mut()[..], ns);
             ns = avx.compress_store(idv, hit & below, &mut scatter.buf_mut()[..], ns);
             ne = avx.compress_store(idv, !hit & show, &mut escaped.buf_mut()[..], ne);
             // Rare (hits on emitters): through the lists' own appends, in lane order.
@@ -531,49 +523,41 @@ pub(crate) mod x8 {
                 }
             }
         }
-        let rest = (rest, paths, alive, material, last);
+        let rest = (rest, paths, materials, last);
         classify_one::<HIDE>(rest, [scatter, escaped, on_lights, one_by_one], (ns, ne));
     }
 
     /// [`classify`] path by path, for the paths `walk.0` (the rest after its chunks of 8), the
-    /// scattering hits and escaped rays appended at lengths `lens` of the first two lists (the
-    /// last two are appended to as they stand). Each list's length stays in a register and
+    /// scattering hits (and their materials, to `walk.2`) and escaped rays appended at lengths
+    /// `lens` of the first two lists (the last two are appended to as they stand). Each list's
+    /// length stays in a register and
     /// an id is written at `buf[len % BATCH]` (no bounds test: a list never holds more ids
     /// than the paths walked before it, fewer than [`crate::stream::BATCH`]) with the length
     /// advanced by the kept flag, as [`crate::stream::batch::Ids::put`].
     #[allow(clippy::type_complexity)]
     #[inline(always)]
     fn classify_one<const HIDE: bool>(
-        walk: (
-            &[u32],
-            Paths,
-            &mut [bool],
-            &mut [crate::material::MatId],
-            u32,
-        ),
+        walk: (&[u32], Paths, &mut crate::stream::batch::Ids, u32),
         lists: [&mut crate::stream::batch::Ids; 4],
         lens: (usize, usize),
     ) {
         use crate::stream::BATCH;
-        let (active, paths, alive, material, last) = walk;
+        let (active, paths, materials, last) = walk;
         let n = paths.state.len();
         let (state, hit, rows) = (paths.state, &paths.hit[..n], &paths.rows[..n]);
         let (info_material, info_seen) = (&paths.lights.info_material, &paths.lights.info_seen);
-        let (alive, material) = (&mut alive[..n], &mut material[..n]);
         // A path shows what its ray sees from this depth on.
         let show_from = HIDE as u32;
         let [scatter, escaped, on_lights, one_by_one] = lists;
-        let (sb, eb) = (scatter.buf_mut(), escaped.buf_mut());
+        let (sb, eb, mb) = (scatter.buf_mut(), escaped.buf_mut(), materials.buf_mut());
         let (mut ns, mut ne) = lens;
         for &i in active {
             let i = i as usize;
-            alive[i] = false;
             let depth = state[i].depth;
             let show = depth >= show_from;
             if hit[i].is_some() {
                 let shape = rows[i][cols::SHAPE].to_bits() as usize;
-                // Written for every hit; read only for the paths listed (the sort key).
-                material[i] = info_material[shape];
+                mb[ns % BATCH] = info_material[shape];
                 sb[ns % BATCH] = i as u32;
                 ns += (depth < last) as usize;
                 // Rare (hits on emitters): through the lists' own appends.
@@ -591,6 +575,7 @@ pub(crate) mod x8 {
             }
         }
         scatter.set_len(ns);
+        materials.set_len(ns);
         escaped.set_len(ne);
     }
 

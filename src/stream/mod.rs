@@ -578,7 +578,9 @@ fn run_batch(
         // The surface rows of the hits (8-wide where a shape has a lane form).
         kernels.fill_surfaces(scene, batch, &mut scratch.rays.counters.lanes);
 
-        // Emission; the paths that scatter go on to the shading stage.
+        // Emission; the paths that scatter go on to the shading stage, each counted as
+        // ending until it is shaded and goes on (a new stamp of the `alive` flags).
+        batch.next_round();
         emit(scene, cfg, batch, kernels, &mut scratch.rays.counters.lanes);
 
         // Shading, material by material in the stable order.
@@ -611,9 +613,9 @@ fn run_batch(
 
 /// The emission stage: what each active path's ray sees, added to its radiance (8 paths at a
 /// time in lanes with AVX2, [`emission`]; else, and for what the lanes do not cover, lane by
-/// lane through [`crate::integrator::path::PathState::add_emission`]); every active path is
-/// marked not alive, and the paths that scatter at their hit are listed in `batch.scatter`
-/// (ascending) with their material.
+/// lane through [`crate::integrator::path::PathState::add_emission`]); the paths that scatter
+/// at their hit are listed in `batch.scatter` (ascending) with their materials
+/// (`batch.scatter_material`).
 fn emit(
     scene: &Scene,
     cfg: &PathSettings,
@@ -635,15 +637,14 @@ fn emit(
     }
     let _ = (kernels, lanes);
     batch.scatter.clear();
-    for &i in &batch.active {
-        let i = i as usize;
+    batch.scatter_material.clear();
+    for r in 0..batch.active.len() {
+        let i = batch.active[r] as usize;
         let ray = &batch.ray[i];
         let si = batch.hit[i].map(|_| batch.surf.get(i));
-        batch.alive[i] = false;
         if batch.state[i].add_emission(cfg, scene, ray, si.as_ref()) {
             if let Some(si) = si {
-                batch.material[i] = scene.shape_material[si.shape as usize];
-                batch.scatter.push(i as u32);
+                batch.push_scatter(i as u32, scene.shape_material[si.shape as usize]);
             }
         }
     }

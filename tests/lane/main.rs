@@ -20,6 +20,9 @@
 //!   and the 2-D points' columns (`Avx2::vec2_columns`) against scalar references.
 //! - `store_at`: the write-back of gathered 64-bit values (`Wide::store_u64_at`) against a
 //!   scalar reference at width 8 and 16 (repeated and out-of-range indices).
+//! - `state_gathers`: the path states' index products and throughputs in lanes
+//!   (`Avx2::gather_eta`, `Avx2::gather_throughput`) against the fields (every bit, indices
+//!   clamped).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
@@ -39,4 +42,5 @@ mod masks;
 mod pcg_ops;
 mod rows4;
 mod scalar;
+mod state_gathers;
 mod store_at;

@@ -2,8 +2,12 @@
 //! Tracing Gems ch. 6) written over [`Lane`], the same operations in the same order, so every
 //! lane equals the scalar function bit for bit (tested below, non-finite normals included).
 
+#[cfg(target_arch = "x86_64")]
+use crate::integrator::path::PathState;
 use crate::lane::vec::V3;
 use crate::lane::{Lane, LaneI32};
+#[cfg(target_arch = "x86_64")]
+use crate::stream::kernels::light::x8::Cols3;
 
 /// Moves `p` off the surface with geometric normal `n` to the side `dir` points to (see
 /// `geometry::ray::offset_origin`).
@@ -119,6 +123,28 @@ pub(crate) trait RayRows<const W: usize>: crate::lane::Wide<W> {
         d: V3<Self::F>,
         tmax: Self::F,
     ) -> [crate::geometry::Ray; W];
+    /// The throughputs of the path states `state[ids[k]]` in lanes (every bit as stored).
+    /// Lane by lane here; [`crate::lane::Avx2`] gathers them (three `vpgatherdd`).
+    #[inline(always)]
+    fn throughputs(self, state: &[PathState], ids: &[u32; W]) -> V3<Self::F> {
+        let mut tp = Cols3::<W>::default();
+        for (k, &i) in ids.iter().enumerate() {
+            tp.set(k, state[i as usize].throughput);
+        }
+        tp.load(self)
+    }
+    /// The `eta` and `depth` (its bits as an `i32`) of the path states `state[ids[k]]` in
+    /// lanes (every bit as stored). Lane by lane here; [`crate::lane::Avx2`] gathers them
+    /// (two `vpgatherdd`).
+    #[inline(always)]
+    fn eta_depth(self, state: &[PathState], ids: &[u32; W]) -> (Self::F, Self::I) {
+        let (mut eta, mut depth) = ([0.0f32; W], [0i32; W]);
+        for (k, &i) in ids.iter().enumerate() {
+            let s = &state[i as usize];
+            (eta[k], depth[k]) = (s.eta, s.depth as i32);
+        }
+        (self.load(&eta), self.load_i32(&depth))
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -136,6 +162,16 @@ impl RayRows<8> for crate::lane::Avx2 {
     ) -> [crate::geometry::Ray; 8] {
         let z = self.splat(0.0);
         crate::lane::Avx2::ray_rows(self, [o.x, o.y, o.z, d.x, d.y, d.z, z, tmax])
+    }
+    #[inline(always)]
+    fn throughputs(self, state: &[PathState], ids: &[u32; 8]) -> V3<Self::F> {
+        let [x, y, z] = self.gather_throughput(state, self.load_u32(ids));
+        V3::new(x, y, z)
+    }
+    #[inline(always)]
+    fn eta_depth(self, state: &[PathState], ids: &[u32; 8]) -> (Self::F, Self::I) {
+        let idv = self.load_u32(ids);
+        (self.gather_eta(state, idv), self.gather_depth(state, idv))
     }
 }
 

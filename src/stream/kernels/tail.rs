@@ -88,7 +88,7 @@ impl Tail for PathTail<'_> {
         );
         if let Some(r) = next {
             b.ray[i] = r;
-            b.alive[i] = true;
+            b.set_alive(i);
         }
     }
 
@@ -105,7 +105,7 @@ impl Tail for PathTail<'_> {
         );
         if let Some(r) = next {
             b.ray[i] = r;
-            b.alive[i] = true;
+            b.set_alive(i);
         }
     }
 }

@@ -225,7 +225,7 @@ pub(crate) mod x8 {
     use crate::integrator::path::{advance_lanes, PendingLight};
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::V2;
-    use crate::lane::{ToArray, Wide};
+    use crate::lane::{LaneI32, ToArray, Wide};
     use crate::stream::batch::Batch;
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
@@ -356,16 +356,11 @@ pub(crate) mod x8 {
             ));
         }
         let textured = PER_LANE || FULL || maps.any_lane;
-        if !textured {
-            // Nothing to look up lane by lane (so no `mask` either, which takes `FULL`): the
-            // throughputs gathered in every lane (a lane behind its surface keeps its
-            // throughput too; its results are dropped). The pending light samples are
-            // cleared or set by `scatter`.
-            let state = &b.state[..];
-            for (k, &i) in ids.iter().enumerate() {
-                tp.set(k, state[i as usize].throughput);
-            }
-        } else {
+        // Nothing to look up lane by lane (so no `mask` either, which takes `FULL`): the
+        // throughputs gathered in every lane below (a lane behind its surface keeps its
+        // throughput too; its results are dropped). The pending light samples are cleared or
+        // set by `scatter`.
+        if textured {
             for (k, &i) in ids.iter().enumerate() {
                 let i = i as usize;
                 if !front[k] {
@@ -438,7 +433,13 @@ pub(crate) mod x8 {
         }
         // A block, not a closure: a closure would be compiled outside `Avx2::run`'s target
         // features and call every 8-wide operation out of line.
-        let tp8 = tp.load(avx);
+        // (Without lookups, one gather per component: 8 paths' 24 scalar copies through the
+        // stack cost ~49 instructions a chunk on metal_plastic.)
+        let tp8 = if textured {
+            tp.load(avx)
+        } else {
+            avx.throughputs(&b.state, ids)
+        };
         // The incident direction's way down the wrappers, once for the light sample and the
         // BSDF sample.
         let dn = conductor::down::<_, FULL>(mat, &normals8, wi);
@@ -695,12 +696,16 @@ pub(crate) mod x8 {
 
     /// `PathState::advance` (the `path` integrator's [`Tail::bsdf`]) for the lanes of a chunk
     /// whose BSDF sample passed (`front` and `so.ok`; `p`: their points; `throughput`: the
-    /// paths' throughputs, as gathered by the kernel for its light samples): the throughput update,
-    /// the test and the survival probability in lanes (`path::advance_lanes`), then lane by
-    /// lane the roulette draw where it plays (depth + 1 ≥ rr_depth on a live lane: the one
-    /// `next_1d` of `advance`, from the path's own stream), the state written, and the next ray
-    /// and `alive` of the paths that go on. Bit for bit `advance` per lane (the test
-    /// `the_lane_advance_equals_advance`).
+    /// paths' throughputs, as gathered by the kernel for its light samples): the index
+    /// products and depths gathered ([`RayRows::eta_depth`]), the throughput update, the test,
+    /// the survival probability and where the roulette plays (depth + 1 ≥ rr_depth on a live
+    /// lane) in lanes (`path::advance_lanes`); then the roulette draw of each lane where it
+    /// plays (the one `next_1d` of `advance`, from the path's own stream), the winners'
+    /// division in lanes, and per lane that ends its vertex (walked by its bit) the state row
+    /// written, with the next ray and `alive` of the paths that go on. Bit for bit `advance`
+    /// per lane (the test `the_lane_advance_equals_advance`). (Lane by lane from the depth
+    /// test on, with the index products read per lane, it cost ~390 instructions a chunk on
+    /// metal_plastic.)
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn advance<T: RayRows<W>, const W: usize>(
@@ -715,44 +720,56 @@ pub(crate) mod x8 {
     ) {
         // The rows as slices held apart (their lengths and pointers stay in registers).
         let (state, sampler) = (&mut b.state[..], &mut b.sampler);
-        let (ray, alive) = (&mut b.ray[..], &mut b.alive[..]);
-        let mut eta = [1.0f32; W];
-        for (k, &i) in ids.iter().enumerate() {
-            eta[k] = state[i as usize].eta;
+        let (ray, alive, round) = (&mut b.ray[..], &mut b.alive[..], b.round);
+        // The index products and depths gathered (two gathers with AVX2).
+        let (eta, depth) = avx.eta_depth(state, ids);
+        let a = advance_lanes(throughput, eta, so.weight, so.eta);
+        // The lanes whose vertex ends here: in front of their surface, their sample passed.
+        let go = avx.mask(front) & so.ok;
+        // Roulette from rr_depth on, as `advance` tests it after its `depth += 1` (the depth
+        // as an unsigned number, `depth as i64 >= rr_depth as i64`): unsigned ≥ as a signed
+        // compare of both sides with their top bit flipped.
+        let rr_depth = cfg.rr_depth;
+        let plays = if rr_depth <= 0 {
+            go & a.live
+        } else {
+            let top = depth.splat(i32::MIN);
+            let d1 = depth.add(depth.splat(1)).xor(top);
+            go & a.live & !depth.splat(rr_depth).xor(top).gt(d1)
+        };
+        // The roulette draw where it plays (the one `next_1d` of `advance`, from the path's
+        // own stream; lanes hold distinct paths, so their order does not matter): the path
+        // ends at u ≥ q, else its throughput is divided by q (in lanes below).
+        let q = a.q.to_array();
+        let (mut lost, mut won, mut draw) = (0u32, 0u32, T::bits(plays));
+        while draw != 0 {
+            let k = draw.trailing_zeros() as usize;
+            draw &= draw - 1;
+            if sampler.next_1d(ids[k] as usize) >= q[k] {
+                lost |= 1 << k;
+            } else {
+                won |= 1 << k;
+            }
         }
-        let rr_depth = cfg.rr_depth as i64;
-        let a = advance_lanes(throughput, avx.load(&eta), so.weight, so.eta);
-        let (live, q) = (a.live.to_array(), a.q.to_array());
+        let t = V3::select(avx.mask_bits(won), a.throughput.div_by(a.q), a.throughput);
+        let on = T::bits(go & a.live) & !lost;
         // Each lane's state row (`PathState::set_advanced_row`: the throughput and index
         // products, the vertex and its density), transposed once per chunk.
-        let (t, pl) = (a.throughput, p.load(avx));
+        let pl = p.load(avx);
         let rows = avx.rows8([t.x, t.y, t.z, a.eta, pl.x, pl.y, pl.z, so.pdf]);
         // The next rays as whole rows (`Ray::new`'s fields, transposed once per chunk).
-        let (ok, rays) = (so.ok.to_array(), avx.ray_rows(so.o, so.wo, f32::INFINITY));
+        let rays = avx.ray_rows(so.o, so.wo, f32::INFINITY);
         let delta = so.delta.to_array();
-        for (k, &i) in ids.iter().enumerate() {
-            if !(front[k] && ok[k]) {
-                continue;
-            }
-            let i = i as usize;
-            let (mut on, mut won) = (live[k], false);
-            let st = &mut state[i];
-            // Roulette from rr_depth on, as `advance` tests it after its `depth += 1`.
-            if on && st.depth.wrapping_add(1) as i64 >= rr_depth {
-                // `advance`'s roulette: the path ends at u ≥ q, else its throughput is divided.
-                if sampler.next_1d(i) >= q[k] {
-                    on = false;
-                } else {
-                    won = true;
-                }
-            }
-            st.set_advanced_row(&rows[k], delta[k]);
-            if won {
-                st.throughput /= q[k];
-            }
-            if on {
+        let mut ends = T::bits(go);
+        while ends != 0 {
+            let k = ends.trailing_zeros() as usize;
+            ends &= ends - 1;
+            let i = ids[k] as usize;
+            state[i].set_advanced_row(&rows[k], delta[k]);
+            if on >> k & 1 == 1 {
                 ray[i] = rays[k];
-                alive[i] = true;
+                // `Batch::set_alive`.
+                alive[i] = round;
             }
         }
     }
@@ -816,7 +833,7 @@ mod tests {
         let (mut roulette, mut survived, mut nan_kept) = (0, 0, 0);
         for round in 0..3000u32 {
             let cfg = PathSettings {
-                rr_depth: [5, 0, 3, -1, 100, 1][round as usize % 6],
+                rr_depth: [5, 0, 3, -1, 100, 1, i32::MAX, i32::MIN][round as usize % 8],
                 ..PathSettings::default()
             };
             // The same 12 paths in two batches; the chunk takes 8 of them, out of order.
@@ -825,10 +842,19 @@ mod tests {
             let states: Vec<(Vec3, f32, u32)> = (0..12)
                 .map(|_| {
                     let t = Vec3::new(value(&mut r), value(&mut r), value(&mut r));
-                    (t, value(&mut r), r.next_u32() % 8)
+                    // Depths around rr_depth, and near the top of the signed and unsigned
+                    // ranges (the lanes compare them as unsigned numbers).
+                    let depth = match r.next_u32() % 16 {
+                        0 => i32::MAX as u32,
+                        1 => i32::MAX as u32 - 1,
+                        2 => u32::MAX - 1,
+                        d => d % 8,
+                    };
+                    (t, value(&mut r), depth)
                 })
                 .collect();
             for b in &mut batches {
+                b.next_round();
                 for (j, &(t, eta, depth)) in states.iter().enumerate() {
                     let ray = Ray::new(Vec3::splat(j as f32), Vec3::Z);
                     b.push(Vec2::ZERO, Sampler::from_seed(round as u64, j as u64), ray);
@@ -885,10 +911,10 @@ mod tests {
                 let tmax = crate::spectrum::max_component(before.throughput * s.weight);
                 if tmax.is_finite() && tmax > 0.0 && after.depth as i64 >= cfg.rr_depth as i64 {
                     roulette += 1;
-                    survived += scalar.alive[i] as u32;
+                    survived += scalar.is_alive(i) as u32;
                 }
                 nan_kept +=
-                    (scalar.alive[i] && !crate::spectrum::is_finite(after.throughput)) as u32;
+                    (scalar.is_alive(i) && !crate::spectrum::is_finite(after.throughput)) as u32;
             }
             for i in 0..12 {
                 assert_eq!(

@@ -1,0 +1,95 @@
+//! `Avx2::gather_eta` and `Avx2::gather_throughput` (8 path states' index products and
+//! throughputs, the stream renderer's vertex end and wrapper-chain kernels) against the fields
+//! read one by one: every bit moved (edge floats: ±0, ±∞, NaN payloads, subnormals), indices
+//! inside, at the ends of and out of the slice (clamped to its last state), a panic on an
+//! empty slice.
+
+use groove::integrator::path::PathState;
+use groove::lane::Avx2;
+use groove::math::Pcg32;
+
+/// Random bits, or an edge value.
+fn float(r: &mut Pcg32) -> f32 {
+    const EDGES: [f32; 8] = [
+        0.0,
+        -0.0,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        1e-40,
+        -3e38,
+        1.0,
+    ];
+    match r.next_u32() % 3 {
+        0 => EDGES[(r.next_u32() % 8) as usize],
+        // NaN payloads among them.
+        _ => f32::from_bits(r.next_u32()),
+    }
+}
+
+#[test]
+fn state_gathers_read_each_field() {
+    let Some(avx) = Avx2::detect() else {
+        eprintln!("no AVX2/FMA: the state gather test is skipped");
+        return;
+    };
+    let mut r = Pcg32::new(29, 1);
+    for len in [1usize, 2, 9, 1024] {
+        let states: Vec<PathState> = (0..len)
+            .map(|_| {
+                let mut s = PathState::new();
+                s.throughput = glam::Vec3::new(float(&mut r), float(&mut r), float(&mut r));
+                s.eta = float(&mut r);
+                s.depth = r.next_u32();
+                s.result = glam::Vec3::splat(float(&mut r));
+                s
+            })
+            .collect();
+        for round in 0..200 {
+            let idx: [i32; 8] = std::array::from_fn(|k| match (round + k) % 7 {
+                0 => 0,
+                1 => len as i32 - 1,
+                2 => len as i32,
+                3 => -1,
+                4 => i32::MIN,
+                _ => (r.next_u32() as usize % len) as i32,
+            });
+            let (eta, [x, y, z]) = avx.run(
+                #[inline(always)]
+                || {
+                    let i = avx.load_i32(&idx);
+                    let t = avx.gather_throughput(&states, i);
+                    (
+                        avx.gather_eta(&states, i).to_array(),
+                        t.map(|c| c.to_array()),
+                    )
+                },
+            );
+            for k in 0..8 {
+                // Out of range (as u32): the last state.
+                let s = &states[(idx[k] as u32 as usize).min(len - 1)];
+                let ctx = format!("len {len} round {round} lane {k}");
+                assert_eq!(eta[k].to_bits(), s.eta.to_bits(), "{ctx}");
+                assert_eq!(x[k].to_bits(), s.throughput.x.to_bits(), "{ctx}");
+                assert_eq!(y[k].to_bits(), s.throughput.y.to_bits(), "{ctx}");
+                assert_eq!(z[k].to_bits(), s.throughput.z.to_bits(), "{ctx}");
+            }
+        }
+    }
+    for f in [0, 1] {
+        let result = std::panic::catch_unwind(|| {
+            avx.run(
+                #[inline(always)]
+                || {
+                    let i = avx.load_i32(&[0; 8]);
+                    if f == 0 {
+                        avx.gather_eta(&[], i).to_array()[0]
+                    } else {
+                        avx.gather_throughput(&[], i)[0].to_array()[0]
+                    }
+                },
+            )
+        });
+        assert!(result.is_err(), "an empty slice: no panic ({f})");
+    }
+}
