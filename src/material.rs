@@ -232,6 +232,13 @@ impl<const W: usize> MnmCols<W> {
         Vec3::new(self.wp[0][i], self.wp[1][i], self.wp[2][i])
     }
 
+    /// The clamped perturbed normals by component (`[component][lane]`): the flatness test
+    /// of 8 lanes in one compare (`stream::kernels::mnm::point_bits`).
+    #[inline(always)]
+    pub fn wp_cols(&self) -> &[[f32; W]; 3] {
+        &self.wp
+    }
+
     /// The microsurfaces' candidate facets and frames, by lane.
     #[inline(always)]
     pub fn facets(&self) -> &FacetCols<W> {

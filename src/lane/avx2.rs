@@ -1116,6 +1116,53 @@ impl Avx2 {
             ]
         }
     }
+
+    // Added in the twenty-ninth session (h2).
+
+    /// A window gather of `glam::Vec3` rows: for each offset `o` of `offsets`, lane k of
+    /// entry r holds row `table[i + o]` by component (x, y, z), where `i` is `idx[k]` clamped
+    /// once, as an unsigned number, to `len − 1 − max(offsets)` (every row of the window
+    /// inside the table), and scaled by 3 once for all the rows (then three gathers per row,
+    /// at the row's constant offset from the table's start). Where `idx[k] + max(offsets)`
+    /// is below the table's length, lane k reads exactly the rows that [`Lane::gather3`] reads
+    /// at `idx[k] + o` (whose clamp, index by index, then changes nothing); elsewhere the
+    /// window of the clamped index. The compensated model's table lookups read the 8 corner
+    /// nodes of a cell this way (`bsdf::mnm::ms_table`: one clamp and scaling per lookup
+    /// instead of one per corner).
+    ///
+    /// # Panics
+    /// If the table has `max(offsets)` rows or fewer, or more than `i32::MAX / 3`.
+    #[inline(always)]
+    pub fn gather3_window<const K: usize>(
+        self,
+        table: &[glam::Vec3],
+        idx: I32x8,
+        offsets: &[usize; K],
+    ) -> [[F32x8; 3]; K] {
+        let mut span = 0;
+        for &o in offsets {
+            span = span.max(o);
+        }
+        assert!(table.len() > span && table.len() <= i32::MAX as usize / 3);
+        // SAFETY: the token proves AVX2. `glam::Vec3` is three f32s without padding (the
+        // assertion after `impl Lane for F32x8`), so row r's component c is float 3r + c from
+        // the start. After the clamp i ≤ len − 1 − span, so for each offset o ≤ span the row
+        // i + o is below len and its floats 3(i + o) + c < 3·len ≤ i32::MAX: each load reads
+        // inside `table` (and `base.add(3 o + c)` stays inside it, o < len).
+        unsafe {
+            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32((table.len() - 1 - span) as i32));
+            let i3 = _mm256_add_epi32(_mm256_add_epi32(i, i), i);
+            let base = table.as_ptr().cast::<f32>();
+            let mut out = [[F32x8(_mm256_setzero_ps()); 3]; K];
+            for (row, &o) in out.iter_mut().zip(offsets) {
+                let b = base.add(3 * o);
+                row[0] = F32x8(_mm256_i32gather_ps::<4>(b, i3));
+                row[1] = F32x8(_mm256_i32gather_ps::<4>(b.add(1), i3));
+                row[2] = F32x8(_mm256_i32gather_ps::<4>(b.add(2), i3));
+            }
+            out
+        }
+    }
 }
 
 /// [`Avx2::compress_store`]'s table, per mask (bit k for lane k): the source lane of each of

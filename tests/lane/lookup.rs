@@ -109,3 +109,96 @@ fn lookup16_equals_the_scalar_lookup() {
         }
     }
 }
+
+/// `Avx2::gather3_window` (the compensated table's 8 corner nodes per lookup) equals the
+/// scalar reference bit for bit in every lane: lane k of row r is `table[i + offsets[r]]`
+/// with i = `min(idx[k] as u32, len − 1 − max(offsets))`; where `idx[k] + max(offsets)` is
+/// inside the table that is `Lane::gather3` at `idx[k] + offsets[r]` (checked too). Tables of
+/// edge floats and random bit patterns (NaN payloads), indices at both ends of the window's
+/// range, just past it, negative, `i32::MIN`, `i32::MAX` and random; offsets unsorted and
+/// repeated, with 0 and the largest; a panic where the table is not longer than the largest
+/// offset. Skipped, with a note, without AVX2.
+#[test]
+fn gather3_window_equals_the_scalar_rows() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use glam::Vec3;
+        use groove::lane::{F32x8, Lane};
+        let Some(avx) = groove::lane::Avx2::detect() else {
+            eprintln!("gather3_window: this CPU has no AVX2/FMA, skipping");
+            return;
+        };
+        let mut r = Pcg32::new(29, 7);
+        let mut inside = 0;
+        let offsets = [0usize, 1, 9, 10, 90, 91, 99, 100];
+        let odd = [7usize, 0, 7, 3];
+        for round in 0..4000usize {
+            let len = 101 + (r.next_u32() % 60) as usize;
+            let table: Vec<Vec3> = (0..len)
+                .map(|j| {
+                    let mut f = |s: u32| match (round + j + s as usize) % 3 {
+                        0 => EDGES[(r.next_u32() % 12) as usize],
+                        1 => f32::from_bits(r.next_u32()),
+                        _ => r.next_f32() * 4.0 - 2.0,
+                    };
+                    Vec3::new(f(0), f(1), f(2))
+                })
+                .collect();
+            let last = (len - 101) as i32; // the last index whose window is inside
+            let idx: [i32; 8] = std::array::from_fn(|k| match (round + k) % 8 {
+                0 => 0,
+                1 => last,
+                2 => last + 1,
+                3 => [-1, i32::MIN, i32::MAX, len as i32][(round / 8 + k) % 4],
+                4 => r.next_u32() as i32,
+                _ => (r.next_u32() % (last as u32 + 1)) as i32,
+            });
+            let (got, got_odd, each) = avx.run(
+                #[inline(always)]
+                || {
+                    let i = avx.load_i32(&idx);
+                    let w = avx.gather3_window(&table, i, &offsets);
+                    let o = avx.gather3_window(&table, i, &odd);
+                    let each: [[F32x8; 3]; 8] = std::array::from_fn(|row| {
+                        let d = avx.load_i32(&[offsets[row] as i32; 8]);
+                        F32x8::gather3(&table, groove::lane::LaneI32::add(i, d))
+                    });
+                    (
+                        w.map(|v| v.map(|c| c.to_array())),
+                        o.map(|v| v.map(|c| c.to_array())),
+                        each.map(|v| v.map(|c| c.to_array())),
+                    )
+                },
+            );
+            for k in 0..8 {
+                for (rows, offs) in [(&got[..], &offsets[..]), (&got_odd[..], &odd[..])] {
+                    let span = offs.iter().copied().max().unwrap_or(0);
+                    let i = (idx[k] as u32).min((len - 1 - span) as u32) as usize;
+                    for (row, &o) in rows.iter().zip(offs) {
+                        let want = table[i + o].to_array();
+                        for c in 0..3 {
+                            let at = format!("len {len} index {} offset {o}", idx[k]);
+                            assert_eq!(row[c][k].to_bits(), want[c].to_bits(), "{at}");
+                        }
+                    }
+                }
+                if idx[k] >= 0 && idx[k] <= last {
+                    inside += 1;
+                    for row in 0..8 {
+                        for c in 0..3 {
+                            assert_eq!(got[row][c][k].to_bits(), each[row][c][k].to_bits());
+                        }
+                    }
+                }
+            }
+        }
+        assert!(inside > 10_000, "{inside} lanes inside the table");
+        let short = vec![Vec3::ONE; 100];
+        let panicked = std::panic::catch_unwind(|| {
+            avx.run(|| {
+                avx.gather3_window(&short, avx.load_i32(&[0; 8]), &offsets);
+            })
+        });
+        assert!(panicked.is_err(), "a table of 100 rows with offset 100");
+    }
+}

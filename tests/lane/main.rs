@@ -10,7 +10,8 @@
 //!   without AVX-512);
 //! - `beckmann`: the f32 visible-Beckmann sampler against its f64 reference (`beckmann_ref`);
 //! - `pcg_ops`, `lookup`: the per-width PCG32 operations and small-table lookups against plain
-//!   scalar references (every state class; edge floats and out-of-range indices);
+//!   scalar references (every state class; edge floats and out-of-range indices), and the
+//!   window gather of `Vec3` rows (`Avx2::gather3_window`);
 //! - `masks`: masks from booleans and from bits, and back to bits, at width 8 and 16 (every
 //!   pattern, bits above the width ignored).
 

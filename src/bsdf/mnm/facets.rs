@@ -13,6 +13,7 @@
 //! bit; `tests`). The scalar renderer keeps the scalar build: at width 1 the lane form (every
 //! candidate, frame and select computed, then stored) cost it ~4% more instructions.
 
+use super::lane_cols::Cols;
 use crate::lane::frame::Frame as LaneFrame;
 use crate::lane::vec::V3;
 use crate::lane::{Lane, ToArray};
@@ -180,20 +181,18 @@ impl<const W: usize> FacetCols<W> {
         }
         all
     }
+}
 
-    /// [`Self::keeps`] of every lane, as bits (bit i: lane i), its tests without a branch per
-    /// lane.
+impl FacetCols<8> {
+    /// [`Self::keeps`] of every lane, as bits (bit i: lane i), each candidate's test as one
+    /// compare of its 8 lanes ([`Cols::gt_bits`]; call inside [`Cols::run`]).
     #[inline(always)]
-    pub(crate) fn keeps_bits(&self, n: usize) -> u32 {
-        let mut bits = if n <= self.n { u32::MAX } else { 0 };
+    pub(crate) fn keeps_bits8(&self, cols: Cols, n: usize) -> u8 {
+        let mut bits = if n <= self.n { u8::MAX } else { 0 };
         for j in 0..n.min(self.n) {
-            let mut b = 0u32;
-            for (i, &l) in self.len[j].iter().enumerate() {
-                b |= u32::from(l > MIN_AREA) << i;
-            }
-            bits &= b;
+            bits &= cols.gt_bits(&self.len[j], MIN_AREA);
         }
-        bits & (u32::MAX >> (32 - W))
+        bits
     }
 }
 
@@ -759,21 +758,25 @@ mod tests {
                             .lanes_at(V3::new(col(0), col(1), col(2)))
                             .cols::<8>()
                     });
-                    // `keeps_bits` is `keeps` of each lane.
-                    for n in 1..=3 {
-                        let bits = lanes.facets().keeps_bits(n);
-                        for k in 0..8 {
-                            let want = lanes.facets().keeps(n, k);
-                            assert_eq!(bits & (1 << k) != 0, want, "{geometry:?} {n} {k}");
+                    // `keeps_bits8` is `keeps` of each lane, 8-wide and lane by lane.
+                    for cols in [Cols::detect(), Cols::LOOPS] {
+                        for n in 1..=3 {
+                            let bits = cols.run(|c| lanes.facets().keeps_bits8(c, n));
+                            for k in 0..8 {
+                                let want = lanes.facets().keeps(n, k);
+                                assert_eq!(bits & (1 << k) != 0, want, "{geometry:?} {n} {k}");
+                            }
                         }
-                        assert_eq!(bits >> 8, 0);
                     }
-                    // The stream kernel's points (with cells): `two_facets_with_cell` of each.
+                    // The stream kernel's points (with cells): `two_facets_with_cell` of each,
+                    // 8-wide and lane by lane.
                     if lanes.cells().is_some() {
-                        let pts = crate::stream::kernels::mnm::point_bits(&lanes);
-                        for k in 0..8 {
-                            let want = lanes.two_facets_with_cell(k);
-                            assert_eq!(pts & (1 << k) != 0, want, "{geometry:?} {k}");
+                        for cols in [Cols::detect(), Cols::LOOPS] {
+                            let pts = crate::stream::kernels::mnm::point_bits(cols, &lanes);
+                            for k in 0..8 {
+                                let want = lanes.two_facets_with_cell(k);
+                                assert_eq!(pts & (1 << k) != 0, want, "{geometry:?} {k}");
+                            }
                         }
                     }
                     for (k, &rgb) in rgb.iter().enumerate() {

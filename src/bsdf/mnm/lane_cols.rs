@@ -140,6 +140,35 @@ impl Cols {
         }
         bits
     }
+
+    /// The lanes (bits) where column `x` is above `c` (`x > c`: not NaN), as one compare.
+    #[inline(always)]
+    pub(crate) fn gt_bits(self, x: &[f32; 8], c: f32) -> u8 {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = self.avx {
+            return avx.load(x).gt(avx.splat(c)).bits() as u8;
+        }
+        let mut bits = 0u8;
+        for (k, &v) in x.iter().enumerate() {
+            bits |= u8::from(v > c) << k;
+        }
+        bits
+    }
+
+    /// The lanes (bits) where |x| of column `x` is below `c` (`x.abs() < c`: not NaN), as one
+    /// compare.
+    #[inline(always)]
+    pub(crate) fn abs_lt_bits(self, x: &[f32; 8], c: f32) -> u8 {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = self.avx {
+            return avx.load(x).abs().lt(avx.splat(c)).bits() as u8;
+        }
+        let mut bits = 0u8;
+        for (k, &v) in x.iter().enumerate() {
+            bits |= u8::from(v.abs() < c) << k;
+        }
+        bits
+    }
 }
 
 /// [`Cols::blend`] lane by lane.
@@ -237,6 +266,45 @@ mod tests {
                         assert_eq!(bits, le, "{df:?}");
                     }
                 }
+            }
+        }
+    }
+
+    /// The compares against a constant equal the scalar tests lane by lane, 8-wide and in the
+    /// loops: columns with edge values (±0, subnormals, ±∞, NaNs), constants of both signs,
+    /// 0, a subnormal, ∞, and lane values equal to the constant (and to its negative).
+    #[test]
+    fn compares_with_a_constant_equal_the_scalar_tests() {
+        let mut rng = Pcg32::new(29, 2);
+        let consts = [
+            1e-6f32,
+            1e-7,
+            0.0,
+            -0.0,
+            -1.0,
+            f32::from_bits(1),
+            f32::INFINITY,
+            0.5,
+        ];
+        for round in 0..4000 {
+            let c = consts[round % consts.len()];
+            let mut x = column(&mut rng).map(f32::from_bits);
+            for v in x.iter_mut() {
+                match rng.next_u32() % 4 {
+                    0 => *v = c,
+                    1 => *v = -c,
+                    2 => *v = c * rng.next_f32() * 2.0,
+                    _ => {}
+                }
+            }
+            let (mut gt, mut lt) = (0u8, 0u8);
+            for (k, &v) in x.iter().enumerate() {
+                gt |= u8::from(v > c) << k;
+                lt |= u8::from(v.abs() < c) << k;
+            }
+            for cols in [Cols::detect(), Cols::LOOPS] {
+                let got = cols.run(|c8| (c8.gt_bits(&x, c), c8.abs_lt_bits(&x, c)));
+                assert_eq!(got, (gt, lt), "{c} {x:?}");
             }
         }
     }

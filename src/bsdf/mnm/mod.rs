@@ -52,6 +52,10 @@ use crate::spectrum::Spectrum;
 use facets::{Microgeometry, Microsurface, MAX_FACETS};
 use glam::Vec3;
 
+/// A perturbed normal whose x and y are both below this in magnitude counts as unperturbed
+/// ([`MicrofacetNormalMap::is_flat`]; the stream kernel tests 8 lanes at once against it).
+pub(crate) const FLAT: f32 = 1e-6;
+
 /// Closed form or random walk.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Evaluation {
@@ -224,7 +228,7 @@ impl MicrofacetNormalMap {
     /// Whether the perturbed normal `wp` counts as unperturbed (the reference guard, §2.5).
     #[inline(always)]
     pub(crate) fn is_flat(wp: Vec3) -> bool {
-        wp.x.abs() < 1e-6 && wp.y.abs() < 1e-6
+        wp.x.abs() < FLAT && wp.y.abs() < FLAT
     }
 
     /// How many of a microgeometry's candidate facets may carry the nested BSDF and so get a

@@ -563,6 +563,65 @@ pub fn interpolate_baked_lanes<L: Lane>(
     out
 }
 
+/// The 8 corner nodes of a θp cell from its first node, in [`interpolate_baked_lanes`]' order:
+/// the lower θp node's [`CORNERS`], then the upper node's.
+const WINDOW: [usize; 8] = [
+    CORNERS[0],
+    CORNERS[1],
+    CORNERS[2],
+    CORNERS[3],
+    PLANE + CORNERS[0],
+    PLANE + CORNERS[1],
+    PLANE + CORNERS[2],
+    PLANE + CORNERS[3],
+];
+
+/// [`interpolate_baked_lanes`] 8-wide with the corner nodes read by one window gather per
+/// table ([`crate::lane::Avx2::gather3_window`]: one index clamp and scaling for the 8 corners
+/// instead of one per corner); the products and sums are the lane kernel's, in its order. A
+/// lane whose window lies inside the table (every lane with a cell: its upper θp node is a
+/// plane of the table) reads the lane kernel's nodes, so its result is the same bit for bit
+/// (`tests`).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn interpolate_baked_x8(
+    avx: crate::lane::Avx2,
+    e: &[Vec3],
+    e1: &[Vec3],
+    plane: crate::lane::I32x8,
+    t: crate::lane::F32x8,
+    c: &Coords<crate::lane::F32x8>,
+    with_first: bool,
+) -> [V3<crate::lane::F32x8>; 2] {
+    const { assert!(N_PHI == 9) };
+    // node(j, kz, l) = j·PLANE + 9·kz + l.
+    let i0 = plane.add(c.kz.shl::<3>()).add(c.kz).add(c.l);
+    let wgt = c.weights();
+    let zero = t.splat(0.0);
+    let mut out = [V3::new(zero, zero, zero); 2];
+    let acc =
+        |o: &mut V3<crate::lane::F32x8>, k: crate::lane::F32x8, v: [crate::lane::F32x8; 3]| {
+            *o = V3::new(o.x + k * v[0], o.y + k * v[1], o.z + k * v[2]);
+        };
+    let ve = avx.gather3_window(e, i0, &WINDOW);
+    let ve1 = if with_first {
+        avx.gather3_window(e1, i0, &WINDOW)
+    } else {
+        ve
+    };
+    for h in 0..2 {
+        let wt = if h == 0 { t.splat(1.0) - t } else { t };
+        for (corner, &wc) in wgt.iter().enumerate() {
+            let k = wt * wc;
+            acc(&mut out[1], k, ve[4 * h + corner]);
+            if with_first {
+                acc(&mut out[0], k, ve1[4 * h + corner]);
+            }
+        }
+    }
+    out
+}
+
 impl MsTable {
     /// The θp cell of ωp = `wp` (not flat: `wp.xy` ≠ 0).
     pub fn cell(&self, wp: Vec3) -> ThetaCell {
@@ -715,7 +774,8 @@ impl MsTable {
         let axis = V2::new(avx.load(&q.ax), avx.load(&q.ay));
         let d = V3::new(avx.load(&q.wx), avx.load(&q.wy), avx.load(&q.wz));
         let c = coords(axis, d);
-        interpolate_baked_lanes(
+        interpolate_baked_x8(
+            avx,
             &self.e_nodes,
             &self.e1_nodes,
             avx.load_i32(&q.plane),

@@ -37,6 +37,7 @@
 //! 17/18: the compensated model in lanes (tenth session)" and "... the compensated build and
 //! sampler in lanes (eleventh session)").
 
+use crate::bsdf::mnm::compensated::lanes::Cols;
 use crate::bsdf::mnm::facets::Microgeometry;
 use crate::bsdf::mnm::{Evaluation, Tangent};
 use crate::bsdf::{BsdfArena, BsdfNode};
@@ -126,9 +127,12 @@ where
 /// builds it but without the incident-direction cache (which
 /// `compensated::lanes::with_incident_alone_x8` adds where the scalar model answers). `wi`: the
 /// hits' ωi in the shading frame by component (`SurfaceBsdf::new`'s `frame.to_local(wi)`,
-/// computed 8-wide by the caller: `diffuse::incident`).
+/// computed 8-wide by the caller: `diffuse::incident`). `cols`: the caller's token, for the
+/// points' tests 8-wide ([`point_bits`]).
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn build_shared(
+    cols: Cols,
     scene: &Scene,
     m: MatId,
     wi: &[[f32; 8]; 3],
@@ -152,7 +156,7 @@ pub(crate) fn build_shared(
     // facets kept (the map's `mirror_wall`), with a table cell (`two_facets_with_cell` of each
     // lane, as bits).
     let pts = match (points, lanes.cells()) {
-        (true, Some(_)) => point_bits(lanes),
+        (true, Some(_)) => point_bits(cols, lanes),
         _ => 0,
     };
     let mut b = Built {
@@ -182,13 +186,20 @@ pub(crate) fn build_shared(
 /// The lanes of `lanes` that are not flat and keep their first two candidate facets, as bits
 /// (bit k: lane k): `MnmCols::two_facets_with_cell` of each lane of columns with cells,
 /// without a branch per lane.
+/// The flatness test (`MicrofacetNormalMap::is_flat`: |x| and |y| of ωp below
+/// [`FLAT`](crate::bsdf::mnm::FLAT)) and the facets' as one compare per column, 8-wide
+/// where `cols` is (lane by lane otherwise: the same bits).
 #[inline(always)]
-pub(crate) fn point_bits(lanes: &MnmCols<8>) -> u8 {
-    let mut flat = 0u8;
-    for k in 0..8 {
-        flat |= u8::from(crate::bsdf::mnm::MicrofacetNormalMap::is_flat(lanes.wp(k))) << k;
-    }
-    lanes.facets().keeps_bits(2) as u8 & !flat
+pub(crate) fn point_bits(cols: Cols, lanes: &MnmCols<8>) -> u8 {
+    use crate::bsdf::mnm::FLAT;
+    let wp = lanes.wp_cols();
+    cols.run(
+        #[inline(always)]
+        |cols| {
+            let flat = cols.abs_lt_bits(&wp[0], FLAT) & cols.abs_lt_bits(&wp[1], FLAT);
+            lanes.facets().keeps_bits8(cols, 2) & !flat
+        },
+    )
 }
 
 /// Whether the points of material `m` (one that [`qualifies`] and [`shared_nested`]) are built
@@ -336,7 +347,9 @@ pub(crate) mod x8 {
         let (wi_local, front) = crate::stream::kernels::diffuse::incident(&surf);
         let (wi_local, front) = (Cols3::store(wi_local), front.bits() as u8);
         let built = match &lanes {
-            Some(l) => super::build_shared(scene, m0, &wi_local.0, l, lane_points, arena),
+            Some(l) => {
+                super::build_shared(Cols::of(avx), scene, m0, &wi_local.0, l, lane_points, arena)
+            }
             None => None,
         };
         let (roots, wi, points) = match &built {
