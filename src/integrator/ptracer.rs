@@ -89,7 +89,12 @@ pub fn render(
     cfg: &PtracerSettings,
     opts: &RenderOptions,
 ) -> Result<RenderOutput> {
-    let desc = &settings.film;
+    // The film keeps its second moments as asked (`groove render` without a part does not).
+    let film_desc = FilmDesc {
+        second_moments: opts.second_moments,
+        ..settings.film.clone()
+    };
+    let desc = &film_desc;
     if !scene.camera.supports_light_tracing() {
         return Err(Error::scene(
             &cfg.loc,

@@ -956,45 +956,8 @@ impl Avx2 {
     /// If `state` is empty or larger than `i32::MAX` bytes.
     #[inline(always)]
     pub fn gather_depth(self, state: &[crate::integrator::path::PathState], idx: I32x8) -> I32x8 {
-        use crate::integrator::path::PathState;
-        const SIZE: usize = core::mem::size_of::<PathState>();
-        const AT: usize = core::mem::offset_of!(PathState, depth);
-        const { assert!(AT.is_multiple_of(4) && SIZE.is_multiple_of(4) && AT + 4 <= SIZE) };
-        assert!(!state.is_empty() && state.len() <= i32::MAX as usize / SIZE);
-        // SAFETY: the token proves AVX2. After the unsigned clamp every index r is below
-        // len, so the byte offset r·SIZE fits an i32 (asserted above) and the 4-byte load at
-        // r·SIZE + AT reads the `depth: u32` of `state[r]`, always initialised.
-        unsafe {
-            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(state.len() as i32 - 1));
-            let off = _mm256_mullo_epi32(i, _mm256_set1_epi32(SIZE as i32));
-            let base = state.as_ptr().cast::<u8>().add(AT).cast::<i32>();
-            I32x8(_mm256_i32gather_epi32::<1>(base, off))
-        }
-    }
-
-    /// `table[idx[k]]` in lanes as a mask, each index first clamped to `table.len() − 1` as an
-    /// unsigned number: always in bounds. Each lane reads the 4 bytes that end at its entry
-    /// (those that start at the table's first for the first three entries), so no load leaves
-    /// the table, and keeps its entry's byte. The stream renderer's `alive` flags of 8 paths
-    /// (the compaction of the active list, `stream::batch`).
-    ///
-    /// # Panics
-    /// If `table` holds fewer than 4 or more than `i32::MAX` entries.
-    #[inline(always)]
-    pub fn gather_bools(self, table: &[bool], idx: I32x8) -> M8 {
-        assert!(table.len() >= 4 && table.len() <= i32::MAX as usize);
-        // SAFETY: the token proves AVX2. After the clamp i < len; the load starts at byte
-        // s = max(i − 3, 0) and reads bytes s..s + 4, inside the table (i ≥ 3: up to i; else
-        // up to 3 < len), every byte an initialised `bool` (0 or 1).
-        unsafe {
-            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(table.len() as i32 - 1));
-            let zero = _mm256_setzero_si256();
-            let start = _mm256_max_epi32(_mm256_sub_epi32(i, _mm256_set1_epi32(3)), zero);
-            let w = _mm256_i32gather_epi32::<1>(table.as_ptr().cast::<i32>(), start);
-            let shift = _mm256_slli_epi32::<3>(_mm256_sub_epi32(i, start));
-            let b = _mm256_and_si256(_mm256_srlv_epi32(w, shift), _mm256_set1_epi32(0xff));
-            M8(_mm256_castsi256_ps(_mm256_cmpgt_epi32(b, zero)))
-        }
+        const AT: usize = core::mem::offset_of!(crate::integrator::path::PathState, depth);
+        I32x8(self.gather_state_word::<AT>(state, idx))
     }
 
     /// The x and y columns of eight 2-D points: lane `k` of the first is `v[k].x`, of the
@@ -1047,7 +1010,8 @@ impl Avx2 {
     /// The 4-byte word at byte `AT` of the path states `state[idx[k]]` in lanes (one
     /// `vpgatherdd`), each index first clamped to `state.len() − 1` as an unsigned number (as
     /// [`Self::gather_depth`]): always in bounds. Private: its typed callers name the field
-    /// through `offset_of!`, so `AT` is always a whole `f32` field of the `repr(C)` struct.
+    /// through `offset_of!`, so `AT` is always a whole 4-byte field (`f32` or `u32`) of the
+    /// `repr(C)` struct.
     ///
     /// # Panics
     /// If `state` is empty or larger than `i32::MAX` bytes.

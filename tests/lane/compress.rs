@@ -1,16 +1,11 @@
 //! `Avx2::compress_store` (the stream's lists of path ids filtered 8 at a time), `Avx2::load_u32`
-//! (8 ids as `i32` lanes),
-//! `Avx2::gather_depth` (8 path states' depths), `Avx2::gather_bools` (8 paths' `alive`
-//! flags) and `Avx2::vec2_columns` (8 film positions' x and y columns, every bit moved, NaN
-//! payloads among them) against scalar references: every mask pattern, ids with edge values (0, −1,
-//! `i32::MIN`, `i32::MAX`), lists at every offset up to the last one that fits 8 slots (the
-//! slots outside `at..at + 8` untouched, the kept ids first in lane order, then the others in
-//! lane order), a panic before any store when 8 slots do not fit; depths and flags at indices
-//! inside, at the ends of and out of the slice (clamped to its last entry; the flags' first
-//! three, whose loads start at the table's first byte, among them), a panic on slices too
-//! short.
+//! (8 ids as `i32` lanes) and `Avx2::vec2_columns` (8 film positions' x and y columns, every
+//! bit moved, NaN payloads among them) against scalar references: every mask pattern, ids with
+//! edge values (0, −1, `i32::MIN`, `i32::MAX`), lists at every offset up to the last one that
+//! fits 8 slots (the slots outside `at..at + 8` untouched, the kept ids first in lane order,
+//! then the others in lane order), a panic before any store when 8 slots do not fit. (The
+//! path states' gathers, `Avx2::gather_depth` among them: `state_gathers.rs`.)
 
-use groove::integrator::path::PathState;
 use groove::lane::Avx2;
 use groove::math::Pcg32;
 
@@ -65,101 +60,6 @@ fn compress_store_equals_the_filter() {
             list.iter().all(|&v| v == 5),
             "at {at}: a store before the panic"
         );
-    }
-}
-
-#[test]
-fn gather_depth_reads_each_state() {
-    let Some(avx) = Avx2::detect() else {
-        eprintln!("no AVX2/FMA: the depth gather test is skipped");
-        return;
-    };
-    let mut r = Pcg32::new(28, 2);
-    for len in [1usize, 2, 9, 1024] {
-        let states: Vec<PathState> = (0..len)
-            .map(|_| {
-                let mut s = PathState::new();
-                s.depth = match r.next_u32() % 4 {
-                    0 => 0,
-                    1 => u32::MAX,
-                    _ => r.next_u32(),
-                };
-                s.result = glam::Vec3::splat(f32::from_bits(r.next_u32()));
-                s
-            })
-            .collect();
-        for round in 0..200 {
-            let idx: [i32; 8] = std::array::from_fn(|k| match (round + k) % 7 {
-                0 => 0,
-                1 => len as i32 - 1,
-                2 => len as i32,
-                3 => -1,
-                4 => i32::MIN,
-                _ => (r.next_u32() as usize % len) as i32,
-            });
-            let got = avx.run(
-                #[inline(always)]
-                || avx.gather_depth(&states, avx.load_i32(&idx)).to_array(),
-            );
-            for k in 0..8 {
-                // Out of range (as u32): the last state.
-                let i = (idx[k] as u32 as usize).min(len - 1);
-                assert_eq!(
-                    got[k] as u32, states[i].depth,
-                    "len {len} round {round} lane {k}"
-                );
-            }
-        }
-    }
-    let result = std::panic::catch_unwind(|| {
-        avx.run(
-            #[inline(always)]
-            || avx.gather_depth(&[], avx.load_i32(&[0; 8])).to_array(),
-        )
-    });
-    assert!(result.is_err(), "an empty slice: no panic");
-}
-
-#[test]
-fn gather_bools_reads_each_flag() {
-    let Some(avx) = Avx2::detect() else {
-        eprintln!("no AVX2/FMA: the flag gather test is skipped");
-        return;
-    };
-    let mut r = Pcg32::new(28, 4);
-    for len in [4usize, 5, 7, 8, 33, 1024] {
-        let flags: Vec<bool> = (0..len).map(|_| r.next_u32().is_multiple_of(2)).collect();
-        for round in 0..300 {
-            let idx: [i32; 8] = std::array::from_fn(|k| match (round + k) % 9 {
-                0 => 0,
-                1 => 1,
-                2 => 2,
-                3 => len as i32 - 1,
-                4 => len as i32,
-                5 => -1,
-                6 => i32::MIN,
-                _ => (r.next_u32() as usize % len) as i32,
-            });
-            let got = avx.run(
-                #[inline(always)]
-                || avx.gather_bools(&flags, avx.load_i32(&idx)).to_array(),
-            );
-            for k in 0..8 {
-                // Out of range (as u32): the last flag.
-                let i = (idx[k] as u32 as usize).min(len - 1);
-                assert_eq!(got[k], flags[i], "len {len} round {round} lane {k}");
-            }
-        }
-    }
-    for len in [0usize, 1, 3] {
-        let flags = vec![true; len];
-        let result = std::panic::catch_unwind(|| {
-            avx.run(
-                #[inline(always)]
-                || avx.gather_bools(&flags, avx.load_i32(&[0; 8])).to_array(),
-            )
-        });
-        assert!(result.is_err(), "{len} flags: no panic");
     }
 }
 

@@ -13,17 +13,15 @@
 //!   scalar references (every state class; edge floats and out-of-range indices), and the
 //!   window gather of `Vec3` rows (`Avx2::gather3_window`);
 //! - `masks`: masks from booleans and from bits, and back to bits, at width 8 and 16 (every
-//!   pattern, bits above the width ignored).
-
+//!   pattern, bits above the width ignored);
 //! - `rows4`: the 8-wide rows-of-4 transposes move every bit (edge floats, NaN payloads).
-//! - `compress`: the 8-wide compress of path ids (`Avx2::compress_store`, every mask), the
-//!   path states' depth gather (`Avx2::gather_depth`), the flags' gather (`Avx2::gather_bools`)
-//!   and the 2-D points' columns (`Avx2::vec2_columns`) against scalar references.
+//! - `compress`: the 8-wide compress of path ids (`Avx2::compress_store`, every mask) and the
+//!   2-D points' columns (`Avx2::vec2_columns`) against scalar references.
 //! - `store_at`: the write-back of gathered 64-bit values (`Wide::store_u64_at`) against a
 //!   scalar reference at width 8 and 16 (repeated and out-of-range indices).
-//! - `state_gathers`: the path states' index products and throughputs in lanes
-//!   (`Avx2::gather_eta`, `Avx2::gather_throughput`) against the fields (every bit, indices
-//!   clamped).
+//! - `state_gathers`: the path states' index products, throughputs and depths in lanes
+//!   (`Avx2::gather_eta`, `Avx2::gather_throughput`, `Avx2::gather_depth`) against the fields
+//!   (every bit, indices clamped).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep

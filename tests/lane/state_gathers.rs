@@ -1,8 +1,8 @@
-//! `Avx2::gather_eta` and `Avx2::gather_throughput` (8 path states' index products and
-//! throughputs, the stream renderer's vertex end and wrapper-chain kernels) against the fields
-//! read one by one: every bit moved (edge floats: ±0, ±∞, NaN payloads, subnormals), indices
-//! inside, at the ends of and out of the slice (clamped to its last state), a panic on an
-//! empty slice.
+//! `Avx2::gather_eta`, `Avx2::gather_throughput` and `Avx2::gather_depth` (8 path states'
+//! index products, throughputs and depths: the stream renderer's vertex end, wrapper-chain
+//! kernels and emission stage) against the fields read one by one: every bit moved (edge
+//! floats: ±0, ±∞, NaN payloads, subnormals; depths 0, `u32::MAX` and random), indices inside,
+//! at the ends of and out of the slice (clamped to its last state), a panic on an empty slice.
 
 use groove::integrator::path::PathState;
 use groove::lane::Avx2;
@@ -40,7 +40,11 @@ fn state_gathers_read_each_field() {
                 let mut s = PathState::new();
                 s.throughput = glam::Vec3::new(float(&mut r), float(&mut r), float(&mut r));
                 s.eta = float(&mut r);
-                s.depth = r.next_u32();
+                s.depth = match r.next_u32() % 4 {
+                    0 => 0,
+                    1 => u32::MAX,
+                    _ => r.next_u32(),
+                };
                 s.result = glam::Vec3::splat(float(&mut r));
                 s
             })
@@ -54,7 +58,7 @@ fn state_gathers_read_each_field() {
                 4 => i32::MIN,
                 _ => (r.next_u32() as usize % len) as i32,
             });
-            let (eta, [x, y, z]) = avx.run(
+            let (eta, [x, y, z], depth) = avx.run(
                 #[inline(always)]
                 || {
                     let i = avx.load_i32(&idx);
@@ -62,6 +66,7 @@ fn state_gathers_read_each_field() {
                     (
                         avx.gather_eta(&states, i).to_array(),
                         t.map(|c| c.to_array()),
+                        avx.gather_depth(&states, i).to_array(),
                     )
                 },
             );
@@ -73,19 +78,20 @@ fn state_gathers_read_each_field() {
                 assert_eq!(x[k].to_bits(), s.throughput.x.to_bits(), "{ctx}");
                 assert_eq!(y[k].to_bits(), s.throughput.y.to_bits(), "{ctx}");
                 assert_eq!(z[k].to_bits(), s.throughput.z.to_bits(), "{ctx}");
+                assert_eq!(depth[k] as u32, s.depth, "{ctx}");
             }
         }
     }
-    for f in [0, 1] {
+    for f in [0, 1, 2] {
         let result = std::panic::catch_unwind(|| {
             avx.run(
                 #[inline(always)]
                 || {
                     let i = avx.load_i32(&[0; 8]);
-                    if f == 0 {
-                        avx.gather_eta(&[], i).to_array()[0]
-                    } else {
-                        avx.gather_throughput(&[], i)[0].to_array()[0]
+                    match f {
+                        0 => avx.gather_eta(&[], i).to_array()[0],
+                        1 => avx.gather_throughput(&[], i)[0].to_array()[0],
+                        _ => avx.gather_depth(&[], i).to_array()[0] as f32,
                     }
                 },
             )
