@@ -303,6 +303,13 @@ impl Batch {
         self.alive[i] == self.round
     }
 
+    /// Empties `scatter` and its materials (`scatter_material`) for a new emission stage.
+    #[inline(always)]
+    pub fn clear_scatter(&mut self) {
+        self.scatter.clear();
+        self.scatter_material.clear();
+    }
+
     /// Appends path `i`, which scatters at a surface of material `m`, to `scatter`.
     #[inline(always)]
     pub fn push_scatter(&mut self, i: u32, m: MatId) {

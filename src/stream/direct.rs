@@ -171,8 +171,7 @@ pub(super) fn run_batch(
     kernels.fill_surfaces(scene, batch, &mut scratch.rays.counters.lanes);
 
     // Camera emission; the paths that hit a surface go on to the sampling stage.
-    batch.scatter.clear();
-    batch.scatter_material.clear();
+    batch.clear_scatter();
     for i in 0..batch.len() {
         let ray = &batch.ray[i];
         let si = batch.hit[i].map(|_| batch.surf.get(i));

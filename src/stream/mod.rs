@@ -636,8 +636,7 @@ fn emit(
         return;
     }
     let _ = (kernels, lanes);
-    batch.scatter.clear();
-    batch.scatter_material.clear();
+    batch.clear_scatter();
     for r in 0..batch.active.len() {
         let i = batch.active[r] as usize;
         let ray = &batch.ray[i];

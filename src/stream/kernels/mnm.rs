@@ -186,6 +186,7 @@ pub(crate) fn build_shared(
 /// The lanes of `lanes` that are not flat and keep their first two candidate facets, as bits
 /// (bit k: lane k): `MnmCols::two_facets_with_cell` of each lane of columns with cells,
 /// without a branch per lane.
+///
 /// The flatness test (`MicrofacetNormalMap::is_flat`: |x| and |y| of ωp below
 /// [`FLAT`](crate::bsdf::mnm::FLAT)) and the facets' as one compare per column, 8-wide
 /// where `cols` is (lane by lane otherwise: the same bits).

@@ -356,10 +356,10 @@ pub(crate) mod x8 {
             ));
         }
         let textured = PER_LANE || FULL || maps.any_lane;
-        // Nothing to look up lane by lane (so no `mask` either, which takes `FULL`): the
-        // throughputs gathered in every lane below (a lane behind its surface keeps its
-        // throughput too; its results are dropped). The pending light samples are cleared or
-        // set by `scatter`.
+        // With lookups lane by lane: the throughputs read here, per lane. Without (so no
+        // `mask` either, which takes `FULL`): the throughputs gathered in every lane below (a
+        // lane behind its surface keeps its throughput too; its results are dropped). The
+        // pending light samples are cleared or set by `scatter`.
         if textured {
             for (k, &i) in ids.iter().enumerate() {
                 let i = i as usize;
