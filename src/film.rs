@@ -891,10 +891,52 @@ impl Block {
         let pxf = film_pos.x - 0.5;
         let pyf = film_pos.y - 0.5;
         // Footprint in full-film pixels, then cut to the storage.
-        let fx_lo = ((pxf - r).ceil() as i64).max(self.ox);
-        let fy_lo = ((pyf - r).ceil() as i64).max(self.oy);
-        let fx_hi = (crate::math::floor(pxf + r) as i64).min(self.ox + self.sw as i64 - 1);
-        let fy_hi = (crate::math::floor(pyf + r) as i64).min(self.oy + self.sh as i64 - 1);
+        let lo = [(pxf - r).ceil() as i64, (pyf - r).ceil() as i64];
+        let hi = [
+            crate::math::floor(pxf + r) as i64,
+            crate::math::floor(pyf + r) as i64,
+        ];
+        self.cut_footprint(lo, hi, pxf, pyf)
+    }
+
+    /// [`Block::footprint`] where every bound (the position ± the radius, in pixel-centre
+    /// coordinates) is below 2²³ in magnitude, as on every film a renderer makes: the two
+    /// ceilings and two floors as one truncation in lanes and a correction by one where the
+    /// truncation lies on the wrong side (exact: such floats convert to integers exactly),
+    /// where the scalar form takes four saturating conversions and their range tests. Any
+    /// other position (NaN, huge) takes `footprint`. Call inside [`crate::lane::Avx2::run`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn footprint_lanes(&self, avx: crate::lane::Avx2, film_pos: Vec2) -> Option<Footprint> {
+        use crate::lane::{I32x8, Lane, LaneI32, LaneMask};
+        let r = self.filter.radius();
+        let (pxf, pyf) = (film_pos.x - 0.5, film_pos.y - 0.5);
+        let v = avx.load(&[pxf - r, pyf - r, pxf + r, pyf + r, 0.0, 0.0, 0.0, 0.0]);
+        // False for NaN too.
+        if !v.abs().lt(avx.splat(8_388_608.0)).all() {
+            return self.footprint(film_pos);
+        }
+        let t = v.trunc_i32();
+        let tf = t.to_f32();
+        let (one, zero) = (t.splat(1), t.splat(0));
+        let ceil = t.add(I32x8::select(tf.lt(v), one, zero)).to_array();
+        let floor = t.sub(I32x8::select(tf.gt(v), one, zero)).to_array();
+        self.cut_footprint(
+            [ceil[0] as i64, ceil[1] as i64],
+            [floor[2] as i64, floor[3] as i64],
+            pxf,
+            pyf,
+        )
+    }
+
+    /// The footprint whose full-film pixel bounds are `lo` to `hi` (inclusive, x then y), cut
+    /// to the storage; `pxf`, `pyf` the splat position in pixel-centre coordinates.
+    #[inline(always)]
+    fn cut_footprint(&self, lo: [i64; 2], hi: [i64; 2], pxf: f32, pyf: f32) -> Option<Footprint> {
+        let fx_lo = lo[0].max(self.ox);
+        let fy_lo = lo[1].max(self.oy);
+        let fx_hi = hi[0].min(self.ox + self.sw as i64 - 1);
+        let fy_hi = hi[1].min(self.oy + self.sh as i64 - 1);
         if fx_lo > fx_hi || fy_lo > fy_hi {
             return None;
         }
@@ -925,7 +967,7 @@ impl Block {
         if !film_pos.is_finite() || self.sw == 0 || self.sh == 0 {
             return;
         }
-        let Some(fp) = self.footprint(film_pos) else {
+        let Some(fp) = self.footprint_lanes(avx, film_pos) else {
             return;
         };
         let v = value.to_array();

@@ -127,6 +127,88 @@ fn footprint_tables_cover_each_pixel_once() {
     }
 }
 
+/// `Block::footprint_lanes` equals `Block::footprint` (the pixels, cut to the storage, and the
+/// offsets' bits) on blocks at several origins and filters, for positions on and next to pixel
+/// edges and centres, negative ones, ones far off the block, near and past 2²³ (where the lanes
+/// form hands over to the scalar one) and random ones.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn footprint_lanes_equals_footprint() {
+    let Some(avx) = crate::lane::Avx2::detect() else {
+        eprintln!("no AVX2: footprint_lanes not tested");
+        return;
+    };
+    let key = |f: Option<Footprint>| {
+        f.map(|f| {
+            (
+                f.x_lo,
+                f.y_lo,
+                f.nx,
+                f.ny,
+                f.rel_x.to_bits(),
+                f.rel_y.to_bits(),
+            )
+        })
+    };
+    let mut xs = vec![
+        0.0f32, -0.0, 0.5, 1.0, 2.5, 3.0, -1.0, -2.5, 7.25, 1e4, -1e4,
+    ];
+    for b in [
+        8_388_606.0f32,
+        8_388_608.0,
+        16_777_216.0,
+        3e9,
+        1e30,
+        f32::MAX,
+    ] {
+        for x in [
+            b,
+            -b,
+            f32::from_bits(b.to_bits() - 1),
+            f32::from_bits(b.to_bits() + 1),
+        ] {
+            xs.push(x);
+        }
+    }
+    for x in xs.clone() {
+        for d in [-1, 1] {
+            xs.push(f32::from_bits((x.to_bits() as i32 + d) as u32));
+        }
+    }
+    let mut rng = Pcg32::new(7, 11);
+    for _ in 0..2000 {
+        xs.push((rng.next_f32() - 0.3) * 40.0);
+    }
+    let filters = [
+        Filter::gaussian(0.5),
+        Filter::gaussian(1.3),
+        Filter::Tent { radius: 1.0 },
+        Filter::Tent { radius: 2.75 },
+    ];
+    let mut checked = 0;
+    for filter in filters {
+        for (x0, y0) in [(0, 0), (5, 3), (17, 40)] {
+            let b = Block::new(&desc(64, 64, filter), x0, y0, 9, 7);
+            for (k, &x) in xs.iter().enumerate() {
+                let y = xs[(k * 7 + 3) % xs.len()];
+                let pos = Vec2::new(x, y);
+                let lanes = avx.run(
+                    #[inline(always)]
+                    || b.footprint_lanes(avx, pos),
+                );
+                let hit = lanes.is_some();
+                assert_eq!(
+                    key(lanes),
+                    key(b.footprint(pos)),
+                    "{filter:?} ({x0}, {y0}) at {pos}"
+                );
+                checked += hit as u32;
+            }
+        }
+    }
+    assert!(checked > 1000, "only {checked} positions reached a block");
+}
+
 /// The sums are stored biased (`sum::LOW_BIAS`) and read unbiased: an empty pixel reads 0
 /// and gives the zero `RawPixel`, and raw sums go in and come out unchanged, extremes included.
 #[test]

@@ -249,11 +249,18 @@ impl Avx2 {
                 } else if sel != 0 {
                     let bit = |i: u32| -((sel >> i & 1) as i64);
                     let m = _mm256_setr_epi64x(bit(0), bit(1), bit(2), bit(3));
-                    neg = _mm256_or_si256(neg, _mm256_and_si256(h, m));
+                    if HALVES == 1 {
+                        // One group: `vtestpd` reads the selection as its mask operand, so
+                        // h & m is not formed in a register first.
+                        any = _mm256_testz_pd(_mm256_castsi256_pd(h), _mm256_castsi256_pd(m)) == 0;
+                    } else {
+                        neg = _mm256_or_si256(neg, _mm256_and_si256(h, m));
+                    }
                 }
             }
             let mask = if HALVES == 1 { SAT & 15 } else { SAT & 0xff };
-            if mask != 0 {
+            // (One group's partial selection was tested above.)
+            if mask != 0 && !(HALVES == 1 && mask != 15) {
                 let n = _mm256_castsi256_pd(neg);
                 any = _mm256_testz_pd(n, n) == 0;
             }
