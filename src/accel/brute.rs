@@ -396,6 +396,46 @@ impl Brute {
         }
     }
 
+    /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each read
+    /// where it lies (one row load, [`Avx2::ray_row`], not a packet of rays copied first),
+    /// each hit handed to `out(k, hit)` in lane order (not a packet of hits): the stream
+    /// renderer's trace, from and to its path columns. The same hits as [`Self::intersect8`].
+    #[inline(always)]
+    pub(crate) fn intersect8_with<'r>(
+        &self,
+        n: usize,
+        ray: impl Fn(usize) -> &'r Ray,
+        mut out: impl FnMut(usize, Option<Hit>),
+    ) {
+        let n = n.min(W);
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = self.avx {
+            let (ts, geoms, us, vs) = avx.run(
+                #[inline(always)]
+                || {
+                    let b = self.nearest_of_each(&packet_with(avx, n, &ray), avx.splat(0.0), NONE);
+                    let (t, g) = (b.t.to_array(), b.g.to_array());
+                    if self.tri_rows.is_empty() {
+                        return (t, g, [0.0; W], [0.0; W]);
+                    }
+                    (t, g, (b.u / b.a).to_array(), (b.v / b.a).to_array())
+                },
+            );
+            for k in 0..n {
+                out(
+                    k,
+                    self.finish_with(|| ray(k), ts[k], geoms[k], us[k], vs[k]),
+                );
+            }
+            return;
+        }
+        for k in 0..n {
+            let r = ray(k);
+            let b = self.nearest_of_each(&ray_lanes(r), 0.0f32, NONE);
+            out(k, self.finish(r, b.t, b.g, b.u / b.a, b.v / b.a));
+        }
+    }
+
     /// [`Self::occluded`] of up to 8 rays as one packet: bit `i` for `rays[i]`.
     pub(crate) fn occluded8(&self, rays: &[Ray]) -> u8 {
         let n = rays.len().min(W);
@@ -486,6 +526,20 @@ impl Brute {
     /// test's numerators over |d·n|, divided in lanes or at width 1 alike).
     #[inline(always)]
     fn finish(&self, ray: &Ray, t: f32, key: i32, u: f32, v: f32) -> Option<Hit> {
+        self.finish_with(|| ray, t, key, u, v)
+    }
+
+    /// [`Self::finish`] with the ray read through `ray` only where a box needs it (the
+    /// in-place packets' rays are looked up through the caller's ids).
+    #[inline(always)]
+    fn finish_with<'r>(
+        &self,
+        ray: impl FnOnce() -> &'r Ray,
+        t: f32,
+        key: i32,
+        u: f32,
+        v: f32,
+    ) -> Option<Hit> {
         if key == NONE {
             return None;
         }
@@ -503,7 +557,7 @@ impl Brute {
             return Some(hit);
         }
         match self.slots.get(geom as usize) {
-            Some(&Slot::Box(row)) => (hit.prim, hit.u, hit.v) = self.box_hit(ray, row as usize),
+            Some(&Slot::Box(row)) => (hit.prim, hit.u, hit.v) = self.box_hit(ray(), row as usize),
             Some(&Slot::Mesh) => (hit.u, hit.v) = (u, v),
             _ => {}
         }
@@ -784,37 +838,31 @@ fn splat_ray(avx: Avx2, ray: &Ray) -> RayL<F32x8> {
 }
 
 /// Up to 8 rays, one per lane; lanes past `rays.len()` get a NaN interval (never hit). Each
-/// ray is one row of 8 floats (a full packet's loaded in place, [`Avx2::ray_fields`]), turned
-/// into 8 lanes per field by one 8×8 transpose (moves only).
+/// ray is one row of 8 floats loaded in place ([`packet_with`]), turned into 8 lanes per field
+/// by one 8×8 transpose (moves only).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn packet(avx: Avx2, rays: &[Ray]) -> RayL<F32x8> {
-    if rays.len() == W {
-        // A full packet: each ray loaded whole (the same rows).
-        let [ox, oy, oz, dx, dy, dz, tnear, tfar] = avx.ray_fields(rays, &[0, 1, 2, 3, 4, 5, 6, 7]);
-        return RayL {
-            o: V3::new(ox, oy, oz),
-            d: V3::new(dx, dy, dz),
-            tnear,
-            tfar,
-        };
-    }
+    packet_with(avx, rays.len().min(W), &|k| &rays[k])
+}
+
+/// [`packet`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each row loaded where the
+/// ray lies ([`Avx2::ray_row`]); the same lanes.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn packet_with<'r>(avx: Avx2, n: usize, ray: &impl Fn(usize) -> &'r Ray) -> RayL<F32x8> {
     const PAD: [f32; W] = [0.0, 0.0, 0.0, 0.0, 0.0, 1.0, f32::NAN, f32::NAN];
-    let mut rows = [PAD; W];
-    for (row, r) in rows.iter_mut().zip(rays) {
-        *row = [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.tmin, r.tmax];
+    let mut rows = [Load(avx).f(&PAD); W];
+    if n >= W {
+        for (k, row) in rows.iter_mut().enumerate() {
+            *row = avx.ray_row(ray(k));
+        }
+    } else {
+        for (k, row) in rows.iter_mut().enumerate().take(n) {
+            *row = avx.ray_row(ray(k));
+        }
     }
-    let l = Load(avx);
-    let [ox, oy, oz, dx, dy, dz, tnear, tfar] = F32x8::transpose8([
-        l.f(&rows[0]),
-        l.f(&rows[1]),
-        l.f(&rows[2]),
-        l.f(&rows[3]),
-        l.f(&rows[4]),
-        l.f(&rows[5]),
-        l.f(&rows[6]),
-        l.f(&rows[7]),
-    ]);
+    let [ox, oy, oz, dx, dy, dz, tnear, tfar] = F32x8::transpose8(rows);
     RayL {
         o: V3::new(ox, oy, oz),
         d: V3::new(dx, dy, dz),

@@ -319,9 +319,10 @@ impl Accel {
     }
 
     /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each hit handed
-    /// to `out(k, hit)` in lane order: no packet of rays or of hits in between under Embree
-    /// (the stream renderer's camera packets, read from and written to its path columns), whose
-    /// one packet is `buf`'s, reused from query to query.
+    /// to `out(k, hit)` in lane order: no packet of rays or of hits in between (the stream
+    /// renderer's 8-wide packets, read from and written to its path columns); under Embree
+    /// the one packet is `buf`'s, reused from query to query, tier A loads each ray's row in
+    /// place ([`brute::Brute::intersect8_with`]).
     #[inline(always)]
     pub fn intersect8_with<'r>(
         &self,
@@ -333,20 +334,11 @@ impl Accel {
     ) {
         let n = n.min(8);
         match (&self.brute, &self.scene) {
+            (Some(b), _) => b.intersect8_with(n, ray, out),
             (None, Some(s)) => s.intersect8_with(&mut buf.0, n, coherent, ray, |k, h| {
                 out(k, h.and_then(|h| self.world_hit(h)))
             }),
-            _ => {
-                let mut p = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
-                for (k, p) in p.iter_mut().enumerate().take(n) {
-                    *p = *ray(k);
-                }
-                let mut hits = [None; 8];
-                self.intersect8(&p[..n], coherent, &mut hits);
-                for (k, h) in hits.into_iter().enumerate().take(n) {
-                    out(k, h);
-                }
-            }
+            (None, None) => (0..n).for_each(|k| out(k, None)),
         }
     }
 

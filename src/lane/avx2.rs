@@ -503,7 +503,7 @@ const _: () = assert!(
         && core::mem::size_of::<[u32; 3]>() == 12
 );
 
-// `Avx2::ray_fields` reads a `Ray` as eight consecutive f32s in this order.
+// `Avx2::ray_fields` and `Avx2::ray_row` read a `Ray` as eight consecutive f32s in this order.
 const _: () = {
     use crate::geometry::Ray;
     use core::mem::{offset_of, size_of};
@@ -1126,6 +1126,19 @@ impl Avx2 {
             }
             out
         }
+    }
+
+    // The thirtieth session's h1 block.
+
+    /// One ray as a row of 8 floats: o.x, o.y, o.z, d.x, d.y, d.z, tmin, tmax (one 32-byte
+    /// load, as each row of [`Self::ray_fields`]): tier A's packets read the stream renderer's
+    /// rays where they lie, through a reference, instead of copying them into a packet first.
+    #[inline(always)]
+    pub fn ray_row(self, ray: &crate::geometry::Ray) -> F32x8 {
+        let r: *const crate::geometry::Ray = ray;
+        // SAFETY: the token proves AVX. A `Ray` is eight f32s, o.x … tmax, without padding
+        // (asserted below), all initialised, so the 32-byte load reads exactly `*ray`.
+        F32x8(unsafe { _mm256_loadu_ps(r.cast::<f32>()) })
     }
 }
 

@@ -5,10 +5,11 @@
 
 use super::BATCH;
 use crate::geometry::{Hit, Ray, SurfaceInteraction};
-use crate::integrator::path::{PathState, PendingLight};
+use crate::integrator::path::PathState;
 use crate::material::MatId;
 use crate::math::Frame;
 use crate::sampler::{Sampler, SamplerDesc, Samplers};
+use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 
 /// The AVX2 token of the 8-wide set-up (none on other architectures).
@@ -37,8 +38,6 @@ pub(crate) struct Batch {
     pub hit_flag: Vec<u32>,
     /// The surface each path scatters at (set by the emission stage for the paths that go on).
     pub surf: Surfaces,
-    /// The light sample whose shadow ray is pending.
-    pub light: Vec<Option<PendingLight>>,
     /// Whether the path goes on after the shading stage, as a stamp: the path goes on when its
     /// entry equals [`Self::round`] (the shading stage writes `round` for the paths that go
     /// on; the entries of the others are older rounds), so no stage clears the flags.
@@ -64,8 +63,19 @@ pub(crate) struct Batch {
     pub one_by_one: Ids,
     /// `scatter` stably sorted by material.
     pub sorted: Vec<u32>,
-    /// Ids of the paths with a pending shadow ray, ascending.
-    pub shadow: Vec<u32>,
+    /// The shadow rays of the light samples pending at this bounce (the first
+    /// `pending_lights`), in the order the shading stage met them (material by material),
+    /// each beside its path and contribution in `shadow_adds` ([`Self::push_light`], or a
+    /// kernel's chunk at once): the shadow stage traces them as they lie, with no walk over
+    /// the scattering paths and no copy into a packet. Fixed at [`BATCH`] + [`LIGHT_SLACK`]
+    /// entries, so that a chunk of up to 16 lanes may write a row in every lane past the
+    /// pending ones and keep only the passing ones (no per-lane test, no growth check).
+    pub shadow_rays: Box<[Ray]>,
+    /// Per entry of `shadow_rays`: the path and the contribution its radiance gains when
+    /// nothing blocks the ray.
+    pub shadow_adds: Box<[PendingAdd]>,
+    /// How many entries of `shadow_rays` and `shadow_adds` are pending samples.
+    pub pending_lights: usize,
     /// Counting-sort bins: one per material id, plus one. After a sort that binned
     /// (`binned`), `bins[m]` is the end of material `m`'s run in `sorted`.
     bins: Vec<u32>,
@@ -80,6 +90,18 @@ pub(crate) struct Batch {
     /// cleared and the scene's light selection built cost ~0.9 M instructions on
     /// metal_plastic at 2 spp (~12 a sample).
     pub gathers: Gathers,
+}
+
+/// The entries of [`Batch::shadow_rays`] past [`BATCH`]: room for a chunk of the widest
+/// kernels (16 lanes) to write every lane after the pending samples.
+pub(crate) const LIGHT_SLACK: usize = 16;
+
+/// A pending light sample's path and contribution, beside its shadow ray in
+/// [`Batch::shadow_rays`] (16 bytes: the shadow stage reads one per ray it traces).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PendingAdd {
+    pub path: u32,
+    pub contribution: Spectrum,
 }
 
 /// [`Batch::gathers`]' type (nothing off x86-64, where no kernel runs).
@@ -104,7 +126,6 @@ impl Batch {
             hit: Vec::with_capacity(capacity),
             hit_flag: Vec::with_capacity(capacity),
             surf: Surfaces::new(),
-            light: Vec::with_capacity(capacity),
             alive: Vec::with_capacity(capacity),
             round: 0,
             material: Vec::with_capacity(capacity),
@@ -115,7 +136,16 @@ impl Batch {
             on_lights: Ids::new(),
             one_by_one: Ids::new(),
             sorted: Vec::with_capacity(capacity),
-            shadow: Vec::with_capacity(capacity),
+            shadow_rays: vec![Ray::new(Vec3::ZERO, Vec3::Z); BATCH + LIGHT_SLACK].into(),
+            shadow_adds: vec![
+                PendingAdd {
+                    path: 0,
+                    contribution: Spectrum::ZERO,
+                };
+                BATCH + LIGHT_SLACK
+            ]
+            .into(),
+            pending_lights: 0,
             bins: vec![0; materials + 1],
             binned: false,
             light_lanes: [0; crate::stream::kernels::light::KINDS],
@@ -123,7 +153,7 @@ impl Batch {
         }
     }
 
-    /// Empties the batch (capacities are kept). `hit`, `hit_flag`, `light`, `alive` and
+    /// Empties the batch (capacities are kept). `hit`, `hit_flag`, `alive` and
     /// `material` keep their contents: [`Self::start`] only sizes them (see there).
     pub fn clear(&mut self) {
         self.pos.clear();
@@ -137,7 +167,7 @@ impl Batch {
         self.on_lights.clear();
         self.one_by_one.clear();
         self.sorted.clear();
-        self.shadow.clear();
+        self.clear_lights();
     }
 
     /// Fills `pos` and `sampler` with paths `k..end` (at most [`BATCH`]) of a block: the pixels
@@ -260,8 +290,7 @@ impl Batch {
     /// other per-path arrays. Those keep what the previous batch left in them: each is written
     /// for a path before the path's stages read it in a bounce (`hit` by the trace of every
     /// active path, `hit_flag` by the gather stage for every active path, `alive` by the
-    /// emission stage for every active path and `material` for every path that scatters,
-    /// `light` by the shading of every path that scatters, which starts with `None`), so
+    /// emission stage for every active path and `material` for every path that scatters), so
     /// filling them would only cost a pass over ~60 KB per batch.
     pub fn start(&mut self) {
         let n = self.pos.len();
@@ -273,7 +302,6 @@ impl Batch {
         self.state.resize(n, PathState::new());
         self.hit.resize(n, None);
         self.hit_flag.resize(n, 0);
-        self.light.resize(n, None);
         self.alive.resize(n, 0);
         self.material.resize(n, 0);
     }
@@ -303,6 +331,27 @@ impl Batch {
         self.alive[i] == self.round
     }
 
+    /// Empties the pending light samples (`shadow_rays`, `shadow_adds`) for a new shading
+    /// stage.
+    #[inline(always)]
+    pub fn clear_lights(&mut self) {
+        self.pending_lights = 0;
+    }
+
+    /// Appends path `i`'s pending light sample: its shadow ray and the contribution its
+    /// radiance gains when nothing blocks it (`PendingLight`'s two fields; a path has at most
+    /// one a bounce).
+    #[inline(always)]
+    pub fn push_light(&mut self, i: u32, shadow: Ray, contribution: Spectrum) {
+        let n = self.pending_lights;
+        self.shadow_rays[n] = shadow;
+        self.shadow_adds[n] = PendingAdd {
+            path: i,
+            contribution,
+        };
+        self.pending_lights = n + 1;
+    }
+
     /// Empties `scatter` and its materials (`scatter_material`) for a new emission stage.
     #[inline(always)]
     pub fn clear_scatter(&mut self) {
@@ -330,7 +379,6 @@ impl Batch {
         self.ray.push(ray);
         self.hit.push(None);
         self.hit_flag.push(0);
-        self.light.push(None);
         self.alive.push(0);
         self.material.push(0);
     }

@@ -27,7 +27,8 @@
 //!    run's last < 8 paths and a machine without AVX2 go through the 1-lane code lane by lane
 //!    ([`crate::integrator::path::PathState::scatter`]). The other stages (surface gather,
 //!    emission, camera rays, splat) are 8 wide;
-//! 5. **shadow rays** of the pending light samples, in path order, adding the unoccluded ones;
+//! 5. **shadow rays** of the pending light samples, as the shading stage listed them, adding
+//!    the unoccluded ones;
 //! 6. **compact** the surviving paths (stable).
 //!
 //! The `direct` integrator runs on the same batch, camera trace, shading stage (its own
@@ -884,143 +885,65 @@ fn shade_kernel<T: kernels::tail::Tail>(
     (0, false)
 }
 
-/// Traces the shadow rays of the paths that scattered, in path order, and adds the light
-/// samples that nothing blocks; one by one, or grouped when `packet` is `Some(stream)`: as
-/// 8-wide packets of consecutive pending rays, or (`stream`) as one Embree stream.
+/// Traces the pending light samples' shadow rays (`batch.shadow_rays`, in the order the
+/// shading stage appended them) and adds the samples that nothing blocks; one by one, or
+/// grouped when `packet` is `Some(stream)`: as 8-wide packets of consecutive pending rays
+/// (16-wide where [`Rays::packets16`] says so), or (`stream`) as one Embree stream. Each ray's
+/// answer is the one it gets alone (`tests/scene/packets.rs`) and a path has at most one
+/// pending sample, so the grouping and the order leave every path's radiance as the scalar
+/// renderer's. Empties the pending samples.
 fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Rays) {
-    if packet == Some(false) {
-        return shadow_packets(scene, batch, rays);
-    }
-    if packet == Some(true) {
-        return shadow_stream(scene, batch, rays);
-    }
-    // `shadow` is a subsequence of `scatter`: written in place over a copy of it, branch-free
-    // (the write position advances past the paths with a pending sample only).
-    batch.shadow.clear();
-    batch.shadow.extend_from_slice(&batch.scatter[..]);
-    let (shadow, light) = (&mut batch.shadow, &batch.light);
-    let mut pending = 0;
-    for r in 0..shadow.len() {
-        let i = shadow[r];
-        shadow[pending] = i;
-        pending += light[i as usize].is_some() as usize;
-    }
-    shadow.truncate(pending);
-    let n = batch.shadow.len();
+    let n = batch.pending_lights;
     rays.counters.lanes.shadow_used += n as u64;
     rays.counters.lanes.shadow_slots += slots(n);
-    if packet.is_some() {
-        let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); 8];
-        for chunk in batch.shadow.chunks(8) {
-            for (p, &i) in packet.iter_mut().zip(chunk) {
-                if let Some(l) = &batch.light[i as usize] {
-                    *p = l.shadow;
-                }
+    let (shadow, adds) = (&batch.shadow_rays[..n], &batch.shadow_adds[..n]);
+    let state = &mut batch.state;
+    match packet {
+        Some(true) => rays.occluded_stream(scene, shadow.iter(), false, |k, blocked| {
+            if !blocked {
+                add_light(state, &adds[k]);
             }
-            let blocked = rays.occluded8(scene, &packet[..chunk.len()]);
-            for (k, &i) in chunk.iter().enumerate() {
-                let i = i as usize;
-                if let (Some(l), false) = (&batch.light[i], blocked >> k & 1 == 1) {
-                    batch.state[i].add_light(l);
-                }
-            }
+        }),
+        Some(false) if rays.packets16() => shadow_packets::<16>(shadow, adds, state, |p| {
+            u32::from(rays.occluded16(scene, p))
+        }),
+        Some(false) => {
+            shadow_packets::<8>(shadow, adds, state, |p| u32::from(rays.occluded8(scene, p)))
         }
-    } else {
-        for &i in &batch.shadow {
-            let i = i as usize;
-            if let Some(l) = &batch.light[i] {
-                if !rays.occluded(scene, &l.shadow) {
-                    batch.state[i].add_light(l);
+        None => {
+            for (r, a) in shadow.iter().zip(adds) {
+                if !rays.occluded(scene, r) {
+                    add_light(state, a);
                 }
             }
         }
     }
+    batch.clear_lights();
 }
 
-/// [`shadows`] as one Embree stream (`rtcOccluded1M`), in one pass over `batch.scatter`: each
-/// pending sample's ray goes into the stream and its path into `batch.shadow` as the pass meets
-/// it; then the unblocked samples are added. The same stream as filtering the pending paths into
-/// `batch.shadow` first, without that pass.
-fn shadow_stream(scene: &Scene, batch: &mut Batch, rays: &mut Rays) {
-    let (scatter, light, shadow) = (&batch.scatter, &batch.light, &mut batch.shadow);
-    shadow.clear();
-    let n = rays.fill_stream(scatter.iter().filter_map(|&i| {
-        let l = light[i as usize].as_ref()?;
-        shadow.push(i);
-        Some(&l.shadow)
-    }));
-    rays.counters.lanes.shadow_used += n as u64;
-    rays.counters.lanes.shadow_slots += slots(n);
-    let (shadow, state) = (&batch.shadow, &mut batch.state);
-    rays.occluded_filled(scene, false, |k, blocked| {
-        let i = shadow[k] as usize;
-        if let (Some(l), false) = (&light[i], blocked) {
-            state[i].add_light(l);
-        }
-    });
-}
-
-/// [`shadows`] as 8-wide packets of consecutive pending rays in path order (16-wide where
-/// [`Rays::packets16`] says so: the same rays in the same order, so the same answers), in one
-/// pass over `batch.scatter`: each pending sample's ray joins the packet (and its path the
-/// packet's list) as the pass meets it, and a full packet (the last one, partly filled) is
-/// traced and its unblocked samples added. The same packets as filtering the pending paths into
-/// `batch.shadow` first, without that list's pass and the rays' second read.
-fn shadow_packets(scene: &Scene, batch: &mut Batch, rays: &mut Rays) {
-    let total = if rays.packets16() {
-        shadow_packets_of::<16>(batch, rays, |rays, p| u32::from(rays.occluded16(scene, p)))
-    } else {
-        shadow_packets_of::<8>(batch, rays, |rays, p| u32::from(rays.occluded8(scene, p)))
-    };
-    batch.shadow.clear();
-    rays.counters.lanes.shadow_used += total as u64;
-    rays.counters.lanes.shadow_slots += slots(total);
-}
-
-/// [`shadow_packets`] with packets of `N` rays traced by `occluded` (bit `k` set when ray `k`
-/// is blocked); returns the number of rays traced.
+/// `PathState::add_light` of a pending sample: its path's radiance gains its contribution.
 #[inline(always)]
-fn shadow_packets_of<const N: usize>(
-    batch: &mut Batch,
-    rays: &mut Rays,
-    mut occluded: impl FnMut(&mut Rays, &[Ray]) -> u32,
-) -> usize {
-    let (scatter, light, state) = (&batch.scatter, &batch.light, &mut batch.state);
-    let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); N];
-    let mut who = [0u32; N];
-    let (mut n, mut total) = (0, 0);
-    /// Adds the samples of the paths `who` (one per ray) that nothing blocks.
-    #[inline(always)]
-    fn add(
-        blocked: u32,
-        who: &[u32],
-        light: &[Option<crate::integrator::path::PendingLight>],
-        state: &mut [crate::integrator::path::PathState],
-    ) {
-        for (k, &i) in who.iter().enumerate() {
-            let i = i as usize;
-            if let (Some(l), false) = (&light[i], blocked >> k & 1 == 1) {
-                state[i].add_light(l);
+fn add_light(state: &mut [crate::integrator::path::PathState], a: &batch::PendingAdd) {
+    state[a.path as usize].result += a.contribution;
+}
+
+/// [`shadows`] as packets of `N` consecutive pending rays (the last one shorter), each traced
+/// by `occluded` (bit `k` set when ray `k` is blocked) straight from the pending rays' list.
+#[inline(always)]
+fn shadow_packets<const N: usize>(
+    shadow: &[Ray],
+    adds: &[batch::PendingAdd],
+    state: &mut [crate::integrator::path::PathState],
+    mut occluded: impl FnMut(&[Ray]) -> u32,
+) {
+    for (p, a) in shadow.chunks(N).zip(adds.chunks(N)) {
+        let blocked = occluded(p);
+        for (k, a) in a.iter().enumerate() {
+            if blocked >> k & 1 == 0 {
+                add_light(state, a);
             }
         }
     }
-    for &i in scatter.iter() {
-        if let Some(l) = &light[i as usize] {
-            packet[n] = l.shadow;
-            who[n] = i;
-            n += 1;
-            if n == N {
-                add(occluded(rays, &packet), &who, light, state);
-                total += N;
-                n = 0;
-            }
-        }
-    }
-    if n > 0 {
-        add(occluded(rays, &packet[..n]), &who[..n], light, state);
-        total += n;
-    }
-    total
 }
 
 /// Traces the rays of the active paths into `batch.hit`, one at a time or grouped when
@@ -1043,13 +966,9 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, 
         trace_packets::<16>(batch, rays, |rays, p, out| {
             rays.intersect16(scene, p, kind, out)
         });
-    } else if packet.is_some() && scene.accel.tier() == crate::accel::Tier::Brute {
-        trace_packets::<8>(batch, rays, |rays, p, out| {
-            rays.intersect8(scene, p, kind, out)
-        });
     } else if packet.is_some() {
-        // Under Embree, each packet's rays read from, and its hits written to, the path
-        // columns directly (tier A takes whole packets of rays: `trace_packets`).
+        // Each packet's rays read from, and its hits written to, the path columns directly
+        // (Embree's packet, or tier A's rows loaded in place).
         let (active, ray, hit) = (&batch.active, &batch.ray, &mut batch.hit);
         for chunk in active.chunks(8) {
             let ray = |k: usize| &ray[chunk[k] as usize];

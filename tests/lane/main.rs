@@ -22,6 +22,8 @@
 //! - `state_gathers`: the path states' index products, throughputs and depths in lanes
 //!   (`Avx2::gather_eta`, `Avx2::gather_throughput`, `Avx2::gather_depth`) against the fields
 //!   (every bit, indices clamped).
+//! - `ray_row`: one ray as a row of 8 floats (`Avx2::ray_row`, tier A's packets read in place)
+//!   against its fields, and 8 rows against `Avx2::ray_fields` (every bit).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
@@ -39,6 +41,7 @@ mod harness;
 mod lookup;
 mod masks;
 mod pcg_ops;
+mod ray_row;
 mod rows4;
 mod scalar;
 mod state_gathers;

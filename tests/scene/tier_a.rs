@@ -15,7 +15,7 @@
 //! and the hit point within a rounding bound (`cbox_triangles_agree_with_embree`).
 
 use glam::{Mat4, Vec3};
-use groove::accel::{Accel, Tier};
+use groove::accel::{Accel, RayBuf, Tier};
 use groove::geometry::{Hit, Ray, Shape, ShapeKind};
 use groove::load::Loaded;
 use groove::math::Pcg32;
@@ -83,11 +83,40 @@ fn random_set(seed: u64, n: usize) -> Loaded {
     load_text(&body)
 }
 
+/// Tier A's in-place packet (`Accel::intersect8_with`, the stream renderer's: each ray read
+/// through `ray(k)`, here the lanes in reverse, each hit handed over in lane order) gives
+/// `packet`'s hits (`Accel::intersect8` of `lanes`, at most 8 rays) bit for bit, once per ray.
+fn in_place_equal(brute: &Accel, lanes: &[Ray], coherent: bool, packet: &[Option<Hit>; 8]) {
+    let n = lanes.len();
+    let mut got = vec![None; n];
+    let mut order = Vec::new();
+    brute.intersect8_with(
+        &mut RayBuf::default(),
+        n,
+        coherent,
+        |k| &lanes[n - 1 - k],
+        |k, h| {
+            got[k] = h;
+            order.push(k);
+        },
+    );
+    assert_eq!(
+        order,
+        (0..n).collect::<Vec<_>>(),
+        "one hit per ray, in lane order"
+    );
+    for (k, h) in got.iter().enumerate() {
+        let r = &lanes[n - 1 - k];
+        assert_eq!(bits(h), bits(&packet[n - 1 - k]), "ray {r:?}: in place");
+    }
+}
+
 /// Tier A's packet, occlusion and 8-wide occlusion answers for `lanes` (at most 8 rays) equal
 /// its single-ray hits bit for bit; returns those hits, ray by ray.
 fn self_consistent(brute: &Accel, lanes: &[Ray], coherent: bool) -> Vec<Option<Hit>> {
     let mut packet = [None; 8];
     brute.intersect8(lanes, coherent, &mut packet);
+    in_place_equal(brute, lanes, coherent, &packet);
     let blocked = brute.occluded8(lanes);
     let mut hits = Vec::with_capacity(lanes.len());
     for (i, ray) in lanes.iter().enumerate() {
@@ -311,6 +340,7 @@ fn compare_rays(name: &str, embree: &Accel, brute: &Accel, all: &[Ray]) -> (usiz
         let lanes = &all[start..(start + n).min(all.len())];
         let mut packet = [None; 8];
         brute.intersect8(lanes, k % 2 == 0, &mut packet);
+        in_place_equal(brute, lanes, k % 2 == 0, &packet);
         let blocked = brute.occluded8(lanes);
         assert_eq!(u32::from(blocked) >> lanes.len(), 0, "{name}: lanes past n");
         assert!(packet[lanes.len()..].iter().all(Option::is_none));

@@ -396,12 +396,10 @@ pub(crate) mod x8 {
             alive |= 1 << k;
             nee |= u8::from(light_samples && bsdf.lobes().is_smooth()) << k;
         }
-        // Every path's light sample cleared; the scattering paths' throughputs; the light
-        // sample's points (the others 0).
+        // The scattering paths' throughputs; the light sample's points (the others 0).
         let mut tp = Cols3::default();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
-            b.light[i] = None;
             if alive & (1 << k) != 0 {
                 tp.set(k, b.state[i].throughput);
             }

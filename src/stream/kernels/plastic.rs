@@ -283,13 +283,7 @@ pub(crate) mod x8 {
             Coating::Rough(c) => (c.diffuse_reflectance, c.specular_reflectance),
         };
         let (mut rho, mut spec, mut tp) = <(Cols3<W>, Cols3<W>, Cols3<W>)>::default();
-        // Under the `path` tail `vertex::x8::scatter` sets every pending light sample; under
-        // another the loops below store only the passing ones, so they are cleared here.
-        let clear = tail.path().is_none();
         for (k, &i) in ids.iter().enumerate() {
-            if clear {
-                b.light[i as usize] = None;
-            }
             if !front[k] {
                 continue;
             }

@@ -11,7 +11,6 @@
 
 use crate::bsdf::BsdfArena;
 use crate::geometry::Ray;
-use crate::integrator::path::PendingLight;
 use crate::integrator::PathSettings;
 use crate::scene::Scene;
 use crate::spectrum::Spectrum;
@@ -68,10 +67,7 @@ impl Tail for PathTail<'_> {
 
     #[inline(always)]
     fn light(&mut self, b: &mut Batch, i: usize, shadow: Ray, contribution: Spectrum) {
-        b.light[i] = Some(PendingLight {
-            shadow,
-            contribution,
-        });
+        b.push_light(i as u32, shadow, contribution);
     }
 
     #[inline(always)]
@@ -95,14 +91,18 @@ impl Tail for PathTail<'_> {
     #[inline]
     fn scalar(&mut self, scene: &Scene, b: &mut Batch, i: usize, arena: &mut BsdfArena) {
         let si = b.surf.get(i);
+        let mut light = None;
         let next = b.state[i].scatter(
             self.cfg,
             scene,
             &si,
             &mut b.sampler.at(i),
             arena,
-            &mut b.light[i],
+            &mut light,
         );
+        if let Some(l) = light {
+            b.push_light(i as u32, l.shadow, l.contribution);
+        }
         if let Some(r) = next {
             b.ray[i] = r;
             b.set_alive(i);

@@ -222,11 +222,11 @@ pub(crate) fn leaf_values(
 pub(crate) mod x8 {
     use super::*;
     use crate::geometry::Ray;
-    use crate::integrator::path::{advance_lanes, PendingLight};
+    use crate::integrator::path::advance_lanes;
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::V2;
     use crate::lane::{LaneI32, ToArray, Wide};
-    use crate::stream::batch::Batch;
+    use crate::stream::batch::{Batch, PendingAdd};
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
@@ -612,10 +612,10 @@ pub(crate) mod x8 {
     /// Step 4 of a chunk (the wrapper-chain driver's and [`crate::stream::kernels::blend`]'s):
     /// each front-facing lane's pending shadow ray, then its BSDF sample, to the integrator's
     /// tail, in path order (`throughput`: the paths' throughputs, read by the `path` tail; a
-    /// lane behind its surface may hold any value there). Every path's pending light sample
-    /// (`b.light`) is set here: `None` but where the lane's light sample passed (the kernels do
-    /// not clear it first: a padded chunk's repeated lanes clear only paths of the chunk,
-    /// before any is stored). Under the `path` integrator's tail ([`Tail::path`], whose
+    /// lane behind its surface may hold any value there). The lanes whose light sample passed
+    /// append it to the batch's pending samples (`Batch::push_light`; a padded chunk's
+    /// repeated lanes are behind their surface, so each path appends at most one). Under the
+    /// `path` integrator's tail ([`Tail::path`], whose
     /// [`Tail::light`] only stores the sample) the light samples are stored here and the
     /// vertices end in lanes ([`advance`]); the order does not matter there (each lane writes
     /// its own path's fields).
@@ -632,24 +632,31 @@ pub(crate) mod x8 {
         so: &SampleOut<T::F>,
         tail: &mut impl Tail,
     ) {
-        // Every pending sample cleared, then the passing ones stored: two passes, not one
-        // `Some`-or-`None` store per lane (LLVM merges those into a store of the whole 48-byte
-        // row in every lane).
-        let pending = &mut b.light[..];
-        for &i in ids {
-            pending[i as usize] = None;
-        }
+        // The passing samples (in front of their surface, their light sample passed) appended
+        // to the batch's pending ones (`Batch::push_light` per lane, without a test per lane:
+        // every lane writes its row at the end, which only a passing lane's advances; the
+        // buffers hold `LIGHT_SLACK` ≥ W entries past the batch's paths). Nothing to clear:
+        // the list starts empty at each shading stage.
         if let Some(cfg) = tail.path().copied() {
             if let Some(l) = lo {
                 let shadow = l.shadow_rows(avx);
-                for (k, &i) in ids.iter().enumerate() {
-                    if front[k] && l.ok[k] {
-                        pending[i as usize] = Some(PendingLight {
-                            shadow: shadow[k],
-                            contribution: l.c.get(k),
-                        });
-                    }
+                const { assert!(W.is_power_of_two() && W <= crate::stream::batch::LIGHT_SLACK) };
+                let pass = T::bits(avx.mask(front) & avx.mask(&l.ok));
+                let n = b.pending_lights;
+                let rays = &mut b.shadow_rays[n..n + W];
+                let adds = &mut b.shadow_adds[n..n + W];
+                let mut j = 0;
+                for k in 0..W {
+                    // j ≤ k < W, a power of two: the mask changes nothing (and drops the
+                    // bounds test).
+                    rays[j & (W - 1)] = shadow[k];
+                    adds[j & (W - 1)] = PendingAdd {
+                        path: ids[k],
+                        contribution: l.c.get(k),
+                    };
+                    j += (pass >> k & 1) as usize;
                 }
+                b.pending_lights = n + j;
             }
             advance(avx, &cfg, b, ids, front, p, throughput, so);
             return;

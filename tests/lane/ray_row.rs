@@ -1,0 +1,73 @@
+//! `Avx2::ray_row` (one ray as a row of 8 floats: tier A's packets read the stream renderer's
+//! rays in place) against the fields read one by one: every bit moved (edge floats: ±0, ±∞,
+//! NaN payloads, subnormals, random bits), and 8 rows transposed equal `Avx2::ray_fields` of
+//! the same rays.
+
+use groove::geometry::Ray;
+use groove::lane::{Avx2, F32x8};
+use groove::math::Pcg32;
+
+/// Random bits, or an edge value.
+fn float(r: &mut Pcg32) -> f32 {
+    const EDGES: [f32; 8] = [
+        0.0,
+        -0.0,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        1e-40,
+        -3e38,
+        1.0,
+    ];
+    match r.next_u32() % 3 {
+        0 => EDGES[(r.next_u32() % 8) as usize],
+        // NaN payloads among them.
+        _ => f32::from_bits(r.next_u32()),
+    }
+}
+
+#[test]
+fn ray_row_reads_each_field() {
+    let Some(avx) = Avx2::detect() else {
+        eprintln!("no AVX2/FMA: the ray row test is skipped");
+        return;
+    };
+    let mut r = Pcg32::new(30, 1);
+    let rays: Vec<Ray> = (0..64)
+        .map(|_| Ray {
+            o: glam::Vec3::new(float(&mut r), float(&mut r), float(&mut r)),
+            d: glam::Vec3::new(float(&mut r), float(&mut r), float(&mut r)),
+            tmin: float(&mut r),
+            tmax: float(&mut r),
+        })
+        .collect();
+    for round in 0..100 {
+        let ids: [u32; 8] = std::array::from_fn(|_| r.next_u32() % rays.len() as u32);
+        let (rows, fields) = avx.run(
+            #[inline(always)]
+            || {
+                let rows: [F32x8; 8] = std::array::from_fn(|k| avx.ray_row(&rays[ids[k] as usize]));
+                (
+                    rows.map(|x| x.to_array()),
+                    avx.ray_fields(&rays, &ids).map(|x| x.to_array()),
+                )
+            },
+        );
+        for k in 0..8 {
+            let ray = &rays[ids[k] as usize];
+            let want = [
+                ray.o.x, ray.o.y, ray.o.z, ray.d.x, ray.d.y, ray.d.z, ray.tmin, ray.tmax,
+            ];
+            for f in 0..8 {
+                let ctx = format!("round {round} lane {k} field {f}");
+                assert_eq!(rows[k][f].to_bits(), want[f].to_bits(), "{ctx}: row");
+                // The transpose of the rows: field f's lanes.
+                assert_eq!(
+                    fields[f][k].to_bits(),
+                    want[f].to_bits(),
+                    "{ctx}: ray_fields"
+                );
+            }
+        }
+    }
+}
