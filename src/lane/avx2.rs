@@ -1127,6 +1127,31 @@ impl Avx2 {
             out
         }
     }
+
+    // Added in the thirtieth session (h2).
+
+    /// Lane `i`: nibble `i` of `row`, `(row >> 4 i) & 15` (a broadcast, one variable shift and
+    /// an and). Eight small numbers packed into one scalar word spread to the lanes without a
+    /// store: the compensated first order's lists of packed pairs (a lane number in the low
+    /// three bits, a flag in bit 3) become [`Self::permute`] indices
+    /// (`bsdf::mnm::compensated::lanes`).
+    #[inline(always)]
+    pub fn nibbles(self, row: u32) -> I32x8 {
+        // SAFETY: the token proves AVX2.
+        unsafe {
+            let shifts = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+            let v = _mm256_srlv_epi32(_mm256_set1_epi32(row as i32), shifts);
+            I32x8(_mm256_and_si256(v, _mm256_set1_epi32(15)))
+        }
+    }
+
+    /// Lane `i`: lane `idx[i] & 7` of `v` (one `vpermps`: only the index's low three bits
+    /// count, the others are ignored). Moves only: each lane's bits as they are.
+    #[inline(always)]
+    pub fn permute(self, v: F32x8, idx: I32x8) -> F32x8 {
+        // SAFETY: the token proves AVX2.
+        F32x8(unsafe { _mm256_permutevar8x32_ps(v.0, idx.0) })
+    }
 }
 
 /// [`Avx2::compress_store`]'s table, per mask (bit k for lane k): the source lane of each of

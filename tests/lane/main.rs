@@ -22,6 +22,9 @@
 //! - `state_gathers`: the path states' index products, throughputs and depths in lanes
 //!   (`Avx2::gather_eta`, `Avx2::gather_throughput`, `Avx2::gather_depth`) against the fields
 //!   (every bit, indices clamped).
+//! - `permute`: nibbles of a word in lanes (`Avx2::nibbles`) and the permute by lane index
+//!   (`Avx2::permute`) against scalar references (edge floats, NaN payloads, indices with high
+//!   bits set, negative and extreme).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
@@ -39,6 +42,7 @@ mod harness;
 mod lookup;
 mod masks;
 mod pcg_ops;
+mod permute;
 mod rows4;
 mod scalar;
 mod state_gathers;
