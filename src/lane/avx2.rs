@@ -1140,6 +1140,25 @@ impl Avx2 {
         // (asserted below), all initialised, so the 32-byte load reads exactly `*ray`.
         F32x8(unsafe { _mm256_loadu_ps(r.cast::<f32>()) })
     }
+
+    // Added in the thirtieth session (h2).
+
+    /// Lane `i`: nibble `i` of `row`, `(row >> 4 i) & 15` (a broadcast, one variable shift and
+    /// an and). Eight small numbers packed into one scalar word spread to the lanes without a
+    /// store: the compensated first order's lists of packed pairs (a lane number in the low
+    /// three bits, a flag in bit 3) become [`F32x8::permute`] indices
+    /// (`bsdf::mnm::compensated::lanes`).
+    #[inline(always)]
+    pub fn nibbles(self, row: u32) -> I32x8 {
+        // SAFETY: the token proves AVX2.
+        unsafe {
+            let shifts = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+            let v = _mm256_srlv_epi32(_mm256_set1_epi32(row as i32), shifts);
+            I32x8(_mm256_and_si256(v, _mm256_set1_epi32(15)))
+        }
+    }
+
+    }
 }
 
 /// [`Avx2::compress_store`]'s table, per mask (bit k for lane k): the source lane of each of

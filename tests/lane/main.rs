@@ -24,6 +24,9 @@
 //!   (every bit, indices clamped).
 //! - `ray_row`: one ray as a row of 8 floats (`Avx2::ray_row`, tier A's packets read in place)
 //!   against its fields, and 8 rows against `Avx2::ray_fields` (every bit).
+//! - `permute`: nibbles of a word in lanes (`Avx2::nibbles`) and the permute by lane index
+//!   (`F32x8::permute`) against scalar references (edge floats, NaN payloads, indices with high
+//!   bits set, negative and extreme).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
@@ -41,6 +44,7 @@ mod harness;
 mod lookup;
 mod masks;
 mod pcg_ops;
+mod permute;
 mod ray_row;
 mod rows4;
 mod scalar;

@@ -81,8 +81,10 @@ impl<L: Lane> Candidates<L> {
         // Explicit loops, no closures (`array::from_fn`, `map`): a closure may be compiled
         // out of the kernel's SIMD function, and its 8-wide operations become calls.
         let z = V3::splat(like, 0.0, 0.0, 1.0);
+        // The microgeometry's candidates only (a sawtooth's third slot keeps the placeholders:
+        // no reader looks past `n`).
         let (mut len, mut m) = ([like; MAX_FACETS], [z; MAX_FACETS]);
-        for k in 0..MAX_FACETS {
+        for k in 0..n {
             len[k] = v[k].length();
             m[k] = v[k].div_by(len[k]);
         }
@@ -112,25 +114,34 @@ impl<L: Lane> Candidates<L> {
     where
         L: ToArray<f32, W>,
     {
-        let mut c = FacetCols {
-            v: [[[0.0; W]; 3]; MAX_FACETS],
-            len: [[0.0; W]; MAX_FACETS],
-            m: [[[0.0; W]; 3]; MAX_FACETS],
-            frames: [[[[0.0; W]; 3]; 3]; MAX_FACETS],
+        // Every row stored once, straight from the lanes, rather than every row zeroed and
+        // then the used ones overwritten: the candidates past `n` and the frames past
+        // `framed` hold [`Self::new`]'s placeholders, which no reader takes (`n` and
+        // `framed` guard every read). Written out: a closure may be compiled out of line.
+        const { assert!(MAX_FACETS == 3) };
+        FacetCols {
+            v: [store3(self.v[0]), store3(self.v[1]), store3(self.v[2])],
+            len: [
+                self.len[0].to_array(),
+                self.len[1].to_array(),
+                self.len[2].to_array(),
+            ],
+            m: [store3(self.m[0]), store3(self.m[1]), store3(self.m[2])],
+            frames: [
+                frame_cols(&self.frames[0]),
+                frame_cols(&self.frames[1]),
+                frame_cols(&self.frames[2]),
+            ],
             n: self.n,
             framed: self.framed,
-        };
-        for k in 0..self.n {
-            c.v[k] = store3(self.v[k]);
-            c.len[k] = self.len[k].to_array();
-            c.m[k] = store3(self.m[k]);
         }
-        for k in 0..self.framed {
-            let f = &self.frames[k];
-            c.frames[k] = [store3(f.s), store3(f.t), store3(f.n)];
-        }
-        c
     }
+}
+
+/// A frame's s, t, n stored as `[vector][component][lane]`.
+#[inline(always)]
+fn frame_cols<L: ToArray<f32, W>, const W: usize>(f: &LaneFrame<L>) -> [[[f32; W]; 3]; 3] {
+    [store3(f.s), store3(f.t), store3(f.n)]
 }
 
 /// `v` stored as `[component][lane]`.

@@ -43,6 +43,9 @@ use crate::math::Frame;
 use crate::spectrum::Spectrum;
 use glam::Vec3;
 
+#[cfg(target_arch = "x86_64")]
+mod pack;
+
 /// Entries per point over the mirror sawtooth: facet 0 directly and through the wall.
 const ENTRIES: usize = 2;
 
@@ -691,21 +694,42 @@ impl Mirror8 {
     fn eval_with<B: LaneNested>(&self, cols: Cols, pts: &Points8, b: &B) -> FirstOrders {
         #[cfg(target_arch = "x86_64")]
         if let Some(avx) = cols.avx() {
-            return avx.run(
-                #[inline(always)]
-                || {
-                    let q = self.load8(avx, pts);
-                    let (f, p) = first(b, &q);
-                    let mut out = FirstOrders::zero();
-                    f.x.store(&mut out.f[0]);
-                    f.y.store(&mut out.f[1]);
-                    f.z.store(&mut out.f[2]);
-                    p.store(&mut out.p);
-                    out
-                },
-            );
+            return self.eval8(avx, pts, b, false);
         }
         self.eval_width1(pts, b)
+    }
+
+    /// [`Self::eval_with`] 8-wide: the paths' nested evaluations packed where that saves a call
+    /// ([`pack::evals`]; always when `always_pack`, the tests' check of the packed form), else
+    /// path by path.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn eval8<B: LaneNested>(
+        &self,
+        avx: Avx2,
+        pts: &Points8,
+        b: &B,
+        always_pack: bool,
+    ) -> FirstOrders {
+        avx.run(
+            #[inline(always)]
+            || {
+                let q = self.load8(avx, pts);
+                let x = exits(&q);
+                let pm = path_masks(&q, &x);
+                let ev = match pack::evals(avx, b, &q, &x, &pm, always_pack) {
+                    Some(ev) => ev,
+                    None => evals_by_path(b, &q, &x, &pm),
+                };
+                let (f, p) = sum(&q, &x, &pm, &ev);
+                let mut out = FirstOrders::zero();
+                f.x.store(&mut out.f[0]);
+                f.y.store(&mut out.f[1]);
+                f.z.store(&mut out.f[2]);
+                p.store(&mut out.p);
+                out
+            },
+        )
     }
 
     /// [`Self::eval_with`] lane by lane at width 1.
@@ -891,16 +915,23 @@ fn dir_once<L: Lane, B: LaneNested>(
     }
 }
 
-/// The first order (f1·z(ωo), p1) of every lane: `Collected::new` and `Collected::sum::<false>`
-/// over the mirror sawtooth, lane by lane in their operations and order. The nested BSDF's
-/// terms that do not change within the query (its parameters, a conductor's Fresnel terms) are
-/// computed once, and those of each direction (a conductor's G1 toward its own normal) once
-/// for the two evaluations that share it (`LaneNested::eval_pdf_dirs`: the same bits).
+/// What the four paths of a query share, by lane: G1(ωo) (and where it is not positive, the
+/// density-only lanes), ωo in the facet frame, the wall exit (R(ωo) in the facet frame, its
+/// weight 1 − G1(R(ωo)), and where the wall lets ωo out).
+struct Exits<L: Lane> {
+    g1o: L,
+    pdf_only: L::Mask,
+    bo: V3<L>,
+    rb: V3<L>,
+    bt: L,
+    exit: L::Mask,
+}
+
+/// [`Exits`] of every lane, in `Collected::new`'s operations.
 #[inline(always)]
-fn first<L: Lane, B: LaneNested>(b: &B, q: &Lanes<L>) -> (V3<L>, L) {
+fn exits<L: Lane>(q: &Lanes<L>) -> Exits<L> {
     let like = q.wo.z;
     let zero = like.splat(0.0);
-    let zero3 = V3::new(zero, zero, zero);
     let g1o = g1(q.v0, q.v1, q.wo);
     let pdf_only = g1o.le(zero);
     let bo = q.fr.to_local(q.wo);
@@ -911,39 +942,116 @@ fn first<L: Lane, B: LaneNested>(b: &B, q: &Lanes<L>) -> (V3<L>, L) {
     let bt = like.splat(1.0) - g1(q.v0, q.v1, rwo);
     let exit = d.gt(zero) & bt.gt(zero);
     let rb = q.fr.to_local(rwo);
+    Exits {
+        g1o,
+        pdf_only,
+        bo,
+        rb,
+        bt,
+        exit,
+    }
+}
+
+/// Each path's lanes, by slot `2 j + wall` (computed once per query, for the evaluations and
+/// the sums): those whose sum takes the path (entry j exists, and for the wall's path the wall
+/// lets ωo out), and those among all whose term is the sample record's.
+type PathMasks<L> = [(<L as Lane>::Mask, <L as Lane>::Mask); 2 * ENTRIES];
+
+/// [`PathMasks`] of every lane.
+#[inline(always)]
+fn path_masks<L: Lane>(q: &Lanes<L>, x: &Exits<L>) -> PathMasks<L> {
+    let like = q.wo.z;
+    let zero = like.splat(0.0);
+    let none = zero.lt(zero);
+    let mut out = [(none, none); 2 * ENTRIES];
+    for j in 0..ENTRIES {
+        let has = q.has[j].gt(zero);
+        for wall in 0..2 {
+            let on = if wall == 0 { has } else { has & x.exit };
+            let known = q.ks.eq(like.splat((2 * j + wall) as f32));
+            out[2 * j + wall] = (on, known);
+        }
+    }
+    out
+}
+
+/// The nested (f·|cos θo|, pdf) of the four paths by slot `2 j + wall`, each read only in its
+/// lanes that evaluate (`on & !known` of [`PathMasks`]).
+type Evals<L> = [(V3<L>, L); 2 * ENTRIES];
+
+/// [`Evals`] path by path: one call of the nested BSDF's lane form for each path that a lane
+/// needs (none for the others), a direction's terms computed once for the two paths that
+/// share it.
+#[inline(always)]
+fn evals_by_path<L: Lane, B: LaneNested>(
+    b: &B,
+    q: &Lanes<L>,
+    x: &Exits<L>,
+    pm: &PathMasks<L>,
+) -> Evals<L> {
+    let like = q.wo.z;
+    let zero = like.splat(0.0);
+    let zero3 = V3::new(zero, zero, zero);
     let s = b.shared(like);
     // The exits' terms ([p] toward bo, [t,p] toward rb), each computed when first needed.
     let mut dout: [Option<B::Dir<L>>; 2] = [None, None];
-    let mut v = zero3;
-    let mut p = zero;
+    let mut out = [(zero3, zero); 2 * ENTRIES];
     for j in 0..ENTRIES {
-        let has = q.has[j].gt(zero);
-        let w = q.w[j];
         let mut da: Option<B::Dir<L>> = None;
         // Path [p] (slot 2j), then [t,p] (slot 2j + 1) where the wall lets ωo out.
         for (wall, dout) in dout.iter_mut().enumerate() {
-            let on = if wall == 0 { has } else { has & exit };
-            let known = q.ks.eq(like.splat((2 * j + wall) as f32));
-            let (fe, pe) = if (on & !known).any() {
-                let o = if wall == 0 { bo } else { rb };
+            let (on, known) = pm[2 * j + wall];
+            if (on & !known).any() {
+                let o = if wall == 0 { x.bo } else { x.rb };
                 let di = dir_once(b, &s, &mut da, q.a[j]);
                 let dw = dir_once(b, &s, dout, o);
-                nested(b, &s, (q.a[j], &di), (o, &dw), pdf_only)
-            } else {
-                (zero3, zero)
-            };
-            let f = V3::select(known, q.kf, V3::select(pdf_only, zero3, fe));
+                out[2 * j + wall] = nested(b, &s, (q.a[j], &di), (o, &dw), x.pdf_only);
+            }
+        }
+    }
+    out
+}
+
+/// `Collected::sum::<false>`'s sums over the mirror sawtooth, lane by lane in its order: each
+/// path's term (the known one where the path is the sample record's, 0 for f where only the
+/// density is needed) weighted and added where the lane takes the path.
+#[inline(always)]
+fn sum<L: Lane>(q: &Lanes<L>, x: &Exits<L>, pm: &PathMasks<L>, ev: &Evals<L>) -> (V3<L>, L) {
+    let like = q.wo.z;
+    let zero = like.splat(0.0);
+    let zero3 = V3::new(zero, zero, zero);
+    let mut v = zero3;
+    let mut p = zero;
+    for j in 0..ENTRIES {
+        let w = q.w[j];
+        for wall in 0..2 {
+            let (on, known) = pm[2 * j + wall];
+            let (fe, pe) = ev[2 * j + wall];
+            let f = V3::select(known, q.kf, V3::select(x.pdf_only, zero3, fe));
             let pd = L::select(known, q.kp, pe);
             let (wf, wp) = if wall == 0 {
-                (w, w * g1o)
+                (w, w * x.g1o)
             } else {
-                (w * bt, w * bt)
+                (w * x.bt, w * x.bt)
             };
             v = V3::select(on, v + f.scale(wf), v);
             p = L::select(on, p + wp * pd, p);
         }
     }
-    (v.scale(g1o), p)
+    (v.scale(x.g1o), p)
+}
+
+/// The first order (f1·z(ωo), p1) of every lane: `Collected::new` and `Collected::sum::<false>`
+/// over the mirror sawtooth, lane by lane in their operations and order. The nested BSDF's
+/// terms that do not change within the query (its parameters, a conductor's Fresnel terms) are
+/// computed once, and those of each direction (a conductor's G1 toward its own normal) once
+/// for the two evaluations that share it (`LaneNested::eval_pdf_dirs`: the same bits).
+#[inline(always)]
+fn first<L: Lane, B: LaneNested>(b: &B, q: &Lanes<L>) -> (V3<L>, L) {
+    let x = exits(q);
+    let pm = path_masks(q, &x);
+    let ev = evals_by_path(b, q, &x, &pm);
+    sum(q, &x, &pm, &ev)
 }
 
 #[cfg(test)]
@@ -1253,7 +1361,7 @@ mod tests {
         let mut rng = Pcg32::new(15, 2);
         let mut arena = crate::bsdf::BsdfArena::new();
         let nested = super::super::super::tests::push_reflectors(&mut arena);
-        let mut compared = 0;
+        let (mut compared, mut multi, mut spans) = (0, 0, 0);
         for round in 0..600 {
             let b = arena.bsdf(nested[round % 3]);
             let kind = Nested::of(&b);
@@ -1297,12 +1405,51 @@ mod tests {
                 Nested::Plastic(p) => q.eval_width1(&pts, p),
                 Nested::Other(_) => unreachable!(),
             };
+            // The packed form on every query (8-wide only).
+            #[cfg(target_arch = "x86_64")]
+            let packed = crate::lane::Avx2::detect().map(|avx| match kind {
+                Nested::Diffuse(d) => q.eval8(avx, &pts, d, true),
+                Nested::Conductor(c) => q.eval8(avx, &pts, c, true),
+                Nested::Plastic(p) => q.eval8(avx, &pts, p, true),
+                Nested::Other(_) => unreachable!(),
+            });
+            #[cfg(not(target_arch = "x86_64"))]
+            let packed: Option<FirstOrders> = None;
+            // How the packed form was exercised: queries of more than one call, and paths
+            // whose slots span two calls (their results blended from both).
+            #[cfg(target_arch = "x86_64")]
+            if let Some(avx) = crate::lane::Avx2::detect() {
+                let (pairs, spanning) = avx.run(|| {
+                    let ql = q.load8(avx, &pts);
+                    let pm = path_masks(&ql, &exits(&ql));
+                    let (mut start, mut spanning) = (0, 0);
+                    for (on, known) in pm {
+                        let n = (on & !known).bits();
+                        spanning += usize::from(start % 8 + n.count_ones() > 8);
+                        start += n.count_ones();
+                    }
+                    (start, spanning)
+                });
+                multi += usize::from(pairs > 8);
+                spans += spanning;
+            }
             for k in (0..8).filter(|&k| q.used & (1 << k) != 0) {
                 let ((f8, p8), (f1, p1)) = (wide.get(k), one.get(k));
                 assert!(same3(f8, f1) && same(p8, p1), "{round} {k}");
+                if let Some(pk) = &packed {
+                    let (fp, pp) = pk.get(k);
+                    assert!(same3(fp, f1) && same(pp, p1), "packed: {round} {k}");
+                }
                 compared += 1;
             }
         }
         assert!(compared > 3000, "{compared} lanes");
+        #[cfg(target_arch = "x86_64")]
+        if crate::lane::Avx2::detect().is_some() {
+            assert!(
+                multi > 100 && spans > 50,
+                "{multi} queries of several calls, {spans} paths over two calls"
+            );
+        }
     }
 }
