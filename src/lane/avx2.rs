@@ -1157,8 +1157,6 @@ impl Avx2 {
             I32x8(_mm256_and_si256(v, _mm256_set1_epi32(15)))
         }
     }
-
-    }
 }
 
 /// [`Avx2::compress_store`]'s table, per mask (bit k for lane k): the source lane of each of

@@ -81,17 +81,17 @@ const RANKS: [u32; 256] = {
 
 /// Lane i: lane `idx[i]` of `lo`, or of `hi` where `up` (two permutes and a blend).
 #[inline(always)]
-fn pick(avx: Avx2, lo: F32x8, hi: F32x8, idx: I32x8, up: M8) -> F32x8 {
+fn pick(lo: F32x8, hi: F32x8, idx: I32x8, up: M8) -> F32x8 {
     F32x8::select(up, hi.permute(idx), lo.permute(idx))
 }
 
 /// [`pick`] of each component.
 #[inline(always)]
-fn pick3(avx: Avx2, lo: V3<F32x8>, hi: V3<F32x8>, idx: I32x8, up: M8) -> V3<F32x8> {
+fn pick3(lo: V3<F32x8>, hi: V3<F32x8>, idx: I32x8, up: M8) -> V3<F32x8> {
     V3::new(
-        pick(avx, lo.x, hi.x, idx, up),
-        pick(avx, lo.y, hi.y, idx, up),
-        pick(avx, lo.z, hi.z, idx, up),
+        pick(lo.x, hi.x, idx, up),
+        pick(lo.y, hi.y, idx, up),
+        pick(lo.z, hi.z, idx, up),
     )
 }
 
@@ -147,8 +147,8 @@ pub(super) fn evals<B: LaneNested>(
         let (g2, g3) = (slot.gt(s2), slot.gt(s3));
         // Entry 1 in paths 2 and 3; the wall exit in paths 1 and 3.
         let wall = (slot.gt(s1) & !g2) | g3;
-        let av = pick3(avx, q.a[0], q.a[1], idx, g2);
-        let ov = pick3(avx, x.bo, x.rb, idx, wall);
+        let av = pick3(q.a[0], q.a[1], idx, g2);
+        let ov = pick3(x.bo, x.rb, idx, wall);
         let po = x.g1o.permute(idx).le(zero);
         let di = b.dir(&s, av);
         let dw = b.dir(&s, ov);
@@ -171,10 +171,10 @@ pub(super) fn evals<B: LaneNested>(
             let hi = r[c0 + 1];
             let up = idx.shl::<28>().lt(idx.splat(0));
             [
-                pick(avx, lo[0], hi[0], idx, up),
-                pick(avx, lo[1], hi[1], idx, up),
-                pick(avx, lo[2], hi[2], idx, up),
-                pick(avx, lo[3], hi[3], idx, up),
+                pick(lo[0], hi[0], idx, up),
+                pick(lo[1], hi[1], idx, up),
+                pick(lo[2], hi[2], idx, up),
+                pick(lo[3], hi[3], idx, up),
             ]
         } else {
             [
