@@ -366,34 +366,8 @@ impl Brute {
     /// `None`.
     pub(crate) fn intersect8(&self, rays: &[Ray], out: &mut [Option<Hit>; 8]) {
         let rays = &rays[..rays.len().min(W)];
-        #[cfg(target_arch = "x86_64")]
-        if let Some(avx) = self.avx {
-            let (ts, geoms, us, vs) = avx.run(
-                #[inline(always)]
-                || {
-                    let b = self.nearest_of_each(&packet(avx, rays), avx.splat(0.0), NONE);
-                    let (t, g) = (b.t.to_array(), b.g.to_array());
-                    if self.tri_rows.is_empty() {
-                        return (t, g, [0.0; W], [0.0; W]);
-                    }
-                    (t, g, (b.u / b.a).to_array(), (b.v / b.a).to_array())
-                },
-            );
-            *out = [None; W];
-            for (i, ray) in rays.iter().enumerate() {
-                out[i] = self.finish(ray, ts[i], geoms[i], us[i], vs[i]);
-            }
-            return;
-        }
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = match rays.get(i) {
-                Some(ray) => {
-                    let b = self.nearest_of_each(&ray_lanes(ray), 0.0f32, NONE);
-                    self.finish(ray, b.t, b.g, b.u / b.a, b.v / b.a)
-                }
-                None => None,
-            };
-        }
+        *out = [None; W];
+        self.intersect8_with(rays.len(), |k| &rays[k], |k, h| out[k] = h);
     }
 
     /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each read

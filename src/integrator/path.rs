@@ -356,7 +356,14 @@ impl PathState {
     /// Adds a light sample whose shadow ray reached the light.
     #[inline]
     pub fn add_light(&mut self, light: &PendingLight) {
-        self.result += light.contribution;
+        self.add_unblocked(light.contribution);
+    }
+
+    /// [`Self::add_light`] of a sample kept as its contribution alone (the stream renderer's
+    /// pending samples keep the shadow ray beside it, not in a `PendingLight`).
+    #[inline(always)]
+    pub fn add_unblocked(&mut self, contribution: Spectrum) {
+        self.result += contribution;
     }
 }
 

@@ -3,6 +3,18 @@
 //! turn masks into `[bool; W]` for their per-lane loops; measured 4.4 M instructions of
 //! `metal_plastic`'s 160 M with the per-lane form, `docs/bench/README.md`, fourteenth session).
 
+/// The number of set bits of each byte value: a lane mask's lane count by one load (the lanes'
+/// target features have no `popcnt`, where `count_ones` is spelled out in ~12 instructions).
+pub const BYTE_COUNTS: [u8; 256] = {
+    let mut t = [0u8; 256];
+    let mut b = 0;
+    while b < 256 {
+        t[b] = (b as u32).count_ones() as u8;
+        b += 1;
+    }
+    t
+};
+
 /// The booleans of the low eight bits of `m`: element `k` is bit `k`.
 #[inline(always)]
 pub fn bools8(m: u32) -> [bool; 8] {

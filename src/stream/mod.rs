@@ -924,7 +924,7 @@ fn shadows(scene: &Scene, batch: &mut Batch, packet: Option<bool>, rays: &mut Ra
 /// `PathState::add_light` of a pending sample: its path's radiance gains its contribution.
 #[inline(always)]
 fn add_light(state: &mut [crate::integrator::path::PathState], a: &batch::PendingAdd) {
-    state[a.path as usize].result += a.contribution;
+    state[a.path as usize].add_unblocked(a.contribution);
 }
 
 /// [`shadows`] as packets of `N` consecutive pending rays (the last one shorter), each traced

@@ -125,6 +125,16 @@ pub const EDGES: [f32; 36] = [
     6434.0,
 ];
 
+/// A third of the time an edge case of [`EDGES`], else a random bit pattern (every float
+/// class, NaN payloads among them): the inputs of the lane tests that check bits moved as they
+/// are (gathers, row loads, permutes).
+pub fn edge_or_bits(r: &mut Pcg32) -> f32 {
+    match r.next_u32() % 3 {
+        0 => EDGES[r.next_u32() as usize % EDGES.len()],
+        _ => f32::from_bits(r.next_u32()),
+    }
+}
+
 /// One input: a quarter random bit patterns (every float class), an eighth edge cases, the
 /// rest from `domain`.
 pub fn mixed(r: &mut Pcg32, domain: &impl Fn(&mut Pcg32) -> f32) -> f32 {

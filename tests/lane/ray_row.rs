@@ -3,28 +3,10 @@
 //! NaN payloads, subnormals, random bits), and 8 rows transposed equal `Avx2::ray_fields` of
 //! the same rays.
 
+use crate::harness::edge_or_bits;
 use groove::geometry::Ray;
 use groove::lane::{Avx2, F32x8};
 use groove::math::Pcg32;
-
-/// Random bits, or an edge value.
-fn float(r: &mut Pcg32) -> f32 {
-    const EDGES: [f32; 8] = [
-        0.0,
-        -0.0,
-        f32::INFINITY,
-        f32::NEG_INFINITY,
-        f32::NAN,
-        1e-40,
-        -3e38,
-        1.0,
-    ];
-    match r.next_u32() % 3 {
-        0 => EDGES[(r.next_u32() % 8) as usize],
-        // NaN payloads among them.
-        _ => f32::from_bits(r.next_u32()),
-    }
-}
 
 #[test]
 fn ray_row_reads_each_field() {
@@ -35,10 +17,18 @@ fn ray_row_reads_each_field() {
     let mut r = Pcg32::new(30, 1);
     let rays: Vec<Ray> = (0..64)
         .map(|_| Ray {
-            o: glam::Vec3::new(float(&mut r), float(&mut r), float(&mut r)),
-            d: glam::Vec3::new(float(&mut r), float(&mut r), float(&mut r)),
-            tmin: float(&mut r),
-            tmax: float(&mut r),
+            o: glam::Vec3::new(
+                edge_or_bits(&mut r),
+                edge_or_bits(&mut r),
+                edge_or_bits(&mut r),
+            ),
+            d: glam::Vec3::new(
+                edge_or_bits(&mut r),
+                edge_or_bits(&mut r),
+                edge_or_bits(&mut r),
+            ),
+            tmin: edge_or_bits(&mut r),
+            tmax: edge_or_bits(&mut r),
         })
         .collect();
     for round in 0..100 {

@@ -4,28 +4,10 @@
 //! floats: ±0, ±∞, NaN payloads, subnormals; depths 0, `u32::MAX` and random), indices inside,
 //! at the ends of and out of the slice (clamped to its last state), a panic on an empty slice.
 
+use crate::harness::edge_or_bits;
 use groove::integrator::path::PathState;
 use groove::lane::Avx2;
 use groove::math::Pcg32;
-
-/// Random bits, or an edge value.
-fn float(r: &mut Pcg32) -> f32 {
-    const EDGES: [f32; 8] = [
-        0.0,
-        -0.0,
-        f32::INFINITY,
-        f32::NEG_INFINITY,
-        f32::NAN,
-        1e-40,
-        -3e38,
-        1.0,
-    ];
-    match r.next_u32() % 3 {
-        0 => EDGES[(r.next_u32() % 8) as usize],
-        // NaN payloads among them.
-        _ => f32::from_bits(r.next_u32()),
-    }
-}
 
 #[test]
 fn state_gathers_read_each_field() {
@@ -38,14 +20,18 @@ fn state_gathers_read_each_field() {
         let states: Vec<PathState> = (0..len)
             .map(|_| {
                 let mut s = PathState::new();
-                s.throughput = glam::Vec3::new(float(&mut r), float(&mut r), float(&mut r));
-                s.eta = float(&mut r);
+                s.throughput = glam::Vec3::new(
+                    edge_or_bits(&mut r),
+                    edge_or_bits(&mut r),
+                    edge_or_bits(&mut r),
+                );
+                s.eta = edge_or_bits(&mut r);
                 s.depth = match r.next_u32() % 4 {
                     0 => 0,
                     1 => u32::MAX,
                     _ => r.next_u32(),
                 };
-                s.result = glam::Vec3::splat(float(&mut r));
+                s.result = glam::Vec3::splat(edge_or_bits(&mut r));
                 s
             })
             .collect();

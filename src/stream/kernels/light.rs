@@ -501,21 +501,12 @@ pub(crate) mod x8 {
         }
     }
 
-    /// The number of lanes set in `bits` (at most 16 lanes): two lookups in a table of the
-    /// bytes' counts (the lanes' target features have no `popcnt`, which `count_ones` would
-    /// otherwise spell out in ~12 instructions).
+    /// The number of lanes set in `bits` (at most 16 lanes): two lookups in the bytes' counts
+    /// ([`crate::lane::bits::BYTE_COUNTS`]).
     #[inline(always)]
     fn lane_count(bits: u32) -> u32 {
-        const COUNTS: [u8; 256] = {
-            let mut t = [0u8; 256];
-            let mut b = 0;
-            while b < 256 {
-                t[b] = (b as u32).count_ones() as u8;
-                b += 1;
-            }
-            t
-        };
-        COUNTS[(bits & 0xff) as usize] as u32 + COUNTS[(bits >> 8 & 0xff) as usize] as u32
+        let c = &crate::lane::bits::BYTE_COUNTS;
+        c[(bits & 0xff) as usize] as u32 + c[(bits >> 8 & 0xff) as usize] as u32
     }
 
     /// The bits of the lanes of a chunk `w` lanes wide (bits `0..w`).

@@ -24,6 +24,7 @@
 
 use super::{nested, Evals, Exits, Lanes, PathMasks, ENTRIES};
 use crate::bsdf::mnm::nested_batch::LaneNested;
+use crate::lane::bits::BYTE_COUNTS as COUNTS;
 use crate::lane::vec::V3;
 use crate::lane::{Avx2, F32x8, I32x8, Lane, LaneI32, M8};
 
@@ -45,17 +46,6 @@ const KEPT: [u32; 256] = {
             k += 1;
         }
         t[m] = row;
-        m += 1;
-    }
-    t
-};
-
-/// Per mask of 8 lanes, its number of set lanes.
-const COUNTS: [u8; 256] = {
-    let mut t = [0u8; 256];
-    let mut m = 0;
-    while m < 256 {
-        t[m] = (m as u32).count_ones() as u8;
         m += 1;
     }
     t
