@@ -458,6 +458,10 @@ pub fn render(
     // per job split (≈ once per block), and a stream scratch is ~300 KB of buffers and the
     // scene's kernel tables.
     let workers = WorkerPool::new(pool.current_num_threads());
+    // The blocks of the pass before, merged and kept for the next pass's jobs to clear and
+    // reuse: a pass then allocates no block memory afresh (its page faults cost ~1 ms a pass
+    // at 240×160; `docs/bench/README.md`, the thirtieth session's cold render).
+    let spare = std::sync::Mutex::new(Vec::<Block>::new());
     while let Some((p_lo, p_hi)) = passes.next(start.elapsed().as_secs_f64()) {
         let results: Vec<(Block, RayCounters, u64, Vec<LoggedRay>)> = pool.install(|| {
             rects
@@ -478,7 +482,7 @@ pub fn render(
                         let (scratch, stream) = held.get();
                         scratch.rays.counters = RayCounters::default();
                         let _ = scratch.arena.take_walk_counts();
-                        let mut block = Block::with_channels(desc, x0, y0, w, h, nch);
+                        let mut block = spare_block(&spare, desc, (x0, y0, w, h), nch);
                         let job = BlockJob {
                             rect: (x0, y0, w, h),
                             samples: (p_lo, p_hi),
@@ -524,11 +528,16 @@ pub fn render(
             }
             return Err(Error::Cancelled);
         }
+        let mut merged = Vec::with_capacity(results.len());
         for (block, c, inv, log) in results {
             film.merge(&block);
             rays.add(&c);
             invalid += inv;
             ray_log.extend(log);
+            merged.push(block);
+        }
+        if let Ok(mut s) = spare.lock() {
+            *s = merged;
         }
         done = p_hi;
         if let Some(h) = &opts.on_pass {
@@ -569,6 +578,24 @@ pub fn render(
         stats,
         ray_log,
     })
+}
+
+/// A block for the rectangle `(x0, y0, w, h)`: one of `spare` (an earlier pass's, of the same
+/// film description) cleared and moved there, its allocations reused, or a new one. A cleared
+/// block is a new block's equal ([`Block::clear`]), so the image does not depend on which.
+fn spare_block(
+    spare: &std::sync::Mutex<Vec<Block>>,
+    desc: &FilmDesc,
+    (x0, y0, w, h): (u32, u32, u32, u32),
+    nch: usize,
+) -> Block {
+    match spare.lock().ok().and_then(|mut s| s.pop()) {
+        Some(mut b) => {
+            b.clear(x0, y0, w, h);
+            b
+        }
+        None => Block::with_channels(desc, x0, y0, w, h, nch),
+    }
 }
 
 /// The sample ranges [a, b) a render runs in turn, each over every block (a pass ends with all
