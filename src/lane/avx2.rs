@@ -139,7 +139,8 @@ impl Avx2 {
         }
     }
     /// The rays `rays[ids[k]]` in lanes, field by field: o.x, o.y, o.z, d.x, d.y, d.z, tmin,
-    /// tmax (one 32-byte load per ray, then [`F32x8::transpose8`]; the gather stage's rays).
+    /// tmax (one row per ray, [`Self::ray_row`], then [`F32x8::transpose8`]; the gather
+    /// stage's rays).
     ///
     /// # Panics
     /// If an id is out of range.
@@ -147,10 +148,7 @@ impl Avx2 {
     pub fn ray_fields(self, rays: &[crate::geometry::Ray], ids: &[u32; 8]) -> [F32x8; 8] {
         let mut rows = [self.splat(0.0); 8];
         for k in 0..8 {
-            let r: *const crate::geometry::Ray = &rays[ids[k] as usize];
-            // SAFETY: the token proves AVX. A `Ray` is eight f32s, o.x … tmax, without padding
-            // (asserted below), all initialised, so the 32-byte load reads exactly `*r`.
-            rows[k] = F32x8(unsafe { _mm256_loadu_ps(r.cast::<f32>()) });
+            rows[k] = self.ray_row(&rays[ids[k] as usize]);
         }
         F32x8::transpose8(rows)
     }
