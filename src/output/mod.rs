@@ -6,6 +6,7 @@
 
 pub mod clash;
 mod exr;
+mod header_order;
 pub mod part;
 pub(crate) use exr::guarded as exr_guarded;
 pub(crate) mod png;
@@ -51,7 +52,7 @@ pub fn write_image(path: &Path, img: &Image, meta: &Metadata) -> Result<()> {
         ));
     }
     match format {
-        Format::Exr => write_atomic(path, |w| exr::write(w, img, meta)),
+        Format::Exr => write_exr_atomic(path, |w| exr::write(w, img, meta)),
         Format::Png => write_atomic(path, |w| png::write(w, img)),
     }
 }
@@ -75,7 +76,7 @@ pub fn write_image_channels(
             if img.data.len() != img.width as usize * img.height as usize {
                 return Err(Error::file(path, "image data does not match its size"));
             }
-            write_atomic(path, |w| exr::write_channels(w, img, extra, meta, None))?;
+            write_exr_atomic(path, |w| exr::write_channels(w, img, extra, meta, None))?;
             Ok(true)
         }
     }
@@ -108,7 +109,7 @@ pub fn write_image_window(
             if img.data.len() != img.width as usize * img.height as usize {
                 return Err(Error::file(path, "image data does not match its size"));
             }
-            write_atomic(path, |w| {
+            write_exr_atomic(path, |w| {
                 exr::write_channels(w, img, extra, meta, Some(win))
             })?;
             Ok(true)
@@ -210,6 +211,18 @@ fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
 }
 
+/// [`write_atomic`] of an EXR: `encode` writes it, then its header's attributes are sorted by
+/// name ([`header_order`]), so one image with one metadata is one file, byte for byte.
+pub(crate) fn write_exr_atomic(
+    path: &Path,
+    encode: impl FnOnce(&mut BufWriter<File>) -> std::result::Result<(), String>,
+) -> Result<()> {
+    write_atomic(path, |w| {
+        encode(w)?;
+        header_order::sort_written(w)
+    })
+}
+
 /// Runs `encode` into a temporary file beside `path`, syncs it and renames it over `path`.
 /// The encoder's errors are plain messages; they are reported against `path`.
 /// Write a file through a temporary sibling and a rename, so a failure never leaves a partial
@@ -236,7 +249,14 @@ pub fn write_atomic(
     }
     let tmp = temp_path(path);
     let result = (|| -> Result<()> {
-        let file = File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
+        // Readable too: an EXR's header is reordered in place after its encoding.
+        let file = fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(&tmp)
+            .map_err(|e| Error::io(&tmp, e))?;
         let mut w = BufWriter::new(file);
         encode(&mut w).map_err(|m| Error::file(path, m))?;
         w.flush().map_err(|e| Error::io(&tmp, e))?;

@@ -27,7 +27,7 @@ use exr::prelude::{
     SmallVec, Vec2 as ExrVec2, WritableImage,
 };
 
-use super::{write_atomic, Metadata};
+use super::{write_exr_atomic, Metadata};
 use crate::budget::{bytes_of, Budget};
 use crate::error::{Error, Result};
 use crate::film::{Film, RawPixel};
@@ -233,7 +233,7 @@ pub fn write_part(path: &Path, film: &Film, aovs: &[String], meta: &Metadata) ->
     );
     let display = IntegerBounds::new((0, 0), (desc.width as usize, desc.height as usize));
     let image = ExrImage::new(ImageAttributes::new(display), layer);
-    write_atomic(path, |wr| {
+    write_exr_atomic(path, |wr| {
         image
             .write()
             .to_buffered(wr)
