@@ -357,6 +357,14 @@ impl Acc {
         ]
     }
 
+    /// Adds one contribution's first four addends (Σw·v and Σw, a film without second
+    /// moments), given in registers ([`sum::Fixed8::rows4`]).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn add_row(&mut self, avx: crate::lane::Avx2, row: crate::lane::I128x4) {
+        avx.add_i128x4_biased_row::<UNSIGNED_SUMS>(&mut self.words, row);
+    }
+
     /// Adds one contribution's addends `t` (words in the storage order, [`SLOT`]): all eight
     /// sums, or with `second` false only the first four (Σw·v and Σw; the second moments are
     /// not kept then).
@@ -679,7 +687,11 @@ impl Block {
             #[inline(always)]
             || {
                 let [r, g, b] = columns(avx, value);
-                self.put8_columns(avx, pos, [r, g, b]);
+                if self.filter.is_box() {
+                    self.put8_columns::<true>(avx, pos, [r, g, b]);
+                } else {
+                    self.put8_columns::<false>(avx, pos, [r, g, b]);
+                }
             },
         );
     }
@@ -713,31 +725,49 @@ impl Block {
         rows: &[[f32; 4]; 8],
     ) -> u32 {
         use crate::lane::{F32x8, Lane, LaneMask};
-        avx.run(
-            #[inline(always)]
-            || {
-                let [r, g, b, _] = avx.fields4(rows);
-                let ok = r.is_finite() & g.is_finite() & b.is_finite();
-                let mut invalid = 0;
-                let cols = if ok.all() {
-                    [r, g, b]
-                } else {
-                    invalid = ok.to_array().iter().filter(|&&f| !f).count() as u32;
-                    // +0.0, the bits of `Spectrum::ZERO`.
-                    let z = avx.splat(0.0);
-                    [r, g, b].map(|c| F32x8::select(ok, c, z))
-                };
-                self.put8_columns(avx, pos, cols);
-                invalid
-            },
-        )
+        // The box splat and the others as two functions (two closures, two `Avx2::run`
+        // instances), each compiled with its own registers: in one body, the box splat's rows
+        // in registers cost the Gaussian splat ~19 instructions a sample in spills (cbox).
+        #[inline(always)]
+        fn put<const BOX: bool>(
+            block: &mut Block,
+            avx: crate::lane::Avx2,
+            pos: &[Vec2; 8],
+            rows: &[[f32; 4]; 8],
+        ) -> u32 {
+            let [r, g, b, _] = avx.fields4(rows);
+            let ok = r.is_finite() & g.is_finite() & b.is_finite();
+            let mut invalid = 0;
+            let cols = if ok.all() {
+                [r, g, b]
+            } else {
+                invalid = ok.to_array().iter().filter(|&&f| !f).count() as u32;
+                // +0.0, the bits of `Spectrum::ZERO`.
+                let z = avx.splat(0.0);
+                [r, g, b].map(|c| F32x8::select(ok, c, z))
+            };
+            block.put8_columns::<BOX>(avx, pos, cols);
+            invalid
+        }
+        if self.filter.is_box() {
+            avx.run(
+                #[inline(always)]
+                || put::<true>(self, avx, pos, rows),
+            )
+        } else {
+            avx.run(
+                #[inline(always)]
+                || put::<false>(self, avx, pos, rows),
+            )
+        }
     }
 
-    /// `put8` of the values given as their R, G and B columns. Call inside
+    /// `put8` of the values given as their R, G and B columns, `BOX` saying whether the
+    /// block's filter is the box (the caller's test: the two forms compile apart). Call inside
     /// [`crate::lane::Avx2::run`].
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn put8_columns(
+    fn put8_columns<const BOX: bool>(
         &mut self,
         avx: crate::lane::Avx2,
         pos: &[Vec2; 8],
@@ -750,14 +780,12 @@ impl Block {
             [Some(x), Some(y)] => Some((x, y)),
             _ => None,
         };
-        let (true, true, Some(([x_lo, x_hi], [y_lo, y_hi]))) = (
-            finite,
-            self.filter.is_box() && self.sw != 0 && self.sh != 0,
-            bounds,
-        ) else {
+        let (true, true, Some(([x_lo, x_hi], [y_lo, y_hi]))) =
+            (finite, BOX && self.sw != 0 && self.sh != 0, bounds)
+        else {
             let (r, g, b) = (r.to_array(), g.to_array(), b.to_array());
             // Finite values under another filter: the footprints in lanes.
-            let lanes = finite && !self.filter.is_box();
+            let lanes = finite && !BOX;
             for (k, &p) in pos.iter().enumerate() {
                 let v = Spectrum::new(r[k], g[k], b[k]);
                 if lanes {
@@ -769,14 +797,22 @@ impl Block {
             return;
         };
         let pairs = self.pairs();
-        let t = &mut *self.lanes;
         let fx = sum::Fixed8::new(avx);
         // The addends in slot order: v and the weight 1 (`sum::fixed(1.0)` is `sum::ONE`), then
-        // v·v and 1; the second pairs only when the film keeps the second moments.
+        // v·v and 1; the second pairs only when the film keeps the second moments. Without
+        // them, the lanes' rows in registers when every addend converts 8-wide.
         let one = avx.splat(1.0);
-        let xs = [r, g, b, one, r * r, g * g, b * b, one];
-        for p in 0..pairs {
-            fx.into_columns([xs[2 * p], xs[2 * p + 1]], t, 2 * p);
+        let rows = if self.second {
+            None
+        } else {
+            fx.rows4([r, g, b, one])
+        };
+        if rows.is_none() {
+            let t = &mut *self.lanes;
+            let xs = [r, g, b, one, r * r, g * g, b * b, one];
+            for p in 0..pairs {
+                fx.into_columns([xs[2 * p], xs[2 * p + 1]], t, 2 * p);
+            }
         }
         // `storage_index` with exact bounds, in lanes: inside [lo, hi) on both axes (false for
         // NaN and ±∞, so the scalar path's finiteness test is implied), floor(x) − origin.
@@ -798,10 +834,22 @@ impl Block {
         }
         let sw = self.sw as usize;
         let (data, t, second) = (&mut self.data[..], &*self.lanes, self.second);
-        for (k, inside) in inside.to_array().into_iter().enumerate() {
-            if inside {
-                let a = &mut data[py[k] as usize * sw + px[k] as usize];
-                a.add_addends(avx, second, &t[k]);
+        let inside = inside.to_array();
+        match rows {
+            Some(rows) => {
+                for (k, row) in rows.into_iter().enumerate() {
+                    if inside[k] {
+                        data[py[k] as usize * sw + px[k] as usize].add_row(avx, row);
+                    }
+                }
+            }
+            None => {
+                for (k, inside) in inside.into_iter().enumerate() {
+                    if inside {
+                        let a = &mut data[py[k] as usize * sw + px[k] as usize];
+                        a.add_addends(avx, second, &t[k]);
+                    }
+                }
             }
         }
     }
@@ -1037,6 +1085,9 @@ impl Block {
         // The addends' columns in slot order, converted two at a time in a loop (one pair's
         // code, its constants held once: `sum::Fixed8`): w·v and w, then w·v·v and w·w only
         // when the film keeps the second moments.
+        // (The rows in registers, `sum::Fixed8::rows4`, as the box splat takes them: 17
+        // instructions a sample more on cbox, its 16 registers of words spilled around the
+        // adds; the per-lane table stays here.)
         let xs = [wr, wg, wb, w8, wr * r, wg * g, wb * b, w8 * w8];
         let pairs = self.pairs();
         let (data, t, second) = (&mut self.data[..], &mut *self.lanes, self.second);

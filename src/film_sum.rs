@@ -242,6 +242,23 @@ impl Fixed8 {
         }
     }
 
+    /// `fixed` of four columns of eight lanes each as the lanes' rows in registers (value c of
+    /// row k is `fixed(x[c])` of lane k: a splat's w·v and w per pixel, what a pixel's first
+    /// four sums take; [`crate::lane::I32x8::rows4`]), when every lane of every column is in
+    /// the common range or ±0; `None` otherwise (then [`Fixed8::into_columns`], which converts
+    /// the other lanes one by one).
+    #[inline(always)]
+    pub(crate) fn rows4(self, x: [crate::lane::F32x8; 4]) -> Option<[crate::lane::I128x4; 8]> {
+        use crate::lane::{I32x8, LaneMask};
+        let (w0, p0) = self.words(x[0]);
+        let (w1, p1) = self.words(x[1]);
+        let (w2, p2) = self.words(x[2]);
+        let (w3, p3) = self.words(x[3]);
+        (p0 & p1 & p2 & p3)
+            .all()
+            .then(|| I32x8::rows4([w0, w1, w2, w3]))
+    }
+
     /// `fixed` of the eight lanes of `x` in registers as words (value i from lane
     /// [`crate::lane::ROW_LANES`]`[i]`: one pixel's addends, given in that order,
     /// [`crate::lane::Avx2::add_i128x8_biased_regs`]), when every lane is in the common range
@@ -413,10 +430,31 @@ mod tests {
                     Fixed8::single(avx)
                 };
                 let mut t = [[[0x5555_5555_5555_5555u64; 8]; 2]; 8];
-                let row = avx.run(|| {
+                // Four columns for `rows4`: c, c2 and two more rotations.
+                let cs: [[f32; 8]; 4] = [
+                    c,
+                    c2,
+                    core::array::from_fn(|k| c[(k + 5) % 8]),
+                    core::array::from_fn(|k| c[7 - k]),
+                ];
+                let (row, rows4) = avx.run(|| {
                     fx.into_columns([avx.load(&c), avx.load(&c2)], &mut t, s);
-                    fx.row(avx.load(&c)).map(|r| r.to_words())
+                    let cols = [
+                        avx.load(&cs[0]),
+                        avx.load(&cs[1]),
+                        avx.load(&cs[2]),
+                        avx.load(&cs[3]),
+                    ];
+                    let rows4 = fx.rows4(cols).map(|r| r.map(|x| x.to_words()));
+                    (fx.row(avx.load(&c)).map(|r| r.to_words()), rows4)
                 });
+                // `rows4` where every lane is plain (the four columns hold the same values).
+                assert_eq!(rows4.is_some(), c.iter().all(|&x| plain(x)), "{c:?}");
+                for (k, r) in rows4.iter().flatten().enumerate() {
+                    for (j, col) in cs.iter().enumerate() {
+                        assert_eq!(value(r, j), fixed(col[k]), "rows4 lane {k} column {j}");
+                    }
+                }
                 for (k, row) in t.iter().enumerate() {
                     for j in 0..8 {
                         let v = value(row, j);

@@ -64,6 +64,21 @@ impl I128x8 {
     }
 }
 
+/// Four `i128`s in two AVX2 registers: the low 64-bit words of values 0–3, then their high
+/// words (the first four values of an [`I128x8`]): a film pixel's first four sums' addends,
+/// one lane's row of [`I32x8::rows4`], added by [`Avx2::add_i128x4_biased_row`].
+#[derive(Clone, Copy)]
+pub struct I128x4([__m256i; 2]);
+
+impl I128x4 {
+    /// The four values' words in the first four slots of each half of a [`Words8`] (tests).
+    #[inline(always)]
+    pub fn to_words(self) -> Words8 {
+        let z = Avx2::zero_reg();
+        I128x8([self.0[0], z, self.0[1], z]).to_words()
+    }
+}
+
 impl F32x8 {
     /// Lane k of the result is lane `idx[k] & 7` of `self` (`vpermps`).
     #[inline(always)]
@@ -166,6 +181,55 @@ impl I32x8 {
     }
 }
 
+impl I32x8 {
+    /// Eight lanes' rows of four 128-bit integers, in registers: value c of row k is the
+    /// integer whose 32-bit words (least significant first) are lane k of `cols[c][0]`, …,
+    /// `cols[c][3]` (four columns of `film::sum::Fixed8`'s words; a film pixel's w·v and w per
+    /// lane). A transpose without memory: per column, the unpacks of [`I32x8::join_words`] give
+    /// the low and the high 64-bit words of lanes [0, 1 | 4, 5] and [2, 3 | 6, 7]; per such
+    /// register of the four columns, two unpacks of 64-bit words pair the columns lane by lane
+    /// and two cross-half permutes (`vperm2i128`) give four lanes' rows. 48 shuffles for the 32
+    /// values, where [`I32x8::join_pair_into`] takes 32 unpacks, 16 extracts and 32 stores
+    /// into a per-lane table that each lane's add then reads back.
+    #[inline(always)]
+    pub fn rows4(cols: [[I32x8; 4]; 4]) -> [I128x4; 8] {
+        let [a, b, c, d] = [
+            I32x8::join_words(cols[0]).0,
+            I32x8::join_words(cols[1]).0,
+            I32x8::join_words(cols[2]).0,
+            I32x8::join_words(cols[3]).0,
+        ];
+        let z = Avx2::zero_reg();
+        let mut out = [I128x4([z, z]); 8];
+        // SAFETY: an I32x8 exists only with AVX2 (module doc).
+        unsafe {
+            // Register r = 2h + q of a column: word half h (0 low, 1 high) of lanes
+            // [2q, 2q + 1 | 2q + 4, 2q + 5].
+            for h in 0..2 {
+                for q in 0..2 {
+                    let r = 2 * h + q;
+                    // Lanes 2q and 2q + 4: [a, b | a, b] and [c, d | c, d].
+                    let (ab0, cd0) = (
+                        _mm256_unpacklo_epi64(a[r], b[r]),
+                        _mm256_unpacklo_epi64(c[r], d[r]),
+                    );
+                    // Lanes 2q + 1 and 2q + 5.
+                    let (ab1, cd1) = (
+                        _mm256_unpackhi_epi64(a[r], b[r]),
+                        _mm256_unpackhi_epi64(c[r], d[r]),
+                    );
+                    let k = 2 * q;
+                    out[k].0[h] = _mm256_permute2x128_si256::<0x20>(ab0, cd0);
+                    out[k + 4].0[h] = _mm256_permute2x128_si256::<0x31>(ab0, cd0);
+                    out[k + 1].0[h] = _mm256_permute2x128_si256::<0x20>(ab1, cd1);
+                    out[k + 5].0[h] = _mm256_permute2x128_si256::<0x31>(ab1, cd1);
+                }
+            }
+        }
+        out
+    }
+}
+
 /// The bias of a biased sum ([`Avx2::add_i128x8_biased`]): bit 63 of the low word, the top
 /// bit, flipped (the film's `sum::LOW_BIAS`).
 const LOW_BIAS: u64 = 1 << 63;
@@ -212,10 +276,25 @@ impl Avx2 {
         self.add_biased_halves::<SAT, 1>(acc, x.0);
     }
 
+    /// [`Avx2::add_i128x4_biased`] of one lane's row of [`I32x8::rows4`] (values 0–3 of `x`
+    /// to sums 0–3 of `acc`), from registers.
+    #[inline(always)]
+    pub fn add_i128x4_biased_row<const SAT: u32>(self, acc: &mut Words8, x: I128x4) {
+        let z = self.zero_i256();
+        self.add_biased_halves::<SAT, 1>(acc, [x.0[0], z, x.0[1], z]);
+    }
+
     /// An all-zero register (the unused operands of a half add).
     #[inline(always)]
     fn zero_i256(self) -> __m256i {
-        // SAFETY: the token proves AVX.
+        Self::zero_reg()
+    }
+
+    /// An all-zero register, for code that holds AVX2 values but no token.
+    #[inline(always)]
+    fn zero_reg() -> __m256i {
+        // SAFETY: only called where a value of this module's types (or the token) proves AVX;
+        // `vpxor` of a register with itself needs nothing else.
         unsafe { _mm256_setzero_si256() }
     }
 
@@ -352,20 +431,29 @@ mod tests {
             // The half adds: sums 0–3 as above, sums 4–7 as they were (from memory and from
             // registers).
             let half: [i128; 8] = core::array::from_fn(|i| if i < 4 { want[i] } else { acc0[i] });
-            for regs in [false, true] {
+            for form in 0..3 {
                 let mut got = split(acc0.map(|a| a ^ LOW_BIAS as i128));
-                avx.run(|| {
-                    if regs {
+                avx.run(|| match form {
+                    0 => avx.add_i128x4_biased::<SAT>(&mut got, &split(x)),
+                    1 => {
                         let r = I128x8::load(avx, &split(x));
                         avx.add_i128x4_biased_regs::<SAT>(&mut got, r);
-                    } else {
-                        avx.add_i128x4_biased::<SAT>(&mut got, &split(x));
+                    }
+                    _ => {
+                        // One lane's row of `rows4`: x[0..4] as lane 0 of four columns.
+                        let col = |v: i128| -> [I32x8; 4] {
+                            core::array::from_fn(|w| {
+                                avx.load_i32(&[(v >> (32 * w)) as i32, 1, 2, 3, 4, 5, 6, 7])
+                            })
+                        };
+                        let rows = I32x8::rows4([col(x[0]), col(x[1]), col(x[2]), col(x[3])]);
+                        avx.add_i128x4_biased_row::<SAT>(&mut got, rows[0]);
                     }
                 });
                 let got = join(got).map(|s| s ^ LOW_BIAS as i128);
                 assert_eq!(
                     got, half,
-                    "half, regs {regs}, SAT {SAT:#b}: {acc0:?} + {x:?}"
+                    "half, form {form}, SAT {SAT:#b}: {acc0:?} + {x:?}"
                 );
             }
         }
@@ -459,6 +547,22 @@ mod tests {
                     // The row conversion: value i from lane ROW_LANES[i].
                     let i = ROW_LANES.iter().position(|&l| l == k).unwrap();
                     assert_eq!(regs[i], value([a, n, w2, w3], k));
+                }
+                // The rows of four columns: value c of row k from lane k of column c (the
+                // columns: the two above, and two more from the same inputs reordered).
+                let cw = [
+                    [a, n, w2, w3],
+                    [b0, b1, b2, b3],
+                    [w3, b2, a, n],
+                    [n, w2, b3, b0],
+                ];
+                let cols = cw.map(|c| c.map(|w| avx.load_i32(&w)));
+                for (k, row) in I32x8::rows4(cols).into_iter().enumerate() {
+                    let got = join(row.to_words());
+                    for (c, w) in cw.iter().enumerate() {
+                        assert_eq!(got[c], value(*w, k), "rows4: lane {k} column {c}");
+                    }
+                    assert_eq!(got[4..], [0; 4], "rows4: lane {k} beyond its four values");
                 }
                 // The registers' layout is the words': load and store are inverses.
                 let vals: [i128; 8] = core::array::from_fn(|k| regs[k] ^ (k as i128) << 100);
