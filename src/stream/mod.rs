@@ -733,12 +733,12 @@ fn shade_kernel<T: kernels::tail::Tail>(
         return (0, false);
     };
     let n = run.len() / 8 * 8;
-    // The conductor, diffuse and plastic kernels also take a run's last `PAD_MIN` to 7 paths,
-    // as one padded chunk (`kernels::vertex::x8::padded`).
+    // The conductor, diffuse, plastic and microfacet normal map kernels also take a run's
+    // last `PAD_MIN` to 7 paths, as one padded chunk (`kernels::vertex::x8::padded`).
     let pad_min = kernels::vertex::x8::PAD_MIN;
     let pads = matches!(
         kind,
-        Kernel::Conductor(_) | Kernel::Diffuse(..) | Kernel::Plastic(_)
+        Kernel::Conductor(_) | Kernel::Diffuse(..) | Kernel::Plastic(_) | Kernel::Mnm
     );
     if n == 0 && !(pads && run.len() >= pad_min) {
         return (0, false);
@@ -843,12 +843,12 @@ fn shade_kernel<T: kernels::tail::Tail>(
         }
         Kernel::Mnm => {
             use kernels::mnm::x8;
+            let mut chunks = kernels::vertex::x8::Chunks::<8>::new(run.clone(), pad_min);
             avx.run(
                 #[inline(always)]
                 || {
                     let mut gather = kernels::light::x8::Gather::new();
-                    for c in chunks {
-                        let ids: [u32; 8] = batch.sorted[c..c + 8].try_into().expect("8 ids");
+                    while let Some((ids, live)) = chunks.next(&batch.sorted) {
                         let lights = &kernels.lights;
                         x8::shade(
                             avx,
@@ -856,6 +856,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
                             cfg,
                             batch,
                             &ids,
+                            live,
                             lights,
                             &mut gather,
                             arena,
@@ -864,7 +865,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
                     }
                 },
             );
-            (n, false)
+            (chunks.at() - run.start, false)
         }
     }
 }

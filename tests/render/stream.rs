@@ -706,10 +706,11 @@ fn stream_equals_scalar_in_the_compensated_kernel_under_every_setting() {
 
 /// On metal_plastic (compensated) the three normal-mapped materials are compensated normal
 /// maps (the light's own diffuse BSDF, a few paths, goes to the diffuse kernel), so no path
-/// goes to the wrapper-chain driver, and only the runs' tails (≤ 7 paths per run and bounce)
-/// are shaded lane by lane: at least 85 % of the shaded paths in the compensated kernel, as for
-/// classic (`the_lane_counters_count_the_wrapped_plastic`); its one area light is a rectangle,
-/// sampled in lanes.
+/// goes to the wrapper-chain driver, and a run of one material at one bounce leaves to the
+/// 1-lane code only a last path alone (its last 2–7 paths are one padded chunk,
+/// `kernels::vertex::x8::PAD_MIN`, since the thirty-first session): at least 98 % of the
+/// shaded paths in the compensated kernel; its one area light is a rectangle, sampled in
+/// lanes.
 #[test]
 fn the_lane_counters_count_the_compensated_kernel() {
     let l = load(&scene("scenes/bench/metal_plastic.xml"), "compensated");
@@ -717,7 +718,7 @@ fn the_lane_counters_count_the_compensated_kernel() {
     let share = c.mnm_lanes as f64 / c.shade_used as f64;
     eprintln!("metal_plastic (compensated), 40×36 window, 3 spp: {c:?}, share {share:.4}");
     assert_eq!(c.conductor_lanes, 0, "{c:?}");
-    assert!((0.85..=1.0).contains(&share), "{c:?}: {share}");
+    assert!((0.98..=1.0).contains(&share), "{c:?}: {share}");
     let [t, r, s, ..] = c.kernel_lights;
     assert!(r > 0 && t == 0 && s == 0, "{c:?}");
 }

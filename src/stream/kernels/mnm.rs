@@ -1,7 +1,9 @@
 //! The stream renderer's kernel for the compensated microfacet normal map (issues 17 and 18):
 //! a material whose root is a microfacet `normalmap` with `evaluation = compensated` and a
 //! remainder table (what `--normal-mapping compensated` makes of a scene's normal maps) over a
-//! leaf BSDF, 8 paths at a time, in the steps of the wrapper-chain driver ([`super::vertex`]):
+//! leaf BSDF, 8 paths at a time (a run's last 2–7 paths as one padded chunk, as the other
+//! kernels take them: `vertex::x8::Chunks`), in the steps of the wrapper-chain driver
+//! ([`super::vertex`]):
 //! 1. the surface interactions gathered into SoA columns;
 //! 2. the BSDFs built at the hits, into one arena for the 8 points: where the chunk's nested
 //!    leaf is constant ([`shared_nested`]), [`build_shared`] (the leaf pushed once; the
@@ -302,10 +304,15 @@ pub(crate) mod x8 {
         }
     }
 
-    /// Shades the 8 paths `ids` (all at a surface of a material that [`super::qualifies`]) as
+    /// Shades the paths `ids` (all at a surface of a material that [`super::qualifies`]) as
     /// `PathState::scatter` would, one after the other; hands each lane's light sample, then
     /// its BSDF sample, to `tail` (the integrator's end of the vertex). `arena` holds the 8
-    /// points' BSDF trees (cleared here). Call inside [`Avx2::run`].
+    /// points' BSDF trees (cleared here). The first `live` lanes are the chunk's paths; a
+    /// padded chunk's other lanes (`vertex::x8::padded`: the last path's id again) are marked
+    /// behind their surface, as `vertex::x8::live_only` does for the other kernels: they build
+    /// their BSDFs (in the chunk's arena) but neither scatter, draw a number nor hand a sample
+    /// to the tail, and the sampler's stores leave the lowest lane's state where an id repeats
+    /// (`Avx2::store_u64_at`). Call inside [`Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade(
@@ -314,6 +321,7 @@ pub(crate) mod x8 {
         cfg: &PathSettings,
         b: &mut Batch,
         ids: &[u32; 8],
+        live: usize,
         lights: &[Option<LaneLight>],
         gather: &mut Gather,
         arena: &mut BsdfArena,
@@ -346,7 +354,13 @@ pub(crate) mod x8 {
         };
         // The hits' ωi in the shading frame and `SurfaceBsdf::new`'s side test, 8-wide.
         let (wi_local, front) = crate::stream::kernels::diffuse::incident(&surf);
-        let (wi_local, front) = (Cols3::store(wi_local), front.bits() as u8);
+        // (A padded chunk's lanes from `live` on: behind their surface.)
+        let live_bits = if live >= 8 {
+            u8::MAX
+        } else {
+            (1u8 << live) - 1
+        };
+        let (wi_local, front) = (Cols3::store(wi_local), front.bits() as u8 & live_bits);
         let built = match &lanes {
             Some(l) => {
                 super::build_shared(Cols::of(avx), scene, m0, &wi_local.0, l, lane_points, arena)
@@ -384,7 +398,7 @@ pub(crate) mod x8 {
             Some(bt) if light_samples && arena.bsdf(bt.child).lobes().is_smooth() => alive,
             _ => 0,
         };
-        let mut rest = !points;
+        let mut rest = !points & live_bits;
         while rest != 0 {
             let k = rest.trailing_zeros() as usize;
             rest &= rest - 1;
