@@ -142,8 +142,8 @@ pub(crate) fn fill(
     let flag = &mut batch.hit_flag;
     for &i in active {
         let i = i as usize;
-        flag[i] = hit[i].is_some() as u32;
-        if let Some(h) = &hit[i] {
+        flag[i] = hit[i].is_hit() as u32;
+        if let Some(h) = &hit[i].get() {
             surf.set(i, &scene.interaction(&ray[i], h));
         }
     }
@@ -257,7 +257,7 @@ pub(crate) mod x8 {
         scene: &'a Scene,
         forms: &'a [Form],
         ray: &'a [Ray],
-        hit: &'a [Option<Hit>],
+        hit: &'a [crate::accel::HitRow],
         surf: &'a mut Surfaces,
     }
 
@@ -285,7 +285,7 @@ pub(crate) mod x8 {
                 // length (one bounds test covers both) and stored in each branch.
                 let flag = &mut batch.hit_flag[..st.hit.len()];
                 for &i in &batch.active {
-                    let Some(h) = &st.hit[i as usize] else {
+                    let Some(h) = &st.hit[i as usize].get() else {
                         flag[i as usize] = 0;
                         continue;
                     };
@@ -381,7 +381,7 @@ pub(crate) mod x8 {
     #[inline(always)]
     fn ray_points(avx: Avx2, st: &Stage, ids: &[u32; 8], m: &mut Meta) -> V3<F32x8> {
         for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = &st.hit[i as usize] else {
+            let Some(h) = &st.hit[i as usize].get() else {
                 continue;
             };
             m.set(k, h);
@@ -586,7 +586,7 @@ pub(crate) mod x8 {
         let (mut prim, mut b1, mut b2) = ([0i32; 8], [0.0f32; 8], [0.0f32; 8]);
         let mut meta = Meta::new(avx);
         for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
+            let Some(h) = st.hit[i as usize].get() else {
                 continue;
             };
             prim[k] = h.prim as i32;
@@ -698,7 +698,7 @@ pub(crate) mod x8 {
         let (x, meta) = triangle_input(avx, st, &ids);
         let (mut w, mut nm) = ([Cols3::default(); 4], [Cols3::default(); 3]);
         for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
+            let Some(h) = st.hit[i as usize].get() else {
                 continue;
             };
             let (to_world, normal) = st.scene.instances[h.inst as usize].lanes();
@@ -728,7 +728,7 @@ pub(crate) mod x8 {
         let (mut b1, mut b2, mut sign) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
         let mut meta = Meta::new(avx);
         for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
+            let Some(h) = st.hit[i as usize].get() else {
                 continue;
             };
             let shape = &st.scene.shapes[h.geom as usize];
@@ -798,7 +798,7 @@ pub(crate) mod x8 {
         let (mut c, mut f) = (Cols3::default(), [Cols3::default(); 3]);
         let (mut r, mut sign) = ([0.0f32; 8], [0.0f32; 8]);
         for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
+            let Some(h) = st.hit[i as usize].get() else {
                 continue;
             };
             let Form::Sphere(centre, radius, frame, sg) = &st.forms[h.geom as usize] else {
@@ -865,7 +865,7 @@ pub(crate) mod x8 {
             let (mut o, mut w) = ([Cols3::default(); 4], [Cols3::default(); 4]);
             let mut k4 = [Cols3::default(); 4];
             for (k, &i) in ids.iter().enumerate() {
-                let Some(h) = st.hit[i as usize] else {
+                let Some(h) = st.hit[i as usize].get() else {
                     continue;
                 };
                 let Form::Rectangle(r) = &st.forms[h.geom as usize] else {
@@ -898,7 +898,7 @@ pub(crate) mod x8 {
         let (mut o, mut hw) = ([Cols3::default(); 4], [Cols3::default(); 4]);
         let (mut w, mut ng) = ([Cols3::default(); 3], Cols3::default());
         for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
+            let Some(h) = st.hit[i as usize].get() else {
                 continue;
             };
             let Form::Disk(d) = &st.forms[h.geom as usize] else {
@@ -933,7 +933,7 @@ pub(crate) mod x8 {
         let (mut nm, mut dpdv) = ([Cols3::default(); 3], Cols3::default());
         let (mut sign, mut quirk) = ([0.0f32; 8], [false; 8]);
         for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
+            let Some(h) = st.hit[i as usize].get() else {
                 continue;
             };
             let Form::Cylinder(c) = &st.forms[h.geom as usize] else {
