@@ -76,6 +76,18 @@ impl HitRow {
     pub fn is_hit(&self) -> bool {
         self.0[0] != Self::MISS
     }
+
+    /// The shape's index ([`Hit::geom`]), or [`Self::MISS`].
+    #[inline(always)]
+    pub fn geom(&self) -> u32 {
+        self.0[0]
+    }
+
+    /// The instance ([`Hit::inst`]) of a hit.
+    #[inline(always)]
+    pub fn inst(&self) -> u32 {
+        self.0[5]
+    }
 }
 
 /// Scenes of at most this many analytic primitives (and nothing else) take tier A: the

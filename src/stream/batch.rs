@@ -623,13 +623,16 @@ impl Surfaces {
         &self.flat
     }
 
-    /// Path `i`'s row, for the 8-wide gather stage (`kernels::surface::x8::fill`), which writes
-    /// the fields [`Self::set`] writes.
+    /// Path `i`'s row as four groups of 8 floats, for the 8-wide gather stage's transposed
+    /// stores (`kernels::surface::x8::store`, which writes the fields [`Self::set`] writes). `i` is taken modulo [`BATCH`]: a batch's path
+    /// ids are below it ([`Batch::start`] asserts so), so that is `i` itself, and the row
+    /// needs no bounds test (one `and` and one address, not a product and two tests per row).
     #[inline(always)]
-    pub fn row_mut(&mut self, i: usize) -> &mut [f32; cols::ROW] {
-        (&mut self.flat[i * cols::ROW..(i + 1) * cols::ROW])
-            .try_into()
-            .expect("a row")
+    pub fn row_groups_mut(&mut self, i: usize) -> &mut [[f32; 8]; 4] {
+        debug_assert!(i < BATCH, "path id {i} outside the batch");
+        const { assert!(cols::ROW == 32) };
+        let rows: &mut [[[f32; 8]; 4]] = self.flat.as_chunks_mut::<8>().0.as_chunks_mut::<4>().0;
+        &mut rows[i % BATCH]
     }
 
     /// Stores path `i`'s interaction.
