@@ -429,7 +429,7 @@ impl Accel {
     /// [`Self::intersect16`] of the `n` (at most 16) rays `ray(0)`, … `ray(n − 1)`, each hit
     /// handed to `out(k, row)` in lane order as a [`HitRow`], as [`Self::intersect8_with`]: tier
     /// A reads the rays in place and builds the rows in lanes, one 16-wide packet on AVX-512
-    /// ([`brute::Brute::intersect16_with`]); Embree traces two 8-wide packets.
+    /// (`Brute::intersect16_with`); Embree traces two 8-wide packets.
     #[inline(always)]
     pub fn intersect16_with<'r>(
         &self,

@@ -151,8 +151,9 @@ impl Rays {
     }
 
     /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each hit handed
-    /// to `out(k, row)` in lane order as a [`crate::accel::HitRow`], without a packet of rays or of hits in between (the
-    /// stream renderer reads the rays from, and writes the hits to, its path columns).
+    /// to `out(k, row)` in lane order as a [`crate::accel::HitRow`], without a packet of rays
+    /// or of hits in between (the stream renderer reads the rays from, and writes the hits
+    /// to, its path columns).
     #[inline]
     pub fn intersect8_with<'r>(
         &mut self,
@@ -323,9 +324,10 @@ impl Rays {
     }
 
     /// [`Self::intersect16`] of the `n` (at most 16) rays `ray(0)`, … `ray(n − 1)`, each hit
-    /// handed to `out(k, row)` in lane order as a [`crate::accel::HitRow`] ([`Self::intersect8_with`]
-    /// at width 16: tier A's 16-ray packets read the stream renderer's rays in place and write
-    /// its hit rows, [`crate::accel::Accel::intersect16_with`]).
+    /// handed to `out(k, row)` in lane order as a [`crate::accel::HitRow`]
+    /// ([`Self::intersect8_with`] at width 16: tier A's 16-ray packets read the stream
+    /// renderer's rays in place and write its hit rows,
+    /// [`crate::accel::Accel::intersect16_with`]).
     #[inline]
     pub fn intersect16_with<'r>(
         &mut self,

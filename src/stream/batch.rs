@@ -624,9 +624,10 @@ impl Surfaces {
     }
 
     /// Path `i`'s row as four groups of 8 floats, for the 8-wide gather stage's transposed
-    /// stores (`kernels::surface::x8::store`, which writes the fields [`Self::set`] writes). `i` is taken modulo [`BATCH`]: a batch's path
-    /// ids are below it ([`Batch::start`] asserts so), so that is `i` itself, and the row
-    /// needs no bounds test (one `and` and one address, not a product and two tests per row).
+    /// stores (`kernels::surface::x8::store`, which writes the fields [`Self::set`] writes).
+    /// `i` is taken modulo [`BATCH`]: a batch's path ids are below it ([`Batch::start`]
+    /// asserts so), so that is `i` itself, and the row needs no bounds test (one `and` and
+    /// one address, not a product and two tests per row).
     #[inline(always)]
     pub fn row_groups_mut(&mut self, i: usize) -> &mut [[f32; 8]; 4] {
         debug_assert!(i < BATCH, "path id {i} outside the batch");
