@@ -31,6 +31,7 @@ use super::analytic::{
 use super::triangle::{
     in_bounds, in_bounds_until, slab, tri_data, tri_edges, tri_plane, triangle, TriL, TriPlane,
 };
+use super::HitRow;
 use crate::geometry::hit::NO_INSTANCE;
 use crate::geometry::shapes::{Shape, ShapeKind, CUBE_FACES};
 use crate::geometry::{Hit, Ray};
@@ -48,6 +49,8 @@ const NONE: i32 = i32::MAX;
 /// A primitive's key is `shape index << PRIM_BITS | triangle index` (0 for the analytic
 /// shapes): one integer whose order is that of (shape, triangle), for the tie rule.
 const PRIM_BITS: u32 = 12;
+/// [`PRIM_BITS`] as a shift count of the lanes.
+const PRIM_BITS_I: i32 = PRIM_BITS as i32;
 /// Meshes of more triangles than this, and scenes of more shapes than [`MAX_KEYED_SHAPES`],
 /// do not fit a key (and are far past any budget).
 pub(crate) const MAX_MESH_TRIANGLES: usize = 1 << PRIM_BITS;
@@ -367,46 +370,95 @@ impl Brute {
     pub(crate) fn intersect8(&self, rays: &[Ray], out: &mut [Option<Hit>; 8]) {
         let rays = &rays[..rays.len().min(W)];
         *out = [None; W];
-        self.intersect8_with(rays.len(), |k| &rays[k], |k, h| out[k] = h);
+        self.intersect8_with(rays.len(), |k| &rays[k], |k, h| out[k] = h.get());
     }
 
     /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each read
     /// where it lies (one row load, [`Avx2::ray_row`], not a packet of rays copied first),
-    /// each hit handed to `out(k, hit)` in lane order (not a packet of hits): the stream
-    /// renderer's trace, from and to its path columns. The same hits as [`Self::intersect8`].
+    /// each hit handed to `out(k, row)` in lane order as a [`HitRow`] (not a packet of hits):
+    /// the stream renderer's trace, from and to its path columns. The same hits as
+    /// [`Self::intersect8`]. With AVX2 the rows are built in lanes ([`Self::hit_fields`], one
+    /// 8×8 transpose).
     #[inline(always)]
     pub(crate) fn intersect8_with<'r>(
         &self,
         n: usize,
         ray: impl Fn(usize) -> &'r Ray,
-        mut out: impl FnMut(usize, Option<Hit>),
+        mut out: impl FnMut(usize, HitRow),
     ) {
         let n = n.min(W);
         #[cfg(target_arch = "x86_64")]
         if let Some(avx) = self.avx {
-            let (ts, geoms, us, vs) = avx.run(
+            let mut rows = avx.run(
                 #[inline(always)]
                 || {
                     let b = self.nearest_of_each(&packet_with(avx, n, &ray), avx.splat(0.0), NONE);
-                    let (t, g) = (b.t.to_array(), b.g.to_array());
-                    if self.tri_rows.is_empty() {
-                        return (t, g, [0.0; W], [0.0; W]);
-                    }
-                    (t, g, (b.u / b.a).to_array(), (b.v / b.a).to_array())
+                    avx.rows8(self.hit_fields(&b)).map(hit_row)
                 },
             );
-            for k in 0..n {
-                out(
-                    k,
-                    self.finish_with(|| ray(k), ts[k], geoms[k], us[k], vs[k]),
-                );
+            if !self.box_rows.is_empty() {
+                for (k, row) in rows.iter_mut().enumerate().take(n) {
+                    self.box_row(row, || ray(k));
+                }
+            }
+            for (k, row) in rows.iter().enumerate().take(n) {
+                out(k, *row);
             }
             return;
         }
         for k in 0..n {
             let r = ray(k);
             let b = self.nearest_of_each(&ray_lanes(r), 0.0f32, NONE);
-            out(k, self.finish(r, b.t, b.g, b.u / b.a, b.v / b.a));
+            out(
+                k,
+                HitRow::new(self.finish(r, b.t, b.g, b.u / b.a, b.v / b.a)),
+            );
+        }
+    }
+
+    /// The lanes' hits of `b` as the 8 words of their rows ([`HitRow`]), all in lanes:
+    /// [`Self::finish`] but for a box's triangle and barycentrics ([`Self::box_row`] adds
+    /// them). The key splits into `geom` (its high bits; [`HitRow::MISS`] for [`NONE`]) and
+    /// `prim` (its low bits); `t` as kept; `u`, `v` the lanes' quotients, which are the winning
+    /// triangle's barycentrics on a mesh lane and +0 on every other (`Best::new`'s 0 / 1: the
+    /// meshes are tested last, so no other primitive can win after a triangle set them);
+    /// `inst` [`NO_INSTANCE`]; two zero words. The same words `finish` puts in a [`Hit`].
+    #[inline(always)]
+    fn hit_fields<L: Lane>(&self, b: &Best<L>) -> [L; 8] {
+        let g = b.g;
+        let miss = g.eq(g.splat(NONE));
+        let geom = LaneI32::select(miss, g.splat(HitRow::MISS as i32), g.shr::<PRIM_BITS_I>());
+        let prim = g.and(g.splat((1 << PRIM_BITS) - 1));
+        let zero = b.t.splat(0.0);
+        let (u, v) = if self.tri_rows.is_empty() {
+            (zero, zero)
+        } else {
+            (b.u / b.a, b.v / b.a)
+        };
+        let inst = g.splat(NO_INSTANCE as i32);
+        [
+            L::from_bits(geom),
+            L::from_bits(prim),
+            b.t,
+            u,
+            v,
+            L::from_bits(inst),
+            zero,
+            zero,
+        ]
+    }
+
+    /// A row of [`Self::hit_fields`] completed where its shape is a box: the triangle and
+    /// barycentrics [`Self::finish`] gives it (the ray read through `ray` only then).
+    #[inline(always)]
+    fn box_row<'r>(&self, row: &mut HitRow, ray: impl FnOnce() -> &'r Ray) {
+        let geom = row.0[0];
+        if geom == HitRow::MISS {
+            return;
+        }
+        if let Some(&Slot::Box(b)) = self.slots.get(geom as usize) {
+            let (prim, u, v) = self.box_hit(ray(), b as usize);
+            (row.0[1], row.0[3], row.0[4]) = (prim, u.to_bits(), v.to_bits());
         }
     }
 
@@ -474,6 +526,55 @@ impl Brute {
         out[W..].copy_from_slice(&half);
     }
 
+    /// [`Self::intersect16`] of the `n` (at most 16) rays `ray(0)`, … `ray(n − 1)`, each read
+    /// where it lies ([`Avx512::ray_fields16_at`]), each hit handed to `out(k, row)` in lane
+    /// order as a [`HitRow`] built in lanes ([`Self::hit_fields`], [`Avx512::rows8_16`]): the
+    /// stream renderer's 16-ray packets, from and to its path columns, as
+    /// [`Self::intersect8_with`] at width 8. Without AVX-512, two 8-wide packets.
+    #[inline(always)]
+    pub(crate) fn intersect16_with<'r>(
+        &self,
+        n: usize,
+        ray: impl Fn(usize) -> &'r Ray,
+        mut out: impl FnMut(usize, HitRow),
+    ) {
+        let n = n.min(W16);
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = self.avx512 {
+            let mut rows = avx.run(
+                #[inline(always)]
+                || {
+                    let fields = if n == W16 {
+                        avx.ray_fields16_at(&ray)
+                    } else {
+                        avx.ray_fields16_at(|k| if k < n { ray(k) } else { &PAD_RAY })
+                    };
+                    let [ox, oy, oz, dx, dy, dz, tnear, tfar] = fields;
+                    let r = RayL {
+                        o: V3::new(ox, oy, oz),
+                        d: V3::new(dx, dy, dz),
+                        tnear,
+                        tfar,
+                    };
+                    let b = self.nearest_of_each(&r, avx.splat(0.0), NONE);
+                    avx.rows8_16(self.hit_fields(&b)).map(hit_row)
+                },
+            );
+            if !self.box_rows.is_empty() {
+                for (k, row) in rows.iter_mut().enumerate().take(n) {
+                    self.box_row(row, || ray(k));
+                }
+            }
+            for (k, row) in rows.iter().enumerate().take(n) {
+                out(k, *row);
+            }
+            return;
+        }
+        let lo = n.min(W);
+        self.intersect8_with(lo, &ray, &mut out);
+        self.intersect8_with(n - lo, |k| ray(W + k), |k, h| out(W + k, h));
+    }
+
     /// [`Self::occluded8`] of up to 16 rays as one packet: bit `i` for `rays[i]` (16 lanes on
     /// AVX-512, else two 8-wide packets).
     pub(crate) fn occluded16(&self, rays: &[Ray]) -> u16 {
@@ -500,20 +601,6 @@ impl Brute {
     /// test's numerators over |d·n|, divided in lanes or at width 1 alike).
     #[inline(always)]
     fn finish(&self, ray: &Ray, t: f32, key: i32, u: f32, v: f32) -> Option<Hit> {
-        self.finish_with(|| ray, t, key, u, v)
-    }
-
-    /// [`Self::finish`] with the ray read through `ray` only where a box needs it (the
-    /// in-place packets' rays are looked up through the caller's ids).
-    #[inline(always)]
-    fn finish_with<'r>(
-        &self,
-        ray: impl FnOnce() -> &'r Ray,
-        t: f32,
-        key: i32,
-        u: f32,
-        v: f32,
-    ) -> Option<Hit> {
         if key == NONE {
             return None;
         }
@@ -531,7 +618,7 @@ impl Brute {
             return Some(hit);
         }
         match self.slots.get(geom as usize) {
-            Some(&Slot::Box(row)) => (hit.prim, hit.u, hit.v) = self.box_hit(ray(), row as usize),
+            Some(&Slot::Box(row)) => (hit.prim, hit.u, hit.v) = self.box_hit(ray, row as usize),
             Some(&Slot::Mesh) => (hit.u, hit.v) = (u, v),
             _ => {}
         }
@@ -851,13 +938,7 @@ fn packet_with<'r>(avx: Avx2, n: usize, ray: &impl Fn(usize) -> &'r Ray) -> RayL
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn packet16(avx: Avx512, rays: &[Ray]) -> RayL<F32x16> {
-    let pad = Ray {
-        o: Vec3::ZERO,
-        d: Vec3::Z,
-        tmin: f32::NAN,
-        tmax: f32::NAN,
-    };
-    let mut padded = [pad; W16];
+    let mut padded = [PAD_RAY; W16];
     let all: &[Ray; W16] = match rays.try_into() {
         Ok(all) => all,
         Err(_) => {
@@ -872,6 +953,21 @@ fn packet16(avx: Avx512, rays: &[Ray]) -> RayL<F32x16> {
         tnear,
         tfar,
     }
+}
+
+/// A lane that holds no ray: a NaN interval, which every test rejects (the padding of
+/// [`packet_with`] and [`packet16`]).
+const PAD_RAY: Ray = Ray {
+    o: Vec3::ZERO,
+    d: Vec3::Z,
+    tmin: f32::NAN,
+    tmax: f32::NAN,
+};
+
+/// One lane's row of [`Brute::hit_fields`] as a [`HitRow`] (its words' bits).
+#[inline(always)]
+fn hit_row(r: [f32; 8]) -> HitRow {
+    HitRow(r.map(f32::to_bits))
 }
 
 /// A row's world-to-object map, splat to the width of `like`.

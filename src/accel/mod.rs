@@ -23,6 +23,73 @@ use crate::geometry::shapes::{Shape, ShapeKind, CUBE_FACES};
 use crate::geometry::{Hit, Instance, Ray};
 use std::ops::Range;
 
+/// A hit as one row of 8 words (32 bytes, one aligned vector): `geom`, `prim`, the bits of
+/// `t`, `u` and `v`, `inst`, then two zero words; no hit is `geom` = [`HitRow::MISS`] (no shape
+/// has that index: Embree's invalid geometry id). The stream renderer keeps its paths' hits so
+/// ([`crate::stream`]), and tier A's 8-wide packets write them in lanes, one transpose and one
+/// row store per ray ([`Accel::intersect8_with`]), instead of building an `Option<Hit>`
+/// (28 bytes, a tag and six fields) per lane.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(C, align(32))]
+pub struct HitRow(pub [u32; 8]);
+
+impl HitRow {
+    /// The `geom` word of a row without a hit.
+    pub const MISS: u32 = u32::MAX;
+    /// No hit.
+    pub const NONE: HitRow = HitRow([Self::MISS, 0, 0, 0, 0, 0, 0, 0]);
+
+    /// The row of `hit`.
+    #[inline(always)]
+    pub fn new(hit: Option<Hit>) -> HitRow {
+        match hit {
+            Some(h) => HitRow([
+                h.geom,
+                h.prim,
+                h.t.to_bits(),
+                h.u.to_bits(),
+                h.v.to_bits(),
+                h.inst,
+                0,
+                0,
+            ]),
+            None => Self::NONE,
+        }
+    }
+
+    /// The row's hit (`None` for a miss).
+    #[inline(always)]
+    pub fn get(&self) -> Option<Hit> {
+        let w = &self.0;
+        (w[0] != Self::MISS).then(|| Hit {
+            geom: w[0],
+            prim: w[1],
+            t: f32::from_bits(w[2]),
+            u: f32::from_bits(w[3]),
+            v: f32::from_bits(w[4]),
+            inst: w[5],
+        })
+    }
+
+    /// Whether the row holds a hit.
+    #[inline(always)]
+    pub fn is_hit(&self) -> bool {
+        self.0[0] != Self::MISS
+    }
+
+    /// The shape's index ([`Hit::geom`]), or [`Self::MISS`].
+    #[inline(always)]
+    pub fn geom(&self) -> u32 {
+        self.0[0]
+    }
+
+    /// The instance ([`Hit::inst`]) of a hit.
+    #[inline(always)]
+    pub fn inst(&self) -> u32 {
+        self.0[5]
+    }
+}
+
 /// Scenes of at most this many analytic primitives (and nothing else) take tier A: the
 /// crossover of the replay throughputs measured in `docs/bench/README.md` ("Tier A").
 pub const BRUTE_MAX_SHAPES: usize = 16;
@@ -319,10 +386,10 @@ impl Accel {
     }
 
     /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each hit handed
-    /// to `out(k, hit)` in lane order: no packet of rays or of hits in between (the stream
-    /// renderer's 8-wide packets, read from and written to its path columns); under Embree
-    /// the one packet is `buf`'s, reused from query to query, tier A loads each ray's row in
-    /// place ([`brute::Brute::intersect8_with`]).
+    /// to `out(k, row)` in lane order as a [`HitRow`]: no packet of rays or of hits in between
+    /// (the stream renderer's 8-wide packets, read from and written to its path columns); under
+    /// Embree the one packet is `buf`'s, reused from query to query, tier A loads each ray's
+    /// row in place and builds the hits' rows in lanes ([`brute::Brute::intersect8_with`]).
     #[inline(always)]
     pub fn intersect8_with<'r>(
         &self,
@@ -330,15 +397,15 @@ impl Accel {
         n: usize,
         coherent: bool,
         ray: impl Fn(usize) -> &'r Ray,
-        mut out: impl FnMut(usize, Option<Hit>),
+        mut out: impl FnMut(usize, HitRow),
     ) {
         let n = n.min(8);
         match (&self.brute, &self.scene) {
             (Some(b), _) => b.intersect8_with(n, ray, out),
             (None, Some(s)) => s.intersect8_with(&mut buf.0, n, coherent, ray, |k, h| {
-                out(k, h.and_then(|h| self.world_hit(h)))
+                out(k, HitRow::new(h.and_then(|h| self.world_hit(h))))
             }),
-            (None, None) => (0..n).for_each(|k| out(k, None)),
+            (None, None) => (0..n).for_each(|k| out(k, HitRow::NONE)),
         }
     }
 
@@ -357,6 +424,28 @@ impl Accel {
         out[..8].copy_from_slice(&half);
         self.intersect8(hi, coherent, &mut half);
         out[8..].copy_from_slice(&half);
+    }
+
+    /// [`Self::intersect16`] of the `n` (at most 16) rays `ray(0)`, … `ray(n − 1)`, each hit
+    /// handed to `out(k, row)` in lane order as a [`HitRow`], as [`Self::intersect8_with`]: tier
+    /// A reads the rays in place and builds the rows in lanes, one 16-wide packet on AVX-512
+    /// (`Brute::intersect16_with`); Embree traces two 8-wide packets.
+    #[inline(always)]
+    pub fn intersect16_with<'r>(
+        &self,
+        buf: &mut RayBuf,
+        n: usize,
+        coherent: bool,
+        ray: impl Fn(usize) -> &'r Ray,
+        mut out: impl FnMut(usize, HitRow),
+    ) {
+        let n = n.min(16);
+        if let Some(b) = &self.brute {
+            return b.intersect16_with(n, ray, out);
+        }
+        let lo = n.min(8);
+        self.intersect8_with(buf, lo, coherent, &ray, &mut out);
+        self.intersect8_with(buf, n - lo, coherent, |k| ray(8 + k), |k, h| out(8 + k, h));
     }
 
     /// [`Self::occluded8`] of up to 16 rays: bit `i` for `rays[i]` (one 16-wide packet under

@@ -151,8 +151,9 @@ impl Rays {
     }
 
     /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each hit handed
-    /// to `out(k, hit)` in lane order, without a packet of rays or of hits in between (the
-    /// stream renderer reads the rays from, and writes the hits to, its path columns).
+    /// to `out(k, row)` in lane order as a [`crate::accel::HitRow`], without a packet of rays
+    /// or of hits in between (the stream renderer reads the rays from, and writes the hits
+    /// to, its path columns).
     #[inline]
     pub fn intersect8_with<'r>(
         &mut self,
@@ -160,7 +161,7 @@ impl Rays {
         n: usize,
         kind: RayKind,
         ray: impl Fn(usize) -> &'r Ray,
-        out: impl FnMut(usize, Option<Hit>),
+        out: impl FnMut(usize, crate::accel::HitRow),
     ) {
         let n = n.min(8);
         match kind {
@@ -320,6 +321,35 @@ impl Rays {
     ) {
         self.note_packet(rays, 16, Some(kind));
         scene.accel.intersect16(rays, kind == RayKind::Camera, out);
+    }
+
+    /// [`Self::intersect16`] of the `n` (at most 16) rays `ray(0)`, … `ray(n − 1)`, each hit
+    /// handed to `out(k, row)` in lane order as a [`crate::accel::HitRow`]
+    /// ([`Self::intersect8_with`] at width 16: tier A's 16-ray packets read the stream
+    /// renderer's rays in place and write its hit rows,
+    /// [`crate::accel::Accel::intersect16_with`]).
+    #[inline]
+    pub fn intersect16_with<'r>(
+        &mut self,
+        scene: &Scene,
+        n: usize,
+        kind: RayKind,
+        ray: impl Fn(usize) -> &'r Ray,
+        out: impl FnMut(usize, crate::accel::HitRow),
+    ) {
+        let n = n.min(16);
+        match kind {
+            RayKind::Camera => self.counters.camera += n as u64,
+            RayKind::Bounce => self.counters.bounce += n as u64,
+        }
+        if self.log.is_some() {
+            for k in 0..n {
+                self.log(ray(k), false, kind == RayKind::Camera);
+            }
+        }
+        scene
+            .accel
+            .intersect16_with(&mut self.buf, n, kind == RayKind::Camera, ray, out);
     }
 
     /// [`Self::occluded8`] of up to 16 shadow rays: bit `i` for `rays[i]`.

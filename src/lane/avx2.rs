@@ -1174,6 +1174,29 @@ impl Avx2 {
             I32x8(_mm256_and_si256(v, _mm256_set1_epi32(15)))
         }
     }
+
+    // The thirty-first session's h1 block.
+
+    /// The permutation of a compress, and how many lanes it keeps: lane `j` of the index is the
+    /// source lane of output `j` (the lanes of `keep`'s low 8 bits in lane order, then the
+    /// others in lane order), for [`F32x8::permute`] and [`I32x8::permute`]; the count is the
+    /// number of bits set. [`Self::compress_store`]'s table lookup, for compressing several
+    /// columns by one mask (the stream kernels' pending light samples: the shadow rays' and
+    /// contributions' columns before their transposes). Bits above 7 are ignored.
+    #[inline(always)]
+    pub fn compress_index(self, keep: u32) -> (I32x8, usize) {
+        let row = COMPRESS[(keep & 0xff) as usize];
+        // SAFETY: the token proves AVX2.
+        let perm = unsafe {
+            // Lane j's source lane is bits 3j..3j + 3 of the row.
+            let shifts = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
+            I32x8(_mm256_and_si256(
+                _mm256_srlv_epi32(_mm256_set1_epi32(row as i32), shifts),
+                _mm256_set1_epi32(7),
+            ))
+        };
+        (perm, (row >> 24) as usize)
+    }
 }
 
 /// [`Avx2::compress_store`]'s table, per mask (bit k for lane k): the source lane of each of

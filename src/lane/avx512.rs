@@ -102,25 +102,7 @@ impl Avx512 {
         // so load k reads floats 16k .. 16k + 16, inside it.
         unsafe {
             let v: [__m512; 8] = core::array::from_fn(|k| _mm512_loadu_ps(p.add(16 * k)));
-            // Per 128-bit lane L of row k (L0: ray 2k fields 0–3, L1: its fields 4–7, L2 and
-            // L3: ray 2k + 1's), as in `transpose8`: u[j] holds element j of each lane of rows
-            // 0–3, u[4 + j] of rows 4–7.
-            let u = quads16(v);
-            // Field j of ray 2i is u[j]'s element i (lane L0), of ray 2i + 1 its element 8 + i
-            // (lane L2); rays 8–15 likewise in u[4 + j] (indices 16 up); fields 4–7 are 4
-            // elements further (lanes L1 and L3).
-            let lo = _mm512_setr_epi32(0, 8, 1, 9, 2, 10, 3, 11, 16, 24, 17, 25, 18, 26, 19, 27);
-            let hi = _mm512_add_epi32(lo, _mm512_set1_epi32(4));
-            [
-                F32x16(_mm512_permutex2var_ps(u[0], lo, u[4])),
-                F32x16(_mm512_permutex2var_ps(u[1], lo, u[5])),
-                F32x16(_mm512_permutex2var_ps(u[2], lo, u[6])),
-                F32x16(_mm512_permutex2var_ps(u[3], lo, u[7])),
-                F32x16(_mm512_permutex2var_ps(u[0], hi, u[4])),
-                F32x16(_mm512_permutex2var_ps(u[1], hi, u[5])),
-                F32x16(_mm512_permutex2var_ps(u[2], hi, u[6])),
-                F32x16(_mm512_permutex2var_ps(u[3], hi, u[7])),
-            ]
+            fields_of_pairs16(v)
         }
     }
     /// A mask from sixteen booleans: one 16-byte load and a byte test (`vptestmb`), not 16
@@ -629,6 +611,34 @@ unsafe fn quads16(v: [__m512; 8]) -> [__m512; 8] {
     ]
 }
 
+/// The 8 fields in lanes of 16 rays held two per register (`v[k]`: ray 2k's 8 floats, then
+/// ray 2k + 1's): [`Avx512::ray_fields16`]'s transpose.
+///
+/// # Safety
+/// AVX-512F must be available.
+#[inline(always)]
+unsafe fn fields_of_pairs16(v: [__m512; 8]) -> [F32x16; 8] {
+    // Per 128-bit lane L of row k (L0: ray 2k fields 0–3, L1: its fields 4–7, L2 and
+    // L3: ray 2k + 1's), as in `transpose8`: u[j] holds element j of each lane of rows
+    // 0–3, u[4 + j] of rows 4–7.
+    let u = quads16(v);
+    // Field j of ray 2i is u[j]'s element i (lane L0), of ray 2i + 1 its element 8 + i
+    // (lane L2); rays 8–15 likewise in u[4 + j] (indices 16 up); fields 4–7 are 4
+    // elements further (lanes L1 and L3).
+    let lo = _mm512_setr_epi32(0, 8, 1, 9, 2, 10, 3, 11, 16, 24, 17, 25, 18, 26, 19, 27);
+    let hi = _mm512_add_epi32(lo, _mm512_set1_epi32(4));
+    [
+        F32x16(_mm512_permutex2var_ps(u[0], lo, u[4])),
+        F32x16(_mm512_permutex2var_ps(u[1], lo, u[5])),
+        F32x16(_mm512_permutex2var_ps(u[2], lo, u[6])),
+        F32x16(_mm512_permutex2var_ps(u[3], lo, u[7])),
+        F32x16(_mm512_permutex2var_ps(u[0], hi, u[4])),
+        F32x16(_mm512_permutex2var_ps(u[1], hi, u[5])),
+        F32x16(_mm512_permutex2var_ps(u[2], hi, u[6])),
+        F32x16(_mm512_permutex2var_ps(u[3], hi, u[7])),
+    ]
+}
+
 /// Writes lane `r` of the 8 fields `f` as floats `8r .. 8r + 8` from `p`, for r in 0..16. The
 /// 4×4 transposes of [`super::F32x8::transpose8`] within each 128-bit lane give, in 128-bit
 /// lane L of `u[m]`, fields 0–3 of row 4L + m (`u[4 + m]`: its fields 4–7); one two-source
@@ -751,6 +761,33 @@ impl Avx512 {
             for k in (0..16).rev() {
                 *p.add(ix[k] as usize) = v[k];
             }
+        }
+    }
+
+    // The thirty-first session's h1 block.
+
+    /// [`Self::ray_fields16`] of the 16 rays `ray(0)`, … `ray(15)`, each read where it lies
+    /// (one 32-byte load per ray, two joined per register): tier A's 16-ray packets read the
+    /// stream renderer's rays in place, through its ids, instead of copying them into a
+    /// packet first. The same lanes as `ray_fields16` of the rays copied.
+    #[inline(always)]
+    pub fn ray_fields16_at<'r>(
+        self,
+        ray: impl Fn(usize) -> &'r crate::geometry::Ray,
+    ) -> [F32x16; 8] {
+        let row = |k: usize| {
+            let r: *const crate::geometry::Ray = ray(k);
+            r.cast::<f32>()
+        };
+        // SAFETY: the token proves AVX-512F and DQ. A `Ray` is eight f32s, o.x … tmax, without
+        // padding (asserted in `avx2.rs`), all initialised, so each 32-byte load reads exactly
+        // one ray.
+        unsafe {
+            let v: [__m512; 8] = core::array::from_fn(|k| {
+                let a = _mm512_castps256_ps512(_mm256_loadu_ps(row(2 * k)));
+                _mm512_insertf32x8::<1>(a, _mm256_loadu_ps(row(2 * k + 1)))
+            });
+            fields_of_pairs16(v)
         }
     }
 }

@@ -4,7 +4,8 @@
 //! interactions of the paths that scatter as columns ([`Surfaces`]).
 
 use super::BATCH;
-use crate::geometry::{Hit, Ray, SurfaceInteraction};
+use crate::accel::HitRow;
+use crate::geometry::{Ray, SurfaceInteraction};
 use crate::integrator::path::PathState;
 use crate::material::MatId;
 use crate::math::Frame;
@@ -29,8 +30,9 @@ pub(crate) struct Batch {
     pub state: Vec<PathState>,
     /// The ray each path traces next.
     pub ray: Vec<Ray>,
-    /// What the last trace found.
-    pub hit: Vec<Option<Hit>>,
+    /// What the last trace found, one 32-byte row per path ([`HitRow`]: tier A's packets
+    /// write it in lanes).
+    pub hit: Vec<HitRow>,
     /// Whether the last trace hit, as a column: 1 where it did, 0 where the ray escaped.
     /// Written for every active path by the gather stage (`kernels::surface::fill`, which
     /// walks the hits), so that the emission stage's first pass reads 8 paths' flags with one
@@ -97,8 +99,10 @@ pub(crate) struct Batch {
 pub(crate) const LIGHT_SLACK: usize = 16;
 
 /// A pending light sample's path and contribution, beside its shadow ray in
-/// [`Batch::shadow_rays`] (16 bytes: the shadow stage reads one per ray it traces).
+/// [`Batch::shadow_rays`] (16 bytes: the shadow stage reads one per ray it traces; in this
+/// order, so that the kernels' transposed rows of (path, contribution) store whole).
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub(crate) struct PendingAdd {
     pub path: u32,
     pub contribution: Spectrum,
@@ -300,7 +304,7 @@ impl Batch {
         );
         self.state.clear();
         self.state.resize(n, PathState::new());
-        self.hit.resize(n, None);
+        self.hit.resize(n, HitRow::NONE);
         self.hit_flag.resize(n, 0);
         self.alive.resize(n, 0);
         self.material.resize(n, 0);
@@ -377,7 +381,7 @@ impl Batch {
         self.sampler.push(&sampler);
         self.state.push(PathState::new());
         self.ray.push(ray);
-        self.hit.push(None);
+        self.hit.push(HitRow::NONE);
         self.hit_flag.push(0);
         self.alive.push(0);
         self.material.push(0);
@@ -619,13 +623,17 @@ impl Surfaces {
         &self.flat
     }
 
-    /// Path `i`'s row, for the 8-wide gather stage (`kernels::surface::x8::fill`), which writes
-    /// the fields [`Self::set`] writes.
+    /// Path `i`'s row as four groups of 8 floats, for the 8-wide gather stage's transposed
+    /// stores (`kernels::surface::x8::store`, which writes the fields [`Self::set`] writes).
+    /// `i` is taken modulo [`BATCH`]: a batch's path ids are below it ([`Batch::start`]
+    /// asserts so), so that is `i` itself, and the row needs no bounds test (one `and` and
+    /// one address, not a product and two tests per row).
     #[inline(always)]
-    pub fn row_mut(&mut self, i: usize) -> &mut [f32; cols::ROW] {
-        (&mut self.flat[i * cols::ROW..(i + 1) * cols::ROW])
-            .try_into()
-            .expect("a row")
+    pub fn row_groups_mut(&mut self, i: usize) -> &mut [[f32; 8]; 4] {
+        debug_assert!(i < BATCH, "path id {i} outside the batch");
+        const { assert!(cols::ROW == 32) };
+        let rows: &mut [[[f32; 8]; 4]] = self.flat.as_chunks_mut::<8>().0.as_chunks_mut::<4>().0;
+        &mut rows[i % BATCH]
     }
 
     /// Stores path `i`'s interaction.

@@ -174,7 +174,7 @@ pub(super) fn run_batch(
     batch.clear_scatter();
     for i in 0..batch.len() {
         let ray = &batch.ray[i];
-        let si = batch.hit[i].map(|_| batch.surf.get(i));
+        let si = batch.hit[i].is_hit().then(|| batch.surf.get(i));
         add_camera_emission(cfg, scene, &mut batch.state[i].result, ray, si.as_ref());
         if let Some(si) = si {
             batch.push_scatter(i as u32, scene.shape_material[si.shape as usize]);

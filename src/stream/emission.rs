@@ -438,7 +438,7 @@ pub(crate) mod x8 {
     /// What [`classify`] reads of the batch's paths (each slice cut to the batch's length).
     struct Paths<'a> {
         state: &'a [PathState],
-        hit: &'a [Option<crate::geometry::Hit>],
+        hit: &'a [crate::accel::HitRow],
         /// `Batch::hit_flag`.
         hit_flag: &'a [u32],
         rows: &'a [[f32; cols::ROW]],
@@ -555,7 +555,7 @@ pub(crate) mod x8 {
             let i = i as usize;
             let depth = state[i].depth;
             let show = depth >= show_from;
-            if hit[i].is_some() {
+            if hit[i].is_hit() {
                 let shape = rows[i][cols::SHAPE].to_bits() as usize;
                 mb[ns % BATCH] = info_material[shape];
                 sb[ns % BATCH] = i as u32;

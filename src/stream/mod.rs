@@ -45,9 +45,10 @@ pub(crate) mod direct;
 pub(crate) mod emission;
 pub(crate) mod kernels;
 
+use crate::accel::HitRow;
 use crate::cancel::Cancel;
 use crate::film::Block;
-use crate::geometry::{Hit, Ray};
+use crate::geometry::Ray;
 use crate::integrator::{DirectSettings, PathSettings, RayKind, Rays, Scratch};
 use crate::sampler::SamplerDesc;
 use crate::scene::Scene;
@@ -641,7 +642,7 @@ fn emit(
     for r in 0..batch.active.len() {
         let i = batch.active[r] as usize;
         let ray = &batch.ray[i];
-        let si = batch.hit[i].map(|_| batch.surf.get(i));
+        let si = batch.hit[i].is_hit().then(|| batch.surf.get(i));
         if batch.state[i].add_emission(cfg, scene, ray, si.as_ref()) {
             if let Some(si) = si {
                 batch.push_scatter(i as u32, scene.shape_material[si.shape as usize]);
@@ -961,15 +962,22 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, 
         let (active, ray, hit) = (&batch.active, &batch.ray, &mut batch.hit);
         let traced = active.iter().map(|&i| &ray[i as usize]);
         rays.intersect_stream(scene, traced, kind, false, |k, h| {
-            hit[active[k] as usize] = h;
+            hit[active[k] as usize] = HitRow::new(h);
         });
     } else if packet.is_some() && rays.packets16() {
-        trace_packets::<16>(batch, rays, |rays, p, out| {
-            rays.intersect16(scene, p, kind, out)
-        });
+        // 16-ray packets (tier A on AVX-512), read from and written to the path columns as
+        // the 8-wide ones below.
+        let (active, ray, hit) = (&batch.active, &batch.ray, &mut batch.hit);
+        for chunk in active.chunks(16) {
+            let ray = |k: usize| &ray[chunk[k] as usize];
+            rays.intersect16_with(scene, chunk.len(), kind, ray, |k, h| {
+                hit[chunk[k] as usize] = h;
+            });
+        }
     } else if packet.is_some() {
         // Each packet's rays read from, and its hits written to, the path columns directly
-        // (Embree's packet, or tier A's rows loaded in place).
+        // (Embree's packet, or tier A's rows loaded in place and its hits' rows built in
+        // lanes).
         let (active, ray, hit) = (&batch.active, &batch.ray, &mut batch.hit);
         for chunk in active.chunks(8) {
             let ray = |k: usize| &ray[chunk[k] as usize];
@@ -980,28 +988,7 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, 
     } else {
         for &i in &batch.active {
             let i = i as usize;
-            batch.hit[i] = rays.intersect_hit(scene, &batch.ray[i], kind);
-        }
-    }
-}
-
-/// [`trace`]'s packets: the rays of `N` consecutive active paths at a time (the last packet
-/// shorter) through `intersect`, their hits into `batch.hit`.
-#[inline(always)]
-fn trace_packets<const N: usize>(
-    batch: &mut Batch,
-    rays: &mut Rays,
-    mut intersect: impl FnMut(&mut Rays, &[Ray], &mut [Option<Hit>; N]),
-) {
-    let mut packet = [Ray::new(glam::Vec3::ZERO, glam::Vec3::Z); N];
-    let mut out: [Option<Hit>; N] = [None; N];
-    for chunk in batch.active.chunks(N) {
-        for (p, &i) in packet.iter_mut().zip(chunk) {
-            *p = batch.ray[i as usize];
-        }
-        intersect(rays, &packet[..chunk.len()], &mut out);
-        for (h, &i) in out.iter().zip(chunk) {
-            batch.hit[i as usize] = *h;
+            batch.hit[i] = HitRow::new(rays.intersect_hit(scene, &batch.ray[i], kind));
         }
     }
 }

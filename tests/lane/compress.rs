@@ -3,7 +3,8 @@
 //! bit moved, NaN payloads among them) against scalar references: every mask pattern, ids with
 //! edge values (0, −1, `i32::MIN`, `i32::MAX`), lists at every offset up to the last one that
 //! fits 8 slots (the slots outside `at..at + 8` untouched, the kept ids first in lane order,
-//! then the others in lane order), a panic before any store when 8 slots do not fit. (The
+//! then the others in lane order), a panic before any store when 8 slots do not fit; the
+//! compress permutation alone (`Avx2::compress_index`) for every mask. (The
 //! path states' gathers, `Avx2::gather_depth` among them: `state_gathers.rs`.)
 
 use groove::lane::Avx2;
@@ -121,5 +122,41 @@ fn load_u32_equals_the_casts() {
             || avx.load_u32(&a).to_array(),
         );
         assert_eq!(got, a.map(|x| x as i32), "round {round}");
+    }
+}
+
+/// `Avx2::compress_index` (one mask's compress permutation, for several columns) against a
+/// scalar reference: for every mask, with bits above 7 set or not (ignored), the index lists
+/// the kept lanes in lane order, then the others in lane order, and the count is the kept
+/// lanes'; permuting floats by it (`F32x8::permute`) moves every bit (edge floats, NaN
+/// payloads).
+#[test]
+fn compress_index_equals_the_filter() {
+    let Some(avx) = Avx2::detect() else {
+        eprintln!("no AVX2/FMA: the compress index test is skipped");
+        return;
+    };
+    let mut r = Pcg32::new(31, 2);
+    for mask in 0u32..256 {
+        for high in [0u32, 0x100, 0xffff_ff00, 0x8000_0000] {
+            let order: Vec<i32> = (0..8)
+                .filter(|&k| mask >> k & 1 == 1)
+                .chain((0..8).filter(|&k| mask >> k & 1 == 0))
+                .collect();
+            let x: [f32; 8] = std::array::from_fn(|_| crate::harness::edge_or_bits(&mut r));
+            let (idx, kept, moved) = avx.run(
+                #[inline(always)]
+                || {
+                    let (idx, kept) = avx.compress_index(mask | high);
+                    (idx.to_array(), kept, avx.load(&x).permute(idx).to_array())
+                },
+            );
+            assert_eq!(idx.to_vec(), order, "mask {mask:#x} high {high:#x}");
+            assert_eq!(kept, mask.count_ones() as usize, "mask {mask:#x}: count");
+            for j in 0..8 {
+                let want = x[order[j] as usize].to_bits();
+                assert_eq!(moved[j].to_bits(), want, "mask {mask:#x}: lane {j}");
+            }
+        }
     }
 }

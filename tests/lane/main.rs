@@ -15,15 +15,17 @@
 //! - `masks`: masks from booleans and from bits, and back to bits, at width 8 and 16 (every
 //!   pattern, bits above the width ignored);
 //! - `rows4`: the 8-wide rows-of-4 transposes move every bit (edge floats, NaN payloads).
-//! - `compress`: the 8-wide compress of path ids (`Avx2::compress_store`, every mask) and the
-//!   2-D points' columns (`Avx2::vec2_columns`) against scalar references.
+//! - `compress`: the 8-wide compress of path ids (`Avx2::compress_store`, every mask), its
+//!   permutation alone (`Avx2::compress_index`) and the 2-D points' columns
+//!   (`Avx2::vec2_columns`) against scalar references.
 //! - `store_at`: the write-back of gathered 64-bit values (`Wide::store_u64_at`) against a
 //!   scalar reference at width 8 and 16 (repeated and out-of-range indices).
 //! - `state_gathers`: the path states' index products, throughputs and depths in lanes
 //!   (`Avx2::gather_eta`, `Avx2::gather_throughput`, `Avx2::gather_depth`) against the fields
 //!   (every bit, indices clamped).
 //! - `ray_row`: one ray as a row of 8 floats (`Avx2::ray_row`, tier A's packets read in place)
-//!   against its fields, and 8 rows against `Avx2::ray_fields` (every bit).
+//!   against its fields, and 8 rows against `Avx2::ray_fields` (every bit); 16 rays read in
+//!   place (`Avx512::ray_fields16_at`) against their fields and `Avx512::ray_fields16`.
 //! - `permute`: nibbles of a word in lanes (`Avx2::nibbles`) and the permute by lane index
 //!   (`F32x8::permute`) against scalar references (edge floats, NaN payloads, indices with high
 //!   bits set, negative and extreme).

@@ -255,7 +255,7 @@ fn packet_and_stream_hits_on_meshes_are_the_single_ray_hits_bit_for_bit() {
             |k| &all[ids[k]],
             |k, h| {
                 assert_eq!(
-                    bits(&h),
+                    bits(&h.get()),
                     bits(&single[ids[k]]),
                     "packet {c} lane {k} (with)"
                 );

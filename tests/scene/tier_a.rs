@@ -15,7 +15,7 @@
 //! and the hit point within a rounding bound (`cbox_triangles_agree_with_embree`).
 
 use glam::{Mat4, Vec3};
-use groove::accel::{Accel, RayBuf, Tier};
+use groove::accel::{Accel, HitRow, RayBuf, Tier};
 use groove::geometry::{Hit, Ray, Shape, ShapeKind};
 use groove::load::Loaded;
 use groove::math::Pcg32;
@@ -83,23 +83,36 @@ fn random_set(seed: u64, n: usize) -> Loaded {
     load_text(&body)
 }
 
-/// Tier A's in-place packet (`Accel::intersect8_with`, the stream renderer's: each ray read
-/// through `ray(k)`, here the lanes in reverse, each hit handed over in lane order) gives
-/// `packet`'s hits (`Accel::intersect8` of `lanes`, at most 8 rays) bit for bit, once per ray.
-fn in_place_equal(brute: &Accel, lanes: &[Ray], coherent: bool, packet: &[Option<Hit>; 8]) {
+/// Tier A's in-place packets (`Accel::intersect8_with`, the stream renderer's, and at 16 rays
+/// `Accel::intersect16_with`: each ray read through `ray(k)`, here the lanes in reverse, each
+/// hit handed over in lane order as a row) give `packet`'s hits (`Accel::intersect8` or
+/// `intersect16` of `lanes`, at most `W` rays) bit for bit, once per ray; a hit's row is
+/// exactly `HitRow::new`'s and a miss's first word is `HitRow::MISS`.
+fn in_place_equal<const W: usize>(
+    brute: &Accel,
+    lanes: &[Ray],
+    coherent: bool,
+    packet: &[Option<Hit>; W],
+) {
     let n = lanes.len();
     let mut got = vec![None; n];
     let mut order = Vec::new();
-    brute.intersect8_with(
-        &mut RayBuf::default(),
-        n,
-        coherent,
-        |k| &lanes[n - 1 - k],
-        |k, h| {
-            got[k] = h;
-            order.push(k);
-        },
-    );
+    let ray = |k: usize| &lanes[n - 1 - k];
+    let out = |k: usize, h: HitRow| {
+        if h.is_hit() {
+            assert_eq!(h, HitRow::new(h.get()), "a hit's row");
+        } else {
+            assert_eq!(h.0[0], HitRow::MISS, "a miss's row");
+        }
+        got[k] = h.get();
+        order.push(k);
+    };
+    let mut buf = RayBuf::default();
+    match W {
+        8 => brute.intersect8_with(&mut buf, n, coherent, ray, out),
+        16 => brute.intersect16_with(&mut buf, n, coherent, ray, out),
+        _ => unreachable!("packets of 8 or 16 rays"),
+    }
     assert_eq!(
         order,
         (0..n).collect::<Vec<_>>(),
@@ -107,7 +120,11 @@ fn in_place_equal(brute: &Accel, lanes: &[Ray], coherent: bool, packet: &[Option
     );
     for (k, h) in got.iter().enumerate() {
         let r = &lanes[n - 1 - k];
-        assert_eq!(bits(h), bits(&packet[n - 1 - k]), "ray {r:?}: in place");
+        assert_eq!(
+            bits(h),
+            bits(&packet[n - 1 - k]),
+            "ray {r:?}: in place ({W})"
+        );
     }
 }
 
@@ -153,8 +170,9 @@ fn note_width(name: &str) {
     }
 }
 
-/// Tier A's 16-ray packets (`Accel::intersect16`, `occluded16`) give every ray of `all` the
-/// hit and the occlusion its 8-ray packets and its single-ray queries give, bit for bit; in
+/// Tier A's 16-ray packets (`Accel::intersect16`, `occluded16`, and in place
+/// `intersect16_with`) give every ray of `all` the hit and the occlusion its 8-ray packets and
+/// its single-ray queries give, bit for bit; in
 /// packets of 16 rays mostly and of 1..15 every few (so a ray meets every lane position, and
 /// the padded lanes stay empty).
 fn sixteen_consistent(name: &str, brute: &Accel, all: &[Ray]) {
@@ -164,6 +182,7 @@ fn sixteen_consistent(name: &str, brute: &Accel, all: &[Ray]) {
         let lanes = &all[start..(start + n).min(all.len())];
         let mut wide = [None; 16];
         brute.intersect16(lanes, k % 2 == 0, &mut wide);
+        in_place_equal(brute, lanes, k % 2 == 0, &wide);
         let blocked = brute.occluded16(lanes);
         assert_eq!(u32::from(blocked) >> lanes.len(), 0, "{name}: lanes past n");
         assert!(wide[lanes.len()..].iter().all(Option::is_none), "{name}");

@@ -7,6 +7,8 @@ use crate::integrator::path::PathState;
 use crate::lane::vec::V3;
 use crate::lane::{Lane, LaneI32};
 #[cfg(target_arch = "x86_64")]
+use crate::stream::batch::PendingAdd;
+#[cfg(target_arch = "x86_64")]
 use crate::stream::kernels::light::x8::Cols3;
 
 /// Moves `p` off the surface with geometric normal `n` to the side `dir` points to (see
@@ -145,6 +147,40 @@ pub(crate) trait RayRows<const W: usize>: crate::lane::Wide<W> {
         }
         (self.load(&eta), self.load_i32(&depth))
     }
+    /// Appends the lanes of `pass` (bit `k` for lane `k`) to the batch's pending light samples:
+    /// in lane order, lane `k`'s shadow ray (`Ray::segment` of `o`, `d`, `tmax`, as
+    /// [`Self::segment_rows`]) to `rays` and its path `ids[k]` and contribution `c` to `adds`;
+    /// returns how many. Every slot of `rays` and `adds` may be written (those past the count
+    /// hold other lanes: the list's slack, which the next append overwrites). Here every lane
+    /// writes its row at the end and only a passing lane advances it; [`crate::lane::Avx2`]
+    /// compresses the columns first.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn push_pending(
+        self,
+        pass: u32,
+        o: V3<Self::F>,
+        d: V3<Self::F>,
+        tmax: Self::F,
+        ids: &[u32; W],
+        c: &Cols3<W>,
+        rays: &mut [crate::geometry::Ray; W],
+        adds: &mut [PendingAdd; W],
+    ) -> usize {
+        const { assert!(W.is_power_of_two()) };
+        let shadow = self.segment_rows(o, d, tmax);
+        let mut j = 0;
+        for k in 0..W {
+            // j ≤ k < W, a power of two: the mask changes nothing (and drops the bounds test).
+            rays[j & (W - 1)] = shadow[k];
+            adds[j & (W - 1)] = PendingAdd {
+                path: ids[k],
+                contribution: c.get(k),
+            };
+            j += (pass >> k & 1) as usize;
+        }
+        j
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -172,6 +208,42 @@ impl RayRows<8> for crate::lane::Avx2 {
     fn eta_depth(self, state: &[PathState], ids: &[u32; 8]) -> (Self::F, Self::I) {
         let idv = self.load_u32(ids);
         (self.gather_eta(state, idv), self.gather_depth(state, idv))
+    }
+    /// The passing lanes first, by one permute of every column ([`Avx2::compress_index`]),
+    /// then the rays' transpose and the adds' (rows of 4), each stored whole: no per-lane
+    /// index to carry from store to store.
+    #[inline(always)]
+    fn push_pending(
+        self,
+        pass: u32,
+        o: V3<Self::F>,
+        d: V3<Self::F>,
+        tmax: Self::F,
+        ids: &[u32; 8],
+        c: &Cols3<8>,
+        rays: &mut [crate::geometry::Ray; 8],
+        adds: &mut [PendingAdd; 8],
+    ) -> usize {
+        use crate::lane::F32x8;
+        let (perm, kept) = self.compress_index(pass);
+        let z = self.splat(0.0);
+        let f = [o.x, o.y, o.z, d.x, d.y, d.z, z, tmax];
+        *rays = self.ray_rows(f.map(|x| x.permute(perm)));
+        let c = c.load(self);
+        let path = F32x8::from_bits(self.load_u32(ids).permute(perm));
+        let rows = self.rows4([
+            path,
+            c.x.permute(perm),
+            c.y.permute(perm),
+            c.z.permute(perm),
+        ]);
+        for (a, r) in adds.iter_mut().zip(&rows) {
+            *a = PendingAdd {
+                path: r[0].to_bits(),
+                contribution: glam::Vec3::new(r[1], r[2], r[3]),
+            };
+        }
+        kept
     }
 }
 
@@ -205,6 +277,74 @@ mod tests {
             .iter()
             .zip(b.to_array())
             .all(|(x, y)| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()))
+    }
+
+    /// `Avx2::push_pending` (the compress of the passing lanes) against the per-lane append it
+    /// replaces, for every mask: the count, and in the first `count` slots each passing lane's
+    /// `Ray::segment` and (path, contribution), in lane order, every bit (NaN payloads, ±0,
+    /// ±∞ among the fields); the slots past the count are the list's slack.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn push_pending_appends_the_passing_lanes() {
+        use crate::geometry::Ray;
+        use crate::stream::batch::PendingAdd;
+        let Some(avx) = crate::lane::Avx2::detect() else {
+            eprintln!("no AVX2/FMA: the pending samples' compress test is skipped");
+            return;
+        };
+        const EDGES: [f32; 8] = [
+            0.0,
+            -0.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            1e-40,
+            -3.5,
+            7.25,
+        ];
+        let mut r = Pcg32::new(31, 7);
+        let f = |r: &mut Pcg32| match r.next_u32() % 4 {
+            0 => EDGES[(r.next_u32() % 8) as usize],
+            1 => f32::from_bits(r.next_u32()),
+            _ => r.next_f32() * 4.0 - 2.0,
+        };
+        for mask in 0u32..256 {
+            let cols: [[f32; 8]; 10] = std::array::from_fn(|_| std::array::from_fn(|_| f(&mut r)));
+            let ids: [u32; 8] = std::array::from_fn(|_| r.next_u32());
+            let c = Cols3([cols[7], cols[8], cols[9]]);
+            let pad = PendingAdd {
+                path: 7,
+                contribution: Vec3::ONE,
+            };
+            let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); 8];
+            let mut adds = [pad; 8];
+            let n = avx.run(
+                #[inline(always)]
+                || {
+                    let o = V3::new(avx.load(&cols[0]), avx.load(&cols[1]), avx.load(&cols[2]));
+                    let d = V3::new(avx.load(&cols[3]), avx.load(&cols[4]), avx.load(&cols[5]));
+                    let tmax = avx.load(&cols[6]);
+                    avx.push_pending(mask, o, d, tmax, &ids, &c, &mut rays, &mut adds)
+                },
+            );
+            let passing: Vec<usize> = (0..8).filter(|&k| mask >> k & 1 == 1).collect();
+            assert_eq!(n, passing.len(), "mask {mask:#x}");
+            for (j, &k) in passing.iter().enumerate() {
+                let want = Ray::segment(
+                    Vec3::new(cols[0][k], cols[1][k], cols[2][k]),
+                    Vec3::new(cols[3][k], cols[4][k], cols[5][k]),
+                    cols[6][k],
+                );
+                let bits = |r: &Ray| {
+                    [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.tmin, r.tmax].map(f32::to_bits)
+                };
+                assert_eq!(bits(&rays[j]), bits(&want), "mask {mask:#x} slot {j}: ray");
+                assert_eq!(adds[j].path, ids[k], "mask {mask:#x} slot {j}: path");
+                let got = adds[j].contribution.to_array().map(f32::to_bits);
+                let want = [cols[7][k], cols[8][k], cols[9][k]].map(f32::to_bits);
+                assert_eq!(got, want, "mask {mask:#x} slot {j}: contribution");
+            }
+        }
     }
 
     /// Random points at every scale (near the origin, where the absolute step applies, and

@@ -8,7 +8,6 @@
 //! normals, shading frames and incident directions, loaded 8-wide in place from the rows, one
 //! `vgatherdps` per field over the 8 rows. The rows hold the scalar interaction's bits either way.
 
-use crate::geometry::hit::NO_INSTANCE;
 use crate::scene::Scene;
 use crate::stream::batch::Batch;
 use glam::{Mat4, Vec3};
@@ -142,21 +141,17 @@ pub(crate) fn fill(
     let flag = &mut batch.hit_flag;
     for &i in active {
         let i = i as usize;
-        flag[i] = hit[i].is_some() as u32;
-        if let Some(h) = &hit[i] {
+        flag[i] = hit[i].is_hit() as u32;
+        if let Some(h) = &hit[i].get() {
             surf.set(i, &scene.interaction(&ray[i], h));
         }
     }
 }
 
-/// Whether a hit is on a shape itself, not seen through an instance.
-#[inline(always)]
-fn direct(h: &crate::geometry::Hit) -> bool {
-    h.inst == NO_INSTANCE
-}
-
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
+    use crate::accel::HitRow;
+    use crate::geometry::hit::NO_INSTANCE;
     use crate::lane::frame::Frame;
     use crate::lane::vec::V3;
     use crate::lane::{Avx2, F32x8, I32x8, Lane, LaneI32, LaneLookup, ToArray, Wide};
@@ -257,7 +252,7 @@ pub(crate) mod x8 {
         scene: &'a Scene,
         forms: &'a [Form],
         ray: &'a [Ray],
-        hit: &'a [Option<Hit>],
+        hit: &'a [crate::accel::HitRow],
         surf: &'a mut Surfaces,
     }
 
@@ -284,15 +279,20 @@ pub(crate) mod x8 {
                 // The hit flag of every active path (`Batch::hit_flag`), cut to the hits'
                 // length (one bounds test covers both) and stored in each branch.
                 let flag = &mut batch.hit_flag[..st.hit.len()];
+                // The rows' words read where they lie: the shape and the instance decide the
+                // branch (the whole hit only for the 1-lane reconstruction).
+                let hit = st.hit;
                 for &i in &batch.active {
-                    let Some(h) = &st.hit[i as usize] else {
+                    let row = &hit[i as usize];
+                    let geom = row.geom();
+                    if geom == HitRow::MISS {
                         flag[i as usize] = 0;
                         continue;
-                    };
+                    }
                     flag[i as usize] = 1;
                     hits += 1;
-                    let form = &st.forms[h.geom as usize];
-                    if !super::direct(h) {
+                    let form = &st.forms[geom as usize];
+                    if row.inst() != NO_INSTANCE {
                         if let Form::Triangles(_) = form {
                             if itri.push(i) {
                                 instanced_triangles(avx, &mut st, itri.take());
@@ -300,13 +300,14 @@ pub(crate) mod x8 {
                         } else {
                             scalar += 1;
                             let i = i as usize;
-                            let si = st.scene.interaction(&st.ray[i], h);
+                            let h = row.get().expect("a hit");
+                            let si = st.scene.interaction(&st.ray[i], &h);
                             st.surf.set(i, &si);
                         }
                         continue;
                     }
                     match form {
-                        Form::Triangles(_) => tri.push(avx, &mut st, h.geom, i),
+                        Form::Triangles(_) => tri.push(avx, &mut st, geom, i),
                         Form::Sphere(..) => {
                             if sph.push(i) {
                                 spheres(avx, &mut st, sph.take());
@@ -330,7 +331,8 @@ pub(crate) mod x8 {
                         Form::Scalar => {
                             scalar += 1;
                             let i = i as usize;
-                            let si = st.scene.interaction(&st.ray[i], h);
+                            let h = row.get().expect("a hit");
+                            let si = st.scene.interaction(&st.ray[i], &h);
                             st.surf.set(i, &si);
                         }
                     }
@@ -377,17 +379,38 @@ pub(crate) mod x8 {
         }
     }
 
-    /// Each lane's ray point at its hit (`Ray::at`, 8-wide), and its [`Meta`].
+    /// Path `i`'s hit row as 8 lanes (its words' bits).
+    #[inline(always)]
+    fn hit_row(avx: Avx2, hit: &[crate::accel::HitRow], i: u32) -> F32x8 {
+        F32x8::from_bits(avx.load_u32(&hit[i as usize].0))
+    }
+
+    /// Each lane's ray point at its hit (`Ray::at`, 8-wide), and its [`Meta`]. Every lane is
+    /// a hit (a chunk holds hits, its padding repeats its first): the hits' rows
+    /// ([`crate::accel::HitRow`]) are loaded whole and transposed, their first three words
+    /// (`geom`, `prim`, `t`) stored as [`Meta`]'s columns, instead of each lane's hit unpacked
+    /// and its fields stored one by one.
     #[inline(always)]
     fn ray_points(avx: Avx2, st: &Stage, ids: &[u32; 8], m: &mut Meta) -> V3<F32x8> {
-        for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = &st.hit[i as usize] else {
-                continue;
-            };
-            m.set(k, h);
-        }
+        // Written out, not a closure or `array::from_fn` (either compiled out of line would
+        // lose the lanes' target features).
+        let h = st.hit;
+        let f = F32x8::transpose8([
+            hit_row(avx, h, ids[0]),
+            hit_row(avx, h, ids[1]),
+            hit_row(avx, h, ids[2]),
+            hit_row(avx, h, ids[3]),
+            hit_row(avx, h, ids[4]),
+            hit_row(avx, h, ids[5]),
+            hit_row(avx, h, ids[6]),
+            hit_row(avx, h, ids[7]),
+        ]);
+        f[0].store(&mut m.shape);
+        f[1].store(&mut m.prim);
+        let t = f[2];
+        t.store(&mut m.t);
         let (o, d) = m.rays(avx, st, ids);
-        sl::ray_at(o, d, avx.load(&m.t))
+        sl::ray_at(o, d, t)
     }
 
     // The row layout `store` writes as four groups of 8 floats.
@@ -461,27 +484,29 @@ pub(crate) mod x8 {
 
     /// Writes the first `n` lanes of `s` and `m` into the rows of `ids`: the 32 fields as four
     /// groups of 8 lanes, each transposed into 8 rows' runs of 8 floats (one store per group
-    /// and row instead of 29 scalar stores per row).
+    /// and row instead of 29 scalar stores per row). In two halves (groups 0–1, then 2–3), so
+    /// that 16 transposed registers are live at a time rather than 32 (which spilled), each
+    /// row found without a bounds test ([`Surfaces::row_groups_mut`]).
     #[inline(always)]
     fn store(avx: Avx2, st: &mut Stage, ids: &[u32; 8], n: usize, s: &SurfLanes<F32x8>, m: &Meta) {
         let wi = m.wi;
         let (f, z) = (&s.frame, avx.splat(0.0));
         let g0 = F32x8::transpose8([s.p.x, s.p.y, s.p.z, s.ng.x, s.ng.y, s.ng.z, f.s.x, f.s.y]);
         let g1 = F32x8::transpose8([f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, wi.x]);
+        for (k, &i) in ids.iter().enumerate().take(n) {
+            let r = st.surf.row_groups_mut(i as usize);
+            g0[k].store(&mut r[0]);
+            g1[k].store(&mut r[1]);
+        }
         let g2 = F32x8::transpose8([
             wi.y, wi.z, s.uv.x, s.uv.y, s.dpdu.x, s.dpdu.y, s.dpdu.z, s.dpdv.x,
         ]);
         let (t, shape, prim) = (avx.load(&m.t), avx.load(&m.shape), avx.load(&m.prim));
         let g3 = F32x8::transpose8([s.dpdv.y, s.dpdv.z, t, shape, prim, z, z, z]);
         for (k, &i) in ids.iter().enumerate().take(n) {
-            let r = st.surf.row_mut(i as usize);
-            let (a, rest) = r.split_at_mut(8);
-            let (b, rest) = rest.split_at_mut(8);
-            let (c, d) = rest.split_at_mut(8);
-            g0[k].store(a.try_into().expect("8 floats"));
-            g1[k].store(b.try_into().expect("8 floats"));
-            g2[k].store(c.try_into().expect("8 floats"));
-            g3[k].store(d.try_into().expect("8 floats"));
+            let r = st.surf.row_groups_mut(i as usize);
+            g2[k].store(&mut r[2]);
+            g3[k].store(&mut r[3]);
         }
     }
 
@@ -586,7 +611,7 @@ pub(crate) mod x8 {
         let (mut prim, mut b1, mut b2) = ([0i32; 8], [0.0f32; 8], [0.0f32; 8]);
         let mut meta = Meta::new(avx);
         for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
+            let Some(h) = st.hit[i as usize].get() else {
                 continue;
             };
             prim[k] = h.prim as i32;
@@ -698,7 +723,7 @@ pub(crate) mod x8 {
         let (x, meta) = triangle_input(avx, st, &ids);
         let (mut w, mut nm) = ([Cols3::default(); 4], [Cols3::default(); 3]);
         for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
+            let Some(h) = st.hit[i as usize].get() else {
                 continue;
             };
             let (to_world, normal) = st.scene.instances[h.inst as usize].lanes();
@@ -728,7 +753,7 @@ pub(crate) mod x8 {
         let (mut b1, mut b2, mut sign) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
         let mut meta = Meta::new(avx);
         for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
+            let Some(h) = st.hit[i as usize].get() else {
                 continue;
             };
             let shape = &st.scene.shapes[h.geom as usize];
@@ -798,7 +823,7 @@ pub(crate) mod x8 {
         let (mut c, mut f) = (Cols3::default(), [Cols3::default(); 3]);
         let (mut r, mut sign) = ([0.0f32; 8], [0.0f32; 8]);
         for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
+            let Some(h) = st.hit[i as usize].get() else {
                 continue;
             };
             let Form::Sphere(centre, radius, frame, sg) = &st.forms[h.geom as usize] else {
@@ -865,7 +890,7 @@ pub(crate) mod x8 {
             let (mut o, mut w) = ([Cols3::default(); 4], [Cols3::default(); 4]);
             let mut k4 = [Cols3::default(); 4];
             for (k, &i) in ids.iter().enumerate() {
-                let Some(h) = st.hit[i as usize] else {
+                let Some(h) = st.hit[i as usize].get() else {
                     continue;
                 };
                 let Form::Rectangle(r) = &st.forms[h.geom as usize] else {
@@ -898,7 +923,7 @@ pub(crate) mod x8 {
         let (mut o, mut hw) = ([Cols3::default(); 4], [Cols3::default(); 4]);
         let (mut w, mut ng) = ([Cols3::default(); 3], Cols3::default());
         for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
+            let Some(h) = st.hit[i as usize].get() else {
                 continue;
             };
             let Form::Disk(d) = &st.forms[h.geom as usize] else {
@@ -933,7 +958,7 @@ pub(crate) mod x8 {
         let (mut nm, mut dpdv) = ([Cols3::default(); 3], Cols3::default());
         let (mut sign, mut quirk) = ([0.0f32; 8], [false; 8]);
         for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize] else {
+            let Some(h) = st.hit[i as usize].get() else {
                 continue;
             };
             let Form::Cylinder(c) = &st.forms[h.geom as usize] else {
@@ -1018,7 +1043,7 @@ pub(crate) mod x8 {
     /// lookups ([`crate::texture::BitmapTexture::eval_x8`]). Call inside [`Avx2::run`].
     #[inline(always)]
     pub(crate) fn uv<T: Wide<W>, const W: usize>(avx: T, s: &Surfaces, ids: &[u32; W]) -> V2<T::F> {
-        let row = avx.load_i32(&ids.map(|i| (i as usize * cols::ROW) as i32));
+        let row = row_starts(avx, ids);
         let flat = s.flat();
         let (u, v) = (
             row.add(row.splat(cols::UV as i32)),
@@ -1030,6 +1055,18 @@ pub(crate) mod x8 {
         )
     }
 
+    /// Where the rows of the paths `ids` start in [`Surfaces::flat`]: `id · ROW` in lanes (the
+    /// ids loaded as they are and shifted, not 8 scalar products stored and reloaded; the same
+    /// 32-bit words, `ROW` being a power of two).
+    #[inline(always)]
+    fn row_starts<T: Wide<W>, const W: usize>(avx: T, ids: &[u32; W]) -> T::I {
+        const { assert!(cols::ROW == 1 << ROW_SHIFT) };
+        avx.load_i32(&ids.map(|i| i as i32)).shl::<ROW_SHIFT>()
+    }
+
+    /// log₂ of [`cols::ROW`].
+    const ROW_SHIFT: i32 = 5;
+
     /// The surfaces of the paths `ids` (each with its interaction in `s`). Call inside
     /// [`Avx2::run`].
     #[inline(always)]
@@ -1038,7 +1075,7 @@ pub(crate) mod x8 {
         s: &Surfaces,
         ids: &[u32; W],
     ) -> Surface<T::F> {
-        let row = avx.load_i32(&ids.map(|i| (i as usize * cols::ROW) as i32));
+        let row = row_starts(avx, ids);
         let flat = s.flat();
         Surface {
             p: v3(flat, cols::P, row),

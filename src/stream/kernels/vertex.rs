@@ -226,7 +226,7 @@ pub(crate) mod x8 {
     use crate::integrator::{PathSettings, Strategy};
     use crate::lane::vec::V2;
     use crate::lane::{LaneI32, ToArray, Wide};
-    use crate::stream::batch::{Batch, PendingAdd};
+    use crate::stream::batch::Batch;
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
@@ -634,29 +634,19 @@ pub(crate) mod x8 {
     ) {
         // The passing samples (in front of their surface, their light sample passed) appended
         // to the batch's pending ones (`Batch::push_light` per lane, without a test per lane:
-        // every lane writes its row at the end, which only a passing lane's advances; the
+        // `RayRows::push_pending` writes W rows at the end, the passing lanes' first; the
         // buffers hold `LIGHT_SLACK` ≥ W entries past the batch's paths). Nothing to clear:
         // the list starts empty at each shading stage.
         if let Some(cfg) = tail.path().copied() {
             if let Some(l) = lo {
-                let shadow = l.shadow_rows(avx);
-                const { assert!(W.is_power_of_two() && W <= crate::stream::batch::LIGHT_SLACK) };
+                const { assert!(W <= crate::stream::batch::LIGHT_SLACK) };
                 let pass = T::bits(avx.mask(front) & avx.mask(&l.ok));
                 let n = b.pending_lights;
-                let rays = &mut b.shadow_rays[n..n + W];
-                let adds = &mut b.shadow_adds[n..n + W];
-                let mut j = 0;
-                for k in 0..W {
-                    // j ≤ k < W, a power of two: the mask changes nothing (and drops the
-                    // bounds test).
-                    rays[j & (W - 1)] = shadow[k];
-                    adds[j & (W - 1)] = PendingAdd {
-                        path: ids[k],
-                        contribution: l.c.get(k),
-                    };
-                    j += (pass >> k & 1) as usize;
-                }
-                b.pending_lights = n + j;
+                let rays = (&mut b.shadow_rays[n..n + W]).try_into().expect("W rays");
+                let adds = (&mut b.shadow_adds[n..n + W]).try_into().expect("W adds");
+                let (o, d) = (l.o.load(avx), l.d.load(avx));
+                let tmax = avx.load(&l.tmax);
+                b.pending_lights = n + avx.push_pending(pass, o, d, tmax, ids, &l.c, rays, adds);
             }
             advance(avx, &cfg, b, ids, front, p, throughput, so);
             return;
