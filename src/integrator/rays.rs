@@ -150,6 +150,22 @@ impl Rays {
         scene.accel.intersect8(rays, kind == RayKind::Camera, out);
     }
 
+    /// Counts the `n` rays `ray(0)`, … `ray(n − 1)` of one packet as `kind` and logs them when
+    /// a log is kept (the packets read in place, [`Self::intersect8_with`] and
+    /// [`Self::intersect16_with`]).
+    #[inline(always)]
+    fn count_packet<'r>(&mut self, n: usize, kind: RayKind, ray: &impl Fn(usize) -> &'r Ray) {
+        match kind {
+            RayKind::Camera => self.counters.camera += n as u64,
+            RayKind::Bounce => self.counters.bounce += n as u64,
+        }
+        if self.log.is_some() {
+            for k in 0..n {
+                self.log(ray(k), false, kind == RayKind::Camera);
+            }
+        }
+    }
+
     /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each hit handed
     /// to `out(k, row)` in lane order as a [`crate::accel::HitRow`], without a packet of rays
     /// or of hits in between (the stream renderer reads the rays from, and writes the hits
@@ -164,15 +180,7 @@ impl Rays {
         out: impl FnMut(usize, crate::accel::HitRow),
     ) {
         let n = n.min(8);
-        match kind {
-            RayKind::Camera => self.counters.camera += n as u64,
-            RayKind::Bounce => self.counters.bounce += n as u64,
-        }
-        if self.log.is_some() {
-            for k in 0..n {
-                self.log(ray(k), false, kind == RayKind::Camera);
-            }
-        }
+        self.count_packet(n, kind, &ray);
         scene
             .accel
             .intersect8_with(&mut self.buf, n, kind == RayKind::Camera, ray, out);
@@ -338,15 +346,7 @@ impl Rays {
         out: impl FnMut(usize, crate::accel::HitRow),
     ) {
         let n = n.min(16);
-        match kind {
-            RayKind::Camera => self.counters.camera += n as u64,
-            RayKind::Bounce => self.counters.bounce += n as u64,
-        }
-        if self.log.is_some() {
-            for k in 0..n {
-                self.log(ray(k), false, kind == RayKind::Camera);
-            }
-        }
+        self.count_packet(n, kind, &ray);
         scene
             .accel
             .intersect16_with(&mut self.buf, n, kind == RayKind::Camera, ray, out);

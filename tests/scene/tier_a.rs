@@ -205,18 +205,10 @@ fn sixteen_consistent(name: &str, brute: &Accel, all: &[Ray]) {
     }
 }
 
-/// Bit pattern of a hit, for exact comparison (also `packets.rs`'s).
-pub(crate) fn bits(h: &Option<Hit>) -> Option<(u32, u32, u32, u32, u32, u32)> {
-    h.map(|h| {
-        (
-            h.geom,
-            h.prim,
-            h.t.to_bits(),
-            h.u.to_bits(),
-            h.v.to_bits(),
-            h.inst,
-        )
-    })
+/// Bit pattern of a hit, for exact comparison (also `packets.rs`'s): its row
+/// ([`HitRow::new`]: geom, prim, the bits of t, u and v, inst; a miss's own row).
+pub(crate) fn bits(h: &Option<Hit>) -> HitRow {
+    HitRow::new(*h)
 }
 
 /// A point on the edge, silhouette or rim of shape `s`, seen from `o`.
