@@ -396,14 +396,7 @@ impl Brute {
                     avx.rows8(self.hit_fields(&b)).map(hit_row)
                 },
             );
-            if !self.box_rows.is_empty() {
-                for (k, row) in rows.iter_mut().enumerate().take(n) {
-                    self.box_row(row, || ray(k));
-                }
-            }
-            for (k, row) in rows.iter().enumerate().take(n) {
-                out(k, *row);
-            }
+            self.hand_rows(&mut rows, n, &ray, &mut out);
             return;
         }
         for k in 0..n {
@@ -413,6 +406,27 @@ impl Brute {
                 k,
                 HitRow::new(self.finish(r, b.t, b.g, b.u / b.a, b.v / b.a)),
             );
+        }
+    }
+
+    /// Hands the first `n` of a packet's rows to `out` in lane order, each box hit's triangle
+    /// and barycentrics added first ([`Self::box_row`], only where the scene has boxes): the
+    /// end of the in-place packets of both widths.
+    #[inline(always)]
+    fn hand_rows<'r>(
+        &self,
+        rows: &mut [HitRow],
+        n: usize,
+        ray: impl Fn(usize) -> &'r Ray,
+        mut out: impl FnMut(usize, HitRow),
+    ) {
+        if !self.box_rows.is_empty() {
+            for (k, row) in rows.iter_mut().enumerate().take(n) {
+                self.box_row(row, || ray(k));
+            }
+        }
+        for (k, row) in rows.iter().enumerate().take(n) {
+            out(k, *row);
         }
     }
 
@@ -560,14 +574,7 @@ impl Brute {
                     avx.rows8_16(self.hit_fields(&b)).map(hit_row)
                 },
             );
-            if !self.box_rows.is_empty() {
-                for (k, row) in rows.iter_mut().enumerate().take(n) {
-                    self.box_row(row, || ray(k));
-                }
-            }
-            for (k, row) in rows.iter().enumerate().take(n) {
-                out(k, *row);
-            }
+            self.hand_rows(&mut rows, n, &ray, &mut out);
             return;
         }
         let lo = n.min(W);

@@ -1316,12 +1316,11 @@ impl Valid8 {
 
 impl EmbreeScene {
     /// Eight rays (or fewer: lanes past `n` are off; lane `k` is `ray(k)`) in Embree's packet
-    /// layout. (One pass over the rays: building each field with its own pass over checked
-    /// lanes cost ~38 instructions per ray.)
+    /// layout, written as [`Self::set_rays8_fast`] writes them.
     #[inline(always)]
-    fn ray8<'r>(n: usize, ray: impl Fn(usize) -> &'r Ray) -> RTCRay8 {
+    fn ray8<'r>(&self, n: usize, ray: impl Fn(usize) -> &'r Ray) -> RTCRay8 {
         let mut p = EMPTY8.ray;
-        Self::set_rays8(&mut p, n, ray);
+        self.set_rays8_fast(&mut p, n, ray);
         p
     }
 
@@ -1462,7 +1461,7 @@ impl EmbreeScene {
         let n = rays.len().min(8);
         let valid = Valid8::first(n);
         let mut ctx = Self::context();
-        let mut r = Self::ray8(n, |k| &rays[k]);
+        let mut r = self.ray8(n, |k| &rays[k]);
         // SAFETY: as in `intersect8`.
         unsafe { rtcOccluded8(valid.0.as_ptr(), self.scene, &mut ctx, &mut r) };
         (0..n).fold(0, |m, i| {

@@ -45,9 +45,7 @@ fn ray_row_reads_each_field() {
         );
         for k in 0..8 {
             let ray = &rays[ids[k] as usize];
-            let want = [
-                ray.o.x, ray.o.y, ray.o.z, ray.d.x, ray.d.y, ray.d.z, ray.tmin, ray.tmax,
-            ];
+            let want = fields_of(ray);
             for f in 0..8 {
                 let ctx = format!("round {round} lane {k} field {f}");
                 assert_eq!(rows[k][f].to_bits(), want[f].to_bits(), "{ctx}: row");
@@ -97,9 +95,7 @@ fn ray_fields16_at_reads_each_field() {
         );
         for k in 0..16 {
             let ray = &rays[ids[k] as usize];
-            let want = [
-                ray.o.x, ray.o.y, ray.o.z, ray.d.x, ray.d.y, ray.d.z, ray.tmin, ray.tmax,
-            ];
+            let want = fields_of(ray);
             for f in 0..8 {
                 let ctx = format!("round {round} lane {k} field {f}");
                 assert_eq!(at[f][k].to_bits(), want[f].to_bits(), "{ctx}: in place");
@@ -107,4 +103,11 @@ fn ray_fields16_at_reads_each_field() {
             }
         }
     }
+}
+
+/// A ray's eight fields in row order: o.x, o.y, o.z, d.x, d.y, d.z, tmin, tmax.
+fn fields_of(ray: &Ray) -> [f32; 8] {
+    [
+        ray.o.x, ray.o.y, ray.o.z, ray.d.x, ray.d.y, ray.d.z, ray.tmin, ray.tmax,
+    ]
 }
