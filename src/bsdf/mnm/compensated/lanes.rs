@@ -110,12 +110,8 @@ pub(crate) struct Chunk<'a> {
     nested: Option<Bsdf<'a>>,
     /// Bit k: lane k has a point seen from above (ωi.z > 0).
     above: u8,
-    /// The ωi states of the points that are not in the baked lookups at ωi, and the entries of
-    /// the points off the mirror sawtooth, by lane ([`Self::at`], [`Self::entries`]): `None`
-    /// until a lane's is written (most chunks write none: a placeholder row of each for 8 lanes
-    /// was ~1.4 KB set per chunk).
-    at: Option<[AtWi; 8]>,
-    e: Option<[Entries; 8]>,
+    at: [AtWi; 8],
+    e: [Entries; 8],
     /// Every point is over the mirror sawtooth (its first orders run in lanes, from `geo`).
     mirror: bool,
     geo: first::Points8,
@@ -156,8 +152,8 @@ impl<'a> Chunk<'a> {
             on,
             nested: shared(&pts),
             above: 0,
-            at: None,
-            e: None,
+            at: [AtWi::UNUSED; 8],
+            e: [Entries::EMPTY; 8],
             mirror: all_mirror(&pts),
             geo: first::Points8::new(),
             q: Lookups8::new(),
@@ -183,8 +179,8 @@ impl<'a> Chunk<'a> {
             on: 0,
             nested: None,
             above: 0,
-            at: None,
-            e: None,
+            at: [AtWi::UNUSED; 8],
+            e: [Entries::EMPTY; 8],
             mirror: true,
             geo: first::Points8::of_facets(facets),
             q: Lookups8::new(),
@@ -309,14 +305,12 @@ impl<'a> Chunk<'a> {
             if r.baked_norm.is_some() && std::ptr::eq(*table.get_or_insert(r.table), r.table) {
                 q.push(k, &r.cell, wi);
             } else {
-                self.at.get_or_insert([AtWi::UNUSED; 8])[k] = AtWi::new(r, &pt.nested, wi, None);
+                self.at[k] = AtWi::new(r, &pt.nested, wi, None);
             }
             match (mirror, pt.m) {
                 (true, Some(m)) => self.geo.push_point(k, m, wi),
                 (true, None) => self.geo.push_wi(k, wi),
-                (false, _) => {
-                    self.e.get_or_insert([Entries::EMPTY; 8])[k] = Entries::new(pt.map(), wi)
-                }
+                (false, _) => self.e[k] = Entries::new(pt.map(), wi),
             }
             self.above |= 1 << k;
         }
@@ -326,7 +320,7 @@ impl<'a> Chunk<'a> {
         self.table = table;
         for k in 0..8 {
             if self.above & (1 << k) != 0 && !self.q.is_used(k) {
-                self.sel[k] = self.at(k).select;
+                self.sel[k] = self.at[k].select;
             }
         }
         if mirror {
@@ -383,7 +377,7 @@ impl<'a> Chunk<'a> {
                     self.ei[c][k] = at.ei[c];
                 }
                 self.sel[k] = at.select;
-                self.at.get_or_insert([AtWi::UNUSED; 8])[k] = at;
+                self.at[k] = at;
             }
         }
     }
@@ -392,26 +386,6 @@ impl<'a> Chunk<'a> {
     #[inline(always)]
     fn is_above(&self, k: usize) -> bool {
         self.above & (1 << k) != 0
-    }
-
-    /// Lane `k`'s ωi state where it was written (a point not in the baked lookups at ωi),
-    /// else [`AtWi::UNUSED`].
-    #[inline(always)]
-    fn at(&self, k: usize) -> &AtWi {
-        match &self.at {
-            Some(at) => &at[k],
-            None => &AtWi::UNUSED,
-        }
-    }
-
-    /// Lane `k`'s entries where they were written (a point off the mirror sawtooth), else
-    /// none ([`Entries::EMPTY`]).
-    #[inline(always)]
-    fn entries(&self, k: usize) -> &Entries {
-        match &self.e {
-            Some(e) => &e[k],
-            None => &Entries::EMPTY,
-        }
     }
 
     /// Lane `k`'s point as a row: a chunk off the mirror sawtooth (from [`Self::of`]: every
@@ -513,7 +487,7 @@ fn remainders(live: u8, wo: &[[f32; 8]; 3], c: &Chunk) -> [[f32; 8]; 3] {
         rest &= rest - 1;
         if c.has(k) {
             let w = Vec3::new(wo[0][k], wo[1][k], wo[2][k]);
-            let r = c.at(k).remainder(&c.place(k), w);
+            let r = c.at[k].remainder(&c.place(k), w);
             for (ch, o) in out.iter_mut().enumerate() {
                 o[k] = r[ch];
             }
@@ -712,12 +686,9 @@ pub(crate) fn eval_pdf_x8_into(
             |cols| cols.not_le_zero(&wo[2]),
         );
         let live = lit & c.above & above;
-        let q = first::Sampled {
-            live,
-            wo,
-            known: None,
-        };
-        let fo = first::Mirror8::sampled(c.cols, &q).eval(c.cols, &c.geo, kind);
+        let none = ([-1.0; 8], [0.0; 8], [[0.0; 8]; 3]);
+        let lanes = first::Mirror8::sampled(c.cols, live, wo, 0, &none.0, &none.1, &none.2);
+        let fo = lanes.eval(c.cols, &c.geo, kind);
         let rem = remainders(live, wo, c);
         finish_evals(c, lit, live, &fo, &rem, wo, f, p);
         return;
@@ -733,14 +704,14 @@ pub(crate) fn eval_pdf_x8_into(
         if wo.z <= 0.0 {
             continue;
         }
-        general.push(k, c.point(k), c.entries(k), wo, None);
+        general.push(k, c.point(k), &c.e[k], wo, None);
         live |= 1 << k;
     }
     let st = States {
         live,
         ..States::new()
     };
-    let fo = first_orders(kind, c, &general, &st, None);
+    let fo = first_orders(kind, c, &first::Mirror8::new(), Some(&general), &st, None);
     let rem = remainders(live, wo, c);
     finish_evals(c, lit, live, &fo, &rem, wo, f, p);
 }
@@ -807,18 +778,23 @@ fn finish_evals(
     }
 }
 
-/// The first order (f1·z(ωo), p1) of each live point of `st` off the mirror sawtooth, by lane
-/// (the lanes that are not live hold any finite value), from the points' `Collected` and their
-/// nested pairs (`general`, `Collected::sum`), with the drawn paths' `known` terms (sampling).
-/// (Over the mirror sawtooth the first orders run in lanes, [`first::Mirror8::eval`].)
+/// The first order (f1·z(ωo), p1) of each live point of `st`, by lane (the lanes that are not
+/// live hold any finite value): over the mirror sawtooth from `lanes`
+/// ([`first::Mirror8::eval`], its columns as they are), else from the points' `Collected` and
+/// their nested pairs (`general`, `Collected::sum`), with the drawn paths' `known` terms
+/// (sampling).
 #[inline(always)]
 fn first_orders(
     kind: Nested,
     c: &Chunk,
-    g: &General,
+    lanes: &first::Mirror8,
+    general: Option<&General>,
     st: &States,
     known: Option<&[Option<Known>; 8]>,
 ) -> first::FirstOrders {
+    let Some(g) = general else {
+        return lanes.eval(c.cols, &c.geo, kind);
+    };
     let mut out = first::FirstOrders::zero();
     let ev = kind
         .lanes(&g.pairs)
@@ -829,7 +805,7 @@ fn first_orders(
                 Some(kn) => kn[k],
                 None => None,
             };
-            let fo = g.c[k].sum::<false, CHUNK>(c.entries(k), kn, &ev);
+            let fo = g.c[k].sum::<false, CHUNK>(&c.e[k], kn, &ev);
             out.set(k, fo.f, fo.p);
         }
     }
@@ -937,14 +913,9 @@ pub(crate) fn sample_x8_cols(
     // for the 8 lanes below, [`first::Mirror8::sampled`]).
     let mut from_nested = 0u8;
     let mut ks = [0.0f32; 8];
-    // (The answers built in their `Option`'s slot: moved into it after pass 3, they were
-    // copied by a `memcpy` call per chunk.)
-    let answered = if asks.is_empty() {
-        None
-    } else {
-        Some(asks.answer(c.cols, kind))
-    };
-    if let Some(a) = &answered {
+    let mut answered = None;
+    if !asks.is_empty() {
+        let a = asks.answer(c.cols, kind);
         // Pass 3: the rest of `draw` per point (the facet frame and the mirror wall's draw),
         // for the lanes with an entry whose nested sample is kept (`Answered::get`'s test).
         let mut rest = p1.asked & a.ok();
@@ -970,14 +941,14 @@ pub(crate) fn sample_x8_cols(
                 let j = entry[k];
                 let sampled = a.get(k).expect("a kept nested sample");
                 let s = &mut samplers.stream(ids[k] as usize);
-                let (wo, known) =
-                    leave(c.point(k).map(), c.entries(k).k[j] as usize, j, sampled, s);
+                let (wo, known) = leave(c.point(k).map(), c.e[k].k[j] as usize, j, sampled, s);
                 (wc[0][k], wc[1][k], wc[2][k]) = (wo.x, wo.y, wo.z);
                 st.known[k] = known;
                 from_nested |= 1 << k;
             }
         }
         drawn |= from_nested;
+        answered = Some(a);
     }
     // The live lanes: drawn, ωo not below the surface (the scalar `z <= 0` test, as a mask);
     // their ωo by component for the last step in lanes (others: 0).
@@ -1008,28 +979,23 @@ pub(crate) fn sample_x8_cols(
                 st.known[k] = None;
             }
             let w = Vec3::new(wo[0][k], wo[1][k], wo[2][k]);
-            g.push(k, c.point(k), c.entries(k), w, st.known[k]);
+            g.push(k, c.point(k), &c.e[k], w, st.known[k]);
         }
     }
-    // Over the mirror sawtooth the first orders in lanes from the columns (the known terms
-    // where the sample record is exact: `Option::filter` by `exact`).
-    let fo = match (&general, &answered) {
-        (Some(g), _) => first_orders(kind, c, g, &st, Some(&st.known)),
-        (None, a) => {
-            let known = a.as_ref().map(|a| first::KnownCols {
-                lanes: from_nested & st.live & if exact { u8::MAX } else { 0 },
-                ks: &ks,
-                pdf: a.pdf(),
-                w: a.weight(),
-            });
-            let q = first::Sampled {
-                live: st.live,
-                wo: &wo,
-                known,
-            };
-            first::Mirror8::sampled(c.cols, &q).eval(c.cols, &c.geo, kind)
+    // Over the mirror sawtooth the query's inputs from the columns (the known terms where
+    // the sample record is exact: `Option::filter` by `exact`).
+    let lanes = match (&general, &answered) {
+        (None, Some(a)) => {
+            let known = from_nested & st.live & if exact { u8::MAX } else { 0 };
+            first::Mirror8::sampled(c.cols, st.live, &wo, known, &ks, a.pdf(), a.weight())
         }
+        (None, None) => {
+            let none = ([0.0; 8], [[0.0; 8]; 3]);
+            first::Mirror8::sampled(c.cols, st.live, &wo, 0, &ks, &none.0, &none.1)
+        }
+        (Some(_), _) => first::Mirror8::new(),
     };
+    let fo = first_orders(kind, c, &lanes, general.as_ref(), &st, Some(&st.known));
     let rem = remainders(st.live, &wo, c);
     let done = finish_samples(c.cols, st.live, &c.sel, &fo, &rem, &wo);
     // Every point's lobe is its nested BSDF's (the points share it); the kept lanes' ωo are
@@ -1097,10 +1063,10 @@ fn first_pass(
             let Some(j) = c.geo.pick(k, u) else { continue };
             (j, c.geo.entry_dir(k, j))
         } else {
-            let Some(j) = pick_entry(c.entries(k), u) else {
+            let Some(j) = pick_entry(&c.e[k], u) else {
                 continue;
             };
-            (j, c.entries(k).a[j])
+            (j, c.e[k].a[j])
         };
         asks.push(kind, k, a, s);
         entry[k] = j;
@@ -1605,13 +1571,13 @@ mod tests {
                     )
                 } else {
                     assert!(same(c.sel[k], at.select), "chunk {chunk} lane {k}");
-                    (format!("{:?}", c.at(k)), format!("{at:?}"))
+                    (format!("{:?}", c.at[k]), format!("{at:?}"))
                 };
                 assert_eq!(got, want, "chunk {chunk} lane {k}");
                 // Over the mirror sawtooth the entries stay in the columns.
                 let got = match c.mirror {
                     true => c.geo.entries_of(k),
-                    false => *c.entries(k),
+                    false => c.e[k],
                 };
                 assert_eq!(
                     format!("{got:?}"),

@@ -325,14 +325,11 @@ impl Points8 {
     /// by [`Self::clear_unpushed`].
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn of_facets(f: &FacetCols<8>) -> Self {
-        // The frame copied row by row (copied whole, its 288 bytes went through a `memcpy`
-        // call per chunk; 96 bytes are copied inline).
-        let fr = f.frame(0);
         Points8 {
             v0: *f.area_vectors(0),
             v1: *f.area_vectors(1),
             n1: *f.normals(1),
-            fr: [fr[0], fr[1], fr[2]],
+            fr: *f.frame(0),
             ..Self::new()
         }
     }
@@ -596,47 +593,61 @@ impl Mirror8 {
         }
     }
 
-    /// A sampling query from columns ([`Sampled`]): what [`Self::push`] of each live lane
-    /// with `known_term`'s `Option` gives, for the 8 lanes from their columns. 8-wide when the
-    /// CPU has AVX2 and FMA ([`QueryLanes::of`], stored), else lane by lane (`Cols::LOOPS`: the
-    /// tests' reference).
+    /// A sampling query from columns: the lanes `live` (bit k: lane k, a point of the
+    /// [`Points8`] it is evaluated over) toward lane k of `wo` (z > 0; by component), and the
+    /// lanes `known` among them with the known term of the nested sample that drew them
+    /// (path `ks[k]` = 2 j + wall, the sample's density `pdf[k]` and weight `w[..][k]`):
+    /// `known_term`'s, kept where the density is finite and positive, its value the weight
+    /// times the density per channel. What [`Self::push`] of each live lane with
+    /// `known_term`'s `Option` gives, for the 8 lanes from their columns.
+    /// 8-wide when the CPU has AVX2 and FMA (selects by the lanes' bits, the products `w · pdf`
+    /// per lane: the same numbers), else lane by lane (`Cols::LOOPS`: the tests' reference).
     #[inline(always)]
-    pub(in crate::bsdf::mnm::compensated) fn sampled(cols: Cols, s: &Sampled) -> Self {
+    pub(in crate::bsdf::mnm::compensated) fn sampled(
+        cols: Cols,
+        live: u8,
+        wo: &[[f32; 8]; 3],
+        known: u8,
+        ks: &[f32; 8],
+        pdf: &[f32; 8],
+        w: &[[f32; 8]; 3],
+    ) -> Self {
         #[cfg(target_arch = "x86_64")]
         if let Some(avx) = cols.avx() {
             return avx.run(
                 #[inline(always)]
                 || {
-                    let l = QueryLanes::of(avx, s);
                     let mut m = Self::new();
-                    s3_8(l.wo, &mut m.wo);
-                    s3_8(l.kf, &mut m.kf);
-                    l.ks.store(&mut m.ks);
-                    l.kp.store(&mut m.kp);
-                    l.on.store(&mut m.on);
-                    m.used = s.live;
+                    let (zero, one) = (avx.splat(0.0), avx.splat(1.0));
+                    let on = avx.mask_bits(u32::from(live));
+                    let p = avx.load(pdf);
+                    let kn = avx.mask_bits(u32::from(known)) & p.is_finite() & p.gt(zero);
+                    let dflt = l3_8(avx, &m.wo);
+                    s3_8(V3::select(on, l3_8(avx, wo), dflt), &mut m.wo);
+                    let kf = l3_8(avx, w).scale(p);
+                    s3_8(V3::select(kn, kf, V3::new(zero, zero, zero)), &mut m.kf);
+                    F32x8::select(kn, avx.load(ks), avx.splat(-1.0)).store(&mut m.ks);
+                    F32x8::select(kn, p, zero).store(&mut m.kp);
+                    F32x8::select(on, one, zero).store(&mut m.on);
+                    m.used = live;
                     m
                 },
             );
         }
         let mut m = Self::new();
         for k in 0..8 {
-            let on = s.live & (1 << k) != 0;
+            let on = live & (1 << k) != 0;
+            let p = pdf[k];
+            let kn = known & (1 << k) != 0 && p.is_finite() && p > 0.0;
             for c in 0..3 {
-                m.wo[c][k] = if on { s.wo[c][k] } else { m.wo[c][k] };
+                m.wo[c][k] = if on { wo[c][k] } else { m.wo[c][k] };
+                m.kf[c][k] = if kn { w[c][k] * p } else { 0.0 };
             }
+            m.ks[k] = if kn { ks[k] } else { -1.0 };
+            m.kp[k] = if kn { p } else { 0.0 };
             m.on[k] = if on { 1.0 } else { 0.0 };
-            let Some(kn) = &s.known else { continue };
-            let p = kn.pdf[k];
-            if kn.lanes & (1 << k) != 0 && p.is_finite() && p > 0.0 {
-                for c in 0..3 {
-                    m.kf[c][k] = kn.w[c][k] * p;
-                }
-                m.ks[k] = kn.ks[k];
-                m.kp[k] = p;
-            }
         }
-        m.used = s.live;
+        m.used = live;
         m
     }
 
@@ -688,8 +699,9 @@ impl Mirror8 {
         self.eval_width1(pts, b)
     }
 
-    /// [`Self::eval_with`] 8-wide ([`first8`]; the packed form always when `always_pack`, the
-    /// tests' check of it).
+    /// [`Self::eval_with`] 8-wide: the paths' nested evaluations packed where that saves a call
+    /// ([`pack::evals`]; always when `always_pack`, the tests' check of the packed form), else
+    /// path by path.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn eval8<B: LaneNested>(
@@ -699,12 +711,25 @@ impl Mirror8 {
         b: &B,
         always_pack: bool,
     ) -> FirstOrders {
-        let mut out = FirstOrders::zero();
         avx.run(
             #[inline(always)]
-            || first8(avx, b, &self.load8(avx, pts), always_pack, &mut out),
-        );
-        out
+            || {
+                let q = self.load8(avx, pts);
+                let x = exits(&q);
+                let pm = path_masks(&q, &x);
+                let ev = match pack::evals(avx, b, &q, &x, &pm, always_pack) {
+                    Some(ev) => ev,
+                    None => evals_by_path(b, &q, &x, &pm),
+                };
+                let (f, p) = sum(&q, &x, &pm, &ev);
+                let mut out = FirstOrders::zero();
+                f.x.store(&mut out.f[0]);
+                f.y.store(&mut out.f[1]);
+                f.z.store(&mut out.f[2]);
+                p.store(&mut out.p);
+                out
+            },
+        )
     }
 
     /// [`Self::eval_with`] lane by lane at width 1.
@@ -722,18 +747,26 @@ impl Mirror8 {
         out
     }
 
-    /// The query's columns in lanes, over the points `p`.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn load8(&self, avx: Avx2, p: &Points8) -> Lanes<F32x8> {
-        let l = QueryLanes {
+        // The entries of the lanes this query does not use are off (min with 0): their paths
+        // are not evaluated for nothing.
+        let on = avx.load(&self.on);
+        let (v0, v1, n1, fr) = p.geometry8(avx);
+        Lanes {
+            v0,
+            v1,
+            n1,
+            fr,
+            w: [avx.load(&p.w[0]), avx.load(&p.w[1])],
+            a: [l3_8(avx, &p.a[0]), l3_8(avx, &p.a[1])],
+            has: [avx.load(&p.has[0]).min(on), avx.load(&p.has[1]).min(on)],
             wo: l3_8(avx, &self.wo),
             ks: avx.load(&self.ks),
             kf: l3_8(avx, &self.kf),
             kp: avx.load(&self.kp),
-            on: avx.load(&self.on),
-        };
-        l.over(avx, p)
+        }
     }
 
     #[inline(always)]
@@ -753,118 +786,6 @@ impl Mirror8 {
             kp: self.kp[k],
         }
     }
-}
-
-/// A query's inputs from the caller's columns (a light query's or a sampling query's): the
-/// lanes `live` (bit k: lane k, a point of the [`Points8`] it is evaluated over) toward lane k
-/// of `wo` (z > 0; by component), with the known terms of the nested samples that drew some
-/// of them (`None`: no lane has one).
-pub(in crate::bsdf::mnm::compensated) struct Sampled<'c> {
-    pub(in crate::bsdf::mnm::compensated) live: u8,
-    pub(in crate::bsdf::mnm::compensated) wo: &'c [[f32; 8]; 3],
-    pub(in crate::bsdf::mnm::compensated) known: Option<KnownCols<'c>>,
-}
-
-/// The lanes `lanes` among a query's live ones with the known term of the nested sample that
-/// drew them (path `ks[k]` = 2 j + wall, the sample's density `pdf[k]` and weight `w[..][k]`):
-/// `known_term`'s, kept where the density is finite and positive, its value the weight times
-/// the density per channel.
-pub(in crate::bsdf::mnm::compensated) struct KnownCols<'c> {
-    pub(in crate::bsdf::mnm::compensated) lanes: u8,
-    pub(in crate::bsdf::mnm::compensated) ks: &'c [f32; 8],
-    pub(in crate::bsdf::mnm::compensated) pdf: &'c [f32; 8],
-    pub(in crate::bsdf::mnm::compensated) w: &'c [[f32; 8]; 3],
-}
-
-/// A query's own inputs in lanes, [`Mirror8`]'s columns: ωo, the known term's path (−1 for
-/// none), value and density, and 1 in the lanes the query evaluates.
-#[cfg(target_arch = "x86_64")]
-struct QueryLanes {
-    wo: V3<F32x8>,
-    ks: F32x8,
-    kf: V3<F32x8>,
-    kp: F32x8,
-    on: F32x8,
-}
-
-#[cfg(target_arch = "x86_64")]
-impl QueryLanes {
-    /// [`Mirror8::sampled`]'s columns in registers: selects by the lanes' bits, the products
-    /// `w · pdf` per lane (the loop's numbers); without known terms, their placeholders.
-    #[inline(always)]
-    fn of(avx: Avx2, s: &Sampled) -> Self {
-        let (zero, one) = (avx.splat(0.0), avx.splat(1.0));
-        let on = avx.mask_bits(u32::from(s.live));
-        // `Mirror8::new`'s placeholder direction (0, 0, 1) in the lanes not live.
-        let wo = V3::select(on, l3_8(avx, s.wo), V3::new(zero, zero, one));
-        let on = F32x8::select(on, one, zero);
-        let Some(kn) = &s.known else {
-            let zero3 = V3::new(zero, zero, zero);
-            return QueryLanes {
-                wo,
-                ks: avx.splat(-1.0),
-                kf: zero3,
-                kp: zero,
-                on,
-            };
-        };
-        let p = avx.load(kn.pdf);
-        let m = avx.mask_bits(u32::from(kn.lanes)) & p.is_finite() & p.gt(zero);
-        let kf = l3_8(avx, kn.w).scale(p);
-        QueryLanes {
-            wo,
-            ks: F32x8::select(m, avx.load(kn.ks), avx.splat(-1.0)),
-            kf: V3::select(m, kf, V3::new(zero, zero, zero)),
-            kp: F32x8::select(m, p, zero),
-            on,
-        }
-    }
-
-    /// The query over the points `p`, in lanes: the entries of the lanes this query does not
-    /// use are off (min with 0), so their paths are not evaluated for nothing.
-    #[inline(always)]
-    fn over(self, avx: Avx2, p: &Points8) -> Lanes<F32x8> {
-        let (v0, v1, n1, fr) = p.geometry8(avx);
-        Lanes {
-            v0,
-            v1,
-            n1,
-            fr,
-            w: [avx.load(&p.w[0]), avx.load(&p.w[1])],
-            a: [l3_8(avx, &p.a[0]), l3_8(avx, &p.a[1])],
-            has: [
-                avx.load(&p.has[0]).min(self.on),
-                avx.load(&p.has[1]).min(self.on),
-            ],
-            wo: self.wo,
-            ks: self.ks,
-            kf: self.kf,
-            kp: self.kp,
-        }
-    }
-}
-
-/// The first order of the query `q` 8-wide into `out`: the paths' nested evaluations packed
-/// where that saves a call ([`pack::first`]; always when `always_pack`), else path by path.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn first8<B: LaneNested>(
-    avx: Avx2,
-    b: &B,
-    q: &Lanes<F32x8>,
-    always_pack: bool,
-    out: &mut FirstOrders,
-) {
-    let x = exits(q);
-    let pm = path_masks(q, &x);
-    let (f, p) = match pack::first(avx, b, q, &x, &pm, always_pack) {
-        Some(fp) => fp,
-        None => sum(q, &x, &pm, &evals_by_path(b, q, &x, &pm)),
-    };
-    f.x.store(&mut out.f[0]);
-    f.y.store(&mut out.f[1]);
-    f.z.store(&mut out.f[2]);
-    p.store(&mut out.p);
 }
 
 /// [`entries`]' results, by lane: slot 0 the direct entry (or the wall's where there is no
@@ -1093,58 +1014,31 @@ fn evals_by_path<L: Lane, B: LaneNested>(
 
 /// `Collected::sum::<false>`'s sums over the mirror sawtooth, lane by lane in its order: each
 /// path's term (the known one where the path is the sample record's, 0 for f where only the
-/// density is needed) weighted and added where the lane takes the path ([`Sums`]).
+/// density is needed) weighted and added where the lane takes the path.
 #[inline(always)]
 fn sum<L: Lane>(q: &Lanes<L>, x: &Exits<L>, pm: &PathMasks<L>, ev: &Evals<L>) -> (V3<L>, L) {
-    let mut s = Sums::new(q.wo.z);
-    for (path, &e) in ev.iter().enumerate() {
-        s.add(q, x, pm, path, e);
-    }
-    s.end(x)
-}
-
-/// [`sum`]'s running sums, one path at a time in path order (the packed form adds each path's
-/// evaluation as soon as it has it, `pack::first`).
-struct Sums<L: Lane> {
-    v: V3<L>,
-    p: L,
-}
-
-impl<L: Lane> Sums<L> {
-    #[inline(always)]
-    fn new(like: L) -> Self {
-        let zero = like.splat(0.0);
-        Sums {
-            v: V3::new(zero, zero, zero),
-            p: zero,
+    let like = q.wo.z;
+    let zero = like.splat(0.0);
+    let zero3 = V3::new(zero, zero, zero);
+    let mut v = zero3;
+    let mut p = zero;
+    for j in 0..ENTRIES {
+        let w = q.w[j];
+        for wall in 0..2 {
+            let (on, known) = pm[2 * j + wall];
+            let (fe, pe) = ev[2 * j + wall];
+            let f = V3::select(known, q.kf, V3::select(x.pdf_only, zero3, fe));
+            let pd = L::select(known, q.kp, pe);
+            let (wf, wp) = if wall == 0 {
+                (w, w * x.g1o)
+            } else {
+                (w * x.bt, w * x.bt)
+            };
+            v = V3::select(on, v + f.scale(wf), v);
+            p = L::select(on, p + wp * pd, p);
         }
     }
-
-    /// Path `path` = 2 j + wall, its nested evaluation `(fe, pe)` (read only in its lanes that
-    /// evaluate, `on & !known`), added in the lanes that take it.
-    #[inline(always)]
-    fn add(&mut self, q: &Lanes<L>, x: &Exits<L>, pm: &PathMasks<L>, path: usize, e: (V3<L>, L)) {
-        let zero = q.wo.z.splat(0.0);
-        let zero3 = V3::new(zero, zero, zero);
-        let (fe, pe) = e;
-        let w = q.w[path / 2];
-        let (on, known) = pm[path];
-        let f = V3::select(known, q.kf, V3::select(x.pdf_only, zero3, fe));
-        let pd = L::select(known, q.kp, pe);
-        let (wf, wp) = if path & 1 == 0 {
-            (w, w * x.g1o)
-        } else {
-            (w * x.bt, w * x.bt)
-        };
-        self.v = V3::select(on, self.v + f.scale(wf), self.v);
-        self.p = L::select(on, self.p + wp * pd, self.p);
-    }
-
-    /// The first order (f1·z(ωo), p1).
-    #[inline(always)]
-    fn end(self, x: &Exits<L>) -> (V3<L>, L) {
-        (self.v.scale(x.g1o), self.p)
-    }
+    (v.scale(x.g1o), p)
 }
 
 /// The first order (f1·z(ωo), p1) of every lane: `Collected::new` and `Collected::sum::<false>`
@@ -1403,11 +1297,10 @@ mod tests {
         );
     }
 
-    /// A sampling query's inputs from columns ([`Mirror8::sampled`], 8-wide on this machine:
-    /// [`QueryLanes::of`]) equal the lane-by-lane form bit for bit (NaNs as NaNs), every column
-    /// and the mask: random live and known lanes (and queries without known terms), densities
-    /// and weights with ±0, subnormals, huge values, ±∞ and NaN (a known term only where the
-    /// density is finite and positive).
+    /// A sampling query's inputs from columns ([`Mirror8::sampled`], 8-wide on this machine)
+    /// equal the lane-by-lane form bit for bit (NaNs as NaNs), every column and the mask: random
+    /// live and known lanes, densities and weights with ±0, subnormals, huge values, ±∞ and NaN
+    /// (a known term only where the density is finite and positive).
     #[test]
     fn sampled_query_in_lanes_equals_the_loop() {
         const EDGES: [f32; 10] = [
@@ -1440,21 +1333,9 @@ mod tests {
             let w = [col(&mut rng), col(&mut rng), col(&mut rng)];
             let ks = std::array::from_fn(|_| (rng.next_u32() % 4) as f32);
             let pdf = col(&mut rng);
-            // Without known terms too (their placeholders), one round in four.
-            let kn = (round % 4 != 0).then_some(KnownCols {
-                lanes: known,
-                ks: &ks,
-                pdf: &pdf,
-                w: &w,
-            });
-            let q = Sampled {
-                live,
-                wo: &wo,
-                known: kn,
-            };
             let (a, b) = (
-                Mirror8::sampled(Cols::detect(), &q),
-                Mirror8::sampled(Cols::LOOPS, &q),
+                Mirror8::sampled(Cols::detect(), live, &wo, known, &ks, &pdf, &w),
+                Mirror8::sampled(Cols::LOOPS, live, &wo, known, &ks, &pdf, &w),
             );
             assert_eq!(a.used, b.used, "{round}");
             for k in 0..8 {

@@ -22,7 +22,7 @@
 //! the same function of the same direction). Checked against width 1 by
 //! `super::tests::width_8_equals_width_1` (packed always, and as chosen).
 
-use super::{nested, Exits, Lanes, PathMasks, Sums, ENTRIES};
+use super::{nested, Evals, Exits, Lanes, PathMasks, ENTRIES};
 use crate::bsdf::mnm::nested_batch::LaneNested;
 use crate::lane::bits::BYTE_COUNTS as COUNTS;
 use crate::lane::vec::V3;
@@ -111,90 +111,19 @@ fn list(need: &[u32; PATHS]) -> ([u32; PATHS], u64, u64) {
     (start, lo, hi)
 }
 
-/// What a query's calls share: the nested BSDF `b` and its query terms `sh`, the query `q`, its
-/// exits `x`, the list's halves and the paths' first slots less one (as lanes, `s`).
-struct Calls<'q, B: LaneNested> {
-    b: &'q B,
-    sh: B::Shared<F32x8>,
-    q: &'q Lanes<F32x8>,
-    x: &'q Exits<F32x8>,
-    lo: u64,
-    hi: u64,
-    iota: I32x8,
-    zero: F32x8,
-    /// A slot lies in path p or after where it is above `s[p - 1]` = start[p] − 1.
-    s: [I32x8; 3],
-}
-
-impl<B: LaneNested> Calls<'_, B> {
-    /// Call `c`: the nested evaluations of slots 8c … 8c + 7 (f by channel, then the density).
-    #[inline(always)]
-    fn call(&self, avx: Avx2, c: usize) -> [F32x8; 4] {
-        let (b, q, x, iota) = (self.b, self.q, self.x, self.iota);
-        let half = if c < 2 { self.lo } else { self.hi };
-        let idx = avx.nibbles((half >> (32 * (c % 2))) as u32);
-        let slot = iota.add(iota.splat(8 * c as i32));
-        let (g2, g3) = (slot.gt(self.s[1]), slot.gt(self.s[2]));
-        // Entry 1 in paths 2 and 3; the wall exit in paths 1 and 3.
-        let wall = (slot.gt(self.s[0]) & !g2) | g3;
-        let av = pick3(q.a[0], q.a[1], idx, g2);
-        let ov = pick3(x.bo, x.rb, idx, wall);
-        let po = x.g1o.permute(idx).le(self.zero);
-        let di = b.dir(&self.sh, av);
-        let dw = b.dir(&self.sh, ov);
-        let (f, p) = nested(b, &self.sh, (av, &di), (ov, &dw), po);
-        [f.x, f.y, f.z, p]
-    }
-}
-
-/// The permute index of a path's lanes (`need`: its mask) from their slots, the path's first
-/// slot at place `at` of a call: nibble k is `at` + rank(k) ([`RANKS`]; bit 3 set: the next
-/// call). (A plain function, not a closure: a closure may be compiled out of line.)
+/// The paths' evaluations ([`Evals`]) with the pairs packed, or `None` where packing would not
+/// save a call (unless `always`: the tests run the packed form on every query). `pm`: the
+/// paths' lanes (a pair where a lane takes the path and its term is not the known one). Call
+/// inside the AVX2 region of `avx`.
 #[inline(always)]
-fn rank(avx: Avx2, need: u32, at: u32) -> I32x8 {
-    avx.nibbles(RANKS[need as usize] + at * 0x1111_1111)
-}
-
-/// Lane k of each of a call's four results: lane `idx[k]` of `lo`'s, or of the next call's
-/// `hi`'s where `up`.
-#[inline(always)]
-fn pick4(lo: &[F32x8; 4], hi: &[F32x8; 4], idx: I32x8, up: M8) -> (V3<F32x8>, F32x8) {
-    (
-        V3::new(
-            pick(lo[0], hi[0], idx, up),
-            pick(lo[1], hi[1], idx, up),
-            pick(lo[2], hi[2], idx, up),
-        ),
-        pick(lo[3], hi[3], idx, up),
-    )
-}
-
-/// Lane k of each of `r`'s four results: lane `idx[k]`.
-#[inline(always)]
-fn permute4(r: &[F32x8; 4], idx: I32x8) -> (V3<F32x8>, F32x8) {
-    (
-        V3::new(r[0].permute(idx), r[1].permute(idx), r[2].permute(idx)),
-        r[3].permute(idx),
-    )
-}
-
-/// The first order (f1·z(ωo), p1, as [`super::sum`] of the paths' evaluations) with the paths'
-/// nested evaluations packed, or `None` where packing would not save a call (unless `always`:
-/// the tests run the packed form on every query). `pm`: the paths' lanes (a pair where a lane
-/// takes the path and its term is not the known one). Each path's evaluation is added to the
-/// sums as soon as it is read back from the calls ([`Sums`], in path order: the same sums),
-/// with the one- and two-call cases written out (most packed queries), so the calls' results
-/// stay in registers; three or four calls read them from an array. Call inside the AVX2
-/// region of `avx`.
-#[inline(always)]
-pub(super) fn first<B: LaneNested>(
+pub(super) fn evals<B: LaneNested>(
     avx: Avx2,
     b: &B,
     q: &Lanes<F32x8>,
     x: &Exits<F32x8>,
     pm: &PathMasks<F32x8>,
     always: bool,
-) -> Option<(V3<F32x8>, F32x8)> {
+) -> Option<Evals<F32x8>> {
     // Each path's pairs (bits); packing saves a call where fewer calls of 8 pairs than
     // paths with a pair would do. (Counts from a table: inside the AVX2 region `count_ones`
     // has no `popcnt` and takes ~15 instructions.)
@@ -213,83 +142,59 @@ pub(super) fn first<B: LaneNested>(
     let (start, lo, hi) = list(&need);
     let zero = avx.splat(0.0);
     let iota = avx.load_i32(&[0, 1, 2, 3, 4, 5, 6, 7]);
-    let cs = Calls {
-        b,
-        sh: b.shared(q.wo.z),
-        q,
-        x,
-        lo,
-        hi,
-        iota,
-        zero,
-        s: [
-            iota.splat(start[1] as i32 - 1),
-            iota.splat(start[2] as i32 - 1),
-            iota.splat(start[3] as i32 - 1),
-        ],
-    };
-    // Each path's lanes back from their slots (a path without a pair: 0, as path by path):
-    // its nibble k is (start mod 8) + rank(k) < 16 ([`RANKS`]), bit 3 the next call.
-    let zero3 = V3::new(zero, zero, zero);
-    let mut sums = Sums::new(zero);
-    match calls {
-        // (`always` only: no pair.)
-        0 => {
-            for p in 0..PATHS {
-                sums.add(q, x, pm, p, (zero3, zero));
-            }
-        }
-        1 => {
-            let r0 = cs.call(avx, 0);
-            for p in 0..PATHS {
-                let e = if need[p] == 0 {
-                    (zero3, zero)
-                } else {
-                    permute4(&r0, rank(avx, need[p], start[p]))
-                };
-                sums.add(q, x, pm, p, e);
-            }
-        }
-        2 => {
-            let (r0, r1) = (cs.call(avx, 0), cs.call(avx, 1));
-            for p in 0..PATHS {
-                let n = u32::from(COUNTS[need[p] as usize]);
-                let e = if n == 0 {
-                    (zero3, zero)
-                } else if start[p] + n <= 8 {
-                    permute4(&r0, rank(avx, need[p], start[p]))
-                } else if start[p] >= 8 {
-                    permute4(&r1, rank(avx, need[p], start[p] - 8))
-                } else {
-                    let idx = rank(avx, need[p], start[p]);
-                    pick4(&r0, &r1, idx, idx.shl::<28>().lt(idx.splat(0)))
-                };
-                sums.add(q, x, pm, p, e);
-            }
-        }
-        _ => {
-            let mut r = [[zero; 4]; PATHS];
-            for (c, rc) in r.iter_mut().enumerate().take(calls) {
-                *rc = cs.call(avx, c);
-            }
-            for p in 0..PATHS {
-                let n = u32::from(COUNTS[need[p] as usize]);
-                let e = if n == 0 {
-                    (zero3, zero)
-                } else {
-                    let (c0, at) = ((start[p] / 8) as usize, start[p] % 8);
-                    let idx = rank(avx, need[p], at);
-                    if at + n > 8 {
-                        pick4(&r[c0], &r[c0 + 1], idx, idx.shl::<28>().lt(idx.splat(0)))
-                    } else {
-                        permute4(&r[c0], idx)
-                    }
-                };
-                sums.add(q, x, pm, p, e);
-            }
-        }
+    // A slot lies in path p or after where it is above start[p] − 1.
+    let s1 = iota.splat(start[1] as i32 - 1);
+    let s2 = iota.splat(start[2] as i32 - 1);
+    let s3 = iota.splat(start[3] as i32 - 1);
+    let s = b.shared(q.wo.z);
+    let mut r = [[zero; 4]; PATHS];
+    for (c, rc) in r.iter_mut().enumerate().take(calls) {
+        let half = if c < 2 { lo } else { hi };
+        let idx = avx.nibbles((half >> (32 * (c % 2))) as u32);
+        let slot = iota.add(iota.splat(8 * c as i32));
+        let (g2, g3) = (slot.gt(s2), slot.gt(s3));
+        // Entry 1 in paths 2 and 3; the wall exit in paths 1 and 3.
+        let wall = (slot.gt(s1) & !g2) | g3;
+        let av = pick3(q.a[0], q.a[1], idx, g2);
+        let ov = pick3(x.bo, x.rb, idx, wall);
+        let po = x.g1o.permute(idx).le(zero);
+        let di = b.dir(&s, av);
+        let dw = b.dir(&s, ov);
+        let (f, p) = nested(b, &s, (av, &di), (ov, &dw), po);
+        *rc = [f.x, f.y, f.z, p];
     }
-    Some(sums.end(x))
+    // Each path's lanes back from their slots (a path without a pair: 0, as path by path):
+    // nibble k is (start mod 8) + rank(k) < 16, its bit 3 the next call.
+    let zero3 = V3::new(zero, zero, zero);
+    let mut out = [(zero3, zero); PATHS];
+    for p in 0..PATHS {
+        if need[p] == 0 {
+            continue;
+        }
+        let (c0, at) = ((start[p] / 8) as usize, start[p] % 8);
+        let idx = avx.nibbles(RANKS[need[p] as usize] + at * 0x1111_1111);
+        let lo = r[c0];
+        // (Written out: a closure, e.g. `array::from_fn`'s, may be compiled out of line.)
+        let v: [F32x8; 4] = if at + u32::from(COUNTS[need[p] as usize]) > 8 {
+            let hi = r[c0 + 1];
+            let up = idx.shl::<28>().lt(idx.splat(0));
+            [
+                pick(lo[0], hi[0], idx, up),
+                pick(lo[1], hi[1], idx, up),
+                pick(lo[2], hi[2], idx, up),
+                pick(lo[3], hi[3], idx, up),
+            ]
+        } else {
+            [
+                lo[0].permute(idx),
+                lo[1].permute(idx),
+                lo[2].permute(idx),
+                lo[3].permute(idx),
+            ]
+        };
+        out[p] = (V3::new(v[0], v[1], v[2]), v[3]);
+    }
+    Some(out)
 }
 
 #[cfg(test)]
