@@ -827,15 +827,27 @@ impl Block {
             t.sub(I32x8::select(up, t.splat(1), t.splat(0)))
         };
         // Exact bounds hold |origin| <= 2^24: the differences fit an i32.
-        let px = floor(x).sub(avx.load_i32(&[self.ox as i32; 8])).to_array();
-        let py = floor(y).sub(avx.load_i32(&[self.oy as i32; 8])).to_array();
+        let pxv = floor(x).sub(avx.load_i32(&[self.ox as i32; 8]));
+        let pyv = floor(y).sub(avx.load_i32(&[self.oy as i32; 8]));
+        let (px, py) = (pxv.to_array(), pyv.to_array());
         if !inside.any() {
             return;
         }
         let sw = self.sw as usize;
         let (data, t, second) = (&mut self.data[..], &*self.lanes, self.second);
+        // All eight samples on one pixel (a renderer's samples of a pixel come in turn: with 8
+        // or more a pixel, most groups): their rows summed in registers and added once. The
+        // colour sums wrap and Σw saturates on non-negative addends, both associative, so the
+        // sums are those of eight adds.
+        let one_pixel = rows.is_some()
+            && inside.all()
+            && (pxv.eq(pxv.splat(px[0])) & pyv.eq(pyv.splat(py[0]))).all();
         let inside = inside.to_array();
         match rows {
+            Some(rows) if one_pixel => {
+                let sum = crate::lane::I128x4::sum8(&rows);
+                data[py[0] as usize * sw + px[0] as usize].add_row(avx, sum);
+            }
             Some(rows) => {
                 for (k, row) in rows.into_iter().enumerate() {
                     if inside[k] {

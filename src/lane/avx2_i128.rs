@@ -77,6 +77,36 @@ impl I128x4 {
         let z = Avx2::zero_reg();
         I128x8([self.0[0], z, self.0[1], z]).to_words()
     }
+
+    /// The first four values of `a` (slots 0–3 of each half; tests).
+    #[inline(always)]
+    pub fn load(avx: Avx2, a: &Words8) -> I128x4 {
+        let x = I128x8::load(avx, a).0;
+        I128x4([x[0], x[2]])
+    }
+
+    /// The wrapping sums of the eight rows, value by value: value c of the result is
+    /// Σₖ `rows[k]` value c mod 2¹²⁸ (a film pixel's eight samples' addends, added once;
+    /// integer addition mod 2¹²⁸ is associative, so this equals eight wrapping adds one by one).
+    /// The running low words are kept biased (top bit flipped), so the carry out of each low
+    /// add is one signed compare, as in [`Avx2::add_i128x4_biased_row`]: 4 instructions a row.
+    #[inline(always)]
+    pub fn sum8(rows: &[I128x4; 8]) -> I128x4 {
+        // SAFETY: an I128x4 exists only with AVX2 (module doc).
+        unsafe {
+            let bias = _mm256_set1_epi64x(LOW_BIAS as i64);
+            let mut lo = _mm256_xor_si256(rows[0].0[0], bias);
+            let mut hi = rows[0].0[1];
+            for r in &rows[1..] {
+                let s = _mm256_add_epi64(lo, r.0[0]);
+                // Carry out of the low word: s' <ₛ lo', −1 where it carries.
+                let c = _mm256_cmpgt_epi64(lo, s);
+                hi = _mm256_sub_epi64(_mm256_add_epi64(hi, r.0[1]), c);
+                lo = s;
+            }
+            I128x4([_mm256_xor_si256(lo, bias), hi])
+        }
+    }
 }
 
 impl F32x8 {

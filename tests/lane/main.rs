@@ -29,6 +29,8 @@
 //! - `permute`: nibbles of a word in lanes (`Avx2::nibbles`) and the permute by lane index
 //!   (`F32x8::permute`) against scalar references (edge floats, NaN payloads, indices with high
 //!   bits set, negative and extreme).
+//! - `i128_sums`: the film's eight rows of 128-bit addends summed in registers
+//!   (`I128x4::sum8`) against plain wrapping `i128` sums (carries in every position).
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
@@ -43,6 +45,7 @@ mod beckmann_ref;
 mod bits;
 mod compress;
 mod harness;
+mod i128_sums;
 mod lookup;
 mod masks;
 mod pcg_ops;
