@@ -420,10 +420,11 @@ pub fn sample_generator<L: Lane>(key: L::U64, sample: L::U64) -> Pcg<L> {
 }
 
 /// The streams of 8 paths (pixel `pixel[k]`, sample `sample[k]`), appended to `out` in lane
-/// order, and each one's first 2-D draw (`next_2d`, returned; the streams in `out` are past
-/// it), bit for bit [`Sampler::for_sample`] then `next_2d` per path: the keys and the
-/// generators 8-wide (two 64-bit multiplies per `mix64`, two PCG steps), the strata per path,
-/// the first draw 8-wide when no path has strata (else per path). Call it inside
+/// order, and each one's film position: its pixel corner (`corner`: the x and y columns) plus
+/// its first 2-D draw (`next_2d`; the streams in `out` are past it), bit for bit
+/// [`Sampler::for_sample`] then `corner + next_2d()` per path: the keys and the generators
+/// 8-wide (two 64-bit multiplies per `mix64`, two PCG steps), the strata per path, the first
+/// draw and the sums 8-wide when no path has strata (else per path). Call it inside
 /// [`crate::lane::Avx2::run`] (the stream renderer's batch fill, `stream::batch`).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
@@ -432,6 +433,7 @@ pub fn for_samples_x8(
     desc: &SamplerDesc,
     pixel: &[u64; 8],
     sample: &[u32; 8],
+    corner: (&[f32; 8], &[f32; 8]),
     out: &mut Samplers,
 ) -> [Vec2; 8] {
     // Eight samples of one pixel (every chunk of a render at 8 or more samples per pixel, a
@@ -445,10 +447,11 @@ pub fn for_samples_x8(
         sample_generator(key, avx.load_u64(&sample.map(|s| s as u64)));
     let keys = key.to_array();
     let plain = grid(desc).is_none();
-    let mut first = [Vec2::ZERO; 8];
+    let mut pos = [Vec2::ZERO; 8];
     if plain {
-        let (x, y) = (rng.next_f32().to_array(), rng.next_f32().to_array());
-        first = core::array::from_fn(|k| Vec2::new(x[k], y[k]));
+        // `Vec2`'s add, component by component, in lanes; the points written whole.
+        let (x, y) = (rng.next_f32(), rng.next_f32());
+        pos = avx.vec2_rows(avx.load(corner.0) + x, avx.load(corner.1) + y);
     }
     let (state, inc) = rng.parts();
     let (state, inc) = (state.to_array(), inc.to_array());
@@ -458,16 +461,16 @@ pub fn for_samples_x8(
         out.state.extend_from_slice(&state);
         out.inc.extend_from_slice(&inc);
         out.rest.extend_from_slice(&[Rest::PLAIN; 8]);
-        return first;
+        return pos;
     }
     let mut s: [Sampler; 8] = core::array::from_fn(|k| {
         Sampler::keyed(desc, keys[k], Pcg::from_parts(state[k], inc[k]), sample[k])
     });
-    for (u, s) in first.iter_mut().zip(&mut s) {
-        *u = s.next_2d();
+    for (k, (u, s)) in pos.iter_mut().zip(&mut s).enumerate() {
+        *u = Vec2::new(corner.0[k], corner.1[k]) + s.next_2d();
     }
     out.extend_from(&s);
-    first
+    pos
 }
 
 /// A bijective permutation of `0..n` selected by `seed` (Kensler 2013, "Correlated Multi-Jittered
@@ -731,9 +734,9 @@ mod tests {
         }
     }
 
-    /// Width 8: every lane's stream and first 2-D draw equal `for_sample` then `next_2d`, for
-    /// every sampler kind, eight pixels or eight samples of one, and the streams go on
-    /// identically.
+    /// Width 8: every lane's stream and film position equal `for_sample` then the corner plus
+    /// `next_2d`, for every sampler kind, eight pixels or eight samples of one (corners with
+    /// fractions, so that the sums round), and the streams go on identically.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn eight_wide_set_up_equals_for_sample() {
@@ -755,12 +758,15 @@ mod tests {
                 // Appended after what `got` holds.
                 let mut cols = Samplers::default();
                 cols.push(&Sampler::from_seed(1, 2));
-                let first = avx.run(|| for_samples_x8(avx, d, &pixel, &sample, &mut cols));
+                let cx: [f32; 8] = core::array::from_fn(|k| (pixel[k] % 977) as f32 + 0.3);
+                let cy: [f32; 8] = core::array::from_fn(|k| (sample[k] % 13) as f32 * 1e-3);
+                let corner = (&cx, &cy);
+                let first = avx.run(|| for_samples_x8(avx, d, &pixel, &sample, corner, &mut cols));
                 assert_eq!(cols.len(), 9);
                 let mut got: Vec<Sampler> = (1..9).map(|i| cols.get(i)).collect();
                 for k in 0..8 {
                     let mut want = Sampler::for_sample(d, pixel[k], sample[k]);
-                    let u = want.next_2d();
+                    let u = Vec2::new(cx[k], cy[k]) + want.next_2d();
                     let ctx = (d.kind, seed, pixel[k], sample[k]);
                     assert_eq!(
                         first[k].to_array().map(f32::to_bits),

@@ -1197,6 +1197,28 @@ impl Avx2 {
         };
         (perm, (row >> 24) as usize)
     }
+
+    // Added in the thirty-second session (h1).
+
+    /// The inverse of [`Self::vec2_columns`]: lane `k` of `x` and of `y` as point `k` (moves
+    /// only: each point's fields are its lanes' bits). The batch fill's film positions, added
+    /// in lanes and written as 8 points at once (`sampler::for_samples_x8`).
+    #[inline(always)]
+    pub fn vec2_rows(self, x: F32x8, y: F32x8) -> [glam::Vec2; 8] {
+        let mut out = core::mem::MaybeUninit::<[glam::Vec2; 8]>::uninit();
+        // SAFETY: the token proves AVX. A `glam::Vec2` is two f32s, x then y, 8 bytes
+        // (asserted below `impl Lane for F32x8`), so `out` is 16 consecutive floats, which the
+        // two stores of 8 initialise (every bit pattern is a valid `f32`).
+        unsafe {
+            // x0 y0 x1 y1 | x4 y4 x5 y5 and x2 y2 x3 y3 | x6 y6 x7 y7.
+            let lo = _mm256_unpacklo_ps(x.0, y.0);
+            let hi = _mm256_unpackhi_ps(x.0, y.0);
+            let p = out.as_mut_ptr().cast::<f32>();
+            _mm256_storeu_ps(p, _mm256_permute2f128_ps::<0x20>(lo, hi));
+            _mm256_storeu_ps(p.add(8), _mm256_permute2f128_ps::<0x31>(lo, hi));
+            out.assume_init()
+        }
+    }
 }
 
 /// [`Avx2::compress_store`]'s table, per mask (bit k for lane k): the source lane of each of

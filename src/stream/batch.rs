@@ -231,12 +231,14 @@ impl Batch {
         let mut left = (end - k) as usize;
         while left > 0 {
             let m = left.min(8);
-            let (mut pixel, mut sample, mut corner) = ([0u64; 8], [0u32; 8], [Vec2::ZERO; 8]);
+            // The pixels' corners as x and y columns (added to the first draws in lanes).
+            let (mut pixel, mut sample) = ([0u64; 8], [0u32; 8]);
+            let (mut cx, mut cy) = ([0.0f32; 8], [y as f32; 8]);
             if m == 8 && s_hi - s >= 8 {
                 // Eight samples of one pixel (every chunk at 8 or more samples per pixel, a
                 // multiple of 8): no per-path stepping.
                 pixel = [y as u64 * film_width as u64 + x as u64; 8];
-                corner = [Vec2::new(x as f32, y as f32); 8];
+                cx = [x as f32; 8];
                 for (j, sj) in sample.iter_mut().enumerate() {
                     *sj = s + j as u32;
                 }
@@ -244,13 +246,14 @@ impl Batch {
             } else if let Some(sh) = whole_pixels(m, s, samples, x, x0 + w) {
                 // 8 / spp whole pixels of one row (spp 1, 2 or 4, the chunk starting at a
                 // pixel's first sample): path j is sample j mod spp of the row's pixel x + j / spp,
-                // so no per-path stepping either.
+                // so no per-path stepping either (the steps from tables, which the compiler
+                // turns into a few lane operations).
                 let px = y as u64 * film_width as u64 + x as u64;
+                let (dx, ds) = (&WHOLE_DX[sh as usize], &WHOLE_DS[sh as usize]);
                 for j in 0..8 {
-                    let dx = (j >> sh) as u32;
-                    pixel[j] = px + dx as u64;
-                    sample[j] = s_lo + (j as u32 & ((1 << sh) - 1));
-                    corner[j] = Vec2::new((x + dx) as f32, y as f32);
+                    pixel[j] = px + dx[j] as u64;
+                    sample[j] = s_lo + ds[j];
+                    cx[j] = (x + dx[j]) as f32;
                 }
                 x += 8 >> sh;
                 if x == x0 + w {
@@ -261,21 +264,24 @@ impl Batch {
                 for j in 0..m {
                     pixel[j] = y as u64 * film_width as u64 + x as u64;
                     sample[j] = s;
-                    corner[j] = Vec2::new(x as f32, y as f32);
+                    (cx[j], cy[j]) = (x as f32, y as f32);
                     advance((&mut s, &mut x, &mut y), 1, samples, (x0, w));
                 }
             }
             left -= m;
             #[cfg(target_arch = "x86_64")]
             if let (Some(avx), 8) = (avx, m) {
-                let first =
-                    crate::sampler::for_samples_x8(avx, desc, &pixel, &sample, &mut self.sampler);
+                let corner = (&cx, &cy);
+                let pos = crate::sampler::for_samples_x8(
+                    avx,
+                    desc,
+                    &pixel,
+                    &sample,
+                    corner,
+                    &mut self.sampler,
+                );
                 // A whole array (one capacity check, not one per path; the positions as one
                 // 64-byte copy).
-                let mut pos = [Vec2::ZERO; 8];
-                for j in 0..8 {
-                    pos[j] = corner[j] + first[j];
-                }
                 self.pos.extend_from_slice(&pos);
                 continue;
             }
@@ -283,7 +289,7 @@ impl Batch {
             let _ = avx;
             for j in 0..m {
                 let mut sm = Sampler::for_sample(desc, pixel[j], sample[j]);
-                self.pos.push(corner[j] + sm.next_2d());
+                self.pos.push(Vec2::new(cx[j], cy[j]) + sm.next_2d());
                 self.sampler.push(&sm);
             }
         }
@@ -687,6 +693,19 @@ impl Surfaces {
         }
     }
 }
+
+/// Per log2(spp) of [`whole_pixels`] (0, 1, 2): path `j`'s pixel after the chunk's first,
+/// `j / spp`, and its sample after the pixel's first, `j mod spp`.
+const WHOLE_DX: [[u32; 8]; 3] = [
+    [0, 1, 2, 3, 4, 5, 6, 7],
+    [0, 0, 1, 1, 2, 2, 3, 3],
+    [0, 0, 0, 0, 1, 1, 1, 1],
+];
+const WHOLE_DS: [[u32; 8]; 3] = [
+    [0, 0, 0, 0, 0, 0, 0, 0],
+    [0, 1, 0, 1, 0, 1, 0, 1],
+    [0, 1, 2, 3, 0, 1, 2, 3],
+];
 
 /// When a chunk of `m` paths whose first is sample `s` of the row's pixel `x` (`row_end`: one
 /// past the block's last column) is 8 / spp whole pixels of that row, at spp = 1, 2 or 4 (its

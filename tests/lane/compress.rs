@@ -99,6 +99,63 @@ fn vec2_columns_move_every_bit() {
     }
 }
 
+/// `Avx2::vec2_rows` writes lane `k` of the two columns as point `k`, every bit (NaN payloads,
+/// ±0, infinities, subnormals), and inverts `Avx2::vec2_columns`.
+#[test]
+fn vec2_rows_move_every_bit() {
+    let Some(avx) = Avx2::detect() else {
+        eprintln!("no AVX2/FMA: the 2-D rows test is skipped");
+        return;
+    };
+    let mut r = Pcg32::new(32, 1);
+    let edges = [
+        0.0f32,
+        -0.0,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        1e-40,
+        -f32::MAX,
+    ];
+    for round in 0..2000 {
+        let mut col = || -> [f32; 8] {
+            std::array::from_fn(|k| match (round + k) % 5 {
+                0 => edges[r.next_u32() as usize % edges.len()],
+                _ => f32::from_bits(r.next_u32()),
+            })
+        };
+        let (x, y) = (col(), col());
+        let (rows, back) = avx.run(
+            #[inline(always)]
+            || {
+                let rows = avx.vec2_rows(avx.load(&x), avx.load(&y));
+                (rows, avx.vec2_columns(&rows).map(|c| c.to_array()))
+            },
+        );
+        for k in 0..8 {
+            assert_eq!(
+                rows[k].x.to_bits(),
+                x[k].to_bits(),
+                "round {round} lane {k} x"
+            );
+            assert_eq!(
+                rows[k].y.to_bits(),
+                y[k].to_bits(),
+                "round {round} lane {k} y"
+            );
+            assert_eq!(
+                back[0][k].to_bits(),
+                x[k].to_bits(),
+                "round {round} lane {k}"
+            );
+            assert_eq!(
+                back[1][k].to_bits(),
+                y[k].to_bits(),
+                "round {round} lane {k}"
+            );
+        }
+    }
+}
+
 /// `Avx2::load_u32` gives each `u32` as `x as i32` in its lane, bit for bit: ids at the
 /// edges (0, 1, 2³¹ − 1, 2³¹, `u32::MAX`) in every lane and random ones.
 #[test]

@@ -441,6 +441,12 @@ pub(crate) mod x8 {
         }
     }
 
+    /// Entry `c` of a [`Table`]'s three columns in every lane.
+    #[inline(always)]
+    fn splat_at<const W: usize>(col: &[[f32; 10]; 3], c: usize) -> Cols3<W> {
+        Cols3([[col[0][c]; W], [col[1][c]; W], [col[2][c]; W]])
+    }
+
     /// `table[idx]` per lane for a table of at most 8 entries (`lane::LaneLookup::lookup8`:
     /// `vpermps`, where a gather would load every lane).
     #[inline(always)]
@@ -675,6 +681,10 @@ pub(crate) mod x8 {
         /// Whether [`Gather::triangles_x8`] may use [`SmallMesh`] (tests turn it off to
         /// compare with the gathers).
         small_ok: bool,
+        /// The columns of a [`Table::fixed`] table (rectangle, `center`) hold its constants in
+        /// every lane, written by an earlier [`Gather::add_table`]; cleared by every other
+        /// writer of those columns.
+        table_fixed: bool,
     }
 
     /// `LightSampler::sample`'s emitter and probability for 8 lanes at once: the count of CDF
@@ -724,6 +734,12 @@ pub(crate) mod x8 {
         /// Which of the columns above some emitter uses.
         rect: bool,
         center_used: bool,
+        /// The rectangle columns (`axes`, `n`, `inv_area`) and the `center` column each hold
+        /// one emitter's values at every count that sets them (one rectangle; one point or
+        /// directional light), at count `fixed_at.0` and `fixed_at.1`: [`Gather::add_table`]
+        /// then writes them once per gather, as constants in every lane, not per chunk.
+        fixed: bool,
+        fixed_at: (usize, usize),
     }
 
     impl Table {
@@ -772,7 +788,37 @@ pub(crate) mod x8 {
                 t.kinds |= 1 << (kind - 1);
                 set3(&mut t.le, le);
             }
+            t.set_fixed(n);
             Some(t)
+        }
+
+        /// [`Table::fixed`] and [`Table::fixed_at`] of the first `n + 2` counts: whether every
+        /// count of a rectangle has the first one's rectangle columns (bit for bit), and every
+        /// count of a point or directional light the first one's `center`.
+        /// (No allocation: a selection is made per gather, and the compensated kernel makes a
+        /// gather per run; with `Vec`s here its allocations cost ~69 instructions a sample.)
+        fn set_fixed(&mut self, n: usize) {
+            let same = |col: &[[f32; 10]; 3], a: usize, b: usize| {
+                (0..3).all(|i| col[i][a].to_bits() == col[i][b].to_bits())
+            };
+            let (mut r0, mut c0, mut fixed) = (None, None, true);
+            for c in 0..n + 2 {
+                match self.kind[c] as i32 {
+                    KIND_RECTANGLE => {
+                        let r = *r0.get_or_insert(c);
+                        fixed &= self.axes.iter().all(|a| same(a, r, c))
+                            && same(&self.n, r, c)
+                            && self.inv_area[r].to_bits() == self.inv_area[c].to_bits();
+                    }
+                    KIND_POINT | KIND_DIRECTIONAL => {
+                        let r = *c0.get_or_insert(c);
+                        fixed &= same(&self.center, r, c);
+                    }
+                    _ => {}
+                }
+            }
+            self.fixed = fixed;
+            self.fixed_at = (r0.unwrap_or(0), c0.unwrap_or(0));
         }
     }
 
@@ -863,6 +909,7 @@ pub(crate) mod x8 {
                 select: None,
                 small: SmallMesh::NONE,
                 small_ok: true,
+                table_fixed: false,
             }
         }
 
@@ -948,6 +995,8 @@ pub(crate) mod x8 {
                 }
                 return;
             }
+            // The writers below may change the rectangle and `center` columns.
+            self.table_fixed = false;
             let mut emitter = [sel.emitter[0]; W];
             let mut pmf = [sel.pmf[0]; W];
             match sel.mode {
@@ -1030,19 +1079,40 @@ pub(crate) mod x8 {
             }
             self.f.one = (self.f.one & !on) | if light_only { on } else { delta };
             self.textured = 0;
-            if t.rect {
-                for (col, a) in self.raxes.iter_mut().zip(&t.axes) {
-                    *col = Cols3([g(&a[0], count), g(&a[1], count), g(&a[2], count)]);
+            if t.fixed {
+                // One rectangle and at most one point or directional light: their columns are
+                // the same in every lane of every chunk (a lane of another kind computes a
+                // point there that its kind's mask drops), written at the first chunk only.
+                if !self.table_fixed {
+                    let (r, c) = t.fixed_at;
+                    let at = splat_at::<W>;
+                    if t.rect {
+                        for (col, a) in self.raxes.iter_mut().zip(&t.axes) {
+                            *col = at(a, r);
+                        }
+                        self.rn = at(&t.n, r);
+                        self.inv_area = [t.inv_area[r]; W];
+                    }
+                    if t.center_used {
+                        self.center = at(&t.center, c);
+                    }
+                    self.table_fixed = true;
                 }
-                self.rn = Cols3([g(&t.n[0], count), g(&t.n[1], count), g(&t.n[2], count)]);
-                self.inv_area = g(&t.inv_area, count);
-            }
-            if t.center_used {
-                self.center = Cols3([
-                    g(&t.center[0], count),
-                    g(&t.center[1], count),
-                    g(&t.center[2], count),
-                ]);
+            } else {
+                if t.rect {
+                    for (col, a) in self.raxes.iter_mut().zip(&t.axes) {
+                        *col = Cols3([g(&a[0], count), g(&a[1], count), g(&a[2], count)]);
+                    }
+                    self.rn = Cols3([g(&t.n[0], count), g(&t.n[1], count), g(&t.n[2], count)]);
+                    self.inv_area = g(&t.inv_area, count);
+                }
+                if t.center_used {
+                    self.center = Cols3([
+                        g(&t.center[0], count),
+                        g(&t.center[1], count),
+                        g(&t.center[2], count),
+                    ]);
+                }
             }
             (self.tux, self.tuy) = (u[0], u[1]);
             self.sel = g(pmf, count);
@@ -1680,6 +1750,79 @@ pub(crate) mod x8 {
                 *total += c as u64;
             }
             lp
+        }
+    }
+
+    #[cfg(test)]
+    mod table_tests {
+        use super::*;
+
+        fn rect(x: f32, inv_area: f32) -> Option<LaneLight> {
+            Some(LaneLight::Rectangle {
+                axes: [Vec3::X * x, Vec3::Y, Vec3::Z, Vec3::new(0.0, 4.5, 3.0)],
+                n: Vec3::NEG_Y,
+                inv_area,
+                radiance: Vec3::splat(8.0),
+                textured: false,
+            })
+        }
+
+        /// A table whose counts' emitters are `emitters` (indices into `lights`).
+        fn table(lights: &[Option<LaneLight>], emitters: &[u32]) -> Table {
+            let mut e = [0u32; 10];
+            e[..emitters.len()].copy_from_slice(emitters);
+            Table::new(lights, &e, emitters.len() - 2).expect("a table")
+        }
+
+        /// `Table::fixed` (the rectangle and `center` columns written once per gather) holds
+        /// exactly when every count of a rectangle has the same rectangle (bit for bit: −0 is
+        /// not 0) and every count of a point or directional light the same `center`, and
+        /// `fixed_at` names a count of each.
+        #[test]
+        fn fixed_tables_have_one_rectangle_and_one_center() {
+            let constant = Some(LaneLight::Constant {
+                radiance: Vec3::splat(0.15),
+            });
+            let point = |x: f32| {
+                Some(LaneLight::Point {
+                    position: Vec3::new(x, 1.0, 2.0),
+                    intensity: Vec3::ONE,
+                })
+            };
+            let dir = Some(LaneLight::Directional {
+                d: Vec3::Y,
+                irradiance: Vec3::ONE,
+            });
+            let lights = [
+                rect(2.0, 0.25),
+                constant,
+                rect(2.0, 0.5),
+                rect(-0.0, 0.25),
+                rect(0.0, 0.25),
+                point(1.0),
+                point(1.5),
+                dir,
+            ];
+            // (emitter per count, fixed, fixed_at)
+            let cases: [(&[u32], bool, (usize, usize)); 10] = [
+                (&[0, 1, 1], true, (0, 0)),
+                (&[1, 0, 0, 1], true, (1, 0)),
+                (&[1, 1, 1], true, (0, 0)),
+                (&[0, 1, 2], false, (0, 0)),
+                (&[3, 4, 1], false, (0, 0)),
+                (&[3, 1, 3, 3], true, (0, 0)),
+                (&[1, 5, 0, 5], true, (2, 1)),
+                (&[5, 6, 1], false, (0, 0)),
+                (&[5, 7, 1], false, (0, 0)),
+                (&[7, 1, 7, 0], true, (3, 0)),
+            ];
+            for (emitters, fixed, at) in cases {
+                let t = table(&lights, emitters);
+                assert_eq!(t.fixed, fixed, "{emitters:?}");
+                if fixed {
+                    assert_eq!(t.fixed_at, at, "{emitters:?}");
+                }
+            }
         }
     }
 }

@@ -55,6 +55,22 @@ fn wrap<L: Lane>(mode: WrapMode, i: L, n: f32) -> L {
     }
 }
 
+/// [`wrap`] of `i + 1` from `a`, the wrapped `i` (`wrap(mode, i, n)`): under `Repeat`,
+/// `(a + 1) mod n` is `a + 1` below `n` and 0 at `n` (`a` is an integer in [0, n), so both
+/// are exact and equal [`rem`] of `i + 1`), an add, a compare and a select instead of a
+/// second remainder; the other modes wrap `i + 1` themselves.
+#[inline(always)]
+fn wrap_next<L: Lane>(mode: WrapMode, i: L, a: L, n: f32) -> L {
+    let one = i.splat(1.0);
+    match mode {
+        WrapMode::Repeat => {
+            let b = a + one;
+            L::select(b.ge(i.splat(n)), i.splat(0.0), b)
+        }
+        _ => wrap(mode, i + one, n),
+    }
+}
+
 /// Whether every lane's floored coordinates are within [`COORD_LIMIT`] (false for NaN).
 #[inline(always)]
 fn tame<L: Lane>(x: L, y: L) -> bool {
@@ -135,9 +151,10 @@ impl BitmapTexture {
                 let one = k.splat(1.0);
                 let (wx0, wy0) = (one - wx1, one - wy1);
                 let xa = wrap(self.wrap, xf, w);
-                let xb = wrap(self.wrap, xf + one, w);
-                let ra = wrap(self.wrap, yf, h) * k.splat(w);
-                let rb = wrap(self.wrap, yf + one, h) * k.splat(w);
+                let xb = wrap_next(self.wrap, xf, xa, w);
+                let ya = wrap(self.wrap, yf, h);
+                let ra = ya * k.splat(w);
+                let rb = wrap_next(self.wrap, yf, ya, h) * k.splat(w);
                 let (t00, t10) = (self.fetch(ra + xa), self.fetch(ra + xb));
                 let (t01, t11) = (self.fetch(rb + xa), self.fetch(rb + xb));
                 Some(
@@ -305,6 +322,31 @@ mod tests {
             declined > 0 && declined < 10 * textures().len(),
             "{declined}"
         );
+    }
+
+    /// [`wrap_next`] from the wrapped `i` equals [`wrap`] of `i + 1`, bit for bit, in every
+    /// mode: sides 1 to 2²¹, coordinates around 0, around multiples of the side, and at the
+    /// lane form's limits (±2²²).
+    #[test]
+    fn the_next_texel_wraps_as_wrap() {
+        let lim = COORD_LIMIT as i64;
+        for n in [1u32, 2, 3, 5, 7, 64, 1000, 4097, SIDE_LIMIT - 1, SIDE_LIMIT] {
+            let n64 = n as i64;
+            let mut is: Vec<i64> = (-70..70).collect();
+            for m in [-3i64, -2, -1, 1, 2, 3] {
+                is.extend((-2..=2).map(|d| m * n64 + d));
+            }
+            is.extend([-lim + 1, -lim + 2, lim - 2, lim - 1, -lim / 2, lim / 2]);
+            for i in is.into_iter().filter(|i| i.abs() < lim) {
+                for mode in [WrapMode::Repeat, WrapMode::Mirror, WrapMode::Clamp] {
+                    let (i, nf) = (i as f32, n as f32);
+                    let a = wrap(mode, i, nf);
+                    let want = wrap(mode, i + 1.0, nf);
+                    let got = wrap_next(mode, i, a, nf);
+                    assert_eq!(got.to_bits(), want.to_bits(), "{mode:?} n {n} i {i}");
+                }
+            }
+        }
     }
 
     #[cfg(target_arch = "x86_64")]
