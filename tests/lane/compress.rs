@@ -1,6 +1,6 @@
 //! `Avx2::compress_store` (the stream's lists of path ids filtered 8 at a time), `Avx2::load_u32`
-//! (8 ids as `i32` lanes) and `Avx2::vec2_columns` (8 film positions' x and y columns, every
-//! bit moved, NaN payloads among them) against scalar references: every mask pattern, ids with
+//! (8 ids as `i32` lanes) and `Avx2::vec2_columns` / `Avx2::vec2_rows` (8 film positions' x
+//! and y columns and back, every bit moved, NaN payloads among them) against scalar references: every mask pattern, ids with
 //! edge values (0, −1, `i32::MIN`, `i32::MAX`), lists at every offset up to the last one that
 //! fits 8 slots (the slots outside `at..at + 8` untouched, the kept ids first in lane order,
 //! then the others in lane order), a panic before any store when 8 slots do not fit; the
@@ -64,10 +64,13 @@ fn compress_store_equals_the_filter() {
     }
 }
 
+/// `Avx2::vec2_columns` gives point `k`'s x and y as lane `k` of two columns, and
+/// `Avx2::vec2_rows` writes two columns' lane `k` as point `k` (inverting it), every bit moved
+/// (NaN payloads, ±0, infinities, subnormals, ±`f32::MAX`).
 #[test]
-fn vec2_columns_move_every_bit() {
+fn vec2_columns_and_rows_move_every_bit() {
     let Some(avx) = Avx2::detect() else {
-        eprintln!("no AVX2/FMA: the 2-D columns test is skipped");
+        eprintln!("no AVX2/FMA: the 2-D columns and rows test is skipped");
         return;
     };
     let mut r = Pcg32::new(28, 5);
@@ -78,79 +81,43 @@ fn vec2_columns_move_every_bit() {
         f32::NEG_INFINITY,
         1e-40,
         f32::MAX,
-    ];
-    for round in 0..2000 {
-        let v: [glam::Vec2; 8] = std::array::from_fn(|k| {
-            let mut f = || match (round + k) % 5 {
-                0 => edges[r.next_u32() as usize % edges.len()],
-                // NaNs with their payloads and every other bit pattern.
-                _ => f32::from_bits(r.next_u32()),
-            };
-            glam::Vec2::new(f(), f())
-        });
-        let [x, y] = avx.run(
-            #[inline(always)]
-            || avx.vec2_columns(&v).map(|c| c.to_array()),
-        );
-        for k in 0..8 {
-            assert_eq!(x[k].to_bits(), v[k].x.to_bits(), "round {round} lane {k} x");
-            assert_eq!(y[k].to_bits(), v[k].y.to_bits(), "round {round} lane {k} y");
-        }
-    }
-}
-
-/// `Avx2::vec2_rows` writes lane `k` of the two columns as point `k`, every bit (NaN payloads,
-/// ±0, infinities, subnormals), and inverts `Avx2::vec2_columns`.
-#[test]
-fn vec2_rows_move_every_bit() {
-    let Some(avx) = Avx2::detect() else {
-        eprintln!("no AVX2/FMA: the 2-D rows test is skipped");
-        return;
-    };
-    let mut r = Pcg32::new(32, 1);
-    let edges = [
-        0.0f32,
-        -0.0,
-        f32::INFINITY,
-        f32::NEG_INFINITY,
-        1e-40,
         -f32::MAX,
     ];
-    for round in 0..2000 {
+    for round in 0..4000 {
         let mut col = || -> [f32; 8] {
             std::array::from_fn(|k| match (round + k) % 5 {
                 0 => edges[r.next_u32() as usize % edges.len()],
+                // NaNs with their payloads and every other bit pattern.
                 _ => f32::from_bits(r.next_u32()),
             })
         };
         let (x, y) = (col(), col());
-        let (rows, back) = avx.run(
+        let points: [glam::Vec2; 8] = std::array::from_fn(|k| glam::Vec2::new(x[k], y[k]));
+        let (cols, rows, back) = avx.run(
             #[inline(always)]
             || {
+                let cols = avx.vec2_columns(&points).map(|c| c.to_array());
                 let rows = avx.vec2_rows(avx.load(&x), avx.load(&y));
-                (rows, avx.vec2_columns(&rows).map(|c| c.to_array()))
+                (cols, rows, avx.vec2_columns(&rows).map(|c| c.to_array()))
             },
         );
         for k in 0..8 {
+            let bits = |v: [f32; 2]| v.map(f32::to_bits);
+            let want = bits([x[k], y[k]]);
             assert_eq!(
-                rows[k].x.to_bits(),
-                x[k].to_bits(),
-                "round {round} lane {k} x"
+                bits([cols[0][k], cols[1][k]]),
+                want,
+                "round {round} lane {k}: columns"
             );
             assert_eq!(
-                rows[k].y.to_bits(),
-                y[k].to_bits(),
-                "round {round} lane {k} y"
+                bits([rows[k].x, rows[k].y]),
+                want,
+                "round {round} lane {k}: rows"
             );
             assert_eq!(
-                back[0][k].to_bits(),
-                x[k].to_bits(),
-                "round {round} lane {k}"
-            );
-            assert_eq!(
-                back[1][k].to_bits(),
-                y[k].to_bits(),
-                "round {round} lane {k}"
+                bits([back[0][k], back[1][k]]),
+                want,
+                "round {round} lane {k}: back"
             );
         }
     }
