@@ -385,13 +385,13 @@ pub(crate) mod x8 {
         F32x8::from_bits(avx.load_u32(&hit[i as usize].0))
     }
 
-    /// Each lane's ray point at its hit (`Ray::at`, 8-wide), and its [`Meta`]. Every lane is
-    /// a hit (a chunk holds hits, its padding repeats its first): the hits' rows
-    /// ([`crate::accel::HitRow`]) are loaded whole and transposed, their first three words
-    /// (`geom`, `prim`, `t`) stored as [`Meta`]'s columns, instead of each lane's hit unpacked
-    /// and its fields stored one by one.
+    /// The hit rows of the lanes `ids` as columns (`geom`, `prim`, `t`, `u`, `v`, `inst` and two
+    /// zeros, each word's bits), their first three also stored as `m`'s columns. Every lane is a
+    /// hit (a chunk holds hits, its padding repeats its first): the rows
+    /// ([`crate::accel::HitRow`]) are loaded whole and transposed, instead of each lane's hit
+    /// unpacked and its fields stored one by one.
     #[inline(always)]
-    fn ray_points(avx: Avx2, st: &Stage, ids: &[u32; 8], m: &mut Meta) -> V3<F32x8> {
+    fn hit_columns(avx: Avx2, st: &Stage, ids: &[u32; 8], m: &mut Meta) -> [F32x8; 8] {
         // Written out, not a closure or `array::from_fn` (either compiled out of line would
         // lose the lanes' target features).
         let h = st.hit;
@@ -407,8 +407,15 @@ pub(crate) mod x8 {
         ]);
         f[0].store(&mut m.shape);
         f[1].store(&mut m.prim);
-        let t = f[2];
-        t.store(&mut m.t);
+        f[2].store(&mut m.t);
+        f
+    }
+
+    /// Each lane's ray point at its hit (`Ray::at`, 8-wide), and its [`Meta`] (the hits read
+    /// as [`hit_columns`]).
+    #[inline(always)]
+    fn ray_points(avx: Avx2, st: &Stage, ids: &[u32; 8], m: &mut Meta) -> V3<F32x8> {
+        let t = hit_columns(avx, st, ids, m)[2];
         let (o, d) = m.rays(avx, st, ids);
         sl::ray_at(o, d, t)
     }
@@ -605,22 +612,14 @@ pub(crate) mod x8 {
 
     /// The hits of the lanes `ids` on one mesh, as [`one_mesh_input`] and [`small_input`] read
     /// them: the triangle indices, the barycentrics (`Hit::u`, `Hit::v`) and the lanes'
-    /// [`Meta`] with their rays (0 and no hit in the lanes past the chunk's paths).
+    /// [`Meta`] with their rays. The hit rows are read as [`hit_columns`] (every lane is a
+    /// hit): one transpose, not each lane's hit unpacked and its fields stored one by one.
     #[inline(always)]
     fn mesh_hits(avx: Avx2, st: &Stage, ids: &[u32; 8]) -> (I32x8, [F32x8; 2], Meta) {
-        let (mut prim, mut b1, mut b2) = ([0i32; 8], [0.0f32; 8], [0.0f32; 8]);
         let mut meta = Meta::new(avx);
-        for (k, &i) in ids.iter().enumerate() {
-            let Some(h) = st.hit[i as usize].get() else {
-                continue;
-            };
-            prim[k] = h.prim as i32;
-            b1[k] = h.u;
-            b2[k] = h.v;
-            meta.set(k, &h);
-        }
+        let f = hit_columns(avx, st, ids, &mut meta);
         meta.rays(avx, st, ids);
-        (avx.load_i32(&prim), [avx.load(&b1), avx.load(&b2)], meta)
+        (f[1].to_bits(), [f[3], f[4]], meta)
     }
 
     /// [`one_mesh_input`] for a mesh held as [`SmallTris`]: each lane's corners looked up by
