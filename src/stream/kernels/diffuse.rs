@@ -9,8 +9,9 @@
 //! 3. each path's random numbers in the scalar renderer's order (light selection `u_sel`, light
 //!    point `u`, BSDF sample `u2`): 8-wide from the 8 paths' gathered PCG32 states
 //!    ([`super::draws`]: a path whose stream is not plain PCG32, a `stratified` path at its
-//!    first vertex, draws lane by lane from its `Sampler`); then lane by lane: the reflectance
-//!    texture, the light selection,
+//!    first vertex, draws lane by lane from its `Sampler`); a constant reflectance splat and
+//!    the throughputs gathered (another reflectance texture looked up lane by lane, each
+//!    throughput read beside it); then lane by lane: the light selection,
 //!    and the light point of every emitter through its own scalar `sample_direct`, except area
 //!    lights of a constant radiance on triangle meshes, rectangles and spheres (seen from
 //!    outside): their triangle is picked here (`Shape::pick_triangle`) and the point sampled
@@ -289,29 +290,41 @@ pub(crate) mod x8 {
         };
         let num = draw(avx, &mut b.sampler, ids, &front, draws);
 
-        // 3b. Textures and light points, lane by lane in each path's order (the light points
-        // completed 8-wide by the shared gather of `kernels::light`).
-        let (mut refl, mut tp) = <(Cols3<W>, Cols3<W>)>::default();
+        // 3b. The reflectances and throughputs, then the light points lane by lane in each
+        // path's order (completed 8-wide by the shared gather of `kernels::light`). A constant
+        // reflectance (`Texture::Constant`: its lookup reads nothing of the point) is splat and
+        // the throughputs gathered, in every lane (a lane behind its surface takes them too; its
+        // results are dropped, as in `vertex::x8::shade`); another texture is looked up lane by
+        // lane on the interaction rebuilt from its row, each throughput read beside it.
+        // (A `match`, not a closure: see `vertex::x8::scatter`.)
         let light_only = cfg.strategy == Strategy::LightOnly;
         gather.reset();
-        for (k, &i) in ids.iter().enumerate() {
-            let i = i as usize;
-            if !front[k] {
-                continue;
+        let (refl8, tp8) = match mat.reflectance {
+            Texture::Constant(c) => (
+                V3::new(avx.splat(c.x), avx.splat(c.y), avx.splat(c.z)),
+                avx.throughputs(&b.state, ids),
+            ),
+            _ => {
+                let (mut refl, mut tp) = <(Cols3<W>, Cols3<W>)>::default();
+                for (k, &i) in ids.iter().enumerate() {
+                    let i = i as usize;
+                    if !front[k] {
+                        continue;
+                    }
+                    let si = b.surf.get(i);
+                    refl.set(k, reflectance(scene, mat.reflectance, &si));
+                    tp.set(k, b.state[i].throughput);
+                }
+                (refl.load(avx), tp.load(avx))
             }
-            let si = b.surf.get(i);
-            refl.set(k, reflectance(scene, mat.reflectance, &si));
-            tp.set(k, b.state[i].throughput);
-        }
+        };
         if nee {
             let (u_sel, u) = (&num.u_sel, &num.u);
             gather.add_x8(avx, scene, mat.lights, light_only, front_bits, u_sel, u, &p);
         }
 
         // 4. The kernel.
-        let refl8 = refl.load(avx);
         let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
-        let tp8 = tp.load(avx);
         let lo = light(&surf, wi, refl8, tp8, &lp);
         let u2 = V2::new(avx.load(&num.u2[0]), avx.load(&num.u2[1]));
         let so = sample(&surf, wi, refl8, u2);
