@@ -8,6 +8,7 @@
 
 use crate::geometry::sdfgrid::SdfGrid;
 use crate::geometry::Cylinder;
+use crate::accel::HitRow;
 use crate::geometry::Hit;
 use crate::geometry::Ray;
 use embree3::sys::*;
@@ -1395,11 +1396,14 @@ impl EmbreeScene {
     }
 
     /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each hit
-    /// handed to `out(k, hit)` in lane order: the rays read from, and the hits written to,
-    /// wherever the caller keeps them (the stream renderer's path columns), without a packet of
-    /// rays or of hits in between. The packet Embree reads is `buf`'s, kept from query to
-    /// query: only its used lanes and hit ids are rewritten, where building one afresh cost
-    /// two 640-byte copies and its zeroing per query.
+    /// handed to `out(k, row)` in lane order as its [`HitRow`] (the scene's own ids, as
+    /// [`Self::intersect8`] gives them: the caller maps instances): the rays read from, and the
+    /// rows written to, wherever the caller keeps them (the stream renderer's path columns),
+    /// without a packet of rays or of hits in between. The packet Embree reads is `buf`'s, kept
+    /// from query to query: only its used lanes and hit ids are rewritten, where building one
+    /// afresh cost two 640-byte copies and its zeroing per query. Where the CPU has AVX2 the
+    /// rows are built in lanes from the packet's columns ([`Self::hit_rows8`]), and only a lane
+    /// whose hit may need settling ([`Self::settle`]) reads its ray again.
     #[inline(always)]
     pub(crate) fn intersect8_with<'r>(
         &self,
@@ -1407,9 +1411,72 @@ impl EmbreeScene {
         n: usize,
         coherent: bool,
         ray: impl Fn(usize) -> &'r Ray,
-        out: impl FnMut(usize, Option<Hit>),
+        mut out: impl FnMut(usize, HitRow),
     ) {
-        self.intersect8_into(&mut buf.packet, n, coherent, ray, out);
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = self.avx {
+            let n = n.min(8);
+            let rh = &mut buf.packet;
+            self.trace8(rh, n, coherent, &ray);
+            let (mut rows, unsure) = Self::hit_rows8(avx, rh);
+            // `settle` changes only a hit whose primitive id is UNSURE (a rectangle's hit over
+            // one of unknown t); the other rows are its hits' as they are.
+            let mut check = unsure & ((1u32 << n) - 1);
+            while check != 0 {
+                let k = check.trailing_zeros() as usize;
+                check &= check - 1;
+                if let Some(h) = rows[k].get() {
+                    let r = ray(k);
+                    rows[k] = HitRow::new(Some(self.settle(h, r.o, r.d, r.tmin)));
+                }
+            }
+            for (k, row) in rows.iter().enumerate().take(n) {
+                out(k, *row);
+            }
+            return;
+        }
+        self.intersect8_into(&mut buf.packet, n, coherent, ray, |k, h| {
+            out(k, HitRow::new(h))
+        });
+    }
+
+    /// The rows ([`HitRow`]) of a traced packet's 8 lanes, built in lanes: `geom`, `prim`, `t`
+    /// (`tfar`), `u`, `v` and `inst` from the packet's columns, every word but `geom` zeroed in
+    /// a lane without a hit (`geom` invalid: [`HitRow::MISS`], so [`HitRow::NONE`]), two zero
+    /// words; one transpose (the words of [`HitRow::new`] of the lane's hit, bit for bit). Also
+    /// the lanes (bit `k` for lane `k`) whose hit has the primitive id [`UNSURE`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn hit_rows8(avx: crate::lane::Avx2, rh: &RTCRayHit8) -> ([HitRow; 8], u32) {
+        use crate::lane::{F32x8, Lane, LaneI32};
+        avx.run(
+            #[inline(always)]
+            || {
+                let h = &rh.hit;
+                let geom = avx.load_u32(&h.geomID);
+                let miss = geom.eq(geom.splat(HitRow::MISS as i32));
+                let z = geom.splat(0);
+                let prim = LaneI32::select(miss, z, avx.load_u32(&h.primID));
+                let t = LaneI32::select(miss, z, avx.load(&rh.ray.tfar).to_bits());
+                let u = LaneI32::select(miss, z, avx.load(&h.u).to_bits());
+                let v = LaneI32::select(miss, z, avx.load(&h.v).to_bits());
+                let inst = LaneI32::select(miss, z, avx.load_u32(&h.instID[0]));
+                let unsure = prim.eq(prim.splat(UNSURE as i32)).bits();
+                // Written out, not `array::map` (compiled out of line, it would call the
+                // casts' intrinsics).
+                let rows = avx.rows8([
+                    F32x8::from_bits(geom),
+                    F32x8::from_bits(prim),
+                    F32x8::from_bits(t),
+                    F32x8::from_bits(u),
+                    F32x8::from_bits(v),
+                    F32x8::from_bits(inst),
+                    F32x8::from_bits(z),
+                    F32x8::from_bits(z),
+                ]);
+                (rows.map(|r| HitRow(r.map(f32::to_bits))), unsure)
+            },
+        )
     }
 
     /// [`Self::intersect8_with`] through the packet `rh`, whose ray fields
@@ -1425,19 +1492,7 @@ impl EmbreeScene {
         mut out: impl FnMut(usize, Option<Hit>),
     ) {
         let n = n.min(8);
-        let valid = Valid8::first(n);
-        let mut ctx = Self::context();
-        if coherent {
-            ctx.flags = RTCIntersectContextFlags::COHERENT;
-        }
-        self.set_rays8_fast(&mut rh.ray, n, &ray);
-        rh.hit.primID = [u32::MAX; 8];
-        rh.hit.geomID = [u32::MAX; 8];
-        rh.hit.instID = [[u32::MAX; 8]];
-        // SAFETY: the scene is committed; the mask, context and packet are valid, with the
-        // alignments Embree requires (32 bytes for the mask and the packet: `RTCRayHit8` is
-        // `align(32)` wherever it lives).
-        unsafe { rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, rh) };
+        self.trace8(rh, n, coherent, &ray);
         for i in 0..n {
             let h = (rh.hit.geomID[i] != u32::MAX).then(|| {
                 let hit = Hit {
@@ -1453,6 +1508,31 @@ impl EmbreeScene {
             });
             out(i, h);
         }
+    }
+
+    /// Traces the `n` (at most 8) rays `ray(k)` as one `rtcIntersect8` packet through `rh`,
+    /// whose ray fields [`Self::set_rays8_fast`] rewrites and whose hit ids are reset first.
+    #[inline(always)]
+    fn trace8<'r>(
+        &self,
+        rh: &mut RTCRayHit8,
+        n: usize,
+        coherent: bool,
+        ray: impl Fn(usize) -> &'r Ray,
+    ) {
+        let valid = Valid8::first(n);
+        let mut ctx = Self::context();
+        if coherent {
+            ctx.flags = RTCIntersectContextFlags::COHERENT;
+        }
+        self.set_rays8_fast(&mut rh.ray, n, ray);
+        rh.hit.primID = [u32::MAX; 8];
+        rh.hit.geomID = [u32::MAX; 8];
+        rh.hit.instID = [[u32::MAX; 8]];
+        // SAFETY: the scene is committed; the mask, context and packet are valid, with the
+        // alignments Embree requires (32 bytes for the mask and the packet: `RTCRayHit8` is
+        // `align(32)` wherever it lives).
+        unsafe { rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, rh) };
     }
 
     /// Occlusion of up to 8 rays traced as one `rtcOccluded8` packet: bit `i` set when
@@ -1631,12 +1711,15 @@ impl EmbreeScene {
     }
 
     /// Nearest hits of the rays [`RayBuf::fill`] put in `buf`, traced as one `rtcIntersect1M`
-    /// stream: `out(k, hit)` for the `k`-th ray, in order.
+    /// stream: `out(k, row)` for the `k`-th ray, in order, its hit as a [`HitRow`] (the scene's
+    /// own ids: the caller maps instances) written from the ray-hit's words, without an
+    /// `Option<Hit>` in between; only a hit whose primitive id is [`UNSURE`] is settled
+    /// ([`Self::settle`] changes no other).
     pub(crate) fn intersect_filled(
         &self,
         coherent: bool,
         buf: &mut RayBuf,
-        mut out: impl FnMut(usize, Option<Hit>),
+        mut out: impl FnMut(usize, HitRow),
     ) {
         let mut ctx = Self::stream_context(coherent);
         let rh = &mut buf.rh[..buf.n];
@@ -1654,23 +1737,36 @@ impl EmbreeScene {
             };
         }
         for (k, rh) in rh.iter().enumerate() {
-            let r = &rh.ray;
-            out(
-                k,
-                (rh.hit.geomID != u32::MAX).then(|| {
-                    let hit = Hit {
-                        geom: rh.hit.geomID,
-                        prim: rh.hit.primID,
-                        t: r.tfar,
-                        u: rh.hit.u,
-                        v: rh.hit.v,
-                        inst: rh.hit.instID[0],
-                    };
-                    // Embree leaves org and dir as given.
-                    let o = Vec3::new(r.org_x, r.org_y, r.org_z);
-                    self.settle(hit, o, Vec3::new(r.dir_x, r.dir_y, r.dir_z), r.tnear)
-                }),
-            );
+            let (r, h) = (&rh.ray, &rh.hit);
+            let row = if h.geomID == HitRow::MISS {
+                HitRow::NONE
+            } else if h.primID == UNSURE {
+                let hit = Hit {
+                    geom: h.geomID,
+                    prim: h.primID,
+                    t: r.tfar,
+                    u: h.u,
+                    v: h.v,
+                    inst: h.instID[0],
+                };
+                // Embree leaves org and dir as given.
+                let o = Vec3::new(r.org_x, r.org_y, r.org_z);
+                let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
+                HitRow::new(Some(self.settle(hit, o, d, r.tnear)))
+            } else {
+                // `HitRow::new`'s words.
+                HitRow([
+                    h.geomID,
+                    h.primID,
+                    r.tfar.to_bits(),
+                    h.u.to_bits(),
+                    h.v.to_bits(),
+                    h.instID[0],
+                    0,
+                    0,
+                ])
+            };
+            out(k, row);
         }
     }
 

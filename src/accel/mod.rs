@@ -402,8 +402,8 @@ impl Accel {
         let n = n.min(8);
         match (&self.brute, &self.scene) {
             (Some(b), _) => b.intersect8_with(n, ray, out),
-            (None, Some(s)) => s.intersect8_with(&mut buf.0, n, coherent, ray, |k, h| {
-                out(k, HitRow::new(h.and_then(|h| self.world_hit(h))))
+            (None, Some(s)) => s.intersect8_with(&mut buf.0, n, coherent, ray, |k, row| {
+                out(k, self.world_row(row))
             }),
             (None, None) => (0..n).for_each(|k| out(k, HitRow::NONE)),
         }
@@ -466,7 +466,8 @@ impl Accel {
     }
 
     /// [`Self::intersect`] of many rays traced as one Embree stream (`rtcIntersect1M` through
-    /// the reusable `buf`): `out(k, hit)` for the `k`-th ray, in order. `coherent` as for
+    /// the reusable `buf`): `out(k, row)` for the `k`-th ray, in order, its hit as a
+    /// [`HitRow`] (as [`Self::intersect8_with`] hands them). `coherent` as for
     /// [`Self::intersect8`]. Tier A traces them as 8-wide packets. Each ray gets the hit a
     /// single ray gets (`tests/scene/packets.rs`).
     pub fn intersect_stream<'r>(
@@ -474,7 +475,7 @@ impl Accel {
         rays: impl Iterator<Item = &'r Ray>,
         coherent: bool,
         buf: &mut RayBuf,
-        out: impl FnMut(usize, Option<Hit>),
+        out: impl FnMut(usize, HitRow),
     ) {
         buf.fill(rays);
         self.intersect_filled(coherent, buf, out);
@@ -485,14 +486,14 @@ impl Accel {
         &self,
         coherent: bool,
         buf: &mut RayBuf,
-        mut out: impl FnMut(usize, Option<Hit>),
+        mut out: impl FnMut(usize, HitRow),
     ) {
         match (&self.brute, &self.scene) {
-            (None, Some(s)) => s.intersect_filled(coherent, &mut buf.0, |k, hit| {
-                out(k, hit.and_then(|h| self.world_hit(h)))
+            (None, Some(s)) => s.intersect_filled(coherent, &mut buf.0, |k, row| {
+                out(k, self.world_row(row))
             }),
-            (Some(b), _) => brute_intersect(b, buf.0.rays(), out),
-            (None, None) => (0..buf.0.len()).for_each(|k| out(k, None)),
+            (Some(b), _) => brute_intersect(b, buf.0.rays(), |k, h| out(k, HitRow::new(h))),
+            (None, None) => (0..buf.0.len()).for_each(|k| out(k, HitRow::NONE)),
         }
     }
 
@@ -521,6 +522,17 @@ impl Accel {
     ) {
         buf.fill(rays);
         self.occluded_filled(coherent, buf, out);
+    }
+
+    /// An Embree hit's row with its instance mapped as [`Self::world_hit`] maps the hit (a
+    /// miss, and a hit on a top-level shape, as they are: one test of the row's words).
+    #[inline(always)]
+    fn world_row(&self, row: HitRow) -> HitRow {
+        if row.inst() == NO_INSTANCE || !row.is_hit() {
+            row
+        } else {
+            HitRow::new(row.get().and_then(|h| self.world_hit(h)))
+        }
     }
 
     /// An Embree hit with its instance id and the group's geometry id turned into scene

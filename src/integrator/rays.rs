@@ -3,6 +3,7 @@
 //! records it. The renderer sums the counters and concatenates the logs per image block, in
 //! block order.
 
+use crate::accel::HitRow;
 use crate::geometry::{Hit, Ray, SurfaceInteraction};
 use crate::scene::Scene;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -167,8 +168,8 @@ impl Rays {
     }
 
     /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each hit handed
-    /// to `out(k, row)` in lane order as a [`crate::accel::HitRow`], without a packet of rays
-    /// or of hits in between (the stream renderer reads the rays from, and writes the hits
+    /// to `out(k, row)` in lane order as a [`HitRow`], without a packet of rays or of hits in
+    /// between (the stream renderer reads the rays from, and writes the hits
     /// to, its path columns).
     #[inline]
     pub fn intersect8_with<'r>(
@@ -177,7 +178,7 @@ impl Rays {
         n: usize,
         kind: RayKind,
         ray: impl Fn(usize) -> &'r Ray,
-        out: impl FnMut(usize, crate::accel::HitRow),
+        out: impl FnMut(usize, HitRow),
     ) {
         let n = n.min(8);
         self.count_packet(n, kind, &ray);
@@ -198,9 +199,10 @@ impl Rays {
         scene.accel.intersect(ray)
     }
 
-    /// The nearest hits of many rays traced as one stream (`out(k, hit)` for the `k`-th ray,
-    /// in order), counted as `kind`; `coherent` tells Embree the rays start together and point
-    /// alike. Each ray gets the hit a single ray gets (`tests/scene/packets.rs`).
+    /// The nearest hits of many rays traced as one stream (`out(k, row)` for the `k`-th ray,
+    /// in order, its hit as a [`HitRow`]), counted as `kind`; `coherent` tells Embree the rays
+    /// start together and point alike. Each ray gets the hit a single ray gets
+    /// (`tests/scene/packets.rs`).
     #[inline]
     pub fn intersect_stream<'r>(
         &mut self,
@@ -208,7 +210,7 @@ impl Rays {
         rays: impl Iterator<Item = &'r Ray>,
         kind: RayKind,
         coherent: bool,
-        out: impl FnMut(usize, Option<Hit>),
+        out: impl FnMut(usize, HitRow),
     ) {
         self.fill_stream(rays);
         self.intersect_filled(scene, kind, coherent, out);
@@ -243,7 +245,7 @@ impl Rays {
         scene: &Scene,
         kind: RayKind,
         coherent: bool,
-        out: impl FnMut(usize, Option<Hit>),
+        out: impl FnMut(usize, HitRow),
     ) {
         self.log_stream(false, kind == RayKind::Camera);
         let n = self.buf_len();
@@ -332,7 +334,7 @@ impl Rays {
     }
 
     /// [`Self::intersect16`] of the `n` (at most 16) rays `ray(0)`, … `ray(n − 1)`, each hit
-    /// handed to `out(k, row)` in lane order as a [`crate::accel::HitRow`]
+    /// handed to `out(k, row)` in lane order as a [`HitRow`]
     /// ([`Self::intersect8_with`] at width 16: tier A's 16-ray packets read the stream
     /// renderer's rays in place and write its hit rows,
     /// [`crate::accel::Accel::intersect16_with`]).
@@ -343,7 +345,7 @@ impl Rays {
         n: usize,
         kind: RayKind,
         ray: impl Fn(usize) -> &'r Ray,
-        out: impl FnMut(usize, crate::accel::HitRow),
+        out: impl FnMut(usize, HitRow),
     ) {
         let n = n.min(16);
         self.count_packet(n, kind, &ray);

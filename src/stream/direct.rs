@@ -297,8 +297,8 @@ impl Items {
         if packets.bounce && packets.stream {
             let (ids, hit) = (&self.bounce_ids, &mut self.hit);
             let traced = ids.iter().map(|&k| ray_ref(&items[k as usize]));
-            rays.intersect_stream(scene, traced, RayKind::Bounce, false, |j, h| {
-                hit[ids[j] as usize] = h;
+            rays.intersect_stream(scene, traced, RayKind::Bounce, false, |j, row| {
+                hit[ids[j] as usize] = row.get();
             });
         } else if packets.bounce {
             let mut out: [Option<Hit>; 8] = [None; 8];

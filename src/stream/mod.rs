@@ -961,8 +961,8 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, 
     if let (Some(true), RayKind::Bounce) = (packet, kind) {
         let (active, ray, hit) = (&batch.active, &batch.ray, &mut batch.hit);
         let traced = active.iter().map(|&i| &ray[i as usize]);
-        rays.intersect_stream(scene, traced, kind, false, |k, h| {
-            hit[active[k] as usize] = HitRow::new(h);
+        rays.intersect_stream(scene, traced, kind, false, |k, row| {
+            hit[active[k] as usize] = row;
         });
     } else if packet.is_some() && rays.packets16() {
         // 16-ray packets (tier A on AVX-512), read from and written to the path columns as
