@@ -6,9 +6,9 @@
 //! `rtcIntersect1` / `rtcOccluded1` are thread-safe (Embree 3 API docs, "rtcIntersect1"), which is
 //! what makes the wrapper `Send + Sync`.
 
+use crate::accel::HitRow;
 use crate::geometry::sdfgrid::SdfGrid;
 use crate::geometry::Cylinder;
-use crate::accel::HitRow;
 use crate::geometry::Hit;
 use crate::geometry::Ray;
 use embree3::sys::*;
@@ -2032,7 +2032,7 @@ mod tests {
         buf.fill(rays.iter());
         scene.intersect_filled(false, &mut buf, |k, g| {
             let r = &rays[k];
-            assert_eq!(g, scene.intersect(r.o, r.d, r.tmin, r.tmax));
+            assert_eq!(g.get(), scene.intersect(r.o, r.d, r.tmin, r.tmax));
         });
         buf.fill(rays.iter());
         scene.occluded_filled(false, &mut buf, |k, b| {
@@ -2070,11 +2070,37 @@ mod tests {
                 let scene = EmbreeScene::build(&geoms).unwrap();
                 let (rect_id, mesh_id) = if rect_first { (0, 1) } else { (1, 0) };
                 let mut rng = crate::math::Pcg32::new(5, 1);
-                for _ in 0..2_000 {
-                    let o = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, 2.0);
-                    let target =
-                        Vec3::new(1.8 * rng.next_f32() - 0.9, 1.8 * rng.next_f32() - 0.9, 0.0);
-                    let ray = Ray::new(o, (target - o).normalize());
+                let rays: Vec<Ray> = (0..2_000)
+                    .map(|_| {
+                        let o = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, 2.0);
+                        let target =
+                            Vec3::new(1.8 * rng.next_f32() - 0.9, 1.8 * rng.next_f32() - 0.9, 0.0);
+                        Ray::new(o, (target - o).normalize())
+                    })
+                    .collect();
+                // The packets' rows (`intersect8_with`: built in lanes, only the lanes whose
+                // primitive id is UNSURE settled; full and partial packets) and the stream's
+                // rows (`intersect_filled`) are the single rays' hits.
+                let single: Vec<HitRow> = rays
+                    .iter()
+                    .map(|r| HitRow::new(scene.intersect(r.o, r.d, r.tmin, r.tmax)))
+                    .collect();
+                let mut buf = RayBuf::default();
+                for (c, chunk) in rays.chunks(8).enumerate() {
+                    let n = chunk.len() - c % 3;
+                    let mut seen = 0;
+                    let ray = |k: usize| &chunk[k];
+                    scene.intersect8_with(&mut buf, n, c % 2 == 0, ray, |k, row| {
+                        assert_eq!(row, single[8 * c + k], "{dz} packet {c} lane {k}");
+                        seen += 1;
+                    });
+                    assert_eq!(seen, n);
+                }
+                buf.fill(rays.iter());
+                scene.intersect_filled(false, &mut buf, |k, row| {
+                    assert_eq!(row, single[k], "{dz} stream ray {k}");
+                });
+                for ray in &rays {
                     let h = scene.intersect(ray.o, ray.d, ray.tmin, ray.tmax).unwrap();
                     let r = PlanarData::new(&Mat4::IDENTITY, true)
                         .hit(ray.o, ray.d, 0.0, f32::INFINITY)

@@ -489,9 +489,9 @@ impl Accel {
         mut out: impl FnMut(usize, HitRow),
     ) {
         match (&self.brute, &self.scene) {
-            (None, Some(s)) => s.intersect_filled(coherent, &mut buf.0, |k, row| {
-                out(k, self.world_row(row))
-            }),
+            (None, Some(s)) => {
+                s.intersect_filled(coherent, &mut buf.0, |k, row| out(k, self.world_row(row)))
+            }
             (Some(b), _) => brute_intersect(b, buf.0.rays(), |k, h| out(k, HitRow::new(h))),
             (None, None) => (0..buf.0.len()).for_each(|k| out(k, HitRow::NONE)),
         }

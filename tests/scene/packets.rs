@@ -226,7 +226,11 @@ fn packet_and_stream_hits_on_meshes_are_the_single_ray_hits_bit_for_bit() {
         let coherent = s % 2 == 1;
         let mut seen = 0;
         accel.intersect_stream(part.iter(), coherent, &mut buf, |k, h| {
-            assert_eq!(bits(&h.get()), bits(&single[start + k]), "stream {s} ray {k}");
+            assert_eq!(
+                bits(&h.get()),
+                bits(&single[start + k]),
+                "stream {s} ray {k}"
+            );
             seen += 1;
         });
         accel.occluded_stream(part.iter(), coherent, &mut buf, |k, b| {
