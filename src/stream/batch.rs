@@ -845,6 +845,35 @@ mod tests {
         assert!(b.run_materials.is_empty());
     }
 
+    /// `start` leaves exactly the batch's paths, each a path leaving the camera, whatever the
+    /// last batch left in the kept states (more of them, or fewer; changed), with and without
+    /// the AVX2 token, at lengths around the blocks of four.
+    #[test]
+    fn start_resets_the_kept_states() {
+        let fresh = format!("{:?}", PathState::new());
+        let mut tokens = vec![None];
+        #[cfg(target_arch = "x86_64")]
+        tokens.extend(crate::lane::Avx2::detect().map(Some));
+        for avx in tokens {
+            for n in [0, 1, 3, 4, 5, 8, 9] {
+                for kept in [0, n / 2, n, n + 3] {
+                    let mut b = batch(n);
+                    let mut used = PathState::new();
+                    used.depth = 7;
+                    used.eta = 2.5;
+                    used.result = Vec3::splat(-1.0);
+                    b.state.clear();
+                    b.state.resize(kept, used);
+                    b.start(avx);
+                    assert_eq!(b.state.len(), n, "{n} paths, {kept} kept");
+                    for s in &b.state {
+                        assert_eq!(format!("{s:?}"), fresh, "{n} paths, {kept} kept");
+                    }
+                }
+            }
+        }
+    }
+
     /// A path is alive only in the round it was marked in; when the stamps run out, the flags
     /// start over cleared.
     #[test]
