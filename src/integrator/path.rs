@@ -91,17 +91,20 @@ impl Default for PathState {
 }
 
 impl PathState {
+    /// A path leaving the camera ([`PathState::new`] as a constant, for blocks of states).
+    pub const NEW: PathState = PathState {
+        result: Spectrum::ZERO,
+        throughput: Spectrum::ONE,
+        eta: 1.0,
+        depth: 0,
+        prev_p: Vec3::ZERO,
+        prev_pdf: 0.0,
+        prev_kind: PrevKind::None,
+    };
+
     /// A path leaving the camera.
     pub fn new() -> PathState {
-        PathState {
-            result: Spectrum::ZERO,
-            throughput: Spectrum::ONE,
-            eta: 1.0,
-            depth: 0,
-            prev_p: Vec3::ZERO,
-            prev_pdf: 0.0,
-            prev_kind: PrevKind::None,
-        }
+        PathState::NEW
     }
 
     /// The previous vertex, if any (the fields' `Option` form).

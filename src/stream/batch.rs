@@ -47,9 +47,9 @@ pub(crate) struct Batch {
     /// The stamp of the current bounce's `alive` flags ([`Self::next_round`]): it only grows
     /// over the batch buffers' life, so every older entry of `alive` is below it.
     pub round: u32,
-    /// Material of the surface each path scatters at (written by the sort for the paths of
-    /// `scatter`, from `scatter_material`; the kernels read it).
-    pub material: Vec<MatId>,
+    /// The material of each run of `sorted`, in order (written by the sort: the runs'
+    /// driver reads it).
+    pub run_materials: Vec<MatId>,
     /// Ids of the paths to trace, ascending.
     pub active: Vec<u32>,
     /// Ids of the paths that scatter at this bounce, ascending (before the sort).
@@ -117,6 +117,18 @@ pub(crate) type Gathers = (
 #[cfg(not(target_arch = "x86_64"))]
 pub(crate) type Gathers = ();
 
+/// Every state of `state` a path leaving the camera, four at a time as one block
+/// ([`Batch::start`]).
+#[inline(always)]
+fn fresh_states(state: &mut [PathState]) {
+    const FRESH4: [PathState; 4] = [PathState::NEW; 4];
+    let (blocks, rest) = state.as_chunks_mut::<4>();
+    for b in blocks {
+        *b = FRESH4;
+    }
+    rest.fill(PathState::NEW);
+}
+
 impl Batch {
     /// Buffers for batches of up to `capacity` (at most [`BATCH`]) paths over materials
     /// `0..materials`.
@@ -132,7 +144,7 @@ impl Batch {
             surf: Surfaces::new(),
             alive: Vec::with_capacity(capacity),
             round: 0,
-            material: Vec::with_capacity(capacity),
+            run_materials: Vec::with_capacity(materials.max(1)),
             active: Vec::with_capacity(capacity),
             scatter: Ids::new(),
             scatter_material: Ids::new(),
@@ -157,12 +169,12 @@ impl Batch {
         }
     }
 
-    /// Empties the batch (capacities are kept). `hit`, `hit_flag`, `alive` and
-    /// `material` keep their contents: [`Self::start`] only sizes them (see there).
+    /// Empties the batch (capacities are kept). `state`, `hit`, `hit_flag` and `alive` keep
+    /// their contents: [`Self::start`] overwrites the states and only sizes the others (see
+    /// there).
     pub fn clear(&mut self) {
         self.pos.clear();
         self.sampler.clear();
-        self.state.clear();
         self.ray.clear();
         self.active.clear();
         self.scatter.clear();
@@ -299,21 +311,42 @@ impl Batch {
     /// path's state to a path leaving the camera (one fill, not a push per path) and sizes the
     /// other per-path arrays. Those keep what the previous batch left in them: each is written
     /// for a path before the path's stages read it in a bounce (`hit` by the trace of every
-    /// active path, `hit_flag` by the gather stage for every active path, `alive` by the
-    /// emission stage for every active path and `material` for every path that scatters), so
-    /// filling them would only cost a pass over ~60 KB per batch.
-    pub fn start(&mut self) {
+    /// active path, `hit_flag` by the gather stage for every active path and `alive` by the
+    /// emission stage for every active path), so filling them would only cost a pass over
+    /// ~60 KB per batch.
+    ///
+    /// The states are overwritten in place four at a time, as one block of the fresh state
+    /// (`FRESH4`, 208 bytes: with `avx`, 32-byte stores under the lanes' target features):
+    /// `clear` keeps them, so that only a batch longer than the last one appends states. On
+    /// metal_plastic the fill's loop of 16-byte and scalar stores per path cost 6.5
+    /// instructions a path, appending blocks of four (`extend_from_slice`: its capacity test
+    /// and length each time) 4.25, the blocks in place ~2 (`docs/bench/README.md`,
+    /// thirty-third session, h1).
+    pub fn start(&mut self, avx: Option<Avx>) {
         let n = self.pos.len();
         assert!(
             n <= BATCH && self.sampler.len() == n && self.ray.len() == n,
             "a batch holds at most {BATCH} paths, each with its stream and ray"
         );
-        self.state.clear();
-        self.state.resize(n, PathState::new());
+        self.state.truncate(n);
+        self.state.resize(n, PathState::NEW);
+        let state = &mut self.state[..];
+        #[cfg(target_arch = "x86_64")]
+        match avx {
+            Some(avx) => avx.run(
+                #[inline(always)]
+                || fresh_states(state),
+            ),
+            None => fresh_states(state),
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = avx;
+            fresh_states(state);
+        }
         self.hit.resize(n, HitRow::NONE);
         self.hit_flag.resize(n, 0);
         self.alive.resize(n, 0);
-        self.material.resize(n, 0);
     }
 
     /// A new stamp for the `alive` flags of the bounce about to be shaded: every path counts
@@ -383,6 +416,8 @@ impl Batch {
             self.pos.len() < BATCH,
             "a batch holds at most {BATCH} paths"
         );
+        // `clear` keeps the last batch's states: the paths' own start after `pos`'s.
+        self.state.truncate(self.pos.len());
         self.pos.push(pos);
         self.sampler.push(&sampler);
         self.state.push(PathState::new());
@@ -390,7 +425,6 @@ impl Batch {
         self.hit.push(HitRow::NONE);
         self.hit_flag.push(0);
         self.alive.push(0);
-        self.material.push(0);
     }
 
     /// Number of paths in the batch.
@@ -399,32 +433,42 @@ impl Batch {
     }
 
     /// Sorts `scatter` by `material` into `sorted`, stably (a counting sort: equal materials keep
-    /// their ascending path order). Returns whether `sorted` holds more than one material.
+    /// their ascending path order), and lists each run's material in `run_materials`. Returns
+    /// whether `sorted` holds more than one material.
     pub fn sort_by_material(&mut self) -> bool {
         self.sorted.clear();
+        self.run_materials.clear();
         self.binned = false;
         let n = self.scatter.len();
         let (ids, mats) = (&self.scatter[..], &self.scatter_material[..n]);
         let Some(&m0) = mats.first() else {
             return false;
         };
-        let material = &mut self.material[..];
-        // The materials are read from their list in order (not through each path's id), and
-        // each path's written where the kernels read it.
-        if mats.iter().all(|&m| m == m0) {
-            for &i in ids {
-                material[i as usize] = m0;
-            }
+        // The materials are read from their list in order (not through each path's id). Each
+        // run's material is listed once (`run_materials`), not written per path: its only
+        // readers are the run's driver and its kernels, which take it from the run.
+        // Whether every material is the first: a branch-free compare per 16 (which the
+        // compiler vectorises), the walk stopping at the first block that differs (a test
+        // and a branch per material cost ~6 instructions a path on metal_plastic).
+        if mats
+            .chunks(16)
+            .all(|c| c.iter().fold(true, |same, &m| same & (m == m0)))
+        {
             self.sorted.extend_from_slice(ids);
+            self.run_materials.push(m0);
             return false;
         }
         let bins = &mut self.bins[..];
         bins.fill(0);
-        for (&i, &m) in ids.iter().zip(mats) {
-            material[i as usize] = m;
+        for &m in mats {
             bins[m as usize + 1] += 1;
         }
+        // The runs' materials in ascending order (the order of the runs in `sorted`), from
+        // the counts, then the counts' prefix sums.
         for k in 1..bins.len() {
+            if bins[k] != 0 {
+                self.run_materials.push((k - 1) as MatId);
+            }
             bins[k] += bins[k - 1];
         }
         self.sorted.resize(n, 0);
@@ -762,7 +806,7 @@ mod tests {
     }
 
     /// The sort keeps each material's paths in ascending order, ends each run where its bins
-    /// say, and leaves each sorted path's material where the kernels read it (`material`).
+    /// say, and lists each run's material in the runs' order (`run_materials`).
     #[test]
     fn the_material_sort_is_stable() {
         let mats = [3, 1, 3, 0, 1, 7, 3];
@@ -775,20 +819,58 @@ mod tests {
         // Each run's end, from its material.
         let ends: Vec<usize> = [1, 3, 7].iter().map(|&m| b.run_end(m)).collect();
         assert_eq!(ends, [2, 5, 6]);
-        for &i in &b.sorted {
-            assert_eq!(b.material[i as usize], mats[i as usize], "path {i}");
-        }
+        assert_eq!(b.run_materials, [1, 3, 7]);
         b.scatter.clear();
         b.scatter_material.clear();
-        b.material.fill(99);
         for i in [0, 2, 6] {
             b.push_scatter(i, mats[i as usize]);
         }
         assert!(!b.sort_by_material());
         assert_eq!(b.sorted, [0, 2, 6]);
         assert_eq!(b.run_end(3), 3);
-        for i in [0, 2, 6] {
-            assert_eq!(b.material[i], 3, "path {i}");
+        assert_eq!(b.run_materials, [3]);
+        // A block of 16 equal materials, then another: binned, two runs.
+        b.scatter.clear();
+        b.scatter_material.clear();
+        for i in 0..17 {
+            b.push_scatter(i, if i < 16 { 0 } else { 1 });
+        }
+        assert!(b.sort_by_material());
+        assert_eq!(b.run_materials, [0, 1]);
+        assert_eq!((b.run_end(0), b.run_end(1)), (16, 17));
+        // No path: no run.
+        b.scatter.clear();
+        b.scatter_material.clear();
+        assert!(!b.sort_by_material());
+        assert!(b.run_materials.is_empty());
+    }
+
+    /// `start` leaves exactly the batch's paths, each a path leaving the camera, whatever the
+    /// last batch left in the kept states (more of them, or fewer; changed), with and without
+    /// the AVX2 token, at lengths around the blocks of four.
+    #[test]
+    fn start_resets_the_kept_states() {
+        let fresh = format!("{:?}", PathState::new());
+        let mut tokens = vec![None];
+        #[cfg(target_arch = "x86_64")]
+        tokens.extend(crate::lane::Avx2::detect().map(Some));
+        for avx in tokens {
+            for n in [0, 1, 3, 4, 5, 8, 9] {
+                for kept in [0, n / 2, n, n + 3] {
+                    let mut b = batch(n);
+                    let mut used = PathState::new();
+                    used.depth = 7;
+                    used.eta = 2.5;
+                    used.result = Vec3::splat(-1.0);
+                    b.state.clear();
+                    b.state.resize(kept, used);
+                    b.start(avx);
+                    assert_eq!(b.state.len(), n, "{n} paths, {kept} kept");
+                    for s in &b.state {
+                        assert_eq!(format!("{s:?}"), fresh, "{n} paths, {kept} kept");
+                    }
+                }
+            }
         }
     }
 

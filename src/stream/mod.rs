@@ -460,7 +460,7 @@ pub(crate) fn render_block(
         let avx = None;
         batch.fill(sampler_desc, film_width, rect, samples, k, end, avx);
         camera_rays(scene, kernels, batch);
-        batch.start();
+        batch.start(avx);
         match cfg {
             StreamIntegrator::Path(cfg) => run_batch(scene, cfg, batch, scratch, packets, kernels),
             StreamIntegrator::Direct(cfg) => direct::run_batch(
@@ -668,8 +668,11 @@ fn shade<T: kernels::tail::Tail>(
     // in the batch and moved out for the stage (two pointers).
     let mut gathers = core::mem::take(&mut batch.gathers);
     let mut start = 0;
+    // The runs' materials in the runs' order (`Batch::sort_by_material`).
+    let mut run = 0;
     while start < batch.sorted.len() {
-        let m = batch.material[batch.sorted[start] as usize];
+        let m = batch.run_materials[run];
+        run += 1;
         let end = batch.run_end(m);
         let (done, driver) = if tail.kernels() {
             shade_kernel(
@@ -856,6 +859,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
                             scene,
                             cfg,
                             batch,
+                            m,
                             &ids,
                             live,
                             lights,

@@ -304,7 +304,8 @@ pub(crate) mod x8 {
         }
     }
 
-    /// Shades the paths `ids` (all at a surface of a material that [`super::qualifies`]) as
+    /// Shades the paths `ids` (all at a surface of material `m0`, one that
+    /// [`super::qualifies`]: the chunk is part of a run of the sorted paths) as
     /// `PathState::scatter` would, one after the other; hands each lane's light sample, then
     /// its BSDF sample, to `tail` (the integrator's end of the vertex). `arena` holds the 8
     /// points' BSDF trees (cleared here). The first `live` lanes are the chunk's paths; a
@@ -320,6 +321,7 @@ pub(crate) mod x8 {
         scene: &Scene,
         cfg: &PathSettings,
         b: &mut Batch,
+        m0: crate::material::MatId,
         ids: &[u32; 8],
         live: usize,
         lights: &[Option<LaneLight>],
@@ -329,10 +331,8 @@ pub(crate) mod x8 {
     ) {
         let ctx = BsdfContext::default();
         // The chunk's compensated points share their nested BSDF (one material, a constant
-        // leaf): their first orders are evaluated together.
-        let m0 = b.material[ids[0] as usize];
-        let shared = super::shared_nested(&scene.materials, m0)
-            && ids.iter().all(|&i| b.material[i as usize] == m0);
+        // leaf: every chunk of a run): their first orders are evaluated together.
+        let shared = super::shared_nested(&scene.materials, m0);
         // 1. The surfaces, loaded 8-wide from the batch's rows (the light stage's columns).
         let surf = crate::stream::kernels::surface::x8::load(avx, &b.surf, ids);
 
