@@ -1817,41 +1817,6 @@ impl Drop for EmbreeScene {
     }
 }
 
-/// The size of an x86-64 transparent huge page (one PMD entry: 2 MiB).
-const HUGE_PAGE: usize = 2 << 20;
-
-/// The whole huge pages inside the bytes `[start, start + len)`: the 2 MiB-aligned range
-/// `[lo, hi)` they cover, or None when the bytes hold no whole huge page.
-pub(crate) fn whole_huge_pages(start: usize, len: usize) -> Option<(usize, usize)> {
-    let lo = start.checked_next_multiple_of(HUGE_PAGE)?;
-    let hi = start.checked_add(len)? / HUGE_PAGE * HUGE_PAGE;
-    (lo < hi).then_some((lo, hi))
-}
-
-/// Asks the kernel to back the whole 2 MiB pages inside `data` by transparent huge pages now
-/// (`madvise(MADV_COLLAPSE)`, Linux 6.1 and later). A large mesh's indices and vertex
-/// attributes (tens of MB, read at random positions by every hit's surface gather) otherwise
-/// sit in 4 KiB pages, one TLB entry each, while Embree's own buffers get huge pages from its
-/// allocator: the gather's misses are then mostly TLB misses (`docs/bench/README.md`,
-/// "million's wall clock on both sides"). The contents do not change; where the kernel refuses
-/// (an older kernel, huge pages disabled, no huge page free) the mapping stays as it was, and
-/// the error is ignored on purpose: it only costs speed.
-pub(crate) fn collapse_huge_pages<T>(data: &[T]) {
-    let Some((lo, hi)) = whole_huge_pages(data.as_ptr() as usize, std::mem::size_of_val(data))
-    else {
-        return;
-    };
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: `[lo, hi)` lies inside `data`'s allocation and is page aligned; MADV_COLLAPSE only
-    // changes which physical pages back it (it copies the contents into a huge page, atomically
-    // for other threads), never what the range holds, and an error leaves it mapped as before.
-    unsafe {
-        libc::madvise(lo as *mut c_void, hi - lo, libc::MADV_COLLAPSE);
-    }
-    #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
-    let _ = (lo, hi);
-}
-
 /// Sets flush-to-zero and denormals-are-zero for the calling thread (Embree's recommendation for
 /// performance, "Embree API: Performance Recommendations").
 pub(crate) fn set_flush_denormals() {
@@ -1866,32 +1831,6 @@ pub(crate) fn set_flush_denormals() {
 
 #[cfg(test)]
 mod tests {
-    use super::{whole_huge_pages, HUGE_PAGE};
-
-    /// Only whole 2 MiB pages inside the bytes are named: none for short or unaligned spans that
-    /// hold no whole page, the aligned interior otherwise, and no overflow at the address
-    /// space's end.
-    #[test]
-    fn whole_huge_pages_lie_inside_the_bytes() {
-        let h = HUGE_PAGE;
-        assert_eq!(whole_huge_pages(0, 0), None);
-        assert_eq!(whole_huge_pages(0, h - 1), None);
-        assert_eq!(whole_huge_pages(0, h), Some((0, h)));
-        assert_eq!(whole_huge_pages(1, 2 * h), Some((h, 2 * h)));
-        assert_eq!(whole_huge_pages(h + 4096, 2 * h), None);
-        assert_eq!(whole_huge_pages(h - 1, 3 * h + 1), Some((h, 4 * h)));
-        assert_eq!(whole_huge_pages(usize::MAX - h, h), None);
-        assert_eq!(whole_huge_pages(usize::MAX - 5, 10), None);
-        for (start, len) in [(12_345, 7 * h), (3 * h, 5 * h + 17), (h / 2, h + h / 2)] {
-            let (lo, hi) = whole_huge_pages(start, len).unwrap();
-            assert!(lo >= start && hi <= start + len && lo % h == 0 && hi % h == 0);
-            assert!(
-                lo - start < h && start + len - hi < h,
-                "a whole page left out"
-            );
-        }
-    }
-
     /// The rays' fields written in lanes ([`RayBuf::fill`]'s slots, [`EmbreeScene::set_rays8_fast`]'s
     /// packets) have the bits of the fields written one by one ([`EmbreeScene::ray_hit`],
     /// [`EmbreeScene::set_rays8`]), for rays with ±0, infinities, NaNs and subnormals in every

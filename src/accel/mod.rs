@@ -196,19 +196,6 @@ pub struct Accel {
     first_member: Vec<u32>,
 }
 
-/// Backs a mesh's arrays, the ones a hit's surface gather reads, by huge pages where they span
-/// whole 2 MiB pages (a million-triangle mesh's ~30 MB; smaller meshes are left alone).
-fn collapse_mesh_pages(m: &crate::geometry::TriMesh) {
-    embree::collapse_huge_pages(&m.indices);
-    embree::collapse_huge_pages(&m.positions);
-    if let Some(n) = &m.normals {
-        embree::collapse_huge_pages(n);
-    }
-    if let Some(uv) = &m.uvs {
-        embree::collapse_huge_pages(uv);
-    }
-}
-
 impl Accel {
     /// Builds the BVH; shape `i` is reported as `Hit::geom == i`.
     pub fn build(shapes: &[Shape]) -> Result<Accel> {
@@ -295,11 +282,6 @@ impl Accel {
         instances: &[Instance],
         rect_slabs: bool,
     ) -> Result<Accel> {
-        for s in shapes {
-            if let ShapeKind::Mesh(m) = &s.kind {
-                collapse_mesh_pages(m);
-            }
-        }
         let descs: Vec<embree::GeomDesc> = shapes
             .iter()
             .map(|s| match (&s.kind, s.box_to_world) {
