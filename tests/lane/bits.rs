@@ -301,9 +301,9 @@ fn pcg() {
     #[cfg(target_arch = "x86_64")]
     {
         use groove::lane::pcg::Pcg;
-        use groove::lane::Avx2;
-        let Some(avx) = Avx2::detect() else {
-            eprintln!("pcg: this CPU has no AVX2/FMA, skipping the 8-wide half");
+        let Some(avx) =
+            crate::harness::avx2_or_skip("pcg: this CPU has no AVX2/FMA, skipping the 8-wide half")
+        else {
             return;
         };
         let mut r = Pcg32::new(5, 7);

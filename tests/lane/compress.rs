@@ -7,13 +7,12 @@
 //! compress permutation alone (`Avx2::compress_index`) for every mask. (The
 //! path states' gathers, `Avx2::gather_depth` among them: `state_gathers.rs`.)
 
-use groove::lane::Avx2;
 use groove::math::Pcg32;
 
 #[test]
 fn compress_store_equals_the_filter() {
-    let Some(avx) = Avx2::detect() else {
-        eprintln!("no AVX2/FMA: the compress test is skipped");
+    let Some(avx) = crate::harness::avx2_or_skip("no AVX2/FMA: the compress test is skipped")
+    else {
         return;
     };
     let mut r = Pcg32::new(28, 1);
@@ -69,8 +68,9 @@ fn compress_store_equals_the_filter() {
 /// (NaN payloads, ±0, infinities, subnormals, ±`f32::MAX`).
 #[test]
 fn vec2_columns_and_rows_move_every_bit() {
-    let Some(avx) = Avx2::detect() else {
-        eprintln!("no AVX2/FMA: the 2-D columns and rows test is skipped");
+    let Some(avx) =
+        crate::harness::avx2_or_skip("no AVX2/FMA: the 2-D columns and rows test is skipped")
+    else {
         return;
     };
     let mut r = Pcg32::new(28, 5);
@@ -127,8 +127,7 @@ fn vec2_columns_and_rows_move_every_bit() {
 /// edges (0, 1, 2³¹ − 1, 2³¹, `u32::MAX`) in every lane and random ones.
 #[test]
 fn load_u32_equals_the_casts() {
-    let Some(avx) = Avx2::detect() else {
-        eprintln!("no AVX2/FMA: the id load test is skipped");
+    let Some(avx) = crate::harness::avx2_or_skip("no AVX2/FMA: the id load test is skipped") else {
         return;
     };
     let mut r = Pcg32::new(28, 6);
@@ -156,8 +155,8 @@ fn load_u32_equals_the_casts() {
 /// payloads).
 #[test]
 fn compress_index_equals_the_filter() {
-    let Some(avx) = Avx2::detect() else {
-        eprintln!("no AVX2/FMA: the compress index test is skipped");
+    let Some(avx) = crate::harness::avx2_or_skip("no AVX2/FMA: the compress index test is skipped")
+    else {
         return;
     };
     let mut r = Pcg32::new(31, 2);

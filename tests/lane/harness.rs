@@ -33,11 +33,10 @@ macro_rules! at_8_and_16 {
         fn $t8() {
             #[cfg(target_arch = "x86_64")]
             {
-                let Some(avx) = groove::lane::Avx2::detect() else {
-                    eprintln!(concat!(
-                        $label,
-                        " 8: this CPU has no AVX2/FMA, skipping the 8-wide check"
-                    ));
+                let Some(avx) = $crate::harness::avx2_or_skip(concat!(
+                    $label,
+                    " 8: this CPU has no AVX2/FMA, skipping the 8-wide check"
+                )) else {
                     return;
                 };
                 $check(avx);
@@ -175,9 +174,9 @@ pub fn check_bits<K: Kernel<I, O>, const I: usize, const O: usize>(
 ) {
     #[cfg(target_arch = "x86_64")]
     {
-        use groove::lane::Avx2;
-        let Some(avx) = Avx2::detect() else {
-            eprintln!("{name}: this CPU has no AVX2/FMA, skipping the 8-wide half");
+        let Some(avx) = avx2_or_skip(&format!(
+            "{name}: this CPU has no AVX2/FMA, skipping the 8-wide half"
+        )) else {
             return;
         };
         const BATCH: usize = 4096;
@@ -245,4 +244,15 @@ pub fn check_bits<K: Kernel<I, O>, const I: usize, const O: usize>(
         let _ = (name, n, gen);
         eprintln!("{name}: not x86-64, skipping the 8-wide half");
     }
+}
+
+/// The AVX2 token, or None after printing `skip_note` (the calling test's 8-wide part does not
+/// run on a CPU without AVX2/FMA): the lane tests' one skip preamble.
+#[cfg(target_arch = "x86_64")]
+pub fn avx2_or_skip(skip_note: &str) -> Option<groove::lane::Avx2> {
+    let avx = groove::lane::Avx2::detect();
+    if avx.is_none() {
+        eprintln!("{skip_note}");
+    }
+    avx
 }

@@ -3,7 +3,7 @@
 //! position, high words at and around the sign change, all-ones and zeros, and random ones.
 //! Skipped, with a note, without AVX2.
 
-use groove::lane::{Avx2, I128x4, Words8};
+use groove::lane::{I128x4, Words8};
 use groove::math::Pcg32;
 
 /// Low and high words that make carries and sign changes likely.
@@ -22,8 +22,8 @@ const EDGES: [u64; 8] = [
 fn sum8_equals_wrapping_sums() {
     #[cfg(target_arch = "x86_64")]
     {
-        let Some(avx) = Avx2::detect() else {
-            eprintln!("sum8: this CPU has no AVX2/FMA, skipping");
+        let Some(avx) = crate::harness::avx2_or_skip("sum8: this CPU has no AVX2/FMA, skipping")
+        else {
             return;
         };
         let mut r = Pcg32::new(77, 3);

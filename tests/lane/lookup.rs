@@ -66,8 +66,9 @@ crate::at_8_and_16!(
 fn lookup16_equals_the_scalar_lookup() {
     #[cfg(target_arch = "x86_64")]
     {
-        let Some(avx) = groove::lane::Avx2::detect() else {
-            eprintln!("lookup16: this CPU has no AVX2/FMA, skipping");
+        let Some(avx) =
+            crate::harness::avx2_or_skip("lookup16: this CPU has no AVX2/FMA, skipping")
+        else {
             return;
         };
         let mut r = Pcg32::new(16, 26);
@@ -110,8 +111,9 @@ fn gather3_window_equals_the_scalar_rows() {
     {
         use glam::Vec3;
         use groove::lane::{F32x8, Lane};
-        let Some(avx) = groove::lane::Avx2::detect() else {
-            eprintln!("gather3_window: this CPU has no AVX2/FMA, skipping");
+        let Some(avx) =
+            crate::harness::avx2_or_skip("gather3_window: this CPU has no AVX2/FMA, skipping")
+        else {
             return;
         };
         let mut r = Pcg32::new(29, 7);

@@ -157,8 +157,9 @@ fn select_u64_equals_the_scalar_reference() {
     #[cfg(target_arch = "x86_64")]
     {
         use groove::lane::Lane;
-        let Some(avx) = groove::lane::Avx2::detect() else {
-            eprintln!("select_u64: this CPU has no AVX2/FMA, skipping the 8-wide check");
+        let Some(avx) = crate::harness::avx2_or_skip(
+            "select_u64: this CPU has no AVX2/FMA, skipping the 8-wide check",
+        ) else {
             return;
         };
         let s = states(4096);

@@ -6,13 +6,13 @@
 //! `i32::MAX`. Skipped, with a note, without AVX2/FMA.
 
 use crate::harness::EDGES;
-use groove::lane::Avx2;
 use groove::math::Pcg32;
 
 #[test]
 fn nibbles_and_permute_equal_the_scalar_references() {
-    let Some(avx) = Avx2::detect() else {
-        eprintln!("no AVX2/FMA: the 8-wide nibbles and permute are not tested");
+    let Some(avx) =
+        crate::harness::avx2_or_skip("no AVX2/FMA: the 8-wide nibbles and permute are not tested")
+    else {
         return;
     };
     let mut r = Pcg32::new(30, 2);

@@ -5,13 +5,12 @@
 
 use crate::harness::edge_or_bits;
 use groove::geometry::Ray;
-use groove::lane::{Avx2, F32x8};
+use groove::lane::F32x8;
 use groove::math::Pcg32;
 
 #[test]
 fn ray_row_reads_each_field() {
-    let Some(avx) = Avx2::detect() else {
-        eprintln!("no AVX2/FMA: the ray row test is skipped");
+    let Some(avx) = crate::harness::avx2_or_skip("no AVX2/FMA: the ray row test is skipped") else {
         return;
     };
     let mut r = Pcg32::new(30, 1);

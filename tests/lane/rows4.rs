@@ -4,7 +4,6 @@
 //! random bit patterns, ±0, subnormals, ±`f32::MAX`, ±∞ and NaNs with payloads (signalling ones
 //! included) in every position. Skipped, with a note, without AVX2.
 
-use groove::lane::Avx2;
 use groove::math::Pcg32;
 
 const EDGES: [u32; 12] = [
@@ -26,8 +25,9 @@ const EDGES: [u32; 12] = [
 fn fields4_and_rows4_move_every_bit() {
     #[cfg(target_arch = "x86_64")]
     {
-        let Some(avx) = Avx2::detect() else {
-            eprintln!("fields4/rows4: this CPU has no AVX2/FMA, skipping");
+        let Some(avx) =
+            crate::harness::avx2_or_skip("fields4/rows4: this CPU has no AVX2/FMA, skipping")
+        else {
             return;
         };
         let mut r = Pcg32::new(41, 7);

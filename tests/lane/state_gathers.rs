@@ -6,13 +6,12 @@
 
 use crate::harness::edge_or_bits;
 use groove::integrator::path::PathState;
-use groove::lane::Avx2;
 use groove::math::Pcg32;
 
 #[test]
 fn state_gathers_read_each_field() {
-    let Some(avx) = Avx2::detect() else {
-        eprintln!("no AVX2/FMA: the state gather test is skipped");
+    let Some(avx) = crate::harness::avx2_or_skip("no AVX2/FMA: the state gather test is skipped")
+    else {
         return;
     };
     let mut r = Pcg32::new(29, 1);
