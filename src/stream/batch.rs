@@ -965,11 +965,12 @@ mod tests {
             assert_eq!(b.run_materials, mats, "{pattern:?}");
             let mut start = 0;
             for &m in &mats {
-                let side = |hi: bool| {
-                    let on = |&&i: &&u32| mat(i) == m && (next[i as usize] >= split) == hi;
-                    ids.iter().filter(on).copied()
+                let side = |hi: bool| -> Vec<u32> {
+                    let on = |&i: &u32| mat(i) == m && (next[i as usize] >= split) == hi;
+                    ids.iter().copied().filter(on).collect()
                 };
-                let mut want: Vec<u32> = side(false).chain(side(true)).collect();
+                let mut want = side(false);
+                want.extend(side(true));
                 if want.len() <= 8 {
                     want.sort();
                 }
