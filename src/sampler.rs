@@ -321,6 +321,13 @@ impl Samplers {
         self.rest[i].plain()
     }
 
+    /// Every stream's PCG32 state (to read ahead without drawing: the material sort's hint,
+    /// `stream::batch::Batch::sort_by_material`).
+    #[inline(always)]
+    pub fn states(&self) -> &[u64] {
+        &self.state
+    }
+
     /// The PCG32 columns: every stream's state (to read and write) and increment.
     #[inline(always)]
     pub fn pcg_mut(&mut self) -> (&mut [u64], &[u64]) {

@@ -69,6 +69,19 @@ impl<L: Lane> Pcg<L> {
         let f = self.next_u32().shr::<8>().to_f32();
         f * f.splat(1.0 / 16_777_216.0)
     }
+
+    /// Per lane `k`, the float that [`Self::next_f32`] of the generator of raw state
+    /// `states[idx[k]]` returns next, without advancing any state (a look ahead: the XSH-RR
+    /// output depends on the state only, not on the increment). Each index clamped as in
+    /// [`PcgOps::gather_u64`].
+    ///
+    /// # Panics
+    /// If `states` is empty or holds more than `i32::MAX` entries.
+    #[inline(always)]
+    pub fn peek_f32(states: &[u64], idx: L::I32) -> L {
+        let f = L::U64::gather_u64(states, idx).xsh_rr().shr::<8>().to_f32();
+        f * f.splat(1.0 / 16_777_216.0)
+    }
 }
 
 /// The operations of PCG32 that each lane width writes with its own instructions (at the end of

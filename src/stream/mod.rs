@@ -289,6 +289,10 @@ struct Kernels {
     forms: Vec<kernels::surface::Form>,
     /// What rays see of the emitters, for the emission stage in lanes ([`emission`]).
     emission: emission::Lights,
+    /// The light selection's split by kind, the material sort's grouping hint
+    /// ([`kernels::light::x8::kind_split`], [`Batch::sort_by_material`]).
+    #[cfg(target_arch = "x86_64")]
+    light_split: Option<f32>,
 }
 
 /// Which 8-wide kernel shades a material, with what it needs.
@@ -348,6 +352,7 @@ impl Kernels {
             .collect();
         let off = std::env::var_os(Self::ENV).is_some_and(|v| v == "0");
         let lanes = lanes.unwrap_or_else(Self::max_lanes);
+        let lights = kernels::light::LaneLight::table(scene);
         Kernels {
             #[cfg(target_arch = "x86_64")]
             avx: if off || lanes < 8 {
@@ -362,10 +367,25 @@ impl Kernels {
                 crate::lane::Avx512::detect()
             },
             kinds,
-            lights: kernels::light::LaneLight::table(scene),
+            #[cfg(target_arch = "x86_64")]
+            light_split: kernels::light::x8::kind_split(scene, &lights),
+            lights,
             forms: kernels::surface::Form::table(scene),
             emission: emission::Lights::new(scene),
         }
+    }
+
+    /// The material sort's light split with the AVX2 token that computes its keys
+    /// ([`Batch::sort_by_material`]): none without the kernels (the lane-by-lane code gains
+    /// nothing from the grouping) or without a split.
+    #[cfg(target_arch = "x86_64")]
+    fn light_key(&self) -> Option<(crate::lane::Avx2, f32)> {
+        Some((self.avx?, self.light_split?))
+    }
+
+    #[cfg(not(target_arch = "x86_64"))]
+    fn light_key(&self) -> Option<(core::convert::Infallible, f32)> {
+        None
     }
 
     /// Set to `0`, the environment variable turns the 8-wide kernels off (every path shaded
@@ -585,8 +605,9 @@ fn run_batch(
         batch.next_round();
         emit(scene, cfg, batch, kernels, &mut scratch.rays.counters.lanes);
 
-        // Shading, material by material in the stable order.
-        batch.sort_by_material();
+        // Shading, material by material in the stable order (each material's paths grouped
+        // by the kind of light they will sample, where the scene's selection splits by kind).
+        batch.sort_by_material(kernels.light_key());
         shade(
             scene,
             cfg,

@@ -864,6 +864,52 @@ pub(crate) mod x8 {
         }
     }
 
+    /// The kind of light ([`KINDS`], `KIND_*`) that [`Gather::finish`] samples emitter `e` as
+    /// (0: none, its scalar `sample_direct` lane by lane).
+    fn kind_of(lights: &[Option<LaneLight>], e: u32) -> u32 {
+        let kind = match lights.get(e as usize) {
+            Some(Some(l)) => match l {
+                LaneLight::Triangles { .. } => KIND_TRIANGLE,
+                LaneLight::Rectangle { .. } => KIND_RECTANGLE,
+                LaneLight::Sphere { .. } => KIND_SPHERE,
+                LaneLight::Point { .. } => KIND_POINT,
+                LaneLight::Spot { .. } => KIND_SPOT,
+                LaneLight::Directional { .. } => KIND_DIRECTIONAL,
+                LaneLight::Constant { .. } => KIND_CONSTANT,
+                LaneLight::EnvMap { .. } => KIND_ENVMAP,
+            },
+            _ => 0,
+        };
+        kind as u32
+    }
+
+    /// A threshold `t` on the light selection's number `u_sel` that splits the scene's
+    /// emitters by kind: every emitter that a `u_sel < t` selects is of another kind than
+    /// every one that a `u_sel >= t` selects (`LightSampler::sample`'s counted form: the
+    /// count of CDF entries `<= u_sel` is at least `c` exactly where `cdf[c − 1] <= u_sel`).
+    /// `None` when the selection is not counted ([`SelectMode::Counted`]) or no threshold
+    /// separates the kinds (one kind, or kinds interleaved in the CDF's order).
+    ///
+    /// The material sort uses it as a grouping hint (`Batch::sort_by_material`): paths whose
+    /// next number is on the same side of `t` sample the same kinds of light, so a chunk of
+    /// them skips the other kinds in [`Gather::finish`] (its samplers run per kind some lane
+    /// picked). A hint only: nothing computed depends on it.
+    pub(crate) fn kind_split(scene: &Scene, lights: &[Option<LaneLight>]) -> Option<f32> {
+        let s = Select::new(scene, lights);
+        if s.mode != SelectMode::Counted {
+            return None;
+        }
+        // The counts a number in [0, 1) reaches when the CDF runs from 0 to 1: 1..=n (the
+        // others only make the split a worse hint).
+        let kinds: Vec<u32> = (1..=s.n).map(|c| kind_of(lights, s.emitter[c])).collect();
+        let set = |ks: &[u32]| ks.iter().fold(0u32, |b, &k| b | 1 << k);
+        // The split nearest the middle of the probability among those that separate the kinds.
+        (2..=s.n)
+            .filter(|&c| set(&kinds[..c - 1]) & set(&kinds[c - 1..]) == 0)
+            .map(|c| s.cdf[c - 1])
+            .min_by(|a, b| (a - 0.5).abs().total_cmp(&(b - 0.5).abs()))
+    }
+
     impl<const W: usize> Gather<W> {
         /// Ready for a chunk: no light point in any lane. Only the flags are cleared: the
         /// columns keep the last chunk's values in the lanes that [`Gather::add_x8`] does not
