@@ -187,6 +187,23 @@ impl Rays {
             .intersect8_with(&mut self.buf, n, kind == RayKind::Camera, ray, out);
     }
 
+    /// [`Self::intersect8_with`] of a full packet, `rays[k]`'s hit stored in `rows[k]`
+    /// ([`crate::accel::Accel::intersect8_rows`]: the stream renderer's camera packets, whose
+    /// rays and hits are 8 consecutive paths' own).
+    #[inline]
+    pub fn intersect8_rows(
+        &mut self,
+        scene: &Scene,
+        kind: RayKind,
+        rays: &[Ray; 8],
+        rows: &mut [HitRow; 8],
+    ) {
+        self.count_packet(8, kind, &|k| &rays[k]);
+        scene
+            .accel
+            .intersect8_rows(&mut self.buf, kind == RayKind::Camera, rays, rows);
+    }
+
     /// The nearest hit of one ray as the accelerator reports it (no surface interaction yet),
     /// counted as `kind`.
     #[inline]

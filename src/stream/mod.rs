@@ -983,7 +983,23 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, 
         // (Embree's packet, or tier A's rows loaded in place and its hits' rows built in
         // lanes).
         let (active, ray, hit) = (&batch.active, &batch.ray, &mut batch.hit);
-        for chunk in active.chunks(8) {
+        // Every path active (the camera rays): `active` is ascending and distinct, so as
+        // long as the batch it is 0, 1, … in order, and its full packets of 8 read their rays
+        // from, and store their hits' rows into, the columns' own 8 consecutive entries.
+        let whole = if active.len() == ray.len() {
+            ray.len().min(hit.len()) / 8 * 8
+        } else {
+            0
+        };
+        for (r, h) in ray[..whole]
+            .chunks_exact(8)
+            .zip(hit[..whole].chunks_exact_mut(8))
+        {
+            let r: &[Ray; 8] = r.try_into().expect("8 rays");
+            let h: &mut [HitRow; 8] = h.try_into().expect("8 rows");
+            rays.intersect8_rows(scene, kind, r, h);
+        }
+        for chunk in active[whole..].chunks(8) {
             let ray = |k: usize| &ray[chunk[k] as usize];
             rays.intersect8_with(scene, chunk.len(), kind, ray, |k, h| {
                 hit[chunk[k] as usize] = h;
