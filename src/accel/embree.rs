@@ -1790,44 +1790,8 @@ impl EmbreeScene {
         buf: &mut RayBuf,
         mut out: impl FnMut(usize, HitRow),
     ) {
-        let mut ctx = Self::stream_context(coherent);
-        let rh = &mut buf.rh[..buf.n];
-        for part in rh.chunks_mut(u32::MAX as usize) {
-            // SAFETY: the scene is committed; `part` holds `part.len()` ray-hits of
-            // `RTCRayHit`'s size and 16-byte alignment, which is the stride given.
-            unsafe {
-                rtcIntersect1M(
-                    self.scene,
-                    &mut ctx,
-                    part.as_mut_ptr(),
-                    part.len() as u32,
-                    std::mem::size_of::<RTCRayHit>(),
-                )
-            };
-        }
-        // With AVX2 each hit's row is one blend and one permute of its words
-        // (`Avx2::embree_hit_row`), and the rows are handed on inside the AVX2 region (the
-        // caller's store of a row is then one 32-byte store).
-        #[cfg(target_arch = "x86_64")]
-        if let Some(avx) = self.avx {
-            return avx.run(
-                #[inline(always)]
-                || {
-                    for (k, rh) in rh.iter().enumerate() {
-                        let h = &rh.hit;
-                        let row = if h.geomID == HitRow::MISS {
-                            HitRow::NONE
-                        } else if h.primID == UNSURE {
-                            self.settled_row(rh)
-                        } else {
-                            HitRow(avx.embree_hit_row(hit_words(h), rh.ray.tfar))
-                        };
-                        out(k, row);
-                    }
-                },
-            );
-        }
-        for (k, rh) in rh.iter().enumerate() {
+        self.trace_filled(coherent, buf);
+        for (k, rh) in buf.rh[..buf.n].iter().enumerate() {
             let (r, h) = (&rh.ray, &rh.hit);
             let row = if h.geomID == HitRow::MISS {
                 HitRow::NONE
@@ -1847,6 +1811,66 @@ impl EmbreeScene {
                 ])
             };
             out(k, row);
+        }
+    }
+
+    /// [`Self::intersect_filled`] with each ray's row stored in place: the `k`-th ray's in
+    /// `rows[ids[k]]` (`ids` holds at least as many as the stream: the stream renderer's
+    /// active paths, `rows` its hit column), and `map` applied to each row of a hit on an
+    /// instance (the caller's mapping of instances). With AVX2 a hit's row is one blend, one
+    /// permute and one 32-byte store ([`crate::lane::Avx2::embree_hit_row`]) inside the AVX2
+    /// region; handed on by value, the row was taken apart into its words again.
+    pub(crate) fn intersect_filled_into(
+        &self,
+        coherent: bool,
+        buf: &mut RayBuf,
+        ids: &[u32],
+        rows: &mut [HitRow],
+        map: impl Fn(HitRow) -> HitRow,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = self.avx {
+            self.trace_filled(coherent, buf);
+            let rh = &buf.rh[..buf.n];
+            return avx.run(
+                #[inline(always)]
+                || {
+                    for (rh, &i) in rh.iter().zip(ids) {
+                        let (h, slot) = (&rh.hit, &mut rows[i as usize]);
+                        if h.geomID == HitRow::MISS {
+                            *slot = HitRow::NONE;
+                        } else if h.primID == UNSURE {
+                            *slot = map(self.settled_row(rh));
+                        } else {
+                            avx.embree_hit_row(hit_words(h), rh.ray.tfar, &mut slot.0);
+                            if h.instID[0] != u32::MAX {
+                                *slot = map(*slot);
+                            }
+                        }
+                    }
+                },
+            );
+        }
+        self.intersect_filled(coherent, buf, |k, row| rows[ids[k] as usize] = map(row));
+    }
+
+    /// Traces the rays [`RayBuf::fill`] put in `buf` as one `rtcIntersect1M` stream (each
+    /// ray-hit's hit and tfar then hold its nearest hit, if any).
+    fn trace_filled(&self, coherent: bool, buf: &mut RayBuf) {
+        let mut ctx = Self::stream_context(coherent);
+        let rh = &mut buf.rh[..buf.n];
+        for part in rh.chunks_mut(u32::MAX as usize) {
+            // SAFETY: the scene is committed; `part` holds `part.len()` ray-hits of
+            // `RTCRayHit`'s size and 16-byte alignment, which is the stride given.
+            unsafe {
+                rtcIntersect1M(
+                    self.scene,
+                    &mut ctx,
+                    part.as_mut_ptr(),
+                    part.len() as u32,
+                    std::mem::size_of::<RTCRayHit>(),
+                )
+            };
         }
     }
 
@@ -1880,7 +1904,7 @@ impl EmbreeScene {
         let mut ctx = Self::stream_context(coherent);
         let rh = &mut buf.rh[..buf.n];
         for part in rh.chunks_mut(u32::MAX as usize) {
-            // SAFETY: as in `intersect_filled`; each ray is the first member of its
+            // SAFETY: as in `trace_filled`; each ray is the first member of its
             // `RTCRayHit` (`repr(C)`), so the rays lie `size_of::<RTCRayHit>()` bytes apart, and
             // the hit after each (geomID invalid) is what Embree's stream filter reads past it.
             unsafe {
@@ -2049,8 +2073,9 @@ mod tests {
                 });
                 want[k] = HitRow::new(hit);
                 if let Some(x) = hit {
-                    let row = avx.run(|| avx.embree_hit_row(hit_words(&h), tfar));
-                    assert_eq!(row, want[k].0, "hit {c}.{k}: {h:?}, tfar {tfar:?}");
+                    let mut row = HitRow([7; 8]);
+                    avx.run(|| avx.embree_hit_row(hit_words(&h), tfar, &mut row.0));
+                    assert_eq!(row, want[k], "hit {c}.{k}: {h:?}, tfar {tfar:?}");
                     unsure |= u32::from(x.prim == UNSURE) << k;
                     on_inst |= u32::from(x.inst != u32::MAX) << k;
                 }
@@ -2263,6 +2288,29 @@ mod tests {
                 scene.intersect_filled(false, &mut buf, |k, row| {
                     assert_eq!(row, single[k], "{dz} stream ray {k}");
                 });
+                // The full packets' rows stored in place (`intersect8_rows`), and the stream's
+                // (`intersect_filled_into`, ray `k`'s row at `ids[k]`, here reversed; the
+                // other rows kept), with no instance to map.
+                for (c, chunk) in rays.chunks_exact(8).enumerate() {
+                    let mut rows = [HitRow([7; 8]); 8];
+                    let on_inst = scene.intersect8_rows(
+                        &mut buf,
+                        c % 2 == 0,
+                        chunk.try_into().unwrap(),
+                        &mut rows,
+                    );
+                    assert_eq!(rows[..], single[8 * c..8 * c + 8], "{dz} packet {c} (rows)");
+                    assert_eq!(on_inst, 0, "{dz} packet {c}: no instance");
+                }
+                let half = rays.len() / 2;
+                buf.fill(rays[..half].iter().rev());
+                let ids: Vec<u32> = (0..half as u32).rev().collect();
+                let mut rows = vec![HitRow([7; 8]); rays.len()];
+                scene.intersect_filled_into(false, &mut buf, &ids, &mut rows, |_| {
+                    panic!("no instance")
+                });
+                assert_eq!(rows[..half], single[..half], "{dz} stream in place");
+                assert!(rows[half..].iter().all(|r| *r == HitRow([7; 8])));
                 for ray in &rays {
                     let h = scene.intersect(ray.o, ray.d, ray.tmin, ray.tmax).unwrap();
                     let r = PlanarData::new(&Mat4::IDENTITY, true)

@@ -524,6 +524,26 @@ impl Accel {
         }
     }
 
+    /// [`Self::intersect_filled`] with each ray's row stored in place: the `k`-th ray's in
+    /// `rows[ids[k]]` (`ids` at least as long as the stream: the stream renderer's active
+    /// paths and hit column). Under Embree with AVX2 each hit's row is built and stored in
+    /// lanes ([`embree::EmbreeScene::intersect_filled_into`]), and only the rows on an
+    /// instance go through [`Self::world_row`].
+    pub fn intersect_filled_into(
+        &self,
+        coherent: bool,
+        buf: &mut RayBuf,
+        ids: &[u32],
+        rows: &mut [HitRow],
+    ) {
+        match (&self.brute, &self.scene) {
+            (None, Some(s)) => {
+                s.intersect_filled_into(coherent, &mut buf.0, ids, rows, |r| self.world_row(r))
+            }
+            _ => self.intersect_filled(coherent, buf, |k, row| rows[ids[k] as usize] = row),
+        }
+    }
+
     /// [`Self::occluded_stream`] of the rays [`RayBuf::fill`] put in `buf`.
     pub fn occluded_filled(
         &self,

@@ -233,6 +233,31 @@ impl Rays {
         self.intersect_filled(scene, kind, coherent, out);
     }
 
+    /// [`Self::intersect_stream`] with each ray's hit row stored in place: the `k`-th ray's in
+    /// `rows[ids[k]]` ([`crate::accel::Accel::intersect_filled_into`]: the stream renderer's
+    /// bounce rays, `ids` its active paths and `rows` its hit column).
+    #[inline]
+    pub fn intersect_stream_into<'r>(
+        &mut self,
+        scene: &Scene,
+        rays: impl Iterator<Item = &'r Ray>,
+        kind: RayKind,
+        coherent: bool,
+        ids: &[u32],
+        rows: &mut [HitRow],
+    ) {
+        self.fill_stream(rays);
+        self.log_stream(false, kind == RayKind::Camera);
+        let n = self.buf_len();
+        scene
+            .accel
+            .intersect_filled_into(coherent, &mut self.buf, ids, rows);
+        match kind {
+            RayKind::Camera => self.counters.camera += n,
+            RayKind::Bounce => self.counters.bounce += n,
+        }
+    }
+
     /// [`Self::occluded`] of many shadow rays traced as one stream: `out(k, blocked)` for the
     /// `k`-th ray, in order (`coherent` as for [`Self::intersect_stream`]).
     #[inline]

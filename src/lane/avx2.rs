@@ -749,26 +749,26 @@ impl Avx2 {
         }
     }
 
-    /// The hit row (`crate::accel::HitRow`'s words: geom, prim, `tfar`'s bits, u, v, inst, 0,
-    /// 0) of an Embree ray-hit whose ray hit something: `hit` is its `RTCHit`'s eight words in
-    /// Embree's order (Ng.x, Ng.y, Ng.z, u, v, primID, geomID, instID) and `tfar` its ray's.
-    /// `tfar` and a zero word replace Ng.x and Ng.y (one blend), then one permute puts the
-    /// words in the row's order: where the words one by one, from the ray-hit's scattered
-    /// fields, took ~25 instructions a ray of an Embree stream.
+    /// Stores in `out` the hit row (`crate::accel::HitRow`'s words: geom, prim, `tfar`'s
+    /// bits, u, v, inst, 0, 0) of an Embree ray-hit whose ray hit something: `hit` is its
+    /// `RTCHit`'s eight words in Embree's order (Ng.x, Ng.y, Ng.z, u, v, primID, geomID,
+    /// instID) and `tfar` its ray's. `tfar` and a zero word replace Ng.x and Ng.y (one
+    /// blend), one permute puts the words in the row's order, one store writes them: where
+    /// the words one by one, from the ray-hit's scattered fields, took ~25 instructions a ray
+    /// of an Embree stream. (Returned by value instead, the row was taken apart again by the
+    /// compiler into scalar words and stored as five.)
     #[inline(always)]
-    pub fn embree_hit_row(self, hit: &[u32; 8], tfar: f32) -> [u32; 8] {
-        let mut row = [0u32; 8];
+    pub fn embree_hit_row(self, hit: &[u32; 8], tfar: f32, out: &mut [u32; 8]) {
         // SAFETY: the token proves AVX2; the load reads `hit`'s 8 words, the store writes
-        // `row`'s 8.
+        // `out`'s 8.
         unsafe {
             let h = _mm256_loadu_si256(hit.as_ptr().cast());
             let t = _mm256_setr_epi32(tfar.to_bits() as i32, 0, 0, 0, 0, 0, 0, 0);
             // tfar, 0, Ng.z, u, v, primID, geomID, instID.
             let h = _mm256_blend_epi32::<0b11>(h, t);
             let w = _mm256_permutevar8x32_epi32(h, _mm256_setr_epi32(6, 5, 0, 3, 4, 7, 1, 1));
-            _mm256_storeu_si256(row.as_mut_ptr().cast(), w);
+            _mm256_storeu_si256(out.as_mut_ptr().cast(), w);
         }
-        row
     }
 
     /// Eight lanes' rows of 8 floats from 8 fields in lanes: row `k` is lane `k` of each field,

@@ -965,9 +965,7 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, 
     if let (Some(true), RayKind::Bounce) = (packet, kind) {
         let (active, ray, hit) = (&batch.active, &batch.ray, &mut batch.hit);
         let traced = active.iter().map(|&i| &ray[i as usize]);
-        rays.intersect_stream(scene, traced, kind, false, |k, row| {
-            hit[active[k] as usize] = row;
-        });
+        rays.intersect_stream_into(scene, traced, kind, false, active, hit);
     } else if packet.is_some() && rays.packets16() {
         // 16-ray packets (tier A on AVX-512), read from and written to the path columns as
         // the 8-wide ones below.
