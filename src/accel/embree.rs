@@ -1816,8 +1816,10 @@ impl EmbreeScene {
 
     /// [`Self::intersect_filled`] with each ray's row stored in place: the `k`-th ray's in
     /// `rows[ids[k]]` (`ids` holds at least as many as the stream: the stream renderer's
-    /// active paths, `rows` its hit column), and `map` applied to each row of a hit on an
-    /// instance (the caller's mapping of instances). With AVX2 a hit's row is one blend, one
+    /// active paths, `rows` its hit column). `map` is the caller's mapping of instances,
+    /// which must leave a row without an instance as it is ([`crate::accel::Accel`]'s
+    /// `world_row`): it is applied to each hit on an instance and each settled hit, and
+    /// without AVX2 to every row. With AVX2 a hit's row is one blend, one
     /// permute and one 32-byte store ([`crate::lane::Avx2::embree_hit_row`]) inside the AVX2
     /// region; handed on by value, the row was taken apart into its words again.
     pub(crate) fn intersect_filled_into(
@@ -2050,7 +2052,7 @@ mod tests {
             let mut p = EMPTY8;
             let mut want = [HitRow::NONE; 8];
             let (mut unsure, mut on_inst) = (0u32, 0u32);
-            for k in 0..8 {
+            for (k, want) in want.iter_mut().enumerate() {
                 let w: [u32; 9] = std::array::from_fn(|_| word(&mut rng));
                 let h = RTCHit {
                     Ng_x: f32::from_bits(w[0]),
@@ -2071,11 +2073,11 @@ mod tests {
                     v: h.v,
                     inst: h.instID[0],
                 });
-                want[k] = HitRow::new(hit);
+                *want = HitRow::new(hit);
                 if let Some(x) = hit {
                     let mut row = HitRow([7; 8]);
                     avx.run(|| avx.embree_hit_row(hit_words(&h), tfar, &mut row.0));
-                    assert_eq!(row, want[k], "hit {c}.{k}: {h:?}, tfar {tfar:?}");
+                    assert_eq!(row, *want, "hit {c}.{k}: {h:?}, tfar {tfar:?}");
                     unsure |= u32::from(x.prim == UNSURE) << k;
                     on_inst |= u32::from(x.inst != u32::MAX) << k;
                 }
@@ -2306,8 +2308,10 @@ mod tests {
                 buf.fill(rays[..half].iter().rev());
                 let ids: Vec<u32> = (0..half as u32).rev().collect();
                 let mut rows = vec![HitRow([7; 8]); rays.len()];
-                scene.intersect_filled_into(false, &mut buf, &ids, &mut rows, |_| {
-                    panic!("no instance")
+                // (`map` sees the settled rows too, none of them on an instance here.)
+                scene.intersect_filled_into(false, &mut buf, &ids, &mut rows, |r| {
+                    assert_eq!(r.inst(), u32::MAX, "no instance");
+                    r
                 });
                 assert_eq!(rows[..half], single[..half], "{dz} stream in place");
                 assert!(rows[half..].iter().all(|r| *r == HitRow([7; 8])));

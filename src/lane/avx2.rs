@@ -756,7 +756,7 @@ impl Avx2 {
     /// blend), one permute puts the words in the row's order, one store writes them: where
     /// the words one by one, from the ray-hit's scattered fields, took ~25 instructions a ray
     /// of an Embree stream. (Returned by value instead, the row was taken apart again by the
-    /// compiler into scalar words and stored as five.)
+    /// compiler into scalar words and stored as six.)
     #[inline(always)]
     pub fn embree_hit_row(self, hit: &[u32; 8], tfar: f32, out: &mut [u32; 8]) {
         // SAFETY: the token proves AVX2; the load reads `hit`'s 8 words, the store writes

@@ -274,8 +274,8 @@ fn packet_and_stream_hits_on_meshes_are_the_single_ray_hits_bit_for_bit() {
     for (c, (r, want)) in all.chunks_exact(8).zip(single.chunks_exact(8)).enumerate() {
         let mut rows = [HitRow([7; 8]); 8];
         accel.intersect8_rows(&mut pbuf, c % 2 == 0, r.try_into().unwrap(), &mut rows);
-        for k in 0..8 {
-            assert_eq!(rows[k], HitRow::new(want[k]), "packet {c} lane {k} (rows)");
+        for (k, (row, w)) in rows.iter().zip(want).enumerate() {
+            assert_eq!(*row, HitRow::new(*w), "packet {c} lane {k} (rows)");
         }
     }
     let mut buf = groove::accel::RayBuf::default();
