@@ -1418,18 +1418,9 @@ impl EmbreeScene {
             let n = n.min(8);
             let rh = &mut buf.packet;
             self.trace8(rh, n, coherent, &ray);
-            let (mut rows, unsure) = Self::hit_rows8(avx, rh);
-            // `settle` changes only a hit whose primitive id is UNSURE (a rectangle's hit over
-            // one of unknown t); the other rows are its hits' as they are.
-            let mut check = unsure & ((1u32 << n) - 1);
-            while check != 0 {
-                let k = check.trailing_zeros() as usize;
-                check &= check - 1;
-                if let Some(h) = rows[k].get() {
-                    let r = ray(k);
-                    rows[k] = HitRow::new(Some(self.settle(h, r.o, r.d, r.tmin)));
-                }
-            }
+            let mut rows = [HitRow::NONE; 8];
+            let (unsure, _) = Self::hit_rows8(avx, rh, &mut rows);
+            self.settle_rows(&mut rows, unsure & ((1u32 << n) - 1), &ray);
             for (k, row) in rows.iter().enumerate().take(n) {
                 out(k, *row);
             }
@@ -1440,14 +1431,69 @@ impl EmbreeScene {
         });
     }
 
-    /// The rows ([`HitRow`]) of a traced packet's 8 lanes, built in lanes: `geom`, `prim`, `t`
-    /// (`tfar`), `u`, `v` and `inst` from the packet's columns, every word but `geom` zeroed in
-    /// a lane without a hit (`geom` invalid: [`HitRow::MISS`], so [`HitRow::NONE`]), two zero
-    /// words; one transpose (the words of [`HitRow::new`] of the lane's hit, bit for bit). Also
-    /// the lanes (bit `k` for lane `k`) whose hit has the primitive id [`UNSURE`].
+    /// [`Self::intersect8_with`] of a full packet, `rays[k]` in lane `k`, its hits' rows
+    /// stored into `rows` (the caller's own, e.g. the stream renderer's hit column) straight
+    /// from the lanes: one 32-byte store a row inside the AVX2 region, where returning the 8
+    /// rows from it cost a 256-byte `memcpy` a packet and handing them on one by one a
+    /// closure call, a reload and a four-part store a lane. Returns the lanes (bit `k` for
+    /// lane `k`) whose hit is on an instance (the caller maps them, as the rows hold the
+    /// scene's own ids). Without AVX2, through [`Self::intersect8_with`].
+    #[inline(always)]
+    pub(crate) fn intersect8_rows(
+        &self,
+        buf: &mut RayBuf,
+        coherent: bool,
+        rays: &[Ray; 8],
+        rows: &mut [HitRow; 8],
+    ) -> u32 {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = self.avx {
+            let rh = &mut buf.packet;
+            self.trace8(rh, 8, coherent, |k| &rays[k]);
+            let (unsure, mut on_inst) = Self::hit_rows8(avx, rh, rows);
+            if unsure != 0 {
+                self.settle_rows(rows, unsure, |k| &rays[k]);
+                // A settled hit is a new hit (perhaps on an instance).
+                for k in (0..8).filter(|k| unsure >> k & 1 != 0) {
+                    let on = rows[k].is_hit() && rows[k].inst() != u32::MAX;
+                    on_inst = on_inst & !(1 << k) | u32::from(on) << k;
+                }
+            }
+            return on_inst;
+        }
+        self.intersect8_with(buf, 8, coherent, |k| &rays[k], |k, row| rows[k] = row);
+        (0..8).fold(0, |m, k| {
+            let on = rows[k].is_hit() && rows[k].inst() != u32::MAX;
+            m | u32::from(on) << k
+        })
+    }
+
+    /// Settles ([`Self::settle`]) the rows of the lanes `lanes` (bit `k` for lane `k`, each ray
+    /// `ray(k)`): `settle` changes only a hit whose primitive id is UNSURE (a rectangle's hit
+    /// over one of unknown t), so the other rows are their hits' as they are.
+    #[inline(always)]
+    fn settle_rows<'r>(&self, rows: &mut [HitRow; 8], lanes: u32, ray: impl Fn(usize) -> &'r Ray) {
+        let mut check = lanes & 0xff;
+        while check != 0 {
+            let k = check.trailing_zeros() as usize;
+            check &= check - 1;
+            if let Some(h) = rows[k].get() {
+                let r = ray(k);
+                rows[k] = HitRow::new(Some(self.settle(h, r.o, r.d, r.tmin)));
+            }
+        }
+    }
+
+    /// The rows ([`HitRow`]) of a traced packet's 8 lanes, built in lanes and stored in `rows`:
+    /// `geom`, `prim`, `t` (`tfar`), `u`, `v` and `inst` from the packet's columns, every word
+    /// but `geom` zeroed in a lane without a hit (`geom` invalid: [`HitRow::MISS`], so
+    /// [`HitRow::NONE`]), two zero words; one transpose and one store a row, inside the AVX2
+    /// region (the words of [`HitRow::new`] of the lane's hit, bit for bit). Returns the lanes
+    /// (bit `k` for lane `k`) whose hit has the primitive id [`UNSURE`], and those whose hit is
+    /// on an instance (`inst` valid).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn hit_rows8(avx: crate::lane::Avx2, rh: &RTCRayHit8) -> ([HitRow; 8], u32) {
+    fn hit_rows8(avx: crate::lane::Avx2, rh: &RTCRayHit8, rows: &mut [HitRow; 8]) -> (u32, u32) {
         use crate::lane::{F32x8, Lane, LaneI32};
         avx.run(
             #[inline(always)]
@@ -1462,9 +1508,11 @@ impl EmbreeScene {
                 let v = LaneI32::select(miss, z, avx.load(&h.v).to_bits());
                 let inst = LaneI32::select(miss, z, avx.load_u32(&h.instID[0]));
                 let unsure = prim.eq(prim.splat(UNSURE as i32)).bits();
+                // A miss lane's inst is 0 here: only a hit's is tested.
+                let on_inst = !inst.eq(inst.splat(-1)).bits() & !miss.bits() & 0xff;
                 // Written out, not `array::map` (compiled out of line, it would call the
                 // casts' intrinsics).
-                let rows = avx.rows8([
+                let words = F32x8::transpose8([
                     F32x8::from_bits(geom),
                     F32x8::from_bits(prim),
                     F32x8::from_bits(t),
@@ -1474,7 +1522,10 @@ impl EmbreeScene {
                     F32x8::from_bits(z),
                     F32x8::from_bits(z),
                 ]);
-                (rows.map(|r| HitRow(r.map(f32::to_bits))), unsure)
+                for k in 0..8 {
+                    words[k].store_bits(&mut rows[k].0);
+                }
+                (unsure, on_inst)
             },
         )
     }
@@ -1593,6 +1644,24 @@ fn ray_floats(slot: &mut RTCRayHit) -> &mut [f32; 12] {
     // above) at 16-byte alignment, so it is a valid `[f32; 12]` to write; any bits written are
     // valid values of its f32 and u32 fields. The borrow is `slot`'s.
     unsafe { &mut *(&mut slot.ray as *mut RTCRay).cast::<[f32; 12]>() }
+}
+
+// `hit_words` reads an `RTCHit` as 8 four-byte words in Embree's order (Ng.x, Ng.y, Ng.z, u, v,
+// primID, geomID, instID), with no padding.
+const _: () = assert!(std::mem::size_of::<RTCHit>() == 32);
+const _: () = assert!(std::mem::offset_of!(RTCHit, u) == 12);
+const _: () = assert!(std::mem::offset_of!(RTCHit, primID) == 20);
+const _: () = assert!(std::mem::offset_of!(RTCHit, geomID) == 24);
+const _: () = assert!(std::mem::offset_of!(RTCHit, instID) == 28);
+
+/// The hit half of a ray-hit as the 8 words [`crate::lane::Avx2::embree_hit_row`] reads.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn hit_words(hit: &RTCHit) -> &[u32; 8] {
+    // SAFETY: `RTCHit` is `repr(C)`, 32 bytes of 8 four-byte fields (f32 and u32, asserted
+    // above) at 16-byte alignment, so it is a valid `[u32; 8]` to read (any f32's bits are a
+    // valid u32). The borrow is `hit`'s.
+    unsafe { &*(hit as *const RTCHit).cast::<[u32; 8]>() }
 }
 
 /// An empty packet: every ray field zero but the mask (all bits), every hit id invalid.
@@ -1721,38 +1790,13 @@ impl EmbreeScene {
         buf: &mut RayBuf,
         mut out: impl FnMut(usize, HitRow),
     ) {
-        let mut ctx = Self::stream_context(coherent);
-        let rh = &mut buf.rh[..buf.n];
-        for part in rh.chunks_mut(u32::MAX as usize) {
-            // SAFETY: the scene is committed; `part` holds `part.len()` ray-hits of
-            // `RTCRayHit`'s size and 16-byte alignment, which is the stride given.
-            unsafe {
-                rtcIntersect1M(
-                    self.scene,
-                    &mut ctx,
-                    part.as_mut_ptr(),
-                    part.len() as u32,
-                    std::mem::size_of::<RTCRayHit>(),
-                )
-            };
-        }
-        for (k, rh) in rh.iter().enumerate() {
+        self.trace_filled(coherent, buf);
+        for (k, rh) in buf.rh[..buf.n].iter().enumerate() {
             let (r, h) = (&rh.ray, &rh.hit);
             let row = if h.geomID == HitRow::MISS {
                 HitRow::NONE
             } else if h.primID == UNSURE {
-                let hit = Hit {
-                    geom: h.geomID,
-                    prim: h.primID,
-                    t: r.tfar,
-                    u: h.u,
-                    v: h.v,
-                    inst: h.instID[0],
-                };
-                // Embree leaves org and dir as given.
-                let o = Vec3::new(r.org_x, r.org_y, r.org_z);
-                let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
-                HitRow::new(Some(self.settle(hit, o, d, r.tnear)))
+                self.settled_row(rh)
             } else {
                 // `HitRow::new`'s words.
                 HitRow([
@@ -1770,6 +1814,87 @@ impl EmbreeScene {
         }
     }
 
+    /// [`Self::intersect_filled`] with each ray's row stored in place: the `k`-th ray's in
+    /// `rows[ids[k]]` (`ids` holds at least as many as the stream: the stream renderer's
+    /// active paths, `rows` its hit column). `map` is the caller's mapping of instances,
+    /// which must leave a row without an instance as it is ([`crate::accel::Accel`]'s
+    /// `world_row`): it is applied to each hit on an instance and each settled hit, and
+    /// without AVX2 to every row. With AVX2 a hit's row is one blend, one
+    /// permute and one 32-byte store ([`crate::lane::Avx2::embree_hit_row`]) inside the AVX2
+    /// region; handed on by value, the row was taken apart into its words again.
+    pub(crate) fn intersect_filled_into(
+        &self,
+        coherent: bool,
+        buf: &mut RayBuf,
+        ids: &[u32],
+        rows: &mut [HitRow],
+        map: impl Fn(HitRow) -> HitRow,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = self.avx {
+            self.trace_filled(coherent, buf);
+            let rh = &buf.rh[..buf.n];
+            return avx.run(
+                #[inline(always)]
+                || {
+                    for (rh, &i) in rh.iter().zip(ids) {
+                        let (h, slot) = (&rh.hit, &mut rows[i as usize]);
+                        if h.geomID == HitRow::MISS {
+                            *slot = HitRow::NONE;
+                        } else if h.primID == UNSURE {
+                            *slot = map(self.settled_row(rh));
+                        } else {
+                            avx.embree_hit_row(hit_words(h), rh.ray.tfar, &mut slot.0);
+                            if h.instID[0] != u32::MAX {
+                                *slot = map(*slot);
+                            }
+                        }
+                    }
+                },
+            );
+        }
+        self.intersect_filled(coherent, buf, |k, row| rows[ids[k] as usize] = map(row));
+    }
+
+    /// Traces the rays [`RayBuf::fill`] put in `buf` as one `rtcIntersect1M` stream (each
+    /// ray-hit's hit and tfar then hold its nearest hit, if any).
+    fn trace_filled(&self, coherent: bool, buf: &mut RayBuf) {
+        let mut ctx = Self::stream_context(coherent);
+        let rh = &mut buf.rh[..buf.n];
+        for part in rh.chunks_mut(u32::MAX as usize) {
+            // SAFETY: the scene is committed; `part` holds `part.len()` ray-hits of
+            // `RTCRayHit`'s size and 16-byte alignment, which is the stride given.
+            unsafe {
+                rtcIntersect1M(
+                    self.scene,
+                    &mut ctx,
+                    part.as_mut_ptr(),
+                    part.len() as u32,
+                    std::mem::size_of::<RTCRayHit>(),
+                )
+            };
+        }
+    }
+
+    /// The row of a traced ray-hit whose hit has the primitive id [`UNSURE`], settled
+    /// ([`Self::settle`]).
+    #[inline(always)]
+    fn settled_row(&self, rh: &RTCRayHit) -> HitRow {
+        let (r, h) = (&rh.ray, &rh.hit);
+        let hit = Hit {
+            geom: h.geomID,
+            prim: h.primID,
+            t: r.tfar,
+            u: h.u,
+            v: h.v,
+            inst: h.instID[0],
+        };
+        // Embree leaves org and dir as given.
+        let o = Vec3::new(r.org_x, r.org_y, r.org_z);
+        let d = Vec3::new(r.dir_x, r.dir_y, r.dir_z);
+        HitRow::new(Some(self.settle(hit, o, d, r.tnear)))
+    }
+
     /// Occlusion of the rays [`RayBuf::fill`] put in `buf`, traced as one `rtcOccluded1M`
     /// stream: `out(k, blocked)` for the `k`-th ray, in order.
     pub(crate) fn occluded_filled(
@@ -1781,7 +1906,7 @@ impl EmbreeScene {
         let mut ctx = Self::stream_context(coherent);
         let rh = &mut buf.rh[..buf.n];
         for part in rh.chunks_mut(u32::MAX as usize) {
-            // SAFETY: as in `intersect_filled`; each ray is the first member of its
+            // SAFETY: as in `trace_filled`; each ray is the first member of its
             // `RTCRayHit` (`repr(C)`), so the rays lie `size_of::<RTCRayHit>()` bytes apart, and
             // the hit after each (geomID invalid) is what Embree's stream filter reads past it.
             unsafe {
@@ -1900,6 +2025,71 @@ mod tests {
                 packet_bytes(&slow),
                 "packet {c}, {n} rays"
             );
+        }
+    }
+
+    /// The hit rows built in lanes (a stream's, [`crate::lane::Avx2::embree_hit_row`]; a
+    /// packet's, [`EmbreeScene::hit_rows8`], with its unsure and instance lanes) have the
+    /// words [`HitRow::new`] gives the hit, for hits whose fields are any bits (NaNs,
+    /// infinities, subnormals), misses among them in the packets.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn hit_rows_in_lanes_have_the_fields_bits() {
+        let Some(avx) = crate::lane::Avx2::detect() else {
+            eprintln!("no AVX2: skipped");
+            return;
+        };
+        let mut rng = crate::math::Pcg32::new(29, 5);
+        let word = |rng: &mut crate::math::Pcg32| match rng.next_u32() % 8 {
+            0 => u32::MAX,
+            1 => UNSURE,
+            2 => 0,
+            3 => f32::NAN.to_bits(),
+            4 => 1,
+            _ => rng.next_u32(),
+        };
+        for c in 0..400 {
+            let mut p = EMPTY8;
+            let mut want = [HitRow::NONE; 8];
+            let (mut unsure, mut on_inst) = (0u32, 0u32);
+            for (k, want) in want.iter_mut().enumerate() {
+                let w: [u32; 9] = std::array::from_fn(|_| word(&mut rng));
+                let h = RTCHit {
+                    Ng_x: f32::from_bits(w[0]),
+                    Ng_y: f32::from_bits(w[1]),
+                    Ng_z: f32::from_bits(w[2]),
+                    u: f32::from_bits(w[3]),
+                    v: f32::from_bits(w[4]),
+                    primID: w[5],
+                    geomID: if c % 3 == 0 { w[6] } else { w[6] & 0xff },
+                    instID: [w[7]],
+                };
+                let tfar = f32::from_bits(w[8]);
+                let hit = (h.geomID != HitRow::MISS).then_some(Hit {
+                    geom: h.geomID,
+                    prim: h.primID,
+                    t: tfar,
+                    u: h.u,
+                    v: h.v,
+                    inst: h.instID[0],
+                });
+                *want = HitRow::new(hit);
+                if let Some(x) = hit {
+                    let mut row = HitRow([7; 8]);
+                    avx.run(|| avx.embree_hit_row(hit_words(&h), tfar, &mut row.0));
+                    assert_eq!(row, *want, "hit {c}.{k}: {h:?}, tfar {tfar:?}");
+                    unsure |= u32::from(x.prim == UNSURE) << k;
+                    on_inst |= u32::from(x.inst != u32::MAX) << k;
+                }
+                (p.hit.Ng_x[k], p.hit.Ng_y[k], p.hit.Ng_z[k]) = (h.Ng_x, h.Ng_y, h.Ng_z);
+                (p.hit.u[k], p.hit.v[k], p.ray.tfar[k]) = (h.u, h.v, tfar);
+                (p.hit.primID[k], p.hit.geomID[k], p.hit.instID[0][k]) =
+                    (h.primID, h.geomID, h.instID[0]);
+            }
+            let mut rows = [HitRow([7; 8]); 8];
+            let lanes = EmbreeScene::hit_rows8(avx, &p, &mut rows);
+            assert_eq!(rows, want, "packet {c}");
+            assert_eq!(lanes, (unsure, on_inst), "packet {c}'s lanes");
         }
     }
 
@@ -2100,6 +2290,31 @@ mod tests {
                 scene.intersect_filled(false, &mut buf, |k, row| {
                     assert_eq!(row, single[k], "{dz} stream ray {k}");
                 });
+                // The full packets' rows stored in place (`intersect8_rows`), and the stream's
+                // (`intersect_filled_into`, ray `k`'s row at `ids[k]`, here reversed; the
+                // other rows kept), with no instance to map.
+                for (c, chunk) in rays.chunks_exact(8).enumerate() {
+                    let mut rows = [HitRow([7; 8]); 8];
+                    let on_inst = scene.intersect8_rows(
+                        &mut buf,
+                        c % 2 == 0,
+                        chunk.try_into().unwrap(),
+                        &mut rows,
+                    );
+                    assert_eq!(rows[..], single[8 * c..8 * c + 8], "{dz} packet {c} (rows)");
+                    assert_eq!(on_inst, 0, "{dz} packet {c}: no instance");
+                }
+                let half = rays.len() / 2;
+                buf.fill(rays[..half].iter().rev());
+                let ids: Vec<u32> = (0..half as u32).rev().collect();
+                let mut rows = vec![HitRow([7; 8]); rays.len()];
+                // (`map` sees the settled rows too, none of them on an instance here.)
+                scene.intersect_filled_into(false, &mut buf, &ids, &mut rows, |r| {
+                    assert_eq!(r.inst(), u32::MAX, "no instance");
+                    r
+                });
+                assert_eq!(rows[..half], single[..half], "{dz} stream in place");
+                assert!(rows[half..].iter().all(|r| *r == HitRow([7; 8])));
                 for ray in &rays {
                     let h = scene.intersect(ray.o, ray.d, ray.tmin, ray.tmax).unwrap();
                     let r = PlanarData::new(&Mat4::IDENTITY, true)

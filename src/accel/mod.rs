@@ -409,6 +409,33 @@ impl Accel {
         }
     }
 
+    /// [`Self::intersect8_with`] of a full packet, `rays[k]`'s hit stored in `rows[k]` (the
+    /// stream renderer's camera packets, whose paths are consecutive: `rows` is its own hit
+    /// column). Under Embree with AVX2 the rows are stored from the lanes
+    /// ([`embree::EmbreeScene::intersect8_rows`]), and only the rows on an instance go
+    /// through [`Self::world_row`]; tier A, and Embree without AVX2, as
+    /// [`Self::intersect8_with`].
+    #[inline(always)]
+    pub fn intersect8_rows(
+        &self,
+        buf: &mut RayBuf,
+        coherent: bool,
+        rays: &[Ray; 8],
+        rows: &mut [HitRow; 8],
+    ) {
+        match (&self.brute, &self.scene) {
+            (None, Some(s)) => {
+                let mut on_inst = s.intersect8_rows(&mut buf.0, coherent, rays, rows);
+                while on_inst != 0 {
+                    let k = on_inst.trailing_zeros() as usize;
+                    on_inst &= on_inst - 1;
+                    rows[k] = self.world_row(rows[k]);
+                }
+            }
+            _ => self.intersect8_with(buf, 8, coherent, |k| &rays[k], |k, row| rows[k] = row),
+        }
+    }
+
     /// [`Self::intersect8`] of up to 16 rays (`out[i]` for `rays[i]`, the others `None`): tier A
     /// traces them as one 16-wide packet on AVX-512 (each lane's hit bit for bit the single
     /// ray's, `tests/scene/tier_a.rs`); Embree, and tier A without AVX-512, as two 8-wide
@@ -494,6 +521,26 @@ impl Accel {
             }
             (Some(b), _) => brute_intersect(b, buf.0.rays(), |k, h| out(k, HitRow::new(h))),
             (None, None) => (0..buf.0.len()).for_each(|k| out(k, HitRow::NONE)),
+        }
+    }
+
+    /// [`Self::intersect_filled`] with each ray's row stored in place: the `k`-th ray's in
+    /// `rows[ids[k]]` (`ids` at least as long as the stream: the stream renderer's active
+    /// paths and hit column). Under Embree with AVX2 each hit's row is built and stored in
+    /// lanes ([`embree::EmbreeScene::intersect_filled_into`]), and only the rows on an
+    /// instance go through [`Self::world_row`].
+    pub fn intersect_filled_into(
+        &self,
+        coherent: bool,
+        buf: &mut RayBuf,
+        ids: &[u32],
+        rows: &mut [HitRow],
+    ) {
+        match (&self.brute, &self.scene) {
+            (None, Some(s)) => {
+                s.intersect_filled_into(coherent, &mut buf.0, ids, rows, |r| self.world_row(r))
+            }
+            _ => self.intersect_filled(coherent, buf, |k, row| rows[ids[k] as usize] = row),
         }
     }
 

@@ -187,6 +187,23 @@ impl Rays {
             .intersect8_with(&mut self.buf, n, kind == RayKind::Camera, ray, out);
     }
 
+    /// [`Self::intersect8_with`] of a full packet, `rays[k]`'s hit stored in `rows[k]`
+    /// ([`crate::accel::Accel::intersect8_rows`]: the stream renderer's camera packets, whose
+    /// rays and hits are 8 consecutive paths' own).
+    #[inline]
+    pub fn intersect8_rows(
+        &mut self,
+        scene: &Scene,
+        kind: RayKind,
+        rays: &[Ray; 8],
+        rows: &mut [HitRow; 8],
+    ) {
+        self.count_packet(8, kind, &|k| &rays[k]);
+        scene
+            .accel
+            .intersect8_rows(&mut self.buf, kind == RayKind::Camera, rays, rows);
+    }
+
     /// The nearest hit of one ray as the accelerator reports it (no surface interaction yet),
     /// counted as `kind`.
     #[inline]
@@ -214,6 +231,31 @@ impl Rays {
     ) {
         self.fill_stream(rays);
         self.intersect_filled(scene, kind, coherent, out);
+    }
+
+    /// [`Self::intersect_stream`] with each ray's hit row stored in place: the `k`-th ray's in
+    /// `rows[ids[k]]` ([`crate::accel::Accel::intersect_filled_into`]: the stream renderer's
+    /// bounce rays, `ids` its active paths and `rows` its hit column).
+    #[inline]
+    pub fn intersect_stream_into<'r>(
+        &mut self,
+        scene: &Scene,
+        rays: impl Iterator<Item = &'r Ray>,
+        kind: RayKind,
+        coherent: bool,
+        ids: &[u32],
+        rows: &mut [HitRow],
+    ) {
+        self.fill_stream(rays);
+        self.log_stream(false, kind == RayKind::Camera);
+        let n = self.buf_len();
+        scene
+            .accel
+            .intersect_filled_into(coherent, &mut self.buf, ids, rows);
+        match kind {
+            RayKind::Camera => self.counters.camera += n,
+            RayKind::Bounce => self.counters.bounce += n,
+        }
     }
 
     /// [`Self::occluded`] of many shadow rays traced as one stream: `out(k, blocked)` for the

@@ -201,6 +201,13 @@ impl F32x8 {
     pub fn store(self, out: &mut [f32; 8]) {
         unsafe { _mm256_storeu_ps(out.as_mut_ptr(), self.0) };
     }
+    /// [`Self::store`] of the lanes' bits as words (rows whose words are not all floats: the
+    /// accelerators' hit rows), one store.
+    #[inline(always)]
+    pub fn store_bits(self, out: &mut [u32; 8]) {
+        // SAFETY: an F32x8 exists only with AVX (module doc); `out` holds 8 four-byte words.
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr().cast(), self.0) };
+    }
 
     /// The 8×8 transpose: lane `k` of output `j` is lane `j` of input `k` (moves only, no
     /// arithmetic; 24 shuffles). Turns 8 fields of 8 lanes into 8 lanes' rows of 8 fields, for
@@ -739,6 +746,28 @@ impl Avx2 {
             let tmax = _mm256_castps256_ps128(_mm256_permutevar8x32_ps(row, _mm256_set1_epi32(7)));
             let rest = _mm_setr_ps(0.0, f32::from_bits(u32::MAX), 0.0, 0.0);
             _mm_storeu_ps(out.as_mut_ptr().add(8), _mm_blend_ps::<0b1010>(tmax, rest));
+        }
+    }
+
+    /// Stores in `out` the hit row (`crate::accel::HitRow`'s words: geom, prim, `tfar`'s
+    /// bits, u, v, inst, 0, 0) of an Embree ray-hit whose ray hit something: `hit` is its
+    /// `RTCHit`'s eight words in Embree's order (Ng.x, Ng.y, Ng.z, u, v, primID, geomID,
+    /// instID) and `tfar` its ray's. `tfar` and a zero word replace Ng.x and Ng.y (one
+    /// blend), one permute puts the words in the row's order, one store writes them: where
+    /// the words one by one, from the ray-hit's scattered fields, took ~25 instructions a ray
+    /// of an Embree stream. (Returned by value instead, the row was taken apart again by the
+    /// compiler into scalar words and stored as six.)
+    #[inline(always)]
+    pub fn embree_hit_row(self, hit: &[u32; 8], tfar: f32, out: &mut [u32; 8]) {
+        // SAFETY: the token proves AVX2; the load reads `hit`'s 8 words, the store writes
+        // `out`'s 8.
+        unsafe {
+            let h = _mm256_loadu_si256(hit.as_ptr().cast());
+            let t = _mm256_setr_epi32(tfar.to_bits() as i32, 0, 0, 0, 0, 0, 0, 0);
+            // tfar, 0, Ng.z, u, v, primID, geomID, instID.
+            let h = _mm256_blend_epi32::<0b11>(h, t);
+            let w = _mm256_permutevar8x32_epi32(h, _mm256_setr_epi32(6, 5, 0, 3, 4, 7, 1, 1));
+            _mm256_storeu_si256(out.as_mut_ptr().cast(), w);
         }
     }
 

@@ -986,9 +986,7 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, 
     if let (Some(true), RayKind::Bounce) = (packet, kind) {
         let (active, ray, hit) = (&batch.active, &batch.ray, &mut batch.hit);
         let traced = active.iter().map(|&i| &ray[i as usize]);
-        rays.intersect_stream(scene, traced, kind, false, |k, row| {
-            hit[active[k] as usize] = row;
-        });
+        rays.intersect_stream_into(scene, traced, kind, false, active, hit);
     } else if packet.is_some() && rays.packets16() {
         // 16-ray packets (tier A on AVX-512), read from and written to the path columns as
         // the 8-wide ones below.
@@ -1004,7 +1002,23 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, 
         // (Embree's packet, or tier A's rows loaded in place and its hits' rows built in
         // lanes).
         let (active, ray, hit) = (&batch.active, &batch.ray, &mut batch.hit);
-        for chunk in active.chunks(8) {
+        // Every path active (the camera rays): `active` is ascending and distinct, so as
+        // long as the batch it is 0, 1, … in order, and its full packets of 8 read their rays
+        // from, and store their hits' rows into, the columns' own 8 consecutive entries.
+        let whole = if active.len() == ray.len() {
+            ray.len().min(hit.len()) / 8 * 8
+        } else {
+            0
+        };
+        for (r, h) in ray[..whole]
+            .chunks_exact(8)
+            .zip(hit[..whole].chunks_exact_mut(8))
+        {
+            let r: &[Ray; 8] = r.try_into().expect("8 rays");
+            let h: &mut [HitRow; 8] = h.try_into().expect("8 rows");
+            rays.intersect8_rows(scene, kind, r, h);
+        }
+        for chunk in active[whole..].chunks(8) {
             let ray = |k: usize| &ray[chunk[k] as usize];
             rays.intersect8_with(scene, chunk.len(), kind, ray, |k, h| {
                 hit[chunk[k] as usize] = h;

@@ -268,6 +268,16 @@ fn packet_and_stream_hits_on_meshes_are_the_single_ray_hits_bit_for_bit() {
         );
         assert_eq!(seen, n);
     }
+    // Full packets of consecutive rays whose rows are stored in place
+    // (`Accel::intersect8_rows`: the stream renderer's camera packets), instances mapped.
+    use groove::accel::HitRow;
+    for (c, (r, want)) in all.chunks_exact(8).zip(single.chunks_exact(8)).enumerate() {
+        let mut rows = [HitRow([7; 8]); 8];
+        accel.intersect8_rows(&mut pbuf, c % 2 == 0, r.try_into().unwrap(), &mut rows);
+        for (k, (row, w)) in rows.iter().zip(want).enumerate() {
+            assert_eq!(*row, HitRow::new(*w), "packet {c} lane {k} (rows)");
+        }
+    }
     let mut buf = groove::accel::RayBuf::default();
     for (s, len) in [3usize, 700, 1024, 2000, 5].into_iter().enumerate() {
         let part = &order[..len];
@@ -289,6 +299,24 @@ fn packet_and_stream_hits_on_meshes_are_the_single_ray_hits_bit_for_bit() {
             );
             seen += 1;
         });
+        // In place (`Accel::intersect_filled_into`: the stream renderer's bounce rays): ray
+        // `k`'s row at `kept[k]`, instances mapped; the rows of the rays left out kept.
+        buf.fill(kept.iter().map(|&k| &all[k]));
+        let ids: Vec<u32> = kept.iter().map(|&k| k as u32).collect();
+        let mut rows = vec![HitRow([7; 8]); all.len()];
+        accel.intersect_filled_into(s % 2 == 1, &mut buf, &ids, &mut rows);
+        let mut stored = vec![false; all.len()];
+        for &k in &kept {
+            stored[k] = true;
+        }
+        for (j, row) in rows.iter().enumerate() {
+            let want = if stored[j] {
+                HitRow::new(single[j])
+            } else {
+                HitRow([7; 8])
+            };
+            assert_eq!(*row, want, "filled stream {s} row {j} (in place)");
+        }
         // The query changed tfar: fill again before the occlusion query.
         buf.fill(kept.iter().map(|&k| &all[k]));
         accel.occluded_filled(false, &mut buf, |k, b| {
