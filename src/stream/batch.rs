@@ -131,6 +131,17 @@ fn fresh_states(state: &mut [PathState]) {
     rest.fill(PathState::NEW);
 }
 
+/// [`Batch::run_end`] from the sort's parts (`binned`, `bins` and the number `n` of sorted
+/// paths), for the walks that hold `sorted` mutably ([`Batch::split_runs`]).
+#[inline(always)]
+fn run_end_of(binned: bool, bins: &[u32], n: usize, m: MatId) -> usize {
+    if binned {
+        bins[m as usize] as usize
+    } else {
+        n
+    }
+}
+
 impl Batch {
     /// Buffers for batches of up to `capacity` (at most [`BATCH`]) paths over materials
     /// `0..materials`.
@@ -528,7 +539,7 @@ impl Batch {
                 let t = avx.splat(split);
                 let mut start = 0;
                 for &m in &self.run_materials {
-                    let end = if binned { bins[m as usize] as usize } else { n };
+                    let end = run_end_of(binned, bins, n, m);
                     let run = &mut sorted[start..end];
                     start = end;
                     if run.len() <= 8 {
@@ -567,11 +578,7 @@ impl Batch {
     /// the run.
     #[inline]
     pub fn run_end(&self, m: MatId) -> usize {
-        if self.binned {
-            self.bins[m as usize] as usize
-        } else {
-            self.sorted.len()
-        }
+        run_end_of(self.binned, &self.bins, self.sorted.len(), m)
     }
 
     /// Keeps in `active` the paths still alive, in ascending order (stable compaction).
