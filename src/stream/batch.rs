@@ -638,17 +638,19 @@ fn compact_from(active: &mut Vec<u32>, alive: &[u32], round: u32, r: usize, mut 
 /// `Vec::push` tests the capacity per id (measured in the emission stage: `docs/bench/README.md`,
 /// seventeenth session, h3).
 pub(crate) struct Ids {
-    buf: Box<[u32; BATCH]>,
+    /// Room for [`BATCH`] ids and 8 slots past them, so that an 8-lane store at any length up
+    /// to `BATCH` fits ([`Ids::buf_mut`]).
+    buf: Box<[u32; BATCH + 8]>,
     len: usize,
 }
 
 impl Ids {
     fn new() -> Ids {
         Ids {
-            buf: vec![0; BATCH]
+            buf: vec![0; BATCH + 8]
                 .into_boxed_slice()
                 .try_into()
-                .expect("BATCH ids"),
+                .expect("BATCH + 8 ids"),
             len: 0,
         }
     }
@@ -678,9 +680,11 @@ impl Ids {
 
     /// The whole buffer, for a pass that appends to several lists with their lengths in
     /// registers (the emission stage's first pass, `emission::x8::classify`): it writes
-    /// `buf[len]` itself, then sets the length with [`Ids::set_len`].
+    /// `buf[len]` itself, then sets the length with [`Ids::set_len`]. [`BATCH`] + 8 slots: a
+    /// compress of 8 lanes at a length below [`BATCH`] (taken `% BATCH`) fits without a bounds
+    /// test.
     #[inline(always)]
-    pub fn buf_mut(&mut self) -> &mut [u32; BATCH] {
+    pub fn buf_mut(&mut self) -> &mut [u32; BATCH + 8] {
         &mut self.buf
     }
 
