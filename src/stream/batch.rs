@@ -297,18 +297,18 @@ impl Batch {
             left -= m;
             #[cfg(target_arch = "x86_64")]
             if let (Some(avx), 8) = (avx, m) {
+                // The streams' columns and the positions appended from the lanes (one
+                // capacity check per column, not one per path; no copy through the stack).
                 let corner = (&cx, &cy);
-                let pos = crate::sampler::for_samples_x8(
+                crate::sampler::for_samples_x8(
                     avx,
                     desc,
                     &pixel,
                     &sample,
                     corner,
                     &mut self.sampler,
+                    &mut self.pos,
                 );
-                // A whole array (one capacity check, not one per path; the positions as one
-                // 64-byte copy).
-                self.pos.extend_from_slice(&pos);
                 continue;
             }
             #[cfg(not(target_arch = "x86_64"))]
