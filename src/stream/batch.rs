@@ -638,14 +638,19 @@ impl Batch {
         avx.run(
             #[inline(always)]
             || {
-                let len = active.len();
+                // The list as a slice held in a local: its pointer and length stay in
+                // registers (through the vector, the compress's stores may alias its
+                // fields, as far as the compiler knows, and both were reloaded and tested
+                // again for every chunk).
+                let ids_in = &mut active[..];
+                let len = ids_in.len();
                 let (mut kept, mut r) = (0, 0);
                 let now = avx.load_u32(&[round; 8]);
                 while r + 8 <= len {
-                    let ids: &[u32; 8] = active[r..r + 8].try_into().expect("8 ids");
+                    let ids: &[u32; 8] = ids_in[r..r + 8].try_into().expect("8 ids");
                     let idv = avx.load_u32(ids);
                     let keep = crate::lane::I32x8::gather_u32(alive, idv).eq(now);
-                    kept = avx.compress_store(idv, keep, &mut active[..], kept);
+                    kept = avx.compress_store(idv, keep, ids_in, kept);
                     r += 8;
                 }
                 compact_from(active, alive, round, r, kept);
