@@ -715,7 +715,9 @@ impl Ids {
     /// If the list holds [`BATCH`] ids.
     #[inline(always)]
     pub fn put(&mut self, i: u32, keep: bool) {
-        self.buf[self.len] = i;
+        // The first `BATCH` slots only (the 8 past them are for `buf_mut`'s compresses): a
+        // full list panics here.
+        self.buf[..BATCH][self.len] = i;
         self.len += keep as usize;
     }
 
