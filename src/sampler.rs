@@ -191,12 +191,17 @@ impl Draw for Stream<'_> {
 pub struct Samplers {
     state: Vec<u64>,
     inc: Vec<u64>,
+    /// Each stream's rest, stored only while some stream has strata (`strata`): then one per
+    /// stream, else empty. A stream without strata never counts a stratified 2-D draw, so its
+    /// rest is always [`Rest::PLAIN`] and is not stored: a batch fill without strata writes
+    /// the two PCG32 columns only (`for_samples_x8`; the third column's 8 rows of 16 bytes
+    /// cost ~19 instructions a chunk of 8 paths).
     rest: Vec<Rest>,
     strata: bool,
 }
 
 /// A [`Sampler`] without its PCG32: its strata and its count of stratified 2-D draws.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Rest {
     strata: Option<(u32, u32, bool)>,
     dim2: u32,
@@ -230,13 +235,33 @@ impl Samplers {
     /// Number of streams.
     #[inline(always)]
     pub fn len(&self) -> usize {
-        self.rest.len()
+        self.state.len()
     }
 
     /// Whether there is no stream.
     #[inline(always)]
     pub fn is_empty(&self) -> bool {
-        self.rest.is_empty()
+        self.state.is_empty()
+    }
+
+    /// Before streams with strata join (`strata`: whether any does): where none had strata
+    /// yet, the rest column starts ([`Self::start_rest`]).
+    #[inline(always)]
+    fn note_strata(&mut self, strata: bool) {
+        if strata && !self.strata {
+            self.start_rest();
+        }
+    }
+
+    /// The rest column started: [`Rest::PLAIN`] for each stream so far (see `rest`), and
+    /// `strata` set. Out of line and cold (once per batch of a stratified render at most):
+    /// the code that draws lane by lane inlines [`Self::set`] into the kernels.
+    #[cold]
+    #[inline(never)]
+    fn start_rest(&mut self) {
+        self.rest.clear();
+        self.rest.resize(self.state.len(), Rest::PLAIN);
+        self.strata = true;
     }
 
     /// Removes every stream (capacities are kept).
@@ -255,33 +280,66 @@ impl Samplers {
             strata: s.strata,
             dim2: s.dim2,
         };
+        self.note_strata(rest.strata.is_some());
         self.state.push(state);
         self.inc.push(inc);
-        self.rest.push(rest);
-        self.strata |= rest.strata.is_some();
+        if self.strata {
+            self.rest.push(rest);
+        }
     }
 
     /// Appends `s`, column by column (one capacity check per column, not per stream).
     #[inline(always)]
     pub fn extend_from(&mut self, s: &[Sampler]) {
+        self.note_strata(s.iter().any(|s| s.strata.is_some()));
         self.state.extend(s.iter().map(|s| s.rng.parts().0));
         self.inc.extend(s.iter().map(|s| s.rng.parts().1));
-        let rest = s.iter().map(|s| Rest {
-            strata: s.strata,
-            dim2: s.dim2,
-        });
-        self.rest.extend(rest);
-        self.strata |= s.iter().any(|s| s.strata.is_some());
+        if self.strata {
+            let rest = s.iter().map(|s| Rest {
+                strata: s.strata,
+                dim2: s.dim2,
+            });
+            self.rest.extend(rest);
+        }
+    }
+
+    /// Appends 8 streams without strata from their PCG32 states and increments in lanes
+    /// ([`crate::lane::Avx2::append_u64`]: each column's 8 lanes stored straight into its
+    /// spare room; no rest stored unless some stream has strata).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn append_plain_x8(
+        &mut self,
+        avx: crate::lane::Avx2,
+        state: crate::lane::U64x8,
+        inc: crate::lane::U64x8,
+    ) {
+        avx.append_u64(&mut self.state, state);
+        avx.append_u64(&mut self.inc, inc);
+        if self.strata {
+            self.rest.extend_from_slice(&[Rest::PLAIN; 8]);
+        }
     }
 
     /// Stream `i`, as a [`Sampler`].
     #[inline(always)]
     pub fn get(&self, i: usize) -> Sampler {
-        let rest = self.rest[i];
+        let rest = self.rest_of(i);
         Sampler {
             rng: Pcg32::from_parts(self.state[i], self.inc[i]),
             strata: rest.strata,
             dim2: rest.dim2,
+        }
+    }
+
+    /// Stream `i`'s rest ([`Rest::PLAIN`] where no stream has strata: not stored, see `rest`).
+    #[inline(always)]
+    fn rest_of(&self, i: usize) -> Rest {
+        if self.strata {
+            self.rest[i]
+        } else {
+            assert!(i < self.state.len(), "stream {i} of {}", self.state.len());
+            Rest::PLAIN
         }
     }
 
@@ -292,9 +350,16 @@ impl Samplers {
             strata: s.strata,
             dim2: s.dim2,
         };
-        self.rest[i] = rest;
-        self.strata |= rest.strata.is_some();
+        self.note_strata(rest.strata.is_some());
         (self.state[i], self.inc[i]) = s.rng.parts();
+        if self.strata {
+            self.rest[i] = rest;
+        } else {
+            debug_assert!(
+                rest == Rest::PLAIN,
+                "a stream without strata has the plain rest"
+            );
+        }
     }
 
     /// Stream `i` as a [`Sampler`] to draw from, written back into the columns when the
@@ -318,7 +383,7 @@ impl Samplers {
     /// Whether stream `i` is plain PCG32 from here on ([`Sampler::plain_parts`] `Some`).
     #[inline(always)]
     pub fn plain(&self, i: usize) -> bool {
-        self.rest[i].plain()
+        self.rest_of(i).plain()
     }
 
     /// Every stream's PCG32 state (to read ahead without drawing: the material sort's hint,
@@ -427,7 +492,7 @@ pub fn sample_generator<L: Lane>(key: L::U64, sample: L::U64) -> Pcg<L> {
 }
 
 /// The streams of 8 paths (pixel `pixel[k]`, sample `sample[k]`), appended to `out` in lane
-/// order, and each one's film position: its pixel corner (`corner`: the x and y columns) plus
+/// order, and each one's film position appended to `pos`: its pixel corner (`corner`: the x and y columns) plus
 /// its first 2-D draw (`next_2d`; the streams in `out` are past it), bit for bit
 /// [`Sampler::for_sample`] then `corner + next_2d()` per path: the keys and the generators
 /// 8-wide (two 64-bit multiplies per `mix64`, two PCG steps), the strata per path, the first
@@ -442,7 +507,8 @@ pub fn for_samples_x8(
     sample: &[u32; 8],
     corner: (&[f32; 8], &[f32; 8]),
     out: &mut Samplers,
-) -> [Vec2; 8] {
+    pos: &mut Vec<Vec2>,
+) {
     // Eight samples of one pixel (every chunk of a render at 8 or more samples per pixel, a
     // multiple of 8): one key, the 1-lane function's, in every lane.
     let key = if pixel.iter().all(|&p| p == pixel[0]) {
@@ -452,32 +518,26 @@ pub fn for_samples_x8(
     };
     let mut rng: Pcg<crate::lane::F32x8> =
         sample_generator(key, avx.load_u64(&sample.map(|s| s as u64)));
-    let keys = key.to_array();
-    let plain = grid(desc).is_none();
-    let mut pos = [Vec2::ZERO; 8];
-    if plain {
-        // `Vec2`'s add, component by component, in lanes; the points written whole.
+    if grid(desc).is_none() {
+        // `Vec2`'s add, component by component, in lanes; the points appended whole.
         let (x, y) = (rng.next_f32(), rng.next_f32());
-        pos = avx.vec2_rows(avx.load(corner.0) + x, avx.load(corner.1) + y);
+        avx.append_vec2_rows(pos, avx.load(corner.0) + x, avx.load(corner.1) + y);
+        // `Sampler::keyed` without a grid: no strata, no 2-D draw spent; the PCG32 columns
+        // as they are, stored from the lanes.
+        let (state, inc) = rng.parts();
+        out.append_plain_x8(avx, state, inc);
+        return;
     }
+    let keys = key.to_array();
     let (state, inc) = rng.parts();
     let (state, inc) = (state.to_array(), inc.to_array());
-    if plain {
-        // `Sampler::keyed` without a grid: no strata, no 2-D draw spent; the PCG32 columns
-        // as they are.
-        out.state.extend_from_slice(&state);
-        out.inc.extend_from_slice(&inc);
-        out.rest.extend_from_slice(&[Rest::PLAIN; 8]);
-        return pos;
-    }
     let mut s: [Sampler; 8] = core::array::from_fn(|k| {
         Sampler::keyed(desc, keys[k], Pcg::from_parts(state[k], inc[k]), sample[k])
     });
-    for (k, (u, s)) in pos.iter_mut().zip(&mut s).enumerate() {
-        *u = Vec2::new(corner.0[k], corner.1[k]) + s.next_2d();
+    for (k, s) in s.iter_mut().enumerate() {
+        pos.push(Vec2::new(corner.0[k], corner.1[k]) + s.next_2d());
     }
     out.extend_from(&s);
-    pos
 }
 
 /// A bijective permutation of `0..n` selected by `seed` (Kensler 2013, "Correlated Multi-Jittered
@@ -768,8 +828,10 @@ mod tests {
                 let cx: [f32; 8] = core::array::from_fn(|k| (pixel[k] % 977) as f32 + 0.3);
                 let cy: [f32; 8] = core::array::from_fn(|k| (sample[k] % 13) as f32 * 1e-3);
                 let corner = (&cx, &cy);
-                let first = avx.run(|| for_samples_x8(avx, d, &pixel, &sample, corner, &mut cols));
-                assert_eq!(cols.len(), 9);
+                let mut first = vec![Vec2::NAN];
+                avx.run(|| for_samples_x8(avx, d, &pixel, &sample, corner, &mut cols, &mut first));
+                assert_eq!((cols.len(), first.len()), (9, 9));
+                let first = &first[1..];
                 let mut got: Vec<Sampler> = (1..9).map(|i| cols.get(i)).collect();
                 for k in 0..8 {
                     let mut want = Sampler::for_sample(d, pixel[k], sample[k]);

@@ -1227,25 +1227,48 @@ impl Avx2 {
         (perm, (row >> 24) as usize)
     }
 
-    // Added in the thirty-second session (h1).
+    // Added in the thirty-fifth session (h1).
 
-    /// The inverse of [`Self::vec2_columns`]: lane `k` of `x` and of `y` as point `k` (moves
-    /// only: each point's fields are its lanes' bits). The batch fill's film positions, added
-    /// in lanes and written as 8 points at once (`sampler::for_samples_x8`).
+    /// Appends the 8 lanes of `v` to `out`, in lane order: one capacity check, two 32-byte
+    /// stores into the vector's spare room, its length advanced by 8 (nothing zero-filled, no
+    /// copy through the stack). The batch fill's PCG32 columns (`sampler::for_samples_x8`),
+    /// which went through an array and `extend_from_slice` (~12 instructions a column of 8).
     #[inline(always)]
-    pub fn vec2_rows(self, x: F32x8, y: F32x8) -> [glam::Vec2; 8] {
-        let mut out = core::mem::MaybeUninit::<[glam::Vec2; 8]>::uninit();
+    pub fn append_u64(self, out: &mut Vec<u64>, v: U64x8) {
+        out.reserve(8);
+        let len = out.len();
+        // SAFETY: the token proves AVX. `reserve` left room for at least 8 more `u64`s past
+        // `len`; the two 32-byte stores write exactly those 8, so the first `len + 8` elements
+        // are initialised when the length is set.
+        unsafe {
+            let p = out.as_mut_ptr().add(len).cast::<__m256i>();
+            _mm256_storeu_si256(p, v.0[0]);
+            _mm256_storeu_si256(p.add(1), v.0[1]);
+            out.set_len(len + 8);
+        }
+    }
+
+    /// The inverse of [`Self::vec2_columns`], appended to `out`: lane `k` of `x` and of `y` as
+    /// point `len + k` (moves only: each point's fields are its lanes' bits), with one
+    /// capacity check, two 32-byte stores into the spare room and the length advanced by 8.
+    /// The batch fill's film positions, added in lanes (`sampler::for_samples_x8`; the
+    /// thirty-second session's form stored them to an array on the stack, which
+    /// `extend_from_slice` then copied).
+    #[inline(always)]
+    pub fn append_vec2_rows(self, out: &mut Vec<glam::Vec2>, x: F32x8, y: F32x8) {
+        out.reserve(8);
+        let len = out.len();
         // SAFETY: the token proves AVX. A `glam::Vec2` is two f32s, x then y, 8 bytes
-        // (asserted below `impl Lane for F32x8`), so `out` is 16 consecutive floats, which the
-        // two stores of 8 initialise (every bit pattern is a valid `f32`).
+        // (asserted below `impl Lane for F32x8`); `reserve` left room for 8 more past `len`,
+        // 16 floats, which the two stores of 8 write (every bit pattern is a valid `f32`).
         unsafe {
             // x0 y0 x1 y1 | x4 y4 x5 y5 and x2 y2 x3 y3 | x6 y6 x7 y7.
             let lo = _mm256_unpacklo_ps(x.0, y.0);
             let hi = _mm256_unpackhi_ps(x.0, y.0);
-            let p = out.as_mut_ptr().cast::<f32>();
+            let p = out.as_mut_ptr().add(len).cast::<f32>();
             _mm256_storeu_ps(p, _mm256_permute2f128_ps::<0x20>(lo, hi));
             _mm256_storeu_ps(p.add(8), _mm256_permute2f128_ps::<0x31>(lo, hi));
-            out.assume_init()
+            out.set_len(len + 8);
         }
     }
 }

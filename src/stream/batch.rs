@@ -131,6 +131,42 @@ fn fresh_states(state: &mut [PathState]) {
     rest.fill(PathState::NEW);
 }
 
+/// At most this many materials are counted one material at a time over the whole list, 8
+/// lanes at a time ([`count_materials`]).
+const FEW_MATERIALS: usize = 8;
+
+/// The counting sort's counts: `bins[m + 1]` = how many of `mats` are material `m`, `bins[0]`
+/// = 0 (`bins` holds one entry per material, plus one). With `avx` and at most
+/// [`FEW_MATERIALS`] materials, one pass over `mats` per material, each a compare and a
+/// subtract per 8 materials (which the compiler vectorises under the AVX2 token): on
+/// metal_plastic (4 materials) the one increment per path through its bin (a load, a bounds
+/// test and a read-modify-write, ~4.5 instructions a path) cost more than the four passes.
+#[inline(always)]
+fn count_materials(avx: Option<Avx>, mats: &[MatId], bins: &mut [u32]) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx) = avx.filter(|_| bins.len() <= FEW_MATERIALS + 1) {
+        return avx.run(
+            #[inline(always)]
+            || {
+                bins[0] = 0;
+                for (k, b) in bins[1..].iter_mut().enumerate() {
+                    let mut c = 0u32;
+                    for &m in mats {
+                        c += (m == k as MatId) as u32;
+                    }
+                    *b = c;
+                }
+            },
+        );
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = avx;
+    bins.fill(0);
+    for &m in mats {
+        bins[m as usize + 1] += 1;
+    }
+}
+
 /// [`Batch::run_end`] from the sort's parts (`binned`, `bins` and the number `n` of sorted
 /// paths), for the walks that hold `sorted` mutably ([`Batch::split_runs`]).
 #[inline(always)]
@@ -297,18 +333,18 @@ impl Batch {
             left -= m;
             #[cfg(target_arch = "x86_64")]
             if let (Some(avx), 8) = (avx, m) {
+                // The streams' columns and the positions appended from the lanes (one
+                // capacity check per column, not one per path; no copy through the stack).
                 let corner = (&cx, &cy);
-                let pos = crate::sampler::for_samples_x8(
+                crate::sampler::for_samples_x8(
                     avx,
                     desc,
                     &pixel,
                     &sample,
                     corner,
                     &mut self.sampler,
+                    &mut self.pos,
                 );
-                // A whole array (one capacity check, not one per path; the positions as one
-                // 64-byte copy).
-                self.pos.extend_from_slice(&pos);
                 continue;
             }
             #[cfg(not(target_arch = "x86_64"))]
@@ -450,7 +486,7 @@ impl Batch {
     /// their ascending path order), and lists each run's material in `run_materials`. Returns
     /// whether `sorted` holds more than one material.
     ///
-    /// With `light` (the AVX2 token and the light selection's split by kind,
+    /// With `avx` (the AVX2 token) and `light` (the light selection's split by kind,
     /// `kernels::light::x8::kind_split`), each run of more than 8 paths is then partitioned
     /// stably ([`Self::split_runs`]): first its paths whose stream's next number (`u_sel`,
     /// the first number a vertex that takes a light sample draws, `kernels::draws`) is below
@@ -464,9 +500,12 @@ impl Batch {
     /// spp a chunk was one pixel's eight samples, which picked the rectangle light and the sky
     /// in nearly every chunk). The look ahead is a hint only: a stream that is not plain PCG32,
     /// or a vertex that draws no light sample, only makes the grouping worse.
-    pub fn sort_by_material(&mut self, light: Option<(Avx, f32)>) -> bool {
-        let many = self.sort_runs();
-        if let Some((avx, split)) = light {
+    ///
+    /// With `avx`, the counting sort counts the materials of a scene with few of them 8 lanes
+    /// at a time ([`count_materials`]); `light` without `avx` is not used.
+    pub fn sort_by_material(&mut self, avx: Option<Avx>, light: Option<f32>) -> bool {
+        let many = self.sort_runs(avx);
+        if let (Some(avx), Some(split)) = (avx, light) {
             self.split_runs(avx, split);
         }
         many
@@ -474,7 +513,7 @@ impl Batch {
 
     /// [`Self::sort_by_material`]'s counting sort.
     #[inline(always)]
-    fn sort_runs(&mut self) -> bool {
+    fn sort_runs(&mut self, avx: Option<Avx>) -> bool {
         self.sorted.clear();
         self.run_materials.clear();
         self.binned = false;
@@ -498,10 +537,7 @@ impl Batch {
             return false;
         }
         let bins = &mut self.bins[..];
-        bins.fill(0);
-        for &m in mats {
-            bins[m as usize + 1] += 1;
-        }
+        count_materials(avx, mats, bins);
         // The runs' materials in ascending order (the order of the runs in `sorted`), from
         // the counts, then the counts' prefix sums.
         for k in 1..bins.len() {
@@ -602,14 +638,19 @@ impl Batch {
         avx.run(
             #[inline(always)]
             || {
-                let len = active.len();
+                // The list as a slice held in a local: its pointer and length stay in
+                // registers (through the vector, the compress's stores may alias its
+                // fields, as far as the compiler knows, and both were reloaded and tested
+                // again for every chunk).
+                let ids_in = &mut active[..];
+                let len = ids_in.len();
                 let (mut kept, mut r) = (0, 0);
                 let now = avx.load_u32(&[round; 8]);
                 while r + 8 <= len {
-                    let ids: &[u32; 8] = active[r..r + 8].try_into().expect("8 ids");
+                    let ids: &[u32; 8] = ids_in[r..r + 8].try_into().expect("8 ids");
                     let idv = avx.load_u32(ids);
                     let keep = crate::lane::I32x8::gather_u32(alive, idv).eq(now);
-                    kept = avx.compress_store(idv, keep, &mut active[..], kept);
+                    kept = avx.compress_store(idv, keep, ids_in, kept);
                     r += 8;
                 }
                 compact_from(active, alive, round, r, kept);
@@ -638,17 +679,19 @@ fn compact_from(active: &mut Vec<u32>, alive: &[u32], round: u32, r: usize, mut 
 /// `Vec::push` tests the capacity per id (measured in the emission stage: `docs/bench/README.md`,
 /// seventeenth session, h3).
 pub(crate) struct Ids {
-    buf: Box<[u32; BATCH]>,
+    /// Room for [`BATCH`] ids and 8 slots past them, so that an 8-lane store at any length up
+    /// to `BATCH` fits ([`Ids::buf_mut`]).
+    buf: Box<[u32; BATCH + 8]>,
     len: usize,
 }
 
 impl Ids {
     fn new() -> Ids {
         Ids {
-            buf: vec![0; BATCH]
+            buf: vec![0; BATCH + 8]
                 .into_boxed_slice()
                 .try_into()
-                .expect("BATCH ids"),
+                .expect("BATCH + 8 ids"),
             len: 0,
         }
     }
@@ -672,15 +715,19 @@ impl Ids {
     /// If the list holds [`BATCH`] ids.
     #[inline(always)]
     pub fn put(&mut self, i: u32, keep: bool) {
-        self.buf[self.len] = i;
+        // The first `BATCH` slots only (the 8 past them are for `buf_mut`'s compresses): a
+        // full list panics here.
+        self.buf[..BATCH][self.len] = i;
         self.len += keep as usize;
     }
 
     /// The whole buffer, for a pass that appends to several lists with their lengths in
     /// registers (the emission stage's first pass, `emission::x8::classify`): it writes
-    /// `buf[len]` itself, then sets the length with [`Ids::set_len`].
+    /// `buf[len]` itself, then sets the length with [`Ids::set_len`]. [`BATCH`] + 8 slots: a
+    /// compress of 8 lanes at a length below [`BATCH`] (taken `% BATCH`) fits without a bounds
+    /// test.
     #[inline(always)]
-    pub fn buf_mut(&mut self) -> &mut [u32; BATCH] {
+    pub fn buf_mut(&mut self) -> &mut [u32; BATCH + 8] {
         &mut self.buf
     }
 
@@ -901,7 +948,7 @@ mod tests {
         for i in [0, 1, 2, 4, 5, 6] {
             b.push_scatter(i, mats[i as usize]);
         }
-        assert!(b.sort_by_material(None));
+        assert!(b.sort_by_material(None, None));
         assert_eq!(b.sorted, [1, 4, 0, 2, 6, 5]);
         // Each run's end, from its material.
         let ends: Vec<usize> = [1, 3, 7].iter().map(|&m| b.run_end(m)).collect();
@@ -912,7 +959,7 @@ mod tests {
         for i in [0, 2, 6] {
             b.push_scatter(i, mats[i as usize]);
         }
-        assert!(!b.sort_by_material(None));
+        assert!(!b.sort_by_material(None, None));
         assert_eq!(b.sorted, [0, 2, 6]);
         assert_eq!(b.run_end(3), 3);
         assert_eq!(b.run_materials, [3]);
@@ -922,13 +969,13 @@ mod tests {
         for i in 0..17 {
             b.push_scatter(i, if i < 16 { 0 } else { 1 });
         }
-        assert!(b.sort_by_material(None));
+        assert!(b.sort_by_material(None, None));
         assert_eq!(b.run_materials, [0, 1]);
         assert_eq!((b.run_end(0), b.run_end(1)), (16, 17));
         // No path: no run.
         b.scatter.clear();
         b.scatter_material.clear();
-        assert!(!b.sort_by_material(None));
+        assert!(!b.sort_by_material(None, None));
         assert!(b.run_materials.is_empty());
     }
 
@@ -968,7 +1015,7 @@ mod tests {
             let mut mats: Vec<MatId> = ids.iter().map(|&i| mat(i)).collect();
             mats.sort();
             mats.dedup();
-            b.sort_by_material(Some((avx, split)));
+            b.sort_by_material(Some(avx), Some(split));
             assert_eq!(b.run_materials, mats, "{pattern:?}");
             let mut start = 0;
             for &m in &mats {

@@ -182,7 +182,7 @@ pub(super) fn run_batch(
     }
 
     // Every sample of every path, material by material; each path's in its order.
-    batch.sort_by_material(None);
+    batch.sort_by_material(None, None);
     items.items.clear();
     // The kernels take a light sample where `takes_light_samples` would: at a smooth BSDF
     // (their material test) when the scene has a light.

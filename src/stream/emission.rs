@@ -478,12 +478,20 @@ pub(crate) mod x8 {
         lists: [&mut crate::stream::batch::Ids; 4],
     ) {
         use crate::lane::{I32x8, LaneMask};
+        use crate::stream::BATCH;
         let n = paths.state.len();
         let (state, flag, flat) = (paths.state, &paths.hit_flag[..n], paths.flat);
-        let (info_material, info_seen) = (&paths.lights.info_material, &paths.lights.info_seen);
+        // The tables as slices held in locals, and the lists' buffers taken once: the loop
+        // keeps their pointers and lengths (and the gathers' clamps and checks) out of the
+        // chunk's code. Reached through `paths` and the lists in the loop, they were reloaded
+        // and checked again for every chunk (the stores into the lists may alias them, as far
+        // as the compiler knows).
+        let (info_material, info_seen): (&[u32], &[u32]) =
+            (&paths.lights.info_material, &paths.lights.info_seen);
         let [scatter, escaped, on_lights, one_by_one] = lists;
         on_lights.clear();
         one_by_one.clear();
+        let (sb, eb, mb) = (scatter.buf_mut(), escaped.buf_mut(), materials.buf_mut());
         let (mut ns, mut ne) = (0usize, 0usize);
         let chunks = active.chunks_exact(8);
         let rest = chunks.remainder();
@@ -505,9 +513,13 @@ pub(crate) mod x8 {
             let lastv = idv.splat(last as i32);
             let below = !depth.min_u32(lastv).eq(lastv);
             let show = if HIDE { !depth.eq(zero) } else { zero.eq(zero) };
-            avx.compress_store(mat, hit & below, &mut materials.buf_mut()[..], ns);
-            ns = avx.compress_store(idv, hit & below, &mut scatter.buf_mut()[..], ns);
-            ne = avx.compress_store(idv, !hit & show, &mut escaped.buf_mut()[..], ne);
+            // Each list's length is at most the paths walked before this chunk, so at most
+            // `BATCH − 8`: `% BATCH` changes nothing, but it lets the compiler see that the 8
+            // slots fit the buffer of `BATCH + 8` (`Ids`), with no bounds test per store.
+            let (ws, we) = (ns % BATCH, ne % BATCH);
+            avx.compress_store(mat, hit & below, &mut mb[..], ws);
+            ns = avx.compress_store(idv, hit & below, &mut sb[..], ws);
+            ne = avx.compress_store(idv, !hit & show, &mut eb[..], we);
             // Rare (hits on emitters): through the lists' own appends, in lane order.
             let lit = hit & show & !seen.eq(idv.splat(DARK as i32));
             if lit.any() {

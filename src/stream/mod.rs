@@ -375,17 +375,17 @@ impl Kernels {
         }
     }
 
-    /// The material sort's light split with the AVX2 token that computes its keys
-    /// ([`Batch::sort_by_material`]): none without the kernels (the lane-by-lane code gains
-    /// nothing from the grouping) or without a split.
+    /// The material sort's AVX2 token and light split ([`Batch::sort_by_material`]): no split
+    /// without the kernels (the lane-by-lane code gains nothing from the grouping) or without
+    /// a split by kind.
     #[cfg(target_arch = "x86_64")]
-    fn light_key(&self) -> Option<(crate::lane::Avx2, f32)> {
-        Some((self.avx?, self.light_split?))
+    fn sort_key(&self) -> (Option<crate::lane::Avx2>, Option<f32>) {
+        (self.avx, self.avx.and(self.light_split))
     }
 
     #[cfg(not(target_arch = "x86_64"))]
-    fn light_key(&self) -> Option<(core::convert::Infallible, f32)> {
-        None
+    fn sort_key(&self) -> (Option<core::convert::Infallible>, Option<f32>) {
+        (None, None)
     }
 
     /// Set to `0`, the environment variable turns the 8-wide kernels off (every path shaded
@@ -607,7 +607,8 @@ fn run_batch(
 
         // Shading, material by material in the stable order (each material's paths grouped
         // by the kind of light they will sample, where the scene's selection splits by kind).
-        batch.sort_by_material(kernels.light_key());
+        let (avx, split) = kernels.sort_key();
+        batch.sort_by_material(avx, split);
         shade(
             scene,
             cfg,

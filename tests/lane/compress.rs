@@ -1,6 +1,7 @@
 //! `Avx2::compress_store` (the stream's lists of path ids filtered 8 at a time), `Avx2::load_u32`
-//! (8 ids as `i32` lanes) and `Avx2::vec2_columns` / `Avx2::vec2_rows` (8 film positions' x
-//! and y columns and back, every bit moved, NaN payloads among them) against scalar references: every mask pattern, ids with
+//! (8 ids as `i32` lanes), `Avx2::vec2_columns` / `Avx2::append_vec2_rows` (8 film positions' x
+//! and y columns and back, every bit moved, NaN payloads among them) and `Avx2::append_u64`
+//! (8 words appended from lanes) against scalar references: every mask pattern, ids with
 //! edge values (0, −1, `i32::MIN`, `i32::MAX`), lists at every offset up to the last one that
 //! fits 8 slots (the slots outside `at..at + 8` untouched, the kept ids first in lane order,
 //! then the others in lane order), a panic before any store when 8 slots do not fit; the
@@ -64,8 +65,10 @@ fn compress_store_equals_the_filter() {
 }
 
 /// `Avx2::vec2_columns` gives point `k`'s x and y as lane `k` of two columns, and
-/// `Avx2::vec2_rows` writes two columns' lane `k` as point `k` (inverting it), every bit moved
-/// (NaN payloads, ±0, infinities, subnormals, ±`f32::MAX`).
+/// `Avx2::append_vec2_rows` appends two columns' lane `k` as point `len + k` (inverting it),
+/// every bit moved (NaN payloads, ±0, infinities, subnormals, ±`f32::MAX`), after the points
+/// the vector held (untouched), whatever its spare room (0 to 9 points held, capacity exact or
+/// not).
 #[test]
 fn vec2_columns_and_rows_move_every_bit() {
     let Some(avx) =
@@ -93,14 +96,27 @@ fn vec2_columns_and_rows_move_every_bit() {
         };
         let (x, y) = (col(), col());
         let points: [glam::Vec2; 8] = std::array::from_fn(|k| glam::Vec2::new(x[k], y[k]));
-        let (cols, rows, back) = avx.run(
+        let held = round % 10;
+        let before: Vec<glam::Vec2> = (0..held).map(|j| glam::Vec2::splat(j as f32)).collect();
+        let mut out = if round % 2 == 0 {
+            before.clone()
+        } else {
+            let mut v = Vec::with_capacity(held + 8 + round % 3);
+            v.extend_from_slice(&before);
+            v
+        };
+        let (cols, back) = avx.run(
             #[inline(always)]
             || {
                 let cols = avx.vec2_columns(&points).map(|c| c.to_array());
-                let rows = avx.vec2_rows(avx.load(&x), avx.load(&y));
-                (cols, rows, avx.vec2_columns(&rows).map(|c| c.to_array()))
+                avx.append_vec2_rows(&mut out, avx.load(&x), avx.load(&y));
+                let rows: &[glam::Vec2; 8] = out[held..].try_into().expect("8 points appended");
+                (cols, avx.vec2_columns(rows).map(|c| c.to_array()))
             },
         );
+        assert_eq!(out.len(), held + 8, "round {round}");
+        assert_eq!(&out[..held], &before[..], "round {round}: the points held");
+        let rows = &out[held..];
         for k in 0..8 {
             let bits = |v: [f32; 2]| v.map(f32::to_bits);
             let want = bits([x[k], y[k]]);
@@ -181,5 +197,41 @@ fn compress_index_equals_the_filter() {
                 assert_eq!(moved[j].to_bits(), want, "mask {mask:#x}: lane {j}");
             }
         }
+    }
+}
+
+/// `Avx2::append_u64` appends lane `k` as element `len + k`, every bit, after the elements the
+/// vector held (untouched), whatever its spare room (0 to 10 held, capacity exact or not).
+#[test]
+fn append_u64_writes_every_bit_after_the_held_elements() {
+    let Some(avx) = crate::harness::avx2_or_skip("no AVX2/FMA: the appends test is skipped") else {
+        return;
+    };
+    let mut r = Pcg32::new(35, 1);
+    for round in 0..2000usize {
+        let held = round % 11;
+        let words: [u64; 8] = std::array::from_fn(|k| match (round + k) % 4 {
+            0 => [0, 1, u64::MAX, 1 << 63][r.next_u32() as usize % 4],
+            _ => (r.next_u32() as u64) << 32 | r.next_u32() as u64,
+        });
+        let before: Vec<u64> = (0..held as u64).map(|j| j * 7 + 1).collect();
+        let mut out = if round % 2 == 0 {
+            before.clone()
+        } else {
+            let mut v = Vec::with_capacity(held + 8 + round % 3);
+            v.extend_from_slice(&before);
+            v
+        };
+        avx.run(
+            #[inline(always)]
+            || avx.append_u64(&mut out, avx.load_u64(&words)),
+        );
+        assert_eq!(out.len(), held + 8, "round {round}");
+        assert_eq!(&out[..held], &before[..], "round {round}: the words held");
+        assert_eq!(
+            &out[held..],
+            &words[..],
+            "round {round}: the words appended"
+        );
     }
 }
