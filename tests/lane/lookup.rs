@@ -190,3 +190,61 @@ fn gather3_window_equals_the_scalar_rows() {
         assert!(panicked.is_err(), "a table of 100 rows with offset 100");
     }
 }
+
+/// `Avx2::gather6` (a large mesh's vertex rows, position then normal, in the gather stage)
+/// equals `table[min(idx as u32, len − 1)]` bit for bit in every lane and each of the six
+/// floats: tables of edge floats and random bit patterns (NaN payloads) of 1 to 40 rows,
+/// indices in range, at both ends, just past the end, negative, `i32::MIN`, `i32::MAX` and
+/// random; a panic on an empty table. Skipped, with a note, without AVX2.
+#[test]
+fn gather6_equals_the_clamped_rows() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let Some(avx) = crate::harness::avx2_or_skip("gather6: this CPU has no AVX2/FMA, skipping")
+        else {
+            return;
+        };
+        let mut r = Pcg32::new(61, 5);
+        for round in 0..4000usize {
+            let len = 1 + (r.next_u32() % 40) as usize;
+            let table: Vec<[f32; 6]> = (0..len)
+                .map(|j| {
+                    std::array::from_fn(|c| match (round + j + c) % 3 {
+                        0 => EDGES[r.next_u32() as usize % EDGES.len()],
+                        1 => f32::from_bits(r.next_u32()),
+                        _ => r.next_f32() * 4.0 - 2.0,
+                    })
+                })
+                .collect();
+            let idx: [i32; 8] = std::array::from_fn(|k| match (round + k) % 6 {
+                0 => 0,
+                1 => len as i32 - 1,
+                2 => len as i32,
+                3 => [-1, i32::MIN, i32::MAX][(round / 6 + k) % 3],
+                4 => r.next_u32() as i32,
+                _ => (r.next_u32() % len as u32) as i32,
+            });
+            let got = avx.run(
+                #[inline(always)]
+                || {
+                    avx.gather6(&table, avx.load_i32(&idx))
+                        .map(|c| c.to_array())
+                },
+            );
+            for k in 0..8 {
+                let want = table[(idx[k] as u32).min(len as u32 - 1) as usize];
+                for c in 0..6 {
+                    let at = format!("len {len} index {} float {c}", idx[k]);
+                    assert_eq!(got[c][k].to_bits(), want[c].to_bits(), "{at}");
+                }
+            }
+        }
+        let empty: Vec<[f32; 6]> = Vec::new();
+        let panicked = std::panic::catch_unwind(|| {
+            avx.run(|| {
+                avx.gather6(&empty, avx.load_i32(&[0; 8]));
+            })
+        });
+        assert!(panicked.is_err(), "an empty table");
+    }
+}
