@@ -129,26 +129,6 @@ impl TriMesh {
         }
     }
 
-    /// Each vertex's position and normal side by side (`[p.x, p.y, p.z, n.x, n.y, n.z]`), for
-    /// the stream renderer's one-mesh gather: a hit's three corners then read two or three
-    /// cache lines where the separate arrays cost four or five (a large mesh's bounce hits
-    /// miss the caches on nearly every line). `None` without normals, with a normal array of
-    /// another length than the positions, or with more than `i32::MAX / 6` vertices (beyond
-    /// the 32-bit gather offsets). The same floats, copied bit for bit.
-    pub fn vertex_rows(&self) -> Option<Vec<[f32; 6]>> {
-        let ns = self.normals.as_ref()?;
-        if ns.len() != self.positions.len() || self.positions.len() > i32::MAX as usize / 6 {
-            return None;
-        }
-        Some(
-            self.positions
-                .iter()
-                .zip(ns)
-                .map(|(p, n)| [p.x, p.y, p.z, n.x, n.y, n.z])
-                .collect(),
-        )
-    }
-
     /// The area of triangle `i`.
     #[inline]
     pub fn triangle_area(&self, i: usize) -> f32 {
@@ -180,32 +160,6 @@ mod tests {
             uvs: None,
             indices: vec![[0, 1, 2], [0, 2, 3]],
         }
-    }
-
-    /// The vertex rows hold each vertex's position and normal bit for bit (a NaN payload, a
-    /// signed zero, a subnormal and an infinity among them); none without normals or with a
-    /// normal array of another length.
-    #[test]
-    fn vertex_rows_hold_positions_and_normals_bits() {
-        let mut m = quad();
-        assert!(m.vertex_rows().is_none());
-        m.normals = Some(vec![
-            Vec3::new(f32::from_bits(0x7fc0_1234), -0.0, 1e-40),
-            Vec3::new(f32::INFINITY, 0.5, -2.0),
-            Vec3::Z,
-            Vec3::new(0.25, -0.75, 3.0),
-        ]);
-        let rows = m.vertex_rows().expect("rows");
-        assert_eq!(rows.len(), 4);
-        for (k, row) in rows.iter().enumerate() {
-            let p = m.positions[k].to_array();
-            let n = m.normals.as_ref().unwrap()[k].to_array();
-            let want: Vec<u32> = p.iter().chain(&n).map(|x| x.to_bits()).collect();
-            let got: Vec<u32> = row.iter().map(|x| x.to_bits()).collect();
-            assert_eq!(got, want, "vertex {k}");
-        }
-        m.normals.as_mut().unwrap().pop();
-        assert!(m.vertex_rows().is_none());
     }
 
     #[test]

@@ -138,33 +138,6 @@ impl Avx2 {
             ]
         }
     }
-    /// The six floats of `table[idx]` per lane (six `vgatherdps`; a mesh's vertex rows,
-    /// position then normal, `crate::geometry::mesh::TriMesh::vertex_rows`), each index
-    /// clamped as in [`Avx2::gather3_u32`].
-    ///
-    /// # Panics
-    /// If `table` is empty or holds more than `i32::MAX / 6` rows.
-    #[inline(always)]
-    pub fn gather6(self, table: &[[f32; 6]], idx: I32x8) -> [F32x8; 6] {
-        assert!(!table.is_empty() && table.len() <= i32::MAX as usize / 6);
-        // SAFETY: the token proves AVX2. `[f32; 6]` is six consecutive f32s (24 bytes), so
-        // row r's entry c is float 6r + c from the start; after the clamp r < len and
-        // 6r + 5 < 6·len ≤ i32::MAX, so each load reads inside `table`.
-        unsafe {
-            let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32(table.len() as i32 - 1));
-            let i2 = _mm256_add_epi32(i, i);
-            let i6 = _mm256_add_epi32(_mm256_add_epi32(i2, i2), i2);
-            let base = table.as_ptr().cast::<f32>();
-            [
-                F32x8(_mm256_i32gather_ps::<4>(base, i6)),
-                F32x8(_mm256_i32gather_ps::<4>(base.add(1), i6)),
-                F32x8(_mm256_i32gather_ps::<4>(base.add(2), i6)),
-                F32x8(_mm256_i32gather_ps::<4>(base.add(3), i6)),
-                F32x8(_mm256_i32gather_ps::<4>(base.add(4), i6)),
-                F32x8(_mm256_i32gather_ps::<4>(base.add(5), i6)),
-            ]
-        }
-    }
     /// The rays `rays[ids[k]]` in lanes, field by field: o.x, o.y, o.z, d.x, d.y, d.z, tmin,
     /// tmax (one row per ray, [`Self::ray_row`], then [`F32x8::transpose8`]; the gather
     /// stage's rays).

@@ -184,7 +184,6 @@ pub fn instantiate_within(
     }
     b.number_shapes();
     let accel = Accel::build_instanced(&b.shapes, &b.groups, &b.instances)?;
-    let mesh_rows = crate::stream::kernels::surface::mesh_rows(&b.shapes);
     let bsphere = Scene::bounding_sphere_instanced(&b.shapes, &b.groups, &b.instances);
     let env_emitters = b
         .emitters
@@ -223,7 +222,6 @@ pub fn instantiate_within(
             media: b.media,
             camera_medium: b.camera_medium,
             accel,
-            mesh_rows,
             materials: b.materials,
             emitters: b.emitters,
             env_emitters,

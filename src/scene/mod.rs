@@ -39,11 +39,6 @@ pub struct Scene {
     /// Area emitter of each shape, as an index into `emitters`.
     pub(crate) shape_emitter: Vec<Option<u32>>,
     pub(crate) accel: Accel,
-    /// Per shape, the vertex rows (`TriMesh::vertex_rows`: position and normal side by side)
-    /// of a mesh the stream renderer's gather reads by vector gathers (more than
-    /// `SMALL_TRIS` triangles, with normals); `None` for every other shape. Built once at load
-    /// and shared by the render threads.
-    pub(crate) mesh_rows: Vec<Option<Vec<[f32; 6]>>>,
     pub(crate) materials: Materials,
     pub(crate) emitters: Vec<Emitter>,
     /// Indices of the environment emitters (seen by escaping rays).

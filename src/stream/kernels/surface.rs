@@ -60,21 +60,6 @@ impl Form {
     }
 }
 
-/// Per shape of `shapes`, the vertex rows ([`crate::geometry::mesh::TriMesh::vertex_rows`])
-/// the one-mesh gather reads instead of the separate position and normal arrays: for a mesh
-/// of more than [`SMALL_TRIS`] triangles (a smaller one is read from its [`SmallTris`]); the
-/// scene keeps them (`Scene::mesh_rows`).
-pub(crate) fn mesh_rows(shapes: &[crate::geometry::Shape]) -> Vec<Option<Vec<[f32; 6]>>> {
-    use crate::geometry::ShapeKind;
-    shapes
-        .iter()
-        .map(|s| match &s.kind {
-            ShapeKind::Mesh(m) if m.indices.len() > SMALL_TRIS => m.vertex_rows(),
-            _ => None,
-        })
-        .collect()
-}
-
 /// The most triangles a mesh held as [`SmallTris`] has.
 pub(crate) const SMALL_TRIS: usize = 16;
 
@@ -560,14 +545,7 @@ pub(crate) mod x8 {
             Form::Triangles(Some(small)) => {
                 small_input(avx, st, &ids, m, small, shape.flip_normals)
             }
-            _ => {
-                let rows = st
-                    .scene
-                    .mesh_rows
-                    .get(g as usize)
-                    .and_then(Option::as_deref);
-                one_mesh_input(avx, st, &ids, m, rows, shape.flip_normals)
-            }
+            _ => one_mesh_input(avx, st, &ids, m, shape.flip_normals),
         };
         let s = if m.uvs.is_some() {
             sl::triangle(&x)
@@ -581,49 +559,32 @@ pub(crate) mod x8 {
     /// the triangles' vertex indices, then their positions, normals and uvs, by vector
     /// gathers; the per-mesh flags and sign splat. The same values as lane by lane (the mesh is
     /// validated at load: its indices are in range, so the gathers' clamps change nothing).
-    /// With the mesh's vertex `rows` (`Scene::mesh_rows`: its positions and normals side by
-    /// side, as long as both) each corner's position and normal come from one row, so from one
-    /// or two cache lines instead of two to four: the same floats.
     #[inline(always)]
     fn one_mesh_input(
         avx: Avx2,
         st: &Stage,
         ids: &[u32; 8],
         m: &crate::geometry::mesh::TriMesh,
-        rows: Option<&[[f32; 6]]>,
         flip: bool,
     ) -> (sl::Triangle<F32x8>, Meta) {
         let (prim, b, meta) = mesh_hits(avx, st, ids);
         let tri = avx.gather3_u32(&m.indices, prim);
+        let p = [
+            gv3(F32x8::gather3(&m.positions, tri[0])),
+            gv3(F32x8::gather3(&m.positions, tri[1])),
+            gv3(F32x8::gather3(&m.positions, tri[2])),
+        ];
         let z = avx.splat(0.0);
-        let (p, n, has_n) = match rows {
-            Some(rows) => {
-                let corner = |k: usize| {
-                    let c = avx.gather6(rows, tri[k]);
-                    (V3::new(c[0], c[1], c[2]), V3::new(c[3], c[4], c[5]))
-                };
-                let (c0, c1, c2) = (corner(0), corner(1), corner(2));
-                ([c0.0, c1.0, c2.0], [c0.1, c1.1, c2.1], avx.mask_splat(true))
-            }
-            None => {
-                let p = [
-                    gv3(F32x8::gather3(&m.positions, tri[0])),
-                    gv3(F32x8::gather3(&m.positions, tri[1])),
-                    gv3(F32x8::gather3(&m.positions, tri[2])),
-                ];
-                match &m.normals {
-                    Some(ns) => (
-                        p,
-                        [
-                            gv3(F32x8::gather3(ns, tri[0])),
-                            gv3(F32x8::gather3(ns, tri[1])),
-                            gv3(F32x8::gather3(ns, tri[2])),
-                        ],
-                        avx.mask_splat(true),
-                    ),
-                    None => (p, [V3::new(z, z, z); 3], avx.mask_splat(false)),
-                }
-            }
+        let (n, has_n) = match &m.normals {
+            Some(ns) => (
+                [
+                    gv3(F32x8::gather3(ns, tri[0])),
+                    gv3(F32x8::gather3(ns, tri[1])),
+                    gv3(F32x8::gather3(ns, tri[2])),
+                ],
+                avx.mask_splat(true),
+            ),
+            None => ([V3::new(z, z, z); 3], avx.mask_splat(false)),
         };
         let (uv, has_uv) = match &m.uvs {
             Some(uvs) => (
