@@ -985,8 +985,11 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, 
     // Camera rays go as coherent 8-wide packets in either case: as one coherent stream they
     // cost more (million.xml: +8 % of the trace's instructions).
     if let (Some(true), RayKind::Bounce) = (packet, kind) {
-        let (active, ray, hit) = (&batch.active, &batch.ray, &mut batch.hit);
-        let traced = active.iter().map(|&i| &ray[i as usize]);
+        let (active, hit) = (&batch.active, &mut batch.hit);
+        // The ray column as a slice moved into the map: captured as `&Vec`, its pointer and
+        // length were reloaded from the batch for each ray of the stream's fill.
+        let ray: &[Ray] = &batch.ray;
+        let traced = active.iter().map(move |&i| &ray[i as usize]);
         rays.intersect_stream_into(scene, traced, kind, false, active, hit);
     } else if packet.is_some() && rays.packets16() {
         // 16-ray packets (tier A on AVX-512), read from and written to the path columns as
