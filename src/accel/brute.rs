@@ -409,6 +409,38 @@ impl Brute {
         }
     }
 
+    /// [`Self::intersect8_with`] of the rays `ray(k)`, `k < ids.len()` (at most 8), each hit's
+    /// row stored from the lanes straight into `hit[ids[k]]` (one 32-byte store a row): the
+    /// stream renderer's packets, whose hits go to their paths' entries of the hit column.
+    /// Handing the rows out of the AVX2 region instead cost a 256-byte copy a packet and, a
+    /// lane, the closure's reload and four-part store (metal_plastic's bounce packets: 13.5
+    /// instructions a ray). Where the scene has boxes, through [`Self::intersect8_with`] (a
+    /// box's row is completed outside the lanes, [`Self::box_row`]). The same rows.
+    #[inline(always)]
+    pub(crate) fn intersect8_scatter<'r>(
+        &self,
+        ids: &[u32],
+        ray: impl Fn(usize) -> &'r Ray,
+        hit: &mut [HitRow],
+    ) {
+        let n = ids.len().min(W);
+        #[cfg(target_arch = "x86_64")]
+        if let (Some(avx), true) = (self.avx, self.box_rows.is_empty()) {
+            avx.run(
+                #[inline(always)]
+                || {
+                    let b = self.nearest_of_each(&packet_with(avx, n, &ray), avx.splat(0.0), NONE);
+                    let rows = F32x8::transpose8(self.hit_fields(&b));
+                    for (row, &i) in rows.iter().zip(&ids[..n]) {
+                        row.store_bits(&mut hit[i as usize].0);
+                    }
+                },
+            );
+            return;
+        }
+        self.intersect8_with(n, ray, |k, row| hit[ids[k] as usize] = row);
+    }
+
     /// Hands the first `n` of a packet's rows to `out` in lane order, each box hit's triangle
     /// and barycentrics added first ([`Self::box_row`], only where the scene has boxes): the
     /// end of the in-place packets of both widths.

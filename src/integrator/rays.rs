@@ -187,6 +187,25 @@ impl Rays {
             .intersect8_with(&mut self.buf, n, kind == RayKind::Camera, ray, out);
     }
 
+    /// [`Self::intersect8_with`] of the rays `ray(k)`, `k < ids.len()` (at most 8), `ray(k)`'s
+    /// hit stored in `hit[ids[k]]` ([`crate::accel::Accel::intersect8_scatter`]: the stream
+    /// renderer's packets of active paths, read from and written to its path columns).
+    #[inline]
+    pub fn intersect8_scatter<'r>(
+        &mut self,
+        scene: &Scene,
+        kind: RayKind,
+        ids: &[u32],
+        ray: impl Fn(usize) -> &'r Ray,
+        hit: &mut [HitRow],
+    ) {
+        let ids = &ids[..ids.len().min(8)];
+        self.count_packet(ids.len(), kind, &ray);
+        scene
+            .accel
+            .intersect8_scatter(&mut self.buf, kind == RayKind::Camera, ids, ray, hit);
+    }
+
     /// [`Self::intersect8_with`] of a full packet, `rays[k]`'s hit stored in `rows[k]`
     /// ([`crate::accel::Accel::intersect8_rows`]: the stream renderer's camera packets, whose
     /// rays and hits are 8 consecutive paths' own).

@@ -1024,9 +1024,7 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, 
         }
         for chunk in active[whole..].chunks(8) {
             let ray = |k: usize| &ray[chunk[k] as usize];
-            rays.intersect8_with(scene, chunk.len(), kind, ray, |k, h| {
-                hit[chunk[k] as usize] = h;
-            });
+            rays.intersect8_scatter(scene, kind, chunk, ray, hit);
         }
     } else {
         for &i in &batch.active {

@@ -83,11 +83,12 @@ fn random_set(seed: u64, n: usize) -> Loaded {
     load_text(&body)
 }
 
-/// Tier A's in-place packets (`Accel::intersect8_with`, the stream renderer's, and at 16 rays
-/// `Accel::intersect16_with`: each ray read through `ray(k)`, here the lanes in reverse, each
-/// hit handed over in lane order as a row) give `packet`'s hits (`Accel::intersect8` or
-/// `intersect16` of `lanes`, at most `W` rays) bit for bit, once per ray; a hit's row is
-/// exactly `HitRow::new`'s and a miss's first word is `HitRow::MISS`.
+/// Tier A's in-place packets (`Accel::intersect8_with` and `intersect8_scatter`, the stream
+/// renderer's, and at 16 rays `Accel::intersect16_with`: each ray read through `ray(k)`, here
+/// the lanes in reverse, each hit handed over in lane order as a row, or stored at its id) give
+/// `packet`'s hits (`Accel::intersect8` or `intersect16` of `lanes`, at most `W` rays) bit for
+/// bit, once per ray; a hit's row is exactly `HitRow::new`'s and a miss's first word is
+/// `HitRow::MISS`.
 fn in_place_equal<const W: usize>(
     brute: &Accel,
     lanes: &[Ray],
@@ -125,6 +126,36 @@ fn in_place_equal<const W: usize>(
             bits(&packet[n - 1 - k]),
             "ray {r:?}: in place ({W})"
         );
+    }
+    if W == 8 {
+        // `Accel::intersect8_scatter` (the stream renderer's packets of active paths): ray k's
+        // row stored in `col[ids[k]]`, ids spread over a column whose other entries stay as
+        // they were; the same rows as the packet's hits.
+        let ids: Vec<u32> = (0..n as u32).map(|k| 3 * k + 1).collect();
+        let untouched = HitRow([7; 8]);
+        let mut col = vec![untouched; 3 * n + 2];
+        brute.intersect8_scatter(&mut buf, coherent, &ids, ray, &mut col);
+        for (j, row) in col.iter().enumerate() {
+            let Some(k) = ids.iter().position(|&i| i as usize == j) else {
+                assert_eq!(*row, untouched, "entry {j}: no id names it");
+                continue;
+            };
+            let r = &lanes[n - 1 - k];
+            if row.is_hit() {
+                assert_eq!(
+                    *row,
+                    HitRow::new(row.get()),
+                    "ray {r:?}: a scattered hit's row"
+                );
+            } else {
+                assert_eq!(row.0[0], HitRow::MISS, "ray {r:?}: a scattered miss's row");
+            }
+            assert_eq!(
+                bits(&row.get()),
+                bits(&packet[n - 1 - k]),
+                "ray {r:?}: scattered"
+            );
+        }
     }
 }
 
