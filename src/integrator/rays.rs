@@ -152,8 +152,8 @@ impl Rays {
     }
 
     /// Counts the `n` rays `ray(0)`, … `ray(n − 1)` of one packet as `kind` and logs them when
-    /// a log is kept (the packets read in place, [`Self::intersect8_with`] and
-    /// [`Self::intersect16_with`]).
+    /// a log is kept (the packets read in place, [`Self::intersect8_scatter`],
+    /// [`Self::intersect8_rows`] and [`Self::intersect16_with`]).
     #[inline(always)]
     fn count_packet<'r>(&mut self, n: usize, kind: RayKind, ray: &impl Fn(usize) -> &'r Ray) {
         match kind {
@@ -167,29 +167,11 @@ impl Rays {
         }
     }
 
-    /// [`Self::intersect8`] of the `n` (at most 8) rays `ray(0)`, … `ray(n − 1)`, each hit handed
-    /// to `out(k, row)` in lane order as a [`HitRow`], without a packet of rays or of hits in
-    /// between (the stream renderer reads the rays from, and writes the hits
-    /// to, its path columns).
-    #[inline]
-    pub fn intersect8_with<'r>(
-        &mut self,
-        scene: &Scene,
-        n: usize,
-        kind: RayKind,
-        ray: impl Fn(usize) -> &'r Ray,
-        out: impl FnMut(usize, HitRow),
-    ) {
-        let n = n.min(8);
-        self.count_packet(n, kind, &ray);
-        scene
-            .accel
-            .intersect8_with(&mut self.buf, n, kind == RayKind::Camera, ray, out);
-    }
-
-    /// [`Self::intersect8_with`] of the rays `ray(k)`, `k < ids.len()` (at most 8), `ray(k)`'s
-    /// hit stored in `hit[ids[k]]` ([`crate::accel::Accel::intersect8_scatter`]: the stream
-    /// renderer's packets of active paths, read from and written to its path columns).
+    /// [`Self::intersect8`] of the rays `ray(k)`, `k < ids.len()` (at most 8), each read where
+    /// it lies, `ray(k)`'s hit stored as a [`HitRow`] in `hit[ids[k]]`
+    /// ([`crate::accel::Accel::intersect8_scatter`]: the stream renderer's packets of active
+    /// paths, read from and written to its path columns, without a packet of rays or of hits
+    /// in between).
     #[inline]
     pub fn intersect8_scatter<'r>(
         &mut self,
@@ -206,7 +188,7 @@ impl Rays {
             .intersect8_scatter(&mut self.buf, kind == RayKind::Camera, ids, ray, hit);
     }
 
-    /// [`Self::intersect8_with`] of a full packet, `rays[k]`'s hit stored in `rows[k]`
+    /// [`Self::intersect8_scatter`] of a full packet, `rays[k]`'s hit stored in `rows[k]`
     /// ([`crate::accel::Accel::intersect8_rows`]: the stream renderer's camera packets, whose
     /// rays and hits are 8 consecutive paths' own).
     #[inline]
@@ -396,7 +378,7 @@ impl Rays {
 
     /// [`Self::intersect16`] of the `n` (at most 16) rays `ray(0)`, … `ray(n − 1)`, each hit
     /// handed to `out(k, row)` in lane order as a [`HitRow`]
-    /// ([`Self::intersect8_with`] at width 16: tier A's 16-ray packets read the stream
+    /// ([`Self::intersect8_scatter`]'s reads at width 16: tier A's 16-ray packets read the stream
     /// renderer's rays in place and write its hit rows,
     /// [`crate::accel::Accel::intersect16_with`]).
     #[inline]
