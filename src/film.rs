@@ -713,7 +713,8 @@ impl Block {
         self.put8_finite_rows(avx, pos, &rows)
     }
 
-    /// [`Block::put8_finite`] of the values given as rows of 4 floats (R, G, B and a float
+    /// [`Block::put`] of eight samples in turn, every non-finite value replaced by 0 (returns
+    /// how many were replaced), the values given as rows of 4 floats (R, G, B and a float
     /// that is ignored: the stream renderer's path states' radiance rows,
     /// `PathState::result_row`), read into lanes by one 16-byte load per row and two 4×4
     /// transposes ([`crate::lane::Avx2::fields4`]), not 24 scalar loads and stores.

@@ -11,6 +11,11 @@
 //! - Frames are right-handed orthonormal bases `(s, t, n)`; `to_local(v) = (v·s, v·t, v·n)`.
 //! - Random numbers: every path draws from its own deterministic stream keyed by
 //!   (seed, pixel, sample index), so a render is bit-identical for any thread count.
+//!
+//! The library serves the `groove` binary, its tests and benches. Its documentation is written
+//! for the people who work on it and links private items freely: build it with
+//! `cargo doc --no-deps --document-private-items`.
+#![allow(rustdoc::private_intra_doc_links)]
 
 pub mod accel;
 pub mod bench;

@@ -117,7 +117,7 @@ pub(crate) fn sphere_roots<L: Lane>(ray: &RayL<L>, s: &SphereDisc<L>) -> (L, L::
 
 /// Where a ray crosses the plane z = 0 of an object space: t, whether t lies in the ray's
 /// open interval, and the ray in object space (for [`PlaneCross::at`]). Where `within` is false
-/// in every lane, [`square`] and [`disk`] report no hit in any lane, so a packet may stop there.
+/// in every lane, [`planar`] reports no hit (square or disk) in any lane, so a packet may stop there.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PlaneCross<L: Lane> {
     pub t: L,

@@ -91,7 +91,7 @@ fn albedo(distr: &MicrofacetDistribution, wi: Vec3, eta: f32, transmit: bool, wi
     sum as f32
 }
 
-/// `out[j]` = the integrand at (ux, uys[j]): 8 nodes per step inside [`Avx2::run`] when `wide`
+/// `out[j]` = the integrand at (ux, `uys[j]`): 8 nodes per step inside [`crate::lane::Avx2::run`] when `wide`
 /// and the CPU has AVX2, else (and for a tail) at width 1.
 #[allow(clippy::too_many_arguments)]
 fn integrand_row(

@@ -269,7 +269,7 @@ impl Shape {
     }
 
     /// Mitsuba's `cube`: [−1,1]³ as 12 triangles with 24 vertices (4 per face, so each face has
-    /// its own flat normal and a full [0,1]² uv square), winding and uv layout as Mitsuba's
+    /// its own flat normal and a full \[0,1\]² uv square), winding and uv layout as Mitsuba's
     /// `cube.cpp` ([`CUBE_FACES`]). The mesh serves shading and sampling; when `to_world` is
     /// invertible, Embree intersects the exact box instead (see [`Shape::box_to_world`]).
     pub fn cube(to_world: &Mat4, flip_normals: bool) -> Shape {

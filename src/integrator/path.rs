@@ -325,7 +325,7 @@ impl PathState {
 
     /// Whether the previous vertex has a density (a vertex not sampled through a delta lobe,
     /// and not the camera), as an `i32` lane value: 0 where it has (`PrevKind::Smooth`'s byte),
-    /// else 1 or 2. The emission stage compares 8 of them at once for [`Self::prev_mis`]'s
+    /// else 1 or 2. The emission stage compares 8 of them at once for `Self::prev_mis`'s
     /// flags.
     #[inline(always)]
     pub(crate) fn prev_kind_i32(&self) -> i32 {

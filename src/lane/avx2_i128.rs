@@ -267,7 +267,7 @@ const LOW_BIAS: u64 = 1 << 63;
 impl Avx2 {
     /// Adds eight `i128` addends to eight sums held *biased* (each sum s stored as
     /// s ^ [`LOW_BIAS`], its low word's top bit flipped), both as [`Words8`]:
-    /// s = s.wrapping_add(x[i]), then s = `i128::MAX` where bit `i` of `SAT` is set and s is
+    /// s = s.wrapping_add(`x[i]`), then s = `i128::MAX` where bit `i` of `SAT` is set and s is
     /// negative (the film's saturating sums of non-negative addends,
     /// `film::sum::add_unsigned`). Four sums per register: the low words are added
     /// (`vpaddq`); flipping the top bit of the low word a is adding 2⁶³ mod 2⁶⁴, so the biased

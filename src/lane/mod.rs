@@ -23,7 +23,7 @@
 //!
 //! Contents: the traits (this file), `scalar` (width 1), `avx2` (width 8), `avx512` (width 16,
 //! experimental), [`math`] (polynomial
-//! `sin cos acos atan2 exp log pow`), [`vec`] (3- and 2-vectors), [`frame`], [`warp`],
+//! `sin cos acos atan2 exp log pow`), [`mod@vec`] (3- and 2-vectors), [`frame`], [`warp`],
 //! [`microfacet`], [`fresnel`], [`mix`] (SplitMix64's finaliser per 64-bit lane), [`pcg`] (PCG32 per lane), [`batch`] (slice entry points), [`bits`] (masks'
 //! bits as `[bool; W]`), [`wide`] (the tokens as one generic parameter over the width, for the
 //! stream renderer).

@@ -105,7 +105,7 @@ impl Distribution1D {
 
 /// A piecewise-constant density on the unit square over an `nx` × `ny` grid of cells, sampled by
 /// a marginal distribution over rows and a conditional distribution within the chosen row
-/// (pbrt 3rd ed., §13.6.7). Densities are with respect to area on [0,1]².
+/// (pbrt 3rd ed., §13.6.7). Densities are with respect to area on \[0,1\]².
 #[derive(Clone, Debug)]
 pub struct Distribution2D {
     nx: usize,
@@ -172,7 +172,7 @@ impl Distribution2D {
         (p, py * px * (self.nx * self.ny) as f32)
     }
 
-    /// Density of the point `p` ∈ [0,1]² (the value `sample` reports for points it returns).
+    /// Density of the point `p` ∈ \[0,1\]² (the value `sample` reports for points it returns).
     #[inline]
     pub fn pdf(&self, p: Vec2) -> f32 {
         if !(p.x.is_finite() && p.y.is_finite()) {

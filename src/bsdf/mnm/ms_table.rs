@@ -207,7 +207,7 @@ fn node_direction(k: usize, l: usize) -> Vec3 {
 }
 
 /// Weights w_u (over z nodes) and w_φ (over φ nodes) with which the hemisphere mean of the
-/// interpolant is Σ_k Σ_l w_u[k] w_φ[l] V[k][l]: trapezoid in u = z² (the interpolant is linear
+/// interpolant is Σ_k Σ_l w_u\[k\] w_φ\[l\] V\[k\]\[l\]: trapezoid in u = z² (the interpolant is linear
 /// in u), and the exact integral over φ of a function linear in cos φ on each cell, over π.
 pub fn axis_weights() -> ([f64; N_Z], [f64; N_PHI]) {
     let mut wu = [0.0f64; N_Z];

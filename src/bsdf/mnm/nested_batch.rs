@@ -1,6 +1,6 @@
 //! The compensated first order's nested evaluations in one call (issue 17: "write it on the lane
 //! kernels"). One query of the first order evaluates the nested BSDF at up to four (a, b) pairs
-//! over the mirror sawtooth (paths [p], [p,t], [t,p], [t,p,t]) or three (single scattering on
+//! over the mirror sawtooth (paths \[p\], \[p,t\], \[t,p\], \[t,p,t\]) or three (single scattering on
 //! the other microsurfaces); they are collected into a [`Pairs`] and evaluated together:
 //! - nested kinds with a lane form (`src/bsdf/lanes.rs`: [`LaneNested`]) in one call at width 8
 //!   under the [`Avx2`] token, or pair by pair at width 1 (the same source: the bit-identity rule

@@ -58,7 +58,7 @@ pub(crate) mod x8 {
     /// (where a path repeats in `ids`, its first lane must be the one that draws, if any: a
     /// padded chunk's copies of its last path draw nothing);
     /// the per-path plain test only when some stream of the batch has strata
-    /// (`Samplers::all_plain`: never under `independent`). Call inside [`Avx2::run`].
+    /// (`Samplers::all_plain`: never under `independent`). Call inside [`crate::lane::Avx2::run`].
     #[inline(always)]
     pub(crate) fn draw<T: Wide<W>, const W: usize>(
         avx: T,

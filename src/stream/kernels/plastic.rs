@@ -12,7 +12,7 @@
 //! the material's, from the textures' means, as in the scalar code).
 //!
 //! Per chunk of 8 paths, the steps of the `diffuse` kernel ([`super::diffuse`]):
-//! 1. load the surfaces 8-wide from the batch's columns ([`super::surface`]); [`incident`]
+//! 1. load the surfaces 8-wide from the batch's columns ([`super::surface`]); [`super::diffuse::incident`]
 //!    and its side test, 8-wide;
 //! 2. lane by lane: the reflectance textures; each path's numbers in the scalar order (light
 //!    selection `u_sel`, light point `u`, lobe choice `u1`, BSDF sample `u2`), 8-wide from the
@@ -253,7 +253,7 @@ pub(crate) mod x8 {
     /// `b.surf`) as `PathState::scatter` would, one after the other; sets their pending light
     /// samples, and their next rays and `alive` flags where they go on. Only the first `live`
     /// lanes are paths (a padded chunk: `vertex::x8::padded`, `vertex::x8::live_only`). Call
-    /// inside [`Avx2::run`].
+    /// inside [`crate::lane::Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn shade<T: RayRows<W>, const W: usize>(

@@ -209,7 +209,7 @@ impl RayRows<8> for crate::lane::Avx2 {
         let idv = self.load_u32(ids);
         (self.gather_eta(state, idv), self.gather_depth(state, idv))
     }
-    /// The passing lanes first, by one permute of every column ([`Avx2::compress_index`]),
+    /// The passing lanes first, by one permute of every column ([`crate::lane::Avx2::compress_index`]),
     /// then the rays' transpose and the adds' (rows of 4), each stored whole: no per-lane
     /// index to carry from store to store.
     #[inline(always)]

@@ -243,7 +243,7 @@ pub(crate) mod x8 {
     /// textured leaf parameters, a `mask`, a `bumpmap`). `gather` is the caller's, made once
     /// per shading stage rather than per run (its light selection is the scene's: building it
     /// and its [`Gather`] per run cost ~10 instructions per sample on metal_plastic). Call
-    /// inside [`Avx2::run`].
+    /// inside [`crate::lane::Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade_run<T: RayRows<W>, const W: usize>(
@@ -286,7 +286,7 @@ pub(crate) mod x8 {
     /// surface, [`live_only`]: they draw, write and hand over nothing). `base` is `mat`'s
     /// constant [`Params`] (used as they are unless `PER_LANE`, `mat.per_lane()`); `FULL` is
     /// `mat.full()` (without it the chain has no textured leaf parameters, `mask` or
-    /// `bumpmap`). Call inside [`Avx2::run`].
+    /// `bumpmap`). Call inside [`crate::lane::Avx2::run`].
     #[inline(always)]
     // `!(u < o)`: `bsdf::mask::sample`'s test, negated as written there (u and o are never NaN).
     #[allow(clippy::too_many_arguments, clippy::neg_cmp_op_on_partial_ord)]
