@@ -409,36 +409,92 @@ impl Brute {
         }
     }
 
-    /// [`Self::intersect8_with`] of the rays `ray(k)`, `k < ids.len()` (at most 8), each hit's
-    /// row stored from the lanes straight into `hit[ids[k]]` (one 32-byte store a row): the
-    /// stream renderer's packets, whose hits go to their paths' entries of the hit column.
-    /// Handing the rows out of the AVX2 region instead cost a 256-byte copy a packet and, a
-    /// lane, the closure's reload and four-part store (metal_plastic's bounce packets: 13.5
-    /// instructions a ray). Where the scene has boxes, through [`Self::intersect8_with`] (a
-    /// box's row is completed outside the lanes, [`Self::box_row`]). The same rows.
+    /// [`Self::intersect8_with`] of the rays `rays[ids[k]]`, `k < ids.len()` (at most 8), each
+    /// hit's row stored from the lanes straight into `hit[ids[k]]` (one 32-byte store a row):
+    /// the stream renderer's packets, whose rays and hits are their paths' entries of the ray
+    /// and hit columns. Handing the rows out of the AVX2 region instead cost a 256-byte copy a
+    /// packet and, a lane, the closure's reload and four-part store (metal_plastic's bounce
+    /// packets: 13.5 instructions a ray). A full packet reads and stores through
+    /// [`Avx2::ray_rows_through`], which checks the 8 ids against both columns at once; a
+    /// partial one reads its rays one by one ([`packet_with`]). Where the scene has boxes,
+    /// through [`Self::intersect8_with`] (a box's row is completed outside the lanes,
+    /// [`Self::box_row`]). The same rows.
     #[inline(always)]
-    pub(crate) fn intersect8_scatter<'r>(
-        &self,
-        ids: &[u32],
-        ray: impl Fn(usize) -> &'r Ray,
-        hit: &mut [HitRow],
-    ) {
-        let n = ids.len().min(W);
+    pub(crate) fn intersect8_scatter(&self, ids: &[u32], rays: &[Ray], hit: &mut [HitRow]) {
+        let ids = &ids[..ids.len().min(W)];
+        let ray = |k: usize| &rays[ids[k] as usize];
         #[cfg(target_arch = "x86_64")]
         if let (Some(avx), true) = (self.avx, self.box_rows.is_empty()) {
+            if let Ok(all) = <&[u32; W]>::try_from(ids) {
+                avx.run(
+                    #[inline(always)]
+                    || {
+                        avx.ray_rows_through(
+                            rays,
+                            all,
+                            hit,
+                            #[inline(always)]
+                            |f| self.trace_fields(avx, f),
+                        );
+                    },
+                );
+                return;
+            }
             avx.run(
                 #[inline(always)]
                 || {
-                    let b = self.nearest_of_each(&packet_with(avx, n, &ray), avx.splat(0.0), NONE);
+                    let b = self.nearest_of_each(
+                        &packet_with(avx, ids.len(), &ray),
+                        avx.splat(0.0),
+                        NONE,
+                    );
                     let rows = F32x8::transpose8(self.hit_fields(&b));
-                    for (row, &i) in rows.iter().zip(&ids[..n]) {
+                    for (row, &i) in rows.iter().zip(ids) {
                         row.store_bits(&mut hit[i as usize].0);
                     }
                 },
             );
             return;
         }
-        self.intersect8_with(n, ray, |k, row| hit[ids[k] as usize] = row);
+        self.intersect8_with(ids.len(), ray, |k, row| hit[ids[k] as usize] = row);
+    }
+
+    /// [`Self::intersect8_scatter`] of 8 consecutive rays into 8 consecutive rows (the stream
+    /// renderer's camera packets, whose paths are consecutive): without boxes the rows are read
+    /// and stored at fixed places, with no bounds check and no id; with boxes through
+    /// [`Self::intersect8_with`]. A form of its own, so that the bounce packets' code (ids
+    /// checked against the columns, [`Avx2::ray_rows_through`]) is not also the camera's: as
+    /// one instantiation the camera packets paid for the checks (glass, with its boxes: +19
+    /// instructions a sample). The same rows.
+    #[inline(always)]
+    pub(crate) fn intersect8_rows(&self, rays: &[Ray; W], rows: &mut [HitRow; W]) {
+        #[cfg(target_arch = "x86_64")]
+        if let (Some(avx), true) = (self.avx, self.box_rows.is_empty()) {
+            avx.run(
+                #[inline(always)]
+                || {
+                    let f = F32x8::transpose8(std::array::from_fn(
+                        #[inline(always)]
+                        |k| avx.ray_row(&rays[k]),
+                    ));
+                    let out = F32x8::transpose8(self.trace_fields(avx, f));
+                    for (o, row) in out.iter().zip(rows) {
+                        o.store_bits(&mut row.0);
+                    }
+                },
+            );
+            return;
+        }
+        self.intersect8_with(W, |k| &rays[k], |k, row| rows[k] = row);
+    }
+
+    /// The nearest hits of a packet whose rays are in lanes as 8 fields (o.x, o.y, o.z, d.x,
+    /// d.y, d.z, tmin, tmax) as the 8 fields of their rows ([`Self::hit_fields`]).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn trace_fields(&self, avx: Avx2, f: [F32x8; 8]) -> [F32x8; 8] {
+        let b = self.nearest_of_each(&fields_ray(f), avx.splat(0.0), NONE);
+        self.hit_fields(&b)
     }
 
     /// Hands the first `n` of a packet's rows to `out` in lane order, each box hit's triangle
@@ -962,7 +1018,14 @@ fn packet_with<'r>(avx: Avx2, n: usize, ray: &impl Fn(usize) -> &'r Ray) -> RayL
             *row = avx.ray_row(ray(k));
         }
     }
-    let [ox, oy, oz, dx, dy, dz, tnear, tfar] = F32x8::transpose8(rows);
+    fields_ray(F32x8::transpose8(rows))
+}
+
+/// A packet's rays from their 8 fields in lanes (o.x, o.y, o.z, d.x, d.y, d.z, tmin, tmax: the
+/// transposed rows of [`packet_with`] and [`Avx2::ray_rows_through`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn fields_ray([ox, oy, oz, dx, dy, dz, tnear, tfar]: [F32x8; 8]) -> RayL<F32x8> {
     RayL {
         o: V3::new(ox, oy, oz),
         d: V3::new(dx, dy, dz),

@@ -413,8 +413,8 @@ impl Accel {
     /// stream renderer's camera packets, whose paths are consecutive: `rows` is its own hit
     /// column). Under Embree with AVX2 the rows are stored from the lanes
     /// ([`embree::EmbreeScene::intersect8_rows`]), and only the rows on an instance go
-    /// through [`Self::world_row`]; tier A as [`Self::intersect8_scatter`], Embree without AVX2
-    /// as [`Self::intersect8_with`].
+    /// through [`Self::world_row`]; tier A from and to the lanes too
+    /// ([`brute::Brute::intersect8_rows`]), Embree without AVX2 as [`Self::intersect8_with`].
     #[inline(always)]
     pub fn intersect8_rows(
         &self,
@@ -432,30 +432,34 @@ impl Accel {
                     rows[k] = self.world_row(rows[k]);
                 }
             }
-            (Some(b), _) => b.intersect8_scatter(&[0, 1, 2, 3, 4, 5, 6, 7], |k| &rays[k], rows),
+            (Some(b), _) => b.intersect8_rows(rays, rows),
             _ => self.intersect8_with(buf, 8, coherent, |k| &rays[k], |k, row| rows[k] = row),
         }
     }
 
-    /// [`Self::intersect8_with`] of the rays `ray(k)`, `k < ids.len()` (at most 8), `ray(k)`'s
-    /// hit stored in `hit[ids[k]]` (the stream renderer's packets of active paths, from and to
-    /// its path columns). Tier A stores the rows from the lanes
+    /// [`Self::intersect8_with`] of the rays `rays[ids[k]]`, `k < ids.len()` (at most 8), ray
+    /// `k`'s hit stored in `hit[ids[k]]` (the stream renderer's packets of active paths, from
+    /// and to its path columns). Tier A stores the rows from the lanes
     /// ([`brute::Brute::intersect8_scatter`]); Embree as [`Self::intersect8_with`].
     #[inline(always)]
-    pub fn intersect8_scatter<'r>(
+    pub fn intersect8_scatter(
         &self,
         buf: &mut RayBuf,
         coherent: bool,
         ids: &[u32],
-        ray: impl Fn(usize) -> &'r Ray,
+        rays: &[Ray],
         hit: &mut [HitRow],
     ) {
         let ids = &ids[..ids.len().min(8)];
         match &self.brute {
-            Some(b) => b.intersect8_scatter(ids, ray, hit),
-            None => self.intersect8_with(buf, ids.len(), coherent, ray, |k, row| {
-                hit[ids[k] as usize] = row
-            }),
+            Some(b) => b.intersect8_scatter(ids, rays, hit),
+            None => self.intersect8_with(
+                buf,
+                ids.len(),
+                coherent,
+                |k| &rays[ids[k] as usize],
+                |k, row| hit[ids[k] as usize] = row,
+            ),
         }
     }
 

@@ -167,25 +167,25 @@ impl Rays {
         }
     }
 
-    /// [`Self::intersect8`] of the rays `ray(k)`, `k < ids.len()` (at most 8), each read where
-    /// it lies, `ray(k)`'s hit stored as a [`HitRow`] in `hit[ids[k]]`
+    /// [`Self::intersect8`] of the rays `rays[ids[k]]`, `k < ids.len()` (at most 8), each read
+    /// where it lies, ray `k`'s hit stored as a [`HitRow`] in `hit[ids[k]]`
     /// ([`crate::accel::Accel::intersect8_scatter`]: the stream renderer's packets of active
     /// paths, read from and written to its path columns, without a packet of rays or of hits
     /// in between).
     #[inline]
-    pub fn intersect8_scatter<'r>(
+    pub fn intersect8_scatter(
         &mut self,
         scene: &Scene,
         kind: RayKind,
         ids: &[u32],
-        ray: impl Fn(usize) -> &'r Ray,
+        rays: &[Ray],
         hit: &mut [HitRow],
     ) {
         let ids = &ids[..ids.len().min(8)];
-        self.count_packet(ids.len(), kind, &ray);
+        self.count_packet(ids.len(), kind, &|k| &rays[ids[k] as usize]);
         scene
             .accel
-            .intersect8_scatter(&mut self.buf, kind == RayKind::Camera, ids, ray, hit);
+            .intersect8_scatter(&mut self.buf, kind == RayKind::Camera, ids, rays, hit);
     }
 
     /// [`Self::intersect8_scatter`] of a full packet, `rays[k]`'s hit stored in `rows[k]`

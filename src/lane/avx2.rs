@@ -143,14 +143,16 @@ impl Avx2 {
     /// stage's rays).
     ///
     /// # Panics
-    /// If an id is out of range.
+    /// If an id is out of range (before any row is read).
     #[inline(always)]
     pub fn ray_fields(self, rays: &[crate::geometry::Ray], ids: &[u32; 8]) -> [F32x8; 8] {
-        let mut rows = [self.splat(0.0); 8];
-        for k in 0..8 {
-            rows[k] = self.ray_row(&rays[ids[k] as usize]);
-        }
-        F32x8::transpose8(rows)
+        // One bounds check for the 8 ids ([`Self::ids_below`]), not one per row.
+        assert!(
+            self.ids_below(ids, rays.len()),
+            "a ray's id past its column"
+        );
+        // SAFETY: every id is below `rays.len()` (the assertion).
+        F32x8::transpose8(ids.map(|i| self.ray_row(unsafe { rays.get_unchecked(i as usize) })))
     }
     /// A mask from eight booleans: one 8-byte load, widened to 32-bit lanes (`vpmovzxbd`) and
     /// negated (0 or 1 to 0 or −1), not eight booleans widened, negated and stored one by one
@@ -1269,6 +1271,58 @@ impl Avx2 {
             _mm256_storeu_ps(p, _mm256_permute2f128_ps::<0x20>(lo, hi));
             _mm256_storeu_ps(p.add(8), _mm256_permute2f128_ps::<0x31>(lo, hi));
             out.set_len(len + 8);
+        }
+    }
+
+    // Added in the thirty-sixth session (h1).
+
+    /// Whether every id of `ids` is below `len`, as unsigned numbers: one unsigned max of the
+    /// ids and the broadcast length, compared with the ids (equal exactly where an id is at
+    /// least `len`), and one mask test, instead of a compare and a branch per id (the bounds
+    /// checks of eight indexed reads or stores: [`Self::ray_fields`],
+    /// [`Self::ray_rows_through`]). A length past `u32::MAX` holds every id.
+    #[inline(always)]
+    pub fn ids_below(self, ids: &[u32; 8], len: usize) -> bool {
+        let Ok(len) = u32::try_from(len) else {
+            return true;
+        };
+        // SAFETY: the token proves AVX2; the load reads the 32 bytes of `ids`.
+        unsafe {
+            let v = _mm256_loadu_si256(ids.as_ptr().cast());
+            let past = _mm256_cmpeq_epi32(_mm256_max_epu32(v, _mm256_set1_epi32(len as i32)), v);
+            _mm256_movemask_epi8(past) == 0
+        }
+    }
+
+    /// Tier A's packet of the 8 rays `rays[ids[k]]` from and to the path columns: the rays'
+    /// rows loaded where they lie and turned into lanes ([`Self::ray_fields`]: o.x, o.y, o.z,
+    /// d.x, d.y, d.z, tmin, tmax), traced by `trace` into the 8 fields of their hits' rows,
+    /// and each row stored from the lanes with one 32-byte store at `hit[ids[k]]`, in lane
+    /// order (`accel::brute`'s packets of active paths). Both columns' bounds are checked once
+    /// for all 8 ids ([`Self::ids_below`]): indexed one by one, the reads and stores cost a
+    /// compare and a branch each, beside the caller's test of the ids' own length for each
+    /// of the 8 (metal_plastic's bounce packets: ~60 instructions a packet).
+    ///
+    /// # Panics
+    /// If an id is not below both columns' lengths (before anything is read or stored).
+    #[inline(always)]
+    pub fn ray_rows_through(
+        self,
+        rays: &[crate::geometry::Ray],
+        ids: &[u32; 8],
+        hit: &mut [crate::accel::HitRow],
+        trace: impl FnOnce([F32x8; 8]) -> [F32x8; 8],
+    ) {
+        assert!(
+            self.ids_below(ids, rays.len().min(hit.len())),
+            "a packet's id past its columns"
+        );
+        // SAFETY: every id is below `rays.len()` (the assertion).
+        let rows = ids.map(|i| self.ray_row(unsafe { rays.get_unchecked(i as usize) }));
+        let out = F32x8::transpose8(trace(F32x8::transpose8(rows)));
+        for (row, &i) in out.iter().zip(ids) {
+            // SAFETY: every id is below `hit.len()` (the assertion).
+            row.store_bits(&mut unsafe { hit.get_unchecked_mut(i as usize) }.0);
         }
     }
 }

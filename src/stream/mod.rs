@@ -1023,7 +1023,6 @@ fn trace(scene: &Scene, batch: &mut Batch, kind: RayKind, packet: Option<bool>, 
             rays.intersect8_rows(scene, kind, r, h);
         }
         for chunk in active[whole..].chunks(8) {
-            let ray = |k: usize| &ray[chunk[k] as usize];
             rays.intersect8_scatter(scene, kind, chunk, ray, hit);
         }
     } else {

@@ -83,12 +83,12 @@ fn random_set(seed: u64, n: usize) -> Loaded {
     load_text(&body)
 }
 
-/// Tier A's in-place packets (`Accel::intersect8_with` and `intersect8_scatter`, the stream
-/// renderer's, and at 16 rays `Accel::intersect16_with`: each ray read through `ray(k)`, here
-/// the lanes in reverse, each hit handed over in lane order as a row, or stored at its id) give
-/// `packet`'s hits (`Accel::intersect8` or `intersect16` of `lanes`, at most `W` rays) bit for
-/// bit, once per ray; a hit's row is exactly `HitRow::new`'s and a miss's first word is
-/// `HitRow::MISS`.
+/// Tier A's in-place packets (`Accel::intersect8_with`, `intersect8_scatter` and
+/// `intersect8_rows`, the stream renderer's, and at 16 rays `Accel::intersect16_with`: each
+/// ray read through `ray(k)`, here the lanes in reverse, each hit handed over in lane order as
+/// a row, or stored at its id or in place) give `packet`'s hits (`Accel::intersect8` or
+/// `intersect16` of `lanes`, at most `W` rays) bit for bit, once per ray; a hit's row is
+/// exactly `HitRow::new`'s and a miss's first word is `HitRow::MISS`.
 fn in_place_equal<const W: usize>(
     brute: &Accel,
     lanes: &[Ray],
@@ -128,13 +128,18 @@ fn in_place_equal<const W: usize>(
         );
     }
     if W == 8 {
-        // `Accel::intersect8_scatter` (the stream renderer's packets of active paths): ray k's
-        // row stored in `col[ids[k]]`, ids spread over a column whose other entries stay as
-        // they were; the same rows as the packet's hits.
+        // `Accel::intersect8_scatter` (the stream renderer's packets of active paths): ray k
+        // read from `rays[ids[k]]` and its row stored in `col[ids[k]]`, ids spread over
+        // columns whose other entries hold other rays (never to be read) and rows that stay
+        // as they were; the same rows as the packet's hits.
         let ids: Vec<u32> = (0..n as u32).map(|k| 3 * k + 1).collect();
+        let mut rays: Vec<Ray> = lanes.iter().copied().cycle().take(3 * n + 2).collect();
+        for (k, &i) in ids.iter().enumerate() {
+            rays[i as usize] = *ray(k);
+        }
         let untouched = HitRow([7; 8]);
         let mut col = vec![untouched; 3 * n + 2];
-        brute.intersect8_scatter(&mut buf, coherent, &ids, ray, &mut col);
+        brute.intersect8_scatter(&mut buf, coherent, &ids, &rays, &mut col);
         for (j, row) in col.iter().enumerate() {
             let Some(k) = ids.iter().position(|&i| i as usize == j) else {
                 assert_eq!(*row, untouched, "entry {j}: no id names it");
@@ -155,6 +160,21 @@ fn in_place_equal<const W: usize>(
                 bits(&packet[n - 1 - k]),
                 "ray {r:?}: scattered"
             );
+        }
+        // `Accel::intersect8_rows` (the stream renderer's camera packets): 8 consecutive rays'
+        // rows stored in 8 consecutive entries, the same rows as the packet's hits.
+        if let Ok(eight) = <&[Ray; 8]>::try_from(lanes) {
+            let mut rows = [untouched; 8];
+            brute.intersect8_rows(&mut buf, coherent, eight, &mut rows);
+            for (k, row) in rows.iter().enumerate() {
+                let r = &lanes[k];
+                if row.is_hit() {
+                    assert_eq!(*row, HitRow::new(row.get()), "ray {r:?}: a row's hit");
+                } else {
+                    assert_eq!(row.0[0], HitRow::MISS, "ray {r:?}: a row's miss");
+                }
+                assert_eq!(bits(&row.get()), bits(&packet[k]), "ray {r:?}: rows");
+            }
         }
     }
 }
