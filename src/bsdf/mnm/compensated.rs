@@ -315,7 +315,7 @@ impl AtWi {
     }
 
     /// [`Self::new`] of a point with a baked table (`r.baked_norm` set) from its [W1, E_ms] at
-    /// ωi, looked up by the caller (8 points at once: [`lanes::Chunk::new`]).
+    /// ωi, looked up by the caller (8 points at once: `lanes::Chunk::new`).
     #[inline(always)]
     fn baked(r: &MsPlace, [w1, ei]: [Spectrum; 2]) -> AtWi {
         AtWi {
@@ -420,7 +420,7 @@ fn first_order<const WALK: bool>(
 /// Pass 1 of the first order at ωo: its nested pairs pushed into a batch (slot `NONE`: the
 /// known term, or no such path), and what pass 2 ([`Collected::sum`]) needs besides their
 /// values. Split so that the stream renderer's kernel can evaluate the pairs of 8 shading
-/// points in full 8-wide calls ([`super::lanes`]).
+/// points in full 8-wide calls ([`crate::bsdf::mnm::compensated::lanes`]).
 #[derive(Clone, Copy)]
 struct Collected {
     mirror_wall: bool,

@@ -59,7 +59,7 @@ use glam::Vec3;
 /// One shading point of the chunk: the compensated model alone
 /// ([`crate::bsdf::mnm::compensated_alone`]) over a nested BSDF with a lane form, seen from
 /// `wi` (shading frame): its map (`None` for a point over the mirror sawtooth built without
-/// one, [`Chunk::of_lanes`]: its microsurface is in the chunk's columns) and its place in the
+/// one, `Chunk::of_lanes`: its microsurface is in the chunk's columns) and its place in the
 /// table (the map's `MsRef` without the ωi cache, which the chunk does not read).
 #[derive(Clone, Copy)]
 pub(crate) struct Point<'a> {
@@ -95,7 +95,7 @@ impl<'a> Point<'a> {
 }
 
 /// The chunk's points and what they compute once for their ωi, for both queries
-/// ([`eval_pdf_x8`] toward the light points, [`sample_x8`] for the next bounce): each point's
+/// ([`eval_pdf_x8_into`] toward the light points, [`sample_x8_cols`] for the next bounce): each point's
 /// ωi state ([`AtWi`]) and entries, and over the mirror sawtooth the first order's per-point
 /// inputs in columns ([`first::Points8`]). In place by lane (lane k's values are read only
 /// where bit k of `above` is set).
@@ -656,7 +656,7 @@ pub(crate) fn eval_pdf_x8(
     std::array::from_fn(|k| (Vec3::new(f[0][k], f[1][k], f[2][k]), p[k]))
 }
 
-/// [`eval_pdf_x8`] from and into the caller's columns: toward lane k of `wo` (by component),
+/// `eval_pdf_x8` from and into the caller's columns: toward lane k of `wo` (by component),
 /// lane k of `f` (by channel) and `p` gets lane k's value and density for each lane k of `lit`
 /// ((0, 0) unless both directions are above the surface); other lanes are not written. The
 /// stream kernel's form (no row of `(Spectrum, f32)` or `Vec3` per lane to copy from or into
@@ -880,7 +880,7 @@ impl Samples8 {
     }
 }
 
-/// [`sample_x8`] in columns (the stream kernel's form: no `Option<BsdfSample>` row per lane
+/// `sample_x8` in columns (the stream kernel's form: no `Option<BsdfSample>` row per lane
 /// to copy into its columns), each point drawing from stream `ids[k]` of the batch's columns
 /// in place (`Samplers::stream`: the numbers its `Sampler` draws, strata included; no
 /// `Sampler` copied out and back).

@@ -1,7 +1,7 @@
 //! The compensated model's first order over the mirror sawtooth at up to 8 shading points in
 //! lanes (issue 18): what `Collected::new`, the nested batch and `Collected::sum::<false>` of
 //! `compensated.rs` compute per point — G1(ωo), ωo in the facet frame, the wall exit (R(ωo),
-//! 1 − G1(R(ωo))), the nested BSDF's four paths per point ([p] and [t,p] from each of the two
+//! 1 − G1(R(ωo))), the nested BSDF's four paths per point (\[p\] and \[t,p\] from each of the two
 //! entries) and their weighted sums — computed for the 8 points together, one lane per point,
 //! from the points' microsurfaces, facet frames and entries copied once per chunk into
 //! [`Points8`] (the entries themselves computed there in lanes, [`Points8::entries`]: what
@@ -64,7 +64,7 @@ pub(in crate::bsdf::mnm::compensated) struct Points8 {
     a: [[[f32; 8]; 3]; ENTRIES],
     has: [[f32; 8]; ENTRIES],
     /// ωi, and 1 where the entry of slot 0 is the wall's (no direct entry) and where there is
-    /// a wall entry at all ([`Self::entries`]' inputs and what [`Self::entries_of`] reads).
+    /// a wall entry at all ([`Self::entries`]' inputs and what `Self::entries_of` reads).
     wi: [[f32; 8]; 3],
     wall0: [f32; 8],
     wall: [f32; 8],
@@ -447,7 +447,7 @@ impl Points8 {
 
     /// `Entries::new` of every lane pushed by [`Self::push_point`], in lanes (8-wide when the
     /// CPU has AVX2 and FMA, else lane by lane at width 1: the same numbers), into the entry
-    /// columns; [`Self::entries_of`] gives a lane's as the scalar `Entries`.
+    /// columns; `Self::entries_of` gives a lane's as the scalar `Entries`.
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn entries(&mut self, cols: Cols) {
         #[cfg(target_arch = "x86_64")]
@@ -509,7 +509,7 @@ impl Points8 {
         e
     }
 
-    /// `pick_entry` over lane `k`'s entries ([`Self::entries_of`]) from the columns: `None`
+    /// `pick_entry` over lane `k`'s entries (`Self::entries_of`) from the columns: `None`
     /// without an entry, slot 0 when it is the only one, else slot 0 where `x` < 0 + w0
     /// (`pick_entry`'s running sum from 0) and slot 1 otherwise. A second slot exists only
     /// with a first (`entries`), so these are the scalar loop's cases for up to 2 entries.
@@ -598,7 +598,7 @@ impl Mirror8 {
     /// lanes `known` among them with the known term of the nested sample that drew them
     /// (path `ks[k]` = 2 j + wall, the sample's density `pdf[k]` and weight `w[..][k]`):
     /// `known_term`'s, kept where the density is finite and positive, its value the weight
-    /// times the density per channel. What [`Self::push`] of each live lane with
+    /// times the density per channel. What `Self::push` of each live lane with
     /// `known_term`'s `Option` gives, for the 8 lanes from their columns.
     /// 8-wide when the CPU has AVX2 and FMA (selects by the lanes' bits, the products `w · pdf`
     /// per lane: the same numbers), else lane by lane (`Cols::LOOPS`: the tests' reference).

@@ -3,7 +3,7 @@
 //! the nested BSDF for one sample in its facet's frame; those asks are collected with the
 //! random numbers each point drew from its own sampler ([`Asks::push`], the numbers and order
 //! of [`crate::bsdf::Bsdf::sample`] for the kind) and answered by one call of the kind's lane
-//! form `sample_lanes` (`src/bsdf/lanes.rs`) at width 8 under the [`Avx2`] token, or ask by ask
+//! form `sample_lanes` (`src/bsdf/lanes.rs`) at width 8 under the [`crate::lane::Avx2`] token, or ask by ask
 //! at width 1 on a CPU without AVX2. The scalar `sample` of `diffuse`, `roughconductor` and
 //! `roughplastic` is the width-1 form of the same code (the lane rule of [`crate::lane`]), and
 //! [`Answered::get`] applies `Bsdf::sample`'s rejection of non-finite samples, so each answer

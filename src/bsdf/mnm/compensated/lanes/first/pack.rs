@@ -1,6 +1,6 @@
 //! The first order's nested evaluations packed (issue 18): a query evaluates the nested BSDF on
 //! up to four paths per lane (`super::evals_by_path`: one 8-wide call per path that any lane
-//! needs), but only the direct path [p] is needed in most lanes; the others (the second entry,
+//! needs), but only the direct path \[p\] is needed in most lanes; the others (the second entry,
 //! the wall exit) in some. Here the (path, lane) pairs that need an evaluation are listed in
 //! path order and evaluated 8 pairs a call, where that saves a call; everything between the
 //! query's registers and the calls is a permute, without a gather or a store of the inputs:
@@ -28,7 +28,7 @@ use crate::lane::bits::BYTE_COUNTS as COUNTS;
 use crate::lane::vec::V3;
 use crate::lane::{Avx2, F32x8, I32x8, Lane, LaneI32, M8};
 
-/// Paths per lane: [p] and [t,p] from each entry (slot `2 j + wall`).
+/// Paths per lane: \[p\] and \[t,p\] from each entry (slot `2 j + wall`).
 const PATHS: usize = 2 * ENTRIES;
 
 /// Per mask of 8 lanes (bit k: lane k), its set lanes' numbers in order, one per nibble
