@@ -8,28 +8,26 @@ use groove::geometry::Ray;
 use groove::lane::F32x8;
 use groove::math::Pcg32;
 
+/// `n` rays whose every float is an edge value or random bits ([`edge_or_bits`]).
+fn edge_rays(r: &mut Pcg32, n: usize) -> Vec<Ray> {
+    let mut f = || edge_or_bits(r);
+    (0..n)
+        .map(|_| Ray {
+            o: glam::Vec3::new(f(), f(), f()),
+            d: glam::Vec3::new(f(), f(), f()),
+            tmin: f(),
+            tmax: f(),
+        })
+        .collect()
+}
+
 #[test]
 fn ray_row_reads_each_field() {
     let Some(avx) = crate::harness::avx2_or_skip("no AVX2/FMA: the ray row test is skipped") else {
         return;
     };
     let mut r = Pcg32::new(30, 1);
-    let rays: Vec<Ray> = (0..64)
-        .map(|_| Ray {
-            o: glam::Vec3::new(
-                edge_or_bits(&mut r),
-                edge_or_bits(&mut r),
-                edge_or_bits(&mut r),
-            ),
-            d: glam::Vec3::new(
-                edge_or_bits(&mut r),
-                edge_or_bits(&mut r),
-                edge_or_bits(&mut r),
-            ),
-            tmin: edge_or_bits(&mut r),
-            tmax: edge_or_bits(&mut r),
-        })
-        .collect();
+    let rays = edge_rays(&mut r, 64);
     for round in 0..100 {
         let ids: [u32; 8] = std::array::from_fn(|_| r.next_u32() % rays.len() as u32);
         let (rows, fields) = avx.run(
@@ -70,15 +68,7 @@ fn ray_fields16_at_reads_each_field() {
         return;
     };
     let mut r = Pcg32::new(31, 1);
-    let mut f = || edge_or_bits(&mut r);
-    let rays: Vec<Ray> = (0..64)
-        .map(|_| Ray {
-            o: glam::Vec3::new(f(), f(), f()),
-            d: glam::Vec3::new(f(), f(), f()),
-            tmin: f(),
-            tmax: f(),
-        })
-        .collect();
+    let rays = edge_rays(&mut r, 64);
     for round in 0..100 {
         let ids: [u32; 16] = std::array::from_fn(|_| r.next_u32() % rays.len() as u32);
         let copied: [Ray; 16] = ids.map(|i| rays[i as usize]);
@@ -167,15 +157,7 @@ fn ray_rows_through_reads_and_stores_each_row() {
         return;
     };
     let mut r = Pcg32::new(36, 2);
-    let mut f = || edge_or_bits(&mut r);
-    let rays: Vec<Ray> = (0..40)
-        .map(|_| Ray {
-            o: glam::Vec3::new(f(), f(), f()),
-            d: glam::Vec3::new(f(), f(), f()),
-            tmin: f(),
-            tmax: f(),
-        })
-        .collect();
+    let rays = edge_rays(&mut r, 40);
     let kept = |j: usize| HitRow([j as u32 ^ 0xdead_beef; 8]);
     for round in 0..200 {
         // Ids over the first 24 entries (repeats likely in some rounds), or all distinct.
