@@ -5,7 +5,7 @@
 //! kernels take them: `vertex::x8::Chunks`), in the steps of the wrapper-chain driver
 //! ([`super::vertex`]):
 //! 1. the surface interactions gathered into SoA columns;
-//! 2. the BSDFs built at the hits, into one arena for the 8 points: where the chunk's nested
+//! 2. the BSDFs built at the hits, into the chunk's arena for the 8 points: where the chunk's nested
 //!    leaf is constant ([`shared_nested`]), [`build_shared`] (the leaf pushed once; the
 //!    perturbed normals, candidate facets, facet frames and table cells 8-wide; then over the
 //!    mirror sawtooth with a `roughconductor` or `roughplastic` leaf ([`lane_points`]) no map
@@ -30,6 +30,12 @@
 //!    remainders together), then lane by lane the next ray; each lane's light and BSDF samples
 //!    go to the integrator's [`super::tail::Tail`] (`PathState::advance` for `path`, rays to
 //!    trace for `direct`).
+//!
+//! The steps run stage-major ([`x8::shade_run`], issue 18, thirty-sixth session): steps 1 and
+//! 2 for each chunk of a group of up to [`x8::GROUP`] chunks (each in its own arena), then step
+//! 3 for each, then step 4, the chunks' state carried between the steps ([`x8::Carried`]), so
+//! that each step's code (the kernel's whole is about three times the 32 KB L1 instruction
+//! cache) is fetched once per group, not once per chunk.
 //!
 //! Over the mirror sawtooth the first orders of steps 3 and 4 run in lanes too
 //! (`compensated::lanes`' `first`), from the chunk's columns built once for both steps (there
@@ -263,13 +269,13 @@ pub(crate) mod x8 {
     use crate::lane::{Avx2, F32x8, Lane};
     use crate::scene::Scene;
     use crate::stream::batch::Batch;
-    use crate::stream::kernels::diffuse::light_out;
-    use crate::stream::kernels::diffuse::reflectance;
+    use crate::stream::kernels::diffuse::{light_out, reflectance, LightPoint, Surface};
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::ray::offset_origin;
     use crate::stream::kernels::tail::{Sampled, Tail};
+    use crate::stream::kernels::vertex::x8::Chunks;
     use crate::texture::Texture;
     use glam::Vec3;
 
@@ -304,19 +310,89 @@ pub(crate) mod x8 {
         }
     }
 
-    /// Shades the paths `ids` (all at a surface of material `m0`, one that
-    /// [`super::qualifies`]: the chunk is part of a run of the sorted paths) as
-    /// `PathState::scatter` would, one after the other; hands each lane's light sample, then
-    /// its BSDF sample, to `tail` (the integrator's end of the vertex). `arena` holds the 8
-    /// points' BSDF trees (cleared here). The first `live` lanes are the chunk's paths; a
-    /// padded chunk's other lanes (`vertex::x8::padded`: the last path's id again) are marked
-    /// behind their surface, as `vertex::x8::live_only` does for the other kernels: they build
-    /// their BSDFs (in the chunk's arena) but neither scatter, draw a number nor hand a sample
-    /// to the tail, and the sampler's stores leave the lowest lane's state where an id repeats
-    /// (`Avx2::store_u64_at`). Call inside [`Avx2::run`].
+    /// How many chunks [`shade_run`] takes through each step before the next step: a group's
+    /// carried state ([`Carried`], ~5 KB a chunk, and its arena) stays in the L2 cache while
+    /// each step's code runs over the group.
+    pub(crate) const GROUP: usize = 8;
+
+    /// What a chunk carries from one step of [`shade_run`] to the next: its paths, surfaces,
+    /// BSDFs (in its own arena), compensated points and light points.
+    pub(crate) struct Carried<'a> {
+        ids: [u32; 8],
+        surf: Surface<F32x8>,
+        /// Each lane's `SurfaceBsdf` where the scalar code answers its queries (not a point
+        /// built without its map).
+        sb: [Option<SurfaceBsdf<'a>>; 8],
+        chunk: Chunk<'a>,
+        /// Bit k: lane k takes a light sample.
+        nee: u8,
+        /// The scattering paths' throughputs (the others 0).
+        tp: Cols3,
+        /// The light points, where `nee` is not 0.
+        lp: Option<LightPoint<F32x8>>,
+    }
+
+    /// Shades the chunks of `chunks` (paths of `batch.sorted`, all at a surface of material
+    /// `m0`, one that [`super::qualifies`]) as `PathState::scatter` would, stage-major: for
+    /// each group of up to [`GROUP`] chunks, step 2 of every chunk ([`build`]: the BSDFs and
+    /// points, the light points), then step 3 of every chunk ([`light`]), then step 4
+    /// ([`sample`]), so that each step's code is fetched once per group instead of once per
+    /// chunk (the kernel's code is about three times the L1 instruction cache's 32 KB;
+    /// `docs/bench/README.md`, thirty-fifth and thirty-sixth sessions). Every path is in one
+    /// chunk and draws only from its own stream, so each path's draws and sums are the
+    /// chunk-by-chunk order's; the tail gets the group's light samples in chunk order, then
+    /// its BSDF samples in chunk order (each path's light sample before its BSDF sample, as
+    /// [`Tail`] asks). `arenas`: one arena per chunk of a group (at least [`GROUP`], kept by
+    /// the caller for the render). Call inside [`Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn shade(
+    pub(crate) fn shade_run(
+        avx: Avx2,
+        scene: &Scene,
+        cfg: &PathSettings,
+        b: &mut Batch,
+        m0: crate::material::MatId,
+        chunks: &mut Chunks<8>,
+        lights: &[Option<LaneLight>],
+        gather: &mut Gather,
+        arenas: &mut [BsdfArena],
+        tail: &mut impl Tail,
+    ) {
+        loop {
+            let mut group: [Option<Carried>; GROUP] = Default::default();
+            let mut n = 0;
+            for (arena, slot) in arenas.iter_mut().zip(group.iter_mut()) {
+                let Some((ids, live)) = chunks.next(&b.sorted) else {
+                    break;
+                };
+                build(
+                    avx, scene, cfg, b, m0, &ids, live, lights, gather, arena, slot,
+                );
+                n += 1;
+            }
+            for c in group[..n].iter().flatten() {
+                light(avx, b, c, tail);
+            }
+            for c in group[..n].iter().flatten() {
+                sample(avx, b, c, tail);
+            }
+            if n < GROUP {
+                break;
+            }
+        }
+    }
+
+    /// Steps 1 and 2 of the chunk of paths `ids` (material `m0`): its surfaces, BSDFs (in
+    /// `arena`, cleared here), points and their state at ωi, light selection and light
+    /// points, into `slot`. The first `live` lanes are the chunk's paths; a padded chunk's
+    /// other lanes (`vertex::x8::padded`: the last path's id again) are marked behind their
+    /// surface, as `vertex::x8::live_only` does for the other kernels: they build their BSDFs
+    /// (in the chunk's arena) but neither scatter, draw a number nor hand a sample to the
+    /// tail, and the sampler's stores leave the lowest lane's state where an id repeats
+    /// (`Avx2::store_u64_at`).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn build<'a>(
         avx: Avx2,
         scene: &Scene,
         cfg: &PathSettings,
@@ -326,10 +402,9 @@ pub(crate) mod x8 {
         live: usize,
         lights: &[Option<LaneLight>],
         gather: &mut Gather,
-        arena: &mut BsdfArena,
-        tail: &mut impl Tail,
+        arena: &'a mut BsdfArena,
+        slot: &mut Option<Carried<'a>>,
     ) {
-        let ctx = BsdfContext::default();
         // The chunk's compensated points share their nested BSDF (one material, a constant
         // leaf: every chunk of a run): their first orders are evaluated together.
         let shared = super::shared_nested(&scene.materials, m0);
@@ -346,7 +421,6 @@ pub(crate) mod x8 {
         // through its `SurfaceBsdf`): the chunk's points read the 8-wide columns (`surf`,
         // the same rows).
         let si_at = |b: &Batch, k: usize| -> SurfaceInteraction { b.surf.get(ids[k] as usize) };
-        let p = Cols3::store(surf.p);
         let lane_points = shared && super::lane_points(&scene.materials, m0);
         let lanes = match shared {
             true => super::build_lanes(scene, m0, normal_rgb(avx, scene, m0, b, ids)),
@@ -383,7 +457,7 @@ pub(crate) mod x8 {
         if shared && !lane_points {
             with_incident_alone_x8(arena, &roots, &wi);
         }
-        let arena: &BsdfArena = arena;
+        let arena: &'a BsdfArena = arena;
         // The side test, then the light points, in each path's order; each lane's
         // `SurfaceBsdf` kept for steps 3 and 4, but a point built without its map (bit k of
         // `points`), whose queries all go through the chunk: its side test is `front`
@@ -467,77 +541,104 @@ pub(crate) mod x8 {
                 }
             }
         }
-        let mut chunk = match (&lanes, lane_points) {
-            (Some(l), true) => Chunk::of_facets(Cols::of(avx), l.facets()),
-            _ => Chunk::of(Cols::of(avx), pts),
+        // The light points (`Gather::finish`, in the chunk-by-chunk order step 3's: the same
+        // numbers), here so that the gather serves the group's next chunk.
+        let lp = match nee {
+            0 => None,
+            _ => Some(gather.finish(avx, scene, surf.p, &mut b.light_lanes)),
         };
+        let c = slot.insert(Carried {
+            ids: *ids,
+            surf,
+            sb,
+            chunk: match (&lanes, lane_points) {
+                (Some(l), true) => Chunk::of_facets(Cols::of(avx), l.facets()),
+                _ => Chunk::of(Cols::of(avx), pts),
+            },
+            nee,
+            tp,
+            lp,
+        });
         if let (Some(l), Some(bt), true) = (&lanes, &built, lane_points) {
             let on = alive & bt.points;
             if let (Some(cells), Some(table)) = (l.cells(), super::ms_table(scene, m0)) {
-                chunk.set_lanes(arena.bsdf(bt.child), table, cells, on, &wi_local.0);
+                c.chunk
+                    .set_lanes(arena.bsdf(bt.child), table, cells, on, &wi_local.0);
             }
         }
-        chunk.prepare();
+        c.chunk.prepare();
+    }
 
+    /// Step 3 of a chunk that [`build`] carried: its light samples to `tail`.
+    #[inline(always)]
+    fn light(avx: Avx2, b: &mut Batch, c: &Carried, tail: &mut impl Tail) {
+        let Some(lp) = &c.lp else {
+            return; // no lane takes a light sample
+        };
+        let ctx = BsdfContext::default();
+        let (ids, surf, sb, chunk, nee, tp) = (&c.ids, &c.surf, &c.sb, &c.chunk, c.nee, &c.tp);
         // 3. Next-event estimation: the light directions in the shading frame with
         //    `SurfaceBsdf::local_wo`'s side test 8-wide (the lanes' frames and true normals are
         //    their `SurfaceBsdf`'s, from the same rows; `Frame::to_local` is the lane form at
         //    width 1), the BSDF toward them lane by lane where a point was not one of the
         //    chunk's (as `nee::prepare_light`), the chunk's points together into the columns,
         //    the rest 8-wide.
-        if nee != 0 {
-            let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
-            let zero = avx.splat(0.0);
-            let local = surf.frame.to_local(lp.d);
-            let side = (lp.d.dot(surf.ng) * local.z).gt(zero) & lp.some;
-            let lwo = Cols3::store(local);
-            let (mut f, mut pdf) = (Cols3::default(), [0.0f32; 8]);
-            // Bits: the lanes toward their light point; those of the chunk's points (evaluated
-            // together below, their directions in the columns as they are); the lanes whose
-            // value is consistent (every one of the chunk's, the others where they have a
-            // `SurfaceBsdf`, evaluated lane by lane).
-            let toward = nee & side.bits() as u8;
-            let lit = toward & chunk.lanes();
-            let mut consistent = lit;
-            let mut rest = toward & !lit;
-            while rest != 0 {
-                let k = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                let i = ids[k];
-                let Some(s) = &sb[k] else { continue };
-                consistent |= 1 << k;
-                let (local, wi) = s.local();
-                let (fk, pk) = local.eval_pdf(&ctx, wi, lwo.get(k), &mut b.sampler.at(i as usize));
-                f.set(k, fk);
-                pdf[k] = pk;
-            }
-            eval_pdf_x8_into(&ctx, &chunk, lit, &lwo.0, &mut f.0, &mut pdf);
-            let lo = light_out(
-                &surf,
-                tp.load(avx),
-                &lp,
-                f.load(avx),
-                avx.load(&pdf),
-                avx.mask_bits(u32::from(consistent)),
-            );
-            let (ok, c) = (lo.ok.to_array(), Cols3::store(lo.contribution));
-            // The shadow rays as whole rows (`RayRows::segment_rows`).
-            let shadow =
-                crate::stream::kernels::ray::RayRows::segment_rows(avx, lo.o, lo.d, lo.tmax);
-            for (k, &i) in ids.iter().enumerate() {
-                if nee & (1 << k) != 0 && ok[k] {
-                    tail.light(b, i as usize, shadow[k], c.get(k));
-                }
+        let zero = avx.splat(0.0);
+        let local = surf.frame.to_local(lp.d);
+        let side = (lp.d.dot(surf.ng) * local.z).gt(zero) & lp.some;
+        let lwo = Cols3::store(local);
+        let (mut f, mut pdf) = (Cols3::default(), [0.0f32; 8]);
+        // Bits: the lanes toward their light point; those of the chunk's points (evaluated
+        // together below, their directions in the columns as they are); the lanes whose
+        // value is consistent (every one of the chunk's, the others where they have a
+        // `SurfaceBsdf`, evaluated lane by lane).
+        let toward = nee & side.bits() as u8;
+        let lit = toward & chunk.lanes();
+        let mut consistent = lit;
+        let mut rest = toward & !lit;
+        while rest != 0 {
+            let k = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let i = ids[k];
+            let Some(s) = &sb[k] else { continue };
+            consistent |= 1 << k;
+            let (local, wi) = s.local();
+            let (fk, pk) = local.eval_pdf(&ctx, wi, lwo.get(k), &mut b.sampler.at(i as usize));
+            f.set(k, fk);
+            pdf[k] = pk;
+        }
+        eval_pdf_x8_into(&ctx, chunk, lit, &lwo.0, &mut f.0, &mut pdf);
+        let lo = light_out(
+            surf,
+            tp.load(avx),
+            lp,
+            f.load(avx),
+            avx.load(&pdf),
+            avx.mask_bits(u32::from(consistent)),
+        );
+        let (ok, contrib) = (lo.ok.to_array(), Cols3::store(lo.contribution));
+        // The shadow rays as whole rows (`RayRows::segment_rows`).
+        let shadow = crate::stream::kernels::ray::RayRows::segment_rows(avx, lo.o, lo.d, lo.tmax);
+        for (k, &i) in ids.iter().enumerate() {
+            if nee & (1 << k) != 0 && ok[k] {
+                tail.light(b, i as usize, shadow[k], contrib.get(k));
             }
         }
+    }
 
+    /// Step 4 of a chunk that [`build`] carried: its BSDF samples to `tail`.
+    #[inline(always)]
+    fn sample(avx: Avx2, b: &mut Batch, c: &Carried, tail: &mut impl Tail) {
+        let ctx = BsdfContext::default();
+        let (ids, surf, sb, chunk) = (&c.ids, &c.surf, &c.sb, &c.chunk);
+        let p = Cols3::store(surf.p);
         // 4. The BSDF samples (the compensated model's points together, their first orders'
         //    nested evaluations 8-wide, in columns; the others lane by lane), then 8-wide the
         //    chunk points' world directions with `SurfaceBsdf::world_sample`'s side test and
         //    every sample's ray origin (`SurfaceInteraction::spawn_ray`'s `offset_origin`, the
         //    lane form: the same bits), then lane by lane the next rays to the tail (for
         //    `path`, `PathState::scatter`'s end).
-        let sampled = sample_x8_cols(&ctx, &chunk, &mut b.sampler, ids);
+        let sampled = sample_x8_cols(&ctx, chunk, &mut b.sampler, ids);
         let local = Cols3(sampled.wo).load(avx);
         let world = surf.frame.to_world(local);
         let side = (world.dot(surf.ng) * local.z).gt(avx.splat(0.0));
