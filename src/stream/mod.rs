@@ -689,7 +689,7 @@ fn shade<T: kernels::tail::Tail>(
     // render (not one per run or stage: each builds the scene's light selection once), kept
     // in the batch and moved out for the stage (two pointers).
     let mut gathers = core::mem::take(&mut batch.gathers);
-    let mut mnm_arenas = core::mem::take(&mut batch.mnm_arenas);
+    let mut mnm = core::mem::take(&mut batch.mnm);
     let mut start = 0;
     // The runs' materials in the runs' order (`Batch::sort_by_material`).
     let mut run = 0;
@@ -706,7 +706,7 @@ fn shade<T: kernels::tail::Tail>(
                 kernels,
                 m,
                 &mut gathers,
-                &mut mnm_arenas,
+                &mut mnm,
                 tail,
             )
         } else {
@@ -737,14 +737,14 @@ fn shade<T: kernels::tail::Tail>(
         start = end;
     }
     batch.gathers = gathers;
-    batch.mnm_arenas = mnm_arenas;
+    batch.mnm = mnm;
 }
 
 /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (material `m`) with
 /// `m`'s 8-wide kernel; returns how many it shaded (0 without a kernel or AVX2) and whether the
 /// wrapper-chain driver shaded them. Each vertex ends in `tail`. `gathers`: the stage's light
 /// gathers of width 8 and 16 (the diffuse and wrapper-chain kernels'), made when first needed;
-/// `mnm_arenas`: the compensated normal map kernel's arenas (`Batch::mnm_arenas`), likewise.
+/// `mnm`: the compensated normal map kernel's arenas and carried state (`Batch::mnm`), likewise.
 #[cfg(target_arch = "x86_64")]
 #[allow(clippy::too_many_arguments)]
 fn shade_kernel<T: kernels::tail::Tail>(
@@ -755,7 +755,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
     kernels: &Kernels,
     m: crate::material::MatId,
     gathers: &mut batch::Gathers,
-    mnm_arenas: &mut Vec<crate::bsdf::BsdfArena>,
+    mnm: &mut kernels::mnm::Storage,
     tail: &mut T,
 ) -> (usize, bool) {
     let (Some(avx), Some(&Some(kind))) = (kernels.avx, kernels.kinds.get(m as usize)) else {
@@ -873,9 +873,6 @@ fn shade_kernel<T: kernels::tail::Tail>(
         Kernel::Mnm => {
             use kernels::mnm::x8;
             let mut chunks = kernels::vertex::x8::Chunks::<8>::new(run.clone(), pad_min);
-            if mnm_arenas.len() < x8::GROUP {
-                mnm_arenas.resize_with(x8::GROUP, crate::bsdf::BsdfArena::new);
-            }
             avx.run(
                 #[inline(always)]
                 || {
@@ -890,7 +887,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
                         c,
                         lights,
                         &mut gather,
-                        mnm_arenas,
+                        mnm,
                         tail,
                     );
                 },
@@ -910,7 +907,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
     _: &Kernels,
     _: crate::material::MatId,
     _: &mut (),
-    _: &mut Vec<crate::bsdf::BsdfArena>,
+    _: &mut kernels::mnm::Storage,
     _: &mut T,
 ) -> (usize, bool) {
     (0, false)

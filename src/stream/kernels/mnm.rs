@@ -257,14 +257,26 @@ pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
     }
 }
 
+/// The compensated kernel's storage kept for the render ([`x8::shade_run`]'s groups): an arena
+/// and the carried state ([`x8::Carried`]) per chunk of a group, made at the first run
+/// (`Batch::mnm`; no allocation per run or chunk).
+#[derive(Default)]
+pub(crate) struct Storage {
+    arenas: Vec<BsdfArena>,
+    #[cfg(target_arch = "x86_64")]
+    carried: Vec<x8::Carried>,
+}
+
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
-        eval_pdf_x8_into, sample_x8_cols, with_incident_alone_x8, Chunk, Cols, Point,
+        eval_pdf_x8_into, sample_x8_cols, with_incident_alone_x8, Chunk, ChunkRows, ChunkState,
+        Cols, Point,
     };
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::{PathSettings, Strategy};
+    use crate::lane::frame::Frame;
     use crate::lane::vec::V3;
     use crate::lane::{Avx2, F32x8, Lane};
     use crate::scene::Scene;
@@ -311,25 +323,76 @@ pub(crate) mod x8 {
     }
 
     /// How many chunks [`shade_run`] takes through each step before the next step: a group's
-    /// carried state ([`Carried`], ~5 KB a chunk, and its arena) stays in the L2 cache while
-    /// each step's code runs over the group.
+    /// carried state ([`Carried`], ~4.5 KB a chunk, its [`Lanes`] and its arena) stays in the
+    /// L2 cache while each step's code runs over the group.
     pub(crate) const GROUP: usize = 8;
 
-    /// What a chunk carries from one step of [`shade_run`] to the next: its paths, surfaces,
-    /// BSDFs (in its own arena), compensated points and light points.
-    pub(crate) struct Carried<'a> {
+    /// What a chunk carries from one step of [`shade_run`] to the next without a lifetime:
+    /// its paths, surfaces, light points and the compensated points' state at ωi
+    /// ([`ChunkState`]). Kept for the render ([`super::Storage`]) and written in place by
+    /// [`build`], field by field: a value built aside and moved into its slot was copied
+    /// (~5 KB a chunk, `docs/bench/README.md`, thirty-sixth and thirty-seventh sessions).
+    pub(crate) struct Carried {
         ids: [u32; 8],
         surf: Surface<F32x8>,
-        /// Each lane's `SurfaceBsdf` where the scalar code answers its queries (not a point
-        /// built without its map).
-        sb: [Option<SurfaceBsdf<'a>>; 8],
-        chunk: Chunk<'a>,
         /// Bit k: lane k takes a light sample.
         nee: u8,
         /// The scattering paths' throughputs (the others 0).
         tp: Cols3,
-        /// The light points, where `nee` is not 0.
-        lp: Option<LightPoint<F32x8>>,
+        /// The light points, where `nee` is not 0 (else a previous chunk's or zeros).
+        lp: LightPoint<F32x8>,
+        chunk: ChunkState,
+    }
+
+    impl Carried {
+        /// The storage's first value (zeros; [`build`] writes every field a step reads).
+        #[inline(always)]
+        fn new(avx: Avx2) -> Self {
+            let z = avx.splat(0.0);
+            let v = V3::new(z, z, z);
+            let no = avx.mask_bits(0);
+            Carried {
+                ids: [0; 8],
+                surf: Surface {
+                    p: v,
+                    ng: v,
+                    frame: Frame { s: v, t: v, n: v },
+                    wi_world: v,
+                },
+                nee: 0,
+                tp: Cols3::default(),
+                lp: LightPoint {
+                    some: no,
+                    d: v,
+                    p: v,
+                    n: v,
+                    has_n: no,
+                    finite: no,
+                    pdf: z,
+                    value: v,
+                    weight_one: no,
+                },
+                chunk: ChunkState::new(Cols::of(avx)),
+            }
+        }
+    }
+
+    /// What a chunk carries from one step of [`shade_run`] to the next that borrows its arena:
+    /// each lane's `SurfaceBsdf` where the scalar code answers its queries (not a point built
+    /// without its map) and the compensated points' rows ([`ChunkRows`]). One array of them a
+    /// group, on the stack (emptied once a group: a word per lane), written in place by
+    /// [`build`].
+    #[derive(Clone, Copy)]
+    pub(crate) struct Lanes<'a> {
+        sb: [Option<SurfaceBsdf<'a>>; 8],
+        rows: ChunkRows<'a>,
+    }
+
+    impl Lanes<'_> {
+        const EMPTY: Self = Lanes {
+            sb: [None; 8],
+            rows: ChunkRows::EMPTY,
+        };
     }
 
     /// Shades the chunks of `chunks` (paths of `batch.sorted`, all at a surface of material
@@ -342,8 +405,8 @@ pub(crate) mod x8 {
     /// chunk and draws only from its own stream, so each path's draws and sums are the
     /// chunk-by-chunk order's; the tail gets the group's light samples in chunk order, then
     /// its BSDF samples in chunk order (each path's light sample before its BSDF sample, as
-    /// [`Tail`] asks). `arenas`: one arena per chunk of a group (at least [`GROUP`], kept by
-    /// the caller for the render). Call inside [`Avx2::run`].
+    /// [`Tail`] asks). `store`: the group's arenas and carried state, kept by the caller for
+    /// the render (made here at the first run). Call inside [`Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn shade_run(
@@ -355,26 +418,34 @@ pub(crate) mod x8 {
         chunks: &mut Chunks<8>,
         lights: &[Option<LaneLight>],
         gather: &mut Gather,
-        arenas: &mut [BsdfArena],
+        store: &mut super::Storage,
         tail: &mut impl Tail,
     ) {
+        while store.arenas.len() < GROUP {
+            store.arenas.push(BsdfArena::new());
+        }
+        while store.carried.len() < GROUP {
+            store.carried.push(Carried::new(avx));
+        }
+        let arenas = &mut store.arenas[..GROUP];
+        let carried = &mut store.carried[..GROUP];
         loop {
-            let mut group: [Option<Carried>; GROUP] = Default::default();
+            let mut lanes = [Lanes::EMPTY; GROUP];
             let mut n = 0;
-            for (arena, slot) in arenas.iter_mut().zip(group.iter_mut()) {
+            for ((arena, c), l) in arenas.iter_mut().zip(carried.iter_mut()).zip(&mut lanes) {
                 let Some((ids, live)) = chunks.next(&b.sorted) else {
                     break;
                 };
                 build(
-                    avx, scene, cfg, b, m0, &ids, live, lights, gather, arena, slot,
+                    avx, scene, cfg, b, m0, &ids, live, lights, gather, arena, c, l,
                 );
                 n += 1;
             }
-            for c in group[..n].iter().flatten() {
-                light(avx, b, c, tail);
+            for (c, l) in carried[..n].iter_mut().zip(&mut lanes) {
+                light(avx, b, c, l, tail);
             }
-            for c in group[..n].iter().flatten() {
-                sample(avx, b, c, tail);
+            for (c, l) in carried[..n].iter_mut().zip(&mut lanes) {
+                sample(avx, b, c, l, tail);
             }
             if n < GROUP {
                 break;
@@ -384,7 +455,8 @@ pub(crate) mod x8 {
 
     /// Steps 1 and 2 of the chunk of paths `ids` (material `m0`): its surfaces, BSDFs (in
     /// `arena`, cleared here), points and their state at ωi, light selection and light
-    /// points, into `slot`. The first `live` lanes are the chunk's paths; a padded chunk's
+    /// points, into `c` and `l` in place (`l` empty, [`Lanes::EMPTY`]). The first `live`
+    /// lanes are the chunk's paths; a padded chunk's
     /// other lanes (`vertex::x8::padded`: the last path's id again) are marked behind their
     /// surface, as `vertex::x8::live_only` does for the other kernels: they build their BSDFs
     /// (in the chunk's arena) but neither scatter, draw a number nor hand a sample to the
@@ -403,13 +475,15 @@ pub(crate) mod x8 {
         lights: &[Option<LaneLight>],
         gather: &mut Gather,
         arena: &'a mut BsdfArena,
-        slot: &mut Option<Carried<'a>>,
+        c: &mut Carried,
+        bor: &mut Lanes<'a>,
     ) {
         // The chunk's compensated points share their nested BSDF (one material, a constant
         // leaf: every chunk of a run): their first orders are evaluated together.
         let shared = super::shared_nested(&scene.materials, m0);
         // 1. The surfaces, loaded 8-wide from the batch's rows (the light stage's columns).
         let surf = crate::stream::kernels::surface::x8::load(avx, &b.surf, ids);
+        (c.ids, c.surf) = (*ids, surf);
 
         // 2. The BSDFs: where the nested leaf is shared, the maps built here and their ωi
         //    caches 8-wide (`super::build_shared`, `with_incident_x8`), else by
@@ -465,7 +539,7 @@ pub(crate) mod x8 {
         // lanes are settled as bits, together; the other lanes build their `SurfaceBsdf` one by
         // one. Bit k of `alive`: lane k scatters (it has a `SurfaceBsdf` or is such a point);
         // of `nee`: it takes a light sample (smooth lobes, a strategy with light samples).
-        let mut sb: [Option<SurfaceBsdf>; 8] = [None; 8];
+        let sb = &mut bor.sb;
         let light_samples = cfg.strategy != Strategy::BsdfOnly;
         let mut alive = points & front;
         let mut nee = match &built {
@@ -485,7 +559,8 @@ pub(crate) mod x8 {
             nee |= u8::from(light_samples && bsdf.lobes().is_smooth()) << k;
         }
         // The scattering paths' throughputs; the light sample's points (the others 0).
-        let mut tp = Cols3::default();
+        let tp = &mut c.tp;
+        *tp = Cols3::default();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             if alive & (1 << k) != 0 {
@@ -523,60 +598,52 @@ pub(crate) mod x8 {
             );
         }
 
-        // The compensated model's points (where the nested leaf is shared) and their state
-        // at ωi, once for steps 3 and 4 ([`Chunk`], 8-wide; built in place: a struct literal,
-        // then its state at ωi): where the material's points are built without their maps
-        // (`super::lane_points`), from the build's lanes (the other lanes' maps are flat:
-        // the nested BSDF answers), else from the maps.
-        // (Each chunk a struct literal straight into `chunk`, then filled in place.)
-        let mut pts = [None; 8];
-        if !lane_points {
-            for (k, bsdf) in sb.iter().enumerate() {
-                match bsdf {
-                    Some(bsdf) if shared => {
-                        let (local, wi) = bsdf.local();
-                        pts[k] = Point::of(local, wi);
-                    }
-                    _ => {}
-                }
-            }
-        }
         // The light points (`Gather::finish`, in the chunk-by-chunk order step 3's: the same
         // numbers), here so that the gather serves the group's next chunk.
-        let lp = match nee {
-            0 => None,
-            _ => Some(gather.finish(avx, scene, surf.p, &mut b.light_lanes)),
+        if nee != 0 {
+            c.lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
+        }
+        c.nee = nee;
+        // The compensated model's points (where the nested leaf is shared) and their state
+        // at ωi, once for steps 3 and 4 ([`Chunk`], 8-wide; written in place: the rows in
+        // `bor`, the state in `c`, then its state at ωi): where the material's points are
+        // built without their maps (`super::lane_points`), from the build's lanes (the other
+        // lanes' maps are flat: the nested BSDF answers), else from the maps.
+        let rows = &mut bor.rows;
+        let mut chunk = match (&lanes, lane_points) {
+            (Some(l), true) => Chunk::of_facets(Cols::of(avx), l.facets(), rows, &mut c.chunk),
+            _ => {
+                for (k, bsdf) in bor.sb.iter().enumerate() {
+                    let pt = match bsdf {
+                        Some(bsdf) if shared => {
+                            let (local, wi) = bsdf.local();
+                            Point::of(local, wi)
+                        }
+                        _ => None,
+                    };
+                    rows.set(k, pt);
+                }
+                Chunk::of(Cols::of(avx), rows, &mut c.chunk)
+            }
         };
-        let c = slot.insert(Carried {
-            ids: *ids,
-            surf,
-            sb,
-            chunk: match (&lanes, lane_points) {
-                (Some(l), true) => Chunk::of_facets(Cols::of(avx), l.facets()),
-                _ => Chunk::of(Cols::of(avx), pts),
-            },
-            nee,
-            tp,
-            lp,
-        });
         if let (Some(l), Some(bt), true) = (&lanes, &built, lane_points) {
             let on = alive & bt.points;
             if let (Some(cells), Some(table)) = (l.cells(), super::ms_table(scene, m0)) {
-                c.chunk
-                    .set_lanes(arena.bsdf(bt.child), table, cells, on, &wi_local.0);
+                chunk.set_lanes(arena.bsdf(bt.child), table, cells, on, &wi_local.0);
             }
         }
-        c.chunk.prepare();
+        chunk.prepare();
     }
 
-    /// Step 3 of a chunk that [`build`] carried: its light samples to `tail`.
+    /// Step 3 of a chunk that [`build`] carried (`c`, `bor`): its light samples to `tail`.
     #[inline(always)]
-    fn light(avx: Avx2, b: &mut Batch, c: &Carried, tail: &mut impl Tail) {
-        let Some(lp) = &c.lp else {
+    fn light(avx: Avx2, b: &mut Batch, c: &mut Carried, bor: &mut Lanes, tail: &mut impl Tail) {
+        if c.nee == 0 {
             return; // no lane takes a light sample
-        };
+        }
         let ctx = BsdfContext::default();
-        let (ids, surf, sb, chunk, nee, tp) = (&c.ids, &c.surf, &c.sb, &c.chunk, c.nee, &c.tp);
+        let (ids, surf, nee, tp, lp) = (&c.ids, &c.surf, c.nee, &c.tp, &c.lp);
+        let (sb, chunk) = (&bor.sb, Chunk::at(&mut bor.rows, &mut c.chunk));
         // 3. Next-event estimation: the light directions in the shading frame with
         //    `SurfaceBsdf::local_wo`'s side test 8-wide (the lanes' frames and true normals are
         //    their `SurfaceBsdf`'s, from the same rows; `Frame::to_local` is the lane form at
@@ -607,7 +674,7 @@ pub(crate) mod x8 {
             f.set(k, fk);
             pdf[k] = pk;
         }
-        eval_pdf_x8_into(&ctx, chunk, lit, &lwo.0, &mut f.0, &mut pdf);
+        eval_pdf_x8_into(&ctx, &chunk, lit, &lwo.0, &mut f.0, &mut pdf);
         let lo = light_out(
             surf,
             tp.load(avx),
@@ -626,11 +693,12 @@ pub(crate) mod x8 {
         }
     }
 
-    /// Step 4 of a chunk that [`build`] carried: its BSDF samples to `tail`.
+    /// Step 4 of a chunk that [`build`] carried (`c`, `bor`): its BSDF samples to `tail`.
     #[inline(always)]
-    fn sample(avx: Avx2, b: &mut Batch, c: &Carried, tail: &mut impl Tail) {
+    fn sample(avx: Avx2, b: &mut Batch, c: &mut Carried, bor: &mut Lanes, tail: &mut impl Tail) {
         let ctx = BsdfContext::default();
-        let (ids, surf, sb, chunk) = (&c.ids, &c.surf, &c.sb, &c.chunk);
+        let (ids, surf) = (&c.ids, &c.surf);
+        let (sb, chunk) = (&bor.sb, Chunk::at(&mut bor.rows, &mut c.chunk));
         let p = Cols3::store(surf.p);
         // 4. The BSDF samples (the compensated model's points together, their first orders'
         //    nested evaluations 8-wide, in columns; the others lane by lane), then 8-wide the
@@ -638,7 +706,7 @@ pub(crate) mod x8 {
         //    every sample's ray origin (`SurfaceInteraction::spawn_ray`'s `offset_origin`, the
         //    lane form: the same bits), then lane by lane the next rays to the tail (for
         //    `path`, `PathState::scatter`'s end).
-        let sampled = sample_x8_cols(&ctx, chunk, &mut b.sampler, ids);
+        let sampled = sample_x8_cols(&ctx, &chunk, &mut b.sampler, ids);
         let local = Cols3(sampled.wo).load(avx);
         let world = surf.frame.to_world(local);
         let side = (world.dot(surf.ng) * local.z).gt(avx.splat(0.0));

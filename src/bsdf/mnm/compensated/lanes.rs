@@ -94,20 +94,44 @@ impl<'a> Point<'a> {
     }
 }
 
-/// The chunk's points and what they compute once for their ωi, for both queries
-/// ([`eval_pdf_x8_into`] toward the light points, [`sample_x8_cols`] for the next bounce): each point's
-/// ωi state ([`AtWi`]) and entries, and over the mirror sawtooth the first order's per-point
-/// inputs in columns ([`first::Points8`]). In place by lane (lane k's values are read only
-/// where bit k of `above` is set).
-pub(crate) struct Chunk<'a> {
-    /// The points' rows, where a query reads them ([`Self::point`]): none for the points that
-    /// [`Self::set_lanes`] placed in the baked lookups (their places are in `q`, `table` and
-    /// `norm`, [`Self::place`]).
+/// The chunk's point rows that borrow the BSDFs (the maps and the nested BSDF, in the caller's
+/// arena): the part of a [`Chunk`] with a lifetime, kept apart from its [`ChunkState`] so that the
+/// state can live in storage kept for the whole render (the stream kernel's stage-major groups,
+/// issue 18, thirty-seventh session: each chunk's state written in place, not built aside and
+/// copied). The caller writes the points in place ([`Self::set`]) before [`Chunk::of`].
+#[derive(Clone, Copy)]
+pub(crate) struct ChunkRows<'a> {
+    /// The points' rows, where a query reads them ([`Chunk::point`]): none for the points that
+    /// [`Chunk::set_lanes`] placed in the baked lookups (their places are in `q`, `table` and
+    /// `norm`, [`Chunk::place`]).
     pts: [Option<Point<'a>>; 8],
     /// Bit k: lane k has a point (with or without its row in `pts`).
     on: u8,
     /// The nested BSDF the points share (the first point's; `None` without a point).
     nested: Option<Bsdf<'a>>,
+}
+
+impl<'a> ChunkRows<'a> {
+    /// No point.
+    pub(crate) const EMPTY: Self = ChunkRows {
+        pts: [None; 8],
+        on: 0,
+        nested: None,
+    };
+
+    /// Lane `k`'s point (`None`: no point), for [`Chunk::of`].
+    #[inline(always)]
+    pub(crate) fn set(&mut self, k: usize, pt: Option<Point<'a>>) {
+        self.pts[k] = pt;
+    }
+}
+
+/// What a chunk's points compute once for their ωi, for both queries, without a lifetime (see
+/// [`Chunk`], whose fields these are; [`ChunkRows`] holds the rest): each point's ωi state
+/// ([`AtWi`]) and entries, and over the mirror sawtooth the first order's per-point inputs in
+/// columns ([`first::Points8`]). In place by lane (lane k's values are read only where bit k of
+/// `above` is set). [`Chunk::of`] and [`Chunk::of_facets`] reset it in place, field by field.
+pub(crate) struct ChunkState {
     /// Bit k: lane k has a point seen from above (ωi.z > 0).
     above: u8,
     at: [AtWi; 8],
@@ -126,8 +150,8 @@ pub(crate) struct Chunk<'a> {
     /// The points' lobe choice s(ωi) (their `AtWi`'s `select`) by lane, 0 in lanes without a
     /// point seen from above: the samples' densities in lanes ([`finish_samples`]).
     sel: [f32; 8],
-    /// [`Self::set_lanes`] placed the points with the baked table in the lookups at ωi
-    /// (`above`, `q`, `table`, `norm`, the entries' ωi): [`Self::prepare`] does not walk the
+    /// [`Chunk::set_lanes`] placed the points with the baked table in the lookups at ωi
+    /// (`above`, `q`, `table`, `norm`, the entries' ωi): [`Chunk::prepare`] does not walk the
     /// points again.
     placed: bool,
     /// 8-wide or lane by lane (the CPU's answer, taken once per chunk): every query's and
@@ -135,26 +159,14 @@ pub(crate) struct Chunk<'a> {
     cols: Cols,
 }
 
-impl<'a> Chunk<'a> {
-    /// The chunk of the points `pts` (lanes without a point: `None`; see [`Point`]) before
-    /// their state at ωi, which [`Self::prepare`] then computes in place: a plain struct
-    /// literal, built in the caller's slot (built and returned as one value, the ~3 KB chunk
-    /// was copied by a `memcpy` call per chunk). Its column code 8-wide or not as `cols` says
-    /// (the stream kernel's AVX2 token, `Cols::of`).
-    #[inline(always)]
-    pub(crate) fn of(cols: Cols, pts: [Option<Point<'a>>; 8]) -> Self {
-        let mut on = 0u8;
-        for (k, pt) in pts.iter().enumerate() {
-            on |= u8::from(pt.is_some()) << k;
-        }
-        Chunk {
-            pts,
-            on,
-            nested: shared(&pts),
+impl ChunkState {
+    /// A state to be reset by [`Chunk::of`] or [`Chunk::of_facets`] (the storage's first value).
+    pub(crate) fn new(cols: Cols) -> Self {
+        ChunkState {
             above: 0,
             at: [AtWi::UNUSED; 8],
             e: [Entries::EMPTY; 8],
-            mirror: all_mirror(&pts),
+            mirror: false,
             geo: first::Points8::new(),
             q: Lookups8::new(),
             table: None,
@@ -166,31 +178,85 @@ impl<'a> Chunk<'a> {
         }
     }
 
+    /// [`Self::new`]'s values but `geo` (which the caller resets) and `mirror`, written in
+    /// place field by field.
+    #[inline(always)]
+    fn reset(&mut self, cols: Cols, mirror: bool) {
+        self.above = 0;
+        self.at = [AtWi::UNUSED; 8];
+        self.e = [Entries::EMPTY; 8];
+        self.mirror = mirror;
+        self.q.reset();
+        self.table = None;
+        self.ei = [[0.0; 8]; 3];
+        self.norm = [[0.0; 8]; 3];
+        self.sel = [0.0; 8];
+        self.placed = false;
+        self.cols = cols;
+    }
+}
+
+/// The chunk's points and what they compute once for their ωi, for both queries
+/// ([`eval_pdf_x8_into`] toward the light points, [`sample_x8_cols`] for the next bounce): the
+/// points' rows ([`ChunkRows`]) and their state ([`ChunkState`], whose fields the queries read
+/// through `Deref`), both in the caller's storage: a chunk is a pair of references, built and
+/// moved for free, its ~3.5 KB of state written where it lives.
+pub(crate) struct Chunk<'a, 's> {
+    r: &'s mut ChunkRows<'a>,
+    s: &'s mut ChunkState,
+}
+
+impl core::ops::Deref for Chunk<'_, '_> {
+    type Target = ChunkState;
+    #[inline(always)]
+    fn deref(&self) -> &ChunkState {
+        self.s
+    }
+}
+
+impl<'a, 's> Chunk<'a, 's> {
+    /// The chunk of the points in `r` (written by the caller, [`ChunkRows::set`]; see [`Point`])
+    /// before their state at ωi, which [`Self::prepare`] then computes: `s` reset in place.
+    /// Its column code 8-wide or not as `cols` says (the stream kernel's AVX2 token,
+    /// `Cols::of`).
+    #[inline(always)]
+    pub(crate) fn of(cols: Cols, r: &'s mut ChunkRows<'a>, s: &'s mut ChunkState) -> Self {
+        let mut on = 0u8;
+        for (k, pt) in r.pts.iter().enumerate() {
+            on |= u8::from(pt.is_some()) << k;
+        }
+        r.on = on;
+        r.nested = shared(&r.pts);
+        s.reset(cols, all_mirror(&r.pts));
+        s.geo.reset();
+        Chunk { r, s }
+    }
+
     /// The chunk of the stream kernel's points over the mirror sawtooth built without their
     /// maps (issue 18), from the build's columns `facets` (`MnmSettings::lanes_at`): the
     /// facets and frames go to the chunk's columns as they are
-    /// ([`first::Points8::of_facets`]); then [`Self::set_lanes`] places the points and
-    /// [`Self::prepare`] computes their state, as for [`Self::of`]. A struct literal, built in
-    /// the caller's slot.
+    /// ([`first::Points8::reset_of_facets`]); then [`Self::set_lanes`] places the points and
+    /// [`Self::prepare`] computes their state, as for [`Self::of`]. `r` and `s` reset in place.
     #[inline(always)]
-    pub(crate) fn of_facets(cols: Cols, facets: &FacetCols<8>) -> Self {
-        Chunk {
-            pts: [None; 8],
-            on: 0,
-            nested: None,
-            above: 0,
-            at: [AtWi::UNUSED; 8],
-            e: [Entries::EMPTY; 8],
-            mirror: true,
-            geo: first::Points8::of_facets(facets),
-            q: Lookups8::new(),
-            table: None,
-            ei: [[0.0; 8]; 3],
-            norm: [[0.0; 8]; 3],
-            sel: [0.0; 8],
-            placed: false,
-            cols,
-        }
+    pub(crate) fn of_facets(
+        cols: Cols,
+        facets: &FacetCols<8>,
+        r: &'s mut ChunkRows<'a>,
+        s: &'s mut ChunkState,
+    ) -> Self {
+        r.pts = [None; 8];
+        r.on = 0;
+        r.nested = None;
+        s.reset(cols, true);
+        s.geo.reset_of_facets(facets);
+        Chunk { r, s }
+    }
+
+    /// The chunk whose rows and state [`Self::of`] or [`Self::of_facets`] (and
+    /// [`Self::prepare`]) wrote: its queries, in a later step.
+    #[inline(always)]
+    pub(crate) fn at(r: &'s mut ChunkRows<'a>, s: &'s mut ChunkState) -> Self {
+        Chunk { r, s }
     }
 
     /// The points of a chunk from [`Self::of_facets`]: lane k (bit k of `lanes`) is the point
@@ -217,10 +283,10 @@ impl<'a> Chunk<'a> {
         lanes: u8,
         wi: &[[f32; 8]; 3],
     ) {
-        self.on = lanes;
-        self.nested = (lanes != 0).then_some(nested);
+        self.r.on = lanes;
+        self.r.nested = (lanes != 0).then_some(nested);
         if table.spec.colour != Colour::Baked {
-            for (k, pt) in self.pts.iter_mut().enumerate() {
+            for (k, pt) in self.r.pts.iter_mut().enumerate() {
                 if lanes & (1 << k) != 0 {
                     let r = MsPlace {
                         table,
@@ -242,8 +308,9 @@ impl<'a> Chunk<'a> {
         // the others; its 1 / (π Ē_ms) is its lane of the norms, as in its `MsPlace`);
         // `prepare` then goes on from their state at ωi. (`prepare`'s test, z ≤ 0 skipped: a
         // NaN z is not.)
-        let (q, geo) = (&mut self.q, &mut self.geo);
-        let above = self.cols.run(
+        let s = &mut *self.s;
+        let (q, geo) = (&mut s.q, &mut s.geo);
+        let above = s.cols.run(
             #[inline(always)]
             |cols| {
                 let above = cols.not_le_zero(&wi[2]) & lanes;
@@ -252,30 +319,28 @@ impl<'a> Chunk<'a> {
                 above
             },
         );
-        self.norm = table.baked_norms_x8(self.cols, cells);
-        self.above = above;
-        self.table = Some(table);
-        self.placed = true;
+        s.norm = table.baked_norms_x8(s.cols, cells);
+        s.above = above;
+        s.table = Some(table);
+        s.placed = true;
     }
 
     /// Lane `k` has a point (its queries go through the chunk).
     #[inline(always)]
     pub(crate) fn has(&self, k: usize) -> bool {
-        self.on & (1 << k) != 0
+        self.r.on & (1 << k) != 0
     }
 
     /// The lanes with a point, as bits (bit k: lane k; [`Self::has`]).
     #[inline(always)]
     pub(crate) fn lanes(&self) -> u8 {
-        self.on
+        self.r.on
     }
 
-    /// [`Self::of`] and [`Self::prepare`] (the tests' chunks).
-    #[cfg(test)]
-    pub(crate) fn new(pts: [Option<Point<'a>>; 8]) -> Self {
-        let mut c = Self::of(Cols::detect(), pts);
-        c.prepare();
-        c
+    /// The nested BSDF the points share (`None` without a point).
+    #[inline(always)]
+    fn nested(&self) -> Option<Bsdf<'a>> {
+        self.r.nested
     }
 
     /// The state of the points, as the scalar model computes it per query (bit for bit,
@@ -287,49 +352,51 @@ impl<'a> Chunk<'a> {
     /// from [`Self::of`].
     #[inline(always)]
     pub(crate) fn prepare(&mut self) {
-        let mirror = self.mirror;
-        let q = &mut self.q;
-        let mut table: Option<&'static MsTable> = self.table;
+        let (r, s) = (&*self.r, &mut *self.s);
+        let mirror = s.mirror;
+        let q = &mut s.q;
+        let mut table: Option<&'static MsTable> = s.table;
         for k in 0..8 {
-            if self.placed {
+            if s.placed {
                 break; // `set_lanes` placed the points (each in the shared baked lookups)
             }
             // The point read in place (a copy of the ~80-byte `Point` per lane cost more than
             // the reads it saved).
-            let Some(pt) = &self.pts[k] else { continue };
+            let Some(pt) = &r.pts[k] else { continue };
             let wi = pt.wi;
             if wi.z <= 0.0 {
                 continue;
             }
-            let r = &pt.r;
-            if r.baked_norm.is_some() && std::ptr::eq(*table.get_or_insert(r.table), r.table) {
-                q.push(k, &r.cell, wi);
+            let pr = &pt.r;
+            if pr.baked_norm.is_some() && std::ptr::eq(*table.get_or_insert(pr.table), pr.table) {
+                q.push(k, &pr.cell, wi);
             } else {
-                self.at[k] = AtWi::new(r, &pt.nested, wi, None);
+                s.at[k] = AtWi::new(pr, &pt.nested, wi, None);
             }
             match (mirror, pt.m) {
-                (true, Some(m)) => self.geo.push_point(k, m, wi),
-                (true, None) => self.geo.push_wi(k, wi),
-                (false, _) => self.e[k] = Entries::new(pt.map(), wi),
+                (true, Some(m)) => s.geo.push_point(k, m, wi),
+                (true, None) => s.geo.push_wi(k, wi),
+                (false, _) => s.e[k] = Entries::new(pt.map(), wi),
             }
-            self.above |= 1 << k;
+            s.above |= 1 << k;
         }
         if let Some(t) = table {
             self.baked_state(t);
         }
-        self.table = table;
+        let s = &mut *self.s;
+        s.table = table;
         for k in 0..8 {
-            if self.above & (1 << k) != 0 && !self.q.is_used(k) {
-                self.sel[k] = self.at[k].select;
+            if s.above & (1 << k) != 0 && !s.q.is_used(k) {
+                s.sel[k] = s.at[k].select;
             }
         }
         if mirror {
-            self.geo.clear_unpushed();
+            s.geo.clear_unpushed();
         }
         // Over the mirror sawtooth the entries stay in the columns (no `Entries` row per
         // point: the sampler picks from the columns, `first::Points8::pick`).
-        if mirror && self.above != 0 {
-            self.geo.entries(self.cols);
+        if mirror && s.above != 0 {
+            s.geo.entries(s.cols);
         }
     }
 
@@ -342,21 +409,22 @@ impl<'a> Chunk<'a> {
     /// hold any value until [`Self::prepare`] sets theirs.
     #[inline(always)]
     fn baked_state(&mut self, t: &'static MsTable) {
+        let (r, s) = (&*self.r, &mut *self.s);
         // (After `set_lanes`, `norm` is written.)
         for k in 0..8 {
-            if self.placed {
+            if s.placed {
                 break;
             }
-            if let (Some(pt), true) = (&self.pts[k], self.q.is_used(k)) {
+            if let (Some(pt), true) = (&r.pts[k], s.q.is_used(k)) {
                 let n = pt.r.baked_norm.expect("a point of the baked lookups");
-                for (c, col) in self.norm.iter_mut().enumerate() {
+                for (c, col) in s.norm.iter_mut().enumerate() {
                     col[k] = n[c];
                 }
             }
         }
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx) = self.cols.avx() {
-            let (q, ei, sel) = (&self.q, &mut self.ei, &mut self.sel);
+        if let Some(avx) = s.cols.avx() {
+            let (q, ei, sel) = (&s.q, &mut s.ei, &mut s.sel);
             avx.run(
                 #[inline(always)]
                 || {
@@ -369,15 +437,16 @@ impl<'a> Chunk<'a> {
             );
             return;
         }
-        let l = t.lookup_baked_x8(&self.q, true);
+        let l = t.lookup_baked_x8(&self.s.q, true);
         for (k, &lk) in l.iter().enumerate() {
-            if self.has(k) && self.q.is_used(k) {
+            if self.has(k) && self.s.q.is_used(k) {
                 let at = AtWi::baked(&self.place(k), lk);
+                let s = &mut *self.s;
                 for c in 0..3 {
-                    self.ei[c][k] = at.ei[c];
+                    s.ei[c][k] = at.ei[c];
                 }
-                self.sel[k] = at.select;
-                self.at[k] = at;
+                s.sel[k] = at.select;
+                s.at[k] = at;
             }
         }
     }
@@ -385,14 +454,14 @@ impl<'a> Chunk<'a> {
     /// Whether lane `k` has a point seen from above.
     #[inline(always)]
     fn is_above(&self, k: usize) -> bool {
-        self.above & (1 << k) != 0
+        self.s.above & (1 << k) != 0
     }
 
     /// Lane `k`'s point as a row: a chunk off the mirror sawtooth (from [`Self::of`]: every
     /// point has its row), where the queries read its map.
     #[inline(always)]
     fn point(&self, k: usize) -> &Point<'a> {
-        self.pts[k]
+        self.r.pts[k]
             .as_ref()
             .expect("a point off the mirror sawtooth has its row")
     }
@@ -403,14 +472,54 @@ impl<'a> Chunk<'a> {
     /// chunk's table and its lane of `norm`.
     #[inline(always)]
     fn place(&self, k: usize) -> MsPlace {
-        match (&self.pts[k], self.q.get(k), self.table) {
+        let s = &*self.s;
+        match (&self.r.pts[k], s.q.get(k), s.table) {
             (Some(pt), _, _) => pt.r,
             (None, Some((cell, _)), Some(table)) => MsPlace {
                 table,
                 cell,
-                baked_norm: Some(Vec3::new(self.norm[0][k], self.norm[1][k], self.norm[2][k])),
+                baked_norm: Some(Vec3::new(s.norm[0][k], s.norm[1][k], s.norm[2][k])),
             },
             _ => unreachable!("a point without its row is in the baked lookups"),
+        }
+    }
+}
+
+/// A chunk with its own storage (the tests' chunks): [`Self::view`] is the [`Chunk`].
+#[cfg(test)]
+pub(crate) struct OwnedChunk<'a> {
+    r: ChunkRows<'a>,
+    s: Box<ChunkState>,
+}
+
+#[cfg(test)]
+impl<'a> OwnedChunk<'a> {
+    /// [`Chunk::of`] and [`Chunk::prepare`] of the points `pts`.
+    pub(crate) fn new(pts: [Option<Point<'a>>; 8]) -> Self {
+        let mut o = Self::empty(Cols::detect());
+        o.r.pts = pts;
+        Chunk::of(Cols::detect(), &mut o.r, &mut o.s).prepare();
+        o
+    }
+
+    /// No point yet (for [`Chunk::of_facets`] through [`Self::parts`]).
+    pub(crate) fn empty(cols: Cols) -> Self {
+        OwnedChunk {
+            r: ChunkRows::EMPTY,
+            s: Box::new(ChunkState::new(cols)),
+        }
+    }
+
+    /// The rows and the state, to build a chunk in.
+    pub(crate) fn parts(&mut self) -> (&mut ChunkRows<'a>, &mut ChunkState) {
+        (&mut self.r, &mut self.s)
+    }
+
+    /// The chunk.
+    pub(crate) fn view(&mut self) -> Chunk<'a, '_> {
+        Chunk {
+            r: &mut self.r,
+            s: &mut self.s,
         }
     }
 }
@@ -670,7 +779,7 @@ pub(crate) fn eval_pdf_x8_into(
     p: &mut [f32; 8],
 ) {
     let _ = ctx; // the lane forms read no context
-    let Some(nested) = c.nested else {
+    let Some(nested) = c.nested() else {
         let none = (first::FirstOrders::zero(), [[0.0; 8]; 3]);
         finish_evals(c, lit, 0, &none.0, &none.1, wo, f, p);
         return;
@@ -891,7 +1000,7 @@ pub(crate) fn sample_x8_cols(
     ids: &[u32; 8],
 ) -> Samples8 {
     let _ = ctx; // the lane forms read no context
-    let Some(nested) = c.nested else {
+    let Some(nested) = c.nested() else {
         return Samples8::none();
     };
     let kind = Nested::of(&nested);
@@ -1485,7 +1594,7 @@ mod tests {
         );
     }
 
-    /// The chunk's per-point state ([`Chunk::new`]: the baked tables' lookups at ωi 8-wide,
+    /// The chunk's per-point state ([`OwnedChunk::new`]: the baked tables' lookups at ωi 8-wide,
     /// the mirror sawtooth's entries in lanes) equals the scalar model's (`AtWi::new` without
     /// a cache, `Entries::new`) bit for bit, lane by lane: the mirror sawtooth and the
     /// V-groove, baked and per-bounce tables mixed in one chunk (two baked tables: the second
@@ -1551,7 +1660,8 @@ mod tests {
                     pts[k] = Point::of(arena.bsdf(roots[k]), wi[k]);
                 }
             }
-            let c = Chunk::new(pts);
+            let mut owned = OwnedChunk::new(pts);
+            let c = owned.view();
             for (k, pt) in pts.iter().enumerate() {
                 let above = pt.filter(|p| p.wi.z > 0.0);
                 assert_eq!(c.is_above(k), above.is_some(), "chunk {chunk} lane {k}");
@@ -1645,7 +1755,7 @@ mod tests {
                         });
                         let seeds: [u64; 8] = std::array::from_fn(|_| rng.next_u32() as u64);
                         // Eval toward wo.
-                        let got = eval_pdf_x8(&ctx, &Chunk::new(pts), u8::MAX, &wo);
+                        let got = eval_pdf_x8(&ctx, &OwnedChunk::new(pts).view(), u8::MAX, &wo);
                         for k in 0..8 {
                             if pts[k].is_none() {
                                 continue;
@@ -1668,7 +1778,7 @@ mod tests {
                         for k in 0..8 {
                             lane_pts[7 - k] = pts[k];
                         }
-                        let got = sample_x8(&ctx, &Chunk::new(lane_pts), &mut samplers, &ids);
+                        let got = sample_x8(&ctx, &OwnedChunk::new(lane_pts).view(), &mut samplers, &ids);
                         for k in 0..8 {
                             let Some(_) = pts[k] else { continue };
                             let mut s = Sampler::from_seed(seeds[k], 2);
@@ -1798,15 +1908,17 @@ mod tests {
                         }
                     }
                     let chunk = || {
-                        let mut c = Chunk::of_facets(cols, lanes.facets());
+                        let mut owned = OwnedChunk::empty(cols);
+                        let (r, s) = owned.parts();
+                        let mut c = Chunk::of_facets(cols, lanes.facets(), r, s);
                         let cells = lanes.cells().expect("compensated, with a table");
                         let wi = [wi.map(|v| v.x), wi.map(|v| v.y), wi.map(|v| v.z)];
                         c.set_lanes(arena.bsdf(n), table, cells, mask, &wi);
                         c.prepare();
-                        c
+                        owned
                     };
                     let seeds: [u64; 8] = std::array::from_fn(|_| rng.next_u32() as u64);
-                    let got = eval_pdf_x8(&ctx, &chunk(), u8::MAX, &wo);
+                    let got = eval_pdf_x8(&ctx, &chunk().view(), u8::MAX, &wo);
                     let ids: [u32; 8] = std::array::from_fn(|k| k as u32);
                     // Independent streams, or every other round stratified ones (with and
                     // without jitter), each lane with 0 to 2 of its stratified 2-D draws
@@ -1831,7 +1943,7 @@ mod tests {
                         })
                         .collect();
                     let mut samplers = fresh.clone();
-                    let sampled = sample_x8(&ctx, &chunk(), &mut samplers, &ids);
+                    let sampled = sample_x8(&ctx, &chunk().view(), &mut samplers, &ids);
                     for k in 0..8 {
                         if mask & (1 << k) == 0 {
                             assert!(got[k] == (Spectrum::ZERO, 0.0) && sampled[k].is_none());
