@@ -270,8 +270,7 @@ pub(crate) struct Storage {
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
-        eval_pdf_x8_into, sample_x8_cols, with_incident_alone_x8, Chunk, ChunkRows, ChunkState,
-        Cols, Point,
+        eval_pdf_x8_into, sample_x8_cols, with_incident_alone_x8, Chunk, ChunkState, Cols, Point,
     };
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
@@ -323,18 +322,26 @@ pub(crate) mod x8 {
     }
 
     /// How many chunks [`shade_run`] takes through each step before the next step: a group's
-    /// carried state ([`Carried`], ~4.5 KB a chunk, its [`Lanes`] and its arena) stays in the
-    /// L2 cache while each step's code runs over the group.
+    /// carried state ([`Carried`], ~5 KB a chunk, and its arena) stays in the L2 cache while
+    /// each step's code runs over the group.
     pub(crate) const GROUP: usize = 8;
 
-    /// What a chunk carries from one step of [`shade_run`] to the next without a lifetime:
-    /// its paths, surfaces, light points and the compensated points' state at ωi
-    /// ([`ChunkState`]). Kept for the render ([`super::Storage`]) and written in place by
-    /// [`build`], field by field: a value built aside and moved into its slot was copied
-    /// (~5 KB a chunk, `docs/bench/README.md`, thirty-sixth and thirty-seventh sessions).
+    /// What a chunk carries from one step of [`shade_run`] to the next, without a lifetime
+    /// (its BSDFs by their nodes in its arena): its paths, surfaces, BSDF roots, light points
+    /// and the compensated points with their state at ωi ([`ChunkState`]). Kept for the render
+    /// ([`super::Storage`]) and written in place by [`build`], field by field: a value built
+    /// aside and moved into its slot was copied (~5 KB a chunk; `docs/bench/README.md`,
+    /// thirty-sixth and thirty-seventh sessions), and state that borrowed the arena could not
+    /// outlive a group.
     pub(crate) struct Carried {
         ids: [u32; 8],
         surf: Surface<F32x8>,
+        /// Each lane's BSDF root in the chunk's arena.
+        roots: [u32; 8],
+        /// Bit k: lane k has a `SurfaceBsdf` (the scalar code answers its queries: not a point
+        /// built without its map), which steps 3 and 4 build again from its root and surface
+        /// row ([`surface_bsdf`]: the same value).
+        sbs: u8,
         /// Bit k: lane k takes a light sample.
         nee: u8,
         /// The scattering paths' throughputs (the others 0).
@@ -353,6 +360,8 @@ pub(crate) mod x8 {
             let no = avx.mask_bits(0);
             Carried {
                 ids: [0; 8],
+                roots: [u32::MAX; 8],
+                sbs: 0,
                 surf: Surface {
                     p: v,
                     ng: v,
@@ -377,22 +386,22 @@ pub(crate) mod x8 {
         }
     }
 
-    /// What a chunk carries from one step of [`shade_run`] to the next that borrows its arena:
-    /// each lane's `SurfaceBsdf` where the scalar code answers its queries (not a point built
-    /// without its map) and the compensated points' rows ([`ChunkRows`]). One array of them a
-    /// group, on the stack (emptied once a group: a word per lane), written in place by
-    /// [`build`].
-    #[derive(Clone, Copy)]
-    pub(crate) struct Lanes<'a> {
-        sb: [Option<SurfaceBsdf<'a>>; 8],
-        rows: ChunkRows<'a>,
-    }
-
-    impl Lanes<'_> {
-        const EMPTY: Self = Lanes {
-            sb: [None; 8],
-            rows: ChunkRows::EMPTY,
-        };
+    /// Lane `k`'s `SurfaceBsdf` of a chunk that [`build`] carried (paths `ids`, BSDF roots
+    /// `roots` in `arena`; bit k of `sbs`: it has one), built again as [`build`] built it: its
+    /// root, its surface row's frame, normal and incident direction (the same inputs, the same
+    /// value; `None` where [`build`] had none).
+    #[inline(always)]
+    fn surface_bsdf<'a>(
+        arena: &'a BsdfArena,
+        b: &Batch,
+        (ids, roots, sbs): (&[u32; 8], &[u32; 8], u8),
+        k: usize,
+    ) -> Option<SurfaceBsdf<'a>> {
+        if sbs & (1 << k) == 0 {
+            return None;
+        }
+        let si = b.surf.get(ids[k] as usize);
+        SurfaceBsdf::new(arena.bsdf(roots[k]), si.sh, si.ng, si.wi)
     }
 
     /// Shades the chunks of `chunks` (paths of `batch.sorted`, all at a surface of material
@@ -430,22 +439,21 @@ pub(crate) mod x8 {
         let arenas = &mut store.arenas[..GROUP];
         let carried = &mut store.carried[..GROUP];
         loop {
-            let mut lanes = [Lanes::EMPTY; GROUP];
             let mut n = 0;
-            for ((arena, c), l) in arenas.iter_mut().zip(carried.iter_mut()).zip(&mut lanes) {
+            for (arena, c) in arenas.iter_mut().zip(carried.iter_mut()) {
                 let Some((ids, live)) = chunks.next(&b.sorted) else {
                     break;
                 };
                 build(
-                    avx, scene, cfg, b, m0, &ids, live, lights, gather, arena, c, l,
+                    avx, scene, cfg, b, m0, &ids, live, lights, gather, arena, c,
                 );
                 n += 1;
             }
-            for (c, l) in carried[..n].iter_mut().zip(&mut lanes) {
-                light(avx, b, c, l, tail);
+            for (c, arena) in carried[..n].iter_mut().zip(arenas.iter()) {
+                light(avx, b, c, arena, tail);
             }
-            for (c, l) in carried[..n].iter_mut().zip(&mut lanes) {
-                sample(avx, b, c, l, tail);
+            for (c, arena) in carried[..n].iter_mut().zip(arenas.iter()) {
+                sample(avx, b, c, arena, tail);
             }
             if n < GROUP {
                 break;
@@ -455,9 +463,8 @@ pub(crate) mod x8 {
 
     /// Steps 1 and 2 of the chunk of paths `ids` (material `m0`): its surfaces, BSDFs (in
     /// `arena`, cleared here), points and their state at ωi, light selection and light
-    /// points, into `c` and `l` in place (`l` empty, [`Lanes::EMPTY`]). The first `live`
-    /// lanes are the chunk's paths; a padded chunk's
-    /// other lanes (`vertex::x8::padded`: the last path's id again) are marked behind their
+    /// points, into `c` in place. The first `live` lanes are the chunk's paths; a padded
+    /// chunk's other lanes (`vertex::x8::padded`: the last path's id again) are marked behind their
     /// surface, as `vertex::x8::live_only` does for the other kernels: they build their BSDFs
     /// (in the chunk's arena) but neither scatter, draw a number nor hand a sample to the
     /// tail, and the sampler's stores leave the lowest lane's state where an id repeats
@@ -476,7 +483,6 @@ pub(crate) mod x8 {
         gather: &mut Gather,
         arena: &'a mut BsdfArena,
         c: &mut Carried,
-        bor: &mut Lanes<'a>,
     ) {
         // The chunk's compensated points share their nested BSDF (one material, a constant
         // leaf: every chunk of a run): their first orders are evaluated together.
@@ -522,7 +528,9 @@ pub(crate) mod x8 {
         // The other lanes' BSDFs (the scalar code), then where the maps answer their own
         // queries (no points built without maps) the built maps that are no chunk points (the
         // scalar model answers their queries) get their ωi caches: the arena is complete.
-        let mut all = roots;
+        let all = &mut c.roots;
+        *all = roots;
+        c.sbs = 0;
         if built.is_none() {
             for (k, r) in all.iter_mut().enumerate() {
                 *r = scene.bsdf_root(&si_at(b, k), arena);
@@ -539,7 +547,7 @@ pub(crate) mod x8 {
         // lanes are settled as bits, together; the other lanes build their `SurfaceBsdf` one by
         // one. Bit k of `alive`: lane k scatters (it has a `SurfaceBsdf` or is such a point);
         // of `nee`: it takes a light sample (smooth lobes, a strategy with light samples).
-        let sb = &mut bor.sb;
+        let mut sb: [Option<SurfaceBsdf>; 8] = [None; 8];
         let light_samples = cfg.strategy != Strategy::BsdfOnly;
         let mut alive = points & front;
         let mut nee = match &built {
@@ -555,6 +563,7 @@ pub(crate) mod x8 {
                 continue; // as `PathState::scatter`: the path ends
             };
             sb[k] = Some(bsdf);
+            c.sbs |= 1 << k;
             alive |= 1 << k;
             nee |= u8::from(light_samples && bsdf.lobes().is_smooth()) << k;
         }
@@ -605,25 +614,24 @@ pub(crate) mod x8 {
         }
         c.nee = nee;
         // The compensated model's points (where the nested leaf is shared) and their state
-        // at ωi, once for steps 3 and 4 ([`Chunk`], 8-wide; written in place: the rows in
-        // `bor`, the state in `c`, then its state at ωi): where the material's points are
+        // at ωi, once for steps 3 and 4 ([`Chunk`], 8-wide; written in place in `c`, then
+        // its state at ωi): where the material's points are
         // built without their maps (`super::lane_points`), from the build's lanes (the other
         // lanes' maps are flat: the nested BSDF answers), else from the maps.
-        let rows = &mut bor.rows;
         let mut chunk = match (&lanes, lane_points) {
-            (Some(l), true) => Chunk::of_facets(Cols::of(avx), l.facets(), rows, &mut c.chunk),
+            (Some(l), true) => Chunk::of_facets(Cols::of(avx), l.facets(), arena, &mut c.chunk),
             _ => {
-                for (k, bsdf) in bor.sb.iter().enumerate() {
-                    let pt = match bsdf {
+                let mut pts = [None; 8];
+                for (k, bsdf) in sb.iter().enumerate() {
+                    match bsdf {
                         Some(bsdf) if shared => {
                             let (local, wi) = bsdf.local();
-                            Point::of(local, wi)
+                            pts[k] = Point::of(local, wi);
                         }
-                        _ => None,
-                    };
-                    rows.set(k, pt);
+                        _ => {}
+                    }
                 }
-                Chunk::of(Cols::of(avx), rows, &mut c.chunk)
+                Chunk::of(Cols::of(avx), arena, &pts, &mut c.chunk)
             }
         };
         if let (Some(l), Some(bt), true) = (&lanes, &built, lane_points) {
@@ -635,15 +643,17 @@ pub(crate) mod x8 {
         chunk.prepare();
     }
 
-    /// Step 3 of a chunk that [`build`] carried (`c`, `bor`): its light samples to `tail`.
+    /// Step 3 of a chunk that [`build`] carried (`c`, its BSDFs in `arena`): its light samples
+    /// to `tail`.
     #[inline(always)]
-    fn light(avx: Avx2, b: &mut Batch, c: &mut Carried, bor: &mut Lanes, tail: &mut impl Tail) {
+    fn light(avx: Avx2, b: &mut Batch, c: &mut Carried, arena: &BsdfArena, tail: &mut impl Tail) {
         if c.nee == 0 {
             return; // no lane takes a light sample
         }
         let ctx = BsdfContext::default();
         let (ids, surf, nee, tp, lp) = (&c.ids, &c.surf, c.nee, &c.tp, &c.lp);
-        let (sb, chunk) = (&bor.sb, Chunk::at(&mut bor.rows, &mut c.chunk));
+        let sbs = (&c.ids, &c.roots, c.sbs);
+        let chunk = Chunk::at(arena, &mut c.chunk);
         // 3. Next-event estimation: the light directions in the shading frame with
         //    `SurfaceBsdf::local_wo`'s side test 8-wide (the lanes' frames and true normals are
         //    their `SurfaceBsdf`'s, from the same rows; `Frame::to_local` is the lane form at
@@ -667,7 +677,9 @@ pub(crate) mod x8 {
             let k = rest.trailing_zeros() as usize;
             rest &= rest - 1;
             let i = ids[k];
-            let Some(s) = &sb[k] else { continue };
+            let Some(s) = surface_bsdf(arena, b, sbs, k) else {
+                continue;
+            };
             consistent |= 1 << k;
             let (local, wi) = s.local();
             let (fk, pk) = local.eval_pdf(&ctx, wi, lwo.get(k), &mut b.sampler.at(i as usize));
@@ -693,12 +705,14 @@ pub(crate) mod x8 {
         }
     }
 
-    /// Step 4 of a chunk that [`build`] carried (`c`, `bor`): its BSDF samples to `tail`.
+    /// Step 4 of a chunk that [`build`] carried (`c`, its BSDFs in `arena`): its BSDF samples
+    /// to `tail`.
     #[inline(always)]
-    fn sample(avx: Avx2, b: &mut Batch, c: &mut Carried, bor: &mut Lanes, tail: &mut impl Tail) {
+    fn sample(avx: Avx2, b: &mut Batch, c: &mut Carried, arena: &BsdfArena, tail: &mut impl Tail) {
         let ctx = BsdfContext::default();
         let (ids, surf) = (&c.ids, &c.surf);
-        let (sb, chunk) = (&bor.sb, Chunk::at(&mut bor.rows, &mut c.chunk));
+        let sbs = (&c.ids, &c.roots, c.sbs);
+        let chunk = Chunk::at(arena, &mut c.chunk);
         let p = Cols3::store(surf.p);
         // 4. The BSDF samples (the compensated model's points together, their first orders'
         //    nested evaluations 8-wide, in columns; the others lane by lane), then 8-wide the
@@ -721,7 +735,9 @@ pub(crate) mod x8 {
             let k = rest.trailing_zeros() as usize;
             rest &= rest - 1;
             let i = ids[k];
-            let Some(s) = &sb[k] else { continue };
+            let Some(s) = surface_bsdf(arena, b, sbs, k) else {
+                continue;
+            };
             if let Some(bs) = s.sample(&ctx, &mut b.sampler.at(i as usize)) {
                 wo.set(k, bs.wo);
                 (pdf[k], eta[k], delta[k]) = (bs.pdf, bs.eta, bs.lobe.intersects(Lobes::DELTA));

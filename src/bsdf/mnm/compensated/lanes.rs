@@ -64,10 +64,15 @@ use glam::Vec3;
 #[derive(Clone, Copy)]
 pub(crate) struct Point<'a> {
     m: Option<&'a MicrofacetNormalMap>,
+    /// The root's node in the arena (the map's; [`NO_NODE`] for a point without its map).
+    root: u32,
     r: MsPlace,
     nested: Bsdf<'a>,
     wi: Vec3,
 }
+
+/// No node: a point's root without its map ([`Row`]).
+const NO_NODE: u32 = u32::MAX;
 
 impl<'a> Point<'a> {
     /// `Some` when `eval_pdf` and `sample` of the root `b` run the compensated model alone and
@@ -80,6 +85,7 @@ impl<'a> Point<'a> {
         }
         Some(Point {
             m: Some(m),
+            root: b.root,
             r: r.place,
             nested,
             wi,
@@ -94,44 +100,65 @@ impl<'a> Point<'a> {
     }
 }
 
-/// The chunk's point rows that borrow the BSDFs (the maps and the nested BSDF, in the caller's
-/// arena): the part of a [`Chunk`] with a lifetime, kept apart from its [`ChunkState`] so that the
-/// state can live in storage kept for the whole render (the stream kernel's stage-major groups,
-/// issue 18, thirty-seventh session: each chunk's state written in place, not built aside and
-/// copied). The caller writes the points in place ([`Self::set`]) before [`Chunk::of`].
+/// A point of a chunk without a lifetime (kept in its [`ChunkState`]): its root's and nested
+/// BSDF's nodes in the chunk's arena instead of references, which [`Chunk::point`] resolves
+/// (the state lives in storage kept for the render: the stream kernel's stage-major groups,
+/// issue 18, thirty-seventh session).
 #[derive(Clone, Copy)]
-pub(crate) struct ChunkRows<'a> {
-    /// The points' rows, where a query reads them ([`Chunk::point`]): none for the points that
-    /// [`Chunk::set_lanes`] placed in the baked lookups (their places are in `q`, `table` and
-    /// `norm`, [`Chunk::place`]).
-    pts: [Option<Point<'a>>; 8],
-    /// Bit k: lane k has a point (with or without its row in `pts`).
-    on: u8,
-    /// The nested BSDF the points share (the first point's; `None` without a point).
-    nested: Option<Bsdf<'a>>,
+struct Row {
+    /// The map's root node ([`NO_NODE`]: a point without its map).
+    root: u32,
+    r: MsPlace,
+    nested: u32,
+    wi: Vec3,
 }
 
-impl<'a> ChunkRows<'a> {
-    /// No point.
-    pub(crate) const EMPTY: Self = ChunkRows {
-        pts: [None; 8],
-        on: 0,
-        nested: None,
-    };
-
-    /// Lane `k`'s point (`None`: no point), for [`Chunk::of`].
+impl Row {
     #[inline(always)]
-    pub(crate) fn set(&mut self, k: usize, pt: Option<Point<'a>>) {
-        self.pts[k] = pt;
+    fn of(pt: &Point) -> Self {
+        Row {
+            root: if pt.m.is_some() { pt.root } else { NO_NODE },
+            r: pt.r,
+            nested: pt.nested.root,
+            wi: pt.wi,
+        }
+    }
+
+    /// The point, its nodes in `arena` (the chunk's).
+    #[inline(always)]
+    fn point<'a>(&self, arena: &'a BsdfArena) -> Point<'a> {
+        let m = (self.root != NO_NODE).then(|| {
+            match arena.bsdf(self.root).node() {
+                crate::bsdf::BsdfNode::MicrofacetNormalMap { map, .. } => &arena.mnm[*map as usize],
+                _ => unreachable!("a point's root is its map"),
+            }
+        });
+        Point {
+            m,
+            root: self.root,
+            r: self.r,
+            nested: arena.bsdf(self.nested),
+            wi: self.wi,
+        }
     }
 }
 
-/// What a chunk's points compute once for their ωi, for both queries, without a lifetime (see
-/// [`Chunk`], whose fields these are; [`ChunkRows`] holds the rest): each point's ωi state
-/// ([`AtWi`]) and entries, and over the mirror sawtooth the first order's per-point inputs in
-/// columns ([`first::Points8`]). In place by lane (lane k's values are read only where bit k of
-/// `above` is set). [`Chunk::of`] and [`Chunk::of_facets`] reset it in place, field by field.
+/// The chunk's points and what they compute once for their ωi, for both queries, without a
+/// lifetime (see [`Chunk`], whose fields these are): the points' rows ([`Row`]), each point's
+/// ωi state ([`AtWi`]) and entries, and over the mirror sawtooth the first order's per-point
+/// inputs in columns ([`first::Points8`]). In place by lane (lane k's values are read only
+/// where bit k of `above` is set). [`Chunk::of`] and [`Chunk::of_facets`] reset it in place,
+/// field by field.
 pub(crate) struct ChunkState {
+    /// The points' rows, where a query reads them ([`Chunk::point`]): none for the points that
+    /// [`Chunk::set_lanes`] placed in the baked lookups (their places are in `q`, `table` and
+    /// `norm`, [`Chunk::place`]).
+    pts: [Option<Row>; 8],
+    /// Bit k: lane k has a point (with or without its row in `pts`).
+    on: u8,
+    /// The node of the nested BSDF the points share (the first point's; `None` without a
+    /// point).
+    nested: Option<u32>,
     /// Bit k: lane k has a point seen from above (ωi.z > 0).
     above: u8,
     at: [AtWi; 8],
@@ -163,6 +190,9 @@ impl ChunkState {
     /// A state to be reset by [`Chunk::of`] or [`Chunk::of_facets`] (the storage's first value).
     pub(crate) fn new(cols: Cols) -> Self {
         ChunkState {
+            pts: [None; 8],
+            on: 0,
+            nested: None,
             above: 0,
             at: [AtWi::UNUSED; 8],
             e: [Entries::EMPTY; 8],
@@ -178,8 +208,8 @@ impl ChunkState {
         }
     }
 
-    /// [`Self::new`]'s values but `geo` (which the caller resets) and `mirror`, written in
-    /// place field by field.
+    /// [`Self::new`]'s values but the rows, `geo` (which the caller resets) and `mirror`,
+    /// written in place field by field.
     #[inline(always)]
     fn reset(&mut self, cols: Cols, mirror: bool) {
         self.above = 0;
@@ -198,11 +228,11 @@ impl ChunkState {
 
 /// The chunk's points and what they compute once for their ωi, for both queries
 /// ([`eval_pdf_x8_into`] toward the light points, [`sample_x8_cols`] for the next bounce): the
-/// points' rows ([`ChunkRows`]) and their state ([`ChunkState`], whose fields the queries read
-/// through `Deref`), both in the caller's storage: a chunk is a pair of references, built and
+/// chunk's arena (its points' BSDFs) and its state ([`ChunkState`], whose fields the queries
+/// read through `Deref`) in the caller's storage: a chunk is a pair of references, built and
 /// moved for free, its ~3.5 KB of state written where it lives.
 pub(crate) struct Chunk<'a, 's> {
-    r: &'s mut ChunkRows<'a>,
+    arena: &'a BsdfArena,
     s: &'s mut ChunkState,
 }
 
@@ -215,48 +245,54 @@ impl core::ops::Deref for Chunk<'_, '_> {
 }
 
 impl<'a, 's> Chunk<'a, 's> {
-    /// The chunk of the points in `r` (written by the caller, [`ChunkRows::set`]; see [`Point`])
-    /// before their state at ωi, which [`Self::prepare`] then computes: `s` reset in place.
-    /// Its column code 8-wide or not as `cols` says (the stream kernel's AVX2 token,
-    /// `Cols::of`).
+    /// The chunk of the points `pts` (lanes without a point: `None`; see [`Point`]; their
+    /// BSDFs in `arena`) before their state at ωi, which [`Self::prepare`] then computes: `s`
+    /// reset in place. Its column code 8-wide or not as `cols` says (the stream kernel's AVX2
+    /// token, `Cols::of`).
     #[inline(always)]
-    pub(crate) fn of(cols: Cols, r: &'s mut ChunkRows<'a>, s: &'s mut ChunkState) -> Self {
+    pub(crate) fn of(
+        cols: Cols,
+        arena: &'a BsdfArena,
+        pts: &[Option<Point<'a>>; 8],
+        s: &'s mut ChunkState,
+    ) -> Self {
         let mut on = 0u8;
-        for (k, pt) in r.pts.iter().enumerate() {
+        for (k, pt) in pts.iter().enumerate() {
             on |= u8::from(pt.is_some()) << k;
+            s.pts[k] = pt.as_ref().map(Row::of);
         }
-        r.on = on;
-        r.nested = shared(&r.pts);
-        s.reset(cols, all_mirror(&r.pts));
+        s.on = on;
+        s.nested = shared(pts).map(|b| b.root);
+        s.reset(cols, all_mirror(pts));
         s.geo.reset();
-        Chunk { r, s }
+        Chunk { arena, s }
     }
 
     /// The chunk of the stream kernel's points over the mirror sawtooth built without their
     /// maps (issue 18), from the build's columns `facets` (`MnmSettings::lanes_at`): the
     /// facets and frames go to the chunk's columns as they are
     /// ([`first::Points8::reset_of_facets`]); then [`Self::set_lanes`] places the points and
-    /// [`Self::prepare`] computes their state, as for [`Self::of`]. `r` and `s` reset in place.
+    /// [`Self::prepare`] computes their state, as for [`Self::of`]. `s` reset in place.
     #[inline(always)]
     pub(crate) fn of_facets(
         cols: Cols,
         facets: &FacetCols<8>,
-        r: &'s mut ChunkRows<'a>,
+        arena: &'a BsdfArena,
         s: &'s mut ChunkState,
     ) -> Self {
-        r.pts = [None; 8];
-        r.on = 0;
-        r.nested = None;
+        s.pts = [None; 8];
+        s.on = 0;
+        s.nested = None;
         s.reset(cols, true);
         s.geo.reset_of_facets(facets);
-        Chunk { r, s }
+        Chunk { arena, s }
     }
 
-    /// The chunk whose rows and state [`Self::of`] or [`Self::of_facets`] (and
-    /// [`Self::prepare`]) wrote: its queries, in a later step.
+    /// The chunk whose state [`Self::of`] or [`Self::of_facets`] (and [`Self::prepare`])
+    /// wrote, over the same `arena`: its queries, in a later step.
     #[inline(always)]
-    pub(crate) fn at(r: &'s mut ChunkRows<'a>, s: &'s mut ChunkState) -> Self {
-        Chunk { r, s }
+    pub(crate) fn at(arena: &'a BsdfArena, s: &'s mut ChunkState) -> Self {
+        Chunk { arena, s }
     }
 
     /// The points of a chunk from [`Self::of_facets`]: lane k (bit k of `lanes`) is the point
@@ -283,20 +319,21 @@ impl<'a, 's> Chunk<'a, 's> {
         lanes: u8,
         wi: &[[f32; 8]; 3],
     ) {
-        self.r.on = lanes;
-        self.r.nested = (lanes != 0).then_some(nested);
+        debug_assert!(std::ptr::eq(nested.arena, self.arena), "the chunk's arena");
+        self.s.on = lanes;
+        self.s.nested = (lanes != 0).then_some(nested.root);
         if table.spec.colour != Colour::Baked {
-            for (k, pt) in self.r.pts.iter_mut().enumerate() {
+            for (k, pt) in self.s.pts.iter_mut().enumerate() {
                 if lanes & (1 << k) != 0 {
                     let r = MsPlace {
                         table,
                         cell: cells.get(k),
                         baked_norm: None,
                     };
-                    *pt = Some(Point {
-                        m: None,
+                    *pt = Some(Row {
+                        root: NO_NODE,
                         r,
-                        nested,
+                        nested: nested.root,
                         wi: Vec3::new(wi[0][k], wi[1][k], wi[2][k]),
                     });
                 }
@@ -328,19 +365,19 @@ impl<'a, 's> Chunk<'a, 's> {
     /// Lane `k` has a point (its queries go through the chunk).
     #[inline(always)]
     pub(crate) fn has(&self, k: usize) -> bool {
-        self.r.on & (1 << k) != 0
+        self.s.on & (1 << k) != 0
     }
 
     /// The lanes with a point, as bits (bit k: lane k; [`Self::has`]).
     #[inline(always)]
     pub(crate) fn lanes(&self) -> u8 {
-        self.r.on
+        self.s.on
     }
 
     /// The nested BSDF the points share (`None` without a point).
     #[inline(always)]
     fn nested(&self) -> Option<Bsdf<'a>> {
-        self.r.nested
+        self.s.nested.map(|i| self.arena.bsdf(i))
     }
 
     /// The state of the points, as the scalar model computes it per query (bit for bit,
@@ -352,7 +389,7 @@ impl<'a, 's> Chunk<'a, 's> {
     /// from [`Self::of`].
     #[inline(always)]
     pub(crate) fn prepare(&mut self) {
-        let (r, s) = (&*self.r, &mut *self.s);
+        let (arena, s) = (self.arena, &mut *self.s);
         let mirror = s.mirror;
         let q = &mut s.q;
         let mut table: Option<&'static MsTable> = s.table;
@@ -362,7 +399,8 @@ impl<'a, 's> Chunk<'a, 's> {
             }
             // The point read in place (a copy of the ~80-byte `Point` per lane cost more than
             // the reads it saved).
-            let Some(pt) = &r.pts[k] else { continue };
+            let Some(row) = &s.pts[k] else { continue };
+            let pt = row.point(arena);
             let wi = pt.wi;
             if wi.z <= 0.0 {
                 continue;
@@ -409,14 +447,14 @@ impl<'a, 's> Chunk<'a, 's> {
     /// hold any value until [`Self::prepare`] sets theirs.
     #[inline(always)]
     fn baked_state(&mut self, t: &'static MsTable) {
-        let (r, s) = (&*self.r, &mut *self.s);
+        let s = &mut *self.s;
         // (After `set_lanes`, `norm` is written.)
         for k in 0..8 {
             if s.placed {
                 break;
             }
-            if let (Some(pt), true) = (&r.pts[k], s.q.is_used(k)) {
-                let n = pt.r.baked_norm.expect("a point of the baked lookups");
+            if let (Some(row), true) = (&s.pts[k], s.q.is_used(k)) {
+                let n = row.r.baked_norm.expect("a point of the baked lookups");
                 for (c, col) in s.norm.iter_mut().enumerate() {
                     col[k] = n[c];
                 }
@@ -460,10 +498,11 @@ impl<'a, 's> Chunk<'a, 's> {
     /// Lane `k`'s point as a row: a chunk off the mirror sawtooth (from [`Self::of`]: every
     /// point has its row), where the queries read its map.
     #[inline(always)]
-    fn point(&self, k: usize) -> &Point<'a> {
-        self.r.pts[k]
+    fn point(&self, k: usize) -> Point<'a> {
+        self.s.pts[k]
             .as_ref()
             .expect("a point off the mirror sawtooth has its row")
+            .point(self.arena)
     }
 
     /// Lane `k`'s place in the table (a point's): its row's, or for a point that
@@ -473,8 +512,8 @@ impl<'a, 's> Chunk<'a, 's> {
     #[inline(always)]
     fn place(&self, k: usize) -> MsPlace {
         let s = &*self.s;
-        match (&self.r.pts[k], s.q.get(k), s.table) {
-            (Some(pt), _, _) => pt.r,
+        match (&s.pts[k], s.q.get(k), s.table) {
+            (Some(row), _, _) => row.r,
             (None, Some((cell, _)), Some(table)) => MsPlace {
                 table,
                 cell,
@@ -488,37 +527,36 @@ impl<'a, 's> Chunk<'a, 's> {
 /// A chunk with its own storage (the tests' chunks): [`Self::view`] is the [`Chunk`].
 #[cfg(test)]
 pub(crate) struct OwnedChunk<'a> {
-    r: ChunkRows<'a>,
+    arena: &'a BsdfArena,
     s: Box<ChunkState>,
 }
 
 #[cfg(test)]
 impl<'a> OwnedChunk<'a> {
-    /// [`Chunk::of`] and [`Chunk::prepare`] of the points `pts`.
-    pub(crate) fn new(pts: [Option<Point<'a>>; 8]) -> Self {
-        let mut o = Self::empty(Cols::detect());
-        o.r.pts = pts;
-        Chunk::of(Cols::detect(), &mut o.r, &mut o.s).prepare();
+    /// [`Chunk::of`] and [`Chunk::prepare`] of the points `pts` (their BSDFs in `arena`).
+    pub(crate) fn new(arena: &'a BsdfArena, pts: [Option<Point<'a>>; 8]) -> Self {
+        let mut o = Self::empty(arena, Cols::detect());
+        Chunk::of(Cols::detect(), arena, &pts, &mut o.s).prepare();
         o
     }
 
-    /// No point yet (for [`Chunk::of_facets`] through [`Self::parts`]).
-    pub(crate) fn empty(cols: Cols) -> Self {
+    /// No point yet (for [`Chunk::of_facets`] through [`Self::state`]).
+    pub(crate) fn empty(arena: &'a BsdfArena, cols: Cols) -> Self {
         OwnedChunk {
-            r: ChunkRows::EMPTY,
+            arena,
             s: Box::new(ChunkState::new(cols)),
         }
     }
 
-    /// The rows and the state, to build a chunk in.
-    pub(crate) fn parts(&mut self) -> (&mut ChunkRows<'a>, &mut ChunkState) {
-        (&mut self.r, &mut self.s)
+    /// The state, to build a chunk in.
+    pub(crate) fn state(&mut self) -> &mut ChunkState {
+        &mut self.s
     }
 
     /// The chunk.
     pub(crate) fn view(&mut self) -> Chunk<'a, '_> {
         Chunk {
-            r: &mut self.r,
+            arena: self.arena,
             s: &mut self.s,
         }
     }
@@ -813,7 +851,7 @@ pub(crate) fn eval_pdf_x8_into(
         if wo.z <= 0.0 {
             continue;
         }
-        general.push(k, c.point(k), &c.e[k], wo, None);
+        general.push(k, &c.point(k), &c.e[k], wo, None);
         live |= 1 << k;
     }
     let st = States {
@@ -1088,7 +1126,7 @@ pub(crate) fn sample_x8_cols(
                 st.known[k] = None;
             }
             let w = Vec3::new(wo[0][k], wo[1][k], wo[2][k]);
-            g.push(k, c.point(k), &c.e[k], w, st.known[k]);
+            g.push(k, &c.point(k), &c.e[k], w, st.known[k]);
         }
     }
     // Over the mirror sawtooth the query's inputs from the columns (the known terms where
@@ -1660,7 +1698,7 @@ mod tests {
                     pts[k] = Point::of(arena.bsdf(roots[k]), wi[k]);
                 }
             }
-            let mut owned = OwnedChunk::new(pts);
+            let mut owned = OwnedChunk::new(&arena, pts);
             let c = owned.view();
             for (k, pt) in pts.iter().enumerate() {
                 let above = pt.filter(|p| p.wi.z > 0.0);
@@ -1755,7 +1793,7 @@ mod tests {
                         });
                         let seeds: [u64; 8] = std::array::from_fn(|_| rng.next_u32() as u64);
                         // Eval toward wo.
-                        let got = eval_pdf_x8(&ctx, &OwnedChunk::new(pts).view(), u8::MAX, &wo);
+                        let got = eval_pdf_x8(&ctx, &OwnedChunk::new(&arena, pts).view(), u8::MAX, &wo);
                         for k in 0..8 {
                             if pts[k].is_none() {
                                 continue;
@@ -1778,7 +1816,7 @@ mod tests {
                         for k in 0..8 {
                             lane_pts[7 - k] = pts[k];
                         }
-                        let got = sample_x8(&ctx, &OwnedChunk::new(lane_pts).view(), &mut samplers, &ids);
+                        let got = sample_x8(&ctx, &OwnedChunk::new(&arena, lane_pts).view(), &mut samplers, &ids);
                         for k in 0..8 {
                             let Some(_) = pts[k] else { continue };
                             let mut s = Sampler::from_seed(seeds[k], 2);
@@ -1908,9 +1946,8 @@ mod tests {
                         }
                     }
                     let chunk = || {
-                        let mut owned = OwnedChunk::empty(cols);
-                        let (r, s) = owned.parts();
-                        let mut c = Chunk::of_facets(cols, lanes.facets(), r, s);
+                        let mut owned = OwnedChunk::empty(&arena, cols);
+                        let mut c = Chunk::of_facets(cols, lanes.facets(), &arena, owned.state());
                         let cells = lanes.cells().expect("compensated, with a table");
                         let wi = [wi.map(|v| v.x), wi.map(|v| v.y), wi.map(|v| v.z)];
                         c.set_lanes(arena.bsdf(n), table, cells, mask, &wi);
