@@ -878,18 +878,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
                 || {
                     let mut gather = kernels::light::x8::Gather::new();
                     let (c, lights) = (&mut chunks, &kernels.lights);
-                    x8::shade_run(
-                        avx,
-                        scene,
-                        cfg,
-                        batch,
-                        m,
-                        c,
-                        lights,
-                        &mut gather,
-                        mnm,
-                        tail,
-                    );
+                    x8::shade_run(avx, scene, cfg, batch, m, c, lights, &mut gather, mnm, tail);
                 },
             );
             (chunks.at() - run.start, false)

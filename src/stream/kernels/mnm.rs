@@ -444,9 +444,7 @@ pub(crate) mod x8 {
                 let Some((ids, live)) = chunks.next(&b.sorted) else {
                     break;
                 };
-                build(
-                    avx, scene, cfg, b, m0, &ids, live, lights, gather, arena, c,
-                );
+                build(avx, scene, cfg, b, m0, &ids, live, lights, gather, arena, c);
                 n += 1;
             }
             for (c, arena) in carried[..n].iter_mut().zip(arenas.iter()) {

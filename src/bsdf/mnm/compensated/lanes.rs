@@ -127,11 +127,9 @@ impl Row {
     /// The point, its nodes in `arena` (the chunk's).
     #[inline(always)]
     fn point<'a>(&self, arena: &'a BsdfArena) -> Point<'a> {
-        let m = (self.root != NO_NODE).then(|| {
-            match arena.bsdf(self.root).node() {
-                crate::bsdf::BsdfNode::MicrofacetNormalMap { map, .. } => &arena.mnm[*map as usize],
-                _ => unreachable!("a point's root is its map"),
-            }
+        let m = (self.root != NO_NODE).then(|| match arena.bsdf(self.root).node() {
+            crate::bsdf::BsdfNode::MicrofacetNormalMap { map, .. } => &arena.mnm[*map as usize],
+            _ => unreachable!("a point's root is its map"),
         });
         Point {
             m,
@@ -1793,7 +1791,8 @@ mod tests {
                         });
                         let seeds: [u64; 8] = std::array::from_fn(|_| rng.next_u32() as u64);
                         // Eval toward wo.
-                        let got = eval_pdf_x8(&ctx, &OwnedChunk::new(&arena, pts).view(), u8::MAX, &wo);
+                        let got =
+                            eval_pdf_x8(&ctx, &OwnedChunk::new(&arena, pts).view(), u8::MAX, &wo);
                         for k in 0..8 {
                             if pts[k].is_none() {
                                 continue;
@@ -1816,7 +1815,12 @@ mod tests {
                         for k in 0..8 {
                             lane_pts[7 - k] = pts[k];
                         }
-                        let got = sample_x8(&ctx, &OwnedChunk::new(&arena, lane_pts).view(), &mut samplers, &ids);
+                        let got = sample_x8(
+                            &ctx,
+                            &OwnedChunk::new(&arena, lane_pts).view(),
+                            &mut samplers,
+                            &ids,
+                        );
                         for k in 0..8 {
                             let Some(_) = pts[k] else { continue };
                             let mut s = Sampler::from_seed(seeds[k], 2);
