@@ -94,10 +94,6 @@ pub(crate) struct Batch {
     /// cleared and the scene's light selection built cost ~0.9 M instructions on
     /// metal_plastic at 2 spp (~12 a sample).
     pub gathers: Gathers,
-    /// The compensated normal map kernel's arenas and carried state, one of each per chunk
-    /// of its groups (`kernels::mnm::x8::shade_run`), made at its first run and kept for the
-    /// render.
-    pub mnm: crate::stream::kernels::mnm::Storage,
 }
 
 /// The entries of [`Batch::shadow_rays`] past [`BATCH`]: room for a chunk of the widest
@@ -220,7 +216,6 @@ impl Batch {
             split_hi: Box::new([0; BATCH + 8]),
             light_lanes: [0; crate::stream::kernels::light::KINDS],
             gathers: Default::default(),
-            mnm: Default::default(),
         }
     }
 

@@ -689,7 +689,6 @@ fn shade<T: kernels::tail::Tail>(
     // render (not one per run or stage: each builds the scene's light selection once), kept
     // in the batch and moved out for the stage (two pointers).
     let mut gathers = core::mem::take(&mut batch.gathers);
-    let mut mnm = core::mem::take(&mut batch.mnm);
     let mut start = 0;
     // The runs' materials in the runs' order (`Batch::sort_by_material`).
     let mut run = 0;
@@ -705,8 +704,8 @@ fn shade<T: kernels::tail::Tail>(
                 start..end,
                 kernels,
                 m,
+                &mut scratch.arena,
                 &mut gathers,
-                &mut mnm,
                 tail,
             )
         } else {
@@ -737,14 +736,12 @@ fn shade<T: kernels::tail::Tail>(
         start = end;
     }
     batch.gathers = gathers;
-    batch.mnm = mnm;
 }
 
 /// Shades the first multiple of 8 paths of the run `batch.sorted[run]` (material `m`) with
 /// `m`'s 8-wide kernel; returns how many it shaded (0 without a kernel or AVX2) and whether the
 /// wrapper-chain driver shaded them. Each vertex ends in `tail`. `gathers`: the stage's light
-/// gathers of width 8 and 16 (the diffuse and wrapper-chain kernels'), made when first needed;
-/// `mnm`: the compensated normal map kernel's arenas and carried state (`Batch::mnm`), likewise.
+/// gathers of width 8 and 16 (the diffuse and wrapper-chain kernels'), made when first needed.
 #[cfg(target_arch = "x86_64")]
 #[allow(clippy::too_many_arguments)]
 fn shade_kernel<T: kernels::tail::Tail>(
@@ -754,8 +751,8 @@ fn shade_kernel<T: kernels::tail::Tail>(
     run: std::ops::Range<usize>,
     kernels: &Kernels,
     m: crate::material::MatId,
+    arena: &mut crate::bsdf::BsdfArena,
     gathers: &mut batch::Gathers,
-    mnm: &mut kernels::mnm::Storage,
     tail: &mut T,
 ) -> (usize, bool) {
     let (Some(avx), Some(&Some(kind))) = (kernels.avx, kernels.kinds.get(m as usize)) else {
@@ -877,8 +874,22 @@ fn shade_kernel<T: kernels::tail::Tail>(
                 #[inline(always)]
                 || {
                     let mut gather = kernels::light::x8::Gather::new();
-                    let (c, lights) = (&mut chunks, &kernels.lights);
-                    x8::shade_run(avx, scene, cfg, batch, m, c, lights, &mut gather, mnm, tail);
+                    while let Some((ids, live)) = chunks.next(&batch.sorted) {
+                        let lights = &kernels.lights;
+                        x8::shade(
+                            avx,
+                            scene,
+                            cfg,
+                            batch,
+                            m,
+                            &ids,
+                            live,
+                            lights,
+                            &mut gather,
+                            arena,
+                            tail,
+                        );
+                    }
                 },
             );
             (chunks.at() - run.start, false)
@@ -895,8 +906,8 @@ fn shade_kernel<T: kernels::tail::Tail>(
     _: std::ops::Range<usize>,
     _: &Kernels,
     _: crate::material::MatId,
+    _: &mut crate::bsdf::BsdfArena,
     _: &mut (),
-    _: &mut kernels::mnm::Storage,
     _: &mut T,
 ) -> (usize, bool) {
     (0, false)

@@ -315,7 +315,7 @@ impl AtWi {
     }
 
     /// [`Self::new`] of a point with a baked table (`r.baked_norm` set) from its [W1, E_ms] at
-    /// ωi, looked up by the caller (8 points at once: `lanes::Chunk::prepare`).
+    /// ωi, looked up by the caller (8 points at once: `lanes::Chunk::new`).
     #[inline(always)]
     fn baked(r: &MsPlace, [w1, ei]: [Spectrum; 2]) -> AtWi {
         AtWi {

@@ -444,20 +444,6 @@ impl Lookups8 {
         }
     }
 
-    /// [`Self::new`]'s values written in place, field by field (a stream chunk's lookups live
-    /// in storage kept for the render: `compensated::lanes::Chunk::of`).
-    #[inline(always)]
-    pub(crate) fn reset(&mut self) {
-        self.ax = [1.0; 8];
-        self.ay = [0.0; 8];
-        self.wx = [0.0; 8];
-        self.wy = [0.0; 8];
-        self.wz = [1.0; 8];
-        self.plane = [0; 8];
-        self.t = [0.0; 8];
-        self.used = 0;
-    }
-
     /// Lane `k` looks up direction `w` (z > 0) in `cell`.
     #[inline(always)]
     pub fn push(&mut self, k: usize, cell: &ThetaCell, w: Vec3) {

@@ -5,7 +5,7 @@
 //! kernels take them: `vertex::x8::Chunks`), in the steps of the wrapper-chain driver
 //! ([`super::vertex`]):
 //! 1. the surface interactions gathered into SoA columns;
-//! 2. the BSDFs built at the hits, into the chunk's arena for the 8 points: where the chunk's nested
+//! 2. the BSDFs built at the hits, into one arena for the 8 points: where the chunk's nested
 //!    leaf is constant ([`shared_nested`]), [`build_shared`] (the leaf pushed once; the
 //!    perturbed normals, candidate facets, facet frames and table cells 8-wide; then over the
 //!    mirror sawtooth with a `roughconductor` or `roughplastic` leaf ([`lane_points`]) no map
@@ -30,12 +30,6 @@
 //!    remainders together), then lane by lane the next ray; each lane's light and BSDF samples
 //!    go to the integrator's [`super::tail::Tail`] (`PathState::advance` for `path`, rays to
 //!    trace for `direct`).
-//!
-//! The steps run stage-major ([`x8::shade_run`], issue 18, thirty-sixth session): steps 1 and
-//! 2 for each chunk of a group of up to [`x8::GROUP`] chunks (each in its own arena), then step
-//! 3 for each, then step 4, the chunks' state carried between the steps ([`x8::Carried`]), so
-//! that each step's code (the kernel's whole is about three times the 32 KB L1 instruction
-//! cache) is fetched once per group, not once per chunk.
 //!
 //! Over the mirror sawtooth the first orders of steps 3 and 4 run in lanes too
 //! (`compensated::lanes`' `first`), from the chunk's columns built once for both steps (there
@@ -257,36 +251,25 @@ pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
     }
 }
 
-/// The compensated kernel's storage kept for the render ([`x8::shade_run`]'s groups): an arena
-/// and the carried state ([`x8::Carried`]) per chunk of a group, made at the first run
-/// (`Batch::mnm`; no allocation per run or chunk).
-#[derive(Default)]
-pub(crate) struct Storage {
-    arenas: Vec<BsdfArena>,
-    #[cfg(target_arch = "x86_64")]
-    carried: Vec<x8::Carried>,
-}
-
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
-        eval_pdf_x8_into, sample_x8_cols, with_incident_alone_x8, Chunk, ChunkState, Cols, Point,
+        eval_pdf_x8_into, sample_x8_cols, with_incident_alone_x8, Chunk, Cols, Point,
     };
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::{PathSettings, Strategy};
-    use crate::lane::frame::Frame;
     use crate::lane::vec::V3;
     use crate::lane::{Avx2, F32x8, Lane};
     use crate::scene::Scene;
     use crate::stream::batch::Batch;
-    use crate::stream::kernels::diffuse::{light_out, reflectance, LightPoint, Surface};
+    use crate::stream::kernels::diffuse::light_out;
+    use crate::stream::kernels::diffuse::reflectance;
     use crate::stream::kernels::draws::{x8::draw, Draws};
     use crate::stream::kernels::light::x8::{Cols3, Gather};
     use crate::stream::kernels::light::LaneLight;
     use crate::stream::kernels::ray::offset_origin;
     use crate::stream::kernels::tail::{Sampled, Tail};
-    use crate::stream::kernels::vertex::x8::Chunks;
     use crate::texture::Texture;
     use glam::Vec3;
 
@@ -321,155 +304,19 @@ pub(crate) mod x8 {
         }
     }
 
-    /// How many chunks [`shade_run`] takes through each step before the next step: a group's
-    /// carried state ([`Carried`], ~5 KB a chunk, and its arena) stays in the L2 cache while
-    /// each step's code runs over the group.
-    pub(crate) const GROUP: usize = 8;
-
-    /// What a chunk carries from one step of [`shade_run`] to the next, without a lifetime
-    /// (its BSDFs by their nodes in its arena): its paths, surfaces, BSDF roots, light points
-    /// and the compensated points with their state at ωi ([`ChunkState`]). Kept for the render
-    /// ([`super::Storage`]) and written in place by [`build`], field by field: a value built
-    /// aside and moved into its slot was copied (~5 KB a chunk; `docs/bench/README.md`,
-    /// thirty-sixth and thirty-seventh sessions), and state that borrowed the arena could not
-    /// outlive a group.
-    pub(crate) struct Carried {
-        ids: [u32; 8],
-        surf: Surface<F32x8>,
-        /// Each lane's BSDF root in the chunk's arena.
-        roots: [u32; 8],
-        /// Bit k: lane k has a `SurfaceBsdf` (the scalar code answers its queries: not a point
-        /// built without its map), which steps 3 and 4 build again from its root and surface
-        /// row ([`surface_bsdf`]: the same value).
-        sbs: u8,
-        /// Bit k: lane k takes a light sample.
-        nee: u8,
-        /// The scattering paths' throughputs (the others 0).
-        tp: Cols3,
-        /// The light points, where `nee` is not 0 (else a previous chunk's or zeros).
-        lp: LightPoint<F32x8>,
-        chunk: ChunkState,
-    }
-
-    impl Carried {
-        /// The storage's first value (zeros; [`build`] writes every field a step reads).
-        #[inline(always)]
-        fn new(avx: Avx2) -> Self {
-            let z = avx.splat(0.0);
-            let v = V3::new(z, z, z);
-            let no = avx.mask_bits(0);
-            Carried {
-                ids: [0; 8],
-                roots: [u32::MAX; 8],
-                sbs: 0,
-                surf: Surface {
-                    p: v,
-                    ng: v,
-                    frame: Frame { s: v, t: v, n: v },
-                    wi_world: v,
-                },
-                nee: 0,
-                tp: Cols3::default(),
-                lp: LightPoint {
-                    some: no,
-                    d: v,
-                    p: v,
-                    n: v,
-                    has_n: no,
-                    finite: no,
-                    pdf: z,
-                    value: v,
-                    weight_one: no,
-                },
-                chunk: ChunkState::new(Cols::of(avx)),
-            }
-        }
-    }
-
-    /// Lane `k`'s `SurfaceBsdf` of a chunk that [`build`] carried (paths `ids`, BSDF roots
-    /// `roots` in `arena`; bit k of `sbs`: it has one), built again as [`build`] built it: its
-    /// root, its surface row's frame, normal and incident direction (the same inputs, the same
-    /// value; `None` where [`build`] had none).
-    #[inline(always)]
-    fn surface_bsdf<'a>(
-        arena: &'a BsdfArena,
-        b: &Batch,
-        (ids, roots, sbs): (&[u32; 8], &[u32; 8], u8),
-        k: usize,
-    ) -> Option<SurfaceBsdf<'a>> {
-        if sbs & (1 << k) == 0 {
-            return None;
-        }
-        let si = b.surf.get(ids[k] as usize);
-        SurfaceBsdf::new(arena.bsdf(roots[k]), si.sh, si.ng, si.wi)
-    }
-
-    /// Shades the chunks of `chunks` (paths of `batch.sorted`, all at a surface of material
-    /// `m0`, one that [`super::qualifies`]) as `PathState::scatter` would, stage-major: for
-    /// each group of up to [`GROUP`] chunks, step 2 of every chunk ([`build`]: the BSDFs and
-    /// points, the light points), then step 3 of every chunk ([`light`]), then step 4
-    /// ([`sample`]), so that each step's code is fetched once per group instead of once per
-    /// chunk (the kernel's code is about three times the L1 instruction cache's 32 KB;
-    /// `docs/bench/README.md`, thirty-fifth and thirty-sixth sessions). Every path is in one
-    /// chunk and draws only from its own stream, so each path's draws and sums are the
-    /// chunk-by-chunk order's; the tail gets the group's light samples in chunk order, then
-    /// its BSDF samples in chunk order (each path's light sample before its BSDF sample, as
-    /// [`Tail`] asks). `store`: the group's arenas and carried state, kept by the caller for
-    /// the render (made here at the first run). Call inside [`Avx2::run`].
+    /// Shades the paths `ids` (all at a surface of material `m0`, one that
+    /// [`super::qualifies`]: the chunk is part of a run of the sorted paths) as
+    /// `PathState::scatter` would, one after the other; hands each lane's light sample, then
+    /// its BSDF sample, to `tail` (the integrator's end of the vertex). `arena` holds the 8
+    /// points' BSDF trees (cleared here). The first `live` lanes are the chunk's paths; a
+    /// padded chunk's other lanes (`vertex::x8::padded`: the last path's id again) are marked
+    /// behind their surface, as `vertex::x8::live_only` does for the other kernels: they build
+    /// their BSDFs (in the chunk's arena) but neither scatter, draw a number nor hand a sample
+    /// to the tail, and the sampler's stores leave the lowest lane's state where an id repeats
+    /// (`Avx2::store_u64_at`). Call inside [`Avx2::run`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn shade_run(
-        avx: Avx2,
-        scene: &Scene,
-        cfg: &PathSettings,
-        b: &mut Batch,
-        m0: crate::material::MatId,
-        chunks: &mut Chunks<8>,
-        lights: &[Option<LaneLight>],
-        gather: &mut Gather,
-        store: &mut super::Storage,
-        tail: &mut impl Tail,
-    ) {
-        while store.arenas.len() < GROUP {
-            store.arenas.push(BsdfArena::new());
-        }
-        while store.carried.len() < GROUP {
-            store.carried.push(Carried::new(avx));
-        }
-        let arenas = &mut store.arenas[..GROUP];
-        let carried = &mut store.carried[..GROUP];
-        loop {
-            let mut n = 0;
-            for (arena, c) in arenas.iter_mut().zip(carried.iter_mut()) {
-                let Some((ids, live)) = chunks.next(&b.sorted) else {
-                    break;
-                };
-                build(avx, scene, cfg, b, m0, &ids, live, lights, gather, arena, c);
-                n += 1;
-            }
-            for (c, arena) in carried[..n].iter_mut().zip(arenas.iter()) {
-                light(avx, b, c, arena, tail);
-            }
-            for (c, arena) in carried[..n].iter_mut().zip(arenas.iter()) {
-                sample(avx, b, c, arena, tail);
-            }
-            if n < GROUP {
-                break;
-            }
-        }
-    }
-
-    /// Steps 1 and 2 of the chunk of paths `ids` (material `m0`): its surfaces, BSDFs (in
-    /// `arena`, cleared here), points and their state at ωi, light selection and light
-    /// points, into `c` in place. The first `live` lanes are the chunk's paths; a padded
-    /// chunk's other lanes (`vertex::x8::padded`: the last path's id again) are marked behind their
-    /// surface, as `vertex::x8::live_only` does for the other kernels: they build their BSDFs
-    /// (in the chunk's arena) but neither scatter, draw a number nor hand a sample to the
-    /// tail, and the sampler's stores leave the lowest lane's state where an id repeats
-    /// (`Avx2::store_u64_at`).
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn build<'a>(
+    pub(crate) fn shade(
         avx: Avx2,
         scene: &Scene,
         cfg: &PathSettings,
@@ -479,15 +326,15 @@ pub(crate) mod x8 {
         live: usize,
         lights: &[Option<LaneLight>],
         gather: &mut Gather,
-        arena: &'a mut BsdfArena,
-        c: &mut Carried,
+        arena: &mut BsdfArena,
+        tail: &mut impl Tail,
     ) {
+        let ctx = BsdfContext::default();
         // The chunk's compensated points share their nested BSDF (one material, a constant
         // leaf: every chunk of a run): their first orders are evaluated together.
         let shared = super::shared_nested(&scene.materials, m0);
         // 1. The surfaces, loaded 8-wide from the batch's rows (the light stage's columns).
         let surf = crate::stream::kernels::surface::x8::load(avx, &b.surf, ids);
-        (c.ids, c.surf) = (*ids, surf);
 
         // 2. The BSDFs: where the nested leaf is shared, the maps built here and their ωi
         //    caches 8-wide (`super::build_shared`, `with_incident_x8`), else by
@@ -499,6 +346,7 @@ pub(crate) mod x8 {
         // through its `SurfaceBsdf`): the chunk's points read the 8-wide columns (`surf`,
         // the same rows).
         let si_at = |b: &Batch, k: usize| -> SurfaceInteraction { b.surf.get(ids[k] as usize) };
+        let p = Cols3::store(surf.p);
         let lane_points = shared && super::lane_points(&scene.materials, m0);
         let lanes = match shared {
             true => super::build_lanes(scene, m0, normal_rgb(avx, scene, m0, b, ids)),
@@ -526,9 +374,7 @@ pub(crate) mod x8 {
         // The other lanes' BSDFs (the scalar code), then where the maps answer their own
         // queries (no points built without maps) the built maps that are no chunk points (the
         // scalar model answers their queries) get their ωi caches: the arena is complete.
-        let all = &mut c.roots;
-        *all = roots;
-        c.sbs = 0;
+        let mut all = roots;
         if built.is_none() {
             for (k, r) in all.iter_mut().enumerate() {
                 *r = scene.bsdf_root(&si_at(b, k), arena);
@@ -537,7 +383,7 @@ pub(crate) mod x8 {
         if shared && !lane_points {
             with_incident_alone_x8(arena, &roots, &wi);
         }
-        let arena: &'a BsdfArena = arena;
+        let arena: &BsdfArena = arena;
         // The side test, then the light points, in each path's order; each lane's
         // `SurfaceBsdf` kept for steps 3 and 4, but a point built without its map (bit k of
         // `points`), whose queries all go through the chunk: its side test is `front`
@@ -561,13 +407,11 @@ pub(crate) mod x8 {
                 continue; // as `PathState::scatter`: the path ends
             };
             sb[k] = Some(bsdf);
-            c.sbs |= 1 << k;
             alive |= 1 << k;
             nee |= u8::from(light_samples && bsdf.lobes().is_smooth()) << k;
         }
         // The scattering paths' throughputs; the light sample's points (the others 0).
-        let tp = &mut c.tp;
-        *tp = Cols3::default();
+        let mut tp = Cols3::default();
         for (k, &i) in ids.iter().enumerate() {
             let i = i as usize;
             if alive & (1 << k) != 0 {
@@ -605,32 +449,27 @@ pub(crate) mod x8 {
             );
         }
 
-        // The light points (`Gather::finish`, in the chunk-by-chunk order step 3's: the same
-        // numbers), here so that the gather serves the group's next chunk.
-        if nee != 0 {
-            c.lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
-        }
-        c.nee = nee;
         // The compensated model's points (where the nested leaf is shared) and their state
-        // at ωi, once for steps 3 and 4 ([`Chunk`], 8-wide; written in place in `c`, then
-        // its state at ωi): where the material's points are
-        // built without their maps (`super::lane_points`), from the build's lanes (the other
-        // lanes' maps are flat: the nested BSDF answers), else from the maps.
-        let mut chunk = match (&lanes, lane_points) {
-            (Some(l), true) => Chunk::of_facets(Cols::of(avx), l.facets(), arena, &mut c.chunk),
-            _ => {
-                let mut pts = [None; 8];
-                for (k, bsdf) in sb.iter().enumerate() {
-                    match bsdf {
-                        Some(bsdf) if shared => {
-                            let (local, wi) = bsdf.local();
-                            pts[k] = Point::of(local, wi);
-                        }
-                        _ => {}
+        // at ωi, once for steps 3 and 4 ([`Chunk`], 8-wide; built in place: a struct literal,
+        // then its state at ωi): where the material's points are built without their maps
+        // (`super::lane_points`), from the build's lanes (the other lanes' maps are flat:
+        // the nested BSDF answers), else from the maps.
+        // (Each chunk a struct literal straight into `chunk`, then filled in place.)
+        let mut pts = [None; 8];
+        if !lane_points {
+            for (k, bsdf) in sb.iter().enumerate() {
+                match bsdf {
+                    Some(bsdf) if shared => {
+                        let (local, wi) = bsdf.local();
+                        pts[k] = Point::of(local, wi);
                     }
+                    _ => {}
                 }
-                Chunk::of(Cols::of(avx), arena, &pts, &mut c.chunk)
             }
+        }
+        let mut chunk = match (&lanes, lane_points) {
+            (Some(l), true) => Chunk::of_facets(Cols::of(avx), l.facets()),
+            _ => Chunk::of(Cols::of(avx), pts),
         };
         if let (Some(l), Some(bt), true) = (&lanes, &built, lane_points) {
             let on = alive & bt.points;
@@ -639,79 +478,59 @@ pub(crate) mod x8 {
             }
         }
         chunk.prepare();
-    }
 
-    /// Step 3 of a chunk that [`build`] carried (`c`, its BSDFs in `arena`): its light samples
-    /// to `tail`.
-    #[inline(always)]
-    fn light(avx: Avx2, b: &mut Batch, c: &mut Carried, arena: &BsdfArena, tail: &mut impl Tail) {
-        if c.nee == 0 {
-            return; // no lane takes a light sample
-        }
-        let ctx = BsdfContext::default();
-        let (ids, surf, nee, tp, lp) = (&c.ids, &c.surf, c.nee, &c.tp, &c.lp);
-        let sbs = (&c.ids, &c.roots, c.sbs);
-        let chunk = Chunk::at(arena, &mut c.chunk);
         // 3. Next-event estimation: the light directions in the shading frame with
         //    `SurfaceBsdf::local_wo`'s side test 8-wide (the lanes' frames and true normals are
         //    their `SurfaceBsdf`'s, from the same rows; `Frame::to_local` is the lane form at
         //    width 1), the BSDF toward them lane by lane where a point was not one of the
         //    chunk's (as `nee::prepare_light`), the chunk's points together into the columns,
         //    the rest 8-wide.
-        let zero = avx.splat(0.0);
-        let local = surf.frame.to_local(lp.d);
-        let side = (lp.d.dot(surf.ng) * local.z).gt(zero) & lp.some;
-        let lwo = Cols3::store(local);
-        let (mut f, mut pdf) = (Cols3::default(), [0.0f32; 8]);
-        // Bits: the lanes toward their light point; those of the chunk's points (evaluated
-        // together below, their directions in the columns as they are); the lanes whose
-        // value is consistent (every one of the chunk's, the others where they have a
-        // `SurfaceBsdf`, evaluated lane by lane).
-        let toward = nee & side.bits() as u8;
-        let lit = toward & chunk.lanes();
-        let mut consistent = lit;
-        let mut rest = toward & !lit;
-        while rest != 0 {
-            let k = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            let i = ids[k];
-            let Some(s) = surface_bsdf(arena, b, sbs, k) else {
-                continue;
-            };
-            consistent |= 1 << k;
-            let (local, wi) = s.local();
-            let (fk, pk) = local.eval_pdf(&ctx, wi, lwo.get(k), &mut b.sampler.at(i as usize));
-            f.set(k, fk);
-            pdf[k] = pk;
-        }
-        eval_pdf_x8_into(&ctx, &chunk, lit, &lwo.0, &mut f.0, &mut pdf);
-        let lo = light_out(
-            surf,
-            tp.load(avx),
-            lp,
-            f.load(avx),
-            avx.load(&pdf),
-            avx.mask_bits(u32::from(consistent)),
-        );
-        let (ok, contrib) = (lo.ok.to_array(), Cols3::store(lo.contribution));
-        // The shadow rays as whole rows (`RayRows::segment_rows`).
-        let shadow = crate::stream::kernels::ray::RayRows::segment_rows(avx, lo.o, lo.d, lo.tmax);
-        for (k, &i) in ids.iter().enumerate() {
-            if nee & (1 << k) != 0 && ok[k] {
-                tail.light(b, i as usize, shadow[k], contrib.get(k));
+        if nee != 0 {
+            let lp = gather.finish(avx, scene, surf.p, &mut b.light_lanes);
+            let zero = avx.splat(0.0);
+            let local = surf.frame.to_local(lp.d);
+            let side = (lp.d.dot(surf.ng) * local.z).gt(zero) & lp.some;
+            let lwo = Cols3::store(local);
+            let (mut f, mut pdf) = (Cols3::default(), [0.0f32; 8]);
+            // Bits: the lanes toward their light point; those of the chunk's points (evaluated
+            // together below, their directions in the columns as they are); the lanes whose
+            // value is consistent (every one of the chunk's, the others where they have a
+            // `SurfaceBsdf`, evaluated lane by lane).
+            let toward = nee & side.bits() as u8;
+            let lit = toward & chunk.lanes();
+            let mut consistent = lit;
+            let mut rest = toward & !lit;
+            while rest != 0 {
+                let k = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                let i = ids[k];
+                let Some(s) = &sb[k] else { continue };
+                consistent |= 1 << k;
+                let (local, wi) = s.local();
+                let (fk, pk) = local.eval_pdf(&ctx, wi, lwo.get(k), &mut b.sampler.at(i as usize));
+                f.set(k, fk);
+                pdf[k] = pk;
+            }
+            eval_pdf_x8_into(&ctx, &chunk, lit, &lwo.0, &mut f.0, &mut pdf);
+            let lo = light_out(
+                &surf,
+                tp.load(avx),
+                &lp,
+                f.load(avx),
+                avx.load(&pdf),
+                avx.mask_bits(u32::from(consistent)),
+            );
+            let (ok, c) = (lo.ok.to_array(), Cols3::store(lo.contribution));
+            // The shadow rays as whole rows (`RayRows::segment_rows`).
+            let shadow =
+                crate::stream::kernels::ray::RayRows::segment_rows(avx, lo.o, lo.d, lo.tmax);
+            for (k, &i) in ids.iter().enumerate() {
+                if nee & (1 << k) != 0 && ok[k] {
+                    tail.light(b, i as usize, shadow[k], c.get(k));
+                }
             }
         }
-    }
 
-    /// Step 4 of a chunk that [`build`] carried (`c`, its BSDFs in `arena`): its BSDF samples
-    /// to `tail`.
-    #[inline(always)]
-    fn sample(avx: Avx2, b: &mut Batch, c: &mut Carried, arena: &BsdfArena, tail: &mut impl Tail) {
-        let ctx = BsdfContext::default();
-        let (ids, surf) = (&c.ids, &c.surf);
-        let sbs = (&c.ids, &c.roots, c.sbs);
-        let chunk = Chunk::at(arena, &mut c.chunk);
-        let p = Cols3::store(surf.p);
         // 4. The BSDF samples (the compensated model's points together, their first orders'
         //    nested evaluations 8-wide, in columns; the others lane by lane), then 8-wide the
         //    chunk points' world directions with `SurfaceBsdf::world_sample`'s side test and
@@ -733,9 +552,7 @@ pub(crate) mod x8 {
             let k = rest.trailing_zeros() as usize;
             rest &= rest - 1;
             let i = ids[k];
-            let Some(s) = surface_bsdf(arena, b, sbs, k) else {
-                continue;
-            };
+            let Some(s) = &sb[k] else { continue };
             if let Some(bs) = s.sample(&ctx, &mut b.sampler.at(i as usize)) {
                 wo.set(k, bs.wo);
                 (pdf[k], eta[k], delta[k]) = (bs.pdf, bs.eta, bs.lobe.intersects(Lobes::DELTA));

@@ -64,15 +64,10 @@ use glam::Vec3;
 #[derive(Clone, Copy)]
 pub(crate) struct Point<'a> {
     m: Option<&'a MicrofacetNormalMap>,
-    /// The root's node in the arena (the map's; [`NO_NODE`] for a point without its map).
-    root: u32,
     r: MsPlace,
     nested: Bsdf<'a>,
     wi: Vec3,
 }
-
-/// No node: a point's root without its map ([`Row`]).
-const NO_NODE: u32 = u32::MAX;
 
 impl<'a> Point<'a> {
     /// `Some` when `eval_pdf` and `sample` of the root `b` run the compensated model alone and
@@ -85,7 +80,6 @@ impl<'a> Point<'a> {
         }
         Some(Point {
             m: Some(m),
-            root: b.root,
             r: r.place,
             nested,
             wi,
@@ -100,63 +94,20 @@ impl<'a> Point<'a> {
     }
 }
 
-/// A point of a chunk without a lifetime (kept in its [`ChunkState`]): its root's and nested
-/// BSDF's nodes in the chunk's arena instead of references, which [`Chunk::point`] resolves
-/// (the state lives in storage kept for the render: the stream kernel's stage-major groups,
-/// issue 18, thirty-seventh session).
-#[derive(Clone, Copy)]
-struct Row {
-    /// The map's root node ([`NO_NODE`]: a point without its map).
-    root: u32,
-    r: MsPlace,
-    nested: u32,
-    wi: Vec3,
-}
-
-impl Row {
-    #[inline(always)]
-    fn of(pt: &Point) -> Self {
-        Row {
-            root: if pt.m.is_some() { pt.root } else { NO_NODE },
-            r: pt.r,
-            nested: pt.nested.root,
-            wi: pt.wi,
-        }
-    }
-
-    /// The point, its nodes in `arena` (the chunk's).
-    #[inline(always)]
-    fn point<'a>(&self, arena: &'a BsdfArena) -> Point<'a> {
-        let m = (self.root != NO_NODE).then(|| match arena.bsdf(self.root).node() {
-            crate::bsdf::BsdfNode::MicrofacetNormalMap { map, .. } => &arena.mnm[*map as usize],
-            _ => unreachable!("a point's root is its map"),
-        });
-        Point {
-            m,
-            root: self.root,
-            r: self.r,
-            nested: arena.bsdf(self.nested),
-            wi: self.wi,
-        }
-    }
-}
-
-/// The chunk's points and what they compute once for their ωi, for both queries, without a
-/// lifetime (see [`Chunk`], whose fields these are): the points' rows ([`Row`]), each point's
+/// The chunk's points and what they compute once for their ωi, for both queries
+/// ([`eval_pdf_x8_into`] toward the light points, [`sample_x8_cols`] for the next bounce): each point's
 /// ωi state ([`AtWi`]) and entries, and over the mirror sawtooth the first order's per-point
 /// inputs in columns ([`first::Points8`]). In place by lane (lane k's values are read only
-/// where bit k of `above` is set). [`Chunk::of`] and [`Chunk::of_facets`] reset it in place,
-/// field by field.
-pub(crate) struct ChunkState {
-    /// The points' rows, where a query reads them ([`Chunk::point`]): none for the points that
-    /// [`Chunk::set_lanes`] placed in the baked lookups (their places are in `q`, `table` and
-    /// `norm`, [`Chunk::place`]).
-    pts: [Option<Row>; 8],
+/// where bit k of `above` is set).
+pub(crate) struct Chunk<'a> {
+    /// The points' rows, where a query reads them ([`Self::point`]): none for the points that
+    /// [`Self::set_lanes`] placed in the baked lookups (their places are in `q`, `table` and
+    /// `norm`, [`Self::place`]).
+    pts: [Option<Point<'a>>; 8],
     /// Bit k: lane k has a point (with or without its row in `pts`).
     on: u8,
-    /// The node of the nested BSDF the points share (the first point's; `None` without a
-    /// point).
-    nested: Option<u32>,
+    /// The nested BSDF the points share (the first point's; `None` without a point).
+    nested: Option<Bsdf<'a>>,
     /// Bit k: lane k has a point seen from above (ωi.z > 0).
     above: u8,
     at: [AtWi; 8],
@@ -175,8 +126,8 @@ pub(crate) struct ChunkState {
     /// The points' lobe choice s(ωi) (their `AtWi`'s `select`) by lane, 0 in lanes without a
     /// point seen from above: the samples' densities in lanes ([`finish_samples`]).
     sel: [f32; 8],
-    /// [`Chunk::set_lanes`] placed the points with the baked table in the lookups at ωi
-    /// (`above`, `q`, `table`, `norm`, the entries' ωi): [`Chunk::prepare`] does not walk the
+    /// [`Self::set_lanes`] placed the points with the baked table in the lookups at ωi
+    /// (`above`, `q`, `table`, `norm`, the entries' ωi): [`Self::prepare`] does not walk the
     /// points again.
     placed: bool,
     /// 8-wide or lane by lane (the CPU's answer, taken once per chunk): every query's and
@@ -184,17 +135,26 @@ pub(crate) struct ChunkState {
     cols: Cols,
 }
 
-impl ChunkState {
-    /// A state to be reset by [`Chunk::of`] or [`Chunk::of_facets`] (the storage's first value).
-    pub(crate) fn new(cols: Cols) -> Self {
-        ChunkState {
-            pts: [None; 8],
-            on: 0,
-            nested: None,
+impl<'a> Chunk<'a> {
+    /// The chunk of the points `pts` (lanes without a point: `None`; see [`Point`]) before
+    /// their state at ωi, which [`Self::prepare`] then computes in place: a plain struct
+    /// literal, built in the caller's slot (built and returned as one value, the ~3 KB chunk
+    /// was copied by a `memcpy` call per chunk). Its column code 8-wide or not as `cols` says
+    /// (the stream kernel's AVX2 token, `Cols::of`).
+    #[inline(always)]
+    pub(crate) fn of(cols: Cols, pts: [Option<Point<'a>>; 8]) -> Self {
+        let mut on = 0u8;
+        for (k, pt) in pts.iter().enumerate() {
+            on |= u8::from(pt.is_some()) << k;
+        }
+        Chunk {
+            pts,
+            on,
+            nested: shared(&pts),
             above: 0,
             at: [AtWi::UNUSED; 8],
             e: [Entries::EMPTY; 8],
-            mirror: false,
+            mirror: all_mirror(&pts),
             geo: first::Points8::new(),
             q: Lookups8::new(),
             table: None,
@@ -206,91 +166,31 @@ impl ChunkState {
         }
     }
 
-    /// [`Self::new`]'s values but the rows, `geo` (which the caller resets) and `mirror`,
-    /// written in place field by field.
-    #[inline(always)]
-    fn reset(&mut self, cols: Cols, mirror: bool) {
-        self.above = 0;
-        self.at = [AtWi::UNUSED; 8];
-        self.e = [Entries::EMPTY; 8];
-        self.mirror = mirror;
-        self.q.reset();
-        self.table = None;
-        self.ei = [[0.0; 8]; 3];
-        self.norm = [[0.0; 8]; 3];
-        self.sel = [0.0; 8];
-        self.placed = false;
-        self.cols = cols;
-    }
-}
-
-/// The chunk's points and what they compute once for their ωi, for both queries
-/// ([`eval_pdf_x8_into`] toward the light points, [`sample_x8_cols`] for the next bounce): the
-/// chunk's arena (its points' BSDFs) and its state ([`ChunkState`], whose fields the queries
-/// read through `Deref`) in the caller's storage: a chunk is a pair of references, built and
-/// moved for free, its ~3.5 KB of state written where it lives.
-pub(crate) struct Chunk<'a, 's> {
-    arena: &'a BsdfArena,
-    s: &'s mut ChunkState,
-}
-
-impl core::ops::Deref for Chunk<'_, '_> {
-    type Target = ChunkState;
-    #[inline(always)]
-    fn deref(&self) -> &ChunkState {
-        self.s
-    }
-}
-
-impl<'a, 's> Chunk<'a, 's> {
-    /// The chunk of the points `pts` (lanes without a point: `None`; see [`Point`]; their
-    /// BSDFs in `arena`) before their state at ωi, which [`Self::prepare`] then computes: `s`
-    /// reset in place. Its column code 8-wide or not as `cols` says (the stream kernel's AVX2
-    /// token, `Cols::of`).
-    #[inline(always)]
-    pub(crate) fn of(
-        cols: Cols,
-        arena: &'a BsdfArena,
-        pts: &[Option<Point<'a>>; 8],
-        s: &'s mut ChunkState,
-    ) -> Self {
-        let mut on = 0u8;
-        for (k, pt) in pts.iter().enumerate() {
-            on |= u8::from(pt.is_some()) << k;
-            s.pts[k] = pt.as_ref().map(Row::of);
-        }
-        s.on = on;
-        s.nested = shared(pts).map(|b| b.root);
-        s.reset(cols, all_mirror(pts));
-        s.geo.reset();
-        Chunk { arena, s }
-    }
-
     /// The chunk of the stream kernel's points over the mirror sawtooth built without their
     /// maps (issue 18), from the build's columns `facets` (`MnmSettings::lanes_at`): the
     /// facets and frames go to the chunk's columns as they are
-    /// ([`first::Points8::reset_of_facets`]); then [`Self::set_lanes`] places the points and
-    /// [`Self::prepare`] computes their state, as for [`Self::of`]. `s` reset in place.
+    /// ([`first::Points8::of_facets`]); then [`Self::set_lanes`] places the points and
+    /// [`Self::prepare`] computes their state, as for [`Self::of`]. A struct literal, built in
+    /// the caller's slot.
     #[inline(always)]
-    pub(crate) fn of_facets(
-        cols: Cols,
-        facets: &FacetCols<8>,
-        arena: &'a BsdfArena,
-        s: &'s mut ChunkState,
-    ) -> Self {
-        s.pts = [None; 8];
-        s.on = 0;
-        s.nested = None;
-        s.reset(cols, true);
-        s.geo.reset_of_facets(facets);
-        Chunk { arena, s }
-    }
-
-    /// The chunk whose state [`Self::of`] or [`Self::of_facets`] (and [`Self::prepare`])
-    /// wrote, over the same `arena`: its queries, in a later step.
-    #[inline(always)]
-    pub(crate) fn at(arena: &'a BsdfArena, s: &'s mut ChunkState) -> Self {
-        Chunk { arena, s }
+    pub(crate) fn of_facets(cols: Cols, facets: &FacetCols<8>) -> Self {
+        Chunk {
+            pts: [None; 8],
+            on: 0,
+            nested: None,
+            above: 0,
+            at: [AtWi::UNUSED; 8],
+            e: [Entries::EMPTY; 8],
+            mirror: true,
+            geo: first::Points8::of_facets(facets),
+            q: Lookups8::new(),
+            table: None,
+            ei: [[0.0; 8]; 3],
+            norm: [[0.0; 8]; 3],
+            sel: [0.0; 8],
+            placed: false,
+            cols,
+        }
     }
 
     /// The points of a chunk from [`Self::of_facets`]: lane k (bit k of `lanes`) is the point
@@ -317,21 +217,20 @@ impl<'a, 's> Chunk<'a, 's> {
         lanes: u8,
         wi: &[[f32; 8]; 3],
     ) {
-        debug_assert!(std::ptr::eq(nested.arena, self.arena), "the chunk's arena");
-        self.s.on = lanes;
-        self.s.nested = (lanes != 0).then_some(nested.root);
+        self.on = lanes;
+        self.nested = (lanes != 0).then_some(nested);
         if table.spec.colour != Colour::Baked {
-            for (k, pt) in self.s.pts.iter_mut().enumerate() {
+            for (k, pt) in self.pts.iter_mut().enumerate() {
                 if lanes & (1 << k) != 0 {
                     let r = MsPlace {
                         table,
                         cell: cells.get(k),
                         baked_norm: None,
                     };
-                    *pt = Some(Row {
-                        root: NO_NODE,
+                    *pt = Some(Point {
+                        m: None,
                         r,
-                        nested: nested.root,
+                        nested,
                         wi: Vec3::new(wi[0][k], wi[1][k], wi[2][k]),
                     });
                 }
@@ -343,9 +242,8 @@ impl<'a, 's> Chunk<'a, 's> {
         // the others; its 1 / (π Ē_ms) is its lane of the norms, as in its `MsPlace`);
         // `prepare` then goes on from their state at ωi. (`prepare`'s test, z ≤ 0 skipped: a
         // NaN z is not.)
-        let s = &mut *self.s;
-        let (q, geo) = (&mut s.q, &mut s.geo);
-        let above = s.cols.run(
+        let (q, geo) = (&mut self.q, &mut self.geo);
+        let above = self.cols.run(
             #[inline(always)]
             |cols| {
                 let above = cols.not_le_zero(&wi[2]) & lanes;
@@ -354,28 +252,30 @@ impl<'a, 's> Chunk<'a, 's> {
                 above
             },
         );
-        s.norm = table.baked_norms_x8(s.cols, cells);
-        s.above = above;
-        s.table = Some(table);
-        s.placed = true;
+        self.norm = table.baked_norms_x8(self.cols, cells);
+        self.above = above;
+        self.table = Some(table);
+        self.placed = true;
     }
 
     /// Lane `k` has a point (its queries go through the chunk).
     #[inline(always)]
     pub(crate) fn has(&self, k: usize) -> bool {
-        self.s.on & (1 << k) != 0
+        self.on & (1 << k) != 0
     }
 
     /// The lanes with a point, as bits (bit k: lane k; [`Self::has`]).
     #[inline(always)]
     pub(crate) fn lanes(&self) -> u8 {
-        self.s.on
+        self.on
     }
 
-    /// The nested BSDF the points share (`None` without a point).
-    #[inline(always)]
-    fn nested(&self) -> Option<Bsdf<'a>> {
-        self.s.nested.map(|i| self.arena.bsdf(i))
+    /// [`Self::of`] and [`Self::prepare`] (the tests' chunks).
+    #[cfg(test)]
+    pub(crate) fn new(pts: [Option<Point<'a>>; 8]) -> Self {
+        let mut c = Self::of(Cols::detect(), pts);
+        c.prepare();
+        c
     }
 
     /// The state of the points, as the scalar model computes it per query (bit for bit,
@@ -387,52 +287,49 @@ impl<'a, 's> Chunk<'a, 's> {
     /// from [`Self::of`].
     #[inline(always)]
     pub(crate) fn prepare(&mut self) {
-        let (arena, s) = (self.arena, &mut *self.s);
-        let mirror = s.mirror;
-        let q = &mut s.q;
-        let mut table: Option<&'static MsTable> = s.table;
+        let mirror = self.mirror;
+        let q = &mut self.q;
+        let mut table: Option<&'static MsTable> = self.table;
         for k in 0..8 {
-            if s.placed {
+            if self.placed {
                 break; // `set_lanes` placed the points (each in the shared baked lookups)
             }
             // The point read in place (a copy of the ~80-byte `Point` per lane cost more than
             // the reads it saved).
-            let Some(row) = &s.pts[k] else { continue };
-            let pt = row.point(arena);
+            let Some(pt) = &self.pts[k] else { continue };
             let wi = pt.wi;
             if wi.z <= 0.0 {
                 continue;
             }
-            let pr = &pt.r;
-            if pr.baked_norm.is_some() && std::ptr::eq(*table.get_or_insert(pr.table), pr.table) {
-                q.push(k, &pr.cell, wi);
+            let r = &pt.r;
+            if r.baked_norm.is_some() && std::ptr::eq(*table.get_or_insert(r.table), r.table) {
+                q.push(k, &r.cell, wi);
             } else {
-                s.at[k] = AtWi::new(pr, &pt.nested, wi, None);
+                self.at[k] = AtWi::new(r, &pt.nested, wi, None);
             }
             match (mirror, pt.m) {
-                (true, Some(m)) => s.geo.push_point(k, m, wi),
-                (true, None) => s.geo.push_wi(k, wi),
-                (false, _) => s.e[k] = Entries::new(pt.map(), wi),
+                (true, Some(m)) => self.geo.push_point(k, m, wi),
+                (true, None) => self.geo.push_wi(k, wi),
+                (false, _) => self.e[k] = Entries::new(pt.map(), wi),
             }
-            s.above |= 1 << k;
+            self.above |= 1 << k;
         }
         if let Some(t) = table {
             self.baked_state(t);
         }
-        let s = &mut *self.s;
-        s.table = table;
+        self.table = table;
         for k in 0..8 {
-            if s.above & (1 << k) != 0 && !s.q.is_used(k) {
-                s.sel[k] = s.at[k].select;
+            if self.above & (1 << k) != 0 && !self.q.is_used(k) {
+                self.sel[k] = self.at[k].select;
             }
         }
         if mirror {
-            s.geo.clear_unpushed();
+            self.geo.clear_unpushed();
         }
         // Over the mirror sawtooth the entries stay in the columns (no `Entries` row per
         // point: the sampler picks from the columns, `first::Points8::pick`).
-        if mirror && s.above != 0 {
-            s.geo.entries(s.cols);
+        if mirror && self.above != 0 {
+            self.geo.entries(self.cols);
         }
     }
 
@@ -445,22 +342,21 @@ impl<'a, 's> Chunk<'a, 's> {
     /// hold any value until [`Self::prepare`] sets theirs.
     #[inline(always)]
     fn baked_state(&mut self, t: &'static MsTable) {
-        let s = &mut *self.s;
         // (After `set_lanes`, `norm` is written.)
         for k in 0..8 {
-            if s.placed {
+            if self.placed {
                 break;
             }
-            if let (Some(row), true) = (&s.pts[k], s.q.is_used(k)) {
-                let n = row.r.baked_norm.expect("a point of the baked lookups");
-                for (c, col) in s.norm.iter_mut().enumerate() {
+            if let (Some(pt), true) = (&self.pts[k], self.q.is_used(k)) {
+                let n = pt.r.baked_norm.expect("a point of the baked lookups");
+                for (c, col) in self.norm.iter_mut().enumerate() {
                     col[k] = n[c];
                 }
             }
         }
         #[cfg(target_arch = "x86_64")]
-        if let Some(avx) = s.cols.avx() {
-            let (q, ei, sel) = (&s.q, &mut s.ei, &mut s.sel);
+        if let Some(avx) = self.cols.avx() {
+            let (q, ei, sel) = (&self.q, &mut self.ei, &mut self.sel);
             avx.run(
                 #[inline(always)]
                 || {
@@ -473,16 +369,15 @@ impl<'a, 's> Chunk<'a, 's> {
             );
             return;
         }
-        let l = t.lookup_baked_x8(&self.s.q, true);
+        let l = t.lookup_baked_x8(&self.q, true);
         for (k, &lk) in l.iter().enumerate() {
-            if self.has(k) && self.s.q.is_used(k) {
+            if self.has(k) && self.q.is_used(k) {
                 let at = AtWi::baked(&self.place(k), lk);
-                let s = &mut *self.s;
                 for c in 0..3 {
-                    s.ei[c][k] = at.ei[c];
+                    self.ei[c][k] = at.ei[c];
                 }
-                s.sel[k] = at.select;
-                s.at[k] = at;
+                self.sel[k] = at.select;
+                self.at[k] = at;
             }
         }
     }
@@ -490,17 +385,16 @@ impl<'a, 's> Chunk<'a, 's> {
     /// Whether lane `k` has a point seen from above.
     #[inline(always)]
     fn is_above(&self, k: usize) -> bool {
-        self.s.above & (1 << k) != 0
+        self.above & (1 << k) != 0
     }
 
     /// Lane `k`'s point as a row: a chunk off the mirror sawtooth (from [`Self::of`]: every
     /// point has its row), where the queries read its map.
     #[inline(always)]
-    fn point(&self, k: usize) -> Point<'a> {
-        self.s.pts[k]
+    fn point(&self, k: usize) -> &Point<'a> {
+        self.pts[k]
             .as_ref()
             .expect("a point off the mirror sawtooth has its row")
-            .point(self.arena)
     }
 
     /// Lane `k`'s place in the table (a point's): its row's, or for a point that
@@ -509,53 +403,14 @@ impl<'a, 's> Chunk<'a, 's> {
     /// chunk's table and its lane of `norm`.
     #[inline(always)]
     fn place(&self, k: usize) -> MsPlace {
-        let s = &*self.s;
-        match (&s.pts[k], s.q.get(k), s.table) {
-            (Some(row), _, _) => row.r,
+        match (&self.pts[k], self.q.get(k), self.table) {
+            (Some(pt), _, _) => pt.r,
             (None, Some((cell, _)), Some(table)) => MsPlace {
                 table,
                 cell,
-                baked_norm: Some(Vec3::new(s.norm[0][k], s.norm[1][k], s.norm[2][k])),
+                baked_norm: Some(Vec3::new(self.norm[0][k], self.norm[1][k], self.norm[2][k])),
             },
             _ => unreachable!("a point without its row is in the baked lookups"),
-        }
-    }
-}
-
-/// A chunk with its own storage (the tests' chunks): [`Self::view`] is the [`Chunk`].
-#[cfg(test)]
-pub(crate) struct OwnedChunk<'a> {
-    arena: &'a BsdfArena,
-    s: Box<ChunkState>,
-}
-
-#[cfg(test)]
-impl<'a> OwnedChunk<'a> {
-    /// [`Chunk::of`] and [`Chunk::prepare`] of the points `pts` (their BSDFs in `arena`).
-    pub(crate) fn new(arena: &'a BsdfArena, pts: [Option<Point<'a>>; 8]) -> Self {
-        let mut o = Self::empty(arena, Cols::detect());
-        Chunk::of(Cols::detect(), arena, &pts, &mut o.s).prepare();
-        o
-    }
-
-    /// No point yet (for [`Chunk::of_facets`] through [`Self::state`]).
-    pub(crate) fn empty(arena: &'a BsdfArena, cols: Cols) -> Self {
-        OwnedChunk {
-            arena,
-            s: Box::new(ChunkState::new(cols)),
-        }
-    }
-
-    /// The state, to build a chunk in.
-    pub(crate) fn state(&mut self) -> &mut ChunkState {
-        &mut self.s
-    }
-
-    /// The chunk.
-    pub(crate) fn view(&mut self) -> Chunk<'a, '_> {
-        Chunk {
-            arena: self.arena,
-            s: &mut self.s,
         }
     }
 }
@@ -815,7 +670,7 @@ pub(crate) fn eval_pdf_x8_into(
     p: &mut [f32; 8],
 ) {
     let _ = ctx; // the lane forms read no context
-    let Some(nested) = c.nested() else {
+    let Some(nested) = c.nested else {
         let none = (first::FirstOrders::zero(), [[0.0; 8]; 3]);
         finish_evals(c, lit, 0, &none.0, &none.1, wo, f, p);
         return;
@@ -849,7 +704,7 @@ pub(crate) fn eval_pdf_x8_into(
         if wo.z <= 0.0 {
             continue;
         }
-        general.push(k, &c.point(k), &c.e[k], wo, None);
+        general.push(k, c.point(k), &c.e[k], wo, None);
         live |= 1 << k;
     }
     let st = States {
@@ -1036,7 +891,7 @@ pub(crate) fn sample_x8_cols(
     ids: &[u32; 8],
 ) -> Samples8 {
     let _ = ctx; // the lane forms read no context
-    let Some(nested) = c.nested() else {
+    let Some(nested) = c.nested else {
         return Samples8::none();
     };
     let kind = Nested::of(&nested);
@@ -1124,7 +979,7 @@ pub(crate) fn sample_x8_cols(
                 st.known[k] = None;
             }
             let w = Vec3::new(wo[0][k], wo[1][k], wo[2][k]);
-            g.push(k, &c.point(k), &c.e[k], w, st.known[k]);
+            g.push(k, c.point(k), &c.e[k], w, st.known[k]);
         }
     }
     // Over the mirror sawtooth the query's inputs from the columns (the known terms where
@@ -1630,7 +1485,7 @@ mod tests {
         );
     }
 
-    /// The chunk's per-point state ([`OwnedChunk::new`]: the baked tables' lookups at ωi 8-wide,
+    /// The chunk's per-point state ([`Chunk::new`]: the baked tables' lookups at ωi 8-wide,
     /// the mirror sawtooth's entries in lanes) equals the scalar model's (`AtWi::new` without
     /// a cache, `Entries::new`) bit for bit, lane by lane: the mirror sawtooth and the
     /// V-groove, baked and per-bounce tables mixed in one chunk (two baked tables: the second
@@ -1696,8 +1551,7 @@ mod tests {
                     pts[k] = Point::of(arena.bsdf(roots[k]), wi[k]);
                 }
             }
-            let mut owned = OwnedChunk::new(&arena, pts);
-            let c = owned.view();
+            let c = Chunk::new(pts);
             for (k, pt) in pts.iter().enumerate() {
                 let above = pt.filter(|p| p.wi.z > 0.0);
                 assert_eq!(c.is_above(k), above.is_some(), "chunk {chunk} lane {k}");
@@ -1791,8 +1645,7 @@ mod tests {
                         });
                         let seeds: [u64; 8] = std::array::from_fn(|_| rng.next_u32() as u64);
                         // Eval toward wo.
-                        let got =
-                            eval_pdf_x8(&ctx, &OwnedChunk::new(&arena, pts).view(), u8::MAX, &wo);
+                        let got = eval_pdf_x8(&ctx, &Chunk::new(pts), u8::MAX, &wo);
                         for k in 0..8 {
                             if pts[k].is_none() {
                                 continue;
@@ -1815,12 +1668,7 @@ mod tests {
                         for k in 0..8 {
                             lane_pts[7 - k] = pts[k];
                         }
-                        let got = sample_x8(
-                            &ctx,
-                            &OwnedChunk::new(&arena, lane_pts).view(),
-                            &mut samplers,
-                            &ids,
-                        );
+                        let got = sample_x8(&ctx, &Chunk::new(lane_pts), &mut samplers, &ids);
                         for k in 0..8 {
                             let Some(_) = pts[k] else { continue };
                             let mut s = Sampler::from_seed(seeds[k], 2);
@@ -1950,16 +1798,15 @@ mod tests {
                         }
                     }
                     let chunk = || {
-                        let mut owned = OwnedChunk::empty(&arena, cols);
-                        let mut c = Chunk::of_facets(cols, lanes.facets(), &arena, owned.state());
+                        let mut c = Chunk::of_facets(cols, lanes.facets());
                         let cells = lanes.cells().expect("compensated, with a table");
                         let wi = [wi.map(|v| v.x), wi.map(|v| v.y), wi.map(|v| v.z)];
                         c.set_lanes(arena.bsdf(n), table, cells, mask, &wi);
                         c.prepare();
-                        owned
+                        c
                     };
                     let seeds: [u64; 8] = std::array::from_fn(|_| rng.next_u32() as u64);
-                    let got = eval_pdf_x8(&ctx, &chunk().view(), u8::MAX, &wo);
+                    let got = eval_pdf_x8(&ctx, &chunk(), u8::MAX, &wo);
                     let ids: [u32; 8] = std::array::from_fn(|k| k as u32);
                     // Independent streams, or every other round stratified ones (with and
                     // without jitter), each lane with 0 to 2 of its stratified 2-D draws
@@ -1984,7 +1831,7 @@ mod tests {
                         })
                         .collect();
                     let mut samplers = fresh.clone();
-                    let sampled = sample_x8(&ctx, &chunk().view(), &mut samplers, &ids);
+                    let sampled = sample_x8(&ctx, &chunk(), &mut samplers, &ids);
                     for k in 0..8 {
                         if mask & (1 << k) == 0 {
                             assert!(got[k] == (Spectrum::ZERO, 0.0) && sampled[k].is_none());

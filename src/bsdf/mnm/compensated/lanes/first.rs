@@ -74,7 +74,7 @@ pub(in crate::bsdf::mnm::compensated) struct Points8 {
 
 /// Lane `k` of a [`Points8`] as [`super::super::leave`] reads a point's microsurface: facet
 /// 0's frame, the area vectors of the facet and the wall, the wall's normal, the numbers of
-/// the point's map ([`Points8::push_point`], [`Points8::reset_of_facets`]) in the map's operations
+/// the point's map ([`Points8::push_point`], [`Points8::of_facets`]) in the map's operations
 /// (`Frame::to_world`, [`g1_of`], [`reflect_across`]). The tests' reference for
 /// [`Points8::leave_dirs`] (the sampler computes those numbers for 8 lanes at once).
 #[cfg(test)]
@@ -317,49 +317,24 @@ impl Points8 {
         }
     }
 
-    /// [`Self::new`]'s values written in place, field by field (the chunk's state lives in
-    /// storage kept for the render, `super::Chunk::of`).
-    #[inline(always)]
-    pub(in crate::bsdf::mnm::compensated) fn reset(&mut self) {
-        let z = [[0.0; 8], [0.0; 8], [1.0; 8]];
-        self.v0 = z;
-        self.v1 = z;
-        self.n1 = z;
-        self.fr = [z; 3];
-        self.reset_entries();
-    }
-
     /// The microsurfaces and facet frames of the lanes of `f` (the stream kernel's build,
     /// `MnmSettings::lanes_at`, over the mirror sawtooth): each lane that keeps both candidates
     /// ([`FacetCols::keeps`]) holds the numbers [`Self::push_point`] copies from its map (the
     /// map's facets and frame are these candidates, `Microsurface::of_lane`), without the map;
     /// its ωi then comes with [`Self::push_wi`]. Lanes never pushed are reset to placeholders
     /// by [`Self::clear_unpushed`].
-    /// Written in place, field by field (`super::Chunk::of_facets`: the chunk's state lives in
-    /// storage kept for the render).
     #[inline(always)]
-    pub(in crate::bsdf::mnm::compensated) fn reset_of_facets(&mut self, f: &FacetCols<8>) {
-        self.v0 = *f.area_vectors(0);
-        self.v1 = *f.area_vectors(1);
-        self.n1 = *f.normals(1);
-        self.fr = *f.frame(0);
-        self.reset_entries();
+    pub(in crate::bsdf::mnm::compensated) fn of_facets(f: &FacetCols<8>) -> Self {
+        Points8 {
+            v0: *f.area_vectors(0),
+            v1: *f.area_vectors(1),
+            n1: *f.normals(1),
+            fr: *f.frame(0),
+            ..Self::new()
+        }
     }
 
-    /// [`Self::new`]'s entries, ωi and pushed lanes.
-    #[inline(always)]
-    fn reset_entries(&mut self) {
-        let z = [[0.0; 8], [0.0; 8], [1.0; 8]];
-        self.w = [[0.0; 8]; ENTRIES];
-        self.a = [z; ENTRIES];
-        self.has = [[0.0; 8]; ENTRIES];
-        self.wi = z;
-        self.wall0 = [0.0; 8];
-        self.wall = [0.0; 8];
-        self.pushed = 0;
-    }
-
-    /// Lane `k` (its microsurface from [`Self::reset_of_facets`]) seen from `wi` (z > 0).
+    /// Lane `k` (its microsurface from [`Self::of_facets`]) seen from `wi` (z > 0).
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn push_wi(&mut self, k: usize, wi: Vec3) {
         set3(&mut self.wi, k, wi);
@@ -379,7 +354,7 @@ impl Points8 {
         self.pushed |= on;
     }
 
-    /// The lanes not pushed get [`Self::new`]'s placeholders (a lane of [`Self::reset_of_facets`]
+    /// The lanes not pushed get [`Self::new`]'s placeholders (a lane of [`Self::of_facets`]
     /// without a point may hold a flat microsurface's non-finite wall normal).
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn clear_unpushed(&mut self) {
