@@ -1400,6 +1400,56 @@ impl Avx2 {
         }
     }
 
+    /// The 8 entries `items[ids[k]]`, with the 8 ids' bounds checked at once
+    /// ([`Self::ids_below`]) instead of a compare and a branch each: `None` when an id is not
+    /// below `items.len()` (the caller's indexing then panics as it would have). The emission
+    /// stage's 8 path states of a full chunk (`stream::emission`; thirty-seventh session, h2).
+    #[inline(always)]
+    pub fn entries_at<'a, T>(self, items: &'a [T], ids: &[u32; 8]) -> Option<[&'a T; 8]> {
+        if !self.ids_below(ids, items.len()) {
+            return None;
+        }
+        // SAFETY: every id is below `items.len()` (checked just above).
+        Some(unsafe {
+            [
+                items.get_unchecked(ids[0] as usize),
+                items.get_unchecked(ids[1] as usize),
+                items.get_unchecked(ids[2] as usize),
+                items.get_unchecked(ids[3] as usize),
+                items.get_unchecked(ids[4] as usize),
+                items.get_unchecked(ids[5] as usize),
+                items.get_unchecked(ids[6] as usize),
+                items.get_unchecked(ids[7] as usize),
+            ]
+        })
+    }
+
+    /// `f(k, &mut items[ids[k]])` for k = 0 to 7 in turn (a repeated id's entry is handed on
+    /// again, after the earlier call has returned), with the 8 ids' bounds checked at once
+    /// ([`Self::ids_below`]). Pass `f` with `#[inline(always)]`: out of line it would lose the
+    /// lanes' target features.
+    ///
+    /// # Panics
+    /// If an id is not below `items.len()`, before `f` is called.
+    #[inline(always)]
+    pub fn for_each_at_mut<T>(
+        self,
+        items: &mut [T],
+        ids: &[u32; 8],
+        mut f: impl FnMut(usize, &mut T),
+    ) {
+        assert!(
+            self.ids_below(ids, items.len()),
+            "an id past the {} entries",
+            items.len()
+        );
+        for (k, &i) in ids.iter().enumerate() {
+            // SAFETY: every id is below `items.len()` (asserted above); one entry is borrowed
+            // at a time.
+            f(k, unsafe { items.get_unchecked_mut(i as usize) });
+        }
+    }
+
     /// Tier A's packet of the 8 rays `rays[ids[k]]` from and to the path columns: the rays'
     /// rows loaded where they lie and turned into lanes ([`Self::ray_fields`]: o.x, o.y, o.z,
     /// d.x, d.y, d.z, tmin, tmax), traced by `trace` into the 8 fields of their hits' rows,

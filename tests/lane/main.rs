@@ -32,6 +32,8 @@
 //! - `i128_sums`: the film's eight rows of 128-bit addends summed in registers
 //!   (`I128x4::sum8`), and two or four of them (`I128x4::sum`), against plain wrapping `i128`
 //!   sums (carries in every position).
+//! - `entries`: a column's 8 entries at 8 ids with one bounds check (`Avx2::entries_at`,
+//!   `Avx2::for_each_at_mut`) against indexing (edge and repeated ids; the panic before writes).
 //! - `whole_pixels`: the stream keys of four pixels in one register (`U64x4`, `stream_key`)
 //!   and spread to eight lanes (`U64x4::spread`), the u32 lanes widened (`U64x8::from_u32`),
 //!   and the batch fill's streams of a chunk of whole pixels
@@ -49,6 +51,7 @@ mod beckmann;
 mod beckmann_ref;
 mod bits;
 mod compress;
+mod entries;
 mod harness;
 mod i128_sums;
 mod lookup;
