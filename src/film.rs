@@ -591,9 +591,24 @@ impl Block {
             exact_bounds(self.ox, self.sw),
             exact_bounds(self.oy, self.sh),
         ];
-        self.data.clear();
-        self.data
-            .resize(self.sw as usize * self.sh as usize, Acc::default());
+        // With AVX2 the pixels are written under the lanes' target features (four 32-byte
+        // stores and a 2-byte one a 144-byte pixel, not nine 16-byte and 2-byte ones: at 2
+        // samples a pixel the clear cost ~5.6 instructions a sample on metal_plastic,
+        // `docs/bench/README.md`, thirty-seventh session, h2).
+        let n = self.sw as usize * self.sh as usize;
+        let data = &mut self.data;
+        data.clear();
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = self.avx {
+            avx.run(
+                #[inline(always)]
+                || data.resize(n, Acc::default()),
+            );
+        } else {
+            data.resize(n, Acc::default());
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        data.resize(n, Acc::default());
         self.extra.clear();
         self.extra
             .resize(self.sw as usize * self.sh as usize * self.nch, [0; 2]);
