@@ -591,9 +591,24 @@ impl Block {
             exact_bounds(self.ox, self.sw),
             exact_bounds(self.oy, self.sh),
         ];
-        self.data.clear();
-        self.data
-            .resize(self.sw as usize * self.sh as usize, Acc::default());
+        // With AVX2 the pixels are written under the lanes' target features (four 32-byte
+        // stores and a 2-byte one a 144-byte pixel, not nine 16-byte and 2-byte ones: at 2
+        // samples a pixel the clear cost ~5.6 instructions a sample on metal_plastic,
+        // `docs/bench/README.md`, thirty-seventh session, h2).
+        let n = self.sw as usize * self.sh as usize;
+        let data = &mut self.data;
+        data.clear();
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx) = self.avx {
+            avx.run(
+                #[inline(always)]
+                || data.resize(n, Acc::default()),
+            );
+        } else {
+            data.resize(n, Acc::default());
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        data.resize(n, Acc::default());
         self.extra.clear();
         self.extra
             .resize(self.sw as usize * self.sh as usize * self.nch, [0; 2]);
@@ -840,26 +855,56 @@ impl Block {
         // or more a pixel, most groups): their rows summed in registers and added once. The
         // colour sums wrap and Σw saturates on non-negative addends, both associative, so the
         // sums are those of eight adds.
-        let one_pixel = rows.is_some()
-            && inside.all()
-            && (pxv.eq(pxv.splat(px[0])) & pyv.eq(pyv.splat(py[0]))).all();
+        let all_inside = rows.is_some() && inside.all();
+        let one_pixel = all_inside && (pxv.eq(pxv.splat(px[0])) & pyv.eq(pyv.splat(py[0]))).all();
+        // Otherwise each pair of lanes (2j, 2j + 1) on one pixel, and each four (4h to 4h + 3)
+        // too (a render at 2 or 4 samples a pixel, whose chunks of eight cover four or two
+        // whole pixels): the pair's or the four's rows summed in registers and added once, by
+        // the same associativity. Each lane's pixel against lane `idx[k]`'s (`vpermd`), on
+        // both axes.
+        #[inline(always)]
+        fn same_as(avx: crate::lane::Avx2, [x, y]: [I32x8; 2], idx: &[i32; 8]) -> bool {
+            let idx = avx.load_i32(idx);
+            (x.eq(x.permute(idx)) & y.eq(y.permute(idx))).all()
+        }
+        let pairs = all_inside && !one_pixel && same_as(avx, [pxv, pyv], &[1, 0, 3, 2, 5, 4, 7, 6]);
+        let fours = pairs && same_as(avx, [pxv, pyv], &[2, 3, 0, 1, 6, 7, 4, 5]);
         let inside = inside.to_array();
+        let at = |k: usize| py[k] as usize * sw + px[k] as usize;
+        use crate::lane::I128x4;
         match rows {
             Some(rows) if one_pixel => {
-                let sum = crate::lane::I128x4::sum8(&rows);
-                data[py[0] as usize * sw + px[0] as usize].add_row(avx, sum);
+                let sum = I128x4::sum8(&rows);
+                data[at(0)].add_row(avx, sum);
+            }
+            Some(rows) if fours => {
+                for h in 0..2 {
+                    let four = [
+                        rows[4 * h],
+                        rows[4 * h + 1],
+                        rows[4 * h + 2],
+                        rows[4 * h + 3],
+                    ];
+                    data[at(4 * h)].add_row(avx, I128x4::sum(&four));
+                }
+            }
+            Some(rows) if pairs => {
+                for j in 0..4 {
+                    let sum = I128x4::sum(&[rows[2 * j], rows[2 * j + 1]]);
+                    data[at(2 * j)].add_row(avx, sum);
+                }
             }
             Some(rows) => {
                 for (k, row) in rows.into_iter().enumerate() {
                     if inside[k] {
-                        data[py[k] as usize * sw + px[k] as usize].add_row(avx, row);
+                        data[at(k)].add_row(avx, row);
                     }
                 }
             }
             None => {
                 for (k, inside) in inside.into_iter().enumerate() {
                     if inside {
-                        let a = &mut data[py[k] as usize * sw + px[k] as usize];
+                        let a = &mut data[at(k)];
                         a.add_addends(avx, second, &t[k]);
                     }
                 }

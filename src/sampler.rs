@@ -516,26 +516,120 @@ pub fn for_samples_x8(
     } else {
         stream_key(avx.load_u64(&[desc.seed; 8]), avx.load_u64(pixel))
     };
-    let mut rng: Pcg<crate::lane::F32x8> =
-        sample_generator(key, avx.load_u64(&sample.map(|s| s as u64)));
+    let sample = avx.load_u64(&sample.map(|s| s as u64));
+    let corner = (avx.load(corner.0), avx.load(corner.1));
+    streams_x8(avx, desc, key, sample, corner, out, pos);
+}
+
+/// Per log2(spp) (0, 1, 2) of a chunk of 8 / spp whole pixels of one row
+/// ([`for_whole_pixels_x8`]): path `j`'s pixel after the chunk's first, `j / spp`, and its
+/// sample after the pixel's first, `j mod spp`.
+pub(crate) const WHOLE_DX: [[i32; 8]; 3] = [
+    [0, 1, 2, 3, 4, 5, 6, 7],
+    [0, 0, 1, 1, 2, 2, 3, 3],
+    [0, 0, 0, 0, 1, 1, 1, 1],
+];
+pub(crate) const WHOLE_DS: [[i32; 8]; 3] = [
+    [0, 0, 0, 0, 0, 0, 0, 0],
+    [0, 1, 0, 1, 0, 1, 0, 1],
+    [0, 1, 2, 3, 0, 1, 2, 3],
+];
+
+/// Per log2(spp) − 1 (spp 2 and 4): the 32-bit words of a register of four keys (pixel i's
+/// key in lane i: words 2i and 2i + 1) that give each path's key, `WHOLE_DX`'s pixel, in the
+/// two registers of a [`crate::lane::U64x8`] ([`crate::lane::U64x4::spread`]).
+#[cfg(target_arch = "x86_64")]
+const WHOLE_KEY_WORDS: [[[i32; 8]; 2]; 2] = [
+    [[0, 1, 0, 1, 2, 3, 2, 3], [4, 5, 4, 5, 6, 7, 6, 7]],
+    [[0, 1, 0, 1, 0, 1, 0, 1], [2, 3, 2, 3, 2, 3, 2, 3]],
+];
+
+/// [`for_samples_x8`] of a chunk that is 8 / spp whole pixels of one row at spp = 2^`sh` (1, 2
+/// or 4): path j is sample `s_lo + j mod spp` of pixel `first + j / spp`, whose corner is
+/// (`x + j / spp`, `y`) (`first`: the pixel index of column `x` of row `y`). The same streams
+/// and positions bit for bit, but the paths' pixels, samples and corners made in lanes from
+/// [`WHOLE_DX`] and [`WHOLE_DS`] (not stepped path by path and loaded), and at 2 or 4 samples a
+/// pixel the keys of the chunk's four or two pixels made in one register
+/// ([`crate::lane::U64x4`]: `stream_key` per lane is the same function at every width) and
+/// spread to their paths: on metal_plastic at 2 spp the per-path columns cost ~75 instructions
+/// a chunk and the eight keys ~70 (`docs/bench/README.md`, thirty-seventh session, h2).
+///
+/// # Panics
+/// If `sh` > 2 or `x` + 7 > `i32::MAX` (the corners are converted as `i32`s; the caller keeps
+/// to smaller columns).
+#[cfg(target_arch = "x86_64")]
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn for_whole_pixels_x8(
+    avx: crate::lane::Avx2,
+    desc: &SamplerDesc,
+    (first, x, y): (u64, u32, u32),
+    sh: u32,
+    s_lo: u32,
+    out: &mut Samplers,
+    pos: &mut Vec<Vec2>,
+) {
+    use crate::lane::{LaneI32, U64x4, U64x8};
+    assert!(
+        sh <= 2 && x <= i32::MAX as u32 - 7,
+        "a chunk of whole pixels at 1, 2 or 4 samples a pixel, in the first 2^31 − 8 columns"
+    );
+    let sh = sh as usize;
+    let dx = avx.load_i32(&WHOLE_DX[sh]);
+    let ds = avx.load_i32(&WHOLE_DS[sh]);
+    // `(x + dx) as f32` of each path: the sums are below 2^31, where the i32 conversion
+    // (`vcvtdq2ps`) rounds as the u32 one does.
+    let corner = (dx.add(dx.splat(x as i32)).to_f32(), avx.splat(y as f32));
+    let key = if sh == 0 {
+        let pixel = U64x8::from_u32(dx).add(avx.load_u64(&[first; 8]));
+        stream_key(avx.load_u64(&[desc.seed; 8]), pixel)
+    } else {
+        let next = |i: u64| first.wrapping_add(i);
+        let pixel = U64x4::load(avx, &[first, next(1), next(2), next(3)]);
+        stream_key(pixel.splat(desc.seed), pixel).spread(avx, &WHOLE_KEY_WORDS[sh - 1])
+    };
+    let sample = U64x8::from_u32(ds.add(ds.splat(s_lo as i32)));
+    streams_x8(avx, desc, key, sample, corner, out, pos);
+}
+
+/// The rest of [`for_samples_x8`] and [`for_whole_pixels_x8`], from the paths' keys, sample
+/// indices (below 2³²) and pixel corners in lanes.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn streams_x8(
+    avx: crate::lane::Avx2,
+    desc: &SamplerDesc,
+    key: crate::lane::U64x8,
+    sample: crate::lane::U64x8,
+    corner: (crate::lane::F32x8, crate::lane::F32x8),
+    out: &mut Samplers,
+    pos: &mut Vec<Vec2>,
+) {
+    let mut rng: Pcg<crate::lane::F32x8> = sample_generator(key, sample);
     if grid(desc).is_none() {
         // `Vec2`'s add, component by component, in lanes; the points appended whole.
         let (x, y) = (rng.next_f32(), rng.next_f32());
-        avx.append_vec2_rows(pos, avx.load(corner.0) + x, avx.load(corner.1) + y);
+        avx.append_vec2_rows(pos, corner.0 + x, corner.1 + y);
         // `Sampler::keyed` without a grid: no strata, no 2-D draw spent; the PCG32 columns
         // as they are, stored from the lanes.
         let (state, inc) = rng.parts();
         out.append_plain_x8(avx, state, inc);
         return;
     }
-    let keys = key.to_array();
+    let (keys, sample) = (key.to_array(), sample.to_array());
+    let (cx, cy) = (corner.0.to_array(), corner.1.to_array());
     let (state, inc) = rng.parts();
     let (state, inc) = (state.to_array(), inc.to_array());
     let mut s: [Sampler; 8] = core::array::from_fn(|k| {
-        Sampler::keyed(desc, keys[k], Pcg::from_parts(state[k], inc[k]), sample[k])
+        Sampler::keyed(
+            desc,
+            keys[k],
+            Pcg::from_parts(state[k], inc[k]),
+            sample[k] as u32,
+        )
     });
     for (k, s) in s.iter_mut().enumerate() {
-        pos.push(Vec2::new(corner.0[k], corner.1[k]) + s.next_2d());
+        pos.push(Vec2::new(cx[k], cy[k]) + s.next_2d());
     }
     out.extend_from(&s);
 }

@@ -698,6 +698,112 @@ impl LaneU64 for U64x8 {
     }
 }
 
+/// Four `u64` lanes in one register: the stream keys of a chunk's pixels when its eight paths
+/// are two or four samples of each of four or two pixels (the stream renderer's batch fill at 2
+/// or 4 samples a pixel, `sampler::for_whole_pixels_x8`): `sampler::stream_key` on the four
+/// pixels costs half the 64-bit multiplies of the eight lanes of a [`U64x8`], and
+/// [`U64x4::spread`] copies each pixel's key to its paths' lanes.
+#[derive(Clone, Copy)]
+pub struct U64x4(__m256i);
+
+impl fmt::Debug for U64x4 {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "U64x4{:?}", self.to_array())
+    }
+}
+
+impl U64x4 {
+    /// The four values of `a`.
+    #[inline(always)]
+    pub fn load(_avx: Avx2, a: &[u64; 4]) -> U64x4 {
+        // SAFETY: the token proves AVX; one 32-byte load of `a`'s 32 bytes.
+        U64x4(unsafe { _mm256_loadu_si256(a.as_ptr().cast()) })
+    }
+    /// The four lanes.
+    #[inline(always)]
+    pub fn to_array(self) -> [u64; 4] {
+        let mut a = [0u64; 4];
+        // SAFETY: a U64x4 exists only with AVX2; one 32-byte store into `a`.
+        unsafe { _mm256_storeu_si256(a.as_mut_ptr().cast(), self.0) };
+        a
+    }
+    /// Eight lanes from these four: lane j of the result is lane `words[j / 4][2 (j mod 4)] / 2`
+    /// of `self`, where `words` holds each result register's 32-bit word indices (`vpermd`
+    /// twice; lane i's words are 2i and 2i + 1, so `words[h]` is
+    /// `[2i₀, 2i₀ + 1, 2i₁, 2i₁ + 1, …]` for the lanes i₀ to i₃ of result lanes 4h to 4h + 3).
+    #[inline(always)]
+    pub fn spread(self, avx: Avx2, words: &[[i32; 8]; 2]) -> U64x8 {
+        let (a, b) = (avx.load_i32(&words[0]), avx.load_i32(&words[1]));
+        // SAFETY: a U64x4 exists only with AVX2.
+        unsafe {
+            U64x8([
+                _mm256_permutevar8x32_epi32(self.0, a.0),
+                _mm256_permutevar8x32_epi32(self.0, b.0),
+            ])
+        }
+    }
+}
+
+impl LaneU64 for U64x4 {
+    /// Eight `i32` lanes: [`LaneU64::low_u32`] gives the four low words in lanes 0–3 and again
+    /// in lanes 4–7 (the trait's PCG32 output is not drawn at this width; only `mix64` and the
+    /// stream keys run on it).
+    type I32 = I32x8;
+    #[inline(always)]
+    fn splat(self, c: u64) -> U64x4 {
+        U64x4(unsafe { _mm256_set1_epi64x(c as i64) })
+    }
+    #[inline(always)]
+    fn add(self, o: U64x4) -> U64x4 {
+        U64x4(unsafe { _mm256_add_epi64(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn mul(self, o: U64x4) -> U64x4 {
+        U64x4(mul64(self.0, o.0))
+    }
+    #[inline(always)]
+    fn xor(self, o: U64x4) -> U64x4 {
+        U64x4(unsafe { _mm256_xor_si256(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn or(self, o: U64x4) -> U64x4 {
+        U64x4(unsafe { _mm256_or_si256(self.0, o.0) })
+    }
+    #[inline(always)]
+    fn shl<const N: i32>(self) -> U64x4 {
+        U64x4(unsafe { _mm256_slli_epi64::<N>(self.0) })
+    }
+    #[inline(always)]
+    fn shr<const N: i32>(self) -> U64x4 {
+        U64x4(unsafe { _mm256_srli_epi64::<N>(self.0) })
+    }
+    #[inline(always)]
+    fn low_u32(self) -> I32x8 {
+        unsafe {
+            let idx = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
+            I32x8(_mm256_permutevar8x32_epi32(self.0, idx))
+        }
+    }
+    #[inline(always)]
+    fn lane(self, i: usize) -> u64 {
+        self.to_array()[i]
+    }
+}
+
+impl U64x8 {
+    /// The eight `u32` lanes of `x`, zero-extended (`vpmovzxdq` of each half).
+    #[inline(always)]
+    pub fn from_u32(x: I32x8) -> U64x8 {
+        // SAFETY: an I32x8 exists only with AVX2.
+        unsafe {
+            U64x8([
+                _mm256_cvtepu32_epi64(_mm256_castsi256_si128(x.0)),
+                _mm256_cvtepu32_epi64(_mm256_extracti128_si256::<1>(x.0)),
+            ])
+        }
+    }
+}
+
 /// Low 64 bits of a 64×64 product per lane from 32×32→64 multiplies (AVX2 has no 64-bit
 /// `mullo`): a·b mod 2⁶⁴ = lo·lo + ((hi_a·lo_b + lo_a·hi_b) << 32).
 #[inline(always)]
@@ -1291,6 +1397,56 @@ impl Avx2 {
             let v = _mm256_loadu_si256(ids.as_ptr().cast());
             let past = _mm256_cmpeq_epi32(_mm256_max_epu32(v, _mm256_set1_epi32(len as i32)), v);
             _mm256_movemask_epi8(past) == 0
+        }
+    }
+
+    /// The 8 entries `items[ids[k]]`, with the 8 ids' bounds checked at once
+    /// ([`Self::ids_below`]) instead of a compare and a branch each: `None` when an id is not
+    /// below `items.len()` (the caller's indexing then panics as it would have). The emission
+    /// stage's 8 path states of a full chunk (`stream::emission`; thirty-seventh session, h2).
+    #[inline(always)]
+    pub fn entries_at<'a, T>(self, items: &'a [T], ids: &[u32; 8]) -> Option<[&'a T; 8]> {
+        if !self.ids_below(ids, items.len()) {
+            return None;
+        }
+        // SAFETY: every id is below `items.len()` (checked just above).
+        Some(unsafe {
+            [
+                items.get_unchecked(ids[0] as usize),
+                items.get_unchecked(ids[1] as usize),
+                items.get_unchecked(ids[2] as usize),
+                items.get_unchecked(ids[3] as usize),
+                items.get_unchecked(ids[4] as usize),
+                items.get_unchecked(ids[5] as usize),
+                items.get_unchecked(ids[6] as usize),
+                items.get_unchecked(ids[7] as usize),
+            ]
+        })
+    }
+
+    /// `f(k, &mut items[ids[k]])` for k = 0 to 7 in turn (a repeated id's entry is handed on
+    /// again, after the earlier call has returned), with the 8 ids' bounds checked at once
+    /// ([`Self::ids_below`]). Pass `f` with `#[inline(always)]`: out of line it would lose the
+    /// lanes' target features.
+    ///
+    /// # Panics
+    /// If an id is not below `items.len()`, before `f` is called.
+    #[inline(always)]
+    pub fn for_each_at_mut<T>(
+        self,
+        items: &mut [T],
+        ids: &[u32; 8],
+        mut f: impl FnMut(usize, &mut T),
+    ) {
+        assert!(
+            self.ids_below(ids, items.len()),
+            "an id past the {} entries",
+            items.len()
+        );
+        for (k, &i) in ids.iter().enumerate() {
+            // SAFETY: every id is below `items.len()` (asserted above); one entry is borrowed
+            // at a time.
+            f(k, unsafe { items.get_unchecked_mut(i as usize) });
         }
     }
 

@@ -92,6 +92,14 @@ impl I128x4 {
     /// add is one signed compare, as in [`Avx2::add_i128x4_biased_row`]: 4 instructions a row.
     #[inline(always)]
     pub fn sum8(rows: &[I128x4; 8]) -> I128x4 {
+        Self::sum(rows)
+    }
+
+    /// The wrapping sums of the `N` rows (`N` ≥ 1), value by value, as [`I128x4::sum8`] does
+    /// for eight: a film pixel's two or four samples' addends in a chunk of eight lanes that
+    /// covers four or two pixels (a render at 2 or 4 samples a pixel), added once a pixel.
+    #[inline(always)]
+    pub fn sum<const N: usize>(rows: &[I128x4; N]) -> I128x4 {
         // SAFETY: an I128x4 exists only with AVX2 (module doc).
         unsafe {
             let bias = _mm256_set1_epi64x(LOW_BIAS as i64);

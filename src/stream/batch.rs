@@ -9,7 +9,7 @@ use crate::geometry::{Ray, SurfaceInteraction};
 use crate::integrator::path::PathState;
 use crate::material::MatId;
 use crate::math::Frame;
-use crate::sampler::{Sampler, SamplerDesc, Samplers};
+use crate::sampler::{Sampler, SamplerDesc, Samplers, WHOLE_DS, WHOLE_DX};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 
@@ -308,19 +308,45 @@ impl Batch {
             } else if let Some(sh) = whole_pixels(m, s, samples, x, x0 + w) {
                 // 8 / spp whole pixels of one row (spp 1, 2 or 4, the chunk starting at a
                 // pixel's first sample): path j is sample j mod spp of the row's pixel x + j / spp,
-                // so no per-path stepping either (the steps from tables, which the compiler
-                // turns into a few lane operations).
+                // so no per-path stepping either. With the lanes, the paths' pixels, samples and
+                // corners are made in registers from the steps' tables and the chunk's streams
+                // set up from them (`for_whole_pixels_x8`: at 2 or 4 samples a pixel, one key a
+                // pixel); else the steps from the tables, path by path.
                 let px = y as u64 * film_width as u64 + x as u64;
-                let (dx, ds) = (&WHOLE_DX[sh as usize], &WHOLE_DS[sh as usize]);
-                for j in 0..8 {
-                    pixel[j] = px + dx[j] as u64;
-                    sample[j] = s_lo + ds[j];
-                    cx[j] = (x + dx[j]) as f32;
+                #[cfg(target_arch = "x86_64")]
+                let lanes = match avx {
+                    Some(avx) if x <= i32::MAX as u32 - 7 => {
+                        crate::sampler::for_whole_pixels_x8(
+                            avx,
+                            desc,
+                            (px, x, y),
+                            sh,
+                            s_lo,
+                            &mut self.sampler,
+                            &mut self.pos,
+                        );
+                        true
+                    }
+                    _ => false,
+                };
+                #[cfg(not(target_arch = "x86_64"))]
+                let lanes = false;
+                if !lanes {
+                    let (dx, ds) = (&WHOLE_DX[sh as usize], &WHOLE_DS[sh as usize]);
+                    for j in 0..8 {
+                        pixel[j] = px + dx[j] as u64;
+                        sample[j] = s_lo + ds[j] as u32;
+                        cx[j] = (x + dx[j] as u32) as f32;
+                    }
                 }
                 x += 8 >> sh;
                 if x == x0 + w {
                     x = x0;
                     y += 1;
+                }
+                if lanes {
+                    left -= 8;
+                    continue;
                 }
             } else {
                 for j in 0..m {
@@ -871,19 +897,6 @@ impl Surfaces {
         }
     }
 }
-
-/// Per log2(spp) of [`whole_pixels`] (0, 1, 2): path `j`'s pixel after the chunk's first,
-/// `j / spp`, and its sample after the pixel's first, `j mod spp`.
-const WHOLE_DX: [[u32; 8]; 3] = [
-    [0, 1, 2, 3, 4, 5, 6, 7],
-    [0, 0, 1, 1, 2, 2, 3, 3],
-    [0, 0, 0, 0, 1, 1, 1, 1],
-];
-const WHOLE_DS: [[u32; 8]; 3] = [
-    [0, 0, 0, 0, 0, 0, 0, 0],
-    [0, 1, 0, 1, 0, 1, 0, 1],
-    [0, 1, 2, 3, 0, 1, 2, 3],
-];
 
 /// When a chunk of `m` paths whose first is sample `s` of the row's pixel `x` (`row_end`: one
 /// past the block's last column) is 8 / spp whole pixels of that row, at spp = 1, 2 or 4 (its

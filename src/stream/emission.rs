@@ -610,8 +610,14 @@ pub(crate) mod x8 {
     ) -> (V3<F32x8>, V3<F32x8>, Prev<F32x8>) {
         let last = ids.len() - 1;
         let at = |k: usize| &state[ids[k.min(last)] as usize];
-        // Each lane's state looked up once (its clamp and bounds test), then read three times.
-        let st = [at(0), at(1), at(2), at(3), at(4), at(5), at(6), at(7)];
+        // Each lane's state looked up once (its clamp and bounds test), then read three times;
+        // a full chunk's 8 ids checked at once (`Avx2::entries_at`: ~3 instructions a lane
+        // less than the clamp, the id's bounds test and the state's).
+        let full = <&[u32; 8]>::try_from(ids).ok();
+        let st = match full.and_then(|ids| avx.entries_at(state, ids)) {
+            Some(st) => st,
+            None => [at(0), at(1), at(2), at(3), at(4), at(5), at(6), at(7)],
+        };
         // Written out, not `array::from_fn` (a closure compiled out of line would lose the
         // lanes' target features).
         let r8 = [
@@ -671,8 +677,18 @@ pub(crate) mod x8 {
     /// it was 0.84 M instructions on metal_plastic against 0.57 M: LLVM split each row's store
     /// and reloaded the depth; `docs/bench/README.md`, twenty-fifth session, h4.)
     #[inline(always)]
-    pub(super) fn write(ids: &[u32], out: V3<F32x8>, state: &mut [PathState]) {
+    pub(super) fn write(avx: Avx2, ids: &[u32], out: V3<F32x8>, state: &mut [PathState]) {
         let (x, y, z) = (out.x.to_array(), out.y.to_array(), out.z.to_array());
+        // A full chunk's 8 ids checked at once (`Avx2::for_each_at_mut`), not one a store.
+        if let Ok(ids) = <&[u32; 8]>::try_from(ids) {
+            avx.for_each_at_mut(
+                state,
+                ids,
+                #[inline(always)]
+                |k, s| s.result = Vec3::new(x[k], y[k], z[k]),
+            );
+            return;
+        }
         for (k, &i) in ids.iter().enumerate() {
             state[i as usize].result = Vec3::new(x[k], y[k], z[k]);
         }
@@ -762,7 +778,7 @@ pub(crate) mod x8 {
                 }
             };
         }
-        write(ids, out, state);
+        write(avx, ids, out, state);
     }
 
     /// The area lights seen by the paths `ids` (at most 8; each a hit on a shape whose
@@ -821,7 +837,7 @@ pub(crate) mod x8 {
             (avx.mask(&is_sphere), center.load(avx), avx.load(&radius)),
             (p.load(avx), n.load(avx), wi.load(avx)),
         );
-        write(ids, out, state);
+        write(avx, ids, out, state);
         spheres
     }
 }
@@ -1151,7 +1167,7 @@ mod tests {
             let got = avx.run(|| {
                 let (res, t, prev) = x8::paths(avx, &cfg, &ids, &state);
                 let out = V3::new(avx.load(&new[0]), avx.load(&new[1]), avx.load(&new[2]));
-                x8::write(&ids, out, &mut state);
+                x8::write(avx, &ids, out, &mut state);
                 let a =
                     |x: V3<crate::lane::F32x8>| [x.x.to_array(), x.y.to_array(), x.z.to_array()];
                 (

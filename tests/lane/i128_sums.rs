@@ -1,5 +1,6 @@
-//! `I128x4::sum8` (a film pixel's eight samples' addends summed in registers before one add)
-//! against plain `i128` wrapping sums: words with carries out of the low half in every
+//! `I128x4::sum8` (a film pixel's eight samples' addends summed in registers before one add),
+//! and `I128x4::sum` of two and four rows (a pixel's samples at 2 or 4 a pixel), against plain
+//! `i128` wrapping sums: words with carries out of the low half in every
 //! position, high words at and around the sign change, all-ones and zeros, and random ones.
 //! Skipped, with a note, without AVX2.
 
@@ -19,7 +20,7 @@ const EDGES: [u64; 8] = [
 ];
 
 #[test]
-fn sum8_equals_wrapping_sums() {
+fn sums_of_8_4_and_2_rows_equal_wrapping_sums() {
     #[cfg(target_arch = "x86_64")]
     {
         let Some(avx) = crate::harness::avx2_or_skip("sum8: this CPU has no AVX2/FMA, skipping")
@@ -46,13 +47,23 @@ fn sum8_equals_wrapping_sums() {
                 w
             });
             let rows = words.map(|w| I128x4::load(avx, &w));
-            let got = I128x4::sum8(&rows).to_words();
-            for c in 0..4 {
-                let want = words.iter().fold(0i128, |s, w| {
-                    s.wrapping_add((((w[1][c] as u128) << 64) | w[0][c] as u128) as i128)
-                });
-                let have = (((got[1][c] as u128) << 64) | got[0][c] as u128) as i128;
-                assert_eq!(have, want, "round {round}, value {c}");
+            // The eight rows, the first two and the last four.
+            let two = [rows[0], rows[1]];
+            let four = [rows[4], rows[5], rows[6], rows[7]];
+            let cases = [
+                (I128x4::sum8(&rows).to_words(), &words[..]),
+                (I128x4::sum(&two).to_words(), &words[..2]),
+                (I128x4::sum(&four).to_words(), &words[4..]),
+            ];
+            for (got, words) in cases {
+                for c in 0..4 {
+                    let want = words.iter().fold(0i128, |s, w| {
+                        s.wrapping_add((((w[1][c] as u128) << 64) | w[0][c] as u128) as i128)
+                    });
+                    let have = (((got[1][c] as u128) << 64) | got[0][c] as u128) as i128;
+                    let n = words.len();
+                    assert_eq!(have, want, "round {round}, {n} rows, value {c}");
+                }
             }
         }
     }

@@ -30,7 +30,14 @@
 //!   (`F32x8::permute`) against scalar references (edge floats, NaN payloads, indices with high
 //!   bits set, negative and extreme).
 //! - `i128_sums`: the film's eight rows of 128-bit addends summed in registers
-//!   (`I128x4::sum8`) against plain wrapping `i128` sums (carries in every position).
+//!   (`I128x4::sum8`), and two or four of them (`I128x4::sum`), against plain wrapping `i128`
+//!   sums (carries in every position).
+//! - `entries`: a column's 8 entries at 8 ids with one bounds check (`Avx2::entries_at`,
+//!   `Avx2::for_each_at_mut`) against indexing (edge and repeated ids; the panic before writes).
+//! - `whole_pixels`: the stream keys of four pixels in one register (`U64x4`, `stream_key`)
+//!   and spread to eight lanes (`U64x4::spread`), the u32 lanes widened (`U64x8::from_u32`),
+//!   and the batch fill's streams of a chunk of whole pixels
+//!   (`sampler::for_whole_pixels_x8`) against `Sampler::for_sample` path by path.
 //!
 //! Run in release mode: `cargo test --release --test lane`. The input count per function is
 //! `GROOVE_LANE_N` (default 10⁷; setting it also raises the composite kernels to it); the sweep
@@ -44,6 +51,7 @@ mod beckmann;
 mod beckmann_ref;
 mod bits;
 mod compress;
+mod entries;
 mod harness;
 mod i128_sums;
 mod lookup;
@@ -55,3 +63,4 @@ mod rows4;
 mod scalar;
 mod state_gathers;
 mod store_at;
+mod whole_pixels;
