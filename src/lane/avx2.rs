@@ -1074,7 +1074,7 @@ impl Avx2 {
     /// `out[at..]`; returns `at` plus the number kept. All eight lanes are written to
     /// `out[at..at + 8]`, the kept ones first and the others after them in lane order (slots
     /// past the list's new end, which the next append overwrites). One permute chosen by the
-    /// mask from a table of the 256 masks' permutations as whole vectors ([`COMPRESS_ROWS`]), one
+    /// mask from a table of the 256 masks' permutations as 8 bytes ([`COMPRESS_ROWS`]), one
     /// store: the stream renderer's lists of path ids filtered 8 at a time without a branch
     /// per path (the emission stage's first pass, `stream::emission`, the compaction and the
     /// light split, `stream::batch`).
@@ -1085,11 +1085,11 @@ impl Avx2 {
     pub fn compress_store(self, ids: I32x8, keep: M8, out: &mut [u32], at: usize) -> usize {
         let dst: &mut [u32; 8] = (&mut out[at..][..8]).try_into().expect("8 slots");
         let m = (keep.bits() & 0xff) as usize;
-        // SAFETY: the token proves AVX2; the row is 8 u32s at a 32-byte boundary (the table's
-        // alignment, and each row is 32 bytes), so the aligned load reads exactly it; `dst`
-        // holds 8 u32s, so the 32-byte store writes exactly `dst`.
+        // SAFETY: the token proves AVX2; the row is 8 bytes, so the 8-byte load (unaligned, as
+        // `vmovq` allows) reads exactly it; `dst` holds 8 u32s, so the 32-byte store writes
+        // exactly `dst`.
         unsafe {
-            let perm = _mm256_load_si256(COMPRESS_ROWS.0[m].as_ptr().cast());
+            let perm = _mm256_cvtepu8_epi32(_mm_loadl_epi64(COMPRESS_ROWS.0[m].as_ptr().cast()));
             let v = _mm256_permutevar8x32_epi32(ids.0, perm);
             _mm256_storeu_si256(dst.as_mut_ptr().cast(), v);
         }
@@ -1486,9 +1486,10 @@ impl Avx2 {
     }
 }
 
-/// A table of 256 rows of 8 lanes at a 32-byte boundary, so that a row is one aligned load.
-#[repr(C, align(32))]
-struct Rows256([[u32; 8]; 256]);
+/// A table of 256 rows of 8 byte lanes, each row at an 8-byte boundary (so that no row
+/// straddles a cache line): a row is one `vpmovzxbd` from memory, widened to 8 `u32` lanes.
+#[repr(C, align(8))]
+struct Rows256([[u8; 8]; 256]);
 
 /// [`Avx2::compress_index`]'s table, per mask (bit k for lane k): the source lane of each of
 /// the 8 outputs in bits 3j..3j + 3 (the kept lanes in order, then the others in order) and
@@ -1500,7 +1501,7 @@ const COMPRESS: [u32; 256] = {
         let mut row = 0;
         let mut j = 0;
         while j < 8 {
-            row |= COMPRESS_ROWS.0[m][j] << (3 * j);
+            row |= (COMPRESS_ROWS.0[m][j] as u32) << (3 * j);
             j += 1;
         }
         t[m] = row | (m as u32).count_ones() << 24;
@@ -1510,10 +1511,11 @@ const COMPRESS: [u32; 256] = {
 };
 
 /// [`Avx2::compress_store`]'s table, per mask (bit k for lane k): lane j of the row is the
-/// source lane of output j, the kept lanes in lane order, then the others in lane order. A
-/// `static` (8 KB), so that the binary holds one copy.
+/// source lane of output j, the kept lanes in lane order, then the others in lane order. Bytes
+/// (2 KB, 8 rows a cache line), not `u32`s (8 KB): the same one load a mask, widened by the
+/// load itself, with a quarter of the cache footprint. A `static`, so the binary holds one copy.
 static COMPRESS_ROWS: Rows256 = {
-    let mut t = [[0u32; 8]; 256];
+    let mut t = [[0u8; 8]; 256];
     let mut m = 0;
     while m < 256 {
         let mut n = 0;
@@ -1523,7 +1525,7 @@ static COMPRESS_ROWS: Rows256 = {
             while k < 8 {
                 // Pass 0 takes the kept lanes, pass 1 the others.
                 if (m >> k & 1) as u32 == 1 - pass {
-                    t[m][n] = k as u32;
+                    t[m][n] = k as u8;
                     n += 1;
                 }
                 k += 1;
