@@ -1074,29 +1074,26 @@ impl Avx2 {
     /// `out[at..]`; returns `at` plus the number kept. All eight lanes are written to
     /// `out[at..at + 8]`, the kept ones first and the others after them in lane order (slots
     /// past the list's new end, which the next append overwrites). One permute chosen by the
-    /// mask from a table of the 256 masks ([`COMPRESS`]), one store: the stream renderer's
-    /// lists of path ids filtered 8 at a time without a branch per path (the emission
-    /// stage's first pass, `stream::emission`).
+    /// mask from a table of the 256 masks' permutations as 8 bytes ([`COMPRESS_ROWS`]), one
+    /// store: the stream renderer's lists of path ids filtered 8 at a time without a branch
+    /// per path (the emission stage's first pass, `stream::emission`, the compaction and the
+    /// light split, `stream::batch`).
     ///
     /// # Panics
     /// If `at + 8 > out.len()`, before any store.
     #[inline(always)]
     pub fn compress_store(self, ids: I32x8, keep: M8, out: &mut [u32], at: usize) -> usize {
         let dst: &mut [u32; 8] = (&mut out[at..][..8]).try_into().expect("8 slots");
-        let row = COMPRESS[keep.bits() as usize];
-        // SAFETY: the token proves AVX2; `dst` holds 8 u32s, so the 32-byte store writes
+        let m = (keep.bits() & 0xff) as usize;
+        // SAFETY: the token proves AVX2; the row is 8 bytes, so the 8-byte load (unaligned, as
+        // `vmovq` allows) reads exactly it; `dst` holds 8 u32s, so the 32-byte store writes
         // exactly `dst`.
         unsafe {
-            // Lane j's source lane is bits 3j..3j + 3 of the row.
-            let shifts = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
-            let perm = _mm256_and_si256(
-                _mm256_srlv_epi32(_mm256_set1_epi32(row as i32), shifts),
-                _mm256_set1_epi32(7),
-            );
+            let perm = _mm256_cvtepu8_epi32(_mm_loadl_epi64(COMPRESS_ROWS.0[m].as_ptr().cast()));
             let v = _mm256_permutevar8x32_epi32(ids.0, perm);
             _mm256_storeu_si256(dst.as_mut_ptr().cast(), v);
         }
-        at + (row >> 24) as usize
+        at + super::bits::BYTE_COUNTS[m] as usize
     }
 
     /// The `depth` of the path states `state[idx[k]]` in lanes (one `vpgatherdd` at the
@@ -1320,6 +1317,12 @@ impl Avx2 {
     /// number of bits set. [`Self::compress_store`]'s table lookup, for compressing several
     /// columns by one mask (the stream kernels' pending light samples: the shadow rays' and
     /// contributions' columns before their transposes). Bits above 7 are ignored.
+    ///
+    /// The permutation is spread from one packed word of [`COMPRESS`] (a broadcast, a
+    /// variable shift and an and), not loaded whole from [`COMPRESS_ROWS`] as in
+    /// [`Self::compress_store`]: with the whole-vector load the diffuse kernel's code around
+    /// its pending light samples cost 11 instructions more a call (the thirty-seventh
+    /// session, h3: cbox-rgb +2 a sample).
     #[inline(always)]
     pub fn compress_index(self, keep: u32) -> (I32x8, usize) {
         let row = COMPRESS[(keep & 0xff) as usize];
@@ -1483,32 +1486,53 @@ impl Avx2 {
     }
 }
 
-/// [`Avx2::compress_store`]'s table, per mask (bit k for lane k): the source lane of each of
+/// A table of 256 rows of 8 byte lanes, each row at an 8-byte boundary (so that no row
+/// straddles a cache line): a row is one `vpmovzxbd` from memory, widened to 8 `u32` lanes.
+#[repr(C, align(8))]
+struct Rows256([[u8; 8]; 256]);
+
+/// [`Avx2::compress_index`]'s table, per mask (bit k for lane k): the source lane of each of
 /// the 8 outputs in bits 3j..3j + 3 (the kept lanes in order, then the others in order) and
 /// the number kept in bits 24..28.
 const COMPRESS: [u32; 256] = {
     let mut t = [0u32; 256];
     let mut m = 0;
     while m < 256 {
-        let (mut row, mut n) = (0u32, 0u32);
+        let mut row = 0;
+        let mut j = 0;
+        while j < 8 {
+            row |= (COMPRESS_ROWS.0[m][j] as u32) << (3 * j);
+            j += 1;
+        }
+        t[m] = row | (m as u32).count_ones() << 24;
+        m += 1;
+    }
+    t
+};
+
+/// [`Avx2::compress_store`]'s table, per mask (bit k for lane k): lane j of the row is the
+/// source lane of output j, the kept lanes in lane order, then the others in lane order. Bytes
+/// (2 KB, 8 rows a cache line), not `u32`s (8 KB): the same one load a mask, widened by the
+/// load itself, with a quarter of the cache footprint. A `static`, so the binary holds one copy.
+static COMPRESS_ROWS: Rows256 = {
+    let mut t = [[0u8; 8]; 256];
+    let mut m = 0;
+    while m < 256 {
+        let mut n = 0;
         let mut pass = 0;
         while pass < 2 {
             let mut k = 0;
             while k < 8 {
                 // Pass 0 takes the kept lanes, pass 1 the others.
                 if (m >> k & 1) as u32 == 1 - pass {
-                    row |= (k as u32) << (3 * n);
+                    t[m][n] = k as u8;
                     n += 1;
                 }
                 k += 1;
             }
-            if pass == 0 {
-                row |= n << 24;
-            }
             pass += 1;
         }
-        t[m] = row;
         m += 1;
     }
-    t
+    Rows256(t)
 };
