@@ -1237,13 +1237,21 @@ impl Avx2 {
     /// A window gather of `glam::Vec3` rows: for each offset `o` of `offsets`, lane k of
     /// entry r holds row `table[i + o]` by component (x, y, z), where `i` is `idx[k]` clamped
     /// once, as an unsigned number, to `len − 1 − max(offsets)` (every row of the window
-    /// inside the table), and scaled by 3 once for all the rows (then three gathers per row,
-    /// at the row's constant offset from the table's start). Where `idx[k] + max(offsets)`
-    /// is below the table's length, lane k reads exactly the rows that [`Lane::gather3`] reads
-    /// at `idx[k] + o` (whose clamp, index by index, then changes nothing); elsewhere the
-    /// window of the clamped index. The compensated model's table lookups read the 8 corner
-    /// nodes of a cell this way (`bsdf::mnm::ms_table`: one clamp and scaling per lookup
-    /// instead of one per corner).
+    /// inside the table). Where `idx[k] + max(offsets)` is below the table's length, lane k
+    /// reads exactly the rows that [`Lane::gather3`] reads at `idx[k] + o` (whose clamp, index
+    /// by index, then changes nothing); elsewhere the window of the clamped index. The
+    /// compensated model's table lookups read the 8 corner nodes of a cell this way
+    /// (`bsdf::mnm::ms_table`: one clamp and scaling per lookup instead of one per corner).
+    ///
+    /// Without gathers (thirty-eighth session, h2): the 8 lanes' first float indices are moved
+    /// to scalar registers once for all the rows; each row is then 8 unaligned 16-byte loads
+    /// (one per lane: the row and the next row's x for offset 0, the previous row's z and the
+    /// row otherwise, so no load leaves the table) and a 4 × 4 transpose in each 128-bit half
+    /// (4 inserts, 7 unpacks). On this project's Zen 3 host an 8-lane `vgatherdps` is ~39
+    /// micro-ops and ~8–10 cycles of throughput, so the 24 gathers of an 8-row window cost
+    /// about four times the loads and shuffles that replace them (`docs/bench/README.md`,
+    /// the thirty-eighth session's h2 section). Every value is moved, never computed, so the
+    /// rows are the gathers' bit for bit (NaN payloads too).
     ///
     /// # Panics
     /// If the table has `max(offsets)` rows or fewer, or more than `i32::MAX / 3`.
@@ -1261,19 +1269,63 @@ impl Avx2 {
         assert!(table.len() > span && table.len() <= i32::MAX as usize / 3);
         // SAFETY: the token proves AVX2. `glam::Vec3` is three f32s without padding (the
         // assertion after `impl Lane for F32x8`), so row r's component c is float 3r + c from
-        // the start. After the clamp i ≤ len − 1 − span, so for each offset o ≤ span the row
-        // i + o is below len and its floats 3(i + o) + c < 3·len ≤ i32::MAX: each load reads
-        // inside `table` (and `base.add(3 o + c)` stays inside it, o < len).
+        // the start, and the table holds 3·len floats. After the clamp i ≤ len − 1 − span, so
+        // for each offset o ≤ span the row i + o is below len and 3(i + o) + 2 < 3·len ≤
+        // i32::MAX. A row at offset 0 is read as floats 3i … 3i + 3: when span ≥ 1 the row
+        // i + 1 ≤ i + span exists, so float 3i + 3 (its x) is inside; when span = 0 each lane's
+        // row is read by three scalar loads instead. A row at offset o ≥ 1 is read as floats
+        // 3(i + o) − 1 … 3(i + o) + 2, from the z of row i + o − 1 ≥ 0: inside.
         unsafe {
             let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32((table.len() - 1 - span) as i32));
             let i3 = _mm256_add_epi32(_mm256_add_epi32(i, i), i);
+            let first: [i32; 8] = core::mem::transmute(i3);
             let base = table.as_ptr().cast::<f32>();
             let mut out = [[F32x8(_mm256_setzero_ps()); 3]; K];
             for (row, &o) in out.iter_mut().zip(offsets) {
-                let b = base.add(3 * o);
-                row[0] = F32x8(_mm256_i32gather_ps::<4>(b, i3));
-                row[1] = F32x8(_mm256_i32gather_ps::<4>(b.add(1), i3));
-                row[2] = F32x8(_mm256_i32gather_ps::<4>(b.add(2), i3));
+                // Plain statements and macros, not closures (a closure would be compiled
+                // outside `Avx2::run`'s target features).
+                if span == 0 {
+                    for (c, v) in row.iter_mut().enumerate() {
+                        macro_rules! ld {
+                            ($k:expr) => {
+                                *base.add(first[$k] as usize + c)
+                            };
+                        }
+                        v.0 = _mm256_setr_ps(
+                            ld!(0),
+                            ld!(1),
+                            ld!(2),
+                            ld!(3),
+                            ld!(4),
+                            ld!(5),
+                            ld!(6),
+                            ld!(7),
+                        );
+                    }
+                    continue;
+                }
+                // The row's x in the loaded floats: float 0 at offset 0, float 1 otherwise.
+                let from = if o == 0 { base } else { base.add(3 * o - 1) };
+                macro_rules! pair {
+                    ($lo:expr) => {
+                        _mm256_insertf128_ps::<1>(
+                            _mm256_castps128_ps256(_mm_loadu_ps(from.add(first[$lo] as usize))),
+                            _mm_loadu_ps(from.add(first[$lo + 4] as usize)),
+                        )
+                    };
+                }
+                let (r0, r1, r2, r3) = (pair!(0), pair!(1), pair!(2), pair!(3));
+                // Lanes k and k + 4 are the 128-bit halves of r_k; the unpacks transpose each
+                // half: a holds float 0 of lanes 0–3 | 4–7, b float 1, c float 2, d float 3.
+                let t0 = _mm256_castps_pd(_mm256_unpacklo_ps(r0, r1));
+                let t1 = _mm256_castps_pd(_mm256_unpackhi_ps(r0, r1));
+                let t2 = _mm256_castps_pd(_mm256_unpacklo_ps(r2, r3));
+                let t3 = _mm256_castps_pd(_mm256_unpackhi_ps(r2, r3));
+                let a = F32x8(_mm256_castpd_ps(_mm256_unpacklo_pd(t0, t2)));
+                let b = F32x8(_mm256_castpd_ps(_mm256_unpackhi_pd(t0, t2)));
+                let c = F32x8(_mm256_castpd_ps(_mm256_unpacklo_pd(t1, t3)));
+                let d = F32x8(_mm256_castpd_ps(_mm256_unpackhi_pd(t1, t3)));
+                *row = if o == 0 { [a, b, c] } else { [b, c, d] };
             }
             out
         }

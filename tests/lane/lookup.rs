@@ -103,7 +103,8 @@ fn lookup16_equals_the_scalar_lookup() {
 /// inside the table that is `Lane::gather3` at `idx[k] + offsets[r]` (checked too). Tables of
 /// edge floats and random bit patterns (NaN payloads), indices at both ends of the window's
 /// range, just past it, negative, `i32::MIN`, `i32::MAX` and random; offsets unsorted and
-/// repeated, with 0 and the largest; a panic where the table is not longer than the largest
+/// repeated, with 0 and the largest, and a window of one row (offsets all 0: the scalar-load
+/// path); a panic where the table is not longer than the largest
 /// offset. Skipped, with a note, without AVX2.
 #[test]
 fn gather3_window_equals_the_scalar_rows() {
@@ -120,6 +121,8 @@ fn gather3_window_equals_the_scalar_rows() {
         let mut inside = 0;
         let offsets = [0usize, 1, 9, 10, 90, 91, 99, 100];
         let odd = [7usize, 0, 7, 3];
+        // A window of one row (every offset 0): no neighbour row to read past.
+        let flat = [0usize; 2];
         for round in 0..4000usize {
             let len = 101 + (r.next_u32() % 60) as usize;
             let table: Vec<Vec3> = (0..len)
@@ -141,12 +144,13 @@ fn gather3_window_equals_the_scalar_rows() {
                 4 => r.next_u32() as i32,
                 _ => (r.next_u32() % (last as u32 + 1)) as i32,
             });
-            let (got, got_odd, each) = avx.run(
+            let (got, got_odd, got_flat, each) = avx.run(
                 #[inline(always)]
                 || {
                     let i = avx.load_i32(&idx);
                     let w = avx.gather3_window(&table, i, &offsets);
                     let o = avx.gather3_window(&table, i, &odd);
+                    let f = avx.gather3_window(&table, i, &flat);
                     let each: [[F32x8; 3]; 8] = std::array::from_fn(|row| {
                         let d = avx.load_i32(&[offsets[row] as i32; 8]);
                         F32x8::gather3(&table, groove::lane::LaneI32::add(i, d))
@@ -154,12 +158,17 @@ fn gather3_window_equals_the_scalar_rows() {
                     (
                         w.map(|v| v.map(|c| c.to_array())),
                         o.map(|v| v.map(|c| c.to_array())),
+                        f.map(|v| v.map(|c| c.to_array())),
                         each.map(|v| v.map(|c| c.to_array())),
                     )
                 },
             );
             for k in 0..8 {
-                for (rows, offs) in [(&got[..], &offsets[..]), (&got_odd[..], &odd[..])] {
+                for (rows, offs) in [
+                    (&got[..], &offsets[..]),
+                    (&got_odd[..], &odd[..]),
+                    (&got_flat[..], &flat[..]),
+                ] {
                     let span = offs.iter().copied().max().unwrap_or(0);
                     let i = (idx[k] as u32).min((len - 1 - span) as u32) as usize;
                     for (row, &o) in rows.iter().zip(offs) {
