@@ -1248,9 +1248,9 @@ impl Avx2 {
     /// (one per lane: the row and the next row's x for offset 0, the previous row's z and the
     /// row otherwise, so no load leaves the table) and a 4 × 4 transpose in each 128-bit half
     /// (4 inserts, 7 unpacks). On this project's Zen 3 host an 8-lane `vgatherdps` is ~39
-    /// micro-ops and ~8–10 cycles of throughput, so the 24 gathers of an 8-row window cost
-    /// about four times the loads and shuffles that replace them (`docs/bench/README.md`,
-    /// the thirty-eighth session's h2 section). Every value is moved, never computed, so the
+    /// micro-ops (published tables) and measured 10–13 cycles of throughput, so the 24 gathers
+    /// of an 8-row window cost far more than the 8 loads and 11 shuffles a row that replace
+    /// them (`docs/bench/README.md`, the thirty-eighth session's h2 section). Every value is moved, never computed, so the
     /// rows are the gathers' bit for bit (NaN payloads too).
     ///
     /// # Panics
