@@ -8,7 +8,8 @@ even rounds), each time read from groove's own "render N s" line (the render, no
 Prints per scene the median times and the median of the per-round ratios new/old with the 2nd
 lowest and 2nd highest ratio as a rough interval. On a shared machine, run it quiet.
 GROOVE_ARGS (environment) adds render arguments to both binaries' renders, split at spaces
-(e.g. GROOVE_ARGS="--normal-mapping compensated").
+(e.g. GROOVE_ARGS="--normal-mapping compensated"). THREADS (environment) sets the renders'
+thread count instead of 2 (1 leaves a core to another job on a 2-core host that is not quiet).
 """
 import os
 import re
@@ -19,8 +20,8 @@ import sys
 
 def render_seconds(binary, scene):
     out = subprocess.run(
-        [binary, "render", scene, "--spp", "16", "-t", "2", "-o", "/tmp/ab_pairs.exr",
-         "--renderer", "stream"] + os.environ.get("GROOVE_ARGS", "").split(),
+        [binary, "render", scene, "--spp", "16", "-t", os.environ.get("THREADS", "2"),
+         "-o", "/tmp/ab_pairs.exr", "--renderer", "stream"] + os.environ.get("GROOVE_ARGS", "").split(),
         capture_output=True, text=True, check=True)
     return float(re.search(r"render ([0-9.]+) s", out.stdout + out.stderr).group(1))
 
