@@ -199,3 +199,86 @@ fn gather3_window_equals_the_scalar_rows() {
         assert!(panicked.is_err(), "a table of 100 rows with offset 100");
     }
 }
+
+/// `Lane::gather3` at width 8 (a mesh's vertices and normals, a bitmap's texels) and
+/// `Avx2::gather3_u32` (a mesh's triangles) equal the scalar rows `table[min(idx as u32, len − 1)]` bit for
+/// bit in every lane: tables of 1, 2, 3 and random lengths holding edge floats and random bit
+/// patterns (NaN payloads), indices 0, len − 1 (the last row, read from one word early), len,
+/// −1, `i32::MIN`, `i32::MAX` and random, in every lane position. Skipped, with a note,
+/// without AVX2.
+#[test]
+fn gather3_and_gather3_u32_equal_the_scalar_rows() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use glam::Vec3;
+        use groove::lane::{F32x8, Lane};
+        let Some(avx) = crate::harness::avx2_or_skip("gather3: this CPU has no AVX2/FMA, skipping")
+        else {
+            return;
+        };
+        let mut r = Pcg32::new(31, 5);
+        let mut lasts = 0;
+        for round in 0..6000usize {
+            let len = match round % 5 {
+                0 => 1,
+                1 => 2,
+                2 => 3,
+                3 => 4 + (r.next_u32() % 13) as usize,
+                _ => 1 + (r.next_u32() % 300) as usize,
+            };
+            let words: Vec<[u32; 3]> = (0..len)
+                .map(|j| {
+                    std::array::from_fn(|c| match (round + j + c) % 3 {
+                        0 => EDGES[r.next_u32() as usize % EDGES.len()].to_bits(),
+                        _ => r.next_u32(),
+                    })
+                })
+                .collect();
+            let table: Vec<Vec3> = words
+                .iter()
+                .map(|w| {
+                    Vec3::new(
+                        f32::from_bits(w[0]),
+                        f32::from_bits(w[1]),
+                        f32::from_bits(w[2]),
+                    )
+                })
+                .collect();
+            let n = len as i32;
+            let idx: [i32; 8] = std::array::from_fn(|k| match (round / 5 + k) % 8 {
+                0 => 0,
+                1 | 2 => n - 1,
+                3 => n,
+                4 => [-1, i32::MIN, i32::MAX, n + 1][(round / 40 + k) % 4],
+                5 => r.next_u32() as i32,
+                _ => (r.next_u32() % len as u32) as i32,
+            });
+            let (got, got_u32) = avx.run(
+                #[inline(always)]
+                || {
+                    let i = avx.load_i32(&idx);
+                    let f = F32x8::gather3(&table, i);
+                    let u = avx.gather3_u32(&words, i);
+                    (f.map(|c| c.to_array()), u.map(|c| c.to_array()))
+                },
+            );
+            for k in 0..8 {
+                let row = (idx[k] as u32).min(n as u32 - 1) as usize;
+                lasts += usize::from(row == len - 1);
+                let at = format!("len {len} index {} lane {k}", idx[k]);
+                for c in 0..3 {
+                    assert_eq!(
+                        got[c][k].to_bits(),
+                        words[row][c],
+                        "gather3 {at} component {c}"
+                    );
+                    assert_eq!(
+                        got_u32[c][k] as u32, words[row][c],
+                        "gather3_u32 {at} word {c}"
+                    );
+                }
+            }
+        }
+        assert!(lasts > 10_000, "{lasts} lanes on the last row");
+    }
+}

@@ -11,7 +11,8 @@
 //! - `beckmann`: the f32 visible-Beckmann sampler against its f64 reference (`beckmann_ref`);
 //! - `pcg_ops`, `lookup`: the per-width PCG32 operations and small-table lookups against plain
 //!   scalar references (every state class; edge floats and out-of-range indices), and the
-//!   window gather of `Vec3` rows (`Avx2::gather3_window`);
+//!   window gather of `Vec3` rows (`Avx2::gather3_window`), and the rows of three words
+//!   (`Lane::gather3`, `Avx2::gather3_u32`) at every table length's edge;
 //! - `masks`: masks from booleans and from bits, and back to bits, at width 8 and 16 (every
 //!   pattern, bits above the width ignored);
 //! - `rows4`: the 8-wide rows-of-4 transposes move every bit (edge floats, NaN payloads).
