@@ -42,20 +42,7 @@ def main():
         return footprint(cost)
     if os.environ.get("ONCE") == "1":
         cost = collections.Counter({a: 1 for a in cost})
-    addrs = sorted(cost)
-    out = subprocess.run(["addr2line", "-i", "-f", "-C", "-a", "-e", binary],
-                         input="\n".join(hex(a) for a in addrs), capture_output=True, text=True).stdout
-    chains, cur, fn = {}, None, None
-    for l in out.split("\n"):
-        if l.startswith("0x"):
-            cur, fn = int(l, 16), None
-            chains[cur] = []
-        elif cur is not None:
-            if fn is None:
-                fn = l
-            else:
-                chains[cur].append((fn, l.split(" ")[0]))
-                fn = None
+    chains = inline_chains(binary, cost)
     own = lambda loc: "/src/" in loc and "/rustc/" not in loc and ".cargo" not in loc
     short = lambda loc: re.sub(r"^.*?/src/", "src/", loc)
     flt = os.environ.get("STAGE")
@@ -81,6 +68,26 @@ def main():
     print(f"{total:>12,} in {os.path.basename(binary)}; other objects:")
     for k, v in other.most_common(5):
         print(f"{v:>12,}  {k}")
+
+
+def inline_chains(binary, addrs):
+    """Each address's inline chain, innermost first, as (function, file:line) pairs
+    (`addr2line -i`); `perf_stages.py` uses it too."""
+    out = subprocess.run(["addr2line", "-i", "-f", "-C", "-a", "-e", binary],
+                         input="\n".join(hex(a) for a in sorted(addrs)), capture_output=True,
+                         text=True).stdout
+    chains, cur, fn = {}, None, None
+    for l in out.split("\n"):
+        if l.startswith("0x"):
+            cur, fn = int(l, 16), None
+            chains[cur] = []
+        elif cur is not None:
+            if fn is None:
+                fn = l
+            else:
+                chains[cur].append((fn, l.split(" ")[0]))
+                fn = None
+    return chains
 
 
 def read_costs(cg, binary, event=None):

@@ -21,6 +21,9 @@ import re
 import subprocess
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cg_stages import inline_chains  # noqa: E402  (the scripts' shared addr2line reader)
+
 
 def samples(data):
     """(pid, tid, command, [(address, symbol, dso), ...] innermost first) per sample of `perf script`."""
@@ -87,23 +90,10 @@ def main():
     print(f"threads {sorted(tids)}: {total} samples")
     for k, v in kinds.most_common():
         print(f"{v:>8} {100 * v / total:5.1f}%  {k}")
-    addrs = sorted(own)
-    out = subprocess.run(["addr2line", "-i", "-f", "-C", "-a", "-e", binary],
-                         input="\n".join(hex(a) for a in addrs), capture_output=True, text=True).stdout
-    chains, cur, fn = {}, None, None
-    for l in out.split("\n"):
-        if l.startswith("0x"):
-            cur, fn = int(l, 16), None
-            chains[cur] = []
-        elif cur is not None:
-            if fn is None:
-                fn = l
-            else:
-                chains[cur].append(fn)
-                fn = None
+    chains = inline_chains(binary, own)
     agg = collections.Counter()
     for a, v in own.items():
-        names = [re.sub(r"<.*?>", "", f) for f in reversed(chains.get(a, []))]
+        names = [re.sub(r"<.*?>", "", f) for f, _ in reversed(chains.get(a, []))]
         names = [n for n in names if "run_avx2" not in n and "{{closure}}" not in n]
         agg[" > ".join(names[:depth]) or "(run_avx2 itself)"] += v
     print(f"groove's own samples by stage (% of all {total}):")
