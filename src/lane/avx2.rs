@@ -1250,8 +1250,8 @@ impl Avx2 {
     /// (4 inserts, 7 unpacks). On this project's Zen 3 host an 8-lane `vgatherdps` is ~39
     /// micro-ops (published tables) and measured 10–13 cycles of throughput, so the 24 gathers
     /// of an 8-row window cost far more than the 8 loads and 11 shuffles a row that replace
-    /// them (`docs/bench/README.md`, the thirty-eighth session's h2 section). Every value is moved, never computed, so the
-    /// rows are the gathers' bit for bit (NaN payloads too).
+    /// them (`docs/bench/README.md`, the thirty-eighth session's h2 section). Every value is
+    /// moved, never computed, so the rows are the gathers' bit for bit (NaN payloads too).
     ///
     /// # Panics
     /// If the table has `max(offsets)` rows or fewer, or more than `i32::MAX / 3`.

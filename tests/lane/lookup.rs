@@ -201,11 +201,11 @@ fn gather3_window_equals_the_scalar_rows() {
 }
 
 /// `Lane::gather3` at width 8 (a mesh's vertices and normals, a bitmap's texels) and
-/// `Avx2::gather3_u32` (a mesh's triangles) equal the scalar rows `table[min(idx as u32, len − 1)]` bit for
-/// bit in every lane: tables of 1, 2, 3 and random lengths holding edge floats and random bit
-/// patterns (NaN payloads), indices 0, len − 1 (the last row, read from one word early), len,
-/// −1, `i32::MIN`, `i32::MAX` and random, in every lane position. Skipped, with a note,
-/// without AVX2.
+/// `Avx2::gather3_u32` (a mesh's triangles) equal the scalar rows
+/// `table[min(idx as u32, len − 1)]` bit for bit in every lane: tables of 1, 2, 3 and random
+/// lengths holding edge floats and random bit patterns (NaN payloads), indices 0, len − 1 (the
+/// last row, where a load of whole rows would read past the table), len, −1, `i32::MIN`,
+/// `i32::MAX` and random, in every lane position. Skipped, with a note, without AVX2.
 #[test]
 fn gather3_and_gather3_u32_equal_the_scalar_rows() {
     #[cfg(target_arch = "x86_64")]
