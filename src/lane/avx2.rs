@@ -1272,8 +1272,8 @@ impl Avx2 {
         // the start, and the table holds 3·len floats. After the clamp i ≤ len − 1 − span, so
         // for each offset o ≤ span the row i + o is below len and 3(i + o) + 2 < 3·len ≤
         // i32::MAX. A row at offset 0 is read as floats 3i … 3i + 3: when span ≥ 1 the row
-        // i + 1 ≤ i + span exists, so float 3i + 3 (its x) is inside; when span = 0 each lane's
-        // row is read by three scalar loads instead. A row at offset o ≥ 1 is read as floats
+        // i + 1 ≤ i + span exists, so float 3i + 3 (its x) is inside; when span = 0 the rows
+        // are `Lane::gather3`'s instead (its clamp to len − 1 is this one). A row at offset o ≥ 1 is read as floats
         // 3(i + o) − 1 … 3(i + o) + 2, from the z of row i + o − 1 ≥ 0: inside.
         unsafe {
             let i = _mm256_min_epu32(idx.0, _mm256_set1_epi32((table.len() - 1 - span) as i32));
@@ -1285,23 +1285,8 @@ impl Avx2 {
                 // Plain statements and macros, not closures (a closure would be compiled
                 // outside `Avx2::run`'s target features).
                 if span == 0 {
-                    for (c, v) in row.iter_mut().enumerate() {
-                        macro_rules! ld {
-                            ($k:expr) => {
-                                *base.add(first[$k] as usize + c)
-                            };
-                        }
-                        v.0 = _mm256_setr_ps(
-                            ld!(0),
-                            ld!(1),
-                            ld!(2),
-                            ld!(3),
-                            ld!(4),
-                            ld!(5),
-                            ld!(6),
-                            ld!(7),
-                        );
-                    }
+                    // Every row is `table[min(idx, len − 1)]`: the lane gather's own clamp.
+                    *row = <F32x8 as Lane>::gather3(table, idx);
                     continue;
                 }
                 // The row's x in the loaded floats: float 0 at offset 0, float 1 otherwise.

@@ -103,7 +103,7 @@ fn lookup16_equals_the_scalar_lookup() {
 /// inside the table that is `Lane::gather3` at `idx[k] + offsets[r]` (checked too). Tables of
 /// edge floats and random bit patterns (NaN payloads), indices at both ends of the window's
 /// range, just past it, negative, `i32::MIN`, `i32::MAX` and random; offsets unsorted and
-/// repeated, with 0 and the largest, and a window of one row (offsets all 0: the scalar-load
+/// repeated, with 0 and the largest, and a window of one row (offsets all 0: `Lane::gather3`'s
 /// path); a panic where the table is not longer than the largest
 /// offset. Skipped, with a note, without AVX2.
 #[test]
