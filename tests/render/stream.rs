@@ -704,6 +704,44 @@ fn stream_equals_scalar_in_the_compensated_kernel_under_every_setting() {
     }
 }
 
+/// The microfacet normal map kernel over the other models without a table (issue 18,
+/// thirty-ninth session): the random walk (`walk-same`, `walk-mirror`) and the closed form
+/// (`explicit`) on metal_plastic and strong, and the two-sided walk over glass's rough
+/// dielectric (`walk-same`), give the scalar image at 1, 2, 3 and 7 threads,
+/// with the kernel's build, light and ray steps in lanes and the BSDF's eval and sample lane by
+/// lane (the walks draw from each path's stream between the light's numbers and the sample's,
+/// as in `PathState::scatter`); the kernel shaded paths in each (a silent fallback to the
+/// 1-lane code cannot pass).
+#[test]
+fn stream_equals_scalar_where_the_mnm_kernel_runs_the_walks_and_closed_forms() {
+    for name in ["metal_plastic", "strong"] {
+        for mode in ["walk-same", "walk-mirror", "explicit"] {
+            let l = load(&scene(&format!("scenes/bench/{name}.xml")), mode);
+            let lanes = assert_identical(&l, &format!("{name} ({mode})"), 3);
+            assert!(
+                lanes.mnm_lanes > 0,
+                "{name} ({mode}): never in the kernel: {lanes:?}"
+            );
+        }
+    }
+    let l = load(&scene("scenes/bench/glass.xml"), "walk-same");
+    let lanes = assert_identical(&l, "glass (walk-same)", 3);
+    assert!(lanes.mnm_lanes > 0, "glass: never in the kernel: {lanes:?}");
+}
+
+/// The kernel's random walks under the settings that change what a vertex does (the
+/// light-only and BSDF-only strategies, Russian roulette from the first bounce, the
+/// stratified sampler), on metal_plastic with `walk-same`.
+#[test]
+fn stream_equals_scalar_in_the_mnm_kernel_walks_under_every_setting() {
+    let variants = variants_of(|| load(&scene("scenes/bench/metal_plastic.xml"), "walk-same"));
+    for (label, l) in &variants {
+        let spp = l.settings.sampler.sample_count.min(4);
+        let lanes = assert_identical(l, &format!("metal_plastic walk-same ({label})"), spp);
+        assert!(lanes.mnm_lanes > 0, "{label}: the kernel never ran");
+    }
+}
+
 /// On metal_plastic (compensated) the three normal-mapped materials are compensated normal
 /// maps (the light's own diffuse BSDF, a few paths, goes to the diffuse kernel), so no path
 /// goes to the wrapper-chain driver, and a run of one material at one bounce leaves to the

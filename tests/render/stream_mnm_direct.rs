@@ -25,3 +25,24 @@ fn the_compensated_kernel_runs_under_direct() {
         assert_eq!(lanes.mnm_lanes, 0, "{name} (3, 1): {lanes:?}");
     }
 }
+
+/// The same kernel over the random walk and the closed form (issue 18, thirty-ninth session:
+/// `walk-same`, `walk-mirror` and `explicit` on metal_plastic, their BSDF evaluated and sampled
+/// lane by lane inside the kernel) under `direct` with one light and one BSDF sample per hit:
+/// the scalar image at 1, 2, 3 and 7 threads, and the kernel shaded.
+#[test]
+fn the_mnm_kernel_runs_the_walks_under_direct() {
+    for mode in ["walk-same", "walk-mirror", "explicit"] {
+        let l = as_direct(
+            load(&scene("scenes/bench/metal_plastic.xml"), mode),
+            1,
+            1,
+            false,
+        );
+        let lanes = assert_identical(&l, &format!("metal_plastic {mode} direct (1, 1)"), 3);
+        assert!(
+            lanes.mnm_lanes > 0 && lanes.mnm_lanes <= lanes.kernel_lanes,
+            "{mode}: {lanes:?}"
+        );
+    }
+}

@@ -1,9 +1,13 @@
 //! The stream renderer's kernel for the compensated microfacet normal map (issues 17 and 18):
 //! a material whose root is a microfacet `normalmap` with `evaluation = compensated` and a
 //! remainder table (what `--normal-mapping compensated` makes of a scene's normal maps) over a
-//! leaf BSDF, 8 paths at a time (a run's last 2–7 paths as one padded chunk, as the other
-//! kernels take them: `vertex::x8::Chunks`), in the steps of the wrapper-chain driver
-//! ([`super::vertex`]):
+//! leaf BSDF, or (since the thirty-ninth session) one with the random walk or a closed form
+//! and no table (`walk-same`, `walk-mirror`, `explicit`, `explicit4` among them: no map of
+//! these is a compensated point, so steps 3 and 4 below evaluate and sample each lane's BSDF
+//! lane by lane, the scalar model with each path's stream, while the build, the light sample
+//! and the rays run in lanes), 8 paths at a time (a run's last 2–7 paths as one padded chunk,
+//! as the other kernels take them: `vertex::x8::Chunks`), in the steps of the wrapper-chain
+//! driver ([`super::vertex`]):
 //! 1. the surface interactions gathered into SoA columns;
 //! 2. the BSDFs built at the hits, into one arena for the 8 points: where the chunk's nested
 //!    leaf is constant ([`shared_nested`]), [`build_shared`] (the leaf pushed once; the
@@ -51,16 +55,28 @@ use crate::texture::Texture;
 use glam::Vec3;
 
 /// Whether material `m` is shaded by this kernel: a microfacet `normalmap` with `evaluation =
-/// compensated` and its table, directly over a leaf BSDF (`diffuse` or a leaf with constant
-/// or textured parameters).
+/// compensated` and its table, or with the random walk or a closed form and no table, directly
+/// over a leaf BSDF (`diffuse` or a leaf with constant or textured parameters). Not `auto`
+/// (per point the compensated model, the walk or their blend).
 pub(crate) fn qualifies(materials: &Materials, m: MatId) -> bool {
     let nodes = materials.nodes();
     match &nodes[m as usize] {
         MaterialNode::MicrofacetNormalMap {
             nested, settings, ..
         } => {
-            settings.evaluation == Evaluation::Compensated
-                && settings.ms_table.is_some()
+            let model = match settings.evaluation {
+                // The compensated model: its points in lanes (`compensated::lanes`).
+                Evaluation::Compensated => settings.ms_table.is_some(),
+                // The closed forms and the random walk, without a table (so no map is a
+                // compensated point): the kernel's build, light and ray steps in lanes, the
+                // BSDF's eval and sample lane by lane (the scalar model, each path's stream).
+                Evaluation::Explicit | Evaluation::ExplicitComplete | Evaluation::RandomWalk => {
+                    settings.ms_table.is_none()
+                }
+                // Per point the compensated model or the walk: not through this kernel.
+                Evaluation::Auto => false,
+            };
+            model
                 && matches!(
                     nodes[*nested as usize],
                     MaterialNode::Leaf { .. } | MaterialNode::Diffuse { .. }
@@ -207,9 +223,10 @@ pub(crate) fn point_bits(cols: Cols, lanes: &MnmCols<8>) -> u8 {
 
 /// Whether the points of material `m` (one that [`qualifies`] and [`shared_nested`]) are built
 /// without their maps where they can be (`compensated::lanes::Chunk::of_facets`, issue 18):
-/// over the mirror sawtooth, a nested leaf with a lane form that neither transmits nor has a
-/// Lambert closed form (`roughconductor`, `roughplastic`), so that every hit that is not flat
-/// is the compensated model alone (`mnm::compensated_alone`) over the mirror sawtooth.
+/// the compensated model over the mirror sawtooth, a nested leaf with a lane form that
+/// neither transmits nor has a Lambert closed form (`roughconductor`, `roughplastic`), so that
+/// every hit that is not flat is the compensated model alone (`mnm::compensated_alone`) over
+/// the mirror sawtooth.
 pub(crate) fn lane_points(materials: &Materials, m: MatId) -> bool {
     let nodes = materials.nodes();
     let MaterialNode::MicrofacetNormalMap {
@@ -221,7 +238,8 @@ pub(crate) fn lane_points(materials: &Materials, m: MatId) -> bool {
     let MaterialNode::Leaf { template, .. } = &nodes[*nested as usize] else {
         return false;
     };
-    settings.geometry == Microgeometry::Sawtooth
+    settings.evaluation == Evaluation::Compensated
+        && settings.geometry == Microgeometry::Sawtooth
         && settings.tangent == Tangent::Mirror
         && matches!(
             **template,
