@@ -31,7 +31,9 @@
 //!    shadow ray ([`super::diffuse::light_out`]);
 //! 4. the BSDF samples (the same split: over the mirror sawtooth the points' draws 8-wide,
 //!    masked PCG32 steps on their streams, else lane by lane; their first orders and
-//!    remainders together), then lane by lane the next ray; each lane's light and BSDF samples
+//!    remainders together; the lanes whose sample is the reflection walk over a shared rough
+//!    leaf in one masked 8-lane walk, `compensated::lanes::sample_walks_x8`, since the
+//!    fortieth session), then lane by lane the next ray; each lane's light and BSDF samples
 //!    go to the integrator's [`super::tail::Tail`] (`PathState::advance` for `path`, rays to
 //!    trace for `direct`).
 //!
