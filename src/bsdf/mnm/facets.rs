@@ -528,6 +528,79 @@ pub(crate) fn g1_of(v: &[Vec3], w: Vec3) -> f32 {
     (w.z / s).min(1.0)
 }
 
+/// [`Microsurface`]'s queries per lane (the random walk of several points at once, issue 18:
+/// `compensated::lanes::walk`): each lane's area vectors `v` (its facets in order, the slots
+/// past its [`Microsurface::len`] zero). A zero slot adds nothing bit for bit: its ⟨ω, v⟩ is
+/// ±0, which counts as facing in [`Self::g1`] (as a real facet at 0 would) and adds ±0 to a
+/// sum that is +0 or positive, and is not positive, so [`Self::pick`] skips it as the scalar
+/// loop skips an a_k ≤ 0.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SurfaceLanes<L: Lane> {
+    pub v: [V3<L>; MAX_FACETS],
+}
+
+impl<L: Lane> SurfaceLanes<L> {
+    /// [`Microsurface::g1`] per lane ([`g1_of`] in its operations and order): 0 below the
+    /// surface; the facing facets' ⟨ω, v_k⟩ summed from 0; 1 when every facet faces ω or the
+    /// sum is not positive, else min(1, z / Σ).
+    #[inline(always)]
+    pub fn g1(&self, w: V3<L>) -> L {
+        let like = w.z;
+        let (zero, one) = (like.splat(0.0), like.splat(1.0));
+        let mut s = zero;
+        let mut all_face: Option<L::Mask> = None;
+        for vk in &self.v {
+            let a = w.dot(*vk);
+            let f = a.ge(zero);
+            s = L::select(f, s + a, s);
+            all_face = Some(match all_face {
+                Some(m) => m & f,
+                None => f,
+            });
+        }
+        let all_face = all_face.expect("a microsurface has facets");
+        let open = all_face | s.le(zero);
+        let g = L::select(open, one, (w.z / s).min(one));
+        L::select(w.z.le(zero), zero, g)
+    }
+
+    /// [`Microsurface::pick`] per lane from `u`: whether a facet faces ω (Σ(ω) > 0, the scalar
+    /// `Some`) and the picked facet as one mask per slot (one set where a facet is picked):
+    /// the first facet whose running sum of the positive a_k exceeds u·Σ, else the last
+    /// positive one (the scalar loop's `last`). Σ is [`Microsurface::sigma`] (a_k = max(⟨ω,
+    /// v_k⟩, 0) summed in order).
+    #[inline(always)]
+    pub fn pick(&self, w: V3<L>, u: L) -> (L::Mask, [L::Mask; MAX_FACETS]) {
+        let zero = w.z.splat(0.0);
+        let mut a = [zero; MAX_FACETS];
+        let mut s = zero;
+        for (ak, vk) in a.iter_mut().zip(&self.v) {
+            *ak = w.dot(*vk).max(zero);
+            s = s + *ak;
+        }
+        let some = !s.le(zero);
+        let target = u * s;
+        let mut acc = zero;
+        let never = zero.lt(zero);
+        let mut chosen = never;
+        let mut took = [never; MAX_FACETS];
+        let mut pos = [never; MAX_FACETS];
+        for k in 0..MAX_FACETS {
+            pos[k] = a[k].gt(zero);
+            acc = L::select(pos[k], acc + a[k], acc);
+            took[k] = pos[k] & !chosen & target.lt(acc);
+            chosen = chosen | took[k];
+        }
+        // No running sum passed the target (rounding): the last positive facet.
+        let mut later = never;
+        for k in (0..MAX_FACETS).rev() {
+            took[k] = took[k] | (!chosen & pos[k] & !later);
+            later = later | pos[k];
+        }
+        (some, took)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

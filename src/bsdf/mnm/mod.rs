@@ -609,6 +609,34 @@ pub(crate) fn compensated_alone<'a>(
     Some((m, m.ms.as_ref()?, nested))
 }
 
+/// The random walk alone at root `b` (a microfacet normal map) seen from `wi`: `Some` (the
+/// map and its nested BSDF) exactly where [`sample`] reaches [`walk_sample`] — not
+/// degenerate, a reflecting nested BSDF, ωi above the surface (a NaN ωi.z too is left out:
+/// the caller's scalar path answers it), no Lambert closed form, no table, an evaluation
+/// that walks. The stream kernel's walks 8 at a time (`compensated::lanes::walk`) start
+/// from it.
+#[inline]
+pub(crate) fn walk_alone<'a>(b: Bsdf<'a>, wi: Vec3) -> Option<(&'a MicrofacetNormalMap, Bsdf<'a>)> {
+    let super::BsdfNode::MicrofacetNormalMap { map, .. } = b.node() else {
+        return None;
+    };
+    let m = &b.arena.mnm[*map as usize];
+    let nested = b.child(m.nested);
+    if m.degenerate
+        || m.transmits(&nested)
+        || wi.z.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+        || m.lambert.is_some()
+        || m.ms.is_some()
+    {
+        return None;
+    }
+    matches!(
+        m.evaluation,
+        Evaluation::RandomWalk | Evaluation::Compensated | Evaluation::Auto
+    )
+    .then_some((m, nested))
+}
+
 /// Eval and pdf of one query (next-event estimation); equal to [`eval`] and [`pdf`] called
 /// separately up to rounding. The closed forms evaluate each path's nested BSDF once for both
 /// ([`explicit::eval_pdf_mirror`], [`explicit::eval_pdf_single`]); the random walk shares the
@@ -762,6 +790,24 @@ fn walk_sample(
     s: &mut Sampler,
 ) -> Option<BsdfSample> {
     let (wo, weight, lobe, first) = walk::sample(m, nested, ctx, wi, s)?;
+    Some(walk_sample_of(m, nested, ctx, wi, wo, weight, lobe, first))
+}
+
+/// [`walk_sample`]'s sample from its walk's results (ωo, throughput, lobe, first vertex):
+/// the MIS density of decision 3 with the first vertex's term known. Also the end of the
+/// walks run 8 at a time (`compensated::lanes::walk`), lane by lane.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn walk_sample_of(
+    m: &MicrofacetNormalMap,
+    nested: &Bsdf,
+    ctx: &BsdfContext,
+    wi: Vec3,
+    wo: Vec3,
+    weight: Spectrum,
+    lobe: super::Lobes,
+    first: Option<walk::FirstVertex>,
+) -> BsdfSample {
     // The walk escapes upward only (G1 = 0 below), so `pdf`'s wo.z ≤ 0 case is moot.
     let mut terms = if m.mirror_wall {
         explicit::PdfTerms::mirror(m, wi, wo)
@@ -778,11 +824,11 @@ fn walk_sample(
     }
     let p1 = terms.total(m, nested, ctx);
     let c = m.mis_c();
-    Some(BsdfSample {
+    BsdfSample {
         wo,
         pdf: (1.0 - c) * p1 + c * wo.z * INV_PI,
         weight,
         eta: 1.0,
         lobe,
-    })
+    }
 }

@@ -31,7 +31,9 @@
 //!    shadow ray ([`super::diffuse::light_out`]);
 //! 4. the BSDF samples (the same split: over the mirror sawtooth the points' draws 8-wide,
 //!    masked PCG32 steps on their streams, else lane by lane; their first orders and
-//!    remainders together), then lane by lane the next ray; each lane's light and BSDF samples
+//!    remainders together; the lanes whose sample is the reflection walk over a shared rough
+//!    leaf in one masked 8-lane walk, `compensated::lanes::sample_walks_x8`, since the
+//!    fortieth session), then lane by lane the next ray; each lane's light and BSDF samples
 //!    go to the integrator's [`super::tail::Tail`] (`PathState::advance` for `path`, rays to
 //!    trace for `direct`).
 //!
@@ -272,7 +274,8 @@ pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
-        eval_pdf_x8_into, sample_x8_cols, with_incident_alone_x8, Chunk, Cols, Point,
+        eval_pdf_x8_into, sample_walks_x8, sample_x8_cols, with_incident_alone_x8, Chunk, Cols,
+        Point,
     };
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
@@ -290,6 +293,10 @@ pub(crate) mod x8 {
     use crate::stream::kernels::tail::{Sampled, Tail};
     use crate::texture::Texture;
     use glam::Vec3;
+
+    /// The fewest lanes of a chunk that walk together ([`sample_walks_x8`]); fewer walk lane by
+    /// lane.
+    const WALK_MIN: u32 = 1;
 
     /// The normal map texture's values at the hits of the 8 paths `ids` (material `m`), as
     /// `Materials::build_at` looks it up (`Texture::eval` at the hit's uv, or its mesh data):
@@ -565,7 +572,31 @@ pub(crate) mod x8 {
         let mut wo = Cols3::store(world);
         let (mut pdf, mut w, mut eta) = (sampled.pdf, Cols3(sampled.w), [1.0f32; 8]);
         let mut delta = [sampled.lobe.intersects(Lobes::DELTA); 8];
-        let mut rest = !chunk.lanes();
+        // The lanes whose sample is the reflection walk over a shared rough leaf walk
+        // together, masked 8-wide (`sample_walks_x8`: each lane's scalar sample bit for bit);
+        // the others lane by lane.
+        let mut pts_local = [None; 8];
+        for (k, s) in sb.iter().enumerate() {
+            if chunk.lanes() & (1 << k) == 0 {
+                pts_local[k] = s.as_ref().map(|s| s.local());
+            }
+        }
+        let walks = sample_walks_x8(avx, &ctx, &pts_local, &mut b.sampler, ids, WALK_MIN);
+        let mut rest = walks.lanes;
+        while rest != 0 {
+            let k = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let (Some(s), Some(bs)) = (&sb[k], walks.out[k]) else {
+                continue;
+            };
+            if let Some(bs) = s.world_sample(bs) {
+                wo.set(k, bs.wo);
+                (pdf[k], eta[k], delta[k]) = (bs.pdf, bs.eta, bs.lobe.intersects(Lobes::DELTA));
+                w.set(k, bs.weight);
+                keep |= 1 << k;
+            }
+        }
+        let mut rest = !chunk.lanes() & !walks.lanes;
         while rest != 0 {
             let k = rest.trailing_zeros() as usize;
             rest &= rest - 1;

@@ -41,6 +41,10 @@ use super::super::nested_batch::{Pairs, CHUNK};
 mod draws;
 mod first;
 mod sample;
+#[cfg(target_arch = "x86_64")]
+mod walk;
+#[cfg(target_arch = "x86_64")]
+pub(crate) use walk::sample_walks_x8;
 
 use super::{
     leave, pick_entry, sample_record_is_exact, AtIncident, AtWi, Collected, Entries, Known,

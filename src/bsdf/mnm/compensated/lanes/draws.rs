@@ -25,7 +25,7 @@ use crate::sampler::Samplers;
 
 /// One PCG32 float per lane, the state advanced only in the lanes of `on`.
 #[inline(always)]
-fn step(avx: Avx2, rng: &mut Pcg<F32x8>, on: M8) -> F32x8 {
+pub(super) fn step(avx: Avx2, rng: &mut Pcg<F32x8>, on: M8) -> F32x8 {
     let (old, inc) = rng.parts();
     let u = rng.next_f32();
     *rng = Pcg::from_parts(avx.select_u64(on, rng.parts().0, old), inc);
@@ -114,7 +114,7 @@ pub(super) fn first8(
 /// (`Samplers::next_2d`: the stratum), into lanes of `x` and `y`.
 #[inline(never)]
 #[cold]
-fn stratified(
+pub(super) fn stratified(
     samplers: &mut Samplers,
     ids: &[u32; 8],
     late: u8,

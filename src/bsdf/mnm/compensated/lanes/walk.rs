@@ -1,0 +1,575 @@
+//! The random walk's sample ([`crate::bsdf::mnm::walk::sample_counted`]) of up to 8 shading
+//! points at once, one lane per point (issue 18: "the random walks may run as masked loops or
+//! fall back to the 1-lane kernel lane by lane"): the stream kernel's points whose BSDF is a
+//! microfacet normal map that samples by the reflection walk ([`crate::bsdf::mnm::walk_alone`])
+//! over a shared `roughconductor` or `roughplastic` leaf walk together, each lane active until
+//! its own walk ends (escaped, absorbed, or `max_order` vertices), the chunk looping until no
+//! lane is.
+//!
+//! Per iteration, as the scalar loop: over the mirror wall the reflection; else the nested
+//! sample in the facet's frame (the map's stored frames, the same bits), asked of all the
+//! lanes at a nested vertex in one 8-wide call of the leaf's lane form ([`super::sample`]:
+//! bit for bit `Bsdf::sample` with its rejection of degenerate samples); the exit test
+//! against G1(d); the next facet picked ∝ a_j(−d) (the lane forms of
+//! [`crate::bsdf::mnm::facets::SurfaceLanes`]). Each lane draws from its own stream only while
+//! active, in the scalar order (entry pick; the nested sample's numbers; exit; pick), as
+//! masked 8-wide PCG32 steps on the batch's columns ([`super::draws`]); a stream whose 2-D
+//! draw is still stratified draws it alone (`Samplers::next_2d`). The walks' ends are counted
+//! as the scalar walk counts them (`Bsdf::record_walk`, the bench's mean walk length), and
+//! each escaped walk's MIS density is the scalar one's, lane by lane, from the walk's results
+//! ([`crate::bsdf::mnm::walk_sample_of`]). So every lane's sample and stream end where the
+//! scalar `Bsdf::sample` leaves them (`tests`).
+//!
+//! Here rather than beside `walk.rs`: it reuses this module's private pieces (the nested
+//! lane samples [`super::sample::Asks`], the masked draws [`super::draws`]).
+
+use super::super::Nested;
+use super::draws::{step, stratified};
+use super::sample::{draws_u1, Asks};
+use super::Cols;
+use crate::bsdf::mnm::facets::{SurfaceLanes, MAX_FACETS};
+use crate::bsdf::mnm::walk::FirstVertex;
+use crate::bsdf::mnm::{explicit::lobe_of, walk_alone, walk_sample_of, MicrofacetNormalMap};
+use crate::bsdf::{accept_sample, Bsdf, BsdfContext, BsdfSample};
+use crate::lane::frame::Frame as LaneFrame;
+use crate::lane::pcg::Pcg;
+use crate::lane::vec::{V2, V3};
+use crate::lane::{Avx2, F32x8, Lane, M8};
+use crate::sampler::Samplers;
+use glam::Vec3;
+
+/// The samples of [`sample_walks_x8`]: bit k of `lanes`, lane k walked here (its sample, or
+/// `None`, in `out[k]`: what `Bsdf::sample` of its root returns); the other lanes are left to
+/// the caller.
+pub(crate) struct WalkSamples {
+    pub lanes: u8,
+    pub out: [Option<BsdfSample>; 8],
+}
+
+/// A lane's columns: `[component][lane]`.
+type Col3 = [[f32; 8]; 3];
+
+#[inline(always)]
+fn l3(avx: Avx2, c: &Col3) -> V3<F32x8> {
+    V3::new(avx.load(&c[0]), avx.load(&c[1]), avx.load(&c[2]))
+}
+
+#[inline(always)]
+fn set3(c: &mut Col3, k: usize, v: Vec3) {
+    c[0][k] = v.x;
+    c[1][k] = v.y;
+    c[2][k] = v.z;
+}
+
+/// `a` where `m`, else `b`, for one-hot facet masks.
+#[inline(always)]
+fn frame_of(k: &[M8; MAX_FACETS], fr: &[LaneFrame<F32x8>; MAX_FACETS]) -> LaneFrame<F32x8> {
+    let mut f = fr[0];
+    for j in 1..MAX_FACETS {
+        f = LaneFrame {
+            s: V3::select(k[j], fr[j].s, f.s),
+            t: V3::select(k[j], fr[j].t, f.t),
+            n: V3::select(k[j], fr[j].n, f.n),
+        };
+    }
+    f
+}
+
+/// The lanes of `pts` (each lane's local BSDF and ωi, `None`: no point) whose sample is the
+/// reflection walk over a `roughconductor` or `roughplastic` leaf shared with the first such
+/// lane and with its `max_order`: walked together, each from stream `ids[k]` of `samplers`.
+/// Fewer than `min` such lanes: none is walked here (`lanes` 0).
+#[inline(never)]
+pub(crate) fn sample_walks_x8(
+    avx: Avx2,
+    ctx: &BsdfContext,
+    pts: &[Option<(Bsdf<'_>, Vec3)>; 8],
+    samplers: &mut Samplers,
+    ids: &[u32; 8],
+    min: u32,
+) -> WalkSamples {
+    let mut out = WalkSamples {
+        lanes: 0,
+        out: [None; 8],
+    };
+    let mut maps: [Option<&MicrofacetNormalMap>; 8] = [None; 8];
+    let mut shared: Option<(Bsdf<'_>, u32)> = None;
+    let mut wi = [[0.0f32; 8]; 3];
+    for (k, p) in pts.iter().enumerate() {
+        let Some((b, w)) = p else { continue };
+        let Some((m, nested)) = walk_alone(*b, *w) else {
+            continue;
+        };
+        if let Nested::Diffuse(_) | Nested::Other(_) = Nested::of(&nested) {
+            continue;
+        }
+        let (n0, order0) = *shared.get_or_insert((nested, m.max_order));
+        if !std::ptr::eq(n0.arena, nested.arena) || n0.root != nested.root || order0 != m.max_order
+        {
+            continue;
+        }
+        maps[k] = Some(m);
+        set3(&mut wi, k, *w);
+        out.lanes |= 1 << k;
+    }
+    let Some((nested, max_order)) = shared else {
+        return out;
+    };
+    if out.lanes.count_ones() < min {
+        out.lanes = 0;
+        return out;
+    }
+    let kind = Nested::of(&nested);
+    // The points' facets, wall normal and carrying facets' frames, by lane.
+    let mut v = [[[0.0f32; 8]; 3]; MAX_FACETS];
+    let mut n1 = [[0.0f32; 8]; 3];
+    let mut fr = [[[[0.0f32; 8]; 3]; 3]; MAX_FACETS];
+    let mut mirror = 0u8;
+    for (k, m) in maps.iter().enumerate() {
+        let Some(m) = m else { continue };
+        let surf = &m.surface;
+        for (j, col) in v.iter_mut().enumerate().take(surf.len()) {
+            set3(col, k, surf.area_vector(j));
+        }
+        let carrying = if m.mirror_wall { 1 } else { surf.len() };
+        for (j, f) in fr.iter_mut().enumerate().take(carrying) {
+            let g = &m.frames[j];
+            set3(&mut f[0], k, g.s);
+            set3(&mut f[1], k, g.t);
+            set3(&mut f[2], k, g.n);
+        }
+        if m.mirror_wall {
+            set3(&mut n1, k, surf.normal(1));
+            mirror |= 1 << k;
+        }
+    }
+    let walked = walk8(
+        avx,
+        Cols::of(avx),
+        kind,
+        Cols8 {
+            v: &v,
+            n1: &n1,
+            fr: &fr,
+            wi: &wi,
+        },
+        out.lanes,
+        mirror,
+        max_order,
+        samplers,
+        ids,
+    );
+    let lobe = lobe_of(nested.lobes());
+    let mut rest = out.lanes;
+    while rest != 0 {
+        let k = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        if walked.ends[k] != 0 {
+            nested.record_walk(walked.ends[k]);
+        }
+        if walked.escaped & (1 << k) == 0 {
+            continue;
+        }
+        let m = maps[k].expect("a walked lane has its map");
+        let at = |c: &Col3| Vec3::new(c[0][k], c[1][k], c[2][k]);
+        let first = (walked.first & (1 << k) != 0).then(|| FirstVertex {
+            k: walked.first_k[k] as usize,
+            pdf: walked.first_pdf[k],
+        });
+        let bs = walk_sample_of(
+            m,
+            &nested,
+            ctx,
+            at(&wi),
+            at(&walked.wo),
+            at(&walked.weight),
+            lobe,
+            first,
+        );
+        out.out[k] = accept_sample(bs);
+    }
+    out
+}
+
+/// The walk's inputs by lane (see [`sample_walks_x8`]).
+struct Cols8<'c> {
+    v: &'c [Col3; MAX_FACETS],
+    n1: &'c Col3,
+    fr: &'c [[Col3; 3]; MAX_FACETS],
+    wi: &'c Col3,
+}
+
+/// What the walks of [`walk8`] did, by lane.
+struct Walked {
+    /// Bit k: lane k escaped (its ωo and throughput in `wo` and `weight`).
+    escaped: u8,
+    wo: Col3,
+    weight: Col3,
+    /// Bit k: lane k escaped right after its first vertex, a nested one (facet `first_k[k]`,
+    /// the nested sample's density `first_pdf[k]`).
+    first: u8,
+    first_k: [u8; 8],
+    first_pdf: [f32; 8],
+    /// The vertex count `record_walk` takes for lane k's walk (0: it ended at its entry,
+    /// which the scalar walk does not count).
+    ends: [u32; 8],
+}
+
+/// Lane k's end at `order` for the lanes of `bits`.
+#[inline(always)]
+fn end(ends: &mut [u32; 8], bits: u8, order: u32) {
+    let mut rest = bits;
+    while rest != 0 {
+        let k = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        ends[k] = order;
+    }
+}
+
+/// The masked walk of the lanes `lanes` (see the module's doc), in 8-wide code.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn walk8(
+    avx: Avx2,
+    cols: Cols,
+    kind: Nested,
+    c: Cols8,
+    lanes: u8,
+    mirror: u8,
+    max_order: u32,
+    samplers: &mut Samplers,
+    ids: &[u32; 8],
+) -> Walked {
+    let u1_drawn = draws_u1(kind);
+    let all_plain = samplers.all_plain();
+    avx.run(
+        #[inline(always)]
+        || {
+            let mut w = Walked {
+                escaped: 0,
+                wo: [[0.0; 8]; 3],
+                weight: [[0.0; 8]; 3],
+                first: 0,
+                first_k: [0; 8],
+                first_pdf: [0.0; 8],
+                ends: [0; 8],
+            };
+            let (zero, one) = (avx.splat(0.0), avx.splat(1.0));
+            let surf = SurfaceLanes {
+                v: [l3(avx, &c.v[0]), l3(avx, &c.v[1]), l3(avx, &c.v[2])],
+            };
+            let mut fr = [LaneFrame {
+                s: V3::new(zero, zero, zero),
+                t: V3::new(zero, zero, zero),
+                n: V3::new(zero, zero, zero),
+            }; MAX_FACETS];
+            for (f, col) in fr.iter_mut().zip(c.fr.iter()) {
+                *f = LaneFrame {
+                    s: l3(avx, &col[0]),
+                    t: l3(avx, &col[1]),
+                    n: l3(avx, &col[2]),
+                };
+            }
+            let n1 = l3(avx, c.n1);
+            let wall = avx.mask_bits(u32::from(mirror));
+            let wi = l3(avx, c.wi);
+            let idx = avx.load_u32(ids);
+            let on = avx.mask_bits(u32::from(lanes));
+            let (states, incs) = samplers.pcg_mut();
+            let mut rng = Pcg::<F32x8>::gather(states, incs, idx);
+            let old = rng.parts().0;
+            // The entry: the facet hit from ωi.
+            let u = step(avx, &mut rng, on);
+            let (some, mut k) = surf.pick(wi, u);
+            let mut act = on & some;
+            let mut d = -wi;
+            let mut thr = V3::new(one, one, one);
+            let (mut wo, mut weight) = (V3::new(zero, zero, zero), V3::new(zero, zero, zero));
+            let mut first_ok = 0u8;
+            let mut asks = Asks::new();
+            for order in 1..=max_order {
+                let ab = act.bits() as u8;
+                if ab == 0 {
+                    break;
+                }
+                let mir = act & wall & k[1];
+                let nest = act & !mir;
+                // The mirror wall: d − (2 ⟨d, n⟩) n.
+                let r = d - n1.scale(avx.splat(2.0) * d.dot(n1));
+                d = V3::select(mir, r, d);
+                let nb = nest.bits() as u8;
+                if nb != 0 {
+                    let f = frame_of(&k, &fr);
+                    let a = f.to_local(-d);
+                    let u1 = if u1_drawn {
+                        step(avx, &mut rng, nest)
+                    } else {
+                        zero
+                    };
+                    // The lanes whose 2-D draw is plain (all, where no stream has strata).
+                    let mut plain = u8::MAX;
+                    if !all_plain {
+                        plain = 0;
+                        let mut rest = nb;
+                        while rest != 0 {
+                            let j = rest.trailing_zeros() as usize;
+                            rest &= rest - 1;
+                            plain |= u8::from(samplers.plain(ids[j] as usize)) << j;
+                        }
+                    }
+                    let flat = nest & avx.mask_bits(u32::from(plain));
+                    let mut x = step(avx, &mut rng, flat);
+                    let mut y = step(avx, &mut rng, flat);
+                    let late = nb & !plain;
+                    if late != 0 {
+                        // Those streams' states to the columns, their stratified draws, and
+                        // every lane's state back (the others' unchanged).
+                        let (states, _) = samplers.pcg_mut();
+                        avx.store_u64_at(states, idx, on, rng.parts().0, old);
+                        let (mut xs, mut ys) = ([0.0f32; 8], [0.0f32; 8]);
+                        x.store(&mut xs);
+                        y.store(&mut ys);
+                        stratified(samplers, ids, late, &mut xs, &mut ys);
+                        (x, y) = (avx.load(&xs), avx.load(&ys));
+                        let (states, incs) = samplers.pcg_mut();
+                        rng = Pcg::<F32x8>::gather(states, incs, idx);
+                    }
+                    asks.set_lanes(avx, nest, a, u1, V2::new(x, y));
+                    let ans = asks.answer(cols, kind);
+                    let okb = ans.ok() & nb;
+                    let ok = avx.mask_bits(u32::from(okb));
+                    // A nested sample that is none: absorbed at this vertex.
+                    end(&mut w.ends, nb & !okb, order);
+                    act = act & !(nest & !ok);
+                    thr = V3::select(ok, thr * l3(avx, ans.weight()), thr);
+                    d = V3::select(ok, f.to_world(l3(avx, ans.wo())), d);
+                    if order == 1 {
+                        first_ok = okb;
+                        for (j, kj) in k.iter().enumerate() {
+                            let kb = kj.bits() as u8 & okb;
+                            let mut rest = kb;
+                            while rest != 0 {
+                                let i = rest.trailing_zeros() as usize;
+                                rest &= rest - 1;
+                                w.first_k[i] = j as u8;
+                            }
+                        }
+                        w.first_pdf = *ans.pdf();
+                    }
+                }
+                // The exit test against G1(d).
+                let u = step(avx, &mut rng, act);
+                let esc = act & u.lt(surf.g1(d));
+                let eb = esc.bits() as u8;
+                if eb != 0 {
+                    end(&mut w.ends, eb, order);
+                    wo = V3::select(esc, d, wo);
+                    weight = V3::select(esc, thr, weight);
+                    w.escaped |= eb;
+                    if order == 1 {
+                        w.first = eb & first_ok;
+                    }
+                    act = act & !esc;
+                }
+                // The next facet, hit ∝ a_j(−d).
+                let u = step(avx, &mut rng, act);
+                let (some, kn) = surf.pick(-d, u);
+                let on_next = act & some;
+                end(
+                    &mut w.ends,
+                    act.bits() as u8 & !(on_next.bits() as u8),
+                    order,
+                );
+                for j in 0..MAX_FACETS {
+                    k[j] = (on_next & kn[j]) | (!on_next & k[j]);
+                }
+                act = on_next;
+            }
+            // Still walking after `max_order` vertices: absorbed.
+            end(&mut w.ends, act.bits() as u8, max_order);
+            let (states, _) = samplers.pcg_mut();
+            avx.store_u64_at(states, idx, on, rng.parts().0, old);
+            for (col, x) in w.wo.iter_mut().zip([wo.x, wo.y, wo.z]) {
+                x.store(col);
+            }
+            for (col, x) in w.weight.iter_mut().zip([weight.x, weight.y, weight.z]) {
+                x.store(col);
+            }
+            w
+        },
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::mnm::facets::Microgeometry;
+    use crate::bsdf::mnm::{Evaluation, Tangent};
+    use crate::bsdf::BsdfArena;
+    use crate::math::Pcg32;
+    use crate::sampler::{Sampler, SamplerDesc, SamplerKind};
+
+    fn same(a: f32, b: f32) -> bool {
+        a.to_bits() == b.to_bits()
+    }
+
+    fn same3(a: Vec3, b: Vec3) -> bool {
+        same(a.x, b.x) && same(a.y, b.y) && same(a.z, b.z)
+    }
+
+    /// A perturbed normal up to 80° from +z, some nearly flat, some exactly flat (degenerate:
+    /// not walked).
+    fn random_wp(r: &mut Pcg32) -> Vec3 {
+        let theta = match r.next_u32() % 10 {
+            0 => r.next_f32() * 1e-3,
+            1 => 0.0,
+            _ => r.next_f32() * 80f32.to_radians(),
+        };
+        let phi = r.next_f32() * std::f32::consts::TAU;
+        Vec3::new(
+            theta.sin() * phi.cos(),
+            theta.sin() * phi.sin(),
+            theta.cos(),
+        )
+    }
+
+    /// ωi mostly above the surface, grazing ones mixed in, a few below (not walked).
+    fn random_wi(r: &mut Pcg32) -> Vec3 {
+        let z = match r.next_u32() % 12 {
+            0 => r.next_f32() * 0.02,
+            1 => -r.next_f32(),
+            _ => r.next_f32(),
+        };
+        let phi = r.next_f32() * std::f32::consts::TAU;
+        let s = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(s * phi.cos(), s * phi.sin(), z)
+    }
+
+    /// The masked walk of 8 lanes equals `Bsdf::sample` of each lane's map (the scalar
+    /// `walk::sample_counted` with `walk_sample`'s density and the rejection of degenerate
+    /// samples) lane by lane, bit for bit, leaves every stream where the scalar sample leaves
+    /// it and counts the same walks and vertices: the sawtooth with and without the mirror
+    /// wall, the V-groove and two U-grooves, both rough conductors and the rough plastic,
+    /// independent and stratified streams (some still in their strata), random ωi, lanes
+    /// without a point or not walked (flat maps, ωi below), walks of different lengths and
+    /// `max_order` 1, 3 and 10.
+    #[test]
+    fn masked_walks_equal_the_scalar_walks() {
+        let Some(avx) = Avx2::detect() else {
+            return;
+        };
+        let ctx = BsdfContext::default();
+        let mut rng = Pcg32::new(40, 1);
+        let geometries = [
+            (Microgeometry::Sawtooth, Tangent::Mirror),
+            (Microgeometry::Sawtooth, Tangent::Same),
+            (Microgeometry::VGroove, Tangent::Same),
+            (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
+            (Microgeometry::UGroove { fill: 1.0 }, Tangent::Mirror),
+        ];
+        let (mut escaped, mut absorbed, mut walks, mut vertices, mut stratified_draws) =
+            (0, 0, 0, 0, 0);
+        for round in 0..3000 {
+            let mut arena = BsdfArena::new();
+            let nested = crate::bsdf::mnm::compensated::tests::push_reflectors(&mut arena);
+            let n = nested[round % nested.len()];
+            let (geo, tangent) = geometries[(round / 3) % geometries.len()];
+            let max_order = [1, 3, 10][(round / 15) % 3];
+            let stratified = round % 2 == 1;
+            let mut pts: [Option<(u32, Vec3)>; 8] = [None; 8];
+            for p in pts.iter_mut() {
+                if rng.next_u32().is_multiple_of(6) {
+                    continue; // a lane without a point
+                }
+                let m = MicrofacetNormalMap::new(
+                    n,
+                    random_wp(&mut rng),
+                    geo,
+                    tangent,
+                    Evaluation::RandomWalk,
+                    max_order,
+                );
+                *p = Some((arena.push_microfacet_normal_map(m), random_wi(&mut rng)));
+            }
+            // 12 streams; the lanes' ids 8 of them in random order.
+            let mut all = Vec::new();
+            for s in 0..12u32 {
+                let smp = if stratified {
+                    let desc = SamplerDesc {
+                        kind: SamplerKind::Stratified { jitter: true },
+                        sample_count: 16,
+                        seed: rng.next_u32() as u64,
+                    };
+                    let mut smp = Sampler::for_sample(&desc, s as u64, rng.next_u32() % 16);
+                    // Some streams with one or both stratified 2-D draws spent.
+                    for _ in 0..rng.next_u32() % 3 {
+                        smp.next_2d();
+                    }
+                    stratified_draws += usize::from(smp.plain_parts().is_none());
+                    smp
+                } else {
+                    Sampler::from_seed(rng.next_u32() as u64, s as u64)
+                };
+                all.push(smp);
+            }
+            let mut ids = [0u32; 8];
+            let mut perm: Vec<u32> = (0..12).collect();
+            for (i, id) in ids.iter_mut().enumerate() {
+                perm.swap(i, i + (rng.next_u32() as usize) % (12 - i));
+                *id = perm[i];
+            }
+            let mut cols = Samplers::with_capacity(12);
+            cols.extend_from(&all);
+            let arena = &arena;
+            let lanes: [Option<(Bsdf<'_>, Vec3)>; 8] =
+                std::array::from_fn(|k| pts[k].map(|(r, wi)| (arena.bsdf(r), wi)));
+            let got = sample_walks_x8(avx, &ctx, &lanes, &mut cols, &ids, 1);
+            let counted = arena.take_walk_counts();
+            let mut want_lanes = 0u8;
+            for (k, p) in pts.iter().enumerate() {
+                if let Some((r, wi)) = p {
+                    want_lanes |= u8::from(walk_alone(arena.bsdf(*r), *wi).is_some()) << k;
+                }
+            }
+            assert_eq!(got.lanes, want_lanes, "round {round}");
+            for k in 0..8 {
+                let Some((r, wi)) = pts[k] else { continue };
+                if got.lanes & (1 << k) == 0 {
+                    continue;
+                }
+                let want = arena.bsdf(r).sample(&ctx, wi, &mut all[ids[k] as usize]);
+                match (got.out[k], want) {
+                    (None, None) => absorbed += 1,
+                    (Some(a), Some(e)) => {
+                        escaped += 1;
+                        assert!(same3(a.wo, e.wo), "round {round} lane {k}");
+                        assert!(same3(a.weight, e.weight), "round {round} lane {k}");
+                        assert!(same(a.pdf, e.pdf), "round {round} lane {k}");
+                        assert!(same(a.eta, e.eta) && a.lobe == e.lobe);
+                    }
+                    (a, e) => panic!("round {round} lane {k}: {a:?} vs {e:?}"),
+                }
+            }
+            let scalar = arena.take_walk_counts();
+            assert_eq!(
+                (counted.walks, counted.vertices),
+                (scalar.walks, scalar.vertices),
+                "round {round}"
+            );
+            walks += scalar.walks;
+            vertices += scalar.vertices;
+            for (i, s) in all.iter_mut().enumerate() {
+                let mut c = cols.get(i);
+                for _ in 0..3 {
+                    let (a, b) = (c.next_2d(), s.next_2d());
+                    assert!(same(a.x, b.x) && same(a.y, b.y), "round {round} stream {i}");
+                }
+            }
+        }
+        // Most lanes walk; a fair share of them escape, of the others many are absorbed;
+        // walks of several vertices; streams still stratified.
+        assert!(escaped > 8000 && absorbed > 1000, "{escaped} {absorbed}");
+        assert!(vertices as f64 > 1.3 * walks as f64, "{walks} {vertices}");
+        assert!(stratified_draws > 3000, "{stratified_draws}");
+    }
+}
