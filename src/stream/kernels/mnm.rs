@@ -248,6 +248,21 @@ pub(crate) fn lane_points(materials: &Materials, m: MatId) -> bool {
         && !materials.lobes(*nested).has_transmission()
 }
 
+/// Whether material `m` (one that [`qualifies`]) evaluates by the compensated model (its
+/// `evaluation = compensated`, with its table). Only then can a map be a compensated point
+/// (`mnm::compensated_alone` needs the map's table reference, which only this evaluation sets)
+/// or want an ωi cache (`set_incident` caches for the table only): for the random walk and the
+/// closed forms the kernel skips the compensated machinery (the points' search, the chunk's
+/// state at ωi, its empty light query, the maps' ωi caches), which would find nothing.
+pub(crate) fn compensated(materials: &Materials, m: MatId) -> bool {
+    match &materials.nodes()[m as usize] {
+        MaterialNode::MicrofacetNormalMap { settings, .. } => {
+            settings.evaluation == Evaluation::Compensated
+        }
+        _ => false,
+    }
+}
+
 /// The remainder table of material `m` (a microfacet `normalmap` with one).
 pub(crate) fn ms_table(
     scene: &Scene,
@@ -351,6 +366,9 @@ pub(crate) mod x8 {
         // The chunk's compensated points share their nested BSDF (one material, a constant
         // leaf: every chunk of a run): their first orders are evaluated together.
         let shared = super::shared_nested(&scene.materials, m0);
+        // The compensated model's points, their state at ωi and the maps' ωi caches exist
+        // only for its own evaluation (the walk and the closed forms have none: skipped).
+        let comp = super::compensated(&scene.materials, m0);
         // 1. The surfaces, loaded 8-wide from the batch's rows (the light stage's columns).
         let surf = crate::stream::kernels::surface::x8::load(avx, &b.surf, ids);
 
@@ -398,7 +416,7 @@ pub(crate) mod x8 {
                 *r = scene.bsdf_root(&si_at(b, k), arena);
             }
         }
-        if shared && !lane_points {
+        if shared && !lane_points && comp {
             with_incident_alone_x8(arena, &roots, &wi);
         }
         let arena: &BsdfArena = arena;
@@ -474,7 +492,7 @@ pub(crate) mod x8 {
         // the nested BSDF answers), else from the maps.
         // (Each chunk a struct literal straight into `chunk`, then filled in place.)
         let mut pts = [None; 8];
-        if !lane_points {
+        if !lane_points && comp {
             for (k, bsdf) in sb.iter().enumerate() {
                 match bsdf {
                     Some(bsdf) if shared => {
@@ -487,6 +505,8 @@ pub(crate) mod x8 {
         }
         let mut chunk = match (&lanes, lane_points) {
             (Some(l), true) => Chunk::of_facets(Cols::of(avx), l.facets()),
+            // No point (the walk, a closed form): the empty chunk, from constants.
+            _ if !comp => Chunk::of(Cols::of(avx), [None; 8]),
             _ => Chunk::of(Cols::of(avx), pts),
         };
         if let (Some(l), Some(bt), true) = (&lanes, &built, lane_points) {
@@ -495,7 +515,9 @@ pub(crate) mod x8 {
                 chunk.set_lanes(arena.bsdf(bt.child), table, cells, on, &wi_local.0);
             }
         }
-        chunk.prepare();
+        if comp {
+            chunk.prepare();
+        }
 
         // 3. Next-event estimation: the light directions in the shading frame with
         //    `SurfaceBsdf::local_wo`'s side test 8-wide (the lanes' frames and true normals are
@@ -529,7 +551,9 @@ pub(crate) mod x8 {
                 f.set(k, fk);
                 pdf[k] = pk;
             }
-            eval_pdf_x8_into(&ctx, &chunk, lit, &lwo.0, &mut f.0, &mut pdf);
+            if comp {
+                eval_pdf_x8_into(&ctx, &chunk, lit, &lwo.0, &mut f.0, &mut pdf);
+            }
             let lo = light_out(
                 &surf,
                 tp.load(avx),
