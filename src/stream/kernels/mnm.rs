@@ -263,6 +263,19 @@ pub(crate) fn compensated(materials: &Materials, m: MatId) -> bool {
     }
 }
 
+/// Whether material `m` (one that [`qualifies`]) evaluates by the random walk (`walk-same`,
+/// `walk-mirror`): then step 3 takes the walk's light-sample queries over a shared nested leaf
+/// with a lane form through `bsdf::mnm::walk_pdf_lanes` (their MIS density's nested pairs
+/// 8-wide before the walks).
+pub(crate) fn random_walk(materials: &Materials, m: MatId) -> bool {
+    match &materials.nodes()[m as usize] {
+        MaterialNode::MicrofacetNormalMap { settings, .. } => {
+            settings.evaluation == Evaluation::RandomWalk
+        }
+        _ => false,
+    }
+}
+
 /// The remainder table of material `m` (a microfacet `normalmap` with one).
 pub(crate) fn ms_table(
     scene: &Scene,
@@ -289,6 +302,7 @@ pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
         eval_pdf_x8_into, sample_x8_cols, with_incident_alone_x8, Chunk, Cols, Point,
     };
+    use crate::bsdf::mnm::walk_pdf_lanes::WalkEvals;
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::{PathSettings, Strategy};
@@ -540,6 +554,27 @@ pub(crate) mod x8 {
             let lit = toward & chunk.lanes();
             let mut consistent = lit;
             let mut rest = toward & !lit;
+            // The random walk's queries over the shared leaf: their MIS density's nested pairs
+            // (the terms) of all lanes in 8-wide calls first, then each lane's walk below takes
+            // them (`WalkEvals`: the scalar `walk_eval_pdf`'s numbers; it draws nothing).
+            let mut walks = match &built {
+                Some(bt) if rest != 0 && super::random_walk(&scene.materials, m0) => {
+                    WalkEvals::new(arena.bsdf(bt.child), bt.child)
+                }
+                _ => None,
+            };
+            if let Some(w) = &mut walks {
+                let mut r = rest;
+                while r != 0 {
+                    let k = r.trailing_zeros() as usize;
+                    r &= r - 1;
+                    if let Some(s) = &sb[k] {
+                        let (local, wi) = s.local();
+                        w.push(k, local, wi, lwo.get(k));
+                    }
+                }
+                w.evaluate();
+            }
             while rest != 0 {
                 let k = rest.trailing_zeros() as usize;
                 rest &= rest - 1;
@@ -547,7 +582,10 @@ pub(crate) mod x8 {
                 let Some(s) = &sb[k] else { continue };
                 consistent |= 1 << k;
                 let (local, wi) = s.local();
-                let (fk, pk) = local.eval_pdf(&ctx, wi, lwo.get(k), &mut b.sampler.at(i as usize));
+                let (fk, pk) = match &mut walks {
+                    Some(w) if w.has(k) => w.eval_pdf(k, &ctx, &mut b.sampler.at(i as usize)),
+                    _ => local.eval_pdf(&ctx, wi, lwo.get(k), &mut b.sampler.at(i as usize)),
+                };
                 f.set(k, fk);
                 pdf[k] = pk;
             }
