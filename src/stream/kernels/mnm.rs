@@ -27,8 +27,10 @@
 //!    textured parameter ([`shared_nested`]), the 8 points together through
 //!    `bsdf::mnm::compensated::lanes` (the first orders' nested pairs of all points in full
 //!    8-wide calls, the remainder's table lookups with their coordinates 8-wide), else lane by
-//!    lane (the scalar model); then 8-wide: the power heuristic, the contribution and the
-//!    shadow ray ([`super::diffuse::light_out`]);
+//!    lane (the scalar model; for the random walk over a shared `roughconductor` or
+//!    `roughplastic` leaf the MIS density's nested pairs of all lanes first in 8-wide calls,
+//!    `bsdf::mnm::walk_pdf_lanes`, which each lane's walk then takes); then 8-wide: the power
+//!    heuristic, the contribution and the shadow ray ([`super::diffuse::light_out`]);
 //! 4. the BSDF samples (the same split: over the mirror sawtooth the points' draws 8-wide,
 //!    masked PCG32 steps on their streams, else lane by lane; their first orders and
 //!    remainders together), then lane by lane the next ray; each lane's light and BSDF samples
