@@ -147,6 +147,29 @@ impl PdfTerms {
         m.f(nested, k, ctx, a, b, s)
     }
 
+    /// How many terms.
+    #[inline(always)]
+    pub(super) fn len(&self) -> usize {
+        self.n
+    }
+
+    /// Term j's facet and pair (k, a, b).
+    #[inline(always)]
+    pub(super) fn pair(&self, j: usize) -> (usize, Vec3, Vec3) {
+        (self.k[j], self.a[j], self.b[j])
+    }
+
+    /// Σ_j w_j P_j with P_j = `p(j)` for every term, in [`Self::total`]'s operations and order
+    /// (the stream kernel's lanes, which know every term's density before the sum).
+    #[inline(always)]
+    pub(super) fn total_of(&self, p: impl Fn(usize) -> f32) -> f32 {
+        let mut t = 0.0;
+        for j in 0..self.n {
+            t += self.w[j] * p(j);
+        }
+        t
+    }
+
     /// Record P_k(a, b) = `pdf` when (k, a, b) is a term (e.g. the nested sample's own density of
     /// the direction it sampled).
     pub(super) fn know(&mut self, k: usize, a: Vec3, b: Vec3, pdf: f32) {

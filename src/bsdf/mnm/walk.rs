@@ -106,19 +106,72 @@ pub(super) fn sample_counted(
     None
 }
 
+/// What [`eval`] asks of the MIS density's terms: G1(ωo) and G1(R(ωo)), each computed once,
+/// and the nested eval F_k(a, b) of each connection, which the terms may already know (the
+/// walk's first vertex evaluates pairs that are terms). [`PdfTerms`] computes a term's value
+/// when the walk first asks for it (its density from the same fused call); the stream kernel's
+/// lanes (`walk_pdf_lanes`) hand in the values their 8-wide calls computed before the walk.
+pub(super) trait Terms {
+    /// G1(ωo) (the `wo` these terms were built for), computed once.
+    fn g1_wo(&mut self, m: &MicrofacetNormalMap, wo: Vec3) -> f32;
+    /// G1(R(ωo)) (`rwo` = R(ωo) of that `wo`), computed once.
+    fn g1_rwo(&mut self, m: &MicrofacetNormalMap, rwo: Vec3) -> f32;
+    /// F_k(a, b), the nested eval in facet k's frame ([`MicrofacetNormalMap::f`]'s value).
+    #[allow(clippy::too_many_arguments)]
+    fn f(
+        &mut self,
+        m: &MicrofacetNormalMap,
+        nested: &Bsdf,
+        k: usize,
+        ctx: &BsdfContext,
+        a: Vec3,
+        b: Vec3,
+        s: &mut Sampler,
+    ) -> Spectrum;
+}
+
+impl Terms for PdfTerms {
+    #[inline(always)]
+    fn g1_wo(&mut self, m: &MicrofacetNormalMap, wo: Vec3) -> f32 {
+        PdfTerms::g1_wo(self, m, wo)
+    }
+    #[inline(always)]
+    fn g1_rwo(&mut self, m: &MicrofacetNormalMap, rwo: Vec3) -> f32 {
+        PdfTerms::g1_rwo(self, m, rwo)
+    }
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn f(
+        &mut self,
+        m: &MicrofacetNormalMap,
+        nested: &Bsdf,
+        k: usize,
+        ctx: &BsdfContext,
+        a: Vec3,
+        b: Vec3,
+        s: &mut Sampler,
+    ) -> Spectrum {
+        PdfTerms::f(self, m, nested, k, ctx, a, b, s)
+    }
+}
+
 /// Next-event estimate of f·cos along one walk (stochastic, unbiased). Nested evals go through
 /// `terms` ([`PdfTerms::f`]): where the walk evaluates a pair that is also a term of the MIS
 /// density (its first vertex: (ωi, ωo), (ωi, R(ωo)), after the mirror (R(ωi), ωo)), the term's
 /// pdf comes from the same fused call, and G1(ωo), G1(R(ωo)) are shared with the terms. Pass
-/// [`PdfTerms::empty`] when no pdf is wanted.
-pub(super) fn eval(
+/// [`PdfTerms::empty`] when no pdf is wanted. (Generic over [`Terms`]: the stream kernel's
+/// lanes pass terms whose values are known before the walk. Out of line, as it was before it
+/// was generic: its callers in the stream kernel's AVX2 region would otherwise take in the
+/// whole walk.)
+#[inline(never)]
+pub(super) fn eval<T: Terms>(
     m: &MicrofacetNormalMap,
     nested: &Bsdf,
     ctx: &BsdfContext,
     wi: Vec3,
     wo: Vec3,
     s: &mut Sampler,
-    terms: &mut PdfTerms,
+    terms: &mut T,
 ) -> Spectrum {
     let surf = &m.surface;
     let g1o = terms.g1_wo(m, wo);

@@ -27,8 +27,10 @@
 //!    textured parameter ([`shared_nested`]), the 8 points together through
 //!    `bsdf::mnm::compensated::lanes` (the first orders' nested pairs of all points in full
 //!    8-wide calls, the remainder's table lookups with their coordinates 8-wide), else lane by
-//!    lane (the scalar model); then 8-wide: the power heuristic, the contribution and the
-//!    shadow ray ([`super::diffuse::light_out`]);
+//!    lane (the scalar model; for the random walk over a shared `roughconductor` or
+//!    `roughplastic` leaf the MIS density's nested pairs of all lanes first in 8-wide calls,
+//!    `bsdf::mnm::walk_pdf_lanes`, which each lane's walk then takes); then 8-wide: the power
+//!    heuristic, the contribution and the shadow ray ([`super::diffuse::light_out`]);
 //! 4. the BSDF samples (the same split: over the mirror sawtooth the points' draws 8-wide,
 //!    masked PCG32 steps on their streams, else lane by lane; their first orders and
 //!    remainders together; the lanes whose sample is the reflection walk over a shared rough
@@ -250,6 +252,34 @@ pub(crate) fn lane_points(materials: &Materials, m: MatId) -> bool {
         && !materials.lobes(*nested).has_transmission()
 }
 
+/// Whether material `m` (one that [`qualifies`]) evaluates by the compensated model (its
+/// `evaluation = compensated`, with its table). Only then can a map be a compensated point
+/// (`mnm::compensated_alone` needs the map's table reference, which only this evaluation sets)
+/// or want an ωi cache (`set_incident` caches for the table only): for the random walk and the
+/// closed forms the kernel skips the compensated machinery (the points' search, the chunk's
+/// state at ωi, its empty light query, the maps' ωi caches), which would find nothing.
+pub(crate) fn compensated(materials: &Materials, m: MatId) -> bool {
+    match &materials.nodes()[m as usize] {
+        MaterialNode::MicrofacetNormalMap { settings, .. } => {
+            settings.evaluation == Evaluation::Compensated
+        }
+        _ => false,
+    }
+}
+
+/// Whether material `m` (one that [`qualifies`]) evaluates by the random walk (`walk-same`,
+/// `walk-mirror`): then step 3 takes the walk's light-sample queries over a shared nested leaf
+/// with a lane form through `bsdf::mnm::walk_pdf_lanes` (their MIS density's nested pairs
+/// 8-wide before the walks).
+pub(crate) fn random_walk(materials: &Materials, m: MatId) -> bool {
+    match &materials.nodes()[m as usize] {
+        MaterialNode::MicrofacetNormalMap { settings, .. } => {
+            settings.evaluation == Evaluation::RandomWalk
+        }
+        _ => false,
+    }
+}
+
 /// The remainder table of material `m` (a microfacet `normalmap` with one).
 pub(crate) fn ms_table(
     scene: &Scene,
@@ -277,6 +307,7 @@ pub(crate) mod x8 {
         eval_pdf_x8_into, sample_walks_x8, sample_x8_cols, with_incident_alone_x8, Chunk, Cols,
         Point,
     };
+    use crate::bsdf::mnm::walk_pdf_lanes::WalkEvals;
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::{PathSettings, Strategy};
@@ -358,6 +389,9 @@ pub(crate) mod x8 {
         // The chunk's compensated points share their nested BSDF (one material, a constant
         // leaf: every chunk of a run): their first orders are evaluated together.
         let shared = super::shared_nested(&scene.materials, m0);
+        // The compensated model's points, their state at ωi and the maps' ωi caches exist
+        // only for its own evaluation (the walk and the closed forms have none: skipped).
+        let comp = super::compensated(&scene.materials, m0);
         // 1. The surfaces, loaded 8-wide from the batch's rows (the light stage's columns).
         let surf = crate::stream::kernels::surface::x8::load(avx, &b.surf, ids);
 
@@ -405,7 +439,7 @@ pub(crate) mod x8 {
                 *r = scene.bsdf_root(&si_at(b, k), arena);
             }
         }
-        if shared && !lane_points {
+        if shared && !lane_points && comp {
             with_incident_alone_x8(arena, &roots, &wi);
         }
         let arena: &BsdfArena = arena;
@@ -481,7 +515,7 @@ pub(crate) mod x8 {
         // the nested BSDF answers), else from the maps.
         // (Each chunk a struct literal straight into `chunk`, then filled in place.)
         let mut pts = [None; 8];
-        if !lane_points {
+        if !lane_points && comp {
             for (k, bsdf) in sb.iter().enumerate() {
                 match bsdf {
                     Some(bsdf) if shared => {
@@ -494,6 +528,8 @@ pub(crate) mod x8 {
         }
         let mut chunk = match (&lanes, lane_points) {
             (Some(l), true) => Chunk::of_facets(Cols::of(avx), l.facets()),
+            // No point (the walk, a closed form): the empty chunk, from constants.
+            _ if !comp => Chunk::of(Cols::of(avx), [None; 8]),
             _ => Chunk::of(Cols::of(avx), pts),
         };
         if let (Some(l), Some(bt), true) = (&lanes, &built, lane_points) {
@@ -502,7 +538,9 @@ pub(crate) mod x8 {
                 chunk.set_lanes(arena.bsdf(bt.child), table, cells, on, &wi_local.0);
             }
         }
-        chunk.prepare();
+        if comp {
+            chunk.prepare();
+        }
 
         // 3. Next-event estimation: the light directions in the shading frame with
         //    `SurfaceBsdf::local_wo`'s side test 8-wide (the lanes' frames and true normals are
@@ -525,6 +563,27 @@ pub(crate) mod x8 {
             let lit = toward & chunk.lanes();
             let mut consistent = lit;
             let mut rest = toward & !lit;
+            // The random walk's queries over the shared leaf: their MIS density's nested pairs
+            // (the terms) of all lanes in 8-wide calls first, then each lane's walk below takes
+            // them (`WalkEvals`: the scalar `walk_eval_pdf`'s numbers; it draws nothing).
+            let mut walks = match &built {
+                Some(bt) if rest != 0 && super::random_walk(&scene.materials, m0) => {
+                    WalkEvals::new(arena.bsdf(bt.child), bt.child)
+                }
+                _ => None,
+            };
+            if let Some(w) = &mut walks {
+                let mut r = rest;
+                while r != 0 {
+                    let k = r.trailing_zeros() as usize;
+                    r &= r - 1;
+                    if let Some(s) = &sb[k] {
+                        let (local, wi) = s.local();
+                        w.push(k, local, wi, lwo.get(k));
+                    }
+                }
+                w.evaluate();
+            }
             while rest != 0 {
                 let k = rest.trailing_zeros() as usize;
                 rest &= rest - 1;
@@ -532,11 +591,16 @@ pub(crate) mod x8 {
                 let Some(s) = &sb[k] else { continue };
                 consistent |= 1 << k;
                 let (local, wi) = s.local();
-                let (fk, pk) = local.eval_pdf(&ctx, wi, lwo.get(k), &mut b.sampler.at(i as usize));
+                let (fk, pk) = match &mut walks {
+                    Some(w) if w.has(k) => w.eval_pdf(k, &ctx, &mut b.sampler.at(i as usize)),
+                    _ => local.eval_pdf(&ctx, wi, lwo.get(k), &mut b.sampler.at(i as usize)),
+                };
                 f.set(k, fk);
                 pdf[k] = pk;
             }
-            eval_pdf_x8_into(&ctx, &chunk, lit, &lwo.0, &mut f.0, &mut pdf);
+            if comp {
+                eval_pdf_x8_into(&ctx, &chunk, lit, &lwo.0, &mut f.0, &mut pdf);
+            }
             let lo = light_out(
                 &surf,
                 tp.load(avx),

@@ -1,0 +1,374 @@
+//! The random walk's light-sample evaluation at the shading points of a stream chunk (issue 18,
+//! fortieth session): `mnm::eval_pdf` of the walk (reflection, no table: `walk_eval_pdf`) for
+//! up to 8 points over one shared nested leaf with a lane form (`roughconductor`,
+//! `roughplastic`), with the nested pairs of its MIS density in 8-wide calls.
+//!
+//! The walk's MIS density (decision 3 of `docs/spec/mnm.md`) is (1 − c)·p1 + c·cos θo/π, p1 a
+//! short sum Σ_j w_j P_{k_j}(a_j, b_j) of nested densities ([`PdfTerms`]: Variant M's three
+//! paths over the mirror sawtooth, single scattering's one term per facet otherwise), and the
+//! walk's next-event estimate evaluates the nested BSDF at some of the same pairs at its first
+//! vertex. Per point the scalar code evaluates each term once: fused with the walk's eval where
+//! the walk asks for the pair (`PdfTerms::f`), else its density alone (`PdfTerms::total`).
+//! Here every term of every point goes into one batch of pairs ([`Pairs`], at most 3 a point)
+//! evaluated in full 8-wide calls of the leaf's lane form (`nested_batch::eval_pdf_lanes`);
+//! then each point's walk runs as before, lane by lane on its own stream, taking a term's value
+//! from the batch where the scalar walk would have evaluated it ([`Known`]), and p1 is the
+//! terms' sum over the batch's densities.
+//!
+//! **The same bits.** A term's value is a pure function of its pair: the lane form equals the
+//! scalar `eval_pdf` bit for bit at any width (`nested_batch`'s tests), and the walk looks a
+//! pair up by the same exact comparison of (k, a, b) as `PdfTerms::f`, so wherever the scalar
+//! walk took a term's value from a fused call (or, for a pair met again, from `eval`, which is
+//! `eval_pdf`'s value for both leaves) it gets the same value here. The densities that the
+//! scalar code takes from `pdf` (the terms the walk did not meet) are `eval_pdf`'s density
+//! here: `roughplastic`'s `pdf` is that density; `roughconductor`'s differs only where D(h) = 0
+//! (`eval_pdf` gives +0, `pdf` 0·x, a zero of either sign, or 0 for NaN), and a zero's sign
+//! cannot change p1 = 0 + Σ w_j P_j (a sum that starts at +0 never becomes −0, and adding a
+//! zero of either sign to it changes nothing), so p1 and the density are the scalar ones
+//! (`tests`). The nested evaluations draw no random number (the leaves' `eval_pdf` and `pdf`
+//! take no sampler), so evaluating them before the walks leaves every stream's order as it was.
+
+use super::explicit::PdfTerms;
+use super::facets::MAX_FACETS;
+use super::nested_batch::{self, Evaluated, Pairs, CHUNK};
+use super::walk::{self, Terms};
+use super::{Evaluation, MicrofacetNormalMap};
+use crate::bsdf::{Bsdf, BsdfContext, BsdfNode};
+use crate::math::INV_PI;
+use crate::sampler::Sampler;
+use crate::spectrum::Spectrum;
+use glam::Vec3;
+
+/// The walk's light-sample queries of a chunk's points (lane k: bit k of `on`), their terms
+/// and the terms' nested values ([`Self::push`], [`Self::evaluate`], then [`Self::eval_pdf`]
+/// per lane).
+pub(crate) struct WalkEvals<'a> {
+    /// The chunk's shared nested leaf, and its node.
+    nested: Bsdf<'a>,
+    child: u32,
+    /// Bit k: lane k's query is here.
+    on: u8,
+    maps: [Option<&'a MicrofacetNormalMap>; 8],
+    wi: [Vec3; 8],
+    wo: [Vec3; 8],
+    terms: [PdfTerms; 8],
+    /// Lane k's first pair in `pairs` (its term j is pair `first[k] + j`).
+    first: [u8; 8],
+    pairs: Pairs<CHUNK>,
+    ev: Evaluated<CHUNK>,
+}
+
+impl<'a> WalkEvals<'a> {
+    /// No query yet, over the chunk's shared nested leaf `nested` (node `child` of the arena:
+    /// the maps' `nested`); `None` unless it is a leaf with a lane form that does not
+    /// transmit (the walk over a transmitting leaf is the two-sided one, not this).
+    #[inline(always)]
+    pub(crate) fn new(nested: Bsdf<'a>, child: u32) -> Option<Self> {
+        let lane_form = matches!(
+            nested.node(),
+            BsdfNode::RoughConductor(_) | BsdfNode::RoughPlastic(_)
+        );
+        (lane_form && !nested.lobes().has_transmission()).then(|| WalkEvals {
+            nested,
+            child,
+            on: 0,
+            maps: [None; 8],
+            wi: [Vec3::Z; 8],
+            wo: [Vec3::Z; 8],
+            terms: [PdfTerms::empty(); 8],
+            first: [0; 8],
+            pairs: Pairs::new(),
+            ev: Evaluated::zero(),
+        })
+    }
+
+    /// Lane `k`'s query `Bsdf::eval_pdf` of root `root` from `wi` toward `wo` (shading frame)
+    /// is here when it reaches the walk's `walk_eval_pdf` (as `mnm::eval_pdf` routes it: a
+    /// map that is not flat, over the shared leaf, both directions above the surface, no
+    /// Lambert form, no table, the walk's evaluation); then its terms and their pairs (in
+    /// facet k's frame, `MicrofacetNormalMap::fp`'s arguments) are pushed, and `true`
+    /// returned. Else nothing changes (the caller evaluates the lane by the scalar code).
+    #[inline(always)]
+    pub(crate) fn push(&mut self, k: usize, root: Bsdf<'a>, wi: Vec3, wo: Vec3) -> bool {
+        let BsdfNode::MicrofacetNormalMap { map, .. } = root.node() else {
+            return false;
+        };
+        let m = &root.arena.mnm[*map as usize];
+        let walk = matches!(
+            m.evaluation,
+            Evaluation::RandomWalk | Evaluation::Compensated | Evaluation::Auto
+        );
+        if !walk
+            || m.degenerate
+            || m.nested != self.child
+            || m.lambert.is_some()
+            || m.ms.is_some()
+            || wi.z <= 0.0
+            || wo.z <= 0.0
+        {
+            return false;
+        }
+        // `walk_eval_pdf`'s terms.
+        let t = if m.mirror_wall {
+            PdfTerms::mirror(m, wi, wo)
+        } else {
+            PdfTerms::single(m, wi, wo)
+        };
+        self.first[k] = self.pairs.len() as u8;
+        for j in 0..t.len() {
+            let (f, a, b) = t.pair(j);
+            let fr = &m.frames[f];
+            self.pairs.push(fr.to_local(a), fr.to_local(b), false);
+        }
+        self.terms[k] = t;
+        self.maps[k] = Some(m);
+        (self.wi[k], self.wo[k]) = (wi, wo);
+        self.on |= 1 << k;
+        true
+    }
+
+    /// Every pushed term's nested value and density: the batch in 8-wide calls of the leaf's
+    /// lane form (pair by pair at width 1 on a CPU without AVX2: the same numbers).
+    #[inline(always)]
+    pub(crate) fn evaluate(&mut self) {
+        if self.on == 0 {
+            return;
+        }
+        self.ev = match self.nested.node() {
+            BsdfNode::RoughConductor(c) => nested_batch::eval_pdf_lanes(c, &self.pairs),
+            BsdfNode::RoughPlastic(p) => nested_batch::eval_pdf_lanes(p, &self.pairs),
+            _ => unreachable!("`new` takes the leaves with a lane form"),
+        };
+    }
+
+    /// Whether lane `k`'s query is here.
+    #[inline(always)]
+    pub(crate) fn has(&self, k: usize) -> bool {
+        self.on & (1 << k) != 0
+    }
+
+    /// Lane `k`'s `(f·cos θo, MIS density)`, `walk_eval_pdf`'s bit for bit: the walk on the
+    /// lane's stream `s` (its draws as the scalar walk's), the terms' values from the batch
+    /// ([`Self::evaluate`] first).
+    #[inline(always)]
+    pub(crate) fn eval_pdf(
+        &mut self,
+        k: usize,
+        ctx: &BsdfContext,
+        s: &mut Sampler,
+    ) -> (Spectrum, f32) {
+        let m = self.maps[k].expect("a lane with a query");
+        let (wi, wo, first) = (self.wi[k], self.wo[k], self.first[k] as usize);
+        let ev = &self.ev;
+        let mut known = Known {
+            terms: &mut self.terms[k],
+            ev,
+            first,
+        };
+        let f = walk::eval(m, &self.nested, ctx, wi, wo, s, &mut known);
+        let p1 = self.terms[k].total_of(|j| ev.p(first + j));
+        let c = m.mis_c();
+        (f, (1.0 - c) * p1 + c * wo.z * INV_PI)
+    }
+}
+
+/// One lane's terms with their values known ([`WalkEvals::evaluate`]): the walk's nested
+/// evals at a term's pair take the term's value, the others call the nested BSDF
+/// ([`MicrofacetNormalMap::f`], as `PdfTerms::f` does for a pair that is no term).
+struct Known<'t> {
+    terms: &'t mut PdfTerms,
+    ev: &'t Evaluated<CHUNK>,
+    first: usize,
+}
+
+impl Terms for Known<'_> {
+    #[inline(always)]
+    fn g1_wo(&mut self, m: &MicrofacetNormalMap, wo: Vec3) -> f32 {
+        self.terms.g1_wo(m, wo)
+    }
+    #[inline(always)]
+    fn g1_rwo(&mut self, m: &MicrofacetNormalMap, rwo: Vec3) -> f32 {
+        self.terms.g1_rwo(m, rwo)
+    }
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn f(
+        &mut self,
+        m: &MicrofacetNormalMap,
+        nested: &Bsdf,
+        k: usize,
+        ctx: &BsdfContext,
+        a: Vec3,
+        b: Vec3,
+        s: &mut Sampler,
+    ) -> Spectrum {
+        for j in 0..self.terms.len() {
+            if self.terms.pair(j) == (k, a, b) {
+                return self.ev.f(self.first + j);
+            }
+        }
+        m.f(nested, k, ctx, a, b, s)
+    }
+}
+
+/// At most [`MAX_FACETS`] terms a point: a chunk's fit the batch.
+const _: () = assert!(8 * MAX_FACETS <= CHUNK);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::lanes::testing::{direction, same, same3};
+    use crate::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
+    use crate::bsdf::mnm::facets::Microgeometry;
+    use crate::bsdf::mnm::Tangent;
+    use crate::bsdf::roughconductor::RoughConductor;
+    use crate::bsdf::roughplastic::RoughPlastic;
+    use crate::bsdf::BsdfArena;
+    use crate::math::Pcg32;
+
+    /// The tests' nested leaves: a GGX conductor with visible-normal sampling, a Beckmann one
+    /// without (whose `pdf` has its own code), a rough plastic.
+    fn leaves(arena: &mut BsdfArena) -> [u32; 3] {
+        [
+            arena.push(BsdfNode::RoughConductor(RoughConductor {
+                distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),
+                eta: Vec3::new(0.2, 0.4, 1.4),
+                k: Vec3::new(3.6, 2.4, 1.8),
+                specular_reflectance: Vec3::ONE,
+            })),
+            arena.push(BsdfNode::RoughConductor(RoughConductor {
+                distribution: MicrofacetDistribution::new(MicrofacetType::Beckmann, 0.3, false),
+                eta: Vec3::new(0.2, 0.4, 1.4),
+                k: Vec3::new(3.6, 2.4, 1.8),
+                specular_reflectance: Vec3::new(1.0, 0.8, 0.6),
+            })),
+            arena.push(BsdfNode::RoughPlastic(RoughPlastic::new(
+                MicrofacetType::Ggx,
+                0.3,
+                true,
+                Vec3::new(0.5, 0.2, 0.1),
+                Vec3::ONE,
+                1.5,
+                1.0,
+                false,
+            ))),
+        ]
+    }
+
+    /// A perturbed normal: mostly tilted up to ~70°, sometimes flat (the scalar path).
+    fn perturbed(r: &mut Pcg32) -> Vec3 {
+        if r.next_f32() < 0.05 {
+            return Vec3::Z;
+        }
+        let t = 1.2 * r.next_f32();
+        let phi = 2.0 * core::f32::consts::PI * r.next_f32();
+        Vec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos())
+    }
+
+    /// The lanes' queries equal the scalar `Bsdf::eval_pdf` of each lane's map bit for bit
+    /// (value and MIS density, and the stream's state after the walk), and each lane's terms
+    /// equal the scalar `PdfTerms`: every term's batch value and density the fused nested
+    /// `eval_pdf` of its pair (`MicrofacetNormalMap::fp`), p1 over the batch's densities
+    /// `PdfTerms::total` with no density known (every term through the nested `pdf`). Over
+    /// the sawtooth with and without its mirror wall, the V-groove and a U-groove, both nested
+    /// leaves (the conductor with and without visible-normal sampling), random ωi and ωo over
+    /// both hemispheres (some grazing or +z), walks up to 1 and 8 vertices long; lanes without
+    /// a light sample, lanes whose query is not the walk's (flat maps, below the surface), and
+    /// queries on the stream of each lane in lane order after the batch.
+    #[test]
+    fn lane_terms_and_walk_evals_equal_the_scalar_ones() {
+        let mut rng = Pcg32::new(40, 2);
+        let mut arena = BsdfArena::new();
+        let geometries = [
+            (Microgeometry::Sawtooth, Tangent::Mirror),
+            (Microgeometry::Sawtooth, Tangent::Same),
+            (Microgeometry::VGroove, Tangent::Same),
+            (Microgeometry::UGroove { fill: 0.6 }, Tangent::Same),
+        ];
+        let ctx = BsdfContext::default();
+        let (mut walked, mut terms_seen, mut scalar_lanes, mut nonzero) = (0, 0, 0, 0);
+        for chunk in 0..2400 {
+            let (geometry, tangent) = geometries[chunk % 4];
+            arena.clear();
+            let child = leaves(&mut arena)[chunk / 4 % 3];
+            let order = if chunk % 5 == 0 { 1 } else { 8 };
+            let mut roots = [u32::MAX; 8];
+            let (mut wi, mut wo) = ([Vec3::Z; 8], [Vec3::Z; 8]);
+            for k in 0..8 {
+                let wp = perturbed(&mut rng);
+                let m = MicrofacetNormalMap::new(
+                    child,
+                    wp,
+                    geometry,
+                    tangent,
+                    Evaluation::RandomWalk,
+                    order,
+                );
+                roots[k] = arena.push_microfacet_normal_map(m);
+                (wi[k], wo[k]) = (direction(&mut rng), direction(&mut rng));
+                if rng.next_f32() < 0.5 {
+                    // Mostly above: the walk's queries.
+                    (wi[k].z, wo[k].z) = (wi[k].z.abs(), wo[k].z.abs());
+                }
+            }
+            let nested = arena.bsdf(child);
+            let mut lanes = WalkEvals::new(nested, child).expect("a leaf with a lane form");
+            // Lanes with a light sample (the others are not pushed).
+            let lit: u8 = (rng.next_u32() & 0xff) as u8;
+            let mut pushed = 0u8;
+            for k in 0..8 {
+                if lit & (1 << k) != 0 && lanes.push(k, arena.bsdf(roots[k]), wi[k], wo[k]) {
+                    pushed |= 1 << k;
+                }
+            }
+            assert_eq!(pushed, lanes.on);
+            lanes.evaluate();
+            for k in 0..8 {
+                if lit & (1 << k) == 0 {
+                    continue;
+                }
+                let root = arena.bsdf(roots[k]);
+                let seed = rng.next_u32() as u64;
+                let (mut s1, mut s2) = (Sampler::from_seed(seed, 4), Sampler::from_seed(seed, 4));
+                let (f, p) = root.eval_pdf(&ctx, wi[k], wo[k], &mut s1);
+                if !lanes.has(k) {
+                    scalar_lanes += 1;
+                    continue;
+                }
+                // The terms against the scalar ones.
+                let m = lanes.maps[k].unwrap();
+                let t = if m.mirror_wall {
+                    PdfTerms::mirror(m, wi[k], wo[k])
+                } else {
+                    PdfTerms::single(m, wi[k], wo[k])
+                };
+                assert_eq!(t.len(), lanes.terms[k].len());
+                let first = lanes.first[k] as usize;
+                for j in 0..t.len() {
+                    assert_eq!(t.pair(j), lanes.terms[k].pair(j));
+                    let (fk, a, b) = t.pair(j);
+                    let (fs, ps) = m.fp(&nested, fk, &ctx, a, b, &mut s2.clone());
+                    assert!(same3(lanes.ev.f(first + j), fs), "term {j}: {fs}");
+                    assert!(same(lanes.ev.p(first + j), ps), "term {j}: {ps}");
+                    terms_seen += 1;
+                }
+                let p1 = t.total(m, &nested, &ctx);
+                let p1_lanes = lanes.terms[k].total_of(|j| lanes.ev.p(first + j));
+                assert!(same(p1, p1_lanes), "p1 {p1} {p1_lanes}");
+                // The query against the scalar one, and the streams after it.
+                let (fl, pl) = lanes.eval_pdf(k, &ctx, &mut s2);
+                assert!(same3(f, fl), "{f} {fl}");
+                assert!(same(p, pl), "{p} {pl}");
+                assert_eq!(s1.next_1d().to_bits(), s2.next_1d().to_bits());
+                walked += 1;
+                nonzero += usize::from(f != Vec3::ZERO);
+            }
+        }
+        // The test saw every case: walks with values, terms, lanes left to the scalar code.
+        assert!(walked > 3000 && terms_seen > 5000, "{walked} {terms_seen}");
+        assert!(
+            scalar_lanes > 1000 && nonzero > 1000,
+            "{scalar_lanes} {nonzero}"
+        );
+    }
+}
