@@ -638,6 +638,24 @@ pub(crate) fn walk_alone<'a>(b: Bsdf<'a>, wi: Vec3) -> Option<(&'a MicrofacetNor
     .then_some((m, nested))
 }
 
+/// The two-sided (or early-exit) walk at root `b` (a microfacet normal map) seen from `wi`:
+/// `Some` (the map and its nested BSDF) exactly where [`sample`] reaches [`walk::sample_t`] —
+/// not degenerate, a transmitting nested BSDF, ωi not in the surface's plane (a NaN ωi.z is
+/// left out too: the caller's scalar path answers it). The stream kernel's two-sided walks 8
+/// at a time (`compensated::lanes::walk`) start from it.
+#[inline]
+pub(crate) fn walk_two_sided<'a>(
+    b: Bsdf<'a>,
+    wi: Vec3,
+) -> Option<(&'a MicrofacetNormalMap, Bsdf<'a>)> {
+    let super::BsdfNode::MicrofacetNormalMap { map, .. } = b.node() else {
+        return None;
+    };
+    let m = &b.arena.mnm[*map as usize];
+    let nested = b.child(m.nested);
+    (!m.degenerate && m.transmits(&nested) && wi.z != 0.0 && !wi.z.is_nan()).then_some((m, nested))
+}
+
 /// Eval and pdf of one query (next-event estimation); equal to [`eval`] and [`pdf`] called
 /// separately up to rounding. The closed forms evaluate each path's nested BSDF once for both
 /// ([`explicit::eval_pdf_mirror`], [`explicit::eval_pdf_single`]); the random walk shares the

@@ -34,7 +34,8 @@
 //! 4. the BSDF samples (the same split: over the mirror sawtooth the points' draws 8-wide,
 //!    masked PCG32 steps on their streams, else lane by lane; their first orders and
 //!    remainders together; the lanes whose sample is the reflection walk over a shared rough
-//!    leaf in one masked 8-lane walk, `compensated::lanes::sample_walks_x8`, since the
+//!    leaf in one masked 8-lane walk, `compensated::lanes::sample_walks_x8`, and those whose
+//!    sample is the two-sided walk over a shared rough dielectric in another, since the
 //!    fortieth session), then lane by lane the next ray; each lane's light and BSDF samples
 //!    go to the integrator's [`super::tail::Tail`] (`PathState::advance` for `path`, rays to
 //!    trace for `direct`).
@@ -637,7 +638,8 @@ pub(crate) mod x8 {
         let (mut pdf, mut w, mut eta) = (sampled.pdf, Cols3(sampled.w), [1.0f32; 8]);
         let mut delta = [sampled.lobe.intersects(Lobes::DELTA); 8];
         // The lanes whose sample is the reflection walk over a shared rough leaf walk
-        // together, masked 8-wide (`sample_walks_x8`: each lane's scalar sample bit for bit);
+        // together, masked 8-wide, and so do those whose sample is the two-sided walk over a
+        // shared rough dielectric (`sample_walks_x8`: each lane's scalar sample bit for bit);
         // the others lane by lane.
         let mut pts_local = [None; 8];
         for (k, s) in sb.iter().enumerate() {

@@ -213,7 +213,7 @@ impl Asks {
 /// density fails `pdf >= 0` as it does here), in lanes (8-wide in [`Asks::answer_with`], so
 /// [`Answered::get`] tests one bit instead of seven numbers per lane).
 #[inline(always)]
-fn accepted<L: Lane>(s: &LaneBsdfSample<L>) -> L::Mask {
+pub(in crate::bsdf::mnm::compensated) fn accepted<L: Lane>(s: &LaneBsdfSample<L>) -> L::Mask {
     s.ok & s.wo.x.is_finite()
         & s.wo.y.is_finite()
         & s.wo.z.is_finite()
