@@ -306,7 +306,7 @@ pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
 pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
         eval_pdf_x8_into, sample_walks_x8, sample_x8_cols, with_incident_alone_x8, Chunk, Cols,
-        Point,
+        Point, WalkSamples,
     };
     use crate::bsdf::mnm::walk_pdf_lanes::WalkEvals;
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
@@ -393,6 +393,8 @@ pub(crate) mod x8 {
         // The compensated model's points, their state at ωi and the maps' ωi caches exist
         // only for its own evaluation (the walk and the closed forms have none: skipped).
         let comp = super::compensated(&scene.materials, m0);
+        // The random walk's lanes (steps 3 and 4 take them in lanes, where their leaf allows).
+        let walking = super::random_walk(&scene.materials, m0);
         // 1. The surfaces, loaded 8-wide from the batch's rows (the light stage's columns).
         let surf = crate::stream::kernels::surface::x8::load(avx, &b.surf, ids);
 
@@ -568,9 +570,7 @@ pub(crate) mod x8 {
             // (the terms) of all lanes in 8-wide calls first, then each lane's walk below takes
             // them (`WalkEvals`: the scalar `walk_eval_pdf`'s numbers; it draws nothing).
             let mut walks = match &built {
-                Some(bt) if rest != 0 && super::random_walk(&scene.materials, m0) => {
-                    WalkEvals::new(arena.bsdf(bt.child), bt.child)
-                }
+                Some(bt) if rest != 0 && walking => WalkEvals::new(arena.bsdf(bt.child), bt.child),
                 _ => None,
             };
             if let Some(w) = &mut walks {
@@ -640,14 +640,24 @@ pub(crate) mod x8 {
         // The lanes whose sample is the reflection walk over a shared rough leaf walk
         // together, masked 8-wide, and so do those whose sample is the two-sided walk over a
         // shared rough dielectric (`sample_walks_x8`: each lane's scalar sample bit for bit);
-        // the others lane by lane.
-        let mut pts_local = [None; 8];
-        for (k, s) in sb.iter().enumerate() {
-            if chunk.lanes() & (1 << k) == 0 {
-                pts_local[k] = s.as_ref().map(|s| s.local());
+        // the others lane by lane. Only a material that evaluates by the walk has such lanes
+        // (`mnm::walk_alone` and `walk_two_sided` ask for a walking evaluation and no table;
+        // the compensated materials here have their table): the others skip the walks' lane
+        // scan (~25 instructions a sample on the compensated mode).
+        let walks = if walking {
+            let mut pts_local = [None; 8];
+            for (k, s) in sb.iter().enumerate() {
+                if chunk.lanes() & (1 << k) == 0 {
+                    pts_local[k] = s.as_ref().map(|s| s.local());
+                }
             }
-        }
-        let walks = sample_walks_x8(avx, &ctx, &pts_local, &mut b.sampler, ids, WALK_MIN);
+            sample_walks_x8(avx, &ctx, &pts_local, &mut b.sampler, ids, WALK_MIN)
+        } else {
+            WalkSamples {
+                lanes: 0,
+                out: [None; 8],
+            }
+        };
         let mut rest = walks.lanes;
         while rest != 0 {
             let k = rest.trailing_zeros() as usize;
