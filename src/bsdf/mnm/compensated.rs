@@ -1021,7 +1021,7 @@ impl MicrofacetNormalMap {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::super::explicit;
     use super::super::facets::Microgeometry;
     use super::super::{Evaluation, Tangent};
@@ -1094,8 +1094,8 @@ mod tests {
 
     /// Nested BSDFs with a lane form for the first-order tests: a GGX rough conductor with
     /// visible-normal sampling, a Beckmann one without, a rough plastic (`compensated::lanes`'
-    /// test uses them too).
-    pub(super) fn push_reflectors(arena: &mut BsdfArena) -> [u32; 3] {
+    /// test and `walk_pdf_lanes`' use them too).
+    pub(in crate::bsdf::mnm) fn push_reflectors(arena: &mut BsdfArena) -> [u32; 3] {
         [
             arena.push(BsdfNode::RoughConductor(RoughConductor {
                 distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),

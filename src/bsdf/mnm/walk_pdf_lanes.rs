@@ -218,42 +218,11 @@ const _: () = assert!(8 * MAX_FACETS <= CHUNK);
 mod tests {
     use super::*;
     use crate::bsdf::lanes::testing::{direction, same, same3};
-    use crate::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
+    use crate::bsdf::mnm::compensated::tests::push_reflectors as leaves;
     use crate::bsdf::mnm::facets::Microgeometry;
     use crate::bsdf::mnm::Tangent;
-    use crate::bsdf::roughconductor::RoughConductor;
-    use crate::bsdf::roughplastic::RoughPlastic;
     use crate::bsdf::BsdfArena;
     use crate::math::Pcg32;
-
-    /// The tests' nested leaves: a GGX conductor with visible-normal sampling, a Beckmann one
-    /// without (whose `pdf` has its own code), a rough plastic.
-    fn leaves(arena: &mut BsdfArena) -> [u32; 3] {
-        [
-            arena.push(BsdfNode::RoughConductor(RoughConductor {
-                distribution: MicrofacetDistribution::new(MicrofacetType::Ggx, 0.2, true),
-                eta: Vec3::new(0.2, 0.4, 1.4),
-                k: Vec3::new(3.6, 2.4, 1.8),
-                specular_reflectance: Vec3::ONE,
-            })),
-            arena.push(BsdfNode::RoughConductor(RoughConductor {
-                distribution: MicrofacetDistribution::new(MicrofacetType::Beckmann, 0.3, false),
-                eta: Vec3::new(0.2, 0.4, 1.4),
-                k: Vec3::new(3.6, 2.4, 1.8),
-                specular_reflectance: Vec3::new(1.0, 0.8, 0.6),
-            })),
-            arena.push(BsdfNode::RoughPlastic(RoughPlastic::new(
-                MicrofacetType::Ggx,
-                0.3,
-                true,
-                Vec3::new(0.5, 0.2, 0.1),
-                Vec3::ONE,
-                1.5,
-                1.0,
-                false,
-            ))),
-        ]
-    }
 
     /// A perturbed normal: mostly tilted up to ~70°, sometimes flat (the scalar path).
     fn perturbed(r: &mut Pcg32) -> Vec3 {

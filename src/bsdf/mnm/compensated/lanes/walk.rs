@@ -255,6 +255,40 @@ fn end(ends: &mut [u32; 8], bits: u8, order: u32) {
     }
 }
 
+/// The next facet of the walking lanes `act`, hit ∝ a_j(`towards`) (the scalar walks' pick):
+/// each walking lane's number from its own stream; a lane whose pick fails ends its walk at
+/// `order`. Returns the lanes still walking, whose facets replace theirs in `k`. Shared by
+/// both walks.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn next_facet(
+    avx: Avx2,
+    rng: &mut Pcg<F32x8>,
+    surf: &SurfaceLanes<F32x8>,
+    towards: V3<F32x8>,
+    act: M8,
+    k: &mut [M8; MAX_FACETS],
+    ends: &mut [u32; 8],
+    order: u32,
+) -> M8 {
+    let u = step(avx, rng, act);
+    let (some, kn) = surf.pick(towards, u);
+    let on_next = act & some;
+    end(ends, act.bits() as u8 & !(on_next.bits() as u8), order);
+    for j in 0..MAX_FACETS {
+        k[j] = (on_next & kn[j]) | (!on_next & k[j]);
+    }
+    on_next
+}
+
+/// `v`'s lanes into the columns `col` (`[component][lane]`).
+#[inline(always)]
+fn store_cols(col: &mut [[f32; 8]; 3], v: V3<F32x8>) {
+    for (c, x) in col.iter_mut().zip([v.x, v.y, v.z]) {
+        x.store(c);
+    }
+}
+
 /// The 2-D numbers of the lanes `nest` (a nested sample's `u2`), each from its own stream:
 /// masked PCG32 steps where the stream's 2-D draw is plain (all lanes when `all_plain`), and
 /// stream by stream (`Samplers::next_2d`, the stratum) where it is still stratified — those
@@ -430,29 +464,14 @@ fn walk8(
                     act = act & !esc;
                 }
                 // The next facet, hit ∝ a_j(−d).
-                let u = step(avx, &mut rng, act);
-                let (some, kn) = surf.pick(-d, u);
-                let on_next = act & some;
-                end(
-                    &mut w.ends,
-                    act.bits() as u8 & !(on_next.bits() as u8),
-                    order,
-                );
-                for j in 0..MAX_FACETS {
-                    k[j] = (on_next & kn[j]) | (!on_next & k[j]);
-                }
-                act = on_next;
+                act = next_facet(avx, &mut rng, &surf, -d, act, &mut k, &mut w.ends, order);
             }
             // Still walking after `max_order` vertices: absorbed.
             end(&mut w.ends, act.bits() as u8, max_order);
             let (states, _) = samplers.pcg_mut();
             avx.store_u64_at(states, idx, on, rng.parts().0, old);
-            for (col, x) in w.wo.iter_mut().zip([wo.x, wo.y, wo.z]) {
-                x.store(col);
-            }
-            for (col, x) in w.weight.iter_mut().zip([weight.x, weight.y, weight.z]) {
-                x.store(col);
-            }
+            store_cols(&mut w.wo, wo);
+            store_cols(&mut w.weight, weight);
             w
         },
     )
@@ -745,29 +764,23 @@ fn walk8_t(
                     act = act & !esc;
                 }
                 // The next facet, hit ∝ a_j(towards).
-                let u = step(avx, &mut rng, act);
-                let (some, kn) = surf.pick(towards, u);
-                let on_next = act & some;
-                end(
+                act = next_facet(
+                    avx,
+                    &mut rng,
+                    &surf,
+                    towards,
+                    act,
+                    &mut k,
                     &mut w.ends,
-                    act.bits() as u8 & !(on_next.bits() as u8),
                     order,
                 );
-                for j in 0..MAX_FACETS {
-                    k[j] = (on_next & kn[j]) | (!on_next & k[j]);
-                }
-                act = on_next;
             }
             // Still walking after `max_order` vertices: absorbed.
             end(&mut w.ends, act.bits() as u8, max_order);
             let (states, _) = samplers.pcg_mut();
             avx.store_u64_at(states, idx, on, rng.parts().0, old);
-            for (col, x) in w.wo.iter_mut().zip([wo.x, wo.y, wo.z]) {
-                x.store(col);
-            }
-            for (col, x) in w.weight.iter_mut().zip([weight.x, weight.y, weight.z]) {
-                x.store(col);
-            }
+            store_cols(&mut w.wo, wo);
+            store_cols(&mut w.weight, weight);
             eta_out.store(&mut w.eta);
             w
         },
@@ -865,35 +878,7 @@ mod tests {
                 );
                 *p = Some((arena.push_microfacet_normal_map(m), random_wi(&mut rng)));
             }
-            // 12 streams; the lanes' ids 8 of them in random order.
-            let mut all = Vec::new();
-            for s in 0..12u32 {
-                let smp = if stratified {
-                    let desc = SamplerDesc {
-                        kind: SamplerKind::Stratified { jitter: true },
-                        sample_count: 16,
-                        seed: rng.next_u32() as u64,
-                    };
-                    let mut smp = Sampler::for_sample(&desc, s as u64, rng.next_u32() % 16);
-                    // Some streams with one or both stratified 2-D draws spent.
-                    for _ in 0..rng.next_u32() % 3 {
-                        smp.next_2d();
-                    }
-                    stratified_draws += usize::from(smp.plain_parts().is_none());
-                    smp
-                } else {
-                    Sampler::from_seed(rng.next_u32() as u64, s as u64)
-                };
-                all.push(smp);
-            }
-            let mut ids = [0u32; 8];
-            let mut perm: Vec<u32> = (0..12).collect();
-            for (i, id) in ids.iter_mut().enumerate() {
-                perm.swap(i, i + (rng.next_u32() as usize) % (12 - i));
-                *id = perm[i];
-            }
-            let mut cols = Samplers::with_capacity(12);
-            cols.extend_from(&all);
+            let (mut all, ids, mut cols) = streams(&mut rng, stratified, &mut stratified_draws);
             let arena = &arena;
             let lanes: [Option<(Bsdf<'_>, Vec3)>; 8] =
                 std::array::from_fn(|k| pts[k].map(|(r, wi)| (arena.bsdf(r), wi)));
@@ -932,19 +917,63 @@ mod tests {
             );
             walks += scalar.walks;
             vertices += scalar.vertices;
-            for (i, s) in all.iter_mut().enumerate() {
-                let mut c = cols.get(i);
-                for _ in 0..3 {
-                    let (a, b) = (c.next_2d(), s.next_2d());
-                    assert!(same(a.x, b.x) && same(a.y, b.y), "round {round} stream {i}");
-                }
-            }
+            assert_same_streams(&mut all, &cols, round);
         }
         // Most lanes walk; a fair share of them escape, of the others many are absorbed;
         // walks of several vertices; streams still stratified.
         assert!(escaped > 8000 && absorbed > 1000, "{escaped} {absorbed}");
         assert!(vertices as f64 > 1.3 * walks as f64, "{walks} {vertices}");
         assert!(stratified_draws > 3000, "{stratified_draws}");
+    }
+
+    /// 12 streams for a test chunk (independent, or stratified ones with 0 to 2 of their
+    /// stratified 2-D draws spent, counted in `stratified_draws` where one is still pending),
+    /// the lanes' ids 8 of them in random order, and the streams as the kernel's columns.
+    fn streams(
+        rng: &mut Pcg32,
+        stratified: bool,
+        stratified_draws: &mut usize,
+    ) -> (Vec<Sampler>, [u32; 8], Samplers) {
+        let mut all = Vec::new();
+        for s in 0..12u32 {
+            let smp = if stratified {
+                let desc = SamplerDesc {
+                    kind: SamplerKind::Stratified { jitter: true },
+                    sample_count: 16,
+                    seed: rng.next_u32() as u64,
+                };
+                let mut smp = Sampler::for_sample(&desc, s as u64, rng.next_u32() % 16);
+                for _ in 0..rng.next_u32() % 3 {
+                    smp.next_2d();
+                }
+                *stratified_draws += usize::from(smp.plain_parts().is_none());
+                smp
+            } else {
+                Sampler::from_seed(rng.next_u32() as u64, s as u64)
+            };
+            all.push(smp);
+        }
+        let mut ids = [0u32; 8];
+        let mut perm: Vec<u32> = (0..12).collect();
+        for (i, id) in ids.iter_mut().enumerate() {
+            perm.swap(i, i + (rng.next_u32() as usize) % (12 - i));
+            *id = perm[i];
+        }
+        let mut cols = Samplers::with_capacity(12);
+        cols.extend_from(&all);
+        (all, ids, cols)
+    }
+
+    /// Every stream of the columns is where its scalar twin is: their next three 2-D draws
+    /// equal bit for bit.
+    fn assert_same_streams(all: &mut [Sampler], cols: &Samplers, round: usize) {
+        for (i, s) in all.iter_mut().enumerate() {
+            let mut c = cols.get(i);
+            for _ in 0..3 {
+                let (a, b) = (c.next_2d(), s.next_2d());
+                assert!(same(a.x, b.x) && same(a.y, b.y), "round {round} stream {i}");
+            }
+        }
     }
 
     /// ωi over the whole sphere (the two-sided walk enters from either side), grazing ones
@@ -1042,34 +1071,7 @@ mod tests {
                 };
                 *p = Some((arena.push_microfacet_normal_map(m), wi));
             }
-            // 12 streams; the lanes' ids 8 of them in random order.
-            let mut all = Vec::new();
-            for s in 0..12u32 {
-                let smp = if stratified {
-                    let desc = SamplerDesc {
-                        kind: SamplerKind::Stratified { jitter: true },
-                        sample_count: 16,
-                        seed: rng.next_u32() as u64,
-                    };
-                    let mut smp = Sampler::for_sample(&desc, s as u64, rng.next_u32() % 16);
-                    for _ in 0..rng.next_u32() % 3 {
-                        smp.next_2d();
-                    }
-                    stratified_draws += usize::from(smp.plain_parts().is_none());
-                    smp
-                } else {
-                    Sampler::from_seed(rng.next_u32() as u64, s as u64)
-                };
-                all.push(smp);
-            }
-            let mut ids = [0u32; 8];
-            let mut perm: Vec<u32> = (0..12).collect();
-            for (i, id) in ids.iter_mut().enumerate() {
-                perm.swap(i, i + (rng.next_u32() as usize) % (12 - i));
-                *id = perm[i];
-            }
-            let mut cols = Samplers::with_capacity(12);
-            cols.extend_from(&all);
+            let (mut all, ids, mut cols) = streams(&mut rng, stratified, &mut stratified_draws);
             let arena = &arena;
             let lanes: [Option<(Bsdf<'_>, Vec3)>; 8] =
                 std::array::from_fn(|k| pts[k].map(|(r, wi)| (arena.bsdf(r), wi)));
@@ -1116,13 +1118,7 @@ mod tests {
             );
             walks += scalar.walks;
             vertices += scalar.vertices;
-            for (i, s) in all.iter_mut().enumerate() {
-                let mut c = cols.get(i);
-                for _ in 0..3 {
-                    let (a, b) = (c.next_2d(), s.next_2d());
-                    assert!(same(a.x, b.x) && same(a.y, b.y), "round {round} stream {i}");
-                }
-            }
+            assert_same_streams(&mut all, &cols, round);
         }
         // Both lobes escape, from both sides; many walks are absorbed; walks of several
         // vertices; streams still stratified; reflection walks beside the two-sided ones.
