@@ -56,6 +56,9 @@ pub(crate) struct WalkEvals<'a> {
     first: [u8; 8],
     pairs: Pairs<CHUNK>,
     ev: Evaluated<CHUNK>,
+    /// Bit k: lane k's walk ran in [`Self::walk_x8`], its f·cos θo in `f` (`[component][lane]`).
+    walked: u8,
+    f: [[f32; 8]; 3],
 }
 
 impl<'a> WalkEvals<'a> {
@@ -79,6 +82,8 @@ impl<'a> WalkEvals<'a> {
             first: [0; 8],
             pairs: Pairs::new(),
             ev: Evaluated::zero(),
+            walked: 0,
+            f: [[0.0; 8]; 3],
         })
     }
 
@@ -141,6 +146,83 @@ impl<'a> WalkEvals<'a> {
         };
     }
 
+    /// The walks of the lanes here that share the first such lane's `max_order`, as one
+    /// masked 8-lane walk (`compensated::lanes::eval_walks_x8`), each lane from stream
+    /// `ids[k]` of `samplers`: its value `walk::eval`'s bit for bit, its stream left where
+    /// that walk leaves it; then [`Self::walked`] and [`Self::value`]. A lane with G1(ωo) ≤ 0
+    /// is zero and draws nothing (the scalar walk's first test). The other lanes here keep
+    /// [`Self::eval_pdf`] (the scalar walk).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn walk_x8(
+        &mut self,
+        avx: crate::lane::Avx2,
+        samplers: &mut crate::sampler::Samplers,
+        ids: &[u32; 8],
+    ) {
+        use super::compensated::lanes::{eval_walks_x8, EvalQuery};
+        let mut q: [Option<EvalQuery<'a>>; 8] = [None; 8];
+        let mut max_order = None;
+        let mut walking = 0u8;
+        let mut rest = self.on;
+        while rest != 0 {
+            let k = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let m = self.maps[k].expect("a lane with a query");
+            if *max_order.get_or_insert(m.max_order) != m.max_order {
+                continue;
+            }
+            self.walked |= 1 << k;
+            // `walk::eval`'s factors, from the terms as it takes them.
+            let wo = self.wo[k];
+            let t = &mut self.terms[k];
+            let g1o = t.g1_wo(m, wo);
+            if g1o <= 0.0 {
+                continue; // zero, no draw
+            }
+            let wall_w = if m.mirror_wall && wo.dot(m.surface.normal(1)) > 0.0 {
+                (1.0 - t.g1_rwo(m, m.reflect_wall(wo))) * g1o
+            } else {
+                0.0
+            };
+            q[k] = Some(EvalQuery {
+                m,
+                wi: self.wi[k],
+                wo,
+                g1o,
+                wall_w,
+            });
+            walking |= 1 << k;
+        }
+        if let (Some(order), true) = (max_order, walking != 0) {
+            self.f = eval_walks_x8(avx, &self.nested, &q, order, samplers, ids);
+        }
+    }
+
+    /// Whether lane `k`'s walk ran in [`Self::walk_x8`].
+    #[inline(always)]
+    pub(crate) fn walked(&self, k: usize) -> bool {
+        self.walked & (1 << k) != 0
+    }
+
+    /// Lane `k`'s `(f·cos θo, MIS density)` after [`Self::walk_x8`] walked it:
+    /// `walk_eval_pdf`'s bit for bit.
+    #[inline(always)]
+    pub(crate) fn value(&self, k: usize) -> (Spectrum, f32) {
+        let m = self.maps[k].expect("a lane with a query");
+        let f = Vec3::new(self.f[0][k], self.f[1][k], self.f[2][k]);
+        (f, self.density(m, k))
+    }
+
+    /// Lane `k`'s MIS density (1 − c)·p1 + c·cos θo/π, p1 over the batch's densities.
+    #[inline(always)]
+    fn density(&self, m: &MicrofacetNormalMap, k: usize) -> f32 {
+        let first = self.first[k] as usize;
+        let p1 = self.terms[k].total_of(|j| self.ev.p(first + j));
+        let c = m.mis_c();
+        (1.0 - c) * p1 + c * self.wo[k].z * INV_PI
+    }
+
     /// Whether lane `k`'s query is here.
     #[inline(always)]
     pub(crate) fn has(&self, k: usize) -> bool {
@@ -166,9 +248,7 @@ impl<'a> WalkEvals<'a> {
             first,
         };
         let f = walk::eval(m, &self.nested, ctx, wi, wo, s, &mut known);
-        let p1 = self.terms[k].total_of(|j| ev.p(first + j));
-        let c = m.mis_c();
-        (f, (1.0 - c) * p1 + c * wo.z * INV_PI)
+        (f, self.density(m, k))
     }
 }
 

@@ -567,8 +567,8 @@ pub(crate) mod x8 {
             let mut consistent = lit;
             let mut rest = toward & !lit;
             // The random walk's queries over the shared leaf: their MIS density's nested pairs
-            // (the terms) of all lanes in 8-wide calls first, then each lane's walk below takes
-            // them (`WalkEvals`: the scalar `walk_eval_pdf`'s numbers; it draws nothing).
+            // (the terms) of all lanes in 8-wide calls first (`WalkEvals`: the scalar
+            // `walk_eval_pdf`'s numbers; it draws nothing), then their walks.
             let mut walks = match &built {
                 Some(bt) if rest != 0 && walking => WalkEvals::new(arena.bsdf(bt.child), bt.child),
                 _ => None,
@@ -584,6 +584,8 @@ pub(crate) mod x8 {
                     }
                 }
                 w.evaluate();
+                // Their walks as one masked 8-lane walk (each lane on its own stream).
+                w.walk_x8(avx, &mut b.sampler, ids);
             }
             while rest != 0 {
                 let k = rest.trailing_zeros() as usize;
@@ -593,6 +595,7 @@ pub(crate) mod x8 {
                 consistent |= 1 << k;
                 let (local, wi) = s.local();
                 let (fk, pk) = match &mut walks {
+                    Some(w) if w.walked(k) => w.value(k),
                     Some(w) if w.has(k) => w.eval_pdf(k, &ctx, &mut b.sampler.at(i as usize)),
                     _ => local.eval_pdf(&ctx, wi, lwo.get(k), &mut b.sampler.at(i as usize)),
                 };

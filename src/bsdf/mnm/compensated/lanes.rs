@@ -45,6 +45,10 @@ mod sample;
 mod walk;
 #[cfg(target_arch = "x86_64")]
 pub(crate) use walk::{sample_walks_x8, WalkSamples};
+#[cfg(target_arch = "x86_64")]
+mod walk_eval;
+#[cfg(target_arch = "x86_64")]
+pub(crate) use walk_eval::{eval_walks_x8, EvalQuery};
 
 use super::{
     leave, pick_entry, sample_record_is_exact, AtIncident, AtWi, Collected, Entries, Known,

@@ -56,15 +56,15 @@ pub(crate) struct WalkSamples {
 }
 
 /// A lane's columns: `[component][lane]`.
-type Col3 = [[f32; 8]; 3];
+pub(super) type Col3 = [[f32; 8]; 3];
 
 #[inline(always)]
-fn l3(avx: Avx2, c: &Col3) -> V3<F32x8> {
+pub(super) fn l3(avx: Avx2, c: &Col3) -> V3<F32x8> {
     V3::new(avx.load(&c[0]), avx.load(&c[1]), avx.load(&c[2]))
 }
 
 #[inline(always)]
-fn set3(c: &mut Col3, k: usize, v: Vec3) {
+pub(super) fn set3(c: &mut Col3, k: usize, v: Vec3) {
     c[0][k] = v.x;
     c[1][k] = v.y;
     c[2][k] = v.z;
@@ -72,7 +72,10 @@ fn set3(c: &mut Col3, k: usize, v: Vec3) {
 
 /// `a` where `m`, else `b`, for one-hot facet masks.
 #[inline(always)]
-fn frame_of(k: &[M8; MAX_FACETS], fr: &[LaneFrame<F32x8>; MAX_FACETS]) -> LaneFrame<F32x8> {
+pub(super) fn frame_of(
+    k: &[M8; MAX_FACETS],
+    fr: &[LaneFrame<F32x8>; MAX_FACETS],
+) -> LaneFrame<F32x8> {
     let mut f = fr[0];
     for j in 1..MAX_FACETS {
         f = LaneFrame {
@@ -261,7 +264,7 @@ fn end(ends: &mut [u32; 8], bits: u8, order: u32) {
 /// both walks.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn next_facet(
+pub(super) fn next_facet(
     avx: Avx2,
     rng: &mut Pcg<F32x8>,
     surf: &SurfaceLanes<F32x8>,
@@ -283,7 +286,7 @@ fn next_facet(
 
 /// `v`'s lanes into the columns `col` (`[component][lane]`).
 #[inline(always)]
-fn store_cols(col: &mut [[f32; 8]; 3], v: V3<F32x8>) {
+pub(super) fn store_cols(col: &mut [[f32; 8]; 3], v: V3<F32x8>) {
     for (c, x) in col.iter_mut().zip([v.x, v.y, v.z]) {
         x.store(c);
     }
@@ -295,7 +298,7 @@ fn store_cols(col: &mut [[f32; 8]; 3], v: V3<F32x8>) {
 /// streams' states stored to the columns first (`at`: the lanes' stream indices, the walking
 /// lanes and their states at the walk's start), every lane's state gathered again after.
 #[inline(always)]
-fn draw_2d(
+pub(super) fn draw_2d(
     avx: Avx2,
     rng: &mut Pcg<F32x8>,
     samplers: &mut Samplers,
@@ -626,7 +629,7 @@ struct WalkedT {
 
 /// `v` per lane from the slot of the one-hot facet masks `k` (slot 0 where none is set).
 #[inline(always)]
-fn pick3(k: &[M8; MAX_FACETS], v: &[V3<F32x8>; MAX_FACETS]) -> V3<F32x8> {
+pub(super) fn pick3(k: &[M8; MAX_FACETS], v: &[V3<F32x8>; MAX_FACETS]) -> V3<F32x8> {
     let mut out = v[0];
     for j in 1..MAX_FACETS {
         out = V3::select(k[j], v[j], out);
@@ -788,7 +791,7 @@ fn walk8_t(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::bsdf::mnm::facets::Microgeometry;
     use crate::bsdf::mnm::{Evaluation, Tangent};
@@ -806,7 +809,7 @@ mod tests {
 
     /// A perturbed normal up to 80° from +z, some nearly flat, some exactly flat (degenerate:
     /// not walked).
-    fn random_wp(r: &mut Pcg32) -> Vec3 {
+    pub(in crate::bsdf::mnm::compensated::lanes) fn random_wp(r: &mut Pcg32) -> Vec3 {
         let theta = match r.next_u32() % 10 {
             0 => r.next_f32() * 1e-3,
             1 => 0.0,
@@ -929,7 +932,7 @@ mod tests {
     /// 12 streams for a test chunk (independent, or stratified ones with 0 to 2 of their
     /// stratified 2-D draws spent, counted in `stratified_draws` where one is still pending),
     /// the lanes' ids 8 of them in random order, and the streams as the kernel's columns.
-    fn streams(
+    pub(in crate::bsdf::mnm::compensated::lanes) fn streams(
         rng: &mut Pcg32,
         stratified: bool,
         stratified_draws: &mut usize,
@@ -966,7 +969,11 @@ mod tests {
 
     /// Every stream of the columns is where its scalar twin is: their next three 2-D draws
     /// equal bit for bit.
-    fn assert_same_streams(all: &mut [Sampler], cols: &Samplers, round: usize) {
+    pub(in crate::bsdf::mnm::compensated::lanes) fn assert_same_streams(
+        all: &mut [Sampler],
+        cols: &Samplers,
+        round: usize,
+    ) {
         for (i, s) in all.iter_mut().enumerate() {
             let mut c = cols.get(i);
             for _ in 0..3 {

@@ -1,0 +1,392 @@
+//! The random walk's next-event estimate ([`crate::bsdf::mnm::walk::eval`]) of up to 8 shading
+//! points at once, one lane per point (issue 18, the light-sample side of the stream kernel's
+//! walk modes): the points whose light-sample query reaches `walk_eval_pdf` over a shared
+//! `roughconductor` or `roughplastic` leaf (`walk_pdf_lanes::WalkEvals`) walk together, each
+//! lane active until its own walk ends, the chunk looping until no lane is.
+//!
+//! Per iteration, as the scalar loop (Heitz et al. 2016's walk with next-event estimation on our
+//! facet set, spec §3, §5): over the mirror wall the reflection; else the connections toward ωo
+//! (F_k(−d, ωo)·G1(ωo) where ωo·n_k > 0) and through the wall (F_k(−d, R(ωo))·(1 − G1(R(ωo)))·
+//! G1(ωo) where the wall faces ωo, below `max_order` and R(ωo)·n_k > 0), each one 8-wide
+//! evaluation of the leaf's lane form in facet k's frame (the map's stored frames, the same
+//! bits as [`crate::bsdf::mnm::MicrofacetNormalMap::f`]) for the lanes that connect, added to
+//! each lane's sum as the scalar `sum += thr·F·g`; at `max_order` the nested lanes stop; then
+//! the nested sample (one 8-wide call, [`super::sample::Asks`], as the sample walk's `walk8`),
+//! the exit test against G1(d) and the next facet ∝ a_j(−d). Each lane draws from its own
+//! stream only while active, in the scalar order (entry pick; the nested sample's numbers;
+//! exit; pick): the evaluations draw nothing (the leaves' `eval` takes no sampler's number),
+//! so the masked draws are the scalar walk's, stratified streams handled as the sample walk
+//! handles them ([`super::walk::draw_2d`]).
+//!
+//! **The same bits.** The scalar walk takes its first vertex's connections from the MIS
+//! density's terms (the fused nested `eval_pdf`, or `WalkEvals`' batch of it) and the others
+//! from the nested `eval`; both leaves' `eval` is `eval_pdf`'s value bit for bit, and the lane
+//! form is the scalar `eval_pdf` at any width (`nested_batch`'s tests), so every connection is
+//! evaluated here by the lane form (`tests` in `walk_pdf_lanes`: each lane's value and stream
+//! against the scalar `Bsdf::eval_pdf`).
+
+use super::super::Nested;
+use super::draws::step;
+use super::sample::{draws_u1, Asks};
+use super::walk::{draw_2d, frame_of, l3, next_facet, pick3, set3, store_cols, Col3};
+use super::Cols;
+use crate::bsdf::mnm::facets::{SurfaceLanes, MAX_FACETS};
+use crate::bsdf::mnm::nested_batch::LaneNested;
+use crate::bsdf::mnm::MicrofacetNormalMap;
+use crate::bsdf::{Bsdf, BsdfNode};
+use crate::lane::frame::Frame as LaneFrame;
+use crate::lane::pcg::Pcg;
+use crate::lane::vec::V3;
+use crate::lane::{Avx2, F32x8, Lane};
+use crate::sampler::Samplers;
+use glam::Vec3;
+
+/// One lane's query of [`eval_walks_x8`]: its map, ωi and ωo (shading frame, both above), and
+/// the walk's two connection factors as `walk::eval` takes them from its terms: G1(ωo) (> 0)
+/// and the mirror-wall weight (1 − G1(R(ωo)))·G1(ωo) where the wall faces ωo, else 0 (the
+/// scalar walk's `w > 0` test then fails as its `None` does).
+#[derive(Clone, Copy)]
+pub(crate) struct EvalQuery<'m> {
+    pub m: &'m MicrofacetNormalMap,
+    pub wi: Vec3,
+    pub wo: Vec3,
+    pub g1o: f32,
+    pub wall_w: f32,
+}
+
+/// `walk::eval` of each lane of `q` (`None`: no walk here) over the shared leaf `nested`
+/// (a `roughconductor` or `roughplastic`) with every lane's `max_order` equal to `max_order`,
+/// each from stream `ids[k]` of `samplers`: f·cos θo by lane (`[component][lane]`), every
+/// walking stream left where the scalar walk leaves it.
+#[inline(never)]
+pub(crate) fn eval_walks_x8(
+    avx: Avx2,
+    nested: &Bsdf<'_>,
+    q: &[Option<EvalQuery<'_>>; 8],
+    max_order: u32,
+    samplers: &mut Samplers,
+    ids: &[u32; 8],
+) -> Col3 {
+    let mut c = EvalCols {
+        v: [[[0.0; 8]; 3]; MAX_FACETS],
+        nrm: [[[0.0; 8]; 3]; MAX_FACETS],
+        fr: [[[[0.0; 8]; 3]; 3]; MAX_FACETS],
+        wi: [[0.0; 8]; 3],
+        wo: [[0.0; 8]; 3],
+        rwo: [[0.0; 8]; 3],
+        g1o: [0.0; 8],
+        wall_w: [0.0; 8],
+        lanes: 0,
+        mirror: 0,
+    };
+    // The points' facets (area vectors, normals), the carrying facets' frames, by lane.
+    for (k, e) in q.iter().enumerate() {
+        let Some(e) = e else { continue };
+        let (m, surf) = (e.m, &e.m.surface);
+        for j in 0..surf.len() {
+            set3(&mut c.v[j], k, surf.area_vector(j));
+            set3(&mut c.nrm[j], k, surf.normal(j));
+        }
+        let carrying = if m.mirror_wall { 1 } else { surf.len() };
+        for (j, f) in c.fr.iter_mut().enumerate().take(carrying) {
+            let g = &m.frames[j];
+            set3(&mut f[0], k, g.s);
+            set3(&mut f[1], k, g.t);
+            set3(&mut f[2], k, g.n);
+        }
+        set3(&mut c.wi, k, e.wi);
+        set3(&mut c.wo, k, e.wo);
+        if e.wall_w != 0.0 {
+            set3(&mut c.rwo, k, m.reflect_wall(e.wo));
+        }
+        c.g1o[k] = e.g1o;
+        c.wall_w[k] = e.wall_w;
+        c.mirror |= u8::from(m.mirror_wall) << k;
+        c.lanes |= 1 << k;
+    }
+    let kind = Nested::of(nested);
+    match nested.node() {
+        BsdfNode::RoughConductor(b) => walk8_eval(avx, b, kind, &c, max_order, samplers, ids),
+        BsdfNode::RoughPlastic(b) => walk8_eval(avx, b, kind, &c, max_order, samplers, ids),
+        _ => unreachable!("the eval walk's leaf has a lane form"),
+    }
+}
+
+/// [`eval_walks_x8`]'s inputs by lane.
+struct EvalCols {
+    v: [Col3; MAX_FACETS],
+    nrm: [Col3; MAX_FACETS],
+    fr: [[Col3; 3]; MAX_FACETS],
+    wi: Col3,
+    wo: Col3,
+    /// R(ωo) where the lane's wall weight is not 0.
+    rwo: Col3,
+    g1o: [f32; 8],
+    wall_w: [f32; 8],
+    /// Bit k: lane k walks; lane k's map has the mirror wall.
+    lanes: u8,
+    mirror: u8,
+}
+
+/// The masked eval walk of the lanes of `c` (see the module's doc), in 8-wide code: `leaf`
+/// evaluates the connections, `kind` (the same leaf) answers the nested samples.
+#[inline(always)]
+fn walk8_eval<B: LaneNested>(
+    avx: Avx2,
+    leaf: &B,
+    kind: Nested,
+    c: &EvalCols,
+    max_order: u32,
+    samplers: &mut Samplers,
+    ids: &[u32; 8],
+) -> Col3 {
+    let u1_drawn = draws_u1(kind);
+    let all_plain = samplers.all_plain();
+    let cols = Cols::of(avx);
+    avx.run(
+        #[inline(always)]
+        || {
+            let zero = avx.splat(0.0);
+            let one = avx.splat(1.0);
+            let surf = SurfaceLanes {
+                v: [l3(avx, &c.v[0]), l3(avx, &c.v[1]), l3(avx, &c.v[2])],
+            };
+            let nrm = [l3(avx, &c.nrm[0]), l3(avx, &c.nrm[1]), l3(avx, &c.nrm[2])];
+            let mut fr = [LaneFrame {
+                s: V3::new(zero, zero, zero),
+                t: V3::new(zero, zero, zero),
+                n: V3::new(zero, zero, zero),
+            }; MAX_FACETS];
+            for (f, col) in fr.iter_mut().zip(c.fr.iter()) {
+                *f = LaneFrame {
+                    s: l3(avx, &col[0]),
+                    t: l3(avx, &col[1]),
+                    n: l3(avx, &col[2]),
+                };
+            }
+            let wall = avx.mask_bits(u32::from(c.mirror));
+            let (wi, wo, rwo) = (l3(avx, &c.wi), l3(avx, &c.wo), l3(avx, &c.rwo));
+            let (g1o, wall_w) = (avx.load(&c.g1o), avx.load(&c.wall_w));
+            let through = wall_w.gt(zero);
+            let idx = avx.load_u32(ids);
+            let on = avx.mask_bits(u32::from(c.lanes));
+            let (states, incs) = samplers.pcg_mut();
+            let mut rng = Pcg::<F32x8>::gather(states, incs, idx);
+            let old = rng.parts().0;
+            // The entry: the facet hit from ωi.
+            let u = step(avx, &mut rng, on);
+            let (some, mut k) = surf.pick(wi, u);
+            let mut act = on & some;
+            let mut d = -wi;
+            let mut thr = V3::new(one, one, one);
+            let mut sum = V3::new(zero, zero, zero);
+            let mut asks = Asks::new();
+            // `next_facet` notes where walks end (the sample walk's counts): not used here.
+            let mut ends = [0u32; 8];
+            for order in 1..=max_order {
+                if act.bits() == 0 {
+                    break;
+                }
+                let mir = act & wall & k[1];
+                let nest = act & !mir;
+                // The mirror wall: d − (2 ⟨d, n⟩) n (a delta vertex: no next-event estimate).
+                let n1 = nrm[1];
+                let r = d - n1.scale(avx.splat(2.0) * d.dot(n1));
+                d = V3::select(mir, r, d);
+                if nest.bits() != 0 {
+                    let n = pick3(&k, &nrm);
+                    let f = frame_of(&k, &fr);
+                    let a = f.to_local(-d);
+                    // Toward ωo: F_k(−d, ωo)·G1(ωo).
+                    let to_wo = nest & wo.dot(n).gt(zero);
+                    if to_wo.bits() != 0 {
+                        let (fv, _) = leaf.eval_pdf_lanes(a, f.to_local(wo));
+                        sum = V3::select(to_wo, sum + (thr * fv).scale(g1o), sum);
+                    }
+                    // Through the mirror wall: p → t → ωo needs one more vertex.
+                    if order < max_order {
+                        let to_rwo = nest & through & rwo.dot(n).gt(zero);
+                        if to_rwo.bits() != 0 {
+                            let (fv, _) = leaf.eval_pdf_lanes(a, f.to_local(rwo));
+                            sum = V3::select(to_rwo, sum + (thr * fv).scale(wall_w), sum);
+                        }
+                    }
+                    if order == max_order {
+                        // The nested lanes end here; a mirror lane still exits or picks.
+                        act = act & !nest;
+                    } else {
+                        let nb = nest.bits() as u8;
+                        let u1 = if u1_drawn {
+                            step(avx, &mut rng, nest)
+                        } else {
+                            zero
+                        };
+                        let u2 = draw_2d(
+                            avx,
+                            &mut rng,
+                            samplers,
+                            ids,
+                            (idx, on, old),
+                            nest,
+                            all_plain,
+                        );
+                        asks.set_lanes(avx, nest, a, u1, u2);
+                        let ans = asks.answer(cols, kind);
+                        let ok = avx.mask_bits(u32::from(ans.ok() & nb));
+                        // A nested sample that is none: the walk ends.
+                        act = act & !(nest & !ok);
+                        thr = V3::select(ok, thr * l3(avx, ans.weight()), thr);
+                        d = V3::select(ok, f.to_world(l3(avx, ans.wo())), d);
+                    }
+                }
+                // The exit test against G1(d).
+                let u = step(avx, &mut rng, act);
+                act = act & !u.lt(surf.g1(d));
+                // The next facet, hit ∝ a_j(−d).
+                act = next_facet(avx, &mut rng, &surf, -d, act, &mut k, &mut ends, order);
+            }
+            let (states, _) = samplers.pcg_mut();
+            avx.store_u64_at(states, idx, on, rng.parts().0, old);
+            let mut out = [[0.0f32; 8]; 3];
+            store_cols(&mut out, sum);
+            out
+        },
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::walk::tests::{assert_same_streams, random_wp, streams};
+    use crate::bsdf::mnm::compensated::tests::push_reflectors;
+    use crate::bsdf::mnm::facets::Microgeometry;
+    use crate::bsdf::mnm::walk_pdf_lanes::WalkEvals;
+    use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
+    use crate::bsdf::{BsdfArena, BsdfContext};
+    use crate::lane::Avx2;
+    use crate::math::Pcg32;
+    use glam::Vec3;
+
+    fn same(a: f32, b: f32) -> bool {
+        a.to_bits() == b.to_bits()
+    }
+
+    fn same3(a: Vec3, b: Vec3) -> bool {
+        same(a.x, b.x) && same(a.y, b.y) && same(a.z, b.z)
+    }
+
+    /// A direction over the upper hemisphere (some grazing, some +z), or now and then below
+    /// (a query that is not the walk's).
+    fn random_dir(r: &mut Pcg32) -> Vec3 {
+        let z = match r.next_u32() % 16 {
+            0 => r.next_f32() * 0.02,
+            1 => 1.0,
+            2 => -r.next_f32(),
+            _ => r.next_f32(),
+        };
+        let phi = r.next_f32() * std::f32::consts::TAU;
+        let s = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(s * phi.cos(), s * phi.sin(), z)
+    }
+
+    /// The masked eval walk (`WalkEvals::walk_x8`) equals the scalar `walk::eval` of each
+    /// lane's map bit for bit: every walked lane's value and MIS density against the scalar
+    /// `Bsdf::eval_pdf` of its map (which reaches `walk_eval_pdf`, the walk with the terms of
+    /// `PdfTerms`), every stream left where the scalar query leaves it (the streams of the
+    /// lanes without a query untouched): the sawtooth with and without the mirror wall, the
+    /// V-groove and two U-grooves, both rough conductors and the rough plastic, independent
+    /// and stratified streams (some still in their strata), random ωi and ωo (grazing, +z,
+    /// some below: not walked), lanes without a light sample, flat maps (not walked), walks
+    /// of at most 1, 3 and 8 vertices, and lanes whose `max_order` is not the first walking
+    /// lane's (left to the scalar walk, `WalkEvals::eval_pdf`).
+    #[test]
+    fn masked_eval_walks_equal_the_scalar_walks() {
+        let Some(avx) = Avx2::detect() else {
+            return;
+        };
+        let ctx = BsdfContext::default();
+        let mut rng = Pcg32::new(41, 1);
+        let geometries = [
+            (Microgeometry::Sawtooth, Tangent::Mirror),
+            (Microgeometry::Sawtooth, Tangent::Same),
+            (Microgeometry::VGroove, Tangent::Same),
+            (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
+            (Microgeometry::UGroove { fill: 1.0 }, Tangent::Mirror),
+        ];
+        let (mut walked, mut nonzero, mut scalar, mut unlit, mut stratified_draws) =
+            (0, 0, 0, 0, 0);
+        let mut mirror_nonzero = 0;
+        for round in 0..3000 {
+            let mut arena = BsdfArena::new();
+            let leaves = push_reflectors(&mut arena);
+            let child = leaves[round % leaves.len()];
+            let (geo, tangent) = geometries[(round / 3) % geometries.len()];
+            let max_order = [1, 3, 8][(round / 15) % 3];
+            let stratified = round % 2 == 1;
+            let mut roots = [u32::MAX; 8];
+            let (mut wi, mut wo) = ([Vec3::Z; 8], [Vec3::Z; 8]);
+            for k in 0..8 {
+                // Now and then a lane with another walk length.
+                let order = if rng.next_u32().is_multiple_of(13) {
+                    max_order + 1
+                } else {
+                    max_order
+                };
+                let m = MicrofacetNormalMap::new(
+                    child,
+                    random_wp(&mut rng),
+                    geo,
+                    tangent,
+                    Evaluation::RandomWalk,
+                    order,
+                );
+                roots[k] = arena.push_microfacet_normal_map(m);
+                (wi[k], wo[k]) = (random_dir(&mut rng), random_dir(&mut rng));
+            }
+            let (mut all, ids, mut cols) = streams(&mut rng, stratified, &mut stratified_draws);
+            let nested = arena.bsdf(child);
+            let mut lanes = WalkEvals::new(nested, child).expect("a leaf with a lane form");
+            // The lanes with a light sample (the others are not pushed).
+            let lit = (rng.next_u32() & 0xff) as u8;
+            for k in 0..8 {
+                if lit & (1 << k) != 0 {
+                    lanes.push(k, arena.bsdf(roots[k]), wi[k], wo[k]);
+                }
+            }
+            lanes.evaluate();
+            lanes.walk_x8(avx, &mut cols, &ids);
+            for k in 0..8 {
+                if lit & (1 << k) == 0 {
+                    unlit += 1;
+                    continue;
+                }
+                if !lanes.has(k) {
+                    // Not the walk's query: the caller's scalar path (its stream must not
+                    // have moved).
+                    continue;
+                }
+                let s = ids[k] as usize;
+                let (f, p) = arena
+                    .bsdf(roots[k])
+                    .eval_pdf(&ctx, wi[k], wo[k], &mut all[s]);
+                let (fl, pl) = if lanes.walked(k) {
+                    walked += 1;
+                    lanes.value(k)
+                } else {
+                    scalar += 1;
+                    lanes.eval_pdf(k, &ctx, &mut cols.at(s))
+                };
+                assert!(same3(f, fl), "round {round} lane {k}: {f} {fl}");
+                assert!(same(p, pl), "round {round} lane {k}: {p} {pl}");
+                nonzero += usize::from(f != Vec3::ZERO);
+                mirror_nonzero += usize::from(f != Vec3::ZERO && tangent == Tangent::Mirror);
+            }
+            assert_same_streams(&mut all, &cols, round);
+        }
+        // Most queries walk masked, with values (over the mirror sawtooth too); some lanes
+        // are left to the scalar walk; lanes without a light sample; streams in their strata.
+        assert!(walked > 8000 && nonzero > 6000, "{walked} {nonzero}");
+        assert!(mirror_nonzero > 2000, "{mirror_nonzero}");
+        assert!(scalar > 500 && unlit > 5000, "{scalar} {unlit}");
+        assert!(stratified_draws > 3000, "{stratified_draws}");
+    }
+}
