@@ -22,8 +22,8 @@
 //! density's terms (the fused nested `eval_pdf`, or `WalkEvals`' batch of it) and the others
 //! from the nested `eval`; both leaves' `eval` is `eval_pdf`'s value bit for bit, and the lane
 //! form is the scalar `eval_pdf` at any width (`nested_batch`'s tests), so every connection is
-//! evaluated here by the lane form (`tests` in `walk_pdf_lanes`: each lane's value and stream
-//! against the scalar `Bsdf::eval_pdf`).
+//! evaluated here by the lane form (`tests`: each lane's value, density and stream against the
+//! scalar `Bsdf::eval_pdf` of its map).
 
 use super::super::Nested;
 use super::draws::step;
