@@ -253,31 +253,24 @@ pub(crate) fn lane_points(materials: &Materials, m: MatId) -> bool {
         && !materials.lobes(*nested).has_transmission()
 }
 
-/// Whether material `m` (one that [`qualifies`]) evaluates by the compensated model (its
-/// `evaluation = compensated`, with its table). Only then can a map be a compensated point
-/// (`mnm::compensated_alone` needs the map's table reference, which only this evaluation sets)
-/// or want an ωi cache (`set_incident` caches for the table only): for the random walk and the
-/// closed forms the kernel skips the compensated machinery (the points' search, the chunk's
-/// state at ωi, its empty light query, the maps' ωi caches), which would find nothing.
-pub(crate) fn compensated(materials: &Materials, m: MatId) -> bool {
+/// The evaluation of material `m` (one that [`qualifies`]: a microfacet `normalmap`; `None`
+/// for another node), the one gate the kernel asks of a chunk's material:
+/// - `Evaluation::Compensated` (with its table): only then can a map be a compensated point
+///   (`mnm::compensated_alone` needs the map's table reference, which only this evaluation
+///   sets) or want an ωi cache (`set_incident` caches for the table only); for the random walk
+///   and the closed forms the kernel skips the compensated machinery (the points' search, the
+///   chunk's state at ωi, its empty light query, the maps' ωi caches), which would find
+///   nothing;
+/// - `Evaluation::RandomWalk` (`walk-same`, `walk-mirror`): step 3 takes the walk's
+///   light-sample queries over a shared nested leaf with a lane form through
+///   `bsdf::mnm::walk_pdf_lanes` (their MIS density's nested pairs 8-wide before the walks),
+///   and step 4 walks its lanes' samples masked (the reflection walk, `mnm::walk_alone`, needs
+///   a walking evaluation and no table; a closed form's two-sided walk over a transmitting
+///   leaf stays lane by lane, as before).
+pub(crate) fn evaluation(materials: &Materials, m: MatId) -> Option<Evaluation> {
     match &materials.nodes()[m as usize] {
-        MaterialNode::MicrofacetNormalMap { settings, .. } => {
-            settings.evaluation == Evaluation::Compensated
-        }
-        _ => false,
-    }
-}
-
-/// Whether material `m` (one that [`qualifies`]) evaluates by the random walk (`walk-same`,
-/// `walk-mirror`): then step 3 takes the walk's light-sample queries over a shared nested leaf
-/// with a lane form through `bsdf::mnm::walk_pdf_lanes` (their MIS density's nested pairs
-/// 8-wide before the walks).
-pub(crate) fn random_walk(materials: &Materials, m: MatId) -> bool {
-    match &materials.nodes()[m as usize] {
-        MaterialNode::MicrofacetNormalMap { settings, .. } => {
-            settings.evaluation == Evaluation::RandomWalk
-        }
-        _ => false,
+        MaterialNode::MicrofacetNormalMap { settings, .. } => Some(settings.evaluation),
+        _ => None,
     }
 }
 
@@ -309,6 +302,7 @@ pub(crate) mod x8 {
         Point, WalkSamples,
     };
     use crate::bsdf::mnm::walk_pdf_lanes::WalkEvals;
+    use crate::bsdf::mnm::Evaluation;
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::{PathSettings, Strategy};
@@ -392,9 +386,11 @@ pub(crate) mod x8 {
         let shared = super::shared_nested(&scene.materials, m0);
         // The compensated model's points, their state at ωi and the maps' ωi caches exist
         // only for its own evaluation (the walk and the closed forms have none: skipped).
-        let comp = super::compensated(&scene.materials, m0);
         // The random walk's lanes (steps 3 and 4 take them in lanes, where their leaf allows).
-        let walking = super::random_walk(&scene.materials, m0);
+        // One look at the material's evaluation for both gates.
+        let evaluation = super::evaluation(&scene.materials, m0);
+        let comp = evaluation == Some(Evaluation::Compensated);
+        let walking = evaluation == Some(Evaluation::RandomWalk);
         // 1. The surfaces, loaded 8-wide from the batch's rows (the light stage's columns).
         let surf = crate::stream::kernels::surface::x8::load(avx, &b.surf, ids);
 
