@@ -49,6 +49,8 @@
 //! sampler in lanes (eleventh session)").
 
 use crate::bsdf::mnm::compensated::lanes::Cols;
+#[cfg(target_arch = "x86_64")]
+use crate::bsdf::mnm::compensated::lanes::WalkGroups;
 use crate::bsdf::mnm::facets::Microgeometry;
 use crate::bsdf::mnm::{Evaluation, Tangent};
 use crate::bsdf::{BsdfArena, BsdfNode};
@@ -272,6 +274,22 @@ pub(crate) fn evaluation(materials: &Materials, m: MatId) -> Option<Evaluation> 
         MaterialNode::MicrofacetNormalMap { settings, .. } => Some(settings.evaluation),
         _ => None,
     }
+}
+
+/// Which of the masked walk groups (`compensated::lanes::sample_walks_x8`) the lanes of
+/// material `m` (one that [`qualifies`] and walks) may take: every lane's map is built over a
+/// nested node of the material's `nested` (the shared leaf, or its own copy by
+/// `Materials::build_at`), whose lobes are the material table's (`Materials::lobes`, pushed
+/// with the node), so a lane transmits exactly where the material's nested node does: the
+/// two-sided walk's lanes and the reflection walk's never share a chunk, and the kernel asks
+/// for the one group that can apply instead of scanning the lanes for both.
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn walk_groups(materials: &Materials, m: MatId) -> WalkGroups {
+    let nested = match &materials.nodes()[m as usize] {
+        MaterialNode::MicrofacetNormalMap { nested, .. } => *nested,
+        _ => m,
+    };
+    WalkGroups::of_lobes(materials.lobes(nested))
 }
 
 /// The remainder table of material `m` (a microfacet `normalmap` with one).
@@ -639,7 +657,10 @@ pub(crate) mod x8 {
         // the others lane by lane. Only a material that evaluates by the walk has such lanes
         // (`mnm::walk_alone` and `walk_two_sided` ask for a walking evaluation and no table;
         // the compensated materials here have their table): the others skip the walks' lane
-        // scan (~25 instructions a sample on the compensated mode).
+        // scan (~25 instructions a sample on the compensated mode). Of the two groups only
+        // the one the material's nested leaf allows is looked for (`super::walk_groups`: a
+        // reflecting leaf's lanes never walk two-sided, a transmitting leaf's never by
+        // reflection), which skips the other group's scan of the lanes.
         let walks = if walking {
             let mut pts_local = [None; 8];
             for (k, s) in sb.iter().enumerate() {
@@ -647,7 +668,8 @@ pub(crate) mod x8 {
                     pts_local[k] = s.as_ref().map(|s| s.local());
                 }
             }
-            sample_walks_x8(avx, &ctx, &pts_local, &mut b.sampler, ids, WALK_MIN)
+            let groups = super::walk_groups(&scene.materials, m0);
+            sample_walks_x8(avx, &ctx, &pts_local, &mut b.sampler, ids, WALK_MIN, groups)
         } else {
             WalkSamples {
                 lanes: 0,

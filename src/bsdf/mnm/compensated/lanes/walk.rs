@@ -55,6 +55,34 @@ pub(crate) struct WalkSamples {
     pub out: [Option<BsdfSample>; 8],
 }
 
+/// Which of [`sample_walks_x8`]'s two walk groups a call looks for. A lane walks by
+/// reflection only over a reflecting nested BSDF ([`walk_alone`]) and two-sided only over a
+/// transmitting one ([`walk_two_sided`]); the stream kernel's chunk is one material, whose
+/// nested node's lobes (`Materials::lobes`, the arena node's too) say which, so it asks for
+/// that group alone ([`Self::of_lobes`]) and skips the other's scan of the lanes (~40
+/// instructions a sample on the reflection scenes, the fortieth session's h3). Both groups:
+/// chunks of maps over different nested BSDFs, as the tests mix them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct WalkGroups {
+    /// The reflection walks ([`reflection_walks`]).
+    pub reflection: bool,
+    /// The two-sided walks ([`two_sided_walks`]).
+    pub two_sided: bool,
+}
+
+impl WalkGroups {
+    /// The group of the maps over a nested BSDF with `lobes`: the two-sided walk where it
+    /// transmits (as `MicrofacetNormalMap::transmits` tests it), else the reflection walk.
+    #[inline(always)]
+    pub(crate) fn of_lobes(lobes: Lobes) -> Self {
+        let two_sided = lobes.has_transmission();
+        WalkGroups {
+            reflection: !two_sided,
+            two_sided,
+        }
+    }
+}
+
 /// A lane's columns: `[component][lane]`.
 type Col3 = [[f32; 8]; 3];
 
@@ -89,8 +117,9 @@ fn frame_of(k: &[M8; MAX_FACETS], fr: &[LaneFrame<F32x8>; MAX_FACETS]) -> LaneFr
 /// over a `roughconductor` or `roughplastic` leaf shared with the first such lane and with its
 /// `max_order` ([`reflection_walks`]), and the two-sided walk over a `roughdielectric` leaf
 /// shared likewise (also its transmission walk, [`two_sided_walks`]), each group walked
-/// together. A group of fewer than `min` lanes is not walked here (its lanes left out of
-/// `lanes`).
+/// together; only the groups of `groups` are looked for (a lane of the other group is left
+/// out of `lanes`, to the caller). A group of fewer than `min` lanes is not walked here (its
+/// lanes left out of `lanes`).
 #[inline(never)]
 pub(crate) fn sample_walks_x8(
     avx: Avx2,
@@ -99,9 +128,18 @@ pub(crate) fn sample_walks_x8(
     samplers: &mut Samplers,
     ids: &[u32; 8],
     min: u32,
+    groups: WalkGroups,
 ) -> WalkSamples {
-    let mut out = reflection_walks(avx, ctx, pts, samplers, ids, min);
-    two_sided_walks(avx, ctx, pts, samplers, ids, min, &mut out);
+    let mut out = match groups.reflection {
+        false => WalkSamples {
+            lanes: 0,
+            out: [None; 8],
+        },
+        true => reflection_walks(avx, ctx, pts, samplers, ids, min),
+    };
+    if groups.two_sided {
+        two_sided_walks(avx, ctx, pts, samplers, ids, min, &mut out);
+    }
     out
 }
 
@@ -882,7 +920,12 @@ mod tests {
             let arena = &arena;
             let lanes: [Option<(Bsdf<'_>, Vec3)>; 8] =
                 std::array::from_fn(|k| pts[k].map(|(r, wi)| (arena.bsdf(r), wi)));
-            let got = sample_walks_x8(avx, &ctx, &lanes, &mut cols, &ids, 1);
+            // The kernel's group for reflecting leaves, and both groups (the same lanes).
+            let groups = WalkGroups {
+                reflection: true,
+                two_sided: round % 4 == 3,
+            };
+            let got = sample_walks_x8(avx, &ctx, &lanes, &mut cols, &ids, 1, groups);
             let counted = arena.take_walk_counts();
             let mut want_lanes = 0u8;
             for (k, p) in pts.iter().enumerate() {
@@ -1050,11 +1093,13 @@ mod tests {
             };
             let stratified = round % 3 == 1;
             let mut pts: [Option<(u32, Vec3)>; 8] = [None; 8];
+            let mut any_reflecting = false;
             for p in pts.iter_mut() {
                 if rng.next_u32().is_multiple_of(7) {
                     continue; // a lane without a point
                 }
                 let reflecting = rng.next_u32().is_multiple_of(9);
+                any_reflecting |= reflecting;
                 let m = MicrofacetNormalMap::new(
                     if reflecting { conductor } else { n },
                     random_wp(&mut rng),
@@ -1075,15 +1120,27 @@ mod tests {
             let arena = &arena;
             let lanes: [Option<(Bsdf<'_>, Vec3)>; 8] =
                 std::array::from_fn(|k| pts[k].map(|(r, wi)| (arena.bsdf(r), wi)));
-            let got = sample_walks_x8(avx, &ctx, &lanes, &mut cols, &ids, 1);
+            // The kernel's group for a transmitting leaf where no lane reflects; both groups
+            // (the same lanes); on mixed chunks also one group alone (the other's lanes left
+            // to the caller, their streams untouched).
+            let groups = match (any_reflecting, round % 4) {
+                (false, 0 | 1) | (true, 1) => WalkGroups::of_lobes(Lobes::GLOSSY_TRANSMISSION),
+                (true, 2) => WalkGroups::of_lobes(Lobes::GLOSSY_REFLECTION),
+                _ => WalkGroups {
+                    reflection: true,
+                    two_sided: true,
+                },
+            };
+            let got = sample_walks_x8(avx, &ctx, &lanes, &mut cols, &ids, 1, groups);
             let counted = arena.take_walk_counts();
             let mut want_lanes = 0u8;
             for (k, p) in pts.iter().enumerate() {
                 if let Some((r, wi)) = p {
                     let b = arena.bsdf(*r);
-                    let walks = walk_two_sided(b, *wi).is_some() || walk_alone(b, *wi).is_some();
-                    want_lanes |= u8::from(walks) << k;
-                    reflection_lanes += usize::from(walk_alone(b, *wi).is_some());
+                    let two = walk_two_sided(b, *wi).is_some() && groups.two_sided;
+                    let one = walk_alone(b, *wi).is_some() && groups.reflection;
+                    want_lanes |= u8::from(two || one) << k;
+                    reflection_lanes += usize::from(one);
                 }
             }
             assert_eq!(got.lanes, want_lanes, "round {round}");
