@@ -316,8 +316,8 @@ pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
-        eval_pdf_x8_into, sample_walks_x8, sample_x8_cols, with_incident_alone_x8, Chunk, Cols,
-        Point, WalkSamples,
+        eval_pdf_x8_into, sample_walks_x8, sample_x8_cols, with_incident_alone_x8, BuiltFacets,
+        Chunk, Cols, Point, WalkSamples,
     };
     use crate::bsdf::mnm::walk_pdf_lanes::WalkEvals;
     use crate::bsdf::mnm::Evaluation;
@@ -669,7 +669,26 @@ pub(crate) mod x8 {
                 }
             }
             let groups = super::walk_groups(&scene.materials, m0);
-            sample_walks_x8(avx, &ctx, &pts_local, &mut b.sampler, ids, WALK_MIN, groups)
+            // The build's facet columns, where the maps were written from them (the lanes
+            // not built as points without a map): the walks read them 8-wide instead of
+            // each lane's map.
+            let facets = match (&lanes, &built) {
+                (Some(l), Some(bt)) => Some(BuiltFacets {
+                    facets: l.facets(),
+                    lanes: !bt.points,
+                }),
+                _ => None,
+            };
+            sample_walks_x8(
+                avx,
+                &ctx,
+                &pts_local,
+                &mut b.sampler,
+                ids,
+                WALK_MIN,
+                groups,
+                facets,
+            )
         } else {
             WalkSamples {
                 lanes: 0,

@@ -44,7 +44,7 @@ mod sample;
 #[cfg(target_arch = "x86_64")]
 mod walk;
 #[cfg(target_arch = "x86_64")]
-pub(crate) use walk::{sample_walks_x8, WalkGroups, WalkSamples};
+pub(crate) use walk::{sample_walks_x8, BuiltFacets, WalkGroups, WalkSamples};
 
 use super::{
     leave, pick_entry, sample_record_is_exact, AtIncident, AtWi, Collected, Entries, Known,
