@@ -1079,8 +1079,8 @@ mod tests {
             assert_same_streams(&mut all, &cols, round);
         }
         // Most lanes walk; a fair share of them escape, of the others many are absorbed;
-        // walks of several vertices; streams still stratified.
-        // Walks from the build's columns.
+        // walks of several vertices; streams still stratified; walks from the build's
+        // columns.
         assert!(escaped > 8000 && absorbed > 1000, "{escaped} {absorbed}");
         assert!(vertices as f64 > 1.3 * walks as f64, "{walks} {vertices}");
         assert!(stratified_draws > 3000, "{stratified_draws}");
