@@ -182,6 +182,32 @@ impl<const W: usize> FacetCols<W> {
         &self.frames[j]
     }
 
+    /// Every candidate's area vectors, `[candidate][component][lane]` (the masked walks'
+    /// columns as they are, `compensated::lanes::walk`).
+    #[inline(always)]
+    pub(crate) fn area_vector_cols(&self) -> &[[[f32; W]; 3]; MAX_FACETS] {
+        &self.v
+    }
+
+    /// Every candidate's unit normals, `[candidate][component][lane]`.
+    #[inline(always)]
+    pub(crate) fn normal_cols(&self) -> &[[[f32; W]; 3]; MAX_FACETS] {
+        &self.m
+    }
+
+    /// Every candidate's frame, `[candidate][s, t, n][component][lane]`: the first `framed`
+    /// are the candidates' frames, the others [`Candidates::new`]'s placeholders.
+    #[inline(always)]
+    pub(crate) fn frame_cols(&self) -> &[[[[f32; W]; 3]; 3]; MAX_FACETS] {
+        &self.frames
+    }
+
+    /// The microgeometry's candidates (2 or 3).
+    #[inline(always)]
+    pub(crate) fn candidates(&self) -> usize {
+        self.n
+    }
+
     /// Whether lane `i` keeps its first `n` candidates, in order, as its facets
     /// ([`Microsurface::of_lane`]'s test: none of them of zero area).
     #[inline(always)]

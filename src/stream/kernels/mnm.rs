@@ -49,6 +49,8 @@
 //! sampler in lanes (eleventh session)").
 
 use crate::bsdf::mnm::compensated::lanes::Cols;
+#[cfg(target_arch = "x86_64")]
+use crate::bsdf::mnm::compensated::lanes::WalkGroups;
 use crate::bsdf::mnm::facets::Microgeometry;
 use crate::bsdf::mnm::{Evaluation, Tangent};
 use crate::bsdf::{BsdfArena, BsdfNode};
@@ -253,32 +255,41 @@ pub(crate) fn lane_points(materials: &Materials, m: MatId) -> bool {
         && !materials.lobes(*nested).has_transmission()
 }
 
-/// Whether material `m` (one that [`qualifies`]) evaluates by the compensated model (its
-/// `evaluation = compensated`, with its table). Only then can a map be a compensated point
-/// (`mnm::compensated_alone` needs the map's table reference, which only this evaluation sets)
-/// or want an ωi cache (`set_incident` caches for the table only): for the random walk and the
-/// closed forms the kernel skips the compensated machinery (the points' search, the chunk's
-/// state at ωi, its empty light query, the maps' ωi caches), which would find nothing.
-pub(crate) fn compensated(materials: &Materials, m: MatId) -> bool {
+/// The evaluation of material `m` (one that [`qualifies`]: a microfacet `normalmap`; `None`
+/// for another node), the one gate the kernel asks of a chunk's material:
+/// - `Evaluation::Compensated` (with its table): only then can a map be a compensated point
+///   (`mnm::compensated_alone` needs the map's table reference, which only this evaluation
+///   sets) or want an ωi cache (`set_incident` caches for the table only); for the random walk
+///   and the closed forms the kernel skips the compensated machinery (the points' search, the
+///   chunk's state at ωi, its empty light query, the maps' ωi caches), which would find
+///   nothing;
+/// - `Evaluation::RandomWalk` (`walk-same`, `walk-mirror`): step 3 takes the walk's
+///   light-sample queries over a shared nested leaf with a lane form through
+///   `bsdf::mnm::walk_pdf_lanes` (their MIS density's nested pairs 8-wide before the walks),
+///   and step 4 walks its lanes' samples masked (the reflection walk, `mnm::walk_alone`, needs
+///   a walking evaluation and no table; a closed form's two-sided walk over a transmitting
+///   leaf stays lane by lane, as before).
+pub(crate) fn evaluation(materials: &Materials, m: MatId) -> Option<Evaluation> {
     match &materials.nodes()[m as usize] {
-        MaterialNode::MicrofacetNormalMap { settings, .. } => {
-            settings.evaluation == Evaluation::Compensated
-        }
-        _ => false,
+        MaterialNode::MicrofacetNormalMap { settings, .. } => Some(settings.evaluation),
+        _ => None,
     }
 }
 
-/// Whether material `m` (one that [`qualifies`]) evaluates by the random walk (`walk-same`,
-/// `walk-mirror`): then step 3 takes the walk's light-sample queries over a shared nested leaf
-/// with a lane form through `bsdf::mnm::walk_pdf_lanes` (their MIS density's nested pairs
-/// 8-wide before the walks).
-pub(crate) fn random_walk(materials: &Materials, m: MatId) -> bool {
-    match &materials.nodes()[m as usize] {
-        MaterialNode::MicrofacetNormalMap { settings, .. } => {
-            settings.evaluation == Evaluation::RandomWalk
-        }
-        _ => false,
-    }
+/// Which of the masked walk groups (`compensated::lanes::sample_walks_x8`) the lanes of
+/// material `m` (one that [`qualifies`] and walks) may take: every lane's map is built over a
+/// nested node of the material's `nested` (the shared leaf, or its own copy by
+/// `Materials::build_at`), whose lobes are the material table's (`Materials::lobes`, pushed
+/// with the node), so a lane transmits exactly where the material's nested node does: the
+/// two-sided walk's lanes and the reflection walk's never share a chunk, and the kernel asks
+/// for the one group that can apply instead of scanning the lanes for both.
+#[cfg(target_arch = "x86_64")]
+pub(crate) fn walk_groups(materials: &Materials, m: MatId) -> WalkGroups {
+    let nested = match &materials.nodes()[m as usize] {
+        MaterialNode::MicrofacetNormalMap { nested, .. } => *nested,
+        _ => m,
+    };
+    WalkGroups::of_lobes(materials.lobes(nested))
 }
 
 /// The remainder table of material `m` (a microfacet `normalmap` with one).
@@ -305,10 +316,11 @@ pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
-        eval_pdf_x8_into, sample_walks_x8, sample_x8_cols, with_incident_alone_x8, Chunk, Cols,
-        Point, WalkSamples,
+        eval_pdf_x8_into, sample_walks_x8, sample_x8_cols, with_incident_alone_x8, BuiltFacets,
+        Chunk, Cols, Point, WalkSamples,
     };
     use crate::bsdf::mnm::walk_pdf_lanes::WalkEvals;
+    use crate::bsdf::mnm::Evaluation;
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
     use crate::integrator::{PathSettings, Strategy};
@@ -392,9 +404,11 @@ pub(crate) mod x8 {
         let shared = super::shared_nested(&scene.materials, m0);
         // The compensated model's points, their state at ωi and the maps' ωi caches exist
         // only for its own evaluation (the walk and the closed forms have none: skipped).
-        let comp = super::compensated(&scene.materials, m0);
         // The random walk's lanes (steps 3 and 4 take them in lanes, where their leaf allows).
-        let walking = super::random_walk(&scene.materials, m0);
+        // One look at the material's evaluation for both gates.
+        let evaluation = super::evaluation(&scene.materials, m0);
+        let comp = evaluation == Some(Evaluation::Compensated);
+        let walking = evaluation == Some(Evaluation::RandomWalk);
         // 1. The surfaces, loaded 8-wide from the batch's rows (the light stage's columns).
         let surf = crate::stream::kernels::surface::x8::load(avx, &b.surf, ids);
 
@@ -646,7 +660,10 @@ pub(crate) mod x8 {
         // the others lane by lane. Only a material that evaluates by the walk has such lanes
         // (`mnm::walk_alone` and `walk_two_sided` ask for a walking evaluation and no table;
         // the compensated materials here have their table): the others skip the walks' lane
-        // scan (~25 instructions a sample on the compensated mode).
+        // scan (~25 instructions a sample on the compensated mode). Of the two groups only
+        // the one the material's nested leaf allows is looked for (`super::walk_groups`: a
+        // reflecting leaf's lanes never walk two-sided, a transmitting leaf's never by
+        // reflection), which skips the other group's scan of the lanes.
         let walks = if walking {
             let mut pts_local = [None; 8];
             for (k, s) in sb.iter().enumerate() {
@@ -654,7 +671,27 @@ pub(crate) mod x8 {
                     pts_local[k] = s.as_ref().map(|s| s.local());
                 }
             }
-            sample_walks_x8(avx, &ctx, &pts_local, &mut b.sampler, ids, WALK_MIN)
+            let groups = super::walk_groups(&scene.materials, m0);
+            // The build's facet columns, where the maps were written from them (the lanes
+            // not built as points without a map): the walks read them 8-wide instead of
+            // each lane's map.
+            let facets = match (&lanes, &built) {
+                (Some(l), Some(bt)) => Some(BuiltFacets {
+                    facets: l.facets(),
+                    lanes: !bt.points,
+                }),
+                _ => None,
+            };
+            sample_walks_x8(
+                avx,
+                &ctx,
+                &pts_local,
+                &mut b.sampler,
+                ids,
+                WALK_MIN,
+                groups,
+                facets,
+            )
         } else {
             WalkSamples {
                 lanes: 0,

@@ -44,7 +44,7 @@ mod sample;
 #[cfg(target_arch = "x86_64")]
 mod walk;
 #[cfg(target_arch = "x86_64")]
-pub(crate) use walk::{sample_walks_x8, WalkSamples};
+pub(crate) use walk::{sample_walks_x8, BuiltFacets, WalkGroups, WalkSamples};
 #[cfg(target_arch = "x86_64")]
 mod walk_eval;
 #[cfg(target_arch = "x86_64")]

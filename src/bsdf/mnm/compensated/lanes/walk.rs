@@ -34,7 +34,7 @@ use super::super::Nested;
 use super::draws::{step, stratified};
 use super::sample::{accepted, draws_u1, Asks};
 use super::Cols;
-use crate::bsdf::mnm::facets::{SurfaceLanes, MAX_FACETS};
+use crate::bsdf::mnm::facets::{FacetCols, SurfaceLanes, MAX_FACETS};
 use crate::bsdf::mnm::walk::FirstVertex;
 use crate::bsdf::mnm::{explicit::lobe_of, walk_alone, walk_sample_of, MicrofacetNormalMap};
 use crate::bsdf::mnm::{pdf as mnm_pdf, walk_two_sided, TransmissionWalk};
@@ -53,6 +53,90 @@ use glam::Vec3;
 pub(crate) struct WalkSamples {
     pub lanes: u8,
     pub out: [Option<BsdfSample>; 8],
+}
+
+/// Which of [`sample_walks_x8`]'s two walk groups a call looks for. A lane walks by
+/// reflection only over a reflecting nested BSDF ([`walk_alone`]) and two-sided only over a
+/// transmitting one ([`walk_two_sided`]); the stream kernel's chunk is one material, whose
+/// nested node's lobes (`Materials::lobes`, the arena node's too) say which, so it asks for
+/// that group alone ([`Self::of_lobes`]) and skips the other's scan of the lanes (~40
+/// instructions a sample on the reflection scenes, the fortieth session's h3). Both groups:
+/// chunks of maps over different nested BSDFs, as the tests mix them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct WalkGroups {
+    /// The reflection walks ([`reflection_walks`]).
+    pub reflection: bool,
+    /// The two-sided walks ([`two_sided_walks`]).
+    pub two_sided: bool,
+}
+
+impl WalkGroups {
+    /// The group of the maps over a nested BSDF with `lobes`: the two-sided walk where it
+    /// transmits (as `MicrofacetNormalMap::transmits` tests it), else the reflection walk.
+    #[inline(always)]
+    pub(crate) fn of_lobes(lobes: Lobes) -> Self {
+        let two_sided = lobes.has_transmission();
+        WalkGroups {
+            reflection: !two_sided,
+            two_sided,
+        }
+    }
+}
+
+/// The chunk's facet columns from the build (the stream kernel's `MnmCols`: the candidates'
+/// area vectors, normals and frames of 8 hits, `MnmSettings::lanes_at`) and the lanes whose
+/// maps were written from them (bit k: lane k's map is `MnmSettings::map_lane_into` of lane
+/// k). The walks read a walking lane's facets and frames from these columns, 8-wide as they
+/// are, instead of from its map, where every walking lane's map was written from them and
+/// keeps every candidate ([`cols_of`]).
+#[derive(Clone, Copy)]
+pub(crate) struct BuiltFacets<'c> {
+    pub facets: &'c FacetCols<8>,
+    pub lanes: u8,
+}
+
+/// The build's columns for the walking lanes `walking`, where they hold those lanes' maps'
+/// numbers bit for bit: every walking lane's map written from them (`built.lanes`) and
+/// keeping all the microgeometry's candidates (`FacetCols::keeps`, 8-wide): then the map's
+/// facets are the candidates in order (`Microsurface::of_lane` drops none: the same area
+/// vectors and normals) and its carrying facets' frames are the columns' (the carrying
+/// facets are the framed candidates, `MicrofacetNormalMap::framed`; `frame_of_lane` copies
+/// them). A lane that drops a candidate (a U-groove of fill 1, a flat point) or whose map
+/// was built otherwise (`Scene::bsdf_root`) sends the chunk to the maps (`None`). The other
+/// lanes' columns hold numbers the walk computes with but never keeps (it masks them off), as
+/// do the candidates past a lane's facets (zero area vectors: never picked) and the frames
+/// past the carrying ones (placeholders: never asked).
+#[inline(always)]
+fn cols_of<'c>(avx: Avx2, built: Option<BuiltFacets<'c>>, walking: u8) -> Option<&'c FacetCols<8>> {
+    let b = built?;
+    if walking & !b.lanes != 0 {
+        return None;
+    }
+    let f = b.facets;
+    let kept = Cols::of(avx).run(
+        #[inline(always)]
+        |c| f.keeps_bits8(c, f.candidates()),
+    );
+    (walking & !kept == 0).then_some(f)
+}
+
+/// Whether map `m` (lane `k` of a chunk whose columns [`cols_of`] took) holds the columns'
+/// numbers bit for bit: the same facets (area vectors, normals) and carrying facets' frames.
+fn map_is_cols(m: &MicrofacetNormalMap, f: &FacetCols<8>, k: usize) -> bool {
+    let at = |c: &Col3| Vec3::new(c[0][k], c[1][k], c[2][k]);
+    let same = |a: Vec3, b: Vec3| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits);
+    let surf = &m.surface;
+    let mut ok = surf.len() == f.candidates();
+    for j in 0..surf.len().min(MAX_FACETS) {
+        ok &= same(surf.area_vector(j), at(&f.area_vector_cols()[j]));
+        ok &= same(surf.normal(j), at(&f.normal_cols()[j]));
+    }
+    let carrying = if m.mirror_wall { 1 } else { surf.len() };
+    for j in 0..carrying.min(MAX_FACETS) {
+        let (g, c) = (&m.frames[j], &f.frame_cols()[j]);
+        ok &= same(g.s, at(&c[0])) && same(g.t, at(&c[1])) && same(g.n, at(&c[2]));
+    }
+    ok
 }
 
 /// A lane's columns: `[component][lane]`.
@@ -92,9 +176,12 @@ pub(super) fn frame_of(
 /// over a `roughconductor` or `roughplastic` leaf shared with the first such lane and with its
 /// `max_order` ([`reflection_walks`]), and the two-sided walk over a `roughdielectric` leaf
 /// shared likewise (also its transmission walk, [`two_sided_walks`]), each group walked
-/// together. A group of fewer than `min` lanes is not walked here (its lanes left out of
-/// `lanes`).
+/// together; only the groups of `groups` are looked for (a lane of the other group is left
+/// out of `lanes`, to the caller). A group of fewer than `min` lanes is not walked here (its
+/// lanes left out of `lanes`). `built`: the build's facet columns where the chunk's maps were
+/// written from them (the walks then read them instead of the maps, [`cols_of`]).
 #[inline(never)]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn sample_walks_x8(
     avx: Avx2,
     ctx: &BsdfContext,
@@ -102,9 +189,19 @@ pub(crate) fn sample_walks_x8(
     samplers: &mut Samplers,
     ids: &[u32; 8],
     min: u32,
+    groups: WalkGroups,
+    built: Option<BuiltFacets<'_>>,
 ) -> WalkSamples {
-    let mut out = reflection_walks(avx, ctx, pts, samplers, ids, min);
-    two_sided_walks(avx, ctx, pts, samplers, ids, min, &mut out);
+    let mut out = match groups.reflection {
+        false => WalkSamples {
+            lanes: 0,
+            out: [None; 8],
+        },
+        true => reflection_walks(avx, ctx, pts, samplers, ids, min, built),
+    };
+    if groups.two_sided {
+        two_sided_walks(avx, ctx, pts, samplers, ids, (min, built), &mut out);
+    }
     out
 }
 
@@ -119,6 +216,7 @@ fn reflection_walks(
     samplers: &mut Samplers,
     ids: &[u32; 8],
     min: u32,
+    built: Option<BuiltFacets<'_>>,
 ) -> WalkSamples {
     let mut out = WalkSamples {
         lanes: 0,
@@ -127,6 +225,7 @@ fn reflection_walks(
     let mut maps: [Option<&MicrofacetNormalMap>; 8] = [None; 8];
     let mut shared: Option<(Bsdf<'_>, u32)> = None;
     let mut wi = [[0.0f32; 8]; 3];
+    let mut mirror = 0u8;
     for (k, p) in pts.iter().enumerate() {
         let Some((b, w)) = p else { continue };
         let Some((m, nested)) = walk_alone(*b, *w) else {
@@ -143,6 +242,7 @@ fn reflection_walks(
         maps[k] = Some(m);
         set3(&mut wi, k, *w);
         out.lanes |= 1 << k;
+        mirror |= u8::from(m.mirror_wall) << k;
     }
     let Some((nested, max_order)) = shared else {
         return out;
@@ -152,39 +252,37 @@ fn reflection_walks(
         return out;
     }
     let kind = Nested::of(&nested);
-    // The points' facets, wall normal and carrying facets' frames, by lane.
-    let mut v = [[[0.0f32; 8]; 3]; MAX_FACETS];
-    let mut n1 = [[0.0f32; 8]; 3];
-    let mut fr = [[[[0.0f32; 8]; 3]; 3]; MAX_FACETS];
-    let mut mirror = 0u8;
-    for (k, m) in maps.iter().enumerate() {
-        let Some(m) = m else { continue };
-        let surf = &m.surface;
-        for (j, col) in v.iter_mut().enumerate().take(surf.len()) {
-            set3(col, k, surf.area_vector(j));
+    // The points' facets, wall normal and carrying facets' frames, by lane: the build's
+    // columns as they are where they hold the walking lanes' maps, else from each map.
+    let own;
+    let c = match cols_of(avx, built, out.lanes) {
+        Some(f) => {
+            debug_assert!(maps
+                .iter()
+                .enumerate()
+                .all(|(k, m)| m.is_none_or(|m| map_is_cols(m, f, k))));
+            Cols8 {
+                v: f.area_vector_cols(),
+                n1: &f.normal_cols()[1],
+                fr: f.frame_cols(),
+                wi: &wi,
+            }
         }
-        let carrying = if m.mirror_wall { 1 } else { surf.len() };
-        for (j, f) in fr.iter_mut().enumerate().take(carrying) {
-            let g = &m.frames[j];
-            set3(&mut f[0], k, g.s);
-            set3(&mut f[1], k, g.t);
-            set3(&mut f[2], k, g.n);
+        None => {
+            own = MapCols::of(&maps, false);
+            Cols8 {
+                v: &own.v,
+                n1: &own.n1,
+                fr: &own.fr,
+                wi: &wi,
+            }
         }
-        if m.mirror_wall {
-            set3(&mut n1, k, surf.normal(1));
-            mirror |= 1 << k;
-        }
-    }
+    };
     let walked = walk8(
         avx,
         Cols::of(avx),
         kind,
-        Cols8 {
-            v: &v,
-            n1: &n1,
-            fr: &fr,
-            wi: &wi,
-        },
+        c,
         out.lanes,
         mirror,
         max_order,
@@ -221,6 +319,59 @@ fn reflection_walks(
         out.out[k] = accept_sample(bs);
     }
     out
+}
+
+/// The walks' facet columns read from each walking lane's map (where the build's columns
+/// cannot stand in, [`cols_of`]): the area vectors (zero past a lane's facets), the carrying
+/// facets' frames (zero past them), by lane; for the two-sided walk the facets' unit normals
+/// (zero past a lane's facets), for the reflection walk the mirror wall's.
+struct MapCols {
+    v: [Col3; MAX_FACETS],
+    nrm: [Col3; MAX_FACETS],
+    /// The wall normal (facet 1's) of the lanes with a mirror wall (the reflection walk).
+    n1: Col3,
+    fr: [[Col3; 3]; MAX_FACETS],
+}
+
+impl MapCols {
+    /// The columns of the maps `maps` (`None`: a lane that does not walk, zero); the facets'
+    /// normals only for the two-sided walk (`two_sided`: the reflection walk reads the wall's
+    /// normal `n1` alone).
+    #[inline(always)]
+    fn of(maps: &[Option<&MicrofacetNormalMap>; 8], two_sided: bool) -> Self {
+        let mut c = MapCols {
+            v: [[[0.0f32; 8]; 3]; MAX_FACETS],
+            nrm: [[[0.0f32; 8]; 3]; MAX_FACETS],
+            n1: [[0.0f32; 8]; 3],
+            fr: [[[[0.0f32; 8]; 3]; 3]; MAX_FACETS],
+        };
+        for (k, m) in maps.iter().enumerate() {
+            let Some(m) = m else { continue };
+            let surf = &m.surface;
+            for (j, (vc, nc)) in
+                c.v.iter_mut()
+                    .zip(c.nrm.iter_mut())
+                    .enumerate()
+                    .take(surf.len())
+            {
+                set3(vc, k, surf.area_vector(j));
+                if two_sided {
+                    set3(nc, k, surf.normal(j));
+                }
+            }
+            let carrying = if m.mirror_wall { 1 } else { surf.len() };
+            for (j, f) in c.fr.iter_mut().enumerate().take(carrying) {
+                let g = &m.frames[j];
+                set3(&mut f[0], k, g.s);
+                set3(&mut f[1], k, g.t);
+                set3(&mut f[2], k, g.n);
+            }
+            if m.mirror_wall && !two_sided {
+                set3(&mut c.n1, k, surf.normal(1));
+            }
+        }
+        c
+    }
 }
 
 /// The walk's inputs by lane (see [`sample_walks_x8`]).
@@ -495,13 +646,14 @@ fn two_sided_walks(
     pts: &[Option<(Bsdf<'_>, Vec3)>; 8],
     samplers: &mut Samplers,
     ids: &[u32; 8],
-    min: u32,
+    (min, built): (u32, Option<BuiltFacets<'_>>),
     out: &mut WalkSamples,
 ) {
     let mut lanes = 0u8;
-    let mut maps: [Option<(Bsdf<'_>, &MicrofacetNormalMap)>; 8] = [None; 8];
+    let mut maps: [Option<&MicrofacetNormalMap>; 8] = [None; 8];
     let mut shared: Option<(Bsdf<'_>, u32, bool)> = None;
     let mut wi = [[0.0f32; 8]; 3];
+    let mut mirror = 0u8;
     for (k, p) in pts.iter().enumerate() {
         let Some((b, w)) = p else { continue };
         if out.lanes & (1 << k) != 0 {
@@ -522,9 +674,10 @@ fn two_sided_walks(
         {
             continue;
         }
-        maps[k] = Some((*b, m));
+        maps[k] = Some(m);
         set3(&mut wi, k, *w);
         lanes |= 1 << k;
+        mirror |= u8::from(m.mirror_wall) << k;
     }
     let Some((nested, max_order, exits)) = shared else {
         return;
@@ -535,44 +688,38 @@ fn two_sided_walks(
     let BsdfNode::RoughDielectric(leaf) = nested.node() else {
         unreachable!("the walking lanes' leaf is a rough dielectric");
     };
-    // The points' facets (area vectors and normals), the carrying facets' frames, by lane.
-    let mut v = [[[0.0f32; 8]; 3]; MAX_FACETS];
-    let mut nrm = [[[0.0f32; 8]; 3]; MAX_FACETS];
-    let mut fr = [[[[0.0f32; 8]; 3]; 3]; MAX_FACETS];
-    let mut mirror = 0u8;
-    for (k, m) in maps.iter().enumerate() {
-        let Some((_, m)) = m else { continue };
-        let surf = &m.surface;
-        for (j, (vc, nc)) in v
-            .iter_mut()
-            .zip(nrm.iter_mut())
-            .enumerate()
-            .take(surf.len())
-        {
-            set3(vc, k, surf.area_vector(j));
-            set3(nc, k, surf.normal(j));
+    // The points' facets (area vectors and normals), the carrying facets' frames, by lane:
+    // the build's columns as they are where they hold the walking lanes' maps, else from
+    // each map.
+    let own;
+    let c = match cols_of(avx, built, lanes) {
+        Some(f) => {
+            debug_assert!(maps
+                .iter()
+                .enumerate()
+                .all(|(k, m)| m.is_none_or(|m| map_is_cols(m, f, k))));
+            ColsT {
+                v: f.area_vector_cols(),
+                nrm: f.normal_cols(),
+                fr: f.frame_cols(),
+                wi: &wi,
+            }
         }
-        let carrying = if m.mirror_wall { 1 } else { surf.len() };
-        for (j, f) in fr.iter_mut().enumerate().take(carrying) {
-            let g = &m.frames[j];
-            set3(&mut f[0], k, g.s);
-            set3(&mut f[1], k, g.t);
-            set3(&mut f[2], k, g.n);
+        None => {
+            own = MapCols::of(&maps, true);
+            ColsT {
+                v: &own.v,
+                nrm: &own.nrm,
+                fr: &own.fr,
+                wi: &wi,
+            }
         }
-        if m.mirror_wall {
-            mirror |= 1 << k;
-        }
-    }
+    };
     let walked = walk8_t(
         avx,
         leaf,
         ctx.mode,
-        ColsT {
-            v: &v,
-            nrm: &nrm,
-            fr: &fr,
-            wi: &wi,
-        },
+        c,
         (lanes, mirror, max_order, exits),
         samplers,
         ids,
@@ -588,7 +735,8 @@ fn two_sided_walks(
         if walked.escaped & (1 << k) == 0 {
             continue;
         }
-        let (b, m) = maps[k].expect("a walked lane has its map");
+        let m = maps[k].expect("a walked lane has its map");
+        let b = pts[k].expect("a walked lane has its point").0;
         let at = |c: &Col3| Vec3::new(c[0][k], c[1][k], c[2][k]);
         let (wi, wo) = (at(&wi), at(&walked.wo));
         let lobe = if walked.transmitted & (1 << k) != 0 {
@@ -793,9 +941,10 @@ fn walk8_t(
 #[cfg(test)]
 pub(super) mod tests {
     use super::*;
-    use crate::bsdf::mnm::facets::Microgeometry;
+    use crate::bsdf::mnm::facets::{MaxTilt, Microgeometry};
     use crate::bsdf::mnm::{Evaluation, Tangent};
     use crate::bsdf::BsdfArena;
+    use crate::material::{MnmCols, MnmSettings};
     use crate::math::Pcg32;
     use crate::sampler::{Sampler, SamplerDesc, SamplerKind};
 
@@ -859,6 +1008,7 @@ pub(super) mod tests {
         ];
         let (mut escaped, mut absorbed, mut walks, mut vertices, mut stratified_draws) =
             (0, 0, 0, 0, 0);
+        let mut col_rounds = 0;
         for round in 0..3000 {
             let mut arena = BsdfArena::new();
             let nested = crate::bsdf::mnm::compensated::tests::push_reflectors(&mut arena);
@@ -866,26 +1016,35 @@ pub(super) mod tests {
             let (geo, tangent) = geometries[(round / 3) % geometries.len()];
             let max_order = [1, 3, 10][(round / 15) % 3];
             let stratified = round % 2 == 1;
+            // Most rounds build their maps as the stream kernel does, from the build's
+            // columns (a few lanes not); the others by `MicrofacetNormalMap::new`.
+            let build = ColBuild::new(avx, &mut rng, (geo, tangent), max_order, walk_of(0));
+            let by_cols = round % 5 < 3;
+            let mut from_cols = 0u8;
             let mut pts: [Option<(u32, Vec3)>; 8] = [None; 8];
-            for p in pts.iter_mut() {
+            for (k, p) in pts.iter_mut().enumerate() {
                 if rng.next_u32().is_multiple_of(6) {
                     continue; // a lane without a point
                 }
-                let m = MicrofacetNormalMap::new(
-                    n,
-                    random_wp(&mut rng),
-                    geo,
-                    tangent,
-                    Evaluation::RandomWalk,
-                    max_order,
-                );
-                *p = Some((arena.push_microfacet_normal_map(m), random_wi(&mut rng)));
+                let col = by_cols && !rng.next_u32().is_multiple_of(16);
+                from_cols |= u8::from(col) << k;
+                *p = Some((build.push(&mut arena, n, k, col), random_wi(&mut rng)));
             }
             let (mut all, ids, mut cols) = streams(&mut rng, stratified, &mut stratified_draws);
             let arena = &arena;
             let lanes: [Option<(Bsdf<'_>, Vec3)>; 8] =
                 std::array::from_fn(|k| pts[k].map(|(r, wi)| (arena.bsdf(r), wi)));
-            let got = sample_walks_x8(avx, &ctx, &lanes, &mut cols, &ids, 1);
+            // The kernel's group for reflecting leaves, and both groups (the same lanes).
+            let groups = WalkGroups {
+                reflection: true,
+                two_sided: round % 4 == 3,
+            };
+            let built = by_cols.then_some(BuiltFacets {
+                facets: build.cols.facets(),
+                lanes: from_cols,
+            });
+            let got = sample_walks_x8(avx, &ctx, &lanes, &mut cols, &ids, 1, groups, built);
+            col_rounds += build.check(avx, arena, &pts, built, got.lanes);
             let counted = arena.take_walk_counts();
             let mut want_lanes = 0u8;
             for (k, p) in pts.iter().enumerate() {
@@ -923,10 +1082,112 @@ pub(super) mod tests {
             assert_same_streams(&mut all, &cols, round);
         }
         // Most lanes walk; a fair share of them escape, of the others many are absorbed;
-        // walks of several vertices; streams still stratified.
+        // walks of several vertices; streams still stratified; walks from the build's
+        // columns.
         assert!(escaped > 8000 && absorbed > 1000, "{escaped} {absorbed}");
         assert!(vertices as f64 > 1.3 * walks as f64, "{walks} {vertices}");
         assert!(stratified_draws > 3000, "{stratified_draws}");
+        assert!(col_rounds > 500, "{col_rounds}");
+    }
+
+    /// The early-exit walk for `1`, else the two-sided one.
+    fn walk_of(i: usize) -> TransmissionWalk {
+        if i == 1 {
+            TransmissionWalk::ExitOnRefraction
+        } else {
+            TransmissionWalk::TwoSided
+        }
+    }
+
+    /// A test chunk's build as the stream kernel's: 8 random perturbed normals (`random_wp`)
+    /// through `MnmSettings::lanes_at` (of their normal map values), stored: the facet columns
+    /// that the kernel hands the walks ([`BuiltFacets`]).
+    struct ColBuild {
+        settings: MnmSettings,
+        cols: MnmCols<8>,
+        wp: [Vec3; 8],
+    }
+
+    impl ColBuild {
+        fn new(
+            avx: Avx2,
+            rng: &mut Pcg32,
+            (geometry, tangent): (Microgeometry, Tangent),
+            max_order: u32,
+            transmission_walk: TransmissionWalk,
+        ) -> Self {
+            let wp: [Vec3; 8] = std::array::from_fn(|_| random_wp(rng));
+            let settings = MnmSettings {
+                geometry,
+                tangent,
+                evaluation: Evaluation::RandomWalk,
+                max_order,
+                max_theta: MaxTilt::new(85f32.to_radians()),
+                transmission_walk,
+                lambert_closed_form: true,
+                ms_table: None,
+            };
+            // The normal map's values of the normals (2·rgb − 1 gives them back; flat stays
+            // flat).
+            let rgb: [Vec3; 8] = wp.map(|w| 0.5 * (w + Vec3::ONE));
+            let cols = avx.run(|| {
+                let col = |c: usize| avx.load(&rgb.map(|v| v[c]));
+                settings
+                    .lanes_at(V3::new(col(0), col(1), col(2)))
+                    .cols::<8>()
+            });
+            ColBuild { settings, cols, wp }
+        }
+
+        /// Lane `k`'s map over `nested`: written from the columns as the kernel's build
+        /// writes it (`MnmSettings::map_lane_into`) where `from_cols`, else
+        /// `MicrofacetNormalMap::new` of the lane's perturbed normal with the settings'.
+        fn push(&self, arena: &mut BsdfArena, nested: u32, k: usize, from_cols: bool) -> u32 {
+            if from_cols {
+                arena.push_microfacet_normal_map_with(nested, |m| {
+                    self.settings.map_lane_into(m, nested, &self.cols, k);
+                })
+            } else {
+                let s = &self.settings;
+                let m = MicrofacetNormalMap::new(
+                    nested,
+                    self.wp[k],
+                    s.geometry,
+                    s.tangent,
+                    s.evaluation,
+                    s.max_order,
+                )
+                .with_transmission_walk(s.transmission_walk);
+                arena.push_microfacet_normal_map(m)
+            }
+        }
+
+        /// Every map of `pts` written from the columns (`built.lanes`) that keeps all the
+        /// candidates holds the columns' numbers bit for bit (the walks' debug assertion,
+        /// here in the release build too); returns 1 where the walks read the columns
+        /// ([`cols_of`] of the walked lanes `walked`), else 0.
+        fn check(
+            &self,
+            avx: Avx2,
+            arena: &BsdfArena,
+            pts: &[Option<(u32, Vec3)>; 8],
+            built: Option<BuiltFacets<'_>>,
+            walked: u8,
+        ) -> usize {
+            let Some(b) = built else { return 0 };
+            let f = b.facets;
+            for (k, p) in pts.iter().enumerate() {
+                let Some((r, _)) = p else { continue };
+                if b.lanes & (1 << k) == 0 || !f.keeps(f.candidates(), k) {
+                    continue;
+                }
+                let BsdfNode::MicrofacetNormalMap { map, .. } = arena.bsdf(*r).node() else {
+                    unreachable!("a map");
+                };
+                assert!(map_is_cols(&arena.mnm[*map as usize], f, k), "lane {k}");
+            }
+            usize::from(cols_of(avx, built, walked).is_some())
+        }
     }
 
     /// 12 streams for a test chunk (independent, or stratified ones with 0 to 2 of their
@@ -1021,6 +1282,7 @@ pub(super) mod tests {
         ];
         let (mut transmitted, mut reflected, mut absorbed, mut from_below) = (0, 0, 0, 0);
         let (mut walks, mut vertices, mut stratified_draws, mut reflection_lanes) = (0, 0, 0, 0);
+        let mut col_rounds = 0;
         for round in 0..3000 {
             let mut arena = BsdfArena::new();
             let dielectrics = [
@@ -1043,11 +1305,7 @@ pub(super) mod tests {
             let n = dielectrics[round % 2];
             let (geo, tangent) = geometries[(round / 2) % geometries.len()];
             let max_order = [1, 3, 10][(round / 10) % 3];
-            let walk = if (round / 30) % 2 == 0 {
-                TransmissionWalk::TwoSided
-            } else {
-                TransmissionWalk::ExitOnRefraction
-            };
+            let walk = walk_of((round / 30) % 2);
             let ctx = BsdfContext {
                 mode: if (round / 60) % 2 == 0 {
                     TransportMode::Radiance
@@ -1056,41 +1314,58 @@ pub(super) mod tests {
                 },
             };
             let stratified = round % 3 == 1;
+            // Most rounds' maps from the build's columns (a few lanes not), as in the kernel.
+            let build = ColBuild::new(avx, &mut rng, (geo, tangent), max_order, walk);
+            let by_cols = round % 5 < 3;
+            let mut from_cols = 0u8;
             let mut pts: [Option<(u32, Vec3)>; 8] = [None; 8];
-            for p in pts.iter_mut() {
+            let mut any_reflecting = false;
+            for (k, p) in pts.iter_mut().enumerate() {
                 if rng.next_u32().is_multiple_of(7) {
                     continue; // a lane without a point
                 }
                 let reflecting = rng.next_u32().is_multiple_of(9);
-                let m = MicrofacetNormalMap::new(
-                    if reflecting { conductor } else { n },
-                    random_wp(&mut rng),
-                    geo,
-                    tangent,
-                    Evaluation::RandomWalk,
-                    max_order,
-                )
-                .with_transmission_walk(walk);
+                any_reflecting |= reflecting;
+                let col = by_cols && !rng.next_u32().is_multiple_of(16);
+                from_cols |= u8::from(col) << k;
+                let r = build.push(&mut arena, if reflecting { conductor } else { n }, k, col);
                 let wi = if reflecting {
                     random_wi(&mut rng)
                 } else {
                     random_wi_both(&mut rng)
                 };
-                *p = Some((arena.push_microfacet_normal_map(m), wi));
+                *p = Some((r, wi));
             }
             let (mut all, ids, mut cols) = streams(&mut rng, stratified, &mut stratified_draws);
             let arena = &arena;
             let lanes: [Option<(Bsdf<'_>, Vec3)>; 8] =
                 std::array::from_fn(|k| pts[k].map(|(r, wi)| (arena.bsdf(r), wi)));
-            let got = sample_walks_x8(avx, &ctx, &lanes, &mut cols, &ids, 1);
+            // The kernel's group for a transmitting leaf where no lane reflects; both groups
+            // (the same lanes); on mixed chunks also one group alone (the other's lanes left
+            // to the caller, their streams untouched).
+            let groups = match (any_reflecting, round % 4) {
+                (false, 0 | 1) | (true, 1) => WalkGroups::of_lobes(Lobes::GLOSSY_TRANSMISSION),
+                (true, 2) => WalkGroups::of_lobes(Lobes::GLOSSY_REFLECTION),
+                _ => WalkGroups {
+                    reflection: true,
+                    two_sided: true,
+                },
+            };
+            let built = by_cols.then_some(BuiltFacets {
+                facets: build.cols.facets(),
+                lanes: from_cols,
+            });
+            let got = sample_walks_x8(avx, &ctx, &lanes, &mut cols, &ids, 1, groups, built);
+            col_rounds += build.check(avx, arena, &pts, built, got.lanes);
             let counted = arena.take_walk_counts();
             let mut want_lanes = 0u8;
             for (k, p) in pts.iter().enumerate() {
                 if let Some((r, wi)) = p {
                     let b = arena.bsdf(*r);
-                    let walks = walk_two_sided(b, *wi).is_some() || walk_alone(b, *wi).is_some();
-                    want_lanes |= u8::from(walks) << k;
-                    reflection_lanes += usize::from(walk_alone(b, *wi).is_some());
+                    let two = walk_two_sided(b, *wi).is_some() && groups.two_sided;
+                    let one = walk_alone(b, *wi).is_some() && groups.reflection;
+                    want_lanes |= u8::from(two || one) << k;
+                    reflection_lanes += usize::from(one);
                 }
             }
             assert_eq!(got.lanes, want_lanes, "round {round}");
@@ -1138,5 +1413,7 @@ pub(super) mod tests {
             stratified_draws > 2000 && reflection_lanes > 1000,
             "{stratified_draws}"
         );
+        // Walks from the build's columns.
+        assert!(col_rounds > 500, "{col_rounds}");
     }
 }
