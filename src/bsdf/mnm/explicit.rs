@@ -99,12 +99,48 @@ impl PdfTerms {
         t
     }
 
+    /// [`Self::mirror`]'s terms from their values computed elsewhere (the stream kernel's
+    /// lanes, `walk_density_lanes`): `l` = λ(ωi) (λp, λt), `g1o` = G1(ωo), `wall_o` = (R(ωo),
+    /// G1(R(ωo))) where ωo faces the wall (ωo·ωt > 0), `rwi` = R(ωi) where ωi does. The same
+    /// terms in the same order as `mirror` from the same values, G1(ωo) and G1(R(ωo)) kept
+    /// where `mirror` keeps them.
+    #[inline(always)]
+    pub(super) fn mirror_of(
+        wi: Vec3,
+        wo: Vec3,
+        l: [f32; MAX_FACETS],
+        g1o: f32,
+        wall_o: Option<(Vec3, f32)>,
+        rwi: Option<Vec3>,
+    ) -> Self {
+        let [lp, lt, _] = l;
+        let mut t = Self::empty();
+        if lp > 0.0 {
+            t.g1o = Some(g1o);
+            t.push(0, wi, wo, lp * g1o);
+            if let Some((rwo, g1r)) = wall_o {
+                t.g1r = Some(g1r);
+                t.push(0, wi, rwo, lp * (1.0 - g1r));
+            }
+        }
+        if let Some(rwi) = rwi {
+            t.push(0, rwi, wo, lt);
+        }
+        t
+    }
+
     /// The terms of [`pdf_single`] (§3): λ_k(ωi) · P_k(ωi, ωo) for every facet seen from ωi.
     pub(super) fn single(m: &MicrofacetNormalMap, wi: Vec3, wo: Vec3) -> Self {
         let surf = &m.surface;
-        let l = surf.lambdas(wi);
+        Self::single_of(wi, wo, surf.lambdas(wi), surf.len())
+    }
+
+    /// [`Self::single`]'s terms from λ(ωi) = `l` over the microsurface's `n` facets (the
+    /// stream kernel's lanes compute λ 8-wide, `walk_density_lanes`).
+    #[inline(always)]
+    pub(super) fn single_of(wi: Vec3, wo: Vec3, l: [f32; MAX_FACETS], n: usize) -> Self {
         let mut t = Self::empty();
-        for (k, &lk) in l.iter().enumerate().take(surf.len()) {
+        for (k, &lk) in l.iter().enumerate().take(n) {
             if lk > 0.0 {
                 t.push(k, wi, wo, lk);
             }
@@ -116,6 +152,12 @@ impl PdfTerms {
     #[inline(always)]
     pub(super) fn len(&self) -> usize {
         self.n
+    }
+
+    /// Term j's density P_j when known ([`Self::know`], or from a fused call of [`Terms::f`]).
+    #[inline(always)]
+    pub(super) fn known(&self, j: usize) -> Option<f32> {
+        self.p[j]
     }
 
     /// Term j's facet and pair (k, a, b).

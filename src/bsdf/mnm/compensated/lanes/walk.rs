@@ -16,9 +16,9 @@
 //! masked 8-wide PCG32 steps on the batch's columns ([`super::draws`]); a stream whose 2-D
 //! draw is still stratified draws it alone (`Samplers::next_2d`). The walks' ends are counted
 //! as the scalar walk counts them (`Bsdf::record_walk`, the bench's mean walk length), and
-//! each escaped walk's MIS density is the scalar one's, lane by lane, from the walk's results
-//! ([`crate::bsdf::mnm::walk_sample_of`]). So every lane's sample and stream end where the
-//! scalar `Bsdf::sample` leaves them (`tests`).
+//! each escaped walk's MIS density is the scalar one's (`mnm::walk_sample_of`'s) from the
+//! walk's results, its nested densities in 8-wide calls (`mnm::walk_density_lanes`). So every
+//! lane's sample and stream end where the scalar `Bsdf::sample` leaves them (`tests`).
 //!
 //! The two-sided walk over a transmitting leaf ([`crate::bsdf::mnm::walk::sample_t`], spec
 //! §9.2–9.4; [`crate::bsdf::mnm::walk_two_sided`]) runs the same way for the lanes over a
@@ -36,8 +36,10 @@ use super::sample::{accepted, draws_u1, Asks};
 use super::Cols;
 use crate::bsdf::mnm::facets::{SurfaceLanes, MAX_FACETS};
 use crate::bsdf::mnm::walk::FirstVertex;
-use crate::bsdf::mnm::{explicit::lobe_of, walk_alone, walk_sample_of, MicrofacetNormalMap};
-use crate::bsdf::mnm::walk_density_lanes::{two_sided_p1, two_sided_pdf, TwoSidedCols};
+use crate::bsdf::mnm::walk_density_lanes::{
+    reflection_pdfs, two_sided_p1, two_sided_pdf, Escaped, ReflectionCols, TwoSidedCols,
+};
+use crate::bsdf::mnm::{explicit::lobe_of, walk_alone, MicrofacetNormalMap};
 use crate::bsdf::mnm::{walk_two_sided, TransmissionWalk};
 use crate::bsdf::roughdielectric::RoughDielectric;
 use crate::bsdf::{accept_sample, Bsdf, BsdfContext, BsdfNode, BsdfSample, Lobes, TransportMode};
@@ -189,7 +191,7 @@ fn reflection_walks(
         samplers,
         ids,
     );
-    let lobe = lobe_of(nested.lobes());
+    let mut escaped: [Option<Escaped<'_>>; 8] = [None; 8];
     let mut rest = out.lanes;
     while rest != 0 {
         let k = rest.trailing_zeros() as usize;
@@ -206,17 +208,33 @@ fn reflection_walks(
             k: walked.first_k[k] as usize,
             pdf: walked.first_pdf[k],
         });
-        let bs = walk_sample_of(
+        escaped[k] = Some(Escaped {
             m,
-            &nested,
-            ctx,
-            at(&wi),
-            at(&walked.wo),
-            at(&walked.weight),
-            lobe,
+            wi: at(&wi),
+            wo: at(&walked.wo),
             first,
-        );
-        out.out[k] = accept_sample(bs);
+        });
+    }
+    // The escaped walks' MIS densities (`mnm::walk_sample_of`'s), their nested densities in
+    // 8-wide calls; then `walk_sample_of`'s sample, `Bsdf::sample`'s rejection.
+    let cols = ReflectionCols {
+        v: &v,
+        n1: &n1,
+        wi: &wi,
+        wo: &walked.wo,
+    };
+    let pdf = reflection_pdfs(avx, &nested, ctx, cols, mirror, &escaped);
+    let lobe = lobe_of(nested.lobes());
+    for (k, e) in escaped.iter().enumerate() {
+        let Some(e) = e else { continue };
+        let w = &walked.weight;
+        out.out[k] = accept_sample(BsdfSample {
+            wo: e.wo,
+            pdf: pdf[k],
+            weight: Vec3::new(w[0][k], w[1][k], w[2][k]),
+            eta: 1.0,
+            lobe,
+        });
     }
     out
 }
