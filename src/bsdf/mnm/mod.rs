@@ -44,6 +44,7 @@ pub mod ms_nested;
 pub mod ms_table;
 mod nested_batch;
 pub mod walk;
+mod walk_density_lanes;
 pub(crate) mod walk_pdf_lanes;
 
 use super::{Bsdf, BsdfContext, BsdfSample};
@@ -813,8 +814,9 @@ fn walk_sample(
 }
 
 /// [`walk_sample`]'s sample from its walk's results (ωo, throughput, lobe, first vertex):
-/// the MIS density of decision 3 with the first vertex's term known. Also the end of the
-/// walks run 8 at a time (`compensated::lanes::walk`), lane by lane.
+/// the MIS density of decision 3 with the first vertex's term known. The walks run 8 at a
+/// time (`compensated::lanes::walk`) report the same density with their nested densities in
+/// 8-wide calls (`walk_density_lanes::reflection_pdfs`).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn walk_sample_of(

@@ -16,16 +16,16 @@
 //! masked 8-wide PCG32 steps on the batch's columns ([`super::draws`]); a stream whose 2-D
 //! draw is still stratified draws it alone (`Samplers::next_2d`). The walks' ends are counted
 //! as the scalar walk counts them (`Bsdf::record_walk`, the bench's mean walk length), and
-//! each escaped walk's MIS density is the scalar one's, lane by lane, from the walk's results
-//! ([`crate::bsdf::mnm::walk_sample_of`]). So every lane's sample and stream end where the
-//! scalar `Bsdf::sample` leaves them (`tests`).
+//! each escaped walk's MIS density is the scalar one's (`mnm::walk_sample_of`'s) from the
+//! walk's results, its nested densities in 8-wide calls (`mnm::walk_density_lanes`). So every
+//! lane's sample and stream end where the scalar `Bsdf::sample` leaves them (`tests`).
 //!
 //! The two-sided walk over a transmitting leaf ([`crate::bsdf::mnm::walk::sample_t`], spec
 //! §9.2–9.4; [`crate::bsdf::mnm::walk_two_sided`]) runs the same way for the lanes over a
 //! shared `roughdielectric` leaf ([`walk8_t`]): the entry from ωi's side, the side-dependent
 //! exit test and pick, η multiplied in, the early-exit walk's end at a refraction; its
-//! density is the scalar `pdf` of each lane's map, lane by lane after the walk, as
-//! `mnm::sample` computes it.
+//! density is the scalar `pdf` of each lane's map as `mnm::sample` computes it, 8-wide after
+//! the walk (`mnm::walk_density_lanes`).
 //!
 //! Here rather than beside `walk.rs`: it reuses this module's private pieces (the nested
 //! lane samples [`super::sample::Asks`], the masked draws [`super::draws`]).
@@ -36,8 +36,11 @@ use super::sample::{accepted, draws_u1, Asks};
 use super::Cols;
 use crate::bsdf::mnm::facets::{FacetCols, SurfaceLanes, MAX_FACETS};
 use crate::bsdf::mnm::walk::FirstVertex;
-use crate::bsdf::mnm::{explicit::lobe_of, walk_alone, walk_sample_of, MicrofacetNormalMap};
-use crate::bsdf::mnm::{pdf as mnm_pdf, walk_two_sided, TransmissionWalk};
+use crate::bsdf::mnm::walk_density_lanes::{
+    reflection_pdfs, two_sided_p1, two_sided_pdf, Escaped, ReflectionCols, TwoSidedCols,
+};
+use crate::bsdf::mnm::{explicit::lobe_of, walk_alone, MicrofacetNormalMap};
+use crate::bsdf::mnm::{walk_two_sided, TransmissionWalk};
 use crate::bsdf::roughdielectric::RoughDielectric;
 use crate::bsdf::{accept_sample, Bsdf, BsdfContext, BsdfNode, BsdfSample, Lobes, TransportMode};
 use crate::lane::frame::Frame as LaneFrame;
@@ -278,6 +281,8 @@ fn reflection_walks(
             }
         }
     };
+    // (The columns' references, kept for the density after the walk.)
+    let (cv, cn1) = (c.v, c.n1);
     let walked = walk8(
         avx,
         Cols::of(avx),
@@ -289,7 +294,7 @@ fn reflection_walks(
         samplers,
         ids,
     );
-    let lobe = lobe_of(nested.lobes());
+    let mut escaped: [Option<Escaped<'_>>; 8] = [None; 8];
     let mut rest = out.lanes;
     while rest != 0 {
         let k = rest.trailing_zeros() as usize;
@@ -306,17 +311,33 @@ fn reflection_walks(
             k: walked.first_k[k] as usize,
             pdf: walked.first_pdf[k],
         });
-        let bs = walk_sample_of(
+        escaped[k] = Some(Escaped {
             m,
-            &nested,
-            ctx,
-            at(&wi),
-            at(&walked.wo),
-            at(&walked.weight),
-            lobe,
+            wi: at(&wi),
+            wo: at(&walked.wo),
             first,
-        );
-        out.out[k] = accept_sample(bs);
+        });
+    }
+    // The escaped walks' MIS densities (`mnm::walk_sample_of`'s), their nested densities in
+    // 8-wide calls; then `walk_sample_of`'s sample, `Bsdf::sample`'s rejection.
+    let cols = ReflectionCols {
+        v: cv,
+        n1: cn1,
+        wi: &wi,
+        wo: &walked.wo,
+    };
+    let pdf = reflection_pdfs(avx, &nested, ctx, cols, mirror, &escaped);
+    let lobe = lobe_of(nested.lobes());
+    for (k, e) in escaped.iter().enumerate() {
+        let Some(e) = e else { continue };
+        let w = &walked.weight;
+        out.out[k] = accept_sample(BsdfSample {
+            wo: e.wo,
+            pdf: pdf[k],
+            weight: Vec3::new(w[0][k], w[1][k], w[2][k]),
+            eta: 1.0,
+            lobe,
+        });
     }
     out
 }
@@ -636,8 +657,9 @@ fn walk8(
 /// so none of them walks two-sided), those whose sample is the two-sided or early-exit walk
 /// ([`walk_two_sided`]) over a `roughdielectric` leaf shared with the first such lane, with
 /// its `max_order` and its transmission walk, walked together ([`walk8_t`]) and added to
-/// `out`. Each escaped walk's density is the scalar `pdf` of its map lane by lane (as
-/// `mnm::sample` reports it), then `Bsdf::sample`'s rejection of degenerate samples. Fewer
+/// `out`. Each escaped walk's density is the scalar `pdf` of its map (as `mnm::sample`
+/// reports it; 8-wide, `walk_density_lanes`), then `Bsdf::sample`'s rejection of degenerate
+/// samples. Fewer
 /// than `min` such lanes: none is walked.
 #[inline(always)]
 fn two_sided_walks(
@@ -715,6 +737,8 @@ fn two_sided_walks(
             }
         }
     };
+    // (The columns' references, kept for the density after the walk.)
+    let (cv, cnrm, cfr) = (c.v, c.nrm, c.fr);
     let walked = walk8_t(
         avx,
         leaf,
@@ -725,6 +749,21 @@ fn two_sided_walks(
         ids,
     );
     out.lanes |= lanes;
+    // The escaped walks' p1 (`walk::single_scatter_pdf_t`), 8-wide.
+    let p1 = two_sided_p1(
+        avx,
+        leaf,
+        exits,
+        TwoSidedCols {
+            v: cv,
+            nrm: cnrm,
+            fr: cfr,
+            wi: &wi,
+            wo: &walked.wo,
+        },
+        walked.escaped,
+        mirror,
+    );
     let mut rest = lanes;
     while rest != 0 {
         let k = rest.trailing_zeros() as usize;
@@ -736,7 +775,6 @@ fn two_sided_walks(
             continue;
         }
         let m = maps[k].expect("a walked lane has its map");
-        let b = pts[k].expect("a walked lane has its point").0;
         let at = |c: &Col3| Vec3::new(c[0][k], c[1][k], c[2][k]);
         let (wi, wo) = (at(&wi), at(&walked.wo));
         let lobe = if walked.transmitted & (1 << k) != 0 {
@@ -746,7 +784,7 @@ fn two_sided_walks(
         };
         out.out[k] = accept_sample(BsdfSample {
             wo,
-            pdf: mnm_pdf(b, m, ctx, wi, wo),
+            pdf: two_sided_pdf(m, p1[k], wi, wo),
             weight: at(&walked.weight),
             eta: walked.eta[k],
             lobe,
