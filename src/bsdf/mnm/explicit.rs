@@ -16,6 +16,7 @@
 //! P_p(a_e, R(ωo))] (R has unit Jacobian).
 
 use super::facets::MAX_FACETS;
+use super::walk::Terms;
 use super::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfContext, BsdfSample, Lobes};
 use crate::sampler::Sampler;
@@ -37,7 +38,7 @@ pub(super) fn pdf_mirror(
 /// Variant M's three paths (§4.2) or single scattering's one term per facet (§3). Listing the
 /// terms before evaluating them lets a caller that also evaluates the nested BSDF at some of the
 /// same (facet, a, b) — the random walk's next-event estimate at its first vertices — take both
-/// from one fused nested `eval_pdf` ([`PdfTerms::f`]). Fixed capacity: no allocation.
+/// from one fused nested `eval_pdf` (`PdfTerms`' [`Terms::f`]). Fixed capacity: no allocation.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct PdfTerms {
     k: [usize; MAX_FACETS],
@@ -48,7 +49,7 @@ pub(super) struct PdfTerms {
     p: [Option<f32>; MAX_FACETS],
     n: usize,
     /// G1(ωo) and G1(R(ωo)) when [`Self::mirror`] computed them: the walk's next-event
-    /// estimate needs the same masking values ([`Self::g1_wo`], [`Self::g1_rwo`]).
+    /// estimate needs the same masking values ([`Terms::g1_wo`], [`Terms::g1_rwo`]).
     g1o: Option<f32>,
     g1r: Option<f32>,
 }
@@ -66,18 +67,6 @@ impl PdfTerms {
             g1o: None,
             g1r: None,
         }
-    }
-
-    /// G1(ωo) (the `wo` these terms were built for), computed once.
-    #[inline]
-    pub(super) fn g1_wo(&mut self, m: &MicrofacetNormalMap, wo: Vec3) -> f32 {
-        *self.g1o.get_or_insert_with(|| m.surface.g1(wo))
-    }
-
-    /// G1(R(ωo)) (`rwo` = R(ωo) of the `wo` these terms were built for), computed once.
-    #[inline]
-    pub(super) fn g1_rwo(&mut self, m: &MicrofacetNormalMap, rwo: Vec3) -> f32 {
-        *self.g1r.get_or_insert_with(|| m.surface.g1(rwo))
     }
 
     fn push(&mut self, k: usize, a: Vec3, b: Vec3, w: f32) {
@@ -121,30 +110,6 @@ impl PdfTerms {
             }
         }
         t
-    }
-
-    /// F_k(a, b) (nested eval in facet k's frame); when (k, a, b) is a term whose P is still
-    /// unknown, P comes from the same fused nested `eval_pdf` call.
-    #[inline]
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn f(
-        &mut self,
-        m: &MicrofacetNormalMap,
-        nested: &Bsdf,
-        k: usize,
-        ctx: &BsdfContext,
-        a: Vec3,
-        b: Vec3,
-        s: &mut Sampler,
-    ) -> Spectrum {
-        for j in 0..self.n {
-            if self.p[j].is_none() && self.k[j] == k && self.a[j] == a && self.b[j] == b {
-                let (f, p) = m.fp(nested, k, ctx, a, b, s);
-                self.p[j] = Some(p);
-                return f;
-            }
-        }
-        m.f(nested, k, ctx, a, b, s)
     }
 
     /// How many terms.
@@ -192,6 +157,47 @@ impl PdfTerms {
             p += self.w[j] * pj;
         }
         p
+    }
+}
+
+/// The walk's view of the terms ([`super::walk::eval`]): G1(ωo) and G1(R(ωo)) computed once
+/// and kept beside the terms, and each nested eval of the walk fused with its term's density
+/// where the pair is a term whose P is still unknown.
+impl Terms for PdfTerms {
+    /// G1(ωo) (the `wo` these terms were built for), computed once.
+    #[inline]
+    fn g1_wo(&mut self, m: &MicrofacetNormalMap, wo: Vec3) -> f32 {
+        *self.g1o.get_or_insert_with(|| m.surface.g1(wo))
+    }
+
+    /// G1(R(ωo)) (`rwo` = R(ωo) of the `wo` these terms were built for), computed once.
+    #[inline]
+    fn g1_rwo(&mut self, m: &MicrofacetNormalMap, rwo: Vec3) -> f32 {
+        *self.g1r.get_or_insert_with(|| m.surface.g1(rwo))
+    }
+
+    /// F_k(a, b) (nested eval in facet k's frame); when (k, a, b) is a term whose P is still
+    /// unknown, P comes from the same fused nested `eval_pdf` call.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    fn f(
+        &mut self,
+        m: &MicrofacetNormalMap,
+        nested: &Bsdf,
+        k: usize,
+        ctx: &BsdfContext,
+        a: Vec3,
+        b: Vec3,
+        s: &mut Sampler,
+    ) -> Spectrum {
+        for j in 0..self.n {
+            if self.p[j].is_none() && self.k[j] == k && self.a[j] == a && self.b[j] == b {
+                let (f, p) = m.fp(nested, k, ctx, a, b, s);
+                self.p[j] = Some(p);
+                return f;
+            }
+        }
+        m.f(nested, k, ctx, a, b, s)
     }
 }
 

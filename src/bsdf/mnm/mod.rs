@@ -44,6 +44,7 @@ pub mod ms_nested;
 pub mod ms_table;
 mod nested_batch;
 pub mod walk;
+mod walk_density_lanes;
 pub(crate) mod walk_pdf_lanes;
 
 use super::{Bsdf, BsdfContext, BsdfSample};

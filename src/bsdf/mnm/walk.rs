@@ -9,7 +9,7 @@
 //! through the mirror (correction 1 of the decisions page; without it a furnace reads 0.76 at
 //! θp = 60°).
 
-use super::explicit::{lobe_of, PdfTerms};
+use super::explicit::lobe_of;
 use super::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfContext, Lobes};
 use crate::sampler::Sampler;
@@ -23,7 +23,7 @@ fn mirror(d: Vec3, n: Vec3) -> Vec3 {
 
 /// A walk that escaped right after its first vertex, on facet `k` (not the mirror): ωo was
 /// sampled by the nested BSDF from ωi in facet k's frame with density `pdf`, which is the term
-/// P_k(ωi, ωo) of the MIS density ([`PdfTerms::know`]).
+/// P_k(ωi, ωo) of the MIS density (`PdfTerms::know`).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct FirstVertex {
     pub k: usize,
@@ -108,7 +108,7 @@ pub(super) fn sample_counted(
 
 /// What [`eval`] asks of the MIS density's terms: G1(ωo) and G1(R(ωo)), each computed once,
 /// and the nested eval F_k(a, b) of each connection, which the terms may already know (the
-/// walk's first vertex evaluates pairs that are terms). [`PdfTerms`] computes a term's value
+/// walk's first vertex evaluates pairs that are terms). `PdfTerms` computes a term's value
 /// when the walk first asks for it (its density from the same fused call); the stream kernel's
 /// lanes (`walk_pdf_lanes`) hand in the values their 8-wide calls computed before the walk.
 pub(super) trait Terms {
@@ -130,36 +130,12 @@ pub(super) trait Terms {
     ) -> Spectrum;
 }
 
-impl Terms for PdfTerms {
-    #[inline(always)]
-    fn g1_wo(&mut self, m: &MicrofacetNormalMap, wo: Vec3) -> f32 {
-        PdfTerms::g1_wo(self, m, wo)
-    }
-    #[inline(always)]
-    fn g1_rwo(&mut self, m: &MicrofacetNormalMap, rwo: Vec3) -> f32 {
-        PdfTerms::g1_rwo(self, m, rwo)
-    }
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn f(
-        &mut self,
-        m: &MicrofacetNormalMap,
-        nested: &Bsdf,
-        k: usize,
-        ctx: &BsdfContext,
-        a: Vec3,
-        b: Vec3,
-        s: &mut Sampler,
-    ) -> Spectrum {
-        PdfTerms::f(self, m, nested, k, ctx, a, b, s)
-    }
-}
-
 /// Next-event estimate of f·cos along one walk (stochastic, unbiased). Nested evals go through
-/// `terms` ([`PdfTerms::f`]): where the walk evaluates a pair that is also a term of the MIS
-/// density (its first vertex: (ωi, ωo), (ωi, R(ωo)), after the mirror (R(ωi), ωo)), the term's
-/// pdf comes from the same fused call, and G1(ωo), G1(R(ωo)) are shared with the terms. Pass
-/// [`PdfTerms::empty`] when no pdf is wanted. (Generic over [`Terms`]: the stream kernel's
+/// `terms` (`PdfTerms`' [`Terms::f`]): where the walk evaluates a pair that is also a term of
+/// the MIS density (its first vertex: (ωi, ωo), (ωi, R(ωo)), after the mirror (R(ωi), ωo)),
+/// the term's pdf comes from the same fused call, and G1(ωo), G1(R(ωo)) are shared with the
+/// terms. Pass
+/// `PdfTerms::empty` when no pdf is wanted. (Generic over [`Terms`]: the stream kernel's
 /// lanes pass terms whose values are known before the walk. Out of line, as it was before it
 /// was generic: its callers in the stream kernel's AVX2 region would otherwise take in the
 /// whole walk.)

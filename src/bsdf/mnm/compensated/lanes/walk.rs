@@ -24,8 +24,8 @@
 //! §9.2–9.4; [`crate::bsdf::mnm::walk_two_sided`]) runs the same way for the lanes over a
 //! shared `roughdielectric` leaf ([`walk8_t`]): the entry from ωi's side, the side-dependent
 //! exit test and pick, η multiplied in, the early-exit walk's end at a refraction; its
-//! density is the scalar `pdf` of each lane's map, lane by lane after the walk, as
-//! `mnm::sample` computes it.
+//! density is the scalar `pdf` of each lane's map as `mnm::sample` computes it, 8-wide after
+//! the walk (`mnm::walk_density_lanes`).
 //!
 //! Here rather than beside `walk.rs`: it reuses this module's private pieces (the nested
 //! lane samples [`super::sample::Asks`], the masked draws [`super::draws`]).
@@ -37,7 +37,8 @@ use super::Cols;
 use crate::bsdf::mnm::facets::{SurfaceLanes, MAX_FACETS};
 use crate::bsdf::mnm::walk::FirstVertex;
 use crate::bsdf::mnm::{explicit::lobe_of, walk_alone, walk_sample_of, MicrofacetNormalMap};
-use crate::bsdf::mnm::{pdf as mnm_pdf, walk_two_sided, TransmissionWalk};
+use crate::bsdf::mnm::walk_density_lanes::{two_sided_p1, two_sided_pdf, TwoSidedCols};
+use crate::bsdf::mnm::{walk_two_sided, TransmissionWalk};
 use crate::bsdf::roughdielectric::RoughDielectric;
 use crate::bsdf::{accept_sample, Bsdf, BsdfContext, BsdfNode, BsdfSample, Lobes, TransportMode};
 use crate::lane::frame::Frame as LaneFrame;
@@ -485,8 +486,9 @@ fn walk8(
 /// so none of them walks two-sided), those whose sample is the two-sided or early-exit walk
 /// ([`walk_two_sided`]) over a `roughdielectric` leaf shared with the first such lane, with
 /// its `max_order` and its transmission walk, walked together ([`walk8_t`]) and added to
-/// `out`. Each escaped walk's density is the scalar `pdf` of its map lane by lane (as
-/// `mnm::sample` reports it), then `Bsdf::sample`'s rejection of degenerate samples. Fewer
+/// `out`. Each escaped walk's density is the scalar `pdf` of its map (as `mnm::sample`
+/// reports it; 8-wide, `walk_density_lanes`), then `Bsdf::sample`'s rejection of degenerate
+/// samples. Fewer
 /// than `min` such lanes: none is walked.
 #[inline(always)]
 fn two_sided_walks(
@@ -578,6 +580,21 @@ fn two_sided_walks(
         ids,
     );
     out.lanes |= lanes;
+    // The escaped walks' p1 (`walk::single_scatter_pdf_t`), 8-wide.
+    let p1 = two_sided_p1(
+        avx,
+        leaf,
+        exits,
+        TwoSidedCols {
+            v: &v,
+            nrm: &nrm,
+            fr: &fr,
+            wi: &wi,
+            wo: &walked.wo,
+        },
+        walked.escaped,
+        mirror,
+    );
     let mut rest = lanes;
     while rest != 0 {
         let k = rest.trailing_zeros() as usize;
@@ -588,7 +605,7 @@ fn two_sided_walks(
         if walked.escaped & (1 << k) == 0 {
             continue;
         }
-        let (b, m) = maps[k].expect("a walked lane has its map");
+        let (_, m) = maps[k].expect("a walked lane has its map");
         let at = |c: &Col3| Vec3::new(c[0][k], c[1][k], c[2][k]);
         let (wi, wo) = (at(&wi), at(&walked.wo));
         let lobe = if walked.transmitted & (1 << k) != 0 {
@@ -598,7 +615,7 @@ fn two_sided_walks(
         };
         out.out[k] = accept_sample(BsdfSample {
             wo,
-            pdf: mnm_pdf(b, m, ctx, wi, wo),
+            pdf: two_sided_pdf(m, p1[k], wi, wo),
             weight: at(&walked.weight),
             eta: walked.eta[k],
             lobe,
