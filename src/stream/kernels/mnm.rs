@@ -316,8 +316,8 @@ pub(crate) fn normal_texture(scene: &Scene, m: MatId) -> Option<&Texture> {
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x8 {
     use crate::bsdf::mnm::compensated::lanes::{
-        eval_pdf_x8_into, sample_walks_x8, sample_x8_cols, with_incident_alone_x8, BuiltFacets,
-        Chunk, Cols, Point, WalkSamples,
+        eval_pdf_x8_into, sample_walks_x8, sample_x8_cols, two_sided_evals_x8,
+        with_incident_alone_x8, BuiltFacets, Chunk, Cols, Point, TwoSidedEvals, WalkSamples,
     };
     use crate::bsdf::mnm::walk_pdf_lanes::WalkEvals;
     use crate::bsdf::mnm::Evaluation;
@@ -601,6 +601,27 @@ pub(crate) mod x8 {
                 // Their walks as one masked 8-lane walk (each lane on its own stream).
                 w.walk_x8(avx, &mut b.sampler, ids);
             }
+            // The two-sided walk's queries over a shared rough dielectric (`mnm::eval_pdf`'s
+            // transmitting branch: `walk::eval_t` and `mnm::pdf`) as one masked 8-lane walk,
+            // each lane on its own stream (`two_sided_evals_x8`: the scalar query's bits).
+            let two_sided = match &built {
+                Some(bt)
+                    if rest != 0 && walking && arena.bsdf(bt.child).lobes().has_transmission() =>
+                {
+                    let mut q = [None; 8];
+                    let mut r = rest;
+                    while r != 0 {
+                        let k = r.trailing_zeros() as usize;
+                        r &= r - 1;
+                        if let Some(s) = &sb[k] {
+                            let (local, wi) = s.local();
+                            q[k] = Some((local, wi, lwo.get(k)));
+                        }
+                    }
+                    two_sided_evals_x8(avx, &ctx, &q, &mut b.sampler, ids)
+                }
+                _ => TwoSidedEvals::none(),
+            };
             while rest != 0 {
                 let k = rest.trailing_zeros() as usize;
                 rest &= rest - 1;
@@ -611,6 +632,7 @@ pub(crate) mod x8 {
                 let (fk, pk) = match &mut walks {
                     Some(w) if w.walked(k) => w.value(k),
                     Some(w) if w.has(k) => w.eval_pdf(k, &ctx, &mut b.sampler.at(i as usize)),
+                    _ if two_sided.has(k) => two_sided.value(k),
                     _ => local.eval_pdf(&ctx, wi, lwo.get(k), &mut b.sampler.at(i as usize)),
                 };
                 f.set(k, fk);

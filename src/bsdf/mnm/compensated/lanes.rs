@@ -49,6 +49,10 @@ pub(crate) use walk::{sample_walks_x8, BuiltFacets, WalkGroups, WalkSamples};
 mod walk_eval;
 #[cfg(target_arch = "x86_64")]
 pub(crate) use walk_eval::{eval_walks_x8, EvalQuery};
+#[cfg(target_arch = "x86_64")]
+mod walk_eval_t;
+#[cfg(target_arch = "x86_64")]
+pub(crate) use walk_eval_t::{two_sided_evals_x8, TwoSidedEvals};
 
 use super::{
     leave, pick_entry, sample_record_is_exact, AtIncident, AtWi, Collected, Entries, Known,
