@@ -346,49 +346,64 @@ fn reflection_walks(
 /// cannot stand in, [`cols_of`]): the area vectors (zero past a lane's facets), the carrying
 /// facets' frames (zero past them), by lane; for the two-sided walk the facets' unit normals
 /// (zero past a lane's facets), for the reflection walk the mirror wall's.
-struct MapCols {
-    v: [Col3; MAX_FACETS],
-    nrm: [Col3; MAX_FACETS],
+pub(super) struct MapCols {
+    pub(super) v: [Col3; MAX_FACETS],
+    pub(super) nrm: [Col3; MAX_FACETS],
     /// The wall normal (facet 1's) of the lanes with a mirror wall (the reflection walk).
-    n1: Col3,
-    fr: [[Col3; 3]; MAX_FACETS],
+    pub(super) n1: Col3,
+    pub(super) fr: [[Col3; 3]; MAX_FACETS],
 }
 
 impl MapCols {
-    /// The columns of the maps `maps` (`None`: a lane that does not walk, zero); the facets'
-    /// normals only for the two-sided walk (`two_sided`: the reflection walk reads the wall's
-    /// normal `n1` alone).
+    /// No lane's columns yet (all zero).
     #[inline(always)]
-    fn of(maps: &[Option<&MicrofacetNormalMap>; 8], two_sided: bool) -> Self {
-        let mut c = MapCols {
+    pub(super) fn new() -> Self {
+        MapCols {
             v: [[[0.0f32; 8]; 3]; MAX_FACETS],
             nrm: [[[0.0f32; 8]; 3]; MAX_FACETS],
             n1: [[0.0f32; 8]; 3],
             fr: [[[[0.0f32; 8]; 3]; 3]; MAX_FACETS],
-        };
+        }
+    }
+
+    /// Lane `k`'s columns from its map `m`: the facets' normals only for the two-sided walks
+    /// and the eval walks (`all_normals`; the reflection sample walk reads the wall's normal
+    /// `n1` alone).
+    #[inline(always)]
+    pub(super) fn set_lane(&mut self, k: usize, m: &MicrofacetNormalMap, all_normals: bool) {
+        let surf = &m.surface;
+        for (j, (vc, nc)) in self
+            .v
+            .iter_mut()
+            .zip(self.nrm.iter_mut())
+            .enumerate()
+            .take(surf.len())
+        {
+            set3(vc, k, surf.area_vector(j));
+            if all_normals {
+                set3(nc, k, surf.normal(j));
+            }
+        }
+        let carrying = if m.mirror_wall { 1 } else { surf.len() };
+        for (j, f) in self.fr.iter_mut().enumerate().take(carrying) {
+            let g = &m.frames[j];
+            set3(&mut f[0], k, g.s);
+            set3(&mut f[1], k, g.t);
+            set3(&mut f[2], k, g.n);
+        }
+        if m.mirror_wall && !all_normals {
+            set3(&mut self.n1, k, surf.normal(1));
+        }
+    }
+
+    /// The columns of the maps `maps` (`None`: a lane that does not walk, zero); the facets'
+    /// normals only for the two-sided walk (`two_sided`).
+    #[inline(always)]
+    fn of(maps: &[Option<&MicrofacetNormalMap>; 8], two_sided: bool) -> Self {
+        let mut c = MapCols::new();
         for (k, m) in maps.iter().enumerate() {
-            let Some(m) = m else { continue };
-            let surf = &m.surface;
-            for (j, (vc, nc)) in
-                c.v.iter_mut()
-                    .zip(c.nrm.iter_mut())
-                    .enumerate()
-                    .take(surf.len())
-            {
-                set3(vc, k, surf.area_vector(j));
-                if two_sided {
-                    set3(nc, k, surf.normal(j));
-                }
-            }
-            let carrying = if m.mirror_wall { 1 } else { surf.len() };
-            for (j, f) in c.fr.iter_mut().enumerate().take(carrying) {
-                let g = &m.frames[j];
-                set3(&mut f[0], k, g.s);
-                set3(&mut f[1], k, g.t);
-                set3(&mut f[2], k, g.n);
-            }
-            if m.mirror_wall && !two_sided {
-                set3(&mut c.n1, k, surf.normal(1));
+            if let Some(m) = m {
+                c.set_lane(k, m, two_sided);
             }
         }
         c
@@ -986,13 +1001,24 @@ pub(super) mod tests {
     use crate::math::Pcg32;
     use crate::sampler::{Sampler, SamplerDesc, SamplerKind};
 
-    fn same(a: f32, b: f32) -> bool {
+    /// Bit for bit equal.
+    pub(in crate::bsdf::mnm::compensated::lanes) fn same(a: f32, b: f32) -> bool {
         a.to_bits() == b.to_bits()
     }
 
-    fn same3(a: Vec3, b: Vec3) -> bool {
+    pub(in crate::bsdf::mnm::compensated::lanes) fn same3(a: Vec3, b: Vec3) -> bool {
         same(a.x, b.x) && same(a.y, b.y) && same(a.z, b.z)
     }
+
+    /// The microsurfaces the walk tests run over: the sawtooth with and without the mirror
+    /// wall, the V-groove and two U-grooves.
+    pub(in crate::bsdf::mnm::compensated::lanes) const GEOMETRIES: [(Microgeometry, Tangent); 5] = [
+        (Microgeometry::Sawtooth, Tangent::Mirror),
+        (Microgeometry::Sawtooth, Tangent::Same),
+        (Microgeometry::VGroove, Tangent::Same),
+        (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
+        (Microgeometry::UGroove { fill: 1.0 }, Tangent::Mirror),
+    ];
 
     /// A perturbed normal up to 80° from +z, some nearly flat, some exactly flat (degenerate:
     /// not walked).
@@ -1037,13 +1063,7 @@ pub(super) mod tests {
         };
         let ctx = BsdfContext::default();
         let mut rng = Pcg32::new(40, 1);
-        let geometries = [
-            (Microgeometry::Sawtooth, Tangent::Mirror),
-            (Microgeometry::Sawtooth, Tangent::Same),
-            (Microgeometry::VGroove, Tangent::Same),
-            (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
-            (Microgeometry::UGroove { fill: 1.0 }, Tangent::Mirror),
-        ];
+        let geometries = GEOMETRIES;
         let (mut escaped, mut absorbed, mut walks, mut vertices, mut stratified_draws) =
             (0, 0, 0, 0, 0);
         let mut col_rounds = 0;
@@ -1311,13 +1331,7 @@ pub(super) mod tests {
             return;
         };
         let mut rng = Pcg32::new(40, 3);
-        let geometries = [
-            (Microgeometry::Sawtooth, Tangent::Mirror),
-            (Microgeometry::Sawtooth, Tangent::Same),
-            (Microgeometry::VGroove, Tangent::Same),
-            (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
-            (Microgeometry::UGroove { fill: 1.0 }, Tangent::Mirror),
-        ];
+        let geometries = GEOMETRIES;
         let (mut transmitted, mut reflected, mut absorbed, mut from_below) = (0, 0, 0, 0);
         let (mut walks, mut vertices, mut stratified_draws, mut reflection_lanes) = (0, 0, 0, 0);
         let mut col_rounds = 0;

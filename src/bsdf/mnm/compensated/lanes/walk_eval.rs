@@ -28,7 +28,7 @@
 use super::super::Nested;
 use super::draws::step;
 use super::sample::{draws_u1, Asks};
-use super::walk::{draw_2d, frame_of, l3, next_facet, pick3, set3, store_cols, Col3};
+use super::walk::{draw_2d, frame_of, l3, next_facet, pick3, set3, store_cols, Col3, MapCols};
 use super::Cols;
 use crate::bsdf::mnm::facets::{SurfaceLanes, MAX_FACETS};
 use crate::bsdf::mnm::nested_batch::LaneNested;
@@ -68,9 +68,7 @@ pub(crate) fn eval_walks_x8(
     ids: &[u32; 8],
 ) -> Col3 {
     let mut c = EvalCols {
-        v: [[[0.0; 8]; 3]; MAX_FACETS],
-        nrm: [[[0.0; 8]; 3]; MAX_FACETS],
-        fr: [[[[0.0; 8]; 3]; 3]; MAX_FACETS],
+        f: MapCols::new(),
         wi: [[0.0; 8]; 3],
         wo: [[0.0; 8]; 3],
         rwo: [[0.0; 8]; 3],
@@ -82,18 +80,8 @@ pub(crate) fn eval_walks_x8(
     // The points' facets (area vectors, normals), the carrying facets' frames, by lane.
     for (k, e) in q.iter().enumerate() {
         let Some(e) = e else { continue };
-        let (m, surf) = (e.m, &e.m.surface);
-        for j in 0..surf.len() {
-            set3(&mut c.v[j], k, surf.area_vector(j));
-            set3(&mut c.nrm[j], k, surf.normal(j));
-        }
-        let carrying = if m.mirror_wall { 1 } else { surf.len() };
-        for (j, f) in c.fr.iter_mut().enumerate().take(carrying) {
-            let g = &m.frames[j];
-            set3(&mut f[0], k, g.s);
-            set3(&mut f[1], k, g.t);
-            set3(&mut f[2], k, g.n);
-        }
+        let m = e.m;
+        c.f.set_lane(k, m, true);
         set3(&mut c.wi, k, e.wi);
         set3(&mut c.wo, k, e.wo);
         if e.wall_w != 0.0 {
@@ -114,9 +102,8 @@ pub(crate) fn eval_walks_x8(
 
 /// [`eval_walks_x8`]'s inputs by lane.
 struct EvalCols {
-    v: [Col3; MAX_FACETS],
-    nrm: [Col3; MAX_FACETS],
-    fr: [[Col3; 3]; MAX_FACETS],
+    /// The points' facets (area vectors, normals) and carrying facets' frames.
+    f: MapCols,
     wi: Col3,
     wo: Col3,
     /// R(ωo) where the lane's wall weight is not 0.
@@ -149,15 +136,19 @@ fn walk8_eval<B: LaneNested>(
             let zero = avx.splat(0.0);
             let one = avx.splat(1.0);
             let surf = SurfaceLanes {
-                v: [l3(avx, &c.v[0]), l3(avx, &c.v[1]), l3(avx, &c.v[2])],
+                v: [l3(avx, &c.f.v[0]), l3(avx, &c.f.v[1]), l3(avx, &c.f.v[2])],
             };
-            let nrm = [l3(avx, &c.nrm[0]), l3(avx, &c.nrm[1]), l3(avx, &c.nrm[2])];
+            let nrm = [
+                l3(avx, &c.f.nrm[0]),
+                l3(avx, &c.f.nrm[1]),
+                l3(avx, &c.f.nrm[2]),
+            ];
             let mut fr = [LaneFrame {
                 s: V3::new(zero, zero, zero),
                 t: V3::new(zero, zero, zero),
                 n: V3::new(zero, zero, zero),
             }; MAX_FACETS];
-            for (f, col) in fr.iter_mut().zip(c.fr.iter()) {
+            for (f, col) in fr.iter_mut().zip(c.f.fr.iter()) {
                 *f = LaneFrame {
                     s: l3(avx, &col[0]),
                     t: l3(avx, &col[1]),
@@ -256,23 +247,16 @@ fn walk8_eval<B: LaneNested>(
 
 #[cfg(test)]
 mod tests {
-    use super::super::walk::tests::{assert_same_streams, random_wp, streams};
+    use super::super::walk::tests::{
+        assert_same_streams, random_wp, same, same3, streams, GEOMETRIES,
+    };
     use crate::bsdf::mnm::compensated::tests::push_reflectors;
-    use crate::bsdf::mnm::facets::Microgeometry;
     use crate::bsdf::mnm::walk_pdf_lanes::WalkEvals;
     use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
     use crate::bsdf::{BsdfArena, BsdfContext};
     use crate::lane::Avx2;
     use crate::math::Pcg32;
     use glam::Vec3;
-
-    fn same(a: f32, b: f32) -> bool {
-        a.to_bits() == b.to_bits()
-    }
-
-    fn same3(a: Vec3, b: Vec3) -> bool {
-        same(a.x, b.x) && same(a.y, b.y) && same(a.z, b.z)
-    }
 
     /// A direction over the upper hemisphere (some grazing, some +z), or now and then below
     /// (a query that is not the walk's).
@@ -305,13 +289,7 @@ mod tests {
         };
         let ctx = BsdfContext::default();
         let mut rng = Pcg32::new(41, 1);
-        let geometries = [
-            (Microgeometry::Sawtooth, Tangent::Mirror),
-            (Microgeometry::Sawtooth, Tangent::Same),
-            (Microgeometry::VGroove, Tangent::Same),
-            (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
-            (Microgeometry::UGroove { fill: 1.0 }, Tangent::Mirror),
-        ];
+        let geometries = GEOMETRIES;
         let (mut walked, mut nonzero, mut scalar, mut unlit, mut stratified_draws) =
             (0, 0, 0, 0, 0);
         let mut mirror_nonzero = 0;

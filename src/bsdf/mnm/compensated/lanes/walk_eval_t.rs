@@ -28,7 +28,7 @@
 
 use super::draws::step;
 use super::sample::accepted;
-use super::walk::{draw_2d, frame_of, l3, next_facet, pick3, set3, store_cols, Col3};
+use super::walk::{draw_2d, frame_of, l3, next_facet, pick3, set3, store_cols, Col3, MapCols};
 use crate::bsdf::mnm::facets::{SurfaceLanes, MAX_FACETS};
 use crate::bsdf::mnm::walk_density_lanes::{two_sided_p1, two_sided_pdf, TwoSidedCols};
 use crate::bsdf::mnm::{walk_two_sided, MicrofacetNormalMap, TransmissionWalk};
@@ -93,9 +93,7 @@ pub(crate) fn two_sided_evals_x8(
     let mut maps: [Option<&MicrofacetNormalMap>; 8] = [None; 8];
     let mut shared: Option<(Bsdf<'_>, u32, bool)> = None;
     let mut c = ColsE {
-        v: [[[0.0; 8]; 3]; MAX_FACETS],
-        nrm: [[[0.0; 8]; 3]; MAX_FACETS],
-        fr: [[[[0.0; 8]; 3]; 3]; MAX_FACETS],
+        f: MapCols::new(),
         wi: [[0.0; 8]; 3],
         wo: [[0.0; 8]; 3],
         rwo: [[0.0; 8]; 3],
@@ -120,18 +118,7 @@ pub(crate) fn two_sided_evals_x8(
             continue;
         }
         // The point's facets (area vectors, normals), the carrying facets' frames.
-        let surf = &m.surface;
-        for j in 0..surf.len() {
-            set3(&mut c.v[j], k, surf.area_vector(j));
-            set3(&mut c.nrm[j], k, surf.normal(j));
-        }
-        let carrying = if m.mirror_wall { 1 } else { surf.len() };
-        for (j, f) in c.fr.iter_mut().enumerate().take(carrying) {
-            let g = &m.frames[j];
-            set3(&mut f[0], k, g.s);
-            set3(&mut f[1], k, g.t);
-            set3(&mut f[2], k, g.n);
-        }
+        c.f.set_lane(k, m, true);
         set3(&mut c.wi, k, *wi);
         set3(&mut c.wo, k, *wo);
         if m.mirror_wall {
@@ -155,9 +142,9 @@ pub(crate) fn two_sided_evals_x8(
         leaf,
         exits,
         TwoSidedCols {
-            v: &c.v,
-            nrm: &c.nrm,
-            fr: &c.fr,
+            v: &c.f.v,
+            nrm: &c.f.nrm,
+            fr: &c.f.fr,
             wi: &c.wi,
             wo: &c.wo,
         },
@@ -178,9 +165,8 @@ pub(crate) fn two_sided_evals_x8(
 
 /// [`two_sided_evals_x8`]'s inputs by lane.
 struct ColsE {
-    v: [Col3; MAX_FACETS],
-    nrm: [Col3; MAX_FACETS],
-    fr: [[Col3; 3]; MAX_FACETS],
+    /// The points' facets (area vectors, normals) and carrying facets' frames.
+    f: MapCols,
     wi: Col3,
     wo: Col3,
     /// R(ωo) for the lanes whose map has the mirror wall.
@@ -209,15 +195,19 @@ fn walk8_eval_t(
         || {
             let (zero, one) = (avx.splat(0.0), avx.splat(1.0));
             let surf = SurfaceLanes {
-                v: [l3(avx, &c.v[0]), l3(avx, &c.v[1]), l3(avx, &c.v[2])],
+                v: [l3(avx, &c.f.v[0]), l3(avx, &c.f.v[1]), l3(avx, &c.f.v[2])],
             };
-            let nrm = [l3(avx, &c.nrm[0]), l3(avx, &c.nrm[1]), l3(avx, &c.nrm[2])];
+            let nrm = [
+                l3(avx, &c.f.nrm[0]),
+                l3(avx, &c.f.nrm[1]),
+                l3(avx, &c.f.nrm[2]),
+            ];
             let mut fr = [LaneFrame {
                 s: V3::new(zero, zero, zero),
                 t: V3::new(zero, zero, zero),
                 n: V3::new(zero, zero, zero),
             }; MAX_FACETS];
-            for (f, col) in fr.iter_mut().zip(c.fr.iter()) {
+            for (f, col) in fr.iter_mut().zip(c.f.fr.iter()) {
                 *f = LaneFrame {
                     s: l3(avx, &col[0]),
                     t: l3(avx, &col[1]),
@@ -335,21 +325,14 @@ fn walk8_eval_t(
 
 #[cfg(test)]
 mod tests {
-    use super::super::walk::tests::{assert_same_streams, random_wp, streams};
+    use super::super::walk::tests::{
+        assert_same_streams, random_wp, same, same3, streams, GEOMETRIES,
+    };
     use super::*;
     use crate::bsdf::microfacet::{MicrofacetDistribution, MicrofacetType};
-    use crate::bsdf::mnm::facets::Microgeometry;
     use crate::bsdf::mnm::{Evaluation, Tangent};
     use crate::bsdf::BsdfArena;
     use crate::math::Pcg32;
-
-    fn same(a: f32, b: f32) -> bool {
-        a.to_bits() == b.to_bits()
-    }
-
-    fn same3(a: Vec3, b: Vec3) -> bool {
-        same(a.x, b.x) && same(a.y, b.y) && same(a.z, b.z)
-    }
 
     /// A direction over the whole sphere (the two-sided walk takes either side), grazing
     /// ones and +z mixed in, now and then one exactly in the plane (not walked).
@@ -382,13 +365,7 @@ mod tests {
             return;
         };
         let mut rng = Pcg32::new(41, 4);
-        let geometries = [
-            (Microgeometry::Sawtooth, Tangent::Mirror),
-            (Microgeometry::Sawtooth, Tangent::Same),
-            (Microgeometry::VGroove, Tangent::Same),
-            (Microgeometry::UGroove { fill: 0.5 }, Tangent::Same),
-            (Microgeometry::UGroove { fill: 1.0 }, Tangent::Mirror),
-        ];
+        let geometries = GEOMETRIES;
         let (mut walked, mut nonzero, mut scalar, mut unlit, mut stratified_draws) =
             (0, 0, 0, 0, 0);
         let (mut mirror_nonzero, mut far_nonzero, mut from_below, mut exit_nonzero) = (0, 0, 0, 0);
