@@ -79,7 +79,6 @@ fn l3(avx: Avx2, c: &Col3) -> V3<F32x8> {
 /// the lanes whose facet 1 is the sawtooth's mirror wall. Lanes outside `lanes` hold 0.
 #[allow(clippy::needless_range_loop)] // facet slots and lanes index several arrays
 #[inline(always)]
-#[allow(clippy::needless_range_loop)] // slot j indexes five column sets and `a` alike
 pub(super) fn two_sided_p1(
     avx: Avx2,
     leaf: &RoughDielectric,
@@ -379,7 +378,6 @@ mod tests {
     /// 1; lanes outside the mask (dead lanes, their columns left as they were) hold 0.
     #[allow(clippy::needless_range_loop)] // facet slots and lanes index several arrays
     #[test]
-    #[allow(clippy::needless_range_loop)] // lane k indexes the columns, `roots` and `p1` alike
     fn two_sided_densities_equal_the_scalar_ones() {
         let Some(avx) = Avx2::detect() else {
             return;
