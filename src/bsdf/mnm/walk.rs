@@ -134,10 +134,11 @@ pub(super) trait Terms {
 /// `terms` (`PdfTerms`' [`Terms::f`]): where the walk evaluates a pair that is also a term of
 /// the MIS density (its first vertex: (ωi, ωo), (ωi, R(ωo)), after the mirror (R(ωi), ωo)),
 /// the term's pdf comes from the same fused call, and G1(ωo), G1(R(ωo)) are shared with the
-/// terms. Pass `PdfTerms::empty` when no pdf is wanted. (Generic over [`Terms`]: the stream
-/// kernel's lanes pass terms whose values are known before the walk. Out of line, as it was
-/// before it was generic: its callers in the stream kernel's AVX2 region would otherwise take
-/// in the whole walk.)
+/// terms. Pass
+/// `PdfTerms::empty` when no pdf is wanted. (Generic over [`Terms`]: the stream kernel's
+/// lanes pass terms whose values are known before the walk. Out of line, as it was before it
+/// was generic: its callers in the stream kernel's AVX2 region would otherwise take in the
+/// whole walk.)
 #[inline(never)]
 pub(super) fn eval<T: Terms>(
     m: &MicrofacetNormalMap,

@@ -583,28 +583,18 @@ pub(crate) mod x8 {
             // The random walk's queries over the shared leaf: their MIS density's nested pairs
             // (the terms) of all lanes in 8-wide calls first (`WalkEvals`: the scalar
             // `walk_eval_pdf`'s numbers; it draws nothing), then their walks.
-            // The walking lanes' queries (each lane's local BSDF, ωi and ωo), which both masked
-            // walks below take.
-            let mut queries = [None; 8];
-            if walking && built.is_some() {
+            let mut walks = match &built {
+                Some(bt) if rest != 0 && walking => WalkEvals::new(arena.bsdf(bt.child), bt.child),
+                _ => None,
+            };
+            if let Some(w) = &mut walks {
                 let mut r = rest;
                 while r != 0 {
                     let k = r.trailing_zeros() as usize;
                     r &= r - 1;
                     if let Some(s) = &sb[k] {
                         let (local, wi) = s.local();
-                        queries[k] = Some((local, wi, lwo.get(k)));
-                    }
-                }
-            }
-            let mut walks = match &built {
-                Some(bt) if rest != 0 && walking => WalkEvals::new(arena.bsdf(bt.child), bt.child),
-                _ => None,
-            };
-            if let Some(w) = &mut walks {
-                for (k, q) in queries.iter().enumerate() {
-                    if let Some((local, wi, wo)) = *q {
-                        w.push(k, local, wi, wo);
+                        w.push(k, local, wi, lwo.get(k));
                     }
                 }
                 w.evaluate();
@@ -618,7 +608,17 @@ pub(crate) mod x8 {
                 Some(bt)
                     if rest != 0 && walking && arena.bsdf(bt.child).lobes().has_transmission() =>
                 {
-                    two_sided_evals_x8(avx, &ctx, &queries, &mut b.sampler, ids)
+                    let mut q = [None; 8];
+                    let mut r = rest;
+                    while r != 0 {
+                        let k = r.trailing_zeros() as usize;
+                        r &= r - 1;
+                        if let Some(s) = &sb[k] {
+                            let (local, wi) = s.local();
+                            q[k] = Some((local, wi, lwo.get(k)));
+                        }
+                    }
+                    two_sided_evals_x8(avx, &ctx, &q, &mut b.sampler, ids)
                 }
                 _ => TwoSidedEvals::none(),
             };
