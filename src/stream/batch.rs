@@ -92,7 +92,9 @@ pub(crate) struct Batch {
     /// kernels'), made at the first run that takes one and kept for every later stage and
     /// batch of the render (a batch serves one scene): made per stage, their ~2 KB of columns
     /// cleared and the scene's light selection built cost ~0.9 M instructions on
-    /// metal_plastic at 2 spp (~12 a sample).
+    /// metal_plastic at 2 spp (~12 a sample). With them, made the same way, the microfacet
+    /// normal map kernel's arrays of the random walk's light-sample queries
+    /// (`walk_pdf_lanes::WalkEvalsBuf`, ~3.4 KB, reset per chunk).
     pub gathers: Gathers,
 }
 
@@ -115,6 +117,7 @@ pub(crate) struct PendingAdd {
 pub(crate) type Gathers = (
     Option<Box<crate::stream::kernels::light::x8::Gather<8>>>,
     Option<Box<crate::stream::kernels::light::x8::Gather<16>>>,
+    Option<Box<crate::bsdf::mnm::walk_pdf_lanes::WalkEvalsBuf>>,
 );
 #[cfg(not(target_arch = "x86_64"))]
 pub(crate) type Gathers = ();

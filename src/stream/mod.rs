@@ -870,6 +870,8 @@ fn shade_kernel<T: kernels::tail::Tail>(
         Kernel::Mnm => {
             use kernels::mnm::x8;
             let mut chunks = kernels::vertex::x8::Chunks::<8>::new(run.clone(), pad_min);
+            // The walk's light-sample queries' arrays, once for the render (`Batch::gathers`).
+            let walk_evals = gathers.2.get_or_insert_with(Default::default);
             avx.run(
                 #[inline(always)]
                 || {
@@ -886,6 +888,7 @@ fn shade_kernel<T: kernels::tail::Tail>(
                             live,
                             lights,
                             &mut gather,
+                            walk_evals,
                             arena,
                             tail,
                         );

@@ -287,6 +287,14 @@ impl<const W: usize> Pairs<W> {
         }
     }
 
+    /// No pair (the count and the density-only bits reset; the entries keep the pairs they
+    /// held, valid pairs whose values a caller past the count does not read).
+    #[inline(always)]
+    pub(super) fn clear(&mut self) {
+        self.n = 0;
+        self.pdf_only = 0;
+    }
+
     /// Adds the pair (a, b); returns its index.
     #[inline(always)]
     pub(super) fn push(&mut self, a: Vec3, b: Vec3, pdf_only: bool) -> usize {
@@ -351,6 +359,12 @@ impl<const W: usize> Evaluated<W> {
         Vec3::new(self.f[0][i], self.f[1][i], self.f[2][i])
     }
 
+    /// Every pair's f·|cos θo|, `[component][pair]` (for 8-wide gathers by pair index).
+    #[inline(always)]
+    pub(super) fn f_cols(&self) -> &[[f32; W]; 3] {
+        &self.f
+    }
+
     #[inline(always)]
     pub(super) fn p(&self, i: usize) -> f32 {
         self.p[i]
@@ -410,8 +424,21 @@ pub(super) fn eval_pdf_lanes<B: LaneNested, const W: usize>(
     pairs: &Pairs<W>,
 ) -> Evaluated<W> {
     let mut out = Evaluated::zero();
+    eval_pdf_lanes_into(b, pairs, &mut out);
+    out
+}
+
+/// [`eval_pdf_lanes`] into `out` (a caller's buffer, not copied): the entries of the pairs of
+/// `pairs` written, those past them (to the end of the last call's 8 at width 8) not
+/// meaningful.
+#[inline(always)]
+pub(super) fn eval_pdf_lanes_into<B: LaneNested, const W: usize>(
+    b: &B,
+    pairs: &Pairs<W>,
+    out: &mut Evaluated<W>,
+) {
     if pairs.len() == 0 {
-        return out;
+        return;
     }
     #[cfg(target_arch = "x86_64")]
     if let Some(avx) = Avx2::detect() {
@@ -435,22 +462,20 @@ pub(super) fn eval_pdf_lanes<B: LaneNested, const W: usize>(
                 }
             },
         );
-        return out;
+        return;
     }
-    eval_pdf_width1(b, pairs)
+    eval_pdf_width1(b, pairs, out)
 }
 
-/// [`eval_pdf_lanes`] at width 1 (a CPU without AVX2).
+/// [`eval_pdf_lanes_into`] at width 1 (a CPU without AVX2).
 #[inline(always)]
-fn eval_pdf_width1<B: LaneNested, const W: usize>(b: &B, pairs: &Pairs<W>) -> Evaluated<W> {
-    let mut out = Evaluated::zero();
+fn eval_pdf_width1<B: LaneNested, const W: usize>(b: &B, pairs: &Pairs<W>, out: &mut Evaluated<W>) {
     for i in 0..pairs.len() {
         let mode = pairs.mode::<B>(i / WIDTH);
         let (a, o) = (pairs.a(i).into(), pairs.b(i).into());
         let (f, p) = kernel::<f32, B>(b, mode, a, o, pairs.po[i]);
         out.set(i, f.into(), p);
     }
-    out
 }
 
 #[cfg(test)]
@@ -497,7 +522,9 @@ mod tests {
                 }
                 modes[pairs.mode::<B>(c) as usize] += 1;
             }
-            for ev in [eval_pdf_lanes(b, &pairs), eval_pdf_width1(b, &pairs)] {
+            let mut width1 = Evaluated::zero();
+            eval_pdf_width1(b, &pairs, &mut width1);
+            for ev in [eval_pdf_lanes(b, &pairs), width1] {
                 for i in 0..n {
                     let (a, o) = (pairs.a(i), pairs.b(i));
                     if pairs.pdf_only(i) {

@@ -41,14 +41,29 @@ use glam::Vec3;
 
 /// The walk's light-sample queries of a chunk's points (lane k: bit k of `on`), their terms
 /// and the terms' nested values ([`Self::push`], [`Self::evaluate`], then [`Self::eval_pdf`]
-/// per lane).
-pub(crate) struct WalkEvals<'a> {
+/// per lane). The chunk's own part (its leaf, lanes and maps) is here; the arrays of
+/// numbers are a [`WalkEvalsBuf`] that the caller keeps across chunks (fields reached through
+/// `Deref`, as if they were this struct's).
+pub(crate) struct WalkEvals<'a, 'b> {
     /// The chunk's shared nested leaf, and its node.
     nested: Bsdf<'a>,
     child: u32,
     /// Bit k: lane k's query is here.
     on: u8,
+    /// Bit k: lane k's walk ran in [`Self::walk_x8`], its f·cos θo in `f` (`[component][lane]`).
+    walked: u8,
     maps: [Option<&'a MicrofacetNormalMap>; 8],
+    buf: &'b mut WalkEvalsBuf,
+}
+
+/// [`WalkEvals`]' arrays (~3.4 KB: the lanes' directions and terms, the batch of pairs and
+/// its values, the walks' results), kept by the stream kernel across the chunks of a run
+/// instead of built (and moved) per chunk. What a chunk reads before it writes is reset:
+/// the pairs' count ([`WalkEvals::new`]), the first connections' indices and `f` where no
+/// lane walks ([`WalkEvals::walk_x8`]); every other entry is read only for a lane this chunk
+/// wrote it for, and a pair left past the count by an earlier chunk is a valid pair whose
+/// values nobody reads.
+pub(crate) struct WalkEvalsBuf {
     wi: [Vec3; 8],
     wo: [Vec3; 8],
     terms: [PdfTerms; 8],
@@ -56,34 +71,71 @@ pub(crate) struct WalkEvals<'a> {
     first: [u8; 8],
     pairs: Pairs<CHUNK>,
     ev: Evaluated<CHUNK>,
-    /// Bit k: lane k's walk ran in [`Self::walk_x8`], its f·cos θo in `f` (`[component][lane]`).
-    walked: u8,
     f: [[f32; 8]; 3],
+    /// Where `ev` holds the walks' first connections ([`WalkEvals::walk_x8`]).
+    #[cfg(target_arch = "x86_64")]
+    known: super::compensated::lanes::FirstConnections,
 }
 
-impl<'a> WalkEvals<'a> {
-    /// No query yet, over the chunk's shared nested leaf `nested` (node `child` of the arena:
-    /// the maps' `nested`); `None` unless it is a leaf with a lane form that does not
-    /// transmit (the walk over a transmitting leaf is the two-sided one, not this).
-    #[inline(always)]
-    pub(crate) fn new(nested: Bsdf<'a>, child: u32) -> Option<Self> {
-        let lane_form = matches!(
-            nested.node(),
-            BsdfNode::RoughConductor(_) | BsdfNode::RoughPlastic(_)
-        );
-        (lane_form && !nested.lobes().has_transmission()).then(|| WalkEvals {
-            nested,
-            child,
-            on: 0,
-            maps: [None; 8],
+impl WalkEvalsBuf {
+    pub(crate) fn new() -> Self {
+        WalkEvalsBuf {
             wi: [Vec3::Z; 8],
             wo: [Vec3::Z; 8],
             terms: [PdfTerms::empty(); 8],
             first: [0; 8],
             pairs: Pairs::new(),
             ev: Evaluated::zero(),
-            walked: 0,
             f: [[0.0; 8]; 3],
+            #[cfg(target_arch = "x86_64")]
+            known: super::compensated::lanes::FirstConnections::new(),
+        }
+    }
+}
+
+impl Default for WalkEvalsBuf {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl std::ops::Deref for WalkEvals<'_, '_> {
+    type Target = WalkEvalsBuf;
+    #[inline(always)]
+    fn deref(&self) -> &WalkEvalsBuf {
+        self.buf
+    }
+}
+
+impl std::ops::DerefMut for WalkEvals<'_, '_> {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut WalkEvalsBuf {
+        self.buf
+    }
+}
+
+impl<'a, 'b> WalkEvals<'a, 'b> {
+    /// No query yet, over the chunk's shared nested leaf `nested` (node `child` of the arena:
+    /// the maps' `nested`), its arrays in `buf` (reset here); `None` unless it is a leaf with
+    /// a lane form that does not transmit (the walk over a transmitting leaf is the two-sided
+    /// one, not this).
+    #[inline(always)]
+    pub(crate) fn new(nested: Bsdf<'a>, child: u32, buf: &'b mut WalkEvalsBuf) -> Option<Self> {
+        let lane_form = matches!(
+            nested.node(),
+            BsdfNode::RoughConductor(_) | BsdfNode::RoughPlastic(_)
+        );
+        if !lane_form || nested.lobes().has_transmission() {
+            return None;
+        }
+        buf.pairs.clear();
+        Some(WalkEvals {
+            nested,
+            child,
+            on: 0,
+            walked: 0,
+            maps: [None; 8],
+            buf,
         })
     }
 
@@ -139,11 +191,14 @@ impl<'a> WalkEvals<'a> {
         if self.on == 0 {
             return;
         }
-        self.ev = match self.nested.node() {
-            BsdfNode::RoughConductor(c) => nested_batch::eval_pdf_lanes(c, &self.pairs),
-            BsdfNode::RoughPlastic(p) => nested_batch::eval_pdf_lanes(p, &self.pairs),
+        let b = &mut *self.buf;
+        match self.nested.node() {
+            BsdfNode::RoughConductor(c) => {
+                nested_batch::eval_pdf_lanes_into(c, &b.pairs, &mut b.ev)
+            }
+            BsdfNode::RoughPlastic(p) => nested_batch::eval_pdf_lanes_into(p, &b.pairs, &mut b.ev),
             _ => unreachable!("`new` takes the leaves with a lane form"),
-        };
+        }
     }
 
     /// The walks of the lanes here that share the first such lane's `max_order`, as one
@@ -160,11 +215,13 @@ impl<'a> WalkEvals<'a> {
         samplers: &mut crate::sampler::Samplers,
         ids: &[u32; 8],
     ) {
-        use super::compensated::lanes::{eval_walks_x8, EvalQuery};
+        use super::compensated::lanes::{eval_walks_x8, EvalQuery, FirstConnections};
         let mut q: [Option<EvalQuery<'a>>; 8] = [None; 8];
         let mut max_order = None;
         let mut walking = 0u8;
         let mut rest = self.on;
+        let b = &mut *self.buf;
+        b.known = FirstConnections::new();
         while rest != 0 {
             let k = rest.trailing_zeros() as usize;
             rest &= rest - 1;
@@ -174,8 +231,8 @@ impl<'a> WalkEvals<'a> {
             }
             self.walked |= 1 << k;
             // `walk::eval`'s factors, from the terms as it takes them.
-            let wo = self.wo[k];
-            let t = &mut self.terms[k];
+            let (wi, wo) = (b.wi[k], b.wo[k]);
+            let t = &mut b.terms[k];
             let g1o = t.g1_wo(m, wo);
             if g1o <= 0.0 {
                 continue; // zero, no draw
@@ -187,16 +244,40 @@ impl<'a> WalkEvals<'a> {
             };
             q[k] = Some(EvalQuery {
                 m,
-                wi: self.wi[k],
+                wi,
                 wo,
                 g1o,
                 wall_w,
             });
             walking |= 1 << k;
+            // Where the batch holds the first vertex's connections: single scattering's
+            // terms are (k, ωi, ωo), one a facet; Variant M's with a = ωi are (0, ωi, ωo)
+            // and (0, ωi, R(ωo)) (its third term starts from R(ωi) ≠ ωi).
+            let first = b.first[k] as i32;
+            if !m.mirror_wall {
+                for j in 0..t.len() {
+                    b.known.wo[t.pair(j).0][k] = first + j as i32;
+                }
+            } else {
+                for j in 0..t.len() {
+                    let (_, a, bj) = t.pair(j);
+                    if a == wi && bj == wo {
+                        b.known.wo[0][k] = first + j as i32;
+                    } else if a == wi {
+                        debug_assert!(bj == m.reflect_wall(wo));
+                        b.known.rwo[k] = first + j as i32;
+                    }
+                }
+            }
         }
-        if let (Some(order), true) = (max_order, walking != 0) {
-            self.f = eval_walks_x8(avx, &self.nested, &q, order, samplers, ids);
-        }
+        b.f = match (max_order, walking != 0) {
+            (Some(order), true) => {
+                let first = (&b.known, b.ev.f_cols());
+                eval_walks_x8(avx, &self.nested, &q, order, samplers, ids, first)
+            }
+            // (No lane walks: every walked lane's value is zero.)
+            _ => [[0.0; 8]; 3],
+        };
     }
 
     /// Whether lane `k`'s walk ran in [`Self::walk_x8`].
@@ -240,11 +321,11 @@ impl<'a> WalkEvals<'a> {
         s: &mut Sampler,
     ) -> (Spectrum, f32) {
         let m = self.maps[k].expect("a lane with a query");
-        let (wi, wo, first) = (self.wi[k], self.wo[k], self.first[k] as usize);
-        let ev = &self.ev;
+        let b = &mut *self.buf;
+        let (wi, wo, first) = (b.wi[k], b.wo[k], b.first[k] as usize);
         let mut known = Known {
-            terms: &mut self.terms[k],
-            ev,
+            terms: &mut b.terms[k],
+            ev: &b.ev,
             first,
         };
         let f = walk::eval(m, &self.nested, ctx, wi, wo, s, &mut known);
@@ -336,6 +417,8 @@ mod tests {
         ];
         let ctx = BsdfContext::default();
         let (mut walked, mut terms_seen, mut scalar_lanes, mut nonzero) = (0, 0, 0, 0);
+        // One buffer for every chunk, as the stream kernel keeps it.
+        let mut buf = WalkEvalsBuf::new();
         for chunk in 0..2400 {
             let (geometry, tangent) = geometries[chunk % 4];
             arena.clear();
@@ -361,7 +444,8 @@ mod tests {
                 }
             }
             let nested = arena.bsdf(child);
-            let mut lanes = WalkEvals::new(nested, child).expect("a leaf with a lane form");
+            let mut lanes =
+                WalkEvals::new(nested, child, &mut buf).expect("a leaf with a lane form");
             // Lanes with a light sample (the others are not pushed).
             let lit: u8 = (rng.next_u32() & 0xff) as u8;
             let mut pushed = 0u8;

@@ -319,7 +319,7 @@ pub(crate) mod x8 {
         eval_pdf_x8_into, sample_walks_x8, sample_x8_cols, two_sided_evals_x8,
         with_incident_alone_x8, BuiltFacets, Chunk, Cols, Point, TwoSidedEvals, WalkSamples,
     };
-    use crate::bsdf::mnm::walk_pdf_lanes::WalkEvals;
+    use crate::bsdf::mnm::walk_pdf_lanes::{WalkEvals, WalkEvalsBuf};
     use crate::bsdf::mnm::Evaluation;
     use crate::bsdf::{BsdfArena, BsdfContext, Lobes, SurfaceBsdf};
     use crate::geometry::{Ray, SurfaceInteraction};
@@ -377,7 +377,8 @@ pub(crate) mod x8 {
     /// [`super::qualifies`]: the chunk is part of a run of the sorted paths) as
     /// `PathState::scatter` would, one after the other; hands each lane's light sample, then
     /// its BSDF sample, to `tail` (the integrator's end of the vertex). `arena` holds the 8
-    /// points' BSDF trees (cleared here). The first `live` lanes are the chunk's paths; a
+    /// points' BSDF trees (cleared here); `walk_evals` the random walk's light-sample arrays
+    /// (`WalkEvals`, reset per chunk), kept by the caller across a run's chunks. The first `live` lanes are the chunk's paths; a
     /// padded chunk's other lanes (`vertex::x8::padded`: the last path's id again) are marked
     /// behind their surface, as `vertex::x8::live_only` does for the other kernels: they build
     /// their BSDFs (in the chunk's arena) but neither scatter, draw a number nor hand a sample
@@ -395,6 +396,7 @@ pub(crate) mod x8 {
         live: usize,
         lights: &[Option<LaneLight>],
         gather: &mut Gather,
+        walk_evals: &mut WalkEvalsBuf,
         arena: &mut BsdfArena,
         tail: &mut impl Tail,
     ) {
@@ -584,7 +586,9 @@ pub(crate) mod x8 {
             // (the terms) of all lanes in 8-wide calls first (`WalkEvals`: the scalar
             // `walk_eval_pdf`'s numbers; it draws nothing), then their walks.
             let mut walks = match &built {
-                Some(bt) if rest != 0 && walking => WalkEvals::new(arena.bsdf(bt.child), bt.child),
+                Some(bt) if rest != 0 && walking => {
+                    WalkEvals::new(arena.bsdf(bt.child), bt.child, walk_evals)
+                }
                 _ => None,
             };
             if let Some(w) = &mut walks {

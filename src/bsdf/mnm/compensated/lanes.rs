@@ -48,7 +48,7 @@ pub(crate) use walk::{sample_walks_x8, BuiltFacets, WalkGroups, WalkSamples};
 #[cfg(target_arch = "x86_64")]
 mod walk_eval;
 #[cfg(target_arch = "x86_64")]
-pub(crate) use walk_eval::{eval_walks_x8, EvalQuery};
+pub(crate) use walk_eval::{eval_walks_x8, EvalQuery, FirstConnections};
 #[cfg(target_arch = "x86_64")]
 mod walk_eval_t;
 #[cfg(target_arch = "x86_64")]

@@ -21,9 +21,11 @@
 //! **The same bits.** The scalar walk takes its first vertex's connections from the MIS
 //! density's terms (the fused nested `eval_pdf`, or `WalkEvals`' batch of it) and the others
 //! from the nested `eval`; both leaves' `eval` is `eval_pdf`'s value bit for bit, and the lane
-//! form is the scalar `eval_pdf` at any width (`nested_batch`'s tests), so every connection is
-//! evaluated here by the lane form (`tests`: each lane's value, density and stream against the
-//! scalar `Bsdf::eval_pdf` of its map).
+//! form is the scalar `eval_pdf` at any width (`nested_batch`'s tests). So the first vertex's
+//! connections are read from `WalkEvals`' batch (the pairs pushed there from the same ωi, ωo,
+//! R(ωo) and facet frames: [`FirstConnections`]) and every other connection is evaluated here
+//! by the lane form (`tests`: each lane's value, density and stream against the scalar
+//! `Bsdf::eval_pdf` of its map).
 
 use super::super::Nested;
 use super::draws::step;
@@ -31,13 +33,13 @@ use super::sample::{draws_u1, Asks};
 use super::walk::{draw_2d, frame_of, l3, next_facet, pick3, set3, store_cols, Col3, MapCols};
 use super::Cols;
 use crate::bsdf::mnm::facets::{SurfaceLanes, MAX_FACETS};
-use crate::bsdf::mnm::nested_batch::LaneNested;
+use crate::bsdf::mnm::nested_batch::{LaneNested, CHUNK};
 use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfNode};
 use crate::lane::frame::Frame as LaneFrame;
 use crate::lane::pcg::Pcg;
 use crate::lane::vec::V3;
-use crate::lane::{Avx2, F32x8, Lane};
+use crate::lane::{Avx2, F32x8, I32x8, Lane, LaneI32};
 use crate::sampler::Samplers;
 use glam::Vec3;
 
@@ -54,10 +56,40 @@ pub(crate) struct EvalQuery<'m> {
     pub wall_w: f32,
 }
 
+/// Where the MIS density's batch already holds the first vertex's connections of
+/// [`eval_walks_x8`]'s lanes (`WalkEvals`: the terms' nested `eval_pdf` in 8-wide calls, their
+/// values `[component][pair]`). At its first vertex a walk is on its entry facet k with
+/// a = −d = ωi, so its two connections are the pairs (k, ωi, ωo) and, over the mirror
+/// sawtooth (k = 0), (0, ωi, R(ωo)): terms of single scattering (one a facet seen from ωi)
+/// and of Variant M (i→p→o, i→p→t→o), the same pairs in the same frames, whose values the
+/// scalar walk takes from the terms (`Terms::f`). The walk reads them from the batch by
+/// these indices (8-wide gathers) instead of evaluating the leaf again; a lane whose facet
+/// has no such term (λ_k(ωi) rounded to 0) evaluates the connection itself, as before.
+#[derive(Clone, Copy)]
+pub(crate) struct FirstConnections {
+    /// Lane l's pair index of (k, ωi, ωo) in the batch, by facet k; −1: none.
+    pub wo: [[i32; 8]; MAX_FACETS],
+    /// Lane l's pair index of (0, ωi, R(ωo)); −1: none.
+    pub rwo: [i32; 8],
+}
+
+impl FirstConnections {
+    /// None known.
+    #[inline(always)]
+    pub(crate) fn new() -> Self {
+        FirstConnections {
+            wo: [[-1; 8]; MAX_FACETS],
+            rwo: [-1; 8],
+        }
+    }
+}
+
 /// `walk::eval` of each lane of `q` (`None`: no walk here) over the shared leaf `nested`
 /// (a `roughconductor` or `roughplastic`) with every lane's `max_order` equal to `max_order`,
 /// each from stream `ids[k]` of `samplers`: f·cos θo by lane (`[component][lane]`), every
-/// walking stream left where the scalar walk leaves it.
+/// walking stream left where the scalar walk leaves it. `first`: where the density's batch
+/// holds the first vertex's connections, and the batch's values `[component][pair]` (the
+/// others are evaluated here).
 #[inline(never)]
 pub(crate) fn eval_walks_x8(
     avx: Avx2,
@@ -66,6 +98,7 @@ pub(crate) fn eval_walks_x8(
     max_order: u32,
     samplers: &mut Samplers,
     ids: &[u32; 8],
+    first: (&FirstConnections, &[[f32; CHUNK]; 3]),
 ) -> Col3 {
     let mut c = EvalCols {
         f: MapCols::new(),
@@ -94,8 +127,10 @@ pub(crate) fn eval_walks_x8(
     }
     let kind = Nested::of(nested);
     match nested.node() {
-        BsdfNode::RoughConductor(b) => walk8_eval(avx, b, kind, &c, max_order, samplers, ids),
-        BsdfNode::RoughPlastic(b) => walk8_eval(avx, b, kind, &c, max_order, samplers, ids),
+        BsdfNode::RoughConductor(b) => {
+            walk8_eval(avx, b, kind, &c, max_order, samplers, ids, first)
+        }
+        BsdfNode::RoughPlastic(b) => walk8_eval(avx, b, kind, &c, max_order, samplers, ids, first),
         _ => unreachable!("the eval walk's leaf has a lane form"),
     }
 }
@@ -116,8 +151,10 @@ struct EvalCols {
 }
 
 /// The masked eval walk of the lanes of `c` (see the module's doc), in 8-wide code: `leaf`
-/// evaluates the connections, `kind` (the same leaf) answers the nested samples.
+/// evaluates the connections (but the first vertex's that `first` holds), `kind` (the same
+/// leaf) answers the nested samples.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn walk8_eval<B: LaneNested>(
     avx: Avx2,
     leaf: &B,
@@ -126,7 +163,9 @@ fn walk8_eval<B: LaneNested>(
     max_order: u32,
     samplers: &mut Samplers,
     ids: &[u32; 8],
+    first: (&FirstConnections, &[[f32; CHUNK]; 3]),
 ) -> Col3 {
+    let (at, ev) = first;
     let u1_drawn = draws_u1(kind);
     let all_plain = samplers.all_plain();
     let cols = Cols::of(avx);
@@ -188,17 +227,50 @@ fn walk8_eval<B: LaneNested>(
                     let n = pick3(&k, &nrm);
                     let f = frame_of(&k, &fr);
                     let a = f.to_local(-d);
-                    // Toward ωo: F_k(−d, ωo)·G1(ωo).
+                    let none = V3::new(zero, zero, zero);
+                    // Toward ωo: F_k(−d, ωo)·G1(ωo); at the first vertex (entry facet k,
+                    // a = ωi) from the density's batch where it holds (k, ωi, ωo).
                     let to_wo = nest & wo.dot(n).gt(zero);
                     if to_wo.bits() != 0 {
-                        let (fv, _) = leaf.eval_pdf_lanes(a, f.to_local(wo));
+                        let (mut fv, mut need) = (none, to_wo);
+                        if order == 1 {
+                            let col = |j: usize| avx.load_i32(&at.wo[j]);
+                            let mut i = col(0);
+                            for (j, kj) in k.iter().enumerate().skip(1) {
+                                i = I32x8::select(*kj, col(j), i);
+                            }
+                            fv = V3::new(
+                                F32x8::gather(&ev[0], i),
+                                F32x8::gather(&ev[1], i),
+                                F32x8::gather(&ev[2], i),
+                            );
+                            need = to_wo & !i.gt(i.splat(-1));
+                        }
+                        if need.bits() != 0 {
+                            let (fe, _) = leaf.eval_pdf_lanes(a, f.to_local(wo));
+                            fv = V3::select(need, fe, fv);
+                        }
                         sum = V3::select(to_wo, sum + (thr * fv).scale(g1o), sum);
                     }
-                    // Through the mirror wall: p → t → ωo needs one more vertex.
+                    // Through the mirror wall: p → t → ωo needs one more vertex; at the first
+                    // vertex (facet 0) from the batch where it holds (0, ωi, R(ωo)).
                     if order < max_order {
                         let to_rwo = nest & through & rwo.dot(n).gt(zero);
                         if to_rwo.bits() != 0 {
-                            let (fv, _) = leaf.eval_pdf_lanes(a, f.to_local(rwo));
+                            let (mut fv, mut need) = (none, to_rwo);
+                            if order == 1 {
+                                let i = avx.load_i32(&at.rwo);
+                                fv = V3::new(
+                                    F32x8::gather(&ev[0], i),
+                                    F32x8::gather(&ev[1], i),
+                                    F32x8::gather(&ev[2], i),
+                                );
+                                need = to_rwo & !(k[0] & i.gt(i.splat(-1)));
+                            }
+                            if need.bits() != 0 {
+                                let (fe, _) = leaf.eval_pdf_lanes(a, f.to_local(rwo));
+                                fv = V3::select(need, fe, fv);
+                            }
                             sum = V3::select(to_rwo, sum + (thr * fv).scale(wall_w), sum);
                         }
                     }
@@ -251,7 +323,7 @@ mod tests {
         assert_same_streams, random_wp, same, same3, streams, GEOMETRIES,
     };
     use crate::bsdf::mnm::compensated::tests::push_reflectors;
-    use crate::bsdf::mnm::walk_pdf_lanes::WalkEvals;
+    use crate::bsdf::mnm::walk_pdf_lanes::{WalkEvals, WalkEvalsBuf};
     use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
     use crate::bsdf::{BsdfArena, BsdfContext};
     use crate::lane::Avx2;
@@ -293,6 +365,8 @@ mod tests {
         let (mut walked, mut nonzero, mut scalar, mut unlit, mut stratified_draws) =
             (0, 0, 0, 0, 0);
         let mut mirror_nonzero = 0;
+        // One buffer for every chunk, as the stream kernel keeps it.
+        let mut buf = WalkEvalsBuf::new();
         for round in 0..3000 {
             let mut arena = BsdfArena::new();
             let leaves = push_reflectors(&mut arena);
@@ -322,7 +396,8 @@ mod tests {
             }
             let (mut all, ids, mut cols) = streams(&mut rng, stratified, &mut stratified_draws);
             let nested = arena.bsdf(child);
-            let mut lanes = WalkEvals::new(nested, child).expect("a leaf with a lane form");
+            let mut lanes =
+                WalkEvals::new(nested, child, &mut buf).expect("a leaf with a lane form");
             // The lanes with a light sample (the others are not pushed).
             let lit = (rng.next_u32() & 0xff) as u8;
             for k in 0..8 {
