@@ -43,7 +43,7 @@
 
 use super::explicit::PdfTerms;
 use super::facets::{SurfaceLanes, MAX_FACETS};
-use super::nested_batch::{self, Pairs, CHUNK};
+use super::nested_batch::{self, Evaluated, Pairs, CHUNK};
 use super::walk::FirstVertex;
 use super::MicrofacetNormalMap;
 use crate::bsdf::roughdielectric::RoughDielectric;
@@ -273,58 +273,117 @@ pub(super) fn reflection_pdfs(
         return out;
     }
     let lt = lane_terms(avx, &c, mirror);
-    let mut terms = [PdfTerms::empty(); 8];
-    // Term j of lane k: its pair's index in the batch (unknown terms only).
-    let mut at = [[0u8; MAX_FACETS]; 8];
-    let mut pairs = Pairs::<CHUNK>::new();
     let delta = nested.lobes().has_delta();
+    if !matches!(
+        nested.node(),
+        BsdfNode::RoughConductor(_) | BsdfNode::RoughPlastic(_)
+    ) {
+        // No lane form: the scalar densities.
+        for (k, e) in walks.iter().enumerate() {
+            let Some(e) = e else { continue };
+            let mut t = PdfTerms::empty();
+            terms_into(&mut t, &lt, k, e, delta);
+            out[k] = walk_mis(e.m, t.total(e.m, nested, ctx), e.wo);
+        }
+        return out;
+    }
+    // Variant M's lanes keep their `PdfTerms` (term j's pair at `at[k][j]` where unknown).
+    // Single scattering's lanes (the walk-same microsurfaces) need no `PdfTerms` (~160 bytes
+    // built and copied a lane): their terms are λ_f(ωi)·P_f(ωi, ωo) for each facet f with
+    // λ_f > 0, in facet order (`PdfTerms::single_of`), the first vertex's facet's P known
+    // (bit f of `known[k]`, the value `kp[k]`) exactly where `PdfTerms::know` finds its term
+    // (the same facet, and ωi, ωo equal to themselves: no NaN), the others' pairs at
+    // `at[k][f]`.
+    let mut terms: [Option<PdfTerms>; 8] = [None; 8];
+    let mut at = [[0u8; MAX_FACETS]; 8];
+    let (mut known, mut kp) = ([0u8; 8], [0.0f32; 8]);
+    let mut pairs = Pairs::<CHUNK>::new();
     for (k, e) in walks.iter().enumerate() {
         let Some(e) = e else { continue };
-        let l = [lt.l[0][k], lt.l[1][k], lt.l[2][k]];
-        let col = |c: &Col3| Vec3::new(c[0][k], c[1][k], c[2][k]);
-        let t = &mut terms[k];
-        *t = if e.m.mirror_wall {
-            let wall_o = (lt.wo_t & (1 << k) != 0).then(|| (col(&lt.rwo), lt.g1r[k]));
-            let rwi = (lt.wi_t & (1 << k) != 0).then(|| col(&lt.rwi));
-            PdfTerms::mirror_of(e.wi, e.wo, l, lt.g1o[k], wall_o, rwi)
-        } else {
-            PdfTerms::single_of(e.wi, e.wo, l, e.m.surface.len())
-        };
-        if let Some(v) = e.first {
-            if !delta {
-                t.know(v.k, e.wi, e.wo, v.pdf);
+        if e.m.mirror_wall {
+            let t = terms[k].insert(PdfTerms::empty());
+            terms_into(t, &lt, k, e, delta);
+            for j in 0..t.len() {
+                if t.known(j).is_none() {
+                    let (f, a, b) = t.pair(j);
+                    let fr = &e.m.frames[f];
+                    at[k][j] = pairs.push(fr.to_local(a), fr.to_local(b), true) as u8;
+                }
             }
+            continue;
         }
-        for j in 0..t.len() {
-            if t.known(j).is_none() {
-                let (f, a, b) = t.pair(j);
-                let fr = &e.m.frames[f];
-                at[k][j] = pairs.push(fr.to_local(a), fr.to_local(b), true) as u8;
+        let kf = match e.first {
+            Some(v) if !delta && !e.wi.is_nan() && !e.wo.is_nan() => {
+                kp[k] = v.pdf;
+                v.k
+            }
+            _ => MAX_FACETS,
+        };
+        for f in 0..e.m.surface.len() {
+            if lt.l[f][k] > 0.0 {
+                if f == kf {
+                    known[k] = 1 << f;
+                } else {
+                    let fr = &e.m.frames[f];
+                    at[k][f] = pairs.push(fr.to_local(e.wi), fr.to_local(e.wo), true) as u8;
+                }
             }
         }
     }
-    let ev = match nested.node() {
-        BsdfNode::RoughConductor(c) => nested_batch::eval_pdf_lanes(c, &pairs),
-        BsdfNode::RoughPlastic(p) => nested_batch::eval_pdf_lanes(p, &pairs),
-        _ => {
-            for (k, e) in walks.iter().enumerate() {
-                let Some(e) = e else { continue };
-                let p1 = terms[k].total(e.m, nested, ctx);
-                out[k] = walk_mis(e.m, p1, e.wo);
-            }
-            return out;
-        }
-    };
+    // (Into a local: `eval_pdf_lanes`' 512-byte result was copied out.)
+    let mut ev = Evaluated::zero();
+    match nested.node() {
+        BsdfNode::RoughConductor(c) => nested_batch::eval_pdf_lanes_into(c, &pairs, &mut ev),
+        BsdfNode::RoughPlastic(p) => nested_batch::eval_pdf_lanes_into(p, &pairs, &mut ev),
+        _ => unreachable!("the leaves with a lane form, tested above"),
+    }
     for (k, e) in walks.iter().enumerate() {
         let Some(e) = e else { continue };
-        let t = &terms[k];
-        let p1 = t.total_of(|j| match t.known(j) {
-            Some(p) => p,
-            None => ev.p(at[k][j] as usize),
-        });
+        let p1 = match &terms[k] {
+            Some(t) => t.total_of(|j| match t.known(j) {
+                Some(p) => p,
+                None => ev.p(at[k][j] as usize),
+            }),
+            None => {
+                // `PdfTerms::total_of`'s sum over the same terms in the same order.
+                let mut p = 0.0;
+                for f in 0..e.m.surface.len() {
+                    let l = lt.l[f][k];
+                    if l > 0.0 {
+                        let pf = match known[k] & (1 << f) != 0 {
+                            true => kp[k],
+                            false => ev.p(at[k][f] as usize),
+                        };
+                        p += l * pf;
+                    }
+                }
+                p
+            }
+        };
         out[k] = walk_mis(e.m, p1, e.wo);
     }
     out
+}
+
+/// Lane `k`'s terms into `t` as `walk_sample_of` builds them (`PdfTerms::mirror` /
+/// `single`, from the lanes' values `lt`), the first vertex's density known where it knows
+/// it (not for a leaf with delta lobes, `delta`).
+#[inline(always)]
+fn terms_into(t: &mut PdfTerms, lt: &LaneTerms, k: usize, e: &Escaped<'_>, delta: bool) {
+    let l = [lt.l[0][k], lt.l[1][k], lt.l[2][k]];
+    let col = |c: &Col3| Vec3::new(c[0][k], c[1][k], c[2][k]);
+    *t = if e.m.mirror_wall {
+        let wall_o = (lt.wo_t & (1 << k) != 0).then(|| (col(&lt.rwo), lt.g1r[k]));
+        let rwi = (lt.wi_t & (1 << k) != 0).then(|| col(&lt.rwi));
+        PdfTerms::mirror_of(e.wi, e.wo, l, lt.g1o[k], wall_o, rwi)
+    } else {
+        PdfTerms::single_of(e.wi, e.wo, l, e.m.surface.len())
+    };
+    if let Some(v) = e.first {
+        if !delta {
+            t.know(v.k, e.wi, e.wo, v.pdf);
+        }
+    }
 }
 
 /// Decision 3's mixture of the reflection walk (`mnm::walk_sample_of`'s expression).
