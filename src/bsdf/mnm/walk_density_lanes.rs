@@ -43,6 +43,7 @@
 
 use super::explicit::PdfTerms;
 use super::facets::{SurfaceLanes, MAX_FACETS};
+use super::map_view::{MapRef, MapView};
 use super::nested_batch::{self, Pairs, CHUNK};
 use super::walk::FirstVertex;
 use super::MicrofacetNormalMap;
@@ -167,7 +168,8 @@ pub(super) fn two_sided_pdf(m: &MicrofacetNormalMap, p1: f32, wi: Vec3, wo: Vec3
 /// when it escaped right after it (`walk::FirstVertex`).
 #[derive(Clone, Copy)]
 pub(super) struct Escaped<'a> {
-    pub m: &'a MicrofacetNormalMap,
+    /// The lane's map, or its view of the build's columns (`map_view`).
+    pub m: MapRef<'a>,
     pub wi: Vec3,
     pub wo: Vec3,
     pub first: Option<FirstVertex>,
@@ -283,12 +285,12 @@ pub(super) fn reflection_pdfs(
         let l = [lt.l[0][k], lt.l[1][k], lt.l[2][k]];
         let col = |c: &Col3| Vec3::new(c[0][k], c[1][k], c[2][k]);
         let t = &mut terms[k];
-        *t = if e.m.mirror_wall {
+        *t = if e.m.mirror_wall() {
             let wall_o = (lt.wo_t & (1 << k) != 0).then(|| (col(&lt.rwo), lt.g1r[k]));
             let rwi = (lt.wi_t & (1 << k) != 0).then(|| col(&lt.rwi));
             PdfTerms::mirror_of(e.wi, e.wo, l, lt.g1o[k], wall_o, rwi)
         } else {
-            PdfTerms::single_of(e.wi, e.wo, l, e.m.surface.len())
+            PdfTerms::single_of(e.wi, e.wo, l, e.m.surface().len())
         };
         if let Some(v) = e.first {
             if !delta {
@@ -298,7 +300,7 @@ pub(super) fn reflection_pdfs(
         for j in 0..t.len() {
             if t.known(j).is_none() {
                 let (f, a, b) = t.pair(j);
-                let fr = &e.m.frames[f];
+                let fr = e.m.frame(f);
                 at[k][j] = pairs.push(fr.to_local(a), fr.to_local(b), true) as u8;
             }
         }
@@ -309,8 +311,10 @@ pub(super) fn reflection_pdfs(
         _ => {
             for (k, e) in walks.iter().enumerate() {
                 let Some(e) = e else { continue };
-                let p1 = terms[k].total(e.m, nested, ctx);
-                out[k] = walk_mis(e.m, p1, e.wo);
+                // (A view's lane walks over a leaf with a lane form only: not here.)
+                let m = e.m.map().expect("a lane with its map");
+                let p1 = terms[k].total(m, nested, ctx);
+                out[k] = walk_mis(&e.m, p1, e.wo);
             }
             return out;
         }
@@ -322,14 +326,14 @@ pub(super) fn reflection_pdfs(
             Some(p) => p,
             None => ev.p(at[k][j] as usize),
         });
-        out[k] = walk_mis(e.m, p1, e.wo);
+        out[k] = walk_mis(&e.m, p1, e.wo);
     }
     out
 }
 
 /// Decision 3's mixture of the reflection walk (`mnm::walk_sample_of`'s expression).
 #[inline(always)]
-fn walk_mis(m: &MicrofacetNormalMap, p1: f32, wo: Vec3) -> f32 {
+fn walk_mis(m: &impl MapView, p1: f32, wo: Vec3) -> f32 {
     let c = m.mis_c();
     (1.0 - c) * p1 + c * wo.z * INV_PI
 }
@@ -566,7 +570,7 @@ mod tests {
                 set3(&mut wi, k, i);
                 set3(&mut wo, k, o);
                 *w = Some(Escaped {
-                    m,
+                    m: MapRef::Map(m),
                     wi: i,
                     wo: o,
                     first,
@@ -585,7 +589,8 @@ mod tests {
                     continue;
                 };
                 let lobe = Lobes::GLOSSY_REFLECTION;
-                let want = walk_sample_of(e.m, &nested, &ctx, e.wi, e.wo, Vec3::ONE, lobe, e.first);
+                let m = e.m.map().unwrap();
+                let want = walk_sample_of(m, &nested, &ctx, e.wi, e.wo, Vec3::ONE, lobe, e.first);
                 assert!(
                     same(got[k], want.pdf),
                     "round {round} lane {k}: {} {}",
