@@ -1078,7 +1078,9 @@ pub(super) mod tests {
     /// wall, the V-groove and two U-grooves, both rough conductors and the rough plastic,
     /// independent and stratified streams (some still in their strata), random ωi, lanes
     /// without a point or not walked (flat maps, ωi below), walks of different lengths and
-    /// `max_order` 1, 3 and 10.
+    /// `max_order` 1, 3 and 10; in the rounds built from the columns, half the lanes that are
+    /// not flat and seen from above walk without their maps (the leaf for a point, their
+    /// views of the columns in `BuiltFacets::views`, each checked against its map).
     #[test]
     fn masked_walks_equal_the_scalar_walks() {
         let Some(avx) = Avx2::detect() else {

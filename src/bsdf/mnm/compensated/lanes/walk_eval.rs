@@ -318,7 +318,12 @@ mod tests {
     /// and stratified streams (some still in their strata), random ωi and ωo (grazing, +z,
     /// some below: not walked), lanes without a light sample, flat maps (not walked), walks
     /// of at most 1, 3 and 8 vertices, and lanes whose `max_order` is not the first walking
-    /// lane's (left to the scalar walk, `WalkEvals::eval_pdf`).
+    /// lane's (left to the scalar walk, `WalkEvals::eval_pdf`). Two rounds in three build the
+    /// maps from a chunk's build columns as the stream kernel does (the walk's set-up then
+    /// reads the columns, `BuiltFacets`), and half their lanes that are not flat and seen from
+    /// above are queried through their views of the columns (`WalkEvals::push_view`, each
+    /// view checked against its map, `view_is_map`), the ones with ωo below answered (0, 0)
+    /// as the kernel answers them.
     #[test]
     fn masked_eval_walks_equal_the_scalar_walks() {
         let Some(avx) = Avx2::detect() else {
@@ -455,12 +460,12 @@ mod tests {
         // are left to the scalar walk; lanes without a light sample; streams in their strata.
         assert!(walked > 8000 && nonzero > 6000, "{walked} {nonzero}");
         assert!(mirror_nonzero > 2000, "{mirror_nonzero}");
-        assert!(scalar > 500 && unlit > 5000, "{scalar} {unlit}");
+        assert!(scalar > 150 && unlit > 5000, "{scalar} {unlit}");
         assert!(stratified_draws > 3000, "{stratified_draws}");
         // Walks from the build's columns, lanes through their views (some with ωo below).
         assert!(col_rounds > 1000, "{col_rounds}");
         assert!(
-            view_walks > 3000 && view_below > 200,
+            view_walks > 1500 && view_below > 50,
             "{view_walks} {view_below}"
         );
     }
