@@ -1121,7 +1121,7 @@ pub(super) mod tests {
             let mut views: [Option<ColMap<'_>>; 8] = [None; 8];
             for (k, p) in pts.iter().enumerate() {
                 let Some((r, wi)) = p else { continue };
-                if from_cols & (1 << k) != 0 && wi.z > 0.0 && rng.next_u32() % 2 == 0 {
+                if from_cols & (1 << k) != 0 && wi.z > 0.0 && rng.next_u32().is_multiple_of(2) {
                     views[k] = build.view(k);
                 }
                 if let (Some(v), BsdfNode::MicrofacetNormalMap { map, .. }) =

@@ -377,7 +377,7 @@ mod tests {
             let mut views: [Option<ColMap<'_>>; 8] = [None; 8];
             if by_cols {
                 for k in 0..8 {
-                    if wi[k].z > 0.0 && rng.next_u32() % 2 == 0 {
+                    if wi[k].z > 0.0 && rng.next_u32().is_multiple_of(2) {
                         views[k] = build.view(k);
                     }
                     let BsdfNode::MicrofacetNormalMap { map, .. } = arena.bsdf(roots[k]).node()
