@@ -15,7 +15,10 @@
 //!    mirror sawtooth with a `roughconductor` or `roughplastic` leaf ([`lane_points`]) no map
 //!    for a hit that is not flat: its numbers stay in the build's columns, which become the
 //!    chunk's (`compensated::lanes::Chunk::of_facets`); each other point's map written from
-//!    them), else lane by lane `Scene::bsdf_root` (the scalar code);
+//!    them), else lane by lane `Scene::bsdf_root` (the scalar code); for the random walk over
+//!    a shared reflecting rough leaf ([`mapless_bits`], forty-second session) no map for a lane
+//!    that is not flat and is seen from above: its view of the columns
+//!    (`bsdf::mnm::map_view::ColMap`, [`views_of`]) stands for the map in steps 3 and 4;
 //!    then the side test (as bits for the points built without maps, else lane by lane), the
 //!    light selection and light point through the shared gather
 //!    ([`super::light::x8::Gather`]: area lights 8-wide);
