@@ -16,6 +16,7 @@
 //! P_p(a_e, R(ωo))] (R has unit Jacobian).
 
 use super::facets::MAX_FACETS;
+use super::map_view::MapView;
 use super::walk::Terms;
 use super::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfContext, BsdfSample, Lobes};
@@ -79,17 +80,18 @@ impl PdfTerms {
 
     /// The terms of [`pdf_mirror`] (§4.2): i→p→o with weight λp(ωi)·G1(ωo), i→p→t→o with
     /// λp(ωi)·(1 − G1(R(ωo))), i→t→p→o with λt(ωi).
-    pub(super) fn mirror(m: &MicrofacetNormalMap, wi: Vec3, wo: Vec3) -> Self {
-        let surf = &m.surface;
+    /// (Over a map or a view of one, [`MapView`]: one code for both.)
+    pub(super) fn mirror<V: MapView + ?Sized>(m: &V, wi: Vec3, wo: Vec3) -> Self {
+        let surf = m.surface();
         let wt = surf.normal(1);
         let [lp, lt, _] = surf.lambdas(wi);
         let mut t = Self::empty();
         if lp > 0.0 {
-            let g1o = t.g1_wo(m, wo);
+            let g1o = t.g1_wo_of(m, wo);
             t.push(0, wi, wo, lp * g1o);
             if wo.dot(wt) > 0.0 {
                 let rwo = m.reflect_wall(wo);
-                let g1r = t.g1_rwo(m, rwo);
+                let g1r = t.g1_rwo_of(m, rwo);
                 t.push(0, wi, rwo, lp * (1.0 - g1r));
             }
         }
@@ -130,8 +132,8 @@ impl PdfTerms {
     }
 
     /// The terms of [`pdf_single`] (§3): λ_k(ωi) · P_k(ωi, ωo) for every facet seen from ωi.
-    pub(super) fn single(m: &MicrofacetNormalMap, wi: Vec3, wo: Vec3) -> Self {
-        let surf = &m.surface;
+    pub(super) fn single<V: MapView + ?Sized>(m: &V, wi: Vec3, wo: Vec3) -> Self {
+        let surf = m.surface();
         Self::single_of(wi, wo, surf.lambdas(wi), surf.len())
     }
 
@@ -164,6 +166,19 @@ impl PdfTerms {
     #[inline(always)]
     pub(super) fn pair(&self, j: usize) -> (usize, Vec3, Vec3) {
         (self.k[j], self.a[j], self.b[j])
+    }
+
+    /// G1(ωo) of map (or view) `m` (the `wo` these terms were built for), computed once.
+    #[inline(always)]
+    pub(super) fn g1_wo_of<V: MapView + ?Sized>(&mut self, m: &V, wo: Vec3) -> f32 {
+        *self.g1o.get_or_insert_with(|| m.surface().g1(wo))
+    }
+
+    /// G1(R(ωo)) of map (or view) `m` (`rwo` = R(ωo) of the `wo` these terms were built
+    /// for), computed once.
+    #[inline(always)]
+    pub(super) fn g1_rwo_of<V: MapView + ?Sized>(&mut self, m: &V, rwo: Vec3) -> f32 {
+        *self.g1r.get_or_insert_with(|| m.surface().g1(rwo))
     }
 
     /// Σ_j w_j P_j with P_j = `p(j)` for every term, in [`Self::total`]'s operations and order
@@ -209,13 +224,13 @@ impl Terms for PdfTerms {
     /// G1(ωo) (the `wo` these terms were built for), computed once.
     #[inline]
     fn g1_wo(&mut self, m: &MicrofacetNormalMap, wo: Vec3) -> f32 {
-        *self.g1o.get_or_insert_with(|| m.surface.g1(wo))
+        self.g1_wo_of(m, wo)
     }
 
     /// G1(R(ωo)) (`rwo` = R(ωo) of the `wo` these terms were built for), computed once.
     #[inline]
     fn g1_rwo(&mut self, m: &MicrofacetNormalMap, rwo: Vec3) -> f32 {
-        *self.g1r.get_or_insert_with(|| m.surface.g1(rwo))
+        self.g1_rwo_of(m, rwo)
     }
 
     /// F_k(a, b) (nested eval in facet k's frame); when (k, a, b) is a term whose P is still

@@ -38,6 +38,7 @@ pub mod facets;
 pub mod lambert;
 pub(crate) mod lane_cols;
 pub(crate) mod load;
+pub(crate) mod map_view;
 pub mod misplaced;
 pub mod ms_cache;
 pub mod ms_nested;

@@ -43,6 +43,7 @@
 
 use super::explicit::PdfTerms;
 use super::facets::{SurfaceLanes, MAX_FACETS};
+use super::map_view::{MapRef, MapView};
 use super::nested_batch::{self, Evaluated, Pairs, CHUNK};
 use super::walk::FirstVertex;
 use super::MicrofacetNormalMap;
@@ -167,7 +168,8 @@ pub(super) fn two_sided_pdf(m: &MicrofacetNormalMap, p1: f32, wi: Vec3, wo: Vec3
 /// when it escaped right after it (`walk::FirstVertex`).
 #[derive(Clone, Copy)]
 pub(super) struct Escaped<'a> {
-    pub m: &'a MicrofacetNormalMap,
+    /// The lane's map, or its view of the build's columns (`map_view`).
+    pub m: MapRef<'a>,
     pub wi: Vec3,
     pub wo: Vec3,
     pub first: Option<FirstVertex>,
@@ -281,9 +283,11 @@ pub(super) fn reflection_pdfs(
         // No lane form: the scalar densities.
         for (k, e) in walks.iter().enumerate() {
             let Some(e) = e else { continue };
+            // (A view's lane walks over a leaf with a lane form only: not here.)
+            let m = e.m.map().expect("a lane with its map");
             let mut t = PdfTerms::empty();
             terms_into(&mut t, &lt, k, e, delta);
-            out[k] = walk_mis(e.m, t.total(e.m, nested, ctx), e.wo);
+            out[k] = walk_mis(&e.m, t.total(m, nested, ctx), e.wo);
         }
         return out;
     }
@@ -300,13 +304,13 @@ pub(super) fn reflection_pdfs(
     let mut pairs = Pairs::<CHUNK>::new();
     for (k, e) in walks.iter().enumerate() {
         let Some(e) = e else { continue };
-        if e.m.mirror_wall {
+        if e.m.mirror_wall() {
             let t = terms[k].insert(PdfTerms::empty());
             terms_into(t, &lt, k, e, delta);
             for j in 0..t.len() {
                 if t.known(j).is_none() {
                     let (f, a, b) = t.pair(j);
-                    let fr = &e.m.frames[f];
+                    let fr = e.m.frame(f);
                     at[k][j] = pairs.push(fr.to_local(a), fr.to_local(b), true) as u8;
                 }
             }
@@ -319,12 +323,12 @@ pub(super) fn reflection_pdfs(
             }
             _ => MAX_FACETS,
         };
-        for f in 0..e.m.surface.len() {
+        for f in 0..e.m.surface().len() {
             if lt.l[f][k] > 0.0 {
                 if f == kf {
                     known[k] = 1 << f;
                 } else {
-                    let fr = &e.m.frames[f];
+                    let fr = e.m.frame(f);
                     at[k][f] = pairs.push(fr.to_local(e.wi), fr.to_local(e.wo), true) as u8;
                 }
             }
@@ -347,7 +351,7 @@ pub(super) fn reflection_pdfs(
             None => {
                 // `PdfTerms::total_of`'s sum over the same terms in the same order.
                 let mut p = 0.0;
-                for f in 0..e.m.surface.len() {
+                for f in 0..e.m.surface().len() {
                     let l = lt.l[f][k];
                     if l > 0.0 {
                         let pf = match known[k] & (1 << f) != 0 {
@@ -360,7 +364,7 @@ pub(super) fn reflection_pdfs(
                 p
             }
         };
-        out[k] = walk_mis(e.m, p1, e.wo);
+        out[k] = walk_mis(&e.m, p1, e.wo);
     }
     out
 }
@@ -372,12 +376,12 @@ pub(super) fn reflection_pdfs(
 fn terms_into(t: &mut PdfTerms, lt: &LaneTerms, k: usize, e: &Escaped<'_>, delta: bool) {
     let l = [lt.l[0][k], lt.l[1][k], lt.l[2][k]];
     let col = |c: &Col3| Vec3::new(c[0][k], c[1][k], c[2][k]);
-    *t = if e.m.mirror_wall {
+    *t = if e.m.mirror_wall() {
         let wall_o = (lt.wo_t & (1 << k) != 0).then(|| (col(&lt.rwo), lt.g1r[k]));
         let rwi = (lt.wi_t & (1 << k) != 0).then(|| col(&lt.rwi));
         PdfTerms::mirror_of(e.wi, e.wo, l, lt.g1o[k], wall_o, rwi)
     } else {
-        PdfTerms::single_of(e.wi, e.wo, l, e.m.surface.len())
+        PdfTerms::single_of(e.wi, e.wo, l, e.m.surface().len())
     };
     if let Some(v) = e.first {
         if !delta {
@@ -388,7 +392,7 @@ fn terms_into(t: &mut PdfTerms, lt: &LaneTerms, k: usize, e: &Escaped<'_>, delta
 
 /// Decision 3's mixture of the reflection walk (`mnm::walk_sample_of`'s expression).
 #[inline(always)]
-fn walk_mis(m: &MicrofacetNormalMap, p1: f32, wo: Vec3) -> f32 {
+fn walk_mis(m: &impl MapView, p1: f32, wo: Vec3) -> f32 {
     let c = m.mis_c();
     (1.0 - c) * p1 + c * wo.z * INV_PI
 }
@@ -625,7 +629,7 @@ mod tests {
                 set3(&mut wi, k, i);
                 set3(&mut wo, k, o);
                 *w = Some(Escaped {
-                    m,
+                    m: MapRef::Map(m),
                     wi: i,
                     wo: o,
                     first,
@@ -644,7 +648,8 @@ mod tests {
                     continue;
                 };
                 let lobe = Lobes::GLOSSY_REFLECTION;
-                let want = walk_sample_of(e.m, &nested, &ctx, e.wi, e.wo, Vec3::ONE, lobe, e.first);
+                let m = e.m.map().unwrap();
+                let want = walk_sample_of(m, &nested, &ctx, e.wi, e.wo, Vec3::ONE, lobe, e.first);
                 assert!(
                     same(got[k], want.pdf),
                     "round {round} lane {k}: {} {}",

@@ -30,6 +30,7 @@
 
 use super::explicit::PdfTerms;
 use super::facets::MAX_FACETS;
+use super::map_view::{ColMap, MapRef, MapView};
 use super::nested_batch::{self, Evaluated, Pairs, CHUNK};
 use super::walk::{self, Terms};
 use super::{Evaluation, MicrofacetNormalMap};
@@ -52,7 +53,8 @@ pub(crate) struct WalkEvals<'a, 'b> {
     on: u8,
     /// Bit k: lane k's walk ran in [`Self::walk_x8`], its f·cos θo in `f` (`[component][lane]`).
     walked: u8,
-    maps: [Option<&'a MicrofacetNormalMap>; 8],
+    /// Each lane's map, or its view of the build's columns ([`Self::push_view`]).
+    maps: [Option<MapRef<'a>>; 8],
     buf: &'b mut WalkEvalsBuf,
 }
 
@@ -165,23 +167,42 @@ impl<'a, 'b> WalkEvals<'a, 'b> {
         {
             return false;
         }
-        // `walk_eval_pdf`'s terms.
-        let t = if m.mirror_wall {
-            PdfTerms::mirror(m, wi, wo)
+        self.push_terms(k, MapRef::Map(m), wi, wo);
+        true
+    }
+
+    /// [`Self::push`] for a lane built without its map (the stream kernel's walking lanes
+    /// over the shared leaf, not flat, ωi above the surface): its view `v` of the build's
+    /// columns stands for the map (the same numbers, `map_view`); the query is here when ωo
+    /// is above the surface too (`wo.z <= 0` is the scalar query's (0, 0), no draw: `false`
+    /// is returned and the caller answers it so).
+    #[inline(always)]
+    pub(crate) fn push_view(&mut self, k: usize, v: &'a ColMap<'a>, wi: Vec3, wo: Vec3) -> bool {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return false;
+        }
+        self.push_terms(k, MapRef::Cols(v), wi, wo);
+        true
+    }
+
+    /// `walk_eval_pdf`'s terms of lane `k` over map (or view) `m`, and their pairs.
+    #[inline(always)]
+    fn push_terms(&mut self, k: usize, m: MapRef<'a>, wi: Vec3, wo: Vec3) {
+        let t = if m.mirror_wall() {
+            PdfTerms::mirror(&m, wi, wo)
         } else {
-            PdfTerms::single(m, wi, wo)
+            PdfTerms::single(&m, wi, wo)
         };
         self.first[k] = self.pairs.len() as u8;
         for j in 0..t.len() {
             let (f, a, b) = t.pair(j);
-            let fr = &m.frames[f];
+            let fr = m.frame(f);
             self.pairs.push(fr.to_local(a), fr.to_local(b), false);
         }
         self.terms[k] = t;
         self.maps[k] = Some(m);
         (self.wi[k], self.wo[k]) = (wi, wo);
         self.on |= 1 << k;
-        true
     }
 
     /// Every pushed term's nested value and density: the batch in 8-wide calls of the leaf's
@@ -206,7 +227,9 @@ impl<'a, 'b> WalkEvals<'a, 'b> {
     /// `ids[k]` of `samplers`: its value `walk::eval`'s bit for bit, its stream left where
     /// that walk leaves it; then [`Self::walked`] and [`Self::value`]. A lane with G1(ωo) ≤ 0
     /// is zero and draws nothing (the scalar walk's first test). The other lanes here keep
-    /// [`Self::eval_pdf`] (the scalar walk).
+    /// [`Self::eval_pdf`] (the scalar walk). `built`: the build's facet columns where the
+    /// chunk's maps were written from them (the walk's set-up reads them instead of the maps
+    /// where they hold the walking lanes' maps bit for bit).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub(crate) fn walk_x8(
@@ -214,6 +237,7 @@ impl<'a, 'b> WalkEvals<'a, 'b> {
         avx: crate::lane::Avx2,
         samplers: &mut crate::sampler::Samplers,
         ids: &[u32; 8],
+        built: Option<super::compensated::lanes::BuiltFacets<'_>>,
     ) {
         use super::compensated::lanes::{eval_walks_x8, EvalQuery, FirstConnections};
         let mut q: [Option<EvalQuery<'a>>; 8] = [None; 8];
@@ -226,19 +250,19 @@ impl<'a, 'b> WalkEvals<'a, 'b> {
             let k = rest.trailing_zeros() as usize;
             rest &= rest - 1;
             let m = self.maps[k].expect("a lane with a query");
-            if *max_order.get_or_insert(m.max_order) != m.max_order {
+            if *max_order.get_or_insert(m.max_order()) != m.max_order() {
                 continue;
             }
             self.walked |= 1 << k;
             // `walk::eval`'s factors, from the terms as it takes them.
             let (wi, wo) = (b.wi[k], b.wo[k]);
             let t = &mut b.terms[k];
-            let g1o = t.g1_wo(m, wo);
+            let g1o = t.g1_wo_of(&m, wo);
             if g1o <= 0.0 {
                 continue; // zero, no draw
             }
-            let wall_w = if m.mirror_wall && wo.dot(m.surface.normal(1)) > 0.0 {
-                (1.0 - t.g1_rwo(m, m.reflect_wall(wo))) * g1o
+            let wall_w = if m.mirror_wall() && wo.dot(m.surface().normal(1)) > 0.0 {
+                (1.0 - t.g1_rwo_of(&m, m.reflect_wall(wo))) * g1o
             } else {
                 0.0
             };
@@ -254,7 +278,7 @@ impl<'a, 'b> WalkEvals<'a, 'b> {
             // terms are (k, ωi, ωo), one a facet; Variant M's with a = ωi are (0, ωi, ωo)
             // and (0, ωi, R(ωo)) (its third term starts from R(ωi) ≠ ωi).
             let first = b.first[k] as i32;
-            if !m.mirror_wall {
+            if !m.mirror_wall() {
                 for j in 0..t.len() {
                     b.known.wo[t.pair(j).0][k] = first + j as i32;
                 }
@@ -273,11 +297,17 @@ impl<'a, 'b> WalkEvals<'a, 'b> {
         b.f = match (max_order, walking != 0) {
             (Some(order), true) => {
                 let first = (&b.known, b.ev.f_cols());
-                eval_walks_x8(avx, &self.nested, &q, order, samplers, ids, first)
+                eval_walks_x8(avx, &self.nested, &q, order, samplers, ids, built, first)
             }
             // (No lane walks: every walked lane's value is zero.)
             _ => [[0.0; 8]; 3],
         };
+    }
+
+    /// The lanes whose walks ran in [`Self::walk_x8`], as bits (tests).
+    #[cfg(test)]
+    pub(crate) fn walked_bits(&self) -> u8 {
+        self.walked
     }
 
     /// Whether lane `k`'s walk ran in [`Self::walk_x8`].
@@ -292,12 +322,12 @@ impl<'a, 'b> WalkEvals<'a, 'b> {
     pub(crate) fn value(&self, k: usize) -> (Spectrum, f32) {
         let m = self.maps[k].expect("a lane with a query");
         let f = Vec3::new(self.f[0][k], self.f[1][k], self.f[2][k]);
-        (f, self.density(m, k))
+        (f, self.density(&m, k))
     }
 
     /// Lane `k`'s MIS density (1 − c)·p1 + c·cos θo/π, p1 over the batch's densities.
     #[inline(always)]
-    fn density(&self, m: &MicrofacetNormalMap, k: usize) -> f32 {
+    fn density(&self, m: &impl MapView, k: usize) -> f32 {
         let first = self.first[k] as usize;
         let p1 = self.terms[k].total_of(|j| self.ev.p(first + j));
         let c = m.mis_c();
@@ -320,7 +350,10 @@ impl<'a, 'b> WalkEvals<'a, 'b> {
         ctx: &BsdfContext,
         s: &mut Sampler,
     ) -> (Spectrum, f32) {
-        let m = self.maps[k].expect("a lane with a query");
+        // (A lane of a view shares the chunk's `max_order`: it walked in `walk_x8`.)
+        let m = self.maps[k]
+            .and_then(|m| m.map())
+            .expect("a lane with its map");
         let b = &mut *self.buf;
         let (wi, wo, first) = (b.wi[k], b.wo[k], b.first[k] as usize);
         let mut known = Known {
@@ -469,7 +502,7 @@ mod tests {
                     continue;
                 }
                 // The terms against the scalar ones.
-                let m = lanes.maps[k].unwrap();
+                let m = lanes.maps[k].unwrap().map().unwrap();
                 let t = if m.mirror_wall {
                     PdfTerms::mirror(m, wi[k], wo[k])
                 } else {

@@ -15,7 +15,10 @@
 //!    mirror sawtooth with a `roughconductor` or `roughplastic` leaf ([`lane_points`]) no map
 //!    for a hit that is not flat: its numbers stay in the build's columns, which become the
 //!    chunk's (`compensated::lanes::Chunk::of_facets`); each other point's map written from
-//!    them), else lane by lane `Scene::bsdf_root` (the scalar code);
+//!    them), else lane by lane `Scene::bsdf_root` (the scalar code); for the random walk over
+//!    a shared reflecting rough leaf ([`mapless_bits`], forty-second session) no map for a lane
+//!    that is not flat and is seen from above: its view of the columns
+//!    (`bsdf::mnm::map_view::ColMap`, [`views_of`]) stands for the map in steps 3 and 4;
 //!    then the side test (as bits for the points built without maps, else lane by lane), the
 //!    light selection and light point through the shared gather
 //!    ([`super::light::x8::Gather`]: area lights 8-wide);
@@ -52,6 +55,7 @@ use crate::bsdf::mnm::compensated::lanes::Cols;
 #[cfg(target_arch = "x86_64")]
 use crate::bsdf::mnm::compensated::lanes::WalkGroups;
 use crate::bsdf::mnm::facets::Microgeometry;
+use crate::bsdf::mnm::map_view::ColMap;
 use crate::bsdf::mnm::{Evaluation, Tangent};
 use crate::bsdf::{BsdfArena, BsdfNode};
 use crate::lane::vec::V3;
@@ -153,7 +157,9 @@ where
 /// `compensated::lanes::with_incident_alone_x8` adds where the scalar model answers). `wi`: the
 /// hits' ωi in the shading frame by component (`SurfaceBsdf::new`'s `frame.to_local(wi)`,
 /// computed 8-wide by the caller: `diffuse::incident`). `cols`: the caller's token, for the
-/// points' tests 8-wide ([`point_bits`]).
+/// points' tests 8-wide ([`point_bits`]). `mapless` (bit k: lane k, [`mapless_bits`]): the
+/// walking lanes built without a map (their root is the nested leaf; their views of `lanes`,
+/// [`views_of`], stand for their maps in steps 3 and 4).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn build_shared(
@@ -163,6 +169,7 @@ pub(crate) fn build_shared(
     wi: &[[f32; 8]; 3],
     lanes: &MnmCols<8>,
     points: bool,
+    mapless: u8,
     arena: &mut BsdfArena,
 ) -> Option<Built> {
     let materials = &scene.materials;
@@ -192,7 +199,7 @@ pub(crate) fn build_shared(
     };
     // Each other lane's map, in lane order. The ωi rows only where the maps answer their own
     // queries (`with_incident_alone_x8` reads them; no point is built without its map).
-    let mut rest = !pts;
+    let mut rest = !pts & !mapless;
     while rest != 0 {
         let k = rest.trailing_zeros() as usize;
         rest &= rest - 1;
@@ -206,6 +213,90 @@ pub(crate) fn build_shared(
         }
     }
     Some(b)
+}
+
+/// The lanes of material `m` (one that [`qualifies`] and [`shared_nested`]) that the kernel
+/// builds without their maps (issue 18, forty-second session), as bits: where the material
+/// walks by reflection (`Evaluation::RandomWalk`, no table) over a `roughconductor` or
+/// `roughplastic` leaf that does not transmit (no Lambert form: not diffuse), every lane
+/// that is not flat (`MicrofacetNormalMap::is_flat` of the columns' ωp, as [`point_bits`]
+/// tests it) and whose ωi (`wi_z`, the shading frame's, `SurfaceBsdf`'s bits) is above the
+/// surface. Every query of such a lane reaches the masked walks, which read its view of the
+/// columns ([`views_of`]) instead of a map: the light sample's (`WalkEvals::push_view`,
+/// `walk_x8`; ωo below the surface is the scalar query's (0, 0), no draw) and the BSDF
+/// sample's (`sample_walks_x8`, the reflection walk: `mnm::walk_alone` of its map holds). A
+/// flat lane, a lane seen from below and every lane of another material keep their maps.
+#[inline(always)]
+pub(crate) fn mapless_bits(
+    cols: Cols,
+    materials: &Materials,
+    m: MatId,
+    lanes: &MnmCols<8>,
+    wi_z: &[f32; 8],
+) -> u8 {
+    use crate::bsdf::mnm::FLAT;
+    let nodes = materials.nodes();
+    let MaterialNode::MicrofacetNormalMap {
+        nested, settings, ..
+    } = &nodes[m as usize]
+    else {
+        return 0;
+    };
+    let MaterialNode::Leaf { template, .. } = &nodes[*nested as usize] else {
+        return 0;
+    };
+    let walks = settings.evaluation == Evaluation::RandomWalk
+        && settings.ms_table.is_none()
+        && matches!(
+            **template,
+            BsdfNode::RoughConductor(_) | BsdfNode::RoughPlastic(_)
+        )
+        && !materials.lobes(*nested).has_transmission();
+    if !walks {
+        return 0;
+    }
+    let wp = lanes.wp_cols();
+    cols.run(
+        #[inline(always)]
+        |cols| {
+            let flat = cols.abs_lt_bits(&wp[0], FLAT) & cols.abs_lt_bits(&wp[1], FLAT);
+            let mut above = 0u8;
+            for (k, z) in wi_z.iter().enumerate() {
+                above |= u8::from(*z > 0.0) << k;
+            }
+            above & !flat
+        },
+    )
+}
+
+/// The views of the lanes `bits` of `lanes` (material `m`'s build columns, [`mapless_bits`])
+/// that stand for their maps: `ColMap::of_lane` with the material's settings, the numbers of
+/// `MnmSettings::map_lane_into`'s map (`map_view`).
+#[inline(always)]
+pub(crate) fn views_of<'c>(
+    materials: &Materials,
+    m: MatId,
+    lanes: &'c MnmCols<8>,
+    bits: u8,
+) -> [Option<ColMap<'c>>; 8] {
+    let mut v = [None; 8];
+    let MaterialNode::MicrofacetNormalMap { settings, .. } = &materials.nodes()[m as usize] else {
+        return v;
+    };
+    let mut rest = bits;
+    while rest != 0 {
+        let k = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        v[k] = Some(ColMap::of_lane(
+            lanes.facets(),
+            k,
+            lanes.wp(k),
+            settings.geometry,
+            settings.tangent,
+            settings.max_order,
+        ));
+    }
+    v
 }
 
 /// The lanes of `lanes` that are not flat and keep their first two candidate facets, as bits
@@ -439,10 +530,28 @@ pub(crate) mod x8 {
             (1u8 << live) - 1
         };
         let (wi_local, front) = (Cols3::store(wi_local), front.bits() as u8 & live_bits);
-        let built = match &lanes {
-            Some(l) => {
-                super::build_shared(Cols::of(avx), scene, m0, &wi_local.0, l, lane_points, arena)
+        // The walking lanes built without maps, and their views of the build's columns.
+        let mapless = match &lanes {
+            Some(l) if walking => {
+                super::mapless_bits(Cols::of(avx), &scene.materials, m0, l, &wi_local.0[2])
             }
+            _ => 0,
+        };
+        let views = match &lanes {
+            Some(l) if mapless != 0 => super::views_of(&scene.materials, m0, l, mapless),
+            _ => [None; 8],
+        };
+        let built = match &lanes {
+            Some(l) => super::build_shared(
+                Cols::of(avx),
+                scene,
+                m0,
+                &wi_local.0,
+                l,
+                lane_points,
+                mapless,
+                arena,
+            ),
             None => None,
         };
         let (roots, wi, points) = match &built {
@@ -561,6 +670,18 @@ pub(crate) mod x8 {
             chunk.prepare();
         }
 
+        // The build's facet columns, where the maps were written from them (the lanes not
+        // built as points without a map): the walks of steps 3 and 4 read them 8-wide instead
+        // of each lane's map.
+        let facets = match (&lanes, &built) {
+            (Some(l), Some(bt)) => Some(BuiltFacets {
+                facets: l.facets(),
+                lanes: !bt.points,
+                views: Some(&views),
+            }),
+            _ => None,
+        };
+
         // 3. Next-event estimation: the light directions in the shading frame with
         //    `SurfaceBsdf::local_wo`'s side test 8-wide (the lanes' frames and true normals are
         //    their `SurfaceBsdf`'s, from the same rows; `Frame::to_local` is the lane form at
@@ -598,12 +719,16 @@ pub(crate) mod x8 {
                     r &= r - 1;
                     if let Some(s) = &sb[k] {
                         let (local, wi) = s.local();
-                        w.push(k, local, wi, lwo.get(k));
+                        match &views[k] {
+                            // A lane without a map: its view stands for it.
+                            Some(v) => w.push_view(k, v, wi, lwo.get(k)),
+                            None => w.push(k, local, wi, lwo.get(k)),
+                        };
                     }
                 }
                 w.evaluate();
                 // Their walks as one masked 8-lane walk (each lane on its own stream).
-                w.walk_x8(avx, &mut b.sampler, ids);
+                w.walk_x8(avx, &mut b.sampler, ids, facets);
             }
             // The two-sided walk's queries over a shared rough dielectric (`mnm::eval_pdf`'s
             // transmitting branch: `walk::eval_t` and `mnm::pdf`) as one masked 8-lane walk,
@@ -636,6 +761,9 @@ pub(crate) mod x8 {
                 let (fk, pk) = match &mut walks {
                     Some(w) if w.walked(k) => w.value(k),
                     Some(w) if w.has(k) => w.eval_pdf(k, &ctx, &mut b.sampler.at(i as usize)),
+                    // A lane without a map not pushed: ωo below its surface, the scalar
+                    // query's (0, 0) without a draw (`mnm::eval_pdf`).
+                    _ if mapless & (1 << k) != 0 => (Vec3::ZERO, 0.0),
                     _ if two_sided.has(k) => two_sided.value(k),
                     _ => local.eval_pdf(&ctx, wi, lwo.get(k), &mut b.sampler.at(i as usize)),
                 };
@@ -698,16 +826,6 @@ pub(crate) mod x8 {
                 }
             }
             let groups = super::walk_groups(&scene.materials, m0);
-            // The build's facet columns, where the maps were written from them (the lanes
-            // not built as points without a map): the walks read them 8-wide instead of
-            // each lane's map.
-            let facets = match (&lanes, &built) {
-                (Some(l), Some(bt)) => Some(BuiltFacets {
-                    facets: l.facets(),
-                    lanes: !bt.points,
-                }),
-                _ => None,
-            };
             sample_walks_x8(
                 avx,
                 &ctx,

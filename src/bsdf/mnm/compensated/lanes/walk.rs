@@ -35,6 +35,7 @@ use super::draws::{step, stratified};
 use super::sample::{accepted, draws_u1, Asks};
 use super::Cols;
 use crate::bsdf::mnm::facets::{FacetCols, SurfaceLanes, MAX_FACETS};
+use crate::bsdf::mnm::map_view::{ColMap, MapRef, MapView};
 use crate::bsdf::mnm::walk::FirstVertex;
 use crate::bsdf::mnm::walk_density_lanes::{
     reflection_pdfs, two_sided_p1, two_sided_pdf, Escaped, ReflectionCols, TwoSidedCols,
@@ -96,6 +97,11 @@ impl WalkGroups {
 pub(crate) struct BuiltFacets<'c> {
     pub facets: &'c FacetCols<8>,
     pub lanes: u8,
+    /// The lanes built without a map (the stream kernel's walking lanes over a shared
+    /// reflecting leaf, not flat, ωi above the surface): their views of these columns
+    /// (`map_view::ColMap`), which stand for their maps; such a lane's point (`pts`) is the
+    /// nested leaf itself, and it walks by reflection here.
+    pub views: Option<&'c [Option<ColMap<'c>>; 8]>,
 }
 
 /// The build's columns for the walking lanes `walking`, where they hold those lanes' maps'
@@ -110,7 +116,11 @@ pub(crate) struct BuiltFacets<'c> {
 /// do the candidates past a lane's facets (zero area vectors: never picked) and the frames
 /// past the carrying ones (placeholders: never asked).
 #[inline(always)]
-fn cols_of<'c>(avx: Avx2, built: Option<BuiltFacets<'c>>, walking: u8) -> Option<&'c FacetCols<8>> {
+pub(super) fn cols_of<'c>(
+    avx: Avx2,
+    built: Option<BuiltFacets<'c>>,
+    walking: u8,
+) -> Option<&'c FacetCols<8>> {
     let b = built?;
     if walking & !b.lanes != 0 {
         return None;
@@ -125,18 +135,18 @@ fn cols_of<'c>(avx: Avx2, built: Option<BuiltFacets<'c>>, walking: u8) -> Option
 
 /// Whether map `m` (lane `k` of a chunk whose columns [`cols_of`] took) holds the columns'
 /// numbers bit for bit: the same facets (area vectors, normals) and carrying facets' frames.
-fn map_is_cols(m: &MicrofacetNormalMap, f: &FacetCols<8>, k: usize) -> bool {
+pub(super) fn map_is_cols(m: &impl MapView, f: &FacetCols<8>, k: usize) -> bool {
     let at = |c: &Col3| Vec3::new(c[0][k], c[1][k], c[2][k]);
     let same = |a: Vec3, b: Vec3| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits);
-    let surf = &m.surface;
+    let surf = m.surface();
     let mut ok = surf.len() == f.candidates();
     for j in 0..surf.len().min(MAX_FACETS) {
         ok &= same(surf.area_vector(j), at(&f.area_vector_cols()[j]));
         ok &= same(surf.normal(j), at(&f.normal_cols()[j]));
     }
-    let carrying = if m.mirror_wall { 1 } else { surf.len() };
+    let carrying = if m.mirror_wall() { 1 } else { surf.len() };
     for j in 0..carrying.min(MAX_FACETS) {
-        let (g, c) = (&m.frames[j], &f.frame_cols()[j]);
+        let (g, c) = (&m.frame(j), &f.frame_cols()[j]);
         ok &= same(g.s, at(&c[0])) && same(g.t, at(&c[1])) && same(g.n, at(&c[2]));
     }
     ok
@@ -225,27 +235,39 @@ fn reflection_walks(
         lanes: 0,
         out: [None; 8],
     };
-    let mut maps: [Option<&MicrofacetNormalMap>; 8] = [None; 8];
+    let mut maps: [Option<MapRef<'_>>; 8] = [None; 8];
     let mut shared: Option<(Bsdf<'_>, u32)> = None;
     let mut wi = [[0.0f32; 8]; 3];
     let mut mirror = 0u8;
+    let views = built.and_then(|b| b.views);
     for (k, p) in pts.iter().enumerate() {
         let Some((b, w)) = p else { continue };
-        let Some((m, nested)) = walk_alone(*b, *w) else {
-            continue;
+        // A lane without a map: its point is the leaf, its view stands for the map (the
+        // kernel built it so only where `walk_alone` would take the map).
+        let (m, nested) = match views.and_then(|v| v[k].as_ref()) {
+            Some(v) => {
+                debug_assert!(w.z > 0.0);
+                (MapRef::Cols(v), *b)
+            }
+            None => match walk_alone(*b, *w) {
+                Some((m, nested)) => (MapRef::Map(m), nested),
+                None => continue,
+            },
         };
         if let Nested::Diffuse(_) | Nested::Other(_) = Nested::of(&nested) {
             continue;
         }
-        let (n0, order0) = *shared.get_or_insert((nested, m.max_order));
-        if !std::ptr::eq(n0.arena, nested.arena) || n0.root != nested.root || order0 != m.max_order
+        let (n0, order0) = *shared.get_or_insert((nested, m.max_order()));
+        if !std::ptr::eq(n0.arena, nested.arena)
+            || n0.root != nested.root
+            || order0 != m.max_order()
         {
             continue;
         }
         maps[k] = Some(m);
         set3(&mut wi, k, *w);
         out.lanes |= 1 << k;
-        mirror |= u8::from(m.mirror_wall) << k;
+        mirror |= u8::from(m.mirror_wall()) << k;
     }
     let Some((nested, max_order)) = shared else {
         return out;
@@ -263,7 +285,7 @@ fn reflection_walks(
             debug_assert!(maps
                 .iter()
                 .enumerate()
-                .all(|(k, m)| m.is_none_or(|m| map_is_cols(m, f, k))));
+                .all(|(k, m)| m.is_none_or(|m| map_is_cols(&m, f, k))));
             Cols8 {
                 v: f.area_vector_cols(),
                 n1: &f.normal_cols()[1],
@@ -370,8 +392,8 @@ impl MapCols {
     /// and the eval walks (`all_normals`; the reflection sample walk reads the wall's normal
     /// `n1` alone).
     #[inline(always)]
-    pub(super) fn set_lane(&mut self, k: usize, m: &MicrofacetNormalMap, all_normals: bool) {
-        let surf = &m.surface;
+    pub(super) fn set_lane(&mut self, k: usize, m: &impl MapView, all_normals: bool) {
+        let surf = m.surface();
         for (j, (vc, nc)) in self
             .v
             .iter_mut()
@@ -384,14 +406,14 @@ impl MapCols {
                 set3(nc, k, surf.normal(j));
             }
         }
-        let carrying = if m.mirror_wall { 1 } else { surf.len() };
+        let carrying = if m.mirror_wall() { 1 } else { surf.len() };
         for (j, f) in self.fr.iter_mut().enumerate().take(carrying) {
-            let g = &m.frames[j];
+            let g = &m.frame(j);
             set3(&mut f[0], k, g.s);
             set3(&mut f[1], k, g.t);
             set3(&mut f[2], k, g.n);
         }
-        if m.mirror_wall && !all_normals {
+        if m.mirror_wall() && !all_normals {
             set3(&mut self.n1, k, surf.normal(1));
         }
     }
@@ -399,7 +421,7 @@ impl MapCols {
     /// The columns of the maps `maps` (`None`: a lane that does not walk, zero); the facets'
     /// normals only for the two-sided walk (`two_sided`).
     #[inline(always)]
-    fn of(maps: &[Option<&MicrofacetNormalMap>; 8], two_sided: bool) -> Self {
+    fn of(maps: &[Option<impl MapView>; 8], two_sided: bool) -> Self {
         let mut c = MapCols::new();
         for (k, m) in maps.iter().enumerate() {
             if let Some(m) = m {
@@ -995,6 +1017,7 @@ fn walk8_t(
 pub(super) mod tests {
     use super::*;
     use crate::bsdf::mnm::facets::{MaxTilt, Microgeometry};
+    use crate::bsdf::mnm::map_view::view_is_map;
     use crate::bsdf::mnm::{Evaluation, Tangent};
     use crate::bsdf::BsdfArena;
     use crate::material::{MnmCols, MnmSettings};
@@ -1055,7 +1078,9 @@ pub(super) mod tests {
     /// wall, the V-groove and two U-grooves, both rough conductors and the rough plastic,
     /// independent and stratified streams (some still in their strata), random ωi, lanes
     /// without a point or not walked (flat maps, ωi below), walks of different lengths and
-    /// `max_order` 1, 3 and 10.
+    /// `max_order` 1, 3 and 10; in the rounds built from the columns, half the lanes that are
+    /// not flat and seen from above walk without their maps (the leaf for a point, their
+    /// views of the columns in `BuiltFacets::views`, each checked against its map).
     #[test]
     fn masked_walks_equal_the_scalar_walks() {
         let Some(avx) = Avx2::detect() else {
@@ -1066,7 +1091,7 @@ pub(super) mod tests {
         let geometries = GEOMETRIES;
         let (mut escaped, mut absorbed, mut walks, mut vertices, mut stratified_draws) =
             (0, 0, 0, 0, 0);
-        let mut col_rounds = 0;
+        let (mut col_rounds, mut view_lanes) = (0, 0);
         for round in 0..3000 {
             let mut arena = BsdfArena::new();
             let nested = crate::bsdf::mnm::compensated::tests::push_reflectors(&mut arena);
@@ -1089,9 +1114,30 @@ pub(super) mod tests {
                 *p = Some((build.push(&mut arena, n, k, col), random_wi(&mut rng)));
             }
             let (mut all, ids, mut cols) = streams(&mut rng, stratified, &mut stratified_draws);
+            // Half the lanes from the columns that are not flat and seen from above walk
+            // without their maps, as the stream kernel builds them: the leaf for a point,
+            // the lane's view of the columns for its map (the map kept for the scalar walk
+            // it is compared with; the view holds its numbers).
+            let mut views: [Option<ColMap<'_>>; 8] = [None; 8];
+            for (k, p) in pts.iter().enumerate() {
+                let Some((r, wi)) = p else { continue };
+                if from_cols & (1 << k) != 0 && wi.z > 0.0 && rng.next_u32().is_multiple_of(2) {
+                    views[k] = build.view(k);
+                }
+                if let (Some(v), BsdfNode::MicrofacetNormalMap { map, .. }) =
+                    (&views[k], arena.bsdf(*r).node())
+                {
+                    assert!(view_is_map(v, &arena.mnm[*map as usize]), "lane {k}");
+                    view_lanes += 1;
+                }
+            }
             let arena = &arena;
-            let lanes: [Option<(Bsdf<'_>, Vec3)>; 8] =
-                std::array::from_fn(|k| pts[k].map(|(r, wi)| (arena.bsdf(r), wi)));
+            let lanes: [Option<(Bsdf<'_>, Vec3)>; 8] = std::array::from_fn(|k| {
+                pts[k].map(|(r, wi)| match views[k] {
+                    Some(_) => (arena.bsdf(n), wi),
+                    None => (arena.bsdf(r), wi),
+                })
+            });
             // The kernel's group for reflecting leaves, and both groups (the same lanes).
             let groups = WalkGroups {
                 reflection: true,
@@ -1100,6 +1146,7 @@ pub(super) mod tests {
             let built = by_cols.then_some(BuiltFacets {
                 facets: build.cols.facets(),
                 lanes: from_cols,
+                views: Some(&views),
             });
             let got = sample_walks_x8(avx, &ctx, &lanes, &mut cols, &ids, 1, groups, built);
             col_rounds += build.check(avx, arena, &pts, built, got.lanes);
@@ -1145,11 +1192,14 @@ pub(super) mod tests {
         assert!(escaped > 8000 && absorbed > 1000, "{escaped} {absorbed}");
         assert!(vertices as f64 > 1.3 * walks as f64, "{walks} {vertices}");
         assert!(stratified_draws > 3000, "{stratified_draws}");
-        assert!(col_rounds > 500, "{col_rounds}");
+        assert!(
+            col_rounds > 500 && view_lanes > 2000,
+            "{col_rounds} {view_lanes}"
+        );
     }
 
     /// The early-exit walk for `1`, else the two-sided one.
-    fn walk_of(i: usize) -> TransmissionWalk {
+    pub(in crate::bsdf::mnm::compensated::lanes) fn walk_of(i: usize) -> TransmissionWalk {
         if i == 1 {
             TransmissionWalk::ExitOnRefraction
         } else {
@@ -1160,14 +1210,14 @@ pub(super) mod tests {
     /// A test chunk's build as the stream kernel's: 8 random perturbed normals (`random_wp`)
     /// through `MnmSettings::lanes_at` (of their normal map values), stored: the facet columns
     /// that the kernel hands the walks ([`BuiltFacets`]).
-    struct ColBuild {
-        settings: MnmSettings,
-        cols: MnmCols<8>,
-        wp: [Vec3; 8],
+    pub(in crate::bsdf::mnm::compensated::lanes) struct ColBuild {
+        pub(in crate::bsdf::mnm::compensated::lanes) settings: MnmSettings,
+        pub(in crate::bsdf::mnm::compensated::lanes) cols: MnmCols<8>,
+        pub(in crate::bsdf::mnm::compensated::lanes) wp: [Vec3; 8],
     }
 
     impl ColBuild {
-        fn new(
+        pub(in crate::bsdf::mnm::compensated::lanes) fn new(
             avx: Avx2,
             rng: &mut Pcg32,
             (geometry, tangent): (Microgeometry, Tangent),
@@ -1200,7 +1250,13 @@ pub(super) mod tests {
         /// Lane `k`'s map over `nested`: written from the columns as the kernel's build
         /// writes it (`MnmSettings::map_lane_into`) where `from_cols`, else
         /// `MicrofacetNormalMap::new` of the lane's perturbed normal with the settings'.
-        fn push(&self, arena: &mut BsdfArena, nested: u32, k: usize, from_cols: bool) -> u32 {
+        pub(in crate::bsdf::mnm::compensated::lanes) fn push(
+            &self,
+            arena: &mut BsdfArena,
+            nested: u32,
+            k: usize,
+            from_cols: bool,
+        ) -> u32 {
             if from_cols {
                 arena.push_microfacet_normal_map_with(nested, |m| {
                     self.settings.map_lane_into(m, nested, &self.cols, k);
@@ -1220,11 +1276,30 @@ pub(super) mod tests {
             }
         }
 
+        /// Lane `k`'s view of the columns where it is not flat (`ColMap::of_lane` with the
+        /// settings, as the stream kernel's `views_of` makes it for a lane without a map).
+        pub(in crate::bsdf::mnm::compensated::lanes) fn view(
+            &self,
+            k: usize,
+        ) -> Option<ColMap<'_>> {
+            let (wp, s) = (self.cols.wp(k), &self.settings);
+            (!MicrofacetNormalMap::is_flat(wp)).then(|| {
+                ColMap::of_lane(
+                    self.cols.facets(),
+                    k,
+                    wp,
+                    s.geometry,
+                    s.tangent,
+                    s.max_order,
+                )
+            })
+        }
+
         /// Every map of `pts` written from the columns (`built.lanes`) that keeps all the
         /// candidates holds the columns' numbers bit for bit (the walks' debug assertion,
         /// here in the release build too); returns 1 where the walks read the columns
         /// ([`cols_of`] of the walked lanes `walked`), else 0.
-        fn check(
+        pub(in crate::bsdf::mnm::compensated::lanes) fn check(
             &self,
             avx: Avx2,
             arena: &BsdfArena,
@@ -1406,6 +1481,7 @@ pub(super) mod tests {
             let built = by_cols.then_some(BuiltFacets {
                 facets: build.cols.facets(),
                 lanes: from_cols,
+                views: None,
             });
             let got = sample_walks_x8(avx, &ctx, &lanes, &mut cols, &ids, 1, groups, built);
             col_rounds += build.check(avx, arena, &pts, built, got.lanes);

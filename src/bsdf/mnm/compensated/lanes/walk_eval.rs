@@ -30,11 +30,14 @@
 use super::super::Nested;
 use super::draws::step;
 use super::sample::{draws_u1, Asks};
-use super::walk::{draw_2d, frame_of, l3, next_facet, pick3, set3, store_cols, Col3, MapCols};
+use super::walk::{
+    cols_of, draw_2d, frame_of, l3, map_is_cols, next_facet, pick3, set3, store_cols, BuiltFacets,
+    Col3, MapCols,
+};
 use super::Cols;
 use crate::bsdf::mnm::facets::{SurfaceLanes, MAX_FACETS};
+use crate::bsdf::mnm::map_view::{MapRef, MapView};
 use crate::bsdf::mnm::nested_batch::{LaneNested, CHUNK};
-use crate::bsdf::mnm::MicrofacetNormalMap;
 use crate::bsdf::{Bsdf, BsdfNode};
 use crate::lane::frame::Frame as LaneFrame;
 use crate::lane::pcg::Pcg;
@@ -49,7 +52,8 @@ use glam::Vec3;
 /// scalar walk's `w > 0` test then fails as its `None` does).
 #[derive(Clone, Copy)]
 pub(crate) struct EvalQuery<'m> {
-    pub m: &'m MicrofacetNormalMap,
+    /// The lane's map, or its view of the build's columns (`map_view`).
+    pub m: MapRef<'m>,
     pub wi: Vec3,
     pub wo: Vec3,
     pub g1o: f32,
@@ -87,9 +91,12 @@ impl FirstConnections {
 /// `walk::eval` of each lane of `q` (`None`: no walk here) over the shared leaf `nested`
 /// (a `roughconductor` or `roughplastic`) with every lane's `max_order` equal to `max_order`,
 /// each from stream `ids[k]` of `samplers`: f·cos θo by lane (`[component][lane]`), every
-/// walking stream left where the scalar walk leaves it. `first`: where the density's batch
-/// holds the first vertex's connections, and the batch's values `[component][pair]` (the
-/// others are evaluated here).
+/// walking stream left where the scalar walk leaves it. `built`: the build's facet columns
+/// where the chunk's maps were written from them: the walk reads them as they are where they
+/// hold every walking lane's map bit for bit (`walk::cols_of`, as the sample walks), else
+/// each lane's map (`MapCols::set_lane`). `first`: where the density's batch holds the first
+/// vertex's connections, and the batch's values `[component][pair]` (the others are
+/// evaluated here).
 #[inline(never)]
 pub(crate) fn eval_walks_x8(
     avx: Avx2,
@@ -98,33 +105,61 @@ pub(crate) fn eval_walks_x8(
     max_order: u32,
     samplers: &mut Samplers,
     ids: &[u32; 8],
+    built: Option<BuiltFacets<'_>>,
     first: (&FirstConnections, &[[f32; CHUNK]; 3]),
 ) -> Col3 {
-    let mut c = EvalCols {
-        f: MapCols::new(),
-        wi: [[0.0; 8]; 3],
-        wo: [[0.0; 8]; 3],
-        rwo: [[0.0; 8]; 3],
-        g1o: [0.0; 8],
-        wall_w: [0.0; 8],
-        lanes: 0,
-        mirror: 0,
-    };
-    // The points' facets (area vectors, normals), the carrying facets' frames, by lane.
+    let mut wi = [[0.0; 8]; 3];
+    let mut wo = [[0.0; 8]; 3];
+    let mut rwo = [[0.0; 8]; 3];
+    let (mut g1o, mut wall_w) = ([0.0; 8], [0.0; 8]);
+    let (mut lanes, mut mirror) = (0u8, 0u8);
     for (k, e) in q.iter().enumerate() {
         let Some(e) = e else { continue };
         let m = e.m;
-        c.f.set_lane(k, m, true);
-        set3(&mut c.wi, k, e.wi);
-        set3(&mut c.wo, k, e.wo);
+        set3(&mut wi, k, e.wi);
+        set3(&mut wo, k, e.wo);
         if e.wall_w != 0.0 {
-            set3(&mut c.rwo, k, m.reflect_wall(e.wo));
+            set3(&mut rwo, k, m.reflect_wall(e.wo));
         }
-        c.g1o[k] = e.g1o;
-        c.wall_w[k] = e.wall_w;
-        c.mirror |= u8::from(m.mirror_wall) << k;
-        c.lanes |= 1 << k;
+        g1o[k] = e.g1o;
+        wall_w[k] = e.wall_w;
+        mirror |= u8::from(m.mirror_wall()) << k;
+        lanes |= 1 << k;
     }
+    // The points' facets (area vectors, normals), the carrying facets' frames, by lane: the
+    // build's columns as they are where they hold the walking lanes' maps, else each map's.
+    let own;
+    let (v, nrm, fr) = match cols_of(avx, built, lanes) {
+        Some(f) => {
+            debug_assert!(q
+                .iter()
+                .enumerate()
+                .all(|(k, e)| e.is_none_or(|e| map_is_cols(&e.m, f, k))));
+            (f.area_vector_cols(), f.normal_cols(), f.frame_cols())
+        }
+        None => {
+            let mut c = MapCols::new();
+            for (k, e) in q.iter().enumerate() {
+                if let Some(e) = e {
+                    c.set_lane(k, &e.m, true);
+                }
+            }
+            own = c;
+            (&own.v, &own.nrm, &own.fr)
+        }
+    };
+    let c = EvalCols {
+        v,
+        nrm,
+        fr,
+        wi,
+        wo,
+        rwo,
+        g1o,
+        wall_w,
+        lanes,
+        mirror,
+    };
     let kind = Nested::of(nested);
     match nested.node() {
         BsdfNode::RoughConductor(b) => {
@@ -136,9 +171,11 @@ pub(crate) fn eval_walks_x8(
 }
 
 /// [`eval_walks_x8`]'s inputs by lane.
-struct EvalCols {
+struct EvalCols<'c> {
     /// The points' facets (area vectors, normals) and carrying facets' frames.
-    f: MapCols,
+    v: &'c [Col3; MAX_FACETS],
+    nrm: &'c [Col3; MAX_FACETS],
+    fr: &'c [[Col3; 3]; MAX_FACETS],
     wi: Col3,
     wo: Col3,
     /// R(ωo) where the lane's wall weight is not 0.
@@ -159,7 +196,7 @@ fn walk8_eval<B: LaneNested>(
     avx: Avx2,
     leaf: &B,
     kind: Nested,
-    c: &EvalCols,
+    c: &EvalCols<'_>,
     max_order: u32,
     samplers: &mut Samplers,
     ids: &[u32; 8],
@@ -175,19 +212,15 @@ fn walk8_eval<B: LaneNested>(
             let zero = avx.splat(0.0);
             let one = avx.splat(1.0);
             let surf = SurfaceLanes {
-                v: [l3(avx, &c.f.v[0]), l3(avx, &c.f.v[1]), l3(avx, &c.f.v[2])],
+                v: [l3(avx, &c.v[0]), l3(avx, &c.v[1]), l3(avx, &c.v[2])],
             };
-            let nrm = [
-                l3(avx, &c.f.nrm[0]),
-                l3(avx, &c.f.nrm[1]),
-                l3(avx, &c.f.nrm[2]),
-            ];
+            let nrm = [l3(avx, &c.nrm[0]), l3(avx, &c.nrm[1]), l3(avx, &c.nrm[2])];
             let mut fr = [LaneFrame {
                 s: V3::new(zero, zero, zero),
                 t: V3::new(zero, zero, zero),
                 n: V3::new(zero, zero, zero),
             }; MAX_FACETS];
-            for (f, col) in fr.iter_mut().zip(c.f.fr.iter()) {
+            for (f, col) in fr.iter_mut().zip(c.fr.iter()) {
                 *f = LaneFrame {
                     s: l3(avx, &col[0]),
                     t: l3(avx, &col[1]),
@@ -319,12 +352,16 @@ fn walk8_eval<B: LaneNested>(
 
 #[cfg(test)]
 mod tests {
+    use super::super::walk::cols_of;
     use super::super::walk::tests::{
-        assert_same_streams, random_wp, same, same3, streams, GEOMETRIES,
+        assert_same_streams, random_wp, same, same3, streams, walk_of, ColBuild, GEOMETRIES,
     };
+    use super::super::BuiltFacets;
     use crate::bsdf::mnm::compensated::tests::push_reflectors;
+    use crate::bsdf::mnm::map_view::{view_is_map, ColMap};
     use crate::bsdf::mnm::walk_pdf_lanes::{WalkEvals, WalkEvalsBuf};
     use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
+    use crate::bsdf::BsdfNode;
     use crate::bsdf::{BsdfArena, BsdfContext};
     use crate::lane::Avx2;
     use crate::math::Pcg32;
@@ -353,7 +390,12 @@ mod tests {
     /// and stratified streams (some still in their strata), random ωi and ωo (grazing, +z,
     /// some below: not walked), lanes without a light sample, flat maps (not walked), walks
     /// of at most 1, 3 and 8 vertices, and lanes whose `max_order` is not the first walking
-    /// lane's (left to the scalar walk, `WalkEvals::eval_pdf`).
+    /// lane's (left to the scalar walk, `WalkEvals::eval_pdf`). Two rounds in three build the
+    /// maps from a chunk's build columns as the stream kernel does (the walk's set-up then
+    /// reads the columns, `BuiltFacets`), and half their lanes that are not flat and seen from
+    /// above are queried through their views of the columns (`WalkEvals::push_view`, each
+    /// view checked against its map, `view_is_map`), the ones with ωo below answered (0, 0)
+    /// as the kernel answers them.
     #[test]
     fn masked_eval_walks_equal_the_scalar_walks() {
         let Some(avx) = Avx2::detect() else {
@@ -367,6 +409,7 @@ mod tests {
         let mut mirror_nonzero = 0;
         // One buffer for every chunk, as the stream kernel keeps it.
         let mut buf = WalkEvalsBuf::new();
+        let (mut col_rounds, mut view_walks, mut view_below) = (0, 0, 0);
         for round in 0..3000 {
             let mut arena = BsdfArena::new();
             let leaves = push_reflectors(&mut arena);
@@ -376,24 +419,55 @@ mod tests {
             let stratified = round % 2 == 1;
             let mut roots = [u32::MAX; 8];
             let (mut wi, mut wo) = ([Vec3::Z; 8], [Vec3::Z; 8]);
+            // Two rounds in three build their maps as the stream kernel does, from the build's
+            // columns (`ColBuild`, one walk length): the eval walk then reads the columns
+            // (`BuiltFacets`), and half the lanes that are not flat and seen from above are
+            // queried through their views of the columns instead of their maps
+            // (`WalkEvals::push_view`; the maps kept for the scalar queries compared with).
+            let by_cols = round % 3 != 0;
+            let build = ColBuild::new(avx, &mut rng, (geo, tangent), max_order, walk_of(0));
             for k in 0..8 {
                 // Now and then a lane with another walk length.
-                let order = if rng.next_u32().is_multiple_of(13) {
+                let order = if !by_cols && rng.next_u32().is_multiple_of(13) {
                     max_order + 1
                 } else {
                     max_order
                 };
-                let m = MicrofacetNormalMap::new(
-                    child,
-                    random_wp(&mut rng),
-                    geo,
-                    tangent,
-                    Evaluation::RandomWalk,
-                    order,
-                );
-                roots[k] = arena.push_microfacet_normal_map(m);
+                roots[k] = if by_cols {
+                    build.push(&mut arena, child, k, true)
+                } else {
+                    let m = MicrofacetNormalMap::new(
+                        child,
+                        random_wp(&mut rng),
+                        geo,
+                        tangent,
+                        Evaluation::RandomWalk,
+                        order,
+                    );
+                    arena.push_microfacet_normal_map(m)
+                };
                 (wi[k], wo[k]) = (random_dir(&mut rng), random_dir(&mut rng));
             }
+            let mut views: [Option<ColMap<'_>>; 8] = [None; 8];
+            if by_cols {
+                for k in 0..8 {
+                    if wi[k].z > 0.0 && rng.next_u32().is_multiple_of(2) {
+                        views[k] = build.view(k);
+                    }
+                    let BsdfNode::MicrofacetNormalMap { map, .. } = arena.bsdf(roots[k]).node()
+                    else {
+                        unreachable!("a map");
+                    };
+                    if let Some(v) = &views[k] {
+                        assert!(view_is_map(v, &arena.mnm[*map as usize]), "lane {k}");
+                    }
+                }
+            }
+            let built = by_cols.then_some(BuiltFacets {
+                facets: build.cols.facets(),
+                lanes: u8::MAX,
+                views: None,
+            });
             let (mut all, ids, mut cols) = streams(&mut rng, stratified, &mut stratified_draws);
             let nested = arena.bsdf(child);
             let mut lanes =
@@ -402,21 +476,43 @@ mod tests {
             let lit = (rng.next_u32() & 0xff) as u8;
             for k in 0..8 {
                 if lit & (1 << k) != 0 {
-                    lanes.push(k, arena.bsdf(roots[k]), wi[k], wo[k]);
+                    match &views[k] {
+                        Some(v) => lanes.push_view(k, v, wi[k], wo[k]),
+                        None => lanes.push(k, arena.bsdf(roots[k]), wi[k], wo[k]),
+                    };
                 }
             }
             lanes.evaluate();
-            lanes.walk_x8(avx, &mut cols, &ids);
+            lanes.walk_x8(avx, &mut cols, &ids, built);
+            col_rounds +=
+                usize::from(by_cols && cols_of(avx, built, lanes.walked_bits()).is_some());
+            if by_cols {
+                build.check(avx, &arena, &roots.map(|r| Some((r, Vec3::Z))), built, 0);
+            }
             for k in 0..8 {
                 if lit & (1 << k) == 0 {
                     unlit += 1;
                     continue;
                 }
                 if !lanes.has(k) {
+                    if views[k].is_some() {
+                        // A view's lane not pushed: ωo below, the caller answers (0, 0) with no
+                        // draw, as the scalar query does.
+                        let s = ids[k] as usize;
+                        let (f, p) = arena
+                            .bsdf(roots[k])
+                            .eval_pdf(&ctx, wi[k], wo[k], &mut all[s]);
+                        assert!(
+                            same3(f, Vec3::ZERO) && same(p, 0.0),
+                            "round {round} lane {k}"
+                        );
+                        view_below += 1;
+                    }
                     // Not the walk's query: the caller's scalar path (its stream must not
                     // have moved).
                     continue;
                 }
+                view_walks += usize::from(views[k].is_some());
                 let s = ids[k] as usize;
                 let (f, p) = arena
                     .bsdf(roots[k])
@@ -439,7 +535,13 @@ mod tests {
         // are left to the scalar walk; lanes without a light sample; streams in their strata.
         assert!(walked > 8000 && nonzero > 6000, "{walked} {nonzero}");
         assert!(mirror_nonzero > 2000, "{mirror_nonzero}");
-        assert!(scalar > 500 && unlit > 5000, "{scalar} {unlit}");
+        assert!(scalar > 150 && unlit > 5000, "{scalar} {unlit}");
         assert!(stratified_draws > 3000, "{stratified_draws}");
+        // Walks from the build's columns, lanes through their views (some with ωo below).
+        assert!(col_rounds > 1000, "{col_rounds}");
+        assert!(
+            view_walks > 1500 && view_below > 50,
+            "{view_walks} {view_below}"
+        );
     }
 }
