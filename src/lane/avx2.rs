@@ -18,6 +18,9 @@ use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 #[path = "avx2_i128.rs"]
 mod i128_sums;
 pub use i128_sums::{I128x4, I128x8, Words8, ROW_LANES};
+#[path = "avx2_prefetch.rs"]
+mod prefetch;
+pub use prefetch::Hint;
 
 /// Proof that the CPU has AVX2 and FMA: the only way to make 8-wide values.
 #[derive(Clone, Copy, Debug)]

@@ -154,7 +154,7 @@ pub(crate) mod x8 {
     use crate::geometry::hit::NO_INSTANCE;
     use crate::lane::frame::Frame;
     use crate::lane::vec::V3;
-    use crate::lane::{Avx2, F32x8, I32x8, Lane, LaneI32, LaneLookup, ToArray, Wide};
+    use crate::lane::{Avx2, F32x8, Hint, I32x8, Lane, LaneI32, LaneLookup, ToArray, Wide};
     use crate::stream::batch::{cols, Surfaces};
     use crate::stream::kernels::diffuse::Surface;
     use crate::stream::BATCH;
@@ -199,6 +199,66 @@ pub(crate) mod x8 {
     /// How many one-mesh chunks [`MeshChunks`] keeps.
     const SLOTS: usize = 8;
 
+    /// The pipeline's knobs (an experiment: read once from the environment).
+    #[derive(Clone, Copy, Debug)]
+    struct Pipe {
+        /// Chunk fills between a chunk's index prefetch and its vertex prefetch, and again
+        /// between that and its reconstruction (0: no pipeline).
+        lag: usize,
+        hint: Hint,
+        /// The fewest triangles a mesh pipelined has.
+        min_tris: usize,
+        /// Also prefetch the chunk's surface rows (for the row stores).
+        surf: bool,
+    }
+
+    fn pipe() -> Pipe {
+        static PIPE: std::sync::OnceLock<Pipe> = std::sync::OnceLock::new();
+        *PIPE.get_or_init(|| {
+            let var = |k: &str| std::env::var(k).ok();
+            let lag = var("GROOVE_GATHER_LAG").and_then(|v| v.parse().ok()).unwrap_or(2);
+            let hint = match var("GROOVE_GATHER_HINT").as_deref() {
+                Some("t1") => Hint::T1,
+                Some("nta") => Hint::Nta,
+                _ => Hint::T0,
+            };
+            let min_tris = var("GROOVE_GATHER_MIN")
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(1 << 16);
+            let surf = var("GROOVE_GATHER_SURF").is_some_and(|v| v == "1");
+            Pipe {
+                lag: usize::min(lag, (RING - 1) / 2),
+                hint,
+                min_tris,
+                surf,
+            }
+        })
+    }
+
+    /// Chunks in flight in [`MeshChunks`]' pipeline (a ring; more than twice the largest lag).
+    const RING: usize = 8;
+
+    /// A full one-mesh chunk in flight: its paths, the mesh, the hits' triangles and (once its
+    /// index rows are loaded) their vertex indices.
+    #[derive(Clone, Copy)]
+    struct Flight {
+        ids: [u32; 8],
+        n: usize,
+        geom: u32,
+        prim: [u32; 8],
+        tri: [[i32; 8]; 3],
+    }
+
+    impl Flight {
+        const EMPTY: Flight = Flight {
+            ids: [0; 8],
+            n: 0,
+            geom: 0,
+            prim: [0; 8],
+            tri: [[0; 8]; 3],
+        };
+    }
+
     /// Direct hits on triangle meshes waiting for their 8-wide reconstruction, in chunks of one
     /// mesh each where they can (slot `geom % SLOTS` holds one mesh's hits at a time; those are
     /// gathered with vector gathers, [`one_mesh_triangles`]), else in `mixed` (gathered lane by
@@ -206,16 +266,29 @@ pub(crate) mod x8 {
     /// written, not what they hold.
     struct MeshChunks {
         geom: [u32; SLOTS],
+        /// Whether the slot's mesh goes through the pipeline.
+        piped: [bool; SLOTS],
         slot: [Pending; SLOTS],
         mixed: Pending,
+        ring: [Flight; RING],
+        entered: usize,
+        done: usize,
+        pipe: Pipe,
     }
 
     impl MeshChunks {
-        const EMPTY: MeshChunks = MeshChunks {
-            geom: [0; SLOTS],
-            slot: [Pending::EMPTY; SLOTS],
-            mixed: Pending::EMPTY,
-        };
+        fn new() -> MeshChunks {
+            MeshChunks {
+                geom: [0; SLOTS],
+                piped: [false; SLOTS],
+                slot: [Pending::EMPTY; SLOTS],
+                mixed: Pending::EMPTY,
+                ring: [Flight::EMPTY; RING],
+                entered: 0,
+                done: 0,
+                pipe: pipe(),
+            }
+        }
 
         /// Adds path `i`, whose ray hit mesh `geom`; reconstructs the chunk it fills.
         #[inline(always)]
@@ -223,28 +296,138 @@ pub(crate) mod x8 {
             let s = geom as usize % SLOTS;
             if self.slot[s].n == 0 {
                 self.geom[s] = geom;
+                self.piped[s] = self.pipe.lag > 0 && piped(st, geom, self.pipe.min_tris);
             }
             if self.geom[s] == geom {
                 if self.slot[s].push(i) {
-                    one_mesh_triangles(avx, st, geom, self.slot[s].take());
+                    let c = self.slot[s].take();
+                    if self.piped[s] {
+                        self.enter(avx, st, geom, c);
+                    } else {
+                        one_mesh_triangles(avx, st, geom, c, None);
+                    }
                 }
             } else if self.mixed.push(i) {
                 triangles(avx, st, self.mixed.take());
             }
         }
 
-        /// Reconstructs the partly filled chunks (padded).
+        /// Puts a chunk of mesh `geom` into the pipeline: prefetches its index rows, loads the
+        /// index rows of the chunk entered `lag` chunks before and prefetches the vertices they
+        /// name, and reconstructs the chunk entered `2 lag` before.
+        #[inline(always)]
+        fn enter(&mut self, avx: Avx2, st: &mut Stage, geom: u32, (ids, n): ([u32; 8], usize)) {
+            let (lag, hint) = (self.pipe.lag, self.pipe.hint);
+            let m = mesh(st, geom);
+            let mut f = Flight {
+                ids,
+                n,
+                geom,
+                prim: [0; 8],
+                tri: [[0; 8]; 3],
+            };
+            for k in 0..8 {
+                f.prim[k] = st.hit[ids[k] as usize].0[1];
+            }
+            avx.prefetch_rows([&m.indices[..]], avx.load_u32(&f.prim), hint);
+            if self.pipe.surf {
+                for &i in &ids[..n] {
+                    let r = st.surf.row_groups_mut(i as usize);
+                    avx.prefetch(&r[0], hint);
+                    avx.prefetch(&r[2], hint);
+                }
+            }
+            let k = self.entered;
+            self.ring[k % RING] = f;
+            self.entered += 1;
+            if k >= lag {
+                self.vertices(avx, st, k - lag);
+            }
+            if k >= 2 * lag {
+                self.reconstruct(avx, st, k - 2 * lag);
+                self.done += 1;
+            }
+        }
+
+        /// Loads the index rows of the chunk entered `k`th and prefetches the vertices' rows.
+        #[inline(always)]
+        fn vertices(&mut self, avx: Avx2, st: &Stage, k: usize) {
+            let hint = self.pipe.hint;
+            let f = &mut self.ring[k % RING];
+            let m = mesh(st, f.geom);
+            let tri = avx.gather3_u32(&m.indices, avx.load_u32(&f.prim));
+            for c in 0..3 {
+                f.tri[c] = tri[c].to_array();
+                match &m.normals {
+                    Some(ns) => avx.prefetch_rows([&m.positions[..], &ns[..]], tri[c], hint),
+                    None => avx.prefetch_rows([&m.positions[..]], tri[c], hint),
+                }
+                if let Some(uvs) = &m.uvs {
+                    avx.prefetch_rows([&uvs[..]], tri[c], hint);
+                }
+            }
+        }
+
+        /// Reconstructs the chunk entered `k`th.
+        #[inline(always)]
+        fn reconstruct(&mut self, avx: Avx2, st: &mut Stage, k: usize) {
+            let f = self.ring[k % RING];
+            one_mesh_triangles(avx, st, f.geom, (f.ids, f.n), Some(&f.tri));
+        }
+
+        /// Reconstructs the partly filled chunks (padded) and empties the pipeline.
         #[inline(always)]
         fn flush(&mut self, avx: Avx2, st: &mut Stage) {
             for s in 0..SLOTS {
                 if self.slot[s].n > 0 {
-                    one_mesh_triangles(avx, st, self.geom[s], self.slot[s].take());
+                    let c = self.slot[s].take();
+                    if self.piped[s] {
+                        self.enter(avx, st, self.geom[s], c);
+                    } else {
+                        one_mesh_triangles(avx, st, self.geom[s], c, None);
+                    }
                 }
             }
+            let (d, e) = (self.done, self.entered);
+            for k in d.max(e.saturating_sub(self.pipe.lag))..e {
+                self.vertices(avx, st, k);
+            }
+            for k in d..e {
+                self.reconstruct(avx, st, k);
+            }
+            self.done = e;
             if self.mixed.n > 0 {
                 triangles(avx, st, self.mixed.take());
             }
         }
+    }
+
+    /// Mesh `g` of the scene.
+    #[inline(always)]
+    fn mesh<'s>(st: &Stage<'s>, g: u32) -> &'s crate::geometry::mesh::TriMesh {
+        let ShapeKind::Mesh(m) = &st.scene.shapes[g as usize].kind else {
+            unreachable!("Form::Triangles is set for meshes only");
+        };
+        m
+    }
+
+    /// Whether mesh `g`'s chunks go through [`MeshChunks`]' pipeline: a mesh of at least
+    /// `min_tris` triangles, not held as [`SmallTris`], within the gathers' 32-bit offsets.
+    fn piped(st: &Stage, g: u32, min_tris: usize) -> bool {
+        let m = mesh(st, g);
+        matches!(st.forms[g as usize], Form::Triangles(None))
+            && m.indices.len() >= min_tris
+            && fits(m)
+    }
+
+    /// Whether every table of `m` is within the gathers' 32-bit offsets.
+    #[inline(always)]
+    fn fits(m: &crate::geometry::mesh::TriMesh) -> bool {
+        let fits = |len: usize| len <= i32::MAX as usize / 3;
+        fits(m.indices.len())
+            && fits(m.positions.len())
+            && m.normals.as_ref().is_none_or(|v| fits(v.len()))
+            && m.uvs.as_ref().is_none_or(|v| fits(v.len()))
     }
 
     /// The rays, hits and rows the gather stage works on.
@@ -270,7 +453,7 @@ pub(crate) mod x8 {
                     hit: &batch.hit,
                     surf: &mut batch.surf,
                 };
-                let mut tri = MeshChunks::EMPTY;
+                let mut tri = MeshChunks::new();
                 let (mut sph, mut rect) = (Pending::EMPTY, Pending::EMPTY);
                 let (mut disks, mut itri) = (Pending::EMPTY, Pending::EMPTY);
                 let mut cyl = Pending::EMPTY;
@@ -526,26 +709,29 @@ pub(crate) mod x8 {
     }
 
     /// Hits on one triangle mesh, shape `g` (every lane's): [`one_mesh_input`], then
-    /// [`sl::triangle`] ([`sl::triangle_no_uv`] for a mesh without uvs); a mesh too large for 32-bit gather offsets takes [`triangles`].
+    /// [`sl::triangle`] ([`sl::triangle_no_uv`] for a mesh without uvs); a mesh too large for
+    /// 32-bit gather offsets takes [`triangles`]. `tri`: the hits' vertex indices when loaded
+    /// already (by [`MeshChunks`]' pipeline).
     #[inline(always)]
-    fn one_mesh_triangles(avx: Avx2, st: &mut Stage, g: u32, (ids, n): ([u32; 8], usize)) {
+    fn one_mesh_triangles(
+        avx: Avx2,
+        st: &mut Stage,
+        g: u32,
+        (ids, n): ([u32; 8], usize),
+        tri: Option<&[[i32; 8]; 3]>,
+    ) {
         let shape = &st.scene.shapes[g as usize];
         let ShapeKind::Mesh(m) = &shape.kind else {
             unreachable!("Form::Triangles is set for meshes only");
         };
-        let fits = |len: usize| len <= i32::MAX as usize / 3;
-        if !(fits(m.indices.len())
-            && fits(m.positions.len())
-            && m.normals.as_ref().is_none_or(|v| fits(v.len()))
-            && m.uvs.as_ref().is_none_or(|v| fits(v.len())))
-        {
+        if !fits(m) {
             return triangles(avx, st, (ids, n));
         }
         let (x, meta) = match &st.forms[g as usize] {
             Form::Triangles(Some(small)) => {
                 small_input(avx, st, &ids, m, small, shape.flip_normals)
             }
-            _ => one_mesh_input(avx, st, &ids, m, shape.flip_normals),
+            _ => one_mesh_input(avx, st, &ids, m, shape.flip_normals, tri),
         };
         let s = if m.uvs.is_some() {
             sl::triangle(&x)
@@ -566,9 +752,13 @@ pub(crate) mod x8 {
         ids: &[u32; 8],
         m: &crate::geometry::mesh::TriMesh,
         flip: bool,
+        tri: Option<&[[i32; 8]; 3]>,
     ) -> (sl::Triangle<F32x8>, Meta) {
         let (prim, b, meta) = mesh_hits(avx, st, ids);
-        let tri = avx.gather3_u32(&m.indices, prim);
+        let tri = match tri {
+            Some(t) => [avx.load_i32(&t[0]), avx.load_i32(&t[1]), avx.load_i32(&t[2])],
+            None => avx.gather3_u32(&m.indices, prim),
+        };
         let p = [
             gv3(F32x8::gather3(&m.positions, tri[0])),
             gv3(F32x8::gather3(&m.positions, tri[1])),
