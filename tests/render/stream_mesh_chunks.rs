@@ -24,7 +24,9 @@ fn stream_equals_scalar_with_one_mesh_and_mixed_chunks() {
 /// (`wall` false: y = h(x, z), with its analytic normals, no uvs) or a wall behind it (`wall`
 /// true: z = −1.5 + h(x, y)·0.5 over y ∈ [0, 4], with uvs, no normals).
 fn grid_ply(path: &std::path::Path, n: usize, wall: bool) {
-    let h = |a: f32, b: f32| 0.25 * (3.0 * a).sin() * (2.0 * b).cos() + 0.05 * (11.0 * a + 7.0 * b).sin();
+    let h = |a: f32, b: f32| {
+        0.25 * (3.0 * a).sin() * (2.0 * b).cos() + 0.05 * (11.0 * a + 7.0 * b).sin()
+    };
     let mut verts = Vec::new();
     for j in 0..=n {
         for i in 0..=n {
@@ -37,7 +39,10 @@ fn grid_ply(path: &std::path::Path, n: usize, wall: bool) {
                 verts.push([a, b + 2.0, -1.5 + 0.5 * h(a, b), u, v, 0.0]);
             } else {
                 let e = 1e-3;
-                let (dx, dz) = ((h(a + e, b) - h(a - e, b)) / (2.0 * e), (h(a, b + e) - h(a, b - e)) / (2.0 * e));
+                let (dx, dz) = (
+                    (h(a + e, b) - h(a - e, b)) / (2.0 * e),
+                    (h(a, b + e) - h(a, b - e)) / (2.0 * e),
+                );
                 let l = (dx * dx + 1.0 + dz * dz).sqrt();
                 verts.push([a, h(a, b), b, -dx / l, 1.0 / l, -dz / l]);
             }

@@ -199,41 +199,28 @@ pub(crate) mod x8 {
     /// How many one-mesh chunks [`MeshChunks`] keeps.
     const SLOTS: usize = 8;
 
-    /// The pipeline's knobs (an experiment: read once from the environment).
-    #[derive(Clone, Copy, Debug)]
-    struct Pipe {
-        /// Chunk fills between a chunk's index prefetch and its vertex prefetch, and again
-        /// between that and its reconstruction (0: no pipeline).
-        lag: usize,
-        hint: Hint,
-        /// The fewest triangles a mesh pipelined has.
-        min_tris: usize,
-        /// Also prefetch the chunk's surface rows (for the row stores).
-        surf: bool,
-    }
-
-    fn pipe() -> Pipe {
-        static PIPE: std::sync::OnceLock<Pipe> = std::sync::OnceLock::new();
-        *PIPE.get_or_init(|| {
-            let var = |k: &str| std::env::var(k).ok();
-            let lag = var("GROOVE_GATHER_LAG").and_then(|v| v.parse().ok()).unwrap_or(2);
-            let hint = match var("GROOVE_GATHER_HINT").as_deref() {
-                Some("t1") => Hint::T1,
-                Some("nta") => Hint::Nta,
-                _ => Hint::T0,
-            };
-            let min_tris = var("GROOVE_GATHER_MIN")
+    /// How many chunk fills lie between a pipelined chunk's index prefetch and its vertex
+    /// prefetch, and again between that and its reconstruction ([`MeshChunks::enter`]): 1
+    /// unless `GROOVE_GATHER_LAG` (environment, read once; 0 to 3, 0 turning the pipeline off)
+    /// says otherwise, for measurements. Lags 1 and 2 and the prefetch hints were measured on
+    /// million (`docs/bench/README.md`, forty-second session, h2).
+    fn lag() -> usize {
+        static LAG: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+        *LAG.get_or_init(|| {
+            std::env::var("GROOVE_GATHER_LAG")
+                .ok()
                 .and_then(|v| v.parse().ok())
-                .unwrap_or(1 << 16);
-            let surf = var("GROOVE_GATHER_SURF").is_some_and(|v| v == "1");
-            Pipe {
-                lag: usize::min(lag, (RING - 1) / 2),
-                hint,
-                min_tris,
-                surf,
-            }
+                .map_or(1, |l: usize| l.min((RING - 1) / 2))
         })
     }
+
+    /// The fewest triangles of a mesh whose chunks go through [`MeshChunks`]' pipeline (768 KB
+    /// of index rows: a mesh whose rows stay in the caches gains nothing from the prefetches).
+    const PIPE_MIN_TRIS: usize = 1 << 16;
+
+    /// The prefetches' hint: every cache level (`prefetchnta` measured slower on million,
+    /// `prefetcht1` no faster).
+    const HINT: Hint = Hint::T0;
 
     /// Chunks in flight in [`MeshChunks`]' pipeline (a ring; more than twice the largest lag).
     const RING: usize = 8;
@@ -262,18 +249,22 @@ pub(crate) mod x8 {
     /// Direct hits on triangle meshes waiting for their 8-wide reconstruction, in chunks of one
     /// mesh each where they can (slot `geom % SLOTS` holds one mesh's hits at a time; those are
     /// gathered with vector gathers, [`one_mesh_triangles`]), else in `mixed` (gathered lane by
-    /// lane, [`triangles`]). Which chunk a hit waits in changes only the order in which rows are
-    /// written, not what they hold.
+    /// lane, [`triangles`]). A full chunk of a large mesh ([`piped`]) goes through a software
+    /// pipeline of prefetches before its reconstruction ([`MeshChunks::enter`]). Which chunk a
+    /// hit waits in, and when its chunk is reconstructed, change only the order in which rows
+    /// are written, not what they hold.
     struct MeshChunks {
         geom: [u32; SLOTS],
         /// Whether the slot's mesh goes through the pipeline.
         piped: [bool; SLOTS],
         slot: [Pending; SLOTS],
         mixed: Pending,
+        /// The pipeline: chunk `k` (the `k`th entered) in `ring[k % RING]`; `done` of the
+        /// `entered` chunks reconstructed.
         ring: [Flight; RING],
         entered: usize,
         done: usize,
-        pipe: Pipe,
+        lag: usize,
     }
 
     impl MeshChunks {
@@ -286,7 +277,7 @@ pub(crate) mod x8 {
                 ring: [Flight::EMPTY; RING],
                 entered: 0,
                 done: 0,
-                pipe: pipe(),
+                lag: lag(),
             }
         }
 
@@ -296,7 +287,7 @@ pub(crate) mod x8 {
             let s = geom as usize % SLOTS;
             if self.slot[s].n == 0 {
                 self.geom[s] = geom;
-                self.piped[s] = self.pipe.lag > 0 && piped(st, geom, self.pipe.min_tris);
+                self.piped[s] = self.lag > 0 && piped(st, geom);
             }
             if self.geom[s] == geom {
                 if self.slot[s].push(i) {
@@ -312,33 +303,25 @@ pub(crate) mod x8 {
             }
         }
 
-        /// Puts a chunk of mesh `geom` into the pipeline: prefetches its index rows, loads the
-        /// index rows of the chunk entered `lag` chunks before and prefetches the vertices they
-        /// name, and reconstructs the chunk entered `2 lag` before.
+        /// Puts a full chunk of mesh `geom` into the pipeline (a software pipeline over the
+        /// chunks, so that the two dependent misses of a cold hit, its index row and then the
+        /// vertex rows it names, overlap with the work on other chunks instead of stalling its
+        /// own reconstruction): prefetches the chunk's index rows, loads the index rows of the
+        /// chunk entered `lag` chunks before (in the caches by now) and prefetches the vertex
+        /// rows they name, and reconstructs the chunk entered `2 lag` before. Each path's row
+        /// is written from its own hit and ray alone, which the stage does not change, so the
+        /// delay changes the order of the row writes only, not what they hold.
         #[inline(always)]
         fn enter(&mut self, avx: Avx2, st: &mut Stage, geom: u32, (ids, n): ([u32; 8], usize)) {
-            let (lag, hint) = (self.pipe.lag, self.pipe.hint);
+            let lag = self.lag;
             let m = mesh(st, geom);
-            let mut f = Flight {
-                ids,
-                n,
-                geom,
-                prim: [0; 8],
-                tri: [[0; 8]; 3],
-            };
-            for k in 0..8 {
-                f.prim[k] = st.hit[ids[k] as usize].0[1];
-            }
-            avx.prefetch_rows([&m.indices[..]], avx.load_u32(&f.prim), hint);
-            if self.pipe.surf {
-                for &i in &ids[..n] {
-                    let r = st.surf.row_groups_mut(i as usize);
-                    avx.prefetch(&r[0], hint);
-                    avx.prefetch(&r[2], hint);
-                }
-            }
             let k = self.entered;
-            self.ring[k % RING] = f;
+            let f = &mut self.ring[k % RING];
+            (f.ids, f.n, f.geom) = (ids, n, geom);
+            for (p, &i) in f.prim.iter_mut().zip(&ids) {
+                *p = st.hit[i as usize].0[1];
+            }
+            avx.prefetch_rows([&m.indices[..]], avx.load_u32(&f.prim), HINT);
             self.entered += 1;
             if k >= lag {
                 self.vertices(avx, st, k - lag);
@@ -349,29 +332,29 @@ pub(crate) mod x8 {
             }
         }
 
-        /// Loads the index rows of the chunk entered `k`th and prefetches the vertices' rows.
+        /// Loads the index rows of the chunk entered `k`th (kept for its reconstruction) and
+        /// prefetches the rows of the vertices they name.
         #[inline(always)]
         fn vertices(&mut self, avx: Avx2, st: &Stage, k: usize) {
-            let hint = self.pipe.hint;
             let f = &mut self.ring[k % RING];
             let m = mesh(st, f.geom);
             let tri = avx.gather3_u32(&m.indices, avx.load_u32(&f.prim));
             for c in 0..3 {
                 f.tri[c] = tri[c].to_array();
                 match &m.normals {
-                    Some(ns) => avx.prefetch_rows([&m.positions[..], &ns[..]], tri[c], hint),
-                    None => avx.prefetch_rows([&m.positions[..]], tri[c], hint),
+                    Some(ns) => avx.prefetch_rows([&m.positions[..], &ns[..]], tri[c], HINT),
+                    None => avx.prefetch_rows([&m.positions[..]], tri[c], HINT),
                 }
                 if let Some(uvs) = &m.uvs {
-                    avx.prefetch_rows([&uvs[..]], tri[c], hint);
+                    avx.prefetch_rows([&uvs[..]], tri[c], HINT);
                 }
             }
         }
 
         /// Reconstructs the chunk entered `k`th.
         #[inline(always)]
-        fn reconstruct(&mut self, avx: Avx2, st: &mut Stage, k: usize) {
-            let f = self.ring[k % RING];
+        fn reconstruct(&self, avx: Avx2, st: &mut Stage, k: usize) {
+            let f = &self.ring[k % RING];
             one_mesh_triangles(avx, st, f.geom, (f.ids, f.n), Some(&f.tri));
         }
 
@@ -389,7 +372,7 @@ pub(crate) mod x8 {
                 }
             }
             let (d, e) = (self.done, self.entered);
-            for k in d.max(e.saturating_sub(self.pipe.lag))..e {
+            for k in d.max(e.saturating_sub(self.lag))..e {
                 self.vertices(avx, st, k);
             }
             for k in d..e {
@@ -412,11 +395,12 @@ pub(crate) mod x8 {
     }
 
     /// Whether mesh `g`'s chunks go through [`MeshChunks`]' pipeline: a mesh of at least
-    /// `min_tris` triangles, not held as [`SmallTris`], within the gathers' 32-bit offsets.
-    fn piped(st: &Stage, g: u32, min_tris: usize) -> bool {
+    /// [`PIPE_MIN_TRIS`] triangles, not held as [`SmallTris`], within the gathers' 32-bit
+    /// offsets.
+    fn piped(st: &Stage, g: u32) -> bool {
         let m = mesh(st, g);
         matches!(st.forms[g as usize], Form::Triangles(None))
-            && m.indices.len() >= min_tris
+            && m.indices.len() >= PIPE_MIN_TRIS
             && fits(m)
     }
 
@@ -756,7 +740,11 @@ pub(crate) mod x8 {
     ) -> (sl::Triangle<F32x8>, Meta) {
         let (prim, b, meta) = mesh_hits(avx, st, ids);
         let tri = match tri {
-            Some(t) => [avx.load_i32(&t[0]), avx.load_i32(&t[1]), avx.load_i32(&t[2])],
+            Some(t) => [
+                avx.load_i32(&t[0]),
+                avx.load_i32(&t[1]),
+                avx.load_i32(&t[2]),
+            ],
             None => avx.gather3_u32(&m.indices, prim),
         };
         let p = [
