@@ -339,14 +339,14 @@ pub(crate) mod x8 {
             let f = &mut self.ring[k % RING];
             let m = mesh(st, f.geom);
             let tri = avx.gather3_u32(&m.indices, avx.load_u32(&f.prim));
-            for c in 0..3 {
-                f.tri[c] = tri[c].to_array();
+            for (kept, &c) in f.tri.iter_mut().zip(&tri) {
+                *kept = c.to_array();
                 match &m.normals {
-                    Some(ns) => avx.prefetch_rows([&m.positions[..], &ns[..]], tri[c], HINT),
-                    None => avx.prefetch_rows([&m.positions[..]], tri[c], HINT),
+                    Some(ns) => avx.prefetch_rows([&m.positions[..], &ns[..]], c, HINT),
+                    None => avx.prefetch_rows([&m.positions[..]], c, HINT),
                 }
                 if let Some(uvs) = &m.uvs {
-                    avx.prefetch_rows([&uvs[..]], tri[c], HINT);
+                    avx.prefetch_rows([&uvs[..]], c, HINT);
                 }
             }
         }
