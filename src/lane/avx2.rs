@@ -18,6 +18,9 @@ use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 #[path = "avx2_i128.rs"]
 mod i128_sums;
 pub use i128_sums::{I128x4, I128x8, Words8, ROW_LANES};
+#[path = "avx2_prefetch.rs"]
+mod prefetch;
+pub use prefetch::Hint;
 
 /// Proof that the CPU has AVX2 and FMA: the only way to make 8-wide values.
 #[derive(Clone, Copy, Debug)]
@@ -151,8 +154,15 @@ impl Avx2 {
             self.ids_below(ids, rays.len()),
             "a ray's id past its column"
         );
-        // SAFETY: every id is below `rays.len()` (the assertion).
-        F32x8::transpose8(ids.map(|i| self.ray_row(unsafe { rays.get_unchecked(i as usize) })))
+        // Row by row, not `ids.map(…)`: LLVM left that closure out of line (`array::try_map`,
+        // without the target features) once the gather stage had more call sites (the
+        // forty-second session's pipeline).
+        let mut rows = [self.splat(0.0); 8];
+        for (r, &i) in rows.iter_mut().zip(ids) {
+            // SAFETY: every id is below `rays.len()` (the assertion).
+            *r = self.ray_row(unsafe { rays.get_unchecked(i as usize) });
+        }
+        F32x8::transpose8(rows)
     }
     /// A mask from eight booleans: one 8-byte load, widened to 32-bit lanes (`vpmovzxbd`) and
     /// negated (0 or 1 to 0 or −1), not eight booleans widened, negated and stored one by one

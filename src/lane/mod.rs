@@ -49,7 +49,7 @@ pub mod warp;
 pub mod wide;
 
 #[cfg(target_arch = "x86_64")]
-pub use avx2::{Avx2, F32x8, I128x4, I128x8, I32x8, U64x4, U64x8, Words8, M8, ROW_LANES};
+pub use avx2::{Avx2, F32x8, Hint, I128x4, I128x8, I32x8, U64x4, U64x8, Words8, M8, ROW_LANES};
 #[cfg(target_arch = "x86_64")]
 pub use avx512::{Avx512, F32x16, I32x16, U64x16, M16};
 pub use wide::{ToArray, Wide};

@@ -154,7 +154,7 @@ pub(crate) mod x8 {
     use crate::geometry::hit::NO_INSTANCE;
     use crate::lane::frame::Frame;
     use crate::lane::vec::V3;
-    use crate::lane::{Avx2, F32x8, I32x8, Lane, LaneI32, LaneLookup, ToArray, Wide};
+    use crate::lane::{Avx2, F32x8, Hint, I32x8, Lane, LaneI32, LaneLookup, ToArray, Wide};
     use crate::stream::batch::{cols, Surfaces};
     use crate::stream::kernels::diffuse::Surface;
     use crate::stream::BATCH;
@@ -199,23 +199,87 @@ pub(crate) mod x8 {
     /// How many one-mesh chunks [`MeshChunks`] keeps.
     const SLOTS: usize = 8;
 
+    /// How many chunk fills lie between a pipelined chunk's index prefetch and its vertex
+    /// prefetch, and again between that and its reconstruction ([`MeshChunks::enter`]): 1
+    /// unless `GROOVE_GATHER_LAG` (environment, read once; 0 to 3, 0 turning the pipeline off)
+    /// says otherwise, for measurements. Lags 1 and 2 and the prefetch hints were measured on
+    /// million (`docs/bench/README.md`, forty-second session, h2).
+    fn lag() -> usize {
+        static LAG: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+        *LAG.get_or_init(|| {
+            std::env::var("GROOVE_GATHER_LAG")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .map_or(1, |l: usize| l.min((RING - 1) / 2))
+        })
+    }
+
+    /// The fewest triangles of a mesh whose chunks go through [`MeshChunks`]' pipeline (768 KB
+    /// of index rows: a mesh whose rows stay in the caches gains nothing from the prefetches).
+    const PIPE_MIN_TRIS: usize = 1 << 16;
+
+    /// The prefetches' hint: every cache level (`prefetchnta` measured slower on million,
+    /// `prefetcht1` no faster).
+    const HINT: Hint = Hint::T0;
+
+    /// Chunks in flight in [`MeshChunks`]' pipeline (a ring; more than twice the largest lag).
+    const RING: usize = 8;
+
+    /// A full one-mesh chunk in flight: its paths, the mesh, the hits' triangles and (once its
+    /// index rows are loaded) their vertex indices.
+    #[derive(Clone, Copy)]
+    struct Flight {
+        ids: [u32; 8],
+        n: usize,
+        geom: u32,
+        prim: [u32; 8],
+        tri: [[i32; 8]; 3],
+    }
+
+    impl Flight {
+        const EMPTY: Flight = Flight {
+            ids: [0; 8],
+            n: 0,
+            geom: 0,
+            prim: [0; 8],
+            tri: [[0; 8]; 3],
+        };
+    }
+
     /// Direct hits on triangle meshes waiting for their 8-wide reconstruction, in chunks of one
     /// mesh each where they can (slot `geom % SLOTS` holds one mesh's hits at a time; those are
     /// gathered with vector gathers, [`one_mesh_triangles`]), else in `mixed` (gathered lane by
-    /// lane, [`triangles`]). Which chunk a hit waits in changes only the order in which rows are
-    /// written, not what they hold.
+    /// lane, [`triangles`]). A full chunk of a large mesh ([`piped`]) goes through a software
+    /// pipeline of prefetches before its reconstruction ([`MeshChunks::enter`]). Which chunk a
+    /// hit waits in, and when its chunk is reconstructed, change only the order in which rows
+    /// are written, not what they hold.
     struct MeshChunks {
         geom: [u32; SLOTS],
+        /// Whether the slot's mesh goes through the pipeline.
+        piped: [bool; SLOTS],
         slot: [Pending; SLOTS],
         mixed: Pending,
+        /// The pipeline: chunk `k` (the `k`th entered) in `ring[k % RING]`; `done` of the
+        /// `entered` chunks reconstructed.
+        ring: [Flight; RING],
+        entered: usize,
+        done: usize,
+        lag: usize,
     }
 
     impl MeshChunks {
-        const EMPTY: MeshChunks = MeshChunks {
-            geom: [0; SLOTS],
-            slot: [Pending::EMPTY; SLOTS],
-            mixed: Pending::EMPTY,
-        };
+        fn new() -> MeshChunks {
+            MeshChunks {
+                geom: [0; SLOTS],
+                piped: [false; SLOTS],
+                slot: [Pending::EMPTY; SLOTS],
+                mixed: Pending::EMPTY,
+                ring: [Flight::EMPTY; RING],
+                entered: 0,
+                done: 0,
+                lag: lag(),
+            }
+        }
 
         /// Adds path `i`, whose ray hit mesh `geom`; reconstructs the chunk it fills.
         #[inline(always)]
@@ -223,28 +287,131 @@ pub(crate) mod x8 {
             let s = geom as usize % SLOTS;
             if self.slot[s].n == 0 {
                 self.geom[s] = geom;
+                self.piped[s] = self.lag > 0 && piped(st, geom);
             }
             if self.geom[s] == geom {
                 if self.slot[s].push(i) {
-                    one_mesh_triangles(avx, st, geom, self.slot[s].take());
+                    let c = self.slot[s].take();
+                    if self.piped[s] {
+                        self.enter(avx, st, geom, c);
+                    } else {
+                        one_mesh_triangles(avx, st, geom, c, None);
+                    }
                 }
             } else if self.mixed.push(i) {
                 triangles(avx, st, self.mixed.take());
             }
         }
 
-        /// Reconstructs the partly filled chunks (padded).
+        /// Puts a full chunk of mesh `geom` into the pipeline (a software pipeline over the
+        /// chunks, so that the two dependent misses of a cold hit, its index row and then the
+        /// vertex rows it names, overlap with the work on other chunks instead of stalling its
+        /// own reconstruction): prefetches the chunk's index rows, loads the index rows of the
+        /// chunk entered `lag` chunks before (in the caches by now) and prefetches the vertex
+        /// rows they name, and reconstructs the chunk entered `2 lag` before. Each path's row
+        /// is written from its own hit and ray alone, which the stage does not change, so the
+        /// delay changes the order of the row writes only, not what they hold.
+        #[inline(always)]
+        fn enter(&mut self, avx: Avx2, st: &mut Stage, geom: u32, (ids, n): ([u32; 8], usize)) {
+            let lag = self.lag;
+            let m = mesh(st, geom);
+            let k = self.entered;
+            let f = &mut self.ring[k % RING];
+            (f.ids, f.n, f.geom) = (ids, n, geom);
+            for (p, &i) in f.prim.iter_mut().zip(&ids) {
+                *p = st.hit[i as usize].0[1];
+            }
+            avx.prefetch_rows([&m.indices[..]], avx.load_u32(&f.prim), HINT);
+            self.entered += 1;
+            if k >= lag {
+                self.vertices(avx, st, k - lag);
+            }
+            if k >= 2 * lag {
+                self.reconstruct(avx, st, k - 2 * lag);
+                self.done += 1;
+            }
+        }
+
+        /// Loads the index rows of the chunk entered `k`th (kept for its reconstruction) and
+        /// prefetches the rows of the vertices they name.
+        #[inline(always)]
+        fn vertices(&mut self, avx: Avx2, st: &Stage, k: usize) {
+            let f = &mut self.ring[k % RING];
+            let m = mesh(st, f.geom);
+            let tri = avx.gather3_u32(&m.indices, avx.load_u32(&f.prim));
+            for (kept, &c) in f.tri.iter_mut().zip(&tri) {
+                *kept = c.to_array();
+                match &m.normals {
+                    Some(ns) => avx.prefetch_rows([&m.positions[..], &ns[..]], c, HINT),
+                    None => avx.prefetch_rows([&m.positions[..]], c, HINT),
+                }
+                if let Some(uvs) = &m.uvs {
+                    avx.prefetch_rows([&uvs[..]], c, HINT);
+                }
+            }
+        }
+
+        /// Reconstructs the chunk entered `k`th.
+        #[inline(always)]
+        fn reconstruct(&self, avx: Avx2, st: &mut Stage, k: usize) {
+            let f = &self.ring[k % RING];
+            one_mesh_triangles(avx, st, f.geom, (f.ids, f.n), Some(&f.tri));
+        }
+
+        /// Reconstructs the partly filled chunks (padded) and empties the pipeline.
         #[inline(always)]
         fn flush(&mut self, avx: Avx2, st: &mut Stage) {
             for s in 0..SLOTS {
                 if self.slot[s].n > 0 {
-                    one_mesh_triangles(avx, st, self.geom[s], self.slot[s].take());
+                    let c = self.slot[s].take();
+                    if self.piped[s] {
+                        self.enter(avx, st, self.geom[s], c);
+                    } else {
+                        one_mesh_triangles(avx, st, self.geom[s], c, None);
+                    }
                 }
             }
+            let (d, e) = (self.done, self.entered);
+            for k in d.max(e.saturating_sub(self.lag))..e {
+                self.vertices(avx, st, k);
+            }
+            for k in d..e {
+                self.reconstruct(avx, st, k);
+            }
+            self.done = e;
             if self.mixed.n > 0 {
                 triangles(avx, st, self.mixed.take());
             }
         }
+    }
+
+    /// Mesh `g` of the scene.
+    #[inline(always)]
+    fn mesh<'s>(st: &Stage<'s>, g: u32) -> &'s crate::geometry::mesh::TriMesh {
+        let ShapeKind::Mesh(m) = &st.scene.shapes[g as usize].kind else {
+            unreachable!("Form::Triangles is set for meshes only");
+        };
+        m
+    }
+
+    /// Whether mesh `g`'s chunks go through [`MeshChunks`]' pipeline: a mesh of at least
+    /// [`PIPE_MIN_TRIS`] triangles, not held as [`SmallTris`], within the gathers' 32-bit
+    /// offsets.
+    fn piped(st: &Stage, g: u32) -> bool {
+        let m = mesh(st, g);
+        matches!(st.forms[g as usize], Form::Triangles(None))
+            && m.indices.len() >= PIPE_MIN_TRIS
+            && fits(m)
+    }
+
+    /// Whether every table of `m` is within the gathers' 32-bit offsets.
+    #[inline(always)]
+    fn fits(m: &crate::geometry::mesh::TriMesh) -> bool {
+        let fits = |len: usize| len <= i32::MAX as usize / 3;
+        fits(m.indices.len())
+            && fits(m.positions.len())
+            && m.normals.as_ref().is_none_or(|v| fits(v.len()))
+            && m.uvs.as_ref().is_none_or(|v| fits(v.len()))
     }
 
     /// The rays, hits and rows the gather stage works on.
@@ -270,7 +437,7 @@ pub(crate) mod x8 {
                     hit: &batch.hit,
                     surf: &mut batch.surf,
                 };
-                let mut tri = MeshChunks::EMPTY;
+                let mut tri = MeshChunks::new();
                 let (mut sph, mut rect) = (Pending::EMPTY, Pending::EMPTY);
                 let (mut disks, mut itri) = (Pending::EMPTY, Pending::EMPTY);
                 let mut cyl = Pending::EMPTY;
@@ -526,26 +693,29 @@ pub(crate) mod x8 {
     }
 
     /// Hits on one triangle mesh, shape `g` (every lane's): [`one_mesh_input`], then
-    /// [`sl::triangle`] ([`sl::triangle_no_uv`] for a mesh without uvs); a mesh too large for 32-bit gather offsets takes [`triangles`].
+    /// [`sl::triangle`] ([`sl::triangle_no_uv`] for a mesh without uvs); a mesh too large for
+    /// 32-bit gather offsets takes [`triangles`]. `tri`: the hits' vertex indices when loaded
+    /// already (by [`MeshChunks`]' pipeline).
     #[inline(always)]
-    fn one_mesh_triangles(avx: Avx2, st: &mut Stage, g: u32, (ids, n): ([u32; 8], usize)) {
+    fn one_mesh_triangles(
+        avx: Avx2,
+        st: &mut Stage,
+        g: u32,
+        (ids, n): ([u32; 8], usize),
+        tri: Option<&[[i32; 8]; 3]>,
+    ) {
         let shape = &st.scene.shapes[g as usize];
         let ShapeKind::Mesh(m) = &shape.kind else {
             unreachable!("Form::Triangles is set for meshes only");
         };
-        let fits = |len: usize| len <= i32::MAX as usize / 3;
-        if !(fits(m.indices.len())
-            && fits(m.positions.len())
-            && m.normals.as_ref().is_none_or(|v| fits(v.len()))
-            && m.uvs.as_ref().is_none_or(|v| fits(v.len())))
-        {
+        if !fits(m) {
             return triangles(avx, st, (ids, n));
         }
         let (x, meta) = match &st.forms[g as usize] {
             Form::Triangles(Some(small)) => {
                 small_input(avx, st, &ids, m, small, shape.flip_normals)
             }
-            _ => one_mesh_input(avx, st, &ids, m, shape.flip_normals),
+            _ => one_mesh_input(avx, st, &ids, m, shape.flip_normals, tri),
         };
         let s = if m.uvs.is_some() {
             sl::triangle(&x)
@@ -566,9 +736,17 @@ pub(crate) mod x8 {
         ids: &[u32; 8],
         m: &crate::geometry::mesh::TriMesh,
         flip: bool,
+        tri: Option<&[[i32; 8]; 3]>,
     ) -> (sl::Triangle<F32x8>, Meta) {
         let (prim, b, meta) = mesh_hits(avx, st, ids);
-        let tri = avx.gather3_u32(&m.indices, prim);
+        let tri = match tri {
+            Some(t) => [
+                avx.load_i32(&t[0]),
+                avx.load_i32(&t[1]),
+                avx.load_i32(&t[2]),
+            ],
+            None => avx.gather3_u32(&m.indices, prim),
+        };
         let p = [
             gv3(F32x8::gather3(&m.positions, tri[0])),
             gv3(F32x8::gather3(&m.positions, tri[1])),
