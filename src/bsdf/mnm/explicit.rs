@@ -82,23 +82,41 @@ impl PdfTerms {
     /// λp(ωi)·(1 − G1(R(ωo))), i→t→p→o with λt(ωi).
     /// (Over a map or a view of one, [`MapView`]: one code for both.)
     pub(super) fn mirror<V: MapView + ?Sized>(m: &V, wi: Vec3, wo: Vec3) -> Self {
+        let mut t = Self::empty();
+        t.mirror_into(m, wi, wo);
+        t
+    }
+
+    /// No term, nothing known: [`Self::empty`]'s state where it is read (the count, the known
+    /// densities, the G1 values; a term's entries are written before they are read).
+    #[inline(always)]
+    fn reset(&mut self) {
+        self.p = [None; MAX_FACETS];
+        self.n = 0;
+        self.g1o = None;
+        self.g1r = None;
+    }
+
+    /// [`Self::mirror`]'s terms written in place (the stream kernel's per-render buffer,
+    /// `walk_pdf_lanes`: built there instead of returned and copied, ~160 bytes a lane).
+    #[inline(always)]
+    pub(super) fn mirror_into<V: MapView + ?Sized>(&mut self, m: &V, wi: Vec3, wo: Vec3) {
         let surf = m.surface();
         let wt = surf.normal(1);
         let [lp, lt, _] = surf.lambdas(wi);
-        let mut t = Self::empty();
+        self.reset();
         if lp > 0.0 {
-            let g1o = t.g1_wo_of(m, wo);
-            t.push(0, wi, wo, lp * g1o);
+            let g1o = self.g1_wo_of(m, wo);
+            self.push(0, wi, wo, lp * g1o);
             if wo.dot(wt) > 0.0 {
                 let rwo = m.reflect_wall(wo);
-                let g1r = t.g1_rwo_of(m, rwo);
-                t.push(0, wi, rwo, lp * (1.0 - g1r));
+                let g1r = self.g1_rwo_of(m, rwo);
+                self.push(0, wi, rwo, lp * (1.0 - g1r));
             }
         }
         if wi.dot(wt) > 0.0 {
-            t.push(0, m.reflect_wall(wi), wo, lt);
+            self.push(0, m.reflect_wall(wi), wo, lt);
         }
-        t
     }
 
     /// [`Self::mirror`]'s terms from their values computed elsewhere (the stream kernel's
@@ -135,6 +153,19 @@ impl PdfTerms {
     pub(super) fn single<V: MapView + ?Sized>(m: &V, wi: Vec3, wo: Vec3) -> Self {
         let surf = m.surface();
         Self::single_of(wi, wo, surf.lambdas(wi), surf.len())
+    }
+
+    /// [`Self::single`]'s terms written in place (as [`Self::mirror_into`]).
+    #[inline(always)]
+    pub(super) fn single_into<V: MapView + ?Sized>(&mut self, m: &V, wi: Vec3, wo: Vec3) {
+        let surf = m.surface();
+        let l = surf.lambdas(wi);
+        self.reset();
+        for (k, &lk) in l.iter().enumerate().take(surf.len()) {
+            if lk > 0.0 {
+                self.push(k, wi, wo, lk);
+            }
+        }
     }
 
     /// [`Self::single`]'s terms from λ(ωi) = `l` over the microsurface's `n` facets (the

@@ -21,7 +21,7 @@
 //!   are built from is computed 8-wide (λ(ωi), G1(ωo), R(ωo), G1(R(ωo)), R(ωi): [`LaneTerms`])
 //!   and each lane's terms from those values by the scalar terms' code (`PdfTerms::mirror_of`,
 //!   `single_of`); the unknown terms' pairs of every lane go into one batch of density-only
-//!   pairs ([`Pairs`]) evaluated in 8-wide calls of the leaf's lane form
+//!   pairs (`nested_batch::Pairs`, lent by the kernel's `WalkEvalsBuf`) evaluated in 8-wide calls of the leaf's lane form
 //!   (`nested_batch::eval_pdf_lanes`) ([`reflection_pdfs`]).
 //!
 //! **The same bits.** The leaves' scalar `pdf` is their lane form's density at width 1
@@ -44,8 +44,9 @@
 use super::explicit::PdfTerms;
 use super::facets::{SurfaceLanes, MAX_FACETS};
 use super::map_view::{MapRef, MapView};
-use super::nested_batch::{self, Evaluated, Pairs, CHUNK};
+use super::nested_batch;
 use super::walk::FirstVertex;
+use super::walk_pdf_lanes::WalkEvalsBuf;
 use super::MicrofacetNormalMap;
 use crate::bsdf::roughdielectric::RoughDielectric;
 use crate::bsdf::{Bsdf, BsdfContext, BsdfNode};
@@ -269,6 +270,7 @@ pub(super) fn reflection_pdfs(
     c: ReflectionCols<'_>,
     mirror: u8,
     walks: &[Option<Escaped<'_>>; 8],
+    buf: &mut WalkEvalsBuf,
 ) -> [f32; 8] {
     let mut out = [0.0f32; 8];
     if walks.iter().all(Option::is_none) {
@@ -301,7 +303,8 @@ pub(super) fn reflection_pdfs(
     let mut terms: [Option<PdfTerms>; 8] = [None; 8];
     let mut at = [[0u8; MAX_FACETS]; 8];
     let (mut known, mut kp) = ([0u8; 8], [0.0f32; 8]);
-    let mut pairs = Pairs::<CHUNK>::new();
+    // The batch lent by the kernel's per-render buffer (emptied; no batch set up per call).
+    let (pairs, ev) = buf.batch();
     for (k, e) in walks.iter().enumerate() {
         let Some(e) = e else { continue };
         if e.m.mirror_wall() {
@@ -334,11 +337,11 @@ pub(super) fn reflection_pdfs(
             }
         }
     }
-    // (Into a local: `eval_pdf_lanes`' 512-byte result was copied out.)
-    let mut ev = Evaluated::zero();
+    // (Into the buffer: `eval_pdf_lanes`' 512-byte result was copied out, then a zeroed
+    // local was set per call.)
     match nested.node() {
-        BsdfNode::RoughConductor(c) => nested_batch::eval_pdf_lanes_into(c, &pairs, &mut ev),
-        BsdfNode::RoughPlastic(p) => nested_batch::eval_pdf_lanes_into(p, &pairs, &mut ev),
+        BsdfNode::RoughConductor(c) => nested_batch::eval_pdf_lanes_into(c, pairs, ev),
+        BsdfNode::RoughPlastic(p) => nested_batch::eval_pdf_lanes_into(p, pairs, ev),
         _ => unreachable!("the leaves with a lane form, tested above"),
     }
     for (k, e) in walks.iter().enumerate() {
@@ -573,6 +576,9 @@ mod tests {
         let mut rng = Pcg32::new(41, 3);
         let ctx = BsdfContext::default();
         let (mut compared, mut known, mut positive) = (0, 0, 0);
+        // One buffer for every round, as the stream kernel lends it per render: each round's
+        // batch over the pairs an earlier round left.
+        let mut buf = WalkEvalsBuf::new();
         for round in 0..3000 {
             let mut arena = BsdfArena::new();
             let n = push_reflectors(&mut arena)[round % 3];
@@ -641,7 +647,7 @@ mod tests {
                 wi: &wi,
                 wo: &wo,
             };
-            let got = reflection_pdfs(avx, &nested, &ctx, cols, mirror, &walks);
+            let got = reflection_pdfs(avx, &nested, &ctx, cols, mirror, &walks, &mut buf);
             for (k, w) in walks.iter().enumerate() {
                 let Some(e) = w else {
                     assert!(same(got[k], 0.0), "round {round} lane {k}");

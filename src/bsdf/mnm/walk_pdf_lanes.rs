@@ -93,6 +93,16 @@ impl WalkEvalsBuf {
             known: super::compensated::lanes::FirstConnections::new(),
         }
     }
+
+    /// The buffer's batch of pairs (emptied) and their values, lent to the chunk's sample
+    /// densities after its light queries (`walk_density_lanes::reflection_pdfs`): no batch
+    /// built per chunk (its ~1 KB of pairs and values were set from constants per call).
+    /// A pair left past the count by an earlier use is a valid pair whose values nobody reads.
+    #[inline(always)]
+    pub(super) fn batch(&mut self) -> (&mut Pairs<CHUNK>, &mut Evaluated<CHUNK>) {
+        self.pairs.clear();
+        (&mut self.pairs, &mut self.ev)
+    }
 }
 
 impl Default for WalkEvalsBuf {
@@ -186,22 +196,25 @@ impl<'a, 'b> WalkEvals<'a, 'b> {
     }
 
     /// `walk_eval_pdf`'s terms of lane `k` over map (or view) `m`, and their pairs.
+    /// (The terms built in place in the buffer: `PdfTerms::single` returned by value was
+    /// copied, ~160 bytes a lane.)
     #[inline(always)]
     fn push_terms(&mut self, k: usize, m: MapRef<'a>, wi: Vec3, wo: Vec3) {
-        let t = if m.mirror_wall() {
-            PdfTerms::mirror(&m, wi, wo)
+        let b = &mut *self.buf;
+        let t = &mut b.terms[k];
+        if m.mirror_wall() {
+            t.mirror_into(&m, wi, wo);
         } else {
-            PdfTerms::single(&m, wi, wo)
-        };
-        self.first[k] = self.pairs.len() as u8;
-        for j in 0..t.len() {
-            let (f, a, b) = t.pair(j);
-            let fr = m.frame(f);
-            self.pairs.push(fr.to_local(a), fr.to_local(b), false);
+            t.single_into(&m, wi, wo);
         }
-        self.terms[k] = t;
+        b.first[k] = b.pairs.len() as u8;
+        for j in 0..t.len() {
+            let (f, x, y) = t.pair(j);
+            let fr = m.frame(f);
+            b.pairs.push(fr.to_local(x), fr.to_local(y), false);
+        }
+        (b.wi[k], b.wo[k]) = (wi, wo);
         self.maps[k] = Some(m);
-        (self.wi[k], self.wo[k]) = (wi, wo);
         self.on |= 1 << k;
     }
 

@@ -656,7 +656,9 @@ pub(crate) mod x8 {
         }
         let mut chunk = match (&lanes, lane_points) {
             (Some(l), true) => Chunk::of_facets(Cols::of(avx), l.facets()),
-            // No point (the walk, a closed form): the empty chunk, from constants.
+            // No point (the walk, a closed form): the empty chunk, from constants. (Not built
+            // at all, as an `Option`, it cost the compensated mode a copy of its chunk
+            // through a temporary: +14 a sample there for −15 on the walk modes.)
             _ if !comp => Chunk::of(Cols::of(avx), [None; 8]),
             _ => Chunk::of(Cols::of(avx), pts),
         };
@@ -669,6 +671,8 @@ pub(crate) mod x8 {
         if comp {
             chunk.prepare();
         }
+        // Bit k: lane k is one of the chunk's points.
+        let chunk_lanes = chunk.lanes();
 
         // The build's facet columns, where the maps were written from them (the lanes not
         // built as points without a map): the walks of steps 3 and 4 read them 8-wide instead
@@ -700,7 +704,7 @@ pub(crate) mod x8 {
             // value is consistent (every one of the chunk's, the others where they have a
             // `SurfaceBsdf`, evaluated lane by lane).
             let toward = nee & side.bits() as u8;
-            let lit = toward & chunk.lanes();
+            let lit = toward & chunk_lanes;
             let mut consistent = lit;
             let mut rest = toward & !lit;
             // The random walk's queries over the shared leaf: their MIS density's nested pairs
@@ -818,10 +822,12 @@ pub(crate) mod x8 {
         // the one the material's nested leaf allows is looked for (`super::walk_groups`: a
         // reflecting leaf's lanes never walk two-sided, a transmitting leaf's never by
         // reflection), which skips the other group's scan of the lanes.
-        let walks = if walking {
+        // (The walks write their samples here: returned, they were copied out.)
+        let mut walks = WalkSamples::none();
+        if walking {
             let mut pts_local = [None; 8];
             for (k, s) in sb.iter().enumerate() {
-                if chunk.lanes() & (1 << k) == 0 {
+                if chunk_lanes & (1 << k) == 0 {
                     pts_local[k] = s.as_ref().map(|s| s.local());
                 }
             }
@@ -835,13 +841,10 @@ pub(crate) mod x8 {
                 WALK_MIN,
                 groups,
                 facets,
-            )
-        } else {
-            WalkSamples {
-                lanes: 0,
-                out: [None; 8],
-            }
-        };
+                walk_evals,
+                &mut walks,
+            );
+        }
         let mut rest = walks.lanes;
         while rest != 0 {
             let k = rest.trailing_zeros() as usize;
@@ -856,7 +859,7 @@ pub(crate) mod x8 {
                 keep |= 1 << k;
             }
         }
-        let mut rest = !chunk.lanes() & !walks.lanes;
+        let mut rest = !chunk_lanes & !walks.lanes;
         while rest != 0 {
             let k = rest.trailing_zeros() as usize;
             rest &= rest - 1;

@@ -40,6 +40,7 @@ use crate::bsdf::mnm::walk::FirstVertex;
 use crate::bsdf::mnm::walk_density_lanes::{
     reflection_pdfs, two_sided_p1, two_sided_pdf, Escaped, ReflectionCols, TwoSidedCols,
 };
+use crate::bsdf::mnm::walk_pdf_lanes::WalkEvalsBuf;
 use crate::bsdf::mnm::{explicit::lobe_of, walk_alone, MicrofacetNormalMap};
 use crate::bsdf::mnm::{walk_two_sided, TransmissionWalk};
 use crate::bsdf::roughdielectric::RoughDielectric;
@@ -57,6 +58,17 @@ use glam::Vec3;
 pub(crate) struct WalkSamples {
     pub lanes: u8,
     pub out: [Option<BsdfSample>; 8],
+}
+
+impl WalkSamples {
+    /// No lane walked.
+    #[inline(always)]
+    pub(crate) fn none() -> Self {
+        WalkSamples {
+            lanes: 0,
+            out: [None; 8],
+        }
+    }
 }
 
 /// Which of [`sample_walks_x8`]'s two walk groups a call looks for. A lane walks by
@@ -192,7 +204,9 @@ pub(super) fn frame_of(
 /// together; only the groups of `groups` are looked for (a lane of the other group is left
 /// out of `lanes`, to the caller). A group of fewer than `min` lanes is not walked here (its
 /// lanes left out of `lanes`). `built`: the build's facet columns where the chunk's maps were
-/// written from them (the walks then read them instead of the maps, [`cols_of`]).
+/// written from them (the walks then read them instead of the maps, [`cols_of`]). The
+/// samples go into `out` (empty before); `buf`: the kernel's per-render buffer, whose batch of
+/// pairs the reflection walks' densities borrow (`walk_density_lanes::reflection_pdfs`).
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn sample_walks_x8(
@@ -204,37 +218,35 @@ pub(crate) fn sample_walks_x8(
     min: u32,
     groups: WalkGroups,
     built: Option<BuiltFacets<'_>>,
-) -> WalkSamples {
-    let mut out = match groups.reflection {
-        false => WalkSamples {
-            lanes: 0,
-            out: [None; 8],
-        },
-        true => reflection_walks(avx, ctx, pts, samplers, ids, min, built),
-    };
-    if groups.two_sided {
-        two_sided_walks(avx, ctx, pts, samplers, ids, (min, built), &mut out);
+    buf: &mut WalkEvalsBuf,
+    out: &mut WalkSamples,
+) {
+    // (Into the caller's `out` (empty, [`WalkSamples::none`]): returned by value, the
+    // ~330-byte samples were copied twice, from the walks and out of this call.)
+    if groups.reflection {
+        reflection_walks(avx, ctx, pts, samplers, ids, (min, built), buf, out);
     }
-    out
+    if groups.two_sided {
+        two_sided_walks(avx, ctx, pts, samplers, ids, (min, built), out);
+    }
 }
 
 /// [`sample_walks_x8`]'s reflection walks: the lanes whose sample is the reflection walk over
 /// a `roughconductor` or `roughplastic` leaf shared with the first such lane and with its
-/// `max_order`, walked together. Fewer than `min` such lanes: none is walked (`lanes` 0).
+/// `max_order`, walked together, into `out` (empty before). Fewer than `min` such lanes: none
+/// is walked (`lanes` 0). `buf`: the batch of the densities' nested pairs, lent.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn reflection_walks(
     avx: Avx2,
     ctx: &BsdfContext,
     pts: &[Option<(Bsdf<'_>, Vec3)>; 8],
     samplers: &mut Samplers,
     ids: &[u32; 8],
-    min: u32,
-    built: Option<BuiltFacets<'_>>,
-) -> WalkSamples {
-    let mut out = WalkSamples {
-        lanes: 0,
-        out: [None; 8],
-    };
+    (min, built): (u32, Option<BuiltFacets<'_>>),
+    buf: &mut WalkEvalsBuf,
+    out: &mut WalkSamples,
+) {
     let mut maps: [Option<MapRef<'_>>; 8] = [None; 8];
     let mut shared: Option<(Bsdf<'_>, u32)> = None;
     let mut wi = [[0.0f32; 8]; 3];
@@ -270,11 +282,11 @@ fn reflection_walks(
         mirror |= u8::from(m.mirror_wall()) << k;
     }
     let Some((nested, max_order)) = shared else {
-        return out;
+        return;
     };
     if out.lanes.count_ones() < min {
         out.lanes = 0;
-        return out;
+        return;
     }
     let kind = Nested::of(&nested);
     // The points' facets, wall normal and carrying facets' frames, by lane: the build's
@@ -305,16 +317,25 @@ fn reflection_walks(
     };
     // (The columns' references, kept for the density after the walk.)
     let (cv, cn1) = (c.v, c.n1);
-    let walked = walk8(
+    // (Filled in place by the walk: returned from its `Avx2::run` the ~270 bytes were copied.)
+    let mut walked = Walked {
+        escaped: 0,
+        wo: [[0.0; 8]; 3],
+        weight: [[0.0; 8]; 3],
+        first: 0,
+        first_k: [0; 8],
+        first_pdf: [0.0; 8],
+        ends: [0; 8],
+    };
+    walk8(
         avx,
         Cols::of(avx),
         kind,
         c,
-        out.lanes,
-        mirror,
-        max_order,
+        (out.lanes, mirror, max_order),
         samplers,
         ids,
+        &mut walked,
     );
     let mut escaped: [Option<Escaped<'_>>; 8] = [None; 8];
     let mut rest = out.lanes;
@@ -348,7 +369,7 @@ fn reflection_walks(
         wi: &wi,
         wo: &walked.wo,
     };
-    let pdf = reflection_pdfs(avx, &nested, ctx, cols, mirror, &escaped);
+    let pdf = reflection_pdfs(avx, &nested, ctx, cols, mirror, &escaped, buf);
     let lobe = lobe_of(nested.lobes());
     for (k, e) in escaped.iter().enumerate() {
         let Some(e) = e else { continue };
@@ -361,7 +382,6 @@ fn reflection_walks(
             lobe,
         });
     }
-    out
 }
 
 /// The walks' facet columns read from each walking lane's map (where the build's columns
@@ -549,7 +569,8 @@ pub(super) fn draw_2d(
     V2::new(x, y)
 }
 
-/// The masked walk of the lanes `lanes` (see the module's doc), in 8-wide code.
+/// The masked walk of the lanes `lanes` (see the module's doc), in 8-wide code, into `w`
+/// (all zero before).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn walk8(
@@ -557,26 +578,16 @@ fn walk8(
     cols: Cols,
     kind: Nested,
     c: Cols8,
-    lanes: u8,
-    mirror: u8,
-    max_order: u32,
+    (lanes, mirror, max_order): (u8, u8, u32),
     samplers: &mut Samplers,
     ids: &[u32; 8],
-) -> Walked {
+    w: &mut Walked,
+) {
     let u1_drawn = draws_u1(kind);
     let all_plain = samplers.all_plain();
     avx.run(
         #[inline(always)]
         || {
-            let mut w = Walked {
-                escaped: 0,
-                wo: [[0.0; 8]; 3],
-                weight: [[0.0; 8]; 3],
-                first: 0,
-                first_k: [0; 8],
-                first_pdf: [0.0; 8],
-                ends: [0; 8],
-            };
             let (zero, one) = (avx.splat(0.0), avx.splat(1.0));
             let surf = SurfaceLanes {
                 v: [l3(avx, &c.v[0]), l3(avx, &c.v[1]), l3(avx, &c.v[2])],
@@ -684,7 +695,6 @@ fn walk8(
             avx.store_u64_at(states, idx, on, rng.parts().0, old);
             store_cols(&mut w.wo, wo);
             store_cols(&mut w.weight, weight);
-            w
         },
     )
 }
@@ -1092,6 +1102,8 @@ pub(super) mod tests {
         let (mut escaped, mut absorbed, mut walks, mut vertices, mut stratified_draws) =
             (0, 0, 0, 0, 0);
         let (mut col_rounds, mut view_lanes) = (0, 0);
+        // One batch buffer for every round (as the kernel lends it per render).
+        let mut buf = WalkEvalsBuf::new();
         for round in 0..3000 {
             let mut arena = BsdfArena::new();
             let nested = crate::bsdf::mnm::compensated::tests::push_reflectors(&mut arena);
@@ -1148,7 +1160,11 @@ pub(super) mod tests {
                 lanes: from_cols,
                 views: Some(&views),
             });
-            let got = sample_walks_x8(avx, &ctx, &lanes, &mut cols, &ids, 1, groups, built);
+            let mut got = WalkSamples::none();
+            let b = &mut buf;
+            sample_walks_x8(
+                avx, &ctx, &lanes, &mut cols, &ids, 1, groups, built, b, &mut got,
+            );
             col_rounds += build.check(avx, arena, &pts, built, got.lanes);
             let counted = arena.take_walk_counts();
             let mut want_lanes = 0u8;
@@ -1410,6 +1426,7 @@ pub(super) mod tests {
         let (mut transmitted, mut reflected, mut absorbed, mut from_below) = (0, 0, 0, 0);
         let (mut walks, mut vertices, mut stratified_draws, mut reflection_lanes) = (0, 0, 0, 0);
         let mut col_rounds = 0;
+        let mut buf = WalkEvalsBuf::new();
         for round in 0..3000 {
             let mut arena = BsdfArena::new();
             let dielectrics = [
@@ -1483,7 +1500,11 @@ pub(super) mod tests {
                 lanes: from_cols,
                 views: None,
             });
-            let got = sample_walks_x8(avx, &ctx, &lanes, &mut cols, &ids, 1, groups, built);
+            let mut got = WalkSamples::none();
+            let b = &mut buf;
+            sample_walks_x8(
+                avx, &ctx, &lanes, &mut cols, &ids, 1, groups, built, b, &mut got,
+            );
             col_rounds += build.check(avx, arena, &pts, built, got.lanes);
             let counted = arena.take_walk_counts();
             let mut want_lanes = 0u8;
