@@ -1,6 +1,7 @@
 //! A microfacet normal map's microsurface and frames as the reflection walk's readers see them
 //! (issue 18, forty-second session): [`MapView`], implemented by the map itself and by
-//! [`ColMap`], lane k of the stream kernel's build columns without a map.
+//! [`MapRef`], a lane's map or its [`ColMap`] (lane k of the stream kernel's build columns
+//! without a map).
 //!
 //! The stream kernel builds the maps of 8 hits from columns (`MnmSettings::lanes_at`, then
 //! `map_lane_into` per lane: ~340 instructions a sample on `metal_plastic` in walk-same). A
@@ -62,29 +63,6 @@ impl MapView for MicrofacetNormalMap {
     }
 }
 
-impl<T: MapView + ?Sized> MapView for &T {
-    #[inline(always)]
-    fn surface(&self) -> &Microsurface {
-        (**self).surface()
-    }
-    #[inline(always)]
-    fn frame(&self, k: usize) -> Frame {
-        (**self).frame(k)
-    }
-    #[inline(always)]
-    fn mirror_wall(&self) -> bool {
-        (**self).mirror_wall()
-    }
-    #[inline(always)]
-    fn max_order(&self) -> u32 {
-        (**self).max_order()
-    }
-    #[inline(always)]
-    fn mis_c(&self) -> f32 {
-        (**self).mis_c()
-    }
-}
-
 /// Lane `k` of a chunk's build columns standing for its map (`MnmSettings::map_lane_into`'s
 /// map of the random walk, not flat): its microsurface copied out of the columns as the map's
 /// build copies it, its frames read from them on demand, the wall flag, `max_order` and c as
@@ -128,31 +106,19 @@ impl<'c> ColMap<'c> {
     }
 }
 
-impl MapView for ColMap<'_> {
-    #[inline(always)]
-    fn surface(&self) -> &Microsurface {
-        &self.surface
-    }
+impl ColMap<'_> {
+    /// Facet `k`'s frame, from the columns (`Microsurface::frame_of_lane`, as the map's
+    /// build takes it).
     #[inline(always)]
     fn frame(&self, k: usize) -> Frame {
         self.surface
             .frame_of_lane(self.facets, &self.from, self.k, k)
     }
-    #[inline(always)]
-    fn mirror_wall(&self) -> bool {
-        self.mirror_wall
-    }
-    #[inline(always)]
-    fn max_order(&self) -> u32 {
-        self.max_order
-    }
-    #[inline(always)]
-    fn mis_c(&self) -> f32 {
-        self.mis_c
-    }
 }
 
-/// A lane's map or its view of the columns: what the stream kernel's walks keep per lane.
+/// A lane's map or its view of the columns: what the stream kernel's walks keep per lane,
+/// and the one [`MapView`] of a view (its fields read here: one source for both kinds of
+/// lane, no accessors repeated for the view).
 #[derive(Clone, Copy)]
 pub(crate) enum MapRef<'a> {
     Map(&'a MicrofacetNormalMap),
@@ -163,8 +129,8 @@ impl MapView for MapRef<'_> {
     #[inline(always)]
     fn surface(&self) -> &Microsurface {
         match self {
-            MapRef::Map(m) => m.surface(),
-            MapRef::Cols(c) => c.surface(),
+            MapRef::Map(m) => MapView::surface(*m),
+            MapRef::Cols(c) => &c.surface,
         }
     }
     #[inline(always)]
@@ -177,21 +143,21 @@ impl MapView for MapRef<'_> {
     #[inline(always)]
     fn mirror_wall(&self) -> bool {
         match self {
-            MapRef::Map(m) => m.mirror_wall,
+            MapRef::Map(m) => MapView::mirror_wall(*m),
             MapRef::Cols(c) => c.mirror_wall,
         }
     }
     #[inline(always)]
     fn max_order(&self) -> u32 {
         match self {
-            MapRef::Map(m) => m.max_order,
+            MapRef::Map(m) => MapView::max_order(*m),
             MapRef::Cols(c) => c.max_order,
         }
     }
     #[inline(always)]
     fn mis_c(&self) -> f32 {
         match self {
-            MapRef::Map(m) => MicrofacetNormalMap::mis_c(m),
+            MapRef::Map(m) => MapView::mis_c(*m),
             MapRef::Cols(c) => c.mis_c,
         }
     }
@@ -228,6 +194,22 @@ pub(crate) fn view_is_map(v: &impl MapView, m: &MicrofacetNormalMap) -> bool {
     for j in 0..carrying.min(MAX_FACETS) {
         let (a, b) = (v.frame(j), m.frames[j]);
         ok &= same(a.s, b.s) && same(a.t, b.t) && same(a.n, b.n);
+    }
+    // What the terms compute from them: λ and G1 toward directions above, grazing and below,
+    // and the wall's reflection.
+    for w in [
+        Vec3::Z,
+        Vec3::new(0.6, 0.0, 0.8),
+        Vec3::new(-0.3, 0.5, 0.81),
+        Vec3::new(0.7, -0.7, 0.14),
+        Vec3::new(-0.9, -0.2, 0.02),
+        Vec3::new(0.1, 0.2, -0.97),
+    ] {
+        ok &= s.lambdas(w).map(f32::to_bits) == t.lambdas(w).map(f32::to_bits)
+            && s.g1(w).to_bits() == t.g1(w).to_bits();
+        if m.mirror_wall {
+            ok &= same(v.reflect_wall(w), MapView::reflect_wall(m, w));
+        }
     }
     ok
 }

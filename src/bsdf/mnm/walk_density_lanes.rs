@@ -42,7 +42,7 @@
 //! `nested_batch`'s batch of pairs.
 
 use super::explicit::PdfTerms;
-use super::facets::{SurfaceLanes, MAX_FACETS};
+use super::facets::{store3, SurfaceLanes, MAX_FACETS};
 use super::map_view::{MapRef, MapView};
 use super::nested_batch;
 use super::walk::FirstVertex;
@@ -178,10 +178,12 @@ pub(super) struct Escaped<'a> {
 
 /// The reflection walks' lanes as [`reflection_pdfs`] reads them (the masked walk's
 /// columns): each lane's area vectors (slots past its facets zero), the mirror wall's normal
-/// (lanes with the wall; else anything), ωi and the escaped walks' ωo.
+/// (lanes with the wall; else anything), its carrying facets' frames (s, t, n; other slots
+/// anything), ωi and the escaped walks' ωo.
 pub(super) struct ReflectionCols<'c> {
     pub v: &'c [Col3; MAX_FACETS],
     pub n1: &'c Col3,
+    pub fr: &'c [[Col3; 3]; MAX_FACETS],
     pub wi: &'c Col3,
     pub wo: &'c Col3,
 }
@@ -253,6 +255,40 @@ fn lane_terms(avx: Avx2, c: &ReflectionCols<'_>, mirror: u8) -> LaneTerms {
     )
 }
 
+/// ωi and ωo in each facet slot's frame (`Frame::to_local`'s lane form, the scalar one's bits),
+/// by lane: the single-scattering lanes' pairs of [`reflection_pdfs`], 8-wide from the
+/// columns' frames instead of each lane's frames read and applied one by one (forty-third
+/// session).
+struct LocalPairs {
+    wi: [Col3; MAX_FACETS],
+    wo: [Col3; MAX_FACETS],
+}
+
+/// [`LocalPairs`] of the lanes of `c`.
+#[inline(always)]
+fn local_pairs(avx: Avx2, c: &ReflectionCols<'_>) -> LocalPairs {
+    avx.run(
+        #[inline(always)]
+        || {
+            let (wi, wo) = (l3(avx, c.wi), l3(avx, c.wo));
+            let mut p = LocalPairs {
+                wi: [[[0.0; 8]; 3]; MAX_FACETS],
+                wo: [[[0.0; 8]; 3]; MAX_FACETS],
+            };
+            for (f, fr) in c.fr.iter().enumerate() {
+                let fr = LaneFrame {
+                    s: l3(avx, &fr[0]),
+                    t: l3(avx, &fr[1]),
+                    n: l3(avx, &fr[2]),
+                };
+                p.wi[f] = store3(fr.to_local(wi));
+                p.wo[f] = store3(fr.to_local(wo));
+            }
+            p
+        },
+    )
+}
+
 /// The MIS density of each escaped reflection walk of `walks` (lane k: `walks[k]`, its
 /// columns in `c`, bit k of `mirror` where its facet 1 is the mirror wall), as
 /// `mnm::walk_sample_of` reports it, bit for bit: each lane's terms (`PdfTerms::mirror_of` /
@@ -302,6 +338,12 @@ pub(super) fn reflection_pdfs(
     // `at[k][f]`.
     let mut terms: [Option<PdfTerms>; 8] = [None; 8];
     let mut at = [[0u8; MAX_FACETS]; 8];
+    // The single-scattering lanes' pairs in their facets' frames, 8-wide (where there is one).
+    let mut single = 0u8;
+    for (k, e) in walks.iter().enumerate() {
+        single |= u8::from(e.is_some()) << k;
+    }
+    let lp = (single & !mirror != 0).then(|| local_pairs(avx, &c));
     let (mut known, mut kp) = ([0u8; 8], [0.0f32; 8]);
     // The batch lent by the kernel's per-render buffer (emptied; no batch set up per call).
     let (pairs, ev) = buf.batch();
@@ -331,8 +373,9 @@ pub(super) fn reflection_pdfs(
                 if f == kf {
                     known[k] = 1 << f;
                 } else {
-                    let fr = e.m.frame(f);
-                    at[k][f] = pairs.push(fr.to_local(e.wi), fr.to_local(e.wo), true) as u8;
+                    let lp = lp.as_ref().expect("a single-scattering lane's pairs");
+                    let at3 = |c: &Col3| Vec3::new(c[0][k], c[1][k], c[2][k]);
+                    at[k][f] = pairs.push(at3(&lp.wi[f]), at3(&lp.wo[f]), true) as u8;
                 }
             }
         }
@@ -599,6 +642,7 @@ mod tests {
             let arena = &arena;
             let nested = arena.bsdf(n);
             let (mut v, mut n1) = ([[[0.0f32; 8]; 3]; MAX_FACETS], [[0.0f32; 8]; 3]);
+            let mut fr = [[[[0.0f32; 8]; 3]; 3]; MAX_FACETS];
             let (mut wi, mut wo, mut mirror) = ([[0.0f32; 8]; 3], [[0.0f32; 8]; 3], 0u8);
             for (k, w) in walks.iter_mut().enumerate() {
                 if rng.next_u32().is_multiple_of(6) {
@@ -632,6 +676,13 @@ mod tests {
                     set3(&mut n1, k, surf.normal(1));
                     mirror |= 1 << k;
                 }
+                let carrying = if m.mirror_wall { 1 } else { surf.len() };
+                for (j, f) in fr.iter_mut().enumerate().take(carrying) {
+                    let g = m.frames[j];
+                    set3(&mut f[0], k, g.s);
+                    set3(&mut f[1], k, g.t);
+                    set3(&mut f[2], k, g.n);
+                }
                 set3(&mut wi, k, i);
                 set3(&mut wo, k, o);
                 *w = Some(Escaped {
@@ -644,6 +695,7 @@ mod tests {
             let cols = ReflectionCols {
                 v: &v,
                 n1: &n1,
+                fr: &fr,
                 wi: &wi,
                 wo: &wo,
             };

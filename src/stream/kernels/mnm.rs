@@ -60,7 +60,7 @@ use crate::bsdf::mnm::{Evaluation, Tangent};
 use crate::bsdf::{BsdfArena, BsdfNode};
 use crate::lane::vec::V3;
 use crate::lane::{Lane, ToArray};
-use crate::material::{MatId, MaterialNode, Materials, MnmCols};
+use crate::material::{MatId, MaterialNode, Materials, MnmCols, MnmSettings};
 use crate::scene::Scene;
 use crate::texture::Texture;
 use glam::Vec3;
@@ -173,17 +173,8 @@ pub(crate) fn build_shared(
     arena: &mut BsdfArena,
 ) -> Option<Built> {
     let materials = &scene.materials;
-    let nodes = materials.nodes();
-    let MaterialNode::MicrofacetNormalMap {
-        nested, settings, ..
-    } = &nodes[m as usize]
-    else {
-        return None;
-    };
-    let MaterialNode::Leaf { template, .. } = &nodes[*nested as usize] else {
-        return None;
-    };
-    let child = arena.push_with_lobes(materials.lobes(*nested), **template);
+    let (settings, nested, template) = map_leaf(materials, m)?;
+    let child = arena.push_with_lobes(materials.lobes(nested), *template);
     // The points: not flat (`MicrofacetNormalMap::is_flat`, the map's `degenerate`), both
     // facets kept (the map's `mirror_wall`), with a table cell (`two_facets_with_cell` of each
     // lane, as bits).
@@ -234,32 +225,18 @@ pub(crate) fn mapless_bits(
     lanes: &MnmCols<8>,
     wi_z: &[f32; 8],
 ) -> u8 {
-    use crate::bsdf::mnm::FLAT;
-    let nodes = materials.nodes();
-    let MaterialNode::MicrofacetNormalMap {
-        nested, settings, ..
-    } = &nodes[m as usize]
-    else {
-        return 0;
-    };
-    let MaterialNode::Leaf { template, .. } = &nodes[*nested as usize] else {
-        return 0;
-    };
-    let walks = settings.evaluation == Evaluation::RandomWalk
-        && settings.ms_table.is_none()
-        && matches!(
-            **template,
-            BsdfNode::RoughConductor(_) | BsdfNode::RoughPlastic(_)
-        )
-        && !materials.lobes(*nested).has_transmission();
+    let walks = map_leaf(materials, m).is_some_and(|(settings, nested, template)| {
+        settings.evaluation == Evaluation::RandomWalk
+            && settings.ms_table.is_none()
+            && rough_reflector(materials, nested, template)
+    });
     if !walks {
         return 0;
     }
-    let wp = lanes.wp_cols();
     cols.run(
         #[inline(always)]
         |cols| {
-            let flat = cols.abs_lt_bits(&wp[0], FLAT) & cols.abs_lt_bits(&wp[1], FLAT);
+            let flat = flat_bits(cols, lanes);
             let mut above = 0u8;
             for (k, z) in wi_z.iter().enumerate() {
                 above |= u8::from(*z > 0.0) << k;
@@ -308,15 +285,50 @@ pub(crate) fn views_of<'c>(
 /// where `cols` is (lane by lane otherwise: the same bits).
 #[inline(always)]
 pub(crate) fn point_bits(cols: Cols, lanes: &MnmCols<8>) -> u8 {
-    use crate::bsdf::mnm::FLAT;
-    let wp = lanes.wp_cols();
     cols.run(
         #[inline(always)]
-        |cols| {
-            let flat = cols.abs_lt_bits(&wp[0], FLAT) & cols.abs_lt_bits(&wp[1], FLAT);
-            lanes.facets().keeps_bits8(cols, 2) & !flat
-        },
+        |cols| lanes.facets().keeps_bits8(cols, 2) & !flat_bits(cols, lanes),
     )
+}
+
+/// The lanes of `lanes` whose ωp is flat (`MicrofacetNormalMap::is_flat`: |x| and |y| below
+/// [`FLAT`](crate::bsdf::mnm::FLAT)), as bits, one compare per column ([`point_bits`] and
+/// [`mapless_bits`]; call inside [`Cols::run`]).
+#[inline(always)]
+fn flat_bits(cols: Cols, lanes: &MnmCols<8>) -> u8 {
+    use crate::bsdf::mnm::FLAT;
+    let wp = lanes.wp_cols();
+    cols.abs_lt_bits(&wp[0], FLAT) & cols.abs_lt_bits(&wp[1], FLAT)
+}
+
+/// Material `m`'s leaf under its microfacet normal map: the map's settings, the nested
+/// node and its template (`None`: not a map directly over a `Leaf`). The kernel's gates on
+/// the leaf ([`build_shared`], [`mapless_bits`], [`lane_points`]) read it here.
+#[inline(always)]
+fn map_leaf(materials: &Materials, m: MatId) -> Option<(&MnmSettings, u32, &BsdfNode)> {
+    let nodes = materials.nodes();
+    let MaterialNode::MicrofacetNormalMap {
+        nested, settings, ..
+    } = &nodes[m as usize]
+    else {
+        return None;
+    };
+    let MaterialNode::Leaf { template, .. } = &nodes[*nested as usize] else {
+        return None;
+    };
+    Some((settings, *nested, &**template))
+}
+
+/// Whether leaf `template` (node `nested` of `materials`) reflects only and has a lane form
+/// without a Lambert closed form: `roughconductor` or `roughplastic` that does not transmit
+/// (the leaf over which the walk's lanes go without maps, [`mapless_bits`], and the
+/// compensated points without maps, [`lane_points`]).
+#[inline(always)]
+fn rough_reflector(materials: &Materials, nested: u32, template: &BsdfNode) -> bool {
+    matches!(
+        template,
+        BsdfNode::RoughConductor(_) | BsdfNode::RoughPlastic(_)
+    ) && !materials.lobes(nested).has_transmission()
 }
 
 /// Whether the points of material `m` (one that [`qualifies`] and [`shared_nested`]) are built
@@ -326,24 +338,12 @@ pub(crate) fn point_bits(cols: Cols, lanes: &MnmCols<8>) -> u8 {
 /// every hit that is not flat is the compensated model alone (`mnm::compensated_alone`) over
 /// the mirror sawtooth.
 pub(crate) fn lane_points(materials: &Materials, m: MatId) -> bool {
-    let nodes = materials.nodes();
-    let MaterialNode::MicrofacetNormalMap {
-        nested, settings, ..
-    } = &nodes[m as usize]
-    else {
-        return false;
-    };
-    let MaterialNode::Leaf { template, .. } = &nodes[*nested as usize] else {
-        return false;
-    };
-    settings.evaluation == Evaluation::Compensated
-        && settings.geometry == Microgeometry::Sawtooth
-        && settings.tangent == Tangent::Mirror
-        && matches!(
-            **template,
-            BsdfNode::RoughConductor(_) | BsdfNode::RoughPlastic(_)
-        )
-        && !materials.lobes(*nested).has_transmission()
+    map_leaf(materials, m).is_some_and(|(settings, nested, template)| {
+        settings.evaluation == Evaluation::Compensated
+            && settings.geometry == Microgeometry::Sawtooth
+            && settings.tangent == Tangent::Mirror
+            && rough_reflector(materials, nested, template)
+    })
 }
 
 /// The evaluation of material `m` (one that [`qualifies`]: a microfacet `normalmap`; `None`

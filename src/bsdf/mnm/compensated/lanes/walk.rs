@@ -316,7 +316,7 @@ fn reflection_walks(
         }
     };
     // (The columns' references, kept for the density after the walk.)
-    let (cv, cn1) = (c.v, c.n1);
+    let (cv, cn1, cfr) = (c.v, c.n1, c.fr);
     // (Filled in place by the walk: returned from its `Avx2::run` the ~270 bytes were copied.)
     let mut walked = Walked {
         escaped: 0,
@@ -366,6 +366,7 @@ fn reflection_walks(
     let cols = ReflectionCols {
         v: cv,
         n1: cn1,
+        fr: cfr,
         wi: &wi,
         wo: &walked.wo,
     };
@@ -775,7 +776,8 @@ fn two_sided_walks(
             }
         }
         None => {
-            own = MapCols::of(&maps, true);
+            // (Through `MapRef`, the one `MapView` over a lane's map or view.)
+            own = MapCols::of(&maps.map(|m| m.map(MapRef::Map)), true);
             ColsT {
                 v: &own.v,
                 nrm: &own.nrm,
@@ -1069,6 +1071,43 @@ pub(super) mod tests {
         )
     }
 
+    /// Each lane's view of a build's columns (`ColMap::of_lane`, as the stream kernel's
+    /// `views_of` makes it) holds its own map's numbers (`MnmSettings::map_lane_into` of the same lane) bit for bit, `view_is_map`:
+    /// facets, carrying frames, λ and G1, the wall's reflection, the wall flag, `max_order` and
+    /// c; on every geometry, the U-groove of fill 1 among them (its flat candidate dropped:
+    /// facet 1 is candidate 2), and never the next lane's map (another ωp).
+    #[test]
+    fn views_are_their_lanes_maps() {
+        let Some(avx) = Avx2::detect() else {
+            return;
+        };
+        let mut rng = Pcg32::new(43, 3);
+        let (mut views, mut dropped) = (0, 0);
+        for round in 0..600 {
+            let mut arena = BsdfArena::new();
+            let n = crate::bsdf::mnm::compensated::tests::push_reflectors(&mut arena)[round % 3];
+            let geo = GEOMETRIES[round % GEOMETRIES.len()];
+            let build = ColBuild::new(avx, &mut rng, geo, [1, 3, 10][round % 3], walk_of(0));
+            let roots: [u32; 8] = std::array::from_fn(|k| build.push(&mut arena, n, k, true));
+            let map = |r: u32| match arena.bsdf(r).node() {
+                BsdfNode::MicrofacetNormalMap { map, .. } => &arena.mnm[*map as usize],
+                _ => unreachable!("a map"),
+            };
+            for (k, &r) in roots.iter().enumerate() {
+                let Some(v) = build.view(k) else { continue };
+                let v = MapRef::Cols(&v);
+                assert!(view_is_map(&v, map(r)), "round {round}, lane {k}");
+                let next = (k + 1) % 8;
+                if build.wp[next] != build.wp[k] {
+                    assert!(!view_is_map(&v, map(roots[next])), "round {round}, lane {k}");
+                }
+                views += 1;
+                dropped += usize::from(v.surface().len() < build.cols.facets().candidates());
+            }
+        }
+        assert!(views > 3000 && dropped > 300, "{views} views, {dropped} with a dropped facet");
+    }
+
     /// ωi mostly above the surface, grazing ones mixed in, a few below (not walked).
     fn random_wi(r: &mut Pcg32) -> Vec3 {
         let z = match r.next_u32() % 12 {
@@ -1139,7 +1178,10 @@ pub(super) mod tests {
                 if let (Some(v), BsdfNode::MicrofacetNormalMap { map, .. }) =
                     (&views[k], arena.bsdf(*r).node())
                 {
-                    assert!(view_is_map(v, &arena.mnm[*map as usize]), "lane {k}");
+                    assert!(
+                        view_is_map(&MapRef::Cols(v), &arena.mnm[*map as usize]),
+                        "lane {k}"
+                    );
                     view_lanes += 1;
                 }
             }

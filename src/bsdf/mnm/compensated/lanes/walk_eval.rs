@@ -359,7 +359,7 @@ mod tests {
     };
     use super::super::BuiltFacets;
     use crate::bsdf::mnm::compensated::tests::push_reflectors;
-    use crate::bsdf::mnm::map_view::{view_is_map, ColMap};
+    use crate::bsdf::mnm::map_view::{view_is_map, ColMap, MapRef};
     use crate::bsdf::mnm::walk_pdf_lanes::{WalkEvals, WalkEvalsBuf};
     use crate::bsdf::mnm::{Evaluation, MicrofacetNormalMap, Tangent};
     use crate::bsdf::BsdfNode;
@@ -460,7 +460,10 @@ mod tests {
                         unreachable!("a map");
                     };
                     if let Some(v) = &views[k] {
-                        assert!(view_is_map(v, &arena.mnm[*map as usize]), "lane {k}");
+                        assert!(
+                        view_is_map(&MapRef::Cols(v), &arena.mnm[*map as usize]),
+                        "lane {k}"
+                    );
                     }
                 }
             }
