@@ -306,7 +306,7 @@ fn reflection_walks(
             }
         }
         None => {
-            own = MapCols::of(&maps, false);
+            own = MapCols::of(maps.iter().map(Option::as_ref), false);
             Cols8 {
                 v: &own.v,
                 n1: &own.n1,
@@ -439,12 +439,15 @@ impl MapCols {
         }
     }
 
-    /// The columns of the maps `maps` (`None`: a lane that does not walk, zero); the facets'
-    /// normals only for the two-sided walk (`two_sided`).
+    /// The columns of the maps `maps` (lane by lane; `None`: a lane that does not walk,
+    /// zero); the facets' normals only for the two-sided walk (`two_sided`).
     #[inline(always)]
-    fn of(maps: &[Option<impl MapView>; 8], two_sided: bool) -> Self {
+    fn of<'m, M: MapView + 'm>(
+        maps: impl Iterator<Item = Option<&'m M>>,
+        two_sided: bool,
+    ) -> Self {
         let mut c = MapCols::new();
-        for (k, m) in maps.iter().enumerate() {
+        for (k, m) in maps.enumerate() {
             if let Some(m) = m {
                 c.set_lane(k, m, two_sided);
             }
@@ -776,8 +779,7 @@ fn two_sided_walks(
             }
         }
         None => {
-            // (Through `MapRef`, the one `MapView` over a lane's map or view.)
-            own = MapCols::of(&maps.map(|m| m.map(MapRef::Map)), true);
+            own = MapCols::of(maps.iter().copied(), true);
             ColsT {
                 v: &own.v,
                 nrm: &own.nrm,
