@@ -442,10 +442,7 @@ impl MapCols {
     /// The columns of the maps `maps` (lane by lane; `None`: a lane that does not walk,
     /// zero); the facets' normals only for the two-sided walk (`two_sided`).
     #[inline(always)]
-    fn of<'m, M: MapView + 'm>(
-        maps: impl Iterator<Item = Option<&'m M>>,
-        two_sided: bool,
-    ) -> Self {
+    fn of<'m, M: MapView + 'm>(maps: impl Iterator<Item = Option<&'m M>>, two_sided: bool) -> Self {
         let mut c = MapCols::new();
         for (k, m) in maps.enumerate() {
             if let Some(m) = m {
@@ -1101,13 +1098,19 @@ pub(super) mod tests {
                 assert!(view_is_map(&v, map(r)), "round {round}, lane {k}");
                 let next = (k + 1) % 8;
                 if build.wp[next] != build.wp[k] {
-                    assert!(!view_is_map(&v, map(roots[next])), "round {round}, lane {k}");
+                    assert!(
+                        !view_is_map(&v, map(roots[next])),
+                        "round {round}, lane {k}"
+                    );
                 }
                 views += 1;
                 dropped += usize::from(v.surface().len() < build.cols.facets().candidates());
             }
         }
-        assert!(views > 3000 && dropped > 300, "{views} views, {dropped} with a dropped facet");
+        assert!(
+            views > 3000 && dropped > 300,
+            "{views} views, {dropped} with a dropped facet"
+        );
     }
 
     /// ωi mostly above the surface, grazing ones mixed in, a few below (not walked).

@@ -461,9 +461,9 @@ mod tests {
                     };
                     if let Some(v) = &views[k] {
                         assert!(
-                        view_is_map(&MapRef::Cols(v), &arena.mnm[*map as usize]),
-                        "lane {k}"
-                    );
+                            view_is_map(&MapRef::Cols(v), &arena.mnm[*map as usize]),
+                            "lane {k}"
+                        );
                     }
                 }
             }
