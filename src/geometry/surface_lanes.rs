@@ -177,7 +177,10 @@ pub fn triangle_consts<L: Lane, const UV: bool>(
 /// where `UV`): the point and uv interpolated, the shading normal from the vertex normals
 /// (the face normal where `x.has_n` is not set or they sum to zero), the signs applied.
 #[inline(always)]
-pub fn triangle_at<L: Lane, const UV: bool>(x: &Triangle<L>, c: &TriangleConsts<L>) -> SurfLanes<L> {
+pub fn triangle_at<L: Lane, const UV: bool>(
+    x: &Triangle<L>,
+    c: &TriangleConsts<L>,
+) -> SurfLanes<L> {
     let (b1, b2) = (x.b1, x.b2);
     let b0 = b1.splat(1.0) - b1 - b2;
     let w = [b0, b1, b2];

@@ -132,7 +132,10 @@ impl SmallTris {
                 }
                 None => sl::triangle_consts::<f32, false>(&p, &[V2::new(0.0, 0.0); 3], false),
             };
-            for (k, v) in [consts.ng, consts.dpdu, consts.dpdv].into_iter().enumerate() {
+            for (k, v) in [consts.ng, consts.dpdu, consts.dpdv]
+                .into_iter()
+                .enumerate()
+            {
                 (s.c[k][0][t], s.c[k][1][t], s.c[k][2][t]) = (v.x, v.y, v.z);
             }
         }
@@ -1609,7 +1612,9 @@ mod tests {
                 for i in 0..BATCH {
                     let mut f = || r.next_f32();
                     let o = lo + (hi - lo) * Vec3::new(f(), f(), f());
-                    let d = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5).try_normalize().unwrap_or(Vec3::Z);
+                    let d = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5)
+                        .try_normalize()
+                        .unwrap_or(Vec3::Z);
                     let ray = Ray::new(o, d);
                     let hit = HitRow::new(scene.accel.intersect(&ray));
                     for b in [&mut batch, &mut want] {
@@ -1624,21 +1629,19 @@ mod tests {
                     b.active.clone_from(&active);
                     b.hit_flag.fill(7);
                 }
-                super::fill(
-                    scene,
-                    &forms,
-                    None,
-                    None,
-                    &mut want,
-                    &mut 0,
-                    &mut 0,
-                );
+                super::fill(scene, &forms, None, None, &mut want, &mut 0, &mut 0);
                 // Width 8 on even rounds, 16 (where there) on odd ones.
                 let wide = if round % 2 == 1 { w16 } else { None };
                 let (n, n16) = super::x8::fill(avx, wide, scene, &forms, &mut batch);
                 (hits, lanes16) = (hits + n, lanes16 + n16);
-                assert!(wide.is_some() || n16 == 0, "{name}: 16 wide without AVX-512");
-                assert_eq!(batch.hit_flag, want.hit_flag, "{name}, round {round}: flags");
+                assert!(
+                    wide.is_some() || n16 == 0,
+                    "{name}: 16 wide without AVX-512"
+                );
+                assert_eq!(
+                    batch.hit_flag, want.hit_flag,
+                    "{name}, round {round}: flags"
+                );
                 let (got, exp) = (batch.surf.flat(), want.surf.flat());
                 for &i in &active {
                     let i = i as usize;
