@@ -225,7 +225,6 @@ pub(crate) mod x8 {
         /// padded lane is computed and not stored).
         #[inline(always)]
         fn take<const W: usize>(&mut self) -> ([u32; W], usize) {
-            const { assert!(W <= C) };
             let n = std::mem::take(&mut self.n);
             debug_assert!(n <= W, "{n} ids in a chunk of {W}");
             let mut ids = *self.ids.first_chunk::<W>().expect("W ≤ C");
@@ -297,14 +296,15 @@ pub(crate) mod x8 {
     /// of [`super::SmallTris`] fills to 16 hits, reconstructed 16 at a time ([`small_triangles`] at
     /// width 16: the same lane functions, so the same rows); a partial chunk of at most 8 goes
     /// 8 wide.
-    struct MeshChunks {
+    struct MeshChunks<const C: usize> {
         geom: [u32; SLOTS],
         /// Whether the slot's mesh goes through the pipeline.
         piped: [bool; SLOTS],
-        /// How many hits fill the slot's chunk: 16 for a mesh of [`super::SmallTris`] with `w16`,
-        /// else 8.
+        /// How many hits fill the slot's chunk where `C` is 16 (`w16` is there): 16 for a mesh
+        /// of [`super::SmallTris`], else 8. (Without AVX-512, `C` is 8: every chunk holds 8, as
+        /// before the 16-wide chunks, at the same cost.)
         cap: [usize; SLOTS],
-        slot: [Pending<16>; SLOTS],
+        slot: [Pending<C>; SLOTS],
         mixed: Pending,
         w16: Option<Avx512>,
         /// Hits reconstructed 16 wide.
@@ -317,8 +317,8 @@ pub(crate) mod x8 {
         lag: usize,
     }
 
-    impl MeshChunks {
-        fn new(w16: Option<Avx512>) -> MeshChunks {
+    impl<const C: usize> MeshChunks<C> {
+        fn new(w16: Option<Avx512>) -> MeshChunks<C> {
             MeshChunks {
                 geom: [0; SLOTS],
                 piped: [false; SLOTS],
@@ -341,11 +341,14 @@ pub(crate) mod x8 {
             if self.slot[s].n == 0 {
                 self.geom[s] = geom;
                 self.piped[s] = self.lag > 0 && piped(st, geom);
-                let small = matches!(st.forms[geom as usize], Form::Triangles(Some(_)));
-                self.cap[s] = if small && self.w16.is_some() { 16 } else { 8 };
+                if C > 8 {
+                    let small = matches!(st.forms[geom as usize], Form::Triangles(Some(_)));
+                    self.cap[s] = if small && self.w16.is_some() { 16 } else { 8 };
+                }
             }
             if self.geom[s] == geom {
-                if self.slot[s].push_upto(i, self.cap[s]) {
+                let cap = if C > 8 { self.cap[s] } else { 8 };
+                if self.slot[s].push_upto(i, cap) {
                     self.full(avx, st, s);
                 }
             } else if self.mixed.push(i) {
@@ -359,7 +362,7 @@ pub(crate) mod x8 {
         #[inline(always)]
         fn full(&mut self, avx: Avx2, st: &mut Stage, s: usize) {
             let geom = self.geom[s];
-            if self.slot[s].n > 8 {
+            if C > 8 && self.slot[s].n > 8 {
                 let (ids, n) = self.slot[s].take::<16>();
                 let w16 = self.w16.expect("a chunk of 16 only with AVX-512");
                 w16.run(
@@ -503,102 +506,120 @@ pub(crate) mod x8 {
         forms: &[Form],
         batch: &mut Batch,
     ) -> (u64, u64) {
-        avx.run(
-            #[inline(always)]
-            || {
-                let mut st = Stage {
-                    scene,
-                    forms,
-                    ray: &batch.ray,
-                    hit: &batch.hit,
-                    surf: &mut batch.surf,
-                };
-                let mut tri = MeshChunks::new(w16);
-                let (mut sph, mut rect) = (Pending::<8>::EMPTY, Pending::<8>::EMPTY);
-                let (mut disks, mut itri) = (Pending::<8>::EMPTY, Pending::<8>::EMPTY);
-                let mut cyl = Pending::<8>::EMPTY;
-                let mut scalar = 0;
-                let mut hits = 0;
-                // The hit flag of every active path (`Batch::hit_flag`), cut to the hits'
-                // length (one bounds test covers both) and stored in each branch.
-                let flag = &mut batch.hit_flag[..st.hit.len()];
-                // The rows' words read where they lie: the shape and the instance decide the
-                // branch (the whole hit only for the 1-lane reconstruction).
-                let hit = st.hit;
-                for &i in &batch.active {
-                    let row = &hit[i as usize];
-                    let geom = row.geom();
-                    if geom == HitRow::MISS {
-                        flag[i as usize] = 0;
-                        continue;
+        match w16 {
+            Some(_) => avx.run(
+                #[inline(always)]
+                || fill_run::<16>(avx, w16, scene, forms, batch),
+            ),
+            None => avx.run(
+                #[inline(always)]
+                || fill_run::<8>(avx, None, scene, forms, batch),
+            ),
+        }
+    }
+
+    /// [`fill`]'s loop, its one-mesh chunks of at most `C` hits (16 with `w16`, else 8: two
+    /// instances, so that the 8-wide one keeps its constant chunk size). Call inside
+    /// [`Avx2::run`].
+    #[inline(always)]
+    fn fill_run<const C: usize>(
+        avx: Avx2,
+        w16: Option<Avx512>,
+        scene: &Scene,
+        forms: &[Form],
+        batch: &mut Batch,
+    ) -> (u64, u64) {
+        let mut st = Stage {
+            scene,
+            forms,
+            ray: &batch.ray,
+            hit: &batch.hit,
+            surf: &mut batch.surf,
+        };
+        let mut tri = MeshChunks::<C>::new(w16);
+        let (mut sph, mut rect) = (Pending::<8>::EMPTY, Pending::<8>::EMPTY);
+        let (mut disks, mut itri) = (Pending::<8>::EMPTY, Pending::<8>::EMPTY);
+        let mut cyl = Pending::<8>::EMPTY;
+        let mut scalar = 0;
+        let mut hits = 0;
+        // The hit flag of every active path (`Batch::hit_flag`), cut to the hits'
+        // length (one bounds test covers both) and stored in each branch.
+        let flag = &mut batch.hit_flag[..st.hit.len()];
+        // The rows' words read where they lie: the shape and the instance decide the
+        // branch (the whole hit only for the 1-lane reconstruction).
+        let hit = st.hit;
+        for &i in &batch.active {
+            let row = &hit[i as usize];
+            let geom = row.geom();
+            if geom == HitRow::MISS {
+                flag[i as usize] = 0;
+                continue;
+            }
+            flag[i as usize] = 1;
+            hits += 1;
+            let form = &st.forms[geom as usize];
+            if row.inst() != NO_INSTANCE {
+                if let Form::Triangles(_) = form {
+                    if itri.push(i) {
+                        instanced_triangles(avx, &mut st, itri.take());
                     }
-                    flag[i as usize] = 1;
-                    hits += 1;
-                    let form = &st.forms[geom as usize];
-                    if row.inst() != NO_INSTANCE {
-                        if let Form::Triangles(_) = form {
-                            if itri.push(i) {
-                                instanced_triangles(avx, &mut st, itri.take());
-                            }
-                        } else {
-                            scalar += 1;
-                            let i = i as usize;
-                            let h = row.get().expect("a hit");
-                            let si = st.scene.interaction(&st.ray[i], &h);
-                            st.surf.set(i, &si);
-                        }
-                        continue;
-                    }
-                    match form {
-                        Form::Triangles(_) => tri.push(avx, &mut st, geom, i),
-                        Form::Sphere(..) => {
-                            if sph.push(i) {
-                                spheres(avx, &mut st, sph.take());
-                            }
-                        }
-                        Form::Rectangle(_) => {
-                            if rect.push(i) {
-                                rectangles(avx, &mut st, rect.take());
-                            }
-                        }
-                        Form::Disk(_) => {
-                            if disks.push(i) {
-                                disks_x8(avx, &mut st, disks.take());
-                            }
-                        }
-                        Form::Cylinder(_) => {
-                            if cyl.push(i) {
-                                cylinders(avx, &mut st, cyl.take());
-                            }
-                        }
-                        Form::Scalar => {
-                            scalar += 1;
-                            let i = i as usize;
-                            let h = row.get().expect("a hit");
-                            let si = st.scene.interaction(&st.ray[i], &h);
-                            st.surf.set(i, &si);
-                        }
+                } else {
+                    scalar += 1;
+                    let i = i as usize;
+                    let h = row.get().expect("a hit");
+                    let si = st.scene.interaction(&st.ray[i], &h);
+                    st.surf.set(i, &si);
+                }
+                continue;
+            }
+            match form {
+                Form::Triangles(_) => tri.push(avx, &mut st, geom, i),
+                Form::Sphere(..) => {
+                    if sph.push(i) {
+                        spheres(avx, &mut st, sph.take());
                     }
                 }
-                tri.flush(avx, &mut st);
-                if sph.n > 0 {
-                    spheres(avx, &mut st, sph.take());
+                Form::Rectangle(_) => {
+                    if rect.push(i) {
+                        rectangles(avx, &mut st, rect.take());
+                    }
                 }
-                if rect.n > 0 {
-                    rectangles(avx, &mut st, rect.take());
+                Form::Disk(_) => {
+                    if disks.push(i) {
+                        disks_x8(avx, &mut st, disks.take());
+                    }
                 }
-                if disks.n > 0 {
-                    disks_x8(avx, &mut st, disks.take());
+                Form::Cylinder(_) => {
+                    if cyl.push(i) {
+                        cylinders(avx, &mut st, cyl.take());
+                    }
                 }
-                if itri.n > 0 {
-                    instanced_triangles(avx, &mut st, itri.take());
+                Form::Scalar => {
+                    scalar += 1;
+                    let i = i as usize;
+                    let h = row.get().expect("a hit");
+                    let si = st.scene.interaction(&st.ray[i], &h);
+                    st.surf.set(i, &si);
                 }
-                if cyl.n > 0 {
-                    cylinders(avx, &mut st, cyl.take());
-                }
-                (hits - scalar, tri.lanes16)
-            },
-        )
+            }
+        }
+        tri.flush(avx, &mut st);
+        if sph.n > 0 {
+            spheres(avx, &mut st, sph.take());
+        }
+        if rect.n > 0 {
+            rectangles(avx, &mut st, rect.take());
+        }
+        if disks.n > 0 {
+            disks_x8(avx, &mut st, disks.take());
+        }
+        if itri.n > 0 {
+            instanced_triangles(avx, &mut st, itri.take());
+        }
+        if cyl.n > 0 {
+            cylinders(avx, &mut st, cyl.take());
+        }
+        (hits - scalar, tri.lanes16)
     }
 
     /// Eight lanes of 3-vectors, filled lane by lane.
@@ -723,8 +744,28 @@ pub(crate) mod x8 {
     /// Writes the first `n` lanes of `s` and `m` into the rows of `ids` ([`store_rows`]).
     #[inline(always)]
     fn store(avx: Avx2, st: &mut Stage, ids: &[u32; 8], n: usize, s: &SurfLanes<F32x8>, m: &Meta) {
+        // The 8-wide form of `store_rows` written out, `m`'s columns loaded where they go:
+        // through `store_rows` the one-mesh chunks of `SmallTris` took ~20 instructions a
+        // sample more on cbox-rgb (the transposes' inputs spilled).
+        let wi = m.wi;
+        let (f, z) = (&s.frame, avx.splat(0.0));
+        let g0 = F32x8::transpose8([s.p.x, s.p.y, s.p.z, s.ng.x, s.ng.y, s.ng.z, f.s.x, f.s.y]);
+        let g1 = F32x8::transpose8([f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, wi.x]);
+        for (k, &i) in ids.iter().enumerate().take(n) {
+            let r = st.surf.row_groups_mut(i as usize);
+            g0[k].store(&mut r[0]);
+            g1[k].store(&mut r[1]);
+        }
+        let g2 = F32x8::transpose8([
+            wi.y, wi.z, s.uv.x, s.uv.y, s.dpdu.x, s.dpdu.y, s.dpdu.z, s.dpdv.x,
+        ]);
         let (t, shape, prim) = (avx.load(&m.t), avx.load(&m.shape), avx.load(&m.prim));
-        store_rows(avx, st.surf, ids, n, s, m.wi, [t, shape, prim]);
+        let g3 = F32x8::transpose8([s.dpdv.y, s.dpdv.z, t, shape, prim, z, z, z]);
+        for (k, &i) in ids.iter().enumerate().take(n) {
+            let r = st.surf.row_groups_mut(i as usize);
+            g2[k].store(&mut r[2]);
+            g3[k].store(&mut r[3]);
+        }
     }
 
     /// Writes the first `n` lanes of `s`, the incident directions `wi` and the hits' `t`,
@@ -915,8 +956,15 @@ pub(crate) mod x8 {
         let ShapeKind::Mesh(m) = &shape.kind else {
             unreachable!("Form::Triangles is set for meshes only");
         };
-        if let Form::Triangles(Some(_)) = &st.forms[g as usize] {
-            return small_triangles(avx, st, g, &ids, n);
+        if let Form::Triangles(Some(small)) = &st.forms[g as usize] {
+            let (x, c, meta) = small_input(avx, st, &ids, m, small, shape.flip_normals);
+            let s = if m.uvs.is_some() {
+                sl::triangle_at::<_, true>(&x, &c)
+            } else {
+                sl::triangle_at::<_, false>(&x, &c)
+            };
+            store(avx, st, &ids, n, &s, &meta);
+            return;
         }
         if !fits(m) {
             return triangles(avx, st, (ids, n));
@@ -993,7 +1041,8 @@ pub(crate) mod x8 {
         (x, meta)
     }
 
-    /// The hits of the lanes `ids` on one mesh, as [`one_mesh_input`] reads them: the triangle indices, the barycentrics (`Hit::u`, `Hit::v`) and the lanes'
+    /// The hits of the lanes `ids` on one mesh, as [`one_mesh_input`] and [`small_input`] read
+    /// them: the triangle indices, the barycentrics (`Hit::u`, `Hit::v`) and the lanes'
     /// [`Meta`] with their rays. The hit rows are read as [`hit_columns`] (every lane is a
     /// hit): one transpose, not each lane's hit unpacked and its fields stored one by one.
     #[inline(always)]
@@ -1002,6 +1051,66 @@ pub(crate) mod x8 {
         let f = hit_columns(avx, st, ids, &mut meta);
         meta.rays(avx, st, ids);
         (f[1].to_bits(), [f[3], f[4]], meta)
+    }
+
+    /// [`small_triangles`]' input at width 8, read as [`one_mesh_input`] reads it (the hits
+    /// and rays into a [`Meta`], whose columns [`store`] loads where they go: fewer
+    /// instructions than [`small_triangles`]' at width 8, whose values stay live through the
+    /// reconstruction): each lane's corners and its triangle's own terms looked up by its
+    /// triangle index in the tables. The same values.
+    #[inline(always)]
+    fn small_input(
+        avx: Avx2,
+        st: &Stage,
+        ids: &[u32; 8],
+        m: &crate::geometry::mesh::TriMesh,
+        small: &super::SmallTris,
+        flip: bool,
+    ) -> (sl::Triangle<F32x8>, sl::TriangleConsts<F32x8>, Meta) {
+        let (tri, b, meta) = mesh_hits(avx, st, ids);
+        let wide = small.wide;
+        let p = [
+            look3(avx, &small.p[0], tri, wide),
+            look3(avx, &small.p[1], tri, wide),
+            look3(avx, &small.p[2], tri, wide),
+        ];
+        let z = avx.splat(0.0);
+        let (n, has_n) = if m.normals.is_some() {
+            let n = [
+                look3(avx, &small.n[0], tri, wide),
+                look3(avx, &small.n[1], tri, wide),
+                look3(avx, &small.n[2], tri, wide),
+            ];
+            (n, avx.mask_splat(true))
+        } else {
+            ([V3::new(z, z, z); 3], avx.mask_splat(false))
+        };
+        let (uv, has_uv) = if m.uvs.is_some() {
+            let uv = [
+                look2(avx, &small.uv[0], tri, wide),
+                look2(avx, &small.uv[1], tri, wide),
+                look2(avx, &small.uv[2], tri, wide),
+            ];
+            (uv, avx.mask_splat(true))
+        } else {
+            ([V2::new(z, z); 3], avx.mask_splat(false))
+        };
+        let x = sl::Triangle {
+            p,
+            n,
+            uv,
+            has_n,
+            has_uv,
+            b1: b[0],
+            b2: b[1],
+            sign: avx.splat(if flip { -1.0 } else { 1.0 }),
+        };
+        let c = sl::TriangleConsts {
+            ng: look3(avx, &small.c[0], tri, wide),
+            dpdu: look3(avx, &small.c[1], tri, wide),
+            dpdv: look3(avx, &small.c[2], tri, wide),
+        };
+        (x, c, meta)
     }
 
     /// Hits on one mesh held as [`super::SmallTris`], shape `g` (every lane's), `W` at a time: the
