@@ -120,50 +120,93 @@ pub fn triangle_no_uv<L: Lane>(x: &Triangle<L>) -> SurfLanes<L> {
     triangle_with::<L, false>(x)
 }
 
-/// [`triangle`], with the uv terms when `UV` (else as if no lane had uvs).
+/// [`triangle`], with the uv terms when `UV` (else as if no lane had uvs): the triangle's
+/// own terms ([`triangle_consts`]), then the hit's ([`triangle_at`]).
 #[inline(always)]
 fn triangle_with<L: Lane, const UV: bool>(x: &Triangle<L>) -> SurfLanes<L> {
-    let (b1, b2) = (x.b1, x.b2);
-    let k = |c: f32| b1.splat(c);
-    let b0 = k(1.0) - b1 - b2;
-    let w = [b0, b1, b2];
-    let [p0, p1, p2] = x.p;
-    let p = lerp3(p0, p1, p2, w);
+    let c = triangle_consts::<L, UV>(&x.p, &x.uv, x.has_uv);
+    triangle_at::<L, UV>(x, &c)
+}
+
+/// What a triangle hit's interaction takes from the triangle alone, whatever the hit's
+/// barycentrics: the true normal before the `flip_normals` sign, dp/du and dp/dv. A mesh of a
+/// few triangles keeps them per triangle (`stream::kernels::surface::SmallTris`, computed at
+/// load by [`triangle_consts`] at width 1: the same bits as in lanes).
+#[derive(Clone, Copy, Debug)]
+pub struct TriangleConsts<L> {
+    pub ng: V3<L>,
+    pub dpdu: V3<L>,
+    pub dpdv: V3<L>,
+}
+
+/// The triangle's terms of [`triangle`] (`UV`) or [`triangle_no_uv`] (not `UV`; `uv` and
+/// `has_uv` unread): the face normal of the corners `p`, normalised (+z where that fails), and
+/// dp/du, dp/dv from the corners' uvs where their determinant is non-zero, else the frame
+/// around the face normal.
+#[inline(always)]
+pub fn triangle_consts<L: Lane, const UV: bool>(
+    p: &[V3<L>; 3],
+    uv: &[V2<L>; 3],
+    has_uv: L::Mask,
+) -> TriangleConsts<L> {
+    let [p0, p1, p2] = *p;
+    let k = |c: f32| p0.x.splat(c);
     let (dp0, dp1) = (p1 - p0, p2 - p0);
-    let ng = normalize_or(dp0.cross(dp1), V3::splat(b1, 0.0, 0.0, 1.0));
-    // uvs: interpolated, and dp/du, dp/dv from them where their determinant is non-zero;
-    // else uv = (b1, b2) and the frame around the face normal.
+    let ng = normalize_or(dp0.cross(dp1), V3::splat(p0.x, 0.0, 0.0, 1.0));
     let f = Frame::from_normal(ng);
-    let (uv, dpdu, dpdv) = if UV {
-        let [t0, t1, t2] = x.uv;
-        let uv = V2::new(
-            t0.x * b0 + t1.x * b1 + t2.x * b2,
-            t0.y * b0 + t1.y * b1 + t2.y * b2,
-        );
-        let uv = V2::select(x.has_uv, uv, V2::new(b1, b2));
+    let (dpdu, dpdv) = if UV {
+        let [t0, t1, t2] = *uv;
         let (d0, d1) = (
             V2::new(t1.x - t0.x, t1.y - t0.y),
             V2::new(t2.x - t0.x, t2.y - t0.y),
         );
         let det = d0.x * d1.y - d0.y * d1.x;
-        let derivs = x.has_uv & det.ne(k(0.0));
+        let derivs = has_uv & det.ne(k(0.0));
         let inv = k(1.0) / det;
         let dpdu = V3::select(derivs, (dp0.scale(d1.y) - dp1.scale(d0.y)).scale(inv), f.s);
         let dpdv = V3::select(derivs, (dp1.scale(d0.x) - dp0.scale(d1.x)).scale(inv), f.t);
-        (uv, dpdu, dpdv)
+        (dpdu, dpdv)
     } else {
-        (V2::new(b1, b2), f.s, f.t)
+        (f.s, f.t)
+    };
+    TriangleConsts { ng, dpdu, dpdv }
+}
+
+/// [`triangle`] (`UV`) or [`triangle_no_uv`] of the hits `x` on triangles whose own terms are
+/// `c` ([`triangle_consts`] of `x`'s corners; `x.p` is read for the point, `x.uv` for the uv
+/// where `UV`): the point and uv interpolated, the shading normal from the vertex normals
+/// (the face normal where `x.has_n` is not set or they sum to zero), the signs applied.
+#[inline(always)]
+pub fn triangle_at<L: Lane, const UV: bool>(
+    x: &Triangle<L>,
+    c: &TriangleConsts<L>,
+) -> SurfLanes<L> {
+    let (b1, b2) = (x.b1, x.b2);
+    let b0 = b1.splat(1.0) - b1 - b2;
+    let w = [b0, b1, b2];
+    let [p0, p1, p2] = x.p;
+    let p = lerp3(p0, p1, p2, w);
+    // uvs interpolated; else uv = (b1, b2).
+    let uv = if UV {
+        let [t0, t1, t2] = x.uv;
+        let uv = V2::new(
+            t0.x * b0 + t1.x * b1 + t2.x * b2,
+            t0.y * b0 + t1.y * b1 + t2.y * b2,
+        );
+        V2::select(x.has_uv, uv, V2::new(b1, b2))
+    } else {
+        V2::new(b1, b2)
     };
     let [n0, n1, n2] = x.n;
     let (ns, ns_ok) = try_normalize(lerp3(n0, n1, n2, w));
-    let ns = V3::select(x.has_n & ns_ok, ns, ng);
+    let ns = V3::select(x.has_n & ns_ok, ns, c.ng);
     SurfLanes {
         p,
-        ng: ng.scale(x.sign),
-        frame: Frame::from_normal_tangent(ns.scale(x.sign), dpdu),
+        ng: c.ng.scale(x.sign),
+        frame: Frame::from_normal_tangent(ns.scale(x.sign), c.dpdu),
         uv,
-        dpdu,
-        dpdv,
+        dpdu: c.dpdu,
+        dpdv: c.dpdv,
     }
 }
 

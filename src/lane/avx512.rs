@@ -791,3 +791,88 @@ impl Avx512 {
         }
     }
 }
+
+// The forty-third session's h1 block: the gather stage's one-mesh chunks 16 wide
+// (`stream::kernels::surface`).
+
+impl Avx512 {
+    /// `b` in every lane of a mask (a chunk-wide flag), as [`super::Avx2::mask_splat`].
+    #[inline(always)]
+    pub fn mask_splat(self, b: bool) -> M16 {
+        M16(if b { u16::MAX } else { 0 })
+    }
+
+    /// `table[min(idx as u32, 15)]` per lane: one `vpermps` over the 16 floats (the 16-wide
+    /// form of [`super::Avx2::lookup16`], which needs two and a blend; the same entries).
+    #[inline(always)]
+    pub fn lookup16(self, table: &[f32; 16], idx: I32x16) -> F32x16 {
+        // SAFETY: the token proves AVX-512F; the load reads the 16 floats of `table`, and
+        // after the clamp every index selects one of them.
+        unsafe {
+            let i = _mm512_min_epu32(idx.0, _mm512_set1_epi32(15));
+            F32x16(_mm512_permutexvar_ps(i, _mm512_loadu_ps(table.as_ptr())))
+        }
+    }
+
+    /// Sixteen rows of 8 words in lanes: lane `k` of field `j` is word `j` of `row(k)`, its
+    /// bits as a float (the gather stage's hit rows, `accel::HitRow`). Moves only: one 32-byte
+    /// load per row, two joined per register, then [`Self::ray_fields16`]'s transposes.
+    #[inline(always)]
+    pub fn words16_at<'r>(self, row: impl Fn(usize) -> &'r [u32; 8]) -> [F32x16; 8] {
+        // SAFETY: the token proves AVX-512F and DQ; each 32-byte load reads the 8 words of
+        // one row.
+        unsafe {
+            let mut v = [_mm512_setzero_ps(); 8];
+            for (k, x) in v.iter_mut().enumerate() {
+                let a = _mm512_castps256_ps512(_mm256_loadu_ps(row(2 * k).as_ptr().cast()));
+                *x = _mm512_insertf32x8::<1>(a, _mm256_loadu_ps(row(2 * k + 1).as_ptr().cast()));
+            }
+            fields_of_pairs16(v)
+        }
+    }
+
+    /// The rows of 8 fields `f` of 16 lanes, two to a register: `out[k]` holds lane `k`'s row
+    /// (field 0 first) in its low 256 bits and lane `k + 8`'s in its high 256 bits, for rows
+    /// that lie apart ([`F32x16::store_low8`], [`F32x16::store_high8`]; the gather stage's
+    /// surface rows). Moves only: `rows16`'s transposes, its permutes pairing other rows.
+    #[inline(always)]
+    pub fn row_pairs16(self, f: [F32x16; 8]) -> [F32x16; 8] {
+        let v = [
+            f[0].0, f[1].0, f[2].0, f[3].0, f[4].0, f[5].0, f[6].0, f[7].0,
+        ];
+        // SAFETY: the token proves AVX-512F.
+        unsafe {
+            // Row 4L + m: fields 0–3 in 128-bit lane L of u[m], fields 4–7 in that of u[4 + m]
+            // (`rows16`). Rows m and 8 + m are lanes 0 and 2, rows 4 + m and 12 + m lanes 1, 3.
+            let u = quads16(v);
+            let lo = _mm512_setr_epi32(0, 1, 2, 3, 16, 17, 18, 19, 8, 9, 10, 11, 24, 25, 26, 27);
+            let hi = _mm512_add_epi32(lo, _mm512_set1_epi32(4));
+            [
+                F32x16(_mm512_permutex2var_ps(u[0], lo, u[4])),
+                F32x16(_mm512_permutex2var_ps(u[1], lo, u[5])),
+                F32x16(_mm512_permutex2var_ps(u[2], lo, u[6])),
+                F32x16(_mm512_permutex2var_ps(u[3], lo, u[7])),
+                F32x16(_mm512_permutex2var_ps(u[0], hi, u[4])),
+                F32x16(_mm512_permutex2var_ps(u[1], hi, u[5])),
+                F32x16(_mm512_permutex2var_ps(u[2], hi, u[6])),
+                F32x16(_mm512_permutex2var_ps(u[3], hi, u[7])),
+            ]
+        }
+    }
+}
+
+impl F32x16 {
+    /// Lanes 0–7 into `out` (one 32-byte store).
+    #[inline(always)]
+    pub fn store_low8(self, out: &mut [f32; 8]) {
+        // SAFETY: an F32x16 exists only with AVX-512F (module doc); `out` holds 8 floats.
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), _mm512_castps512_ps256(self.0)) };
+    }
+    /// Lanes 8–15 into `out` (an extract and one 32-byte store).
+    #[inline(always)]
+    pub fn store_high8(self, out: &mut [f32; 8]) {
+        // SAFETY: an F32x16 exists only with the token's features, AVX-512DQ among them;
+        // `out` holds 8 floats.
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), _mm512_extractf32x8_ps::<1>(self.0)) };
+    }
+}

@@ -93,6 +93,9 @@ pub struct LaneCounters {
     /// Hits whose surface interaction the gather stage computed 8-wide
     /// ([`kernels::surface::fill`]; the rest went through `Scene::interaction`).
     pub surface_lanes: u64,
+    /// The part of `surface_lanes` computed 16 wide (AVX-512: the one-mesh chunks of meshes of
+    /// at most 16 triangles, `kernels::surface::SmallTris`).
+    pub surface_lanes_16: u64,
     /// Paths whose emission (what their ray sees) the emission stage computed 8-wide
     /// ([`emission`]; the rest went through `PathState::add_emission` or saw nothing to add).
     pub emission_lanes: u64,
@@ -124,6 +127,7 @@ impl LaneCounters {
             *a += b;
         }
         self.surface_lanes += o.surface_lanes;
+        self.surface_lanes_16 += o.surface_lanes_16;
         self.emission_lanes += o.emission_lanes;
         self.batches += o.batches;
         self.bounces += o.bounces;
@@ -323,8 +327,11 @@ impl Kernels {
             &self.forms,
             #[cfg(target_arch = "x86_64")]
             self.avx,
+            #[cfg(target_arch = "x86_64")]
+            self.avx512,
             batch,
             &mut lanes.surface_lanes,
+            &mut lanes.surface_lanes_16,
         );
     }
 

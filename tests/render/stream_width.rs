@@ -112,3 +112,43 @@ fn stream_width_16_equals_width_8_and_scalar() {
         check_widths(&l, &format!("{} ({mode})", path.display()), 3, runs);
     }
 }
+
+/// The gather stage's one-mesh chunks of meshes of at most 16 triangles (the Cornell boxes'
+/// walls, boxes and light; the chunk scene's cubes, octahedra and quad) run 16 wide where the
+/// CPU has AVX-512 (`kernels::surface`, forty-third session): scalar == stream at width 8 ==
+/// stream at width 16 (1 and 3 threads), with hits reconstructed 16 wide at width 16 (none at
+/// width 8) and the same hits in lanes at both widths, so a 16-wide row that differed in a
+/// lane, or a silent fall back to 8 wide, fails.
+#[test]
+fn stream_width_16_surfaces_equal_width_8_and_scalar() {
+    if !has_avx512() {
+        eprintln!("note: this CPU has no AVX-512; the 16-wide surface chunks are not checked");
+    }
+    for path in [
+        scene("scenes/cornell/cbox-rgb.xml"),
+        test_scene("cbox_v3.xml"),
+        test_scene("stream_mesh_chunks.xml"),
+    ] {
+        let l = load(&path, "as_written");
+        let label = path.display().to_string();
+        check_widths(&l, &label, 2, true);
+        let w8 = render_lanes(&l, Renderer::Stream, 1, 2, 8);
+        let w16 = render_lanes(&l, Renderer::Stream, 1, 2, 16);
+        assert_same(&format!("{label}: width 16 vs 8"), &w16, &w8);
+        eprintln!(
+            "{label}: {} of {} surfaces 16 wide",
+            w16.lanes.surface_lanes_16, w16.lanes.surface_lanes
+        );
+        assert_eq!(w8.lanes.surface_lanes_16, 0, "{label}: 16 wide at width 8");
+        assert_eq!(
+            w16.lanes.surface_lanes, w8.lanes.surface_lanes,
+            "{label}: the same hits in lanes at both widths"
+        );
+        if has_avx512() {
+            assert!(
+                w16.lanes.surface_lanes_16 > 0,
+                "{label}: no surface reconstructed 16 wide"
+            );
+        }
+    }
+}

@@ -8,6 +8,8 @@
 //! normals, shading frames and incident directions, loaded 8-wide in place from the rows, one
 //! `vgatherdps` per field over the 8 rows. The rows hold the scalar interaction's bits either way.
 
+use crate::geometry::surface_lanes as sl;
+use crate::lane::vec::{V2, V3};
 use crate::scene::Scene;
 use crate::stream::batch::Batch;
 use glam::{Mat4, Vec3};
@@ -70,12 +72,19 @@ pub(crate) const SMALL_TRIS: usize = 16;
 /// permutes indexed by the triangle, instead of the vertex indices' gather and the position,
 /// normal and uv gathers that depend on it: one `vpermps` per component for a mesh of at most 8
 /// triangles (`lane::LaneLookup::lookup8` on the tables' first halves), two and a blend for
-/// more (`Avx2::lookup16`). The same floats, so the same rows.
+/// more (`Avx2::lookup16`; one at width 16, `Avx512::lookup16`). The same floats, so the same
+/// rows. Also per triangle what its hits' interactions take from it alone (`c`: the face
+/// normal before the `flip_normals` sign, dp/du, dp/dv; `surface_lanes::triangle_consts` at
+/// width 1, the lane function's bits), looked up instead of computed per hit.
 #[derive(Clone, Debug)]
 pub(crate) struct SmallTris {
     p: [[[f32; SMALL_TRIS]; 3]; 3],
     n: [[[f32; SMALL_TRIS]; 3]; 3],
     uv: [[[f32; SMALL_TRIS]; 2]; 3],
+    /// Per triangle its `TriangleConsts` `ng`, `dpdu`, `dpdv`, component by component (of
+    /// `triangle_consts` with uvs where the mesh has them, without else: the form its chunks
+    /// take).
+    c: [[[f32; SMALL_TRIS]; 3]; 3],
     /// More than 8 triangles: the lookups read both halves.
     wide: bool,
 }
@@ -97,6 +106,7 @@ impl SmallTris {
             p: [[[0.0; SMALL_TRIS]; 3]; 3],
             n: [[[0.0; SMALL_TRIS]; 3]; 3],
             uv: [[[0.0; SMALL_TRIS]; 2]; 3],
+            c: [[[0.0; SMALL_TRIS]; 3]; 3],
             wide: m.indices.len() > 8,
         };
         for (t, tri) in m.indices.iter().enumerate() {
@@ -114,6 +124,20 @@ impl SmallTris {
                     (s.uv[c][0][t], s.uv[c][1][t]) = (uvs[j].x, uvs[j].y);
                 }
             }
+            let p = tri.map(|j| V3::from(m.positions[j as usize]));
+            let consts = match &m.uvs {
+                Some(uvs) => {
+                    let uv = tri.map(|j| V2::new(uvs[j as usize].x, uvs[j as usize].y));
+                    sl::triangle_consts::<f32, true>(&p, &uv, true)
+                }
+                None => sl::triangle_consts::<f32, false>(&p, &[V2::new(0.0, 0.0); 3], false),
+            };
+            for (k, v) in [consts.ng, consts.dpdu, consts.dpdv]
+                .into_iter()
+                .enumerate()
+            {
+                (s.c[k][0][t], s.c[k][1][t], s.c[k][2][t]) = (v.x, v.y, v.z);
+            }
         }
         Some(s)
     }
@@ -121,21 +145,27 @@ impl SmallTris {
 
 /// The gather stage: writes the surface row of every active path of `batch` whose ray hit
 /// something (rows of paths without a hit are left as they are) and every active path's
-/// `Batch::hit_flag`. 8-wide where `avx` is given
-/// (the chunk's hits grouped by form), else one `Scene::interaction` per hit; adds the hits
-/// reconstructed in lanes to `in_lanes`.
+/// `Batch::hit_flag`. 8-wide where `avx` is given (the chunk's hits grouped by form; the
+/// one-mesh chunks of [`SmallTris`] 16 wide where `w16` is given too), else one
+/// `Scene::interaction` per hit; adds the hits reconstructed in lanes to `in_lanes`, those of
+/// them reconstructed 16 wide to `in_lanes_16`.
 pub(crate) fn fill(
     scene: &Scene,
     forms: &[Form],
     #[cfg(target_arch = "x86_64")] avx: Option<crate::lane::Avx2>,
+    #[cfg(target_arch = "x86_64")] w16: Option<crate::lane::Avx512>,
     batch: &mut Batch,
     in_lanes: &mut u64,
+    in_lanes_16: &mut u64,
 ) {
     #[cfg(target_arch = "x86_64")]
     if let Some(avx) = avx {
-        *in_lanes += x8::fill(avx, scene, forms, batch);
+        let (lanes, lanes16) = x8::fill(avx, w16, scene, forms, batch);
+        *in_lanes += lanes;
+        *in_lanes_16 += lanes16;
         return;
     }
+    let _ = in_lanes_16;
     let _ = forms;
     let (active, hit, ray, surf) = (&batch.active, &batch.hit, &batch.ray, &mut batch.surf);
     let flag = &mut batch.hit_flag;
@@ -154,42 +184,52 @@ pub(crate) mod x8 {
     use crate::geometry::hit::NO_INSTANCE;
     use crate::lane::frame::Frame;
     use crate::lane::vec::V3;
-    use crate::lane::{Avx2, F32x8, Hint, I32x8, Lane, LaneI32, LaneLookup, ToArray, Wide};
+    use crate::lane::{
+        Avx2, Avx512, F32x16, F32x8, Hint, I32x16, I32x8, Lane, LaneI32, LaneLookup, ToArray, Wide,
+    };
     use crate::stream::batch::{cols, Surfaces};
     use crate::stream::kernels::diffuse::Surface;
     use crate::stream::BATCH;
 
     const N: usize = BATCH * cols::ROW;
 
-    use super::{Form, SmallTris, SMALL_TRIS};
+    use super::{Form, SMALL_TRIS};
     use crate::geometry::surface_lanes::{self as sl, SurfLanes};
     use crate::geometry::{Hit, Ray, ShapeKind};
     use crate::lane::vec::V2;
     use crate::scene::Scene;
     use crate::stream::batch::Batch;
 
-    /// Up to 8 path ids of one form waiting for their 8-wide reconstruction.
-    struct Pending {
-        ids: [u32; 8],
+    /// Up to `C` path ids of one form waiting for their reconstruction in lanes (8, or 16 for
+    /// a one-mesh slot, [`MeshChunks`]).
+    struct Pending<const C: usize = 8> {
+        ids: [u32; C],
         n: usize,
     }
 
-    impl Pending {
-        const EMPTY: Pending = Pending { ids: [0; 8], n: 0 };
+    impl<const C: usize> Pending<C> {
+        const EMPTY: Pending<C> = Pending { ids: [0; C], n: 0 };
         /// Adds `i`; returns whether the chunk is full.
         #[inline(always)]
         fn push(&mut self, i: u32) -> bool {
+            self.push_upto(i, C)
+        }
+        /// Adds `i`; returns whether the chunk holds `cap` (at most `C`) ids.
+        #[inline(always)]
+        fn push_upto(&mut self, i: u32, cap: usize) -> bool {
             self.ids[self.n] = i;
             self.n += 1;
-            self.n == 8
+            self.n == cap
         }
-        /// The ids, padded with the first (a padded lane is computed and not stored).
+        /// The first `W` ids (at least as many as the chunk holds), padded with the first (a
+        /// padded lane is computed and not stored).
         #[inline(always)]
-        fn take(&mut self) -> ([u32; 8], usize) {
+        fn take<const W: usize>(&mut self) -> ([u32; W], usize) {
             let n = std::mem::take(&mut self.n);
-            let mut ids = self.ids;
+            debug_assert!(n <= W, "{n} ids in a chunk of {W}");
+            let mut ids = *self.ids.first_chunk::<W>().expect("W ≤ C");
             let first = ids[0];
-            for id in &mut ids[n..] {
+            for id in &mut ids[n.min(W)..] {
                 *id = first;
             }
             (ids, n)
@@ -252,13 +292,23 @@ pub(crate) mod x8 {
     /// lane, [`triangles`]). A full chunk of a large mesh ([`piped`]) goes through a software
     /// pipeline of prefetches before its reconstruction ([`MeshChunks::enter`]). Which chunk a
     /// hit waits in, and when its chunk is reconstructed, change only the order in which rows
-    /// are written, not what they hold.
-    struct MeshChunks {
+    /// are written, not what they hold. Where AVX-512 is on (`w16`), a slot holding a mesh
+    /// of [`super::SmallTris`] fills to 16 hits, reconstructed 16 at a time ([`small_triangles`] at
+    /// width 16: the same lane functions, so the same rows); a partial chunk of at most 8 goes
+    /// 8 wide.
+    struct MeshChunks<const C: usize> {
         geom: [u32; SLOTS],
         /// Whether the slot's mesh goes through the pipeline.
         piped: [bool; SLOTS],
-        slot: [Pending; SLOTS],
+        /// How many hits fill the slot's chunk where `C` is 16 (`w16` is there): 16 for a mesh
+        /// of [`super::SmallTris`], else 8. (Without AVX-512, `C` is 8: every chunk holds 8, as
+        /// before the 16-wide chunks, at the same cost.)
+        cap: [usize; SLOTS],
+        slot: [Pending<C>; SLOTS],
         mixed: Pending,
+        w16: Option<Avx512>,
+        /// Hits reconstructed 16 wide.
+        lanes16: u64,
         /// The pipeline: chunk `k` (the `k`th entered) in `ring[k % RING]`; `done` of the
         /// `entered` chunks reconstructed.
         ring: [Flight; RING],
@@ -267,13 +317,16 @@ pub(crate) mod x8 {
         lag: usize,
     }
 
-    impl MeshChunks {
-        fn new() -> MeshChunks {
+    impl<const C: usize> MeshChunks<C> {
+        fn new(w16: Option<Avx512>) -> MeshChunks<C> {
             MeshChunks {
                 geom: [0; SLOTS],
                 piped: [false; SLOTS],
+                cap: [8; SLOTS],
                 slot: [Pending::EMPTY; SLOTS],
                 mixed: Pending::EMPTY,
+                w16,
+                lanes16: 0,
                 ring: [Flight::EMPTY; RING],
                 entered: 0,
                 done: 0,
@@ -288,18 +341,42 @@ pub(crate) mod x8 {
             if self.slot[s].n == 0 {
                 self.geom[s] = geom;
                 self.piped[s] = self.lag > 0 && piped(st, geom);
+                if C > 8 {
+                    let small = matches!(st.forms[geom as usize], Form::Triangles(Some(_)));
+                    self.cap[s] = if small && self.w16.is_some() { 16 } else { 8 };
+                }
             }
             if self.geom[s] == geom {
-                if self.slot[s].push(i) {
-                    let c = self.slot[s].take();
-                    if self.piped[s] {
-                        self.enter(avx, st, geom, c);
-                    } else {
-                        one_mesh_triangles(avx, st, geom, c, None);
-                    }
+                let cap = if C > 8 { self.cap[s] } else { 8 };
+                if self.slot[s].push_upto(i, cap) {
+                    self.full(avx, st, s);
                 }
             } else if self.mixed.push(i) {
                 triangles(avx, st, self.mixed.take());
+            }
+        }
+
+        /// Reconstructs slot `s`'s chunk (full, or partial at the end, padded): 16 wide where it
+        /// holds more than 8 hits (only a slot of `cap` 16 does, so `w16` is there), else 8
+        /// wide, directly or through the pipeline.
+        #[inline(always)]
+        fn full(&mut self, avx: Avx2, st: &mut Stage, s: usize) {
+            let geom = self.geom[s];
+            if C > 8 && self.slot[s].n > 8 {
+                let (ids, n) = self.slot[s].take::<16>();
+                let w16 = self.w16.expect("a chunk of 16 only with AVX-512");
+                w16.run(
+                    #[inline(always)]
+                    || small_triangles(w16, st, geom, &ids, n),
+                );
+                self.lanes16 += n as u64;
+                return;
+            }
+            let c = self.slot[s].take();
+            if self.piped[s] {
+                self.enter(avx, st, geom, c);
+            } else {
+                one_mesh_triangles(avx, st, geom, c, None);
             }
         }
 
@@ -363,12 +440,7 @@ pub(crate) mod x8 {
         fn flush(&mut self, avx: Avx2, st: &mut Stage) {
             for s in 0..SLOTS {
                 if self.slot[s].n > 0 {
-                    let c = self.slot[s].take();
-                    if self.piped[s] {
-                        self.enter(avx, st, self.geom[s], c);
-                    } else {
-                        one_mesh_triangles(avx, st, self.geom[s], c, None);
-                    }
+                    self.full(avx, st, s);
                 }
             }
             let (d, e) = (self.done, self.entered);
@@ -395,7 +467,7 @@ pub(crate) mod x8 {
     }
 
     /// Whether mesh `g`'s chunks go through [`MeshChunks`]' pipeline: a mesh of at least
-    /// [`PIPE_MIN_TRIS`] triangles, not held as [`SmallTris`], within the gathers' 32-bit
+    /// [`PIPE_MIN_TRIS`] triangles, not held as [`super::SmallTris`], within the gathers' 32-bit
     /// offsets.
     fn piped(st: &Stage, g: u32) -> bool {
         let m = mesh(st, g);
@@ -423,106 +495,131 @@ pub(crate) mod x8 {
         surf: &'a mut Surfaces,
     }
 
-    /// [`super::fill`] 8-wide: each active path with a hit goes to its form's pending chunk,
-    /// which is reconstructed when it holds 8 (and at the end, padded). Returns how many hits
-    /// went through the lane forms.
-    pub(crate) fn fill(avx: Avx2, scene: &Scene, forms: &[Form], batch: &mut Batch) -> u64 {
-        avx.run(
-            #[inline(always)]
-            || {
-                let mut st = Stage {
-                    scene,
-                    forms,
-                    ray: &batch.ray,
-                    hit: &batch.hit,
-                    surf: &mut batch.surf,
-                };
-                let mut tri = MeshChunks::new();
-                let (mut sph, mut rect) = (Pending::EMPTY, Pending::EMPTY);
-                let (mut disks, mut itri) = (Pending::EMPTY, Pending::EMPTY);
-                let mut cyl = Pending::EMPTY;
-                let mut scalar = 0;
-                let mut hits = 0;
-                // The hit flag of every active path (`Batch::hit_flag`), cut to the hits'
-                // length (one bounds test covers both) and stored in each branch.
-                let flag = &mut batch.hit_flag[..st.hit.len()];
-                // The rows' words read where they lie: the shape and the instance decide the
-                // branch (the whole hit only for the 1-lane reconstruction).
-                let hit = st.hit;
-                for &i in &batch.active {
-                    let row = &hit[i as usize];
-                    let geom = row.geom();
-                    if geom == HitRow::MISS {
-                        flag[i as usize] = 0;
-                        continue;
+    /// [`super::fill`] in lanes: each active path with a hit goes to its form's pending chunk,
+    /// which is reconstructed when it holds 8 (16 for the one-mesh chunks of [`super::SmallTris`]
+    /// where `w16` is given) and at the end, padded. Returns how many hits went through the
+    /// lane forms, and how many of those 16 wide.
+    pub(crate) fn fill(
+        avx: Avx2,
+        w16: Option<Avx512>,
+        scene: &Scene,
+        forms: &[Form],
+        batch: &mut Batch,
+    ) -> (u64, u64) {
+        match w16 {
+            Some(_) => avx.run(
+                #[inline(always)]
+                || fill_run::<16>(avx, w16, scene, forms, batch),
+            ),
+            None => avx.run(
+                #[inline(always)]
+                || fill_run::<8>(avx, None, scene, forms, batch),
+            ),
+        }
+    }
+
+    /// [`fill`]'s loop, its one-mesh chunks of at most `C` hits (16 with `w16`, else 8: two
+    /// instances, so that the 8-wide one keeps its constant chunk size). Call inside
+    /// [`Avx2::run`].
+    #[inline(always)]
+    fn fill_run<const C: usize>(
+        avx: Avx2,
+        w16: Option<Avx512>,
+        scene: &Scene,
+        forms: &[Form],
+        batch: &mut Batch,
+    ) -> (u64, u64) {
+        let mut st = Stage {
+            scene,
+            forms,
+            ray: &batch.ray,
+            hit: &batch.hit,
+            surf: &mut batch.surf,
+        };
+        let mut tri = MeshChunks::<C>::new(w16);
+        let (mut sph, mut rect) = (Pending::<8>::EMPTY, Pending::<8>::EMPTY);
+        let (mut disks, mut itri) = (Pending::<8>::EMPTY, Pending::<8>::EMPTY);
+        let mut cyl = Pending::<8>::EMPTY;
+        let mut scalar = 0;
+        let mut hits = 0;
+        // The hit flag of every active path (`Batch::hit_flag`), cut to the hits'
+        // length (one bounds test covers both) and stored in each branch.
+        let flag = &mut batch.hit_flag[..st.hit.len()];
+        // The rows' words read where they lie: the shape and the instance decide the
+        // branch (the whole hit only for the 1-lane reconstruction).
+        let hit = st.hit;
+        for &i in &batch.active {
+            let row = &hit[i as usize];
+            let geom = row.geom();
+            if geom == HitRow::MISS {
+                flag[i as usize] = 0;
+                continue;
+            }
+            flag[i as usize] = 1;
+            hits += 1;
+            let form = &st.forms[geom as usize];
+            if row.inst() != NO_INSTANCE {
+                if let Form::Triangles(_) = form {
+                    if itri.push(i) {
+                        instanced_triangles(avx, &mut st, itri.take());
                     }
-                    flag[i as usize] = 1;
-                    hits += 1;
-                    let form = &st.forms[geom as usize];
-                    if row.inst() != NO_INSTANCE {
-                        if let Form::Triangles(_) = form {
-                            if itri.push(i) {
-                                instanced_triangles(avx, &mut st, itri.take());
-                            }
-                        } else {
-                            scalar += 1;
-                            let i = i as usize;
-                            let h = row.get().expect("a hit");
-                            let si = st.scene.interaction(&st.ray[i], &h);
-                            st.surf.set(i, &si);
-                        }
-                        continue;
-                    }
-                    match form {
-                        Form::Triangles(_) => tri.push(avx, &mut st, geom, i),
-                        Form::Sphere(..) => {
-                            if sph.push(i) {
-                                spheres(avx, &mut st, sph.take());
-                            }
-                        }
-                        Form::Rectangle(_) => {
-                            if rect.push(i) {
-                                rectangles(avx, &mut st, rect.take());
-                            }
-                        }
-                        Form::Disk(_) => {
-                            if disks.push(i) {
-                                disks_x8(avx, &mut st, disks.take());
-                            }
-                        }
-                        Form::Cylinder(_) => {
-                            if cyl.push(i) {
-                                cylinders(avx, &mut st, cyl.take());
-                            }
-                        }
-                        Form::Scalar => {
-                            scalar += 1;
-                            let i = i as usize;
-                            let h = row.get().expect("a hit");
-                            let si = st.scene.interaction(&st.ray[i], &h);
-                            st.surf.set(i, &si);
-                        }
+                } else {
+                    scalar += 1;
+                    let i = i as usize;
+                    let h = row.get().expect("a hit");
+                    let si = st.scene.interaction(&st.ray[i], &h);
+                    st.surf.set(i, &si);
+                }
+                continue;
+            }
+            match form {
+                Form::Triangles(_) => tri.push(avx, &mut st, geom, i),
+                Form::Sphere(..) => {
+                    if sph.push(i) {
+                        spheres(avx, &mut st, sph.take());
                     }
                 }
-                tri.flush(avx, &mut st);
-                if sph.n > 0 {
-                    spheres(avx, &mut st, sph.take());
+                Form::Rectangle(_) => {
+                    if rect.push(i) {
+                        rectangles(avx, &mut st, rect.take());
+                    }
                 }
-                if rect.n > 0 {
-                    rectangles(avx, &mut st, rect.take());
+                Form::Disk(_) => {
+                    if disks.push(i) {
+                        disks_x8(avx, &mut st, disks.take());
+                    }
                 }
-                if disks.n > 0 {
-                    disks_x8(avx, &mut st, disks.take());
+                Form::Cylinder(_) => {
+                    if cyl.push(i) {
+                        cylinders(avx, &mut st, cyl.take());
+                    }
                 }
-                if itri.n > 0 {
-                    instanced_triangles(avx, &mut st, itri.take());
+                Form::Scalar => {
+                    scalar += 1;
+                    let i = i as usize;
+                    let h = row.get().expect("a hit");
+                    let si = st.scene.interaction(&st.ray[i], &h);
+                    st.surf.set(i, &si);
                 }
-                if cyl.n > 0 {
-                    cylinders(avx, &mut st, cyl.take());
-                }
-                hits - scalar
-            },
-        )
+            }
+        }
+        tri.flush(avx, &mut st);
+        if sph.n > 0 {
+            spheres(avx, &mut st, sph.take());
+        }
+        if rect.n > 0 {
+            rectangles(avx, &mut st, rect.take());
+        }
+        if disks.n > 0 {
+            disks_x8(avx, &mut st, disks.take());
+        }
+        if itri.n > 0 {
+            instanced_triangles(avx, &mut st, itri.take());
+        }
+        if cyl.n > 0 {
+            cylinders(avx, &mut st, cyl.take());
+        }
+        (hits - scalar, tri.lanes16)
     }
 
     /// Eight lanes of 3-vectors, filled lane by lane.
@@ -559,19 +656,7 @@ pub(crate) mod x8 {
     /// unpacked and its fields stored one by one.
     #[inline(always)]
     fn hit_columns(avx: Avx2, st: &Stage, ids: &[u32; 8], m: &mut Meta) -> [F32x8; 8] {
-        // Written out, not a closure or `array::from_fn` (either compiled out of line would
-        // lose the lanes' target features).
-        let h = st.hit;
-        let f = F32x8::transpose8([
-            hit_row(avx, h, ids[0]),
-            hit_row(avx, h, ids[1]),
-            hit_row(avx, h, ids[2]),
-            hit_row(avx, h, ids[3]),
-            hit_row(avx, h, ids[4]),
-            hit_row(avx, h, ids[5]),
-            hit_row(avx, h, ids[6]),
-            hit_row(avx, h, ids[7]),
-        ]);
+        let f = avx.hit_fields(st.hit, ids);
         f[0].store(&mut m.shape);
         f[1].store(&mut m.prim);
         f[2].store(&mut m.t);
@@ -656,13 +741,12 @@ pub(crate) mod x8 {
         }
     }
 
-    /// Writes the first `n` lanes of `s` and `m` into the rows of `ids`: the 32 fields as four
-    /// groups of 8 lanes, each transposed into 8 rows' runs of 8 floats (one store per group
-    /// and row instead of 29 scalar stores per row). In two halves (groups 0–1, then 2–3), so
-    /// that 16 transposed registers are live at a time rather than 32 (which spilled), each
-    /// row found without a bounds test ([`Surfaces::row_groups_mut`]).
+    /// Writes the first `n` lanes of `s` and `m` into the rows of `ids` ([`store_rows`]).
     #[inline(always)]
     fn store(avx: Avx2, st: &mut Stage, ids: &[u32; 8], n: usize, s: &SurfLanes<F32x8>, m: &Meta) {
+        // The 8-wide form of `store_rows` written out, `m`'s columns loaded where they go:
+        // through `store_rows` the one-mesh chunks of `SmallTris` took ~20 instructions a
+        // sample more on cbox-rgb (the transposes' inputs spilled).
         let wi = m.wi;
         let (f, z) = (&s.frame, avx.splat(0.0));
         let g0 = F32x8::transpose8([s.p.x, s.p.y, s.p.z, s.ng.x, s.ng.y, s.ng.z, f.s.x, f.s.y]);
@@ -684,6 +768,169 @@ pub(crate) mod x8 {
         }
     }
 
+    /// Writes the first `n` lanes of `s`, the incident directions `wi` and the hits' `t`,
+    /// shape and primitive words (`meta`) into the rows of `ids`: the 32 fields as four groups
+    /// of 8 lanes, each transposed into the rows' runs of 8 floats (one store per group and
+    /// row instead of 29 scalar stores per row, [`SurfRows::store_groups`]). In two halves
+    /// (groups 0–1, then 2–3), so that 16 transposed registers are live at a time rather than
+    /// 32 (which spilled at width 8), each row found without a bounds test
+    /// ([`Surfaces::row_groups_mut`]).
+    #[inline(always)]
+    fn store_rows<T: SurfRows<W>, const W: usize>(
+        t: T,
+        surf: &mut Surfaces,
+        ids: &[u32; W],
+        n: usize,
+        s: &SurfLanes<T::F>,
+        wi: V3<T::F>,
+        [dist, shape, prim]: [T::F; 3],
+    ) {
+        let (f, z) = (&s.frame, t.splat(0.0));
+        let g0 = [s.p.x, s.p.y, s.p.z, s.ng.x, s.ng.y, s.ng.z, f.s.x, f.s.y];
+        let g1 = [f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, wi.x];
+        t.store_groups(surf, ids, n, 0, g0, g1);
+        let g2 = [
+            wi.y, wi.z, s.uv.x, s.uv.y, s.dpdu.x, s.dpdu.y, s.dpdu.z, s.dpdv.x,
+        ];
+        let g3 = [s.dpdv.y, s.dpdv.z, dist, shape, prim, z, z, z];
+        t.store_groups(surf, ids, n, 2, g2, g3);
+    }
+
+    /// What the gather stage's chunks need of a width beyond [`Wide`]: the hit rows and rays
+    /// of a chunk in lanes, the [`super::SmallTris`] tables' lookups and the surface rows' stores, by
+    /// transposes and permutes (moves only: every lane's bits), at width 8 ([`Avx2`]) and 16
+    /// ([`Avx512`]).
+    trait SurfRows<const W: usize>: Wide<W> {
+        /// The hit rows of the lanes `ids` as columns (`geom`, `prim`, `t`, `u`, `v`, `inst`
+        /// and two zeros, each word's bits), each row loaded whole.
+        fn hit_fields(self, hit: &[HitRow], ids: &[u32; W]) -> [Self::F; 8];
+        /// The rays of the lanes `ids` as columns (o, d, tmin, tmax), each loaded whole.
+        fn ray_fields(self, ray: &[Ray], ids: &[u32; W]) -> [Self::F; 8];
+        /// Per lane `table[t]` (`t` below the mesh's triangle count; `wide`: above 8).
+        fn look(self, table: &[f32; SMALL_TRIS], t: Self::I, wide: bool) -> Self::F;
+        /// `b` in every lane.
+        fn mask_splat(self, b: bool) -> Self::M;
+        /// Writes groups `first` and `first + 1` of the rows of the first `n` lanes of `ids`
+        /// (8 floats each): lane `k`'s values of `a`, then of `b`.
+        fn store_groups(
+            self,
+            surf: &mut Surfaces,
+            ids: &[u32; W],
+            n: usize,
+            first: usize,
+            a: [Self::F; 8],
+            b: [Self::F; 8],
+        );
+    }
+
+    impl SurfRows<8> for Avx2 {
+        /// One 32-byte load per row and [`F32x8::transpose8`]. Written out, not a closure or
+        /// `array::from_fn` (either compiled out of line would lose the lanes' target
+        /// features).
+        #[inline(always)]
+        fn hit_fields(self, h: &[HitRow], ids: &[u32; 8]) -> [F32x8; 8] {
+            F32x8::transpose8([
+                hit_row(self, h, ids[0]),
+                hit_row(self, h, ids[1]),
+                hit_row(self, h, ids[2]),
+                hit_row(self, h, ids[3]),
+                hit_row(self, h, ids[4]),
+                hit_row(self, h, ids[5]),
+                hit_row(self, h, ids[6]),
+                hit_row(self, h, ids[7]),
+            ])
+        }
+        #[inline(always)]
+        fn ray_fields(self, ray: &[Ray], ids: &[u32; 8]) -> [F32x8; 8] {
+            Avx2::ray_fields(self, ray, ids)
+        }
+        /// The first 8 entries by one permute where the mesh has at most 8 triangles, all 16
+        /// by two and a blend else.
+        #[inline(always)]
+        fn look(self, table: &[f32; SMALL_TRIS], t: I32x8, wide: bool) -> F32x8 {
+            if wide {
+                self.lookup16(table, t)
+            } else {
+                let (half, _) = table.split_first_chunk::<8>().expect("16 entries");
+                I32x8::lookup8(half, t)
+            }
+        }
+        #[inline(always)]
+        fn mask_splat(self, b: bool) -> crate::lane::M8 {
+            Avx2::mask_splat(self, b)
+        }
+        /// Each group transposed ([`F32x8::transpose8`]) into the 8 rows' runs.
+        #[inline(always)]
+        fn store_groups(
+            self,
+            surf: &mut Surfaces,
+            ids: &[u32; 8],
+            n: usize,
+            first: usize,
+            a: [F32x8; 8],
+            b: [F32x8; 8],
+        ) {
+            let (a, b) = (F32x8::transpose8(a), F32x8::transpose8(b));
+            // A loop of 8 with a test (unrolled: the registers indexed by constants), not one
+            // of `n`.
+            for k in 0..8 {
+                if k < n {
+                    let r = surf.row_groups_mut(ids[k] as usize);
+                    a[k].store(&mut r[first]);
+                    b[k].store(&mut r[first + 1]);
+                }
+            }
+        }
+    }
+
+    impl SurfRows<16> for Avx512 {
+        /// Two rows per register ([`Avx512::words16_at`]).
+        #[inline(always)]
+        fn hit_fields(self, h: &[HitRow], ids: &[u32; 16]) -> [F32x16; 8] {
+            self.words16_at(|k| &h[ids[k] as usize].0)
+        }
+        /// Two rays per register ([`Avx512::ray_fields16_at`]).
+        #[inline(always)]
+        fn ray_fields(self, ray: &[Ray], ids: &[u32; 16]) -> [F32x16; 8] {
+            self.ray_fields16_at(|k| &ray[ids[k] as usize])
+        }
+        /// One permute over the 16 entries ([`Avx512::lookup16`]), whatever the count.
+        #[inline(always)]
+        fn look(self, table: &[f32; SMALL_TRIS], t: I32x16, _wide: bool) -> F32x16 {
+            self.lookup16(table, t)
+        }
+        #[inline(always)]
+        fn mask_splat(self, b: bool) -> crate::lane::M16 {
+            Avx512::mask_splat(self, b)
+        }
+        /// Each group's rows two to a register ([`Avx512::row_pairs16`]): lane `k`'s in the
+        /// low half, lane `k + 8`'s in the high half.
+        #[inline(always)]
+        fn store_groups(
+            self,
+            surf: &mut Surfaces,
+            ids: &[u32; 16],
+            n: usize,
+            first: usize,
+            a: [F32x16; 8],
+            b: [F32x16; 8],
+        ) {
+            let (a, b) = (self.row_pairs16(a), self.row_pairs16(b));
+            for k in 0..8 {
+                if k < n {
+                    let r = surf.row_groups_mut(ids[k] as usize);
+                    a[k].store_low8(&mut r[first]);
+                    b[k].store_low8(&mut r[first + 1]);
+                }
+                if k + 8 < n {
+                    let r = surf.row_groups_mut(ids[k + 8] as usize);
+                    a[k].store_high8(&mut r[first]);
+                    b[k].store_high8(&mut r[first + 1]);
+                }
+            }
+        }
+    }
+
     /// Hits on triangle meshes: [`triangle_input`], then [`sl::triangle`].
     #[inline(always)]
     fn triangles(avx: Avx2, st: &mut Stage, (ids, n): ([u32; 8], usize)) {
@@ -693,8 +940,9 @@ pub(crate) mod x8 {
     }
 
     /// Hits on one triangle mesh, shape `g` (every lane's): [`one_mesh_input`], then
-    /// [`sl::triangle`] ([`sl::triangle_no_uv`] for a mesh without uvs); a mesh too large for
-    /// 32-bit gather offsets takes [`triangles`]. `tri`: the hits' vertex indices when loaded
+    /// [`sl::triangle`] ([`sl::triangle_no_uv`] for a mesh without uvs); a mesh held as
+    /// [`super::SmallTris`] takes [`small_triangles`], a mesh too large for 32-bit gather offsets
+    /// [`triangles`]. `tri`: the hits' vertex indices when loaded
     /// already (by [`MeshChunks`]' pipeline).
     #[inline(always)]
     fn one_mesh_triangles(
@@ -708,15 +956,20 @@ pub(crate) mod x8 {
         let ShapeKind::Mesh(m) = &shape.kind else {
             unreachable!("Form::Triangles is set for meshes only");
         };
+        if let Form::Triangles(Some(small)) = &st.forms[g as usize] {
+            let (x, c, meta) = small_input(avx, st, &ids, m, small, shape.flip_normals);
+            let s = if m.uvs.is_some() {
+                sl::triangle_at::<_, true>(&x, &c)
+            } else {
+                sl::triangle_at::<_, false>(&x, &c)
+            };
+            store(avx, st, &ids, n, &s, &meta);
+            return;
+        }
         if !fits(m) {
             return triangles(avx, st, (ids, n));
         }
-        let (x, meta) = match &st.forms[g as usize] {
-            Form::Triangles(Some(small)) => {
-                small_input(avx, st, &ids, m, small, shape.flip_normals)
-            }
-            _ => one_mesh_input(avx, st, &ids, m, shape.flip_normals, tri),
-        };
+        let (x, meta) = one_mesh_input(avx, st, &ids, m, shape.flip_normals, tri);
         let s = if m.uvs.is_some() {
             sl::triangle(&x)
         } else {
@@ -800,33 +1053,44 @@ pub(crate) mod x8 {
         (f[1].to_bits(), [f[3], f[4]], meta)
     }
 
-    /// [`one_mesh_input`] for a mesh held as [`SmallTris`]: each lane's corners looked up by
-    /// its triangle index in the tables (the same floats as the gathers read).
+    /// [`small_triangles`]' input at width 8, read as [`one_mesh_input`] reads it (the hits
+    /// and rays into a [`Meta`], whose columns [`store`] loads where they go: fewer
+    /// instructions than [`small_triangles`]' at width 8, whose values stay live through the
+    /// reconstruction): each lane's corners and its triangle's own terms looked up by its
+    /// triangle index in the tables. The same values.
     #[inline(always)]
     fn small_input(
         avx: Avx2,
         st: &Stage,
         ids: &[u32; 8],
         m: &crate::geometry::mesh::TriMesh,
-        small: &SmallTris,
+        small: &super::SmallTris,
         flip: bool,
-    ) -> (sl::Triangle<F32x8>, Meta) {
-        let (t, b, meta) = mesh_hits(avx, st, ids);
-        let l = Look {
-            avx,
-            t,
-            wide: small.wide,
-        };
-        let p = [l.v3(&small.p[0]), l.v3(&small.p[1]), l.v3(&small.p[2])];
+    ) -> (sl::Triangle<F32x8>, sl::TriangleConsts<F32x8>, Meta) {
+        let (tri, b, meta) = mesh_hits(avx, st, ids);
+        let wide = small.wide;
+        let p = [
+            look3(avx, &small.p[0], tri, wide),
+            look3(avx, &small.p[1], tri, wide),
+            look3(avx, &small.p[2], tri, wide),
+        ];
         let z = avx.splat(0.0);
         let (n, has_n) = if m.normals.is_some() {
-            let n = [l.v3(&small.n[0]), l.v3(&small.n[1]), l.v3(&small.n[2])];
+            let n = [
+                look3(avx, &small.n[0], tri, wide),
+                look3(avx, &small.n[1], tri, wide),
+                look3(avx, &small.n[2], tri, wide),
+            ];
             (n, avx.mask_splat(true))
         } else {
             ([V3::new(z, z, z); 3], avx.mask_splat(false))
         };
         let (uv, has_uv) = if m.uvs.is_some() {
-            let uv = [l.v2(&small.uv[0]), l.v2(&small.uv[1]), l.v2(&small.uv[2])];
+            let uv = [
+                look2(avx, &small.uv[0], tri, wide),
+                look2(avx, &small.uv[1], tri, wide),
+                look2(avx, &small.uv[2], tri, wide),
+            ];
             (uv, avx.mask_splat(true))
         } else {
             ([V2::new(z, z); 3], avx.mask_splat(false))
@@ -841,44 +1105,115 @@ pub(crate) mod x8 {
             b2: b[1],
             sign: avx.splat(if flip { -1.0 } else { 1.0 }),
         };
-        (x, meta)
+        let c = sl::TriangleConsts {
+            ng: look3(avx, &small.c[0], tri, wide),
+            dpdu: look3(avx, &small.c[1], tri, wide),
+            dpdv: look3(avx, &small.c[2], tri, wide),
+        };
+        (x, c, meta)
     }
 
-    /// The lookups of a chunk's triangles `t` in a [`SmallTris`]' tables: the first 8 entries
-    /// by one permute where the mesh has at most 8 triangles, all 16 by two and a blend else.
-    #[derive(Clone, Copy)]
-    struct Look {
-        avx: Avx2,
-        t: I32x8,
+    /// Hits on one mesh held as [`super::SmallTris`], shape `g` (every lane's), `W` at a time: the
+    /// lanes' hit rows and rays in lanes ([`SurfRows`]), each lane's corners looked up by its
+    /// triangle index in the tables (the floats the gathers read) with the triangle's own terms
+    /// ([`sl::TriangleConsts`]), the hits' terms of [`sl::triangle`] ([`sl::triangle_no_uv`]
+    /// for a mesh without uvs: [`sl::triangle_at`]), and the first `n` lanes' rows stored.
+    /// One source for widths 8 and 16 (the lane forms are per lane), so each row is the same
+    /// bits at either width. Call inside the token's `run`.
+    #[inline(always)]
+    fn small_triangles<T: SurfRows<W>, const W: usize>(
+        t: T,
+        st: &mut Stage,
+        g: u32,
+        ids: &[u32; W],
+        n: usize,
+    ) {
+        let scene = st.scene;
+        let shape = &scene.shapes[g as usize];
+        let ShapeKind::Mesh(m) = &shape.kind else {
+            unreachable!("Form::Triangles is set for meshes only");
+        };
+        let Form::Triangles(Some(small)) = &st.forms[g as usize] else {
+            unreachable!("small_triangles takes meshes held as SmallTris only");
+        };
+        let h = t.hit_fields(st.hit, ids);
+        let r = t.ray_fields(st.ray, ids);
+        let (tri, wide) = (h[1].to_bits(), small.wide);
+        let p = [
+            look3(t, &small.p[0], tri, wide),
+            look3(t, &small.p[1], tri, wide),
+            look3(t, &small.p[2], tri, wide),
+        ];
+        let z = t.splat(0.0);
+        let (nrm, has_n) = if m.normals.is_some() {
+            let n = [
+                look3(t, &small.n[0], tri, wide),
+                look3(t, &small.n[1], tri, wide),
+                look3(t, &small.n[2], tri, wide),
+            ];
+            (n, t.mask_splat(true))
+        } else {
+            ([V3::new(z, z, z); 3], t.mask_splat(false))
+        };
+        let (uv, has_uv) = if m.uvs.is_some() {
+            let uv = [
+                look2(t, &small.uv[0], tri, wide),
+                look2(t, &small.uv[1], tri, wide),
+                look2(t, &small.uv[2], tri, wide),
+            ];
+            (uv, t.mask_splat(true))
+        } else {
+            ([V2::new(z, z); 3], t.mask_splat(false))
+        };
+        let x = sl::Triangle {
+            p,
+            n: nrm,
+            uv,
+            has_n,
+            has_uv,
+            b1: h[3],
+            b2: h[4],
+            sign: t.splat(if shape.flip_normals { -1.0 } else { 1.0 }),
+        };
+        let c = sl::TriangleConsts {
+            ng: look3(t, &small.c[0], tri, wide),
+            dpdu: look3(t, &small.c[1], tri, wide),
+            dpdv: look3(t, &small.c[2], tri, wide),
+        };
+        let s = if m.uvs.is_some() {
+            sl::triangle_at::<_, true>(&x, &c)
+        } else {
+            sl::triangle_at::<_, false>(&x, &c)
+        };
+        // −ray.d, as `Meta::rays`.
+        let wi = -V3::new(r[3], r[4], r[5]);
+        store_rows(t, st.surf, ids, n, &s, wi, [h[2], h[0], h[1]]);
+    }
+
+    /// Per lane `table[k][tri]` for the three components `k` ([`SurfRows::look`]; a plain
+    /// function, not a closure: see `tests/cli/simd_calls.rs`).
+    #[inline(always)]
+    fn look3<T: SurfRows<W>, const W: usize>(
+        t: T,
+        table: &[[f32; SMALL_TRIS]; 3],
+        tri: T::I,
         wide: bool,
+    ) -> V3<T::F> {
+        V3::new(
+            t.look(&table[0], tri, wide),
+            t.look(&table[1], tri, wide),
+            t.look(&table[2], tri, wide),
+        )
     }
 
-    impl Look {
-        /// Per lane, `table[t]`.
-        #[inline(always)]
-        fn one(self, table: &[f32; SMALL_TRIS]) -> F32x8 {
-            if self.wide {
-                self.avx.lookup16(table, self.t)
-            } else {
-                let (half, _) = table.split_first_chunk::<8>().expect("16 entries");
-                I32x8::lookup8(half, self.t)
-            }
-        }
-
-        /// Per lane, `table[k][t]` for the three components `k`.
-        #[inline(always)]
-        fn v3(self, table: &[[f32; SMALL_TRIS]; 3]) -> V3<F32x8> {
-            V3::new(
-                self.one(&table[0]),
-                self.one(&table[1]),
-                self.one(&table[2]),
-            )
-        }
-
-        #[inline(always)]
-        fn v2(self, table: &[[f32; SMALL_TRIS]; 2]) -> V2<F32x8> {
-            V2::new(self.one(&table[0]), self.one(&table[1]))
-        }
+    #[inline(always)]
+    fn look2<T: SurfRows<W>, const W: usize>(
+        t: T,
+        table: &[[f32; SMALL_TRIS]; 2],
+        tri: T::I,
+        wide: bool,
+    ) -> V2<T::F> {
+        V2::new(t.look(&table[0], tri, wide), t.look(&table[1], tri, wide))
     }
 
     /// A gathered vector's components as a [`V3`] (a plain function, not a closure: see
@@ -1333,5 +1668,109 @@ mod tests {
         let mut short = mesh(3, true, true);
         short.uvs.as_mut().unwrap().pop();
         assert!(SmallTris::new(&short).is_none());
+    }
+
+    /// The gather stage in lanes (`x8::fill`) writes every hit's row and flag as the scalar
+    /// stage does (`Scene::interaction` into `Surfaces::set`), bit for bit, at width 8 and,
+    /// where the CPU has AVX-512, with the one-mesh chunks of meshes of at most 16 triangles
+    /// 16 wide (full chunks, partial ones of 9 to 15 padded, the rest 8 wide): random rays from
+    /// inside the scenes' bounds, random subsets of a batch active, on the Cornell box's cubes
+    /// and the chunk scene's cubes, octahedra and quad (normals, uvs, flipped, face normals;
+    /// meshes sharing a slot) and the surface scene's every form.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn lane_rows_equal_the_scalar_rows_at_widths_8_and_16() {
+        use crate::accel::HitRow;
+        use crate::geometry::Ray;
+        use crate::lane::{Avx2, Avx512};
+        use crate::math::Pcg32;
+        use crate::sampler::Sampler;
+        use crate::stream::batch::{cols, Batch};
+        use crate::stream::BATCH;
+        let Some(avx) = Avx2::detect() else {
+            eprintln!("note: no AVX2: the lane gather stage is not checked");
+            return;
+        };
+        let w16 = Avx512::detect();
+        if w16.is_none() {
+            eprintln!("note: no AVX-512: the 16-wide surface chunks are not checked");
+        }
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/scenes/");
+        let mut r = Pcg32::new(43, 1);
+        for name in [
+            "cbox_v3.xml",
+            "stream_mesh_chunks.xml",
+            "stream_surfaces.xml",
+        ] {
+            let path = std::path::PathBuf::from(dir).join(name);
+            let l = crate::load::load_scene(&path, &Default::default()).unwrap();
+            let scene = &l.scene;
+            let forms = super::Form::table(scene);
+            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            for s in &scene.shapes {
+                let (a, b) = s.bounds();
+                (lo, hi) = (lo.min(a), hi.max(b));
+            }
+            let (mut lanes16, mut hits) = (0, 0);
+            for round in 0..24 {
+                // New batches each round (`Batch::push` appends to the rays and hits kept).
+                let mut batch = Batch::new(BATCH, scene.materials.node_count());
+                let mut want = Batch::new(BATCH, scene.materials.node_count());
+                let share = [1.0, 0.9, 0.5, 0.1][round % 4];
+                let mut active = Vec::new();
+                for i in 0..BATCH {
+                    let mut f = || r.next_f32();
+                    let o = lo + (hi - lo) * Vec3::new(f(), f(), f());
+                    let d = Vec3::new(f() - 0.5, f() - 0.5, f() - 0.5)
+                        .try_normalize()
+                        .unwrap_or(Vec3::Z);
+                    let ray = Ray::new(o, d);
+                    let hit = HitRow::new(scene.accel.intersect(&ray));
+                    for b in [&mut batch, &mut want] {
+                        b.push(Vec2::ZERO, Sampler::from_seed(1, i as u64), ray);
+                        b.hit[i] = hit;
+                    }
+                    if f() < share {
+                        active.push(i as u32);
+                    }
+                }
+                for b in [&mut batch, &mut want] {
+                    b.active.clone_from(&active);
+                    b.hit_flag.fill(7);
+                }
+                super::fill(scene, &forms, None, None, &mut want, &mut 0, &mut 0);
+                // Width 8 on even rounds, 16 (where there) on odd ones.
+                let wide = if round % 2 == 1 { w16 } else { None };
+                let (n, n16) = super::x8::fill(avx, wide, scene, &forms, &mut batch);
+                (hits, lanes16) = (hits + n, lanes16 + n16);
+                assert!(
+                    wide.is_some() || n16 == 0,
+                    "{name}: 16 wide without AVX-512"
+                );
+                assert_eq!(
+                    batch.hit_flag, want.hit_flag,
+                    "{name}, round {round}: flags"
+                );
+                let (got, exp) = (batch.surf.flat(), want.surf.flat());
+                for &i in &active {
+                    let i = i as usize;
+                    let row = i * cols::ROW..(i + 1) * cols::ROW;
+                    for (c, (g, w)) in got[row.clone()].iter().zip(&exp[row]).enumerate() {
+                        assert_eq!(
+                            g.to_bits(),
+                            w.to_bits(),
+                            "{name}, round {round} (16 wide: {}), path {i}, field {c}: {:?}",
+                            wide.is_some(),
+                            batch.hit[i].get(),
+                        );
+                    }
+                }
+            }
+            eprintln!("{name}: {hits} hits in lanes, {lanes16} of them 16 wide");
+            assert!(hits > 0, "{name}: no hit in lanes");
+            if w16.is_some() && name != "stream_surfaces.xml" {
+                assert!(lanes16 > 0, "{name}: no 16-wide chunk");
+            }
+        }
     }
 }
