@@ -325,14 +325,11 @@ impl Points8 {
     /// by [`Self::clear_unpushed`].
     #[inline(always)]
     pub(in crate::bsdf::mnm::compensated) fn of_facets(f: &FacetCols<8>) -> Self {
-        // The frame's three vectors copied one by one (as one 288-byte value the copy was a
-        // `memcpy` call per chunk).
-        let fr = f.frame(0);
         Points8 {
             v0: *f.area_vectors(0),
             v1: *f.area_vectors(1),
             n1: *f.normals(1),
-            fr: [fr[0], fr[1], fr[2]],
+            fr: *f.frame(0),
             ..Self::new()
         }
     }
