@@ -122,8 +122,11 @@ pub(crate) struct Chunk<'a> {
     nested: Option<Bsdf<'a>>,
     /// Bit k: lane k has a point seen from above (ωi.z > 0).
     above: u8,
-    at: [AtWi; 8],
-    e: [Entries; 8],
+    /// The points' state at ωi and entries as rows (`None` until a point needs one: a chunk
+    /// whose points are all in the shared baked lookups over the mirror sawtooth keeps both in
+    /// columns and never makes them, which saved clearing ~1.4 KB of placeholders per chunk,
+    /// a `memset` call; [`Self::at`], [`Self::entries`], [`rows`]).
+    rows: Option<Rows>,
     /// Every point is over the mirror sawtooth (its first orders run in lanes, from `geo`).
     mirror: bool,
     geo: first::Points8,
@@ -164,8 +167,7 @@ impl<'a> Chunk<'a> {
             on,
             nested: shared(&pts),
             above: 0,
-            at: [AtWi::UNUSED; 8],
-            e: [Entries::EMPTY; 8],
+            rows: None,
             mirror: all_mirror(&pts),
             geo: first::Points8::new(),
             q: Lookups8::new(),
@@ -191,8 +193,7 @@ impl<'a> Chunk<'a> {
             on: 0,
             nested: None,
             above: 0,
-            at: [AtWi::UNUSED; 8],
-            e: [Entries::EMPTY; 8],
+            rows: None,
             mirror: true,
             geo: first::Points8::of_facets(facets),
             q: Lookups8::new(),
@@ -317,12 +318,12 @@ impl<'a> Chunk<'a> {
             if r.baked_norm.is_some() && std::ptr::eq(*table.get_or_insert(r.table), r.table) {
                 q.push(k, &r.cell, wi);
             } else {
-                self.at[k] = AtWi::new(r, &pt.nested, wi, None);
+                rows(&mut self.rows).at[k] = AtWi::new(r, &pt.nested, wi, None);
             }
             match (mirror, pt.m) {
                 (true, Some(m)) => self.geo.push_point(k, m, wi),
                 (true, None) => self.geo.push_wi(k, wi),
-                (false, _) => self.e[k] = Entries::new(pt.map(), wi),
+                (false, _) => rows(&mut self.rows).e[k] = Entries::new(pt.map(), wi),
             }
             self.above |= 1 << k;
         }
@@ -332,7 +333,7 @@ impl<'a> Chunk<'a> {
         self.table = table;
         for k in 0..8 {
             if self.above & (1 << k) != 0 && !self.q.is_used(k) {
-                self.sel[k] = self.at[k].select;
+                self.sel[k] = self.at(k).select;
             }
         }
         if mirror {
@@ -389,9 +390,23 @@ impl<'a> Chunk<'a> {
                     self.ei[c][k] = at.ei[c];
                 }
                 self.sel[k] = at.select;
-                self.at[k] = at;
+                rows(&mut self.rows).at[k] = at;
             }
         }
+    }
+
+    /// Lane `k`'s state at ωi as a row (the placeholder [`AtWi::UNUSED`] where none was made:
+    /// a lane that [`Self::prepare`] left without one).
+    #[inline(always)]
+    fn at(&self, k: usize) -> &AtWi {
+        self.rows.as_ref().map_or(&AtWi::UNUSED, |r| &r.at[k])
+    }
+
+    /// Lane `k`'s entries as a row (off the mirror sawtooth; [`Entries::EMPTY`] where none was
+    /// made).
+    #[inline(always)]
+    fn entries(&self, k: usize) -> &Entries {
+        self.rows.as_ref().map_or(&Entries::EMPTY, |r| &r.e[k])
     }
 
     /// Whether lane `k` has a point seen from above.
@@ -425,6 +440,27 @@ impl<'a> Chunk<'a> {
             _ => unreachable!("a point without its row is in the baked lookups"),
         }
     }
+}
+
+/// The points' state at ωi ([`AtWi`]) and entries as rows, by lane: what [`Chunk::prepare`]
+/// computes per point for a point outside the shared baked lookups (another table, per-bounce
+/// colours, a CPU without AVX2) or off the mirror sawtooth. Lanes without a row hold the
+/// placeholders.
+struct Rows {
+    at: [AtWi; 8],
+    e: [Entries; 8],
+}
+
+/// The chunk's rows `r`, made (placeholders in every lane) on the first write.
+#[inline(always)]
+fn rows(r: &mut Option<Rows>) -> &mut Rows {
+    r.get_or_insert_with(
+        #[inline(always)]
+        || Rows {
+            at: [AtWi::UNUSED; 8],
+            e: [Entries::EMPTY; 8],
+        },
+    )
 }
 
 /// What the points keep between the passes of one query, in place by lane (lane k's values are
@@ -499,7 +535,7 @@ fn remainders(live: u8, wo: &[[f32; 8]; 3], c: &Chunk) -> [[f32; 8]; 3] {
         rest &= rest - 1;
         if c.has(k) {
             let w = Vec3::new(wo[0][k], wo[1][k], wo[2][k]);
-            let r = c.at[k].remainder(&c.place(k), w);
+            let r = c.at(k).remainder(&c.place(k), w);
             for (ch, o) in out.iter_mut().enumerate() {
                 o[k] = r[ch];
             }
@@ -698,6 +734,15 @@ pub(crate) fn eval_pdf_x8_into(
             |cols| cols.not_le_zero(&wo[2]),
         );
         let live = lit & c.above & above;
+        if live == 0 {
+            // No lane to evaluate (the chunk's lit lanes all seen from below or lit from
+            // below; the tiles' neighbouring hits often are together): the lit lanes get
+            // (0, 0) without the first orders' and the remainders' 8-wide work, whose lanes
+            // `finish_evals` would not read.
+            let none = (first::FirstOrders::zero(), [[0.0; 8]; 3]);
+            finish_evals(c, lit, 0, &none.0, &none.1, wo, f, p);
+            return;
+        }
         let none = ([-1.0; 8], [0.0; 8], [[0.0; 8]; 3]);
         let lanes = first::Mirror8::sampled(c.cols, live, wo, 0, &none.0, &none.1, &none.2);
         let fo = lanes.eval(c.cols, &c.geo, kind);
@@ -716,7 +761,7 @@ pub(crate) fn eval_pdf_x8_into(
         if wo.z <= 0.0 {
             continue;
         }
-        general.push(k, c.point(k), &c.e[k], wo, None);
+        general.push(k, c.point(k), c.entries(k), wo, None);
         live |= 1 << k;
     }
     let st = States {
@@ -817,7 +862,7 @@ fn first_orders(
                 Some(kn) => kn[k],
                 None => None,
             };
-            let fo = g.c[k].sum::<false, CHUNK>(&c.e[k], kn, &ev);
+            let fo = g.c[k].sum::<false, CHUNK>(c.entries(k), kn, &ev);
             out.set(k, fo.f, fo.p);
         }
     }
@@ -927,7 +972,9 @@ pub(crate) fn sample_x8_cols(
     let mut ks = [0.0f32; 8];
     let mut answered = None;
     if !asks.is_empty() {
-        let a = asks.answer(c.cols, kind);
+        // Answered in its slot (answered first and moved there after the passes, the value was
+        // a `memcpy` call per chunk).
+        let a = &*answered.insert(asks.answer(c.cols, kind));
         // Pass 3: the rest of `draw` per point (the facet frame and the mirror wall's draw),
         // for the lanes with an entry whose nested sample is kept (`Answered::get`'s test).
         let mut rest = p1.asked & a.ok();
@@ -953,14 +1000,14 @@ pub(crate) fn sample_x8_cols(
                 let j = entry[k];
                 let sampled = a.get(k).expect("a kept nested sample");
                 let s = &mut samplers.stream(ids[k] as usize);
-                let (wo, known) = leave(c.point(k).map(), c.e[k].k[j] as usize, j, sampled, s);
+                let (wo, known) =
+                    leave(c.point(k).map(), c.entries(k).k[j] as usize, j, sampled, s);
                 (wc[0][k], wc[1][k], wc[2][k]) = (wo.x, wo.y, wo.z);
                 st.known[k] = known;
                 from_nested |= 1 << k;
             }
         }
         drawn |= from_nested;
-        answered = Some(a);
     }
     // The live lanes: drawn, ωo not below the surface (the scalar `z <= 0` test, as a mask);
     // their ωo by component for the last step in lanes (others: 0).
@@ -991,7 +1038,7 @@ pub(crate) fn sample_x8_cols(
                 st.known[k] = None;
             }
             let w = Vec3::new(wo[0][k], wo[1][k], wo[2][k]);
-            g.push(k, c.point(k), &c.e[k], w, st.known[k]);
+            g.push(k, c.point(k), c.entries(k), w, st.known[k]);
         }
     }
     // Over the mirror sawtooth the query's inputs from the columns (the known terms where
@@ -1075,10 +1122,10 @@ fn first_pass(
             let Some(j) = c.geo.pick(k, u) else { continue };
             (j, c.geo.entry_dir(k, j))
         } else {
-            let Some(j) = pick_entry(&c.e[k], u) else {
+            let Some(j) = pick_entry(c.entries(k), u) else {
                 continue;
             };
-            (j, c.e[k].a[j])
+            (j, c.entries(k).a[j])
         };
         asks.push(kind, k, a, s);
         entry[k] = j;
@@ -1583,13 +1630,13 @@ mod tests {
                     )
                 } else {
                     assert!(same(c.sel[k], at.select), "chunk {chunk} lane {k}");
-                    (format!("{:?}", c.at[k]), format!("{at:?}"))
+                    (format!("{:?}", c.at(k)), format!("{at:?}"))
                 };
                 assert_eq!(got, want, "chunk {chunk} lane {k}");
                 // Over the mirror sawtooth the entries stay in the columns.
                 let got = match c.mirror {
                     true => c.geo.entries_of(k),
-                    false => c.e[k],
+                    false => *c.entries(k),
                 };
                 assert_eq!(
                     format!("{got:?}"),
@@ -1889,6 +1936,122 @@ mod tests {
             flat > 800 && points > 10000 && evals > 2000 && samples > 4000 && strata > 800,
             "{flat} flat, {points} points, {evals} evaluations, {samples} samples, \
              {strata} stratified"
+        );
+    }
+
+    /// The light query in place ([`eval_pdf_x8_into`]) writes only its lit lanes, over the
+    /// stream kernel's chunks of the mirror sawtooth (`Chunk::of_facets`, baked and per-bounce
+    /// tables, 8-wide and lane by lane): a lane outside `lit` keeps its old bits (NaN payloads
+    /// here), a lit lane seen or lit from below gets (0, 0), every other lit lane the scalar
+    /// `eval_pdf` bit for bit. A third of the chunks are lit from below in every lane, where
+    /// the query skips the first orders and remainders (`live == 0`): a skip that left the lit
+    /// lanes unwritten, or one taken with a live lane, fails here.
+    #[test]
+    fn light_query_in_place_writes_only_the_lit_lanes() {
+        use super::super::super::facets::MaxTilt;
+        use super::super::super::TransmissionWalk;
+        use crate::lane::vec::V3;
+        use crate::lane::Avx2;
+        use crate::material::MnmSettings;
+        let Some(avx) = Avx2::detect() else { return };
+        let ctx = BsdfContext::default();
+        let mut rng = Pcg32::new(43, 4);
+        let mut arena = BsdfArena::new();
+        let nested = super::super::tests::push_reflectors(&mut arena);
+        let (geometry, tangent) = (Microgeometry::Sawtooth, Tangent::Mirror);
+        let (mut skipped, mut zeroed, mut evals, mut kept) = (0, 0, 0, 0);
+        for (colour, cols) in [
+            (Colour::Baked, Cols::detect()),
+            (Colour::PerBounce, Cols::detect()),
+            (Colour::Baked, Cols::LOOPS),
+        ] {
+            let table = unit_table(geometry, tangent, colour);
+            let settings = MnmSettings {
+                geometry,
+                tangent,
+                evaluation: Evaluation::Compensated,
+                max_order: 256,
+                max_theta: MaxTilt::new(70f32.to_radians()),
+                transmission_walk: TransmissionWalk::TwoSided,
+                lambert_closed_form: true,
+                ms_table: Some(table),
+            };
+            for &n in &nested {
+                for round in 0..120 {
+                    let mut rgb = [Vec3::ZERO; 8];
+                    let (mut wi, mut wo) = ([Vec3::Z; 8], [Vec3::Z; 8]);
+                    for k in 0..8 {
+                        rgb[k] = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+                        wi[k] = direction(&mut rng);
+                        wo[k] = direction(&mut rng);
+                        if round % 3 == 0 {
+                            // Every lane lit from below (or at the horizon).
+                            wo[k].z = -wo[k].z.abs() * f32::from(u8::from(k != 3));
+                        }
+                    }
+                    let lanes = avx.run(|| {
+                        let col = |c: usize| avx.load(&rgb.map(|v| v[c]));
+                        settings
+                            .lanes_at(V3::new(col(0), col(1), col(2)))
+                            .cols::<8>()
+                    });
+                    let mut roots = [u32::MAX; 8];
+                    let mut mask = 0u8;
+                    for k in 0..8 {
+                        let mut m = MicrofacetNormalMap::placeholder();
+                        settings.map_into(&mut m, n, rgb[k]);
+                        roots[k] = arena.push_microfacet_normal_map(m);
+                        let alone = crate::bsdf::mnm::compensated_alone(arena.bsdf(roots[k]))
+                            .is_some_and(|(m, _, _)| m.mirror_wall);
+                        if alone && rng.next_f32() < 0.9 {
+                            mask |= 1 << k;
+                        }
+                    }
+                    let mut c = Chunk::of_facets(cols, lanes.facets());
+                    let cells = lanes.cells().expect("compensated, with a table");
+                    let wic = [wi.map(|v| v.x), wi.map(|v| v.y), wi.map(|v| v.z)];
+                    c.set_lanes(arena.bsdf(n), table, cells, mask, &wic);
+                    c.prepare();
+                    let lit = (rng.next_u32() as u8) & mask;
+                    let old = |k: usize, i: u32| f32::from_bits(0x7fc0_0000 | (k as u32) << 4 | i);
+                    let mut f: [[f32; 8]; 3] =
+                        std::array::from_fn(|i| std::array::from_fn(|k| old(k, i as u32)));
+                    let mut p: [f32; 8] = std::array::from_fn(|k| old(k, 3));
+                    let woc = [wo.map(|v| v.x), wo.map(|v| v.y), wo.map(|v| v.z)];
+                    eval_pdf_x8_into(&ctx, &c, lit, &woc, &mut f, &mut p);
+                    let live =
+                        (0..8).filter(|&k| lit & (1 << k) != 0 && wi[k].z > 0.0 && wo[k].z > 0.0);
+                    skipped += usize::from(lit != 0 && live.count() == 0);
+                    for k in 0..8 {
+                        let at =
+                            format!("{n} {colour:?} {} {} {} lit {lit:#x}", rgb[k], wi[k], wo[k]);
+                        let got = (Vec3::new(f[0][k], f[1][k], f[2][k]), p[k]);
+                        if lit & (1 << k) == 0 {
+                            let bits = [got.0.x, got.0.y, got.0.z, got.1].map(f32::to_bits);
+                            let want = [0, 1, 2, 3].map(|i| old(k, i).to_bits());
+                            assert_eq!(bits, want, "{at}: an unlit lane written");
+                            kept += 1;
+                            continue;
+                        }
+                        let mut s = Sampler::from_seed(1, 1);
+                        let (fw, pw) = arena.bsdf(roots[k]).eval_pdf(&ctx, wi[k], wo[k], &mut s);
+                        assert!(
+                            same3(got.0, fw) && same(got.1, pw),
+                            "{at}: {got:?} vs {fw} {pw}"
+                        );
+                        if wi[k].z > 0.0 && wo[k].z > 0.0 {
+                            evals += 1;
+                        } else {
+                            assert!(got == (Spectrum::ZERO, 0.0), "{at}");
+                            zeroed += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            skipped > 200 && zeroed > 2000 && evals > 400 && kept > 3000,
+            "{skipped} skipped chunks, {zeroed} zeroed, {evals} evaluated, {kept} kept lanes"
         );
     }
 }
