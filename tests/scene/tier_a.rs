@@ -932,3 +932,89 @@ fn sixteen_ray_packets_on_hostile_rays() {
         sixteen_consistent(name, &brute, &all);
     }
 }
+
+/// The packets test the meshes smallest first and cull a row by the nearest hit so far; neither
+/// may change the answer of the tie rule (the lower shape index at equal t) or drop a lane's
+/// hit. Three quads: shape 0 large at z = 0, shape 1 small at z = 0 over its middle (tested
+/// first, equal t, higher key: shape 0 must win), shape 2 smaller at z = 0.5 (tested first,
+/// nearer). Rays straight down from z = 1 meet the planes at t = 1 and 0.5 exactly. Packets
+/// of 16 and 8 rays (all over the tie, all over shape 2, and mixed with misses) and single rays
+/// must report the expected shape and t, and occlusion must follow.
+#[test]
+fn packets_keep_the_tie_rule_across_meshes_tested_smallest_first() {
+    use groove::geometry::TriMesh;
+    let quad = |x0: f32, x1: f32, z: f32| {
+        let positions = [(x0, x0), (x1, x0), (x1, x1), (x0, x1)]
+            .map(|(x, y)| Vec3::new(x, y, z))
+            .to_vec();
+        let m = TriMesh {
+            positions,
+            normals: None,
+            uvs: None,
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+        };
+        Shape::from_mesh(m, false, true).unwrap()
+    };
+    let shapes = vec![
+        quad(-3.0, 3.0, 0.0),
+        quad(-0.5, 0.5, 0.0),
+        quad(0.2, 0.4, 0.5),
+    ];
+    let brute = Accel::build_tiered(&shapes, &[], &[], Tier::Brute).unwrap();
+    // (x, y) of a ray's origin and what it must hit: (shape, t), or None.
+    let expect = |x: f32, y: f32| -> Option<(u32, f32)> {
+        let inside = |a: f32, b: f32| (a..=b).contains(&x) && (a..=b).contains(&y);
+        if inside(0.2, 0.4) {
+            Some((2, 0.5))
+        } else if inside(-3.0, 3.0) {
+            Some((0, 1.0))
+        } else {
+            None
+        }
+    };
+    let down = |x: f32, y: f32| Ray::new(Vec3::new(x, y, 1.0), Vec3::NEG_Z);
+    // Away from every edge, so that the expectation is exact.
+    let tie: Vec<(f32, f32)> = (0..16).map(|k| (-0.45 + 0.05 * k as f32, -0.1)).collect();
+    let near: Vec<(f32, f32)> = (0..16)
+        .map(|k| (0.21 + 0.01 * (k % 8) as f32, 0.25 + 0.1 * (k / 8) as f32))
+        .collect();
+    let mixed: Vec<(f32, f32)> = (0..16)
+        .map(|k| match k % 4 {
+            0 => (0.3, 0.3),
+            1 => (-0.25, 0.1),
+            2 => (2.0, -2.5),
+            _ => (5.0 + k as f32, 0.0),
+        })
+        .collect();
+    let one_hit: Vec<(f32, f32)> = (0..16)
+        .map(|k| if k == 11 { (0.0, 0.0) } else { (9.0, 9.0) })
+        .collect();
+    for set in [tie, near, mixed, one_hit] {
+        let rays: Vec<Ray> = set.iter().map(|&(x, y)| down(x, y)).collect();
+        let want: Vec<_> = set.iter().map(|&(x, y)| expect(x, y)).collect();
+        let check = |got: &Option<Hit>, k: usize, form: &str| {
+            assert_eq!(
+                got.map(|h| (h.geom, h.t)),
+                want[k],
+                "{form}: ray {:?}",
+                rays[k]
+            );
+        };
+        let mut wide = [None; 16];
+        brute.intersect16(&rays, false, &mut wide);
+        in_place_equal(&brute, &rays, false, &wide);
+        let blocked = brute.occluded16(&rays);
+        for (k, ray) in rays.iter().enumerate() {
+            check(&wide[k], k, "16");
+            check(&brute.intersect(ray), k, "one ray");
+            assert_eq!(blocked >> k & 1 == 1, want[k].is_some(), "occluded16");
+        }
+        for (h, half) in rays.chunks(8).enumerate() {
+            let hits = self_consistent(&brute, half, h == 0);
+            for (i, got) in hits.iter().enumerate() {
+                check(got, 8 * h + i, "8");
+            }
+        }
+        sixteen_consistent("tie rule", &brute, &rays);
+    }
+}
