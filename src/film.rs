@@ -1180,14 +1180,14 @@ impl Block {
         // before its footprints are computed (an estimate: the exact test follows).
         let [x, y] = avx.vec2_columns(pos);
         let rad = self.filter.radius();
-        let side = |v: crate::lane::F32x8| {
-            let a = v.to_array();
-            let (lo, hi) = a
-                .iter()
-                .fold((a[0], a[0]), |(l, h), &c| (l.min(c), h.max(c)));
-            hi - lo + 2.0 * rad - 1.0
-        };
-        if !(side(x) * side(y) <= GROUP_AREA as f32) {
+        let (xa, ya) = (x.to_array(), y.to_array());
+        let (mut lo, mut hi) = ([xa[0], ya[0]], [xa[0], ya[0]]);
+        for k in 1..8 {
+            (lo[0], hi[0]) = (lo[0].min(xa[k]), hi[0].max(xa[k]));
+            (lo[1], hi[1]) = (lo[1].min(ya[k]), hi[1].max(ya[k]));
+        }
+        let side = [0, 1].map(|d| hi[d] - lo[d] + 2.0 * rad - 1.0);
+        if !(side[0] * side[1] <= GROUP_AREA as f32) {
             return false;
         }
         let [r, g, b] = rgb;
@@ -1205,10 +1205,17 @@ impl Block {
         let p = [x - half, y - half];
         let ends = [p[0] - rad, p[1] - rad, p[0] + rad, p[1] + rad];
         let big = avx.splat(8_388_608.0);
-        if !ends.iter().all(|v| v.abs().lt(big).all()) {
+        let near = ends[0].abs().lt(big)
+            & ends[1].abs().lt(big)
+            & ends[2].abs().lt(big)
+            & ends[3].abs().lt(big);
+        if !near.all() {
             return false;
         }
-        let round = |v: F32x8, up: bool| {
+        /// The ceiling (`up`) or the floor of each lane, exact below 2²³ (a function, not a
+        /// closure: a closure may be compiled out of line, without AVX2).
+        #[inline(always)]
+        fn round(v: F32x8, up: bool) -> [i32; 8] {
             let t = v.trunc_i32();
             let (one, zero) = (t.splat(1), t.splat(0));
             if up {
@@ -1217,7 +1224,7 @@ impl Block {
                 t.sub(I32x8::select(t.to_f32().gt(v), one, zero))
             }
             .to_array()
-        };
+        }
         let lo = [round(ends[0], true), round(ends[1], true)];
         let hi = [round(ends[2], false), round(ends[3], false)];
         // `cut_footprint` per sample; the union of the footprints that reach the storage.
@@ -1284,7 +1291,12 @@ impl Block {
                 match fx.rows4_small(xs) {
                     Some(rows) => a.add_row(avx, I128x4::sum8(&rows)),
                     None => {
-                        let xs = xs.map(|c| c.to_array());
+                        let xs = [
+                            xs[0].to_array(),
+                            xs[1].to_array(),
+                            xs[2].to_array(),
+                            xs[3].to_array(),
+                        ];
                         for (k, on) in on.to_array().into_iter().enumerate() {
                             if on {
                                 let mut t = [[0u64; 8]; 2];
