@@ -1187,7 +1187,8 @@ impl Block {
             (lo[1], hi[1]) = (lo[1].min(ya[k]), hi[1].max(ya[k]));
         }
         let side = [0, 1].map(|d| hi[d] - lo[d] + 2.0 * rad - 1.0);
-        if !(side[0] * side[1] <= GROUP_AREA as f32) {
+        let area = side[0] * side[1];
+        if area.is_nan() || area > GROUP_AREA as f32 {
             return false;
         }
         let [r, g, b] = rgb;

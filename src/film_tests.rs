@@ -962,7 +962,7 @@ fn grouped_splat_equals_the_scalar_splat() {
             for _ in 0..1500 {
                 let px = (rng.next_u32() % 14) as f32 - 1.0;
                 let py = (rng.next_u32() % 12) as f32 - 1.0;
-                let two = rng.next_u32() % 4 == 0;
+                let two = rng.next_u32().is_multiple_of(4);
                 let pos: [Vec2; 8] = core::array::from_fn(|k| {
                     let u = match rng.next_u32() % 6 {
                         0 => Vec2::new(0.5, 0.5),
