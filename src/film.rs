@@ -136,6 +136,10 @@ struct FilterTable {
     /// The square of the largest |value|, rounded to f32 (+∞ when a value is not finite): a
     /// bound on every product of two weights, |wx·wy| ≤ `max_sq` (rounding is monotonic).
     max_sq: f32,
+    /// Every value finite, non-negative and at most 2²⁰, so every weight wx·wy is too: eight
+    /// samples' Σw addends then sum without overflow and their saturating sum is the sum of
+    /// eight saturating adds ([`Block::splat8_grouped`]).
+    groupable: bool,
 }
 
 impl FilterTable {
@@ -156,6 +160,7 @@ impl FilterTable {
             values,
             scale: FILTER_RESOLUTION as f32 / r,
             max_sq: max * max,
+            groupable: values.iter().all(|&v| (0.0..=1_048_576.0).contains(&v)),
         }
     }
 
@@ -183,6 +188,14 @@ impl FilterTable {
         )
     }
 }
+
+/// The widest union of eight samples' footprints (pixels a side) that
+/// [`Block::splat8_grouped`] takes together.
+const GROUP_SIDE: usize = 8;
+/// The largest union of eight samples' footprints (pixels) that [`Block::splat8_grouped`]
+/// takes together: each of its pixels costs about what ~2 single adds cost, so a union of
+/// more than ~30 pixels (eight samples over 16 pixels each) is left to the per-sample splat.
+const GROUP_AREA: usize = 30;
 
 /// Footprints of up to 8×8 pixels in lanes ([`Block::splat_lanes`]): for a footprint `nx`
 /// pixels wide, pixel p (row-major) is column p mod nx and row ⌊p / nx⌋; `FOOT_I[nx − 1][g]`
@@ -800,8 +813,12 @@ impl Block {
             (finite, BOX && self.sw != 0 && self.sh != 0, bounds)
         else {
             let (r, g, b) = (r.to_array(), g.to_array(), b.to_array());
-            // Finite values under another filter: the footprints in lanes.
+            // Finite values under another filter: the eight footprints together when they
+            // overlap (a renderer's samples of one pixel), else each footprint in lanes.
             let lanes = finite && !BOX;
+            if lanes && self.splat8_grouped(avx, pos, rgb) {
+                return;
+            }
             for (k, &p) in pos.iter().enumerate() {
                 let v = Spectrum::new(r[k], g[k], b[k]);
                 if lanes {
@@ -1122,6 +1139,180 @@ impl Block {
         if n > 0 {
             self.add8(avx, fx, avx.load(&w), &at, n, v);
         }
+    }
+
+    /// [`Block::put`] of eight values with finite channels under a filter other than the box,
+    /// the eight footprints taken together: over the union of the footprints (at most
+    /// [`GROUP_SIDE`] pixels a side and [`GROUP_AREA`] pixels, as when the eight samples lie in
+    /// one pixel, whose 4×4 Gaussian footprints cover 5×5), each pixel takes the eight
+    /// samples' weights in lanes, lane k sample k's: w = wx·wy with wx, wy the same table
+    /// values at the same f32 offsets `rel + i` as [`Block::splat_lanes`] takes them (the
+    /// sample's own footprint start and index), and 0 where the pixel is outside the sample's
+    /// footprint. Its addends w·v and w (the same f32 products) are converted 8-wide as rows
+    /// ([`sum::Fixed8::rows4`]), summed in registers ([`crate::lane::I128x4::sum8`]) and added
+    /// to the pixel once, instead of eight samples × 16 pixels of single adds. A lane with
+    /// weight 0 adds 0 (`fixed(±0) = 0`); the colour sums wrap and Σw saturates on
+    /// non-negative addends whose eight-sum cannot overflow ([`FilterTable::groupable`]),
+    /// both associative, so every pixel's sums are the per-sample splat's to the bit. A pixel
+    /// where some addend is outside the conversion's common range takes its lanes' addends
+    /// one by one ([`sum::fixed`]). Returns false, having added nothing, where this does not
+    /// apply: a film with second moments, a wider union, a position or value that the
+    /// per-sample splat treats specially. Call inside [`crate::lane::Avx2::run`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn splat8_grouped(
+        &mut self,
+        avx: crate::lane::Avx2,
+        pos: &[Vec2; 8],
+        rgb: [crate::lane::F32x8; 3],
+    ) -> bool {
+        use crate::lane::{F32x8, I128x4, I32x8, Lane, LaneI32, LaneMask};
+        if self.second
+            || !self.table.groupable
+            || self.sw == 0
+            || self.sh == 0
+            || self.data.len() > i32::MAX as usize
+        {
+            return false;
+        }
+        // The union is at least (span + 2·radius − 1) pixels a side: a chunk of samples
+        // spread over several pixels of a row (a render at 1 sample a pixel) is declined here,
+        // before its footprints are computed (an estimate: the exact test follows).
+        let [x, y] = avx.vec2_columns(pos);
+        let rad = self.filter.radius();
+        let (xa, ya) = (x.to_array(), y.to_array());
+        let (mut lo, mut hi) = ([xa[0], ya[0]], [xa[0], ya[0]]);
+        for k in 1..8 {
+            (lo[0], hi[0]) = (lo[0].min(xa[k]), hi[0].max(xa[k]));
+            (lo[1], hi[1]) = (lo[1].min(ya[k]), hi[1].max(ya[k]));
+        }
+        let side = [0, 1].map(|d| hi[d] - lo[d] + 2.0 * rad - 1.0);
+        let area = side[0] * side[1];
+        if area.is_nan() || area > GROUP_AREA as f32 {
+            return false;
+        }
+        let [r, g, b] = rgb;
+        // `splat_lanes`' test that every w·v is finite, lane by lane.
+        let wmax = avx.splat(self.table.max_sq);
+        let finite = (r.abs() * wmax).is_finite()
+            & (g.abs() * wmax).is_finite()
+            & (b.abs() * wmax).is_finite();
+        if !finite.all() {
+            return false;
+        }
+        // `footprint_lanes` in lanes of samples: the bounds below 2²³ (false for NaN and
+        // ±∞, `splat_lanes`' finiteness test), the ceilings and floors by truncation.
+        let (rad, half) = (avx.splat(rad), avx.splat(0.5));
+        let p = [x - half, y - half];
+        let ends = [p[0] - rad, p[1] - rad, p[0] + rad, p[1] + rad];
+        let big = avx.splat(8_388_608.0);
+        let near = ends[0].abs().lt(big)
+            & ends[1].abs().lt(big)
+            & ends[2].abs().lt(big)
+            & ends[3].abs().lt(big);
+        if !near.all() {
+            return false;
+        }
+        /// The ceiling (`up`) or the floor of each lane, exact below 2²³ (a function, not a
+        /// closure: a closure may be compiled out of line, without AVX2).
+        #[inline(always)]
+        fn round(v: F32x8, up: bool) -> [i32; 8] {
+            let t = v.trunc_i32();
+            let (one, zero) = (t.splat(1), t.splat(0));
+            if up {
+                t.add(I32x8::select(t.to_f32().lt(v), one, zero))
+            } else {
+                t.sub(I32x8::select(t.to_f32().gt(v), one, zero))
+            }
+            .to_array()
+        }
+        let lo = [round(ends[0], true), round(ends[1], true)];
+        let hi = [round(ends[2], false), round(ends[3], false)];
+        // `cut_footprint` per sample; the union of the footprints that reach the storage.
+        let org = [self.ox, self.oy];
+        let end = [self.ox + self.sw as i64 - 1, self.oy + self.sh as i64 - 1];
+        let mut cut = [[[0i64; 2]; 2]; 8];
+        let mut reach = [false; 8];
+        let (mut u_lo, mut u_hi) = ([i64::MAX; 2], [i64::MIN; 2]);
+        for k in 0..8 {
+            let a = [0, 1].map(|d| (lo[d][k] as i64).max(org[d]));
+            let z = [0, 1].map(|d| (hi[d][k] as i64).min(end[d]));
+            if a[0] > z[0] || a[1] > z[1] {
+                continue;
+            }
+            (cut[k], reach[k]) = ([a, z], true);
+            for d in 0..2 {
+                u_lo[d] = u_lo[d].min(a[d]);
+                u_hi[d] = u_hi[d].max(z[d]);
+            }
+        }
+        if !reach.iter().any(|&f| f) {
+            return true;
+        }
+        let n = [0, 1].map(|d| (u_hi[d] - u_lo[d] + 1) as usize);
+        if n[0] > GROUP_SIDE || n[1] > GROUP_SIDE || n[0] * n[1] > GROUP_AREA {
+            return false;
+        }
+        // Per axis and union column (row) c, lane k's weight: the table at the sample's
+        // `rel + i`, i = c − (its footprint's start − the union's), where 0 ≤ i < its width;
+        // else 0. A sample that reaches no pixel has width 0.
+        let zero = avx.splat(0.0);
+        let mut w = [[zero; GROUP_SIDE]; 2];
+        for d in 0..2 {
+            let start: [i32; 8] = core::array::from_fn(|k| (cut[k][0][d] - u_lo[d]) as i32);
+            let width: [i32; 8] = core::array::from_fn(|k| {
+                if reach[k] {
+                    (cut[k][1][d] - cut[k][0][d] + 1) as i32
+                } else {
+                    0
+                }
+            });
+            let first: [f32; 8] = core::array::from_fn(|k| cut[k][0][d] as f32);
+            let (start, width) = (avx.load_i32(&start), avx.load_i32(&width));
+            let rel = avx.load(&first) - p[d];
+            for (c, wc) in w[d].iter_mut().enumerate().take(n[d]) {
+                let i = start.splat(c as i32).sub(start);
+                let on = i.gt(i.splat(-1)) & width.gt(i);
+                *wc = F32x8::select(on, self.table.eval8(avx, rel + i.to_f32()), zero);
+            }
+        }
+        let [wx, wy] = w;
+        let fx = sum::Fixed8::new(avx);
+        let sw = self.sw as usize;
+        let base = (u_lo[1] - self.oy) as usize * sw + (u_lo[0] - self.ox) as usize;
+        for (j, &wyj) in wy.iter().enumerate().take(n[1]) {
+            for (i, &wxi) in wx.iter().enumerate().take(n[0]) {
+                let w8 = wxi * wyj;
+                let on = w8.ne(zero);
+                if !on.any() {
+                    continue;
+                }
+                let xs = [r * w8, g * w8, b * w8, w8];
+                let a = &mut self.data[base + j * sw + i];
+                match fx.rows4_small(xs) {
+                    Some(rows) => a.add_row(avx, I128x4::sum8(&rows)),
+                    None => {
+                        let xs = [
+                            xs[0].to_array(),
+                            xs[1].to_array(),
+                            xs[2].to_array(),
+                            xs[3].to_array(),
+                        ];
+                        for (k, on) in on.to_array().into_iter().enumerate() {
+                            if on {
+                                let mut t = [[0u64; 8]; 2];
+                                for (c, x) in xs.iter().enumerate() {
+                                    let v = sum::fixed(x[k]);
+                                    (t[0][c], t[1][c]) = (v as u64, (v >> 64) as u64);
+                                }
+                                a.add_addends(avx, false, &t);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        true
     }
 
     /// Adds the first `n` of eight weighted contributions of the value `v` (weights `w`, to

@@ -259,6 +259,53 @@ impl Fixed8 {
             .then(|| I32x8::rows4([w0, w1, w2, w3]))
     }
 
+    /// [`Fixed8::rows4`] with each column converted by [`Fixed8::words_small`] where it
+    /// can be: the grouped Gaussian splat's addends, weights below 1 and most w·v too.
+    #[inline(always)]
+    pub(crate) fn rows4_small(
+        self,
+        x: [crate::lane::F32x8; 4],
+    ) -> Option<[crate::lane::I128x4; 8]> {
+        use crate::lane::{I32x8, LaneMask};
+        let (w0, p0) = self.words_small(x[0]);
+        let (w1, p1) = self.words_small(x[1]);
+        let (w2, p2) = self.words_small(x[2]);
+        let (w3, p3) = self.words_small(x[3]);
+        (p0 & p1 & p2 & p3)
+            .all()
+            .then(|| I32x8::rows4([w0, w1, w2, w3]))
+    }
+
+    /// [`Fixed8::words`], shorter where every lane is ±0 or in the common range with a shift
+    /// sh ≤ 39 (|x| < 2⁻¹): then |fixed(x)| = |m|·2^sh < 2⁶³, so words 2 and 3 are the sign
+    /// of the signed significand and only words 0 and 1 take shifts (the same words as
+    /// `words` gives: the value's two's complement). Otherwise `words` itself.
+    #[inline(always)]
+    fn words_small(self, x: crate::lane::F32x8) -> ([crate::lane::I32x8; 4], crate::lane::M8) {
+        use crate::lane::{I32x8, Lane, LaneI32, LaneMask};
+        let bits = x.to_bits();
+        let sh = bits.shr::<23>().and(bits.splat(0xff)).sub(bits.splat(86));
+        // 0 ≤ sh ≤ 39 as an unsigned comparison.
+        let small = sh.min_u32(bits.splat(39)).eq(sh);
+        let zero = x.eq(x.splat(0.0));
+        if !(small | zero).all() {
+            return self.words(x);
+        }
+        let m = bits.and(bits.splat(0x7f_ffff)).or(bits.splat(0x80_0000));
+        let s = bits.sar::<31>();
+        let sm = I32x8::select(small, m.xor(s).sub(s), bits.splat(0));
+        let k = self.step;
+        let (d1, n1) = (sh.sub(k), k.sub(sh));
+        let sign = sm.sar::<31>();
+        let words = [
+            sm.shl_var(sh),
+            d1.select_neg(sm.sar_var(n1), sm.shl_var(d1)),
+            sign,
+            sign,
+        ];
+        (words, small | zero)
+    }
+
     /// `fixed` of the eight lanes of `x` in registers as words (value i from lane
     /// [`crate::lane::ROW_LANES`]`[i]`: one pixel's addends, given in that order,
     /// [`crate::lane::Avx2::add_i128x8_biased_regs`]), when every lane is in the common range
@@ -446,6 +493,14 @@ mod tests {
                         avx.load(&cs[3]),
                     ];
                     let rows4 = fx.rows4(cols).map(|r| r.map(|x| x.to_words()));
+                    // `rows4_small` gives `rows4`'s rows, on these columns and on them scaled
+                    // by 2⁻²⁰ (more of them below 2⁻¹, its short form).
+                    let scaled = cols.map(|c| c * avx.splat(1.0 / 1_048_576.0));
+                    for cols in [cols, scaled] {
+                        let want = fx.rows4(cols).map(|r| r.map(|x| x.to_words()));
+                        let small = fx.rows4_small(cols).map(|r| r.map(|x| x.to_words()));
+                        assert!(small == want, "rows4_small {c:?}");
+                    }
                     (fx.row(avx.load(&c)).map(|r| r.to_words()), rows4)
                 });
                 // `rows4` where every lane is plain (the four columns hold the same values).

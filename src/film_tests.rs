@@ -928,3 +928,97 @@ fn merge_rows_in_lanes_equal_acc_add() {
         assert!(got.iter().zip(&want).all(|(g, w)| g.bad == w.bad));
     }
 }
+
+/// `Block::splat8_grouped` (eight samples' footprints taken together, each union pixel's
+/// eight weights in lanes) gives the per-sample scalar splat's sums to the bit, pixel by
+/// pixel: chunks of eight samples in one pixel (the renderers' order at 8 or more samples a
+/// pixel) and in two neighbouring pixels, at positions on pixel edges and centres (footprints
+/// one pixel wider) and random ones, near and across the storage's edges (footprints cut, or
+/// some samples reaching no pixel), with values down to below the fixed-point grid's common
+/// range (a pixel's addends one by one) and zeros. A wrong weight, a weight at the wrong
+/// pixel, or a footprint pixel lost or added changes some sum. Asks that the grouped form
+/// took most chunks, and that it declines a film with second moments.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn grouped_splat_equals_the_scalar_splat() {
+    let Some(avx) = crate::lane::Avx2::detect() else {
+        eprintln!("no AVX2: splat8_grouped not tested");
+        return;
+    };
+    let mut rng = Pcg32::new(43, 5);
+    for filter in [
+        Filter::gaussian(0.5),
+        Filter::Tent { radius: 1.0 },
+        Filter::Tent { radius: 1.5 },
+    ] {
+        let d = FilmDesc {
+            second_moments: false,
+            ..desc(12, 10, filter)
+        };
+        for (x0, y0, w, h) in [(0, 0, 12, 10), (3, 2, 5, 4), (11, 9, 1, 1)] {
+            let mut one = Block::new(&d, x0, y0, w, h);
+            let mut grouped = Block::new(&d, x0, y0, w, h);
+            let (mut taken, mut chunks) = (0, 0);
+            for _ in 0..1500 {
+                let px = (rng.next_u32() % 14) as f32 - 1.0;
+                let py = (rng.next_u32() % 12) as f32 - 1.0;
+                let two = rng.next_u32().is_multiple_of(4);
+                let pos: [Vec2; 8] = core::array::from_fn(|k| {
+                    let u = match rng.next_u32() % 6 {
+                        0 => Vec2::new(0.5, 0.5),
+                        1 => Vec2::new(0.0, 1.0f32.next_down()),
+                        _ => Vec2::new(rng.next_f32(), rng.next_f32()),
+                    };
+                    Vec2::new(px + (two && k % 2 == 1) as u32 as f32, py) + u
+                });
+                let v: [Spectrum; 8] = core::array::from_fn(|_| match rng.next_u32() % 20 {
+                    0 => Spectrum::ZERO,
+                    1 => Spectrum::new(1e-30, -2e-13, 5.0),
+                    _ => Spectrum::new(
+                        rng.next_f32() * 4.0 - 1.0,
+                        rng.next_f32(),
+                        rng.next_f32() * 9.0,
+                    ),
+                });
+                for k in 0..8 {
+                    one.splat::<false>(pos[k], v[k], &[]);
+                }
+                let rgb = [0, 1, 2].map(|c| avx.load(&core::array::from_fn(|k| v[k][c])));
+                let done = avx.run(
+                    #[inline(always)]
+                    || grouped.splat8_grouped(avx, &pos, rgb),
+                );
+                if !done {
+                    for k in 0..8 {
+                        grouped.splat::<false>(pos[k], v[k], &[]);
+                    }
+                }
+                taken += done as u32;
+                chunks += 1;
+            }
+            let first = |b: &Block| -> Vec<_> {
+                b.data
+                    .iter()
+                    .map(|a| ([a.wv(0), a.wv(1), a.wv(2)], a.w()))
+                    .collect()
+            };
+            assert!(one.data.iter().any(|a| a.w() != 0));
+            assert!(
+                first(&one) == first(&grouped),
+                "{filter:?} block {:?}",
+                (x0, y0, w, h)
+            );
+            assert!(taken * 10 > chunks * 9, "{filter:?}: {taken} of {chunks}");
+        }
+    }
+    // A film with second moments: declined, nothing added.
+    let mut b = Block::new(&desc(12, 10, Filter::gaussian(0.5)), 0, 0, 12, 10);
+    let before = b.data.clone();
+    let rgb = [avx.splat(1.0); 3];
+    let pos = [Vec2::new(4.5, 4.5); 8];
+    assert!(!avx.run(
+        #[inline(always)]
+        || b.splat8_grouped(avx, &pos, rgb)
+    ));
+    assert!(b.data == before);
+}
