@@ -1068,48 +1068,7 @@ pub(crate) mod x8 {
         flip: bool,
     ) -> (sl::Triangle<F32x8>, sl::TriangleConsts<F32x8>, Meta) {
         let (tri, b, meta) = mesh_hits(avx, st, ids);
-        let wide = small.wide;
-        let p = [
-            look3(avx, &small.p[0], tri, wide),
-            look3(avx, &small.p[1], tri, wide),
-            look3(avx, &small.p[2], tri, wide),
-        ];
-        let z = avx.splat(0.0);
-        let (n, has_n) = if m.normals.is_some() {
-            let n = [
-                look3(avx, &small.n[0], tri, wide),
-                look3(avx, &small.n[1], tri, wide),
-                look3(avx, &small.n[2], tri, wide),
-            ];
-            (n, avx.mask_splat(true))
-        } else {
-            ([V3::new(z, z, z); 3], avx.mask_splat(false))
-        };
-        let (uv, has_uv) = if m.uvs.is_some() {
-            let uv = [
-                look2(avx, &small.uv[0], tri, wide),
-                look2(avx, &small.uv[1], tri, wide),
-                look2(avx, &small.uv[2], tri, wide),
-            ];
-            (uv, avx.mask_splat(true))
-        } else {
-            ([V2::new(z, z); 3], avx.mask_splat(false))
-        };
-        let x = sl::Triangle {
-            p,
-            n,
-            uv,
-            has_n,
-            has_uv,
-            b1: b[0],
-            b2: b[1],
-            sign: avx.splat(if flip { -1.0 } else { 1.0 }),
-        };
-        let c = sl::TriangleConsts {
-            ng: look3(avx, &small.c[0], tri, wide),
-            dpdu: look3(avx, &small.c[1], tri, wide),
-            dpdv: look3(avx, &small.c[2], tri, wide),
-        };
+        let (x, c) = small_lookups(avx, small, m, tri, b, flip);
         (x, c, meta)
     }
 
@@ -1138,14 +1097,45 @@ pub(crate) mod x8 {
         };
         let h = t.hit_fields(st.hit, ids);
         let r = t.ray_fields(st.ray, ids);
-        let (tri, wide) = (h[1].to_bits(), small.wide);
+        let (x, c) = small_lookups(
+            t,
+            small,
+            m,
+            h[1].to_bits(),
+            [h[3], h[4]],
+            shape.flip_normals,
+        );
+        let s = if m.uvs.is_some() {
+            sl::triangle_at::<_, true>(&x, &c)
+        } else {
+            sl::triangle_at::<_, false>(&x, &c)
+        };
+        // −ray.d, as `Meta::rays`.
+        let wi = -V3::new(r[3], r[4], r[5]);
+        store_rows(t, st.surf, ids, n, &s, wi, [h[2], h[0], h[1]]);
+    }
+
+    /// The hits' input to [`sl::triangle_at`] on a mesh held as [`super::SmallTris`]: each
+    /// lane's corners (positions, normals and uvs where the mesh has them) and the triangle's
+    /// own terms looked up by its triangle index `tri`, the barycentrics `b`, the sign of
+    /// `flip`. Shared by the 8-wide `small_input` and the generic [`small_triangles`].
+    #[inline(always)]
+    fn small_lookups<T: SurfRows<W>, const W: usize>(
+        t: T,
+        small: &super::SmallTris,
+        m: &crate::geometry::mesh::TriMesh,
+        tri: T::I,
+        b: [T::F; 2],
+        flip: bool,
+    ) -> (sl::Triangle<T::F>, sl::TriangleConsts<T::F>) {
+        let wide = small.wide;
         let p = [
             look3(t, &small.p[0], tri, wide),
             look3(t, &small.p[1], tri, wide),
             look3(t, &small.p[2], tri, wide),
         ];
         let z = t.splat(0.0);
-        let (nrm, has_n) = if m.normals.is_some() {
+        let (n, has_n) = if m.normals.is_some() {
             let n = [
                 look3(t, &small.n[0], tri, wide),
                 look3(t, &small.n[1], tri, wide),
@@ -1167,27 +1157,20 @@ pub(crate) mod x8 {
         };
         let x = sl::Triangle {
             p,
-            n: nrm,
+            n,
             uv,
             has_n,
             has_uv,
-            b1: h[3],
-            b2: h[4],
-            sign: t.splat(if shape.flip_normals { -1.0 } else { 1.0 }),
+            b1: b[0],
+            b2: b[1],
+            sign: t.splat(if flip { -1.0 } else { 1.0 }),
         };
         let c = sl::TriangleConsts {
             ng: look3(t, &small.c[0], tri, wide),
             dpdu: look3(t, &small.c[1], tri, wide),
             dpdv: look3(t, &small.c[2], tri, wide),
         };
-        let s = if m.uvs.is_some() {
-            sl::triangle_at::<_, true>(&x, &c)
-        } else {
-            sl::triangle_at::<_, false>(&x, &c)
-        };
-        // −ray.d, as `Meta::rays`.
-        let wi = -V3::new(r[3], r[4], r[5]);
-        store_rows(t, st.surf, ids, n, &s, wi, [h[2], h[0], h[1]]);
+        (x, c)
     }
 
     /// Per lane `table[k][tri]` for the three components `k` ([`SurfRows::look`]; a plain
